@@ -1,0 +1,92 @@
+"""Errors that carry *where* they happened: node id, layer index, section key.
+
+`RecipeError` → CLI exit 2 / HTTP 422 (the graph itself is wrong).
+`PlanningError` → CLI exit 3 / run failed (the graph is valid but cannot plan this geometry).
+Kernels raise them with whatever location they know (layer, section); the engine fills in the
+node id. `str(err)` is the one-line message the CLI prints after `error:`.
+"""
+
+from __future__ import annotations
+
+
+class WaamflowError(Exception):
+    exit_code = 1
+    kind = "error"
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        node: str | None = None,
+        layer: int | None = None,
+        section: str | None = None,
+        field: str | None = None,
+    ) -> None:
+        super().__init__(message)
+        self.message = message
+        self.node = node
+        self.layer = layer
+        self.section = section
+        self.field = field
+
+    def located(self, *, node: str | None = None, layer: int | None = None, section: str | None = None):
+        """Fill in location fields that are not set yet; returns self for `raise err.located(...)`."""
+        if self.node is None and node is not None:
+            self.node = node
+        if self.layer is None and layer is not None:
+            self.layer = layer
+        if self.section is None and section is not None:
+            self.section = section
+        return self
+
+    def location(self) -> str:
+        parts = []
+        if self.node is not None:
+            parts.append(f"node '{self.node}'")
+        if self.layer is not None:
+            parts.append(f"layer {self.layer}")
+        if self.section is not None:
+            parts.append(f"section '{self.section}'")
+        if self.field is not None:
+            parts.append(f"field '{self.field}'")
+        return ", ".join(parts)
+
+    def __str__(self) -> str:
+        loc = self.location()
+        return f"{loc}: {self.message}" if loc else self.message
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "message": self.message,
+            "node": self.node,
+            "layer": self.layer,
+            "section": self.section,
+            "field": self.field,
+            "text": str(self),
+        }
+
+
+class RecipeError(WaamflowError):
+    """The recipe/graph is invalid: schema, unknown type/port/input, type mismatch, cycle."""
+
+    exit_code = 2
+    kind = "invalid_recipe"
+
+
+class InputFileError(RecipeError):
+    """An input file (mesh, sketch, XML) is missing, too large or malformed."""
+
+    kind = "invalid_input"
+
+
+class PlanningError(WaamflowError):
+    """The graph is valid but the geometry cannot be planned (e.g. a mask that does not fit)."""
+
+    exit_code = 3
+    kind = "planning_failed"
+
+
+class CancelledError(WaamflowError):
+    exit_code = 130
+    kind = "cancelled"

@@ -1,0 +1,141 @@
+"""The whole part program as one flat move list — the common input of simulation and post-processors.
+
+`flatten(toolpath)` walks layers → sections in deposition order and emits, for each section, its
+arc-OFF approach (travel) points, then its deposition points. Consecutive sections are joined by
+an arc-OFF travel segment (from the previous section's last point through the next section's
+`approach` points to its first point).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import LayerPaths, Layered
+
+TRAVEL = 0
+DEPOSIT = 1
+
+
+@dataclass(frozen=True, eq=False)
+class Moves:
+    """A flat polyline with per-segment attributes (all arrays of length n_points - 1 unless noted).
+
+    points: (n, 3) float world mm. tool_axis: (n, 3) unit vectors torch → part.
+    kind: int8 TRAVEL/DEPOSIT. arc: bool arc ON. inside: bool inside the section region.
+    speed: float mm/s programmed (NaN for travel = use the machine's travel speed).
+    layer: int layer index. section: int index into `section_keys`. zone: int index into
+    `zone_ids` (-1 for travel). dwell_before: (n,) float s dwell at each point before moving on
+    (ignition dwell from zone params, interlayer dwell).
+    """
+
+    points: np.ndarray
+    tool_axis: np.ndarray
+    kind: np.ndarray
+    arc: np.ndarray
+    inside: np.ndarray
+    speed: np.ndarray
+    layer: np.ndarray
+    section: np.ndarray
+    zone: np.ndarray
+    dwell_before: np.ndarray
+    section_keys: tuple[str, ...]
+    zone_ids: tuple[str, ...]
+    zone_params: dict[tuple[int, int], dict[str, float]]  # (section idx, zone idx) → params
+    layer_z: dict[int, float]
+
+    @property
+    def segment_lengths(self) -> np.ndarray:
+        return np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
+    """Flatten a toolpath into `Moves` (see module doc). Layers that are None (partial runs) are skipped."""
+    pts: list[np.ndarray] = []
+    axes: list[np.ndarray] = []
+    seg: dict[str, list] = {k: [] for k in ("kind", "arc", "inside", "speed", "layer", "section", "zone")}
+    dwell: list[float] = []
+    section_keys: list[str] = []
+    zone_ids: list[str] = []
+    zone_index: dict[str, int] = {}
+    zone_params: dict[tuple[int, int], dict[str, float]] = {}
+    layer_z: dict[int, float] = {}
+    pending_dwell = 0.0
+    down = np.array([0.0, 0.0, -1.0])
+
+    def add_segments(kind, arc, inside, speed, layer, section, zone, n):
+        seg["kind"].append(np.full(n, kind, dtype=np.int8))
+        seg["arc"].append(np.asarray(arc, dtype=bool).reshape(-1) if np.ndim(arc) else np.full(n, bool(arc)))
+        seg["inside"].append(np.asarray(inside, dtype=bool).reshape(-1) if np.ndim(inside) else np.full(n, bool(inside)))
+        seg["speed"].append(np.asarray(speed, dtype=float).reshape(-1) if np.ndim(speed) else np.full(n, float(speed)))
+        seg["layer"].append(np.full(n, layer, dtype=np.int32))
+        seg["section"].append(np.full(n, section, dtype=np.int32))
+        seg["zone"].append(np.asarray(zone, dtype=np.int32).reshape(-1) if np.ndim(zone) else np.full(n, zone, dtype=np.int32))
+
+    items = toolpath.items if isinstance(toolpath, Layered) else toolpath
+    for lp in items:
+        if lp is None:
+            continue
+        layer_z[lp.index] = float(lp.layer.z)
+        for sp in lp.sections:
+            if len(sp.points) < 2:
+                continue
+            s_idx = len(section_keys)
+            section_keys.append(sp.key)
+            # travel: previous end → approach → first point
+            travel_pts = [] if sp.approach is None else list(np.asarray(sp.approach, dtype=float))
+            travel_pts.append(np.asarray(sp.points[0], dtype=float))
+            if pts:
+                add_segments(TRAVEL, False, False, np.nan, lp.index, s_idx, -1, len(travel_pts))
+                pts.append(np.array(travel_pts))
+                axes.append(np.tile(down, (len(travel_pts), 1)))
+                dwell.extend([0.0] * len(travel_pts))
+                dwell[-1] += pending_dwell
+            else:
+                pts.append(np.array(travel_pts[-1:]))
+                axes.append(down[None, :])
+                dwell.append(pending_dwell)
+            pending_dwell = 0.0
+            # deposition
+            zones = sp.zone if sp.zone else ("",) * (len(sp.points) - 1)
+            z_idx = []
+            for z in zones:
+                if z not in zone_index:
+                    zone_index[z] = len(zone_ids)
+                    zone_ids.append(z)
+                z_idx.append(zone_index[z])
+                zone_params.setdefault((s_idx, zone_index[z]), dict(sp.zone_params.get(z, {})))
+            add_segments(DEPOSIT, sp.arc, sp.inside, sp.speed, lp.index, s_idx, np.array(z_idx), len(sp.points) - 1)
+            pts.append(np.asarray(sp.points[1:], dtype=float))
+            ax = np.tile(down, (len(sp.points), 1)) if sp.tool_axis is None else np.asarray(sp.tool_axis, dtype=float)
+            axes[-1] = np.vstack([axes[-1][:-1], ax[:1]])
+            axes.append(ax[1:])
+            dwell.extend([0.0] * (len(sp.points) - 1))
+        pending_dwell += float(lp.dwell_after_s)
+
+    if not pts:
+        empty = np.zeros(0)
+        return Moves(np.zeros((0, 3)), np.zeros((0, 3)), empty.astype(np.int8), empty.astype(bool),
+                     empty.astype(bool), empty, empty.astype(np.int32), empty.astype(np.int32),
+                     empty.astype(np.int32), empty, (), (), {}, {})
+    cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in seg.items()}
+    return Moves(
+        points=np.vstack(pts),
+        tool_axis=np.vstack(axes),
+        kind=cat["kind"].astype(np.int8),
+        arc=cat["arc"].astype(bool),
+        inside=cat["inside"].astype(bool),
+        speed=cat["speed"].astype(float),
+        layer=cat["layer"].astype(np.int32),
+        section=cat["section"].astype(np.int32),
+        zone=cat["zone"].astype(np.int32),
+        dwell_before=np.asarray(dwell, dtype=float),
+        section_keys=tuple(section_keys),
+        zone_ids=tuple(zone_ids),
+        zone_params=zone_params,
+        layer_z=layer_z,
+    )

@@ -1,0 +1,29 @@
+"""Central tolerances (one place, with why). All lengths in mm, angles in degrees.
+
+Modelled on trimesh.constants.tol: kernels import `TOL` instead of sprinkling literals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    # Two points closer than this are the same point. Feature recognition (thin-walls study)
+    # merges points within 1e-6 mm; we keep that for topology, and a looser `snap` for drawing.
+    merge: float = 1e-6
+    # Distance under which a slice loop is considered closed / segments are joined (mm).
+    # STL exports round vertices to ~1e-5 relative; 1e-4 mm on parts of 1 m is still safe.
+    join: float = 1e-4
+    # Regions smaller than this area (mm²) are slicing noise (sliver triangles, coplanar faces).
+    min_area: float = 1e-3
+    # Polygon simplification tolerance for display / offsets (mm); well under a bead width.
+    simplify: float = 1e-3
+    # A path segment shorter than this is dropped (mm): robots cannot resolve it anyway.
+    min_segment: float = 1e-3
+    # Planes exactly through vertices are nudged by this (mm) so sections are manifold loops.
+    plane_nudge: float = 1e-6
+
+
+TOL = Tolerances()

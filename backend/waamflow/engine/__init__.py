@@ -1,0 +1,1 @@
+"""The dataflow engine: node declarations, recipes, validation, signature cache, execution."""

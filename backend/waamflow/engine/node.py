@@ -1,0 +1,186 @@
+"""Declaring a node: once, in Python. The catalog, the API schema and the GUI are generated from it.
+
+A node is a thin adapter from ports to a pure kernel call::
+
+    @register
+    class Slice(Node):
+        \"\"\"Planar slicing of a part into layers.\"\"\"          # → catalog description
+        type = "slice"                                         # stable type id (never renamed)
+        title = "Slice"
+        category = "slicing"
+        inputs = (Port("mesh", "mesh"),)
+        outputs = (Port("layers", "layers"),)
+
+        class Params(NodeParams):
+            layer_height: float = Field(1.5, gt=0, le=50, description="Layer height", json_schema_extra={"unit": "mm"})
+
+        def run(self, ctx, params, inputs):
+            return {"layers": slice_mesh(inputs["mesh"], params.layer_height)}
+
+Nodes that map over layers derive from `LayerNode` and implement `run_layer`; the engine then
+caches each layer on its own signature, so an edit that touches one layer recomputes one layer.
+
+Bump `version` whenever a node's results change for the same inputs: it is part of the cache key.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .ports import Port
+
+# A parameter holding a path to a file (mesh, sketch, XML). Relative paths resolve against the
+# recipe file. The engine hashes the file's content into the node's signature, and the GUI shows
+# a file picker for it.
+FileRef = Annotated[str, Field(json_schema_extra={"x-file": True})]
+
+
+def unit(u: str) -> dict:
+    """`json_schema_extra` for a numeric field with a unit: Field(..., json_schema_extra=unit("mm"))."""
+    return {"unit": u}
+
+
+class NodeParams(BaseModel):
+    """Base of every node's params model: unknown keys are an error (typos must not pass silently)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+class Node:
+    """Base class of node declarations. Subclasses set the ClassVars and implement `run`."""
+
+    type: ClassVar[str]
+    title: ClassVar[str] = ""
+    category: ClassVar[str] = "general"
+    inputs: ClassVar[tuple[Port, ...]] = ()
+    outputs: ClassVar[tuple[Port, ...]] = ()
+    Params: ClassVar[type[NodeParams]] = NodeParams
+    version: ClassVar[str] = "1"
+
+    # ---- execution ---------------------------------------------------------------------------
+    def run(self, ctx: "Context", params: Any, inputs: dict[str, Any]) -> dict[str, Any]:
+        """Compute all outputs from validated params and input values (keyed by port name)."""
+        raise NotImplementedError
+
+    def artifacts(self, ctx: "Context", params: Any, outputs: dict[str, Any]) -> dict[str, str | bytes]:
+        """Files this node writes, keyed by suffix: {"layers.json": text} → `<node id>.layers.json`."""
+        return {}
+
+    # ---- catalog -----------------------------------------------------------------------------
+    @classmethod
+    def describe(cls) -> dict:
+        doc = (cls.__doc__ or "").strip()
+        return {
+            "type": cls.type,
+            "title": cls.title or cls.type,
+            "category": cls.category,
+            "description": doc,
+            "version": cls.version,
+            "per_layer": issubclass(cls, LayerNode),
+            "inputs": [p.to_dict() for p in cls.inputs],
+            "outputs": [p.to_dict() for p in cls.outputs],
+            "params_schema": cls.Params.model_json_schema(),
+        }
+
+    @classmethod
+    def input_port(cls, name: str) -> Port | None:
+        return next((p for p in cls.inputs if p.name == name), None)
+
+    @classmethod
+    def output_port(cls, name: str) -> Port | None:
+        return next((p for p in cls.outputs if p.name == name), None)
+
+
+class LayerNode(Node):
+    """A node that maps over layers.
+
+    `over` names the input whose value is a `Layered` collection that drives the mapping; every
+    other `Layered` input is indexed alongside it, non-layered inputs are passed whole. The
+    engine calls `run_layer` once per layer that is not cached, then `combine` once.
+
+    The per-layer cache key is: type + version + `layer_params(params, index, items)` + the
+    signatures of that layer's input items + the signatures of whole (non-layered) inputs.
+    Override `layer_params` to return only what of the params affects layer `index` (e.g. the
+    mask governing it), so editing something else does not recompute it.
+    """
+
+    over: ClassVar[str] = "layers"
+
+    def layer_params(self, params: Any, index: int, items: dict[str, Any]) -> Any:
+        return params.model_dump(mode="json")
+
+    def run_layer(self, ctx: "Context", params: Any, index: int, items: dict[str, Any]) -> dict[str, Any]:
+        """Compute this layer's output items (keyed by output port) from its input items."""
+        raise NotImplementedError
+
+    def combine(
+        self, ctx: "Context", params: Any, outputs: dict[str, list[Any]], inputs: dict[str, Any]
+    ) -> dict[str, Any]:
+        """Assemble per-layer outputs into port values. Runs on every execution (cached layers
+        included), so keep it cheap. Default: each output becomes `Layered(tuple(items))`.
+        Whatever it reads from params beyond `layer_params` must be file content (hashed into
+        the signature) or must be included in `layer_params`."""
+        from ..core.model import Layered
+
+        return {name: Layered(tuple(items)) for name, items in outputs.items()}
+
+
+class Context:
+    """What a node may ask of the engine while it runs (files, warnings, progress, cancel)."""
+
+    node_id: str
+
+    def resolve_path(self, path: str) -> str:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:  # pragma: no cover
+        raise NotImplementedError
+
+    def read_text(self, path: str, *, max_bytes: int | None = None) -> str:
+        return self.read_bytes(path, max_bytes=max_bytes).decode("utf-8")
+
+    def exists(self, path: str) -> bool:  # pragma: no cover
+        raise NotImplementedError
+
+    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def progress(self, fraction: float, message: str = "") -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def check_cancelled(self) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+
+# ---- registry ----------------------------------------------------------------------------------
+REGISTRY: dict[str, type[Node]] = {}
+
+
+def register(cls: type[Node]) -> type[Node]:
+    """Class decorator: add a node declaration to the registry under its stable type id."""
+    if not getattr(cls, "type", None):
+        raise TypeError(f"{cls.__name__} has no type id")
+    if cls.type in REGISTRY and REGISTRY[cls.type] is not cls:
+        raise TypeError(f"node type {cls.type!r} declared twice ({REGISTRY[cls.type].__name__}, {cls.__name__})")
+    if not cls.__doc__:
+        raise TypeError(f"node {cls.type!r} needs a docstring (it is the catalog description)")
+    REGISTRY[cls.type] = cls
+    return cls
+
+
+def load_nodes() -> dict[str, type[Node]]:
+    """Import every module in waamflow.nodes (each registers its declarations) and return the registry."""
+    import importlib
+    import pkgutil
+
+    from .. import nodes
+
+    for mod in pkgutil.iter_modules(nodes.__path__):
+        importlib.import_module(f"{nodes.__name__}.{mod.name}")
+    return REGISTRY
+
+
+def catalog() -> list[dict]:
+    return [REGISTRY[t].describe() for t in sorted(load_nodes())]
