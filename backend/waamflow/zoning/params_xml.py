@@ -1,0 +1,230 @@
+"""The MPP deposition-parameter XML file (Michel et al. 2019, "Deposition parameters: the XML file").
+
+Parameters are kept out of path design: alongside the path we write an XML file mirroring the path
+architecture, which the user (or later an algorithm) fills in::
+
+    <parameters format="waamflow/1">
+      <layer index="0" z="1.5">
+        <section id="bs1/A">
+          <zone id="start" color="#d62728">
+            <current unit="A">200</current>
+            <voltage unit="V"></voltage>
+            <wire_feed_speed unit="m/min">10</wire_feed_speed>
+            <travel_speed unit="mm/s">6</travel_speed>
+            <dwell unit="s"></dwell>
+            <job unit=""></job>
+          </zone> ...
+
+One element per `core.process.ZONE_PARAMETERS` entry, in that order, with its unit; empty text
+means "not set" (the strategy's speed stays). Reading is safe (defusedxml: no DTD, no entities,
+size limit) and validated against the names, units and bounds in core/process.py; every error is a
+RecipeError naming layer/section/zone.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from typing import Iterable
+
+import defusedxml.ElementTree as DET
+from defusedxml import DefusedXmlException
+
+from ..core.errors import InputFileError, RecipeError
+from ..core.model import LayerPaths, Layered
+from ..core.process import PARAMETERS_BY_NAME, ZONE_PARAMETERS
+
+MAX_BYTES = 32 * 1024 * 1024  # ~8 bytes per empty element: room for 10⁴ layers × 10 sections × 5 zones
+FORMAT = "waamflow/1"
+
+ZoneKey = tuple[int, str, str]  # (layer index, section key, zone id)
+
+
+@dataclass(frozen=True)
+class ParamTable:
+    """Parsed parameter file.
+
+    values: (layer index, section key, zone id) → {parameter name: value} (only filled values).
+    zones: every (layer, section, zone) present in the file, in file order (filled or not).
+    colors: zone key → colour attribute as written. layer_z: layer index → z attribute (mm) if any.
+    """
+
+    values: dict[ZoneKey, dict[str, float]] = field(default_factory=dict)
+    zones: tuple[ZoneKey, ...] = ()
+    colors: dict[ZoneKey, str] = field(default_factory=dict)
+    layer_z: dict[int, float] = field(default_factory=dict)
+
+    def layer(self, index: int) -> dict[str, dict[str, dict[str, float]]]:
+        """Values of one layer: section key → zone id → {name: value}."""
+        out: dict[str, dict[str, dict[str, float]]] = {}
+        for (li, sk, zid), v in self.values.items():
+            if li == index:
+                out.setdefault(sk, {})[zid] = dict(v)
+        return out
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.10g}"
+
+
+def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]]) -> str:
+    """zones: (layer index, layer z, section key, zone id, colour) in file order."""
+    root = ET.Element("parameters", {"format": FORMAT})
+    root.append(ET.Comment(" Deposition parameters per layer > section > zone (MPP). Empty = not set. "
+                           "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " "))
+    layer_el: dict[int, ET.Element] = {}
+    section_el: dict[tuple[int, str], ET.Element] = {}
+    for li, z, sk, zid, color in zones:
+        if li not in layer_el:
+            attrs = {"index": str(li)}
+            if z is not None:
+                attrs["z"] = _fmt(round(z, 6))
+            layer_el[li] = ET.SubElement(root, "layer", attrs)
+        if (li, sk) not in section_el:
+            section_el[(li, sk)] = ET.SubElement(layer_el[li], "section", {"id": sk})
+        zel = ET.SubElement(section_el[(li, sk)], "zone", {"id": zid, "color": color})
+        vals = values.get((li, sk, zid), {})
+        for p in ZONE_PARAMETERS:
+            e = ET.SubElement(zel, p.name, {"unit": p.unit})
+            if p.name in vals:
+                e.text = _fmt(vals[p.name])
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode", short_empty_elements=False) + "\n"
+
+
+def _toolpath_zones(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]):
+    items = toolpath.items if isinstance(toolpath, Layered) else toolpath
+    for lp in items:
+        if lp is None:
+            continue
+        for sp in lp.sections:
+            seen: list[str] = []
+            for z in sp.zone:
+                if z and z not in seen:
+                    seen.append(z)
+            for z in seen:
+                yield lp.index, float(lp.layer.z), sp.key, z, sp.zone_colors.get(z, "")
+
+
+def template(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]) -> str:
+    """An empty parameter file mirroring a zoned toolpath: layer > section > zone (path order)."""
+    return _write(_toolpath_zones(toolpath), {})
+
+
+def _error(msg: str, li: int | None = None, sk: str | None = None, zid: str | None = None,
+           name: str | None = None) -> RecipeError:
+    where = f" (zone '{zid}')" if zid is not None else ""
+    return InputFileError(f"parameter file: {msg}{where}", layer=li, section=sk, field=name)
+
+
+def _number(text: str, name: str, li: int, sk: str, zid: str) -> float:
+    p = PARAMETERS_BY_NAME[name]
+    try:
+        v = float(text)
+    except ValueError:
+        raise _error(f"{name} = {text!r} is not a number", li, sk, zid, name) from None
+    if not math.isfinite(v) or not (p.minimum <= v <= p.maximum):
+        raise _error(f"{name} = {text} {p.unit} is outside [{_fmt(p.minimum)}, {_fmt(p.maximum)}] {p.unit}",
+                     li, sk, zid, name)
+    return v
+
+
+def parse(text: str | bytes) -> ParamTable:
+    """Parse and validate a parameter file. Raises RecipeError (InputFileError) naming layer/section/zone."""
+    raw = text.encode("utf-8") if isinstance(text, str) else text
+    if len(raw) > MAX_BYTES:
+        raise _error(f"{len(raw)} bytes is over the {MAX_BYTES} byte limit")
+    try:
+        root = DET.fromstring(raw, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DefusedXmlException as e:
+        raise _error(f"forbidden XML construct ({type(e).__name__}): no DTDs or entities allowed") from None
+    except ET.ParseError as e:
+        raise _error(f"not well-formed XML ({e})") from None
+    if root.tag != "parameters":
+        raise _error(f"root element is <{root.tag}>, expected <parameters>")
+    values: dict[ZoneKey, dict[str, float]] = {}
+    zones: list[ZoneKey] = []
+    colors: dict[ZoneKey, str] = {}
+    layer_z: dict[int, float] = {}
+    for lel in root:
+        if not isinstance(lel.tag, str):
+            continue
+        if lel.tag != "layer":
+            raise _error(f"unexpected <{lel.tag}> in <parameters>")
+        try:
+            li = int(lel.get("index", ""))
+        except ValueError:
+            raise _error(f"<layer> index {lel.get('index')!r} is not an integer") from None
+        if li in layer_z or any(k[0] == li for k in zones):
+            raise _error("layer listed twice", li)
+        if lel.get("z") not in (None, ""):
+            try:
+                layer_z[li] = float(lel.get("z"))
+            except ValueError:
+                raise _error(f"z {lel.get('z')!r} is not a number", li) from None
+        seen_sections: set[str] = set()
+        for sel in lel:
+            if sel.tag != "section" or not sel.get("id"):
+                raise _error(f"expected <section id=...> in <layer>, got <{sel.tag}>", li)
+            sk = sel.get("id")
+            if sk in seen_sections:
+                raise _error("section listed twice", li, sk)
+            seen_sections.add(sk)
+            seen_zones: set[str] = set()
+            for zel in sel:
+                if zel.tag != "zone" or not zel.get("id"):
+                    raise _error(f"expected <zone id=...> in <section>, got <{zel.tag}>", li, sk)
+                zid = zel.get("id")
+                if zid in seen_zones:
+                    raise _error("zone listed twice", li, sk, zid)
+                seen_zones.add(zid)
+                key = (li, sk, zid)
+                zones.append(key)
+                colors[key] = zel.get("color", "")
+                vals: dict[str, float] = {}
+                for pel in zel:
+                    name = pel.tag
+                    if name not in PARAMETERS_BY_NAME:
+                        known = ", ".join(PARAMETERS_BY_NAME)
+                        raise _error(f"unknown parameter <{name}> (known: {known})", li, sk, zid, name)
+                    if name in vals:
+                        raise _error(f"{name} given twice", li, sk, zid, name)
+                    unit_attr = pel.get("unit")
+                    expected = PARAMETERS_BY_NAME[name].unit
+                    if unit_attr is not None and unit_attr.strip() != expected:
+                        raise _error(f"{name} unit is {unit_attr!r}, expected {expected!r}", li, sk, zid, name)
+                    t = (pel.text or "").strip()
+                    if t:
+                        vals[name] = _number(t, name, li, sk, zid)
+                if vals:
+                    values[key] = vals
+    return ParamTable(values=values, zones=tuple(zones), colors=colors, layer_z=layer_z)
+
+
+def validate_xml(text: str | bytes) -> None:
+    """Raise RecipeError if `text` is not a valid parameter file."""
+    parse(text)
+
+
+def orphan_label(key: ZoneKey) -> str:
+    li, sk, zid = key
+    return f"layer {li}, section '{sk}', zone '{zid}'"
+
+
+def merge(template_text: str, old_text: str | bytes | None) -> tuple[str, list[str]]:
+    """Fill a fresh template with every value of `old_text` whose layer/section/zone still exists.
+
+    Returns (merged XML text, orphans): one label per zone of the old file that had values but no
+    longer exists ("layer 3, section 'bs1/A', zone 'z2'"), in the old file's order. Raises
+    RecipeError if either file is invalid.
+    """
+    tpl = parse(template_text)
+    if old_text is None or (isinstance(old_text, (str, bytes)) and not old_text.strip()):
+        return template_text, []
+    old = parse(old_text)
+    present = set(tpl.zones)
+    kept = {k: v for k, v in old.values.items() if k in present}
+    orphans = [orphan_label(k) for k in old.zones if k in old.values and k not in present]
+    rows = [(li, tpl.layer_z.get(li), sk, zid, tpl.colors.get((li, sk, zid), "")) for (li, sk, zid) in tpl.zones]
+    return _write(rows, kept), orphans

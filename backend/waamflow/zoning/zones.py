@@ -1,0 +1,210 @@
+"""Zoning of section paths (Michel et al. 2019, step 5 and "3D zoning").
+
+Each section path starts as one zone. The user splits it by *lengths* measured along the path from
+its start and from its end (ignition and termination need their own parameters for a limited
+length) and by *points*, projected onto the path. Along the path the zones are, in order:
+
+    start  [0, start_length)         — only when start_length > 0
+    z1 … zK                          — between the start zone, the split points and the end zone
+    end    [L − end_length, L]       — only when end_length > 0
+
+The middle zones are numbered by the split points sorted along the path, so `z2` is always the
+zone after the first split point, on every layer: ids are stable across layers and the XML
+parameter file can address them. A middle zone of zero length on some layer (a split point projected
+inside a length zone) does not appear on that layer.
+
+3D zoning follows by construction: lengths are re-measured on every layer (length zones keep their
+length), split points are projected on every layer's path (point zones stay at their points), and
+the zones between stretch or shrink with the path.
+
+If start_length + end_length exceed a path's length L, both are scaled down in proportion so they
+meet (the path is all start and end zone).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.model import SectionPath
+from ..core.tolerances import TOL
+
+# Stable colours per zone id (fixed, colour-blind-friendlier palette): start red, end blue, middle
+# zones cycle through the rest. The paper identifies zones in the XML by colour.
+START_COLOR = "#d62728"
+END_COLOR = "#1f77b4"
+MIDDLE_COLORS = ("#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+
+
+def zone_color(zone_id: str) -> str:
+    """The stable "#rrggbb" colour of a zone id ("start", "end", "z<k>")."""
+    if zone_id == "start":
+        return START_COLOR
+    if zone_id == "end":
+        return END_COLOR
+    k = int(zone_id[1:]) if zone_id[1:].isdigit() else 1
+    return MIDDLE_COLORS[(k - 1) % len(MIDDLE_COLORS)]
+
+
+@dataclass(frozen=True)
+class ZoneSpec:
+    """How to split one section's path. Lengths in mm along the path; split_points (k, 2) layer-local mm."""
+
+    start_length: float = 0.0
+    end_length: float = 0.0
+    split_points: tuple[tuple[float, float], ...] = field(default=())
+
+
+@dataclass(frozen=True)
+class ZoneLayout:
+    """Zones of one path: ids in path order and their [from, to) arc-length intervals (mm)."""
+
+    ids: tuple[str, ...]
+    bounds: tuple[tuple[float, float], ...]
+    total_length: float
+
+    def length(self, zone_id: str) -> float:
+        i = self.ids.index(zone_id)
+        return self.bounds[i][1] - self.bounds[i][0]
+
+
+def cumulative_length(points: np.ndarray) -> np.ndarray:
+    """(n, 3) points → (n,) arc length at each point, mm."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def project_onto_path(points: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Arc length (mm) of the nearest point of the polyline `points` (n, 3) to each query (m, 3)."""
+    a, b = points[:-1], points[1:]
+    d = b - a
+    dd = np.einsum("ij,ij->i", d, d)
+    dd = np.where(dd > 0, dd, 1.0)
+    s = cumulative_length(points)
+    out = np.empty(len(query))
+    for k, q in enumerate(query):
+        t = np.clip(np.einsum("ij,ij->i", q - a, d) / dd, 0.0, 1.0)
+        foot = a + t[:, None] * d
+        dist = np.einsum("ij,ij->i", foot - q, foot - q)
+        i = int(np.argmin(dist))
+        out[k] = s[i] + t[i] * np.sqrt(np.dot(d[i], d[i]))
+    return out
+
+
+def zone_layout(path_length: float, spec: ZoneSpec, split_s: np.ndarray) -> ZoneLayout:
+    """Zone ids and arc-length intervals of a path of length `path_length` (mm).
+
+    split_s: arc lengths (mm) of the projected split points.
+    """
+    L = float(path_length)
+    ls, le = max(spec.start_length, 0.0), max(spec.end_length, 0.0)
+    if ls + le > L and ls + le > 0:
+        scale = L / (ls + le)
+        ls, le = ls * scale, le * scale
+    lo, hi = ls, L - le
+    cuts = [lo] + [float(np.clip(s, lo, hi)) for s in np.sort(np.asarray(split_s, dtype=float))] + [hi]
+    ids: list[str] = []
+    bounds: list[tuple[float, float]] = []
+    if ls > 0:
+        ids.append("start")
+        bounds.append((0.0, lo))
+    for k in range(len(cuts) - 1):
+        if cuts[k + 1] - cuts[k] > TOL.min_segment:
+            ids.append(f"z{k + 1}")
+            bounds.append((cuts[k], cuts[k + 1]))
+    if le > 0:
+        ids.append("end")
+        bounds.append((hi, L))
+    return ZoneLayout(tuple(ids), tuple(bounds), L)
+
+
+def _insert_points(path: SectionPath, cut_s: list[float]) -> SectionPath:
+    """A copy of `path` with a vertex at each arc length in cut_s (segments split, attributes copied)."""
+    pts = np.asarray(path.points, dtype=float)
+    s = cumulative_length(pts)
+    seg_new_s = sorted(c for c in cut_s if TOL.min_segment < c < s[-1] - TOL.min_segment
+                       and np.min(np.abs(s - c)) > TOL.min_segment)
+    if not seg_new_s:
+        return path
+    seg_idx = np.clip(np.searchsorted(s, seg_new_s, side="right") - 1, 0, len(pts) - 2)
+    seglen = np.diff(s)
+    t = (np.asarray(seg_new_s) - s[seg_idx]) / np.where(seglen[seg_idx] > 0, seglen[seg_idx], 1.0)
+    new_pts = pts[seg_idx] + t[:, None] * (pts[seg_idx + 1] - pts[seg_idx])
+    # merge: original point i, then any inserted points belonging to segment i
+    order_pts = [pts[:1]]
+    parent: list[int] = []  # parent segment of each new segment
+    axis_rows = None if path.tool_axis is None else [np.asarray(path.tool_axis[:1], float)]
+    for i in range(len(pts) - 1):
+        mask = seg_idx == i
+        extra = new_pts[mask]
+        order_pts.append(extra)
+        order_pts.append(pts[i + 1:i + 2])
+        parent.extend([i] * (len(extra) + 1))
+        if axis_rows is not None:
+            a0, a1 = np.asarray(path.tool_axis[i], float), np.asarray(path.tool_axis[i + 1], float)
+            ax = a0[None, :] + t[mask][:, None] * (a1 - a0)[None, :]
+            ax /= np.maximum(np.linalg.norm(ax, axis=1, keepdims=True), 1e-12)
+            axis_rows.extend([ax, a1[None, :]])
+    parent_arr = np.asarray(parent)
+    return dataclasses.replace(
+        path,
+        points=np.vstack(order_pts),
+        arc=np.asarray(path.arc)[parent_arr],
+        inside=np.asarray(path.inside)[parent_arr],
+        speed=np.asarray(path.speed, dtype=float)[parent_arr],
+        zone=tuple(path.zone[i] for i in parent_arr) if path.zone else (),
+        tool_axis=None if axis_rows is None else np.vstack(axis_rows),
+    )
+
+
+def zone_path(path: SectionPath, spec: ZoneSpec, split_points_world: np.ndarray | None = None) -> SectionPath:
+    """Split `path` into zones per `spec`: vertices inserted at zone boundaries, per-segment zone ids
+    and `zone_colors` set. split_points_world: (k, 3) world mm positions of spec.split_points (the
+    caller maps layer-local points to world); None → spec.split_points at each path point's height.
+    """
+    pts = np.asarray(path.points, dtype=float)
+    if len(pts) < 2:
+        return dataclasses.replace(path, zone=(), zone_colors={})
+    if split_points_world is None:
+        sp = np.asarray(spec.split_points, dtype=float).reshape(-1, 2)
+        split_points_world = np.column_stack([sp, np.full(len(sp), pts[:, 2].mean())])
+    split_s = project_onto_path(pts, np.asarray(split_points_world, float).reshape(-1, 3)) \
+        if len(split_points_world) else np.zeros(0)
+    layout = zone_layout(cumulative_length(pts)[-1], spec, split_s)
+    cuts = [b[0] for b in layout.bounds[1:]]
+    out = _insert_points(path, cuts)
+    s = cumulative_length(np.asarray(out.points))
+    mid = 0.5 * (s[:-1] + s[1:])
+    starts = np.asarray([b[0] for b in layout.bounds])
+    zi = np.clip(np.searchsorted(starts, mid, side="right") - 1, 0, len(layout.ids) - 1)
+    zones = tuple(layout.ids[i] for i in zi)
+    colors = {z: zone_color(z) for z in layout.ids if z in set(zones)}
+    return dataclasses.replace(out, zone=zones, zone_colors=colors, zone_params={})
+
+
+def zone_lengths(path: SectionPath) -> dict[str, float]:
+    """Length (mm) of each zone of a zoned path, in path order."""
+    out: dict[str, float] = {}
+    for z, l in zip(path.zone, path.segment_lengths):
+        out[z] = out.get(z, 0.0) + float(l)
+    return out
+
+
+def apply_zone_params(path: SectionPath, params: dict[str, dict[str, float]]) -> SectionPath:
+    """Attach process parameters per zone (from the XML) and set the programmed speed.
+
+    params: zone id → {parameter name: value} (names of core.process.ZONE_PARAMETERS). Each arc-ON
+    segment of a zone with a `travel_speed` (mm/s) gets that speed; arc-OFF links inside a section
+    are not deposition and keep the strategy's speed, as do zones with no travel speed given.
+    """
+    zp = {z: dict(v) for z, v in params.items() if z in path.zone_colors and v}
+    speed = np.asarray(path.speed, dtype=float).copy()
+    arc = np.asarray(path.arc, dtype=bool)
+    for z, vals in zp.items():
+        ts = vals.get("travel_speed")
+        if ts is not None:
+            sel = np.fromiter((zz == z for zz in path.zone), bool, len(path.zone)) & arc
+            speed[sel] = ts
+    return dataclasses.replace(path, zone_params=zp, speed=speed)
