@@ -1,0 +1,306 @@
+"""Modular path planning nodes (Michel et al. 2019): mask → guide → [strategy] → zone → sequence.
+
+Thin adapters over waamflow.sections, waamflow.zoning and waamflow.sequencing. Every node maps over
+layers; `layer_params` returns only what affects one layer (its governing mask, the guides/zone
+specs of the sections it has), so editing mask bs2 never recomputes a layer governed by bs1.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections import OrderedDict
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from ..core import serialize
+from ..core.model import LayerPaths, LayerSections, Layered
+from ..engine.node import FileRef, LayerNode, NodeParams, register, unit
+from ..engine.ports import Port
+from ..sections import Mask, apply_guide, segment_layer
+from ..sections.guide import guide_line
+from ..sections.mask import uncovered_percent
+from ..sequencing import sequence_part
+from ..sequencing.layer_path import part_travel
+from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
+
+Point2 = tuple[float, float]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# ------------------------------------------------------------------------------------------------
+# mask
+# ------------------------------------------------------------------------------------------------
+class MaskSectionParams(_Strict):
+    id: str = Field(min_length=1, max_length=64, description="Section id, unique in the mask")
+    curve: list[Point2] = Field(min_length=3, description="Closed planar curve over the layer (layer-local x, y)",
+                                json_schema_extra=unit("mm"))
+
+
+class MaskParams(_Strict):
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)")
+    from_layer: int = Field(0, ge=0, description="First layer this mask governs (until the next mask's from_layer)")
+    sections: list[MaskSectionParams] = Field(min_length=1, description="Sections in default deposition order")
+
+
+@register
+class MaskNode(LayerNode):
+    """MPP segmentation: cut each layer into sections, section = layer ∩ closed curve of its mask.
+
+    A mask governs layers from its `from_layer` up to the next mask's. Where a curve yields no
+    region or several, the run fails naming the layer and section: start a new mask there. An
+    earlier section owns any overlap with a later one. No masks: each connected region of a layer
+    is one section (`region<k>`, largest first). Warns with the % of layer area left uncovered.
+    """
+
+    type = "mask"
+    title = "Mask (segmentation)"
+    category = "mpp"
+    inputs = (Port("layers", "layers", "Sliced layers"),)
+    outputs = (Port("sections", "sections", "Sections per layer"),)
+    over = "layers"
+
+    class Params(NodeParams):
+        masks: list[MaskParams] = Field(default_factory=list, description="Building-Strategy masks")
+
+        @field_validator("masks")
+        @classmethod
+        def _unique(cls, masks: list[MaskParams]) -> list[MaskParams]:
+            ids = [m.id for m in masks]
+            starts = [m.from_layer for m in masks]
+            if len(set(ids)) != len(ids):
+                raise ValueError("mask ids must be unique")
+            if len(set(starts)) != len(starts):
+                raise ValueError("two masks start at the same from_layer")
+            return masks
+
+    def _governing(self, params, index: int) -> MaskParams | None:
+        best = None
+        for m in params.masks:
+            if m.from_layer <= index and (best is None or m.from_layer > best.from_layer):
+                best = m
+        return best
+
+    def layer_params(self, params, index, items):
+        m = self._governing(params, index)
+        return None if m is None else m.model_dump(mode="json")
+
+    def run_layer(self, ctx, params, index, items):
+        layer = items["layers"]
+        m = self._governing(params, index)
+        mask = None if m is None else Mask.from_json(m.model_dump(mode="json"))
+        ls = segment_layer(layer, mask)
+        pct = uncovered_percent(ls)
+        if ls.uncovered_area > 0:
+            ctx.warn(f"{pct:.1f} % of the layer area ({ls.uncovered_area:.1f} mm²) is not covered by any section",
+                     layer=index)
+        return {"sections": ls}
+
+
+# ------------------------------------------------------------------------------------------------
+# guide
+# ------------------------------------------------------------------------------------------------
+@register
+class GuideNode(LayerNode):
+    """MPP guides: per section an open polyline giving the deposition direction.
+
+    A guide must cross its section's boundary exactly twice on every layer (else the run fails
+    naming layer and section); the crossings are where deposition starts and stops. Sections without
+    a guide get the long axis of their minimum rotated rectangle.
+    """
+
+    type = "guide"
+    title = "Guide"
+    category = "mpp"
+    inputs = (Port("sections", "sections", "Sections per layer"),)
+    outputs = (Port("sections", "sections", "Sections with guides, start and stop"),)
+    over = "sections"
+
+    class Params(NodeParams):
+        guides: dict[str, list[Point2]] = Field(
+            default_factory=dict, description="Section key (\"bs1/A\") → guide polyline (layer-local x, y)",
+            json_schema_extra=unit("mm"))
+
+    def layer_params(self, params, index, items):
+        ls: LayerSections = items["sections"]
+        return {s.key: params.guides.get(s.key) for s in ls.sections}
+
+    def run_layer(self, ctx, params, index, items):
+        ls: LayerSections = items["sections"]
+        out = []
+        for s in ls.sections:
+            pts = params.guides.get(s.key)
+            line = None if pts is None else guide_line(pts, s.key)
+            out.append(apply_guide(s, line, layer=index))
+        return {"sections": LayerSections(ls.layer, tuple(out), ls.uncovered_area)}
+
+    def combine(self, ctx, params, outputs, inputs):
+        seen = {s.key for ls in outputs["sections"] if ls is not None for s in ls.sections}
+        full = all(ls is not None for ls in outputs["sections"])
+        for key in params.guides:
+            if full and key not in seen:
+                ctx.warn(f"guide for {key!r} matches no section", section=key)
+        return super().combine(ctx, params, outputs, inputs)
+
+
+# ------------------------------------------------------------------------------------------------
+# zone
+# ------------------------------------------------------------------------------------------------
+class ZoneSpecParams(_Strict):
+    start_length: float = Field(0.0, ge=0, le=1e5, description="Length of the ignition zone `start`, measured "
+                                "along the path from its start", json_schema_extra=unit("mm"))
+    end_length: float = Field(0.0, ge=0, le=1e5, description="Length of the termination zone `end`, measured "
+                              "back from the path's end", json_schema_extra=unit("mm"))
+    split_points: list[Point2] = Field(default_factory=list, description="Points (layer-local x, y) projected "
+                                       "onto the path; each starts a new middle zone", json_schema_extra=unit("mm"))
+
+    def spec(self) -> ZoneSpec:
+        return ZoneSpec(self.start_length, self.end_length, tuple(tuple(p) for p in self.split_points))
+
+
+_PARAM_CACHE: "OrderedDict[str, Any]" = OrderedDict()
+
+
+def _parse_cached(text: str):
+    """parse() memoised on content: the zone node's combine runs on every execution."""
+    h = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    if h not in _PARAM_CACHE:
+        _PARAM_CACHE[h] = parse(text)
+        while len(_PARAM_CACHE) > 8:
+            _PARAM_CACHE.popitem(last=False)
+    _PARAM_CACHE.move_to_end(h)
+    return _PARAM_CACHE[h]
+
+
+@register
+class ZoneNode(LayerNode):
+    """MPP zoning: split each section path into zones with their own deposition parameters.
+
+    Zones along a path: `start` (first `start_length` mm), `z1`, `z2`, … (split at the
+    `split_points` projected onto the path), `end` (last `end_length` mm); only those that exist.
+    Length zones keep their length on every layer, point zones stay at their points, zones between
+    stretch. Deposition parameters come from the XML file `parameters` (layer > section > zone):
+    a zone's travel_speed becomes the speed of its arc-ON segments; empty values leave the
+    strategy's. Writes `toolpath.json` and `params.xml` (the template for the current paths with
+    every value of the existing file whose layer/section/zone still exists).
+    """
+
+    type = "zone"
+    title = "Zone"
+    category = "mpp"
+    inputs = (Port("toolpath", "toolpath", "Section paths (from strategy)"),)
+    outputs = (Port("toolpath", "toolpath", "Zoned section paths with process parameters"),)
+    over = "toolpath"
+
+    class Params(NodeParams):
+        default: ZoneSpecParams = Field(default_factory=ZoneSpecParams, description="Zoning of every section")
+        sections: dict[str, ZoneSpecParams] = Field(default_factory=dict,
+                                                    description="Section key → zoning (replaces the default)")
+        parameters: FileRef | None = Field(None, description="XML deposition-parameter file (layer > section > zone)")
+
+    def _spec(self, params, key: str) -> ZoneSpecParams:
+        return params.sections.get(key, params.default)
+
+    def layer_params(self, params, index, items):
+        lp: LayerPaths = items["toolpath"]
+        return {sp.key: self._spec(params, sp.key).model_dump(mode="json") for sp in lp.sections}
+
+    def run_layer(self, ctx, params, index, items):
+        lp: LayerPaths = items["toolpath"]
+        out = []
+        for sp in lp.sections:
+            spec = self._spec(params, sp.key).spec()
+            world = lp.layer.to_world(np.asarray(spec.split_points, float).reshape(-1, 2)) if spec.split_points else None
+            out.append(zone_path(sp, spec, world))
+        return {"toolpath": LayerPaths(lp.layer, tuple(out), lp.dwell_after_s)}
+
+    def _read_xml(self, ctx, params) -> str | None:
+        if not params.parameters:
+            return None
+        if not ctx.exists(params.parameters):
+            ctx.warn(f"parameter file {params.parameters!r} not found: writing an empty template")
+            return None
+        return ctx.read_text(params.parameters)
+
+    def combine(self, ctx, params, outputs, inputs):
+        items = outputs["toolpath"]
+        text = self._read_xml(ctx, params)
+        table = None if text is None else _parse_cached(text)
+        layers = []
+        for lp in items:
+            if lp is None or table is None:
+                layers.append(lp)
+                continue
+            vals = table.layer(lp.index)
+            layers.append(LayerPaths(lp.layer, tuple(apply_zone_params(sp, vals.get(sp.key, {})) for sp in lp.sections),
+                                     lp.dwell_after_s))
+        toolpath = Layered(tuple(layers))
+        self._xml = None
+        if all(lp is not None for lp in layers):
+            merged, orphans = merge(template(toolpath), text)
+            for o in orphans:
+                ctx.warn(f"parameter file: values for {o} have no zone any more (dropped from params.xml)")
+            self._xml = (id(toolpath), merged)
+        return {"toolpath": toolpath}
+
+    def artifacts(self, ctx, params, outputs):
+        tp = outputs["toolpath"]
+        cached = getattr(self, "_xml", None)
+        xml = cached[1] if cached and cached[0] == id(tp) else merge(template(tp), self._read_xml(ctx, params))[0]
+        return {"toolpath.json": serialize.dumps(serialize.toolpath_json(tp)), "params.xml": xml}
+
+
+# ------------------------------------------------------------------------------------------------
+# sequence
+# ------------------------------------------------------------------------------------------------
+@register
+class SequenceNode(LayerNode):
+    """MPP layer path: join a layer's section paths into one program with arc-OFF travel between them.
+
+    Order: `mask` (the mask's section order), `nearest` (nearest neighbour from the previous layer's
+    end, improved by 2-opt, to cut travel) or an explicit list of section keys. Travel: retract by
+    `retract_height` along the build direction, travel, plunge. `alternate` reverses the section
+    order on odd layers. `dwell` adds an interlayer dwell. Writes `toolpath.json` and
+    `travel.json` (travel length per layer).
+    """
+
+    type = "sequence"
+    title = "Sequence (layer path)"
+    category = "mpp"
+    inputs = (Port("toolpath", "toolpath", "Zoned section paths"),)
+    outputs = (Port("toolpath", "toolpath", "Layer programs in deposition order"),)
+    over = "toolpath"
+
+    class Params(NodeParams):
+        order: Literal["mask", "nearest"] | list[str] = Field(
+            "mask", description="`mask`, `nearest` (nearest neighbour + 2-opt) or a list of section keys")
+        retract_height: float = Field(10.0, ge=0, le=500, description="Clearance of arc-OFF travel above the "
+                                      "higher end point", json_schema_extra=unit("mm"))
+        alternate: bool = Field(False, description="Reverse the section order on odd layers")
+        dwell: float = Field(0.0, ge=0, le=3600, description="Interlayer dwell after each layer",
+                             json_schema_extra=unit("s"))
+
+    def run_layer(self, ctx, params, index, items):
+        # Ordering and travel chain across layers (each layer starts where the previous ended), so
+        # they are assembled in `combine`; per layer there is nothing expensive to cache.
+        return {"toolpath": items["toolpath"]}
+
+    def combine(self, ctx, params, outputs, inputs):
+        layers, _ = sequence_part(list(outputs["toolpath"]), order=params.order,
+                                  retract_height=params.retract_height, alternate=params.alternate,
+                                  dwell_after_s=params.dwell)
+        return {"toolpath": Layered(tuple(layers))}
+
+    def artifacts(self, ctx, params, outputs):
+        travel = [{"index": lp.index, "travel_mm": round(t, 3), "order": [sp.key for sp in lp.sections]}
+                  for lp, t in zip(outputs["toolpath"], part_travel(outputs["toolpath"])) if lp is not None]
+        total = round(sum(t["travel_mm"] for t in travel), 3)
+        return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"])),
+                "travel.json": serialize.dumps({"units": "mm", "total_travel_mm": total, "layers": travel})}
+
+
+__all__ = ["GuideNode", "MaskNode", "SequenceNode", "ZoneNode"]

@@ -1,0 +1,186 @@
+"""Layer path: join section paths into one layer program (Michel et al. 2019, step 6).
+
+Deposition is not continuous: at the end of a section the arc stops and the torch travels, arc OFF
+and without wire, to the next section's start — retract along the build direction by
+`retract_height`, travel at that clearance above the higher of the two points, plunge. Order matters:
+a sorting algorithm cuts travel, but the user may impose an order (depositing across the waving
+border of an earlier oscillated section closes voids; the sequence affects distortion).
+
+Orders: `mask` (the mask's section order, i.e. the order of the input), `nearest` (nearest neighbour
+from the previous layer's end, improved by 2-opt on the open, asymmetric tour), or an explicit list
+of section keys (keys missing from the list follow in mask order).
+
+Sections are never reversed here: zoning has already placed the ignition (`start`) and termination
+(`end`) zones, so reversing a path would swap them. `alternate` reverses the *order of sections*
+on odd layers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Sequence
+
+import numpy as np
+
+from ..core.model import LayerPaths, SectionPath
+
+MAX_2OPT_ROUNDS = 50
+
+def travel_cost(ends: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """(n, n) straight-line distance (mm) from the end of section i to the start of section j."""
+    return np.linalg.norm(ends[:, None, :] - starts[None, :, :], axis=2)
+
+def tour_length(order: Sequence[int], cost: np.ndarray, start_cost: np.ndarray | None) -> float:
+    """Travel (mm) of visiting sections in `order`: from the start point (start_cost[j]) then between sections."""
+    total = 0.0 if start_cost is None or not len(order) else float(start_cost[order[0]])
+    for a, b in zip(order[:-1], order[1:]):
+        total += float(cost[a, b])
+    return total
+
+def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
+    """Nearest neighbour from the start point (or from section 0 when None), then 2-opt.
+
+    cost: (n, n) end-of-i → start-of-j travel, mm. start_cost: (n,) start point → start of j, mm.
+    The tour is open and asymmetric (a section is entered at its start, left at its end), so each
+    2-opt move is scored by recomputing the tour length (n is a handful of sections per layer).
+    """
+    n = len(cost)
+    if n == 0:
+        return []
+    first = 0 if start_cost is None else int(np.argmin(start_cost))
+    order, left = [first], set(range(n)) - {first}
+    while left:
+        last = order[-1]
+        nxt = min(left, key=lambda j: (cost[last, j], j))
+        order.append(nxt)
+        left.remove(nxt)
+    best = tour_length(order, cost, start_cost)
+    lo = 0 if start_cost is not None else 1
+    for _ in range(MAX_2OPT_ROUNDS):
+        improved = False
+        for i in range(lo, n - 1):
+            for k in range(i + 1, n):
+                cand = order[:i] + order[i:k + 1][::-1] + order[k + 1:]
+                length = tour_length(cand, cost, start_cost)
+                if length < best - 1e-9:
+                    order, best, improved = cand, length, True
+        if not improved:
+            break
+    return order
+
+def explicit_order(keys: Sequence[str], wanted: Sequence[str]) -> list[int]:
+    """Indices of `keys` in the order of `wanted`; keys not listed follow in their own order."""
+    pos = {k: i for i, k in enumerate(keys)}
+    order = [pos[k] for k in wanted if k in pos]
+    seen = set(order)
+    return order + [i for i in range(len(keys)) if i not in seen]
+
+def approach_points(prev_end: np.ndarray | None, start: np.ndarray, up: np.ndarray, retract: float) -> np.ndarray:
+    """Arc-OFF travel points flown before `start` (k, 3), mm.
+
+    From prev_end: retract along `up` to `retract` mm above the higher of the two points, travel,
+    and stop above `start` (the plunge to `start` is the move to points[0]). Without prev_end (first
+    section of the part) the torch comes down from `retract` above the start.
+    """
+    up = up / np.linalg.norm(up)
+    if prev_end is None:
+        return (start + retract * up)[None, :]
+    h = max(float(prev_end @ up), float(start @ up)) + retract
+    a = prev_end + (h - float(prev_end @ up)) * up
+    b = start + (h - float(start @ up)) * up
+    if np.linalg.norm(a - b) <= 1e-9:
+        return a[None, :]
+    return np.vstack([a, b])
+
+def travel_length(prev_end: np.ndarray | None, sp: SectionPath) -> float:
+    """Length (mm) of the arc-OFF move into `sp`: prev_end → approach points → points[0]."""
+    if prev_end is None or sp.approach is None:
+        return 0.0
+    poly = np.vstack([prev_end[None, :], sp.approach, sp.points[:1]])
+    return float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+
+def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_end: np.ndarray | None = None,
+                   retract_height: float = 10.0, alternate: bool = False, dwell_after_s: float = 0.0
+                   ) -> tuple[LayerPaths, float]:
+    """Order the section paths of one layer and set their approach travel.
+
+    order: "mask" | "nearest" | explicit list of section keys. prev_end: (3,) world mm where the
+    torch is before this layer (the previous layer's last point), or None. Returns the new layer
+    program and its travel length in mm (including the move in from prev_end).
+    """
+    paths = [sp for sp in lp.sections if len(sp.points) >= 2]
+    if not paths:
+        return dataclasses.replace(lp, sections=tuple(lp.sections), dwell_after_s=dwell_after_s), 0.0
+    starts = np.array([sp.points[0] for sp in paths], dtype=float)
+    ends = np.array([sp.points[-1] for sp in paths], dtype=float)
+    if isinstance(order, str) and order == "nearest":
+        start_cost = None if prev_end is None else np.linalg.norm(starts - prev_end[None, :], axis=1)
+        idx = nearest_order(travel_cost(ends, starts), start_cost)
+    elif isinstance(order, str):
+        if order != "mask":
+            raise ValueError(f"unknown order {order!r}")
+        idx = list(range(len(paths)))
+    else:
+        idx = explicit_order([sp.key for sp in paths], order)
+    if alternate and lp.index % 2 == 1:
+        idx = idx[::-1]
+    up = lp.layer.normal
+    out: list[SectionPath] = []
+    total = 0.0
+    here = None if prev_end is None else np.asarray(prev_end, dtype=float)
+    for i in idx:
+        sp = paths[i]
+        start = np.asarray(sp.points[0], dtype=float)
+        sp = dataclasses.replace(sp, approach=approach_points(here, start, up, retract_height))
+        total += travel_length(here, sp)
+        out.append(sp)
+        here = np.asarray(sp.points[-1], dtype=float)
+    return dataclasses.replace(lp, sections=tuple(out), dwell_after_s=dwell_after_s), total
+
+def last_point(lp: LayerPaths | None) -> np.ndarray | None:
+    """(3,) world mm: where the torch is after this layer (end of its last section path)."""
+    if lp is None:
+        return None
+    for sp in reversed(lp.sections):
+        if len(sp.points):
+            return np.asarray(sp.points[-1], dtype=float)
+    return None
+
+def sequence_part(layers: Sequence[LayerPaths | None], **kw) -> tuple[list[LayerPaths | None], list[float]]:
+    """Sequence every layer, each starting where the previous one ended. Returns layers and travel (mm) per layer.
+
+    None layers (partial runs) stay None and break the chain (the next layer starts fresh).
+    """
+    out: list[LayerPaths | None] = []
+    travel: list[float] = []
+    prev = None
+    for lp in layers:
+        if lp is None:
+            out.append(None)
+            travel.append(0.0)
+            prev = None
+            continue
+        new, t = sequence_layer(lp, prev_end=prev, **kw)
+        out.append(new)
+        travel.append(t)
+        prev = last_point(new)
+    return out, travel
+
+def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:
+    """Arc-OFF travel (mm) per layer of a sequenced part, counting the move in from the previous layer."""
+    out: list[float] = []
+    prev = None
+    for lp in layers:
+        total = 0.0
+        if lp is not None:
+            for sp in lp.sections:
+                total += travel_length(prev, sp)
+                prev = np.asarray(sp.points[-1], dtype=float)
+        else:
+            prev = None
+        out.append(total)
+    return out
+
+
+__all__ = ["approach_points", "explicit_order", "last_point", "nearest_order", "part_travel", "sequence_layer",
+           "sequence_part", "tour_length", "travel_cost", "travel_length"]
