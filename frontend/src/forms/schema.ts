@@ -1,0 +1,213 @@
+/**
+ * Parameter forms generated from a node's pydantic JSON Schema: which widget, unit, bounds,
+ * and validation of a value against them. Nothing about any particular node lives here.
+ */
+import type { JSONSchema } from "../api/types";
+
+export type FieldKind = "number" | "integer" | "string" | "boolean" | "enum" | "file" | "json";
+
+export interface FieldSpec {
+  name: string;
+  title: string;
+  description: string;
+  kind: FieldKind;
+  unit?: string;
+  minimum?: number;
+  maximum?: number;
+  exclusiveMinimum?: number;
+  exclusiveMaximum?: number;
+  options?: unknown[];
+  default?: unknown;
+  hasDefault: boolean;
+  nullable: boolean;
+  required: boolean;
+  schema: JSONSchema;
+}
+
+/** Follow a local `$ref` (`#/$defs/Name`) against the root schema. */
+export function deref(root: JSONSchema, s: JSONSchema | undefined): JSONSchema {
+  let cur = s ?? {};
+  for (let guard = 0; cur.$ref && guard < 32; guard++) {
+    const path = cur.$ref.replace(/^#\//, "").split("/");
+    let target: unknown = root;
+    for (const p of path) target = (target as Record<string, unknown> | undefined)?.[p];
+    const { $ref: _r, ...rest } = cur;
+    cur = { ...((target as JSONSchema) ?? {}), ...rest };
+  }
+  if (cur.allOf && cur.allOf.length === 1) {
+    const { allOf, ...rest } = cur;
+    cur = { ...deref(root, allOf[0]), ...rest };
+  }
+  return cur;
+}
+
+function typesOf(s: JSONSchema): string[] {
+  if (Array.isArray(s.type)) return s.type;
+  return s.type ? [s.type] : [];
+}
+
+/** Split `anyOf: [X, {type: null}]` into X and nullable. */
+export function unwrapNullable(root: JSONSchema, s: JSONSchema): { schema: JSONSchema; nullable: boolean } {
+  const d = deref(root, s);
+  const alts = d.anyOf ?? d.oneOf;
+  if (alts) {
+    const nonNull = alts.filter((a) => !typesOf(deref(root, a)).includes("null"));
+    const nullable = nonNull.length < alts.length;
+    if (nonNull.length === 1) {
+      const { anyOf: _a, oneOf: _o, ...outer } = d;
+      return { schema: { ...deref(root, nonNull[0]), ...outer }, nullable };
+    }
+    return { schema: d, nullable };
+  }
+  const t = typesOf(d);
+  if (t.includes("null") && t.length === 2) return { schema: { ...d, type: t.find((x) => x !== "null") }, nullable: true };
+  return { schema: d, nullable: false };
+}
+
+export function fieldKind(s: JSONSchema): FieldKind {
+  if (s["x-file"]) return "file";
+  if (s.enum) return "enum";
+  if (s.const !== undefined) return "enum";
+  const t = typesOf(s);
+  if (t.length === 1) {
+    if (t[0] === "number") return "number";
+    if (t[0] === "integer") return "integer";
+    if (t[0] === "boolean") return "boolean";
+    if (t[0] === "string") return "string";
+  }
+  const alts = s.anyOf ?? s.oneOf;
+  if (alts && alts.every((a) => a.const !== undefined || a.enum)) return "enum";
+  return "json";
+}
+
+function options(s: JSONSchema): unknown[] | undefined {
+  if (s.enum) return s.enum;
+  if (s.const !== undefined) return [s.const];
+  const alts = s.anyOf ?? s.oneOf;
+  if (alts && alts.every((a) => a.const !== undefined || a.enum)) return alts.flatMap((a) => a.enum ?? [a.const]);
+  return undefined;
+}
+
+/** Fields of an object schema (a node's params model), in declaration order. */
+export function describeFields(root: JSONSchema): FieldSpec[] {
+  const obj = deref(root, root);
+  const required = new Set(obj.required ?? []);
+  return Object.entries(obj.properties ?? {}).map(([name, raw]) => {
+    const { schema, nullable } = unwrapNullable(root, raw);
+    const kind = fieldKind(schema);
+    return {
+      name,
+      title: schema.title ?? raw.title ?? name,
+      description: (raw.description ?? schema.description ?? "") as string,
+      kind,
+      unit: (raw.unit ?? schema.unit) as string | undefined,
+      minimum: schema.minimum,
+      maximum: schema.maximum,
+      exclusiveMinimum: schema.exclusiveMinimum,
+      exclusiveMaximum: schema.exclusiveMaximum,
+      options: options(schema),
+      default: raw.default ?? schema.default,
+      hasDefault: "default" in raw || "default" in schema,
+      nullable,
+      required: required.has(name),
+      schema,
+    };
+  });
+}
+
+/** A "$name" recipe-input reference is always accepted: it is checked when the run substitutes it. */
+export const isInputRef = (v: unknown): v is string => typeof v === "string" && /^\$[A-Za-z_][A-Za-z0-9_]*$/.test(v);
+
+/** Why `value` is not acceptable for `f`, or null. `undefined` means "not set" (the default applies). */
+export function validateField(f: FieldSpec, value: unknown): string | null {
+  if (value === undefined) return f.required && !f.hasDefault ? "required" : null;
+  if (value === null) return f.nullable ? null : "required";
+  if (isInputRef(value)) return null;
+  switch (f.kind) {
+    case "number":
+    case "integer": {
+      if (typeof value !== "number" || !Number.isFinite(value)) return "not a number";
+      if (f.kind === "integer" && !Number.isInteger(value)) return "must be a whole number";
+      const u = f.unit ? ` ${f.unit}` : "";
+      if (f.minimum !== undefined && value < f.minimum) return `must be ≥ ${f.minimum}${u}`;
+      if (f.maximum !== undefined && value > f.maximum) return `must be ≤ ${f.maximum}${u}`;
+      if (f.exclusiveMinimum !== undefined && value <= f.exclusiveMinimum) return `must be > ${f.exclusiveMinimum}${u}`;
+      if (f.exclusiveMaximum !== undefined && value >= f.exclusiveMaximum) return `must be < ${f.exclusiveMaximum}${u}`;
+      return null;
+    }
+    case "boolean":
+      return typeof value === "boolean" ? null : "must be true or false";
+    case "enum":
+      return f.options?.some((o) => o === value) ? null : `one of ${f.options?.map(String).join(", ")}`;
+    case "string":
+    case "file": {
+      if (typeof value !== "string") return "must be text";
+      if (f.schema.minLength !== undefined && value.length < f.schema.minLength) return `at least ${f.schema.minLength} characters`;
+      if (f.schema.maxLength !== undefined && value.length > f.schema.maxLength) return `at most ${f.schema.maxLength} characters`;
+      return null;
+    }
+    default:
+      return null;
+  }
+}
+
+/** Parse what the user typed into a number/integer field: a number, a "$input" reference, or unset. */
+export function parseNumberInput(text: string): number | string | undefined | { error: string } {
+  const t = text.trim();
+  if (t === "") return undefined;
+  if (isInputRef(t)) return t;
+  const v = Number(t);
+  if (!Number.isFinite(v)) return { error: "not a number" };
+  return v;
+}
+
+/** Human text of a field's bounds with unit, e.g. "0 < x ≤ 50 mm". */
+export function boundsText(f: FieldSpec): string {
+  const lo = f.exclusiveMinimum !== undefined ? `${f.exclusiveMinimum} <` : f.minimum !== undefined ? `${f.minimum} ≤` : "";
+  const hi = f.exclusiveMaximum !== undefined ? `< ${f.exclusiveMaximum}` : f.maximum !== undefined ? `≤ ${f.maximum}` : "";
+  if (!lo && !hi) return "";
+  return `${lo} x ${hi}`.trim() + (f.unit ? ` ${f.unit}` : "");
+}
+
+/** Validate a whole params object: {field name: message}. Unknown keys are errors (the engine forbids them). */
+export function validateParams(root: JSONSchema, params: Record<string, unknown>): Record<string, string> {
+  const fields = describeFields(root);
+  const errors: Record<string, string> = {};
+  for (const f of fields) {
+    const e = validateField(f, params[f.name]);
+    if (e) errors[f.name] = e;
+  }
+  const known = new Set(fields.map((f) => f.name));
+  for (const k of Object.keys(params)) if (!known.has(k)) errors[k] = "unknown parameter";
+  return errors;
+}
+
+/** Find the enum of a property named `name` anywhere in a schema (e.g. a strategy's `pattern`). */
+export function findEnum(root: JSONSchema, name: string): unknown[] | undefined {
+  const seen = new Set<JSONSchema>();
+  const walk = (s: JSONSchema | undefined): unknown[] | undefined => {
+    if (!s || typeof s !== "object" || seen.has(s)) return undefined;
+    seen.add(s);
+    const d = deref(root, s);
+    const p = d.properties?.[name];
+    if (p) {
+      const o = options(unwrapNullable(root, p).schema);
+      if (o) return o;
+    }
+    const kids: (JSONSchema | undefined)[] = [
+      ...Object.values(d.properties ?? {}),
+      d.items,
+      typeof d.additionalProperties === "object" ? d.additionalProperties : undefined,
+      ...(d.anyOf ?? []),
+      ...(d.oneOf ?? []),
+      ...(d.allOf ?? []),
+      ...Object.values(root.$defs ?? {}),
+    ];
+    for (const k of kids) {
+      const r = walk(k);
+      if (r) return r;
+    }
+    return undefined;
+  };
+  return walk(root);
+}

@@ -1,0 +1,288 @@
+/**
+ * Graph logic on the recipe (the contract's `waamflow/1` JSON), independent of React and of the
+ * node-editor library: connection validation (the one place), cycles, unique ids, copy/paste,
+ * node positions and an automatic layout for recipes saved without positions.
+ *
+ * The recipe stays the single source of truth; the editor's nodes/edges are derived from it.
+ */
+import type { NodeSpec, PortSpec, Recipe, RecipeEdge, RecipeNode } from "../api/types";
+
+export type XY = [number, number];
+
+export const NODE_ID_RE = /^[A-Za-z][A-Za-z0-9_-]{0,63}$/;
+
+export function endpoint(text: string): { node: string; port: string } {
+  const i = text.indexOf(".");
+  return { node: text.slice(0, i), port: text.slice(i + 1) };
+}
+
+export const edgeId = (e: RecipeEdge) => `${e.from}->${e.to}`;
+
+export function emptyRecipe(name = "untitled"): Recipe {
+  return { format: "waamflow/1", name, description: "", inputs: {}, nodes: [], edges: [] };
+}
+
+export type Catalog = Map<string, NodeSpec>;
+
+export function catalogMap(specs: readonly NodeSpec[]): Catalog {
+  return new Map(specs.map((s) => [s.type, s]));
+}
+
+function outPort(cat: Catalog, r: Recipe, nodeId: string, port: string): PortSpec | undefined {
+  const n = r.nodes.find((x) => x.id === nodeId);
+  return n ? cat.get(n.type)?.outputs.find((p) => p.name === port) : undefined;
+}
+
+function inPort(cat: Catalog, r: Recipe, nodeId: string, port: string): PortSpec | undefined {
+  const n = r.nodes.find((x) => x.id === nodeId);
+  return n ? cat.get(n.type)?.inputs.find((p) => p.name === port) : undefined;
+}
+
+/** Node ids downstream of `id` (excluding it). */
+export function downstream(r: Recipe, id: string): Set<string> {
+  const out = new Set<string>();
+  const stack = [id];
+  while (stack.length) {
+    const cur = stack.pop()!;
+    for (const e of r.edges) {
+      const f = endpoint(e.from).node, t = endpoint(e.to).node;
+      if (f === cur && !out.has(t)) {
+        out.add(t);
+        stack.push(t);
+      }
+    }
+  }
+  return out;
+}
+
+/** Node ids upstream of `id` (excluding it). */
+export function ancestors(r: Recipe, id: string): Set<string> {
+  const out = new Set<string>();
+  const stack = [id];
+  while (stack.length) {
+    const cur = stack.pop()!;
+    for (const e of r.edges) {
+      const f = endpoint(e.from).node, t = endpoint(e.to).node;
+      if (t === cur && !out.has(f)) {
+        out.add(f);
+        stack.push(f);
+      }
+    }
+  }
+  return out;
+}
+
+export interface Connection {
+  source: string;
+  sourceHandle: string | null;
+  target: string;
+  targetHandle: string | null;
+}
+
+/**
+ * The one place that decides whether an output may feed an input (mirrors the engine's
+ * `check_connection`): both ports exist, same port type, not a self-loop, no cycle.
+ * Returns null when valid, else the reason.
+ */
+export function connectionError(cat: Catalog, r: Recipe, c: Connection): string | null {
+  if (!c.sourceHandle || !c.targetHandle) return "connect a port to a port";
+  if (c.source === c.target) return "a node cannot feed itself";
+  const o = outPort(cat, r, c.source, c.sourceHandle);
+  const i = inPort(cat, r, c.target, c.targetHandle);
+  if (!o) return `no output port '${c.sourceHandle}' on ${c.source}`;
+  if (!i) return `no input port '${c.targetHandle}' on ${c.target}`;
+  if (o.type !== i.type) return `type mismatch: ${o.type} → ${i.type}`;
+  if (downstream(r, c.target).has(c.source)) return "this edge would create a cycle";
+  return null;
+}
+
+export const isValidConnection = (cat: Catalog, r: Recipe, c: Connection) => connectionError(cat, r, c) === null;
+
+/** Add an edge; an input takes one edge, so an existing edge into the same input is replaced. */
+export function connect(r: Recipe, c: Connection): Recipe {
+  const e: RecipeEdge = { from: `${c.source}.${c.sourceHandle}`, to: `${c.target}.${c.targetHandle}` };
+  return { ...r, edges: [...r.edges.filter((x) => x.to !== e.to), e] };
+}
+
+export function removeEdges(r: Recipe, ids: ReadonlySet<string>): Recipe {
+  return { ...r, edges: r.edges.filter((e) => !ids.has(edgeId(e))) };
+}
+
+export function removeNodes(r: Recipe, ids: ReadonlySet<string>): Recipe {
+  const positions = { ...(r.ui?.positions ?? {}) };
+  for (const id of ids) delete positions[id];
+  return {
+    ...r,
+    nodes: r.nodes.filter((n) => !ids.has(n.id)),
+    edges: r.edges.filter((e) => !ids.has(endpoint(e.from).node) && !ids.has(endpoint(e.to).node)),
+    ui: { ...(r.ui ?? {}), positions },
+  };
+}
+
+/** A fresh node id derived from `base` (a type id or an id being copied): base, base2, base3, … */
+export function uniqueId(taken: ReadonlySet<string>, base: string): string {
+  let stem = base.replace(/[^A-Za-z0-9_-]/g, "_").replace(/\d+$/, "") || "node";
+  if (!/^[A-Za-z]/.test(stem)) stem = "n" + stem;
+  stem = stem.slice(0, 56);
+  if (!taken.has(stem)) return stem;
+  for (let k = 2; ; k++) if (!taken.has(stem + k)) return stem + k;
+}
+
+/** Default parameter values from a JSON Schema's `default`s (top-level properties only). */
+export function defaultParams(spec: NodeSpec): Record<string, unknown> {
+  const props = (spec.params_schema?.properties ?? {}) as Record<string, { default?: unknown }>;
+  const out: Record<string, unknown> = {};
+  for (const [k, v] of Object.entries(props)) if (v && "default" in v && v.default !== undefined) out[k] = structuredClone(v.default);
+  return out;
+}
+
+export function addNode(r: Recipe, spec: NodeSpec, at: XY): { recipe: Recipe; id: string } {
+  const id = uniqueId(new Set(r.nodes.map((n) => n.id)), spec.type);
+  const node: RecipeNode = { id, type: spec.type, params: {} };
+  return { id, recipe: setPositions({ ...r, nodes: [...r.nodes, node] }, { [id]: at }) };
+}
+
+export function setPositions(r: Recipe, pos: Record<string, XY>): Recipe {
+  return { ...r, ui: { ...(r.ui ?? {}), positions: { ...(r.ui?.positions ?? {}), ...pos } } };
+}
+
+export function setNodeParams(r: Recipe, id: string, params: Record<string, unknown>): Recipe {
+  return { ...r, nodes: r.nodes.map((n) => (n.id === id ? { ...n, params } : n)) };
+}
+
+export function renameNode(r: Recipe, id: string, next: string): Recipe | string {
+  if (id === next) return r;
+  if (!NODE_ID_RE.test(next)) return "ids use letters, digits, '_' or '-' and start with a letter";
+  if (r.nodes.some((n) => n.id === next)) return `id '${next}' is taken`;
+  const re = (s: string) => {
+    const e = endpoint(s);
+    return e.node === id ? `${next}.${e.port}` : s;
+  };
+  const positions = { ...(r.ui?.positions ?? {}) };
+  if (positions[id]) {
+    positions[next] = positions[id];
+    delete positions[id];
+  }
+  return {
+    ...r,
+    nodes: r.nodes.map((n) => (n.id === id ? { ...n, id: next } : n)),
+    edges: r.edges.map((e) => ({ from: re(e.from), to: re(e.to) })),
+    ui: { ...(r.ui ?? {}), positions },
+  };
+}
+
+/** Layered automatic layout: column = longest path from a source, row = order within the column. */
+export function autoLayout(r: Recipe, dx = 250, dy = 130): Record<string, XY> {
+  const depth = new Map<string, number>();
+  const visit = (id: string, seen: Set<string>): number => {
+    if (depth.has(id)) return depth.get(id)!;
+    if (seen.has(id)) return 0;
+    seen.add(id);
+    const parents = r.edges.filter((e) => endpoint(e.to).node === id).map((e) => endpoint(e.from).node);
+    const d = parents.length ? Math.max(...parents.map((p) => visit(p, seen) + 1)) : 0;
+    depth.set(id, d);
+    return d;
+  };
+  const rows = new Map<number, number>();
+  const out: Record<string, XY> = {};
+  for (const n of r.nodes) {
+    const d = visit(n.id, new Set());
+    const row = rows.get(d) ?? 0;
+    rows.set(d, row + 1);
+    out[n.id] = [d * dx, row * dy + (d % 2) * 30];
+  }
+  return out;
+}
+
+/** Positions for every node: saved ones, auto layout for the rest. */
+export function positionsOf(r: Recipe): Record<string, XY> {
+  const saved = r.ui?.positions ?? {};
+  const missing = r.nodes.some((n) => !saved[n.id]);
+  const auto = missing ? autoLayout(r) : {};
+  return Object.fromEntries(r.nodes.map((n) => [n.id, (saved[n.id] as XY | undefined) ?? auto[n.id]]));
+}
+
+// ---- copy / paste ---------------------------------------------------------------------------------
+
+export interface Clip {
+  nodes: RecipeNode[];
+  edges: RecipeEdge[];
+  positions: Record<string, XY>;
+}
+
+/** Copy the selected nodes and the edges between them. */
+export function copySelection(r: Recipe, ids: ReadonlySet<string>): Clip {
+  const pos = positionsOf(r);
+  return {
+    nodes: r.nodes.filter((n) => ids.has(n.id)).map((n) => structuredClone(n)),
+    edges: r.edges.filter((e) => ids.has(endpoint(e.from).node) && ids.has(endpoint(e.to).node)),
+    positions: Object.fromEntries([...ids].filter((i) => pos[i]).map((i) => [i, pos[i]])),
+  };
+}
+
+/** Paste a clip with fresh ids, offset by `offset` mm of canvas; returns the new ids. */
+export function paste(r: Recipe, clip: Clip, offset: XY = [40, 40]): { recipe: Recipe; ids: string[] } {
+  const taken = new Set(r.nodes.map((n) => n.id));
+  const map = new Map<string, string>();
+  for (const n of clip.nodes) {
+    const id = uniqueId(taken, n.id);
+    taken.add(id);
+    map.set(n.id, id);
+  }
+  const nodes = clip.nodes.map((n) => ({ ...structuredClone(n), id: map.get(n.id)! }));
+  const edges = clip.edges.map((e) => {
+    const f = endpoint(e.from), t = endpoint(e.to);
+    return { from: `${map.get(f.node)}.${f.port}`, to: `${map.get(t.node)}.${t.port}` };
+  });
+  const pos: Record<string, XY> = {};
+  for (const [old, id] of map) {
+    const p = clip.positions[old] ?? [0, 0];
+    pos[id] = [p[0] + offset[0], p[1] + offset[1]];
+  }
+  return { recipe: setPositions({ ...r, nodes: [...r.nodes, ...nodes], edges: [...r.edges, ...edges] }, pos), ids: [...map.values()] };
+}
+
+// ---- undo / redo ------------------------------------------------------------------------------------
+
+export interface History<T> {
+  past: T[];
+  present: T;
+  future: T[];
+}
+
+export const LIMIT = 200;
+
+export const history = <T>(present: T): History<T> => ({ past: [], present, future: [] });
+
+export function commit<T>(h: History<T>, next: T): History<T> {
+  if (next === h.present) return h;
+  return { past: [...h.past, h.present].slice(-LIMIT), present: next, future: [] };
+}
+
+export function undo<T>(h: History<T>): History<T> {
+  if (!h.past.length) return h;
+  return { past: h.past.slice(0, -1), present: h.past[h.past.length - 1], future: [h.present, ...h.future] };
+}
+
+export function redo<T>(h: History<T>): History<T> {
+  if (!h.future.length) return h;
+  return { past: [...h.past, h.present], present: h.future[0], future: h.future.slice(1) };
+}
+
+/** Recipe without editor-only state, for comparing what the engine would see. */
+export function engineView(r: Recipe): Omit<Recipe, "ui"> {
+  const { ui: _ui, ...rest } = r;
+  return rest;
+}
+
+/** Names of recipe inputs referenced as "$name" anywhere in node params. */
+export function referencedInputs(r: Recipe): Set<string> {
+  const out = new Set<string>();
+  const walk = (v: unknown) => {
+    if (typeof v === "string" && v.startsWith("$")) out.add(v.slice(1));
+    else if (Array.isArray(v)) v.forEach(walk);
+    else if (v && typeof v === "object") Object.values(v).forEach(walk);
+  };
+  r.nodes.forEach((n) => walk(n.params));
+  return out;
+}

@@ -1,0 +1,60 @@
+import { describe, expect, it } from "vitest";
+import type { JSONSchema } from "../src/api/types";
+import { boundsText, describeFields, findEnum, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
+
+// The shape pydantic v2 emits for a node's Params model.
+const schema: JSONSchema = {
+  type: "object",
+  additionalProperties: false,
+  $defs: {
+    Pattern: { enum: ["raster", "oscillate", "parallel"], type: "string", title: "Pattern" },
+    SectionStrategy: { type: "object", properties: { pattern: { $ref: "#/$defs/Pattern" } } },
+  },
+  properties: {
+    layer_height: { type: "number", exclusiveMinimum: 0, maximum: 50, default: 1.5, unit: "mm", description: "Layer height" },
+    layer_count: { anyOf: [{ type: "integer", minimum: 1 }, { type: "null" }], default: null },
+    pattern: { $ref: "#/$defs/Pattern", default: "raster" },
+    path: { type: "string", "x-file": true },
+    kinematics: { type: "boolean", default: true },
+    sections: { type: "object", additionalProperties: { $ref: "#/$defs/SectionStrategy" }, default: {} },
+  },
+  required: ["path"],
+};
+
+describe("fields from a pydantic schema", () => {
+  const f = Object.fromEntries(describeFields(schema).map((x) => [x.name, x]));
+  it("picks a widget per field", () => {
+    expect(Object.values(f).map((x) => x.kind)).toEqual(["number", "integer", "enum", "file", "boolean", "json"]);
+  });
+  it("carries unit, bounds, nullability and enum options", () => {
+    expect(f.layer_height.unit).toBe("mm");
+    expect(f.layer_height.exclusiveMinimum).toBe(0);
+    expect(boundsText(f.layer_height)).toBe("0 < x ≤ 50 mm");
+    expect(f.layer_count.nullable).toBe(true);
+    expect(f.layer_count.minimum).toBe(1);
+    expect(f.pattern.options).toEqual(["raster", "oscillate", "parallel"]);
+    expect(f.path.required).toBe(true);
+  });
+  it("enforces bounds and types", () => {
+    expect(validateField(f.layer_height, 0)).toBe("must be > 0 mm");
+    expect(validateField(f.layer_height, 51)).toBe("must be ≤ 50 mm");
+    expect(validateField(f.layer_height, 2)).toBeNull();
+    expect(validateField(f.layer_count, 2.5)).toBe("must be a whole number");
+    expect(validateField(f.layer_count, null)).toBeNull();
+    expect(validateField(f.pattern, "zigzag")).toMatch(/one of/);
+    expect(validateField(f.layer_height, "$speed")).toBeNull();
+  });
+  it("validates a whole params object, including unknown keys and missing required ones", () => {
+    expect(validateParams(schema, { layer_height: -1, typo: 1 })).toEqual({ layer_height: "must be > 0 mm", path: "required", typo: "unknown parameter" });
+  });
+  it("parses numeric input text", () => {
+    expect(parseNumberInput(" 2.5 ")).toBe(2.5);
+    expect(parseNumberInput("")).toBeUndefined();
+    expect(parseNumberInput("$speed")).toBe("$speed");
+    expect(parseNumberInput("abc")).toEqual({ error: "not a number" });
+  });
+  it("finds a nested enum by property name", () => {
+    expect(findEnum({ type: "object", properties: { sections: schema.properties!.sections }, $defs: schema.$defs }, "pattern"))
+      .toEqual(["raster", "oscillate", "parallel"]);
+  });
+});

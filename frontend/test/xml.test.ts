@@ -1,0 +1,49 @@
+import { describe, expect, it } from "vitest";
+import { bulkSet, invalidEntries, orphans, parseParams, serializeParams, setValue, validateValue, vocabulary } from "../src/xml/params";
+
+const layer = (i: number, sections: string[]) => `<layer index="${i}" z="${(i + 1) * 1.5}">${sections
+  .map((s) => `<section id="${s}">${["start", "z1", "end"].map((z) => `<zone id="${z}" color="#${z === "z1" ? "00ff00" : "ff0000"}"><current unit="A">${i === 0 && z === "start" ? "200" : ""}</current><travel_speed unit="mm/s"/></zone>`).join("")}</section>`)
+  .join("")}</layer>`;
+const xml = `<?xml version="1.0" encoding="utf-8"?><parameters version="1">${layer(0, ["bs1/A", "bs1/B"])}${layer(1, ["bs1/A", "bs1/B"])}${layer(2, ["bs1/A"])}</parameters>`;
+
+describe("zone parameter XML", () => {
+  const doc = parseParams(xml);
+  it("parses the layer > section > zone tree", () => {
+    expect(doc.layers.map((l) => l.sections.length)).toEqual([2, 2, 1]);
+    expect(doc.layers[0].sections[0].zones.map((z) => z.id)).toEqual(["start", "z1", "end"]);
+    expect(doc.layers[0].sections[0].zones[0].params).toEqual([{ name: "current", unit: "A", value: "200" }, { name: "travel_speed", unit: "mm/s", value: "" }]);
+    expect(vocabulary(doc).params).toEqual([{ name: "current", unit: "A" }, { name: "travel_speed", unit: "mm/s" }]);
+  });
+  it("rejects malformed XML and a wrong root", () => {
+    expect(() => parseParams("<parameters><layer>")).toThrow(/well-formed/);
+    expect(() => parseParams("<params/>")).toThrow(/root element/);
+  });
+  it("bulk-edits a section across a layer range, or a zone id everywhere", () => {
+    const a = bulkSet(doc, { layers: [1, 2], section: "bs1/A" }, "travel_speed", "6");
+    expect(a.count).toBe(6);
+    const b = bulkSet(doc, { zone: "z1" }, "current", "180");
+    expect(b.count).toBe(5);
+  });
+  it("round-trips values and keeps unknown attributes", () => {
+    const edited = setValue(doc, 2, "bs1/A", "end", "current", "150");
+    const text = serializeParams(xml, edited);
+    expect(text).toContain('version="1"');
+    const back = parseParams(text);
+    expect(back.layers[2].sections[0].zones[2].params[0].value).toBe("150");
+    expect(back.layers[0].sections[0].zones[0].params[0].value).toBe("200");
+  });
+  it("validates numbers against bounds", () => {
+    expect(validateValue("", { minimum: 0, maximum: 1000 })).toBeNull();
+    expect(validateValue("abc")).toBe("not a number");
+    expect(validateValue("1200", { minimum: 0, maximum: 1000, unit: "A" })).toBe("outside 0…1000 A");
+    const bad = setValue(doc, 1, "bs1/B", "z1", "current", "-5");
+    expect(invalidEntries(bad, { current: { minimum: 0, maximum: 1000 } })).toEqual([
+      { layer: 1, section: "bs1/B", zone: "z1", name: "current", message: "outside 0…1000" },
+    ]);
+  });
+  it("reports filled values whose zone disappeared as orphans", () => {
+    const saved = setValue(doc, 1, "bs1/B", "end", "current", "190");
+    const current = parseParams(`<parameters>${layer(0, ["bs1/A", "bs1/B"])}${layer(1, ["bs1/A"])}</parameters>`);
+    expect(orphans(saved, current).map((o) => [o.layer, o.section, o.zone, o.values[0].value])).toEqual([[1, "bs1/B", "end", "190"]]);
+  });
+});
