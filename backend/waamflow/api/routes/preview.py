@@ -1,0 +1,119 @@
+"""One-layer re-plan for the GUI's mask canvas: run a node (and what it needs) for one layer.
+
+Uses the server's warm cache, so after an edit only that layer of the edited node and of what
+depends on it is recomputed.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from fastapi import APIRouter, HTTPException
+from pydantic import BaseModel, ConfigDict, Field
+
+from ...core.errors import PlanningError, RecipeError
+from ...core.model import Layer, LayerPaths, Layered, LayerSections
+from ...core.serialize import coords, layer_json, polygon_json, section_path_json
+from ...engine.executor import execute
+from ...engine.graph import build_graph
+from ...engine.recipe import apply_overrides, parse_recipe
+from ..deps import ServicesDep
+from ..store import valid_graph_name
+
+router = APIRouter(tags=["preview"])
+
+
+class PreviewRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe")
+    node: str = Field(..., description="node whose output to show (e.g. the zone node)")
+    layer: int = Field(..., ge=0, description="layer index")
+    graph: str | None = Field(None, description="saved graph whose files/parameter XML to use")
+    inputs: dict[str, Any] = Field(default_factory=dict)
+
+
+class PreviewResponse(BaseModel):
+    layer: dict[str, Any] | None
+    sections: list[dict[str, Any]]
+    paths: list[dict[str, Any]]
+    layer_count: int | None
+    error: dict[str, Any] | None
+    ms: float
+
+
+def _item(value: Any, index: int) -> Any:
+    if isinstance(value, Layered) and 0 <= index < len(value):
+        return value.items[index]
+    return None
+
+
+def _collect(graph, outputs: dict, node: str, index: int) -> tuple[Layer | None, LayerSections | None, LayerPaths | None]:
+    order = [n for n in reversed(graph.order) if n == node or n in graph.ancestors(node)]
+    layer = sections = paths = None
+    for nid in order:
+        for value in outputs.get(nid, {}).values():
+            it = _item(value, index)
+            if isinstance(it, LayerPaths) and paths is None:
+                paths = it
+            elif isinstance(it, LayerSections) and sections is None:
+                sections = it
+            elif isinstance(it, Layer) and layer is None:
+                layer = it
+    for it in (paths, sections):
+        if layer is None and it is not None:
+            layer = it.layer
+    return layer, sections, paths
+
+
+def _sections_json(ls: LayerSections | None) -> list[dict]:
+    if ls is None:
+        return []
+    out = []
+    for s in ls.sections:
+        out.append({
+            "key": s.key,
+            "polygon": polygon_json(s.region),
+            "guide": coords(s.guide.coords) if s.guide is not None else None,
+            "start": list(s.start) if s.start is not None else None,
+            "stop": list(s.stop) if s.stop is not None else None,
+        })
+    return out
+
+
+@router.post("/api/preview", response_model=PreviewResponse)
+def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
+    t0 = time.perf_counter()
+    if req.graph is not None and not valid_graph_name(req.graph):
+        raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
+    recipe = apply_overrides(parse_recipe(req.recipe), list(req.inputs.items()))
+    graph = build_graph(recipe)
+    if req.node not in graph.nodes:
+        raise RecipeError(f"no node with id {req.node!r}", node=req.node)
+    resolver = svc.resolver_for(req.graph, recipe)
+    error = None
+    node = req.node
+    try:
+        result = execute(graph, resolver=resolver, cache=svc.cache, targets=[node], layers=[req.layer], artifacts=False)
+        outputs, count = result.outputs, result.layer_count
+    except PlanningError as err:
+        error = err.to_dict()
+        parents = [src for src, _ in graph.nodes[err.node].inputs.values()] if err.node in graph.nodes else []
+        outputs, count = {}, None
+        if parents:
+            try:
+                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer], artifacts=False)
+                outputs, count, node = r2.outputs, r2.layer_count, parents[0]
+            except PlanningError:
+                pass
+    if count is not None and req.layer >= count:
+        raise HTTPException(422, detail={"message": f"layer {req.layer} is out of range: the part has {count} layers (0..{count - 1})"})
+    layer, sections, paths = _collect(graph, outputs, node, req.layer)
+    return PreviewResponse(
+        layer=layer_json(layer) if layer is not None else None,
+        sections=_sections_json(sections),
+        paths=[section_path_json(sp) for sp in paths.sections] if paths is not None else [],
+        layer_count=count,
+        error=error,
+        ms=round((time.perf_counter() - t0) * 1000, 2),
+    )

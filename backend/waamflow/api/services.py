@@ -1,0 +1,97 @@
+"""The server's long-lived objects, created in the FastAPI lifespan and reached through deps.py."""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..engine.cache import MemoryCache, SqliteCache, TieredCache
+from ..engine.executor import FileResolver, RunResult
+from ..engine.recipe import Recipe, parse_recipe
+from ..settings import Settings
+from .store import Store, valid_graph_name
+from .worker import RunManager
+
+log = logging.getLogger("waamflow.server")
+
+
+def params_file_names(recipe: Recipe) -> list[str]:
+    """The `parameters` file names of the recipe's zone nodes (their XML is the graph's params)."""
+    out = []
+    for n in recipe.nodes:
+        params = n.params if isinstance(n.params, dict) else {}
+        if n.type == "zone" and isinstance(params.get("parameters"), str) and params["parameters"]:
+            out.append(params["parameters"])
+    return out
+
+
+@dataclass
+class Services:
+    settings: Settings
+    store: Store
+    cache: TieredCache
+    runs: RunManager | None = None
+    viewer: Any = None
+    extra: dict = field(default_factory=dict)
+
+    # files a graph's nodes may read: its stored files + its parameter XML, then the graphs folder
+    def resolver_for(self, graph_name: str | None, recipe: Recipe) -> FileResolver:
+        attachments: dict[str, bytes] = {}
+        if graph_name:
+            attachments.update(self.store.get_files(graph_name))
+            xml = self.store.get_params_xml(graph_name)
+            if xml:
+                for fname in params_file_names(recipe):
+                    attachments[fname] = xml.encode("utf-8")
+        base = self.settings.graphs_dir or self.settings.data_dir
+        roots = [p for p in (self.settings.graphs_dir, self.settings.data_dir) if p is not None]
+        return FileResolver(base, attachments, roots=roots)
+
+    def after_run(self, run_id: str, graph_name: str | None, recipe: Recipe, result: RunResult) -> None:
+        # keep the graph's parameter XML in step with its geometry (values kept, orphans reported)
+        if graph_name:
+            for name, data in result.artifacts.items():
+                if name.endswith(".params.xml") and self.store.get_graph(graph_name) is not None:
+                    self.store.put_params_xml(graph_name, data.decode("utf-8"))
+                    break
+        if self.viewer is not None:
+            self.viewer.publish(graph_name or run_id, recipe.to_json(), result.outputs)
+
+
+def build_services(settings: Settings) -> Services:
+    data = Path(settings.data_dir)
+    data.mkdir(parents=True, exist_ok=True)
+    store = Store(data / "waamflow.sqlite")
+    disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
+    cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
+    svc = Services(settings, store, cache)
+    n = store.interrupted_runs_to_failed()
+    if n:
+        log.warning("%d runs were interrupted by the last shutdown and are marked failed", n)
+    seed_examples(svc)
+    return svc
+
+
+def seed_examples(svc: Services) -> None:
+    """Offer the recipes in the graphs folder; never overwrite a graph the user has saved."""
+    gdir = svc.settings.graphs_dir
+    if gdir is None or not Path(gdir).is_dir():
+        return
+    for path in sorted(Path(gdir).glob("*.json")):
+        name = path.stem
+        if not valid_graph_name(name) or svc.store.get_graph(name) is not None:
+            continue
+        try:
+            recipe = parse_recipe(json.loads(path.read_text(encoding="utf-8")))
+        except Exception as e:  # a broken example must not stop the server
+            log.warning("example %s not loaded: %s", path.name, e)
+            continue
+        svc.store.put_graph(name, recipe.to_json(), example=True)
+        for fname in params_file_names(recipe):
+            p = Path(gdir) / fname
+            if p.is_file():
+                svc.store.put_params_xml(name, p.read_text(encoding="utf-8"))
+                break

@@ -1,0 +1,164 @@
+"""SQLite persistence: graphs (recipes + their files + parameter XML), runs and run events.
+
+One file under the data folder; WAL mode; every write is a transaction, so a crash loses no saved
+recipe. Run artifacts live in files under data/runs/<id>/ (written atomically).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sqlite3
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+GRAPH_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _.-]{0,79}$")
+FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,119}$")
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS graphs (
+  name TEXT PRIMARY KEY, recipe TEXT NOT NULL, params_xml TEXT, example INTEGER DEFAULT 0,
+  created REAL NOT NULL, updated REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS graph_files (
+  graph TEXT NOT NULL, name TEXT NOT NULL, data BLOB NOT NULL, updated REAL NOT NULL,
+  PRIMARY KEY (graph, name));
+CREATE TABLE IF NOT EXISTS runs (
+  id TEXT PRIMARY KEY, graph TEXT, recipe TEXT NOT NULL, inputs TEXT, status TEXT NOT NULL,
+  progress REAL DEFAULT 0, error TEXT, summary TEXT, created REAL NOT NULL, started REAL, finished REAL);
+CREATE TABLE IF NOT EXISTS events (run TEXT NOT NULL, seq INTEGER NOT NULL, data TEXT NOT NULL,
+  PRIMARY KEY (run, seq));
+"""
+
+
+def valid_graph_name(name: str) -> bool:
+    return bool(GRAPH_NAME.match(name)) and ".." not in name
+
+
+def valid_file_name(name: str) -> bool:
+    return bool(FILE_NAME.match(name)) and ".." not in name
+
+
+class Store:
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._lock = threading.RLock()
+        self._conn = sqlite3.connect(str(self.path), check_same_thread=False, timeout=30)
+        self._conn.row_factory = sqlite3.Row
+        self._conn.execute("PRAGMA journal_mode=WAL")
+        self._conn.executescript(SCHEMA)
+        self._conn.commit()
+
+    def close(self) -> None:
+        with self._lock:
+            self._conn.close()
+
+    def _exec(self, sql: str, args: tuple = ()) -> sqlite3.Cursor:
+        with self._lock:
+            cur = self._conn.execute(sql, args)
+            self._conn.commit()
+            return cur
+
+    def _query(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
+        with self._lock:
+            return self._conn.execute(sql, args).fetchall()
+
+    # graphs
+    def list_graphs(self) -> list[dict]:
+        rows = self._query("SELECT name, recipe, example, updated FROM graphs ORDER BY name")
+        out = []
+        for r in rows:
+            rec = json.loads(r["recipe"])
+            out.append({"name": r["name"], "description": rec.get("description", ""),
+                        "example": bool(r["example"]), "updated": r["updated"]})
+        return out
+
+    def get_graph(self, name: str) -> dict | None:
+        rows = self._query("SELECT recipe FROM graphs WHERE name=?", (name,))
+        return json.loads(rows[0]["recipe"]) if rows else None
+
+    def put_graph(self, name: str, recipe: dict, *, example: bool = False) -> bool:
+        """Insert or replace; returns True when it was created."""
+        now = time.time()
+        with self._lock:
+            exists = self._conn.execute("SELECT 1 FROM graphs WHERE name=?", (name,)).fetchone() is not None
+            if exists:
+                self._conn.execute("UPDATE graphs SET recipe=?, updated=?, example=? WHERE name=?",
+                                   (json.dumps(recipe), now, int(example), name))
+            else:
+                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated) VALUES (?,?,?,?,?)",
+                                   (name, json.dumps(recipe), int(example), now, now))
+            self._conn.commit()
+        return not exists
+
+    def delete_graph(self, name: str) -> bool:
+        with self._lock:
+            cur = self._conn.execute("DELETE FROM graphs WHERE name=?", (name,))
+            self._conn.execute("DELETE FROM graph_files WHERE graph=?", (name,))
+            self._conn.commit()
+            return cur.rowcount > 0
+
+    def get_params_xml(self, name: str) -> str | None:
+        rows = self._query("SELECT params_xml FROM graphs WHERE name=?", (name,))
+        return rows[0]["params_xml"] if rows else None
+
+    def put_params_xml(self, name: str, xml: str) -> None:
+        self._exec("UPDATE graphs SET params_xml=?, updated=? WHERE name=?", (xml, time.time(), name))
+
+    def list_files(self, graph: str) -> list[dict]:
+        rows = self._query("SELECT name, length(data) AS size, updated FROM graph_files WHERE graph=? ORDER BY name", (graph,))
+        return [dict(r) for r in rows]
+
+    def get_files(self, graph: str) -> dict[str, bytes]:
+        rows = self._query("SELECT name, data FROM graph_files WHERE graph=?", (graph,))
+        return {r["name"]: bytes(r["data"]) for r in rows}
+
+    def put_file(self, graph: str, name: str, data: bytes) -> None:
+        self._exec("INSERT OR REPLACE INTO graph_files (graph, name, data, updated) VALUES (?,?,?,?)",
+                   (graph, name, data, time.time()))
+
+    # runs
+    def create_run(self, run_id: str, graph: str | None, recipe: dict, inputs: dict | None) -> None:
+        self._exec("INSERT INTO runs (id, graph, recipe, inputs, status, created) VALUES (?,?,?,?,?,?)",
+                   (run_id, graph, json.dumps(recipe), json.dumps(inputs or {}), "queued", time.time()))
+
+    def update_run(self, run_id: str, **fields: Any) -> None:
+        cols, vals = [], []
+        for k, v in fields.items():
+            cols.append(f"{k}=?")
+            vals.append(json.dumps(v) if k in ("error", "summary") and v is not None else v)
+        self._exec(f"UPDATE runs SET {', '.join(cols)} WHERE id=?", (*vals, run_id))
+
+    def get_run(self, run_id: str) -> dict | None:
+        rows = self._query("SELECT * FROM runs WHERE id=?", (run_id,))
+        if not rows:
+            return None
+        r = dict(rows[0])
+        for k in ("error", "summary", "recipe", "inputs"):
+            if r.get(k):
+                r[k] = json.loads(r[k])
+        return r
+
+    def list_runs(self, limit: int = 50) -> list[dict]:
+        rows = self._query("SELECT id, graph, status, progress, created, finished FROM runs ORDER BY created DESC LIMIT ?", (limit,))
+        return [dict(r) for r in rows]
+
+    def add_events(self, run_id: str, events: list[dict]) -> None:
+        with self._lock:
+            self._conn.executemany("INSERT OR REPLACE INTO events (run, seq, data) VALUES (?,?,?)",
+                                   [(run_id, e["seq"], json.dumps(e)) for e in events])
+            self._conn.commit()
+
+    def get_events(self, run_id: str, after: int = 0) -> list[dict]:
+        rows = self._query("SELECT data FROM events WHERE run=? AND seq>? ORDER BY seq", (run_id, after))
+        return [json.loads(r["data"]) for r in rows]
+
+    def interrupted_runs_to_failed(self) -> int:
+        """At start-up: runs left queued/running by a crash or restart are marked failed."""
+        err = json.dumps({"kind": "interrupted", "message": "the server stopped before the run finished",
+                          "text": "the server stopped before the run finished"})
+        cur = self._exec("UPDATE runs SET status='failed', error=?, finished=? WHERE status IN ('queued','running')",
+                         (err, time.time()))
+        return cur.rowcount

@@ -1,0 +1,180 @@
+"""`waamflow` command line: run | nodes | serve | openapi (see CONTRACT.md).
+
+Exit codes: 0 done; 2 invalid recipe; 3 planning failure; 130 cancelled (Ctrl-C).
+On failure one line on stderr starting `error:` names the node, layer and section.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .core.errors import CancelledError, RecipeError, WaamflowError
+
+
+def _cache_path() -> Path:
+    base = os.environ.get("WAAMFLOW_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "waamflow")
+    return Path(base) / "cache.sqlite"
+
+
+class ProgressBar:
+    """Progress on stderr: a redrawn bar on a terminal, one line per node otherwise (with -v)."""
+
+    def __init__(self, stream, verbose: bool) -> None:
+        self.stream = stream
+        self.tty = stream.isatty()
+        self.verbose = verbose
+        self.last = ""
+
+    def __call__(self, ev) -> None:
+        if self.tty:
+            if ev.kind in ("node_started", "node_progress"):
+                width = 30
+                filled = int(ev.progress * width)
+                text = f"\r[{'#' * filled}{'.' * (width - filled)}] {ev.progress * 100:5.1f}% {ev.node or ''} {ev.message}"
+                self.stream.write(text[:100].ljust(len(self.last)))
+                self.last = text[:100]
+                self.stream.flush()
+            elif ev.kind in ("run_finished", "run_failed", "run_cancelled") and self.last:
+                self.stream.write("\r" + " " * len(self.last) + "\r")
+                self.stream.flush()
+        if ev.kind == "warning":
+            self._line(f"warning: {ev.node}: " + (f"layer {ev.layer}: " if ev.layer is not None else "") + ev.message)
+        elif self.verbose and ev.kind in ("node_finished", "node_cached"):
+            tag = "cached" if ev.kind == "node_cached" else f"{ev.seconds:.3f} s"
+            self._line(f"  {ev.node} ({ev.message}): {tag}")
+
+    def _line(self, text: str) -> None:
+        if self.tty and self.last:
+            self.stream.write("\r" + " " * len(self.last) + "\r")
+            self.last = ""
+        self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+def cmd_run(args) -> int:
+    from .engine.artifacts import write_run_dir
+    from .engine.cache import MemoryCache, SqliteCache, TieredCache
+    from .engine.executor import FileResolver, execute
+    from .engine.graph import build_graph
+    from .engine.recipe import apply_overrides, load_recipe, parse_set
+
+    recipe_path = Path(args.recipe)
+    recipe = load_recipe(recipe_path)
+    recipe = apply_overrides(recipe, parse_set(args.set or []))
+    graph = build_graph(recipe)
+    out = Path(args.out) if args.out else Path("out") / recipe.name
+    cache = None
+    if not args.no_cache:
+        try:
+            cache = TieredCache(MemoryCache(), SqliteCache(_cache_path()))
+        except Exception as e:  # an unwritable cache folder must not stop a run
+            print(f"warning: cache disabled ({e})", file=sys.stderr)
+            cache = TieredCache(MemoryCache())
+    bar = ProgressBar(sys.stderr, args.verbose)
+    result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), cache=cache, on_event=bar)
+    summary = result.summary(recipe.name)
+    summary["inputs"] = recipe.inputs
+    write_run_dir(out, result.artifacts, summary)
+    n_cached = sum(1 for s in result.stats.values() if s.cached)
+    print(f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
+          f"{len(result.warnings)} warnings, {result.seconds:.2f} s → {out}")
+    return 0
+
+
+def cmd_nodes(args) -> int:
+    from .engine.node import catalog
+
+    cat = catalog()
+    if args.type:
+        cat = [c for c in cat if c["type"] == args.type]
+        if not cat:
+            raise RecipeError(f"unknown node type {args.type!r}")
+    json.dump({"waamflow": __version__, "nodes": cat}, sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
+def cmd_serve(args) -> int:
+    import uvicorn
+
+    from .api.app import create_app
+    from .settings import Settings
+
+    settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
+                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None)
+    app = create_app(settings)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    return 0
+
+
+def cmd_openapi(args) -> int:
+    from .api.app import create_app
+    from .settings import Settings
+
+    app = create_app(Settings(start_viewer=False, start_workers=False))
+    json.dump(app.openapi(), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="waamflow", description="Node-graph CAM for Wire + Arc Additive Manufacturing")
+    p.add_argument("--version", action="version", version=f"waamflow {__version__}")
+    p.add_argument("--debug", action="store_true", help="print tracebacks of internal errors")
+    sub = p.add_subparsers(dest="cmd", required=True)
+
+    r = sub.add_parser("run", help="run a recipe headless and write its artifacts")
+    r.add_argument("recipe", help="recipe JSON file (graphs/*.json)")
+    r.add_argument("--out", help="output folder (default out/<recipe name>/)")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="set a recipe input (name=value) or node param (nodeid.param.sub=value); VALUE is JSON or a string")
+    r.add_argument("--no-cache", action="store_true", help="recompute everything, do not read or write the cache")
+    r.add_argument("-v", "--verbose", action="store_true", help="one line per node")
+    r.set_defaults(func=cmd_run)
+
+    n = sub.add_parser("nodes", help="print the node catalog as JSON")
+    n.add_argument("--type", help="only this node type")
+    n.set_defaults(func=cmd_nodes)
+
+    s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
+    s.add_argument("--host", default="127.0.0.1")
+    s.add_argument("--port", type=int, default=8000)
+    s.add_argument("--data", default="data", help="folder for the database and run files")
+    s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: ./graphs)")
+    s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
+    s.set_defaults(func=cmd_serve)
+
+    o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")
+    o.set_defaults(func=cmd_openapi)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except CancelledError:
+        print("error: cancelled", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except WaamflowError as err:
+        print(f"error: {err}", file=sys.stderr)
+        if args.debug and getattr(err, "debug_traceback", None):
+            print(err.debug_traceback, file=sys.stderr)
+        return err.exit_code
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,427 @@
+"""Run a validated graph: topological order, signature cache, per-layer mapping, events.
+
+`execute(graph, ...)` is the one entry point used by the CLI, the REST worker, the GUI's one-layer
+preview and the benchmarks. Options: `layers` restricts every `LayerNode` to those layer indices
+(the GUI re-plans only the layer being edited); `targets` runs only those nodes and what they
+depend on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import shapely
+
+from .. import __version__
+from ..core.errors import CancelledError, InputFileError, PlanningError, WaamflowError
+from ..core.model import Layer, Layered
+from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
+from .events import Event, EventSink
+from .graph import Graph, GraphNode
+from .node import Context, LayerNode
+
+MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
+
+
+# ---- files --------------------------------------------------------------------------------------
+class FileResolver:
+    """Resolves file params: attachments (server-stored files) first, then paths relative to
+    `base_dir`. With `roots`, a resolved path must lie under one of them (server: no escaping the
+    graphs/data folders)."""
+
+    def __init__(self, base_dir: str | Path, attachments: dict[str, bytes] | None = None,
+                 roots: Iterable[str | Path] | None = None) -> None:
+        self.base_dir = Path(base_dir).resolve()
+        self.attachments = dict(attachments or {})
+        self.roots = [Path(r).resolve() for r in roots] if roots else None
+        self._sig_cache: dict[tuple[str, float, int], str] = {}
+
+    def resolve(self, path: str) -> Path:
+        if not isinstance(path, str) or not path:
+            raise InputFileError("empty file path")
+        p = Path(path)
+        p = (p if p.is_absolute() else self.base_dir / p).resolve()
+        if self.roots is not None and not any(p.is_relative_to(r) for r in self.roots):
+            raise InputFileError(f"file {path!r} is outside the allowed folders")
+        return p
+
+    def exists(self, path: str) -> bool:
+        if path in self.attachments:
+            return True
+        try:
+            return self.resolve(path).is_file()
+        except InputFileError:
+            return False
+
+    def read_bytes(self, path: str, max_bytes: int | None = None) -> bytes:
+        limit = min(max_bytes or MAX_INPUT_FILE_BYTES, MAX_INPUT_FILE_BYTES)
+        if path in self.attachments:
+            data = self.attachments[path]
+        else:
+            p = self.resolve(path)
+            if not p.is_file():
+                raise InputFileError(f"file not found: {path} (looked in {p.parent})")
+            size = p.stat().st_size
+            if size > limit:
+                raise InputFileError(f"file {path} is {size / 1e6:.1f} MB, over the {limit / 1e6:.0f} MB limit")
+            data = p.read_bytes()
+        if len(data) > limit:
+            raise InputFileError(f"file {path} is {len(data) / 1e6:.1f} MB, over the {limit / 1e6:.0f} MB limit")
+        return data
+
+    def signature(self, path: str) -> str:
+        """Content signature of a file (missing file → 'missing'); memoised on (path, mtime, size)."""
+        if path in self.attachments:
+            return bytes_signature(self.attachments[path])
+        try:
+            p = self.resolve(path)
+            st = p.stat()
+        except (InputFileError, OSError):
+            return "missing"
+        key = (str(p), st.st_mtime, st.st_size)
+        if key not in self._sig_cache:
+            self._sig_cache[key] = bytes_signature(p.read_bytes())
+        return self._sig_cache[key]
+
+
+def file_fields(model_cls) -> list[str]:
+    """Names of params fields marked as files (`FileRef`)."""
+    out = []
+    for name, f in model_cls.model_fields.items():
+        extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else {}
+        meta_extra = [m for m in f.metadata if getattr(m, "json_schema_extra", None)]
+        if extra.get("x-file") or any(m.json_schema_extra.get("x-file") for m in meta_extra):
+            out.append(name)
+    return out
+
+
+# ---- results ------------------------------------------------------------------------------------
+@dataclass
+class NodeStats:
+    type: str
+    seconds: float = 0.0
+    cached: bool = False
+    layers_total: int | None = None
+    layers_cached: int | None = None
+    layers_computed: int | None = None
+
+    def to_dict(self) -> dict:
+        d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
+        if self.layers_total is not None:
+            d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
+                     layers_computed=self.layers_computed)
+        return d
+
+
+@dataclass
+class RunResult:
+    outputs: dict[str, dict[str, Any]]
+    stats: dict[str, NodeStats]
+    warnings: list[dict]
+    artifacts: dict[str, bytes]
+    layer_count: int | None
+    seconds: float
+    signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
+
+    def summary(self, recipe_name: str, status: str = "done") -> dict:
+        return {
+            "recipe": recipe_name,
+            "status": status,
+            "waamflow": __version__,
+            "seconds": round(self.seconds, 4),
+            "layer_count": self.layer_count,
+            "nodes": {k: v.to_dict() for k, v in self.stats.items()},
+            "warnings": self.warnings,
+            "artifacts": sorted(self.artifacts),
+        }
+
+
+# ---- context ------------------------------------------------------------------------------------
+class RunContext(Context):
+    def __init__(self, run: "_Run", node_id: str) -> None:
+        self._run = run
+        self.node_id = node_id
+        self.warnings: list[dict] = []
+        self.layer: int | None = None  # set while a LayerNode maps
+
+    def resolve_path(self, path: str) -> str:
+        return str(self._run.resolver.resolve(path))
+
+    def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
+        try:
+            return self._run.resolver.read_bytes(path, max_bytes)
+        except InputFileError as e:
+            raise e.located(node=self.node_id)
+
+    def exists(self, path: str) -> bool:
+        return self._run.resolver.exists(path)
+
+    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
+        w = {"node": self.node_id, "message": message}
+        layer = self.layer if layer is None else layer
+        if layer is not None:
+            w["layer"] = int(layer)
+        if section is not None:
+            w["section"] = section
+        self.warnings.append(w)
+
+    def progress(self, fraction: float, message: str = "") -> None:
+        self._run.node_progress(self.node_id, fraction, message)
+
+    def check_cancelled(self) -> None:
+        self._run.check_cancelled()
+
+
+def _layer_item_signature(item: Any, fallback: str) -> str:
+    """Content signature of a layer produced by a non-layer node (e.g. slice): unchanged layers
+    keep their signature when another layer changes, so downstream layers stay cached."""
+    if isinstance(item, Layer):
+        return signature(
+            "layer", item.index, round(item.z, 9), round(item.thickness, 9),
+            bytes_signature(shapely.to_wkb(item.region)),
+            [bytes_signature(shapely.to_wkb(c)) for c in item.curves],
+            None if item.frame is None else item.frame.round(9).tolist(),
+        )
+    return fallback
+
+
+# ---- the run ------------------------------------------------------------------------------------
+class _Run:
+    def __init__(self, graph: Graph, resolver: FileResolver, cache, on_event: EventSink | None,
+                 cancel: threading.Event | None, layers: set[int] | None, active: list[str],
+                 write_artifacts: bool) -> None:
+        self.graph = graph
+        self.resolver = resolver
+        self.cache = cache
+        self.on_event = on_event
+        self.cancel = cancel
+        self.layers = layers
+        self.active = active
+        self.write_artifacts = write_artifacts
+        self.seq = 0
+        self.done_nodes = 0
+        self.last_progress_emit = 0.0
+        self.outputs: dict[str, dict[str, Any]] = {}
+        self.sigs: dict[tuple[str, str], str] = {}
+        self.stats: dict[str, NodeStats] = {}
+        self.warnings: list[dict] = []
+        self.artifacts: dict[str, bytes] = {}
+        self.layer_count: int | None = None
+
+    # events
+    def emit(self, kind: str, **kw) -> None:
+        if self.on_event is None:
+            return
+        self.seq += 1
+        kw.setdefault("progress", self.done_nodes / max(len(self.active), 1))
+        self.on_event(Event(kind=kind, seq=self.seq, **kw))  # type: ignore[arg-type]
+
+    def node_progress(self, node_id: str, fraction: float, message: str = "") -> None:
+        now = time.monotonic()
+        if now - self.last_progress_emit < 0.1 and fraction < 1.0:
+            return
+        self.last_progress_emit = now
+        frac = max(0.0, min(1.0, float(fraction)))
+        self.emit("node_progress", node=node_id, message=message,
+                  progress=(self.done_nodes + frac) / max(len(self.active), 1))
+
+    def check_cancelled(self) -> None:
+        if self.cancel is not None and self.cancel.is_set():
+            raise CancelledError("run cancelled")
+
+    def file_sigs(self, gnode: GraphNode) -> list:
+        return [(f, self.resolver.signature(getattr(gnode.params, f)))
+                for f in file_fields(type(gnode.params)) if getattr(gnode.params, f, None)]
+
+    def add_warnings(self, ws: list[dict]) -> None:
+        for w in ws:
+            self.warnings.append(w)
+            self.emit("warning", node=w.get("node"), layer=w.get("layer"), section=w.get("section"),
+                      message=w["message"])
+
+    # execution
+    def run(self) -> None:
+        self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
+        for node_id in self.active:
+            self.check_cancelled()
+            gnode = self.graph.nodes[node_id]
+            t0 = time.perf_counter()
+            self.emit("node_started", node=node_id, message=gnode.type)
+            ctx = RunContext(self, node_id)
+            try:
+                inputs = {port: self.outputs[src][sport] for port, (src, sport) in gnode.inputs.items()}
+                in_sigs = {port: self.sigs[(src, sport)] for port, (src, sport) in gnode.inputs.items()}
+                if isinstance(gnode.impl, LayerNode):
+                    cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
+                else:
+                    cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                if self.write_artifacts and self.layers is None:
+                    for suffix, content in gnode.impl.artifacts(ctx, gnode.params, self.outputs[node_id]).items():
+                        data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
+                        self.artifacts[f"{node_id}.{suffix}"] = data
+            except WaamflowError as err:
+                err.located(node=node_id, layer=ctx.layer)
+                self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
+                          message=str(err), error=err.to_dict())
+                raise
+            except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
+                err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
+                err.__cause__ = exc
+                err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
+                self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
+                raise err from exc
+            st = self.stats[node_id]
+            st.seconds = time.perf_counter() - t0
+            self.done_nodes += 1
+            self.emit("node_cached" if st.cached else "node_finished", node=node_id, seconds=st.seconds,
+                      cached=st.cached, message=gnode.type)
+            for value in self.outputs[node_id].values():
+                if isinstance(value, Layered) and self.layer_count is None:
+                    self.layer_count = len(value)
+
+    def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
+        impl = gnode.impl
+        return signature("node", gnode.type, impl.version, __version__,
+                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
+
+    def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
+        key = self.node_key(gnode, in_sigs)
+        hit = self.cache.get(key) if self.cache is not None else MISSING
+        if hit is not MISSING:
+            outputs, warnings = dict(hit[0]), hit[1]
+            cached = True
+        else:
+            outputs = gnode.impl.run(ctx, gnode.params, inputs)
+            self._check_outputs(gnode, outputs)
+            warnings = ctx.warnings
+            if self.cache is not None:
+                self.cache.put(key, (dict(outputs), warnings))
+            cached = False
+        self.outputs[gnode.id] = outputs
+        for port, value in outputs.items():
+            psig = signature(key, port)
+            if isinstance(value, Layered):
+                items_sigs = tuple(_layer_item_signature(it, signature(psig, i)) for i, it in enumerate(value.items))
+                value = Layered(value.items, items_sigs)
+                outputs[port] = value
+                psig = signature("layered", items_sigs)
+            self.sigs[(gnode.id, port)] = psig
+        self.add_warnings(warnings)
+        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached)
+        return cached
+
+    def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
+        impl: LayerNode = gnode.impl  # type: ignore[assignment]
+        over = inputs.get(impl.over)
+        if not isinstance(over, Layered):
+            raise PlanningError(f"input '{impl.over}' is not a layered value")
+        n = len(over)
+        layered = {p: v for p, v in inputs.items() if isinstance(v, Layered)}
+        whole_sigs = sorted((p, s) for p, s in in_sigs.items() if p not in layered)
+        for p, v in layered.items():
+            if len(v) != n:
+                raise PlanningError(f"input '{p}' has {len(v)} layers, '{impl.over}' has {n}")
+        wanted = range(n) if self.layers is None else sorted(i for i in self.layers if 0 <= i < n)
+        per_layer: dict[str, list[Any]] = {p.name: [None] * n for p in impl.outputs}
+        item_keys: list[str] = [""] * n
+        n_cached = n_computed = 0
+        for count, i in enumerate(wanted):
+            self.check_cancelled()
+            items = {p: (v.items[i] if isinstance(v, Layered) else v) for p, v in inputs.items()}
+            if items[impl.over] is None:
+                continue
+            ctx.layer = i
+            isigs = sorted((p, (v.sigs[i] if v.sigs else signature(in_sigs[p], i))) for p, v in layered.items())
+            key = signature("layer", gnode.type, impl.version, __version__,
+                            impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
+            hit = self.cache.get(key) if self.cache is not None else MISSING
+            if hit is not MISSING:
+                out, warnings = hit
+                n_cached += 1
+            else:
+                ctx.warnings = []
+                out = impl.run_layer(ctx, gnode.params, i, items)
+                self._check_outputs(gnode, out)
+                warnings = ctx.warnings
+                if self.cache is not None:
+                    self.cache.put(key, (out, warnings))
+                n_computed += 1
+            self.add_warnings(warnings)
+            for port, value in out.items():
+                per_layer[port][i] = value
+            item_keys[i] = key
+            self.node_progress(gnode.id, (count + 1) / max(len(wanted), 1), f"layer {i}")
+        ctx.layer = None
+        ctx.warnings = []
+        outputs = impl.combine(ctx, gnode.params, per_layer, inputs)
+        self._check_outputs(gnode, outputs)
+        self.add_warnings(ctx.warnings)
+        fsig = self.file_sigs(gnode)
+        node_key = signature("layernode", gnode.type, impl.version, __version__, item_keys, fsig,
+                             gnode.params.model_dump(mode="json"), whole_sigs)
+        for port, value in list(outputs.items()):
+            if isinstance(value, Layered):
+                sigs = tuple(signature(item_keys[i], port, fsig) if value.items[i] is not None else ""
+                             for i in range(len(value)))
+                outputs[port] = Layered(value.items, sigs)
+                self.sigs[(gnode.id, port)] = signature("layered", sigs)
+            else:
+                self.sigs[(gnode.id, port)] = signature(node_key, port)
+        self.outputs[gnode.id] = outputs
+        self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
+                                         layers_cached=n_cached, layers_computed=n_computed)
+        return n_computed == 0
+
+    @staticmethod
+    def _check_outputs(gnode: GraphNode, outputs: dict) -> None:
+        expected = {p.name for p in gnode.impl.outputs}
+        if not isinstance(outputs, dict) or set(outputs) != expected:
+            got = sorted(outputs) if isinstance(outputs, dict) else type(outputs).__name__
+            raise PlanningError(f"node returned outputs {got}, expected {sorted(expected)}")
+
+
+def execute(
+    graph: Graph,
+    *,
+    resolver: FileResolver,
+    cache: TieredCache | MemoryCache | None = None,
+    on_event: EventSink | None = None,
+    cancel: threading.Event | None = None,
+    layers: Iterable[int] | None = None,
+    targets: Iterable[str] | None = None,
+    artifacts: bool = True,
+) -> RunResult:
+    """Run `graph`. Raises WaamflowError subclasses (with node/layer/section) on failure after
+    emitting `node_error` and `run_failed`/`run_cancelled`."""
+    t0 = time.perf_counter()
+    active = list(graph.order)
+    if targets is not None:
+        keep: set[str] = set()
+        for t in targets:
+            if t not in graph.nodes:
+                from ..core.errors import RecipeError
+
+                raise RecipeError(f"no node with id {t!r}", node=t)
+            keep |= {t} | graph.ancestors(t)
+        active = [n for n in active if n in keep]
+    run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts)
+    try:
+        run.run()
+    except CancelledError as err:
+        run.emit("run_cancelled", message=str(err), error=err.to_dict())
+        raise
+    except WaamflowError as err:
+        run.emit("run_failed", message=str(err), error=err.to_dict(), node=err.node, layer=err.layer,
+                 section=err.section)
+        raise
+    if cache is not None and hasattr(cache, "flush"):
+        cache.flush()
+    result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
+                       time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()})
+    run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
+    return result
