@@ -1,0 +1,375 @@
+"""The 3D preview service: a viser server the API starts in its lifespan and feeds after each run.
+
+    viewer = ViewerService(host="127.0.0.1", port=8080)
+    viewer.start()                       # non-blocking: viser serves from its own thread
+    viewer.publish("mpp-cross", recipe, outputs)   # outputs: node id → port → value
+    viewer.select("toolpath", 3)         # the GUI follows the selected node / layer
+    viewer.url                           # → /api/health `viewer_url`
+    viewer.stop()
+
+The scene is shared: every connected browser sees the same content and GUI. Re-publishing
+redraws only outputs (and, for per-layer outputs, only layers) whose content signature changed.
+Large parts are decimated for display (`max_segments` line segments per output in total); the
+data is never modified.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+
+from . import geometry as G
+from .scene import PART_TYPES, PATH_COLOR_MODES, SIM_COLOR_MODES, Part, Pick, ViewState, kind_of
+
+PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
+
+
+class ViewerService:
+    """viser server + scene adapters + GUI panel (layer range, colour-by, per-node visibility,
+    playback, picked-point readout). Thread-safe: publish/select may come from any thread."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 8080, *, max_segments: int = 300_000,
+                 label: str = "waamflow") -> None:
+        self.host = host
+        self.port = port
+        self.max_segments = int(max_segments)
+        self.label = label
+        self.server = None
+        self.parts: dict[tuple[str, str], Part] = {}
+        self.view = ViewState()
+        self.key: str | None = None
+        self.node_types: dict[str, str] = {}
+        self.selected: tuple[str | None, int | None] = (None, None)
+        self.last_pick: dict[str, Any] | None = None
+        self._lock = threading.RLock()
+        self._gui: dict[str, Any] = {}
+        self._node_boxes: dict[str, Any] = {}
+        self._play_stop = threading.Event()
+        self._play_thread: threading.Thread | None = None
+        self._bounds: np.ndarray | None = None
+
+    # ------------------------------------------------------------------------------------------
+    # lifecycle
+    # ------------------------------------------------------------------------------------------
+    def start(self) -> "ViewerService":
+        """Start the viser server (returns at once; viser runs its own thread). Idempotent."""
+        import viser
+
+        with self._lock:
+            if self.server is not None:
+                return self
+            self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
+            self.server.scene.set_up_direction("+z")
+            self.server.scene.add_frame("/graph", show_axes=False)
+            self._build_gui()
+            self.server.scene.on_click()(self._on_click)
+        return self
+
+    def stop(self) -> None:
+        """Stop playback and the server; the service can be started again afterwards."""
+        self._play_stop.set()
+        if self._play_thread is not None:
+            self._play_thread.join(timeout=2.0)
+            self._play_thread = None
+        with self._lock:
+            if self.server is not None:
+                self.server.stop()
+            self.server = None
+            self.parts.clear()
+            self._gui.clear()
+            self._node_boxes.clear()
+
+    @property
+    def url(self) -> str | None:
+        """http URL of the viewer page (None until started). Port 0 resolves to the bound port."""
+        if self.server is None:
+            return None
+        host = self.server.get_host()
+        host = "127.0.0.1" if host in ("0.0.0.0", "") else host
+        return f"http://{host}:{self.server.get_port()}"
+
+    # ------------------------------------------------------------------------------------------
+    # publishing
+    # ------------------------------------------------------------------------------------------
+    def publish(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]]) -> dict[str, int]:
+        """Show a run's outputs. Only outputs whose content changed are redrawn; outputs of nodes
+        that are gone are removed. Returns counts: {"redrawn", "kept", "removed", "skipped"}
+        (redrawn = scene nodes added or replaced; skipped = outputs with nothing to draw)."""
+        if self.server is None:
+            raise RuntimeError("ViewerService.publish before start()")
+        stats = {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0}
+        nodes = (recipe or {}).get("nodes", [])
+        with self._lock, self.server.atomic():
+            self.key = key
+            self.node_types = {str(n.get("id")): str(n.get("type", "")) for n in nodes if isinstance(n, dict)}
+            wanted: dict[tuple[str, str], tuple[str, Any]] = {}
+            for node, ports in outputs.items():
+                for port, value in (ports or {}).items():
+                    kind = kind_of(value)
+                    if kind is None:
+                        stats["skipped"] += 1
+                        continue
+                    wanted[(str(node), str(port))] = (kind, value)
+            for k in [k for k, p in self.parts.items() if k not in wanted or p.kind != wanted[k][0]]:
+                self.parts.pop(k).remove()
+                stats["removed"] += 1
+            for (node, port), (kind, value) in wanted.items():
+                part = self.parts.get((node, port))
+                if part is None:
+                    part = self.parts[(node, port)] = PART_TYPES[kind](self.server.scene, node, port, self.max_segments)
+                n = part.sync(value, self.view)
+                stats["redrawn" if n else "kept"] += n or 1
+            self._after_publish()
+        return stats
+
+    def select(self, node_id: str | None, layer: int | None) -> None:
+        """Follow the GUI: show `node_id`'s output (meshes stay as context; None shows every node)
+        and only `layer` (None shows all layers)."""
+        with self._lock:
+            self.selected = (node_id, layer)
+            if node_id is None:
+                self.view.hidden.clear()
+            else:
+                self.view.hidden = {n for (n, _), p in self.parts.items() if n != node_id and p.kind != "mesh"}
+            lo, hi = self._layer_extent()
+            if layer is None:
+                self.view.layer_lo, self.view.layer_hi = lo, hi
+            else:
+                self.view.layer_lo = self.view.layer_hi = int(np.clip(layer, lo, hi))
+            self._sync_gui()
+            self._apply()
+
+    # ------------------------------------------------------------------------------------------
+    # queries (also used by tests)
+    # ------------------------------------------------------------------------------------------
+    def scene_names(self, prefix: str = "/graph") -> list[str]:
+        """Names of the scene nodes under `prefix`, from viser's server-side scene registry."""
+        if self.server is None:
+            return []
+        names = self.server.scene._handle_from_node_name  # viser's own registry of live nodes
+        return sorted(n for n in names if n == prefix or n.startswith(prefix + "/"))
+
+    def bounds(self) -> np.ndarray | None:
+        """(2, 3) min/max corner (mm) of everything published, or None."""
+        return G.layers_bounds([b for b in (p.bounds() for p in self.parts.values()) if b is not None])
+
+    def pick(self, origin, direction) -> dict[str, Any] | None:
+        """Readout of the point nearest a view ray (what a click in the browser does): layer,
+        section, zone, programmed and actual speed. None if nothing visible is near the ray."""
+        with self._lock:
+            b = self._bounds if self._bounds is not None else self.bounds()
+            if b is None:
+                return None
+            tol = max(PICK_TOLERANCE * float(np.linalg.norm(b[1] - b[0])), 0.1)
+            picks: list[tuple[Part, Pick]] = []
+            for (node, _), part in self.parts.items():
+                if node in self.view.hidden:
+                    continue
+                p = part.pick(origin, direction, tol, self.view)
+                if p is not None:
+                    picks.append((part, p))
+            if not picks:
+                return None
+            # Points (paths, traces, features) win over areas (section fills) they lie on.
+            pointlike = [x for x in picks if x[0].kind != "sections"] or picks
+            part, best = min(pointlike, key=lambda x: x[1].along)
+            info = {"node": part.node, "port": part.port, "point": [round(float(v), 3) for v in best.point]}
+            info.update(best.info)
+            info.update(self._complement(part, best))
+            self.last_pick = info
+            return info
+
+    # ------------------------------------------------------------------------------------------
+    # internals
+    # ------------------------------------------------------------------------------------------
+    def _complement(self, part: Part, best: Pick) -> dict[str, Any]:
+        """Programmed speed for a picked trace sample, actual speed for a picked path point."""
+        out: dict[str, Any] = {}
+        layer = best.info.get("layer")
+        if part.kind == "toolpath":
+            for p in self.parts.values():
+                if p.kind == "simulation":
+                    s = p.nearest_sample(best.point, layer)
+                    if s:
+                        out["actual_speed_mm_s"] = s.get("actual_speed_mm_s")
+                        out["deviation_mm"] = s.get("deviation_mm")
+                    break
+        elif part.kind == "simulation":
+            for p in self.parts.values():
+                if p.kind == "toolpath":
+                    q = p.nearest_point(best.point, layer)
+                    if q is not None:
+                        out["section"] = q.get("section", best.info.get("section"))
+                        out["zone"] = q.get("zone")
+                        out["programmed_speed_mm_s"] = q.get("programmed_speed_mm_s")
+                    break
+        return out
+
+    def _layer_extent(self) -> tuple[int, int]:
+        idx = [i for p in self.parts.values() for i in p.layer_indices()]
+        return (min(idx), max(idx)) if idx else (0, 0)
+
+    def _after_publish(self) -> None:
+        lo, hi = self._layer_extent()
+        if self.view.layer_lo < lo or self.view.layer_lo > hi or self.selected[1] is None:
+            self.view.layer_lo = lo
+        if self.view.layer_hi > hi or self.view.layer_hi < lo or self.selected[1] is None:
+            self.view.layer_hi = hi
+        self.view.hidden &= {n for n, _ in self.parts}
+        b = self.bounds()
+        if b is not None and (self._bounds is None or not np.allclose(b, self._bounds)):
+            self._bounds = b
+            self._frame_camera(b)
+        self._sync_gui()
+        self._apply()
+
+    def _apply(self) -> None:
+        for (node, _), part in self.parts.items():
+            part.frame.visible = node not in self.view.hidden
+            part.apply(self.view)
+
+    def _frame_camera(self, b: np.ndarray) -> None:
+        center = (b[0] + b[1]) / 2
+        diag = max(float(np.linalg.norm(b[1] - b[0])), 1.0)
+        eye = center + diag * np.array([0.9, -1.1, 0.8])
+        cam = self.server.initial_camera
+        cam.near, cam.far = diag * 1e-3, diag * 20
+        cam.position, cam.look_at = tuple(eye), tuple(center)
+        for client in self.server.get_clients().values():
+            client.camera.position, client.camera.look_at = tuple(eye), tuple(center)
+        grid_size = float(np.ceil(diag * 1.2 / 10.0) * 10.0)
+        self.server.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
+                                   section_size=grid_size / 4, position=(center[0], center[1], b[0][2]))
+
+    # ---- GUI -----------------------------------------------------------------------------
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        g = self._gui
+        g["run"] = gui.add_markdown("**No run published yet.**")
+        g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
+        g["path_color"] = gui.add_dropdown("Toolpath colour", PATH_COLOR_MODES, initial_value=self.view.path_color)
+        g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
+        g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
+        g["play"] = gui.add_button("Play / pause")
+        g["legend"] = gui.add_markdown("")
+        g["nodes"] = gui.add_folder("Nodes")
+        g["pick"] = gui.add_markdown("*Click a path point for its layer, section, zone and speeds.*")
+
+        g["layers"].on_update(lambda _: self._on_layers())
+        g["path_color"].on_update(lambda _: self._on_color())
+        g["sim_color"].on_update(lambda _: self._on_color())
+        g["time"].on_update(lambda _: self._on_time())
+        g["play"].on_click(lambda _: self._toggle_play())
+
+    def _sync_gui(self) -> None:
+        g = self._gui
+        if not g:
+            return
+        lo, hi = self._layer_extent()
+        g["layers"].min, g["layers"].max = lo, max(hi, lo + 1)
+        g["layers"].value = (self.view.layer_lo, self.view.layer_hi)
+        names = [n for n in self.node_types if any(k[0] == n for k in self.parts)]
+        names += sorted({n for n, _ in self.parts} - set(names))
+        for n in [n for n in self._node_boxes if n not in names]:
+            self._node_boxes.pop(n).remove()
+        with g["nodes"]:
+            for n in names:
+                if n not in self._node_boxes:
+                    box = self.server.gui.add_checkbox(f"{n} ({self.node_types.get(n, '?')})", initial_value=True)
+                    box.on_update(lambda ev, node=n: self._on_node_box(node, ev.target.value))
+                    self._node_boxes[n] = box
+        for n, box in self._node_boxes.items():
+            box.value = n not in self.view.hidden
+        sims = [p for p in self.parts.values() if p.kind == "simulation"]
+        duration = max([p.duration() for p in sims], default=0.0)
+        g["time"].max = max(duration, 0.01)
+        g["time"].step = max(duration / 1000.0, 0.001)
+        g["time"].disabled = not sims
+        g["run"].content = f"**Run:** `{self.key}` — {len(self.parts)} outputs"
+        g["legend"].content = self._legend()
+
+    def _legend(self) -> str:
+        lines = []
+        for p in self.parts.values():
+            if p.kind == "toolpath":
+                lo, hi = p.speed_range
+                lines.append(f"`{p.node}` speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow); travel pale")
+            if p.kind == "simulation":
+                for k, unit in (("deviation", "mm"), ("speed", "mm/s")):
+                    if k in p.ranges:
+                        lo, hi = p.ranges[k]
+                        lines.append(f"`{p.node}` {k} {lo:.3g}–{hi:.3g} {unit}")
+        return "  \n".join(lines)
+
+    def _on_layers(self) -> None:
+        with self._lock:
+            lo, hi = (int(v) for v in self._gui["layers"].value)
+            self.view.layer_lo, self.view.layer_hi = min(lo, hi), max(lo, hi)
+            self._apply()
+
+    def _on_color(self) -> None:
+        with self._lock:
+            self.view.path_color = self._gui["path_color"].value
+            self.view.sim_color = self._gui["sim_color"].value
+            with self.server.atomic():
+                self._apply()
+
+    def _on_node_box(self, node: str, shown: bool) -> None:
+        with self._lock:
+            (self.view.hidden.discard if shown else self.view.hidden.add)(node)
+            self._apply()
+
+    def _on_time(self) -> None:
+        with self._lock:
+            self.view.time_s = float(self._gui["time"].value)
+            for p in self.parts.values():
+                if p.kind == "simulation":
+                    info = p.set_time(self.view.time_s)
+                    if info:
+                        self._gui["pick"].content = "**Torch at t**  \n" + _table(info)
+
+    def _toggle_play(self) -> None:
+        if self._play_thread is not None and self._play_thread.is_alive():
+            self._play_stop.set()
+            self._play_thread.join(timeout=2.0)
+            self._play_thread = None
+            return
+        self._play_stop.clear()
+        self._play_thread = threading.Thread(target=self._play, name="viewer-playback", daemon=True)
+        self._play_thread.start()
+
+    def _play(self) -> None:
+        """Advance the time slider in real time (30 frames/s) until the end or pause."""
+        frame = 1 / 30
+        while not self._play_stop.wait(frame):
+            slider = self._gui.get("time")
+            if slider is None:
+                return
+            t = float(slider.value) + frame
+            if t >= slider.max:
+                slider.value = slider.max
+                return
+            slider.value = t
+
+    def _on_click(self, event) -> None:
+        info = self.pick(np.asarray(event.ray_origin, float), np.asarray(event.ray_direction, float))
+        with self._lock:
+            if "pick" not in self._gui:
+                return
+            if info is None:
+                self._gui["pick"].content = "*Nothing picked.*"
+                return
+            self._gui["pick"].content = "**Picked point**  \n" + _table(info)
+            self.server.scene.add_icosphere("/pick", radius=max(self._pick_radius(), 0.2), color=(255, 0, 110),
+                                            position=tuple(info["point"]), cast_shadow=False)
+
+    def _pick_radius(self) -> float:
+        b = self._bounds
+        return 0.005 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 0.5
+
+
+def _table(info: dict[str, Any]) -> str:
+    return "  \n".join(f"{k}: `{v}`" for k, v in info.items() if v is not None)
+
