@@ -147,6 +147,7 @@ def parse(text: str | bytes) -> ParamTable:
     zones: list[ZoneKey] = []
     colors: dict[ZoneKey, str] = {}
     layer_z: dict[int, float] = {}
+    seen_layers: set[int] = set()
     for lel in root:
         if not isinstance(lel.tag, str):
             continue
@@ -156,8 +157,9 @@ def parse(text: str | bytes) -> ParamTable:
             li = int(lel.get("index", ""))
         except ValueError:
             raise _error(f"<layer> index {lel.get('index')!r} is not an integer") from None
-        if li in layer_z or any(k[0] == li for k in zones):
+        if li in seen_layers:
             raise _error("layer listed twice", li)
+        seen_layers.add(li)
         if lel.get("z") not in (None, ""):
             try:
                 layer_z[li] = float(lel.get("z"))
