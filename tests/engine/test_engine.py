@@ -1,0 +1,152 @@
+import math
+import threading
+
+import pytest
+
+import toy_nodes as toy
+from waamflow.core.errors import CancelledError, PlanningError, RecipeError
+from waamflow.engine.cache import MemoryCache
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import apply_overrides, parse_recipe, parse_set
+
+
+def run(data, cache=None, **kw):
+    graph = build_graph(parse_recipe(data))
+    events = []
+    res = execute(graph, resolver=FileResolver("."), cache=cache, on_event=events.append, **kw)
+    return res, events
+
+
+def test_values_flow_and_area_is_right():
+    res, events = run(toy.chain(grow={"distance": 1.0}, stack={"size": 10, "count": 4}))
+    # square 10 mm grown by 1 mm with mitre joins → 12 × 12 per layer
+    assert res.outputs["area"]["toolpath"] == pytest.approx(4 * 144.0, rel=1e-9)
+    assert res.layer_count == 4
+    kinds = [e.kind for e in events]
+    assert kinds[0] == "run_started" and kinds[-1] == "run_finished"
+    assert kinds.count("node_finished") == 3
+    assert [e.seq for e in events] == sorted(e.seq for e in events)
+
+
+def test_downstream_edit_keeps_upstream_cached():
+    cache = MemoryCache()
+    run(toy.chain(), cache)
+    toy.CALLS.clear()
+    res, events = run(toy.chain(area={"scale": 2.0}), cache)
+    assert res.stats["stack"].cached and res.stats["grow"].cached and not res.stats["area"].cached
+    assert toy.CALLS == {"toy-area": 1}
+    assert {e.node for e in events if e.kind == "node_cached"} == {"stack", "grow"}
+
+
+def test_one_layer_edit_recomputes_one_layer():
+    cache = MemoryCache()
+    run(toy.chain(stack={"count": 50}), cache)
+    toy.CALLS.clear()
+    res, _ = run(toy.chain(stack={"count": 50}, grow={"per_layer": {"17": 2.0}}), cache)
+    assert toy.CALLS["toy-grow"] == 1
+    st = res.stats["grow"]
+    assert (st.layers_total, st.layers_cached, st.layers_computed) == (50, 49, 1)
+    # layer 17 grown by 2 mm: 14 × 14; the others 12 × 12
+    assert res.outputs["area"]["toolpath"] == pytest.approx(49 * 144 + 196)
+
+
+def test_restricted_layers_compute_only_those():
+    toy.CALLS.clear()
+    res, _ = run(toy.chain(stack={"count": 30}), MemoryCache(), layers=[3], targets=["grow"])
+    assert toy.CALLS["toy-grow"] == 1
+    items = res.outputs["grow"]["layers"].items
+    assert items[3] is not None and sum(i is not None for i in items) == 1
+    assert "area" not in res.outputs
+
+
+def test_planning_error_names_node_layer_section():
+    data = toy.recipe([("stack", "toy-stack", {"count": 10}), ("f", "toy-fail", {"fail_at": 7})],
+                      [("stack.layers", "f.layers")])
+    with pytest.raises(PlanningError) as ei:
+        run(data)
+    err = ei.value
+    assert (err.node, err.layer, err.section) == ("f", 7, "bs1/A")
+    assert "layer 7" in str(err) and "bs1/A" in str(err) and err.exit_code == 3
+
+
+def test_warnings_are_replayed_from_cache():
+    cache = MemoryCache()
+    data = toy.chain(grow={"per_layer": {"2": 6.0}})
+    r1, _ = run(data, cache)
+    r2, _ = run(data, cache)
+    assert r1.warnings == r2.warnings == [{"node": "grow", "message": "large growth", "layer": 2}]
+
+
+@pytest.mark.parametrize("mutate, needle", [
+    (lambda d: d["nodes"].append({"id": "x", "type": "nope", "params": {}}), "unknown node type 'nope'"),
+    (lambda d: d["edges"].append({"from": "stack.layers", "to": "area.bogus"}), "no input port 'bogus'"),
+    (lambda d: d["edges"].__setitem__(1, {"from": "grow.layers", "to": "area.layerz"}), "no input port 'layerz'"),
+    (lambda d: d["nodes"][0].__setitem__("params", {"count": 0}), "greater than or equal to 1"),
+    (lambda d: d["nodes"][0].__setitem__("params", {"cuont": 3}), "cuont"),
+    (lambda d: d["nodes"][0].__setitem__("params", {"count": "$n"}), "unknown input $n"),
+    (lambda d: d["edges"].pop(0), "required input 'layers'"),
+    (lambda d: d["nodes"].append({"id": "stack", "type": "toy-stack", "params": {}}), "duplicate node id"),
+    (lambda d: d.__setitem__("format", "waamflow/9"), "unsupported recipe format"),
+    (lambda d: d["edges"].append({"from": "stack", "to": "grow.layers"}), "must be \"nodeid.port\""),
+])
+def test_invalid_recipes_are_named(mutate, needle):
+    data = toy.chain()
+    mutate(data)
+    with pytest.raises(RecipeError) as ei:
+        run(data)
+    assert needle in str(ei.value)
+    assert ei.value.exit_code == 2
+
+
+def test_type_mismatch_and_cycle():
+    data = toy.recipe([("stack", "toy-stack", {}), ("a", "toy-area", {}), ("g", "toy-grow", {})],
+                      [("stack.layers", "a.layers"), ("a.toolpath", "g.layers")])
+    with pytest.raises(RecipeError, match="type mismatch: output 'toolpath' is toolpath, input 'layers' expects layers"):
+        run(data)
+    data = toy.recipe([("g1", "toy-grow", {}), ("g2", "toy-grow", {})],
+                      [("g1.layers", "g2.layers"), ("g2.layers", "g1.layers")])
+    with pytest.raises(RecipeError, match="cycle"):
+        run(data)
+
+
+def test_inputs_and_set_overrides():
+    data = toy.chain(stack={"count": "$n", "size": "$size"}, inputs={"n": 3, "size": 5})
+    r = apply_overrides(parse_recipe(data), parse_set(["n=6", "grow.distance=0.5", "grow.per_layer.0=1.5"]))
+    res = execute(build_graph(r), resolver=FileResolver("."))
+    assert res.layer_count == 6
+    assert res.outputs["area"]["toolpath"] == pytest.approx(5 * 36 + 64)
+    with pytest.raises(RecipeError, match="unknown input 'm'"):
+        apply_overrides(parse_recipe(data), parse_set(["m=6"]))
+    with pytest.raises(RecipeError, match="no node with id 'nope'"):
+        apply_overrides(parse_recipe(data), parse_set(["nope.x=1"]))
+    assert parse_set(["a=[1, 2]", "b=semicircular", "c=4.5"]) == [("a", [1, 2]), ("b", "semicircular"), ("c", 4.5)]
+
+
+def test_old_format_and_legacy_type_ids_migrate():
+    data = toy.chain()
+    data["format"] = "waamflow/0"
+    data["edges"] = [{"source": e["from"], "target": e["to"]} for e in data["edges"]]
+    r = parse_recipe(data)
+    assert r.format == "waamflow/1" and r.edges[0].from_ == "stack.layers"
+    legacy = parse_recipe({"nodes": [{"id": "s", "type": "simulate", "params": {}}]})
+    assert legacy.nodes[0].type == "simulate-robot"
+
+
+def test_cancel_stops_between_layers():
+    cancel = threading.Event()
+    cancel.set()
+    with pytest.raises(CancelledError):
+        run(toy.chain(stack={"count": 100}), cancel=cancel)
+
+
+def test_file_signature_dirties_on_content_change(tmp_path):
+    f = tmp_path / "a.txt"
+    f.write_text("one")
+    r = FileResolver(tmp_path)
+    s1 = r.signature("a.txt")
+    f.write_text("two!")
+    assert r.signature("a.txt") != s1
+    assert r.signature("missing.txt") == "missing"
+    with pytest.raises(Exception, match="outside the allowed folders"):
+        FileResolver(tmp_path, roots=[tmp_path]).read_bytes("../etc/passwd")
