@@ -1,0 +1,46 @@
+# waamflow — the two README commands (`make run`, `make test`) plus `make bench`.
+# Python 3.11+ and Node 20+ on PATH; everything else is installed into .venv/ and node_modules/.
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PORT   ?= 8000
+HOST   ?= 127.0.0.1
+DATA   ?= data
+
+.PHONY: run test bench venv frontend test-backend test-frontend test-e2e clean
+
+$(VENV)/.installed: requirements.lock pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -r requirements.lock
+	$(PY) -m pip install --quiet --no-deps -e .
+	@touch $@
+
+venv: $(VENV)/.installed
+
+node_modules/.installed: package.json package-lock.json frontend/package.json
+	npm ci --no-audit --no-fund
+	@touch $@
+
+frontend/dist/index.html: node_modules/.installed $(shell find frontend/src frontend/index.html frontend/vite.config.ts -type f 2>/dev/null)
+	npm run build
+
+frontend: frontend/dist/index.html
+
+run: venv frontend
+	$(VENV)/bin/waamflow serve --host $(HOST) --port $(PORT) --data $(DATA)
+
+test: venv frontend
+	$(PY) -m pytest -q
+	npm run test:unit
+	npm run test:e2e
+
+test-backend: venv
+	$(PY) -m pytest -q
+
+bench: venv
+	$(PY) bench/run.py
+
+clean:
+	rm -rf out frontend/dist
