@@ -38,15 +38,19 @@ def tour_length(order: Sequence[int], cost: np.ndarray, start_cost: np.ndarray |
     return total
 
 def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
-    """Nearest neighbour from the start point (or from section 0 when None), then 2-opt.
+    """Nearest neighbour from the start point (or from section 0 when None), improved by local search.
 
     cost: (n, n) end-of-i → start-of-j travel, mm. start_cost: (n,) start point → start of j, mm.
-    The tour is open and asymmetric (a section is entered at its start, left at its end), so each
-    2-opt move is scored by recomputing the tour length (n is a handful of sections per layer).
+    The tour is open and asymmetric (a section is entered at its start and left at its end), so
+    moves are scored by recomputing the tour length (n is a handful of sections per layer). Local
+    search = 2-opt (reverse a run) + Or-opt (move a run of 1–3 sections elsewhere), run from the
+    nearest-neighbour tour and from the mask order; the shorter result is kept, so the order is
+    never longer than the mask's.
     """
     n = len(cost)
     if n == 0:
         return []
+    fixed_first = start_cost is None  # without a start point, section 0 (the mask's first) leads
     first = 0 if start_cost is None else int(np.argmin(start_cost))
     order, left = [first], set(range(n)) - {first}
     while left:
@@ -54,19 +58,41 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
         nxt = min(left, key=lambda j: (cost[last, j], j))
         order.append(nxt)
         left.remove(nxt)
+    best = None
+    for seed in (order, list(range(n))):
+        cand = _local_search(seed, cost, start_cost, 1 if fixed_first else 0)
+        length = tour_length(cand, cost, start_cost)
+        if best is None or length < best[0] - 1e-9:
+            best = (length, cand)
+    return best[1]
+
+
+def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, lo: int) -> list[int]:
+    n = len(order)
     best = tour_length(order, cost, start_cost)
-    lo = 0 if start_cost is not None else 1
     for _ in range(MAX_2OPT_ROUNDS):
         improved = False
-        for i in range(lo, n - 1):
+        for i in range(lo, n - 1):          # 2-opt: reverse order[i..k]
             for k in range(i + 1, n):
                 cand = order[:i] + order[i:k + 1][::-1] + order[k + 1:]
                 length = tour_length(cand, cost, start_cost)
                 if length < best - 1e-9:
                     order, best, improved = cand, length, True
+        for run in (1, 2, 3):               # Or-opt: move order[i..i+run) to position j
+            for i in range(lo, n - run + 1):
+                piece, rest = order[i:i + run], order[:i] + order[i + run:]
+                for j in range(lo, len(rest) + 1):
+                    if j == i:
+                        continue
+                    cand = rest[:j] + piece + rest[j:]
+                    length = tour_length(cand, cost, start_cost)
+                    if length < best - 1e-9:
+                        order, best, improved = cand, length, True
+                        break
         if not improved:
             break
     return order
+
 
 def explicit_order(keys: Sequence[str], wanted: Sequence[str]) -> list[int]:
     """Indices of `keys` in the order of `wanted`; keys not listed follow in their own order."""
