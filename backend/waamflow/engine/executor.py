@@ -28,6 +28,11 @@ from .node import Context, LayerNode
 MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
 
 
+# Content signatures of files by (path, mtime, size), shared by every resolver in the process so
+# the GUI's one-layer preview does not re-hash a large mesh on each request.
+_FILE_SIGS: dict[tuple[str, int, int], str] = {}
+
+
 # ---- files --------------------------------------------------------------------------------------
 class FileResolver:
     """Resolves file params: attachments (server-stored files) first, then paths relative to
@@ -39,7 +44,6 @@ class FileResolver:
         self.base_dir = Path(base_dir).resolve()
         self.attachments = dict(attachments or {})
         self.roots = [Path(r).resolve() for r in roots] if roots else None
-        self._sig_cache: dict[tuple[str, float, int], str] = {}
 
     def resolve(self, path: str) -> Path:
         if not isinstance(path, str) or not path:
@@ -83,10 +87,14 @@ class FileResolver:
             st = p.stat()
         except (InputFileError, OSError):
             return "missing"
-        key = (str(p), st.st_mtime, st.st_size)
-        if key not in self._sig_cache:
-            self._sig_cache[key] = bytes_signature(p.read_bytes())
-        return self._sig_cache[key]
+        key = (str(p), st.st_mtime_ns, st.st_size)
+        sig = _FILE_SIGS.get(key)
+        if sig is None:
+            sig = bytes_signature(p.read_bytes())
+            if len(_FILE_SIGS) > 4096:
+                _FILE_SIGS.clear()
+            _FILE_SIGS[key] = sig
+        return sig
 
 
 def file_fields(model_cls) -> list[str]:
