@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import geometry as G
-from .scene import PART_TYPES, PATH_COLOR_MODES, SIM_COLOR_MODES, Part, Pick, ViewState, kind_of
+from .scene import PART_TYPES, slug, PATH_COLOR_MODES, SIM_COLOR_MODES, Part, Pick, ViewState, kind_of
 
 PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
 
@@ -46,6 +46,7 @@ class ViewerService:
         self._lock = threading.RLock()
         self._gui: dict[str, Any] = {}
         self._node_boxes: dict[str, Any] = {}
+        self._node_frames: dict[str, Any] = {}     # /graph/<node>: toggles the node's visibility
         self._play_stop = threading.Event()
         self._play_thread: threading.Thread | None = None
         self._bounds: np.ndarray | None = None
@@ -80,6 +81,7 @@ class ViewerService:
             self.parts.clear()
             self._gui.clear()
             self._node_boxes.clear()
+            self._node_frames.clear()
 
     @property
     def url(self) -> str | None:
@@ -115,9 +117,13 @@ class ViewerService:
             for k in [k for k, p in self.parts.items() if k not in wanted or p.kind != wanted[k][0]]:
                 self.parts.pop(k).remove()
                 stats["removed"] += 1
+            for node in [n for n in self._node_frames if all(k[0] != n for k in wanted)]:
+                self._node_frames.pop(node).remove()
             for (node, port), (kind, value) in wanted.items():
                 part = self.parts.get((node, port))
                 if part is None:
+                    if node not in self._node_frames:
+                        self._node_frames[node] = self.server.scene.add_frame(f"/graph/{slug(node)}", show_axes=False)
                     part = self.parts[(node, port)] = PART_TYPES[kind](self.server.scene, node, port, self.max_segments)
                 n = part.sync(value, self.view)
                 stats["redrawn" if n else "kept"] += n or 1
@@ -226,8 +232,9 @@ class ViewerService:
         self._apply()
 
     def _apply(self) -> None:
-        for (node, _), part in self.parts.items():
-            part.frame.visible = node not in self.view.hidden
+        for node, frame in self._node_frames.items():
+            frame.visible = node not in self.view.hidden
+        for part in self.parts.values():
             part.apply(self.view)
 
     def _frame_camera(self, b: np.ndarray) -> None:
