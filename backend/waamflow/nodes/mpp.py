@@ -200,7 +200,8 @@ class ZoneNode(LayerNode):
         default: ZoneSpecParams = Field(default_factory=ZoneSpecParams, description="Zoning of every section")
         sections: dict[str, ZoneSpecParams] = Field(default_factory=dict,
                                                     description="Section key → zoning (replaces the default)")
-        parameters: FileRef | None = Field(None, description="XML deposition-parameter file (layer > section > zone)")
+        parameters: FileRef = Field("", description="XML deposition-parameter file (layer > section > zone); "
+                                    "empty: none")
 
     def _spec(self, params, key: str) -> ZoneSpecParams:
         return params.sections.get(key, params.default)
