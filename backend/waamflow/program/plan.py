@@ -1,0 +1,259 @@
+"""From the flat move list to a neutral program plan: motions, arc switches, dwells, process changes.
+
+Every writer (G-code, KRL, RAPID) renders the same `Plan`, so the three agree on where the arc
+ignites, where it dwells and which speed each motion has.
+
+Rules (the plan is a faithful rendering of `waamflow.core.moves.Moves`):
+
+* One motion per toolpath point (the first is the move to the start point), or fewer when arc
+  fitting merges vertices into circular motions.
+* A motion's mode: ``weld`` (segment with the arc on, programmed speed), ``move`` (arc off at a
+  programmed speed — e.g. a strategy's link outside the section), ``travel`` (arc off between
+  sections/layers, no programmed speed: the machine's travel speed or rapid).
+* Arc ON before the first segment of each maximal arc-on run, arc OFF after its last one.
+* Dwell after each ignition: the zone's ``dwell`` parameter (s) when the zone has one, otherwise
+  the `ignition_dwell` setting — always emitted, so every ignition is followed by a dwell.
+* A zone that starts inside a run (arc already on) and has a ``dwell`` > 0 dwells there, arc on.
+* `Moves.dwell_before[i]` (interlayer dwell) dwells at point i before anything else happens there
+  (after an arc OFF, before an arc ON).
+* Process parameters (current, voltage, wire feed speed, job) are restated wherever the
+  (section, zone) of arc-on segments changes.
+* A motion ends in an exact stop (`stop=True`) when an arc switch or dwell follows it, and at the
+  end of the program; all other motions may be blended.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Union
+
+import numpy as np
+
+from ..core.moves import TRAVEL, Moves
+from .arcfit import fit_arcs
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """ignition_dwell: s, default dwell after arc ON when the zone has no `dwell` parameter.
+    arc_tolerance: mm, > 0 enables arc fitting (circular motions within this tolerance).
+    arc_plane_normal: restrict fitted arcs to planes normal to this axis at constant height
+    (G-code G17 arcs: (0, 0, 1)); None allows any plane (robot CIRC).
+    travel_speed: mm/s, used for arc-off travel on robots and for the time estimate.
+    """
+
+    ignition_dwell: float = 0.5
+    arc_tolerance: float = 0.0
+    arc_plane_normal: tuple[float, float, float] | None = None
+    travel_speed: float = 100.0
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A motion to point `end` (index into Moves.points) from point `start` (-1: from wherever
+    the machine is). mode: "travel" | "move" | "weld". speed: mm/s (NaN for travel).
+    via ≥ 0: circular motion through points[via] (center (3,), normal (3,) unit: the arc runs
+    counter-clockwise about it). stop: exact stop at the end."""
+
+    mode: str
+    start: int
+    end: int
+    speed: float
+    layer: int
+    section: int
+    zone: int
+    via: int = -1
+    center: tuple[float, float, float] | None = None
+    normal: tuple[float, float, float] | None = None
+    stop: bool = False
+
+    @property
+    def circular(self) -> bool:
+        return self.via >= 0
+
+
+@dataclass(frozen=True)
+class LayerStart:
+    layer: int
+    z: float
+
+
+@dataclass(frozen=True)
+class SectionStart:
+    section: int
+    key: str
+
+
+@dataclass(frozen=True)
+class ProcessChange:
+    """Process parameters for the arc-on segments that follow (names from core/process.py)."""
+
+    section: int
+    zone: int
+    zone_id: str
+    params: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ArcOn:
+    point: int
+    section: int
+    zone: int
+
+
+@dataclass(frozen=True)
+class ArcOff:
+    point: int
+
+
+@dataclass(frozen=True)
+class Dwell:
+    """Wait at `point` for `seconds`. reason: "ignition" | "zone" | "interlayer"."""
+
+    point: int
+    seconds: float
+    reason: str
+
+
+Step = Union[Motion, LayerStart, SectionStart, ProcessChange, ArcOn, ArcOff, Dwell]
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    moves: Moves
+    steps: tuple[Step, ...]
+    stats: dict
+
+    @property
+    def motions(self) -> list[Motion]:
+        return [s for s in self.steps if isinstance(s, Motion)]
+
+
+def _mode(moves: Moves, i: int) -> str:
+    if moves.arc[i]:
+        return "weld"
+    if moves.kind[i] == TRAVEL or not np.isfinite(moves.speed[i]):
+        return "travel"
+    return "move"
+
+
+def _segment_key(moves: Moves, i: int) -> tuple:
+    sp = float(moves.speed[i])
+    return (_mode(moves, i), sp if np.isfinite(sp) else None, int(moves.zone[i]), int(moves.section[i]), int(moves.layer[i]))
+
+
+def _groups(moves: Moves) -> list[tuple[int, int]]:
+    """Maximal segment ranges [a, b) with equal attributes and no dwell at interior points."""
+    n_seg = len(moves.points) - 1
+    out: list[tuple[int, int]] = []
+    a = 0
+    for i in range(1, n_seg + 1):
+        if i == n_seg or moves.dwell_before[i] > 0 or _segment_key(moves, i) != _segment_key(moves, a):
+            out.append((a, i))
+            a = i
+    return out
+
+
+def _group_motions(moves: Moves, a: int, b: int, settings: PlanSettings) -> list[Motion]:
+    mode, _, zone, section, layer = _segment_key(moves, a)
+    speed = float(moves.speed[a]) if mode != "travel" else float("nan")
+    base = dict(mode=mode, speed=speed, layer=layer, section=section, zone=zone)
+    arcs = []
+    if mode != "travel" and settings.arc_tolerance > 0:
+        arcs = fit_arcs(moves.points[a : b + 1], settings.arc_tolerance, plane_normal=settings.arc_plane_normal)
+    out: list[Motion] = []
+    i = a
+    for arc in arcs:
+        s, e = a + arc.start, a + arc.end
+        out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, s))
+        out.append(Motion(start=s, end=e, via=a + arc.via, center=tuple(map(float, arc.center)),
+                          normal=tuple(map(float, arc.normal)), **base))
+        i = e
+    out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, b))
+    return out
+
+
+def _ignition_dwell(moves: Moves, section: int, zone: int, settings: PlanSettings) -> float:
+    params = moves.zone_params.get((section, zone), {})
+    return float(params.get("dwell", settings.ignition_dwell))
+
+
+def plan_program(moves: Moves, settings: PlanSettings = PlanSettings()) -> Plan:
+    """Build the `Plan` of a flat move list (see module doc for the rules)."""
+    steps: list[Step] = []
+    n = len(moves.points)
+    if n == 0:
+        return Plan(moves, (), _stats(moves, [], settings))
+    layer0 = int(moves.layer[0]) if n > 1 else 0
+    sec0 = int(moves.section[0]) if n > 1 else 0
+    steps.append(LayerStart(layer0, float(moves.layer_z.get(layer0, moves.points[0, 2]))))
+    if moves.section_keys:
+        steps.append(SectionStart(sec0, moves.section_keys[sec0]))
+    steps.append(Motion("travel", -1, 0, float("nan"), layer0, sec0, -1))
+    arc_on = False
+    cur_layer, cur_section, cur_process = layer0, sec0, None
+    for a, b in _groups(moves) if n > 1 else []:
+        mode, _, zone, section, layer = _segment_key(moves, a)
+        if arc_on and mode != "weld":
+            steps.append(ArcOff(a))
+            arc_on = False
+        if layer != cur_layer:
+            steps.append(LayerStart(layer, float(moves.layer_z.get(layer, moves.points[a, 2]))))
+            cur_layer = layer
+        if section != cur_section:
+            steps.append(SectionStart(section, moves.section_keys[section]))
+            cur_section = section
+        if moves.dwell_before[a] > 0:
+            steps.append(Dwell(a, float(moves.dwell_before[a]), "interlayer"))
+        if mode == "weld":
+            new_zone = (section, zone) != cur_process
+            if new_zone:
+                zid = moves.zone_ids[zone] if 0 <= zone < len(moves.zone_ids) else ""
+                steps.append(ProcessChange(section, zone, zid, dict(moves.zone_params.get((section, zone), {}))))
+                cur_process = (section, zone)
+            if not arc_on:
+                steps.append(ArcOn(a, section, zone))
+                steps.append(Dwell(a, _ignition_dwell(moves, section, zone, settings), "ignition"))
+                arc_on = True
+            elif new_zone:
+                d = float(moves.zone_params.get((section, zone), {}).get("dwell", 0.0))
+                if d > 0:
+                    steps.append(Dwell(a, d, "zone"))
+        steps.extend(_group_motions(moves, a, b, settings))
+    if arc_on:
+        steps.append(ArcOff(n - 1))
+    steps = _mark_stops(steps)
+    return Plan(moves, tuple(steps), _stats(moves, steps, settings))
+
+
+def _mark_stops(steps: list[Step]) -> list[Step]:
+    out = list(steps)
+    pending_stop = True  # the last motion of the program stops
+    for k in range(len(out) - 1, -1, -1):
+        s = out[k]
+        if isinstance(s, Motion):
+            if pending_stop:
+                out[k] = replace(s, stop=True)
+            pending_stop = False
+        elif isinstance(s, (ArcOn, ArcOff, Dwell)):
+            pending_stop = True
+    return out
+
+
+def _stats(moves: Moves, steps: list[Step], settings: PlanSettings) -> dict:
+    seg = moves.segment_lengths if len(moves.points) > 1 else np.zeros(0)
+    arc = moves.arc.astype(bool) if len(seg) else np.zeros(0, bool)
+    speed = np.where(np.isfinite(moves.speed) & (moves.speed > 0), moves.speed, settings.travel_speed) if len(seg) else np.zeros(0)
+    dwell = sum(s.seconds for s in steps if isinstance(s, Dwell))
+    return {
+        "layers": len(set(moves.layer.tolist())) if len(seg) else 0,
+        "sections": len(moves.section_keys),
+        "points": int(len(moves.points)),
+        "motions": sum(1 for s in steps if isinstance(s, Motion)),
+        "circular_motions": sum(1 for s in steps if isinstance(s, Motion) and s.circular),
+        "arc_on_count": sum(1 for s in steps if isinstance(s, ArcOn)),
+        "deposition_length_mm": round(float(seg[arc].sum()), 3),
+        "travel_length_mm": round(float(seg[~arc].sum()), 3),
+        "dwell_total_s": round(float(dwell), 3),
+        "estimated_time_s": round(float((seg / speed).sum() + dwell), 3) if len(seg) else 0.0,
+    }

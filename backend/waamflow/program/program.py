@@ -1,0 +1,27 @@
+"""The `Program` value: what a post-processor produces and the `program` port carries."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A machine/robot program as text files.
+
+    format: "gcode" | "krl" | "rapid" | "csv".
+    files: artifact suffix → file text, e.g. {"gcode": ...}, {"src": ..., "dat": ...,
+    "L003.src": ..., "L003.dat": ...}; the engine writes each as `<node id>.<suffix>`.
+    stats: summary numbers (layers, points, motions, arc_on_count, deposition_length_mm,
+    travel_length_mm, dwell_total_s, estimated_time_s, ...).
+    """
+
+    format: str
+    files: dict[str, str]
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def main_suffix(self) -> str:
+        """Suffix of the file a user opens first (the main program)."""
+        return {"gcode": "gcode", "krl": "src", "rapid": "mod", "csv": "csv"}[self.format]
