@@ -14,7 +14,7 @@ from fastapi.staticfiles import StaticFiles
 from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
-from .routes import graphs, health, nodes, preview, runs
+from .routes import graphs, health, nodes, preview, runs, viewer
 from .services import build_services
 from .worker import RunManager
 
@@ -85,7 +85,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return JSONResponse(status_code=422, content={"detail": {"message": msg, "text": msg, "errors": [
             {"loc": list(e.get("loc", ())), "msg": e.get("msg")} for e in errs]}})
 
-    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router):
+    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router):
         app.include_router(r)
 
     static = settings.static_dir

@@ -13,10 +13,13 @@ class Health(BaseModel):
     status: str
     version: str
     viewer_url: str | None
+    viewer_port: int | None
     workers: int
 
 
 @router.get("/api/health", response_model=Health)
 def health(svc: ServicesDep) -> Health:
     url = getattr(svc.viewer, "url", None) if svc.viewer is not None else None
-    return Health(status="ok", version=__version__, viewer_url=url, workers=svc.settings.workers)
+    port = svc.settings.viewer_port if svc.viewer is not None else None
+    # viewer_port lets a browser on another host build the URL from its own location.hostname
+    return Health(status="ok", version=__version__, viewer_url=url, viewer_port=port, workers=svc.settings.workers)
