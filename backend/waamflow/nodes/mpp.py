@@ -24,6 +24,7 @@ from ..sections.mask import uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
+from ..zoning.params_xml import orphan_label
 
 Point2 = tuple[float, float]
 
@@ -219,11 +220,12 @@ class ZoneNode(LayerNode):
             out.append(zone_path(sp, spec, world))
         return {"toolpath": LayerPaths(lp.layer, tuple(out), lp.dwell_after_s)}
 
-    def _read_xml(self, ctx, params) -> str | None:
+    def _read_xml(self, ctx, params, warn: bool = True) -> str | None:
         if not params.parameters:
             return None
         if not ctx.exists(params.parameters):
-            ctx.warn(f"parameter file {params.parameters!r} not found: writing an empty template")
+            if warn:
+                ctx.warn(f"parameter file {params.parameters!r} not found: writing an empty template")
             return None
         return ctx.read_text(params.parameters)
 
@@ -240,18 +242,17 @@ class ZoneNode(LayerNode):
             layers.append(LayerPaths(lp.layer, tuple(apply_zone_params(sp, vals.get(sp.key, {})) for sp in lp.sections),
                                      lp.dwell_after_s))
         toolpath = Layered(tuple(layers))
-        self._xml = None
-        if all(lp is not None for lp in layers):
-            merged, orphans = merge(template(toolpath), text)
-            for o in orphans:
-                ctx.warn(f"parameter file: values for {o} have no zone any more (dropped from params.xml)")
-            self._xml = (id(toolpath), merged)
+        if table is not None and all(lp is not None for lp in layers):
+            present = {(lp.index, sp.key, z) for lp in layers for sp in lp.sections for z in sp.zone_colors}
+            for key in table.values:
+                if key not in present:
+                    ctx.warn(f"parameter file: values for {orphan_label(key)} have no zone any more "
+                             "(dropped from params.xml)", layer=key[0], section=key[1])
         return {"toolpath": toolpath}
 
     def artifacts(self, ctx, params, outputs):
         tp = outputs["toolpath"]
-        cached = getattr(self, "_xml", None)
-        xml = cached[1] if cached and cached[0] == id(tp) else merge(template(tp), self._read_xml(ctx, params))[0]
+        xml, _ = merge(template(tp), self._read_xml(ctx, params, warn=False))
         return {"toolpath.json": serialize.dumps(serialize.toolpath_json(tp)), "params.xml": xml}
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from ..core.model import LayerPaths, SectionPath
 
 MAX_2OPT_ROUNDS = 50
+EXACT_MAX = 6  # up to 6 sections (720 orders) every order is scored at once with numpy: exact
 
 def travel_cost(ends: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """(n, n) straight-line distance (mm) from the end of section i to the start of section j."""
@@ -45,11 +46,13 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
     moves are scored by recomputing the tour length (n is a handful of sections per layer). Local
     search = 2-opt (reverse a run) + Or-opt (move a run of 1–3 sections elsewhere), run from the
     nearest-neighbour tour and from the mask order; the shorter result is kept, so the order is
-    never longer than the mask's.
+    never longer than the mask's. Layers of up to EXACT_MAX sections are solved exactly instead.
     """
     n = len(cost)
     if n == 0:
         return []
+    if n <= EXACT_MAX:
+        return _exact_order(cost, start_cost)
     fixed_first = start_cost is None  # without a start point, section 0 (the mask's first) leads
     first = 0 if start_cost is None else int(np.argmin(start_cost))
     order, left = [first], set(range(n)) - {first}
@@ -65,6 +68,20 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
         if best is None or length < best[0] - 1e-9:
             best = (length, cand)
     return best[1]
+
+
+def _exact_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
+    """Shortest open tour by scoring every order (n ≤ EXACT_MAX); ties → the first in lexicographic order."""
+    import itertools
+
+    n = len(cost)
+    perms = np.array(list(itertools.permutations(range(n))), dtype=np.int64).reshape(-1, n)
+    if start_cost is None:
+        perms = perms[perms[:, 0] == 0]
+    total = cost[perms[:, :-1], perms[:, 1:]].sum(axis=1)
+    if start_cost is not None:
+        total = total + start_cost[perms[:, 0]]
+    return perms[int(np.argmin(np.round(total, 9)))].tolist()
 
 
 def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, lo: int) -> list[int]:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Iterable
 
 import defusedxml.ElementTree as DET
@@ -55,13 +56,16 @@ class ParamTable:
     colors: dict[ZoneKey, str] = field(default_factory=dict)
     layer_z: dict[int, float] = field(default_factory=dict)
 
-    def layer(self, index: int) -> dict[str, dict[str, dict[str, float]]]:
-        """Values of one layer: section key → zone id → {name: value}."""
-        out: dict[str, dict[str, dict[str, float]]] = {}
+    @cached_property
+    def _by_layer(self) -> dict[int, dict[str, dict[str, dict[str, float]]]]:
+        out: dict[int, dict[str, dict[str, dict[str, float]]]] = {}
         for (li, sk, zid), v in self.values.items():
-            if li == index:
-                out.setdefault(sk, {})[zid] = dict(v)
+            out.setdefault(li, {}).setdefault(sk, {})[zid] = v
         return out
+
+    def layer(self, index: int) -> dict[str, dict[str, dict[str, float]]]:
+        """Values of one layer: section key → zone id → {name: value} (copies)."""
+        return {sk: {z: dict(v) for z, v in zones.items()} for sk, zones in self._by_layer.get(index, {}).items()}
 
 
 def _fmt(v: float) -> str:

@@ -1,0 +1,189 @@
+"""Re-planning benchmark for modular path planning (MPP), through the engine with its signature cache.
+
+Entries (contract `out/bench/results.json`):
+- `replan_one_layer_ms`: a cross-shaped part of `N_EDIT` (≥ 200) layers is planned once (mesh →
+  slice → mask → guide → strategy → zone → sequence), then one section's zoning is edited (its
+  split points move) and the layer being edited is re-planned alone (`execute(..., layers=[k])`,
+  what the GUI preview does). Median of `REPEATS` edits, ms. Target ≤ 100 ms (issue 3).
+  peer = the same edit re-planned for the whole part (every layer of that section recomputed,
+  every other node/layer from cache); ratio = one layer / whole part.
+- `plan_full_part_s`: cold plan of the same pipeline for `N_FULL` (≥ 500) layers, no cache, s.
+  peer = the same run again with a warm cache (everything reused); ratio = warm / cold.
+
+When the mesh/slice/strategy nodes are not registered (other issues), a bench-local stand-in
+supplies the layers (`bench-cross-stack`: the cross section stacked) and paths (`bench-pass`: one
+bead along each guide), and the notes say so.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+N_EDIT = 200
+N_FULL = 500
+REPEATS = 5
+LAYER = 1.5  # mm (MPP study)
+
+
+def _cross_polygon():
+    import shapely
+    from shapely.geometry import box
+
+    return shapely.union(box(-60, -6, 60, 6), box(-6, -60, 6, 60))
+
+
+def _register_standins():
+    from pydantic import Field
+
+    from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath, as_multipolygon
+    from waamflow.engine.node import REGISTRY, LayerNode, Node, NodeParams, Port, register
+
+    if "bench-cross-stack" in REGISTRY:
+        return
+
+    @register
+    class BenchCrossStack(Node):
+        """Bench stand-in for mesh + slice: the cross section stacked `count` times."""
+
+        type = "bench-cross-stack"
+        category = "bench"
+        outputs = (Port("layers", "layers"),)
+
+        class Params(NodeParams):
+            count: int = Field(200, ge=1)
+
+        def run(self, ctx, params, inputs):
+            region = as_multipolygon(_cross_polygon())
+            return {"layers": Layered(tuple(Layer(i, LAYER * (i + 1), LAYER, region) for i in range(params.count)))}
+
+    @register
+    class BenchPass(LayerNode):
+        """Bench stand-in for strategy: one bead along each section's guide at 6 mm/s."""
+
+        type = "bench-pass"
+        category = "bench"
+        inputs = (Port("sections", "sections"),)
+        outputs = (Port("toolpath", "toolpath"),)
+        over = "sections"
+
+        class Params(NodeParams):
+            default: dict = Field(default_factory=dict)
+            sections: dict = Field(default_factory=dict)
+
+        def run_layer(self, ctx, params, index, items):
+            ls = items["sections"]
+            out = []
+            for s in ls.sections:
+                pts = ls.layer.to_world(np.asarray(s.guide.coords))
+                n = len(pts) - 1
+                out.append(SectionPath(s.key, "pass", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, 6.0)))
+            return {"toolpath": LayerPaths(ls.layer, tuple(out))}
+
+
+def _recipe(tmp: Path, count: int, split_y: float, real: bool) -> dict:
+    rect = lambda x0, y0, x1, y1: [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]  # noqa: E731
+    if real:
+        import trimesh
+
+        stl = tmp / f"cross_{count}.stl"
+        if not stl.exists():
+            trimesh.creation.extrude_polygon(_cross_polygon(), LAYER * count).export(stl)
+        head = [{"id": "part", "type": "mesh", "params": {"path": stl.name}},
+                {"id": "layers", "type": "slice", "params": {"layer_height": LAYER, "layer_count": count}}]
+        edges = [{"from": "part.mesh", "to": "layers.mesh"}]
+        strategy = {"id": "strategy", "type": "strategy", "params": {
+            "default": {"pattern": "parallel", "bead_width": 6, "spacing": 6},
+            "sections": {"bs1/A": {"pattern": "oscillate", "bead_width": 6, "step": 3}}}}
+    else:
+        head = [{"id": "layers", "type": "bench-cross-stack", "params": {"count": count}}]
+        edges = []
+        strategy = {"id": "strategy", "type": "bench-pass", "params": {}}
+    nodes = head + [
+        {"id": "mask", "type": "mask", "params": {"masks": [{"id": "bs1", "from_layer": 0, "sections": [
+            {"id": "A", "curve": rect(-7, -62, 7, 62)}, {"id": "B", "curve": rect(-62, -7, -6, 7)},
+            {"id": "C", "curve": rect(6, -7, 62, 7)}]}]}},
+        {"id": "guide", "type": "guide", "params": {"guides": {"bs1/A": [[0, -66], [0, 66]], "bs1/B": [[-66, 0], [-3, 0]],
+                                                               "bs1/C": [[3, 0], [66, 0]]}}},
+        strategy,
+        {"id": "zone", "type": "zone", "params": {
+            "default": {"start_length": 10, "end_length": 10},
+            "sections": {"bs1/A": {"start_length": 10, "end_length": 10, "split_points": [[0, -split_y], [0, split_y]]}}}},
+        {"id": "sequence", "type": "sequence", "params": {"order": "nearest", "retract_height": 10}},
+    ]
+    edges += [{"from": "layers.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "guide.sections"},
+              {"from": "guide.sections", "to": "strategy.sections"}, {"from": "strategy.toolpath", "to": "zone.toolpath"},
+              {"from": "zone.toolpath", "to": "sequence.toolpath"}]
+    return {"format": "waamflow/1", "name": f"bench-cross-{count}", "nodes": nodes, "edges": edges}
+
+
+def _graph(data: dict):
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    return build_graph(parse_recipe(data))
+
+
+def run() -> list[dict]:
+    from waamflow.engine.cache import MemoryCache
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.node import load_nodes
+
+    reg = load_nodes()
+    real = all(t in reg for t in ("mesh", "slice", "strategy"))
+    if not real:
+        _register_standins()
+    source = "mesh + slice + strategy nodes" if real else \
+        "stand-in layers/paths (mesh, slice or strategy node not registered)"
+    results = []
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        resolver = FileResolver(tmp)
+        # --- one-layer re-plan after a zoning edit ------------------------------------------------
+        cache = MemoryCache()
+        execute(_graph(_recipe(tmp, N_EDIT, 6.0, real)), resolver=resolver, cache=cache, artifacts=False)
+        k = N_EDIT // 2
+        one, full, computed = [], [], None
+        for r in range(REPEATS):
+            g = _graph(_recipe(tmp, N_EDIT, 6.0 + 0.5 * (r + 1), real))
+            t0 = time.perf_counter()
+            res = execute(g, resolver=resolver, cache=cache, layers=[k], artifacts=False)
+            one.append(time.perf_counter() - t0)
+            assert res.stats["zone"].layers_computed == 1
+            t0 = time.perf_counter()
+            res = execute(g, resolver=resolver, cache=cache, artifacts=False)
+            full.append(time.perf_counter() - t0)
+            computed = (res.stats["zone"].layers_computed, res.stats["strategy"].layers_computed)
+        one_ms, full_ms = 1e3 * statistics.median(one), 1e3 * statistics.median(full)
+        results.append({
+            "name": "replan_one_layer_ms", "value": round(one_ms, 2), "unit": "ms", "peer": round(full_ms, 2),
+            "ratio": round(one_ms / full_ms, 4),
+            "notes": f"{N_EDIT}-layer cross, 3 sections; edit = bs1/A split points; layer {k} re-planned alone "
+                     f"(median of {REPEATS}); peer = whole-part re-plan after the same edit ({computed[0]} zone "
+                     f"layers recomputed, {computed[1]} strategy layers); {source}; target <= 100 ms"})
+        # --- full-part plan -----------------------------------------------------------------------
+        g = _graph(_recipe(tmp, N_FULL, 6.0, real))
+        cache = MemoryCache()
+        t0 = time.perf_counter()
+        res = execute(g, resolver=resolver, cache=cache, artifacts=False)
+        cold = time.perf_counter() - t0
+        n_paths = sum(len(lp.sections) for lp in res.outputs["sequence"]["toolpath"])
+        t0 = time.perf_counter()
+        execute(g, resolver=resolver, cache=cache, artifacts=False)
+        warm = time.perf_counter() - t0
+        results.append({
+            "name": "plan_full_part_s", "value": round(cold, 3), "unit": "s", "peer": round(warm, 3),
+            "ratio": round(warm / cold, 4),
+            "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); peer = same run with a "
+                     f"warm cache; {source}"})
+    return results
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(run(), indent=2))
