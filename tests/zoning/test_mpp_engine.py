@@ -130,3 +130,11 @@ def test_sequence_travel_artifact(tmp_path):
     # L ends at x 40, R starts at 60: 5 up, 20 across, 5 down
     assert travel["layers"][5]["travel_mm"] == pytest.approx(6.5 + 100 + 5 + 30)
     assert travel["total_travel_mm"] == pytest.approx(sum(t["travel_mm"] for t in travel["layers"]))
+
+
+def test_uncovered_area_is_warned_per_layer_in_percent(tmp_path):
+    part = {"id": "bs1", "from_layer": 0, "sections": [{"id": "A", "curve": rect(-1, -1, 60, 7)}]}
+    res = run(recipe([part], count=3, window_from=99), tmp_path)
+    ws = [w for w in res.warnings if w["node"] == "mask"]
+    assert [w["layer"] for w in ws] == [0, 1, 2]
+    assert ws[0]["message"].startswith("40.0 % of the layer area (240.0 mm²)")
