@@ -1,0 +1,353 @@
+"""Sketches: 2D curves extruded along +Z to a midsurface (thin-wall parts), from JSON or DXF.
+
+JSON: ``{"curves": [[[x, y], ...], ...], "height": h, "z0": z}`` ("height", "z0" optional; the
+node's params win). A closed curve repeats its first point.
+
+DXF (modelspace, via ezdxf): LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D),
+ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT (block references, exploded). Arcs are
+discretised so that no chord deviates from the true arc by more than `arc_tolerance`: a chord
+spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
+Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coordinates.
+Entities without geometry for a midsurface (TEXT, DIMENSION, HATCH, POINT, ...) are skipped and
+reported. Open curves that meet end to end, with exactly two ends at the meeting point, are
+joined into one polyline (a DXF outline drawn as separate LINEs/ARCs is one wall); points where
+three or more ends meet stay curve ends, they are wall junctions.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import PurePosixPath
+from typing import Any, Iterable
+
+import numpy as np
+
+from ..core.errors import InputFileError
+from ..core.model import Midsurface
+from ..core.tolerances import TOL
+from .transform import unit_scale
+
+SKETCH_FORMATS = ("json", "dxf")
+
+
+@dataclass(frozen=True)
+class SketchResult:
+    """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count."""
+
+    midsurface: Midsurface
+    skipped: dict[str, int]
+
+
+# ------------------------------------------------------------------------------------------
+# Arc discretisation
+# ------------------------------------------------------------------------------------------
+def arc_segments(radius: float, sweep: float, tol: float) -> int:
+    """Number of chords for an arc of `radius` (mm) and |sweep| (rad) with sagitta ≤ tol (mm)."""
+    sweep = abs(sweep)
+    if radius <= tol:
+        return max(1, math.ceil(sweep / (math.pi / 2)))
+    max_step = 2.0 * math.acos(1.0 - tol / radius)
+    return max(1, math.ceil(sweep / max_step - 1e-9))
+
+
+def arc_points(center, radius: float, start: float, sweep: float, tol: float) -> np.ndarray:
+    """(k, 2) points along an arc from angle `start` (rad) by `sweep` (rad, + = CCW)."""
+    n = arc_segments(radius, sweep, tol)
+    if abs(sweep) >= 2 * math.pi - 1e-12:
+        n = max(n, 3)
+    t = start + sweep * np.linspace(0.0, 1.0, n + 1)
+    return np.column_stack([center[0] + radius * np.cos(t), center[1] + radius * np.sin(t)])
+
+
+def bulge_points(p0, p1, bulge: float, tol: float) -> np.ndarray:
+    """(k, 2) points from p0 to p1 along the DXF bulge arc (bulge = tan(sweep/4), + = CCW)."""
+    p0 = np.asarray(p0, dtype=float)
+    p1 = np.asarray(p1, dtype=float)
+    chord = float(np.hypot(*(p1 - p0)))
+    if bulge == 0.0 or chord == 0.0:
+        return np.array([p0, p1])
+    sweep = 4.0 * math.atan(bulge)
+    radius = chord / (2.0 * math.sin(abs(sweep) / 2.0))
+    mid = (p0 + p1) / 2.0
+    d = (p1 - p0) / chord
+    left = np.array([-d[1], d[0]])
+    # signed offset of the centre from the chord midpoint, + = left of p0→p1: a CCW arc under
+    # half a turn has its centre on the left; past half a turn (cos < 0) it flips side.
+    h = (1.0 if bulge > 0 else -1.0) * radius * math.cos(abs(sweep) / 2.0)
+    center = mid + left * h
+    start = math.atan2(p0[1] - center[1], p0[0] - center[0])
+    pts = arc_points(center, radius, start, sweep, tol)
+    pts[0], pts[-1] = p0, p1
+    return pts
+
+
+# ------------------------------------------------------------------------------------------
+# Curve clean-up and joining
+# ------------------------------------------------------------------------------------------
+def _dedupe(points: np.ndarray) -> np.ndarray:
+    if len(points) < 2:
+        return points
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(points, axis=0), axis=1) > TOL.merge])
+    return points[keep]
+
+
+def join_curves(curves: list[np.ndarray], tol: float) -> list[np.ndarray]:
+    """Join open polylines that meet end to end at points where exactly two ends meet.
+
+    curves: (k, 2) arrays; closed ones (first == last within tol) are kept as they are.
+    Loops over curves (entities), never over points.
+    """
+    from scipy.spatial import cKDTree
+
+    closed = [c for c in curves if np.linalg.norm(c[0] - c[-1]) <= tol and len(c) > 2]
+    open_ = [c for c in curves if not (np.linalg.norm(c[0] - c[-1]) <= tol and len(c) > 2)]
+    if len(open_) < 2:
+        return closed + open_
+    ends = np.array([[c[0], c[-1]] for c in open_]).reshape(-1, 2)
+    parent = np.arange(len(ends))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, j in cKDTree(ends).query_pairs(tol):
+        ri, rj = find(i), find(j)
+        if ri != rj:
+            parent[max(ri, rj)] = min(ri, rj)
+    node = np.array([find(i) for i in range(len(ends))])
+    degree = np.bincount(node, minlength=len(ends))
+    at_node: dict[int, list[int]] = {}
+    for e, n in enumerate(node):
+        at_node.setdefault(int(n), []).append(e)
+
+    used = np.zeros(len(open_), dtype=bool)
+
+    def oriented(ci: int, from_end: int) -> np.ndarray:
+        """Curve ci walked starting at its end `from_end` (0 = its first point, 1 = its last)."""
+        c = open_[ci]
+        return c if from_end == 0 else c[::-1]
+
+    def walk(ci: int, leave_end: int) -> tuple[list[np.ndarray], int]:
+        """Follow the chain from curve ci's end `leave_end` through degree-2 nodes."""
+        parts: list[np.ndarray] = []
+        while True:
+            n = node[2 * ci + leave_end]
+            if degree[n] != 2:
+                return parts, n
+            other = [e for e in at_node[int(n)] if e != 2 * ci + leave_end]
+            if not other:
+                return parts, n
+            nxt, nxt_end = divmod(other[0], 2)
+            if used[nxt]:
+                return parts, n
+            used[nxt] = True
+            parts.append(oriented(nxt, nxt_end))
+            ci, leave_end = nxt, 1 - nxt_end
+
+    out = list(closed)
+    for ci in range(len(open_)):
+        if used[ci]:
+            continue
+        used[ci] = True
+        fwd, _ = walk(ci, 1)
+        back, _ = walk(ci, 0)
+        chain = [p[::-1] for p in reversed(back)] + [open_[ci]] + fwd
+        pts = np.vstack([chain[0]] + [p[1:] for p in chain[1:]])
+        if len(chain) > 1 and np.linalg.norm(pts[0] - pts[-1]) <= tol:
+            pts[-1] = pts[0]
+        out.append(pts)
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# Midsurface construction
+# ------------------------------------------------------------------------------------------
+def sketch_from_curves(curves: Iterable[Any], *, height: float, z0: float = 0.0, name: str = "sketch",
+                       scale: float = 1.0, join_tol: float | None = None) -> Midsurface:
+    """Midsurface from polylines (each (k, 2) in file units, × scale → mm), extruded by height (mm)."""
+    if not (height > 0 and math.isfinite(height)):
+        raise InputFileError(f"{name}: extrusion height must be > 0 mm (got {height})")
+    out = []
+    for i, c in enumerate(curves):
+        try:
+            a = np.asarray(c, dtype=float)
+        except (TypeError, ValueError):
+            raise InputFileError(f"{name}: curve {i} is not a list of [x, y] points") from None
+        if a.ndim != 2 or a.shape[1] != 2:
+            raise InputFileError(f"{name}: curve {i} must be a list of [x, y] points (got shape {a.shape})")
+        if not np.isfinite(a).all():
+            raise InputFileError(f"{name}: curve {i} has non-finite coordinates")
+        a = _dedupe(a * scale)
+        if len(a) < 2:
+            raise InputFileError(f"{name}: curve {i} has fewer than two distinct points")
+        out.append(a)
+    if not out:
+        raise InputFileError(f"{name}: sketch has no curves")
+    if join_tol is not None:
+        out = join_curves(out, join_tol)
+    return Midsurface(curves=tuple(out), height=float(height), z0=float(z0), name=name)
+
+
+def _json_curves(data: bytes, filename: str) -> tuple[list, float | None, float | None]:
+    try:
+        doc = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputFileError(f"{filename}: not valid JSON: {exc}") from exc
+    if not isinstance(doc, dict) or not isinstance(doc.get("curves"), list):
+        raise InputFileError(f'{filename}: expected an object {{"curves": [[[x, y], ...], ...]}}')
+    nums = {}
+    for k in ("height", "z0"):
+        v = doc.get(k)
+        if v is not None and not isinstance(v, (int, float)):
+            raise InputFileError(f"{filename}: '{k}' must be a number (got {v!r})")
+        nums[k] = None if v is None else float(v)
+    return doc["curves"], nums["height"], nums["z0"]
+
+
+def load_sketch_bytes(
+    data: bytes,
+    filename: str,
+    *,
+    height: float | None = None,
+    z0: float | None = None,
+    units: str = "mm",
+    arc_tolerance: float = 0.01,
+    join: bool = True,
+) -> SketchResult:
+    """Parse a JSON or DXF sketch into a Midsurface in mm.
+
+    height, z0: mm; when None, taken from the JSON file (in file units); height is required one
+    way or the other, z0 defaults to 0. arc_tolerance: max chordal deviation of arcs (mm).
+    """
+    ext = PurePosixPath(filename).suffix.lower().lstrip(".")
+    name = PurePosixPath(filename).stem
+    scale = unit_scale(units)
+    skipped: dict[str, int] = {}
+    if ext == "json":
+        raw, file_h, file_z0 = _json_curves(data, filename)
+        curves = raw
+    elif ext == "dxf":
+        # DXF coordinates are in file units; discretise with the tolerance in file units
+        curves, skipped = dxf_curves(data, filename, arc_tolerance / scale)
+        file_h = file_z0 = None
+    else:
+        raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
+    if height is None:
+        if file_h is None:
+            raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
+        height = file_h * scale
+    if z0 is None:
+        z0 = (file_z0 or 0.0) * scale
+    mid = sketch_from_curves(
+        curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(1e-6 * max(1.0, scale) if join else None)
+    )
+    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name), skipped=skipped)
+
+
+# ------------------------------------------------------------------------------------------
+# DXF
+# ------------------------------------------------------------------------------------------
+_IGNORED_DXF = {"TEXT", "MTEXT", "DIMENSION", "HATCH", "POINT", "LEADER", "MLEADER", "ATTDEF", "ATTRIB",
+                "VIEWPORT", "SOLID", "WIPEOUT", "IMAGE", "XLINE", "RAY", "TOLERANCE", "MULTILEADER"}
+
+
+def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
+    from ezdxf import recover
+    from ezdxf.lldxf.const import DXFStructureError
+
+    try:
+        doc, _auditor = recover.read(io.BytesIO(data))
+    except (DXFStructureError, UnicodeDecodeError, ValueError) as exc:
+        raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
+    curves: list[np.ndarray] = []
+    skipped: dict[str, int] = {}
+    for e in doc.modelspace():
+        _entity_curves(e, filename, tol, curves, skipped, depth=0)
+    return curves, skipped
+
+
+def _where(filename: str, e) -> str:
+    return f"{filename}: {e.dxftype()} (handle {e.dxf.get('handle', '?')})"
+
+
+def _ocs_to_xy(e, pts2d: np.ndarray, filename: str) -> np.ndarray:
+    """OCS (x, y) points of a planar entity → world (x, y); the entity must lie in an XY plane."""
+    extr = np.asarray(e.dxf.get("extrusion", (0.0, 0.0, 1.0)), dtype=float)
+    if abs(abs(extr[2]) - np.linalg.norm(extr)) > 1e-9:
+        raise InputFileError(f"{_where(filename, e)} does not lie in an XY plane (extrusion {tuple(extr)})")
+    if extr[2] > 0:
+        return pts2d
+    # OCS of extrusion (0, 0, -1): x axis is world -x (arbitrary axis algorithm), y stays world y
+    return np.column_stack([-pts2d[:, 0], pts2d[:, 1]])
+
+
+def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth: int) -> None:
+    t = e.dxftype()
+    if t == "LINE":
+        s, n = e.dxf.start, e.dxf.end
+        out.append(np.array([[s.x, s.y], [n.x, n.y]]))
+    elif t == "LWPOLYLINE":
+        pts = np.array([(x, y, b) for x, y, b in e.get_points("xyb")], dtype=float).reshape(-1, 3)
+        out.append(_ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
+    elif t == "POLYLINE":
+        if e.is_2d_polyline:
+            pts = np.array([(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices],
+                           dtype=float).reshape(-1, 3)
+            out.append(_ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
+        elif e.is_3d_polyline:
+            pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in e.vertices], dtype=float).reshape(-1, 2)
+            if e.is_closed and len(pts):
+                pts = np.vstack([pts, pts[:1]])
+            out.append(pts)
+        else:
+            raise InputFileError(f"{_where(filename, e)}: polyface/polygon-mesh POLYLINEs are surfaces, not sketch curves")
+    elif t in ("ARC", "CIRCLE"):
+        r = float(e.dxf.radius)
+        if not r > 0:
+            raise InputFileError(f"{_where(filename, e)}: radius must be > 0 (got {r})")
+        c = e.dxf.center
+        if t == "CIRCLE":
+            start, sweep = 0.0, 2 * math.pi
+        else:
+            start = math.radians(e.dxf.start_angle)
+            sweep = math.radians((e.dxf.end_angle - e.dxf.start_angle) % 360.0) or 2 * math.pi
+        pts = arc_points((c.x, c.y), r, start, sweep, tol)
+        if t == "CIRCLE":
+            pts[-1] = pts[0]
+        out.append(_ocs_to_xy(e, pts, filename))
+    elif t in ("ELLIPSE", "SPLINE"):
+        try:
+            pts = np.array([(v.x, v.y) for v in e.flattening(tol)], dtype=float)
+        except Exception as exc:  # ezdxf raises construction errors for degenerate curves
+            raise InputFileError(f"{_where(filename, e)}: cannot be discretised: {exc}") from exc
+        out.append(pts)
+    elif t == "INSERT":
+        if depth > 16:
+            raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
+        for sub in e.virtual_entities():
+            _entity_curves(sub, filename, tol, out, skipped, depth + 1)
+    else:
+        skipped[t] = skipped.get(t, 0) + 1
+
+
+def _bulge_polyline(pts: np.ndarray, closed: bool, tol: float, filename: str, e) -> np.ndarray:
+    """(n, 3) rows (x, y, bulge) → (k, 2) polyline with bulge arcs discretised."""
+    if len(pts) < 2:
+        raise InputFileError(f"{_where(filename, e)}: has {len(pts)} vertex; a curve needs at least 2")
+    n = len(pts)
+    seg_count = n if closed else n - 1
+    parts = [pts[:1, :2]]
+    for i in range(seg_count):
+        a, b = pts[i], pts[(i + 1) % n]
+        seg = bulge_points(a[:2], b[:2], float(a[2]), tol)
+        parts.append(seg[1:])
+    out = np.vstack(parts)
+    if closed:
+        out[-1] = out[0]
+    return out

