@@ -138,3 +138,10 @@ def test_uncovered_area_is_warned_per_layer_in_percent(tmp_path):
     ws = [w for w in res.warnings if w["node"] == "mask"]
     assert [w["layer"] for w in ws] == [0, 1, 2]
     assert ws[0]["message"].startswith("40.0 % of the layer area (240.0 mm²)")
+
+
+def test_params_for_unknown_sections_are_warned(tmp_path):
+    rec = recipe([BS1], zone={"sections": {"bs1/Z": {"start_length": 3}}}, count=2, order=["bs1/A", "nope"])
+    res = run(rec, tmp_path)
+    msgs = sorted((w["node"], w["section"]) for w in res.warnings if "matches no section" in w["message"])
+    assert msgs == [("seq", "nope"), ("zone", "bs1/Z")]

@@ -242,7 +242,13 @@ class ZoneNode(LayerNode):
             layers.append(LayerPaths(lp.layer, tuple(apply_zone_params(sp, vals.get(sp.key, {})) for sp in lp.sections),
                                      lp.dwell_after_s))
         toolpath = Layered(tuple(layers))
-        if table is not None and all(lp is not None for lp in layers):
+        full = all(lp is not None for lp in layers)
+        if full:
+            seen = {sp.key for lp in layers for sp in lp.sections}
+            for key in params.sections:
+                if key not in seen:
+                    ctx.warn(f"zoning for {key!r} matches no section", section=key)
+        if table is not None and full:
             present = {(lp.index, sp.key, z) for lp in layers for sp in lp.sections for z in sp.zone_colors}
             for key in table.values:
                 if key not in present:
@@ -292,6 +298,11 @@ class SequenceNode(LayerNode):
         return {"toolpath": items["toolpath"]}
 
     def combine(self, ctx, params, outputs, inputs):
+        if not isinstance(params.order, str) and all(lp is not None for lp in outputs["toolpath"]):
+            seen = {sp.key for lp in outputs["toolpath"] for sp in lp.sections}
+            for key in params.order:
+                if key not in seen:
+                    ctx.warn(f"order lists {key!r}, which matches no section", section=key)
         layers, _ = sequence_part(list(outputs["toolpath"]), order=params.order,
                                   retract_height=params.retract_height, alternate=params.alternate,
                                   dwell_after_s=params.dwell)
