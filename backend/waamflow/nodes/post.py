@@ -1,0 +1,121 @@
+"""post-process: the zoned toolpath → a G-code / KUKA KRL / ABB RAPID program or a CL file.
+
+A thin adapter over `waamflow.program`; every number and code of the output is a parameter here.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, field_validator
+
+from ..core.errors import RecipeError
+from ..engine.node import Node, NodeParams, register, unit
+from ..engine.ports import Port
+from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
+from ..program.common import check_templates
+
+_NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
+
+
+@register
+class PostProcess(Node):
+    """Write the toolpath as a machine/robot program, chosen by `format`.
+
+    - `gcode` (gantry/CNC WAAM): absolute mm, G0 travel, G1 deposition with F in mm/min from each
+      zone's speed, optional G2/G3 arc fitting, `arc_on`/`arc_off` codes (default M3/M5, the ORNL
+      Slicer 2 wire-arc convention), G4 dwell after every ignition and between layers, per-zone
+      process commands from `process_codes` templates, M30. Artifact `<node>.gcode`.
+    - `krl` (KUKA): `<node>.src` + `<node>.dat` — LIN/CIRC, $VEL.CP per zone (m/s), $APO.CDIS +
+      C_DIS blending, arc by digital output (TRIGGER) or ArcTech-style calls, E6POS from the tool
+      axis; split into subprograms per layer / per N points (`<node>.L003.src`, ...).
+    - `rapid` (ABB): `<node>.mod` — MoveL travel, ArcLStart/ArcL/ArcLEnd with seamdata/welddata
+      per zone, zonedata from the blend distance, WaitTime for dwell.
+    - `csv`: cutter-location file `<node>.csv`, one row per point (x, y, z, tool axis, speed,
+      arc, layer, section, zone, dwell).
+    Ignition dwell: the zone's `dwell` parameter when it has one, else `ignition_dwell`.
+    """
+
+    type = "post-process"
+    title = "Post-process"
+    category = "program"
+    inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
+    outputs = (Port("program", "program", "Program text files and statistics"),)
+    version = "1"
+
+    class Params(NodeParams):
+        format: Literal["gcode", "krl", "rapid", "csv"] = Field("gcode", description="Program format")
+        program_name: str = Field("waamflow", pattern=_NAME, max_length=24,
+                                  description="Program / module name written into the program (KRL: ≤ 16 characters when split)")
+        ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
+                                      description="Dwell after each arc ignition when the zone has no `dwell` parameter")
+        arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
+                                     description="Arc fitting tolerance (G2/G3, CIRC, ArcC); 0 = off, every point a linear move")
+        travel_speed: float = Field(100.0, gt=0, le=2000, json_schema_extra=unit("mm/s"),
+                                    description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate")
+        blend_distance: float = Field(1.0, ge=0, le=100, json_schema_extra=unit("mm"),
+                                      description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius; 0 = exact stops")
+        # G-code
+        arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on")
+        arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off")
+        dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller")
+        rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)")
+        process_codes: dict[str, str] = Field(
+            default_factory=dict,
+            description="G-code / KRL output mode: zone parameter name → command template using {value}, "
+                        "e.g. {\"wire_feed_speed\": \"M100 S{value:.1f}\", \"job\": \"M101 P{value:.0f}\"}")
+        # KUKA KRL
+        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
+        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")
+        arc_control: Literal["output", "arctech"] = Field(
+            "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF")
+        arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc")
+        max_points_per_file: int = Field(0, ge=0, le=1_000_000,
+                                         description="KRL: most motions per file, 0 = no limit (main program calls subprograms)")
+        split_per_layer: bool = Field(False, description="KRL: one subprogram per layer")
+        # ABB RAPID
+        tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name")
+        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32, description="RAPID: wobjdata name")
+        # robots
+        tool_direction: Literal["default", "x", "z"] = Field(
+            "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
+
+        @field_validator("process_codes")
+        @classmethod
+        def _templates(cls, v: dict[str, str]) -> dict[str, str]:
+            return check_templates(v)
+
+    def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
+        plan = PlanSettings(ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance,
+                            travel_speed=params.travel_speed)
+        try:
+            writer = _writer_settings(params)
+        except ValueError as err:
+            raise RecipeError(str(err)) from err
+        program = post_process(inputs["toolpath"], params.format, plan, writer)
+        if program.stats.get("points", 0) == 0:
+            ctx.warn("the toolpath has no points: the program has no motions")
+        return {"program": program}
+
+    def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
+        program: Program = outputs["program"]
+        return dict(program.files)
+
+
+def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:
+    direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
+    if p.format == "gcode":
+        return GcodeSettings(program_name=p.program_name, arc_on=p.arc_on, arc_off=p.arc_off,
+                             dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
+                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes))
+    if p.format == "krl":
+        return KrlSettings(program_name=p.program_name, tool=p.tool_number, base=p.base_number,
+                           blend_distance=p.blend_distance, travel_speed=p.travel_speed,
+                           arc_control=p.arc_control, arc_output=p.arc_output,
+                           tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
+                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes))
+    if p.format == "rapid":
+        return RapidSettings(program_name=p.program_name, tool=p.tool_name, wobj=p.wobj_name,
+                             blend_distance=p.blend_distance, travel_speed=p.travel_speed,
+                             tool_direction=direction or "z")
+    return None

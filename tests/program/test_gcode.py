@@ -1,0 +1,122 @@
+"""G-code writer + parser: the program read back reproduces the toolpath's deposition."""
+
+import re
+
+import numpy as np
+import pytest
+
+from waamflow.core.moves import flatten
+from waamflow.program import GcodeSettings, PlanSettings, parse_gcode, post_process
+
+from conftest import SPEED, ZONE_PARAMS, build_toolpath
+from helpers import arc_runs, polyline_length
+
+
+@pytest.fixture(scope="module")
+def moves():
+    return flatten(build_toolpath())
+
+
+def _expected_ignition_dwell(moves, a, default=0.5):
+    return moves.zone_params[(int(moves.section[a]), int(moves.zone[a]))].get("dwell", default)
+
+
+@pytest.mark.parametrize("tol", [0.0, 0.05])
+def test_round_trip_deposition(moves, tol):
+    prog = post_process(moves, "gcode", PlanSettings(ignition_dwell=0.5, arc_tolerance=tol))
+    parsed = parse_gcode(prog.files["gcode"])
+    runs = arc_runs(moves)
+    assert len(runs) == 15  # 3 layers × (wall 1 + ring 1 + raster 3 passes)
+    assert len(parsed.runs) == len(runs)
+    assert parsed.ignitions == parsed.extinctions == len(runs)
+    assert parsed.ended
+    for (a, b), run in zip(runs, parsed.runs):
+        want = moves.points[a : b + 1]
+        assert np.allclose(run.points[0], want[0], atol=1e-3) and np.allclose(run.points[-1], want[-1], atol=1e-3)
+        assert abs(run.length - polyline_length(want)) <= 0.005 * polyline_length(want)
+        assert run.ignition_dwell_s == pytest.approx(_expected_ignition_dwell(moves, a))
+        if tol == 0.0:  # one G1 per point: same vertices, feed = segment speed × 60
+            assert run.points.shape == want.shape
+            assert np.allclose(run.points, want, atol=1e-3)
+            assert np.allclose(run.feed_mm_min, moves.speed[a:b] * 60.0)
+    total = sum(polyline_length(moves.points[a : b + 1]) for a, b in runs)
+    assert parsed.deposition_length_mm == pytest.approx(total, rel=0.005)
+    assert prog.stats["deposition_length_mm"] == pytest.approx(total, abs=1e-3)
+
+
+def test_feeds_are_zone_speeds_and_interlayer_dwell(moves):
+    text = post_process(moves, "gcode").files["gcode"]
+    feeds = {float(f) for f in re.findall(r"^G1 .*F([\d.]+)", text, re.M)}
+    assert feeds == {v * 60.0 for v in SPEED.values()}  # 300, 360, 420 mm/min
+    parsed = parse_gcode(text)
+    off_dwells = [s for _, s, on in parsed.dwells if not on]
+    assert off_dwells == [20.0, 20.0]  # between layers 0→1 and 1→2 (none after the last)
+    on_dwells = [s for _, s, on in parsed.dwells if on]
+    assert len(on_dwells) == 15 and on_dwells.count(0.8) == 9  # zone "start" dwell 0.8 s
+    assert text.rstrip().endswith("M30 ; end of program")
+    assert "G21" in text and "G90" in text and "G17" not in text
+    assert len(re.findall(r"^G0 ", text, re.M)) == int(np.sum(moves.kind == 0)) + 1
+
+
+def test_every_ignition_followed_by_dwell_in_ms():
+    text = post_process(build_toolpath(), "gcode", PlanSettings(ignition_dwell=1.25),
+                        GcodeSettings(arc_on="M101 P1", arc_off="M103", dwell_units="ms")).files["gcode"]
+    lines = [l.split(";")[0].strip() for l in text.splitlines()]
+    lines = [l for l in lines if l]
+    ons = [i for i, l in enumerate(lines) if l == "M101 P1"]
+    assert len(ons) == 15
+    assert all(re.fullmatch(r"G4 P\d+", lines[i + 1]) for i in ons)
+    assert {lines[i + 1] for i in ons} == {"G4 P800", "G4 P1250"}
+    parsed = parse_gcode(text)  # codes and units read from the header line
+    assert parsed.ignitions == 15 and parsed.extinctions == 15
+    assert sorted({r.ignition_dwell_s for r in parsed.runs}) == [0.8, 1.25]
+
+
+def test_process_codes_where_zone_changes(moves):
+    codes = {"wire_feed_speed": "M100 S{value:.1f}", "job": "M99 P{value:.0f}", "current": "M98 S{value:.0f}"}
+    text = post_process(moves, "gcode", writer_settings=GcodeSettings(process_codes=codes)).files["gcode"]
+    # each section path has 3 zones; each (section, zone) change among arc-on segments restates them
+    assert text.count("M100 S11.0") == 9 and text.count("M100 S10.0") == 9 and text.count("M100 S8.5") == 9
+    assert text.count("M99 P12") == 9  # only the start zone has a job number
+    assert text.count("M98 S220") == 9
+    # commands come before the arc on of a run
+    first = text.index("M100 S11.0")
+    assert first < text.index("M3 ; arc on")
+    assert "; zone start: current 220 A, voltage 21 V, wire_feed_speed 11 m/min" in text
+
+
+def test_arc_fitting_emits_g2_g3():
+    moves = flatten(build_toolpath(1))
+    prog = post_process(moves, "gcode", PlanSettings(arc_tolerance=0.05))
+    text = prog.files["gcode"]
+    g3 = re.findall(r"^G3 X([\d.-]+) Y([\d.-]+) Z[\d.-]+ I([\d.-]+) J([\d.-]+)", text, re.M)
+    assert len(g3) == 3 and "G2 " not in text  # the counter-clockwise half ring, one arc per zone
+    assert "G17" in text
+    assert prog.stats["motions"] == prog.stats["points"] - 24 + 3
+    # I/J point from each arc start to the centre (20, 30); zone arcs start at ring points 0, 8, 16
+    for k, (x, y, i, j) in enumerate(g3):
+        a = np.radians(-90 + 8 * k * 7.5)
+        assert (float(i), float(j)) == pytest.approx((-15 * np.cos(a), -15 * np.sin(a)), abs=1e-3)
+        b = np.radians(-90 + 8 * (k + 1) * 7.5)
+        assert (float(x), float(y)) == pytest.approx((20 + 15 * np.cos(b), 30 + 15 * np.sin(b)), abs=1e-3)
+
+
+def test_travel_as_feed_and_invalid_settings(moves):
+    text = post_process(moves, "gcode", writer_settings=GcodeSettings(rapid_travel=False, travel_speed=50)).files["gcode"]
+    assert not re.search(r"^G0 ", text, re.M)
+    assert "F3000" in text
+    with pytest.raises(ValueError):
+        GcodeSettings(dwell_units="min")
+    with pytest.raises(ValueError):
+        GcodeSettings(arc_on="M3 ; on")
+    with pytest.raises(ValueError):
+        GcodeSettings(process_codes={"speed": "M1 {value}"})
+    with pytest.raises(ValueError):
+        GcodeSettings(process_codes={"current": "M1 {other}"})
+
+
+def test_empty_toolpath():
+    from waamflow.core.model import Layered
+    prog = post_process(Layered(()), "gcode")
+    parsed = parse_gcode(prog.files["gcode"])
+    assert parsed.runs == () and parsed.ended and prog.stats["points"] == 0
