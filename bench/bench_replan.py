@@ -105,7 +105,7 @@ def _recipe(tmp: Path, count: int, split_y: float, real: bool) -> dict:
         strategy = {"id": "strategy", "type": "bench-pass", "params": {}}
     nodes = head + [
         {"id": "mask", "type": "mask", "params": {"masks": [{"id": "bs1", "from_layer": 0, "sections": [
-            {"id": "A", "curve": rect(-7, -62, 7, 62)}, {"id": "B", "curve": rect(-62, -7, -6, 7)},
+            {"id": "A", "curve": rect(-6, -62, 6, 62)}, {"id": "B", "curve": rect(-62, -7, -6, 7)},
             {"id": "C", "curve": rect(6, -7, 62, 7)}]}]}},
         {"id": "guide", "type": "guide", "params": {"guides": {"bs1/A": [[0, -66], [0, 66]], "bs1/B": [[-66, 0], [-3, 0]],
                                                                "bs1/C": [[3, 0], [66, 0]]}}},
