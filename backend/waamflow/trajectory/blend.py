@@ -1,0 +1,156 @@
+"""Corner blending: the geometric path a CP controller really interpolates through a polyline.
+
+Model (robot-modelling-notes.md, "Corner blending model"): at every vertex that is not an exact
+stop, the vertex is replaced by a tangent curve that starts d before and ends d after it, with
+
+    d = min(CDIS, d_min + v·apo_time, L_prev/2, L_next/2)   (KUKA `C_DIS`, mode "cdis")
+    d = min(zone, L_prev/2, L_next/2)                     (ABB zonedata `zN`, mode "zone")
+
+The KUKA curve is a circular arc (radius r = d / tan(α/2) for a turn angle α), the ABB "corner
+path" a parabola. Both are written as one rational quadratic Bézier with control point at the
+vertex and middle weight w = cos(α/2) (arc) or 1 (parabola). The corner speed cap is
+
+    v_c = min(v_prev, v_next, √(a_n·r), (j_n·r²)^(1/3))
+
+with r the curve's smallest radius of curvature (arc: d/tan(α/2); parabola: d·cos²(α/2)/sin(α/2)).
+
+All arrays are world mm. Pure numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+CURVE_POINTS = 9  # samples per blend curve (odd: the middle one is the curve's apex)
+
+
+@dataclass(frozen=True, eq=False)
+class BlendedPath:
+    """The geometric path through a polyline with blended corners.
+
+    points: (m, 3) float dense polyline of the blended path, mm. s: (m,) cumulative arc length, mm.
+    seg: (m,) int programmed segment each dense point belongs to.
+    d: (n,) blend distance at each programmed vertex (0 at stops and the two ends), mm.
+    radius: (n,) smallest radius of curvature of each blend (inf where none), mm.
+    cap: (n,) corner speed cap, mm/s (0 at stops).
+    s_in / s_out: (n,) arc length where each vertex's blend starts / ends, mm (equal without blend).
+    """
+
+    points: np.ndarray
+    s: np.ndarray
+    seg: np.ndarray
+    d: np.ndarray
+    radius: np.ndarray
+    cap: np.ndarray
+    s_in: np.ndarray
+    s_out: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(self.s[-1]) if len(self.s) else 0.0
+
+    def at(self, s: np.ndarray) -> np.ndarray:
+        """(k,) arc lengths → (k, 3) points on the blended path (linear between dense samples)."""
+        return np.column_stack([np.interp(s, self.s, self.points[:, i]) for i in range(3)])
+
+
+def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode: str = "cdis",
+               distance: float = 5.0, apo_time_s: float = np.inf, apo_min_mm: float = 0.0, normal_acc: float = np.inf,
+               normal_jerk: float = np.inf) -> BlendedPath:
+    """Blend the corners of a polyline.
+
+    points: (n, 3) mm, no zero-length segments. speed: (n-1,) programmed mm/s per segment.
+    stop: (n,) bool, exact stop at the vertex (arc switch, dwell, ends). mode: "cdis" | "zone".
+    distance: CDIS or zone radius, mm (0 = exact stop everywhere).
+    """
+    P = np.asarray(points, dtype=float)
+    n = len(P)
+    D = np.diff(P, axis=0)
+    L = np.linalg.norm(D, axis=1)
+    U = D / L[:, None]
+    d = np.zeros(n)
+    alpha = np.zeros(n)
+    cap = np.zeros(n)
+    radius = np.full(n, np.inf)
+    if n > 2:
+        u1, u2 = U[:-1], U[1:]
+        alpha[1:-1] = np.arccos(np.clip(np.einsum("ij,ij->i", u1, u2), -1.0, 1.0))
+        v_prev, v_next = speed[:-1], speed[1:]
+        dk = np.minimum.reduce([np.full(n - 2, float(distance)), L[:-1] / 2, L[1:] / 2])
+        if mode == "cdis":
+            dk = np.minimum(dk, apo_min_mm + apo_time_s * np.minimum(v_prev, v_next))
+        turn = alpha[1:-1]
+        dk = np.where(turn > 1e-9, dk, 0.0)
+        half = turn / 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if mode == "cdis":
+                r = np.where(dk > 0, dk / np.tan(half), np.inf)
+            else:
+                r = np.where(dk > 0, dk * np.cos(half) ** 2 / np.sin(half), np.inf)
+            vc = np.minimum.reduce([v_prev, v_next, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
+        # no blend possible at a real corner (distance 0) = exact stop
+        vc = np.where((dk <= 0) & (turn > 1e-9), 0.0, vc)
+        d[1:-1], radius[1:-1], cap[1:-1] = dk, r, vc
+    st = np.asarray(stop, dtype=bool).copy()
+    st[0] = st[-1] = True
+    d[st] = 0.0
+    cap[st] = 0.0
+    radius[st] = np.inf
+
+    # dense polyline: P0, then CURVE_POINTS per interior vertex, then P[n-1]
+    m = CURVE_POINTS
+    t = np.linspace(0.0, 1.0, m)
+    if n > 2:
+        V = P[1:-1]
+        A = V - d[1:-1, None] * U[:-1]
+        B = V + d[1:-1, None] * U[1:]
+        w = np.cos(alpha[1:-1] / 2) if mode == "cdis" else np.ones(n - 2)
+        b0 = (1 - t) ** 2
+        b1 = 2 * t * (1 - t)
+        b2 = t ** 2
+        num = (b0[None, :, None] * A[:, None, :] + (w[:, None] * b1[None, :])[:, :, None] * V[:, None, :]
+               + b2[None, :, None] * B[:, None, :])
+        den = b0[None, :] + w[:, None] * b1[None, :] + b2[None, :]
+        curves = (num / den[:, :, None]).reshape(-1, 3)
+        seg_c = np.repeat(np.arange(n - 2), m) + (np.tile(t, n - 2) > 0.5)
+    else:
+        curves = np.zeros((0, 3))
+        seg_c = np.zeros(0, dtype=int)
+    dense = np.vstack([P[:1], curves, P[-1:]])
+    seg = np.concatenate([[0], seg_c, [n - 2]]).astype(np.int64)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
+    s_in = np.zeros(n)
+    s_out = np.zeros(n)
+    if n > 2:
+        idx0 = 1 + np.arange(n - 2) * m
+        s_in[1:-1] = s[idx0]
+        s_out[1:-1] = s[idx0 + m - 1]
+    s_in[-1] = s_out[-1] = s[-1]
+    return BlendedPath(dense, s, seg, d, radius, cap, s_in, s_out)
+
+
+def polyline_distance(q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Distance from each query point to a polyline, searching segments near a guess.
+
+    q: (k, 3) mm. points: (n, 3) polyline. near: (k,) int guessed segment per query point.
+    Checks segments near-reach … near+reach. Returns (distance (k,) mm, segment index (k,)).
+    """
+    P = np.asarray(points, dtype=float)
+    nseg = len(P) - 1
+    best = np.full(len(q), np.inf)
+    best_i = np.asarray(near, dtype=np.int64).copy()
+    for off in range(-reach, reach + 1):
+        i = np.clip(near + off, 0, nseg - 1)
+        a, b = P[i], P[i + 1]
+        ab = b - a
+        ll = np.einsum("ij,ij->i", ab, ab)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tt = np.where(ll > 0, np.einsum("ij,ij->i", q - a, ab) / ll, 0.0)
+        tt = np.clip(tt, 0.0, 1.0)
+        dist = np.linalg.norm(q - (a + tt[:, None] * ab), axis=1)
+        better = dist < best
+        best = np.where(better, dist, best)
+        best_i = np.where(better, i, best_i)
+    return best, best_i

@@ -1,0 +1,115 @@
+"""The study's closed-form cycle-time model — an instant estimate shown beside the simulation.
+
+da Silva Viola et al. 2023 (robot-study.md, "The paper's cycle-time model"), for n passes of
+length L at travel speed TS:
+
+    T_total = T_init_accel + T_init_const + (n − 1)·T_trans + (n − 2)·T_straight_const
+              + T_final_const + T_final_decel
+    T_init_const     = (L − L_init_accel − L_decel)/TS
+    T_straight_const = (L − L_accel − L_decel)/TS
+    T_final_const    = (L − L_accel − L_final_decel)/TS
+
+The kinematic parameters (T_init_accel, L_init_accel, L_decel, L_accel, T_trans, L_final_decel,
+T_final_decel) were identified on the triangular 45° strategy at 10 and 40 mm/s, arc ON
+throughout ("on") or OFF outside the OR ("off"); they live in the robot profile's `time_model`.
+Other speeds interpolate linearly between the identified ones (clamped outside).
+
+For a general toolpath the model is applied per section: passes are maximal runs of straight,
+collinear, arc-ON segments inside the section; everything between two passes is a transition;
+travel between sections is counted at the travel speed, dwells as they are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.moves import DEPOSIT, Moves
+
+KEYS = ("T_init_accel", "L_init_accel", "L_decel", "L_accel", "T_trans", "L_final_decel", "T_final_decel")
+
+
+def cycle_time(n: int, L: float, TS: float, p: dict[str, float]) -> float:
+    """The paper's T_total (s) for n ≥ 1 passes of length L (mm) at TS (mm/s)."""
+    if n == 1:
+        return p["T_init_accel"] + (L - p["L_init_accel"] - p["L_final_decel"]) / TS + p["T_final_decel"]
+    t_init = (L - p["L_init_accel"] - p["L_decel"]) / TS
+    t_str = (L - p["L_accel"] - p["L_decel"]) / TS
+    t_fin = (L - p["L_accel"] - p["L_final_decel"]) / TS
+    return p["T_init_accel"] + t_init + (n - 1) * p["T_trans"] + (n - 2) * t_str + t_fin + p["T_final_decel"]
+
+
+def model_params(time_model: dict, speed: float, protocol: str) -> dict[str, float]:
+    """Identified parameters at `speed` (mm/s) for protocol "on"/"off", interpolated in speed."""
+    table = {}
+    for key, vals in time_model.items():
+        sp, prot = key.split("_")
+        if prot == protocol:
+            table[float(sp)] = vals
+    if not table:
+        raise ValueError(f"robot profile has no time_model entries for protocol {protocol!r}")
+    speeds = sorted(table)
+    return {k: float(np.interp(speed, speeds, [table[s][k] for s in speeds])) for k in KEYS}
+
+
+@dataclass(frozen=True)
+class Estimate:
+    total_time_s: float
+    passes: int
+    sections: int
+    method: str = "closed-form (da Silva Viola et al. 2023)"
+
+    def as_dict(self) -> dict[str, float]:
+        return {"estimate_total_time_s": self.total_time_s, "estimate_passes": float(self.passes)}
+
+
+def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0) -> Estimate:
+    """Closed-form estimate of a whole program (see module doc)."""
+    P = moves.points
+    if len(P) < 2:
+        return Estimate(0.0, 0, 0)
+    L = moves.segment_lengths
+    U = np.diff(P, axis=0) / np.maximum(L, 1e-12)[:, None]
+    total = float(moves.dwell_before.sum())
+    n_pass_all = 0
+    sections = 0
+    cos_tol = np.cos(np.radians(collinear_deg))
+    for sec in np.unique(moves.section):
+        idx = np.flatnonzero(moves.section == sec)
+        dep = idx[moves.kind[idx] == DEPOSIT]
+        trav = idx[moves.kind[idx] != DEPOSIT]
+        total += float(L[trav].sum()) / travel_speed
+        if len(dep) == 0:
+            continue
+        sections += 1
+        is_pass = moves.arc[dep] & moves.inside[dep]
+        protocol = "off" if np.any(~moves.arc[dep]) else "on"
+        speed = float(np.nanmedian(np.where(is_pass, moves.speed[dep], np.nan))) if is_pass.any() else float(np.nanmedian(moves.speed[dep]))
+        if not np.isfinite(speed) or speed <= 0:
+            speed = travel_speed
+        # passes: runs of straight collinear pass segments
+        lengths = []
+        cur = 0.0
+        for k, i in enumerate(dep):
+            if is_pass[k]:
+                if cur > 0 and k > 0 and is_pass[k - 1] and U[dep[k - 1]] @ U[i] >= cos_tol:
+                    cur += L[i]
+                else:
+                    if cur > 0:
+                        lengths.append(cur)
+                    cur = L[i]
+            else:
+                if cur > 0:
+                    lengths.append(cur)
+                cur = 0.0
+        if cur > 0:
+            lengths.append(cur)
+        n = len(lengths)
+        if n == 0:
+            total += float(L[dep].sum()) / speed
+            continue
+        p = model_params(time_model, speed, protocol)
+        total += cycle_time(n, float(np.mean(lengths)), speed, p)
+        n_pass_all += n
+    return Estimate(total, n_pass_all, sections)

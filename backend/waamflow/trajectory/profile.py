@@ -1,0 +1,136 @@
+"""Robot controller profile: every constant of the motion model, loaded from a JSON file.
+
+Nothing the controller model uses is hard-coded in Python: path acceleration/jerk, corner limits,
+the interpolation cycle, the smoothing filter, arc-switch timing, backlash all live in a profile
+file under `waamflow/data/robots/<name>.json` (or any user file with the same keys).
+
+Units: mm, s, mm/s, mm/s², mm/s³.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+
+from ..core.errors import InputFileError
+
+ROBOTS_DIR = Path(__file__).resolve().parent.parent / "data" / "robots"
+
+
+@dataclass(frozen=True)
+class RobotProfile:
+    """Constants of the controller model (see `trajectory.controller` for how each one is used).
+
+    path_acc: max tangential (path) acceleration, mm/s². path_jerk: max path jerk, mm/s³.
+    normal_acc: max centripetal acceleration in blends, mm/s² (corner cap √(a_n·r)).
+    normal_jerk: max normal jerk in blends, mm/s³ (corner cap (j_n·r²)^(1/3)).
+    smoothing_s: length of the controller's moving-average (FIR) position filter, s — the KRC's
+        ramp smoothing / servo lag; it makes corner cuts grow with speed and adds a fixed
+        time to every acceleration (the study's T_init_accel 0.144 s at 10 mm/s vs 0.204 s at
+        40 mm/s cannot both come from an acceleration limit alone).
+    apo_time_s / apo_min_mm: the approximation ("blend") starts no farther from the vertex than
+        apo_min_mm + v·apo_time_s (v programmed speed), so d = min(CDIS, apo_min_mm +
+        v·apo_time_s, L_prev/2, L_next/2), mm — the study's 2.95° corner error is 0.8 mm at
+        10 mm/s but 1.8 mm at 40 mm/s with the same CDIS.
+    interpolation_cycle_s: controller interpolation cycle (KRC2: 12 ms).
+    arc_switch_dwell_s: standstill added at every arc ON/OFF switch (advance-run stop + I/O).
+    arc_on_delay_s / arc_off_delay_s: delay from the switch command (issued at the stop) to the
+        arc really being ON / OFF; positive values leak into the following motion.
+    backlash_start_mm / backlash_end_mm: transverse offset right after a start / before a stop
+        (study: +0.2 / −0.1 mm on a 100 mm line at 40 mm/s), decaying over smoothing_s.
+    travel_speed: speed of arc-OFF moves that carry no speed, mm/s.
+    max_speed: robot's max TCP path speed, mm/s.
+    description: robot model file (URDF) in the robots folder for kinematics, "" = none.
+    tool_rpy_deg / base_xyz etc. are defaults of the node params.
+    time_model: the study's identified parameters of the closed-form cycle-time model keyed by
+        "<speed>_<protocol>" (protocol "on" = arc ON throughout, "off" = arc OFF outside).
+    notes: how the constants were obtained.
+    """
+
+    name: str
+    path_acc: float = 500.0
+    path_jerk: float = 50000.0
+    normal_acc: float = 500.0
+    normal_jerk: float = 20000.0
+    smoothing_s: float = 0.11
+    apo_time_s: float = 0.1
+    apo_min_mm: float = 0.0
+    interpolation_cycle_s: float = 0.012
+    arc_switch_dwell_s: float = 0.0
+    arc_on_delay_s: float = 0.0
+    arc_off_delay_s: float = 0.0
+    backlash_start_mm: float = 0.0
+    backlash_end_mm: float = 0.0
+    travel_speed: float = 100.0
+    max_speed: float = 2000.0
+    description: str = ""
+    tcp_offset_mm: tuple[float, float, float] = (0.0, 0.0, 400.0)
+    base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
+    time_model: dict = field(default_factory=dict)
+    notes: str = ""
+
+    # names of the constants a calibration may fit (all positive floats)
+    FITTABLE = ("path_acc", "path_jerk", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
+                "apo_min_mm", "arc_switch_dwell_s", "arc_on_delay_s", "arc_off_delay_s")
+
+    def with_values(self, **kw) -> "RobotProfile":
+        return replace(self, **kw)
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["tcp_offset_mm"] = list(self.tcp_offset_mm)
+        d["base_xyz_mm"] = list(self.base_xyz_mm)
+        return d
+
+
+def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
+    known = {f.name for f in fields(RobotProfile)}
+    unknown = sorted(set(d) - known - {"comment", "fit"})
+    if unknown:
+        raise InputFileError(f"{source}: unknown robot profile keys {unknown}")
+    kw = {k: v for k, v in d.items() if k in known}
+    for k in ("tcp_offset_mm", "base_xyz_mm"):
+        if k in kw:
+            kw[k] = tuple(float(x) for x in kw[k])
+    kw.setdefault("name", Path(source).stem)
+    try:
+        prof = RobotProfile(**kw)
+    except TypeError as e:  # pragma: no cover - guarded by the key check
+        raise InputFileError(f"{source}: {e}") from e
+    for k in RobotProfile.FITTABLE + ("interpolation_cycle_s", "travel_speed", "max_speed"):
+        v = getattr(prof, k)
+        if not isinstance(v, (int, float)) or v < 0:
+            raise InputFileError(f"{source}: robot profile value {k}={v!r} must be a number ≥ 0")
+    if prof.interpolation_cycle_s <= 0 or prof.path_acc <= 0 or prof.path_jerk <= 0:
+        raise InputFileError(f"{source}: interpolation_cycle_s, path_acc and path_jerk must be > 0")
+    return prof
+
+
+def shipped_profiles() -> list[str]:
+    """Names of the profiles shipped in waamflow/data/robots (files with a `path_acc` key)."""
+    out = []
+    for p in sorted(ROBOTS_DIR.glob("*.json")):
+        try:
+            if "path_acc" in json.loads(p.read_text()):
+                out.append(p.stem)
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def load_profile(name_or_path: str, text: str | None = None) -> RobotProfile:
+    """A shipped profile by name ("kuka_kr100ha_krc2"), or a JSON file's text (`text` given)."""
+    if text is None:
+        path = ROBOTS_DIR / f"{name_or_path}.json"
+        if not path.exists():
+            raise InputFileError(
+                f"unknown robot profile {name_or_path!r}; shipped: {', '.join(shipped_profiles())}")
+        text = path.read_text()
+    try:
+        d = json.loads(text)
+    except ValueError as e:
+        raise InputFileError(f"robot profile {name_or_path}: invalid JSON ({e})") from e
+    if not isinstance(d, dict):
+        raise InputFileError(f"robot profile {name_or_path}: expected a JSON object")
+    return profile_from_dict(d, source=str(name_or_path))

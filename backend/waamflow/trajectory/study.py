@@ -1,0 +1,147 @@
+"""The study's programs (da Silva Viola et al. 2023, robot-study.md): objective-rectangle paths.
+
+Used to calibrate the shipped KUKA profile and to validate the model against the study's other
+measurements. Built as ordinary toolpaths (`SectionPath` → `flatten`), the same interface the
+simulate-robot node receives.
+
+OR of width W × length L (mm) in the plane z = `z`; passes along x (length L), spaced W_WB.
+Pass layout (robot-study.md, "Objective rectangle"): n = floor(W / W_WB); W_bound =
+(W − (n − 1)·W_WB)/2; if W_bound > 0.4·W_WB: n += 1 and recompute. Small OR → n = 5,
+W_bound = 1.89 mm; large OR → n = 10, W_bound = 1.57 mm.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..core.model import Layer, LayerPaths, Layered, SectionPath
+from ..core.moves import Moves, flatten
+
+SMALL_OR = (21.5, 43.0)   # W, L mm
+LARGE_OR = (43.0, 86.0)
+W_WB = 4.43               # pass spacing, mm
+
+
+def pass_layout(width: float, spacing: float = W_WB) -> tuple[int, float]:
+    """(number of passes, W_bound mm) per the study's rule."""
+    n = int(math.floor(width / spacing))
+    bound = (width - (n - 1) * spacing) / 2
+    if bound > 0.4 * spacing:
+        n += 1
+        bound = (width - (n - 1) * spacing) / 2
+    return n, bound
+
+
+def _moves(points, arc, inside, speed, key, z=50.0) -> Moves:
+    pts = np.column_stack([np.asarray(points, float), np.full(len(points), z)])
+    sp = SectionPath(key=key, strategy=key, points=pts, arc=np.asarray(arc, bool),
+                     inside=np.asarray(inside, bool), speed=np.asarray(speed, float))
+    layer = Layer(index=0, z=z, thickness=1.5)
+    return flatten(Layered((LayerPaths(layer, (sp,)),)))
+
+
+def raster(speed: float, size=SMALL_OR, spacing: float = W_WB) -> Moves:
+    """Raster-pass: every pass +x, arc ON; arc-OFF diagonal return to the next pass start."""
+    W, L = size
+    n, b = pass_layout(W, spacing)
+    pts = []
+    for i in range(n):
+        y = b + i * spacing
+        pts += [(0.0, y), (L, y)]
+    m = len(pts) - 1
+    arc = np.arange(m) % 2 == 0
+    return _moves(pts, arc, np.ones(m, bool), np.full(m, speed), "raster")
+
+
+def _boustrophedon_with_links(speed, size, spacing, link, arc_outside: bool, key) -> Moves:
+    W, L = size
+    n, b = pass_layout(W, spacing)
+    pts = [(0.0, b)]
+    inside: list[bool] = []
+    for i in range(n):
+        y = b + i * spacing
+        fwd = i % 2 == 0
+        pts.append((L, y) if fwd else (0.0, y))
+        inside.append(True)
+        if i < n - 1:
+            x_edge = L if fwd else 0.0
+            out = 1.0 if fwd else -1.0
+            for p in link(x_edge, y, out):
+                pts.append(p)
+                inside.append(False)
+    ins = np.asarray(inside, bool)
+    arc = ins | arc_outside
+    return _moves(pts, arc, ins, np.full(len(ins), speed), key)
+
+
+def triangular(speed: float, angle_deg: float = 45.0, arc_outside: bool = True, size=SMALL_OR,
+               spacing: float = W_WB) -> Moves:
+    """Boustrophedon linked outside the OR by an isosceles triangle (base W_WB, apex angle θ)."""
+    h = (spacing / 2) / math.tan(math.radians(angle_deg) / 2)
+
+    def link(x, y, out):
+        return [(x + out * h, y + spacing / 2), (x, y + spacing)]
+
+    return _boustrophedon_with_links(speed, size, spacing, link, arc_outside, f"triangular{angle_deg:g}")
+
+
+def semicircular(speed: float, arc_outside: bool = True, size=SMALL_OR, spacing: float = W_WB,
+                 chord_mm: float = 0.5) -> Moves:
+    """Boustrophedon linked outside the OR by half circles of diameter W_WB (G1-smooth)."""
+    r = spacing / 2
+    k = max(4, int(math.ceil(math.pi * r / chord_mm)))
+
+    def link(x, y, out):
+        ang = np.linspace(-math.pi / 2, math.pi / 2, k + 1)[1:]
+        return [(x + out * r * math.cos(a), y + r + r * math.sin(a)) for a in ang]
+
+    return _boustrophedon_with_links(speed, size, spacing, link, arc_outside, "semicircular")
+
+
+def swiping(speed: float, size=SMALL_OR, interior_deg: float = 2.95, legs: int = 16,
+            length_mm: float = 464.246) -> Moves:
+    """Swiping reconstruction: a zig-zag along x reversing with the given interior angle, inside the OR.
+
+    The study gives only the interior angle (≈ 2.95°) and the programmed length (464.246 mm on
+    the small OR). `legs` equal legs of x-extent ℓ advance δ = ℓ·tan(interior/2) each; ℓ follows
+    from the length. 16 legs (15 reversals) is what the study's own numbers imply: the measured
+    corner error at 40 mm/s (1.8 mm short of each reversal) costs ≈ 3.6 mm of length per
+    reversal, and the measured shortfall 464.246 − 411.509 = 52.7 mm ≈ 14.6 reversals.
+    """
+    W, L = size
+    tan_h = math.tan(math.radians(interior_deg) / 2)
+    ell = length_mm / legs / math.sqrt(1 + tan_h ** 2)
+    delta = ell * tan_h
+    x0 = (L - ell) / 2
+    y0 = (W - legs * delta) / 2
+    pts = [(x0 + (ell if i % 2 else 0.0), y0 + i * delta) for i in range(legs + 1)]
+    m = len(pts) - 1
+    return _moves(pts, np.ones(m, bool), np.ones(m, bool), np.full(m, speed), "swiping")
+
+
+def straight_line(speed: float, length: float = 100.0) -> Moves:
+    """A single arc-ON straight line (the study's 100 mm line)."""
+    return _moves([(0.0, 0.0), (length, 0.0)], [True], [True], [speed], "line")
+
+
+# the study's calibration table (40 mm/s, small OR) — robot-study.md
+CALIBRATION = {
+    "raster": {"total_time_s": 11.580, "actual_length_mm": 386.971, "deposited_volume_mm3": 615.133,
+               "programmed_length_mm": 387.910},
+    "swiping": {"total_time_s": 12.036, "actual_length_mm": 411.509, "deposited_volume_mm3": 1134.389,
+                "programmed_length_mm": 464.246},
+}
+
+# identified kinematic parameters of the triangular 45° case, small OR (robot-study.md)
+IDENTIFIED = {
+    (10, "on"): dict(T_init_accel=0.144, L_init_accel=0.617, L_decel=0.0, L_accel=0.0, T_trans=1.200,
+                     L_final_decel=0.806, T_final_decel=0.180),
+    (10, "off"): dict(T_init_accel=0.144, L_init_accel=0.610, L_decel=0.876, L_accel=0.0, T_trans=1.410,
+                      L_final_decel=0.807, T_final_decel=0.180),
+    (40, "on"): dict(T_init_accel=0.204, L_init_accel=4.212, L_decel=2.500, L_accel=2.200, T_trans=0.426,
+                     L_final_decel=3.862, T_final_decel=0.192),
+    (40, "off"): dict(T_init_accel=0.216, L_init_accel=4.944, L_decel=3.670, L_accel=4.387, T_trans=0.408,
+                      L_final_decel=3.807, T_final_decel=0.192),
+}
