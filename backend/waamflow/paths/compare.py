@@ -1,0 +1,114 @@
+"""Compare fill patterns on the same sections: what an engineer weighs when choosing a strategy.
+
+Per pattern: programmed length (mm), arc-ON length (mm), arc switches (ignitions + extinctions:
+each brings the robot to a full stop, robot study), length outside the sections and its share,
+time at the programmed speed (s; a lower bound — stops and corners add to it, see simulate-robot).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+from xml.sax.saxutils import escape
+
+from shapely.geometry import LineString, Polygon
+
+from .registry import PATTERNS, plan_section
+from .spec import StrategySpec
+
+
+@dataclass(frozen=True)
+class Job:
+    """One section to fill: region (layer-local polygon, mm), guide, spec, programmed speed (mm/s)."""
+
+    region: Polygon
+    guide: LineString | None
+    spec: StrategySpec
+    speed: float
+
+
+def parse_variant(text: str) -> tuple[str, dict]:
+    """'triangular:60' → ('triangular', {'angle_deg': 60.0}); 'raster' → ('raster', {})."""
+    name, _, arg = text.partition(":")
+    if name not in PATTERNS:
+        raise ValueError(f"unknown pattern {name!r} in compare; known: {', '.join(sorted(PATTERNS))}")
+    if not arg:
+        return name, {}
+    angle = float(arg)
+    if not 0.0 < angle < 180.0:
+        raise ValueError(f"compare {text!r}: angle must be in (0, 180) degrees")
+    return name, {"angle_deg": angle}
+
+
+def compare(jobs: Sequence[Job], variants: Iterable[str]) -> list[dict]:
+    """One row per variant (see module doc), summed over all jobs."""
+    rows = []
+    for text in variants:
+        name, extra = parse_variant(text)
+        total = arc_on = outside = time_s = 0.0
+        switches = 0
+        for job in jobs:
+            spec = StrategySpec.model_validate({**job.spec.model_dump(), "pattern": name, **extra})
+            path = plan_section(job.region, job.guide, spec)
+            total += path.length
+            arc_on += path.arc_on_length
+            outside += path.outside_length
+            switches += path.arc_switches
+            time_s += path.length / job.speed
+        rows.append({
+            "pattern": name,
+            "label": text,
+            "programmed_length_mm": round(total, 3),
+            "arc_on_length_mm": round(arc_on, 3),
+            "arc_switches": switches,
+            "outside_length_mm": round(outside, 3),
+            "outside_share": round(outside / total, 4) if total > 0 else 0.0,
+            "time_s": round(time_s, 3),
+        })
+    return rows
+
+
+METRICS = (
+    ("programmed_length_mm", "Programmed length", "mm"),
+    ("arc_switches", "Arc switches (full stops)", ""),
+    ("outside_share", "Share of path outside", "%"),
+    ("time_s", "Time at programmed speed", "s"),
+)
+
+
+def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
+    best = {}
+    for key, _, _ in METRICS:
+        if rows:
+            best[key] = min(rows, key=lambda r: r[key])["label"]
+    return {"sections": sections, "layers": layers, "patterns": rows, "lowest": best,
+            "units": {"programmed_length_mm": "mm", "arc_on_length_mm": "mm", "outside_length_mm": "mm",
+                      "outside_share": "1", "time_s": "s", "arc_switches": "count"}}
+
+
+def comparison_svg(rows: list[dict]) -> str:
+    """A small hand-written SVG: one panel of horizontal bars per metric, one bar per pattern."""
+    label_w, bar_w, row_h, pad = 120, 220, 16, 10
+    panel_h = 22 + row_h * max(len(rows), 1)
+    cols = 2
+    width = cols * (label_w + bar_w + 60) + pad
+    height = math.ceil(len(METRICS) / cols) * (panel_h + pad) + pad
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+           f'font-family="sans-serif" font-size="11">',
+           f'<rect width="{width}" height="{height}" fill="#ffffff"/>']
+    for m, (key, title, unit) in enumerate(METRICS):
+        x0 = pad + (m % cols) * (label_w + bar_w + 60)
+        y0 = pad + (m // cols) * (panel_h + pad)
+        out.append(f'<text x="{x0}" y="{y0 + 12}" font-weight="bold">{escape(title)}</text>')
+        values = [float(r[key]) * (100.0 if unit == "%" else 1.0) for r in rows]
+        top = max(values + [1e-12])
+        for i, (r, v) in enumerate(zip(rows, values)):
+            y = y0 + 20 + i * row_h
+            w = bar_w * v / top
+            text = f"{v:.1f}" if unit in ("mm", "s", "%") else f"{v:.0f}"
+            out.append(f'<text x="{x0}" y="{y + 11}">{escape(r["label"])}</text>')
+            out.append(f'<rect x="{x0 + label_w}" y="{y + 2}" width="{w:.1f}" height="{row_h - 4}" fill="#f8961e"/>')
+            out.append(f'<text x="{x0 + label_w + w + 4:.1f}" y="{y + 11}">{text} {escape(unit)}</text>')
+    out.append("</svg>")
+    return "\n".join(out)

@@ -1,0 +1,191 @@
+"""Section frames and pass layout shared by the pass-based patterns.
+
+A straight `Frame` puts a section in (s, t) coordinates: s along the guide's chord (the pass
+direction), t across it (left of the guide positive), origin at the guide's start, mm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Polygon
+
+from ..core.geom import default_guide
+
+#: Robot study (da Silva Viola et al. 2023, §OR definition): a pass is added while the boundary
+#: margin W_bound exceeds this fraction of the bead spacing W_WB.
+MARGIN_RATIO = 0.4
+
+#: Offsets and pass lines are nudged by this (mm) so a pass lying exactly on an inset edge still
+#: intersects it despite round-off; far below any machine resolution.
+NUDGE = 1e-6
+
+
+def pass_layout(width: float, spacing: float) -> tuple[int, float]:
+    """Pass count n_WB and boundary margin W_bound (mm) for a section `width` mm wide.
+
+    Robot study rule: n = floor(W / W_WB), W_bound = (W − (n − 1)·W_WB) / 2, and a pass is added
+    while W_bound > 0.4·W_WB (never to a zero or negative margin: a pass on
+    the boundary deposits half its bead outside). Small OR 21.5 mm → 5 passes, 1.89 mm;
+    large OR 43 mm → 10 passes, 1.57 mm.
+    """
+    if width <= 0 or spacing <= 0:
+        raise ValueError("width and spacing must be positive")
+    n = max(1, math.floor(width / spacing + 1e-9))
+    margin = (width - (n - 1) * spacing) / 2.0
+    while margin > MARGIN_RATIO * spacing and (width - n * spacing) / 2.0 > 1e-9:
+        n += 1
+        margin = (width - (n - 1) * spacing) / 2.0
+    return n, margin
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Straight pass frame: origin (2,) mm, u (2,) unit pass direction, v (2,) unit left normal."""
+
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+    def to_local(self, xy: np.ndarray) -> np.ndarray:
+        """(k, 2) layer-local x, y → (k, 2) s, t (mm)."""
+        d = np.asarray(xy, dtype=float).reshape(-1, 2) - self.origin
+        return np.column_stack([d @ self.u, d @ self.v])
+
+    def to_world(self, st: np.ndarray) -> np.ndarray:
+        """(k, 2) s, t → (k, 2) layer-local x, y (mm)."""
+        st = np.asarray(st, dtype=float).reshape(-1, 2)
+        return self.origin + st[:, :1] * self.u + st[:, 1:] * self.v
+
+    def local(self, geom):
+        return shapely.transform(geom, self.to_local)
+
+
+def guide_or_default(region: Polygon, guide: LineString | None) -> LineString:
+    return default_guide(region) if guide is None or guide.is_empty else guide
+
+
+def straight_frame(region: Polygon, guide: LineString | None) -> Frame:
+    """Frame along the chord of the guide (start → end); a curved guide gives its overall direction."""
+    g = np.asarray(guide_or_default(region, guide).coords, dtype=float)
+    d = g[-1] - g[0]
+    norm = float(np.hypot(*d))
+    if norm == 0.0:
+        raise ValueError("guide has coincident start and end")
+    u = d / norm
+    return Frame(origin=g[0].copy(), u=u, v=np.array([-u[1], u[0]]))
+
+
+def chord(local_region, t: float) -> tuple[float, float] | None:
+    """Extent (s_lo, s_hi) of the line t = const through a region in frame coordinates (first entry
+    to last exit), or None when the line misses it."""
+    x0, _, x1, _ = local_region.bounds
+    line = LineString([(x0 - 1.0, t), (x1 + 1.0, t)])
+    inter = line.intersection(local_region)
+    if inter.is_empty:
+        return None
+    xs = shapely.get_coordinates(inter)[:, 0]
+    return float(xs.min()), float(xs.max())
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One straight pass in frame coordinates: at t (mm), spanning s_lo..s_hi (mm)."""
+
+    t: float
+    s_lo: float
+    s_hi: float
+
+
+@dataclass(frozen=True)
+class PassPlan:
+    """The study's pass layout over a section: frame, passes (bottom to top in t), margin (mm)."""
+
+    frame: Frame
+    local_region: Polygon
+    passes: tuple[Pass, ...]
+    margin: float
+    width: float
+
+
+def plan_passes(region: Polygon, guide: LineString | None, spacing: float, inset: float | None = None) -> PassPlan:
+    """Lay out the study's passes across a section (any polygon, not only rectangles).
+
+    Width W = extent of the region across the pass direction; n_WB and W_bound from `pass_layout`;
+    pass k at t = t_min + W_bound + k·W_WB, spanning the region's chord at that t. With `inset`
+    (mm, e.g. W_bound for the in-section patterns) the chords are taken on the region shrunk by that
+    distance (mitred corners), so pass ends keep the same margin to the boundary as the sides.
+    """
+    frame = straight_frame(region, guide)
+    local = frame.local(region)
+    _, t_min, _, t_max = local.bounds
+    width = t_max - t_min
+    n, margin = pass_layout(width, spacing)
+    target = local
+    if inset is not None and inset > NUDGE:
+        target = local.buffer(-(inset - NUDGE), join_style="mitre")
+    passes = []
+    for k in range(n):
+        t = t_min + margin + k * spacing
+        c = chord(target, t)
+        if c is None and target is not local:
+            c = chord(local, t)
+        if c is not None:
+            passes.append(Pass(t, c[0], c[1]))
+    if not passes:
+        raise ValueError("no pass fits the section")
+    return PassPlan(frame, local, tuple(passes), margin, width)
+
+
+def unit_tangent(line: LineString, s: float, h: float) -> np.ndarray:
+    """(2,) unit tangent of a polyline at arc length s (mm), central difference over ±h (mm)."""
+    a = np.asarray(line.interpolate(max(s - h, 0.0)).coords[0])
+    b = np.asarray(line.interpolate(min(s + h, line.length)).coords[0])
+    d = b - a
+    n = float(np.hypot(*d))
+    if n == 0.0:
+        c = np.asarray(line.coords, dtype=float)
+        d, n = c[-1] - c[0], float(np.hypot(*(c[-1] - c[0])))
+    return d / n
+
+
+def extend_line(line: LineString, before: float, after: float) -> LineString:
+    """The polyline with straight tangent extensions of `before`/`after` mm at its ends."""
+    c = np.asarray(line.coords, dtype=float)
+    t0 = c[1] - c[0]
+    t1 = c[-1] - c[-2]
+    t0 /= np.hypot(*t0)
+    t1 /= np.hypot(*t1)
+    pts = [c[0] - before * t0] if before > 0 else []
+    pts += list(c)
+    if after > 0:
+        pts.append(c[-1] + after * t1)
+    return LineString(pts)
+
+
+def guide_span(region: Polygon, guide: LineString) -> tuple[float, float]:
+    """Arc-length range (mm) of the guide from its first entry into the region to its last exit."""
+    inter = guide.intersection(region)
+    if inter.is_empty:
+        raise ValueError("guide does not cross the section")
+    pts = shapely.get_coordinates(inter)
+    s = shapely.line_locate_point(guide, shapely.points(pts))
+    return float(s.min()), float(s.max())
+
+
+def cross_chord(region: Polygon, p: np.ndarray, n: np.ndarray, reach: float) -> tuple[float, float]:
+    """Extent (t_lo, t_hi) along unit direction n of the region's chord through point p (mm),
+    taking the piece of the chord that contains p (or the nearest piece)."""
+    line = LineString([p - reach * n, p + reach * n])
+    inter = line.intersection(region)
+    parts = [g for g in shapely.get_parts(inter) if not g.is_empty and g.length > 0]
+    if not parts:
+        return 0.0, 0.0
+    pt = shapely.points(p)
+    best = min(parts, key=lambda g: g.distance(pt))
+    c = shapely.get_coordinates(best) - p
+    t = c @ n
+    return float(t.min()), float(t.max())

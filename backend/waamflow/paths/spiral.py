@@ -1,0 +1,96 @@
+"""Spiral (robot study; reconstructed): a contour-parallel spiral inward, inside the section.
+
+The study only says "a rectangular spiral inside the OR" and gives its programmed length (small
+OR: 215.710 mm). Reconstruction, for any polygon: rings are the region's inward offsets (mitred,
+so a rectangle stays a rectangle) at W_bound, W_bound + W_WB, W_bound + 2·W_WB, ... (W_bound and the
+pass count from the study's rule across the guide). Each ring is run counter-clockwise from its
+point nearest the current position and left W_WB before closing, then a straight step joins the
+nearest point of the next ring. When the next offset vanishes but the half-step offset does not,
+the remaining core is one centre pass (the long axis of the core, shortened by W_WB/2 at each
+end). Like `rectangular`, the arc is struck on the boundary: a lead-in joins the section boundary
+point nearest the ring start, which is the ring vertex nearest the guide start (on a rectangle a
+corner, so every ring starts at its corner and every step is exactly W_WB).
+Small OR: 1.89 + 5 × 39.22 + 4 × 4.43 = 215.710 mm (exact). Run-ups extend the lead-in and the
+last segment. Non-convex sections whose offsets split keep the largest piece of each ring.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+from shapely.ops import nearest_points, substring
+
+from .flags import Draft, extend_ends
+from .frame import guide_or_default, plan_passes
+from .spec import StrategySpec
+
+
+def _largest(geom) -> Polygon | None:
+    parts = [g for g in shapely.get_parts(geom) if isinstance(g, Polygon) and not g.is_empty]
+    return max(parts, key=lambda g: g.area) if parts else None
+
+
+def _ring_path(poly: Polygon, at: np.ndarray, leave: float) -> np.ndarray:
+    """(k, 2) points running counter-clockwise once around poly's exterior from the point nearest
+    `at`, stopping `leave` mm before closing."""
+    ring = LineString(shapely.orient_polygons(poly).exterior.coords)
+    per = ring.length
+    s0 = ring.project(Point(at))
+    run = max(per - leave, 0.0)
+    first = substring(ring, s0, min(s0 + run, per))
+    pts = np.asarray(first.coords, dtype=float)
+    if s0 + run > per:
+        rest = substring(ring, 0.0, s0 + run - per)
+        pts = np.vstack([pts, np.asarray(rest.coords, dtype=float)[1:]])
+    return pts
+
+
+def _core_line(core: Polygon, shorten: float, at: np.ndarray) -> np.ndarray | None:
+    rect = np.asarray(shapely.minimum_rotated_rectangle(core).exterior.coords)[:4]
+    e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
+    axis, across = (e1, e2) if np.hypot(*e1) >= np.hypot(*e2) else (e2, e1)
+    length = float(np.hypot(*axis))
+    if length - 2 * shorten <= 1e-9:
+        return None
+    u = axis / length
+    c = rect.mean(axis=0)
+    half = length / 2 - shorten
+    a, b = c - half * u, c + half * u
+    return np.array([a, b]) if np.hypot(*(a - at)) <= np.hypot(*(b - at)) else np.array([b, a])
+
+
+def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft:
+    d = spec.spacing
+    m = plan_passes(region, guide, d).margin
+    g0 = np.asarray(guide_or_default(region, guide).coords[0], dtype=float)
+    ring0 = _largest(region.buffer(-m, join_style="mitre"))
+    if ring0 is None:
+        raise ValueError("section too narrow for a spiral at this spacing")
+    corners = np.asarray(ring0.exterior.coords, dtype=float)[:-1]
+    start = corners[np.argmin(np.hypot(*(corners - g0).T))]
+    entry = np.asarray(nearest_points(region.exterior, Point(start))[0].coords[0])
+    pieces = [entry[None], start[None]]
+    here, k = start, 0
+    while True:
+        ring = _largest(region.buffer(-(m + k * d), join_style="mitre")) if k else ring0
+        if ring is None or _thin(ring, d):
+            core = _largest(region.buffer(-(m + (k - 0.5) * d), join_style="mitre")) if k else None
+            if core is not None and not _thin(core, 0.5 * d):
+                line = _core_line(core, d / 2, here)
+                if line is not None:
+                    pieces.append(line)
+            break
+        pts = _ring_path(ring, here, d)
+        pieces.append(pts)
+        here = pts[-1]
+        k += 1
+    pts = extend_ends(np.vstack(pieces), spec.extension_before, spec.extension_after)
+    return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
+
+
+def _thin(poly: Polygon, width: float) -> bool:
+    """True when the polygon is narrower than `width`·0.5 (a sliver left by round-off)."""
+    rect = np.asarray(shapely.minimum_rotated_rectangle(poly).exterior.coords)[:4]
+    short = min(np.hypot(*(rect[1] - rect[0])), np.hypot(*(rect[2] - rect[1])))
+    return short < 0.5 * width
