@@ -145,3 +145,15 @@ def test_params_for_unknown_sections_are_warned(tmp_path):
     res = run(rec, tmp_path)
     msgs = sorted((w["node"], w["section"]) for w in res.warnings if "matches no section" in w["message"])
     assert msgs == [("seq", "nope"), ("zone", "bs1/Z")]
+
+
+def test_sequence_follows_a_change_in_the_layer_below_with_a_warm_cache(tmp_path):
+    cache = MemoryCache()
+    before = run(recipe([BS1, BS2]), tmp_path, cache).outputs["seq"]["toolpath"]
+    assert before[5].sections[0].approach[0][:2].tolist() == [100.0, 3.0]   # layer 4 ended at x = 100
+    rec = recipe([BS1, BS2])
+    rec.nodes[2].params["guides"]["bs1/A"] = [[105, 3], [-5, 3]]           # bs1 now deposits right → left
+    res = run(rec, tmp_path, cache)
+    assert res.stats["guide"].layers_computed == 5 and res.stats["zone"].layers_cached == 5
+    after = res.outputs["seq"]["toolpath"]
+    assert after[5].sections[0].approach[0][:2].tolist() == [0.0, 3.0]      # layer 5 starts from x = 0

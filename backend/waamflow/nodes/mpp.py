@@ -1,8 +1,9 @@
 """Modular path planning nodes (Michel et al. 2019): mask → guide → [strategy] → zone → sequence.
 
-Thin adapters over waamflow.sections, waamflow.zoning and waamflow.sequencing. Every node maps over
-layers; `layer_params` returns only what affects one layer (its governing mask, the guides/zone
-specs of the sections it has), so editing mask bs2 never recomputes a layer governed by bs1.
+Thin adapters over waamflow.sections, waamflow.zoning and waamflow.sequencing. mask, guide and zone
+map over layers; `layer_params` returns only what affects one layer (its governing mask, the
+guides/zone specs of the sections it has), so editing mask bs2 never recomputes a layer governed by
+bs1. sequence chains layers (each starts where the previous ended) and runs on the whole part.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from ..core import serialize
 from ..core.model import LayerPaths, LayerSections, Layered
-from ..engine.node import FileRef, LayerNode, NodeParams, register, unit
+from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..sections import Mask, apply_guide, segment_layer
 from ..sections.guide import guide_line
@@ -266,46 +267,43 @@ class ZoneNode(LayerNode):
 # sequence
 # ------------------------------------------------------------------------------------------------
 @register
-class SequenceNode(LayerNode):
+class SequenceNode(Node):
     """MPP layer path: join a layer's section paths into one program with arc-OFF travel between them.
 
-    Order: `mask` (the mask's section order), `nearest` (nearest neighbour from the previous layer's
-    end, improved by 2-opt, to cut travel) or an explicit list of section keys. Travel: retract by
-    `retract_height` along the build direction, travel, plunge. `alternate` reverses the section
-    order on odd layers. `dwell` adds an interlayer dwell. Writes `toolpath.json` and
-    `travel.json` (travel length per layer).
+    Order: `mask` (the mask's section order), `nearest` (shortest travel from the previous layer's
+    end: exact up to 6 sections, else nearest neighbour + 2-opt/Or-opt) or an explicit list of
+    section keys. Travel: retract by `retract_height` along the build direction, travel, plunge.
+    `alternate` reverses the section order on odd layers. `dwell` adds an interlayer dwell. Writes
+    `toolpath.json` and `travel.json` (travel length per layer).
     """
 
+    # Not a LayerNode on purpose: layer i starts where layer i-1 ended (approach, and the nearest
+    # order), so a per-layer signature would miss a change below. As a whole-part node its output
+    # signatures change with any input layer; it costs ~0.5 ms per layer and is cached as a whole.
     type = "sequence"
     title = "Sequence (layer path)"
     category = "mpp"
     inputs = (Port("toolpath", "toolpath", "Zoned section paths"),)
     outputs = (Port("toolpath", "toolpath", "Layer programs in deposition order"),)
-    over = "toolpath"
 
     class Params(NodeParams):
         order: Literal["mask", "nearest"] | list[str] = Field(
-            "mask", description="`mask`, `nearest` (nearest neighbour + 2-opt) or a list of section keys")
+            "mask", description="`mask`, `nearest` (shortest travel) or a list of section keys")
         retract_height: float = Field(10.0, ge=0, le=500, description="Clearance of arc-OFF travel above the "
                                       "higher end point", json_schema_extra=unit("mm"))
         alternate: bool = Field(False, description="Reverse the section order on odd layers")
         dwell: float = Field(0.0, ge=0, le=3600, description="Interlayer dwell after each layer",
                              json_schema_extra=unit("s"))
 
-    def run_layer(self, ctx, params, index, items):
-        # Ordering and travel chain across layers (each layer starts where the previous ended), so
-        # they are assembled in `combine`; per layer there is nothing expensive to cache.
-        return {"toolpath": items["toolpath"]}
-
-    def combine(self, ctx, params, outputs, inputs):
-        if not isinstance(params.order, str) and all(lp is not None for lp in outputs["toolpath"]):
-            seen = {sp.key for lp in outputs["toolpath"] for sp in lp.sections}
+    def run(self, ctx, params, inputs):
+        tp = inputs["toolpath"]
+        if not isinstance(params.order, str) and all(lp is not None for lp in tp):
+            seen = {sp.key for lp in tp for sp in lp.sections}
             for key in params.order:
                 if key not in seen:
                     ctx.warn(f"order lists {key!r}, which matches no section", section=key)
-        layers, _ = sequence_part(list(outputs["toolpath"]), order=params.order,
-                                  retract_height=params.retract_height, alternate=params.alternate,
-                                  dwell_after_s=params.dwell)
+        layers, _ = sequence_part(list(tp), order=params.order, retract_height=params.retract_height,
+                                  alternate=params.alternate, dwell_after_s=params.dwell)
         return {"toolpath": Layered(tuple(layers))}
 
     def artifacts(self, ctx, params, outputs):
