@@ -9,6 +9,7 @@ bs1. sequence chains layers (each starts where the previous ended) and runs on t
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 from typing import Any, Literal
 
@@ -165,17 +166,23 @@ class ZoneSpecParams(_Strict):
 
 
 _PARAM_CACHE: "OrderedDict[str, Any]" = OrderedDict()
+_PARAM_LOCK = threading.Lock()
 
 
 def _parse_cached(text: str):
-    """parse() memoised on content: the zone node's combine runs on every execution."""
+    """parse() memoised on content (last 8 files): the zone node's combine runs on every execution."""
     h = hashlib.sha256(text.encode("utf-8")).hexdigest()
-    if h not in _PARAM_CACHE:
-        _PARAM_CACHE[h] = parse(text)
+    with _PARAM_LOCK:
+        hit = _PARAM_CACHE.get(h)
+        if hit is not None:
+            _PARAM_CACHE.move_to_end(h)
+            return hit
+    table = parse(text)
+    with _PARAM_LOCK:
+        _PARAM_CACHE[h] = table
         while len(_PARAM_CACHE) > 8:
             _PARAM_CACHE.popitem(last=False)
-    _PARAM_CACHE.move_to_end(h)
-    return _PARAM_CACHE[h]
+    return table
 
 
 @register
