@@ -29,7 +29,9 @@ the optional external-axis values (positioner), else 0.
 
 Splitting (controllers limit file size): with `split_per_layer` the main program calls one
 subprogram per layer ``name_L003`` (files ``L003.src``/``L003.dat``); with
-`max_points_per_file` = N, no file holds more than N motions (``name_P001`` … or, combined with
+`max_points_per_file` = N, no file holds more than N motions, cut after an arc OFF when
+that leaves the file at least half full, else between two motions (the arc then stays on
+across the call) — ``name_P001`` … or, combined with
 per-layer splitting, ``name_L003_2`` …). The main program is then `src`/`dat`. On the controller
 the files must be named after the program (KRL requires module name = DEF name):
 ``<program_name>.src``, ``<program_name>_L003.src``, …
@@ -93,51 +95,66 @@ class _Chunk:
 
 
 def _chunks(plan: Plan, s: KrlSettings) -> list[_Chunk]:
+    """Split the plan's steps into programs: at layer starts (per-layer) and so that no program
+    holds more than `max_points_per_file` motions (see `_cut`)."""
     steps = plan.steps
     if not s.split:
         return [_Chunk(s.program_name, "", tuple(range(len(steps))))]
-    groups: list[tuple[int | None, list[int]]] = [(None, [])]
+    groups: list[tuple[int | None, list[int]]] = []
+    layer: int | None = None
     count = 0
     for k, st in enumerate(steps):
-        layer, cur = groups[-1]
         if isinstance(st, LayerStart):
-            if s.split_per_layer and (layer is None or any(isinstance(steps[j], Motion) for j in cur)):
-                if layer is not None or cur:
-                    groups.append((st.layer, []))
-                else:
-                    groups[-1] = (st.layer, cur)
+            layer = st.layer
+            if s.split_per_layer and groups and any(isinstance(steps[j], Motion) for j in groups[-1][1]):
+                groups.append((layer, []))
                 count = 0
-            elif layer is None:
-                groups[-1] = (st.layer, cur)
+        if not groups:
+            groups.append((layer, []))
         if isinstance(st, Motion) and s.max_points_per_file and count >= s.max_points_per_file:
-            # cut right after the previous motion (keeping an ArcOff that closes it)
-            layer, cur = groups[-1]
-            j = len(cur)
-            while j > 0 and not isinstance(steps[cur[j - 1]], Motion):
-                j -= 1
-            if j < len(cur) and isinstance(steps[cur[j]], ArcOff):
-                j += 1
+            cur = groups[-1][1]
+            j = _cut(steps, cur, s.max_points_per_file)
             tail = cur[j:]
             del cur[j:]
-            groups.append((layer, tail))
-            count = 0
+            groups.append((groups[-1][0], tail))
+            count = sum(isinstance(steps[i], Motion) for i in tail)
         groups[-1][1].append(k)
         if isinstance(st, Motion):
             count += 1
-    groups = [(l, g) for l, g in groups if g]
-    out: list[_Chunk] = []
     per_layer: dict[int | None, int] = {}
-    for layer, g in groups:
-        per_layer[layer] = per_layer.get(layer, 0) + 1
+    for lay, _ in groups:
+        per_layer[lay] = per_layer.get(lay, 0) + 1
     seen: dict[int | None, int] = {}
-    for i, (layer, g) in enumerate(groups):
-        if s.split_per_layer and layer is not None:
-            seen[layer] = seen.get(layer, 0) + 1
-            suffix = f"L{layer:03d}" + (f"_{seen[layer]}" if per_layer[layer] > 1 else "")
+    out: list[_Chunk] = []
+    for i, (lay, g) in enumerate(groups):
+        if s.split_per_layer and lay is not None:
+            seen[lay] = seen.get(lay, 0) + 1
+            suffix = f"L{lay:03d}" + (f"_{seen[lay]}" if per_layer[lay] > 1 else "")
         else:
             suffix = f"P{i + 1:03d}"
         out.append(_Chunk(f"{s.program_name}_{suffix}", suffix, tuple(g)))
     return out
+
+
+def _cut(steps, cur: list[int], limit: int) -> int:
+    """Where to end a full program (index into `cur`): right after the latest arc OFF that leaves
+    it at least half full (no subprogram switch while welding), else right after its last motion
+    (keeping an arc OFF that closes it)."""
+    motions = 0
+    best = None
+    for j, i in enumerate(cur):
+        if isinstance(steps[i], Motion):
+            motions += 1
+        elif isinstance(steps[i], ArcOff) and motions >= max(1, limit // 2):
+            best = j + 1
+    if best is not None:
+        return best
+    j = len(cur)
+    while j > 0 and not isinstance(steps[cur[j - 1]], Motion):
+        j -= 1
+    if j < len(cur) and isinstance(steps[cur[j]], ArcOff):
+        j += 1
+    return j
 
 
 def _weld_sets(plan: Plan) -> dict[tuple[int, int], int]:
