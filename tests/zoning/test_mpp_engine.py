@@ -157,3 +157,12 @@ def test_sequence_follows_a_change_in_the_layer_below_with_a_warm_cache(tmp_path
     assert res.stats["guide"].layers_computed == 5 and res.stats["zone"].layers_cached == 5
     after = res.outputs["seq"]["toolpath"]
     assert after[5].sections[0].approach[0][:2].tolist() == [0.0, 3.0]      # layer 5 starts from x = 0
+
+
+def test_a_self_intersecting_mask_curve_is_an_invalid_recipe():
+    from waamflow.core.errors import RecipeError
+
+    bow = {"id": "bs1", "sections": [{"id": "A", "curve": [[0, 0], [10, 10], [10, 0], [0, 10]]}]}
+    with pytest.raises(RecipeError) as e:
+        build_graph(recipe([bow]))
+    assert e.value.node == "mask" and e.value.exit_code == 2 and "bs1/A" in e.value.message

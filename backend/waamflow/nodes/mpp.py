@@ -14,9 +14,10 @@ from collections import OrderedDict
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..core import serialize
+from ..core.errors import RecipeError
 from ..core.model import LayerPaths, LayerSections, Layered
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -48,6 +49,15 @@ class MaskParams(_Strict):
     id: str = Field(min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)")
     from_layer: int = Field(0, ge=0, description="First layer this mask governs (until the next mask's from_layer)")
     sections: list[MaskSectionParams] = Field(min_length=1, description="Sections in default deposition order")
+
+    @model_validator(mode="after")
+    def _curves(self) -> "MaskParams":
+        # bad curves and duplicate ids fail the recipe up front (exit 2), not at the first layer
+        try:
+            Mask.from_json(self.model_dump(mode="json"))
+        except RecipeError as e:
+            raise ValueError(f"section {e.section}: {e.message}") from None
+        return self
 
 
 @register
