@@ -17,7 +17,7 @@ import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from .flags import Draft, extend_ends
-from .frame import cross_chord, guide_or_default, guide_span, unit_tangent
+from .frame import NUDGE, cross_chord, guide_or_default, guide_span, unit_tangent
 from .spec import StrategySpec
 
 
@@ -46,9 +46,12 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     x0, y0, x1, y1 = region.bounds
     reach = 2.0 * math.hypot(x1 - x0, y1 - y0)
     pts, normals = stations(region, g, spec.step)
+    # chords are measured on the region grown by NUDGE so a station on a straight end of the section
+    # (normal along the boundary edge) still sees that edge despite round-off
+    probe = region.buffer(NUDGE, join_style="mitre")
     out = []
     for k, (p, n) in enumerate(zip(pts, normals)):
-        a, b = weave_limits(region, p, n, spec.bead_width, reach)
+        a, b = weave_limits(probe, p, n, spec.bead_width, reach)
         out.append(p + (a if k % 2 == 0 else b) * n)
     out = extend_ends(np.array(out), spec.extension_before, spec.extension_after)
     return Draft(out, np.ones(len(out) - 1, dtype=bool))

@@ -18,7 +18,7 @@ from shapely.geometry import LineString, Polygon
 from shapely.ops import substring
 
 from .flags import Draft
-from .frame import cross_chord, extend_line, guide_or_default, pass_layout
+from .frame import NUDGE, cross_chord, extend_line, guide_or_default, pass_layout
 from .oscillate import stations
 from .spec import StrategySpec
 
@@ -46,8 +46,9 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     x0, y0, x1, y1 = region.bounds
     reach = 2.0 * math.hypot(x1 - x0, y1 - y0)
     pts, normals = stations(region, g, spec.spacing / 2.0)
-    lims = np.array([cross_chord(region, p, n, reach) for p, n in zip(pts, normals)])
-    t_min, t_max = float(lims[:, 0].min()), float(lims[:, 1].max())
+    probe = region.buffer(NUDGE, join_style="mitre")
+    lims = np.array([cross_chord(probe, p, n, reach) for p, n in zip(pts, normals)])
+    t_min, t_max = float(lims[:, 0].min()) + NUDGE, float(lims[:, 1].max()) - NUDGE
     count, margin = pass_layout(t_max - t_min, spec.spacing)
     long_guide = extend_line(g, reach, reach)
     out: list[np.ndarray] = []

@@ -1,0 +1,129 @@
+"""Every pattern on sections that are not axis-aligned rectangles: a trapezoid, a rotated
+rectangle, a curved band with a curved guide, a non-convex L."""
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from shapely import affinity
+from shapely.geometry import LineString, Point, Polygon, box
+
+from waamflow.paths import PATTERNS, StrategySpec, plan_section
+
+from .helpers import assert_inside_flags_hold
+
+TRAPEZOID = Polygon([(0, 0), (50, 0), (40, 20), (8, 20)])
+IN_SECTION = ("rectangular", "spiral", "swiping", "oscillate", "parallel", "raster")
+
+
+def band(r0=40.0, r1=55.0, a0=0.0, a1=90.0, k=90):
+    """Quarter annulus around the origin (a curved MPP section) and its mid-radius guide."""
+    a = np.radians(np.linspace(a0, a1, k + 1))
+    outer = np.column_stack([r1 * np.cos(a), r1 * np.sin(a)])
+    inner = np.column_stack([r0 * np.cos(a), r0 * np.sin(a)])[::-1]
+    rm = 0.5 * (r0 + r1)
+    guide = LineString(np.column_stack([rm * np.cos(a), rm * np.sin(a)]))
+    return Polygon(np.vstack([outer, inner])), guide
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_trapezoid_flags_and_containment(pattern):
+    p = plan_section(TRAPEZOID, None, StrategySpec(pattern=pattern))
+    assert_inside_flags_hold(p, TRAPEZOID)
+    if pattern in IN_SECTION:
+        assert p.inside.all(), pattern
+    else:  # semicircular / triangular leave it only for their links
+        assert 0 < p.outside_length < 0.3 * p.length
+    # the fill spans the section: some point within a spacing of both long edges
+    ys = p.points[:, 1]
+    assert ys.min() < 4.43 and ys.max() > 20 - 4.43
+
+
+def test_trapezoid_passes_follow_the_slanted_ends():
+    p = plan_section(TRAPEZOID, None, StrategySpec(pattern="triangular", angle_deg=90))
+    # 20 mm wide → 5 passes (margin (20 - 17.72)/2 = 1.14 mm); each pass spans its own chord
+    on = p.points[np.r_[p.inside, False] | np.r_[False, p.inside]]
+    for y in 1.14 + 4.43 * np.arange(5):
+        row = on[np.isclose(on[:, 1], y)]
+        lo, hi = 8 * y / 20, 50 - 10 * y / 20
+        assert row[:, 0].min() == pytest.approx(lo, abs=1e-9)
+        assert row[:, 0].max() >= hi - 1e-9
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_rotated_rectangle_gives_the_same_lengths(pattern):
+    """Patterns work along the guide, not along x: rotating the section rotates the path."""
+    r = box(0, 0, 43, 21.5)
+    rot = affinity.rotate(r, 30, origin=(0, 0))
+    g = affinity.rotate(LineString([(0, 10.75), (43, 10.75)]), 30, origin=(0, 0))
+    a = plan_section(r, LineString([(0, 10.75), (43, 10.75)]), StrategySpec(pattern=pattern))
+    b = plan_section(rot, g, StrategySpec(pattern=pattern))
+    assert b.length == pytest.approx(a.length, rel=1e-9)
+    assert b.outside_length == pytest.approx(a.outside_length, abs=1e-6)
+    assert_inside_flags_hold(b, rot)
+
+
+def test_oscillate_follows_a_curved_guide_with_local_width():
+    region, guide = band()
+    spec = StrategySpec(pattern="oscillate", bead_width=6.0, step=3.0)
+    p = plan_section(region, guide, spec)
+    assert p.inside.all()
+    assert_inside_flags_hold(p, region)
+    r = np.hypot(*p.points.T)
+    # vertices alternate half a bead inside the inner and outer arcs: amplitude = 15 - 6 = 9 mm
+    # (the band is a 90-gon: its chords sit up to r·(1 - cos 0.5°) ≈ 2e-3 mm inside the true arcs)
+    assert r.min() == pytest.approx(43.0, abs=3e-3)
+    assert r.max() == pytest.approx(52.0, abs=3e-3)
+    # constant advance along the guide: stations every ≤ 3 mm of the 47.5 mm-radius quarter arc
+    n_strokes = math.ceil(47.5 * math.pi / 2 / 3.0)
+    assert len(p.points) - 1 == n_strokes
+    ang = np.unwrap(np.arctan2(p.points[:, 1], p.points[:, 0]))
+    # (normals of the 90-gon guide tilt by up to 0.5° from radial: ±4.5 mm·sin 0.5° / 47.5 mm)
+    assert np.diff(ang) == pytest.approx(np.full(n_strokes, (math.pi / 2) / n_strokes), abs=1e-3)
+
+
+def test_oscillate_amplitude_follows_width_on_a_taper():
+    # a wedge 4 → 24 mm wide over 60 mm, guide along its axis
+    wedge = Polygon([(0, -2), (60, -12), (60, 12), (0, 2)])
+    p = plan_section(wedge, LineString([(0, 0), (60, 0)]), StrategySpec(pattern="oscillate", bead_width=4.0, step=2.0))
+    x, y = p.points.T
+    half_width = 2 + 10 * x / 60
+    expected = np.maximum(half_width - 2.0, 0.0)  # local half width minus half a bead
+    assert np.abs(y) == pytest.approx(expected, abs=1e-5)
+    assert p.inside.all()
+
+
+def test_parallel_offsets_a_curved_guide():
+    region, guide = band()
+    p = plan_section(region, guide, StrategySpec(pattern="parallel", spacing=4.43))
+    assert_inside_flags_hold(p, region)
+    assert p.inside.all()
+    r = np.hypot(*p.points.T)
+    # width 15 → n = 3, margin 3.07 > 1.772 → 4 passes, margin 0.855 mm: radii 40.855 + k·4.43
+    radii = 40.855 + 4.43 * np.arange(4)
+    for rad in radii:
+        assert np.isclose(r, rad, atol=3e-3).sum() >= 20
+    # (the band is a 90-gon: its chords sit up to r·(1 - cos 0.5°) ≈ 2e-3 mm inside the true arcs)
+    assert np.all(np.min(np.abs(r[:, None] - radii[None, :]), axis=1) < 3e-3)
+    # passes span the full quarter (to the straight ends) and alternate direction
+    ends = np.degrees(np.arctan2(p.points[:, 1], p.points[:, 0]))
+    assert ends.min() == pytest.approx(0, abs=1e-6) and ends.max() == pytest.approx(90, abs=1e-6)
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_curved_band_every_pattern(pattern):
+    region, guide = band()
+    p = plan_section(region, guide, StrategySpec(pattern=pattern, arc_outside="off"))
+    assert_inside_flags_hold(p, region)
+    assert np.all(p.arc <= p.inside)  # arc OFF wherever the path is outside
+    assert p.length > 0
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_non_convex_section(pattern):
+    ell = Polygon([(0, 0), (40, 0), (40, 12), (12, 12), (12, 30), (0, 30)])
+    p = plan_section(ell, None, StrategySpec(pattern=pattern, arc_outside="off"))
+    assert_inside_flags_hold(p, ell)
+    assert np.all(p.arc <= p.inside)
+    assert p.inside.any()
