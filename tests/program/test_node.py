@@ -1,0 +1,77 @@
+"""The post-process node: params → writer settings, artifacts by format, clear errors."""
+
+import pytest
+from pydantic import ValidationError
+
+from waamflow.core.errors import RecipeError
+from waamflow.core.model import Layered
+from waamflow.engine.node import load_nodes
+
+from conftest import build_toolpath
+
+
+class Ctx:
+    node_id = "post"
+
+    def __init__(self):
+        self.warnings = []
+
+    def warn(self, message, *, layer=None, section=None):
+        self.warnings.append(message)
+
+
+def _run(**params):
+    node_cls = load_nodes()["post-process"]
+    node = node_cls()
+    p = node_cls.Params(**params)
+    out = node.run(Ctx(), p, {"toolpath": build_toolpath(2)})
+    return out["program"], node.artifacts(Ctx(), p, out)
+
+
+def test_catalog_entry():
+    d = load_nodes()["post-process"].describe()
+    assert [p["name"] for p in d["inputs"]] == ["toolpath"] and d["inputs"][0]["type"] == "toolpath"
+    assert [p["type"] for p in d["outputs"]] == ["program"]
+    props = d["params_schema"]["properties"]
+    assert props["format"]["enum"] == ["gcode", "krl", "rapid", "csv"]
+    assert props["ignition_dwell"]["unit"] == "s" and props["arc_tolerance"]["unit"] == "mm"
+    assert props["arc_on"]["default"] == "M3" and props["arc_off"]["default"] == "M5"
+
+
+@pytest.mark.parametrize("fmt, suffixes", [("gcode", {"gcode"}), ("krl", {"src", "dat"}), ("rapid", {"mod"}), ("csv", {"csv"})])
+def test_artifacts_by_format(fmt, suffixes):
+    program, files = _run(format=fmt, program_name="part")
+    assert set(files) == suffixes and program.format == fmt
+    assert program.stats["points"] == 94 and program.stats["arc_on_count"] == 10
+    assert program.stats["layers"] == 2
+
+
+def test_krl_split_artifacts_and_gcode_params():
+    _, files = _run(format="krl", split_per_layer=True)
+    assert set(files) == {"src", "dat", "L000.src", "L000.dat", "L001.src", "L001.dat"}
+    _, files = _run(format="gcode", arc_on="M7", arc_off="M9", dwell_units="ms", ignition_dwell=2,
+                    process_codes={"job": "M101 P{value:.0f}"})
+    g = files["gcode"]
+    assert "M7 ; arc on" in g and "M9 ; arc off" in g and "G4 P2000" in g and "M101 P12" in g
+
+
+def test_invalid_params():
+    cls = load_nodes()["post-process"].Params
+    with pytest.raises(ValidationError):
+        cls(format="fanuc")
+    with pytest.raises(ValidationError):
+        cls(program_name="bad name")
+    with pytest.raises(ValidationError):
+        cls(process_codes={"current": "M1 {nope}"})
+    with pytest.raises(RecipeError):
+        _run(arc_on="M3 ; comment")
+    with pytest.raises(RecipeError):
+        _run(format="krl", program_name="a_long_program_name_x", split_per_layer=True)
+
+
+def test_empty_toolpath_warns():
+    node_cls = load_nodes()["post-process"]
+    ctx = Ctx()
+    out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
+    assert out["program"].stats["motions"] == 0 and ctx.warnings
+    assert "DEF waamflow( )" in out["program"].files["src"]
