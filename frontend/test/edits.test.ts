@@ -34,6 +34,7 @@ describe("masks", () => {
     expect(moved.masks![1].sections[1].curve).toEqual([[1, 1], [2, 1], [2, 2]]);
     expect(moved.masks![1].sections[0].curve).toBe(sq);
     expect(removeSection(params, "bs1/A").masks![1].sections.map((s) => s.id)).toEqual(["B"]);
+    expect(removeSection(params, "bs2/A").masks!.map((m) => m.id)).toEqual(["bs1"]);
   });
   it("starts a new mask at a failing layer prefilled from the governing one", () => {
     const r = newMaskFromLayer(params, 6);
@@ -55,10 +56,10 @@ describe("per-section params", () => {
   });
   it("patches zone entries and falls back to the default", () => {
     const z = patchSection({ default: { start_length: 10 } }, "bs1/A", { end_length: 5 });
-    expect(z.sections).toEqual({ "bs1/A": { end_length: 5 } });
+    expect(z.sections).toEqual({ "bs1/A": { start_length: 10, end_length: 5 } });
     expect(sectionValue(z, "bs1/A", "start_length")).toBe(10);
     expect(sectionValue(z, "bs1/A", "end_length")).toBe(5);
-    expect(patchSection(z, "bs1/A", { end_length: undefined }).sections).toEqual({});
+    expect(patchSection(z, "bs1/A", { end_length: undefined, start_length: undefined }).sections).toEqual({});
   });
 });
 

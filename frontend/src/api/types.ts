@@ -1,7 +1,22 @@
 /**
- * Domain types used across the GUI. Shapes the REST API declares come from the generated
- * OpenAPI types (`schema.d.ts`, `npm run gen:api`); this file only names them.
+ * Domain types used across the GUI. Every shape the REST API declares comes from the generated
+ * OpenAPI types (`schema.d.ts`, `npm run gen:api`) and is only named here. What the API returns
+ * as a free-form JSON object (the node catalog entries, the recipe, run events, the preview's
+ * layer/sections/paths) is typed below after the contract (CONTRACT.md) and engine/events.py.
  */
+import type { components } from "./schema";
+
+type S = components["schemas"];
+export type Health = S["Health"];
+export type GraphInfo = S["GraphInfo"];
+export type SaveResult = S["SaveResult"];
+export type FileInfo = S["FileInfo"];
+export type Artifact = S["ArtifactInfo"];
+export type RunCreated = S["RunCreated"];
+export type RunRequest = S["RunRequest"];
+export type PreviewRequest = S["PreviewRequest"];
+export type RunInfo = Omit<S["RunStatus"], "error"> & { error?: RunError | null };
+export type RunStatus = S["RunStatus"]["status"];
 export type Json = null | boolean | number | string | Json[] | { [k: string]: Json };
 
 export interface PortSpec {
@@ -75,28 +90,12 @@ export interface Recipe {
   ui?: { positions?: Record<string, [number, number]>; [k: string]: unknown } | null;
 }
 
-export interface GraphInfo {
-  name: string;
-  description: string;
-  updated?: string | number | null;
-}
-
 export interface RunError {
   message: string;
   node?: string | null;
   layer?: number | null;
   section?: string | null;
   text?: string | null;
-}
-
-export type RunStatus = "queued" | "running" | "done" | "failed" | "cancelled";
-
-export interface RunInfo {
-  id: string;
-  status: RunStatus;
-  progress: number;
-  error?: RunError | null;
-  summary?: Record<string, unknown> | null;
 }
 
 export type EventKind =
@@ -122,11 +121,6 @@ export interface RunEvent {
   seconds?: number | null;
   cached?: boolean | null;
   error?: RunError | null;
-}
-
-export interface Artifact {
-  name: string;
-  size: number;
 }
 
 export interface PolygonJson {
@@ -161,11 +155,9 @@ export interface PreviewPath {
   zone_colors?: Record<string, string>;
 }
 
-export interface Preview {
+export interface Preview extends Omit<S["PreviewResponse"], "layer" | "sections" | "paths" | "error"> {
   layer: LayerJson | null;
   sections: PreviewSection[];
   paths: PreviewPath[];
-  layer_count: number;
   error: RunError | null;
-  ms: number;
 }

@@ -93,9 +93,15 @@ export function setCurve(p: MaskParams, key: string, curve: number[][]): MaskPar
   };
 }
 
+/** Remove a section; a mask left without sections is removed too (a mask needs at least one). */
 export function removeSection(p: MaskParams, key: string): MaskParams {
   const { mask, section } = splitKey(key);
-  return { ...p, masks: (p.masks ?? []).map((m) => (m.id !== mask ? m : { ...m, sections: m.sections.filter((s) => s.id !== section) })) };
+  return {
+    ...p,
+    masks: (p.masks ?? [])
+      .map((m) => (m.id !== mask ? m : { ...m, sections: m.sections.filter((s) => s.id !== section) }))
+      .filter((m) => m.sections.length > 0),
+  };
 }
 
 export function findSection(p: MaskParams, key: string): MaskSection | undefined {
@@ -144,9 +150,13 @@ export interface KeyedParams {
   [k: string]: unknown;
 }
 
-/** Merge `patch` into `sections[key]`; keys set to undefined are removed; an empty entry is dropped. */
+/**
+ * Merge `patch` into `sections[key]`; keys set to undefined are removed; an empty entry is dropped.
+ * A section entry replaces the default as a whole (zone/strategy params), so a new entry starts
+ * as a copy of the default.
+ */
 export function patchSection(p: KeyedParams, key: string, patch: Record<string, unknown>): KeyedParams {
-  const entry = { ...(p.sections?.[key] ?? {}), ...patch };
+  const entry = { ...(p.sections?.[key] ?? structuredClone(p.default ?? {})), ...patch };
   for (const k of Object.keys(entry)) if (entry[k] === undefined) delete entry[k];
   const sections = { ...(p.sections ?? {}) };
   if (Object.keys(entry).length) sections[key] = entry;

@@ -12,7 +12,7 @@ export interface PolygonJson {
   holes: number[][][];
 }
 
-export const pt = (p: number[]): Pt => [p[0], p[1]];
+export const pt = (p: readonly number[]): Pt => [p[0], p[1]];
 
 export function dist(a: readonly number[], b: readonly number[]): number {
   return Math.hypot(a[0] - b[0], a[1] - b[1]);

@@ -1,0 +1,348 @@
+import { useReactFlow } from "@xyflow/react";
+import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import * as API from "./api/client";
+import type { Artifact, GraphInfo, Health, NodeSpec, Recipe, RunError } from "./api/types";
+import { Inspector } from "./components/Inspector";
+import { Palette } from "./components/Palette";
+import { GraphEditor } from "./graph/GraphEditor";
+import {
+  addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, redo, undo, type Clip, type History, type XY,
+} from "./graph/recipe";
+import { MaskView } from "./mask/MaskView";
+import { Results } from "./plots/Results";
+import { useRun } from "./run/useRun";
+import { ParamsEditor } from "./xml/ParamsEditor";
+
+type Tab = "graph" | "mask" | "params" | "results";
+const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"]];
+
+const isTyping = (t: EventTarget | null) => {
+  const el = t as HTMLElement | null;
+  return !!el && (el.tagName === "INPUT" || el.tagName === "TEXTAREA" || el.tagName === "SELECT" || el.isContentEditable);
+};
+
+export function App() {
+  const [specs, setSpecs] = useState<NodeSpec[]>([]);
+  const catalog = useMemo(() => catalogMap(specs), [specs]);
+  const [graphs, setGraphs] = useState<GraphInfo[]>([]);
+  const [healthInfo, setHealth] = useState<Health | null>(null);
+  const [hist, setHist] = useState<History<Recipe>>(() => history(emptyRecipe()));
+  const recipe = hist.present;
+  const [graphName, setGraphName] = useState<string | null>(null);
+  const [savedJson, setSavedJson] = useState(JSON.stringify(emptyRecipe()));
+  const [selected, setSelected] = useState<Set<string>>(new Set());
+  const [tab, setTab] = useState<Tab>("graph");
+  const [layer, setLayer] = useState(0);
+  const [previewNode, setPreviewNode] = useState<string | null>(null);
+  const [artifacts, setArtifacts] = useState<Artifact[]>([]);
+  const [failure, setFailure] = useState<RunError | null>(null);
+  const [messages, setMessages] = useState<{ id: number; text: string }[]>([]);
+  const [saveAs, setSaveAs] = useState<string | null>(null);
+  const clip = useRef<Clip | null>(null);
+  const rf = useReactFlow();
+
+  const dirty = JSON.stringify(recipe) !== savedJson;
+
+  const message = useCallback((text: string) => {
+    const id = Date.now() + Math.random();
+    setMessages((m) => [...m.slice(-3), { id, text }]);
+    setTimeout(() => setMessages((m) => m.filter((x) => x.id !== id)), 6000);
+  }, []);
+  const fail = useCallback((e: unknown) => message(e instanceof API.ApiError ? e.detail.message : String(e)), [message]);
+
+  const edit = useCallback((fn: (r: Recipe) => Recipe) => setHist((h) => commit(h, fn(h.present))), []);
+
+  const { run, follow, cancel } = useRun(async (s) => {
+    if (!s.id) return;
+    try {
+      setArtifacts(await API.listArtifacts(s.id));
+    } catch (e) {
+      fail(e);
+    }
+    if (s.phase === "failed" && s.error) {
+      setFailure(s.error);
+      if (s.error.layer != null) setTab("mask");
+      message(`run failed: ${s.error.message}`);
+    } else if (s.phase === "done") message("run finished");
+  });
+
+  // ---- loading ----------------------------------------------------------------------------------
+  const refreshGraphs = useCallback(() => API.listGraphs().then(setGraphs).catch(fail), [fail]);
+  useEffect(() => {
+    API.nodes().then(setSpecs).catch(fail);
+    API.health().then(setHealth).catch(fail);
+    void refreshGraphs();
+  }, [fail, refreshGraphs]);
+
+  const open = useCallback(
+    async (name: string) => {
+      try {
+        const r = await API.getGraph(name);
+        const full: Recipe = { ...emptyRecipe(name), ...r };
+        setHist(history(full));
+        setSavedJson(JSON.stringify(full));
+        setGraphName(name);
+        setSelected(new Set());
+        setPreviewNode(null);
+        setFailure(null);
+        setArtifacts([]);
+        setLayer(0);
+        setTimeout(() => rf.fitView({ padding: 0.15 }), 50);
+      } catch (e) {
+        fail(e);
+      }
+    },
+    [fail, rf],
+  );
+
+  const save = useCallback(
+    async (name: string | null = graphName) => {
+      if (!name) {
+        setSaveAs(recipe.name || "untitled");
+        return false;
+      }
+      try {
+        const toSave = { ...recipe, name };
+        const res = await API.putGraph(name, toSave);
+        setHist((h) => ({ ...h, present: toSave }));
+        setSavedJson(JSON.stringify(toSave));
+        setGraphName(name);
+        if (res.problems.length) message(`saved; not runnable yet: ${String(res.problems[0].message)}`);
+        else message(`saved ${name}`);
+        void refreshGraphs();
+        return true;
+      } catch (e) {
+        fail(e);
+        return false;
+      }
+    },
+    [graphName, recipe, message, fail, refreshGraphs],
+  );
+
+  const remove = async () => {
+    if (!graphName || !window.confirm(`Delete graph ${graphName}?`)) return;
+    try {
+      await API.deleteGraph(graphName);
+      message(`deleted ${graphName}`);
+      setGraphName(null);
+      setSavedJson("");
+      void refreshGraphs();
+    } catch (e) {
+      fail(e);
+    }
+  };
+
+  const startRun = async () => {
+    setFailure(null);
+    setArtifacts([]);
+    try {
+      // A saved graph runs by name (its files and parameter XML come with it); save edits first.
+      if (graphName && dirty && !(await save(graphName))) return;
+      const { id } = graphName ? await API.startRun({ graph: graphName }) : await API.startRun({ recipe: engineView(recipe) as Recipe });
+      follow(id);
+    } catch (e) {
+      if (e instanceof API.ApiError && (e.detail.node || e.detail.layer != null)) setFailure(e.detail);
+      fail(e);
+    }
+  };
+
+  const addAt = useCallback(
+    (type: string, at?: XY) => {
+      const spec = catalog.get(type);
+      if (!spec) return;
+      let pos = at;
+      if (!pos) {
+        const c = rf.screenToFlowPosition({ x: window.innerWidth / 2, y: window.innerHeight / 2 });
+        pos = [Math.round(c.x), Math.round(c.y)];
+      }
+      // A new node starts with empty params: the engine applies the schema defaults and the form
+      // shows them as placeholders, so the recipe only records what the user changed.
+      const { recipe: r, id } = addNode(recipe, spec, pos);
+      edit(() => r);
+      setSelected(new Set([id]));
+      setTab("graph");
+    },
+    [catalog, rf, recipe, edit],
+  );
+
+  const upload = useCallback(
+    async (file: File) => {
+      if (!graphName) throw new Error("save the recipe first: uploaded files belong to a saved graph");
+      await API.putFile(graphName, file.name, file);
+      message(`uploaded ${file.name}`);
+      return file.name;
+    },
+    [graphName, message],
+  );
+
+  // ---- keyboard ------------------------------------------------------------------------------------
+  useEffect(() => {
+    const onKey = (e: KeyboardEvent) => {
+      const mod = e.ctrlKey || e.metaKey;
+      if (mod && e.key.toLowerCase() === "s") {
+        e.preventDefault();
+        void save();
+        return;
+      }
+      if (isTyping(e.target)) return;
+      if (mod && e.key.toLowerCase() === "z" && !e.shiftKey) {
+        e.preventDefault();
+        setHist(undo);
+      } else if (mod && (e.key.toLowerCase() === "y" || (e.key.toLowerCase() === "z" && e.shiftKey))) {
+        e.preventDefault();
+        setHist(redo);
+      } else if (tab === "graph" && mod && e.key.toLowerCase() === "c" && selected.size) {
+        clip.current = copySelection(recipe, selected);
+        message(`copied ${selected.size} node(s)`);
+      } else if (tab === "graph" && mod && e.key.toLowerCase() === "v" && clip.current) {
+        const { recipe: r, ids } = paste(recipe, clip.current);
+        edit(() => r);
+        setSelected(new Set(ids));
+      } else if (tab === "graph" && mod && e.key.toLowerCase() === "a") {
+        e.preventDefault();
+        setSelected(new Set(recipe.nodes.map((n) => n.id)));
+      } else if (tab === "graph" && e.key.toLowerCase() === "f" && !mod) {
+        rf.fitView({ padding: 0.15, duration: 200 });
+      }
+    };
+    window.addEventListener("keydown", onKey);
+    return () => window.removeEventListener("keydown", onKey);
+  }, [tab, selected, recipe, edit, save, message, rf]);
+
+  const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
+  const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
+  const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
+
+  return (
+    <div className="app">
+      <header className="toolbar">
+        <span className="brand">waamflow</span>
+        <select value={graphName ?? ""} onChange={(e) => e.target.value && void open(e.target.value)} data-testid="open-graph" title="open a saved recipe">
+          <option value="">{graphName ? "" : "open recipe…"}</option>
+          {graphs.map((g) => (
+            <option key={g.name} value={g.name}>
+              {g.name}
+              {g.example ? " (example)" : ""}
+            </option>
+          ))}
+        </select>
+        <button onClick={() => (setHist(history(emptyRecipe())), setGraphName(null), setSavedJson(JSON.stringify(emptyRecipe())))}>new</button>
+        <button onClick={() => void save()} disabled={!dirty && !!graphName} data-testid="save">
+          save{dirty ? " *" : ""}
+        </button>
+        {saveAs === null ? (
+          <button onClick={() => setSaveAs(graphName ? `${graphName}-copy` : recipe.name)}>save as…</button>
+        ) : (
+          <span className="save-as">
+            <input autoFocus value={saveAs} onChange={(e) => setSaveAs(e.target.value)} data-testid="save-as-name" onKeyDown={(e) => e.key === "Enter" && void save(saveAs).then((ok) => ok && setSaveAs(null))} />
+            <button onClick={() => void save(saveAs).then((ok) => ok && setSaveAs(null))}>ok</button>
+            <button onClick={() => setSaveAs(null)}>✕</button>
+          </span>
+        )}
+        <button onClick={remove} disabled={!graphName}>delete</button>
+        <span className="sep" />
+        <button onClick={() => setHist(undo)} disabled={!hist.past.length} title="undo (Ctrl+Z)">↶</button>
+        <button onClick={() => setHist(redo)} disabled={!hist.future.length} title="redo (Ctrl+Y)">↷</button>
+        <span className="sep" />
+        <button className="run" onClick={startRun} disabled={run.phase === "running" || !recipe.nodes.length} data-testid="run">
+          ▶ run
+        </button>
+        {run.phase === "running" && <button onClick={() => void cancel()}>cancel</button>}
+        <div className={`progress p-${run.phase}`} data-testid="progress" data-phase={run.phase} title={`${Math.round(run.progress * 100)}%`}>
+          <div className="bar" style={{ width: `${run.progress * 100}%` }} />
+          <span>{run.phase === "idle" ? "" : `${run.phase} ${Math.round(run.progress * 100)}%`}</span>
+        </div>
+        <span className="title">{graphName ?? "unsaved recipe"}</span>
+      </header>
+      <div className="body">
+        <aside className="left">
+          <Palette specs={specs} onAdd={(t) => addAt(t)} />
+        </aside>
+        <main className="center">
+          <nav className="tabs">
+            {TABS.map(([t, label]) => (
+              <button key={t} className={tab === t ? "active" : ""} onClick={() => setTab(t)} data-tab={t}>
+                {label}
+              </button>
+            ))}
+          </nav>
+          <div className="tab-body">
+            <div className={`pane ${tab === "graph" ? "" : "hidden"}`}>
+              <GraphEditor
+                recipe={recipe}
+                catalog={catalog}
+                statuses={run.nodes}
+                selected={selected}
+                previewNode={previewNode}
+                onSelect={setSelected}
+                onChange={edit}
+                onPreview={onPreview}
+                onAddAt={addAt}
+                onMessage={message}
+              />
+            </div>
+            {tab === "mask" && (
+              <div className="pane">
+                <MaskView
+                  recipe={recipe}
+                  catalog={catalog}
+                  graph={graphName}
+                  layer={layer}
+                  setLayer={setLayer}
+                  previewNode={previewNode}
+                  setPreviewNode={setPreviewNode}
+                  onEdit={edit}
+                  failure={failure}
+                  onDismissFailure={() => setFailure(null)}
+                  onMessage={message}
+                />
+              </div>
+            )}
+            {tab === "params" && (
+              <div className="pane scroll">
+                <ParamsEditor graph={graphName} runId={run.phase === "done" ? run.id : null} runParamsArtifacts={zoneArtifacts} bounds={{}} dirtyRecipe={dirty} onMessage={message} />
+              </div>
+            )}
+            {tab === "results" && (
+              <div className="pane scroll">
+                <Results recipe={recipe} run={run} artifacts={artifacts} />
+              </div>
+            )}
+          </div>
+        </main>
+        <aside className="right">
+          <div className="inspector-wrap">
+            <Inspector
+              recipe={recipe}
+              catalog={catalog}
+              node={single}
+              selectedCount={selected.size}
+              status={single ? run.nodes[single.id] : undefined}
+              onEdit={edit}
+              onRenamed={(id) => setSelected(new Set([id]))}
+              onUpload={upload}
+              onMessage={message}
+            />
+          </div>
+          <div className="viewer">
+            {healthInfo?.viewer_url ? (
+              <iframe title="3D view" src={healthInfo.viewer_url} data-testid="viewer" />
+            ) : (
+              <div className="muted">3D view not available{healthInfo ? " (viewer not started)" : ""}</div>
+            )}
+          </div>
+        </aside>
+      </div>
+      <footer className="status">
+        <span>{recipe.nodes.length} nodes · {recipe.edges.length} edges</span>
+        {run.error && <span className="error">{run.error.node} {run.error.layer != null ? `layer ${run.error.layer}` : ""} {run.error.section ?? ""}: {run.error.message}</span>}
+        <span className="grow" />
+        {messages.map((m) => (
+          <span key={m.id} className="toast" data-testid="toast">
+            {m.text}
+          </span>
+        ))}
+      </footer>
+    </div>
+  );
+}

@@ -1,0 +1,92 @@
+/**
+ * The REST client: typed by the generated OpenAPI paths (openapi-fetch), so a route or field the
+ * server renames breaks the build instead of the GUI.
+ */
+import createClient from "openapi-fetch";
+import type { paths } from "./schema";
+import type {
+  Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, Recipe, RunCreated, RunError, RunInfo, SaveResult,
+} from "./types";
+
+export const api = createClient<paths>({ baseUrl: "" });
+
+/** An error answer of the API ({"detail": {"message", "node", "layer", "section", ...}}). */
+export class ApiError extends Error {
+  constructor(public status: number, public detail: RunError & Record<string, unknown>) {
+    super(detail.message);
+  }
+}
+
+function toDetail(status: number, body: unknown): RunError & Record<string, unknown> {
+  const d = (body as { detail?: unknown } | undefined)?.detail;
+  if (d && typeof d === "object" && !Array.isArray(d) && "message" in d) return d as RunError & Record<string, unknown>;
+  if (typeof d === "string") return { message: d };
+  if (Array.isArray(d)) return { message: d.map((e) => e?.msg ?? String(e)).join("; ") };
+  return { message: `HTTP ${status}` };
+}
+
+async function unwrap<T>(p: Promise<{ data?: unknown; error?: unknown; response: Response }>): Promise<T> {
+  const { data, error, response } = await p;
+  if (!response.ok) throw new ApiError(response.status, toDetail(response.status, error));
+  return data as T;
+}
+
+export const health = () => unwrap<Health>(api.GET("/api/health"));
+export const nodes = () => unwrap<NodeSpec[]>(api.GET("/api/nodes"));
+export const listGraphs = () => unwrap<GraphInfo[]>(api.GET("/api/graphs"));
+export const getGraph = (name: string) => unwrap<Recipe>(api.GET("/api/graphs/{name}", { params: { path: { name } } }));
+export const putGraph = (name: string, recipe: Recipe) =>
+  unwrap<SaveResult>(api.PUT("/api/graphs/{name}", { params: { path: { name } }, body: recipe as unknown as Record<string, unknown> }));
+export const deleteGraph = (name: string) => unwrap<void>(api.DELETE("/api/graphs/{name}", { params: { path: { name } }, parseAs: "text" }));
+export const listFiles = (name: string) => unwrap<FileInfo[]>(api.GET("/api/graphs/{name}/files", { params: { path: { name } } }));
+
+/** The graph's zone-parameter XML, or null when it has none yet (404). */
+export async function getParams(name: string): Promise<string | null> {
+  const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/params`);
+  if (res.status === 404) return null;
+  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  return res.text();
+}
+
+// XML and binary bodies go through fetch directly: openapi-fetch serialises bodies as JSON.
+export async function putParams(name: string, xml: string): Promise<void> {
+  const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/params`, {
+    method: "PUT",
+    headers: { "Content-Type": "application/xml" },
+    body: xml,
+  });
+  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+}
+
+export async function putFile(name: string, filename: string, body: Blob): Promise<void> {
+  const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/files/${encodeURIComponent(filename)}`, {
+    method: "PUT",
+    headers: { "Content-Type": "application/octet-stream" },
+    body,
+  });
+  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+}
+
+export const startRun = (body: { graph?: string; recipe?: Recipe; inputs?: Record<string, unknown> }) =>
+  unwrap<RunCreated>(api.POST("/api/runs", { body: body as { graph?: string; recipe?: Record<string, unknown> } }));
+export const getRun = (id: string) => unwrap<RunInfo>(api.GET("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
+export const cancelRun = (id: string) => unwrap<RunInfo>(api.DELETE("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
+export const listArtifacts = (id: string) =>
+  unwrap<Artifact[]>(api.GET("/api/runs/{run_id}/artifacts", { params: { path: { run_id: id } } }));
+
+export const artifactUrl = (id: string, name: string) => `/api/runs/${encodeURIComponent(id)}/artifacts/${encodeURIComponent(name)}`;
+
+export async function artifactText(id: string, name: string): Promise<string | null> {
+  const res = await fetch(artifactUrl(id, name));
+  if (res.status === 404) return null;
+  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  return res.text();
+}
+
+export const eventsUrl = (id: string) => `/api/runs/${encodeURIComponent(id)}/events`;
+
+export function preview(body: { recipe: Recipe; node: string; layer: number; graph?: string | null }, signal?: AbortSignal) {
+  return unwrap<Preview>(
+    api.POST("/api/preview", { body: { ...body, recipe: body.recipe as unknown as Record<string, unknown> }, signal }),
+  );
+}

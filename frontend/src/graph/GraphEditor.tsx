@@ -1,0 +1,206 @@
+import {
+  Background, Controls, Handle, MiniMap, Position, ReactFlow, applyNodeChanges, useReactFlow,
+  type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
+} from "@xyflow/react";
+import { memo, useCallback, useEffect, useMemo, useState, type DragEvent } from "react";
+import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
+import { badgeText, type NodeStatus } from "../run/status";
+import {
+  connect, connectionError, edgeId, endpoint, positionsOf, removeEdges, removeNodes, setPositions, type Catalog, type XY,
+} from "./recipe";
+
+export interface WNodeData extends Record<string, unknown> {
+  node: RecipeNode;
+  spec?: NodeSpec;
+  status?: NodeStatus;
+  previewed: boolean;
+  onPreview: (id: string) => void;
+}
+type WNode = Node<WNodeData, "waam">;
+
+/** One node: title, id, status badge, typed ports (handles keyed by port name, coloured by type). */
+const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
+  const { node, spec, status } = data;
+  const rows = Math.max(spec?.inputs.length ?? 0, spec?.outputs.length ?? 0);
+  return (
+    <div className={`wnode ${selected ? "selected" : ""} ${status ? "st-" + status.state : ""} ${spec ? "" : "unknown"}`} data-node-id={node.id}>
+      <div className="wnode-head" title={spec?.description}>
+        <span className="wnode-title">{spec?.title ?? node.type}</span>
+        <button
+          className={`eye ${data.previewed ? "on" : ""}`}
+          title="show this node in the 3D view and on the mask canvas"
+          onClick={(e) => {
+            e.stopPropagation();
+            data.onPreview(node.id);
+          }}
+        >
+          ◉
+        </button>
+      </div>
+      <div className="wnode-id">{node.id}</div>
+      <div className="wnode-ports" style={{ minHeight: rows * 20 }}>
+        <div className="ports-in">
+          {spec?.inputs.map((p) => (
+            <div className="port" key={p.name} title={`${p.type}${p.optional ? " (optional)" : ""}: ${p.description}`}>
+              <Handle type="target" position={Position.Left} id={p.name} style={{ background: p.color }} />
+              <span>{p.name}</span>
+            </div>
+          ))}
+        </div>
+        <div className="ports-out">
+          {spec?.outputs.map((p) => (
+            <div className="port out" key={p.name} title={`${p.type}: ${p.description}`}>
+              <span>{p.name}</span>
+              <Handle type="source" position={Position.Right} id={p.name} style={{ background: p.color }} />
+            </div>
+          ))}
+        </div>
+      </div>
+      {status && (
+        <div className={`badge b-${status.state}`} title={status.message}>
+          {badgeText(status)}
+        </div>
+      )}
+      {!spec && <div className="badge b-error">unknown type</div>}
+    </div>
+  );
+});
+
+const nodeTypes = { waam: WaamNode };
+
+export interface GraphEditorProps {
+  recipe: Recipe;
+  catalog: Catalog;
+  statuses: Record<string, NodeStatus>;
+  selected: ReadonlySet<string>;
+  previewNode: string | null;
+  onSelect: (ids: Set<string>) => void;
+  /** Apply an edit to the recipe (one undo step). Updaters compose when called in one tick. */
+  onChange: (edit: (r: Recipe) => Recipe) => void;
+  onPreview: (id: string) => void;
+  onAddAt: (type: string, at: XY) => void;
+  onMessage: (m: string) => void;
+}
+
+export function GraphEditor(p: GraphEditorProps) {
+  const { recipe, catalog } = p;
+  const rf = useReactFlow();
+  const [nodes, setNodes] = useState<WNode[]>([]);
+
+  // Rebuild editor nodes from the recipe, keeping what the editor measured.
+  useEffect(() => {
+    const pos = positionsOf(recipe);
+    setNodes((prev) => {
+      const old = new Map(prev.map((n) => [n.id, n]));
+      return recipe.nodes.map((n) => {
+        const o = old.get(n.id);
+        const [x, y] = pos[n.id];
+        return {
+          ...(o ?? {}),
+          id: n.id,
+          type: "waam",
+          position: { x, y },
+          selected: p.selected.has(n.id),
+          data: { node: n, spec: catalog.get(n.type), status: p.statuses[n.id], previewed: p.previewNode === n.id, onPreview: p.onPreview },
+        } as WNode;
+      });
+    });
+  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview]);
+
+  const edges: Edge[] = useMemo(
+    () =>
+      recipe.edges.map((e) => {
+        const f = endpoint(e.from), t = endpoint(e.to);
+        const src = recipe.nodes.find((n) => n.id === f.node);
+        const color = src ? catalog.get(src.type)?.outputs.find((o) => o.name === f.port)?.color : undefined;
+        return {
+          id: edgeId(e), source: f.node, sourceHandle: f.port, target: t.node, targetHandle: t.port,
+          style: { stroke: color ?? "#999", strokeWidth: 2 },
+          animated: p.statuses[t.node]?.state === "running",
+        };
+      }),
+    [recipe, catalog, p.statuses],
+  );
+
+  const onNodesChange = useCallback(
+    (changes: NodeChange<WNode>[]) => {
+      setNodes((ns) => applyNodeChanges(changes, ns));
+      const moved: Record<string, XY> = {};
+      const removed = new Set<string>();
+      let selectionChanged = false;
+      const sel = new Set(p.selected);
+      for (const c of changes) {
+        if (c.type === "position" && c.position && c.dragging === false) moved[c.id] = [Math.round(c.position.x), Math.round(c.position.y)];
+        if (c.type === "remove") removed.add(c.id);
+        if (c.type === "select") {
+          selectionChanged = true;
+          if (c.selected) sel.add(c.id);
+          else sel.delete(c.id);
+        }
+      }
+      if (removed.size) p.onChange((r) => removeNodes(r, removed));
+      else if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
+      if (selectionChanged) p.onSelect(sel);
+    },
+    [p, recipe],
+  );
+
+  const onEdgesChange = useCallback(
+    (changes: EdgeChange[]) => {
+      const removed = new Set(changes.filter((c) => c.type === "remove").map((c) => c.id));
+      if (removed.size) p.onChange((r) => removeEdges(r, removed));
+    },
+    [p, recipe],
+  );
+
+  const valid = useCallback(
+    (c: Edge | { source: string; target: string; sourceHandle?: string | null; targetHandle?: string | null }) =>
+      connectionError(catalog, recipe, { source: c.source, target: c.target, sourceHandle: c.sourceHandle ?? null, targetHandle: c.targetHandle ?? null }) === null,
+    [catalog, recipe],
+  );
+
+  const onConnect: OnConnect = useCallback(
+    (c) => {
+      const err = connectionError(catalog, recipe, c);
+      if (err) p.onMessage(err);
+      else p.onChange((r) => connect(r, c));
+    },
+    [catalog, recipe, p],
+  );
+
+  const onDrop = useCallback(
+    (e: DragEvent) => {
+      const type = e.dataTransfer.getData("application/waamflow-node");
+      if (!type) return;
+      e.preventDefault();
+      const at = rf.screenToFlowPosition({ x: e.clientX, y: e.clientY });
+      p.onAddAt(type, [Math.round(at.x), Math.round(at.y)]);
+    },
+    [rf, p],
+  );
+
+  return (
+    <div className="graph-editor" onDragOver={(e) => e.preventDefault()} onDrop={onDrop} data-testid="graph-editor">
+      <ReactFlow<WNode, Edge>
+        nodes={nodes}
+        edges={edges}
+        nodeTypes={nodeTypes}
+        onNodesChange={onNodesChange}
+        onEdgesChange={onEdgesChange}
+        onConnect={onConnect}
+        isValidConnection={valid}
+        deleteKeyCode={["Delete", "Backspace"]}
+        selectionKeyCode="Shift"
+        multiSelectionKeyCode={["Control", "Meta"]}
+        fitView
+        minZoom={0.1}
+        maxZoom={3}
+        proOptions={{ hideAttribution: true }}
+      >
+        <Background gap={20} />
+        <Controls />
+        <MiniMap pannable zoomable style={{ width: 140, height: 90 }} />
+      </ReactFlow>
+    </div>
+  );
+}

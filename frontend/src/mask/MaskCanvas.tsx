@@ -1,0 +1,422 @@
+/**
+ * The 2D mask canvas (SVG): the active layer with holes, neighbouring layers ghosted, the mask's
+ * closed segmentation curves, guides with their boundary crossings, zone split points and
+ * start/end lengths, and the section paths coloured by zone as re-planned by the server.
+ * Drawing is in layer mm; SVG y = −y so the part is seen from above with y up.
+ */
+import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent, type WheelEvent } from "react";
+import type { LayerJson, Preview, PreviewPath } from "../api/types";
+import {
+  bbox, boundaryCrossings, closestOnPolyline, dist, pointAtLength, polygonPathD, polygonVertices, ringPathD, snapPoint,
+  translate, type Pt,
+} from "./geom";
+import { sectionKey, type GuideParams, type KeyedParams, type Mask } from "./edits";
+
+export type Tool = "select" | "curve" | "guide" | "split";
+
+export const SECTION_COLORS = ["#e76f51", "#2a9d8f", "#e9c46a", "#8e7dbe", "#f4a261", "#457b9d", "#b5838d", "#6a994e"];
+
+export interface CanvasEdits {
+  addCurve: (curve: Pt[]) => void;
+  setCurve: (key: string, curve: Pt[]) => void;
+  setGuide: (key: string, guide: Pt[]) => void;
+  addSplit: (key: string, p: Pt) => void;
+  removeSplit: (key: string, index: number) => void;
+  removeSection: (key: string) => void;
+}
+
+export interface MaskCanvasProps {
+  preview: Preview | null;
+  ghosts: { prev: LayerJson | null; next: LayerJson | null };
+  mask: Mask | undefined;
+  guides: GuideParams;
+  zone: KeyedParams;
+  tool: Tool;
+  setTool: (t: Tool) => void;
+  grid: number;
+  snapVertices: boolean;
+  selected: string | null;
+  setSelected: (k: string | null) => void;
+  highlight: string | null;
+  edits: CanvasEdits;
+  replanMs: number | null;
+}
+
+interface View {
+  x: number;
+  y: number;
+  w: number;
+  h: number;
+}
+
+type Drag =
+  | { kind: "pan"; start: [number, number]; view: View }
+  | { kind: "vertex"; key: string; index: number; curve: Pt[] }
+  | { kind: "curve"; key: string; start: Pt; curve: Pt[] };
+
+const num = (v: unknown, d = 0) => (typeof v === "number" && Number.isFinite(v) ? v : d);
+
+export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
+  const svgRef = useRef<SVGSVGElement>(null);
+  const [view, setView] = useState<View | null>(null);
+  const [draft, setDraft] = useState<Pt[]>([]);
+  const [cursor, setCursor] = useState<{ p: Pt; kind: string } | null>(null);
+  const [dragCurve, setDragCurve] = useState<{ key: string; curve: Pt[] } | null>(null);
+  const drag = useRef<Drag | null>(null);
+  const layer = p.preview?.layer ?? null;
+
+  // Fit the view to the layer the first time one arrives (and on demand).
+  const fit = useCallback(() => {
+    const pts = [
+      ...(layer?.polygons.flatMap((q) => q.exterior) ?? []),
+      ...(p.ghosts.prev?.polygons.flatMap((q) => q.exterior) ?? []),
+      ...(p.mask?.sections.flatMap((s) => s.curve) ?? []),
+    ];
+    const b = bbox(pts);
+    if (!b) return;
+    const pad = Math.max(b.maxX - b.minX, b.maxY - b.minY) * 0.08 + 1;
+    let w = b.maxX - b.minX + 2 * pad, h = b.maxY - b.minY + 2 * pad;
+    // Match the element's aspect so screen ↔ world is one uniform scale (pan/zoom stay exact).
+    const el = svgRef.current?.getBoundingClientRect();
+    const aspect = el && el.width > 0 && el.height > 0 ? el.width / el.height : w / h;
+    const cx = (b.minX + b.maxX) / 2, cy = -(b.minY + b.maxY) / 2;
+    if (w / h < aspect) w = h * aspect;
+    else h = w / aspect;
+    setView({ x: cx - w / 2, y: cy - h / 2, w, h });
+  }, [layer, p.ghosts.prev, p.mask]);
+  useEffect(() => {
+    if (!view && layer) fit();
+  }, [layer, view, fit]);
+
+  const pxSize = () => {
+    const el = svgRef.current;
+    if (!el || !view) return 0.1;
+    const r = el.getBoundingClientRect();
+    return Math.max(view.w / Math.max(r.width, 1), view.h / Math.max(r.height, 1));
+  };
+
+  const toWorld = (e: { clientX: number; clientY: number }): Pt => {
+    const el = svgRef.current!;
+    const m = el.getScreenCTM();
+    if (!m) return [0, 0];
+    const q = new DOMPoint(e.clientX, e.clientY).matrixTransform(m.inverse());
+    return [q.x, -q.y];
+  };
+
+  const snapVerts = useMemo(() => {
+    const v = p.snapVertices ? polygonVertices(layer?.polygons ?? []) : [];
+    const curves = p.snapVertices ? (p.mask?.sections.flatMap((s) => s.curve) ?? []) : [];
+    return [...v, ...curves];
+  }, [layer, p.mask, p.snapVertices]);
+
+  const snap = (w: Pt) => snapPoint(w, { vertices: snapVerts, radius: 8 * pxSize(), grid: p.grid });
+
+  const sections = p.preview?.sections ?? [];
+  const colorOf = useMemo(() => {
+    const keys = [...new Set([...(p.mask?.sections.map((s) => sectionKey(p.mask!.id, s.id)) ?? []), ...sections.map((s) => s.key)])];
+    return (k: string) => SECTION_COLORS[Math.max(0, keys.indexOf(k)) % SECTION_COLORS.length];
+  }, [p.mask, sections]);
+
+  const finishDraft = () => {
+    if (p.tool === "curve" && draft.length >= 3) p.edits.addCurve(draft);
+    if (p.tool === "guide" && p.selected && draft.length >= 2) p.edits.setGuide(p.selected, draft);
+    setDraft([]);
+  };
+
+  useEffect(() => setDraft([]), [p.tool]);
+
+  useEffect(() => {
+    const onKey = (e: KeyboardEvent) => {
+      const t = e.target as HTMLElement;
+      if (t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA" || t.tagName === "SELECT")) return;
+      if (e.key === "Escape") setDraft([]);
+      else if (e.key === "Enter") finishDraft();
+      else if ((e.key === "Delete" || e.key === "Backspace") && p.selected && !draft.length) {
+        p.edits.removeSection(p.selected);
+        p.setSelected(null);
+      } else if (e.key === "v") p.setTool("select");
+      else if (e.key === "c") p.setTool("curve");
+      else if (e.key === "g") p.setTool("guide");
+      else if (e.key === "s") p.setTool("split");
+      else if (e.key === "f") fit();
+      else return;
+      e.preventDefault();
+    };
+    window.addEventListener("keydown", onKey);
+    return () => window.removeEventListener("keydown", onKey);
+  });
+
+  const paths = p.preview?.paths ?? [];
+
+  const onPointerDown = (e: RPointerEvent<SVGSVGElement>) => {
+    if (!view) return;
+    const w = toWorld(e);
+    const target = e.target as SVGElement;
+    const vtx = target.getAttribute("data-vertex");
+    const curveKey = target.getAttribute("data-curve");
+    const split = target.getAttribute("data-split");
+    const section = target.getAttribute("data-section");
+    svgRef.current!.setPointerCapture(e.pointerId);
+    if (e.button === 1 || e.button === 2 || (p.tool === "select" && !vtx && !curveKey && !split && !section)) {
+      drag.current = { kind: "pan", start: [e.clientX, e.clientY], view };
+      if (p.tool === "select" && e.button === 0) p.setSelected(null);
+      return;
+    }
+    if (e.button !== 0) return;
+    if (p.tool === "select") {
+      if (vtx) {
+        const [key, i] = [vtx.slice(0, vtx.lastIndexOf(":")), Number(vtx.slice(vtx.lastIndexOf(":") + 1))];
+        const s = p.mask?.sections.find((x) => sectionKey(p.mask!.id, x.id) === key);
+        if (s) drag.current = { kind: "vertex", key, index: i, curve: s.curve.map((q) => [q[0], q[1]] as Pt) };
+        p.setSelected(key);
+      } else if (curveKey) {
+        const s = p.mask?.sections.find((x) => sectionKey(p.mask!.id, x.id) === curveKey);
+        if (s) drag.current = { kind: "curve", key: curveKey, start: w, curve: s.curve.map((q) => [q[0], q[1]] as Pt) };
+        p.setSelected(curveKey);
+      } else if (split) {
+        p.setSelected(split.slice(0, split.lastIndexOf(":")));
+      } else if (section) p.setSelected(section);
+      return;
+    }
+    if (p.tool === "split") {
+      if (split) {
+        const i = split.lastIndexOf(":");
+        p.edits.removeSplit(split.slice(0, i), Number(split.slice(i + 1)));
+        return;
+      }
+      const key = p.selected ?? section ?? null;
+      const path = paths.find((q) => q.key === key) ?? nearestPath(paths, w);
+      if (!path) return;
+      const c = closestOnPolyline(w, path.points);
+      if (c.distance <= 12 * pxSize() || key === path.key) {
+        p.setSelected(path.key);
+        p.edits.addSplit(path.key, [round3(c.point[0]), round3(c.point[1])]);
+      }
+      return;
+    }
+    // curve / guide drawing
+    if (p.tool === "guide" && !p.selected) {
+      if (section) p.setSelected(section);
+      return;
+    }
+    const s = snap(w).point;
+    if (p.tool === "curve" && draft.length >= 3 && dist(s, draft[0]) <= 8 * pxSize()) {
+      p.edits.addCurve(draft);
+      setDraft([]);
+      return;
+    }
+    if (e.detail >= 2) {
+      finishDraft();
+      return;
+    }
+    setDraft((d) => [...d, [round3(s[0]), round3(s[1])]]);
+  };
+
+  const onPointerMove = (e: RPointerEvent<SVGSVGElement>) => {
+    const w = toWorld(e);
+    const d = drag.current;
+    if (d?.kind === "pan") {
+      const r = svgRef.current!.getBoundingClientRect();
+      const k = d.view.w / r.width;
+      setView({ ...d.view, x: d.view.x - (e.clientX - d.start[0]) * k, y: d.view.y - (e.clientY - d.start[1]) * k });
+      return;
+    }
+    if (d?.kind === "vertex") {
+      const s = snap(w).point;
+      const curve = d.curve.map((q, i) => (i === d.index ? ([round3(s[0]), round3(s[1])] as Pt) : q));
+      setDragCurve({ key: d.key, curve });
+      return;
+    }
+    if (d?.kind === "curve") {
+      const s = snap(w).point;
+      const dx = p.grid > 0 ? Math.round((s[0] - d.start[0]) / p.grid) * p.grid : w[0] - d.start[0];
+      const dy = p.grid > 0 ? Math.round((s[1] - d.start[1]) / p.grid) * p.grid : w[1] - d.start[1];
+      setDragCurve({ key: d.key, curve: translate(d.curve, dx, dy).map((q) => [round3(q[0]), round3(q[1])] as Pt) });
+      return;
+    }
+    if (p.tool === "curve" || p.tool === "guide") {
+      const s = snap(w);
+      setCursor({ p: s.point, kind: s.kind });
+    } else setCursor(null);
+  };
+
+  const onPointerUp = () => {
+    const d = drag.current;
+    drag.current = null;
+    if ((d?.kind === "vertex" || d?.kind === "curve") && dragCurve) {
+      const orig = d.curve;
+      if (dragCurve.curve.some((q, i) => q[0] !== orig[i][0] || q[1] !== orig[i][1])) p.edits.setCurve(dragCurve.key, dragCurve.curve);
+    }
+    setDragCurve(null);
+  };
+
+  // Keep the dragged curve on screen until the recipe has it (no flicker back to the old one).
+  useEffect(() => setDragCurve(null), [p.mask]);
+
+  const onWheel = (e: WheelEvent<SVGSVGElement>) => {
+    if (!view) return;
+    const el = svgRef.current!;
+    const r = el.getBoundingClientRect();
+    const k = Math.exp(e.deltaY * 0.0015);
+    const fx = (e.clientX - r.left) / r.width, fy = (e.clientY - r.top) / r.height;
+    // The viewBox keeps the element's aspect (preserveAspectRatio meet): zoom about the cursor.
+    const w = view.w * k, h = view.h * k;
+    setView({ x: view.x + (view.w - w) * fx, y: view.y + (view.h - h) * fy, w, h });
+  };
+
+  const px = pxSize();
+  const r = 4 * px;
+
+  const curves = (p.mask?.sections ?? []).map((s) => {
+    const key = sectionKey(p.mask!.id, s.id);
+    return { key, curve: dragCurve?.key === key ? dragCurve.curve : (s.curve as Pt[]) };
+  });
+
+  return (
+    <div className="mask-canvas-wrap">
+      <svg
+        ref={svgRef}
+        className={`mask-canvas tool-${p.tool}`}
+        data-testid="mask-canvas"
+        data-replan-ms={p.replanMs ?? ""}
+        data-paths={paths.length}
+        data-path-points={paths.reduce((a, q) => a + q.points.length, 0)}
+        viewBox={view ? `${view.x} ${view.y} ${view.w} ${view.h}` : "0 0 100 100"}
+        onPointerDown={onPointerDown}
+        onPointerMove={onPointerMove}
+        onPointerUp={onPointerUp}
+        onPointerLeave={() => setCursor(null)}
+        onWheel={onWheel}
+        onContextMenu={(e) => e.preventDefault()}
+      >
+        {view && p.grid > 0 && view.w / p.grid < 400 && <Grid view={view} pitch={p.grid} />}
+        {[p.ghosts.prev, p.ghosts.next].map((g, gi) =>
+          g?.polygons.map((q, i) => <path key={`g${gi}-${i}`} d={polygonPathD(q)} className={`ghost ghost-${gi ? "next" : "prev"}`} fillRule="evenodd" />),
+        )}
+        {layer?.polygons.map((q, i) => <path key={`l${i}`} d={polygonPathD(q)} className="layer-poly" fillRule="evenodd" />)}
+        {layer?.curves.map((c, i) => <path key={`mc${i}`} d={ringPathD(c, false)} className="layer-curve" />)}
+        {sections.map((s) =>
+          s.polygon ? (
+            <path
+              key={`s-${s.key}`}
+              d={polygonPathD(s.polygon)}
+              fillRule="evenodd"
+              data-section={s.key}
+              className={`section-region ${s.key === p.selected ? "selected" : ""} ${s.key === p.highlight ? "failing" : ""}`}
+              style={{ fill: colorOf(s.key) }}
+            />
+          ) : null,
+        )}
+        {paths.map((q) => (
+          <PathView key={`p-${q.key}`} path={q} zone={p.zone} r={r} />
+        ))}
+        {sections.map((s) => {
+          const own = p.guides.guides?.[s.key];
+          const g = own ?? s.guide;
+          if (!g || !s.polygon) return null;
+          const xs = boundaryCrossings(g, s.polygon);
+          const ok = xs.length === 2;
+          return (
+            <g key={`gd-${s.key}`} className={`guide ${own ? "own" : "auto"} ${ok ? "" : "bad"}`} data-guide={s.key} data-crossings={xs.length}>
+              <path d={ringPathD(g, false)} />
+              {xs.map((x, i) => (
+                <circle key={i} cx={x[0]} cy={-x[1]} r={r * 1.3} className="crossing" />
+              ))}
+              {!ok && (
+                <text x={g[0][0]} y={-g[0][1]} fontSize={12 * px} className="bad-text">
+                  {xs.length} crossings (needs 2)
+                </text>
+              )}
+            </g>
+          );
+        })}
+        {curves.map(({ key, curve }) => (
+          <g key={`c-${key}`} className={`mask-curve ${key === p.selected ? "selected" : ""} ${key === p.highlight ? "failing" : ""}`}>
+            <path d={ringPathD(curve, true)} data-curve={key} style={{ stroke: colorOf(key) }} />
+            <text x={curve[0][0]} y={-curve[0][1]} fontSize={11 * px} className="curve-label">
+              {key}
+            </text>
+            {p.tool === "select" &&
+              key === p.selected &&
+              curve.map((q, i) => <circle key={i} cx={q[0]} cy={-q[1]} r={r * 1.2} data-vertex={`${key}:${i}`} className="vertex" />)}
+          </g>
+        ))}
+        {draft.length > 0 && (
+          <g className={`draft draft-${p.tool}`}>
+            <path d={ringPathD(cursor ? [...draft, cursor.p] : draft, false)} />
+            {draft.map((q, i) => (
+              <circle key={i} cx={q[0]} cy={-q[1]} r={r} />
+            ))}
+          </g>
+        )}
+        {cursor && <circle className={`cursor snap-${cursor.kind}`} cx={cursor.p[0]} cy={-cursor.p[1]} r={r * 1.5} />}
+      </svg>
+      <div className="canvas-hud">
+        <button onClick={fit} title="fit view (F)">fit</button>
+        {p.tool === "curve" && <span>click to add points (snapped), click the first point or double-click / Enter to close, Esc cancels</span>}
+        {p.tool === "guide" && <span>{p.selected ? `guide for ${p.selected}: click points, double-click / Enter to finish` : "pick a section first"}</span>}
+        {p.tool === "split" && <span>click on a section path to add a zone split point; click a split point to remove it</span>}
+        {p.tool === "select" && <span>drag a curve or its vertices; Delete removes the selected section; drag empty space to pan, wheel zooms</span>}
+        {p.replanMs !== null && <span className="replan" data-testid="replan-ms">re-plan {p.replanMs.toFixed(0)} ms</span>}
+      </div>
+    </div>
+  );
+});
+
+const round3 = (v: number) => Math.round(v * 1000) / 1000;
+
+function nearestPath(paths: PreviewPath[], w: Pt): PreviewPath | undefined {
+  let best: PreviewPath | undefined, bd = Infinity;
+  for (const q of paths) {
+    if (q.points.length < 2) continue;
+    const c = closestOnPolyline(w, q.points);
+    if (c.distance < bd) {
+      bd = c.distance;
+      best = q;
+    }
+  }
+  return best;
+}
+
+function Grid({ view, pitch }: { view: View; pitch: number }) {
+  const xs: number[] = [], ys: number[] = [];
+  for (let x = Math.ceil(view.x / pitch) * pitch; x <= view.x + view.w; x += pitch) xs.push(x);
+  for (let y = Math.ceil(view.y / pitch) * pitch; y <= view.y + view.h; y += pitch) ys.push(y);
+  const d = [...xs.map((x) => `M${x} ${view.y}V${view.y + view.h}`), ...ys.map((y) => `M${view.x} ${y}H${view.x + view.w}`)].join("");
+  return <path d={d} className="grid" />;
+}
+
+/** A section path: consecutive segments of one zone and arc state drawn as one polyline. */
+const PathView = memo(function PathView({ path, zone, r }: { path: PreviewPath; zone: KeyedParams; r: number }) {
+  const runs: { d: string; color: string; arc: boolean; zone: string }[] = [];
+  const pts = path.points;
+  for (let i = 0; i + 1 < pts.length; i++) {
+    const z = path.zone[i] ?? "";
+    const arc = path.arc[i] ?? true;
+    const color = path.zone_colors?.[z] ?? "#1d3557";
+    const last = runs[runs.length - 1];
+    const seg = `L${pts[i + 1][0]} ${-pts[i + 1][1]}`;
+    if (last && last.zone === z && last.arc === arc) last.d += seg;
+    else runs.push({ d: `M${pts[i][0]} ${-pts[i][1]}${seg}`, color, arc, zone: z });
+  }
+  const spec = zone.sections?.[path.key] ?? zone.default ?? {};
+  const splits = (spec.split_points as number[][] | undefined) ?? [];
+  const xy = pts.map((q) => [q[0], q[1]]);
+  let total = 0;
+  for (let i = 1; i < xy.length; i++) total += dist(xy[i - 1], xy[i]);
+  const sLen = num(spec.start_length), eLen = num(spec.end_length);
+  const marks = [sLen > 0 ? pointAtLength(xy, sLen) : null, eLen > 0 ? pointAtLength(xy, total - eLen) : null];
+  return (
+    <g className="section-path" data-path={path.key} data-zones={[...new Set(path.zone)].join(",")} data-length={total.toFixed(3)}>
+      {runs.map((q, i) => (
+        <path key={i} d={q.d} className={q.arc ? "arc-on" : "arc-off"} style={{ stroke: q.arc ? q.color : undefined }} data-zone={q.zone} />
+      ))}
+      {pts.length > 0 && <circle cx={pts[0][0]} cy={-pts[0][1]} r={r * 1.1} className="path-start" />}
+      {marks.map((m, i) => (m ? <rect key={i} x={m[0] - r} y={-m[1] - r} width={2 * r} height={2 * r} className="zone-mark" transform={`rotate(45 ${m[0]} ${-m[1]})`} /> : null))}
+      {splits.map((s, i) => {
+        const c = xy.length > 1 ? closestOnPolyline(s, xy).point : (s as Pt);
+        return <circle key={`sp${i}`} cx={c[0]} cy={-c[1]} r={r * 1.6} className="split-point" data-split={`${path.key}:${i}`} />;
+      })}
+    </g>
+  );
+});

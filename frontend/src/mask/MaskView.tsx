@@ -1,0 +1,357 @@
+/** The mask tab: canvas plus its side panel (layers, masks, sections, strategy, zoning). */
+import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import type { Recipe, RunError } from "../api/types";
+import { findEnum } from "../forms/schema";
+import { setNodeParams, type Catalog } from "../graph/recipe";
+import {
+  addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
+  sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
+} from "./edits";
+import { polygonArea, ringSelfIntersects, type Pt } from "./geom";
+import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
+import { useLayerPreview } from "./useLayerPreview";
+
+/** Patterns named by the contract, used only if the strategy node's schema does not list them. */
+const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
+
+export interface MaskViewProps {
+  recipe: Recipe;
+  catalog: Catalog;
+  graph: string | null;
+  layer: number;
+  setLayer: (n: number) => void;
+  previewNode: string | null;
+  setPreviewNode: (id: string) => void;
+  onEdit: (edit: (r: Recipe) => Recipe) => void;
+  failure: RunError | null;
+  onDismissFailure: () => void;
+  onMessage: (m: string) => void;
+}
+
+declare global {
+  interface Window {
+    __waamflowReplanMs?: number[];
+  }
+}
+
+export function MaskView(p: MaskViewProps) {
+  const { recipe, layer } = p;
+  const nodes = useMemo(() => canvasNodes(recipe, p.previewNode ?? undefined), [recipe, p.previewNode]);
+  const editStarted = useRef<number | null>(null);
+  const pv = useLayerPreview(recipe, nodes.preview?.id, nodes.slice?.id, layer, p.graph, editStarted);
+  const [tool, setTool] = useState<Tool>("select");
+  const [grid, setGrid] = useState(1);
+  const [snapVertices, setSnapVertices] = useState(true);
+  const [selected, setSelected] = useState<string | null>(null);
+  const [replanMs, setReplanMs] = useState<number | null>(null);
+
+  // Edit → canvas latency, measured after the frame that shows the re-planned layer.
+  useEffect(() => {
+    const t0 = pv.editT0;
+    if (t0 === null || !pv.data) return;
+    const id = requestAnimationFrame(() => {
+      const ms = performance.now() - t0;
+      setReplanMs(ms);
+      (window.__waamflowReplanMs ??= []).push(ms);
+    });
+    return () => cancelAnimationFrame(id);
+  }, [pv.data, pv.editT0]);
+
+  // A failed run: show its layer and section.
+  useEffect(() => {
+    if (p.failure?.layer != null) p.setLayer(p.failure.layer);
+    if (p.failure?.section) setSelected(p.failure.section);
+    // eslint-disable-next-line react-hooks/exhaustive-deps
+  }, [p.failure]);
+
+  const maskParams = (nodes.mask?.params ?? {}) as MaskParams;
+  const guideParams = (nodes.guide?.params ?? {}) as GuideParams;
+  const strategyParams = (nodes.strategy?.params ?? {}) as KeyedParams;
+  const zoneParams = (nodes.zone?.params ?? {}) as KeyedParams;
+  const mask = governingMask(maskParams, layer);
+  const layerCount = pv.data?.layer_count ?? null;
+  const ranges = maskRanges(maskParams, layerCount);
+
+  const edit = useCallback(
+    (id: string | undefined, fn: (params: Record<string, unknown>) => Record<string, unknown>) => {
+      if (!id) {
+        p.onMessage("the recipe has no node for this edit upstream of the previewed node");
+        return;
+      }
+      editStarted.current = performance.now();
+      p.onEdit((r) => setNodeParams(r, id, fn(r.nodes.find((n) => n.id === id)?.params ?? {})));
+    },
+    [p],
+  );
+  const maskId = nodes.mask?.id, guideId = nodes.guide?.id, strategyId = nodes.strategy?.id, zoneId = nodes.zone?.id;
+
+  const edits: CanvasEdits = useMemo(
+    () => ({
+      addCurve: (curve: Pt[]) => {
+        if (ringSelfIntersects(curve)) {
+          p.onMessage("the curve crosses itself: draw a simple closed curve");
+          return;
+        }
+        if (!maskId) {
+          p.onMessage("add a mask node to draw segmentation curves");
+          return;
+        }
+        setSelected(addSection(maskParams, layer, curve).key);
+        edit(maskId, (m) => addSection(m as MaskParams, layer, curve).params);
+      },
+      setCurve: (key, curve) => edit(maskId, (m) => setCurve(m as MaskParams, key, curve)),
+      setGuide: (key, guide) => edit(guideId, (g) => setGuide(g as GuideParams, key, guide)),
+      addSplit: (key, pt) =>
+        edit(zoneId, (z) => {
+          const cur = (sectionValue(z as KeyedParams, key, "split_points") as number[][] | undefined) ?? [];
+          return patchSection(z as KeyedParams, key, { split_points: [...cur, pt] });
+        }),
+      removeSplit: (key, i) =>
+        edit(zoneId, (z) => {
+          const cur = (sectionValue(z as KeyedParams, key, "split_points") as number[][] | undefined) ?? [];
+          return patchSection(z as KeyedParams, key, { split_points: cur.filter((_, j) => j !== i) });
+        }),
+      removeSection: (key) => {
+        editStarted.current = performance.now();
+        p.onEdit((r) => {
+          let out = r;
+          for (const n of r.nodes) {
+            if (n.id === maskId) out = setNodeParams(out, n.id, removeSection(n.params as MaskParams, key));
+            else if (n.id === guideId || n.id === strategyId || n.id === zoneId) out = setNodeParams(out, n.id, forgetKey(n.params, key));
+          }
+          return out;
+        });
+      },
+    }),
+    [edit, maskId, guideId, strategyId, zoneId, layer, p, maskParams],
+  );
+
+  const patterns = useMemo(() => {
+    const spec = nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined;
+    return ((spec && findEnum(spec.params_schema, "pattern")) as string[] | undefined) ?? CONTRACT_PATTERNS;
+  }, [nodes.strategy, p.catalog]);
+
+  const previewable = recipe.nodes.filter((n) => {
+    const spec = p.catalog.get(n.type);
+    return spec?.outputs.some((o) => ["layers", "sections", "toolpath"].includes(o.type));
+  });
+
+  const areas = new Map((pv.data?.sections ?? []).map((s) => [s.key, s.polygon ? polygonArea(s.polygon) : 0]));
+  const lengths = new Map(
+    (pv.data?.paths ?? []).map((q) => {
+      let L = 0;
+      for (let i = 1; i < q.points.length; i++) L += Math.hypot(q.points[i][0] - q.points[i - 1][0], q.points[i][1] - q.points[i - 1][1]);
+      return [q.key, L];
+    }),
+  );
+  const sectionKeys = mask ? mask.sections.map((s) => sectionKey(mask.id, s.id)) : (pv.data?.sections ?? []).map((s) => s.key);
+  const err = pv.error;
+
+  const newMask = () => {
+    const r = newMaskFromLayer(maskParams, layer);
+    if ("error" in r) {
+      p.onMessage(r.error);
+      return;
+    }
+    edit(maskId, () => r.params);
+    p.onDismissFailure();
+  };
+
+  return (
+    <div className="mask-view">
+      <div className="mask-main">
+        <div className="mask-toolbar">
+          {(["select", "curve", "guide", "split"] as Tool[]).map((t) => (
+            <button key={t} className={tool === t ? "active" : ""} onClick={() => setTool(t)} data-tool={t} title={`${t} (${t === "select" ? "V" : t[0].toUpperCase()})`}>
+              {t === "select" ? "select/move" : t === "curve" ? "draw mask curve" : t === "guide" ? "draw guide" : "zone split"}
+            </button>
+          ))}
+          <label title="grid pitch for snapping, mm (0 = off)">
+            grid <input type="number" min={0} step={0.5} value={grid} onChange={(e) => setGrid(Math.max(0, Number(e.target.value) || 0))} style={{ width: 48 }} /> mm
+          </label>
+          <label>
+            <input type="checkbox" checked={snapVertices} onChange={(e) => setSnapVertices(e.target.checked)} /> snap to vertices
+          </label>
+          {pv.loading && <span className="muted">re-planning…</span>}
+        </div>
+        {p.failure && (
+          <div className="failure-banner" data-testid="failure-banner">
+            <b>Run failed</b>
+            {p.failure.node && <> at node {p.failure.node}</>}
+            {p.failure.layer != null && <>, layer {p.failure.layer}</>}
+            {p.failure.section && <>, section {p.failure.section}</>}: {p.failure.message}
+            {p.failure.layer != null && maskId && (
+              <button onClick={newMask} data-testid="new-mask-from-layer">
+                new mask from layer {p.failure.layer}
+              </button>
+            )}
+            <button onClick={p.onDismissFailure}>dismiss</button>
+          </div>
+        )}
+        {err && (
+          <div className="preview-error" data-testid="preview-error">
+            {err.layer != null ? `layer ${err.layer}` : ""} {err.section ?? ""} {err.message}
+          </div>
+        )}
+        {!nodes.preview && <div className="empty">Add a slice node (and mask, guide, strategy, zone) to draw masks.</div>}
+        <MaskCanvas
+          preview={pv.data}
+          ghosts={pv.ghosts}
+          mask={mask}
+          guides={guideParams}
+          zone={zoneParams}
+          tool={tool}
+          setTool={setTool}
+          grid={grid}
+          snapVertices={snapVertices}
+          selected={selected}
+          setSelected={setSelected}
+          highlight={p.failure?.section ?? err?.section ?? null}
+          edits={edits}
+          replanMs={replanMs}
+        />
+      </div>
+      <aside className="mask-panel">
+        <section>
+          <h4>Layer</h4>
+          <label>
+            show node{" "}
+            <select value={nodes.preview?.id ?? ""} onChange={(e) => p.setPreviewNode(e.target.value)} data-testid="preview-node">
+              {previewable.map((n) => (
+                <option key={n.id} value={n.id}>
+                  {n.id} ({n.type})
+                </option>
+              ))}
+            </select>
+          </label>
+          <div className="layer-row">
+            <input
+              type="range"
+              min={0}
+              max={Math.max(0, (layerCount ?? layer + 1) - 1)}
+              value={layer}
+              onChange={(e) => p.setLayer(Number(e.target.value))}
+              data-testid="layer-slider"
+            />
+            <input type="number" min={0} max={layerCount !== null ? layerCount - 1 : undefined} value={layer} onChange={(e) => p.setLayer(Math.max(0, Number(e.target.value) || 0))} style={{ width: 52 }} />
+          </div>
+          <div className="muted">
+            {layerCount !== null ? `${layerCount} layers` : ""}
+            {pv.data?.layer ? ` · z ${pv.data.layer.z} mm · ${pv.data.layer.area_mm2.toFixed(1)} mm²` : ""}
+            {pv.data ? ` · server ${pv.data.ms.toFixed(0)} ms` : ""}
+          </div>
+        </section>
+        <section>
+          <h4>Masks</h4>
+          <table className="masks">
+            <tbody>
+              {ranges.map((m) => (
+                <tr key={m.id} className={mask?.id === m.id ? "current" : ""} data-mask={m.id}>
+                  <td>
+                    <button className="link" onClick={() => p.setLayer(m.from)}>
+                      {m.id}
+                    </button>
+                  </td>
+                  <td>
+                    layers{" "}
+                    <input type="number" min={0} value={m.from} style={{ width: 42 }} onChange={(e) => edit(maskId, (mp) => setMaskFrom(mp as MaskParams, m.id, Number(e.target.value)))} />
+                    –{m.to ?? "end"}
+                  </td>
+                  <td>
+                    <button title="delete mask" onClick={() => edit(maskId, (mp) => removeMask(mp as MaskParams, m.id))}>
+                      ✕
+                    </button>
+                  </td>
+                </tr>
+              ))}
+            </tbody>
+          </table>
+          {!ranges.length && <div className="muted">No masks: each connected region is a section.</div>}
+          <button onClick={newMask} disabled={!maskId} data-testid="new-mask">
+            new mask from layer {layer}
+          </button>
+        </section>
+        <section className="sections-list">
+          <h4>Sections {mask ? `of ${mask.id}` : ""}</h4>
+          {sectionKeys.map((key, i) => {
+            const st = String(sectionValue(strategyParams, key, "pattern") ?? "");
+            const sl = sectionValue(zoneParams, key, "start_length");
+            const el = sectionValue(zoneParams, key, "end_length");
+            const splits = (sectionValue(zoneParams, key, "split_points") as unknown[] | undefined)?.length ?? 0;
+            return (
+              <div key={key} className={`section-item ${selected === key ? "selected" : ""}`} data-section-item={key} onClick={() => setSelected(key)}>
+                <div className="section-head">
+                  <span className="swatch" style={{ background: SECTION_COLORS[i % SECTION_COLORS.length] }} />
+                  <b>{key}</b>
+                  <span className="muted">
+                    {areas.has(key) ? `${areas.get(key)!.toFixed(0)} mm²` : "—"}
+                    {lengths.has(key) ? ` · path ${lengths.get(key)!.toFixed(0)} mm` : ""}
+                  </span>
+                </div>
+                <div className="section-fields">
+                  <label>
+                    strategy
+                    <select
+                      value={strategyParams.sections?.[key]?.pattern !== undefined ? st : ""}
+                      disabled={!strategyId}
+                      onChange={(e) => edit(strategyId, (s) => patchSection(s as KeyedParams, key, { pattern: e.target.value || undefined }))}
+                      data-testid={`strategy-${key}`}
+                    >
+                      <option value="">default ({String(strategyParams.default?.pattern ?? "—")})</option>
+                      {patterns.map((x) => (
+                        <option key={x} value={x}>
+                          {x}
+                        </option>
+                      ))}
+                    </select>
+                  </label>
+                  <label>
+                    start
+                    <LengthInput value={sl} disabled={!zoneId} testid={`start-${key}`} onChange={(v) => edit(zoneId, (z) => patchSection(z as KeyedParams, key, { start_length: v }))} />
+                    mm
+                  </label>
+                  <label>
+                    end
+                    <LengthInput value={el} disabled={!zoneId} testid={`end-${key}`} onChange={(v) => edit(zoneId, (z) => patchSection(z as KeyedParams, key, { end_length: v }))} />
+                    mm
+                  </label>
+                </div>
+                <div className="section-fields">
+                  <span className="muted">guide: {guideParams.guides?.[key] ? "drawn" : "auto (long axis)"}</span>
+                  {guideParams.guides?.[key] && <button onClick={() => edit(guideId, (g) => setGuide(g as GuideParams, key, null))}>clear guide</button>}
+                  <span className="muted">splits: {splits}</span>
+                  {splits > 0 && <button onClick={() => edit(zoneId, (z) => patchSection(z as KeyedParams, key, { split_points: [] }))}>clear</button>}
+                  {mask && splitKey(key).mask === mask.id && <button onClick={() => edits.removeSection(key)}>delete</button>}
+                </div>
+              </div>
+            );
+          })}
+        </section>
+      </aside>
+    </div>
+  );
+}
+
+function LengthInput({ value, onChange, disabled, testid }: { value: unknown; onChange: (v: number) => void; disabled: boolean; testid: string }) {
+  const [text, setText] = useState(value === undefined ? "" : String(value));
+  useEffect(() => setText(value === undefined ? "" : String(value)), [value]);
+  const commit = () => {
+    const v = Number(text);
+    if (text.trim() !== "" && Number.isFinite(v) && v >= 0 && v !== value) onChange(v);
+    else setText(value === undefined ? "" : String(value));
+  };
+  return (
+    <input
+      type="number"
+      min={0}
+      step={0.5}
+      value={text}
+      disabled={disabled}
+      data-testid={testid}
+      style={{ width: 56 }}
+      onChange={(e) => setText(e.target.value)}
+      onBlur={commit}
+      onKeyDown={(e) => e.key === "Enter" && commit()}
+    />
+  );
+}
