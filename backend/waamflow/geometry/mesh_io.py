@@ -107,24 +107,27 @@ def mesh_from_triangles(
     units: str = "mm",
     transform: Transform = Transform(),
     require_closed: bool = True,
+    source: str | None = None,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
     Welding happens on the raw file coordinates (bit-exact), before any scaling, so corners
     that are equal in the file stay equal. Faces that collapse to a line are dropped; a mesh
     wound inside out (negative volume) is flipped so face normals point outwards.
+    source: how error messages name the input (default: name).
     """
+    label = source or name
     tri = np.asarray(triangles)
     if tri.size == 0:
-        raise InputFileError(f"{name}: mesh is empty (no triangles)")
+        raise InputFileError(f"{label}: mesh is empty (no triangles)")
     verts, inverse = merge_vertices(tri.reshape(-1, 3))
     if not np.isfinite(verts).all():
-        raise InputFileError(f"{name}: mesh has non-finite (NaN/inf) vertex coordinates")
+        raise InputFileError(f"{label}: mesh has non-finite (NaN/inf) vertex coordinates")
     faces = drop_degenerate(inverse.reshape(-1, 3))
     if len(faces) == 0:
-        raise InputFileError(f"{name}: mesh is empty (all {len(tri)} triangles are degenerate)")
+        raise InputFileError(f"{label}: mesh is empty (all {len(tri)} triangles are degenerate)")
     if require_closed:
-        check_closed(faces, len(verts), name=name)
+        check_closed(faces, len(verts), name=label)
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
     if signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
@@ -143,4 +146,4 @@ def load_mesh_bytes(
     if len(data) > limits.max_bytes:
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
-    return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform)
+    return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform, source=filename)

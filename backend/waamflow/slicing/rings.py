@@ -33,6 +33,20 @@ def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     prev[loops.offsets[:-1]] = loops.offsets[1:] - 1       # cyclic predecessor within the loop
     keep = np.any(c != c[prev], axis=1)
     c, lid = c[keep], lid[keep]
+    # drop points on a straight run (within TOL.merge of the line through their neighbours):
+    # flat faces of triangulated meshes put a crossing point on every internal diagonal
+    sizes = np.bincount(lid, minlength=k)
+    offs = np.concatenate([[0], np.cumsum(sizes)])
+    idx = np.arange(len(c))
+    prev, nxt = idx - 1, idx + 1
+    live = sizes > 0
+    prev[offs[:-1][live]] = offs[1:][live] - 1
+    nxt[offs[1:][live] - 1] = offs[:-1][live]
+    d_in, d_out = c - c[prev], c[nxt] - c
+    chord = np.hypot(*(c[nxt] - c[prev]).T)
+    cross_ = np.abs(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0])
+    straight = (cross_ <= TOL.merge * chord) & (np.einsum("ij,ij->i", d_in, d_out) > 0)
+    c, lid = c[~straight], lid[~straight]
     sizes = np.bincount(lid, minlength=k)
     offs = np.concatenate([[0], np.cumsum(sizes)])
     # shoelace about each loop's first point (keeps precision for parts far from the origin)

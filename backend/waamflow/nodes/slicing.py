@@ -1,0 +1,76 @@
+"""The `slice` node: planar slicing of a part (solid mesh or midsurface) into layers."""
+
+from __future__ import annotations
+
+from pydantic import Field, model_validator
+
+from ..core import serialize
+from ..core.errors import PlanningError, RecipeError
+from ..core.model import Layered, Midsurface
+from ..engine.node import Node, NodeParams, register, unit
+from ..engine.ports import Port
+from ..slicing import empty_layers_inside, slice_part
+
+
+@register
+class SliceNode(Node):
+    """Planar slicing along +Z into layers.
+
+    Layer i occupies [z − t, z]: `z` is the layer's *top* (where the bead top sits and the torch
+    deposits) and t its thickness; the geometry is cut at *mid-layer*, z − t/2. Layer 0 starts
+    at the part's bottom (or `z_min`) plus `start_offset`; thicknesses come from `thicknesses`
+    in order, then `layer_height`. Layers continue while their cutting plane is below the part's
+    top (or `z_max`), at most `layer_count`. Solids give polygons with holes (even-odd nesting,
+    any number of bodies and islands); midsurface sketches give their curves on every layer
+    within the extrusion. Warns on layers inside the part that come out empty. Writes
+    `<node>.layers.json`.
+    """
+
+    type = "slice"
+    title = "Slice"
+    category = "slicing"
+    inputs = (Port("mesh", "mesh", "Part: solid mesh or midsurface"),)
+    outputs = (Port("layers", "layers", "Layers, bottom to top"),)
+
+    class Params(NodeParams):
+        layer_height: float = Field(1.5, gt=0, le=50, description="Layer height (after the listed thicknesses)",
+                                    json_schema_extra=unit("mm"))
+        thicknesses: list[float] = Field(default_factory=list, max_length=10_000,
+                                         description="Explicit thicknesses of the first layers, bottom up",
+                                         json_schema_extra=unit("mm"))
+        start_offset: float = Field(0.0, ge=0, le=10_000, description="Bottom of layer 0 above the part's bottom (or z_min)",
+                                    json_schema_extra=unit("mm"))
+        layer_count: int | None = Field(None, ge=1, le=200_000, description="At most this many layers")
+        z_min: float | None = Field(None, description="Bottom of layer 0 instead of the part's bottom",
+                                    json_schema_extra=unit("mm"))
+        z_max: float | None = Field(None, description="No layer is cut at or above this height",
+                                    json_schema_extra=unit("mm"))
+
+        @model_validator(mode="after")
+        def _check(self):
+            if any(not (0 < t <= 50) for t in self.thicknesses):
+                raise ValueError("every thickness must be > 0 and ≤ 50 mm")
+            if self.z_min is not None and self.z_max is not None and self.z_max <= self.z_min:
+                raise ValueError("z_max must be above z_min")
+            return self
+
+    def run(self, ctx, params, inputs):
+        part = inputs["mesh"]
+        try:
+            layers = slice_part(
+                part, layer_height=params.layer_height, thicknesses=params.thicknesses,
+                start_offset=params.start_offset, layer_count=params.layer_count,
+                z_min=params.z_min, z_max=params.z_max,
+            )
+        except ValueError as exc:
+            raise RecipeError(str(exc), field="layer_height") from exc
+        if not layers:
+            raise PlanningError("no layers: the slicing range (part height, start_offset, z_min/z_max) is empty")
+        for i in empty_layers_inside(layers, part):
+            ctx.warn("layer is empty although it lies within the part's height (gap between bodies?)", layer=i)
+        if isinstance(part, Midsurface) and not any(l.curves for l in layers):
+            ctx.warn("no layer lies within the sketch's extrusion (check z0, height, z_min/z_max)")
+        return {"layers": Layered(layers)}
+
+    def artifacts(self, ctx, params, outputs):
+        return {"layers.json": serialize.dumps(serialize.layers_json(outputs["layers"]))}

@@ -1,0 +1,125 @@
+import io
+
+import numpy as np
+import pytest
+import trimesh
+
+from waamflow.core.errors import InputFileError
+from waamflow.geometry import MeshLimits, Transform, edge_report, load_mesh_bytes, merge_vertices
+from waamflow.geometry.mesh_io import STL_RECORD
+from waamflow.geometry.topology import signed_volume
+
+
+def _part() -> trimesh.Trimesh:
+    """A tube r 5/12 mm, 10 mm high, 48 facets: 384 triangles on 192 shared vertices."""
+    outer = trimesh.creation.annulus(r_min=5, r_max=12, height=10, sections=48)
+    outer.apply_translation([0, 0, 5])
+    return outer
+
+
+def _export(tm: trimesh.Trimesh, fmt: str) -> bytes:
+    if fmt == "stl_ascii":
+        return trimesh.exchange.stl.export_stl_ascii(tm).encode()
+    out = tm.export(file_type=fmt)
+    return out.encode() if isinstance(out, str) else out
+
+
+@pytest.mark.parametrize("fmt,name", [("stl", "p.stl"), ("stl_ascii", "p.stl"), ("obj", "p.obj"), ("ply", "p.ply"), ("3mf", "p.3mf")])
+def test_formats_load_the_same_mesh(fmt, name):
+    tm = _part()
+    mesh = load_mesh_bytes(_export(tm, fmt), name)
+    assert len(mesh.faces) == len(tm.faces) == 384
+    assert len(mesh.vertices) == len(tm.vertices) == 192
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(tm.volume, rel=1e-6)
+    np.testing.assert_allclose(mesh.bounds, tm.bounds, atol=1e-5)
+    assert mesh.name == "p"
+    assert edge_report(mesh.faces, len(mesh.vertices)).closed
+
+
+def test_binary_stl_fast_path_welds_corners():
+    tm = _part()
+    data = _export(tm, "stl")
+    assert len(data) == 84 + 50 * len(tm.faces)
+    mesh = load_mesh_bytes(data, "p.stl")
+    assert mesh.vertices.dtype == np.float64 and mesh.faces.dtype == np.int64
+    np.testing.assert_allclose(mesh.vertices[mesh.faces], np.asarray(tm.triangles), atol=1e-5)
+
+
+def test_units_and_transform():
+    tm = trimesh.creation.box(extents=(1, 2, 3))
+    tm.apply_translation(-tm.bounds[0])
+    data = _export(tm, "stl")
+    m = load_mesh_bytes(data, "b.stl", units="in")
+    np.testing.assert_allclose(m.bounds[1] - m.bounds[0], [25.4, 50.8, 76.2], rtol=1e-6)
+    m = load_mesh_bytes(data, "b.stl", units="cm", transform=Transform(translate=(0, 0, 100), rotate_deg=(90, 0, 0), scale=2))
+    # (x, y, z) → 20·(x, −z, y) + (0, 0, 100) for a quarter turn about x
+    np.testing.assert_allclose(m.bounds, [[0, -60, 100], [20, 0, 140]], atol=1e-9)
+    assert signed_volume(m.vertices, m.faces) == pytest.approx(6 * 20**3)
+
+
+def test_inside_out_mesh_is_flipped_outwards():
+    tm = _part()
+    tm.invert()
+    m = load_mesh_bytes(_export(tm, "stl"), "inv.stl")
+    assert signed_volume(m.vertices, m.faces) == pytest.approx(-tm.volume, rel=1e-6) and -tm.volume > 0
+
+
+def test_open_mesh_refused_with_edge_count():
+    tm = _part()
+    tm.update_faces(np.arange(1, len(tm.faces)))
+    with pytest.raises(InputFileError, match=r"not closed.*3 open edges"):
+        load_mesh_bytes(_export(tm, "stl"), "open.stl")
+
+
+def test_flipped_face_reported_as_inconsistent_winding():
+    tm = _part()
+    faces = tm.faces.copy()
+    faces[0] = faces[0, ::-1]
+    bad = trimesh.Trimesh(tm.vertices, faces, process=False)
+    with pytest.raises(InputFileError, match=r"3 edges with inconsistent face winding"):
+        load_mesh_bytes(_export(bad, "stl"), "flip.stl")
+
+
+def test_empty_and_malformed_files():
+    empty = b"x" * 80 + np.uint32(0).tobytes()
+    with pytest.raises(InputFileError, match="e.stl: mesh is empty"):
+        load_mesh_bytes(empty, "e.stl")
+    with pytest.raises(InputFileError, match="header says 5 triangles"):
+        load_mesh_bytes(b"y" * 80 + np.uint32(5).tobytes() + b"z" * 100, "t.stl")
+    with pytest.raises(InputFileError, match="unsupported mesh format"):
+        load_mesh_bytes(b"abc", "part.step")
+    with pytest.raises(InputFileError, match="bad.obj: mesh is empty"):
+        load_mesh_bytes(b"\xff\xfe\x00garbage", "bad.obj")
+
+
+def test_caps():
+    data = _export(_part(), "stl")
+    with pytest.raises(InputFileError, match="384 triangles exceed the cap of 100"):
+        load_mesh_bytes(data, "p.stl", limits=MeshLimits(max_triangles=100))
+    with pytest.raises(InputFileError, match="exceeds the cap"):
+        load_mesh_bytes(data, "p.stl", limits=MeshLimits(max_bytes=1000))
+
+
+def test_merge_vertices_exact_and_signed_zero():
+    pts = np.array([[0.0, 0, 0], [1, 2, 3], [-0.0, 0, 0], [1, 2, 3.0000000001], [1, 2, 3]])
+    v, inv = merge_vertices(pts)
+    assert len(v) == 3
+    assert inv[0] == inv[2] and inv[1] == inv[4] and inv[3] != inv[1]
+    np.testing.assert_array_equal(v[inv], pts + 0.0)
+
+
+def test_merge_vertices_random_soup_matches_numpy_unique():
+    rng = np.random.default_rng(1)
+    base = rng.normal(size=(5000, 3)).astype(np.float32)
+    pts = base[rng.integers(0, 5000, 60000)]
+    v, inv = merge_vertices(pts)
+    assert len(v) == len(np.unique(pts, axis=0))
+    np.testing.assert_array_equal(v[inv], pts)
+
+
+def test_binary_stl_record_layout():
+    rec = np.zeros(1, dtype=STL_RECORD)
+    rec["corners"] = [[[1, 2, 3], [4, 5, 6], [7, 8, 9]]]
+    raw = rec.tobytes()
+    assert len(raw) == 50
+    assert np.frombuffer(raw[12:48], "<f4").tolist() == list(range(1, 10))
