@@ -206,8 +206,11 @@ class StudyTarget:
 
 PROGRAMS: dict[str, tuple[Callable[[], Moves], float]] = {
     "raster40": (lambda: study.raster(40.0), 40.0),
-    "swiping40": (lambda: study.swiping(40.0), 40.0),
-    "swiping10": (lambda: study.swiping(10.0), 10.0),
+    # the swiping the product plans (waamflow.paths, 11 reversals at 4.4°) for time/length/volume;
+    # a 2.95° zig-zag (study.swiping) for the corner errors measured on the 2.95° reversals
+    "swiping40": (lambda: study.planned("swiping", 40.0), 40.0),
+    "zigzag295_10": (lambda: study.swiping(10.0), 10.0),
+    "zigzag295_40": (lambda: study.swiping(40.0), 40.0),
     "tri45_40": (lambda: study.triangular(40.0, 45.0), 40.0),
     "line10": (lambda: study.straight_line(10.0), 10.0),
     "line40": (lambda: study.straight_line(40.0), 40.0),
@@ -228,8 +231,8 @@ def study_targets() -> list[StudyTarget]:
         for k in ("L_init_accel", "L_final_decel"):
             out.append(StudyTarget(f"{k} {v} mm/s", f"line{v}", f"accel:{k}", idf[(v, "on")][k], 0.3))
     out.append(StudyTarget("corner error 45° 40 mm/s", "tri45_40", "corner:40:50", 1.62, 0.1))
-    out.append(StudyTarget("corner error 2.95° 10 mm/s", "swiping10", "corner:0:10", 0.8, 0.1))
-    out.append(StudyTarget("corner error 2.95° 40 mm/s", "swiping40", "corner:0:10", 1.8, 0.1))
+    out.append(StudyTarget("corner error 2.95° 10 mm/s", "zigzag295_10", "corner:0:10", 0.8, 0.1))
+    out.append(StudyTarget("corner error 2.95° 40 mm/s", "zigzag295_40", "corner:0:10", 1.8, 0.1))
     return out
 
 
@@ -262,7 +265,9 @@ def validation_report(profile: RobotProfile) -> list[dict]:
     for name, mv, lo, hi in (("raster 40", study.raster(40.0), 0.99, 1.01),
                              ("semicircular 40", study.semicircular(40.0), 0.95, 0.99),
                              ("triangular 60 40", study.triangular(40.0, 60.0), 0.93, 0.99),
-                             ("swiping 40", study.swiping(40.0), 0.86, 0.92)):
+                             ("swiping 40", study.planned("swiping", 40.0), 0.86, 0.92),
+                             ("rectangular 40", study.planned("rectangular", 40.0), 0.93, 0.99),
+                             ("spiral 40", study.planned("spiral", 40.0), 0.93, 0.99)):
         r = simulate(mv, profile).metrics["length_ratio"]
         rows.append({"name": f"{name} mm/s length ratio in [{lo}, {hi}]", "target": (lo + hi) / 2, "model": r,
                      "error_pct": 0.0 if lo <= r <= hi else 100 * (r - (lo + hi) / 2) / ((lo + hi) / 2)})
@@ -305,12 +310,29 @@ def fit_targets(profile: RobotProfile, targets: list[StudyTarget], names: tuple[
     return fitted, info
 
 
+def profile_file(fitted: RobotProfile, info: dict) -> dict:
+    """The profile JSON with the fit documented (notes + per-target residuals)."""
+    d = fitted.to_json()
+    for k in SHIPPED_FIT:
+        d[k] = round(d[k], 6)
+    d["fit"] = {"method": "scipy.optimize.least_squares on log-parameters, residual = (model − target)/tol",
+                "fitted": list(SHIPPED_FIT), "cost": round(info["cost_after"], 4),
+                "targets": [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()} for r in info["targets"]]}
+    if "validation" in info:
+        d["fit"]["validation"] = [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()}
+                                  for r in info["validation"]]
+    return d
+
+
 if __name__ == "__main__":  # pragma: no cover - the documented calibration of the shipped profile
     import sys
 
-    from .profile import load_profile
+    from .profile import ROBOTS_DIR, load_profile
 
-    base = load_profile(sys.argv[1] if len(sys.argv) > 1 else "kuka_kr100ha_krc2")
+    name = next((a for a in sys.argv[1:] if not a.startswith("--")), "kuka_kr100ha_krc2")
+    base = load_profile(name)
     fitted, info = fit_targets(base, study_targets(), SHIPPED_FIT)
     info["validation"] = validation_report(fitted)
+    if "--write" in sys.argv:
+        (ROBOTS_DIR / f"{name}.json").write_text(json.dumps(profile_file(fitted, info), indent=1, ensure_ascii=False) + "\n")
     print(json.dumps(info, indent=1))

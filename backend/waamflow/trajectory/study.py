@@ -145,3 +145,21 @@ IDENTIFIED = {
     (40, "off"): dict(T_init_accel=0.216, L_init_accel=4.944, L_decel=3.670, L_accel=4.387, T_trans=0.408,
                       L_final_decel=3.807, T_final_decel=0.192),
 }
+
+
+def from_path2d(path, speed: float, key: str = "section", z: float = 50.0) -> Moves:
+    """Moves of a planned section path (`waamflow.paths.Path2D`: points (n, 2), arc, inside)."""
+    m = len(path.points) - 1
+    return _moves(path.points, path.arc, path.inside, np.full(m, speed), key, z)
+
+
+def planned(pattern: str, speed: float, size=SMALL_OR, **spec) -> Moves:
+    """The OR filled by `waamflow.paths.plan_section` with `pattern` (guide along the length L)."""
+    from shapely.geometry import LineString, box
+
+    from ..paths import StrategySpec, plan_section
+
+    W, L = size
+    region = box(0.0, 0.0, L, W)
+    guide = LineString([(-1.0, W / 2), (L + 1.0, W / 2)])
+    return from_path2d(plan_section(region, guide, StrategySpec(pattern=pattern, **spec)), speed, pattern)

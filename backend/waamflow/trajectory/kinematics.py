@@ -1,0 +1,224 @@
+"""Robot kinematics with Pinocchio: continuous IK along the path, joint limits, speed caps, warnings.
+
+The arm is built from a URDF shipped in `waamflow/data/robots/` (or a user's). The TCP is the
+`tool0` flange frame shifted by `tcp_offset_mm` along its own axes (tool z = torch axis, pointing
+from the torch towards the part). Cell frames (all mm / degrees):
+
+    world point = work_xyz + p_toolpath                  (work frame: where the part sits)
+    robot base  = translation base_xyz, rotation base_yaw_deg about world z
+
+IK: damped least squares on the 6-D pose error (`log6`, LOCAL frame Jacobian), seeded from the
+previous point so the solution stays on one branch (continuous); the torch orientation is its
+axis plus a fixed reference direction for the tool x axis (world −x by default: the KR's home
+wrist). Joint speeds are finite differences of q along arc length: dq/ds (rad/mm), so the path
+speed at which joint i reaches its limit is qd_max_i / |dq_i/ds| — the per-segment speed cap.
+
+IK is solved on the programmed polyline resampled every `step_mm` (vertices included) rather
+than every interpolation cycle: joint motion between samples is smooth for steps well below the
+arm's link lengths (1 m) and the cap is a minimum over the samples of each segment.
+
+Units: mm, s, rad inside Pinocchio (m), reported in degrees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..core.errors import InputFileError
+from .profile import ROBOTS_DIR
+
+SINGULAR_SIGMA = 0.02   # smallest singular value of the 6x6 Jacobian (m or rad per rad) below which we warn
+REACH_TOL_MM = 0.5       # IK position residual above which a point is unreachable
+LIMIT_MARGIN = 1e-3      # rad
+
+
+@dataclass(frozen=True, eq=False)
+class Arm:
+    """A Pinocchio model of the arm with its TCP frame id and limits (rad, rad/s)."""
+
+    model: pin.Model
+    tcp: int
+    lower: np.ndarray
+    upper: np.ndarray
+    qd_max: np.ndarray
+    home: np.ndarray
+    name: str
+
+
+def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None) -> Arm:
+    """Build the arm from a shipped URDF name (file in data/robots) or URDF text."""
+    if urdf_text is None:
+        path = ROBOTS_DIR / description
+        if not path.exists():
+            raise InputFileError(f"robot description {description!r} not found in {ROBOTS_DIR}")
+        urdf_text = path.read_text()
+    try:
+        model = pin.buildModelFromXML(urdf_text)
+    except Exception as e:  # pinocchio raises ValueError/RuntimeError on bad XML
+        raise InputFileError(f"robot description {description}: {e}") from e
+    if not model.existFrame("tool0"):
+        raise InputFileError(f"robot description {description}: needs a 'tool0' frame")
+    flange = model.getFrameId("tool0")
+    fr = model.frames[flange]
+    offset = pin.SE3(np.eye(3), np.asarray(tcp_offset_mm, float) / 1000.0)
+    tcp = model.addFrame(pin.Frame("tcp", fr.parentJoint, fr.parentFrame if hasattr(fr, "parentFrame") else flange,
+                                   fr.placement * offset, pin.FrameType.OP_FRAME))
+    home = np.clip(np.radians([0.0, -90.0, 90.0, 0.0, 90.0, 0.0])[: model.nq],
+                   model.lowerPositionLimit, model.upperPositionLimit)
+    return Arm(model, tcp, model.lowerPositionLimit.copy(), model.upperPositionLimit.copy(),
+               model.velocityLimit.copy(), home, Path(description).stem)
+
+
+@dataclass(frozen=True)
+class CellFrames:
+    """base_xyz_mm: robot base in world, base_yaw_deg about z; work_xyz_mm: part origin in world;
+    tool_x_ref: world direction the tool x axis is aligned with (projected)."""
+
+    base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
+    base_yaw_deg: float = 0.0
+    work_xyz_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tool_x_ref: tuple[float, float, float] = (-1.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class KinematicsResult:
+    """s: (k,) programmed arc length of the IK samples, mm. q: (k, nq) joint angles, rad.
+    seg: (k,) programmed segment of each sample. reach_err: (k,) IK position residual, mm.
+    sigma_min: (k,) smallest Jacobian singular value. segment_cap: (n-1,) path speed (mm/s) at
+    which a joint reaches its speed limit, per programmed segment (inf if none).
+    issues: list of dicts {kind, layer, section, s_from, s_to, count, detail}."""
+
+    s: np.ndarray
+    q: np.ndarray
+    seg: np.ndarray
+    reach_err: np.ndarray
+    sigma_min: np.ndarray
+    segment_cap: np.ndarray
+    issues: list = field(default_factory=list)
+
+
+def _target_rotations(axes: np.ndarray, x_ref: np.ndarray, yaw: float) -> np.ndarray:
+    """(k, 3) torch axes (world) → (k, 3, 3) rotations in the robot base frame (z = axis)."""
+    Rb = pin.utils.rotate("z", yaw)
+    z = axes @ Rb  # world → base: Rbᵀ·v
+    z /= np.linalg.norm(z, axis=1, keepdims=True)
+    xr = Rb.T @ x_ref
+    x = xr[None, :] - (z @ xr)[:, None] * z
+    bad = np.linalg.norm(x, axis=1) < 1e-6
+    if bad.any():
+        alt = np.array([0.0, 1.0, 0.0])
+        x[bad] = alt - (z[bad] @ alt)[:, None] * z[bad]
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=2)
+
+
+def resample(points: np.ndarray, step_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Polyline (n, 3) → samples every ≤ step_mm including vertices: (s (k,), xyz (k, 3), seg (k,))."""
+    L = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    counts = np.maximum(1, np.ceil(L / step_mm).astype(int))
+    seg = np.repeat(np.arange(len(L)), counts)
+    frac = np.concatenate([np.arange(c) / c for c in counts]) if len(counts) < 50000 else \
+        (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    xyz = points[seg] + frac[:, None] * (points[seg + 1] - points[seg])
+    s0 = np.concatenate([[0.0], np.cumsum(L)])
+    s = s0[seg] + frac * L[seg]
+    xyz = np.vstack([xyz, points[-1:]])
+    s = np.concatenate([s, [s0[-1]]])
+    seg = np.concatenate([seg, [len(L) - 1]])
+    return s, xyz, seg
+
+
+def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: CellFrames = CellFrames(),
+               step_mm: float = 5.0, q_seed: np.ndarray | None = None, iters: int = 6) -> KinematicsResult:
+    """Continuous DLS IK along a polyline (world/work mm) — see the module doc."""
+    model = arm.model
+    data = model.createData()
+    s, xyz, seg = resample(np.asarray(points, float), step_mm)
+    axes = np.asarray(tool_axis, float)
+    ax = axes[seg] if len(axes) == len(points) else np.tile([0.0, 0.0, -1.0], (len(s), 1))
+    yaw = np.radians(frames.base_yaw_deg)
+    Rb = pin.utils.rotate("z", yaw)
+    p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
+    R = _target_rotations(ax, np.asarray(frames.tool_x_ref, float), yaw)
+    k = len(s)
+    Q = np.zeros((k, model.nq))
+    err_mm = np.zeros(k)
+    sig = np.zeros(k)
+    q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
+    lam2 = 1e-4
+    eye6 = np.eye(6)
+    for i in range(k):
+        target = pin.SE3(R[i], p_base[i])
+        n_it = 60 if i == 0 else iters
+        for _ in range(n_it):
+            pin.framesForwardKinematics(model, data, q)
+            cur = data.oMf[arm.tcp]
+            e = pin.log6(cur.actInv(target)).vector
+            if np.dot(e, e) < 1e-14:
+                break
+            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
+            dq = J.T @ np.linalg.solve(J @ J.T + lam2 * eye6, e)
+            q = np.clip(q + dq, arm.lower, arm.upper)
+        pin.framesForwardKinematics(model, data, q)
+        err_mm[i] = 1000.0 * np.linalg.norm(data.oMf[arm.tcp].translation - p_base[i])
+        J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
+        sig[i] = np.linalg.svd(J, compute_uv=False)[-1]
+        Q[i] = q
+    # joint speed per unit path speed: dq/ds (rad/mm)
+    ds = np.diff(s)
+    dq = np.abs(np.diff(Q, axis=0)) / np.maximum(ds, 1e-9)[:, None]
+    with np.errstate(divide="ignore"):
+        cap_i = np.min(np.where(dq > 1e-12, arm.qd_max[None, :] / dq, np.inf), axis=1)
+    nseg = len(points) - 1
+    cap = np.full(nseg, np.inf)
+    np.minimum.at(cap, seg[:-1], cap_i)
+    return KinematicsResult(s, Q, seg, err_mm, sig, cap)
+
+
+def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_section: np.ndarray,
+                section_keys: tuple[str, ...], seg_speed: np.ndarray) -> list[dict]:
+    """Unreachable points, joint-limit hits, near-singular stretches and joint-speed caps, grouped
+    into contiguous stretches per (layer, section). s in mm of programmed arc length."""
+    at_limit = np.any((kin.q <= arm.lower + LIMIT_MARGIN) | (kin.q >= arm.upper - LIMIT_MARGIN), axis=1)
+    flags = {
+        "unreachable": kin.reach_err > REACH_TOL_MM,
+        "joint_limit": at_limit,
+        "near_singular": kin.sigma_min < SINGULAR_SIGMA,
+    }
+    speed_cap = (kin.segment_cap < seg_speed)
+    issues: list[dict] = []
+    for kind, f in flags.items():
+        issues += _stretches(kind, f, kin.s, kin.seg, seg_layer, seg_section, section_keys)
+    if speed_cap.any():
+        segs = np.flatnonzero(speed_cap)
+        f = np.isin(kin.seg, segs)
+        for st in _stretches("joint_speed", f, kin.s, kin.seg, seg_layer, seg_section, section_keys):
+            ss = segs[(seg_layer[segs] == st["layer"])]
+            st["detail"] = f"path speed capped to {kin.segment_cap[ss].min():.1f} mm/s by joint speed limits"
+            issues.append(st)
+    return issues
+
+
+def _stretches(kind, flag, s, seg, seg_layer, seg_section, keys) -> list[dict]:
+    out = []
+    if not flag.any():
+        return out
+    idx = np.flatnonzero(flag)
+    breaks = np.flatnonzero((np.diff(idx) > 1) | (seg_section[seg[idx[1:]]] != seg_section[seg[idx[:-1]]]) |
+                            (seg_layer[seg[idx[1:]]] != seg_layer[seg[idx[:-1]]]))
+    starts = np.concatenate([[0], breaks + 1])
+    ends = np.concatenate([breaks, [len(idx) - 1]])
+    for a, b in zip(starts, ends):
+        i0, i1 = idx[a], idx[b]
+        sg = seg[i0]
+        sec = int(seg_section[sg])
+        out.append({"kind": kind, "layer": int(seg_layer[sg]),
+                    "section": keys[sec] if 0 <= sec < len(keys) else None,
+                    "s_from": float(s[i0]), "s_to": float(s[i1]), "count": int(b - a + 1),
+                    "detail": ""})
+    return out
