@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 from xml.sax.saxutils import escape
 
+import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from .registry import PATTERNS, plan_section
@@ -46,27 +47,37 @@ def compare(jobs: Sequence[Job], variants: Iterable[str]) -> list[dict]:
     rows = []
     for text in variants:
         name, extra = parse_variant(text)
-        total = arc_on = outside = time_s = 0.0
-        switches = 0
+        per = []
         for job in jobs:
-            spec = StrategySpec.model_validate({**job.spec.model_dump(), "pattern": name, **extra})
-            path = plan_section(job.region, job.guide, spec)
-            total += path.length
-            arc_on += path.arc_on_length
-            outside += path.outside_length
-            switches += path.arc_switches
-            time_s += path.length / job.speed
-        rows.append({
-            "pattern": name,
-            "label": text,
-            "programmed_length_mm": round(total, 3),
-            "arc_on_length_mm": round(arc_on, 3),
-            "arc_switches": switches,
-            "outside_length_mm": round(outside, 3),
-            "outside_share": round(outside / total, 4) if total > 0 else 0.0,
-            "time_s": round(time_s, 3),
-        })
+            spec = type(job.spec).model_validate({**job.spec.model_dump(), "pattern": name, **extra})
+            p = plan_section(job.region, job.guide, spec)
+            per.append(path_metrics(p.segment_lengths, p.arc, p.inside, np.full(len(p.arc), job.speed)))
+        row = {"pattern": name, "label": text}
+        for key in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s"):
+            row[key] = round(sum(m[key] for m in per), 3)
+        total = row["programmed_length_mm"]
+        row["outside_share"] = round(row["outside_length_mm"] / total, 4) if total > 0 else 0.0
+        rows.append(row)
     return rows
+
+
+def path_metrics(lengths, arc, inside, speed) -> dict:
+    """Metrics of one planned path from its per-segment arrays: lengths (mm), arc, inside (bool),
+    speed (mm/s)."""
+    lengths = np.asarray(lengths, dtype=float)
+    arc = np.asarray(arc, dtype=bool)
+    inside = np.asarray(inside, dtype=bool)
+    a = np.concatenate([[False], arc, [False]])
+    total = float(lengths.sum())
+    outside = float(lengths[~inside].sum())
+    return {
+        "programmed_length_mm": round(total, 3),
+        "arc_on_length_mm": round(float(lengths[arc].sum()), 3),
+        "arc_switches": int(np.count_nonzero(a[1:] != a[:-1])),
+        "outside_length_mm": round(outside, 3),
+        "outside_share": round(outside / total, 4) if total > 0 else 0.0,
+        "time_s": round(float((lengths / np.asarray(speed, dtype=float)).sum()), 3),
+    }
 
 
 METRICS = (
@@ -81,7 +92,8 @@ def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
     best = {}
     for key, _, _ in METRICS:
         if rows:
-            best[key] = min(rows, key=lambda r: r[key])["label"]
+            low = min(r[key] for r in rows)
+            best[key] = [r["label"] for r in rows if r[key] == low]
     return {"sections": sections, "layers": layers, "patterns": rows, "lowest": best,
             "units": {"programmed_length_mm": "mm", "arc_on_length_mm": "mm", "outside_length_mm": "mm",
                       "outside_share": "1", "time_s": "s", "arc_switches": "count"}}
@@ -90,15 +102,16 @@ def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
 def comparison_svg(rows: list[dict]) -> str:
     """A small hand-written SVG: one panel of horizontal bars per metric, one bar per pattern."""
     label_w, bar_w, row_h, pad = 120, 220, 16, 10
+    gap = 90  # room for the value printed after the longest bar
     panel_h = 22 + row_h * max(len(rows), 1)
     cols = 2
-    width = cols * (label_w + bar_w + 60) + pad
+    width = cols * (label_w + bar_w + gap) + pad
     height = math.ceil(len(METRICS) / cols) * (panel_h + pad) + pad
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
            f'font-family="sans-serif" font-size="11">',
            f'<rect width="{width}" height="{height}" fill="#ffffff"/>']
     for m, (key, title, unit) in enumerate(METRICS):
-        x0 = pad + (m % cols) * (label_w + bar_w + 60)
+        x0 = pad + (m % cols) * (label_w + bar_w + gap)
         y0 = pad + (m // cols) * (panel_h + pad)
         out.append(f'<text x="{x0}" y="{y0 + 12}" font-weight="bold">{escape(title)}</text>')
         values = [float(r[key]) * (100.0 if unit == "%" else 1.0) for r in rows]

@@ -1,0 +1,156 @@
+"""The `strategy` node: fill every section of every layer with its pattern (waamflow.paths).
+
+Params follow the contract: a `default` spec plus per-section overrides keyed "<mask>/<section>".
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional
+
+import numpy as np
+from pydantic import ConfigDict, Field, create_model, field_validator, model_validator
+
+from ..core import serialize
+from ..core.errors import PlanningError
+from ..core.model import LayerPaths, LayerSections, SectionPath
+from ..engine.node import LayerNode, NodeParams, register, unit
+from ..engine.ports import Port
+from ..paths import StrategySpec, plan_section
+from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
+
+
+class SectionStrategy(StrategySpec):
+    """A section's fill spec plus its programmed travel speed."""
+
+    speed: float = Field(10.0, gt=0.0, le=500.0, description="Programmed travel speed (zones may override)",
+                         json_schema_extra=unit("mm/s"))
+
+
+def _partial(model) -> type:
+    """The same fields, all optional (None = take the default's): per-section overrides."""
+    fields = {}
+    for name, f in model.model_fields.items():
+        extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else None
+        fields[name] = (Optional[f.annotation], Field(None, description=f.description, json_schema_extra=extra))
+    return create_model("SectionStrategyOverride", __config__=ConfigDict(extra="forbid"), **fields)
+
+
+SectionOverride = _partial(SectionStrategy)
+
+
+def spec_for(default: SectionStrategy, override) -> SectionStrategy:
+    if override is None:
+        return default
+    return SectionStrategy.model_validate({**default.model_dump(), **override.model_dump(exclude_none=True)})
+
+
+def paths_summary(toolpath) -> dict:
+    """Per section and in total: programmed length, arc-ON length, arc switches, length outside the
+    section and its share, time at programmed speed (`paths.json`)."""
+    rows = []
+    for lp in toolpath:
+        if lp is None:
+            continue
+        for sp in lp.sections:
+            rows.append({"layer": lp.index, "key": sp.key, "pattern": sp.strategy,
+                         **path_metrics(sp.segment_lengths, sp.arc, sp.inside, sp.speed)})
+    total = {k: round(sum(r[k] for r in rows), 3) for k in
+             ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s")}
+    total["outside_share"] = round(total["outside_length_mm"] / total["programmed_length_mm"], 4) \
+        if total["programmed_length_mm"] > 0 else 0.0
+    return {"units": "mm", "total": total, "sections": rows}
+
+
+@register
+class StrategyNode(LayerNode):
+    """Fill each section with a deposition path: MPP oscillate/parallel along the section's guide, or
+    one of the robot study's objective-rectangle patterns (raster, semicircular, triangular,
+    rectangular, spiral, swiping), clipped to the section.
+
+    Each segment carries arc ON/OFF (raster returns and, with arc_outside "off", every stretch
+    outside the section are OFF), inside/outside the section, and the programmed speed. Sections
+    keep their order. Artifacts: `toolpath.json`, `paths.json` (per section: programmed length,
+    arc switches, length outside, time at programmed speed); with `compare` set, `comparison.json` and
+    `comparison.svg` compare patterns on the same sections (length, arc switches, share outside,
+    time at programmed speed).
+    """
+
+    type = "strategy"
+    title = "Strategy"
+    category = "mpp"
+    inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)
+    outputs = (Port("toolpath", "toolpath", "One section path per section, in section order"),)
+    over = "sections"
+
+    class Params(NodeParams):
+        default: SectionStrategy = Field(default_factory=SectionStrategy, description="Spec for every section")
+        sections: dict[str, SectionOverride] = Field(  # type: ignore[valid-type]
+            default_factory=dict, description="Section key (\"bs1/A\") → fields that differ from the default")
+        compare: list[str] = Field(default_factory=list, max_length=16,
+                                   description="Patterns to compare on the same sections (\"triangular:60\" sets "
+                                               "the apex angle); empty = no comparison artifacts")
+
+        @model_validator(mode="after")
+        def _overrides_valid(self):
+            for key, ov in self.sections.items():
+                try:
+                    spec_for(self.default, ov)
+                except ValueError as e:
+                    raise ValueError(f"sections[{key!r}]: {e}") from None
+            return self
+
+        @field_validator("compare")
+        @classmethod
+        def _variants(cls, v: list[str]) -> list[str]:
+            for text in v:
+                parse_variant(text)
+            return v
+
+    def layer_params(self, params, index, items):
+        ls: LayerSections = items["sections"]
+        return {
+            "default": params.default.model_dump(mode="json"),
+            "sections": {s.key: params.sections[s.key].model_dump(mode="json", exclude_none=True)
+                         for s in ls.sections if s.key in params.sections},
+        }
+
+    def run_layer(self, ctx, params, index, items):
+        ls: LayerSections = items["sections"]
+        out = []
+        for s in ls.sections:
+            spec = spec_for(params.default, params.sections.get(s.key))
+            try:
+                path = plan_section(s.region, s.guide, spec)
+            except PlanningError as e:
+                raise e.located(layer=index, section=s.key)
+            except ValueError as e:
+                raise PlanningError(f"{spec.pattern}: {e}", layer=index, section=s.key) from e
+            out.append(SectionPath(
+                key=s.key, strategy=spec.pattern, points=ls.layer.to_world(path.points),
+                arc=path.arc.copy(), inside=path.inside.copy(),
+                speed=np.full(len(path.points) - 1, spec.speed)))
+        return {"toolpath": LayerPaths(ls.layer, tuple(out))}
+
+    def combine(self, ctx, params, outputs, inputs):
+        self._comparison = None
+        if params.compare:
+            jobs, layers = [], 0
+            for ls in inputs["sections"]:
+                if ls is None:
+                    continue
+                layers += 1
+                for s in ls.sections:
+                    spec = spec_for(params.default, params.sections.get(s.key))
+                    jobs.append(Job(s.region, s.guide, spec, spec.speed))
+            self._comparison = comparison_json(compare(jobs, params.compare), len(jobs), layers)
+        return super().combine(ctx, params, outputs, inputs)
+
+    def artifacts(self, ctx, params, outputs) -> dict[str, Any]:
+        tp = outputs["toolpath"]
+        files: dict[str, Any] = {"toolpath.json": serialize.dumps(serialize.toolpath_json(tp)),
+                                 "paths.json": serialize.dumps(paths_summary(tp))}
+        comp = getattr(self, "_comparison", None)
+        if params.compare and comp is not None:
+            files["comparison.json"] = serialize.dumps(comp)
+            files["comparison.svg"] = comparison_svg(comp["patterns"])
+        return files
