@@ -120,3 +120,24 @@ def test_empty_toolpath():
     prog = post_process(Layered(()), "gcode")
     parsed = parse_gcode(prog.files["gcode"])
     assert parsed.runs == () and parsed.ended and prog.stats["points"] == 0
+
+
+def test_arc_fitted_program_stays_within_tolerance():
+    """A finely sampled, slightly wavy ellipse: G2/G3 arcs replace hundreds of points, and the
+    program read back stays within the tolerance of the original polyline."""
+    from shapely.geometry import LineString, Point
+
+    from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
+
+    a = np.linspace(0, 2 * np.pi, 1201)[:-1]
+    pts = np.column_stack([50 * np.cos(a), 30 * np.sin(a) + 0.01 * np.sin(40 * a), np.full(len(a), 3.0)])
+    n = len(pts) - 1
+    sp = SectionPath("e", "t", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, 8.0))
+    prog = post_process(Layered((LayerPaths(Layer(0, 3.0, 1.5), (sp,)),)), "gcode", PlanSettings(arc_tolerance=0.05))
+    assert prog.stats["motions"] < 60 and prog.stats["circular_motions"] >= 8
+    run = parse_gcode(prog.files["gcode"]).runs[0]
+    line = LineString(pts[:, :2])
+    dev = max(line.distance(Point(p[:2])) for p in run.points)
+    assert dev <= 0.05 + 1e-3
+    assert run.length == pytest.approx(polyline_length(pts), rel=0.005)
+    assert np.allclose(run.feed_mm_min, 480.0)

@@ -50,8 +50,13 @@ def circle_through(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> tuple[np.n
     return center, n / np.sqrt(nn), float(np.linalg.norm(p0 - center))
 
 
-def _arc_ok(pts: np.ndarray, tol: float, plane_normal: np.ndarray | None) -> FittedArc | None:
-    """Fit one arc through all of `pts` ((k, 3), k ≥ 4) within `tol`, or None."""
+_STRAIGHT = "straight"
+
+
+def _arc_ok(pts: np.ndarray, tol: float, plane_normal: np.ndarray | None) -> FittedArc | str | None:
+    """Fit one arc through all of `pts` ((k, 3), k ≥ 4) within `tol`: the arc, `_STRAIGHT` when
+    the points are a straight line within `tol` (keep lines, but a longer run may still curve),
+    or None when no arc fits."""
     k = len(pts)
     mid = k // 2
     chord = pts[-1] - pts[0]
@@ -59,7 +64,8 @@ def _arc_ok(pts: np.ndarray, tol: float, plane_normal: np.ndarray | None) -> Fit
     if cl > 0:
         off = np.linalg.norm(np.cross(pts - pts[0], chord / cl), axis=1)
         if off.max() <= tol:
-            return None  # straight within tolerance: keep lines
+            along = (pts - pts[0]) @ (chord / cl)
+            return _STRAIGHT if np.all(np.diff(along) > 0) else None
     circ = circle_through(pts[0], pts[mid], pts[-1])
     if circ is None:
         return None
@@ -96,16 +102,18 @@ def fit_arcs(
     tolerance: float,
     *,
     min_segments: int = 3,
-    max_points: int = 400,
+    max_points: int = 2000,
     plane_normal: np.ndarray | None = None,
 ) -> list[FittedArc]:
     """Greedy arc fitting over a polyline.
 
     points: (n, 3) float mm. tolerance: mm, the largest allowed distance between arc and
     polyline. min_segments: fewest polyline segments an arc may replace. max_points: longest
-    run tried (bounds the O(k²) search). plane_normal: (3,) unit or None — if given, only arcs in
-    planes normal to it at constant height along it (G17 arcs: (0, 0, 1)).
-    Returns non-overlapping arcs sorted by start; segments outside them stay lines.
+    run tried. plane_normal: (3,) unit or None — if given, only arcs in planes normal to it at
+    constant height along it (G17 arcs: (0, 0, 1)).
+    From each start vertex the run is grown by doubling, then the longest acceptable end is found
+    by bisection (O(log k) fits per arc, each O(k)). Returns non-overlapping arcs sorted by start;
+    segments outside them stay lines.
     """
     pts = np.asarray(points, dtype=float).reshape(-1, 3)
     n = len(pts)
@@ -113,19 +121,44 @@ def fit_arcs(
     if tolerance <= 0 or n < min_segments + 1:
         return arcs
     pn = None if plane_normal is None else np.asarray(plane_normal, dtype=float) / np.linalg.norm(plane_normal)
+
+    def fit(i: int, j: int):
+        return _arc_ok(pts[i : j + 1], tolerance, pn)
+
     i = 0
     while i < n - min_segments:
-        best: FittedArc | None = None
         j = i + min_segments
-        while j < n and j - i < max_points:
-            fit = _arc_ok(pts[i : j + 1], tolerance, pn)
-            if fit is None:
-                break
-            best = fit
-            j += 1
-        if best is None:
+        first = fit(i, j)
+        if first is None:
             i += 1
             continue
-        arcs.append(FittedArc(i, i + best.end, i + best.via, best.center, best.normal, best.radius, best.sweep))
-        i += best.end
+        good, good_fit, step = j, first, min_segments
+        bad = None
+        while True:  # grow by doubling while the run still fits (or is still straight)
+            step *= 2
+            j = min(i + step, n - 1, i + max_points - 1)
+            if j <= good:
+                break
+            f = fit(i, j)
+            if f is None:
+                bad = j
+                break
+            good, good_fit = j, f
+        if bad is not None:  # longest fitting end in (good, bad)
+            lo, hi = good, bad
+            while hi - lo > 1:
+                m = (lo + hi) // 2
+                f = fit(i, m)
+                if f is None:
+                    hi = m
+                else:
+                    lo, good_fit = m, f
+            good = lo
+            good_fit = fit(i, good)
+        if isinstance(good_fit, FittedArc):
+            arcs.append(FittedArc(i, i + good_fit.end, i + good_fit.via, good_fit.center, good_fit.normal,
+                                  good_fit.radius, good_fit.sweep))
+            i = good
+        else:  # a straight run: an arc can only start near its end
+            i = max(i + 1, good - min_segments)
     return arcs

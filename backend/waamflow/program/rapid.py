@@ -105,14 +105,17 @@ class _Names:
 
 def _next_significant(steps, k: int):
     """The next step after k that is not a marker/process comment (for look-ahead)."""
-    for st in steps[k + 1 :]:
-        if not isinstance(st, (LayerStart, SectionStart, ProcessChange)):
-            return st
+    for j in range(k + 1, len(steps)):
+        if not isinstance(steps[j], (LayerStart, SectionStart, ProcessChange)):
+            return steps[j]
     return None
 
 
 def _next_motion(steps, k: int) -> Motion | None:
-    return next((st for st in steps[k + 1 :] if isinstance(st, Motion)), None)
+    for j in range(k + 1, len(steps)):
+        if isinstance(steps[j], Motion):
+            return steps[j]
+    return None
 
 
 def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
