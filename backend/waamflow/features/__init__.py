@@ -1,0 +1,16 @@
+"""Thin-walled parts (Venturini et al. 2018): feature recognition by valence and feature strategies.
+
+recognition: midsurface curves → features (free ends, junctions, crossings, tubulars).
+walls: features → one bead pass per wall entity (crossing circles, free-end extensions).
+tubular: helical / aligned / scattered laps of tubulars.
+"""
+
+from .recognition import FEATURE_KINDS, FeatureSet, RecognitionSpec, features_for_layer, recognise, recognise_layers
+from .tubular import aligned_loop, helix, scattered_loop
+from .walls import LayerWalls, WallPass, WallSpec, crossing_geometry, plan_layer_walls
+
+__all__ = [
+    "FEATURE_KINDS", "FeatureSet", "RecognitionSpec", "features_for_layer", "recognise", "recognise_layers",
+    "aligned_loop", "helix", "scattered_loop",
+    "LayerWalls", "WallPass", "WallSpec", "crossing_geometry", "plan_layer_walls",
+]

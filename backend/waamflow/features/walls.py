@@ -1,0 +1,348 @@
+"""Feature strategies for thin walls, one bead per wall (Venturini et al. 2018, §4).
+
+Walls are split into entities at crossings; entities meeting end to end at corner/continuous
+junctions are chained and deposited in one go. At every crossing (T, direct, odd, four) the
+*cutting circle* (radius r_c) removes the wall inside it and, for each corner between two
+neighbouring branches (CCW), one extra segment joins a branch's cutting-circle point c_k to the
+*influence-circle* point P_k on the corner's bisector at radius r_i, filling the fillet corner
+(four segments at a direct crossing, |P_k − c_k| = √(r_i² + r_c² − 2·r_i·r_c·cos(α_k/2)) for a
+corner of angle α_k). A flat corner (a T's straight side, turning less than the corner angle)
+has no fillet: there the branch bridges straight across the cutting circle from its neighbour's
+cutting point instead. Study trials: r_i/r_c = 10.0/2.0 mm was best (7.0/2.5 left a void and thin
+fillets). Free ends are extended by a length beyond the wall so arc ignition/extinction land in
+stock that is machined off. Tubulars: see `tubular.py`.
+
+All coordinates are layer-local (x, y) mm. Passes come out in a greedy nearest-neighbour order
+(each pass may be reversed: no branch needs a particular direction).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from shapely.geometry import LineString
+from shapely.ops import substring
+
+from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, is_closed
+from .tubular import aligned_loop, scattered_loop
+
+TubularStrategy = Literal["helical", "aligned", "scattered"]
+
+
+@dataclass(frozen=True)
+class WallSpec:
+    """cut_radius, influence_radius: crossing circles (mm; study best 2.0 / 10.0).
+    free_end_extension: path extension beyond a free wall end (mm). tubular: strategy for isolated
+    tubulars (non-isolated ones are always built layer by layer, scattered). overlap: O_l, the
+    self-overlap at the stop of a start–stop tubular lap (mm, ≈ crater length).
+    corner_angle_deg: corners turning less than this are flat (no fillet)."""
+
+    cut_radius: float = 2.0
+    influence_radius: float = 10.0
+    free_end_extension: float = 5.0
+    tubular: TubularStrategy = "helical"
+    overlap: float = 5.0
+    corner_angle_deg: float = 30.0
+    tol: float = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class WallPass:
+    """One bead pass: xy (k, 2) float mm; inside (k−1,) bool per segment (False on extensions and
+    fillet leads that start in machined-off stock); strategy: wall | aligned | scattered."""
+
+    key: str
+    strategy: str
+    xy: np.ndarray
+    inside: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(np.hypot(*np.diff(self.xy, axis=0).T).sum())
+
+    def reversed(self) -> "WallPass":
+        return WallPass(self.key, self.strategy, self.xy[::-1].copy(), self.inside[::-1].copy())
+
+
+@dataclass(frozen=True, eq=False)
+class LayerWalls:
+    """passes: in deposition order. helical: (key, ring (k, 2)) isolated tubulars to build
+    helically over all layers (the caller owns the heights). warnings: human-readable notes."""
+
+    passes: tuple[WallPass, ...]
+    helical: tuple[tuple[str, np.ndarray], ...] = ()
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass
+class _Chain:
+    xy: np.ndarray
+    head: list = field(default_factory=list)        # points before xy[0], in path order
+    head_inside: list = field(default_factory=list)
+    tail: list = field(default_factory=list)        # points after xy[-1]
+    tail_inside: list = field(default_factory=list)
+    dropped: bool = False
+
+    def path(self) -> tuple[np.ndarray, np.ndarray]:
+        pts = [np.asarray(p, float) for p in self.head] + list(self.xy) + [np.asarray(p, float) for p in self.tail]
+        inside = list(self.head_inside) + [True] * (len(self.xy) - 1) + list(self.tail_inside)
+        return np.asarray(pts, float), np.asarray(inside, bool)
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    n = float(np.hypot(*v))
+    return v / n if n > 0 else v
+
+
+def _coords(line) -> np.ndarray:
+    return np.asarray(line.coords, float)[:, :2]
+
+
+# ------------------------------------------------------------------------------------------
+# Splitting and chaining
+# ------------------------------------------------------------------------------------------
+def split_curves(curves: list[np.ndarray], crossings: list[dict], skip: set[int], tol: float) -> list[np.ndarray]:
+    """Pieces of every curve (except `skip`) cut at the crossing points it passes through."""
+    pieces: list[np.ndarray] = []
+    for ci, c in enumerate(curves):
+        if ci in skip:
+            continue
+        line = LineString(c)
+        L = line.length
+        closed = is_closed(c, tol)
+        cuts = []
+        for f in crossings:
+            if ci not in f["entities"]:
+                continue
+            p = np.array(f["point"])
+            if not closed and (np.hypot(*(c[0] - p)) <= tol or np.hypot(*(c[-1] - p)) <= tol):
+                continue
+            cuts.append(line.project(LineString([p, p]).centroid))
+        cuts = sorted(set(round(s, 9) for s in cuts))
+        if closed and cuts:
+            bounds = cuts + [cuts[0] + L]
+            for a, b in zip(bounds[:-1], bounds[1:]):
+                if b <= L:
+                    pieces.append(_coords(substring(line, a, b)))
+                else:
+                    first = _coords(substring(line, a, L))
+                    second = _coords(substring(line, 0.0, b - L))
+                    pieces.append(np.vstack([first, second[1:]]))
+        else:
+            bounds = [0.0] + cuts + [L]
+            for a, b in zip(bounds[:-1], bounds[1:]):
+                if b - a > tol:
+                    pieces.append(_coords(substring(line, a, b)))
+    return pieces
+
+
+def chain_pieces(pieces: list[np.ndarray], joints: list[np.ndarray], tol: float) -> list[np.ndarray]:
+    """Join pieces end to end at corner/continuous junction points `joints` (one pass each)."""
+    pieces = [p for p in pieces]
+    changed = True
+    while changed:
+        changed = False
+        for jp in joints:
+            at = [(k, e) for k, p in enumerate(pieces) for e in (0, -1)
+                  if np.hypot(*(p[e] - jp)) <= tol]
+            if len(at) != 2 or at[0][0] == at[1][0]:
+                continue
+            (a, ea), (b, eb) = at
+            pa = pieces[a] if ea == -1 else pieces[a][::-1]
+            pb = pieces[b] if eb == 0 else pieces[b][::-1]
+            merged = np.vstack([pa, pb[1:]])
+            pieces = [p for k, p in enumerate(pieces) if k not in (a, b)] + [merged]
+            changed = True
+            break
+    return pieces
+
+
+# ------------------------------------------------------------------------------------------
+# Crossing construction
+# ------------------------------------------------------------------------------------------
+def trim_from_start(xy: np.ndarray, center: np.ndarray, r: float) -> np.ndarray | None:
+    """Drop the part of polyline `xy` from its start until it leaves the circle (center, r).
+    Returns None when the whole polyline lies inside the circle."""
+    d = np.hypot(*(xy - center).T)
+    out = np.flatnonzero(d >= r)
+    if not len(out):
+        return None
+    k = int(out[0])
+    if k == 0:
+        return xy
+    a, b = xy[k - 1], xy[k]
+    # solve |a + t(b − a) − center| = r for t in [0, 1]
+    u, w = b - a, a - center
+    A, B, C = u @ u, 2 * u @ w, w @ w - r * r
+    t = (-B + math.sqrt(max(B * B - 4 * A * C, 0.0))) / (2 * A)
+    p = a + t * u
+    return np.vstack([p, xy[k:]]) if np.hypot(*(p - xy[k])) > 1e-9 else xy[k:]
+
+
+@dataclass(frozen=True)
+class CrossingGeometry:
+    """Construction at one crossing: cut points c_k (n, 2), influence points P_k (n, 2; NaN where
+    the corner is flat), corner angles (n,) deg CCW from branch k to k+1, fillet segment
+    lengths |P_k − c_k| (n,; NaN on flat corners)."""
+
+    cut_points: np.ndarray
+    influence_points: np.ndarray
+    corner_angles_deg: np.ndarray
+    fillet_lengths: np.ndarray
+
+
+def crossing_geometry(center, directions, cut_radius: float, influence_radius: float,
+                      corner_angle_deg: float) -> CrossingGeometry:
+    """Cutting/influence construction for branches leaving `center` along unit `directions`
+    (sorted CCW). Corner k spans branch k → k+1; it is a fillet when it turns by at least
+    `corner_angle_deg` from straight (α_k ≤ 180° − corner_angle_deg)."""
+    center = np.asarray(center, float)
+    dirs = np.asarray(directions, float)
+    ang = np.degrees(np.arctan2(dirs[:, 1], dirs[:, 0]))
+    alpha = (np.roll(ang, -1) - ang) % 360.0
+    alpha[alpha == 0] = 360.0
+    cuts = center + cut_radius * dirs
+    infl = np.full_like(cuts, np.nan)
+    lengths = np.full(len(dirs), np.nan)
+    for k in range(len(dirs)):
+        if alpha[k] <= 180.0 - corner_angle_deg:
+            mid = math.radians(ang[k] + alpha[k] / 2.0)
+            infl[k] = center + influence_radius * np.array([math.cos(mid), math.sin(mid)])
+            lengths[k] = float(np.hypot(*(infl[k] - cuts[k])))
+    return CrossingGeometry(cuts, infl, alpha, lengths)
+
+
+def _apply_crossing(chains: list[_Chain], f: dict, spec: WallSpec, notes: list[str]) -> None:
+    J = np.array(f["point"], float)
+    ends = []  # (chain, at_start, outward direction)
+    for ch in chains:
+        if ch.dropped:
+            continue
+        for at_start in (True, False):
+            p = ch.xy[0] if at_start else ch.xy[-1]
+            if np.hypot(*(p - J)) <= spec.tol:
+                seq = ch.xy if at_start else ch.xy[::-1]
+                nxt = next((q for q in seq[1:] if np.hypot(*(q - J)) > 1e-9), seq[-1])
+                ends.append((ch, at_start, _unit(nxt - J)))
+    if len(ends) < 3:
+        return
+    ends.sort(key=lambda e: math.atan2(e[2][1], e[2][0]))
+    geo = crossing_geometry(J, [e[2] for e in ends], spec.cut_radius, spec.influence_radius, spec.corner_angle_deg)
+    trimmed_ok = []
+    for k, (ch, at_start, _d) in enumerate(ends):
+        seq = ch.xy if at_start else ch.xy[::-1]
+        t = trim_from_start(seq, J, spec.cut_radius)
+        if t is None or len(t) < 2:
+            ch.dropped = True
+            notes.append(f"wall piece at {J.round(3).tolist()} lies inside the cutting circle: dropped")
+            trimmed_ok.append(False)
+            continue
+        ch.xy = t if at_start else t[::-1]
+        trimmed_ok.append(True)
+    n = len(ends)
+    for k, (ch, at_start, _d) in enumerate(ends):
+        if not trimmed_ok[k]:
+            continue
+        c_k = ch.xy[0] if at_start else ch.xy[-1]
+        if not np.isnan(geo.influence_points[k][0]):
+            extra, inside = geo.influence_points[k], False  # fillet lead from machined-off stock
+        else:
+            extra, inside = geo.cut_points[(k + 1) % n], True  # bridge across a flat corner
+        if np.hypot(*(extra - c_k)) <= 1e-9:
+            continue
+        if at_start:
+            ch.head, ch.head_inside = [extra], [inside]
+        else:
+            ch.tail, ch.tail_inside = [extra], [inside]
+
+
+def _apply_free_end(chains: list[_Chain], f: dict, spec: WallSpec) -> None:
+    if spec.free_end_extension <= 0:
+        return
+    J = np.array(f["point"], float)
+    for ch in chains:
+        if ch.dropped:
+            continue
+        for at_start in (True, False):
+            p = ch.xy[0] if at_start else ch.xy[-1]
+            if np.hypot(*(p - J)) > spec.tol:
+                continue
+            seq = ch.xy if at_start else ch.xy[::-1]
+            nxt = next((q for q in seq[1:] if np.hypot(*(q - J)) > 1e-9), None)
+            if nxt is None:
+                continue
+            ext = J - spec.free_end_extension * _unit(nxt - J)
+            if at_start:
+                ch.head, ch.head_inside = [ext], [False]
+            else:
+                ch.tail, ch.tail_inside = [ext], [False]
+
+
+# ------------------------------------------------------------------------------------------
+# Ordering
+# ------------------------------------------------------------------------------------------
+def order_passes(passes: list[WallPass], start=None) -> list[WallPass]:
+    """Greedy nearest neighbour from `start` (default: lower-left of all passes); each pass may be
+    reversed, closed laps are not rotated."""
+    if not passes:
+        return []
+    left = list(passes)
+    pos = np.asarray(start, float) if start is not None else np.vstack([p.xy for p in left]).min(axis=0)
+    out: list[WallPass] = []
+    while left:
+        best = None
+        for k, p in enumerate(left):
+            for rev in (False, True):
+                q = p.xy[-1] if rev else p.xy[0]
+                d = float(np.hypot(*(q - pos)))
+                if best is None or d < best[0] - 1e-9:
+                    best = (d, k, rev)
+        _, k, rev = best
+        p = left.pop(k)
+        p = p.reversed() if rev else p
+        out.append(p)
+        pos = p.xy[-1]
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# Entry point
+# ------------------------------------------------------------------------------------------
+def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), *, layer_index: int = 0,
+                     start=None) -> LayerWalls:
+    """Passes of one layer from its curves ((k, 2) arrays or LineStrings, mm) and its features."""
+    curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
+    tol = spec.tol
+    notes: list[str] = []
+    tubes = [f for f in features if f["kind"] == "tubular"]
+    in_tubes = {e for f in tubes for e in f["entities"]}
+    crossings = [f for f in features if f["kind"] in CROSSING_KINDS]
+    joints = [np.array(f["point"], float) for f in features if f["kind"] in JUNCTION_KINDS]
+    pieces = chain_pieces(split_curves(curves, crossings, in_tubes, tol), joints, tol)
+    chains = [_Chain(p) for p in pieces]
+    for f in crossings:
+        _apply_crossing(chains, f, spec, notes)
+    for f in features:
+        if f["kind"] == "free_end":
+            _apply_free_end(chains, f, spec)
+    passes: list[WallPass] = []
+    for k, ch in enumerate(c for c in chains if not c.dropped):
+        xy, inside = ch.path()
+        passes.append(WallPass(f"wall{k}", "wall", xy, inside))
+    helical: list[tuple[str, np.ndarray]] = []
+    for k, f in enumerate(tubes):
+        ring = chain_loop(curves, f["entities"], tol)
+        key = f"tube{k}"
+        if f.get("isolated") and spec.tubular == "helical":
+            helical.append((key, ring))
+            continue
+        mode = spec.tubular if f.get("isolated") else "scattered"
+        if not f.get("isolated") and spec.tubular != "scattered":
+            notes.append(f"{key} is not isolated (torch could collide): built layer by layer, scattered")
+        xy = aligned_loop(ring, spec.overlap) if mode == "aligned" else scattered_loop(ring, layer_index, spec.overlap)
+        passes.append(WallPass(key, mode, xy, np.ones(len(xy) - 1, bool)))
+    return LayerWalls(tuple(order_passes(passes, start)), tuple(helical), tuple(notes))

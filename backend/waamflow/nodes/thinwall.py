@@ -1,0 +1,172 @@
+"""Thin-wall nodes (Venturini et al. 2018): `features` (recognition by valence) and `wall-path`
+(feature strategies, one bead per wall). Thin adapters over waamflow.features; `wall-path` also
+lays the centre line of single-bead ring regions (fan-sliced hollow walls, waamflow.curved)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from ..core import serialize
+from ..core.errors import PlanningError
+from ..core.model import Layer, LayerPaths, Layered, SectionPath, region_polygons
+from ..core.tolerances import TOL
+from ..curved.centerline import ring_centerline
+from ..engine.node import Node, NodeParams, register, unit
+from ..engine.ports import Port
+from ..features import RecognitionSpec, WallSpec, features_for_layer, helix, plan_layer_walls, recognise_layers
+from ..features.recognition import curves_digest
+from ..features.tubular import aligned_loop
+from ..features.walls import WallPass, order_passes
+
+
+@register
+class FeaturesNode(Node):
+    """Thin-wall feature recognition by valence (Venturini et al. 2018).
+
+    Reads the midsurface curves of the layers (the first layer with curves — an extrusion repeats
+    it — or every distinct layer). End points and curve–curve intersections within `merge_tol` are
+    one point; the entities, ends and branches there give the kind: free_end, corner/continuous
+    (by `corner_angle_deg`), t_crossing, direct_crossing, odd_t_crossing, odd_direct_crossing,
+    four_direct_crossing. Closed loops touching nothing are tubulars, `isolated` when the band of
+    half the torch `encumbrance` about them touches no other curve. Writes `<node>.features.json`.
+    """
+
+    type = "features"
+    title = "Feature recognition"
+    category = "thin walls"
+    inputs = (Port("layers", "layers", "Layers with midsurface curves (from a sketch)"),)
+    outputs = (Port("features", "features", "Recognised features"),)
+
+    class Params(NodeParams):
+        merge_tol: float = Field(TOL.merge, gt=0, le=1.0, json_schema_extra=unit("mm"),
+                                 description="Points closer than this are one point (study: 1e-6 mm)")
+        corner_angle_deg: float = Field(30.0, gt=0, lt=180, json_schema_extra=unit("deg"),
+                                        description="Walls turning by at least this angle meet at a corner, "
+                                                    "less: continuous junction")
+        encumbrance: float = Field(30.0, gt=0, le=1000, json_schema_extra=unit("mm"),
+                                   description="Torch maximum encumbrance (diameter) for the isolated-tubular test")
+        every_layer: bool = Field(False, description="Recognise every distinct layer, not only the first")
+
+    def run(self, ctx, params, inputs):
+        spec = RecognitionSpec(params.merge_tol, params.corner_angle_deg, params.encumbrance)
+        fs = recognise_layers(inputs["layers"], spec, every_layer=params.every_layer)
+        if not fs.layers:
+            ctx.warn("no layer has midsurface curves: nothing to recognise (connect a sketch)")
+        return {"features": fs}
+
+    def artifacts(self, ctx, params, outputs):
+        return {"features.json": serialize.dumps(outputs["features"].to_json())}
+
+
+def _section(layer: Layer, p: WallPass, speed: float) -> SectionPath:
+    pts = layer.to_world(p.xy)
+    n = len(pts) - 1
+    axis = None if layer.frame is None else np.tile(-layer.normal, (len(pts), 1))
+    return SectionPath(p.key, p.strategy, pts, np.ones(n, bool), np.asarray(p.inside, bool),
+                       np.full(n, float(speed)), tool_axis=axis)
+
+
+@register
+class WallPathNode(Node):
+    """One bead per wall: the thin-wall feature strategies (Venturini et al. 2018).
+
+    Curves are split into entities at crossings; corner/continuous junctions are deposited in one
+    go. At crossings a cutting circle (`cut_radius`) removes the walls and, per fillet corner, a
+    segment joins the branch's cut point to the influence-circle point (`influence_radius`) on the
+    corner bisector (study best: 10.0 / 2.0 mm); flat corners of a T are bridged across. Free ends
+    are extended by `free_end_extension` so ignition/extinction fall outside the useful wall.
+    Isolated tubulars: `tubular` = helical (one continuous helix, pitch = layer height, placed in
+    the first layer), aligned or scattered start–stop with self-overlap `overlap`; non-isolated
+    ones are built layer by layer (scattered). Layers without curves but with ring regions (a
+    fan-sliced hollow wall) get the ring's centre line as one lap with `overlap`. Passes in
+    greedy nearest-neighbour order, each layer starting where the previous ended.
+    Writes `<node>.toolpath.json`.
+    """
+
+    type = "wall-path"
+    title = "Wall path (thin walls)"
+    category = "thin walls"
+    inputs = (Port("layers", "layers", "Layers (midsurface curves or ring regions)"),
+              Port("features", "features", "Recognised features (default: recognised here)", optional=True))
+    outputs = (Port("toolpath", "toolpath", "One bead per wall, per layer"),)
+
+    class Params(NodeParams):
+        speed: float = Field(5.0, gt=0, le=200, json_schema_extra=unit("mm/s"),
+                             description="Travel speed (study trials: 300 mm/min = 5 mm/s)")
+        cut_radius: float = Field(2.0, gt=0, le=100, json_schema_extra=unit("mm"),
+                                  description="Cutting circle radius at crossings (study best 2.0)")
+        influence_radius: float = Field(10.0, gt=0, le=500, json_schema_extra=unit("mm"),
+                                        description="Influence circle radius at crossings (study best 10.0)")
+        free_end_extension: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
+                                          description="Path extension beyond a free wall end (arc start/stop zone)")
+        tubular: Literal["helical", "aligned", "scattered"] = Field(
+            "helical", description="Strategy for isolated tubulars")
+        overlap: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
+                               description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)")
+        spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
+                               description="Point spacing of ring centre lines (region layers)")
+
+    def run(self, ctx, params, inputs):
+        layers: Layered[Layer] = inputs["layers"]
+        fs = inputs.get("features")
+        if fs is None:
+            fs = recognise_layers(layers, RecognitionSpec())
+        spec = WallSpec(params.cut_radius, params.influence_radius, params.free_end_extension,
+                        params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol)
+        if params.cut_radius >= params.influence_radius:
+            ctx.warn("cut_radius ≥ influence_radius: fillet leads point back into the crossing")
+        out: list[LayerPaths | None] = []
+        helices: dict[str, dict] = {}  # ring digest → {key, ring, first layer slot, zs}
+        pos = None
+        for slot, layer in enumerate(layers):
+            ctx.check_cancelled()
+            if layer is None:
+                out.append(None)
+                continue
+            if layer.curves:
+                lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec,
+                                      layer_index=layer.index, start=pos)
+                for note in lw.warnings:
+                    ctx.warn(note, layer=layer.index)
+                passes = list(lw.passes)
+                for key, ring in lw.helical:
+                    if layer.frame is not None:
+                        passes.append(WallPass(key, "aligned", aligned_loop(ring, spec.overlap),
+                                               np.ones(len(aligned_loop(ring, spec.overlap)) - 1, bool)))
+                        continue
+                    h = helices.setdefault(curves_digest([ring]), {"key": key, "ring": ring, "slot": slot, "zs": []})
+                    h["zs"].append(layer.z)
+                passes = order_passes(passes, pos) if len(passes) != len(lw.passes) else passes
+            else:
+                passes = self._rings(ctx, layer, params, spec, pos)
+            sections = tuple(_section(layer, p, params.speed) for p in passes)
+            if passes:
+                pos = passes[-1].xy[-1]
+            out.append(LayerPaths(layer, sections))
+        for h in helices.values():
+            lp = out[h["slot"]]
+            pts = helix(h["ring"], h["zs"])
+            n = len(pts) - 1
+            sp = SectionPath(h["key"], "helical", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, params.speed))
+            out[h["slot"]] = LayerPaths(lp.layer, (sp,) + lp.sections, lp.dwell_after_s)
+        if not any(lp is not None and lp.sections for lp in out):
+            raise PlanningError("no wall to deposit: layers carry neither curves nor ring regions")
+        return {"toolpath": Layered(tuple(out))}
+
+    @staticmethod
+    def _rings(ctx, layer: Layer, params, spec: WallSpec, start) -> list[WallPass]:
+        passes = []
+        for k, poly in enumerate(region_polygons(layer.region)):
+            if not poly.interiors:
+                ctx.warn(f"region {k} has no hole (not a single-bead ring): skipped", layer=layer.index)
+                continue
+            mid, _width = ring_centerline(poly, params.spacing)
+            xy = aligned_loop(mid, spec.overlap)
+            passes.append(WallPass(f"ring{k}", "perimeter", xy, np.ones(len(xy) - 1, bool)))
+        return order_passes(passes, start)
+
+    def artifacts(self, ctx, params, outputs):
+        return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"]))}
