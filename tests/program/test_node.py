@@ -75,3 +75,25 @@ def test_empty_toolpath_warns():
     out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
     assert out["program"].stats["motions"] == 0 and ctx.warnings
     assert "DEF waamflow( )" in out["program"].files["src"]
+
+
+def test_gcode_warns_about_tilted_torch():
+    from dataclasses import replace
+
+    import numpy as np
+
+    from waamflow.core.model import LayerPaths
+
+    tp = build_toolpath(1)
+    lp = tp[0]
+    sp = lp.sections[0]
+    axis = np.tile([0.0, np.sin(np.radians(10)), -np.cos(np.radians(10))], (len(sp.points), 1))
+    tp = Layered((LayerPaths(lp.layer, (replace(sp, tool_axis=axis),)),))
+    node_cls = load_nodes()["post-process"]
+    ctx = Ctx()
+    out = node_cls().run(ctx, node_cls.Params(format="gcode"), {"toolpath": tp})
+    assert out["program"].stats["max_tool_tilt_deg"] == pytest.approx(10.0)
+    assert len(ctx.warnings) == 1 and "10.0°" in ctx.warnings[0]
+    ctx = Ctx()
+    node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": tp})
+    assert ctx.warnings == []

@@ -16,6 +16,7 @@ from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSe
 from ..program.common import check_templates
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
+TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
 
 
 @register
@@ -95,6 +96,10 @@ class PostProcess(Node):
         program = post_process(inputs["toolpath"], params.format, plan, writer)
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
+        tilt = program.stats.get("max_tool_tilt_deg", 0.0)
+        if params.format == "gcode" and tilt > TILT_WARN_DEG:
+            ctx.warn(f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
+                     "tool axes are ignored (use krl or rapid)")
         return {"program": program}
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:

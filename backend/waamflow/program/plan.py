@@ -256,4 +256,14 @@ def _stats(moves: Moves, steps: list[Step], settings: PlanSettings) -> dict:
         "travel_length_mm": round(float(seg[~arc].sum()), 3),
         "dwell_total_s": round(float(dwell), 3),
         "estimated_time_s": round(float((seg / speed).sum() + dwell), 3) if len(seg) else 0.0,
+        "max_tool_tilt_deg": _max_tilt(moves),
     }
+
+
+def _max_tilt(moves: Moves) -> float:
+    """Largest angle (degrees) between a tool axis and the vertical (0, 0, -1): 3-axis G-code
+    cannot tilt the torch, so the G-code post warns when this is not ~0."""
+    if len(moves.tool_axis) == 0:
+        return 0.0
+    t = moves.tool_axis / np.linalg.norm(moves.tool_axis, axis=1, keepdims=True)
+    return round(float(np.degrees(np.arccos(np.clip(-t[:, 2], -1.0, 1.0))).max()), 3)
