@@ -5,6 +5,7 @@ Params follow the contract: a `default` spec plus per-section overrides keyed "<
 
 from __future__ import annotations
 
+import json
 from typing import Any, Optional
 
 import numpy as np
@@ -59,6 +60,21 @@ def paths_summary(toolpath) -> dict:
     total["outside_share"] = round(total["outside_length_mm"] / total["programmed_length_mm"], 4) \
         if total["programmed_length_mm"] > 0 else 0.0
     return {"units": "mm", "total": total, "sections": rows}
+
+
+_COMPARISONS: dict[str, dict] = {}
+
+
+def _compare_sections(sections, params) -> dict:
+    jobs, layers = [], 0
+    for ls in sections:
+        if ls is None:
+            continue
+        layers += 1
+        for s in ls.sections:
+            spec = spec_for(params.default, params.sections.get(s.key))
+            jobs.append(Job(s.region, s.guide, spec, spec.speed))
+    return comparison_json(compare(jobs, params.compare), len(jobs), layers)
 
 
 @register
@@ -132,17 +148,21 @@ class StrategyNode(LayerNode):
         return {"toolpath": LayerPaths(ls.layer, tuple(out))}
 
     def combine(self, ctx, params, outputs, inputs):
+        # The comparison re-plans every section once per compared pattern: it is memoised on the
+        # sections' signatures + params, since combine runs on every execution (cached layers too).
         self._comparison = None
         if params.compare:
-            jobs, layers = [], 0
-            for ls in inputs["sections"]:
-                if ls is None:
-                    continue
-                layers += 1
-                for s in ls.sections:
-                    spec = spec_for(params.default, params.sections.get(s.key))
-                    jobs.append(Job(s.region, s.guide, spec, spec.speed))
-            self._comparison = comparison_json(compare(jobs, params.compare), len(jobs), layers)
+            sections = inputs["sections"]
+            key = None
+            if sections.sigs and all(sections.sigs):
+                key = json.dumps([list(sections.sigs), params.model_dump(mode="json")], sort_keys=True)
+            self._comparison = _COMPARISONS.get(key) if key else None
+            if self._comparison is None:
+                self._comparison = _compare_sections(sections, params)
+                if key:
+                    _COMPARISONS[key] = self._comparison
+                    while len(_COMPARISONS) > 8:
+                        _COMPARISONS.pop(next(iter(_COMPARISONS)))
         return super().combine(ctx, params, outputs, inputs)
 
     def artifacts(self, ctx, params, outputs) -> dict[str, Any]:

@@ -28,9 +28,11 @@ def pass_layout(width: float, spacing: float) -> tuple[int, float]:
     """Pass count n_WB and boundary margin W_bound (mm) for a section `width` mm wide.
 
     Robot study rule: n = floor(W / W_WB), W_bound = (W − (n − 1)·W_WB) / 2, and a pass is added
-    while W_bound > 0.4·W_WB (never to a zero or negative margin: a pass on
-    the boundary deposits half its bead outside). Small OR 21.5 mm → 5 passes, 1.89 mm;
-    large OR 43 mm → 10 passes, 1.57 mm.
+    while W_bound > 0.4·W_WB. Small OR 21.5 mm → 5 passes, 1.89 mm; large OR 43 mm → 10 passes,
+    1.57 mm. Since floor() leaves W_bound in [W_WB/2, W_WB), at most one pass is ever added; we
+    refuse to add it when it would leave a zero margin (W an exact multiple of W_WB: the study's
+    rule would put the outer passes on the boundary, half their bead outside) — e.g. 12 mm at a
+    6 mm spacing gives 2 passes 3 mm from the edges, not 3 passes with the outer two on them.
     """
     if width <= 0 or spacing <= 0:
         raise ValueError("width and spacing must be positive")
