@@ -113,3 +113,19 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
         total += cycle_time(n, float(np.mean(lengths)), speed, p)
         n_pass_all += n
     return Estimate(total, n_pass_all, sections)
+
+
+def estimate_result(moves: Moves, est: Estimate):
+    """An estimate-only `SimulationResult`: metrics (total_time_s, programmed_length_mm, ...), empty trace."""
+    from .simulate import SimulationResult
+
+    empty = np.zeros(0)
+    L = float(moves.segment_lengths.sum())
+    metrics = {"total_time_s": est.total_time_s, "programmed_length_mm": L,
+               "estimate_passes": float(est.passes), "estimate_sections": float(est.sections), "estimate_only": 1.0}
+    trace = {k: empty for k in ("t", "x", "y", "z", "speed", "deviation", "s")}
+    trace.update(arc=empty.astype(bool), layer=empty.astype(np.int32), section=empty.astype(np.int32),
+                 inside=empty.astype(bool))
+    return SimulationResult(metrics, trace, np.asarray(moves.points, float), np.asarray(moves.arc, bool),
+                            np.asarray(moves.points, float), {}, tuple(moves.section_keys),
+                            estimate={"total_time_s": est.total_time_s})

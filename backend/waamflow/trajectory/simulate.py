@@ -47,6 +47,7 @@ class SimOptions:
     speed_override: replaces the programmed speed of arc-ON segments when set.
     travel_speed: speed of arc-OFF moves that carry no speed (None = the profile's).
     segment_cap: (n_moves_points - 1,) extra speed cap per move segment (from kinematics), or None.
+    ignition_dwell_s: standstill after each arc ignition when the zone has no `dwell` parameter.
     """
 
     cdis: float = 5.0
@@ -56,6 +57,7 @@ class SimOptions:
     interpolation_cycle_s: float | None = None
     travel_speed: float | None = None
     segment_cap: np.ndarray | None = None
+    ignition_dwell_s: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +76,7 @@ class SimulationResult:
     estimate: the closed-form cycle-time estimate beside the simulation (see `estimate`).
     corners: per blended vertex (k,): vertex index, interior_deg, error_mm (closest approach of
         the actual path to the vertex), min_speed_mm_s.
+    profile: the robot profile used (JSON form; a fitted one from calibrate-robot).
     """
 
     metrics: dict[str, float]
@@ -86,6 +89,7 @@ class SimulationResult:
     warnings: tuple[tuple[str, int | None, str | None], ...] = ()
     estimate: dict[str, float] = field(default_factory=dict)
     corners: dict[str, np.ndarray] = field(default_factory=dict)
+    profile: dict = field(default_factory=dict)
 
 
 METRIC_UNITS = {
@@ -93,7 +97,7 @@ METRIC_UNITS = {
     "arc_on_time_s": "s", "arc_on_length_mm": "mm", "deposited_volume_mm3": "mm³",
     "programmed_volume_mm3": "mm³", "max_deviation_mm": "mm", "mean_deviation_mm": "mm",
     "time_inside_s": "s", "time_outside_s": "s", "arc_off_time_inside_s": "s",
-    "arc_on_time_outside_s": "s", "average_speed_mm_s": "mm/s", "stops": "", "corners": "",
+    "arc_on_time_outside_s": "s", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
     "min_corner_speed_mm_s": "mm/s",
 }
 
@@ -115,16 +119,23 @@ class _Program:
     src: np.ndarray         # (n-1,) index of each segment in the original Moves
 
 
-def _zone_dwell(moves: Moves) -> np.ndarray:
-    """(n,) ignition dwell (zone param `dwell`, s) before the first segment of each zone run."""
+def _ignition_dwell(moves: Moves, default_s: float) -> np.ndarray:
+    """(n,) dwell (s) before moving on at each point: at every arc ignition the zone's `dwell`
+    parameter (or `default_s` when the zone has none); at the start of any other zone run its
+    `dwell` parameter if it has one."""
     n = len(moves.points)
     out = np.zeros(n)
     if n < 2:
         return out
-    start = np.ones(n - 1, dtype=bool)
-    start[1:] = (moves.zone[1:] != moves.zone[:-1]) | (moves.section[1:] != moves.section[:-1])
-    for i in np.flatnonzero(start & (moves.zone >= 0) & moves.arc):
-        dw = moves.zone_params.get((int(moves.section[i]), int(moves.zone[i])), {}).get("dwell", 0.0)
+    arc = np.asarray(moves.arc, bool)
+    ignite = arc & ~np.concatenate([[False], arc[:-1]])
+    zstart = np.ones(n - 1, dtype=bool)
+    zstart[1:] = (moves.zone[1:] != moves.zone[:-1]) | (moves.section[1:] != moves.section[:-1])
+    for i in np.flatnonzero((ignite | (zstart & arc))):
+        params = moves.zone_params.get((int(moves.section[i]), int(moves.zone[i])), {})
+        dw = params.get("dwell")
+        if dw is None and ignite[i]:
+            dw = default_s
         out[i] += float(dw or 0.0)
     return out
 
@@ -133,7 +144,7 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
     P = np.asarray(moves.points, dtype=float)
     L = np.linalg.norm(np.diff(P, axis=0), axis=1)
     keep = L > 1e-6
-    dwell = np.asarray(moves.dwell_before, dtype=float) + _zone_dwell(moves)
+    dwell = np.asarray(moves.dwell_before, dtype=float) + _ignition_dwell(moves, opt.ignition_dwell_s)
     # fold dwells of dropped (zero-length) segments onto the kept start point
     kept_pts = np.concatenate([[0], np.flatnonzero(keep) + 1])
     owner = np.maximum.accumulate(np.where(np.concatenate([[True], keep]), np.arange(len(P)), 0))
@@ -267,7 +278,6 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     total_time = float(t_end_motion)
     prog_len = float(np.linalg.norm(np.diff(prog.points, axis=0), axis=1).sum())
     act_len = float(step.sum())
-    arc_time = float(sum(max(0.0, min(off, t_end_motion) - max(on, 0.0)) for on, off in arc_iv))
     arc_time_full = float(sum(off - on for on, off in arc_iv))
     wire = float(opt.wire_feed_mm3_s)
     seg_len = np.linalg.norm(np.diff(prog.points, axis=0), axis=1)
@@ -289,12 +299,12 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "arc_on_time_outside_s": float((w * (~inside & arc_on)).sum()),
         "average_speed_mm_s": act_len / total_time if total_time > 0 else 0.0,
         "stops": float(prog.stop.sum()),
-        "corners": float(((path.d > 0)).sum()),
+        "blended_corners": float((path.d > 0).sum()),
         "min_corner_speed_mm_s": float(path.cap[path.d > 0].min()) if (path.d > 0).any() else 0.0,
     }
-    del arc_time
 
-    corners = _corner_errors(prog.points, path, xyz, seg, np.concatenate([spd_fine := step / np.where(dtf > 0, dtf, 1.0), [0.0]]))
+    spd = np.concatenate([step / np.where(dtf > 0, dtf, 1.0), [0.0]])  # fine-grid speed, mm/s
+    corners = _corner_errors(prog.points, path, xyz, seg, spd)
     metrics["max_corner_error_mm"] = float(corners["error_mm"].max()) if len(corners["error_mm"]) else 0.0
 
     # ---- per-segment deposit -----------------------------------------------------------------
@@ -313,7 +323,6 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     # ---- trace at the interpolation cycle ----------------------------------------------------
     t_out = np.arange(0.0, total_time + 0.5 * dt, dt)
     idx = np.clip(np.searchsorted(t, t_out, side="right") - 1, 0, len(t) - 1)
-    spd = np.concatenate([spd_fine, [0.0]])
     s_act = np.concatenate([[0.0], np.cumsum(step)])
     trace = {
         "t": t_out,
@@ -331,7 +340,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     if progress:
         progress(1.0, "simulation done")
     return SimulationResult(metrics, trace, prog.points, prog.arc, path.points, deposit,
-                            tuple(moves.section_keys), corners=corners)
+                            tuple(moves.section_keys), corners=corners, profile=profile.to_json())
 
 
 def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.ndarray, speed: np.ndarray) -> dict:

@@ -1,0 +1,202 @@
+"""Robot nodes: simulate-robot, calibrate-robot, estimate-time — thin adapters over waamflow.trajectory."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from typing import Literal
+
+from pydantic import Field
+
+from ..core.errors import InputFileError, PlanningError
+from ..core.moves import flatten
+from ..engine.node import FileRef, Node, NodeParams, register, unit
+from ..engine.ports import Port
+from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
+from ..trajectory.estimate import estimate_moves, estimate_result
+from ..trajectory.kinematics import CellFrames
+from ..trajectory.profile import RobotProfile, load_profile
+from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
+from ..trajectory.simulate import SimOptions
+
+Vec3 = tuple[float, float, float]
+
+
+class RobotParams(NodeParams):
+    """Parameters shared by the robot nodes: which robot and how it is set up in the cell."""
+
+    robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
+                               description="Shipped robot profile (controller constants, data/robots/<name>.json)")
+    profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
+    cdis: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
+                        description="Blend distance: KUKA $APO.CDIS (blend=cdis) or ABB zone radius (blend=zone); 0 = exact stops")
+    blend: Literal["cdis", "zone"] = Field("cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola")
+    speed_override: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
+                                         description="Replace the programmed speed of arc-ON moves (empty = as programmed)")
+    travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
+                                       description="Speed of arc-OFF moves that carry no speed (empty = the profile's)")
+    interpolation_cycle_s: float = Field(0.012, gt=0.0005, le=0.1, json_schema_extra=unit("s"),
+                                         description="Controller interpolation cycle (KRC2: 12 ms); trace sampling period")
+    ignition_dwell_s: float = Field(0.0, ge=0, le=60, json_schema_extra=unit("s"),
+                                    description="Standstill after each arc ignition when the zone has no `dwell` parameter")
+    wire_feed_mm3_s: float = Field(94.25, gt=0, le=10000, json_schema_extra=unit("mm³/s"),
+                                   description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)")
+
+    def sim_options(self) -> SimOptions:
+        return SimOptions(cdis=self.cdis, blend=self.blend, wire_feed_mm3_s=self.wire_feed_mm3_s,
+                          speed_override=self.speed_override, interpolation_cycle_s=self.interpolation_cycle_s,
+                          travel_speed=self.travel_speed, ignition_dwell_s=self.ignition_dwell_s)
+
+
+def _profile(ctx, params: RobotParams) -> RobotProfile:
+    if params.profile_file:
+        return load_profile(params.profile_file, text=ctx.read_text(params.profile_file, max_bytes=1_000_000))
+    return load_profile(params.robot_profile)
+
+
+def _toolpath_moves(inputs):
+    moves = flatten(inputs["toolpath"])
+    if len(moves.points) < 2:
+        raise PlanningError("the toolpath has no motion to simulate")
+    return moves
+
+
+@register
+class SimulateRobot(Node):
+    """Predict what the robot really does with the toolpath: full stops at every arc ON/OFF switch,
+    blended (cut) corners, jerk-limited speed that never reaches the programmed value on short
+    moves, the controller's smoothing, arc-switch lags — and with a constant wire feed, where too
+    much or too little metal lands. Optional Pinocchio kinematics caps the speed where joints
+    would exceed their limits and warns (by layer and section) about unreachable targets, joint
+    limits and near-singular stretches. Writes `<node>.simulation.json` (time, lengths, ratio,
+    arc-on time/length, volume, deviation, time inside/outside, the closed-form estimate beside),
+    `<node>.trace.csv` (t,x,y,z,speed,arc,deviation every cycle) and `<node>.deposit.csv`
+    (mm³/mm actual vs programmed per segment)."""
+
+    type = "simulate-robot"
+    title = "Simulate robot"
+    category = "trajectory"
+    inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
+    outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
+    version = "1"
+
+    class Params(RobotParams):
+        kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
+        robot_description: str = Field("", max_length=128,
+                                       description="Arm URDF in data/robots (empty = the profile's description)")
+        ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
+                                  description="IK sample spacing along the path (vertices always included)")
+        base_xyz_mm: Vec3 = Field((-1500.0, 0.0, -600.0), json_schema_extra=unit("mm"),
+                                  description="Robot base position in the world frame")
+        base_yaw_deg: float = Field(0.0, ge=-360, le=360, json_schema_extra=unit("deg"),
+                                    description="Robot base rotation about world z")
+        work_xyz_mm: Vec3 = Field((0.0, 0.0, 0.0), json_schema_extra=unit("mm"),
+                                  description="Work frame (part origin) in the world frame")
+        tcp_offset_mm: Vec3 = Field((0.0, 0.0, 400.0), json_schema_extra=unit("mm"),
+                                    description="TCP (torch tip) in the flange frame (tool0; z along the torch)")
+
+    def _kin(self, params) -> KinematicsOptions | None:
+        if not params.kinematics:
+            return None
+        frames = CellFrames(base_xyz_mm=tuple(params.base_xyz_mm), base_yaw_deg=params.base_yaw_deg,
+                            work_xyz_mm=tuple(params.work_xyz_mm))
+        return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(params.tcp_offset_mm),
+                                 frames=frames, step_mm=params.ik_step_mm)
+
+    def run(self, ctx, params, inputs):
+        moves = _toolpath_moves(inputs)
+        profile = _profile(ctx, params)
+        res = simulate_program(moves, profile, params.sim_options(), self._kin(params), progress=ctx.progress)
+        for msg, layer, section in res.warnings:
+            ctx.warn(msg, layer=layer, section=section)
+        return {"simulation": res}
+
+    def artifacts(self, ctx, params, outputs):
+        res = outputs["simulation"]
+        profile = _profile(ctx, params)
+        return {
+            "simulation.json": json.dumps(simulation_json(res, profile, params.sim_options()), indent=1),
+            "trace.csv": trace_csv(res),
+            "deposit.csv": deposit_csv(res),
+        }
+
+
+@register
+class EstimateTime(Node):
+    """Instant cycle-time estimate with the robot study's closed-form model (da Silva Viola et al.
+    2023): per section, passes and transitions timed with the identified acceleration/deceleration
+    lengths and times in the robot profile's `time_model` (interpolated in speed). The output is
+    an estimate-only SimulationResult (metrics, empty trace). Writes `<node>.estimate.json`.
+    simulate-robot reports the same estimate beside its own figures."""
+
+    type = "estimate-time"
+    title = "Estimate time"
+    category = "trajectory"
+    inputs = (Port("toolpath", "toolpath", "Toolpath"),)
+    outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
+    version = "1"
+
+    class Params(NodeParams):
+        robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
+                                   description="Robot profile whose `time_model` holds the identified parameters")
+        profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
+        travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
+                                           description="Travel speed between sections (empty = the profile's)")
+
+    def run(self, ctx, params, inputs):
+        moves = _toolpath_moves(inputs)
+        profile = _profile(ctx, params)
+        if not profile.time_model:
+            raise InputFileError(f"robot profile {profile.name!r} has no time_model")
+        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed)
+        return {"estimate": estimate_result(moves, est)}
+
+    def artifacts(self, ctx, params, outputs):
+        m = outputs["estimate"].metrics
+        return {"estimate.json": json.dumps({"total_time_s": round(m["total_time_s"], 6),
+                                             "passes": int(m["estimate_passes"]),
+                                             "sections": int(m["estimate_sections"]),
+                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023"},
+                                            indent=1)}
+
+
+@register
+class CalibrateRobot(Node):
+    """Fit the robot profile's constants (path acceleration/jerk, smoothing, blend start, corner
+    jerk, arc-switch delays, ...) to a measured trace CSV (columns t, x, y, z[, arc]; s and mm) of
+    the known program on the input, with scipy least squares on the simulated positions at the
+    measured times. Writes `<node>.profile.json` (the fitted profile, usable as simulate-robot's
+    `profile_file`) and `<node>.calibration.json` (cost before/after, RMS position error).
+    A CSV row that is not numeric, short or out of time order fails with its row number."""
+
+    type = "calibrate-robot"
+    title = "Calibrate robot"
+    category = "trajectory"
+    inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
+    outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
+    version = "1"
+
+    class Params(RobotParams):
+        trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")
+        fit: list[Literal[RobotProfile.FITTABLE]] = Field(  # type: ignore[valid-type]
+            default_factory=lambda: ["path_acc", "path_jerk", "smoothing_s", "apo_time_s", "normal_jerk"],
+            min_length=1, description="Profile constants to fit")
+
+    def run(self, ctx, params, inputs):
+        moves = _toolpath_moves(inputs)
+        base = _profile(ctx, params)
+        meas = read_trace_csv(ctx.read_text(params.trace, max_bytes=200_000_000), source=params.trace)
+        ctx.progress(0.05, "fitting")
+        fitted, info = fit_trace(base, moves, meas, tuple(dict.fromkeys(params.fit)), params.sim_options())
+        res = simulate_program(moves, fitted, params.sim_options())
+        prof = fitted.to_json()
+        prof["fit"] = {"trace": params.trace, **info}
+        res = replace(res, profile=prof,
+                      metrics={**res.metrics, "fit_rms_position_error_mm": info["rms_position_error_mm"],
+                               "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]})
+        return {"simulation": res}
+
+    def artifacts(self, ctx, params, outputs):
+        res = outputs["simulation"]
+        return {"profile.json": json.dumps(res.profile, indent=1, ensure_ascii=False),
+                "calibration.json": json.dumps({k: v for k, v in res.metrics.items() if k.startswith("fit_")}, indent=1)}
