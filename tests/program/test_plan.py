@@ -60,3 +60,18 @@ def test_arc_fit_merges_motions_only_inside_groups():
         assert m.start < m.via < m.end
         r = np.linalg.norm(moves.points[[m.start, m.via, m.end]] - np.array(m.center), axis=1)
         assert np.allclose(r, 15.0)
+
+
+def test_weld_without_speed_fails_naming_layer_and_section():
+    from waamflow.core.errors import PlanningError
+
+    tp = build_toolpath(2)
+    lp = tp[1]
+    ring = lp.sections[1]
+    speed = ring.speed.copy()
+    speed[4] = np.nan
+    tp = Layered((tp[0], LayerPaths(lp.layer, (lp.sections[0], replace(ring, speed=speed), lp.sections[2]))))
+    with pytest.raises(PlanningError) as err:
+        plan_program(flatten(tp))
+    assert err.value.layer == 1 and err.value.section == "bs1/B"
+    assert "layer 1" in str(err.value) and "bs1/B" in str(err.value)

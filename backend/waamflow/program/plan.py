@@ -29,6 +29,7 @@ from typing import Union
 
 import numpy as np
 
+from ..core.errors import PlanningError
 from ..core.moves import TRAVEL, Moves
 from .arcfit import fit_arcs
 
@@ -132,9 +133,19 @@ class Plan:
 def _mode(moves: Moves, i: int) -> str:
     if moves.arc[i]:
         return "weld"
-    if moves.kind[i] == TRAVEL or not np.isfinite(moves.speed[i]):
+    if moves.kind[i] == TRAVEL or not np.isfinite(moves.speed[i]) or moves.speed[i] <= 0:
         return "travel"
     return "move"
+
+
+def _check_weld_speeds(moves: Moves) -> None:
+    """Every arc-on segment needs a positive programmed speed (the feed of the program)."""
+    bad = np.flatnonzero(moves.arc & ~(np.isfinite(moves.speed) & (moves.speed > 0)))
+    if len(bad):
+        i = int(bad[0])
+        raise PlanningError(f"arc-on segment {i} has no positive travel speed ({moves.speed[i]}); "
+                            "set travel_speed in the zone parameters",
+                            layer=int(moves.layer[i]), section=moves.section_keys[int(moves.section[i])])
 
 
 def _segment_key(moves: Moves, i: int) -> tuple:
@@ -184,6 +195,7 @@ def plan_program(moves: Moves, settings: PlanSettings = PlanSettings()) -> Plan:
     n = len(moves.points)
     if n == 0:
         return Plan(moves, (), _stats(moves, [], settings))
+    _check_weld_speeds(moves)
     layer0 = int(moves.layer[0]) if n > 1 else 0
     sec0 = int(moves.section[0]) if n > 1 else 0
     steps.append(LayerStart(layer0, float(moves.layer_z.get(layer0, moves.points[0, 2]))))
