@@ -27,14 +27,17 @@ declared ``DECL E6POS P<i+1>={X,Y,Z,A,B,C,E1..E6}`` in the .dat of the program t
 A, B, C come from the tool axis (orientation.py, KUKA tool direction X by default); E1..E6 from
 the optional external-axis values (positioner), else 0.
 
-Splitting (controllers limit file size): with `split_per_layer` the main program calls one
-subprogram per layer ``name_L003`` (files ``L003.src``/``L003.dat``); with
-`max_points_per_file` = N, no file holds more than N motions, cut after an arc OFF when
-that leaves the file at least half full, else between two motions (the arc then stays on
-across the call) — ``name_P001`` … or, combined with
-per-layer splitting, ``name_L003_2`` …). The main program is then `src`/`dat`. On the controller
-the files must be named after the program (KRL requires module name = DEF name):
+Splitting (controllers limit file size): the main program (`src`/`dat`) then only initialises
+and calls subprograms. `split_per_layer`: one per layer, ``name_L003`` (files ``L003.src`` /
+``L003.dat``). `max_points_per_file` = N: no file holds more than N motions; a file ends after
+an arc OFF when that leaves it at least half full, else between two motions (the arc output then
+stays on across the call). Names ``name_P001``, … or, with both, ``name_L003_1``, ``name_L003_2``.
+On the controller, name the files after their DEF (KRL requires module name = DEF name):
 ``<program_name>.src``, ``<program_name>_L003.src``, …
+
+Why ON is a plain output and OFF a TRIGGER: the ignition dwell must follow the switch-on with
+the robot standing, so the output is set at the exact stop; switching off needs no stop, so a
+path-related TRIGGER drops it exactly at the run's end point.
 """
 
 from __future__ import annotations
@@ -187,7 +190,7 @@ def _e6pos(i: int, pts: np.ndarray, abc: np.ndarray, ext: np.ndarray | None, d: 
             f"A {num(o[0], 4)},B {num(o[1], 4)},C {num(o[2], 4)},{es}}}")
 
 
-def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets, is_main: bool) -> tuple[list[str], list[int]]:
+def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets) -> tuple[list[str], list[int]]:
     """Body lines of one program and the point indices it references."""
     steps = plan.steps
     keys = plan.moves.section_keys
@@ -306,13 +309,13 @@ def write_krl(plan: Plan, settings: KrlSettings = KrlSettings()) -> dict[str, st
     chunks = _chunks(plan, s)
     files: dict[str, str] = {}
     if not s.split:
-        body, used = _render_chunk(plan, s, chunks[0], weld_sets, True)
+        body, used = _render_chunk(plan, s, chunks[0], weld_sets)
         files["src"] = _src(s.program_name, header, _init(s) + body)
         files["dat"] = _dat(s.program_name, used, pts, abc, ext, s.decimals)
         return files
     calls = []
     for ch in chunks:
-        body, used = _render_chunk(plan, s, ch, weld_sets, False)
+        body, used = _render_chunk(plan, s, ch, weld_sets)
         files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src"], body)
         files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals)
         calls.append(f"{ch.name}( )")
