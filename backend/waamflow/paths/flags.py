@@ -38,23 +38,23 @@ def finish(points: np.ndarray, arc_ok: np.ndarray, region: Polygon, arc_outside:
     points, arc_ok = _drop_duplicates(points, arc_ok)
     a, b = points[:-1], points[1:]
     segs = shapely.linestrings(np.stack([a, b], axis=1))
-    hits = shapely.intersection(segs, region.boundary)
-    out_pts = [points[:1]]
-    out_ok: list[np.ndarray] = []
-    for i in range(len(a)):
+    boundary = region.boundary
+    shapely.prepare(boundary)
+    touching = np.flatnonzero(shapely.intersects(boundary, segs))  # prepared: fast test first
+    hits = dict(zip(touching, shapely.intersection(segs[touching], boundary)))
+    at: list[int] = []
+    new: list[np.ndarray] = []
+    for i in touching:
         d = b[i] - a[i]
         dd = float(d @ d)
-        extra = np.zeros((0, 2))
-        if not hits[i].is_empty:
-            q = shapely.get_coordinates(hits[i])
-            f = np.unique(((q - a[i]) @ d) / dd)
-            tol = SPLIT_TOL / np.sqrt(dd)
-            f = f[(f > tol) & (f < 1.0 - tol)]
-            extra = a[i] + f[:, None] * d
-        out_pts.append(np.vstack([extra, b[i:i + 1]]))
-        out_ok.append(np.full(len(extra) + 1, arc_ok[i]))
-    pts = np.vstack(out_pts)
-    ok = np.concatenate(out_ok)
+        f = np.unique(((shapely.get_coordinates(hits[i]) - a[i]) @ d) / dd)
+        tol = SPLIT_TOL / np.sqrt(dd)
+        f = f[(f > tol) & (f < 1.0 - tol)]
+        at += [i] * len(f)
+        new += list(a[i] + f[:, None] * d)
+    at_arr = np.asarray(at, dtype=int)
+    pts = np.insert(points, at_arr + 1, np.asarray(new).reshape(-1, 2), axis=0) if at else points
+    ok = np.insert(arc_ok, at_arr, arc_ok[at_arr]) if at else arc_ok
     pts, ok = _drop_duplicates(pts, ok)
     mids = shapely.points(0.5 * (pts[:-1] + pts[1:]))
     inside = shapely.dwithin(region, mids, INSIDE_TOL)
