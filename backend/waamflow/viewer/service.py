@@ -240,7 +240,7 @@ class ViewerService:
     def _frame_camera(self, b: np.ndarray) -> None:
         center = (b[0] + b[1]) / 2
         diag = max(float(np.linalg.norm(b[1] - b[0])), 1.0)
-        eye = center + diag * np.array([0.9, -1.1, 0.8])
+        eye = center + diag * np.array([0.55, -0.75, 0.6])
         cam = self.server.initial_camera
         cam.near, cam.far = diag * 1e-3, diag * 20
         cam.position, cam.look_at = tuple(eye), tuple(center)
