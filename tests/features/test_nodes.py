@@ -1,0 +1,57 @@
+"""features and wall-path nodes through the engine on the shipped stiffened-panel recipe."""
+
+import json
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import parse_recipe
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+@pytest.fixture(scope="module")
+def panel():
+    recipe = json.loads((GRAPHS / "thin-wall-panel.json").read_text())
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(GRAPHS))
+
+
+def test_features_json_as_contract(panel):
+    doc = json.loads(panel.artifacts["features.features.json"])
+    assert set(doc) == {"features"}
+    counts = Counter(f["kind"] for f in doc["features"])
+    assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
+                      "free_end": 1, "tubular": 1}
+    assert all(len(f["point"]) == 2 for f in doc["features"])
+    assert [f["isolated"] for f in doc["features"] if f["kind"] == "tubular"] == [True]
+
+
+def test_wall_path_toolpath(panel):
+    doc = json.loads(panel.artifacts["walls.toolpath.json"])
+    layers = doc["layers"]
+    assert len(layers) == 15 and [l["z"] for l in layers[:2]] == [2.0, 4.0]
+    # the isolated tube is one helix in layer 0: 15 laps, pitch = layer height 2 mm
+    tube = [s for l in layers for s in l["sections"] if s["key"] == "tube0"]
+    assert len(tube) == 1 and tube[0]["strategy"] == "helical"
+    pts = np.array(tube[0]["points"])
+    assert pts[0, 2] == 2.0 and pts[-1, 2] == 30.0
+    assert tube[0]["length_mm"] == pytest.approx(15 * 2 * 48 * 8 * np.sin(np.pi / 48) + 0.0, rel=2e-3)
+    # every other layer: the same 20 wall entities, 5 mm/s, arc on everywhere
+    walls = [s for s in layers[3]["sections"]]
+    assert len(walls) == 20 and all(s["key"].startswith("wall") for s in walls)
+    assert all(v == 5.0 for s in walls for v in s["speed"]) and all(all(s["arc"]) for s in walls)
+    # the stub's free end is extended 5 mm beyond y = 100 (arc start/stop outside the wall)
+    ends = [p for s in walls for p in (s["points"][0], s["points"][-1])]
+    assert any(abs(p[0] - 175) < 1e-6 and abs(p[1] - 105) < 1e-6 for p in ends)
+
+
+def test_gcode_dwells_after_ignition(panel):
+    gcode = panel.artifacts["post.gcode"]
+    gcode = (gcode.decode() if isinstance(gcode, bytes) else gcode).splitlines()
+    ons = [i for i, line in enumerate(gcode) if line.startswith("M3")]
+    assert len(ons) == 1 + 20 * 15                          # helix once, then every wall every layer
+    assert all(gcode[i + 1].startswith("G4 P0.5") for i in ons)

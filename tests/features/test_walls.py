@@ -1,0 +1,133 @@
+"""Feature strategies: crossing construction lengths, free-end extension, tubular laps, helix pitch."""
+
+import math
+
+import numpy as np
+import pytest
+
+from waamflow.features import (WallSpec, aligned_loop, crossing_geometry, helix, plan_layer_walls, recognise,
+                               scattered_loop)
+from waamflow.features.tubular import GOLDEN
+
+
+def c(*pts):
+    return np.array(pts, float)
+
+
+def circle(cx, cy, r, n=64):
+    t = np.linspace(0.0, 2 * math.pi, n + 1)
+    pts = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
+    pts[-1] = pts[0]
+    return pts
+
+
+def plan(curves, **kw):
+    spec = WallSpec(**kw)
+    return plan_layer_walls(curves, recognise(curves), spec)
+
+
+def fillet(ri, rc, alpha_deg):
+    return math.sqrt(ri**2 + rc**2 - 2 * ri * rc * math.cos(math.radians(alpha_deg) / 2))
+
+
+def test_crossing_geometry_lengths_from_radii():
+    dirs = [(1, 0), (0, 1), (-1, 0), (0, -1)]
+    g = crossing_geometry((5, 5), dirs, 2.0, 10.0, 30.0)
+    assert np.allclose(np.hypot(*(g.cut_points - 5).T), 2.0)
+    assert np.allclose(np.hypot(*(g.influence_points - 5).T), 10.0)
+    assert np.allclose(g.fillet_lengths, fillet(10, 2, 90))          # 8.7015 mm each
+    assert g.fillet_lengths[0] == pytest.approx(8.70148, abs=1e-5)
+    # study's first trial 7.0/2.5
+    g2 = crossing_geometry((0, 0), dirs, 2.5, 7.0, 30.0)
+    assert g2.fillet_lengths[0] == pytest.approx(fillet(7, 2.5, 90), abs=1e-9)
+
+
+def test_direct_crossing_paths():
+    lw = plan([c((-30, 0), (30, 0)), c((0, -30), (0, 30))], free_end_extension=0.0)
+    assert len(lw.passes) == 4                               # four branches, each its own entity
+    lead = fillet(10, 2, 90)
+    for p in lw.passes:
+        assert p.length == pytest.approx(28.0 + lead, abs=1e-9)   # 30 − cut radius + fillet segment
+        assert int((~p.inside).sum()) == 1                   # the fillet lead starts in stock
+    # the walls inside the cutting circle are gone: deposited wall length = 4·30 − 4·2
+    wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
+    assert wall == pytest.approx(120.0 - 8.0, abs=1e-9)
+    # four distinct influence points, one in each quadrant
+    infl = {tuple(np.sign(np.round(p.xy[0] if not p.inside[0] else p.xy[-1], 6))) for p in lw.passes}
+    assert infl == {(1, 1), (-1, 1), (-1, -1), (1, -1)}
+
+
+def test_t_crossing_two_fillets_and_a_bridge():
+    lw = plan([c((-30, 0), (30, 0)), c((0, 0), (0, 30))], free_end_extension=0.0)
+    assert len(lw.passes) == 3
+    lengths = sorted(round(p.length, 6) for p in lw.passes)
+    lead = fillet(10, 2, 90)
+    # the straight side has no fillet: one branch bridges the 4 mm across the cutting circle
+    assert lengths == sorted([round(28 + lead, 6), round(28 + lead, 6), round(28 + 4.0, 6)])
+    assert sum(int((~p.inside).sum()) for p in lw.passes) == 2
+
+
+def test_radii_are_parameters():
+    lw = plan([c((-30, 0), (30, 0)), c((0, -30), (0, 30))], free_end_extension=0.0,
+              cut_radius=2.0, influence_radius=8.0)
+    assert lw.passes[0].length == pytest.approx(28.0 + fillet(8, 2, 90), abs=1e-9)
+
+
+def test_free_end_extension_and_corner_in_one_go():
+    lw = plan([c((0, 0), (40, 0)), c((40, 0), (40, 30))], free_end_extension=5.0)
+    assert len(lw.passes) == 1                               # the corner is deposited in one go
+    p = lw.passes[0]
+    assert p.length == pytest.approx(70.0 + 10.0, abs=1e-9)
+    assert p.inside.tolist() == [False, True, True, False]
+    ends = {tuple(np.round(p.xy[0], 9)), tuple(np.round(p.xy[-1], 9))}
+    assert ends == {(-5.0, 0.0), (40.0, 35.0)}
+
+
+def test_every_wall_deposited_once_on_panel_like_layout():
+    rect = c((0, 0), (100, 0), (100, 50), (0, 50), (0, 0))
+    curves = [rect, c((50, 0), (50, 50)), c((0, 25), (100, 25))]
+    lw = plan(curves, free_end_extension=5.0)
+    # 4 T-crossings + 1 X: skin in 4 pieces, ribs in 4 + 4 pieces... rib y=25: 2 pieces (X at 50), x=50: 2
+    assert len(lw.passes) == 4 + 2 + 2
+    total = 300.0 + 50.0 + 100.0
+    wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
+    bridges = 4 * 4.0                                        # one per T (flat skin side)
+    removed = 4 * (3 * 2.0) + 4 * 2.0                        # 3 branches per T, 4 at the X, r_c each
+    assert wall == pytest.approx(total - removed + bridges, abs=1e-6)
+
+
+def test_tubular_laps():
+    ring = circle(0, 0, 10, 72)
+    L = 2 * 72 * 10 * math.sin(math.pi / 72)
+    lap = aligned_loop(ring, 5.0)
+    assert float(np.hypot(*np.diff(lap, axis=0).T).sum()) == pytest.approx(L + 5.0, abs=1e-9)
+    assert np.allclose(lap[0], ring[0])
+    s3 = scattered_loop(ring, 3, 0.0)
+    start = 3 * GOLDEN % 1.0 * L
+    angle = math.atan2(s3[0][1], s3[0][0]) % (2 * math.pi)
+    assert angle * 10 == pytest.approx(start, abs=0.05)      # on a circle arc length ≈ r·angle
+    assert float(np.hypot(*np.diff(s3, axis=0).T).sum()) == pytest.approx(L, abs=1e-9)
+
+
+def test_helix_pitch_equals_layer_height():
+    ring = circle(0, 0, 10, 36)
+    zs = [2.0, 4.0, 6.0, 8.0]
+    pts = helix(ring, zs)
+    assert len(pts) == 37 + 3 * 36
+    assert np.all(pts[:37, 2] == 2.0)                       # first lap flat on the substrate
+    # one lap after the first: same xy, z higher by exactly one layer height
+    for k in range(1, 4):
+        a, b = 36 + 36 * (k - 1), 36 + 36 * k
+        assert np.allclose(pts[a, :2], pts[b, :2])
+        assert pts[b, 2] - pts[a, 2] == pytest.approx(2.0, abs=1e-12)
+    assert np.all(np.diff(pts[36:, 2]) > 0)                 # rises continuously
+    assert pts[-1, 2] == 8.0
+
+
+def test_isolated_tube_goes_helical_non_isolated_scattered():
+    wall = c((0, 0), (40, 0))
+    lw = plan([wall, circle(40, 40, 8)])
+    assert [k for k, _ in lw.helical] == ["tube0"]
+    lw = plan([wall, circle(40, 20, 8)])
+    assert lw.helical == () and [p.strategy for p in lw.passes if p.key == "tube0"] == ["scattered"]
+    assert any("not isolated" in w for w in lw.warnings)
