@@ -52,6 +52,6 @@ def test_wall_path_toolpath(panel):
 def test_gcode_dwells_after_ignition(panel):
     gcode = panel.artifacts["post.gcode"]
     gcode = (gcode.decode() if isinstance(gcode, bytes) else gcode).splitlines()
-    ons = [i for i, line in enumerate(gcode) if line.startswith("M3")]
+    ons = [i for i, line in enumerate(gcode) if line.split(";")[0].strip() == "M3"]
     assert len(ons) == 1 + 20 * 15                          # helix once, then every wall every layer
     assert all(gcode[i + 1].startswith("G4 P0.5") for i in ons)
