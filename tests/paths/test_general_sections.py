@@ -127,3 +127,16 @@ def test_non_convex_section(pattern):
     assert_inside_flags_hold(p, ell)
     assert np.all(p.arc <= p.inside)
     assert p.inside.any()
+
+
+def test_oscillate_run_ups_follow_the_guide():
+    r = box(0, 0, 43, 21.5)
+    g = LineString([(0, 10.75), (43, 10.75)])
+    base = plan_section(r, g, StrategySpec(pattern="oscillate"))
+    ext = plan_section(r, g, StrategySpec(pattern="oscillate", extension_before=4.5, extension_after=3.6,
+                                          arc_outside="off"))
+    assert ext.length == pytest.approx(base.length + 8.1)
+    assert ext.outside_length == pytest.approx(8.1)
+    assert ext.points[0] == pytest.approx(base.points[0] - [4.5, 0])
+    assert ext.points[-1] == pytest.approx(base.points[-1] + [3.6, 0])
+    assert ext.arc_on_length == pytest.approx(base.length)

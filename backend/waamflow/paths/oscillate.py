@@ -5,8 +5,8 @@ Stations sit every `step` mm of guide arc length (shortened evenly so the first 
 enters the section and the last where it leaves). At each station the section's chord along the
 local normal is measured; the weave vertex goes to alternate ends of that chord, half a bead
 width inside the boundary, so the amplitude is the local width minus a bead width (both vertices
-at the chord middle where the section is narrower than a bead). Run-ups extend the first and last
-stroke.
+at the chord middle where the section is narrower than a bead). Run-ups continue the guide's
+direction before the first vertex and after the last.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
-from .flags import Draft, extend_ends
+from .flags import Draft
 from .frame import NUDGE, cross_chord, guide_or_default, guide_span, unit_tangent
 from .spec import StrategySpec
 
@@ -53,5 +53,11 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     for k, (p, n) in enumerate(zip(pts, normals)):
         a, b = weave_limits(probe, p, n, spec.bead_width, reach)
         out.append(p + (a if k % 2 == 0 else b) * n)
-    out = extend_ends(np.array(out), spec.extension_before, spec.extension_after)
+    out = np.array(out)
+    # run-ups continue the guide's direction (not the first weave stroke's)
+    t0 = np.array([normals[0][1], -normals[0][0]])
+    t1 = np.array([normals[-1][1], -normals[-1][0]])
+    head = [out[0] - spec.extension_before * t0] if spec.extension_before > 0 else []
+    tail = [out[-1] + spec.extension_after * t1] if spec.extension_after > 0 else []
+    out = np.vstack(head + [out] + tail)
     return Draft(out, np.ones(len(out) - 1, dtype=bool))
