@@ -141,3 +141,14 @@ def test_arc_fitted_program_stays_within_tolerance():
     assert dev <= 0.05 + 1e-3
     assert run.length == pytest.approx(polyline_length(pts), rel=0.005)
     assert np.allclose(run.feed_mm_min, 480.0)
+
+
+def test_parsed_program_json(moves):
+    import json
+
+    parsed = parse_gcode(post_process(moves, "gcode").files["gcode"])
+    d = json.loads(json.dumps(parsed.to_dict()))
+    assert len(d["runs"]) == 15 and d["ignitions"] == 15 and d["ended"] is True
+    assert sum(len(r["points"]) - 1 for r in d["runs"]) == int(moves.arc.sum())
+    assert d["deposition_length_mm"] == pytest.approx(sum(r["length_mm"] for r in d["runs"]), abs=1e-3)
+    assert [x["seconds"] for x in d["dwells"] if not x["arc_on"]] == [20.0, 20.0]

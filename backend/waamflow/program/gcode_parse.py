@@ -61,6 +61,22 @@ class ParsedProgram:
     def deposition_length_mm(self) -> float:
         return float(sum(r.length for r in self.runs))
 
+    def to_dict(self) -> dict:
+        """JSON-ready form for a program preview: runs (points mm, feed mm/min, ignition dwell s),
+        dwells, counts and lengths."""
+        return {
+            "units": "mm",
+            "runs": [{"points": np.round(r.points, 4).tolist(), "feed_mm_min": np.round(r.feed_mm_min, 3).tolist(),
+                      "ignition_line": r.ignition_line, "ignition_dwell_s": r.ignition_dwell_s,
+                      "length_mm": round(r.length, 4)} for r in self.runs],
+            "dwells": [{"line": ln, "seconds": s, "arc_on": on} for ln, s, on in self.dwells],
+            "ignitions": self.ignitions,
+            "extinctions": self.extinctions,
+            "deposition_length_mm": round(self.deposition_length_mm, 4),
+            "travel_length_mm": round(self.travel_length_mm, 4),
+            "ended": self.ended,
+        }
+
 
 def _words(code: str) -> list[tuple[str, float]]:
     return [(m.group(1), float(m.group(2))) for m in _WORD.finditer(code.upper())]
