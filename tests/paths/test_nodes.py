@@ -13,7 +13,7 @@ from waamflow.core.model import Layer, LayerSections, Section
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.node import load_nodes
-from waamflow.engine.recipe import parse_recipe
+from waamflow.engine.recipe import apply_overrides, load_recipe, parse_recipe
 
 from . import helpers as h
 
@@ -148,3 +148,22 @@ def test_rectangle_study_recipe_inputs_match_the_contract():
     sim = [n for n in data["nodes"] if n["id"] == "simulate"]
     assert sim and sim[0]["type"] == "simulate-robot"
     assert sim[0]["params"]["cdis"] == "$cdis" and sim[0]["params"]["wire_feed_mm3_s"] == "$wire_feed_mm3_s"
+
+
+@pytest.mark.parametrize("pattern, arc_outside, expected, switches", [
+    ("raster", "on", h.raster(43, 21.5), 10),
+    ("semicircular", "off", 242.603, 10),
+    ("triangular", "on", h.triangular(43, 21.5, 45), 2),
+    ("spiral", "on", h.spiral(43, 21.5), 2),
+    ("swiping", "on", 464.246, 2),
+])
+def test_rectangle_study_recipe_runs_end_to_end(pattern, arc_outside, expected, switches):
+    path = ROOT / "graphs" / "rectangle-study.json"
+    recipe = apply_overrides(load_recipe(path), [("pattern", pattern), ("arc_outside", arc_outside)])
+    res = execute(build_graph(recipe), resolver=FileResolver(path.parent))
+    sim = json.loads(res.artifacts["simulate.simulation.json"])
+    assert sim["programmed_length_mm"] == pytest.approx(expected, rel=0.01)
+    paths = json.loads(res.artifacts["strategy.paths.json"])
+    assert paths["total"]["arc_switches"] == switches
+    comp = json.loads(res.artifacts["strategy.comparison.json"])
+    assert len(comp["patterns"]) == 10

@@ -92,6 +92,7 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
+    version = "2"  # 2: oscillate run-ups along the guide
     title = "Strategy"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)
