@@ -27,7 +27,8 @@ class Moves:
     speed: float mm/s programmed (NaN for travel = use the machine's travel speed).
     layer: int layer index. section: int index into `section_keys`. zone: int index into
     `zone_ids` (-1 for travel). dwell_before: (n,) float s dwell at each point before moving on
-    (ignition dwell from zone params, interlayer dwell).
+    (the interlayer dwell, at the next layer's first point). Zone dwells (e.g. after ignition)
+    stay in `zone_params[...]["dwell"]`: their placement is the post-processor's/simulator's call.
     """
 
     points: np.ndarray
