@@ -143,7 +143,10 @@ def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[Rob
         return residuals(make(x))
 
     r0 = f(x0)
-    sol = least_squares(f, x0, diff_step=0.02, max_nfev=max_nfev, bounds=(np.full(len(x0), math.log(1e-4)), np.full(len(x0), math.log(1e7))))
+    # each constant may move at most a factor 20 from its starting value (keeps the fit physical
+    # when a residual is flat in one direction)
+    span = math.log(20.0)
+    sol = least_squares(f, x0, diff_step=0.02, max_nfev=max_nfev, bounds=(x0 - span, x0 + span))
     fitted = make(sol.x)
     info = {"cost_before": float(0.5 * r0 @ r0), "cost_after": float(sol.cost), "nfev": int(sol.nfev),
             "fitted": {n: getattr(fitted, n) for n in names}}

@@ -1,0 +1,86 @@
+"""Pinocchio kinematics of the shipped arm and positioner; warnings by layer and section."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
+from waamflow.core.moves import flatten
+from waamflow.trajectory import study
+from waamflow.trajectory.kinematics import CellFrames, load_arm, resample, solve_path
+from waamflow.trajectory.profile import ROBOTS_DIR, load_profile
+from waamflow.trajectory.run import KinematicsOptions, simulate_program
+from waamflow.trajectory.simulate import SimOptions
+
+ARM = load_arm("kuka_kr150_2.urdf", tcp_offset_mm=(0.0, 0.0, 400.0))
+KUKA = load_profile("kuka_kr100ha_krc2")
+
+
+def test_home_pose_from_published_dimensions():
+    """At A1..A6 = 0, −90, 90, 0, 90, 0 the flange points down at x = a1 + d4 (+d6... see below)."""
+    data = ARM.model.createData()
+    pin.framesForwardKinematics(ARM.model, data, ARM.home)
+    flange = data.oMf[ARM.model.getFrameId("tool0")]
+    # x: 0.35 + 1.1 (forearm) ; z: 0.75 + 1.25 (upper arm up) − 0.055 − 0.23 (flange down)
+    assert flange.translation == pytest.approx([1.45, 0.0, 1.715], abs=1e-9)
+    assert flange.rotation[:, 2] == pytest.approx([0, 0, -1], abs=1e-9)
+    tcp = data.oMf[ARM.tcp]
+    assert tcp.translation == pytest.approx([1.45, 0.0, 1.315], abs=1e-9)
+    assert ARM.qd_max == pytest.approx(np.radians([105, 107, 114, 179, 172, 219]), rel=1e-3)
+
+
+def test_resample_keeps_vertices():
+    s, xyz, seg = resample(np.array([[0, 0, 0], [10, 0, 0], [10, 3, 0]], float), 4.0)
+    assert s[-1] == pytest.approx(13.0)
+    assert len(s) == 3 + 1 + 1                         # ceil(10/4)=3, ceil(3/4)=1, + end point
+    assert any(np.allclose(p, [10, 0, 0]) for p in xyz)
+
+
+def test_ik_tracks_the_study_path():
+    mv = study.planned("triangular", 40.0, angle_deg=45.0)
+    k = solve_path(ARM, mv.points, mv.tool_axis, CellFrames(), step_mm=2.0)
+    assert k.reach_err.max() < 1e-3                    # mm
+    assert k.sigma_min.min() > 0.05
+    # continuity: neighbouring samples 2 mm apart never jump more than 1° in any joint
+    assert np.degrees(np.abs(np.diff(k.q, axis=0))).max() < 1.0
+    assert np.all(k.segment_cap > 1000.0)              # this small rectangle never hits joint speeds
+
+
+def _moves(points, speed, key="bs1/A", layer=3):
+    pts = np.asarray(points, float)
+    m = len(pts) - 1
+    sp = SectionPath(key=key, strategy="t", points=pts, arc=np.ones(m, bool), inside=np.ones(m, bool),
+                     speed=np.full(m, speed))
+    return flatten(Layered((LayerPaths(Layer(index=layer, z=float(pts[0, 2]), thickness=1.0), (sp,)),)))
+
+
+def test_unreachable_target_warns_with_layer_and_section():
+    mv = _moves([[0, 0, 50], [100, 0, 50], [3500, 0, 50]], 20.0)
+    res = simulate_program(mv, KUKA, SimOptions(), KinematicsOptions())
+    msgs = [w for w in res.warnings if "unreachable" in w[0]]
+    assert msgs and msgs[0][1] == 3 and msgs[0][2] == "bs1/A"
+    assert res.metrics["unreachable_stretches"] >= 1
+    assert res.metrics["total_time_s"] > 0           # still simulated, no crash
+
+
+def test_joint_speed_caps_path_speed():
+    """A fast move close to the base turns A1 quickly: the path speed is capped by A1's 105°/s."""
+    frames = CellFrames(base_xyz_mm=(-700.0, 0.0, -600.0))
+    mv = _moves([[0, -200, 50], [0, 200, 50]], 2000.0)
+    res = simulate_program(mv, KUKA, SimOptions(), KinematicsOptions(frames=frames, step_mm=10.0))
+    cap = res.metrics["min_joint_speed_cap_mm_s"]
+    # A1 turns about the base: |dq1/ds| ≈ 1/r with r ≈ 700 mm → cap ≈ 0.7 m · 1.83 rad/s ≈ 1283 mm/s
+    assert 1000.0 < cap < 1400.0
+    assert res.metrics["joint_speed_capped_segments"] == 1
+    assert max(res.trace["speed"]) <= cap * 1.01
+    assert any("joint speed" in w[0] for w in res.warnings)
+
+
+def test_positioner_model():
+    model = pin.buildModelFromUrdf(str(ROBOTS_DIR / "positioner_tilt_rotate.urdf"))
+    data = model.createData()
+    top = model.getFrameId("table_top")
+    pin.framesForwardKinematics(model, data, np.array([np.pi / 2, 0.0]))
+    # tilting 90° about x swings the table top (0.1 m above the axis at 0.8 m) to −y
+    assert data.oMf[top].translation == pytest.approx([0.0, -0.1, 0.8], abs=1e-9)
+    assert model.velocityLimit == pytest.approx([np.pi / 2, np.pi], rel=1e-4)
