@@ -35,7 +35,7 @@ def test_headless_chromium_shows_the_scene(viewer):
     from waamflow.viewer.screenshot import capture
 
     viewer.publish("viewer-test", RECIPE, outputs(8))
-    png = capture(viewer.url, OUT, timeout_s=90, ready=lambda p: coloured_fraction(p) > 0.005)
+    png = capture(viewer.url, OUT, width=1024, height=640, timeout_s=90, ready=lambda p: coloured_fraction(p) > 0.005)
     frac = coloured_fraction(png)
     print(f"coloured pixel fraction of the 3D area: {frac:.4f} ({OUT})")
     assert OUT.stat().st_size > 10_000

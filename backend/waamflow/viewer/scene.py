@@ -370,6 +370,7 @@ class SimulationPart(Part):
         self.sig: str | None = None
         self.entries: dict[int, dict[str, Any]] = {}
         self.trace: dict[str, np.ndarray] = {}
+        self.section_keys: tuple[str, ...] = ()
         self.points = np.zeros((0, 3))
         self.torch = None
         self.ranges: dict[str, tuple[float, float]] = {}
@@ -397,6 +398,7 @@ class SimulationPart(Part):
         self.entries.clear()
         trace = {k: np.asarray(v) for k, v in value.trace.items()}
         self.trace = trace
+        self.section_keys = tuple(getattr(value, "section_keys", ()) or ())
         self.points = G.trace_points(trace)
         n = len(self.points)
         self.ranges = {k: C.finite_range(trace[k]) for k in ("deviation", "speed") if k in trace}
@@ -468,13 +470,23 @@ class SimulationPart(Part):
         return self.sample_info(i)
 
     def sample_info(self, i: int) -> dict[str, Any]:
+        """Readout of trace sample i: time, layer, section key, actual speed, deviation, arc."""
+        tr = self.trace
         info: dict[str, Any] = {}
-        for key, label in (("t", "t_s"), ("layer", "layer"), ("section", "section"),
-                           ("speed", "actual_speed_mm_s"), ("deviation", "deviation_mm"), ("arc", "arc")):
-            if key in self.trace:
-                v = self.trace[key][i]
-                info[label] = bool(v) if key == "arc" else (int(v) if key in ("layer",) else
-                                                           (round(float(v), 4) if np.issubdtype(np.asarray(v).dtype, np.number) else str(v)))
+        if "t" in tr:
+            info["t_s"] = round(float(tr["t"][i]), 4)
+        if "layer" in tr:
+            info["layer"] = int(tr["layer"][i])
+        if "section" in tr:
+            sec = tr["section"][i]
+            keys = self.section_keys
+            info["section"] = keys[int(sec)] if np.issubdtype(np.asarray(sec).dtype, np.integer) and 0 <= int(sec) < len(keys) else str(sec)
+        if "speed" in tr:
+            info["actual_speed_mm_s"] = round(float(tr["speed"][i]), 4)
+        if "deviation" in tr:
+            info["deviation_mm"] = round(float(tr["deviation"][i]), 4)
+        if "arc" in tr:
+            info["arc"] = bool(tr["arc"][i])
         return info
 
     def layer_indices(self):
@@ -519,6 +531,7 @@ class FeaturesPart(Part):
         self.sig: str | None = None
         self.points = np.zeros((0, 3))
         self.kinds: list[str] = []
+        self.layers: list[int | None] = []
         self.handle = None
 
     def sync(self, value, view) -> int:
@@ -526,14 +539,16 @@ class FeaturesPart(Part):
         sig = digest([(str(_get(f, "kind")), np.asarray(_get(f, "point"), float).tolist()) for f in feats])
         if sig == self.sig:
             return 0
-        pts, kinds = [], []
+        pts, kinds, layers = [], [], []
         for f in feats:
+            layers.append(_get(f, "layer"))
             p = np.asarray(_get(f, "point"), float).reshape(-1)
             z = p[2] if len(p) > 2 else float(_get(f, "z", 0.0) or 0.0)
             pts.append([p[0], p[1], z])
             kinds.append(str(_get(f, "kind")))
         self.points = np.asarray(pts, float).reshape(-1, 3)
         self.kinds = kinds
+        self.layers = layers
         rgb = np.array([C.FEATURE_RGB.get(k, tuple(C.categorical(k))) for k in kinds], np.uint8).reshape(-1, 3)
         if self.handle is not None and not len(self.points):
             self.handle.remove()
@@ -553,7 +568,7 @@ class FeaturesPart(Part):
             return None
         d = np.asarray(direction, float) / np.linalg.norm(direction)
         return Pick(float((self.points[i] - np.asarray(origin, float)) @ d), self.points[i],
-                    {"feature": self.kinds[i]})
+                    {"feature": self.kinds[i], **({"layer": self.layers[i]} if self.layers[i] is not None else {})})
 
 
 def _get(obj, key, default=None):

@@ -1,0 +1,74 @@
+"""Scenes of the shipped example recipes (run headless through the engine, then published)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.viewer import geometry as G
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def run_recipe(name: str):
+    executor = pytest.importorskip("waamflow.engine.executor")
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import load_recipe
+
+    path = GRAPHS / f"{name}.json"
+    recipe = load_recipe(path)
+    result = executor.execute(build_graph(recipe), resolver=executor.FileResolver(path.parent), artifacts=False)
+    return recipe.to_json(), result.outputs
+
+
+def layer_nodes(names, node, port):
+    return [n for n in names if n.startswith(f"/graph/{node}/{port}/L") and n.count("/") == 4]
+
+
+def test_mpp_cross_scene(viewer):
+    recipe, out = run_recipe("mpp-cross")
+    viewer.publish("mpp-cross", recipe, out)
+    names = viewer.scene_names()
+    assert len(layer_nodes(names, "layers", "layers")) == 8              # contract: 8 layers
+    for node, ports in out.items():
+        for port, value in ports.items():
+            if port in ("layers", "sections", "toolpath"):
+                assert len(layer_nodes(names, node, port)) == sum(x is not None for x in value.items)
+    # three sections per layer, each drawn as one fill
+    sec_node = next(n for n, p in out.items() if "sections" in p)
+    fills = [n for n in names if n.startswith(f"/graph/{sec_node}/sections/L0003/") and not n.endswith("/guides")]
+    assert len(fills) == 3
+    # toolpaths: one batch per layer with every move (no decimation at this size), zone colours
+    tp_node = next(n for n in ("sequence", "zone") if n in out)
+    tp = out[tp_node]["toolpath"]
+    for i in (0, 7):
+        h = viewer.server.scene.get_handle_by_name(f"/graph/{tp_node}/toolpath/L{i:04d}")
+        poly = G.layer_polyline(tp[i])
+        assert h.points.shape == (len(poly.points) - 1, 2, 3)
+        assert np.allclose(h.points[:, 0], poly.points[:-1], atol=1e-4)
+    assert viewer.publish("mpp-cross", recipe, out)["redrawn"] == 0
+
+
+def test_rectangle_study_scene(viewer):
+    recipe, out = run_recipe("rectangle-study")
+    viewer.publish("rectangle-study", recipe, out)
+    names = viewer.scene_names()
+    sim = out["simulate"]["simulation"]
+    layers = np.unique(np.asarray(sim.trace["layer"]))
+    assert len(layer_nodes(names, "simulate", "simulation")) == len(layers)
+    assert all(f"/graph/simulate/simulation/L{i:04d}/simulated" in names for i in layers)
+    assert all(f"/graph/simulate/simulation/L{i:04d}/programmed" in names for i in layers)
+    # the drawn simulated path spans the trace (display may decimate, never extend it)
+    drawn = sum(viewer.server.scene.get_handle_by_name(f"/graph/simulate/simulation/L{i:04d}/simulated").points.shape[0]
+                for i in layers)
+    assert 0 < drawn <= len(sim.trace["t"]) - 1
+    # the time slider spans the simulated cycle time and moves the torch onto the trace
+    assert viewer._gui["time"].max == pytest.approx(float(sim.trace["t"][-1]))
+    t_mid = float(sim.trace["t"][-1]) / 2
+    viewer._gui["time"].value = round(t_mid, 2)
+    torch = np.asarray(viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/torch").position)
+    pts = G.trace_points(sim.trace)
+    assert np.linalg.norm(pts - torch, axis=1).min() < 1.0
+    # colour by deviation spans the measured deviation range
+    lo, hi = viewer.parts[("simulate", "simulation")].ranges["deviation"]
+    assert hi == pytest.approx(float(np.max(sim.trace["deviation"])))
