@@ -267,9 +267,10 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     step = np.where(same, step, 0.0)
     dtf = np.diff(t)
     arc_iv = _arc_intervals(prog, start_vertex, T0, block_len, gap_before, profile, nb)
-    arc_on = np.zeros(len(t), dtype=bool)
-    for on, off in arc_iv:
-        arc_on[(t >= on) & (t < off)] = True
+    on_t = np.array([iv[0] for iv in arc_iv])
+    off_t = np.array([iv[1] for iv in arc_iv])
+    k_iv = np.searchsorted(on_t, t, side="right") - 1   # intervals are disjoint and in time order
+    arc_on = (k_iv >= 0) & (t < off_t[np.maximum(k_iv, 0)]) if len(arc_iv) else np.zeros(len(t), dtype=bool)
     # time weights: each fine interval belongs to its left sample (gaps included)
     w = np.concatenate([dtf, [0.0]])
     moving = np.concatenate([step > 1e-9, [False]])
@@ -387,21 +388,20 @@ def _arc_intervals(prog: _Program, start_vertex, T0, block_len, gap_before, prof
 def _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, profile):
     """Transverse offset at block starts/ends (study: +0.2 / −0.1 mm on a line at 40 mm/s),
     decaying exponentially with time constant smoothing_s/2 (horizontal normal of the segment)."""
-    out = xyz.copy()
     tau_c = max(profile.smoothing_s / 2, 1e-3)
     nseg = len(prog.points) - 1
     end_vertex = spans.vertex_after[block_end]
-    for b in range(len(T0)):
-        m = blk == b
-        tl = t[m] - T0[b]
-        first_seg = min(int(start_vertex[b]), nseg - 1)
-        last_seg = max(int(end_vertex[b]) - 1, 0)
-        for si, amp, age in ((first_seg, profile.backlash_start_mm, tl),
-                             (last_seg, profile.backlash_end_mm, block_len[b] - tl)):
-            u = prog.points[si + 1] - prog.points[si]
-            nrm = np.array([-u[1], u[0], 0.0])
-            if amp == 0 or np.linalg.norm(nrm) < 1e-12:
-                continue
-            nrm /= np.linalg.norm(nrm)
-            out[m] += amp * np.exp(-np.clip(age, 0, None) / tau_c)[:, None] * nrm
+    first_seg = np.minimum(start_vertex, nseg - 1)
+    last_seg = np.maximum(end_vertex - 1, 0)
+
+    def normals(seg):
+        u = prog.points[seg + 1] - prog.points[seg]
+        nrm = np.column_stack([-u[:, 1], u[:, 0], np.zeros(len(u))])
+        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+        return np.where(ln > 1e-12, nrm / np.where(ln > 1e-12, ln, 1.0), 0.0)
+
+    tl = t - T0[blk]
+    age_end = block_len[blk] - tl
+    out = xyz + (profile.backlash_start_mm * np.exp(-np.clip(tl, 0, None) / tau_c))[:, None] * normals(first_seg)[blk]
+    out = out + (profile.backlash_end_mm * np.exp(-np.clip(age_end, 0, None) / tau_c))[:, None] * normals(last_seg)[blk]
     return out

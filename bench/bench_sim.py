@@ -1,0 +1,76 @@
+"""simulate-robot speed: simulated seconds per wall-clock second on a ≥ 1 h program.
+
+Program: a 150-layer block on the study's small objective rectangle (21.5 × 43 mm), layers
+cycling through raster-pass (arc switching at every pass), triangular 45° with the arc OFF
+outside the OR, semicircular and the 2.95° zig-zag, at 10 mm/s, 1.5 mm layers, 5 s interlayer
+dwell — every feature of the controller model (stops, blends, dwell, arc timing) on ≈ 60 m of path.
+
+- `sim_realtime_factor`: simulated / wall seconds for the whole program with Pinocchio IK (5 mm
+  IK step, joint speed caps and warnings) — the contract's figure (target ≥ 200); peer = the same
+  without IK, ratio = with / without.
+- `sim_realtime_factor_no_ik`: the controller model alone; peer = with IK.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
+from waamflow.core.moves import flatten
+from waamflow.trajectory import study
+from waamflow.trajectory.profile import load_profile
+from waamflow.trajectory.run import KinematicsOptions, simulate_program
+from waamflow.trajectory.simulate import SimOptions
+
+LAYERS = 150
+SPEED = 10.0
+
+
+def program():
+    builders = (lambda: study.raster(SPEED), lambda: study.triangular(SPEED, 45.0, arc_outside=False),
+                lambda: study.semicircular(SPEED), lambda: study.swiping(SPEED))
+    layers = []
+    for i in range(LAYERS):
+        mv = builders[i % len(builders)]()
+        z = 1.5 * (i + 1)
+        pts = mv.points.copy()
+        pts[:, 2] = z
+        sp = SectionPath(key="or", strategy="mixed", points=pts, arc=mv.arc, inside=mv.inside, speed=mv.speed)
+        layers.append(LayerPaths(Layer(index=i, z=z, thickness=1.5), (sp,), dwell_after_s=5.0))
+    return flatten(Layered(tuple(layers)))
+
+
+def _timed(moves, profile, kin):
+    t0 = time.perf_counter()
+    res = simulate_program(moves, profile, SimOptions(), kin)
+    return res, time.perf_counter() - t0
+
+
+def run() -> list[dict]:
+    moves = program()
+    profile = load_profile("kuka_kr100ha_krc2")
+    _timed(study.raster(SPEED), profile, None)  # warm-up (imports, ruckig)
+    res_ik, wall_ik = _timed(moves, profile, KinematicsOptions(step_mm=5.0))
+    res_no, wall_no = _timed(moves, profile, None)
+    sim_s = res_ik.metrics["total_time_s"]
+    rtf_ik = sim_s / wall_ik
+    rtf_no = res_no.metrics["total_time_s"] / wall_no
+    common = (f"{LAYERS} layers, {len(moves.points)} points, {res_ik.metrics['programmed_length_mm'] / 1000:.1f} m, "
+              f"{sim_s / 3600:.2f} h simulated, {int(res_ik.metrics['stops'])} stops, "
+              f"{len(res_ik.trace['t'])} trace samples at 12 ms")
+    return [
+        {"name": "sim_realtime_factor", "value": round(rtf_ik, 1), "unit": "sim s / wall s",
+         "peer": round(rtf_no, 1), "ratio": round(rtf_ik / rtf_no, 4),
+         "notes": f"with Pinocchio IK ({int(res_ik.metrics['ik_samples'])} IK samples, 5 mm step), "
+                  f"{wall_ik:.2f} s wall; peer = without IK. {common}"},
+        {"name": "sim_realtime_factor_no_ik", "value": round(rtf_no, 1), "unit": "sim s / wall s",
+         "peer": round(rtf_ik, 1), "ratio": round(rtf_no / rtf_ik, 4),
+         "notes": f"controller model only, {wall_no:.2f} s wall; peer = with IK. {common}"},
+    ]
+
+
+if __name__ == "__main__":
+    for e in run():
+        print(e)
