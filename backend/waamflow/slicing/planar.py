@@ -79,10 +79,13 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Decompose a permutation into cycles.
 
     Returns (label (n,) cycle id of each element, pos (n,) position along its cycle counted from
-    some element of it, size (c,) cycle lengths). Cycle ids from scipy's connected components;
-    positions by pointer-jumping list ranking: each cycle is cut before one of its elements and
-    every element sums the ones after it, doubling the reach each round (⌈log₂ L⌉ rounds of two
-    whole-array gathers).
+    some element of it, size (c,) cycle lengths). Cycle ids come from scipy's connected
+    components. Positions come from whichever of two walks is cheaper:
+    - lock-step: all cycles advance one element per numpy step (L_max steps on small arrays),
+      best for many short loops (e.g. 500 layers × a few loops of ~4 k points);
+    - pointer-jumping list ranking: each cycle is cut before one element and every element
+      sums the ones after it, doubling the reach each round (⌈log₂ L_max⌉ whole-array rounds),
+      best for a few very long loops.
     """
     n = len(nxt)
     graph = csr_matrix((np.ones(n, dtype=np.int8), (np.arange(n), nxt)), shape=(n, n))
@@ -90,11 +93,26 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     size = np.bincount(label, minlength=n_cycles)
     head = np.empty(n_cycles, dtype=np.int64)
     head[label] = np.arange(n)                      # any element of each cycle
+    longest = int(size.max())
+    rounds = int(np.ceil(np.log2(max(longest, 2))))
+    # cost model (2-core dev box): a lock-step costs ~6 µs of overhead, a jumping round ~25 ns
+    # per element
+    if longest * 240 < (rounds - 0.8) * n:
+        pos = np.empty(n, dtype=np.int64)
+        by_size = np.argsort(-size, kind="stable")
+        sizes_desc = size[by_size]
+        cur = head[by_size]
+        for t in range(longest):
+            active = int(np.searchsorted(-sizes_desc, -t, side="left"))   # cycles longer than t
+            cur = cur[:active]
+            pos[cur] = t
+            cur = np.take(nxt, cur)
+        return label, pos, size
     ptr = np.append(nxt.astype(np.int64), n)        # element n: sentinel, points to itself
     ptr[:n][nxt == np.take(head, label)] = n        # the element before the head ends its list
     rank = np.ones(n + 1, dtype=np.int64)
     rank[n] = 0
-    for _ in range(int(np.ceil(np.log2(max(int(size.max()), 2))))):
+    for _ in range(rounds):
         rank += np.take(rank, ptr)
         ptr = np.take(ptr, ptr)
     pos = np.take(size, label) - rank[:n]

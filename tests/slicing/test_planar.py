@@ -1,0 +1,44 @@
+import numpy as np
+import pytest
+
+from waamflow.slicing.planar import _loop_order, section_loops
+from waamflow.slicing.rings import loops_to_regions
+
+from .meshes import as_mesh, tube
+
+
+@pytest.mark.parametrize("sizes", [[5, 3, 1, 7], [1000], [2] * 50000 + [3] * 1000])
+def test_loop_order_walks_every_cycle(sizes):
+    """Both walks (pointer jumping: few long cycles; lock-step: many short ones) give positions
+    that advance by one along each cycle."""
+    rng = np.random.default_rng(0)
+    n = sum(sizes)
+    perm = rng.permutation(n)
+    nxt = np.empty(n, dtype=np.int64)
+    o = 0
+    for sz in sizes:
+        cyc = perm[o:o + sz]
+        nxt[cyc] = np.roll(cyc, -1)
+        o += sz
+    label, pos, size = _loop_order(nxt)
+    assert sorted(size.tolist()) == sorted(sizes)
+    np.testing.assert_array_equal(pos[nxt], (pos + 1) % size[label])
+    np.testing.assert_array_equal(label[nxt], label)
+
+
+def test_section_loops_counts_and_order():
+    m = as_mesh(tube(20, 30, 10))
+    loops = section_loops(m.vertices, m.faces, np.array([-1.0, 2.5, 5.0, 7.5, 11.0]))
+    assert loops.plane.tolist() == [1, 1, 2, 2, 3, 3]           # planes outside the part: no loops
+    # 256 facets, each a quad split by a diagonal: the plane crosses both triangles
+    assert np.diff(loops.offsets).tolist() == [512] * 6
+    for j in range(len(loops)):
+        r = np.hypot(*loops.loop(j).T)
+        assert np.allclose(r, r[0], rtol=1e-9) and round(r[0]) in (20, 30)
+    # the diagonal crossings lie on the facet chords and are dropped when building polygons
+    regions = loops_to_regions(loops, 5)
+    assert [len(r.geoms) for r in regions] == [0, 1, 1, 1, 0]
+    poly = regions[2].geoms[0]
+    assert len(poly.exterior.coords) == 257 and len(poly.interiors[0].coords) == 257
+    with pytest.raises(ValueError):
+        section_loops(m.vertices, m.faces, np.array([5.0, 2.0]))
