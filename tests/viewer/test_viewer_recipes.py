@@ -72,3 +72,27 @@ def test_rectangle_study_scene(viewer):
     # colour by deviation spans the measured deviation range
     lo, hi = viewer.parts[("simulate", "simulation")].ranges["deviation"]
     assert hi == pytest.approx(float(np.max(sim.trace["deviation"])))
+
+
+def test_robot_follows_the_trace(viewer):
+    pytest.importorskip("pinocchio")
+    recipe, out = run_recipe("rectangle-study")
+    viewer.publish("rectangle-study", recipe, out)
+    part = viewer.parts[("simulate", "simulation")]
+    assert part.robot is not None, part.robot_note
+    sim = out["simulate"]["simulation"]
+    links = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/robot/links")
+    n_links = links.points.shape[0]
+    assert n_links >= 6                                    # a 6-axis arm: base → … → flange → TCP
+    assert part.robot.reach_err.max() < 0.5                # TCP on the trace (REACH_TOL_MM)
+    for frac in (0.25, 0.75):
+        t = float(part.robot.t[int(frac * (len(part.robot.t) - 1))])
+        viewer._gui["time"].value = t
+        tcp = links.points[-1, 1]
+        i = int(np.searchsorted(sim.trace["t"], t))
+        want = [sim.trace[k][i] for k in ("x", "y", "z")]
+        assert np.allclose(tcp, want, atol=0.05)           # float32 display, mm
+        base = links.points[0, 0]
+        assert np.allclose(base, part.robot.joints[0, 0], atol=1e-3)
+    viewer._gui["robot"].value = False
+    assert links.visible is False

@@ -59,6 +59,7 @@ class ViewState:
     sim_color: str = "deviation"
     hidden: set[str] = field(default_factory=set)
     time_s: float = 0.0
+    show_robot: bool = True
 
     def shows_layer(self, index: int) -> bool:
         return self.layer_lo <= index <= self.layer_hi
@@ -376,6 +377,10 @@ class SimulationPart(Part):
         self.ranges: dict[str, tuple[float, float]] = {}
         self.mode = "deviation"
         self._bounds = None
+        self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
+        self.robot = None                       # RobotMotion, or None
+        self.robot_note = ""                    # why there is no robot, if there is none
+        self.robot_handles: dict[str, Any] = {}
 
     def duration(self) -> float:
         t = self.trace.get("t")
@@ -390,7 +395,7 @@ class SimulationPart(Part):
         return np.repeat(rgb[:, None, :], 2, axis=1)
 
     def sync(self, value, view) -> int:
-        sig = digest((value.trace, getattr(value, "programmed", None)))
+        sig = digest((value.trace, getattr(value, "programmed", None), self.node_params))
         if sig == self.sig:
             return 0
         for e in self.entries.values():
@@ -436,8 +441,33 @@ class SimulationPart(Part):
         radius = 0.01 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 1.0
         self.torch = self.scene.add_icosphere(f"{self.root}/torch", radius=max(radius, 0.5),
                                               color=(255, 183, 3), position=tuple(pos), visible=n > 0)
+        self._add_robot(value, view)
         self.sig = sig
         return added + 1
+
+    def _add_robot(self, value, view) -> None:
+        """The arm as a stick figure at the playback time, if its URDF loads (see `robot`)."""
+        from .robot import cell_setup, robot_motion
+
+        for h in self.robot_handles.values():
+            h.remove()
+        self.robot_handles = {}
+        self.robot, self.robot_note = None, ""
+        if len(self.points) < 2 or "t" not in self.trace:
+            return
+        try:
+            setup = cell_setup(self.node_params, dict(getattr(value, "profile", {}) or {}))
+            self.robot = robot_motion(self.trace, setup)
+        except Exception as e:   # no URDF, no Pinocchio, unreachable: the preview goes on without the arm
+            self.robot_note = f"robot not shown: {e}"
+            return
+        segs = self.robot.segments(view.time_s)
+        self.robot_handles["links"] = self.scene.add_line_segments(
+            f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=6.0, thickness_units="screen",
+            visible=view.show_robot)
+        self.robot_handles["joints"] = self.scene.add_point_cloud(
+            f"{self.root}/robot/joints", self.robot.at(view.time_s).astype(np.float32), C.ROBOT_JOINT_RGB,
+            point_size=40.0, point_shape="circle", visible=view.show_robot)
 
     def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
         """Layer of each programmed point: the trace's own when sampled 1:1, else the layer of
@@ -459,6 +489,8 @@ class SimulationPart(Part):
                 if "sim" in e:
                     e["sim"].colors = self._sim_colors(e["first"], view.sim_color)
             self.mode = view.sim_color
+        for h in self.robot_handles.values():
+            h.visible = view.show_robot
         self.set_time(view.time_s)
 
     def set_time(self, t: float) -> dict[str, Any] | None:
@@ -467,6 +499,9 @@ class SimulationPart(Part):
             return None
         pos, i = G.interpolate_trace(self.trace, t)
         self.torch.position = tuple(float(v) for v in pos)
+        if self.robot is not None and self.robot_handles:
+            self.robot_handles["links"].points = self.robot.segments(t)
+            self.robot_handles["joints"].points = self.robot.at(t).astype(np.float32)
         return self.sample_info(i)
 
     def sample_info(self, i: int) -> dict[str, Any]:

@@ -125,6 +125,9 @@ class ViewerService:
                     if node not in self._node_frames:
                         self._node_frames[node] = self.server.scene.add_frame(f"/graph/{slug(node)}", show_axes=False)
                     part = self.parts[(node, port)] = PART_TYPES[kind](self.server.scene, node, port, self.max_segments)
+                if kind == "simulation":
+                    part.node_params = dict(next((nd.get("params") or {} for nd in nodes
+                                                  if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
                 n = part.sync(value, self.view)
                 stats["redrawn" if n else "kept"] += n or 1
             self._after_publish()
@@ -260,6 +263,7 @@ class ViewerService:
         g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
         g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
         g["play"] = gui.add_button("Play / pause")
+        g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
         g["legend"] = gui.add_markdown("")
         g["nodes"] = gui.add_folder("Nodes")
         g["pick"] = gui.add_markdown("*Click a path point for its layer, section, zone and speeds.*")
@@ -269,6 +273,7 @@ class ViewerService:
         g["sim_color"].on_update(lambda _: self._on_color())
         g["time"].on_update(lambda _: self._on_time())
         g["play"].on_click(lambda _: self._toggle_play())
+        g["robot"].on_update(lambda _: self._on_robot())
 
     def _sync_gui(self) -> None:
         g = self._gui
@@ -304,6 +309,10 @@ class ViewerService:
                 lo, hi = p.speed_range
                 lines.append(f"`{p.node}` speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow); travel pale")
             if p.kind == "simulation":
+                if p.robot is not None:
+                    lines.append(f"`{p.node}` robot {p.robot.name}, IK residual ≤ {p.robot.reach_err.max():.2g} mm")
+                elif p.robot_note:
+                    lines.append(f"`{p.node}` {p.robot_note}")
                 for k, unit in (("deviation", "mm"), ("speed", "mm/s")):
                     if k in p.ranges:
                         lo, hi = p.ranges[k]
@@ -322,6 +331,11 @@ class ViewerService:
             self.view.sim_color = self._gui["sim_color"].value
             with self.server.atomic():
                 self._apply()
+
+    def _on_robot(self) -> None:
+        with self._lock:
+            self.view.show_robot = bool(self._gui["robot"].value)
+            self._apply()
 
     def _on_node_box(self, node: str, shown: bool) -> None:
         with self._lock:

@@ -1,0 +1,91 @@
+"""The arm along the simulated trace, for playback: joint origins in world mm at sampled times.
+
+The shipped URDFs carry kinematics only (no link meshes), so the arm is drawn as a stick figure
+through its joint origins. Inverse kinematics reuses `waamflow.trajectory.kinematics` (Pinocchio,
+continuous damped least squares seeded from the previous sample), solved at up to `max_samples`
+trace samples evenly spread in time — display only; the simulation's own figures are untouched.
+Cell set-up (robot, TCP offset, base and work frames) comes from the simulate node's params,
+then the simulation's robot profile, then the kinematics module's defaults.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class RobotMotion:
+    """t: (k,) s. joints: (k, m, 3) world mm — base, each joint origin, flange, TCP, in chain
+    order. reach_err: (k,) IK position residual, mm. name: URDF file name."""
+
+    t: np.ndarray
+    joints: np.ndarray
+    reach_err: np.ndarray
+    name: str
+
+    def at(self, t: float) -> np.ndarray:
+        """(m, 3) joint origins of the sample at or before time t (s)."""
+        i = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1))
+        return self.joints[i]
+
+    def segments(self, t: float) -> np.ndarray:
+        """(m - 1, 2, 3) float32 links of the stick figure at time t."""
+        p = self.at(t).astype(np.float32)
+        return np.stack([p[:-1], p[1:]], axis=1)
+
+
+def cell_setup(params: dict[str, Any], profile: dict[str, Any]) -> dict[str, Any]:
+    """Robot description and frames: node params over the robot profile over the defaults."""
+    from ..trajectory.kinematics import CellFrames
+
+    d = CellFrames()
+    pick = lambda key, default: params.get(key) if params.get(key) not in (None, "") else profile.get(key, default)  # noqa: E731
+    return {
+        "description": pick("robot_description", None) or profile.get("description") or "",
+        "tcp_offset_mm": tuple(pick("tcp_offset_mm", (0.0, 0.0, 400.0))),
+        "base_xyz_mm": tuple(pick("base_xyz_mm", d.base_xyz_mm)),
+        "base_yaw_deg": float(pick("base_yaw_deg", d.base_yaw_deg)),
+        "work_xyz_mm": tuple(pick("work_xyz_mm", d.work_xyz_mm)),
+    }
+
+
+def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_samples: int = 400) -> RobotMotion:
+    """Solve the arm along the trace (see module doc). Raises if the robot cannot be loaded."""
+    import pinocchio as pin
+
+    from ..trajectory.kinematics import CellFrames, load_arm, solve_path
+
+    if not setup.get("description"):
+        raise ValueError("no robot description (URDF) in the simulation's profile or params")
+    arm = load_arm(setup["description"], tcp_offset_mm=setup["tcp_offset_mm"])
+    t = np.asarray(trace["t"], float)
+    pts = np.column_stack([np.asarray(trace[k], float) for k in ("x", "y", "z")])
+    idx = np.unique(np.linspace(0, len(t) - 1, min(max_samples, len(t))).round().astype(int))
+    idx = idx[np.r_[True, np.linalg.norm(np.diff(pts[idx], axis=0), axis=1) > 1e-6]]   # IK needs moves
+    sample = pts[idx]
+    frames = CellFrames(base_xyz_mm=setup["base_xyz_mm"], base_yaw_deg=setup["base_yaw_deg"],
+                        work_xyz_mm=setup["work_xyz_mm"])
+    seglen = np.linalg.norm(np.diff(sample, axis=0), axis=1)
+    step = float(seglen.max()) + 1.0 if len(seglen) else 1.0     # one IK sample per vertex
+    axes = np.tile([0.0, 0.0, -1.0], (len(sample), 1))
+    kin = solve_path(arm, sample, axes, frames, step_mm=step)
+    model = arm.model
+    data = model.createData()
+    Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
+    offset = np.asarray(frames.base_xyz_mm, float) - np.asarray(frames.work_xyz_mm, float)
+    tool0 = model.getFrameId("tool0") if model.existFrame("tool0") else None
+    chain = []
+    for q in kin.q:
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        p = [np.zeros(3)] + [data.oMi[j].translation.copy() for j in range(1, model.njoints)]
+        if tool0 is not None:
+            p.append(data.oMf[tool0].translation.copy())
+        p.append(data.oMf[arm.tcp].translation.copy())
+        chain.append(np.asarray(p))
+    joints = 1000.0 * np.asarray(chain) @ Rb.T + offset     # base frame (m) → toolpath frame (mm)
+    n = min(len(joints), len(idx))       # one IK sample per trace sample (step > longest move)
+    return RobotMotion(t[idx[:n]], joints[:n], np.asarray(kin.reach_err)[:n], setup["description"])
