@@ -5,9 +5,8 @@ import math
 
 import numpy as np
 import pytest
-import shapely
 from shapely import affinity
-from shapely.geometry import LineString, Point, Polygon, box
+from shapely.geometry import LineString, Polygon, box
 
 from waamflow.paths import PATTERNS, StrategySpec, plan_section
 
@@ -140,3 +139,27 @@ def test_oscillate_run_ups_follow_the_guide():
     assert ext.points[0] == pytest.approx(base.points[0] - [4.5, 0])
     assert ext.points[-1] == pytest.approx(base.points[-1] + [3.6, 0])
     assert ext.arc_on_length == pytest.approx(base.length)
+
+
+@pytest.mark.parametrize("pattern", ["raster", "semicircular", "triangular", "rectangular", "swiping", "parallel"])
+def test_pass_patterns_follow_a_curved_guide(pattern):
+    """Passes are offsets of the guide: on a quarter annulus they are concentric arcs, and the path
+    leaves the section only where the pattern links passes (beyond the straight ends) or travels."""
+    region, guide = band()
+    p = plan_section(region, guide, StrategySpec(pattern=pattern, angle_deg=60))
+    assert_inside_flags_hold(p, region)
+    ang = np.degrees(np.arctan2(p.points[:, 1], p.points[:, 0]))
+    r = np.hypot(*p.points.T)
+    # 15 mm wide → 4 passes at radii 40.855 + k·4.43 (margin 0.855 mm)
+    if pattern not in ("swiping", "rectangular"):
+        for rad in 40.855 + 4.43 * np.arange(4):
+            assert np.isclose(r, rad, atol=3e-3).sum() >= 20, rad
+    if pattern in ("rectangular", "swiping", "parallel"):
+        assert p.inside.all()
+    elif pattern == "raster":
+        assert np.all(p.arc <= p.inside) and p.arc_switches == 8  # returns cut across the hole, arc OFF
+    else:
+        mids = 0.5 * (ang[:-1] + ang[1:])
+        assert np.all((mids[~p.inside] < 0) | (mids[~p.inside] > 90))
+        assert p.outside_length == pytest.approx(3 * (math.pi * 4.43 / 2 if pattern == "semicircular" else 2 * 4.43),
+                                                 rel=1e-2)  # 90-gon: end tangents off by ≤ 0.5°

@@ -79,9 +79,10 @@ def _compare_sections(sections, params) -> dict:
 
 @register
 class StrategyNode(LayerNode):
-    """Fill each section with a deposition path: MPP oscillate/parallel along the section's guide, or
-    one of the robot study's objective-rectangle patterns (raster, semicircular, triangular,
-    rectangular, spiral, swiping), clipped to the section.
+    """Fill each section with a deposition path along its guide: MPP oscillate/parallel or one of the
+    robot study's objective-rectangle patterns (raster, semicircular, triangular, rectangular,
+    spiral, swiping), fitted to the section's shape. Passes are offsets of the guide, so they follow
+    a curved guide; pass count and boundary margin follow the study's rule from the bead spacing.
 
     Each segment carries arc ON/OFF (raster returns and, with arc_outside "off", every stretch
     outside the section are OFF), inside/outside the section, and the programmed speed. Sections
@@ -92,7 +93,7 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
-    version = "2"  # 2: oscillate run-ups along the guide
+    version = "3"  # 2: oscillate run-ups along the guide; 3: pass patterns follow curved guides
     title = "Strategy"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)

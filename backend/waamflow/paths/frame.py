@@ -1,7 +1,8 @@
-"""Section frames and pass layout shared by the pass-based patterns.
+"""Geometry shared by the patterns: the study's pass layout rule, the straight guide frame, guide
+stations and chords across the section.
 
-A straight `Frame` puts a section in (s, t) coordinates: s along the guide's chord (the pass
-direction), t across it (left of the guide positive), origin at the guide's start, mm.
+A straight `Frame` puts a section in (s, t) coordinates: s along the guide's chord, t across it
+(left of the guide positive), origin at the guide's start, mm.
 """
 
 from __future__ import annotations
@@ -79,67 +80,6 @@ def straight_frame(region: Polygon, guide: LineString | None) -> Frame:
         raise ValueError("guide has coincident start and end")
     u = d / norm
     return Frame(origin=g[0].copy(), u=u, v=np.array([-u[1], u[0]]))
-
-
-def chord(local_region, t: float) -> tuple[float, float] | None:
-    """Extent (s_lo, s_hi) of the line t = const through a region in frame coordinates (first entry
-    to last exit), or None when the line misses it."""
-    x0, _, x1, _ = local_region.bounds
-    line = LineString([(x0 - 1.0, t), (x1 + 1.0, t)])
-    inter = line.intersection(local_region)
-    if inter.is_empty:
-        return None
-    xs = shapely.get_coordinates(inter)[:, 0]
-    return float(xs.min()), float(xs.max())
-
-
-@dataclass(frozen=True)
-class Pass:
-    """One straight pass in frame coordinates: at t (mm), spanning s_lo..s_hi (mm)."""
-
-    t: float
-    s_lo: float
-    s_hi: float
-
-
-@dataclass(frozen=True)
-class PassPlan:
-    """The study's pass layout over a section: frame, passes (bottom to top in t), margin (mm)."""
-
-    frame: Frame
-    local_region: Polygon
-    passes: tuple[Pass, ...]
-    margin: float
-    width: float
-
-
-def plan_passes(region: Polygon, guide: LineString | None, spacing: float, inset: float | None = None) -> PassPlan:
-    """Lay out the study's passes across a section (any polygon, not only rectangles).
-
-    Width W = extent of the region across the pass direction; n_WB and W_bound from `pass_layout`;
-    pass k at t = t_min + W_bound + k·W_WB, spanning the region's chord at that t. With `inset`
-    (mm, e.g. W_bound for the in-section patterns) the chords are taken on the region shrunk by that
-    distance (mitred corners), so pass ends keep the same margin to the boundary as the sides.
-    """
-    frame = straight_frame(region, guide)
-    local = frame.local(region)
-    _, t_min, _, t_max = local.bounds
-    width = t_max - t_min
-    n, margin = pass_layout(width, spacing)
-    target = local
-    if inset is not None and inset > NUDGE:
-        target = local.buffer(-(inset - NUDGE), join_style="mitre")
-    passes = []
-    for k in range(n):
-        t = t_min + margin + k * spacing
-        c = chord(target, t)
-        if c is None and target is not local:
-            c = chord(local, t)
-        if c is not None:
-            passes.append(Pass(t, c[0], c[1]))
-    if not passes:
-        raise ValueError("no pass fits the section")
-    return PassPlan(frame, local, tuple(passes), margin, width)
 
 
 def unit_tangent(line: LineString, s: float, h: float) -> np.ndarray:

@@ -5,6 +5,8 @@ Each half circle is discretised into k equal chords with sagitta r·(1 − cos(�
 Small OR: 5 × 43 + 4 × π·4.43/2 = 242.834 mm exact; the study's programmed 242.603 mm is within
 0.1 % (it used coarser chords). When neighbouring passes end at different s (non-rectangular
 section) the shorter one is first extended straight to the longer one's end, which keeps G1.
+Along a curved guide the passes are its offsets and each half circle bulges along the pass's end
+tangent.
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from .flags import Draft
-from .frame import plan_passes
-from .links import boustrophedon, closing_stub, flush
+from .links import boustrophedon, flush
+from .passes import plan_passes
 from .spec import StrategySpec
 
 
@@ -27,25 +29,24 @@ def chord_count(radius: float, tol: float) -> int:
     return max(2, math.ceil(math.pi / (2.0 * math.acos(1.0 - tol / radius))))
 
 
-def half_circle(a: np.ndarray, b: np.ndarray, side: int, tol: float) -> list:
-    """Points strictly between a and b (same s) on the half circle bulging towards `side` (s)."""
-    r = abs(b[1] - a[1]) / 2.0
+def half_circle(a: np.ndarray, b: np.ndarray, tau: np.ndarray, tol: float) -> list:
+    """Points strictly between a and b on the half circle of diameter |b − a| bulging along tau
+    (tau ⟂ b − a, unit)."""
+    r = float(np.hypot(*(b - a))) / 2.0
     if r == 0.0:
         return []
-    sgn = 1.0 if b[1] > a[1] else -1.0
-    tc = 0.5 * (a[1] + b[1])
+    c = 0.5 * (a + b)
+    w = (b - a) / (2.0 * r)
     k = chord_count(r, tol)
     phi = np.linspace(0.0, math.pi, k + 1)[1:-1]
-    return [np.array([a[0] + side * r * math.sin(f), tc - sgn * r * math.cos(f)]) for f in phi]
+    return list(c - r * np.cos(phi)[:, None] * w + r * np.sin(phi)[:, None] * tau)
 
 
-def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft:
+def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
     pp = plan_passes(region, guide, spec.spacing)
 
-    def link(a, b, side):
-        s_star, stub = flush(a, b, side)
-        a2 = np.array([s_star, a[1]])
-        b2 = np.array([s_star, b[1]])
-        return stub + half_circle(a2, b2, side, spec.chord_tol) + closing_stub(b, s_star)
+    def link(a, b, tau):
+        a2, b2, stub_a, stub_b = flush(a, b, tau)
+        return stub_a + half_circle(a2, b2, tau, spec.chord_tol) + stub_b
 
     return boustrophedon(pp, link, spec.extension_before, spec.extension_after)

@@ -6,8 +6,8 @@ so a rectangle stays a rectangle) at W_bound, W_bound + W_WB, W_bound + 2·W_WB,
 pass count from the study's rule across the guide). Each ring is run counter-clockwise from its
 point nearest the current position and left W_WB before closing, then a straight step joins the
 nearest point of the next ring. When the next offset vanishes but the half-step offset does not,
-the remaining core is one centre pass (the long axis of the core, shortened by W_WB/2 at each
-end). Like `rectangular`, the arc is struck on the boundary: a lead-in joins the section boundary
+the remaining core is one centre pass (the long axis of the core, clipped to it and shortened by
+W_WB/2 at each end). Like `rectangular`, the arc is struck on the boundary: a lead-in joins the section boundary
 point nearest the ring start, which is the ring vertex nearest the guide start (on a rectangle a
 corner, so every ring starts at its corner and every step is exactly W_WB).
 Small OR: 1.89 + 5 × 39.22 + 4 × 4.43 = 215.710 mm (exact). Run-ups extend the lead-in and the
@@ -22,7 +22,8 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import nearest_points, substring
 
 from .flags import Draft, extend_ends
-from .frame import guide_or_default, plan_passes
+from .frame import guide_or_default, pass_layout
+from .passes import band
 from .spec import StrategySpec
 
 
@@ -47,22 +48,29 @@ def _ring_path(poly: Polygon, at: np.ndarray, leave: float) -> np.ndarray:
 
 
 def _core_line(core: Polygon, shorten: float, at: np.ndarray) -> np.ndarray | None:
+    """The long axis of the core's minimum rotated rectangle, clipped to the core (longest piece),
+    shortened by `shorten` mm at each end and oriented to start at the end nearest `at`."""
     rect = np.asarray(shapely.minimum_rotated_rectangle(core).exterior.coords)[:4]
     e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
-    axis, across = (e1, e2) if np.hypot(*e1) >= np.hypot(*e2) else (e2, e1)
-    length = float(np.hypot(*axis))
-    if length - 2 * shorten <= 1e-9:
-        return None
-    u = axis / length
+    axis = e1 if np.hypot(*e1) >= np.hypot(*e2) else e2
+    u = axis / np.hypot(*axis)
     c = rect.mean(axis=0)
-    half = length / 2 - shorten
-    a, b = c - half * u, c + half * u
-    return np.array([a, b]) if np.hypot(*(a - at)) <= np.hypot(*(b - at)) else np.array([b, a])
+    reach = float(np.hypot(*axis))
+    pieces = [g for g in shapely.get_parts(LineString([c - reach * u, c + reach * u]).intersection(core))
+              if g.geom_type == "LineString"]
+    if not pieces:
+        return None
+    piece = max(pieces, key=lambda g: g.length)
+    if piece.length - 2 * shorten <= 1e-9:
+        return None
+    ends = np.asarray(substring(piece, shorten, piece.length - shorten).coords, dtype=float)[[0, -1]]
+    return ends if np.hypot(*(ends[0] - at)) <= np.hypot(*(ends[1] - at)) else ends[::-1]
 
 
 def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft:
     d = spec.spacing
-    m = plan_passes(region, guide, d).margin
+    t_min, t_max = band(region, guide_or_default(region, guide), d)
+    m = pass_layout(t_max - t_min, d)[1]
     g0 = np.asarray(guide_or_default(region, guide).coords[0], dtype=float)
     ring0 = _largest(region.buffer(-m, join_style="mitre"))
     if ring0 is None:

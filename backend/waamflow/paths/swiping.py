@@ -11,7 +11,8 @@ Small OR: band 17.72 mm, N = 12 legs of √(38.57² + 1.4767²) = 463.18 mm (−
 Reversal interior angle there: 2·atan(1.4767 / 38.57) = 4.4°. (A path with a constant 2.95° reversal
 and 464 mm length can only advance 464·sin(1.475°) = 11.95 mm across, less than the 17.72 mm band,
 so the published angle and length cannot both hold for a zig-zag that covers the passes.)
-Run-ups (extension_before/after) extend the first and last leg.
+Along a curved guide the legs blend between neighbouring offsets of the guide, so they follow the
+curve. Run-ups (extension_before/after) extend the first and last leg.
 """
 
 from __future__ import annotations
@@ -20,26 +21,43 @@ import math
 
 import numpy as np
 from shapely.geometry import LineString, Polygon
+from shapely.ops import substring
 
 from .flags import Draft, extend_ends
-from .frame import chord, plan_passes
+from .passes import offset_piece, plan_passes
 from .spec import StrategySpec
 
 
-def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft:
+def _shortened(points: np.ndarray, keep: float) -> LineString:
+    line = LineString(points)
+    if line.length <= 2 * keep:
+        mid = line.interpolate(0.5, normalized=True)
+        return LineString([mid, mid])
+    return substring(line, keep, line.length - keep)
+
+
+def _leg(c0: LineString, c1: LineString, forward: bool, samples: int) -> np.ndarray:
+    """Points of one leg from one end of c0 to the other end of c1, blending the two curves."""
+    lam = np.linspace(0.0, 1.0, samples + 1)
+    q = lam if forward else 1.0 - lam
+    p0 = np.array([c0.interpolate(x, normalized=True).coords[0] for x in q])
+    p1 = np.array([c1.interpolate(x, normalized=True).coords[0] for x in q])
+    return (1.0 - lam)[:, None] * p0 + lam[:, None] * p1
+
+
+def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
     pp = plan_passes(region, guide, spec.spacing)
     t0, t1 = pp.passes[0].t, pp.passes[-1].t
     band = t1 - t0
-    target = spec.swipe_advance * spec.spacing
-    legs = max(1, math.ceil(band / target - 1e-6))
-    keep = spec.spacing / 2.0
-    st = []
+    legs = max(1, math.ceil(band / (spec.swipe_advance * spec.spacing) - 1e-6))
+    curves = []
     for k in range(legs + 1):
         t = t0 + band * k / legs
-        c = chord(pp.local_region, t) or (pp.passes[0].s_lo, pp.passes[0].s_hi)
-        lo, hi = c[0] + keep, c[1] - keep
-        if lo > hi:
-            lo = hi = 0.5 * (c[0] + c[1])
-        st.append([lo if k % 2 == 0 else hi, t])
-    pts = extend_ends(pp.frame.to_world(np.array(st)), spec.extension_before, spec.extension_after)
+        pts = offset_piece(pp.guide, t, pp.region)
+        curves.append(_shortened(pts if pts is not None else pp.passes[0].points, spec.spacing / 2.0))
+    out = [np.asarray(curves[0].coords[0])[None]]
+    for k in range(legs):
+        samples = 1 if pp.straight else max(2, math.ceil(curves[k].length / (spec.spacing / 2.0)))
+        out.append(_leg(curves[k], curves[k + 1], k % 2 == 0, samples)[1:])
+    pts = extend_ends(np.vstack(out), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
