@@ -172,14 +172,15 @@ def run() -> list[dict]:
         res = execute(g, resolver=resolver, cache=cache, artifacts=False)
         cold = time.perf_counter() - t0
         n_paths = sum(len(lp.sections) for lp in res.outputs["sequence"]["toolpath"])
+        per_node = ", ".join(f"{k} {v.seconds:.2f}" for k, v in res.stats.items())
         t0 = time.perf_counter()
         execute(g, resolver=resolver, cache=cache, artifacts=False)
         warm = time.perf_counter() - t0
         results.append({
             "name": "plan_full_part_s", "value": round(cold, 3), "unit": "s", "peer": round(warm, 3),
             "ratio": round(warm / cold, 4),
-            "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); peer = same run with a "
-                     f"warm cache; {source}"})
+            "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); node seconds: {per_node}; "
+                     f"peer = same run with a warm cache; {source}"})
     return results
 
 

@@ -77,20 +77,19 @@ def cumulative_length(points: np.ndarray) -> np.ndarray:
 
 
 def project_onto_path(points: np.ndarray, query: np.ndarray) -> np.ndarray:
-    """Arc length (mm) of the nearest point of the polyline `points` (n, 3) to each query (m, 3)."""
-    a, b = points[:-1], points[1:]
-    d = b - a
+    """Arc length (mm) of the nearest point of the polyline `points` (n, 3) to each query (m, 3).
+
+    A path that passes a point several times (weave strokes, parallel passes) projects it onto
+    the nearest pass; on equal distance, the earliest along the path.
+    """
+    a, d = points[:-1], np.diff(points, axis=0)                       # (k, 3)
     dd = np.einsum("ij,ij->i", d, d)
-    dd = np.where(dd > 0, dd, 1.0)
-    s = cumulative_length(points)
-    out = np.empty(len(query))
-    for k, q in enumerate(query):
-        t = np.clip(np.einsum("ij,ij->i", q - a, d) / dd, 0.0, 1.0)
-        foot = a + t[:, None] * d
-        dist = np.einsum("ij,ij->i", foot - q, foot - q)
-        i = int(np.argmin(dist))
-        out[k] = s[i] + t[i] * np.sqrt(np.dot(d[i], d[i]))
-    return out
+    q = np.asarray(query, dtype=float)[:, None, :]                     # (m, 1, 3)
+    t = np.clip(np.einsum("mkj,kj->mk", q - a[None], d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    foot = a[None] + t[..., None] * d[None]                            # (m, k, 3)
+    dist = np.einsum("mkj,mkj->mk", foot - q, foot - q)
+    i = np.argmin(dist, axis=1)
+    return cumulative_length(points)[i] + t[np.arange(len(i)), i] * np.sqrt(dd[i])
 
 
 def zone_layout(path_length: float, spec: ZoneSpec, split_s: np.ndarray) -> ZoneLayout:
@@ -124,38 +123,33 @@ def _insert_points(path: SectionPath, cut_s: list[float]) -> SectionPath:
     """A copy of `path` with a vertex at each arc length in cut_s (segments split, attributes copied)."""
     pts = np.asarray(path.points, dtype=float)
     s = cumulative_length(pts)
-    seg_new_s = sorted(c for c in cut_s if TOL.min_segment < c < s[-1] - TOL.min_segment
-                       and np.min(np.abs(s - c)) > TOL.min_segment)
-    if not seg_new_s:
+    new_s = np.array(sorted(c for c in cut_s if TOL.min_segment < c < s[-1] - TOL.min_segment
+                            and np.min(np.abs(s - c)) > TOL.min_segment))
+    if not len(new_s):
         return path
-    seg_idx = np.clip(np.searchsorted(s, seg_new_s, side="right") - 1, 0, len(pts) - 2)
-    seglen = np.diff(s)
-    t = (np.asarray(seg_new_s) - s[seg_idx]) / np.where(seglen[seg_idx] > 0, seglen[seg_idx], 1.0)
-    new_pts = pts[seg_idx] + t[:, None] * (pts[seg_idx + 1] - pts[seg_idx])
-    # merge: original point i, then any inserted points belonging to segment i
-    order_pts = [pts[:1]]
-    parent: list[int] = []  # parent segment of each new segment
-    axis_rows = None if path.tool_axis is None else [np.asarray(path.tool_axis[:1], float)]
-    for i in range(len(pts) - 1):
-        mask = seg_idx == i
-        extra = new_pts[mask]
-        order_pts.append(extra)
-        order_pts.append(pts[i + 1:i + 2])
-        parent.extend([i] * (len(extra) + 1))
-        if axis_rows is not None:
-            a0, a1 = np.asarray(path.tool_axis[i], float), np.asarray(path.tool_axis[i + 1], float)
-            ax = a0[None, :] + t[mask][:, None] * (a1 - a0)[None, :]
-            ax /= np.maximum(np.linalg.norm(ax, axis=1, keepdims=True), 1e-12)
-            axis_rows.extend([ax, a1[None, :]])
-    parent_arr = np.asarray(parent)
+    seg = np.clip(np.searchsorted(s, new_s, side="right") - 1, 0, len(pts) - 2)
+    t = (new_s - s[seg]) / np.where(s[seg + 1] > s[seg], s[seg + 1] - s[seg], 1.0)
+    new_pts = pts[seg] + t[:, None] * (pts[seg + 1] - pts[seg])
+    # new points lie strictly inside their segments, so sorting by arc length interleaves them
+    all_s = np.concatenate([s, new_s])
+    order = np.argsort(all_s, kind="stable")
+    points = np.vstack([pts, new_pts])[order]
+    mid = 0.5 * (all_s[order][:-1] + all_s[order][1:])
+    parent = np.clip(np.searchsorted(s, mid, side="right") - 1, 0, len(pts) - 2)
+    axis = None
+    if path.tool_axis is not None:
+        ax = np.asarray(path.tool_axis, dtype=float)
+        new_ax = ax[seg] + t[:, None] * (ax[seg + 1] - ax[seg])
+        new_ax /= np.maximum(np.linalg.norm(new_ax, axis=1, keepdims=True), 1e-12)
+        axis = np.vstack([ax, new_ax])[order]
     return dataclasses.replace(
         path,
-        points=np.vstack(order_pts),
-        arc=np.asarray(path.arc)[parent_arr],
-        inside=np.asarray(path.inside)[parent_arr],
-        speed=np.asarray(path.speed, dtype=float)[parent_arr],
-        zone=tuple(path.zone[i] for i in parent_arr) if path.zone else (),
-        tool_axis=None if axis_rows is None else np.vstack(axis_rows),
+        points=points,
+        arc=np.asarray(path.arc)[parent],
+        inside=np.asarray(path.inside)[parent],
+        speed=np.asarray(path.speed, dtype=float)[parent],
+        zone=tuple(path.zone[i] for i in parent) if path.zone else (),
+        tool_axis=axis,
     )
 
 
