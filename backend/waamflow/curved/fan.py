@@ -1,0 +1,212 @@
+"""Fan slicing: layers cut by half-planes that all contain one rotation axis (Rauch et al. 2021).
+
+Geometry. The axis passes through `point` (mm) along unit `direction` u. Angles θ are measured
+about u (right-hand rule) from the reference radial direction e0 ⟂ u, pointing from the axis to
+the part's centroid; e_r(θ) = cos θ·e0 + sin θ·e1 with e1 = u × e0, and the build direction is
+e_θ = u × e_r. Layers grow with θ: reverse `direction` to build from the other end.
+
+Layer convention (see `core.model.Layer`). Layer j spans θ ∈ [θ_j − Δθ, θ_j]; its region is the
+part's cross-section by the half-plane at mid-layer θ_j − Δθ/2, in *half-plane coordinates*:
+local x = distance from the axis r (mm, > 0), local y = −(position along u) (mm). Its `frame`
+maps those coordinates onto the *top* half-plane θ_j (origin on the axis, x = e_r(θ_j), y = −u,
+z = e_θ(θ_j), the build direction), so `layer.to_world` lifts paths onto the deposition plane.
+A fan layer is a wedge: its local height at a point is r·Δθ (Δθ in rad), i.e. x·Δθ.
+`thickness` stores the height at the region's centroid, r̄·Δθ, so downstream nodes recover
+Δθ = thickness / r̄ from the layer alone (`fan_dtheta`), and the height anywhere from x.
+`z` is a monotonic layer coordinate: the arc length from the start plane to θ_j at the part's
+mid radius (mm); world positions come from `frame`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+import trimesh
+from shapely.geometry import LineString, MultiPolygon, Polygon, box
+from shapely.ops import polygonize
+
+from ..core.model import Layer, MeshData, as_multipolygon, region_polygons
+from ..core.tolerances import TOL
+
+MAX_FAN_LAYERS = 20_000
+
+
+@dataclass(frozen=True)
+class FanAxis:
+    """point: (3,) mm on the axis. direction: (3,) unit u. e0: (3,) unit reference radial
+    direction ⟂ u (θ = 0). All world coordinates."""
+
+    point: np.ndarray
+    direction: np.ndarray
+    e0: np.ndarray
+
+    @property
+    def e1(self) -> np.ndarray:
+        return np.cross(self.direction, self.e0)
+
+    def radial(self, theta: float) -> np.ndarray:
+        return math.cos(theta) * self.e0 + math.sin(theta) * self.e1
+
+    def tangential(self, theta: float) -> np.ndarray:
+        return np.cross(self.direction, self.radial(theta))
+
+    def frame(self, theta: float) -> np.ndarray:
+        """(4, 4) half-plane frame at θ (rad): columns x = e_r, y = −u, z = e_θ, origin."""
+        f = np.eye(4)
+        f[:3, 0] = self.radial(theta)
+        f[:3, 1] = -self.direction
+        f[:3, 2] = self.tangential(theta)
+        f[:3, 3] = self.point
+        return f
+
+    def polar(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n, 3) world points → r (mm, distance from the axis), θ (rad in (−π, π]), axial (mm)."""
+        d = np.asarray(pts, float) - self.point
+        ax = d @ self.direction
+        a, b = d @ self.e0, d @ self.e1
+        return np.hypot(a, b), np.arctan2(b, a), ax
+
+
+def make_axis(point, direction, part_vertices: np.ndarray, radius_offset: float = 0.0) -> FanAxis:
+    """Axis through `point` along `direction`, with e0 towards the part's vertex centroid, moved
+    outward by `radius_offset` (mm): away from the part along −e0 (the slicing radius grows)."""
+    u = np.asarray(direction, float)
+    if np.linalg.norm(u) == 0:
+        raise ValueError("axis direction is the zero vector")
+    u = u / np.linalg.norm(u)
+    p = np.asarray(point, float)
+    c = np.asarray(part_vertices, float).mean(axis=0) - p
+    e0 = c - (c @ u) * u
+    if np.linalg.norm(e0) < 1e-9:
+        raise ValueError("the part's centroid lies on the slicing axis: no fan direction")
+    e0 = e0 / np.linalg.norm(e0)
+    return FanAxis(p - radius_offset * e0, u, e0)
+
+
+def angular_range(axis: FanAxis, vertices: np.ndarray) -> tuple[float, float]:
+    """(θ_min, θ_max) rad of the part about the axis; the part must not wrap around it."""
+    _r, th, _ax = axis.polar(vertices)
+    s = np.sort(th)
+    gaps = np.diff(np.concatenate([s, [s[0] + 2 * math.pi]]))
+    if gaps.max() < 1e-3:
+        raise ValueError("the part surrounds the slicing axis: a fan of half-planes cannot slice it")
+    # the largest empty gap is where the part is not: the range is its complement
+    k = int(np.argmax(gaps))
+    lo = s[(k + 1) % len(s)]
+    hi = s[k]
+    if lo > hi:
+        lo -= 2 * math.pi
+    return float(lo), float(hi)
+
+
+def _rings_to_region(segments2d: np.ndarray) -> MultiPolygon:
+    """Even-odd nesting of closed section loops given as (m, 2, 2) segments (mm)."""
+    if not len(segments2d):
+        return MultiPolygon()
+    segs = np.round(segments2d, 7)
+    lines = [LineString(s) for s in segs if np.hypot(*(s[1] - s[0])) > 0]
+    polys = sorted((p for p in polygonize(shapely.node(shapely.MultiLineString(lines)) if lines else [])
+                    if p.area > TOL.min_area), key=lambda p: -p.area)
+    region = Polygon()
+    for p in polys:
+        region = region.symmetric_difference(Polygon(p.exterior))
+    return as_multipolygon(region_polygons(region))
+
+
+def section_half_plane(mesh: trimesh.Trimesh, axis: FanAxis, theta: float) -> MultiPolygon:
+    """Cross-section of `mesh` by the half-plane at θ (rad), in half-plane coordinates (x = r, y)."""
+    normal = axis.tangential(theta)
+    segs = trimesh.intersections.mesh_plane(mesh, normal, axis.point)
+    if not len(segs):
+        return MultiPolygon()
+    d = segs - axis.point
+    x = d @ axis.radial(theta)
+    y = -(d @ axis.direction)
+    region = _rings_to_region(np.stack([x, y], axis=-1))
+    if region.is_empty:
+        return region
+    lo, hi = region.bounds[1] - 1.0, region.bounds[3] + 1.0
+    half = box(0.0, lo, max(region.bounds[2], 0.0) + 1.0, hi)
+    return as_multipolygon(region_polygons(region.intersection(half)))
+
+
+@dataclass(frozen=True)
+class FanPlan:
+    """axis, Δθ (rad), θ_start (rad, the part's start plane) and the layers' top angles (rad)."""
+
+    axis: FanAxis
+    dtheta: float
+    theta_start: float
+    tops: np.ndarray
+    r_mid: float
+
+
+def plan_fan(mesh: MeshData, axis: FanAxis, dtheta_deg: float, *, layer_count: int | None = None) -> FanPlan:
+    """Layer top angles: layer j tops at θ_start + (j+1)·Δθ while its mid plane lies in the part."""
+    if not dtheta_deg > 0:
+        raise ValueError("dtheta_deg must be > 0")
+    dth = math.radians(dtheta_deg)
+    lo, hi = angular_range(axis, mesh.vertices)
+    n = int(math.ceil((hi - lo) / dth - 0.5 - 1e-9))
+    n = max(n, 1)
+    if layer_count is not None:
+        n = min(n, layer_count)
+    if n > MAX_FAN_LAYERS:
+        raise ValueError(f"{n} fan layers (Δθ {dtheta_deg}° over {math.degrees(hi - lo):.1f}°): too many")
+    r, _th, _ax = axis.polar(mesh.vertices)
+    tops = lo + dth * np.arange(1, n + 1)
+    return FanPlan(axis, dth, lo, tops, float((r.min() + r.max()) / 2.0))
+
+
+def fan_slice(mesh: MeshData, plan: FanPlan) -> tuple[Layer, ...]:
+    """The fan layers of `mesh` (see module doc for the conventions)."""
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    layers = []
+    for j, top in enumerate(plan.tops):
+        region = section_half_plane(tm, plan.axis, float(top - plan.dtheta / 2.0))
+        rbar = region.centroid.x if not region.is_empty else plan.r_mid
+        layers.append(Layer(index=j, z=float(plan.r_mid * (top - plan.theta_start)),
+                            thickness=float(rbar * plan.dtheta), region=region,
+                            frame=plan.axis.frame(float(top))))
+    return tuple(layers)
+
+
+# ------------------------------------------------------------------------------------------
+# Reading fan layers downstream
+# ------------------------------------------------------------------------------------------
+def fan_dtheta(layer: Layer) -> float | None:
+    """Δθ (rad) of a fan layer = thickness / r̄ (centroid x); None for a horizontal layer."""
+    if layer.frame is None or layer.region.is_empty:
+        return None
+    return layer.thickness / layer.region.centroid.x
+
+
+def local_height(layer: Layer, xy: np.ndarray) -> np.ndarray:
+    """(n,) local layer height (mm) at layer-local points (n, 2): x·Δθ on a fan layer, else the
+    layer thickness."""
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    dth = fan_dtheta(layer)
+    if dth is None:
+        return np.full(len(xy), layer.thickness)
+    return xy[:, 0] * dth
+
+
+def to_local(layer: Layer, pts: np.ndarray) -> np.ndarray:
+    """(n, 3) world points → (n, 2) layer-local (x, y) (inverse of `layer.to_world`)."""
+    pts = np.asarray(pts, float).reshape(-1, 3)
+    if layer.frame is None:
+        return pts[:, :2].copy()
+    d = pts - layer.frame[:3, 3]
+    return np.column_stack([d @ layer.frame[:3, 0], d @ layer.frame[:3, 1]])
+
+
+def height_range(layer: Layer) -> tuple[float, float]:
+    """(min, max) local layer height over the layer's region (mm)."""
+    dth = fan_dtheta(layer)
+    if dth is None:
+        return layer.thickness, layer.thickness
+    minx, _miny, maxx, _maxy = layer.region.bounds
+    return minx * dth, maxx * dth

@@ -1,0 +1,229 @@
+"""Curved-part nodes (Rauch et al. 2021): `fan-slice` (layers on a fan of half-planes about an
+axis) and `bead-model` (per-segment travel speed from the local layer height). Thin adapters over
+waamflow.curved."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import numpy as np
+from pydantic import Field, model_validator
+
+from ..core import serialize
+from ..core.errors import PlanningError, RecipeError
+from ..core.model import Layered, MeshData
+from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
+from ..curved.fan import fan_slice, make_axis, plan_fan
+from ..curved.feasibility import plan_report, search_sections
+from ..curved.speeds import apply_bead_model, layer_report, toolpath_report
+from ..engine.node import Node, NodeParams, register, unit
+from ..engine.ports import Port
+
+Vec3 = tuple[float, float, float]
+
+
+@register
+class FanSliceNode(Node):
+    """Fan slicing: layers cut by half-planes containing one rotation axis (Rauch et al. 2021).
+
+    Angles grow about `axis_direction` (right-hand rule) from the part's start; reverse the
+    direction to build from the other end. Each layer is a wedge Δθ wide: its local height at
+    distance r from the axis is r·Δθ. Layer-local coordinates are half-plane coordinates
+    (x = r, y = −position along the axis); `frame` puts them on the layer's top plane with z the
+    build direction. `thickness` = r̄·Δθ at the region centroid (Δθ = thickness / r̄).
+    `radius_offset` moves the axis outward, away from the part (larger slicing radius); leave it
+    empty to search the smallest offset (multiples of `search_step`) whose heights fit
+    [h_min, h_max] and whose overhang (each layer projected onto the previous plane) stays within
+    `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
+    [h_min/r_min, h_max/r_max]. Warns when the plan's heights leave the bead range
+    (CSratio below (1 + q)/(2(1 − q)), q = h_min/h_max: 2.7 for 2.2/3.2 mm).
+    Writes `<node>.layers.json` and `<node>.fan.json` (axis, Δθ, per-layer heights, feasibility).
+    """
+
+    type = "fan-slice"
+    title = "Fan slice (curved parts)"
+    category = "curved"
+    inputs = (Port("mesh", "mesh", "Solid part (mesh)"),)
+    outputs = (Port("layers", "layers", "Fan layers (framed half-plane sections)"),)
+
+    class Params(NodeParams):
+        axis_point: Vec3 = Field((0.0, 0.0, 0.0), description="A point of the slicing axis",
+                                 json_schema_extra=unit("mm"))
+        axis_direction: Vec3 = Field((0.0, 1.0, 0.0), description="Slicing axis direction (layers grow "
+                                     "counter-clockwise about it)")
+        dtheta_deg: float | None = Field(None, gt=0, le=45, json_schema_extra=unit("deg"),
+                                         description="Angle increment Δθ; empty: middle of the admissible window")
+        radius_offset: float | None = Field(0.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
+                                            description="Move the axis outward by this much; empty: search")
+        h_min: float = Field(2.2, gt=0, le=50, json_schema_extra=unit("mm"),
+                             description="Smallest bead height the process makes (316L study: 2.2)")
+        h_max: float = Field(3.2, gt=0, le=50, json_schema_extra=unit("mm"),
+                             description="Largest bead height the process makes (316L study: 3.2)")
+        max_overhang: float = Field(1.5, gt=0, le=50, json_schema_extra=unit("mm"),
+                                    description="Largest admissible overhang between consecutive layers (search)")
+        search_step: float = Field(5.0, gt=0, le=1000, json_schema_extra=unit("mm"),
+                                   description="Radius search: offset increment")
+        search_max: float = Field(100.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
+                                  description="Radius search: largest offset tried")
+        max_sections: int = Field(3, ge=1, le=8, description="Radius search: report up to this many angular "
+                                  "sections when one section cannot fit")
+        layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers")
+
+        @model_validator(mode="after")
+        def _check(self):
+            if self.h_min >= self.h_max:
+                raise ValueError("h_min must be below h_max")
+            if not any(self.axis_direction):
+                raise ValueError("axis_direction is the zero vector")
+            return self
+
+    def run(self, ctx, params, inputs):
+        mesh = inputs["mesh"]
+        if not isinstance(mesh, MeshData):
+            raise RecipeError("fan-slice needs a solid mesh (connect a `mesh` node), not a sketch", field="mesh")
+        search = None
+        offset = params.radius_offset
+        dtheta = params.dtheta_deg
+        if offset is None:
+            search = search_sections(mesh, params.axis_point, params.axis_direction, params.h_min, params.h_max,
+                                     max_overhang_mm=params.max_overhang, step=params.search_step,
+                                     max_offset=params.search_max, max_sections=params.max_sections)
+            best = search.best
+            if best is None:
+                ctx.warn(f"no slicing radius up to +{params.search_max} mm fits heights "
+                         f"[{params.h_min}, {params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one "
+                         f"section (see fan.json: {search.sections} sections tried); slicing at offset 0")
+                offset = 0.0
+            else:
+                offset = best.offset
+                dtheta = dtheta if dtheta is not None else best.dtheta_deg
+        try:
+            axis = make_axis(params.axis_point, params.axis_direction, mesh.vertices, offset)
+            r, _th, _ax = axis.polar(mesh.vertices)
+            r_min, r_max = float(r.min()), float(r.max())
+            lo, hi = dtheta_window(r_min, r_max, params.h_min, params.h_max)
+            if dtheta is None:
+                if lo > hi:
+                    raise PlanningError(f"no Δθ fits: radial extent {r_min:.1f}..{r_max:.1f} mm needs heights in the "
+                                        f"ratio {r_min / r_max:.3f} < h_min/h_max = {params.h_min / params.h_max:.3f}; "
+                                        "set dtheta_deg, or leave radius_offset empty to search a larger radius")
+                dtheta = math.degrees((lo + hi) / 2.0)
+            plan = plan_fan(mesh, axis, dtheta, layer_count=params.layer_count)
+        except ValueError as exc:
+            raise PlanningError(str(exc)) from exc
+        layers = fan_slice(mesh, plan)
+        dth = math.radians(dtheta)
+        if r_min * dth < params.h_min - 1e-9 or r_max * dth > params.h_max + 1e-9:
+            ctx.warn(f"layer heights {r_min * dth:.3f}..{r_max * dth:.3f} mm leave the bead range "
+                     f"[{params.h_min}, {params.h_max}] mm (CSratio {csratio(r_min, r_max):.2f}, minimum "
+                     f"{min_csratio(params.h_min, params.h_max):.2f})")
+        for l in layers:
+            if l.region.is_empty:
+                ctx.warn("fan layer is empty", layer=l.index)
+        if search is not None:
+            _remember_search(params, layers, search.to_json())
+        return {"layers": Layered(layers)}
+
+    def artifacts(self, ctx, params, outputs):
+        layers = outputs["layers"]
+        report = plan_report(layers, params.h_min, params.h_max)
+        search = _SEARCHES.get(_search_key(params, layers))
+        if search is not None:
+            report["search"] = search
+        return {"layers.json": serialize.dumps(serialize.layers_json(layers)),
+                "fan.json": serialize.dumps(_rounded(report))}
+
+
+# Radius-search results by (params, first layer frame): the search needs the mesh, which
+# `artifacts` does not see; a run that hits the cache in a fresh process omits the candidate list.
+_SEARCHES: dict[str, dict] = {}
+
+
+def _search_key(params, layers) -> str:
+    first = next((l for l in layers if l is not None), None)
+    frame = b"" if first is None or first.frame is None else np.round(first.frame, 9).tobytes()
+    return hashlib.sha1(params.model_dump_json().encode() + frame + str(len(layers)).encode()).hexdigest()
+
+
+def _remember_search(params, layers, doc: dict) -> None:
+    if len(_SEARCHES) > 64:
+        _SEARCHES.clear()
+    _SEARCHES[_search_key(params, Layered(layers))] = doc
+
+
+def _rounded(obj):
+    if isinstance(obj, float):  # 8 significant digits: model coefficients are ~1e-6
+        return None if not math.isfinite(obj) else float(f"{obj:.8g}")
+    if isinstance(obj, dict):
+        return {k: _rounded(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_rounded(v) for v in obj]
+    return obj
+
+
+@register
+class BeadModelNode(Node):
+    """Bead-height model: each deposition segment's travel speed from its local layer height.
+
+    H(Ts) = a2·Ts² + a1·Ts + a0 (H mm, Ts mm/min), valid for Ts in [ts_min, ts_max]; defaults are
+    the 316L GMAW fit of Rauch et al. 2021 (WFS 8.1 m/min): 1.2245e-6·Ts² − 0.0032·Ts + 4.3126 on
+    400–1200 mm/min, i.e. H 3.23 → 2.24 mm. A segment's needed height is the local layer height at
+    its midpoint: r·Δθ on a fan layer (r = distance from the slicing axis), the thickness on a
+    planar one. The model is inverted there; heights outside [H(ts_max), H(ts_min)] are clamped
+    with a warning naming the layer. Arc-off segments keep their speed. Writes `<node>.bead.json`
+    (model, height range, minimum CSratio (1 + q)/(2(1 − q)), per-layer radii, heights, speeds).
+    """
+
+    type = "bead-model"
+    title = "Bead-height model (speed per point)"
+    category = "curved"
+    inputs = (Port("toolpath", "toolpath", "Toolpath on fan (or planar) layers"),)
+    outputs = (Port("toolpath", "toolpath", "Same paths, travel speed per segment from the model"),)
+
+    class Params(NodeParams):
+        a2: float = Field(1.2245e-6, description="Quadratic coefficient", json_schema_extra=unit("mm/(mm/min)²"))
+        a1: float = Field(-0.0032, description="Linear coefficient", json_schema_extra=unit("mm/(mm/min)"))
+        a0: float = Field(4.3126, description="Constant term", json_schema_extra=unit("mm"))
+        ts_min: float = Field(400.0, gt=0, le=100_000, description="Lowest travel speed of the fit",
+                              json_schema_extra=unit("mm/min"))
+        ts_max: float = Field(1200.0, gt=0, le=100_000, description="Highest travel speed of the fit",
+                              json_schema_extra=unit("mm/min"))
+
+        @model_validator(mode="after")
+        def _check(self):
+            BeadModel(self.a2, self.a1, self.a0, self.ts_min, self.ts_max)  # monotonic on the range
+            return self
+
+    @staticmethod
+    def model(params) -> BeadModel:
+        return BeadModel(params.a2, params.a1, params.a0, params.ts_min, params.ts_max)
+
+    def run(self, ctx, params, inputs):
+        model = self.model(params)
+        h_lo, h_hi = model.h_range
+        out = []
+        for lp in inputs["toolpath"]:
+            if lp is None:
+                out.append(None)
+                continue
+            ctx.check_cancelled()
+            new = apply_bead_model(lp, model)
+            row = layer_report(new, model)
+            if row["clamped"]:
+                ctx.warn(f"{row['clamped']} of {row['segments']} segments need heights "
+                         f"{row['height_min_mm']:.2f}..{row['height_max_mm']:.2f} mm outside the model's "
+                         f"[{h_lo:.2f}, {h_hi:.2f}] mm: speeds clamped to [{params.ts_min:g}, "
+                         f"{params.ts_max:g}] mm/min", layer=lp.index)
+            out.append(new)
+        return {"toolpath": Layered(tuple(out))}
+
+    def artifacts(self, ctx, params, outputs):
+        model = self.model(params)
+        rows = toolpath_report(outputs["toolpath"], model)
+        h_lo, h_hi = model.h_range
+        report = {"model": {"a2": params.a2, "a1": params.a1, "a0": params.a0, "ts_min_mm_min": params.ts_min,
+                            "ts_max_mm_min": params.ts_max},
+                  "h_min_mm": h_lo, "h_max_mm": h_hi, "min_csratio": min_csratio(h_lo, h_hi),
+                  "clamped_segments": sum(r["clamped"] for r in rows), "layers": rows}
+        return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"])),
+                "bead.json": serialize.dumps(_rounded(report))}
