@@ -73,6 +73,8 @@ def test_study_graph_toolpath_and_artifacts(pattern, expected):
     assert comp["lowest"]["programmed_length_mm"] == ["triangular:60"]
     svg = res.artifacts["strategy.comparison.svg"].decode()
     assert svg.startswith("<svg") and svg.count("<rect") == 1 + 4 * 2
+    # the pattern in use is drawn darker, in each of the four panels
+    assert svg.count('fill="#b85c00"') == (4 if pattern == "raster" else 0)
 
 
 def test_no_comparison_by_default():
@@ -167,3 +169,27 @@ def test_rectangle_study_recipe_runs_end_to_end(pattern, arc_outside, expected, 
     assert paths["total"]["arc_switches"] == switches
     comp = json.loads(res.artifacts["strategy.comparison.json"])
     assert len(comp["patterns"]) == 10
+
+
+def test_comparison_is_memoised_on_section_signatures(monkeypatch):
+    from waamflow.engine.cache import MemoryCache
+    from waamflow.nodes import strategy as mod
+
+    calls = []
+    real = mod._compare_sections
+    monkeypatch.setattr(mod, "_compare_sections", lambda s, p: calls.append(1) or real(s, p))
+    data = {"format": "waamflow/1", "name": "t", "inputs": {}, "edges": [
+        {"from": "or.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "strategy.sections"}],
+        "nodes": [{"id": "or", "type": "rectangle", "params": {}},
+                  {"id": "mask", "type": "mask", "params": {"masks": []}},
+                  {"id": "strategy", "type": "strategy", "params": {"compare": ["raster", "spiral"]}}]}
+    cache = MemoryCache()
+    first = execute(build_graph(parse_recipe(data)), resolver=FileResolver("."), cache=cache)
+    second = execute(build_graph(parse_recipe(data)), resolver=FileResolver("."), cache=cache)
+    assert len(calls) == 1
+    assert first.artifacts["strategy.comparison.json"] == second.artifacts["strategy.comparison.json"]
+    data["nodes"][0]["params"] = {"width": 43, "length": 86}  # other sections → recomputed
+    third = execute(build_graph(parse_recipe(data)), resolver=FileResolver("."), cache=cache)
+    assert len(calls) == 2
+    rows = json.loads(third.artifacts["strategy.comparison.json"])["patterns"]
+    assert rows[0]["programmed_length_mm"] == pytest.approx(h.raster(86, 43), abs=1e-2)

@@ -174,5 +174,5 @@ class StrategyNode(LayerNode):
         comp = getattr(self, "_comparison", None)
         if params.compare and comp is not None:
             files["comparison.json"] = serialize.dumps(comp)
-            files["comparison.svg"] = comparison_svg(comp["patterns"])
+            files["comparison.svg"] = comparison_svg(comp["patterns"], selected=params.default.pattern)
         return files

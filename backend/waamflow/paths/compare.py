@@ -99,8 +99,9 @@ def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
                       "outside_share": "1", "time_s": "s", "arc_switches": "count"}}
 
 
-def comparison_svg(rows: list[dict]) -> str:
-    """A small hand-written SVG: one panel of horizontal bars per metric, one bar per pattern."""
+def comparison_svg(rows: list[dict], selected: str | None = None) -> str:
+    """A small hand-written SVG: one panel of horizontal bars per metric, one bar per pattern; bars
+    of the `selected` pattern (the one the toolpath uses) are drawn darker."""
     label_w, bar_w, row_h, pad = 120, 220, 16, 10
     gap = 90  # room for the value printed after the longest bar
     panel_h = 22 + row_h * max(len(rows), 1)
@@ -121,7 +122,8 @@ def comparison_svg(rows: list[dict]) -> str:
             w = bar_w * v / top
             text = f"{v:.1f}" if unit in ("mm", "s", "%") else f"{v:.0f}"
             out.append(f'<text x="{x0}" y="{y + 11}">{escape(r["label"])}</text>')
-            out.append(f'<rect x="{x0 + label_w}" y="{y + 2}" width="{w:.1f}" height="{row_h - 4}" fill="#f8961e"/>')
+            fill = "#b85c00" if r["pattern"] == selected else "#f8961e"
+            out.append(f'<rect x="{x0 + label_w}" y="{y + 2}" width="{w:.1f}" height="{row_h - 4}" fill="{fill}"/>')
             out.append(f'<text x="{x0 + label_w + w + 4:.1f}" y="{y + 11}">{text} {escape(unit)}</text>')
     out.append("</svg>")
     return "\n".join(out)
