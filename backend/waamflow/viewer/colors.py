@@ -25,8 +25,7 @@ PROGRAMMED_RGB = np.array([110, 110, 110], dtype=np.uint8)
 OUTLINE_RGB = np.array([76, 201, 240], dtype=np.uint8)      # port colour of "layers"
 CURVE_RGB = np.array([247, 37, 133], dtype=np.uint8)
 MESH_RGB = (141, 153, 174)
-ROBOT_RGB = np.array([255, 140, 0], dtype=np.uint8)         # KUKA orange
-ROBOT_JOINT_RGB = np.array([60, 60, 60], dtype=np.uint8)                                  # port colour of "mesh"
+ROBOT_RGB = np.array([255, 140, 0], dtype=np.uint8)         # KUKA orange                                  # port colour of "mesh"
 
 # Categorical palette (Tableau 10) for sections and zones without an explicit colour.
 PALETTE = np.array([

@@ -463,11 +463,8 @@ class SimulationPart(Part):
             return
         segs = self.robot.segments(view.time_s)
         self.robot_handles["links"] = self.scene.add_line_segments(
-            f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=6.0, thickness_units="screen",
+            f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen",
             visible=view.show_robot)
-        self.robot_handles["joints"] = self.scene.add_point_cloud(
-            f"{self.root}/robot/joints", self.robot.at(view.time_s).astype(np.float32), C.ROBOT_JOINT_RGB,
-            point_size=40.0, point_shape="circle", visible=view.show_robot)
 
     def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
         """Layer of each programmed point: the trace's own when sampled 1:1, else the layer of
@@ -501,7 +498,6 @@ class SimulationPart(Part):
         self.torch.position = tuple(float(v) for v in pos)
         if self.robot is not None and self.robot_handles:
             self.robot_handles["links"].points = self.robot.segments(t)
-            self.robot_handles["joints"].points = self.robot.at(t).astype(np.float32)
         return self.sample_info(i)
 
     def sample_info(self, i: int) -> dict[str, Any]:
