@@ -35,3 +35,11 @@ def test_second_mask_from_layer_5_plans_every_layer(tmp_path, cache):
     assert keys[5:] == [["bs2/R", "bs2/L"], ["bs2/L", "bs2/R"]] * 2 + [["bs2/R", "bs2/L"]]  # alternate
     lengths = [[s["length_mm"] for s in l["sections"]] for l in tp["layers"]]
     assert lengths[0] == [100.0] and lengths[9] == [40.0, 40.0]
+
+
+def test_a_guide_crossing_four_times_fails_naming_layer_and_section(tmp_path, cache, capsys):
+    bad = "guide.guides.bs1/A=[[-5, 0], [105, 0], [105, 2], [-5, 2]]"
+    assert main(["run", str(RECIPE), "--out", str(tmp_path / "g"), "--set", bad]) == 3
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == ("error: node 'guide', layer 0, section 'bs1/A': guide crosses the section boundary "
+                   "4 times (needs exactly 2)")
