@@ -166,3 +166,9 @@ def test_a_self_intersecting_mask_curve_is_an_invalid_recipe():
     with pytest.raises(RecipeError) as e:
         build_graph(recipe([bow]))
     assert e.value.node == "mask" and e.value.exit_code == 2 and "bs1/A" in e.value.message
+
+
+def test_a_mask_starting_above_the_part_is_warned(tmp_path):
+    res = run(recipe([BS1, dict(BS2, from_layer=40)], count=3, window_from=99), tmp_path)
+    assert [w["message"] for w in res.warnings if w["node"] == "mask"] == \
+        ["mask 'bs2' starts at layer 40 but the part has 3 layers: it governs none"]

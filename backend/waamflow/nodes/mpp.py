@@ -113,6 +113,13 @@ class MaskNode(LayerNode):
                      layer=index)
         return {"sections": ls}
 
+    def combine(self, ctx, params, outputs, inputs):
+        n = len(outputs["sections"])
+        for m in params.masks:
+            if m.from_layer >= n:
+                ctx.warn(f"mask {m.id!r} starts at layer {m.from_layer} but the part has {n} layers: it governs none")
+        return super().combine(ctx, params, outputs, inputs)
+
 
 # ------------------------------------------------------------------------------------------------
 # guide
