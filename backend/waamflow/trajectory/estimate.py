@@ -15,8 +15,12 @@ throughout ("on") or OFF outside the OR ("off"); they live in the robot profile'
 Other speeds interpolate linearly between the identified ones (clamped outside).
 
 For a general toolpath the model is applied per section: passes are maximal runs of straight,
-collinear, arc-ON segments inside the section; everything between two passes is a transition;
-travel between sections is counted at the travel speed, dwells as they are.
+collinear, arc-ON segments inside the section at least `min_pass_mm` long (long enough to
+accelerate and stop: L_init_accel + L_final_decel at that speed); everything between two passes
+is a transition. A section without such passes (oscillate weaves, short zig-zags) has no pass
+structure for the model: it is counted as one start-stop move, L/TS + T_init_accel + T_final_decel
+− (L_init_accel + L_final_decel)/TS. Travel between sections is counted at the travel speed,
+dwells as they are.
 """
 
 from __future__ import annotations
@@ -64,7 +68,8 @@ class Estimate:
         return {"estimate_total_time_s": self.total_time_s, "estimate_passes": float(self.passes)}
 
 
-def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0) -> Estimate:
+def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0,
+                   min_pass_mm: float = 10.0) -> Estimate:
     """Closed-form estimate of a whole program (see module doc)."""
     P = moves.points
     if len(P) < 2:
@@ -105,11 +110,12 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
                 cur = 0.0
         if cur > 0:
             lengths.append(cur)
+        p = model_params(time_model, speed, protocol)
+        lengths = [x for x in lengths if x >= max(min_pass_mm, p["L_init_accel"] + p["L_final_decel"])]
         n = len(lengths)
         if n == 0:
-            total += float(L[dep].sum()) / speed
+            total += cycle_time(1, float(L[dep].sum()), speed, p)
             continue
-        p = model_params(time_model, speed, protocol)
         total += cycle_time(n, float(np.mean(lengths)), speed, p)
         n_pass_all += n
     return Estimate(total, n_pass_all, sections)

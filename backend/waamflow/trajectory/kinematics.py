@@ -148,27 +148,27 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
     k = len(s)
     Q = np.zeros((k, model.nq))
     err_mm = np.zeros(k)
-    sig = np.zeros(k)
     q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
     lam2 = 1e-4
     eye6 = np.eye(6)
+    Js = np.zeros((k, 6, model.nv))
     for i in range(k):
         target = pin.SE3(R[i], p_base[i])
         n_it = 60 if i == 0 else iters
         for _ in range(n_it):
             pin.framesForwardKinematics(model, data, q)
-            cur = data.oMf[arm.tcp]
-            e = pin.log6(cur.actInv(target)).vector
-            if np.dot(e, e) < 1e-14:
-                break
+            e = pin.log6(data.oMf[arm.tcp].actInv(target)).vector
             J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
-            dq = J.T @ np.linalg.solve(J @ J.T + lam2 * eye6, e)
-            q = np.clip(q + dq, arm.lower, arm.upper)
-        pin.framesForwardKinematics(model, data, q)
+            if e @ e < 1e-14:
+                break
+            q = np.clip(q + J.T @ np.linalg.solve(J @ J.T + lam2 * eye6, e), arm.lower, arm.upper)
+        else:
+            pin.framesForwardKinematics(model, data, q)
+            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
         err_mm[i] = 1000.0 * np.linalg.norm(data.oMf[arm.tcp].translation - p_base[i])
-        J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
-        sig[i] = np.linalg.svd(J, compute_uv=False)[-1]
+        Js[i] = J
         Q[i] = q
+    sig = np.linalg.svd(Js, compute_uv=False)[:, -1]
     # joint speed per unit path speed: dq/ds (rad/mm)
     ds = np.diff(s)
     dq = np.abs(np.diff(Q, axis=0)) / np.maximum(ds, 1e-9)[:, None]
