@@ -3,9 +3,9 @@
 Binary STL is parsed here with one `np.frombuffer` on the 50-byte record dtype and welded with
 `topology.merge_vertices`; every other format goes through trimesh (unprocessed) and is welded
 the same way, so all formats give the same vertices/faces for the same part. Measured with
-`bench/bench_slice.py` (`mesh_load_50mb_s`): a 50 MB binary STL (1 M triangles) loads, welds and
-passes the closedness check in about 0.4 s on the 2-core dev box; `trimesh.load` of the same
-file takes about 1.5 s.
+`bench/bench_slice.py` (`mesh_load_50mb_s`): a 50 MB binary STL (1 M triangles, 0.5 M vertices)
+parses, welds and passes the closedness check in 0.4-0.5 s on the 2-core dev box when idle
+(0.7-1.0 s at load average 4-8); `trimesh.load` of the same file takes 3x as long.
 
 Refused with `InputFileError` (→ exit 2): unknown format, file over the size cap, more triangles
 than the cap, no triangles, non-finite coordinates, and meshes that are not closed 2-manifolds
