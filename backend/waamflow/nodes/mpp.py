@@ -11,7 +11,7 @@ from __future__ import annotations
 import hashlib
 import threading
 from collections import OrderedDict
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -141,7 +141,7 @@ class GuideNode(LayerNode):
     over = "sections"
 
     class Params(NodeParams):
-        guides: dict[str, list[Point2]] = Field(
+        guides: dict[str, Annotated[list[Point2], Field(min_length=2)]] = Field(
             default_factory=dict, description="Section key (\"bs1/A\") → guide polyline (layer-local x, y)",
             json_schema_extra=unit("mm"))
 
