@@ -6,7 +6,7 @@ import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
 import { GraphEditor } from "./graph/GraphEditor";
 import {
-  addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, redo, undo, type Clip, type History, type XY,
+  addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
 } from "./graph/recipe";
 import { MaskView } from "./mask/MaskView";
 import { Results } from "./plots/Results";
@@ -104,6 +104,11 @@ export function App() {
       try {
         const toSave = { ...recipe, name };
         const res = await API.putGraph(name, toSave);
+        // "Save as" takes the zone-parameter values along to the new graph.
+        if (graphName && name !== graphName && res.created) {
+          const xml = await API.getParams(graphName).catch(() => null);
+          if (xml) await API.putParams(name, xml).catch(() => undefined);
+        }
         setHist((h) => ({ ...h, present: toSave }));
         setSavedJson(JSON.stringify(toSave));
         setGraphName(name);
@@ -150,10 +155,12 @@ export function App() {
     (type: string, at?: XY) => {
       const spec = catalog.get(type);
       if (!spec) return;
+      // Without a drop point, append: right of the selected node (else of the rightmost one).
       let pos = at;
       if (!pos) {
-        const c = rf.screenToFlowPosition({ x: window.innerWidth / 2, y: window.innerHeight / 2 });
-        pos = [Math.round(c.x), Math.round(c.y)];
+        const all = positionsOf(recipe);
+        const anchorId = [...selected].find((id) => all[id]) ?? Object.keys(all).sort((a, b) => all[b][0] - all[a][0])[0];
+        pos = anchorId ? [all[anchorId][0] + 230, all[anchorId][1]] : [0, 0];
       }
       // A new node starts with empty params: the engine applies the schema defaults and the form
       // shows them as placeholders, so the recipe only records what the user changed.
@@ -162,7 +169,7 @@ export function App() {
       setSelected(new Set([id]));
       setTab("graph");
     },
-    [catalog, rf, recipe, edit],
+    [catalog, recipe, selected, edit],
   );
 
   const upload = useCallback(
@@ -209,6 +216,15 @@ export function App() {
     return () => window.removeEventListener("keydown", onKey);
   }, [tab, selected, recipe, edit, save, message, rf]);
 
+  // The 3D view follows the previewed (else the selected) node, and the canvas layer on the mask tab.
+  const followNode = previewNode ?? (selected.size === 1 ? [...selected][0] : null);
+  const followLayer = tab === "mask" ? layer : null;
+  useEffect(() => {
+    if (!healthInfo?.viewer_port) return;
+    const t = setTimeout(() => API.viewerSelect(followNode, followLayer).catch(() => undefined), 150);
+    return () => clearTimeout(t);
+  }, [healthInfo, followNode, followLayer]);
+
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
@@ -248,7 +264,7 @@ export function App() {
           ▶ run
         </button>
         {run.phase === "running" && <button onClick={() => void cancel()}>cancel</button>}
-        <div className={`progress p-${run.phase}`} data-testid="progress" data-phase={run.phase} title={`${Math.round(run.progress * 100)}%`}>
+        <div className={`progress p-${run.phase}`} data-testid="progress" data-phase={run.phase} data-run-id={run.id ?? ""} title={`${Math.round(run.progress * 100)}%`}>
           <div className="bar" style={{ width: `${run.progress * 100}%` }} />
           <span>{run.phase === "idle" ? "" : `${run.phase} ${Math.round(run.progress * 100)}%`}</span>
         </div>
@@ -300,7 +316,15 @@ export function App() {
             )}
             {tab === "params" && (
               <div className="pane scroll">
-                <ParamsEditor graph={graphName} runId={run.phase === "done" ? run.id : null} runParamsArtifacts={zoneArtifacts} bounds={{}} dirtyRecipe={dirty} onMessage={message} />
+                <ParamsEditor
+                  graph={graphName}
+                  runId={run.phase === "done" ? run.id : null}
+                  runParamsArtifacts={zoneArtifacts}
+                  runWarnings={run.warnings.filter((w) => w.node && recipe.nodes.some((n) => n.id === w.node && n.type === "zone"))}
+                  bounds={{}}
+                  dirtyRecipe={dirty}
+                  onMessage={message}
+                />
               </div>
             )}
             {tab === "results" && (
@@ -325,8 +349,8 @@ export function App() {
             />
           </div>
           <div className="viewer">
-            {healthInfo?.viewer_url ? (
-              <iframe title="3D view" src={healthInfo.viewer_url} data-testid="viewer" />
+            {healthInfo && API.viewerUrl(healthInfo) ? (
+              <iframe title="3D view" src={API.viewerUrl(healthInfo)!} data-testid="viewer" />
             ) : (
               <div className="muted">3D view not available{healthInfo ? " (viewer not started)" : ""}</div>
             )}

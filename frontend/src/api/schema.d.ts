@@ -250,6 +250,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/viewer/select": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Select
+         * @description Follow a node/layer in the 3D view. A no-op when the preview is off.
+         */
+        post: operations["select_api_viewer_select_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -294,6 +314,8 @@ export interface components {
             version: string;
             /** Viewer Url */
             viewer_url: string | null;
+            /** Viewer Port */
+            viewer_port: number | null;
             /** Workers */
             workers: number;
         };
@@ -414,6 +436,19 @@ export interface components {
             problems: {
                 [key: string]: unknown;
             }[];
+        };
+        /** Selection */
+        Selection: {
+            /**
+             * Node
+             * @description node id whose output to show (None = all)
+             */
+            node?: string | null;
+            /**
+             * Layer
+             * @description layer index to focus (None = all)
+             */
+            layer?: number | null;
         };
         /** ValidationError */
         ValidationError: {
@@ -977,6 +1012,37 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["PreviewResponse"];
                 };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    select_api_viewer_select_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["Selection"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {

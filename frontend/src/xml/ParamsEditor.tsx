@@ -1,7 +1,7 @@
 /** The zone-parameter XML editor: layer > section > zone tree, per-zone tables, bulk edit, import/export. */
 import { useCallback, useEffect, useMemo, useState } from "react";
 import { ApiError, artifactText, getParams, putParams } from "../api/client";
-import type { RunError } from "../api/types";
+import type { RunError, RunEvent } from "../api/types";
 import {
   bulkSet, invalidEntries, orphans as findOrphans, parseParams, serializeParams, setValue, validateValue, vocabulary, type Bounds, type ParamDoc,
 } from "./params";
@@ -11,6 +11,8 @@ export interface ParamsEditorProps {
   /** The latest finished run and the zone-parameter artifacts it wrote (`<zone node>.params.xml`). */
   runId: string | null;
   runParamsArtifacts: string[];
+  /** Warnings of the zone node(s) in the last run: values dropped with vanished zones are reported there. */
+  runWarnings: RunEvent[];
   bounds: Record<string, Bounds>;
   dirtyRecipe: boolean;
   onMessage: (m: string) => void;
@@ -236,8 +238,15 @@ export function ParamsEditor(p: ParamsEditorProps) {
             )}
             <div className="orphans" data-testid="orphans">
               <h4>Orphaned values</h4>
-              {!current && <div className="muted">Run the recipe to compare these values with the current geometry.</div>}
-              {current && !orphans.length && <div className="muted">None: every filled value has its layer/section/zone.</div>}
+              {!current && !p.runWarnings.length && <div className="muted">Run the recipe to compare these values with the current geometry.</div>}
+              {p.runWarnings.map((w) => (
+                <div key={w.seq} className="orphan">
+                  {w.layer != null ? `layer ${w.layer} · ` : ""}
+                  {w.section ? `${w.section} · ` : ""}
+                  {w.message}
+                </div>
+              ))}
+              {current && !orphans.length && !p.runWarnings.length && <div className="muted">None: every filled value has its layer/section/zone.</div>}
               {orphans.map((o) => (
                 <div key={`${o.layer}|${o.section}|${o.zone}`} className="orphan">
                   layer {o.layer} · {o.section} · {o.zone}: {o.values.map((v) => `${v.name}=${v.value}${v.unit ? " " + v.unit : ""}`).join(", ")}

@@ -1,0 +1,239 @@
+// End-to-end tests of the GUI in headless Chromium against a real `waamflow serve`.
+// Run: npm run test:e2e (builds the frontend first). Screenshots go to out/e2e/.
+import assert from "node:assert/strict";
+import { after, before, test } from "node:test";
+import {
+  api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, shot, startBrowser, startServer, waitRun,
+} from "./harness.mjs";
+
+let srv, browser;
+before(async () => {
+  [srv, browser] = await Promise.all([startServer(), startBrowser()]);
+});
+after(async () => {
+  await browser?.close();
+  await srv?.stop();
+});
+
+const median = (xs) => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];
+
+/** Text of `<tag>` inside zone `zone` of section `section` of layer `layer` in the parameter XML. */
+function xmlValue(xml, layer, section, zone, tag) {
+  const l = xml.match(new RegExp(`<layer index="${layer}"[^>]*>([\\s\\S]*?)</layer>`))?.[1] ?? "";
+  const s = l.match(new RegExp(`<section id="${section.replace("/", "\\/")}"[^>]*>([\\s\\S]*?)</section>`))?.[1] ?? "";
+  const z = s.match(new RegExp(`<zone id="${zone}"[^>]*>([\\s\\S]*?)</zone>`))?.[1] ?? "";
+  return z.match(new RegExp(`<${tag}[^>]*>([^<]*)</${tag}>`))?.[1] ?? (z.includes(`<${tag}`) ? "" : null);
+}
+
+async function saveAs(page, name) {
+  await page.getByRole("button", { name: /save as/ }).click().catch(() => undefined);
+  await page.fill("[data-testid=save-as-name]", name);
+  await page.press("[data-testid=save-as-name]", "Enter");
+  await page.waitForSelector(`.toolbar .title:text-is("${name}")`);
+}
+
+/** Edit → re-planned canvas latency: make `edit` and wait for the canvas to report the re-plan. */
+async function timedEdit(page, edit) {
+  await page.evaluate(() => (window.__waamflowReplanMs = []));
+  await edit();
+  await page.waitForFunction(() => (window.__waamflowReplanMs ?? []).length > 0, null, { timeout: 10_000 });
+  return page.evaluate(() => window.__waamflowReplanMs[0]);
+}
+
+test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit the XML", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  await shot(page, "01-start");
+  await page.selectOption("[data-testid=open-graph]", "mpp-cross");
+  await page.waitForSelector('.react-flow__node[data-id="zone"]');
+  assert.equal(await page.locator(".react-flow__node").count(), 7);
+  assert.equal(await page.locator(".react-flow__edge").count(), 6);
+  await saveAs(page, "e2e-cross"); // work on a copy: the example stays as shipped
+  await shot(page, "02-graph");
+
+  // Mask canvas: the three sections of the study with their paths.
+  await page.click("[data-tab=mask]");
+  await page.waitForSelector('[data-path="bs1/C"]');
+  assert.equal(await page.getAttribute("[data-testid=mask-canvas]", "data-paths"), "3");
+  await shot(page, "03-mask");
+
+  // Replace section C (right arm) by a newly drawn curve and guide.
+  await page.click('[data-section-item="bs1/C"] button:text-is("delete")');
+  await page.waitForFunction(() => document.querySelector("[data-testid=mask-canvas]")?.getAttribute("data-paths") === "2");
+  assert.equal(await page.locator('[data-section-item="bs1/C"]').count(), 0);
+  await page.click("[data-tool=curve]");
+  const drawMs = await timedEdit(page, () => drawClosed(page, [[6, -8], [64, -8], [64, 8], [6, 8]]));
+  await page.waitForSelector('[data-path="bs1/C"]');
+  assert.equal(await page.getAttribute("[data-testid=mask-canvas]", "data-paths"), "3");
+  await page.click("[data-tool=guide]");
+  await drawOpen(page, [[3, 1], [68, 1]]);
+  await page.waitForSelector('[data-guide="bs1/C"].own');
+  assert.equal(await page.getAttribute('[data-guide="bs1/C"]', "data-crossings"), "2");
+
+  // Change the end-zone length of section A: the zone marker on the canvas moves.
+  await page.click("[data-tool=select]");
+  const markBefore = await page.locator('[data-path="bs1/A"] .zone-mark').nth(1).getAttribute("x");
+  const times = [drawMs];
+  for (const v of ["20", "14", "18", "12", "20"]) {
+    times.push(
+      await timedEdit(page, async () => {
+        await page.fill('[data-testid="end-bs1/A"]', v);
+        await page.press('[data-testid="end-bs1/A"]', "Enter");
+      }),
+    );
+  }
+  await page.waitForFunction(
+    (before) => document.querySelectorAll('[data-path="bs1/A"] .zone-mark')[1]?.getAttribute("x") !== before,
+    markBefore,
+  );
+  console.log(`edit → canvas re-plan (mpp-cross, one layer): median ${median(times).toFixed(0)} ms, max ${Math.max(...times).toFixed(0)} ms over ${times.length} edits [${times.map((t) => t.toFixed(0)).join(", ")}]`);
+  await shot(page, "04-mask-edited");
+
+  // Run (saves first) and follow it to the end; the canvas path is the re-planned one.
+  await expectRun(page, srv.base, "done");
+  const saved = await api(srv.base, "/api/graphs/e2e-cross");
+  const mask = saved.nodes.find((n) => n.type === "mask").params.masks[0];
+  assert.deepEqual(mask.sections.map((s) => s.id), ["A", "B", "C"]);
+  // Drawn at (6,-8) (64,-8) (64,8) (6,8): each vertex snapped to a layer vertex within the 8 px
+  // snap radius, else to the 1 mm grid.
+  const drawn = [[6, -8], [64, -8], [64, 8], [6, 8]];
+  const curve = mask.sections[2].curve;
+  assert.equal(curve.length, 4);
+  curve.forEach((p, i) => assert.ok(Math.hypot(p[0] - drawn[i][0], p[1] - drawn[i][1]) < 4, `vertex ${i} ${p} near ${drawn[i]}`));
+  curve.forEach((p) => assert.ok(Number.isInteger(p[0] * 1000) && Number.isInteger(p[1] * 1000)));
+  assert.deepEqual(saved.nodes.find((n) => n.type === "guide").params.guides["bs1/C"], [[3, 1], [68, 1]]);
+  assert.equal(saved.nodes.find((n) => n.type === "zone").params.sections["bs1/A"].end_length, 20);
+  const runs = await api(srv.base, "/api/runs?limit=1");
+  const tp = await api(srv.base, `/api/runs/${runs[0].id}/artifacts/sequence.toolpath.json`);
+  const c = tp.layers[0].sections.find((s) => s.key === "bs1/C");
+  assert.ok(c, "section bs1/C in the run's toolpath");
+  const xs = c.points.map((p) => p[0]);
+  assert.ok(Math.min(...xs) >= 5.9 && Math.max(...xs) <= 64.1, `bs1/C path inside its curve: x ${Math.min(...xs)}..${Math.max(...xs)}`);
+  await page.click("[data-tab=graph]");
+  assert.match(await page.locator('.react-flow__node[data-id="zone"] .badge').innerText(), /done|cached/);
+  await shot(page, "05-graph-after-run");
+
+  // XML parameter editor: edit a value, save, check through the API; an out-of-range value is refused inline.
+  await page.click("[data-tab=params]");
+  await page.waitForSelector("[data-testid=zone-table]");
+  await page.click('[data-tree-section="0|bs1/A"]');
+  await page.fill('[data-cell="start.current"]', "205");
+  await page.click("[data-testid=params-save]");
+  await page.waitForSelector("[data-testid=params-saved]");
+  const xml = await api(srv.base, "/api/graphs/e2e-cross/params");
+  assert.equal(xmlValue(xml, 0, "bs1/A", "start", "current"), "205");
+  await page.fill('[data-cell="start.current"]', "5000");
+  const nErrors = errors.length;
+  await page.click("[data-testid=params-save]");
+  await page.waitForSelector("[data-testid=params-error]");
+  assert.match(await page.innerText("[data-testid=params-error]"), /current/);
+  // The browser logs the refused PUT (422) as a console error: that one is expected here.
+  await page.waitForTimeout(100);
+  const refused = errors.splice(nErrors).filter((e) => !/\/params: .*422/.test(e));
+  assert.deepEqual(refused, []);
+  assert.equal(xmlValue(await api(srv.base, "/api/graphs/e2e-cross/params"), 0, "bs1/A", "start", "current"), "205");
+  await shot(page, "06-params");
+  await page.click("[data-tab=results]");
+  await page.waitForSelector('[data-artifact="sequence.toolpath.json"]');
+  await shot(page, "07-results");
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("new user: mesh → slice → two masks (second from the failing layer) → G-code with the XML filled", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  // Build the graph from the palette and wire it by dragging between typed ports.
+  const chain = ["mesh", "slice", "mask", "guide", "strategy", "zone", "sequence", "post-process"];
+  for (const t of chain) {
+    await page.click(`.palette-item[data-type="${t}"] .add`);
+    await page.waitForSelector(`.react-flow__node[data-id="${t}"]`);
+  }
+  await page.click(".react-flow__pane", { position: { x: 20, y: 20 } });
+  await page.keyboard.press("f");
+  await page.waitForTimeout(400);
+  const wires = [["mesh.mesh", "slice.mesh"], ["slice.layers", "mask.layers"], ["mask.sections", "guide.sections"], ["guide.sections", "strategy.sections"],
+    ["strategy.toolpath", "zone.toolpath"], ["zone.toolpath", "sequence.toolpath"], ["sequence.toolpath", "post-process.toolpath"]];
+  for (const [a, b] of wires) await connect(page, a, b);
+  assert.equal(await page.locator(".react-flow__edge").count(), wires.length);
+  // A wrong-type connection is refused (mesh output into a layers input).
+  await connect(page, "mesh.mesh", "mask.layers");
+  assert.equal(await page.locator(".react-flow__edge").count(), wires.length);
+
+  await page.click("[data-testid=save]");
+  await page.fill("[data-testid=save-as-name]", "e2e-new");
+  await page.press("[data-testid=save-as-name]", "Enter");
+  await page.waitForSelector('.toolbar .title:text-is("e2e-new")');
+
+  // Load a mesh: two islands, the second one starting partway up (topology changes there).
+  await page.click('.react-flow__node[data-id="mesh"]');
+  const stl = boxesStl([[-30, -6, 0, 30, 6, 9], [-30, 14, 4, 30, 20, 9]]);
+  await page.setInputFiles('[data-field="path"] input[type=file]', { name: "two-islands.stl", mimeType: "model/stl", buffer: Buffer.from(stl) });
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "two-islands.stl");
+  await page.click('.react-flow__node[data-id="zone"]');
+  await page.fill('[data-field="parameters"] input[type=text]', "two-islands.params.xml");
+  await page.click('.react-flow__node[data-id="post-process"]');
+  await shot(page, "08-new-graph");
+
+  // First mask over everything.
+  await page.click("[data-tab=mask]");
+  await page.waitForSelector("[data-testid=mask-canvas] .layer-poly");
+  await page.click("[data-tool=curve]");
+  await drawClosed(page, [[-34, -10], [34, -10], [34, 24], [-34, 24]]);
+  await page.waitForSelector('[data-path="bs1/A"]');
+
+  // The run fails where the second island appears: the GUI jumps there.
+  await expectRun(page, srv.base, "failed");
+  await page.waitForSelector("[data-testid=failure-banner]");
+  const status = await api(srv.base, "/api/runs?limit=1");
+  const err = status[0].error ?? (await api(srv.base, `/api/runs/${status[0].id}`)).error;
+  assert.equal(err.section, "bs1/A");
+  assert.ok(err.layer > 0, `fails above the first layer (layer ${err.layer})`);
+  assert.equal(await page.inputValue('.mask-panel .layer-row input[type=number]'), String(err.layer));
+  await page.waitForSelector(".section-region.failing, .mask-curve.failing");
+  await shot(page, "09-failure");
+
+  // Second mask from the failing layer, prefilled from the first; split it into the two islands.
+  await page.click("[data-testid=new-mask-from-layer]");
+  await page.waitForSelector('[data-mask="bs2"]');
+  await page.click("[data-tool=curve]");
+  await drawClosed(page, [[-34, -10], [34, -10], [34, 10], [-34, 10]]);
+  await drawClosed(page, [[-34, 11], [34, 11], [34, 24], [-34, 24]]);
+  await page.click('[data-section-item="bs2/A"] button:text-is("delete")');
+  await page.waitForFunction(() => document.querySelectorAll("[data-section-item]").length === 2);
+  await page.waitForSelector('[data-path="bs2/B"]');
+  await page.waitForSelector('[data-path="bs2/C"]');
+  assert.equal(await page.locator("table.masks tr").count(), 2);
+  await shot(page, "10-two-masks");
+  await expectRun(page, srv.base, "done");
+
+  // Fill the XML (bulk edit over all layers, sections and zones) and run to G-code.
+  await page.click("[data-tab=params]");
+  await page.waitForSelector("[data-testid=zone-table]");
+  for (const [name, value] of [["current", "180"], ["travel_speed", "8"]]) {
+    await page.selectOption("[data-testid=bulk-param]", name);
+    await page.fill("[data-testid=bulk-value]", value);
+    await page.click("[data-testid=bulk-apply]");
+  }
+  await page.click("[data-testid=params-save]");
+  await page.waitForSelector("[data-testid=params-saved]");
+  const xml = await api(srv.base, "/api/graphs/e2e-new/params");
+  const speeds = [...xml.matchAll(/<travel_speed[^>]*>([^<]*)<\/travel_speed>/g)].map((m) => m[1]);
+  const currents = [...xml.matchAll(/<current[^>]*>([^<]*)<\/current>/g)].map((m) => m[1]);
+  assert.ok(speeds.length >= 2 * 3, `zones in the XML: ${speeds.length}`);
+  assert.deepEqual(new Set(speeds), new Set(["8"]));
+  assert.deepEqual(new Set(currents), new Set(["180"]));
+  assert.ok(xml.includes(`<layer index="${err.layer}"`) && xml.includes('<section id="bs2/C"'));
+  await shot(page, "11-xml-filled");
+  await expectRun(page, srv.base, "done");
+  await page.click("[data-tab=results]");
+  const link = page.locator('[data-artifact="post-process.gcode"]');
+  await link.waitFor();
+  const [download] = await Promise.all([page.waitForEvent("download"), link.click()]);
+  assert.equal(download.suggestedFilename(), "post-process.gcode");
+  const runs = await api(srv.base, "/api/runs?limit=1");
+  const gcode = await api(srv.base, `/api/runs/${runs[0].id}/artifacts/post-process.gcode`);
+  assert.match(gcode, /\bM3\b/);
+  assert.match(gcode, /F480\b/, "the XML travel speed 8 mm/s is programmed as F480 mm/min");
+  await shot(page, "12-results");
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
