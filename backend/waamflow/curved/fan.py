@@ -86,19 +86,35 @@ def make_axis(point, direction, part_vertices: np.ndarray, radius_offset: float 
     return FanAxis(p - radius_offset * e0, u, e0)
 
 
-def angular_range(axis: FanAxis, vertices: np.ndarray) -> tuple[float, float]:
-    """(θ_min, θ_max) rad of the part about the axis; the part must not wrap around it."""
-    _r, th, _ax = axis.polar(vertices)
+def angular_range(axis: FanAxis, vertices: np.ndarray, faces: np.ndarray | None = None) -> tuple[float, float]:
+    """(θ_min, θ_max) rad of the part about the axis. The part must not wrap around the axis:
+    the half-plane in the middle of the largest angular gap between vertices must not cut any
+    edge (checked when `faces` (m, 3) are given)."""
+    d = np.asarray(vertices, float) - axis.point
+    a, b = d @ axis.e0, d @ axis.e1
+    th = np.arctan2(b, a)
     s = np.sort(th)
     gaps = np.diff(np.concatenate([s, [s[0] + 2 * math.pi]]))
-    if gaps.max() < 1e-3:
-        raise ValueError("the part surrounds the slicing axis: a fan of half-planes cannot slice it")
-    # the largest empty gap is where the part is not: the range is its complement
     k = int(np.argmax(gaps))
-    lo = s[(k + 1) % len(s)]
-    hi = s[k]
+    # the largest empty gap is where the part is not: the range is its complement
+    lo, hi = s[(k + 1) % len(s)], s[k]
     if lo > hi:
         lo -= 2 * math.pi
+    mid = hi + gaps[k] / 2.0
+    if faces is not None:
+        # rotate so the gap's mid half-plane is the +x ray; an edge crossing it has ends on both
+        # sides of y = 0 and meets y = 0 at x > 0
+        c, sn = math.cos(mid), math.sin(mid)
+        x, y = a * c + b * sn, -a * sn + b * c
+        e = np.asarray(faces)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        ya, yb = y[e[:, 0]], y[e[:, 1]]
+        cross = (ya * yb < 0)
+        t = ya[cross] / (ya[cross] - yb[cross])
+        xc = x[e[cross, 0]] + t * (x[e[cross, 1]] - x[e[cross, 0]])
+        if np.any(xc > 0):
+            raise ValueError("the part surrounds the slicing axis: a fan of half-planes cannot slice it")
+    elif gaps[k] < 1e-3:
+        raise ValueError("the part surrounds the slicing axis: a fan of half-planes cannot slice it")
     return float(lo), float(hi)
 
 
@@ -149,7 +165,7 @@ def plan_fan(mesh: MeshData, axis: FanAxis, dtheta_deg: float, *, layer_count: i
     if not dtheta_deg > 0:
         raise ValueError("dtheta_deg must be > 0")
     dth = math.radians(dtheta_deg)
-    lo, hi = angular_range(axis, mesh.vertices)
+    lo, hi = angular_range(axis, mesh.vertices, mesh.faces)
     n = int(math.ceil((hi - lo) / dth - 0.5 - 1e-9))
     n = max(n, 1)
     if layer_count is not None:

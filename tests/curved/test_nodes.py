@@ -1,0 +1,89 @@
+"""fan-slice → wall-path → bead-model through the engine on the shipped curved-duct recipe."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.curved.bead import BeadModel
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import parse_recipe
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def run(mutate=None):
+    recipe = json.loads((GRAPHS / "curved-duct.json").read_text())
+    if mutate:
+        mutate(recipe)
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(GRAPHS))
+
+
+@pytest.fixture(scope="module")
+def duct():
+    return run()
+
+
+def test_fan_report(duct):
+    fan = json.loads(duct.artifacts["fan.fan.json"])
+    assert fan["layer_count"] == 58 and fan["dtheta_deg"] == pytest.approx(1.54)
+    assert fan["csratio"] == pytest.approx(100 / 33, abs=2e-3) and fan["min_csratio"] == pytest.approx(2.7)
+    assert fan["heights_fit"] is True
+    dth = math.radians(1.54)
+    for row in fan["layers"]:
+        assert row["height_min_mm"] == pytest.approx(83.5 * dth, abs=2e-3)
+        assert row["height_max_mm"] == pytest.approx(116.5 * dth, abs=2e-3)
+    assert duct.warnings == []
+
+
+def test_speeds_follow_the_local_height(duct):
+    tp = duct.outputs["bead"]["toolpath"]
+    model = BeadModel()
+    dth = math.radians(1.54)
+    for lp in list(tp)[::19]:
+        sp = lp.sections[0]
+        assert sp.tool_axis is not None and np.allclose(sp.tool_axis[0], -lp.layer.normal)
+        d = sp.points - lp.layer.frame[:3, 3]
+        r = d @ lp.layer.frame[:3, 0]
+        h = (r[:-1] + r[1:]) / 2 * dth                       # needed height r·Δθ at segment midpoints
+        assert np.allclose(model.height(sp.speed * 60.0), h, atol=1e-9)
+        assert np.all(np.abs(d @ lp.layer.frame[:3, 2]) < 1e-9)   # points on the layer's top plane
+    bead = json.loads(duct.artifacts["bead.bead.json"])
+    assert bead["clamped_segments"] == 0 and bead["min_csratio"] == pytest.approx(2.7525, abs=1e-4)
+    rows = bead["layers"]
+    # centre line at r = 85..115 mm: 2.28..3.09 mm → 1078..465 mm/min
+    assert min(r["speed_min_mm_s"] for r in rows) == pytest.approx(465 / 60, abs=0.05)
+    assert max(r["speed_max_mm_s"] for r in rows) == pytest.approx(1078 / 60, abs=0.1)
+
+
+def test_perimeter_is_the_ring_centre_line(duct):
+    tp = duct.outputs["perimeter"]["toolpath"]
+    sp = tp[10].sections[0]
+    lay = tp[10].layer
+    d = sp.points - lay.frame[:3, 3]
+    x, y = d @ lay.frame[:3, 0], d @ lay.frame[:3, 1]
+    assert np.allclose(np.hypot(x - 100, y), 15.0, atol=0.05)   # mid radius of the 13.5..16.5 wall
+    assert sp.length == pytest.approx(2 * math.pi * 15 + 5.0, abs=0.3)   # one lap + 5 mm overlap
+
+
+def test_too_thick_layers_warn_and_clamp():
+    def thick(recipe):
+        recipe["inputs"]["dtheta_deg"] = 1.75
+        next(n for n in recipe["nodes"] if n["id"] == "fan")["params"]["layer_count"] = 8
+    res = run(thick)
+    texts = [w if isinstance(w, str) else json.dumps(w) for w in res.warnings]
+    assert any("bead range" in t for t in texts)             # fan-slice: CSratio / heights warning
+    assert any("clamped" in t and "layer" in t for t in texts)
+    bead = json.loads(res.artifacts["bead.bead.json"])
+    assert bead["clamped_segments"] > 0
+
+
+def test_radius_search_from_the_node():
+    def search(recipe):
+        recipe["inputs"]["radius_offset"] = None
+    res = run(search)
+    fan = json.loads(res.artifacts["fan.fan.json"])
+    assert fan["search"]["best"]["offset_mm"] == 0.0 and fan["search"]["best"]["feasible"] is True
