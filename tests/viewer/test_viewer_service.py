@@ -170,3 +170,33 @@ def test_features_as_points(viewer):
     pc = handle(viewer, "/graph/feat/features/points")
     assert pc.points.shape == (2, 3)
     assert pc.colors[1].tolist() == list(C.FEATURE_RGB["t_crossing"])
+
+
+def test_partial_run_keeps_layers_it_did_not_compute(viewer):
+    out = outputs(5)
+    viewer.publish("k", RECIPE, out)
+    tp = out["zone"]["toolpath"]
+    kept = viewer.server.scene.get_handle_by_name("/graph/zone/toolpath/L0001")
+    partial = Layered(tuple(item if i == 3 else None for i, item in enumerate(tp.items)))
+    stats = viewer.publish("k", RECIPE, dict(out, zone={"toolpath": partial}))
+    assert stats["redrawn"] == 0
+    assert len([n for n in viewer.scene_names() if n.startswith("/graph/zone/toolpath/L")]) == 5
+    assert viewer.server.scene.get_handle_by_name("/graph/zone/toolpath/L0001") is kept
+
+
+def test_url_reports_the_bound_port_and_stop_is_clean():
+    from waamflow.viewer import ViewerService
+
+    v = ViewerService(port=0)
+    assert v.url is None
+    v.start()
+    try:
+        assert v.bound_port > 0 and v.url == f"http://127.0.0.1:{v.bound_port}"
+        import urllib.request
+
+        with urllib.request.urlopen(v.url, timeout=10) as r:     # the bundled web client
+            page = r.read()
+        assert r.status == 200 and b"<html" in page.lower()[:2000]
+    finally:
+        v.stop()
+    assert v.url is None and v.server is None

@@ -173,8 +173,10 @@ class LayeredPart(Part):
             if item is not None:
                 present[int(item.index)] = (item, sig)
         self._prepare(value, present)
+        # items[i] belongs to layer i; None = not computed in this (partial) run: keep what is shown
+        partial = {i for i, item in enumerate(value.items) if item is None}
         added = 0
-        for index in [i for i in self.entries if i not in present]:
+        for index in [i for i in self.entries if i not in present and i not in partial]:
             self.entries.pop(index)["handle"].remove()
         for index, (item, sig) in sorted(present.items()):
             old = self.entries.get(index)

@@ -92,6 +92,11 @@ class ViewerService:
         host = "127.0.0.1" if host in ("0.0.0.0", "") else host
         return f"http://{host}:{self.server.get_port()}"
 
+    @property
+    def bound_port(self) -> int | None:
+        """The port viser actually listens on (it moves to the next free one if `port` is busy)."""
+        return None if self.server is None else int(self.server.get_port())
+
     # ------------------------------------------------------------------------------------------
     # publishing
     # ------------------------------------------------------------------------------------------
