@@ -163,3 +163,14 @@ def test_pass_patterns_follow_a_curved_guide(pattern):
         assert np.all((mids[~p.inside] < 0) | (mids[~p.inside] > 90))
         assert p.outside_length == pytest.approx(3 * (math.pi * 4.43 / 2 if pattern == "semicircular" else 2 * 4.43),
                                                  rel=1e-2)  # 90-gon: end tangents off by ≤ 0.5°
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_one_pass_wide_section(pattern):
+    """Narrower than a bead spacing: one pass along the middle (no pattern fails or vanishes)."""
+    strip = box(0, 0, 40, 3)
+    p = plan_section(strip, None, StrategySpec(pattern=pattern))
+    assert p.inside.all()
+    if pattern != "oscillate":
+        assert np.allclose(p.points[:, 1], 1.5)
+    assert 35.5 < p.length <= 40 + 1e-9

@@ -56,6 +56,8 @@ def finish(points: np.ndarray, arc_ok: np.ndarray, region: Polygon, arc_outside:
     pts = np.insert(points, at_arr + 1, np.asarray(new).reshape(-1, 2), axis=0) if at else points
     ok = np.insert(arc_ok, at_arr, arc_ok[at_arr]) if at else arc_ok
     pts, ok = _drop_duplicates(pts, ok)
+    if len(pts) < 2:
+        raise ValueError("the path has zero length (section smaller than the pattern's margins)")
     mids = shapely.points(0.5 * (pts[:-1] + pts[1:]))
     inside = shapely.dwithin(region, mids, INSIDE_TOL)
     arc = ok & (inside | (arc_outside == "on"))

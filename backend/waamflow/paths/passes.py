@@ -136,3 +136,12 @@ def oriented(p: Pass, forward: bool, before: float, after: float) -> np.ndarray:
     if after > 0:
         out.append((pts[-1] + after * unit(pts[-1] - pts[-2]))[None])
     return np.vstack(out)
+
+
+def to_boundary(region: Polygon, p: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Where a ray from p along unit `direction` first meets the region boundary (p if nowhere)."""
+    ray = LineString([p, p + reach_of(region) * direction])
+    hits = shapely.get_coordinates(ray.intersection(region.boundary))
+    if len(hits) == 0:
+        return p
+    return hits[np.argmin(np.hypot(*(hits - p).T))]

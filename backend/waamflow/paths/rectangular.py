@@ -14,30 +14,20 @@ Passes follow a curved guide (its offsets).
 from __future__ import annotations
 
 import numpy as np
-import shapely
 from shapely.geometry import LineString, Polygon
 
 from .flags import Draft, extend_ends
 from .links import boustrophedon
-from .passes import plan_passes, reach_of, unit
+from .passes import plan_passes, to_boundary, unit
 from .spec import StrategySpec
-
-
-def _to_boundary(region: Polygon, p: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Where a ray from p along `direction` first meets the region boundary (p itself if nowhere)."""
-    ray = LineString([p, p + reach_of(region) * direction])
-    hits = shapely.get_coordinates(ray.intersection(region.boundary))
-    if len(hits) == 0:
-        return p
-    return hits[np.argmin(np.hypot(*(hits - p).T))]
 
 
 def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
     margin = plan_passes(region, guide, spec.spacing).margin
     pp = plan_passes(region, guide, spec.spacing, inset=margin)
     pts = boustrophedon(pp, lambda a, b, tau: []).points
-    lead_in = _to_boundary(region, pts[0], unit(pts[0] - pts[1]))
-    lead_out = _to_boundary(region, pts[-1], unit(pts[-1] - pts[-2]))
+    lead_in = to_boundary(region, pts[0], unit(pts[0] - pts[1]))
+    lead_out = to_boundary(region, pts[-1], unit(pts[-1] - pts[-2]))
     pts = np.vstack([lead_in[None], pts, lead_out[None]])
     keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-9]  # no zero-length lead-in/out
     pts = extend_ends(pts[keep], spec.extension_before, spec.extension_after)

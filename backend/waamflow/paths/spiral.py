@@ -7,11 +7,14 @@ pass count from the study's rule across the guide). Each ring is run counter-clo
 point nearest the current position and left W_WB before closing, then a straight step joins the
 nearest point of the next ring. When the next offset vanishes but the half-step offset does not,
 the remaining core is one centre pass (the long axis of the core, clipped to it and shortened by
-W_WB/2 at each end). Like `rectangular`, the arc is struck on the boundary: a lead-in joins the section boundary
-point nearest the ring start, which is the ring vertex nearest the guide start (on a rectangle a
-corner, so every ring starts at its corner and every step is exactly W_WB).
+W_WB/2 at each end). Like `rectangular`, the arc is struck on the boundary: a lead-in runs back
+from the spiral's start along its first stretch to the section boundary. The spiral starts at
+the ring vertex nearest the guide start (on a rectangle a corner, so every ring starts at its
+corner and every step is exactly W_WB).
 Small OR: 1.89 + 5 × 39.22 + 4 × 4.43 = 215.710 mm (exact). Run-ups extend the lead-in and the
-last segment. Non-convex sections whose offsets split keep the largest piece of each ring.
+last segment. Non-convex sections whose offsets split keep the largest piece of each ring; a
+section only one pass wide gets that one pass; holes are not followed (crossing them is flagged
+outside).
 """
 
 from __future__ import annotations
@@ -19,11 +22,11 @@ from __future__ import annotations
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
-from shapely.ops import nearest_points, substring
+from shapely.ops import substring
 
 from .flags import Draft, extend_ends
 from .frame import guide_or_default, pass_layout
-from .passes import band
+from .passes import band, to_boundary, unit
 from .spec import StrategySpec
 
 
@@ -73,13 +76,12 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     m = pass_layout(t_max - t_min, d)[1]
     g0 = np.asarray(guide_or_default(region, guide).coords[0], dtype=float)
     ring0 = _largest(region.buffer(-m, join_style="mitre"))
-    if ring0 is None:
-        raise ValueError("section too narrow for a spiral at this spacing")
+    if ring0 is None or _thin(ring0, d):
+        return _single_pass(region, m, g0, spec)
     corners = np.asarray(ring0.exterior.coords, dtype=float)[:-1]
     start = corners[np.argmin(np.hypot(*(corners - g0).T))]
-    entry = np.asarray(nearest_points(region.exterior, Point(start))[0].coords[0])
-    pieces = [entry[None], start[None]]
     here, k = start, 0
+    pieces = []
     while True:
         ring = _largest(region.buffer(-(m + k * d), join_style="mitre")) if k else ring0
         if ring is None or _thin(ring, d):
@@ -93,7 +95,20 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
         pieces.append(pts)
         here = pts[-1]
         k += 1
-    pts = extend_ends(np.vstack(pieces), spec.extension_before, spec.extension_after)
+    pts = np.vstack(pieces)
+    entry = to_boundary(region, pts[0], unit(pts[0] - pts[1]))  # lead-in along the first stretch
+    pts = extend_ends(np.vstack([entry[None], pts]), spec.extension_before, spec.extension_after)
+    return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
+
+
+def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) -> Draft:
+    """A section only one pass wide: its centre line (kept m mm from the ends), with a lead-in."""
+    core = _largest(region.buffer(-m / 2.0, join_style="mitre"))
+    line = None if core is None else _core_line(core, m / 2.0, g0)
+    if line is None:
+        raise ValueError("section too small for a spiral at this spacing")
+    entry = to_boundary(region, line[0], unit(line[0] - line[1]))
+    pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
 
 

@@ -29,10 +29,9 @@ from .spec import StrategySpec
 
 
 def _shortened(points: np.ndarray, keep: float) -> LineString:
+    """The pass without `keep` mm at each end (a quarter of it each end when shorter than 2·keep)."""
     line = LineString(points)
-    if line.length <= 2 * keep:
-        mid = line.interpolate(0.5, normalized=True)
-        return LineString([mid, mid])
+    keep = min(keep, 0.25 * line.length)
     return substring(line, keep, line.length - keep)
 
 
