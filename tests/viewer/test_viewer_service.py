@@ -200,3 +200,25 @@ def test_url_reports_the_bound_port_and_stop_is_clean():
     finally:
         v.stop()
     assert v.url is None and v.server is None
+
+
+def test_corners_drawn_per_layer_and_picked(viewer):
+    from dataclasses import replace
+
+    out = outputs(3)
+    sim = out["simulate"]["simulation"]
+    prog = sim.programmed
+    lay = sim.trace["layer"]
+    vertex = np.array([9, 19, int(np.flatnonzero(lay == 2)[9])])      # pass ends: raster corners
+    corners = {"vertex": vertex, "interior_deg": np.full(3, 90.0), "error_mm": np.array([0.1, 0.2, 0.4]),
+               "min_speed_mm_s": np.array([3.0, 2.5, 2.0])}
+    out["simulate"]["simulation"] = replace(sim, corners=corners)
+    viewer.publish("k", RECIPE, out)
+    c0 = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0000/corners")
+    c2 = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0002/corners")
+    assert c0.points.shape == (2, 3) and c2.points.shape == (1, 3)
+    assert viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0001/corners") is None
+    viewer._node_boxes["zone"].value = False
+    info = viewer.pick(prog[vertex[2]] + [0, 0, 50], np.array([0, 0, -1.0]))
+    assert info["corner"] is True and info["layer"] == 2
+    assert info["corner_error_mm"] == pytest.approx(0.4) and info["corner_min_speed_mm_s"] == pytest.approx(2.0)

@@ -63,6 +63,7 @@ class FakeSimulation:
     trace: dict
     programmed: np.ndarray
     metrics: dict = field(default_factory=dict)
+    corners: dict = field(default_factory=dict)
 
 
 def make_simulation(toolpath: Layered, cut: float = 0.3) -> FakeSimulation:

@@ -14,7 +14,9 @@ Scene tree (names are stable, so a redraw replaces a node instead of adding a se
     /graph/<node>/toolpath/L0007                 layer 7's moves: ONE line-segment batch
     /graph/<node>/simulation/programmed/L0007    programmed path (grey)
     /graph/<node>/simulation/simulated/L0007     simulated path (by deviation or speed)
+    /graph/<node>/simulation/L0007/corners       blended corners (by corner error), pickable
     /graph/<node>/simulation/torch               playback marker at the slider's time
+    /graph/<node>/simulation/robot/links         the arm (stick figure) at the slider's time
     /graph/<node>/features/points                recognised feature points (by kind)
 """
 
@@ -383,6 +385,9 @@ class SimulationPart(Part):
         self.robot = None                       # RobotMotion, or None
         self.robot_note = ""                    # why there is no robot, if there is none
         self.robot_handles: dict[str, Any] = {}
+        self.corner_points = np.zeros((0, 3))
+        self.corner_layer = np.zeros(0, np.int64)
+        self.corner_table: dict[str, np.ndarray] = {}
 
     def duration(self) -> float:
         t = self.trace.get("t")
@@ -437,6 +442,7 @@ class SimulationPart(Part):
             frame.visible = view.shows_layer(index)
             self.entries[index] = entry
             added += 1
+        self._add_corners(value, prog, prog_layer)
         self.mode = view.sim_color
         pos, _ = G.interpolate_trace(trace, view.time_s) if n else (np.zeros(3), 0)
         b = self.bounds()
@@ -446,6 +452,29 @@ class SimulationPart(Part):
         self._add_robot(value, view)
         self.sig = sig
         return added + 1
+
+    def _add_corners(self, value, prog: np.ndarray, prog_layer: np.ndarray) -> None:
+        """Blended corners as points on their layer, coloured by corner error (the study's closest
+        approach of the actual path to the programmed vertex); picked for error, angle, speed."""
+        corners = getattr(value, "corners", None) or {}
+        vertex = np.asarray(corners.get("vertex", ()), np.int64).reshape(-1)
+        ok = (vertex >= 0) & (vertex < len(prog))
+        self.corner_table = {k: np.asarray(v)[ok] for k, v in corners.items() if len(np.asarray(v)) == len(vertex)}
+        vertex = vertex[ok]
+        self.corner_points = prog[vertex] if len(vertex) else np.zeros((0, 3))
+        self.corner_layer = prog_layer[vertex] if len(vertex) else np.zeros(0, np.int64)
+        if not len(vertex):
+            return
+        err = np.asarray(self.corner_table.get("error_mm", np.full(len(vertex), np.nan)), float)
+        rgb = C.colormap(err, *C.finite_range(err))
+        b = self.bounds()
+        size = 0.006 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 0.5
+        for index in np.unique(self.corner_layer):
+            m = self.corner_layer == index
+            if int(index) in self.entries:
+                self.scene.add_point_cloud(f"{self.root}/{layer_name(int(index))}/corners",
+                                           self.corner_points[m].astype(np.float32), rgb[m],
+                                           point_size=max(size, 0.2), point_shape="diamond")
 
     def _add_robot(self, value, view) -> None:
         """The arm as a stick figure at the playback time, if its URDF loads (see `robot`)."""
@@ -531,6 +560,9 @@ class SimulationPart(Part):
     def pick(self, origin, direction, tol, view):
         if not len(self.points):
             return None
+        corner = self._pick_corner(origin, direction, tol, view)
+        if corner is not None:
+            return corner
         mask = np.ones(len(self.points), bool)
         if "layer" in self.trace:
             lay = np.asarray(self.trace["layer"], np.int64)
@@ -542,6 +574,19 @@ class SimulationPart(Part):
         j = int(idx[i])
         d = np.asarray(direction, float) / np.linalg.norm(direction)
         return Pick(float((self.points[j] - np.asarray(origin, float)) @ d), self.points[j], self.sample_info(j))
+
+    def _pick_corner(self, origin, direction, tol, view) -> Pick | None:
+        vis = np.flatnonzero((self.corner_layer >= view.layer_lo) & (self.corner_layer <= view.layer_hi))
+        i = G.ray_pick(self.corner_points[vis], origin, direction, tol) if len(vis) else None
+        if i is None:
+            return None
+        j = int(vis[i])
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        info: dict[str, Any] = {"corner": True, "layer": int(self.corner_layer[j])}
+        for key in ("interior_deg", "error_mm", "min_speed_mm_s"):
+            if key in self.corner_table:
+                info[f"corner_{key}"] = round(float(self.corner_table[key][j]), 4)
+        return Pick(float((self.corner_points[j] - np.asarray(origin, float)) @ d), self.corner_points[j], info)
 
     def nearest_sample(self, point: np.ndarray, layer: int | None) -> dict[str, Any] | None:
         """Readout of the simulated sample nearest to a world point (same layer when known)."""
