@@ -55,3 +55,23 @@ def test_gcode_dwells_after_ignition(panel):
     ons = [i for i, line in enumerate(gcode) if line.split(";")[0].strip() == "M3"]
     assert len(ons) == 1 + 20 * 15                          # helix once, then every wall every layer
     assert all(gcode[i + 1].startswith("G4 P0.5") for i in ons)
+
+
+def test_dxf_panel_gives_the_same_features(tmp_path):
+    ezdxf = pytest.importorskip("ezdxf")
+    doc = ezdxf.new()
+    msp = doc.modelspace()
+    for a, b in [((0, 0), (200, 0)), ((200, 0), (200, 120)), ((200, 120), (0, 120)), ((0, 120), (0, 0)),  # skin
+                 ((0, 60), (100, 60)), ((100, 60), (200, 60)), ((50, 0), (50, 120)),
+                 ((100, 0), (100, 60)), ((100, 60), (100, 120)), ((150, 0), (150, 120)), ((175, 60), (175, 100))]:
+        msp.add_line(a, b)
+    msp.add_circle((125, 90), 8)
+    doc.saveas(tmp_path / "panel.dxf")
+    recipe = json.loads((GRAPHS / "thin-wall-panel.json").read_text())
+    recipe["nodes"][0]["params"]["path"] = "panel.dxf"
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] in ("sketch", "layers", "features")]
+    recipe["edges"] = [e for e in recipe["edges"] if e["to"] in ("layers.mesh", "features.layers")]
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    counts = Counter(f["kind"] for f in json.loads(res.artifacts["features.features.json"])["features"])
+    assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
+                      "free_end": 1, "tubular": 1}

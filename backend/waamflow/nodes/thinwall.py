@@ -119,7 +119,7 @@ class WallPathNode(Node):
         if params.cut_radius >= params.influence_radius:
             ctx.warn("cut_radius ≥ influence_radius: fillet leads point back into the crossing")
         out: list[LayerPaths | None] = []
-        helices: dict[str, dict] = {}  # ring digest → {key, ring, first layer slot, zs}
+        helices: dict[str, dict] = {}  # ring digest → {key, ring, slot of its first layer, zs}
         pos = None
         for slot, layer in enumerate(layers):
             ctx.check_cancelled()
@@ -127,26 +127,13 @@ class WallPathNode(Node):
                 out.append(None)
                 continue
             if layer.curves:
-                lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec,
-                                      layer_index=layer.index, start=pos)
-                for note in lw.warnings:
-                    ctx.warn(note, layer=layer.index)
-                passes = list(lw.passes)
-                for key, ring in lw.helical:
-                    if layer.frame is not None:
-                        passes.append(WallPass(key, "aligned", aligned_loop(ring, spec.overlap),
-                                               np.ones(len(aligned_loop(ring, spec.overlap)) - 1, bool)))
-                        continue
-                    h = helices.setdefault(curves_digest([ring]), {"key": key, "ring": ring, "slot": slot, "zs": []})
-                    h["zs"].append(layer.z)
-                passes = order_passes(passes, pos) if len(passes) != len(lw.passes) else passes
+                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos)
-            sections = tuple(_section(layer, p, params.speed) for p in passes)
             if passes:
                 pos = passes[-1].xy[-1]
-            out.append(LayerPaths(layer, sections))
-        for h in helices.values():
+            out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
+        for h in helices.values():  # each isolated tube: one helix over its layers, in its first layer
             lp = out[h["slot"]]
             pts = helix(h["ring"], h["zs"])
             n = len(pts) - 1
@@ -155,6 +142,23 @@ class WallPathNode(Node):
         if not any(lp is not None and lp.sections for lp in out):
             raise PlanningError("no wall to deposit: layers carry neither curves nor ring regions")
         return {"toolpath": Layered(tuple(out))}
+
+    @staticmethod
+    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int) -> list[WallPass]:
+        lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start)
+        for note in lw.warnings:
+            ctx.warn(note, layer=layer.index)
+        if not lw.helical:
+            return list(lw.passes)
+        passes = list(lw.passes)
+        for key, ring in lw.helical:
+            if layer.frame is not None:  # a helix needs parallel planar layers: lap by lap instead
+                xy = aligned_loop(ring, spec.overlap)
+                passes.append(WallPass(key, "aligned", xy, np.ones(len(xy) - 1, bool)))
+                continue
+            h = helices.setdefault(curves_digest([ring]), {"key": key, "ring": ring, "slot": slot, "zs": []})
+            h["zs"].append(layer.z)
+        return order_passes(passes, start)
 
     @staticmethod
     def _rings(ctx, layer: Layer, params, spec: WallSpec, start) -> list[WallPass]:
