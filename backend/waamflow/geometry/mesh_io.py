@@ -108,18 +108,25 @@ def mesh_from_triangles(
     transform: Transform = Transform(),
     require_closed: bool = True,
     source: str | None = None,
+    weld_tolerance: float = 0.0,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
     Welding happens on the raw file coordinates (bit-exact), before any scaling, so corners
-    that are equal in the file stay equal. Faces that collapse to a line are dropped; a mesh
-    wound inside out (negative volume) is flipped so face normals point outwards.
-    source: how error messages name the input (default: name).
+    that are equal in the file stay equal. weld_tolerance (mm) > 0 first snaps corners to a grid
+    of that pitch, closing cracks left by exporters that write each triangle's corners with
+    slightly different rounding (corners closer than the pitch usually — not always, they may
+    straddle a grid line — become one vertex; geometry moves by ≤ pitch·√3/2). Faces that
+    collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
+    normals point outwards. source: how error messages name the input (default: name).
     """
     label = source or name
     tri = np.asarray(triangles)
     if tri.size == 0:
         raise InputFileError(f"{label}: mesh is empty (no triangles)")
+    if weld_tolerance > 0:
+        pitch = weld_tolerance / unit_scale(units)
+        tri = np.round(np.asarray(tri, dtype=np.float64) / pitch) * pitch
     verts, inverse = merge_vertices(tri.reshape(-1, 3))
     if not np.isfinite(verts).all():
         raise InputFileError(f"{label}: mesh has non-finite (NaN/inf) vertex coordinates")
@@ -141,9 +148,13 @@ def load_mesh_bytes(
     units: str = "mm",
     transform: Transform = Transform(),
     limits: MeshLimits = MeshLimits(),
+    weld_tolerance: float = 0.0,
 ) -> MeshData:
-    """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input."""
+    """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
+
+    weld_tolerance: mm, 0 = weld bit-identical corners only (see `mesh_from_triangles`)."""
     if len(data) > limits.max_bytes:
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
-    return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform, source=filename)
+    return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
+                               source=filename, weld_tolerance=weld_tolerance)

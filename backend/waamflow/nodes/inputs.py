@@ -30,7 +30,8 @@ class MeshNode(Node):
     """A solid part from a triangle mesh file: STL (binary or ASCII), OBJ, PLY or 3MF.
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
-    Corners that are bit-identical in the file are welded. The mesh must be closed (watertight,
+    Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
+    snapped to the same grid point). The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
     non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
     triangles are refused.
@@ -47,6 +48,9 @@ class MeshNode(Node):
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
+        weld_tolerance: float = Field(0.0, ge=0, le=1.0,
+                                      description="Snap corners to a grid of this pitch before welding (0: exact)",
+                                      json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
@@ -57,6 +61,7 @@ class MeshNode(Node):
             units=params.units,
             transform=Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale),
             limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
+            weld_tolerance=params.weld_tolerance,
         )
         return {"mesh": mesh}
 
