@@ -93,7 +93,7 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
-    version = "3"  # 2: oscillate run-ups along the guide; 3: pass patterns follow curved guides
+    version = "4"  # 2: oscillate run-ups along the guide; 3: passes follow curved guides; 4: narrow sections
     title = "Strategy"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)

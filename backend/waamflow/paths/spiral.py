@@ -78,8 +78,7 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     ring0 = _largest(region.buffer(-m, join_style="mitre"))
     if ring0 is None or _thin(ring0, d):
         return _single_pass(region, m, g0, spec)
-    corners = np.asarray(ring0.exterior.coords, dtype=float)[:-1]
-    start = corners[np.argmin(np.hypot(*(corners - g0).T))]
+    start = _start_vertex(ring0, g0)
     here, k = start, 0
     pieces = []
     while True:
@@ -99,6 +98,17 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     entry = to_boundary(region, pts[0], unit(pts[0] - pts[1]))  # lead-in along the first stretch
     pts = extend_ends(np.vstack([entry[None], pts]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
+
+
+def _start_vertex(ring: Polygon, near: np.ndarray) -> np.ndarray:
+    """The convex vertex of the ring nearest `near` (a concave corner would make the lead-in cross
+    the spiral)."""
+    c = np.asarray(shapely.orient_polygons(ring).exterior.coords, dtype=float)[:-1]
+    prev, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
+    e0, e1 = c - prev, nxt - c
+    convex = e0[:, 0] * e1[:, 1] - e0[:, 1] * e1[:, 0] > 0
+    cand = c[convex] if convex.any() else c
+    return cand[np.argmin(np.hypot(*(cand - near).T))]
 
 
 def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) -> Draft:
