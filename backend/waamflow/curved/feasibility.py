@@ -134,8 +134,11 @@ def search_radius(mesh: MeshData, point, direction, h_min: float, h_max: float, 
 def search_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, *, max_overhang_mm: float,
                     step: float, max_offset: float, max_sections: int = 4) -> SearchResult:
     """Sections = 1, 2, …: split the part into equal angular sections about the axis, search a
-    radius per section, stop at the first section count where every section is feasible. A
-    section keeps the faces whose centroid lies in its angular range."""
+    radius per section (each section's axis moves outward along its own centroid direction, so
+    every section gets its own axis), stop at the first section count where every section is
+    feasible. Approximate: a section keeps the faces whose centroid lies in its angular range, so
+    its sub-mesh is open where it was cut, and its first layers about a moved axis may be open
+    cross-sections (reported as overhang). Report only: slicing uses one section."""
     axis0 = make_axis(point, direction, mesh.vertices)
     whole = search_radius(mesh, point, direction, h_min, h_max, max_overhang_mm=max_overhang_mm, step=step,
                           max_offset=max_offset)
