@@ -41,11 +41,15 @@ class RobotParams(NodeParams):
                                     description="Standstill after each arc ignition when the zone has no `dwell` parameter")
     wire_feed_mm3_s: float = Field(94.25, gt=0, le=10000, json_schema_extra=unit("mm³/s"),
                                    description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)")
+    wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
+                                           description="Wire diameter: when set, zones with a wire_feed_speed parameter "
+                                                       "feed WFS·π·d²/4 instead of wire_feed_mm3_s")
 
     def sim_options(self) -> SimOptions:
         return SimOptions(cdis=self.cdis, blend=self.blend, wire_feed_mm3_s=self.wire_feed_mm3_s,
                           speed_override=self.speed_override, interpolation_cycle_s=self.interpolation_cycle_s,
-                          travel_speed=self.travel_speed, ignition_dwell_s=self.ignition_dwell_s)
+                          travel_speed=self.travel_speed, ignition_dwell_s=self.ignition_dwell_s,
+                          wire_diameter_mm=self.wire_diameter_mm)
 
 
 def _profile(ctx, params: RobotParams) -> RobotProfile:
@@ -78,7 +82,7 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "1"
+    version = "2"
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
@@ -134,7 +138,7 @@ class EstimateTime(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Toolpath"),)
     outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
-    version = "1"
+    version = "2"
 
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
@@ -174,7 +178,7 @@ class CalibrateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
     outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
-    version = "1"
+    version = "2"
 
     class Params(RobotParams):
         trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")

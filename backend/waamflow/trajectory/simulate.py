@@ -17,8 +17,9 @@ Pipeline (each step a pure function on numpy data):
    exactly at its programmed points, but corners are cut harder the faster they are taken.
 5. Arc timing: the switch command is issued when the motion has stopped; the arc really turns ON
    / OFF `arc_on_delay_s` / `arc_off_delay_s` later; the next motion starts after
-   `arc_switch_dwell_s` (+ ignition dwell). Wire feed is constant, so deposited volume accrues
-   with time while the arc is ON (robot-study.md, "Set-up measured").
+   `arc_switch_dwell_s` (+ ignition dwell). Wire feed is constant (or per zone, from its wire
+   feed speed), so deposited volume accrues with time while the arc is ON (robot-study.md,
+   "Set-up measured") and every slow-down puts more metal per mm.
 
 Samples are computed on a fine grid (interpolation cycle / 3) for lengths and volumes and
 reported at the interpolation cycle. Units: mm, s, mm/s, mm³.
@@ -48,6 +49,8 @@ class SimOptions:
     travel_speed: speed of arc-OFF moves that carry no speed (None = the profile's).
     segment_cap: (n_moves_points - 1,) extra speed cap per move segment (from kinematics), or None.
     ignition_dwell_s: standstill after each arc ignition when the zone has no `dwell` parameter.
+    wire_diameter_mm: when set, zones with a `wire_feed_speed` parameter (m/min) feed
+        WFS·π·d²/4 instead of the constant wire_feed_mm3_s (volume still accrues with time).
     """
 
     cdis: float = 5.0
@@ -58,6 +61,7 @@ class SimOptions:
     travel_speed: float | None = None
     segment_cap: np.ndarray | None = None
     ignition_dwell_s: float = 0.0
+    wire_diameter_mm: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,9 +118,12 @@ class _Program:
     layer: np.ndarray
     section: np.ndarray
     stop: np.ndarray        # (n,) exact stop at vertex
-    standstill: np.ndarray  # (n,) dwell at vertex before moving on (s), arc-switch dwell excluded
+    standstill: np.ndarray  # (n,) dwell at vertex before moving on (s): waits + ignition, arc-switch dwell excluded
     switch: np.ndarray      # (n,) arc switches at vertex (incl. ON at the start, OFF at the end)
     src: np.ndarray         # (n-1,) index of each segment in the original Moves
+    wire_rate: np.ndarray   # (n-1,) wire volume feed while the arc is ON, mm³/s
+    pause: np.ndarray       # (n,) arc OFF and ON again at the vertex (zero-length arc-OFF move)
+    ignite: np.ndarray      # (n,) part of the standstill after the arc ON command (ignition dwell), s
 
 
 def _ignition_dwell(moves: Moves, default_s: float) -> np.ndarray:
@@ -144,13 +151,15 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
     P = np.asarray(moves.points, dtype=float)
     L = np.linalg.norm(np.diff(P, axis=0), axis=1)
     keep = L > 1e-6
-    dwell = np.asarray(moves.dwell_before, dtype=float) + _ignition_dwell(moves, opt.ignition_dwell_s)
     # fold dwells of dropped (zero-length) segments onto the kept start point
     kept_pts = np.concatenate([[0], np.flatnonzero(keep) + 1])
     owner = np.maximum.accumulate(np.where(np.concatenate([[True], keep]), np.arange(len(P)), 0))
-    standstill = np.zeros(len(P))
-    np.add.at(standstill, owner, dwell)
-    standstill = standstill[kept_pts]
+    wait = np.zeros(len(P))
+    np.add.at(wait, owner, np.asarray(moves.dwell_before, dtype=float))
+    ignite = np.zeros(len(P))
+    np.add.at(ignite, owner, _ignition_dwell(moves, opt.ignition_dwell_s))
+    wait, ignite = wait[kept_pts], ignite[kept_pts]
+    standstill = wait + ignite
     src = np.flatnonzero(keep)
     pts = P[kept_pts]
     travel = opt.travel_speed if opt.travel_speed is not None else profile.travel_speed
@@ -168,11 +177,38 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
         switch[1:-1] = arc[1:] != arc[:-1]
         switch[0] = arc[0]
         switch[-1] = arc[-1]
+    # an arc-OFF move of zero length between two arc-ON moves (e.g. a layer change in place):
+    # the arc goes OFF and ON again at that point (two switches, arc off during the standstill)
+    dropped_off = np.flatnonzero(~keep & ~np.asarray(moves.arc, bool))
+    pause_raw = np.zeros(len(P), dtype=bool)
+    pause_raw[owner[dropped_off]] = True
+    pause = pause_raw[kept_pts]
+    if n >= 2:
+        pause[1:-1] &= arc[:-1] & arc[1:]
+        pause[0] = pause[-1] = False
+    switch |= pause
     stop = switch | (standstill > 0)
     if n:
         stop[0] = stop[-1] = True
+    rate = _wire_rate(moves, opt)[src]
     return _Program(pts, speed, arc, np.asarray(moves.inside, bool)[src], np.asarray(moves.kind)[src],
-                    np.asarray(moves.layer)[src], np.asarray(moves.section)[src], stop, standstill, switch, src)
+                    np.asarray(moves.layer)[src], np.asarray(moves.section)[src], stop, standstill, switch, src,
+                    rate, pause, ignite)
+
+
+def _wire_rate(moves: Moves, opt: SimOptions) -> np.ndarray:
+    """(n-1,) mm³/s per move segment: the zone's `wire_feed_speed` (m/min) × π·d²/4 where the zone
+    sets one and `wire_diameter_mm` is given, else the constant `wire_feed_mm3_s`."""
+    rate = np.full(len(moves.points) - 1, float(opt.wire_feed_mm3_s))
+    if not opt.wire_diameter_mm or not moves.zone_params:
+        return rate
+    area = np.pi * opt.wire_diameter_mm ** 2 / 4.0
+    for (sec, zone), params in moves.zone_params.items():
+        wfs = params.get("wire_feed_speed")
+        if wfs:
+            m = (moves.section == sec) & (moves.zone == zone)
+            rate[m] = float(wfs) * 1000.0 / 60.0 * area   # m/min → mm/s, × wire area
+    return rate
 
 
 def _moving_average(x: np.ndarray, w: float) -> np.ndarray:
@@ -204,7 +240,8 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     path = blend_path(prog.points, prog.speed, prog.stop, mode=opt.blend, distance=opt.cdis,
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
                       normal_jerk=profile.normal_jerk)
-    spans = plan_spans(path, prog.speed, prog.stop, a, j)
+    stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
+    spans = plan_spans(path, prog.speed, stop, a, j)
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
     prof = profile_spans(spans, a, j)
@@ -220,7 +257,8 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     start_vertex = np.concatenate([[0], spans.vertex_after[block_end[:-1]]])
     nf = max(1.0, profile.smoothing_s / h)  # filter window in fine samples (fractional)
     tf = (nf - 1.0) * h  # extra time the filter adds to a block
-    gap_before = prog.standstill[start_vertex] + prog.switch[start_vertex] * profile.arc_switch_dwell_s
+    gap_before = (prog.standstill[start_vertex]
+                  + (prog.switch[start_vertex] + prog.pause[start_vertex]) * profile.arc_switch_dwell_s)
     block_len = raw_dur + tf
     T0 = np.zeros(nb)
     t_cursor = 0.0
@@ -236,8 +274,10 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     # ---- fine sampling, block by block -------------------------------------------------------
     fine_t, fine_xyz, fine_s, fine_blk = [], [], [], []
     for b in range(nb):
-        k = int(np.ceil(block_len[b] / h - 1e-9)) + 1
-        tau = np.minimum(np.arange(k) * h, raw_dur[b])
+        # uniform samples inside the block, plus one exactly at its end (the filter has settled
+        # there: the window lies wholly after the raw motion's end, so the point is exact)
+        k = int(np.ceil(block_len[b] / h - 1e-9))
+        tau = np.minimum(np.arange(k + 1) * h, raw_dur[b])
         sp0, sp1 = block_start[b], block_end[b]
         starts = span_t_in_block[sp0:sp1 + 1]
         si = np.clip(np.searchsorted(starts, tau, side="right") - 1, 0, sp1 - sp0) + sp0
@@ -245,10 +285,13 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         s_raw = spans.s0[si] + np.minimum(ds, spans.s1[si] - spans.s0[si])
         xyzs = np.column_stack([path.at(s_raw), s_raw])
         filt = _moving_average(xyzs, nf)
-        fine_t.append(T0[b] + np.arange(k) * h)
+        filt[-1] = xyzs[-1]
+        tl = np.arange(k + 1) * h
+        tl[-1] = block_len[b]
+        fine_t.append(T0[b] + tl)
         fine_xyz.append(filt[:, :3])
         fine_s.append(filt[:, 3])
-        fine_blk.append(np.full(k, b))
+        fine_blk.append(np.full(k + 1, b))
         if progress and b % 200 == 0:
             progress(0.5 + 0.3 * b / nb, "sampling")
     t = np.concatenate(fine_t)
@@ -267,20 +310,28 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     step = np.where(same, step, 0.0)
     dtf = np.diff(t)
     arc_iv = _arc_intervals(prog, start_vertex, T0, block_len, gap_before, profile, nb)
-    on_t = np.array([iv[0] for iv in arc_iv])
-    off_t = np.array([iv[1] for iv in arc_iv])
-    k_iv = np.searchsorted(on_t, t, side="right") - 1   # intervals are disjoint and in time order
-    arc_on = (k_iv >= 0) & (t < off_t[np.maximum(k_iv, 0)]) if len(arc_iv) else np.zeros(len(t), dtype=bool)
-    # time weights: each fine interval belongs to its left sample (gaps included)
-    w = np.concatenate([dtf, [0.0]])
+    # time weights: each sample owns the interval to the next one; the standstill before a block
+    # (arc switch, ignition, interlayer dwell) belongs to the block's first sample
+    arc_time = _arc_clock(arc_iv)
+    t_next = np.concatenate([t[1:], [t_end_motion]])
+    last = np.concatenate([blk[1:] != blk[:-1], [True]])
+    first = np.concatenate([[True], blk[1:] != blk[:-1]])
+    t_from = t.copy()
+    t_from[first] = np.concatenate([[0.0], t[:-1][last[:-1]]])   # previous block's end (0 for the first)
+    t_to = np.where(last, t, t_next)
+    w = t_to - t_from
+    arc_w = arc_time(t_to) - arc_time(t_from)
+    arc_w[-1] += arc_time(np.inf) - arc_time(t_end_motion)      # arc-OFF lag after the last motion
+    arc_on = arc_w > 0.5 * np.maximum(w, 1e-12)
     moving = np.concatenate([step > 1e-9, [False]])
     inside = prog.inside[seg] & (prog.kind[seg] == DEPOSIT)
 
     total_time = float(t_end_motion)
     prog_len = float(np.linalg.norm(np.diff(prog.points, axis=0), axis=1).sum())
     act_len = float(step.sum())
-    arc_time_full = float(sum(off - on for on, off in arc_iv))
-    wire = float(opt.wire_feed_mm3_s)
+    arc_time_full = float(arc_w.sum())
+    rate = prog.wire_rate  # (n-1,) mm³/s while the arc burns on each segment
+    vol_samples = rate[seg] * arc_w
     seg_len = np.linalg.norm(np.diff(prog.points, axis=0), axis=1)
     dev_w = w * moving
     metrics = {
@@ -290,16 +341,16 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "length_ratio": act_len / prog_len if prog_len > 0 else 0.0,
         "arc_on_time_s": arc_time_full,
         "arc_on_length_mm": float((step * arc_on[:-1]).sum()),
-        "deposited_volume_mm3": wire * arc_time_full,
-        "programmed_volume_mm3": float(wire * (seg_len[prog.arc] / prog.speed[prog.arc]).sum()),
+        "deposited_volume_mm3": float(vol_samples.sum()),
+        "programmed_volume_mm3": float((rate * seg_len / prog.speed)[prog.arc].sum()),
         "max_deviation_mm": float(deviation.max()),
         "mean_deviation_mm": float((deviation * dev_w).sum() / dev_w.sum()) if dev_w.sum() > 0 else 0.0,
         "time_inside_s": float((w * inside).sum()),
         "time_outside_s": float((w * ~inside).sum()),
-        "arc_off_time_inside_s": float((w * (inside & ~arc_on)).sum()),
-        "arc_on_time_outside_s": float((w * (~inside & arc_on)).sum()),
+        "arc_off_time_inside_s": float(((w - arc_w) * inside).sum()),
+        "arc_on_time_outside_s": float((arc_w * ~inside).sum()),
         "average_speed_mm_s": act_len / total_time if total_time > 0 else 0.0,
-        "stops": float(prog.stop.sum()),
+        "stops": float(stop.sum()),
         "blended_corners": float((path.d > 0).sum()),
         "min_corner_speed_mm_s": float(path.cap[path.d > 0].min()) if (path.d > 0).any() else 0.0,
     }
@@ -310,11 +361,11 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
 
     # ---- per-segment deposit -----------------------------------------------------------------
     vol = np.zeros(n - 1)
-    np.add.at(vol, seg, wire * w * arc_on)
+    np.add.at(vol, seg, vol_samples)
     deposit = {
         "length_mm": seg_len,
         "s_mm": np.concatenate([[0.0], np.cumsum(seg_len)[:-1]]),
-        "programmed_mm3_per_mm": np.where(prog.arc, wire / prog.speed, 0.0),
+        "programmed_mm3_per_mm": np.where(prog.arc, rate / prog.speed, 0.0),
         "actual_mm3_per_mm": vol / seg_len,
         "layer": prog.layer,
         "section": prog.section,
@@ -331,7 +382,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "y": np.interp(t_out, t, xyz[:, 1]),
         "z": np.interp(t_out, t, xyz[:, 2]),
         "speed": spd[idx],
-        "arc": arc_on[idx],
+        "arc": (arc_time(t_out + 1e-9) - arc_time(t_out)) > 0,
         "deviation": deviation[idx],
         "s": np.interp(t_out, t, s_act),
         "layer": prog.layer[seg[idx]],
@@ -365,19 +416,42 @@ def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.nd
     return {"vertex": idx, "interior_deg": interior, "error_mm": near_v[idx], "min_speed_mm_s": vmin[idx]}
 
 
+def _arc_clock(iv: list[tuple[float, float]]) -> Callable[[np.ndarray], np.ndarray]:
+    """A(t): total arc-ON time up to t (s), for disjoint, time-ordered intervals."""
+    on = np.array([a for a, _ in iv], dtype=float)
+    length = np.array([b - a for a, b in iv], dtype=float)
+    before = np.concatenate([[0.0], np.cumsum(length)])
+
+    def clock(t):
+        t = np.asarray(t, dtype=float)
+        if not len(on):
+            return np.zeros_like(t)
+        k = np.searchsorted(on, t, side="right") - 1
+        kk = np.maximum(k, 0)
+        return np.where(k >= 0, before[kk] + np.clip(t - on[kk], 0.0, length[kk]), 0.0)
+
+    return clock
+
+
 def _arc_intervals(prog: _Program, start_vertex, T0, block_len, gap_before, profile, nb) -> list[tuple[float, float]]:
-    """[(t_on, t_off)] when the arc is really burning. Commands are issued at each stop."""
+    """[(t_on, t_off)] when the arc is really burning. At a stop the standstill runs: arc OFF
+    command (as soon as the motion has stopped) → waits (interlayer dwell) → arc ON command →
+    switch dwell → ignition dwell → motion."""
     iv = []
     on_at = None
     for b in range(nb):
         v = start_vertex[b]
-        cmd = T0[b] - gap_before[b]  # motion stopped, command issued
-        if prog.switch[v]:
+        off_cmd = T0[b] - gap_before[b]          # motion stopped
+        on_cmd = T0[b] - prog.ignite[v] - profile.arc_switch_dwell_s
+        if prog.pause[v] and on_at is not None:
+            iv.append((on_at, off_cmd + profile.arc_off_delay_s))
+            on_at = on_cmd + profile.arc_on_delay_s
+        elif prog.switch[v]:
             seg_arc = prog.arc[min(v, len(prog.arc) - 1)]
             if seg_arc and on_at is None:
-                on_at = cmd + profile.arc_on_delay_s
+                on_at = on_cmd + profile.arc_on_delay_s
             elif not seg_arc and on_at is not None:
-                iv.append((on_at, cmd + profile.arc_off_delay_s))
+                iv.append((on_at, off_cmd + profile.arc_off_delay_s))
                 on_at = None
     if on_at is not None:
         end = T0[-1] + block_len[-1]
