@@ -131,3 +131,18 @@ def test_isolated_tube_goes_helical_non_isolated_scattered():
     lw = plan([wall, circle(40, 20, 8)])
     assert lw.helical == () and [p.strategy for p in lw.passes if p.key == "tube0"] == ["scattered"]
     assert any("not isolated" in w for w in lw.warnings)
+
+
+def test_crossing_radii_bounds():
+    from waamflow.features import crossing_bounds
+    rc_max, ri_min = crossing_bounds(4.0, 90.0, 2.0)
+    assert rc_max == pytest.approx(4.0 / math.sqrt(2))       # 2.83 mm: the study's 2.0 and 2.5 fit
+    assert ri_min == pytest.approx(math.hypot(2.0, 2.0))     # 2.83 mm: 7, 8 and 10 clear it
+    assert crossing_bounds(4.0, 60.0, 2.0)[0] == pytest.approx(4.0)   # narrower corner: larger bound
+    curves = [c((-30, 0), (30, 0)), c((0, -30), (0, 30))]
+    ok = plan(curves, bead_width=4.0)
+    assert ok.warnings == ()
+    bad = plan(curves, bead_width=4.0, cut_radius=3.5)
+    assert len(bad.warnings) == 1 and "void" in bad.warnings[0]
+    bad = plan(curves, bead_width=4.0, cut_radius=2.0, influence_radius=2.5)
+    assert len(bad.warnings) == 1 and "inside the wall" in bad.warnings[0]

@@ -7,10 +7,10 @@ tubular: helical / aligned / scattered laps of tubulars.
 
 from .recognition import FEATURE_KINDS, FeatureSet, RecognitionSpec, features_for_layer, recognise, recognise_layers
 from .tubular import aligned_loop, helix, scattered_loop
-from .walls import LayerWalls, WallPass, WallSpec, crossing_geometry, plan_layer_walls
+from .walls import LayerWalls, WallPass, WallSpec, crossing_bounds, crossing_geometry, plan_layer_walls
 
 __all__ = [
     "FEATURE_KINDS", "FeatureSet", "RecognitionSpec", "features_for_layer", "recognise", "recognise_layers",
     "aligned_loop", "helix", "scattered_loop",
-    "LayerWalls", "WallPass", "WallSpec", "crossing_geometry", "plan_layer_walls",
+    "LayerWalls", "WallPass", "WallSpec", "crossing_bounds", "crossing_geometry", "plan_layer_walls",
 ]

@@ -38,7 +38,8 @@ class WallSpec:
     free_end_extension: path extension beyond a free wall end (mm). tubular: strategy for isolated
     tubulars (non-isolated ones are always built layer by layer, scattered). overlap: O_l, the
     self-overlap at the stop of a start–stop tubular lap (mm, ≈ crater length).
-    corner_angle_deg: corners turning less than this are flat (no fillet)."""
+    corner_angle_deg: corners turning less than this are flat (no fillet). bead_width: mm, for the
+    theoretical bounds on the crossing radii (`crossing_bounds`); 0 = no check."""
 
     cut_radius: float = 2.0
     influence_radius: float = 10.0
@@ -47,6 +48,7 @@ class WallSpec:
     overlap: float = 5.0
     corner_angle_deg: float = 30.0
     tol: float = 1e-6
+    bead_width: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,6 +218,23 @@ def crossing_geometry(center, directions, cut_radius: float, influence_radius: f
     return CrossingGeometry(cuts, infl, alpha, lengths)
 
 
+def crossing_bounds(bead_width: float, corner_angle_deg: float, cut_radius: float) -> tuple[float, float]:
+    """The study's theoretical bounds on the crossing radii for bead width w (mm) and the
+    narrowest fillet corner α (deg), as we read them:
+
+    - cutting circle ≤ the circle through the centres of bead-width circles (diameter w) centred
+      on neighbouring branches and tangent to each other: r_c ≤ (w/2) / sin(α/2)
+      (w/√2 at a right-angled crossing); larger leaves a void at the centre;
+    - influence circle ≥ the reach of the bead-width segments perpendicular to the branches at the
+      cut points, c_k ± (w/2)·n_k: r_i ≥ √(r_c² + (w/2)²); the arc then starts in stock that is
+      machined off.
+
+    Returns (largest cut radius, smallest influence radius), mm.
+    """
+    half = bead_width / 2.0
+    return half / math.sin(math.radians(corner_angle_deg) / 2.0), math.hypot(cut_radius, half)
+
+
 def _apply_crossing(chains: list[_Chain], f: dict, spec: WallSpec, notes: list[str]) -> None:
     J = np.array(f["point"], float)
     ends = []  # (chain, at_start, outward direction)
@@ -232,6 +251,16 @@ def _apply_crossing(chains: list[_Chain], f: dict, spec: WallSpec, notes: list[s
         return
     ends.sort(key=lambda e: math.atan2(e[2][1], e[2][0]))
     geo = crossing_geometry(J, [e[2] for e in ends], spec.cut_radius, spec.influence_radius, spec.corner_angle_deg)
+    fillets = geo.corner_angles_deg[~np.isnan(geo.fillet_lengths)]
+    if spec.bead_width > 0 and len(fillets):
+        rc_max, ri_min = crossing_bounds(spec.bead_width, float(fillets.min()), spec.cut_radius)
+        where = f"{f['kind']} at {np.round(J, 3).tolist()}"
+        if spec.cut_radius > rc_max + 1e-9:
+            notes.append(f"{where}: cut_radius {spec.cut_radius:g} mm > {rc_max:.2f} mm (bead-width circles "
+                         "no longer meet: void at the centre)")
+        if spec.influence_radius < ri_min - 1e-9:
+            notes.append(f"{where}: influence_radius {spec.influence_radius:g} mm < {ri_min:.2f} mm (arc starts "
+                         "inside the wall)")
     trimmed_ok = []
     for k, (ch, at_start, _d) in enumerate(ends):
         seq = ch.xy if at_start else ch.xy[::-1]

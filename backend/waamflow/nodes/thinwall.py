@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from ..core import serialize
 from ..core.errors import PlanningError
@@ -106,8 +106,17 @@ class WallPathNode(Node):
             "helical", description="Strategy for isolated tubulars")
         overlap: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
                                description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)")
+        bead_width: float = Field(4.0, ge=0, le=100, json_schema_extra=unit("mm"),
+                                  description="Bead width: warns when the crossing radii leave the study's "
+                                              "theoretical bounds (0 = no check)")
         spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
                                description="Point spacing of ring centre lines (region layers)")
+
+        @model_validator(mode="after")
+        def _radii(self):
+            if self.influence_radius <= self.cut_radius:
+                raise ValueError("influence_radius must exceed cut_radius")
+            return self
 
     def run(self, ctx, params, inputs):
         layers: Layered[Layer] = inputs["layers"]
@@ -115,11 +124,11 @@ class WallPathNode(Node):
         if fs is None:
             fs = recognise_layers(layers, RecognitionSpec())
         spec = WallSpec(params.cut_radius, params.influence_radius, params.free_end_extension,
-                        params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol)
-        if params.cut_radius >= params.influence_radius:
-            ctx.warn("cut_radius ≥ influence_radius: fillet leads point back into the crossing")
+                        params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol,
+                        params.bead_width)
         out: list[LayerPaths | None] = []
         helices: dict[str, dict] = {}  # ring digest → {key, ring, slot of its first layer, zs}
+        warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
         pos = None
         for slot, layer in enumerate(layers):
             ctx.check_cancelled()
@@ -127,7 +136,7 @@ class WallPathNode(Node):
                 out.append(None)
                 continue
             if layer.curves:
-                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot)
+                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos)
             if passes:
@@ -144,10 +153,12 @@ class WallPathNode(Node):
         return {"toolpath": Layered(tuple(out))}
 
     @staticmethod
-    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int) -> list[WallPass]:
+    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set) -> list[WallPass]:
         lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start)
         for note in lw.warnings:
-            ctx.warn(note, layer=layer.index)
+            if note not in warned:
+                warned.add(note)
+                ctx.warn(note, layer=layer.index)
         if not lw.helical:
             return list(lw.passes)
         passes = list(lw.passes)
