@@ -101,7 +101,7 @@ METRIC_UNITS = {
     "arc_on_time_s": "s", "arc_on_length_mm": "mm", "deposited_volume_mm3": "mm³",
     "programmed_volume_mm3": "mm³", "max_deviation_mm": "mm", "mean_deviation_mm": "mm",
     "time_inside_s": "s", "time_outside_s": "s", "arc_off_time_inside_s": "s",
-    "arc_on_time_outside_s": "s", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
+    "arc_on_time_outside_s": "s", "actual_length_outside_mm": "mm", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
     "min_corner_speed_mm_s": "mm/s",
 }
 
@@ -347,8 +347,9 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "mean_deviation_mm": float((deviation * dev_w).sum() / dev_w.sum()) if dev_w.sum() > 0 else 0.0,
         "time_inside_s": float((w * inside).sum()),
         "time_outside_s": float((w * ~inside).sum()),
-        "arc_off_time_inside_s": float(((w - arc_w) * inside).sum()),
+        "arc_off_time_inside_s": float((np.clip(w - arc_w, 0.0, None) * inside).sum()),
         "arc_on_time_outside_s": float((arc_w * ~inside).sum()),
+        "actual_length_outside_mm": float((step * ~inside[:-1]).sum()),
         "average_speed_mm_s": act_len / total_time if total_time > 0 else 0.0,
         "stops": float(stop.sum()),
         "blended_corners": float((path.d > 0).sum()),
