@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from shapely.geometry import LineString
+import shapely
 
 D = 4.43  # W_WB, mm
 
@@ -64,12 +64,11 @@ def assert_inside_flags_hold(path, region, tol=1e-6):
     does not lie in the region's interior."""
     grown = region.buffer(tol)
     shrunk = region.buffer(-tol)
-    for a, b, inside in zip(path.points[:-1], path.points[1:], path.inside):
-        seg = LineString([a, b])
-        if inside:
-            assert seg.within(grown), (a, b)
-        else:
-            assert not seg.within(shrunk), (a, b)
+    segs = shapely.linestrings(np.stack([path.points[:-1], path.points[1:]], axis=1))
+    bad_in = path.inside & ~shapely.within(segs, grown)
+    bad_out = ~path.inside & shapely.within(segs, shrunk)
+    assert not bad_in.any(), path.points[np.flatnonzero(bad_in)[:3]]
+    assert not bad_out.any(), path.points[np.flatnonzero(bad_out)[:3]]
 
 
 def max_gap(points: np.ndarray) -> float:

@@ -174,3 +174,37 @@ def test_one_pass_wide_section(pattern):
     if pattern != "oscillate":
         assert np.allclose(p.points[:, 1], 1.5)
     assert 35.5 < p.length <= 40 + 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_random_sections_never_fail_and_flags_hold(seed):
+    """Random convex/star-shaped sections, random guide directions (given whole, clipped, or
+    default), random spacing/run-ups/arc policy: every pattern plans and its flags are true."""
+    rng = np.random.default_rng(seed)
+    planned = 0
+    for it in range(12):
+        k = int(rng.integers(3, 10))
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        rad = rng.uniform(5, 40, k) if it % 2 else np.full(k, rng.uniform(5, 40))
+        poly = Polygon(np.column_stack([rad * np.cos(ang), rng.uniform(0.3, 1) * rad * np.sin(ang)])).buffer(0)
+        if poly.geom_type != "Polygon" or poly.area < 1:
+            continue
+        th = rng.uniform(0, np.pi)
+        c = np.asarray(poly.centroid.coords[0])
+        u = np.array([np.cos(th), np.sin(th)])
+        guide = None if it % 3 == 0 else LineString([c - 100 * u, c + 100 * u])
+        if guide is not None and it % 3 == 2:
+            guide = guide.intersection(poly)
+            if guide.geom_type != "LineString":
+                continue
+        for pattern in sorted(PATTERNS):
+            spec = StrategySpec(pattern=pattern, spacing=float(rng.choice([2.0, 4.43, 6.0])),
+                                arc_outside=str(rng.choice(["on", "off"])),
+                                extension_before=float(rng.choice([0, 3])), extension_after=float(rng.choice([0, 2])))
+            p = plan_section(poly, guide, spec)
+            assert_inside_flags_hold(p, poly)
+            if spec.arc_outside == "off":
+                assert np.all(p.arc <= p.inside)
+            assert p.length > 0
+            planned += 1
+    assert planned >= 8 * 8

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from shapely.geometry import LineString, MultiPolygon, box
+from shapely.geometry import LineString, MultiPolygon, Polygon, box
 
 from waamflow.core.errors import PlanningError, RecipeError
 from waamflow.core.model import Layer, LayerSections, Section
@@ -135,8 +135,9 @@ def test_bad_params_are_recipe_errors(params):
 def test_section_too_small_is_a_planning_error_naming_layer_and_section():
     node = Strategy()
     params = Strategy.Params.model_validate({"default": {"pattern": "spiral", "spacing": 4.43}})
-    layer = Layer(index=2, z=3.0, thickness=1.5, region=MultiPolygon([box(0, 0, 0.5, 0.5)]))
-    ls = LayerSections(layer, (Section("bs1/A", box(0, 0, 0.5, 0.5)),))  # a square 0.5 mm: no spiral
+    layer = Layer(index=2, z=3.0, thickness=1.5, region=MultiPolygon([box(0, 0, 40, 1)]))
+    flat = Polygon([(0, 0), (20, 0), (40, 0)])  # zero area: nothing to fill
+    ls = LayerSections(layer, (Section("bs1/A", flat),))
     with pytest.raises(PlanningError) as e:
         node.run_layer(None, params, 2, {"sections": ls})
     assert e.value.layer == 2 and e.value.section == "bs1/A"

@@ -93,7 +93,7 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
-    version = "4"  # 2: oscillate run-ups along the guide; 3: passes follow curved guides; 4: narrow sections
+    version = "5"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start
     title = "Strategy"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)

@@ -50,9 +50,10 @@ def _ring_path(poly: Polygon, at: np.ndarray, leave: float) -> np.ndarray:
     return pts
 
 
-def _core_line(core: Polygon, shorten: float, at: np.ndarray) -> np.ndarray | None:
+def _core_line(core: Polygon, shorten: float, at: np.ndarray, keep_fraction: float = 0.0) -> np.ndarray | None:
     """The long axis of the core's minimum rotated rectangle, clipped to the core (longest piece),
-    shortened by `shorten` mm at each end and oriented to start at the end nearest `at`."""
+    shortened by `shorten` mm at each end (or by keep_fraction of its length, when given) and
+    oriented to start at the end nearest `at`."""
     rect = np.asarray(shapely.minimum_rotated_rectangle(core).exterior.coords)[:4]
     e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
     axis = e1 if np.hypot(*e1) >= np.hypot(*e2) else e2
@@ -64,6 +65,8 @@ def _core_line(core: Polygon, shorten: float, at: np.ndarray) -> np.ndarray | No
     if not pieces:
         return None
     piece = max(pieces, key=lambda g: g.length)
+    if keep_fraction:
+        shorten = keep_fraction * piece.length
     if piece.length - 2 * shorten <= 1e-9:
         return None
     ends = np.asarray(substring(piece, shorten, piece.length - shorten).coords, dtype=float)[[0, -1]]
@@ -112,11 +115,12 @@ def _start_vertex(ring: Polygon, near: np.ndarray) -> np.ndarray:
 
 
 def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) -> Draft:
-    """A section only one pass wide: its centre line (kept m mm from the ends), with a lead-in."""
+    """A section only one pass wide: its centre line (kept m mm from the ends, less on a section
+    shorter than that), with a lead-in."""
     core = _largest(region.buffer(-m / 2.0, join_style="mitre"))
-    line = None if core is None else _core_line(core, m / 2.0, g0)
+    line = None if core is None or core.area == 0 else _core_line(core, m / 2.0, g0)
     if line is None:
-        raise ValueError("section too small for a spiral at this spacing")
+        line = _core_line(region, 0.0, g0, keep_fraction=0.25)
     entry = to_boundary(region, line[0], unit(line[0] - line[1]))
     pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
