@@ -6,14 +6,16 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from ..core.tolerances import TOL
 from .spec import Path2D
 
-#: A point within this distance (mm) of the region counts as inside; same as the tests' check
-#: `region.buffer(1e-6)`.
-INSIDE_TOL = 1e-6
-#: Crossings closer than this (mm) to a segment end are the end itself; dropped points closer than
-#: this to their predecessor are duplicates.
-SPLIT_TOL = 1e-7
+#: A point within this distance (mm) of the region counts as inside: the project's merge tolerance
+#: (core.tolerances), so a path on the boundary is inside.
+INSIDE_TOL = TOL.merge
+#: Crossings closer than this (mm) to a segment end are the end itself, and points closer than this
+#: to their predecessor are duplicates: a tenth of INSIDE_TOL, so no split leaves a piece that
+#: straddles the boundary by more than INSIDE_TOL.
+SPLIT_TOL = 0.1 * TOL.merge
 
 
 def _drop_duplicates(points: np.ndarray, arc_ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

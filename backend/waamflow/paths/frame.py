@@ -15,14 +15,15 @@ import shapely
 from shapely.geometry import LineString, Polygon
 
 from ..core.geom import default_guide
+from ..core.tolerances import TOL
 
 #: Robot study (da Silva Viola et al. 2023, §OR definition): a pass is added while the boundary
 #: margin W_bound exceeds this fraction of the bead spacing W_WB.
 MARGIN_RATIO = 0.4
 
 #: Offsets and pass lines are nudged by this (mm) so a pass lying exactly on an inset edge still
-#: intersects it despite round-off; far below any machine resolution.
-NUDGE = 1e-6
+#: intersects it despite round-off; the project's merge tolerance, far below machine resolution.
+NUDGE = TOL.merge
 
 
 def pass_layout(width: float, spacing: float) -> tuple[int, float]:
