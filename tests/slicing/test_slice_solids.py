@@ -152,3 +152,38 @@ def test_empty_layers_inside_gap_between_stacked_bodies():
     assert len(layers) == 9
     assert [l.index for l in layers if l.region.is_empty] == [3, 4, 5]
     assert empty_layers_inside(layers, mesh) == [3, 4, 5]
+
+
+def test_overlapping_bodies_are_united():
+    """Two boxes concatenated (not unioned) overlap by 5 × 10: the section is their union."""
+    part = union(box((20, 10, 6)), box((20, 10, 6), corner=(15, 0, 0)), box((4, 4, 6), corner=(50, 0, 0)))
+    layers = slice_part(as_mesh(part), layer_height=2.0)
+    assert len(layers) == 3
+    for l in layers:
+        assert l.area == pytest.approx(350.0 + 16.0)
+        assert sorted(p.area for p in l.region.geoms) == pytest.approx([16.0, 350.0])
+        assert all(p.is_valid for p in l.region.geoms)
+
+
+def test_cavity_shell_wound_inside_out_is_a_hole():
+    """A closed cavity: outer box plus an inner box shell with inward normals (two bodies)."""
+    cavity = box((10, 10, 4), corner=(5, 5, 3))
+    cavity.invert()
+    part = union(box((20, 20, 10)), cavity)
+    layers = slice_part(as_mesh(part), layer_height=1.0)
+    assert len(layers) == 10
+    areas = [round(l.area, 9) for l in layers]
+    assert areas == [400.0] * 3 + [300.0] * 4 + [400.0] * 3
+    assert [len(l.region.geoms[0].interiors) for l in layers] == [0] * 3 + [1] * 4 + [0] * 3
+
+
+def test_overlapping_body_with_cavity():
+    """A rod crossing a part with a cavity: the rod fills the cavity where they overlap."""
+    cavity = box((10, 10, 10), corner=(5, 5, 0))
+    cavity.invert()
+    rod = box((30, 2, 10), corner=(-5, 9, 0))
+    part = union(box((20, 20, 10)), cavity, rod)
+    layers = slice_part(as_mesh(part), layer_height=5.0)
+    # box − cavity (300) ∪ rod (30 × 2): the rod adds 2 × 5 on either side and 2 × 10 inside the cavity
+    assert [round(l.area, 9) for l in layers] == [340.0, 340.0]
+    assert all(len(l.region.geoms) == 1 and len(l.region.geoms[0].interiors) == 2 for l in layers)

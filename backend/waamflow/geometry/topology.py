@@ -188,12 +188,23 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> E
     )
 
 
-def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """Signed volume (mm³) of a closed mesh; negative when its faces are wound inside out.
+def face_components(twin: np.ndarray, n_faces: int) -> tuple[int, np.ndarray]:
+    """Bodies of a closed mesh: (count, (m,) body id per face), faces joined across shared edges.
 
-    Σ a · (b × c) / 6 over the faces (divergence theorem), with the origin moved to the first
-    vertex to keep precision on parts far from the origin.
+    twin: from `edge_twins`.
     """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    src = np.repeat(np.arange(n_faces), 3)
+    graph = csr_matrix((np.ones(len(twin), dtype=np.int8), (src, twin // 3)), shape=(n_faces, n_faces))
+    n, label = connected_components(graph, directed=False)
+    return int(n), label
+
+
+def face_volumes(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) signed volume (mm³) of the tetrahedron of each face with the first vertex; their sum
+    over a closed body is its volume (negative if wound inside out)."""
     v = np.asarray(vertices, dtype=np.float64)
     v = v - v[0]
     f = np.asarray(faces)
@@ -201,4 +212,13 @@ def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     cx = b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1]
     cy = b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2]
     cz = b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]
-    return float((a[:, 0] * cx + a[:, 1] * cy + a[:, 2] * cz).sum() / 6.0)
+    return (a[:, 0] * cx + a[:, 1] * cy + a[:, 2] * cz) / 6.0
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Signed volume (mm³) of a closed mesh; negative when its faces are wound inside out.
+
+    Σ a · (b × c) / 6 over the faces (divergence theorem), with the origin moved to the first
+    vertex to keep precision on parts far from the origin.
+    """
+    return float(face_volumes(vertices, faces).sum())

@@ -33,14 +33,14 @@ closed mesh, so it is what `slice` uses; loop nesting into polygons is in `rings
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..core.errors import PlanningError
-from ..geometry.topology import edge_twins
+from ..geometry.topology import edge_twins, face_components, face_volumes
 
 _NEXT_EDGE = np.array([1, 2, 0])
 
@@ -51,18 +51,34 @@ class Loops:
 
     coords: (n, 2) float mm, loop points (each loop listed once, not repeating its first point).
     offsets: (k + 1,) int, loop j is coords[offsets[j]:offsets[j + 1]]. plane: (k,) int, index of
-    the plane each loop lies in; loops are sorted by plane.
+    the plane each loop lies in; loops are sorted by plane. body: (k,) int, the mesh body
+    (connected component) each loop comes from; void: (b,) bool per body, True for bodies wound
+    inside out (negative volume: a cavity shell). Both empty when the mesh is one body.
     """
 
     coords: np.ndarray
     offsets: np.ndarray
     plane: np.ndarray
+    body: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    void: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def __len__(self) -> int:
         return len(self.plane)
 
     def loop(self, j: int) -> np.ndarray:
         return self.coords[self.offsets[j]: self.offsets[j + 1]]
+
+    def subset(self, keep: np.ndarray) -> "Loops":
+        """The loops selected by a (k,) bool mask, same order."""
+        sizes = np.diff(self.offsets)
+        pts = np.repeat(keep, sizes)
+        return Loops(
+            coords=self.coords[pts],
+            offsets=np.concatenate([[0], np.cumsum(sizes[keep])]),
+            plane=self.plane[keep],
+            body=self.body[keep] if len(self.body) else self.body,
+            void=self.void,
+        )
 
 
 def _pairs(fz: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -182,4 +198,11 @@ def section_loops(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, 
     dest = np.take(offsets, np.take(new_index, label)) + pos
     coords = np.empty_like(pts)
     coords[dest] = pts
-    return Loops(coords=coords, offsets=offsets, plane=loop_plane[loop_rank])
+    n_bodies, face_body = face_components(twin, len(f))
+    if n_bodies == 1:
+        return Loops(coords=coords, offsets=offsets, plane=loop_plane[loop_rank])
+    loop_face = np.empty(len(size), dtype=np.int64)
+    loop_face[label] = tri
+    body_volume = np.bincount(face_body, weights=face_volumes(v, f), minlength=n_bodies)
+    return Loops(coords=coords, offsets=offsets, plane=loop_plane[loop_rank],
+                 body=face_body[loop_face[loop_rank]], void=body_volume < 0)

@@ -3,9 +3,11 @@
 A loop's nesting depth is the number of other loops of the same plane that contain it (tested
 with one of its vertices: loops of a valid section never cross). Even depth → outer boundary
 of a polygon; odd depth → hole of the innermost loop around it. This is the even-odd rule, so
-it holds for multi-body parts, islands inside holes, and meshes wound inside out alike; it does
-not trust loop orientation. Polygons are built in one vectorised `shapely.polygons` call and
-oriented CCW outside / CW holes.
+it holds for multi-body parts, islands inside holes, cavity shells and meshes wound inside out
+alike; it does not trust loop orientation. Polygons are built in one vectorised
+`shapely.polygons` call and oriented CCW outside / CW holes. Where loops of *different* bodies
+cross (overlapping bodies that were concatenated, not unioned), that plane is rebuilt as the
+union of the solid bodies, each minus the cavity bodies (inside-out shells) inside it.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPolygon
 
+from ..core.model import as_multipolygon, region_polygons
 from ..core.tolerances import TOL
 from .planar import Loops
 
@@ -34,7 +37,8 @@ def _cyclic_neighbours(sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
 def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Drop repeated points, points on straight runs, and loops under TOL.min_area.
 
-    Returns (coords (n, 2), loop id per point (n,), plane per kept loop, |area| per kept loop).
+    Returns (coords (n, 2), loop id per point (n,), plane per kept loop, |area| per kept loop,
+    (k,) bool mask of the kept loops).
     Works on separate x / y arrays with `np.take`: 1-D gathers are several times faster than
     (n, 2) row indexing at millions of points.
     """
@@ -67,7 +71,28 @@ def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     keep_pt = np.take(good, lid)
     new_id = np.cumsum(good) - 1
     coords = np.column_stack([x[keep_pt], y[keep_pt]])
-    return coords, np.take(new_id, lid[keep_pt]), loops.plane[good], area[good]
+    return coords, np.take(new_id, lid[keep_pt]), loops.plane[good], area[good], good
+
+
+def _plane_pairs(plane: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """All ordered pairs (i, j), i ≠ j, of loops in the same plane, for planes with 2 to
+    _STRTREE_FROM loops; and (start, count) of the crowded planes left to an STRtree."""
+    k = len(plane)
+    starts = np.concatenate([[0], np.flatnonzero(plane[1:] != plane[:-1]) + 1])
+    counts = np.diff(np.append(starts, k))
+    per_loop = np.repeat(counts, counts)                  # loops in the plane of each loop
+    first_of = np.repeat(starts, counts)
+    few = (per_loop > 1) & (per_loop <= _STRTREE_FROM)
+    i = np.repeat(np.flatnonzero(few), per_loop[few])
+    base = np.repeat(np.cumsum(per_loop[few]) - per_loop[few], per_loop[few])
+    j = first_of[i] + (np.arange(len(i)) - base)
+    crowded = [(int(a), int(n)) for a, n in zip(starts, counts) if n > _STRTREE_FROM]
+    return i[i != j], j[i != j], crowded
+
+
+def _bbox_overlap(bbox: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    a, b = bbox[i], bbox[j]
+    return (a[:, 0] <= b[:, 2]) & (b[:, 0] <= a[:, 2]) & (a[:, 1] <= b[:, 3]) & (b[:, 1] <= a[:, 3])
 
 
 def _containment_pairs(polys, probes, bbox, plane) -> tuple[np.ndarray, np.ndarray]:
@@ -77,27 +102,56 @@ def _containment_pairs(polys, probes, bbox, plane) -> tuple[np.ndarray, np.ndarr
     max x, max y; plane: (k,) sorted. Planes with few loops are tested all-pairs in one
     vectorised call (after a bounding-box filter); crowded planes query an STRtree each.
     """
-    k = len(plane)
-    starts = np.concatenate([[0], np.flatnonzero(plane[1:] != plane[:-1]) + 1])
-    counts = np.diff(np.append(starts, k))
-    per_loop = np.repeat(counts, counts)                  # loops in the plane of each loop
-    first_of = np.repeat(starts, counts)
-    few = (per_loop > 1) & (per_loop <= _STRTREE_FROM)
-    probe = np.repeat(np.flatnonzero(few), per_loop[few])
-    base = np.repeat(np.cumsum(per_loop[few]) - per_loop[few], per_loop[few])
-    container = first_of[probe] + (np.arange(len(probe)) - base)
+    probe, container, crowded = _plane_pairs(plane)
     px, py = probes[probe, 0], probes[probe, 1]
     b = bbox[container]
-    keep = (probe != container) & (px >= b[:, 0]) & (px <= b[:, 2]) & (py >= b[:, 1]) & (py <= b[:, 3])
+    keep = (px >= b[:, 0]) & (px <= b[:, 2]) & (py >= b[:, 1]) & (py <= b[:, 3])
     probe, container = probe[keep], container[keep]
     inside = shapely.contains_xy(polys[container], probes[probe, 0], probes[probe, 1])
     pi, gi = [probe[inside]], [container[inside]]
-    for a, n in zip(starts[counts > _STRTREE_FROM], counts[counts > _STRTREE_FROM]):
+    for a, n in crowded:
         tree = shapely.STRtree(polys[a: a + n])
         p_, g_ = tree.query(shapely.points(probes[a: a + n]), predicate="within")
         pi.append(a + p_[p_ != g_])
         gi.append(a + g_[p_ != g_])
     return np.concatenate(pi), np.concatenate(gi)
+
+
+def _crossing_planes(rings, bbox, plane, body) -> np.ndarray:
+    """Planes where loops of different bodies cross (overlapping bodies: even-odd is wrong there)."""
+    i, j, crowded = _plane_pairs(plane)
+    m = (i < j) & (body[i] != body[j])
+    i, j = i[m], j[m]
+    m = _bbox_overlap(bbox, i, j)
+    i, j = i[m], j[m]
+    hit = [plane[i[shapely.intersects(rings[i], rings[j])]]]
+    for a, n in crowded:
+        tree = shapely.STRtree(rings[a: a + n])
+        p_, g_ = tree.query(rings[a: a + n], predicate="intersects")
+        cross = (p_ != g_) & (body[a + p_] != body[a + g_])
+        hit.append(plane[a + p_[cross]])
+    return np.unique(np.concatenate(hit))
+
+
+def _union_of_bodies(loops: Loops, plane: int):
+    """Region of one plane where bodies overlap: each solid body minus the cavity bodies inside
+    it, then the union of those. Each body is nested even-odd on its own.
+
+    A cavity belongs to the solid bodies whose outline (filled) contains it whole, so a second
+    body crossing the cavity fills it, as a union of the bodies should.
+    """
+    solids, voids = [], []
+    in_plane = loops.plane == plane
+    for b in np.unique(loops.body[in_plane]):
+        sub = loops.subset(in_plane & (loops.body == b))
+        region = loops_to_regions(Loops(sub.coords, sub.offsets, np.zeros(len(sub), dtype=np.int64)), 1)[0]
+        (voids if loops.void[b] else solids).append(region)
+    parts = []
+    for solid in solids:
+        outline = shapely.union_all([shapely.Polygon(p.exterior) for p in solid.geoms])
+        inside = [v for v in voids if outline.contains(v)]
+        parts.append(solid.difference(shapely.union_all(inside)) if inside else solid)
+    return as_multipolygon(region_polygons(shapely.union_all(parts)))
 
 
 def _nesting(polys, probes, bbox, plane, areas) -> tuple[np.ndarray, np.ndarray]:
@@ -119,7 +173,7 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
     regions: list[MultiPolygon] = [MultiPolygon() for _ in range(n_planes)]
     if len(loops) == 0:
         return regions
-    coords, lid, plane, area = _clean(loops)
+    coords, lid, plane, area, good = _clean(loops)
     k = len(plane)
     if k == 0:
         return regions
@@ -146,5 +200,10 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
     out = np.empty(n_planes, dtype=object)
     for i in range(n_planes):
         out[i] = regions[i]
-    multi = shapely.multipolygons(polys, indices=poly_plane, out=out)
-    return list(multi)
+    multi = list(shapely.multipolygons(polys, indices=poly_plane, out=out))
+    if len(loops.body) and len(np.unique(loops.body)) > 1:
+        # overlapping bodies (e.g. parts concatenated, not unioned): their loops cross, and the
+        # even-odd rule would cut the overlap out; those planes are rebuilt as a union
+        for p in _crossing_planes(rings, bbox, plane, loops.body[good]):
+            multi[p] = _union_of_bodies(loops, int(p))
+    return multi
