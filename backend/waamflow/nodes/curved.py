@@ -16,7 +16,7 @@ from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
 from ..curved.fan import fan_slice, make_axis, plan_fan
 from ..curved.feasibility import plan_report, search_sections
 from ..curved.speeds import apply_bead_model, layer_report, toolpath_report
-from ..engine.node import Node, NodeParams, register, unit
+from ..engine.node import LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
 Vec3 = tuple[float, float, float]
@@ -162,7 +162,7 @@ def _rounded(obj):
 
 
 @register
-class BeadModelNode(Node):
+class BeadModelNode(LayerNode):
     """Bead-height model: each deposition segment's travel speed from its local layer height.
 
     H(Ts) = a2·Ts² + a1·Ts + a0 (H mm, Ts mm/min), valid for Ts in [ts_min, ts_max]; defaults are
@@ -179,6 +179,7 @@ class BeadModelNode(Node):
     category = "curved"
     inputs = (Port("toolpath", "toolpath", "Toolpath on fan (or planar) layers"),)
     outputs = (Port("toolpath", "toolpath", "Same paths, travel speed per segment from the model"),)
+    over = "toolpath"
 
     class Params(NodeParams):
         a2: float = Field(1.2245e-6, description="Quadratic coefficient", json_schema_extra=unit("mm/(mm/min)²"))
@@ -198,24 +199,17 @@ class BeadModelNode(Node):
     def model(params) -> BeadModel:
         return BeadModel(params.a2, params.a1, params.a0, params.ts_min, params.ts_max)
 
-    def run(self, ctx, params, inputs):
+    def run_layer(self, ctx, params, index, items):
         model = self.model(params)
-        h_lo, h_hi = model.h_range
-        out = []
-        for lp in inputs["toolpath"]:
-            if lp is None:
-                out.append(None)
-                continue
-            ctx.check_cancelled()
-            new = apply_bead_model(lp, model)
-            row = layer_report(new, model)
-            if row["clamped"]:
-                ctx.warn(f"{row['clamped']} of {row['segments']} segments need heights "
-                         f"{row['height_min_mm']:.2f}..{row['height_max_mm']:.2f} mm outside the model's "
-                         f"[{h_lo:.2f}, {h_hi:.2f}] mm: speeds clamped to [{params.ts_min:g}, "
-                         f"{params.ts_max:g}] mm/min", layer=lp.index)
-            out.append(new)
-        return {"toolpath": Layered(tuple(out))}
+        new = apply_bead_model(items["toolpath"], model)
+        row = layer_report(new, model)
+        if row["clamped"]:
+            h_lo, h_hi = model.h_range
+            ctx.warn(f"{row['clamped']} of {row['segments']} segments need heights "
+                     f"{row['height_min_mm']:.2f}..{row['height_max_mm']:.2f} mm outside the model's "
+                     f"[{h_lo:.2f}, {h_hi:.2f}] mm: speeds clamped to [{params.ts_min:g}, "
+                     f"{params.ts_max:g}] mm/min", layer=index)
+        return {"toolpath": new}
 
     def artifacts(self, ctx, params, outputs):
         model = self.model(params)
