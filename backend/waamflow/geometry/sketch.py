@@ -11,7 +11,8 @@ Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coord
 Entities without geometry for a midsurface (TEXT, DIMENSION, HATCH, POINT, ...) are skipped and
 reported. Open curves that meet end to end, with exactly two ends at the meeting point, are
 joined into one polyline (a DXF outline drawn as separate LINEs/ARCs is one wall); points where
-three or more ends meet stay curve ends, they are wall junctions.
+three or more ends meet stay curve ends, they are wall junctions. Ends within `TOL.join` (mm)
+meet.
 """
 
 from __future__ import annotations
@@ -244,7 +245,7 @@ def load_sketch_bytes(
     if z0 is None:
         z0 = (file_z0 or 0.0) * scale
     mid = sketch_from_curves(
-        curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(1e-6 * max(1.0, scale) if join else None)
+        curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
     return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name), skipped=skipped)
 
