@@ -141,3 +141,13 @@ def test_bulge_arc_geometry():
     np.testing.assert_allclose(np.hypot(*pts.T), 1, atol=1e-12)
     n = len(pts) - 1
     assert _length(pts) == pytest.approx(2 * n * math.sin(0.75 * math.pi / n), rel=1e-12)
+
+
+def test_dxf_zero_length_line_is_skipped_and_reported():
+    def build(msp):
+        msp.add_line((0, 0), (0, 0))
+        msp.add_line((0, 0), (10, 0))
+
+    res = load_sketch_bytes(_dxf(build), "d.dxf", height=3)
+    assert res.skipped == {"zero-length LINE": 1}
+    assert [_length(c) for c in res.midsurface.curves] == [10.0]

@@ -253,10 +253,6 @@ def load_sketch_bytes(
 # ------------------------------------------------------------------------------------------
 # DXF
 # ------------------------------------------------------------------------------------------
-_IGNORED_DXF = {"TEXT", "MTEXT", "DIMENSION", "HATCH", "POINT", "LEADER", "MLEADER", "ATTDEF", "ATTRIB",
-                "VIEWPORT", "SOLID", "WIPEOUT", "IMAGE", "XLINE", "RAY", "TOLERANCE", "MULTILEADER"}
-
-
 def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
     """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
     from ezdxf import recover
@@ -288,24 +284,34 @@ def _ocs_to_xy(e, pts2d: np.ndarray, filename: str) -> np.ndarray:
     return np.column_stack([-pts2d[:, 0], pts2d[:, 1]])
 
 
+def _add(out: list, skipped: dict, kind: str, pts: np.ndarray) -> None:
+    """Keep a curve unless it has no length (zero-length LINEs are common CAD debris)."""
+    pts = _dedupe(np.asarray(pts, dtype=float))
+    if len(pts) < 2:
+        key = f"zero-length {kind}"
+        skipped[key] = skipped.get(key, 0) + 1
+        return
+    out.append(pts)
+
+
 def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth: int) -> None:
     t = e.dxftype()
     if t == "LINE":
         s, n = e.dxf.start, e.dxf.end
-        out.append(np.array([[s.x, s.y], [n.x, n.y]]))
+        _add(out, skipped, t, np.array([[s.x, s.y], [n.x, n.y]]))
     elif t == "LWPOLYLINE":
         pts = np.array([(x, y, b) for x, y, b in e.get_points("xyb")], dtype=float).reshape(-1, 3)
-        out.append(_ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
+        _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
     elif t == "POLYLINE":
         if e.is_2d_polyline:
             pts = np.array([(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices],
                            dtype=float).reshape(-1, 3)
-            out.append(_ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
+            _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
         elif e.is_3d_polyline:
             pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in e.vertices], dtype=float).reshape(-1, 2)
             if e.is_closed and len(pts):
                 pts = np.vstack([pts, pts[:1]])
-            out.append(pts)
+            _add(out, skipped, t, pts)
         else:
             raise InputFileError(f"{_where(filename, e)}: polyface/polygon-mesh POLYLINEs are surfaces, not sketch curves")
     elif t in ("ARC", "CIRCLE"):
@@ -321,13 +327,13 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
         pts = arc_points((c.x, c.y), r, start, sweep, tol)
         if t == "CIRCLE":
             pts[-1] = pts[0]
-        out.append(_ocs_to_xy(e, pts, filename))
+        _add(out, skipped, t, _ocs_to_xy(e, pts, filename))
     elif t in ("ELLIPSE", "SPLINE"):
         try:
             pts = np.array([(v.x, v.y) for v in e.flattening(tol)], dtype=float)
         except Exception as exc:  # ezdxf raises construction errors for degenerate curves
             raise InputFileError(f"{_where(filename, e)}: cannot be discretised: {exc}") from exc
-        out.append(pts)
+        _add(out, skipped, t, pts)
     elif t == "INSERT":
         if depth > 16:
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")

@@ -74,7 +74,8 @@ class SketchNode(Node):
     closed curve repeats its first point) or DXF (LINE, LWPOLYLINE with bulges, POLYLINE, ARC,
     CIRCLE, ELLIPSE, SPLINE, block INSERTs; arcs discretised within `arc_tolerance`). Curves
     meeting end to end (exactly two ends at a point) are joined into one polyline. DXF entities
-    without curve geometry (TEXT, DIMENSION, HATCH, ...) are skipped with a warning.
+    without curve geometry (TEXT, DIMENSION, HATCH, ...) and zero-length ones are skipped with a
+    warning.
     """
 
     type = "sketch"
@@ -104,6 +105,6 @@ class SketchNode(Node):
         )
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
-            ctx.warn(f"{params.path}: skipped DXF entities without curve geometry: {kinds}")
+            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {kinds}")
         return {"mesh": res.midsurface}
 
