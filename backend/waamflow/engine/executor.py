@@ -185,6 +185,26 @@ class RunContext(Context):
         self._run.check_cancelled()
 
 
+def _code_signature() -> str:
+    """Hash of every kernel/node source file: part of every cache key (Hamilton's code version), so
+    a changed kernel never serves results computed by the old one. api/, viewer/ and the CLI do
+    not compute results and are left out."""
+    import hashlib
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.blake2b(digest_size=12)
+    for p in sorted(root.rglob("*.py")):
+        rel = p.relative_to(root).as_posix()
+        if rel.startswith(("api/", "viewer/")) or rel == "cli.py":
+            continue
+        h.update(rel.encode())
+        h.update(p.read_bytes())
+    return __version__ + "+" + h.hexdigest()
+
+
+CODE_VERSION = _code_signature()
+
+
 def _layer_item_signature(item: Any, fallback: str) -> str:
     """Content signature of a layer produced by a non-layer node (e.g. slice): unchanged layers
     keep their signature when another layer changes, so downstream layers stay cached."""
@@ -294,7 +314,7 @@ class _Run:
 
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
-        return signature("node", gnode.type, impl.version, __version__,
+        return signature("node", gnode.type, impl.version, CODE_VERSION,
                          gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
 
     def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
@@ -345,7 +365,7 @@ class _Run:
                 continue
             ctx.layer = i
             isigs = sorted((p, (v.sigs[i] if v.sigs else signature(in_sigs[p], i))) for p, v in layered.items())
-            key = signature("layer", gnode.type, impl.version, __version__,
+            key = signature("layer", gnode.type, impl.version, CODE_VERSION,
                             impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
             hit = self.cache.get(key) if self.cache is not None else MISSING
             if hit is not MISSING:
@@ -370,7 +390,7 @@ class _Run:
         self._check_outputs(gnode, outputs)
         self.add_warnings(ctx.warnings)
         fsig = self.file_sigs(gnode)
-        node_key = signature("layernode", gnode.type, impl.version, __version__, item_keys, fsig,
+        node_key = signature("layernode", gnode.type, impl.version, CODE_VERSION, item_keys, fsig,
                              gnode.params.model_dump(mode="json"), whole_sigs)
         for port, value in list(outputs.items()):
             if isinstance(value, Layered):
