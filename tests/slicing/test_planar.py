@@ -44,3 +44,13 @@ def test_section_loops_counts_and_order():
     assert len(poly.exterior.coords) == 257 and len(poly.interiors[0].coords) == 257
     with pytest.raises(ValueError):
         section_loops(m.vertices, m.faces, np.array([5.0, 2.0]))
+
+
+def test_batches_of_planes_give_the_same_loops():
+    m = as_mesh(tube(20, 30, 10))
+    heights = np.linspace(0.5, 9.5, 19)
+    whole = section_loops(m.vertices, m.faces, heights)
+    batched = section_loops(m.vertices, m.faces, heights, batch_segments=1500)   # 1 plane per batch
+    np.testing.assert_array_equal(whole.plane, batched.plane)
+    np.testing.assert_array_equal(whole.offsets, batched.offsets)
+    np.testing.assert_allclose(np.sort(whole.coords, axis=0), np.sort(batched.coords, axis=0))

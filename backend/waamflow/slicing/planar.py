@@ -15,6 +15,9 @@ Method (no Python loop per triangle or per plane):
 3. Each segment contributes its start point, interpolated along its above→below edge.
 4. Cycles of the successor permutation are the loops: labels from scipy's connected
    components, positions by a lock-step walk or pointer-jumping list ranking (`_loop_order`).
+5. Planes go in batches of ~1 M segments (memory stays bounded on huge parts); bodies
+   (connected components of the faces) label the loops so `rings.py` can unite overlapping
+   bodies.
 
 Measured on the bench part (ribbed, twisted hollow tube of `bench/bench_slice.py`: 504 k
 triangles, 500 mid-layer planes, 2 M segments; the 2-core dev box, shared, load average 4-8, so
@@ -142,30 +145,35 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return label, pos, size
 
 
-def section_loops(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, *, name: str = "mesh") -> Loops:
-    """Closed loops of a closed mesh cut by horizontal planes.
+# Segments processed per batch of planes: bounds memory (~40 bytes × 15 arrays per segment, so
+# ~0.5 GB at most) on huge parts while keeping numpy calls large.
+MAX_SEGMENTS_PER_BATCH = 1_000_000
 
-    vertices: (v, 3) float mm. faces: (m, 3) int, a closed consistently wound mesh.
-    heights: (p,) float mm, ascending. Raises PlanningError if the mesh is open, non-manifold or
-    inconsistently wound (its sections would not close into loops).
-    """
-    heights = np.asarray(heights, dtype=np.float64)
-    empty = Loops(np.zeros((0, 2)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    if len(heights) == 0 or len(faces) == 0:
-        return empty
-    if np.any(np.diff(heights) < 0):
-        raise ValueError("heights must be ascending")
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces, dtype=np.int64)
-    vz = v[:, 2]
-    fz = np.take(vz, f)                                  # (m, 3)
+
+def _plane_batches(fz: np.ndarray, heights: np.ndarray, limit: int) -> list[tuple[int, int]]:
+    """Split planes into [p0, p1) runs crossing at most ~`limit` triangles in total."""
+    k0 = np.searchsorted(heights, fz.min(axis=1), side="right")
+    k1 = np.searchsorted(heights, fz.max(axis=1), side="right")
+    per_plane = np.cumsum(np.bincount(k0, minlength=len(heights) + 1) - np.bincount(k1, minlength=len(heights) + 1))
+    cum = np.cumsum(per_plane[: len(heights)])
+    batches, p0 = [], 0
+    while p0 < len(heights):
+        base = cum[p0 - 1] if p0 else 0
+        p1 = int(np.searchsorted(cum, base + limit, side="right"))
+        p1 = max(p1, p0 + 1)
+        batches.append((p0, p1))
+        p0 = p1
+    return batches
+
+
+def _section_batch(v, f, fz, twin, heights, name):
+    """Loops of one batch of planes: (coords (n, 2), sizes (k,), plane (k,), face (k,)), loops
+    sorted by plane, plane indices local to `heights`."""
     tri, plane, first, k0 = _pairs(fz, heights)
     if len(tri) == 0:
-        return empty
-    twin = edge_twins(f, len(v))
-    if twin is None:
-        raise PlanningError(f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops")
-
+        z = np.zeros(0, dtype=np.int64)
+        return np.zeros((0, 2)), z, z, z
+    vz = v[:, 2]
     h = np.take(heights, plane)
     above = np.take(fz, tri, axis=0) >= h[:, None]       # (s, 3) corner i above the plane
     above_next = above[:, _NEXT_EDGE]
@@ -191,18 +199,54 @@ def section_loops(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, 
     label, pos, size = _loop_order(nxt)
     loop_plane = np.empty(len(size), dtype=np.int64)
     loop_plane[label] = plane
+    loop_face = np.empty(len(size), dtype=np.int64)
+    loop_face[label] = tri
     loop_rank = np.argsort(loop_plane, kind="stable")        # loops sorted by plane
     new_index = np.empty_like(loop_rank)
     new_index[loop_rank] = np.arange(len(loop_rank))
-    offsets = np.concatenate([[0], np.cumsum(size[loop_rank])])
+    sizes = size[loop_rank]
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
     dest = np.take(offsets, np.take(new_index, label)) + pos
     coords = np.empty_like(pts)
     coords[dest] = pts
+    return coords, sizes, loop_plane[loop_rank], loop_face[loop_rank]
+
+
+def section_loops(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, *, name: str = "mesh",
+                  batch_segments: int = MAX_SEGMENTS_PER_BATCH) -> Loops:
+    """Closed loops of a closed mesh cut by horizontal planes.
+
+    vertices: (v, 3) float mm. faces: (m, 3) int, a closed consistently wound mesh.
+    heights: (p,) float mm, ascending. Raises PlanningError if the mesh is open, non-manifold or
+    inconsistently wound (its sections would not close into loops). Planes are processed in
+    batches of about `batch_segments` segments.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    empty = Loops(np.zeros((0, 2)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    if len(heights) == 0 or len(faces) == 0:
+        return empty
+    if np.any(np.diff(heights) < 0):
+        raise ValueError("heights must be ascending")
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    fz = np.take(v[:, 2], f)                             # (m, 3)
+    twin = edge_twins(f, len(v))
+    if twin is None:
+        raise PlanningError(f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops")
+
+    parts = []
+    for p0, p1 in _plane_batches(fz, heights, batch_segments):
+        coords, sizes, plane, face = _section_batch(v, f, fz, twin, heights[p0:p1], name)
+        parts.append((coords, sizes, plane + p0, face))
+    coords = np.concatenate([p[0] for p in parts])
+    sizes = np.concatenate([p[1] for p in parts])
+    plane = np.concatenate([p[2] for p in parts])
+    face = np.concatenate([p[3] for p in parts])
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    if len(plane) == 0:
+        return empty
     n_bodies, face_body = face_components(twin, len(f))
     if n_bodies == 1:
-        return Loops(coords=coords, offsets=offsets, plane=loop_plane[loop_rank])
-    loop_face = np.empty(len(size), dtype=np.int64)
-    loop_face[label] = tri
+        return Loops(coords=coords, offsets=offsets, plane=plane)
     body_volume = np.bincount(face_body, weights=face_volumes(v, f), minlength=n_bodies)
-    return Loops(coords=coords, offsets=offsets, plane=loop_plane[loop_rank],
-                 body=face_body[loop_face[loop_rank]], void=body_volume < 0)
+    return Loops(coords=coords, offsets=offsets, plane=plane, body=face_body[face], void=body_volume < 0)
