@@ -18,13 +18,13 @@ OUT = Path(__file__).resolve().parents[2] / "out" / "viewer" / "viewer.png"
 
 def coloured_fraction(png: bytes) -> float:
     """Fraction of saturated pixels (max - min channel > 60) in the 3D area: left of the GUI
-    panel and below the top-left notification. Greys (grid, background, panel) do not count;
+    sidebar and below the top-left notification. Greys (grid, background, panel) do not count;
     the zone-coloured toolpath and the section fills do."""
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
     h, w, _ = img.shape
-    area = img[int(0.25 * h):, : int(0.72 * w)]
+    area = img[int(0.25 * h):, : int(0.6 * w)]
     sat = area.max(axis=2) - area.min(axis=2)
     return float((sat > 60).mean())
 
@@ -35,8 +35,8 @@ def test_headless_chromium_shows_the_scene(viewer):
     from waamflow.viewer.screenshot import capture
 
     viewer.publish("viewer-test", RECIPE, outputs(8))
-    png = capture(viewer.url, OUT, width=1024, height=640, timeout_s=90, ready=lambda p: coloured_fraction(p) > 0.005)
+    png = capture(viewer.url, OUT, width=800, height=500, timeout_s=90, ready=lambda p: coloured_fraction(p) > 0.002)
     frac = coloured_fraction(png)
     print(f"coloured pixel fraction of the 3D area: {frac:.4f} ({OUT})")
-    assert OUT.stat().st_size > 10_000
-    assert frac > 0.005
+    assert OUT.stat().st_size > 5_000, "empty screenshot"
+    assert frac > 0.002, f"blank 3D view: only {frac:.4%} coloured pixels in {OUT}"

@@ -69,7 +69,7 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
             timeout_s: float = 90.0, ready: Callable[[bytes], bool] | None = None,
             chromium: str = CHROMIUM) -> bytes:
     """Open `url` in headless Chromium, wait for a <canvas>, and save a PNG to `out_png` once
-    `ready(png_bytes)` is true (checked about once a second; the last frame is kept on timeout).
+    `ready(png_bytes)` is true (checked twice a second; the last frame is kept on timeout).
     Returns the PNG bytes."""
     out_png = Path(out_png)
     out_png.parent.mkdir(parents=True, exist_ok=True)
@@ -92,7 +92,7 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
                 cdp.call("Page.navigate", url=url)
                 png = b""
                 while time.monotonic() < deadline:
-                    time.sleep(1.0)
+                    time.sleep(0.5)
                     has_canvas = cdp.call("Runtime.evaluate", expression="document.querySelectorAll('canvas').length")
                     if not has_canvas.get("result", {}).get("value"):
                         continue

@@ -261,6 +261,9 @@ class ViewerService:
     # ---- GUI -----------------------------------------------------------------------------
     def _build_gui(self) -> None:
         gui = self.server.gui
+        # A sidebar beside the canvas (not floating over it), no share button: the preview is local.
+        gui.configure_theme(control_layout="collapsible", control_width="small", show_logo=False,
+                            show_share_button=False, brand_color=(248, 150, 30))
         g = self._gui
         g["run"] = gui.add_markdown("**No run published yet.**")
         g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
