@@ -7,5 +7,5 @@ export default defineConfig({
   base: "/",
   build: { outDir: "dist", emptyOutDir: true, chunkSizeWarningLimit: 1500 },
   server: { proxy: { "/api": process.env.WAAMFLOW_API ?? "http://127.0.0.1:8000" } },
-  test: { environment: "jsdom", include: ["test/**/*.test.ts", "test/**/*.test.tsx"] },
+  test: { environment: "node", include: ["test/**/*.test.ts", "test/**/*.test.tsx"] },
 });

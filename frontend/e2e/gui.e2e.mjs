@@ -45,8 +45,9 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   await shot(page, "01-start");
   await page.selectOption("[data-testid=open-graph]", "mpp-cross");
   await page.waitForSelector('.react-flow__node[data-id="zone"]');
-  assert.equal(await page.locator(".react-flow__node").count(), 7);
-  assert.equal(await page.locator(".react-flow__edge").count(), 6);
+  const shipped = await api(srv.base, "/api/graphs/mpp-cross");
+  assert.equal(await page.locator(".react-flow__node").count(), shipped.nodes.length);
+  assert.equal(await page.locator(".react-flow__edge").count(), shipped.edges.length);
   await saveAs(page, "e2e-cross"); // work on a copy: the example stays as shipped
   await shot(page, "02-graph");
 
@@ -234,6 +235,32 @@ test("new user: mesh → slice → two masks (second from the failing layer) →
   assert.match(gcode, /\bM3\b/);
   assert.match(gcode, /F480\b/, "the XML travel speed 8 mm/s is programmed as F480 mm/min");
   await shot(page, "12-results");
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("rectangle-study: run, plots of the simulation and the strategy comparison", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  await page.selectOption("[data-testid=open-graph]", "rectangle-study");
+  await page.waitForSelector('.react-flow__node[data-id="simulate"]');
+  // A recipe input edited as a field: the spacing knob.
+  const inputs = await api(srv.base, "/api/graphs/rectangle-study");
+  assert.ok("pattern" in inputs.inputs);
+  await expectRun(page, srv.base, "done");
+  await page.click("[data-tab=results]");
+  for (const title of ["Speed vs time", "Speed vs path length", "Deviation vs path", "Arc state", "Deposit per mm vs programmed"])
+    await page.waitForSelector(`[data-chart="${title}"] path[stroke]`);
+  const [run] = await api(srv.base, "/api/runs?limit=1");
+  const cmp = await api(srv.base, `/api/runs/${run.id}/artifacts/strategy.comparison.json`);
+  await page.waitForSelector("[data-testid=comparison] tbody tr");
+  assert.equal(await page.locator("[data-testid=comparison] tbody tr").count(), cmp.patterns.length);
+  const sim = await api(srv.base, `/api/runs/${run.id}/artifacts/simulate.simulation.json`);
+  const shown = await page
+    .locator("[data-testid=sim-metrics] tr")
+    .filter({ has: page.locator("td:first-child", { hasText: /^total_time_s$/ }) })
+    .innerText();
+  assert.ok(shown.includes(String(Number(sim.total_time_s.toPrecision(6)))), shown);
+  await shot(page, "13-plots");
   assert.deepEqual(errors, []);
   await page.context().close();
 });

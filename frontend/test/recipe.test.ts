@@ -73,11 +73,15 @@ describe("ids, add, remove, rename", () => {
   it("takes parameter defaults from the schema", () => {
     expect(defaultParams(cat.get("slice")!)).toEqual({ layer_height: 1.5 });
   });
-  it("lays out columns by depth", () => {
+  it("lays out columns by depth and wraps long chains into bands", () => {
     const pos = autoLayout(recipe);
     expect(pos.part[0]).toBe(0);
     expect(pos.layers[0]).toBe(250);
     expect(pos.mask[0]).toBe(500);
+    const w = autoLayout(recipe, 250, 100, 2);
+    // "loop" is unconnected (depth 0, second row): columns hold ≤ 2 rows, so a band is 2.6 × 100.
+    expect(w.loop).toEqual([0, 100]);
+    expect(w.mask).toEqual([0, 260]); // depth 2 → column 0 of the second band
   });
 });
 

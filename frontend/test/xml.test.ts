@@ -1,3 +1,5 @@
+// @vitest-environment jsdom
+// DOMParser/XMLSerializer come from jsdom here, from the browser in the app.
 import { describe, expect, it } from "vitest";
 import { bulkSet, invalidEntries, orphans, parseParams, serializeParams, setValue, validateValue, vocabulary } from "../src/xml/params";
 

@@ -171,8 +171,11 @@ export function renameNode(r: Recipe, id: string, next: string): Recipe | string
   };
 }
 
-/** Layered automatic layout: column = longest path from a source, row = order within the column. */
-export function autoLayout(r: Recipe, dx = 250, dy = 130): Record<string, XY> {
+/**
+ * Layered automatic layout: column = longest path from a source, row = order within the column.
+ * Long chains wrap after `wrap` columns into bands below, so a pipeline stays readable on screen.
+ */
+export function autoLayout(r: Recipe, dx = 250, dy = 130, wrap = 4): Record<string, XY> {
   const depth = new Map<string, number>();
   const visit = (id: string, seen: Set<string>): number => {
     if (depth.has(id)) return depth.get(id)!;
@@ -183,13 +186,18 @@ export function autoLayout(r: Recipe, dx = 250, dy = 130): Record<string, XY> {
     depth.set(id, d);
     return d;
   };
+  const rowOf = new Map<string, number>();
   const rows = new Map<number, number>();
-  const out: Record<string, XY> = {};
   for (const n of r.nodes) {
     const d = visit(n.id, new Set());
-    const row = rows.get(d) ?? 0;
-    rows.set(d, row + 1);
-    out[n.id] = [d * dx, row * dy + (d % 2) * 30];
+    rowOf.set(n.id, rows.get(d) ?? 0);
+    rows.set(d, (rows.get(d) ?? 0) + 1);
+  }
+  const band = (Math.max(1, ...rows.values()) + 0.6) * dy;
+  const out: Record<string, XY> = {};
+  for (const n of r.nodes) {
+    const d = depth.get(n.id)!;
+    out[n.id] = [(d % wrap) * dx, Math.floor(d / wrap) * band + rowOf.get(n.id)! * dy + (d % 2) * 30];
   }
   return out;
 }

@@ -3,7 +3,7 @@ import { useEffect, useMemo, useState } from "react";
 import { artifactText, artifactUrl } from "../api/client";
 import type { Artifact, Recipe } from "../api/types";
 import type { RunState } from "../run/status";
-import { parseCsv, pathLength, programmedSpeed, type Columns } from "./data";
+import { parseCsv, pathLength, programmedProfile, programmedSpeed, type Columns } from "./data";
 import { LineChart, type Series } from "./LineChart";
 
 const COLORS = ["#1d3557", "#e63946", "#2a9d8f", "#f4a261", "#8e7dbe"];
@@ -53,7 +53,7 @@ export function Results({ recipe, run, artifacts }: { recipe: Recipe; run: RunSt
               </select>
             )}
           </h4>
-          <SimulationPlots runId={run.id} node={simId} artifacts={artifacts} />
+          <SimulationPlots runId={run.id} node={simId} artifacts={artifacts} toolpathNode={upstreamOf(recipe, simId, "toolpath")} />
         </section>
       )}
       {comparisons.map((c) => (
@@ -75,12 +75,27 @@ function useArtifact(runId: string, name: string, present: boolean) {
   return text;
 }
 
-function SimulationPlots({ runId, node, artifacts }: { runId: string; node: string; artifacts: Artifact[] }) {
+/** The node feeding input `port` of `node` (e.g. the toolpath a simulation ran on). */
+function upstreamOf(r: Recipe, node: string, port: string): string | null {
+  const e = r.edges.find((x) => x.to === `${node}.${port}`);
+  return e ? e.from.slice(0, e.from.indexOf(".")) : null;
+}
+
+function SimulationPlots({ runId, node, artifacts, toolpathNode }: { runId: string; node: string; artifacts: Artifact[]; toolpathNode: string | null }) {
   const has = (s: string) => artifacts.some((a) => a.name === `${node}.${s}`);
   const traceText = useArtifact(runId, `${node}.trace.csv`, has("trace.csv"));
   const simText = useArtifact(runId, `${node}.simulation.json`, has("simulation.json"));
   const depText = useArtifact(runId, `${node}.deposit.csv`, has("deposit.csv"));
+  const tpName = toolpathNode ? `${toolpathNode}.toolpath.json` : "";
+  const tpText = useArtifact(runId, tpName, !!tpName && artifacts.some((a) => a.name === tpName));
   const trace = useMemo(() => (traceText ? parseCsv(traceText) : null), [traceText]);
+  const programmed = useMemo(() => {
+    try {
+      return tpText ? programmedProfile(JSON.parse(tpText)) : null;
+    } catch {
+      return null;
+    }
+  }, [tpText]);
   const dep = useMemo(() => (depText ? parseCsv(depText) : null), [depText]);
   const metrics = useMemo(() => {
     try {
@@ -106,12 +121,12 @@ function SimulationPlots({ runId, node, artifacts }: { runId: string; node: stri
           </tbody>
         </table>
       )}
-      <div className="charts">{trace && <TraceCharts c={trace} />}{dep && <DepositChart c={dep} />}</div>
+      <div className="charts">{trace && <TraceCharts c={trace} programmed={programmed} />}{dep && <DepositChart c={dep} />}</div>
     </div>
   );
 }
 
-function TraceCharts({ c }: { c: Columns }) {
+function TraceCharts({ c, programmed }: { c: Columns; programmed: { s: number[]; speed: number[] } | null }) {
   const s = pathLength(c);
   const prog = programmedSpeed(c);
   const charts: { title: string; x: string; y: string; series: Series[]; step?: boolean }[] = [];
@@ -123,6 +138,7 @@ function TraceCharts({ c }: { c: Columns }) {
   if (s && c.speed) {
     const ser: Series[] = [{ label: "actual speed", x: s, y: c.speed, color: COLORS[0] }];
     if (prog) ser.push({ label: "programmed", x: s, y: prog.values, color: COLORS[1], dashed: true });
+    else if (programmed) ser.push({ label: "programmed (toolpath)", x: programmed.s, y: programmed.speed, color: COLORS[1], dashed: true });
     charts.push({ title: "Speed vs path length", x: "path length [mm]", y: "speed [mm/s]", series: ser });
   }
   if (s && c.deviation) charts.push({ title: "Deviation vs path", x: "path length [mm]", y: "deviation [mm]", series: [{ label: "deviation", x: s, y: c.deviation, color: COLORS[2] }] });
@@ -136,18 +152,18 @@ function TraceCharts({ c }: { c: Columns }) {
   );
 }
 
-/** deposit.csv: the first column (path position) against every other column (volume per mm …). */
+/** deposit.csv: deposited volume per mm (actual vs programmed) along the path, one step per segment. */
 function DepositChart({ c }: { c: Columns }) {
   const names = Object.keys(c);
-  if (names.length < 2) return null;
-  const xName = names.find((n) => /^(s|s_mm|path|length|position)/i.test(n)) ?? names[0];
-  const ys = names.filter((n) => n !== xName && !/^(x|y|z|t|layer|index)$/i.test(n)).slice(0, 4);
+  const xName = names.find((n) => /^(s|s_mm|path_mm|position_mm)$/i.test(n)) ?? names[0];
+  const ys = names.filter((n) => n !== xName && /(mm3|per_mm|volume|deposit)/i.test(n)).slice(0, 4);
+  if (!xName || !ys.length) return null;
   return (
     <LineChart
       title="Deposit per mm vs programmed"
-      xLabel={xName}
-      yLabel={ys.length === 1 ? ys[0] : "mm³/mm"}
-      series={ys.map((n, i) => ({ label: n, x: c[xName], y: c[n], color: COLORS[i % COLORS.length], dashed: /prog|nominal|target/i.test(n) }))}
+      xLabel={`${xName} [mm]`}
+      yLabel="volume per mm [mm³/mm]"
+      series={ys.map((n, i) => ({ label: n, x: c[xName], y: c[n], color: COLORS[i % COLORS.length], dashed: /prog|nominal|target/i.test(n), step: true }))}
     />
   );
 }

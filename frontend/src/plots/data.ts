@@ -68,6 +68,25 @@ export function ticks(lo: number, hi: number, count = 5): number[] {
   const mag = 10 ** Math.floor(Math.log10(raw));
   const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => s >= raw) ?? raw;
   const out: number[] = [];
-  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) out.push(Math.round(v / step) * step);
+  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) out.push(Number((Math.round(v / step) * step).toPrecision(12)));
   return out;
+}
+
+/** Programmed speed (mm/s) against programmed path length (mm), as steps: one value per segment,
+ * over every layer and section of a contract toolpath JSON in file order. */
+export function programmedProfile(tp: { layers: { sections: { points: number[][]; speed: (number | null)[] }[] }[] }): { s: number[]; speed: number[] } {
+  const s: number[] = [], speed: number[] = [];
+  let acc = 0;
+  for (const l of tp.layers)
+    for (const sec of l.sections)
+      for (let i = 0; i + 1 < sec.points.length; i++) {
+        const a = sec.points[i], b = sec.points[i + 1];
+        const v = sec.speed[i];
+        s.push(acc);
+        speed.push(v ?? NaN);
+        acc += Math.hypot(b[0] - a[0], b[1] - a[1], (b[2] ?? 0) - (a[2] ?? 0));
+        s.push(acc);
+        speed.push(v ?? NaN);
+      }
+  return { s, speed };
 }
