@@ -7,10 +7,10 @@ from the torch towards the part). Cell frames (all mm / degrees):
     world point = work_xyz + p_toolpath                  (work frame: where the part sits)
     robot base  = translation base_xyz, rotation base_yaw_deg about world z
 
-IK: damped least squares on the 6-D pose error (`log6`, LOCAL frame Jacobian), seeded from the
-previous point so the solution stays on one branch (continuous); the torch orientation is its
-axis plus a fixed reference direction for the tool x axis (world −x by default: the KR's home
-wrist). Joint speeds are finite differences of q along arc length: dq/ds (rad/mm), so the path
+IK: damped least squares on a 5-D task in the TCP frame (LOCAL Jacobian rows): position (3)
+and the torch axis direction (2) — the rotation about the torch axis is free, as for a round
+welding torch — seeded from the previous point so the solution stays on one branch
+(continuous); a sample that has not converged after the usual few iterations gets up to 40 more. Joint speeds are finite differences of q along arc length: dq/ds (rad/mm), so the path
 speed at which joint i reaches its limit is qd_max_i / |dq_i/ds| — the per-segment speed cap.
 
 IK is solved on the programmed polyline resampled every `step_mm` (vertices included) rather
@@ -31,7 +31,7 @@ import pinocchio as pin
 from ..core.errors import InputFileError
 from .profile import ROBOTS_DIR
 
-SINGULAR_SIGMA = 0.02   # smallest singular value of the 6x6 Jacobian (m or rad per rad) below which we warn
+SINGULAR_SIGMA = 0.02   # smallest singular value of the 5x6 task Jacobian (m or rad per rad) below which we warn
 REACH_TOL_MM = 0.5       # IK position residual above which a point is unreachable
 LIMIT_MARGIN = 1e-3      # rad
 
@@ -76,12 +76,11 @@ def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str |
 @dataclass(frozen=True)
 class CellFrames:
     """base_xyz_mm: robot base in world, base_yaw_deg about z; work_xyz_mm: part origin in world;
-    tool_x_ref: world direction the tool x axis is aligned with (projected)."""
+    The torch's rotation about its own axis is left free (5-D task)."""
 
     base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
     base_yaw_deg: float = 0.0
     work_xyz_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    tool_x_ref: tuple[float, float, float] = (-1.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,22 +98,6 @@ class KinematicsResult:
     sigma_min: np.ndarray
     segment_cap: np.ndarray
     issues: list = field(default_factory=list)
-
-
-def _target_rotations(axes: np.ndarray, x_ref: np.ndarray, yaw: float) -> np.ndarray:
-    """(k, 3) torch axes (world) → (k, 3, 3) rotations in the robot base frame (z = axis)."""
-    Rb = pin.utils.rotate("z", yaw)
-    z = axes @ Rb  # world → base: Rbᵀ·v
-    z /= np.linalg.norm(z, axis=1, keepdims=True)
-    xr = Rb.T @ x_ref
-    x = xr[None, :] - (z @ xr)[:, None] * z
-    bad = np.linalg.norm(x, axis=1) < 1e-6
-    if bad.any():
-        alt = np.array([0.0, 1.0, 0.0])
-        x[bad] = alt - (z[bad] @ alt)[:, None] * z[bad]
-    x /= np.linalg.norm(x, axis=1, keepdims=True)
-    y = np.cross(z, x)
-    return np.stack([x, y, z], axis=2)
 
 
 def resample(points: np.ndarray, step_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,31 +124,47 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
     axes = np.asarray(tool_axis, float)
     ax = axes[seg] if len(axes) == len(points) else np.tile([0.0, 0.0, -1.0], (len(s), 1))
-    yaw = np.radians(frames.base_yaw_deg)
-    Rb = pin.utils.rotate("z", yaw)
+    Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
     p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
-    R = _target_rotations(ax, np.asarray(frames.tool_x_ref, float), yaw)
+    z_base = ax @ Rb                                           # torch axes in the base frame
+    z_base /= np.linalg.norm(z_base, axis=1, keepdims=True)
     k = len(s)
     Q = np.zeros((k, model.nq))
     err_mm = np.zeros(k)
     q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
     lam2 = 1e-4
-    eye6 = np.eye(6)
-    Js = np.zeros((k, 6, model.nv))
+    eye5 = np.eye(5)
+    Js = np.zeros((k, 5, model.nv))
+    # null-space preference: keep the wrist rolls (A4, A6) near mid-range — the rotation about
+    # the torch axis is free, so use it to avoid winding them up through wrist singularities
+    mid = 0.5 * (arm.lower + arm.upper)
+    roll = np.zeros(model.nv)
+    if model.nv >= 6:
+        roll[[3, 5]] = 0.05
+    retry = 40
     for i in range(k):
-        target = pin.SE3(R[i], p_base[i])
-        n_it = 60 if i == 0 else iters
-        for _ in range(n_it):
+        pt, zt = p_base[i], z_base[i]
+        n_it = 80 if i == 0 else iters
+        it = 0
+        while True:
             pin.framesForwardKinematics(model, data, q)
-            e = pin.log6(data.oMf[arm.tcp].actInv(target)).vector
-            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
-            if e @ e < 1e-14:
+            cur = data.oMf[arm.tcp]
+            Rc = cur.rotation
+            w = np.cross(Rc[:, 2], zt)                         # align the torch axis: rotation axis · angle
+            sw = np.linalg.norm(w)
+            ang = np.arctan2(sw, Rc[:, 2] @ zt)
+            w_loc = Rc.T @ (w * (ang / sw)) if sw > 1e-12 else np.zeros(3)
+            e = np.concatenate([Rc.T @ (pt - cur.translation), w_loc[:2]])   # 5-D: free about the torch axis
+            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)[:5]
+            it += 1
+            if e @ e < 1e-14 or it > n_it + (retry if e @ e > 1e-8 else 0):
                 break
-            q = np.clip(q + J.T @ np.linalg.solve(J @ J.T + lam2 * eye6, e), arm.lower, arm.upper)
-        else:
-            pin.framesForwardKinematics(model, data, q)
-            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)
-        err_mm[i] = 1000.0 * np.linalg.norm(data.oMf[arm.tcp].translation - p_base[i])
+            Jp = J.T @ np.linalg.inv(J @ J.T + lam2 * eye5)
+            dq = Jp @ e
+            dq += (np.eye(model.nv) - Jp @ J) @ (roll * (mid - q))
+            q = np.clip(q + dq, arm.lower, arm.upper)
+        err_mm[i] = 1000.0 * np.linalg.norm(pt - cur.translation)
+        retry = 40 if err_mm[i] < REACH_TOL_MM else 0   # don't grind on through an unreachable stretch
         Js[i] = J
         Q[i] = q
     sig = np.linalg.svd(Js, compute_uv=False)[:, -1]
