@@ -120,3 +120,11 @@ def test_layers_first_layer_reused_and_fresh_recognition():
     assert {f["layer"] for f in again} == {2}
     other = Layer(3, 8.0, 2.0, curves=(LineString([(0, 0), (10, 0)]),))
     assert Counter(f["kind"] for f in features_for_layer(fs, other)) == {"free_end": 2}
+
+
+def test_curve_crossing_itself():
+    loop = c((-10, 0), (10, 0), (10, 10), (0, 10), (0, -10))   # crosses its first segment at (0, 0)
+    feats = recognise([loop])
+    assert Counter(f["kind"] for f in feats) == {"direct_crossing": 1, "corner": 3, "free_end": 2}
+    x = next(f for f in feats if f["kind"] == "direct_crossing")
+    assert x["point"] == [0.0, 0.0] and x["entities"] == [0] and x["branches"] == 4

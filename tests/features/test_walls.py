@@ -146,3 +146,13 @@ def test_crossing_radii_bounds():
     assert len(bad.warnings) == 1 and "void" in bad.warnings[0]
     bad = plan(curves, bead_width=4.0, cut_radius=2.0, influence_radius=2.5)
     assert len(bad.warnings) == 1 and "inside the wall" in bad.warnings[0]
+
+
+def test_self_crossing_is_cut_like_a_direct_crossing():
+    loop = c((-10, 0), (10, 0), (10, 10), (0, 10), (0, -10))
+    lw = plan([loop], free_end_extension=0.0)
+    # split at both passes: (−10,0)→X, X→…→X (the lap through the corners), X→(0,−10)
+    assert len(lw.passes) == 3
+    wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
+    assert wall == pytest.approx(60.0 - 4 * 2.0, abs=1e-9)   # 20 + 10 + 10 + 20 mm, less 4 r_c
+    assert sum(int((~p.inside).sum()) for p in lw.passes) == 4   # four fillet leads

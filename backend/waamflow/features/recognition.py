@@ -180,6 +180,48 @@ def _intersection_points(geom) -> list[tuple[float, float]]:
     return pts
 
 
+def passes_through(c: np.ndarray, p, tol: float, closed: bool) -> list[float]:
+    """Arc lengths (mm) at which polyline `c` passes within `tol` of point p, one per pass (a
+    curve crossing itself passes twice). Consecutive segments touching p are one pass."""
+    p = np.asarray(p, float)
+    a, b = c[:-1], c[1:]
+    ab = b - a
+    L2 = np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+    d = np.hypot(*(a + t[:, None] * ab - p).T)
+    near = np.flatnonzero(d <= tol)
+    if not len(near):
+        return []
+    cum = np.concatenate([[0.0], np.cumsum(np.sqrt(L2))])
+    groups: list[list[int]] = [[int(near[0])]]
+    for k in near[1:]:
+        if k == groups[-1][-1] + 1:
+            groups[-1].append(int(k))
+        else:
+            groups.append([int(k)])
+    if closed and len(groups) > 1 and groups[0][0] == 0 and groups[-1][-1] == len(a) - 1:
+        groups[0] = groups.pop() + groups[0]  # the closing point: one pass across the seam
+    out = []
+    for g in groups:
+        k = min(g, key=lambda i: d[i])
+        out.append(float(cum[k] + t[k] * np.sqrt(L2[k])))
+    return sorted(out)
+
+
+def self_crossings(line: LineString) -> list[tuple[float, float]]:
+    """Points where a polyline crosses or touches itself (noding splits it there)."""
+    if line.is_simple:
+        return []
+    counts: dict[tuple[float, float], int] = {}
+    for part in shapely.get_parts(shapely.node(line)):
+        for q in (part.coords[0], part.coords[-1]):
+            key = (round(q[0], 9), round(q[1], 9))
+            counts[key] = counts.get(key, 0) + 1
+    ends = {(round(line.coords[0][0], 9), round(line.coords[0][1], 9)),
+            (round(line.coords[-1][0], 9), round(line.coords[-1][1], 9))}
+    return [q for q, n in counts.items() if n >= 3 or (n == 2 and q not in ends)]
+
+
 def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
     """All end points and intersections, merged within `tol` (mm), with their incidences."""
     lines = [LineString(c) for c in curves]
@@ -190,6 +232,7 @@ def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
             cand.extend([tuple(c[0]), tuple(c[-1])])
     tree = shapely.STRtree(lines)
     for i, line in enumerate(lines):
+        cand.extend(self_crossings(line))
         for j in tree.query(line, predicate="dwithin", distance=tol):
             if j > i:
                 cand.extend(_intersection_points(line.intersection(lines[j])))
@@ -219,22 +262,20 @@ def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
         for j in tree.query(pt, predicate="dwithin", distance=tol):
             j = int(j)
             line, c = lines[j], curves[j]
-            ends = []
-            if not closed[j]:
-                if np.hypot(*(c[0] - p)) <= tol:
-                    ends.append(0.0)
-                if np.hypot(*(c[-1] - p)) <= tol:
-                    ends.append(line.length)
-            if ends:
-                for s in ends:
-                    sign = 1.0 if s == 0.0 else -1.0
-                    d = direction_at(line, s, sign, False, step)
-                    incs.append(Incidence(j, s, True, (tuple(d),)))
-            else:
-                s = line.project(pt)
-                d1 = direction_at(line, s, 1.0, closed[j], step)
-                d2 = direction_at(line, s, -1.0, closed[j], step)
-                incs.append(Incidence(j, s, False, (tuple(d1), tuple(d2))))
+            for s_ in passes_through(c, p, tol, closed[j]):
+                at_start = not closed[j] and s_ <= tol
+                at_end = not closed[j] and line.length - s_ <= tol
+                if at_start or at_end:
+                    s_ = 0.0 if at_start else line.length
+                    d = direction_at(line, s_, 1.0 if at_start else -1.0, False, step)
+                    incs.append(Incidence(j, s_, True, (tuple(d),)))
+                    if at_start and at_end:  # a curve from p back to p
+                        d2 = direction_at(line, line.length, -1.0, False, step)
+                        incs.append(Incidence(j, line.length, True, (tuple(d2),)))
+                else:
+                    d1 = direction_at(line, s_, 1.0, closed[j], step)
+                    d2 = direction_at(line, s_, -1.0, closed[j], step)
+                    incs.append(Incidence(j, s_, False, (tuple(d1), tuple(d2))))
         incs.sort(key=lambda i: (i.curve, i.s))
         junctions.append(Junction((float(p[0]), float(p[1])), tuple(incs)))
     junctions.sort(key=lambda jn: (round(jn.point[0], 6), round(jn.point[1], 6)))

@@ -26,7 +26,7 @@ import numpy as np
 from shapely.geometry import LineString
 from shapely.ops import substring
 
-from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, is_closed
+from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, is_closed, passes_through
 from .tubular import aligned_loop, scattered_loop
 
 TubularStrategy = Literal["helical", "aligned", "scattered"]
@@ -120,10 +120,9 @@ def split_curves(curves: list[np.ndarray], crossings: list[dict], skip: set[int]
         for f in crossings:
             if ci not in f["entities"]:
                 continue
-            p = np.array(f["point"])
-            if not closed and (np.hypot(*(c[0] - p)) <= tol or np.hypot(*(c[-1] - p)) <= tol):
-                continue
-            cuts.append(line.project(LineString([p, p]).centroid))
+            for s_ in passes_through(c, f["point"], tol, closed):
+                if closed or tol < s_ < L - tol:
+                    cuts.append(s_)
         cuts = sorted(set(round(s, 9) for s in cuts))
         if closed and cuts:
             bounds = cuts + [cuts[0] + L]
