@@ -77,3 +77,17 @@ def test_bad_slice_params_are_recipe_errors(tmp_path):
     for params in ({"layer_height": 0}, {"thicknesses": [1, -1]}, {"z_min": 5, "z_max": 1}, {"typo": 1}):
         with pytest.raises(RecipeError):
             _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "b.stl"}}, params))
+
+
+def test_direction_writes_frames_and_sketch_refuses_tilt(tmp_path):
+    box((10, 10, 4)).export(tmp_path / "b.stl")
+    res = _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "b.stl"}},
+                                 {"layer_height": 2.0, "direction": [0, 1, 0]}))
+    doc = json.loads(res.artifacts["layers.layers.json"])
+    assert len(doc["layers"]) == 5 and all(l["area_mm2"] == 40.0 for l in doc["layers"])
+    frame = np.array(doc["layers"][0]["frame"])
+    np.testing.assert_allclose(frame[:3, 2], [0, 1, 0], atol=1e-12)       # layer normal = build direction
+    np.testing.assert_allclose(frame[:3, 3], [0, 2, 0], atol=1e-12)       # origin on the layer's top plane
+    (tmp_path / "s.json").write_text(json.dumps({"curves": [[[0, 0], [1, 0]]], "height": 3}))
+    with pytest.raises(RecipeError, match="extruded along \\+Z"):
+        _run(tmp_path, _recipe({"id": "sk", "type": "sketch", "params": {"path": "s.json"}}, {"direction": [1, 0, 0]}))

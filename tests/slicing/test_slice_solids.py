@@ -187,3 +187,27 @@ def test_overlapping_body_with_cavity():
     # box − cavity (300) ∪ rod (30 × 2): the rod adds 2 × 5 on either side and 2 × 10 inside the cavity
     assert [round(l.area, 9) for l in layers] == [340.0, 340.0]
     assert all(len(l.region.geoms) == 1 and len(l.region.geoms[0].interiors) == 2 for l in layers)
+
+
+def test_build_direction_along_x_with_layer_frames():
+    layers = slice_part(as_mesh(box((10, 20, 30), corner=(5, 0, 0))), layer_height=2.0, direction=(1, 0, 0))
+    assert len(layers) == 5
+    np.testing.assert_allclose([l.z for l in layers], [7.0, 9.0, 11.0, 13.0, 15.0])
+    for l in layers:
+        assert l.area == pytest.approx(600.0)
+        world = l.to_world(np.asarray(l.region.geoms[0].exterior.coords))
+        np.testing.assert_allclose(world[:, 0], l.z)                      # on the layer's top plane
+        np.testing.assert_allclose([world[:, 1].min(), world[:, 1].max(), world[:, 2].min(), world[:, 2].max()],
+                                   [0, 20, 0, 30], atol=1e-9)
+        np.testing.assert_allclose(l.normal, [1, 0, 0])
+
+
+def test_build_direction_down_flips_the_stack():
+    r0, r1, h = 30.0, 10.0, 20.0
+    layers = slice_part(as_mesh(frustum(r0, r1, h)), layer_height=2.0, direction=(0, 0, -1))
+    assert len(layers) == 10
+    cuts_world = [-(l.z - l.thickness / 2) for l in layers]               # distance along −Z
+    np.testing.assert_allclose(cuts_world, 19.0 - 2.0 * np.arange(10))
+    for l, zc in zip(layers, cuts_world):
+        assert l.area == pytest.approx(ngon_area(r0 + (r1 - r0) * zc / h), rel=1e-9)
+    np.testing.assert_allclose(layers[0].to_world([[0.0, 0.0]]), [[0.0, 0.0, 18.0]], atol=1e-12)

@@ -22,8 +22,9 @@ class SliceNode(Node):
     in order, then `layer_height`. Layers continue while their cutting plane is below the part's
     top (or `z_max`), at most `layer_count`. Solids give polygons with holes (even-odd nesting,
     any number of bodies and islands); midsurface sketches give their curves on every layer
-    within the extrusion. Warns on layers inside the part that come out empty. Writes
-    `<node>.layers.json`.
+    within the extrusion. With a `direction` other than +Z, heights are measured along it and each
+    layer carries its frame (layer-local x, y → world; in `layers.json` as "frame"). Warns on
+    layers inside the part that come out empty. Writes `<node>.layers.json`.
     """
 
     type = "slice"
@@ -45,6 +46,8 @@ class SliceNode(Node):
                                     json_schema_extra=unit("mm"))
         z_max: float | None = Field(None, description="No layer is cut at or above this height",
                                     json_schema_extra=unit("mm"))
+        direction: tuple[float, float, float] = Field(
+            (0.0, 0.0, 1.0), description="Build direction (world); layers stack along it, heights are measured along it")
 
         @model_validator(mode="after")
         def _check(self):
@@ -60,13 +63,13 @@ class SliceNode(Node):
             layers = slice_part(
                 part, layer_height=params.layer_height, thicknesses=params.thicknesses,
                 start_offset=params.start_offset, layer_count=params.layer_count,
-                z_min=params.z_min, z_max=params.z_max,
+                z_min=params.z_min, z_max=params.z_max, direction=params.direction,
             )
         except ValueError as exc:
-            raise RecipeError(str(exc), field="layer_height") from exc
+            raise RecipeError(str(exc)) from exc
         if not layers:
             raise PlanningError("no layers: the slicing range (part height, start_offset, z_min/z_max) is empty")
-        for i in empty_layers_inside(layers, part):
+        for i in empty_layers_inside(layers, part, params.direction):
             ctx.warn("layer is empty although it lies within the part's height (gap between bodies?)", layer=i)
         if isinstance(part, Midsurface) and not any(l.curves for l in layers):
             ctx.warn("no layer lies within the sketch's extrusion (check z0, height, z_min/z_max)")

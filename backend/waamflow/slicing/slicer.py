@@ -1,7 +1,10 @@
 """Parts → layers: planar slicing of solids (MeshData) and midsurfaces (Midsurface).
 
 Convention (`core.model.Layer`, `planes.py`): `Layer.z` is the layer's top; its geometry is the
-section at mid-layer, z − thickness/2.
+section at mid-layer, z − thickness/2. With a build direction d other than +Z, "z" is the
+distance along d: the part is expressed in a frame whose z axis is d, sliced there, and each
+layer carries `Layer.frame` (layer-local (x, y, 0) → world) so `Layer.to_world` gives world
+points on the layer's top plane.
 """
 
 from __future__ import annotations
@@ -17,6 +20,35 @@ from .planes import LayerSchedule, layer_schedule
 from .rings import loops_to_regions
 
 
+Z_UP = (0.0, 0.0, 1.0)
+
+
+def build_rotation(direction: Sequence[float]) -> np.ndarray | None:
+    """(3, 3) rotation R whose rows are the build frame's x, y, z axes in world coordinates
+    (local = R @ world), z along `direction`; None for +Z. The frame's x axis is world X
+    projected onto the layer plane (world Y when the direction is near X)."""
+    d = np.asarray(direction, dtype=float)
+    n = float(np.linalg.norm(d))
+    if not (n > 0 and np.isfinite(n)):
+        raise ValueError(f"build direction must be a non-zero vector (got {list(direction)})")
+    ez = d / n
+    if np.allclose(ez, Z_UP, atol=1e-12):
+        return None
+    ref = np.array([1.0, 0.0, 0.0]) if abs(ez[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ex = ref - ref.dot(ez) * ez
+    ex /= np.linalg.norm(ex)
+    return np.array([ex, np.cross(ez, ex), ez])
+
+
+def _layer_frame(rot: np.ndarray | None, top: float) -> np.ndarray | None:
+    if rot is None:
+        return None
+    frame = np.eye(4)
+    frame[:3, :3] = rot.T
+    frame[:3, 3] = rot[2] * top
+    return frame
+
+
 def part_z_range(part: MeshData | Midsurface) -> tuple[float, float]:
     """(bottom, top) of a part along +Z, mm."""
     if isinstance(part, Midsurface):
@@ -25,12 +57,15 @@ def part_z_range(part: MeshData | Midsurface) -> tuple[float, float]:
     return float(vz.min()), float(vz.max())
 
 
-def slice_mesh(mesh: MeshData, schedule: LayerSchedule) -> tuple[Layer, ...]:
-    """Solid layers: region = mid-layer section as a MultiPolygon with holes (mm)."""
+def slice_mesh(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None) -> tuple[Layer, ...]:
+    """Solid layers: region = mid-layer section as a MultiPolygon with holes (mm).
+
+    mesh: in the build frame (rotated by `rot` already, if any); rot sets the layers' frames.
+    """
     loops = section_loops(mesh.vertices, mesh.faces, schedule.cuts, name=mesh.name)
     regions = loops_to_regions(loops, len(schedule))
     return tuple(
-        Layer(index=i, z=float(z), thickness=float(t), region=regions[i])
+        Layer(index=i, z=float(z), thickness=float(t), region=regions[i], frame=_layer_frame(rot, float(z)))
         for i, (z, t) in enumerate(zip(schedule.tops, schedule.thickness))
     )
 
@@ -55,8 +90,18 @@ def slice_part(
     layer_count: int | None = None,
     z_min: float | None = None,
     z_max: float | None = None,
+    direction: Sequence[float] = Z_UP,
 ) -> tuple[Layer, ...]:
-    """Slice a solid or a midsurface with the schedule of `planes.layer_schedule` (all mm)."""
+    """Slice a solid or a midsurface with the schedule of `planes.layer_schedule` (all mm).
+
+    direction: build direction (world vector); z_min/z_max are distances along it. Midsurfaces
+    are extruded along +Z and can only be sliced along +Z.
+    """
+    rot = build_rotation(direction)
+    if rot is not None:
+        if isinstance(part, Midsurface):
+            raise ValueError("a sketch (midsurface) is extruded along +Z: slice it with direction [0, 0, 1]")
+        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name)
     bottom, top = part_z_range(part)
     schedule = layer_schedule(
         bottom, top, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
@@ -64,11 +109,15 @@ def slice_part(
     )
     if isinstance(part, Midsurface):
         return slice_midsurface(part, schedule)
-    return slice_mesh(part, schedule)
+    return slice_mesh(part, schedule, rot)
 
 
-def empty_layers_inside(layers: Sequence[Layer], part: MeshData | Midsurface) -> list[int]:
+def empty_layers_inside(layers: Sequence[Layer], part: MeshData | Midsurface,
+                        direction: Sequence[float] = Z_UP) -> list[int]:
     """Indices of layers without geometry whose cutting plane lies strictly inside the part."""
+    rot = build_rotation(direction)
+    if rot is not None and isinstance(part, MeshData):
+        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name)
     lo, hi = part_z_range(part)
     out = []
     for layer in layers:
