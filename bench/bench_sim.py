@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 
 from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
 from waamflow.core.moves import flatten

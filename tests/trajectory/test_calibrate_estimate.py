@@ -1,6 +1,5 @@
 """Calibration from a measured trace, trace CSV errors, and the closed-form estimate."""
 
-import numpy as np
 import pytest
 
 from waamflow.core.errors import InputFileError
@@ -8,7 +7,7 @@ from waamflow.trajectory import study
 from waamflow.trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
 from waamflow.trajectory.estimate import cycle_time, estimate_moves, model_params
 from waamflow.trajectory.profile import load_profile
-from waamflow.trajectory.simulate import SimOptions, simulate
+from waamflow.trajectory.simulate import simulate
 
 KUKA = load_profile("kuka_kr100ha_krc2")
 

@@ -249,7 +249,6 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         progress(0.5, "speed profiles done")
 
     # ---- blocks: runs of spans between exact stops ------------------------------------------
-    K = len(spans.s0)
     block_end = np.flatnonzero(spans.stop_after)  # last span of each block
     block_start = np.concatenate([[0], block_end[:-1] + 1])
     nb = len(block_end)
@@ -267,7 +266,6 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         T0[b] = t_cursor
         t_cursor += block_len[b]
     t_end_motion = t_cursor
-    span_block = np.repeat(np.arange(nb), block_end - block_start + 1)
     span_t_in_block = prof.duration.cumsum() - prof.duration
     span_t_in_block -= np.repeat(span_t_in_block[block_start], block_end - block_start + 1)
 
