@@ -35,6 +35,7 @@ from .signature import digest, layer_signatures
 
 LINE_PX = 2.0        # toolpath / outline thickness in screen pixels (independent of part size)
 TRAVEL_PX = 1.0
+SIM_PX = 1.5         # simulated path thinner than the toolpath, so zone colours show beside it
 FILL_OPACITY = 0.55
 MESH_OPACITY = 0.25
 
@@ -436,7 +437,7 @@ class SimulationPart(Part):
                 segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
                 entry["sim"] = self.scene.add_line_segments(
                     f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
-                    thickness=LINE_PX, thickness_units="screen")
+                    thickness=SIM_PX, thickness_units="screen")
                 entry["first"] = first
                 entry["bounds"] = G.layers_bounds([segs])
             frame.visible = view.shows_layer(index)

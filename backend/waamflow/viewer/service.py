@@ -262,8 +262,9 @@ class ViewerService:
     def _build_gui(self) -> None:
         gui = self.server.gui
         # A sidebar beside the canvas (not floating over it), no share button: the preview is local.
-        gui.configure_theme(control_layout="collapsible", control_width="small", show_logo=False,
-                            show_share_button=False, brand_color=(248, 150, 30))
+        gui.configure_theme(show_logo=False, show_share_button=False, brand_color=(248, 150, 30))
+        gui.main_panel.dock_right()
+        gui.main_panel.set_width(260)
         g = self._gui
         g["run"] = gui.add_markdown("**No run published yet.**")
         g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
