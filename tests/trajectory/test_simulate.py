@@ -106,3 +106,11 @@ def test_arc_off_travel_section_change_stops_and_counts_outside():
     assert m["stops"] == 4                                     # start, A off, B on, end
     assert m["time_outside_s"] > 60 / 100                      # the 60 mm arc-OFF travel at 100 mm/s
     assert set(np.unique(res.trace["section"])) == {0, 1}
+
+
+def test_no_motion_is_a_planning_error():
+    from waamflow.core.errors import PlanningError
+
+    still = np.array([[1, 1, 5], [1, 1, 5]], float)
+    with pytest.raises(PlanningError, match="no motion"):
+        simulate(moves(((section(still),), 0.0)), KUKA)

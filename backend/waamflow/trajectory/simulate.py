@@ -32,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.errors import PlanningError
 from ..core.moves import DEPOSIT, Moves
 from .blend import BlendedPath, blend_path, polyline_distance
 from .profile import RobotProfile
@@ -233,7 +234,13 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     prog = _prepare(moves, profile, opt)
     n = len(prog.points)
     if n < 2:
-        raise ValueError("simulate: the program has no motion (fewer than two distinct points)")
+        raise PlanningError("the program has no motion to simulate (fewer than two distinct points)")
+    if not np.all(np.isfinite(prog.points)):
+        bad = int(np.flatnonzero(~np.isfinite(prog.points).all(axis=1))[0])
+        seg_i = min(bad, n - 2)
+        sec = int(prog.section[seg_i])
+        raise PlanningError("toolpath point is not finite", layer=int(prog.layer[seg_i]),
+                            section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None)
     dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
     h = dt / FINE
     a, j = profile.path_acc, profile.path_jerk
