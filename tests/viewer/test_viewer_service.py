@@ -222,3 +222,15 @@ def test_corners_drawn_per_layer_and_picked(viewer):
     info = viewer.pick(prog[vertex[2]] + [0, 0, 50], np.array([0, 0, -1.0]))
     assert info["corner"] is True and info["layer"] == 2
     assert info["corner_error_mm"] == pytest.approx(0.4) and info["corner_min_speed_mm_s"] == pytest.approx(2.0)
+
+
+def test_layer_range_survives_a_rerun(viewer):
+    viewer.publish("k", RECIPE, outputs(6))
+    assert viewer._gui["layers"].value == (0, 5)
+    viewer.publish("k", RECIPE, outputs(8))                   # full range follows the part
+    assert viewer._gui["layers"].value == (0, 7)
+    viewer._gui["layers"].value = (2, 6)
+    viewer.publish("k", RECIPE, outputs(5))                   # a narrowed range is kept, clipped
+    assert viewer._gui["layers"].value == (2, 4)
+    assert [viewer.server.scene.get_handle_by_name(f"/graph/zone/toolpath/L{i:04d}").visible
+            for i in range(5)] == [False, False, True, True, True]

@@ -50,6 +50,7 @@ class ViewerService:
         self._play_stop = threading.Event()
         self._play_thread: threading.Thread | None = None
         self._bounds: np.ndarray | None = None
+        self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
 
     # ------------------------------------------------------------------------------------------
     # lifecycle
@@ -134,7 +135,10 @@ class ViewerService:
                     part.node_params = dict(next((nd.get("params") or {} for nd in nodes
                                                   if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
                 n = part.sync(value, self.view)
-                stats["redrawn" if n else "kept"] += n or 1
+                if n:
+                    stats["redrawn"] += n
+                else:
+                    stats["kept"] += 1
             self._after_publish()
         return stats
 
@@ -226,11 +230,15 @@ class ViewerService:
         return (min(idx), max(idx)) if idx else (0, 0)
 
     def _after_publish(self) -> None:
+        # A range showing every layer keeps doing so; a narrowed one is kept, clipped to the part.
         lo, hi = self._layer_extent()
-        if self.view.layer_lo < lo or self.view.layer_lo > hi or self.selected[1] is None:
-            self.view.layer_lo = lo
-        if self.view.layer_hi > hi or self.view.layer_hi < lo or self.selected[1] is None:
-            self.view.layer_hi = hi
+        full = (self.view.layer_lo, self.view.layer_hi) == self._extent
+        self._extent = (lo, hi)
+        if full:
+            self.view.layer_lo, self.view.layer_hi = lo, hi
+        else:
+            self.view.layer_lo = int(np.clip(self.view.layer_lo, lo, hi))
+            self.view.layer_hi = int(np.clip(self.view.layer_hi, self.view.layer_lo, hi))
         self.view.hidden &= {n for n, _ in self.parts}
         b = self.bounds()
         if b is not None and (self._bounds is None or not np.allclose(b, self._bounds)):
