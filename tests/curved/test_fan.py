@@ -9,7 +9,7 @@ from shapely.geometry import MultiPolygon, box
 from waamflow.core.model import MeshData
 from waamflow.curved.fan import (angular_range, fan_dtheta, fan_slice, height_range, local_height, make_axis,
                                  plan_fan, to_local)
-from waamflow.curved.feasibility import max_overhang, search_radius
+from waamflow.curved.feasibility import max_overhang, search_radius, search_sections
 from waamflow.curved.shapes import bent_tube
 
 
@@ -59,10 +59,14 @@ def test_frames_put_paths_on_the_top_plane(layers):
 
 
 def test_radius_offset_moves_the_axis_outward(duct):
-    axis = make_axis((-100, 0, 0), (0, -1, 0), duct.vertices, radius_offset=20.0)
+    axis = make_axis((-100, 0, 0), (0, -1, 0), duct.vertices, radius_offset=20.0, part_faces=duct.faces)
     r, _th, _ax = axis.polar(duct.vertices)
     assert r.max() == pytest.approx(136.5, abs=1e-6)         # the start plane's far edge: 116.5 + 20
-    assert np.allclose(axis.point, [-100 - 20 * math.cos(math.pi / 4), 0, -20 * math.sin(math.pi / 4)])
+    # moved within the start plane (z = 0), away from the part: layer 0 still sits on the substrate
+    assert np.allclose(axis.point, [-120, 0, 0])
+    layers = fan_slice(duct, plan_fan(duct, axis, 3.0))
+    first = layers[0].to_world([[130.0, 0.0]])[0]
+    assert first[2] == pytest.approx(130 * math.sin(math.radians(3.0)))   # top of a wedge on z = 0
 
 
 def test_part_around_the_axis_is_refused():
@@ -89,8 +93,14 @@ def test_radius_search():
     res = search_radius(curved, (-60, 0, 0), (0, -1, 0), 2.2, 3.2, max_overhang_mm=1.5, step=10, max_offset=60)
     first = res.candidates[0]
     assert first.csratio == pytest.approx(60 / 33, rel=1e-3) and not first.feasible
-    fits = [c for c in res.candidates if c.dtheta_lo_deg <= c.dtheta_hi_deg]
-    assert all(c.r_min / c.r_max >= 2.2 / 3.2 for c in fits)
-    assert all(c.csratio >= 2.7 - 1e-9 for c in fits)
-    # moving the axis outward helps the heights but tilts the layers against the part: overhang
-    assert fits and all(c.overhang > 1.5 for c in fits) and res.best is None
+    # over a 90° bend, moving the axis within the start plane barely lifts r_min: never fits
+    assert len(res.candidates) == 7 and res.best is None
+    assert all(c.r_min / c.r_max < 2.2 / 3.2 and c.csratio < 2.7 for c in res.candidates)
+    # two 45° sections, each with its own axis in its start plane, fit at +60 mm
+    two = search_sections(curved, (-60, 0, 0), (0, -1, 0), 2.2, 3.2, max_overhang_mm=1.5, step=10,
+                          max_offset=60, max_sections=3)
+    assert two.sections == 2 and all(s.best is not None for s in two.section_results)
+    for s in two.section_results:
+        b = s.best
+        assert b.offset == 60.0 and b.r_min / b.r_max >= 2.2 / 3.2 and b.csratio >= 2.7
+        assert b.overhang <= 1.5

@@ -70,20 +70,32 @@ class FanAxis:
         return np.hypot(a, b), np.arctan2(b, a), ax
 
 
-def make_axis(point, direction, part_vertices: np.ndarray, radius_offset: float = 0.0) -> FanAxis:
-    """Axis through `point` along `direction`, with e0 towards the part's vertex centroid, moved
-    outward by `radius_offset` (mm): away from the part along −e0 (the slicing radius grows)."""
+def _reference(point: np.ndarray, u: np.ndarray, part_vertices: np.ndarray) -> np.ndarray:
+    c = np.asarray(part_vertices, float).mean(axis=0) - point
+    e0 = c - (c @ u) * u
+    if np.linalg.norm(e0) < 1e-9:
+        raise ValueError("the part's centroid lies on the slicing axis: no fan direction")
+    return e0 / np.linalg.norm(e0)
+
+
+def make_axis(point, direction, part_vertices: np.ndarray, radius_offset: float = 0.0,
+              part_faces: np.ndarray | None = None) -> FanAxis:
+    """Axis through `point` along `direction`, e0 towards the part's vertex centroid.
+
+    `radius_offset` (mm) moves the axis outward *within the part's start half-plane*, away from
+    the part (along −e_r(θ_min)): the slicing radius grows by the offset while the start plane
+    stays a fan plane, so layer 0 still sits flat on the substrate."""
     u = np.asarray(direction, float)
     if np.linalg.norm(u) == 0:
         raise ValueError("axis direction is the zero vector")
     u = u / np.linalg.norm(u)
     p = np.asarray(point, float)
-    c = np.asarray(part_vertices, float).mean(axis=0) - p
-    e0 = c - (c @ u) * u
-    if np.linalg.norm(e0) < 1e-9:
-        raise ValueError("the part's centroid lies on the slicing axis: no fan direction")
-    e0 = e0 / np.linalg.norm(e0)
-    return FanAxis(p - radius_offset * e0, u, e0)
+    axis = FanAxis(p, u, _reference(p, u, part_vertices))
+    if radius_offset == 0.0:
+        return axis
+    lo, _hi = angular_range(axis, part_vertices, part_faces)
+    moved = p - radius_offset * axis.radial(lo)
+    return FanAxis(moved, u, _reference(moved, u, part_vertices))
 
 
 def angular_range(axis: FanAxis, vertices: np.ndarray, faces: np.ndarray | None = None) -> tuple[float, float]:

@@ -5,7 +5,8 @@ Heights: a fan plan with increment Δθ needs r·Δθ at distance r from the axi
 radial extent r_min..r_max about the axis, some Δθ fits [H_min, H_max] iff r_min/r_max ≥
 H_min/H_max, i.e. CSratio ≥ (1 + q)/(2(1 − q)) (see `bead.py`).
 
-Overhang: moving the axis outward by `offset` mm flattens the layers relative to the part, so
+Overhang: moving the axis outward by `offset` mm (within the part's start plane, see
+`fan.make_axis`) flattens the layers relative to the part, so
 consecutive layers shift sideways. Each boundary point of layer j+1 (half-plane coordinates
 x = r, y) is projected onto the previous slicing plane — a rotation by Δθ about the axis puts it
 at (x·cos Δθ, y) in that plane's coordinates — and its distance to layer j's region is the
@@ -69,9 +70,16 @@ class SearchResult:
     def best(self) -> Candidate | None:
         return next((c for c in self.candidates if c.feasible), None)
 
+    @property
+    def feasible(self) -> bool:
+        """One section with a fitting radius, or every section of a split with one."""
+        if self.section_results:
+            return all(s.best is not None for s in self.section_results)
+        return self.best is not None
+
     def to_json(self) -> dict:
         out = {"h_min_mm": self.h_min, "h_max_mm": self.h_max, "min_csratio": round(self.min_csratio, 6),
-               "sections": self.sections, "candidates": [c.to_json() for c in self.candidates],
+               "sections": self.sections, "feasible": self.feasible, "candidates": [c.to_json() for c in self.candidates],
                "best": self.best.to_json() if self.best else None}
         if self.section_results:
             out["per_section"] = [s.to_json() for s in self.section_results]
@@ -102,7 +110,7 @@ def evaluate(mesh: MeshData, axis: FanAxis, offset: float, h_min: float, h_max: 
              max_over: float, vertices: np.ndarray | None = None) -> Candidate:
     """Try one slicing radius: heights window, then (if it fits) the overhang of the fan plan."""
     verts = mesh.vertices if vertices is None else vertices
-    ax = FanAxis(axis.point - offset * axis.e0, axis.direction, axis.e0)
+    ax = make_axis(axis.point, axis.direction, verts, offset, mesh.faces if vertices is None else None)
     r, _th, _a = ax.polar(verts)
     r_min, r_max = float(r.min()), float(r.max())
     lo, hi = dtheta_window(r_min, r_max, h_min, h_max)

@@ -31,7 +31,8 @@ class FanSliceNode(Node):
     distance r from the axis is r·Δθ. Layer-local coordinates are half-plane coordinates
     (x = r, y = −position along the axis); `frame` puts them on the layer's top plane with z the
     build direction. `thickness` = r̄·Δθ at the region centroid (Δθ = thickness / r̄).
-    `radius_offset` moves the axis outward, away from the part (larger slicing radius); leave it
+    `radius_offset` moves the axis outward within the start plane, away from the part (larger
+    slicing radius, layer 0 still on the substrate); leave it
     empty to search the smallest offset (multiples of `search_step`) whose heights fit
     [h_min, h_max] and whose overhang (each layer projected onto the previous plane) stays within
     `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
@@ -90,15 +91,20 @@ class FanSliceNode(Node):
                                      max_offset=params.search_max, max_sections=params.max_sections)
             best = search.best
             if best is None:
-                ctx.warn(f"no slicing radius up to +{params.search_max} mm fits heights "
-                         f"[{params.h_min}, {params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one "
-                         f"section (see fan.json: {search.sections} sections tried); slicing at offset 0")
+                if search.feasible:
+                    how = (f"it fits in {search.sections} sections, each with its own axis (offsets in fan.json); "
+                           "this node slices one section")
+                else:
+                    how = f"nor in up to {search.sections} sections"
+                ctx.warn(f"no slicing radius up to +{params.search_max} mm fits heights [{params.h_min}, "
+                         f"{params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one section; {how}: "
+                         "slicing at offset 0")
                 offset = 0.0
             else:
                 offset = best.offset
                 dtheta = dtheta if dtheta is not None else best.dtheta_deg
         try:
-            axis = make_axis(params.axis_point, params.axis_direction, mesh.vertices, offset)
+            axis = make_axis(params.axis_point, params.axis_direction, mesh.vertices, offset, mesh.faces)
             r, _th, _ax = axis.polar(mesh.vertices)
             r_min, r_max = float(r.min()), float(r.max())
             lo, hi = dtheta_window(r_min, r_max, params.h_min, params.h_max)
