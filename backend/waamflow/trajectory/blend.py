@@ -139,18 +139,21 @@ def polyline_distance(q: np.ndarray, points: np.ndarray, near: np.ndarray, reach
     """
     P = np.asarray(points, dtype=float)
     nseg = len(P) - 1
+    qx, qy, qz = q[:, 0], q[:, 1], q[:, 2]
     best = np.full(len(q), np.inf)
     best_i = np.asarray(near, dtype=np.int64).copy()
+    D = P[1:] - P[:-1]
+    LL = (D * D).sum(axis=1)
+    inv = np.where(LL > 0, 1.0 / np.where(LL > 0, LL, 1.0), 0.0)
     for off in range(-reach, reach + 1):
         i = np.clip(near + off, 0, nseg - 1)
-        a, b = P[i], P[i + 1]
-        ab = b - a
-        ll = np.einsum("ij,ij->i", ab, ab)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tt = np.where(ll > 0, np.einsum("ij,ij->i", q - a, ab) / ll, 0.0)
-        tt = np.clip(tt, 0.0, 1.0)
-        dist = np.linalg.norm(q - (a + tt[:, None] * ab), axis=1)
-        better = dist < best
-        best = np.where(better, dist, best)
+        ax, ay, az = P[i, 0], P[i, 1], P[i, 2]
+        dx, dy, dz = D[i, 0], D[i, 1], D[i, 2]
+        rx, ry, rz = qx - ax, qy - ay, qz - az
+        tt = np.clip((rx * dx + ry * dy + rz * dz) * inv[i], 0.0, 1.0)
+        ex, ey, ez = rx - tt * dx, ry - tt * dy, rz - tt * dz
+        dist2 = ex * ex + ey * ey + ez * ez
+        better = dist2 < best
+        best = np.where(better, dist2, best)
         best_i = np.where(better, i, best_i)
-    return best, best_i
+    return np.sqrt(best), best_i

@@ -309,7 +309,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     # ---- attribution, deviation, arc state -------------------------------------------------
     dense_i = np.clip(np.searchsorted(path.s, s_f, side="right") - 1, 0, len(path.seg) - 1)
     guess = path.seg[dense_i]
-    deviation, seg = polyline_distance(xyz, prog.points, guess, reach=3)
+    deviation, seg = polyline_distance(xyz, prog.points, guess, reach=2)
     step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
     same = blk[1:] == blk[:-1]
     step = np.where(same, step, 0.0)
@@ -482,6 +482,9 @@ def _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, 
 
     tl = t - T0[blk]
     age_end = block_len[blk] - tl
-    out = xyz + (profile.backlash_start_mm * np.exp(-np.clip(tl, 0, None) / tau_c))[:, None] * normals(first_seg)[blk]
-    out = out + (profile.backlash_end_mm * np.exp(-np.clip(age_end, 0, None) / tau_c))[:, None] * normals(last_seg)[blk]
+    out = xyz.copy()
+    n_first, n_last = normals(first_seg), normals(last_seg)
+    for amp, age, nrm in ((profile.backlash_start_mm, tl, n_first), (profile.backlash_end_mm, age_end, n_last)):
+        m = np.flatnonzero(age < 8 * tau_c)            # e^-8 < 0.04 %: the transient is over
+        out[m] += (amp * np.exp(-np.clip(age[m], 0, None) / tau_c))[:, None] * nrm[blk[m]]
     return out
