@@ -87,3 +87,25 @@ def test_radius_search_from_the_node():
     res = run(search)
     fan = json.loads(res.artifacts["fan.fan.json"])
     assert fan["search"]["best"]["offset_mm"] == 0.0 and fan["search"]["best"]["feasible"] is True
+
+
+def test_too_curved_part_reports_sections(tmp_path):
+    import trimesh
+
+    from waamflow.curved.shapes import bent_tube
+    part = bent_tube(bend=60, mid=15, wall=3, n_phi=24, n_psi=16)
+    trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "tight.stl")
+    recipe = {"format": "waamflow/1", "name": "tight", "nodes": [
+        {"id": "part", "type": "mesh", "params": {"path": "tight.stl"}},
+        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-60, 0, 0], "axis_direction": [0, -1, 0],
+                                                      "dtheta_deg": 2.6, "radius_offset": None,
+                                                      "search_step": 10, "search_max": 60}}],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    texts = [json.dumps(w) if not isinstance(w, str) else w for w in res.warnings]
+    assert any("fits in 2 sections" in t for t in texts)
+    assert any("bead range" in t for t in texts)            # sliced as one section: heights leave the range
+    fan = json.loads(res.artifacts["fan.fan.json"])
+    assert fan["csratio"] == pytest.approx(60 / 33, rel=2e-3) and fan["heights_fit"] is False
+    assert fan["search"]["sections"] == 2 and fan["search"]["feasible"] is True
+    assert [s["best"]["offset_mm"] for s in fan["search"]["per_section"]] == [60.0, 60.0]
