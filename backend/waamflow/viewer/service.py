@@ -21,7 +21,14 @@ from typing import Any
 import numpy as np
 
 from . import geometry as G
-from .scene import PART_TYPES, slug, PATH_COLOR_MODES, SIM_COLOR_MODES, Part, Pick, ViewState, kind_of
+from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
+                    SectionsPart, ToolpathPart, ViewState, kind_of, slug)
+from .simulation import SimulationPart
+
+PART_TYPES: dict[str, type[Part]] = {
+    "mesh": MeshPart, "layers": LayersPart, "sections": SectionsPart, "toolpath": ToolpathPart,
+    "simulation": SimulationPart, "features": FeaturesPart,
+}
 
 PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
 

@@ -1,0 +1,256 @@
+"""Scene adapter of a simulated robot motion (another engineer's `SimulationResult`, by duck
+typing: `trace` dict, `programmed` (n, 3), optional `corners`, `section_keys`, `profile`).
+
+    /graph/<node>/simulation/L0007/programmed    programmed path (grey)
+    /graph/<node>/simulation/L0007/simulated     simulated path (by deviation or speed; arc OFF pale)
+    /graph/<node>/simulation/L0007/corners       blended corners (by corner error), pickable
+    /graph/<node>/simulation/torch               playback marker at the slider's time
+    /graph/<node>/simulation/robot/links         the arm (stick figure) at the slider's time
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import colors as C
+from . import geometry as G
+from .scene import SIM_PX, TRAVEL_PX, Part, Pick, layer_name
+from .signature import digest
+
+
+class SimulationPart(Part):
+    """Programmed vs simulated path per layer, simulated coloured by deviation or speed, and a
+    torch marker placed on the trace at the playback time."""
+
+    kind = "simulation"
+
+    def __init__(self, *a, **k) -> None:
+        super().__init__(*a, **k)
+        self.sig: str | None = None
+        self.entries: dict[int, dict[str, Any]] = {}
+        self.trace: dict[str, np.ndarray] = {}
+        self.section_keys: tuple[str, ...] = ()
+        self.points = np.zeros((0, 3))
+        self.torch = None
+        self.ranges: dict[str, tuple[float, float]] = {}
+        self.mode = "deviation"
+        self._bounds = None
+        self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
+        self.robot = None                       # RobotMotion, or None
+        self.robot_note = ""                    # why there is no robot, if there is none
+        self.robot_handles: dict[str, Any] = {}
+        self.corner_points = np.zeros((0, 3))
+        self.corner_layer = np.zeros(0, np.int64)
+        self.corner_table: dict[str, np.ndarray] = {}
+
+    def duration(self) -> float:
+        t = self.trace.get("t")
+        return float(t[-1]) if t is not None and len(t) else 0.0
+
+    def _sim_colors(self, first: np.ndarray, mode: str) -> np.ndarray:
+        key = "deviation" if mode == "deviation" else "speed"
+        vals = np.asarray(self.trace.get(key, np.full(len(self.points), np.nan)), float)[first]
+        rgb = C.colormap(vals, *self.ranges.get(key, (0.0, 1.0)))
+        if "arc" in self.trace:
+            rgb[~np.asarray(self.trace["arc"], bool)[first]] = C.TRAVEL_RGB
+        return np.repeat(rgb[:, None, :], 2, axis=1)
+
+    def sync(self, value, view) -> int:
+        sig = digest((value.trace, getattr(value, "programmed", None), self.node_params))
+        if sig == self.sig:
+            return 0
+        for e in self.entries.values():
+            e["handle"].remove()
+        self.entries.clear()
+        trace = {k: np.asarray(v) for k, v in value.trace.items()}
+        self.trace = trace
+        self.section_keys = tuple(getattr(value, "section_keys", ()) or ())
+        self.points = G.trace_points(trace)
+        n = len(self.points)
+        self.ranges = {k: C.finite_range(trace[k]) for k in ("deviation", "speed") if k in trace}
+        layer = np.asarray(trace.get("layer", np.zeros(n)), np.int64)
+        chunks = G.split_by_layer(layer)
+        budget = max(self.max_segments // max(len(chunks), 1) // 2, 64)
+        programmed = getattr(value, "programmed", None)
+        prog = np.zeros((0, 3)) if programmed is None else np.asarray(programmed, float).reshape(-1, 3)
+        prog_layer = self._programmed_layers(prog, layer)
+        prog_chunks = G.split_by_layer(prog_layer) if len(prog) else {}
+        added = 0
+        for index in sorted(set(chunks) | set(prog_chunks)):
+            name = f"{self.root}/{layer_name(index)}"
+            frame = self.scene.add_frame(name, show_axes=False)
+            entry: dict[str, Any] = {"handle": frame, "bounds": None}
+            if index in prog_chunks:
+                segs, _ = G.chunk_segments(prog, prog_chunks[index], budget)
+                self.scene.add_line_segments(f"{name}/programmed", segs, C.PROGRAMMED_RGB,
+                                             thickness=TRAVEL_PX, thickness_units="screen")
+                entry["programmed"] = len(segs)
+            if index in chunks:
+                arc = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
+                segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
+                entry["sim"] = self.scene.add_line_segments(
+                    f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
+                    thickness=SIM_PX, thickness_units="screen")
+                entry["first"] = first
+                entry["bounds"] = G.layers_bounds([segs])
+            frame.visible = view.shows_layer(index)
+            self.entries[index] = entry
+            added += 1
+        self._add_corners(value, prog, prog_layer)
+        self.mode = view.sim_color
+        pos, _ = G.interpolate_trace(trace, view.time_s) if n else (np.zeros(3), 0)
+        b = self.bounds()
+        radius = 0.01 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 1.0
+        self.torch = self.scene.add_icosphere(f"{self.root}/torch", radius=max(radius, 0.5),
+                                              color=(255, 183, 3), position=tuple(pos), visible=n > 0)
+        self._add_robot(value, view)
+        self.sig = sig
+        return added + 1
+
+    def _add_corners(self, value, prog: np.ndarray, prog_layer: np.ndarray) -> None:
+        """Blended corners as points on their layer, coloured by corner error (the study's closest
+        approach of the actual path to the programmed vertex); picked for error, angle, speed."""
+        corners = getattr(value, "corners", None) or {}
+        vertex = np.asarray(corners.get("vertex", ()), np.int64).reshape(-1)
+        ok = (vertex >= 0) & (vertex < len(prog))
+        self.corner_table = {k: np.asarray(v)[ok] for k, v in corners.items() if len(np.asarray(v)) == len(vertex)}
+        vertex = vertex[ok]
+        self.corner_points = prog[vertex] if len(vertex) else np.zeros((0, 3))
+        self.corner_layer = prog_layer[vertex] if len(vertex) else np.zeros(0, np.int64)
+        if not len(vertex):
+            return
+        err = np.asarray(self.corner_table.get("error_mm", np.full(len(vertex), np.nan)), float)
+        rgb = C.colormap(err, *C.finite_range(err))
+        b = self.bounds()
+        size = 0.006 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 0.5
+        for index in np.unique(self.corner_layer):
+            m = self.corner_layer == index
+            if int(index) in self.entries:
+                self.scene.add_point_cloud(f"{self.root}/{layer_name(int(index))}/corners",
+                                           self.corner_points[m].astype(np.float32), rgb[m],
+                                           point_size=max(size, 0.2), point_shape="diamond")
+
+    def _add_robot(self, value, view) -> None:
+        """The arm as a stick figure at the playback time, if its URDF loads (see `robot`)."""
+        from .robot import cell_setup, robot_motion
+
+        for h in self.robot_handles.values():
+            h.remove()
+        self.robot_handles = {}
+        self.robot, self.robot_note = None, ""
+        if len(self.points) < 2 or "t" not in self.trace:
+            return
+        try:
+            setup = cell_setup(self.node_params, dict(getattr(value, "profile", {}) or {}))
+            self.robot = robot_motion(self.trace, setup)
+        except Exception as e:   # no URDF, no Pinocchio, unreachable: the preview goes on without the arm
+            self.robot_note = f"robot not shown: {e}"
+            return
+        segs = self.robot.segments(view.time_s)
+        self.robot_handles["links"] = self.scene.add_line_segments(
+            f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen",
+            visible=view.show_robot)
+
+    def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
+        """Layer of each programmed point: the trace's own when sampled 1:1, else the layer of
+        the nearest simulated sample."""
+        if len(prog) == len(trace_layer):
+            return trace_layer
+        if len(prog) == 0 or len(self.points) == 0:
+            return np.zeros(len(prog), np.int64)
+        from scipy.spatial import cKDTree
+
+        _, idx = cKDTree(self.points).query(prog)
+        return trace_layer[idx]
+
+    def apply(self, view):
+        for index, e in self.entries.items():
+            e["handle"].visible = view.shows_layer(index)
+        if view.sim_color != self.mode:
+            for e in self.entries.values():
+                if "sim" in e:
+                    e["sim"].colors = self._sim_colors(e["first"], view.sim_color)
+            self.mode = view.sim_color
+        for h in self.robot_handles.values():
+            h.visible = view.show_robot
+        self.set_time(view.time_s)
+
+    def set_time(self, t: float) -> dict[str, Any] | None:
+        """Move the torch marker to time t (s); returns the sample readout at t."""
+        if self.torch is None or not len(self.points):
+            return None
+        pos, i = G.interpolate_trace(self.trace, t)
+        self.torch.position = tuple(float(v) for v in pos)
+        if self.robot is not None and self.robot_handles:
+            self.robot_handles["links"].points = self.robot.segments(t)
+        return self.sample_info(i)
+
+    def sample_info(self, i: int) -> dict[str, Any]:
+        """Readout of trace sample i: time, layer, section key, actual speed, deviation, arc."""
+        tr = self.trace
+        info: dict[str, Any] = {}
+        if "t" in tr:
+            info["t_s"] = round(float(tr["t"][i]), 4)
+        if "layer" in tr:
+            info["layer"] = int(tr["layer"][i])
+        if "section" in tr:
+            sec = tr["section"][i]
+            keys = self.section_keys
+            info["section"] = keys[int(sec)] if np.issubdtype(np.asarray(sec).dtype, np.integer) and 0 <= int(sec) < len(keys) else str(sec)
+        if "speed" in tr:
+            info["actual_speed_mm_s"] = round(float(tr["speed"][i]), 4)
+        if "deviation" in tr:
+            info["deviation_mm"] = round(float(tr["deviation"][i]), 4)
+        if "arc" in tr:
+            info["arc"] = bool(tr["arc"][i])
+        return info
+
+    def layer_indices(self):
+        return sorted(self.entries)
+
+    def bounds(self):
+        return G.layers_bounds([e["bounds"] for e in self.entries.values() if e.get("bounds") is not None])
+
+    def pick(self, origin, direction, tol, view):
+        if not len(self.points):
+            return None
+        corner = self._pick_corner(origin, direction, tol, view)
+        if corner is not None:
+            return corner
+        mask = np.ones(len(self.points), bool)
+        if "layer" in self.trace:
+            lay = np.asarray(self.trace["layer"], np.int64)
+            mask = (lay >= view.layer_lo) & (lay <= view.layer_hi)
+        idx = np.flatnonzero(mask)
+        i = G.ray_pick(self.points[idx], origin, direction, tol)
+        if i is None:
+            return None
+        j = int(idx[i])
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        return Pick(float((self.points[j] - np.asarray(origin, float)) @ d), self.points[j], self.sample_info(j))
+
+    def _pick_corner(self, origin, direction, tol, view) -> Pick | None:
+        vis = np.flatnonzero((self.corner_layer >= view.layer_lo) & (self.corner_layer <= view.layer_hi))
+        i = G.ray_pick(self.corner_points[vis], origin, direction, tol) if len(vis) else None
+        if i is None:
+            return None
+        j = int(vis[i])
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        info: dict[str, Any] = {"corner": True, "layer": int(self.corner_layer[j])}
+        for key in ("interior_deg", "error_mm", "min_speed_mm_s"):
+            if key in self.corner_table:
+                info[f"corner_{key}"] = round(float(self.corner_table[key][j]), 4)
+        return Pick(float((self.corner_points[j] - np.asarray(origin, float)) @ d), self.corner_points[j], info)
+
+    def nearest_sample(self, point: np.ndarray, layer: int | None) -> dict[str, Any] | None:
+        """Readout of the simulated sample nearest to a world point (same layer when known)."""
+        if not len(self.points):
+            return None
+        idx = np.arange(len(self.points))
+        if layer is not None and "layer" in self.trace:
+            same = np.flatnonzero(np.asarray(self.trace["layer"], np.int64) == layer)
+            idx = same if len(same) else idx
+        j = int(idx[np.argmin(np.linalg.norm(self.points[idx] - point, axis=1))])
+        return self.sample_info(j)
