@@ -136,3 +136,19 @@ def test_weld_tolerance_closes_rounding_cracks():
     m = load_mesh_bytes(data, "noisy.stl", weld_tolerance=1e-3)
     assert len(m.vertices) == 192 and len(m.faces) == 384
     assert signed_volume(m.vertices, m.faces) == pytest.approx(tm.volume, rel=1e-4)   # corners moved ≤ 0.9 µm
+
+
+def test_ascii_stl_fast_parser_multi_solid_uppercase_and_fallback():
+    from waamflow.geometry.mesh_io import ascii_stl_triangles
+
+    text = (b"SOLID part1\n  FACET NORMAL 0 0 1E+0\n    OUTER LOOP\n\tVERTEX 0 0 0\n VERTEX 1.5e1 0 0\n"
+            b" VERTEX 0 1 0\n ENDLOOP\n ENDFACET\nENDSOLID part1\nsolid b2\nfacet normal 0 0 1\nouter loop\n"
+            b"vertex 0 0 -2.5E-1\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid b2\n")
+    tri = ascii_stl_triangles(text)
+    np.testing.assert_array_equal(tri, [[[0, 0, 0], [15, 0, 0], [0, 1, 0]], [[0, 0, -0.25], [1, 0, 0], [0, 1, 0]]])
+    nan_file = (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\nvertex 0 1 0\n"
+                b"endloop\nendfacet\nendsolid x\n")
+    assert ascii_stl_triangles(nan_file) is None
+    # the fast path refuses it; trimesh reads it and the NaN is reported
+    with pytest.raises(InputFileError, match="non-finite"):
+        load_mesh_bytes(nan_file, "nan.stl")
