@@ -22,6 +22,7 @@ Units: mm, s, rad inside Pinocchio (m), reported in degrees.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,6 +35,7 @@ from .profile import ROBOTS_DIR
 SINGULAR_SIGMA = 0.02   # smallest singular value of the 5x6 task Jacobian (m or rad per rad) below which we warn
 REACH_TOL_MM = 0.5       # IK position residual above which a point is unreachable
 LIMIT_MARGIN = 1e-3      # rad
+CONVERGED = 1e-12        # squared 5-D IK error: 1 µm / 1 µrad — far below any robot's repeatability
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,22 +149,28 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
         n_it = 80 if i == 0 else iters
         it = 0
         while True:
-            pin.framesForwardKinematics(model, data, q)
-            cur = data.oMf[arm.tcp]
+            pin.forwardKinematics(model, data, q)
+            cur = pin.updateFramePlacement(model, data, arm.tcp)
             Rc = cur.rotation
-            w = np.cross(Rc[:, 2], zt)                         # align the torch axis: rotation axis · angle
-            sw = np.linalg.norm(w)
-            ang = np.arctan2(sw, Rc[:, 2] @ zt)
-            w_loc = Rc.T @ (w * (ang / sw)) if sw > 1e-12 else np.zeros(3)
-            e = np.concatenate([Rc.T @ (pt - cur.translation), w_loc[:2]])   # 5-D: free about the torch axis
+            zc = Rc[:, 2]
+            # rotation (axis · angle) that aligns the torch axis; np.cross is slow on 3-vectors
+            w = np.array([zc[1] * zt[2] - zc[2] * zt[1], zc[2] * zt[0] - zc[0] * zt[2], zc[0] * zt[1] - zc[1] * zt[0]])
+            sw = math.sqrt(w @ w)
+            e = np.empty(5)
+            e[:3] = Rc.T @ (pt - cur.translation)
+            e[3:] = (Rc.T[:2] @ w) * (math.atan2(sw, zc @ zt) / sw) if sw > 1e-12 else 0.0
             J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)[:5]
             it += 1
-            if e @ e < 1e-14 or it > n_it + (retry if e @ e > 1e-8 else 0):
+            ee = e @ e
+            if ee < CONVERGED or it > n_it + (retry if ee > 1e-8 else 0):
                 break
-            Jp = J.T @ np.linalg.inv(J @ J.T + lam2 * eye5)
-            dq = Jp @ e
-            dq += (np.eye(model.nv) - Jp @ J) @ (roll * (mid - q))
-            q = np.clip(q + dq, arm.lower, arm.upper)
+            # damped least squares + null-space pull of the wrist rolls: one solve, two right-hand sides
+            r = roll * (mid - q)
+            rhs = np.empty((5, 2))
+            rhs[:, 0] = e
+            rhs[:, 1] = J @ r
+            sol = np.linalg.solve(J @ J.T + lam2 * eye5, rhs)
+            q = np.minimum(np.maximum(q + J.T @ (sol[:, 0] - sol[:, 1]) + r, arm.lower), arm.upper)
         err_mm[i] = 1000.0 * np.linalg.norm(pt - cur.translation)
         retry = 40 if err_mm[i] < REACH_TOL_MM else 0   # don't grind on through an unreachable stretch
         Js[i] = J
