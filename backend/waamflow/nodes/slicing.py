@@ -14,14 +14,14 @@ from ..slicing import empty_layers_inside, slice_part
 
 @register
 class SliceNode(Node):
-    """Planar slicing along +Z into layers.
+    """Planar slicing into layers along a build direction (default +Z).
 
     Layer i occupies [z − t, z]: `z` is the layer's *top* (where the bead top sits and the torch
     deposits) and t its thickness; the geometry is cut at *mid-layer*, z − t/2. Layer 0 starts
     at the part's bottom (or `z_min`) plus `start_offset`; thicknesses come from `thicknesses`
     in order, then `layer_height`. Layers continue while their cutting plane is below the part's
     top (or `z_max`), at most `layer_count`. Solids give polygons with holes (even-odd nesting,
-    any number of bodies and islands); midsurface sketches give their curves on every layer
+    any number of bodies and islands, overlapping bodies united); midsurface sketches give their curves on every layer
     within the extrusion. With a `direction` other than +Z, heights are measured along it and each
     layer carries its frame (layer-local x, y → world; in `layers.json` as "frame"). Warns on
     layers inside the part that come out empty. Writes `<node>.layers.json`.
