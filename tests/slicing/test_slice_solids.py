@@ -211,3 +211,21 @@ def test_build_direction_down_flips_the_stack():
     for l, zc in zip(layers, cuts_world):
         assert l.area == pytest.approx(ngon_area(r0 + (r1 - r0) * zc / h), rel=1e-9)
     np.testing.assert_allclose(layers[0].to_world([[0.0, 0.0]]), [[0.0, 0.0, 18.0]], atol=1e-12)
+
+
+def test_crowded_planes_use_the_tree_paths():
+    """100 cubes inside a square frame (102 loops a plane, over the all-pairs limit), two of
+    them overlapping: nesting and the overlap union go through the STRtree paths."""
+    frame = box((120, 120, 4), corner=(-10, -10, 0))
+    hole = box((110, 110, 4), corner=(-5, -5, 0))
+    hole.invert()                                    # frame = outer box with a through cavity
+    cubes = [box((4, 4, 4), corner=(10 * i, 10 * j, 0)) for i in range(10) for j in range(10)]
+    cubes.append(box((4, 4, 4), corner=(2, 0, 0)))   # overlaps the cube at (0, 0) by 2 × 4
+    layers = slice_part(as_mesh(union(frame, hole, *cubes)), layer_height=2.0)
+    assert len(layers) == 2
+    for l in layers:
+        polys = l.region.geoms
+        assert len(polys) == 101                     # 99 cubes, one 6 × 4 block, the frame
+        frame_poly = max(polys, key=lambda p: p.area)
+        assert frame_poly.area == pytest.approx(120**2 - 110**2) and len(frame_poly.interiors) == 1
+        assert l.area == pytest.approx(120**2 - 110**2 + 99 * 16 + 24)
