@@ -114,3 +114,14 @@ def test_no_motion_is_a_planning_error():
     still = np.array([[1, 1, 5], [1, 1, 5]], float)
     with pytest.raises(PlanningError, match="no motion"):
         simulate(moves(((section(still),), 0.0)), KUKA)
+
+
+def test_long_programs_sample_at_the_cycle_with_the_same_figures(monkeypatch):
+    import waamflow.trajectory.simulate as sim_mod
+    from waamflow.trajectory import study
+
+    fine = simulate(study.planned("triangular", 40.0, angle_deg=45.0), KUKA).metrics
+    monkeypatch.setattr(sim_mod, "MAX_FINE_SAMPLES", 0)
+    coarse = simulate(study.planned("triangular", 40.0, angle_deg=45.0), KUKA).metrics
+    for k in ("total_time_s", "actual_length_mm", "deposited_volume_mm3", "max_corner_error_mm"):
+        assert coarse[k] == pytest.approx(fine[k], rel=0.01), k

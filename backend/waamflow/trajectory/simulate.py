@@ -39,6 +39,7 @@ from .profile import RobotProfile
 from .speedplan import evaluate, plan_spans, profile_spans
 
 FINE = 3  # fine samples per interpolation cycle
+MAX_FINE_SAMPLES = 3_000_000  # above this (≈ 2.8 h at 12 ms), sample at the cycle itself to bound memory
 
 
 @dataclass(frozen=True)
@@ -242,7 +243,6 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         raise PlanningError("toolpath point is not finite", layer=int(prog.layer[seg_i]),
                             section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None)
     dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
-    h = dt / FINE
     a, j = profile.path_acc, profile.path_jerk
     path = blend_path(prog.points, prog.speed, prog.stop, mode=opt.blend, distance=opt.cdis,
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
@@ -261,6 +261,9 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     nb = len(block_end)
     raw_dur = np.add.reduceat(prof.duration, block_start)
     start_vertex = np.concatenate([[0], spans.vertex_after[block_end[:-1]]])
+    h = dt / FINE
+    if (raw_dur.sum() + profile.smoothing_s * nb) / h > MAX_FINE_SAMPLES:
+        h = dt
     nf = max(1.0, profile.smoothing_s / h)  # filter window in fine samples (fractional)
     tf = (nf - 1.0) * h  # extra time the filter adds to a block
     gap_before = (prog.standstill[start_vertex]
