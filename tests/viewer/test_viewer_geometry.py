@@ -158,3 +158,13 @@ def test_signatures_follow_content_not_identity():
     engine = Layered(a.items, ("s0", "s1", "s2", "s3"))
     assert layer_signatures(engine) == ["s0", "s1", "s2", "s3"]
     assert digest(Polygon([(0, 0), (1, 0), (1, 1)])) != digest(Polygon([(0, 0), (1, 0), (0, 1)]))
+
+
+def test_unzoned_paths_take_their_section_colour():
+    layer = make_layers(1)[0]
+    pts = np.array([[0, 0, 1.5], [10, 0, 1.5], [10, 5, 1.5]])
+    a = SectionPath("bs1/A", "raster", pts, np.ones(2, bool), np.ones(2, bool), np.full(2, 8.0))
+    b = SectionPath("bs1/B", "raster", pts + [20, 0, 0], np.ones(2, bool), np.ones(2, bool), np.full(2, 8.0))
+    poly = G.layer_polyline(LayerPaths(layer, (a, b)))
+    assert (poly.zone_rgb[:2] == C.categorical("bs1/A")).all()
+    assert (poly.zone_rgb[3:] == C.categorical("bs1/B")).all()

@@ -175,8 +175,9 @@ class PathLayerPolyline:
 def layer_polyline(lp: LayerPaths) -> PathLayerPolyline:
     """Walk one layer's section paths in deposition order into a single polyline: each section's
     approach (arc-OFF travel from the previous section's end, through `approach`, to its first
-    point), then its path. Colours come from the section's own `zone_colors`."""
-    from .colors import TRAVEL_RGB, zone_rgb
+    point), then its path. Colours come from the section's own `zone_colors` (the zone node's,
+    as in the parameter XML); a path not zoned yet takes its section's palette colour."""
+    from .colors import TRAVEL_RGB, categorical, zone_rgb
 
     pts: list[np.ndarray] = []
     attrs: dict[str, list[np.ndarray]] = {k: [] for k in ("travel", "arc", "speed", "section", "zone", "rgb")}
@@ -222,7 +223,8 @@ def layer_polyline(lp: LayerPaths) -> PathLayerPolyline:
             m = zarr == z
             if m.any():
                 z_idx[m] = zi
-                rgb[m] = zone_rgb(z, sp.zone_colors)
+                # before zoning (zone "") a path takes its section's colour instead of one grey
+                rgb[m] = zone_rgb(z, sp.zone_colors) if z or z in sp.zone_colors else categorical(sp.key)
         arc = np.asarray(sp.arc, bool)
         add(n, ~arc, arc, np.asarray(sp.speed, float), s_idx, z_idx, rgb)
         pts.append(p[1:])
