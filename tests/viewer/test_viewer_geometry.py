@@ -168,3 +168,13 @@ def test_unzoned_paths_take_their_section_colour():
     poly = G.layer_polyline(LayerPaths(layer, (a, b)))
     assert (poly.zone_rgb[:2] == C.categorical("bs1/A")).all()
     assert (poly.zone_rgb[3:] == C.categorical("bs1/B")).all()
+
+
+def test_robot_motion_blends_between_samples():
+    from waamflow.viewer.robot import RobotMotion
+
+    joints = np.array([[[0, 0, 0], [0, 0, 100.0]], [[0, 0, 0], [10, 0, 100.0]]])
+    m = RobotMotion(np.array([0.0, 2.0]), joints, np.zeros(2), "test")
+    assert np.allclose(m.at(0.5), [[0, 0, 0], [2.5, 0, 100]])
+    assert np.allclose(m.at(-1), joints[0]) and np.allclose(m.at(9), joints[1])
+    assert m.segments(1.0).shape == (1, 2, 3)

@@ -59,6 +59,8 @@ def test_large_part_is_decimated_for_display_only(viewer):
     assert len(np.unique(h.colors.reshape(-1, 3), axis=0)) >= 4     # 3 zones + travel
     sim_segments = sum(viewer.server.scene.get_handle_by_name(f"/graph/sim/simulation/L{i:04d}/simulated").points.shape[0]
                        for i in range(500))
+    print(f"large part: {n_points} path points in 500 layers → {shown} toolpath segments drawn "
+          f"(of {source}), {sim_segments} simulated segments (of {len(sim.trace['t']) - 1})")
     assert sim_segments <= viewer.max_segments
     assert tp[250].sections[0].points.shape == (1000, 3)           # the data is untouched
     assert viewer.publish("big", {"nodes": []}, {"zone": {"toolpath": tp}, "sim": {"simulation": sim}})["redrawn"] == 0

@@ -27,9 +27,14 @@ class RobotMotion:
     name: str
 
     def at(self, t: float) -> np.ndarray:
-        """(m, 3) joint origins of the sample at or before time t (s)."""
-        i = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1))
-        return self.joints[i]
+        """(m, 3) joint origins at time t (s), linearly blended between the two IK samples around
+        t (display only: between samples a few mm apart the blend is indistinguishable)."""
+        k = len(self.t)
+        i = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, k - 1))
+        if i + 1 >= k or self.t[i + 1] <= self.t[i] or t <= self.t[i]:
+            return self.joints[i]
+        f = min((t - self.t[i]) / (self.t[i + 1] - self.t[i]), 1.0)
+        return self.joints[i] * (1 - f) + self.joints[i + 1] * f
 
     def segments(self, t: float) -> np.ndarray:
         """(m - 1, 2, 3) float32 links of the stick figure at time t."""
@@ -52,7 +57,7 @@ def cell_setup(params: dict[str, Any], profile: dict[str, Any]) -> dict[str, Any
     }
 
 
-def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_samples: int = 400) -> RobotMotion:
+def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_samples: int = 600) -> RobotMotion:
     """Solve the arm along the trace (see module doc). Raises if the robot cannot be loaded."""
     import pinocchio as pin
 
