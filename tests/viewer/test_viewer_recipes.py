@@ -10,15 +10,15 @@ from waamflow.viewer import geometry as G
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 
-def run_recipe(name: str):
+def run_recipe(name: str, artifacts: bool = False):
     executor = pytest.importorskip("waamflow.engine.executor")
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import load_recipe
 
     path = GRAPHS / f"{name}.json"
     recipe = load_recipe(path)
-    result = executor.execute(build_graph(recipe), resolver=executor.FileResolver(path.parent), artifacts=False)
-    return recipe.to_json(), result.outputs
+    result = executor.execute(build_graph(recipe), resolver=executor.FileResolver(path.parent), artifacts=artifacts)
+    return (recipe.to_json(), result.outputs) + ((result.artifacts,) if artifacts else ())
 
 
 def layer_nodes(names, node, port):
@@ -96,3 +96,28 @@ def test_robot_follows_the_trace(viewer):
         assert np.allclose(base, part.robot.joints[0, 0], atol=1e-3)
     viewer._gui["robot"].value = False
     assert links.visible is False
+
+
+def test_zone_colours_match_the_parameter_xml(viewer):
+    import defusedxml.ElementTree as ET
+
+    from waamflow.viewer import colors as C
+
+    recipe, out, files = run_recipe("mpp-cross", artifacts=True)
+    xml = ET.fromstring(files["zone.params.xml"])
+    viewer.publish("mpp-cross", recipe, out)
+    tp = out["zone"]["toolpath"]
+    checked = 0
+    for layer_el in xml.iter("layer"):
+        i = int(layer_el.get("index"))
+        poly = G.layer_polyline(tp[i])
+        disp = G.path_display(poly, 1 << 30)
+        colors = viewer.server.scene.get_handle_by_name(f"/graph/zone/toolpath/L{i:04d}").colors[:, 0]
+        for sec_el in layer_el.iter("section"):
+            s_idx = disp.section_keys.index(sec_el.get("id"))
+            for zone_el in sec_el.iter("zone"):
+                m = (disp.section == s_idx) & (disp.zone == disp.zone_ids.index(zone_el.get("id"))) & ~disp.travel
+                assert m.any()
+                assert (colors[m] == C.hex_to_rgb(zone_el.get("color"))).all(), (i, sec_el.get("id"), zone_el.get("id"))
+                checked += 1
+    assert checked >= 8 * 3 * 2        # 8 layers × 3 sections × at least start/end
