@@ -99,3 +99,11 @@ def test_calibrate_robot_bad_csv_names_the_row(tmp_path):
             "edges": [{"from": a, "to": b} for a, b in OR_EDGES + [("strategy.toolpath", "cal.toolpath")]]}
     with pytest.raises(InputFileError, match="row 14"):
         execute(build_graph(parse_recipe(data)), resolver=FileResolver(tmp_path))
+
+
+def test_contract_example_speed_param():
+    """The contract's example recipe passes `speed` to simulate-robot: it overrides arc-ON speeds."""
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"speed": 10, "kinematics": False}}],
+            [("strategy.toolpath", "sim.toolpath")])
+    sim = json.loads(r.artifacts["sim.simulation.json"])
+    assert sim["arc_on_time_s"] == pytest.approx(5 * 43 / 10, rel=0.05)

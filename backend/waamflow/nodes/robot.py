@@ -33,6 +33,8 @@ class RobotParams(NodeParams):
     blend: Literal["cdis", "zone"] = Field("cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola")
     speed_override: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
                                          description="Replace the programmed speed of arc-ON moves (empty = as programmed)")
+    speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
+                                description="Same as speed_override (the contract's example recipe sets `speed` here)")
     travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
                                        description="Speed of arc-OFF moves that carry no speed (empty = the profile's)")
     interpolation_cycle_s: float = Field(0.012, gt=0.0005, le=0.1, json_schema_extra=unit("s"),
@@ -47,7 +49,8 @@ class RobotParams(NodeParams):
 
     def sim_options(self) -> SimOptions:
         return SimOptions(cdis=self.cdis, blend=self.blend, wire_feed_mm3_s=self.wire_feed_mm3_s,
-                          speed_override=self.speed_override, interpolation_cycle_s=self.interpolation_cycle_s,
+                          speed_override=self.speed_override if self.speed_override is not None else self.speed,
+                          interpolation_cycle_s=self.interpolation_cycle_s,
                           travel_speed=self.travel_speed, ignition_dwell_s=self.ignition_dwell_s,
                           wire_diameter_mm=self.wire_diameter_mm)
 
