@@ -71,18 +71,6 @@ class Loops:
     def loop(self, j: int) -> np.ndarray:
         return self.coords[self.offsets[j]: self.offsets[j + 1]]
 
-    def subset(self, keep: np.ndarray) -> "Loops":
-        """The loops selected by a (k,) bool mask, same order."""
-        sizes = np.diff(self.offsets)
-        pts = np.repeat(keep, sizes)
-        return Loops(
-            coords=self.coords[pts],
-            offsets=np.concatenate([[0], np.cumsum(sizes[keep])]),
-            plane=self.plane[keep],
-            body=self.body[keep] if len(self.body) else self.body,
-            void=self.void,
-        )
-
 
 def _pairs(fz: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(triangle, plane) index pairs for every plane a triangle crosses (z_min < h ≤ z_max).

@@ -95,25 +95,31 @@ def _bbox_overlap(bbox: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     return (a[:, 0] <= b[:, 2]) & (b[:, 0] <= a[:, 2]) & (a[:, 1] <= b[:, 3]) & (b[:, 1] <= a[:, 3])
 
 
-def _containment_pairs(polys, probes, bbox, plane) -> tuple[np.ndarray, np.ndarray]:
+def _containment_pairs(polys, probes, bbox, plane, group=None) -> tuple[np.ndarray, np.ndarray]:
     """All (probe loop, container loop) pairs of the same plane with the probe inside the container.
 
     polys: (k,) loop polygons; probes: (k, 2) one vertex per loop; bbox: (k, 4) min x, min y,
     max x, max y; plane: (k,) sorted. Planes with few loops are tested all-pairs in one
     vectorised call (after a bounding-box filter); crowded planes query an STRtree each.
+    group: (k,) int or None; when given only loops of the same group are paired.
     """
     probe, container, crowded = _plane_pairs(plane)
     px, py = probes[probe, 0], probes[probe, 1]
     b = bbox[container]
     keep = (px >= b[:, 0]) & (px <= b[:, 2]) & (py >= b[:, 1]) & (py <= b[:, 3])
+    if group is not None:
+        keep &= group[probe] == group[container]
     probe, container = probe[keep], container[keep]
     inside = shapely.contains_xy(polys[container], probes[probe, 0], probes[probe, 1])
     pi, gi = [probe[inside]], [container[inside]]
     for a, n in crowded:
         tree = shapely.STRtree(polys[a: a + n])
         p_, g_ = tree.query(shapely.points(probes[a: a + n]), predicate="within")
-        pi.append(a + p_[p_ != g_])
-        gi.append(a + g_[p_ != g_])
+        m = p_ != g_
+        if group is not None:
+            m &= group[a + p_] == group[a + g_]
+        pi.append(a + p_[m])
+        gi.append(a + g_[m])
     return np.concatenate(pi), np.concatenate(gi)
 
 
@@ -133,31 +139,31 @@ def _crossing_planes(rings, bbox, plane, body) -> np.ndarray:
     return np.unique(np.concatenate(hit))
 
 
-def _union_of_bodies(loops: Loops, plane: int):
-    """Region of one plane where bodies overlap: each solid body minus the cavity bodies inside
-    it, then the union of those. Each body is nested even-odd on its own.
+def _unite(polys: np.ndarray, void: np.ndarray):
+    """Region of one plane where bodies overlap: every solid polygon minus the cavity polygons
+    it holds, then the union of them all.
 
-    A cavity belongs to the solid bodies whose outline (filled) contains it whole, so a second
-    body crossing the cavity fills it, as a union of the bodies should.
+    polys: (n,) polygons of the plane, each nested even-odd within its own body; void: (n,)
+    bool, polygon of a cavity body (inside-out shell). A cavity belongs to the solid polygons
+    whose outline (filled) contains it whole, so another body crossing the cavity fills it, as a
+    union of the bodies should.
     """
-    solids, voids = [], []
-    in_plane = loops.plane == plane
-    for b in np.unique(loops.body[in_plane]):
-        sub = loops.subset(in_plane & (loops.body == b))
-        region = loops_to_regions(Loops(sub.coords, sub.offsets, np.zeros(len(sub), dtype=np.int64)), 1)[0]
-        (voids if loops.void[b] else solids).append(region)
-    parts = []
-    for solid in solids:
-        outline = shapely.union_all([shapely.Polygon(p.exterior) for p in solid.geoms])
-        inside = [v for v in voids if outline.contains(v)]
-        parts.append(solid.difference(shapely.union_all(inside)) if inside else solid)
-    return as_multipolygon(region_polygons(shapely.union_all(parts)))
+    solids, voids = polys[~void], polys[void]
+    if len(voids):
+        outlines = shapely.polygons(shapely.get_exterior_ring(solids))
+        holds = shapely.contains(outlines[:, None], voids[None, :])          # [solid, void]
+        solids = np.array([
+            s.difference(shapely.union_all(voids[holds[i]])) if holds[i].any() else s
+            for i, s in enumerate(solids)
+        ], dtype=object)
+    return as_multipolygon(region_polygons(shapely.union_all(solids)))
 
 
-def _nesting(polys, probes, bbox, plane, areas) -> tuple[np.ndarray, np.ndarray]:
-    """Nesting depth of each loop and its innermost container (-1 if none), per plane."""
+def _nesting(polys, probes, bbox, plane, areas, group=None) -> tuple[np.ndarray, np.ndarray]:
+    """Nesting depth of each loop and its innermost container (-1 if none), per plane (and per
+    group, when given)."""
     k = len(plane)
-    pi, gi = _containment_pairs(polys, probes, bbox, plane)
+    pi, gi = _containment_pairs(polys, probes, bbox, plane, group)
     depth = np.bincount(pi, minlength=k)
     parent = np.full(k, -1)
     if len(pi):
@@ -185,7 +191,14 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
         np.minimum.reduceat(coords[:, 0], starts), np.minimum.reduceat(coords[:, 1], starts),
         np.maximum.reduceat(coords[:, 0], starts), np.maximum.reduceat(coords[:, 1], starts),
     ])
-    depth, parent = _nesting(shapely.polygons(rings), probes, bbox, plane, area)
+    # where loops of different bodies cross, nest each body on its own and unite them after
+    crossing = np.zeros(0, dtype=np.int64)
+    group = None
+    if len(loops.body) and len(np.unique(loops.body)) > 1:
+        body = loops.body[good]
+        crossing = _crossing_planes(rings, bbox, plane, body)
+        group = np.where(np.isin(plane, crossing), body, -1)
+    depth, parent = _nesting(shapely.polygons(rings), probes, bbox, plane, area, group)
     is_shell = depth % 2 == 0
     owner = np.where(is_shell, np.arange(k), parent)     # the shell each loop belongs to
 
@@ -200,10 +213,13 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
     out = np.empty(n_planes, dtype=object)
     for i in range(n_planes):
         out[i] = regions[i]
-    multi = list(shapely.multipolygons(polys, indices=poly_plane, out=out))
-    if len(loops.body) and len(np.unique(loops.body)) > 1:
-        # overlapping bodies (e.g. parts concatenated, not unioned): their loops cross, and the
-        # even-odd rule would cut the overlap out; those planes are rebuilt as a union
-        for p in _crossing_planes(rings, bbox, plane, loops.body[good]):
-            multi[p] = _union_of_bodies(loops, int(p))
+    simple = ~np.isin(poly_plane, crossing)
+    if simple.any():
+        out = shapely.multipolygons(polys[simple], indices=poly_plane[simple], out=out)
+    multi = list(out)
+    if len(crossing):
+        poly_void = loops.void[loops.body[good][shell_ids]]
+        for p in crossing:
+            sel = poly_plane == p
+            multi[p] = _unite(polys[sel], poly_void[sel])
     return multi
