@@ -85,7 +85,7 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "4"
+    version = "5"
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
@@ -93,27 +93,30 @@ class SimulateRobot(Node):
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
                                   description="IK sample spacing along the path (vertices always included)")
-        base_xyz_mm: Vec3 = Field((-1500.0, 0.0, -600.0), json_schema_extra=unit("mm"),
-                                  description="Robot base position in the world frame")
+        base_xyz_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
+                                         description="Robot base position in the world frame (empty = the profile's)")
         base_yaw_deg: float = Field(0.0, ge=-360, le=360, json_schema_extra=unit("deg"),
                                     description="Robot base rotation about world z")
         work_xyz_mm: Vec3 = Field((0.0, 0.0, 0.0), json_schema_extra=unit("mm"),
                                   description="Work frame (part origin) in the world frame")
-        tcp_offset_mm: Vec3 = Field((0.0, 0.0, 400.0), json_schema_extra=unit("mm"),
-                                    description="TCP (torch tip) in the flange frame (tool0; z along the torch)")
+        tcp_offset_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
+                                           description="TCP (torch tip) in the flange frame (tool0; z along the torch; "
+                                                       "empty = the profile's)")
 
-    def _kin(self, params) -> KinematicsOptions | None:
+    def _kin(self, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
             return None
-        frames = CellFrames(base_xyz_mm=tuple(params.base_xyz_mm), base_yaw_deg=params.base_yaw_deg,
+        base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
+        tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
+        frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,
                             work_xyz_mm=tuple(params.work_xyz_mm))
-        return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(params.tcp_offset_mm),
+        return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(tcp),
                                  frames=frames, step_mm=params.ik_step_mm)
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
-        res = simulate_program(moves, profile, params.sim_options(), self._kin(params), progress=ctx.progress)
+        res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=ctx.progress)
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}
@@ -141,7 +144,7 @@ class EstimateTime(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Toolpath"),)
     outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
-    version = "4"
+    version = "5"
 
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
@@ -181,7 +184,7 @@ class CalibrateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
     outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
-    version = "4"
+    version = "5"
 
     class Params(RobotParams):
         trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")

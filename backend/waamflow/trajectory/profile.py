@@ -42,7 +42,8 @@ class RobotProfile:
     travel_speed: speed of arc-OFF moves that carry no speed, mm/s.
     max_speed: robot's max TCP path speed, mm/s.
     description: robot model file (URDF) in the robots folder for kinematics, "" = none.
-    tool_rpy_deg / base_xyz etc. are defaults of the node params.
+    tcp_offset_mm: TCP in the flange frame (tool0), mm; base_xyz_mm: robot base in the world, mm —
+        defaults for simulate-robot's params of the same names.
     time_model: the study's identified parameters of the closed-form cycle-time model keyed by
         "<speed>_<protocol>" (protocol "on" = arc ON throughout, "off" = arc OFF outside).
     notes: how the constants were obtained.

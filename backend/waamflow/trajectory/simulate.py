@@ -21,8 +21,9 @@ Pipeline (each step a pure function on numpy data):
    feed speed), so deposited volume accrues with time while the arc is ON (robot-study.md,
    "Set-up measured") and every slow-down puts more metal per mm.
 
-Samples are computed on a fine grid (interpolation cycle / 3) for lengths and volumes and
-reported at the interpolation cycle. Units: mm, s, mm/s, mm³.
+Samples are computed on a fine grid (interpolation cycle / 3; the cycle itself beyond
+MAX_FINE_SAMPLES, ≈ 2.8 h) for lengths and volumes and reported at the interpolation cycle.
+Units: mm, s, mm/s, mm³.
 """
 
 from __future__ import annotations
