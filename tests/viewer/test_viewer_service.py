@@ -234,3 +234,11 @@ def test_layer_range_survives_a_rerun(viewer):
     assert viewer._gui["layers"].value == (2, 4)
     assert [viewer.server.scene.get_handle_by_name(f"/graph/zone/toolpath/L{i:04d}").visible
             for i in range(5)] == [False, False, True, True, True]
+
+
+def test_legend_lists_zone_colours_and_ranges(viewer):
+    viewer.publish("k", RECIPE, outputs(2))
+    html = viewer._gui["legend"].content
+    for zone, hexcol in ZONE_COLORS.items():
+        assert f"background:{hexcol}" in html and zone in html
+    assert "speed 10–20 mm/s" in html and "deviation 0.3–0.3 mm" in html

@@ -303,6 +303,19 @@ class ToolpathPart(LayeredPart):
             rgb[disp.travel] = C.TRAVEL_RGB
         return np.repeat(rgb[:, None, :], 2, axis=1)
 
+    def zone_legend(self, limit: int = 12) -> list[tuple[str, str]]:
+        """(zone id, '#rrggbb') pairs as drawn, first seen first (the zone node's colours)."""
+        seen: dict[tuple[str, str], None] = {}
+        for e in self.entries.values():
+            disp = e["disp"]
+            arc = ~disp.travel
+            for zi in np.unique(disp.zone[arc & (disp.zone >= 0)]):
+                rgb = disp.zone_rgb[arc & (disp.zone == zi)][0]
+                seen.setdefault((disp.zone_ids[zi] or "(no zone)", C.rgb_to_hex(rgb)), None)
+                if len(seen) >= limit:
+                    return list(seen)
+        return list(seen)
+
     def _draw_layer(self, index, lp: LayerPaths, budget, view):
         disp = G.path_display(G.layer_polyline(lp), budget)
         handle = self.scene.add_line_segments(

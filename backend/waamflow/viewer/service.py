@@ -288,7 +288,7 @@ class ViewerService:
         g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
         g["play"] = gui.add_button("Play / pause")
         g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
-        g["legend"] = gui.add_markdown("")
+        g["legend"] = gui.add_html("")
         g["nodes"] = gui.add_folder("Nodes")
         g["pick"] = gui.add_markdown("*Click a path point for its layer, section, zone and speeds.*")
 
@@ -327,21 +327,32 @@ class ViewerService:
         g["legend"].content = self._legend()
 
     def _legend(self) -> str:
-        lines = []
+        """HTML legend: zone colour swatches, scalar ranges, robot state, feature kinds."""
+        from html import escape
+
+        from . import colors as C
+
+        def swatch(hexcol: str, label: str) -> str:
+            return (f'<span style="display:inline-block;width:0.8em;height:0.8em;background:{hexcol};'
+                    f'margin:0 0.25em 0 0.6em;vertical-align:middle"></span>{escape(label)}')
+
+        rows = []
         for p in self.parts.values():
+            head = f"<b>{escape(p.node)}</b> "
             if p.kind == "toolpath":
                 lo, hi = p.speed_range
-                lines.append(f"`{p.node}` speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow); travel pale")
-            if p.kind == "simulation":
-                if p.robot is not None:
-                    lines.append(f"`{p.node}` robot {p.robot.name}, IK residual ≤ {p.robot.reach_err.max():.2g} mm")
-                elif p.robot_note:
-                    lines.append(f"`{p.node}` {p.robot_note}")
-                for k, unit in (("deviation", "mm"), ("speed", "mm/s")):
-                    if k in p.ranges:
-                        lo, hi = p.ranges[k]
-                        lines.append(f"`{p.node}` {k} {lo:.3g}–{hi:.3g} {unit}")
-        return "  \n".join(lines)
+                zones = "".join(swatch(h, z) for z, h in p.zone_legend())
+                rows.append(head + f"zones {zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
+            elif p.kind == "simulation":
+                ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
+                                   if k in p.ranges for lo, hi in [p.ranges[k]])
+                robot = (f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
+                         if p.robot is not None else escape(p.robot_note))
+                rows.append(head + ranges + (f"<br>{robot}" if robot else ""))
+            elif p.kind == "features":
+                kinds = sorted(set(p.kinds))
+                rows.append(head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds))
+        return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
 
     def _on_layers(self) -> None:
         with self._lock:
