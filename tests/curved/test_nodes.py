@@ -109,3 +109,35 @@ def test_too_curved_part_reports_sections(tmp_path):
     assert fan["csratio"] == pytest.approx(60 / 33, rel=2e-3) and fan["heights_fit"] is False
     assert fan["search"]["sections"] == 2 and fan["search"]["feasible"] is True
     assert [s["best"]["offset_mm"] for s in fan["search"]["per_section"]] == [60.0, 60.0]
+
+
+def test_sections_mode_gives_each_section_its_own_axis(tmp_path):
+    import trimesh
+
+    from waamflow.curved.shapes import bent_tube
+    part = bent_tube(bend=75, mid=15, wall=3, n_phi=24, n_psi=16)   # CSratio 75/33 = 2.27 < 2.7
+    trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "bend.stl")
+    recipe = {"format": "waamflow/1", "name": "bend", "nodes": [
+        {"id": "part", "type": "mesh", "params": {"path": "bend.stl"}},
+        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-75, 0, 0], "axis_direction": [0, -1, 0],
+                                                      "mode": "sections", "search_step": 20, "search_max": 60,
+                                                      "max_sections": 3}}],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    fan = json.loads(res.artifacts["fan.fan.json"])
+    secs = fan["sections"]
+    assert len(secs) == 3 and sum(s["layers"] for s in secs) == fan["layer_count"]
+    assert len({tuple(s["axis_point"]) for s in secs}) == 3            # each section its own axis
+    # the first sections keep every layer's height r·Δθ within the bead range; the tight bend's
+    # last section cannot (warned, named by its layers)
+    assert [s["heights_fit"] for s in secs] == [True, True, False]
+    assert secs[0]["layers"] > 15
+    texts = [json.dumps(w) if not isinstance(w, str) else w for w in res.warnings]
+    assert len(texts) == 1 and "fan section 2" in texts[0]
+    layers = res.outputs["fan"]["layers"]
+    # each section's axis lies in the previous section's last top plane: no open layer between them
+    for s in secs[1:]:
+        prev_top = layers[s["first_layer"] - 1].frame
+        assert abs((np.array(s["axis_point"]) - prev_top[:3, 3]) @ prev_top[:3, 2]) < 1e-5   # report rounds to 1e-6
+    # the part is swept to its end: the last layer's top plane is past the end face
+    assert fan["layer_count"] == len(layers) and not layers[-1].region.is_empty

@@ -13,8 +13,8 @@ z = e_θ(θ_j), the build direction), so `layer.to_world` lifts paths onto the d
 A fan layer is a wedge: its local height at a point is r·Δθ (Δθ in rad), i.e. x·Δθ.
 `thickness` stores the height at the region's centroid, r̄·Δθ, so downstream nodes recover
 Δθ = thickness / r̄ from the layer alone (`fan_dtheta`), and the height anywhere from x.
-`z` is a monotonic layer coordinate: the arc length from the start plane to θ_j at the part's
-mid radius (mm); world positions come from `frame`.
+`z` is a monotonic layer coordinate: the running sum of the layers' thicknesses (mm, the height
+along the part's centroid line); world positions come from `frame`.
 """
 
 from __future__ import annotations
@@ -193,11 +193,12 @@ def fan_slice(mesh: MeshData, plan: FanPlan) -> tuple[Layer, ...]:
     """The fan layers of `mesh` (see module doc for the conventions)."""
     tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     layers = []
+    z = 0.0
     for j, top in enumerate(plan.tops):
         region = section_half_plane(tm, plan.axis, float(top - plan.dtheta / 2.0))
         rbar = region.centroid.x if not region.is_empty else plan.r_mid
-        layers.append(Layer(index=j, z=float(plan.r_mid * (top - plan.theta_start)),
-                            thickness=float(rbar * plan.dtheta), region=region,
+        z += rbar * plan.dtheta
+        layers.append(Layer(index=j, z=float(z), thickness=float(rbar * plan.dtheta), region=region,
                             frame=plan.axis.frame(float(top))))
     return tuple(layers)
 

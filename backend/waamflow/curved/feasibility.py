@@ -176,8 +176,9 @@ def search_sections(mesh: MeshData, point, direction, h_min: float, h_max: float
 
 def plan_report(layers, h_min: float, h_max: float) -> dict:
     """Feasibility of fan layers as sliced (from the layers alone): axis (from the frames), Δθ,
-    radial extent of the regions, CSratio against its minimum, admissible Δθ window, and per
-    layer the local height range r·Δθ (mm)."""
+    radial extent of the regions, CSratio against its minimum, admissible Δθ window (first
+    section), whether every layer's heights r·Δθ fit [h_min, h_max], the sections (consecutive
+    layers about one axis) and per layer the local height range (mm)."""
     from .fan import fan_dtheta, height_range
 
     layers = [l for l in layers if l is not None]
@@ -189,13 +190,26 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
     r_min, r_max = float(bounds[:, 0].min()), float(bounds[:, 2].max())
     lo, hi = dtheta_window(r_min, r_max, h_min, h_max)
     f = filled[0].frame
+    sections, fits = [], True
+    for l in filled:  # consecutive layers about the same axis form a section
+        origin = tuple(np.round(l.frame[:3, 3], 6))
+        lo_h, hi_h = height_range(l)
+        ok = lo_h >= h_min * (1 - 1e-9) and hi_h <= h_max * (1 + 1e-9)
+        fits = fits and ok
+        if not sections or sections[-1]["axis_point"] != list(origin):
+            sections.append({"axis_point": list(origin), "direction": (-l.frame[:3, 1]).round(9).tolist(),
+                             "dtheta_deg": math.degrees(fan_dtheta(l)), "first_layer": l.index, "layers": 0,
+                             "heights_fit": True})
+        sections[-1]["layers"] += 1
+        sections[-1]["heights_fit"] = sections[-1]["heights_fit"] and ok
     return {
         "axis": {"point": f[:3, 3].round(6).tolist(), "direction": (-f[:3, 1]).round(9).tolist()},
         "dtheta_deg": math.degrees(dth), "layer_count": len(layers),
         "r_min_mm": r_min, "r_max_mm": r_max, "csratio": csratio(r_min, r_max),
         "h_min_mm": h_min, "h_max_mm": h_max, "min_csratio": min_csratio(h_min, h_max),
         "dtheta_window_deg": [math.degrees(lo), math.degrees(hi)],
-        "heights_fit": bool(lo <= dth * (1 + 1e-9) and dth <= hi * (1 + 1e-9)),
+        "heights_fit": fits,
+        "sections": sections,
         "layers": [{"index": l.index, "thickness_mm": l.thickness,
                     "height_min_mm": height_range(l)[0], "height_max_mm": height_range(l)[1]} for l in layers],
     }

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import hashlib
 import math
+from typing import Literal
+
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -15,6 +17,7 @@ from ..core.model import Layered, MeshData
 from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
 from ..curved.fan import fan_slice, make_axis, plan_fan
 from ..curved.feasibility import plan_report, search_sections
+from ..curved.sections import plan_sections
 from ..curved.speeds import apply_bead_model, layer_report, toolpath_report
 from ..engine.node import LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -38,7 +41,11 @@ class FanSliceNode(Node):
     `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
     [h_min/r_min, h_max/r_max]. Warns when the plan's heights leave the bead range
     (CSratio below (1 + q)/(2(1 − q)), q = h_min/h_max: 2.7 for 2.2/3.2 mm).
-    Writes `<node>.layers.json` and `<node>.fan.json` (axis, Δθ, per-layer heights, feasibility).
+    `mode` = sections: for parts too curved for one fan, consecutive sections each get their own
+    axis, lying in the section's start plane (the previous section's last top plane: no open
+    layers) and moved outward by the smallest offset that builds furthest with heights and
+    overhang in bounds (up to `max_sections`).
+    Writes `<node>.layers.json` and `<node>.fan.json` (axis, Δθ, sections, per-layer heights).
     """
 
     type = "fan-slice"
@@ -69,6 +76,9 @@ class FanSliceNode(Node):
         max_sections: int = Field(3, ge=1, le=8, description="Radius search: report up to this many angular "
                                   "sections when one section cannot fit")
         layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers")
+        mode: Literal["single", "sections"] = Field(
+            "single", description="single: one fan (dtheta_deg, radius_offset); sections: cut the part into "
+                                  "consecutive fan sections, each with its own axis and Δθ, searched greedily")
 
         @model_validator(mode="after")
         def _check(self):
@@ -82,6 +92,8 @@ class FanSliceNode(Node):
         mesh = inputs["mesh"]
         if not isinstance(mesh, MeshData):
             raise RecipeError("fan-slice needs a solid mesh (connect a `mesh` node), not a sketch", field="mesh")
+        if params.mode == "sections":
+            return {"layers": Layered(self._sections(ctx, params, mesh))}
         search = None
         offset = params.radius_offset
         dtheta = params.dtheta_deg
@@ -129,6 +141,28 @@ class FanSliceNode(Node):
         if search is not None:
             _remember_search(params, layers, search.to_json())
         return {"layers": Layered(layers)}
+
+    @staticmethod
+    def _sections(ctx, params, mesh: MeshData):
+        try:
+            sections, layers = plan_sections(mesh, params.axis_point, params.axis_direction, params.h_min,
+                                             params.h_max, max_overhang=params.max_overhang,
+                                             step=params.search_step, max_offset=params.search_max,
+                                             max_sections=params.max_sections)
+        except ValueError as exc:
+            raise PlanningError(str(exc)) from exc
+        if not layers:
+            raise PlanningError("fan sections: no layer (the part has no cross-section past its start plane)")
+        if params.layer_count is not None:
+            layers = layers[: params.layer_count]
+        first = 0
+        for k, sec in enumerate(sections):
+            if not sec.fits:
+                ctx.warn(f"fan section {k} (layers {first}..{first + sec.layers - 1}): no axis offset up to "
+                         f"+{params.search_max} mm keeps heights in [{params.h_min}, {params.h_max}] mm and overhang "
+                         f"≤ {params.max_overhang} mm (max_sections {params.max_sections} reached)")
+            first += sec.layers
+        return layers
 
     def artifacts(self, ctx, params, outputs):
         layers = outputs["layers"]
