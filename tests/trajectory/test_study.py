@@ -92,6 +92,9 @@ def test_corner_slows_more_when_sharper():
     wide = tri["min_speed_mm_s"][np.abs(tri["interior_deg"] - 157.5) < 0.5].mean()
     sharp = zz["min_speed_mm_s"].mean()
     assert sharp < 0.5 * wide
+    # mean speed over the slow-down transient: roughly halves
+    ratio = zz["mean_speed_mm_s"].mean() / tri["mean_speed_mm_s"][np.abs(tri["interior_deg"] - 157.5) < 0.5].mean()
+    assert 0.4 < ratio < 0.7
 
 
 def test_semicircular_most_accurate():

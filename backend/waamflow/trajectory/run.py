@@ -107,9 +107,9 @@ def simulation_json(res: SimulationResult, profile: RobotProfile, opt: SimOption
                        "interpolation_cycle_s": opt.interpolation_cycle_s or profile.interpolation_cycle_s}
     c = res.corners
     out["corners"] = [{"vertex": int(v), "interior_deg": round(float(a), 3), "error_mm": round(float(e), 4),
-                       "min_speed_mm_s": _clean(float(sp))}
-                      for v, a, e, sp in zip(c.get("vertex", []), c.get("interior_deg", []),
-                                             c.get("error_mm", []), c.get("min_speed_mm_s", []))][:5000]
+                       "min_speed_mm_s": _clean(float(sp)), "mean_speed_mm_s": _clean(float(mv))}
+                      for v, a, e, sp, mv in zip(c.get("vertex", []), c.get("interior_deg", []), c.get("error_mm", []),
+                                                 c.get("min_speed_mm_s", []), c.get("mean_speed_mm_s", []))][:5000]
     return out
 
 

@@ -366,7 +366,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     }
 
     spd = np.concatenate([step / np.where(dtf > 0, dtf, 1.0), [0.0]])  # fine-grid speed, mm/s
-    corners = _corner_errors(prog.points, path, xyz, seg, spd)
+    corners = _corner_errors(prog.points, path, xyz, seg, spd, prog.speed, blk)
     metrics["max_corner_error_mm"] = float(corners["error_mm"].max()) if len(corners["error_mm"]) else 0.0
 
     # ---- per-segment deposit -----------------------------------------------------------------
@@ -405,9 +405,12 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
                             tuple(moves.section_keys), corners=corners, profile=profile.to_json())
 
 
-def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.ndarray, speed: np.ndarray) -> dict:
-    """Per blended vertex: interior angle (deg), corner error = closest approach of the actual
-    path to the programmed vertex (mm, the study's corner error), min speed near it (mm/s)."""
+def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.ndarray, speed: np.ndarray,
+                   prog_speed: np.ndarray, blk: np.ndarray) -> dict:
+    """Per blended vertex: interior angle (deg); corner error = closest approach of the actual
+    path to the programmed vertex (mm, the study's corner error); min speed near it (mm/s);
+    mean speed through the corner = mean over the slow-down transient around the closest
+    approach (speed below 98 % of the programmed speed), mm/s."""
     n = len(P)
     near_v = np.full(n, np.inf)
     vmin = np.full(n, np.inf)
@@ -416,14 +419,29 @@ def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.nd
     np.minimum.at(near_v, seg, d0)
     np.minimum.at(near_v, seg + 1, d1)
     vert = np.where(d0 <= d1, seg, seg + 1)
-    close = np.minimum(d0, d1) <= np.maximum(path.d[vert], 0.5) * 2
+    dmin = np.minimum(d0, d1)
+    close = dmin <= np.maximum(path.d[vert], 0.5) * 2
     np.minimum.at(vmin, vert[close], speed[close])
     idx = np.flatnonzero(path.d > 0)
     u1 = P[idx] - P[idx - 1]
     u2 = P[idx + 1] - P[idx]
     cosang = np.einsum("ij,ij->i", u1, u2) / (np.linalg.norm(u1, axis=1) * np.linalg.norm(u2, axis=1))
     interior = 180.0 - np.degrees(np.arccos(np.clip(cosang, -1, 1)))
-    return {"vertex": idx, "interior_deg": interior, "error_mm": near_v[idx], "min_speed_mm_s": vmin[idx]}
+    # closest sample to each vertex, then the run of slow samples (within a block) that holds it
+    order = np.lexsort((dmin, vert))
+    first = np.concatenate([[True], vert[order][1:] != vert[order][:-1]])
+    closest = np.full(n, -1)
+    closest[vert[order][first]] = order[first]
+    slow = speed < 0.98 * prog_speed[seg]
+    run_start = np.concatenate([[True], (slow[1:] != slow[:-1]) | (blk[1:] != blk[:-1])])
+    run_id = np.cumsum(run_start) - 1
+    run_sum = np.bincount(run_id, weights=speed)
+    run_cnt = np.bincount(run_id)
+    c = closest[idx]
+    cc = np.maximum(c, 0)
+    mean_v = np.where(c < 0, np.nan, np.where(slow[cc], run_sum[run_id[cc]] / np.maximum(run_cnt[run_id[cc]], 1), speed[cc]))
+    return {"vertex": idx, "interior_deg": interior, "error_mm": near_v[idx], "min_speed_mm_s": vmin[idx],
+            "mean_speed_mm_s": mean_v}
 
 
 def _arc_clock(iv: list[tuple[float, float]]) -> Callable[[np.ndarray], np.ndarray]:
