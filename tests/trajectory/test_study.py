@@ -148,3 +148,16 @@ def test_deposit_piles_up_where_the_torch_slows():
     # volume bookkeeping: per-segment volumes add up to the total
     total = (d["actual_mm3_per_mm"] * d["length_mm"]).sum()
     assert total == pytest.approx(res.metrics["deposited_volume_mm3"], rel=0.01)
+
+
+def test_straight_line_transients():
+    """100 mm at 40 mm/s: +0.2 mm transverse at the start, −0.1 mm at the end, within ±0.03 mm
+    in between; acceleration and deceleration at the ends."""
+    res = simulate(study.straight_line(40.0), KUKA)
+    tr = res.trace
+    mid = (tr["x"] > 10) & (tr["x"] < 90)
+    assert np.abs(tr["y"][mid]).max() < 0.03
+    assert tr["y"][0] == pytest.approx(0.2, abs=0.01)
+    assert tr["y"][-1] == pytest.approx(-0.1, abs=0.01)
+    assert tr["speed"][mid].mean() == pytest.approx(40.0, rel=0.01)
+    assert res.metrics["total_time_s"] == pytest.approx(100 / 40 + 0.2, abs=0.03)

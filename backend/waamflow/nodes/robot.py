@@ -116,7 +116,11 @@ class SimulateRobot(Node):
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
-        res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=ctx.progress)
+        def progress(fraction: float, message: str = "") -> None:
+            ctx.check_cancelled()
+            ctx.progress(fraction, message)
+
+        res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=progress)
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}
