@@ -9,7 +9,7 @@ from shapely.geometry import MultiPolygon, box
 from waamflow.core.model import MeshData
 from waamflow.curved.fan import (angular_range, fan_dtheta, fan_slice, height_range, local_height, make_axis,
                                  plan_fan, to_local)
-from waamflow.curved.feasibility import max_overhang, search_radius, search_sections
+from waamflow.curved.feasibility import max_overhang, search_radius
 from waamflow.curved.shapes import bent_tube
 
 
@@ -96,11 +96,3 @@ def test_radius_search():
     # over a 90° bend, moving the axis within the start plane barely lifts r_min: never fits
     assert len(res.candidates) == 7 and res.best is None
     assert all(c.r_min / c.r_max < 2.2 / 3.2 and c.csratio < 2.7 for c in res.candidates)
-    # two 45° sections, each with its own axis in its start plane, fit at +60 mm
-    two = search_sections(curved, (-60, 0, 0), (0, -1, 0), 2.2, 3.2, max_overhang_mm=1.5, step=10,
-                          max_offset=60, max_sections=3)
-    assert two.sections == 2 and all(s.best is not None for s in two.section_results)
-    for s in two.section_results:
-        b = s.best
-        assert b.offset == 60.0 and b.r_min / b.r_max >= 2.2 / 3.2 and b.csratio >= 2.7
-        assert b.overhang <= 1.5

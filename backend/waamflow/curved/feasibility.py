@@ -14,14 +14,13 @@ overhang there (0 inside). The plan's overhang is the maximum over all layers.
 
 Search: offsets 0, step, 2·step, … up to `max_offset`; the first one whose heights fit and whose
 overhang is at most `max_overhang` wins (Δθ in the middle of the admissible window). When none
-does, the part must be cut into more sections (each with its own axis); `search_sections` tries
-1, 2, … equal angular sections of the part about the same axis, each with its own offset search.
+does, the part must be cut into more sections, each with its own axis: see `sections.py`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -63,8 +62,6 @@ class SearchResult:
     h_max: float
     min_csratio: float
     candidates: tuple[Candidate, ...] = ()
-    sections: int = 1
-    section_results: tuple["SearchResult", ...] = field(default=())
 
     @property
     def best(self) -> Candidate | None:
@@ -72,18 +69,12 @@ class SearchResult:
 
     @property
     def feasible(self) -> bool:
-        """One section with a fitting radius, or every section of a split with one."""
-        if self.section_results:
-            return all(s.best is not None for s in self.section_results)
         return self.best is not None
 
     def to_json(self) -> dict:
-        out = {"h_min_mm": self.h_min, "h_max_mm": self.h_max, "min_csratio": round(self.min_csratio, 6),
-               "sections": self.sections, "feasible": self.feasible, "candidates": [c.to_json() for c in self.candidates],
-               "best": self.best.to_json() if self.best else None}
-        if self.section_results:
-            out["per_section"] = [s.to_json() for s in self.section_results]
-        return out
+        return {"h_min_mm": self.h_min, "h_max_mm": self.h_max, "min_csratio": round(self.min_csratio, 6),
+                "feasible": self.feasible, "candidates": [c.to_json() for c in self.candidates],
+                "best": self.best.to_json() if self.best else None}
 
 
 def max_overhang(regions: list[MultiPolygon], dtheta: float, samples_per_mm: float = 1.0) -> float:
@@ -137,41 +128,6 @@ def search_radius(mesh: MeshData, point, direction, h_min: float, h_max: float, 
         if c.feasible:
             break
     return SearchResult(h_min, h_max, min_csratio(h_min, h_max), tuple(out))
-
-
-def search_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, *, max_overhang_mm: float,
-                    step: float, max_offset: float, max_sections: int = 4) -> SearchResult:
-    """Sections = 1, 2, …: split the part into equal angular sections about the axis, search a
-    radius per section (each section's axis moves outward along its own centroid direction, so
-    every section gets its own axis), stop at the first section count where every section is
-    feasible. Approximate: a section keeps the faces whose centroid lies in its angular range, so
-    its sub-mesh is open where it was cut, and its first layers about a moved axis may be open
-    cross-sections (reported as overhang). Report only: slicing uses one section."""
-    axis0 = make_axis(point, direction, mesh.vertices)
-    whole = search_radius(mesh, point, direction, h_min, h_max, max_overhang_mm=max_overhang_mm, step=step,
-                          max_offset=max_offset)
-    if whole.best is not None or max_sections <= 1:
-        return whole
-    from .fan import angular_range
-    lo, hi = angular_range(axis0, mesh.vertices)
-    _r, th, _a = axis0.polar(mesh.vertices[mesh.faces].mean(axis=1))
-    th = np.where(th < lo - 1e-9, th + 2 * math.pi, th)
-    last = whole
-    for n in range(2, max_sections + 1):
-        edges = np.linspace(lo, hi, n + 1)
-        results = []
-        for a, b in zip(edges[:-1], edges[1:]):
-            faces = mesh.faces[(th >= a) & (th <= b)]
-            used = np.unique(faces)
-            remap = np.full(len(mesh.vertices), -1)
-            remap[used] = np.arange(len(used))
-            sub = MeshData(mesh.vertices[used], remap[faces], name=f"{mesh.name}[{a:.3f},{b:.3f}]")
-            results.append(search_radius(sub, point, direction, h_min, h_max, max_overhang_mm=max_overhang_mm,
-                                         step=step, max_offset=max_offset))
-        last = SearchResult(h_min, h_max, min_csratio(h_min, h_max), (), n, tuple(results))
-        if all(r.best is not None for r in results):
-            return last
-    return last
 
 
 def plan_report(layers, h_min: float, h_max: float) -> dict:

@@ -16,7 +16,7 @@ from ..core.errors import PlanningError, RecipeError
 from ..core.model import Layered, MeshData
 from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
 from ..curved.fan import fan_slice, make_axis, plan_fan
-from ..curved.feasibility import plan_report, search_sections
+from ..curved.feasibility import plan_report, search_radius
 from ..curved.sections import plan_sections
 from ..curved.speeds import apply_bead_model, layer_report, toolpath_report
 from ..engine.node import LayerNode, Node, NodeParams, register, unit
@@ -73,8 +73,7 @@ class FanSliceNode(Node):
                                    description="Radius search: offset increment")
         search_max: float = Field(100.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
                                   description="Radius search: largest offset tried")
-        max_sections: int = Field(3, ge=1, le=8, description="Radius search: report up to this many angular "
-                                  "sections when one section cannot fit")
+        max_sections: int = Field(4, ge=1, le=32, description="mode = sections: at most this many sections")
         layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers")
         mode: Literal["single", "sections"] = Field(
             "single", description="single: one fan (dtheta_deg, radius_offset); sections: cut the part into "
@@ -98,19 +97,15 @@ class FanSliceNode(Node):
         offset = params.radius_offset
         dtheta = params.dtheta_deg
         if offset is None:
-            search = search_sections(mesh, params.axis_point, params.axis_direction, params.h_min, params.h_max,
-                                     max_overhang_mm=params.max_overhang, step=params.search_step,
-                                     max_offset=params.search_max, max_sections=params.max_sections)
+            search = search_radius(mesh, params.axis_point, params.axis_direction, params.h_min, params.h_max,
+                                   max_overhang_mm=params.max_overhang, step=params.search_step,
+                                   max_offset=params.search_max)
             best = search.best
             if best is None:
-                if search.feasible:
-                    how = (f"it fits in {search.sections} sections, each with its own axis (offsets in fan.json); "
-                           "this node slices one section")
-                else:
-                    how = f"nor in up to {search.sections} sections"
                 ctx.warn(f"no slicing radius up to +{params.search_max} mm fits heights [{params.h_min}, "
-                         f"{params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one section; {how}: "
-                         "slicing at offset 0")
+                         f"{params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one fan (candidates in "
+                         "fan.json): slicing at offset 0; mode = sections cuts the part into sections with their "
+                         "own axes")
                 offset = 0.0
             else:
                 offset = best.offset
