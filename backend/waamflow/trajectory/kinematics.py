@@ -119,8 +119,10 @@ def resample(points: np.ndarray, step_mm: float) -> tuple[np.ndarray, np.ndarray
 
 
 def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: CellFrames = CellFrames(),
-               step_mm: float = 5.0, q_seed: np.ndarray | None = None, iters: int = 6) -> KinematicsResult:
-    """Continuous DLS IK along a polyline (world/work mm) — see the module doc."""
+               step_mm: float = 5.0, q_seed: np.ndarray | None = None, iters: int = 6,
+               progress=None) -> KinematicsResult:
+    """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
+    progress: optional callable(fraction 0..1) called every 2000 samples."""
     model = arm.model
     data = model.createData()
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
@@ -145,6 +147,8 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
         roll[[3, 5]] = 0.05
     retry = 40
     for i in range(k):
+        if progress is not None and i % 2000 == 0:
+            progress(i / k)
         pt, zt = p_base[i], z_base[i]
         n_it = 80 if i == 0 else iters
         it = 0

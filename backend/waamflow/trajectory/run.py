@@ -46,7 +46,8 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             progress(0.02, "inverse kinematics")
         desc = kin.description or profile.description
         arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text)
-        ks = solve_path(arm, moves.points, moves.tool_axis, kin.frames, step_mm=kin.step_mm)
+        ks = solve_path(arm, moves.points, moves.tool_axis, kin.frames, step_mm=kin.step_mm,
+                        progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
         speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
         if opt.speed_override is not None:
             speed = np.where(moves.arc, opt.speed_override, speed)
@@ -76,7 +77,8 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         }
         for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed"):
             kin_metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
-    res = simulate(moves, profile, opt, progress=progress)
+    res = simulate(moves, profile, opt,
+                   progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
     est = estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed) if profile.time_model else None
     estimate = {}
     if est is not None:
