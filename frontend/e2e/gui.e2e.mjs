@@ -86,7 +86,36 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
     (before) => document.querySelectorAll('[data-path="bs1/A"] .zone-mark')[1]?.getAttribute("x") !== before,
     markBefore,
   );
-  console.log(`edit → canvas re-plan (mpp-cross, one layer): median ${median(times).toFixed(0)} ms, max ${Math.max(...times).toFixed(0)} ms over ${times.length} edits [${times.map((t) => t.toFixed(0)).join(", ")}]`);
+  // Strategy per section: bs1/B switches to raster and its path is re-planned.
+  const lenB = await page.getAttribute('[data-path="bs1/B"]', "data-length");
+  times.push(await timedEdit(page, () => page.selectOption('[data-testid="strategy-bs1/B"]', "raster")));
+  await page.waitForFunction((l) => document.querySelector('[data-path="bs1/B"]')?.getAttribute("data-length") !== l, lenB);
+  // A zone split point on bs1/B's path adds one middle zone.
+  const zonesB = (await page.getAttribute('[data-path="bs1/B"]', "data-zones")).split(",").length;
+  await page.click("[data-tool=split]");
+  const mid = await page.evaluate(() => {
+    // the middle of the longest zone run (start/end zones are short)
+    const runs = [...document.querySelectorAll('[data-path="bs1/B"] path.arc-on')];
+    const p = runs.sort((a, b) => b.getTotalLength() - a.getTotalLength())[0];
+    const q = p.getPointAtLength(p.getTotalLength() / 2);
+    return [q.x, -q.y];
+  });
+  times.push(await timedEdit(page, () => clickAt(page, mid[0], mid[1])));
+  await page.waitForFunction((n) => document.querySelector('[data-path="bs1/B"]')?.getAttribute("data-zones").split(",").length === n + 1, zonesB);
+  // Move a vertex of bs1/B's curve by dragging it.
+  await page.click("[data-tool=select]");
+  await page.click('[data-section-item="bs1/B"] b');
+  const v = await page.locator('[data-vertex="bs1/B:0"]').boundingBox();
+  const [tx, ty] = await canvasPoint(page, -64, -9);
+  times.push(
+    await timedEdit(page, async () => {
+      await page.mouse.move(v.x + v.width / 2, v.y + v.height / 2);
+      await page.mouse.down();
+      await page.mouse.move(tx, ty, { steps: 5 });
+      await page.mouse.up();
+    }),
+  );
+  console.log(`edit → canvas re-plan (mpp-cross, one layer): median ${median(times).toFixed(0)} ms, max ${Math.max(...times).toFixed(0)} ms over ${times.length} edits (curve, zone lengths, strategy, split point, vertex drag) [${times.map((t) => t.toFixed(0)).join(", ")}]`);
   await shot(page, "04-mask-edited");
 
   // Run (saves first) and follow it to the end; the canvas path is the re-planned one.
@@ -102,7 +131,12 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   curve.forEach((p, i) => assert.ok(Math.hypot(p[0] - drawn[i][0], p[1] - drawn[i][1]) < 4, `vertex ${i} ${p} near ${drawn[i]}`));
   curve.forEach((p) => assert.ok(Number.isInteger(p[0] * 1000) && Number.isInteger(p[1] * 1000)));
   assert.deepEqual(saved.nodes.find((n) => n.type === "guide").params.guides["bs1/C"], [[3, 1], [68, 1]]);
-  assert.equal(saved.nodes.find((n) => n.type === "zone").params.sections["bs1/A"].end_length, 20);
+  const zoneSaved = saved.nodes.find((n) => n.type === "zone").params;
+  assert.equal(zoneSaved.sections["bs1/A"].end_length, 20);
+  assert.equal(zoneSaved.sections["bs1/B"].split_points.length, 1);
+  assert.equal(zoneSaved.sections["bs1/B"].start_length, 10, "a new section entry starts from the default zoning");
+  assert.equal(saved.nodes.find((n) => n.type === "strategy").params.sections["bs1/B"].pattern, "raster");
+  assert.deepEqual(mask.sections[1].curve[0], [-64, -9]);
   const runs = await api(srv.base, "/api/runs?limit=1");
   const tp = await api(srv.base, `/api/runs/${runs[0].id}/artifacts/sequence.toolpath.json`);
   const c = tp.layers[0].sections.find((s) => s.key === "bs1/C");
@@ -158,6 +192,31 @@ test("new user: mesh → slice → two masks (second from the failing layer) →
   // A wrong-type connection is refused (mesh output into a layers input).
   await connect(page, "mesh.mesh", "mask.layers");
   assert.equal(await page.locator(".react-flow__edge").count(), wires.length);
+
+  // Node-editor habits: copy/paste, undo/redo, Delete, box select.
+  await page.click('.react-flow__node[data-id="mesh"]');
+  await page.keyboard.press("Control+c");
+  await page.keyboard.press("Control+v");
+  await page.waitForSelector('.react-flow__node[data-id="mesh2"]');
+  await page.keyboard.press("Control+z");
+  await page.waitForSelector('.react-flow__node[data-id="mesh2"]', { state: "detached" });
+  await page.keyboard.press("Control+y");
+  await page.click('.react-flow__node[data-id="mesh2"]');
+  await page.waitForSelector('.react-flow__node[data-id="mesh2"].selected');
+  await page.keyboard.press("Delete");
+  await page.waitForSelector('.react-flow__node[data-id="mesh2"]', { state: "detached" });
+  assert.equal(await page.locator(".react-flow__edge").count(), wires.length);
+  const m = await page.locator('.react-flow__node[data-id="mesh"]').boundingBox();
+  const sl = await page.locator('.react-flow__node[data-id="slice"]').boundingBox();
+  await page.keyboard.down("Shift");
+  await page.mouse.move(m.x - 12, Math.min(m.y, sl.y) - 12);
+  await page.mouse.down();
+  await page.mouse.move(sl.x + sl.width + 8, Math.max(m.y + m.height, sl.y + sl.height) + 12, { steps: 6 });
+  await page.mouse.up();
+  await page.keyboard.up("Shift");
+  await page.waitForSelector("text=2 nodes selected");
+  await shot(page, "08a-box-select");
+  await page.click(".react-flow__pane", { position: { x: 20, y: 20 } });
 
   await page.click("[data-testid=save]");
   await page.fill("[data-testid=save-as-name]", "e2e-new");

@@ -43,6 +43,14 @@ export function App() {
 
   const dirty = JSON.stringify(recipe) !== savedJson;
 
+  // Keep the selection to nodes that exist (after delete, undo, open).
+  useEffect(() => {
+    setSelected((sel) => {
+      const ids = new Set(recipe.nodes.map((n) => n.id));
+      return [...sel].every((id) => ids.has(id)) ? sel : new Set([...sel].filter((id) => ids.has(id)));
+    });
+  }, [recipe]);
+
   const message = useCallback((text: string) => {
     const id = Date.now() + Math.random();
     setMessages((m) => [...m.slice(-3), { id, text }]);

@@ -184,14 +184,14 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
         p.edits.removeSplit(split.slice(0, i), Number(split.slice(i + 1)));
         return;
       }
-      const key = p.selected ?? section ?? null;
-      const path = paths.find((q) => q.key === key) ?? nearestPath(paths, w);
+      // The path clicked on (within 12 px), else the selected section's path.
+      const near = nearestPath(paths, w);
+      const onNear = near && closestOnPolyline(w, near.points).distance <= 12 * pxSize();
+      const path = onNear ? near : paths.find((q) => q.key === (p.selected ?? section));
       if (!path) return;
       const c = closestOnPolyline(w, path.points);
-      if (c.distance <= 12 * pxSize() || key === path.key) {
-        p.setSelected(path.key);
-        p.edits.addSplit(path.key, [round3(c.point[0]), round3(c.point[1])]);
-      }
+      p.setSelected(path.key);
+      p.edits.addSplit(path.key, [round3(c.point[0]), round3(c.point[1])]);
       return;
     }
     // curve / guide drawing

@@ -107,21 +107,27 @@ function SimulationPlots({ runId, node, artifacts, toolpathNode }: { runId: stri
 
   return (
     <div className="sim">
+      <div className="charts">
+        {trace && <TraceCharts c={trace} programmed={programmed} />}
+        {dep && <DepositChart c={dep} />}
+      </div>
       {metrics && (
-        <table className="metrics" data-testid="sim-metrics">
-          <tbody>
-            {Object.entries(metrics)
-              .filter(([, v]) => typeof v === "number" || typeof v === "string" || typeof v === "boolean")
-              .map(([k, v]) => (
-                <tr key={k}>
-                  <td>{k}</td>
-                  <td>{typeof v === "number" ? Number(v.toPrecision(6)) : String(v)}</td>
-                </tr>
-              ))}
-          </tbody>
-        </table>
+        <details open>
+          <summary>metrics ({node}.simulation.json)</summary>
+          <table className="metrics" data-testid="sim-metrics">
+            <tbody>
+              {Object.entries(metrics)
+                .filter(([, v]) => typeof v === "number" || typeof v === "string" || typeof v === "boolean")
+                .map(([k, v]) => (
+                  <tr key={k}>
+                    <td>{k}</td>
+                    <td>{typeof v === "number" ? Number(v.toPrecision(6)) : String(v)}</td>
+                  </tr>
+                ))}
+            </tbody>
+          </table>
+        </details>
       )}
-      <div className="charts">{trace && <TraceCharts c={trace} programmed={programmed} />}{dep && <DepositChart c={dep} />}</div>
     </div>
   );
 }
