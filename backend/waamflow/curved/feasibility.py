@@ -6,8 +6,7 @@ radial extent r_min..r_max about the axis, some Δθ fits [H_min, H_max] iff r_m
 H_min/H_max, i.e. CSratio ≥ (1 + q)/(2(1 − q)) (see `bead.py`).
 
 Overhang: moving the axis outward by `offset` mm (within the part's start plane, see
-`fan.make_axis`) flattens the layers relative to the part, so
-consecutive layers shift sideways. Each boundary point of layer j+1 (half-plane coordinates
+`fan.make_axis`) flattens the layers relative to the part, so consecutive layers shift sideways. Each boundary point of layer j+1 (half-plane coordinates
 x = r, y) is projected onto the previous slicing plane — a rotation by Δθ about the axis puts it
 at (x·cos Δθ, y) in that plane's coordinates — and its distance to layer j's region is the
 overhang there (0 inside). The plan's overhang is the maximum over all layers.

@@ -35,16 +35,16 @@ class FanSliceNode(Node):
     (x = r, y = −position along the axis); `frame` puts them on the layer's top plane with z the
     build direction. `thickness` = r̄·Δθ at the region centroid (Δθ = thickness / r̄).
     `radius_offset` moves the axis outward within the start plane, away from the part (larger
-    slicing radius, layer 0 still on the substrate); leave it
-    empty to search the smallest offset (multiples of `search_step`) whose heights fit
-    [h_min, h_max] and whose overhang (each layer projected onto the previous plane) stays within
-    `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
+    slicing radius, layer 0 still on the substrate); leave it empty to search the smallest offset
+    (multiples of `search_step`) whose heights fit [h_min, h_max] and whose overhang (each layer
+    projected onto the previous plane) stays within `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
     [h_min/r_min, h_max/r_max]. Warns when the plan's heights leave the bead range
     (CSratio below (1 + q)/(2(1 − q)), q = h_min/h_max: 2.7 for 2.2/3.2 mm).
     `mode` = sections: for parts too curved for one fan, consecutive sections each get their own
     axis, lying in the section's start plane (the previous section's last top plane: no open
-    layers) and moved outward by the smallest offset that builds furthest with heights and
-    overhang in bounds (up to `max_sections`).
+    layers), moved outward by the smallest offset that builds furthest with heights and overhang
+    in bounds, with its own Δθ (up to `max_sections`; the last one builds the rest, warned when
+    out of bounds).
     Writes `<node>.layers.json` and `<node>.fan.json` (axis, Δθ, sections, per-layer heights).
     """
 
