@@ -107,3 +107,13 @@ def test_contract_example_speed_param():
             [("strategy.toolpath", "sim.toolpath")])
     sim = json.loads(r.artifacts["sim.simulation.json"])
     assert sim["arc_on_time_s"] == pytest.approx(5 * 43 / 10, rel=0.05)
+
+
+def test_unreachable_cell_warns_through_the_engine():
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"base_xyz_mm": [-4000, 0, -600]}}],
+            [("strategy.toolpath", "sim.toolpath")])
+    warns = [w for w in r.warnings if w.get("node") == "sim"]
+    assert warns and "unreachable" in warns[0]["message"]
+    assert warns[0]["layer"] == 0 and warns[0]["section"] == "region0"
+    sim = json.loads(r.artifacts["sim.simulation.json"])
+    assert sim["unreachable_stretches"] >= 1 and sim["total_time_s"] > 0
