@@ -178,3 +178,9 @@ def test_robot_motion_blends_between_samples():
     assert np.allclose(m.at(0.5), [[0, 0, 0], [2.5, 0, 100]])
     assert np.allclose(m.at(-1), joints[0]) and np.allclose(m.at(9), joints[1])
     assert m.segments(1.0).shape == (1, 2, 3)
+
+
+def test_zone_order_along_a_path():
+    from waamflow.viewer.scene import _zone_order
+
+    assert sorted(["end", "z10", "start", "z2", "x"], key=_zone_order) == ["start", "z2", "z10", "end", "x"]

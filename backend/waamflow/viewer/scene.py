@@ -304,17 +304,19 @@ class ToolpathPart(LayeredPart):
         return np.repeat(rgb[:, None, :], 2, axis=1)
 
     def zone_legend(self, limit: int = 12) -> list[tuple[str, str]]:
-        """(zone id, '#rrggbb') pairs as drawn, first seen first (the zone node's colours)."""
-        seen: dict[tuple[str, str], None] = {}
+        """(zone id, '#rrggbb') pairs as drawn (the zone node's colours), in path order
+        start, z1, z2, …, end. Empty when the paths are not zoned (drawn by section)."""
+        seen: dict[str, str] = {}
         for e in self.entries.values():
             disp = e["disp"]
             arc = ~disp.travel
             for zi in np.unique(disp.zone[arc & (disp.zone >= 0)]):
-                rgb = disp.zone_rgb[arc & (disp.zone == zi)][0]
-                seen.setdefault((disp.zone_ids[zi] or "(no zone)", C.rgb_to_hex(rgb)), None)
-                if len(seen) >= limit:
-                    return list(seen)
-        return list(seen)
+                zone = disp.zone_ids[zi]
+                if zone and zone not in seen:
+                    seen[zone] = C.rgb_to_hex(disp.zone_rgb[arc & (disp.zone == zi)][0])
+            if len(seen) >= limit:
+                break
+        return sorted(seen.items(), key=lambda kv: _zone_order(kv[0]))[:limit]
 
     def _draw_layer(self, index, lp: LayerPaths, budget, view):
         disp = G.path_display(G.layer_polyline(lp), budget)
@@ -420,6 +422,17 @@ class FeaturesPart(Part):
         d = np.asarray(direction, float) / np.linalg.norm(direction)
         return Pick(float((self.points[i] - np.asarray(origin, float)) @ d), self.points[i],
                     {"feature": self.kinds[i], **({"layer": self.layers[i]} if self.layers[i] is not None else {})})
+
+
+def _zone_order(zone: str) -> tuple[int, int, str]:
+    """Sort key of zone ids along a path: start, z1, z2, …, end, then anything else."""
+    if zone == "start":
+        return (0, 0, zone)
+    if zone == "end":
+        return (2, 0, zone)
+    if re.fullmatch(r"z\d+", zone):
+        return (1, int(zone[1:]), zone)
+    return (3, 0, zone)
 
 
 def _get(obj, key, default=None):

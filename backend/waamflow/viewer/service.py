@@ -341,8 +341,8 @@ class ViewerService:
             head = f"<b>{escape(p.node)}</b> "
             if p.kind == "toolpath":
                 lo, hi = p.speed_range
-                zones = "".join(swatch(h, z) for z, h in p.zone_legend())
-                rows.append(head + f"zones {zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
+                zones = "".join(swatch(h, z) for z, h in p.zone_legend()) or " not zoned (coloured by section)"
+                rows.append(head + f"zones{zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
             elif p.kind == "simulation":
                 ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
                                    if k in p.ranges for lo, hi in [p.ranges[k]])
