@@ -75,3 +75,34 @@ def test_dxf_panel_gives_the_same_features(tmp_path):
     counts = Counter(f["kind"] for f in json.loads(res.artifacts["features.features.json"])["features"])
     assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
                       "free_end": 1, "tubular": 1}
+
+
+def test_helix_per_run_of_layers():
+    from shapely.geometry import LineString
+
+    from waamflow.core.model import Layer, Layered
+    from waamflow.engine.node import REGISTRY, load_nodes
+
+    load_nodes()
+    t = np.linspace(0, 2 * np.pi, 37)
+    tube = LineString(np.column_stack([8 * np.cos(t), 8 * np.sin(t)]))
+    tube = LineString(list(tube.coords)[:-1] + [tube.coords[0]])
+    wall = LineString([(40, 0), (80, 0)])
+    # the tube exists on layers 0-2 and 5-6, the wall on every layer
+    layers = Layered(tuple(Layer(i, 2.0 * (i + 1), 2.0, curves=(wall, tube) if i in (0, 1, 2, 5, 6) else (wall,))
+                           for i in range(7)))
+
+    class Ctx:
+        def warn(self, *a, **k):
+            pass
+
+        def check_cancelled(self):
+            pass
+
+    node = REGISTRY["wall-path"]()
+    out = node.run(Ctx(), node.Params(), {"layers": layers})["toolpath"]
+    helices = [(lp.index, sp) for lp in out for sp in lp.sections if sp.strategy == "helical"]
+    assert [i for i, _ in helices] == [0, 5]
+    z0 = helices[0][1].points[:, 2]
+    z5 = helices[1][1].points[:, 2]
+    assert (z0.min(), z0.max()) == (2.0, 6.0) and (z5.min(), z5.max()) == (12.0, 14.0)

@@ -127,7 +127,7 @@ class WallPathNode(Node):
                         params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol,
                         params.bead_width)
         out: list[LayerPaths | None] = []
-        helices: dict[str, dict] = {}  # ring digest → {key, ring, slot of its first layer, zs}
+        helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
         warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
         pos = None
         for slot, layer in enumerate(layers):
@@ -142,7 +142,7 @@ class WallPathNode(Node):
             if passes:
                 pos = passes[-1].xy[-1]
             out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
-        for h in helices.values():  # each isolated tube: one helix over its layers, in its first layer
+        for h in helices.values():  # each isolated tube: one helix per run of consecutive layers, in its first
             lp = out[h["slot"]]
             pts = helix(h["ring"], h["zs"])
             n = len(pts) - 1
@@ -167,8 +167,12 @@ class WallPathNode(Node):
                 xy = aligned_loop(ring, spec.overlap)
                 passes.append(WallPass(key, "aligned", xy, np.ones(len(xy) - 1, bool)))
                 continue
-            h = helices.setdefault(curves_digest([ring]), {"key": key, "ring": ring, "slot": slot, "zs": []})
-            h["zs"].append(layer.z)
+            dg = curves_digest([ring])
+            run = next((h for (d, _), h in helices.items() if d == dg and h["last"] == slot - 1), None)
+            if run is None:
+                run = helices.setdefault((dg, slot), {"key": key, "ring": ring, "slot": slot, "last": slot, "zs": []})
+            run["last"] = slot
+            run["zs"].append(layer.z)
         return order_passes(passes, start)
 
     @staticmethod
