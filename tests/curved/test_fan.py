@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from shapely.geometry import MultiPolygon, box
 
-from waamflow.core.model import MeshData
 from waamflow.curved.fan import (angular_range, fan_dtheta, fan_slice, height_range, local_height, make_axis,
                                  plan_fan, to_local)
 from waamflow.curved.feasibility import max_overhang, search_radius

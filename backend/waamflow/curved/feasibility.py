@@ -27,7 +27,7 @@ from shapely.geometry import MultiPolygon
 
 from ..core.model import MeshData
 from .bead import csratio, dtheta_window, min_csratio
-from .fan import FanAxis, FanPlan, fan_slice, make_axis, plan_fan
+from .fan import FanAxis, fan_slice, make_axis, plan_fan
 
 
 @dataclass(frozen=True)
