@@ -313,17 +313,24 @@ def fit_targets(profile: RobotProfile, targets: list[StudyTarget], names: tuple[
     return fitted, info
 
 
-def profile_file(fitted: RobotProfile, info: dict) -> dict:
+def _num(v):
+    if isinstance(v, float):
+        return round(v, 4) if math.isfinite(v) else None
+    return v
+
+
+def profile_file(fitted: RobotProfile, info: dict, comment: str = "") -> dict:
     """The profile JSON with the fit documented (notes + per-target residuals)."""
     d = fitted.to_json()
+    if comment:
+        d = {"name": d["name"], "comment": comment, **{k: v for k, v in d.items() if k != "name"}}
     for k in SHIPPED_FIT:
         d[k] = round(d[k], 6)
     d["fit"] = {"method": "scipy.optimize.least_squares on log-parameters, residual = (model − target)/tol",
                 "fitted": list(SHIPPED_FIT), "cost": round(info["cost_after"], 4),
-                "targets": [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()} for r in info["targets"]]}
+                "targets": [{k: _num(v) for k, v in r.items()} for r in info["targets"]]}
     if "validation" in info:
-        d["fit"]["validation"] = [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in r.items()}
-                                  for r in info["validation"]]
+        d["fit"]["validation"] = [{k: _num(v) for k, v in r.items()} for r in info["validation"]]
     return d
 
 
@@ -337,5 +344,7 @@ if __name__ == "__main__":  # pragma: no cover - the documented calibration of t
     fitted, info = fit_targets(base, study_targets(), SHIPPED_FIT)
     info["validation"] = validation_report(fitted)
     if "--write" in sys.argv:
-        (ROBOTS_DIR / f"{name}.json").write_text(json.dumps(profile_file(fitted, info), indent=1, ensure_ascii=False) + "\n")
+        path = ROBOTS_DIR / f"{name}.json"
+        comment = json.loads(path.read_text()).get("comment", "")
+        path.write_text(json.dumps(profile_file(fitted, info, comment), indent=1, ensure_ascii=False) + "\n")
     print(json.dumps(info, indent=1))
