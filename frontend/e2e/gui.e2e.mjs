@@ -161,6 +161,7 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   await page.click("[data-testid=params-save]");
   await page.waitForSelector("[data-testid=params-error]");
   assert.match(await page.innerText("[data-testid=params-error]"), /current/);
+  await page.waitForSelector('td[data-err] [data-cell="start.current"]'); // the refused cell is marked
   // The browser logs the refused PUT (422) as a console error: that one is expected here.
   await page.waitForTimeout(100);
   const refused = errors.splice(nErrors).filter((e) => !/\/params: .*422/.test(e));

@@ -124,6 +124,13 @@ export function ParamsEditor(p: ParamsEditorProps) {
 
   const layerNode = doc?.layers.find((l) => l.index === sel?.layer);
   const sectionNode = layerNode?.sections.find((s) => s.id === sel?.section);
+  // The server names layer and section; zone and parameter come in its field or message.
+  const serverCell = (layer: number, section: string, zone: string, name: string) => {
+    if (!serverError || serverError.layer !== layer || serverError.section !== section) return false;
+    const text = `${String(serverError.field ?? "")} ${serverError.message}`;
+    const z = (typeof serverError.zone === "string" ? serverError.zone : text.match(/zone '([^']+)'/)?.[1]) ?? null;
+    return (z === null || z === zone) && new RegExp(`\\b${name}\\b`).test(text);
+  };
   const errAt = (layer: number, section?: string) =>
     serverError && serverError.layer === layer && (section === undefined || serverError.section === section || !serverError.section);
 
@@ -210,8 +217,9 @@ export function ParamsEditor(p: ParamsEditorProps) {
                         const pv = z.params.find((x) => x.name === name);
                         if (!pv) return <td key={z.id} className="muted">–</td>;
                         const m = validateValue(pv.value, p.bounds[name]);
+                        const bad = m || serverCell(layerNode.index, sectionNode.id, z.id, name);
                         return (
-                          <td key={z.id} className={m ? "err" : ""}>
+                          <td key={z.id} className={bad ? "err" : ""} data-err={bad ? "1" : undefined}>
                             <input
                               value={pv.value}
                               data-cell={`${z.id}.${name}`}
