@@ -242,3 +242,20 @@ def test_legend_lists_zone_colours_and_ranges(viewer):
     for zone, hexcol in ZONE_COLORS.items():
         assert f"background:{hexcol}" in html and zone in html
     assert "speed 10–20 mm/s" in html and "deviation 0.3–0.3 mm" in html
+
+
+def test_simulated_path_offset_side_by_side(viewer):
+    out = outputs(2)
+    viewer.publish("k", RECIPE, out)
+    viewer._gui["offset"].value = 5.0
+    sim = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0001/simulated")
+    prog = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0001/programmed")
+    assert np.allclose(sim.position, [0, 0, 5]) and np.allclose(prog.position, [0, 0, 0])
+    torch = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/torch")
+    s = out["simulate"]["simulation"].trace
+    assert torch.position[2] == pytest.approx(s["z"][0] + 5.0)
+    viewer._node_boxes["zone"].value = False
+    j = int(np.flatnonzero(s["layer"] == 1)[30])                   # top layer: nearest from above
+    p = np.array([s["x"][j], s["y"][j], s["z"][j] + 5.0])
+    info = viewer.pick(p + [0, 0, 50], np.array([0, 0, -1.0]))
+    assert info["node"] == "simulate" and info["point"][2] == pytest.approx(p[2], abs=1e-3)

@@ -50,7 +50,9 @@ def layer_name(index: int) -> str:
 
 @dataclass
 class ViewState:
-    """What the GUI asks to see. layer_lo/hi: inclusive layer index range; hidden: node ids."""
+    """What the GUI asks to see. layer_lo/hi: inclusive layer index range; hidden: node ids;
+    time_s: playback time; sim_offset_mm: simulated path drawn this far above (+z) the programmed
+    one, to compare them side by side instead of on top of each other."""
 
     layer_lo: int = 0
     layer_hi: int = 1 << 30
@@ -59,6 +61,7 @@ class ViewState:
     hidden: set[str] = field(default_factory=set)
     time_s: float = 0.0
     show_robot: bool = True
+    sim_offset_mm: float = 0.0   # lift of the simulated path above the programmed one (+z), mm
 
     def shows_layer(self, index: int) -> bool:
         return self.layer_lo <= index <= self.layer_hi

@@ -285,6 +285,8 @@ class ViewerService:
         g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
         g["path_color"] = gui.add_dropdown("Toolpath colour", PATH_COLOR_MODES, initial_value=self.view.path_color)
         g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
+        g["offset"] = gui.add_number("Sim. offset z (mm)", initial_value=0.0, min=0.0, max=1000.0, step=0.5,
+                                     hint="Draw the simulated path this far above the programmed one")
         g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
         g["play"] = gui.add_button("Play / pause")
         g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
@@ -298,6 +300,7 @@ class ViewerService:
         g["time"].on_update(lambda _: self._on_time())
         g["play"].on_click(lambda _: self._toggle_play())
         g["robot"].on_update(lambda _: self._on_robot())
+        g["offset"].on_update(lambda _: self._on_offset())
 
     def _sync_gui(self) -> None:
         g = self._gui
@@ -366,6 +369,11 @@ class ViewerService:
             self.view.sim_color = self._gui["sim_color"].value
             with self.server.atomic():
                 self._apply()
+
+    def _on_offset(self) -> None:
+        with self._lock:
+            self.view.sim_offset_mm = float(self._gui["offset"].value)
+            self._apply()
 
     def _on_robot(self) -> None:
         with self._lock:

@@ -36,7 +36,6 @@ class SimulationPart(Part):
         self.torch = None
         self.ranges: dict[str, tuple[float, float]] = {}
         self.mode = "deviation"
-        self._bounds = None
         self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
         self.robot = None                       # RobotMotion, or None
         self.robot_note = ""                    # why there is no robot, if there is none
@@ -44,6 +43,7 @@ class SimulationPart(Part):
         self.corner_points = np.zeros((0, 3))
         self.corner_layer = np.zeros(0, np.int64)
         self.corner_table: dict[str, np.ndarray] = {}
+        self.offset = 0.0                       # current sim_offset_mm (the torch rides on the drawn path)
 
     def duration(self) -> float:
         t = self.trace.get("t")
@@ -92,7 +92,7 @@ class SimulationPart(Part):
                 segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
                 entry["sim"] = self.scene.add_line_segments(
                     f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
-                    thickness=SIM_PX, thickness_units="screen")
+                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm))
                 entry["first"] = first
                 entry["bounds"] = G.layers_bounds([segs])
             frame.visible = view.shows_layer(index)
@@ -168,6 +168,9 @@ class SimulationPart(Part):
     def apply(self, view):
         for index, e in self.entries.items():
             e["handle"].visible = view.shows_layer(index)
+            if "sim" in e:
+                e["sim"].position = (0.0, 0.0, view.sim_offset_mm)
+        self.offset = view.sim_offset_mm
         if view.sim_color != self.mode:
             for e in self.entries.values():
                 if "sim" in e:
@@ -182,7 +185,7 @@ class SimulationPart(Part):
         if self.torch is None or not len(self.points):
             return None
         pos, i = G.interpolate_trace(self.trace, t)
-        self.torch.position = tuple(float(v) for v in pos)
+        self.torch.position = (float(pos[0]), float(pos[1]), float(pos[2]) + self.offset)
         if self.robot is not None and self.robot_handles:
             self.robot_handles["links"].points = self.robot.segments(t)
         return self.sample_info(i)
@@ -224,12 +227,14 @@ class SimulationPart(Part):
             lay = np.asarray(self.trace["layer"], np.int64)
             mask = (lay >= view.layer_lo) & (lay <= view.layer_hi)
         idx = np.flatnonzero(mask)
-        i = G.ray_pick(self.points[idx], origin, direction, tol)
+        lift = np.array([0.0, 0.0, self.offset])          # picked where it is drawn
+        i = G.ray_pick(self.points[idx] + lift, origin, direction, tol)
         if i is None:
             return None
         j = int(idx[i])
         d = np.asarray(direction, float) / np.linalg.norm(direction)
-        return Pick(float((self.points[j] - np.asarray(origin, float)) @ d), self.points[j], self.sample_info(j))
+        p = self.points[j] + lift
+        return Pick(float((p - np.asarray(origin, float)) @ d), p, self.sample_info(j))
 
     def _pick_corner(self, origin, direction, tol, view) -> Pick | None:
         vis = np.flatnonzero((self.corner_layer >= view.layer_lo) & (self.corner_layer <= view.layer_hi))
