@@ -14,10 +14,13 @@ T_final_decel) were identified on the triangular 45° strategy at 10 and 40 mm/s
 throughout ("on") or OFF outside the OR ("off"); they live in the robot profile's `time_model`.
 Other speeds interpolate linearly between the identified ones (clamped outside).
 
-For a general toolpath the model is applied per section: passes are maximal runs of straight,
-collinear, arc-ON segments inside the section at least `min_pass_mm` long (long enough to
-accelerate and stop: L_init_accel + L_final_decel at that speed); everything between two passes
-is a transition. A section without such passes (oscillate weaves, short zig-zags) has no pass
+For a general toolpath the model is applied per section, pass by pass: passes are maximal runs
+of straight, collinear, arc-ON segments inside the section at least `min_pass_mm` long (long
+enough to accelerate and stop: L_init_accel + L_final_decel at that speed), each with its own
+length; everything between two passes is a transition, timed T_trans + (L_t − L_trans_ref)/TS
+where L_trans_ref is the programmed length of the identification's link (triangular 45° with
+W_WB = 4.43 mm: 2·2.215/sin 22.5° = 11.576 mm) — the paper's formula when all passes are equal
+and every link is that triangle. A section without such passes (oscillate weaves, short zig-zags) has no pass
 structure for the model: it is counted as one start-stop move, L/TS + T_init_accel + T_final_decel
 − (L_init_accel + L_final_decel)/TS. Travel between sections is counted at the travel speed,
 dwells as they are.
@@ -54,7 +57,10 @@ def model_params(time_model: dict, speed: float, protocol: str) -> dict[str, flo
     if not table:
         raise ValueError(f"robot profile has no time_model entries for protocol {protocol!r}")
     speeds = sorted(table)
-    return {k: float(np.interp(speed, speeds, [table[s][k] for s in speeds])) for k in KEYS}
+    out = {k: float(np.interp(speed, speeds, [table[s][k] for s in speeds])) for k in KEYS}
+    if all("L_trans_ref" in table[s] for s in speeds):
+        out["L_trans_ref"] = float(np.interp(speed, speeds, [table[s]["L_trans_ref"] for s in speeds]))
+    return out
 
 
 @dataclass(frozen=True)
@@ -93,32 +99,65 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
         speed = float(np.nanmedian(np.where(is_pass, moves.speed[dep], np.nan))) if is_pass.any() else float(np.nanmedian(moves.speed[dep]))
         if not np.isfinite(speed) or speed <= 0:
             speed = travel_speed
-        # passes: runs of straight collinear pass segments
-        lengths = []
-        cur = 0.0
-        for k, i in enumerate(dep):
-            if is_pass[k]:
-                if cur > 0 and k > 0 and is_pass[k - 1] and U[dep[k - 1]] @ U[i] >= cos_tol:
-                    cur += L[i]
-                else:
-                    if cur > 0:
-                        lengths.append(cur)
-                    cur = L[i]
-            else:
-                if cur > 0:
-                    lengths.append(cur)
-                cur = 0.0
-        if cur > 0:
-            lengths.append(cur)
         p = model_params(time_model, speed, protocol)
-        lengths = [x for x in lengths if x >= max(min_pass_mm, p["L_init_accel"] + p["L_final_decel"])]
-        n = len(lengths)
-        if n == 0:
+        runs = _runs(dep, is_pass, L, U, cos_tol, max(min_pass_mm, p["L_init_accel"] + p["L_final_decel"]))
+        passes = [length for kind, length in runs if kind]
+        if not passes:
             total += cycle_time(1, float(L[dep].sum()), speed, p)
             continue
-        total += cycle_time(n, float(np.mean(lengths)), speed, p)
-        n_pass_all += n
+        total += _section_time(runs, speed, p)
+        n_pass_all += len(passes)
     return Estimate(total, n_pass_all, sections)
+
+
+def _runs(dep, is_pass, L, U, cos_tol, min_len) -> list[tuple[bool, float]]:
+    """The section's deposition as alternating (is_pass, length mm): passes are straight,
+    collinear runs of arc-ON inside segments at least min_len long; the rest are transitions."""
+    runs: list[tuple[bool, float]] = []
+    cur = 0.0
+    for k, i in enumerate(dep):
+        straight_on = is_pass[k] and k > 0 and is_pass[k - 1] and U[dep[k - 1]] @ U[i] >= cos_tol
+        if straight_on and cur > 0:
+            cur += L[i]
+            continue
+        if cur > 0:
+            runs.append((True, cur))
+            cur = 0.0
+        if is_pass[k]:
+            cur = L[i]
+        else:
+            runs.append((False, L[i]))
+    if cur > 0:
+        runs.append((True, cur))
+    # short "passes" are part of the transitions; merge neighbours of the same kind
+    out: list[tuple[bool, float]] = []
+    for kind, length in runs:
+        kind = kind and length >= min_len
+        if out and out[-1][0] == kind and not kind:
+            out[-1] = (False, out[-1][1] + length)
+        else:
+            out.append((kind, length))
+    return out
+
+
+def _section_time(runs: list[tuple[bool, float]], TS: float, p: dict[str, float]) -> float:
+    """The paper's model over passes of individual lengths; a transition of programmed length Lt
+    takes T_trans + (Lt − L_trans_ref)/TS (the identified T_trans is for the triangular 45° link,
+    L_trans_ref mm long); stretches before the first / after the last pass at TS."""
+    kinds = [k for k, _ in runs]
+    first, last = kinds.index(True), len(kinds) - 1 - kinds[::-1].index(True)
+    l_ref = p.get("L_trans_ref", float("nan"))
+    t = p["T_init_accel"] + p["T_final_decel"]
+    for i, (kind, length) in enumerate(runs):
+        if i < first or i > last:
+            t += length / TS
+        elif kind:
+            a = p["L_init_accel"] if i == first else p["L_accel"]
+            d = p["L_final_decel"] if i == last else p["L_decel"]
+            t += (length - a - d) / TS
+        else:
+            t += p["T_trans"] + ((length - l_ref) / TS if np.isfinite(l_ref) else 0.0)
+    return t
 
 
 def estimate_result(moves: Moves, est: Estimate):
