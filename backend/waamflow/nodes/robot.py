@@ -116,6 +116,7 @@ class SimulateRobot(Node):
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
+
         def progress(fraction: float, message: str = "") -> None:
             ctx.check_cancelled()
             ctx.progress(fraction, message)
@@ -127,9 +128,8 @@ class SimulateRobot(Node):
 
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
-        profile = _profile(ctx, params)
         return {
-            "simulation.json": json.dumps(simulation_json(res, profile, params.sim_options()), indent=1),
+            "simulation.json": json.dumps(simulation_json(res, params.sim_options()), indent=1),
             "trace.csv": trace_csv(res),
             "deposit.csv": deposit_csv(res),
         }

@@ -45,7 +45,8 @@ class RobotProfile:
     tcp_offset_mm: TCP in the flange frame (tool0), mm; base_xyz_mm: robot base in the world, mm —
         defaults for simulate-robot's params of the same names.
     time_model: the study's identified parameters of the closed-form cycle-time model keyed by
-        "<speed>_<protocol>" (protocol "on" = arc ON throughout, "off" = arc OFF outside).
+        "<speed>_<protocol>" (protocol "on" = arc ON throughout, "off" = arc OFF outside), plus
+        L_trans_ref (mm), the programmed length of the link they were identified on.
     notes: how the constants were obtained.
     """
 

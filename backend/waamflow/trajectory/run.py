@@ -96,17 +96,17 @@ def _clean(v):
     return round(v, 6) if isinstance(v, float) else v
 
 
-def simulation_json(res: SimulationResult, profile: RobotProfile, opt: SimOptions) -> dict:
+def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
     """The contract's `<node>.simulation.json`: metrics at top level plus units, estimate, warnings."""
     out = {k: _clean(float(v)) for k, v in res.metrics.items()}
     out["units"] = {k: METRIC_UNITS.get(k, "") for k in res.metrics}
     out["estimate"] = {k: _clean(float(v)) for k, v in res.estimate.items()}
     out["estimate_total_time_s"] = out["estimate"].get("total_time_s")
     out["warnings"] = [{"message": m, "layer": l, "section": s} for m, l, s in res.warnings]
-    out["robot_profile"] = profile.name
+    out["robot_profile"] = res.profile.get("name")
     out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "wire_feed_mm3_s": opt.wire_feed_mm3_s,
                        "speed_override_mm_s": opt.speed_override,
-                       "interpolation_cycle_s": opt.interpolation_cycle_s or profile.interpolation_cycle_s}
+                       "interpolation_cycle_s": opt.interpolation_cycle_s or res.profile.get("interpolation_cycle_s")}
     c = res.corners
     out["corners"] = [{"vertex": int(v), "interior_deg": round(float(a), 3), "error_mm": round(float(e), 4),
                        "min_speed_mm_s": _clean(float(sp)), "mean_speed_mm_s": _clean(float(mv))}
