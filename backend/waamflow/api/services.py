@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -58,7 +59,15 @@ class Services:
                     self.store.put_params_xml(graph_name, data.decode("utf-8"))
                     break
         if self.viewer is not None:
-            self.viewer.publish(graph_name or run_id, recipe.to_json(), result.outputs)
+            # publishing a large part takes seconds: do it beside the run, not inside it
+            threading.Thread(target=self._publish, args=(graph_name or run_id, recipe.to_json(), result.outputs),
+                             name="waamflow-viewer-publish", daemon=True).start()
+
+    def _publish(self, key: str, recipe: dict, outputs: dict) -> None:
+        try:
+            self.viewer.publish(key, recipe, outputs)
+        except Exception:
+            log.exception("3D preview update failed for %s", key)
 
 
 def build_services(settings: Settings) -> Services:

@@ -20,6 +20,6 @@ class Health(BaseModel):
 @router.get("/api/health", response_model=Health)
 def health(svc: ServicesDep) -> Health:
     url = getattr(svc.viewer, "url", None) if svc.viewer is not None else None
-    port = svc.settings.viewer_port if svc.viewer is not None else None
+    port = getattr(svc.viewer, "bound_port", None) if svc.viewer is not None else None
     # viewer_port lets a browser on another host build the URL from its own location.hostname
     return Health(status="ok", version=__version__, viewer_url=url, viewer_port=port, workers=svc.settings.workers)
