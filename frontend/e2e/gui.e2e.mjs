@@ -1,9 +1,11 @@
 // End-to-end tests of the GUI in headless Chromium against a real `waamflow serve`.
 // Run: npm run test:e2e (builds the frontend first). Screenshots go to out/e2e/.
 import assert from "node:assert/strict";
+import { writeFileSync } from "node:fs";
+import path from "node:path";
 import { after, before, test } from "node:test";
 import {
-  api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, shot, startBrowser, startServer, waitRun,
+  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, shot, startBrowser, startServer, waitRun,
 } from "./harness.mjs";
 
 let srv, browser;
@@ -114,6 +116,10 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
       await page.mouse.move(tx, ty, { steps: 5 });
       await page.mouse.up();
     }),
+  );
+  writeFileSync(
+    path.join(OUT, "replan.json"),
+    JSON.stringify({ name: "gui_replan_ms", recipe: "mpp-cross", layer: 0, unit: "ms", median: median(times), max: Math.max(...times), samples: times }, null, 1),
   );
   console.log(`edit → canvas re-plan (mpp-cross, one layer): median ${median(times).toFixed(0)} ms, max ${Math.max(...times).toFixed(0)} ms over ${times.length} edits (curve, zone lengths, strategy, split point, vertex drag) [${times.map((t) => t.toFixed(0)).join(", ")}]`);
   await shot(page, "04-mask-edited");

@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { JSONSchema } from "../src/api/types";
-import { boundsText, describeFields, findEnum, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
+import { boundsText, describeFields, findEnum, findProperty, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
 
 // The shape pydantic v2 emits for a node's Params model.
 const schema: JSONSchema = {
@@ -56,5 +56,7 @@ describe("fields from a pydantic schema", () => {
   it("finds a nested enum by property name", () => {
     expect(findEnum({ type: "object", properties: { sections: schema.properties!.sections }, $defs: schema.$defs }, "pattern"))
       .toEqual(["raster", "oscillate", "parallel"]);
+    expect(findProperty(schema, "layer_count")).toMatchObject({ type: "integer", minimum: 1 });
+    expect(findProperty(schema, "nope")).toBeUndefined();
   });
 });

@@ -182,18 +182,15 @@ export function validateParams(root: JSONSchema, params: Record<string, unknown>
   return errors;
 }
 
-/** Find the enum of a property named `name` anywhere in a schema (e.g. a strategy's `pattern`). */
-export function findEnum(root: JSONSchema, name: string): unknown[] | undefined {
+/** The first property named `name` anywhere in a schema (e.g. a strategy's per-section `pattern`), unwrapped. */
+export function findProperty(root: JSONSchema, name: string): JSONSchema | undefined {
   const seen = new Set<JSONSchema>();
-  const walk = (s: JSONSchema | undefined): unknown[] | undefined => {
+  const walk = (s: JSONSchema | undefined): JSONSchema | undefined => {
     if (!s || typeof s !== "object" || seen.has(s)) return undefined;
     seen.add(s);
     const d = deref(root, s);
     const p = d.properties?.[name];
-    if (p) {
-      const o = options(unwrapNullable(root, p).schema);
-      if (o) return o;
-    }
+    if (p) return unwrapNullable(root, p).schema;
     const kids: (JSONSchema | undefined)[] = [
       ...Object.values(d.properties ?? {}),
       d.items,
@@ -210,4 +207,10 @@ export function findEnum(root: JSONSchema, name: string): unknown[] | undefined 
     return undefined;
   };
   return walk(root);
+}
+
+/** The enum of a property named `name` anywhere in a schema. */
+export function findEnum(root: JSONSchema, name: string): unknown[] | undefined {
+  const p = findProperty(root, name);
+  return p ? options(p) : undefined;
 }

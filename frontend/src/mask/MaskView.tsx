@@ -1,7 +1,7 @@
 /** The mask tab: canvas plus its side panel (layers, masks, sections, strategy, zoning). */
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import type { Recipe, RunError } from "../api/types";
-import { findEnum } from "../forms/schema";
+import { findProperty } from "../forms/schema";
 import { setNodeParams, type Catalog } from "../graph/recipe";
 import {
   addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
@@ -126,9 +126,11 @@ export function MaskView(p: MaskViewProps) {
     [edit, maskId, guideId, strategyId, zoneId, layer, p, maskParams],
   );
 
-  const patterns = useMemo(() => {
+  const { patterns, schemaDefault } = useMemo(() => {
     const spec = nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined;
-    return ((spec && findEnum(spec.params_schema, "pattern")) as string[] | undefined) ?? CONTRACT_PATTERNS;
+    const prop = spec ? findProperty(spec.params_schema, "pattern") : undefined;
+    // The pattern a section gets when neither it nor the node's default names one.
+    return { patterns: (prop?.enum as string[] | undefined) ?? CONTRACT_PATTERNS, schemaDefault: prop?.default as string | undefined };
   }, [nodes.strategy, p.catalog]);
 
   const previewable = recipe.nodes.filter((n) => {
@@ -297,7 +299,7 @@ export function MaskView(p: MaskViewProps) {
                       onChange={(e) => edit(strategyId, (s) => patchSection(s as KeyedParams, key, { pattern: e.target.value || undefined }))}
                       data-testid={`strategy-${key}`}
                     >
-                      <option value="">default ({String(strategyParams.default?.pattern ?? "—")})</option>
+                      <option value="">default ({String(strategyParams.default?.pattern ?? schemaDefault ?? "—")})</option>
                       {patterns.map((x) => (
                         <option key={x} value={x}>
                           {x}
