@@ -52,6 +52,7 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   assert.equal(await page.locator(".react-flow__edge").count(), shipped.edges.length);
   await saveAs(page, "e2e-cross"); // work on a copy: the example stays as shipped
   await shot(page, "02-graph");
+  await page.click('.react-flow__node[data-id="zone"]'); // a selected graph node must survive Delete on the canvas
 
   // Mask canvas: the three sections of the study with their paths.
   await page.click("[data-tab=mask]");
@@ -60,7 +61,8 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   await shot(page, "03-mask");
 
   // Replace section C (right arm) by a newly drawn curve and guide.
-  await page.click('[data-section-item="bs1/C"] button:text-is("delete")');
+  await page.click('[data-section-item="bs1/C"] b');
+  await page.keyboard.press("Delete"); // removes the section, not the graph's selected nodes
   await page.waitForFunction(() => document.querySelector("[data-testid=mask-canvas]")?.getAttribute("data-paths") === "2");
   assert.equal(await page.locator('[data-section-item="bs1/C"]').count(), 0);
   await page.click("[data-tool=curve]");
@@ -127,6 +129,7 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   // Run (saves first) and follow it to the end; the canvas path is the re-planned one.
   await expectRun(page, srv.base, "done");
   const saved = await api(srv.base, "/api/graphs/e2e-cross");
+  assert.equal(saved.nodes.length, shipped.nodes.length);
   const mask = saved.nodes.find((n) => n.type === "mask").params.masks[0];
   assert.deepEqual(mask.sections.map((s) => s.id), ["A", "B", "C"]);
   // Drawn at (6,-8) (64,-8) (64,8) (6,8): each vertex snapped to a layer vertex within the 8 px

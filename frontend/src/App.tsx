@@ -169,6 +169,10 @@ export function App() {
         const all = positionsOf(recipe);
         const anchorId = [...selected].find((id) => all[id]) ?? Object.keys(all).sort((a, b) => all[b][0] - all[a][0])[0];
         pos = anchorId ? [all[anchorId][0] + 230, all[anchorId][1]] : [0, 0];
+        // Wrap after four columns, below everything, so a growing chain stays readable.
+        const ps = Object.values(all);
+        const x0 = ps.length ? Math.min(...ps.map((q) => q[0])) : 0;
+        if (pos[0] > x0 + 3 * 230) pos = [x0, Math.max(...ps.map((q) => q[1])) + 160];
       }
       // A new node starts with empty params: the engine applies the schema defaults and the form
       // shows them as placeholders, so the recipe only records what the user changed.
@@ -303,6 +307,7 @@ export function App() {
                 onPreview={onPreview}
                 onAddAt={addAt}
                 onMessage={message}
+                active={tab === "graph"}
               />
             </div>
             {tab === "mask" && (

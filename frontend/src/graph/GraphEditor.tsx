@@ -80,6 +80,8 @@ export interface GraphEditorProps {
   onPreview: (id: string) => void;
   onAddAt: (type: string, at: XY) => void;
   onMessage: (m: string) => void;
+  /** False while another tab is shown: the editor stays mounted but must not take Delete etc. */
+  active: boolean;
 }
 
 export function GraphEditor(p: GraphEditorProps) {
@@ -189,9 +191,9 @@ export function GraphEditor(p: GraphEditorProps) {
         onEdgesChange={onEdgesChange}
         onConnect={onConnect}
         isValidConnection={valid}
-        deleteKeyCode={["Delete", "Backspace"]}
-        selectionKeyCode="Shift"
-        multiSelectionKeyCode={["Control", "Meta"]}
+        deleteKeyCode={p.active ? ["Delete", "Backspace"] : null}
+        selectionKeyCode={p.active ? "Shift" : null}
+        multiSelectionKeyCode={p.active ? ["Control", "Meta"] : null}
         fitView
         minZoom={0.1}
         maxZoom={3}

@@ -245,7 +245,7 @@ export function ParamsEditor(p: ParamsEditorProps) {
               </div>
             )}
             <div className="orphans" data-testid="orphans">
-              <h4>Orphaned values</h4>
+              <h4>Orphaned values and zone warnings</h4>
               {!current && !p.runWarnings.length && <div className="muted">Run the recipe to compare these values with the current geometry.</div>}
               {p.runWarnings.map((w) => (
                 <div key={w.seq} className="orphan">
