@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 CURVE_POINTS = 9  # samples per blend curve (odd: the middle one is the curve's apex)
+MIN_CORNER_SPEED = 0.01  # mm/s: a blend slower than this is an exact stop (exact reversals)
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,8 +91,12 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
             else:
                 r = np.where(dk > 0, dk * np.cos(half) ** 2 / np.sin(half), np.inf)
             vc = np.minimum.reduce([v_prev, v_next, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
-        # no blend possible at a real corner (distance 0) = exact stop
-        vc = np.where((dk <= 0) & (turn > 1e-9), 0.0, vc)
+        # no blend possible at a real corner (distance 0), or a blend the controller could only
+        # creep through (an exact reversal: radius → 0) = exact stop
+        crawl = vc < MIN_CORNER_SPEED
+        dk = np.where(crawl, 0.0, dk)
+        r = np.where(crawl, np.inf, r)
+        vc = np.where(((dk <= 0) & (turn > 1e-9)) | crawl, 0.0, vc)
         d[1:-1], radius[1:-1], cap[1:-1] = dk, r, vc
     st = np.asarray(stop, dtype=bool).copy()
     st[0] = st[-1] = True
