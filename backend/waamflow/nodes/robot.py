@@ -85,7 +85,7 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "8"
+    version = "9"
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
@@ -148,7 +148,7 @@ class EstimateTime(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Toolpath"),)
     outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
-    version = "8"
+    version = "9"
 
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
@@ -188,7 +188,7 @@ class CalibrateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
     outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
-    version = "8"
+    version = "9"
 
     class Params(RobotParams):
         trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")
