@@ -125,3 +125,45 @@ def test_long_programs_sample_at_the_cycle_with_the_same_figures(monkeypatch):
     coarse = simulate(study.planned("triangular", 40.0, angle_deg=45.0), KUKA).metrics
     for k in ("total_time_s", "actual_length_mm", "deposited_volume_mm3", "max_corner_error_mm"):
         assert coarse[k] == pytest.approx(fine[k], rel=0.01), k
+
+
+def test_random_programs_keep_the_bookkeeping():
+    """Random polylines (duplicates, reversals, tiny and long moves, arc switches, dwells, both
+    blend modes): time increases, metrics are finite, the per-segment deposit adds up to the
+    total, time splits into inside + outside, the path never gets longer than programmed."""
+    from waamflow.core.errors import PlanningError
+
+    rng = np.random.default_rng(7)
+    checked = 0
+    for _ in range(30):
+        layers = []
+        for li in range(int(rng.integers(1, 3))):
+            secs = []
+            for si in range(int(rng.integers(1, 3))):
+                n = int(rng.integers(2, 25))
+                pts = np.cumsum(rng.normal(0, rng.choice([0.05, 1, 10]), (n, 3)) * [1, 1, 0.1], axis=0) + [0, 0, 5 + li]
+                if rng.random() < 0.3:
+                    pts[rng.integers(1, n)] = pts[rng.integers(0, n - 1)]
+                if rng.random() < 0.3 and n > 3:
+                    pts[2] = pts[0]                              # exact reversal
+                m = n - 1
+                secs.append(SectionPath(key=f"s{si}", strategy="f", points=pts, arc=rng.random(m) < 0.8,
+                                        inside=rng.random(m) < 0.7, speed=rng.choice([5.0, 10.0, 40.0, 100.0], m)))
+            layers.append(LayerPaths(Layer(index=li, z=5.0 + li, thickness=1.0), tuple(secs),
+                                     dwell_after_s=float(rng.choice([0.0, 0.5]))))
+        mv = flatten(Layered(tuple(layers)))
+        opt = SimOptions(cdis=float(rng.choice([0.0, 1.0, 5.0])), blend=str(rng.choice(["cdis", "zone"])),
+                         ignition_dwell_s=float(rng.choice([0.0, 0.3])))
+        try:
+            res = simulate(mv, KUKA, opt)
+        except PlanningError:
+            continue
+        m = res.metrics
+        assert np.all(np.diff(res.trace["t"]) > 0)
+        assert all(np.isfinite(v) for v in m.values())
+        total = (res.deposit["actual_mm3_per_mm"] * res.deposit["length_mm"]).sum()
+        assert total == pytest.approx(m["deposited_volume_mm3"], rel=1e-9, abs=1e-9)
+        assert m["time_inside_s"] + m["time_outside_s"] == pytest.approx(m["total_time_s"], abs=1e-9)
+        assert m["actual_length_mm"] <= m["programmed_length_mm"] + 1e-6
+        checked += 1
+    assert checked >= 25
