@@ -186,14 +186,16 @@ class RunContext(Context):
 
 
 def _code_signature() -> str:
-    """Hash of every kernel/node source file: part of every cache key (Hamilton's code version), so
-    a changed kernel never serves results computed by the old one. api/, viewer/ and the CLI do
-    not compute results and are left out."""
+    """Hash of every kernel/node source file and shipped data file (robot profiles and
+    descriptions): part of every cache key (Hamilton's code version), so a changed kernel or
+    profile never serves results computed by the old one. api/, viewer/ and the CLI do not
+    compute results and are left out."""
     import hashlib
 
     root = Path(__file__).resolve().parents[1]
     h = hashlib.blake2b(digest_size=12)
-    for p in sorted(root.rglob("*.py")):
+    files = list(root.rglob("*.py")) + [p for p in (root / "data").rglob("*") if p.is_file()]
+    for p in sorted(files):
         rel = p.relative_to(root).as_posix()
         if rel.startswith(("api/", "viewer/")) or rel == "cli.py":
             continue
