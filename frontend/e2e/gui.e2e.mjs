@@ -312,13 +312,18 @@ test("rectangle-study: run, plots of the simulation and the strategy comparison"
   const { page, errors } = await openPage(browser, srv.base);
   await page.selectOption("[data-testid=open-graph]", "rectangle-study");
   await page.waitForSelector('.react-flow__node[data-id="simulate"]');
-  // A recipe input edited as a field: the spacing knob.
-  const inputs = await api(srv.base, "/api/graphs/rectangle-study");
-  assert.ok("pattern" in inputs.inputs);
+  // Recipe inputs are typed by the parameters that use them: `pattern` is a select of the patterns.
+  const patternOptions = await page.locator('[data-input="pattern"] select option').allInnerTexts();
+  assert.ok(patternOptions.includes("spiral") && patternOptions.includes("raster"), patternOptions.join(","));
+  await page.selectOption('[data-input="pattern"] select', JSON.stringify("spiral"));
   await expectRun(page, srv.base, "done");
+  assert.equal((await api(srv.base, "/api/graphs/rectangle-study")).inputs.pattern, "spiral");
+  const [last] = await api(srv.base, "/api/runs?limit=1");
+  const tp = await api(srv.base, `/api/runs/${last.id}/artifacts/strategy.toolpath.json`);
+  assert.equal(tp.layers[0].sections[0].strategy, "spiral");
   await page.click("[data-tab=results]");
   for (const title of ["Speed vs time", "Speed vs path length", "Deviation vs path", "Arc state", "Deposit per mm vs programmed"])
-    await page.waitForSelector(`[data-chart="${title}"] path[stroke]`);
+    await page.waitForSelector(`[data-chart="${title}"] path[stroke][d^="M"]`, { state: "attached" }); // a flat line has no height
   const [run] = await api(srv.base, "/api/runs?limit=1");
   const cmp = await api(srv.base, `/api/runs/${run.id}/artifacts/strategy.comparison.json`);
   await page.waitForSelector("[data-testid=comparison] tbody tr");

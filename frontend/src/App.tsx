@@ -82,8 +82,17 @@ export function App() {
     void refreshGraphs();
   }, [fail, refreshGraphs]);
 
+  // Leaving the page with unsaved edits asks first.
+  useEffect(() => {
+    if (!dirty) return;
+    const warn = (e: BeforeUnloadEvent) => e.preventDefault();
+    window.addEventListener("beforeunload", warn);
+    return () => window.removeEventListener("beforeunload", warn);
+  }, [dirty]);
+
   const open = useCallback(
     async (name: string) => {
+      if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
       try {
         const r = await API.getGraph(name);
         const full: Recipe = { ...emptyRecipe(name), ...r };
@@ -100,7 +109,7 @@ export function App() {
         fail(e);
       }
     },
-    [fail, rf],
+    [fail, rf, dirty],
   );
 
   const save = useCallback(
@@ -254,7 +263,16 @@ export function App() {
             </option>
           ))}
         </select>
-        <button onClick={() => (setHist(history(emptyRecipe())), setGraphName(null), setSavedJson(JSON.stringify(emptyRecipe())))}>new</button>
+        <button
+          onClick={() => {
+            if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
+            setHist(history(emptyRecipe()));
+            setGraphName(null);
+            setSavedJson(JSON.stringify(emptyRecipe()));
+          }}
+        >
+          new
+        </button>
         <button onClick={() => void save()} disabled={!dirty && !!graphName} data-testid="save">
           save{dirty ? " *" : ""}
         </button>

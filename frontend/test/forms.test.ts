@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { JSONSchema } from "../src/api/types";
-import { boundsText, describeFields, findEnum, findProperty, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
+import { boundsText, describeFields, findEnum, findProperty, inputField, schemaAt, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
 
 // The shape pydantic v2 emits for a node's Params model.
 const schema: JSONSchema = {
@@ -58,5 +58,31 @@ describe("fields from a pydantic schema", () => {
       .toEqual(["raster", "oscillate", "parallel"]);
     expect(findProperty(schema, "layer_count")).toMatchObject({ type: "integer", minimum: 1 });
     expect(findProperty(schema, "nope")).toBeUndefined();
+  });
+});
+
+describe("recipe inputs typed by the parameters that use them", () => {
+  const strategy: JSONSchema = {
+    type: "object",
+    $defs: { S: { type: "object", properties: { pattern: { enum: ["raster", "spiral"], type: "string" }, speed: { type: "number", minimum: 0.1, maximum: 500, unit: "mm/s" } } } },
+    properties: {
+      default: { $ref: "#/$defs/S" },
+      sections: { type: "object", additionalProperties: { $ref: "#/$defs/S" } },
+      compare: { anyOf: [{ type: "array", items: { type: "string" } }, { type: "null" }] },
+    },
+  };
+  const nodes = [{ type: "strategy", params: { default: { pattern: "$pattern" }, sections: { "bs1/A": { speed: "$speed" } }, compare: ["$first"] } }];
+  const of = (t: string) => (t === "strategy" ? strategy : undefined);
+  it("finds the enum of a nested parameter", () => {
+    expect(inputField(nodes, of, "pattern")).toMatchObject({ kind: "enum", options: ["raster", "spiral"] });
+  });
+  it("finds bounds and unit through dict and list entries", () => {
+    expect(inputField(nodes, of, "speed")).toMatchObject({ kind: "number", minimum: 0.1, maximum: 500, unit: "mm/s" });
+    expect(inputField(nodes, of, "first")).toMatchObject({ kind: "string" });
+    expect(inputField(nodes, of, "unused")).toBeUndefined();
+  });
+  it("resolves a schema at a path", () => {
+    expect(schemaAt(strategy, ["sections", "x", "pattern"])?.enum).toEqual(["raster", "spiral"]);
+    expect(schemaAt(strategy, ["nope"])).toBeUndefined();
   });
 });

@@ -1,7 +1,7 @@
 import { useEffect, useState } from "react";
 import type { Recipe, RecipeNode } from "../api/types";
 import { ParamForm } from "../forms/ParamForm";
-import { validateParams } from "../forms/schema";
+import { inputField, validateField, validateParams, type FieldSpec } from "../forms/schema";
 import { referencedInputs, renameNode, setNodeParams, type Catalog } from "../graph/recipe";
 import { badgeText, type NodeStatus } from "../run/status";
 
@@ -69,7 +69,7 @@ function IdField({ id, onRename }: { id: string; onRename: (next: string) => voi
   );
 }
 
-function RecipeSettings({ recipe, onEdit, selectedCount }: InspectorProps) {
+function RecipeSettings({ recipe, onEdit, selectedCount, catalog }: InspectorProps) {
   const used = referencedInputs(recipe);
   return (
     <div className="inspector">
@@ -79,7 +79,7 @@ function RecipeSettings({ recipe, onEdit, selectedCount }: InspectorProps) {
         description
         <textarea rows={2} value={recipe.description} onChange={(e) => onEdit((r) => ({ ...r, description: e.target.value }))} />
       </label>
-      <InputsEditor recipe={recipe} onEdit={onEdit} used={used} />
+      <InputsEditor recipe={recipe} onEdit={onEdit} used={used} catalog={catalog} />
       <p className="muted">
         Select a node to edit its parameters. Shift+drag box-selects, Delete removes, Ctrl+Z/Ctrl+Y undo/redo, Ctrl+C/Ctrl+V copy/paste, F fits the view.
       </p>
@@ -87,41 +87,40 @@ function RecipeSettings({ recipe, onEdit, selectedCount }: InspectorProps) {
   );
 }
 
-/** Recipe inputs (the "$name" knobs of batch runs) as editable fields. */
-export function InputsEditor({ recipe, onEdit, used }: { recipe: Recipe; onEdit: (e: (r: Recipe) => Recipe) => void; used: Set<string> }) {
+/** Recipe inputs (the "$name" knobs of batch runs) as fields typed by the parameters that use them. */
+export function InputsEditor({ recipe, onEdit, used, catalog }: { recipe: Recipe; onEdit: (e: (r: Recipe) => Recipe) => void; used: Set<string>; catalog: Catalog }) {
   const [name, setName] = useState("");
   const set = (k: string, v: unknown) => onEdit((r) => ({ ...r, inputs: { ...r.inputs, [k]: v } }));
   return (
     <div className="inputs-editor" data-testid="inputs">
       <h4>Inputs</h4>
-      {Object.entries(recipe.inputs).map(([k, v]) => (
-        <div className="field" key={k} data-input={k}>
-          <label title={used.has(k) ? `used as $${k}` : "not referenced by any node"}>
-            {k} {!used.has(k) && <span className="muted">(unused)</span>}
-          </label>
-          <div className="control">
-            {typeof v === "boolean" ? (
-              <input type="checkbox" checked={v} onChange={(e) => set(k, e.target.checked)} />
-            ) : typeof v === "number" ? (
-              <NumberSlider value={v} onChange={(x) => set(k, x)} />
-            ) : (
-              <input value={typeof v === "string" ? v : JSON.stringify(v)} onChange={(e) => set(k, e.target.value)} />
-            )}
-            <button
-              title="remove input"
-              onClick={() =>
-                onEdit((r) => {
-                  const inputs = { ...r.inputs };
-                  delete inputs[k];
-                  return { ...r, inputs };
-                })
-              }
-            >
-              ✕
-            </button>
+      {Object.entries(recipe.inputs).map(([k, v]) => {
+        const f = inputField(recipe.nodes, (t) => catalog.get(t)?.params_schema, k);
+        const err = f ? validateField(f, v) : null;
+        return (
+          <div className={`field ${err ? "err" : ""}`} key={k} data-input={k}>
+            <label title={used.has(k) ? `used as $${k}${f?.description ? ": " + f.description : ""}` : "not referenced by any node"}>
+              {k} {f?.unit && <span className="unit">[{f.unit}]</span>} {!used.has(k) && <span className="muted">(unused)</span>}
+            </label>
+            <div className="control">
+              <InputControl f={f} value={v} onChange={(x) => set(k, x)} />
+              <button
+                title="remove input"
+                onClick={() =>
+                  onEdit((r) => {
+                    const inputs = { ...r.inputs };
+                    delete inputs[k];
+                    return { ...r, inputs };
+                  })
+                }
+              >
+                ✕
+              </button>
+            </div>
+            {err && <div className="error">{err}</div>}
           </div>
-        </div>
-      ))}
+        );
+      })}
       <div className="add-input">
         <input placeholder="new input name" value={name} onChange={(e) => setName(e.target.value)} />
         <button disabled={!/^[A-Za-z_][A-Za-z0-9_]*$/.test(name) || name in recipe.inputs} onClick={() => (set(name, 0), setName(""))}>
@@ -132,15 +131,44 @@ export function InputsEditor({ recipe, onEdit, used }: { recipe: Recipe; onEdit:
   );
 }
 
-/** A number field with a slider spanning 0…2× the value (or its sign-symmetric range). */
-function NumberSlider({ value, onChange }: { value: number; onChange: (v: number) => void }) {
+function InputControl({ f, value, onChange }: { f?: FieldSpec; value: unknown; onChange: (v: unknown) => void }) {
+  if (f?.options)
+    return (
+      <select value={JSON.stringify(value)} onChange={(e) => onChange(JSON.parse(e.target.value))}>
+        {!f.options.some((o) => o === value) && <option value={JSON.stringify(value)}>{String(value)}</option>}
+        {f.options.map((o) => (
+          <option key={JSON.stringify(o)} value={JSON.stringify(o)}>
+            {String(o)}
+          </option>
+        ))}
+      </select>
+    );
+  if (typeof value === "boolean") return <input type="checkbox" checked={value} onChange={(e) => onChange(e.target.checked)} />;
+  if (typeof value === "number") {
+    const lo = f?.minimum ?? f?.exclusiveMinimum;
+    const hi = f?.maximum ?? f?.exclusiveMaximum;
+    return <NumberSlider value={value} onChange={onChange} lo={lo} hi={hi} integer={f?.kind === "integer"} />;
+  }
+  return <input value={typeof value === "string" ? value : JSON.stringify(value)} onChange={(e) => onChange(e.target.value)} />;
+}
+
+/**
+ * A number field with a slider. The slider spans the parameter's bounds when they are of the
+ * value's magnitude (≤ 10× it), else 0…2× the value: a knob to explore, the field for anything else.
+ */
+function NumberSlider({ value, onChange, lo, hi, integer }: { value: number; onChange: (v: number) => void; lo?: number; hi?: number; integer?: boolean }) {
   const [text, setText] = useState(String(value));
-  const [span] = useState(() => Math.max(1, Math.abs(value) * 2));
+  const [range] = useState(() => {
+    const mag = Math.max(1, Math.abs(value));
+    const a = lo !== undefined && Math.abs(lo) <= 10 * mag ? lo : value < 0 ? -2 * mag : 0;
+    const b = hi !== undefined && Math.abs(hi) <= 10 * mag ? hi : 2 * mag;
+    return [a, Math.max(b, a + 1e-9)] as const;
+  });
   useEffect(() => setText(String(value)), [value]);
-  const lo = value < 0 ? -span : 0;
+  const step = integer ? 1 : (range[1] - range[0]) / 200;
   return (
     <span className="num-slider">
-      <input type="range" min={lo} max={span} step={span / 200} value={value} onChange={(e) => onChange(Number(Number(e.target.value).toPrecision(4)))} />
+      <input type="range" min={range[0]} max={range[1]} step={step} value={value} onChange={(e) => onChange(integer ? Math.round(Number(e.target.value)) : Number(Number(e.target.value).toPrecision(4)))} />
       <input
         type="text"
         value={text}

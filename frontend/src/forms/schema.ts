@@ -214,3 +214,51 @@ export function findEnum(root: JSONSchema, name: string): unknown[] | undefined 
   const p = findProperty(root, name);
   return p ? options(p) : undefined;
 }
+
+/** The (unwrapped) schema at a params path, e.g. ["default", "pattern"] or ["sections", "bs1/A", "speed"]. */
+export function schemaAt(root: JSONSchema, path: readonly (string | number)[]): JSONSchema | undefined {
+  let cur: JSONSchema | undefined = deref(root, root);
+  for (const key of path) {
+    if (!cur) return undefined;
+    const d: JSONSchema = unwrapNullable(root, cur).schema;
+    if (typeof key === "number") cur = d.items ? deref(root, d.items) : undefined;
+    else if (d.properties?.[key]) cur = deref(root, d.properties[key]);
+    else if (typeof d.additionalProperties === "object") cur = deref(root, d.additionalProperties);
+    else cur = undefined;
+  }
+  return cur ? unwrapNullable(root, cur).schema : undefined;
+}
+
+/**
+ * What a recipe input ("$name" in params) must be, from the first parameter that references it:
+ * its field (kind, unit, bounds, options). Undefined when no node parameter references it.
+ */
+export function inputField(
+  nodes: readonly { type: string; params: Record<string, unknown> }[],
+  schemaOf: (type: string) => JSONSchema | undefined,
+  name: string,
+): FieldSpec | undefined {
+  const ref = `$${name}`;
+  for (const n of nodes) {
+    const root = schemaOf(n.type);
+    if (!root) continue;
+    const found: (string | number)[][] = [];
+    const walk = (v: unknown, path: (string | number)[]) => {
+      if (v === ref) found.push(path);
+      else if (Array.isArray(v)) v.forEach((x, i) => walk(x, [...path, i]));
+      else if (v && typeof v === "object") Object.entries(v).forEach(([k, x]) => walk(x, [...path, k]));
+    };
+    walk(n.params, []);
+    for (const path of found) {
+      const sch = schemaAt(root, path);
+      if (!sch) continue;
+      const kind = fieldKind(sch);
+      return {
+        name, title: sch.title ?? name, description: sch.description ?? "", kind, unit: sch.unit,
+        minimum: sch.minimum, maximum: sch.maximum, exclusiveMinimum: sch.exclusiveMinimum, exclusiveMaximum: sch.exclusiveMaximum,
+        options: options(sch), default: sch.default, hasDefault: "default" in sch, nullable: false, required: true, schema: sch,
+      };
+    }
+  }
+  return undefined;
+}
