@@ -1,4 +1,4 @@
-import { defineConfig } from "vite";
+import { defineConfig } from "vitest/config";
 import react from "@vitejs/plugin-react";
 
 // The FastAPI server serves frontend/dist at `/`; in dev, proxy /api to a running `waamflow serve`.

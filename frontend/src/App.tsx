@@ -194,13 +194,21 @@ export function App() {
   );
 
   const upload = useCallback(
-    async (file: File) => {
-      if (!graphName) throw new Error("save the recipe first: uploaded files belong to a saved graph");
-      await API.putFile(graphName, file.name, file);
-      message(`uploaded ${file.name}`);
-      return file.name;
+    async (file: File): Promise<string | null> => {
+      if (!graphName) {
+        message("save the recipe first: uploaded files belong to a saved graph");
+        return null;
+      }
+      try {
+        await API.putFile(graphName, file.name, file);
+        message(`uploaded ${file.name}`);
+        return file.name;
+      } catch (e) {
+        fail(e);
+        return null;
+      }
     },
-    [graphName, message],
+    [graphName, message, fail],
   );
 
   // ---- keyboard ------------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ export interface InspectorProps {
   status?: NodeStatus;
   onEdit: (edit: (r: Recipe) => Recipe) => void;
   onRenamed: (id: string) => void;
-  onUpload?: (file: File) => Promise<string>;
+  onUpload?: (file: File) => Promise<string | null>;
   onMessage: (m: string) => void;
 }
 

@@ -7,7 +7,7 @@ export interface ParamFormProps {
   params: Record<string, unknown>;
   onChange: (params: Record<string, unknown>) => void;
   /** Upload a file for an `x-file` param; resolves to the name to store in the param. */
-  onUpload?: (file: File) => Promise<string>;
+  onUpload?: (file: File) => Promise<string | null>;
   idPrefix?: string;
 }
 
@@ -37,7 +37,7 @@ export const ParamForm = memo(function ParamForm({ schema, params, onChange, onU
   );
 });
 
-function FieldRow({ f, value, onChange, onUpload, id }: { f: FieldSpec; value: unknown; onChange: (v: unknown) => void; onUpload?: (file: File) => Promise<string>; id: string }) {
+function FieldRow({ f, value, onChange, onUpload, id }: { f: FieldSpec; value: unknown; onChange: (v: unknown) => void; onUpload?: (file: File) => Promise<string | null>; id: string }) {
   const err = validateField(f, value);
   const shown = value === undefined ? f.default : value;
   return (
@@ -56,7 +56,7 @@ function FieldRow({ f, value, onChange, onUpload, id }: { f: FieldSpec; value: u
   );
 }
 
-function Control({ f, value, shown, onChange, onUpload, id }: { f: FieldSpec; value: unknown; shown: unknown; onChange: (v: unknown) => void; onUpload?: (file: File) => Promise<string>; id: string }) {
+function Control({ f, value, shown, onChange, onUpload, id }: { f: FieldSpec; value: unknown; shown: unknown; onChange: (v: unknown) => void; onUpload?: (file: File) => Promise<string | null>; id: string }) {
   switch (f.kind) {
     case "number":
     case "integer":
@@ -86,7 +86,8 @@ function Control({ f, value, shown, onChange, onUpload, id }: { f: FieldSpec; va
                 hidden
                 onChange={async (e) => {
                   const file = e.target.files?.[0];
-                  if (file) onChange(await onUpload(file));
+                  const name = file ? await onUpload(file) : null;
+                  if (name) onChange(name);
                 }}
               />
             </label>
