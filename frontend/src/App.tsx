@@ -4,6 +4,7 @@ import * as API from "./api/client";
 import type { Artifact, GraphInfo, Health, NodeSpec, Recipe, RunError } from "./api/types";
 import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
+import { Toolbar } from "./components/Toolbar";
 import { GraphEditor } from "./graph/GraphEditor";
 import {
   addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
@@ -260,54 +261,31 @@ export function App() {
 
   return (
     <div className="app">
-      <header className="toolbar">
-        <span className="brand">waamflow</span>
-        <select value={graphName ?? ""} onChange={(e) => e.target.value && void open(e.target.value)} data-testid="open-graph" title="open a saved recipe">
-          <option value="">{graphName ? "" : "open recipe…"}</option>
-          {graphs.map((g) => (
-            <option key={g.name} value={g.name}>
-              {g.name}
-              {g.example ? " (example)" : ""}
-            </option>
-          ))}
-        </select>
-        <button
-          onClick={() => {
-            if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
-            setHist(history(emptyRecipe()));
-            setGraphName(null);
-            setSavedJson(JSON.stringify(emptyRecipe()));
-          }}
-        >
-          new
-        </button>
-        <button onClick={() => void save()} disabled={!dirty && !!graphName} data-testid="save">
-          save{dirty ? " *" : ""}
-        </button>
-        {saveAs === null ? (
-          <button onClick={() => setSaveAs(graphName ? `${graphName}-copy` : recipe.name)}>save as…</button>
-        ) : (
-          <span className="save-as">
-            <input autoFocus value={saveAs} onChange={(e) => setSaveAs(e.target.value)} data-testid="save-as-name" onKeyDown={(e) => e.key === "Enter" && void save(saveAs).then((ok) => ok && setSaveAs(null))} />
-            <button onClick={() => void save(saveAs).then((ok) => ok && setSaveAs(null))}>ok</button>
-            <button onClick={() => setSaveAs(null)}>✕</button>
-          </span>
-        )}
-        <button onClick={remove} disabled={!graphName}>delete</button>
-        <span className="sep" />
-        <button onClick={() => setHist(undo)} disabled={!hist.past.length} title="undo (Ctrl+Z)">↶</button>
-        <button onClick={() => setHist(redo)} disabled={!hist.future.length} title="redo (Ctrl+Y)">↷</button>
-        <span className="sep" />
-        <button className="run" onClick={startRun} disabled={run.phase === "running" || !recipe.nodes.length} data-testid="run">
-          ▶ run
-        </button>
-        {run.phase === "running" && <button onClick={() => void cancel()}>cancel</button>}
-        <div className={`progress p-${run.phase}`} data-testid="progress" data-phase={run.phase} data-run-id={run.id ?? ""} title={`${Math.round(run.progress * 100)}%`}>
-          <div className="bar" style={{ width: `${run.progress * 100}%` }} />
-          <span>{run.phase === "idle" ? "" : `${run.phase} ${Math.round(run.progress * 100)}%`}</span>
-        </div>
-        <span className="title">{graphName ?? "unsaved recipe"}</span>
-      </header>
+      <Toolbar
+        graphs={graphs}
+        graphName={graphName}
+        defaultName={recipe.name}
+        dirty={dirty}
+        canUndo={hist.past.length > 0}
+        canRedo={hist.future.length > 0}
+        canRun={recipe.nodes.length > 0}
+        run={run}
+        onOpen={(name) => void open(name)}
+        onNew={() => {
+          if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
+          setHist(history(emptyRecipe()));
+          setGraphName(null);
+          setSavedJson(JSON.stringify(emptyRecipe()));
+        }}
+        onSave={save}
+        onDelete={remove}
+        onUndo={() => setHist(undo)}
+        onRedo={() => setHist(redo)}
+        onRun={startRun}
+        onCancel={() => void cancel()}
+        saveAs={saveAs}
+        setSaveAs={setSaveAs}
+      />
       <div className="body">
         <aside className="left">
           <Palette specs={specs} onAdd={(t) => addAt(t)} />
