@@ -6,6 +6,7 @@ import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
 import { Toolbar } from "./components/Toolbar";
 import { GraphEditor } from "./graph/GraphEditor";
+import { useShortcuts } from "./graph/useShortcuts";
 import {
   addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
 } from "./graph/recipe";
@@ -17,10 +18,6 @@ import { ParamsEditor } from "./xml/ParamsEditor";
 type Tab = "graph" | "mask" | "params" | "results";
 const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"]];
 
-const isTyping = (t: EventTarget | null) => {
-  const el = t as HTMLElement | null;
-  return !!el && (el.tagName === "INPUT" || el.tagName === "TEXTAREA" || el.tagName === "SELECT" || el.isContentEditable);
-};
 
 export function App() {
   const [specs, setSpecs] = useState<NodeSpec[]>([]);
@@ -212,39 +209,25 @@ export function App() {
     [graphName, message, fail],
   );
 
-  // ---- keyboard ------------------------------------------------------------------------------------
-  useEffect(() => {
-    const onKey = (e: KeyboardEvent) => {
-      const mod = e.ctrlKey || e.metaKey;
-      if (mod && e.key.toLowerCase() === "s") {
-        e.preventDefault();
-        void save();
-        return;
-      }
-      if (isTyping(e.target)) return;
-      if (mod && e.key.toLowerCase() === "z" && !e.shiftKey) {
-        e.preventDefault();
-        setHist(undo);
-      } else if (mod && (e.key.toLowerCase() === "y" || (e.key.toLowerCase() === "z" && e.shiftKey))) {
-        e.preventDefault();
-        setHist(redo);
-      } else if (tab === "graph" && mod && e.key.toLowerCase() === "c" && selected.size) {
-        clip.current = copySelection(recipe, selected);
-        message(`copied ${selected.size} node(s)`);
-      } else if (tab === "graph" && mod && e.key.toLowerCase() === "v" && clip.current) {
-        const { recipe: r, ids } = paste(recipe, clip.current);
-        edit(() => r);
-        setSelected(new Set(ids));
-      } else if (tab === "graph" && mod && e.key.toLowerCase() === "a") {
-        e.preventDefault();
-        setSelected(new Set(recipe.nodes.map((n) => n.id)));
-      } else if (tab === "graph" && e.key.toLowerCase() === "f" && !mod) {
-        rf.fitView({ padding: 0.15, duration: 200 });
-      }
-    };
-    window.addEventListener("keydown", onKey);
-    return () => window.removeEventListener("keydown", onKey);
-  }, [tab, selected, recipe, edit, save, message, rf]);
+  useShortcuts({
+    graphActive: tab === "graph",
+    save: () => void save(),
+    undo: () => setHist(undo),
+    redo: () => setHist(redo),
+    copy: () => {
+      if (!selected.size) return;
+      clip.current = copySelection(recipe, selected);
+      message(`copied ${selected.size} node(s)`);
+    },
+    paste: () => {
+      if (!clip.current) return;
+      const { recipe: r, ids } = paste(recipe, clip.current);
+      edit(() => r);
+      setSelected(new Set(ids));
+    },
+    selectAll: () => setSelected(new Set(recipe.nodes.map((n) => n.id))),
+    fit: () => rf.fitView({ padding: 0.15, duration: 200 }),
+  });
 
   // The 3D view follows the previewed (else the selected) node, and the canvas layer on the mask tab.
   const followNode = previewNode ?? (selected.size === 1 ? [...selected][0] : null);
