@@ -1,7 +1,7 @@
 // End-to-end tests of the GUI in headless Chromium against a real `waamflow serve`.
 // Run: npm run test:e2e (builds the frontend first). Screenshots go to out/e2e/.
 import assert from "node:assert/strict";
-import { writeFileSync } from "node:fs";
+import { readFileSync, writeFileSync } from "node:fs";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import {
@@ -165,6 +165,9 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   await page.waitForSelector("[data-testid=params-saved]");
   const xml = await api(srv.base, "/api/graphs/e2e-cross/params");
   assert.equal(xmlValue(xml, 0, "bs1/A", "start", "current"), "205");
+  const [exported] = await Promise.all([page.waitForEvent("download"), page.click('button:text-is("export")')]);
+  const exportedXml = await exported.path().then((f) => readFileSync(f, "utf8"));
+  assert.equal(xmlValue(exportedXml, 0, "bs1/A", "start", "current"), "205");
   await page.fill('[data-cell="start.current"]', "5000");
   const nErrors = errors.length;
   await page.click("[data-testid=params-save]");
@@ -177,6 +180,15 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   assert.deepEqual(refused, []);
   assert.equal(xmlValue(await api(srv.base, "/api/graphs/e2e-cross/params"), 0, "bs1/A", "start", "current"), "205");
   await shot(page, "06-params");
+  // Import the exported file back (an edited copy: one more value changed) and save it.
+  const imported = exportedXml.replace(/(<layer index="1"[\s\S]*?<section id="bs1\/B"[\s\S]*?<zone id="end"[\s\S]*?<current[^>]*>)[^<]*/, "$1177");
+  await page.setInputFiles('.pe-toolbar input[type=file]', { name: "edited.params.xml", mimeType: "application/xml", buffer: Buffer.from(imported) });
+  await page.waitForFunction(() => document.querySelector('[data-cell="start.current"]')?.value === "205");
+  await page.click("[data-testid=params-save]");
+  await page.waitForSelector("[data-testid=params-saved]");
+  const afterImport = await api(srv.base, "/api/graphs/e2e-cross/params");
+  assert.equal(xmlValue(afterImport, 1, "bs1/B", "end", "current"), "177");
+  assert.equal(xmlValue(afterImport, 0, "bs1/A", "start", "current"), "205");
   await page.click("[data-tab=results]");
   await page.waitForSelector('[data-artifact="sequence.toolpath.json"]');
   await shot(page, "07-results");
