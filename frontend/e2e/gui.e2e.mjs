@@ -59,6 +59,21 @@ test("mpp-cross: draw a mask curve and a guide, change a zone length, run, edit 
   await page.waitForSelector('[data-path="bs1/C"]');
   assert.equal(await page.getAttribute("[data-testid=mask-canvas]", "data-paths"), "3");
   await shot(page, "03-mask");
+  // Pan (drag on empty space) and wheel zoom change the view, not the recipe.
+  const vb = async () => (await page.getAttribute("[data-testid=mask-canvas]", "viewBox")).split(" ").map(Number);
+  const v0 = await vb();
+  const [ex, ey] = await canvasPoint(page, 40, 40); // outside the cross
+  await page.mouse.move(ex, ey);
+  await page.mouse.down();
+  await page.mouse.move(ex + 60, ey + 30, { steps: 4 });
+  await page.mouse.up();
+  const v1 = await vb();
+  assert.ok(v1[0] < v0[0] && v1[1] < v0[1] && Math.abs(v1[2] - v0[2]) < 1e-6, `panned ${v0} → ${v1}`);
+  await page.mouse.wheel(0, -300);
+  await page.waitForFunction((w) => Number(document.querySelector("[data-testid=mask-canvas]").getAttribute("viewBox").split(" ")[2]) < w, v1[2]);
+  await page.keyboard.press("f");
+  await page.waitForFunction((w) => Math.abs(Number(document.querySelector("[data-testid=mask-canvas]").getAttribute("viewBox").split(" ")[2]) - w) < 1e-6, v0[2]);
+  assert.equal(await page.locator("[data-testid=save]").innerText(), "save"); // nothing to save: the view is not the recipe
 
   // Replace section C (right arm) by a newly drawn curve and guide.
   await page.click('[data-section-item="bs1/C"] b');

@@ -4,13 +4,14 @@
  * start/end lengths, and the section paths coloured by zone as re-planned by the server.
  * Drawing is in layer mm; SVG y = −y so the part is seen from above with y up.
  */
-import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent, type WheelEvent } from "react";
+import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent } from "react";
 import type { LayerJson, Preview, PreviewPath } from "../api/types";
 import {
-  bbox, boundaryCrossings, closestOnPolyline, dist, pointAtLength, polygonPathD, polygonVertices, ringPathD, snapPoint,
+  boundaryCrossings, closestOnPolyline, dist, pointAtLength, polygonPathD, polygonVertices, ringPathD, snapPoint,
   translate, type Pt,
 } from "./geom";
 import { sectionKey, type GuideParams, type KeyedParams, type Mask } from "./edits";
+import { useSvgView, type View } from "./useSvgView";
 
 export type Tool = "select" | "curve" | "guide" | "split";
 
@@ -42,15 +43,8 @@ export interface MaskCanvasProps {
   replanMs: number | null;
 }
 
-interface View {
-  x: number;
-  y: number;
-  w: number;
-  h: number;
-}
-
 type Drag =
-  | { kind: "pan"; start: [number, number]; view: View }
+  | { kind: "pan" }
   | { kind: "vertex"; key: string; index: number; curve: Pt[] }
   | { kind: "curve"; key: string; start: Pt; curve: Pt[] };
 
@@ -58,7 +52,7 @@ const num = (v: unknown, d = 0) => (typeof v === "number" && Number.isFinite(v) 
 
 export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
   const svgRef = useRef<SVGSVGElement>(null);
-  const [view, setView] = useState<View | null>(null);
+  const { view, fitTo, pxSize, toWorld, onWheel, startPan, movePan, endPan } = useSvgView(svgRef);
   const [draft, setDraft] = useState<Pt[]>([]);
   const [cursor, setCursor] = useState<{ p: Pt; kind: string } | null>(null);
   const [dragCurve, setDragCurve] = useState<{ key: string; curve: Pt[] } | null>(null);
@@ -66,42 +60,18 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
   const layer = p.preview?.layer ?? null;
 
   // Fit the view to the layer the first time one arrives (and on demand).
-  const fit = useCallback(() => {
-    const pts = [
-      ...(layer?.polygons.flatMap((q) => q.exterior) ?? []),
-      ...(p.ghosts.prev?.polygons.flatMap((q) => q.exterior) ?? []),
-      ...(p.mask?.sections.flatMap((s) => s.curve) ?? []),
-    ];
-    const b = bbox(pts);
-    if (!b) return;
-    const pad = Math.max(b.maxX - b.minX, b.maxY - b.minY) * 0.08 + 1;
-    let w = b.maxX - b.minX + 2 * pad, h = b.maxY - b.minY + 2 * pad;
-    // Match the element's aspect so screen ↔ world is one uniform scale (pan/zoom stay exact).
-    const el = svgRef.current?.getBoundingClientRect();
-    const aspect = el && el.width > 0 && el.height > 0 ? el.width / el.height : w / h;
-    const cx = (b.minX + b.maxX) / 2, cy = -(b.minY + b.maxY) / 2;
-    if (w / h < aspect) w = h * aspect;
-    else h = w / aspect;
-    setView({ x: cx - w / 2, y: cy - h / 2, w, h });
-  }, [layer, p.ghosts.prev, p.mask]);
+  const fit = useCallback(
+    () =>
+      fitTo([
+        ...(layer?.polygons.flatMap((q) => q.exterior) ?? []),
+        ...(p.ghosts.prev?.polygons.flatMap((q) => q.exterior) ?? []),
+        ...(p.mask?.sections.flatMap((s) => s.curve) ?? []),
+      ]),
+    [fitTo, layer, p.ghosts.prev, p.mask],
+  );
   useEffect(() => {
     if (!view && layer) fit();
   }, [layer, view, fit]);
-
-  const pxSize = () => {
-    const el = svgRef.current;
-    if (!el || !view) return 0.1;
-    const r = el.getBoundingClientRect();
-    return Math.max(view.w / Math.max(r.width, 1), view.h / Math.max(r.height, 1));
-  };
-
-  const toWorld = (e: { clientX: number; clientY: number }): Pt => {
-    const el = svgRef.current!;
-    const m = el.getScreenCTM();
-    if (!m) return [0, 0];
-    const q = new DOMPoint(e.clientX, e.clientY).matrixTransform(m.inverse());
-    return [q.x, -q.y];
-  };
 
   const snapVerts = useMemo(() => {
     const v = p.snapVertices ? polygonVertices(layer?.polygons ?? []) : [];
@@ -158,7 +128,8 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
     const section = target.getAttribute("data-section");
     svgRef.current!.setPointerCapture(e.pointerId);
     if (e.button === 1 || e.button === 2 || (p.tool === "select" && !vtx && !curveKey && !split && !section)) {
-      drag.current = { kind: "pan", start: [e.clientX, e.clientY], view };
+      drag.current = { kind: "pan" };
+      startPan(e);
       if (p.tool === "select" && e.button === 0) p.setSelected(null);
       return;
     }
@@ -216,9 +187,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
     const w = toWorld(e);
     const d = drag.current;
     if (d?.kind === "pan") {
-      const r = svgRef.current!.getBoundingClientRect();
-      const k = d.view.w / r.width;
-      setView({ ...d.view, x: d.view.x - (e.clientX - d.start[0]) * k, y: d.view.y - (e.clientY - d.start[1]) * k });
+      movePan(e);
       return;
     }
     if (d?.kind === "vertex") {
@@ -243,6 +212,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
   const onPointerUp = () => {
     const d = drag.current;
     drag.current = null;
+    endPan();
     if ((d?.kind === "vertex" || d?.kind === "curve") && dragCurve) {
       const orig = d.curve;
       if (dragCurve.curve.some((q, i) => q[0] !== orig[i][0] || q[1] !== orig[i][1])) p.edits.setCurve(dragCurve.key, dragCurve.curve);
@@ -252,17 +222,6 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
 
   // Keep the dragged curve on screen until the recipe has it (no flicker back to the old one).
   useEffect(() => setDragCurve(null), [p.mask]);
-
-  const onWheel = (e: WheelEvent<SVGSVGElement>) => {
-    if (!view) return;
-    const el = svgRef.current!;
-    const r = el.getBoundingClientRect();
-    const k = Math.exp(e.deltaY * 0.0015);
-    const fx = (e.clientX - r.left) / r.width, fy = (e.clientY - r.top) / r.height;
-    // The viewBox keeps the element's aspect (preserveAspectRatio meet): zoom about the cursor.
-    const w = view.w * k, h = view.h * k;
-    setView({ x: view.x + (view.w - w) * fx, y: view.y + (view.h - h) * fy, w, h });
-  };
 
   const px = pxSize();
   const r = 4 * px;
