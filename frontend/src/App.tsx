@@ -8,7 +8,7 @@ import { Toolbar } from "./components/Toolbar";
 import { GraphEditor } from "./graph/GraphEditor";
 import { useShortcuts } from "./graph/useShortcuts";
 import {
-  addNode, catalogMap, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
+  addNode, amend, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
 } from "./graph/recipe";
 import { MaskView } from "./mask/MaskView";
 import { Results } from "./plots/Results";
@@ -56,7 +56,23 @@ export function App() {
   }, []);
   const fail = useCallback((e: unknown) => message(e instanceof API.ApiError ? e.detail.message : String(e)), [message]);
 
-  const edit = useCallback((fn: (r: Recipe) => Recipe) => setHist((h) => commit(h, fn(h.present))), []);
+  // Each edit is one undo step, except typing: form edits within 800 ms that change the same
+  // thing (one field being typed into) share one step.
+  const lastEdit = useRef<{ sig: string; t: number } | null>(null);
+  const edit = useCallback(
+    (fn: (r: Recipe) => Recipe, typing = false) =>
+      setHist((h) => {
+        const next = fn(h.present);
+        if (next === h.present) return h;
+        const sig = typing ? changeSignature(h.present, next) : null;
+        const now = performance.now();
+        const same = sig !== null && lastEdit.current?.sig === sig && now - lastEdit.current.t < 800 && h.past.length > 0;
+        lastEdit.current = sig !== null ? { sig, t: now } : null;
+        return same ? amend(h, next) : commit(h, next);
+      }),
+    [],
+  );
+  const typingEdit = useCallback((fn: (r: Recipe) => Recipe) => edit(fn, true), [edit]);
 
   const { run, follow, cancel } = useRun(async (s) => {
     if (!s.id) return;
@@ -342,7 +358,7 @@ export function App() {
               node={single}
               selectedCount={selected.size}
               status={single ? run.nodes[single.id] : undefined}
-              onEdit={edit}
+              onEdit={typingEdit}
               onRenamed={(id) => setSelected(new Set([id]))}
               onUpload={upload}
               onMessage={message}

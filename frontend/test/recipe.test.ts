@@ -1,7 +1,7 @@
 import { describe, expect, it } from "vitest";
 import type { NodeSpec, Recipe } from "../src/api/types";
 import {
-  addNode, autoLayout, catalogMap, commit, connect, connectionError, copySelection, defaultParams, history,
+  addNode, amend, autoLayout, catalogMap, changeSignature, commit, setNodeParams, connect, connectionError, copySelection, defaultParams, history,
   paste, redo, removeNodes, renameNode, undo, uniqueId,
 } from "../src/graph/recipe";
 
@@ -108,5 +108,22 @@ describe("copy/paste and history", () => {
     h = commit(h, 9);
     expect(h.future).toHaveLength(0);
     expect(redo(h).present).toBe(9);
+  });
+});
+
+describe("undo steps while typing", () => {
+  it("signs a params edit by node, and structural edits uniquely", () => {
+    const a = setNodeParams(recipe, "layers", { layer_height: 1 });
+    const b = setNodeParams(a, "layers", { layer_height: 1.2 });
+    expect(changeSignature(a, b)).toBe("node:layers");
+    expect(changeSignature(recipe, { ...recipe, description: "x" })).toBe("description");
+    const s1 = changeSignature(recipe, removeNodes(recipe, new Set(["loop"])));
+    expect(s1).toMatch(/^structure:/);
+    expect(s1).not.toBe(changeSignature(recipe, removeNodes(recipe, new Set(["loop"]))));
+  });
+  it("amends the present without a new step", () => {
+    const h = amend(commit(history(1), 2), 3);
+    expect(h.present).toBe(3);
+    expect(undo(h).present).toBe(1);
   });
 });

@@ -39,6 +39,14 @@ export function Inspector(p: InspectorProps) {
           p.onRenamed(next);
         }
       }} />
+      <label className="field">
+        label
+        <input
+          value={node.label ?? ""}
+          placeholder={spec?.title ?? node.type}
+          onChange={(e) => p.onEdit((r) => ({ ...r, nodes: r.nodes.map((n) => (n.id === node.id ? { ...n, label: e.target.value || undefined } : n)) }))}
+        />
+      </label>
       {p.status && <div className={`badge b-${p.status.state}`}>{badgeText(p.status)}{p.status.message ? ` — ${p.status.message}` : ""}</div>}
       {spec && <p className="desc">{spec.description}</p>}
       {Object.keys(errors).length > 0 && <div className="error">{Object.keys(errors).length} parameter problem(s)</div>}

@@ -25,7 +25,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
   return (
     <div className={`wnode ${selected ? "selected" : ""} ${status ? "st-" + status.state : ""} ${spec ? "" : "unknown"}`} data-node-id={node.id}>
       <div className="wnode-head" title={spec?.description}>
-        <span className="wnode-title">{spec?.title ?? node.type}</span>
+        <span className="wnode-title">{node.label || spec?.title || node.type}</span>
         <button
           className={`eye ${data.previewed ? "on" : ""}`}
           title="show this node in the 3D view and on the mask canvas"

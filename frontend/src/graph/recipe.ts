@@ -267,6 +267,11 @@ export function commit<T>(h: History<T>, next: T): History<T> {
   return { past: [...h.past, h.present].slice(-LIMIT), present: next, future: [] };
 }
 
+/** Replace the present without a new undo step (typing into one field is one step). */
+export function amend<T>(h: History<T>, next: T): History<T> {
+  return next === h.present ? h : { ...h, present: next, future: [] };
+}
+
 export function undo<T>(h: History<T>): History<T> {
   if (!h.past.length) return h;
   return { past: h.past.slice(0, -1), present: h.past[h.past.length - 1], future: [h.present, ...h.future] };
@@ -293,4 +298,20 @@ export function referencedInputs(r: Recipe): Set<string> {
   };
   r.nodes.forEach((n) => walk(n.params));
   return out;
+}
+
+/**
+ * What an edit changed, coarsely: the node ids whose params/label changed, or the top-level
+ * fields. Two successive edits with the same signature (typing into one field) can share one
+ * undo step. Structural edits (nodes or edges added/removed) get a unique signature.
+ */
+export function changeSignature(a: Recipe, b: Recipe): string {
+  if (a.nodes.length !== b.nodes.length || a.edges !== b.edges) return `structure:${Math.random()}`;
+  const parts: string[] = [];
+  for (let i = 0; i < a.nodes.length; i++) {
+    if (a.nodes[i].id !== b.nodes[i].id) return `structure:${Math.random()}`;
+    if (a.nodes[i] !== b.nodes[i]) parts.push(`node:${a.nodes[i].id}`);
+  }
+  for (const k of ["name", "description", "inputs", "ui"] as const) if (a[k] !== b[k]) parts.push(k);
+  return parts.join("|");
 }

@@ -2,7 +2,7 @@
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import type { Recipe, RunError } from "../api/types";
 import { findProperty } from "../forms/schema";
-import { setNodeParams, type Catalog } from "../graph/recipe";
+import { ancestors, setNodeParams, type Catalog } from "../graph/recipe";
 import {
   addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
   sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
@@ -38,7 +38,16 @@ export function MaskView(p: MaskViewProps) {
   const { recipe, layer } = p;
   const nodes = useMemo(() => canvasNodes(recipe, p.previewNode ?? undefined), [recipe, p.previewNode]);
   const editStarted = useRef<number | null>(null);
-  const pv = useLayerPreview(recipe, nodes.preview?.id, nodes.slice?.id, layer, p.graph, editStarted);
+  // Ghost layers come from the node that makes the layers: a slice node, else any upstream node
+  // with a `layers` output (rectangle, fan slice, …).
+  const layersSource = useMemo(() => {
+    if (nodes.slice) return nodes.slice.id;
+    if (!nodes.preview) return undefined;
+    const up = ancestors(recipe, nodes.preview.id);
+    up.add(nodes.preview.id);
+    return recipe.nodes.find((n) => up.has(n.id) && p.catalog.get(n.type)?.outputs.some((o) => o.type === "layers"))?.id;
+  }, [recipe, nodes, p.catalog]);
+  const pv = useLayerPreview(recipe, nodes.preview?.id, layersSource, layer, p.graph, editStarted);
   const [tool, setTool] = useState<Tool>("select");
   const [grid, setGrid] = useState(1);
   const [snapVertices, setSnapVertices] = useState(true);
