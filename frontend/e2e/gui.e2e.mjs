@@ -365,3 +365,24 @@ test("rectangle-study: run, plots of the simulation and the strategy comparison"
   assert.deepEqual(errors, []);
   await page.context().close();
 });
+
+test("every shipped example opens, runs, and shows its layer on the canvas", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  const graphs = (await api(srv.base, "/api/graphs")).filter((g) => g.example);
+  assert.ok(graphs.length >= 4, `examples: ${graphs.map((g) => g.name)}`);
+  for (const g of graphs) {
+    await page.selectOption("[data-testid=open-graph]", g.name);
+    const recipe = await api(srv.base, `/api/graphs/${g.name}`);
+    await page.waitForSelector(`.react-flow__node[data-id="${recipe.nodes.at(-1).id}"]`);
+    await expectRun(page, srv.base, "done");
+    const badges = await page.locator(".react-flow__node .badge").allInnerTexts();
+    assert.equal(badges.length, recipe.nodes.length, `${g.name}: a badge per node`);
+    assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
+    await page.click("[data-tab=mask]");
+    await page.waitForSelector("[data-testid=mask-canvas] .layer-poly, [data-testid=mask-canvas] .layer-curve", { state: "attached" });
+    await shot(page, `14-example-${g.name}`);
+    await page.click("[data-tab=graph]");
+  }
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});

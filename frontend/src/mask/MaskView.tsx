@@ -2,7 +2,7 @@
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import type { Recipe, RunError } from "../api/types";
 import { findProperty } from "../forms/schema";
-import { ancestors, setNodeParams, type Catalog } from "../graph/recipe";
+import { ancestors, downstream, setNodeParams, type Catalog } from "../graph/recipe";
 import {
   addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
   sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
@@ -12,6 +12,9 @@ import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskC
 import { useLayerPreview } from "./useLayerPreview";
 
 /** Patterns named by the contract, used only if the strategy node's schema does not list them. */
+/** Port types the canvas can draw for one layer. */
+const PLANAR_TYPES = ["layers", "sections", "toolpath"];
+
 const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
 
 export interface MaskViewProps {
@@ -36,7 +39,17 @@ declare global {
 
 export function MaskView(p: MaskViewProps) {
   const { recipe, layer } = p;
-  const nodes = useMemo(() => canvasNodes(recipe, p.previewNode ?? undefined), [recipe, p.previewNode]);
+  const previewable = useMemo(
+    () => recipe.nodes.filter((n) => p.catalog.get(n.type)?.outputs.some((o) => PLANAR_TYPES.includes(o.type))),
+    [recipe, p.catalog],
+  );
+  // With no MPP node to show, the most downstream node that has layers, sections or a toolpath.
+  const fallback = useMemo(() => {
+    if (p.previewNode || canvasNodes(recipe).preview) return undefined;
+    const ids = new Set(previewable.map((n) => n.id));
+    return previewable.find((n) => ![...downstream(recipe, n.id)].some((d) => ids.has(d)))?.id;
+  }, [recipe, previewable, p.previewNode]);
+  const nodes = useMemo(() => canvasNodes(recipe, p.previewNode ?? fallback), [recipe, p.previewNode, fallback]);
   const editStarted = useRef<number | null>(null);
   // Ghost layers come from the node that makes the layers: a slice node, else any upstream node
   // with a `layers` output (rectangle, fan slice, …).
@@ -142,10 +155,6 @@ export function MaskView(p: MaskViewProps) {
     return { patterns: (prop?.enum as string[] | undefined) ?? CONTRACT_PATTERNS, schemaDefault: prop?.default as string | undefined };
   }, [nodes.strategy, p.catalog]);
 
-  const previewable = recipe.nodes.filter((n) => {
-    const spec = p.catalog.get(n.type);
-    return spec?.outputs.some((o) => ["layers", "sections", "toolpath"].includes(o.type));
-  });
 
   const areas = new Map((pv.data?.sections ?? []).map((s) => [s.key, s.polygon ? polygonArea(s.polygon) : 0]));
   const lengths = new Map(
