@@ -380,6 +380,8 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
     assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
     await page.click("[data-tab=mask]");
     await page.waitForSelector("[data-testid=mask-canvas] .layer-poly, [data-testid=mask-canvas] .layer-curve", { state: "attached" });
+    // Every example plans paths; they are drawn in the layer's own plane (fan-sliced layers too).
+    await page.waitForFunction(() => Number(document.querySelector("[data-testid=mask-canvas]").getAttribute("data-paths")) > 0);
     await shot(page, `14-example-${g.name}`);
     await page.click("[data-tab=graph]");
   }

@@ -1,7 +1,7 @@
 import { describe, expect, it } from "vitest";
 import {
   boundaryCrossings, closestOnPolyline, cumulativeLengths, pointAtLength, pointInPolygon, polygonArea,
-  polygonPathD, polygonVertices, ringArea, ringSelfIntersects, snapPoint,
+  polygonPathD, polygonVertices, ringArea, ringSelfIntersects, snapPoint, worldToLayer,
 } from "../src/mask/geom";
 
 const square = (x0: number, y0: number, s: number) => [[x0, y0], [x0 + s, y0], [x0 + s, y0 + s], [x0, y0 + s], [x0, y0]];
@@ -74,4 +74,18 @@ describe("snapping", () => {
 it("detects a self-intersecting (bow-tie) curve", () => {
   expect(ringSelfIntersects([[0, 0], [10, 10], [10, 0], [0, 10]])).toBe(true);
   expect(ringSelfIntersects(square(0, 0, 10))).toBe(false);
+});
+
+describe("layer frames", () => {
+  it("maps world points into a tilted layer's plane (rigid frame)", () => {
+    // Layer plane tilted 90° about y (layer x → world −z, layer z → world x), origin at (10, 0, 5).
+    const frame = [[0, 0, 1, 10], [0, 1, 0, 0], [-1, 0, 0, 5], [0, 0, 0, 1]];
+    const world = [[10, 2, 5], [10, 0, 2], [11, 0, 5]];
+    const local = worldToLayer(world, frame).map((p) => p.map((v) => Math.round(v * 1e9) / 1e9 + 0));
+    expect(local).toEqual([[0, 2, 0], [3, 0, 0], [0, 0, 1]]);
+  });
+  it("leaves points alone without a frame", () => {
+    const pts = [[1, 2, 3]];
+    expect(worldToLayer(pts, undefined)).toBe(pts);
+  });
 });

@@ -135,6 +135,8 @@ export interface LayerJson {
   area_mm2: number;
   polygons: PolygonJson[];
   curves: number[][][];
+  /** (4, 4) layer-local (x, y, 0) → world, for non-horizontal layers; absent = horizontal. */
+  frame?: number[][];
 }
 
 export interface PreviewSection {

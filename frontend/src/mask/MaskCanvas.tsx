@@ -64,10 +64,12 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
     () =>
       fitTo([
         ...(layer?.polygons.flatMap((q) => q.exterior) ?? []),
+        ...(layer?.curves.flat() ?? []),
+        ...(p.preview?.paths.flatMap((q) => q.points) ?? []),
         ...(p.ghosts.prev?.polygons.flatMap((q) => q.exterior) ?? []),
         ...(p.mask?.sections.flatMap((s) => s.curve) ?? []),
       ]),
-    [fitTo, layer, p.ghosts.prev, p.mask],
+    [fitTo, layer, p.preview, p.ghosts.prev, p.mask],
   );
   useEffect(() => {
     if (!view && layer) fit();

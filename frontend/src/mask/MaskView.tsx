@@ -7,7 +7,7 @@ import {
   addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
   sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
 } from "./edits";
-import { polygonArea, ringSelfIntersects, type Pt } from "./geom";
+import { polygonArea, ringSelfIntersects, worldToLayer, type Pt } from "./geom";
 import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
 import { useLayerPreview } from "./useLayerPreview";
 
@@ -61,6 +61,12 @@ export function MaskView(p: MaskViewProps) {
     return recipe.nodes.find((n) => up.has(n.id) && p.catalog.get(n.type)?.outputs.some((o) => o.type === "layers"))?.id;
   }, [recipe, nodes, p.catalog]);
   const pv = useLayerPreview(recipe, nodes.preview?.id, layersSource, layer, p.graph, editStarted);
+  // Toolpath points are world coordinates; layers with a frame (fan slicing) draw them layer-local.
+  const shown = useMemo(() => {
+    const frame = pv.data?.layer?.frame;
+    if (!pv.data || !frame) return pv.data;
+    return { ...pv.data, paths: pv.data.paths.map((q) => ({ ...q, points: worldToLayer(q.points, frame) })) };
+  }, [pv.data]);
   const [tool, setTool] = useState<Tool>("select");
   const [grid, setGrid] = useState(1);
   const [snapVertices, setSnapVertices] = useState(true);
@@ -215,7 +221,7 @@ export function MaskView(p: MaskViewProps) {
         )}
         {!nodes.preview && <div className="empty">Add a slice node (and mask, guide, strategy, zone) to draw masks.</div>}
         <MaskCanvas
-          preview={pv.data}
+          preview={shown}
           ghosts={pv.ghosts}
           mask={mask}
           guides={guideParams}

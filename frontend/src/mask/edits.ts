@@ -196,12 +196,13 @@ export interface CanvasNodes {
   zone?: RecipeNode;
 }
 
-const PREVIEW_ORDER = ["zone", "strategy", "guide", "mask", "slice"];
+const PREVIEW_ORDER = ["zone", "strategy", "guide", "mask"];
 
 /**
  * The nodes the canvas works on for a preview node: the node itself and the nearest upstream
- * node of each type (mask, guide, strategy, zone, slice). With no choice, the most downstream of
- * zone → strategy → guide → mask → slice present in the recipe is used.
+ * node of each type (mask, guide, strategy, zone, slice). With no choice, the first of
+ * zone → strategy → guide → mask present in the recipe is used (none: no preview node; the
+ * caller then picks the most downstream node with planar output).
  */
 export function canvasNodes(r: Recipe, previewId?: string): CanvasNodes {
   let preview = previewId ? r.nodes.find((n) => n.id === previewId) : undefined;

@@ -217,3 +217,18 @@ export function ringSelfIntersects(ring: readonly number[][]): boolean {
   }
   return false;
 }
+
+/**
+ * World points (n, 3) mm → layer-local (n, 3) for a layer with a frame (4×4, layer-local
+ * (x, y, 0) → world, rigid: fan slicing). local = Rᵀ (p − t); the third coordinate is the height
+ * above the layer plane. Without a frame, world x, y are layer x, y already.
+ */
+export function worldToLayer(points: readonly number[][], frame?: readonly number[][] | null): number[][] {
+  if (!frame) return points as number[][];
+  const R = [0, 1, 2].map((i) => [frame[i][0], frame[i][1], frame[i][2]]);
+  const t = [frame[0][3], frame[1][3], frame[2][3]];
+  return points.map((p) => {
+    const d = [p[0] - t[0], p[1] - t[1], (p[2] ?? 0) - t[2]];
+    return [0, 1, 2].map((j) => R[0][j] * d[0] + R[1][j] * d[1] + R[2][j] * d[2]);
+  });
+}
