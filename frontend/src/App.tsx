@@ -316,6 +316,7 @@ export function App() {
             {tab === "mask" && (
               <div className="pane">
                 <MaskView
+                  key={graphName ?? "unsaved"}
                   recipe={recipe}
                   catalog={catalog}
                   graph={graphName}
