@@ -44,8 +44,9 @@ export function useRun(onEnd?: (s: RunState) => void) {
       if (terminal(cur)) void finish();
     };
     es.onerror = () => {
-      // The server closes the stream after the terminal event; anything else is a lost connection.
-      if (!terminal(cur)) void finish();
+      // A dropped connection reconnects by itself (resuming after Last-Event-ID; replays are
+      // ignored by seq). Only a refused stream (closed for good) ends following: ask the status.
+      if (!terminal(cur) && es.readyState === EventSource.CLOSED) void finish();
     };
   }, []);
 
