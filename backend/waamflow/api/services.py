@@ -38,6 +38,17 @@ class Services:
     viewer: Any = None
     extra: dict = field(default_factory=dict)
 
+    def prepare(self, graph_name: str | None, recipe: Recipe) -> Recipe:
+        """A saved graph's zone nodes that name no parameter file use the XML stored with the graph
+        (`<graph>.params.xml`), so values filled in the GUI reach the run without setting a path."""
+        if not graph_name or self.store.get_params_xml(graph_name) is None:
+            return recipe
+        r = recipe.model_copy(deep=True)
+        for n in r.nodes:
+            if n.type == "zone" and not n.params.get("parameters"):
+                n.params["parameters"] = f"{graph_name}.params.xml"
+        return r
+
     # files a graph's nodes may read: its stored files + its parameter XML, then the graphs folder
     def resolver_for(self, graph_name: str | None, recipe: Recipe) -> FileResolver:
         attachments: dict[str, bytes] = {}

@@ -9,7 +9,7 @@ from pydantic import BaseModel
 
 from ...core.errors import RecipeError
 from ...engine.graph import build_graph
-from ...engine.recipe import parse_recipe
+from ...engine.recipe import Recipe, parse_recipe
 from ..deps import FileName, GraphName, ServicesDep
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
@@ -39,7 +39,7 @@ def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
     return [GraphInfo(**g) for g in svc.store.list_graphs()]
 
 
-@router.get("/{name}")
+@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True)
 def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     recipe = svc.store.get_graph(name)
     if recipe is None:
@@ -47,9 +47,11 @@ def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     return recipe
 
 
-@router.put("/{name}", response_model=SaveResult)
+@router.put("/{name}", response_model=SaveResult,
+            openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
+                "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
 def put_graph(name: GraphName, svc: ServicesDep, response: Response,
-              recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1)")) -> SaveResult:
+              recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)")) -> SaveResult:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
     unconnected input while the user is still wiring) is saved and its problems are returned."""
     parsed = parse_recipe(recipe)  # RecipeError → 422 via the app's handler

@@ -19,6 +19,7 @@ from ...engine.executor import execute
 from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides, parse_recipe
 from ..deps import ServicesDep
+from ..schemas import LayerJSON, SectionJSON, SectionPathJSON
 from ..store import valid_graph_name
 
 router = APIRouter(tags=["preview"])
@@ -34,9 +35,9 @@ class PreviewRequest(BaseModel):
 
 
 class PreviewResponse(BaseModel):
-    layer: dict[str, Any] | None
-    sections: list[dict[str, Any]]
-    paths: list[dict[str, Any]]
+    layer: LayerJSON | None
+    sections: list[SectionJSON]
+    paths: list[SectionPathJSON]
     layer_count: int | None
     error: dict[str, Any] | None
     ms: float
@@ -86,7 +87,7 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     t0 = time.perf_counter()
     if req.graph is not None and not valid_graph_name(req.graph):
         raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
-    recipe = apply_overrides(parse_recipe(req.recipe), list(req.inputs.items()))
+    recipe = svc.prepare(req.graph, apply_overrides(parse_recipe(req.recipe), list(req.inputs.items())))
     graph = build_graph(recipe)
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)

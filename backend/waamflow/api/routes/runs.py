@@ -13,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ...engine.recipe import apply_overrides, parse_recipe
 from ..deps import ServicesDep
+from ..schemas import RunEvent
 from ..store import valid_file_name, valid_graph_name
 
 router = APIRouter(prefix="/api/runs", tags=["runs"])
@@ -20,14 +21,15 @@ router = APIRouter(prefix="/api/runs", tags=["runs"])
 
 class RunRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    graph: str | None = Field(None, description="name of a saved graph")
-    recipe: dict[str, Any] | None = Field(None, description="an inline recipe instead of a saved graph")
+    graph: str | None = Field(None, description="name of a saved graph (alone: run it as saved; with `recipe`: "
+                                                 "run `recipe` with this graph's files and parameter XML)")
+    recipe: dict[str, Any] | None = Field(None, description="an inline recipe (e.g. unsaved edits)")
     inputs: dict[str, Any] = Field(default_factory=dict, description="recipe input values to override")
 
     @model_validator(mode="after")
     def _one(self) -> "RunRequest":
-        if (self.graph is None) == (self.recipe is None):
-            raise ValueError("give exactly one of 'graph' or 'recipe'")
+        if self.graph is None and self.recipe is None:
+            raise ValueError("give 'graph', 'recipe', or both")
         return self
 
 
@@ -69,10 +71,11 @@ def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
         data = svc.store.get_graph(req.graph)
         if data is None:
             raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
-    else:
+    if req.recipe is not None:
         data = req.recipe
     recipe = parse_recipe(data)
     recipe = apply_overrides(recipe, list(req.inputs.items()))
+    recipe = svc.prepare(req.graph, recipe)
     run_id = svc.runs.submit(req.graph, recipe)  # validates the graph: RecipeError → 422
     return RunCreated(id=run_id)
 
@@ -119,6 +122,13 @@ async def run_events(run_id: str, svc: ServicesDep, last_event_id: str | None = 
 
     return StreamingResponse(stream(), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+@router.get("/{run_id}/log", response_model=list[RunEvent])
+def run_log(run_id: str, svc: ServicesDep, after: int = 0) -> list[dict]:
+    """The run's events so far as one JSON list (the SSE stream's content, for scripts)."""
+    _get_run(svc, run_id)
+    return svc.runs.events_since(run_id, after)[0]
 
 
 @router.get("/{run_id}/artifacts", response_model=list[ArtifactInfo])
