@@ -280,6 +280,9 @@ class ViewerService:
         gui.configure_theme(show_logo=False, show_share_button=False, brand_color=(248, 150, 30))
         gui.main_panel.dock_right()
         gui.main_panel.set_width(260)
+        # Embedded in the GUI the view is small: start with the panel folded to its rail so the
+        # scene is visible; one click unfolds it.
+        gui.main_panel.minimize()
         g = self._gui
         g["run"] = gui.add_markdown("**No run published yet.**")
         g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
