@@ -28,3 +28,23 @@ def test_recipe_runs_as_shipped(recipe, tmp_path, monkeypatch):
 def test_required_example_recipes_present():
     names = {p.stem for p in RECIPES}
     assert {"mpp-cross", "rectangle-study"} <= names
+
+
+def test_rerun_after_downstream_change_reports_upstream_cached(tmp_path, monkeypatch, capsys):
+    """Issue 2: change one downstream parameter → upstream nodes cached in summary.json and events."""
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    recipe = GRAPHS / "mpp-cross.json"
+    out = tmp_path / "out"
+    assert main(["run", str(recipe), "--out", str(out)]) == 0
+    assert main(["run", str(recipe), "--out", str(out), "--set", "format=krl", "-v"]) == 0
+    nodes = json.loads((out / "summary.json").read_text())["nodes"]
+    assert [n for n, s in nodes.items() if not s["cached"]] == ["post"]
+    assert nodes["zone"]["layers_cached"] == 8 and nodes["zone"]["layers_computed"] == 0
+    assert (out / "post.src").is_file() and not (out / "post.gcode").exists()
+    err = capsys.readouterr().err
+    assert "  layers (slice): cached" in err and "  mask (mask): cached" in err
+    # one section's zoning changed: the zone node recomputes, mesh → strategy stay cached
+    assert main(["run", str(recipe), "--out", str(out), "--set", 'zone.sections.bs1/A.end_length=12']) == 0
+    nodes = json.loads((out / "summary.json").read_text())["nodes"]
+    assert all(nodes[n]["cached"] for n in ("part", "layers", "mask", "guide", "strategy"))
+    assert nodes["zone"]["layers_computed"] == 8

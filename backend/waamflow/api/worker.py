@@ -121,6 +121,8 @@ class RunManager:
             fields["progress"] = 1.0
         self.store.update_run(run_id, **fields)
         live.done.set()
+        # the events are in the store now; streams that still hold `live` finish from it
+        self.live.pop(run_id, None)
 
     def events_since(self, run_id: str, seq: int) -> tuple[list[dict], bool]:
         """New events after `seq`, and whether the run has ended."""
