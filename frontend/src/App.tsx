@@ -1,7 +1,7 @@
 import { useReactFlow } from "@xyflow/react";
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import * as API from "./api/client";
-import type { Artifact, GraphInfo, Health, NodeSpec, Recipe, RunError } from "./api/types";
+import type { Artifact, GraphInfo, Health, NodeSpec, ProcessParameter, Recipe, RunError } from "./api/types";
 import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
 import { Toolbar } from "./components/Toolbar";
@@ -21,6 +21,7 @@ const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["pa
 
 export function App() {
   const [specs, setSpecs] = useState<NodeSpec[]>([]);
+  const [processParams, setProcessParams] = useState<ProcessParameter[]>([]);
   const catalog = useMemo(() => catalogMap(specs), [specs]);
   const [graphs, setGraphs] = useState<GraphInfo[]>([]);
   const [healthInfo, setHealth] = useState<Health | null>(null);
@@ -92,6 +93,7 @@ export function App() {
   const refreshGraphs = useCallback(() => API.listGraphs().then(setGraphs).catch(fail), [fail]);
   useEffect(() => {
     API.nodes().then(setSpecs).catch(fail);
+    API.processParameters().then(setProcessParams).catch(fail);
     API.health().then(setHealth).catch(fail);
     void refreshGraphs();
   }, [fail, refreshGraphs]);
@@ -172,9 +174,9 @@ export function App() {
     setFailure(null);
     setArtifacts([]);
     try {
-      // A saved graph runs by name (its files and parameter XML come with it); save edits first.
-      if (graphName && dirty && !(await save(graphName))) return;
-      const { id } = graphName ? await API.startRun({ graph: graphName }) : await API.startRun({ recipe: engineView(recipe) as Recipe });
+      // The recipe runs exactly as displayed (unsaved edits included, nothing is saved); a saved
+      // graph lends it its uploaded files and its parameter XML.
+      const { id } = await API.startRun({ graph: graphName, recipe: engineView(recipe) });
       follow(id);
     } catch (e) {
       if (e instanceof API.ApiError && (e.detail.node || e.detail.layer != null)) setFailure(e.detail);
@@ -338,7 +340,7 @@ export function App() {
                   runId={run.phase === "done" ? run.id : null}
                   runParamsArtifacts={zoneArtifacts}
                   runWarnings={run.warnings.filter((w) => w.node && recipe.nodes.some((n) => n.id === w.node && n.type === "zone"))}
-                  bounds={{}}
+                  parameters={processParams}
                   dirtyRecipe={dirty}
                   onMessage={message}
                 />

@@ -7,7 +7,7 @@ import {
 
 const port = (name: string, type: string) => ({ name, type, description: "", optional: false, color: "#000" });
 const spec = (type: string, inputs: [string, string][], outputs: [string, string][], props = {}): NodeSpec => ({
-  type, title: type, category: "c", description: "", per_layer: false,
+  type, title: type, category: "c", description: "", version: "1", per_layer: false,
   inputs: inputs.map(([n, t]) => port(n, t)), outputs: outputs.map(([n, t]) => port(n, t)),
   params_schema: { type: "object", properties: props },
 });

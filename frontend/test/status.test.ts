@@ -2,7 +2,7 @@ import { describe, expect, it } from "vitest";
 import type { RunEvent } from "../src/api/types";
 import { badgeText, reduceEvent, startedRun } from "../src/run/status";
 
-const ev = (seq: number, kind: RunEvent["kind"], extra: Partial<RunEvent> = {}): RunEvent => ({ seq, kind, ...extra });
+const ev = (seq: number, kind: RunEvent["kind"], extra: Partial<RunEvent> = {}): RunEvent => ({ seq, kind, time: seq, progress: 0, ...extra });
 
 describe("run events → badges", () => {
   it("follows nodes through cached, running and done, with monotone progress", () => {

@@ -1,7 +1,16 @@
 // @vitest-environment jsdom
 // DOMParser/XMLSerializer come from jsdom here, from the browser in the app.
 import { describe, expect, it } from "vitest";
-import { bulkSet, invalidEntries, orphans, parseParams, serializeParams, setValue, validateValue, vocabulary } from "../src/xml/params";
+import type { ProcessParameter } from "../src/api/types";
+import {
+  boundsByName, bulkSet, invalidEntries, orphans, parseParams, rangeText, serializeParams, setValue, validateValue, vocabulary,
+} from "../src/xml/params";
+
+/** As GET /api/process-parameters answers (core/process.py). */
+const TABLE: ProcessParameter[] = [
+  { name: "current", unit: "A", label: "Current", minimum: 0, maximum: 1000, description: "Welding current." },
+  { name: "travel_speed", unit: "mm/s", label: "Travel speed", minimum: 0.1, maximum: 500, description: "Torch travel speed." },
+];
 
 const layer = (i: number, sections: string[]) => `<layer index="${i}" z="${(i + 1) * 1.5}">${sections
   .map((s) => `<section id="${s}">${["start", "z1", "end"].map((z) => `<zone id="${z}" color="#${z === "z1" ? "00ff00" : "ff0000"}"><current unit="A">${i === 0 && z === "start" ? "200" : ""}</current><travel_speed unit="mm/s"/></zone>`).join("")}</section>`)
@@ -42,6 +51,27 @@ describe("zone parameter XML", () => {
     expect(invalidEntries(bad, { current: { minimum: 0, maximum: 1000 } })).toEqual([
       { layer: 1, section: "bs1/B", zone: "z1", name: "current", message: "outside 0…1000" },
     ]);
+  });
+  it("validates against the server's parameter table: bounds with the unit, and the file's unit", () => {
+    const b = boundsByName(TABLE);
+    expect(rangeText(b.travel_speed)).toBe("0.1…500 mm/s");
+    expect(validateValue("0.1", b.travel_speed, "mm/s")).toBeNull();
+    expect(validateValue("500", b.travel_speed, "mm/s")).toBeNull();
+    expect(validateValue("0.05", b.travel_speed, "mm/s")).toBe("outside 0.1…500 mm/s");
+    expect(validateValue("1000.5", b.current, "A")).toBe("outside 0…1000 A");
+    expect(validateValue(" 12 ", b.current)).toBeNull();
+    expect(validateValue("", b.current, "A")).toBeNull();
+    expect(validateValue("Infinity", b.current)).toBe("not a number");
+    expect(validateValue("8", b.travel_speed, "mm/min")).toBe('unit is "mm/min", expected "mm/s"');
+    let bad = setValue(doc, 0, "bs1/A", "z1", "travel_speed", "0");
+    bad = setValue(bad, 2, "bs1/A", "end", "current", "1001");
+    expect(invalidEntries(bad, b)).toEqual([
+      { layer: 0, section: "bs1/A", zone: "z1", name: "travel_speed", message: "outside 0.1…500 mm/s" },
+      { layer: 2, section: "bs1/A", zone: "end", name: "current", message: "outside 0…1000 A" },
+    ]);
+    expect(invalidEntries(doc, b)).toEqual([]);
+    // A parameter the table does not know is left to the server.
+    expect(invalidEntries(setValue(doc, 0, "bs1/A", "z1", "current", "5"), boundsByName([]))).toEqual([]);
   });
   it("reports filled values whose zone disappeared as orphans", () => {
     const saved = setValue(doc, 1, "bs1/B", "end", "current", "190");

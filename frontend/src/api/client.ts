@@ -5,7 +5,8 @@
 import createClient from "openapi-fetch";
 import type { paths } from "./schema";
 import type {
-  Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, Recipe, RunCreated, RunError, RunInfo, SaveResult,
+  Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, PreviewRequest, ProcessParameter, Recipe, RunCreated, RunError, RunInfo, RunRequest,
+  SaveResult, WireRecipe,
 } from "./types";
 
 export const api = createClient<paths>({ baseUrl: "" });
@@ -33,10 +34,24 @@ async function unwrap<T>(p: Promise<{ data?: unknown; error?: unknown; response:
 
 export const health = () => unwrap<Health>(api.GET("/api/health"));
 export const nodes = () => unwrap<NodeSpec[]>(api.GET("/api/nodes"));
+/** The zone parameters of the XML file: names, units, labels and sanity bounds. */
+export const processParameters = () => unwrap<ProcessParameter[]>(api.GET("/api/process-parameters"));
 export const listGraphs = () => unwrap<GraphInfo[]>(api.GET("/api/graphs"));
-export const getGraph = (name: string) => unwrap<Recipe>(api.GET("/api/graphs/{name}", { params: { path: { name } } }));
+/** The API's recipe with its defaulted collections filled in: the shape the GUI edits. */
+export function normalizeRecipe(r: WireRecipe): Recipe {
+  return {
+    ...r,
+    inputs: r.inputs ?? {},
+    nodes: (r.nodes ?? []).map((n) => ({ ...n, params: n.params ?? {} })),
+    edges: r.edges ?? [],
+    ui: r.ui as Recipe["ui"],
+  };
+}
+
+export const getGraph = async (name: string) =>
+  normalizeRecipe(await unwrap<WireRecipe>(api.GET("/api/graphs/{name}", { params: { path: { name } } })));
 export const putGraph = (name: string, recipe: Recipe) =>
-  unwrap<SaveResult>(api.PUT("/api/graphs/{name}", { params: { path: { name } }, body: recipe as unknown as Record<string, unknown> }));
+  unwrap<SaveResult>(api.PUT("/api/graphs/{name}", { params: { path: { name } }, body: recipe }));
 export const deleteGraph = (name: string) => unwrap<void>(api.DELETE("/api/graphs/{name}", { params: { path: { name } }, parseAs: "text" }));
 export const listFiles = (name: string) => unwrap<FileInfo[]>(api.GET("/api/graphs/{name}/files", { params: { path: { name } } }));
 
@@ -67,8 +82,12 @@ export async function putFile(name: string, filename: string, body: Blob): Promi
   if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
 }
 
-export const startRun = (body: { graph?: string; recipe?: Recipe; inputs?: Record<string, unknown> }) =>
-  unwrap<RunCreated>(api.POST("/api/runs", { body: body as { graph?: string; recipe?: Record<string, unknown> } }));
+/**
+ * Start a run: `graph` alone runs the saved graph; `recipe` alone an inline recipe; both run the
+ * (possibly unsaved) `recipe` with the saved graph's files and parameter XML.
+ */
+export const startRun = (body: Omit<RunRequest, "recipe"> & { recipe?: Recipe | Omit<Recipe, "ui"> }) =>
+  unwrap<RunCreated>(api.POST("/api/runs", { body }));
 export const getRun = (id: string) => unwrap<RunInfo>(api.GET("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const cancelRun = (id: string) => unwrap<RunInfo>(api.DELETE("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const listArtifacts = (id: string) =>
@@ -95,8 +114,8 @@ export function viewerUrl(h: Health): string | null {
 
 export const eventsUrl = (id: string) => `/api/runs/${encodeURIComponent(id)}/events`;
 
-export function preview(body: { recipe: Recipe; node: string; layer: number; graph?: string | null }, signal?: AbortSignal) {
+export function preview(body: Omit<PreviewRequest, "recipe"> & { recipe: Recipe }, signal?: AbortSignal) {
   return unwrap<Preview>(
-    api.POST("/api/preview", { body: { ...body, recipe: body.recipe as unknown as Record<string, unknown> }, signal }),
+    api.POST("/api/preview", { body, signal }),
   );
 }

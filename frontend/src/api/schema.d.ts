@@ -37,6 +37,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/process-parameters": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Process Parameters
+         * @description The zone parameters of the XML file: names, units and sanity bounds (core/process.py).
+         */
+        get: operations["process_parameters_api_process_parameters_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs": {
         parameters: {
             query?: never;
@@ -199,6 +219,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/runs/{run_id}/log": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Run Log
+         * @description The run's events so far as one JSON list (the SSE stream's content, for scripts).
+         */
+        get: operations["run_log_api_runs__run_id__log_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/runs/{run_id}/artifacts": {
         parameters: {
             query?: never;
@@ -281,6 +321,19 @@ export interface components {
             /** Size */
             size: number;
         };
+        /** EdgeEntry */
+        EdgeEntry: {
+            /**
+             * From
+             * @description "nodeid.port" of an output
+             */
+            from: string;
+            /**
+             * To
+             * @description "nodeid.port" of an input
+             */
+            to: string;
+        };
         /** FileInfo */
         FileInfo: {
             /** Name */
@@ -319,6 +372,97 @@ export interface components {
             /** Workers */
             workers: number;
         };
+        /** LayerJSON */
+        LayerJSON: {
+            /** Index */
+            index: number;
+            /**
+             * Z
+             * @description top of the layer, mm
+             */
+            z: number;
+            /**
+             * Thickness
+             * @description mm
+             */
+            thickness: number;
+            /** Area Mm2 */
+            area_mm2: number;
+            /** Polygons */
+            polygons: components["schemas"]["PolygonJSON"][];
+            /** Curves */
+            curves: number[][][];
+            /**
+             * Frame
+             * @description 4×4 layer-local → world, for non-horizontal layers
+             */
+            frame?: number[][] | null;
+        };
+        /** NodeEntry */
+        NodeEntry: {
+            /**
+             * Id
+             * @description Unique node id (letters, digits, _ and -).
+             */
+            id: string;
+            /**
+             * Type
+             * @description Node type id from the catalog.
+             */
+            type: string;
+            /** Params */
+            params?: {
+                [key: string]: unknown;
+            };
+            /** Label */
+            label?: string | null;
+        };
+        /** NodeInfo */
+        NodeInfo: {
+            /** Type */
+            type: string;
+            /** Title */
+            title: string;
+            /** Category */
+            category: string;
+            /** Description */
+            description: string;
+            /** Version */
+            version: string;
+            /** Per Layer */
+            per_layer: boolean;
+            /** Inputs */
+            inputs: components["schemas"]["PortInfo"][];
+            /** Outputs */
+            outputs: components["schemas"]["PortInfo"][];
+            /**
+             * Params Schema
+             * @description JSON Schema of the node's params (numeric fields carry `unit`)
+             */
+            params_schema: {
+                [key: string]: unknown;
+            };
+        };
+        /** PolygonJSON */
+        PolygonJSON: {
+            /** Exterior */
+            exterior: number[][];
+            /** Holes */
+            holes: number[][][];
+        };
+        /** PortInfo */
+        PortInfo: {
+            /** Name */
+            name: string;
+            /** Type */
+            type: string;
+            /** Description */
+            description: string;
+            /** Optional */
+            optional: boolean;
+            /** Color */
+            color: string;
+        };
         /** PreviewRequest */
         PreviewRequest: {
             /**
@@ -350,18 +494,11 @@ export interface components {
         };
         /** PreviewResponse */
         PreviewResponse: {
-            /** Layer */
-            layer: {
-                [key: string]: unknown;
-            } | null;
+            layer: components["schemas"]["LayerJSON"] | null;
             /** Sections */
-            sections: {
-                [key: string]: unknown;
-            }[];
+            sections: components["schemas"]["SectionJSON"][];
             /** Paths */
-            paths: {
-                [key: string]: unknown;
-            }[];
+            paths: components["schemas"]["SectionPathJSON"][];
             /** Layer Count */
             layer_count: number | null;
             /** Error */
@@ -371,21 +508,104 @@ export interface components {
             /** Ms */
             ms: number;
         };
+        /** ProcessParameterInfo */
+        ProcessParameterInfo: {
+            /** Name */
+            name: string;
+            /** Unit */
+            unit: string;
+            /** Label */
+            label: string;
+            /** Minimum */
+            minimum: number;
+            /** Maximum */
+            maximum: number;
+            /** Description */
+            description: string;
+        };
+        /**
+         * Recipe
+         * @description A saved graph. `ui` holds editor-only state (node positions); the engine ignores it.
+         */
+        Recipe: {
+            /**
+             * Format
+             * @default waamflow/1
+             */
+            format: string;
+            /**
+             * Name
+             * @default recipe
+             */
+            name: string;
+            /**
+             * Description
+             * @default
+             */
+            description: string;
+            /** Inputs */
+            inputs?: {
+                [key: string]: unknown;
+            };
+            /** Nodes */
+            nodes?: components["schemas"]["NodeEntry"][];
+            /** Edges */
+            edges?: components["schemas"]["EdgeEntry"][];
+            /** Ui */
+            ui?: {
+                [key: string]: unknown;
+            } | null;
+        };
         /** RunCreated */
         RunCreated: {
             /** Id */
             id: string;
         };
+        /**
+         * RunEvent
+         * @description One progress event (engine/events.py), as sent in each SSE `data:` line.
+         */
+        RunEvent: {
+            /** Seq */
+            seq: number;
+            /**
+             * Kind
+             * @enum {string}
+             */
+            kind: "run_started" | "node_started" | "node_cached" | "node_progress" | "node_finished" | "node_error" | "warning" | "run_finished" | "run_failed" | "run_cancelled";
+            /** Time */
+            time: number;
+            /** Progress */
+            progress: number;
+            /** Node */
+            node?: string | null;
+            /** Layer */
+            layer?: number | null;
+            /** Section */
+            section?: string | null;
+            /** Message */
+            message?: string | null;
+            /** Seconds */
+            seconds?: number | null;
+            /** Cached */
+            cached?: boolean | null;
+            /** Error */
+            error?: {
+                [key: string]: unknown;
+            } | null;
+        } & {
+            [key: string]: unknown;
+        };
         /** RunRequest */
         RunRequest: {
             /**
              * Graph
-             * @description name of a saved graph
+             * @description name of a saved graph (alone: run it as saved; with `recipe`: run `recipe` with this graph's files and parameter XML)
              */
             graph?: string | null;
             /**
              * Recipe
-             * @description an inline recipe instead of a saved graph
+             * @description an inline recipe (e.g. unsaved edits)
              */
             recipe?: {
                 [key: string]: unknown;
@@ -436,6 +656,57 @@ export interface components {
             problems: {
                 [key: string]: unknown;
             }[];
+        };
+        /** SectionJSON */
+        SectionJSON: {
+            /** Key */
+            key: string;
+            polygon: components["schemas"]["PolygonJSON"];
+            /** Guide */
+            guide: number[][] | null;
+            /** Start */
+            start: number[] | null;
+            /** Stop */
+            stop: number[] | null;
+        };
+        /** SectionPathJSON */
+        SectionPathJSON: {
+            /** Key */
+            key: string;
+            /** Strategy */
+            strategy: string;
+            /**
+             * Points
+             * @description (n, 3) world mm
+             */
+            points: number[][];
+            /** Zone */
+            zone: string[];
+            /** Arc */
+            arc: boolean[];
+            /** Inside */
+            inside: boolean[];
+            /**
+             * Speed
+             * @description mm/s per segment
+             */
+            speed: (number | null)[];
+            /** Length Mm */
+            length_mm: number;
+            /** Zone Colors */
+            zone_colors?: {
+                [key: string]: string;
+            } | null;
+            /** Zone Params */
+            zone_params?: {
+                [key: string]: {
+                    [key: string]: number;
+                };
+            } | null;
+            /** Approach */
+            approach?: number[][] | null;
+            /** Tool Axis */
+            tool_axis?: number[][] | null;
         };
         /** Selection */
         Selection: {
@@ -507,9 +778,27 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    }[];
+                    "application/json": components["schemas"]["NodeInfo"][];
+                };
+            };
+        };
+    };
+    process_parameters_api_process_parameters_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ProcessParameterInfo"][];
                 };
             };
         };
@@ -552,9 +841,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["Recipe"];
                 };
             };
             /** @description Validation Error */
@@ -580,9 +867,7 @@ export interface operations {
         };
         requestBody: {
             content: {
-                "application/json": {
-                    [key: string]: unknown;
-                };
+                "application/json": components["schemas"]["Recipe"];
             };
         };
         responses: {
@@ -917,6 +1202,39 @@ export interface operations {
                 };
                 content: {
                     "text/event-stream": unknown;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    run_log_api_runs__run_id__log_get: {
+        parameters: {
+            query?: {
+                after?: number;
+            };
+            header?: never;
+            path: {
+                run_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RunEvent"][];
                 };
             };
             /** @description Validation Error */

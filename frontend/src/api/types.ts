@@ -1,12 +1,15 @@
 /**
  * Domain types used across the GUI. Every shape the REST API declares comes from the generated
- * OpenAPI types (`schema.d.ts`, `npm run gen:api`) and is only named here. What the API returns
- * as a free-form JSON object (the node catalog entries, the recipe, run events, the preview's
- * layer/sections/paths) is typed below after the contract (CONTRACT.md) and engine/events.py.
+ * OpenAPI types (`schema.d.ts`, `npm run gen:api`) and is only named here, at most narrowed where
+ * the API passes free-form JSON through: a node's `params_schema` (JSONSchema below), the recipe's
+ * editor-only `ui`, and the contract's error object (RunError) in events, run status and preview.
  */
 import type { components } from "./schema";
 
 type S = components["schemas"];
+/** `T` with the keys `K` no longer optional (fields the server always fills, by default). */
+type WithRequired<T, K extends keyof T> = Omit<T, K> & Required<Pick<T, K>>;
+
 export type Health = S["Health"];
 export type GraphInfo = S["GraphInfo"];
 export type SaveResult = S["SaveResult"];
@@ -17,27 +20,13 @@ export type RunRequest = S["RunRequest"];
 export type PreviewRequest = S["PreviewRequest"];
 export type RunInfo = Omit<S["RunStatus"], "error"> & { error?: RunError | null };
 export type RunStatus = S["RunStatus"]["status"];
+export type ProcessParameter = S["ProcessParameterInfo"];
 export type Json = null | boolean | number | string | Json[] | { [k: string]: Json };
 
-export interface PortSpec {
-  name: string;
-  type: string;
-  description: string;
-  optional: boolean;
-  color: string;
-}
-
-export interface NodeSpec {
-  type: string;
-  title: string;
-  category: string;
-  description: string;
-  version?: string;
-  per_layer: boolean;
-  inputs: PortSpec[];
-  outputs: PortSpec[];
-  params_schema: JSONSchema;
-}
+// ---- node catalog (GET /api/nodes) ---------------------------------------------------------------
+export type PortSpec = S["PortInfo"];
+/** A catalog entry; its params schema (free-form JSON in the API) read as a JSON Schema. */
+export type NodeSpec = Omit<S["NodeInfo"], "params_schema"> & { params_schema: JSONSchema };
 
 export interface JSONSchema {
   type?: string | string[];
@@ -68,28 +57,23 @@ export interface JSONSchema {
   [k: string]: unknown;
 }
 
-export interface RecipeNode {
-  id: string;
-  type: string;
-  params: Record<string, unknown>;
-  label?: string | null;
-}
+// ---- recipe (GET/PUT /api/graphs/{name}) ----------------------------------------------------------
+/** The recipe as the API declares it (collections defaulted, so optional on the wire). */
+export type WireRecipe = S["Recipe"];
+/** A node as the GUI holds it: `params` always present (`normalizeRecipe`). */
+export type RecipeNode = WithRequired<S["NodeEntry"], "params">;
+export type RecipeEdge = S["EdgeEntry"];
+/** The editor-only state kept in the recipe's free-form `ui`. */
+export type RecipeUi = NonNullable<WireRecipe["ui"]> & { positions?: Record<string, [number, number]> };
+/**
+ * The recipe as the GUI holds it: the API's Recipe with its defaulted collections filled in
+ * (`normalizeRecipe`), so it is still a valid request body as is.
+ */
+export type Recipe = Omit<WireRecipe, "inputs" | "nodes" | "edges" | "ui"> &
+  Required<Pick<WireRecipe, "inputs">> & { nodes: RecipeNode[]; edges: RecipeEdge[]; ui?: RecipeUi | null };
 
-export interface RecipeEdge {
-  from: string;
-  to: string;
-}
-
-export interface Recipe {
-  format: string;
-  name: string;
-  description: string;
-  inputs: Record<string, unknown>;
-  nodes: RecipeNode[];
-  edges: RecipeEdge[];
-  ui?: { positions?: Record<string, [number, number]>; [k: string]: unknown } | null;
-}
-
+// ---- runs (POST /api/runs, SSE events, GET /api/runs/{id}/log) -----------------------------------
+/** The contract's error object (node, layer, section where known); free-form JSON in the API. */
 export interface RunError {
   message: string;
   node?: string | null;
@@ -98,68 +82,13 @@ export interface RunError {
   text?: string | null;
 }
 
-export type EventKind =
-  | "run_started"
-  | "node_started"
-  | "node_cached"
-  | "node_progress"
-  | "node_finished"
-  | "node_error"
-  | "warning"
-  | "run_finished"
-  | "run_failed"
-  | "run_cancelled";
+export type EventKind = S["RunEvent"]["kind"];
+/** One run event; its free-form `error` read as a RunError. */
+export type RunEvent = S["RunEvent"] & { error?: RunError | null };
 
-export interface RunEvent {
-  seq: number;
-  kind: EventKind;
-  node?: string | null;
-  layer?: number | null;
-  section?: string | null;
-  progress?: number;
-  message?: string;
-  seconds?: number | null;
-  cached?: boolean | null;
-  error?: RunError | null;
-}
-
-export interface PolygonJson {
-  exterior: number[][];
-  holes: number[][][];
-}
-
-export interface LayerJson {
-  index: number;
-  z: number;
-  thickness: number;
-  area_mm2: number;
-  polygons: PolygonJson[];
-  curves: number[][][];
-  /** (4, 4) layer-local (x, y, 0) → world, for non-horizontal layers; absent = horizontal. */
-  frame?: number[][];
-}
-
-export interface PreviewSection {
-  key: string;
-  polygon: PolygonJson | null;
-  guide: number[][] | null;
-  start: number[] | null;
-  stop: number[] | null;
-}
-
-export interface PreviewPath {
-  key: string;
-  strategy: string;
-  points: number[][];
-  zone: string[];
-  arc: boolean[];
-  speed: (number | null)[];
-  zone_colors?: Record<string, string>;
-}
-
-export interface Preview extends Omit<S["PreviewResponse"], "layer" | "sections" | "paths" | "error"> {
-  layer: LayerJson | null;
-  sections: PreviewSection[];
-  paths: PreviewPath[];
-  error: RunError | null;
-}
+// ---- preview (POST /api/preview) ---------------------------------------------------------------
+export type PolygonJson = S["PolygonJSON"];
+export type LayerJson = S["LayerJSON"];
+export type PreviewSection = S["SectionJSON"];
+export type PreviewPath = S["SectionPathJSON"];
+export type Preview = Omit<S["PreviewResponse"], "error"> & { error: RunError | null };

@@ -64,7 +64,13 @@ export function Toolbar(p: ToolbarProps) {
         ↷
       </button>
       <span className="sep" />
-      <button className="run" onClick={p.onRun} disabled={run.phase === "running" || !p.canRun} data-testid="run">
+      <button
+        className="run"
+        title="run the recipe as shown (unsaved edits included) with the saved graph's files and parameter XML"
+        onClick={p.onRun}
+        disabled={run.phase === "running" || !p.canRun}
+        data-testid="run"
+      >
         ▶ run
       </button>
       {run.phase === "running" && <button onClick={p.onCancel}>cancel</button>}

@@ -57,7 +57,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
         </div>
       </div>
       {status && (
-        <div className={`badge b-${status.state}`} title={status.message}>
+        <div className={`badge b-${status.state}`} title={status.message ?? undefined}>
           {badgeText(status)}
         </div>
       )}

@@ -59,7 +59,9 @@ export function useLayerPreview(
     const ctl = new AbortController();
     const count = state.data?.layer_count ?? null;
     const load = async (i: number): Promise<LayerJson | null> => {
-      if (i < 0 || (count !== null && i >= count)) return null;
+      // Above the shown layer only once the layer count is known: the server refuses (422) a
+      // layer past the top, and the browser logs every refused request.
+      if (i < 0 || (i > layer && (count === null || i >= count))) return null;
       const k = `${sliceKey}|${i}`;
       if (ghostCache.current.has(k)) return ghostCache.current.get(k)!;
       try {

@@ -10,7 +10,7 @@ export interface NodeStatus {
   state: NodeState;
   layer?: number | null;
   section?: string | null;
-  message?: string;
+  message?: string | null;
   seconds?: number | null;
   progress?: number;
 }

@@ -1,9 +1,10 @@
 /** The zone-parameter XML editor: layer > section > zone tree, per-zone tables, bulk edit, import/export. */
 import { useCallback, useEffect, useMemo, useState } from "react";
 import { ApiError, artifactText, getParams, putParams } from "../api/client";
-import type { RunError, RunEvent } from "../api/types";
+import type { ProcessParameter, RunError, RunEvent } from "../api/types";
 import {
-  bulkSet, invalidEntries, orphans as findOrphans, parseParams, serializeParams, setValue, validateValue, vocabulary, type Bounds, type ParamDoc,
+  boundsByName, bulkSet, invalidEntries, orphans as findOrphans, parseParams, rangeText, serializeParams, setValue, validateValue, vocabulary,
+  type Bounds, type ParamDoc,
 } from "./params";
 
 export interface ParamsEditorProps {
@@ -13,7 +14,8 @@ export interface ParamsEditorProps {
   runParamsArtifacts: string[];
   /** Warnings of the zone node(s) in the last run: values dropped with vanished zones are reported there. */
   runWarnings: RunEvent[];
-  bounds: Record<string, Bounds>;
+  /** The server's parameter table (GET /api/process-parameters): labels, units and bounds. */
+  parameters: readonly ProcessParameter[];
   dirtyRecipe: boolean;
   onMessage: (m: string) => void;
 }
@@ -72,8 +74,9 @@ export function ParamsEditor(p: ParamsEditorProps) {
     });
   }, [p.runId, p.runParamsArtifacts]);
 
+  const bounds = useMemo(() => boundsByName(p.parameters), [p.parameters]);
   const voc = useMemo(() => (doc ? vocabulary(doc) : { sections: [], zones: [], params: [] }), [doc]);
-  const invalid = useMemo(() => (doc ? invalidEntries(doc, p.bounds) : []), [doc, p.bounds]);
+  const invalid = useMemo(() => (doc ? invalidEntries(doc, bounds) : []), [doc, bounds]);
   const orphans = useMemo(() => (doc && current ? findOrphans(doc, current) : []), [doc, current]);
 
   const change = (d: ParamDoc) => {
@@ -83,8 +86,13 @@ export function ParamsEditor(p: ParamsEditorProps) {
 
   const save = async () => {
     if (!p.graph || !doc || original === null) return;
+    // Checked here first (the server checks the same): nothing is sent while a value is invalid.
+    // The cells are marked by their own check, so the message names no layer/section to mark.
     if (invalid.length) {
-      setServerError({ message: `${invalid.length} invalid value(s): fix the fields marked in red` });
+      const [f] = invalid;
+      setServerError({
+        message: `not saved: ${invalid.length} invalid value(s), e.g. layer ${f.layer} · ${f.section} · ${f.zone} · ${f.name}: ${f.message}; fix the fields marked in red`,
+      });
       return;
     }
     const text = serializeParams(original, doc);
@@ -154,7 +162,7 @@ export function ParamsEditor(p: ParamsEditorProps) {
         </button>
         {dirty && <span className="warn">unsaved</span>}
         {!dirty && saved && <span className="ok" data-testid="params-saved">saved {saved}</span>}
-        {p.dirtyRecipe && <span className="muted">(the recipe has unsaved changes: run it after saving to refresh the zones)</span>}
+        {p.dirtyRecipe && <span className="muted">(the recipe has unsaved changes: run it to refresh the zones)</span>}
       </div>
       {!p.graph && <div className="empty">Save the recipe first: the parameter file belongs to a saved graph.</div>}
       {loadError && <div className="empty">{loadError}</div>}
@@ -210,13 +218,14 @@ export function ParamsEditor(p: ParamsEditorProps) {
                 <tbody>
                   {voc.params.map(({ name, unit }) => (
                     <tr key={name}>
-                      <td>
-                        {p.bounds[name]?.label ?? name} <span className="unit">[{unit || "–"}]</span>
+                      <td title={bounds[name] ? `${name}: ${bounds[name].description ?? ""} (${rangeText(bounds[name])})` : `${name}: not a known parameter`}>
+                        {bounds[name]?.label ?? name} <span className="unit">[{unit || "–"}]</span>
+                        {bounds[name] && <div className="muted range" data-range={name}>{rangeText(bounds[name])}</div>}
                       </td>
                       {sectionNode.zones.map((z) => {
                         const pv = z.params.find((x) => x.name === name);
                         if (!pv) return <td key={z.id} className="muted">–</td>;
-                        const m = validateValue(pv.value, p.bounds[name]);
+                        const m = validateValue(pv.value, bounds[name], pv.unit);
                         const bad = m || serverCell(layerNode.index, sectionNode.id, z.id, name);
                         return (
                           <td key={z.id} className={bad ? "err" : ""} data-err={bad ? "1" : undefined}>
@@ -224,9 +233,10 @@ export function ParamsEditor(p: ParamsEditorProps) {
                               value={pv.value}
                               data-cell={`${z.id}.${name}`}
                               onChange={(e) => change(setValue(doc, layerNode.index, sectionNode.id, z.id, name, e.target.value))}
-                              title={m ?? (p.bounds[name] ? `${p.bounds[name].minimum}…${p.bounds[name].maximum} ${unit}` : unit)}
+                              title={m ?? (bounds[name] ? rangeText(bounds[name]) : unit)}
+                              aria-invalid={m ? true : undefined}
                             />
-                            {m && <div className="error">{m}</div>}
+                            {m && <div className="error" data-cell-error={`${z.id}.${name}`}>{m}</div>}
                           </td>
                         );
                       })}
@@ -235,7 +245,7 @@ export function ParamsEditor(p: ParamsEditorProps) {
                 </tbody>
               </table>
             )}
-            <BulkEdit doc={doc} voc={voc} onApply={(d, n) => {
+            <BulkEdit doc={doc} voc={voc} bounds={bounds} onApply={(d, n) => {
               change(d);
               p.onMessage(`set ${n} value(s)`);
             }} />
@@ -268,7 +278,12 @@ export function ParamsEditor(p: ParamsEditorProps) {
   );
 }
 
-function BulkEdit({ doc, voc, onApply }: { doc: ParamDoc; voc: ReturnType<typeof vocabulary>; onApply: (d: ParamDoc, count: number) => void }) {
+function BulkEdit({ doc, voc, bounds, onApply }: {
+  doc: ParamDoc;
+  voc: ReturnType<typeof vocabulary>;
+  bounds: Record<string, Bounds>;
+  onApply: (d: ParamDoc, count: number) => void;
+}) {
   const idx = doc.layers.map((l) => l.index);
   const [name, setName] = useState(voc.params[0]?.name ?? "");
   const [value, setValueText] = useState("");
@@ -277,18 +292,29 @@ function BulkEdit({ doc, voc, onApply }: { doc: ParamDoc; voc: ReturnType<typeof
   const [section, setSection] = useState("");
   const [zone, setZone] = useState("");
   const unit = voc.params.find((x) => x.name === name)?.unit;
+  const problem = validateValue(value, bounds[name]);
   return (
     <div className="bulk" data-testid="bulk-edit">
       <h4>Bulk edit</h4>
       <select value={name} onChange={(e) => setName(e.target.value)} data-testid="bulk-param">
         {voc.params.map((x) => (
           <option key={x.name} value={x.name}>
-            {x.name}
+            {bounds[x.name]?.label ?? x.name}
           </option>
         ))}
       </select>
       ={" "}
-      <input value={value} onChange={(e) => setValueText(e.target.value)} style={{ width: 70 }} data-testid="bulk-value" /> {unit}
+      <input
+        value={value}
+        onChange={(e) => setValueText(e.target.value)}
+        style={{ width: 70 }}
+        data-testid="bulk-value"
+        title={bounds[name] ? rangeText(bounds[name]) : unit}
+        aria-invalid={problem ? true : undefined}
+        className={problem ? "bad" : ""}
+      />{" "}
+      {unit}
+      {problem && <span className="error" data-testid="bulk-error"> {problem}</span>}
       <span> layers </span>
       <input type="number" value={from} onChange={(e) => setFrom(Number(e.target.value))} style={{ width: 48 }} />–
       <input type="number" value={to} onChange={(e) => setTo(Number(e.target.value))} style={{ width: 48 }} />
@@ -305,7 +331,7 @@ function BulkEdit({ doc, voc, onApply }: { doc: ParamDoc; voc: ReturnType<typeof
         ))}
       </select>
       <button
-        disabled={!name || validateValue(value) !== null}
+        disabled={!name || problem !== null}
         data-testid="bulk-apply"
         onClick={() => {
           const r = bulkSet(doc, { layers: [from, to], section: section || undefined, zone: zone || undefined }, name, value.trim());

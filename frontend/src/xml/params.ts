@@ -4,6 +4,7 @@
  * the edits the parameter editor makes. Serialising writes the values back into the original
  * document, so attributes and elements the GUI does not know survive untouched.
  */
+import type { ProcessParameter } from "../api/types";
 
 export interface ParamValue {
   name: string;
@@ -28,12 +29,19 @@ export interface ParamDoc {
   layers: LayerNode[];
 }
 
-/** Sanity bounds of a parameter (from the server's table when it provides one). */
-export interface Bounds {
-  minimum: number;
-  maximum: number;
-  unit?: string;
-  label?: string;
+/** Sanity bounds of a parameter: an entry of the server's table (GET /api/process-parameters). */
+export type Bounds = Pick<ProcessParameter, "minimum" | "maximum"> & Partial<Omit<ProcessParameter, "minimum" | "maximum">>;
+
+/** The server's parameter table by name. */
+export function boundsByName(params: readonly ProcessParameter[]): Record<string, Bounds> {
+  return Object.fromEntries(params.map((p) => [p.name, p]));
+}
+
+const fmt = (v: number) => String(Number(v.toPrecision(12)));
+
+/** "0…1000 A": the allowed range of a parameter with its unit. */
+export function rangeText(bounds: Bounds): string {
+  return `${fmt(bounds.minimum)}…${fmt(bounds.maximum)}${bounds.unit ? " " + bounds.unit : ""}`;
 }
 
 const children = (el: Element, tag: string) => Array.from(el.children).filter((c) => c.tagName === tag);
@@ -83,13 +91,19 @@ export function serializeParams(original: string, doc: ParamDoc): string {
   return out;
 }
 
-/** Why a value is invalid, or null. Empty is allowed (the strategy's value then applies). */
-export function validateValue(value: string, bounds?: Bounds): string | null {
+/**
+ * Why a value is invalid, or null, checked as the server will: a number within the parameter's
+ * bounds, and the file's `unit` attribute (when given) the table's unit. Empty is allowed (the
+ * strategy's value then applies).
+ */
+export function validateValue(value: string, bounds?: Bounds, fileUnit?: string): string | null {
+  if (bounds?.unit !== undefined && fileUnit && fileUnit.trim() !== bounds.unit)
+    return `unit is "${fileUnit}", expected "${bounds.unit}"`;
   const t = value.trim();
   if (t === "") return null;
   const v = Number(t);
   if (!Number.isFinite(v)) return "not a number";
-  if (bounds && (v < bounds.minimum || v > bounds.maximum)) return `outside ${bounds.minimum}…${bounds.maximum}${bounds.unit ? " " + bounds.unit : ""}`;
+  if (bounds && (v < bounds.minimum || v > bounds.maximum)) return `outside ${rangeText(bounds)}`;
   return null;
 }
 
@@ -143,7 +157,7 @@ export function invalidEntries(doc: ParamDoc, bounds: Record<string, Bounds>) {
     for (const s of l.sections)
       for (const z of s.zones)
         for (const p of z.params) {
-          const m = validateValue(p.value, bounds[p.name]);
+          const m = validateValue(p.value, bounds[p.name], p.unit);
           if (m) out.push({ layer: l.index, section: s.id, zone: z.id, name: p.name, message: m });
         }
   return out;
