@@ -33,17 +33,6 @@ class Graph:
     nodes: dict[str, GraphNode]
     order: list[str]  # topological
 
-    def downstream(self, node_id: str) -> set[str]:
-        out: set[str] = set()
-        stack = [node_id]
-        while stack:
-            cur = stack.pop()
-            for n in self.nodes.values():
-                if n.id not in out and any(src == cur for src, _ in n.inputs.values()):
-                    out.add(n.id)
-                    stack.append(n.id)
-        return out
-
     def ancestors(self, node_id: str) -> set[str]:
         out: set[str] = set()
         stack = [node_id]

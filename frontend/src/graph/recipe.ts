@@ -38,39 +38,29 @@ function inPort(cat: Catalog, r: Recipe, nodeId: string, port: string): PortSpec
   return n ? cat.get(n.type)?.inputs.find((p) => p.name === port) : undefined;
 }
 
-/** Node ids downstream of `id` (excluding it). */
-export function downstream(r: Recipe, id: string): Set<string> {
+/** Node ids reachable from `id` along edges (`down`) or against them (`up`), excluding `id`. */
+function reachable(r: Recipe, id: string, dir: "down" | "up"): Set<string> {
   const out = new Set<string>();
   const stack = [id];
   while (stack.length) {
     const cur = stack.pop()!;
     for (const e of r.edges) {
       const f = endpoint(e.from).node, t = endpoint(e.to).node;
-      if (f === cur && !out.has(t)) {
-        out.add(t);
-        stack.push(t);
+      const [here, next] = dir === "down" ? [f, t] : [t, f];
+      if (here === cur && !out.has(next)) {
+        out.add(next);
+        stack.push(next);
       }
     }
   }
   return out;
 }
 
+/** Node ids downstream of `id` (excluding it). */
+export const downstream = (r: Recipe, id: string): Set<string> => reachable(r, id, "down");
+
 /** Node ids upstream of `id` (excluding it). */
-export function ancestors(r: Recipe, id: string): Set<string> {
-  const out = new Set<string>();
-  const stack = [id];
-  while (stack.length) {
-    const cur = stack.pop()!;
-    for (const e of r.edges) {
-      const f = endpoint(e.from).node, t = endpoint(e.to).node;
-      if (t === cur && !out.has(f)) {
-        out.add(f);
-        stack.push(f);
-      }
-    }
-  }
-  return out;
-}
+export const ancestors = (r: Recipe, id: string): Set<string> => reachable(r, id, "up");
 
 export interface Connection {
   source: string;

@@ -50,7 +50,8 @@ def _item(value: Any, index: int) -> Any:
 
 
 def _collect(graph, outputs: dict, node: str, index: int) -> tuple[Layer | None, LayerSections | None, LayerPaths | None]:
-    order = [n for n in reversed(graph.order) if n == node or n in graph.ancestors(node)]
+    upstream = graph.ancestors(node)
+    order = [n for n in reversed(graph.order) if n == node or n in upstream]
     layer = sections = paths = None
     for nid in order:
         for value in outputs.get(nid, {}).values():
