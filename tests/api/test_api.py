@@ -1,10 +1,10 @@
 import json
-import time
 
 import pytest
 from fastapi.testclient import TestClient
 
 import toy_nodes as toy
+from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
 from waamflow.settings import Settings
 
@@ -19,14 +19,6 @@ def client(tmp_path):
         yield c
 
 
-def wait(client, run_id, timeout=30):
-    t0 = time.time()
-    while time.time() - t0 < timeout:
-        r = client.get(f"/api/runs/{run_id}").json()
-        if r["status"] in ("done", "failed", "cancelled"):
-            return r
-        time.sleep(0.05)
-    raise AssertionError("run did not finish")
 
 
 def test_health_and_nodes(client):

@@ -2,12 +2,12 @@
 
 import re
 import shutil
-import time
 from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
 
+from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
 from waamflow.settings import Settings
 
@@ -23,13 +23,6 @@ def client(tmp_path):
         yield c
 
 
-def wait(c, rid):
-    for _ in range(600):
-        r = c.get(f"/api/runs/{rid}").json()
-        if r["status"] in ("done", "failed", "cancelled"):
-            return r
-        time.sleep(0.05)
-    raise AssertionError("run did not finish")
 
 
 def test_process_parameters_table(client):

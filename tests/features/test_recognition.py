@@ -6,6 +6,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+from curve_shapes import c, circle
 import pytest
 from shapely.geometry import LineString
 
@@ -15,15 +16,6 @@ from waamflow.features import FeatureSet, RecognitionSpec, features_for_layer, r
 PANEL = Path(__file__).resolve().parents[2] / "graphs" / "parts" / "panel.json"
 
 
-def c(*pts):
-    return np.array(pts, float)
-
-
-def circle(cx, cy, r, n=64):
-    t = np.linspace(0.0, 2 * math.pi, n + 1)
-    pts = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
-    pts[-1] = pts[0]
-    return pts
 
 
 def kinds(curves, **kw):

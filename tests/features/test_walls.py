@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+from curve_shapes import c, circle
 import pytest
 
 from waamflow.features import (WallSpec, aligned_loop, crossing_geometry, helix, plan_layer_walls, recognise,
@@ -10,15 +11,6 @@ from waamflow.features import (WallSpec, aligned_loop, crossing_geometry, helix,
 from waamflow.features.tubular import GOLDEN
 
 
-def c(*pts):
-    return np.array(pts, float)
-
-
-def circle(cx, cy, r, n=64):
-    t = np.linspace(0.0, 2 * math.pi, n + 1)
-    pts = np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
-    pts[-1] = pts[0]
-    return pts
 
 
 def plan(curves, **kw):
