@@ -31,16 +31,24 @@ def test_process_parameters_table(client):
     assert params["current"]["maximum"] == 1000
 
 
+def _save_as(client, src: str, dst: str) -> None:
+    assert client.put(f"/api/graphs/{dst}", json=client.get(f"/api/graphs/{src}").json()).status_code == 201
+    xml = client.get(f"/api/graphs/{src}/params").text
+    assert client.put(f"/api/graphs/{dst}/params", content=xml,
+                      headers={"content-type": "application/xml"}).status_code == 204
+
+
 def test_xml_edit_flows_into_toolpath_and_gcode(client):
-    xml = client.get("/api/graphs/mpp-cross/params")
+    _save_as(client, "mpp-cross", "my-cross")
+    xml = client.get("/api/graphs/my-cross/params")
     assert xml.status_code == 200 and "<parameters" in xml.text
     # the long arm's start zone on layer 0: 6 mm/s → 5 mm/s
     edited = re.sub(r'(<layer index="0".*?<section id="bs1/A">\s*<zone id="start"[^>]*>.*?<travel_speed unit="mm/s">)6(<)',
                     r"\g<1>5\2", xml.text, count=1, flags=re.S)
     assert edited != xml.text
-    assert client.put("/api/graphs/mpp-cross/params", content=edited,
+    assert client.put("/api/graphs/my-cross/params", content=edited,
                       headers={"content-type": "application/xml"}).status_code == 204
-    run = wait(client, client.post("/api/runs", json={"graph": "mpp-cross"}).json()["id"])
+    run = wait(client, client.post("/api/runs", json={"graph": "my-cross"}).json()["id"])
     assert run["status"] == "done", run["error"]
     tp = client.get(f"/api/runs/{run['id']}/artifacts/zone.toolpath.json").json()
     a0 = next(s for s in tp["layers"][0]["sections"] if s["key"] == "bs1/A")
@@ -50,20 +58,23 @@ def test_xml_edit_flows_into_toolpath_and_gcode(client):
     assert {sp for sp, z, arc in zip(a1["speed"], a1["zone"], a1["arc"]) if z == "start" and arc} == {6.0}
     gcode = client.get(f"/api/runs/{run['id']}/artifacts/post.gcode").text
     assert "F300" in gcode and "F360" in gcode  # 5 and 6 mm/s in mm/min
-    # the stored XML still holds the edit after the run (values kept, merged with the new template)
-    assert client.get("/api/graphs/mpp-cross/params").text.count('<travel_speed unit="mm/s">5<') == 1
+    # the run's merged XML keeps the edit; the stored XML is exactly what was saved
+    merged = client.get(f"/api/runs/{run['id']}/artifacts/zone.params.xml").text
+    assert merged.count('<travel_speed unit="mm/s">5<') == 1
+    assert client.get("/api/graphs/my-cross/params").text == edited
     log = client.get(f"/api/runs/{run['id']}/log").json()
     assert log[-1]["kind"] == "run_finished"
 
 
 def test_invalid_xml_is_422_naming_the_place(client):
-    xml = client.get("/api/graphs/mpp-cross/params").text
+    _save_as(client, "mpp-cross", "mine")
+    xml = client.get("/api/graphs/mine/params").text
     bad = xml.replace('<current unit="A">200</current>', '<current unit="A">lots</current>', 1)
-    r = client.put("/api/graphs/mpp-cross/params", content=bad, headers={"content-type": "application/xml"})
+    r = client.put("/api/graphs/mine/params", content=bad, headers={"content-type": "application/xml"})
     assert r.status_code == 422
     text = r.json()["detail"]["text"]
     assert "layer 0" in text and "bs1/A" in text
-    r = client.put("/api/graphs/mpp-cross/params", content=b"<!DOCTYPE x [<!ENTITY e 'x'>]><parameters>&e;</parameters>",
+    r = client.put("/api/graphs/mine/params", content=b"<!DOCTYPE x [<!ENTITY e 'x'>]><parameters>&e;</parameters>",
                    headers={"content-type": "application/xml"})
     assert r.status_code == 422
 
@@ -90,3 +101,40 @@ def test_preview_real_layer_with_sections_and_zones(client):
     body = client.post("/api/preview", json={"recipe": recipe, "node": "zone", "layer": 2}).json()
     assert (body["error"]["section"], body["error"]["layer"]) == ("bs1/B", 2)  # only layer 2 is planned
     assert body["layer"]["index"] == 2  # the layer is still shown
+
+
+def test_unsaved_run_never_changes_the_saved_graph_or_xml(client):
+    """The data-loss scenario: save as, edit (a new mask from layer 4), run without saving."""
+    _save_as(client, "mpp-cross", "copy")
+    saved_recipe = client.get("/api/graphs/copy").json()
+    saved_xml = client.get("/api/graphs/copy/params").content
+    edited = client.get("/api/graphs/copy").json()
+    mask = next(n for n in edited["nodes"] if n["type"] == "mask")
+    first = mask["params"]["masks"][0]
+    mask["params"]["masks"].append({**first, "id": "bs2", "from_layer": 4})
+    draft = saved_xml.decode().replace('<current unit="A">200</current>', '<current unit="A">180</current>', 1)
+    for body in ({"graph": "copy", "recipe": edited}, {"graph": "copy", "recipe": edited, "params_xml": draft},
+                 {"graph": "copy"}):
+        run = wait(client, client.post("/api/runs", json=body).json()["id"])
+        assert run["status"] == "done", run["error"]
+        assert client.get("/api/graphs/copy/params").content == saved_xml
+        assert client.get("/api/graphs/copy").json() == saved_recipe
+    # the draft reached that run: its merged XML holds the edited current
+    runs = client.get("/api/runs").json()
+    merged = client.get(f"/api/runs/{runs[1]['id']}/artifacts/zone.params.xml").text
+    assert '<current unit="A">180</current>' in merged
+    # an invalid draft is refused before anything runs, naming the place
+    bad = saved_xml.decode().replace('<current unit="A">200</current>', '<current unit="A">lots</current>', 1)
+    r = client.post("/api/runs", json={"graph": "copy", "params_xml": bad})
+    assert r.status_code == 422 and "bs1/A" in r.json()["detail"]["text"]
+
+
+def test_examples_are_read_only(client):
+    recipe = client.get("/api/graphs/mpp-cross").json()
+    xml = client.get("/api/graphs/mpp-cross/params").content
+    for r in (client.put("/api/graphs/mpp-cross", json=recipe), client.delete("/api/graphs/mpp-cross"),
+              client.put("/api/graphs/mpp-cross/params", content=xml, headers={"content-type": "application/xml"}),
+              client.put("/api/graphs/mpp-cross/files/x.stl", content=b"solid x")):
+        assert r.status_code == 409 and "save as" in r.json()["detail"]["message"]
+    assert client.get("/api/graphs/mpp-cross/params").content == xml
+    assert next(g for g in client.get("/api/graphs").json() if g["name"] == "mpp-cross")["example"] is True

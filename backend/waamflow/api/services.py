@@ -38,10 +38,11 @@ class Services:
     viewer: Any = None
     extra: dict = field(default_factory=dict)
 
-    def prepare(self, graph_name: str | None, recipe: Recipe) -> Recipe:
+    def prepare(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> Recipe:
         """A saved graph's zone nodes that name no parameter file use the XML stored with the graph
-        (`<graph>.params.xml`), so values filled in the GUI reach the run without setting a path."""
-        if not graph_name or self.store.get_params_xml(graph_name) is None:
+        (`<graph>.params.xml`), or the draft XML sent with the run, so values filled in the GUI reach
+        the run without setting a path."""
+        if not graph_name or (params_xml is None and self.store.get_params_xml(graph_name) is None):
             return recipe
         r = recipe.model_copy(deep=True)
         for n in r.nodes:
@@ -50,11 +51,12 @@ class Services:
         return r
 
     # files a graph's nodes may read: its stored files + its parameter XML, then the graphs folder
-    def resolver_for(self, graph_name: str | None, recipe: Recipe) -> FileResolver:
+    # (a draft XML sent with the run stands in for the saved one and is never stored)
+    def resolver_for(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> FileResolver:
         attachments: dict[str, bytes] = {}
         if graph_name:
             attachments.update(self.store.get_files(graph_name))
-            xml = self.store.get_params_xml(graph_name)
+            xml = params_xml if params_xml is not None else self.store.get_params_xml(graph_name)
             if xml:
                 for fname in params_file_names(recipe):
                     attachments[fname] = xml.encode("utf-8")
@@ -63,12 +65,8 @@ class Services:
         return FileResolver(base, attachments, roots=roots)
 
     def after_run(self, run_id: str, graph_name: str | None, recipe: Recipe, result: RunResult) -> None:
-        # keep the graph's parameter XML in step with its geometry (values kept, orphans reported)
-        if graph_name:
-            for name, data in result.artifacts.items():
-                if name.endswith(".params.xml") and self.store.get_graph(graph_name) is not None:
-                    self.store.put_params_xml(graph_name, data.decode("utf-8"))
-                    break
+        # A run never writes what the user saved: the merged parameter XML (values kept, orphans
+        # reported) is a run artifact; the GUI offers it as a draft that changes the graph on save.
         if self.viewer is not None:
             # publishing a large part takes seconds: do it beside the run, not inside it
             threading.Thread(target=self._publish, args=(graph_name or run_id, recipe.to_json(), result.outputs),

@@ -79,6 +79,10 @@ class Store:
         rows = self._query("SELECT recipe FROM graphs WHERE name=?", (name,))
         return json.loads(rows[0]["recipe"]) if rows else None
 
+    def is_example(self, name: str) -> bool:
+        rows = self._query("SELECT example FROM graphs WHERE name=?", (name,))
+        return bool(rows and rows[0]["example"])
+
     def put_graph(self, name: str, recipe: dict, *, example: bool = False) -> bool:
         """Insert or replace; returns True when it was created."""
         now = time.time()

@@ -42,7 +42,7 @@ class LiveRun:
 
 class RunManager:
     def __init__(self, store: Store, data_dir: Path, cache, workers: int,
-                 resolver_for: Callable[[str | None, Recipe], FileResolver],
+                 resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
                  on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None) -> None:
         self.store = store
         self.runs_dir = data_dir / "runs"
@@ -53,14 +53,15 @@ class RunManager:
         self.resolver_for = resolver_for
         self.on_done = on_done
 
-    def submit(self, graph_name: str | None, recipe: Recipe) -> str:
-        """Validate now (so a bad recipe is a 422, not a failed run), then queue."""
+    def submit(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> str:
+        """Validate now (so a bad recipe is a 422, not a failed run), then queue. `params_xml` is a
+        draft zone-parameter file used for this run only."""
         graph = build_graph(recipe)
         run_id = uuid.uuid4().hex[:12]
         self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs)
         live = LiveRun(run_id)
         self.live[run_id] = live
-        self.pool.submit(self._run, run_id, graph_name, recipe, graph, live)
+        self.pool.submit(self._run, run_id, graph_name, recipe, graph, live, params_xml)
         return run_id
 
     def run_dir(self, run_id: str) -> Path:
@@ -73,7 +74,8 @@ class RunManager:
         live.cancel.set()
         return True
 
-    def _run(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun) -> None:
+    def _run(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
+             params_xml: str | None = None) -> None:
         if live.cancel.is_set():
             self._finish(run_id, live, "cancelled", error={"kind": "cancelled", "message": "cancelled before start",
                                                            "text": "cancelled before start"})
@@ -90,7 +92,7 @@ class RunManager:
                 self.store.update_run(run_id, progress=round(ev.progress, 4))
 
         try:
-            resolver = self.resolver_for(graph_name, recipe)
+            resolver = self.resolver_for(graph_name, recipe, params_xml)
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs

@@ -34,6 +34,13 @@ class FileInfo(BaseModel):
     updated: float
 
 
+def _writable(svc, name: str) -> None:
+    """Shipped examples are read-only: users keep their changes with "save as"."""
+    if svc.store.is_example(name):
+        raise HTTPException(409, detail={"message": f"{name!r} is a shipped example and read-only: "
+                                                    "save it under another name (save as)"})
+
+
 @router.get("", response_model=list[GraphInfo])
 def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
     return [GraphInfo(**g) for g in svc.store.list_graphs()]
@@ -54,6 +61,7 @@ def put_graph(name: GraphName, svc: ServicesDep, response: Response,
               recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)")) -> SaveResult:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
     unconnected input while the user is still wiring) is saved and its problems are returned."""
+    _writable(svc, name)
     parsed = parse_recipe(recipe)  # RecipeError → 422 via the app's handler
     parsed = parsed.model_copy(update={"name": name})
     problems: list[dict] = []
@@ -68,6 +76,7 @@ def put_graph(name: GraphName, svc: ServicesDep, response: Response,
 
 @router.delete("/{name}", status_code=204)
 def delete_graph(name: GraphName, svc: ServicesDep) -> Response:
+    _writable(svc, name)
     if not svc.store.delete_graph(name):
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
     return Response(status_code=204)
@@ -76,8 +85,9 @@ def delete_graph(name: GraphName, svc: ServicesDep) -> Response:
 @router.get("/{name}/params", response_class=Response,
             responses={200: {"content": {"application/xml": {}}}})
 def get_params(name: GraphName, svc: ServicesDep) -> Response:
-    """The graph's zone-parameter XML (layer > section > zone). After a run it mirrors the current
-    geometry, keeping every value already filled in."""
+    """The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
+    it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
+    `<zone node>.params.xml`, saved here only by an explicit PUT."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
     xml = svc.store.get_params_xml(name)
@@ -92,6 +102,7 @@ async def put_params(name: GraphName, svc: ServicesDep, request: Request) -> Res
     """Replace the graph's zone-parameter XML (validated: numbers, units, ranges)."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    _writable(svc, name)
     body = await request.body()
     if len(body) > 20_000_000:
         raise HTTPException(413, detail={"message": "parameter file larger than 20 MB"})
@@ -119,6 +130,7 @@ async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, reques
     """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}: save the graph first"})
+    _writable(svc, name)
     limit = svc.settings.max_upload_mb * 1024 * 1024
     body = await request.body()
     if len(body) > limit:

@@ -31,6 +31,8 @@ class PreviewRequest(BaseModel):
     node: str = Field(..., description="node whose output to show (e.g. the zone node)")
     layer: int = Field(..., ge=0, description="layer index")
     graph: str | None = Field(None, description="saved graph whose files/parameter XML to use")
+    params_xml: str | None = Field(None, max_length=20_000_000,
+                                   description="with `graph`: draft zone-parameter XML instead of the saved one")
     inputs: dict[str, Any] = Field(default_factory=dict)
 
 
@@ -88,11 +90,11 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     t0 = time.perf_counter()
     if req.graph is not None and not valid_graph_name(req.graph):
         raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
-    recipe = svc.prepare(req.graph, apply_overrides(parse_recipe(req.recipe), list(req.inputs.items())))
+    recipe = svc.prepare(req.graph, apply_overrides(parse_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
     graph = build_graph(recipe)
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)
-    resolver = svc.resolver_for(req.graph, recipe)
+    resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
     error = None
     node = req.node
     try:

@@ -25,6 +25,9 @@ class RunRequest(BaseModel):
                                                  "run `recipe` with this graph's files and parameter XML)")
     recipe: dict[str, Any] | None = Field(None, description="an inline recipe (e.g. unsaved edits)")
     inputs: dict[str, Any] = Field(default_factory=dict, description="recipe input values to override")
+    params_xml: str | None = Field(None, max_length=20_000_000,
+                                   description="with `graph`: a draft zone-parameter XML used for this run "
+                                               "instead of the saved one; it is never stored")
 
     @model_validator(mode="after")
     def _one(self) -> "RunRequest":
@@ -75,8 +78,14 @@ def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
         data = req.recipe
     recipe = parse_recipe(data)
     recipe = apply_overrides(recipe, list(req.inputs.items()))
-    recipe = svc.prepare(req.graph, recipe)
-    run_id = svc.runs.submit(req.graph, recipe)  # validates the graph: RecipeError → 422
+    if req.params_xml is not None:
+        if req.graph is None:
+            raise HTTPException(400, detail={"message": "'params_xml' needs 'graph' (the graph whose files the run uses)"})
+        from ...zoning.params_xml import validate_xml
+
+        validate_xml(req.params_xml)  # RecipeError (naming layer/section/zone) → 422
+    recipe = svc.prepare(req.graph, recipe, req.params_xml)
+    run_id = svc.runs.submit(req.graph, recipe, req.params_xml)  # validates the graph: RecipeError → 422
     return RunCreated(id=run_id)
 
 
