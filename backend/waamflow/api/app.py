@@ -8,14 +8,14 @@ from pathlib import Path
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.responses import JSONResponse
 
 from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
 from .routes import graphs, health, nodes, preview, runs, viewer
 from .services import build_services
+from .static import CompressedAssets, index_response
 from .worker import RunManager
 
 log = logging.getLogger("waamflow.server")
@@ -90,7 +90,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():
-        app.mount("/assets", StaticFiles(directory=Path(static) / "assets", check_dir=False), name="assets")
+        app.mount("/assets", CompressedAssets(Path(static) / "assets"), name="assets")
 
         @app.get("/{path:path}", include_in_schema=False)
         def spa(path: str):
@@ -98,8 +98,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 return JSONResponse(status_code=404, content={"detail": {"message": f"no route /{path}"}})
             candidate = (Path(static) / path).resolve()
             if path and candidate.is_file() and candidate.is_relative_to(Path(static).resolve()):
-                return FileResponse(candidate)
-            return FileResponse(Path(static) / "index.html")
+                return index_response(candidate)
+            return index_response(Path(static) / "index.html")
     else:
         @app.get("/", include_in_schema=False)
         def no_gui():
