@@ -4,6 +4,7 @@ import { StrictMode } from "react";
 import { createRoot } from "react-dom/client";
 import { App } from "./App";
 import "./styles.css";
+import "./core.css";
 
 createRoot(document.getElementById("root")!).render(
   <StrictMode>

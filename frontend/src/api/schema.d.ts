@@ -106,8 +106,9 @@ export interface paths {
         };
         /**
          * Get Params
-         * @description The graph's zone-parameter XML (layer > section > zone). After a run it mirrors the current
-         *     geometry, keeping every value already filled in.
+         * @description The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
+         *     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
+         *     `<zone node>.params.xml`, saved here only by an explicit PUT.
          */
         get: operations["get_params_api_graphs__name__params_get"];
         /**
@@ -353,6 +354,12 @@ export interface components {
             example: boolean;
             /** Updated */
             updated: number;
+            /**
+             * Has Params
+             * @description whether GET /api/graphs/{name}/params has a file to return
+             * @default false
+             */
+            has_params: boolean;
         };
         /** HTTPValidationError */
         HTTPValidationError: {
@@ -487,6 +494,11 @@ export interface components {
              * @description saved graph whose files/parameter XML to use
              */
             graph?: string | null;
+            /**
+             * Params Xml
+             * @description with `graph`: draft zone-parameter XML instead of the saved one
+             */
+            params_xml?: string | null;
             /** Inputs */
             inputs?: {
                 [key: string]: unknown;
@@ -617,6 +629,11 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
+            /**
+             * Params Xml
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             */
+            params_xml?: string | null;
         };
         /** RunStatus */
         RunStatus: {

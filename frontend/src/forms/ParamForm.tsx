@@ -86,6 +86,7 @@ function Control({ f, value, shown, onChange, onUpload, id }: { f: FieldSpec; va
                 hidden
                 onChange={async (e) => {
                   const file = e.target.files?.[0];
+                  e.target.value = ""; // picking the same file again must upload again
                   const name = file ? await onUpload(file) : null;
                   if (name) onChange(name);
                 }}
