@@ -13,10 +13,11 @@ import {
 import { MaskView } from "./mask/MaskView";
 import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
+import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
 
-type Tab = "graph" | "mask" | "params" | "results";
-const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"]];
+type Tab = "graph" | "mask" | "params" | "results" | "viewer";
+const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"], ["viewer", "3D view"]];
 
 
 export function App() {
@@ -247,21 +248,12 @@ export function App() {
     fit: () => rf.fitView({ padding: 0.15, duration: 200 }),
   });
 
-  // The 3D view follows the previewed (else the selected) node, and the canvas layer on the mask tab.
-  const followNode = previewNode ?? (selected.size === 1 ? [...selected][0] : null);
-  const followLayer = tab === "mask" ? layer : null;
-  useEffect(() => {
-    if (!healthInfo?.viewer_port) return;
-    const t = setTimeout(() => API.viewerSelect(followNode, followLayer).catch(() => undefined), 150);
-    return () => clearTimeout(t);
-  }, [healthInfo, followNode, followLayer]);
-
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
 
   return (
-    <div className="app">
+    <div className={`app tab-${tab}`}>
       <Toolbar
         graphs={graphs}
         graphName={graphName}
@@ -346,6 +338,11 @@ export function App() {
                 />
               </div>
             )}
+            {tab === "viewer" && (
+              <div className="pane">
+                <Viewer3D health={healthInfo} graph={graphName} runId={run.id} runPhase={run.phase} layer={layer} setLayer={setLayer} onMessage={message} />
+              </div>
+            )}
             {tab === "results" && (
               <div className="pane scroll">
                 <Results recipe={recipe} run={run} artifacts={artifacts} />
@@ -366,13 +363,6 @@ export function App() {
               onUpload={upload}
               onMessage={message}
             />
-          </div>
-          <div className="viewer">
-            {healthInfo && API.viewerUrl(healthInfo) ? (
-              <iframe title="3D view" src={API.viewerUrl(healthInfo)!} data-testid="viewer" />
-            ) : (
-              <div className="muted">3D view not available{healthInfo ? " (viewer not started)" : ""}</div>
-            )}
           </div>
         </aside>
       </div>
