@@ -302,9 +302,50 @@ export interface paths {
         put?: never;
         /**
          * Select
-         * @description Follow a node/layer in the 3D view. A no-op when the preview is off.
+         * @description Follow a recipe (graph or run) and a node/layer in the 3D view. A no-op when the preview is off.
          */
         post: operations["select_api_viewer_select_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/view": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * View
+         * @description Change what the 3D view draws; fields left out keep their value.
+         */
+        post: operations["view_api_viewer_view_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/state": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * State
+         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
+         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         */
+        get: operations["state_api_viewer_state_get"];
+        put?: never;
+        post?: never;
         delete?: never;
         options?: never;
         head?: never;
@@ -737,6 +778,16 @@ export interface components {
              * @description layer index to focus (None = all)
              */
             layer?: number | null;
+            /**
+             * Graph
+             * @description show the latest run of this saved graph (the GUI's open recipe)
+             */
+            graph?: string | null;
+            /**
+             * Run
+             * @description show this run (an unsaved recipe's run is keyed by its run id)
+             */
+            run?: string | null;
         };
         /** ValidationError */
         ValidationError: {
@@ -750,6 +801,65 @@ export interface components {
             input?: unknown;
             /** Context */
             ctx?: Record<string, never>;
+        };
+        /** ViewSettings */
+        ViewSettings: {
+            /**
+             * Hidden
+             * @description node ids whose output is hidden
+             */
+            hidden?: string[] | null;
+            /**
+             * Layer Lo
+             * @description first layer shown
+             */
+            layer_lo?: number | null;
+            /**
+             * Layer Hi
+             * @description last layer shown (inclusive)
+             */
+            layer_hi?: number | null;
+            /**
+             * Path Color
+             * @description toolpath colour
+             */
+            path_color?: ("zone" | "speed" | "arc" | "section") | null;
+            /**
+             * Sim Color
+             * @description simulated path colour
+             */
+            sim_color?: ("deviation" | "speed" | "deposit") | null;
+            /**
+             * Show Programmed
+             * @description draw the programmed path
+             */
+            show_programmed?: boolean | null;
+            /**
+             * Show Simulated
+             * @description draw the simulated path
+             */
+            show_simulated?: boolean | null;
+            /**
+             * Show Robot
+             * @description draw the robot at the playback time
+             */
+            show_robot?: boolean | null;
+            /**
+             * Time S
+             * @description playback time, s
+             */
+            time_s?: number | null;
+            /**
+             * Sim Offset Mm
+             * @description simulated path drawn this far above the programmed one, mm
+             */
+            sim_offset_mm?: number | null;
+            /**
+             * Fit
+             * @description frame the camera on the shown part
+             * @default false
+             */
+            fit: boolean;
         };
     };
     responses: never;
@@ -1386,6 +1496,59 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    view_api_viewer_view_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ViewSettings"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    state_api_viewer_state_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    };
                 };
             };
         };
