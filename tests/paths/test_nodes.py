@@ -72,9 +72,9 @@ def test_study_graph_toolpath_and_artifacts(pattern, expected):
     assert rows["triangular:60"]["outside_share"] == pytest.approx(35.44 / h.triangular(43, 21.5, 60), abs=1e-4)
     assert comp["lowest"]["programmed_length_mm"] == ["triangular:60"]
     svg = res.artifacts["strategy.comparison.svg"].decode()
-    assert svg.startswith("<svg") and svg.count("<rect") == 1 + 4 * 2
-    # the pattern in use is drawn darker, in each of the four panels
-    assert svg.count('fill="#b85c00"') == (4 if pattern == "raster" else 0)
+    assert svg.startswith("<svg") and svg.count("<rect") == 1 + 6 * 2
+    # the pattern in use is drawn darker, in each of the six panels
+    assert svg.count('fill="#b85c00"') == (6 if pattern == "raster" else 0)
 
 
 def test_no_comparison_by_default():
@@ -169,7 +169,7 @@ def test_rectangle_study_recipe_runs_end_to_end(pattern, arc_outside, expected, 
     paths = json.loads(res.artifacts["strategy.paths.json"])
     assert paths["total"]["arc_switches"] == switches
     comp = json.loads(res.artifacts["strategy.comparison.json"])
-    assert len(comp["patterns"]) == 10
+    assert len(comp["patterns"]) == 11
 
 
 def test_comparison_is_memoised_on_section_signatures(monkeypatch):
