@@ -106,8 +106,9 @@ export interface paths {
         };
         /**
          * Get Params
-         * @description The graph's zone-parameter XML (layer > section > zone). After a run it mirrors the current
-         *     geometry, keeping every value already filled in.
+         * @description The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
+         *     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
+         *     `<zone node>.params.xml`, saved here only by an explicit PUT.
          */
         get: operations["get_params_api_graphs__name__params_get"];
         /**
@@ -321,6 +322,36 @@ export interface components {
             /** Size */
             size: number;
         };
+        /**
+         * CoverageJSON
+         * @description Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local.
+         */
+        CoverageJSON: {
+            /** Key */
+            key: string;
+            /** Region Area Mm2 */
+            region_area_mm2: number;
+            /** Footprint Area Mm2 */
+            footprint_area_mm2: number;
+            /** Void Area Mm2 */
+            void_area_mm2: number;
+            /** Overlap Area Mm2 */
+            overlap_area_mm2: number;
+            /** Over Deposit Area Mm2 */
+            over_deposit_area_mm2: number;
+            /** Void Share */
+            void_share: number;
+            /** Overlap Share */
+            overlap_share: number;
+            /** Bead Width Mm */
+            bead_width_mm: number;
+            /** Cell Mm */
+            cell_mm: number;
+            /** Void */
+            void: components["schemas"]["PolygonJSON"][];
+            /** Overlap */
+            overlap: components["schemas"]["PolygonJSON"][];
+        };
         /** EdgeEntry */
         EdgeEntry: {
             /**
@@ -487,10 +518,26 @@ export interface components {
              * @description saved graph whose files/parameter XML to use
              */
             graph?: string | null;
+            /**
+             * Params Xml
+             * @description with `graph`: draft zone-parameter XML instead of the saved one
+             */
+            params_xml?: string | null;
             /** Inputs */
             inputs?: {
                 [key: string]: unknown;
             };
+            /**
+             * Coverage
+             * @description also return each path's bead coverage (void/overlap polygons)
+             * @default false
+             */
+            coverage: boolean;
+            /**
+             * Bead Width
+             * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
+             */
+            bead_width?: number | null;
         };
         /** PreviewResponse */
         PreviewResponse: {
@@ -507,6 +554,8 @@ export interface components {
             } | null;
             /** Ms */
             ms: number;
+            /** Coverage */
+            coverage?: components["schemas"]["CoverageJSON"][] | null;
         };
         /** ProcessParameterInfo */
         ProcessParameterInfo: {
@@ -617,6 +666,11 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
+            /**
+             * Params Xml
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             */
+            params_xml?: string | null;
         };
         /** RunStatus */
         RunStatus: {

@@ -19,7 +19,7 @@ from ...engine.executor import execute
 from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides, parse_recipe
 from ..deps import ServicesDep
-from ..schemas import LayerJSON, SectionJSON, SectionPathJSON
+from ..schemas import LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON
 from ..store import valid_graph_name
 
 router = APIRouter(tags=["preview"])
@@ -40,6 +40,23 @@ class PreviewRequest(BaseModel):
                                                  "node, else the strategy's default bead_width, else 6)")
 
 
+class CoverageJSON(BaseModel):
+    """Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local."""
+
+    key: str
+    region_area_mm2: float
+    footprint_area_mm2: float
+    void_area_mm2: float
+    overlap_area_mm2: float
+    over_deposit_area_mm2: float
+    void_share: float
+    overlap_share: float
+    bead_width_mm: float
+    cell_mm: float
+    void: list[PolygonJSON]
+    overlap: list[PolygonJSON]
+
+
 class PreviewResponse(BaseModel):
     layer: LayerJSON | None
     sections: list[SectionJSON]
@@ -47,7 +64,7 @@ class PreviewResponse(BaseModel):
     layer_count: int | None
     error: dict[str, Any] | None
     ms: float
-    coverage: list[dict[str, Any]] | None = None
+    coverage: list[CoverageJSON] | None = None
 
 
 def _item(value: Any, index: int) -> Any:
