@@ -54,3 +54,45 @@ def test_csv_errors_name_row_and_column():
         read_trials(good.replace("5.5", "x"))
     with pytest.raises(InputFileError, match="lacks column"):
         read_trials("wfs,ts,width\n1,2,3\n")
+
+
+def test_bead_model_node_takes_its_height_law_from_a_fit(tmp_path):
+    """curved-duct with a bead-fit connected: each segment's speed inverts the fitted height law."""
+    import json
+    import math
+    from pathlib import Path
+
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+    rng = np.random.default_rng(1)
+    rows = ["wfs,ts,width,height"]
+    for wfs in (6.0, 8.0, 10.0):
+        for ts in (6.0, 9.0, 12.0, 16.0, 20.0):
+            h = 3.2 * wfs ** 0.3 * ts ** -0.35 * (1 + 0.01 * rng.standard_normal())
+            rows.append(f"{wfs},{ts},{5 * wfs ** 0.5 * ts ** -0.4:.4f},{h:.4f}")
+    csv_path = tmp_path / "trials.csv"
+    csv_path.write_text("\n".join(rows) + "\n")
+    recipe = json.loads((graphs / "curved-duct.json").read_text())
+    recipe["nodes"].append({"id": "fit", "type": "bead-fit", "params": {"trials": str(csv_path)}})
+    for n in recipe["nodes"]:
+        if n["type"] == "bead-model":
+            n["params"]["wfs"] = 8.0
+    recipe["edges"].append({"from": "fit.model", "to": "bead.model"})
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+    fit = res.outputs["fit"]["model"]
+    tp = res.outputs["bead"]["toolpath"]
+    dth = math.radians(1.54)
+    checked = 0
+    for lp in list(tp)[::20]:
+        sp = lp.sections[0]
+        mid = 0.5 * (sp.points[1:] + sp.points[:-1])
+        r = (mid - lp.layer.frame[:3, 3]) @ lp.layer.frame[:3, 0]
+        for need, v in zip(r * dth, sp.speed):
+            # the node inverts the quadratic fitted to the power law at 8 m/min: within 1 %
+            assert fit.height(8.0, v) == pytest.approx(need, rel=0.01)
+            checked += 1
+    assert checked > 50
+    assert not [w for w in res.warnings if "clamped" in str(w)]

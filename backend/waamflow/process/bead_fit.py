@@ -180,6 +180,15 @@ class BeadFit:
         """WFS (m/min) giving the target height at travel speed ts (mm/s)."""
         return float((height_mm / (self.height.a * ts ** self.height.c)) ** (1.0 / self.height.b))
 
+    def height_polynomial(self, wfs: float | None = None) -> tuple[float, float, float, float, float]:
+        """The height law at a fixed WFS (m/min; default the middle of the trials) as the curved-parts
+        study's form H(Ts) = a2·Ts² + a1·Ts + a0 with Ts in mm/min, least squares over the trials'
+        travel-speed range: (a2, a1, a0, ts_min, ts_max), for the bead-model node."""
+        wfs = 0.5 * (self.wfs_range[0] + self.wfs_range[1]) if wfs is None else wfs
+        ts = np.linspace(self.ts_range[0], self.ts_range[1], 200)      # mm/s
+        a2, a1, a0 = np.polyfit(ts * 60.0, self.height(wfs, ts), 2)
+        return float(a2), float(a1), float(a0), self.ts_range[0] * 60.0, self.ts_range[1] * 60.0
+
     def in_range(self, wfs: float, ts: float) -> bool:
         return (self.wfs_range[0] * 0.999 <= wfs <= self.wfs_range[1] * 1.001
                 and self.ts_range[0] * 0.999 <= ts <= self.ts_range[1] * 1.001)
