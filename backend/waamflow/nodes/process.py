@@ -60,7 +60,7 @@ class CoverageNode(LayerNode):
               Port("sections", "sections", "The sections the paths fill"))
     outputs = (Port("coverage", "coverage", "Per layer: coverage of each section"),)
     over = "toolpath"
-    version = "1"
+    version = "2"  # 2: overlap outlines smoothed
 
     class Params(NodeParams):
         bead_width: float = Field(6.0, gt=0.05, le=100, json_schema_extra=unit("mm"),
@@ -84,7 +84,7 @@ class CoverageNode(LayerNode):
             row = {"key": sp.key, **cov.summary()}
             if params.polygons:
                 row["void"] = _geom_json(cov.void)
-                row["overlap"] = _geom_json(cov.overlap.simplify(cov.cell * 0.25))
+                row["overlap"] = _geom_json(cov.overlap_outline())
             rows.append(row)
         return {"coverage": {"index": index, "z": float(lp.layer.z), "sections": rows}}
 

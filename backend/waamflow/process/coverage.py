@@ -50,6 +50,13 @@ class Coverage:
     bead_width: float
     cell: float
 
+    def overlap_outline(self):
+        """The overlap polygons for display: the grid's staircase smoothed (simplified within
+        0.75 cell), slivers under one cell dropped. The area figures stay the grid's."""
+        g = self.overlap.simplify(0.75 * self.cell)
+        parts = [p for p in shapely.get_parts(g) if isinstance(p, Polygon) and p.area >= self.cell ** 2]
+        return shapely.MultiPolygon(parts) if parts else Polygon()
+
     def summary(self) -> dict:
         r = self.region_area
         return {

@@ -133,7 +133,7 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
         if sp.key in regions:
             cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width)
             out.append({"key": sp.key, **cov.summary(), "void": _geom_json(cov.void),
-                        "overlap": _geom_json(cov.overlap.simplify(cov.cell * 0.25))})
+                        "overlap": _geom_json(cov.overlap_outline())})
     return out
 
 
