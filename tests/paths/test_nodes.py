@@ -147,7 +147,8 @@ def test_rectangle_study_recipe_inputs_match_the_contract():
     data = json.loads((ROOT / "graphs" / "rectangle-study.json").read_text())
     assert data["format"] == "waamflow/1"
     assert data["inputs"] == {"length": 43, "width": 21.5, "spacing": 4.43, "pattern": "raster", "angle_deg": 45,
-                              "arc_outside": "on", "speed": 10, "cdis": 5, "wire_feed_mm3_s": 94.25}
+                              "arc_outside": "on", "speed": 10, "cdis": 5, "wire_feed_mm3_s": 94.25,
+                              "compensate": "off"}   # v2 (issue 16): wire-feed compensation off | on
     sim = [n for n in data["nodes"] if n["id"] == "simulate"]
     assert sim and sim[0]["type"] == "simulate-robot"
     assert sim[0]["params"]["cdis"] == "$cdis" and sim[0]["params"]["wire_feed_mm3_s"] == "$wire_feed_mm3_s"
