@@ -363,6 +363,36 @@ export interface components {
             /** Size */
             size: number;
         };
+        /**
+         * CoverageJSON
+         * @description Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local.
+         */
+        CoverageJSON: {
+            /** Key */
+            key: string;
+            /** Region Area Mm2 */
+            region_area_mm2: number;
+            /** Footprint Area Mm2 */
+            footprint_area_mm2: number;
+            /** Void Area Mm2 */
+            void_area_mm2: number;
+            /** Overlap Area Mm2 */
+            overlap_area_mm2: number;
+            /** Over Deposit Area Mm2 */
+            over_deposit_area_mm2: number;
+            /** Void Share */
+            void_share: number;
+            /** Overlap Share */
+            overlap_share: number;
+            /** Bead Width Mm */
+            bead_width_mm: number;
+            /** Cell Mm */
+            cell_mm: number;
+            /** Void */
+            void: components["schemas"]["PolygonJSON"][];
+            /** Overlap */
+            overlap: components["schemas"]["PolygonJSON"][];
+        };
         /** EdgeEntry */
         EdgeEntry: {
             /**
@@ -544,6 +574,17 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
+            /**
+             * Coverage
+             * @description also return each path's bead coverage (void/overlap polygons)
+             * @default false
+             */
+            coverage: boolean;
+            /**
+             * Bead Width
+             * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
+             */
+            bead_width?: number | null;
         };
         /** PreviewResponse */
         PreviewResponse: {
@@ -560,6 +601,8 @@ export interface components {
             } | null;
             /** Ms */
             ms: number;
+            /** Coverage */
+            coverage?: components["schemas"]["CoverageJSON"][] | null;
         };
         /** ProcessParameterInfo */
         ProcessParameterInfo: {
