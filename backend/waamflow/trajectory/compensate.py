@@ -8,9 +8,11 @@ mm"; ~7 mm³/mm jumps at 40 mm/s).
 
 How (one simulation, then exact): arc-ON segments are split into pieces of at most `step_mm`
 (collinear vertices: the motion is unchanged). The controller model (`simulate_program`, the same
-settings as simulate-robot) gives each piece's arc time T_i and length L_i; the programmed deposit
-is q_i = rate_i / v_i (rate from the zone's wire feed speed, else the constant feed). Since the
-motion does not depend on the wire feed, the feed that lays q_i·L_i in T_i is
+settings as simulate-robot) gives each piece's arc time T_i and the length L_i the robot really
+travels on it (shorter than programmed where it cuts a corner: the bead is laid along the actual
+path); the programmed deposit is q_i = rate_i / v_i (rate from the zone's wire feed speed, else
+the constant feed). Since the motion does not depend on the wire feed, the feed that lays q_i·L_i
+in T_i is
 
     rate_i' = rate_i · q_i / (V_i / L_i),      V_i = rate_i·T_i the uncompensated volume,
 
