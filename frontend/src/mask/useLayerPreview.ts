@@ -1,6 +1,7 @@
 import { useEffect, useRef, useState } from "react";
 import { ApiError, preview } from "../api/client";
 import type { LayerJson, Preview, Recipe, RunError } from "../api/types";
+import { publishSectionKeys } from "../forms/sectionKeys";
 import { ancestors, engineView } from "../graph/recipe";
 
 export interface PreviewState {
@@ -39,6 +40,7 @@ export function useLayerPreview(
       .then((data) => {
         if (ctl.signal.aborted) return;
         if (editStarted.current === t0) editStarted.current = null;
+        if (data.sections.length) publishSectionKeys(data.sections.map((x) => x.key));
         setState((s) => ({ ...s, data, error: data.error, loading: false, editT0: t0 }));
       })
       .catch((e) => {

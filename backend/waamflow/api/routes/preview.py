@@ -147,6 +147,7 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)
     resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
+    svc.check_sandbox(graph, resolver)  # → 422 before anything is read
     error = None
     node = req.node
     try:
