@@ -26,6 +26,11 @@ path-synchronous outputs (KRL TRIGGER WHEN DISTANCE, ABB TriggL), which do not s
 run. Not modelled: the feeder's own response time (~50-100 ms on push-pull CMT drives), which
 smooths the steps.
 
+Why the feed and not the travel speed: the slow-downs are the controller's (full stops at arc
+switches, corner speed caps, jerk-limited ramps); a higher programmed speed does not lift them, so
+travel speed cannot even the deposit where it is uneven. The feed follows the speed instead, as
+the welding power source's synergic line then follows the feed.
+
 The measure: `deposit_per_mm_cv`, the coefficient of variation (length-weighted std / mean) of
 the deposited volume per mm in 1 mm bins of actual arc-ON path length, from the simulated trace
 (standstills with the arc burning add their volume to the bin where they happen).
