@@ -87,6 +87,16 @@ def sandbox_problem(path: str, resolver: FileResolver) -> str | None:
     return None
 
 
+def parse_api_recipe(data: Any) -> Recipe:
+    """`parse_recipe` for a request body: whatever JSON arrives, a bad recipe is a RecipeError (422)."""
+    try:
+        return parse_recipe(data)
+    except RecipeError:
+        raise
+    except (TypeError, ValueError, AttributeError, KeyError, IndexError) as e:
+        raise RecipeError(f"invalid recipe: {e}") from None
+
+
 @dataclass
 class Services:
     settings: Settings

@@ -14,8 +14,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-GRAPH_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _.-]{0,79}$")
-FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,119}$")
+# the same patterns (+ max lengths 80 / 120) are declared in the OpenAPI schema (deps.py); a dot is
+# never followed by a dot, so '..' cannot occur (no look-ahead: JSON Schema and pydantic's engine)
+GRAPH_NAME_PATTERN = r"^[A-Za-z0-9](?:[A-Za-z0-9 _-]|\.[A-Za-z0-9 _-])*\.?$"
+FILE_NAME_PATTERN = r"^[A-Za-z0-9](?:[A-Za-z0-9_-]|\.[A-Za-z0-9_-])*\.?$"
+RUN_ID_PATTERN = r"^[A-Za-z0-9]{1,40}$"
+GRAPH_NAME = re.compile(GRAPH_NAME_PATTERN)
+FILE_NAME = re.compile(FILE_NAME_PATTERN)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS graphs (
@@ -33,11 +38,11 @@ CREATE TABLE IF NOT EXISTS events (run TEXT NOT NULL, seq INTEGER NOT NULL, data
 
 
 def valid_graph_name(name: str) -> bool:
-    return bool(GRAPH_NAME.match(name)) and ".." not in name
+    return len(name) <= 80 and bool(GRAPH_NAME.match(name)) and ".." not in name
 
 
 def valid_file_name(name: str) -> bool:
-    return bool(FILE_NAME.match(name)) and ".." not in name
+    return len(name) <= 120 and bool(FILE_NAME.match(name)) and ".." not in name
 
 
 class Store:

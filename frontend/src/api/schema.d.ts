@@ -106,8 +106,9 @@ export interface paths {
         };
         /**
          * Get Params
-         * @description The graph's zone-parameter XML (layer > section > zone). After a run it mirrors the current
-         *     geometry, keeping every value already filled in.
+         * @description The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
+         *     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
+         *     `<zone node>.params.xml`, saved here only by an explicit PUT.
          */
         get: operations["get_params_api_graphs__name__params_get"];
         /**
@@ -169,7 +170,11 @@ export interface paths {
         /** List Runs */
         get: operations["list_runs_api_runs_get"];
         put?: never;
-        /** Start Run */
+        /**
+         * Start Run
+         * @description Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
+         *     429: the run queue is full (Retry-After).
+         */
         post: operations["start_run_api_runs_post"];
         delete?: never;
         options?: never;
@@ -334,6 +339,53 @@ export interface components {
              */
             to: string;
         };
+        /**
+         * ErrorDetail
+         * @description Where and what: the same fields as a failed run's `error` (core/errors.py).
+         */
+        ErrorDetail: {
+            /**
+             * Kind
+             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             */
+            kind: string;
+            /** Message */
+            message: string;
+            /**
+             * Node
+             * @description node id the error is about
+             */
+            node?: string | null;
+            /**
+             * Layer
+             * @description layer index
+             */
+            layer?: number | null;
+            /**
+             * Section
+             * @description section key
+             */
+            section?: string | null;
+            /**
+             * Field
+             * @description parameter or request field
+             */
+            field?: string | null;
+            /**
+             * Text
+             * @description one line for people: location + message
+             */
+            text: string;
+            /**
+             * Errors
+             * @description every violation of a request schema (422)
+             */
+            errors?: components["schemas"]["ValidationItem"][] | null;
+        };
+        /** ErrorResponse */
+        ErrorResponse: {
+            detail: components["schemas"]["ErrorDetail"];
+        };
         /** FileInfo */
         FileInfo: {
             /** Name */
@@ -354,11 +406,6 @@ export interface components {
             /** Updated */
             updated: number;
         };
-        /** HTTPValidationError */
-        HTTPValidationError: {
-            /** Detail */
-            detail?: components["schemas"]["ValidationError"][];
-        };
         /** Health */
         Health: {
             /** Status */
@@ -371,6 +418,11 @@ export interface components {
             viewer_port: number | null;
             /** Workers */
             workers: number;
+            /**
+             * Auth Required
+             * @description the other routes need 'Authorization: Bearer <token>'
+             */
+            auth_required: boolean;
         };
         /** LayerJSON */
         LayerJSON: {
@@ -467,7 +519,7 @@ export interface components {
         PreviewRequest: {
             /**
              * Recipe
-             * @description the current (possibly unsaved) recipe
+             * @description the current (possibly unsaved) recipe (see Recipe)
              */
             recipe: {
                 [key: string]: unknown;
@@ -487,11 +539,20 @@ export interface components {
              * @description saved graph whose files/parameter XML to use
              */
             graph?: string | null;
+            /**
+             * Params Xml
+             * @description with `graph`: draft zone-parameter XML instead of the saved one
+             */
+            params_xml?: string | null;
             /** Inputs */
             inputs?: {
                 [key: string]: unknown;
             };
-        };
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** PreviewResponse */
         PreviewResponse: {
             layer: components["schemas"]["LayerJSON"] | null;
@@ -596,7 +657,25 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
-        /** RunRequest */
+        /** RunListItem */
+        RunListItem: {
+            /** Id */
+            id: string;
+            /** Graph */
+            graph: string | null;
+            /** Status */
+            status: string;
+            /** Progress */
+            progress: number | null;
+            /** Created */
+            created: number;
+            /** Finished */
+            finished: number | null;
+        };
+        /**
+         * RunRequest
+         * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         */
         RunRequest: {
             /**
              * Graph
@@ -605,7 +684,7 @@ export interface components {
             graph?: string | null;
             /**
              * Recipe
-             * @description an inline recipe (e.g. unsaved edits)
+             * @description an inline recipe (e.g. unsaved edits; see Recipe)
              */
             recipe?: {
                 [key: string]: unknown;
@@ -617,7 +696,16 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
-        };
+            /**
+             * Params Xml
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             */
+            params_xml?: string | null;
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** RunStatus */
         RunStatus: {
             /** Id */
@@ -626,9 +714,10 @@ export interface components {
             graph: string | null;
             /**
              * Status
+             * @description interrupted: the server stopped while the run was queued or running
              * @enum {string}
              */
-            status: "queued" | "running" | "done" | "failed" | "cancelled";
+            status: "queued" | "running" | "done" | "failed" | "cancelled" | "interrupted";
             /** Progress */
             progress: number;
             /** Error */
@@ -721,18 +810,12 @@ export interface components {
              */
             layer?: number | null;
         };
-        /** ValidationError */
-        ValidationError: {
-            /** Location */
+        /** ValidationItem */
+        ValidationItem: {
+            /** Loc */
             loc: (string | number)[];
-            /** Message */
+            /** Msg */
             msg: string;
-            /** Error Type */
-            type: string;
-            /** Input */
-            input?: unknown;
-            /** Context */
-            ctx?: Record<string, never>;
         };
     };
     responses: never;
@@ -781,6 +864,15 @@ export interface operations {
                     "application/json": components["schemas"]["NodeInfo"][];
                 };
             };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
         };
     };
     process_parameters_api_process_parameters_get: {
@@ -799,6 +891,15 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ProcessParameterInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -821,6 +922,15 @@ export interface operations {
                     "application/json": components["schemas"]["GraphInfo"][];
                 };
             };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
         };
     };
     get_graph_api_graphs__name__get: {
@@ -828,7 +938,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -844,13 +954,31 @@ export interface operations {
                     "application/json": components["schemas"]["Recipe"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -860,7 +988,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -880,13 +1008,58 @@ export interface operations {
                     "application/json": components["schemas"]["SaveResult"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Created */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SaveResult"];
+                };
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -896,7 +1069,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -910,13 +1083,40 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -926,7 +1126,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -939,16 +1139,34 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/xml": unknown;
+                    "application/xml": string;
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -958,7 +1176,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -970,19 +1188,64 @@ export interface operations {
         };
         responses: {
             /** @description Successful Response */
-            200: {
+            204: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -992,7 +1255,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1008,13 +1271,31 @@ export interface operations {
                     "application/json": components["schemas"]["FileInfo"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1024,8 +1305,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
+                /** @description file name: letters, digits, _ . - (no '..'); ≤ 120 chars */
                 filename: string;
             };
             cookie?: never;
@@ -1043,13 +1325,58 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1071,18 +1398,25 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    }[];
+                    "application/json": components["schemas"]["RunListItem"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1109,13 +1443,49 @@ export interface operations {
                     "application/json": components["schemas"]["RunCreated"];
                 };
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Run queue full (see Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1125,6 +1495,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1140,13 +1511,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunStatus"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1156,6 +1545,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1171,13 +1561,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunStatus"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1189,6 +1597,7 @@ export interface operations {
                 "last-event-id"?: string | null;
             };
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1201,16 +1610,34 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": unknown;
+                    "text/event-stream": string;
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1222,6 +1649,7 @@ export interface operations {
             };
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1237,13 +1665,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunEvent"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1253,6 +1699,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1268,13 +1715,31 @@ export interface operations {
                     "application/json": components["schemas"]["ArtifactInfo"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1284,7 +1749,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
+                /** @description artifact file name */
                 name: string;
             };
             cookie?: never;
@@ -1296,15 +1763,36 @@ export interface operations {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/octet-stream": string;
+                    "text/plain": string;
+                };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1331,13 +1819,40 @@ export interface operations {
                     "application/json": components["schemas"]["PreviewResponse"];
                 };
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1362,13 +1877,31 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };

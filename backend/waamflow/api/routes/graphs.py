@@ -9,8 +9,10 @@ from pydantic import BaseModel
 
 from ...core.errors import RecipeError
 from ...engine.graph import build_graph
-from ...engine.recipe import Recipe, parse_recipe
+from ...engine.recipe import Recipe
+from ..services import parse_api_recipe
 from ..deps import FileName, GraphName, ServicesDep
+from ..schemas import errors
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
 
@@ -41,12 +43,13 @@ def _writable(svc, name: str) -> None:
                                                     "save it under another name (save as)"})
 
 
-@router.get("", response_model=list[GraphInfo])
+@router.get("", response_model=list[GraphInfo], responses=errors(401))
 def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
     return [GraphInfo(**g) for g in svc.store.list_graphs()]
 
 
-@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True)
+@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True,
+            responses=errors(401, 404, 422))
 def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     recipe = svc.store.get_graph(name)
     if recipe is None:
@@ -54,7 +57,8 @@ def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     return recipe
 
 
-@router.put("/{name}", response_model=SaveResult,
+@router.put("/{name}", response_model=SaveResult, responses={201: {"model": SaveResult, "description": "Created"},
+                                                                **errors(401, 409, 413, 422)},
             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
                 "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
 def put_graph(name: GraphName, svc: ServicesDep, response: Response,
@@ -62,7 +66,7 @@ def put_graph(name: GraphName, svc: ServicesDep, response: Response,
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
     unconnected input while the user is still wiring) is saved and its problems are returned."""
     _writable(svc, name)
-    parsed = parse_recipe(recipe)  # RecipeError → 422 via the app's handler
+    parsed = parse_api_recipe(recipe)  # RecipeError → 422 via the app's handler
     parsed = parsed.model_copy(update={"name": name})
     problems: list[dict] = []
     try:
@@ -74,7 +78,7 @@ def put_graph(name: GraphName, svc: ServicesDep, response: Response,
     return SaveResult(name=name, created=created, problems=problems)
 
 
-@router.delete("/{name}", status_code=204)
+@router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 404, 409, 422))
 def delete_graph(name: GraphName, svc: ServicesDep) -> Response:
     _writable(svc, name)
     if not svc.store.delete_graph(name):
@@ -83,7 +87,7 @@ def delete_graph(name: GraphName, svc: ServicesDep) -> Response:
 
 
 @router.get("/{name}/params", response_class=Response,
-            responses={200: {"content": {"application/xml": {}}}})
+            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
 def get_params(name: GraphName, svc: ServicesDep) -> Response:
     """The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
@@ -96,7 +100,7 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
     return Response(xml, media_type="application/xml")
 
 
-@router.put("/{name}/params", response_class=Response,
+@router.put("/{name}/params", response_class=Response, status_code=204, responses=errors(400, 401, 404, 409, 413, 422),
             openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
 async def put_params(name: GraphName, svc: ServicesDep, request: Request) -> Response:
     """Replace the graph's zone-parameter XML (validated: numbers, units, ranges)."""
@@ -117,7 +121,7 @@ async def put_params(name: GraphName, svc: ServicesDep, request: Request) -> Res
     return Response(status_code=204)
 
 
-@router.get("/{name}/files", response_model=list[FileInfo])
+@router.get("/{name}/files", response_model=list[FileInfo], responses=errors(401, 404, 422))
 def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
@@ -125,6 +129,7 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
 
 
 @router.put("/{name}/files/{filename}", status_code=204, response_class=Response,
+            responses=errors(400, 401, 404, 409, 413, 422),
             openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}, "required": True}})
 async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, request: Request) -> Response:
     """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`."""
