@@ -5,6 +5,7 @@ import { createRoot } from "react-dom/client";
 import "./api/auth"; // first: wraps fetch before the API client captures it
 import { App } from "./App";
 import "./styles.css";
+import "./core.css";
 
 createRoot(document.getElementById("root")!).render(
   <StrictMode>

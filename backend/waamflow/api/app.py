@@ -10,8 +10,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
@@ -22,6 +21,7 @@ from .auth import AuthMiddleware, load_tokens, needs_auth
 from .routes import graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
+from .static import CompressedAssets, index_response
 from .worker import Limits, RunManager
 
 log = logging.getLogger("waamflow.server")
@@ -161,7 +161,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():
-        app.mount("/assets", StaticFiles(directory=Path(static) / "assets", check_dir=False), name="assets")
+        app.mount("/assets", CompressedAssets(Path(static) / "assets"), name="assets")
 
         @app.get("/{path:path}", include_in_schema=False)
         def spa(path: str):
@@ -169,8 +169,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 return _err(404, {"message": f"no route /{path}"})
             candidate = (Path(static) / path).resolve()
             if path and candidate.is_file() and candidate.is_relative_to(Path(static).resolve()):
-                return FileResponse(candidate)
-            return FileResponse(Path(static) / "index.html")
+                return index_response(candidate)
+            return index_response(Path(static) / "index.html")
     else:
         @app.get("/", include_in_schema=False)
         def no_gui():

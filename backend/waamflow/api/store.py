@@ -72,12 +72,13 @@ class Store:
 
     # graphs
     def list_graphs(self) -> list[dict]:
-        rows = self._query("SELECT name, recipe, example, updated FROM graphs ORDER BY name")
+        rows = self._query("SELECT name, recipe, example, updated, coalesce(length(params_xml), 0) > 0 AS has_params "
+                           "FROM graphs ORDER BY name")
         out = []
         for r in rows:
             rec = json.loads(r["recipe"])
             out.append({"name": r["name"], "description": rec.get("description", ""),
-                        "example": bool(r["example"]), "updated": r["updated"]})
+                        "example": bool(r["example"]), "updated": r["updated"], "has_params": bool(r["has_params"])})
         return out
 
     def get_graph(self, name: str) -> dict | None:

@@ -306,9 +306,50 @@ export interface paths {
         put?: never;
         /**
          * Select
-         * @description Follow a node/layer in the 3D view. A no-op when the preview is off.
+         * @description Follow a recipe (graph or run) and a node/layer in the 3D view. A no-op when the preview is off.
          */
         post: operations["select_api_viewer_select_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/view": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * View
+         * @description Change what the 3D view draws; fields left out keep their value.
+         */
+        post: operations["view_api_viewer_view_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/state": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * State
+         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
+         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         */
+        get: operations["state_api_viewer_state_get"];
+        put?: never;
+        post?: never;
         delete?: never;
         options?: never;
         head?: never;
@@ -325,6 +366,36 @@ export interface components {
             name: string;
             /** Size */
             size: number;
+        };
+        /**
+         * CoverageJSON
+         * @description Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local.
+         */
+        CoverageJSON: {
+            /** Key */
+            key: string;
+            /** Region Area Mm2 */
+            region_area_mm2: number;
+            /** Footprint Area Mm2 */
+            footprint_area_mm2: number;
+            /** Void Area Mm2 */
+            void_area_mm2: number;
+            /** Overlap Area Mm2 */
+            overlap_area_mm2: number;
+            /** Over Deposit Area Mm2 */
+            over_deposit_area_mm2: number;
+            /** Void Share */
+            void_share: number;
+            /** Overlap Share */
+            overlap_share: number;
+            /** Bead Width Mm */
+            bead_width_mm: number;
+            /** Cell Mm */
+            cell_mm: number;
+            /** Void */
+            void: components["schemas"]["PolygonJSON"][];
+            /** Overlap */
+            overlap: components["schemas"]["PolygonJSON"][];
         };
         /** EdgeEntry */
         EdgeEntry: {
@@ -405,6 +476,12 @@ export interface components {
             example: boolean;
             /** Updated */
             updated: number;
+            /**
+             * Has Params
+             * @description whether GET /api/graphs/{name}/params has a file to return
+             * @default false
+             */
+            has_params: boolean;
         };
         /** Health */
         Health: {
@@ -548,6 +625,17 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
+            /**
+             * Coverage
+             * @description also return each path's bead coverage (void/overlap polygons)
+             * @default false
+             */
+            coverage: boolean;
+            /**
+             * Bead Width
+             * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
+             */
+            bead_width?: number | null;
         } & (unknown | {
             params_xml?: null;
         } | {
@@ -568,6 +656,8 @@ export interface components {
             } | null;
             /** Ms */
             ms: number;
+            /** Coverage */
+            coverage?: components["schemas"]["CoverageJSON"][] | null;
         };
         /** ProcessParameterInfo */
         ProcessParameterInfo: {
@@ -809,6 +899,16 @@ export interface components {
              * @description layer index to focus (None = all)
              */
             layer?: number | null;
+            /**
+             * Graph
+             * @description show the latest run of this saved graph (the GUI's open recipe)
+             */
+            graph?: string | null;
+            /**
+             * Run
+             * @description show this run (an unsaved recipe's run is keyed by its run id)
+             */
+            run?: string | null;
         };
         /** ValidationItem */
         ValidationItem: {
@@ -816,6 +916,65 @@ export interface components {
             loc: (string | number)[];
             /** Msg */
             msg: string;
+        };
+        /** ViewSettings */
+        ViewSettings: {
+            /**
+             * Hidden
+             * @description node ids whose output is hidden
+             */
+            hidden?: string[] | null;
+            /**
+             * Layer Lo
+             * @description first layer shown
+             */
+            layer_lo?: number | null;
+            /**
+             * Layer Hi
+             * @description last layer shown (inclusive)
+             */
+            layer_hi?: number | null;
+            /**
+             * Path Color
+             * @description toolpath colour
+             */
+            path_color?: ("zone" | "speed" | "arc" | "section") | null;
+            /**
+             * Sim Color
+             * @description simulated path colour
+             */
+            sim_color?: ("deviation" | "speed" | "deposit") | null;
+            /**
+             * Show Programmed
+             * @description draw the programmed path
+             */
+            show_programmed?: boolean | null;
+            /**
+             * Show Simulated
+             * @description draw the simulated path
+             */
+            show_simulated?: boolean | null;
+            /**
+             * Show Robot
+             * @description draw the robot at the playback time
+             */
+            show_robot?: boolean | null;
+            /**
+             * Time S
+             * @description playback time, s
+             */
+            time_s?: number | null;
+            /**
+             * Sim Offset Mm
+             * @description simulated path drawn this far above the programmed one, mm
+             */
+            sim_offset_mm?: number | null;
+            /**
+             * Fit
+             * @description frame the camera on the shown part
+             * @default false
+             */
+            fit: boolean;
         };
     };
     responses: never;
@@ -1897,6 +2056,95 @@ export interface operations {
             };
             /** @description Invalid request, recipe or file */
             422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    view_api_viewer_view_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ViewSettings"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    state_api_viewer_state_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    };
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
                 headers: {
                     [name: string]: unknown;
                 };

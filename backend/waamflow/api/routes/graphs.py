@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Body, HTTPException, Request, Response
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 from ...core.errors import RecipeError
 from ...engine.graph import build_graph
@@ -22,6 +22,7 @@ class GraphInfo(BaseModel):
     description: str
     example: bool
     updated: float
+    has_params: bool = Field(False, description="whether GET /api/graphs/{name}/params has a file to return")
 
 
 class SaveResult(BaseModel):
