@@ -164,9 +164,9 @@ def build_services(settings: Settings) -> Services:
     disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
     cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
     svc = Services(settings, store, cache)
-    n = store.interrupted_runs_to_failed()
+    n = store.mark_interrupted()
     if n:
-        log.warning("%d runs were interrupted by the last shutdown and are marked failed", n)
+        log.warning("%d runs were interrupted by the last shutdown and are marked interrupted", n)
     seed_examples(svc)
     return svc
 

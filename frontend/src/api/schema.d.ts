@@ -356,6 +356,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/audit": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Audit Log
+         * @description Newest first.
+         */
+        get: operations["audit_log_api_audit_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -366,6 +386,35 @@ export interface components {
             name: string;
             /** Size */
             size: number;
+        };
+        /** AuditEntry */
+        AuditEntry: {
+            /** Id */
+            id: number;
+            /**
+             * Time
+             * @description Unix time, s
+             */
+            time: number;
+            /**
+             * Who
+             * @description name of the token used ('anonymous' on a server without tokens)
+             */
+            who: string | null;
+            /**
+             * Action
+             * @description save_graph, delete_graph, save_params, upload_file, run, cancel_run
+             */
+            action: string;
+            /**
+             * Target
+             * @description graph name
+             */
+            target: string | null;
+            /** Detail */
+            detail: {
+                [key: string]: unknown;
+            } | null;
         };
         /**
          * CoverageJSON
@@ -2145,6 +2194,50 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    audit_log_api_audit_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+                /** @description entries older than this id (paging) */
+                before?: number | null;
+                who?: string | null;
+                action?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AuditEntry"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
                 headers: {
                     [name: string]: unknown;
                 };

@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides
 from ..services import parse_api_recipe
-from ..deps import ArtifactName, RunId, ServicesDep
+from ..deps import ArtifactName, RunId, ServicesDep, UserDep
 from ..schemas import RUN_REQUEST_RULES, RunEvent, errors
 from ..store import GRAPH_NAME_PATTERN
 
@@ -82,7 +82,7 @@ def _get_run(svc, run_id: str) -> dict:
 
 
 @router.post("", status_code=202, response_model=RunCreated, responses=errors(401, 404, 422, 429))
-def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
+def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
     """Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
     429: the run queue is full (Retry-After)."""
     if req.graph is not None:
@@ -100,6 +100,7 @@ def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
     recipe = svc.prepare(req.graph, recipe, req.params_xml)
     svc.check_sandbox(build_graph(recipe), svc.resolver_for(req.graph, recipe, req.params_xml))  # → 422
     run_id = svc.runs.submit(req.graph, recipe, req.params_xml)  # validates the graph: RecipeError → 422
+    svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None})
     return RunCreated(id=run_id)
 
 
@@ -180,8 +181,9 @@ def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileRes
 
 
 @router.delete("/{run_id}", status_code=202, response_model=RunStatus, responses=errors(401, 404, 422))
-def cancel_run(run_id: RunId, svc: ServicesDep) -> RunStatus:
+def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep) -> RunStatus:
     """Cancel a queued or running run (finished runs are left as they are)."""
-    _get_run(svc, run_id)
-    svc.runs.cancel(run_id)
+    run = _get_run(svc, run_id)
+    if svc.runs.cancel(run_id):
+        svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id})
     return get_run(run_id, svc)
