@@ -25,7 +25,7 @@ async function copyOf(example, name) {
 
 async function openGraph(page, name, tab) {
   await page.goto(`${srv.base}/?graph=${encodeURIComponent(name)}${tab ? `&tab=${tab}` : ""}`);
-  await page.waitForSelector(`.toolbar .title:text-is("${name}")`);
+  await page.waitForSelector(`.toolbar .title:text-is("${name}")`, { timeout: 60_000 });
   await page.waitForSelector(".react-flow__node", { state: "attached" });
 }
 

@@ -21,8 +21,12 @@ export function NodeSearch({ specs, at, onPick, onClose }: { specs: readonly Nod
   const [i, setI] = useState(0);
   const hits = useMemo(() => searchNodes(specs, q), [specs, q]);
   const list = useRef<HTMLUListElement>(null);
-  useEffect(() => setI(0), [q]);
-  useEffect(() => list.current?.children[i]?.scrollIntoView({ block: "nearest" }), [i]);
+  useEffect(() => {
+    setI(0);
+  }, [q]);
+  useEffect(() => {
+    list.current?.children[i]?.scrollIntoView({ block: "nearest" });
+  }, [i]);
   return (
     <div className="node-search" style={{ left: at.x, top: at.y }} data-testid="node-search" role="dialog" aria-label="add a node">
       <input
