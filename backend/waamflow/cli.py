@@ -107,11 +107,32 @@ def cmd_serve(args) -> int:
     from .api.app import create_app
     from .settings import Settings
 
+    from .api.auth import load_tokens
+
+    extra = {"token_file": Path(args.token_file)} if args.token_file else {}
     settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
-                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None)
+                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None, **extra)
+    tokens = load_tokens(settings.token, settings.token_file)  # TokenFileError → exit 2
+    if not tokens and not _loopback(args.host):
+        print(f"error: refusing to serve on {args.host} without authentication: set a token with "
+              "WAAMFLOW_TOKEN=<secret> (e.g. `export WAAMFLOW_TOKEN=$(python -c 'import secrets; "
+              "print(secrets.token_urlsafe(32))')`) or --token-file FILE (lines name:token), "
+              "or serve on 127.0.0.1", file=sys.stderr)
+        return 2
     app = create_app(settings)
     uvicorn.run(app, host=args.host, port=args.port, log_level="info")
     return 0
+
+
+def _loopback(host: str) -> bool:
+    import ipaddress
+
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 def cmd_openapi(args) -> int:
@@ -149,6 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--data", default="data", help="folder for the database and run files")
     s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: ./graphs)")
     s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
+    s.add_argument("--token-file", default=None,
+                   help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)
 
     o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")

@@ -20,11 +20,12 @@ import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
 import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
 import { ProblemsPanel } from "./problems/ProblemsPanel";
+import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
 import { boundsByName, saveBlocker } from "./xml/params";
 
-type Tab = "graph" | "mask" | "params" | "results";
-const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"]];
+type Tab = "graph" | "mask" | "params" | "results" | "viewer";
+const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"], ["viewer", "3D view"]];
 const asTab = (t: string | null): Tab => (TABS.some(([k]) => k === t) ? (t as Tab) : "graph");
 
 
@@ -400,15 +401,6 @@ export function App() {
     },
   });
 
-  // The 3D view follows the previewed (else the selected) node, and the canvas layer on the mask tab.
-  const followNode = previewNode ?? (selected.size === 1 ? [...selected][0] : null);
-  const followLayer = tab === "mask" ? layer : null;
-  useEffect(() => {
-    if (!healthInfo?.viewer_port) return;
-    const t = setTimeout(() => API.viewerSelect(followNode, followLayer).catch(() => undefined), 150);
-    return () => clearTimeout(t);
-  }, [healthInfo, followNode, followLayer]);
-
   const problems = useMemo(() => collectProblems(run.warnings, [requestError, run.error]), [run.warnings, run.error, requestError]);
   const nodeProblems = useMemo(() => problemsByNode(problems), [problems]);
   const pickProblem = (pr: Problem) => {
@@ -455,7 +447,7 @@ export function App() {
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
 
   return (
-    <div className="app">
+    <div className={`app tab-${tab}`}>
       <Toolbar
         graphs={graphs}
         graphName={graphName}
@@ -561,6 +553,11 @@ export function App() {
                 />
               </div>
             )}
+            {tab === "viewer" && (
+              <div className="pane">
+                <Viewer3D health={healthInfo} graph={graphName} runId={run.id} runPhase={run.phase} layer={layer} setLayer={setLayer} onMessage={message} />
+              </div>
+            )}
             {tab === "results" && (
               <div className="pane scroll">
                 <Results recipe={recipe} run={run} artifacts={artifacts} />
@@ -581,13 +578,6 @@ export function App() {
               onUpload={upload}
               onMessage={message}
             />
-          </div>
-          <div className="viewer">
-            {healthInfo && API.viewerUrl(healthInfo) ? (
-              <iframe title="3D view" src={API.viewerUrl(healthInfo)!} data-testid="viewer" />
-            ) : (
-              <div className="muted">3D view not available{healthInfo ? " (viewer not started)" : ""}</div>
-            )}
           </div>
         </aside>
       </div>

@@ -95,3 +95,59 @@ class SectionPathJSON(BaseModel):
     zone_params: dict[str, dict[str, float]] | None = None
     approach: list[list[float]] | None = None
     tool_axis: list[list[float]] | None = None
+
+
+# ---- the one error model of every 4xx answer --------------------------------------------------
+ERROR_KINDS = ("bad_request", "unauthorized", "not_found", "method_not_allowed", "conflict", "too_large",
+               "invalid_request", "invalid_recipe", "invalid_input", "planning_failed", "outside_sandbox",
+               "busy", "error")
+
+
+class ValidationItem(BaseModel):
+    loc: list[str | int]
+    msg: str
+
+
+class ErrorDetail(BaseModel):
+    """Where and what: the same fields as a failed run's `error` (core/errors.py)."""
+
+    kind: str = Field(description="machine-readable class: " + ", ".join(ERROR_KINDS))
+    message: str
+    node: str | None = Field(None, description="node id the error is about")
+    layer: int | None = Field(None, description="layer index")
+    section: str | None = Field(None, description="section key")
+    field: str | None = Field(None, description="parameter or request field")
+    text: str = Field(description="one line for people: location + message")
+    errors: list[ValidationItem] | None = Field(None, description="every violation of a request schema (422)")
+
+
+class ErrorResponse(BaseModel):
+    detail: ErrorDetail
+
+
+STATUS_KIND = {400: "bad_request", 401: "unauthorized", 404: "not_found", 405: "method_not_allowed",
+               409: "conflict", 413: "too_large", 422: "invalid_request", 429: "busy"}
+STATUS_TEXT = {400: "Bad request", 401: "Missing or wrong bearer token", 404: "Not found",
+               409: "Conflict (e.g. a read-only example)", 413: "Too large", 422: "Invalid request, recipe or file",
+               429: "Run queue full (see Retry-After)"}
+
+
+def error_body(status: int, detail: Any) -> dict:
+    """Any error detail (string, dict from an HTTPException, WaamflowError.to_dict()) → ErrorResponse JSON."""
+    if isinstance(detail, dict):
+        d = dict(detail)
+    else:
+        d = {"message": str(detail) if detail else STATUS_TEXT.get(status, "error")}
+    d.setdefault("kind", STATUS_KIND.get(status, "error"))
+    d.setdefault("message", STATUS_TEXT.get(status, "error"))
+    for k in ("node", "layer", "section", "field"):
+        d.setdefault(k, None)
+    if not d.get("text"):
+        loc = ", ".join(f"{k} {d[k]!r}" for k in ("node", "layer", "section", "field") if d.get(k) is not None)
+        d["text"] = f"{loc}: {d['message']}" if loc else d["message"]
+    return {"detail": ErrorDetail.model_validate(d).model_dump(exclude_none=False)}
+
+
+def errors(*statuses: int) -> dict:
+    """`responses=` of a route: each status it can answer with, all with the ErrorResponse body."""
+    return {s: {"model": ErrorResponse, "description": STATUS_TEXT.get(s, "error")} for s in statuses}

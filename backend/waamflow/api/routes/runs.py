@@ -11,6 +11,7 @@ from fastapi import APIRouter, Header, HTTPException, Response
 from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides, parse_recipe
 from ..deps import ServicesDep
 from ..schemas import RunEvent
@@ -85,6 +86,7 @@ def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
 
         validate_xml(req.params_xml)  # RecipeError (naming layer/section/zone) → 422
     recipe = svc.prepare(req.graph, recipe, req.params_xml)
+    svc.check_sandbox(build_graph(recipe), svc.resolver_for(req.graph, recipe, req.params_xml))  # → 422
     run_id = svc.runs.submit(req.graph, recipe, req.params_xml)  # validates the graph: RecipeError → 422
     return RunCreated(id=run_id)
 
