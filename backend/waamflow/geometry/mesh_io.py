@@ -26,7 +26,7 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import MeshData
 from .topology import check_closed, drop_degenerate, merge_vertices, signed_volume
-from .transform import Transform, unit_scale
+from .transform import THREEMF_UNITS, Transform, placement_offset, size_warning, unit_scale
 
 MESH_FORMATS = ("stl", "obj", "ply", "3mf")
 
@@ -181,6 +181,86 @@ def mesh_from_triangles(
     if signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
     return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name)
+
+
+def threemf_units(data: bytes, filename: str = "mesh.3mf") -> str:
+    """Unit of a 3MF package: the `unit` attribute of its root <model> (3MF core spec: micron,
+    millimeter, centimeter, inch, foot, meter; default millimeter) → um/mm/cm/in/ft/m."""
+    import zipfile
+
+    from defusedxml.ElementTree import iterparse
+
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            names = [n for n in z.namelist() if n.lower().endswith(".model")]
+            main = next((n for n in names if n.lower().lstrip("/") == "3d/3dmodel.model"), names[0] if names else None)
+            if main is None:
+                raise InputFileError(f"{filename}: 3MF package has no .model part")
+            with z.open(main) as f:
+                for _event, el in iterparse(f, events=("start",)):
+                    unit = el.attrib.get("unit", "millimeter")
+                    break
+                else:
+                    unit = "millimeter"
+    except (zipfile.BadZipFile, KeyError) as exc:
+        raise InputFileError(f"{filename}: not a 3MF package (zip): {exc}") from exc
+    except Exception as exc:  # XML parse errors of every kind
+        if isinstance(exc, InputFileError):
+            raise
+        raise InputFileError(f"{filename}: unreadable 3MF model XML: {exc}") from exc
+    if unit not in THREEMF_UNITS:
+        raise InputFileError(f"{filename}: unknown 3MF unit {unit!r}; the 3MF spec allows {', '.join(THREEMF_UNITS)}")
+    return THREEMF_UNITS[unit]
+
+
+def file_units(data: bytes, fmt: str, filename: str) -> str | None:
+    """The length unit a mesh file declares, or None when the format has no unit (STL, OBJ, PLY)."""
+    return threemf_units(data, filename) if fmt == "3mf" else None
+
+
+@dataclass(frozen=True)
+class MeshLoad:
+    """A loaded part and how it was read. units: the unit used; units_from: "file", "param" or
+    "default". offset: (3,) mm translation of the placement. notes: warnings for the user."""
+
+    mesh: MeshData
+    units: str
+    units_from: str
+    offset: tuple[float, float, float]
+    notes: tuple[str, ...]
+
+
+def load_mesh(
+    data: bytes,
+    filename: str,
+    *,
+    units: str | None = None,
+    transform: Transform = Transform(),
+    placement: str = "as_is",
+    limits: MeshLimits = MeshLimits(),
+    weld_tolerance: float = 0.0,
+) -> MeshLoad:
+    """Like `load_mesh_bytes`, with the unit from the file when `units` is None ("auto": the 3MF
+    unit attribute; mm for formats without units), a placement applied after the transform
+    (`transform.placement_offset`), and a size plausibility check (`transform.size_warning`)."""
+    fmt = mesh_format(filename)
+    declared = file_units(data, fmt, filename)
+    used, origin = (units, "param") if units else ((declared, "file") if declared else ("mm", "default"))
+    mesh = load_mesh_bytes(data, filename, units=used, transform=transform, limits=limits,
+                           weld_tolerance=weld_tolerance)
+    notes = []
+    if units and declared and declared != units:
+        notes.append(f"{filename}: file says {declared}, the 'units' param overrides it with {units}")
+    b = mesh.bounds
+    warn = size_warning(float((b[1] - b[0]).max()), used, f"{used}, {origin}")
+    if warn:
+        notes.append(f"{filename}: {warn}")
+    off = placement_offset(b, placement)
+    if placement != "as_is":
+        mesh = MeshData(vertices=mesh.vertices + off, faces=mesh.faces, name=mesh.name)
+        notes.append(f"{filename}: placed {placement}: translated by "
+                     f"({off[0]:.3f}, {off[1]:.3f}, {off[2]:.3f}) mm after the transform")
+    return MeshLoad(mesh=mesh, units=used, units_from=origin, offset=tuple(float(v) for v in off), notes=tuple(notes))
 
 
 def load_mesh_bytes(

@@ -4,7 +4,10 @@ JSON: ``{"curves": [[[x, y], ...], ...], "height": h, "z0": z}`` ("height", "z0"
 node's params win). A closed curve repeats its first point.
 
 DXF (modelspace, via ezdxf): LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D),
-ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT (block references, exploded). Arcs are
+ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT (block references exploded by ezdxf's
+`virtual_entities`, nested blocks recursively, MINSERT arrays through `multi_insert`). ASCII
+and binary DXF; the unit comes from the header's $INSUNITS unless the caller sets it; any
+layout (modelspace by default, or a paperspace layout by name). Arcs are
 discretised so that no chord deviates from the true arc by more than `arc_tolerance`: a chord
 spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
 Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coordinates.
@@ -29,17 +32,22 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
-from .transform import unit_scale
+from .transform import DXF_INSUNITS, size_warning, unit_scale
 
 SKETCH_FORMATS = ("json", "dxf")
 
 
 @dataclass(frozen=True)
 class SketchResult:
-    """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count."""
+    """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count.
+    units: the unit the file's coordinates were read in; units_from: "file", "param" or
+    "default". notes: warnings for the user (implausible size, overridden file unit)."""
 
     midsurface: Midsurface
     skipped: dict[str, int]
+    units: str = "mm"
+    units_from: str = "default"
+    notes: tuple[str, ...] = ()
 
 
 # ------------------------------------------------------------------------------------------
@@ -216,45 +224,72 @@ def load_sketch_bytes(
     *,
     height: float | None = None,
     z0: float | None = None,
-    units: str = "mm",
+    units: str | None = None,
     arc_tolerance: float = 0.01,
     join: bool = True,
+    layout: str = "Model",
 ) -> SketchResult:
     """Parse a JSON or DXF sketch into a Midsurface in mm.
 
+    units: the file's length unit; None ("auto") = the DXF header's $INSUNITS, else mm.
     height, z0: mm; when None, taken from the JSON file (in file units); height is required one
     way or the other, z0 defaults to 0. arc_tolerance: max chordal deviation of arcs (mm).
+    layout: the DXF layout to read ("Model" = modelspace, or a paperspace layout's name).
     """
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     name = PurePosixPath(filename).stem
-    scale = unit_scale(units)
     skipped: dict[str, int] = {}
+    declared = None
     if ext == "json":
         raw, file_h, file_z0 = _json_curves(data, filename)
-        curves = raw
+        doc = None
     elif ext == "dxf":
-        # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_curves(data, filename, arc_tolerance / scale)
+        doc = read_dxf(data, filename)
+        declared = dxf_units(doc)
         file_h = file_z0 = None
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
+    used, origin = (units, "param") if units else ((declared, "file") if declared else ("mm", "default"))
+    scale = unit_scale(used)
+    if doc is not None:
+        # DXF coordinates are in file units; discretise with the tolerance in file units
+        curves, skipped = dxf_curves(doc, filename, arc_tolerance / scale, layout=layout)
+    else:
+        curves = raw
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
         height = file_h * scale
     if z0 is None:
         z0 = (file_z0 or 0.0) * scale
+    if not curves and skipped:
+        raise InputFileError(f"{filename}: no sketch curves in layout {layout!r}; skipped entities: {skipped_text(skipped)}")
     mid = sketch_from_curves(
         curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
-    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name), skipped=skipped)
+    notes = []
+    if units and declared and declared != units:
+        notes.append(f"{filename}: file says {declared}, the 'units' param overrides it with {units}")
+    pts = np.vstack(mid.curves)
+    extent = float(max((pts.max(axis=0) - pts.min(axis=0)).max(), 0.0))
+    warn = size_warning(extent, used, f"{used}, {origin}")
+    if warn:
+        notes.append(f"{filename}: {warn}")
+    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name),
+                        skipped=skipped, units=used, units_from=origin, notes=tuple(notes))
+
+
+def skipped_text(skipped: dict[str, int]) -> str:
+    """"HATCH ×3, TEXT ×1": every skipped entity type with its count, most frequent first."""
+    return ", ".join(f"{t} ×{n}" for t, n in sorted(skipped.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
 # ------------------------------------------------------------------------------------------
 # DXF
 # ------------------------------------------------------------------------------------------
-def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
+def read_dxf(data: bytes, filename: str):
+    """An ezdxf document from ASCII or binary DXF bytes (ezdxf's recover mode: tolerant of the
+    structural errors many exporters make)."""
     from ezdxf import recover
     from ezdxf.lldxf.const import DXFStructureError
 
@@ -262,9 +297,34 @@ def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray]
         doc, _auditor = recover.read(io.BytesIO(data))
     except (DXFStructureError, UnicodeDecodeError, ValueError) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
+    return doc
+
+
+def dxf_units(doc) -> str | None:
+    """The drawing unit from the header's $INSUNITS (inch, foot, mm, cm, m, µm, dm), or None when
+    unitless (0) or a unit no part is drawn in (miles, light years...)."""
+    try:
+        code = int(doc.header.get("$INSUNITS", 0))
+    except (TypeError, ValueError):
+        return None
+    return DXF_INSUNITS.get(code)
+
+
+def dxf_curves(doc, filename: str, tol: float, *, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from one layout of a DXF document, and the skipped entity
+    types → counts. layout: "Model" (modelspace) or a paperspace layout's name."""
+    if isinstance(doc, (bytes, bytearray)):
+        doc = read_dxf(bytes(doc), filename)
+    names = list(doc.layouts.names())
+    if layout.lower() == "model":
+        space = doc.modelspace()
+    elif layout in names:
+        space = doc.layouts.get(layout)
+    else:
+        raise InputFileError(f"{filename}: no layout {layout!r}; the drawing has {', '.join(names)}")
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
-    for e in doc.modelspace():
+    for e in space:
         _entity_curves(e, filename, tol, curves, skipped, depth=0)
     return curves, skipped
 
@@ -337,8 +397,10 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
     elif t == "INSERT":
         if depth > 16:
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
-        for sub in e.virtual_entities():
-            _entity_curves(sub, filename, tol, out, skipped, depth + 1)
+        # MINSERT (row/column array): one virtual INSERT per copy; nested blocks recurse
+        for ins in (e.multi_insert() if e.mcount > 1 else (e,)):
+            for sub in ins.virtual_entities():
+                _entity_curves(sub, filename, tol, out, skipped, depth + 1)
     else:
         skipped[t] = skipped.get(t, 0) + 1
 

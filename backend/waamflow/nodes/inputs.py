@@ -10,11 +10,13 @@ from typing import Literal
 
 from pydantic import Field
 
-from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
+from ..geometry import MeshLimits, Transform, load_mesh, load_sketch_bytes
+from ..geometry.sketch import skipped_text
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
-LengthUnit = Literal["mm", "cm", "m", "in"]
+LengthUnit = Literal["auto", "um", "mm", "cm", "dm", "m", "in", "ft"]
+Placement = Literal["as_is", "build_plate", "centred"]
 Vec3 = tuple[float, float, float]
 
 
@@ -29,7 +31,11 @@ class TransformParams(NodeParams):
 class MeshNode(Node):
     """A solid part from a triangle mesh file: STL (binary or ASCII), OBJ, PLY or 3MF.
 
-    Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
+    Coordinates are converted from `units` to mm (auto: the 3MF file's unit attribute; mm for
+    STL/OBJ/PLY, which carry no unit), then scaled, rotated (x, y, z) and translated, then placed
+    (`placement`: as_is; build_plate = lowest point to z 0; centred = x/y bounding-box centre to
+    the origin and lowest point to z 0; the translation is reported as a warning). A part under
+    5 mm or over 5 m across is reported as a probable unit mistake.
     Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
     snapped to the same grid point). The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
@@ -44,8 +50,10 @@ class MeshNode(Node):
 
     class Params(NodeParams):
         path: FileRef = Field(description="Mesh file (.stl, .obj, .ply, .3mf), relative to the recipe")
-        units: LengthUnit = Field("mm", description="Length unit of the file's coordinates")
+        units: LengthUnit = Field("auto", description="Length unit of the file's coordinates (auto: from the file, else mm)")
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
+        placement: Placement = Field("as_is", description="After the transform: as_is, build_plate (z min → 0) or "
+                                                          "centred (x/y centre → origin, z min → 0)")
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
         weld_tolerance: float = Field(0.0, ge=0, le=1.0,
@@ -55,15 +63,18 @@ class MeshNode(Node):
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         t = params.transform
-        mesh = load_mesh_bytes(
+        res = load_mesh(
             data,
             params.path,
-            units=params.units,
+            units=None if params.units == "auto" else params.units,
             transform=Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale),
+            placement=params.placement,
             limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
             weld_tolerance=params.weld_tolerance,
         )
-        return {"mesh": mesh}
+        for note in res.notes:
+            ctx.warn(note)
+        return {"mesh": res.mesh}
 
 
 @register
@@ -91,7 +102,9 @@ class SketchNode(Node):
         z0: float | None = Field(None, ge=-10_000, le=10_000,
                                  description="Bottom of the extrusion; default: the JSON file's 'z0', else 0",
                                  json_schema_extra=unit("mm"))
-        units: LengthUnit = Field("mm", description="Length unit of the file's coordinates")
+        units: LengthUnit = Field("auto", description="Length unit of the file's coordinates (auto: DXF $INSUNITS, else mm)")
+        layout: str = Field("Model", min_length=1, max_length=255,
+                            description="DXF layout to read: Model (modelspace) or a paperspace layout's name")
         arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
                                      json_schema_extra=unit("mm"))
         join: bool = Field(True, description="Join curves that meet end to end into one polyline")
@@ -100,11 +113,13 @@ class SketchNode(Node):
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         res = load_sketch_bytes(
-            data, params.path, height=params.height, z0=params.z0, units=params.units,
-            arc_tolerance=params.arc_tolerance, join=params.join,
+            data, params.path, height=params.height, z0=params.z0,
+            units=None if params.units == "auto" else params.units,
+            arc_tolerance=params.arc_tolerance, join=params.join, layout=params.layout,
         )
         if res.skipped:
-            kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
-            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {kinds}")
+            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {skipped_text(res.skipped)}")
+        for note in res.notes:
+            ctx.warn(note)
         return {"mesh": res.midsurface}
 
