@@ -23,6 +23,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import struct
 from dataclasses import dataclass
 from pathlib import PurePosixPath
 from typing import Any, Iterable
@@ -294,8 +295,16 @@ def read_dxf(data: bytes, filename: str):
     from ezdxf.lldxf.const import DXFStructureError
 
     try:
-        doc, _auditor = recover.read(io.BytesIO(data))
-    except (DXFStructureError, UnicodeDecodeError, ValueError) as exc:
+        if data.startswith(b"AutoCAD Binary DXF"):
+            # what ezdxf.readfile does for a binary file, without the file: binary tags → Drawing
+            from ezdxf.document import Drawing
+            from ezdxf.lldxf.tagger import binary_tags_loader
+
+            doc = Drawing.load(binary_tags_loader(data, errors="surrogateescape"))
+            doc.audit()
+        else:
+            doc, _auditor = recover.read(io.BytesIO(data))
+    except (DXFStructureError, UnicodeDecodeError, ValueError, IndexError, struct.error) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
     return doc
 
