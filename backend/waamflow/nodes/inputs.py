@@ -36,8 +36,9 @@ class MeshNode(Node):
     (`placement`: as_is; build_plate = lowest point to z 0; centred = x/y bounding-box centre to
     the origin and lowest point to z 0; the translation is reported as a warning). A part under
     5 mm or over 5 m across is reported as a probable unit mistake.
-    Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
-    snapped to the same grid point). The mesh must be closed (watertight,
+    Corners that are bit-identical in the file are welded; where open edges remain, vertices on
+    them closer than `weld_tolerance` are merged too (reported as a warning). A binary or ASCII
+    STL under another extension is recognised by its content. The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
     non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
     triangles are refused.
@@ -56,8 +57,9 @@ class MeshNode(Node):
                                                           "centred (x/y centre → origin, z min → 0)")
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
-        weld_tolerance: float = Field(0.0, ge=0, le=1.0,
-                                      description="Snap corners to a grid of this pitch before welding (0: exact)",
+        weld_tolerance: float = Field(0.001, ge=0, le=1.0,
+                                      description="Merge vertices on open edges closer than this (cracks, seam gaps; "
+                                                  "0: bit-identical corners only)",
                                       json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
