@@ -13,7 +13,7 @@ from ..core.errors import RecipeError
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import check_templates
+from ..program.common import check_templates, stamp_trace
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -104,7 +104,8 @@ class PostProcess(Node):
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
         program: Program = outputs["program"]
-        return dict(program.files)
+        trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
+        return stamp_trace(program.format, dict(program.files), trace)
 
 
 def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:
