@@ -257,6 +257,7 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
             bytes_signature(shapely.to_wkb(item.region)),
             [bytes_signature(shapely.to_wkb(c)) for c in item.curves],
             None if item.frame is None else item.frame.round(9).tolist(),
+            *([[list(map(float, j)) for j in item.joints]] if getattr(item, "joints", ()) else []),
         )
     return fallback
 

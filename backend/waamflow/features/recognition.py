@@ -403,8 +403,36 @@ def _sharp_vertices(c: np.ndarray, tol: float, corner_angle_deg: float, skip: li
     return out
 
 
-def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0) -> list[dict]:
-    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts."""
+def _joint_vertices(curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, int]]:
+    """Joints (points where the sketch joined two walls end to end into one polyline) that are a
+    vertex of a curve and not already a junction: (point, angle between the walls (deg), curve)."""
+    out = []
+    for q in joints:
+        q = np.asarray(q, dtype=float)
+        if any(np.hypot(*(q - s)) <= tol for s in skip):
+            continue
+        for ci, c in enumerate(curves):
+            closed = is_closed(c, tol)
+            pts = c[:-1] if closed else c
+            d = np.hypot(*(pts - q).T)
+            k = int(np.argmin(d))
+            if d[k] > tol or (not closed and k in (0, len(pts) - 1)):
+                continue
+            n = len(pts)
+            u, v = _unit(pts[(k - 1) % n] - pts[k]), _unit(pts[(k + 1) % n] - pts[k])
+            if np.any(u) and np.any(v):
+                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), ci))
+            break
+    return out
+
+
+def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0,
+              joints=()) -> list[dict]:
+    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts.
+
+    joints: (x, y) points where the sketch joined two walls end to end into one polyline; each is
+    reported as a `corner` or `continuous` junction (by `corner_angle_deg`) with its angle, like
+    the junction of two separate curves, so no junction disappears because curves were joined."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     curves = [c for c in curves if len(c) >= 2]
     tol = spec.merge_tol
@@ -435,6 +463,12 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
             f = base("corner", p, [ci])
             f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE["corner"]))
             feats.append(f)
+    for p, between, ci in _joint_vertices(curves, joints, tol, jpts):
+        if 180.0 - between >= spec.corner_angle_deg:
+            continue                                      # a sharp vertex: reported as a corner above
+        f = base("continuous", p, [ci])
+        f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE["continuous"]))
+        feats.append(f)
     lines = [LineString(c) for c in curves]
     for members in find_loops(curves, junctions, kinds, tol):
         ring = chain_loop(curves, members, tol)
@@ -461,7 +495,7 @@ def recognise_layers(layers, spec: RecognitionSpec = RecognitionSpec(), *, every
         dg = curves_digest([c.coords for c in layer.curves])
         if dg in seen:
             continue
-        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z))
+        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z, joints=layer.joints))
         digests[layer.index] = dg
         seen.add(dg)
         if not every_layer:
@@ -479,4 +513,4 @@ def features_for_layer(fs: FeatureSet, layer) -> list[dict]:
     for idx, d in fs.layers.items():
         if d == dg:
             return [dict(f, layer=layer.index, z=round(float(layer.z), 6)) for f in fs.of_layer(idx)]
-    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z)
+    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z, joints=layer.joints)
