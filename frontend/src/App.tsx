@@ -4,6 +4,7 @@ import * as API from "./api/client";
 import type { Artifact, GraphInfo, Health, NodeSpec, ProcessParameter, Recipe, RunError } from "./api/types";
 import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
+import { Tabs, tabPanelProps } from "./components/Tabs";
 import { Toolbar } from "./components/Toolbar";
 import { GraphEditor } from "./graph/GraphEditor";
 import { useShortcuts } from "./graph/useShortcuts";
@@ -284,15 +285,9 @@ export function App() {
           <Palette specs={specs} onAdd={(t) => addAt(t)} />
         </aside>
         <main className="center">
-          <nav className="tabs">
-            {TABS.map(([t, label]) => (
-              <button key={t} className={tab === t ? "active" : ""} onClick={() => setTab(t)} data-tab={t}>
-                {label}
-              </button>
-            ))}
-          </nav>
+          <Tabs tabs={TABS} active={tab} onChange={setTab} label="views" />
           <div className="tab-body">
-            <div className={`pane ${tab === "graph" ? "" : "hidden"}`}>
+            <div className={`pane ${tab === "graph" ? "" : "hidden"}`} {...tabPanelProps("graph")}>
               <GraphEditor
                 recipe={recipe}
                 catalog={catalog}
@@ -308,7 +303,7 @@ export function App() {
               />
             </div>
             {tab === "mask" && (
-              <div className="pane">
+              <div className="pane" {...tabPanelProps("mask")}>
                 <MaskView
                   key={graphName ?? "unsaved"}
                   recipe={recipe}
@@ -326,7 +321,7 @@ export function App() {
               </div>
             )}
             {tab === "params" && (
-              <div className="pane scroll">
+              <div className="pane scroll" {...tabPanelProps("params")}>
                 <ParamsEditor
                   graph={graphName}
                   runId={run.phase === "done" ? run.id : null}
@@ -339,12 +334,12 @@ export function App() {
               </div>
             )}
             {tab === "viewer" && (
-              <div className="pane">
+              <div className="pane" {...tabPanelProps("viewer")}>
                 <Viewer3D health={healthInfo} graph={graphName} runId={run.id} runPhase={run.phase} layer={layer} setLayer={setLayer} onMessage={message} />
               </div>
             )}
             {tab === "results" && (
-              <div className="pane scroll">
+              <div className="pane scroll" {...tabPanelProps("results")}>
                 <Results recipe={recipe} run={run} artifacts={artifacts} />
               </div>
             )}

@@ -37,7 +37,7 @@ export const Palette = memo(function Palette({ specs, onAdd }: { specs: NodeSpec
                 ))}
               </span>
               {s.title}
-              <button className="add" title="add to graph" onClick={() => onAdd(s.type)}>
+              <button className="add" title="add to graph" aria-label={`add ${s.title}`} onClick={() => onAdd(s.type)}>
                 +
               </button>
             </div>
