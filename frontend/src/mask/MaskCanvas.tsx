@@ -5,6 +5,7 @@
  * Drawing is in layer mm; SVG y = −y so the part is seen from above with y up.
  */
 import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent } from "react";
+import { CoverageLayer } from "./CoverageLayer";
 import type { LayerJson, Preview, PreviewPath } from "../api/types";
 import {
   boundaryCrossings, closestOnPolyline, dist, pointAtLength, polygonPathD, polygonVertices, ringPathD, snapPoint,
@@ -336,6 +337,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             />
           ) : null,
         )}
+        <CoverageLayer coverage={p.preview?.coverage} />
         {paths.map((q) => (
           <PathView key={`p-${q.key}`} path={q} zone={p.zone} r={r} colorBy={p.colorBy} speed={speed} bead={p.beadWidthOf(q.key)} />
         ))}

@@ -36,7 +36,7 @@ export function useLayerPreview(
     const ctl = new AbortController();
     const t0 = editStarted.current;
     setState((s) => ({ ...s, loading: true }));
-    preview({ recipe, node, layer, graph }, ctl.signal)
+    preview({ recipe, node, layer, graph, coverage: true }, ctl.signal)
       .then((data) => {
         if (ctl.signal.aborted) return;
         if (editStarted.current === t0) editStarted.current = null;
@@ -67,7 +67,7 @@ export function useLayerPreview(
       const k = `${sliceKey}|${i}`;
       if (ghostCache.current.has(k)) return ghostCache.current.get(k)!;
       try {
-        const p = await preview({ recipe, node: sliceNode, layer: i, graph }, ctl.signal);
+        const p = await preview({ recipe, node: sliceNode, layer: i, graph, coverage: false }, ctl.signal);
         ghostCache.current.set(k, p.layer);
         return p.layer;
       } catch {
