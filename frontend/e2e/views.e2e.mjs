@@ -136,7 +136,7 @@ test("inspector: strategy, zone and mesh transform are forms (no JSON), labelled
     );
     assert.deepEqual(bad, [], `${what}: controls past the window's right edge`);
   };
-  for (const id of ["strategy", "zone", "part"]) {
+  for (const id of ["strategy", "zone", "part", "mask", "guide"]) {
     await page.click(`.react-flow__node[data-id="${id}"]`);
     await page.waitForSelector(`[data-testid=inspector] h3:has-text("${id === "part" ? "mesh" : id}")`);
     assert.equal(await page.locator("[data-testid=inspector] textarea").count(), 0, `${id}: no JSON textarea`);
@@ -146,6 +146,8 @@ test("inspector: strategy, zone and mesh transform are forms (no JSON), labelled
     await shot(page, `inspector-${id}`);
   }
   // mesh transform: translate / rotate as x, y, z inputs
+  await page.click('.react-flow__node[data-id="part"]');
+  await page.waitForSelector('[data-testid=inspector] [data-field="translate"]');
   assert.equal(await page.locator('[data-testid=inspector] [data-field="translate"] input').count(), 3);
   // strategy: section picker lists the previewed layer's sections; a section's speed edits the recipe
   await page.click('.react-flow__node[data-id="strategy"]');
