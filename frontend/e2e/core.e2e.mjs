@@ -25,7 +25,7 @@ async function copyOf(example, name) {
 
 async function openGraph(page, name, tab) {
   await page.goto(`${srv.base}/?graph=${encodeURIComponent(name)}${tab ? `&tab=${tab}` : ""}`);
-  await page.waitForSelector(`.toolbar .title:text-is("${name}")`);
+  await page.waitForSelector(`.toolbar .title:text-is("${name}")`, { timeout: 60_000 });
   await page.waitForSelector(".react-flow__node", { state: "attached" });
 }
 
@@ -49,9 +49,18 @@ test("a run never changes what was saved: save as, new mask from layer 4, run un
   await page.click("[data-tab=mask]");
   await page.waitForSelector("[data-testid=mask-canvas] .layer-poly");
   await page.fill(".mask-panel .layer-row input[type=number]", "4");
+  await page.waitForSelector('[data-path="bs1/C"]'); // the layer's regions are known
+  const dialogs = [];
+  page.on("dialog", (d) => dialogs.push(d.message()));
   await page.click("[data-testid=new-mask]");
   await page.waitForSelector('[data-mask="bs2"]');
   assert.equal(await page.locator("[data-testid=save]").innerText(), "save *");
+  // Before confirming, the user saw what is carried over (matched by region overlap on layer 4).
+  const said = dialogs.find((m) => m.startsWith("New mask bs2 from layer 4"));
+  assert.ok(said, `confirmation shown: ${dialogs}`);
+  for (const line of ["guide · guides: bs1/A → bs2/A", "guide · guides: bs1/C → bs2/C", "strategy · sections: bs1/A → bs2/A", "zone · sections: bs1/A → bs2/A", "XML values: bs1/B → bs2/B on 4 layer(s)"])
+    assert.ok(said.includes(line), `${line} in:\n${said}`);
+  assert.match(said, /Everything carried over/);
   await expectRun(page, srv.base, "done");
 
   // Nothing saved changed: the XML byte for byte, and the recipe.
@@ -72,6 +81,22 @@ test("a run never changes what was saved: save as, new mask from layer 4, run un
   assert.equal(await api(srv.base, "/api/graphs/core-cross/params"), merged);
   const recipe = await api(srv.base, "/api/graphs/core-cross");
   assert.deepEqual(recipe.nodes.find((n) => n.type === "mask").params.masks.map((m) => [m.id, m.from_layer]), [["bs1", 0], ["bs2", 4]]);
+  const byType = (t) => recipe.nodes.find((n) => n.type === t).params;
+  assert.deepEqual(byType("guide").guides["bs2/B"], byType("guide").guides["bs1/B"]);
+  assert.deepEqual(byType("strategy").sections["bs2/A"], byType("strategy").sections["bs1/A"]);
+  assert.deepEqual(byType("zone").sections["bs2/A"], byType("zone").sections["bs1/A"]);
+  // The study's values of layers 4–7 now belong to bs2 (nothing dropped): same numbers as bs1 had.
+  const values = (xml, layer, section) => {
+    const l = xml.match(new RegExp(`<layer index="${layer}"[^>]*>([\\s\\S]*?)</layer>`))[1];
+    const sec = l.match(new RegExp(`<section id="${section.replace("/", "\\/")}"[^>]*>([\\s\\S]*?)</section>`))?.[1] ?? "";
+    return [...sec.matchAll(/<(\w+) unit="[^"]*">([^<]+)</g)].map((m) => `${m[1]}=${m[2]}`);
+  };
+  for (const layer of [4, 7])
+    for (const sec of ["A", "B", "C"]) {
+      const was = values(savedXml, layer, `bs1/${sec}`);
+      assert.ok(was.length > 0, `the example has values for layer ${layer} bs1/${sec}`);
+      assert.deepEqual(values(merged, layer, `bs2/${sec}`), was, `layer ${layer} bs2/${sec}`);
+    }
   assert.deepEqual(errors, []);
   await page.context().close();
 });

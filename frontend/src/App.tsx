@@ -10,10 +10,12 @@ import { GraphEditor } from "./graph/GraphEditor";
 import { NodeSearch } from "./graph/NodeSearch";
 import { useShortcuts } from "./graph/useShortcuts";
 import {
-  addNode, amend, autoWire, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
+  addNode, amend, autoWire, setNodeParams, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
   type Clip, type History, type XY,
 } from "./graph/recipe";
-import { MaskView } from "./mask/MaskView";
+import { carryOver, matchByOverlap } from "./graph/carry";
+import { governingMask, sectionKey, type MaskParams } from "./mask/edits";
+import { MaskView, type NewMaskEvent } from "./mask/MaskView";
 import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
 import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
@@ -413,6 +415,33 @@ export function App() {
     } else if (pr.node) setTab("graph");
   };
 
+  /** New mask from layer N, carrying each continuing section's settings and XML values over. */
+  const newMaskFrom = (e: NewMaskEvent): boolean => {
+    const masks = e.params.masks ?? [];
+    const made = masks.find((m) => m.id === e.newId);
+    if (!made) return false;
+    const before: MaskParams = { ...e.params, masks: masks.filter((m) => m.id !== e.newId) };
+    const old = governingMask(before, e.layer);
+    const oldKeys = old ? old.sections.map((x) => sectionKey(old.id, x.id)) : [];
+    const oldRegions = e.regions.filter((x) => oldKeys.includes(x.key));
+    const next = made.sections.map((x) => ({ key: sectionKey(made.id, x.id), polygon: { exterior: x.curve, holes: [] } }));
+    const above = masks.filter((m) => m.from_layer > e.layer).map((m) => m.from_layer);
+    const plan = carryOver(setNodeParams(recipe, e.maskNode, e.params), {
+      matches: matchByOverlap(oldRegions, next), oldKeys, oldRegions: oldRegions.map((x) => x.key), from: e.layer,
+      to: above.length ? Math.min(...above) : null, xml: xmlText,
+    });
+    const text = [
+      `New mask ${made.id} from layer ${e.layer}.`,
+      plan.carried.length ? `Carried over:\n  ${plan.carried.join("\n  ")}` : "Nothing to carry over.",
+      plan.lost.length ? `Could NOT carry:\n  ${plan.lost.join("\n  ")}` : "Everything carried over.",
+    ].join("\n\n");
+    if (!window.confirm(text)) return false;
+    edit(() => plan.recipe);
+    if (plan.xml !== xmlText) setXmlDraft(plan.xml);
+    message(`mask ${made.id} from layer ${e.layer}: ${plan.carried.length} setting(s) carried${plan.lost.length ? `, ${plan.lost.length} not` : ""}`);
+    return true;
+  };
+
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
@@ -498,6 +527,7 @@ export function App() {
                   failure={failure}
                   onDismissFailure={() => setFailure(null)}
                   onMessage={message}
+                  onNewMask={newMaskFrom}
                 />
               </div>
             )}

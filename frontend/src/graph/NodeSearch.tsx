@@ -21,10 +21,11 @@ export function NodeSearch({ specs, at, onPick, onClose }: { specs: readonly Nod
   const [i, setI] = useState(0);
   const hits = useMemo(() => searchNodes(specs, q), [specs, q]);
   const list = useRef<HTMLUListElement>(null);
-  useEffect(() => setI(0), [q]);
   useEffect(() => {
-    // braces: Chromium's scrollIntoView returns a Promise, which React would call as a cleanup
-    void list.current?.children[i]?.scrollIntoView({ block: "nearest" });
+    setI(0);
+  }, [q]);
+  useEffect(() => {
+    list.current?.children[i]?.scrollIntoView({ block: "nearest" });
   }, [i]);
   return (
     <div className="node-search" style={{ left: at.x, top: at.y }} data-testid="node-search" role="dialog" aria-label="add a node">

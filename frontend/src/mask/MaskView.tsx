@@ -18,7 +18,18 @@ const PLANAR_TYPES = ["layers", "sections", "toolpath"];
 
 const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
 
+export interface NewMaskEvent {
+  maskNode: string;
+  params: MaskParams;
+  newId: string;
+  layer: number;
+  /** The regions of the displayed layer (under the mask that governed it). */
+  regions: { key: string; polygon: { exterior: number[][]; holes: number[][][] } }[];
+}
+
 export interface MaskViewProps {
+  /** "New mask from layer N": the App applies it (with carry-over); false when the user declined. */
+  onNewMask?: (e: NewMaskEvent) => boolean;
   recipe: Recipe;
   catalog: Catalog;
   graph: string | null;
@@ -194,6 +205,11 @@ export function MaskView(p: MaskViewProps) {
     const r = newMaskFromLayer(maskParams, layer);
     if ("error" in r) {
       p.onMessage(r.error);
+      return;
+    }
+    // The App carries each section's settings and XML values over (matched by region overlap).
+    if (p.onNewMask && maskId) {
+      if (p.onNewMask({ maskNode: maskId, params: r.params, newId: r.id, layer, regions: pv.data?.sections ?? [] })) p.onDismissFailure();
       return;
     }
     edit(maskId, () => r.params);
