@@ -159,6 +159,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                            allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type"])
     app.add_middleware(AuthMiddleware, tokens=tokens)
 
+    if tokens:  # viser listens on loopback: reach it through this origin, under the API's auth
+        from .viewer_proxy import mount_viewer_proxy
+
+        mount_viewer_proxy(app)
+
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():
         app.mount("/assets", CompressedAssets(Path(static) / "assets"), name="assets")
