@@ -58,7 +58,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         svc = build_services(settings)
         if settings.start_workers:
             svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
-                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings))
+                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings),
+                                  layer_workers=settings.layer_workers)
         svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
         svc.auth_required = bool(tokens)
         app.state.services = svc
