@@ -10,11 +10,32 @@ from typing import Literal
 
 from pydantic import Field
 
+import numpy as np
+
+from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
+from ..geometry.mesh_io import mesh_file_units
+from ..geometry.units import implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
-LengthUnit = Literal["mm", "cm", "m", "in"]
+LengthUnit = Literal["file", "mm", "cm", "m", "in", "ft"]
+Placement = Literal["as_is", "on_plate", "centred"]
+UNITS_DOC = "Length unit of the file's coordinates; 'file': the unit the file declares (DXF $INSUNITS, 3MF unit), else mm"
+PLACEMENT_DOC = ("After the transform: 'as_is' keeps coordinates, 'on_plate' puts the lowest point on z = 0, "
+                 "'centred' also puts the x/y bounding-box centre on the origin")
+
+
+def _report_part(ctx, label: str, lo, hi, units: str, shift) -> None:
+    """Warnings: the unit used when taken from the file and not mm, an implausible size, the placement shift."""
+    extent = float(np.max(np.asarray(hi) - np.asarray(lo)))
+    if units not in ("mm",):
+        ctx.warn(f"{label}: coordinates read in {units} (declared by the file), converted to mm")
+    if (msg := implausible_size(extent)) is not None:
+        ctx.warn(f"{label}: {msg}")
+    if shift is not None and np.any(shift):
+        ctx.warn(f"{label}: placed by translate ({shift[0]:.3f}, {shift[1]:.3f}, {shift[2]:.3f}) mm")
+
 Vec3 = tuple[float, float, float]
 
 
@@ -44,8 +65,9 @@ class MeshNode(Node):
 
     class Params(NodeParams):
         path: FileRef = Field(description="Mesh file (.stl, .obj, .ply, .3mf), relative to the recipe")
-        units: LengthUnit = Field("mm", description="Length unit of the file's coordinates")
+        units: LengthUnit = Field("file", description=UNITS_DOC)
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
         weld_tolerance: float = Field(0.0, ge=0, le=1.0,
@@ -55,14 +77,20 @@ class MeshNode(Node):
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         t = params.transform
+        units = mesh_file_units(data, params.path) if params.units == "file" else params.units
         mesh = load_mesh_bytes(
             data,
             params.path,
-            units=params.units,
+            units=units,
             transform=Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale),
             limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
             weld_tolerance=params.weld_tolerance,
         )
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        shift = placement_offset(lo, hi, params.placement)
+        if np.any(shift):
+            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name)
+        _report_part(ctx, params.path, lo, hi, units if params.units == "file" else "mm", shift)
         return {"mesh": mesh}
 
 
@@ -91,7 +119,8 @@ class SketchNode(Node):
         z0: float | None = Field(None, ge=-10_000, le=10_000,
                                  description="Bottom of the extrusion; default: the JSON file's 'z0', else 0",
                                  json_schema_extra=unit("mm"))
-        units: LengthUnit = Field("mm", description="Length unit of the file's coordinates")
+        units: LengthUnit = Field("file", description=UNITS_DOC)
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
         arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
                                      json_schema_extra=unit("mm"))
         join: bool = Field(True, description="Join curves that meet end to end into one polyline")
@@ -106,5 +135,14 @@ class SketchNode(Node):
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
             ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {kinds}")
-        return {"mesh": res.midsurface}
+        mid = res.midsurface
+        pts = np.vstack(mid.curves)
+        lo = np.array([*pts.min(axis=0), mid.z0])
+        hi = np.array([*pts.max(axis=0), mid.z0 + mid.height])
+        shift = placement_offset(lo, hi, params.placement)
+        if np.any(shift):
+            mid = Midsurface(curves=tuple(c + shift[:2] for c in mid.curves), height=mid.height,
+                             z0=mid.z0 + float(shift[2]), name=mid.name)
+        _report_part(ctx, params.path, lo, hi, res.units if params.units == "file" else "mm", shift)
+        return {"mesh": mid}
 
