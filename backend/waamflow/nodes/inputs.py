@@ -12,9 +12,11 @@ from pydantic import Field
 
 import numpy as np
 
+from ..core.errors import InputFileError
 from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..geometry.mesh_io import mesh_file_units
+from ..geometry.step_io import is_cad_file, load_cad_bytes
 from ..geometry.units import implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -48,7 +50,8 @@ class TransformParams(NodeParams):
 
 @register
 class MeshNode(Node):
-    """A solid part from a triangle mesh file: STL (binary or ASCII), OBJ, PLY or 3MF.
+    """A solid part from a triangle mesh file (STL binary or ASCII, OBJ, PLY, 3MF) or a CAD file
+    (STEP, IGES: read and tessellated by OpenCascade within `chordal_tolerance`).
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
     Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
@@ -64,10 +67,13 @@ class MeshNode(Node):
     outputs = (Port("mesh", "mesh", "Closed triangle mesh in mm (MeshData)"),)
 
     class Params(NodeParams):
-        path: FileRef = Field(description="Mesh file (.stl, .obj, .ply, .3mf), relative to the recipe")
+        path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe")
         units: LengthUnit = Field("file", description=UNITS_DOC)
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
         placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+        chordal_tolerance: float = Field(0.05, gt=0, le=5,
+                                         description="STEP/IGES: max distance between the CAD surface and its triangles",
+                                         json_schema_extra=unit("mm"))
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
         weld_tolerance: float = Field(0.0, ge=0, le=1.0,
@@ -77,15 +83,28 @@ class MeshNode(Node):
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         t = params.transform
-        units = mesh_file_units(data, params.path) if params.units == "file" else params.units
-        mesh = load_mesh_bytes(
-            data,
-            params.path,
-            units=units,
-            transform=Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale),
-            limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
-            weld_tolerance=params.weld_tolerance,
-        )
+        transform = Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale)
+        if is_cad_file(params.path):
+            mesh, cad = load_cad_bytes(data, params.path, units=params.units, transform=transform,
+                                       chordal_tolerance=params.chordal_tolerance,
+                                       weld_tolerance=params.weld_tolerance)
+            units = cad.file_unit or "mm"
+            if len(mesh.faces) > params.max_triangles:
+                raise InputFileError(f"{params.path}: {len(mesh.faces)} triangles exceed the cap of {params.max_triangles}; "
+                                     "raise 'chordal_tolerance' or 'max_triangles'")
+            if cad.roots > 1 or cad.solids > 1:
+                ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.solids} bodies flattened into one part "
+                         "(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+        else:
+            units = mesh_file_units(data, params.path) if params.units == "file" else params.units
+            mesh = load_mesh_bytes(
+                data,
+                params.path,
+                units=units,
+                transform=transform,
+                limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
+                weld_tolerance=params.weld_tolerance,
+            )
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
