@@ -143,3 +143,34 @@ def test_seam_gap_error_names_weld_tolerance():
         load_mesh_bytes(data, "seam.stl")
     mesh = load_mesh_bytes(data, "seam.stl", weld_tolerance=0.01)
     assert mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0) == pytest.approx([30, 30, 30], abs=0.1)
+
+
+def test_binary_dxf_and_layouts(tmp_path):
+    import os
+    import tempfile
+
+    doc = ezdxf.new("R2010", units=1)                          # inch
+    doc.modelspace().add_lwpolyline([(0, 0), (2, 0), (2, 1)])
+    lay = doc.layouts.new("Sheet A")
+    lay.add_circle((0, 0), radius=1.0)
+    fd, path = tempfile.mkstemp(suffix=".dxf")
+    os.close(fd)
+    try:
+        doc.saveas(path, fmt="bin")
+        data = open(path, "rb").read()
+    finally:
+        os.unlink(path)
+    assert data.startswith(b"AutoCAD Binary DXF")
+    mid = load_sketch_bytes(data, "b.dxf", height=5, units="file").midsurface
+    assert _extent(mid) == pytest.approx([50.8, 25.4], abs=0.1)
+    mid = load_sketch_bytes(data, "b.dxf", height=5, units="file", layout="sheet a", arc_tolerance=0.001).midsurface
+    assert _extent(mid) == pytest.approx([50.8, 50.8], abs=0.1)
+    with pytest.raises(InputFileError, match=r"no layout 'Sheet B'.*Sheet A"):
+        load_sketch_bytes(data, "b.dxf", height=5, layout="Sheet B")
+
+
+def test_paperspace_only_drawing_points_to_the_layout():
+    def build(doc):
+        doc.layouts.new("Plan").add_line((0, 0), (50, 0))
+    with pytest.raises(InputFileError, match=r"no curves in layout 'Model'.*Plan \(1 entities\).*'layout'"):
+        load_sketch_bytes(_dxf(4, build), "p.dxf", height=5)

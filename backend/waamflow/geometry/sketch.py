@@ -223,6 +223,7 @@ def load_sketch_bytes(
     units: str = "mm",
     arc_tolerance: float = 0.01,
     join: bool = True,
+    layout: str = "Model",
 ) -> SketchResult:
     """Parse a JSON or DXF sketch into a Midsurface in mm.
 
@@ -244,13 +245,20 @@ def load_sketch_bytes(
             units = dxf_units(doc) or "mm"
         scale = unit_scale(units)
         # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale)
+        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout)
+        if not curves:
+            others = [f"{lay.name} ({len(lay)} entities)" for lay in doc.layouts
+                      if lay.name.lower() != layout.lower() and len(lay)]
+            if others:
+                raise InputFileError(f"{filename}: no curves in layout {layout!r}"
+                                     + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
+                                     + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'")
         file_h = file_z0 = None
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
     if not curves and skipped:
         kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
-        raise InputFileError(f"{filename}: no curves in the modelspace; skipped entities without curve geometry: {kinds}")
+        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: {kinds}")
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
@@ -273,10 +281,37 @@ def read_dxf(data: bytes, filename: str):
     from ezdxf.lldxf.const import DXFStructureError
 
     try:
-        doc, _auditor = recover.read(io.BytesIO(data))
-    except (DXFStructureError, UnicodeDecodeError, ValueError) as exc:
+        if data.startswith(b"AutoCAD Binary DXF"):
+            # binary DXF: ezdxf.readfile detects and reads it (the recover module reads ASCII only)
+            import os
+            import tempfile
+
+            import ezdxf
+
+            fd, path = tempfile.mkstemp(suffix=".dxf")
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                doc = ezdxf.readfile(path)
+            finally:
+                os.unlink(path)
+        else:
+            doc, _auditor = recover.read(io.BytesIO(data))
+    except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
     return doc
+
+
+def dxf_layout(doc, layout: str, filename: str):
+    """The layout named `layout` ("Model" / "modelspace" = the modelspace, else a paperspace
+    layout's name), or InputFileError listing the layouts the file has."""
+    if layout.lower() in ("model", "modelspace"):
+        return doc.modelspace()
+    names = list(doc.layouts.names())
+    for n in names:
+        if n.lower() == layout.lower():
+            return doc.layouts.get(n)
+    raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
 
 
 def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
@@ -284,11 +319,12 @@ def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray]
     return dxf_doc_curves(read_dxf(data, filename), filename, tol)
 
 
-def dxf_doc_curves(doc, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from an ezdxf document's modelspace, and skipped types."""
+def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
+    modelspace), and the skipped entity types → count."""
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
-    for e in doc.modelspace():
+    for e in dxf_layout(doc, layout, filename):
         _entity_curves(e, filename, tol, curves, skipped, depth=0)
     return curves, skipped
 

@@ -118,8 +118,9 @@ class SketchNode(Node):
     """A thin-wall part given by its midsurface: 2D curves extruded along +Z from z0 by height.
 
     JSON `{"curves": [[[x, y], ...], ...]}` (optional "height", "z0" in the file's units; a
-    closed curve repeats its first point) or DXF (LINE, LWPOLYLINE with bulges, POLYLINE, ARC,
-    CIRCLE, ELLIPSE, SPLINE, block INSERTs; arcs discretised within `arc_tolerance`). Curves
+    closed curve repeats its first point) or DXF, ASCII or binary (LINE, LWPOLYLINE with bulges,
+    POLYLINE, ARC, CIRCLE, ELLIPSE, SPLINE, block INSERTs and MINSERT arrays; arcs discretised
+    within `arc_tolerance`), from the modelspace or the paperspace layout named by `layout`. Curves
     meeting end to end (exactly two ends at a point) are joined into one polyline. DXF entities
     without curve geometry (TEXT, DIMENSION, HATCH, ...) and zero-length ones are skipped with a
     warning.
@@ -142,6 +143,8 @@ class SketchNode(Node):
         placement: Placement = Field("as_is", description=PLACEMENT_DOC)
         arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
                                      json_schema_extra=unit("mm"))
+        layout: str = Field("Model", min_length=1, max_length=255,
+                            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name")
         join: bool = Field(True, description="Join curves that meet end to end into one polyline")
         max_file_mb: float = Field(50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
 
@@ -149,7 +152,7 @@ class SketchNode(Node):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         res = load_sketch_bytes(
             data, params.path, height=params.height, z0=params.z0, units=params.units,
-            arc_tolerance=params.arc_tolerance, join=params.join,
+            arc_tolerance=params.arc_tolerance, join=params.join, layout=params.layout,
         )
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
