@@ -31,7 +31,7 @@ def test_mesh_node_caps_and_missing_file(tmp_path):
 
 
 def test_sketch_node_dxf_warns_about_skipped_entities(tmp_path):
-    doc = ezdxf.new("R2010")
+    doc = ezdxf.new("R2010", units=4)
     msp = doc.modelspace()
     msp.add_lwpolyline([(0, 0), (100, 0), (100, 50)])
     msp.add_text("panel A")

@@ -27,6 +27,7 @@ from ..core.errors import InputFileError
 from ..core.model import MeshData
 from .topology import check_closed, drop_degenerate, merge_vertices, signed_volume
 from .transform import Transform, unit_scale
+from .units import threemf_units
 
 MESH_FORMATS = ("stl", "obj", "ply", "3mf")
 
@@ -124,7 +125,7 @@ def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
 def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = None) -> np.ndarray:
     """Triangle corners (m, 3, 3) in file units, format chosen by the file extension."""
     fmt = mesh_format(filename)
-    if fmt == "stl" and is_binary_stl(data):
+    if is_binary_stl(data):                               # by content: a binary STL named .obj too
         return binary_stl_triangles(data, filename=filename, max_triangles=max_triangles)
     if fmt == "stl" and not data.lstrip()[:5].lower() == b"solid":
         if len(data) >= 84:
@@ -183,6 +184,13 @@ def mesh_from_triangles(
     return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name)
 
 
+def mesh_file_units(data: bytes, filename: str) -> str:
+    """Length unit the file declares (3MF `unit`), mm for formats without one (STL, OBJ, PLY)."""
+    if PurePosixPath(filename).suffix.lower() == ".3mf":
+        return threemf_units(data) or "mm"
+    return "mm"
+
+
 def load_mesh_bytes(
     data: bytes,
     filename: str,
@@ -194,7 +202,10 @@ def load_mesh_bytes(
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
 
+    units: the file's length unit, or "file" for the unit the file declares (`mesh_file_units`).
     weld_tolerance: mm, 0 = weld bit-identical corners only (see `mesh_from_triangles`)."""
+    if units == "file":
+        units = mesh_file_units(data, filename)
     if len(data) > limits.max_bytes:
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)

@@ -4,7 +4,8 @@ JSON: ``{"curves": [[[x, y], ...], ...], "height": h, "z0": z}`` ("height", "z0"
 node's params win). A closed curve repeats its first point.
 
 DXF (modelspace, via ezdxf): LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D),
-ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT (block references, exploded). Arcs are
+ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT/MINSERT (block references and
+arrays of them, exploded through ezdxf's `multi_insert`/`virtual_entities`). Arcs are
 discretised so that no chord deviates from the true arc by more than `arc_tolerance`: a chord
 spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
 Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coordinates.
@@ -30,16 +31,19 @@ from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
 from .transform import unit_scale
+from .units import dxf_units
 
 SKETCH_FORMATS = ("json", "dxf")
 
 
 @dataclass(frozen=True)
 class SketchResult:
-    """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count."""
+    """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count.
+    units: the length unit the file's coordinates were read in."""
 
     midsurface: Midsurface
     skipped: dict[str, int]
+    units: str = "mm"
 
 
 # ------------------------------------------------------------------------------------------
@@ -219,25 +223,42 @@ def load_sketch_bytes(
     units: str = "mm",
     arc_tolerance: float = 0.01,
     join: bool = True,
+    layout: str = "Model",
 ) -> SketchResult:
     """Parse a JSON or DXF sketch into a Midsurface in mm.
 
+    units: the file's length unit, or "file": the DXF's $INSUNITS (mm when unitless; JSON: mm).
     height, z0: mm; when None, taken from the JSON file (in file units); height is required one
     way or the other, z0 defaults to 0. arc_tolerance: max chordal deviation of arcs (mm).
     """
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     name = PurePosixPath(filename).stem
-    scale = unit_scale(units)
     skipped: dict[str, int] = {}
     if ext == "json":
+        units = "mm" if units == "file" else units
+        scale = unit_scale(units)
         raw, file_h, file_z0 = _json_curves(data, filename)
         curves = raw
     elif ext == "dxf":
+        doc = read_dxf(data, filename)
+        if units == "file":
+            units = dxf_units(doc) or "mm"
+        scale = unit_scale(units)
         # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_curves(data, filename, arc_tolerance / scale)
+        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout)
+        if not curves:
+            others = [f"{lay.name} ({len(lay)} entities)" for lay in doc.layouts
+                      if lay.name.lower() != layout.lower() and len(lay)]
+            if others:
+                raise InputFileError(f"{filename}: no curves in layout {layout!r}"
+                                     + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
+                                     + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'")
         file_h = file_z0 = None
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
+    if not curves and skipped:
+        kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
+        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: {kinds}")
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
@@ -247,24 +268,63 @@ def load_sketch_bytes(
     mid = sketch_from_curves(
         curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
-    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name), skipped=skipped)
+    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name),
+                        skipped=skipped, units=units)
 
 
 # ------------------------------------------------------------------------------------------
 # DXF
 # ------------------------------------------------------------------------------------------
-def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
+def read_dxf(data: bytes, filename: str):
+    """An ezdxf document from DXF bytes (ezdxf's recover mode: tolerant of common defects)."""
     from ezdxf import recover
     from ezdxf.lldxf.const import DXFStructureError
 
     try:
-        doc, _auditor = recover.read(io.BytesIO(data))
-    except (DXFStructureError, UnicodeDecodeError, ValueError) as exc:
+        if data.startswith(b"AutoCAD Binary DXF"):
+            # binary DXF: ezdxf.readfile detects and reads it (the recover module reads ASCII only)
+            import os
+            import tempfile
+
+            import ezdxf
+
+            fd, path = tempfile.mkstemp(suffix=".dxf")
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                doc = ezdxf.readfile(path)
+            finally:
+                os.unlink(path)
+        else:
+            doc, _auditor = recover.read(io.BytesIO(data))
+    except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
+    return doc
+
+
+def dxf_layout(doc, layout: str, filename: str):
+    """The layout named `layout` ("Model" / "modelspace" = the modelspace, else a paperspace
+    layout's name), or InputFileError listing the layouts the file has."""
+    if layout.lower() in ("model", "modelspace"):
+        return doc.modelspace()
+    names = list(doc.layouts.names())
+    for n in names:
+        if n.lower() == layout.lower():
+            return doc.layouts.get(n)
+    raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
+
+
+def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
+    return dxf_doc_curves(read_dxf(data, filename), filename, tol)
+
+
+def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
+    modelspace), and the skipped entity types → count."""
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
-    for e in doc.modelspace():
+    for e in dxf_layout(doc, layout, filename):
         _entity_curves(e, filename, tol, curves, skipped, depth=0)
     return curves, skipped
 
@@ -337,8 +397,10 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
     elif t == "INSERT":
         if depth > 16:
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
-        for sub in e.virtual_entities():
-            _entity_curves(sub, filename, tol, out, skipped, depth + 1)
+        # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
+        for ins in (e.multi_insert() if e.mcount > 1 else (e,)):
+            for sub in ins.virtual_entities():
+                _entity_curves(sub, filename, tol, out, skipped, depth + 1)
     else:
         skipped[t] = skipped.get(t, 0) + 1
 

@@ -184,7 +184,8 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> E
         problems.append(f"{rep.misoriented} edge{'s' if rep.misoriented != 1 else ''} with inconsistent face winding")
     raise InputFileError(
         f"{name}: mesh is not closed (not watertight): {', '.join(problems)} out of {rep.edges} edges; "
-        "it cannot be sliced into closed loops — repair it (e.g. fill holes, merge vertices) first"
+        "it cannot be sliced into closed loops — if the gaps are tiny exporter cracks set the mesh node's "
+        "'weld_tolerance' (e.g. 0.01 mm), otherwise repair it (fill holes) first"
     )
 
 

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-UNIT_TO_MM: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+UNIT_TO_MM: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "ft": 304.8, "um": 0.001}
 
 
 def unit_scale(units: str) -> float:
-    """Factor from `units` (mm, cm, m, in) to millimetres."""
+    """Factor from `units` (mm, cm, m, in, ft, um) to millimetres."""
     try:
         return UNIT_TO_MM[units]
     except KeyError:
