@@ -17,6 +17,7 @@ bead along each guide), and the notes say so.
 
 from __future__ import annotations
 
+import os
 import statistics
 import tempfile
 import time
@@ -169,18 +170,35 @@ def run() -> list[dict]:
         g = _graph(_recipe(tmp, N_FULL, 6.0, real))
         cache = MemoryCache()
         t0 = time.perf_counter()
-        res = execute(g, resolver=resolver, cache=cache, artifacts=False)
+        res = execute(g, resolver=resolver, cache=cache, artifacts=False, workers=1)
         cold = time.perf_counter() - t0
         n_paths = sum(len(lp.sections) for lp in res.outputs["sequence"]["toolpath"])
         per_node = ", ".join(f"{k} {v.seconds:.2f}" for k, v in res.stats.items())
         t0 = time.perf_counter()
-        execute(g, resolver=resolver, cache=cache, artifacts=False)
+        execute(g, resolver=resolver, cache=cache, artifacts=False, workers=1)
         warm = time.perf_counter() - t0
         results.append({
             "name": "plan_full_part_s", "value": round(cold, 3), "unit": "s", "peer": round(warm, 3),
             "ratio": round(warm / cold, 4),
             "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); node seconds: {per_node}; "
                      f"peer = same run with a warm cache; {source}"})
+        # --- the same cold plan on every core (engine/parallel.py) ----------------------------------
+        if real:
+            cores = os.cpu_count() or 1
+            t0 = time.perf_counter()
+            par = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=cores)
+            t_par = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            ser = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=1)
+            t_ser = time.perf_counter() - t0
+            same = par.artifacts == ser.artifacts
+            results.append({
+                "name": "parallel_speedup", "value": round(t_ser / t_par, 3), "unit": "x", "peer": round(t_ser, 3),
+                "ratio": round(t_par / t_ser, 4),
+                "notes": f"cold full plan of the {N_FULL}-layer cross: serial {t_ser:.2f} s / {cores} workers "
+                         f"{t_par:.2f} s ({par.executor['tasks']} tasks, fork-server start included); artifacts "
+                         f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target >= 1.6"})
+            assert same, "parallel artifacts differ from the serial run"
     return results
 
 

@@ -78,7 +78,10 @@ def cmd_run(args) -> int:
             print(f"warning: cache disabled ({e})", file=sys.stderr)
             cache = TieredCache(MemoryCache())
     bar = ProgressBar(sys.stderr, args.verbose)
-    result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), cache=cache, on_event=bar)
+    if args.workers is not None and args.workers < 1:
+        raise RecipeError(f"--workers must be at least 1 (got {args.workers})")
+    result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), cache=cache, on_event=bar,
+                     workers=args.workers)
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
     write_run_dir(out, result.artifacts, summary)
@@ -111,7 +114,8 @@ def cmd_serve(args) -> int:
 
     extra = {"token_file": Path(args.token_file)} if args.token_file else {}
     settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
-                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None, **extra)
+                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None,
+                        layer_workers=args.layer_workers, **extra)
     tokens = load_tokens(settings.token, settings.token_file)  # TokenFileError → exit 2
     if not tokens and not _loopback(args.host):
         print(f"error: refusing to serve on {args.host} without authentication: set a token with "
@@ -178,6 +182,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="set a recipe input (name=value) or node param (nodeid.param.sub=value); VALUE is JSON or a string")
     r.add_argument("--no-cache", action="store_true", help="recompute everything, do not read or write the cache")
     r.add_argument("-v", "--verbose", action="store_true", help="one line per node")
+    r.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes for the layers of layer nodes (default: WAAMFLOW_LAYER_WORKERS, else every core; 1 = serial)")
     r.set_defaults(func=cmd_run)
 
     n = sub.add_parser("nodes", help="print the node catalog as JSON")
@@ -190,6 +196,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--data", default="data", help="folder for the database and run files")
     s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: ./graphs)")
     s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
+    s.add_argument("--layer-workers", type=int, default=None, metavar="N",
+                   help="processes per run for the layers of layer nodes (default: every core; 1 = serial)")
     s.add_argument("--token-file", default=None,
                    help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)

@@ -36,7 +36,11 @@ class Settings(BaseSettings):
     viewer_port: int = Field(8080, description="viser 3D preview port; 0 disables it")
     start_viewer: bool = True
     start_workers: bool = True
-    workers: int = Field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)))
+    workers: int = Field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)),
+                         description="runs executed at the same time")
+    layer_workers: int | None = Field(None, ge=1, le=256,
+                                      description="processes per run for the layers of layer nodes "
+                                                  "(None: every core; 1: serial)")
     max_upload_mb: int = 200
     memory_cache_entries: int = 50_000
     disk_cache_gb: float = 2.0

@@ -4,6 +4,7 @@ import * as API from "./api/client";
 import type { Artifact, GraphInfo, Health, NodeSpec, ProcessParameter, Recipe, RunError } from "./api/types";
 import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
+import { Tabs, tabPanelProps } from "./components/Tabs";
 import { Toolbar } from "./components/Toolbar";
 import { clearDraft, draftDiffers, parsePlace, placeSearch, readDraft, writeDraft, type Draft } from "./graph/drafts";
 import { GraphEditor } from "./graph/GraphEditor";
@@ -487,15 +488,9 @@ export function App() {
           <Palette specs={specs} onAdd={(t) => addAt(t)} />
         </aside>
         <main className="center">
-          <nav className="tabs">
-            {TABS.map(([t, label]) => (
-              <button key={t} className={tab === t ? "active" : ""} onClick={() => setTab(t)} data-tab={t}>
-                {label}
-              </button>
-            ))}
-          </nav>
+          <Tabs tabs={TABS} active={tab} onChange={setTab} label="views" />
           <div className="tab-body">
-            <div className={`pane ${tab === "graph" ? "" : "hidden"}`}>
+            <div className={`pane ${tab === "graph" ? "" : "hidden"}`} {...tabPanelProps("graph")}>
               <GraphEditor
                 recipe={recipe}
                 catalog={catalog}
@@ -513,7 +508,7 @@ export function App() {
               />
             </div>
             {tab === "mask" && (
-              <div className="pane">
+              <div className="pane" {...tabPanelProps("mask")}>
                 <MaskView
                   key={graphName ?? "unsaved"}
                   recipe={recipe}
@@ -532,7 +527,7 @@ export function App() {
               </div>
             )}
             {tab === "params" && (
-              <div className="pane scroll">
+              <div className="pane scroll" {...tabPanelProps("params")}>
                 <ParamsEditor
                   graph={graphName}
                   text={xmlText}
@@ -554,12 +549,12 @@ export function App() {
               </div>
             )}
             {tab === "viewer" && (
-              <div className="pane">
+              <div className="pane" {...tabPanelProps("viewer")}>
                 <Viewer3D health={healthInfo} graph={graphName} runId={run.id} runPhase={run.phase} layer={layer} setLayer={setLayer} onMessage={message} />
               </div>
             )}
             {tab === "results" && (
-              <div className="pane scroll">
+              <div className="pane scroll" {...tabPanelProps("results")}>
                 <Results recipe={recipe} run={run} artifacts={artifacts} />
               </div>
             )}

@@ -49,7 +49,7 @@ def _services():
 CONFIG = schemathesis.Config.from_dict({
     "phases": {"examples": {"enabled": True}, "coverage": {"enabled": True}, "fuzzing": {"enabled": True},
                "stateful": {"enabled": False}},
-    "generation": {"max-examples": 30, "mode": "all"},
+    "generation": {"max-examples": 20, "mode": "all"},
     "operations": [{"include-path-regex": RECIPE_OPS, "checks": {"positive_data_acceptance": {
         "expected-statuses": ["2xx", "401", "404", "409", "422", "429"]}}}],
 })
@@ -58,6 +58,6 @@ schema = schemathesis.openapi.from_asgi("/openapi.json", APP, config=CONFIG)
 
 
 @schema.parametrize()
-@settings(deadline=None, suppress_health_check=list(HealthCheck), max_examples=30)
+@settings(deadline=None, suppress_health_check=list(HealthCheck), max_examples=20)
 def test_api_contract(case):
     case.call_and_validate()

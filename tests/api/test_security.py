@@ -103,3 +103,33 @@ def test_serve_refuses_network_without_token(tmp_path):
     bad.write_text("alice:short\n")
     r = _serve(["--host", "0.0.0.0", "--port", "8149", "--token-file", str(bad)], {}, tmp_path)
     assert r.returncode == 2 and "at least 16 characters" in r.stderr
+
+
+def test_viewer_behind_the_api_auth(tmp_path):
+    """With a token, viser listens on loopback and is reached through /viewer/ (page + websocket)."""
+    import socket
+
+    import viser
+    from starlette.websockets import WebSocketDisconnect
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    st = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=True, viewer_port=port, static_dir=None,
+                  workers=1, token=TOKEN, host="0.0.0.0")
+    with TestClient(create_app(st)) as c:
+        h = c.get("/api/health").json()
+        if h["viewer_url"] is None:
+            pytest.skip("viser could not start here")
+        assert h["viewer_url"] == "/viewer/" and h["viewer_port"] is None
+        svc = c.app.state.services
+        assert svc.viewer.server.get_host() == "127.0.0.1"  # not on the network, whatever --host says
+        assert c.get("/viewer/").status_code == 401
+        with pytest.raises(WebSocketDisconnect):
+            with c.websocket_connect("/viewer", subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+                ws.receive_bytes()
+        c.cookies.set("waamflow_token", TOKEN)
+        page = c.get("/viewer/")
+        assert page.status_code == 200 and "<html" in page.text[:200].lower()
+        with c.websocket_connect("/viewer", subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+            assert len(ws.receive_bytes()) > 0  # viser's first message, relayed

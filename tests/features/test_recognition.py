@@ -120,3 +120,36 @@ def test_curve_crossing_itself():
     assert Counter(f["kind"] for f in feats) == {"direct_crossing": 1, "corner": 3, "free_end": 2}
     x = next(f for f in feats if f["kind"] == "direct_crossing")
     assert x["point"] == [0.0, 0.0] and x["entities"] == [0] and x["branches"] == 4
+
+
+def test_walls_joined_end_to_end_at_a_shallow_angle_list_a_continuous_junction():
+    """Two straight walls joined into one polyline (as the sketch reader joins DXF LINEs) meeting at
+    12° still give their junction, `continuous`, with the angle between the walls."""
+    turn = math.radians(12)
+    pts = np.array([[0, 0], [100, 0], [100 + 80 * math.cos(turn), 80 * math.sin(turn)]])
+    feats = recognise([pts])
+    (j,) = [f for f in feats if f["kind"] in ("corner", "continuous")]
+    assert j["kind"] == "continuous" and j["point"] == [100.0, 0.0]
+    assert j["angle_deg"] == pytest.approx(168.0, abs=1e-6)
+    # the same geometry at 45° is a corner; as two separate curves it is the same junction
+    assert kinds([pts], corner_angle_deg=10)["corner"] == 1
+    two = recognise([pts[:2], pts[1:]])
+    (j2,) = [f for f in two if f["kind"] in ("corner", "continuous")]
+    assert (j2["kind"], j2["angle_deg"]) == ("continuous", pytest.approx(168.0, abs=1e-6))
+    # a rectangle with one shallow kink on a long side: 4 corners + 1 continuous
+    rect = np.array([[0, 0], [60, 0], [120, 5], [120, 40], [0, 40], [0, 0]], float)
+    k = kinds([rect])
+    assert (k["corner"], k["continuous"]) == (4, 1)
+
+
+def test_discretised_arcs_are_one_wall_not_a_chain_of_junctions():
+    t = np.linspace(0, math.pi, 40)                         # half circle r 50, 4.6° per chord
+    arc = np.column_stack([50 * np.cos(t), 50 * np.sin(t)])
+    k = kinds([arc])
+    assert k["continuous"] == 0 and k["corner"] == 0
+    # tangent straight legs on both ends of the arc: still no junction
+    line_arc = np.vstack([[[50, -30]], arc, [[-50, -30]]])
+    k = kinds([line_arc])
+    assert k["continuous"] == 0 and k["corner"] == 0
+    ring = circle(0, 0, 30, 64)
+    assert kinds([ring])["continuous"] == 0

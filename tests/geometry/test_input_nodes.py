@@ -31,7 +31,7 @@ def test_mesh_node_caps_and_missing_file(tmp_path):
 
 
 def test_sketch_node_dxf_warns_about_skipped_entities(tmp_path):
-    doc = ezdxf.new("R2010", units=4)  # mm
+    doc = ezdxf.new("R2010", units=4)
     msp = doc.modelspace()
     msp.add_lwpolyline([(0, 0), (100, 0), (100, 50)])
     msp.add_text("panel A")
@@ -43,4 +43,4 @@ def test_sketch_node_dxf_warns_about_skipped_entities(tmp_path):
     mid = res.outputs["sk"]["mesh"]
     assert (mid.height, mid.z0, len(mid.curves)) == (20.0, 1.0, 1)
     assert len(res.warnings) == 1
-    assert "TEXT ×1" in res.warnings[0]["message"] and "zero-length LINE ×1" in res.warnings[0]["message"]
+    assert "1 TEXT" in res.warnings[0]["message"] and "1 zero-length LINE" in res.warnings[0]["message"]

@@ -17,7 +17,7 @@ def _length(c: np.ndarray) -> float:
 
 
 def _dxf(build) -> bytes:
-    doc = ezdxf.new("R2010", units=4)  # mm
+    doc = ezdxf.new("R2010", units=4)
     build(doc.modelspace())
     buf = io.StringIO()
     doc.write(buf)

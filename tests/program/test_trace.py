@@ -80,6 +80,14 @@ def test_hashes_stable_across_runs_and_follow_the_input(tmp_path):
     assert t3["recipe_sha256"] == t1["recipe_sha256"]
 
 
+def test_source_date_epoch_fixes_the_date(tmp_path, monkeypatch):
+    _write_wall(tmp_path, 80.0)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    res = execute(build_graph(parse_recipe(_recipe("gcode"))), resolver=FileResolver(tmp_path))
+    assert _trace_from(res.artifacts["post.gcode"].decode())["date"] == "2026-01-01T00:00:00Z"
+    assert res.summary("x")["trace"]["date"] == "2026-01-01T00:00:00Z"
+
+
 @pytest.mark.parametrize("fmt, suffix, mark", [("krl", "src", ";"), ("krl", "dat", ";"),
                                                 ("rapid", "mod", "!"), ("csv", "csv", "#")])
 def test_every_format_carries_the_trace(tmp_path, fmt, suffix, mark):

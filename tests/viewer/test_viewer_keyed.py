@@ -71,3 +71,13 @@ def test_deposit_colour_maps_each_sample_to_its_programmed_segment(viewer):
     assert (h.colors[:, 0] == C.colormap(per[first], 1.0, 3.0)).all()
     legend = next(x for x in viewer.state()["legend"] if x["kind"] == "simulation")
     assert legend["mode"] == "deposit" and legend["ranges"]["deposit"]["unit"] == "mm³/mm"
+
+
+def test_switching_recipe_resets_hidden_nodes(viewer):
+    viewer.publish("a", RECIPE, outputs(2))
+    viewer.publish("b", RECIPE, outputs(2))
+    viewer.show("a")
+    viewer.set_view(hidden={"mask"})
+    viewer.show("b")
+    assert viewer.state()["view"]["hidden"] == []
+    assert viewer.server.scene.get_handle_by_name("/graph/mask").visible is True

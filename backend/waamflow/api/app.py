@@ -58,7 +58,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         svc = build_services(settings)
         if settings.start_workers:
             svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
-                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings))
+                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings),
+                                  layer_workers=settings.layer_workers)
         svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
         svc.auth_required = bool(tokens)
         app.state.services = svc
@@ -158,6 +159,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False,
                            allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type"])
     app.add_middleware(AuthMiddleware, tokens=tokens)
+
+    if tokens:  # viser listens on loopback: reach it through this origin, under the API's auth
+        from .viewer_proxy import mount_viewer_proxy
+
+        mount_viewer_proxy(app)
 
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():

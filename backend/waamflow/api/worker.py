@@ -109,8 +109,9 @@ class RunManager:
     def __init__(self, store: Store, data_dir: Path, cache, workers: int,
                  resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
                  on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None,
-                 limits: Limits | None = None) -> None:
+                 limits: Limits | None = None, layer_workers: int | None = None) -> None:
         self.limits = limits or Limits()
+        self.layer_workers = layer_workers
         self.store = store
         self.runs_dir = data_dir / "runs"
         self.runs_dir.mkdir(parents=True, exist_ok=True)
@@ -169,7 +170,8 @@ class RunManager:
 
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
-            result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel)
+            result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
+                             workers=self.layer_workers)
             self._check_result(result)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs

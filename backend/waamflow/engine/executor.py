@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import threading
 import time
 import traceback
@@ -27,6 +28,8 @@ from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
 from .graph import Graph, GraphNode
 from .node import Context, LayerNode
+from . import parallel
+from .parallel import LayerPool, default_workers
 
 MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
 
@@ -156,6 +159,7 @@ class RunResult:
     layer_count: int | None
     seconds: float
     signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
+    executor: dict = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
     trace: dict = field(default_factory=dict)  # see `run_trace`
 
     def summary(self, recipe_name: str, status: str = "done") -> dict:
@@ -168,6 +172,7 @@ class RunResult:
             "nodes": {k: v.to_dict() for k, v in self.stats.items()},
             "warnings": self.warnings,
             "artifacts": sorted(self.artifacts),
+            "executor": self.executor,
             "trace": self.trace,
         }
 
@@ -209,6 +214,14 @@ class RunContext(Context):
 
     def check_cancelled(self) -> None:
         self._run.check_cancelled()
+
+
+def run_date_utc() -> str:
+    """The run's date for traces, ISO 8601 UTC to the second: now, or SOURCE_DATE_EPOCH (seconds,
+    the reproducible-builds convention) when set, so identical runs can give byte-identical files."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    when = datetime.fromtimestamp(int(epoch), timezone.utc) if epoch.isdigit() else datetime.now(timezone.utc)
+    return when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
 
 
 def recipe_sha256(recipe) -> str:
@@ -266,8 +279,9 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
 class _Run:
     def __init__(self, graph: Graph, resolver: FileResolver, cache, on_event: EventSink | None,
                  cancel: threading.Event | None, layers: set[int] | None, active: list[str],
-                 write_artifacts: bool) -> None:
+                 write_artifacts: bool, pool: LayerPool | None = None) -> None:
         self.graph = graph
+        self.pool = pool
         self.resolver = resolver
         self.cache = cache
         self.on_event = on_event
@@ -284,7 +298,7 @@ class _Run:
         self.warnings: list[dict] = []
         self.artifacts: dict[str, bytes] = {}
         self.layer_count: int | None = None
-        self.started_utc = datetime.now(timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+        self.started_utc = run_date_utc()
         self.input_hashes: dict[str, str] = {}
 
     # events
@@ -416,33 +430,31 @@ class _Run:
         wanted = range(n) if self.layers is None else sorted(i for i in self.layers if 0 <= i < n)
         per_layer: dict[str, list[Any]] = {p.name: [None] * n for p in impl.outputs}
         item_keys: list[str] = [""] * n
-        n_cached = n_computed = 0
-        for count, i in enumerate(wanted):
-            self.check_cancelled()
+        results: dict[int, tuple[dict, list]] = {}   # index → (outputs, warnings)
+        todo: list[tuple[int, dict, str]] = []        # uncached: (index, items, key)
+        for i in wanted:
             items = {p: (v.items[i] if isinstance(v, Layered) else v) for p, v in inputs.items()}
             if items[impl.over] is None:
                 continue
-            ctx.layer = i
             isigs = sorted((p, (v.sigs[i] if v.sigs else signature(in_sigs[p], i))) for p, v in layered.items())
             key = signature("layer", gnode.type, impl.version, CODE_VERSION,
                             impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
+            item_keys[i] = key
             hit = self.cache.get(key) if self.cache is not None else MISSING
             if hit is not MISSING:
-                out, warnings = hit
-                n_cached += 1
+                results[i] = hit
             else:
-                ctx.warnings = []
-                out = impl.run_layer(ctx, gnode.params, i, items)
-                self._check_outputs(gnode, out)
-                warnings = ctx.warnings
-                if self.cache is not None:
-                    self.cache.put(key, (out, warnings))
-                n_computed += 1
+                todo.append((i, items, key))
+        n_cached = len(results)
+        self.compute_layers(gnode, ctx, todo, results, n_total=len(results) + len(todo))
+        for i in wanted:  # warnings and outputs in layer order, whoever computed them
+            if i not in results:
+                continue
+            out, warnings = results[i]
             self.add_warnings(warnings)
             for port, value in out.items():
                 per_layer[port][i] = value
-            item_keys[i] = key
-            self.node_progress(gnode.id, (count + 1) / max(len(wanted), 1), f"layer {i}")
+        n_computed = len(todo)
         ctx.layer = None
         ctx.warnings = []
         outputs = impl.combine(ctx, gnode.params, per_layer, inputs)
@@ -464,6 +476,53 @@ class _Run:
                                          layers_cached=n_cached, layers_computed=n_computed)
         return n_computed == 0
 
+    def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],
+                       results: dict[int, tuple[dict, list]], n_total: int) -> None:
+        """Compute the uncached layers into `results` and the cache: the first in this process
+        (timed), the rest in worker processes when the timing says they pay (engine/parallel.py)."""
+        impl: LayerNode = gnode.impl  # type: ignore[assignment]
+        done = [n_total - len(todo)]
+
+        def finish(i: int, key: str, out: dict, warnings: list) -> None:
+            self._check_outputs(gnode, out)
+            results[i] = (out, warnings)
+            if self.cache is not None:
+                self.cache.put(key, (out, warnings))
+            done[0] += 1
+            self.node_progress(gnode.id, done[0] / max(n_total, 1), f"layer {i}")
+
+        def here(i: int, items: dict, key: str) -> None:
+            self.check_cancelled()
+            ctx.layer = i
+            ctx.warnings = []
+            finish(i, key, impl.run_layer(ctx, gnode.params, i, items), ctx.warnings)
+
+        rest = list(todo)
+        t0 = time.perf_counter()
+        if rest:
+            here(*rest.pop(0))
+        while rest and time.perf_counter() - t0 < parallel.TIMING_S:  # time one layer, more if tiny
+            here(*rest.pop(0))
+        per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
+        pool = self.pool
+        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > parallel.MIN_PARALLEL_S:
+            keys = {i: key for i, _, key in rest}
+            failed: list[int] = []
+
+            def collect(i: int, out: dict | None, extra) -> None:
+                if out is None:
+                    failed.append(i)
+                else:
+                    finish(i, keys[i], out, extra)
+
+            pool.map_layers(impl, gnode.id, gnode.params, self.resolver, [(i, items) for i, items, _ in rest],
+                            collect, lambda: self.cancel is not None and self.cancel.is_set())
+            self.check_cancelled()
+            # a layer that failed in a worker is re-run here: the error is raised with its context
+            rest = [t for t in rest if t[0] in set(failed) or t[0] not in results]
+        for t in rest:
+            here(*t)
+
     @staticmethod
     def _check_outputs(gnode: GraphNode, outputs: dict) -> None:
         expected = {p.name for p in gnode.impl.outputs}
@@ -482,9 +541,11 @@ def execute(
     layers: Iterable[int] | None = None,
     targets: Iterable[str] | None = None,
     artifacts: bool = True,
+    workers: int | None = None,
 ) -> RunResult:
     """Run `graph`. Raises WaamflowError subclasses (with node/layer/section) on failure after
-    emitting `node_error` and `run_failed`/`run_cancelled`."""
+    emitting `node_error` and `run_failed`/`run_cancelled`. `workers`: processes for the layers of
+    layer nodes (None: `WAAMFLOW_LAYER_WORKERS`, else every core; 1: serial)."""
     t0 = time.perf_counter()
     active = list(graph.order)
     if targets is not None:
@@ -496,7 +557,9 @@ def execute(
                 raise RecipeError(f"no node with id {t!r}", node=t)
             keep |= {t} | graph.ancestors(t)
         active = [n for n in active if n in keep]
-    run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts)
+    pool = LayerPool(default_workers() if workers is None else max(1, int(workers)))
+    run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts,
+               pool)
     try:
         run.run()
     except CancelledError as err:
@@ -506,10 +569,13 @@ def execute(
         run.emit("run_failed", message=str(err), error=err.to_dict(), node=err.node, layer=err.layer,
                  section=err.section)
         raise
+    finally:
+        pool.close()
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
+                       {"kind": "local", "address": None, "workers": pool.workers, "tasks": pool.tasks},
                        run.trace())
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result

@@ -19,7 +19,10 @@ number of branches:
 
 Other combinations map by branch count: 3 branches → t_crossing (2 entities) or odd_t_crossing
 (≥ 3); ≥ 4 branches → direct_crossing / odd_direct_crossing / four_direct_crossing by entities.
-A sharp vertex inside one polyline (turning by at least `corner_angle_deg`) is a corner too.
+A sharp vertex inside one polyline (turning by at least `corner_angle_deg`) is a corner too, and
+an isolated shallow kink (turning by `continuous_min_deg` up to `corner_angle_deg`, neighbours not
+turning alike, i.e. not a discretised arc) is a continuous junction: curves joined end to end by the
+sketch reader stay listed as the junction of two walls.
 
 Closed loops (a closed curve, or open curves chained end to end through corner/continuous
 junctions) that touch nothing else are tubulars; a tubular is *isolated* when the band between its
@@ -60,11 +63,14 @@ STUDY_VALENCE = {
 class RecognitionSpec:
     """merge_tol: mm, points closer than this are one point. corner_angle_deg: a junction whose walls
     turn by at least this angle (0 = straight on) is a corner, else continuous. encumbrance: mm,
-    the torch's maximum encumbrance (diameter), for the isolated-tubular test."""
+    the torch's maximum encumbrance (diameter), for the isolated-tubular test. continuous_min_deg:
+    a vertex inside one polyline whose walls turn by at least this angle (and less than
+    corner_angle_deg, without a run of similar turns around it) is a continuous junction."""
 
     merge_tol: float = TOL.merge
     corner_angle_deg: float = 30.0
     encumbrance: float = 30.0
+    continuous_min_deg: float = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -385,54 +391,51 @@ def is_isolated(ring: np.ndarray, others: list[LineString], encumbrance: float) 
 # ------------------------------------------------------------------------------------------
 # Entry point
 # ------------------------------------------------------------------------------------------
-def _sharp_vertices(c: np.ndarray, tol: float, corner_angle_deg: float, skip: list[np.ndarray]) -> list[tuple[np.ndarray, float]]:
-    """Interior vertices of one polyline where it turns by ≥ corner_angle_deg: (point, angle between walls)."""
+def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, continuous_min_deg: float,
+                      skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, str]]:
+    """Junctions at interior vertices of one polyline: (point, angle between the walls, kind).
+
+    A vertex turning by ≥ corner_angle_deg is a corner. One turning by less, but by at least
+    continuous_min_deg, is a continuous junction of two walls when its turn is isolated: no
+    neighbouring vertex turns the same way by a similar amount (within a factor 2.5) — a run of
+    similar turns is one curved wall (a discretised arc, whose tangent ends turn by half a chord's
+    turn), not a chain of junctions."""
     closed = is_closed(c, tol)
     pts = c[:-1] if closed else c
     n = len(pts)
-    out = []
-    idx = range(n) if closed else range(1, n - 1)
-    for k in idx:
+    if n < 3:
+        return []
+    turn = np.zeros(n)                                  # signed turn (deg, + = left) per vertex
+    between = np.full(n, 180.0)
+    for k in (range(n) if closed else range(1, n - 1)):
         p, a, b = pts[k], pts[(k - 1) % n], pts[(k + 1) % n]
-        u, v = _unit(a - p), _unit(b - p)
+        u, v = _unit(p - a), _unit(b - p)
         if not (np.any(u) and np.any(v)):
             continue
-        between = math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0))))
-        if 180.0 - between >= corner_angle_deg and not any(np.hypot(*(p - q)) <= tol for q in skip):
-            out.append((p, between))
-    return out
+        turn[k] = math.degrees(math.atan2(u[0] * v[1] - u[1] * v[0], float(u @ v)))
+        between[k] = 180.0 - abs(turn[k])
 
+    def similar(k: int, j: int) -> bool:
+        if not closed and (j < 0 or j >= n):
+            return False
+        t, o = turn[k], turn[j % n]
+        return t * o > 0 and 0.4 <= o / t <= 2.5
 
-def _joint_vertices(curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, int]]:
-    """Joints (points where the sketch joined two walls end to end into one polyline) that are a
-    vertex of a curve and not already a junction: (point, angle between the walls (deg), curve)."""
     out = []
-    for q in joints:
-        q = np.asarray(q, dtype=float)
-        if any(np.hypot(*(q - s)) <= tol for s in skip):
+    for k in (range(n) if closed else range(1, n - 1)):
+        t = abs(turn[k])
+        p = pts[k]
+        if t < continuous_min_deg or any(np.hypot(*(p - q)) <= tol for q in skip):
             continue
-        for ci, c in enumerate(curves):
-            closed = is_closed(c, tol)
-            pts = c[:-1] if closed else c
-            d = np.hypot(*(pts - q).T)
-            k = int(np.argmin(d))
-            if d[k] > tol or (not closed and k in (0, len(pts) - 1)):
-                continue
-            n = len(pts)
-            u, v = _unit(pts[(k - 1) % n] - pts[k]), _unit(pts[(k + 1) % n] - pts[k])
-            if np.any(u) and np.any(v):
-                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), ci))
-            break
+        if t >= corner_angle_deg:
+            out.append((p, float(between[k]), "corner"))
+        elif not (similar(k, k - 1) or similar(k, k + 1)):
+            out.append((p, float(between[k]), "continuous"))
     return out
 
 
-def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0,
-              joints=()) -> list[dict]:
-    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts.
-
-    joints: (x, y) points where the sketch joined two walls end to end into one polyline; each is
-    reported as a `corner` or `continuous` junction (by `corner_angle_deg`) with its angle, like
-    the junction of two separate curves, so no junction disappears because curves were joined."""
+def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0) -> list[dict]:
+    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     curves = [c for c in curves if len(c) >= 2]
     tol = spec.merge_tol
@@ -459,16 +462,10 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
         feats.append(f)
     jpts = [np.array(j.point) for j in junctions]
     for ci, c in enumerate(curves):
-        for p, between in _sharp_vertices(c, tol, spec.corner_angle_deg, jpts):
-            f = base("corner", p, [ci])
-            f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE["corner"]))
+        for p, between, kind in _vertex_junctions(c, tol, spec.corner_angle_deg, spec.continuous_min_deg, jpts):
+            f = base(kind, p, [ci])
+            f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE[kind]))
             feats.append(f)
-    for p, between, ci in _joint_vertices(curves, joints, tol, jpts):
-        if 180.0 - between >= spec.corner_angle_deg:
-            continue                                      # a sharp vertex: reported as a corner above
-        f = base("continuous", p, [ci])
-        f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE["continuous"]))
-        feats.append(f)
     lines = [LineString(c) for c in curves]
     for members in find_loops(curves, junctions, kinds, tol):
         ring = chain_loop(curves, members, tol)
@@ -495,7 +492,7 @@ def recognise_layers(layers, spec: RecognitionSpec = RecognitionSpec(), *, every
         dg = curves_digest([c.coords for c in layer.curves])
         if dg in seen:
             continue
-        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z, joints=layer.joints))
+        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z))
         digests[layer.index] = dg
         seen.add(dg)
         if not every_layer:
@@ -513,4 +510,4 @@ def features_for_layer(fs: FeatureSet, layer) -> list[dict]:
     for idx, d in fs.layers.items():
         if d == dg:
             return [dict(f, layer=layer.index, z=round(float(layer.z), 6)) for f in fs.of_layer(idx)]
-    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z, joints=layer.joints)
+    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z)

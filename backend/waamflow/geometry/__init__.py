@@ -4,7 +4,7 @@ Pure kernels (numpy, trimesh, ezdxf); the `mesh` and `sketch` nodes in `waamflow
 adapt them to ports. Everything leaves here in millimetres.
 """
 
-from .mesh_io import MeshLimits, MeshLoad, load_mesh, load_mesh_bytes
+from .mesh_io import MeshLimits, load_mesh_bytes
 from .sketch import load_sketch_bytes, sketch_from_curves
 from .topology import EdgeReport, check_closed, edge_report, merge_vertices
 from .transform import Transform
@@ -15,8 +15,6 @@ __all__ = [
     "Transform",
     "check_closed",
     "edge_report",
-    "MeshLoad",
-    "load_mesh",
     "load_mesh_bytes",
     "load_sketch_bytes",
     "merge_vertices",

@@ -25,8 +25,9 @@ import numpy as np
 
 from ..core.errors import InputFileError
 from ..core.model import MeshData
-from .topology import check_closed, drop_degenerate, edge_report, merge_vertices, signed_volume
-from .transform import THREEMF_UNITS, Transform, placement_offset, size_warning, unit_scale
+from .topology import check_closed, drop_degenerate, merge_vertices, signed_volume
+from .transform import Transform, unit_scale
+from .units import threemf_units
 
 MESH_FORMATS = ("stl", "obj", "ply", "3mf")
 
@@ -124,9 +125,7 @@ def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
 def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = None) -> np.ndarray:
     """Triangle corners (m, 3, 3) in file units, format chosen by the file extension."""
     fmt = mesh_format(filename)
-    if fmt != "stl" and (is_binary_stl(data) or (data.lstrip()[:5].lower() == b"solid" and b"facet" in data[:4096].lower())):
-        fmt = "stl"                                          # an STL under another name: trust the content
-    if fmt == "stl" and is_binary_stl(data):
+    if is_binary_stl(data):                               # by content: a binary STL named .obj too
         return binary_stl_triangles(data, filename=filename, max_triangles=max_triangles)
     if fmt == "stl" and not data.lstrip()[:5].lower() == b"solid":
         if len(data) >= 84:
@@ -144,39 +143,6 @@ def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = No
     return tri
 
 
-def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """Merge vertices on open edges that lie within `tol` (vertex units) of each other.
-
-    Only boundary vertices are candidates (a crack or seam gap is where open edges are), so a
-    closed, exactly welded mesh costs one edge count and nothing else. Clusters are the connected
-    components of the within-tol pairs (scipy cKDTree + csgraph); each takes its first vertex's
-    position. Returns (vertices, faces, number of vertices merged away)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    uniq, counts = np.unique(e, axis=0, return_counts=True)
-    cand = np.unique(uniq[counts == 1])
-    if len(cand) < 2:
-        return verts, faces, 0
-    pairs = cKDTree(verts[cand]).query_pairs(tol, output_type="ndarray")
-    if len(pairs) == 0:
-        return verts, faces, 0
-    n = len(cand)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    ncomp, label = connected_components(graph, directed=False)
-    first = np.full(ncomp, -1, dtype=np.int64)
-    first[label[::-1]] = cand[::-1]                      # the lowest-index member of each cluster
-    remap = np.arange(len(verts))
-    remap[cand] = first[label]
-    keep = np.unique(remap)
-    new_index = np.full(len(verts), -1, dtype=np.int64)
-    new_index[keep] = np.arange(len(keep))
-    faces = drop_degenerate(new_index[remap][faces])
-    return verts[keep], faces, int(len(verts) - len(keep))
-
-
 def mesh_from_triangles(
     triangles: np.ndarray,
     *,
@@ -186,131 +152,43 @@ def mesh_from_triangles(
     require_closed: bool = True,
     source: str | None = None,
     weld_tolerance: float = 0.0,
-    stats: dict | None = None,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
     Welding happens on the raw file coordinates (bit-exact), before any scaling, so corners
-    that are equal in the file stay equal. weld_tolerance (mm) > 0: when the exact weld leaves
-    open edges, the vertices on open edges closer than the tolerance are merged too
-    (`weld_open_edges`), closing cracks and seam gaps left by exporters that write each
-    triangle's corners with slightly different rounding. Faces that
-    collapse to a line are dropped; stats (optional dict) receives "welded" (vertices merged by
-    the tolerance) and "closed"; a mesh wound inside out (negative volume) is flipped so face
+    that are equal in the file stay equal. weld_tolerance (mm) > 0 first snaps corners to a grid
+    of that pitch, closing cracks left by exporters that write each triangle's corners with
+    slightly different rounding (corners closer than the pitch usually — not always, they may
+    straddle a grid line — become one vertex; geometry moves by ≤ pitch·√3/2). Faces that
+    collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
     normals point outwards. source: how error messages name the input (default: name).
     """
     label = source or name
     tri = np.asarray(triangles)
     if tri.size == 0:
         raise InputFileError(f"{label}: mesh is empty (no triangles)")
+    if weld_tolerance > 0:
+        pitch = weld_tolerance / unit_scale(units)
+        tri = np.round(np.asarray(tri, dtype=np.float64) / pitch) * pitch
     verts, inverse = merge_vertices(tri.reshape(-1, 3))
     if not np.isfinite(verts).all():
         raise InputFileError(f"{label}: mesh has non-finite (NaN/inf) vertex coordinates")
     faces = drop_degenerate(inverse.reshape(-1, 3))
     if len(faces) == 0:
         raise InputFileError(f"{label}: mesh is empty (all {len(tri)} triangles are degenerate)")
-    welded = 0
-    if weld_tolerance > 0 and edge_report(faces, len(verts)).open:
-        verts, faces, welded = weld_open_edges(verts, faces, weld_tolerance / unit_scale(units))
-    if stats is not None:
-        stats["welded"] = welded
-        stats["closed"] = edge_report(faces, len(verts)).closed
     if require_closed:
-        hint = (f"raise the node's 'weld_tolerance' (now {weld_tolerance:g} mm) if the holes are cracks between "
-                "triangles that should touch")
-        check_closed(faces, len(verts), name=label, hint=hint)
+        check_closed(faces, len(verts), name=label)
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
     if signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
     return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name)
 
 
-def threemf_units(data: bytes, filename: str = "mesh.3mf") -> str:
-    """Unit of a 3MF package: the `unit` attribute of its root <model> (3MF core spec: micron,
-    millimeter, centimeter, inch, foot, meter; default millimeter) → um/mm/cm/in/ft/m."""
-    import zipfile
-
-    from defusedxml.ElementTree import iterparse
-
-    try:
-        with zipfile.ZipFile(io.BytesIO(data)) as z:
-            names = [n for n in z.namelist() if n.lower().endswith(".model")]
-            main = next((n for n in names if n.lower().lstrip("/") == "3d/3dmodel.model"), names[0] if names else None)
-            if main is None:
-                raise InputFileError(f"{filename}: 3MF package has no .model part")
-            with z.open(main) as f:
-                for _event, el in iterparse(f, events=("start",)):
-                    unit = el.attrib.get("unit", "millimeter")
-                    break
-                else:
-                    unit = "millimeter"
-    except (zipfile.BadZipFile, KeyError) as exc:
-        raise InputFileError(f"{filename}: not a 3MF package (zip): {exc}") from exc
-    except Exception as exc:  # XML parse errors of every kind
-        if isinstance(exc, InputFileError):
-            raise
-        raise InputFileError(f"{filename}: unreadable 3MF model XML: {exc}") from exc
-    if unit not in THREEMF_UNITS:
-        raise InputFileError(f"{filename}: unknown 3MF unit {unit!r}; the 3MF spec allows {', '.join(THREEMF_UNITS)}")
-    return THREEMF_UNITS[unit]
-
-
-def file_units(data: bytes, fmt: str, filename: str) -> str | None:
-    """The length unit a mesh file declares, or None when the format has no unit (STL, OBJ, PLY)."""
-    return threemf_units(data, filename) if fmt == "3mf" else None
-
-
-@dataclass(frozen=True)
-class MeshLoad:
-    """A loaded part and how it was read. units: the unit used; units_from: "file", "param" or
-    "default". offset: (3,) mm translation of the placement. notes: warnings for the user."""
-
-    mesh: MeshData
-    units: str
-    units_from: str
-    offset: tuple[float, float, float]
-    notes: tuple[str, ...]
-    welded: int = 0
-    closed: bool = True
-
-
-def load_mesh(
-    data: bytes,
-    filename: str,
-    *,
-    units: str | None = None,
-    transform: Transform = Transform(),
-    placement: str = "as_is",
-    limits: MeshLimits = MeshLimits(),
-    weld_tolerance: float = 0.0,
-    require_closed: bool = True,
-) -> MeshLoad:
-    """Like `load_mesh_bytes`, with the unit from the file when `units` is None ("auto": the 3MF
-    unit attribute; mm for formats without units), a placement applied after the transform
-    (`transform.placement_offset`), and a size plausibility check (`transform.size_warning`)."""
-    fmt = mesh_format(filename)
-    declared = file_units(data, fmt, filename)
-    used, origin = (units, "param") if units else ((declared, "file") if declared else ("mm", "default"))
-    stats: dict = {}
-    mesh = load_mesh_bytes(data, filename, units=used, transform=transform, limits=limits,
-                           weld_tolerance=weld_tolerance, stats=stats, require_closed=require_closed)
-    notes = []
-    if stats.get("welded"):
-        notes.append(f"{filename}: welded {stats['welded']} vertices on open edges within weld_tolerance "
-                     f"{weld_tolerance:g} mm")
-    if units and declared and declared != units:
-        notes.append(f"{filename}: file says {declared}, the 'units' param overrides it with {units}")
-    b = mesh.bounds
-    warn = size_warning(float((b[1] - b[0]).max()), used, f"{used}, {origin}")
-    if warn:
-        notes.append(f"{filename}: {warn}")
-    off = placement_offset(b, placement)
-    if placement != "as_is":
-        mesh = MeshData(vertices=mesh.vertices + off, faces=mesh.faces, name=mesh.name)
-        notes.append(f"{filename}: placed {placement}: translated by "
-                     f"({off[0]:.3f}, {off[1]:.3f}, {off[2]:.3f}) mm after the transform")
-    return MeshLoad(mesh=mesh, units=used, units_from=origin, offset=tuple(float(v) for v in off), notes=tuple(notes),
-                    welded=int(stats.get("welded", 0)), closed=bool(stats.get("closed", True)))
+def mesh_file_units(data: bytes, filename: str) -> str:
+    """Length unit the file declares (3MF `unit`), mm for formats without one (STL, OBJ, PLY)."""
+    if PurePosixPath(filename).suffix.lower() == ".3mf":
+        return threemf_units(data) or "mm"
+    return "mm"
 
 
 def load_mesh_bytes(
@@ -321,15 +199,15 @@ def load_mesh_bytes(
     transform: Transform = Transform(),
     limits: MeshLimits = MeshLimits(),
     weld_tolerance: float = 0.0,
-    stats: dict | None = None,
-    require_closed: bool = True,
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
 
+    units: the file's length unit, or "file" for the unit the file declares (`mesh_file_units`).
     weld_tolerance: mm, 0 = weld bit-identical corners only (see `mesh_from_triangles`)."""
+    if units == "file":
+        units = mesh_file_units(data, filename)
     if len(data) > limits.max_bytes:
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
     return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
-                               source=filename, weld_tolerance=weld_tolerance, stats=stats,
-                               require_closed=require_closed)
+                               source=filename, weld_tolerance=weld_tolerance)

@@ -4,10 +4,8 @@ JSON: ``{"curves": [[[x, y], ...], ...], "height": h, "z0": z}`` ("height", "z0"
 node's params win). A closed curve repeats its first point.
 
 DXF (modelspace, via ezdxf): LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D),
-ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT (block references exploded by ezdxf's
-`virtual_entities`, nested blocks recursively, MINSERT arrays through `multi_insert`). ASCII
-and binary DXF; the unit comes from the header's $INSUNITS unless the caller sets it; any
-layout (modelspace by default, or a paperspace layout by name). Arcs are
+ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT/MINSERT (block references and
+arrays of them, exploded through ezdxf's `multi_insert`/`virtual_entities`). Arcs are
 discretised so that no chord deviates from the true arc by more than `arc_tolerance`: a chord
 spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
 Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coordinates.
@@ -23,7 +21,6 @@ from __future__ import annotations
 import io
 import json
 import math
-import struct
 from dataclasses import dataclass
 from pathlib import PurePosixPath
 from typing import Any, Iterable
@@ -33,7 +30,8 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
-from .transform import DXF_INSUNITS, size_warning, unit_scale
+from .transform import unit_scale
+from .units import dxf_units
 
 SKETCH_FORMATS = ("json", "dxf")
 
@@ -41,14 +39,11 @@ SKETCH_FORMATS = ("json", "dxf")
 @dataclass(frozen=True)
 class SketchResult:
     """midsurface: the extruded curves (mm). skipped: DXF entity types ignored → count.
-    units: the unit the file's coordinates were read in; units_from: "file", "param" or
-    "default". notes: warnings for the user (implausible size, overridden file unit)."""
+    units: the length unit the file's coordinates were read in."""
 
     midsurface: Midsurface
     skipped: dict[str, int]
     units: str = "mm"
-    units_from: str = "default"
-    notes: tuple[str, ...] = ()
 
 
 # ------------------------------------------------------------------------------------------
@@ -104,12 +99,10 @@ def _dedupe(points: np.ndarray) -> np.ndarray:
     return points[keep]
 
 
-def join_curves(curves: list[np.ndarray], tol: float, joints: list | None = None) -> list[np.ndarray]:
+def join_curves(curves: list[np.ndarray], tol: float) -> list[np.ndarray]:
     """Join open polylines that meet end to end at points where exactly two ends meet.
 
     curves: (k, 2) arrays; closed ones (first == last within tol) are kept as they are.
-    joints: when given, receives each (x, y) point where two curves were joined (a wall junction
-    that is now a vertex inside one polyline; feature recognition reports it).
     Loops over curves (entities), never over points.
     """
     from scipy.spatial import cKDTree
@@ -170,12 +163,8 @@ def join_curves(curves: list[np.ndarray], tol: float, joints: list | None = None
         back, _ = walk(ci, 0)
         chain = [p[::-1] for p in reversed(back)] + [open_[ci]] + fwd
         pts = np.vstack([chain[0]] + [p[1:] for p in chain[1:]])
-        if joints is not None:
-            joints.extend((float(p[0][0]), float(p[0][1])) for p in chain[1:])
         if len(chain) > 1 and np.linalg.norm(pts[0] - pts[-1]) <= tol:
             pts[-1] = pts[0]
-            if joints is not None:
-                joints.append((float(pts[0][0]), float(pts[0][1])))
         out.append(pts)
     return out
 
@@ -204,10 +193,9 @@ def sketch_from_curves(curves: Iterable[Any], *, height: float, z0: float = 0.0,
         out.append(a)
     if not out:
         raise InputFileError(f"{name}: sketch has no curves")
-    joints: list = []
     if join_tol is not None:
-        out = join_curves(out, join_tol, joints)
-    return Midsurface(curves=tuple(out), height=float(height), z0=float(z0), name=name, joints=tuple(joints))
+        out = join_curves(out, join_tol)
+    return Midsurface(curves=tuple(out), height=float(height), z0=float(z0), name=name)
 
 
 def _json_curves(data: bytes, filename: str) -> tuple[list, float | None, float | None]:
@@ -232,116 +220,111 @@ def load_sketch_bytes(
     *,
     height: float | None = None,
     z0: float | None = None,
-    units: str | None = None,
+    units: str = "mm",
     arc_tolerance: float = 0.01,
     join: bool = True,
     layout: str = "Model",
 ) -> SketchResult:
     """Parse a JSON or DXF sketch into a Midsurface in mm.
 
-    units: the file's length unit; None ("auto") = the DXF header's $INSUNITS, else mm.
+    units: the file's length unit, or "file": the DXF's $INSUNITS (mm when unitless; JSON: mm).
     height, z0: mm; when None, taken from the JSON file (in file units); height is required one
     way or the other, z0 defaults to 0. arc_tolerance: max chordal deviation of arcs (mm).
-    layout: the DXF layout to read ("Model" = modelspace, or a paperspace layout's name).
     """
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     name = PurePosixPath(filename).stem
     skipped: dict[str, int] = {}
-    declared = None
     if ext == "json":
+        units = "mm" if units == "file" else units
+        scale = unit_scale(units)
         raw, file_h, file_z0 = _json_curves(data, filename)
-        doc = None
+        curves = raw
     elif ext == "dxf":
         doc = read_dxf(data, filename)
-        declared = dxf_units(doc)
+        if units == "file":
+            units = dxf_units(doc) or "mm"
+        scale = unit_scale(units)
+        # DXF coordinates are in file units; discretise with the tolerance in file units
+        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout)
+        if not curves:
+            others = [f"{lay.name} ({len(lay)} entities)" for lay in doc.layouts
+                      if lay.name.lower() != layout.lower() and len(lay)]
+            if others:
+                raise InputFileError(f"{filename}: no curves in layout {layout!r}"
+                                     + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
+                                     + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'")
         file_h = file_z0 = None
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
-    used, origin = (units, "param") if units else ((declared, "file") if declared else ("mm", "default"))
-    scale = unit_scale(used)
-    if doc is not None:
-        # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_curves(doc, filename, arc_tolerance / scale, layout=layout)
-    else:
-        curves = raw
+    if not curves and skipped:
+        kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
+        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: {kinds}")
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
         height = file_h * scale
     if z0 is None:
         z0 = (file_z0 or 0.0) * scale
-    if not curves and skipped:
-        raise InputFileError(f"{filename}: no sketch curves in layout {layout!r}; skipped entities: {skipped_text(skipped)}")
     mid = sketch_from_curves(
         curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
-    notes = []
-    if units and declared and declared != units:
-        notes.append(f"{filename}: file says {declared}, the 'units' param overrides it with {units}")
-    pts = np.vstack(mid.curves)
-    extent = float(max((pts.max(axis=0) - pts.min(axis=0)).max(), 0.0))
-    warn = size_warning(extent, used, f"{used}, {origin}")
-    if warn:
-        notes.append(f"{filename}: {warn}")
-    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
-                                                  joints=mid.joints),
-                        skipped=skipped, units=used, units_from=origin, notes=tuple(notes))
-
-
-def skipped_text(skipped: dict[str, int]) -> str:
-    """"HATCH ×3, TEXT ×1": every skipped entity type with its count, most frequent first."""
-    return ", ".join(f"{t} ×{n}" for t, n in sorted(skipped.items(), key=lambda kv: (-kv[1], kv[0])))
+    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name),
+                        skipped=skipped, units=units)
 
 
 # ------------------------------------------------------------------------------------------
 # DXF
 # ------------------------------------------------------------------------------------------
 def read_dxf(data: bytes, filename: str):
-    """An ezdxf document from ASCII or binary DXF bytes (ezdxf's recover mode: tolerant of the
-    structural errors many exporters make)."""
+    """An ezdxf document from DXF bytes (ezdxf's recover mode: tolerant of common defects)."""
     from ezdxf import recover
     from ezdxf.lldxf.const import DXFStructureError
 
     try:
         if data.startswith(b"AutoCAD Binary DXF"):
-            # what ezdxf.readfile does for a binary file, without the file: binary tags → Drawing
-            from ezdxf.document import Drawing
-            from ezdxf.lldxf.tagger import binary_tags_loader
+            # binary DXF: ezdxf.readfile detects and reads it (the recover module reads ASCII only)
+            import os
+            import tempfile
 
-            doc = Drawing.load(binary_tags_loader(data, errors="surrogateescape"))
-            doc.audit()
+            import ezdxf
+
+            fd, path = tempfile.mkstemp(suffix=".dxf")
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                doc = ezdxf.readfile(path)
+            finally:
+                os.unlink(path)
         else:
             doc, _auditor = recover.read(io.BytesIO(data))
-    except (DXFStructureError, UnicodeDecodeError, ValueError, IndexError, struct.error) as exc:
+    except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
     return doc
 
 
-def dxf_units(doc) -> str | None:
-    """The drawing unit from the header's $INSUNITS (inch, foot, mm, cm, m, µm, dm), or None when
-    unitless (0) or a unit no part is drawn in (miles, light years...)."""
-    try:
-        code = int(doc.header.get("$INSUNITS", 0))
-    except (TypeError, ValueError):
-        return None
-    return DXF_INSUNITS.get(code)
-
-
-def dxf_curves(doc, filename: str, tol: float, *, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from one layout of a DXF document, and the skipped entity
-    types → counts. layout: "Model" (modelspace) or a paperspace layout's name."""
-    if isinstance(doc, (bytes, bytearray)):
-        doc = read_dxf(bytes(doc), filename)
+def dxf_layout(doc, layout: str, filename: str):
+    """The layout named `layout` ("Model" / "modelspace" = the modelspace, else a paperspace
+    layout's name), or InputFileError listing the layouts the file has."""
+    if layout.lower() in ("model", "modelspace"):
+        return doc.modelspace()
     names = list(doc.layouts.names())
-    if layout.lower() == "model":
-        space = doc.modelspace()
-    elif layout in names:
-        space = doc.layouts.get(layout)
-    else:
-        raise InputFileError(f"{filename}: no layout {layout!r}; the drawing has {', '.join(names)}")
+    for n in names:
+        if n.lower() == layout.lower():
+            return doc.layouts.get(n)
+    raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
+
+
+def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
+    return dxf_doc_curves(read_dxf(data, filename), filename, tol)
+
+
+def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
+    """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
+    modelspace), and the skipped entity types → count."""
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
-    for e in space:
+    for e in dxf_layout(doc, layout, filename):
         _entity_curves(e, filename, tol, curves, skipped, depth=0)
     return curves, skipped
 
@@ -414,7 +397,7 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
     elif t == "INSERT":
         if depth > 16:
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
-        # MINSERT (row/column array): one virtual INSERT per copy; nested blocks recurse
+        # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
         for ins in (e.multi_insert() if e.mcount > 1 else (e,)):
             for sub in ins.virtual_entities():
                 _entity_curves(sub, filename, tol, out, skipped, depth + 1)

@@ -170,7 +170,7 @@ def edge_twins(faces: np.ndarray, n_vertices: int) -> np.ndarray | None:
     return twin
 
 
-def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh", hint: str | None = None) -> EdgeReport:
+def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> EdgeReport:
     """Raise InputFileError unless the mesh is a closed, consistently wound 2-manifold."""
     rep = edge_report(faces, n_vertices)
     if rep.closed:
@@ -184,8 +184,8 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh", hint
         problems.append(f"{rep.misoriented} edge{'s' if rep.misoriented != 1 else ''} with inconsistent face winding")
     raise InputFileError(
         f"{name}: mesh is not closed (not watertight): {', '.join(problems)} out of {rep.edges} edges; "
-        "it cannot be sliced into closed loops — "
-        + (hint if hint and rep.open else "repair it (e.g. fill holes, merge vertices) first")
+        "it cannot be sliced into closed loops — if the gaps are tiny exporter cracks set the mesh node's "
+        "'weld_tolerance' (e.g. 0.01 mm), otherwise repair it (fill holes) first"
     )
 
 

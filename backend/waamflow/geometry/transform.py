@@ -6,48 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-UNIT_TO_MM: dict[str, float] = {"um": 0.001, "mm": 1.0, "cm": 10.0, "dm": 100.0, "m": 1000.0, "in": 25.4, "ft": 304.8}
-
-# 3MF <model unit="..."> values (3MF core spec, default millimeter) → our unit names
-THREEMF_UNITS: dict[str, str] = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in",
-                                 "foot": "ft", "meter": "m"}
-# DXF $INSUNITS codes with a length meaning for parts (0 = unitless → None, the caller's default)
-DXF_INSUNITS: dict[int, str] = {1: "in", 2: "ft", 4: "mm", 5: "cm", 6: "m", 13: "um", 14: "dm"}
-
-# A WAAM part outside this size range (largest bounding-box side, mm) probably has wrong units
-PLAUSIBLE_SIZE_MM = (5.0, 5000.0)
-
-PLACEMENTS = ("as_is", "build_plate", "centred")
-
-
-def size_warning(extent_mm: float, units: str, source: str) -> str | None:
-    """A warning when the part's largest side (mm) is implausible for WAAM, naming the units used."""
-    lo, hi = PLAUSIBLE_SIZE_MM
-    if lo <= extent_mm <= hi:
-        return None
-    what = "small" if extent_mm < lo else "large"
-    return (f"part is {extent_mm:.4g} mm across (read as {source}): implausibly {what} for WAAM "
-            f"({lo:g} mm - {hi / 1000:g} m); set the node's 'units' param if the file's unit is wrong")
-
-
-def placement_offset(bounds: np.ndarray, placement: str) -> np.ndarray:
-    """(3,) mm translation applying a placement to a part with bounds (2, 3) mm.
-
-    as_is: none. build_plate: z_min → 0 (x, y kept). centred: bounding-box centre of x, y → 0 and
-    z_min → 0 (the part stands on the plate at the origin)."""
-    lo, hi = np.asarray(bounds, dtype=float)
-    if placement == "as_is":
-        return np.zeros(3)
-    if placement == "build_plate":
-        return np.array([0.0, 0.0, -lo[2]])
-    if placement == "centred":
-        c = (lo + hi) / 2.0
-        return np.array([-c[0], -c[1], -lo[2]])
-    raise ValueError(f"unknown placement {placement!r}; use one of {', '.join(PLACEMENTS)}")
+UNIT_TO_MM: dict[str, float] = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "ft": 304.8, "um": 0.001}
 
 
 def unit_scale(units: str) -> float:
-    """Factor from `units` (um, mm, cm, dm, m, in, ft) to millimetres."""
+    """Factor from `units` (mm, cm, m, in, ft, um) to millimetres."""
     try:
         return UNIT_TO_MM[units]
     except KeyError:

@@ -10,13 +10,34 @@ from typing import Literal
 
 from pydantic import Field
 
-from ..geometry import MeshLimits, Transform, load_mesh, load_sketch_bytes
-from ..geometry.sketch import skipped_text
+import numpy as np
+
+from ..core.errors import InputFileError
+from ..core.model import MeshData, Midsurface
+from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
+from ..geometry.mesh_io import mesh_file_units
+from ..geometry.step_io import is_cad_file, load_cad_bytes
+from ..geometry.units import implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
-LengthUnit = Literal["auto", "um", "mm", "cm", "dm", "m", "in", "ft"]
-Placement = Literal["as_is", "build_plate", "centred"]
+LengthUnit = Literal["file", "mm", "cm", "m", "in", "ft"]
+Placement = Literal["as_is", "on_plate", "centred"]
+UNITS_DOC = "Length unit of the file's coordinates; 'file': the unit the file declares (DXF $INSUNITS, 3MF unit), else mm"
+PLACEMENT_DOC = ("After the transform: 'as_is' keeps coordinates, 'on_plate' puts the lowest point on z = 0, "
+                 "'centred' also puts the x/y bounding-box centre on the origin")
+
+
+def _report_part(ctx, label: str, lo, hi, units: str, shift) -> None:
+    """Warnings: the unit used when taken from the file and not mm, an implausible size, the placement shift."""
+    extent = float(np.max(np.asarray(hi) - np.asarray(lo)))
+    if units not in ("mm",):
+        ctx.warn(f"{label}: coordinates read in {units} (declared by the file), converted to mm")
+    if (msg := implausible_size(extent)) is not None:
+        ctx.warn(f"{label}: {msg}")
+    if shift is not None and np.any(shift):
+        ctx.warn(f"{label}: placed by translate ({shift[0]:.3f}, {shift[1]:.3f}, {shift[2]:.3f}) mm")
+
 Vec3 = tuple[float, float, float]
 
 
@@ -29,16 +50,12 @@ class TransformParams(NodeParams):
 
 @register
 class MeshNode(Node):
-    """A solid part from a triangle mesh file: STL (binary or ASCII), OBJ, PLY or 3MF.
+    """A solid part from a triangle mesh file (STL binary or ASCII, OBJ, PLY, 3MF) or a CAD file
+    (STEP, IGES: read and tessellated by OpenCascade within `chordal_tolerance`).
 
-    Coordinates are converted from `units` to mm (auto: the 3MF file's unit attribute; mm for
-    STL/OBJ/PLY, which carry no unit), then scaled, rotated (x, y, z) and translated, then placed
-    (`placement`: as_is; build_plate = lowest point to z 0; centred = x/y bounding-box centre to
-    the origin and lowest point to z 0; the translation is reported as a warning). A part under
-    5 mm or over 5 m across is reported as a probable unit mistake.
-    Corners that are bit-identical in the file are welded; where open edges remain, vertices on
-    them closer than `weld_tolerance` are merged too (reported as a warning). A binary or ASCII
-    STL under another extension is recognised by its content. The mesh must be closed (watertight,
+    Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
+    Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
+    snapped to the same grid point). The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
     non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
     triangles are refused.
@@ -50,33 +67,50 @@ class MeshNode(Node):
     outputs = (Port("mesh", "mesh", "Closed triangle mesh in mm (MeshData)"),)
 
     class Params(NodeParams):
-        path: FileRef = Field(description="Mesh file (.stl, .obj, .ply, .3mf), relative to the recipe")
-        units: LengthUnit = Field("auto", description="Length unit of the file's coordinates (auto: from the file, else mm)")
+        path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe")
+        units: LengthUnit = Field("file", description=UNITS_DOC)
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
-        placement: Placement = Field("as_is", description="After the transform: as_is, build_plate (z min → 0) or "
-                                                          "centred (x/y centre → origin, z min → 0)")
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+        chordal_tolerance: float = Field(0.05, gt=0, le=5,
+                                         description="STEP/IGES: max distance between the CAD surface and its triangles",
+                                         json_schema_extra=unit("mm"))
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
-        weld_tolerance: float = Field(0.001, ge=0, le=1.0,
-                                      description="Merge vertices on open edges closer than this (cracks, seam gaps; "
-                                                  "0: bit-identical corners only)",
+        weld_tolerance: float = Field(0.0, ge=0, le=1.0,
+                                      description="Snap corners to a grid of this pitch before welding (0: exact)",
                                       json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         t = params.transform
-        res = load_mesh(
-            data,
-            params.path,
-            units=None if params.units == "auto" else params.units,
-            transform=Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale),
-            placement=params.placement,
-            limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
-            weld_tolerance=params.weld_tolerance,
-        )
-        for note in res.notes:
-            ctx.warn(note)
-        return {"mesh": res.mesh}
+        transform = Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale)
+        if is_cad_file(params.path):
+            mesh, cad = load_cad_bytes(data, params.path, units=params.units, transform=transform,
+                                       chordal_tolerance=params.chordal_tolerance,
+                                       weld_tolerance=params.weld_tolerance)
+            units = cad.file_unit or "mm"
+            if len(mesh.faces) > params.max_triangles:
+                raise InputFileError(f"{params.path}: {len(mesh.faces)} triangles exceed the cap of {params.max_triangles}; "
+                                     "raise 'chordal_tolerance' or 'max_triangles'")
+            if cad.roots > 1 or cad.solids > 1:
+                ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.solids} bodies flattened into one part "
+                         "(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+        else:
+            units = mesh_file_units(data, params.path) if params.units == "file" else params.units
+            mesh = load_mesh_bytes(
+                data,
+                params.path,
+                units=units,
+                transform=transform,
+                limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
+                weld_tolerance=params.weld_tolerance,
+            )
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        shift = placement_offset(lo, hi, params.placement)
+        if np.any(shift):
+            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name)
+        _report_part(ctx, params.path, lo, hi, units if params.units == "file" else "mm", shift)
+        return {"mesh": mesh}
 
 
 @register
@@ -84,8 +118,9 @@ class SketchNode(Node):
     """A thin-wall part given by its midsurface: 2D curves extruded along +Z from z0 by height.
 
     JSON `{"curves": [[[x, y], ...], ...]}` (optional "height", "z0" in the file's units; a
-    closed curve repeats its first point) or DXF (LINE, LWPOLYLINE with bulges, POLYLINE, ARC,
-    CIRCLE, ELLIPSE, SPLINE, block INSERTs; arcs discretised within `arc_tolerance`). Curves
+    closed curve repeats its first point) or DXF, ASCII or binary (LINE, LWPOLYLINE with bulges,
+    POLYLINE, ARC, CIRCLE, ELLIPSE, SPLINE, block INSERTs and MINSERT arrays; arcs discretised
+    within `arc_tolerance`), from the modelspace or the paperspace layout named by `layout`. Curves
     meeting end to end (exactly two ends at a point) are joined into one polyline. DXF entities
     without curve geometry (TEXT, DIMENSION, HATCH, ...) and zero-length ones are skipped with a
     warning.
@@ -104,24 +139,32 @@ class SketchNode(Node):
         z0: float | None = Field(None, ge=-10_000, le=10_000,
                                  description="Bottom of the extrusion; default: the JSON file's 'z0', else 0",
                                  json_schema_extra=unit("mm"))
-        units: LengthUnit = Field("auto", description="Length unit of the file's coordinates (auto: DXF $INSUNITS, else mm)")
-        layout: str = Field("Model", min_length=1, max_length=255,
-                            description="DXF layout to read: Model (modelspace) or a paperspace layout's name")
+        units: LengthUnit = Field("file", description=UNITS_DOC)
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
         arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
                                      json_schema_extra=unit("mm"))
+        layout: str = Field("Model", min_length=1, max_length=255,
+                            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name")
         join: bool = Field(True, description="Join curves that meet end to end into one polyline")
         max_file_mb: float = Field(50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         res = load_sketch_bytes(
-            data, params.path, height=params.height, z0=params.z0,
-            units=None if params.units == "auto" else params.units,
+            data, params.path, height=params.height, z0=params.z0, units=params.units,
             arc_tolerance=params.arc_tolerance, join=params.join, layout=params.layout,
         )
         if res.skipped:
-            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {skipped_text(res.skipped)}")
-        for note in res.notes:
-            ctx.warn(note)
-        return {"mesh": res.midsurface}
+            kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
+            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {kinds}")
+        mid = res.midsurface
+        pts = np.vstack(mid.curves)
+        lo = np.array([*pts.min(axis=0), mid.z0])
+        hi = np.array([*pts.max(axis=0), mid.z0 + mid.height])
+        shift = placement_offset(lo, hi, params.placement)
+        if np.any(shift):
+            mid = Midsurface(curves=tuple(c + shift[:2] for c in mid.curves), height=mid.height,
+                             z0=mid.z0 + float(shift[2]), name=mid.name)
+        _report_part(ctx, params.path, lo, hi, res.units if params.units == "file" else "mm", shift)
+        return {"mesh": mid}
 

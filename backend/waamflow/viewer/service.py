@@ -188,6 +188,7 @@ class ViewerService:
             self.wanted = key
             if key is None or key == self.key:
                 return key is not None
+            self.view.hidden.clear()   # node ids of another recipe say nothing about this one
             if key in self.scenes:
                 recipe, outputs = self.scenes[key]
                 self._draw(key, recipe, outputs)

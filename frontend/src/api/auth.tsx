@@ -60,10 +60,10 @@ export function installAuth() {
   if ((window.fetch as { waamflowAuth?: boolean }).waamflowAuth) return;
   const original = window.fetch.bind(window);
   window.fetch = async (input: RequestInfo | URL, init?: RequestInit) => {
-    const url = input instanceof Request ? input.url : String(input);
+    const url = input instanceof Request ? input.url : new URL(String(input), location.href).href;
     const token = getToken();
     if (!sameOrigin(url)) return original(input, init);
-    let req = new Request(input, init);
+    let req = new Request(input instanceof Request ? input : url, init);
     if (token && !req.headers.has("Authorization")) {
       const headers = new Headers(req.headers);
       headers.set("Authorization", `Bearer ${token}`);

@@ -35,8 +35,8 @@ export function Toolbar(p: ToolbarProps) {
   const commitSaveAs = () => p.saveAs !== null && void p.onSave(p.saveAs).then((ok) => ok && p.setSaveAs(null));
   return (
     <header className="toolbar">
-      <span className="brand">waamflow</span>
-      <select value={p.graphName ?? ""} onChange={(e) => e.target.value && p.onOpen(e.target.value)} data-testid="open-graph" title="open a saved recipe">
+      <h1 className="brand">waamflow</h1>
+      <select value={p.graphName ?? ""} onChange={(e) => e.target.value && p.onOpen(e.target.value)} data-testid="open-graph" title="open a saved recipe" aria-label="open a recipe">
         <option value="">{p.graphName ? "" : "open recipe…"}</option>
         {p.graphs.map((g) => (
           <option key={g.name} value={g.name}>

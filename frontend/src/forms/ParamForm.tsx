@@ -296,7 +296,8 @@ function ListEditor({ root, f, value, onChange, onUpload, id }: { root: JSONSche
   return (
     <div className="list-editor">
       {items.map((it, i) => {
-        const fi = itemField(i);
+        const itemId = it && typeof it === "object" && typeof (it as { id?: unknown }).id === "string" ? (it as { id: string }).id : "";
+        const fi = { ...itemField(i), title: `${f.title} ${i + 1}${itemId ? `: ${itemId}` : ""}` };
         return (
           <div className="list-item" key={i}>
             <FieldRow root={root} f={fi} value={it} onChange={(v) => set(items.map((x, k) => (k === i ? v : x)))} onUpload={onUpload} id={`${id}-${i}`} />

@@ -39,7 +39,12 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
 
   const refresh = useCallback(() => viewerState().then(setSt).catch(() => undefined), []);
   const send = useCallback(
-    (v: ViewSettings) => viewerView(v).then(refresh).catch((e: Error) => onMessage(`3D view: ${e.message}`)),
+    (v: ViewSettings) => {
+      // Optimistic: the panel shows the change at once; the state read back confirms it.
+      const { fit: _fit, ...patch } = v;
+      setSt((cur) => (cur?.view ? { ...cur, view: { ...cur.view, ...(patch as Partial<NonNullable<ViewerState["view"]>>) } } : cur));
+      return viewerView(v).then(refresh).catch((e: Error) => onMessage(`3D view: ${e.message}`));
+    },
     [refresh, onMessage],
   );
 
@@ -134,7 +139,7 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
           <h3 id="v3d-layers">Layers</h3>
           <label className="row">
             show
-            <select value={rangeMode} onChange={(e) => setRangeMode(e.target.value as RangeMode)}>
+            <select data-testid="layer-mode" value={rangeMode} onChange={(e) => setRangeMode(e.target.value as RangeMode)}>
               {RANGE_MODES.map(([m, l]) => (
                 <option key={m} value={m}>
                   {l}
@@ -168,7 +173,7 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
           {hasPath && (
             <label className="row">
               toolpath by
-              <select value={view?.path_color ?? "zone"} onChange={(e) => void send({ path_color: e.target.value as ViewSettings["path_color"] })}>
+              <select data-testid="path-color" value={view?.path_color ?? "zone"} onChange={(e) => void send({ path_color: e.target.value as ViewSettings["path_color"] })}>
                 {(st?.path_color_modes ?? []).map((m) => (
                   <option key={m} value={m}>
                     {PATH_LABELS[m] ?? m}
@@ -180,7 +185,7 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
           {hasSim && (
             <label className="row">
               simulated by
-              <select value={view?.sim_color ?? "deviation"} onChange={(e) => void send({ sim_color: e.target.value as ViewSettings["sim_color"] })}>
+              <select data-testid="sim-color" value={view?.sim_color ?? "deviation"} onChange={(e) => void send({ sim_color: e.target.value as ViewSettings["sim_color"] })}>
                 {(st?.sim_color_modes ?? []).map((m) => (
                   <option key={m} value={m}>
                     {SIM_LABELS[m] ?? m}

@@ -218,6 +218,7 @@ export function ParamsEditor(p: ParamsEditorProps) {
                             <input
                               value={pv.value}
                               data-cell={`${z.id}.${name}`}
+                              aria-label={`${name}, zone ${z.id}, section ${sectionNode.id}, layer ${layerNode.index}`}
                               onChange={(e) => change(setValue(doc, layerNode.index, sectionNode.id, z.id, name, e.target.value))}
                               title={m ?? (bounds[name] ? rangeText(bounds[name]) : unit)}
                               aria-invalid={m ? true : undefined}
@@ -282,7 +283,7 @@ function BulkEdit({ doc, voc, bounds, onApply }: {
   return (
     <div className="bulk" data-testid="bulk-edit">
       <h4>Bulk edit</h4>
-      <select value={name} onChange={(e) => setName(e.target.value)} data-testid="bulk-param">
+      <select aria-label="parameter to set" value={name} onChange={(e) => setName(e.target.value)} data-testid="bulk-param">
         {voc.params.map((x) => (
           <option key={x.name} value={x.name}>
             {bounds[x.name]?.label ?? x.name}
@@ -294,7 +295,7 @@ function BulkEdit({ doc, voc, bounds, onApply }: {
         value={value}
         onChange={(e) => setValueText(e.target.value)}
         style={{ width: 70 }}
-        data-testid="bulk-value"
+        data-testid="bulk-value" aria-label="value to set"
         title={bounds[name] ? rangeText(bounds[name]) : unit}
         aria-invalid={problem ? true : undefined}
         className={problem ? "bad" : ""}
@@ -302,15 +303,15 @@ function BulkEdit({ doc, voc, bounds, onApply }: {
       {unit}
       {problem && <span className="error" data-testid="bulk-error"> {problem}</span>}
       <span> layers </span>
-      <input type="number" value={from} onChange={(e) => setFrom(Number(e.target.value))} style={{ width: 48 }} />–
-      <input type="number" value={to} onChange={(e) => setTo(Number(e.target.value))} style={{ width: 48 }} />
-      <select value={section} onChange={(e) => setSection(e.target.value)} data-testid="bulk-section">
+      <input aria-label="from layer" type="number" value={from} onChange={(e) => setFrom(Number(e.target.value))} style={{ width: 48 }} />–
+      <input aria-label="to layer" type="number" value={to} onChange={(e) => setTo(Number(e.target.value))} style={{ width: 48 }} />
+      <select aria-label="section" value={section} onChange={(e) => setSection(e.target.value)} data-testid="bulk-section">
         <option value="">all sections</option>
         {voc.sections.map((s) => (
           <option key={s}>{s}</option>
         ))}
       </select>
-      <select value={zone} onChange={(e) => setZone(e.target.value)} data-testid="bulk-zone">
+      <select aria-label="zone" value={zone} onChange={(e) => setZone(e.target.value)} data-testid="bulk-zone">
         <option value="">all zones</option>
         {voc.zones.map((z) => (
           <option key={z}>{z}</option>

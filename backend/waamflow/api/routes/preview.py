@@ -159,7 +159,8 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     error = None
     node = req.node
     try:
-        result = execute(graph, resolver=resolver, cache=svc.cache, targets=[node], layers=[req.layer], artifacts=False)
+        result = execute(graph, resolver=resolver, cache=svc.cache, targets=[node], layers=[req.layer], artifacts=False,
+                             workers=1)
         outputs, count = result.outputs, result.layer_count
     except PlanningError as err:
         error = err.to_dict()
@@ -167,7 +168,8 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
         outputs, count = {}, None
         if parents:
             try:
-                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer], artifacts=False)
+                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer], artifacts=False,
+                             workers=1)
                 outputs, count, node = r2.outputs, r2.layer_count, parents[0]
             except PlanningError:
                 pass
