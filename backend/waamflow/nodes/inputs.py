@@ -54,8 +54,8 @@ class MeshNode(Node):
     (STEP, IGES: read and tessellated by OpenCascade within `chordal_tolerance`).
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
-    Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
-    snapped to the same grid point). The mesh must be closed (watertight,
+    Corners that are bit-identical in the file are welded; where open edges remain, vertices on
+    them closer than `weld_tolerance` (default 1 µm) are merged too, reported as a warning. The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
     non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
     triangles are refused.
@@ -76,8 +76,9 @@ class MeshNode(Node):
                                          json_schema_extra=unit("mm"))
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
-        weld_tolerance: float = Field(0.0, ge=0, le=1.0,
-                                      description="Snap corners to a grid of this pitch before welding (0: exact)",
+        weld_tolerance: float = Field(0.001, ge=0, le=1.0,
+                                      description="Merge vertices on open edges closer than this (exporter cracks, "
+                                                  "seam gaps; reported). 0: bit-identical corners only",
                                       json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
@@ -97,6 +98,7 @@ class MeshNode(Node):
                          "(each body kept); tessellated within {params.chordal_tolerance:g} mm")
         else:
             units = mesh_file_units(data, params.path) if params.units == "file" else params.units
+            weld: dict = {}
             mesh = load_mesh_bytes(
                 data,
                 params.path,
@@ -104,7 +106,11 @@ class MeshNode(Node):
                 transform=transform,
                 limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
                 weld_tolerance=params.weld_tolerance,
+                stats=weld,
             )
+            if weld.get("welded"):
+                ctx.warn(f"{params.path}: welded {weld['welded']} vertices on open edges within weld_tolerance "
+                         f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
