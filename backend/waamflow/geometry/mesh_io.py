@@ -242,6 +242,7 @@ def load_mesh_bytes(
     limits: MeshLimits = MeshLimits(),
     weld_tolerance: float = 0.0,
     stats: dict | None = None,
+    require_closed: bool = True,
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
 
@@ -253,4 +254,5 @@ def load_mesh_bytes(
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
     return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
-                               source=filename, weld_tolerance=weld_tolerance, stats=stats)
+                               source=filename, weld_tolerance=weld_tolerance, stats=stats,
+                               require_closed=require_closed)

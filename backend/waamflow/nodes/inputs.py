@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from ..core.errors import InputFileError
 from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..geometry.mesh_io import mesh_file_units
+from ..geometry.topology import edge_report
 from ..geometry.step_io import is_cad_file, load_cad_bytes
 from ..geometry.units import implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
@@ -64,13 +65,19 @@ class MeshNode(Node):
     type = "mesh"
     title = "Mesh"
     category = "inputs"
-    outputs = (Port("mesh", "mesh", "Closed triangle mesh in mm (MeshData)"),)
+    outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface"),)
 
     class Params(NodeParams):
+        model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
         path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe")
         units: LengthUnit = Field("file", description=UNITS_DOC)
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
         placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+        as_: Literal["auto", "solid", "surface"] = Field(
+            "auto", alias="as",
+            description="solid: must be closed (sliced into regions); surface: an open single-wall surface, sliced "
+                        "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)")
         chordal_tolerance: float = Field(0.05, gt=0, le=5,
                                          description="STEP/IGES: max distance between the CAD surface and its triangles",
                                          json_schema_extra=unit("mm"))
@@ -102,6 +109,7 @@ class MeshNode(Node):
             mesh = load_mesh_bytes(
                 data,
                 params.path,
+                require_closed=params.as_ == "solid",
                 units=units,
                 transform=transform,
                 limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
@@ -111,10 +119,19 @@ class MeshNode(Node):
             if weld.get("welded"):
                 ctx.warn(f"{params.path}: welded {weld['welded']} vertices on open edges within weld_tolerance "
                          f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
+        if params.as_ != "solid" and not is_cad_file(params.path):
+            rep = edge_report(mesh.faces, len(mesh.vertices))
+            surface = params.as_ == "surface" or not rep.closed
+            if surface and params.as_ == "auto":
+                ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges): "
+                         "read as a single-wall surface, sliced into per-layer curves; if it is a solid with "
+                         "cracks raise 'weld_tolerance' or set 'as': 'solid' to see the error")
+            if surface:
+                mesh = MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
-            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name)
+            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name, surface=mesh.surface)
         _report_part(ctx, params.path, lo, hi, units if params.units == "file" else "mm", shift)
         return {"mesh": mesh}
 
