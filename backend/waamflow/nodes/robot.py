@@ -14,6 +14,7 @@ from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
 from ..trajectory.estimate import estimate_moves, estimate_result
+from ..trajectory.cell import load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
@@ -85,10 +86,14 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "9"
+    version = "10"
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
+        cell: str = Field("", max_length=256,
+                          description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
+                                      "gives the arm, base, TCP and the work frame on the positioner flange at its "
+                                      "`fixed_deg` angles, replacing the base/work/TCP parameters below")
         robot_description: str = Field("", max_length=128,
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
@@ -103,9 +108,14 @@ class SimulateRobot(Node):
                                            description="TCP (torch tip) in the flange frame (tool0; z along the torch; "
                                                        "empty = the profile's)")
 
-    def _kin(self, params, profile: RobotProfile) -> KinematicsOptions | None:
+    def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
             return None
+        if params.cell:
+            cell = (load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
+                    if params.cell.endswith(".json") else load_cell(params.cell))
+            return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
+                                     frames=cell.frames(), step_mm=params.ik_step_mm)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
         frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,
@@ -121,7 +131,7 @@ class SimulateRobot(Node):
             ctx.check_cancelled()
             ctx.progress(fraction, message)
 
-        res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=progress)
+        res = simulate_program(moves, profile, params.sim_options(), self._kin(ctx, params, profile), progress=progress)
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}
