@@ -140,3 +140,22 @@ def test_sections_mode_gives_each_section_its_own_axis(tmp_path):
         assert abs((np.array(s["axis_point"]) - prev_top[:3, 3]) @ prev_top[:3, 2]) < 1e-5   # report rounds to 1e-6
     # the part is swept to its end: the last layer's top plane is past the end face
     assert fan["layer_count"] == len(layers) and not layers[-1].region.is_empty
+
+
+def test_duct_on_the_positioner_cell_is_reachable(duct):
+    """The shipped recipe simulates on kr150_tilt_rotate with the `gravity` policy: every layer is
+    turned flat (E1 tilt follows the fan: Δθ .. 58·Δθ over the quarter bend) and the arm reaches
+    every sample; with the positioner held at 0° (`fixed`) the arm alone fails from layer ~26 on."""
+    sim = json.loads(duct.artifacts["sim.simulation.json"])
+    assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
+    assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
+    assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
+    assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
+
+    def fixed(recipe):
+        next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]["positioner_policy"] = "fixed"
+
+    bad = json.loads(run(fixed).artifacts["sim.simulation.json"])
+    assert bad["unreachable_stretches"] >= 5
+    assert bad["positioner_e1_max_deg"] == 0.0

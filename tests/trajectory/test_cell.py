@@ -75,3 +75,29 @@ def test_simulate_robot_with_a_cell_file(tmp_path):
     r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json"}}],
             [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
     assert json.loads(r.artifacts["sim.simulation.json"])["unreachable_stretches"] >= 1
+
+
+def test_gravity_policy_turns_each_layer_flat():
+    """Two layers with torch axes tilted 40° towards −x and 70° towards +y (in the part frame):
+    after the gravity angles every axis points straight down in the world; the positioner only
+    moves on the travel between the layers."""
+    from types import SimpleNamespace
+
+    from waamflow.trajectory.cell import positioner_angles, to_world
+
+    def axis(tilt, az):      # torch → part: −(layer normal tilted by `tilt` towards azimuth `az`)
+        t, a = np.radians(tilt), np.radians(az)
+        return -np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), np.cos(t)])
+
+    pts = np.array([[0, 0, 0], [10, 0, 0], [20, 0, 0], [20, 10, 5], [30, 10, 5], [40, 10, 5]], float)
+    axes = np.array([axis(40, 180)] * 3 + [axis(70, 90)] * 3)
+    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.array([0, 0, 1, 1, 1]),
+                         arc=np.array([True, True, False, True, True]))
+    ang = positioner_angles(KR, mv, "gravity")
+    assert ang[:3, 0] == pytest.approx(40.0) and ang[3:, 0] == pytest.approx(70.0)
+    assert np.abs(np.diff(ang[:3], axis=0)).max() == 0 and np.abs(np.diff(ang[3:], axis=0)).max() == 0
+    _, w = to_world(KR, pts, axes, ang)
+    assert w == pytest.approx(np.tile([0, 0, -1.0], (6, 1)), abs=1e-9)
+    assert positioner_angles(KR, mv, "fixed") == pytest.approx(np.zeros((6, 2)))
+    with pytest.raises(InputFileError, match="positioner policy"):
+        positioner_angles(KR, mv, "wobble")

@@ -94,6 +94,9 @@ class SimulateRobot(Node):
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below")
+        positioner_policy: Literal["fixed", "gravity"] = Field(
+            "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
+                                 "each layer so its torch axis points straight down (flat-position welding)")
         robot_description: str = Field("", max_length=128,
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
@@ -115,7 +118,8 @@ class SimulateRobot(Node):
             cell = (load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
                     if params.cell.endswith(".json") else load_cell(params.cell))
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
-                                     frames=cell.frames(), step_mm=params.ik_step_mm)
+                                     frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
+                                     positioner_policy=params.positioner_policy)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
         frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,

@@ -11,6 +11,7 @@ angles (the `fixed` policy: the angles stay at `positioner.fixed_deg` for the wh
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Literal
 
@@ -151,3 +152,71 @@ def load_cell(name_or_path: str, text: str | None = None) -> Cell:
         err = e.errors()[0]
         where = ".".join(str(x) for x in err["loc"])
         raise InputFileError(f"cell {name_or_path}: {where}: {err['msg']}") from e
+
+
+POLICIES = ("fixed", "gravity")
+
+
+def positioner_angles(cell: Cell, moves, policy: str = "fixed") -> np.ndarray:
+    """Positioner angles (deg) at every programmed point, shape (n, 2) (E1 tilt about x, E2 turn about z).
+
+    `fixed`: `positioner.fixed_deg` throughout. `gravity`: each layer turned so its mean torch axis
+    (arc-ON segments) points straight down (world −z), the flat welding position of the
+    curved-parts study: with n = −axis, E2 = 90° − atan2(n_y, n_x) brings n's horizontal part onto
+    +y, then E1 = atan2(|n_xy|, n_z) tilts it up to +z. E2 is unwrapped by 360° to stay closest to
+    the previous layer's (and kept when n is vertical); angles are constant along a layer, so the
+    positioner moves only on the arc-OFF travel between layers. A point takes the angles of the
+    arc-ON segment it ends (else of the segment it starts)."""
+    if policy not in POLICIES:
+        raise InputFileError(f"positioner policy {policy!r}: use one of {', '.join(POLICIES)}")
+    n = len(moves.points)
+    fixed = np.zeros(2)
+    if cell.positioner is not None:
+        fixed[: len(cell.positioner.fixed_deg)] = cell.positioner.fixed_deg
+    if policy == "fixed" or cell.positioner is None or n < 2:
+        return np.tile(fixed, (n, 1))
+    model = _positioner_model(cell.positioner.urdf)
+    lo, hi = np.degrees(model.lowerPositionLimit), np.degrees(model.upperPositionLimit)
+    seg_layer = np.asarray(moves.layer)
+    arc = np.asarray(moves.arc, bool)
+    axes = np.asarray(moves.tool_axis, float)
+    layer_angles: dict[int, np.ndarray] = {}
+    prev = fixed.copy()
+    for L in sorted(set(seg_layer.tolist())):
+        segs = np.flatnonzero((seg_layer == L) & arc)
+        if len(segs) == 0:
+            segs = np.flatnonzero(seg_layer == L)
+        nrm = -axes[segs].mean(axis=0)
+        nrm /= max(np.linalg.norm(nrm), 1e-12)
+        r = math.hypot(nrm[0], nrm[1])
+        e1 = math.degrees(math.atan2(r, nrm[2]))
+        e2 = prev[1] if r < 1e-6 else 90.0 - math.degrees(math.atan2(nrm[1], nrm[0]))
+        if len(lo) > 1:
+            cands = [e2 + 360.0 * k for k in range(-3, 4) if lo[1] - 1e-9 <= e2 + 360.0 * k <= hi[1] + 1e-9]
+            if cands:
+                e2 = min(cands, key=lambda a: abs(a - prev[1]))
+        e1 = float(np.clip(e1, lo[0], hi[0]))
+        prev = np.array([e1, e2])
+        layer_angles[L] = prev
+    out = np.zeros((n, 2))
+    for i in range(n):
+        if i > 0 and arc[i - 1]:
+            s = i - 1
+        else:
+            s = min(i, n - 2)
+        out[i] = layer_angles[int(seg_layer[s])]
+    return out
+
+
+def to_world(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.ndarray):
+    """Part-frame points and torch axes (n, 3) → world, each with its own positioner angles."""
+    pts = np.empty_like(np.asarray(points, float))
+    ax = np.empty_like(np.asarray(axes, float))
+    uniq, inv = np.unique(np.round(angles_deg, 9), axis=0, return_inverse=True)
+    for j, a in enumerate(uniq):
+        f = cell.frames(a)
+        R, t = np.asarray(f.work_rot), np.asarray(f.work_xyz_mm)
+        m = inv.ravel() == j
+        pts[m] = np.asarray(points, float)[m] @ R.T + t
+        ax[m] = np.asarray(axes, float)[m] @ R.T
+    return pts, ax
