@@ -159,3 +159,19 @@ def test_duct_on_the_positioner_cell_is_reachable(duct):
     bad = json.loads(run(fixed).artifacts["sim.simulation.json"])
     assert bad["unreachable_stretches"] >= 5
     assert bad["positioner_e1_max_deg"] == 0.0
+
+
+def test_duct_krl_carries_the_positioner_angles(duct):
+    """post.dat: every E6POS target carries E1 (tilt) = its layer's gravity angle, 58 distinct
+    values Δθ..58·Δθ, and one E2 (the bend turns about one axis); E3..E6 stay 0."""
+    import re
+
+    dat = duct.artifacts["post.dat"]
+    dat = dat.decode() if isinstance(dat, bytes) else dat
+    rows = re.findall(r"DECL E6POS P\d+=\{X [^}]*,E1 ([-\d.]+),E2 ([-\d.]+),E3 ([-\d.]+),E4 ([-\d.]+),"
+                      r"E5 ([-\d.]+),E6 ([-\d.]+)\}", dat)
+    assert len(rows) == dat.count("DECL E6POS")
+    e = np.array(rows, float)
+    e1 = np.unique(np.round(e[:, 0], 2))
+    assert len(e1) == 58 and e1.min() == pytest.approx(1.54, abs=0.01) and e1.max() == pytest.approx(89.32, abs=0.01)
+    assert len(np.unique(np.round(e[:, 1], 2))) == 1 and np.all(e[:, 2:] == 0)
