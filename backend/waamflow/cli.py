@@ -107,10 +107,51 @@ def cmd_serve(args) -> int:
     from .api.app import create_app
     from .settings import Settings
 
+    from .api.auth import load_tokens
+
+    extra = {"token_file": Path(args.token_file)} if args.token_file else {}
     settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
-                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None)
+                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None, **extra)
+    tokens = load_tokens(settings.token, settings.token_file)  # TokenFileError → exit 2
+    if not tokens and not _loopback(args.host):
+        print(f"error: refusing to serve on {args.host} without authentication: set a token with "
+              "WAAMFLOW_TOKEN=<secret> (e.g. `export WAAMFLOW_TOKEN=$(python -c 'import secrets; "
+              "print(secrets.token_urlsafe(32))')`) or --token-file FILE (lines name:token), "
+              "or serve on 127.0.0.1", file=sys.stderr)
+        return 2
     app = create_app(settings)
     uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    return 0
+
+
+def _loopback(host: str) -> bool:
+    import ipaddress
+
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def cmd_backup(args) -> int:
+    from .api.backup import backup
+
+    m = backup(args.data, args.dir)
+    c = m["counts"]
+    print(f"backup: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+          f"{len(m['files'])} run files, {c['audit']} audit entries → {args.dir}")
+    return 0
+
+
+def cmd_restore(args) -> int:
+    from .api.backup import restore
+
+    m = restore(args.dir, args.data, force=args.force)
+    c = m["counts"]
+    print(f"restored: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+          f"{len(m['files'])} run files → {args.data}")
     return 0
 
 
@@ -149,7 +190,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--data", default="data", help="folder for the database and run files")
     s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: ./graphs)")
     s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
+    s.add_argument("--token-file", default=None,
+                   help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)
+
+    b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")
+    b.add_argument("dir", help="new folder for the backup")
+    b.add_argument("--data", default="data", help="the server's data folder")
+    b.set_defaults(func=cmd_backup)
+
+    rs = sub.add_parser("restore", help="restore a backup into a data folder (stop the server first)")
+    rs.add_argument("dir", help="folder written by `waamflow backup`")
+    rs.add_argument("--data", default="data", help="the server's data folder")
+    rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
+    rs.set_defaults(func=cmd_restore)
 
     o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")
     o.set_defaults(func=cmd_openapi)

@@ -40,6 +40,19 @@ class Settings(BaseSettings):
     max_upload_mb: int = 200
     memory_cache_entries: int = 50_000
     disk_cache_gb: float = 2.0
+    # security (README "Security model")
+    token: str | None = Field(None, description="bearer token every /api route and the viewer require (named 'default')")
+    token_file: Path | None = Field(None, description="file of named tokens: JSON {name: token} or lines name:token")
+    cors_origins: list[str] = Field(default_factory=list,
+                                    description="origins allowed to call the API from a browser (none by default)")
+    # resource limits per run (README "Limits"); 0 = no limit
+    run_timeout_s: float = Field(1800.0, ge=0, description="wall time of one run, s")
+    max_layers: int = Field(5000, ge=0, description="layers a run may produce")
+    max_points: int = Field(20_000_000, ge=0, description="path points (summed over all layers) a run may produce")
+    max_artifact_mb: float = Field(500.0, ge=0, description="size of one run's artifacts, MB")
+    max_memory_mb: float = Field(8192.0, ge=0, description="resident memory of the server process while runs are going, MB "
+                                                        "(0 = unlimited); over it the largest running run fails")
+    max_queued_runs: int = Field(16, ge=1, description="runs waiting or running; one more gets 429 + Retry-After")
 
     def model_post_init(self, _ctx) -> None:
         if self.graphs_dir is None:

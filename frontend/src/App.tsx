@@ -5,18 +5,28 @@ import type { Artifact, GraphInfo, Health, NodeSpec, ProcessParameter, Recipe, R
 import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
 import { Toolbar } from "./components/Toolbar";
+import { clearDraft, draftDiffers, parsePlace, placeSearch, readDraft, writeDraft, type Draft } from "./graph/drafts";
 import { GraphEditor } from "./graph/GraphEditor";
+import { NodeSearch } from "./graph/NodeSearch";
 import { useShortcuts } from "./graph/useShortcuts";
 import {
-  addNode, amend, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, history, paste, positionsOf, redo, undo, type Clip, type History, type XY,
+  addNode, amend, autoWire, setNodeParams, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
+  type Clip, type History, type XY,
 } from "./graph/recipe";
-import { MaskView } from "./mask/MaskView";
+import { carryOver, matchByOverlap } from "./graph/carry";
+import { governingMask, sectionKey, type MaskParams } from "./mask/edits";
+import { MaskView, type NewMaskEvent } from "./mask/MaskView";
 import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
+import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
+import { ProblemsPanel } from "./problems/ProblemsPanel";
+import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
+import { boundsByName, saveBlocker } from "./xml/params";
 
-type Tab = "graph" | "mask" | "params" | "results";
-const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"]];
+type Tab = "graph" | "mask" | "params" | "results" | "viewer";
+const TABS: [Tab, string][] = [["graph", "Graph"], ["mask", "Mask canvas"], ["params", "Parameters (XML)"], ["results", "Results & plots"], ["viewer", "3D view"]];
+const asTab = (t: string | null): Tab => (TABS.some(([k]) => k === t) ? (t as Tab) : "graph");
 
 
 export function App() {
@@ -37,10 +47,26 @@ export function App() {
   const [failure, setFailure] = useState<RunError | null>(null);
   const [messages, setMessages] = useState<{ id: number; text: string }[]>([]);
   const [saveAs, setSaveAs] = useState<string | null>(null);
+  // The parameter XML: the saved file and the draft shown in the editor (null = none).
+  const [savedXml, setSavedXml] = useState<string | null>(null);
+  const [xmlDraft, setXmlDraft] = useState<string | null>(null);
+  const [xmlLoadError, setXmlLoadError] = useState<string | null>(null);
+  const [xmlError, setXmlError] = useState<(RunError & Record<string, unknown>) | null>(null);
+  // A stored draft offered back when its recipe opens.
+  const [offer, setOffer] = useState<Draft | null>(() => (parsePlace(location.search).graph ? null : readDraft(localStorage, null)));
+  // Files picked before the recipe had a name of its own: uploaded right after the save.
+  const pendingFiles = useRef<File[]>([]);
+  const [search, setSearch] = useState<{ x: number; y: number; at: XY } | null>(null);
+  const [requestError, setRequestError] = useState<RunError | null>(null);
+  const [showProblems, setShowProblems] = useState(false);
   const clip = useRef<Clip | null>(null);
   const rf = useReactFlow();
 
-  const dirty = JSON.stringify(recipe) !== savedJson;
+  const xmlText = xmlDraft ?? savedXml;
+  const xmlDirty = xmlDraft !== null && xmlDraft !== savedXml;
+  const recipeDirty = JSON.stringify(recipe) !== savedJson;
+  const dirty = recipeDirty || xmlDirty;
+  const isExample = !!graphName && graphs.some((g) => g.name === graphName && g.example);
 
   // Keep the selection to nodes that exist (after delete, undo, open).
   useEffect(() => {
@@ -75,10 +101,23 @@ export function App() {
   );
   const typingEdit = useCallback((fn: (r: Recipe) => Recipe) => edit(fn, true), [edit]);
 
-  const { run, follow, cancel } = useRun(async (s) => {
+  const xmlNow = useRef<string | null>(null);
+  xmlNow.current = xmlText;
+  const { run, follow, cancel, reset } = useRun(async (s) => {
     if (!s.id) return;
     try {
-      setArtifacts(await API.listArtifacts(s.id));
+      const arts = await API.listArtifacts(s.id);
+      setArtifacts(arts);
+      // The run's merged parameter XML (new zones filled from the template) becomes the editor's
+      // draft: it is saved only when the user saves the recipe.
+      const merged = arts.find((a) => a.name.endsWith(".params.xml"));
+      if (s.phase === "done" && merged) {
+        const text = await API.artifactText(s.id, merged.name);
+        if (text !== null && text !== xmlNow.current) {
+          setXmlDraft(text);
+          message("the run's parameter XML is in the Parameters tab as an unsaved draft");
+        }
+      }
     } catch (e) {
       fail(e);
     }
@@ -98,70 +137,162 @@ export function App() {
     void refreshGraphs();
   }, [fail, refreshGraphs]);
 
-  // Leaving the page with unsaved edits asks first.
+  // ---- drafts: every unsaved change is kept in the browser until saved or discarded -------------
+  // Only a draft this page wrote is removed when its edits are undone (another tab's or a crashed
+  // session's draft stays until the user answers the offer).
+  const wroteDraft = useRef<string | null>(null);
   useEffect(() => {
-    if (!dirty) return;
-    const warn = (e: BeforeUnloadEvent) => e.preventDefault();
-    window.addEventListener("beforeunload", warn);
-    return () => window.removeEventListener("beforeunload", warn);
-  }, [dirty]);
+    if (offer) return; // the stored draft waits for the user's answer
+    const key = graphName ?? "";
+    if (!dirty) {
+      if (wroteDraft.current === key) clearDraft(localStorage, graphName);
+      wroteDraft.current = null;
+      return;
+    }
+    const problem = writeDraft(localStorage, graphName, { recipe, xml: xmlDirty ? xmlDraft : null, tab, savedAt: Date.now() });
+    wroteDraft.current = key;
+    if (problem) message(problem);
+  }, [dirty, recipe, xmlDraft, xmlDirty, tab, graphName, offer, message]);
+
+  const reset_ = useCallback(
+    (full: Recipe, name: string | null, xml: string | null) => {
+      setHist(history(full));
+      setSavedJson(JSON.stringify(full));
+      setGraphName(name);
+      setSavedXml(xml);
+      setXmlDraft(null);
+      setXmlError(null);
+      setSelected(new Set());
+      setPreviewNode(null);
+      setFailure(null);
+      setRequestError(null);
+      setArtifacts([]);
+      setLayer(0);
+      reset();
+      const d = readDraft(localStorage, name);
+      setOffer(d && draftDiffers(d, full, xml) ? d : null);
+      setTimeout(() => rf.fitView({ padding: 0.15 }), 50);
+    },
+    [rf, reset],
+  );
 
   const open = useCallback(
-    async (name: string) => {
-      if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
+    async (name: string, tabAfter?: Tab) => {
       try {
-        const r = await API.getGraph(name);
+        const [r, list] = await Promise.all([API.getGraph(name), API.listGraphs()]);
+        setGraphs(list);
+        // Only asked for when there is one: a 404 would be noise in the browser's console.
+        const xml = list.find((g) => g.name === name)?.has_params ? await API.getParams(name) : null;
         const full: Recipe = { ...emptyRecipe(name), ...r };
-        setHist(history(full));
-        setSavedJson(JSON.stringify(full));
-        setGraphName(name);
-        setSelected(new Set());
-        setPreviewNode(null);
-        setFailure(null);
-        setArtifacts([]);
-        setLayer(0);
-        setTimeout(() => rf.fitView({ padding: 0.15 }), 50);
+        setXmlLoadError(xml === null ? "This graph has no parameter file yet: run it once to create the template." : null);
+        reset_(full, name, xml);
+        if (tabAfter) setTab(tabAfter);
       } catch (e) {
         fail(e);
       }
     },
-    [fail, rf, dirty],
+    [fail, reset_],
   );
+
+  const restoreOffer = () => {
+    if (!offer) return;
+    // One undo step back to the saved recipe.
+    setHist((h) => commit(h, offer.recipe));
+    setXmlDraft(offer.xml);
+    setTab(asTab(offer.tab));
+    setOffer(null);
+    message("restored the unsaved changes");
+  };
+  const discardOffer = () => {
+    clearDraft(localStorage, graphName);
+    setOffer(null);
+  };
+
+  // ---- the URL names the open recipe and tab; back/forward move between them ----------------------
+  const navigating = useRef(false);
+  useEffect(() => {
+    const place = parsePlace(location.search);
+    if (place.graph) {
+      navigating.current = true;
+      void open(place.graph, asTab(place.tab)).finally(() => (navigating.current = false));
+    } else if (place.tab) setTab(asTab(place.tab));
+    const onPop = () => {
+      const p = parsePlace(location.search);
+      navigating.current = true;
+      const done = () => {
+        setTab(asTab(p.tab));
+        navigating.current = false;
+      };
+      if (p.graph && p.graph !== graphRef.current) void open(p.graph, asTab(p.tab)).finally(done);
+      else done();
+    };
+    window.addEventListener("popstate", onPop);
+    return () => window.removeEventListener("popstate", onPop);
+  }, []);
+  const graphRef = useRef(graphName);
+  graphRef.current = graphName;
+  useEffect(() => {
+    if (navigating.current) return;
+    const want = placeSearch({ graph: graphName, tab });
+    if (want !== location.search) window.history.pushState(null, "", want || location.pathname);
+  }, [graphName, tab]);
+
+  const bounds = useMemo(() => boundsByName(processParams), [processParams]);
 
   const save = useCallback(
     async (name: string | null = graphName) => {
-      if (!name) {
-        setSaveAs(recipe.name || "untitled");
+      if (!name || (isExample && name === graphName)) {
+        // Shipped examples are read-only: saving one means saving a copy under a new name.
+        setSaveAs(name ? `${name}-copy` : recipe.name || "untitled");
+        if (isExample) message(`${graphName} is a shipped example (read-only): save as a new name`);
+        return false;
+      }
+      const xml = xmlText;
+      const blocked = xml !== null && (xmlDirty || name !== graphName) ? saveBlocker(xml, bounds) : null;
+      if (blocked) {
+        setXmlError({ message: blocked });
+        message(blocked);
+        setTab("params");
         return false;
       }
       try {
         const toSave = { ...recipe, name };
+        // Recipe first, then its XML; the local draft is kept until both are stored, so a failure
+        // in between loses nothing (the draft is offered back on the next open).
         const res = await API.putGraph(name, toSave);
-        // "Save as" takes the zone-parameter values along to the new graph.
-        if (graphName && name !== graphName && res.created) {
-          const xml = await API.getParams(graphName).catch(() => null);
-          if (xml) await API.putParams(name, xml).catch(() => undefined);
+        if (xml !== null && (xmlDirty || name !== graphName)) await API.putParams(name, xml);
+        for (const f of pendingFiles.current.splice(0)) {
+          await API.putFile(name, f.name, f);
+          message(`uploaded ${f.name}`);
         }
+        clearDraft(localStorage, graphName);
+        clearDraft(localStorage, name);
         setHist((h) => ({ ...h, present: toSave }));
         setSavedJson(JSON.stringify(toSave));
+        setSavedXml(xml);
+        setXmlDraft(null);
+        setXmlError(null);
+        setXmlLoadError(null);
         setGraphName(name);
         if (res.problems.length) message(`saved; not runnable yet: ${String(res.problems[0].message)}`);
         else message(`saved ${name}`);
         void refreshGraphs();
         return true;
       } catch (e) {
+        if (e instanceof API.ApiError) setXmlError(e.detail.layer != null ? e.detail : null);
         fail(e);
         return false;
       }
     },
-    [graphName, recipe, message, fail, refreshGraphs],
+    [graphName, isExample, recipe, xmlText, xmlDirty, bounds, message, fail, refreshGraphs],
   );
 
   const remove = async () => {
-    if (!graphName || !window.confirm(`Delete graph ${graphName}?`)) return;
+    if (!graphName || isExample || !window.confirm(`Delete graph ${graphName}?`)) return;
     try {
       await API.deleteGraph(graphName);
       message(`deleted ${graphName}`);
+      clearDraft(localStorage, graphName);
       setGraphName(null);
       setSavedJson("");
       void refreshGraphs();
@@ -172,14 +303,25 @@ export function App() {
 
   const startRun = async () => {
     setFailure(null);
+    setRequestError(null);
     setArtifacts([]);
+    reset(); // the progress bar starts from zero for the new run
     try {
-      // The recipe runs exactly as displayed (unsaved edits included, nothing is saved); a saved
-      // graph lends it its uploaded files and its parameter XML.
-      const { id } = await API.startRun({ graph: graphName, recipe: engineView(recipe) });
+      // The recipe runs exactly as displayed (unsaved edits included) with the XML as shown in the
+      // editor (a draft: never stored by the run); a saved graph lends it its uploaded files.
+      const { id } = await API.startRun({
+        graph: graphName, recipe: engineView(recipe), ...(graphName && xmlText !== null ? { params_xml: xmlText } : {}),
+      });
       follow(id);
     } catch (e) {
-      if (e instanceof API.ApiError && (e.detail.node || e.detail.layer != null)) setFailure(e.detail);
+      if (e instanceof API.ApiError) {
+        if (e.detail.node || e.detail.layer != null) setFailure(e.detail);
+        setRequestError(e.detail);
+        if (e.detail.node && recipe.nodes.some((n) => n.id === e.detail.node)) {
+          setSelected(new Set([e.detail.node]));
+          setShowProblems(true);
+        }
+      }
       fail(e);
     }
   };
@@ -188,32 +330,37 @@ export function App() {
     (type: string, at?: XY) => {
       const spec = catalog.get(type);
       if (!spec) return;
-      // Without a drop point, append: right of the selected node (else of the rightmost one).
-      let pos = at;
-      if (!pos) {
-        const all = positionsOf(recipe);
-        const anchorId = [...selected].find((id) => all[id]) ?? Object.keys(all).sort((a, b) => all[b][0] - all[a][0])[0];
-        pos = anchorId ? [all[anchorId][0] + 230, all[anchorId][1]] : [0, 0];
-        // Wrap after four columns, below everything, so a growing chain stays readable.
-        const ps = Object.values(all);
-        const x0 = ps.length ? Math.min(...ps.map((q) => q[0])) : 0;
-        if (pos[0] > x0 + 3 * 230) pos = [x0, Math.max(...ps.map((q) => q[1])) + 160];
+      const all = positionsOf(recipe);
+      const anchorId = [...selected].find((id) => all[id]);
+      // Without a drop point: right of the selected node (else of the rightmost one); either way
+      // on free space, never on top of another node.
+      let want = at;
+      if (!want) {
+        const right = anchorId ?? Object.keys(all).sort((a, b) => all[b][0] - all[a][0])[0];
+        want = right ? [all[right][0] + 230, all[right][1]] : [0, 0];
       }
+      const pos = freeSpot(Object.values(all), want);
       // A new node starts with empty params: the engine applies the schema defaults and the form
       // shows them as placeholders, so the recipe only records what the user changed.
       const { recipe: r, id } = addNode(recipe, spec, pos);
-      edit(() => r);
+      // Wired from the selected node's first compatible output, like ComfyUI/Grasshopper.
+      const wired = selected.size === 1 && anchorId ? autoWire(catalog, r, anchorId, id) : { recipe: r, edge: null };
+      edit(() => wired.recipe);
+      if (wired.edge) message(`wired ${wired.edge.from} → ${wired.edge.to}`);
       setSelected(new Set([id]));
       setTab("graph");
     },
-    [catalog, recipe, selected, edit],
+    [catalog, recipe, selected, edit, message],
   );
 
   const upload = useCallback(
     async (file: File): Promise<string | null> => {
-      if (!graphName) {
-        message("save the recipe first: uploaded files belong to a saved graph");
-        return null;
+      if (!graphName || isExample) {
+        // Files belong to a saved graph: keep the file here, ask for a name, upload on save.
+        pendingFiles.current = [...pendingFiles.current.filter((f) => f.name !== file.name), file];
+        setSaveAs(graphName ? `${graphName}-copy` : recipe.name || "untitled");
+        message(`save the recipe under a name of its own: ${file.name} is uploaded right after`);
+        return file.name;
       }
       try {
         await API.putFile(graphName, file.name, file);
@@ -224,7 +371,7 @@ export function App() {
         return null;
       }
     },
-    [graphName, message, fail],
+    [graphName, isExample, recipe.name, message, fail],
   );
 
   useShortcuts({
@@ -245,23 +392,62 @@ export function App() {
     },
     selectAll: () => setSelected(new Set(recipe.nodes.map((n) => n.id))),
     fit: () => rf.fitView({ padding: 0.15, duration: 200 }),
+    search: () => {
+      const box = document.querySelector("[data-testid=graph-editor]")?.getBoundingClientRect();
+      if (!box) return;
+      const x = box.left + box.width / 2, y = box.top + box.height / 3;
+      const at = rf.screenToFlowPosition({ x, y });
+      setSearch({ x, y, at: [Math.round(at.x), Math.round(at.y)] });
+    },
   });
 
-  // The 3D view follows the previewed (else the selected) node, and the canvas layer on the mask tab.
-  const followNode = previewNode ?? (selected.size === 1 ? [...selected][0] : null);
-  const followLayer = tab === "mask" ? layer : null;
-  useEffect(() => {
-    if (!healthInfo?.viewer_port) return;
-    const t = setTimeout(() => API.viewerSelect(followNode, followLayer).catch(() => undefined), 150);
-    return () => clearTimeout(t);
-  }, [healthInfo, followNode, followLayer]);
+  const problems = useMemo(() => collectProblems(run.warnings, [requestError, run.error]), [run.warnings, run.error, requestError]);
+  const nodeProblems = useMemo(() => problemsByNode(problems), [problems]);
+  const pickProblem = (pr: Problem) => {
+    if (pr.node && recipe.nodes.some((n) => n.id === pr.node)) {
+      setSelected(new Set([pr.node]));
+      const pos = positionsOf(recipe)[pr.node];
+      if (pos && tab === "graph") rf.setCenter(pos[0] + 100, pos[1] + 50, { zoom: rf.getZoom(), duration: 200 });
+    }
+    if (pr.layer != null) {
+      setLayer(pr.layer);
+      setTab("mask");
+    } else if (pr.node) setTab("graph");
+  };
+
+  /** New mask from layer N, carrying each continuing section's settings and XML values over. */
+  const newMaskFrom = (e: NewMaskEvent): boolean => {
+    const masks = e.params.masks ?? [];
+    const made = masks.find((m) => m.id === e.newId);
+    if (!made) return false;
+    const before: MaskParams = { ...e.params, masks: masks.filter((m) => m.id !== e.newId) };
+    const old = governingMask(before, e.layer);
+    const oldKeys = old ? old.sections.map((x) => sectionKey(old.id, x.id)) : [];
+    const oldRegions = e.regions.filter((x) => oldKeys.includes(x.key));
+    const next = made.sections.map((x) => ({ key: sectionKey(made.id, x.id), polygon: { exterior: x.curve, holes: [] } }));
+    const above = masks.filter((m) => m.from_layer > e.layer).map((m) => m.from_layer);
+    const plan = carryOver(setNodeParams(recipe, e.maskNode, e.params), {
+      matches: matchByOverlap(oldRegions, next), oldKeys, oldRegions: oldRegions.map((x) => x.key), from: e.layer,
+      to: above.length ? Math.min(...above) : null, xml: xmlText,
+    });
+    const text = [
+      `New mask ${made.id} from layer ${e.layer}.`,
+      plan.carried.length ? `Carried over:\n  ${plan.carried.join("\n  ")}` : "Nothing to carry over.",
+      plan.lost.length ? `Could NOT carry:\n  ${plan.lost.join("\n  ")}` : "Everything carried over.",
+    ].join("\n\n");
+    if (!window.confirm(text)) return false;
+    edit(() => plan.recipe);
+    if (plan.xml !== xmlText) setXmlDraft(plan.xml);
+    message(`mask ${made.id} from layer ${e.layer}: ${plan.carried.length} setting(s) carried${plan.lost.length ? `, ${plan.lost.length} not` : ""}`);
+    return true;
+  };
 
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
 
   return (
-    <div className="app">
+    <div className={`app tab-${tab}`}>
       <Toolbar
         graphs={graphs}
         graphName={graphName}
@@ -271,12 +457,14 @@ export function App() {
         canRedo={hist.future.length > 0}
         canRun={recipe.nodes.length > 0}
         run={run}
+        isExample={isExample}
+        problemCount={problems.length}
+        errorCount={problems.filter((x) => x.severity === "error").length}
+        onProblems={() => setShowProblems((v) => !v)}
         onOpen={(name) => void open(name)}
         onNew={() => {
-          if (dirty && !window.confirm("Discard the unsaved changes of this recipe?")) return;
-          setHist(history(emptyRecipe()));
-          setGraphName(null);
-          setSavedJson(JSON.stringify(emptyRecipe()));
+          setXmlLoadError(null);
+          reset_(emptyRecipe(), null, null);
         }}
         onSave={save}
         onDelete={remove}
@@ -287,6 +475,13 @@ export function App() {
         saveAs={saveAs}
         setSaveAs={setSaveAs}
       />
+      {offer && (
+        <div className="draft-offer" role="alertdialog" aria-label="unsaved changes" data-testid="draft-offer">
+          restore unsaved changes from {new Date(offer.savedAt).toLocaleString()}?
+          <button onClick={restoreOffer} data-testid="draft-restore">restore</button>
+          <button onClick={discardOffer} data-testid="draft-discard">discard</button>
+        </div>
+      )}
       <div className="body">
         <aside className="left">
           <Palette specs={specs} onAdd={(t) => addAt(t)} />
@@ -312,6 +507,8 @@ export function App() {
                 onPreview={onPreview}
                 onAddAt={addAt}
                 onMessage={message}
+                problems={nodeProblems}
+                onSearch={(x, y, at) => setSearch({ x, y, at })}
                 active={tab === "graph"}
               />
             </div>
@@ -330,6 +527,7 @@ export function App() {
                   failure={failure}
                   onDismissFailure={() => setFailure(null)}
                   onMessage={message}
+                  onNewMask={newMaskFrom}
                 />
               </div>
             )}
@@ -337,13 +535,27 @@ export function App() {
               <div className="pane scroll">
                 <ParamsEditor
                   graph={graphName}
+                  text={xmlText}
+                  unsaved={xmlDirty}
+                  loadError={xmlText === null ? xmlLoadError : null}
+                  onChange={setXmlDraft}
+                  onSave={() => void save()}
+                  onDiscard={() => {
+                    if (window.confirm("Drop the unsaved parameter XML?")) setXmlDraft(null);
+                  }}
+                  serverError={xmlError}
                   runId={run.phase === "done" ? run.id : null}
                   runParamsArtifacts={zoneArtifacts}
                   runWarnings={run.warnings.filter((w) => w.node && recipe.nodes.some((n) => n.id === w.node && n.type === "zone"))}
                   parameters={processParams}
-                  dirtyRecipe={dirty}
+                  dirtyRecipe={recipeDirty}
                   onMessage={message}
                 />
+              </div>
+            )}
+            {tab === "viewer" && (
+              <div className="pane">
+                <Viewer3D health={healthInfo} graph={graphName} runId={run.id} runPhase={run.phase} layer={layer} setLayer={setLayer} onMessage={message} />
               </div>
             )}
             {tab === "results" && (
@@ -367,15 +579,20 @@ export function App() {
               onMessage={message}
             />
           </div>
-          <div className="viewer">
-            {healthInfo && API.viewerUrl(healthInfo) ? (
-              <iframe title="3D view" src={API.viewerUrl(healthInfo)!} data-testid="viewer" />
-            ) : (
-              <div className="muted">3D view not available{healthInfo ? " (viewer not started)" : ""}</div>
-            )}
-          </div>
         </aside>
       </div>
+      {showProblems && <ProblemsPanel problems={problems} onPick={pickProblem} onClose={() => setShowProblems(false)} />}
+      {search && (
+        <NodeSearch
+          specs={specs}
+          at={{ x: search.x, y: search.y }}
+          onClose={() => setSearch(null)}
+          onPick={(type) => {
+            addAt(type, search.at);
+            setSearch(null);
+          }}
+        />
+      )}
       <footer className="status">
         <span>{recipe.nodes.length} nodes · {recipe.edges.length} edges</span>
         {run.error && <span className="error">{run.error.node} {run.error.layer != null ? `layer ${run.error.layer}` : ""} {run.error.section ?? ""}: {run.error.message}</span>}

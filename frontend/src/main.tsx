@@ -2,8 +2,10 @@ import { ReactFlowProvider } from "@xyflow/react";
 import "@xyflow/react/dist/style.css";
 import { StrictMode } from "react";
 import { createRoot } from "react-dom/client";
+import "./api/auth"; // first: wraps fetch before the API client captures it
 import { App } from "./App";
 import "./styles.css";
+import "./core.css";
 
 createRoot(document.getElementById("root")!).render(
   <StrictMode>

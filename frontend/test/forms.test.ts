@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { JSONSchema } from "../src/api/types";
-import { boundsText, describeFields, findEnum, findProperty, inputField, schemaAt, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
+import { allProperties, boundsText, describeFields, enrichFromRoot, fieldKind, humanize, labelOf, vectorDims, findEnum, findProperty, inputField, schemaAt, parseNumberInput, validateField, validateParams } from "../src/forms/schema";
 
 // The shape pydantic v2 emits for a node's Params model.
 const schema: JSONSchema = {
@@ -24,7 +24,7 @@ const schema: JSONSchema = {
 describe("fields from a pydantic schema", () => {
   const f = Object.fromEntries(describeFields(schema).map((x) => [x.name, x]));
   it("picks a widget per field", () => {
-    expect(Object.values(f).map((x) => x.kind)).toEqual(["number", "integer", "enum", "file", "boolean", "json"]);
+    expect(Object.values(f).map((x) => x.kind)).toEqual(["number", "integer", "enum", "file", "boolean", "map"]);
   });
   it("carries unit, bounds, nullability and enum options", () => {
     expect(f.layer_height.unit).toBe("mm");
@@ -84,5 +84,56 @@ describe("recipe inputs typed by the parameters that use them", () => {
   it("resolves a schema at a path", () => {
     expect(schemaAt(strategy, ["sections", "x", "pattern"])?.enum).toEqual(["raster", "spiral"]);
     expect(schemaAt(strategy, ["nope"])).toBeUndefined();
+  });
+});
+
+describe("schema → widget mapping (the shapes pydantic emits for strategy, zone, mesh, mask)", () => {
+  const pt = { type: "array", minItems: 2, maxItems: 2, prefixItems: [{ type: "number" }, { type: "number" }] } as JSONSchema;
+  const root: JSONSchema = {
+    type: "object",
+    $defs: {
+      SectionStrategy: { title: "SectionStrategy", type: "object", properties: { pattern: { enum: ["oscillate", "spiral"], type: "string", title: "Pattern" }, speed: { type: "number", exclusiveMinimum: 0, maximum: 500, unit: "mm/s", title: "Speed" } } },
+      SectionStrategyOverride: { title: "SectionStrategyOverride", type: "object", properties: { pattern: { anyOf: [{ type: "string" }, { type: "null" }], default: null }, speed: { anyOf: [{ type: "number" }, { type: "null" }], default: null } } },
+      ZoneSpecParams: { title: "ZoneSpecParams", type: "object", properties: { split_points: { type: "array", items: pt, unit: "mm", title: "Split Points" } } },
+      TransformParams: { title: "TransformParams", type: "object", properties: { translate: { type: "array", minItems: 3, maxItems: 3, prefixItems: [{ type: "number" }, { type: "number" }, { type: "number" }] } } },
+    },
+    properties: {
+      default: { $ref: "#/$defs/SectionStrategy", description: "Spec for every section" },
+      sections: { type: "object", additionalProperties: { $ref: "#/$defs/SectionStrategyOverride" }, title: "Sections" },
+      zone: { $ref: "#/$defs/ZoneSpecParams" },
+      transform: { $ref: "#/$defs/TransformParams" },
+      compare: { type: "array", items: { type: "string" }, title: "Compare" },
+      guides: { type: "object", additionalProperties: { type: "array", items: pt } },
+    },
+  };
+  const f = Object.fromEntries(describeFields(root).map((x) => [x.name, x]));
+  it("maps nested models, section maps, vectors, point lists and lists to widgets", () => {
+    expect(Object.fromEntries(Object.entries(f).map(([k, x]) => [k, x.kind]))).toEqual({
+      default: "object", sections: "map", zone: "object", transform: "object", compare: "list", guides: "map",
+    });
+    expect(describeFields(root, f.zone.schema)[0].kind).toBe("points");
+    expect(describeFields(root, f.transform.schema)[0].kind).toBe("vector");
+    expect(vectorDims(root, describeFields(root, f.transform.schema)[0].schema)).toBe(3);
+    expect(fieldKind(f.guides.schema.additionalProperties as JSONSchema, root)).toBe("points");
+  });
+  it("labels come from titles or property names, never from class names", () => {
+    expect(f.default.title).toBe("Default");
+    expect(f.zone.title).toBe("Zone");
+    expect(f.transform.title).toBe("Transform");
+    expect(f.sections.title).toBe("Sections");
+    expect(labelOf("x", { title: "ZoneSpecParams" })).toBe("X");
+    expect(humanize("bead_width")).toBe("Bead width");
+    expect(humanize("angle_deg")).toBe("Angle");
+    expect(Object.values(f).map((x) => x.title).join(" ")).not.toMatch(/Section Strategy|SectionStrategy|ZoneSpecParams|TransformParams/);
+  });
+  it("an override field takes enum, unit and bounds from its same-named twin", () => {
+    const ov = describeFields(root, { $ref: "#/$defs/SectionStrategyOverride" });
+    const pattern = enrichFromRoot(root, ov[0]);
+    expect(pattern.kind).toBe("enum");
+    expect(pattern.options).toEqual(["oscillate", "spiral"]);
+    const speed = enrichFromRoot(root, ov[1]);
+    expect(speed).toMatchObject({ kind: "number", unit: "mm/s", exclusiveMinimum: 0, maximum: 500, nullable: true });
+    expect(validateField(speed, 600)).toBe("must be ≤ 500 mm/s");
+    expect(allProperties(root, "pattern")).toHaveLength(2);
   });
 });

@@ -1,11 +1,13 @@
 // @vitest-environment jsdom
 // The parameter editor checks values against GET /api/process-parameters in the browser: the
 // error (with the unit) shows in the cell as it is typed, and saving sends nothing while one is invalid.
-import { act } from "react";
+// The editor edits a draft held by its host (the App); the host's save checks with saveBlocker.
+import { act, useState } from "react";
 import { createRoot } from "react-dom/client";
 import { afterEach, describe, expect, it, vi } from "vitest";
 import type { ProcessParameter } from "../src/api/types";
 import { ParamsEditor } from "../src/xml/ParamsEditor";
+import { boundsByName, saveBlocker } from "../src/xml/params";
 
 (globalThis as { IS_REACT_ACT_ENVIRONMENT?: boolean }).IS_REACT_ACT_ENVIRONMENT = true;
 
@@ -23,6 +25,29 @@ afterEach(() => {
   vi.unstubAllGlobals();
 });
 
+/** The App's part: holds saved text and draft, saves both through the API (fetch stubbed). */
+function Host() {
+  const [saved, setSaved] = useState(XML);
+  const [draft, setDraft] = useState<string | null>(null);
+  const [error, setError] = useState<{ message: string } | null>(null);
+  const save = async () => {
+    const text = draft ?? saved;
+    const blocked = saveBlocker(text, boundsByName(TABLE));
+    if (blocked) return setError({ message: blocked });
+    await fetch("/api/graphs/g/params", { method: "PUT", body: text });
+    setSaved(text);
+    setDraft(null);
+    setError(null);
+  };
+  return (
+    <ParamsEditor
+      graph="g" text={draft ?? saved} unsaved={draft !== null && draft !== saved} loadError={null} serverError={error}
+      onChange={setDraft} onSave={() => void save()} onDiscard={() => setDraft(null)}
+      runId={null} runParamsArtifacts={[]} runWarnings={[]} parameters={TABLE} dirtyRecipe={false} onMessage={() => {}}
+    />
+  );
+}
+
 async function render() {
   const calls: { method: string; url: string }[] = [];
   vi.stubGlobal("fetch", async (url: string, init?: RequestInit) => {
@@ -32,11 +57,7 @@ async function render() {
   host = document.createElement("div");
   document.body.append(host);
   const root = createRoot(host);
-  await act(async () =>
-    root.render(
-      <ParamsEditor graph="g" runId={null} runParamsArtifacts={[]} runWarnings={[]} parameters={TABLE} dirtyRecipe={false} onMessage={() => {}} />,
-    ),
-  );
+  await act(async () => root.render(<Host />));
   await act(async () => {
     await new Promise((r) => setTimeout(r, 0));
   });
@@ -57,13 +78,14 @@ describe("ParamsEditor bounds", () => {
     const rows = [...el.querySelectorAll("[data-testid=zone-table] tbody tr td:first-child")].map((td) => td.textContent);
     expect(rows).toEqual(["Current [A]0…1000 A", "Travel speed [mm/s]0.1…500 mm/s"]);
   });
-  it("marks an out-of-range value inline, with its unit, and does not send it", async () => {
+  it("marks an out-of-range value inline, with its unit, and the save sends nothing", async () => {
     const { el, calls } = await render();
     const cell = el.querySelector('[data-cell="start.current"]') as HTMLInputElement;
     type(cell, "5000");
     expect(el.querySelector('[data-cell-error="start.current"]')?.textContent).toBe("outside 0…1000 A");
     expect(cell.closest("td")?.dataset.err).toBe("1");
-    act(() => (el.querySelector("[data-testid=params-save]") as HTMLButtonElement).click());
+    expect(el.querySelector("[data-testid=params-unsaved]")).not.toBeNull();
+    await act(async () => (el.querySelector("[data-testid=params-save]") as HTMLButtonElement).click());
     expect(el.querySelector("[data-testid=params-error]")?.textContent).toMatch(/not saved: 1 invalid value\(s\), e\.g\. layer 0 · bs1\/A · start · current: outside 0…1000 A/);
     // Only the invalid cell is marked.
     expect([...el.querySelectorAll("td[data-err] input")].map((i) => i.getAttribute("data-cell"))).toEqual(["start.current"]);

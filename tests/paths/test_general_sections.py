@@ -13,7 +13,7 @@ from waamflow.paths import PATTERNS, StrategySpec, plan_section
 from .helpers import assert_inside_flags_hold
 
 TRAPEZOID = Polygon([(0, 0), (50, 0), (40, 20), (8, 20)])
-IN_SECTION = ("rectangular", "spiral", "swiping", "oscillate", "parallel", "raster")
+IN_SECTION = ("contour", "rectangular", "spiral", "swiping", "oscillate", "parallel", "raster")
 
 
 def band(r0=40.0, r1=55.0, a0=0.0, a1=90.0, k=90):

@@ -72,9 +72,9 @@ def test_study_graph_toolpath_and_artifacts(pattern, expected):
     assert rows["triangular:60"]["outside_share"] == pytest.approx(35.44 / h.triangular(43, 21.5, 60), abs=1e-4)
     assert comp["lowest"]["programmed_length_mm"] == ["triangular:60"]
     svg = res.artifacts["strategy.comparison.svg"].decode()
-    assert svg.startswith("<svg") and svg.count("<rect") == 1 + 4 * 2
-    # the pattern in use is drawn darker, in each of the four panels
-    assert svg.count('fill="#b85c00"') == (4 if pattern == "raster" else 0)
+    assert svg.startswith("<svg") and svg.count("<rect") == 1 + 6 * 2
+    # the pattern in use is drawn darker, in each of the six panels
+    assert svg.count('fill="#b85c00"') == (6 if pattern == "raster" else 0)
 
 
 def test_no_comparison_by_default():
@@ -147,7 +147,8 @@ def test_rectangle_study_recipe_inputs_match_the_contract():
     data = json.loads((ROOT / "graphs" / "rectangle-study.json").read_text())
     assert data["format"] == "waamflow/1"
     assert data["inputs"] == {"length": 43, "width": 21.5, "spacing": 4.43, "pattern": "raster", "angle_deg": 45,
-                              "arc_outside": "on", "speed": 10, "cdis": 5, "wire_feed_mm3_s": 94.25}
+                              "arc_outside": "on", "speed": 10, "cdis": 5, "wire_feed_mm3_s": 94.25,
+                              "compensate": "off"}   # v2 (issue 16): wire-feed compensation off | on
     sim = [n for n in data["nodes"] if n["id"] == "simulate"]
     assert sim and sim[0]["type"] == "simulate-robot"
     assert sim[0]["params"]["cdis"] == "$cdis" and sim[0]["params"]["wire_feed_mm3_s"] == "$wire_feed_mm3_s"
@@ -169,7 +170,7 @@ def test_rectangle_study_recipe_runs_end_to_end(pattern, arc_outside, expected, 
     paths = json.loads(res.artifacts["strategy.paths.json"])
     assert paths["total"]["arc_switches"] == switches
     comp = json.loads(res.artifacts["strategy.comparison.json"])
-    assert len(comp["patterns"]) == 10
+    assert len(comp["patterns"]) == 11
 
 
 def test_comparison_is_memoised_on_section_signatures(monkeypatch):

@@ -8,20 +8,31 @@ from pathlib import Path
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
-from fastapi.staticfiles import StaticFiles
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
-from .routes import graphs, health, nodes, preview, runs, viewer
+from .auth import AuthMiddleware, load_tokens, needs_auth
+from .routes import audit, graphs, health, nodes, preview, runs, viewer
+from .schemas import ErrorResponse, error_body
 from .services import build_services
-from .worker import RunManager
+from .static import CompressedAssets, index_response
+from .worker import Limits, RunManager
 
 log = logging.getLogger("waamflow.server")
 
 
-def _start_viewer(settings: Settings):
+def viewer_host(settings: Settings, tokens: dict) -> str:
+    """viser has no authentication of its own: with tokens configured it listens on loopback only."""
+    return "127.0.0.1" if tokens else settings.host
+
+
+def _start_viewer(settings: Settings, host: str | None = None):
     if not settings.start_viewer or not settings.viewer_port:
         return None
     try:
@@ -30,7 +41,7 @@ def _start_viewer(settings: Settings):
         log.warning("3D preview unavailable (waamflow.viewer not importable)")
         return None
     try:
-        viewer = ViewerService(host=settings.host, port=settings.viewer_port)
+        viewer = ViewerService(host=host or settings.host, port=settings.viewer_port)
         viewer.start()
         return viewer
     except Exception as e:  # a busy port must not keep the API from starting
@@ -40,14 +51,16 @@ def _start_viewer(settings: Settings):
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
+    tokens = load_tokens(settings.token, settings.token_file)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
         svc = build_services(settings)
         if settings.start_workers:
             svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
-                                  svc.resolver_for, svc.after_run)
-        svc.viewer = _start_viewer(settings)
+                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings))
+        svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
+        svc.auth_required = bool(tokens)
         app.state.services = svc
         try:
             yield
@@ -64,17 +77,33 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="waamflow", version=__version__, lifespan=lifespan,
                   description="Node-graph CAM for Wire + Arc Additive Manufacturing. Units: mm, s, deg.")
 
+    def _err(status: int, detail, headers: dict | None = None) -> JSONResponse:
+        return JSONResponse(status_code=status, content=error_body(status, detail), headers=headers)
+
     @app.exception_handler(RecipeError)
     async def _recipe_error(_: Request, err: RecipeError):
-        return JSONResponse(status_code=422, content={"detail": err.to_dict()})
+        return _err(422, err.to_dict())
 
     @app.exception_handler(PlanningError)
     async def _planning_error(_: Request, err: PlanningError):
-        return JSONResponse(status_code=422, content={"detail": err.to_dict()})
+        return _err(422, err.to_dict())
 
     @app.exception_handler(WaamflowError)
     async def _waamflow_error(_: Request, err: WaamflowError):
-        return JSONResponse(status_code=400, content={"detail": err.to_dict()})
+        return _err(getattr(err, "http_status", 400), err.to_dict(), getattr(err, "headers", None))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http_error(request: Request, err: StarletteHTTPException):
+        headers = dict(getattr(err, "headers", None) or {})
+        detail = err.detail
+        if err.status_code == 405:  # Allow: every method of the path, not only of the route tried first
+            methods = sorted({m for r in app.router.routes if getattr(r, "methods", None)
+                              and r.matches(request.scope)[0] != Match.NONE for m in r.methods} - {"HEAD"})
+            headers["Allow"] = ", ".join(methods)
+            detail = {"message": f"{request.method} is not allowed here; use {', '.join(methods)}"}
+        if err.status_code == 400 and detail == "There was an error parsing the body":
+            detail = {"message": "the request body is not valid JSON", "kind": "invalid_request"}
+        return _err(err.status_code, detail, headers or None)
 
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, err: RequestValidationError):
@@ -82,24 +111,66 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         first = errs[0] if errs else {"msg": "invalid request", "loc": ()}
         loc = ".".join(str(x) for x in first.get("loc", ()))
         msg = f"{first.get('msg')}" + (f" at '{loc}'" if loc else "")
-        return JSONResponse(status_code=422, content={"detail": {"message": msg, "text": msg, "errors": [
-            {"loc": list(e.get("loc", ())), "msg": e.get("msg")} for e in errs]}})
+        return _err(422, {"kind": "invalid_request", "message": msg, "text": msg,
+                          "field": loc or None,
+                          "errors": [{"loc": [x if isinstance(x, int) else str(x) for x in e.get("loc", ())],
+                                      "msg": str(e.get("msg"))} for e in errs]})
 
-    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router):
+    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router, audit.router):
         app.include_router(r)
+
+    def openapi() -> dict:
+        """FastAPI's schema with one error model: every 4xx body is an ErrorResponse, and every
+        route behind the token declares 401."""
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+        comps = schema.setdefault("components", {}).setdefault("schemas", {})
+        for name, sub in ErrorResponse.model_json_schema(ref_template="#/components/schemas/{model}").get("$defs", {}).items():
+            comps.setdefault(name, sub)
+        comps["ErrorResponse"] = {k: v for k, v in ErrorResponse.model_json_schema(
+            ref_template="#/components/schemas/{model}").items() if k != "$defs"}
+        comps.pop("HTTPValidationError", None)
+        comps.pop("ValidationError", None)
+        ref = {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorResponse"}}}
+        schema.setdefault("components", {})["securitySchemes"] = {
+            "bearer": {"type": "http", "scheme": "bearer",
+                       "description": "WAAMFLOW_TOKEN or a token of --token-file (only when the server has tokens)"}}
+        for path, ops in schema.get("paths", {}).items():
+            for op in ops.values():
+                responses = op.setdefault("responses", {})
+                if needs_auth(path):
+                    responses.setdefault("401", {"description": "Missing or wrong bearer token"})
+                if "requestBody" in op and "application/json" in op["requestBody"].get("content", {}):
+                    responses.setdefault("400", {"description": "The request body is not valid JSON"})
+                    op["security"] = [{"bearer": []}, {}]
+                for code, resp in responses.items():
+                    if code.startswith("4"):
+                        resp["content"] = ref
+                        if code == "422":
+                            resp["description"] = "Invalid request, recipe or file"
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+    if settings.cors_origins:
+        app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False,
+                           allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type"])
+    app.add_middleware(AuthMiddleware, tokens=tokens)
 
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():
-        app.mount("/assets", StaticFiles(directory=Path(static) / "assets", check_dir=False), name="assets")
+        app.mount("/assets", CompressedAssets(Path(static) / "assets"), name="assets")
 
         @app.get("/{path:path}", include_in_schema=False)
         def spa(path: str):
             if path.startswith("api/"):
-                return JSONResponse(status_code=404, content={"detail": {"message": f"no route /{path}"}})
+                return _err(404, {"message": f"no route /{path}"})
             candidate = (Path(static) / path).resolve()
             if path and candidate.is_file() and candidate.is_relative_to(Path(static).resolve()):
-                return FileResponse(candidate)
-            return FileResponse(Path(static) / "index.html")
+                return index_response(candidate)
+            return index_response(Path(static) / "index.html")
     else:
         @app.get("/", include_in_schema=False)
         def no_gui():

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pydantic import BaseModel
+
+from ..core.errors import RecipeError
 from ..engine.cache import MemoryCache, SqliteCache, TieredCache
 from ..engine.executor import FileResolver, RunResult
+from ..engine.graph import Graph
 from ..engine.recipe import Recipe, parse_recipe
 from ..settings import Settings
 from .store import Store, valid_graph_name
@@ -29,6 +34,69 @@ def params_file_names(recipe: Recipe) -> list[str]:
     return out
 
 
+URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
+
+
+class SandboxError(RecipeError):
+    """A recipe sent over REST names a file outside the server's data and graphs folders."""
+
+    kind = "outside_sandbox"
+
+
+def _is_file_field(field) -> bool:
+    extras = [field.json_schema_extra] + [getattr(m, "json_schema_extra", None) for m in field.metadata]
+    return any(isinstance(e, dict) and (e.get("x-file") or e.get("format") == "path") for e in extras)
+
+
+def file_params(model: BaseModel, prefix: str = "") -> list[tuple[str, str]]:
+    """(dotted parameter name, value) of every file parameter in a node's validated params, at any
+    depth (nested models, lists and dicts of models): fields marked `x-file` (engine.node.FileRef)."""
+    out: list[tuple[str, str]] = []
+    for name, f in type(model).model_fields.items():
+        value = getattr(model, name, None)
+        key = f"{prefix}{name}"
+        if _is_file_field(f):
+            for i, v in enumerate(value if isinstance(value, (list, tuple)) else [value]):
+                if isinstance(v, str) and v:
+                    out.append((key if not isinstance(value, (list, tuple)) else f"{key}.{i}", v))
+            continue
+        items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, (list, tuple)) else None
+        if isinstance(value, BaseModel):
+            out += file_params(value, key + ".")
+        elif items is not None:
+            for k, v in items:
+                if isinstance(v, BaseModel):
+                    out += file_params(v, f"{key}.{k}.")
+    return out
+
+
+def sandbox_problem(path: str, resolver: FileResolver) -> str | None:
+    """Why a file parameter sent over REST may not be read, or None when it may."""
+    if path in resolver.attachments:
+        return None
+    if path.startswith(("/", "\\")) or (len(path) > 1 and path[1] == ":"):
+        return "absolute paths are not allowed over the API: upload the file and name it"
+    if URL.match(path):
+        return "URLs are not read by the server: upload the file to the graph instead"
+    if ".." in re.split(r"[\\/]", path):
+        return "'..' is not allowed in a file name over the API"
+    try:
+        resolver.resolve(path)  # follows symlinks; must end inside the data or graphs folder
+    except RecipeError:
+        return "the file (or the link it goes through) lies outside the server's data and graphs folders"
+    return None
+
+
+def parse_api_recipe(data: Any) -> Recipe:
+    """`parse_recipe` for a request body: whatever JSON arrives, a bad recipe is a RecipeError (422)."""
+    try:
+        return parse_recipe(data)
+    except RecipeError:
+        raise
+    except (TypeError, ValueError, AttributeError, KeyError, IndexError) as e:
+        raise RecipeError(f"invalid recipe: {e}") from None
+
+
 @dataclass
 class Services:
     settings: Settings
@@ -37,6 +105,7 @@ class Services:
     runs: RunManager | None = None
     viewer: Any = None
     extra: dict = field(default_factory=dict)
+    auth_required: bool = False
 
     def prepare(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> Recipe:
         """A saved graph's zone nodes that name no parameter file use the XML stored with the graph
@@ -64,6 +133,15 @@ class Services:
         roots = [p for p in (self.settings.graphs_dir, self.settings.data_dir) if p is not None]
         return FileResolver(base, attachments, roots=roots)
 
+    def check_sandbox(self, graph: Graph, resolver: FileResolver) -> None:
+        """Before anything runs: every file parameter of every node of a recipe that came over REST
+        names an uploaded file or a file inside the data/graphs folders (422 naming node and param)."""
+        for nid, gnode in graph.nodes.items():
+            for pname, value in file_params(gnode.params):
+                why = sandbox_problem(value, resolver)
+                if why:
+                    raise SandboxError(f"file {value!r} refused: {why}", node=nid, field=pname)
+
     def after_run(self, run_id: str, graph_name: str | None, recipe: Recipe, result: RunResult) -> None:
         # A run never writes what the user saved: the merged parameter XML (values kept, orphans
         # reported) is a run artifact; the GUI offers it as a draft that changes the graph on save.
@@ -86,9 +164,9 @@ def build_services(settings: Settings) -> Services:
     disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
     cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
     svc = Services(settings, store, cache)
-    n = store.interrupted_runs_to_failed()
+    n = store.mark_interrupted()
     if n:
-        log.warning("%d runs were interrupted by the last shutdown and are marked failed", n)
+        log.warning("%d runs were interrupted by the last shutdown and are marked interrupted", n)
     seed_examples(svc)
     return svc
 

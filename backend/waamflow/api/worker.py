@@ -3,22 +3,81 @@
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 import uuid
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from ..core.errors import CancelledError, WaamflowError
+from ..core.model import LayerPaths, Layered
 from ..engine.artifacts import write_run_dir
 from ..engine.events import TERMINAL_KINDS, Event
 from ..engine.executor import FileResolver, RunResult, execute
 from ..engine.graph import build_graph
 from ..engine.recipe import Recipe
-from .store import Store
+from .store import Store, valid_file_name
 
 log = logging.getLogger("waamflow.runs")
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Per-run resource limits (0 = none). See Settings / README "Limits"."""
+
+    wall_s: float = 0.0
+    layers: int = 0
+    points: int = 0
+    artifact_bytes: int = 0
+    memory_bytes: int = 0
+    queue: int = 0
+
+    @classmethod
+    def from_settings(cls, s) -> "Limits":
+        return cls(wall_s=s.run_timeout_s, layers=s.max_layers, points=s.max_points,
+                   artifact_bytes=int(s.max_artifact_mb * 1024 * 1024), memory_bytes=int(s.max_memory_mb * 1024 * 1024),
+                   queue=s.max_queued_runs)
+
+
+class LimitError(WaamflowError):
+    """A run went over a resource limit; it ends as failed with this reason."""
+
+    kind = "limit"
+
+
+class QueueFullError(WaamflowError):
+    """Too many runs queued or running: HTTP 429 with Retry-After."""
+
+    kind = "busy"
+    http_status = 429
+
+    def __init__(self, message: str, retry_after: int) -> None:
+        super().__init__(message)
+        self.headers = {"Retry-After": str(retry_after)}
+
+
+def rss_bytes() -> int:
+    """Resident memory of this process (Linux /proc; 0 where unknown)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def point_count(outputs: dict) -> int:
+    """Path points of a run's outputs (all LayerPaths of all nodes)."""
+    n = 0
+    for ports in outputs.values():
+        for value in (ports or {}).values():
+            if isinstance(value, Layered):
+                for it in value.items:
+                    if isinstance(it, LayerPaths):
+                        n += sum(len(sp.points) for sp in it.sections)
+    return n
 
 
 class LiveRun:
@@ -30,6 +89,12 @@ class LiveRun:
         self.cancel = threading.Event()
         self.done = threading.Event()
         self.lock = threading.Lock()
+        self.limit: str | None = None  # why a limit stopped the run
+
+    def trip(self, reason: str) -> None:
+        if self.limit is None:
+            self.limit = reason
+        self.cancel.set()
 
     def add(self, ev: dict) -> None:
         with self.lock:
@@ -43,7 +108,9 @@ class LiveRun:
 class RunManager:
     def __init__(self, store: Store, data_dir: Path, cache, workers: int,
                  resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
-                 on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None) -> None:
+                 on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None,
+                 limits: Limits | None = None) -> None:
+        self.limits = limits or Limits()
         self.store = store
         self.runs_dir = data_dir / "runs"
         self.runs_dir.mkdir(parents=True, exist_ok=True)
@@ -57,6 +124,10 @@ class RunManager:
         """Validate now (so a bad recipe is a 422, not a failed run), then queue. `params_xml` is a
         draft zone-parameter file used for this run only."""
         graph = build_graph(recipe)
+        active = sum(1 for lv in list(self.live.values()) if not lv.done.is_set())
+        if self.limits.queue and active >= self.limits.queue:
+            raise QueueFullError(f"{active} runs are queued or running (limit {self.limits.queue}): try again later",
+                                 retry_after=max(1, min(60, int(self.limits.wall_s or 30) // 10 or 5)))
         run_id = uuid.uuid4().hex[:12]
         self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs)
         live = LiveRun(run_id)
@@ -82,8 +153,13 @@ class RunManager:
             return
         self.store.update_run(run_id, status="running", started=time.time())
         last_progress = [0.0]
+        lim = self.limits
+        watchdog = threading.Thread(target=self._watch, args=(live,), name=f"waamflow-limits-{run_id}", daemon=True)
+        watchdog.start()
 
         def on_event(ev: Event) -> None:
+            if lim.layers and ev.layer is not None and ev.layer >= lim.layers:
+                live.trip(f"more than {lim.layers} layers (limit max_layers)")
             d = ev.to_dict()
             live.add(d)
             now = time.monotonic()
@@ -94,6 +170,7 @@ class RunManager:
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel)
+            self._check_result(result)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs
             write_run_dir(self.run_dir(run_id), result.artifacts, summary)
@@ -104,17 +181,47 @@ class RunManager:
                     log.exception("post-run hook failed for run %s", run_id)
             self._finish(run_id, live, "done", summary=summary)
         except CancelledError as err:
-            self._finish(run_id, live, "cancelled", error=err.to_dict())
+            if live.limit is not None:
+                self._finish(run_id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
+            else:
+                self._finish(run_id, live, "cancelled", error=err.to_dict())
         except WaamflowError as err:
             self._finish(run_id, live, "failed", error=err.to_dict())
         except Exception as exc:  # pragma: no cover - last resort: never leave a run 'running'
             log.exception("run %s crashed", run_id)
             self._finish(run_id, live, "failed", error={"kind": "internal", "message": repr(exc), "text": repr(exc)})
 
+    def _watch(self, live: LiveRun) -> None:
+        """Wall-time and memory limits of one run, checked twice a second until it ends."""
+        t0 = time.monotonic()
+        lim = self.limits
+        while not live.done.wait(0.25):
+            if lim.wall_s and time.monotonic() - t0 > lim.wall_s:
+                live.trip(f"ran longer than {lim.wall_s:g} s (limit run_timeout_s)")
+            if lim.memory_bytes and rss_bytes() > lim.memory_bytes:
+                live.trip(f"server memory over {lim.memory_bytes / 2**20:.0f} MB (limit max_memory_mb)")
+
+    def _check_result(self, result: RunResult) -> None:
+        lim = self.limits
+        if lim.layers and (result.layer_count or 0) > lim.layers:
+            raise LimitError(f"{result.layer_count} layers, over the limit of {lim.layers} (max_layers)")
+        if lim.points:
+            n = point_count(result.outputs)
+            if n > lim.points:
+                raise LimitError(f"{n} path points, over the limit of {lim.points} (max_points)")
+        for name in result.artifacts:
+            if not valid_file_name(name):
+                raise WaamflowError(f"artifact name {name!r} is not a plain file name (letters, digits, _ . -)")
+        size = sum(len(b) for b in result.artifacts.values())
+        if lim.artifact_bytes and size > lim.artifact_bytes:
+            raise LimitError(f"artifacts of {size / 2**20:.1f} MB, over the limit of "
+                             f"{lim.artifact_bytes / 2**20:.0f} MB (max_artifact_mb)")
+
     def _finish(self, run_id: str, live: LiveRun, status: str, *, summary: dict | None = None,
                 error: dict | None = None) -> None:
-        if not any(e.get("kind") in TERMINAL_KINDS for e in live.events):
-            kind = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}[status]
+        kind = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}[status]
+        terminal = [e.get("kind") for e in live.events if e.get("kind") in TERMINAL_KINDS]
+        if not terminal or terminal[-1] != kind:  # e.g. a limit turns the engine's run_cancelled into run_failed
             live.add(Event(kind=kind, seq=len(live.events) + 1, progress=1.0 if status == "done" else 0.0,
                            message=(error or {}).get("text", status), error=error).to_dict())
         self.store.add_events(run_id, live.events)

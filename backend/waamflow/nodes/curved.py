@@ -212,7 +212,9 @@ class BeadModelNode(LayerNode):
     type = "bead-model"
     title = "Bead-height model (speed per point)"
     category = "curved"
-    inputs = (Port("toolpath", "toolpath", "Toolpath on fan (or planar) layers"),)
+    inputs = (Port("toolpath", "toolpath", "Toolpath on fan (or planar) layers"),
+              Port("model", "bead-model", "Optional fitted bead model (bead-fit): its height law at `wfs` "
+                                          "replaces the coefficients", optional=True))
     outputs = (Port("toolpath", "toolpath", "Same paths, travel speed per segment from the model"),)
     over = "toolpath"
 
@@ -224,6 +226,9 @@ class BeadModelNode(LayerNode):
                               json_schema_extra=unit("mm/min"))
         ts_max: float = Field(1200.0, gt=0, le=100_000, description="Highest travel speed of the fit",
                               json_schema_extra=unit("mm/min"))
+        wfs: float | None = Field(None, gt=0, le=40, json_schema_extra=unit("m/min"),
+                                  description="With a connected bead model: the wire feed it is read at "
+                                              "(empty = the middle of its trials)")
 
         @model_validator(mode="after")
         def _check(self):
@@ -236,6 +241,11 @@ class BeadModelNode(LayerNode):
 
     def run_layer(self, ctx, params, index, items):
         model = self.model(params)
+        if items.get("model") is not None:
+            try:
+                model = BeadModel(*items["model"].height_polynomial(params.wfs))
+            except ValueError as e:
+                raise PlanningError(f"bead model: {e}", layer=index) from None
         new = apply_bead_model(items["toolpath"], model)
         row = layer_report(new, model)
         if row["clamped"]:
@@ -246,8 +256,13 @@ class BeadModelNode(LayerNode):
                      f"{params.ts_max:g}] mm/min", layer=index)
         return {"toolpath": new}
 
+    def combine(self, ctx, params, outputs, inputs):
+        fit = inputs.get("model")
+        self._fitted = BeadModel(*fit.height_polynomial(params.wfs)) if fit is not None else None
+        return super().combine(ctx, params, outputs, inputs)
+
     def artifacts(self, ctx, params, outputs):
-        model = self.model(params)
+        model = getattr(self, "_fitted", None) or self.model(params)
         rows = toolpath_report(outputs["toolpath"], model)
         h_lo, h_hi = model.h_range
         report = {"model": {"a2": params.a2, "a1": params.a1, "a0": params.a0, "ts_min_mm_min": params.ts_min,

@@ -18,6 +18,7 @@ from ..trajectory.cell import load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
+from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, deposit_svg, simulate_compensated
 from ..trajectory.simulate import SimOptions
 
 Vec3 = tuple[float, float, float]
@@ -86,7 +87,7 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "10"
+    version = "11"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
@@ -110,6 +111,10 @@ class SimulateRobot(Node):
         tcp_offset_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
                                            description="TCP (torch tip) in the flange frame (tool0; z along the torch; "
                                                        "empty = the profile's)")
+        compensate: Literal["off", "on"] = Field(
+            "off", description="Modulate the wire feed per ≤1 mm piece so deposit per mm stays at its programmed "
+                               "value through stops and corners (waamflow.trajectory.compensate); reports "
+                               "deposit_per_mm_cv before and after and writes deposit.svg")
 
     def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
@@ -135,7 +140,13 @@ class SimulateRobot(Node):
             ctx.check_cancelled()
             ctx.progress(fraction, message)
 
-        res = simulate_program(moves, profile, params.sim_options(), self._kin(ctx, params, profile), progress=progress)
+        if params.compensate == "on":
+            res = simulate_compensated(inputs["toolpath"], profile, params.sim_options(), self._kin(ctx, params, profile),
+                                       progress=progress)
+        else:
+            res = simulate_program(moves, profile, params.sim_options(), self._kin(ctx, params, profile), progress=progress)
+            res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
+                                        "deposit_ratio_cv": deposit_ratio_cv(res)})
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}
@@ -146,6 +157,7 @@ class SimulateRobot(Node):
             "simulation.json": json.dumps(simulation_json(res, params.sim_options()), indent=1),
             "trace.csv": trace_csv(res),
             "deposit.csv": deposit_csv(res),
+            "deposit.svg": deposit_svg(res.deposit),
         }
 
 

@@ -2,7 +2,9 @@
 
 Per pattern: programmed length (mm), arc-ON length (mm), arc switches (ignitions + extinctions:
 each brings the robot to a full stop, robot study), length outside the sections and its share,
-time at the programmed speed (s; a lower bound — stops and corners add to it, see simulate-robot).
+time at the programmed speed (s; a lower bound — stops and corners add to it, see simulate-robot),
+and the bead coverage at the spec's bead width (`waamflow.process.coverage`): void area (section
+left bare), overlap area (deposited twice or more) and over-deposit (metal outside the section), mm².
 """
 
 from __future__ import annotations
@@ -15,7 +17,10 @@ from xml.sax.saxutils import escape
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
+from ..process.coverage import section_coverage
 from .registry import PATTERNS, plan_section
+
+COVERAGE_KEYS = ("void_area_mm2", "overlap_area_mm2", "over_deposit_area_mm2", "region_area_mm2")
 from .spec import StrategySpec
 
 
@@ -51,9 +56,14 @@ def compare(jobs: Sequence[Job], variants: Iterable[str]) -> list[dict]:
         for job in jobs:
             spec = type(job.spec).model_validate({**job.spec.model_dump(), "pattern": name, **extra})
             p = plan_section(job.region, job.guide, spec)
-            per.append(path_metrics(p.segment_lengths, p.arc, p.inside, np.full(len(p.arc), job.speed)))
+            m = path_metrics(p.segment_lengths, p.arc, p.inside, np.full(len(p.arc), job.speed))
+            cov = section_coverage(job.region, p.points, p.arc, spec.bead_width)
+            m.update(void_area_mm2=cov.void_area, overlap_area_mm2=cov.overlap_area,
+                     over_deposit_area_mm2=cov.over_deposit_area, region_area_mm2=cov.region_area)
+            per.append(m)
         row = {"pattern": name, "label": text}
-        for key in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s"):
+        for key in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s",
+                    *COVERAGE_KEYS):
             row[key] = round(sum(m[key] for m in per), 3)
         total = row["programmed_length_mm"]
         row["outside_share"] = round(row["outside_length_mm"] / total, 4) if total > 0 else 0.0
@@ -85,6 +95,8 @@ METRICS = (
     ("arc_switches", "Arc switches (full stops)", ""),
     ("outside_share", "Share of path outside", "%"),
     ("time_s", "Time at programmed speed", "s"),
+    ("void_area_mm2", "Void area (bare)", "mm²"),
+    ("overlap_area_mm2", "Overlap area (twice or more)", "mm²"),
 )
 
 
@@ -96,7 +108,8 @@ def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
             best[key] = [r["label"] for r in rows if r[key] == low]
     return {"sections": sections, "layers": layers, "patterns": rows, "lowest": best,
             "units": {"programmed_length_mm": "mm", "arc_on_length_mm": "mm", "outside_length_mm": "mm",
-                      "outside_share": "1", "time_s": "s", "arc_switches": "count"}}
+                      "outside_share": "1", "time_s": "s", "arc_switches": "count",
+                      **{k: "mm²" for k in COVERAGE_KEYS}}}
 
 
 def comparison_svg(rows: list[dict], selected: str | None = None) -> str:
@@ -120,7 +133,7 @@ def comparison_svg(rows: list[dict], selected: str | None = None) -> str:
         for i, (r, v) in enumerate(zip(rows, values)):
             y = y0 + 20 + i * row_h
             w = bar_w * v / top
-            text = f"{v:.1f}" if unit in ("mm", "s", "%") else f"{v:.0f}"
+            text = f"{v:.1f}" if unit in ("mm", "s", "%", "mm²") else f"{v:.0f}"
             out.append(f'<text x="{x0}" y="{y + 11}">{escape(r["label"])}</text>')
             fill = "#b85c00" if r["pattern"] == selected else "#f8961e"
             out.append(f'<rect x="{x0 + label_w}" y="{y + 2}" width="{w:.1f}" height="{row_h - 4}" fill="{fill}"/>')

@@ -10,7 +10,7 @@ from typing import Callable
 
 from shapely.geometry import LineString, Polygon
 
-from . import oscillate, parallel, raster, rectangular, semicircular, spiral, swiping, triangular
+from . import contour, oscillate, parallel, raster, rectangular, semicircular, spiral, swiping, triangular
 from .flags import Draft, finish
 from .frame import guide_or_default
 from .spec import Path2D, StrategySpec
@@ -26,6 +26,7 @@ PATTERNS: dict[str, Kernel] = {
     "rectangular": rectangular.plan,
     "spiral": spiral.plan,
     "swiping": swiping.plan,
+    "contour": contour.plan,
 }
 
 

@@ -17,6 +17,8 @@ _VIRIDIS = np.array([
     [39, 173, 129], [92, 200, 99], [170, 220, 50], [253, 231, 37],
 ], dtype=float)
 
+VIRIDIS_STOPS = _VIRIDIS.astype(np.uint8)   # the map's stops, low → high (for legends drawn elsewhere)
+
 NAN_RGB = np.array([150, 150, 150], dtype=np.uint8)
 TRAVEL_RGB = np.array([205, 205, 205], dtype=np.uint8)      # arc-OFF moves: pale, drawn faint
 ARC_ON_RGB = np.array([230, 57, 70], dtype=np.uint8)

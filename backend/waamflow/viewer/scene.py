@@ -36,7 +36,7 @@ FILL_OPACITY = 0.55
 MESH_OPACITY = 0.25
 
 PATH_COLOR_MODES = ("zone", "speed", "arc", "section")
-SIM_COLOR_MODES = ("deviation", "speed")
+SIM_COLOR_MODES = ("deviation", "speed", "deposit")
 
 
 def slug(name: str) -> str:
@@ -62,6 +62,8 @@ class ViewState:
     time_s: float = 0.0
     show_robot: bool = True
     sim_offset_mm: float = 0.0   # lift of the simulated path above the programmed one (+z), mm
+    show_programmed: bool = True
+    show_simulated: bool = True
 
     def shows_layer(self, index: int) -> bool:
         return self.layer_lo <= index <= self.layer_hi

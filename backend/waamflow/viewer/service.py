@@ -4,9 +4,15 @@
     viewer.start()                       # non-blocking: viser serves from its own thread
     viewer.publish("mpp-cross", recipe, outputs)   # outputs: node id → port → value
     viewer.select("toolpath", 3)         # the GUI follows the selected node / layer
+    viewer.show("mpp-cross")             # the GUI's open recipe: its latest published run
+    viewer.set_view(hidden={"slice"}, layer_lo=2, layer_hi=5, sim_color="deposit", time_s=3.0)
+    viewer.state()                       # nodes, layer extent, view and legend data for the GUI
     viewer.url                           # → /api/health `viewer_url`
     viewer.stop()
 
+Scenes are keyed (graph name, or run id for an unsaved recipe): the last few published runs are
+kept, and `show(key)` switches the scene to one of them — the GUI asks for the open recipe's, so
+a run of another recipe on the same server does not replace what the user looks at.
 The scene is shared: every connected browser sees the same content and GUI. Re-publishing
 redraws only outputs (and, for per-layer outputs, only layers) whose content signature changed.
 Large parts are decimated for display (`max_segments` line segments per output in total); the
@@ -16,10 +22,12 @@ data is never modified.
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
 
+from . import colors as C
 from . import geometry as G
 from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
                     SectionsPart, ToolpathPart, ViewState, kind_of, slug)
@@ -31,6 +39,9 @@ PART_TYPES: dict[str, type[Part]] = {
 }
 
 PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
+MAX_SCENES = 4         # published runs kept for `show(key)` (outputs are held by reference)
+VIEW_FIELDS = ("layer_lo", "layer_hi", "path_color", "sim_color", "time_s", "show_robot",
+               "sim_offset_mm", "show_programmed", "show_simulated")
 
 
 class ViewerService:
@@ -52,12 +63,15 @@ class ViewerService:
         self.last_pick: dict[str, Any] | None = None
         self._lock = threading.RLock()
         self._gui: dict[str, Any] = {}
+        self._syncing = False
         self._node_boxes: dict[str, Any] = {}
         self._node_frames: dict[str, Any] = {}     # /graph/<node>: toggles the node's visibility
         self._play_stop = threading.Event()
         self._play_thread: threading.Thread | None = None
         self._bounds: np.ndarray | None = None
         self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
+        self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()   # key → (recipe, outputs)
+        self.wanted: str | None = None   # the key the GUI shows (None: whatever was published last)
 
     # ------------------------------------------------------------------------------------------
     # lifecycle
@@ -69,7 +83,10 @@ class ViewerService:
         with self._lock:
             if self.server is not None:
                 return self
-            self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
+            from .embed import embedded_client
+
+            with embedded_client():
+                self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
             self.server.scene.set_up_direction("+z")
             self.server.scene.add_frame("/graph", show_axes=False)
             self._build_gui()
@@ -87,6 +104,7 @@ class ViewerService:
                 self.server.stop()
             self.server = None
             self.parts.clear()
+            self.scenes.clear()
             self._gui.clear()
             self._node_boxes.clear()
             self._node_frames.clear()
@@ -114,6 +132,17 @@ class ViewerService:
         (redrawn = scene nodes added or replaced; skipped = outputs with nothing to draw)."""
         if self.server is None:
             raise RuntimeError("ViewerService.publish before start()")
+        with self._lock:
+            self.scenes[key] = (recipe, outputs)
+            self.scenes.move_to_end(key)
+            while len(self.scenes) > MAX_SCENES:
+                self.scenes.popitem(last=False)
+            if self.wanted is not None and key != self.wanted:
+                # another recipe's run: kept for when the GUI asks for it, the shown scene stays
+                return {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0, "deferred": 1}
+            return self._draw(key, recipe, outputs)
+
+    def _draw(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]]) -> dict[str, int]:
         stats = {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0}
         nodes = (recipe or {}).get("nodes", [])
         with self._lock, self.server.atomic():
@@ -149,6 +178,108 @@ class ViewerService:
             self._after_publish()
         return stats
 
+    def show(self, key: str | None) -> bool:
+        """Show the latest published run under `key` (the GUI's open recipe); an unknown key
+        empties the scene until a run of it is published. None: follow every publish again.
+        Returns whether a run of `key` is shown."""
+        if self.server is None:
+            return False
+        with self._lock:
+            self.wanted = key
+            if key is None or key == self.key:
+                return key is not None
+            if key in self.scenes:
+                recipe, outputs = self.scenes[key]
+                self._draw(key, recipe, outputs)
+                return True
+            with self.server.atomic():
+                for k in list(self.parts):
+                    self.parts.pop(k).remove()
+                for node in list(self._node_frames):
+                    self._node_frames.pop(node).remove()
+                self.key, self.node_types = key, {}
+                self._bounds = None
+                self._after_publish()
+            return False
+
+    def set_view(self, *, hidden: set[str] | None = None, fit: bool = False, **fields: Any) -> None:
+        """Apply the GUI's view settings (any subset of VIEW_FIELDS, plus hidden node ids);
+        `fit` frames the camera on what is published."""
+        unknown = set(fields) - set(VIEW_FIELDS)
+        if unknown:
+            raise ValueError(f"unknown view setting(s): {', '.join(sorted(unknown))}")
+        with self._lock:
+            if fields.get("path_color", PATH_COLOR_MODES[0]) not in PATH_COLOR_MODES:
+                raise ValueError(f"path_color must be one of {', '.join(PATH_COLOR_MODES)}")
+            if fields.get("sim_color", SIM_COLOR_MODES[0]) not in SIM_COLOR_MODES:
+                raise ValueError(f"sim_color must be one of {', '.join(SIM_COLOR_MODES)}")
+            for k, v in fields.items():
+                if v is not None:
+                    setattr(self.view, k, type(getattr(self.view, k))(v))
+            if hidden is not None:
+                self.view.hidden = set(hidden)
+            lo, hi = self._layer_extent()
+            if "layer_lo" in fields or "layer_hi" in fields:
+                self.view.layer_lo = int(np.clip(self.view.layer_lo, lo, hi))
+                self.view.layer_hi = int(np.clip(self.view.layer_hi, self.view.layer_lo, hi))
+            if self.server is None:
+                return
+            with self.server.atomic():
+                self._sync_gui()
+                self._apply()
+                if "time_s" in fields:
+                    for p in self.parts.values():
+                        if p.kind == "simulation":
+                            p.set_time(self.view.time_s)
+            b = self.part_bounds()
+            if fit and b is not None:
+                self._frame_camera(b)
+
+    def state(self) -> dict[str, Any]:
+        """What the GUI's 3D tab shows beside the scene: the shown run, its nodes (with what each
+        draws and whether it is visible), layer extent, playback duration, view settings and the
+        legend data (zone colours, scalar ranges with units, the colour map's stops)."""
+        with self._lock:
+            lo, hi = self._layer_extent()
+            nodes: dict[str, dict[str, Any]] = {}
+            for (node, port), part in self.parts.items():
+                e = nodes.setdefault(node, {"id": node, "type": self.node_types.get(node, ""), "kinds": [],
+                                            "visible": node not in self.view.hidden})
+                e["kinds"].append(part.kind)
+            order = {n: i for i, n in enumerate(self.node_types)}
+            legend: list[dict[str, Any]] = []
+            duration = 0.0
+            for part in self.parts.values():
+                if part.kind == "toolpath":
+                    legend.append({"node": part.node, "kind": "toolpath", "mode": self.view.path_color,
+                                   "zones": [{"zone": z, "color": h} for z, h in part.zone_legend()],
+                                   "ranges": {"speed": {"lo": part.speed_range[0], "hi": part.speed_range[1], "unit": "mm/s"}},
+                                   "arc": {"on": C.rgb_to_hex(C.ARC_ON_RGB), "off": C.rgb_to_hex(C.ARC_OFF_RGB)},
+                                   "travel": C.rgb_to_hex(C.TRAVEL_RGB)})
+                elif part.kind == "simulation":
+                    units = {"deviation": "mm", "speed": "mm/s", "deposit": "mm³/mm"}
+                    legend.append({"node": part.node, "kind": "simulation", "mode": self.view.sim_color,
+                                   "ranges": {k: {"lo": a, "hi": b, "unit": units[k]} for k, (a, b) in part.ranges.items()},
+                                   "programmed": C.rgb_to_hex(C.PROGRAMMED_RGB), "travel": C.rgb_to_hex(C.TRAVEL_RGB),
+                                   "robot": part.robot.name if part.robot is not None else None,
+                                   "robot_note": part.robot_note})
+                    duration = max(duration, part.duration())
+            v = self.view
+            return {
+                "key": self.key, "wanted": self.wanted, "published": list(self.scenes),
+                "nodes": sorted(nodes.values(), key=lambda n: order.get(n["id"], len(order))),
+                "layers": {"lo": lo, "hi": hi} if self.parts else None,
+                "duration_s": duration,
+                "view": {"layer_lo": v.layer_lo, "layer_hi": v.layer_hi, "path_color": v.path_color,
+                         "sim_color": v.sim_color, "time_s": v.time_s, "show_robot": v.show_robot,
+                         "sim_offset_mm": v.sim_offset_mm, "show_programmed": v.show_programmed,
+                         "show_simulated": v.show_simulated, "hidden": sorted(v.hidden)},
+                "path_color_modes": list(PATH_COLOR_MODES), "sim_color_modes": list(SIM_COLOR_MODES),
+                "colormap": [C.rgb_to_hex(c) for c in C.VIRIDIS_STOPS],
+                "legend": legend,
+                "bounds": None if self._bounds is None else [[round(float(x), 3) for x in r] for r in self._bounds],
+            }
+
     def select(self, node_id: str | None, layer: int | None) -> None:
         """Follow the GUI: show `node_id`'s output (meshes stay as context; None shows every node)
         and only `layer` (None shows all layers)."""
@@ -179,6 +310,12 @@ class ViewerService:
     def bounds(self) -> np.ndarray | None:
         """(2, 3) min/max corner (mm) of everything published, or None."""
         return G.layers_bounds([b for b in (p.bounds() for p in self.parts.values()) if b is not None])
+
+    def part_bounds(self) -> np.ndarray | None:
+        """(2, 3) bounds of the part itself (mesh, layers, sections), else of everything: what
+        the camera frames, so travel moves to a home position do not shrink the part on screen."""
+        own = [b for b in (p.bounds() for p in self.parts.values() if p.kind in ("mesh", "layers", "sections")) if b is not None]
+        return G.layers_bounds(own) if own else self.bounds()
 
     def pick(self, origin, direction) -> dict[str, Any] | None:
         """Readout of the point nearest a view ray (what a click in the browser does): layer,
@@ -248,9 +385,11 @@ class ViewerService:
             self.view.layer_hi = int(np.clip(self.view.layer_hi, self.view.layer_lo, hi))
         self.view.hidden &= {n for n, _ in self.parts}
         b = self.bounds()
-        if b is not None and (self._bounds is None or not np.allclose(b, self._bounds)):
+        if b is None:
+            self._bounds = None
+        elif self._bounds is None or not np.allclose(b, self._bounds):
             self._bounds = b
-            self._frame_camera(b)
+            self._frame_camera(self.part_bounds())
         self._sync_gui()
         self._apply()
 
@@ -263,7 +402,7 @@ class ViewerService:
     def _frame_camera(self, b: np.ndarray) -> None:
         center = (b[0] + b[1]) / 2
         diag = max(float(np.linalg.norm(b[1] - b[0])), 1.0)
-        eye = center + diag * np.array([0.55, -0.75, 0.6])
+        eye = center + diag * np.array([0.42, -0.58, 0.46])   # ~0.85 diagonals away: the part fills the view
         cam = self.server.initial_camera
         cam.near, cam.far = diag * 1e-3, diag * 20
         cam.position, cam.look_at = tuple(eye), tuple(center)
@@ -309,6 +448,18 @@ class ViewerService:
         g = self._gui
         if not g:
             return
+        self._syncing = True   # setting a widget calls its handler: they must not write back
+        try:
+            self._sync_widgets(g)
+        finally:
+            self._syncing = False
+
+    def _sync_widgets(self, g: dict[str, Any]) -> None:
+        v = self.view
+        g["path_color"].value = v.path_color
+        g["sim_color"].value = v.sim_color
+        g["offset"].value = v.sim_offset_mm
+        g["robot"].value = v.show_robot
         lo, hi = self._layer_extent()
         g["layers"].min, g["layers"].max = lo, max(hi, lo + 1)
         g["layers"].value = (self.view.layer_lo, self.view.layer_hi)
@@ -329,7 +480,9 @@ class ViewerService:
         g["time"].max = max(duration, 0.01)
         g["time"].step = max(duration / 1000.0, 0.001)
         g["time"].disabled = not sims
-        g["run"].content = f"**Run:** `{self.key}` — {len(self.parts)} outputs"
+        g["time"].value = min(max(v.time_s, 0.0), g["time"].max)
+        g["run"].content = (f"**Run:** `{self.key}` — {len(self.parts)} outputs" if self.parts else
+                            f"**No run of `{self.key}` yet.**" if self.key else "**No run published yet.**")
         g["legend"].content = self._legend()
 
     def _legend(self) -> str:
@@ -361,12 +514,16 @@ class ViewerService:
         return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
 
     def _on_layers(self) -> None:
+        if self._syncing:
+            return
         with self._lock:
             lo, hi = (int(v) for v in self._gui["layers"].value)
             self.view.layer_lo, self.view.layer_hi = min(lo, hi), max(lo, hi)
             self._apply()
 
     def _on_color(self) -> None:
+        if self._syncing:
+            return
         with self._lock:
             self.view.path_color = self._gui["path_color"].value
             self.view.sim_color = self._gui["sim_color"].value
@@ -374,21 +531,29 @@ class ViewerService:
                 self._apply()
 
     def _on_offset(self) -> None:
+        if self._syncing:
+            return
         with self._lock:
             self.view.sim_offset_mm = float(self._gui["offset"].value)
             self._apply()
 
     def _on_robot(self) -> None:
+        if self._syncing:
+            return
         with self._lock:
             self.view.show_robot = bool(self._gui["robot"].value)
             self._apply()
 
     def _on_node_box(self, node: str, shown: bool) -> None:
+        if self._syncing:
+            return
         with self._lock:
             (self.view.hidden.discard if shown else self.view.hidden.add)(node)
             self._apply()
 
     def _on_time(self) -> None:
+        if self._syncing:
+            return
         with self._lock:
             self.view.time_s = float(self._gui["time"].value)
             for p in self.parts.values():

@@ -44,14 +44,42 @@ class SimulationPart(Part):
         self.corner_layer = np.zeros(0, np.int64)
         self.corner_table: dict[str, np.ndarray] = {}
         self.offset = 0.0                       # current sim_offset_mm (the torch rides on the drawn path)
+        self.deposit: dict[str, np.ndarray] = {}
+        self.programmed = np.zeros((0, 3))
+        self._deposit_samples: np.ndarray | None = None
 
     def duration(self) -> float:
         t = self.trace.get("t")
         return float(t[-1]) if t is not None and len(t) else 0.0
 
+    def deposit_per_sample(self) -> np.ndarray:
+        """(n,) actual deposit per mm (mm³/mm) of the programmed segment each trace sample lies
+        on (nearest programmed segment of the same layer); NaN without deposit data."""
+        if self._deposit_samples is None:
+            self._deposit_samples = np.full(len(self.points), np.nan)
+            dep = np.asarray(self.deposit.get("actual_mm3_per_mm", ()), float)
+            prog = self.programmed
+            if len(dep) and len(prog) == len(dep) + 1 and len(self.points):
+                from scipy.spatial import cKDTree
+
+                a, b = prog[:-1], prog[1:]
+                k = min(8, len(dep))
+                _, cand = cKDTree((a + b) / 2).query(self.points, k=k)   # candidates, then exact
+                cand = np.asarray(cand).reshape(len(self.points), k)
+                ab = b[cand] - a[cand]
+                u = np.clip(np.einsum("nkj,nkj->nk", self.points[:, None] - a[cand], ab)
+                            / np.maximum(np.einsum("nkj,nkj->nk", ab, ab), 1e-12), 0.0, 1.0)
+                d = np.linalg.norm(a[cand] + u[..., None] * ab - self.points[:, None], axis=2)
+                self._deposit_samples = dep[cand[np.arange(len(cand)), d.argmin(axis=1)]]
+        return self._deposit_samples
+
     def _sim_colors(self, first: np.ndarray, mode: str) -> np.ndarray:
-        key = "deviation" if mode == "deviation" else "speed"
-        vals = np.asarray(self.trace.get(key, np.full(len(self.points), np.nan)), float)[first]
+        if mode == "deposit":
+            vals = self.deposit_per_sample()[first]
+            key = "deposit"
+        else:
+            key = "deviation" if mode == "deviation" else "speed"
+            vals = np.asarray(self.trace.get(key, np.full(len(self.points), np.nan)), float)[first]
         rgb = C.colormap(vals, *self.ranges.get(key, (0.0, 1.0)))
         if "arc" in self.trace:
             rgb[~np.asarray(self.trace["arc"], bool)[first]] = C.TRAVEL_RGB
@@ -70,11 +98,18 @@ class SimulationPart(Part):
         self.points = G.trace_points(trace)
         n = len(self.points)
         self.ranges = {k: C.finite_range(trace[k]) for k in ("deviation", "speed") if k in trace}
+        self.deposit = {k: np.asarray(v) for k, v in (getattr(value, "deposit", None) or {}).items()}
+        self._deposit_samples = None
+        if "actual_mm3_per_mm" in self.deposit:
+            dep = np.asarray(self.deposit["actual_mm3_per_mm"], float)
+            arc = np.asarray(self.deposit.get("arc", np.ones(len(dep), bool)), bool)
+            self.ranges["deposit"] = C.finite_range(dep[arc] if arc.any() else dep)
         layer = np.asarray(trace.get("layer", np.zeros(n)), np.int64)
         chunks = G.split_by_layer(layer)
         budget = max(self.max_segments // max(len(chunks), 1) // 2, 64)
         programmed = getattr(value, "programmed", None)
         prog = np.zeros((0, 3)) if programmed is None else np.asarray(programmed, float).reshape(-1, 3)
+        self.programmed = prog
         prog_layer = self._programmed_layers(prog, layer)
         prog_chunks = G.split_by_layer(prog_layer) if len(prog) else {}
         added = 0
@@ -84,15 +119,17 @@ class SimulationPart(Part):
             entry: dict[str, Any] = {"handle": frame, "bounds": None}
             if index in prog_chunks:
                 segs, _ = G.chunk_segments(prog, prog_chunks[index], budget)
-                self.scene.add_line_segments(f"{name}/programmed", segs, C.PROGRAMMED_RGB,
-                                             thickness=TRAVEL_PX, thickness_units="screen")
+                entry["prog"] = self.scene.add_line_segments(
+                    f"{name}/programmed", segs, C.PROGRAMMED_RGB, thickness=TRAVEL_PX,
+                    thickness_units="screen", visible=view.show_programmed)
                 entry["programmed"] = len(segs)
             if index in chunks:
                 arc = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
                 segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
                 entry["sim"] = self.scene.add_line_segments(
                     f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
-                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm))
+                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm),
+                    visible=view.show_simulated)
                 entry["first"] = first
                 entry["bounds"] = G.layers_bounds([segs])
             frame.visible = view.shows_layer(index)
@@ -170,6 +207,9 @@ class SimulationPart(Part):
             e["handle"].visible = view.shows_layer(index)
             if "sim" in e:
                 e["sim"].position = (0.0, 0.0, view.sim_offset_mm)
+                e["sim"].visible = view.show_simulated
+            if "prog" in e:
+                e["prog"].visible = view.show_programmed
         self.offset = view.sim_offset_mm
         if view.sim_color != self.mode:
             for e in self.entries.values():

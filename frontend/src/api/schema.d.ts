@@ -106,8 +106,9 @@ export interface paths {
         };
         /**
          * Get Params
-         * @description The graph's zone-parameter XML (layer > section > zone). After a run it mirrors the current
-         *     geometry, keeping every value already filled in.
+         * @description The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
+         *     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
+         *     `<zone node>.params.xml`, saved here only by an explicit PUT.
          */
         get: operations["get_params_api_graphs__name__params_get"];
         /**
@@ -169,7 +170,11 @@ export interface paths {
         /** List Runs */
         get: operations["list_runs_api_runs_get"];
         put?: never;
-        /** Start Run */
+        /**
+         * Start Run
+         * @description Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
+         *     429: the run queue is full (Retry-After).
+         */
         post: operations["start_run_api_runs_post"];
         delete?: never;
         options?: never;
@@ -301,9 +306,70 @@ export interface paths {
         put?: never;
         /**
          * Select
-         * @description Follow a node/layer in the 3D view. A no-op when the preview is off.
+         * @description Follow a recipe (graph or run) and a node/layer in the 3D view. A no-op when the preview is off.
          */
         post: operations["select_api_viewer_select_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/view": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * View
+         * @description Change what the 3D view draws; fields left out keep their value.
+         */
+        post: operations["view_api_viewer_view_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/viewer/state": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * State
+         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
+         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         */
+        get: operations["state_api_viewer_state_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/audit": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Audit Log
+         * @description Newest first.
+         */
+        get: operations["audit_log_api_audit_get"];
+        put?: never;
+        post?: never;
         delete?: never;
         options?: never;
         head?: never;
@@ -321,6 +387,65 @@ export interface components {
             /** Size */
             size: number;
         };
+        /** AuditEntry */
+        AuditEntry: {
+            /** Id */
+            id: number;
+            /**
+             * Time
+             * @description Unix time, s
+             */
+            time: number;
+            /**
+             * Who
+             * @description name of the token used ('anonymous' on a server without tokens)
+             */
+            who: string | null;
+            /**
+             * Action
+             * @description save_graph, delete_graph, save_params, upload_file, run, cancel_run
+             */
+            action: string;
+            /**
+             * Target
+             * @description graph name
+             */
+            target: string | null;
+            /** Detail */
+            detail: {
+                [key: string]: unknown;
+            } | null;
+        };
+        /**
+         * CoverageJSON
+         * @description Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local.
+         */
+        CoverageJSON: {
+            /** Key */
+            key: string;
+            /** Region Area Mm2 */
+            region_area_mm2: number;
+            /** Footprint Area Mm2 */
+            footprint_area_mm2: number;
+            /** Void Area Mm2 */
+            void_area_mm2: number;
+            /** Overlap Area Mm2 */
+            overlap_area_mm2: number;
+            /** Over Deposit Area Mm2 */
+            over_deposit_area_mm2: number;
+            /** Void Share */
+            void_share: number;
+            /** Overlap Share */
+            overlap_share: number;
+            /** Bead Width Mm */
+            bead_width_mm: number;
+            /** Cell Mm */
+            cell_mm: number;
+            /** Void */
+            void: components["schemas"]["PolygonJSON"][];
+            /** Overlap */
+            overlap: components["schemas"]["PolygonJSON"][];
+        };
         /** EdgeEntry */
         EdgeEntry: {
             /**
@@ -333,6 +458,53 @@ export interface components {
              * @description "nodeid.port" of an input
              */
             to: string;
+        };
+        /**
+         * ErrorDetail
+         * @description Where and what: the same fields as a failed run's `error` (core/errors.py).
+         */
+        ErrorDetail: {
+            /**
+             * Kind
+             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             */
+            kind: string;
+            /** Message */
+            message: string;
+            /**
+             * Node
+             * @description node id the error is about
+             */
+            node?: string | null;
+            /**
+             * Layer
+             * @description layer index
+             */
+            layer?: number | null;
+            /**
+             * Section
+             * @description section key
+             */
+            section?: string | null;
+            /**
+             * Field
+             * @description parameter or request field
+             */
+            field?: string | null;
+            /**
+             * Text
+             * @description one line for people: location + message
+             */
+            text: string;
+            /**
+             * Errors
+             * @description every violation of a request schema (422)
+             */
+            errors?: components["schemas"]["ValidationItem"][] | null;
+        };
+        /** ErrorResponse */
+        ErrorResponse: {
+            detail: components["schemas"]["ErrorDetail"];
         };
         /** FileInfo */
         FileInfo: {
@@ -353,11 +525,12 @@ export interface components {
             example: boolean;
             /** Updated */
             updated: number;
-        };
-        /** HTTPValidationError */
-        HTTPValidationError: {
-            /** Detail */
-            detail?: components["schemas"]["ValidationError"][];
+            /**
+             * Has Params
+             * @description whether GET /api/graphs/{name}/params has a file to return
+             * @default false
+             */
+            has_params: boolean;
         };
         /** Health */
         Health: {
@@ -371,6 +544,11 @@ export interface components {
             viewer_port: number | null;
             /** Workers */
             workers: number;
+            /**
+             * Auth Required
+             * @description the other routes need 'Authorization: Bearer <token>'
+             */
+            auth_required: boolean;
         };
         /** LayerJSON */
         LayerJSON: {
@@ -467,7 +645,7 @@ export interface components {
         PreviewRequest: {
             /**
              * Recipe
-             * @description the current (possibly unsaved) recipe
+             * @description the current (possibly unsaved) recipe (see Recipe)
              */
             recipe: {
                 [key: string]: unknown;
@@ -487,11 +665,31 @@ export interface components {
              * @description saved graph whose files/parameter XML to use
              */
             graph?: string | null;
+            /**
+             * Params Xml
+             * @description with `graph`: draft zone-parameter XML instead of the saved one
+             */
+            params_xml?: string | null;
             /** Inputs */
             inputs?: {
                 [key: string]: unknown;
             };
-        };
+            /**
+             * Coverage
+             * @description also return each path's bead coverage (void/overlap polygons)
+             * @default false
+             */
+            coverage: boolean;
+            /**
+             * Bead Width
+             * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
+             */
+            bead_width?: number | null;
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** PreviewResponse */
         PreviewResponse: {
             layer: components["schemas"]["LayerJSON"] | null;
@@ -507,6 +705,8 @@ export interface components {
             } | null;
             /** Ms */
             ms: number;
+            /** Coverage */
+            coverage?: components["schemas"]["CoverageJSON"][] | null;
         };
         /** ProcessParameterInfo */
         ProcessParameterInfo: {
@@ -596,7 +796,25 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
-        /** RunRequest */
+        /** RunListItem */
+        RunListItem: {
+            /** Id */
+            id: string;
+            /** Graph */
+            graph: string | null;
+            /** Status */
+            status: string;
+            /** Progress */
+            progress: number | null;
+            /** Created */
+            created: number;
+            /** Finished */
+            finished: number | null;
+        };
+        /**
+         * RunRequest
+         * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         */
         RunRequest: {
             /**
              * Graph
@@ -605,7 +823,7 @@ export interface components {
             graph?: string | null;
             /**
              * Recipe
-             * @description an inline recipe (e.g. unsaved edits)
+             * @description an inline recipe (e.g. unsaved edits; see Recipe)
              */
             recipe?: {
                 [key: string]: unknown;
@@ -617,7 +835,16 @@ export interface components {
             inputs?: {
                 [key: string]: unknown;
             };
-        };
+            /**
+             * Params Xml
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             */
+            params_xml?: string | null;
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** RunStatus */
         RunStatus: {
             /** Id */
@@ -626,9 +853,10 @@ export interface components {
             graph: string | null;
             /**
              * Status
+             * @description interrupted: the server stopped while the run was queued or running
              * @enum {string}
              */
-            status: "queued" | "running" | "done" | "failed" | "cancelled";
+            status: "queued" | "running" | "done" | "failed" | "cancelled" | "interrupted";
             /** Progress */
             progress: number;
             /** Error */
@@ -720,19 +948,82 @@ export interface components {
              * @description layer index to focus (None = all)
              */
             layer?: number | null;
+            /**
+             * Graph
+             * @description show the latest run of this saved graph (the GUI's open recipe)
+             */
+            graph?: string | null;
+            /**
+             * Run
+             * @description show this run (an unsaved recipe's run is keyed by its run id)
+             */
+            run?: string | null;
         };
-        /** ValidationError */
-        ValidationError: {
-            /** Location */
+        /** ValidationItem */
+        ValidationItem: {
+            /** Loc */
             loc: (string | number)[];
-            /** Message */
+            /** Msg */
             msg: string;
-            /** Error Type */
-            type: string;
-            /** Input */
-            input?: unknown;
-            /** Context */
-            ctx?: Record<string, never>;
+        };
+        /** ViewSettings */
+        ViewSettings: {
+            /**
+             * Hidden
+             * @description node ids whose output is hidden
+             */
+            hidden?: string[] | null;
+            /**
+             * Layer Lo
+             * @description first layer shown
+             */
+            layer_lo?: number | null;
+            /**
+             * Layer Hi
+             * @description last layer shown (inclusive)
+             */
+            layer_hi?: number | null;
+            /**
+             * Path Color
+             * @description toolpath colour
+             */
+            path_color?: ("zone" | "speed" | "arc" | "section") | null;
+            /**
+             * Sim Color
+             * @description simulated path colour
+             */
+            sim_color?: ("deviation" | "speed" | "deposit") | null;
+            /**
+             * Show Programmed
+             * @description draw the programmed path
+             */
+            show_programmed?: boolean | null;
+            /**
+             * Show Simulated
+             * @description draw the simulated path
+             */
+            show_simulated?: boolean | null;
+            /**
+             * Show Robot
+             * @description draw the robot at the playback time
+             */
+            show_robot?: boolean | null;
+            /**
+             * Time S
+             * @description playback time, s
+             */
+            time_s?: number | null;
+            /**
+             * Sim Offset Mm
+             * @description simulated path drawn this far above the programmed one, mm
+             */
+            sim_offset_mm?: number | null;
+            /**
+             * Fit
+             * @description frame the camera on the shown part
+             * @default false
+             */
+            fit: boolean;
         };
     };
     responses: never;
@@ -781,6 +1072,15 @@ export interface operations {
                     "application/json": components["schemas"]["NodeInfo"][];
                 };
             };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
         };
     };
     process_parameters_api_process_parameters_get: {
@@ -799,6 +1099,15 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ProcessParameterInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -821,6 +1130,15 @@ export interface operations {
                     "application/json": components["schemas"]["GraphInfo"][];
                 };
             };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
         };
     };
     get_graph_api_graphs__name__get: {
@@ -828,7 +1146,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -844,13 +1162,31 @@ export interface operations {
                     "application/json": components["schemas"]["Recipe"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -860,7 +1196,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -880,13 +1216,58 @@ export interface operations {
                     "application/json": components["schemas"]["SaveResult"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Created */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SaveResult"];
+                };
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -896,7 +1277,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -910,13 +1291,40 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -926,7 +1334,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -939,16 +1347,34 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/xml": unknown;
+                    "application/xml": string;
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -958,7 +1384,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -970,19 +1396,64 @@ export interface operations {
         };
         responses: {
             /** @description Successful Response */
-            200: {
+            204: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -992,7 +1463,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1008,13 +1479,31 @@ export interface operations {
                     "application/json": components["schemas"]["FileInfo"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1024,8 +1513,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
+                /** @description file name: letters, digits, _ . - (no '..'); ≤ 120 chars */
                 filename: string;
             };
             cookie?: never;
@@ -1043,13 +1533,58 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1071,18 +1606,25 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    }[];
+                    "application/json": components["schemas"]["RunListItem"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1109,13 +1651,49 @@ export interface operations {
                     "application/json": components["schemas"]["RunCreated"];
                 };
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Run queue full (see Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1125,6 +1703,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1140,13 +1719,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunStatus"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1156,6 +1753,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1171,13 +1769,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunStatus"];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1189,6 +1805,7 @@ export interface operations {
                 "last-event-id"?: string | null;
             };
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1201,16 +1818,34 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": unknown;
+                    "text/event-stream": string;
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1222,6 +1857,7 @@ export interface operations {
             };
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1237,13 +1873,31 @@ export interface operations {
                     "application/json": components["schemas"]["RunEvent"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1253,6 +1907,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1268,13 +1923,31 @@ export interface operations {
                     "application/json": components["schemas"]["ArtifactInfo"][];
                 };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1284,7 +1957,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
+                /** @description artifact file name */
                 name: string;
             };
             cookie?: never;
@@ -1296,15 +1971,36 @@ export interface operations {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/octet-stream": string;
+                    "text/plain": string;
+                };
             };
-            /** @description Validation Error */
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1331,13 +2027,40 @@ export interface operations {
                     "application/json": components["schemas"]["PreviewResponse"];
                 };
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };
@@ -1362,13 +2085,164 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description Validation Error */
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
             422: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["HTTPValidationError"];
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    view_api_viewer_view_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ViewSettings"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    state_api_viewer_state_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    };
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    audit_log_api_audit_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+                /** @description entries older than this id (paging) */
+                before?: number | null;
+                who?: string | null;
+                action?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AuditEntry"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
         };

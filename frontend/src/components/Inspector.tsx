@@ -111,9 +111,10 @@ export function InputsEditor({ recipe, onEdit, used, catalog }: { recipe: Recipe
               {k} {f?.unit && <span className="unit">[{f.unit}]</span>} {!used.has(k) && <span className="muted">(unused)</span>}
             </label>
             <div className="control">
-              <InputControl f={f} value={v} onChange={(x) => set(k, x)} />
+              <InputControl f={f} value={v} onChange={(x) => set(k, x)} label={`input ${k}`} />
               <button
                 title="remove input"
+                aria-label={`remove input ${k}`}
                 onClick={() =>
                   onEdit((r) => {
                     const inputs = { ...r.inputs };
@@ -130,7 +131,7 @@ export function InputsEditor({ recipe, onEdit, used, catalog }: { recipe: Recipe
         );
       })}
       <div className="add-input">
-        <input placeholder="new input name" value={name} onChange={(e) => setName(e.target.value)} />
+        <input aria-label="new input name" placeholder="new input name" value={name} onChange={(e) => setName(e.target.value)} />
         <button disabled={!/^[A-Za-z_][A-Za-z0-9_]*$/.test(name) || name in recipe.inputs} onClick={() => (set(name, 0), setName(""))}>
           add
         </button>
@@ -139,10 +140,10 @@ export function InputsEditor({ recipe, onEdit, used, catalog }: { recipe: Recipe
   );
 }
 
-function InputControl({ f, value, onChange }: { f?: FieldSpec; value: unknown; onChange: (v: unknown) => void }) {
+function InputControl({ f, value, onChange, label }: { f?: FieldSpec; value: unknown; onChange: (v: unknown) => void; label: string }) {
   if (f?.options)
     return (
-      <select value={JSON.stringify(value)} onChange={(e) => onChange(JSON.parse(e.target.value))}>
+      <select aria-label={label} value={JSON.stringify(value)} onChange={(e) => onChange(JSON.parse(e.target.value))}>
         {!f.options.some((o) => o === value) && <option value={JSON.stringify(value)}>{String(value)}</option>}
         {f.options.map((o) => (
           <option key={JSON.stringify(o)} value={JSON.stringify(o)}>
@@ -151,20 +152,20 @@ function InputControl({ f, value, onChange }: { f?: FieldSpec; value: unknown; o
         ))}
       </select>
     );
-  if (typeof value === "boolean") return <input type="checkbox" checked={value} onChange={(e) => onChange(e.target.checked)} />;
+  if (typeof value === "boolean") return <input aria-label={label} type="checkbox" checked={value} onChange={(e) => onChange(e.target.checked)} />;
   if (typeof value === "number") {
     const lo = f?.minimum ?? f?.exclusiveMinimum;
     const hi = f?.maximum ?? f?.exclusiveMaximum;
-    return <NumberSlider value={value} onChange={onChange} lo={lo} hi={hi} integer={f?.kind === "integer"} />;
+    return <NumberSlider label={label} value={value} onChange={onChange} lo={lo} hi={hi} integer={f?.kind === "integer"} />;
   }
-  return <input value={typeof value === "string" ? value : JSON.stringify(value)} onChange={(e) => onChange(e.target.value)} />;
+  return <input aria-label={label} value={typeof value === "string" ? value : JSON.stringify(value)} onChange={(e) => onChange(e.target.value)} />;
 }
 
 /**
  * A number field with a slider. The slider spans the parameter's bounds when they are of the
  * value's magnitude (≤ 10× it), else 0…2× the value: a knob to explore, the field for anything else.
  */
-function NumberSlider({ value, onChange, lo, hi, integer }: { value: number; onChange: (v: number) => void; lo?: number; hi?: number; integer?: boolean }) {
+function NumberSlider({ label, value, onChange, lo, hi, integer }: { label: string; value: number; onChange: (v: number) => void; lo?: number; hi?: number; integer?: boolean }) {
   const [text, setText] = useState(String(value));
   const [range] = useState(() => {
     const mag = Math.max(1, Math.abs(value));
@@ -176,8 +177,9 @@ function NumberSlider({ value, onChange, lo, hi, integer }: { value: number; onC
   const step = integer ? 1 : (range[1] - range[0]) / 200;
   return (
     <span className="num-slider">
-      <input type="range" min={range[0]} max={range[1]} step={step} value={value} onChange={(e) => onChange(integer ? Math.round(Number(e.target.value)) : Number(Number(e.target.value).toPrecision(4)))} />
+      <input aria-label={`${label} slider`} type="range" min={range[0]} max={range[1]} step={step} value={value} onChange={(e) => onChange(integer ? Math.round(Number(e.target.value)) : Number(Number(e.target.value).toPrecision(4)))} />
       <input
+        aria-label={label}
         type="text"
         value={text}
         onChange={(e) => {

@@ -14,7 +14,7 @@ export const Palette = memo(function Palette({ specs, onAdd }: { specs: NodeSpec
   }, [specs, q]);
   return (
     <div className="palette" data-testid="palette">
-      <input type="search" placeholder="search nodes…" value={q} onChange={(e) => setQ(e.target.value)} data-testid="palette-search" />
+      <input type="search" aria-label="search nodes" placeholder="search nodes…" value={q} onChange={(e) => setQ(e.target.value)} data-testid="palette-search" />
       {groups.map(([cat, items]) => (
         <div key={cat} className="palette-group">
           <div className="palette-cat">{cat}</div>
@@ -37,7 +37,7 @@ export const Palette = memo(function Palette({ specs, onAdd }: { specs: NodeSpec
                 ))}
               </span>
               {s.title}
-              <button className="add" title="add to graph" onClick={() => onAdd(s.type)}>
+              <button className="add" title={`add ${s.title} to the graph`} aria-label={`add ${s.title}`} onClick={() => onAdd(s.type)}>
                 +
               </button>
             </div>

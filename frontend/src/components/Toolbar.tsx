@@ -10,6 +10,11 @@ export interface ToolbarProps {
   canRedo: boolean;
   canRun: boolean;
   run: RunState;
+  /** A shipped example: read-only (save → save as, no delete). */
+  isExample: boolean;
+  problemCount: number;
+  errorCount: number;
+  onProblems: () => void;
   onOpen: (name: string) => void;
   onNew: () => void;
   /** Save under `name` (default: the current graph); resolves to whether it was saved. */
@@ -41,32 +46,37 @@ export function Toolbar(p: ToolbarProps) {
         ))}
       </select>
       <button onClick={p.onNew}>new</button>
-      <button onClick={() => void p.onSave()} disabled={!p.dirty && !!p.graphName} data-testid="save">
+      <button
+        onClick={() => void p.onSave()}
+        disabled={!p.dirty && !!p.graphName && !p.isExample}
+        data-testid="save"
+        title={p.isExample ? "a shipped example is read-only: save a copy under a new name" : "save the recipe and its parameter XML (Ctrl+S)"}
+      >
         save{p.dirty ? " *" : ""}
       </button>
       {p.saveAs === null ? (
         <button onClick={() => p.setSaveAs(p.graphName ? `${p.graphName}-copy` : p.defaultName)}>save as…</button>
       ) : (
         <span className="save-as">
-          <input autoFocus value={p.saveAs} onChange={(e) => p.setSaveAs(e.target.value)} data-testid="save-as-name" onKeyDown={(e) => e.key === "Enter" && commitSaveAs()} />
+          <input autoFocus aria-label="save as: new recipe name" value={p.saveAs} onChange={(e) => p.setSaveAs(e.target.value)} data-testid="save-as-name" onKeyDown={(e) => e.key === "Enter" && commitSaveAs()} />
           <button onClick={commitSaveAs}>ok</button>
-          <button onClick={() => p.setSaveAs(null)}>✕</button>
+          <button onClick={() => p.setSaveAs(null)} aria-label="cancel save as">✕</button>
         </span>
       )}
-      <button onClick={p.onDelete} disabled={!p.graphName}>
+      <button onClick={p.onDelete} disabled={!p.graphName || p.isExample} data-testid="delete" title={p.isExample ? "shipped examples cannot be deleted" : "delete this saved recipe"}>
         delete
       </button>
       <span className="sep" />
-      <button onClick={p.onUndo} disabled={!p.canUndo} title="undo (Ctrl+Z)">
+      <button onClick={p.onUndo} disabled={!p.canUndo} title="undo (Ctrl+Z)" aria-label="undo" data-testid="undo">
         ↶
       </button>
-      <button onClick={p.onRedo} disabled={!p.canRedo} title="redo (Ctrl+Y)">
+      <button onClick={p.onRedo} disabled={!p.canRedo} title="redo (Ctrl+Y)" aria-label="redo" data-testid="redo">
         ↷
       </button>
       <span className="sep" />
       <button
         className="run"
-        title="run the recipe as shown (unsaved edits included) with the saved graph's files and parameter XML"
+        title="run the recipe and parameter XML as shown (unsaved edits included, nothing is saved) with the saved graph's files"
         onClick={p.onRun}
         disabled={run.phase === "running" || !p.canRun}
         data-testid="run"
@@ -78,7 +88,20 @@ export function Toolbar(p: ToolbarProps) {
         <div className="bar" style={{ width: `${run.progress * 100}%` }} />
         <span>{run.phase === "idle" ? "" : `${run.phase} ${Math.round(run.progress * 100)}%`}</span>
       </div>
+      <button
+        className={`problem-count ${p.errorCount ? "has-errors" : p.problemCount ? "has-warnings" : ""}`}
+        onClick={p.onProblems}
+        data-testid="problem-count"
+        title="problems of the last run: errors and warnings (click to list them)"
+      >
+        {p.errorCount ? `✖ ${p.errorCount} ` : ""}⚠ {p.problemCount - p.errorCount}
+      </button>
       <span className="title">{p.graphName ?? "unsaved recipe"}</span>
+      {p.isExample && (
+        <span className="example-badge" data-testid="example-badge" title="shipped example: save as a new name to keep changes">
+          example (read-only)
+        </span>
+      )}
     </header>
   );
 }

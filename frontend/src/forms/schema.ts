@@ -4,7 +4,15 @@
  */
 import type { JSONSchema } from "../api/types";
 
-export type FieldKind = "number" | "integer" | "string" | "boolean" | "enum" | "file" | "json";
+/**
+ * Widget kinds. Scalars: number, integer, string, boolean, enum, file. Structures:
+ * object (nested model → sub-form), map (section key → value: section picker + form for it),
+ * vector (fixed-length number tuple, e.g. x/y/z), points (list of vectors → editable table),
+ * list (list of anything else → rows with add/remove). json only for what none of these fits.
+ */
+export type FieldKind =
+  | "number" | "integer" | "string" | "boolean" | "enum" | "file"
+  | "object" | "map" | "vector" | "points" | "list" | "json";
 
 export interface FieldSpec {
   name: string;
@@ -64,7 +72,18 @@ export function unwrapNullable(root: JSONSchema, s: JSONSchema): { schema: JSONS
   return { schema: d, nullable: false };
 }
 
-export function fieldKind(s: JSONSchema): FieldKind {
+/** The dimension of a fixed-length number tuple (`prefixItems` of numbers, min = max items), else 0. */
+export function vectorDims(root: JSONSchema, s: JSONSchema | undefined): number {
+  if (!s) return 0;
+  const d = deref(root, s);
+  const pre = d.prefixItems as JSONSchema[] | undefined;
+  if (!typesOf(d).includes("array") || !pre?.length) return 0;
+  if (!pre.every((p) => ["number", "integer"].includes(typesOf(deref(root, p))[0] ?? ""))) return 0;
+  if (d.minItems !== undefined && d.minItems !== pre.length) return 0;
+  return pre.length;
+}
+
+export function fieldKind(s: JSONSchema, root: JSONSchema = s): FieldKind {
   if (s["x-file"]) return "file";
   if (s.enum) return "enum";
   if (s.const !== undefined) return "enum";
@@ -74,6 +93,17 @@ export function fieldKind(s: JSONSchema): FieldKind {
     if (t[0] === "integer") return "integer";
     if (t[0] === "boolean") return "boolean";
     if (t[0] === "string") return "string";
+    if (t[0] === "object") {
+      if (s.properties && Object.keys(s.properties).length) return "object";
+      if (typeof s.additionalProperties === "object") return "map";
+      return "json";
+    }
+    if (t[0] === "array") {
+      if (vectorDims(root, s)) return "vector";
+      if (s.items && vectorDims(root, s.items)) return "points";
+      if (s.items) return "list";
+      return "json";
+    }
   }
   const alts = s.anyOf ?? s.oneOf;
   if (alts && alts.every((a) => a.const !== undefined || a.enum)) return "enum";
@@ -88,16 +118,34 @@ function options(s: JSONSchema): unknown[] | undefined {
   return undefined;
 }
 
-/** Fields of an object schema (a node's params model), in declaration order. */
-export function describeFields(root: JSONSchema): FieldSpec[] {
-  const obj = deref(root, root);
+/** "bead_width" → "Bead width", "angle_deg" → "Angle (deg)". */
+export function humanize(name: string): string {
+  const words = name.replace(/([a-z])([A-Z])/g, "$1 $2").split(/[_\s]+/).filter(Boolean);
+  if (words.length > 1 && ["deg", "mm", "s", "mb"].includes(words[words.length - 1].toLowerCase())) words.pop();
+  const t = words.join(" ").toLowerCase();
+  return t ? t[0].toUpperCase() + t.slice(1) : name;
+}
+
+/** A model class name (pydantic puts it in `title` of `$defs` entries) is never a label. */
+const looksLikeClassName = (t: string) => /^[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+$/.test(t);
+
+/** A field's human label: its own title, else the property name made readable; never a class name. */
+export function labelOf(name: string, raw: JSONSchema): string {
+  const t = raw.title;
+  if (t && !looksLikeClassName(t) && t !== "Params") return t;
+  return humanize(name);
+}
+
+/** Fields of an object schema (a node's params model, or `obj` nested in it), in declaration order. */
+export function describeFields(root: JSONSchema, objSchema?: JSONSchema): FieldSpec[] {
+  const obj = deref(root, objSchema ?? root);
   const required = new Set(obj.required ?? []);
   return Object.entries(obj.properties ?? {}).map(([name, raw]) => {
     const { schema, nullable } = unwrapNullable(root, raw);
-    const kind = fieldKind(schema);
+    const kind = fieldKind(schema, root);
     return {
       name,
-      title: schema.title ?? raw.title ?? name,
+      title: labelOf(name, raw),
       description: (raw.description ?? schema.description ?? "") as string,
       kind,
       unit: (raw.unit ?? schema.unit) as string | undefined,
@@ -252,7 +300,7 @@ export function inputField(
     for (const path of found) {
       const sch = schemaAt(root, path);
       if (!sch) continue;
-      const kind = fieldKind(sch);
+      const kind = fieldKind(sch, root);
       return {
         name, title: sch.title ?? name, description: sch.description ?? "", kind, unit: sch.unit,
         minimum: sch.minimum, maximum: sch.maximum, exclusiveMinimum: sch.exclusiveMinimum, exclusiveMaximum: sch.exclusiveMaximum,
@@ -261,4 +309,51 @@ export function inputField(
     }
   }
   return undefined;
+}
+
+/**
+ * Fill what an "override" model leaves out from the same-named property elsewhere in the schema:
+ * a section override's `pattern` is a plain optional string, the default's is an enum with bounds.
+ */
+export function enrichFromRoot(root: JSONSchema, f: FieldSpec): FieldSpec {
+  if (f.kind !== "string" && f.kind !== "number" && f.kind !== "integer") return f;
+  const twins = allProperties(root, f.name);
+  const twin = twins.find((t) => options(t) || t.minimum !== undefined || t.exclusiveMinimum !== undefined || t.maximum !== undefined) ?? twins[0];
+  if (!twin) return f;
+  const out = { ...f };
+  const opts = options(twin);
+  if (f.kind === "string" && !f.options && opts) {
+    out.kind = "enum";
+    out.options = opts;
+  }
+  if (f.kind !== "string") {
+    out.unit ??= twin.unit;
+    if (f.minimum === undefined && f.exclusiveMinimum === undefined) {
+      out.minimum = twin.minimum;
+      out.exclusiveMinimum = twin.exclusiveMinimum;
+    }
+    if (f.maximum === undefined && f.exclusiveMaximum === undefined) {
+      out.maximum = twin.maximum;
+      out.exclusiveMaximum = twin.exclusiveMaximum;
+    }
+  }
+  return out;
+}
+
+/** Every property named `name` anywhere in a schema, unwrapped (each `$defs` entry visited once). */
+export function allProperties(root: JSONSchema, name: string): JSONSchema[] {
+  const out: JSONSchema[] = [];
+  const seen = new Set<JSONSchema>();
+  const walk = (s: JSONSchema | undefined) => {
+    if (!s || typeof s !== "object" || seen.has(s)) return;
+    seen.add(s);
+    if (s.$ref) return; // its target is walked with the $defs
+    const d = s;
+    const p = d.properties?.[name];
+    if (p) out.push(unwrapNullable(root, p).schema);
+    [...Object.values(d.properties ?? {}), d.items, typeof d.additionalProperties === "object" ? d.additionalProperties : undefined, ...(d.anyOf ?? []), ...(d.oneOf ?? []), ...(d.allOf ?? [])].forEach(walk);
+  };
+  walk(root);
+  Object.values(root.$defs ?? {}).forEach(walk);
+  return out;
 }

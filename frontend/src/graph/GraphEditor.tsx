@@ -1,8 +1,8 @@
 import {
-  Background, Controls, Handle, MiniMap, Position, ReactFlow, applyNodeChanges, useReactFlow,
-  type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
+  Background, Controls, Handle, MiniMap, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
+  type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
 } from "@xyflow/react";
-import { memo, useCallback, useEffect, useMemo, useState, type DragEvent } from "react";
+import { createContext, memo, useCallback, useContext, useEffect, useMemo, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
 import { badgeText, type NodeStatus } from "../run/status";
 import {
@@ -15,6 +15,7 @@ export interface WNodeData extends Record<string, unknown> {
   status?: NodeStatus;
   previewed: boolean;
   onPreview: (id: string) => void;
+  problems?: { errors: number; warnings: number; text: string };
 }
 type WNode = Node<WNodeData, "waam">;
 
@@ -61,12 +62,54 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
           {badgeText(status)}
         </div>
       )}
+      {data.problems && (
+        <div
+          className={`problem-badge ${data.problems.errors ? "errors" : "warnings"}`}
+          title={data.problems.text}
+          data-testid="problem-badge"
+          aria-label={`${data.problems.errors} errors, ${data.problems.warnings} warnings: ${data.problems.text}`}
+        >
+          {data.problems.errors ? `✖ ${data.problems.errors}` : ""}
+          {data.problems.warnings ? ` ⚠ ${data.problems.warnings}` : ""}
+        </div>
+      )}
       {!spec && <div className="badge b-error">unknown type</div>}
     </div>
   );
 });
 
 const nodeTypes = { waam: WaamNode };
+
+/** Why the wire being dragged cannot end at the handle under the pointer (null when it can). */
+const ReasonContext = createContext<(c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => string | null>(() => null);
+
+/** The wire being dragged; over a handle it cannot connect to, it turns red and says why. */
+function WireLine({ fromX, fromY, toX, toY, fromPosition, toPosition, fromNode, fromHandle, toNode, toHandle }: ConnectionLineComponentProps) {
+  const reasonOf = useContext(ReasonContext);
+  const [path] = getBezierPath({ sourceX: fromX, sourceY: fromY, sourcePosition: fromPosition, targetX: toX, targetY: toY, targetPosition: toPosition });
+  let reason: string | null = null;
+  if (toNode && toHandle) {
+    const out = fromHandle.type === "source";
+    reason = reasonOf(
+      out
+        ? { source: fromNode.id, sourceHandle: fromHandle.id ?? null, target: toNode.id, targetHandle: toHandle.id ?? null }
+        : { source: toNode.id, sourceHandle: toHandle.id ?? null, target: fromNode.id, targetHandle: fromHandle.id ?? null },
+    );
+  }
+  return (
+    <g className={`wire-drag ${reason ? "invalid" : ""}`}>
+      <path d={path} fill="none" stroke={reason ? "#c62828" : "#555"} strokeWidth={2} strokeDasharray={reason ? "6 4" : undefined} />
+      {reason && (
+        <g transform={`translate(${toX + 12}, ${toY - 14})`} data-testid="wire-reason" data-reason={reason}>
+          <rect x={-4} y={-14} width={reason.length * 7 + 8} height={20} rx={4} fill="#fff" stroke="#c62828" />
+          <text fontSize={12} fill="#b71c1c">
+            {reason}
+          </text>
+        </g>
+      )}
+    </g>
+  );
+}
 
 export interface GraphEditorProps {
   recipe: Recipe;
@@ -82,6 +125,10 @@ export interface GraphEditorProps {
   onMessage: (m: string) => void;
   /** False while another tab is shown: the editor stays mounted but must not take Delete etc. */
   active: boolean;
+  /** Problems of the last run per node (badges). */
+  problems: ReadonlyMap<string, { errors: number; warnings: number; text: string }>;
+  /** Open the node search at a screen point for a node at flow point `at`. */
+  onSearch: (x: number, y: number, at: XY) => void;
 }
 
 export function GraphEditor(p: GraphEditorProps) {
@@ -103,11 +150,13 @@ export function GraphEditor(p: GraphEditorProps) {
           type: "waam",
           position: { x, y },
           selected: p.selected.has(n.id),
-          data: { node: n, spec: catalog.get(n.type), status: p.statuses[n.id], previewed: p.previewNode === n.id, onPreview: p.onPreview },
+          data: {
+            node: n, spec: catalog.get(n.type), status: p.statuses[n.id], previewed: p.previewNode === n.id, onPreview: p.onPreview, problems: p.problems.get(n.id),
+          },
         } as WNode;
       });
     });
-  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview]);
+  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview, p.problems]);
 
   const edges: Edge[] = useMemo(
     () =>
@@ -128,33 +177,40 @@ export function GraphEditor(p: GraphEditorProps) {
     (changes: NodeChange<WNode>[]) => {
       setNodes((ns) => applyNodeChanges(changes, ns));
       const moved: Record<string, XY> = {};
-      const removed = new Set<string>();
       let selectionChanged = false;
       const sel = new Set(p.selected);
       for (const c of changes) {
         if (c.type === "position" && c.position && c.dragging === false) moved[c.id] = [Math.round(c.position.x), Math.round(c.position.y)];
-        if (c.type === "remove") removed.add(c.id);
         if (c.type === "select") {
           selectionChanged = true;
           if (c.selected) sel.add(c.id);
           else sel.delete(c.id);
         }
       }
-      if (removed.size) p.onChange((r) => removeNodes(r, removed));
-      else if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
+      // Deletions come through onDelete (nodes and their edges together: one undo step).
+      if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
       if (selectionChanged) p.onSelect(sel);
     },
     [p, recipe],
   );
 
-  const onEdgesChange = useCallback(
-    (changes: EdgeChange[]) => {
-      const removed = new Set(changes.filter((c) => c.type === "remove").map((c) => c.id));
-      if (removed.size) p.onChange((r) => removeEdges(r, removed));
+  // Edge removals too come through onDelete; the editor keeps no edge state of its own.
+  const onEdgesChange = useCallback((_: EdgeChange[]) => undefined, []);
+
+  /** One deletion (Delete key): the nodes and every edge going with them, as one edit. */
+  const onDelete = useCallback(
+    ({ nodes: ns, edges: es }: { nodes: WNode[]; edges: Edge[] }) => {
+      const nodeIds = new Set(ns.map((n) => n.id));
+      const edgeIds = new Set(es.map((e) => e.id));
+      if (nodeIds.size || edgeIds.size) p.onChange((r) => removeNodes(removeEdges(r, edgeIds), nodeIds));
     },
-    [p, recipe],
+    [p],
   );
 
+  const reasonOf = useCallback(
+    (c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => connectionError(catalog, recipe, c),
+    [catalog, recipe],
+  );
   const valid = useCallback(
     (c: Edge | { source: string; target: string; sourceHandle?: string | null; targetHandle?: string | null }) =>
       connectionError(catalog, recipe, { source: c.source, target: c.target, sourceHandle: c.sourceHandle ?? null, targetHandle: c.targetHandle ?? null }) === null,
@@ -181,16 +237,30 @@ export function GraphEditor(p: GraphEditorProps) {
     [rf, p],
   );
 
+  // Double-click on empty canvas opens the node search there (instead of zooming).
+  const onDoubleClick = useCallback(
+    (e: MouseEvent) => {
+      if (!(e.target as HTMLElement).classList.contains("react-flow__pane")) return;
+      const at = rf.screenToFlowPosition({ x: e.clientX, y: e.clientY });
+      p.onSearch(e.clientX, e.clientY, [Math.round(at.x), Math.round(at.y)]);
+    },
+    [rf, p],
+  );
+
   return (
-    <div className="graph-editor" onDragOver={(e) => e.preventDefault()} onDrop={onDrop} data-testid="graph-editor">
+    <ReasonContext.Provider value={reasonOf}>
+    <div className="graph-editor" onDragOver={(e) => e.preventDefault()} onDrop={onDrop} onDoubleClick={onDoubleClick} data-testid="graph-editor">
       <ReactFlow<WNode, Edge>
         nodes={nodes}
         edges={edges}
         nodeTypes={nodeTypes}
         onNodesChange={onNodesChange}
         onEdgesChange={onEdgesChange}
+        onDelete={onDelete}
         onConnect={onConnect}
         isValidConnection={valid}
+        connectionLineComponent={WireLine}
+        zoomOnDoubleClick={false}
         deleteKeyCode={p.active ? ["Delete", "Backspace"] : null}
         selectionKeyCode={p.active ? "Shift" : null}
         multiSelectionKeyCode={p.active ? ["Control", "Meta"] : null}
@@ -204,5 +274,6 @@ export function GraphEditor(p: GraphEditorProps) {
         <MiniMap pannable zoomable style={{ width: 140, height: 90 }} />
       </ReactFlow>
     </div>
+    </ReasonContext.Provider>
   );
 }

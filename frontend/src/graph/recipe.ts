@@ -94,8 +94,55 @@ export function connect(r: Recipe, c: Connection): Recipe {
   return { ...r, edges: [...r.edges.filter((x) => x.to !== e.to), e] };
 }
 
+/** Remove edges; the same recipe when none of them is there (so a node delete stays one undo step). */
 export function removeEdges(r: Recipe, ids: ReadonlySet<string>): Recipe {
-  return { ...r, edges: r.edges.filter((e) => !ids.has(edgeId(e))) };
+  const edges = r.edges.filter((e) => !ids.has(edgeId(e)));
+  return edges.length === r.edges.length ? r : { ...r, edges };
+}
+
+/** Nominal size of a node on the canvas (flow units), for placement. */
+export const NODE_BOX: XY = [200, 120];
+
+/**
+ * The free spot nearest to `want` for a node of size `box`: `want` itself when nothing overlaps
+ * it, else the first free cell of a grid walked in rings around it (right and down first), so a
+ * new node never lands on top of another.
+ */
+export function freeSpot(taken: readonly XY[], want: XY, box: XY = NODE_BOX, gap = 20): XY {
+  const [w, h] = [box[0] + gap, box[1] + gap];
+  const free = ([x, y]: XY) => taken.every(([tx, ty]) => Math.abs(tx - x) >= w || Math.abs(ty - y) >= h);
+  if (free(want)) return want;
+  for (let ring = 1; ring < 50; ring++) {
+    const cells: XY[] = [];
+    for (let i = -ring; i <= ring; i++)
+      for (let j = -ring; j <= ring; j++) if (Math.max(Math.abs(i), Math.abs(j)) === ring) cells.push([want[0] + i * w, want[1] + j * h]);
+    // right before left, down before up, near before far
+    cells.sort((a, b) => Math.hypot(a[0] - want[0], a[1] - want[1]) - Math.hypot(b[0] - want[0], b[1] - want[1]) || b[0] - a[0] || b[1] - a[1]);
+    const hit = cells.find(free);
+    if (hit) return hit;
+  }
+  return [want[0], Math.max(...taken.map((t) => t[1])) + h];
+}
+
+/**
+ * Wire `from`'s first output that an unconnected input of `to` accepts (same type, no cycle).
+ * Returns the recipe unchanged when no port fits.
+ */
+export function autoWire(cat: Catalog, r: Recipe, from: string, to: string): { recipe: Recipe; edge: RecipeEdge | null } {
+  const fs = cat.get(r.nodes.find((n) => n.id === from)?.type ?? "");
+  const ts = cat.get(r.nodes.find((n) => n.id === to)?.type ?? "");
+  if (!fs || !ts) return { recipe: r, edge: null };
+  const wired = new Set(r.edges.filter((e) => endpoint(e.to).node === to).map((e) => endpoint(e.to).port));
+  for (const o of fs.outputs)
+    for (const i of ts.inputs) {
+      if (wired.has(i.name)) continue;
+      const c = { source: from, sourceHandle: o.name, target: to, targetHandle: i.name };
+      if (connectionError(cat, r, c) === null) {
+        const next = connect(r, c);
+        return { recipe: next, edge: next.edges[next.edges.length - 1] };
+      }
+    }
+  return { recipe: r, edge: null };
 }
 
 export function removeNodes(r: Recipe, ids: ReadonlySet<string>): Recipe {

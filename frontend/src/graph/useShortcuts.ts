@@ -10,6 +10,8 @@ export interface Shortcuts {
   paste: () => void;
   selectAll: () => void;
   fit: () => void;
+  /** Open the node search (`/`). */
+  search: () => void;
 }
 
 export const isTyping = (t: EventTarget | null) => {
@@ -19,7 +21,7 @@ export const isTyping = (t: EventTarget | null) => {
 
 /**
  * The editor's keyboard habits: Ctrl+S save (everywhere), Ctrl+Z / Ctrl+Y / Ctrl+Shift+Z undo/redo,
- * and on the graph Ctrl+C / Ctrl+V / Ctrl+A and F (fit view). Keys typed into a field are left alone.
+ * and on the graph Ctrl+C / Ctrl+V / Ctrl+A, F (fit view) and / (node search). Keys typed into a field are left alone.
  * Delete and Shift+drag box select are handled by the node editor itself.
  */
 export function useShortcuts(actions: Shortcuts) {
@@ -43,6 +45,7 @@ export function useShortcuts(actions: Shortcuts) {
       else if (mod && key === "v") a.paste();
       else if (mod && key === "a") a.selectAll();
       else if (!mod && key === "f") a.fit();
+      else if (!mod && e.key === "/") a.search();
       else return;
       e.preventDefault();
     };

@@ -5,15 +5,17 @@
  * Drawing is in layer mm; SVG y = −y so the part is seen from above with y up.
  */
 import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent } from "react";
+import { CoverageLayer } from "./CoverageLayer";
 import type { LayerJson, Preview, PreviewPath } from "../api/types";
 import {
   boundaryCrossings, closestOnPolyline, dist, pointAtLength, polygonPathD, polygonVertices, ringPathD, snapPoint,
   translate, type Pt,
 } from "./geom";
 import { sectionKey, type GuideParams, type KeyedParams, type Mask } from "./edits";
+import { canvasLegend, dropVertex, measure, mm, nudge, nudgeStep, pathRuns, speedRange, type ColorBy } from "./canvasTools";
 import { useSvgView, type View } from "./useSvgView";
 
-export type Tool = "select" | "curve" | "guide" | "split";
+export type Tool = "select" | "curve" | "guide" | "split" | "measure";
 
 export const SECTION_COLORS = ["#e76f51", "#2a9d8f", "#e9c46a", "#8e7dbe", "#f4a261", "#457b9d", "#b5838d", "#6a994e"];
 
@@ -41,6 +43,12 @@ export interface MaskCanvasProps {
   highlight: string | null;
   edits: CanvasEdits;
   replanMs: number | null;
+  /** Path colours: by zone, programmed speed or arc state. */
+  colorBy: ColorBy;
+  /** Bead width (mm) of a section's paths, drawn under them; null = not drawn. */
+  beadWidthOf: (key: string) => number | null;
+  /** Move the shown layer by ±1 (PageUp / PageDown). */
+  onLayerStep: (delta: number) => void;
 }
 
 type Drag =
@@ -58,6 +66,10 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
   const [dragCurve, setDragCurve] = useState<{ key: string; curve: Pt[] } | null>(null);
   const drag = useRef<Drag | null>(null);
   const layer = p.preview?.layer ?? null;
+  const [vertexSel, setVertexSel] = useState<{ key: string; index: number } | null>(null);
+  const [measureAB, setMeasureAB] = useState<{ a: Pt; b: Pt | null } | null>(null);
+  const [measureHover, setMeasureHover] = useState<Pt | null>(null);
+  const coordsRef = useRef<HTMLSpanElement>(null);
 
   // Fit the view to the layer the first time one arrives (and on demand).
   const fit = useCallback(
@@ -95,21 +107,59 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
     setDraft([]);
   };
 
-  useEffect(() => setDraft([]), [p.tool]);
+  useEffect(() => {
+    setDraft([]);
+    if (p.tool !== "measure") setMeasureAB(null);
+  }, [p.tool]);
+  useEffect(() => setVertexSel((v) => (v && v.key === p.selected ? v : null)), [p.selected]);
 
+  const curveOf = (key: string) => p.mask?.sections.find((x) => sectionKey(p.mask!.id, x.id) === key)?.curve as Pt[] | undefined;
+
+  // Keyboard alternatives for the canvas actions (documented in frontend/README.md).
   useEffect(() => {
     const onKey = (e: KeyboardEvent) => {
       const t = e.target as HTMLElement;
       if (t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA" || t.tagName === "SELECT")) return;
-      if (e.key === "Escape") setDraft([]);
-      else if (e.key === "Enter") finishDraft();
-      else if ((e.key === "Delete" || e.key === "Backspace") && p.selected && !draft.length) {
+      if (e.ctrlKey || e.metaKey || e.altKey) return;
+      const keys = (p.mask?.sections ?? []).map((x) => sectionKey(p.mask!.id, x.id));
+      const arrows: Record<string, Pt> = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
+      if (e.key === "Escape") {
+        setDraft([]);
+        setMeasureAB(null);
+        if (vertexSel) setVertexSel(null);
+        else if (!draft.length) p.setSelected(null);
+      } else if (e.key === "Enter") finishDraft();
+      else if (arrows[e.key] && vertexSel) {
+        const curve = curveOf(vertexSel.key);
+        if (!curve) return;
+        const st = nudgeStep(p.grid, e.shiftKey);
+        p.edits.setCurve(vertexSel.key, nudge(curve, vertexSel.index, arrows[e.key][0] * st, arrows[e.key][1] * st));
+      } else if ((e.key === "Delete" || e.key === "Backspace") && vertexSel && !draft.length) {
+        const curve = curveOf(vertexSel.key);
+        const next = curve ? dropVertex(curve, vertexSel.index) : null;
+        if (next) {
+          p.edits.setCurve(vertexSel.key, next);
+          setVertexSel({ key: vertexSel.key, index: Math.min(vertexSel.index, next.length - 1) });
+        }
+      } else if ((e.key === "Delete" || e.key === "Backspace") && p.selected && !draft.length) {
         p.edits.removeSection(p.selected);
         p.setSelected(null);
+      } else if (e.key === "PageUp") p.onLayerStep(1);
+      else if (e.key === "PageDown") p.onLayerStep(-1);
+      else if ((e.key === "]" || e.key === "[") && p.selected) {
+        const curve = curveOf(p.selected);
+        if (!curve?.length) return;
+        const cur = vertexSel?.key === p.selected ? vertexSel.index : e.key === "]" ? -1 : 0;
+        setVertexSel({ key: p.selected, index: (cur + (e.key === "]" ? 1 : -1) + curve.length) % curve.length });
+        p.setTool("select");
+      } else if ((e.key === "}" || e.key === "{") && keys.length) {
+        const i = p.selected ? keys.indexOf(p.selected) : -1;
+        p.setSelected(keys[(i + (e.key === "}" ? 1 : -1) + keys.length + (i < 0 && e.key === "{" ? 1 : 0)) % keys.length]);
       } else if (e.key === "v") p.setTool("select");
       else if (e.key === "c") p.setTool("curve");
       else if (e.key === "g") p.setTool("guide");
       else if (e.key === "s") p.setTool("split");
+      else if (e.key === "m") p.setTool("measure");
       else if (e.key === "f") fit();
       else return;
       e.preventDefault();
@@ -136,9 +186,15 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
       return;
     }
     if (e.button !== 0) return;
+    if (p.tool === "measure") {
+      const q = snap(w).point;
+      setMeasureAB((m) => (!m || m.b ? { a: q, b: null } : { a: m.a, b: q }));
+      return;
+    }
     if (p.tool === "select") {
       if (vtx) {
         const [key, i] = [vtx.slice(0, vtx.lastIndexOf(":")), Number(vtx.slice(vtx.lastIndexOf(":") + 1))];
+        setVertexSel({ key, index: i });
         const s = p.mask?.sections.find((x) => sectionKey(p.mask!.id, x.id) === key);
         if (s) drag.current = { kind: "vertex", key, index: i, curve: s.curve.map((q) => [q[0], q[1]] as Pt) };
         p.setSelected(key);
@@ -187,6 +243,8 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
 
   const onPointerMove = (e: RPointerEvent<SVGSVGElement>) => {
     const w = toWorld(e);
+    // Cursor coordinates in layer mm, written straight into the HUD (no re-render per move).
+    if (coordsRef.current) coordsRef.current.textContent = `x ${mm(w[0])}  y ${mm(w[1])} mm`;
     const d = drag.current;
     if (d?.kind === "pan") {
       movePan(e);
@@ -205,9 +263,10 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
       setDragCurve({ key: d.key, curve: translate(d.curve, dx, dy).map((q) => [round3(q[0]), round3(q[1])] as Pt) });
       return;
     }
-    if (p.tool === "curve" || p.tool === "guide") {
+    if (p.tool === "curve" || p.tool === "guide" || p.tool === "measure") {
       const s = snap(w);
       setCursor({ p: s.point, kind: s.kind });
+      if (p.tool === "measure" && measureAB && !measureAB.b) setMeasureHover(s.point);
     } else setCursor(null);
   };
 
@@ -227,6 +286,10 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
 
   const px = pxSize();
   const r = 4 * px;
+  const speed = useMemo(() => speedRange(paths), [paths]);
+  const legend = useMemo(() => canvasLegend(paths, p.colorBy), [paths, p.colorBy]);
+  const mB = measureAB ? measureAB.b ?? measureHover : null;
+  const meas = measureAB && mB ? measure(measureAB.a, mB) : null;
 
   const curves = (p.mask?.sections ?? []).map((s) => {
     const key = sectionKey(p.mask!.id, s.id);
@@ -246,7 +309,13 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
         onPointerDown={onPointerDown}
         onPointerMove={onPointerMove}
         onPointerUp={onPointerUp}
-        onPointerLeave={() => setCursor(null)}
+        onPointerLeave={() => {
+          setCursor(null);
+          if (coordsRef.current) coordsRef.current.textContent = "";
+        }}
+        tabIndex={0}
+        role="application"
+        aria-label={`mask canvas, layer ${layer?.index ?? "?"}: tools V C G S M, PageUp/PageDown change layer, [ ] pick a vertex, arrows nudge it, Delete removes, Esc cancels`}
         onWheel={onWheel}
         onContextMenu={(e) => e.preventDefault()}
       >
@@ -268,8 +337,9 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             />
           ) : null,
         )}
+        <CoverageLayer coverage={p.preview?.coverage} />
         {paths.map((q) => (
-          <PathView key={`p-${q.key}`} path={q} zone={p.zone} r={r} />
+          <PathView key={`p-${q.key}`} path={q} zone={p.zone} r={r} colorBy={p.colorBy} speed={speed} bead={p.beadWidthOf(q.key)} />
         ))}
         {sections.map((s) => {
           const own = p.guides.guides?.[s.key];
@@ -299,7 +369,9 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             </text>
             {p.tool === "select" &&
               key === p.selected &&
-              curve.map((q, i) => <circle key={i} cx={q[0]} cy={-q[1]} r={r * 1.2} data-vertex={`${key}:${i}`} className="vertex" />)}
+              curve.map((q, i) => (
+                <circle key={i} cx={q[0]} cy={-q[1]} r={r * (vertexSel?.index === i && vertexSel.key === key ? 1.8 : 1.2)} data-vertex={`${key}:${i}`} className={`vertex ${vertexSel?.index === i && vertexSel.key === key ? "picked" : ""}`} />
+              ))}
           </g>
         ))}
         {draft.length > 0 && (
@@ -310,14 +382,49 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             ))}
           </g>
         )}
+        {measureAB && (
+          <g className="measure" data-testid="measure">
+            <circle cx={measureAB.a[0]} cy={-measureAB.a[1]} r={r} />
+            {mB && <path d={`M${measureAB.a[0]} ${-measureAB.a[1]}L${mB[0]} ${-mB[1]}`} />}
+            {mB && <circle cx={mB[0]} cy={-mB[1]} r={r} />}
+            {meas && mB && (
+              <text x={(measureAB.a[0] + mB[0]) / 2} y={-(measureAB.a[1] + mB[1]) / 2 - 6 * px} fontSize={12 * px}>
+                {mm(meas.distance)} mm, {meas.angleDeg.toFixed(1)}°
+              </text>
+            )}
+          </g>
+        )}
         {cursor && <circle className={`cursor snap-${cursor.kind}`} cx={cursor.p[0]} cy={-cursor.p[1]} r={r * 1.5} />}
       </svg>
+      <div className="canvas-legend" data-testid="canvas-legend" aria-label="path colours">
+        {legend.gradient && (
+          <span className="legend-bar">
+            <span className="bar" style={{ background: `linear-gradient(to right, ${legend.gradient.stops.join(", ")})` }} aria-hidden="true" />
+            <span className="ends">
+              <span>{legend.gradient.lo.toPrecision(3)}</span>
+              <span>{legend.gradient.hi.toPrecision(3)} {legend.gradient.unit}</span>
+            </span>
+          </span>
+        )}
+        {legend.swatches.map((s) => (
+          <span className="legend-swatch" key={s.label}>
+            <i style={{ background: s.color }} aria-hidden="true" />
+            {s.label}
+          </span>
+        ))}
+      </div>
       <div className="canvas-hud">
         <button onClick={fit} title="fit view (F)">fit</button>
         {p.tool === "curve" && <span>click to add points (snapped), click the first point or double-click / Enter to close, Esc cancels</span>}
         {p.tool === "guide" && <span>{p.selected ? `guide for ${p.selected}: click points, double-click / Enter to finish` : "pick a section first"}</span>}
         {p.tool === "split" && <span>click on a section path to add a zone split point; click a split point to remove it</span>}
-        {p.tool === "select" && <span>drag a curve or its vertices; Delete removes the selected section; drag empty space to pan, wheel zooms</span>}
+        {p.tool === "select" && <span>drag a curve or its vertices ([ ] picks one, arrows nudge it); Delete removes; drag empty space to pan, wheel zooms</span>}
+        {p.tool === "measure" && (
+          <span data-testid="measure-readout">
+            {meas ? `distance ${mm(meas.distance)} mm · angle ${meas.angleDeg.toFixed(1)}° · dx ${mm(meas.dx)} dy ${mm(meas.dy)}` : "click two points to measure distance and angle; Esc clears"}
+          </span>
+        )}
+        <span className="coords" ref={coordsRef} data-testid="cursor-coords" aria-live="off" />
         {p.replanMs !== null && <span className="replan" data-testid="replan-ms">re-plan {p.replanMs.toFixed(0)} ms</span>}
       </div>
     </div>
@@ -347,19 +454,11 @@ function Grid({ view, pitch }: { view: View; pitch: number }) {
   return <path d={d} className="grid" />;
 }
 
-/** A section path: consecutive segments of one zone and arc state drawn as one polyline. */
-const PathView = memo(function PathView({ path, zone, r }: { path: PreviewPath; zone: KeyedParams; r: number }) {
-  const runs: { d: string; color: string; arc: boolean; zone: string }[] = [];
+/** A section path: consecutive segments of one colour and arc state drawn as one polyline, over
+ * its bead (the path stroked at the bead width, in mm) when known. */
+const PathView = memo(function PathView({ path, zone, r, colorBy, speed, bead }: { path: PreviewPath; zone: KeyedParams; r: number; colorBy: ColorBy; speed: { lo: number; hi: number } | null; bead: number | null }) {
+  const runs = pathRuns(path, colorBy, speed);
   const pts = path.points;
-  for (let i = 0; i + 1 < pts.length; i++) {
-    const z = path.zone[i] ?? "";
-    const arc = path.arc[i] ?? true;
-    const color = path.zone_colors?.[z] ?? "#1d3557";
-    const last = runs[runs.length - 1];
-    const seg = `L${pts[i + 1][0]} ${-pts[i + 1][1]}`;
-    if (last && last.zone === z && last.arc === arc) last.d += seg;
-    else runs.push({ d: `M${pts[i][0]} ${-pts[i][1]}${seg}`, color, arc, zone: z });
-  }
   const spec = zone.sections?.[path.key] ?? zone.default ?? {};
   const splits = (spec.split_points as number[][] | undefined) ?? [];
   const xy = pts.map((q) => [q[0], q[1]]);
@@ -368,7 +467,9 @@ const PathView = memo(function PathView({ path, zone, r }: { path: PreviewPath; 
   const sLen = num(spec.start_length), eLen = num(spec.end_length);
   const marks = [sLen > 0 ? pointAtLength(xy, sLen) : null, eLen > 0 ? pointAtLength(xy, total - eLen) : null];
   return (
-    <g className="section-path" data-path={path.key} data-zones={[...new Set(path.zone)].join(",")} data-length={total.toFixed(3)}>
+    <g className="section-path" data-path={path.key} data-zones={[...new Set(path.zone)].join(",")} data-length={total.toFixed(3)} data-bead={bead ?? ""}>
+      {bead !== null &&
+        runs.filter((q) => q.arc).map((q, i) => <path key={`b${i}`} d={q.d} className="bead" style={{ stroke: q.color, strokeWidth: bead }} />)}
       {runs.map((q, i) => (
         <path key={i} d={q.d} className={q.arc ? "arc-on" : "arc-off"} style={{ stroke: q.arc ? q.color : undefined }} data-zone={q.zone} />
       ))}

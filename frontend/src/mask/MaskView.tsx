@@ -8,6 +8,7 @@ import {
   sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
 } from "./edits";
 import { polygonArea, ringSelfIntersects, worldToLayer, type Pt } from "./geom";
+import { beadWidth, COLOR_BY, type ColorBy } from "./canvasTools";
 import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
 import { useLayerPreview } from "./useLayerPreview";
 
@@ -17,7 +18,18 @@ const PLANAR_TYPES = ["layers", "sections", "toolpath"];
 
 const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
 
+export interface NewMaskEvent {
+  maskNode: string;
+  params: MaskParams;
+  newId: string;
+  layer: number;
+  /** The regions of the displayed layer (under the mask that governed it). */
+  regions: { key: string; polygon: { exterior: number[][]; holes: number[][][] } }[];
+}
+
 export interface MaskViewProps {
+  /** "New mask from layer N": the App applies it (with carry-over); false when the user declined. */
+  onNewMask?: (e: NewMaskEvent) => boolean;
   recipe: Recipe;
   catalog: Catalog;
   graph: string | null;
@@ -72,6 +84,8 @@ export function MaskView(p: MaskViewProps) {
   const [snapVertices, setSnapVertices] = useState(true);
   const [selected, setSelected] = useState<string | null>(null);
   const [replanMs, setReplanMs] = useState<number | null>(null);
+  const [colorBy, setColorBy] = useState<ColorBy>("zone");
+  const [showBead, setShowBead] = useState(true);
 
   // Edit → canvas latency, measured after the frame that shows the re-planned layer.
   useEffect(() => {
@@ -160,6 +174,20 @@ export function MaskView(p: MaskViewProps) {
     // The pattern a section gets when neither it nor the node's default names one.
     return { patterns: (prop?.enum as string[] | undefined) ?? CONTRACT_PATTERNS, schemaDefault: prop?.default as string | undefined };
   }, [nodes.strategy, p.catalog]);
+  const beadDefault = useMemo(() => {
+    const spec = nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined;
+    const d = spec ? findProperty(spec.params_schema, "bead_width")?.default : undefined;
+    return typeof d === "number" ? d : undefined;
+  }, [nodes.strategy, p.catalog]);
+  const beadWidthOf = useCallback(
+    (key: string) => (showBead && nodes.strategy ? beadWidth(strategyParams as Parameters<typeof beadWidth>[0], key, beadDefault) : null),
+    [showBead, nodes.strategy, strategyParams, beadDefault],
+  );
+  const layerCountKnown = pv.data?.layer_count ?? null;
+  const onLayerStep = useCallback(
+    (d: number) => p.setLayer(Math.max(0, Math.min(layer + d, layerCountKnown !== null ? layerCountKnown - 1 : layer + d))),
+    [p, layer, layerCountKnown],
+  );
 
 
   const areas = new Map((pv.data?.sections ?? []).map((s) => [s.key, s.polygon ? polygonArea(s.polygon) : 0]));
@@ -177,6 +205,11 @@ export function MaskView(p: MaskViewProps) {
     const r = newMaskFromLayer(maskParams, layer);
     if ("error" in r) {
       p.onMessage(r.error);
+      return;
+    }
+    // The App carries each section's settings and XML values over (matched by region overlap).
+    if (p.onNewMask && maskId) {
+      if (p.onNewMask({ maskNode: maskId, params: r.params, newId: r.id, layer, regions: pv.data?.sections ?? [] })) p.onDismissFailure();
       return;
     }
     edit(maskId, () => r.params);
@@ -197,6 +230,22 @@ export function MaskView(p: MaskViewProps) {
           </label>
           <label>
             <input type="checkbox" checked={snapVertices} onChange={(e) => setSnapVertices(e.target.checked)} /> snap to vertices
+          </label>
+          <button className={tool === "measure" ? "active" : ""} onClick={() => setTool("measure")} data-tool="measure" title="measure distance and angle (M)">
+            measure
+          </button>
+          <label title="what the path colours show">
+            colour by{" "}
+            <select value={colorBy} onChange={(e) => setColorBy(e.target.value as ColorBy)} data-testid="color-by">
+              {COLOR_BY.map(([m, l]) => (
+                <option key={m} value={m}>
+                  {l}
+                </option>
+              ))}
+            </select>
+          </label>
+          <label title="draw each path at the bead width of its section's strategy">
+            <input type="checkbox" checked={showBead} onChange={(e) => setShowBead(e.target.checked)} data-testid="show-bead" /> bead width
           </label>
           {pv.loading && <span className="muted">re-planning…</span>}
         </div>
@@ -235,6 +284,9 @@ export function MaskView(p: MaskViewProps) {
           highlight={p.failure?.section ?? err?.section ?? null}
           edits={edits}
           replanMs={replanMs}
+          colorBy={colorBy}
+          beadWidthOf={beadWidthOf}
+          onLayerStep={onLayerStep}
         />
       </div>
       <aside className="mask-panel">

@@ -1,6 +1,7 @@
 import { useEffect, useRef, useState } from "react";
 import { ApiError, preview } from "../api/client";
 import type { LayerJson, Preview, Recipe, RunError } from "../api/types";
+import { publishSectionKeys } from "../forms/sectionKeys";
 import { ancestors, engineView } from "../graph/recipe";
 
 export interface PreviewState {
@@ -35,10 +36,11 @@ export function useLayerPreview(
     const ctl = new AbortController();
     const t0 = editStarted.current;
     setState((s) => ({ ...s, loading: true }));
-    preview({ recipe, node, layer, graph }, ctl.signal)
+    preview({ recipe, node, layer, graph, coverage: true }, ctl.signal)
       .then((data) => {
         if (ctl.signal.aborted) return;
         if (editStarted.current === t0) editStarted.current = null;
+        if (data.sections.length) publishSectionKeys(data.sections.map((x) => x.key));
         setState((s) => ({ ...s, data, error: data.error, loading: false, editT0: t0 }));
       })
       .catch((e) => {
@@ -65,7 +67,7 @@ export function useLayerPreview(
       const k = `${sliceKey}|${i}`;
       if (ghostCache.current.has(k)) return ghostCache.current.get(k)!;
       try {
-        const p = await preview({ recipe, node: sliceNode, layer: i, graph }, ctl.signal);
+        const p = await preview({ recipe, node: sliceNode, layer: i, graph, coverage: false }, ctl.signal);
         ghostCache.current.set(k, p.layer);
         return p.layer;
       } catch {

@@ -17,6 +17,7 @@ export function Results({ recipe, run, artifacts }: { recipe: Recipe; run: RunSt
   const [sim, setSim] = useState<string>("");
   const simId = sims.includes(sim) ? sim : sims[0] ?? "";
   const comparisons = artifacts.filter((a) => a.name.endsWith(".comparison.json"));
+  const figures = artifacts.filter((a) => FIGURES.some((f) => a.name.endsWith(f)));
 
   return (
     <div className="results" data-testid="results">
@@ -62,9 +63,23 @@ export function Results({ recipe, run, artifacts }: { recipe: Recipe; run: RunSt
           <JsonTable runId={run.id!} name={c.name} />
         </section>
       ))}
+      {run.id && figures.length > 0 && (
+        <section>
+          <h4>Process plots</h4>
+          {figures.map((f) => (
+            <figure key={f.name} data-figure={f.name}>
+              <img src={artifactUrl(run.id!, f.name)} alt={f.name} />
+              <figcaption className="muted">{f.name}</figcaption>
+            </figure>
+          ))}
+        </section>
+      )}
     </div>
   );
 }
+
+/** Plots the process nodes write as SVG: deposit before/after compensation, interpass, bead fit. */
+const FIGURES = [".deposit.svg", ".interpass.svg", ".fit.svg"];
 
 function useArtifact(runId: string, name: string, present: boolean) {
   const [text, setText] = useState<string | null>(null);

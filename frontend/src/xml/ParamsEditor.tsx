@@ -1,6 +1,6 @@
 /** The zone-parameter XML editor: layer > section > zone tree, per-zone tables, bulk edit, import/export. */
-import { useCallback, useEffect, useMemo, useState } from "react";
-import { ApiError, artifactText, getParams, putParams } from "../api/client";
+import { useEffect, useMemo, useState } from "react";
+import { artifactText } from "../api/client";
 import type { ProcessParameter, RunError, RunEvent } from "../api/types";
 import {
   boundsByName, bulkSet, invalidEntries, orphans as findOrphans, parseParams, rangeText, serializeParams, setValue, validateValue, vocabulary,
@@ -9,6 +9,15 @@ import {
 
 export interface ParamsEditorProps {
   graph: string | null;
+  /**
+   * The XML shown: the draft when there is one (unsaved edits, or the merged XML of the last run),
+   * else the saved file; null when the graph has none yet.
+   */
+  text: string | null;
+  /** True while `text` differs from the saved file (it is saved with the recipe). */
+  unsaved: boolean;
+  /** Why there is no text (e.g. the graph has no parameter file yet). */
+  loadError: string | null;
   /** The latest finished run and the zone-parameter artifacts it wrote (`<zone node>.params.xml`). */
   runId: string | null;
   runParamsArtifacts: string[];
@@ -17,48 +26,37 @@ export interface ParamsEditorProps {
   /** The server's parameter table (GET /api/process-parameters): labels, units and bounds. */
   parameters: readonly ProcessParameter[];
   dirtyRecipe: boolean;
+  /** Edits replace the draft text; nothing is sent to the server until the recipe is saved. */
+  onChange: (text: string) => void;
+  /** Save recipe and XML together (the toolbar's save). */
+  onSave: () => void;
+  /** Drop the draft: back to the saved file. */
+  onDiscard: () => void;
+  /** An error of the last save, naming layer/section/zone when the server did. */
+  serverError: (RunError & Record<string, unknown>) | null;
   onMessage: (m: string) => void;
 }
 
 export function ParamsEditor(p: ParamsEditorProps) {
-  const [original, setOriginal] = useState<string | null>(null);
-  const [doc, setDoc] = useState<ParamDoc | null>(null);
-  const [dirty, setDirty] = useState(false);
-  const [serverError, setServerError] = useState<(RunError & Record<string, unknown>) | null>(null);
-  const [loadError, setLoadError] = useState<string | null>(null);
+  const parsed = useMemo((): { doc: ParamDoc | null; error: string | null } => {
+    if (p.text === null) return { doc: null, error: null };
+    try {
+      return { doc: parseParams(p.text), error: null };
+    } catch (e) {
+      return { doc: null, error: (e as Error).message };
+    }
+  }, [p.text]);
+  const doc = parsed.doc;
+  const original = p.text;
+  const [importError, setImportError] = useState<string | null>(null);
+  const serverError = p.serverError ?? (importError ? { message: importError } : null);
+  const loadError = p.loadError ?? parsed.error;
   const [sel, setSel] = useState<{ layer: number; section: string } | null>(null);
   const [current, setCurrent] = useState<ParamDoc | null>(null);
-  const [saved, setSaved] = useState<string>("");
-
-  const load = useCallback(async () => {
-    setLoadError(null);
-    setServerError(null);
-    if (!p.graph) {
-      setOriginal(null);
-      setDoc(null);
-      return;
-    }
-    try {
-      const text = await getParams(p.graph);
-      if (text === null) {
-        setOriginal(null);
-        setDoc(null);
-        setLoadError("This graph has no parameter file yet: run it once to create the template.");
-        return;
-      }
-      const d = parseParams(text);
-      setOriginal(text);
-      setDoc(d);
-      setDirty(false);
-      setSel((s) => s ?? (d.layers[0]?.sections[0] ? { layer: d.layers[0].index, section: d.layers[0].sections[0].id } : null));
-    } catch (e) {
-      setLoadError(e instanceof ApiError ? e.detail.message : String(e));
-    }
-  }, [p.graph]);
 
   useEffect(() => {
-    void load();
-  }, [load, p.runId]);
+    if (doc && !sel && doc.layers[0]?.sections[0]) setSel({ layer: doc.layers[0].index, section: doc.layers[0].sections[0].id });
+  }, [doc, sel]);
 
   // What the last run's geometry has: values of ours outside it are orphans.
   useEffect(() => {
@@ -80,43 +78,19 @@ export function ParamsEditor(p: ParamsEditorProps) {
   const orphans = useMemo(() => (doc && current ? findOrphans(doc, current) : []), [doc, current]);
 
   const change = (d: ParamDoc) => {
-    setDoc(d);
-    setDirty(true);
-  };
-
-  const save = async () => {
-    if (!p.graph || !doc || original === null) return;
-    // Checked here first (the server checks the same): nothing is sent while a value is invalid.
-    // The cells are marked by their own check, so the message names no layer/section to mark.
-    if (invalid.length) {
-      const [f] = invalid;
-      setServerError({
-        message: `not saved: ${invalid.length} invalid value(s), e.g. layer ${f.layer} · ${f.section} · ${f.zone} · ${f.name}: ${f.message}; fix the fields marked in red`,
-      });
-      return;
-    }
-    const text = serializeParams(original, doc);
-    try {
-      await putParams(p.graph, text);
-      setOriginal(text);
-      setDirty(false);
-      setServerError(null);
-      setSaved(new Date().toLocaleTimeString());
-    } catch (e) {
-      setServerError(e instanceof ApiError ? e.detail : { message: String(e) });
-    }
+    if (original === null) return;
+    setImportError(null);
+    p.onChange(serializeParams(original, d));
   };
 
   const importFile = async (f: File) => {
     const text = await f.text();
     try {
-      const d = parseParams(text);
-      setOriginal(text);
-      setDoc(d);
-      setDirty(true);
-      setServerError(null);
+      parseParams(text);
+      setImportError(null);
+      p.onChange(text);
     } catch (e) {
-      setServerError({ message: `import: ${(e as Error).message}` });
+      setImportError(`import: ${(e as Error).message}`);
     }
   };
 
@@ -147,24 +121,36 @@ export function ParamsEditor(p: ParamsEditorProps) {
       <div className="pe-toolbar">
         <b>Zone parameters</b>
         <span className="muted">{p.graph ? `${p.graph} · ` : ""}{doc ? `${doc.layers.length} layers` : ""}</span>
-        <button onClick={save} disabled={!doc || !dirty} data-testid="params-save">
+        <button onClick={p.onSave} disabled={!doc || !p.unsaved} data-testid="params-save" title="save the recipe and this XML together">
           save
         </button>
-        <button onClick={() => void load()} disabled={!p.graph}>
-          reload
+        <button onClick={p.onDiscard} disabled={!p.unsaved} data-testid="params-discard" title="drop the unsaved XML: back to the saved file">
+          discard draft
         </button>
         <label className="button">
           import
-          <input type="file" accept=".xml,application/xml,text/xml" hidden onChange={(e) => e.target.files?.[0] && void importFile(e.target.files[0])} />
+          <input
+            type="file"
+            accept=".xml,application/xml,text/xml"
+            hidden
+            onChange={(e) => {
+              const f = e.target.files?.[0];
+              e.target.value = "";
+              if (f) void importFile(f);
+            }}
+          />
         </label>
         <button onClick={exportFile} disabled={!doc}>
           export
         </button>
-        {dirty && <span className="warn">unsaved</span>}
-        {!dirty && saved && <span className="ok" data-testid="params-saved">saved {saved}</span>}
+        {p.unsaved ? (
+          <span className="warn" data-testid="params-unsaved">unsaved: saved with the recipe</span>
+        ) : (
+          doc && <span className="ok" data-testid="params-saved">saved</span>
+        )}
         {p.dirtyRecipe && <span className="muted">(the recipe has unsaved changes: run it to refresh the zones)</span>}
       </div>
-      {!p.graph && <div className="empty">Save the recipe first: the parameter file belongs to a saved graph.</div>}
+      {!p.graph && !doc && <div className="empty">Run the recipe to create the parameter template; it is saved with the recipe.</div>}
       {loadError && <div className="empty">{loadError}</div>}
       {serverError && (
         <div className="error-box" data-testid="params-error">

@@ -193,3 +193,17 @@ export function vocabulary(doc: ParamDoc) {
     }
   return { sections: [...sections], zones: [...zones], params: [...names].map(([name, unit]) => ({ name, unit })) };
 }
+
+/** Why `text` must not be saved (an invalid value, naming where), or null. */
+export function saveBlocker(text: string, bounds: Record<string, Bounds>): string | null {
+  let doc: ParamDoc;
+  try {
+    doc = parseParams(text);
+  } catch (e) {
+    return `not saved: the parameter XML does not parse: ${(e as Error).message}`;
+  }
+  const invalid = invalidEntries(doc, bounds);
+  if (!invalid.length) return null;
+  const [f] = invalid;
+  return `not saved: ${invalid.length} invalid value(s), e.g. layer ${f.layer} · ${f.section} · ${f.zone} · ${f.name}: ${f.message}; fix the fields marked in red`;
+}

@@ -10,30 +10,59 @@ import time
 from typing import Any
 
 from fastapi import APIRouter, HTTPException
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ...core.errors import PlanningError, RecipeError
 from ...core.model import Layer, LayerPaths, Layered, LayerSections
 from ...core.serialize import coords, layer_json, polygon_json, section_path_json
 from ...engine.executor import execute
 from ...engine.graph import build_graph
-from ...engine.recipe import apply_overrides, parse_recipe
+from ...engine.recipe import apply_overrides
+from ..services import parse_api_recipe
 from ..deps import ServicesDep
-from ..schemas import LayerJSON, SectionJSON, SectionPathJSON
-from ..store import valid_graph_name
+from ..schemas import PREVIEW_REQUEST_RULES, LayerIndex, LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON, errors
+from ..store import GRAPH_NAME_PATTERN
 
 router = APIRouter(tags=["preview"])
 
 
 class PreviewRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe")
-    node: str = Field(..., description="node whose output to show (e.g. the zone node)")
-    layer: int = Field(..., ge=0, description="layer index")
-    graph: str | None = Field(None, description="saved graph whose files/parameter XML to use")
+    model_config = ConfigDict(extra="forbid", json_schema_extra=PREVIEW_REQUEST_RULES)
+    recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe (see Recipe)")
+    node: str = Field(..., min_length=1, max_length=64, description="node whose output to show (e.g. the zone node)")
+    layer: LayerIndex = Field(..., description="layer index")
+    graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
+                       description="saved graph whose files/parameter XML to use")
     params_xml: str | None = Field(None, max_length=20_000_000,
                                    description="with `graph`: draft zone-parameter XML instead of the saved one")
     inputs: dict[str, Any] = Field(default_factory=dict)
+    coverage: bool = Field(False, description="also return each path's bead coverage (void/overlap polygons)")
+    bead_width: float | None = Field(None, gt=0.05, le=100,
+                                     description="bead width for coverage, mm (default: the recipe's coverage "
+                                                 "node, else the strategy's default bead_width, else 6)")
+
+    @model_validator(mode="after")
+    def _xml_needs_graph(self) -> "PreviewRequest":
+        if self.params_xml is not None and self.graph is None:
+            raise ValueError("'params_xml' needs 'graph' (the graph whose files the preview uses)")
+        return self
+
+
+class CoverageJSON(BaseModel):
+    """Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local."""
+
+    key: str
+    region_area_mm2: float
+    footprint_area_mm2: float
+    void_area_mm2: float
+    overlap_area_mm2: float
+    over_deposit_area_mm2: float
+    void_share: float
+    overlap_share: float
+    bead_width_mm: float
+    cell_mm: float
+    void: list[PolygonJSON]
+    overlap: list[PolygonJSON]
 
 
 class PreviewResponse(BaseModel):
@@ -43,6 +72,7 @@ class PreviewResponse(BaseModel):
     layer_count: int | None
     error: dict[str, Any] | None
     ms: float
+    coverage: list[CoverageJSON] | None = None
 
 
 def _item(value: Any, index: int) -> Any:
@@ -85,16 +115,47 @@ def _sections_json(ls: LayerSections | None) -> list[dict]:
     return out
 
 
-@router.post("/api/preview", response_model=PreviewResponse)
+def _bead_width(recipe, asked: float | None) -> float:
+    if asked is not None:
+        return asked
+    for kind, path in (("coverage", ("bead_width",)), ("strategy", ("default", "bead_width"))):
+        for n in recipe.nodes:
+            if n.type == kind:
+                v: Any = n.params
+                for k in path:
+                    v = v.get(k) if isinstance(v, dict) else None
+                if isinstance(v, (int, float)) and v > 0:
+                    return float(v)
+    return 6.0
+
+
+def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, width: float) -> list[dict]:
+    from ...nodes.process import _geom_json, layer_local
+    from ...process.coverage import section_coverage
+
+    if sections is None or paths is None:
+        return []
+    regions = sections.by_key()
+    out = []
+    for sp in paths.sections:
+        if sp.key in regions:
+            cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width)
+            out.append({"key": sp.key, **cov.summary(), "void": _geom_json(cov.void),
+                        "overlap": _geom_json(cov.overlap_outline())})
+    return out
+
+
+@router.post("/api/preview", response_model=PreviewResponse, responses=errors(401, 404, 422))
 def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     t0 = time.perf_counter()
-    if req.graph is not None and not valid_graph_name(req.graph):
-        raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
-    recipe = svc.prepare(req.graph, apply_overrides(parse_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
+    if req.graph is not None and svc.store.get_graph(req.graph) is None:
+        raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
+    recipe = svc.prepare(req.graph, apply_overrides(parse_api_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
     graph = build_graph(recipe)
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)
     resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
+    svc.check_sandbox(graph, resolver)  # → 422 before anything is read
     error = None
     node = req.node
     try:
@@ -119,5 +180,6 @@ def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
         paths=[section_path_json(sp) for sp in paths.sections] if paths is not None else [],
         layer_count=count,
         error=error,
+        coverage=_coverage_json(sections, paths, _bead_width(recipe, req.bead_width)) if req.coverage else None,
         ms=round((time.perf_counter() - t0) * 1000, 2),
     )

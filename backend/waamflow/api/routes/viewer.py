@@ -1,11 +1,16 @@
-"""Steer the embedded 3D preview: which node and layer it follows (the GUI calls this on selection)."""
+"""Steer the embedded 3D preview: which recipe's run it shows, which node and layer it follows,
+view settings (visibility, layer range, colour modes, playback time), and the state and legend
+data the GUI's 3D tab draws beside the scene."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Response
+from typing import Any, Literal
+
+from fastapi import APIRouter, HTTPException, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..deps import ServicesDep
+from ..schemas import LayerIndex, errors
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"])
 
@@ -13,12 +18,54 @@ router = APIRouter(prefix="/api/viewer", tags=["viewer"])
 class Selection(BaseModel):
     model_config = ConfigDict(extra="forbid")
     node: str | None = Field(None, description="node id whose output to show (None = all)")
-    layer: int | None = Field(None, ge=0, description="layer index to focus (None = all)")
+    layer: LayerIndex | None = Field(None, description="layer index to focus (None = all)")
+    graph: str | None = Field(None, description="show the latest run of this saved graph (the GUI's open recipe)")
+    run: str | None = Field(None, description="show this run (an unsaved recipe's run is keyed by its run id)")
 
 
-@router.post("/select", status_code=204, response_class=Response)
+class ViewSettings(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    hidden: list[str] | None = Field(None, description="node ids whose output is hidden")
+    layer_lo: int | None = Field(None, ge=0, description="first layer shown")
+    layer_hi: int | None = Field(None, ge=0, description="last layer shown (inclusive)")
+    path_color: Literal["zone", "speed", "arc", "section"] | None = Field(None, description="toolpath colour")
+    sim_color: Literal["deviation", "speed", "deposit"] | None = Field(None, description="simulated path colour")
+    show_programmed: bool | None = Field(None, description="draw the programmed path")
+    show_simulated: bool | None = Field(None, description="draw the simulated path")
+    show_robot: bool | None = Field(None, description="draw the robot at the playback time")
+    time_s: float | None = Field(None, ge=0, description="playback time, s")
+    sim_offset_mm: float | None = Field(None, ge=0, le=1000, description="simulated path drawn this far above the programmed one, mm")
+    fit: bool = Field(False, description="frame the camera on the shown part")
+
+
+@router.post("/select", status_code=204, response_class=Response, responses=errors(401, 422))
 def select(sel: Selection, svc: ServicesDep) -> Response:
-    """Follow a node/layer in the 3D view. A no-op when the preview is off."""
+    """Follow a recipe (graph or run) and a node/layer in the 3D view. A no-op when the preview is off."""
     if svc.viewer is not None:
-        svc.viewer.select(sel.node, sel.layer)
+        if sel.graph is not None or sel.run is not None:
+            svc.viewer.show(sel.graph or sel.run)
+        if sel.model_fields_set & {"node", "layer"} or not sel.model_fields_set & {"graph", "run"}:
+            svc.viewer.select(sel.node, sel.layer)
     return Response(status_code=204)
+
+
+@router.post("/view", status_code=204, response_class=Response, responses=errors(401, 409, 422))
+def view(v: ViewSettings, svc: ServicesDep) -> Response:
+    """Change what the 3D view draws; fields left out keep their value."""
+    if svc.viewer is None:
+        raise HTTPException(409, detail={"message": "the 3D preview is not running (serve with --viewer-port)"})
+    fields = v.model_dump(exclude_none=True, exclude={"hidden", "fit"})
+    try:
+        svc.viewer.set_view(hidden=set(v.hidden) if v.hidden is not None else None, fit=v.fit, **fields)
+    except ValueError as e:
+        raise HTTPException(422, detail={"message": str(e)}) from e
+    return Response(status_code=204)
+
+
+@router.get("/state", responses=errors(401))
+def state(svc: ServicesDep) -> dict[str, Any]:
+    """The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
+    settings and legend data (zone colours, value ranges with units, colour-map stops)."""
+    if svc.viewer is None:
+        return {"running": False}
+    return {"running": True, **svc.viewer.state()}

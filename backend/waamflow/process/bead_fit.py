@@ -1,0 +1,285 @@
+"""Bead models as data: bead width and height as functions of wire feed speed and travel speed,
+fitted from the user's bead trials (issue 16).
+
+Form. Mass conservation makes the bead cross-section A ∝ WFS/TS (A = η·(π·d²/4)·WFS/TS), and the
+single-bead literature fits width and height as power laws of the two speeds (e.g. Xiong, Zhang,
+Hu, Wu, "Bead geometry prediction for robotic GMAW-based rapid manufacturing through a neural
+network and a second-order regression analysis", J. Intell. Manuf. 25 (2014) 157–163; Ding, Pan,
+Cuiuri, Li, "A multi-bead overlapping model for robotic WAAM", RCIM 31 (2015) 101–110). We use
+
+    power:        y = a · WFS^b · TS^c        (y = width or height, mm)
+    power-ratio:  y = a · (WFS / TS)^b        (the special case c = −b)
+
+with WFS in m/min (as on the power source) and TS in mm/s. A start from the log-linear least
+squares fit, then `scipy.optimize.curve_fit` on the measured scale (so residuals are in mm);
+parameter standard errors from its covariance. Each model also states the trial range it is valid
+for. Inverse: a target (height, width) fixes (WFS, TS) by solving the two log-linear equations.
+
+Trials CSV: a header row naming at least the four columns (case-insensitive; units may follow in
+brackets or after an underscore): `wfs` (or `wire_feed_speed`, m/min), `ts` (or `travel_speed`,
+mm/s), `width` (mm), `height` (mm); optional `material`, `process`. Lines starting with '#' are
+comments. A non-numeric or non-positive value fails naming its row and column.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import curve_fit
+
+from ..core.errors import InputFileError
+
+FORMAT = "waamflow/bead-model/1"
+#: Centre distance / width for a flat top between neighbouring beads (Ding et al. 2015, TOM).
+TANGENT_OVERLAP = 0.738
+FORMS = ("power", "power-ratio")
+
+_ALIASES = {
+    "wfs": ("wfs", "wire_feed_speed", "wire_feed", "wirefeed"),
+    "ts": ("ts", "travel_speed", "speed", "travel"),
+    "width": ("width", "w", "bead_width"),
+    "height": ("height", "h", "bead_height"),
+}
+
+
+@dataclass(frozen=True)
+class Trials:
+    """Measured beads: (n,) arrays. wfs m/min, ts mm/s, width and height mm."""
+
+    wfs: np.ndarray
+    ts: np.ndarray
+    width: np.ndarray
+    height: np.ndarray
+    source: str = ""
+
+
+def _column(name: str) -> str | None:
+    key = re.sub(r"\s*[\[(].*$", "", name.strip().lower()).replace(" ", "_")
+    for canon, names in _ALIASES.items():
+        for n in names:
+            if key == n or key.startswith(n + "_"):
+                return canon
+    return None
+
+
+def read_trials(text: str, source: str = "trials") -> Trials:
+    rows = [r for r in csv.reader(io.StringIO(text)) if r and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise InputFileError(f"{source}: no rows")
+    cols = {}
+    for j, name in enumerate(rows[0]):
+        c = _column(name)
+        if c and c not in cols:
+            cols[c] = j
+    missing = [c for c in _ALIASES if c not in cols]
+    if missing:
+        raise InputFileError(f"{source}: header lacks column(s) {', '.join(missing)} "
+                             f"(need wfs [m/min], ts [mm/s], width [mm], height [mm])")
+    data = {c: [] for c in _ALIASES}
+    for i, r in enumerate(rows[1:], start=2):
+        for c, j in cols.items():
+            try:
+                v = float(r[j])
+            except (IndexError, ValueError):
+                raise InputFileError(f"{source}: row {i}, column {rows[0][j]!r}: not a number") from None
+            if not (math.isfinite(v) and v > 0):
+                raise InputFileError(f"{source}: row {i}, column {rows[0][j]!r}: must be positive, got {v}")
+            data[c].append(v)
+    if len(data["wfs"]) < 3:
+        raise InputFileError(f"{source}: need at least 3 measured beads, got {len(data['wfs'])}")
+    return Trials(*(np.asarray(data[c]) for c in ("wfs", "ts", "width", "height")), source=source)
+
+
+@dataclass(frozen=True)
+class PowerLaw:
+    """y = a · WFS^b · TS^c (mm; WFS m/min, TS mm/s)."""
+
+    a: float
+    b: float
+    c: float
+    form: str = "power"
+    stderr: tuple[float, ...] = ()
+
+    def __call__(self, wfs, ts):
+        return self.a * np.power(wfs, self.b) * np.power(ts, self.c)
+
+    def to_json(self) -> dict:
+        out = {"form": self.form, "a": self.a, "b": self.b, "c": self.c}
+        if self.stderr:
+            out["stderr"] = list(self.stderr)
+        return out
+
+    @classmethod
+    def from_json(cls, d: dict) -> "PowerLaw":
+        form = d.get("form", "power")
+        c = float(d["c"]) if "c" in d else -float(d["b"])
+        return cls(float(d["a"]), float(d["b"]), c, form, tuple(d.get("stderr", ())))
+
+
+def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power") -> PowerLaw:
+    """Least-squares fit of y = a·WFS^b·TS^c (or a·(WFS/TS)^b) on the measured scale."""
+    if form not in FORMS:
+        raise ValueError(f"unknown bead-model form {form!r}; known: {', '.join(FORMS)}")
+    lw, lt, ly = np.log(wfs), np.log(ts), np.log(y)
+    if form == "power":
+        A = np.column_stack([np.ones_like(lw), lw, lt])
+        p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
+        f = lambda X, a, b, c: a * X[0] ** b * X[1] ** c  # noqa: E731
+        p, cov = curve_fit(f, np.vstack([wfs, ts]), y, p0=[math.exp(p0[0]), p0[1], p0[2]], maxfev=20000)
+        err = tuple(float(e) for e in np.sqrt(np.abs(np.diag(cov)))) if np.all(np.isfinite(cov)) else ()
+        return PowerLaw(float(p[0]), float(p[1]), float(p[2]), form, err)
+    A = np.column_stack([np.ones_like(lw), lw - lt])
+    p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
+    f = lambda r, a, b: a * r ** b  # noqa: E731
+    p, cov = curve_fit(f, wfs / ts, y, p0=[math.exp(p0[0]), p0[1]], maxfev=20000)
+    err = tuple(float(e) for e in np.sqrt(np.abs(np.diag(cov)))) if np.all(np.isfinite(cov)) else ()
+    return PowerLaw(float(p[0]), float(p[1]), -float(p[1]), form, err)
+
+
+def _stats(y: np.ndarray, pred: np.ndarray) -> dict:
+    res = y - pred
+    ss = float(((y - y.mean()) ** 2).sum())
+    return {"rmse_mm": float(np.sqrt((res ** 2).mean())), "max_abs_residual_mm": float(np.abs(res).max()),
+            "r2": 1.0 - float((res ** 2).sum()) / ss if ss > 0 else 1.0}
+
+
+@dataclass(frozen=True)
+class BeadFit:
+    """A bead model: width(WFS, TS), height(WFS, TS), the trial range and the fit statistics."""
+
+    width: PowerLaw
+    height: PowerLaw
+    wfs_range: tuple[float, float]
+    ts_range: tuple[float, float]
+    material: str = ""
+    process: str = ""
+    wire_diameter_mm: float | None = None
+    fit: dict = field(default_factory=dict)
+
+    def step_over(self, width_mm: float) -> float:
+        """Centre distance between neighbouring beads for a flat top (tangent overlap model), mm."""
+        return TANGENT_OVERLAP * width_mm
+
+    def speeds_for(self, height_mm: float, width_mm: float) -> tuple[float, float]:
+        """(WFS m/min, TS mm/s) giving the target bead height and width (log-linear solve)."""
+        M = np.array([[self.width.b, self.width.c], [self.height.b, self.height.c]])
+        rhs = np.array([math.log(width_mm / self.width.a), math.log(height_mm / self.height.a)])
+        if abs(np.linalg.det(M)) < 1e-9:
+            raise ValueError("the bead model cannot set width and height independently (its exponents are "
+                             "proportional, e.g. the power-ratio form): give a travel speed instead")
+        lw, lt = np.linalg.solve(M, rhs)
+        return float(math.exp(lw)), float(math.exp(lt))
+
+    def wfs_for(self, height_mm: float, ts: float) -> float:
+        """WFS (m/min) giving the target height at travel speed ts (mm/s)."""
+        return float((height_mm / (self.height.a * ts ** self.height.c)) ** (1.0 / self.height.b))
+
+    def height_polynomial(self, wfs: float | None = None) -> tuple[float, float, float, float, float]:
+        """The height law at a fixed WFS (m/min; default the middle of the trials) as the curved-parts
+        study's form H(Ts) = a2·Ts² + a1·Ts + a0 with Ts in mm/min, least squares over the trials'
+        travel-speed range: (a2, a1, a0, ts_min, ts_max), for the bead-model node."""
+        wfs = 0.5 * (self.wfs_range[0] + self.wfs_range[1]) if wfs is None else wfs
+        ts = np.linspace(self.ts_range[0], self.ts_range[1], 200)      # mm/s
+        a2, a1, a0 = np.polyfit(ts * 60.0, self.height(wfs, ts), 2)
+        return float(a2), float(a1), float(a0), self.ts_range[0] * 60.0, self.ts_range[1] * 60.0
+
+    def in_range(self, wfs: float, ts: float) -> bool:
+        return (self.wfs_range[0] * 0.999 <= wfs <= self.wfs_range[1] * 1.001
+                and self.ts_range[0] * 0.999 <= ts <= self.ts_range[1] * 1.001)
+
+    def to_json(self) -> dict:
+        return {"format": FORMAT, "material": self.material, "process": self.process,
+                "wire_diameter_mm": self.wire_diameter_mm,
+                "units": {"wfs": "m/min", "ts": "mm/s", "width": "mm", "height": "mm"},
+                "width": self.width.to_json(), "height": self.height.to_json(),
+                "validity": {"wfs_m_min": list(self.wfs_range), "ts_mm_s": list(self.ts_range)},
+                "fit": self.fit}
+
+    @classmethod
+    def from_json(cls, d: dict, source: str = "bead model") -> "BeadFit":
+        try:
+            if d.get("format") != FORMAT:
+                raise ValueError(f"format must be {FORMAT!r}")
+            v = d["validity"]
+            return cls(PowerLaw.from_json(d["width"]), PowerLaw.from_json(d["height"]),
+                       tuple(map(float, v["wfs_m_min"])), tuple(map(float, v["ts_mm_s"])),
+                       d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}))
+        except (KeyError, TypeError, ValueError) as e:
+            raise InputFileError(f"{source}: not a bead model ({e})") from None
+
+
+def fit_trials(trials: Trials, form: str = "power", material: str = "", process: str = "",
+               wire_diameter_mm: float | None = None) -> BeadFit:
+    """Fit width and height; the fit record holds statistics and per-trial residuals (mm)."""
+    w = fit_power(trials.wfs, trials.ts, trials.width, form)
+    h = fit_power(trials.wfs, trials.ts, trials.height, form)
+    pw, ph = w(trials.wfs, trials.ts), h(trials.wfs, trials.ts)
+    fit = {"trials": int(len(trials.wfs)), "source": trials.source,
+           "width": _stats(trials.width, pw), "height": _stats(trials.height, ph),
+           "residuals": [{"wfs_m_min": float(a), "ts_mm_s": float(b), "width_mm": float(c), "height_mm": float(d),
+                          "width_residual_mm": round(float(c - e), 5), "height_residual_mm": round(float(d - f), 5)}
+                         for a, b, c, d, e, f in zip(trials.wfs, trials.ts, trials.width, trials.height, pw, ph)]}
+    return BeadFit(w, h, (float(trials.wfs.min()), float(trials.wfs.max())),
+                   (float(trials.ts.min()), float(trials.ts.max())), material, process, wire_diameter_mm, fit)
+
+
+def fit_svg(model: BeadFit) -> str:
+    """Measured vs predicted width and height (hand-written SVG, one panel each)."""
+    res = model.fit.get("residuals", [])
+    W, H, pad = 640, 300, 40
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
+           f'<rect width="{W}" height="{H}" fill="#fff"/>']
+    for k, (name, color) in enumerate((("width", "#1d3557"), ("height", "#e76f51"))):
+        meas = np.array([r[f"{name}_mm"] for r in res]) if res else np.zeros(0)
+        pred = meas - np.array([r[f"{name}_residual_mm"] for r in res]) if res else np.zeros(0)
+        lo = float(min(meas.min(), pred.min())) * 0.95 if len(meas) else 0.0
+        hi = float(max(meas.max(), pred.max())) * 1.05 if len(meas) else 1.0
+        x0, size = pad + k * (W // 2), W // 2 - 2 * pad
+        sc = lambda v: size * (v - lo) / (hi - lo)  # noqa: E731
+        st = model.fit.get(name, {})
+        out.append(f'<text x="{x0}" y="16" font-weight="bold">{name}: measured vs model (RMSE '
+                   f'{st.get("rmse_mm", 0):.3f} mm, R² {st.get("r2", 0):.3f})</text>')
+        out.append(f'<rect x="{x0}" y="{pad}" width="{size}" height="{size}" fill="none" stroke="#444"/>')
+        out.append(f'<line x1="{x0}" y1="{pad + size}" x2="{x0 + size}" y2="{pad}" stroke="#aaa"/>')
+        for m, p in zip(meas, pred):
+            out.append(f'<circle cx="{x0 + sc(p):.1f}" cy="{pad + size - sc(m):.1f}" r="3" fill="{color}"/>')
+        out.append(f'<text x="{x0}" y="{pad + size + 16}">model {lo:.2f} … {hi:.2f} mm → ; measured ↑</text>')
+    out.append("</svg>")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m waamflow.process.bead_fit TRIALS.csv [--form power] [--out MODEL.json]`."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m waamflow.process.bead_fit", description=main.__doc__)
+    ap.add_argument("trials")
+    ap.add_argument("--form", choices=FORMS, default="power")
+    ap.add_argument("--material", default="")
+    ap.add_argument("--process", default="")
+    ap.add_argument("--out", default="")
+    a = ap.parse_args(argv)
+    try:
+        with open(a.trials, encoding="utf-8") as f:
+            model = fit_trials(read_trials(f.read(), a.trials), a.form, a.material, a.process)
+    except (OSError, InputFileError, ValueError, RuntimeError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    text = json.dumps(model.to_json(), indent=1)
+    if a.out:
+        with open(a.out, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+    else:
+        print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

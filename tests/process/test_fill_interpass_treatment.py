@@ -1,0 +1,136 @@
+"""fill-parameters keeps user values; interpass dwells respect the rule; the rolling path follows
+the bead centre; the worked example recipe (graphs/bead-trials.json) end to end."""
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import apply_overrides, load_recipe
+from waamflow.process.bead_fit import fit_trials, read_trials
+from waamflow.process.fill import FillRules, fill, model_values
+from waamflow.process.interpass import HeatModel, layer_times, plan_dwells
+from waamflow.process.treatment import TreatmentSpec, max_distance_to_centre, plan_treatment, _runs
+from waamflow.zoning.params_xml import parse
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+RECIPE = GRAPHS / "bead-trials.json"
+
+
+@pytest.fixture(scope="module")
+def example():
+    return execute(build_graph(load_recipe(RECIPE)), resolver=FileResolver(GRAPHS))
+
+
+@pytest.fixture(scope="module")
+def model():
+    return fit_trials(read_trials((GRAPHS / "trials" / "er70s6-cmt-1.2.csv").read_text()))
+
+
+def test_fill_keeps_user_values_and_fills_the_rest(example, model):
+    zoned = example.outputs["zone"]["toolpath"]
+    lp0 = zoned[0]
+    key = lp0.sections[0].key
+    user = {(0, key, "z1"): {"travel_speed": 7.0, "current": 180.0}, (1, key, "start"): {"dwell": 1.5}}
+    tp, xml, report = fill(zoned, model, FillRules(width_mm=6.0), user)
+    table = parse(xml)
+    assert table.values[(0, key, "z1")]["travel_speed"] == 7.0 and table.values[(0, key, "z1")]["current"] == 180.0
+    assert table.values[(1, key, "start")]["dwell"] == 1.5
+    # every parameter but job of every zone has a value
+    for k in table.zones:
+        assert set(table.values[k]) == {"current", "voltage", "wire_feed_speed", "travel_speed", "dwell"}, k
+    kept = {(r["layer"], r["zone"], r["parameter"]) for r in report["kept_user_values"]}
+    assert kept == {(0, "z1", "travel_speed"), (0, "z1", "current"), (1, "start", "dwell")}
+    body = model_values(model, FillRules(width_mm=6.0), "z2", 1.5)
+    assert model.height(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(1.5, rel=1e-3)
+    assert model.width(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(6.0, rel=1e-3)
+    start = table.values[(0, key, "start")]
+    assert start["travel_speed"] == pytest.approx(0.75 * body["travel_speed"], rel=1e-3)
+    end = table.values[(0, key, "end")]
+    assert end["wire_feed_speed"] == pytest.approx(0.83 * body["wire_feed_speed"], rel=1e-3)
+    # the user's travel speed is the programmed speed of that zone's arc-ON segments
+    sp = tp[0].sections[0]
+    sel = np.array([z == "z1" for z in sp.zone]) & sp.arc
+    assert np.allclose(sp.speed[sel], 7.0)
+
+
+def test_dwell_respects_the_interpass_rule(example):
+    seq = example.outputs["sequence"]["toolpath"]
+    m = HeatModel(interpass_c=150.0, min_layer_time_s=0.0)
+    tp, rep = plan_dwells(seq, m)
+    assert rep["layers"][0]["peak_c"] > 150 and rep["layers"][0]["dwell_s"] > 0
+    # replay the lumped model independently with the planned dwells: every layer starts ≤ the limit
+    T, mass, lateral = m.ambient_c, m.substrate_mass_kg, 0.0
+    c = m.specific_heat_j_kgk
+    for k, lp in enumerate(tp):
+        t_on, _ = layer_times(lp, m.travel_speed)
+        arc_len = sum(float(sp.segment_lengths[sp.arc].sum()) for sp in lp.sections)
+        mass += m.density_kg_m3 * arc_len * lp.layer.thickness * 6.0 * 2 / 3 * 1e-9
+        lateral += lp.layer.region.boundary.length * lp.layer.thickness * 1e-6
+        T += m.arc_efficiency * rep["layers"][k]["arc_power_w"] * t_on / (mass * c)
+        tau = mass * c / (m.h_w_m2k * (lateral + lp.layer.region.area * 1e-6) + m.base_conductance_w_k)
+        if k + 1 < len(tp):
+            nxt = tp[k + 1].sections[0]
+            travel = np.linalg.norm(np.diff(np.vstack([nxt.approach, nxt.points[:1]]), axis=0), axis=1).sum() / m.travel_speed
+            T = m.ambient_c + (T - m.ambient_c) * math.exp(-(lp.dwell_after_s + travel) / tau)
+            assert T <= 150.0 + 1e-6
+    # the minimum layer time rule on its own
+    tp2, rep2 = plan_dwells(seq, HeatModel(interpass_c=1400.0, min_layer_time_s=120.0))
+    row = rep2["layers"][0]
+    assert row["limited_by"] == "min_layer_time"
+    assert row["arc_time_s"] + row["travel_time_s"] + row["dwell_s"] == pytest.approx(120.0, abs=1e-2)
+    assert rep2["total_added_dwell_s"] == pytest.approx(row["dwell_s"], abs=1e-2)   # none after the last layer
+    with pytest.raises(ValueError, match="above ambient"):
+        plan_dwells(seq, HeatModel(interpass_c=10.0))
+
+
+def test_rolling_path_follows_the_bead_centre(example):
+    seq = example.outputs["sequence"]["toolpath"]
+    tp, rep = plan_treatment(seq, TreatmentSpec(max_turn_deg=30.0, tolerance_mm=0.05), interleave=False)
+    assert rep["strokes"] > 0
+    for lp_dep, lp_roll in zip(seq, tp):
+        beads = [r for sp in lp_dep.sections for r in _runs(sp)]
+        for sp in lp_roll.sections:
+            assert max_distance_to_centre(sp, beads) <= 0.1
+            assert not sp.arc.any()
+            # approach and retract at the clearance above the bead top
+            assert sp.approach[0, 2] == pytest.approx(lp_dep.layer.z + 10.0)
+            assert sp.points[-1, 2] == pytest.approx(lp_dep.layer.z + 10.0)
+            assert np.allclose(sp.points[:-1, 2], lp_dep.layer.z)
+    # rolled length ≈ the arc-ON length (strokes end at sharp turns; short ones skipped)
+    arc_len = sum(float(sp.segment_lengths[sp.arc].sum()) for lp in seq for sp in lp.sections)
+    assert 0.8 * arc_len < rep["rolled_length_mm"] <= arc_len + 1e-6
+    inter, _ = plan_treatment(seq, TreatmentSpec(), interleave=True)
+    assert len(inter[0].sections) == len(seq[0].sections) + rep["layers"][0]["strokes"]
+
+
+def test_worked_example_artifacts(example):
+    a = example.artifacts
+    # coverage takes each section's bead width from the model at its filled zones' speeds
+    model = example.outputs["trials"]["model"]
+    sp = example.outputs["fill"]["toolpath"][0].sections[1]
+    L, num = sp.segment_lengths, 0.0
+    for j, z in enumerate(sp.zone):
+        p = sp.zone_params[z]
+        num += model.width(p["wire_feed_speed"], p["travel_speed"]) * L[j] * sp.arc[j]
+    cov = json.loads(a["coverage.coverage.json"])["layers"][0]["sections"][1]
+    assert cov["key"] == sp.key
+    assert cov["bead_width_mm"] == pytest.approx(num / L[sp.arc].sum(), rel=1e-9)
+    assert 6.0 < cov["bead_width_mm"] < 6.3          # body zones 6 mm, ramps a little wider
+    targets = json.loads(a["trials.targets.json"])
+    assert targets["in_model_range"] and targets["step_over_mm"] == pytest.approx(4.428)
+    fill_rep = json.loads(a["fill.fill.json"])
+    assert fill_rep["filled_values"] == 5 * fill_rep["zones"] and fill_rep["kept_count"] == 0
+    sim = json.loads(a["simulate.simulation.json"])
+    comp = json.loads(a["compensate.compensation.json"])
+    assert sim["deposit_per_mm_cv"] == pytest.approx(comp["deposit_per_mm_cv_after"], rel=1e-3)
+    gcode = a["post.gcode"].decode() if isinstance(a["post.gcode"], bytes) else a["post.gcode"]
+    assert "@" in gcode and "wire_feed_speed" in gcode      # the feed sub-zones reach the program
+    ip = json.loads(a["interpass.interpass.json"])
+    assert ip["layers"][0]["dwell_s"] > 0
+    assert f"G4 P{ip['layers'][0]['dwell_s']:.3f} ; interlayer dwell" in gcode
