@@ -175,3 +175,27 @@ def test_duct_krl_carries_the_positioner_angles(duct):
     e1 = np.unique(np.round(e[:, 0], 2))
     assert len(e1) == 58 and e1.min() == pytest.approx(1.54, abs=0.01) and e1.max() == pytest.approx(89.32, abs=0.01)
     assert len(np.unique(np.round(e[:, 1], 2))) == 1 and np.all(e[:, 2:] == 0)
+
+
+@pytest.mark.parametrize("bend,sweep,dtheta", [(60.0, 90.0, 2.6), (100.0, 135.0, 3.0)])
+def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep, dtheta):
+    """A tighter bend (R 60 mm) and a sweep past 90° (135°): 0 unreachable / limit / singular
+    stretches on the positioner cell, E1 up to the last layer's tilt (> 90° for the 135° sweep)."""
+    import trimesh
+
+    from waamflow.curved.shapes import bent_tube
+
+    part = bent_tube(bend=bend, mid=15.0, wall=3.0, sweep_deg=sweep, n_phi=int(sweep / 2), n_psi=24)
+    (tmp_path / "parts").mkdir()
+    trimesh.Trimesh(part.vertices, part.faces, process=True).export(tmp_path / "parts" / "duct.stl")
+    recipe = json.loads((GRAPHS / "curved-duct.json").read_text())
+    recipe["inputs"]["dtheta_deg"] = dtheta
+    fan = next(n for n in recipe["nodes"] if n["id"] == "fan")["params"]
+    fan.update({"axis_point": [-bend, 0, 0], "h_min": 1.0, "h_max": 8.0})
+    r = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    sim = json.loads(r.artifacts["sim.simulation.json"])
+    layers = json.loads(r.artifacts["fan.fan.json"])["layer_count"]
+    assert layers == pytest.approx(sweep / dtheta, abs=1)
+    assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
+    assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
