@@ -199,3 +199,22 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
+
+
+def test_duct_rapid_robtargets_carry_extax():
+    """The same recipe in RAPID: every robtarget's extax = [E1, E2, 9E9 × 4] with the layer tilts."""
+    import re
+
+    def rapid(recipe):
+        next(n for n in recipe["nodes"] if n["id"] == "post")["params"]["format"] = "rapid"
+        recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "sim"]
+        recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("sim.")]
+
+    mod = run(rapid).artifacts["post.mod"]
+    mod = mod.decode() if isinstance(mod, bytes) else mod
+    ext = re.findall(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]\];", mod)
+    assert len(ext) == mod.count("CONST robtarget") > 58
+    e = [x.split(",") for x in ext]
+    assert all(row[2:] == ["9E9"] * 4 for row in e)
+    e1 = sorted({round(float(row[0]), 2) for row in e})
+    assert len(e1) == 58 and e1[0] == pytest.approx(1.54) and e1[-1] == pytest.approx(89.32)
