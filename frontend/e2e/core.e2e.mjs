@@ -294,6 +294,27 @@ test("frames: a frame around selected nodes moves them with it and is saved in t
   await page.context().close();
 });
 
+test("a refused run (422 naming node and field) selects and marks the node", async () => {
+  await copyOf("mpp-cross", "core-422");
+  const { page, errors } = await openPage(browser, srv.base);
+  // An unsaved edit with an invalid value, as a local draft (what a reload would offer back).
+  const bad = await api(srv.base, "/api/graphs/core-422");
+  bad.nodes.find((n) => n.id === "layers").params.layer_height = -1;
+  await page.evaluate((r) => localStorage.setItem("waamflow:draft:core-422", JSON.stringify({ recipe: r, xml: null, tab: "graph", savedAt: Date.now() })), bad);
+  await openGraph(page, "core-422");
+  await page.click("[data-testid=draft-restore]");
+  await page.click("[data-testid=run]");
+  await page.waitForSelector('.react-flow__node[data-id="layers"] [data-testid=problem-badge].errors');
+  assert.match(await page.getAttribute('.react-flow__node[data-id="layers"]', "class"), /\bselected\b/);
+  assert.match(await page.getAttribute('.react-flow__node[data-id="layers"] [data-testid=problem-badge]', "title"), /layer_height/);
+  await page.waitForSelector('[data-testid=problems] .problem.error[data-problem-node="layers"]');
+  assert.match(await page.innerText("[data-testid=problems]"), /layers · layer_height/);
+  assert.match(await page.innerText("[data-testid=problem-count]"), /✖ 1/);
+  await shot(page, "core-08-refused-run");
+  assert.deepEqual(errors.filter((e) => !/status of 422/.test(e)), []);
+  await page.context().close();
+});
+
 test("problems: badges on nodes, toolbar count, panel selects the node; the progress bar restarts at 0", async () => {
   await copyOf("mpp-cross", "core-problems");
   const { page, errors } = await openPage(browser, srv.base);

@@ -2,7 +2,7 @@ import {
   Background, Controls, Handle, MiniMap, NodeResizer, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
   type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
 } from "@xyflow/react";
-import { createContext, memo, useCallback, useContext, useEffect, useMemo, useState, type DragEvent, type MouseEvent } from "react";
+import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
 import { badgeText, type NodeStatus } from "../run/status";
 import {
@@ -228,6 +228,26 @@ export function GraphEditor(p: GraphEditorProps) {
     [recipe, catalog, p.statuses],
   );
 
+  // One deletion (Delete key) reports its edges and its nodes in separate callbacks, one after the
+  // other in the same task: gather them and apply one edit (one undo step).
+  const pendingDelete = useRef<{ nodes: Set<string>; edges: Set<string> } | null>(null);
+  const queueDelete = useCallback(
+    (nodeIds: string[], edgeIds: string[]) => {
+      if (!pendingDelete.current) {
+        pendingDelete.current = { nodes: new Set(), edges: new Set() };
+        queueMicrotask(() => {
+          const d = pendingDelete.current!;
+          pendingDelete.current = null;
+          const nodeSet = new Set([...d.nodes].filter((id) => !isFrame(id)));
+          const frameSet = new Set([...d.nodes].filter(isFrame).map((id) => id.slice(FRAME.length)));
+          p.onChange((r) => removeFrames(nodeSet.size ? removeNodes(removeEdges(r, d.edges), nodeSet) : removeEdges(r, d.edges), frameSet));
+        });
+      }
+      nodeIds.forEach((id) => pendingDelete.current!.nodes.add(id));
+      edgeIds.forEach((id) => pendingDelete.current!.edges.add(id));
+    },
+    [p],
+  );
   const onNodesChange = useCallback(
     (changes: NodeChange<AnyNode>[]) => {
       // A frame being dragged carries the nodes inside it along (live; committed on drop).
@@ -254,26 +274,21 @@ export function GraphEditor(p: GraphEditorProps) {
           else sel.delete(c.id);
         }
       }
-      // Deletions come through onDelete (nodes and their edges together: one undo step).
+      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
+      if (removed.length) queueDelete(removed, []);
       if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
       for (const [id, to] of frameMoves) p.onChange((r) => moveFrame(r, id, to));
       if (selectionChanged) p.onSelect(sel);
     },
-    [p, recipe],
+    [p, recipe, queueDelete],
   );
 
-  // Edge removals too come through onDelete; the editor keeps no edge state of its own.
-  const onEdgesChange = useCallback((_: EdgeChange[]) => undefined, []);
-
-  /** One deletion (Delete key): the nodes and every edge going with them, as one edit. */
-  const onDelete = useCallback(
-    ({ nodes: ns, edges: es }: { nodes: AnyNode[]; edges: Edge[] }) => {
-      const nodeIds = new Set(ns.map((n) => n.id).filter((id) => !isFrame(id)));
-      const frameIds = new Set(ns.map((n) => n.id).filter(isFrame).map((id) => id.slice(FRAME.length)));
-      const edgeIds = new Set(es.map((e) => e.id));
-      if (nodeIds.size || edgeIds.size || frameIds.size) p.onChange((r) => removeFrames(removeNodes(removeEdges(r, edgeIds), nodeIds), frameIds));
+  const onEdgesChange = useCallback(
+    (changes: EdgeChange[]) => {
+      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
+      if (removed.length) queueDelete([], removed);
     },
-    [p],
+    [queueDelete],
   );
 
   const reasonOf = useCallback(
@@ -325,7 +340,6 @@ export function GraphEditor(p: GraphEditorProps) {
         nodeTypes={nodeTypes}
         onNodesChange={onNodesChange}
         onEdgesChange={onEdgesChange}
-        onDelete={onDelete}
         onConnect={onConnect}
         isValidConnection={valid}
         connectionLineComponent={WireLine}
