@@ -135,6 +135,26 @@ def _loopback(host: str) -> bool:
         return False
 
 
+def cmd_backup(args) -> int:
+    from .api.backup import backup
+
+    m = backup(args.data, args.dir)
+    c = m["counts"]
+    print(f"backup: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+          f"{len(m['files'])} run files, {c['audit']} audit entries → {args.dir}")
+    return 0
+
+
+def cmd_restore(args) -> int:
+    from .api.backup import restore
+
+    m = restore(args.dir, args.data, force=args.force)
+    c = m["counts"]
+    print(f"restored: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+          f"{len(m['files'])} run files → {args.data}")
+    return 0
+
+
 def cmd_openapi(args) -> int:
     from .api.app import create_app
     from .settings import Settings
@@ -173,6 +193,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--token-file", default=None,
                    help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)
+
+    b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")
+    b.add_argument("dir", help="new folder for the backup")
+    b.add_argument("--data", default="data", help="the server's data folder")
+    b.set_defaults(func=cmd_backup)
+
+    rs = sub.add_parser("restore", help="restore a backup into a data folder (stop the server first)")
+    rs.add_argument("dir", help="folder written by `waamflow backup`")
+    rs.add_argument("--data", default="data", help="the server's data folder")
+    rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
+    rs.set_defaults(func=cmd_restore)
 
     o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")
     o.set_defaults(func=cmd_openapi)

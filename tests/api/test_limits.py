@@ -1,40 +1,19 @@
 """Per-run resource limits: wall time, layers, path points, artifact size, memory; queue → 429."""
 
-import json
 import time
 
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from pydantic import Field
-from shapely.geometry import MultiPolygon, box
 
+import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
-from waamflow.core.model import Layer, Layered, LayerPaths, SectionPath
-from waamflow.engine.node import LayerNode, Node, NodeParams, Port, register
+from waamflow.core.model import Layered, LayerPaths, SectionPath
+from waamflow.engine.node import Node, NodeParams, Port, register
 from waamflow.settings import Settings
-
-
-@register
-class ToySlow(LayerNode):
-    """Sleeps `seconds` per layer (checks cancel) and passes the layer on."""
-
-    type = "toy-slow"
-    category = "test"
-    inputs = (Port("layers", "layers"),)
-    outputs = (Port("layers", "layers"),)
-
-    class Params(NodeParams):
-        seconds: float = Field(0.05, ge=0)
-
-    def run_layer(self, ctx, params, index, items):
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < params.seconds:
-            ctx.check_cancelled()
-            time.sleep(0.01)
-        return {"layers": items["layers"]}
 
 
 @register

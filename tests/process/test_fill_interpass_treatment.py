@@ -111,6 +111,17 @@ def test_rolling_path_follows_the_bead_centre(example):
 
 def test_worked_example_artifacts(example):
     a = example.artifacts
+    # coverage takes each section's bead width from the model at its filled zones' speeds
+    model = example.outputs["trials"]["model"]
+    sp = example.outputs["fill"]["toolpath"][0].sections[1]
+    L, num = sp.segment_lengths, 0.0
+    for j, z in enumerate(sp.zone):
+        p = sp.zone_params[z]
+        num += model.width(p["wire_feed_speed"], p["travel_speed"]) * L[j] * sp.arc[j]
+    cov = json.loads(a["coverage.coverage.json"])["layers"][0]["sections"][1]
+    assert cov["key"] == sp.key
+    assert cov["bead_width_mm"] == pytest.approx(num / L[sp.arc].sum(), rel=1e-9)
+    assert 6.0 < cov["bead_width_mm"] < 6.3          # body zones 6 mm, ramps a little wider
     targets = json.loads(a["trials.targets.json"])
     assert targets["in_model_range"] and targets["step_over_mm"] == pytest.approx(4.428)
     fill_rep = json.loads(a["fill.fill.json"])

@@ -12,12 +12,13 @@ from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
 from .auth import AuthMiddleware, load_tokens, needs_auth
-from .routes import graphs, health, nodes, preview, runs, viewer
+from .routes import audit, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
 from .static import CompressedAssets, index_response
@@ -92,8 +93,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return _err(getattr(err, "http_status", 400), err.to_dict(), getattr(err, "headers", None))
 
     @app.exception_handler(StarletteHTTPException)
-    async def _http_error(_: Request, err: StarletteHTTPException):
-        return _err(err.status_code, err.detail, getattr(err, "headers", None))
+    async def _http_error(request: Request, err: StarletteHTTPException):
+        headers = dict(getattr(err, "headers", None) or {})
+        detail = err.detail
+        if err.status_code == 405:  # Allow: every method of the path, not only of the route tried first
+            methods = sorted({m for r in app.router.routes if getattr(r, "methods", None)
+                              and r.matches(request.scope)[0] != Match.NONE for m in r.methods} - {"HEAD"})
+            headers["Allow"] = ", ".join(methods)
+            detail = {"message": f"{request.method} is not allowed here; use {', '.join(methods)}"}
+        if err.status_code == 400 and detail == "There was an error parsing the body":
+            detail = {"message": "the request body is not valid JSON", "kind": "invalid_request"}
+        return _err(err.status_code, detail, headers or None)
 
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, err: RequestValidationError):
@@ -106,7 +116,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                           "errors": [{"loc": [x if isinstance(x, int) else str(x) for x in e.get("loc", ())],
                                       "msg": str(e.get("msg"))} for e in errs]})
 
-    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router):
+    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router, audit.router):
         app.include_router(r)
 
     def openapi() -> dict:
@@ -131,6 +141,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 responses = op.setdefault("responses", {})
                 if needs_auth(path):
                     responses.setdefault("401", {"description": "Missing or wrong bearer token"})
+                if "requestBody" in op and "application/json" in op["requestBody"].get("content", {}):
+                    responses.setdefault("400", {"description": "The request body is not valid JSON"})
                     op["security"] = [{"bearer": []}, {}]
                 for code, resp in responses.items():
                     if code.startswith("4"):

@@ -1,33 +1,34 @@
-"""FastAPI dependencies as `Annotated` aliases (FastAPI full-stack template style)."""
+"""FastAPI dependencies as `Annotated` aliases (FastAPI full-stack template style).
+
+Names in paths carry their pattern in the OpenAPI schema, so a schema-valid name is accepted and
+anything else is a 422 before a handler runs."""
 
 from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import Depends, HTTPException, Path, Request
+from fastapi import Depends, Path, Request
 
 from .services import Services
-from .store import valid_file_name, valid_graph_name
+from .store import FILE_NAME_PATTERN, GRAPH_NAME_PATTERN, RUN_ID_PATTERN
 
 
 def get_services(request: Request) -> Services:
     return request.app.state.services
 
 
+def get_user(request: Request) -> str | None:
+    """Name of the token the request came with ("anonymous" when the server has no tokens)."""
+    return getattr(request.state, "user", None)
+
+
 ServicesDep = Annotated[Services, Depends(get_services)]
+UserDep = Annotated[str | None, Depends(get_user)]
 
-
-def graph_name(name: Annotated[str, Path(description="graph name: letters, digits, space, _ . -; ≤ 80 chars")]) -> str:
-    if not valid_graph_name(name):
-        raise HTTPException(400, detail={"message": f"invalid graph name {name!r}: use letters, digits, space, _ . - (≤ 80 chars)"})
-    return name
-
-
-def file_name(filename: str) -> str:
-    if not valid_file_name(filename):
-        raise HTTPException(400, detail={"message": f"invalid file name {filename!r}"})
-    return filename
-
-
-GraphName = Annotated[str, Depends(graph_name)]
-FileName = Annotated[str, Depends(file_name)]
+GraphName = Annotated[str, Path(pattern=GRAPH_NAME_PATTERN, min_length=1, max_length=80,
+                                description="graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars")]
+FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120,
+                               description="file name: letters, digits, _ . - (no '..'); ≤ 120 chars")]
+RunId = Annotated[str, Path(pattern=RUN_ID_PATTERN, description="run id (letters and digits)")]
+ArtifactName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120,
+                                   description="artifact file name")]

@@ -4,13 +4,27 @@ these models only declare their shape."""
 
 from __future__ import annotations
 
+import json
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from typing import Annotated
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from ..engine.events import EVENT_KINDS
 
 Point2 = list[float]
+
+
+def _no_bool(v: Any) -> Any:
+    if isinstance(v, bool):  # JSON true/false are not integers (pydantic's lax mode would take them)
+        raise ValueError("Input should be a valid integer, not a boolean")
+    return v
+
+
+JsonInt = Annotated[int, BeforeValidator(_no_bool)]
+# a layer index: the bounds come before the validator so they stay in the JSON Schema
+LayerIndex = Annotated[int, Field(ge=0, le=1_000_000), BeforeValidator(_no_bool)]
 
 
 class PortInfo(BaseModel):
@@ -141,7 +155,13 @@ def error_body(status: int, detail: Any) -> dict:
     d.setdefault("kind", STATUS_KIND.get(status, "error"))
     d.setdefault("message", STATUS_TEXT.get(status, "error"))
     for k in ("node", "layer", "section", "field"):
-        d.setdefault(k, None)
+        v = d.get(k)
+        if k == "layer":
+            d[k] = v if isinstance(v, int) and not isinstance(v, bool) else None
+        else:
+            d[k] = v if v is None or isinstance(v, str) else json.dumps(v, default=str)
+    d["message"] = str(d["message"])
+    d.pop("errors", None) if not isinstance(d.get("errors"), list) else None
     if not d.get("text"):
         loc = ", ".join(f"{k} {d[k]!r}" for k in ("node", "layer", "section", "field") if d.get(k) is not None)
         d["text"] = f"{loc}: {d['message']}" if loc else d["message"]
@@ -151,3 +171,17 @@ def error_body(status: int, detail: Any) -> dict:
 def errors(*statuses: int) -> dict:
     """`responses=` of a route: each status it can answer with, all with the ErrorResponse body."""
     return {s: {"model": ErrorResponse, "description": STATUS_TEXT.get(s, "error")} for s in statuses}
+
+
+def present(field: str, type_: str) -> dict:
+    sub = {"type": type_, "additionalProperties": True} if type_ == "object" else {"type": type_}
+    return {"required": [field], "properties": {field: sub}}
+
+
+# JSON Schema of "`params_xml` only with `graph`" (null = absent). "`graph` and/or `recipe`" is
+# checked by the server (422) and said in the description: as an anyOf it would turn the generated
+# TypeScript request type into a union the GUI cannot build from optional fields.
+XML_NEEDS_GRAPH = {"anyOf": [{"not": {"required": ["params_xml"]}}, {"properties": {"params_xml": {"type": "null"}}},
+                             present("graph", "string")]}
+RUN_REQUEST_RULES = {"allOf": [XML_NEEDS_GRAPH]}
+PREVIEW_REQUEST_RULES = {"allOf": [XML_NEEDS_GRAPH]}

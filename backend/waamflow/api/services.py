@@ -87,6 +87,16 @@ def sandbox_problem(path: str, resolver: FileResolver) -> str | None:
     return None
 
 
+def parse_api_recipe(data: Any) -> Recipe:
+    """`parse_recipe` for a request body: whatever JSON arrives, a bad recipe is a RecipeError (422)."""
+    try:
+        return parse_recipe(data)
+    except RecipeError:
+        raise
+    except (TypeError, ValueError, AttributeError, KeyError, IndexError) as e:
+        raise RecipeError(f"invalid recipe: {e}") from None
+
+
 @dataclass
 class Services:
     settings: Settings
@@ -154,9 +164,9 @@ def build_services(settings: Settings) -> Services:
     disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
     cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
     svc = Services(settings, store, cache)
-    n = store.interrupted_runs_to_failed()
+    n = store.mark_interrupted()
     if n:
-        log.warning("%d runs were interrupted by the last shutdown and are marked failed", n)
+        log.warning("%d runs were interrupted by the last shutdown and are marked interrupted", n)
     seed_examples(svc)
     return svc
 

@@ -14,8 +14,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-GRAPH_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _.-]{0,79}$")
-FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,119}$")
+# the same patterns (+ max lengths 80 / 120) are declared in the OpenAPI schema (deps.py); a dot is
+# never followed by a dot, so '..' cannot occur (no look-ahead: JSON Schema and pydantic's engine)
+GRAPH_NAME_PATTERN = r"^[A-Za-z0-9](?:[A-Za-z0-9 _-]|\.[A-Za-z0-9 _-])*\.?$"
+FILE_NAME_PATTERN = r"^[A-Za-z0-9](?:[A-Za-z0-9_-]|\.[A-Za-z0-9_-])*\.?$"
+RUN_ID_PATTERN = r"^[A-Za-z0-9]{1,40}$"
+GRAPH_NAME = re.compile(GRAPH_NAME_PATTERN)
+FILE_NAME = re.compile(FILE_NAME_PATTERN)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS graphs (
@@ -29,15 +34,17 @@ CREATE TABLE IF NOT EXISTS runs (
   progress REAL DEFAULT 0, error TEXT, summary TEXT, created REAL NOT NULL, started REAL, finished REAL);
 CREATE TABLE IF NOT EXISTS events (run TEXT NOT NULL, seq INTEGER NOT NULL, data TEXT NOT NULL,
   PRIMARY KEY (run, seq));
+CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REAL NOT NULL, who TEXT,
+  action TEXT NOT NULL, target TEXT, detail TEXT);
 """
 
 
 def valid_graph_name(name: str) -> bool:
-    return bool(GRAPH_NAME.match(name)) and ".." not in name
+    return len(name) <= 80 and bool(GRAPH_NAME.match(name)) and ".." not in name
 
 
 def valid_file_name(name: str) -> bool:
-    return bool(FILE_NAME.match(name)) and ".." not in name
+    return len(name) <= 120 and bool(FILE_NAME.match(name)) and ".." not in name
 
 
 class Store:
@@ -160,10 +167,44 @@ class Store:
         rows = self._query("SELECT data FROM events WHERE run=? AND seq>? ORDER BY seq", (run_id, after))
         return [json.loads(r["data"]) for r in rows]
 
-    def interrupted_runs_to_failed(self) -> int:
-        """At start-up: runs left queued/running by a crash or restart are marked failed."""
+    def mark_interrupted(self) -> int:
+        """At start-up: runs left queued/running by a crash or restart become 'interrupted'."""
         err = json.dumps({"kind": "interrupted", "message": "the server stopped before the run finished",
+                          "node": None, "layer": None, "section": None, "field": None,
                           "text": "the server stopped before the run finished"})
-        cur = self._exec("UPDATE runs SET status='failed', error=?, finished=? WHERE status IN ('queued','running')",
+        cur = self._exec("UPDATE runs SET status='interrupted', error=?, finished=? WHERE status IN ('queued','running')",
                          (err, time.time()))
         return cur.rowcount
+
+    # audit log: who (token name) did what, when
+    def audit(self, who: str | None, action: str, target: str | None = None, detail: dict | None = None) -> None:
+        self._exec("INSERT INTO audit (time, who, action, target, detail) VALUES (?,?,?,?,?)",
+                   (time.time(), who, action, target, json.dumps(detail) if detail else None))
+
+    def list_audit(self, limit: int = 100, before: int | None = None, who: str | None = None,
+                   action: str | None = None) -> list[dict]:
+        where, args = [], []
+        if before is not None:
+            where.append("id < ?")
+            args.append(before)
+        if who is not None:
+            where.append("who = ?")
+            args.append(who)
+        if action is not None:
+            where.append("action = ?")
+            args.append(action)
+        sql = "SELECT * FROM audit" + (f" WHERE {' AND '.join(where)}" if where else "") + " ORDER BY id DESC LIMIT ?"
+        rows = self._query(sql, (*args, limit))
+        return [{**dict(r), "detail": json.loads(r["detail"]) if r["detail"] else None} for r in rows]
+
+    def integrity(self) -> str:
+        return self._query("PRAGMA integrity_check")[0][0]
+
+    def backup_to(self, dest: str | Path) -> None:
+        """A consistent copy of the database while it is in use (SQLite online backup API)."""
+        out = sqlite3.connect(str(dest))
+        try:
+            with self._lock:
+                self._conn.backup(out)
+        finally:
+            out.close()

@@ -23,7 +23,7 @@ from ..process.treatment import TreatmentSpec, plan_treatment
 from ..zoning.params_xml import parse as parse_params
 from ..engine.ports import Port
 from ..process.coverage import section_coverage
-from ..trajectory.compensate import CompensationSettings, compensate, deposit_cv, deposit_svg
+from ..trajectory.compensate import CompensationSettings, compensate, deposit_cv, deposit_ratio_cv, deposit_svg
 from ..trajectory.run import simulate_program
 from .robot import RobotParams, _profile
 
@@ -38,6 +38,22 @@ def layer_local(lp_layer, points: np.ndarray) -> np.ndarray:
     return (homo @ inv.T)[:, :2]
 
 
+def model_width(model: BeadFit, sp, default: float) -> float:
+    """Arc-ON-length-weighted bead width (mm) of a section path from the model at each zone's
+    wire feed (m/min) and travel speed (mm/s); `default` where a zone lacks either."""
+    L = sp.segment_lengths
+    num = den = 0.0
+    for j, z in enumerate(sp.zone or ()):
+        if not sp.arc[j]:
+            continue
+        p = sp.zone_params.get(z, {})
+        w = float(model.width(p["wire_feed_speed"], p["travel_speed"])) \
+            if p.get("wire_feed_speed") and p.get("travel_speed") else default
+        num += w * L[j]
+        den += L[j]
+    return num / den if den > 0 else default
+
+
 def _geom_json(g) -> list[dict]:
     from ..core.model import region_polygons
 
@@ -49,7 +65,8 @@ class CoverageNode(LayerNode):
     """Bead coverage of every section: the arc-ON path buffered by half the bead width (round
     ends) against the section region gives the void area (left bare), the over-deposit (metal
     outside the section) and the overlap area (the torch passes over it twice or more: counted
-    exactly per connected stretch of path, on a grid of bead width / 20). Writes
+    exactly per connected stretch of path, on a grid of bead width / 20). With a bead model
+    connected, each section's width is the model's at its zones' wire feed and travel speed. Writes
     `<node>.coverage.json`: per layer and section the areas and shares, plus the void and overlap
     polygons (layer-local, for the 2D canvas), and totals."""
 
@@ -57,10 +74,12 @@ class CoverageNode(LayerNode):
     title = "Coverage"
     category = "process"
     inputs = (Port("toolpath", "toolpath", "Section paths (strategy, zone or sequence output)"),
-              Port("sections", "sections", "The sections the paths fill"))
+              Port("sections", "sections", "The sections the paths fill"),
+              Port("model", "bead-model", "Optional bead model: each section's width from its zones' wire feed "
+                                          "and travel speed", optional=True))
     outputs = (Port("coverage", "coverage", "Per layer: coverage of each section"),)
     over = "toolpath"
-    version = "2"  # 2: overlap outlines smoothed
+    version = "3"  # 2: overlap outlines smoothed
 
     class Params(NodeParams):
         bead_width: float = Field(6.0, gt=0.05, le=100, json_schema_extra=unit("mm"),
@@ -80,6 +99,8 @@ class CoverageNode(LayerNode):
                 ctx.warn(f"no section {sp.key!r} on this layer: coverage skipped", layer=index, section=sp.key)
                 continue
             width = float(params.sections.get(sp.key, params.bead_width))
+            if items.get("model") is not None and sp.key not in params.sections:
+                width = model_width(items["model"], sp, width)
             cov = section_coverage(sec.region, layer_local(lp.layer, sp.points), sp.arc, width)
             row = {"key": sp.key, **cov.summary()}
             if params.polygons:
@@ -135,8 +156,10 @@ class CompensateDeposit(Node):
         comp = compensate(inputs["toolpath"], prof, opt, None, cfg)
         cv0 = deposit_cv(plain.trace)
         report = {**comp.report, "deposit_per_mm_cv_before": round(cv0, 5),
+                  "deposit_ratio_cv_before": round(deposit_ratio_cv(plain), 5),
                   "cv_reduction": round(1 - comp.report["deposit_per_mm_cv_after"] / cv0, 4) if cv0 > 0 else 0.0}
-        deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"]}
+        deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
+                   "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"]}
         sim = dc_replace(comp.after, deposit=deposit, estimate={**comp.after.estimate, **{
             k: float(v) for k, v in report.items() if isinstance(v, (int, float))}})
         return {"toolpath": comp.toolpath, "simulation": sim}

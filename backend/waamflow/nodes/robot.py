@@ -17,7 +17,7 @@ from ..trajectory.estimate import estimate_moves, estimate_result
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
-from ..trajectory.compensate import deposit_cv, deposit_svg, simulate_compensated
+from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, deposit_svg, simulate_compensated
 from ..trajectory.simulate import SimOptions
 
 Vec3 = tuple[float, float, float]
@@ -131,7 +131,8 @@ class SimulateRobot(Node):
                                        progress=progress)
         else:
             res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=progress)
-            res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace)})
+            res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
+                                        "deposit_ratio_cv": deposit_ratio_cv(res)})
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}

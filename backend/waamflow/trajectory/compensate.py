@@ -8,9 +8,11 @@ mm"; ~7 mm³/mm jumps at 40 mm/s).
 
 How (one simulation, then exact): arc-ON segments are split into pieces of at most `step_mm`
 (collinear vertices: the motion is unchanged). The controller model (`simulate_program`, the same
-settings as simulate-robot) gives each piece's arc time T_i and length L_i; the programmed deposit
-is q_i = rate_i / v_i (rate from the zone's wire feed speed, else the constant feed). Since the
-motion does not depend on the wire feed, the feed that lays q_i·L_i in T_i is
+settings as simulate-robot) gives each piece's arc time T_i and the length L_i the robot really
+travels on it (shorter than programmed where it cuts a corner: the bead is laid along the actual
+path); the programmed deposit is q_i = rate_i / v_i (rate from the zone's wire feed speed, else
+the constant feed). Since the motion does not depend on the wire feed, the feed that lays q_i·L_i
+in T_i is
 
     rate_i' = rate_i · q_i / (V_i / L_i),      V_i = rate_i·T_i the uncompensated volume,
 
@@ -23,6 +25,11 @@ post-processor already emits a process change (WFS) at a zone change; on the con
 path-synchronous outputs (KRL TRIGGER WHEN DISTANCE, ABB TriggL), which do not stop the advance
 run. Not modelled: the feeder's own response time (~50-100 ms on push-pull CMT drives), which
 smooths the steps.
+
+Why the feed and not the travel speed: the slow-downs are the controller's (full stops at arc
+switches, corner speed caps, jerk-limited ramps); a higher programmed speed does not lift them, so
+travel speed cannot even the deposit where it is uneven. The feed follows the speed instead, as
+the welding power source's synergic line then follows the feed.
 
 The measure: `deposit_per_mm_cv`, the coefficient of variation (length-weighted std / mean) of
 the deposited volume per mm in 1 mm bins of actual arc-ON path length, from the simulated trace
@@ -56,9 +63,11 @@ class CompensationSettings:
     wire_diameter_mm: float = WIRE_AREA_DEFAULT_D
 
 
-def deposit_bins(trace: dict, bin_mm: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(s_mm bin start along arc-ON length, length_mm, mm³/mm) per bin of `bin_mm` of actual arc-ON
-    path, from a simulated trace with cumulative `volume`."""
+def deposit_bins(trace: dict, bin_mm: float = 1.0, target: np.ndarray | None = None):
+    """(s_mm bin start along arc-ON length, length_mm, mm³/mm[, target mm³/mm]) per bin of `bin_mm`
+    of actual arc-ON path, from a simulated trace with cumulative `volume`. With `target` (the
+    programmed mm³/mm per program segment, indexed by the trace's `segment`), also the bins'
+    length-weighted programmed deposit."""
     s = np.asarray(trace["s"], float)
     v = np.asarray(trace["volume"], float)
     ds, dv = np.diff(s), np.diff(v)
@@ -66,9 +75,14 @@ def deposit_bins(trace: dict, bin_mm: float = 1.0) -> tuple[np.ndarray, np.ndarr
     sa = np.concatenate([[0.0], np.cumsum(ds * on)])
     b = np.floor(sa[:-1][on] / bin_mm).astype(np.int64)
     if not len(b):
-        return np.zeros(0), np.zeros(0), np.zeros(0)
+        z = np.zeros(0)
+        return (z, z, z, z) if target is not None else (z, z, z)
     length = np.bincount(b, ds[on])
     vol = np.bincount(b, dv[on])
+    tgt = None
+    if target is not None:
+        t_s = np.asarray(target, float)[np.asarray(trace["segment"], int)[:-1]][on]
+        tgt = np.bincount(b, ds[on] * t_s)
     keep = length > 1e-9
     vol_keep = vol[keep]
     # a standstill bin (no length) adds its volume to the next bin with length
@@ -77,20 +91,43 @@ def deposit_bins(trace: dict, bin_mm: float = 1.0) -> tuple[np.ndarray, np.ndarr
         np.add.at(vol_keep, idx, vol[~keep])
     starts = np.flatnonzero(keep) * bin_mm
     length = length[keep]
+    tgt = tgt[keep] if tgt is not None else None
     if len(length) > 1 and length[-1] < 0.5 * bin_mm:   # the last, partial bin joins the one before
         length[-2] += length[-1]
         vol_keep[-2] += vol_keep[-1]
+        if tgt is not None:
+            tgt[-2] += tgt[-1]
+            tgt = tgt[:-1]
         starts, length, vol_keep = starts[:-1], length[:-1], vol_keep[:-1]
+    if tgt is not None:
+        return starts, length, vol_keep / length, tgt / length
     return starts, length, vol_keep / length
+
+
+def _cv(w: np.ndarray, q: np.ndarray) -> float:
+    if w.sum() <= 0:
+        return 0.0
+    mean = float((w * q).sum() / w.sum())
+    return float(np.sqrt((w * (q - mean) ** 2).sum() / w.sum()) / mean) if mean > 0 else 0.0
 
 
 def deposit_cv(trace: dict, bin_mm: float = 1.0) -> float:
     """Coefficient of variation of the deposit per mm over arc-ON length (see module doc)."""
     _, w, q = deposit_bins(trace, bin_mm)
-    if w.sum() <= 0:
-        return 0.0
-    mean = float((w * q).sum() / w.sum())
-    return float(np.sqrt((w * (q - mean) ** 2).sum() / w.sum()) / mean) if mean > 0 else 0.0
+    return _cv(w, q)
+
+
+def deposit_ratio_cv(res: SimulationResult, bin_mm: float = 1.0, target: np.ndarray | None = None) -> float:
+    """Coefficient of variation of actual ÷ programmed deposit per mm over arc-ON length: the
+    deviation from the target alone, without the variation zones program on purpose (ramps).
+    target: programmed mm³/mm per program segment (default: the result's own; a compensated
+    program's own "programmed" deposit includes the compensation, so pass the original's)."""
+    if "segment" not in res.trace:
+        return float("nan")
+    t_seg = res.deposit["programmed_mm3_per_mm"] if target is None else target
+    _, w, q, t = deposit_bins(res.trace, bin_mm, t_seg)
+    ok = t > 1e-12
+    return _cv(w[ok], q[ok] / t[ok])
 
 
 def _blended(points: np.ndarray, arc: np.ndarray) -> np.ndarray:
@@ -178,15 +215,33 @@ def _rate(moves: Moves, opt: SimOptions) -> np.ndarray:
     return rate
 
 
+def actual_lengths(res: SimulationResult) -> np.ndarray:
+    """(n_program_segments,) length (mm) the robot really travels on each program segment (trace
+    samples attributed to their nearest segment; corners it cuts count where it cuts them)."""
+    tr = res.trace
+    n = len(res.deposit["length_mm"])
+    if "segment" not in tr:
+        return np.asarray(res.deposit["length_mm"], float)
+    ds = np.diff(np.asarray(tr["s"], float))
+    return np.bincount(np.asarray(tr["segment"], int)[:-1], ds, minlength=n)[:n]
+
+
 def piece_ratios(moves: Moves, res: SimulationResult, opt: SimOptions, cfg: CompensationSettings) -> np.ndarray:
-    """(n_moves - 1,) feed ratio per move segment (1 where not arc-ON), quantised and clipped."""
+    """(n_moves - 1,) feed ratio per move segment (1 where not arc-ON), quantised and clipped.
+
+    The target is the programmed deposit per mm of the path the robot really travels: where the
+    controller cuts a corner the bead is laid along the shorter, actual path."""
     L = moves.segment_lengths
     src = np.flatnonzero(L > 1e-6)               # the simulator drops zero-length segments
     d = res.deposit
     prog, act = np.asarray(d["programmed_mm3_per_mm"]), np.asarray(d["actual_mm3_per_mm"])
+    L_prog = np.asarray(d["length_mm"], float)
+    L_act = actual_lengths(res)
+    L_use = np.where(L_act > 0.05 * L_prog, L_act, L_prog)
+    act_real = act * L_prog / L_use              # volume per mm of actual travel
     ratio = np.ones(len(L))
-    ok = np.asarray(d["arc"], bool) & (act > 1e-12) & (prog > 0)
-    r = np.clip(prog[ok] / act[ok], cfg.min_ratio, cfg.max_ratio)
+    ok = np.asarray(d["arc"], bool) & (act_real > 1e-12) & (prog > 0)
+    r = np.clip(prog[ok] / act_real[ok], cfg.min_ratio, cfg.max_ratio)
     ratio[src[ok]] = np.round(r / cfg.quantum) * cfg.quantum
     return ratio
 
@@ -264,6 +319,8 @@ def compensate(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = Non
     cv0, cv1 = deposit_cv(before.trace), deposit_cv(after.trace)
     report = {
         "deposit_per_mm_cv_before": round(cv0, 5), "deposit_per_mm_cv_after": round(cv1, 5),
+        "deposit_ratio_cv_before": round(deposit_ratio_cv(before), 5),
+        "deposit_ratio_cv_after": round(deposit_ratio_cv(after, target=before.deposit["programmed_mm3_per_mm"]), 5),
         "cv_reduction": round(1 - cv1 / cv0, 4) if cv0 > 0 else 0.0,
         "pieces": int(arc.sum()), "step_mm": cfg.step_mm,
         "feed_ratio_min": round(float(r_on.min()), 3) if len(r_on) else 1.0,
@@ -285,10 +342,14 @@ def simulate_compensated(tp, profile, opt: SimOptions, kin: KinematicsOptions | 
     plain = simulate_program(flatten(tp), profile, opt, kin, progress=progress)
     comp = compensate(tp, profile, opt, kin, cfg)
     cv0, cv1 = deposit_cv(plain.trace), deposit_cv(comp.after.trace)
-    metrics = {**comp.after.metrics, "deposit_per_mm_cv": cv1, "deposit_per_mm_cv_before": cv0,
-               "deposit_per_mm_cv_after": cv1, "feed_ratio_min": comp.report["feed_ratio_min"],
+    metrics = {**comp.after.metrics, "programmed_volume_mm3": comp.before.metrics["programmed_volume_mm3"],
+               "deposit_per_mm_cv": cv1, "deposit_per_mm_cv_before": cv0,
+               "deposit_per_mm_cv_after": cv1, "deposit_ratio_cv": deposit_ratio_cv(comp.after, target=comp.before.deposit["programmed_mm3_per_mm"]),
+               "deposit_ratio_cv_before": deposit_ratio_cv(plain), "feed_ratio_min": comp.report["feed_ratio_min"],
                "feed_ratio_max": comp.report["feed_ratio_max"], "compensated_pieces": float(comp.report["pieces"])}
-    deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"]}
+    deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
+               "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
+               "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"]}
     return replace(comp.after, metrics=metrics, deposit=deposit, warnings=plain.warnings)
 
 

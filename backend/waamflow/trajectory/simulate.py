@@ -76,7 +76,7 @@ class SimulationResult:
     trace: sampled every interpolation cycle; keys t (s), x, y, z (mm), speed (mm/s), arc (bool),
         deviation (mm, actual point to programmed polyline), s (mm, actual arc length travelled),
         layer (int), section (int index into section_keys), inside (bool), volume (mm³, deposited
-        since the start: cumulative).
+        since the start: cumulative), segment (int index into `deposit`'s per-segment arrays).
     programmed: (n, 3) programmed polyline, mm. programmed_arc: (n-1,) bool.
     blended: (m, 3) the blended geometric path (before controller smoothing), mm.
     deposit: per programmed segment (n-1,): length_mm, s_mm (programmed arc length at the segment
@@ -409,6 +409,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "section": prog.section[seg[idx]],
         "inside": inside[idx],
         "volume": np.interp(t_out, t, np.cumsum(vol_samples)),
+        "segment": seg[idx],
     }
     if progress:
         progress(1.0, "simulation done")

@@ -170,7 +170,11 @@ export interface paths {
         /** List Runs */
         get: operations["list_runs_api_runs_get"];
         put?: never;
-        /** Start Run */
+        /**
+         * Start Run
+         * @description Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
+         *     429: the run queue is full (Retry-After).
+         */
         post: operations["start_run_api_runs_post"];
         delete?: never;
         options?: never;
@@ -352,6 +356,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/audit": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Audit Log
+         * @description Newest first.
+         */
+        get: operations["audit_log_api_audit_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -362,6 +386,35 @@ export interface components {
             name: string;
             /** Size */
             size: number;
+        };
+        /** AuditEntry */
+        AuditEntry: {
+            /** Id */
+            id: number;
+            /**
+             * Time
+             * @description Unix time, s
+             */
+            time: number;
+            /**
+             * Who
+             * @description name of the token used ('anonymous' on a server without tokens)
+             */
+            who: string | null;
+            /**
+             * Action
+             * @description save_graph, delete_graph, save_params, upload_file, run, cancel_run
+             */
+            action: string;
+            /**
+             * Target
+             * @description graph name
+             */
+            target: string | null;
+            /** Detail */
+            detail: {
+                [key: string]: unknown;
+            } | null;
         };
         /**
          * CoverageJSON
@@ -405,6 +458,53 @@ export interface components {
              * @description "nodeid.port" of an input
              */
             to: string;
+        };
+        /**
+         * ErrorDetail
+         * @description Where and what: the same fields as a failed run's `error` (core/errors.py).
+         */
+        ErrorDetail: {
+            /**
+             * Kind
+             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             */
+            kind: string;
+            /** Message */
+            message: string;
+            /**
+             * Node
+             * @description node id the error is about
+             */
+            node?: string | null;
+            /**
+             * Layer
+             * @description layer index
+             */
+            layer?: number | null;
+            /**
+             * Section
+             * @description section key
+             */
+            section?: string | null;
+            /**
+             * Field
+             * @description parameter or request field
+             */
+            field?: string | null;
+            /**
+             * Text
+             * @description one line for people: location + message
+             */
+            text: string;
+            /**
+             * Errors
+             * @description every violation of a request schema (422)
+             */
+            errors?: components["schemas"]["ValidationItem"][] | null;
+        };
+        /** ErrorResponse */
+        ErrorResponse: {
+            detail: components["schemas"]["ErrorDetail"];
         };
         /** FileInfo */
         FileInfo: {
@@ -545,7 +645,7 @@ export interface components {
         PreviewRequest: {
             /**
              * Recipe
-             * @description the current (possibly unsaved) recipe
+             * @description the current (possibly unsaved) recipe (see Recipe)
              */
             recipe: {
                 [key: string]: unknown;
@@ -585,7 +685,11 @@ export interface components {
              * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
              */
             bead_width?: number | null;
-        };
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** PreviewResponse */
         PreviewResponse: {
             layer: components["schemas"]["LayerJSON"] | null;
@@ -692,7 +796,25 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
-        /** RunRequest */
+        /** RunListItem */
+        RunListItem: {
+            /** Id */
+            id: string;
+            /** Graph */
+            graph: string | null;
+            /** Status */
+            status: string;
+            /** Progress */
+            progress: number | null;
+            /** Created */
+            created: number;
+            /** Finished */
+            finished: number | null;
+        };
+        /**
+         * RunRequest
+         * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         */
         RunRequest: {
             /**
              * Graph
@@ -701,7 +823,7 @@ export interface components {
             graph?: string | null;
             /**
              * Recipe
-             * @description an inline recipe (e.g. unsaved edits)
+             * @description an inline recipe (e.g. unsaved edits; see Recipe)
              */
             recipe?: {
                 [key: string]: unknown;
@@ -718,7 +840,11 @@ export interface components {
              * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
              */
             params_xml?: string | null;
-        };
+        } & (unknown | {
+            params_xml?: null;
+        } | {
+            graph: string;
+        });
         /** RunStatus */
         RunStatus: {
             /** Id */
@@ -727,9 +853,10 @@ export interface components {
             graph: string | null;
             /**
              * Status
+             * @description interrupted: the server stopped while the run was queued or running
              * @enum {string}
              */
-            status: "queued" | "running" | "done" | "failed" | "cancelled";
+            status: "queued" | "running" | "done" | "failed" | "cancelled" | "interrupted";
             /** Progress */
             progress: number;
             /** Error */
@@ -832,6 +959,13 @@ export interface components {
              */
             run?: string | null;
         };
+        /** ValidationItem */
+        ValidationItem: {
+            /** Loc */
+            loc: (string | number)[];
+            /** Msg */
+            msg: string;
+        };
         /** ViewSettings */
         ViewSettings: {
             /**
@@ -890,65 +1024,6 @@ export interface components {
              * @default false
              */
             fit: boolean;
-        };
-        /**
-         * ErrorDetail
-         * @description Where and what: the same fields as a failed run's `error` (core/errors.py).
-         */
-        ErrorDetail: {
-            /**
-             * Kind
-             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
-             */
-            kind: string;
-            /** Message */
-            message: string;
-            /**
-             * Node
-             * @description node id the error is about
-             * @default null
-             */
-            node: string | null;
-            /**
-             * Layer
-             * @description layer index
-             * @default null
-             */
-            layer: number | null;
-            /**
-             * Section
-             * @description section key
-             * @default null
-             */
-            section: string | null;
-            /**
-             * Field
-             * @description parameter or request field
-             * @default null
-             */
-            field: string | null;
-            /**
-             * Text
-             * @description one line for people: location + message
-             */
-            text: string;
-            /**
-             * Errors
-             * @description every violation of a request schema (422)
-             * @default null
-             */
-            errors: components["schemas"]["ValidationItem"][] | null;
-        };
-        /** ValidationItem */
-        ValidationItem: {
-            /** Loc */
-            loc: (string | number)[];
-            /** Msg */
-            msg: string;
-        };
-        /** ErrorResponse */
-        ErrorResponse: {
-            detail: components["schemas"]["ErrorDetail"];
         };
     };
     responses: never;
@@ -1071,7 +1146,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1096,6 +1171,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Invalid request, recipe or file */
             422: {
                 headers: {
@@ -1112,7 +1196,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1132,8 +1216,44 @@ export interface operations {
                     "application/json": components["schemas"]["SaveResult"];
                 };
             };
+            /** @description Created */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SaveResult"];
+                };
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1157,7 +1277,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1173,6 +1293,24 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1196,7 +1334,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1209,11 +1347,20 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/xml": unknown;
+                    "application/xml": string;
                 };
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1237,7 +1384,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1249,14 +1396,50 @@ export interface operations {
         };
         responses: {
             /** @description Successful Response */
-            200: {
+            204: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content?: never;
             };
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1280,7 +1463,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
             };
             cookie?: never;
@@ -1305,6 +1488,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Invalid request, recipe or file */
             422: {
                 headers: {
@@ -1321,8 +1513,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
-                /** @description graph name: letters, digits, space, _ . -; ≤ 80 chars */
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
+                /** @description file name: letters, digits, _ . - (no '..'); ≤ 120 chars */
                 filename: string;
             };
             cookie?: never;
@@ -1340,8 +1533,44 @@ export interface operations {
                 };
                 content?: never;
             };
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1377,9 +1606,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    }[];
+                    "application/json": components["schemas"]["RunListItem"][];
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -1424,8 +1651,26 @@ export interface operations {
                     "application/json": components["schemas"]["RunCreated"];
                 };
             };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1442,6 +1687,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Run queue full (see Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
         };
     };
     get_run_api_runs__run_id__get: {
@@ -1449,6 +1703,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1473,6 +1728,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Invalid request, recipe or file */
             422: {
                 headers: {
@@ -1489,6 +1753,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1506,6 +1771,15 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1531,6 +1805,7 @@ export interface operations {
                 "last-event-id"?: string | null;
             };
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1543,11 +1818,20 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": unknown;
+                    "text/event-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1573,6 +1857,7 @@ export interface operations {
             };
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1597,6 +1882,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Invalid request, recipe or file */
             422: {
                 headers: {
@@ -1613,6 +1907,7 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
             };
             cookie?: never;
@@ -1637,6 +1932,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Invalid request, recipe or file */
             422: {
                 headers: {
@@ -1653,7 +1957,9 @@ export interface operations {
             query?: never;
             header?: never;
             path: {
+                /** @description run id (letters and digits) */
                 run_id: string;
+                /** @description artifact file name */
                 name: string;
             };
             cookie?: never;
@@ -1665,10 +1971,22 @@ export interface operations {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/octet-stream": string;
+                    "text/plain": string;
+                };
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1709,8 +2027,26 @@ export interface operations {
                     "application/json": components["schemas"]["PreviewResponse"];
                 };
             };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1748,6 +2084,15 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
             };
             /** @description Missing or wrong bearer token */
             401: {
@@ -1789,8 +2134,26 @@ export interface operations {
                 };
                 content?: never;
             };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1831,6 +2194,50 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    audit_log_api_audit_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+                /** @description entries older than this id (paging) */
+                before?: number | null;
+                who?: string | null;
+                action?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AuditEntry"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
                 headers: {
                     [name: string]: unknown;
                 };

@@ -27,7 +27,7 @@ export function useRun(onEnd?: (s: RunState) => void) {
         const info = await getRun(id);
         cur = {
           ...cur,
-          phase: info.status === "done" ? "done" : info.status === "failed" ? "failed" : info.status === "cancelled" ? "cancelled" : cur.phase,
+          phase: info.status === "done" ? "done" : info.status === "failed" || info.status === "interrupted" ? "failed" : info.status === "cancelled" ? "cancelled" : cur.phase,
           error: cur.error ?? info.error ?? null,
           progress: info.status === "done" ? 1 : cur.progress,
         };

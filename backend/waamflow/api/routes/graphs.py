@@ -9,8 +9,10 @@ from pydantic import BaseModel, Field
 
 from ...core.errors import RecipeError
 from ...engine.graph import build_graph
-from ...engine.recipe import Recipe, parse_recipe
-from ..deps import FileName, GraphName, ServicesDep
+from ...engine.recipe import Recipe
+from ..services import parse_api_recipe
+from ..deps import FileName, GraphName, ServicesDep, UserDep
+from ..schemas import errors
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
 
@@ -42,12 +44,13 @@ def _writable(svc, name: str) -> None:
                                                     "save it under another name (save as)"})
 
 
-@router.get("", response_model=list[GraphInfo])
+@router.get("", response_model=list[GraphInfo], responses=errors(401))
 def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
     return [GraphInfo(**g) for g in svc.store.list_graphs()]
 
 
-@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True)
+@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True,
+            responses=errors(401, 404, 422))
 def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     recipe = svc.store.get_graph(name)
     if recipe is None:
@@ -55,15 +58,16 @@ def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
     return recipe
 
 
-@router.put("/{name}", response_model=SaveResult,
+@router.put("/{name}", response_model=SaveResult, responses={201: {"model": SaveResult, "description": "Created"},
+                                                                **errors(401, 409, 413, 422)},
             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
                 "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
-def put_graph(name: GraphName, svc: ServicesDep, response: Response,
+def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Response,
               recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)")) -> SaveResult:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
     unconnected input while the user is still wiring) is saved and its problems are returned."""
     _writable(svc, name)
-    parsed = parse_recipe(recipe)  # RecipeError → 422 via the app's handler
+    parsed = parse_api_recipe(recipe)  # RecipeError → 422 via the app's handler
     parsed = parsed.model_copy(update={"name": name})
     problems: list[dict] = []
     try:
@@ -71,20 +75,22 @@ def put_graph(name: GraphName, svc: ServicesDep, response: Response,
     except RecipeError as err:
         problems.append(err.to_dict())
     created = svc.store.put_graph(name, parsed.to_json())
+    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes)})
     response.status_code = 201 if created else 200
     return SaveResult(name=name, created=created, problems=problems)
 
 
-@router.delete("/{name}", status_code=204)
-def delete_graph(name: GraphName, svc: ServicesDep) -> Response:
+@router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 404, 409, 422))
+def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep) -> Response:
     _writable(svc, name)
     if not svc.store.delete_graph(name):
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    svc.store.audit(user, "delete_graph", name)
     return Response(status_code=204)
 
 
 @router.get("/{name}/params", response_class=Response,
-            responses={200: {"content": {"application/xml": {}}}})
+            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
 def get_params(name: GraphName, svc: ServicesDep) -> Response:
     """The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
@@ -97,9 +103,9 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
     return Response(xml, media_type="application/xml")
 
 
-@router.put("/{name}/params", response_class=Response,
+@router.put("/{name}/params", response_class=Response, status_code=204, responses=errors(400, 401, 404, 409, 413, 422),
             openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
-async def put_params(name: GraphName, svc: ServicesDep, request: Request) -> Response:
+async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: Request) -> Response:
     """Replace the graph's zone-parameter XML (validated: numbers, units, ranges)."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
@@ -115,10 +121,11 @@ async def put_params(name: GraphName, svc: ServicesDep, request: Request) -> Res
 
     validate_xml(text)  # RecipeError (naming layer/section/zone) → 422
     svc.store.put_params_xml(name, text)
+    svc.store.audit(user, "save_params", name, {"bytes": len(body)})
     return Response(status_code=204)
 
 
-@router.get("/{name}/files", response_model=list[FileInfo])
+@router.get("/{name}/files", response_model=list[FileInfo], responses=errors(401, 404, 422))
 def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
@@ -126,8 +133,9 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
 
 
 @router.put("/{name}/files/{filename}", status_code=204, response_class=Response,
+            responses=errors(400, 401, 404, 409, 413, 422),
             openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}, "required": True}})
-async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, request: Request) -> Response:
+async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, request: Request) -> Response:
     """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}: save the graph first"})
@@ -139,4 +147,5 @@ async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, reques
     if not body:
         raise HTTPException(400, detail={"message": "empty file"})
     svc.store.put_file(name, filename, body)
+    svc.store.audit(user, "upload_file", name, {"file": filename, "bytes": len(body)})
     return Response(status_code=204)

@@ -10,27 +10,29 @@ import time
 from typing import Any
 
 from fastapi import APIRouter, HTTPException
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ...core.errors import PlanningError, RecipeError
 from ...core.model import Layer, LayerPaths, Layered, LayerSections
 from ...core.serialize import coords, layer_json, polygon_json, section_path_json
 from ...engine.executor import execute
 from ...engine.graph import build_graph
-from ...engine.recipe import apply_overrides, parse_recipe
+from ...engine.recipe import apply_overrides
+from ..services import parse_api_recipe
 from ..deps import ServicesDep
-from ..schemas import LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON
-from ..store import valid_graph_name
+from ..schemas import PREVIEW_REQUEST_RULES, LayerIndex, LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON, errors
+from ..store import GRAPH_NAME_PATTERN
 
 router = APIRouter(tags=["preview"])
 
 
 class PreviewRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe")
-    node: str = Field(..., description="node whose output to show (e.g. the zone node)")
-    layer: int = Field(..., ge=0, description="layer index")
-    graph: str | None = Field(None, description="saved graph whose files/parameter XML to use")
+    model_config = ConfigDict(extra="forbid", json_schema_extra=PREVIEW_REQUEST_RULES)
+    recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe (see Recipe)")
+    node: str = Field(..., min_length=1, max_length=64, description="node whose output to show (e.g. the zone node)")
+    layer: LayerIndex = Field(..., description="layer index")
+    graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
+                       description="saved graph whose files/parameter XML to use")
     params_xml: str | None = Field(None, max_length=20_000_000,
                                    description="with `graph`: draft zone-parameter XML instead of the saved one")
     inputs: dict[str, Any] = Field(default_factory=dict)
@@ -38,6 +40,12 @@ class PreviewRequest(BaseModel):
     bead_width: float | None = Field(None, gt=0.05, le=100,
                                      description="bead width for coverage, mm (default: the recipe's coverage "
                                                  "node, else the strategy's default bead_width, else 6)")
+
+    @model_validator(mode="after")
+    def _xml_needs_graph(self) -> "PreviewRequest":
+        if self.params_xml is not None and self.graph is None:
+            raise ValueError("'params_xml' needs 'graph' (the graph whose files the preview uses)")
+        return self
 
 
 class CoverageJSON(BaseModel):
@@ -137,12 +145,12 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
     return out
 
 
-@router.post("/api/preview", response_model=PreviewResponse)
+@router.post("/api/preview", response_model=PreviewResponse, responses=errors(401, 404, 422))
 def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
     t0 = time.perf_counter()
-    if req.graph is not None and not valid_graph_name(req.graph):
-        raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
-    recipe = svc.prepare(req.graph, apply_overrides(parse_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
+    if req.graph is not None and svc.store.get_graph(req.graph) is None:
+        raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
+    recipe = svc.prepare(req.graph, apply_overrides(parse_api_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
     graph = build_graph(recipe)
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)

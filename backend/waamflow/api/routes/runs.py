@@ -7,33 +7,39 @@ import json
 import mimetypes
 from typing import Any, Literal
 
-from fastapi import APIRouter, Header, HTTPException, Response
+from fastapi import APIRouter, Header, HTTPException, Query, Response
 from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ...engine.graph import build_graph
-from ...engine.recipe import apply_overrides, parse_recipe
-from ..deps import ServicesDep
-from ..schemas import RunEvent
-from ..store import valid_file_name, valid_graph_name
+from ...engine.recipe import apply_overrides
+from ..services import parse_api_recipe
+from ..deps import ArtifactName, RunId, ServicesDep, UserDep
+from ..schemas import RUN_REQUEST_RULES, RunEvent, errors
+from ..store import GRAPH_NAME_PATTERN
 
 router = APIRouter(prefix="/api/runs", tags=["runs"])
 
 
 class RunRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    graph: str | None = Field(None, description="name of a saved graph (alone: run it as saved; with `recipe`: "
-                                                 "run `recipe` with this graph's files and parameter XML)")
-    recipe: dict[str, Any] | None = Field(None, description="an inline recipe (e.g. unsaved edits)")
+    """`graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too)."""
+
+    model_config = ConfigDict(extra="forbid", json_schema_extra=RUN_REQUEST_RULES)
+    graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
+                       description="name of a saved graph (alone: run it as saved; with `recipe`: "
+                                   "run `recipe` with this graph's files and parameter XML)")
+    recipe: dict[str, Any] | None = Field(None, description="an inline recipe (e.g. unsaved edits; see Recipe)")
     inputs: dict[str, Any] = Field(default_factory=dict, description="recipe input values to override")
     params_xml: str | None = Field(None, max_length=20_000_000,
-                                   description="with `graph`: a draft zone-parameter XML used for this run "
-                                               "instead of the saved one; it is never stored")
+                            description="with `graph`: a draft zone-parameter XML used for this run "
+                                        "instead of the saved one; it is never stored")
 
     @model_validator(mode="after")
     def _one(self) -> "RunRequest":
         if self.graph is None and self.recipe is None:
             raise ValueError("give 'graph', 'recipe', or both")
+        if self.params_xml is not None and self.graph is None:
+            raise ValueError("'params_xml' needs 'graph' (the graph whose files the run uses)")
         return self
 
 
@@ -44,7 +50,8 @@ class RunCreated(BaseModel):
 class RunStatus(BaseModel):
     id: str
     graph: str | None
-    status: Literal["queued", "running", "done", "failed", "cancelled"]
+    status: Literal["queued", "running", "done", "failed", "cancelled", "interrupted"] = Field(
+        description="interrupted: the server stopped while the run was queued or running")
     progress: float
     error: dict[str, Any] | None = None
     summary: dict[str, Any] | None = None
@@ -58,46 +65,52 @@ class ArtifactInfo(BaseModel):
     size: int
 
 
+class RunListItem(BaseModel):
+    id: str
+    graph: str | None
+    status: str
+    progress: float | None
+    created: float
+    finished: float | None
+
+
 def _get_run(svc, run_id: str) -> dict:
-    if not run_id.isalnum() or len(run_id) > 40:
-        raise HTTPException(400, detail={"message": f"invalid run id {run_id!r}"})
     run = svc.store.get_run(run_id)
     if run is None:
         raise HTTPException(404, detail={"message": f"no run {run_id!r}"})
     return run
 
 
-@router.post("", status_code=202, response_model=RunCreated)
-def start_run(req: RunRequest, svc: ServicesDep) -> RunCreated:
+@router.post("", status_code=202, response_model=RunCreated, responses=errors(401, 404, 422, 429))
+def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
+    """Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
+    429: the run queue is full (Retry-After)."""
     if req.graph is not None:
-        if not valid_graph_name(req.graph):
-            raise HTTPException(400, detail={"message": f"invalid graph name {req.graph!r}"})
         data = svc.store.get_graph(req.graph)
         if data is None:
             raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
     if req.recipe is not None:
         data = req.recipe
-    recipe = parse_recipe(data)
+    recipe = parse_api_recipe(data)
     recipe = apply_overrides(recipe, list(req.inputs.items()))
     if req.params_xml is not None:
-        if req.graph is None:
-            raise HTTPException(400, detail={"message": "'params_xml' needs 'graph' (the graph whose files the run uses)"})
         from ...zoning.params_xml import validate_xml
 
         validate_xml(req.params_xml)  # RecipeError (naming layer/section/zone) → 422
     recipe = svc.prepare(req.graph, recipe, req.params_xml)
     svc.check_sandbox(build_graph(recipe), svc.resolver_for(req.graph, recipe, req.params_xml))  # → 422
     run_id = svc.runs.submit(req.graph, recipe, req.params_xml)  # validates the graph: RecipeError → 422
+    svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None})
     return RunCreated(id=run_id)
 
 
-@router.get("", response_model=list[dict[str, Any]])
-def list_runs(svc: ServicesDep, limit: int = 50) -> list[dict[str, Any]]:
-    return svc.store.list_runs(max(1, min(limit, 500)))
+@router.get("", response_model=list[RunListItem], responses=errors(401, 422))
+def list_runs(svc: ServicesDep, limit: int = Query(50, ge=1, le=500)) -> list[dict[str, Any]]:
+    return svc.store.list_runs(limit)
 
 
-@router.get("/{run_id}", response_model=RunStatus)
-def get_run(run_id: str, svc: ServicesDep) -> RunStatus:
+@router.get("/{run_id}", response_model=RunStatus, responses=errors(401, 404, 422))
+def get_run(run_id: RunId, svc: ServicesDep) -> RunStatus:
     run = _get_run(svc, run_id)
     return RunStatus(id=run["id"], graph=run["graph"], status=run["status"], progress=run["progress"] or 0.0,
                      error=run["error"], summary=run["summary"], created=run["created"], started=run["started"],
@@ -105,8 +118,9 @@ def get_run(run_id: str, svc: ServicesDep) -> RunStatus:
 
 
 @router.get("/{run_id}/events", response_class=StreamingResponse,
-            responses={200: {"content": {"text/event-stream": {}}}})
-async def run_events(run_id: str, svc: ServicesDep, last_event_id: str | None = Header(None)) -> StreamingResponse:
+            responses={200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
+async def run_events(run_id: RunId, svc: ServicesDep,
+                     last_event_id: str | None = Header(None, max_length=20)) -> StreamingResponse:
     """Server-Sent Events: each `data:` line is one JSON event (see engine/events.py); the stream
     ends after run_finished / run_failed / run_cancelled. Resumes after `Last-Event-ID`."""
     _get_run(svc, run_id)
@@ -135,15 +149,15 @@ async def run_events(run_id: str, svc: ServicesDep, last_event_id: str | None = 
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
-@router.get("/{run_id}/log", response_model=list[RunEvent])
-def run_log(run_id: str, svc: ServicesDep, after: int = 0) -> list[dict]:
+@router.get("/{run_id}/log", response_model=list[RunEvent], responses=errors(401, 404, 422))
+def run_log(run_id: RunId, svc: ServicesDep, after: int = Query(0, ge=0, le=2**62)) -> list[dict]:
     """The run's events so far as one JSON list (the SSE stream's content, for scripts)."""
     _get_run(svc, run_id)
     return svc.runs.events_since(run_id, after)[0]
 
 
-@router.get("/{run_id}/artifacts", response_model=list[ArtifactInfo])
-def list_artifacts(run_id: str, svc: ServicesDep) -> list[ArtifactInfo]:
+@router.get("/{run_id}/artifacts", response_model=list[ArtifactInfo], responses=errors(401, 404, 422))
+def list_artifacts(run_id: RunId, svc: ServicesDep) -> list[ArtifactInfo]:
     _get_run(svc, run_id)
     d = svc.runs.run_dir(run_id)
     if not d.is_dir():
@@ -151,13 +165,14 @@ def list_artifacts(run_id: str, svc: ServicesDep) -> list[ArtifactInfo]:
     return [ArtifactInfo(name=p.name, size=p.stat().st_size) for p in sorted(d.iterdir()) if p.is_file()]
 
 
-@router.get("/{run_id}/artifacts/{name}", response_class=FileResponse)
-def get_artifact(run_id: str, name: str, svc: ServicesDep) -> FileResponse:
+@router.get("/{run_id}/artifacts/{name}", response_class=FileResponse,
+            responses={200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}},
+                                         "text/plain": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
+def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileResponse:
     _get_run(svc, run_id)
-    if not valid_file_name(name):
-        raise HTTPException(400, detail={"message": f"invalid artifact name {name!r}"})
-    p = svc.runs.run_dir(run_id) / name
-    if not p.is_file():
+    d = svc.runs.run_dir(run_id).resolve()
+    p = (d / name).resolve()
+    if not p.is_relative_to(d) or not p.is_file():
         raise HTTPException(404, detail={"message": f"run {run_id} has no artifact {name!r}"})
     media = mimetypes.guess_type(name)[0] or "text/plain"
     if name.endswith((".gcode", ".src", ".dat", ".mod", ".csv")):
@@ -165,9 +180,10 @@ def get_artifact(run_id: str, name: str, svc: ServicesDep) -> FileResponse:
     return FileResponse(p, media_type=media, filename=name)
 
 
-@router.delete("/{run_id}", status_code=202, response_model=RunStatus)
-def cancel_run(run_id: str, svc: ServicesDep) -> RunStatus:
+@router.delete("/{run_id}", status_code=202, response_model=RunStatus, responses=errors(401, 404, 422))
+def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep) -> RunStatus:
     """Cancel a queued or running run (finished runs are left as they are)."""
-    _get_run(svc, run_id)
-    svc.runs.cancel(run_id)
+    run = _get_run(svc, run_id)
+    if svc.runs.cancel(run_id):
+        svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id})
     return get_run(run_id, svc)

@@ -10,6 +10,7 @@ from fastapi import APIRouter, HTTPException, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..deps import ServicesDep
+from ..schemas import LayerIndex, errors
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"])
 
@@ -17,7 +18,7 @@ router = APIRouter(prefix="/api/viewer", tags=["viewer"])
 class Selection(BaseModel):
     model_config = ConfigDict(extra="forbid")
     node: str | None = Field(None, description="node id whose output to show (None = all)")
-    layer: int | None = Field(None, ge=0, description="layer index to focus (None = all)")
+    layer: LayerIndex | None = Field(None, description="layer index to focus (None = all)")
     graph: str | None = Field(None, description="show the latest run of this saved graph (the GUI's open recipe)")
     run: str | None = Field(None, description="show this run (an unsaved recipe's run is keyed by its run id)")
 
@@ -37,7 +38,7 @@ class ViewSettings(BaseModel):
     fit: bool = Field(False, description="frame the camera on the shown part")
 
 
-@router.post("/select", status_code=204, response_class=Response)
+@router.post("/select", status_code=204, response_class=Response, responses=errors(401, 422))
 def select(sel: Selection, svc: ServicesDep) -> Response:
     """Follow a recipe (graph or run) and a node/layer in the 3D view. A no-op when the preview is off."""
     if svc.viewer is not None:
@@ -48,7 +49,7 @@ def select(sel: Selection, svc: ServicesDep) -> Response:
     return Response(status_code=204)
 
 
-@router.post("/view", status_code=204, response_class=Response)
+@router.post("/view", status_code=204, response_class=Response, responses=errors(401, 409, 422))
 def view(v: ViewSettings, svc: ServicesDep) -> Response:
     """Change what the 3D view draws; fields left out keep their value."""
     if svc.viewer is None:
@@ -61,7 +62,7 @@ def view(v: ViewSettings, svc: ServicesDep) -> Response:
     return Response(status_code=204)
 
 
-@router.get("/state")
+@router.get("/state", responses=errors(401))
 def state(svc: ServicesDep) -> dict[str, Any]:
     """The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
     settings and legend data (zone colours, value ranges with units, colour-map stops)."""
