@@ -18,6 +18,7 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 def always_parallel(monkeypatch):
     monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
 
 
 def _run(name: str, workers: int, cache=None):

@@ -53,6 +53,7 @@ class Midsurface:
     height: float
     z0: float = 0.0
     name: str = "sketch"
+    joints: tuple[tuple[float, float], ...] = ()  # (x, y) mm where the sketch joined two curves end to end
 
     @property
     def bounds(self) -> np.ndarray:
@@ -83,6 +84,7 @@ class Layer:
     region: MultiPolygon = field(default_factory=MultiPolygon)
     curves: tuple[LineString, ...] = ()
     frame: np.ndarray | None = None
+    joints: tuple[tuple[float, float], ...] = ()  # (x, y) mm: wall junctions inside joined curves
 
     @property
     def area(self) -> float:

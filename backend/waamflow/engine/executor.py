@@ -8,10 +8,14 @@ depend on.
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 import threading
 import time
 import traceback
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -46,6 +50,7 @@ class FileResolver:
         self.base_dir = Path(base_dir).resolve()
         self.attachments = dict(attachments or {})
         self.roots = [Path(r).resolve() for r in roots] if roots else None
+        self.read_hashes: dict[str, str] = {}   # path → sha256 hex of every file read (traceability)
 
     def resolve(self, path: str) -> Path:
         if not isinstance(path, str) or not path:
@@ -78,7 +83,24 @@ class FileResolver:
             data = p.read_bytes()
         if len(data) > limit:
             raise InputFileError(f"file {path} is {len(data) / 1e6:.1f} MB, over the {limit / 1e6:.0f} MB limit")
+        self.read_hashes[path] = hashlib.sha256(data).hexdigest()
         return data
+
+    def sha256(self, path: str) -> str | None:
+        """sha256 hex of a file's content (None when missing); memoised on (path, mtime, size)."""
+        if path in self.attachments:
+            return hashlib.sha256(self.attachments[path]).hexdigest()
+        try:
+            p = self.resolve(path)
+            st = p.stat()
+        except (InputFileError, OSError):
+            return None
+        key = ("sha256", str(p), st.st_mtime_ns, st.st_size)
+        h = _FILE_SIGS.get(key)
+        if h is None:
+            h = hashlib.sha256(p.read_bytes()).hexdigest()
+            _FILE_SIGS[key] = h
+        return h
 
     def signature(self, path: str) -> str:
         """Content signature of a file (missing file → 'missing'); memoised on (path, mtime, size)."""
@@ -138,6 +160,7 @@ class RunResult:
     seconds: float
     signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
     executor: dict = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
+    trace: dict = field(default_factory=dict)  # see `run_trace`
 
     def summary(self, recipe_name: str, status: str = "done") -> dict:
         return {
@@ -150,6 +173,7 @@ class RunResult:
             "warnings": self.warnings,
             "artifacts": sorted(self.artifacts),
             "executor": self.executor,
+            "trace": self.trace,
         }
 
 
@@ -185,8 +209,34 @@ class RunContext(Context):
     def progress(self, fraction: float, message: str = "") -> None:
         self._run.node_progress(self.node_id, fraction, message)
 
+    def trace(self) -> dict:
+        return self._run.trace()
+
     def check_cancelled(self) -> None:
         self._run.check_cancelled()
+
+
+def run_date_utc() -> str:
+    """The run's date for traces, ISO 8601 UTC to the second: now, or SOURCE_DATE_EPOCH (seconds,
+    the reproducible-builds convention) when set, so identical runs can give byte-identical files."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    when = datetime.fromtimestamp(int(epoch), timezone.utc) if epoch.isdigit() else datetime.now(timezone.utc)
+    return when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
+
+
+def recipe_sha256(recipe) -> str:
+    """sha256 of the canonical recipe JSON (sorted keys, compact separators, editor-only `ui`
+    state left out): the same recipe gives the same hash whatever the key order or layout."""
+    doc = {k: v for k, v in recipe.to_json().items() if k != "ui"}
+    text = json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def run_trace(recipe, files: dict[str, str], date_utc: str) -> dict:
+    """{"date": ISO UTC, "waamflow": version, "recipe": name, "recipe_sha256": …,
+    "inputs": {path: sha256}} for program headers and summary.json."""
+    return {"date": date_utc, "waamflow": __version__, "recipe": recipe.name,
+            "recipe_sha256": recipe_sha256(recipe), "inputs": dict(sorted(files.items()))}
 
 
 def _code_signature() -> str:
@@ -220,6 +270,7 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
             bytes_signature(shapely.to_wkb(item.region)),
             [bytes_signature(shapely.to_wkb(c)) for c in item.curves],
             None if item.frame is None else item.frame.round(9).tolist(),
+            *([[list(map(float, j)) for j in item.joints]] if getattr(item, "joints", ()) else []),
         )
     return fallback
 
@@ -247,6 +298,8 @@ class _Run:
         self.warnings: list[dict] = []
         self.artifacts: dict[str, bytes] = {}
         self.layer_count: int | None = None
+        self.started_utc = run_date_utc()
+        self.input_hashes: dict[str, str] = {}
 
     # events
     def emit(self, kind: str, **kw) -> None:
@@ -270,8 +323,21 @@ class _Run:
             raise CancelledError("run cancelled")
 
     def file_sigs(self, gnode: GraphNode) -> list:
-        return [(f, self.resolver.signature(getattr(gnode.params, f)))
-                for f in file_fields(type(gnode.params)) if getattr(gnode.params, f, None)]
+        out = []
+        for f in file_fields(type(gnode.params)):
+            path = getattr(gnode.params, f, None)
+            if path:
+                out.append((f, self.resolver.signature(path)))
+                digest = self.resolver.sha256(path)     # cached nodes do not read: hash here too
+                if digest is not None:
+                    self.input_hashes[path] = digest
+        return out
+
+    def trace(self) -> dict:
+        """What a program needs to be traced back to its origin: see `run_trace`. Not part of any
+        cache key (the date changes every run); stamped when artifacts are written."""
+        files = {**self.input_hashes, **self.resolver.read_hashes}
+        return run_trace(self.graph.recipe, files, self.started_utc)
 
     def add_warnings(self, ws: list[dict]) -> None:
         for w in ws:
@@ -509,6 +575,7 @@ def execute(
         cache.flush()
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
-                       {"kind": "local", "address": None, "workers": pool.workers, "tasks": pool.tasks})
+                       {"kind": "local", "address": None, "workers": pool.workers, "tasks": pool.tasks},
+                       run.trace())
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result

@@ -150,6 +150,11 @@ class Context:
     def progress(self, fraction: float, message: str = "") -> None:  # pragma: no cover
         raise NotImplementedError
 
+    def trace(self) -> dict:
+        """Traceability of the run (date UTC, waamflow version, recipe name and sha256, sha256 of
+        each input file read) for program headers; {} outside a run. Never part of a cache key."""
+        return {}
+
     def check_cancelled(self) -> None:  # pragma: no cover
         raise NotImplementedError
 

@@ -434,8 +434,35 @@ def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, contin
     return out
 
 
-def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0) -> list[dict]:
-    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts."""
+def _joint_vertices(curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, int]]:
+    """Joints (points where the sketch joined two walls end to end into one polyline) that are a
+    vertex inside a curve and not already reported: (point, angle between the walls (deg), curve)."""
+    out = []
+    for q in joints:
+        q = np.asarray(q, dtype=float)
+        if any(np.hypot(*(q - s)) <= tol for s in skip):
+            continue
+        for ci, c in enumerate(curves):
+            closed = is_closed(c, tol)
+            pts = c[:-1] if closed else c
+            d = np.hypot(*(pts - q).T)
+            k = int(np.argmin(d))
+            if d[k] > tol or (not closed and k in (0, len(pts) - 1)):
+                continue
+            n = len(pts)
+            u, v = _unit(pts[(k - 1) % n] - pts[k]), _unit(pts[(k + 1) % n] - pts[k])
+            if np.any(u) and np.any(v):
+                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), ci))
+            break
+    return out
+
+
+def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0,
+              joints=()) -> list[dict]:
+    """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts.
+
+    joints: (x, y) points where the sketch joined two walls end to end into one polyline; each
+    is listed as a `corner` or `continuous` junction with its angle unless already found."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     curves = [c for c in curves if len(c) >= 2]
     tol = spec.merge_tol
@@ -466,6 +493,14 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
             f = base(kind, p, [ci])
             f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE[kind]))
             feats.append(f)
+    # junctions the sketch joined away that the vertex test above missed (e.g. a regular polygon
+    # of walls, whose equal turns look like a discretised arc): listed by where they were joined
+    reported = jpts + [np.array(f["point"]) for f in feats if f["kind"] in JUNCTION_KINDS]
+    for p, between, ci in _joint_vertices(curves, joints, tol, reported):
+        kind = "corner" if 180.0 - between >= spec.corner_angle_deg else "continuous"
+        f = base(kind, p, [ci])
+        f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE[kind]))
+        feats.append(f)
     lines = [LineString(c) for c in curves]
     for members in find_loops(curves, junctions, kinds, tol):
         ring = chain_loop(curves, members, tol)
@@ -492,7 +527,7 @@ def recognise_layers(layers, spec: RecognitionSpec = RecognitionSpec(), *, every
         dg = curves_digest([c.coords for c in layer.curves])
         if dg in seen:
             continue
-        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z))
+        feats.extend(recognise(layer.curves, spec, layer=layer.index, z=layer.z, joints=layer.joints))
         digests[layer.index] = dg
         seen.add(dg)
         if not every_layer:
@@ -510,4 +545,4 @@ def features_for_layer(fs: FeatureSet, layer) -> list[dict]:
     for idx, d in fs.layers.items():
         if d == dg:
             return [dict(f, layer=layer.index, z=round(float(layer.z), 6)) for f in fs.of_layer(idx)]
-    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z)
+    return recognise(layer.curves, fs.spec, layer=layer.index, z=layer.z, joints=layer.joints)

@@ -99,10 +99,12 @@ def _dedupe(points: np.ndarray) -> np.ndarray:
     return points[keep]
 
 
-def join_curves(curves: list[np.ndarray], tol: float) -> list[np.ndarray]:
+def join_curves(curves: list[np.ndarray], tol: float, joints: list | None = None) -> list[np.ndarray]:
     """Join open polylines that meet end to end at points where exactly two ends meet.
 
     curves: (k, 2) arrays; closed ones (first == last within tol) are kept as they are.
+    joints: when given, receives each (x, y) point where two curves were joined (a wall junction
+    that is now a vertex inside one polyline; feature recognition reports it).
     Loops over curves (entities), never over points.
     """
     from scipy.spatial import cKDTree
@@ -163,8 +165,12 @@ def join_curves(curves: list[np.ndarray], tol: float) -> list[np.ndarray]:
         back, _ = walk(ci, 0)
         chain = [p[::-1] for p in reversed(back)] + [open_[ci]] + fwd
         pts = np.vstack([chain[0]] + [p[1:] for p in chain[1:]])
+        if joints is not None:
+            joints.extend((float(p[0][0]), float(p[0][1])) for p in chain[1:])
         if len(chain) > 1 and np.linalg.norm(pts[0] - pts[-1]) <= tol:
             pts[-1] = pts[0]
+            if joints is not None:
+                joints.append((float(pts[0][0]), float(pts[0][1])))
         out.append(pts)
     return out
 
@@ -193,9 +199,10 @@ def sketch_from_curves(curves: Iterable[Any], *, height: float, z0: float = 0.0,
         out.append(a)
     if not out:
         raise InputFileError(f"{name}: sketch has no curves")
+    joints: list = []
     if join_tol is not None:
-        out = join_curves(out, join_tol)
-    return Midsurface(curves=tuple(out), height=float(height), z0=float(z0), name=name)
+        out = join_curves(out, join_tol, joints)
+    return Midsurface(curves=tuple(out), height=float(height), z0=float(z0), name=name, joints=tuple(joints))
 
 
 def _json_curves(data: bytes, filename: str) -> tuple[list, float | None, float | None]:
@@ -268,7 +275,8 @@ def load_sketch_bytes(
     mid = sketch_from_curves(
         curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
-    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name),
+    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
+                                                  joints=mid.joints),
                         skipped=skipped, units=units)
 
 

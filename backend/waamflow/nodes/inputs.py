@@ -164,7 +164,8 @@ class SketchNode(Node):
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
             mid = Midsurface(curves=tuple(c + shift[:2] for c in mid.curves), height=mid.height,
-                             z0=mid.z0 + float(shift[2]), name=mid.name)
+                             z0=mid.z0 + float(shift[2]), name=mid.name,
+                             joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in mid.joints))
         _report_part(ctx, params.path, lo, hi, res.units if params.units == "file" else "mm", shift)
         return {"mesh": mid}
 

@@ -15,7 +15,7 @@ from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import check_templates
+from ..program.common import check_templates, stamp_trace
 from ..trajectory.cell import load_cell, positioner_angles
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
@@ -115,7 +115,8 @@ class PostProcess(Node):
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
         program: Program = outputs["program"]
-        return dict(program.files)
+        trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
+        return stamp_trace(program.format, dict(program.files), trace)
 
 
 def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:

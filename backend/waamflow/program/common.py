@@ -63,3 +63,39 @@ def process_lines(params: dict, templates: dict[str, str]) -> list[str]:
 
 def finite(x: float) -> bool:
     return bool(np.isfinite(x))
+
+
+def trace_lines(trace: dict) -> list[str]:
+    """The traceability lines of a program header (without comment marks): date UTC, waamflow
+    version, recipe name, sha256 of the canonical recipe JSON and of each input file read."""
+    if not trace:
+        return []
+    lines = [f"waamflow trace: date {trace.get('date', '?')}, waamflow {trace.get('waamflow', '?')}, "
+             f"recipe {trace.get('recipe', '?')}",
+             f"waamflow trace: recipe sha256 {trace.get('recipe_sha256', '?')}"]
+    for path, digest in (trace.get("inputs") or {}).items():
+        lines.append(f"waamflow trace: input {path} sha256 {digest}")
+    return lines
+
+
+def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
+    """Program files with the trace lines in their header, in each format's comment syntax:
+    G-code `;` at the top, KRL `;` after `DEF`/`DEFDAT`, RAPID `!` after `MODULE`, CSV `#` at
+    the top. Applied when artifacts are written, so the date never enters a cache key."""
+    body = trace_lines(trace)
+    if not body:
+        return dict(files)
+    out = {}
+    for suffix, text in files.items():
+        lines = text.split("\n")
+        if fmt == "gcode":
+            lines = [f"; {b}" for b in body] + lines
+        elif fmt == "csv":
+            lines = [f"# {b}" for b in body] + lines
+        else:
+            opener = ("MODULE ",) if fmt == "rapid" else ("DEF ", "DEFDAT ")
+            at = next((i + 1 for i, ln in enumerate(lines) if ln.lstrip().startswith(opener)), 0)
+            mark = "  ! " if fmt == "rapid" else "; "
+            lines = lines[:at] + [f"{mark}{b}" for b in body] + lines[at:]
+        out[suffix] = "\n".join(lines)
+    return out

@@ -77,7 +77,8 @@ def slice_midsurface(mid: Midsurface, schedule: LayerSchedule) -> tuple[Layer, .
     layers = []
     for i, (z, t, cut) in enumerate(zip(schedule.tops, schedule.thickness, schedule.cuts)):
         inside = lo < cut <= hi
-        layers.append(Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=curves if inside else ()))
+        layers.append(Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=curves if inside else (),
+                            joints=tuple(mid.joints) if inside else ()))
     return tuple(layers)
 
 

@@ -1,0 +1,108 @@
+"""DXF through ezdxf's own machinery: MINSERT arrays, nested blocks, OCS arcs, binary DXF,
+layout choice and the skipped-entities report — drawings generated here."""
+
+import io
+import math
+
+import ezdxf
+import numpy as np
+import pytest
+
+from waamflow.core.errors import InputFileError
+from waamflow.geometry.sketch import load_sketch_bytes
+
+
+def _bytes(doc, fmt="asc", tmp_path=None) -> bytes:
+    if fmt == "bin":
+        p = tmp_path / "b.dxf"
+        doc.saveas(p, fmt="bin")
+        return p.read_bytes()
+    buf = io.StringIO()
+    doc.write(buf)
+    return buf.getvalue().encode()
+
+
+def _length(c):
+    return float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum())
+
+
+def test_minsert_array_gives_25_copies():
+    doc = ezdxf.new("R2010", units=4)
+    blk = doc.blocks.new("RING")
+    blk.add_circle((0, 0), 10)
+    ins = doc.modelspace().add_blockref("RING", (0, 0))
+    ins.grid(size=(5, 5), spacing=(40, 30))                 # 5 rows 40 apart (y) × 5 columns 30 apart (x)
+    mid = load_sketch_bytes(_bytes(doc), "m.dxf", height=10).midsurface
+    assert len(mid.curves) == 25
+    centres = np.array(sorted({(round(float(c[:-1, 0].mean())), round(float(c[:-1, 1].mean()))) for c in mid.curves}))
+    assert len(centres) == 25
+    assert set(centres[:, 0]) == {0, 30, 60, 90, 120} and set(centres[:, 1]) == {0, 40, 80, 120, 160}
+    for c in mid.curves:
+        assert _length(c) == pytest.approx(2 * math.pi * 10, rel=1e-3)
+
+
+def test_nested_blocks_scaled_and_rotated():
+    doc = ezdxf.new("R2010", units=4)
+    inner = doc.blocks.new("WALL")
+    inner.add_line((0, 0), (50, 0))
+    outer = doc.blocks.new("PAIR")
+    outer.add_blockref("WALL", (0, 0))
+    outer.add_blockref("WALL", (0, 20))
+    doc.modelspace().add_blockref("PAIR", (100, 100), dxfattribs={"xscale": 2, "yscale": 2, "rotation": 90})
+    mid = load_sketch_bytes(_bytes(doc), "n.dxf", height=10).midsurface
+    assert len(mid.curves) == 2
+    for c in mid.curves:
+        assert _length(c) == pytest.approx(100.0)                  # 50 × 2
+        assert c[:, 0].max() - c[:, 0].min() == pytest.approx(0.0, abs=1e-9)   # rotated to vertical
+    xs = sorted(float(c[0, 0]) for c in mid.curves)
+    assert xs == pytest.approx([60.0, 100.0])                        # (0, 20)·2 rotated 90° → x −40
+
+
+def test_ocs_arc_with_negative_extrusion_in_world_coordinates():
+    doc = ezdxf.new("R2010", units=4)
+    # OCS of extrusion (0, 0, -1): OCS x = world −x. Centre (50, 0) OCS → (−50, 0) world.
+    doc.modelspace().add_arc((50, 0), 10, 0, 90, dxfattribs={"extrusion": (0, 0, -1)})
+    c = load_sketch_bytes(_bytes(doc), "o.dxf", height=10).midsurface.curves[0]
+    assert np.hypot(c[:, 0] + 50, c[:, 1]) == pytest.approx(10.0, abs=0.011)
+    assert c[:, 0].max() <= -50 + 1e-9 and c[:, 1].min() >= -1e-9     # world quadrant: x ≤ −50, y ≥ 0
+    assert _length(c) == pytest.approx(math.pi * 5, rel=1e-3)
+
+
+def test_binary_dxf_reads_like_ascii(tmp_path):
+    doc = ezdxf.new("R2010", units=1)                                   # inch
+    doc.modelspace().add_lwpolyline([(0, 0), (4, 0), (4, 2)])
+    a = load_sketch_bytes(_bytes(doc), "a.dxf", height=10)
+    b = load_sketch_bytes(_bytes(doc, "bin", tmp_path), "b.dxf", height=10, units="file")
+    a = load_sketch_bytes(_bytes(doc), "a.dxf", height=10, units="file")
+    assert _bytes(doc, "bin", tmp_path).startswith(b"AutoCAD Binary DXF")
+    assert b.units == "in"
+    assert np.allclose(a.midsurface.curves[0], b.midsurface.curves[0])
+    assert _length(b.midsurface.curves[0]) == pytest.approx(6 * 25.4)
+
+
+def test_layout_choice():
+    doc = ezdxf.new("R2010", units=4)
+    doc.modelspace().add_line((0, 0), (100, 0))
+    ps = doc.layouts.new("Sheet A")
+    ps.add_line((0, 0), (0, 70))
+    ps.add_line((0, 70), (30, 70))
+    data = _bytes(doc)
+    assert _length(load_sketch_bytes(data, "l.dxf", height=5).midsurface.curves[0]) == pytest.approx(100)
+    mid = load_sketch_bytes(data, "l.dxf", height=5, layout="Sheet A").midsurface
+    assert len(mid.curves) == 1 and _length(mid.curves[0]) == pytest.approx(100)     # 70 + 30 joined
+    assert mid.curves[0][:, 1].max() == pytest.approx(70)
+    with pytest.raises(InputFileError, match="no layout 'Sheet B'.*Sheet A"):
+        load_sketch_bytes(data, "l.dxf", height=5, layout="Sheet B")
+
+
+def test_hatch_only_drawing_error_lists_skipped_types():
+    doc = ezdxf.new("R2010", units=4)
+    msp = doc.modelspace()
+    for i in range(3):
+        h = msp.add_hatch()
+        h.paths.add_polyline_path([(i * 20, 0), (i * 20 + 10, 0), (i * 20 + 10, 10)], is_closed=True)
+    msp.add_text("note")
+    with pytest.raises(InputFileError, match=r"3 HATCH, 1 TEXT"):
+        load_sketch_bytes(_bytes(doc), "h.dxf", height=5)
+    with pytest.raises(InputFileError, match="not a readable DXF"):
+        load_sketch_bytes(b"AutoCAD Binary DXF\r\n\x1a\x00garbage", "bad.dxf", height=5)
