@@ -9,6 +9,8 @@ dwell — every feature of the controller model (stops, blends, dwell, arc timin
   IK step, joint speed caps and warnings) — the contract's figure (target ≥ 200); peer = the same
   without IK, ratio = with / without.
 - `sim_realtime_factor_no_ik`: the controller model alone; peer = with IK.
+- `sim_realtime_factor_cell`: with the kr150_tilt_rotate cell, `gravity` positioner policy and IK
+  on the world path (no collision checks yet); peer = arm-only IK.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import time
 from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
 from waamflow.core.moves import flatten
 from waamflow.trajectory import study
+from waamflow.trajectory.cell import load_cell
 from waamflow.trajectory.profile import load_profile
 from waamflow.trajectory.run import KinematicsOptions, simulate_program
 from waamflow.trajectory.simulate import SimOptions
@@ -53,6 +56,11 @@ def run() -> list[dict]:
     _timed(study.raster(SPEED), profile, None)  # warm-up (imports, ruckig)
     res_ik, wall_ik = _timed(moves, profile, KinematicsOptions(step_mm=5.0))
     res_no, wall_no = _timed(moves, profile, None)
+    cell = load_cell("kr150_tilt_rotate")
+    res_cell, wall_cell = _timed(moves, profile, KinematicsOptions(
+        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), step_mm=5.0, cell=cell,
+        positioner_policy="gravity"))
+    rtf_cell = res_cell.metrics["total_time_s"] / wall_cell
     sim_s = res_ik.metrics["total_time_s"]
     rtf_ik = sim_s / wall_ik
     rtf_no = res_no.metrics["total_time_s"] / wall_no
@@ -67,6 +75,10 @@ def run() -> list[dict]:
         {"name": "sim_realtime_factor_no_ik", "value": round(rtf_no, 1), "unit": "sim s / wall s",
          "peer": round(rtf_ik, 1), "ratio": round(rtf_no / rtf_ik, 4),
          "notes": f"controller model only, {wall_no:.2f} s wall; peer = with IK. {common}"},
+        {"name": "sim_realtime_factor_cell", "value": round(rtf_cell, 1), "unit": "sim s / wall s",
+         "peer": round(rtf_ik, 1), "ratio": round(rtf_cell / rtf_ik, 4),
+         "notes": f"kr150_tilt_rotate cell, gravity policy, IK on the world path, no collision checks; "
+                  f"{wall_cell:.2f} s wall; peer = arm-only IK. {common}"},
     ]
 
 

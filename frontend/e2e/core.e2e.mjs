@@ -258,6 +258,63 @@ test("graph editing: one-step undo of a delete, node search with Enter, free pla
   await page.context().close();
 });
 
+test("frames: a frame around selected nodes moves them with it and is saved in the recipe's ui", async () => {
+  await copyOf("mpp-cross", "core-frame");
+  const { page, errors } = await openPage(browser, srv.base);
+  await openGraph(page, "core-frame");
+  await page.click('.react-flow__node[data-id="zone"]');
+  await page.click('.react-flow__node[data-id="sequence"]', { modifiers: ["Control"] });
+  await page.click("[data-testid=add-frame]");
+  await page.waitForSelector('[data-frame-id="f1"]');
+  const pos = async (id) => page.locator(`.react-flow__node[data-id="${id}"]`).boundingBox();
+  const [z0, s0, p0] = [await pos("zone"), await pos("sequence"), await pos("part")];
+  const head = await page.locator('[data-frame-id="f1"] .wframe-head').boundingBox();
+  await page.mouse.move(head.x + 20, head.y + head.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(head.x + 60, head.y + 60, { steps: 6 });
+  await page.mouse.move(head.x + 100, head.y + 80, { steps: 6 });
+  await page.mouse.up();
+  await page.waitForTimeout(200);
+  const [z1, s1, p1] = [await pos("zone"), await pos("sequence"), await pos("part")];
+  const head1 = await page.locator('[data-frame-id="f1"] .wframe-head').boundingBox();
+  const [fx, fy] = [head1.x - head.x, head1.y - head.y]; // the frame's move on screen (zoom ≠ 1)
+  assert.ok(fx > 30 && fy > 30, `the frame moved: ${fx}, ${fy}`);
+  assert.ok(Math.abs(z1.x - z0.x - fx) < 2 && Math.abs(z1.y - z0.y - fy) < 2, `zone moved with the frame: ${z1.x - z0.x},${z1.y - z0.y} vs ${fx},${fy}`);
+  assert.ok(Math.abs(s1.x - s0.x - (z1.x - z0.x)) < 1 && Math.abs(s1.y - s0.y - (z1.y - z0.y)) < 1, "sequence moved by the same amount");
+  assert.deepEqual([p1.x, p1.y], [p0.x, p0.y], "a node outside the frame stays");
+  await shot(page, "core-07-frame");
+  await page.keyboard.press("Control+s");
+  await page.waitForFunction(() => document.querySelector("[data-testid=save]")?.textContent === "save");
+  const saved = await api(srv.base, "/api/graphs/core-frame");
+  assert.equal(saved.ui.frames.length, 1);
+  const f = saved.ui.frames[0];
+  const [zx, zy] = saved.ui.positions.zone;
+  assert.ok(zx >= f.x && zy >= f.y && zx <= f.x + f.w && zy <= f.y + f.h, "the saved frame holds the zone node");
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("a refused run (422 naming node and field) selects and marks the node", async () => {
+  await copyOf("mpp-cross", "core-422");
+  const { page, errors } = await openPage(browser, srv.base);
+  // An unsaved edit with an invalid value, as a local draft (what a reload would offer back).
+  const bad = await api(srv.base, "/api/graphs/core-422");
+  bad.nodes.find((n) => n.id === "layers").params.layer_height = -1;
+  await page.evaluate((r) => localStorage.setItem("waamflow:draft:core-422", JSON.stringify({ recipe: r, xml: null, tab: "graph", savedAt: Date.now() })), bad);
+  await openGraph(page, "core-422");
+  await page.click("[data-testid=draft-restore]");
+  await page.click("[data-testid=run]");
+  await page.waitForSelector('.react-flow__node[data-id="layers"] [data-testid=problem-badge].errors');
+  assert.match(await page.getAttribute('.react-flow__node[data-id="layers"]', "class"), /\bselected\b/);
+  assert.match(await page.getAttribute('.react-flow__node[data-id="layers"] [data-testid=problem-badge]', "title"), /layer_height/);
+  await page.waitForSelector('[data-testid=problems] .problem.error[data-problem-node="layers"]');
+  assert.match(await page.innerText("[data-testid=problems]"), /layers · layer_height/);
+  assert.match(await page.innerText("[data-testid=problem-count]"), /✖ 1/);
+  await shot(page, "core-08-refused-run");
+  assert.deepEqual(errors.filter((e) => !/status of 422/.test(e)), []);
+  await page.context().close();
+});
+
 test("problems: badges on nodes, toolbar count, panel selects the node; the progress bar restarts at 0", async () => {
   await copyOf("mpp-cross", "core-problems");
   const { page, errors } = await openPage(browser, srv.base);

@@ -11,7 +11,7 @@ import { GraphEditor } from "./graph/GraphEditor";
 import { NodeSearch } from "./graph/NodeSearch";
 import { useShortcuts } from "./graph/useShortcuts";
 import {
-  addNode, amend, autoWire, setNodeParams, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
+  addFrame, addNode, amend, autoWire, setNodeParams, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
   type Clip, type History, type XY,
 } from "./graph/recipe";
 import { carryOver, matchByOverlap } from "./graph/carry";
@@ -462,6 +462,13 @@ export function App() {
         problemCount={problems.length}
         errorCount={problems.filter((x) => x.severity === "error").length}
         onProblems={() => setShowProblems((v) => !v)}
+        onFrame={() => {
+          const box = document.querySelector("[data-testid=graph-editor]")?.getBoundingClientRect();
+          const c = box ? rf.screenToFlowPosition({ x: box.left + 40, y: box.top + 40 }) : { x: 0, y: 0 };
+          const { recipe: r } = addFrame(recipe, selected, selected.size ? `group of ${selected.size}` : "group", [Math.round(c.x), Math.round(c.y)]);
+          edit(() => r);
+          setTab("graph");
+        }}
         onOpen={(name) => void open(name)}
         onNew={() => {
           setXmlLoadError(null);

@@ -5,7 +5,9 @@ import { describe, expect, it } from "vitest";
 import type { NodeSpec, Recipe } from "../src/api/types";
 import { clearDraft, draftDiffers, draftKey, parsePlace, placeSearch, readDraft, writeDraft } from "../src/graph/drafts";
 import { searchNodes } from "../src/graph/NodeSearch";
-import { NODE_BOX, autoWire, catalogMap, freeSpot, removeEdges, removeNodes, type XY } from "../src/graph/recipe";
+import {
+  NODE_BOX, addFrame, autoWire, catalogMap, framesOf, freeSpot, moveFrame, nodesInFrame, removeEdges, removeFrames, removeNodes, type XY,
+} from "../src/graph/recipe";
 import { collectProblems, problemsByNode } from "../src/problems/problems";
 
 const port = (name: string, type: string) => ({ name, type, description: "", optional: false, color: "#000" });
@@ -154,5 +156,22 @@ describe("node search", () => {
     expect(searchNodes([...cat.values()], "MAS").map((s) => s.type)).toEqual(["mask"]);
     expect(searchNodes([...cat.values()], "zzz")).toEqual([]);
     expect(searchNodes([...cat.values()], "")).toHaveLength(5);
+  });
+});
+
+describe("frames", () => {
+  it("frame the selection, move it with its nodes, remove it", () => {
+    const { recipe: r, id } = addFrame(recipe(), new Set(["layers", "mask"]), "slicing");
+    const f = framesOf(r)[0];
+    expect(id).toBe("f1");
+    expect(f.x).toBeLessThanOrEqual(230);
+    expect(f.x + f.w).toBeGreaterThanOrEqual(460 + NODE_BOX[0]);
+    expect(nodesInFrame(r, f)).toEqual(["layers", "mask"]);
+    const m = moveFrame(r, id, [f.x + 100, f.y - 40]);
+    expect(m.ui!.positions).toEqual({ part: [0, 0], layers: [330, -40], mask: [560, -40] });
+    expect(framesOf(m)[0]).toMatchObject({ x: f.x + 100, y: f.y - 40, w: f.w, h: f.h });
+    expect(moveFrame(m, id, [f.x + 100, f.y - 40])).toBe(m);
+    expect(framesOf(removeFrames(m, new Set([id])))).toEqual([]);
+    expect(addFrame(r, new Set(), "empty", [10, 20]).id).toBe("f2");
   });
 });

@@ -140,3 +140,81 @@ def test_sections_mode_gives_each_section_its_own_axis(tmp_path):
         assert abs((np.array(s["axis_point"]) - prev_top[:3, 3]) @ prev_top[:3, 2]) < 1e-5   # report rounds to 1e-6
     # the part is swept to its end: the last layer's top plane is past the end face
     assert fan["layer_count"] == len(layers) and not layers[-1].region.is_empty
+
+
+def test_duct_on_the_positioner_cell_is_reachable(duct):
+    """The shipped recipe simulates on kr150_tilt_rotate with the `gravity` policy: every layer is
+    turned flat (E1 tilt follows the fan: Δθ .. 58·Δθ over the quarter bend) and the arm reaches
+    every sample; with the positioner held at 0° (`fixed`) the arm alone fails from layer ~26 on."""
+    sim = json.loads(duct.artifacts["sim.simulation.json"])
+    assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
+    assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
+    assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
+    assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
+
+    def fixed(recipe):
+        next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]["positioner_policy"] = "fixed"
+
+    bad = json.loads(run(fixed).artifacts["sim.simulation.json"])
+    assert bad["unreachable_stretches"] >= 5
+    assert bad["positioner_e1_max_deg"] == 0.0
+
+
+def test_duct_krl_carries_the_positioner_angles(duct):
+    """post.dat: every E6POS target carries E1 (tilt) = its layer's gravity angle, 58 distinct
+    values Δθ..58·Δθ, and one E2 (the bend turns about one axis); E3..E6 stay 0."""
+    import re
+
+    dat = duct.artifacts["post.dat"]
+    dat = dat.decode() if isinstance(dat, bytes) else dat
+    rows = re.findall(r"DECL E6POS P\d+=\{X [^}]*,E1 ([-\d.]+),E2 ([-\d.]+),E3 ([-\d.]+),E4 ([-\d.]+),"
+                      r"E5 ([-\d.]+),E6 ([-\d.]+)\}", dat)
+    assert len(rows) == dat.count("DECL E6POS")
+    e = np.array(rows, float)
+    e1 = np.unique(np.round(e[:, 0], 2))
+    assert len(e1) == 58 and e1.min() == pytest.approx(1.54, abs=0.01) and e1.max() == pytest.approx(89.32, abs=0.01)
+    assert len(np.unique(np.round(e[:, 1], 2))) == 1 and np.all(e[:, 2:] == 0)
+
+
+@pytest.mark.parametrize("bend,sweep,dtheta", [(60.0, 90.0, 2.6), (100.0, 135.0, 3.0)])
+def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep, dtheta):
+    """A tighter bend (R 60 mm) and a sweep past 90° (135°): 0 unreachable / limit / singular
+    stretches on the positioner cell, E1 up to the last layer's tilt (> 90° for the 135° sweep)."""
+    import trimesh
+
+    from waamflow.curved.shapes import bent_tube
+
+    part = bent_tube(bend=bend, mid=15.0, wall=3.0, sweep_deg=sweep, n_phi=int(sweep / 2), n_psi=24)
+    (tmp_path / "parts").mkdir()
+    trimesh.Trimesh(part.vertices, part.faces, process=True).export(tmp_path / "parts" / "duct.stl")
+    recipe = json.loads((GRAPHS / "curved-duct.json").read_text())
+    recipe["inputs"]["dtheta_deg"] = dtheta
+    fan = next(n for n in recipe["nodes"] if n["id"] == "fan")["params"]
+    fan.update({"axis_point": [-bend, 0, 0], "h_min": 1.0, "h_max": 8.0})
+    r = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    sim = json.loads(r.artifacts["sim.simulation.json"])
+    layers = json.loads(r.artifacts["fan.fan.json"])["layer_count"]
+    assert layers == pytest.approx(sweep / dtheta, abs=1)
+    assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
+    assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
+
+
+def test_duct_rapid_robtargets_carry_extax():
+    """The same recipe in RAPID: every robtarget's extax = [E1, E2, 9E9 × 4] with the layer tilts."""
+    import re
+
+    def rapid(recipe):
+        next(n for n in recipe["nodes"] if n["id"] == "post")["params"]["format"] = "rapid"
+        recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "sim"]
+        recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("sim.")]
+
+    mod = run(rapid).artifacts["post.mod"]
+    mod = mod.decode() if isinstance(mod, bytes) else mod
+    ext = re.findall(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]\];", mod)
+    assert len(ext) == mod.count("CONST robtarget") > 58
+    e = [x.split(",") for x in ext]
+    assert all(row[2:] == ["9E9"] * 4 for row in e)
+    e1 = sorted({round(float(row[0]), 2) for row in e})
+    assert len(e1) == 58 and e1[0] == pytest.approx(1.54) and e1[-1] == pytest.approx(89.32)

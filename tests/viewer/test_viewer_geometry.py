@@ -180,6 +180,22 @@ def test_robot_motion_blends_between_samples():
     assert m.segments(1.0).shape == (1, 2, 3)
 
 
+def test_link_mesh_tubes_have_the_link_radii():
+    from waamflow.viewer.robot import LINK_RADIUS_MM, SIDES, TORCH_RADIUS_MM, link_mesh
+
+    chain = np.array([[0, 0, 0], [0, 0, 500.0], [300, 0, 500], [300, 0, 500], [300, 0, 100]])
+    v, f = link_mesh(chain)
+    assert v.shape == (4 * 2 * SIDES, 3) and f.shape == (4 * 2 * SIDES, 3) and f.max() == len(v) - 1
+    first = v[:SIDES]           # base ring of link 0, in the plane z = 0 around the z axis
+    assert np.allclose(np.hypot(first[:, 0], first[:, 1]), LINK_RADIUS_MM[0], atol=1e-3)
+    assert np.allclose(first[:, 2], 0.0, atol=1e-3)
+    link1 = v[2 * SIDES:4 * SIDES]  # along x at z = 500: radius about that axis
+    assert np.allclose(np.hypot(link1[:, 1], link1[:, 2] - 500), LINK_RADIUS_MM[1], atol=1e-3)
+    assert np.isfinite(v).all()     # the zero-length link (a wrist offset of 0) collapses to a ring
+    torch = v[-SIDES:]
+    assert np.allclose(np.hypot(torch[:, 0] - 300, torch[:, 1]), TORCH_RADIUS_MM, atol=1e-3)
+
+
 def test_zone_order_along_a_path():
     from waamflow.viewer.scene import _zone_order
 

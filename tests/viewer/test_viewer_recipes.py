@@ -94,8 +94,12 @@ def test_robot_follows_the_trace(viewer):
         assert np.allclose(tcp, want, atol=0.05)           # float32 display, mm
         base = links.points[0, 0]
         assert np.allclose(base, part.robot.joints[0, 0], atol=1e-3)
+        # the link geometry moves with the arm: the torch tube's far ring is centred on the TCP
+        body = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/robot/body")
+        assert body.vertices.shape == (2 * 12 * n_links, 3)
+        assert np.allclose(body.vertices[-12:].mean(axis=0), tcp, atol=0.05)
     viewer._gui["robot"].value = False
-    assert links.visible is False
+    assert links.visible is False and body.visible is False
 
 
 def test_zone_colours_match_the_parameter_xml(viewer):

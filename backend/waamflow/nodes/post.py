@@ -5,15 +5,18 @@ A thin adapter over `waamflow.program`; every number and code of the output is a
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, Literal
 
 from pydantic import Field, field_validator
 
 from ..core.errors import RecipeError
+from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
 from ..program.common import check_templates, stamp_trace
+from ..trajectory.cell import load_cell, positioner_angles
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -78,6 +81,11 @@ class PostProcess(Node):
         tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name")
         wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32, description="RAPID: wobjdata name")
         # robots
+        cell: str = Field("", max_length=64,
+                          description="KRL/RAPID: shipped robot cell (data/cells) whose positioner angles go into every "
+                                      "target as external axes E1/E2 (extax eax_a/eax_b); empty = no external axes")
+        positioner_policy: Literal["fixed", "gravity"] = Field(
+            "gravity", description="With a cell: positioner angles per point, as in simulate-robot")
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
 
@@ -93,6 +101,9 @@ class PostProcess(Node):
             writer = _writer_settings(params)
         except ValueError as err:
             raise RecipeError(str(err)) from err
+        if params.cell and params.format in ("krl", "rapid"):
+            angles = positioner_angles(load_cell(params.cell), flatten(inputs["toolpath"]), params.positioner_policy)
+            writer = replace(writer, external_axes=angles)
         program = post_process(inputs["toolpath"], params.format, plan, writer)
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")

@@ -14,6 +14,7 @@ from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
 from ..trajectory.estimate import estimate_moves, estimate_result
+from ..trajectory.cell import load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
@@ -86,10 +87,17 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "10"  # 10: deposit_per_mm_cv, compensate
+    version = "11"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
+        cell: str = Field("", max_length=256,
+                          description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
+                                      "gives the arm, base, TCP and the work frame on the positioner flange at its "
+                                      "`fixed_deg` angles, replacing the base/work/TCP parameters below")
+        positioner_policy: Literal["fixed", "gravity"] = Field(
+            "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
+                                 "each layer so its torch axis points straight down (flat-position welding)")
         robot_description: str = Field("", max_length=128,
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
@@ -108,9 +116,15 @@ class SimulateRobot(Node):
                                "value through stops and corners (waamflow.trajectory.compensate); reports "
                                "deposit_per_mm_cv before and after and writes deposit.svg")
 
-    def _kin(self, params, profile: RobotProfile) -> KinematicsOptions | None:
+    def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
             return None
+        if params.cell:
+            cell = (load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
+                    if params.cell.endswith(".json") else load_cell(params.cell))
+            return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
+                                     frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
+                                     positioner_policy=params.positioner_policy)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
         frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,
@@ -127,10 +141,10 @@ class SimulateRobot(Node):
             ctx.progress(fraction, message)
 
         if params.compensate == "on":
-            res = simulate_compensated(inputs["toolpath"], profile, params.sim_options(), self._kin(params, profile),
+            res = simulate_compensated(inputs["toolpath"], profile, params.sim_options(), self._kin(ctx, params, profile),
                                        progress=progress)
         else:
-            res = simulate_program(moves, profile, params.sim_options(), self._kin(params, profile), progress=progress)
+            res = simulate_program(moves, profile, params.sim_options(), self._kin(ctx, params, profile), progress=progress)
             res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
                                         "deposit_ratio_cv": deposit_ratio_cv(res)})
         for msg, layer, section in res.warnings:

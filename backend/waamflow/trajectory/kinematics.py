@@ -4,7 +4,8 @@ The arm is built from a URDF shipped in `waamflow/data/robots/` (or a user's). T
 `tool0` flange frame shifted by `tcp_offset_mm` along its own axes (tool z = torch axis, pointing
 from the torch towards the part). Cell frames (all mm / degrees):
 
-    world point = work_xyz + p_toolpath                  (work frame: where the part sits)
+    world point = work_xyz + R_work p_toolpath           (work frame: where the part sits; R_work
+                                                          from a cell's positioner angles, else I)
     robot base  = translation base_xyz, rotation base_yaw_deg about world z
 
 IK: damped least squares on a 5-D task in the TCP frame (LOCAL Jacobian rows): position (3)
@@ -83,6 +84,7 @@ class CellFrames:
     base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
     base_yaw_deg: float = 0.0
     work_xyz_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    work_rot: tuple[tuple[float, float, float], ...] | None = None   # work frame rotation in world (3x3), None = identity
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,6 +131,9 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
     axes = np.asarray(tool_axis, float)
     ax = axes[seg] if len(axes) == len(points) else np.tile([0.0, 0.0, -1.0], (len(s), 1))
     Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
+    if frames.work_rot is not None:                            # part turned by a positioner
+        Rw = np.asarray(frames.work_rot, float)
+        xyz, ax = xyz @ Rw.T, ax @ Rw.T
     p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
     z_base = ax @ Rb                                           # torch axes in the base frame
     z_base /= np.linalg.norm(z_base, axis=1, keepdims=True)

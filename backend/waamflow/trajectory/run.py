@@ -33,6 +33,8 @@ class KinematicsOptions:
     tcp_offset_mm: tuple[float, float, float] | None = None
     frames: CellFrames = CellFrames()
     step_mm: float = 5.0
+    cell: object | None = None           # trajectory.cell.Cell: when set, frames come from it and the policy
+    positioner_policy: str = "fixed"
 
 
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
@@ -46,7 +48,22 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             progress(0.02, "inverse kinematics")
         desc = kin.description or profile.description
         arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text)
-        ks = solve_path(arm, moves.points, moves.tool_axis, kin.frames, step_mm=kin.step_mm,
+        points, axes, frames = moves.points, moves.tool_axis, kin.frames
+        if kin.cell is not None:       # the part on the positioner: every point in world at its own angles
+            from .cell import positioner_angles, to_world
+
+            ang = positioner_angles(kin.cell, moves, kin.positioner_policy)
+            points, axes = to_world(kin.cell, moves.points, moves.tool_axis, ang)
+            base = kin.cell.robot_base
+            frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
+            pos_metrics = ({"positioner_e1_min_deg": float(ang[:, 0].min()),
+                                "positioner_e1_max_deg": float(ang[:, 0].max()),
+                                "positioner_e2_min_deg": float(ang[:, 1].min()),
+                                "positioner_e2_max_deg": float(ang[:, 1].max()),
+                                "positioner_max_step_deg": float(np.abs(np.diff(ang, axis=0)).max(initial=0.0))})
+        else:
+            pos_metrics = {}
+        ks = solve_path(arm, points, axes, frames, step_mm=kin.step_mm,
                         progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
         speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
         if opt.speed_override is not None:
@@ -77,6 +94,7 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         }
         for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed"):
             kin_metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
+        kin_metrics.update(pos_metrics)
     res = simulate(moves, profile, opt,
                    progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
     est = estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed) if profile.time_model else None

@@ -108,6 +108,8 @@ METRIC_UNITS = {
     "time_inside_s": "s", "time_outside_s": "s", "arc_off_time_inside_s": "s",
     "arc_on_time_outside_s": "s", "actual_length_outside_mm": "mm", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
     "min_corner_speed_mm_s": "mm/s",
+    "positioner_e1_min_deg": "deg", "positioner_e1_max_deg": "deg", "positioner_e2_min_deg": "deg",
+    "positioner_e2_max_deg": "deg", "positioner_max_step_deg": "deg",
 }
 
 

@@ -1,7 +1,9 @@
 """The arm along the simulated trace, for playback: joint origins in world mm at sampled times.
 
-The shipped URDFs carry kinematics only (no link meshes), so the arm is drawn as a stick figure
-through its joint origins. Inverse kinematics reuses `waamflow.trajectory.kinematics` (Pinocchio,
+The shipped URDFs carry kinematics only (no link meshes), so the arm is drawn with primitive link
+geometry: a cylinder between consecutive joint origins, thick at the base and thinner towards
+the wrist, and a slim torch from the flange to the TCP (`link_mesh`), plus the stick figure
+through the joint origins. Inverse kinematics reuses `waamflow.trajectory.kinematics` (Pinocchio,
 continuous damped least squares seeded from the previous sample), solved at up to `max_samples`
 trace samples evenly spread in time — display only; the simulation's own figures are untouched.
 Cell set-up (robot, TCP offset, base and work frames) comes from the simulate node's params,
@@ -36,10 +38,53 @@ class RobotMotion:
         f = min((t - self.t[i]) / (self.t[i + 1] - self.t[i]), 1.0)
         return self.joints[i] * (1 - f) + self.joints[i + 1] * f
 
+    def body(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Link geometry at time t: (vertices, faces) of `link_mesh`."""
+        return link_mesh(self.at(t))
+
     def segments(self, t: float) -> np.ndarray:
         """(m - 1, 2, 3) float32 links of the stick figure at time t."""
         p = self.at(t).astype(np.float32)
         return np.stack([p[:-1], p[1:]], axis=1)
+
+
+# Link radii, mm, for the primitive arm: an industrial arm of ~2.7 m reach is ~250 mm thick at the
+# base and ~100 mm at the wrist; the torch neck is ~30 mm. Display only.
+LINK_RADIUS_MM = (130.0, 110.0, 90.0, 70.0, 55.0, 45.0, 40.0, 35.0)
+TORCH_RADIUS_MM = 15.0
+SIDES = 12
+
+
+def _cylinder_faces(n_links: int, sides: int = SIDES) -> np.ndarray:
+    """(n_links * 2 * sides, 3) uint32 triangles of `n_links` open tubes with end caps left out."""
+    k = np.arange(sides)
+    a, b = k, (k + 1) % sides
+    one = np.concatenate([np.stack([a, b, a + sides], 1), np.stack([b, b + sides, a + sides], 1)])
+    return np.concatenate([one + 2 * sides * i for i in range(n_links)]).astype(np.uint32)
+
+
+def link_mesh(points: np.ndarray, sides: int = SIDES) -> tuple[np.ndarray, np.ndarray]:
+    """Tubes along the chain `points` (m, 3) mm: (vertices (2·sides·(m−1), 3) float32, faces).
+    The last link (flange → TCP) is the torch. The vertex count depends only on m, so playback
+    moves the same mesh by replacing its vertices. A zero-length link collapses to a ring."""
+    pts = np.asarray(points, float)
+    n = len(pts) - 1
+    ang = 2 * np.pi * np.arange(sides) / sides
+    verts = np.empty((n, 2, sides, 3))
+    for i in range(n):
+        p0, p1 = pts[i], pts[i + 1]
+        axis = p1 - p0
+        length = np.linalg.norm(axis)
+        w = axis / length if length > 1e-9 else np.array([0.0, 0.0, 1.0])
+        ref = np.array([1.0, 0.0, 0.0]) if abs(w[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(w, ref)
+        u /= np.linalg.norm(u)
+        v = np.cross(w, u)
+        r = TORCH_RADIUS_MM if i == n - 1 else LINK_RADIUS_MM[min(i, len(LINK_RADIUS_MM) - 1)]
+        ring = r * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
+        verts[i, 0] = p0 + ring
+        verts[i, 1] = p1 + ring
+    return verts.reshape(-1, 3).astype(np.float32), _cylinder_faces(n, sides)
 
 
 def cell_setup(params: dict[str, Any], profile: dict[str, Any]) -> dict[str, Any]:

@@ -6,6 +6,7 @@ typing: `trace` dict, `programmed` (n, 3), optional `corners`, `section_keys`, `
     /graph/<node>/simulation/L0007/corners       blended corners (by corner error), pickable
     /graph/<node>/simulation/torch               playback marker at the slider's time
     /graph/<node>/simulation/robot/links         the arm (stick figure) at the slider's time
+    /graph/<node>/simulation/robot/body          the arm's link geometry (tubes, torch) at that time
 """
 
 from __future__ import annotations
@@ -170,7 +171,7 @@ class SimulationPart(Part):
                                            point_size=max(size, 0.2), point_shape="diamond")
 
     def _add_robot(self, value, view) -> None:
-        """The arm as a stick figure at the playback time, if its URDF loads (see `robot`)."""
+        """The arm (link geometry + stick figure) at the playback time, if its URDF loads (see `robot`)."""
         from .robot import cell_setup, robot_motion
 
         for h in self.robot_handles.values():
@@ -188,6 +189,10 @@ class SimulationPart(Part):
         segs = self.robot.segments(view.time_s)
         self.robot_handles["links"] = self.scene.add_line_segments(
             f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen",
+            visible=view.show_robot)
+        verts, faces = self.robot.body(view.time_s)
+        self.robot_handles["body"] = self.scene.add_mesh_simple(
+            f"{self.root}/robot/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.85, side="double",
             visible=view.show_robot)
 
     def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
@@ -228,6 +233,7 @@ class SimulationPart(Part):
         self.torch.position = (float(pos[0]), float(pos[1]), float(pos[2]) + self.offset)
         if self.robot is not None and self.robot_handles:
             self.robot_handles["links"].points = self.robot.segments(t)
+            self.robot_handles["body"].vertices = self.robot.body(t)[0]
         return self.sample_info(i)
 
     def sample_info(self, i: int) -> dict[str, Any]:

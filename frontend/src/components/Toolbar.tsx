@@ -15,6 +15,8 @@ export interface ToolbarProps {
   problemCount: number;
   errorCount: number;
   onProblems: () => void;
+  /** Frame the selected nodes (a node group that moves them together). */
+  onFrame: () => void;
   onOpen: (name: string) => void;
   onNew: () => void;
   /** Save under `name` (default: the current graph); resolves to whether it was saved. */
@@ -72,6 +74,9 @@ export function Toolbar(p: ToolbarProps) {
       </button>
       <button onClick={p.onRedo} disabled={!p.canRedo} title="redo (Ctrl+Y)" aria-label="redo" data-testid="redo">
         ↷
+      </button>
+      <button onClick={p.onFrame} data-testid="add-frame" title="put a frame around the selected nodes (a group that moves them together)">
+        ⬚ frame
       </button>
       <span className="sep" />
       <button

@@ -1,12 +1,13 @@
 import {
-  Background, Controls, Handle, MiniMap, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
+  Background, Controls, Handle, MiniMap, NodeResizer, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
   type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
 } from "@xyflow/react";
-import { createContext, memo, useCallback, useContext, useEffect, useMemo, useState, type DragEvent, type MouseEvent } from "react";
+import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
 import { badgeText, type NodeStatus } from "../run/status";
 import {
-  connect, connectionError, edgeId, endpoint, positionsOf, removeEdges, removeNodes, setPositions, type Catalog, type XY,
+  connect, connectionError, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
+  updateFrame, type Catalog, type Frame, type XY,
 } from "./recipe";
 
 export interface WNodeData extends Record<string, unknown> {
@@ -18,6 +19,34 @@ export interface WNodeData extends Record<string, unknown> {
   problems?: { errors: number; warnings: number; text: string };
 }
 type WNode = Node<WNodeData, "waam">;
+interface FrameData extends Record<string, unknown> {
+  frame: Frame;
+  onRename: (id: string) => void;
+  onResized: (id: string, box: { x: number; y: number; w: number; h: number }) => void;
+}
+type FNode = Node<FrameData, "frame">;
+type AnyNode = WNode | FNode;
+/** Frame ids live beside node ids in the editor; a node id never contains ':'. */
+const FRAME = "frame:";
+const isFrame = (id: string) => id.startsWith(FRAME);
+
+/** A frame (node group): drag its title to move it with the nodes inside; resize from its edges. */
+const FrameNode = memo(function FrameNode({ data, selected }: NodeProps<FNode>) {
+  const f = data.frame;
+  return (
+    <div className={`wframe ${selected ? "selected" : ""}`} data-frame-id={f.id}>
+      <NodeResizer
+        isVisible={selected}
+        minWidth={160}
+        minHeight={100}
+        onResizeEnd={(_, b) => data.onResized(f.id, { x: Math.round(b.x), y: Math.round(b.y), w: Math.round(b.width), h: Math.round(b.height) })}
+      />
+      <div className="wframe-head" onDoubleClick={() => data.onRename(f.id)} title="drag to move the frame with its nodes; double-click to rename">
+        {f.label}
+      </div>
+    </div>
+  );
+});
 
 /** One node: title, id, status badge, typed ports (handles keyed by port name, coloured by type). */
 const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
@@ -78,7 +107,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
   );
 });
 
-const nodeTypes = { waam: WaamNode };
+const nodeTypes = { waam: WaamNode, frame: FrameNode };
 
 /** Why the wire being dragged cannot end at the handle under the pointer (null when it can). */
 const ReasonContext = createContext<(c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => string | null>(() => null);
@@ -134,14 +163,40 @@ export interface GraphEditorProps {
 export function GraphEditor(p: GraphEditorProps) {
   const { recipe, catalog } = p;
   const rf = useReactFlow();
-  const [nodes, setNodes] = useState<WNode[]>([]);
+  const [nodes, setNodes] = useState<AnyNode[]>([]);
+
+  const onRenameFrame = useCallback(
+    (id: string) => {
+      const f = framesOf(p.recipe).find((x) => x.id === id);
+      const label = f && window.prompt("frame title", f.label);
+      if (label) p.onChange((r) => updateFrame(r, id, { label }));
+    },
+    [p],
+  );
+  const onResizedFrame = useCallback(
+    (id: string, box: { x: number; y: number; w: number; h: number }) => p.onChange((r) => updateFrame(r, id, box)),
+    [p],
+  );
 
   // Rebuild editor nodes from the recipe, keeping what the editor measured.
   useEffect(() => {
     const pos = positionsOf(recipe);
     setNodes((prev) => {
       const old = new Map(prev.map((n) => [n.id, n]));
-      return recipe.nodes.map((n) => {
+      // Frames first (drawn below the nodes).
+      const frames: FNode[] = framesOf(recipe).map((f) => ({
+        ...((old.get(FRAME + f.id) as FNode | undefined) ?? {}),
+        id: FRAME + f.id,
+        type: "frame",
+        position: { x: f.x, y: f.y },
+        style: { width: f.w, height: f.h },
+        width: f.w,
+        height: f.h,
+        zIndex: -1,
+        dragHandle: ".wframe-head",
+        data: { frame: f, onRename: onRenameFrame, onResized: onResizedFrame },
+      }));
+      return [...frames, ...recipe.nodes.map((n) => {
         const o = old.get(n.id);
         const [x, y] = pos[n.id];
         return {
@@ -154,9 +209,9 @@ export function GraphEditor(p: GraphEditorProps) {
             node: n, spec: catalog.get(n.type), status: p.statuses[n.id], previewed: p.previewNode === n.id, onPreview: p.onPreview, problems: p.problems.get(n.id),
           },
         } as WNode;
-      });
+      })];
     });
-  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview, p.problems]);
+  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview, p.problems, onRenameFrame, onResizedFrame]);
 
   const edges: Edge[] = useMemo(
     () =>
@@ -173,38 +228,67 @@ export function GraphEditor(p: GraphEditorProps) {
     [recipe, catalog, p.statuses],
   );
 
+  // One deletion (Delete key) reports its edges and its nodes in separate callbacks, one after the
+  // other in the same task: gather them and apply one edit (one undo step).
+  const pendingDelete = useRef<{ nodes: Set<string>; edges: Set<string> } | null>(null);
+  const queueDelete = useCallback(
+    (nodeIds: string[], edgeIds: string[]) => {
+      if (!pendingDelete.current) {
+        pendingDelete.current = { nodes: new Set(), edges: new Set() };
+        queueMicrotask(() => {
+          const d = pendingDelete.current!;
+          pendingDelete.current = null;
+          const nodeSet = new Set([...d.nodes].filter((id) => !isFrame(id)));
+          const frameSet = new Set([...d.nodes].filter(isFrame).map((id) => id.slice(FRAME.length)));
+          p.onChange((r) => removeFrames(nodeSet.size ? removeNodes(removeEdges(r, d.edges), nodeSet) : removeEdges(r, d.edges), frameSet));
+        });
+      }
+      nodeIds.forEach((id) => pendingDelete.current!.nodes.add(id));
+      edgeIds.forEach((id) => pendingDelete.current!.edges.add(id));
+    },
+    [p],
+  );
   const onNodesChange = useCallback(
-    (changes: NodeChange<WNode>[]) => {
-      setNodes((ns) => applyNodeChanges(changes, ns));
+    (changes: NodeChange<AnyNode>[]) => {
+      // A frame being dragged carries the nodes inside it along (live; committed on drop).
+      const extra: NodeChange<AnyNode>[] = [];
+      const frameMoves: [string, XY][] = [];
+      for (const c of changes) {
+        if (c.type !== "position" || !c.position || !isFrame(c.id)) continue;
+        const f = framesOf(recipe).find((x) => FRAME + x.id === c.id);
+        if (!f) continue;
+        const [dx, dy] = [c.position.x - f.x, c.position.y - f.y];
+        const pos = positionsOf(recipe);
+        for (const n of nodesInFrame(recipe, f)) extra.push({ type: "position", id: n, position: { x: pos[n][0] + dx, y: pos[n][1] + dy } });
+        if (c.dragging === false) frameMoves.push([f.id, [Math.round(c.position.x), Math.round(c.position.y)]]);
+      }
+      setNodes((ns) => applyNodeChanges([...changes, ...extra], ns));
       const moved: Record<string, XY> = {};
       let selectionChanged = false;
       const sel = new Set(p.selected);
       for (const c of changes) {
-        if (c.type === "position" && c.position && c.dragging === false) moved[c.id] = [Math.round(c.position.x), Math.round(c.position.y)];
-        if (c.type === "select") {
+        if (c.type === "position" && c.position && c.dragging === false && !isFrame(c.id)) moved[c.id] = [Math.round(c.position.x), Math.round(c.position.y)];
+        if (c.type === "select" && !isFrame(c.id)) {
           selectionChanged = true;
           if (c.selected) sel.add(c.id);
           else sel.delete(c.id);
         }
       }
-      // Deletions come through onDelete (nodes and their edges together: one undo step).
+      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
+      if (removed.length) queueDelete(removed, []);
       if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
+      for (const [id, to] of frameMoves) p.onChange((r) => moveFrame(r, id, to));
       if (selectionChanged) p.onSelect(sel);
     },
-    [p, recipe],
+    [p, recipe, queueDelete],
   );
 
-  // Edge removals too come through onDelete; the editor keeps no edge state of its own.
-  const onEdgesChange = useCallback((_: EdgeChange[]) => undefined, []);
-
-  /** One deletion (Delete key): the nodes and every edge going with them, as one edit. */
-  const onDelete = useCallback(
-    ({ nodes: ns, edges: es }: { nodes: WNode[]; edges: Edge[] }) => {
-      const nodeIds = new Set(ns.map((n) => n.id));
-      const edgeIds = new Set(es.map((e) => e.id));
-      if (nodeIds.size || edgeIds.size) p.onChange((r) => removeNodes(removeEdges(r, edgeIds), nodeIds));
+  const onEdgesChange = useCallback(
+    (changes: EdgeChange[]) => {
+      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
+      if (removed.length) queueDelete([], removed);
     },
-    [p],
+    [queueDelete],
   );
 
   const reasonOf = useCallback(
@@ -250,17 +334,17 @@ export function GraphEditor(p: GraphEditorProps) {
   return (
     <ReasonContext.Provider value={reasonOf}>
     <div className="graph-editor" onDragOver={(e) => e.preventDefault()} onDrop={onDrop} onDoubleClick={onDoubleClick} data-testid="graph-editor">
-      <ReactFlow<WNode, Edge>
+      <ReactFlow<AnyNode, Edge>
         nodes={nodes}
         edges={edges}
         nodeTypes={nodeTypes}
         onNodesChange={onNodesChange}
         onEdgesChange={onEdgesChange}
-        onDelete={onDelete}
         onConnect={onConnect}
         isValidConnection={valid}
         connectionLineComponent={WireLine}
         zoomOnDoubleClick={false}
+        elevateNodesOnSelect={false}
         deleteKeyCode={p.active ? ["Delete", "Backspace"] : null}
         selectionKeyCode={p.active ? "Shift" : null}
         multiSelectionKeyCode={p.active ? ["Control", "Meta"] : null}

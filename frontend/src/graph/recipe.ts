@@ -352,3 +352,70 @@ export function changeSignature(a: Recipe, b: Recipe): string {
   for (const k of ["name", "description", "inputs", "ui"] as const) if (a[k] !== b[k]) parts.push(k);
   return parts.join("|");
 }
+
+// ---- frames (node groups) ----------------------------------------------------------------------------
+
+/** A frame around a group of nodes, saved in the recipe's `ui.frames`; moving it moves its nodes. */
+export interface Frame {
+  id: string;
+  label: string;
+  x: number;
+  y: number;
+  w: number;
+  h: number;
+}
+
+export const framesOf = (r: Recipe): Frame[] => (Array.isArray(r.ui?.frames) ? (r.ui!.frames as Frame[]) : []);
+
+const withFrames = (r: Recipe, frames: Frame[]): Recipe => ({ ...r, ui: { ...(r.ui ?? {}), frames } });
+
+/** Nodes whose box lies inside the frame (by their top-left corner and nominal size). */
+export function nodesInFrame(r: Recipe, f: Frame): string[] {
+  const pos = positionsOf(r);
+  return r.nodes
+    .filter((n) => {
+      const [x, y] = pos[n.id];
+      return x >= f.x && y >= f.y && x + NODE_BOX[0] / 2 <= f.x + f.w && y + NODE_BOX[1] / 2 <= f.y + f.h;
+    })
+    .map((n) => n.id);
+}
+
+/** A new frame around `ids` (padding for the title), or at `at` when no node is given. */
+export function addFrame(r: Recipe, ids: ReadonlySet<string>, label: string, at: XY = [0, 0]): { recipe: Recipe; id: string } {
+  const pos = positionsOf(r);
+  const ps = [...ids].filter((i) => pos[i]).map((i) => pos[i]);
+  const pad = 30;
+  const box = ps.length
+    ? { x: Math.min(...ps.map((p) => p[0])) - pad, y: Math.min(...ps.map((p) => p[1])) - pad - 20, w: 0, h: 0 }
+    : { x: at[0], y: at[1], w: 420, h: 260 };
+  if (ps.length) {
+    box.w = Math.max(...ps.map((p) => p[0])) + NODE_BOX[0] + pad - box.x;
+    box.h = Math.max(...ps.map((p) => p[1])) + NODE_BOX[1] + pad - box.y;
+  }
+  const taken = new Set(framesOf(r).map((f) => f.id));
+  let k = 1;
+  while (taken.has(`f${k}`)) k++;
+  const id = `f${k}`;
+  return { id, recipe: withFrames(r, [...framesOf(r), { id, label, ...box }]) };
+}
+
+/** Move a frame to `to`; the nodes inside it (where it was) move by the same amount. */
+export function moveFrame(r: Recipe, id: string, to: XY): Recipe {
+  const f = framesOf(r).find((x) => x.id === id);
+  if (!f) return r;
+  const [dx, dy] = [to[0] - f.x, to[1] - f.y];
+  if (!dx && !dy) return r;
+  const pos = positionsOf(r);
+  const moved = Object.fromEntries(nodesInFrame(r, f).map((n) => [n, [pos[n][0] + dx, pos[n][1] + dy] as XY]));
+  return withFrames(setPositions(r, moved), framesOf(r).map((x) => (x.id === id ? { ...x, x: to[0], y: to[1] } : x)));
+}
+
+export function updateFrame(r: Recipe, id: string, patch: Partial<Omit<Frame, "id">>): Recipe {
+  return withFrames(r, framesOf(r).map((x) => (x.id === id ? { ...x, ...patch } : x)));
+}
+
+export function removeFrames(r: Recipe, ids: ReadonlySet<string>): Recipe {
+  const frames = framesOf(r);
+  const kept = frames.filter((f) => !ids.has(f.id));
+  return kept.length === frames.length ? r : withFrames(r, kept);
+}

@@ -1,0 +1,103 @@
+"""Cell description files: shipped cells, frames from positioner angles, simulate-robot's `cell`."""
+
+import json
+
+import numpy as np
+import pytest
+
+from waamflow.core.errors import InputFileError
+from waamflow.trajectory.cell import Cell, load_cell, shipped_cells
+from waamflow.trajectory.kinematics import CellFrames, load_arm, solve_path
+
+from .test_nodes import run
+
+KR = load_cell("kr150_tilt_rotate")
+
+
+def test_shipped_cell_at_home_matches_the_arm_only_setup():
+    assert "kr150_tilt_rotate" in shipped_cells()
+    f = KR.frames()
+    assert f.base_xyz_mm == (-1500.0, 0.0, -600.0)
+    assert f.work_xyz_mm == pytest.approx((0.0, 0.0, 0.0), abs=1e-9)
+    assert np.asarray(f.work_rot) == pytest.approx(np.eye(3), abs=1e-12)
+
+
+def test_positioner_angles_turn_and_move_the_work_frame():
+    """E1 tilt 90° about x at 0.8 m above the positioner base, table top 0.1 m above the axis:
+    the part's z becomes world −y and its origin moves to (0, −100, −100) mm."""
+    f = KR.frames([90.0, 0.0])
+    R = np.asarray(f.work_rot)
+    assert R @ [0, 0, 1] == pytest.approx([0, -1, 0], abs=1e-9)
+    assert f.work_xyz_mm == pytest.approx((0.0, -100.0, -100.0), abs=1e-6)
+    R2 = np.asarray(KR.frames([0.0, 90.0]).work_rot)        # E2 turns the table about z
+    assert R2 @ [1, 0, 0] == pytest.approx([0, 1, 0], abs=1e-9)
+    with pytest.raises(InputFileError, match="outside the axis limits"):
+        KR.frames([170.0, 0.0])
+
+
+def test_ik_in_a_tilted_frame_reaches_the_turned_points():
+    """A 100 mm line on the table solved with the part tilted by 30°: IK residual < 0.01 mm and the
+    same result as the equivalent points given directly in the world frame."""
+    pts = np.array([[0.0, -50.0, 20.0], [0.0, 50.0, 20.0]])
+    axis = np.tile([0.0, 0.0, -1.0], (2, 1))
+    arm = load_arm(KR.robot_urdf, KR.tool.tcp_mm)
+    f = KR.frames([30.0, 0.0])
+    a = solve_path(arm, pts, axis, f, step_mm=10.0)
+    R, t = np.asarray(f.work_rot), np.asarray(f.work_xyz_mm)
+    b = solve_path(arm, pts @ R.T + t, axis @ R.T, CellFrames(base_xyz_mm=f.base_xyz_mm), step_mm=10.0)
+    assert a.reach_err.max() < 0.01
+    assert a.q == pytest.approx(b.q, abs=1e-9)
+
+
+def test_bad_cells_name_the_field():
+    with pytest.raises(InputFileError, match="not found"):
+        load_cell("no_such_cell")
+    data = json.loads(KR.model_dump_json())
+    data["tool"]["tcp_mm"] = [0, 0]
+    with pytest.raises(InputFileError, match="tool.tcp_mm"):
+        load_cell("mine.json", text=json.dumps(data))
+    data = json.loads(KR.model_dump_json())
+    data["positioner"]["urdf"] = "nope.urdf"
+    with pytest.raises(InputFileError, match="positioner description"):
+        Cell.model_validate(data).frames()
+
+
+def test_simulate_robot_with_a_cell_file(tmp_path):
+    data = json.loads(KR.model_dump_json())
+    data["positioner"]["fixed_deg"] = [0.0, 45.0]
+    (tmp_path / "mycell.json").write_text(json.dumps(data))
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "mycell.json"}}],
+            [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
+    sim = json.loads(r.artifacts["sim.simulation.json"])
+    assert sim["ik_max_position_error_mm"] < 0.01 and sim["unreachable_stretches"] == 0
+    data["robot_base"]["xyz_mm"] = [-4000.0, 0.0, -600.0]              # out of reach: warns as before
+    (tmp_path / "far.json").write_text(json.dumps(data))
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json"}}],
+            [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
+    assert json.loads(r.artifacts["sim.simulation.json"])["unreachable_stretches"] >= 1
+
+
+def test_gravity_policy_turns_each_layer_flat():
+    """Two layers with torch axes tilted 40° towards −x and 70° towards +y (in the part frame):
+    after the gravity angles every axis points straight down in the world; the positioner only
+    moves on the travel between the layers."""
+    from types import SimpleNamespace
+
+    from waamflow.trajectory.cell import positioner_angles, to_world
+
+    def axis(tilt, az):      # torch → part: −(layer normal tilted by `tilt` towards azimuth `az`)
+        t, a = np.radians(tilt), np.radians(az)
+        return -np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), np.cos(t)])
+
+    pts = np.array([[0, 0, 0], [10, 0, 0], [20, 0, 0], [20, 10, 5], [30, 10, 5], [40, 10, 5]], float)
+    axes = np.array([axis(40, 180)] * 3 + [axis(70, 90)] * 3)
+    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.array([0, 0, 1, 1, 1]),
+                         arc=np.array([True, True, False, True, True]))
+    ang = positioner_angles(KR, mv, "gravity")
+    assert ang[:3, 0] == pytest.approx(40.0) and ang[3:, 0] == pytest.approx(70.0)
+    assert np.abs(np.diff(ang[:3], axis=0)).max() == 0 and np.abs(np.diff(ang[3:], axis=0)).max() == 0
+    _, w = to_world(KR, pts, axes, ang)
+    assert w == pytest.approx(np.tile([0, 0, -1.0], (6, 1)), abs=1e-9)
+    assert positioner_angles(KR, mv, "fixed") == pytest.approx(np.zeros((6, 2)))
+    with pytest.raises(InputFileError, match="positioner policy"):
+        positioner_angles(KR, mv, "wobble")
