@@ -195,7 +195,8 @@ def mesh_from_triangles(
     open edges, the vertices on open edges closer than the tolerance are merged too
     (`weld_open_edges`), closing cracks and seam gaps left by exporters that write each
     triangle's corners with slightly different rounding; a closed mesh is left untouched.
-    stats (optional dict) receives "welded": the number of vertices merged that way. Faces that
+    stats (optional dict) receives "welded": the number of vertices merged that way, and
+    "edges": the final `EdgeReport`. Faces that
     collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
     normals point outwards. source: how error messages name the input (default: name).
     """
@@ -218,6 +219,8 @@ def mesh_from_triangles(
         rep = edge_report(faces, len(verts))
     if stats is not None:
         stats["welded"] = welded
+        if rep is not None:
+            stats["edges"] = rep
     if require_closed and not rep.closed:
         check_closed(faces, len(verts), name=label)             # raises, saying what is open
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))

@@ -120,7 +120,7 @@ class MeshNode(Node):
                 ctx.warn(f"{params.path}: welded {weld['welded']} vertices on open edges within weld_tolerance "
                          f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
         if params.as_ != "solid" and not is_cad_file(params.path):
-            rep = edge_report(mesh.faces, len(mesh.vertices))
+            rep = weld.get("edges") or edge_report(mesh.faces, len(mesh.vertices))
             surface = params.as_ == "surface" or not rep.closed
             if surface and params.as_ == "auto":
                 ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges): "
