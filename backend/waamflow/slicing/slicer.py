@@ -70,7 +70,7 @@ def slice_mesh(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None =
     )
 
 
-def surface_curves(mesh: MeshData, height: float, digits: int = 9) -> tuple[LineString, ...]:
+def surface_curves(mesh: "MeshData | trimesh.Trimesh", height: float, digits: int = 9) -> tuple[LineString, ...]:
     """Curves of an open single-wall surface cut by the plane z = height: the section segments
     (trimesh.intersections.mesh_plane) joined end to end (shapely linemerge on coordinates rounded
     to `digits` decimals, so a point computed from both faces of an edge is one point), collinear
@@ -78,7 +78,7 @@ def surface_curves(mesh: MeshData, height: float, digits: int = 9) -> tuple[Line
     import shapely.ops
     import trimesh
 
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    tm = mesh if isinstance(mesh, trimesh.Trimesh) else trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     seg = trimesh.intersections.mesh_plane(tm, plane_normal=[0.0, 0.0, 1.0], plane_origin=[0.0, 0.0, height])
     if len(seg) == 0:
         return ()
@@ -95,8 +95,11 @@ def surface_curves(mesh: MeshData, height: float, digits: int = 9) -> tuple[Line
 def slice_surface(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None) -> tuple[Layer, ...]:
     """Layers of an open single-wall surface: each layer's `curves` are the mid-layer section
     (open or closed polylines, as a sketch gives), its region empty."""
+    import trimesh
+
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)     # built once for every plane
     return tuple(
-        Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=surface_curves(mesh, float(cut)),
+        Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=surface_curves(tm, float(cut)),
               frame=_layer_frame(rot, float(z)))
         for i, (z, t, cut) in enumerate(zip(schedule.tops, schedule.thickness, schedule.cuts))
     )
