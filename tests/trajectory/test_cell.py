@@ -101,3 +101,36 @@ def test_gravity_policy_turns_each_layer_flat():
     assert positioner_angles(KR, mv, "fixed") == pytest.approx(np.zeros((6, 2)))
     with pytest.raises(InputFileError, match="positioner policy"):
         positioner_angles(KR, mv, "wobble")
+
+
+def test_abb_cell_builds_the_duct_with_the_gravity_policy():
+    """The ABB IRB 4600-class cell (numbers from ABB's product specification, cited in the cell and
+    URDF): curved-duct is fully reachable with `gravity`, not with the positioner held at 0°."""
+    from pathlib import Path
+
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+
+    def run_recipe(mutate):
+        recipe = json.loads((graphs / "curved-duct.json").read_text())
+        mutate(recipe)
+        return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+
+    abb = load_cell("irb4600_tilt_rotate")
+    assert "3HAC032885" in abb.source and abb.robot_home_deg == [0.0, 0.0, 0.0, 0.0, 90.0, 0.0]
+
+    def on_abb(policy):
+        def mutate(recipe):
+            recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
+            recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("post.")]
+            sim = next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]
+            sim.update({"cell": "irb4600_tilt_rotate", "positioner_policy": policy})
+        return json.loads(run_recipe(mutate).artifacts["sim.simulation.json"])
+
+    good = on_abb("gravity")
+    assert good["unreachable_stretches"] == 0 and good["joint_limit_stretches"] == 0
+    assert good["near_singular_stretches"] == 0 and good["ik_max_position_error_mm"] < 0.01
+    assert good["positioner_e1_max_deg"] == pytest.approx(89.32, abs=0.01)
+    assert on_abb("fixed")["unreachable_stretches"] >= 1

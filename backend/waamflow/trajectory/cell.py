@@ -72,6 +72,9 @@ class Cell(_Strict):
     source: str = Field("", description="Where the kinematic numbers come from (datasheet, URDF)")
     robot_urdf: str = Field(..., min_length=1, max_length=128, description="Arm URDF in data/robots")
     robot_base: Placement = Placement(xyz_mm=(-1500.0, 0.0, -600.0))
+    robot_home_deg: list[float] | None = Field(None, min_length=6, max_length=6,
+                                               description="IK seed pose of the arm (deg; empty = 0 −90 90 0 90 0, "
+                                                           "the KUKA upright pose with the wrist down)")
     tool: Tool = Tool()
     positioner: Positioner | None = None
     work_frame: Placement = Field(Placement(), description="Part origin on the positioner flange (or in the world)")

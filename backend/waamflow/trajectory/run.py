@@ -47,7 +47,9 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         if progress:
             progress(0.02, "inverse kinematics")
         desc = kin.description or profile.description
-        arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text)
+        home = getattr(kin.cell, "robot_home_deg", None) if kin.cell is not None else None
+        arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
+                       home_deg=home)
         points, axes, frames = moves.points, moves.tool_axis, kin.frames
         if kin.cell is not None:       # the part on the positioner: every point in world at its own angles
             from .cell import positioner_angles, to_world
