@@ -134,3 +134,38 @@ def test_abb_cell_builds_the_duct_with_the_gravity_policy():
     assert good["near_singular_stretches"] == 0 and good["ik_max_position_error_mm"] < 0.01
     assert good["positioner_e1_max_deg"] == pytest.approx(89.32, abs=0.01)
     assert on_abb("fixed")["unreachable_stretches"] >= 1
+
+
+def test_collisions_duct_clear_and_a_sunk_part_collides():
+    """coal checks along the solved path: curved-duct on the KUKA cell (gravity) has none; the same
+    part with its work frame sunk 30 mm into the positioner table collides, and the report names
+    the layer, the section and the bodies (torch vs table)."""
+    from pathlib import Path
+
+    from waamflow.core.moves import flatten
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+    from waamflow.trajectory.profile import load_profile
+    from waamflow.trajectory.run import KinematicsOptions, simulate_program, simulation_json
+    from waamflow.trajectory.simulate import SimOptions
+
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+    recipe = json.loads((graphs / "curved-duct.json").read_text())
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+    sim = json.loads(res.artifacts["sim.simulation.json"])
+    assert sim["collision_count"] == 0 and sim["collisions"] == []
+    assert sim["collision_samples_checked"] > 58                  # at least one per layer
+    mv = flatten(res.outputs["bead"]["toolpath"])
+    data = json.loads(KR.model_dump_json())
+    data["work_frame"]["xyz_mm"] = [0.0, 0.0, -30.0]
+    sunk = Cell.model_validate(data)
+    prof = load_profile("kuka_kr100ha_krc2")
+    r = simulate_program(mv, prof, SimOptions(), KinematicsOptions(
+        description=sunk.robot_urdf, tcp_offset_mm=tuple(sunk.tool.tcp_mm), cell=sunk, positioner_policy="gravity"))
+    out = simulation_json(r, SimOptions())
+    assert out["collision_count"] > 0
+    first = out["collisions"][0]
+    assert first["layer"] == 0 and first["section"] == mv.section_keys[0]
+    assert first["bodies"][0].startswith("torch:") and first["bodies"][1] == "positioner:table"
+    assert any("collision torch:" in w["message"] and w["layer"] == 0 for w in out["warnings"])
