@@ -149,6 +149,7 @@ def test_duct_on_the_positioner_cell_is_reachable(duct):
     sim = json.loads(duct.artifacts["sim.simulation.json"])
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["collision_count"] == 0
     assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
     assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
     assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
@@ -199,6 +200,25 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
+    if sweep <= 90:
+        assert sim["collision_count"] == 0 and sim["collision_samples_checked"] >= layers
+        return
+    # past 90° the table turns over the part: the torch neck meets the 300 mm table disc only on
+    # layers tilted beyond 90° — a real cell lifts such a part on a riser (work frame +150 mm)
+    assert sim["collision_count"] > 0
+    assert all(c["bodies"] == ["torch:torch_neck", "positioner:table"] and (c["layer"] + 1) * dtheta > 90
+               for c in sim["collisions"])
+    from waamflow.trajectory.cell import load_cell
+    cell = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
+    cell["work_frame"]["xyz_mm"] = [0.0, 0.0, 150.0]
+    (tmp_path / "riser.json").write_text(json.dumps(cell))
+    next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]["cell"] = "riser.json"
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
+    recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("post.")]
+    sim = json.loads(execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+                     .artifacts["sim.simulation.json"])
+    assert sim["collision_count"] == 0 and sim["unreachable_stretches"] == 0
+    assert sim["joint_limit_stretches"] == 0 and sim["near_singular_stretches"] == 0
 
 
 def test_duct_rapid_robtargets_carry_extax():
