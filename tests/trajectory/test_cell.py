@@ -169,3 +169,28 @@ def test_collisions_duct_clear_and_a_sunk_part_collides():
     assert first["layer"] == 0 and first["section"] == mv.section_keys[0]
     assert first["bodies"][0].startswith("torch:") and first["bodies"][1] == "positioner:table"
     assert any("collision torch:" in w["message"] and w["layer"] == 0 for w in out["warnings"])
+
+
+def test_min_motion_holds_the_positioner_while_the_torch_may_lean():
+    """Layers whose normals lean 20°, 50°, 70° towards −x: with a 30° tolerance the first layer is
+    welded at home (20° lean), the second turns to its gravity angles (50°), the third keeps them
+    (20° lean again); `gravity` moves on every layer."""
+    from types import SimpleNamespace
+
+    from waamflow.trajectory.cell import positioner_angles
+
+    def axis(tilt):
+        t = np.radians(tilt)
+        return -np.array([-np.sin(t), 0.0, np.cos(t)])
+
+    pts = np.array([[i * 10.0, 0, 0] for i in range(9)])
+    axes = np.array([axis(20)] * 3 + [axis(50)] * 3 + [axis(70)] * 3)
+    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.repeat([0, 1, 2], [3, 3, 2]),
+                         arc=np.array([True, True, False, True, True, False, True, True]))
+    mm = positioner_angles(KR, mv, "min-motion", 30.0)
+    assert mm[:3] == pytest.approx(np.zeros((3, 2)))
+    assert mm[3:, 0] == pytest.approx(50.0) and mm[6:, 0] == pytest.approx(50.0)
+    g = positioner_angles(KR, mv, "gravity")
+    assert g[6:, 0] == pytest.approx(70.0) and g[:3, 0] == pytest.approx(20.0)
+    wide = positioner_angles(KR, mv, "min-motion", 60.0)                  # 20°, 50° tolerated; 70° not
+    assert wide[:6] == pytest.approx(np.zeros((6, 2))) and wide[6:, 0] == pytest.approx(70.0)

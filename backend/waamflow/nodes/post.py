@@ -88,8 +88,9 @@ class PostProcess(Node):
         cell: str = Field("", max_length=64,
                           description="KRL/RAPID: shipped robot cell (data/cells) whose positioner angles go into every "
                                       "target as external axes E1/E2 (extax eax_a/eax_b); empty = no external axes")
-        positioner_policy: Literal["fixed", "gravity"] = Field(
-            "gravity", description="With a cell: positioner angles per point, as in simulate-robot")
+        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
+            "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
+                                   "(min-motion with its default 30° lean)")
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
 

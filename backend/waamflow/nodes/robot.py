@@ -95,7 +95,10 @@ class SimulateRobot(Node):
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below")
-        positioner_policy: Literal["fixed", "gravity"] = Field(
+        max_tilt_deg: float = Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
+                                    description="positioner_policy min-motion: torch lean from vertical tolerated "
+                                                "before the positioner turns the next layer")
+        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
                                  "each layer so its torch axis points straight down (flat-position welding)")
         collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
@@ -130,6 +133,7 @@ class SimulateRobot(Node):
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
                                      frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
                                      positioner_policy=params.positioner_policy, collisions=params.collisions,
+                                     max_tilt_deg=params.max_tilt_deg,
                                      collision_step_mm=params.collision_step_mm)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm

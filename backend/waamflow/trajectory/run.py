@@ -35,6 +35,7 @@ class KinematicsOptions:
     step_mm: float = 5.0
     cell: object | None = None           # trajectory.cell.Cell: when set, frames come from it and the policy
     positioner_policy: str = "fixed"
+    max_tilt_deg: float = 30.0           # min-motion: torch lean from vertical tolerated before the positioner moves
     collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
     collision_step_mm: float = 20.0      # programmed path between two checked samples
 
@@ -57,7 +58,7 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         if kin.cell is not None:       # the part on the positioner: every point in world at its own angles
             from .cell import positioner_angles, to_world
 
-            ang = positioner_angles(kin.cell, moves, kin.positioner_policy)
+            ang = positioner_angles(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
             points, axes = to_world(kin.cell, moves.points, moves.tool_axis, ang)
             base = kin.cell.robot_base
             frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
