@@ -87,10 +87,14 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
     colliding samples, the first MAX_REPORTED collisions, samples checked)."""
     model, data = arm.model, arm.model.createData()
     tool0 = model.getFrameId("tool0")
-    tool_shapes = [(f"torch:{sh.name}", _shape(sh), np.asarray(sh.xyz_mm, float)) for sh in cell.tool.shapes]
+    tool_shapes = [(f"torch:{sh.name}", _shape(sh), np.asarray(sh.xyz_mm, float), _bound_radius(sh))
+                   for sh in cell.tool.shapes]
     fixtures = [(f"fixture:{sh.name}", _shape(sh), _tf(np.eye(3), sh.xyz_mm)) for sh in cell.fixtures]
     table = coal.Cylinder(TABLE_RADIUS_MM / 1000.0, TABLE_THICKNESS_MM / 1000.0)
     layers = layer_boxes(moves)
+    lay_ids = np.array(sorted(layers), dtype=int)
+    lay_c = np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3)
+    lay_r = np.array([layers[L][3] for L in lay_ids])
     req = coal.CollisionRequest()
     count, found, checked = 0, [], 0
     last_s, last_layer = -np.inf, None
@@ -115,9 +119,9 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
                 continue
             movers.append((f"arm:link_{j + 1}", coal.Capsule(radii[min(j, len(radii) - 1)] / 1000.0, L / 1000.0), tf,
                            j >= len(joints) - 3, 0.5 * (joints[j] + joints[j + 1]), 0.5 * L + radii[min(j, len(radii) - 1)]))
-        for name, g, off in tool_shapes:
+        for name, g, off, rad in tool_shapes:
             c = Rf @ off + tf0
-            movers.append((name, g, _tf(Rf, c), True, c, 400.0))
+            movers.append((name, g, _tf(Rf, c), True, c, rad))
         Rw, tw, Rt, tt = work_frames(i)
         statics = list(fixtures)
         statics.append(("positioner:table", table, _tf(Rt, tt + Rt @ [0.0, 0.0, -0.5 * TABLE_THICKNESS_MM])))
@@ -131,13 +135,12 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
                 break
             if not near_part:
                 continue
-            for L, (box, Rb, cb, rb) in layers.items():
-                if L >= layer:
-                    continue
-                cw = Rw @ cb + tw
-                if np.linalg.norm(cw - centre) > rb + rad:
-                    continue
-                hit = _collide(g, tf, box, _tf(Rw @ Rb, cw), req, name, f"part:layer_{L}")
+            cw = lay_c @ Rw.T + tw
+            near = np.flatnonzero((lay_ids < layer) & (np.linalg.norm(cw - centre, axis=1) <= lay_r + rad))
+            for k in near:
+                L = int(lay_ids[k])
+                box, Rb = layers[L][0], layers[L][1]
+                hit = _collide(g, tf, box, _tf(Rw @ Rb, cw[k]), req, name, f"part:layer_{L}")
                 if hit:
                     break
             if hit:
@@ -149,6 +152,13 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
                 found.append(Collision(layer, moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None,
                                        hit[0], hit[1], float(s[i])))
     return count, found, checked
+
+
+def _bound_radius(sh) -> float:
+    """Radius (mm) of a sphere about the shape's centre that holds it."""
+    if sh.kind == "box":
+        return 0.5 * float(np.linalg.norm(sh.size_mm))
+    return float(np.hypot(sh.size_mm[0], 0.5 * sh.size_mm[2]))
 
 
 def _collide(g1, t1, g2, t2, req, n1, n2):
