@@ -2,6 +2,7 @@
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -238,3 +239,41 @@ def test_duct_rapid_robtargets_carry_extax():
     assert all(row[2:] == ["9E9"] * 4 for row in e)
     e1 = sorted({round(float(row[0]), 2) for row in e})
     assert len(e1) == 58 and e1[0] == pytest.approx(1.54) and e1[-1] == pytest.approx(89.32)
+
+
+def _krl_structure(src: str, dat: str) -> dict[str, list[float]]:
+    """A structural KRL checker: DEF name( ) … END in the .src, DEFDAT name … ENDDAT in the .dat,
+    every DECL E6POS with exactly X Y Z A B C E1..E6 numeric fields, every LIN/PTP target declared
+    once. Returns the E6POS fields by name."""
+    num = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
+    body = [ln.split(";")[0].strip() for ln in src.splitlines()]
+    body = [ln for ln in body if ln and not ln.startswith("&")]
+    head = re.fullmatch(r"DEF (\w+)\( \)", body[0])
+    assert head and body[-1] == "END" and sum(ln.startswith("DEF ") for ln in body) == 1
+    name = head.group(1)
+    dlines = [ln.split(";")[0].strip() for ln in dat.splitlines()]
+    dlines = [ln for ln in dlines if ln and not ln.startswith("&")]
+    assert re.fullmatch(rf"DEFDAT {name}(?: PUBLIC)?", dlines[0]) and dlines[-1] == "ENDDAT"
+    fields = ["X", "Y", "Z", "A", "B", "C", "E1", "E2", "E3", "E4", "E5", "E6"]
+    decl = {}
+    for ln in dlines[1:-1]:
+        if not ln.startswith("DECL E6POS"):
+            continue
+        m = re.fullmatch(r"DECL E6POS (\w+)=\{(.*)\}", ln)
+        assert m, ln
+        pairs = [p.strip().split(" ") for p in m.group(2).split(",")]
+        assert [p[0] for p in pairs] == fields and all(re.fullmatch(num, p[1]) for p in pairs), ln
+        assert m.group(1) not in decl
+        decl[m.group(1)] = [float(p[1]) for p in pairs]
+    targets = [re.match(r"(?:LIN|PTP) (\w+)", ln).group(1) for ln in body if re.match(r"(?:LIN|PTP) P\d+", ln)]
+    assert targets and set(targets) <= set(decl)
+    return {f: [v[i] for v in decl.values()] for i, f in enumerate(fields)}
+
+
+def test_duct_krl_is_structurally_valid_with_moving_external_axes(duct):
+    src, dat = (duct.artifacts[k] for k in ("post.src", "post.dat"))
+    src, dat = (x.decode() if isinstance(x, bytes) else x for x in (src, dat))
+    e = _krl_structure(src, dat)
+    assert len(e["X"]) == 6438
+    assert len(set(np.round(e["E1"], 2))) == 58 and max(e["E1"]) - min(e["E1"]) > 85    # E1 moves
+    assert len(set(np.round(e["E2"], 2))) == 1
