@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from ..core.errors import InputFileError
 from .profile import ROBOTS_DIR
@@ -54,6 +53,7 @@ class Arm:
 
 def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None) -> Arm:
     """Build the arm from a shipped URDF name (file in data/robots) or URDF text."""
+    import pinocchio as pin  # lazy: keeps start-up light
     if urdf_text is None:
         path = ROBOTS_DIR / description
         if not path.exists():
@@ -125,6 +125,7 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
                progress=None) -> KinematicsResult:
     """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
     progress: optional callable(fraction 0..1) called every 2000 samples."""
+    import pinocchio as pin  # lazy: keeps start-up light
     model = arm.model
     data = model.createData()
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
