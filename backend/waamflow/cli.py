@@ -104,6 +104,14 @@ def cmd_nodes(args) -> int:
     return 0
 
 
+def cmd_profiles(args) -> int:
+    from .program.profiles import load_profiles
+
+    json.dump({"waamflow": __version__, "profiles": list(load_profiles().values())}, sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
 def cmd_serve(args) -> int:
     import uvicorn
 
@@ -189,6 +197,9 @@ def build_parser() -> argparse.ArgumentParser:
     n = sub.add_parser("nodes", help="print the node catalog as JSON")
     n.add_argument("--type", help="only this node type")
     n.set_defaults(func=cmd_nodes)
+
+    pr = sub.add_parser("profiles", help="print the machine profiles (post-process 'profile' presets) as JSON")
+    pr.set_defaults(func=cmd_profiles)
 
     s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
     s.add_argument("--host", default="127.0.0.1")
