@@ -1,0 +1,65 @@
+"""Layers on a Dask cluster (engine/parallel.py DaskPool): same artifacts as a serial run, executor
+info in the summary, a clear error for a scheduler that is not there."""
+
+from pathlib import Path
+
+import pytest
+
+from waamflow.core.errors import RecipeError
+from waamflow.engine import parallel
+from waamflow.engine.cache import MemoryCache
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import load_recipe
+
+distributed = pytest.importorskip("distributed")
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        yield c
+
+
+@pytest.fixture()
+def always_parallel(monkeypatch):
+    monkeypatch.setattr(parallel, "DASK_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
+
+
+def _run(name: str, cache=None, **kw):
+    path = GRAPHS / f"{name}.json"
+    graph = build_graph(load_recipe(path))
+    return execute(graph, resolver=FileResolver(path.parent), cache=cache, **kw)
+
+
+@pytest.mark.parametrize("name", ["mpp-cross", "mpp-slotted-wall"])
+def test_dask_artifacts_equal_a_serial_run(name, cluster, always_parallel):
+    serial = _run(name, workers=1)
+    dask = _run(name, scheduler=cluster.scheduler_address)
+    assert dask.executor == {"kind": "dask", "address": cluster.scheduler_address, "workers": 2,
+                             "tasks": dask.executor["tasks"]}
+    # every layer node after the timed first layer: 7 layers in ≤ 2·4 chunks each (mask, guide, strategy, zone)
+    assert dask.executor["tasks"] >= 4 * 2
+    assert sorted(dask.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert dask.artifacts[k] == serial.artifacts[k], k
+    assert dask.warnings == serial.warnings
+    assert dask.summary("x")["executor"]["kind"] == "dask"
+
+
+def test_dask_fills_the_cache_layer_by_layer(cluster, always_parallel):
+    cache = MemoryCache()
+    first = _run("mpp-cross", cache, scheduler=cluster.scheduler_address)
+    assert first.stats["strategy"].layers_computed == 8 and first.executor["tasks"] > 0
+    again = _run("mpp-cross", cache, scheduler=cluster.scheduler_address)
+    assert again.stats["strategy"].layers_cached == 8 and again.executor["tasks"] == 0
+    assert again.artifacts == first.artifacts
+
+
+def test_unreachable_scheduler_is_a_clear_error(monkeypatch):
+    monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
+    with pytest.raises(RecipeError, match="cannot reach the Dask scheduler at 'tcp://127.0.0.1:8209'"):
+        _run("mpp-cross", scheduler="tcp://127.0.0.1:8209")
