@@ -63,3 +63,26 @@ def test_unreachable_scheduler_is_a_clear_error(monkeypatch):
     monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
     with pytest.raises(RecipeError, match="cannot reach the Dask scheduler at 'tcp://127.0.0.1:8209'"):
         _run("mpp-cross", scheduler="tcp://127.0.0.1:8209")
+
+
+def test_cli_run_with_scheduler(cluster, always_parallel, tmp_path, monkeypatch, capsys):
+    import json
+
+    from waamflow.cli import main
+
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "out"
+    assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(out), "--scheduler",
+                 cluster.scheduler_address]) == 0
+    ex = json.loads((out / "summary.json").read_text())["executor"]
+    assert ex["kind"] == "dask" and ex["address"] == cluster.scheduler_address and ex["workers"] == 2
+    assert ex["tasks"] > 0
+    # the server's setting comes from the same environment variable
+    from waamflow.settings import Settings
+
+    monkeypatch.setenv("WAAMFLOW_SCHEDULER", "tcp://127.0.0.1:8208")
+    assert Settings().scheduler == "tcp://127.0.0.1:8208"
+    # and an unreachable one from the CLI is exit 2 with the address in the message
+    monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
+    assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(tmp_path / "o2"), "--no-cache"]) == 2
+    assert "cannot reach the Dask scheduler at 'tcp://127.0.0.1:8208'" in capsys.readouterr().err

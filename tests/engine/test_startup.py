@@ -4,7 +4,7 @@ import json
 import subprocess
 import sys
 
-HEAVY = ("pinocchio", "trimesh", "scipy", "viser", "fastapi", "uvicorn", "ruckig", "ezdxf", "OCP")
+HEAVY = ("pinocchio", "trimesh", "scipy", "viser", "fastapi", "uvicorn", "ruckig", "ezdxf", "OCP", "distributed")
 
 
 def test_cli_and_catalog_do_not_import_heavy_libraries():

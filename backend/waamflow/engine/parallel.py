@@ -194,8 +194,9 @@ class DaskPool:
 
             try:
                 self._client = Client(self.address, timeout=DASK_CONNECT_S, set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise RecipeError(f"cannot reach the Dask scheduler at {self.address!r}: {exc}") from None
+            except Exception as exc:  # refused, timed out, or something else answering on that port
+                raise RecipeError(f"cannot reach the Dask scheduler at {self.address!r}: "
+                                  f"{type(exc).__name__}: {exc}"[:500]) from None
         return self._client
 
     @property
