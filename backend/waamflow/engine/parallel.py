@@ -68,14 +68,6 @@ class _WorkerContext(Context):
     def exists(self, path: str) -> bool:
         return self._resolver.exists(path)
 
-    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
-        w = {"node": self.node_id, "message": message}
-        layer = self.layer if layer is None else layer
-        if layer is not None:
-            w["layer"] = int(layer)
-        if section is not None:
-            w["section"] = section
-        self.warnings.append(w)
 
     def progress(self, fraction: float, message: str = "") -> None:
         pass
