@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from ..core.errors import InputFileError
 from .profile import ROBOTS_DIR
@@ -56,6 +55,7 @@ def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str |
              home_deg=None) -> Arm:
     """Build the arm from a shipped URDF name (file in data/robots) or URDF text. home_deg: the IK
     seed pose (default: KUKA-style upright with the wrist down, 0 −90 90 0 90 0)."""
+    import pinocchio as pin  # lazy: keeps start-up light
     if urdf_text is None:
         path = ROBOTS_DIR / description
         if not path.exists():
@@ -131,6 +131,7 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
                progress=None) -> KinematicsResult:
     """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
     progress: optional callable(fraction 0..1) called every 2000 samples."""
+    import pinocchio as pin  # lazy: keeps start-up light
     model = arm.model
     data = model.createData()
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
