@@ -194,3 +194,12 @@ def test_min_motion_holds_the_positioner_while_the_torch_may_lean():
     assert g[6:, 0] == pytest.approx(70.0) and g[:3, 0] == pytest.approx(20.0)
     wide = positioner_angles(KR, mv, "min-motion", 60.0)                  # 20°, 50° tolerated; 70° not
     assert wide[:6] == pytest.approx(np.zeros((6, 2))) and wide[6:, 0] == pytest.approx(70.0)
+
+
+def test_the_catalog_shows_the_cell_schema():
+    from waamflow.engine.node import REGISTRY
+
+    schema = REGISTRY["simulate-robot"].Params.model_json_schema()
+    cs = schema["properties"]["cell"]["x-cell-schema"]
+    assert {"robot_urdf", "robot_base", "tool", "positioner", "work_frame", "fixtures"} <= set(cs["properties"])
+    assert "$ref" not in json.dumps(cs)

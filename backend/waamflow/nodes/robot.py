@@ -14,7 +14,7 @@ from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
 from ..trajectory.estimate import estimate_moves, estimate_result
-from ..trajectory.cell import load_cell
+from ..trajectory.cell import cell_schema, load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
@@ -91,7 +91,7 @@ class SimulateRobot(Node):
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
-        cell: str = Field("", max_length=256,
+        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema()},
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below")

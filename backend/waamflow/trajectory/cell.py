@@ -135,6 +135,23 @@ def _positioner_model(urdf: str):
         raise InputFileError(f"positioner description {urdf}: {e}") from e
 
 
+def cell_schema() -> dict:
+    """The cell file's JSON Schema with every $ref inlined (embedded in simulate-robot's params
+    schema as `x-cell-schema`, where root-relative references would not resolve)."""
+    raw = Cell.model_json_schema()
+    defs = raw.pop("$defs", {})
+
+    def inline(node):
+        if isinstance(node, dict):
+            if "$ref" in node:
+                return inline(defs[node["$ref"].rsplit("/", 1)[-1]])
+            return {k: inline(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [inline(v) for v in node]
+        return node
+    return inline(raw)
+
+
 def shipped_cells() -> list[str]:
     return sorted(p.stem for p in CELLS_DIR.glob("*.json"))
 
