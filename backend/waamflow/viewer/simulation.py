@@ -192,7 +192,7 @@ class SimulationPart(Part):
             visible=view.show_robot)
         verts, faces = self.robot.body(view.time_s)
         self.robot_handles["body"] = self.scene.add_mesh_simple(
-            f"{self.root}/robot/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.85, side="double",
+            f"{self.root}/robot/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.45, side="double",
             visible=view.show_robot)
 
     def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
