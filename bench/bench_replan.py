@@ -7,6 +7,7 @@ Entries (contract `out/bench/results.json`):
   what the GUI preview does). Median of `REPEATS` edits, ms. Target ≤ 100 ms (issue 3).
   peer = the same edit re-planned for the whole part (every layer of that section recomputed,
   every other node/layer from cache); ratio = one layer / whole part.
+- `dask_overhead`: the same cold plan on a Dask LocalCluster (2 workers) / on the local pool.
 - `plan_full_part_s`: cold plan of the same pipeline for `N_FULL` (≥ 500) layers, no cache, s.
   peer = the same run again with a warm cache (everything reused); ratio = warm / cold.
 
@@ -199,8 +200,35 @@ def run() -> list[dict]:
                          f"{t_par:.2f} s ({par.executor['tasks']} tasks, fork-server start included); artifacts "
                          f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target >= 1.6"})
             assert same, "parallel artifacts differ from the serial run"
+            results.append(_dask_overhead(g, resolver, par, t_par))
     return results
 
+
+
+def _dask_overhead(g, resolver, par, t_par: float) -> dict:
+    """The same cold plan on a Dask LocalCluster (2 worker processes, 1 thread each) vs the local
+    pool. The cluster is started and its workers have imported the kernels before the clock runs,
+    as a lab's long-lived cluster has; connecting the client is timed."""
+    import importlib
+
+    from distributed import Client, LocalCluster
+
+    from waamflow.engine.cache import MemoryCache
+    from waamflow.engine.executor import execute
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as c:
+            c.run(importlib.import_module, "waamflow.nodes")
+        t0 = time.perf_counter()
+        res = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, scheduler=cluster.scheduler_address)
+        t_dask = time.perf_counter() - t0
+    same = res.artifacts == par.artifacts
+    assert same, "Dask artifacts differ from the local parallel run"
+    return {"name": "dask_overhead", "value": round(t_dask / t_par, 3), "unit": "x", "peer": round(t_par, 3),
+            "ratio": round(t_dask / t_par, 4),
+            "notes": f"cold full plan of the {N_FULL}-layer cross on a Dask LocalCluster (2 worker processes) "
+                     f"{t_dask:.2f} s ({res.executor['tasks']} tasks) / local parallel {t_par:.2f} s; programs "
+                     f"{'identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target <= 1.3"}
 
 if __name__ == "__main__":
     import json

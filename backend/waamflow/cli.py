@@ -80,8 +80,9 @@ def cmd_run(args) -> int:
     bar = ProgressBar(sys.stderr, args.verbose)
     if args.workers is not None and args.workers < 1:
         raise RecipeError(f"--workers must be at least 1 (got {args.workers})")
+    scheduler = args.scheduler or os.environ.get("WAAMFLOW_SCHEDULER") or None
     result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), cache=cache, on_event=bar,
-                     workers=args.workers)
+                     workers=args.workers, scheduler=scheduler)
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
     write_run_dir(out, result.artifacts, summary)
@@ -104,6 +105,14 @@ def cmd_nodes(args) -> int:
     return 0
 
 
+def cmd_profiles(args) -> int:
+    from .program.profiles import load_profiles
+
+    json.dump({"waamflow": __version__, "profiles": list(load_profiles().values())}, sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
 def cmd_serve(args) -> int:
     import uvicorn
 
@@ -113,6 +122,8 @@ def cmd_serve(args) -> int:
     from .api.auth import load_tokens
 
     extra = {"token_file": Path(args.token_file)} if args.token_file else {}
+    if args.scheduler:
+        extra["scheduler"] = args.scheduler
     settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
                         viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None,
                         layer_workers=args.layer_workers, **extra)
@@ -186,9 +197,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="processes for the layers of layer nodes (default: WAAMFLOW_LAYER_WORKERS, else every core; 1 = serial)")
     r.set_defaults(func=cmd_run)
 
+    r.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="send the layers to this Dask scheduler instead of local processes "
+                        "(default: WAAMFLOW_SCHEDULER; see README 'Dask cluster')")
     n = sub.add_parser("nodes", help="print the node catalog as JSON")
     n.add_argument("--type", help="only this node type")
     n.set_defaults(func=cmd_nodes)
+
+    pr = sub.add_parser("profiles", help="print the machine profiles (post-process 'profile' presets) as JSON")
+    pr.set_defaults(func=cmd_profiles)
 
     s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
     s.add_argument("--host", default="127.0.0.1")
@@ -198,6 +215,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
     s.add_argument("--layer-workers", type=int, default=None, metavar="N",
                    help="processes per run for the layers of layer nodes (default: every core; 1 = serial)")
+    s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="Dask scheduler for the layers of every run (default: WAAMFLOW_SCHEDULER)")
     s.add_argument("--token-file", default=None,
                    help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)

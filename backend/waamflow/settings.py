@@ -41,6 +41,8 @@ class Settings(BaseSettings):
     layer_workers: int | None = Field(None, ge=1, le=256,
                                       description="processes per run for the layers of layer nodes "
                                                   "(None: every core; 1: serial)")
+    scheduler: str | None = Field(None, description="Dask scheduler (tcp://HOST:PORT) the layers of runs go to "
+                                                    "instead of local processes (WAAMFLOW_SCHEDULER)")
     max_upload_mb: int = 200
     memory_cache_entries: int = 50_000
     disk_cache_gb: float = 2.0

@@ -384,6 +384,8 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
     const recipe = await api(srv.base, `/api/graphs/${g.name}`);
     await page.waitForSelector(`.react-flow__node[data-id="${recipe.nodes.at(-1).id}"]`);
     await expectRun(page, srv.base, "done");
+    // node statuses arrive on the event stream; the run's end may be seen first
+    await page.waitForFunction((n) => document.querySelectorAll(".react-flow__node .badge").length >= n, recipe.nodes.length, { timeout: 10_000 }).catch(() => undefined);
     const badges = await page.locator(".react-flow__node .badge").allInnerTexts();
     assert.equal(badges.length, recipe.nodes.length, `${g.name}: a badge per node`);
     assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);

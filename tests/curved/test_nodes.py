@@ -2,6 +2,7 @@
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -149,6 +150,7 @@ def test_duct_on_the_positioner_cell_is_reachable(duct):
     sim = json.loads(duct.artifacts["sim.simulation.json"])
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
+    assert sim["collision_count"] == 0
     assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
     assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
     assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
@@ -199,6 +201,25 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
+    if sweep <= 90:
+        assert sim["collision_count"] == 0 and sim["collision_samples_checked"] >= layers
+        return
+    # past 90° the table turns over the part: the torch neck meets the 300 mm table disc only on
+    # layers tilted beyond 90° — a real cell lifts such a part on a riser (work frame +150 mm)
+    assert sim["collision_count"] > 0
+    assert all(c["bodies"] == ["torch:torch_neck", "positioner:table"] and (c["layer"] + 1) * dtheta > 90
+               for c in sim["collisions"])
+    from waamflow.trajectory.cell import load_cell
+    cell = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
+    cell["work_frame"]["xyz_mm"] = [0.0, 0.0, 150.0]
+    (tmp_path / "riser.json").write_text(json.dumps(cell))
+    next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]["cell"] = "riser.json"
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
+    recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("post.")]
+    sim = json.loads(execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+                     .artifacts["sim.simulation.json"])
+    assert sim["collision_count"] == 0 and sim["unreachable_stretches"] == 0
+    assert sim["joint_limit_stretches"] == 0 and sim["near_singular_stretches"] == 0
 
 
 def test_duct_rapid_robtargets_carry_extax():
@@ -218,3 +239,41 @@ def test_duct_rapid_robtargets_carry_extax():
     assert all(row[2:] == ["9E9"] * 4 for row in e)
     e1 = sorted({round(float(row[0]), 2) for row in e})
     assert len(e1) == 58 and e1[0] == pytest.approx(1.54) and e1[-1] == pytest.approx(89.32)
+
+
+def _krl_structure(src: str, dat: str) -> dict[str, list[float]]:
+    """A structural KRL checker: DEF name( ) … END in the .src, DEFDAT name … ENDDAT in the .dat,
+    every DECL E6POS with exactly X Y Z A B C E1..E6 numeric fields, every LIN/PTP target declared
+    once. Returns the E6POS fields by name."""
+    num = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
+    body = [ln.split(";")[0].strip() for ln in src.splitlines()]
+    body = [ln for ln in body if ln and not ln.startswith("&")]
+    head = re.fullmatch(r"DEF (\w+)\( \)", body[0])
+    assert head and body[-1] == "END" and sum(ln.startswith("DEF ") for ln in body) == 1
+    name = head.group(1)
+    dlines = [ln.split(";")[0].strip() for ln in dat.splitlines()]
+    dlines = [ln for ln in dlines if ln and not ln.startswith("&")]
+    assert re.fullmatch(rf"DEFDAT {name}(?: PUBLIC)?", dlines[0]) and dlines[-1] == "ENDDAT"
+    fields = ["X", "Y", "Z", "A", "B", "C", "E1", "E2", "E3", "E4", "E5", "E6"]
+    decl = {}
+    for ln in dlines[1:-1]:
+        if not ln.startswith("DECL E6POS"):
+            continue
+        m = re.fullmatch(r"DECL E6POS (\w+)=\{(.*)\}", ln)
+        assert m, ln
+        pairs = [p.strip().split(" ") for p in m.group(2).split(",")]
+        assert [p[0] for p in pairs] == fields and all(re.fullmatch(num, p[1]) for p in pairs), ln
+        assert m.group(1) not in decl
+        decl[m.group(1)] = [float(p[1]) for p in pairs]
+    targets = [re.match(r"(?:LIN|PTP) (\w+)", ln).group(1) for ln in body if re.match(r"(?:LIN|PTP) P\d+", ln)]
+    assert targets and set(targets) <= set(decl)
+    return {f: [v[i] for v in decl.values()] for i, f in enumerate(fields)}
+
+
+def test_duct_krl_is_structurally_valid_with_moving_external_axes(duct):
+    src, dat = (duct.artifacts[k] for k in ("post.src", "post.dat"))
+    src, dat = (x.decode() if isinstance(x, bytes) else x for x in (src, dat))
+    e = _krl_structure(src, dat)
+    assert len(e["X"]) == 6438
+    assert len(set(np.round(e["E1"], 2))) == 58 and max(e["E1"]) - min(e["E1"]) > 85    # E1 moves
+    assert len(set(np.round(e["E2"], 2))) == 1

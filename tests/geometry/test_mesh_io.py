@@ -132,7 +132,7 @@ def test_weld_tolerance_closes_rounding_cracks():
     data = _export(noisy, "stl")
     with pytest.raises(InputFileError, match="open edges"):
         load_mesh_bytes(data, "noisy.stl")
-    # a 1e-3 mm grid: with vertices not near grid lines, all copies of a corner snap together
+    # vertices on open edges within 1e-3 mm merge: all copies of a corner become one
     m = load_mesh_bytes(data, "noisy.stl", weld_tolerance=1e-3)
     assert len(m.vertices) == 192 and len(m.faces) == 384
     assert signed_volume(m.vertices, m.faces) == pytest.approx(tm.volume, rel=1e-4)   # corners moved ≤ 0.9 µm

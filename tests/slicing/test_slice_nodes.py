@@ -59,9 +59,13 @@ def test_open_mesh_is_invalid_input(tmp_path):
     tm.update_faces(np.arange(2, len(tm.faces)))
     tm.export(tmp_path / "open.stl")
     with pytest.raises(InputFileError) as err:
-        _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "open.stl"}}))
+        _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "open.stl", "as": "solid"}}))
     assert err.value.exit_code == 2 and err.value.node == "part"
     assert "open edges" in str(err.value)
+    # 'as': 'auto' (default) reads an open mesh as a single-wall surface and says so
+    res = _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "open.stl"}}))
+    assert res.outputs["part"]["mesh"].surface
+    assert any("open" in w["message"] and "surface" in w["message"] for w in res.warnings)
 
 
 def test_sketch_slice_curves_on_each_layer(tmp_path):

@@ -101,3 +101,105 @@ def test_gravity_policy_turns_each_layer_flat():
     assert positioner_angles(KR, mv, "fixed") == pytest.approx(np.zeros((6, 2)))
     with pytest.raises(InputFileError, match="positioner policy"):
         positioner_angles(KR, mv, "wobble")
+
+
+def test_abb_cell_builds_the_duct_with_the_gravity_policy():
+    """The ABB IRB 4600-class cell (numbers from ABB's product specification, cited in the cell and
+    URDF): curved-duct is fully reachable with `gravity`, not with the positioner held at 0°."""
+    from pathlib import Path
+
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+
+    def run_recipe(mutate):
+        recipe = json.loads((graphs / "curved-duct.json").read_text())
+        mutate(recipe)
+        return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+
+    abb = load_cell("irb4600_tilt_rotate")
+    assert "3HAC032885" in abb.source and abb.robot_home_deg == [0.0, 0.0, 0.0, 0.0, 90.0, 0.0]
+
+    def on_abb(policy):
+        def mutate(recipe):
+            recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
+            recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("post.")]
+            sim = next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]
+            sim.update({"cell": "irb4600_tilt_rotate", "positioner_policy": policy})
+        return json.loads(run_recipe(mutate).artifacts["sim.simulation.json"])
+
+    good = on_abb("gravity")
+    assert good["unreachable_stretches"] == 0 and good["joint_limit_stretches"] == 0
+    assert good["near_singular_stretches"] == 0 and good["ik_max_position_error_mm"] < 0.01
+    assert good["positioner_e1_max_deg"] == pytest.approx(89.32, abs=0.01)
+    assert on_abb("fixed")["unreachable_stretches"] >= 1
+
+
+def test_collisions_duct_clear_and_a_sunk_part_collides():
+    """coal checks along the solved path: curved-duct on the KUKA cell (gravity) has none; the same
+    part with its work frame sunk 30 mm into the positioner table collides, and the report names
+    the layer, the section and the bodies (torch vs table)."""
+    from pathlib import Path
+
+    from waamflow.core.moves import flatten
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+    from waamflow.trajectory.profile import load_profile
+    from waamflow.trajectory.run import KinematicsOptions, simulate_program, simulation_json
+    from waamflow.trajectory.simulate import SimOptions
+
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+    recipe = json.loads((graphs / "curved-duct.json").read_text())
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+    sim = json.loads(res.artifacts["sim.simulation.json"])
+    assert sim["collision_count"] == 0 and sim["collisions"] == []
+    assert sim["collision_samples_checked"] > 58                  # at least one per layer
+    mv = flatten(res.outputs["bead"]["toolpath"])
+    data = json.loads(KR.model_dump_json())
+    data["work_frame"]["xyz_mm"] = [0.0, 0.0, -30.0]
+    sunk = Cell.model_validate(data)
+    prof = load_profile("kuka_kr100ha_krc2")
+    r = simulate_program(mv, prof, SimOptions(), KinematicsOptions(
+        description=sunk.robot_urdf, tcp_offset_mm=tuple(sunk.tool.tcp_mm), cell=sunk, positioner_policy="gravity"))
+    out = simulation_json(r, SimOptions())
+    assert out["collision_count"] > 0
+    first = out["collisions"][0]
+    assert first["layer"] == 0 and first["section"] == mv.section_keys[0]
+    assert first["bodies"][0].startswith("torch:") and first["bodies"][1] == "positioner:table"
+    assert any("collision torch:" in w["message"] and w["layer"] == 0 for w in out["warnings"])
+
+
+def test_min_motion_holds_the_positioner_while_the_torch_may_lean():
+    """Layers whose normals lean 20°, 50°, 70° towards −x: with a 30° tolerance the first layer is
+    welded at home (20° lean), the second turns to its gravity angles (50°), the third keeps them
+    (20° lean again); `gravity` moves on every layer."""
+    from types import SimpleNamespace
+
+    from waamflow.trajectory.cell import positioner_angles
+
+    def axis(tilt):
+        t = np.radians(tilt)
+        return -np.array([-np.sin(t), 0.0, np.cos(t)])
+
+    pts = np.array([[i * 10.0, 0, 0] for i in range(9)])
+    axes = np.array([axis(20)] * 3 + [axis(50)] * 3 + [axis(70)] * 3)
+    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.repeat([0, 1, 2], [3, 3, 2]),
+                         arc=np.array([True, True, False, True, True, False, True, True]))
+    mm = positioner_angles(KR, mv, "min-motion", 30.0)
+    assert mm[:3] == pytest.approx(np.zeros((3, 2)))
+    assert mm[3:, 0] == pytest.approx(50.0) and mm[6:, 0] == pytest.approx(50.0)
+    g = positioner_angles(KR, mv, "gravity")
+    assert g[6:, 0] == pytest.approx(70.0) and g[:3, 0] == pytest.approx(20.0)
+    wide = positioner_angles(KR, mv, "min-motion", 60.0)                  # 20°, 50° tolerated; 70° not
+    assert wide[:6] == pytest.approx(np.zeros((6, 2))) and wide[6:, 0] == pytest.approx(70.0)
+
+
+def test_the_catalog_shows_the_cell_schema():
+    from waamflow.engine.node import REGISTRY
+
+    schema = REGISTRY["simulate-robot"].Params.model_json_schema()
+    cs = schema["properties"]["cell"]["x-cell-schema"]
+    assert {"robot_urdf", "robot_base", "tool", "positioner", "work_frame", "fixtures"} <= set(cs["properties"])
+    assert "$ref" not in json.dumps(cs)

@@ -59,7 +59,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if settings.start_workers:
             svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
                                   svc.resolver_for, svc.after_run, Limits.from_settings(settings),
-                                  layer_workers=settings.layer_workers)
+                                  layer_workers=settings.layer_workers, scheduler=settings.scheduler)
         svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
         svc.auth_required = bool(tokens)
         app.state.services = svc

@@ -109,9 +109,11 @@ class RunManager:
     def __init__(self, store: Store, data_dir: Path, cache, workers: int,
                  resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
                  on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None,
-                 limits: Limits | None = None, layer_workers: int | None = None) -> None:
+                 limits: Limits | None = None, layer_workers: int | None = None,
+                 scheduler: str | None = None) -> None:
         self.limits = limits or Limits()
         self.layer_workers = layer_workers
+        self.scheduler = scheduler
         self.store = store
         self.runs_dir = data_dir / "runs"
         self.runs_dir.mkdir(parents=True, exist_ok=True)
@@ -171,7 +173,7 @@ class RunManager:
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
-                             workers=self.layer_workers)
+                             workers=self.layer_workers, scheduler=self.scheduler)
             self._check_result(result)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs

@@ -34,6 +34,7 @@ class MeshData:
     vertices: np.ndarray
     faces: np.ndarray
     name: str = "mesh"
+    surface: bool = False  # an open single-wall surface: sliced into per-layer curves, not regions
 
     @property
     def bounds(self) -> np.ndarray:

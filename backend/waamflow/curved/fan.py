@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-import trimesh
 from shapely.geometry import LineString, MultiPolygon, Polygon, box
 from shapely.ops import polygonize
 
@@ -146,6 +145,7 @@ def _rings_to_region(segments2d: np.ndarray) -> MultiPolygon:
 
 def section_half_plane(mesh: trimesh.Trimesh, axis: FanAxis, theta: float) -> MultiPolygon:
     """Cross-section of `mesh` by the half-plane at θ (rad), in half-plane coordinates (x = r, y)."""
+    import trimesh  # lazy: keeps start-up light
     normal = axis.tangential(theta)
     segs = trimesh.intersections.mesh_plane(mesh, normal, axis.point)
     if not len(segs):
@@ -191,6 +191,7 @@ def plan_fan(mesh: MeshData, axis: FanAxis, dtheta_deg: float, *, layer_count: i
 
 def fan_slice(mesh: MeshData, plan: FanPlan) -> tuple[Layer, ...]:
     """The fan layers of `mesh` (see module doc for the conventions)."""
+    import trimesh  # lazy: keeps start-up light
     tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     layers = []
     z = 0.0

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-import trimesh
 
 from ..core.model import Layer, MeshData
 from .fan import MAX_FAN_LAYERS, FanAxis, angular_range, make_axis, section_half_plane
@@ -119,6 +118,7 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
                   step: float, max_offset: float, max_sections: int) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
     """Sections and their layers (see module doc). Layer conventions as `fan.fan_slice`; `z` is the
     running sum of layer thicknesses (mm)."""
+    import trimesh  # lazy: keeps start-up light
     tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     axis0 = make_axis(point, direction, mesh.vertices)
     lo, _hi = angular_range(axis0, mesh.vertices, mesh.faces)

@@ -29,7 +29,7 @@ from .events import Event, EventSink
 from .graph import Graph, GraphNode
 from .node import Context, LayerNode
 from . import parallel
-from .parallel import LayerPool, default_workers
+from .parallel import DaskPool, LayerPool, make_pool
 
 MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
 
@@ -197,14 +197,6 @@ class RunContext(Context):
     def exists(self, path: str) -> bool:
         return self._run.resolver.exists(path)
 
-    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
-        w = {"node": self.node_id, "message": message}
-        layer = self.layer if layer is None else layer
-        if layer is not None:
-            w["layer"] = int(layer)
-        if section is not None:
-            w["section"] = section
-        self.warnings.append(w)
 
     def progress(self, fraction: float, message: str = "") -> None:
         self._run.node_progress(self.node_id, fraction, message)
@@ -279,7 +271,7 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
 class _Run:
     def __init__(self, graph: Graph, resolver: FileResolver, cache, on_event: EventSink | None,
                  cancel: threading.Event | None, layers: set[int] | None, active: list[str],
-                 write_artifacts: bool, pool: LayerPool | None = None) -> None:
+                 write_artifacts: bool, pool: LayerPool | DaskPool | None = None) -> None:
         self.graph = graph
         self.pool = pool
         self.resolver = resolver
@@ -505,7 +497,7 @@ class _Run:
             here(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
         pool = self.pool
-        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > parallel.MIN_PARALLEL_S:
+        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 
@@ -542,10 +534,12 @@ def execute(
     targets: Iterable[str] | None = None,
     artifacts: bool = True,
     workers: int | None = None,
+    scheduler: str | None = None,
 ) -> RunResult:
     """Run `graph`. Raises WaamflowError subclasses (with node/layer/section) on failure after
     emitting `node_error` and `run_failed`/`run_cancelled`. `workers`: processes for the layers of
-    layer nodes (None: `WAAMFLOW_LAYER_WORKERS`, else every core; 1: serial)."""
+    layer nodes (None: `WAAMFLOW_LAYER_WORKERS`, else every core; 1: serial). `scheduler`: a Dask
+    scheduler address (tcp://HOST:PORT) to send the layers to instead of local processes."""
     t0 = time.perf_counter()
     active = list(graph.order)
     if targets is not None:
@@ -557,7 +551,7 @@ def execute(
                 raise RecipeError(f"no node with id {t!r}", node=t)
             keep |= {t} | graph.ancestors(t)
         active = [n for n in active if n in keep]
-    pool = LayerPool(default_workers() if workers is None else max(1, int(workers)))
+    pool = make_pool(workers, scheduler)
     run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts,
                pool)
     try:
@@ -570,12 +564,13 @@ def execute(
                  section=err.section)
         raise
     finally:
+        info = pool.info()
         pool.close()
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
-                       {"kind": "local", "address": None, "workers": pool.workers, "tasks": pool.tasks},
+                       info,
                        run.trace())
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result

@@ -144,8 +144,18 @@ class Context:
     def exists(self, path: str) -> bool:  # pragma: no cover
         raise NotImplementedError
 
-    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:  # pragma: no cover
-        raise NotImplementedError
+    layer: int | None = None          # the layer being mapped, if any
+    warnings: list[dict]
+
+    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
+        """Record a warning of this node, located at `layer` (default: the layer being mapped)."""
+        w = {"node": self.node_id, "message": message}
+        layer = self.layer if layer is None else layer
+        if layer is not None:
+            w["layer"] = int(layer)
+        if section is not None:
+            w["section"] = section
+        self.warnings.append(w)
 
     def progress(self, fraction: float, message: str = "") -> None:  # pragma: no cover
         raise NotImplementedError

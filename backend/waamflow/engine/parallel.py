@@ -14,6 +14,10 @@ Whether to go parallel is decided by measurement, not by a guess: the first unca
 computed in the parent and timed, and the rest go to workers only when they are expected to take
 longer than `MIN_PARALLEL_S` (the cost of starting workers and shipping inputs). Results are the
 same objects either way, so artifacts are byte-identical to a serial run.
+
+`DaskPool` sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
+instead: its workers are already running, so the threshold to go parallel is lower. A node's
+whole inputs are scattered to the cluster once per node, not once per chunk.
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ MIN_PARALLEL_S = 3.0      # expected serial seconds of the remaining layers belo
                           # (starting the fork server imports the kernels: about 2 s here)
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4     # load balance vs. per-chunk overhead (inputs pickled once per chunk)
+DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
+DASK_CONNECT_S = 10.0     # seconds to reach the scheduler before the run fails
 
 
 def default_workers() -> int:
@@ -62,14 +68,6 @@ class _WorkerContext(Context):
     def exists(self, path: str) -> bool:
         return self._resolver.exists(path)
 
-    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
-        w = {"node": self.node_id, "message": message}
-        layer = self.layer if layer is None else layer
-        if layer is not None:
-            w["layer"] = int(layer)
-        if section is not None:
-            w["section"] = section
-        self.warnings.append(w)
 
     def progress(self, fraction: float, message: str = "") -> None:
         pass
@@ -103,9 +101,19 @@ class LayerPool:
     tasks: int = 0
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
 
+    kind = "local"
+    address = None
+
     @property
     def enabled(self) -> bool:
         return self.workers > 1
+
+    @property
+    def min_parallel_s(self) -> float:
+        return MIN_PARALLEL_S
+
+    def info(self) -> dict:
+        return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
@@ -118,9 +126,7 @@ class LayerPool:
                    on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
         """Compute `todo` [(index, items)] in workers; `on_done(index, outputs, warnings | error)`
         is called in the parent as chunks finish (any order: the caller orders what must be)."""
-        n_chunks = min(len(todo), self.workers * CHUNKS_PER_WORKER)
-        size = -(-len(todo) // n_chunks)
-        chunks = [todo[k:k + size] for k in range(0, len(todo), size)]
+        chunks = _chunks(todo, self.workers)
         pool = self._executor()
         pending: set[Future] = {pool.submit(_run_chunk, impl, node_id, params.model_dump(mode="json"), resolver, c) for c in chunks}
         self.tasks += len(pending)
@@ -140,3 +146,91 @@ class LayerPool:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+
+
+def _chunks(todo: list, workers: int) -> list[list]:
+    n_chunks = min(len(todo), max(1, workers) * CHUNKS_PER_WORKER)
+    size = -(-len(todo) // n_chunks)
+    return [todo[k:k + size] for k in range(0, len(todo), size)]
+
+
+def _run_chunk_shared(shared: tuple, chunk: list[tuple[int, dict]]):
+    """Dask worker side: `shared` = (impl, node_id, params JSON, resolver), scattered once per node."""
+    return _run_chunk(*shared, chunk)
+
+
+@dataclass
+class DaskPool:
+    """The layer chunks of a run sent to a Dask distributed scheduler (`distributed` is imported
+    only here, so users without a cluster never load it). Same `map_layers` as `LayerPool`; the
+    workers must run the same waamflow (docker/compose.yml: the app's image)."""
+
+    address: str
+    tasks: int = 0
+    _client: Any = field(default=None, repr=False)
+    kind = "dask"
+
+    @property
+    def enabled(self) -> bool:
+        return True
+
+    @property
+    def min_parallel_s(self) -> float:
+        return DASK_MIN_PARALLEL_S
+
+    def client(self):
+        if self._client is None:
+            from distributed import Client
+
+            from ..core.errors import RecipeError
+
+            try:
+                self._client = Client(self.address, timeout=DASK_CONNECT_S, set_as_default=False)
+            except Exception as exc:  # refused, timed out, or something else answering on that port
+                raise RecipeError(f"cannot reach the Dask scheduler at {self.address!r}: "
+                                  f"{type(exc).__name__}: {exc}"[:500]) from None
+        return self._client
+
+    @property
+    def workers(self) -> int:
+        """Workers the scheduler knows now (0 before the first use)."""
+        if self._client is None:
+            return 0
+        return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
+
+    def info(self) -> dict:
+        return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
+
+    def map_layers(self, impl: LayerNode, node_id: str, params: Any, resolver, todo: list[tuple[int, dict]],
+                   on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
+        from distributed import as_completed
+
+        client = self.client()
+        # one object (a list would be scattered item by item), on every worker once
+        shared = client.scatter([(impl, node_id, params.model_dump(mode="json"), resolver)], broadcast=True, hash=False)[0]
+        futures = [client.submit(_run_chunk_shared, shared, c, pure=False)
+                   for c in _chunks(todo, max(1, self.workers))]
+        self.tasks += len(futures)
+        try:
+            for fut in as_completed(futures, loop=client.loop):
+                for i, out, extra in fut.result():
+                    on_done(i, out, extra)
+                if cancelled():
+                    break
+        finally:
+            client.cancel([f for f in futures if not f.done()])
+            client.cancel(shared)
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+
+
+def make_pool(workers: int | None = None, scheduler: str | None = None) -> LayerPool | DaskPool:
+    """The run's pool: a Dask cluster when `scheduler` is given, else local processes."""
+    if scheduler:
+        pool = DaskPool(scheduler)
+        pool.client()  # a wrong address fails here, before any planning
+        return pool
+    return LayerPool(default_workers() if workers is None else max(1, int(workers)))

@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from scipy.spatial import cKDTree
 from shapely.geometry import LineString, Point, Polygon
 
 from ..core.tolerances import TOL
@@ -230,6 +229,7 @@ def self_crossings(line: LineString) -> list[tuple[float, float]]:
 
 def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
     """All end points and intersections, merged within `tol` (mm), with their incidences."""
+    from scipy.spatial import cKDTree  # lazy: keeps start-up light
     lines = [LineString(c) for c in curves]
     closed = [is_closed(c, tol) for c in curves]
     cand: list[tuple[float, float]] = []

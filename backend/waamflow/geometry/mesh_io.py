@@ -25,7 +25,7 @@ import numpy as np
 
 from ..core.errors import InputFileError
 from ..core.model import MeshData
-from .topology import check_closed, drop_degenerate, merge_vertices, signed_volume
+from .topology import check_closed, drop_degenerate, edge_report, merge_vertices, signed_volume
 from .transform import Transform, unit_scale
 from .units import threemf_units
 
@@ -143,6 +143,40 @@ def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = No
     return tri
 
 
+def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Merge vertices on open edges that lie within `tol` (vertex units) of each other.
+
+    Only boundary vertices are candidates (a crack or seam gap is where open edges are), so a
+    closed mesh costs one edge count and nothing else, and no interior detail is ever merged.
+    Clusters are the connected components of the within-tol pairs (scipy cKDTree + csgraph);
+    each takes the position of its lowest-index vertex. Returns (vertices, faces, number of
+    vertices merged away)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    uniq, counts = np.unique(e, axis=0, return_counts=True)
+    cand = np.unique(uniq[counts == 1])
+    if len(cand) < 2:
+        return verts, faces, 0
+    pairs = cKDTree(verts[cand]).query_pairs(tol, output_type="ndarray")
+    if len(pairs) == 0:
+        return verts, faces, 0
+    n = len(cand)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    ncomp, label = connected_components(graph, directed=False)
+    first = np.full(ncomp, -1, dtype=np.int64)
+    first[label[::-1]] = cand[::-1]                      # the lowest-index member of each cluster
+    remap = np.arange(len(verts))
+    remap[cand] = first[label]
+    keep = np.unique(remap)
+    new_index = np.full(len(verts), -1, dtype=np.int64)
+    new_index[keep] = np.arange(len(keep))
+    faces = drop_degenerate(new_index[remap][faces])
+    return verts[keep], faces, int(len(verts) - len(keep))
+
+
 def mesh_from_triangles(
     triangles: np.ndarray,
     *,
@@ -152,14 +186,17 @@ def mesh_from_triangles(
     require_closed: bool = True,
     source: str | None = None,
     weld_tolerance: float = 0.0,
+    stats: dict | None = None,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
     Welding happens on the raw file coordinates (bit-exact), before any scaling, so corners
-    that are equal in the file stay equal. weld_tolerance (mm) > 0 first snaps corners to a grid
-    of that pitch, closing cracks left by exporters that write each triangle's corners with
-    slightly different rounding (corners closer than the pitch usually — not always, they may
-    straddle a grid line — become one vertex; geometry moves by ≤ pitch·√3/2). Faces that
+    that are equal in the file stay equal. weld_tolerance (mm) > 0: when the exact weld leaves
+    open edges, the vertices on open edges closer than the tolerance are merged too
+    (`weld_open_edges`), closing cracks and seam gaps left by exporters that write each
+    triangle's corners with slightly different rounding; a closed mesh is left untouched.
+    stats (optional dict) receives "welded": the number of vertices merged that way, and
+    "edges": the final `EdgeReport`. Faces that
     collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
     normals point outwards. source: how error messages name the input (default: name).
     """
@@ -167,17 +204,25 @@ def mesh_from_triangles(
     tri = np.asarray(triangles)
     if tri.size == 0:
         raise InputFileError(f"{label}: mesh is empty (no triangles)")
-    if weld_tolerance > 0:
-        pitch = weld_tolerance / unit_scale(units)
-        tri = np.round(np.asarray(tri, dtype=np.float64) / pitch) * pitch
     verts, inverse = merge_vertices(tri.reshape(-1, 3))
     if not np.isfinite(verts).all():
         raise InputFileError(f"{label}: mesh has non-finite (NaN/inf) vertex coordinates")
     faces = drop_degenerate(inverse.reshape(-1, 3))
     if len(faces) == 0:
         raise InputFileError(f"{label}: mesh is empty (all {len(tri)} triangles are degenerate)")
-    if require_closed:
-        check_closed(faces, len(verts), name=label)
+    welded = 0
+    rep = edge_report(faces, len(verts)) if (weld_tolerance > 0 or require_closed) else None
+    if weld_tolerance > 0 and rep.open:
+        verts, faces, welded = weld_open_edges(verts, faces, weld_tolerance / unit_scale(units))
+        if len(faces) == 0:
+            raise InputFileError(f"{label}: mesh is empty after welding within {weld_tolerance:g} mm")
+        rep = edge_report(faces, len(verts))
+    if stats is not None:
+        stats["welded"] = welded
+        if rep is not None:
+            stats["edges"] = rep
+    if require_closed and not rep.closed:
+        check_closed(faces, len(verts), name=label)             # raises, saying what is open
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
     if signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
@@ -199,6 +244,8 @@ def load_mesh_bytes(
     transform: Transform = Transform(),
     limits: MeshLimits = MeshLimits(),
     weld_tolerance: float = 0.0,
+    stats: dict | None = None,
+    require_closed: bool = True,
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
 
@@ -210,4 +257,5 @@ def load_mesh_bytes(
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
     return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
-                               source=filename, weld_tolerance=weld_tolerance)
+                               source=filename, weld_tolerance=weld_tolerance, stats=stats,
+                               require_closed=require_closed)

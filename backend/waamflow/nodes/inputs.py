@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from ..core.errors import InputFileError
 from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..geometry.mesh_io import mesh_file_units
+from ..geometry.topology import edge_report
 from ..geometry.step_io import is_cad_file, load_cad_bytes
 from ..geometry.units import implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
@@ -54,8 +55,8 @@ class MeshNode(Node):
     (STEP, IGES: read and tessellated by OpenCascade within `chordal_tolerance`).
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
-    Corners that are bit-identical in the file are welded (or, with `weld_tolerance`, corners
-    snapped to the same grid point). The mesh must be closed (watertight,
+    Corners that are bit-identical in the file are welded; where open edges remain, vertices on
+    them closer than `weld_tolerance` (default 1 µm) are merged too, reported as a warning. The mesh must be closed (watertight,
     consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
     non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
     triangles are refused.
@@ -64,20 +65,27 @@ class MeshNode(Node):
     type = "mesh"
     title = "Mesh"
     category = "inputs"
-    outputs = (Port("mesh", "mesh", "Closed triangle mesh in mm (MeshData)"),)
+    outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface"),)
 
     class Params(NodeParams):
+        model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
         path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe")
         units: LengthUnit = Field("file", description=UNITS_DOC)
         transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
         placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+        as_: Literal["auto", "solid", "surface"] = Field(
+            "auto", alias="as",
+            description="solid: must be closed (sliced into regions); surface: an open single-wall surface, sliced "
+                        "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)")
         chordal_tolerance: float = Field(0.05, gt=0, le=5,
                                          description="STEP/IGES: max distance between the CAD surface and its triangles",
                                          json_schema_extra=unit("mm"))
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
-        weld_tolerance: float = Field(0.0, ge=0, le=1.0,
-                                      description="Snap corners to a grid of this pitch before welding (0: exact)",
+        weld_tolerance: float = Field(0.001, ge=0, le=1.0,
+                                      description="Merge vertices on open edges closer than this (exporter cracks, "
+                                                  "seam gaps; reported). 0: bit-identical corners only",
                                       json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
@@ -97,18 +105,33 @@ class MeshNode(Node):
                          "(each body kept); tessellated within {params.chordal_tolerance:g} mm")
         else:
             units = mesh_file_units(data, params.path) if params.units == "file" else params.units
+            weld: dict = {}
             mesh = load_mesh_bytes(
                 data,
                 params.path,
+                require_closed=params.as_ == "solid",
                 units=units,
                 transform=transform,
                 limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
                 weld_tolerance=params.weld_tolerance,
+                stats=weld,
             )
+            if weld.get("welded"):
+                ctx.warn(f"{params.path}: welded {weld['welded']} vertices on open edges within weld_tolerance "
+                         f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
+        if params.as_ != "solid" and not is_cad_file(params.path):
+            rep = weld.get("edges") or edge_report(mesh.faces, len(mesh.vertices))
+            surface = params.as_ == "surface" or not rep.closed
+            if surface and params.as_ == "auto":
+                ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges): "
+                         "read as a single-wall surface, sliced into per-layer curves; if it is a solid with "
+                         "cracks raise 'weld_tolerance' or set 'as': 'solid' to see the error")
+            if surface:
+                mesh = MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
-            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name)
+            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name, surface=mesh.surface)
         _report_part(ctx, params.path, lo, hi, units if params.units == "file" else "mm", shift)
         return {"mesh": mesh}
 

@@ -16,6 +16,7 @@ from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
 from ..program.common import check_templates, stamp_trace
+from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import load_cell, positioner_angles
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
@@ -48,6 +49,9 @@ class PostProcess(Node):
     version = "1"
 
     class Params(NodeParams):
+        profile: str = Field("", max_length=64,
+                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4, "
+                                         "abb_irc5): presets for every param this recipe does not set; empty = none")
         format: Literal["gcode", "krl", "rapid", "csv"] = Field("gcode", description="Program format")
         program_name: str = Field("waamflow", pattern=_NAME, max_length=24,
                                   description="Program / module name written into the program (KRL: ≤ 16 characters when split)")
@@ -84,8 +88,9 @@ class PostProcess(Node):
         cell: str = Field("", max_length=64,
                           description="KRL/RAPID: shipped robot cell (data/cells) whose positioner angles go into every "
                                       "target as external axes E1/E2 (extax eax_a/eax_b); empty = no external axes")
-        positioner_policy: Literal["fixed", "gravity"] = Field(
-            "gravity", description="With a cell: positioner angles per point, as in simulate-robot")
+        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
+            "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
+                                   "(min-motion with its default 30° lean)")
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
 
@@ -95,6 +100,7 @@ class PostProcess(Node):
             return check_templates(v)
 
     def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
+        params = with_profile(params)
         plan = PlanSettings(ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance,
                             travel_speed=params.travel_speed)
         try:
@@ -117,6 +123,22 @@ class PostProcess(Node):
         program: Program = outputs["program"]
         trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
         return stamp_trace(program.format, dict(program.files), trace)
+
+
+def with_profile(params: PostProcess.Params) -> PostProcess.Params:
+    """The params with the machine profile's values for every field the recipe did not set."""
+    if not params.profile:
+        return params
+    try:
+        preset = machine_profile(params.profile)["post"]
+    except ValueError as err:
+        raise RecipeError(str(err)) from err
+    unknown = sorted(set(preset) - set(PostProcess.Params.model_fields))
+    if unknown:
+        raise RecipeError(f"machine profile {params.profile!r} sets unknown post-process params: {', '.join(unknown)}")
+    merged = {**{k: v for k, v in preset.items() if k not in params.model_fields_set},
+              **params.model_dump(include=params.model_fields_set)}
+    return PostProcess.Params.model_validate(merged)
 
 
 def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:

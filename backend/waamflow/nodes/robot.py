@@ -14,7 +14,7 @@ from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
 from ..trajectory.estimate import estimate_moves, estimate_result
-from ..trajectory.cell import load_cell
+from ..trajectory.cell import cell_schema, load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
@@ -87,17 +87,25 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "11"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy
+    version = "12"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
-        cell: str = Field("", max_length=256,
+        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema()},
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below")
-        positioner_policy: Literal["fixed", "gravity"] = Field(
+        max_tilt_deg: float = Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
+                                    description="positioner_policy min-motion: torch lean from vertical tolerated "
+                                                "before the positioner turns the next layer")
+        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
                                  "each layer so its torch axis points straight down (flat-position welding)")
+        collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
+                                         description="With a cell: coal collision checks (arm links, torch, table, "
+                                                     "fixtures, layers built so far) every this much programmed path "
+                                                     "and at every layer change")
+        collisions: bool = Field(True, description="With a cell: check collisions along the path")
         robot_description: str = Field("", max_length=128,
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
@@ -124,7 +132,9 @@ class SimulateRobot(Node):
                     if params.cell.endswith(".json") else load_cell(params.cell))
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
                                      frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
-                                     positioner_policy=params.positioner_policy)
+                                     positioner_policy=params.positioner_policy, collisions=params.collisions,
+                                     max_tilt_deg=params.max_tilt_deg,
+                                     collision_step_mm=params.collision_step_mm)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
         frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,

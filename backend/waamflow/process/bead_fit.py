@@ -31,7 +31,6 @@ import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import curve_fit
 
 from ..core.errors import InputFileError
 
@@ -124,6 +123,7 @@ class PowerLaw:
 
 def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power") -> PowerLaw:
     """Least-squares fit of y = a·WFS^b·TS^c (or a·(WFS/TS)^b) on the measured scale."""
+    from scipy.optimize import curve_fit  # lazy: keeps start-up light
     if form not in FORMS:
         raise ValueError(f"unknown bead-model form {form!r}; known: {', '.join(FORMS)}")
     lw, lt, ly = np.log(wfs), np.log(ts), np.log(y)

@@ -70,6 +70,41 @@ def slice_mesh(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None =
     )
 
 
+def surface_curves(mesh: "MeshData | trimesh.Trimesh", height: float, digits: int = 9) -> tuple[LineString, ...]:
+    """Curves of an open single-wall surface cut by the plane z = height: the section segments
+    (trimesh.intersections.mesh_plane) joined end to end (shapely linemerge on coordinates rounded
+    to `digits` decimals, so a point computed from both faces of an edge is one point), collinear
+    points removed (within 1 µm). Closed curves repeat their first point."""
+    import shapely.ops
+    import trimesh
+
+    tm = mesh if isinstance(mesh, trimesh.Trimesh) else trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    seg = trimesh.intersections.mesh_plane(tm, plane_normal=[0.0, 0.0, 1.0], plane_origin=[0.0, 0.0, height])
+    if len(seg) == 0:
+        return ()
+    seg = np.round(np.asarray(seg)[:, :, :2], digits)
+    seg = seg[np.any(seg[:, 0] != seg[:, 1], axis=1)]
+    merged = shapely.ops.linemerge(shapely.MultiLineString([s for s in seg]))
+    lines = list(merged.geoms) if hasattr(merged, "geoms") else [merged]
+    # drop the collinear points where the plane crosses a facet's diagonal (they are no vertices
+    # of the wall and would read as kinks between straight pieces)
+    lines = [ln.simplify(10.0 ** -min(digits, 6), preserve_topology=False) for ln in lines]
+    return tuple(sorted((ln for ln in lines if ln.length > 0), key=lambda ln: -ln.length))
+
+
+def slice_surface(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None) -> tuple[Layer, ...]:
+    """Layers of an open single-wall surface: each layer's `curves` are the mid-layer section
+    (open or closed polylines, as a sketch gives), its region empty."""
+    import trimesh
+
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)     # built once for every plane
+    return tuple(
+        Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=surface_curves(tm, float(cut)),
+              frame=_layer_frame(rot, float(z)))
+        for i, (z, t, cut) in enumerate(zip(schedule.tops, schedule.thickness, schedule.cuts))
+    )
+
+
 def slice_midsurface(mid: Midsurface, schedule: LayerSchedule) -> tuple[Layer, ...]:
     """Midsurface layers: every curve on each layer whose cut lies in (z0, z0 + height]."""
     curves = tuple(LineString(c) for c in mid.curves)
@@ -102,7 +137,8 @@ def slice_part(
     if rot is not None:
         if isinstance(part, Midsurface):
             raise ValueError("a sketch (midsurface) is extruded along +Z: slice it with direction [0, 0, 1]")
-        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name)
+        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name,
+                        surface=part.surface)
     bottom, top = part_z_range(part)
     schedule = layer_schedule(
         bottom, top, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
@@ -110,6 +146,8 @@ def slice_part(
     )
     if isinstance(part, Midsurface):
         return slice_midsurface(part, schedule)
+    if part.surface:
+        return slice_surface(part, schedule, rot)
     return slice_mesh(part, schedule, rot)
 
 
@@ -118,7 +156,8 @@ def empty_layers_inside(layers: Sequence[Layer], part: MeshData | Midsurface,
     """Indices of layers without geometry whose cutting plane lies strictly inside the part."""
     rot = build_rotation(direction)
     if rot is not None and isinstance(part, MeshData):
-        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name)
+        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name,
+                        surface=part.surface)
     lo, hi = part_z_range(part)
     out = []
     for layer in layers:

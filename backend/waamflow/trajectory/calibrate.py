@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..core.errors import InputFileError
 from ..core.moves import Moves
@@ -131,6 +130,7 @@ def trace_residuals(result: SimulationResult, meas: MeasuredTrace, max_samples: 
 # ---------------------------------------------------------------------------------------------
 def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[RobotProfile], np.ndarray],
          max_nfev: int = 200) -> tuple[RobotProfile, dict]:
+    from scipy.optimize import least_squares  # lazy: keeps start-up light
     for n in names:
         if n not in RobotProfile.FITTABLE:
             raise ValueError(f"cannot fit {n!r}; fittable: {', '.join(RobotProfile.FITTABLE)}")

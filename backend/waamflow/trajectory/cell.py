@@ -72,6 +72,9 @@ class Cell(_Strict):
     source: str = Field("", description="Where the kinematic numbers come from (datasheet, URDF)")
     robot_urdf: str = Field(..., min_length=1, max_length=128, description="Arm URDF in data/robots")
     robot_base: Placement = Placement(xyz_mm=(-1500.0, 0.0, -600.0))
+    robot_home_deg: list[float] | None = Field(None, min_length=6, max_length=6,
+                                               description="IK seed pose of the arm (deg; empty = 0 −90 90 0 90 0, "
+                                                           "the KUKA upright pose with the wrist down)")
     tool: Tool = Tool()
     positioner: Positioner | None = None
     work_frame: Placement = Field(Placement(), description="Part origin on the positioner flange (or in the world)")
@@ -132,6 +135,23 @@ def _positioner_model(urdf: str):
         raise InputFileError(f"positioner description {urdf}: {e}") from e
 
 
+def cell_schema() -> dict:
+    """The cell file's JSON Schema with every $ref inlined (embedded in simulate-robot's params
+    schema as `x-cell-schema`, where root-relative references would not resolve)."""
+    raw = Cell.model_json_schema()
+    defs = raw.pop("$defs", {})
+
+    def inline(node):
+        if isinstance(node, dict):
+            if "$ref" in node:
+                return inline(defs[node["$ref"].rsplit("/", 1)[-1]])
+            return {k: inline(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [inline(v) for v in node]
+        return node
+    return inline(raw)
+
+
 def shipped_cells() -> list[str]:
     return sorted(p.stem for p in CELLS_DIR.glob("*.json"))
 
@@ -154,17 +174,20 @@ def load_cell(name_or_path: str, text: str | None = None) -> Cell:
         raise InputFileError(f"cell {name_or_path}: {where}: {err['msg']}") from e
 
 
-POLICIES = ("fixed", "gravity")
+POLICIES = ("fixed", "gravity", "min-motion")
 
 
-def positioner_angles(cell: Cell, moves, policy: str = "fixed") -> np.ndarray:
+def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0) -> np.ndarray:
     """Positioner angles (deg) at every programmed point, shape (n, 2) (E1 tilt about x, E2 turn about z).
 
     `fixed`: `positioner.fixed_deg` throughout. `gravity`: each layer turned so its mean torch axis
     (arc-ON segments) points straight down (world −z), the flat welding position of the
     curved-parts study: with n = −axis, E2 = 90° − atan2(n_y, n_x) brings n's horizontal part onto
     +y, then E1 = atan2(|n_xy|, n_z) tilts it up to +z. E2 is unwrapped by 360° to stay closest to
-    the previous layer's (and kept when n is vertical); angles are constant along a layer, so the
+    the previous layer's (and kept when n is vertical). `min-motion`: a layer keeps the previous
+    layer's angles (the cell's fixed_deg for the first) while its normal stays within
+    `max_tilt_deg` of vertical under them, else it takes its gravity angles — the fewest positioner
+    moves for a torch allowed to lean that much. Angles are constant along a layer, so the
     positioner moves only on the arc-OFF travel between layers. A point takes the angles of the
     arc-ON segment it ends (else of the segment it starts)."""
     if policy not in POLICIES:
@@ -196,6 +219,11 @@ def positioner_angles(cell: Cell, moves, policy: str = "fixed") -> np.ndarray:
             if cands:
                 e2 = min(cands, key=lambda a: abs(a - prev[1]))
         e1 = float(np.clip(e1, lo[0], hi[0]))
+        if policy == "min-motion":
+            up = np.asarray(cell.frames(list(prev[: model.nq])).work_rot, float) @ nrm
+            if math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0)))) <= max_tilt_deg + 1e-9:
+                layer_angles[L] = prev
+                continue
         prev = np.array([e1, e2])
         layer_angles[L] = prev
     out = np.zeros((n, 2))

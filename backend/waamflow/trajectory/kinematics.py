@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from ..core.errors import InputFileError
 from .profile import ROBOTS_DIR
@@ -52,8 +51,11 @@ class Arm:
     name: str
 
 
-def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None) -> Arm:
-    """Build the arm from a shipped URDF name (file in data/robots) or URDF text."""
+def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None,
+             home_deg=None) -> Arm:
+    """Build the arm from a shipped URDF name (file in data/robots) or URDF text. home_deg: the IK
+    seed pose (default: KUKA-style upright with the wrist down, 0 −90 90 0 90 0)."""
+    import pinocchio as pin  # lazy: keeps start-up light
     if urdf_text is None:
         path = ROBOTS_DIR / description
         if not path.exists():
@@ -70,7 +72,11 @@ def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str |
     offset = pin.SE3(np.eye(3), np.asarray(tcp_offset_mm, float) / 1000.0)
     tcp = model.addFrame(pin.Frame("tcp", fr.parentJoint, fr.parentFrame if hasattr(fr, "parentFrame") else flange,
                                    fr.placement * offset, pin.FrameType.OP_FRAME))
-    home = np.clip(np.radians([0.0, -90.0, 90.0, 0.0, 90.0, 0.0])[: model.nq],
+    home_deg = [0.0, -90.0, 90.0, 0.0, 90.0, 0.0] if home_deg is None else list(home_deg)
+    if len(home_deg) < model.nq:
+        raise InputFileError(f"robot description {description}: home pose has {len(home_deg)} angles "
+                             f"for {model.nq} joints")
+    home = np.clip(np.radians(home_deg)[: model.nq],
                    model.lowerPositionLimit, model.upperPositionLimit)
     return Arm(model, tcp, model.lowerPositionLimit.copy(), model.upperPositionLimit.copy(),
                model.velocityLimit.copy(), home, Path(description).stem)
@@ -125,6 +131,7 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
                progress=None) -> KinematicsResult:
     """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
     progress: optional callable(fraction 0..1) called every 2000 samples."""
+    import pinocchio as pin  # lazy: keeps start-up light
     model = arm.model
     data = model.createData()
     s, xyz, seg = resample(np.asarray(points, float), step_mm)

@@ -35,6 +35,9 @@ class KinematicsOptions:
     step_mm: float = 5.0
     cell: object | None = None           # trajectory.cell.Cell: when set, frames come from it and the policy
     positioner_policy: str = "fixed"
+    max_tilt_deg: float = 30.0           # min-motion: torch lean from vertical tolerated before the positioner moves
+    collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
+    collision_step_mm: float = 20.0      # programmed path between two checked samples
 
 
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
@@ -43,16 +46,19 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
     """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate."""
     warnings: list[tuple[str, int | None, str | None]] = []
     kin_metrics: dict[str, float] = {}
+    collision_list: tuple = ()
     if kin is not None and len(moves.points) >= 2:
         if progress:
             progress(0.02, "inverse kinematics")
         desc = kin.description or profile.description
-        arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text)
+        home = getattr(kin.cell, "robot_home_deg", None) if kin.cell is not None else None
+        arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
+                       home_deg=home)
         points, axes, frames = moves.points, moves.tool_axis, kin.frames
         if kin.cell is not None:       # the part on the positioner: every point in world at its own angles
             from .cell import positioner_angles, to_world
 
-            ang = positioner_angles(kin.cell, moves, kin.positioner_policy)
+            ang = positioner_angles(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
             points, axes = to_world(kin.cell, moves.points, moves.tool_axis, ang)
             base = kin.cell.robot_base
             frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
@@ -65,6 +71,18 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             pos_metrics = {}
         ks = solve_path(arm, points, axes, frames, step_mm=kin.step_mm,
                         progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
+        if kin.cell is not None and kin.collisions:
+            if progress:
+                progress(0.33, "collision checks")
+            collisions = _cell_collisions(kin, arm, ks, moves, ang)
+            pos_metrics.update({"collision_count": float(collisions[0]),
+                                "collision_samples_checked": float(collisions[2]),
+                                "collision_step_mm": float(kin.collision_step_mm)})
+            collision_list = tuple(collisions[1])
+            for c in collision_list[:MAX_WARNINGS_PER_KIND]:
+                warnings.append((f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
+                                 f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
+                                 c.layer, c.section))
         speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
         if opt.speed_override is not None:
             speed = np.where(moves.arc, opt.speed_override, speed)
@@ -105,7 +123,27 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                     / max(res.metrics["total_time_s"], 1e-9)}
     metrics = dict(res.metrics)
     metrics.update(kin_metrics)
-    return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate)
+    return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate, collisions=collision_list)
+
+
+def _cell_collisions(kin: KinematicsOptions, arm, ks, moves: Moves, ang: np.ndarray):
+    """coal checks of the solved path in the cell (see trajectory.collide); each sample's work frame
+    and positioner flange are the ones at its segment's start angles."""
+    from .collide import check_path
+
+    cell = kin.cell
+    cache: dict[tuple, tuple] = {}
+
+    def work_frame(i):
+        a = tuple(np.round(ang[ks.seg[i]], 9))
+        if a not in cache:
+            f = cell.frames(list(a))
+            cache[a] = (np.asarray(f.work_rot, float), np.asarray(f.work_xyz_mm, float), *cell.positioner_pose(list(a)))
+        return cache[a]
+    yaw = np.radians(cell.robot_base.yaw_deg)
+    Rb = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    return check_path(arm, ks.q, ks.s, ks.seg, moves, cell, work_frame, Rb, np.asarray(cell.robot_base.xyz_mm, float),
+                      step_mm=kin.collision_step_mm)
 
 
 def _clean(v):
@@ -121,6 +159,10 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
     out["estimate"] = {k: _clean(float(v)) for k, v in res.estimate.items()}
     out["estimate_total_time_s"] = out["estimate"].get("total_time_s")
     out["warnings"] = [{"message": m, "layer": l, "section": s} for m, l, s in res.warnings]
+    if "collision_count" in res.metrics:
+        out["collision_count"] = int(res.metrics["collision_count"])
+        out["collisions"] = [{"layer": c.layer, "section": c.section, "bodies": list(c.bodies),
+                              "point_mm": list(c.point_mm), "s_mm": round(c.s_mm, 3)} for c in res.collisions]
     out["robot_profile"] = res.profile.get("name")
     out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "wire_feed_mm3_s": opt.wire_feed_mm3_s,
                        "speed_override_mm_s": opt.speed_override,

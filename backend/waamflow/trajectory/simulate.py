@@ -99,6 +99,7 @@ class SimulationResult:
     estimate: dict[str, float] = field(default_factory=dict)
     corners: dict[str, np.ndarray] = field(default_factory=dict)
     profile: dict = field(default_factory=dict)
+    collisions: tuple = ()      # trajectory.collide.Collision, the first ones found (cell simulations)
 
 
 METRIC_UNITS = {
@@ -110,6 +111,7 @@ METRIC_UNITS = {
     "min_corner_speed_mm_s": "mm/s",
     "positioner_e1_min_deg": "deg", "positioner_e1_max_deg": "deg", "positioner_e2_min_deg": "deg",
     "positioner_e2_max_deg": "deg", "positioner_max_step_deg": "deg",
+    "collision_count": "", "collision_samples_checked": "", "collision_step_mm": "mm",
 }
 
 

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from .blend import BlendedPath
 
@@ -128,6 +127,7 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
 
 def profile_spans(spans: Spans, a: float, j: float) -> SpanProfiles:
     """One ruckig position-interface call per span: (0, v_i, 0) → (L_i, v_i+1, 0)."""
+    from ruckig import InputParameter, Result, Ruckig, Trajectory  # lazy: keeps start-up light
     K = len(spans.s0)
     otg = Ruckig(1)
     inp = InputParameter(1)

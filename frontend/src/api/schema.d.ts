@@ -57,6 +57,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/profiles": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Profiles
+         * @description Machine profiles for the post-process node's `profile` param (generic, LinuxCNC, Marlin,
+         *     KUKA KR C4, ABB IRC5): each with the post-process params it presets.
+         */
+        get: operations["list_profiles_api_profiles_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs": {
         parameters: {
             query?: never;
@@ -575,6 +596,22 @@ export interface components {
              * @description 4×4 layer-local → world, for non-horizontal layers
              */
             frame?: number[][] | null;
+        };
+        /**
+         * MachineProfileInfo
+         * @description A machine profile (data/machines): presets of post-process params for one controller.
+         */
+        MachineProfileInfo: {
+            /** Name */
+            name: string;
+            /** Title */
+            title: string;
+            /** Description */
+            description: string;
+            /** Post */
+            post: {
+                [key: string]: unknown;
+            };
         };
         /** NodeEntry */
         NodeEntry: {
@@ -1099,6 +1136,35 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ProcessParameterInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    list_profiles_api_profiles_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["MachineProfileInfo"][];
                 };
             };
             /** @description Missing or wrong bearer token */

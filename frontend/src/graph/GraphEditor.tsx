@@ -5,6 +5,7 @@ import {
 import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
 import { badgeText, type NodeStatus } from "../run/status";
+import { isTyping } from "./useShortcuts";
 import {
   connect, connectionError, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
   updateFrame, type Catalog, type Frame, type XY,
@@ -248,6 +249,24 @@ export function GraphEditor(p: GraphEditorProps) {
     },
     [p],
   );
+  // Delete/Backspace removes the selection through React Flow's own deletion (so nodes, frames and
+  // their edges arrive in onNodesChange/onEdgesChange and become one edit). React Flow's built-in
+  // delete key is off: its pressed-key tracking stayed stuck after Ctrl+C/Ctrl+V, and Delete then
+  // did nothing.
+  useEffect(() => {
+    if (!p.active) return;
+    const onKey = (e: KeyboardEvent) => {
+      if ((e.key !== "Delete" && e.key !== "Backspace") || e.ctrlKey || e.metaKey || e.altKey || isTyping(e.target)) return;
+      const nodes = rf.getNodes().filter((n) => n.selected);
+      const edges = rf.getEdges().filter((x) => x.selected);
+      if (!nodes.length && !edges.length) return;
+      e.preventDefault();
+      void rf.deleteElements({ nodes, edges });
+    };
+    window.addEventListener("keydown", onKey);
+    return () => window.removeEventListener("keydown", onKey);
+  }, [p.active, rf]);
+
   const onNodesChange = useCallback(
     (changes: NodeChange<AnyNode>[]) => {
       // A frame being dragged carries the nodes inside it along (live; committed on drop).
@@ -345,7 +364,7 @@ export function GraphEditor(p: GraphEditorProps) {
         connectionLineComponent={WireLine}
         zoomOnDoubleClick={false}
         elevateNodesOnSelect={false}
-        deleteKeyCode={p.active ? ["Delete", "Backspace"] : null}
+        deleteKeyCode={null}
         selectionKeyCode={p.active ? "Shift" : null}
         multiSelectionKeyCode={p.active ? ["Control", "Meta"] : null}
         fitView

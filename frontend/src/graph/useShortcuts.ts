@@ -22,7 +22,7 @@ export const isTyping = (t: EventTarget | null) => {
 /**
  * The editor's keyboard habits: Ctrl+S save (everywhere), Ctrl+Z / Ctrl+Y / Ctrl+Shift+Z undo/redo,
  * and on the graph Ctrl+C / Ctrl+V / Ctrl+A, F (fit view) and / (node search). Keys typed into a field are left alone.
- * Delete and Shift+drag box select are handled by the node editor itself.
+ * Delete (GraphEditor, through React Flow's deleteElements) and Shift+drag box select are the node editor's.
  */
 export function useShortcuts(actions: Shortcuts) {
   const ref = useRef(actions);

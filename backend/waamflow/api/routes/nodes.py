@@ -2,13 +2,25 @@ from __future__ import annotations
 
 from dataclasses import asdict
 
+from typing import Any
+
 from fastapi import APIRouter
+from pydantic import BaseModel
 
 from ...core.process import ZONE_PARAMETERS
 from ...engine.node import catalog
 from ..schemas import NodeInfo, ProcessParameterInfo, errors
 
 router = APIRouter(tags=["nodes"])
+
+
+class MachineProfileInfo(BaseModel):
+    """A machine profile (data/machines): presets of post-process params for one controller."""
+
+    name: str
+    title: str
+    description: str
+    post: dict[str, Any]
 
 
 @router.get("/api/nodes", response_model=list[NodeInfo], responses=errors(401))
@@ -21,3 +33,12 @@ def list_nodes() -> list[dict]:
 def process_parameters() -> list[dict]:
     """The zone parameters of the XML file: names, units and sanity bounds (core/process.py)."""
     return [asdict(p) for p in ZONE_PARAMETERS]
+
+
+@router.get("/api/profiles", response_model=list[MachineProfileInfo], responses=errors(401))
+def list_profiles() -> list[dict]:
+    """Machine profiles for the post-process node's `profile` param (generic, LinuxCNC, Marlin,
+    KUKA KR C4, ABB IRC5): each with the post-process params it presets."""
+    from ...program.profiles import load_profiles
+
+    return list(load_profiles().values())

@@ -1,0 +1,169 @@
+"""Collision checks of the cell along the solved path, with coal (the collision library of Pinocchio).
+
+Bodies (all converted to metres for coal):
+
+* arm links — a capsule between consecutive joint origins of the URDF chain (and joint 6 → tool0),
+  radius `LINK_RADIUS_MM` (shoulder to wrist); adjacent links are not tested against each other;
+* the torch — the cell tool's shapes (cylinders/boxes in the flange frame);
+* the positioner table — a disc of `TABLE_RADIUS_MM` × `TABLE_THICKNESS_MM` just under the
+  positioner flange, turning with it; fixtures — the cell's boxes/cylinders in the world;
+* the part built so far — every layer below the current one as an oriented box fitted to its
+  deposition points (principal axes, ± half a bead across), turning with the positioner.
+
+Pairs tested: arm links and torch vs fixtures and table; torch and the two wrist links vs the
+part layers below the current one (a bounding-sphere test first). Sampling: every IK sample at
+least `step_mm` of programmed path after the previous checked one, plus every vertex where the
+layer changes (documented in simulation.json's `collision_step_mm`). The current layer is never
+tested: the torch deposits on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+LINK_RADIUS_MM = (110.0, 100.0, 90.0, 70.0, 60.0, 45.0)
+TABLE_RADIUS_MM = 300.0
+TABLE_THICKNESS_MM = 40.0
+BEAD_HALF_MM = 1.5
+MAX_REPORTED = 50
+
+
+@dataclass(frozen=True)
+class Collision:
+    layer: int
+    section: str | None
+    bodies: tuple[str, str]
+    point_mm: tuple[float, float, float]
+    s_mm: float
+
+
+def _tf(R, t_mm) -> coal.Transform3s:
+    return coal.Transform3s(np.asarray(R, float), np.asarray(t_mm, float) / 1000.0)
+
+
+def _shape(sh) -> coal.CollisionGeometry:
+    if sh.kind == "box":
+        return coal.Box(*(np.asarray(sh.size_mm, float) / 1000.0))
+    return coal.Cylinder(sh.size_mm[0] / 1000.0, sh.size_mm[2] / 1000.0)
+
+
+def _capsule_tf(a, b):
+    """Transform placing a z-aligned capsule centred between world points a, b (mm)."""
+    d = b - a
+    L = float(np.linalg.norm(d))
+    z = d / L if L > 1e-9 else np.array([0.0, 0.0, 1.0])
+    R = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), z).matrix()
+    return _tf(R, 0.5 * (a + b)), L
+
+
+def layer_boxes(moves) -> dict[int, tuple[coal.Box, np.ndarray, np.ndarray, float]]:
+    """Per layer: (coal box, rotation, centre (work mm), bounding radius mm) from its deposition points."""
+    out = {}
+    dep = np.flatnonzero(moves.kind == 1)
+    for L in np.unique(moves.layer[dep]):
+        segs = dep[moves.layer[dep] == L]
+        P = np.vstack([moves.points[segs], moves.points[segs + 1]])
+        c = P.mean(axis=0)
+        _, _, Vt = np.linalg.svd(P - c, full_matrices=False)
+        R = Vt.T
+        if np.linalg.det(R) < 0:
+            R[:, 2] *= -1
+        loc = (P - c) @ R
+        lo, hi = loc.min(axis=0), loc.max(axis=0)
+        ext = np.maximum(hi - lo, 0.0) + 2 * BEAD_HALF_MM
+        c = c + R @ (0.5 * (lo + hi))
+        out[int(L)] = (coal.Box(*(ext / 1000.0)), R, c, float(0.5 * np.linalg.norm(ext)))
+    return out
+
+
+def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, work_frames, base_R, base_t,
+               step_mm: float = 20.0) -> tuple[int, list[Collision], int]:
+    """Collisions along the path. q: (k, nq) IK solutions; work_frames(i) → (R, t mm) of the work
+    frame and (R, t mm) of the positioner flange at sample i; base_R/base_t: the robot base in the world (mm). Returns (number of
+    colliding samples, the first MAX_REPORTED collisions, samples checked)."""
+    model, data = arm.model, arm.model.createData()
+    tool0 = model.getFrameId("tool0")
+    tool_shapes = [(f"torch:{sh.name}", _shape(sh), np.asarray(sh.xyz_mm, float), _bound_radius(sh))
+                   for sh in cell.tool.shapes]
+    fixtures = [(f"fixture:{sh.name}", _shape(sh), _tf(np.eye(3), sh.xyz_mm)) for sh in cell.fixtures]
+    table = coal.Cylinder(TABLE_RADIUS_MM / 1000.0, TABLE_THICKNESS_MM / 1000.0)
+    layers = layer_boxes(moves)
+    lay_ids = np.array(sorted(layers), dtype=int)
+    lay_c = np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3)
+    lay_r = np.array([layers[L][3] for L in lay_ids])
+    req = coal.CollisionRequest()
+    count, found, checked = 0, [], 0
+    last_s, last_layer = -np.inf, None
+    njoints = model.njoints
+    radii = LINK_RADIUS_MM
+    for i in range(len(s)):
+        layer = int(moves.layer[seg[i]])
+        if s[i] - last_s < step_mm and layer == last_layer and i != len(s) - 1:
+            continue
+        last_s, last_layer = s[i], layer
+        checked += 1
+        pin.forwardKinematics(model, data, q[i])
+        pin.updateFramePlacement(model, data, tool0)
+        joints = [base_R @ (data.oMi[j].translation * 1000.0) + base_t for j in range(1, njoints)]
+        joints.append(base_R @ (data.oMf[tool0].translation * 1000.0) + base_t)
+        Rf = base_R @ data.oMf[tool0].rotation
+        tf0 = base_R @ (data.oMf[tool0].translation * 1000.0) + base_t
+        movers = []
+        for j in range(len(joints) - 1):
+            tf, L = _capsule_tf(joints[j], joints[j + 1])
+            if L < 1e-6:
+                continue
+            movers.append((f"arm:link_{j + 1}", coal.Capsule(radii[min(j, len(radii) - 1)] / 1000.0, L / 1000.0), tf,
+                           j >= len(joints) - 3, 0.5 * (joints[j] + joints[j + 1]), 0.5 * L + radii[min(j, len(radii) - 1)]))
+        for name, g, off, rad in tool_shapes:
+            c = Rf @ off + tf0
+            movers.append((name, g, _tf(Rf, c), True, c, rad))
+        Rw, tw, Rt, tt = work_frames(i)
+        statics = list(fixtures)
+        statics.append(("positioner:table", table, _tf(Rt, tt + Rt @ [0.0, 0.0, -0.5 * TABLE_THICKNESS_MM])))
+        hit = None
+        for name, g, tf, near_part, centre, rad in movers:
+            for sname, sg, stf in statics:
+                hit = _collide(g, tf, sg, stf, req, name, sname)
+                if hit:
+                    break
+            if hit:
+                break
+            if not near_part:
+                continue
+            cw = lay_c @ Rw.T + tw
+            near = np.flatnonzero((lay_ids < layer) & (np.linalg.norm(cw - centre, axis=1) <= lay_r + rad))
+            for k in near:
+                L = int(lay_ids[k])
+                box, Rb = layers[L][0], layers[L][1]
+                hit = _collide(g, tf, box, _tf(Rw @ Rb, cw[k]), req, name, f"part:layer_{L}")
+                if hit:
+                    break
+            if hit:
+                break
+        if hit:
+            count += 1
+            if len(found) < MAX_REPORTED:
+                sec = int(moves.section[seg[i]])
+                found.append(Collision(layer, moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None,
+                                       hit[0], hit[1], float(s[i])))
+    return count, found, checked
+
+
+def _bound_radius(sh) -> float:
+    """Radius (mm) of a sphere about the shape's centre that holds it."""
+    if sh.kind == "box":
+        return 0.5 * float(np.linalg.norm(sh.size_mm))
+    return float(np.hypot(sh.size_mm[0], 0.5 * sh.size_mm[2]))
+
+
+def _collide(g1, t1, g2, t2, req, n1, n2):
+    res = coal.CollisionResult()
+    if coal.collide(g1, t1, g2, t2, req, res):
+        p = res.getContact(0).pos * 1000.0 if res.numContacts() else t1.getTranslation() * 1000.0
+        return (n1, n2), tuple(round(float(v), 3) for v in p)
+    return None

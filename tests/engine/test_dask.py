@@ -1,0 +1,88 @@
+"""Layers on a Dask cluster (engine/parallel.py DaskPool): same artifacts as a serial run, executor
+info in the summary, a clear error for a scheduler that is not there."""
+
+from pathlib import Path
+
+import pytest
+
+from waamflow.core.errors import RecipeError
+from waamflow.engine import parallel
+from waamflow.engine.cache import MemoryCache
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import load_recipe
+
+distributed = pytest.importorskip("distributed")
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        yield c
+
+
+@pytest.fixture()
+def always_parallel(monkeypatch):
+    monkeypatch.setattr(parallel, "DASK_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
+
+
+def _run(name: str, cache=None, **kw):
+    path = GRAPHS / f"{name}.json"
+    graph = build_graph(load_recipe(path))
+    return execute(graph, resolver=FileResolver(path.parent), cache=cache, **kw)
+
+
+@pytest.mark.parametrize("name", ["mpp-cross", "mpp-slotted-wall"])
+def test_dask_artifacts_equal_a_serial_run(name, cluster, always_parallel):
+    serial = _run(name, workers=1)
+    dask = _run(name, scheduler=cluster.scheduler_address)
+    assert dask.executor == {"kind": "dask", "address": cluster.scheduler_address, "workers": 2,
+                             "tasks": dask.executor["tasks"]}
+    # every layer node after the timed first layer: 7 layers in ≤ 2·4 chunks each (mask, guide, strategy, zone)
+    assert dask.executor["tasks"] >= 4 * 2
+    assert sorted(dask.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert dask.artifacts[k] == serial.artifacts[k], k
+    assert dask.warnings == serial.warnings
+    assert dask.summary("x")["executor"]["kind"] == "dask"
+
+
+def test_dask_fills_the_cache_layer_by_layer(cluster, always_parallel):
+    cache = MemoryCache()
+    first = _run("mpp-cross", cache, scheduler=cluster.scheduler_address)
+    assert first.stats["strategy"].layers_computed == 8 and first.executor["tasks"] > 0
+    again = _run("mpp-cross", cache, scheduler=cluster.scheduler_address)
+    assert again.stats["strategy"].layers_cached == 8 and again.executor["tasks"] == 0
+    assert again.artifacts == first.artifacts
+
+
+def test_unreachable_scheduler_is_a_clear_error(monkeypatch):
+    monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
+    with pytest.raises(RecipeError, match="cannot reach the Dask scheduler at 'tcp://127.0.0.1:8209'"):
+        _run("mpp-cross", scheduler="tcp://127.0.0.1:8209")
+
+
+def test_cli_run_with_scheduler(cluster, always_parallel, tmp_path, monkeypatch, capsys):
+    import json
+
+    from waamflow.cli import main
+
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "out"
+    assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(out), "--scheduler",
+                 cluster.scheduler_address]) == 0
+    ex = json.loads((out / "summary.json").read_text())["executor"]
+    assert ex["kind"] == "dask" and ex["address"] == cluster.scheduler_address and ex["workers"] == 2
+    assert ex["tasks"] > 0
+    # the server's setting comes from the same environment variable
+    from waamflow.settings import Settings
+
+    monkeypatch.setenv("WAAMFLOW_SCHEDULER", "tcp://127.0.0.1:8208")
+    assert Settings().scheduler == "tcp://127.0.0.1:8208"
+    # and an unreachable one from the CLI is exit 2 with the address in the message
+    monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
+    assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(tmp_path / "o2"), "--no-cache"]) == 2
+    assert "cannot reach the Dask scheduler at 'tcp://127.0.0.1:8208'" in capsys.readouterr().err
