@@ -180,13 +180,15 @@ class BeadFitNode(Node):
     trial and the validity range. Or load a saved model (`model`). Writes `<node>.bead-model.json`
     (the model file, reusable as `model`), `<node>.fit.svg` (measured vs model) and, for the
     `height`/`width` targets, the travel speed, wire feed, layer height and step-over
-    (0.738·width, tangent overlap model) in `<node>.targets.json`."""
+    (0.738·width, tangent overlap model) in `<node>.targets.json`. The output model carries the
+    targets (a loaded model's are replaced by this node's `height`/`width`): a `slice` connected to
+    it takes its layer height, a `strategy` its bead width and step-over."""
 
     type = "bead-fit"
     title = "Bead fit"
     category = "process"
     outputs = (Port("model", "bead-model", "Bead width and height as functions of WFS and TS"),)
-    version = "1"
+    version = "2"  # 2: the model carries the targets
 
     class Params(NodeParams):
         trials: FileRef = Field("", description="Bead trials CSV (wfs, ts, width, height); empty = use `model`")
@@ -211,7 +213,7 @@ class BeadFitNode(Node):
             model = BeadFit.from_json(data, source=params.model)
         else:
             raise RecipeError("bead-fit needs `trials` (CSV) or `model` (JSON)", node=ctx.node_id)
-        return {"model": model}
+        return {"model": model.with_targets(params.height, params.width)}
 
     def artifacts(self, ctx, params, outputs):
         m: BeadFit = outputs["model"]
@@ -231,8 +233,9 @@ class BeadFitNode(Node):
 class FillParameters(Node):
     """Fill the zone-parameter XML from a bead model and targets: every empty value of every
     layer > section > zone gets one (wire feed and travel speed for the target bead height — the
-    layer height unless given — and width; current and voltage from a synergic line; dwell), values
-    the user gave (the zone node's XML, or `parameters`) are kept and reported beside the model's.
+    layer height unless given — and width — the model's target width unless given; current and
+    voltage from a synergic line; dwell), values the user gave (the zone node's XML, or
+    `parameters`) are kept and reported beside the model's.
     The ignition zone `start` and termination zone `end` get their own ramp rules (slower travel,
     less wire; ignition dwell). Writes `<node>.params.xml` (filled) and `<node>.fill.json` (counts,
     kept user values, zones outside the model's trial range, ramp lengths); the output toolpath
@@ -251,7 +254,8 @@ class FillParameters(Node):
                                                     "parameters are kept as well")
         height: float | None = Field(None, gt=0.05, le=20, json_schema_extra=unit("mm"),
                                      description="Target bead height (empty = each layer's height)")
-        width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Target bead width")
+        width: float | None = Field(None, gt=0.1, le=60, json_schema_extra=unit("mm"),
+                                    description="Target bead width (empty = the bead model's target width, else 6)")
         travel_speed: float | None = Field(None, gt=0.1, le=500, json_schema_extra=unit("mm/s"),
                                            description="Fixed travel speed: WFS from the height alone (else both from "
                                                        "height and width)")
@@ -268,7 +272,8 @@ class FillParameters(Node):
         user = {}
         if params.parameters:
             user = dict(parse_params(ctx.read_bytes(params.parameters, max_bytes=32 * 1024 * 1024)).values)
-        rules = FillRules(height_mm=params.height, width_mm=params.width, travel_speed=params.travel_speed,
+        width = params.width if params.width is not None else (inputs["model"].target_width_mm or 6.0)
+        rules = FillRules(height_mm=params.height, width_mm=width, travel_speed=params.travel_speed,
                           start_ts_factor=params.start_ts_factor, start_wfs_factor=params.start_wfs_factor,
                           start_dwell_s=params.start_dwell_s, end_ts_factor=params.end_ts_factor,
                           end_wfs_factor=params.end_wfs_factor, current_line=tuple(params.current_line),

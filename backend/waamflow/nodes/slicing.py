@@ -12,6 +12,25 @@ from ..engine.ports import Port
 from ..slicing import empty_layers_inside, slice_part
 
 
+def model_layer_height(ctx, param: float, model, explicit: bool = True) -> float:
+    """The layer height: a connected bead model's target bead height wins over the `layer_height`
+    param (a warning names both when the param was set (`explicit`) to another value); without a
+    model (or target), the param."""
+    if model is None:
+        return param
+    target = getattr(model, "target_height_mm", None)
+    if target is None:
+        ctx.warn(f"the connected bead model has no target bead height: layer_height {param:g} mm used")
+        return param
+    target = float(target)
+    if not 0 < target <= 50:
+        raise RecipeError(f"the bead model's target height {target:g} mm is not a layer height (0 < h ≤ 50 mm)")
+    if explicit and abs(target - param) > 1e-9:
+        ctx.warn(f"layer height {target:g} mm from the bead model's target bead height (connected model wins "
+                 f"over layer_height {param:g} mm)")
+    return target
+
+
 @register
 class SliceNode(Node):
     """Planar slicing into layers along a build direction (default +Z).
@@ -25,12 +44,18 @@ class SliceNode(Node):
     within the extrusion. With a `direction` other than +Z, heights are measured along it and each
     layer carries its frame (layer-local x, y → world; in `layers.json` as "frame"). Warns on
     layers inside the part that come out empty. Writes `<node>.layers.json`.
+
+    With a bead model connected (`model`, from bead-fit), the layer height is the model's target
+    bead height: the connected model wins over `layer_height`, and a warning names both values
+    when `layer_height` is set to another value (explicit `thicknesses` still come first).
     """
 
     type = "slice"
     title = "Slice"
     category = "slicing"
-    inputs = (Port("mesh", "mesh", "Part: solid mesh or midsurface"),)
+    inputs = (Port("mesh", "mesh", "Part: solid mesh or midsurface"),
+              Port("model", "bead-model", "Optional bead model (bead-fit): its target bead height is the layer "
+                                          "height, overriding `layer_height`", optional=True))
     outputs = (Port("layers", "layers", "Layers, bottom to top"),)
 
     class Params(NodeParams):
@@ -59,9 +84,11 @@ class SliceNode(Node):
 
     def run(self, ctx, params, inputs):
         part = inputs["mesh"]
+        layer_height = model_layer_height(ctx, params.layer_height, inputs.get("model"),
+                                          "layer_height" in params.model_fields_set)
         try:
             layers = slice_part(
-                part, layer_height=params.layer_height, thicknesses=params.thicknesses,
+                part, layer_height=layer_height, thicknesses=params.thicknesses,
                 start_offset=params.start_offset, layer_count=params.layer_count,
                 z_min=params.z_min, z_max=params.z_max, direction=params.direction,
             )

@@ -90,13 +90,21 @@ class StrategyNode(LayerNode):
     arc switches, length outside, time at programmed speed); with `compare` set, `comparison.json` and
     `comparison.svg` compare patterns on the same sections (length, arc switches, share outside,
     time at programmed speed).
+
+    With a bead model connected (`model`, from bead-fit), the default bead width is the model's
+    target width and the spacing its step-over, 0.738·width (Ding et al. 2015 tangent overlap
+    model, as the contour pattern uses): the connected model wins over `default`'s bead_width and
+    spacing (a warning names both when the default sets them to other values); per-section
+    overrides stay the user's.
     """
 
     type = "strategy"
-    version = "5"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start
+    version = "6"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model
     title = "Strategy"
     category = "mpp"
-    inputs = (Port("sections", "sections", "Sections per layer (with guides)"),)
+    inputs = (Port("sections", "sections", "Sections per layer (with guides)"),
+              Port("model", "bead-model", "Optional bead model (bead-fit): its target width and step-over set "
+                                          "the default bead_width and spacing", optional=True))
     outputs = (Port("toolpath", "toolpath", "One section path per section, in section order"),)
     over = "sections"
 
@@ -124,7 +132,19 @@ class StrategyNode(LayerNode):
                 parse_variant(text)
             return v
 
+    @staticmethod
+    def effective(params, model):
+        """`params` with the default's bead_width and spacing from a connected bead model's target
+        width and step-over (unchanged without a model or target)."""
+        width = getattr(model, "target_width_mm", None) if model is not None else None
+        if width is None:
+            return params
+        default = SectionStrategy.model_validate({**params.default.model_dump(), "bead_width": float(width),
+                                                   "spacing": float(model.step_over(width))})
+        return params.model_copy(update={"default": default})
+
     def layer_params(self, params, index, items):
+        params = self.effective(params, items.get("model"))
         ls: LayerSections = items["sections"]
         return {
             "default": params.default.model_dump(mode="json"),
@@ -133,6 +153,7 @@ class StrategyNode(LayerNode):
         }
 
     def run_layer(self, ctx, params, index, items):
+        params = self.effective(params, items.get("model"))
         ls: LayerSections = items["sections"]
         out = []
         for s in ls.sections:
@@ -150,6 +171,19 @@ class StrategyNode(LayerNode):
         return {"toolpath": LayerPaths(ls.layer, tuple(out))}
 
     def combine(self, ctx, params, outputs, inputs):
+        model = inputs.get("model")
+        given = params
+        params = self.effective(params, model)
+        if model is not None and params is given:
+            ctx.warn("the connected bead model has no target width: the default bead_width and spacing are used")
+        elif params is not given:
+            d0, d1 = given.default, params.default
+            clash = [f for f in ("bead_width", "spacing")
+                     if f in d0.model_fields_set and abs(getattr(d0, f) - getattr(d1, f)) > 1e-9]
+            if clash:
+                ctx.warn(f"bead width {d1.bead_width:g} mm and spacing {d1.spacing:.4g} mm from the bead model "
+                         f"(connected model wins over the default's bead_width {d0.bead_width:g} mm, spacing "
+                         f"{d0.spacing:g} mm)")
         # The comparison re-plans every section once per compared pattern: it is memoised on the
         # sections' signatures + params, since combine runs on every execution (cached layers too).
         self._comparison = None

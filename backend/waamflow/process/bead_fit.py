@@ -28,7 +28,7 @@ import io
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -161,6 +161,17 @@ class BeadFit:
     process: str = ""
     wire_diameter_mm: float | None = None
     fit: dict = field(default_factory=dict)
+    #: The bead the process is set up for (mm): the bead-fit node's `height`/`width`. Nodes that
+    #: take a connected model read their layer height (slice) and step-over (strategy) from it.
+    target_height_mm: float | None = None
+    target_width_mm: float | None = None
+
+    def with_targets(self, height_mm: float | None, width_mm: float | None) -> "BeadFit":
+        return replace(self, target_height_mm=height_mm, target_width_mm=width_mm)
+
+    def target_step_over(self) -> float | None:
+        """Centre distance of neighbouring passes for the target width (tangent overlap model), mm."""
+        return None if self.target_width_mm is None else self.step_over(self.target_width_mm)
 
     def step_over(self, width_mm: float) -> float:
         """Centre distance between neighbouring beads for a flat top (tangent overlap model), mm."""
@@ -199,6 +210,8 @@ class BeadFit:
                 "units": {"wfs": "m/min", "ts": "mm/s", "width": "mm", "height": "mm"},
                 "width": self.width.to_json(), "height": self.height.to_json(),
                 "validity": {"wfs_m_min": list(self.wfs_range), "ts_mm_s": list(self.ts_range)},
+                **({"targets": {"height_mm": self.target_height_mm, "width_mm": self.target_width_mm}}
+                   if self.target_height_mm is not None or self.target_width_mm is not None else {}),
                 "fit": self.fit}
 
     @classmethod
@@ -207,9 +220,12 @@ class BeadFit:
             if d.get("format") != FORMAT:
                 raise ValueError(f"format must be {FORMAT!r}")
             v = d["validity"]
+            t = d.get("targets") or {}
+            th, tw = t.get("height_mm"), t.get("width_mm")
             return cls(PowerLaw.from_json(d["width"]), PowerLaw.from_json(d["height"]),
                        tuple(map(float, v["wfs_m_min"])), tuple(map(float, v["ts_mm_s"])),
-                       d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}))
+                       d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}),
+                       None if th is None else float(th), None if tw is None else float(tw))
         except (KeyError, TypeError, ValueError) as e:
             raise InputFileError(f"{source}: not a bead model ({e})") from None
 
