@@ -554,8 +554,10 @@ def execute(
     pool = make_pool(workers, scheduler)
     run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts,
                pool)
+    finished = False
     try:
         run.run()
+        finished = True
     except CancelledError as err:
         run.emit("run_cancelled", message=str(err), error=err.to_dict())
         raise
@@ -565,7 +567,7 @@ def execute(
         raise
     finally:
         info = pool.info()
-        pool.close()
+        pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,

@@ -142,9 +142,11 @@ class LayerPool:
             for fut in pending:
                 fut.cancel()
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
+        """Shut the workers down; `wait=False` (a failed or cancelled run) returns at once and
+        lets a chunk still running finish in the background instead of holding the run's end."""
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool.shutdown(wait=wait, cancel_futures=True)
             self._pool = None
 
 
@@ -221,7 +223,7 @@ class DaskPool:
             client.cancel([f for f in futures if not f.done()])
             client.cancel(shared)
 
-    def close(self) -> None:
+    def close(self, wait: bool = True) -> None:
         if self._client is not None:
             self._client.close()
             self._client = None
