@@ -268,7 +268,7 @@ class PositionerKin:
         pin.computeJointJacobians(self.model, data, q)
         pin.updateFramePlacements(self.model, data)
         J = pin.getFrameJacobian(self.model, data, self.model.getFrameId(link), pin.LOCAL_WORLD_ALIGNED)
-        w = J[3:, : self.nq].T
+        w = np.asarray(J, float).reshape(6, -1)[3:, : self.nq].T
         return w / np.linalg.norm(w, axis=1, keepdims=True)
 
 

@@ -53,7 +53,8 @@ def _shape(sh, cell=None) -> coal.CollisionGeometry:
     v, f = cell.shape_mesh(sh)
     m = coal.BVHModelOBBRSS()
     m.beginModel(len(f), len(v))
-    m.addSubModel(np.asarray(v, float) / 1000.0, np.asarray(f, np.int64))
+    m.addVertices(np.asarray(v, float) / 1000.0)
+    m.addTriangles(np.asarray(f, np.int64))
     m.endModel()
     return m
 
