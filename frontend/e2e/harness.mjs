@@ -21,13 +21,15 @@ const freePort = () =>
     });
   });
 
-export async function startServer() {
+/** `env`: extra environment of the server (e.g. WAAMFLOW_TOKEN); `headers`: sent by the harness's own checks. */
+export async function startServer({ env = {}, headers = {} } = {}) {
   const port = await freePort();
   const viewerPort = await freePort();
   const data = mkdtempSync(path.join(os.tmpdir(), "waamflow-e2e-"));
   const exe = process.env.WAAMFLOW_BIN ?? path.join(ROOT, ".venv/bin/waamflow");
   const proc = spawn(exe, ["serve", "--port", String(port), "--viewer-port", String(viewerPort), "--data", data], {
     cwd: ROOT,
+    env: { ...process.env, ...env },
     stdio: ["ignore", "pipe", "pipe"],
     detached: true,
   });
@@ -45,7 +47,7 @@ export async function startServer() {
     }
     await new Promise((r) => setTimeout(r, 100));
   }
-  const index = await fetch(`${base}/`).then((r) => r.text());
+  const index = await fetch(`${base}/`, { headers }).then((r) => r.text());
   if (!index.includes('id="root"')) throw new Error("the server does not serve the built frontend (run `npm run build`)");
   return {
     base,
