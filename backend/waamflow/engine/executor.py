@@ -380,7 +380,8 @@ class _Run:
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
         return signature("node", gnode.type, impl.version, CODE_VERSION,
-                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
+                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
+                         *((gnode.id,) if impl.uses_node_id else ()))
 
     def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
         key = self.node_key(gnode, in_sigs)
