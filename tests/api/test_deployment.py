@@ -60,7 +60,8 @@ def test_image_command_parses_with_the_cli():
     assert args.func is cli.cmd_serve
     assert args.host == "0.0.0.0" and d["expose"] == [args.port]
     assert f"127.0.0.1:{args.port}/api/health" in d["health"]
-    assert args.data == "/data" and args.graphs == d["env"]["WAAMFLOW_GRAPHS_DIR"]
+    assert args.data == "/data" == d["env"]["WAAMFLOW_DATA_DIR"]  # also `waamflow backup`'s default there
+    assert args.graphs == d["env"]["WAAMFLOW_GRAPHS_DIR"]
     assert d["env"]["WAAMFLOW_STATIC_DIR"] in d["copy_to"]  # the GUI is copied where the server looks
     waamflow_env = {k for k in d["env"] if k.startswith("WAAMFLOW_")}
     assert waamflow_env <= SETTINGS_ENV, waamflow_env - SETTINGS_ENV
@@ -139,7 +140,7 @@ def _image_env(monkeypatch, tmp_path, token_file: Path | None):
         env["WAAMFLOW_TOKEN_FILE"] = str(token_file)
     for k, v in env.items():
         if k.startswith("WAAMFLOW_"):
-            monkeypatch.setenv(k, v.replace("/app/", f"{tmp_path}/app/"))
+            monkeypatch.setenv(k, v.replace("/app/", f"{tmp_path}/app/").replace("/data", f"{tmp_path}/data"))
     monkeypatch.setenv("WAAMFLOW_START_VIEWER", "false")
     return [a.replace("/app/", f"{tmp_path}/app/").replace("/data", f"{tmp_path}/data") for a in dockerfile()["cmd"][1:]]
 
@@ -180,3 +181,15 @@ def test_env_settings_reach_serve(monkeypatch, tmp_path):
     assert cli.main(["serve", "--port", "8118"]) == 0 and started["port"] == 8118
     monkeypatch.setenv("WAAMFLOW_PORT", "eighty")
     assert cli.main(["serve"]) == 2
+
+
+def test_readme_limits_are_the_defaults():
+    """README 'Lab server' states each limit's default; they are the settings' defaults."""
+    readme = (DOCKER.parent / "README.md").read_text()
+    para = readme[readme.index("**Limits**"):]
+    para = para[:para.index("\n\n")]
+    stated = {name: float(num.replace(" ", "")) for name, num in re.findall(r"`(\w+)`\s+(\d[\d ]*\d|\d)\b", para)}
+    assert set(stated) >= {"run_timeout_s", "max_layers", "max_points", "max_artifact_mb", "max_memory_mb",
+                           "max_queued_runs", "max_upload_mb"}, stated
+    for name, value in stated.items():
+        assert Settings.model_fields[name].default == value, name
