@@ -773,9 +773,11 @@ export interface components {
         Recipe: {
             /**
              * Format
+             * @description waamflow/1; older formats are migrated on load
              * @default waamflow/1
+             * @enum {string}
              */
-            format: string;
+            format: "waamflow/1" | "waamflow/0" | "waamflow";
             /**
              * Name
              * @default recipe
@@ -786,7 +788,10 @@ export interface components {
              * @default
              */
             description: string;
-            /** Inputs */
+            /**
+             * Inputs
+             * @description named values that node params refer to as "$name"
+             */
             inputs?: {
                 [key: string]: unknown;
             };
