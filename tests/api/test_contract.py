@@ -60,7 +60,9 @@ def _config(phases, examples: int, scenarios: int, headers: dict | None = None) 
 def _server(tmp: Path, token: str | None):
     gdir = tmp / "graphs"
     gdir.mkdir()
-    (gdir / "example.json").write_text(json.dumps(toy.chain(stack={"count": 2})))
+    # a shipped example under the name the schema's examples use (read-only, runnable)
+    example = toy.chain(stack={"count": 2}, inputs={"pattern": "swiping", "speed": 40})
+    (gdir / "rectangle-study.json").write_text(json.dumps(example))
     s = Settings(data_dir=tmp / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1,
                  max_queued_runs=1000, run_timeout_s=5, token=token)
     return create_app(s)
@@ -123,6 +125,8 @@ def test_contract_with_token(tmp_path):
     found, calls = run_schemathesis(_server(tmp_path, TOKEN), _config(("examples", "coverage", "fuzzing"), examples=8,
                                                                      scenarios=1, headers=AUTH))
     assert not found, "\n\n".join(found)
+    examples = _phase_calls(calls, "examples")
+    assert examples[("POST", "/api/runs", 202)] >= 1 and examples[("GET", "/api/graphs/{name}", 200)] >= 1, examples
     for phase in ("coverage", "fuzzing"):
         assert sum(_phase_calls(calls, phase).values()) > 100, (phase, calls)
 
@@ -132,7 +136,7 @@ def test_stateful_with_token(tmp_path, save_is_a_root):
     mostly the read-only example)."""
     app = _server(tmp_path, TOKEN)
     with TestClient(app, headers=AUTH) as c:  # a server with history: one finished run
-        run_id = c.post("/api/runs", json={"graph": "example"}).json()["id"]
+        run_id = c.post("/api/runs", json={"graph": "rectangle-study"}).json()["id"]
         assert wait_for_run(c, run_id)["status"] == "done"
     found, calls = run_schemathesis(app, _config(("stateful",), examples=8, scenarios=30, headers=AUTH))
     assert not found, "\n\n".join(found)

@@ -862,6 +862,13 @@ export interface components {
         /**
          * RunRequest
          * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         * @example {
+         *       "graph": "rectangle-study",
+         *       "inputs": {
+         *         "pattern": "swiping",
+         *         "speed": 40
+         *       }
+         *     }
          */
         RunRequest: {
             /**
