@@ -81,9 +81,11 @@ def trace_lines(trace: dict) -> list[str]:
 def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     """Program files with the trace lines in their header, in each format's comment syntax:
     G-code `;` at the top, KRL `;` after `DEF`/`DEFDAT`, RAPID `!` after `MODULE`, CSV `#` at
-    the top. Applied when artifacts are written, so the date never enters a cache key."""
+    the top. Applied when artifacts are written, so the date never enters a cache key. JSON
+    (print points) has no comments and a fixed layout: it stays as it is (the trace is in
+    summary.json)."""
     body = trace_lines(trace)
-    if not body:
+    if not body or fmt == "printpoints":
         return dict(files)
     out = {}
     for suffix, text in files.items():

@@ -10,6 +10,14 @@ naming layer/section/zone, `M30`.
 
 The header carries a machine-readable line `; waamflow-post: arc_on=… arc_off=… dwell_units=…`
 that `gcode_parse.parse_gcode` uses to read the program back.
+
+Positioner cells: with `external_axes` (the positioner angles in degrees at every toolpath point,
+columns E1 tilt, E2 turn, from `trajectory.cell.positioner_angles`) each motion carries them as
+rotary-axis words, letters from `rotary_axes` (the machine profile's, e.g. A/C for a table that
+tilts about X and turns about Z, B/C when the tilt axis is the machine's Y) in `rotary_units`
+(deg or rad). X/Y/Z stay in the part frame on the positioner table: the controller's tool centre
+point control (LinuxCNC `xyzac-trt-kins`, Sinumerik TRAORI, Fanuc G43.4) turns them into machine
+motion. A rotary word is written when its value changes (and on the first motion).
 """
 
 from __future__ import annotations
@@ -39,8 +47,16 @@ class GcodeSettings:
     travel_speed: float = 100.0
     process_codes: dict[str, str] = field(default_factory=dict)
     decimals: int = 3
+    rotary_axes: tuple[str, ...] = ("A", "C")
+    rotary_units: str = "deg"
+    external_axes: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        if self.rotary_units not in ("deg", "rad"):
+            raise ValueError(f"rotary_units must be 'deg' or 'rad', not {self.rotary_units!r}")
+        letters = tuple(self.rotary_axes)
+        if len(set(letters)) != len(letters) or any(a not in ("A", "B", "C", "U", "V", "W") for a in letters):
+            raise ValueError(f"rotary_axes {list(letters)!r}: distinct letters among A, B, C, U, V, W")
         if self.dwell_units not in ("s", "ms"):
             raise ValueError(f"dwell_units must be 's' or 'ms', not {self.dwell_units!r}")
         for name in ("arc_on", "arc_off"):
@@ -68,6 +84,14 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     pts = plan.moves.points
     st = plan.stats
     d = settings.decimals
+    ext = None
+    if settings.external_axes is not None and len(pts):
+        ext = np.asarray(settings.external_axes, dtype=float).reshape(len(pts), -1)
+        if ext.shape[1] > len(settings.rotary_axes):
+            raise ValueError(f"{ext.shape[1]} positioner axes but rotary_axes names only "
+                             f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})")
+        if settings.rotary_units == "rad":
+            ext = np.radians(ext)
     out = [
         f"; waamflow G-code -- program: {settings.program_name}",
         "; units: mm (G21), absolute (G90), feed F in mm/min, "
@@ -80,9 +104,16 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         "G21 ; millimetres",
         "G90 ; absolute coordinates",
     ]
+    if ext is not None:
+        names = ("E1 (tilt)", "E2 (turn)", "E3", "E4", "E5", "E6")
+        out.append("; rotary axes: " + ", ".join(f"{a} = positioner {names[k]}" for k, a in
+                                               enumerate(settings.rotary_axes[: ext.shape[1]]))
+                   + f" in {'degrees' if settings.rotary_units == 'deg' else 'radians'}; X Y Z in the part "
+                     "frame on the positioner (tool centre point control on)")
     if st.get("circular_motions"):
         out.append("G17 ; arcs in the XY plane")
     feed: float | None = None
+    rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
     for s in plan.steps:
         if isinstance(s, LayerStart):
@@ -102,6 +133,12 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, Motion):
             p = pts[s.end]
             xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            if ext is not None:
+                for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
+                    v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
+                    if v != rot_last[k]:
+                        xyz += f" {letter}{v}"
+                        rot_last[k] = v
             if s.mode == "travel" and settings.rapid_travel:
                 out.append(f"G0 {xyz}")
                 continue
