@@ -20,7 +20,8 @@ import re
 import numpy as np
 from pygcode import GCodeArcMove, GCodeDwell, GCodeFeedRate, GCodeLinearMove, GCodeRapidMove, Line, Machine
 
-_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b")
+_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\s+"
+                  r"feed_units=(mm/min|mm/s)\s+end=([^\s)]+)")
 
 
 class _Machine(Machine):
@@ -41,11 +42,13 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     (text,) = files.values()
     tag = _TAG.search(text)
     assert tag, "no waamflow-post header line"
-    arc_on, arc_off = (tag.group(i).replace("_", " ") for i in (1, 2))
+    arc_on, arc_off, end = (tag.group(i).replace("_", " ") for i in (1, 2, 5))
     dwell_scale = 1e-3 if tag.group(3) == "ms" else 1.0
+    feed_per_s = 1.0 / 60.0 if tag.group(4) == "mm/min" else 1.0
     travel_speed = float(post.get("travel_speed", 100.0))
-    own = set(arc_on.split()) | set(arc_off.split())
-    own |= {tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split()}
+    own_lines = [arc_on, arc_off, end, *post.get("start_code", ()), *post.get("end_code", ()),
+                 *(tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split())]
+    own = {str(w) for code in own_lines for w in Line(code).block.words}
     m = _Machine()
     pos = np.zeros(3)
     arc = False
@@ -56,13 +59,19 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     ended = False
     for ln, raw in enumerate(text.splitlines(), 1):
         line = Line(raw)                                    # raises on anything pygcode cannot read
-        code = raw.split(";")[0].strip()
+        code = re.sub(r"\([^)]*\)", " ", raw).split(";")[0].strip()
+        if code == end:                       # the profile's program end (M30, M2, Marlin's M84)
+            ended = True
+            continue
         if code in (arc_on, arc_off):
             arc = code == arc_on
             continue
         block = line.block
         unknown = {str(w) for w in block.words} - _assigned_words(block)
         assert unknown <= own, f"line {ln}: words pygcode does not know: {sorted(unknown)} in {raw!r}"
+        words = {str(w) for w in block.words}
+        if words and words <= own and not any(w[0] in "XYZ" for w in words):
+            continue                          # the machine's own codes (e.g. Marlin's M107, M84): no motion
         for gc in block.gcodes:
             if isinstance(gc, GCodeFeedRate):
                 feed = float(gc.word.value)
@@ -94,7 +103,7 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
             speed = travel_speed
         else:
             assert feed, f"line {ln}: motion without a feed"
-            speed = feed / 60.0
+            speed = feed * feed_per_s
         t += length / speed
         if arc:
             dep += length
@@ -110,7 +119,7 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     assert ended, "no M30/M2 at the end"
     assert not arc, "the program ends with the arc on"
     return {"points": points, "deposition_length_mm": dep, "travel_length_mm": trav,
-            "dwell_total_s": dwell, "estimated_time_s": t, "rotary": rotary}
+            "dwell_total_s": dwell, "estimated_time_s": t, "rotary": rotary, "final_z": float(pos[2])}
 
 
 def check_krl(files: dict[str, str], post: dict) -> dict:

@@ -130,7 +130,7 @@ def test_programs_parse_and_agree_with_the_summary(runs, name):
 
 
 def _trace(text: str) -> dict:
-    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), recipe (\S+)", text)
+    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), recipe ([^\s)]+)", text)
     rsha = re.search(r"waamflow trace: recipe sha256 ([0-9a-f]{64})", text)
     return {"version": head.group(2), "recipe": head.group(3), "recipe_sha256": rsha.group(1),
             "inputs": dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text))}
@@ -191,7 +191,9 @@ def test_curved_duct_gcode_carries_the_simulated_positioner_angles_as_rotary_axe
         assert f"; rotary axes: {tilt} = positioner E1 (tilt), {turn} = positioner E2 (turn) in degrees" in text
         rot = check_gcode({"gcode": text}, {**PROFILES[prof]["post"], **post["params"]})["rotary"]
         e1, e2 = np.array(rot[tilt]), np.array(rot[turn])
-        assert len(e1) == len(moves.points)                                  # one value per motion
+        assert len(e1) == len(moves.points) + 1                              # one per motion + the final lift
+        assert (e1[-1], e2[-1]) == (e1[-2], e2[-2])                          # the lift keeps the angles
+        e1, e2 = e1[:-1], e2[:-1]
         assert np.allclose(e1, angles[:, 0], atol=1e-3) and np.allclose(e2, angles[:, 1], atol=1e-3)
         assert len(np.unique(np.round(e1, 3))) == 12                         # moves once per layer
         assert e1.min() == pytest.approx(sim["positioner_e1_min_deg"], abs=1e-3) == pytest.approx(1.54)

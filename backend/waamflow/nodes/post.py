@@ -74,6 +74,24 @@ class PostProcess(Node):
         arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off")
         dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller")
         rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)")
+        comment_style: Literal["semicolon", "parentheses"] = Field(
+            "semicolon", description="G-code: comments as `; text` or `(text)` (controllers without `;`)")
+        feed_units: Literal["mm/min", "mm/s"] = Field("mm/min", description="G-code: unit of the F word")
+        start_code: list[str] = Field(default_factory=list, max_length=50,
+                                      description="G-code: lines written after the header (e.g. homing, gas on)")
+        layer_code: list[str] = Field(default_factory=list, max_length=20,
+                                      description="G-code: lines written at every layer change; templates with "
+                                                  "{layer} and {z} (mm), e.g. \";LAYER:{layer}\"")
+        end_code: list[str] = Field(default_factory=list, max_length=50,
+                                    description="G-code: lines written after the last motion and the final lift")
+        final_lift: float = Field(0.0, ge=0, le=500, json_schema_extra=unit("mm"),
+                                  description="G-code: G0 up by this much at the end, after the arc is off; 0 = none")
+        preamble: list[str] = Field(default_factory=list, max_length=10,
+                                    description="G-code: lines before everything else (e.g. \"%\", \"O0001\")")
+        postamble: list[str] = Field(default_factory=list, max_length=10,
+                                     description="G-code: lines after the program end (e.g. \"%\")")
+        program_end: str = Field("M30", min_length=1, max_length=32,
+                                 description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)")
         process_codes: dict[str, str] = Field(
             default_factory=dict,
             description="G-code / KRL output mode: zone parameter name → command template using {value}, "
@@ -183,7 +201,11 @@ def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | Rap
         return GcodeSettings(program_name=p.program_name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
                              travel_speed=p.travel_speed, process_codes=dict(p.process_codes),
-                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units)
+                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units,
+                             comment_style=p.comment_style, feed_units=p.feed_units,
+                             start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
+                             end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
+                             preamble=tuple(p.preamble), postamble=tuple(p.postamble))
     if p.format == "krl":
         return KrlSettings(program_name=p.program_name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,

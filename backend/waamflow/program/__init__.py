@@ -56,7 +56,12 @@ def post_process(
     plan = plan_program(moves, plan_settings)
     stats = dict(plan.stats, format=fmt)
     if fmt == "gcode":
-        files = {"gcode": write_gcode(plan, writer_settings or GcodeSettings())}
+        gs = writer_settings or GcodeSettings()
+        files = {"gcode": write_gcode(plan, gs)}
+        if gs.final_lift > 0 and len(moves.points):
+            stats["motions"] += 1                      # the final lift is a motion of this program
+            stats["travel_length_mm"] = round(stats["travel_length_mm"] + gs.final_lift, 3)
+            stats["estimated_time_s"] = round(stats["estimated_time_s"] + gs.final_lift / plan_settings.travel_speed, 3)
     elif fmt == "krl":
         files = write_krl(plan, writer_settings or KrlSettings())
     elif fmt == "rapid":

@@ -90,8 +90,10 @@ def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     out = {}
     for suffix, text in files.items():
         lines = text.split("\n")
-        if fmt == "gcode":
-            lines = [f"; {b}" for b in body] + lines
+        if fmt == "gcode":                                 # before the first comment (after a preamble)
+            at = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith((";", "("))), 0)
+            paren = lines[at].lstrip().startswith("(") if lines else False     # the profile's comment style
+            lines = lines[:at] + [f"({b})" if paren else f"; {b}" for b in body] + lines[at:]
         elif fmt == "csv":
             lines = [f"# {b}" for b in body] + lines
         else:
