@@ -4,8 +4,8 @@
 `PROGRAM_CHECKERS[format](files, post_params)` checks the program files of one post-process node
 (artifact suffix → text) and returns what it measured: at least `points` (motions read) and, where
 the format says so, `deposition_length_mm`, `travel_length_mm`, `dwell_total_s`,
-`estimated_time_s`, `rotary` (letter → values per motion). Register another checker (e.g. a RAPID
-grammar) by replacing the entry: the matrix calls whatever is registered.
+`estimated_time_s`, `rotary` (letter → values per motion). KRL and RAPID use the parsers in
+`tests/program/krl_check.py` / `rapid_check.py`; the matrix calls whatever is registered.
 
 G-code goes through pygcode (an independent G-code parser and machine-state interpreter, not our
 `gcode_parse`): every line must parse, every word must belong to a code pygcode knows except the
@@ -123,32 +123,33 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
 
 
 def check_krl(files: dict[str, str], post: dict) -> dict:
-    """The KRL structural checker of the curved-parts tests on every .src/.dat pair."""
+    """KRL: the token/statement parser `tests/program/krl_check.py` (helper robotprog's) on every
+    .src/.dat pair, then the structural checker of the curved tests (E6POS fields X..C E1..E6)."""
     from curved.test_nodes import _krl_structure
+    from krl_check import parse_program
 
-    points = 0
+    points = motions = 0
     for suffix, src in files.items():
         if not suffix.endswith("src"):
             continue
         dat = files[suffix[:-3] + "dat"]
-        fields = _krl_structure(src, dat)
-        points += len(fields["X"])
-    return {"points_declared": points}
+        prog = parse_program(src, dat)
+        motions += len(prog.motions())
+        points += len(_krl_structure(src, dat)["X"])
+    return {"points_declared": points, "motions": motions}
 
 
 def check_rapid(files: dict[str, str], post: dict) -> dict:
-    """A structural RAPID check (MODULE … ENDMODULE, PROC … ENDPROC balanced, every robtarget a
-    motion uses declared once). Replace with a grammar-based checker when one is available."""
+    """RAPID: the recursive-descent parser `tests/program/rapid_check.py` (declarations, aggregate
+    shapes, every motion/ArcWare instruction's argument types)."""
+    from rapid_check import parse_module
+
     (text,) = files.values()
-    lines = [ln.split("!")[0].strip() for ln in text.splitlines()]
-    lines = [ln for ln in lines if ln]
-    assert re.fullmatch(r"MODULE \w+(\(.*\))?", lines[0]) and lines[-1] == "ENDMODULE"
-    assert sum(ln.startswith("PROC ") for ln in lines) == sum(ln == "ENDPROC" for ln in lines) >= 1
-    decl = re.findall(r"(?:CONST|PERS|VAR) robtarget (\w+)\s*:=", text)
-    assert len(decl) == len(set(decl))
-    used = re.findall(r"^\s*(?:MoveL|MoveJ|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCStart|ArcCEnd|MoveC)\s+(\w+)", text, re.M)
-    assert used and set(used) <= set(decl), sorted(set(used) - set(decl))[:5]
-    return {"points_declared": len(decl), "motions": len(used)}
+    units = (post.get("positioner_unit") or "STN1",) if post.get("cell") else ()
+    mod = parse_module(text, tool=post.get("tool_name", "tWeldGun"), units=units)
+    robtargets = [n for n, (_st, typ, _v) in mod.data.items() if typ == "robtarget"]
+    return {"points_declared": len(robtargets), "motions": len(mod.calls("MoveL", "MoveC", "ArcLStart", "ArcL",
+                                                                            "ArcLEnd", "ArcC", "ArcCEnd"))}
 
 
 PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid}
