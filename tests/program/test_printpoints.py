@@ -130,3 +130,29 @@ def test_post_process_node_writes_printpoints_artifact():
     assert list(files) == ["printpoints.json"] and out["program"].main_suffix == "printpoints.json"
     pp = json.loads(files["printpoints.json"])
     assert len(pp) == out["program"].stats["points"] and {x["blend_radius"] for x in pp.values()} == {0.0}
+
+
+def test_mpp_cross_print_points_with_vertical_retracts():
+    """The shipped cross (retract moves straight up and down): one entry per sample, unit frames
+    everywhere, 1.5 mm on every layer, arc-on velocities = the XML's zone speeds."""
+    from pathlib import Path
+
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+    recipe = json.loads((graphs / "mpp-cross.json").read_text())
+    next(n for n in recipe["nodes"] if n["id"] == "post")["params"]["format"] = "printpoints"
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
+    pp = json.loads(res.artifacts["post.printpoints.json"])
+    moves = flatten(res.outputs["sequence"]["toolpath"])
+    assert len(pp) == len(moves.points) == res.summary("mpp-cross")["programs"]["post"]["points"]
+    vertical = np.flatnonzero(np.linalg.norm(np.diff(moves.points, axis=0)[:, :2], axis=1) < 1e-9) + 1
+    assert len(vertical) >= 20                                        # retracts up and approaches down
+    for x in pp.values():
+        up, n, t = (np.array(v) for v in (x["up_vector"], x["mesh_normal"], x["attributes"]["tangent"]))
+        assert np.linalg.norm(n) == pytest.approx(1, abs=1e-3) and np.linalg.norm(t) == pytest.approx(1, abs=1e-3)
+        assert abs(n @ up) < 1e-3 and abs(t @ up) < 1e-3
+    assert {x["layer_height"] for x in pp.values()} == {1.5}
+    assert {x["velocity"] for x in pp.values() if x["extruder_toggle"]} == {6.0, 8.0, 4.0}

@@ -86,11 +86,11 @@ def frames(moves: Moves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     arrive = np.vstack([seg[:1], seg])
     tangent = leave.copy()
     for cand in (arrive, np.tile(_X, (n, 1)), np.tile(np.array([0.0, 1.0, 0.0]), (n, 1))):
-        perp = cand - np.sum(cand * up, axis=1, keepdims=True) * up
+        # a tangent along `up` (a vertical travel move) has no direction in the layer: take the next candidate
         bad = np.linalg.norm(tangent - np.sum(tangent * up, axis=1, keepdims=True) * up, axis=1) < 1e-6
-        tangent[bad] = cand[bad]
         if not bad.any():
             break
+        tangent[bad] = cand[bad]
     tangent = _unit(tangent - np.sum(tangent * up, axis=1, keepdims=True) * up)
     normal = _unit(np.cross(up, tangent))
     return up, tangent, normal
