@@ -15,7 +15,7 @@ from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import check_templates, stamp_trace
+from ..program.common import TOOL_COMMANDS, check_templates, check_tool_template, stamp_trace
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import load_cell, positioner_angles
 
@@ -39,6 +39,9 @@ class PostProcess(Node):
     - `csv`: cutter-location file `<node>.csv`, one row per point (x, y, z, tool axis, speed,
       arc, layer, section, zone, dwell).
     Ignition dwell: the zone's `dwell` parameter when it has one, else `ignition_dwell`.
+    Interlayer dwells carry their reason (e.g. the interpass rule) in a comment. Rolling/peening
+    strokes (a `treatment` node's sections) are engaged and lifted by `tool_on`/`tool_off`
+    (force, width, speed filled in) around each stroke's contact motions.
     """
 
     type = "post-process"
@@ -72,6 +75,16 @@ class PostProcess(Node):
             default_factory=dict,
             description="G-code / KRL output mode: zone parameter name → command template using {value}, "
                         "e.g. {\"wire_feed_speed\": \"M100 S{value:.1f}\", \"job\": \"M101 P{value:.0f}\"}")
+        # post-deposition tools (rolling, peening: sections from a treatment node)
+        tool_on: str = Field("", max_length=200,
+                             description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
+                                         "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
+                                         "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
+                                         "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
+                                         "`ToolOn force, width, speed;`")
+        tool_off: str = Field("", max_length=200,
+                              description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
+                                          "`TOOL_OFF()`, RAPID `ToolOff;`")
         # KUKA KRL
         tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
         base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")
@@ -98,6 +111,11 @@ class PostProcess(Node):
         @classmethod
         def _templates(cls, v: dict[str, str]) -> dict[str, str]:
             return check_templates(v)
+
+        @field_validator("tool_on", "tool_off")
+        @classmethod
+        def _tool_template(cls, v: str) -> str:
+            return check_tool_template(v, "tool command") if v else v
 
     def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
         params = with_profile(params)
@@ -143,18 +161,21 @@ def with_profile(params: PostProcess.Params) -> PostProcess.Params:
 
 def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:
     direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
+    if p.format in TOOL_COMMANDS:
+        on, off = TOOL_COMMANDS[p.format]
+        tools = dict(tool_on=p.tool_on or on, tool_off=p.tool_off or off)
     if p.format == "gcode":
         return GcodeSettings(program_name=p.program_name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
-                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes))
+                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes), **tools)
     if p.format == "krl":
         return KrlSettings(program_name=p.program_name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                            arc_control=p.arc_control, arc_output=p.arc_output,
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
-                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes))
+                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes), **tools)
     if p.format == "rapid":
         return RapidSettings(program_name=p.program_name, tool=p.tool_name, wobj=p.wobj_name,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
-                             tool_direction=direction or "z")
+                             tool_direction=direction or "z", **tools)
     return None

@@ -18,7 +18,7 @@ from ..core.moves import flatten
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..process.bead_fit import BeadFit, fit_svg, fit_trials, read_trials
 from ..process.fill import FillRules, fill
-from ..process.interpass import HeatModel, interpass_svg, plan_dwells
+from ..process.interpass import HeatModel, interpass_svg, plan_dwells, summary_report
 from ..process.treatment import TreatmentSpec, plan_treatment
 from ..zoning.params_xml import parse as parse_params
 from ..engine.ports import Port
@@ -350,6 +350,7 @@ class Interpass(Node):
         except ValueError as e:
             raise RecipeError(str(e), node=ctx.node_id) from None
         ctx.progress(1.0, f"interpass dwell {report['total_added_dwell_s']:.1f} s added")
+        ctx.report(summary_report(report))
         return {"toolpath": tp, "report": report}
 
     def artifacts(self, ctx, params, outputs):
@@ -392,6 +393,7 @@ class Treatment(Node):
                              speed=params.speed, clearance_mm=params.clearance, max_turn_deg=params.max_turn_deg,
                              tolerance_mm=params.tolerance, min_stroke_mm=params.min_stroke)
         tp, report = plan_treatment(inputs["toolpath"], spec, params.interleave)
+        ctx.report({k: v for k, v in report.items()})
         return {"toolpath": tp, "report": report}
 
     def artifacts(self, ctx, params, outputs):

@@ -119,17 +119,20 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
             pts = np.vstack([nxt.sections[0].approach, nxt.sections[0].points[:1]])
             t_next_travel = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() / m.travel_speed)
         need_time = max(0.0, m.min_layer_time_s - (t_on + t_off)) if nxt is not None else 0.0
-        dwell = max(need_cool - t_next_travel, need_time, 0.0) if nxt is not None else 0.0
-        dwell = max(dwell, float(lp.dwell_after_s))
+        need = max(need_cool - t_next_travel, need_time, 0.0) if nxt is not None else 0.0
+        dwell = max(need, float(lp.dwell_after_s))
         T_next = m.ambient_c + (T_peak - m.ambient_c) * math.exp(-(dwell + t_next_travel) / tau)
+        limited_by = ("none" if nxt is None else "existing" if dwell > need else
+                      "temperature" if need_cool - t_next_travel >= need_time and need_cool > 0 else
+                      "min_layer_time" if need_time > 0 else "none")
         rows.append({"layer": lp.index, "arc_time_s": round(t_on, 3), "travel_time_s": round(t_off, 3),
                      "arc_power_w": round(power, 1), "mass_kg": round(mass, 4), "tau_s": round(tau, 2),
                      "peak_c": round(T_peak, 2), "dwell_s": round(dwell, 3),
                      "added_dwell_s": round(dwell - float(lp.dwell_after_s), 3),
                      "start_next_c": round(T_next, 2) if nxt is not None else None,
-                     "limited_by": ("temperature" if need_cool - t_next_travel >= need_time and need_cool > 0
-                                    else "min_layer_time" if need_time > 0 else "none")})
-        out.append(replace(lp, dwell_after_s=dwell))
+                     "limited_by": limited_by})
+        out.append(replace(lp, dwell_after_s=dwell, dwell_note=dwell_note(limited_by, m, T_peak, T_next, lp.index)
+                           if dwell > 0 else lp.dwell_note))
         T = T_next
     report = {"interpass_c": m.interpass_c, "min_layer_time_s": m.min_layer_time_s,
               "total_dwell_s": round(sum(r["dwell_s"] for r in rows), 3),
@@ -137,6 +140,25 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
               "max_peak_c": round(max((r["peak_c"] for r in rows), default=m.ambient_c), 2),
               "model": {k: v for k, v in m.__dict__.items()}, "layers": rows}
     return Layered(tuple(out)), report
+
+
+def dwell_note(limited_by: str, m: HeatModel, peak_c: float, next_c: float, layer: int) -> str:
+    """Why a layer dwells, for the program comment beside the dwell (ASCII: robot controllers)."""
+    if limited_by == "temperature":
+        return (f"interpass control: limit {m.interpass_c:g} degC, lumped heat model: part {peak_c:.0f} degC "
+                f"after layer {layer}, {next_c:.0f} degC at the next layer's start")
+    if limited_by == "min_layer_time":
+        return f"interpass control: minimum layer time {m.min_layer_time_s:g} s"
+    return ""
+
+
+def summary_report(report: dict) -> dict:
+    """The part of the interpass report that summary.json states: per layer dwell, rule and
+    temperatures; totals."""
+    keys = ("layer", "dwell_s", "added_dwell_s", "limited_by", "peak_c", "start_next_c")
+    return {"interpass_c": report["interpass_c"], "min_layer_time_s": report["min_layer_time_s"],
+            "total_dwell_s": report["total_dwell_s"], "total_added_dwell_s": report["total_added_dwell_s"],
+            "max_peak_c": report["max_peak_c"], "layers": [{k: r[k] for k in keys} for r in report["layers"]]}
 
 
 def interpass_svg(report: dict) -> str:

@@ -9,7 +9,9 @@ simplified (Douglas-Peucker, `tolerance` mm — collinear points dropped, the pa
 tolerance of the bead centre) and flown as: approach from `clearance` mm above its start, lower
 onto the bead, roll at `speed`, lift `clearance` mm at its end. Strokes shorter than
 `min_stroke` mm are skipped (reported). A peening tool uses the same path (`tool` = "peening").
-Force and tool width are process data carried in the report and the program header.
+Each stroke is a tool section (`SectionPath.tool` = the tool, `tool_params` = force_n,
+tool_width_mm, speed_mm_s): the post-processor engages the tool with the machine's command
+carrying these values before the stroke's contact motions and lifts it after (program/plan.py).
 """
 
 from __future__ import annotations
@@ -83,9 +85,13 @@ def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, 
                 arc = np.zeros(k, bool)
                 speed = np.full(k, spec.speed)
                 speed[-1] = np.nan          # the lift flies at the machine's travel speed
+                inside = np.ones(k, bool)
+                inside[-1] = False
                 out.append(SectionPath(
                     key=f"{sp.key}/{spec.tool}{n}", strategy=spec.tool, points=points, arc=arc,
-                    inside=np.ones(k, bool), speed=speed, approach=(top[0] + spec.clearance_mm * up)[None, :]))
+                    inside=inside, speed=speed, approach=(top[0] + spec.clearance_mm * up)[None, :],
+                    tool=spec.tool, tool_params={"force_n": spec.force_n, "tool_width_mm": spec.tool_width_mm,
+                                                 "speed_mm_s": spec.speed}))
                 rolled += float(line.length)
                 n += 1
     return tuple(out), {"layer": lp.index, "strokes": n, "rolled_length_mm": round(rolled, 3), "skipped_short": skipped,

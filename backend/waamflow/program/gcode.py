@@ -6,7 +6,9 @@ code is a setting. Output: absolute millimetres (G21, G90), G0 travel (or G1 at 
 G1 deposition with F in mm/min (= segment speed mm/s × 60, converted only here), G2/G3 in the XY
 plane (G17, I/J relative to the arc start) when arc fitting is on, `arc_on` + `G4` dwell after
 each ignition, per-zone process commands from templates, `G4` for interlayer dwell, comments
-naming layer/section/zone, `M30`.
+naming layer/section/zone, `M30`. Post-deposition tool sections (rolling, peening) are engaged
+and lifted by the `tool_on` / `tool_off` templates (default LinuxCNC user M-codes
+`M110 P<force N> Q<width mm>` / `M111`), with a comment stating force, width and speed.
 
 The header carries a machine-readable line `; waamflow-post: arc_on=… arc_off=… dwell_units=…`
 that `gcode_parse.parse_gcode` uses to read the program back.
@@ -18,8 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .common import check_templates, num, process_lines, process_summary, short
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
+                     short, tool_lines, tool_summary)
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,8 +42,12 @@ class GcodeSettings:
     travel_speed: float = 100.0
     process_codes: dict[str, str] = field(default_factory=dict)
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["gcode"][0]
+    tool_off: str = TOOL_COMMANDS["gcode"][1]
 
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         if self.dwell_units not in ("s", "ms"):
             raise ValueError(f"dwell_units must be 's' or 'ms', not {self.dwell_units!r}")
         for name in ("arc_on", "arc_off"):
@@ -98,7 +105,14 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, ArcOff):
             out.append(f"{settings.arc_off} ; arc off")
         elif isinstance(s, Dwell):
-            out.append(f"{_dwell(s.seconds, settings)} ; {s.reason} dwell {short(round(s.seconds, 3))} s")
+            note = f" ({s.note})" if s.note else ""
+            out.append(f"{_dwell(s.seconds, settings)} ; {s.reason} dwell {short(round(s.seconds, 3))} s{note}")
+        elif isinstance(s, ToolOn):
+            lines = tool_lines(settings.tool_on, s.tool, s.params)
+            out.extend(lines[:-1] + [f"{lines[-1]} ; {tool_summary(s.tool, s.params)}"])
+        elif isinstance(s, ToolOff):
+            lines = tool_lines(settings.tool_off, s.tool, {})
+            out.extend(lines[:-1] + [f"{lines[-1]} ; {s.tool} off"])
         elif isinstance(s, Motion):
             p = pts[s.end]
             xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"

@@ -47,8 +47,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .common import check_identifier, check_templates, num, process_lines, process_summary, short
+from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +75,8 @@ class KrlSettings:
     process_codes: dict[str, str] = field(default_factory=dict)
     external_axes: np.ndarray | None = None
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["krl"][0]     # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["krl"][1]
 
     @property
     def split(self) -> bool:
@@ -88,6 +91,8 @@ class KrlSettings:
         if self.max_points_per_file < 0 or 0 < self.max_points_per_file < 2:
             raise ValueError("max_points_per_file must be 0 (no limit) or at least 2")
         check_templates(self.process_codes)
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
 
 
 @dataclass(frozen=True)
@@ -229,7 +234,12 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets) -> tuple
             else:
                 lines.append(f"ARC_OFF({active_set if active_set is not None else 1})")
         elif isinstance(st, Dwell):
-            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell")
+            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
+        elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
+            on = isinstance(st, ToolOn)
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
+                f"{tl[-1]} ; {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
         elif isinstance(st, Motion):
             v = s.travel_speed if st.mode == "travel" else st.speed
             v_ms = round(float(v) / 1000.0, 6)
