@@ -139,6 +139,8 @@ def test_rolling_program_commands_per_layer(seq):
             lift = next(ln for ln in lines[b + 1:] if ln.startswith("G"))
             assert lift.startswith("G0") and float(re.search(r"Z([-\d.]+)", lift).group(1)) == pytest.approx(z_top[layer] + 10)
     assert "F720" in gcode                             # 12 mm/s
+    first = next(ln for ln in lines if ln.startswith("G0"))   # the program starts above the part
+    assert float(re.search(r"Z([-\d.]+)", first).group(1)) == pytest.approx(z_top[0] + 10)
     # KRL and RAPID: the cell's routines with force, width and speed, once per stroke
     krl = post_process(tp, "krl").files["src"]
     assert krl.count("TOOL_ON(18000.0, 8.00, 12.00)") == rep["strokes"] == krl.count("TOOL_OFF()")

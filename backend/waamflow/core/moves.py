@@ -106,6 +106,12 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
                 axes.append(np.tile(down, (len(travel_pts), 1)))
                 dwell.extend([0.0] * len(travel_pts))
                 dwell[-1] += pending_dwell
+            elif sp.tool and len(travel_pts) > 1:
+                # a tool (roller) starts from its approach above the part, never straight onto it
+                pts.append(np.array(travel_pts))
+                axes.append(np.tile(down, (len(travel_pts), 1)))
+                add_segments(TRAVEL, False, False, np.nan, lp.index, s_idx, -1, len(travel_pts) - 1)
+                dwell.extend([0.0] * (len(travel_pts) - 1) + [pending_dwell])
             else:
                 pts.append(np.array(travel_pts[-1:]))
                 axes.append(down[None, :])
