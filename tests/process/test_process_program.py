@@ -192,3 +192,18 @@ def test_machine_profile_and_bad_templates():
         load_nodes()["post-process"].Params(tool_on="M110 P{pressure}")
     with pytest.raises(ValueError, match="tool_on"):
         GcodeSettings(tool_on="M110 P{force_n:q}")
+
+
+def test_plots_state_the_numbers(seq):
+    from waamflow.process.interpass import interpass_svg
+    from waamflow.process.svgplot import nice_ticks
+
+    assert nice_ticks(0, 2654) == [0, 500, 1000, 1500, 2000, 2500]
+    assert nice_ticks(1.04, 2.37) == [1.25, 1.5, 1.75, 2.0, 2.25]
+    _, rep = plan_dwells(seq, HeatModel(interpass_c=150.0))
+    svg = interpass_svg(rep)
+    dwells = [r["dwell_s"] for r in rep["layers"] if r["dwell_s"] > 0]
+    assert svg.count('fill="#dde6f0"') == len(dwells) + 1            # one band per dwell + the legend key
+    for d in dwells:
+        assert f">{d:.0f} s</text>" in svg
+    assert f"total dwell {rep['total_dwell_s']:.0f} s" in svg

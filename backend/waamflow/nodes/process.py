@@ -23,7 +23,8 @@ from ..process.treatment import TreatmentSpec, plan_treatment
 from ..zoning.params_xml import parse as parse_params
 from ..engine.ports import Port
 from ..process.coverage import section_coverage
-from ..trajectory.compensate import CompensationSettings, compensate, deposit_cv, deposit_ratio_cv, deposit_svg
+from ..trajectory.compensate import (CompensationSettings, compensate, deposit_bin_series, deposit_cv, deposit_ratio_cv,
+                                     deposit_svg)
 from ..trajectory.run import simulate_program
 from .robot import RobotParams, _profile
 
@@ -159,7 +160,8 @@ class CompensateDeposit(Node):
                   "deposit_ratio_cv_before": round(deposit_ratio_cv(plain), 5),
                   "cv_reduction": round(1 - comp.report["deposit_per_mm_cv_after"] / cv0, 4) if cv0 > 0 else 0.0}
         deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
-                   "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"]}
+                   "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
+                   "bins": deposit_bin_series(plain, comp.after)}
         sim = dc_replace(comp.after, deposit=deposit, estimate={**comp.after.estimate, **{
             k: float(v) for k, v in report.items() if isinstance(v, (int, float))}})
         return {"toolpath": comp.toolpath, "simulation": sim}

@@ -162,27 +162,47 @@ def summary_report(report: dict) -> dict:
 
 
 def interpass_svg(report: dict) -> str:
-    """Per layer: peak temperature and temperature at the next layer's start, and the dwell."""
+    """The part's temperature over the build as the lumped model sees it: each layer's heat
+    (drawn as a rise over the layer's arc + travel time; the model adds it at the layer's end),
+    the exponential cooling after it, the dwells (shaded, labelled) and the interpass limit."""
+    from .svgplot import Chart, caption, figure
+
     rows = report["layers"]
-    W, H, pad = 700, 260, 46
-    n = max(len(rows), 1)
-    tmax = max([r["peak_c"] for r in rows] + [report["interpass_c"]]) * 1.1
-    dmax = max([r["dwell_s"] for r in rows] + [1.0])
-    x = lambda i: pad + (W - 2 * pad) * (i + 0.5) / n  # noqa: E731
-    yT = lambda t: H - pad - (H - 2 * pad) * t / tmax  # noqa: E731
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
-           f'<rect width="{W}" height="{H}" fill="#fff"/>',
-           f'<text x="{pad}" y="16" font-weight="bold">Interpass: peak (red) and next-start (blue) temperature, '
-           f'dwell (bars, max {dmax:.0f} s); limit {report["interpass_c"]:.0f} °C</text>',
-           f'<line x1="{pad}" y1="{yT(report["interpass_c"]):.1f}" x2="{W - pad}" y2="{yT(report["interpass_c"]):.1f}" '
-           f'stroke="#888" stroke-dasharray="4 3"/>']
-    bw = 0.6 * (W - 2 * pad) / n
-    for i, r in enumerate(rows):
-        h = (H - 2 * pad) * r["dwell_s"] / dmax
-        out.append(f'<rect x="{x(i) - bw / 2:.1f}" y="{H - pad - h:.1f}" width="{bw:.1f}" height="{h:.1f}" fill="#e9ecef"/>')
-    for key, color in (("peak_c", "#d62828"), ("start_next_c", "#1d3557")):
-        pts = " ".join(f"{x(i):.1f},{yT(r[key]):.1f}" for i, r in enumerate(rows) if r[key] is not None)
-        out.append(f'<polyline fill="none" stroke="{color}" stroke-width="1.5" points="{pts}"/>')
-    out.append(f'<text x="{pad}" y="{H - 10}">layer 0 … {len(rows) - 1}; total dwell {report["total_dwell_s"]:.1f} s</text>')
-    out.append("</svg>")
-    return "\n".join(out)
+    amb = float(report.get("model", {}).get("ambient_c", 20.0))
+    limit = float(report["interpass_c"])
+    t, T = 0.0, amb
+    segs, bands = [], []
+    for r in rows:
+        t_layer = r["arc_time_s"] + r["travel_time_s"]
+        segs.append(([t, t + t_layer], [T, r["peak_c"]], "layer"))
+        t += t_layer
+        peak = r["peak_c"]
+        if r["start_next_c"] is not None:
+            nxt = r["start_next_c"]
+            d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else r["dwell_s"]
+            if r["dwell_s"] > 0:
+                bands.append((t, t + r["dwell_s"], r["dwell_s"]))
+        else:   # after the last layer: cooling down to the limit, for reference
+            nxt = min(peak, limit)
+            d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else 0.0
+        ts = np.linspace(0.0, max(d, 0.0), 40)
+        segs.append((t + ts, amb + (peak - amb) * np.exp(-ts / r["tau_s"]), "last" if r["start_next_c"] is None else "cool"))
+        t, T = t + max(d, 0.0), nxt
+    t_end = max(t, 1.0)
+    t_max = max([limit] + [r["peak_c"] for r in rows] + [amb + 1])
+    ch = Chart(64, 44, 760, 300, (0.0, t_end), (0.0, t_max * 1.08), x_label="build time, s",
+               y_label="part temperature, °C",
+               title=f"Interpass control: {len(rows)} layers, limit {limit:g} °C"
+                     + (f", minimum layer time {report['min_layer_time_s']:g} s" if report["min_layer_time_s"] else ""))
+    for a, b, dwell in bands:
+        ch.span(a, b, "#dde6f0", label="dwell")
+        if len(bands) <= 16:
+            ch.text((a + b) / 2, t_max * 0.06, f"{dwell:.0f} s", anchor="middle", color="#1d3557", size=10)
+    ch.hline(limit, "#555555", label=f"interpass limit {limit:g} °C")
+    for xs, ys, kind in segs:
+        ch.line(xs, ys, "#d62828" if kind == "layer" else "#1d3557", dash="4 3" if kind == "last" else "")
+    ch.legend_items += [("layer deposited (heat)", "#d62828", "line"), ("cooling", "#1d3557", "line")]
+    note = (f"total dwell {report['total_dwell_s']:.0f} s (added {report['total_added_dwell_s']:.0f} s); "
+            f"peak {report['max_peak_c']:.0f} °C; lumped model: one body, η·U·I·t per layer, "
+            f"convection + radiation + conduction to the table")
+    return figure(860, 400, [ch], [caption(64, 392, note)])
