@@ -74,7 +74,7 @@ def test_empty_toolpath_warns():
     ctx = Ctx()
     out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
     assert out["program"].stats["motions"] == 0 and ctx.warnings
-    assert "DEF waamflow( )" in out["program"].files["src"]
+    assert "DEF post( )" in out["program"].files["src"]          # named after the node (Ctx.node_id)
 
 
 def test_gcode_warns_about_tilted_torch():

@@ -5,6 +5,7 @@ A thin adapter over `waamflow.program`; every number and code of the output is a
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any, Literal
 
@@ -15,7 +16,9 @@ from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import TOOL_COMMANDS, check_templates, check_tool_template, stamp_trace
+from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
+                              program_identifier, stamp_trace)
+from ..program.krl import ARCTECH_CHANNELS, check_channels
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import load_cell, positioner_angles
 
@@ -49,15 +52,18 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "1"
+    version = "2"
+    uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
         profile: str = Field("", max_length=64,
-                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4, "
+                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
                                          "abb_irc5): presets for every param this recipe does not set; empty = none")
         format: Literal["gcode", "krl", "rapid", "csv"] = Field("gcode", description="Program format")
-        program_name: str = Field("waamflow", pattern=_NAME, max_length=24,
-                                  description="Program / module name written into the program (KRL: ≤ 16 characters when split)")
+        program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
+                                  description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
+                                              "identifier, so the program is named like its files (KRL requires "
+                                              "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32)")
         ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
                                       description="Dwell after each arc ignition when the zone has no `dwell` parameter")
         arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
@@ -91,12 +97,25 @@ class PostProcess(Node):
         arc_control: Literal["output", "arctech"] = Field(
             "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF")
         arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc")
+        arctech_routine: str = Field("ArcMainNG", pattern=_NAME, max_length=24,
+                                     description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through")
+        arctech_channels: dict[str, int] = Field(
+            default_factory=lambda: dict(ARCTECH_CHANNELS),
+            description="KRL ArcTech: zone parameter → power-source channel 1..8 of the weld data sets "
+                        "(e.g. {\"job\": 1, \"wire_feed_speed\": 2, \"voltage\": 3})")
+        arctech_velocity_unit: Literal["m/min", "m/s"] = Field(
+            "m/min", description="KRL ArcTech: unit of Weld.Velocity in the weld data sets")
         max_points_per_file: int = Field(0, ge=0, le=1_000_000,
                                          description="KRL: most motions per file, 0 = no limit (main program calls subprograms)")
         split_per_layer: bool = Field(False, description="KRL: one subprogram per layer")
         # ABB RAPID
         tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name")
-        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32, description="RAPID: wobjdata name")
+        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32,
+                               description="RAPID: wobjdata name (with a cell's positioner: a coordinated work "
+                                           "object declared in the module, wobj_<unit> when this is wobj0)")
+        positioner_unit: str = Field("STN1", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
+                                     description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
+                                                 "the coordinated work object); empty = no coordination")
         # robots
         cell: str = Field("", max_length=64,
                           description="KRL/RAPID: shipped robot cell (data/cells) whose positioner angles go into every "
@@ -117,20 +136,34 @@ class PostProcess(Node):
         def _tool_template(cls, v: str) -> str:
             return check_tool_template(v, "tool command") if v else v
 
+        @field_validator("arctech_channels")
+        @classmethod
+        def _channels(cls, v: dict[str, int]) -> dict[str, int]:
+            return check_channels(v)
+
     def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
         params = with_profile(params)
         plan = PlanSettings(ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance,
                             travel_speed=params.travel_speed)
+        name = _program_name(ctx, params)
         try:
-            writer = _writer_settings(params)
+            writer = _writer_settings(params, name)
         except ValueError as err:
             raise RecipeError(str(err)) from err
         if params.cell and params.format in ("krl", "rapid"):
-            angles = positioner_angles(load_cell(params.cell), flatten(inputs["toolpath"]), params.positioner_policy)
+            cell = load_cell(params.cell)
+            angles = positioner_angles(cell, flatten(inputs["toolpath"]), params.positioner_policy)
             writer = replace(writer, external_axes=angles)
+            if params.format == "rapid":
+                writer = replace(writer, work_frame=_work_frame(cell))
         program = post_process(inputs["toolpath"], params.format, plan, writer)
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
+        if params.format == "krl" and name != ctx.node_id:
+            ctx.warn(f"KRL program {name}: the controller needs the files named {name}.src / {name}.dat "
+                     f"(DEF name = file name); rename {ctx.node_id}.src/.dat when copying them"
+                     + ("" if params.program_name else " or give the node an identifier id"))
+        _warn_weld_data(ctx, program, "ArcTech weld data" if params.format == "krl" else "RAPID welddata")
         tilt = program.stats.get("max_tool_tilt_deg", 0.0)
         if params.format == "gcode" and tilt > TILT_WARN_DEG:
             ctx.warn(f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
@@ -159,23 +192,63 @@ def with_profile(params: PostProcess.Params) -> PostProcess.Params:
     return PostProcess.Params.model_validate(merged)
 
 
-def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:
+def _warn_weld_data(ctx, program: Program, what: str) -> None:
+    """One warning per zone and problem (empty / zero / missing weld data), located at the first
+    section and layer where it is welded, with the number of sections affected."""
+    groups: dict[tuple[str, str], list] = {}
+    for issue in program.weld_issues:
+        groups.setdefault((issue.zone, issue.message), []).append(issue)
+    for (zone, message), issues in groups.items():
+        first = issues[0]
+        more = f"; {len(issues)} sections in all" if len(issues) > 1 else ""
+        ctx.warn(f"{what} of zone {zone} (section {first.section}, layer {first.layer}{more}): {message}",
+                 layer=first.layer, section=first.section)
+
+
+def _program_name(ctx, p: PostProcess.Params) -> str:
+    """The program name: `program_name`, else the node id made a controller identifier (KRL ≤ 24
+    characters, ≤ 16 when split so `<name>_L003_1` fits; RAPID ≤ 32), so the program is named like
+    the `<node id>.<suffix>` files holding it."""
+    if p.format == "krl":
+        limit, reserved = (16 if p.split_per_layer or p.max_points_per_file else 24), KRL_RESERVED
+    elif p.format == "rapid":
+        limit, reserved = 32, RAPID_RESERVED
+    else:
+        limit, reserved = 64, frozenset()
+    if p.program_name:
+        if len(p.program_name) > limit:
+            raise RecipeError(f"program_name {p.program_name!r} is longer than {limit} characters ({p.format}"
+                              + (", split into subprograms" if limit == 16 else "") + ")")
+        return p.program_name
+    return program_identifier(getattr(ctx, "node_id", "") or "waamflow", limit, reserved)
+
+
+def _work_frame(cell) -> tuple[float, ...]:
+    """The part origin on the positioner flange as (x, y, z mm, q1..q4): translation and yaw."""
+    half = math.radians(cell.work_frame.yaw_deg) / 2.0
+    return (*(float(v) for v in cell.work_frame.xyz_mm), math.cos(half), 0.0, 0.0, math.sin(half))
+
+
+def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | None:
     direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
     if p.format in TOOL_COMMANDS:
         on, off = TOOL_COMMANDS[p.format]
         tools = dict(tool_on=p.tool_on or on, tool_off=p.tool_off or off)
     if p.format == "gcode":
-        return GcodeSettings(program_name=p.program_name, arc_on=p.arc_on, arc_off=p.arc_off,
+        return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
                              travel_speed=p.travel_speed, process_codes=dict(p.process_codes), **tools)
     if p.format == "krl":
-        return KrlSettings(program_name=p.program_name, tool=p.tool_number, base=p.base_number,
+        return KrlSettings(program_name=name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                            arc_control=p.arc_control, arc_output=p.arc_output,
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
-                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes), **tools)
+                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes),
+                           arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
+                           arctech_velocity_unit=p.arctech_velocity_unit, **tools)
     if p.format == "rapid":
-        return RapidSettings(program_name=p.program_name, tool=p.tool_name, wobj=p.wobj_name,
+        return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
+                             positioner_unit=p.positioner_unit,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                              tool_direction=direction or "z", **tools)
     return None

@@ -12,6 +12,7 @@ from __future__ import annotations
 from ..core.model import LayerPaths, Layered
 from ..core.moves import Moves, flatten
 from .cl import write_cl_csv
+from .common import weld_data_issues
 from .gcode import GcodeSettings, write_gcode
 from .gcode_parse import ParsedProgram, parse_gcode
 from .krl import KrlSettings, write_krl
@@ -56,4 +57,9 @@ def post_process(
     else:
         files = {"csv": write_cl_csv(moves)}
     stats["files"] = len(files)
-    return Program(fmt, files, stats)
+    issues: tuple = ()
+    if fmt == "rapid":
+        issues = tuple(weld_data_issues(plan))
+    elif fmt == "krl" and isinstance(writer_settings, KrlSettings) and writer_settings.arc_control == "arctech":
+        issues = tuple(weld_data_issues(plan, tuple(writer_settings.arctech_channels)))
+    return Program(fmt, files, stats, issues)

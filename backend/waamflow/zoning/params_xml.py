@@ -225,9 +225,9 @@ def merge(template_text: str, old_text: str | bytes | None) -> tuple[str, list[s
     longer exists ("layer 3, section 'bs1/A', zone 'z2'"), in the old file's order. Raises
     RecipeError if either file is invalid.
     """
-    tpl = parse(template_text)
     if old_text is None or (isinstance(old_text, (str, bytes)) and not old_text.strip()):
-        return template_text, []
+        return template_text, []   # nothing to fill in: the template as written (no need to parse it)
+    tpl = parse(template_text)
     old = parse(old_text)
     present = set(tpl.zones)
     kept = {k: v for k, v in old.values.items() if k in present}

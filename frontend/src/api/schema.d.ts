@@ -365,8 +365,10 @@ export interface paths {
         };
         /**
          * State
-         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
-         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         * @description The shown run (`key`, `run` id), its nodes (kinds drawn, visibility), layer extent, playback
+         *     duration, view settings and legend data (zone colours, value ranges with units, colour-map
+         *     stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
+         *     (its scene was not in memory, e.g. after a restart); `rebuild_error` {run, message} if that failed.
          */
         get: operations["state_api_viewer_state_get"];
         put?: never;
@@ -874,7 +876,7 @@ export interface components {
             };
             /**
              * Params Xml
-             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it never becomes the graph's XML (the run keeps it, to rebuild its 3D scene after a restart)
              */
             params_xml?: string | null;
         } & (unknown | {
