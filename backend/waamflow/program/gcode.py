@@ -14,6 +14,7 @@ that `gcode_parse.parse_gcode` uses to read the program back.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,6 +64,16 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
     return f"G4 P{short(round(seconds, 3))}"
 
 
+_NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+
+
+def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
+    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
+
+
 def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     """Render a `Plan` as G-code text (see module doc)."""
     pts = plan.moves.points
@@ -84,6 +95,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         out.append("G17 ; arcs in the XY plane")
     feed: float | None = None
     keys = plan.moves.section_keys
+    words = _xyz_words(pts, d)
     for s in plan.steps:
         if isinstance(s, LayerStart):
             out.append(f"; layer {s.layer} z={num(s.z, d)}")
@@ -100,8 +112,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, Dwell):
             out.append(f"{_dwell(s.seconds, settings)} ; {s.reason} dwell {short(round(s.seconds, 3))} s")
         elif isinstance(s, Motion):
-            p = pts[s.end]
-            xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            xyz = words[s.end]
             if s.mode == "travel" and settings.rapid_travel:
                 out.append(f"G0 {xyz}")
                 continue
