@@ -215,23 +215,21 @@ def run() -> list[dict]:
 
 
 
-def _spin(seconds: float) -> float:
-    """Busy for `seconds` of wall time; returns the CPU seconds this process got meanwhile."""
-    c0, end = time.process_time(), time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        pass
-    return time.process_time() - c0
+_SPIN = ("import time, sys\n"
+         "c0, end = time.process_time(), time.perf_counter() + float(sys.argv[1])\n"
+         "while time.perf_counter() < end: pass\n"
+         "print(time.process_time() - c0)\n")
 
 
 def _cores_available(n: int, seconds: float = 1.0) -> float:
     """CPU seconds per wall second that `n` busy processes of this session get right now: what
     a parallel run can use at most (other sessions' load takes the rest)."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
+    import subprocess
+    import sys
 
-    with ProcessPoolExecutor(n, mp_context=mp.get_context("spawn")) as ex:
-        list(ex.map(_spin, [0.05] * n))               # workers up first
-        return sum(ex.map(_spin, [seconds] * n)) / seconds
+    procs = [subprocess.Popen([sys.executable, "-c", _SPIN, str(seconds)], stdout=subprocess.PIPE, text=True)
+             for _ in range(n)]
+    return sum(float(p.communicate()[0]) for p in procs) / seconds
 
 
 def _autogroup() -> bool:
