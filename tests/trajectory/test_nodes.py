@@ -66,10 +66,10 @@ def test_estimate_time_node():
 
 
 def test_calibrate_robot_node(tmp_path):
-    """'Measure' a robot that speeds up 40 % slower than the shipped profile (simulate-robot with
+    """'Measure' a robot that speeds up 25 % slower than the shipped profile (simulate-robot with
     that profile file), then fit the shipped profile to its trace with calibrate-robot."""
     shipped = load_profile("kuka_kr100ha_krc2")
-    truth = shipped.with_values(name="truth", path_acc=0.6 * shipped.path_acc)
+    truth = shipped.with_values(name="truth", path_acc=0.75 * shipped.path_acc)
     (tmp_path / "truth.json").write_text(json.dumps(truth.to_json()))
     strategy = {"id": "strategy", "type": "strategy",
                 "params": {"default": {"pattern": "triangular", "angle_deg": 60, "speed": 40}}}

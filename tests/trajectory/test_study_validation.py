@@ -27,25 +27,28 @@ W_WB = study.W_WB
 DEFAULT_LIMIT = 5.0
 LIMITS = {
     # ramps: the study's times are multiples of its 12 ms sampling (one sample = 6–8 %), and its
-    # T and L disagree by up to a sample at 10 mm/s (L/(v·T) = 0.43, a ramp gives ≈ 0.5)
-    "tri45 10 mm/s arc ON all: L_init_accel": 11.0,
-    "tri45 10 mm/s arc OFF outside: L_init_accel": 12.0,
-    "tri45 10 mm/s arc OFF outside: L_decel": 9.0,
-    "tri45 40 mm/s arc ON all: T_init_accel": 10.5,
-    "tri45 40 mm/s arc ON all: T_final_decel": 11.0,
-    "tri45 40 mm/s arc OFF outside: T_final_decel": 11.0,
-    "tri45 40 mm/s arc OFF outside: L_init_accel": 18.0,
-    "tri45 40 mm/s arc OFF outside: L_accel": 8.5,
-    # transitions with the arc ON: the corner model is too quick at 10 mm/s, too slow at 40 mm/s
-    "tri45 10 mm/s arc ON all: T_trans": 10.0,
-    "tri45 40 mm/s arc ON all: T_trans": 10.5,
+    # T and L disagree at 10 mm/s (L/(v·T) = 0.43 where a jerk-limited ramp gives ≈ 0.5)
+    "tri45 10 mm/s arc ON all: T_init_accel": 13.5,
+    "tri45 10 mm/s arc OFF outside: T_init_accel": 13.5,
+    "tri45 10 mm/s arc ON all: L_init_accel": 7.0,
+    "tri45 10 mm/s arc OFF outside: L_decel": 8.0,
+    "tri45 40 mm/s arc ON all: T_init_accel": 10.0,
+    "tri45 40 mm/s arc ON all: T_final_decel": 7.5,
+    "tri45 40 mm/s arc OFF outside: T_final_decel": 7.5,
+    "tri45 40 mm/s arc ON all: L_final_decel": 7.5,
+    "tri45 40 mm/s arc OFF outside: L_final_decel": 7.5,
+    "tri45 40 mm/s arc OFF outside: L_init_accel": 18.5,
+    "tri45 40 mm/s arc OFF outside: L_accel": 8.0,
+    # the arc-ON transition at 10 mm/s: the corner model runs the link too quickly
+    "tri45 10 mm/s arc ON all: T_trans": 11.0,
     # not met: two full stops cannot fit in the study's 0.408 s (MODEL.md, "Not met")
-    "tri45 40 mm/s arc OFF outside: T_trans": 150.0,
+    "tri45 40 mm/s arc OFF outside: T_trans": 145.0,
     # where a 99 % speed threshold is crossed before a 22.5° turn (lengths, not times)
-    "tri45 40 mm/s arc ON all: L_decel": 75.0,
-    "tri45 40 mm/s arc ON all: L_accel": 78.0,
-    "corner error 45° 40 mm/s": 12.5,
-    "corner error 2.95° 10 mm/s": 10.0,
+    "tri45 40 mm/s arc ON all: L_decel": 90.0,
+    "tri45 40 mm/s arc ON all: L_accel": 97.0,
+    "corner error 45° 40 mm/s": 7.0,
+    "corner error 2.95° 10 mm/s": 7.0,
+    "corner error 2.95° 40 mm/s": 10.0,
 }
 
 
@@ -76,16 +79,17 @@ def test_case_error(rows, case):
 
 def test_which_times_miss_5_percent(rows):
     """Every total time (raster, swiping, triangular 45° on both ORs at both speeds) is within
-    5 %; the misses are ramp times (one or two of the study's 12 ms samples), the two arc-ON
-    transitions (8–9 %) and the 40 mm/s arc-OFF transition (MODEL.md)."""
+    5 %; the misses are ramp times (one or two of the study's 12 ms samples), the arc-ON
+    transition at 10 mm/s (−9.6 %) and the 40 mm/s arc-OFF transition (MODEL.md)."""
     times = {n: r for n, r in rows.items() if n.split(": ")[-1].startswith(("T_", "total_time"))}
     assert len(times) == 18
     totals = [r for n, r in times.items() if n.endswith("total_time_s")]
     assert len(totals) == 6 and all(abs(r["error_pct"]) <= 5.0 for r in totals)
     over = sorted(n for n, r in times.items() if abs(r["error_pct"]) > 5.0)
-    assert over == ["tri45 10 mm/s arc ON all: T_trans", "tri45 40 mm/s arc OFF outside: T_final_decel",
+    assert over == ["tri45 10 mm/s arc OFF outside: T_init_accel", "tri45 10 mm/s arc ON all: T_init_accel",
+                    "tri45 10 mm/s arc ON all: T_trans", "tri45 40 mm/s arc OFF outside: T_final_decel",
                     "tri45 40 mm/s arc OFF outside: T_trans", "tri45 40 mm/s arc ON all: T_final_decel",
-                    "tri45 40 mm/s arc ON all: T_init_accel", "tri45 40 mm/s arc ON all: T_trans"]
+                    "tri45 40 mm/s arc ON all: T_init_accel"]
 
 
 def test_ramps_are_asymmetric_like_the_study():
@@ -110,7 +114,7 @@ def test_catch_up_cuts_harder_outside_after_an_arc_off_stop():
     on = simulate(study.triangular(10.0, 45.0, True), KUKA).metrics
     off = simulate(study.triangular(10.0, 45.0, False), KUKA).metrics
     plain = simulate(study.triangular(10.0, 45.0, False), KUKA.with_values(catchup=0.0)).metrics
-    assert off["actual_length_outside_mm"] < 0.95 * on["actual_length_outside_mm"]
+    assert off["actual_length_outside_mm"] < 0.97 * on["actual_length_outside_mm"]
     assert off["actual_length_outside_mm"] < plain["actual_length_outside_mm"] - 1.0
     assert off["total_time_s"] < plain["total_time_s"]
     assert off["total_time_s"] > on["total_time_s"]           # yet slower than arc ON throughout

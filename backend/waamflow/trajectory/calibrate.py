@@ -129,7 +129,7 @@ def trace_residuals(result: SimulationResult, meas: MeasuredTrace, max_samples: 
 # generic fit
 # ---------------------------------------------------------------------------------------------
 def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[RobotProfile], np.ndarray],
-         max_nfev: int = 200) -> tuple[RobotProfile, dict]:
+         max_nfev: int = 200, diff_step: float = 0.02) -> tuple[RobotProfile, dict]:
     from scipy.optimize import least_squares  # lazy: keeps start-up light
     for n in names:
         if n not in RobotProfile.FITTABLE:
@@ -148,7 +148,7 @@ def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[Rob
     span = math.log(20.0)
     hi = np.array([min(x + span, math.log(UPPER[n])) if n in UPPER else x + span for n, x in zip(names, x0)])
     lo = np.minimum(x0 - span, hi - 1e-6)
-    sol = least_squares(f, np.clip(x0, lo, hi - 1e-9), diff_step=0.02, max_nfev=max_nfev, bounds=(lo, hi))
+    sol = least_squares(f, np.clip(x0, lo, hi - 1e-9), diff_step=diff_step, max_nfev=max_nfev, bounds=(lo, hi))
     fitted = make(sol.x)
     info = {"cost_before": float(0.5 * r0 @ r0), "cost_after": float(sol.cost), "nfev": int(sol.nfev),
             "fitted": {n: getattr(fitted, n) for n in names}}
@@ -162,7 +162,9 @@ def fit_trace(profile: RobotProfile, moves: Moves, meas: MeasuredTrace, names: t
     def res(p):
         return trace_residuals(simulate(moves, p, opt), meas)
 
-    fitted, info = _fit(profile, names, res)
+    # finite-difference steps of 0.5 %: position residuals on a sampled trace are steep near the
+    # solution, 2 % steps stop a few per cent short of it
+    fitted, info = _fit(profile, names, res, diff_step=0.005)
     r = trace_residuals(simulate(moves, fitted, opt), meas)
     info["rms_position_error_mm"] = float(np.sqrt(np.mean(r[:-1] ** 2)))
     return fitted, info
@@ -338,14 +340,16 @@ def study_cases() -> list[StudyTarget]:
                 if k.startswith("L_") and val == 0.0:
                     continue   # "no slow-down measured": a zero has no relative error; see L_* of the other cases
                 # times: one sample of the study's 12 ms measurement; lengths: 3 % (≥ 0.05 mm)
-                tol = 0.012 if k.startswith("T_") else max(0.03 * val, 0.05)
+                # ramp times: one sample of the study's 12 ms measurement; transitions (whole
+                # seconds of motion): 2 %; lengths: 3 % (≥ 0.05 mm)
+                tol = (0.02 * val if k == "T_trans" else 0.012) if k.startswith("T_") else max(0.03 * val, 0.05)
                 held = (v, prot, k) not in FIT_IDF
                 metric = f"stretch:{idf['L_decel']}:{idf['L_accel']}" if k == "T_trans" else f"idf:{k}"
                 out.append(StudyTarget(f"tri45 {v} mm/s arc {'ON all' if prot == 'on' else 'OFF outside'}: {k}",
                                        f"tri45_{prot}{v}", metric, val, tol, held))
-    out.append(StudyTarget("corner error 45° 40 mm/s", "tri45_on40", "corner:40:50", 1.62, 0.05))
-    out.append(StudyTarget("corner error 2.95° 10 mm/s", "reversals295_10", "corner:0:10", 0.8, 0.05))
-    out.append(StudyTarget("corner error 2.95° 40 mm/s", "reversals295_40", "corner:0:10", 1.8, 0.05))
+    out.append(StudyTarget("corner error 45° 40 mm/s", "tri45_on40", "corner:40:50", 1.62, 0.1))
+    out.append(StudyTarget("corner error 2.95° 10 mm/s", "reversals295_10", "corner:0:10", 0.8, 0.1))
+    out.append(StudyTarget("corner error 2.95° 40 mm/s", "reversals295_40", "corner:0:10", 1.8, 0.1))
     for size, tag in ((study.SMALL_OR, ""), (study.LARGE_OR, "L")):
         n, _ = study.pass_layout(size[0])
         for v in (10, 40):
@@ -484,7 +488,7 @@ def fit_ramps(profile: RobotProfile) -> tuple[RobotProfile, dict]:
     return fit_targets(profile, targets, RAMP_FIT)
 
 
-SMOOTHING_GRID = (0.09, 0.11, 0.13)
+SMOOTHING_GRID = (0.11, 0.13, 0.15)
 
 
 def fit_shipped(profile: RobotProfile, max_nfev: int = 60) -> tuple[RobotProfile, dict]:
