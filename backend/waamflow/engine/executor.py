@@ -174,7 +174,16 @@ class RunResult:
             "artifacts": sorted(self.artifacts),
             "executor": self.executor,
             "trace": self.trace,
+            "programs": self.program_stats(),
         }
+
+    def program_stats(self) -> dict[str, dict]:
+        """node id → the statistics of the program it wrote (format, points, motions, lengths in
+        mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
+        from ..program.program import Program
+
+        return {nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values()
+                if isinstance(v, Program)}
 
 
 # ---- context ------------------------------------------------------------------------------------
@@ -340,34 +349,31 @@ class _Run:
     # execution
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
-        for node_id in self.active:
+        jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
+        for pos, node_id in enumerate(self.active):
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
             t0 = time.perf_counter()
             self.emit("node_started", node=node_id, message=gnode.type)
             ctx = RunContext(self, node_id)
-            try:
+
+            def compute() -> None:
                 inputs = {port: self.outputs[src][sport] for port, (src, sport) in gnode.inputs.items()}
                 in_sigs = {port: self.sigs[(src, sport)] for port, (src, sport) in gnode.inputs.items()}
                 if isinstance(gnode.impl, LayerNode):
                     cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
-                    for suffix, content in gnode.impl.artifacts(ctx, gnode.params, self.outputs[node_id]).items():
-                        data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
-                        self.artifacts[f"{node_id}.{suffix}"] = data
-            except WaamflowError as err:
-                err.located(node=node_id, layer=ctx.layer)
-                self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
-                          message=str(err), error=err.to_dict())
-                raise
-            except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
-                err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
-                err.__cause__ = exc
-                err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
-                self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
-                raise err from exc
+                    pool = self.pool
+                    if pool is not None and pool.enabled and pool.offload_artifacts:
+                        jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
+                                                                       self.trace(), self.outputs[node_id])))
+                    else:
+                        jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
+
+            self.located(node_id, ctx, compute)
             st = self.stats[node_id]
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1
@@ -376,11 +382,51 @@ class _Run:
             for value in self.outputs[node_id].values():
                 if isinstance(value, Layered) and self.layer_count is None:
                     self.layer_count = len(value)
+        for gnode, ctx, files in jobs:  # in node order, whoever wrote them
+            if not isinstance(files, dict):
+                self.check_cancelled()
+                written, extra = files.result()
+                if written is None:   # failed in a worker: again here, raised with its node
+                    files = self.located(gnode.id, ctx, lambda: self.node_artifacts(gnode, ctx))
+                else:
+                    files = written
+                    ctx.warnings.extend(extra)
+            self.artifacts.update({f"{gnode.id}.{suffix}": data for suffix, data in files.items()})
+
+    def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
+        files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
+        return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
+
+    def maybe_warm(self, pos: int) -> None:
+        """Start the layer workers early when this node made many layers and layer nodes follow."""
+        pool = self.pool
+        if pool is None or not pool.enabled or pool.started or self.layers is not None:
+            return
+        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
+                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
+            pool.warm()
+
+    def located(self, node_id: str, ctx: RunContext, fn):
+        """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
+        try:
+            return fn()
+        except WaamflowError as err:
+            err.located(node=node_id, layer=ctx.layer)
+            self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
+                      message=str(err), error=err.to_dict())
+            raise
+        except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
+            err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
+            err.__cause__ = exc
+            err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
+            self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
+            raise err from exc
 
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
         return signature("node", gnode.type, impl.version, CODE_VERSION,
-                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
+                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
+                         *((gnode.id,) if impl.uses_node_id else ()))
 
     def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
         key = self.node_key(gnode, in_sigs)

@@ -100,6 +100,7 @@ class SimulationResult:
     corners: dict[str, np.ndarray] = field(default_factory=dict)
     profile: dict = field(default_factory=dict)
     collisions: tuple = ()      # trajectory.collide.Collision, the first ones found (cell simulations)
+    kinematics: dict = field(default_factory=dict)   # per-axis report, kinematics issues, the solved motion (run.py)
 
 
 METRIC_UNITS = {
@@ -112,6 +113,9 @@ METRIC_UNITS = {
     "positioner_e1_min_deg": "deg", "positioner_e1_max_deg": "deg", "positioner_e2_min_deg": "deg",
     "positioner_e2_max_deg": "deg", "positioner_max_step_deg": "deg",
     "collision_count": "", "collision_samples_checked": "", "collision_step_mm": "mm",
+    "positioner_min_speed_cap_mm_s": "mm/s", "positioner_speed_capped_segments": "",
+    "positioner_turn_in_place_s": "s", "axis_limit_stretches": "", "axis_speed_stretches": "",
+    "max_wrist_step_deg": "deg",
 }
 
 
