@@ -98,7 +98,7 @@ def test_scene_of_a_run_made_before_a_restart_is_rebuilt(tmp_path):
         st = c.get("/api/viewer/state").json()
         assert st["loading"] is None or st["loading"]["run"] == newer["id"]
         deadline = time.time() + 60
-        while not st["nodes"] and time.time() < deadline:
+        while (not st["nodes"] or st["loading"] is not None) and time.time() < deadline:
             time.sleep(0.1)
             st = c.get("/api/viewer/state").json()
         assert st["key"] == "mini" and st["run"] == newer["id"] and st["loading"] is None

@@ -54,3 +54,41 @@ def test_parallel_fills_the_cache_layer_by_layer(always_parallel):
 def test_small_runs_stay_serial():
     res = _run("mpp-cross", 2)
     assert res.executor["tasks"] == 0  # 8 quick layers: starting workers would not pay
+
+
+def test_workers_start_early_and_write_the_artifacts(monkeypatch):
+    """A long layered value starts the workers before any layer node needs them; from then on the
+    layer nodes go parallel and the artifacts are written by workers, byte for byte as serial."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)           # mpp-cross has 8 layers
+    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    written = []
+    submit = parallel.LayerPool.submit_artifacts
+
+    def spy(self, impl, node_id, *args):
+        written.append(node_id)
+        return submit(self, impl, node_id, *args)
+
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts", spy)
+    serial = _run("mpp-cross", 1)
+    par = _run("mpp-cross", 2)
+    assert written == ["layers", "mask", "guide", "strategy", "zone", "sequence", "post"]   # from slicing on
+    assert par.executor["tasks"] >= 4 * 2                                        # 4 layer nodes, ≥ 2 chunks each
+    assert list(par.artifacts) == list(serial.artifacts)                         # same files, same order
+    assert all(par.artifacts[k] == serial.artifacts[k] for k in serial.artifacts)
+    assert par.warnings == serial.warnings
+
+
+def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
+    import toy_nodes as toy
+    from waamflow.core.errors import PlanningError
+    from waamflow.engine.recipe import parse_recipe
+
+    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)
+    graph = build_graph(parse_recipe(toy.chain(stack={"count": 8}, area={"scale": -1.0})))
+    events = []
+    with pytest.raises(PlanningError) as e:
+        execute(graph, resolver=FileResolver("."), workers=2, on_event=events.append)
+    assert e.value.node == "area" and "negative area" in str(e.value)
+    assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "area"), ("run_failed", "area")]

@@ -6,14 +6,22 @@ and cancel. Workers only call `impl.run_layer` on chunks of consecutive layers. 
 (non-layered) inputs travel once per chunk, and the chunks are few (about four per worker), so
 pickling stays small next to the work.
 
-Start method: `forkserver` with the node modules preloaded. Plain `fork` of a process that has
-already loaded the kernels (GEOS, BLAS, the pool's own threads) hung now and then; the fork
-server starts from a clean interpreter once per run and forks the workers from it.
+Start method: `forkserver` with every node module and kernel preloaded (engine/warm.py). Plain
+`fork` of a process that has already loaded the kernels (GEOS, BLAS, the pool's own threads) hung
+now and then; the fork server starts from a clean interpreter once per process, imports the
+kernels once, and forks the workers from it (a fork is cheap: nothing is imported again).
 
-Whether to go parallel is decided by measurement, not by a guess: the first uncached layer is
-computed in the parent and timed, and the rest go to workers only when they are expected to take
-longer than `MIN_PARALLEL_S` (the cost of starting workers and shipping inputs). Results are the
-same objects either way, so artifacts are byte-identical to a serial run.
+Workers are started ahead of need: as soon as a run has a layered value of `WARM_LAYERS` layers or
+more and layer nodes still to run (`warm`), in a background thread, so the fork server's imports
+overlap the parent's serial work (slicing, the first layers). Whether to go parallel is decided
+by measurement, not by a guess: the first uncached layers are computed in the parent and timed,
+and the rest go to workers when they are expected to take longer than `MIN_PARALLEL_S` (workers
+not started: their start-up has to pay) or `WARM_MIN_PARALLEL_S` (started: only the round trips
+cost). Results are the same objects either way, so artifacts are byte-identical to a serial run.
+
+Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
+outputs) are written by a worker too (`submit_artifacts`) while the parent goes on with the next
+node; the run collects them in node order at its end.
 
 `DaskPool` sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
@@ -24,6 +32,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import threading
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -31,7 +40,10 @@ from typing import Any, Callable
 from .node import Context, LayerNode
 
 MIN_PARALLEL_S = 3.0      # expected serial seconds of the remaining layers below which workers do not pay
-                          # (starting the fork server imports the kernels: about 2 s here)
+                          # (starting the fork server imports the kernels: about 1-2 s here)
+WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are started: pickling round trips only
+WARM_LAYERS = 64          # a layered value this long (and layer nodes to come) starts the workers early
+PRELOAD = ["waamflow.engine.warm"]
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4     # load balance vs. per-chunk overhead (inputs pickled once per chunk)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
@@ -76,6 +88,18 @@ class _WorkerContext(Context):
         pass
 
 
+class _ArtifactContext(_WorkerContext):
+    """A node's context while a worker writes its artifacts: the run's trace as it was when the
+    node finished (program headers stamp it)."""
+
+    def __init__(self, node_id: str, resolver, trace: dict) -> None:
+        super().__init__(node_id, resolver)
+        self._trace = trace
+
+    def trace(self) -> dict:
+        return self._trace
+
+
 def _run_chunk(impl: LayerNode, node_id: str, params_json: Any, resolver, chunk: list[tuple[int, dict]]):
     """Worker side: [(index, outputs, warnings) | (index, None, error text)] for a chunk. Params
     travel as JSON (their models may hold classes made at run time, which do not pickle) and are
@@ -93,13 +117,32 @@ def _run_chunk(impl: LayerNode, node_id: str, params_json: Any, resolver, chunk:
     return out
 
 
+def _write_artifacts(impl, node_id: str, params_json: Any, resolver, trace: dict, outputs: dict):
+    """Worker side: ({suffix: bytes}, warnings) or (None, error text): the parent re-runs a failed
+    node's artifacts itself, so the error is raised with its context."""
+    params = type(impl).Params.model_validate(params_json)
+    ctx = _ArtifactContext(node_id, resolver, trace)
+    try:
+        files = impl.artifacts(ctx, params, outputs)
+        return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}, ctx.warnings
+    except Exception as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def _ready() -> int:
+    return os.getpid()
+
+
 @dataclass
 class LayerPool:
     """One process pool per run, started on first need and shared by the run's layer nodes."""
 
     workers: int
     tasks: int = 0
+    started: bool = False     # workers asked for (by `warm` or a first map)
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _closed: bool = field(default=False, repr=False)
 
     kind = "local"
     address = None
@@ -110,17 +153,47 @@ class LayerPool:
 
     @property
     def min_parallel_s(self) -> float:
-        return MIN_PARALLEL_S
+        return WARM_MIN_PARALLEL_S if self.started else MIN_PARALLEL_S
+
+    @property
+    def offload_artifacts(self) -> bool:
+        """Artifacts go to workers once the workers are there anyway."""
+        return self.started
+
+    def warm(self) -> None:
+        """Start the workers in the background (once): the fork server's imports and the forks run
+        while the parent goes on with its serial work."""
+        if not self.enabled or self.started:
+            return
+        self.started = True
+        threading.Thread(target=self._spawn, name="waamflow-layer-pool", daemon=True).start()
+
+    def _spawn(self) -> None:
+        try:
+            pool = self._executor()
+            for _ in range(self.workers):   # one idle-less submit each: every worker is forked now
+                pool.submit(_ready)
+        except RuntimeError:   # the run ended (closed) before the workers were up
+            pass
 
     def info(self) -> dict:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
     def _executor(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            ctx = mp.get_context("forkserver")
-            ctx.set_forkserver_preload(["waamflow.nodes"])
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
-        return self._pool
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("layer pool closed")
+            if self._pool is None:
+                ctx = mp.get_context("forkserver")
+                ctx.set_forkserver_preload(PRELOAD)
+                self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+                self.started = True
+            return self._pool
+
+    def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict) -> Future:
+        """A node's artifacts written by a worker: a future of `_write_artifacts`' result."""
+        return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
+                                       trace, outputs)
 
     def map_layers(self, impl: LayerNode, node_id: str, params: Any, resolver, todo: list[tuple[int, dict]],
                    on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
@@ -145,9 +218,11 @@ class LayerPool:
     def close(self, wait: bool = True) -> None:
         """Shut the workers down; `wait=False` (a failed or cancelled run) returns at once and
         lets a chunk still running finish in the background instead of holding the run's end."""
-        if self._pool is not None:
-            self._pool.shutdown(wait=wait, cancel_futures=True)
-            self._pool = None
+        with self._lock:
+            self._closed = True
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=wait, cancel_futures=True)
 
 
 def _chunks(todo: list, workers: int) -> list[list]:
@@ -171,6 +246,7 @@ class DaskPool:
     tasks: int = 0
     _client: Any = field(default=None, repr=False)
     kind = "dask"
+    started = True   # a cluster's workers are running already
 
     @property
     def enabled(self) -> bool:
@@ -179,6 +255,15 @@ class DaskPool:
     @property
     def min_parallel_s(self) -> float:
         return DASK_MIN_PARALLEL_S
+
+    @property
+    def offload_artifacts(self) -> bool:
+        """Artifacts go to the cluster when this run's layers did (a cached re-run stays local)."""
+        return self.tasks > 0
+
+    def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict):
+        return self.client().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
+                                    trace, outputs, pure=False)
 
     def client(self):
         if self._client is None:

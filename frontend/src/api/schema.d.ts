@@ -78,6 +78,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/schemas/zone-params.xsd": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Zone Params Xsd
+         * @description The XML Schema (XSD 1.0) of the zone-parameter file (layer > section > zone > parameters,
+         *     units and bounds): the file every zone node reads is validated against it.
+         */
+        get: operations["zone_params_xsd_api_schemas_zone_params_xsd_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs": {
         parameters: {
             query?: never;
@@ -289,7 +310,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Get Artifact */
+        /**
+         * Get Artifact
+         * @description One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
+         *     programs and tables as text/plain, anything else application/octet-stream).
+         */
         get: operations["get_artifact_api_runs__run_id__artifacts__name__get"];
         put?: never;
         post?: never;
@@ -1180,6 +1205,35 @@ export interface operations {
             };
         };
     };
+    zone_params_xsd_api_schemas_zone_params_xsd_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": string;
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
     list_graphs_api_graphs_get: {
         parameters: {
             query?: never;
@@ -1886,7 +1940,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": string;
+                    "text/event-stream": {
+                        data: string;
+                        /** @description the event's seq (Last-Event-ID to resume) */
+                        id?: string;
+                        event?: string;
+                    };
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -2040,8 +2099,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/json": unknown;
+                    "application/xml": string;
+                    "image/svg+xml": string;
+                    "image/png": string;
                     "text/plain": string;
+                    "application/octet-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */
