@@ -21,10 +21,11 @@ const freePort = () =>
     });
   });
 
-export async function startServer() {
+/** `waamflow serve` over a new temporary data folder, or over `data` (a restart: same store). */
+export async function startServer({ data: reuse } = {}) {
   const port = await freePort();
   const viewerPort = await freePort();
-  const data = mkdtempSync(path.join(os.tmpdir(), "waamflow-e2e-"));
+  const data = reuse ?? mkdtempSync(path.join(os.tmpdir(), "waamflow-e2e-"));
   const exe = process.env.WAAMFLOW_BIN ?? path.join(ROOT, ".venv/bin/waamflow");
   const proc = spawn(exe, ["serve", "--port", String(port), "--viewer-port", String(viewerPort), "--data", data], {
     cwd: ROOT,
@@ -51,14 +52,15 @@ export async function startServer() {
     base,
     data,
     log: () => log,
-    async stop() {
+    /** Stop the server; its data folder is removed unless `keep` (to start another over it). */
+    async stop({ keep = false } = {}) {
       try {
         process.kill(-proc.pid, "SIGTERM");
       } catch {
         /* already gone */
       }
       await new Promise((r) => (proc.exitCode !== null ? r() : proc.once("exit", r)));
-      rmSync(data, { recursive: true, force: true });
+      if (!keep) rmSync(data, { recursive: true, force: true });
     },
   };
 }

@@ -151,6 +151,7 @@ def test_duct_on_the_positioner_cell_is_reachable(duct):
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["collision_count"] == 0
+    assert sim["max_wrist_step_deg"] < 2.0                   # A4..A6 per IK sample: no wrist flip / roll
     assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
     assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
     assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
@@ -201,6 +202,7 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
+    assert sim["max_wrist_step_deg"] < 2.0                   # A4..A6 per IK sample: no wrist flip
     if sweep <= 90:
         assert sim["collision_count"] == 0 and sim["collision_samples_checked"] >= layers
         return

@@ -61,6 +61,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                   svc.resolver_for, svc.after_run, Limits.from_settings(settings),
                                   layer_workers=settings.layer_workers, scheduler=settings.scheduler)
         svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
+        if svc.viewer is not None:
+            svc.viewer.loader = svc.scene_source   # a run made before a restart is rebuilt on demand
         svc.auth_required = bool(tokens)
         app.state.services = svc
         try:

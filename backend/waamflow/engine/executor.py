@@ -174,7 +174,16 @@ class RunResult:
             "artifacts": sorted(self.artifacts),
             "executor": self.executor,
             "trace": self.trace,
+            "programs": self.program_stats(),
         }
+
+    def program_stats(self) -> dict[str, dict]:
+        """node id → the statistics of the program it wrote (format, points, motions, lengths in
+        mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
+        from ..program.program import Program
+
+        return {nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values()
+                if isinstance(v, Program)}
 
 
 # ---- context ------------------------------------------------------------------------------------
@@ -406,7 +415,8 @@ class _Run:
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
         return signature("node", gnode.type, impl.version, CODE_VERSION,
-                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
+                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
+                         *((gnode.id,) if impl.uses_node_id else ()))
 
     def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
         key = self.node_key(gnode, in_sigs)

@@ -58,6 +58,9 @@ class Node:
     outputs: ClassVar[tuple[Port, ...]] = ()
     Params: ClassVar[type[NodeParams]] = NodeParams
     version: ClassVar[str] = "1"
+    # True when `run` reads `ctx.node_id` (e.g. a program named after its artifact): the node id
+    # then enters the cache key, so a renamed node never gets another node's cached output.
+    uses_node_id: ClassVar[bool] = False
 
     # ---- execution ---------------------------------------------------------------------------
     def run(self, ctx: "Context", params: Any, inputs: dict[str, Any]) -> dict[str, Any]:

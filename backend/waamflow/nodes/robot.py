@@ -87,7 +87,8 @@ class SimulateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "12"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions
+    version = "13"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
@@ -128,8 +129,13 @@ class SimulateRobot(Node):
         if not params.kinematics:
             return None
         if params.cell:
-            cell = (load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
-                    if params.cell.endswith(".json") else load_cell(params.cell))
+            if params.cell.endswith(".json"):        # a user's cell file; its meshes beside it
+                cell = load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
+                folder = params.cell.replace("\\", "/").rpartition("/")[0]
+                cell.load_meshes(lambda name: ctx.read_bytes(f"{folder}/{name}" if folder else name,
+                                                             max_bytes=200_000_000))
+            else:
+                cell = load_cell(params.cell).load_meshes()
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
                                      frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
                                      positioner_policy=params.positioner_policy, collisions=params.collisions,

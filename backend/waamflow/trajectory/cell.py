@@ -13,10 +13,12 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from dataclasses import dataclass
+from functools import lru_cache
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
 from ..core.errors import InputFileError
 from .kinematics import CellFrames
@@ -39,13 +41,33 @@ class Placement(_Strict):
 
 
 class Shape(_Strict):
-    """A collision/visual primitive in its parent frame: box (size = full x,y,z extents) or
-    cylinder (size = radius, radius, length along local z); centred at `xyz_mm`."""
+    """A collision/visual body: box (size = full x, y, z extents), cylinder (size = radius, radius,
+    length along its local z) or mesh (`mesh`: an STL/OBJ/PLY file, mm, scaled by `size_mm`),
+    placed at `xyz_mm` with fixed-axis roll/pitch/yaw `rpy_deg` (x then y then z, as in URDF) in
+    the frame of `link`: "" = the parent's default (the world for fixtures, the flange for the
+    positioner's shapes), else a positioner URDF link (e.g. "table_top": clamps turn with the part)."""
 
     name: str = Field(..., min_length=1, max_length=64)
-    kind: Literal["box", "cylinder"]
-    size_mm: Vec3
+    kind: Literal["box", "cylinder", "mesh"]
+    size_mm: Vec3 = Field((1.0, 1.0, 1.0), description="box: x, y, z extents; cylinder: radius, radius, length; "
+                                                        "mesh: scale factors")
     xyz_mm: Vec3 = (0.0, 0.0, 0.0)
+    rpy_deg: Vec3 = Field((0.0, 0.0, 0.0), description="Fixed-axis roll, pitch, yaw (deg)")
+    link: str = Field("", max_length=64, description="Frame the shape is fixed to: '' = world (fixtures) or the "
+                                                     "positioner flange (positioner shapes); or a positioner link")
+    mesh: str = Field("", max_length=256, description="kind mesh: file next to the cell file (or in data/cells)")
+
+    @model_validator(mode="after")
+    def _mesh_named(self):
+        if self.kind == "mesh" and not self.mesh:
+            raise ValueError(f"shape {self.name!r}: kind mesh needs a `mesh` file")
+        if self.kind == "cylinder" and self.size_mm[0] <= 0 or self.kind == "box" and min(self.size_mm) <= 0:
+            raise ValueError(f"shape {self.name!r}: sizes must be > 0")
+        return self
+
+    def pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """(R, t mm) of the shape in its link frame."""
+        return rpy_matrix(self.rpy_deg), np.asarray(self.xyz_mm, float)
 
 
 class Tool(_Strict):
@@ -55,14 +77,30 @@ class Tool(_Strict):
     shapes: list[Shape] = Field(default_factory=list, description="Torch collision shapes in the flange frame")
 
 
+# The turntable disc of cells written before the positioner carried its own shapes (migration).
+LEGACY_TABLE = {"name": "table", "kind": "cylinder", "size_mm": [300.0, 300.0, 40.0], "xyz_mm": [0.0, 0.0, -20.0]}
+
+
 class Positioner(_Strict):
-    """A tilt (+ rotate) positioner; `flange` is the URDF link the part is fixed to."""
+    """A 1- or 2-axis positioner (URDF revolute joints in chain order: tilt then rotate; limits and
+    speeds from the URDF); `flange` is the URDF link the part is fixed to; `shapes` its moving
+    bodies (the table, in the flange frame unless a shape names another positioner link)."""
 
     urdf: str = Field(..., min_length=1, max_length=128, description="URDF in data/robots")
     flange: str = Field("table_top", min_length=1, max_length=64)
     base: Placement = Placement()
     fixed_deg: list[float] = Field(default_factory=list, max_length=2,
                                    description="Axis angles for the `fixed` policy (E1 tilt, E2 rotate; empty = 0)")
+    shapes: list[Shape] = Field(default_factory=list,
+                                description="The positioner's moving bodies (table disc, tilt frame), "
+                                            "collision-checked and drawn; flange frame unless `link` names another")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _migrate(cls, data):
+        if isinstance(data, dict) and "shapes" not in data:   # cells before the table was a shape
+            data = {**data, "shapes": [dict(LEGACY_TABLE)]}
+        return data
 
 
 class Cell(_Strict):
@@ -78,40 +116,173 @@ class Cell(_Strict):
     tool: Tool = Tool()
     positioner: Positioner | None = None
     work_frame: Placement = Field(Placement(), description="Part origin on the positioner flange (or in the world)")
-    fixtures: list[Shape] = Field(default_factory=list, description="Table and fixtures in the world frame")
+    fixtures: list[Shape] = Field(default_factory=list,
+                                  description="Table, pedestal, floor and fixtures: in the world frame, or fixed to "
+                                              "a positioner link (`link`), turning with it")
+    _meshes: dict = PrivateAttr(default_factory=dict)
 
-    def positioner_pose(self, angles_deg=None) -> tuple[np.ndarray, np.ndarray]:
-        """World rotation (3x3) and translation (mm) of the positioner flange at the given angles."""
-        import pinocchio as pin
+    @model_validator(mode="after")
+    def _links_exist(self):
+        if self.positioner is not None and not _urdf_path(self.positioner.urdf).exists():
+            return self                                   # named when the positioner is first used
+        links = {"", *(positioner_kin(self.positioner.urdf).links if self.positioner is not None else ())}
+        for sh in [*self.fixtures, *(self.positioner.shapes if self.positioner else [])]:
+            if sh.link not in links:
+                raise ValueError(f"shape {sh.name!r}: link {sh.link!r} is not a positioner link "
+                                 f"({', '.join(sorted(links - {''})) or 'no positioner'})")
+        return self
 
+    # ---- positioner ------------------------------------------------------------------------
+    @property
+    def axes(self) -> int:
+        """Number of positioner axes (0 without a positioner)."""
+        return 0 if self.positioner is None else positioner_kin(self.positioner.urdf).nq
+
+    def fixed_angles(self) -> np.ndarray:
+        a = np.zeros(self.axes)
+        if self.positioner is not None:
+            f = list(self.positioner.fixed_deg)[: self.axes]
+            a[: len(f)] = f
+        return a
+
+    def link_pose(self, angles_deg, link: str = "") -> tuple[np.ndarray, np.ndarray]:
+        """World rotation (3x3) and translation (mm) of a positioner link ("" = the flange) at the
+        given angles (deg; checked against the axis limits)."""
         pos = self.positioner
         if pos is None:
             return np.eye(3), np.zeros(3)
-        model = _positioner_model(pos.urdf)
-        if not model.existFrame(pos.flange):
-            raise InputFileError(f"cell {self.name}: positioner has no link {pos.flange!r}")
-        ang = list(angles_deg if angles_deg is not None else pos.fixed_deg)
-        if len(ang) > model.nq:
-            raise InputFileError(f"cell {self.name}: {len(ang)} positioner angles for {model.nq} axes")
-        q = np.zeros(model.nq)
-        q[: len(ang)] = np.radians(ang)
-        if np.any(q < model.lowerPositionLimit - 1e-9) or np.any(q > model.upperPositionLimit + 1e-9):
-            raise InputFileError(f"cell {self.name}: positioner angles {ang} deg outside the axis limits")
-        data = model.createData()
-        pin.framesForwardKinematics(model, data, q)
-        M = data.oMf[model.getFrameId(pos.flange)]
+        pk = positioner_kin(pos.urdf)
+        link = link or pos.flange
+        if link not in pk.links:
+            raise InputFileError(f"cell {self.name}: positioner has no link {link!r}")
+        ang = np.asarray(list(angles_deg if angles_deg is not None else self.fixed_angles()), float)
+        if len(ang) > pk.nq:
+            raise InputFileError(f"cell {self.name}: {len(ang)} positioner angles for {pk.nq} axes")
+        q = np.zeros(pk.nq)
+        q[: len(ang)] = ang
+        if np.any(q < pk.lower_deg - 1e-7) or np.any(q > pk.upper_deg + 1e-7):
+            raise InputFileError(f"cell {self.name}: positioner angles {list(ang)} deg outside the axis limits")
+        R, t = pk.pose(q, link)
         Rb = _rz(pos.base.yaw_deg)
-        return Rb @ M.rotation, Rb @ (M.translation * 1000.0) + np.asarray(pos.base.xyz_mm, float)
+        return Rb @ R, Rb @ t + np.asarray(pos.base.xyz_mm, float)
+
+    def positioner_pose(self, angles_deg=None) -> tuple[np.ndarray, np.ndarray]:
+        """World rotation (3x3) and translation (mm) of the positioner flange at the given angles."""
+        return self.link_pose(angles_deg)
+
+    def work_pose(self, angles_deg=None) -> tuple[np.ndarray, np.ndarray]:
+        """World rotation and translation (mm) of the work frame (part origin) at the given angles."""
+        R, t = self.positioner_pose(angles_deg)
+        return R @ _rz(self.work_frame.yaw_deg), R @ np.asarray(self.work_frame.xyz_mm, float) + t
 
     def frames(self, angles_deg=None) -> CellFrames:
         """Kinematics frames with the part on the positioner flange at the given (or fixed) angles."""
-        R, t = self.positioner_pose(angles_deg)
-        Rw = R @ _rz(self.work_frame.yaw_deg)
-        tw = R @ np.asarray(self.work_frame.xyz_mm, float) + t
+        Rw, tw = self.work_pose(angles_deg)
         return CellFrames(base_xyz_mm=tuple(float(v) for v in self.robot_base.xyz_mm),
                           base_yaw_deg=self.robot_base.yaw_deg,
                           work_xyz_mm=tuple(float(v) for v in tw),
                           work_rot=tuple(tuple(float(v) for v in row) for row in Rw))
+
+    # ---- shapes ------------------------------------------------------------------------------
+    def load_meshes(self, read_bytes=None) -> "Cell":
+        """Read the mesh shapes' files (read_bytes(name) → bytes for a user's cell; shipped cells
+        read data/cells). Errors name the shape and file."""
+        import io
+
+        import trimesh
+
+        for sh in self.all_shapes():
+            if sh.kind != "mesh" or sh.mesh in self._meshes:
+                continue
+            try:
+                data = read_bytes(sh.mesh) if read_bytes else (CELLS_DIR / Path(sh.mesh).name).read_bytes()
+                m = trimesh.load(io.BytesIO(data), file_type=Path(sh.mesh).suffix.lstrip(".").lower() or "stl",
+                                 force="mesh")
+            except Exception as e:
+                raise InputFileError(f"cell {self.name}: shape {sh.name!r}: mesh {sh.mesh!r}: {e}") from e
+            if len(m.faces) == 0:
+                raise InputFileError(f"cell {self.name}: shape {sh.name!r}: mesh {sh.mesh!r} has no triangles")
+            self._meshes[sh.mesh] = (np.asarray(m.vertices, float), np.asarray(m.faces, np.int64))
+        return self
+
+    def all_shapes(self) -> list[Shape]:
+        return [*self.tool.shapes, *(self.positioner.shapes if self.positioner else []), *self.fixtures]
+
+    def shape_mesh(self, sh: Shape) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices mm, faces) of a shape in its own frame (before `pose`): primitives tessellated."""
+        import trimesh
+
+        if sh.kind == "box":
+            m = trimesh.creation.box(extents=sh.size_mm)
+        elif sh.kind == "cylinder":
+            m = trimesh.creation.cylinder(radius=sh.size_mm[0], height=sh.size_mm[2], sections=32)
+        else:
+            if sh.mesh not in self._meshes:
+                self.load_meshes()
+            v, f = self._meshes[sh.mesh]
+            return v * np.asarray(sh.size_mm, float), f
+        return np.asarray(m.vertices, float), np.asarray(m.faces, np.int64)
+
+
+def rpy_matrix(rpy_deg) -> np.ndarray:
+    """Fixed-axis roll (x), pitch (y), yaw (z), degrees → R = Rz·Ry·Rx (the URDF convention)."""
+    r, p, y = np.radians(np.asarray(rpy_deg, float))
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+@dataclass(frozen=True, eq=False)
+class PositionerKin:
+    """A positioner URDF as Pinocchio model: axes (revolute joints in chain order), their limits
+    (deg) and speeds (deg/s), and every link's frame."""
+
+    model: object
+    names: tuple[str, ...]
+    lower_deg: np.ndarray
+    upper_deg: np.ndarray
+    speed_deg_s: np.ndarray
+    links: tuple[str, ...]
+
+    @property
+    def nq(self) -> int:
+        return len(self.names)
+
+    def pose(self, q_deg, link: str) -> tuple[np.ndarray, np.ndarray]:
+        """(R, t mm) of `link` in the positioner base frame."""
+        import pinocchio as pin
+
+        data = self.model.createData()
+        pin.framesForwardKinematics(self.model, data, np.radians(np.asarray(q_deg, float)))
+        M = data.oMf[self.model.getFrameId(link)]
+        return M.rotation.copy(), M.translation * 1000.0
+
+    def axes_base(self, link: str) -> np.ndarray:
+        """(nq, 3) joint axes in the positioner base frame at the zero pose (the angular part of
+        `link`'s Jacobian)."""
+        import pinocchio as pin
+
+        data = self.model.createData()
+        q = np.zeros(self.nq)
+        pin.computeJointJacobians(self.model, data, q)
+        pin.updateFramePlacements(self.model, data)
+        J = pin.getFrameJacobian(self.model, data, self.model.getFrameId(link), pin.LOCAL_WORLD_ALIGNED)
+        w = np.asarray(J, float).reshape(6, -1)[3:, : self.nq].T
+        return w / np.linalg.norm(w, axis=1, keepdims=True)
+
+
+@lru_cache(maxsize=16)
+def positioner_kin(urdf: str) -> PositionerKin:
+    import pinocchio as pin
+
+    model = _positioner_model(urdf)
+    if model.nq < 1 or model.nq > 2 or model.nv != model.nq:
+        raise InputFileError(f"positioner description {urdf}: {model.nq} axes (1 or 2 revolute axes supported)")
+    names = tuple(model.names[j] for j in range(1, model.njoints))
+    links = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
+    return PositionerKin(model, names, np.degrees(model.lowerPositionLimit), np.degrees(model.upperPositionLimit),
+                         np.degrees(model.velocityLimit), links)
 
 
 def _rz(deg: float) -> np.ndarray:
@@ -178,73 +349,178 @@ POLICIES = ("fixed", "gravity", "min-motion")
 
 
 def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0) -> np.ndarray:
-    """Positioner angles (deg) at every programmed point, shape (n, 2) (E1 tilt about x, E2 turn about z).
+    """Positioner angles (deg) at every programmed point, shape (n, axes): see `plan_positioner`."""
+    return plan_positioner(cell, moves, policy, max_tilt_deg)[0]
 
-    `fixed`: `positioner.fixed_deg` throughout. `gravity`: each layer turned so its mean torch axis
-    (arc-ON segments) points straight down (world −z), the flat welding position of the
-    curved-parts study: with n = −axis, E2 = 90° − atan2(n_y, n_x) brings n's horizontal part onto
-    +y, then E1 = atan2(|n_xy|, n_z) tilts it up to +z. E2 is unwrapped by 360° to stay closest to
-    the previous layer's (and kept when n is vertical). `min-motion`: a layer keeps the previous
-    layer's angles (the cell's fixed_deg for the first) while its normal stays within
-    `max_tilt_deg` of vertical under them, else it takes its gravity angles — the fewest positioner
-    moves for a torch allowed to lean that much. Angles are constant along a layer, so the
-    positioner moves only on the arc-OFF travel between layers. A point takes the angles of the
-    arc-ON segment it ends (else of the segment it starts)."""
+
+def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Positioner angles (deg) at every programmed point, (n, axes) — E1 (tilt), E2 (rotate) for
+    the usual 2-axis positioner, E1 alone for a 1-axis one — and per point whether the policy's
+    angle lay outside an axis limit and was clipped into it (n,) bool.
+
+    `fixed`: `positioner.fixed_deg` throughout. `gravity`: each layer turned so its mean layer
+    normal n = −torch axis (arc-ON segments) points straight up (world +z), the flat welding
+    position of the curved-parts study. With the joint axes w1, w2 in the world at the zero pose
+    and R0 the work frame's rotation there, the work frame turns as Rot(w1,e1)·Rot(w2,e2)·R0, so
+    Rot(w1,e1)·Rot(w2,e2)·(R0 n) = +z is Paden–Kahan subproblem 2 (two solutions; the closest
+    reachable orientation when none is exact); a 1-axis positioner solves subproblem 1 (the angle
+    that brings n closest to vertical). Among the solutions, with ±360° shifts, inside the limits
+    the one nearest the previous layer's angles is taken (ties: the larger first axis), E2 kept
+    when n lies along it. `min-motion`: a layer keeps the previous layer's angles (fixed_deg for
+    the first) while its normal stays within `max_tilt_deg` of vertical under them, else it takes
+    its gravity angles. Angles are constant along a layer, so the positioner moves only on the
+    arc-OFF travel between layers. A point takes the angles of the arc-ON segment it ends (else of
+    the segment it starts)."""
     if policy not in POLICIES:
         raise InputFileError(f"positioner policy {policy!r}: use one of {', '.join(POLICIES)}")
     n = len(moves.points)
-    fixed = np.zeros(2)
-    if cell.positioner is not None:
-        fixed[: len(cell.positioner.fixed_deg)] = cell.positioner.fixed_deg
-    if policy == "fixed" or cell.positioner is None or n < 2:
-        return np.tile(fixed, (n, 1))
-    model = _positioner_model(cell.positioner.urdf)
-    lo, hi = np.degrees(model.lowerPositionLimit), np.degrees(model.upperPositionLimit)
+    fixed = cell.fixed_angles()
+    m = len(fixed)
+    if policy == "fixed" or m == 0 or n < 2:
+        return np.tile(fixed, (n, 1)), np.zeros(n, bool)
+    pk = positioner_kin(cell.positioner.urdf)
+    lo, hi = pk.lower_deg, pk.upper_deg
+    Rb = _rz(cell.positioner.base.yaw_deg)
+    w = pk.axes_base(cell.positioner.flange) @ Rb.T
+    R0 = cell.work_pose(np.zeros(m))[0]
     seg_layer = np.asarray(moves.layer)
     arc = np.asarray(moves.arc, bool)
     axes = np.asarray(moves.tool_axis, float)
-    layer_angles: dict[int, np.ndarray] = {}
+    layer_angles: dict[int, tuple[np.ndarray, bool]] = {}
     prev = fixed.copy()
+    up = np.array([0.0, 0.0, 1.0])
     for L in sorted(set(seg_layer.tolist())):
         segs = np.flatnonzero((seg_layer == L) & arc)
         if len(segs) == 0:
             segs = np.flatnonzero(seg_layer == L)
         nrm = -axes[segs].mean(axis=0)
         nrm /= max(np.linalg.norm(nrm), 1e-12)
-        r = math.hypot(nrm[0], nrm[1])
-        e1 = math.degrees(math.atan2(r, nrm[2]))
-        e2 = prev[1] if r < 1e-6 else 90.0 - math.degrees(math.atan2(nrm[1], nrm[0]))
-        if len(lo) > 1:
-            cands = [e2 + 360.0 * k for k in range(-3, 4) if lo[1] - 1e-9 <= e2 + 360.0 * k <= hi[1] + 1e-9]
-            if cands:
-                e2 = min(cands, key=lambda a: abs(a - prev[1]))
-        e1 = float(np.clip(e1, lo[0], hi[0]))
         if policy == "min-motion":
-            up = np.asarray(cell.frames(list(prev[: model.nq])).work_rot, float) @ nrm
-            if math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0)))) <= max_tilt_deg + 1e-9:
-                layer_angles[L] = prev
+            lean = cell.work_pose(prev)[0] @ nrm
+            if math.degrees(math.acos(float(np.clip(lean[2], -1.0, 1.0)))) <= max_tilt_deg + 1e-9:
+                layer_angles[L] = (prev, False)
                 continue
-        prev = np.array([e1, e2])
-        layer_angles[L] = prev
-    out = np.zeros((n, 2))
+        sols = [np.degrees(s) for s in _gravity_solutions(w, R0 @ nrm, up)]
+        if len(sols) == 1 and m == 2 and np.linalg.norm(np.cross(R0 @ nrm, w[1])) < 1e-6:
+            sols[0][1] = prev[1]                              # n along the turntable axis: E2 free, kept
+        prev, out = _nearest(sols, prev, lo, hi)
+        layer_angles[L] = (prev, out)
+    ang = np.zeros((n, m))
+    clipped = np.zeros(n, bool)
     for i in range(n):
-        if i > 0 and arc[i - 1]:
-            s = i - 1
-        else:
-            s = min(i, n - 2)
-        out[i] = layer_angles[int(seg_layer[s])]
+        s = i - 1 if i > 0 and arc[i - 1] else min(i, n - 2)
+        ang[i], clipped[i] = layer_angles[int(seg_layer[s])]
+    return ang, clipped
+
+
+def _sp1(w: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
+    """Angle (rad) of the rotation about unit w taking u closest to v (Paden–Kahan subproblem 1)."""
+    up = u - w * (w @ u)
+    vp = v - w * (w @ v)
+    return math.atan2(float(w @ np.cross(up, vp)), float(up @ vp))
+
+
+def _gravity_solutions(w: np.ndarray, p: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
+    """Angles (rad) with Rot(w1,e1)·Rot(w2,e2)·p = q (1 or 2 axes; the closest when unreachable)."""
+    if len(w) == 1:
+        return [np.array([_sp1(w[0], p, q)])]
+    w1, w2 = w
+    if np.linalg.norm(np.cross(p, w2)) < 1e-6:               # p along the turntable axis: E2 free
+        return [np.array([_sp1(w1, p, q), 0.0])]
+    c12 = float(w1 @ w2)
+    den = c12 * c12 - 1.0
+    if abs(den) < 1e-12:                                       # parallel axes: one effective axis
+        return [np.array([_sp1(w1, p, q), 0.0])]
+    al = (c12 * (w2 @ p) - w1 @ q) / den
+    be = (c12 * (w1 @ q) - w2 @ p) / den
+    nn = np.cross(w1, w2)
+    g2 = (p @ p - al * al - be * be - 2 * al * be * c12) / (nn @ nn)
+    out = []
+    for g in ([math.sqrt(g2), -math.sqrt(g2)] if g2 > 1e-12 else [0.0]):
+        c = al * w1 + be * w2 + g * nn
+        out.append(np.array([_sp1(w1, c, q), _sp1(w2, p, c)]))
     return out
+
+
+def _nearest(cands: list[np.ndarray], prev: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The candidate (deg, with ±360° shifts per axis) nearest `prev` inside the limits (ties: the
+    larger first axis); none inside → the nearest clipped into them, flagged."""
+    best, best_key, clipped = None, None, True
+    for c in cands:
+        v, inside = np.empty(len(c)), True
+        for j in range(len(c)):
+            k0 = round((prev[j] - c[j]) / 360.0)
+            opts = [c[j] + 360.0 * k for k in (k0 - 1, k0, k0 + 1)]
+            ok = [o for o in opts if lo[j] - 1e-7 <= o <= hi[j] + 1e-7]
+            inside &= bool(ok)
+            v[j] = min(ok or opts, key=lambda o: abs(o - prev[j]))
+        key = (not inside, round(float(np.abs(v - prev).sum()), 6), -round(float(v[0]), 6))
+        if best_key is None or key < best_key:
+            best, best_key, clipped = v, key, not inside
+    return np.clip(best, lo, hi), clipped
 
 
 def to_world(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.ndarray):
     """Part-frame points and torch axes (n, 3) → world, each with its own positioner angles."""
     pts = np.empty_like(np.asarray(points, float))
     ax = np.empty_like(np.asarray(axes, float))
-    uniq, inv = np.unique(np.round(angles_deg, 9), axis=0, return_inverse=True)
+    ang = np.asarray(angles_deg, float).reshape(len(pts), -1)
+    uniq, inv = np.unique(np.round(ang, 9), axis=0, return_inverse=True)
     for j, a in enumerate(uniq):
-        f = cell.frames(a)
-        R, t = np.asarray(f.work_rot), np.asarray(f.work_xyz_mm)
+        R, t = cell.work_pose(a)
         m = inv.ravel() == j
         pts[m] = np.asarray(points, float)[m] @ R.T + t
         ax[m] = np.asarray(axes, float)[m] @ R.T
     return pts, ax
+
+
+def coordinated_samples(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.ndarray,
+                        step_mm: float = 5.0, step_deg: float = 1.0):
+    """IK samples of a coordinated move (KUKA/ABB coordinated motion: the TCP moves linearly in the
+    part frame while the external axes interpolate linearly between targets). Each programmed
+    segment gets ceil(max(L/step_mm, |Δangle|/step_deg, |Δtorch axis|/step_deg)) samples
+    (vertices included), so a positioner turn on a short travel is followed in ≤ step_deg steps
+    and the wrist never sees a jump. At each sample: part point and torch axis interpolated
+    (the axis normalised), positioner angles interpolated, then turned into the world with the
+    work frame at those angles.
+    Returns s (k,) programmed arc length mm, world xyz (k, 3), world torch axes (k, 3),
+    seg (k,), angles (k, axes)."""
+    P = np.asarray(points, float)
+    A = np.asarray(axes, float)
+    E = np.asarray(angles_deg, float).reshape(len(P), -1)
+    L = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    dE = np.abs(np.diff(E, axis=0)).max(axis=1, initial=0.0)
+    dA = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", A[:-1], A[1:]), -1.0, 1.0)))
+    counts = np.maximum(1, np.ceil(np.maximum.reduce([L / step_mm, dE / step_deg, dA / step_deg]) - 1e-9)).astype(int)
+    seg = np.repeat(np.arange(len(L)), counts)
+    frac = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    seg = np.concatenate([seg, [len(L) - 1]])
+    frac = np.concatenate([frac, [1.0]])
+    f = frac[:, None]
+    pts = P[seg] + f * (P[seg + 1] - P[seg])
+    ax = A[seg] + f * (A[seg + 1] - A[seg])
+    ax /= np.maximum(np.linalg.norm(ax, axis=1, keepdims=True), 1e-12)
+    ang = E[seg] + f * (E[seg + 1] - E[seg])
+    s0 = np.concatenate([[0.0], np.cumsum(L)])
+    s = s0[seg] + frac * L[seg]
+    xyz, axw = to_world(cell, pts, ax, ang)
+    return s, xyz, axw, seg, ang
+
+
+def positioner_caps(cell: Cell, points: np.ndarray, angles_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per programmed segment: the path speed (mm/s) at which a positioner axis reaches its URDF
+    speed (inf when no axis moves) — ω·L/|Δangle|, the smallest over the axes — and the time (s)
+    the positioner needs for the segment's turn (max |Δangle|/ω; what a zero-length segment,
+    e.g. a turn in place, must wait)."""
+    P = np.asarray(points, float)
+    n = len(P)
+    if cell.axes == 0 or n < 2:
+        return np.full(max(n - 1, 0), np.inf), np.zeros(max(n - 1, 0))
+    w = positioner_kin(cell.positioner.urdf).speed_deg_s
+    d = np.abs(np.diff(np.asarray(angles_deg, float).reshape(n, -1), axis=0))
+    L = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    need = (d / np.maximum(w, 1e-12)).max(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cap = np.where(need > 1e-12, L / np.maximum(need, 1e-300), np.inf)
+    return cap, need

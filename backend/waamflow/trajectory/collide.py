@@ -4,9 +4,11 @@ Bodies (all converted to metres for coal):
 
 * arm links — a capsule between consecutive joint origins of the URDF chain (and joint 6 → tool0),
   radius `LINK_RADIUS_MM` (shoulder to wrist); adjacent links are not tested against each other;
-* the torch — the cell tool's shapes (cylinders/boxes in the flange frame);
-* the positioner table — a disc of `TABLE_RADIUS_MM` × `TABLE_THICKNESS_MM` just under the
-  positioner flange, turning with it; fixtures — the cell's boxes/cylinders in the world;
+* the torch — the cell tool's shapes (cylinders/boxes/meshes in the flange frame);
+* the positioner's bodies (`positioner.shapes`: table disc, tilt frame, in the flange frame or on
+  another positioner link) and the fixtures (`fixtures`: in the world, or on a positioner link —
+  clamps turn with the part), every shape at the positioner angles of the sample: all of it from
+  the cell file;
 * the part built so far — every layer below the current one as an oriented box fitted to its
   deposition points (principal axes, ± half a bead across), turning with the positioner.
 
@@ -26,8 +28,6 @@ import numpy as np
 import pinocchio as pin
 
 LINK_RADIUS_MM = (110.0, 100.0, 90.0, 70.0, 60.0, 45.0)
-TABLE_RADIUS_MM = 300.0
-TABLE_THICKNESS_MM = 40.0
 BEAD_HALF_MM = 1.5
 MAX_REPORTED = 50
 
@@ -45,10 +45,47 @@ def _tf(R, t_mm) -> coal.Transform3s:
     return coal.Transform3s(np.asarray(R, float), np.asarray(t_mm, float) / 1000.0)
 
 
-def _shape(sh) -> coal.CollisionGeometry:
+def _shape(sh, cell=None) -> coal.CollisionGeometry:
     if sh.kind == "box":
         return coal.Box(*(np.asarray(sh.size_mm, float) / 1000.0))
-    return coal.Cylinder(sh.size_mm[0] / 1000.0, sh.size_mm[2] / 1000.0)
+    if sh.kind == "cylinder":
+        return coal.Cylinder(sh.size_mm[0] / 1000.0, sh.size_mm[2] / 1000.0)
+    v, f = cell.shape_mesh(sh)
+    m = coal.BVHModelOBBRSS()
+    m.beginModel(len(f), len(v))
+    m.addVertices(np.asarray(v, float) / 1000.0)
+    m.addTriangles(np.asarray(f, np.int64))
+    m.endModel()
+    return m
+
+
+def cell_statics(cell):
+    """The cell's still and positioner-carried bodies: a function angles → [(name, geometry,
+    transform)] (placed at those positioner angles; results cached per angle set)."""
+    bodies = []
+    for prefix, shapes, default in (("positioner", cell.positioner.shapes if cell.positioner else [], None),
+                                    ("fixture", cell.fixtures, "")):
+        for sh in shapes:
+            link = sh.link if sh.link or default is not None else None      # None: the flange
+            R, t = sh.pose()
+            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t))
+    still = [(n, g, _tf(R, t)) for n, g, link, R, t in bodies if link == "" or cell.positioner is None]
+    moving = [b for b in bodies if not (b[2] == "" or cell.positioner is None)]
+    cache: dict[tuple, list] = {}
+
+    def at(angles) -> list:
+        key = tuple(np.round(np.asarray(angles, float), 9))
+        if key not in cache:
+            out = list(still)
+            poses: dict = {}
+            for n, g, link, R, t in moving:
+                if link not in poses:
+                    poses[link] = cell.link_pose(np.asarray(angles, float), link or "")
+                Rl, tl = poses[link]
+                out.append((n, g, _tf(Rl @ R, Rl @ t + tl)))
+            cache[key] = out
+        return cache[key]
+    return at
 
 
 def _capsule_tf(a, b):
@@ -83,14 +120,13 @@ def layer_boxes(moves) -> dict[int, tuple[coal.Box, np.ndarray, np.ndarray, floa
 def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, work_frames, base_R, base_t,
                step_mm: float = 20.0) -> tuple[int, list[Collision], int]:
     """Collisions along the path. q: (k, nq) IK solutions; work_frames(i) → (R, t mm) of the work
-    frame and (R, t mm) of the positioner flange at sample i; base_R/base_t: the robot base in the world (mm). Returns (number of
-    colliding samples, the first MAX_REPORTED collisions, samples checked)."""
+    frame and the positioner angles at sample i; base_R/base_t: the robot base in the world (mm).
+    Returns (number of colliding samples, the first MAX_REPORTED collisions, samples checked)."""
     model, data = arm.model, arm.model.createData()
     tool0 = model.getFrameId("tool0")
-    tool_shapes = [(f"torch:{sh.name}", _shape(sh), np.asarray(sh.xyz_mm, float), _bound_radius(sh))
+    tool_shapes = [(f"torch:{sh.name}", _shape(sh, cell), *sh.pose(), _bound_radius(sh, cell))
                    for sh in cell.tool.shapes]
-    fixtures = [(f"fixture:{sh.name}", _shape(sh), _tf(np.eye(3), sh.xyz_mm)) for sh in cell.fixtures]
-    table = coal.Cylinder(TABLE_RADIUS_MM / 1000.0, TABLE_THICKNESS_MM / 1000.0)
+    statics_at = cell_statics(cell)
     layers = layer_boxes(moves)
     lay_ids = np.array(sorted(layers), dtype=int)
     lay_c = np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3)
@@ -119,12 +155,11 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
                 continue
             movers.append((f"arm:link_{j + 1}", coal.Capsule(radii[min(j, len(radii) - 1)] / 1000.0, L / 1000.0), tf,
                            j >= len(joints) - 3, 0.5 * (joints[j] + joints[j + 1]), 0.5 * L + radii[min(j, len(radii) - 1)]))
-        for name, g, off, rad in tool_shapes:
+        for name, g, Rs, off, rad in tool_shapes:
             c = Rf @ off + tf0
-            movers.append((name, g, _tf(Rf, c), True, c, rad))
-        Rw, tw, Rt, tt = work_frames(i)
-        statics = list(fixtures)
-        statics.append(("positioner:table", table, _tf(Rt, tt + Rt @ [0.0, 0.0, -0.5 * TABLE_THICKNESS_MM])))
+            movers.append((name, g, _tf(Rf @ Rs, c), True, c, rad))
+        Rw, tw, angles = work_frames(i)
+        statics = statics_at(angles)
         hit = None
         for name, g, tf, near_part, centre, rad in movers:
             for sname, sg, stf in statics:
@@ -154,11 +189,13 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
     return count, found, checked
 
 
-def _bound_radius(sh) -> float:
-    """Radius (mm) of a sphere about the shape's centre that holds it."""
+def _bound_radius(sh, cell=None) -> float:
+    """Radius (mm) of a sphere about the shape's origin that holds it."""
     if sh.kind == "box":
         return 0.5 * float(np.linalg.norm(sh.size_mm))
-    return float(np.hypot(sh.size_mm[0], 0.5 * sh.size_mm[2]))
+    if sh.kind == "cylinder":
+        return float(np.hypot(sh.size_mm[0], 0.5 * sh.size_mm[2]))
+    return float(np.linalg.norm(cell.shape_mesh(sh)[0], axis=1).max())
 
 
 def _collide(g1, t1, g2, t2, req, n1, n2):

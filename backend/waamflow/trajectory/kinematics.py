@@ -131,12 +131,22 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
                progress=None) -> KinematicsResult:
     """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
     progress: optional callable(fraction 0..1) called every 2000 samples."""
-    import pinocchio as pin  # lazy: keeps start-up light
-    model = arm.model
-    data = model.createData()
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
     axes = np.asarray(tool_axis, float)
     ax = axes[seg] if len(axes) == len(points) else np.tile([0.0, 0.0, -1.0], (len(s), 1))
+    return solve_samples(arm, s, xyz, seg, ax, len(points) - 1, frames, q_seed=q_seed, iters=iters,
+                         progress=progress)
+
+
+def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax: np.ndarray, nseg: int,
+                  frames: CellFrames = CellFrames(), q_seed: np.ndarray | None = None, iters: int = 6,
+                  progress=None) -> KinematicsResult:
+    """`solve_path` on given samples: s (k,) programmed arc length, xyz (k, 3) and torch axes
+    ax (k, 3) in the work/world frame, seg (k,) their programmed segment (of nseg)."""
+    import pinocchio as pin  # lazy: keeps start-up light
+    model = arm.model
+    data = model.createData()
+    xyz, ax = np.asarray(xyz, float), np.asarray(ax, float)
     Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
     if frames.work_rot is not None:                            # part turned by a positioner
         Rw = np.asarray(frames.work_rot, float)
@@ -197,7 +207,6 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
     dq = np.abs(np.diff(Q, axis=0)) / np.maximum(ds, 1e-9)[:, None]
     with np.errstate(divide="ignore"):
         cap_i = np.min(np.where(dq > 1e-12, arm.qd_max[None, :] / dq, np.inf), axis=1)
-    nseg = len(points) - 1
     cap = np.full(nseg, np.inf)
     np.minimum.at(cap, seg[:-1], cap_i)
     return KinematicsResult(s, Q, seg, err_mm, sig, cap)
@@ -216,13 +225,25 @@ def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_sect
     speed_cap = (kin.segment_cap < seg_speed)
     issues: list[dict] = []
     for kind, f in flags.items():
-        issues += _stretches(kind, f, kin.s, kin.seg, seg_layer, seg_section, section_keys)
+        for st in _stretches(kind, f, kin.s, kin.seg, seg_layer, seg_section, section_keys):
+            if kind == "joint_limit":
+                m = (kin.s >= st["s_from"]) & (kin.s <= st["s_to"])
+                hit = np.any((kin.q[m] <= arm.lower + LIMIT_MARGIN) | (kin.q[m] >= arm.upper - LIMIT_MARGIN), axis=0)
+                st["axes"] = [f"A{j + 1}" for j in np.flatnonzero(hit)]
+                st["detail"] = f"{', '.join(st['axes'])} at the limit"
+            issues.append(st)
     if speed_cap.any():
         segs = np.flatnonzero(speed_cap)
         f = np.isin(kin.seg, segs)
         for st in _stretches("joint_speed", f, kin.s, kin.seg, seg_layer, seg_section, section_keys):
-            ss = segs[(seg_layer[segs] == st["layer"])]
-            st["detail"] = f"path speed capped to {kin.segment_cap[ss].min():.1f} mm/s by joint speed limits"
+            m = f & (kin.s >= st["s_from"]) & (kin.s <= st["s_to"])
+            ss = np.unique(kin.seg[m])
+            k = np.flatnonzero(m[:-1])
+            ds = np.maximum(np.diff(kin.s)[k], 1e-9)
+            rate = np.abs(np.diff(kin.q, axis=0)[k]) / ds[:, None] / np.maximum(arm.qd_max, 1e-12)
+            st["axes"] = sorted({f"A{j + 1}" for j in rate.argmax(axis=1)}) if len(k) else []
+            st["detail"] = (f"path speed capped to {kin.segment_cap[ss].min():.1f} mm/s by joint speed limits"
+                            + (f" ({', '.join(st['axes'])})" if st["axes"] else ""))
             issues.append(st)
     return issues
 

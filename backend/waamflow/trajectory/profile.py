@@ -22,7 +22,11 @@ ROBOTS_DIR = Path(__file__).resolve().parent.parent / "data" / "robots"
 class RobotProfile:
     """Constants of the controller model (see `trajectory.controller` for how each one is used).
 
-    path_acc: max tangential (path) acceleration, mm/s². path_jerk: max path jerk, mm/s³.
+    path_acc: max tangential (path) acceleration when speeding up, mm/s². path_jerk: max path
+        jerk when speeding up, mm/s³.
+    path_dec / path_dec_jerk: the same when slowing down (0 = as when speeding up). The KRC2 of
+        the study ramps up and down differently: its 10 mm/s stop takes longer than its start,
+        its 40 mm/s stop shorter (robot-study.md, identified T/L_init_accel vs T/L_final_decel).
     normal_acc: max centripetal acceleration in blends, mm/s² (corner cap √(a_n·r)).
     normal_jerk: max normal jerk in blends, mm/s³ (corner cap (j_n·r²)^(1/3)).
     smoothing_s: length of the controller's moving-average (FIR) position filter, s — the KRC's
@@ -37,6 +41,11 @@ class RobotProfile:
     arc_switch_dwell_s: standstill added at every arc ON/OFF switch (advance-run stop + I/O).
     arc_on_delay_s / arc_off_delay_s: delay from the switch command (issued at the stop) to the
         arc really being ON / OFF; positive values leak into the following motion.
+    catchup: 0…1, the post-stop catch-up: in an arc-OFF block that starts at an arc switch (the
+        travel outside the OR after the arc-OFF stop) the controller cuts the corners harder —
+        the speed-dependent approximation limit is lifted by this fraction, and next to an exact
+        stop the blend may use up to (0.5 + 0.5·catchup) of the segment instead of half of it
+        (robot-study.md: "catches up after each stop by cutting the path outside the OR harder").
     backlash_start_mm / backlash_end_mm: transverse offset right after a start / before a stop
         (study: +0.2 / −0.1 mm on a 100 mm line at 40 mm/s), decaying over smoothing_s.
     travel_speed: speed of arc-OFF moves that carry no speed, mm/s.
@@ -53,6 +62,8 @@ class RobotProfile:
     name: str
     path_acc: float = 500.0
     path_jerk: float = 50000.0
+    path_dec: float = 0.0
+    path_dec_jerk: float = 0.0
     normal_acc: float = 500.0
     normal_jerk: float = 20000.0
     smoothing_s: float = 0.11
@@ -62,6 +73,7 @@ class RobotProfile:
     arc_switch_dwell_s: float = 0.0
     arc_on_delay_s: float = 0.0
     arc_off_delay_s: float = 0.0
+    catchup: float = 0.0
     backlash_start_mm: float = 0.0
     backlash_end_mm: float = 0.0
     travel_speed: float = 100.0
@@ -73,8 +85,13 @@ class RobotProfile:
     notes: str = ""
 
     # names of the constants a calibration may fit (all positive floats)
-    FITTABLE = ("path_acc", "path_jerk", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
+    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "catchup", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
                 "apo_min_mm", "arc_switch_dwell_s", "arc_on_delay_s", "arc_off_delay_s")
+
+    @property
+    def dec(self) -> tuple[float, float]:
+        """(slow-down acceleration mm/s², jerk mm/s³): path_dec / path_dec_jerk or the speed-up ones."""
+        return (self.path_dec or self.path_acc, self.path_dec_jerk or self.path_jerk)
 
     def with_values(self, **kw) -> "RobotProfile":
         return replace(self, **kw)
@@ -106,6 +123,8 @@ def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
             raise InputFileError(f"{source}: robot profile value {k}={v!r} must be a number ≥ 0")
     if prof.interpolation_cycle_s <= 0 or prof.path_acc <= 0 or prof.path_jerk <= 0:
         raise InputFileError(f"{source}: interpolation_cycle_s, path_acc and path_jerk must be > 0")
+    if prof.catchup > 1:
+        raise InputFileError(f"{source}: robot profile value catchup={prof.catchup!r} must be within 0…1")
     return prof
 
 

@@ -16,11 +16,12 @@ import numpy as np
 
 from ..core.moves import Moves
 from .estimate import estimate_moves
-from .kinematics import CellFrames, find_issues, load_arm, solve_path
+from .kinematics import REACH_TOL_MM, CellFrames, find_issues, load_arm, solve_path, solve_samples
 from .profile import RobotProfile
 from .simulate import METRIC_UNITS, SimOptions, SimulationResult, simulate
 
 MAX_WARNINGS_PER_KIND = 20
+MAX_ISSUES = 1000        # stretches listed in simulation.json's kinematics_issues
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,7 @@ class KinematicsOptions:
     max_tilt_deg: float = 30.0           # min-motion: torch lean from vertical tolerated before the positioner moves
     collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
     collision_step_mm: float = 20.0      # programmed path between two checked samples
+    step_deg: float = 1.0                # with a cell: most positioner / torch-axis turn between two IK samples
 
 
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
@@ -47,6 +49,8 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
     warnings: list[tuple[str, int | None, str | None]] = []
     kin_metrics: dict[str, float] = {}
     collision_list: tuple = ()
+    kin_report: dict = {}
+    sim_moves = moves
     if kin is not None and len(moves.points) >= 2:
         if progress:
             progress(0.02, "inverse kinematics")
@@ -55,26 +59,37 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
                        home_deg=home)
         points, axes, frames = moves.points, moves.tool_axis, kin.frames
-        if kin.cell is not None:       # the part on the positioner: every point in world at its own angles
-            from .cell import positioner_angles, to_world
+        speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
+        if opt.speed_override is not None:
+            speed = np.where(moves.arc, opt.speed_override, speed)
+        pos_metrics: dict[str, float] = {}
+        pos_issues: list[dict] = []
+        pos_cap = None
+        if kin.cell is not None:       # the part on the positioner: coordinated samples in the world
+            from .cell import coordinated_samples, plan_positioner, positioner_caps
 
-            ang = positioner_angles(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
-            points, axes = to_world(kin.cell, moves.points, moves.tool_axis, ang)
+            ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
+            s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, moves.tool_axis, ang,
+                                                                 step_mm=kin.step_mm, step_deg=kin.step_deg)
             base = kin.cell.robot_base
             frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
-            pos_metrics = ({"positioner_e1_min_deg": float(ang[:, 0].min()),
-                                "positioner_e1_max_deg": float(ang[:, 0].max()),
-                                "positioner_e2_min_deg": float(ang[:, 1].min()),
-                                "positioner_e2_max_deg": float(ang[:, 1].max()),
-                                "positioner_max_step_deg": float(np.abs(np.diff(ang, axis=0)).max(initial=0.0))})
+            ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames,
+                               progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
+            pos_cap, turn_s = positioner_caps(kin.cell, moves.points, ang)
+            pos_metrics, pos_issues = _positioner_report(kin.cell, moves, ang, clipped, pos_cap, turn_s, speed)
+            # a turn on a zero-length move (in place) is a standstill the positioner needs
+            still = (moves.segment_lengths <= 1e-6) & (turn_s > 0)
+            if still.any():
+                dwell = np.asarray(moves.dwell_before, float).copy()
+                dwell[np.flatnonzero(still)] += turn_s[still]
+                sim_moves = replace(moves, dwell_before=dwell)
         else:
-            pos_metrics = {}
-        ks = solve_path(arm, points, axes, frames, step_mm=kin.step_mm,
-                        progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
+            ks = solve_path(arm, points, axes, frames, step_mm=kin.step_mm,
+                            progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
         if kin.cell is not None and kin.collisions:
             if progress:
                 progress(0.33, "collision checks")
-            collisions = _cell_collisions(kin, arm, ks, moves, ang)
+            collisions = _cell_collisions(kin, arm, ks, moves, ang_c)
             pos_metrics.update({"collision_count": float(collisions[0]),
                                 "collision_samples_checked": float(collisions[2]),
                                 "collision_step_mm": float(kin.collision_step_mm)})
@@ -83,10 +98,7 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                 warnings.append((f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
                                  f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
                                  c.layer, c.section))
-        speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
-        if opt.speed_override is not None:
-            speed = np.where(moves.arc, opt.speed_override, speed)
-        issues = find_issues(ks, arm, moves.layer, moves.section, moves.section_keys, speed)
+        issues = find_issues(ks, arm, moves.layer, moves.section, moves.section_keys, speed) + pos_issues
         counts: dict[str, int] = {}
         for it in issues:
             counts[it["kind"]] = counts.get(it["kind"], 0) + 1
@@ -94,14 +106,16 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                 continue
             msg = {"unreachable": "target unreachable", "joint_limit": "joint limit reached",
                    "near_singular": "near-singular arm configuration",
-                   "joint_speed": "joint speed limit"}[it["kind"]]
+                   "joint_speed": "joint speed limit", "axis_limit": "positioner axis limit",
+                   "axis_speed": "positioner axis speed limit"}[it["kind"]]
             detail = f"; {it['detail']}" if it["detail"] else ""
             warnings.append((f"{msg} over s = {it['s_from']:.1f}..{it['s_to']:.1f} mm "
                              f"({it['count']} IK samples){detail}", it["layer"], it["section"]))
         for kind, c in counts.items():
             if c > MAX_WARNINGS_PER_KIND:
                 warnings.append((f"{c - MAX_WARNINGS_PER_KIND} more '{kind}' stretches not listed", None, None))
-        opt = replace(opt, segment_cap=ks.segment_cap)
+        cap = ks.segment_cap if pos_cap is None else np.minimum(ks.segment_cap, pos_cap)
+        opt = replace(opt, segment_cap=cap)
         finite = np.isfinite(ks.segment_cap)
         kin_metrics = {
             "ik_samples": float(len(ks.s)),
@@ -110,10 +124,21 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             "joint_speed_capped_segments": float(np.count_nonzero(ks.segment_cap < speed)),
             "min_joint_speed_cap_mm_s": float(ks.segment_cap[finite].min()) if finite.any() else math.inf,
         }
-        for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed"):
+        for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed") + \
+                (("axis_limit", "axis_speed") if kin.cell is not None else ()):
             kin_metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
         kin_metrics.update(pos_metrics)
-    res = simulate(moves, profile, opt,
+        dq = np.abs(np.diff(ks.q, axis=0))
+        if len(dq):
+            kin_metrics["max_wrist_step_deg"] = float(np.degrees(dq[:, 3:].max(initial=0.0)))
+        kin_report = {"axes": _axes_report(arm, ks, cap, speed, kin.cell, ang if kin.cell is not None else None,
+                                           moves),
+                      "issues": issues[:MAX_ISSUES]}
+        if kin.cell is not None:
+            kin_report["motion"] = {"s": ks.s, "q": ks.q, "positioner_deg": ang_c,
+                                    "cell": kin.cell.model_dump(mode="json"),
+                                    "unreachable": ks.reach_err > REACH_TOL_MM}
+    res = simulate(sim_moves, profile, opt,
                    progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
     est = estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed) if profile.time_model else None
     estimate = {}
@@ -123,22 +148,99 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                     / max(res.metrics["total_time_s"], 1e-9)}
     metrics = dict(res.metrics)
     metrics.update(kin_metrics)
-    return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate, collisions=collision_list)
+    return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate, collisions=collision_list,
+                   kinematics=kin_report)
+
+
+def _positioner_report(cell, moves: Moves, ang, clipped, cap, turn_s, speed) -> tuple[dict, list[dict]]:
+    """Positioner metrics (per axis range, largest step) and its stretches: `axis_limit` where the
+    policy's angle was clipped into the axis range, `axis_speed` where an axis speed caps the path
+    speed (per layer and section; s in mm of programmed path)."""
+    from .cell import positioner_kin
+    from .kinematics import _stretches
+
+    m = ang.shape[1]
+    out: dict[str, float] = {}
+    for j in range(m):
+        out[f"positioner_e{j + 1}_min_deg"] = float(ang[:, j].min())
+        out[f"positioner_e{j + 1}_max_deg"] = float(ang[:, j].max())
+    out["positioner_max_step_deg"] = float(np.abs(np.diff(ang, axis=0)).max(initial=0.0))
+    finite = np.isfinite(cap)
+    out["positioner_min_speed_cap_mm_s"] = float(cap[finite].min()) if finite.any() else math.inf
+    out["positioner_speed_capped_segments"] = float(np.count_nonzero(cap < speed))
+    out["positioner_turn_in_place_s"] = float(turn_s[moves.segment_lengths <= 1e-6].sum())
+    if m == 0:
+        return out, []
+    names = [f"E{j + 1}" for j in range(m)]
+    pk = positioner_kin(cell.positioner.urdf)
+    s_pt = np.concatenate([[0.0], np.cumsum(moves.segment_lengths)])
+    seg_pt = np.minimum(np.arange(len(s_pt)), len(s_pt) - 2)
+    issues = []
+    for st in _stretches("axis_limit", clipped, s_pt, seg_pt, moves.layer, moves.section, moves.section_keys):
+        k = np.flatnonzero(clipped & (s_pt >= st["s_from"]) & (s_pt <= st["s_to"]))
+        hit = [names[j] for j in range(m) if np.any(np.isclose(ang[k, j], pk.lower_deg[j]) |
+                                                      np.isclose(ang[k, j], pk.upper_deg[j]))]
+        st.update(axes=hit, detail=f"{', '.join(hit) or 'axis'} clipped into its range: the layer is not turned flat")
+        issues.append(st)
+    flag = np.zeros(len(s_pt), bool)
+    slow = np.flatnonzero(cap < speed)
+    flag[slow] = True
+    for st in _stretches("axis_speed", flag, s_pt, seg_pt, moves.layer, moves.section, moves.section_keys):
+        segs = slow[(s_pt[slow] >= st["s_from"]) & (s_pt[slow] <= st["s_to"])]
+        d = np.abs(ang[segs + 1] - ang[segs]) / pk.speed_deg_s
+        st["axes"] = sorted({names[j] for j in d.argmax(axis=1)})
+        st["detail"] = (f"path speed capped to {cap[segs].min():.1f} mm/s by positioner speed "
+                        f"({', '.join(st['axes'])}: {', '.join(f'{v:.0f}' for v in pk.speed_deg_s)} deg/s)")
+        issues.append(st)
+    return out, issues
+
+
+def _axes_report(arm, ks, cap, speed, cell, ang, moves: Moves) -> list[dict]:
+    """Per axis (arm A1..A6, positioner E1..): range used, limits, speed limit and the largest
+    speed reached at the simulated path speed (programmed, capped), all in deg and deg/s."""
+    v = np.minimum(speed, cap)
+    rows = []
+    ds = np.diff(ks.s)
+    k = np.flatnonzero(ds > 1e-9)
+    vs = v[ks.seg[k]]
+    for j in range(arm.model.nq):
+        qd = np.abs(np.diff(ks.q[:, j]))[k] / ds[k] * vs
+        rows.append({"axis": f"A{j + 1}", "joint": arm.model.names[j + 1],
+                     "min_deg": round(float(np.degrees(ks.q[:, j].min())), 4),
+                     "max_deg": round(float(np.degrees(ks.q[:, j].max())), 4),
+                     "lower_deg": round(float(np.degrees(arm.lower[j])), 4),
+                     "upper_deg": round(float(np.degrees(arm.upper[j])), 4),
+                     "speed_limit_deg_s": round(float(np.degrees(arm.qd_max[j])), 4),
+                     "peak_speed_deg_s": round(float(np.degrees(qd.max(initial=0.0))), 4)})
+    if cell is not None and ang is not None and ang.shape[1]:
+        from .cell import positioner_kin
+
+        pk = positioner_kin(cell.positioner.urdf)
+        L = moves.segment_lengths
+        for j in range(ang.shape[1]):
+            d = np.abs(np.diff(ang[:, j]))
+            moving = L > 1e-6
+            sp = np.where(moving, d / np.maximum(L, 1e-12) * v, np.where(d > 0, pk.speed_deg_s[j], 0.0))
+            rows.append({"axis": f"E{j + 1}", "joint": pk.names[j],
+                         "min_deg": round(float(ang[:, j].min()), 4), "max_deg": round(float(ang[:, j].max()), 4),
+                         "lower_deg": round(float(pk.lower_deg[j]), 4), "upper_deg": round(float(pk.upper_deg[j]), 4),
+                         "speed_limit_deg_s": round(float(pk.speed_deg_s[j]), 4),
+                         "peak_speed_deg_s": round(float(sp.max(initial=0.0)), 4)})
+    return rows
 
 
 def _cell_collisions(kin: KinematicsOptions, arm, ks, moves: Moves, ang: np.ndarray):
-    """coal checks of the solved path in the cell (see trajectory.collide); each sample's work frame
-    and positioner flange are the ones at its segment's start angles."""
+    """coal checks of the solved path in the cell (see trajectory.collide); each IK sample with its
+    own (interpolated) positioner angles."""
     from .collide import check_path
 
     cell = kin.cell
     cache: dict[tuple, tuple] = {}
 
     def work_frame(i):
-        a = tuple(np.round(ang[ks.seg[i]], 9))
+        a = tuple(np.round(ang[i], 9))
         if a not in cache:
-            f = cell.frames(list(a))
-            cache[a] = (np.asarray(f.work_rot, float), np.asarray(f.work_xyz_mm, float), *cell.positioner_pose(list(a)))
+            cache[a] = (*cell.work_pose(np.asarray(a)), np.asarray(a))
         return cache[a]
     yaw = np.radians(cell.robot_base.yaw_deg)
     Rb = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
@@ -163,6 +265,10 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
         out["collision_count"] = int(res.metrics["collision_count"])
         out["collisions"] = [{"layer": c.layer, "section": c.section, "bodies": list(c.bodies),
                               "point_mm": list(c.point_mm), "s_mm": round(c.s_mm, 3)} for c in res.collisions]
+    if res.kinematics:
+        out["axes"] = res.kinematics.get("axes", [])
+        out["kinematics_issues"] = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
+                                    for it in res.kinematics.get("issues", [])]
     out["robot_profile"] = res.profile.get("name")
     out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "wire_feed_mm3_s": opt.wire_feed_mm3_s,
                        "speed_override_mm_s": opt.speed_override,

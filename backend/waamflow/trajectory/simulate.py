@@ -100,6 +100,7 @@ class SimulationResult:
     corners: dict[str, np.ndarray] = field(default_factory=dict)
     profile: dict = field(default_factory=dict)
     collisions: tuple = ()      # trajectory.collide.Collision, the first ones found (cell simulations)
+    kinematics: dict = field(default_factory=dict)   # per-axis report, kinematics issues, the solved motion (run.py)
 
 
 METRIC_UNITS = {
@@ -112,6 +113,9 @@ METRIC_UNITS = {
     "positioner_e1_min_deg": "deg", "positioner_e1_max_deg": "deg", "positioner_e2_min_deg": "deg",
     "positioner_e2_max_deg": "deg", "positioner_max_step_deg": "deg",
     "collision_count": "", "collision_samples_checked": "", "collision_step_mm": "mm",
+    "positioner_min_speed_cap_mm_s": "mm/s", "positioner_speed_capped_segments": "",
+    "positioner_turn_in_place_s": "s", "axis_limit_stretches": "", "axis_speed_stretches": "",
+    "max_wrist_step_deg": "deg",
 }
 
 
@@ -220,6 +224,20 @@ def _wire_rate(moves: Moves, opt: SimOptions) -> np.ndarray:
     return rate
 
 
+def _catchup_vertices(prog: _Program, catchup: float) -> np.ndarray | None:
+    """(n,) catch-up fraction per vertex: `catchup` at the interior vertices of arc-OFF blocks that
+    start at an arc switch (the travel after an arc-OFF stop), 0 elsewhere; None when off."""
+    n = len(prog.points)
+    if catchup <= 0 or n < 3:
+        return None
+    stops = np.flatnonzero(prog.stop)                       # stop[0] is always set
+    seg_arc = np.concatenate([prog.arc, [True]])            # the segment leaving each vertex
+    starts_off = prog.switch & ~seg_arc                     # arc-OFF stop: the block after it travels arc OFF
+    owner = stops[np.cumsum(prog.stop) - 1]                 # last stop at or before each vertex
+    out = np.where(starts_off[owner] & ~prog.stop, float(min(catchup, 1.0)), 0.0)
+    return out
+
+
 def _moving_average(x: np.ndarray, w: float) -> np.ndarray:
     """Causal moving average of (k, c) samples over a window of w ≥ 1 samples (w may be
     fractional: the cumulative sum is interpolated), padded with x[0] before the start."""
@@ -251,14 +269,15 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
                             section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None)
     dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
     a, j = profile.path_acc, profile.path_jerk
+    a_dec, j_dec = profile.dec
     path = blend_path(prog.points, prog.speed, prog.stop, mode=opt.blend, distance=opt.cdis,
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
-                      normal_jerk=profile.normal_jerk)
+                      normal_jerk=profile.normal_jerk, catchup=_catchup_vertices(prog, profile.catchup))
     stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
-    spans = plan_spans(path, prog.speed, stop, a, j)
+    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec)
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
-    prof = profile_spans(spans, a, j)
+    prof = profile_spans(spans, a, j, a_dec, j_dec)
     if progress:
         progress(0.5, "speed profiles done")
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import colors as C
 from . import geometry as G
-from .scene import SIM_PX, TRAVEL_PX, Part, Pick, layer_name
+from .scene import PROGRAMMED_PX, SIM_PX, Part, Pick, layer_name
 from .signature import digest
 
 
@@ -121,7 +121,7 @@ class SimulationPart(Part):
             if index in prog_chunks:
                 segs, _ = G.chunk_segments(prog, prog_chunks[index], budget)
                 entry["prog"] = self.scene.add_line_segments(
-                    f"{name}/programmed", segs, C.PROGRAMMED_RGB, thickness=TRAVEL_PX,
+                    f"{name}/programmed", segs, C.PROGRAMMED_RGB, thickness=PROGRAMMED_PX,
                     thickness_units="screen", visible=view.show_programmed)
                 entry["programmed"] = len(segs)
             if index in chunks:

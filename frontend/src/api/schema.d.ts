@@ -78,6 +78,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/schemas/zone-params.xsd": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Zone Params Xsd
+         * @description The XML Schema (XSD 1.0) of the zone-parameter file (layer > section > zone > parameters,
+         *     units and bounds): the file every zone node reads is validated against it.
+         */
+        get: operations["zone_params_xsd_api_schemas_zone_params_xsd_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs": {
         parameters: {
             query?: never;
@@ -365,8 +386,10 @@ export interface paths {
         };
         /**
          * State
-         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
-         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         * @description The shown run (`key`, `run` id), its nodes (kinds drawn, visibility), layer extent, playback
+         *     duration, view settings and legend data (zone colours, value ranges with units, colour-map
+         *     stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
+         *     (its scene was not in memory, e.g. after a restart); `rebuild_error` {run, message} if that failed.
          */
         get: operations["state_api_viewer_state_get"];
         put?: never;
@@ -874,7 +897,7 @@ export interface components {
             };
             /**
              * Params Xml
-             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it never becomes the graph's XML (the run keeps it, to rebuild its 3D scene after a restart)
              */
             params_xml?: string | null;
         } & (unknown | {
@@ -1165,6 +1188,35 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["MachineProfileInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    zone_params_xsd_api_schemas_zone_params_xsd_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": string;
                 };
             };
             /** @description Missing or wrong bearer token */

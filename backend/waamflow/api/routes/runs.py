@@ -32,7 +32,8 @@ class RunRequest(BaseModel):
     inputs: dict[str, Any] = Field(default_factory=dict, description="recipe input values to override")
     params_xml: str | None = Field(None, max_length=20_000_000,
                             description="with `graph`: a draft zone-parameter XML used for this run "
-                                        "instead of the saved one; it is never stored")
+                                        "instead of the saved one; it never becomes the graph's XML (the "
+                                        "run keeps it, to rebuild its 3D scene after a restart)")
 
     @model_validator(mode="after")
     def _one(self) -> "RunRequest":
