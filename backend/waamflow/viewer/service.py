@@ -98,6 +98,7 @@ class ViewerService:
         with self._lock:
             if self.server is not None:
                 return self
+            self._rebuild_stop.clear()   # stop() cancelled the rebuilds of the previous start
             from .embed import embedded_client
 
             with embedded_client():
