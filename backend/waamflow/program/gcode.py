@@ -32,6 +32,7 @@ motion. A rotary word is written when its value changes (and on the first motion
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -145,6 +146,18 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
     return f"G4 P{short(round(seconds, 3))}"
 
 
+_NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+
+
+def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
+    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    if len(pts) == 0:
+        return []
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
+
+
 def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     """Render a `Plan` as G-code text (see module doc)."""
     pts = plan.moves.points
@@ -187,6 +200,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     feed: float | None = None
     rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
+    words = _xyz_words(pts, d)
     last = None
     for s in plan.steps:
         if isinstance(s, LayerStart):
@@ -212,9 +226,8 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             lines = tool_lines(settings.tool_off, s.tool, {})
             out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
-            p = pts[s.end]
-            last = p
-            xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            last = pts[s.end]
+            xyz = words[s.end]
             if ext is not None:
                 for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
                     v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
