@@ -289,7 +289,10 @@ test("3D tab after a server restart: the open recipe's last run is rebuilt from 
     }).observe(document.body, { subtree: true, childList: true, characterData: true });
   });
   await page.click("[data-tab=viewer]");
-  await page.waitForFunction((id) => document.querySelector("[data-testid=viewer-run]")?.dataset.run === id, last.id, { timeout: 120_000 });
+  await page.waitForFunction((id) => {
+    const el = document.querySelector("[data-testid=viewer-run]");
+    return el?.dataset.run === id && !el.dataset.loading;
+  }, last.id, { timeout: 120_000 });
   assert.equal(await page.innerText("[data-testid=viewer-run]"), `Latest run of rectangle-study (run ${last.id})`);
   const lines = await page.evaluate(() => window.__runLines);
   assert.ok(!lines.some((l) => /No run of/.test(l)), `never "no run yet": ${lines.join(" | ")}`);
