@@ -253,11 +253,17 @@ def _arg_type(mod: Module, arg, tool: str | None) -> str:
     return "undeclared"
 
 
-def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = ()) -> Module:
+def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = (),
+                 routines: tuple[str, ...] = ()) -> Module:
     """Parse and check one module; `tool` is the controller's tooldata name, `units` the
-    mechanical units the controller knows (for ActUnit/DeactUnit)."""
+    mechanical units the controller knows (for ActUnit/DeactUnit), `routines` procedures the
+    cell provides (e.g. a rolling tool's ToolOn/ToolOff) whose numeric arguments are not typed."""
     mod = _Parser(text).module()
     for call in mod.calls():
+        if call.name in routines:
+            if any(a[0] == "name" and _arg_type(mod, a, tool) == "undeclared" for a in call.args):
+                raise RapidError(f"line {call.line}: {call.name} names undeclared data")
+            continue
         if call.name not in INSTRUCTIONS:
             raise RapidError(f"line {call.line}: unknown instruction {call.name}")
         types, opts = INSTRUCTIONS[call.name]

@@ -177,7 +177,16 @@ class RunResult:
             "artifacts": sorted(self.artifacts),
             "executor": self.executor,
             "trace": self.trace,
+            "programs": self.program_stats(),
         }
+
+    def program_stats(self) -> dict[str, dict]:
+        """node id → the statistics of the program it wrote (format, points, motions, lengths in
+        mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
+        from ..program.program import Program
+
+        return {nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values()
+                if isinstance(v, Program)}
 
 
 # ---- context ------------------------------------------------------------------------------------

@@ -82,15 +82,19 @@ def trace_lines(trace: dict) -> list[str]:
 def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     """Program files with the trace lines in their header, in each format's comment syntax:
     G-code `;` at the top, KRL `;` after `DEF`/`DEFDAT`, RAPID `!` after `MODULE`, CSV `#` at
-    the top. Applied when artifacts are written, so the date never enters a cache key."""
+    the top. Applied when artifacts are written, so the date never enters a cache key. JSON
+    (print points) has no comments and a fixed layout: it stays as it is (the trace is in
+    summary.json)."""
     body = trace_lines(trace)
-    if not body:
+    if not body or fmt == "printpoints":
         return dict(files)
     out = {}
     for suffix, text in files.items():
         lines = text.split("\n")
-        if fmt == "gcode":
-            lines = [f"; {b}" for b in body] + lines
+        if fmt == "gcode":                                 # before the first comment (after a preamble)
+            at = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith((";", "("))), 0)
+            paren = lines[at].lstrip().startswith("(") if lines else False     # the profile's comment style
+            lines = lines[:at] + [f"({b})" if paren else f"; {b}" for b in body] + lines[at:]
         elif fmt == "csv":
             lines = [f"# {b}" for b in body] + lines
         else:
