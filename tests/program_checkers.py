@@ -9,8 +9,7 @@ the format says so, `deposition_length_mm`, `travel_length_mm`, `dwell_total_s`,
 
 G-code goes through pygcode (an independent G-code parser and machine-state interpreter, not our
 `gcode_parse`): every line must parse, every word must belong to a code pygcode knows except the
-machine's own arc ON/OFF words and rolling/peening tool commands (`tool_on`/`tool_off`), and the
-interpreted motions give lengths, dwell and time.
+machine's own arc ON/OFF words, and the interpreted motions give lengths, dwell and time.
 """
 
 from __future__ import annotations
@@ -38,14 +37,6 @@ def _assigned_words(block) -> set[str]:
     return out
 
 
-def _tool_templates(post: dict, fmt: str) -> list[str]:
-    """The post's tool engage/lift templates (its params, else the format's defaults)."""
-    from waamflow.program.common import TOOL_COMMANDS
-
-    on, off = TOOL_COMMANDS[fmt]
-    return [post.get("tool_on") or on, post.get("tool_off") or off]
-
-
 def check_gcode(files: dict[str, str], post: dict) -> dict:
     """Parse and interpret a G-code program with pygcode; see module doc."""
     (text,) = files.values()
@@ -58,8 +49,9 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     own_lines = [arc_on, arc_off, end, *post.get("start_code", ()), *post.get("end_code", ()),
                  *(tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split())]
     own = {str(w) for code in own_lines for w in Line(code).block.words}
-    # rolling/peening tool commands: the machine's own lines, templated with force/width/speed
-    tool_words = {tpl.split()[0] for tpl in _tool_templates(post, "gcode") if tpl.split()}
+    from waamflow.program.common import TOOL_COMMANDS   # a rolling/peening tool's own codes (M110 P… Q…)
+    tool_heads = {ln.split()[0] for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["gcode"])
+                  for ln in (post.get(key) or default).splitlines() if ln.split()}
     m = _Machine()
     pos = np.zeros(3)
     arc = False
@@ -77,8 +69,8 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
         if code in (arc_on, arc_off):
             arc = code == arc_on
             continue
-        if code.split()[:1] and code.split()[0] in tool_words:
-            continue
+        if code.split() and code.split()[0] in tool_heads:
+            continue                          # the tool's engage/lift codes: no motion
         block = line.block
         unknown = {str(w) for w in block.words} - _assigned_words(block)
         assert unknown <= own, f"line {ln}: words pygcode does not know: {sorted(unknown)} in {raw!r}"
@@ -155,11 +147,17 @@ def check_krl(files: dict[str, str], post: dict) -> dict:
 def check_rapid(files: dict[str, str], post: dict) -> dict:
     """RAPID: the recursive-descent parser `tests/program/rapid_check.py` (declarations, aggregate
     shapes, every motion/ArcWare instruction's argument types)."""
-    from rapid_check import parse_module
+    from rapid_check import NUM, parse_module
+
+    from waamflow.program.common import TOOL_COMMANDS
 
     (text,) = files.values()
     units = (post.get("positioner_unit") or "STN1",) if post.get("cell") else ()
-    routines = tuple(re.split(r"[\s;]", tpl.strip())[0] for tpl in _tool_templates(post, "rapid") if tpl.strip())
+    routines = {}                      # the rolling/peening tool's routines, declared on the controller
+    for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["rapid"]):
+        for line in (post.get(key) or default).splitlines():
+            name, _, args = line.strip().rstrip(";").partition(" ")
+            routines[name] = [NUM] * len([a for a in args.split(",") if a.strip()])
     mod = parse_module(text, tool=post.get("tool_name", "tWeldGun"), units=units, routines=routines)
     robtargets = [n for n, (_st, typ, _v) in mod.data.items() if typ == "robtarget"]
     return {"points_declared": len(robtargets), "motions": len(mod.calls("MoveL", "MoveC", "ArcLStart", "ArcL",

@@ -353,7 +353,7 @@ class _Run:
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
         jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
-        for pos, node_id in enumerate(self.active):
+        for node_id in self.active:
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
             t0 = time.perf_counter()
@@ -367,7 +367,6 @@ class _Run:
                     cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
-                self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
                     if pool is not None and pool.enabled and pool.offload_artifacts:
@@ -399,15 +398,6 @@ class _Run:
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
         return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
-
-    def maybe_warm(self, pos: int) -> None:
-        """Start the layer workers early when this node made many layers and layer nodes follow."""
-        pool = self.pool
-        if pool is None or not pool.enabled or pool.started or self.layers is not None:
-            return
-        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
-                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
-            pool.warm()
 
     def located(self, node_id: str, ctx: RunContext, fn):
         """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
@@ -543,14 +533,19 @@ class _Run:
             finish(i, key, impl.run_layer(ctx, gnode.params, i, items), ctx.warnings)
 
         rest = list(todo)
+        pool = self.pool
         t0 = time.perf_counter()
         if rest:
             here(*rest.pop(0))
         while rest and time.perf_counter() - t0 < parallel.TIMING_S:  # time one layer, more if tiny
             here(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
-        pool = self.pool
-        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > pool.min_parallel_s:
+        if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
+            pool.warm()            # no-op once started
+        while rest and pool is not None and pool.warming:   # workers on their way: go on here meanwhile
+            here(*rest.pop(0))
+        if pool is not None and pool.enabled and pool.ready and len(rest) > 1 and \
+                per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 

@@ -105,6 +105,12 @@ class PostProcess(Node):
             default_factory=dict,
             description="G-code / KRL output mode: zone parameter name → command template using {value}, "
                         "e.g. {\"wire_feed_speed\": \"M100 S{value:.1f}\", \"job\": \"M101 P{value:.0f}\"}")
+        rotary_axes: list[str] = Field(
+            default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
+            json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
+            description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
+                        "axes (the machine profile's, e.g. A/C or B/C)")
+        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words")
         # post-deposition tools (rolling, peening: sections from a treatment node)
         tool_on: str = Field("", max_length=200,
                              description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
@@ -115,12 +121,6 @@ class PostProcess(Node):
         tool_off: str = Field("", max_length=200,
                               description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
                                           "`TOOL_OFF()`, RAPID `ToolOff;`")
-        rotary_axes: list[str] = Field(
-            default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
-            json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
-            description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
-                        "axes (the machine profile's, e.g. A/C or B/C)")
-        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words")
         # KUKA KRL
         tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
         base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")

@@ -32,6 +32,7 @@ motion. A rotary word is written when its value changes (and on the first motion
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -58,9 +59,6 @@ class GcodeSettings:
     travel_speed: float = 100.0
     process_codes: dict[str, str] = field(default_factory=dict)
     decimals: int = 3
-    tool_on: str = TOOL_COMMANDS["gcode"][0]
-    tool_off: str = TOOL_COMMANDS["gcode"][1]
-
     rotary_axes: tuple[str, ...] = ("A", "C")
     rotary_units: str = "deg"
     external_axes: np.ndarray | None = None
@@ -74,7 +72,12 @@ class GcodeSettings:
     preamble: tuple[str, ...] = ()
     postamble: tuple[str, ...] = ()
 
+    tool_on: str = TOOL_COMMANDS["gcode"][0]
+    tool_off: str = TOOL_COMMANDS["gcode"][1]
+
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         if self.comment_style not in ("semicolon", "parentheses"):
             raise ValueError(f"comment_style must be 'semicolon' or 'parentheses', not {self.comment_style!r}")
         if self.feed_units not in ("mm/min", "mm/s"):
@@ -94,8 +97,6 @@ class GcodeSettings:
         letters = tuple(self.rotary_axes)
         if len(set(letters)) != len(letters) or any(a not in ("A", "B", "C", "U", "V", "W") for a in letters):
             raise ValueError(f"rotary_axes {list(letters)!r}: distinct letters among A, B, C, U, V, W")
-        check_tool_template(self.tool_on, "tool_on")
-        check_tool_template(self.tool_off, "tool_off")
         if self.dwell_units not in ("s", "ms"):
             raise ValueError(f"dwell_units must be 's' or 'ms', not {self.dwell_units!r}")
         for name in ("arc_on", "arc_off"):
@@ -145,6 +146,16 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
     return f"G4 P{short(round(seconds, 3))}"
 
 
+_NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+
+
+def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
+    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
+
+
 def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     """Render a `Plan` as G-code text (see module doc)."""
     pts = plan.moves.points
@@ -188,6 +199,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
     last = None
+    words = _xyz_words(pts, d)
     for s in plan.steps:
         if isinstance(s, LayerStart):
             out.append(c(f"layer {s.layer} z={num(s.z, d)}"))
@@ -210,11 +222,11 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             out.extend(lines[:-1] + [f"{lines[-1]} {c(tool_summary(s.tool, s.params))}"])
         elif isinstance(s, ToolOff):
             lines = tool_lines(settings.tool_off, s.tool, {})
-            out.extend(lines[:-1] + [f"{lines[-1]} {c(s.tool + ' off')}"])
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
             p = pts[s.end]
             last = p
-            xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            xyz = words[s.end]
             if ext is not None:
                 for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
                     v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)

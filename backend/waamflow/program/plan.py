@@ -180,15 +180,24 @@ def _segment_key(moves: Moves, i: int) -> tuple:
 
 
 def _groups(moves: Moves) -> list[tuple[int, int]]:
-    """Maximal segment ranges [a, b) with equal attributes and no dwell at interior points."""
+    """Maximal segment ranges [a, b) with equal attributes (`_segment_key`) and no dwell at
+    interior points; all segments compared at once (a program has ~10⁵ of them)."""
     n_seg = len(moves.points) - 1
-    out: list[tuple[int, int]] = []
-    a = 0
-    for i in range(1, n_seg + 1):
-        if i == n_seg or moves.dwell_before[i] > 0 or _segment_key(moves, i) != _segment_key(moves, a):
-            out.append((a, i))
-            a = i
-    return out
+    if n_seg <= 0:
+        return []
+    speed = np.asarray(moves.speed[:n_seg], float)
+    finite = np.isfinite(speed)
+    arc = np.asarray(moves.arc[:n_seg], bool)
+    travel = (np.asarray(moves.kind[:n_seg]) == TRAVEL) | ~finite | ~(speed > 0)
+    mode = np.where(arc, 0, np.where(travel, 1, 2))                     # weld, travel, move
+    same_speed = np.where(finite[1:] & finite[:-1], speed[1:] == speed[:-1], ~finite[1:] & ~finite[:-1])
+    cut = ~same_speed | (mode[1:] != mode[:-1])
+    for attr in (moves.zone, moves.section, moves.layer):
+        a = np.asarray(attr[:n_seg])
+        cut |= a[1:] != a[:-1]
+    cut |= np.asarray(moves.dwell_before[1:n_seg]) > 0
+    bounds = [0, *(np.flatnonzero(cut) + 1).tolist(), n_seg]
+    return list(zip(bounds[:-1], bounds[1:]))
 
 
 def _group_motions(moves: Moves, a: int, b: int, settings: PlanSettings) -> list[Motion]:

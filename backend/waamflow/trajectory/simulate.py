@@ -274,10 +274,10 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
                       normal_jerk=profile.normal_jerk, catchup=_catchup_vertices(prog, profile.catchup))
     stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
-    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec)
+    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits)
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
-    prof = profile_spans(spans, a, j, a_dec, j_dec)
+    prof = profile_spans(spans)
     if progress:
         progress(0.5, "speed profiles done")
 

@@ -310,7 +310,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Get Artifact */
+        /**
+         * Get Artifact
+         * @description One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
+         *     programs and tables as text/plain, anything else application/octet-stream).
+         */
         get: operations["get_artifact_api_runs__run_id__artifacts__name__get"];
         put?: never;
         post?: never;
@@ -1936,7 +1940,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": string;
+                    "text/event-stream": {
+                        data: string;
+                        /** @description the event's seq (Last-Event-ID to resume) */
+                        id?: string;
+                        event?: string;
+                    };
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -2090,8 +2099,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/json": unknown;
+                    "application/xml": string;
+                    "image/svg+xml": string;
+                    "image/png": string;
                     "text/plain": string;
+                    "application/octet-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */
