@@ -167,3 +167,17 @@ def test_published_lengths_on_the_small_or():
            "swiping": (study.swiping(40), 464.246)}
     for name, (m, ref) in pub.items():
         assert float(m.segment_lengths.sum()) == pytest.approx(ref, rel=0.003), name
+
+
+@pytest.mark.parametrize("bad,match", [({"ramp_speeds": [40, 10]}, "ramp_speeds"), ({"ramp_speeds": [10]}, "ramp_speeds"),
+                                       ({"ramp_speeds": ["a", 2]}, "ramp_speeds"), ({"catchup": 1.5}, "catchup"),
+                                       ({"path_dec": -1.0}, "path_dec")])
+def test_bad_ramp_and_catchup_settings_name_the_key(bad, match):
+    import json
+
+    from waamflow.core.errors import InputFileError
+    from waamflow.trajectory.profile import load_profile as load
+
+    d = {**KUKA.to_json(), **bad}
+    with pytest.raises(InputFileError, match=match):
+        load("mine.json", text=json.dumps(d))

@@ -78,6 +78,7 @@ LINKS: dict[tuple[str, str], tuple[tuple[str, ...], dict[str, tuple[str, str, di
     }),
     ("get", "/api/runs"): (("200",), {
         "GetFirstRun": ("get", "/api/runs/{run_id}", {"run_id": "$response.body#/0/id"}, None),
+        "ListFirstRunArtifacts": ("get", "/api/runs/{run_id}/artifacts", {"run_id": "$response.body#/0/id"}, None),
     }),
     ("get", "/api/runs/{run_id}/artifacts"): (("200",), {
         "GetArtifact": ("get", "/api/runs/{run_id}/artifacts/{name}",

@@ -387,7 +387,10 @@ class _Run:
         for gnode, ctx, files in jobs:  # in node order, whoever wrote them
             if not isinstance(files, dict):
                 self.check_cancelled()
-                written, extra = files.result()
+                try:
+                    written, extra = files.result()
+                except Exception:     # the worker died (or the cluster lost it): write them here
+                    written, extra = None, []
                 if written is None:   # failed in a worker: again here, raised with its node
                     files = self.located(gnode.id, ctx, lambda: self.node_artifacts(gnode, ctx))
                 else:

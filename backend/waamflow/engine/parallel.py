@@ -25,7 +25,8 @@ node; the run collects them in node order at its end.
 
 `DaskPool` sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
-whole inputs are scattered to the cluster once per node, not once per chunk.
+whole inputs are scattered to the cluster once per node, not once per chunk; artifacts go to the
+cluster too once a run has sent it layers.
 """
 
 from __future__ import annotations

@@ -151,6 +151,8 @@ _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
 
 def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
     """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    if len(pts) == 0:
+        return []
     fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
     out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
     return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
@@ -198,8 +200,8 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     feed: float | None = None
     rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
-    last = None
     words = _xyz_words(pts, d)
+    last = None
     for s in plan.steps:
         if isinstance(s, LayerStart):
             out.append(c(f"layer {s.layer} z={num(s.z, d)}"))
@@ -224,8 +226,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             lines = tool_lines(settings.tool_off, s.tool, {})
             out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
-            p = pts[s.end]
-            last = p
+            last = pts[s.end]
             xyz = words[s.end]
             if ext is not None:
                 for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):

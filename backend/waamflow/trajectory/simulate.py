@@ -6,9 +6,11 @@ Pipeline (each step a pure function on numpy data):
    study's full stops (robot-study.md, "What the robot did"): I/O between motions stops the
    advance run.
 2. Corner blending between stops (`blend.blend_path`): d = min(CDIS, v·apo_time, L_prev/2,
-   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n.
-3. Path speed along arc length (`speedplan`): junction speeds, backward/forward pass, one ruckig
-   call per span (jerk-limited, one DOF).
+   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n; harder cuts
+   on the arc-OFF travel after an arc-OFF stop (the catch-up, `profile.catchup`).
+3. Path speed along arc length (`speedplan`): junction speeds, backward (slow-down limits) and
+   forward (speed-up limits, per programmed speed: `RobotProfile.ramp_limits`) passes, one
+   closed-form jerk-limited profile per span (one DOF).
 4. Controller smoothing: the interpolated Cartesian set-points pass a moving-average (FIR) filter
    of length `smoothing_s` within each stop-to-stop block. This is the ramp smoothing / servo lag
    that makes the KRC2's acceleration take 0.144 s at 10 mm/s and 0.204 s at 40 mm/s

@@ -794,9 +794,11 @@ export interface components {
         Recipe: {
             /**
              * Format
+             * @description waamflow/1; older formats are migrated on load
              * @default waamflow/1
+             * @enum {string}
              */
-            format: string;
+            format: "waamflow/1" | "waamflow/0" | "waamflow";
             /**
              * Name
              * @default recipe
@@ -807,7 +809,10 @@ export interface components {
              * @default
              */
             description: string;
-            /** Inputs */
+            /**
+             * Inputs
+             * @description named values that node params refer to as "$name"
+             */
             inputs?: {
                 [key: string]: unknown;
             };
@@ -878,6 +883,13 @@ export interface components {
         /**
          * RunRequest
          * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         * @example {
+         *       "graph": "rectangle-study",
+         *       "inputs": {
+         *         "pattern": "swiping",
+         *         "speed": 40
+         *       }
+         *     }
          */
         RunRequest: {
             /**

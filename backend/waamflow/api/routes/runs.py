@@ -23,7 +23,8 @@ router = APIRouter(prefix="/api/runs", tags=["runs"])
 class RunRequest(BaseModel):
     """`graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too)."""
 
-    model_config = ConfigDict(extra="forbid", json_schema_extra=RUN_REQUEST_RULES)
+    model_config = ConfigDict(extra="forbid", json_schema_extra={
+        **RUN_REQUEST_RULES, "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}]})
     graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
                        description="name of a saved graph (alone: run it as saved; with `recipe`: "
                                    "run `recipe` with this graph's files and parameter XML)")
