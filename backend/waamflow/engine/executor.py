@@ -141,12 +141,15 @@ class NodeStats:
     layers_total: int | None = None
     layers_cached: int | None = None
     layers_computed: int | None = None
+    report: dict = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
 
     def to_dict(self) -> dict:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
             d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
                      layers_computed=self.layers_computed)
+        if self.report:
+            d["report"] = self.report
         return d
 
 
@@ -350,7 +353,7 @@ class _Run:
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
         jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
-        for pos, node_id in enumerate(self.active):
+        for node_id in self.active:
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
             t0 = time.perf_counter()
@@ -364,7 +367,6 @@ class _Run:
                     cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
-                self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
                     if pool is not None and pool.enabled and pool.offload_artifacts:
@@ -385,7 +387,10 @@ class _Run:
         for gnode, ctx, files in jobs:  # in node order, whoever wrote them
             if not isinstance(files, dict):
                 self.check_cancelled()
-                written, extra = files.result()
+                try:
+                    written, extra = files.result()
+                except Exception:     # the worker died (or the cluster lost it): write them here
+                    written, extra = None, []
                 if written is None:   # failed in a worker: again here, raised with its node
                     files = self.located(gnode.id, ctx, lambda: self.node_artifacts(gnode, ctx))
                 else:
@@ -396,15 +401,6 @@ class _Run:
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
         return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
-
-    def maybe_warm(self, pos: int) -> None:
-        """Start the layer workers early when this node made many layers and layer nodes follow."""
-        pool = self.pool
-        if pool is None or not pool.enabled or pool.started or self.layers is not None:
-            return
-        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
-                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
-            pool.warm()
 
     def located(self, node_id: str, ctx: RunContext, fn):
         """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
@@ -433,13 +429,15 @@ class _Run:
         hit = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
             outputs, warnings = dict(hit[0]), hit[1]
+            report = hit[2] if len(hit) > 2 else {}
             cached = True
         else:
             outputs = gnode.impl.run(ctx, gnode.params, inputs)
             self._check_outputs(gnode, outputs)
             warnings = ctx.warnings
+            report = ctx.take_report()
             if self.cache is not None:
-                self.cache.put(key, (dict(outputs), warnings))
+                self.cache.put(key, (dict(outputs), warnings, report))
             cached = False
         self.outputs[gnode.id] = outputs
         for port, value in outputs.items():
@@ -451,7 +449,7 @@ class _Run:
                 psig = signature("layered", items_sigs)
             self.sigs[(gnode.id, port)] = psig
         self.add_warnings(warnings)
-        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached)
+        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
 
     def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
@@ -495,7 +493,9 @@ class _Run:
         n_computed = len(todo)
         ctx.layer = None
         ctx.warnings = []
+        ctx.take_report()
         outputs = impl.combine(ctx, gnode.params, per_layer, inputs)
+        report = ctx.take_report()
         self._check_outputs(gnode, outputs)
         self.add_warnings(ctx.warnings)
         fsig = self.file_sigs(gnode)
@@ -511,7 +511,7 @@ class _Run:
                 self.sigs[(gnode.id, port)] = signature(node_key, port)
         self.outputs[gnode.id] = outputs
         self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
-                                         layers_cached=n_cached, layers_computed=n_computed)
+                                         layers_cached=n_cached, layers_computed=n_computed, report=report)
         return n_computed == 0
 
     def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],
@@ -536,14 +536,19 @@ class _Run:
             finish(i, key, impl.run_layer(ctx, gnode.params, i, items), ctx.warnings)
 
         rest = list(todo)
+        pool = self.pool
         t0 = time.perf_counter()
         if rest:
             here(*rest.pop(0))
         while rest and time.perf_counter() - t0 < parallel.TIMING_S:  # time one layer, more if tiny
             here(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
-        pool = self.pool
-        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > pool.min_parallel_s:
+        if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
+            pool.warm()            # no-op once started
+        while rest and pool is not None and pool.warming:   # workers on their way: go on here meanwhile
+            here(*rest.pop(0))
+        if pool is not None and pool.enabled and pool.ready and len(rest) > 1 and \
+                per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 

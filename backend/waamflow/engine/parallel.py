@@ -11,13 +11,13 @@ Start method: `forkserver` with every node module and kernel preloaded (engine/w
 now and then; the fork server starts from a clean interpreter once per process, imports the
 kernels once, and forks the workers from it (a fork is cheap: nothing is imported again).
 
-Workers are started ahead of need: as soon as a run has a layered value of `WARM_LAYERS` layers or
-more and layer nodes still to run (`warm`), in a background thread, so the fork server's imports
-overlap the parent's serial work (slicing, the first layers). Whether to go parallel is decided
-by measurement, not by a guess: the first uncached layers are computed in the parent and timed,
-and the rest go to workers when they are expected to take longer than `MIN_PARALLEL_S` (workers
-not started: their start-up has to pay) or `WARM_MIN_PARALLEL_S` (started: only the round trips
-cost). Results are the same objects either way, so artifacts are byte-identical to a serial run.
+Whether to go parallel is decided by measurement, not by a guess: the first uncached layers of
+a node are computed in the parent and timed. When the rest is expected to take longer than
+`MIN_PARALLEL_S`, the workers are started (`warm`) in a background thread, so the fork server's
+imports and the forks overlap the parent, which goes on computing layers itself until they are
+up; then the remaining layers go to them (`map_layers`). Once they are up, later nodes hand them
+their layers whenever the rest is worth `WARM_MIN_PARALLEL_S` (only the round trips cost).
+Results are the same objects either way, so artifacts are byte-identical to a serial run.
 
 Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
 outputs) are written by a worker too (`submit_artifacts`) while the parent goes on with the next
@@ -25,7 +25,8 @@ node; the run collects them in node order at its end.
 
 `DaskPool` sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
-whole inputs are scattered to the cluster once per node, not once per chunk.
+whole inputs are scattered to the cluster once per node, not once per chunk; artifacts go to the
+cluster too once a run has sent it layers.
 """
 
 from __future__ import annotations
@@ -39,10 +40,10 @@ from typing import Any, Callable
 
 from .node import Context, LayerNode
 
-MIN_PARALLEL_S = 3.0      # expected serial seconds of the remaining layers below which workers do not pay
-                          # (starting the fork server imports the kernels: about 1-2 s here)
-WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are started: pickling round trips only
-WARM_LAYERS = 64          # a layered value this long (and layer nodes to come) starts the workers early
+MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
+                          # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
+WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
+BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
 PRELOAD = ["waamflow.engine.warm"]
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4     # load balance vs. per-chunk overhead (inputs pickled once per chunk)
@@ -129,7 +130,7 @@ def _write_artifacts(impl, node_id: str, params_json: Any, resolver, trace: dict
         return None, f"{type(exc).__name__}: {exc}"
 
 
-def _ready() -> int:
+def _worker_up() -> int:
     return os.getpid()
 
 
@@ -142,7 +143,9 @@ class LayerPool:
     started: bool = False     # workers asked for (by `warm` or a first map)
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _ready: threading.Event = field(default_factory=threading.Event, repr=False)
     _closed: bool = field(default=False, repr=False)
+    _starter: threading.Thread | None = field(default=None, repr=False)
 
     kind = "local"
     address = None
@@ -152,13 +155,27 @@ class LayerPool:
         return self.workers > 1
 
     @property
+    def ready(self) -> bool:
+        """Workers running: handing them work costs only the round trips."""
+        return self._ready.is_set()
+
+    @property
+    def warming(self) -> bool:
+        """Workers on their way (`warm`): until they are up, the parent computes layers itself
+        (a submit now would wait for the fork server with the parent idle)."""
+        return self.started and not self._ready.is_set()
+
+    @property
     def min_parallel_s(self) -> float:
-        return WARM_MIN_PARALLEL_S if self.started else MIN_PARALLEL_S
+        return WARM_MIN_PARALLEL_S if self.ready else MIN_PARALLEL_S
 
     @property
     def offload_artifacts(self) -> bool:
-        """Artifacts go to workers once the workers are there anyway."""
-        return self.started
+        """Artifacts go to workers once the workers are up anyway."""
+        return self.ready
+
+    def info(self) -> dict:
+        return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
     def warm(self) -> None:
         """Start the workers in the background (once): the fork server's imports and the forks run
@@ -166,18 +183,21 @@ class LayerPool:
         if not self.enabled or self.started:
             return
         self.started = True
-        threading.Thread(target=self._spawn, name="waamflow-layer-pool", daemon=True).start()
+        if BACKGROUND_START:
+            self._starter = threading.Thread(target=self._spawn, name="waamflow-layer-pool", daemon=True)
+            self._starter.start()
+        else:
+            self._spawn()
 
     def _spawn(self) -> None:
         try:
             pool = self._executor()
-            for _ in range(self.workers):   # one idle-less submit each: every worker is forked now
-                pool.submit(_ready)
-        except RuntimeError:   # the run ended (closed) before the workers were up
-            pass
-
-    def info(self) -> dict:
-        return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
+            futures = [pool.submit(_worker_up) for _ in range(self.workers)]   # no idle worker yet: each forks one
+            for f in futures:
+                f.result()
+        except Exception:  # the workers could not start: the parent computes alone
+            return
+        self._ready.set()
 
     def _executor(self) -> ProcessPoolExecutor:
         with self._lock:
@@ -214,10 +234,15 @@ class LayerPool:
         finally:
             for fut in pending:
                 fut.cancel()
+            self._ready.set()   # the workers are up now
 
     def close(self, wait: bool = True) -> None:
-        """Shut the workers down; `wait=False` (a failed or cancelled run) returns at once and
-        lets a chunk still running finish in the background instead of holding the run's end."""
+        """Shut the workers down; `wait=False` (a failed or cancelled run) returns as soon as the
+        workers are up and lets a chunk still running finish in the background instead of holding
+        the run's end. Workers still starting are waited for (a process whose parent has gone
+        would fail half-started)."""
+        if self._starter is not None:
+            self._starter.join(timeout=60)
         with self._lock:
             self._closed = True
             pool, self._pool = self._pool, None
@@ -246,7 +271,8 @@ class DaskPool:
     tasks: int = 0
     _client: Any = field(default=None, repr=False)
     kind = "dask"
-    started = True   # a cluster's workers are running already
+    started = ready = True   # a cluster's workers are running already
+    warming = False
 
     @property
     def enabled(self) -> bool:
@@ -260,6 +286,9 @@ class DaskPool:
     def offload_artifacts(self) -> bool:
         """Artifacts go to the cluster when this run's layers did (a cached re-run stays local)."""
         return self.tasks > 0
+
+    def warm(self) -> None:
+        """Nothing to start: a cluster's workers are running already."""
 
     def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict):
         return self.client().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,

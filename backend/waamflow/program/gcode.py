@@ -6,7 +6,9 @@ code is a setting. Output: absolute millimetres (G21, G90), G0 travel (or G1 at 
 G1 deposition with F in mm/min (= segment speed mm/s × 60, converted only here), G2/G3 in the XY
 plane (G17, I/J relative to the arc start) when arc fitting is on, `arc_on` + `G4` dwell after
 each ignition, per-zone process commands from templates, `G4` for interlayer dwell, comments
-naming layer/section/zone, `M30`.
+naming layer/section/zone, `M30`. Post-deposition tool sections (rolling, peening) are engaged
+and lifted by the `tool_on` / `tool_off` templates (default LinuxCNC user M-codes
+`M110 P<force N> Q<width mm>` / `M111`), with a comment stating force, width and speed.
 
 Dialect (the machine profile's table): `comment_style` (`;` or `( )`), `feed_units` (F in mm/min,
 G94 — or mm/s for controllers that read it so), `dwell_units` (G4 P in s or ms), `start_code`
@@ -30,12 +32,14 @@ motion. A rotary word is written when its value changes (and on the first motion
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .common import check_templates, num, process_lines, process_summary, short
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
+                     short, tool_lines, tool_summary)
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,7 +72,12 @@ class GcodeSettings:
     preamble: tuple[str, ...] = ()
     postamble: tuple[str, ...] = ()
 
+    tool_on: str = TOOL_COMMANDS["gcode"][0]
+    tool_off: str = TOOL_COMMANDS["gcode"][1]
+
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         if self.comment_style not in ("semicolon", "parentheses"):
             raise ValueError(f"comment_style must be 'semicolon' or 'parentheses', not {self.comment_style!r}")
         if self.feed_units not in ("mm/min", "mm/s"):
@@ -137,6 +146,18 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
     return f"G4 P{short(round(seconds, 3))}"
 
 
+_NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+
+
+def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
+    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    if len(pts) == 0:
+        return []
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
+
+
 def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     """Render a `Plan` as G-code text (see module doc)."""
     pts = plan.moves.points
@@ -179,6 +200,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     feed: float | None = None
     rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
+    words = _xyz_words(pts, d)
     last = None
     for s in plan.steps:
         if isinstance(s, LayerStart):
@@ -195,11 +217,17 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, ArcOff):
             out.append(f"{settings.arc_off} {c('arc off')}")
         elif isinstance(s, Dwell):
-            out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s')}")
+            note = f" ({s.note})" if s.note else ""
+            out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s{note}')}")
+        elif isinstance(s, ToolOn):
+            lines = tool_lines(settings.tool_on, s.tool, s.params)
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(tool_summary(s.tool, s.params))}"])
+        elif isinstance(s, ToolOff):
+            lines = tool_lines(settings.tool_off, s.tool, {})
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
-            p = pts[s.end]
-            last = p
-            xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            last = pts[s.end]
+            xyz = words[s.end]
             if ext is not None:
                 for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
                     v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
