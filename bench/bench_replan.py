@@ -186,23 +186,97 @@ def run() -> list[dict]:
         # --- the same cold plan on every core (engine/parallel.py) ----------------------------------
         if real:
             cores = os.cpu_count() or 1
-            t0 = time.perf_counter()
-            par = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=cores)
-            t_par = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            ser = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=1)
-            t_ser = time.perf_counter() - t0
+            with _CpuMeter() as m_par:
+                t0 = time.perf_counter()
+                par = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=cores)
+                t_par = time.perf_counter() - t0
+            with _CpuMeter() as m_ser:
+                t0 = time.perf_counter()
+                ser = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, workers=1)
+                t_ser = time.perf_counter() - t0
             same = par.artifacts == ser.artifacts
+            busiest = max(m_par.children.values(), default=0.0)
+            avail = _cores_available(cores)
             results.append({
                 "name": "parallel_speedup", "value": round(t_ser / t_par, 3), "unit": "x", "peer": round(t_ser, 3),
                 "ratio": round(t_par / t_ser, 4),
                 "notes": f"cold full plan of the {N_FULL}-layer cross: serial {t_ser:.2f} s / {cores} workers "
-                         f"{t_par:.2f} s ({par.executor['tasks']} tasks, fork-server start included); artifacts "
-                         f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target >= 1.6"})
+                         f"{t_par:.2f} s ({par.executor['tasks']} tasks, fork-server start included); CPU s: serial "
+                         f"{m_ser.own:.2f}, parallel parent {m_par.own:.2f} + children {sum(m_par.children.values()):.2f} "
+                         f"(busiest {busiest:.2f}; fork server and workers); serial CPU / (parent + busiest child) "
+                         f"{m_ser.own / max(m_par.own + busiest, 1e-9):.2f}; artifacts "
+                         f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f} on {cores} cores, "
+                         f"{avail:.2f} cores available to this session ({cores} busy processes for 1 s"
+                         f"{'; the kernel shares CPU per session (sched_autogroup): more processes do not get more of a loaded machine' if _autogroup() else ''}); "
+                         f"target >= 1.6"})
             assert same, "parallel artifacts differ from the serial run"
             results.append(_dask_overhead(g, resolver, par, t_par))
     return results
 
+
+
+_SPIN = ("import time, sys\n"
+         "c0, end = time.process_time(), time.perf_counter() + float(sys.argv[1])\n"
+         "while time.perf_counter() < end: pass\n"
+         "print(time.process_time() - c0)\n")
+
+
+def _cores_available(n: int, seconds: float = 1.0) -> float:
+    """CPU seconds per wall second that `n` busy processes of this session get right now: what
+    a parallel run can use at most (other sessions' load takes the rest)."""
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, "-c", _SPIN, str(seconds)], stdout=subprocess.PIPE, text=True)
+             for _ in range(n)]
+    return sum(float(p.communicate()[0]) for p in procs) / seconds
+
+
+def _autogroup() -> bool:
+    try:
+        return Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return False
+
+
+class _CpuMeter:
+    """CPU seconds of this process (`own`) and of each child process, workers of the fork server
+    included (`children`: pid → user + system s, sampled every 50 ms while they live)."""
+
+    def __enter__(self):
+        import resource
+        import threading
+
+        self._resource = resource
+        self.children: dict[int, float] = {}
+        self._stop = threading.Event()
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        self._own0 = r.ru_utime + r.ru_stime
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread.start()
+        return self
+
+    def _sample(self) -> None:
+        import psutil
+
+        me = psutil.Process()
+        while not self._stop.is_set():
+            try:
+                for p in me.children(recursive=True):
+                    try:
+                        t = p.cpu_times()
+                        self.children[p.pid] = t.user + t.system
+                    except psutil.Error:
+                        pass
+            except psutil.Error:
+                pass
+            self._stop.wait(0.05)
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        self._thread.join()
+        r = self._resource.getrusage(self._resource.RUSAGE_SELF)
+        self.own = r.ru_utime + r.ru_stime - self._own0
 
 
 def _dask_overhead(g, resolver, par, t_par: float) -> dict:

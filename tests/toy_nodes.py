@@ -85,6 +85,8 @@ class ToyArea(Node):
         return {"toolpath": total}
 
     def artifacts(self, ctx, params, outputs):
+        if params.scale < 0:
+            raise PlanningError("a negative area cannot be written")
         return {"area.txt": f"{outputs['toolpath']:.3f}"}
 
 

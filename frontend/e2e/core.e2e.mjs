@@ -4,7 +4,7 @@
 // Run: npm run test:e2e (all *.e2e.mjs) or `node e2e/run.mjs e2e/core.e2e.mjs`.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { api, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
+import { api, boxesStl, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
 
 let srv, browser;
 before(async () => {
@@ -251,9 +251,33 @@ test("graph editing: one-step undo of a delete, node search with Enter, free pla
   await page.mouse.move(to.x + to.width / 2, to.y + to.height / 2, { steps: 5 });
   await page.waitForSelector("[data-testid=wire-reason]");
   assert.match(await page.getAttribute("[data-testid=wire-reason]", "data-reason"), /^type mismatch: \w+ → \w+$/);
+  // Every incompatible input says why on the handle itself (class, title, description, visible tag);
+  // the compatible one (a mesh input) says nothing.
+  const handle = (node, port) => `.react-flow__node[data-id="${node}"] .react-flow__handle.target[data-handleid="${port}"]`;
+  for (const [node, port, type] of [["zone", "toolpath", "toolpath"], ["mask", "layers", "layers"], ["sequence", "toolpath", "toolpath"]]) {
+    assert.match(await page.getAttribute(handle(node, port), "class"), /\brefused\b/, `${node}.${port} is marked`);
+    assert.equal(await page.getAttribute(handle(node, port), "title"), `cannot connect: type mismatch: mesh → ${type}`);
+    assert.equal(await page.getAttribute(handle(node, port), "aria-description"), `cannot connect: type mismatch: mesh → ${type}`);
+    assert.equal(await page.innerText(`.react-flow__node[data-id="${node}"] .port.refused [data-testid=port-refusal]`), `✕ type mesh ≠ ${type}`);
+  }
+  assert.doesNotMatch(await page.getAttribute(handle("layers", "mesh"), "class"), /\brefused\b/);
+  assert.equal(await page.getAttribute(handle("layers", "mesh"), "data-reason"), null);
+  // on the slice node only the optional bead-model input is refused
+  assert.deepEqual(await page.locator('.react-flow__node[data-id="layers"] [data-testid=port-refusal]').allInnerTexts(), ["✕ type mesh ≠ bead-model"]);
   await shot(page, "core-05-wire-reason");
   await page.mouse.up();
   assert.equal(await count(page, '.react-flow__edge[data-testid="rf__edge-part.mesh->zone.toolpath"]'), 0);
+  assert.equal(await count(page, "[data-testid=port-refusal]"), 0, "the reasons go when the drag ends");
+  // A wire from the sequence's output back into the zone (same type, upstream) would close a cycle.
+  const seq = await page.locator('.react-flow__node[data-id="sequence"] .react-flow__handle.source[data-handleid="toolpath"]').boundingBox();
+  await page.mouse.move(seq.x + seq.width / 2, seq.y + seq.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(seq.x - 40, seq.y - 40, { steps: 5 });
+  await page.waitForSelector(`${handle("zone", "toolpath")}.refused`);
+  assert.equal(await page.getAttribute(handle("zone", "toolpath"), "title"), "cannot connect: this edge would create a cycle");
+  assert.equal(await page.innerText('.react-flow__node[data-id="zone"] .port.refused [data-testid=port-refusal]'), "✕ would create a cycle");
+  assert.doesNotMatch(await page.getAttribute(handle("post", "toolpath"), "class"), /\brefused\b/, "the post-processor's toolpath input is compatible");
+  await page.mouse.up();
   assert.deepEqual(errors, []);
   await page.context().close();
 });
@@ -294,6 +318,38 @@ test("frames: a frame around selected nodes moves them with it and is saved in t
   await page.context().close();
 });
 
+test("upload before the first save (sent right after save as), and the same file picked twice uploads twice", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  await page.click('.palette-item[data-type="mesh"] .add');
+  await page.waitForSelector('.react-flow__node[data-id="mesh"]');
+  await page.click('.react-flow__node[data-id="mesh"]');
+  const a = Buffer.from(boxesStl([[0, 0, 0, 10, 10, 5]]));
+  const b = Buffer.from(boxesStl([[0, 0, 0, 20, 10, 5], [30, 0, 0, 40, 10, 5]]));
+  const pick = (buffer) => page.setInputFiles('[data-field="path"] input[type=file]', { name: "part.stl", mimeType: "model/stl", buffer });
+  await pick(a);
+  // no graph yet: the file waits, the path names it, "save as" is offered
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part.stl");
+  await page.fill("[data-testid=save-as-name]", "core-upload");
+  await page.press("[data-testid=save-as-name]", "Enter");
+  await page.waitForSelector('.toolbar .title:text-is("core-upload")');
+  const files = async () => (await api(srv.base, "/api/graphs/core-upload/files")).map((f) => [f.name, f.size]);
+  for (let i = 0; i < 50 && !(await files()).length; i++) await page.waitForTimeout(100);
+  assert.deepEqual(await files(), [["part.stl", a.length]], "uploaded right after the save");
+  // saved: picking files uploads at once, the same name again (and the same file again) too
+  const uploads = async () => (await api(srv.base, "/api/audit?limit=100")).filter((e) => e.action === "upload_file" && e.target === "core-upload").length;
+  const n0 = await uploads();
+  await pick(b);
+  await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, b.length]);
+  await pick(b);
+  for (let i = 0; i < 50 && (await uploads()) < n0 + 2; i++) await page.waitForTimeout(100);
+  assert.equal(await uploads(), n0 + 2, "the same file picked twice is uploaded twice");
+  await pick(a);
+  await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, a.length]);
+  assert.deepEqual(await files(), [["part.stl", a.length]]);
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
 test("a refused run (422 naming node and field) selects and marks the node", async () => {
   await copyOf("mpp-cross", "core-422");
   const { page, errors } = await openPage(browser, srv.base);
@@ -315,7 +371,7 @@ test("a refused run (422 naming node and field) selects and marks the node", asy
   await page.context().close();
 });
 
-test("problems: badges on nodes, toolbar count, panel selects the node; the progress bar restarts at 0", async () => {
+test("problems: badges on nodes, toolbar count, panel selects the node (and jumps to its layer)", async () => {
   await copyOf("mpp-cross", "core-problems");
   const { page, errors } = await openPage(browser, srv.base);
   await openGraph(page, "core-problems", "mask");
@@ -347,6 +403,50 @@ test("problems: badges on nodes, toolbar count, panel selects the node; the prog
     await page.click("[data-tab=graph]");
     assert.match(await page.getAttribute(`.react-flow__node[data-id="${w.node}"]`, "class"), /selected/);
   }
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("a problem naming layer and section: a click selects the node, the layer and the section (canvas, list, inspector)", async () => {
+  // An orphan value in the saved XML (zone z9 of bs1/A on layer 2) is reported with its layer and section.
+  await copyOf("mpp-cross", "core-orphan");
+  const xml = await api(srv.base, "/api/graphs/core-orphan/params");
+  const at = xml.indexOf('<section id="bs1/A">', xml.indexOf('<layer index="2"'));
+  assert.ok(at > 0);
+  const cut = at + '<section id="bs1/A">'.length;
+  const orphan = xml.slice(0, cut) + '<zone id="z9"><current unit="A">205</current></zone>' + xml.slice(cut);
+  await api(srv.base, "/api/graphs/core-orphan/params", { method: "PUT", headers: { "Content-Type": "application/xml" }, body: orphan });
+  const { page, errors } = await openPage(browser, srv.base);
+  await openGraph(page, "core-orphan", "graph");
+  await expectRun(page, srv.base, "done");
+  await page.click("[data-testid=problem-count]");
+  const item = '[data-testid=problems] .problem[data-problem-node="zone"][data-problem-layer="2"][data-problem-section="bs1/A"]';
+  await page.waitForSelector(item);
+  assert.match(await page.innerText(item), /zone · layer 2 · bs1\/A/);
+  await page.click(item);
+  await page.waitForSelector('[data-testid=mask-canvas] .section-region[data-section="bs1/A"].selected');
+  assert.equal(await page.inputValue(".mask-panel .layer-row input[type=number]"), "2");
+  assert.match(await page.getAttribute('.mask-panel [data-section-item="bs1/A"]', "class"), /\bselected\b/);
+  assert.equal(await page.locator(".mask-panel .section-item.selected").count(), 1);
+  // the inspector shows the zone node with that section picked in its per-section form
+  assert.match(await page.innerText("[data-testid=inspector] h3"), /zone/);
+  await page.waitForSelector('[data-testid=inspector] .map-value[data-section="bs1/A"]');
+  await shot(page, "core-07-problem-section");
+  // another problem of another section moves the selection with it
+  const other = await page.$$eval("[data-testid=problems] .problem", (els) =>
+    els.map((e) => [e.dataset.problemSection, e.dataset.problemLayer]).find(([s, l]) => s && s !== "bs1/A" && l !== ""));
+  if (other) {
+    await page.click(`[data-testid=problems] .problem[data-problem-section="${other[0]}"][data-problem-layer="${other[1]}"]`);
+    await page.waitForSelector(`[data-testid=inspector] .map-value[data-section="${other[0]}"]`);
+  }
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("progress bar restarts at 0 on a new run", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  await openGraph(page, "core-problems", "graph");
+  await expectRun(page, srv.base, "done");
   // A new run starts from 0 %, not from the last run's 100 %.
   await page.evaluate(() => {
     window.__progress = [];

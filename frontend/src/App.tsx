@@ -21,6 +21,7 @@ import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
 import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
 import { ProblemsPanel } from "./problems/ProblemsPanel";
+import { focusSection } from "./forms/sectionKeys";
 import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
 import { boundsByName, saveBlocker } from "./xml/params";
@@ -410,8 +411,10 @@ export function App() {
       const pos = positionsOf(recipe)[pr.node];
       if (pos && tab === "graph") rf.setCenter(pos[0] + 100, pos[1] + 50, { zoom: rf.getZoom(), duration: 200 });
     }
-    if (pr.layer != null) {
-      setLayer(pr.layer);
+    // its section: selected on the mask canvas and picked in the inspector's per-section forms
+    if (pr.section) focusSection(pr.section);
+    if (pr.layer != null || pr.section) {
+      if (pr.layer != null) setLayer(pr.layer);
       setTab("mask");
     } else if (pr.node) setTab("graph");
   };

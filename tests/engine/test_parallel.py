@@ -17,7 +17,9 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 @pytest.fixture()
 def always_parallel(monkeypatch):
     monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)   # workers up before the next layer: fixed split
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
 
 
@@ -54,3 +56,69 @@ def test_parallel_fills_the_cache_layer_by_layer(always_parallel):
 def test_small_runs_stay_serial():
     res = _run("mpp-cross", 2)
     assert res.executor["tasks"] == 0  # 8 quick layers: starting workers would not pay
+
+
+def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch):
+    """Workers start in a thread while the parent goes on computing layers; once they are up they
+    take the layers of later nodes and write the artifacts, byte for byte as a serial run."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    written = []
+    submit = parallel.LayerPool.submit_artifacts
+
+    def spy(self, impl, node_id, *args):
+        written.append(node_id)
+        return submit(self, impl, node_id, *args)
+
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts", spy)
+    serial = _run("mpp-cross", 1)
+    background = _run("mpp-cross", 2)      # who computes what depends on when the workers are up: not the result
+    assert background.artifacts == serial.artifacts and background.warnings == serial.warnings
+    written.clear()
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    par = _run("mpp-cross", 2)
+    assert written == ["mask", "guide", "strategy", "zone", "sequence", "post"]   # from the first layer node on
+    assert par.executor["tasks"] >= 4 * 2                                        # 4 layer nodes, ≥ 2 chunks each
+    assert list(par.artifacts) == list(serial.artifacts)                         # same files, same order
+    assert all(par.artifacts[k] == serial.artifacts[k] for k in serial.artifacts)
+    assert par.warnings == serial.warnings
+
+
+def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
+    import toy_nodes as toy
+    from waamflow.core.errors import PlanningError
+    from waamflow.engine.recipe import parse_recipe
+
+    monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    sent = []
+    submit = parallel.LayerPool.submit_artifacts
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts",
+                        lambda self, impl, node_id, *a: (sent.append(node_id), submit(self, impl, node_id, *a))[1])
+    graph = build_graph(parse_recipe(toy.chain(stack={"count": 8}, area={"scale": -1.0})))
+    events = []
+    with pytest.raises(PlanningError) as e:
+        execute(graph, resolver=FileResolver("."), workers=2, on_event=events.append)
+    assert "area" in sent                  # written by a worker, failed there, raised here with its node
+    assert e.value.node == "area" and "negative area" in str(e.value)
+    assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "area"), ("run_failed", "area")]
+
+
+def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)            # mpp-cross: 8 layers
+    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    written = []
+    submit = parallel.LayerPool.submit_artifacts
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts",
+                        lambda self, impl, node_id, *a: (written.append(node_id), submit(self, impl, node_id, *a))[1])
+    serial = _run("mpp-cross", 1)
+    par = _run("mpp-cross", 2)
+    assert written[0] == "layers"                               # up right after slicing: even its layers.json
+    assert par.executor["tasks"] >= 4 * 2
+    assert par.artifacts == serial.artifacts and par.warnings == serial.warnings

@@ -122,3 +122,18 @@ def test_open_surface_strip_gives_open_curves(tmp_path):
     for layer in layers:
         assert len(layer.curves) == 1 and not layer.curves[0].is_closed
         assert layer.curves[0].length == pytest.approx(80.0)
+
+
+def test_open_tube_surface_sizes_to_a_tenth_of_a_millimetre(tmp_path):
+    """#14 done-when: the open tube (48-gon, r 30, 40 mm tall) placed on the plate slices to curves
+    of the right size: 60 × 60 mm across, the 48-gon's perimeter, layers up to 40 mm."""
+    _tube(tmp_path)
+    res = execute(build_graph(parse_recipe(_slice_recipe())), resolver=FileResolver(tmp_path))
+    layers = res.outputs["layers"]["layers"]
+    perimeter = 48 * 2 * 30 * np.sin(np.pi / 48)
+    for layer in layers:
+        xy = np.asarray(layer.curves[0].coords)
+        assert xy.max(axis=0) - xy.min(axis=0) == pytest.approx([60.0, 60.0], abs=0.1)
+        assert layer.curves[0].length == pytest.approx(perimeter, abs=0.1)
+    assert [round(layer.z, 1) for layer in layers] == [2.0 * (k + 1) for k in range(20)]
+    assert any("placed by translate (0.000, 0.000, 20.000) mm" in w["message"] for w in res.warnings)

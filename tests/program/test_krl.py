@@ -9,8 +9,9 @@ from waamflow.core.moves import flatten
 from waamflow.program import KrlSettings, PlanSettings, post_process
 from waamflow.program.orientation import abc_matrix
 
-from conftest import build_toolpath
+from conftest import ZONE_PARAMS, build_toolpath
 from helpers import arc_runs
+from krl_check import arctech_seams, parse_program
 
 DECL = re.compile(r"^DECL E6POS (P\d+)=\{X ([-\d.]+),Y ([-\d.]+),Z ([-\d.]+),A ([-\d.]+),B ([-\d.]+),C ([-\d.]+),"
                   r"E1 [-\d.]+,E2 [-\d.]+,E3 [-\d.]+,E4 [-\d.]+,E5 [-\d.]+,E6 [-\d.]+\}$", re.M)
@@ -124,12 +125,59 @@ def test_split_per_layer_and_points(moves):
 
 
 def test_arctech_mode(moves):
-    src = post_process(moves, "krl", writer_settings=KrlSettings(arc_control="arctech")).files["src"]
-    ons = re.findall(r"^ARC_ON\((\d+)\)$", src, re.M)
-    offs = re.findall(r"^ARC_OFF\((\d+)\)$", src, re.M)
-    swi = re.findall(r"^ARC_SWI\((\d+)\)$", src, re.M)
-    assert len(ons) == len(offs) == 15
-    assert ons.count("12") == 9  # zone "start" carries job 12
-    assert set(ons) | set(swi) == {"12", "13", "14"}  # jobless zones numbered after the top job
-    assert len(swi) == 12  # wall and ring: start → z1 → end inside one run, 3 layers × 2 × 2
-    assert "$OUT[" not in src
+    """KUKA.ArcTech: every run is ARC ON (the motion into its first point), ARC SWI per welding
+    motion, ARC OFF (its last motion), each wrapped in ArcMainNG calls of one data set; the data
+    sets in the .dat carry the zone's channels, speed (m/min) and ignition dwell."""
+    prog = post_process(moves, "krl", writer_settings=KrlSettings(arc_control="arctech"))
+    src, dat = prog.files["src"], prog.files["dat"]
+    assert "$OUT[" not in src and "ARC_ON(" not in src and "WAIT SEC 0.8" not in src   # no placeholder calls
+    parsed = parse_program(src, dat)
+    seams = arctech_seams(parsed)
+    runs = arc_runs(moves)
+    assert len(seams) == len(runs) == 15
+    for seam, (a, b) in zip(seams, runs):
+        phases = [ph for ph, _, _ in seam]
+        assert phases == ["On"] + ["Swi"] * (b - a - 1) + ["Off"]
+        assert [m.args[0] for _, _, m in seam] == [f"P{i + 1}" for i in range(a, b + 1)]   # On: into the start point
+    sets = {n: dict(v) for n, (t, v) in parsed.data.items() if t == "stArcDat_T" and n.startswith("WDAT")}
+    zone_of_speed = {5.0: "start", 6.0: "z1", 7.0: "end"}
+    for seam, (a, _) in zip(seams, runs):
+        on = dict(sets[seam[0][1]]["Strike"])
+        first_zone = ZONE_PARAMS[zone_of_speed[float(moves.speed[a])]]
+        assert on["StartTime"] == pytest.approx(first_zone.get("dwell", 0.5))   # the zone's dwell, else the default
+        for ph, wdat, m in seam[1:]:
+            i = int(m.args[0][1:]) - 2                                          # segment index into moves
+            weld = dict(sets[wdat]["Weld"])
+            assert weld["Velocity"] == pytest.approx(moves.speed[i] * 0.06)      # m/min
+            z = ZONE_PARAMS[zone_of_speed[float(moves.speed[i])]]
+            assert (weld["Channel1"], weld["Channel2"], weld["Channel3"]) == (z.get("job", 0), z["wire_feed_speed"], z["voltage"])
+            assert dict(sets[wdat]["Strike"])["StartTime"] == 0.0
+    ignitions = {float(moves.speed[a]) for a, _ in runs}
+    assert len(sets) == len(ignitions) + 3          # one ignition set per starting zone, one per zone welding
+    assert [float(s) for s in re.findall(r"^WAIT SEC ([\d.]+) ; interlayer dwell$", src, re.M)] == [20.0, 20.0]
+    # the zones without a job number leave channel 1 at 0: reported per zone
+    issues = {(i.zone, i.section) for i in prog.weld_issues}
+    assert issues == {(z, s) for z in ("z1", "end") for s in ("bs1/A", "bs1/B", "bs1/C")}
+    assert all("job missing" in i.message for i in prog.weld_issues)
+    # configurable: routine name, channel map, velocity unit
+    s2 = KrlSettings(arc_control="arctech", arctech_routine="WaamArc", arctech_velocity_unit="m/s",
+                     arctech_channels={"current": 1, "voltage": 2})
+    p2 = post_process(moves, "krl", writer_settings=s2)
+    parsed2 = parse_program(p2.files["src"], p2.files["dat"])
+    assert len(arctech_seams(parsed2, "WaamArc")) == 15 and "ArcMainNG" not in p2.files["src"]
+    w = {n: dict(dict(v)["Weld"]) for n, (t, v) in parsed2.data.items() if n.startswith("WDAT")}
+    assert sorted({(x["Velocity"], x["Channel1"], x["Channel2"]) for x in w.values()}) == [
+        (0.005, 220.0, 21.0), (0.006, 200.0, 20.0), (0.007, 180.0, 19.0)]
+    assert p2.weld_issues == ()
+    with pytest.raises(ValueError, match="channel"):
+        KrlSettings(arctech_channels={"voltage": 9})
+
+
+def test_arctech_split_declares_data_per_file(moves):
+    files = post_process(moves, "krl", writer_settings=KrlSettings(
+        program_name="part", arc_control="arctech", split_per_layer=True)).files
+    total = 0
+    for k in (k for k in files if k.endswith(".src") and k != "src"):
+        parsed = parse_program(files[k], files[k[:-3] + "dat"])           # every WDAT used is declared here
+        total += len(arctech_seams(parsed))
+    assert total == 15

@@ -33,7 +33,7 @@ def test_catalog_entry():
     assert [p["name"] for p in d["inputs"]] == ["toolpath"] and d["inputs"][0]["type"] == "toolpath"
     assert [p["type"] for p in d["outputs"]] == ["program"]
     props = d["params_schema"]["properties"]
-    assert props["format"]["enum"] == ["gcode", "krl", "rapid", "csv"]
+    assert props["format"]["enum"] == ["gcode", "krl", "rapid", "csv", "printpoints"]
     assert props["ignition_dwell"]["unit"] == "s" and props["arc_tolerance"]["unit"] == "mm"
     assert props["arc_on"]["default"] == "M3" and props["arc_off"]["default"] == "M5"
 
@@ -74,7 +74,7 @@ def test_empty_toolpath_warns():
     ctx = Ctx()
     out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
     assert out["program"].stats["motions"] == 0 and ctx.warnings
-    assert "DEF waamflow( )" in out["program"].files["src"]
+    assert "DEF post( )" in out["program"].files["src"]          # named after the node (Ctx.node_id)
 
 
 def test_gcode_warns_about_tilted_torch():

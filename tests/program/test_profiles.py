@@ -24,7 +24,7 @@ def _run(tmp_path, post_params):
 
 def test_every_profile_sets_only_known_params():
     profiles = load_profiles()
-    assert set(profiles) == {"generic", "linuxcnc", "marlin", "kuka_krc4", "abb_irc5"}
+    assert set(profiles) == {"generic", "linuxcnc", "marlin", "fanuc", "kuka_krc4", "kuka_krc4_io", "abb_irc5"}
     for name, p in profiles.items():
         assert p["title"] and p["description"]
         PostProcess.Params.model_validate({**p["post"], "profile": name})       # values valid too
@@ -49,8 +49,8 @@ def test_robot_profiles_choose_the_format(tmp_path):
 
 
 def test_unknown_profile_names_the_known_ones(tmp_path):
-    with pytest.raises(RecipeError, match="unknown machine profile 'fanuc'.*marlin"):
-        _run(tmp_path, {"profile": "fanuc"})
+    with pytest.raises(RecipeError, match="unknown machine profile 'heidenhain'.*marlin"):
+        _run(tmp_path, {"profile": "heidenhain"})
 
 
 def test_cli_and_api_list_profiles(capsys):

@@ -147,14 +147,37 @@ class Services:
         # reported) is a run artifact; the GUI offers it as a draft that changes the graph on save.
         if self.viewer is not None:
             # publishing a large part takes seconds: do it beside the run, not inside it
-            threading.Thread(target=self._publish, args=(graph_name or run_id, recipe.to_json(), result.outputs),
+            threading.Thread(target=self._publish, args=(graph_name or run_id, recipe.to_json(), result.outputs, run_id),
                              name="waamflow-viewer-publish", daemon=True).start()
 
-    def _publish(self, key: str, recipe: dict, outputs: dict) -> None:
+    def _publish(self, key: str, recipe: dict, outputs: dict, run_id: str) -> None:
         try:
-            self.viewer.publish(key, recipe, outputs)
+            self.viewer.publish(key, recipe, outputs, run=run_id)
         except Exception:
             log.exception("3D preview update failed for %s", key)
+
+    def scene_source(self, key: str):
+        """For the 3D preview after a restart (its scenes live in memory): the latest finished run
+        of graph `key` (or the finished run with id `key`) as (run id, rebuild), where
+        rebuild(cancel) re-executes the run's stored recipe, with the draft XML it used, through the
+        engine and the server's cache and returns (recipe JSON, outputs). None: no such run."""
+        run = self.store.latest_finished_run(key)
+        if run is None:
+            return None
+        run_id, graph_name = run["id"], run["graph"]
+
+        def rebuild(cancel: threading.Event) -> tuple[dict, dict]:
+            from ..engine.executor import execute
+            from ..engine.graph import build_graph
+
+            recipe = parse_recipe(run["recipe"])
+            xml = self.store.get_run_params_xml(run_id)
+            result = execute(build_graph(recipe), resolver=self.resolver_for(graph_name, recipe, xml), cache=self.cache,
+                             cancel=cancel, artifacts=False, workers=self.settings.layer_workers,
+                             scheduler=self.settings.scheduler)
+            return recipe.to_json(), result.outputs
+
+        return run_id, rebuild
 
 
 def build_services(settings: Settings) -> Services:

@@ -32,6 +32,7 @@ CREATE TABLE IF NOT EXISTS graph_files (
 CREATE TABLE IF NOT EXISTS runs (
   id TEXT PRIMARY KEY, graph TEXT, recipe TEXT NOT NULL, inputs TEXT, status TEXT NOT NULL,
   progress REAL DEFAULT 0, error TEXT, summary TEXT, created REAL NOT NULL, started REAL, finished REAL);
+CREATE TABLE IF NOT EXISTS run_params (run TEXT PRIMARY KEY, xml TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS events (run TEXT NOT NULL, seq INTEGER NOT NULL, data TEXT NOT NULL,
   PRIMARY KEY (run, seq));
 CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REAL NOT NULL, who TEXT,
@@ -132,9 +133,30 @@ class Store:
                    (graph, name, data, time.time()))
 
     # runs
-    def create_run(self, run_id: str, graph: str | None, recipe: dict, inputs: dict | None) -> None:
-        self._exec("INSERT INTO runs (id, graph, recipe, inputs, status, created) VALUES (?,?,?,?,?,?)",
-                   (run_id, graph, json.dumps(recipe), json.dumps(inputs or {}), "queued", time.time()))
+    def create_run(self, run_id: str, graph: str | None, recipe: dict, inputs: dict | None,
+                   params_xml: str | None = None) -> None:
+        """`params_xml`: the draft parameter XML the run used instead of the graph's saved one (kept
+        with the run, never as the graph's XML, so the run can be rebuilt exactly)."""
+        with self._lock:
+            self._conn.execute("INSERT INTO runs (id, graph, recipe, inputs, status, created) VALUES (?,?,?,?,?,?)",
+                               (run_id, graph, json.dumps(recipe), json.dumps(inputs or {}), "queued", time.time()))
+            if params_xml is not None:
+                self._conn.execute("INSERT OR REPLACE INTO run_params (run, xml) VALUES (?,?)", (run_id, params_xml))
+            self._conn.commit()
+
+    def get_run_params_xml(self, run_id: str) -> str | None:
+        """The draft parameter XML a run used, or None when it used the graph's saved XML."""
+        rows = self._query("SELECT xml FROM run_params WHERE run=?", (run_id,))
+        return rows[0]["xml"] if rows else None
+
+    def latest_finished_run(self, key: str) -> dict | None:
+        """The newest run that finished ('done') of the graph named `key`, else the run with id
+        `key` if it finished (an unsaved recipe's runs are known by their id)."""
+        rows = self._query("SELECT id FROM runs WHERE graph=? AND status='done' ORDER BY finished DESC, created DESC LIMIT 1",
+                           (key,))
+        if not rows:
+            rows = self._query("SELECT id FROM runs WHERE id=? AND status='done'", (key,))
+        return self.get_run(rows[0]["id"]) if rows else None
 
     def update_run(self, run_id: str, **fields: Any) -> None:
         cols, vals = [], []

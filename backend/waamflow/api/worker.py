@@ -132,7 +132,7 @@ class RunManager:
             raise QueueFullError(f"{active} runs are queued or running (limit {self.limits.queue}): try again later",
                                  retry_after=max(1, min(60, int(self.limits.wall_s or 30) // 10 or 5)))
         run_id = uuid.uuid4().hex[:12]
-        self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs)
+        self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs, params_xml)
         live = LiveRun(run_id)
         self.live[run_id] = live
         self.pool.submit(self._run, run_id, graph_name, recipe, graph, live, params_xml)

@@ -3,13 +3,16 @@
 A fan slice of a hollow single-bead wall (e.g. a bent duct) is a thin ring: an exterior and one
 hole. Its deposition path is the curve half way between them. For a ring of fairly uniform width
 the midpoint of each exterior sample and its nearest point on the hole is that curve (exact for
-concentric circles and parallel offsets).
+concentric circles and parallel offsets). The nearest points come from an R-tree of the hole's
+segments (GEOS STRtree, exact nearest), all samples at once: a layer of a 2,000-vertex ring takes
+milliseconds, not a Python loop of projections.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from shapely.geometry import LineString, Point, Polygon
+import shapely
+from shapely.geometry import Polygon
 
 
 def resample_ring(ring: np.ndarray, spacing: float) -> np.ndarray:
@@ -28,15 +31,24 @@ def ring_centerline(poly: Polygon, spacing: float = 1.0) -> tuple[np.ndarray, fl
     if not poly.interiors:
         raise ValueError("region has no hole: not a single-bead ring")
     hole = max(poly.interiors, key=lambda r: Polygon(r).area)
-    outer = resample_ring(np.asarray(poly.exterior.coords)[:, :2], spacing)
-    inner = LineString(hole)
-    mids, widths = [], []
-    for p in outer[:-1]:
-        q = inner.interpolate(inner.project(Point(p)))
-        mids.append(((p[0] + q.x) / 2.0, (p[1] + q.y) / 2.0))
-        widths.append(float(np.hypot(p[0] - q.x, p[1] - q.y)))
-    mid = np.asarray(mids)
+    outer = resample_ring(np.asarray(poly.exterior.coords)[:, :2], spacing)[:-1]
+    q = nearest_on_polyline(np.asarray(hole.coords)[:, :2], outer)
+    mid = (outer + q) / 2.0
+    widths = np.hypot(*(outer - q).T)
     if Polygon(mid).exterior.is_ccw is False:
         mid = mid[::-1]
     mid = np.vstack([mid, mid[:1]])
     return mid, float(np.mean(widths))
+
+
+def nearest_on_polyline(line: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """(n, 2) nearest point on the polyline `line` ((m, 2), m ≥ 2) of each of `pts` ((n, 2))."""
+    a, b = line[:-1], line[1:]
+    tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
+    i, j = tree.query_nearest(shapely.points(pts), all_matches=False)
+    ab = b[j] - a[j]
+    ab2 = np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(np.einsum("ij,ij->i", pts[i] - a[j], ab) / np.where(ab2 > 0, ab2, 1.0), 0.0, 1.0)
+    out = np.empty_like(pts, dtype=float)
+    out[i] = a[j] + t[:, None] * ab
+    return out

@@ -141,12 +141,15 @@ class NodeStats:
     layers_total: int | None = None
     layers_cached: int | None = None
     layers_computed: int | None = None
+    report: dict = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
 
     def to_dict(self) -> dict:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
             d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
                      layers_computed=self.layers_computed)
+        if self.report:
+            d["report"] = self.report
         return d
 
 
@@ -174,7 +177,16 @@ class RunResult:
             "artifacts": sorted(self.artifacts),
             "executor": self.executor,
             "trace": self.trace,
+            "programs": self.program_stats(),
         }
+
+    def program_stats(self) -> dict[str, dict]:
+        """node id → the statistics of the program it wrote (format, points, motions, lengths in
+        mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
+        from ..program.program import Program
+
+        return {nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values()
+                if isinstance(v, Program)}
 
 
 # ---- context ------------------------------------------------------------------------------------
@@ -340,34 +352,31 @@ class _Run:
     # execution
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
-        for node_id in self.active:
+        jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
+        for pos, node_id in enumerate(self.active):
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
             t0 = time.perf_counter()
             self.emit("node_started", node=node_id, message=gnode.type)
             ctx = RunContext(self, node_id)
-            try:
+
+            def compute() -> None:
                 inputs = {port: self.outputs[src][sport] for port, (src, sport) in gnode.inputs.items()}
                 in_sigs = {port: self.sigs[(src, sport)] for port, (src, sport) in gnode.inputs.items()}
                 if isinstance(gnode.impl, LayerNode):
                     cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
-                    for suffix, content in gnode.impl.artifacts(ctx, gnode.params, self.outputs[node_id]).items():
-                        data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
-                        self.artifacts[f"{node_id}.{suffix}"] = data
-            except WaamflowError as err:
-                err.located(node=node_id, layer=ctx.layer)
-                self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
-                          message=str(err), error=err.to_dict())
-                raise
-            except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
-                err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
-                err.__cause__ = exc
-                err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
-                self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
-                raise err from exc
+                    pool = self.pool
+                    if pool is not None and pool.enabled and pool.offload_artifacts:
+                        jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
+                                                                       self.trace(), self.outputs[node_id])))
+                    else:
+                        jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
+
+            self.located(node_id, ctx, compute)
             st = self.stats[node_id]
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1
@@ -376,24 +385,70 @@ class _Run:
             for value in self.outputs[node_id].values():
                 if isinstance(value, Layered) and self.layer_count is None:
                     self.layer_count = len(value)
+        for gnode, ctx, files in jobs:  # in node order, whoever wrote them
+            if not isinstance(files, dict):
+                self.check_cancelled()
+                try:
+                    written, extra = files.result()
+                except Exception:     # the worker died (or the cluster lost it): write them here
+                    written, extra = None, []
+                if written is None:   # failed in a worker: again here, raised with its node
+                    files = self.located(gnode.id, ctx, lambda: self.node_artifacts(gnode, ctx))
+                else:
+                    files = written
+                    ctx.warnings.extend(extra)
+            self.artifacts.update({f"{gnode.id}.{suffix}": data for suffix, data in files.items()})
+
+    def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
+        files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
+        return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
+
+    def maybe_warm(self, pos: int) -> None:
+        """Start the layer workers ahead of need when this node made a long layered value and
+        layer nodes follow: their start-up then overlaps this run's first layer nodes."""
+        pool = self.pool
+        if pool is None or not pool.enabled or pool.started or self.layers is not None:
+            return
+        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
+                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
+            pool.warm()
+
+    def located(self, node_id: str, ctx: RunContext, fn):
+        """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
+        try:
+            return fn()
+        except WaamflowError as err:
+            err.located(node=node_id, layer=ctx.layer)
+            self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
+                      message=str(err), error=err.to_dict())
+            raise
+        except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
+            err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
+            err.__cause__ = exc
+            err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
+            self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
+            raise err from exc
 
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
         return signature("node", gnode.type, impl.version, CODE_VERSION,
-                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode))
+                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
+                         *((gnode.id,) if impl.uses_node_id else ()))
 
     def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
         key = self.node_key(gnode, in_sigs)
         hit = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
             outputs, warnings = dict(hit[0]), hit[1]
+            report = hit[2] if len(hit) > 2 else {}
             cached = True
         else:
             outputs = gnode.impl.run(ctx, gnode.params, inputs)
             self._check_outputs(gnode, outputs)
             warnings = ctx.warnings
+            report = ctx.take_report()
             if self.cache is not None:
-                self.cache.put(key, (dict(outputs), warnings))
+                self.cache.put(key, (dict(outputs), warnings, report))
             cached = False
         self.outputs[gnode.id] = outputs
         for port, value in outputs.items():
@@ -405,7 +460,7 @@ class _Run:
                 psig = signature("layered", items_sigs)
             self.sigs[(gnode.id, port)] = psig
         self.add_warnings(warnings)
-        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached)
+        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
 
     def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
@@ -449,7 +504,9 @@ class _Run:
         n_computed = len(todo)
         ctx.layer = None
         ctx.warnings = []
+        ctx.take_report()
         outputs = impl.combine(ctx, gnode.params, per_layer, inputs)
+        report = ctx.take_report()
         self._check_outputs(gnode, outputs)
         self.add_warnings(ctx.warnings)
         fsig = self.file_sigs(gnode)
@@ -465,7 +522,7 @@ class _Run:
                 self.sigs[(gnode.id, port)] = signature(node_key, port)
         self.outputs[gnode.id] = outputs
         self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
-                                         layers_cached=n_cached, layers_computed=n_computed)
+                                         layers_cached=n_cached, layers_computed=n_computed, report=report)
         return n_computed == 0
 
     def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],
@@ -490,14 +547,19 @@ class _Run:
             finish(i, key, impl.run_layer(ctx, gnode.params, i, items), ctx.warnings)
 
         rest = list(todo)
+        pool = self.pool
         t0 = time.perf_counter()
         if rest:
             here(*rest.pop(0))
         while rest and time.perf_counter() - t0 < parallel.TIMING_S:  # time one layer, more if tiny
             here(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
-        pool = self.pool
-        if pool is not None and pool.enabled and len(rest) > 1 and per_layer_s * len(rest) > pool.min_parallel_s:
+        if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
+            pool.warm()            # no-op once started
+        while rest and pool is not None and pool.warming:   # workers on their way: go on here meanwhile
+            here(*rest.pop(0))
+        if pool is not None and pool.enabled and pool.ready and len(rest) > 1 and \
+                per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 

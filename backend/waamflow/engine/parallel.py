@@ -6,32 +6,48 @@ and cancel. Workers only call `impl.run_layer` on chunks of consecutive layers. 
 (non-layered) inputs travel once per chunk, and the chunks are few (about four per worker), so
 pickling stays small next to the work.
 
-Start method: `forkserver` with the node modules preloaded. Plain `fork` of a process that has
-already loaded the kernels (GEOS, BLAS, the pool's own threads) hung now and then; the fork
-server starts from a clean interpreter once per run and forks the workers from it.
+Start method: `forkserver` with every node module and kernel preloaded (engine/warm.py). Plain
+`fork` of a process that has already loaded the kernels (GEOS, BLAS, the pool's own threads) hung
+now and then; the fork server starts from a clean interpreter once per process, imports the
+kernels once, and forks the workers from it (a fork is cheap: nothing is imported again).
 
-Whether to go parallel is decided by measurement, not by a guess: the first uncached layer is
-computed in the parent and timed, and the rest go to workers only when they are expected to take
-longer than `MIN_PARALLEL_S` (the cost of starting workers and shipping inputs). Results are the
-same objects either way, so artifacts are byte-identical to a serial run.
+Whether to go parallel is decided by measurement, not by a guess: the first uncached layers of
+a node are computed in the parent and timed. When the rest is expected to take longer than
+`MIN_PARALLEL_S`, the workers are started (`warm`) in a background thread, so the fork server's
+imports and the forks overlap the parent, which goes on computing layers itself until they are
+up; then the remaining layers go to them (`map_layers`). A run whose layered value has
+`WARM_LAYERS` layers or more, with layer nodes to come, starts them right then instead, so their
+start-up overlaps the first layer nodes. Once they are up, later nodes hand them
+their layers whenever the rest is worth `WARM_MIN_PARALLEL_S` (only the round trips cost).
+Results are the same objects either way, so artifacts are byte-identical to a serial run.
+
+Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
+outputs) are written by a worker too (`submit_artifacts`) while the parent goes on with the next
+node; the run collects them in node order at its end.
 
 `DaskPool` sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
-whole inputs are scattered to the cluster once per node, not once per chunk.
+whole inputs are scattered to the cluster once per node, not once per chunk; artifacts go to the
+cluster too once a run has sent it layers.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import threading
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from .node import Context, LayerNode
 
-MIN_PARALLEL_S = 3.0      # expected serial seconds of the remaining layers below which workers do not pay
-                          # (starting the fork server imports the kernels: about 2 s here)
+MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
+                          # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
+WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
+WARM_LAYERS = 200         # a layered value this long (and layer nodes to come) starts the workers at once
+BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
+PRELOAD = ["waamflow.engine.warm"]
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4     # load balance vs. per-chunk overhead (inputs pickled once per chunk)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
@@ -76,6 +92,18 @@ class _WorkerContext(Context):
         pass
 
 
+class _ArtifactContext(_WorkerContext):
+    """A node's context while a worker writes its artifacts: the run's trace as it was when the
+    node finished (program headers stamp it)."""
+
+    def __init__(self, node_id: str, resolver, trace: dict) -> None:
+        super().__init__(node_id, resolver)
+        self._trace = trace
+
+    def trace(self) -> dict:
+        return self._trace
+
+
 def _run_chunk(impl: LayerNode, node_id: str, params_json: Any, resolver, chunk: list[tuple[int, dict]]):
     """Worker side: [(index, outputs, warnings) | (index, None, error text)] for a chunk. Params
     travel as JSON (their models may hold classes made at run time, which do not pickle) and are
@@ -93,13 +121,34 @@ def _run_chunk(impl: LayerNode, node_id: str, params_json: Any, resolver, chunk:
     return out
 
 
+def _write_artifacts(impl, node_id: str, params_json: Any, resolver, trace: dict, outputs: dict):
+    """Worker side: ({suffix: bytes}, warnings) or (None, error text): the parent re-runs a failed
+    node's artifacts itself, so the error is raised with its context."""
+    params = type(impl).Params.model_validate(params_json)
+    ctx = _ArtifactContext(node_id, resolver, trace)
+    try:
+        files = impl.artifacts(ctx, params, outputs)
+        return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}, ctx.warnings
+    except Exception as exc:
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def _worker_up() -> int:
+    return os.getpid()
+
+
 @dataclass
 class LayerPool:
     """One process pool per run, started on first need and shared by the run's layer nodes."""
 
     workers: int
     tasks: int = 0
+    started: bool = False     # workers asked for (by `warm` or a first map)
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _ready: threading.Event = field(default_factory=threading.Event, repr=False)
+    _closed: bool = field(default=False, repr=False)
+    _starter: threading.Thread | None = field(default=None, repr=False)
 
     kind = "local"
     address = None
@@ -109,18 +158,65 @@ class LayerPool:
         return self.workers > 1
 
     @property
+    def ready(self) -> bool:
+        """Workers running: handing them work costs only the round trips."""
+        return self._ready.is_set()
+
+    @property
+    def warming(self) -> bool:
+        """Workers on their way (`warm`): until they are up, the parent computes layers itself
+        (a submit now would wait for the fork server with the parent idle)."""
+        return self.started and not self._ready.is_set()
+
+    @property
     def min_parallel_s(self) -> float:
-        return MIN_PARALLEL_S
+        return WARM_MIN_PARALLEL_S if self.ready else MIN_PARALLEL_S
+
+    @property
+    def offload_artifacts(self) -> bool:
+        """Artifacts go to workers once the workers are up anyway."""
+        return self.ready
 
     def info(self) -> dict:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
+    def warm(self) -> None:
+        """Start the workers in the background (once): the fork server's imports and the forks run
+        while the parent goes on with its serial work."""
+        if not self.enabled or self.started:
+            return
+        self.started = True
+        if BACKGROUND_START:
+            self._starter = threading.Thread(target=self._spawn, name="waamflow-layer-pool", daemon=True)
+            self._starter.start()
+        else:
+            self._spawn()
+
+    def _spawn(self) -> None:
+        try:
+            pool = self._executor()
+            futures = [pool.submit(_worker_up) for _ in range(self.workers)]   # no idle worker yet: each forks one
+            for f in futures:
+                f.result()
+        except Exception:  # the workers could not start: the parent computes alone
+            return
+        self._ready.set()
+
     def _executor(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            ctx = mp.get_context("forkserver")
-            ctx.set_forkserver_preload(["waamflow.nodes"])
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
-        return self._pool
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("layer pool closed")
+            if self._pool is None:
+                ctx = mp.get_context("forkserver")
+                ctx.set_forkserver_preload(PRELOAD)
+                self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+                self.started = True
+            return self._pool
+
+    def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict) -> Future:
+        """A node's artifacts written by a worker: a future of `_write_artifacts`' result."""
+        return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
+                                       trace, outputs)
 
     def map_layers(self, impl: LayerNode, node_id: str, params: Any, resolver, todo: list[tuple[int, dict]],
                    on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
@@ -141,13 +237,20 @@ class LayerPool:
         finally:
             for fut in pending:
                 fut.cancel()
+            self._ready.set()   # the workers are up now
 
     def close(self, wait: bool = True) -> None:
-        """Shut the workers down; `wait=False` (a failed or cancelled run) returns at once and
-        lets a chunk still running finish in the background instead of holding the run's end."""
-        if self._pool is not None:
-            self._pool.shutdown(wait=wait, cancel_futures=True)
-            self._pool = None
+        """Shut the workers down; `wait=False` (a failed or cancelled run) returns as soon as the
+        workers are up and lets a chunk still running finish in the background instead of holding
+        the run's end. Workers still starting are waited for (a process whose parent has gone
+        would fail half-started)."""
+        if self._starter is not None:
+            self._starter.join(timeout=60)
+        with self._lock:
+            self._closed = True
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=wait, cancel_futures=True)
 
 
 def _chunks(todo: list, workers: int) -> list[list]:
@@ -171,6 +274,8 @@ class DaskPool:
     tasks: int = 0
     _client: Any = field(default=None, repr=False)
     kind = "dask"
+    started = ready = True   # a cluster's workers are running already
+    warming = False
 
     @property
     def enabled(self) -> bool:
@@ -179,6 +284,18 @@ class DaskPool:
     @property
     def min_parallel_s(self) -> float:
         return DASK_MIN_PARALLEL_S
+
+    @property
+    def offload_artifacts(self) -> bool:
+        """Artifacts go to the cluster when this run's layers did (a cached re-run stays local)."""
+        return self.tasks > 0
+
+    def warm(self) -> None:
+        """Nothing to start: a cluster's workers are running already."""
+
+    def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict):
+        return self.client().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
+                                    trace, outputs, pure=False)
 
     def client(self):
         if self._client is None:

@@ -5,9 +5,11 @@ A thin adapter over `waamflow.program`; every number and code of the output is a
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any, Literal
 
+import numpy as np
 from pydantic import Field, field_validator
 
 from ..core.errors import RecipeError
@@ -15,9 +17,11 @@ from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import check_templates, stamp_trace
+from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
+                              program_identifier, stamp_trace)
+from ..program.krl import ARCTECH_CHANNELS, check_channels
 from ..program.profiles import profile as machine_profile
-from ..trajectory.cell import load_cell, positioner_angles
+from ..trajectory.cell import load_cell, positioner_angles, to_world
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -38,7 +42,13 @@ class PostProcess(Node):
       per zone, zonedata from the blend distance, WaitTime for dwell.
     - `csv`: cutter-location file `<node>.csv`, one row per point (x, y, z, tool axis, speed,
       arc, layer, section, zone, dwell).
+    - `printpoints`: compas_slicer's print-points JSON `<node>.printpoints.json`, one entry per
+      toolpath point (point, layer_height, up_vector, mesh_normal, frame, extruder_toggle,
+      velocity, wait_time, blend_radius, plus layer and section) for compas_rrc/compas_fab drivers.
     Ignition dwell: the zone's `dwell` parameter when it has one, else `ignition_dwell`.
+    Interlayer dwells carry their reason (e.g. the interpass rule) in a comment. Rolling/peening
+    strokes (a `treatment` node's sections) are engaged and lifted by `tool_on`/`tool_off`
+    (force, width, speed filled in) around each stroke's contact motions.
     """
 
     type = "post-process"
@@ -46,15 +56,19 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "1"
+    version = "2"
+    uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
         profile: str = Field("", max_length=64,
-                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4, "
+                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
                                          "abb_irc5): presets for every param this recipe does not set; empty = none")
-        format: Literal["gcode", "krl", "rapid", "csv"] = Field("gcode", description="Program format")
-        program_name: str = Field("waamflow", pattern=_NAME, max_length=24,
-                                  description="Program / module name written into the program (KRL: ≤ 16 characters when split)")
+        format: Literal["gcode", "krl", "rapid", "csv", "printpoints"] = Field(
+            "gcode", description="Program format; printpoints = compas_slicer print-points JSON")
+        program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
+                                  description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
+                                              "identifier, so the program is named like its files (KRL requires "
+                                              "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32)")
         ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
                                       description="Dwell after each arc ignition when the zone has no `dwell` parameter")
         arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
@@ -62,61 +76,151 @@ class PostProcess(Node):
         travel_speed: float = Field(100.0, gt=0, le=2000, json_schema_extra=unit("mm/s"),
                                     description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate")
         blend_distance: float = Field(1.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                                      description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius; 0 = exact stops")
+                                      description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius, print points "
+                                                  "blend_radius; 0 = exact stops")
         # G-code
         arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on")
         arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off")
         dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller")
         rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)")
+        comment_style: Literal["semicolon", "parentheses"] = Field(
+            "semicolon", description="G-code: comments as `; text` or `(text)` (controllers without `;`)")
+        feed_units: Literal["mm/min", "mm/s"] = Field("mm/min", description="G-code: unit of the F word")
+        start_code: list[str] = Field(default_factory=list, max_length=50,
+                                      description="G-code: lines written after the header (e.g. homing, gas on)")
+        layer_code: list[str] = Field(default_factory=list, max_length=20,
+                                      description="G-code: lines written at every layer change; templates with "
+                                                  "{layer} and {z} (mm), e.g. \";LAYER:{layer}\"")
+        end_code: list[str] = Field(default_factory=list, max_length=50,
+                                    description="G-code: lines written after the last motion and the final lift")
+        final_lift: float = Field(0.0, ge=0, le=500, json_schema_extra=unit("mm"),
+                                  description="G-code: G0 up by this much at the end, after the arc is off; 0 = none")
+        preamble: list[str] = Field(default_factory=list, max_length=10,
+                                    description="G-code: lines before everything else (e.g. \"%\", \"O0001\")")
+        postamble: list[str] = Field(default_factory=list, max_length=10,
+                                     description="G-code: lines after the program end (e.g. \"%\")")
+        program_end: str = Field("M30", min_length=1, max_length=32,
+                                 description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)")
         process_codes: dict[str, str] = Field(
             default_factory=dict,
             description="G-code / KRL output mode: zone parameter name → command template using {value}, "
                         "e.g. {\"wire_feed_speed\": \"M100 S{value:.1f}\", \"job\": \"M101 P{value:.0f}\"}")
+        rotary_axes: list[str] = Field(
+            default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
+            json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
+            description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
+                        "axes (the machine profile's, e.g. A/C or B/C)")
+        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words")
+        # post-deposition tools (rolling, peening: sections from a treatment node)
+        tool_on: str = Field("", max_length=200,
+                             description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
+                                         "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
+                                         "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
+                                         "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
+                                         "`ToolOn force, width, speed;`")
+        tool_off: str = Field("", max_length=200,
+                              description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
+                                          "`TOOL_OFF()`, RAPID `ToolOff;`")
         # KUKA KRL
         tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
         base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")
         arc_control: Literal["output", "arctech"] = Field(
             "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF")
         arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc")
+        arctech_routine: str = Field("ArcMainNG", pattern=_NAME, max_length=24,
+                                     description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through")
+        arctech_channels: dict[str, int] = Field(
+            default_factory=lambda: dict(ARCTECH_CHANNELS),
+            description="KRL ArcTech: zone parameter → power-source channel 1..8 of the weld data sets "
+                        "(e.g. {\"job\": 1, \"wire_feed_speed\": 2, \"voltage\": 3})")
+        arctech_velocity_unit: Literal["m/min", "m/s"] = Field(
+            "m/min", description="KRL ArcTech: unit of Weld.Velocity in the weld data sets")
         max_points_per_file: int = Field(0, ge=0, le=1_000_000,
                                          description="KRL: most motions per file, 0 = no limit (main program calls subprograms)")
         split_per_layer: bool = Field(False, description="KRL: one subprogram per layer")
         # ABB RAPID
         tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name")
-        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32, description="RAPID: wobjdata name")
+        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32,
+                               description="RAPID: wobjdata name (with a cell's positioner: a coordinated work "
+                                           "object declared in the module, wobj_<unit> when this is wobj0)")
+        positioner_unit: str = Field("STN1", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
+                                     description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
+                                                 "the coordinated work object); empty = no coordination")
         # robots
         cell: str = Field("", max_length=64,
-                          description="KRL/RAPID: shipped robot cell (data/cells) whose positioner angles go into every "
-                                      "target as external axes E1/E2 (extax eax_a/eax_b); empty = no external axes")
+                          description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
+                                      "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, G-code rotary axes "
+                                      "(`rotary_axes`); empty = no external axes")
         positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
                                    "(min-motion with its default 30° lean)")
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
 
+        @field_validator("rotary_axes")
+        @classmethod
+        def _rotary(cls, v: list[str]) -> list[str]:
+            v = [a.strip().upper() for a in v]
+            bad = [a for a in v if a not in ("A", "B", "C", "U", "V", "W")]
+            if bad or len(set(v)) != len(v):
+                raise ValueError(f"rotary_axes {v}: distinct letters among A, B, C, U, V, W")
+            return v
+
         @field_validator("process_codes")
         @classmethod
         def _templates(cls, v: dict[str, str]) -> dict[str, str]:
             return check_templates(v)
 
+        @field_validator("tool_on", "tool_off")
+        @classmethod
+        def _tool_template(cls, v: str) -> str:
+            return check_tool_template(v, "tool command") if v else v
+
+        @field_validator("arctech_channels")
+        @classmethod
+        def _channels(cls, v: dict[str, int]) -> dict[str, int]:
+            return check_channels(v)
+
     def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
         params = with_profile(params)
         plan = PlanSettings(ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance,
                             travel_speed=params.travel_speed)
+        name = _program_name(ctx, params)
         try:
-            writer = _writer_settings(params)
+            writer = _writer_settings(params, name)
         except ValueError as err:
             raise RecipeError(str(err)) from err
-        if params.cell and params.format in ("krl", "rapid"):
-            angles = positioner_angles(load_cell(params.cell), flatten(inputs["toolpath"]), params.positioner_policy)
+        world_tilt = None
+        if params.cell and params.format in ("krl", "rapid", "gcode"):
+            cell = load_cell(params.cell)
+            moves = flatten(inputs["toolpath"])
+            angles = positioner_angles(cell, moves, params.positioner_policy)
             writer = replace(writer, external_axes=angles)
-        program = post_process(inputs["toolpath"], params.format, plan, writer)
+            if params.format == "rapid":
+                writer = replace(writer, work_frame=_work_frame(cell))
+            if params.format == "gcode" and len(moves.points):
+                _, axes = to_world(cell, moves.points, moves.tool_axis, angles)
+                axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
+                world_tilt = float(np.degrees(np.arccos(np.clip(-axes[:, 2], -1.0, 1.0))).max())
+        try:
+            program = post_process(inputs["toolpath"], params.format, plan, writer)
+        except ValueError as err:
+            raise RecipeError(str(err)) from err
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
-        tilt = program.stats.get("max_tool_tilt_deg", 0.0)
+        if params.format == "krl" and name != ctx.node_id:
+            ctx.warn(f"KRL program {name}: the controller needs the files named {name}.src / {name}.dat "
+                     f"(DEF name = file name); rename {ctx.node_id}.src/.dat when copying them"
+                     + ("" if params.program_name else " or give the node an identifier id"))
+        _warn_weld_data(ctx, program, "ArcTech weld data" if params.format == "krl" else "RAPID welddata")
+        tilt = program.stats.get("max_tool_tilt_deg", 0.0) if world_tilt is None else world_tilt
         if params.format == "gcode" and tilt > TILT_WARN_DEG:
-            ctx.warn(f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
-                     "tool axes are ignored (use krl or rapid)")
+            if world_tilt is None:
+                ctx.warn(f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
+                         "tool axes are ignored (use krl or rapid, or a cell with a positioner)")
+            else:
+                ctx.warn(f"under the positioner angles the torch still tilts up to {tilt:.1f}° from vertical; "
+                         "the G-code torch is vertical: tool axes are ignored (use krl or rapid)")
         return {"program": program}
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
@@ -141,20 +245,70 @@ def with_profile(params: PostProcess.Params) -> PostProcess.Params:
     return PostProcess.Params.model_validate(merged)
 
 
-def _writer_settings(p: PostProcess.Params) -> GcodeSettings | KrlSettings | RapidSettings | None:
-    direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
-    if p.format == "gcode":
-        return GcodeSettings(program_name=p.program_name, arc_on=p.arc_on, arc_off=p.arc_off,
-                             dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
-                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes))
+def _warn_weld_data(ctx, program: Program, what: str) -> None:
+    """One warning per zone and problem (empty / zero / missing weld data), located at the first
+    section and layer where it is welded, with the number of sections affected."""
+    groups: dict[tuple[str, str], list] = {}
+    for issue in program.weld_issues:
+        groups.setdefault((issue.zone, issue.message), []).append(issue)
+    for (zone, message), issues in groups.items():
+        first = issues[0]
+        more = f"; {len(issues)} sections in all" if len(issues) > 1 else ""
+        ctx.warn(f"{what} of zone {zone} (section {first.section}, layer {first.layer}{more}): {message}",
+                 layer=first.layer, section=first.section)
+
+
+def _program_name(ctx, p: PostProcess.Params) -> str:
+    """The program name: `program_name`, else the node id made a controller identifier (KRL ≤ 24
+    characters, ≤ 16 when split so `<name>_L003_1` fits; RAPID ≤ 32), so the program is named like
+    the `<node id>.<suffix>` files holding it."""
     if p.format == "krl":
-        return KrlSettings(program_name=p.program_name, tool=p.tool_number, base=p.base_number,
+        limit, reserved = (16 if p.split_per_layer or p.max_points_per_file else 24), KRL_RESERVED
+    elif p.format == "rapid":
+        limit, reserved = 32, RAPID_RESERVED
+    else:
+        limit, reserved = 64, frozenset()
+    if p.program_name:
+        if len(p.program_name) > limit:
+            raise RecipeError(f"program_name {p.program_name!r} is longer than {limit} characters ({p.format}"
+                              + (", split into subprograms" if limit == 16 else "") + ")")
+        return p.program_name
+    return program_identifier(getattr(ctx, "node_id", "") or "waamflow", limit, reserved)
+
+
+def _work_frame(cell) -> tuple[float, ...]:
+    """The part origin on the positioner flange as (x, y, z mm, q1..q4): translation and yaw."""
+    half = math.radians(cell.work_frame.yaw_deg) / 2.0
+    return (*(float(v) for v in cell.work_frame.xyz_mm), math.cos(half), 0.0, 0.0, math.sin(half))
+
+
+def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | float | None:
+    direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
+    if p.format in TOOL_COMMANDS:
+        on, off = TOOL_COMMANDS[p.format]
+        tools = dict(tool_on=p.tool_on or on, tool_off=p.tool_off or off)
+    if p.format == "gcode":
+        return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
+                             dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
+                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes),
+                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units,
+                             comment_style=p.comment_style, feed_units=p.feed_units,
+                             start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
+                             end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
+                             preamble=tuple(p.preamble), postamble=tuple(p.postamble), **tools)
+    if p.format == "krl":
+        return KrlSettings(program_name=name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                            arc_control=p.arc_control, arc_output=p.arc_output,
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
-                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes))
+                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes),
+                           arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
+                           arctech_velocity_unit=p.arctech_velocity_unit, **tools)
     if p.format == "rapid":
-        return RapidSettings(program_name=p.program_name, tool=p.tool_name, wobj=p.wobj_name,
+        return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
+                             positioner_unit=p.positioner_unit,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
-                             tool_direction=direction or "z")
+                             tool_direction=direction or "z", **tools)
+    if p.format == "printpoints":
+        return p.blend_distance
     return None

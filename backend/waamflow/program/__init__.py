@@ -1,6 +1,7 @@
 """Post-processing: the zoned toolpath → machine/robot programs (pure writers, no engine imports).
 
     toolpath ─flatten→ Moves ─plan_program→ Plan ─write_gcode / write_krl / write_rapid→ text
+                            │                    └─write_print_points→ compas_slicer print points JSON
                             └──────────────write_cl_csv→ CSV
 
 `post_process` is the one entry point the `post-process` node calls. `gcode_parse.parse_gcode`
@@ -12,19 +13,21 @@ from __future__ import annotations
 from ..core.model import LayerPaths, Layered
 from ..core.moves import Moves, flatten
 from .cl import write_cl_csv
+from .common import weld_data_issues
 from .gcode import GcodeSettings, write_gcode
 from .gcode_parse import ParsedProgram, parse_gcode
 from .krl import KrlSettings, write_krl
 from .plan import Plan, PlanSettings, plan_program
+from .printpoints import point_layer_heights, write_print_points
 from .program import Program
 from .rapid import RapidSettings, write_rapid
 
-FORMATS = ("gcode", "krl", "rapid", "csv")
+FORMATS = ("gcode", "krl", "rapid", "csv", "printpoints")
 
 __all__ = [
     "FORMATS", "GcodeSettings", "KrlSettings", "ParsedProgram", "Plan", "PlanSettings", "Program",
     "RapidSettings", "parse_gcode", "plan_program", "post_process", "write_cl_csv", "write_gcode",
-    "write_krl", "write_rapid",
+    "write_krl", "write_print_points", "write_rapid",
 ]
 
 
@@ -37,6 +40,8 @@ def post_process(
     """Write a toolpath (or an already flattened move list) as a `Program` in format `fmt`.
 
     For "gcode", fitted arcs are restricted to the XY plane (G17) whatever `plan_settings` says.
+    "printpoints" (one entry per toolpath point) never fits arcs; `writer_settings` there is the
+    blend distance in mm (float, default 1).
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown program format {fmt!r} (one of {', '.join(FORMATS)})")
@@ -45,15 +50,33 @@ def post_process(
         from dataclasses import replace
 
         plan_settings = replace(plan_settings, arc_plane_normal=(0.0, 0.0, 1.0))
+    if fmt == "printpoints":
+        from dataclasses import replace
+
+        plan_settings = replace(plan_settings, arc_tolerance=0.0)
     plan = plan_program(moves, plan_settings)
     stats = dict(plan.stats, format=fmt)
     if fmt == "gcode":
-        files = {"gcode": write_gcode(plan, writer_settings or GcodeSettings())}
+        gs = writer_settings or GcodeSettings()
+        files = {"gcode": write_gcode(plan, gs)}
+        if gs.final_lift > 0 and len(moves.points):
+            stats["motions"] += 1                      # the final lift is a motion of this program
+            stats["travel_length_mm"] = round(stats["travel_length_mm"] + gs.final_lift, 3)
+            stats["estimated_time_s"] = round(stats["estimated_time_s"] + gs.final_lift / plan_settings.travel_speed, 3)
     elif fmt == "krl":
         files = write_krl(plan, writer_settings or KrlSettings())
     elif fmt == "rapid":
         files = {"mod": write_rapid(plan, writer_settings or RapidSettings())}
+    elif fmt == "printpoints":
+        heights = point_layer_heights(None if isinstance(toolpath, Moves) else toolpath, moves)
+        blend = 1.0 if writer_settings is None else float(writer_settings)
+        files = {"printpoints.json": write_print_points(plan, heights, plan_settings.travel_speed, blend)}
     else:
         files = {"csv": write_cl_csv(moves)}
     stats["files"] = len(files)
-    return Program(fmt, files, stats)
+    issues: tuple = ()
+    if fmt == "rapid":
+        issues = tuple(weld_data_issues(plan))
+    elif fmt == "krl" and isinstance(writer_settings, KrlSettings) and writer_settings.arc_control == "arctech":
+        issues = tuple(weld_data_issues(plan, tuple(writer_settings.arctech_channels)))
+    return Program(fmt, files, stats, issues)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import string
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -81,15 +82,19 @@ def trace_lines(trace: dict) -> list[str]:
 def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     """Program files with the trace lines in their header, in each format's comment syntax:
     G-code `;` at the top, KRL `;` after `DEF`/`DEFDAT`, RAPID `!` after `MODULE`, CSV `#` at
-    the top. Applied when artifacts are written, so the date never enters a cache key."""
+    the top. Applied when artifacts are written, so the date never enters a cache key. JSON
+    (print points) has no comments and a fixed layout: it stays as it is (the trace is in
+    summary.json)."""
     body = trace_lines(trace)
-    if not body:
+    if not body or fmt == "printpoints":
         return dict(files)
     out = {}
     for suffix, text in files.items():
         lines = text.split("\n")
-        if fmt == "gcode":
-            lines = [f"; {b}" for b in body] + lines
+        if fmt == "gcode":                                 # before the first comment (after a preamble)
+            at = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith((";", "("))), 0)
+            paren = lines[at].lstrip().startswith("(") if lines else False     # the profile's comment style
+            lines = lines[:at] + [f"({b})" if paren else f"; {b}" for b in body] + lines[at:]
         elif fmt == "csv":
             lines = [f"# {b}" for b in body] + lines
         else:
@@ -99,3 +104,127 @@ def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
             lines = lines[:at] + [f"{mark}{b}" for b in body] + lines[at:]
         out[suffix] = "\n".join(lines)
     return out
+
+
+# ---- post-deposition tool commands (rolling, peening) -------------------------------------------
+TOOL_FIELDS = ("tool", "force_n", "tool_width_mm", "speed_mm_s")
+
+# Defaults per format; a machine profile or the post-process params replace them. G-code: LinuxCNC
+# user M-codes (M100-M199 take P and Q): the cell's M110 script sets the load and lowers the tool.
+# KRL / RAPID: routine calls the cell provides (like the arc routines), force in N, width in mm,
+# speed in mm/s.
+TOOL_COMMANDS: dict[str, tuple[str, str]] = {
+    "gcode": ("M110 P{force_n:.0f} Q{tool_width_mm:g}", "M111"),
+    "krl": ("TOOL_ON({force_n:.1f}, {tool_width_mm:.2f}, {speed_mm_s:.2f})", "TOOL_OFF()"),
+    "rapid": ("ToolOn {force_n:.1f}, {tool_width_mm:.2f}, {speed_mm_s:.2f};", "ToolOff;"),
+}
+
+
+def check_tool_template(tpl: str, what: str) -> str:
+    """A tool command template: one or more lines (separated by newlines) using only the fields
+    of TOOL_FIELDS and any tool parameter; checked by formatting it with sample values."""
+    fields = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None]
+    bad = [f for f in fields if f not in TOOL_FIELDS]
+    if bad:
+        raise ValueError(f"{what} {tpl!r} uses unknown field(s) {', '.join(bad)} (known: {', '.join(TOOL_FIELDS)})")
+    try:
+        tool_lines(tpl, "rolling", {"force_n": 1.0, "tool_width_mm": 1.0, "speed_mm_s": 1.0})
+    except (ValueError, KeyError, IndexError) as e:
+        raise ValueError(f"{what} {tpl!r}: {e}") from None
+    return tpl
+
+
+def tool_lines(tpl: str, tool: str, params: dict) -> list[str]:
+    """The template's lines for one engagement (`tool` and the tool's parameters filled in)."""
+    values = {"tool": tool, **{k: float(v) for k, v in params.items()}}
+    missing = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None and f not in values]
+    if missing:
+        raise ValueError(f"tool command {tpl!r} needs {', '.join(missing)}, the tool section has "
+                         f"{', '.join(sorted(params)) or 'no parameters'}")
+    return [ln for ln in tpl.format(**values).split("\n") if ln.strip()]
+
+
+def tool_summary(tool: str, params: dict) -> str:
+    """'rolling on: force 20000 N, tool width 8 mm, 10 mm/s' (ASCII, for program comments)."""
+    parts = []
+    if "force_n" in params:
+        parts.append(f"force {short(params['force_n'])} N")
+    if "tool_width_mm" in params:
+        parts.append(f"tool width {short(params['tool_width_mm'])} mm")
+    if "speed_mm_s" in params:
+        parts.append(f"{short(params['speed_mm_s'])} mm/s")
+    return f"{tool} on" + (": " + ", ".join(parts) if parts else "")
+
+
+# Words a program name must not be (case-insensitive): keywords and names the writers use.
+KRL_RESERVED = frozenset(w.upper() for w in (
+    "DEF", "END", "DEFDAT", "ENDDAT", "DEFFCT", "ENDFCT", "DECL", "GLOBAL", "PUBLIC", "LIN", "PTP", "CIRC",
+    "IF", "THEN", "ELSE", "ENDIF", "FOR", "ENDFOR", "WHILE", "ENDWHILE", "LOOP", "ENDLOOP", "REPEAT", "UNTIL",
+    "SWITCH", "CASE", "DEFAULT", "ENDSWITCH", "WAIT", "SEC", "HALT", "RETURN", "EXIT", "GOTO", "TRIGGER",
+    "WHEN", "DISTANCE", "DELAY", "DO", "PRIO", "PATH", "INTERRUPT", "STRUC", "ENUM", "SIGNAL", "TRUE", "FALSE",
+    "NOT", "AND", "OR", "EXOR", "B_AND", "B_OR", "B_NOT", "B_EXOR", "BAS", "INT", "REAL", "BOOL", "CHAR",
+    "E6POS", "POS", "FRAME", "AXIS", "E6AXIS", "C_DIS", "C_PTP", "C_ORI", "C_VEL", "CONTINUE"))
+RAPID_RESERVED = frozenset(w.upper() for w in (
+    "MODULE", "ENDMODULE", "PROC", "ENDPROC", "FUNC", "ENDFUNC", "TRAP", "ENDTRAP", "CONST", "PERS", "VAR",
+    "LOCAL", "TASK", "IF", "THEN", "ELSE", "ELSEIF", "ENDIF", "FOR", "FROM", "TO", "STEP", "DO", "ENDFOR",
+    "WHILE", "ENDWHILE", "TEST", "CASE", "DEFAULT", "ENDTEST", "RETURN", "EXIT", "GOTO", "RAISE", "RETRY",
+    "TRYNEXT", "ERROR", "UNDO", "BACKWARD", "RECORD", "ENDRECORD", "ALIAS", "NOT", "AND", "OR", "XOR", "DIV",
+    "MOD", "TRUE", "FALSE", "NOSTEPIN", "VIEWONLY", "READONLY", "SYSMODULE", "INOUT", "WITH", "main",
+    "fine", "num", "bool", "string", "robtarget", "speeddata", "zonedata", "wobjdata", "tooldata",
+    "welddata", "seamdata", "arcdata", "wobj0", "tool0"))
+
+
+def program_identifier(name: str, max_len: int, reserved: frozenset[str] = frozenset(), prefix: str = "P") -> str:
+    """`name` (e.g. a node id) made a controller identifier: every character other than a letter,
+    digit or '_' becomes '_', `prefix` is put in front when it does not start with a letter or
+    when it is a reserved word, and it is cut to `max_len` characters (KRL 24, RAPID 32)."""
+    ident = re.sub(r"[^A-Za-z0-9_]", "_", name.strip()) or prefix
+    if not ident[0].isalpha() or ident.upper() in reserved:
+        ident = f"{prefix}_{ident}" if ident[0] != "_" else prefix + ident
+    return ident[:max_len].rstrip("_") or prefix
+
+
+@dataclass(frozen=True)
+class WeldDataIssue:
+    """A zone whose weld data the power source would get empty or zero."""
+
+    section: str        # section key
+    layer: int | None
+    zone: str           # zone id
+    message: str
+
+
+WELD_VALUES = ("current", "voltage", "wire_feed_speed")
+
+
+def weld_data_issues(plan, required: tuple[str, ...] = ()) -> list[WeldDataIssue]:
+    """Zones welded in `plan` whose weld data is empty (none of current, voltage, wire feed speed
+    or job given), has a zero value (current, voltage, wire feed speed, weld speed) or lacks one of
+    the `required` parameters (e.g. those mapped to ArcTech channels), once per (section, zone),
+    in deposition order."""
+    from .plan import Motion
+
+    moves = plan.moves
+    seen: dict[tuple[int, int], WeldDataIssue] = {}
+    for st in plan.steps:
+        if not isinstance(st, Motion) or st.mode != "weld" or (st.section, st.zone) in seen:
+            continue
+        key = (st.section, st.zone)
+        params = moves.zone_params.get(key, {})
+        zid = moves.zone_ids[st.zone] if 0 <= st.zone < len(moves.zone_ids) else "-"
+        problems = []
+        if not any(float(params.get(k, 0.0) or 0.0) > 0 for k in WELD_VALUES + ("job",)):
+            problems.append("no weld data (current, voltage, wire_feed_speed and job all missing or 0)")
+        else:
+            zero = [k for k in WELD_VALUES if k in params and float(params[k]) <= 0]
+            if zero:
+                problems.append(f"{', '.join(zero)} 0")
+            missing = [k for k in required if k not in WELD_VALUES and float(params.get(k, 0.0) or 0.0) <= 0
+                       or k in WELD_VALUES and k not in params]
+            if missing:
+                problems.append(f"{', '.join(missing)} missing (written as 0)")
+        if not (np.isfinite(st.speed) and st.speed > 0):
+            problems.append("weld speed 0")
+        issue = WeldDataIssue(moves.section_keys[st.section], st.layer, zid, "; ".join(problems))
+        seen[key] = issue
+    return [i for i in seen.values() if i.message]

@@ -6,20 +6,40 @@ code is a setting. Output: absolute millimetres (G21, G90), G0 travel (or G1 at 
 G1 deposition with F in mm/min (= segment speed mm/s × 60, converted only here), G2/G3 in the XY
 plane (G17, I/J relative to the arc start) when arc fitting is on, `arc_on` + `G4` dwell after
 each ignition, per-zone process commands from templates, `G4` for interlayer dwell, comments
-naming layer/section/zone, `M30`.
+naming layer/section/zone, `M30`. Post-deposition tool sections (rolling, peening) are engaged
+and lifted by the `tool_on` / `tool_off` templates (default LinuxCNC user M-codes
+`M110 P<force N> Q<width mm>` / `M111`), with a comment stating force, width and speed.
 
-The header carries a machine-readable line `; waamflow-post: arc_on=… arc_off=… dwell_units=…`
-that `gcode_parse.parse_gcode` uses to read the program back.
+Dialect (the machine profile's table): `comment_style` (`;` or `( )`), `feed_units` (F in mm/min,
+G94 — or mm/s for controllers that read it so), `dwell_units` (G4 P in s or ms), `start_code`
+lines after the header, `layer_code` templates at every layer change ({layer}, {z}), `end_code`
+lines after the last motion, `final_lift` (mm: a G0 up by that much after the arc is off, before
+the end code) and `program_end` (M30, M2, or e.g. M84 on Marlin where M30 deletes a file);
+`preamble`/`postamble` lines go before the header and after the end (Fanuc-style `%` tape
+delimiters and `O` program number).
+
+The header carries a machine-readable line `; waamflow-post: arc_on=… arc_off=… dwell_units=…
+feed_units=… end=…` that `gcode_parse.parse_gcode` uses to read the program back.
+
+Positioner cells: with `external_axes` (the positioner angles in degrees at every toolpath point,
+columns E1 tilt, E2 turn, from `trajectory.cell.positioner_angles`) each motion carries them as
+rotary-axis words, letters from `rotary_axes` (the machine profile's, e.g. A/C for a table that
+tilts about X and turns about Z, B/C when the tilt axis is the machine's Y) in `rotary_units`
+(deg or rad). X/Y/Z stay in the part frame on the positioner table: the controller's tool centre
+point control (LinuxCNC `xyzac-trt-kins`, Sinumerik TRAORI, Fanuc G43.4) turns them into machine
+motion. A rotary word is written when its value changes (and on the first motion).
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .common import check_templates, num, process_lines, process_summary, short
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
+                     short, tool_lines, tool_summary)
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,8 +59,44 @@ class GcodeSettings:
     travel_speed: float = 100.0
     process_codes: dict[str, str] = field(default_factory=dict)
     decimals: int = 3
+    rotary_axes: tuple[str, ...] = ("A", "C")
+    rotary_units: str = "deg"
+    external_axes: np.ndarray | None = None
+    comment_style: str = "semicolon"
+    feed_units: str = "mm/min"
+    start_code: tuple[str, ...] = ()
+    layer_code: tuple[str, ...] = ()
+    end_code: tuple[str, ...] = ()
+    final_lift: float = 0.0
+    program_end: str = "M30"
+    preamble: tuple[str, ...] = ()
+    postamble: tuple[str, ...] = ()
+
+    tool_on: str = TOOL_COMMANDS["gcode"][0]
+    tool_off: str = TOOL_COMMANDS["gcode"][1]
 
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
+        if self.comment_style not in ("semicolon", "parentheses"):
+            raise ValueError(f"comment_style must be 'semicolon' or 'parentheses', not {self.comment_style!r}")
+        if self.feed_units not in ("mm/min", "mm/s"):
+            raise ValueError(f"feed_units must be 'mm/min' or 'mm/s', not {self.feed_units!r}")
+        if not (self.final_lift >= 0.0 and np.isfinite(self.final_lift)):
+            raise ValueError(f"final_lift must be ≥ 0 mm, not {self.final_lift}")
+        for name in ("start_code", "layer_code", "end_code", "preamble", "postamble"):
+            for line in getattr(self, name):
+                if "\n" in line:
+                    raise ValueError(f"{name}: one line per entry, no newlines ({line!r})")
+        for tpl in self.layer_code:
+            check_line_template(tpl)
+        if not self.program_end.strip() or any(c in self.program_end for c in ";()\n"):
+            raise ValueError("program_end must be a non-empty code without comments or newlines")
+        if self.rotary_units not in ("deg", "rad"):
+            raise ValueError(f"rotary_units must be 'deg' or 'rad', not {self.rotary_units!r}")
+        letters = tuple(self.rotary_axes)
+        if len(set(letters)) != len(letters) or any(a not in ("A", "B", "C", "U", "V", "W") for a in letters):
+            raise ValueError(f"rotary_axes {list(letters)!r}: distinct letters among A, B, C, U, V, W")
         if self.dwell_units not in ("s", "ms"):
             raise ValueError(f"dwell_units must be 's' or 'ms', not {self.dwell_units!r}")
         for name in ("arc_on", "arc_off"):
@@ -52,9 +108,36 @@ class GcodeSettings:
         check_templates(self.process_codes)
 
 
+def check_line_template(tpl: str) -> str:
+    """A layer-change template may use only the fields {layer} and {z}."""
+    import string
+
+    try:
+        fields = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None]
+        bad = [f for f in fields if f not in ("layer", "z")]
+        if bad:
+            raise ValueError(f"layer_code template {tpl!r} uses {bad}: only {{layer}} and {{z}}")
+        tpl.format(layer=1, z=1.0)
+    except (ValueError, IndexError, KeyError) as err:
+        raise ValueError(f"layer_code template {tpl!r}: {err}") from None
+    return tpl
+
+
 def header_tag(settings: GcodeSettings) -> str:
-    return (f"; waamflow-post: arc_on={settings.arc_on.strip().replace(' ', '_')} "
-            f"arc_off={settings.arc_off.strip().replace(' ', '_')} dwell_units={settings.dwell_units}")
+    return (f"waamflow-post: arc_on={settings.arc_on.strip().replace(' ', '_')} "
+            f"arc_off={settings.arc_off.strip().replace(' ', '_')} dwell_units={settings.dwell_units} "
+            f"feed_units={settings.feed_units} end={settings.program_end.strip().replace(' ', '_')}")
+
+
+def _commenter(settings: GcodeSettings):
+    """text → a whole-line comment; (code, text) → code with a trailing comment."""
+    if settings.comment_style == "parentheses":
+        def c(text: str) -> str:
+            return "(" + text.replace("(", "[").replace(")", "]").replace(";", ",") + ")"
+    else:
+        def c(text: str) -> str:
+            return "; " + text
+    return c
 
 
 def _dwell(seconds: float, settings: GcodeSettings) -> str:
@@ -63,59 +146,112 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
     return f"G4 P{short(round(seconds, 3))}"
 
 
+_NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+
+
+def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
+    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    if len(pts) == 0:
+        return []
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
+
+
 def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     """Render a `Plan` as G-code text (see module doc)."""
     pts = plan.moves.points
     st = plan.stats
     d = settings.decimals
+    c = _commenter(settings)
+    ext = None
+    if settings.external_axes is not None and len(pts):
+        ext = np.asarray(settings.external_axes, dtype=float).reshape(len(pts), -1)
+        if ext.shape[1] > len(settings.rotary_axes):
+            raise ValueError(f"{ext.shape[1]} positioner axes but rotary_axes names only "
+                             f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})")
+        if settings.rotary_units == "rad":
+            ext = np.radians(ext)
+    feed_scale = 60.0 if settings.feed_units == "mm/min" else 1.0
     out = [
-        f"; waamflow G-code -- program: {settings.program_name}",
-        "; units: mm (G21), absolute (G90), feed F in mm/min, "
-        f"dwell G4 P in {'milliseconds' if settings.dwell_units == 'ms' else 'seconds'}",
-        f"; summary: layers {st['layers']}, sections {st['sections']}, points {st['points']}, "
-        f"deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
-        f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s, "
-        f"estimated time {st['estimated_time_s']:.1f} s",
-        header_tag(settings),
-        "G21 ; millimetres",
-        "G90 ; absolute coordinates",
+        *settings.preamble,
+        c(f"waamflow G-code -- program: {settings.program_name}"),
+        c(f"units: mm (G21), absolute (G90), feed F in {settings.feed_units}, "
+          f"dwell G4 P in {'milliseconds' if settings.dwell_units == 'ms' else 'seconds'}"),
+        c(f"summary: layers {st['layers']}, sections {st['sections']}, points {st['points']}, "
+          f"deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
+          f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s, "
+          f"estimated time {st['estimated_time_s']:.1f} s"),
+        c(header_tag(settings)),
+        f"G21 {c('millimetres')}",
+        f"G90 {c('absolute coordinates')}",
     ]
+    if settings.feed_units == "mm/min":
+        out.append(f"G94 {c('feed per minute')}")
+    out.extend(settings.start_code)
+    if ext is not None:
+        names = ("E1 (tilt)", "E2 (turn)", "E3", "E4", "E5", "E6")
+        out.append(c("rotary axes: " + ", ".join(f"{a} = positioner {names[k]}" for k, a in
+                                               enumerate(settings.rotary_axes[: ext.shape[1]]))
+                     + f" in {'degrees' if settings.rotary_units == 'deg' else 'radians'}; X Y Z in the part "
+                       "frame on the positioner (tool centre point control on)"))
     if st.get("circular_motions"):
-        out.append("G17 ; arcs in the XY plane")
+        out.append(f"G17 {c('arcs in the XY plane')}")
     feed: float | None = None
+    rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
     keys = plan.moves.section_keys
+    words = _xyz_words(pts, d)
+    last = None
     for s in plan.steps:
         if isinstance(s, LayerStart):
-            out.append(f"; layer {s.layer} z={num(s.z, d)}")
+            out.append(c(f"layer {s.layer} z={num(s.z, d)}"))
+            out.extend(t.format(layer=s.layer, z=float(s.z)) for t in settings.layer_code)
         elif isinstance(s, SectionStart):
-            out.append(f"; section {keys[s.section]}")
+            out.append(c(f"section {keys[s.section]}"))
         elif isinstance(s, ProcessChange):
             desc = process_summary(s.params)
-            out.append(f"; zone {s.zone_id or '-'}" + (f": {desc}" if desc else ""))
+            out.append(c(f"zone {s.zone_id or '-'}" + (f": {desc}" if desc else "")))
             out.extend(process_lines(s.params, settings.process_codes))
         elif isinstance(s, ArcOn):
-            out.append(f"{settings.arc_on} ; arc on")
+            out.append(f"{settings.arc_on} {c('arc on')}")
         elif isinstance(s, ArcOff):
-            out.append(f"{settings.arc_off} ; arc off")
+            out.append(f"{settings.arc_off} {c('arc off')}")
         elif isinstance(s, Dwell):
-            out.append(f"{_dwell(s.seconds, settings)} ; {s.reason} dwell {short(round(s.seconds, 3))} s")
+            note = f" ({s.note})" if s.note else ""
+            out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s{note}')}")
+        elif isinstance(s, ToolOn):
+            lines = tool_lines(settings.tool_on, s.tool, s.params)
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(tool_summary(s.tool, s.params))}"])
+        elif isinstance(s, ToolOff):
+            lines = tool_lines(settings.tool_off, s.tool, {})
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
-            p = pts[s.end]
-            xyz = f"X{num(p[0], d)} Y{num(p[1], d)} Z{num(p[2], d)}"
+            last = pts[s.end]
+            xyz = words[s.end]
+            if ext is not None:
+                for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
+                    v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
+                    if v != rot_last[k]:
+                        xyz += f" {letter}{v}"
+                        rot_last[k] = v
             if s.mode == "travel" and settings.rapid_travel:
                 out.append(f"G0 {xyz}")
                 continue
             v = settings.travel_speed if s.mode == "travel" else s.speed
             f_word = ""
-            f_val = round(float(v) * 60.0, 1)
+            f_val = round(float(v) * feed_scale, 1 if feed_scale == 60.0 else 3)
             if f_val != feed:
                 f_word = f" F{short(f_val)}"
                 feed = f_val
             if s.circular:
-                c = np.asarray(s.center) - pts[s.start]
+                cc = np.asarray(s.center) - pts[s.start]
                 code = "G3" if s.normal[2] > 0 else "G2"
-                out.append(f"{code} {xyz} I{num(c[0], d)} J{num(c[1], d)}{f_word}")
+                out.append(f"{code} {xyz} I{num(cc[0], d)} J{num(cc[1], d)}{f_word}")
             else:
                 out.append(f"G1 {xyz}{f_word}")
-    out.append("M30 ; end of program")
+    if settings.final_lift > 0 and last is not None:
+        out.append(f"G0 Z{num(last[2] + settings.final_lift, d)} {c(f'final lift {short(settings.final_lift)} mm')}")
+    out.extend(settings.end_code)
+    out.append(f"{settings.program_end} {c('end of program')}")
+    out.extend(settings.postamble)
     return "\n".join(out) + "\n"

@@ -6,7 +6,8 @@ dwell units) and G4 S (seconds), G20/G21, G90/G91, F (mm/min, modal), `;` and `(
 the machine's arc ON/OFF lines (matched word for word) and M2/M30.
 
 Arc codes and dwell units come from the arguments, else from the `; waamflow-post:` header line
-our writer emits, else the defaults M3/M5/seconds.
+our writer emits, else the defaults M3/M5/seconds; so do the feed unit (mm/min, or mm/s) and the
+program end code (M2/M30, or the profile's, e.g. M84).
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b")
+_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
+                  r"(?:\s+feed_units=(mm/min|mm/s))?(?:\s+end=([^\s)]+))?")
 ARC_STEP_RAD = math.radians(2.0)  # arc discretisation: chord/arc length error < θ²/24 ≈ 5e-5
 
 
@@ -125,6 +127,8 @@ def parse_gcode(text: str, *, arc_on: str | None = None, arc_off: str | None = N
     on_words = _words(arc_on or "M3")
     off_words = _words(arc_off or "M5")
     dwell_scale = 1e-3 if (dwell_units or "s") == "ms" else 1.0
+    feed_to_mm_min = 60.0 if (tag and tag.group(4) == "mm/s") else 1.0
+    end_words = _words(tag.group(5).replace("_", " ")) if (tag and tag.group(5)) else None
 
     pos = np.zeros(3)
     scale, absolute, motion, feed = 1.0, True, 0, float("nan")
@@ -181,10 +185,10 @@ def parse_gcode(text: str, *, arc_on: str | None = None, arc_off: str | None = N
                 absolute = False
             elif g == 4:
                 dwell_here = True
-        if vals.get("M") in (2, 30):
+        if vals.get("M") in (2, 30) or (end_words and words == end_words):
             ended = True
         if "F" in vals:
-            feed = vals["F"] * scale
+            feed = vals["F"] * scale * feed_to_mm_min
         if dwell_here:
             sec = vals["S"] if "S" in vals else vals.get("P", 0.0) * dwell_scale
             dwells.append((ln, float(sec), run_pts is not None))

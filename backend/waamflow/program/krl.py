@@ -17,10 +17,23 @@ Arc control (`arc_control`):
   armed on the last welding motion, so the output drops exactly at its end point without
   stopping the advance run. Process values go through `process_codes` templates (KRL statements,
   e.g. {"current": "$ANOUT[1]={value:.0f}/500"}) plus a comment.
-* ``"arctech"``: ArcTech-style calls ``ARC_ON(k)``, ``ARC_SWI(k)`` (zone change inside a run),
-  ``ARC_OFF(k)`` where k is the zone's power-source ``job`` number (or, without one, the index of
-  the zone's distinct parameter set, listed in the header). The cell maps these onto its ArcTech
-  inline forms / wrapper routines (ArcTech's own folds carry option-specific data we cannot emit).
+* ``"arctech"``: KUKA.ArcTech (Basic 3.x, KSS 8.x) in the expert form its inline forms ARC ON /
+  ARC SWI / ARC OFF expand to: every welding motion is wrapped in calls of the ArcTech main routine
+  (`arctech_routine`, default ``ArcMainNG``) with ArcTech path TRIGGERs, e.g. ::
+
+      TRIGGER WHEN DISTANCE=1 DELAY=0 DO ArcMainNG(#ArcSwiMoveStd,WDAT3,WP1) PRIO=-1
+      ArcMainNG(#ArcSwiBeforeMoveStd,WDAT3,WP1)
+      LIN P14 C_DIS
+      ArcMainNG(#ArcSwiAfterMoveStd,WDAT3,WP1)
+
+  ARC ON wraps the motion into the run's first point (the torch stops there and ignites; when no
+  such motion precedes, e.g. after an interlayer dwell, a zero-length LIN to that point), ARC OFF
+  the run's last welding motion, ARC SWI every welding motion between. The weld data sets
+  ``DECL stArcDat_T WDAT<k>`` in the .dat are filled from the zone parameters: Weld.Velocity =
+  the segment's programmed speed (`arctech_velocity_unit`), Channel<n> = the zone parameter that
+  `arctech_channels` maps to channel n (power-source dependent; default 1 job, 2 wire feed m/min,
+  3 voltage V), Strike.StartTime = the ignition dwell, Strike/Crater channels as Weld. One set per
+  distinct (channels, speed, ignition dwell). The seam data ``WP1`` names the program.
 
 Points: every motion target (and CIRC auxiliary point) is ``P<i+1>`` for toolpath point i,
 declared ``DECL E6POS P<i+1>={X,Y,Z,A,B,C,E1..E6}`` in the .dat of the program that uses it.
@@ -46,9 +59,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.process import PARAMETERS_BY_NAME
 from .common import check_identifier, check_templates, num, process_lines, process_summary, short
+from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,7 +74,9 @@ class KrlSettings:
     tool_direction: "x" (KUKA default) or "z". max_points_per_file: 0 = no limit.
     split_per_layer: one subprogram per layer. process_codes: parameter name → KRL statement
     template with {value}. external_axes: (n, k ≤ 6) values of E1..Ek per toolpath point
-    (positioner, mm or degrees), or None."""
+    (positioner, mm or degrees), or None. arctech_routine: ArcTech main routine name.
+    arctech_channels: zone parameter → ArcTech channel number 1..8. arctech_velocity_unit:
+    unit of Weld.Velocity in the data sets ("m/min" or "m/s")."""
 
     program_name: str = "waamflow"
     tool: int = 1
@@ -73,7 +90,12 @@ class KrlSettings:
     split_per_layer: bool = False
     process_codes: dict[str, str] = field(default_factory=dict)
     external_axes: np.ndarray | None = None
+    arctech_routine: str = "ArcMainNG"
+    arctech_channels: dict[str, int] = field(default_factory=lambda: dict(ARCTECH_CHANNELS))
+    arctech_velocity_unit: str = "m/min"
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["krl"][0]     # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["krl"][1]
 
     @property
     def split(self) -> bool:
@@ -88,6 +110,29 @@ class KrlSettings:
         if self.max_points_per_file < 0 or 0 < self.max_points_per_file < 2:
             raise ValueError("max_points_per_file must be 0 (no limit) or at least 2")
         check_templates(self.process_codes)
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
+        check_identifier(self.arctech_routine, 24, "ArcTech routine name")
+        check_channels(self.arctech_channels)
+        if self.arctech_velocity_unit not in VELOCITY_UNITS:
+            raise ValueError(f"arctech_velocity_unit must be one of {', '.join(VELOCITY_UNITS)}")
+
+
+ARCTECH_CHANNELS = {"job": 1, "wire_feed_speed": 2, "voltage": 3}
+VELOCITY_UNITS = {"m/min": 0.06, "m/s": 0.001}   # factor from mm/s
+
+
+def check_channels(channels: dict[str, int]) -> dict[str, int]:
+    """ArcTech channel map: known zone parameter names → distinct channel numbers 1..8."""
+    for name, ch in channels.items():
+        if name not in PARAMETERS_BY_NAME:
+            raise ValueError(f"ArcTech channel for unknown zone parameter {name!r} "
+                             f"(known: {', '.join(PARAMETERS_BY_NAME)})")
+        if not isinstance(ch, int) or not 1 <= ch <= 8:
+            raise ValueError(f"ArcTech channel of {name!r} must be 1..8, not {ch!r}")
+    if len(set(channels.values())) != len(channels):
+        raise ValueError("ArcTech channels must be distinct")
+    return dict(channels)
 
 
 @dataclass(frozen=True)
@@ -160,24 +205,91 @@ def _cut(steps, cur: list[int], limit: int) -> int:
     return j
 
 
-def _weld_sets(plan: Plan) -> dict[tuple[int, int], int]:
-    """(section, zone) → ArcTech data-set number: the zone's `job` when it has one; zones without
-    a job are numbered by distinct parameter set, after the highest job number."""
-    sets: dict[tuple[int, int], int] = {}
-    changes = [st for st in plan.steps if isinstance(st, ProcessChange)]
-    top = max((int(round(st.params["job"])) for st in changes if "job" in st.params), default=0)
-    distinct: list[tuple] = []
-    for st in changes:
-        if (st.section, st.zone) in sets:
-            continue
-        if "job" in st.params:
-            sets[(st.section, st.zone)] = int(round(st.params["job"]))
-            continue
-        key = tuple(sorted(st.params.items()))
-        if key not in distinct:
-            distinct.append(key)
-        sets[(st.section, st.zone)] = top + distinct.index(key) + 1
-    return sets
+class _ArcTech:
+    """ArcTech weld data sets (numbered in order of first use) and the calls around motions."""
+
+    def __init__(self, plan: Plan, s: KrlSettings):
+        self.plan, self.s = plan, s
+        self.sets: dict[tuple, tuple[str, str]] = {}   # key → (name, description)
+        self.seam = "WP1"
+        self.used: set[str] = set()                     # names used by the program being written
+
+    def data_set(self, section: int, zone: int, speed: float, strike_s: float) -> str:
+        params = self.plan.moves.zone_params.get((section, zone), {})
+        chans = tuple(sorted((ch, round(float(params.get(name, 0.0)), 4))
+                             for name, ch in self.s.arctech_channels.items()))
+        key = (chans, round(float(speed), 3), round(float(strike_s), 3))
+        if key not in self.sets:
+            zid = self.plan.moves.zone_ids[zone] if 0 <= zone < len(self.plan.moves.zone_ids) else "-"
+            desc = (f"{self.plan.moves.section_keys[section]} zone {zid}: {process_summary(params) or 'no parameters'}, "
+                    f"{short(round(float(speed), 3))} mm/s")
+            self.sets[key] = (f"WDAT{len(self.sets) + 1}", desc)
+        self.used.add(self.sets[key][0])
+        return self.sets[key][0]
+
+    def call(self, action: str, wdat: str) -> str:
+        return f"{self.s.arctech_routine}(#{action},{wdat},{self.seam})"
+
+    def trigger(self, when: str, delay: str, action: str, wdat: str) -> str:
+        return f"TRIGGER WHEN {when} DELAY={delay} DO {self.call(action, wdat)} PRIO=-1"
+
+    def arc_on(self, wdat: str, motion: list[str]) -> list[str]:
+        return [";- ARC ON " + wdat,
+                self.trigger("DISTANCE=1", f"ArcGetDelay(#PreDefinition,{wdat})", "PreDefinition", wdat),
+                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", f"ArcGetDelay(#GasPreflow,{wdat})",
+                             "GasPreflow", wdat),
+                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", "0", "ArcOnMoveStd", wdat),
+                self.call("ArcOnBeforeMoveStd", wdat), *motion, self.call("ArcOnAfterMoveStd", wdat)]
+
+    def arc_swi(self, wdat: str, motion: list[str]) -> list[str]:
+        return [self.trigger("DISTANCE=1", "0", "ArcSwiMoveStd", wdat),
+                self.call("ArcSwiBeforeMoveStd", wdat), *motion, self.call("ArcSwiAfterMoveStd", wdat)]
+
+    def arc_off(self, wdat: str, motion: list[str]) -> list[str]:
+        return [";- ARC OFF " + wdat,
+                self.trigger(f"PATH=ArcGetPath(#ArcOffBefore,{wdat})", "0", "ArcOffBeforeOffStd", wdat),
+                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOff,{wdat})", "0", "ArcOffMoveStd", wdat),
+                self.call("ArcOffBeforeMoveStd", wdat), *motion, self.call("ArcOffAfterMoveStd", wdat)]
+
+    def decls(self) -> list[str]:
+        """The .dat declarations of the program just written: seam data WP1 and its weld data
+        sets WDAT<k> (a .dat's declarations are local to its program)."""
+        s = self.s
+        if not self.used:
+            return []
+        factor = VELOCITY_UNITS[s.arctech_velocity_unit]
+        out = [f'DECL stArcDat_T {self.seam}={{WdatId[] "{self.seam}",Strike {{SeamName[] "{s.program_name}",'
+               f'PartName[] "waamflow",SeamNumber 0,PartNumber 0,DesiredLength 0.0,LengthTolNeg 0.0,'
+               f'LengthTolPos 0.0,LengthCtrlActive FALSE}}}}']
+        for (chans, speed, strike), (name, desc) in self.sets.items():
+            if name not in self.used:
+                continue
+            values = dict(chans)
+            ch = ",".join(f"Channel{k} {num(values.get(k, 0.0), 4)}" for k in range(1, 9))
+            out.append(f";- {name}: {desc}" + (f", ignition dwell {short(strike)} s" if strike else ""))
+            out.append(
+                f'DECL stArcDat_T {name}={{WdatId[] "{name}",'
+                f'Strike {{JobModeId[] "Job mode",StartTime {num(strike, 3)},PreFlowTime 0.0,{ch},PurgeTime 0.0}},'
+                f'Weld {{JobModeId[] "Job mode",ParamSetId[] "Set1",Velocity {num(speed * factor, 5)},{ch}}},'
+                f'Weave {{Pattern #None,Length 4.0,Amplitude 2.0,Angle 0.0,LeftSideDelay 0.0,RightSideDelay 0.0}},'
+                f'Crater {{JobModeId[] "Job mode",ParamSetId[] "Set2",CraterTime 0.0,PostflowTime 0.0,{ch},'
+                f'BurnBackTime 0.0}}}}')
+        return out
+
+
+def _next_significant(steps, k: int):
+    """The step after k that is not a marker or process comment (layer, section, zone change)."""
+    for j in range(k + 1, len(steps)):
+        if not isinstance(steps[j], (LayerStart, SectionStart, ProcessChange)):
+            return steps[j]
+    return None
+
+
+def _first_weld(steps, k: int) -> Motion | None:
+    for j in range(k + 1, len(steps)):
+        if isinstance(steps[j], Motion):
+            return steps[j] if steps[j].mode == "weld" else None
+    return None
 
 
 def _e6pos(i: int, pts: np.ndarray, abc: np.ndarray, ext: np.ndarray | None, d: int) -> str:
@@ -190,7 +302,7 @@ def _e6pos(i: int, pts: np.ndarray, abc: np.ndarray, ext: np.ndarray | None, d: 
             f"A {num(o[0], 4)},B {num(o[1], 4)},C {num(o[2], 4)},{es}}}")
 
 
-def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets) -> tuple[list[str], list[int]]:
+def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech | None) -> tuple[list[str], list[int]]:
     """Body lines of one program and the point indices it references."""
     steps = plan.steps
     keys = plan.moves.section_keys
@@ -198,8 +310,25 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets) -> tuple
     lines: list[str] = []
     used: list[int] = []
     vel: float | None = None
-    active_set: int | None = None
     out_no = s.arc_output
+    approach: tuple[int, int] | None = None   # lines[a:b] of the arc-off motion just written (ArcTech)
+    strike = 0.0                              # ignition dwell of the run being started (ArcTech)
+
+    def speed_lines(v: float) -> list[str]:
+        nonlocal vel
+        v_ms = round(float(v) / 1000.0, 6)
+        if v_ms == vel:
+            return []
+        vel = v_ms
+        return [f"$VEL.CP={v_ms:.6f} ; {short(round(float(v), 3))} mm/s"]
+
+    def motion_lines(st: Motion, blend: str) -> list[str]:
+        if st.circular:
+            used.extend([st.via, st.end])
+            return [f"CIRC P{st.via + 1},P{st.end + 1}{blend}"]
+        used.append(st.end)
+        return [f"LIN P{st.end + 1}{blend}"]
+
     for k in chunk.steps:
         st: Step = steps[k]
         if isinstance(st, LayerStart):
@@ -209,79 +338,89 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, weld_sets) -> tuple
         elif isinstance(st, ProcessChange):
             desc = process_summary(st.params)
             lines.append(f";- zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
-            if s.arc_control == "output":
+            if arctech is None:
                 lines.extend(process_lines(st.params, s.process_codes))
-            else:
-                new_set = weld_sets[(st.section, st.zone)]
-                nxt = steps[k + 1] if k + 1 < len(steps) else None
-                if not isinstance(nxt, ArcOn) and active_set is not None and new_set != active_set:
-                    lines.append(f"ARC_SWI({new_set})")
-                active_set = new_set
         elif isinstance(st, ArcOn):
-            if s.arc_control == "output":
+            if arctech is None:
                 lines.append(f"$OUT[{out_no}]=TRUE ; arc on")
-            else:
-                active_set = weld_sets.get((st.section, st.zone), 1)
-                lines.append(f"ARC_ON({active_set})")
+                continue
+            nxt = steps[k + 1] if k + 1 < len(steps) else None
+            strike = nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
+            first = _first_weld(steps, k)
+            wdat = arctech.data_set(st.section, st.zone, first.speed if first else s.travel_speed, strike)
+            if approach is not None:
+                a, b = approach
+                lines[a:b] = arctech.arc_on(wdat, lines[a:b])
+            else:                                   # ignite where the torch stands
+                used.append(st.point)
+                lines.extend(arctech.arc_on(wdat, [f"LIN P{st.point + 1} ; ignite in place"]))
         elif isinstance(st, ArcOff):
-            if s.arc_control == "output":
+            if arctech is None:
                 lines.append(f";- arc off at P{st.point + 1} (trigger)")
-            else:
-                lines.append(f"ARC_OFF({active_set if active_set is not None else 1})")
         elif isinstance(st, Dwell):
-            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell")
+            approach = None
+            if arctech is not None and st.reason == "ignition":
+                lines.append(f";- ignition dwell {short(round(st.seconds, 3))} s (Strike.StartTime)")
+                continue
+            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
+        elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
+            approach = None
+            on = isinstance(st, ToolOn)
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
+                f"{tl[-1]} ; {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
         elif isinstance(st, Motion):
             v = s.travel_speed if st.mode == "travel" else st.speed
-            v_ms = round(float(v) / 1000.0, 6)
-            if v_ms != vel:
-                lines.append(f"$VEL.CP={v_ms:.6f} ; {short(round(float(v), 3))} mm/s")
-                vel = v_ms
+            start = len(lines)
+            lines.extend(speed_lines(v))
             nxt = steps[k + 1] if k + 1 < len(steps) else None
-            if s.arc_control == "output" and isinstance(nxt, ArcOff):
-                lines.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[{out_no}]=FALSE")
             blend = " C_DIS" if (s.blend_distance > 0 and not st.stop) else ""
-            if st.circular:
-                lines.append(f"CIRC P{st.via + 1},P{st.end + 1}{blend}")
-                used += [st.via, st.end]
-            else:
-                lines.append(f"LIN P{st.end + 1}{blend}")
-                used.append(st.end)
+            if arctech is not None and st.mode == "weld":
+                wdat = arctech.data_set(st.section, st.zone, st.speed, 0.0)
+                wrap = arctech.arc_off if isinstance(_next_significant(steps, k), ArcOff) else arctech.arc_swi
+                lines.extend(wrap(wdat, motion_lines(st, blend)))
+                approach = None
+                continue
+            if arctech is None and isinstance(nxt, ArcOff):
+                lines.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[{out_no}]=FALSE")
+            lines.extend(motion_lines(st, blend))
+            approach = (start, len(lines))
     return lines, used
 
 
-def _header(plan: Plan, s: KrlSettings, weld_sets) -> list[str]:
+def _header(plan: Plan, s: KrlSettings) -> list[str]:
     st = plan.stats
-    out = [
+    arc = (f"digital output $OUT[{s.arc_output}]" if s.arc_control == "output" else
+           f"KUKA.ArcTech {s.arctech_routine}, weld data sets WDAT<k> in the .dat (Weld.Velocity in "
+           f"{s.arctech_velocity_unit}; channels " +
+           ", ".join(f"{ch} {name}" for name, ch in sorted(s.arctech_channels.items(), key=lambda kv: kv[1])) + ")")
+    return [
         f";- waamflow KUKA KRL program {s.program_name}",
         f";- layers {st['layers']}, sections {st['sections']}, points {st['points']}, motions {st['motions']}",
         f";- deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
         f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s",
         f";- units: mm, degrees, $VEL.CP in m/s; tool {s.tool}, base {s.base}, "
         f"tool direction {s.tool_direction.upper()}, blend $APO.CDIS {short(s.blend_distance)} mm",
-        f";- arc control: " + (f"digital output $OUT[{s.arc_output}]" if s.arc_control == "output"
-                                  else "ArcTech-style ARC_ON/ARC_SWI/ARC_OFF(data set)"),
+        f";- arc control: {arc}",
     ]
-    if s.arc_control == "arctech":
-        listed: set[int] = set()
-        for (sec, zone), n in sorted(weld_sets.items(), key=lambda kv: kv[1]):
-            if n in listed:
-                continue
-            listed.add(n)
-            params = plan.moves.zone_params.get((sec, zone), {})
-            zid = plan.moves.zone_ids[zone] if 0 <= zone < len(plan.moves.zone_ids) else ""
-            out.append(f";- data set {n} (first used by {plan.moves.section_keys[sec]} zone {zid}): "
-                       f"{process_summary(params)}")
-    return out
 
 
-def _init(s: KrlSettings) -> list[str]:
-    return [
+def _init(s: KrlSettings, n_ext: int) -> list[str]:
+    out = [
         "BAS(#INITMOV,0)",
         f"BAS(#TOOL,{s.tool})",
         f"BAS(#BASE,{s.base})",
         f"$APO.CDIS={short(s.blend_distance)}",
-        "PTP $AXIS_ACT ; BCO run to the current position",
     ]
+    if n_ext:
+        axes = "E1" if n_ext == 1 else f"E1..E{n_ext}"
+        out += [f";- external axes {axes} (positioner) in every E6POS; BASE_DATA[{s.base}] must be the "
+                "base coupled to the positioner (external kinematics)",
+                f"IF $EX_AX_NUM<{n_ext} THEN",
+                f"  HALT ; this program moves {axes}: the controller has fewer external axes",
+                "ENDIF"]
+    out.append("PTP $AXIS_ACT ; BCO run to the current position")
+    return out
 
 
 def _src(name: str, header: list[str], body: list[str]) -> str:
@@ -289,8 +428,8 @@ def _src(name: str, header: list[str], body: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _dat(name: str, points: list[int], pts, abc, ext, d) -> str:
-    lines = [f"DEFDAT {name}"]
+def _dat(name: str, points: list[int], pts, abc, ext, d, extra: list[str] = ()) -> str:
+    lines = [f"DEFDAT {name}", *extra]
     lines += [_e6pos(i, pts, abc, ext, d) for i in sorted(set(points))]
     lines.append("ENDDAT")
     return "\n".join(lines) + "\n"
@@ -303,24 +442,32 @@ def write_krl(plan: Plan, settings: KrlSettings = KrlSettings()) -> dict[str, st
     ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(pts), -1)
     if ext is not None and ext.shape[1] > 6:
         raise ValueError("at most 6 external axes (E1..E6)")
+    n_ext = 0 if ext is None else ext.shape[1]
     abc = kuka_abc(tool_frames(plan.moves.tool_axis, s.tool_direction)) if len(pts) else np.zeros((0, 3))
-    weld_sets = _weld_sets(plan) if s.arc_control == "arctech" else {}
-    header = _header(plan, s, weld_sets)
+    arctech = _ArcTech(plan, s) if s.arc_control == "arctech" else None
+    header = _header(plan, s)
     chunks = _chunks(plan, s)
     files: dict[str, str] = {}
+
+    def render(ch: _Chunk) -> tuple[list[str], list[int], list[str]]:
+        if arctech is not None:
+            arctech.used = set()
+        body, used = _render_chunk(plan, s, ch, arctech)
+        return body, used, arctech.decls() if arctech is not None else []
+
     if not s.split:
-        body, used = _render_chunk(plan, s, chunks[0], weld_sets)
-        files["src"] = _src(s.program_name, header, _init(s) + body)
-        files["dat"] = _dat(s.program_name, used, pts, abc, ext, s.decimals)
+        body, used, decls = render(chunks[0])
+        files["src"] = _src(s.program_name, header, _init(s, n_ext) + body)
+        files["dat"] = _dat(s.program_name, used, pts, abc, ext, s.decimals, decls)
         return files
     calls = []
     for ch in chunks:
-        body, used = _render_chunk(plan, s, ch, weld_sets)
+        body, used, decls = render(ch)
         files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src"], body)
-        files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals)
+        files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals, decls)
         calls.append(f"{ch.name}( )")
     off = [f"$OUT[{s.arc_output}]=FALSE ; arc off (safety)"] if s.arc_control == "output" else []
     files["src"] = _src(s.program_name, header + [f";- subprograms: {len(chunks)} (files {s.program_name}_<suffix>.src/.dat)"],
-                        _init(s) + calls + off)
+                        _init(s, n_ext) + calls + off)
     files["dat"] = _dat(s.program_name, [], pts, abc, ext, s.decimals)
     return dict(sorted(files.items(), key=lambda kv: (kv[0] not in ("src", "dat"), kv[0])))

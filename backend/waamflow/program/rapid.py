@@ -42,8 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .common import check_identifier, num, process_summary, short
+from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import quaternions, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,7 +52,11 @@ class RapidSettings:
     """program_name: MODULE name (≤ 32 characters). tool / wobj: names of the tooldata and
     wobjdata declared on the controller. blend_distance: mm, zonedata radius (0 = fine
     everywhere). travel_speed: mm/s for arc-off travel. reorientation_speed: deg/s (speeddata
-    v_ori). tool_direction: "z" (ABB) or "x". external_axes: (n, k ≤ 6) per point, or None."""
+    v_ori). tool_direction: "z" (ABB) or "x". external_axes: (n, k ≤ 6) per point, or None.
+    positioner_unit: mechanical unit of the positioner (e.g. "STN1"); with external axes the
+    module declares a coordinated work object (see `coordinated_wobj`) on it and brackets the
+    motion with ActUnit/DeactUnit. work_frame: the part origin in the positioner flange frame
+    (x, y, z mm, q1..q4), the oframe of that work object."""
 
     program_name: str = "waamflow"
     tool: str = "tWeldGun"
@@ -61,12 +66,45 @@ class RapidSettings:
     reorientation_speed: float = 500.0
     tool_direction: str = "z"
     external_axes: np.ndarray | None = None
+    positioner_unit: str = "STN1"
+    work_frame: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["rapid"][0]   # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["rapid"][1]
 
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         check_identifier(self.program_name, 32)
         check_identifier(self.tool, 32, "tool name")
         check_identifier(self.wobj, 32, "work object name")
+        if self.positioner_unit:
+            check_identifier(self.positioner_unit, 32, "positioner mechanical unit")
+        if len(self.work_frame) != 7:
+            raise ValueError("work_frame must be (x, y, z, q1, q2, q3, q4)")
+
+    @property
+    def coordinated(self) -> bool:
+        """Motion coordinated with the positioner: external axes and a mechanical unit given."""
+        return self.external_axes is not None and bool(self.positioner_unit)
+
+    @property
+    def wobj_name(self) -> str:
+        """The work object the motions use: `wobj`, or for coordinated motion (where the fixed
+        wobj0 cannot serve) `wobj_<unit>` unless another name was given."""
+        if self.coordinated and self.wobj == "wobj0":
+            return f"wobj_{self.positioner_unit}"[:32]
+        return self.wobj
+
+
+def coordinated_wobj(s: RapidSettings) -> str:
+    """wobjdata of a work object moved by the positioner: robhold FALSE (the robot does not hold
+    it), ufprog FALSE (movable user frame, its uframe set by the system from the positioner's
+    axes), ufmec = the positioner's mechanical unit, oframe = the part origin on the flange."""
+    x, y, z, *q = s.work_frame
+    qs = ",".join(num(v, 6) for v in q)
+    return (f"PERS wobjdata {s.wobj_name} := [FALSE,FALSE,\"{s.positioner_unit}\",[[0,0,0],[1,0,0,0]],"
+            f"[[{num(x, 3)},{num(y, 3)},{num(z, 3)}],[{qs}]]];")
 
 
 def _arcdata(params: dict) -> str:
@@ -131,7 +169,7 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
     quat = quaternions(tool_frames(plan.moves.tool_axis, s.tool_direction)) if len(pts) else np.zeros((0, 4))
     speeds, seams, welds = _Names("vw"), _Names("sm"), _Names("wd")
     zone = "fine" if s.blend_distance <= 0 else "zw"
-    tool = f"{s.tool}\\WObj:={s.wobj}"
+    tool = f"{s.tool}\\WObj:={s.wobj_name}"
 
     def speed(v: float) -> str:
         v = round(float(v), 3)
@@ -200,7 +238,12 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
             if held is not None:
                 ignite_at = held.end
                 flush()
-            body.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell")
+            body.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
+        elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
+            flush()
+            on = isinstance(st, ToolOn)
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            body += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
         elif isinstance(st, ArcOff):
             body.append("! arc off")
         elif isinstance(st, Motion):
@@ -229,16 +272,25 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
         f"  ! layers {st_['layers']}, sections {st_['sections']}, points {st_['points']}, motions {st_['motions']}",
         f"  ! deposition {st_['deposition_length_mm']:.3f} mm, travel {st_['travel_length_mm']:.3f} mm, "
         f"arc-on count {st_['arc_on_count']}, dwell {st_['dwell_total_s']:.3f} s",
-        f"  ! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj}, blend zone {short(bd)} mm",
+        f"  ! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
         "  ! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
         "arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A, voltage2, wirefeed2, control2]",
     ]
+    if ext is not None:
+        out.append(f"  ! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
+                   + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else ""))
+    if s.coordinated:
+        out.append("  " + coordinated_wobj(s))
     if bd > 0:
         out.append(f"  CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
                    f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
     out += ["  " + x for x in speeds.decls() + seams.decls() + welds.decls()]
     out += ["  " + _robtarget(i, pts, quat, ext, d) for i in sorted(set(used))]
     out += ["  PROC main()", "    ConfL\\Off;"]
+    if s.coordinated:
+        out.append(f"    ActUnit {s.positioner_unit};")
     out += ["    " + x for x in body]
+    if s.coordinated:
+        out.append(f"    DeactUnit {s.positioner_unit};")
     out += ["  ENDPROC", "ENDMODULE"]
     return "\n".join(out) + "\n"

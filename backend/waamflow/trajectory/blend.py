@@ -59,12 +59,16 @@ class BlendedPath:
 
 def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode: str = "cdis",
                distance: float = 5.0, apo_time_s: float = np.inf, apo_min_mm: float = 0.0, normal_acc: float = np.inf,
-               normal_jerk: float = np.inf) -> BlendedPath:
+               normal_jerk: float = np.inf, catchup: np.ndarray | None = None) -> BlendedPath:
     """Blend the corners of a polyline.
 
     points: (n, 3) mm, no zero-length segments. speed: (n-1,) programmed mm/s per segment.
     stop: (n,) bool, exact stop at the vertex (arc switch, dwell, ends). mode: "cdis" | "zone".
     distance: CDIS or zone radius, mm (0 = exact stop everywhere).
+    catchup: (n,) 0…1 per vertex or None — the post-stop catch-up (mode "cdis"): the
+    speed-dependent limit apo_min_mm + v·apo_time_s is lifted by this fraction towards the
+    geometric one, and a neighbour that is an exact stop (no blend of its own) leaves
+    (0.5 + 0.5·catchup) of the segment to this blend instead of half.
     """
     P = np.asarray(points, dtype=float)
     n = len(P)
@@ -79,9 +83,21 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
         u1, u2 = U[:-1], U[1:]
         alpha[1:-1] = np.arccos(np.clip(np.einsum("ij,ij->i", u1, u2), -1.0, 1.0))
         v_prev, v_next = speed[:-1], speed[1:]
-        dk = np.minimum.reduce([np.full(n - 2, float(distance)), L[:-1] / 2, L[1:] / 2])
+        share_prev = np.full(n - 2, 0.5)
+        share_next = np.full(n - 2, 0.5)
+        c = None
+        if catchup is not None and mode == "cdis":
+            c = np.clip(np.asarray(catchup, dtype=float)[1:-1], 0.0, 1.0)
+            st0 = np.asarray(stop, dtype=bool).copy()
+            st0[0] = st0[-1] = True
+            share_prev = np.where(st0[:-2], 0.5 + 0.5 * c, 0.5)
+            share_next = np.where(st0[2:], 0.5 + 0.5 * c, 0.5)
+        dk = np.minimum.reduce([np.full(n - 2, float(distance)), L[:-1] * share_prev, L[1:] * share_next])
         if mode == "cdis":
-            dk = np.minimum(dk, apo_min_mm + apo_time_s * np.minimum(v_prev, v_next))
+            d_apo = apo_min_mm + apo_time_s * np.minimum(v_prev, v_next)
+            if c is not None:
+                d_apo = np.where(c > 0, d_apo + c * np.maximum(dk - d_apo, 0.0), d_apo)
+            dk = np.minimum(dk, d_apo)
         turn = alpha[1:-1]
         dk = np.where(turn > 1e-9, dk, 0.0)
         half = turn / 2

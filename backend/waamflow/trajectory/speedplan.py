@@ -1,4 +1,4 @@
-"""Path speed profile along arc length: junction speeds + ruckig as one DOF (the controller's interpolator).
+"""Path speed profile along arc length: junction speeds + a jerk-limited one-DOF profile per span (the controller's interpolator).
 
 The blended path is cut into spans (straight parts at their programmed speed, blend curves at
 their corner cap). Junction speeds are planned first — caps from corners, 0 at exact stops —
@@ -8,10 +8,13 @@ jerk-limited distance needed to change speed between two zero-acceleration state
     D(v0, v1) = (v0 + v1)/2 · (Δ/a + a/j)     if Δ = |v1 − v0| ≥ a²/j   (acceleration saturates)
     D(v0, v1) = (v0 + v1) · √(Δ/j)            otherwise
 
-(the distance ruckig's velocity interface covers for the same change). Then one ruckig
-position-interface call per span, (s_i, v_i, 0) → (s_i+1, v_i+1, 0), with the span's speed as
-`max_velocity` (robot-modelling-notes.md, "Ruckig"). Profiles are kept as piecewise-cubic
-phases and evaluated vectorised.
+(the distance ruckig's velocity interface covers for the same change). Speeding up and slowing
+down have their own limits (a, j) and (a_dec, j_dec): the KRC2 of the study ramps up and down
+differently (robot-study.md, identified T/L_init_accel vs T/L_final_decel). Then every span gets
+its time-optimal profile (s_i, v_i, 0) → (s_i+1, v_i+1, 0) in closed form, vectorised: the
+seven-phase layout of ruckig's one-DOF position profiles (robot-modelling-notes.md, "Ruckig"),
+which the community ruckig cannot produce with different speed-up and slow-down limits.
+Profiles are kept as piecewise-cubic phases and evaluated vectorised.
 
 Units: mm, s, mm/s, mm/s², mm/s³.
 """
@@ -38,11 +41,15 @@ class Spans:
     v: np.ndarray
     stop_after: np.ndarray
     vertex_after: np.ndarray
+    acc: np.ndarray | None = None
+    jerk: np.ndarray | None = None
+    dec: np.ndarray | None = None
+    dec_jerk: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class SpanProfiles:
-    """Ruckig phases of all spans. duration: (K,) s. t/j: (K, 7) phase durations s and jerks.
+    """Jerk-limited phases of all spans. duration: (K,) s. t/j: (K, 7) phase durations s and jerks.
     p/v/a: (K, 8) state at the phase boundaries (p relative to the span start, mm)."""
 
     duration: np.ndarray
@@ -82,11 +89,20 @@ def reachable_speed(v1: float, length: float, a: float, j: float) -> float:
     return v1 + lo
 
 
-def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float, j: float) -> Spans:
+def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float, j: float,
+               a_dec: float | None = None, j_dec: float | None = None, limits=None) -> Spans:
     """Cut the blended path into spans and plan junction speeds (backward then forward pass).
 
     speed: (n-1,) programmed speed per segment (already capped), mm/s. stop: (n,) bool.
+    a, j: speed-up limits; a_dec, j_dec: slow-down limits (None = the speed-up ones). The
+    backward pass (can every span slow down to its exit speed?) uses the slow-down limits, the
+    forward pass (can it speed up to it?) the speed-up ones. limits: optional callable
+    (programmed speed per span (K,) mm/s) → (acc, jerk, dec, dec_jerk) arrays (K,), overriding
+    the constants (limits identified per speed, `RobotProfile.ramp_limits`); a blend curve's
+    programmed speed is the lower of its two segments'.
     """
+    a_dec = a if a_dec is None else a_dec
+    j_dec = j if j_dec is None else j_dec
     n = len(path.d)
     nseg = n - 1
     # interleave straight k (k = 0..n-2) and curve k+1 (k < n-2)
@@ -101,8 +117,10 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     lcap = np.concatenate([path.cap[:-1], path.cap[1:-1]])[order]
     rcap = np.concatenate([path.cap[1:], path.cap[1:-1]])[order]
     rvert = np.concatenate([np.arange(1, n), np.arange(1, n - 1)])[order]
+    vprog = np.concatenate([speed, np.minimum(speed[:-1], speed[1:])])[order]
     keep = (s1 - s0) > 1e-9
     s0, s1, vmax, lcap, rcap, rvert = s0[keep], s1[keep], vmax[keep], lcap[keep], rcap[keep], rvert[keep]
+    vprog = vprog[keep]
     K = len(s0)
     jc = np.zeros(K + 1)
     if K > 1:
@@ -111,65 +129,112 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     jc[1:][stop_after] = 0.0
     jc = np.minimum(jc, np.concatenate([[np.inf], vmax])).clip(min=0.0)
     jc[:-1] = np.minimum(jc[:-1], vmax)
+    if limits is not None:
+        A, J, AD, JD = (np.asarray(x, dtype=float) for x in limits(vprog))
+    else:
+        A, J, AD, JD = (np.full(K, float(x)) for x in (a, j, a_dec, j_dec))
+    # a junction that constrains nothing (straight on at the same speed and limits, no stop) is
+    # no junction: merge its spans, so a pass cut into short pieces ramps as one motion (every
+    # span profile starts and ends at zero acceleration)
+    if K > 1:
+        free = (~stop_after[:-1] & (jc[1:-1] >= vmax[:-1] * (1 - 1e-12)) & (vmax[1:] == vmax[:-1])
+                & (A[1:] == A[:-1]) & (J[1:] == J[:-1]) & (AD[1:] == AD[:-1]) & (JD[1:] == JD[:-1]))
+        if free.any():
+            first = np.concatenate([[True], ~free])
+            last = np.concatenate([~free, [True]])
+            s0, s1 = s0[first], s1[last]
+            vmax, rvert, stop_after = vmax[first], rvert[last], stop_after[last]
+            A, J, AD, JD = A[first], J[first], AD[first], JD[first]
+            jc = np.concatenate([jc[:1], jc[1:][last]])
+            K = len(s0)
     L = s1 - s0
     v = jc.tolist()
-    Ll = (L * (1 - 1e-4)).tolist()  # keep off the feasibility edge, where ruckig's solution degenerates
+    Ll = (L * (1 - 1e-4)).tolist()  # keep off the feasibility edge
+    Al, Jl, ADl, JDl = A.tolist(), J.tolist(), AD.tolist(), JD.tolist()
     for i in range(K - 1, -1, -1):
-        r = reachable_speed(v[i + 1], Ll[i], a, j)
+        r = reachable_speed(v[i + 1], Ll[i], ADl[i], JDl[i])
         if r < v[i]:
             v[i] = r
     for i in range(K):
-        r = reachable_speed(v[i], Ll[i], a, j)
+        r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
         if r < v[i + 1]:
             v[i + 1] = r
-    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert)
+    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert, A, J, AD, JD)
 
 
-def profile_spans(spans: Spans, a: float, j: float) -> SpanProfiles:
-    """One ruckig position-interface call per span: (0, v_i, 0) → (L_i, v_i+1, 0)."""
-    from ruckig import InputParameter, Result, Ruckig, Trajectory  # lazy: keeps start-up light
+def _ramp(dv: np.ndarray, a, j) -> tuple[np.ndarray, np.ndarray]:
+    """Jerk-limited speed change by dv ≥ 0 between zero accelerations: (jerk phase time, constant
+    acceleration phase time), s — the ramp is jerk, constant acceleration, jerk (each jerk phase
+    t1, so its speed curve is point-symmetric and it covers (v_start + v_end)/2 · (2·t1 + t2))."""
+    sat = dv >= a * a / j
+    t1 = np.where(sat, a / j, np.sqrt(np.maximum(dv, 0.0) / j))
+    t2 = np.where(sat, dv / a - a / j, 0.0)
+    return t1, t2
+
+
+def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, a_dec: float | None = None,
+                  j_dec: float | None = None) -> SpanProfiles:
+    """Time-optimal jerk-limited profile of every span, (0, v_i, 0) → (L_i, v_i+1, 0), vectorised.
+
+    Each span speeds up from v_i to a peak v_p with the speed-up limits (a, j), cruises at v_p and
+    slows down to v_i+1 with the slow-down limits (a_dec, j_dec): seven phases (jerk, constant
+    acceleration, jerk, cruise, jerk, constant deceleration, jerk), the phase layout of ruckig's
+    one-DOF position profiles, which cannot take different limits for speeding up and slowing
+    down. v_p = the span's max speed when the span is long enough, else the largest speed whose
+    two ramps fit the span (bisection). The junction speeds of `plan_spans` make every span
+    feasible (v_p ≥ max(v_i, v_i+1)). The limits are the spans' own (`Spans.acc` …) unless given."""
     K = len(spans.s0)
-    otg = Ruckig(1)
-    inp = InputParameter(1)
-    traj = Trajectory(1)
-    inp.max_acceleration = [a]
-    inp.max_jerk = [j]
-    inp.current_acceleration = [0.0]
-    inp.target_acceleration = [0.0]
-    dur = np.zeros(K)
-    T = np.zeros((K, 7))
-    J = np.zeros((K, 7))
+    a = spans.acc if a is None else np.full(K, float(a))
+    j = spans.jerk if j is None else np.full(K, float(j))
+    a_dec = (spans.dec if spans.dec is not None else a) if a_dec is None else np.full(K, float(a_dec))
+    j_dec = (spans.dec_jerk if spans.dec_jerk is not None else j) if j_dec is None else np.full(K, float(j_dec))
+    L = spans.s1 - spans.s0
+    v0, v1 = spans.v[:-1], spans.v[1:]
+    lo = np.maximum(v0, v1)
+    hi = np.maximum(spans.vmax, lo)
+
+    def dist(vp):
+        tu1, tu2 = _ramp(vp - v0, a, j)
+        td1, td2 = _ramp(vp - v1, a_dec, j_dec)
+        return 0.5 * (v0 + vp) * (2 * tu1 + tu2) + 0.5 * (vp + v1) * (2 * td1 + td2)
+
+    vp = hi.copy()
+    short = dist(hi) > L
+    if short.any():
+        a_lo, a_hi = lo[short], hi[short]
+        Ls = L[short]
+        v0s, v1s = v0[short], v1[short]
+        As, Js, ADs, JDs = a[short], j[short], a_dec[short], j_dec[short]
+        for _ in range(60):
+            mid = 0.5 * (a_lo + a_hi)
+            tu1, tu2 = _ramp(mid - v0s, As, Js)
+            td1, td2 = _ramp(mid - v1s, ADs, JDs)
+            d = 0.5 * (v0s + mid) * (2 * tu1 + tu2) + 0.5 * (mid + v1s) * (2 * td1 + td2)
+            over = d > Ls
+            a_hi = np.where(over, mid, a_hi)
+            a_lo = np.where(over, a_lo, mid)
+        vp[short] = a_lo
+    tu1, tu2 = _ramp(vp - v0, a, j)
+    td1, td2 = _ramp(vp - v1, a_dec, j_dec)
+    cruise = np.where(vp > 1e-12, np.maximum(L - dist(vp), 0.0) / np.maximum(vp, 1e-12), 0.0)
+    T = np.column_stack([tu1, tu2, tu1, cruise, td1, td2, td1])
+    ju = np.where(tu1 > 0, j, 0.0)
+    jd = np.where(td1 > 0, j_dec, 0.0)
+    z = np.zeros(K)
+    J = np.column_stack([ju, z, -ju, z, -jd, z, jd])
     Pp = np.zeros((K, 8))
     Vv = np.zeros((K, 8))
     Aa = np.zeros((K, 8))
-    L = (spans.s1 - spans.s0).tolist()
-    vj = spans.v.tolist()
-    vm = spans.vmax.tolist()
-    for i in range(K):
-        v0, v1 = vj[i], vj[i + 1]
-        vmax = max(vm[i], v0, v1, 1e-6)
-        inp.current_position = [0.0]
-        inp.current_velocity = [v0]
-        inp.target_position = [L[i]]
-        inp.target_velocity = [v1]
-        inp.max_velocity = [vmax]
-        res = otg.calculate(inp, traj)
-        shrink = 1.0
-        while (res not in (Result.Working, Result.Finished) or min(traj.profiles[0][0].v) < -1e-9) and shrink > 1e-3:
-            # numerically at the edge of feasibility: arrive a little slower
-            shrink *= 0.9
-            inp.target_velocity = [v1 * shrink]
-            res = otg.calculate(inp, traj)
-        if res not in (Result.Working, Result.Finished):
-            raise RuntimeError(f"ruckig failed on span {i} (L={L[i]:.4f} mm, v {v0:.3f}→{v1:.3f} mm/s): {res}")
-        prof = traj.profiles[0][0]
-        dur[i] = traj.duration
-        T[i] = prof.t
-        J[i] = prof.j
-        Pp[i] = prof.p
-        Vv[i] = prof.v
-        Aa[i] = prof.a
-    return SpanProfiles(dur, T, J, Pp, Vv, Aa)
+    Vv[:, 0] = v0
+    for k in range(7):
+        dt, jj = T[:, k], J[:, k]
+        p, v, acc = Pp[:, k], Vv[:, k], Aa[:, k]
+        Pp[:, k + 1] = p + v * dt + acc * dt * dt / 2 + jj * dt ** 3 / 6
+        Vv[:, k + 1] = v + acc * dt + jj * dt * dt / 2
+        Aa[:, k + 1] = acc + jj * dt
+    Aa[:, 7] = 0.0
+    Vv[:, 7] = v1
+    return SpanProfiles(T.sum(axis=1), T, J, Pp, Vv, Aa)
 
 
 def evaluate(prof: SpanProfiles, span_index: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

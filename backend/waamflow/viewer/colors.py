@@ -23,7 +23,7 @@ NAN_RGB = np.array([150, 150, 150], dtype=np.uint8)
 TRAVEL_RGB = np.array([205, 205, 205], dtype=np.uint8)      # arc-OFF moves: pale, drawn faint
 ARC_ON_RGB = np.array([230, 57, 70], dtype=np.uint8)
 ARC_OFF_RGB = np.array([69, 123, 157], dtype=np.uint8)
-PROGRAMMED_RGB = np.array([110, 110, 110], dtype=np.uint8)
+PROGRAMMED_RGB = np.array([20, 20, 20], dtype=np.uint8)     # near black: reads against every map colour
 OUTLINE_RGB = np.array([76, 201, 240], dtype=np.uint8)      # port colour of "layers"
 CURVE_RGB = np.array([247, 37, 133], dtype=np.uint8)
 MESH_RGB = (141, 153, 174)

@@ -29,9 +29,10 @@ from . import colors as C
 from . import geometry as G
 from .signature import digest, layer_signatures
 
-LINE_PX = 2.0        # toolpath / outline thickness in screen pixels (independent of part size)
-TRAVEL_PX = 1.0
-SIM_PX = 1.5         # simulated path thinner than the toolpath, so zone colours show beside it
+LINE_PX = 2.0        # outline / guide thickness in screen pixels (independent of part size)
+PATH_PX = 3.0        # programmed toolpath: the widest line, its zone/speed colours read at a glance
+SIM_PX = 1.5         # simulated path: half the toolpath's width, drawn inside it (zone colours show beside it)
+PROGRAMMED_PX = 1.0  # the simulation's programmed reference: a thin dark core line
 FILL_OPACITY = 0.55
 MESH_OPACITY = 0.25
 
@@ -327,7 +328,7 @@ class ToolpathPart(LayeredPart):
         disp = G.path_display(G.layer_polyline(lp), budget)
         handle = self.scene.add_line_segments(
             f"{self.root}/{layer_name(index)}", disp.segments, self.colors(disp, view.path_color),
-            thickness=LINE_PX, thickness_units="screen")
+            thickness=PATH_PX, thickness_units="screen")
         return {"handle": handle, "disp": disp, "item": lp, "mode": view.path_color,
                 "count": len(disp), "bounds": G.layers_bounds([disp.segments])}
 

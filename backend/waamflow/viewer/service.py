@@ -5,6 +5,7 @@
     viewer.publish("mpp-cross", recipe, outputs)   # outputs: node id → port → value
     viewer.select("toolpath", 3)         # the GUI follows the selected node / layer
     viewer.show("mpp-cross")             # the GUI's open recipe: its latest published run
+    viewer.loader = source               # optional: key → (run id, rebuild) for runs not in memory
     viewer.set_view(hidden={"slice"}, layer_lo=2, layer_hi=5, sim_color="deposit", time_s=3.0)
     viewer.state()                       # nodes, layer extent, view and legend data for the GUI
     viewer.url                           # → /api/health `viewer_url`
@@ -12,7 +13,10 @@
 
 Scenes are keyed (graph name, or run id for an unsaved recipe): the last few published runs are
 kept, and `show(key)` switches the scene to one of them — the GUI asks for the open recipe's, so
-a run of another recipe on the same server does not replace what the user looks at.
+a run of another recipe on the same server does not replace what the user looks at. Scenes live in
+memory: when `show(key)` finds none (the server restarted, or the scene was evicted) and a `loader`
+is set, the latest finished run of `key` is rebuilt beside the server (`state()["loading"]` says
+which run meanwhile) and shown when ready.
 The scene is shared: every connected browser sees the same content and GUI. Re-publishing
 redraws only outputs (and, for per-layer outputs, only layers) whose content signature changed.
 Large parts are decimated for display (`max_segments` line segments per output in total); the
@@ -21,9 +25,11 @@ data is never modified.
 
 from __future__ import annotations
 
+import logging
 import threading
+import time
 from collections import OrderedDict
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -32,6 +38,8 @@ from . import geometry as G
 from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
                     SectionsPart, ToolpathPart, ViewState, kind_of, slug)
 from .simulation import SimulationPart
+
+log = logging.getLogger("waamflow.viewer")
 
 PART_TYPES: dict[str, type[Part]] = {
     "mesh": MeshPart, "layers": LayersPart, "sections": SectionsPart, "toolpath": ToolpathPart,
@@ -72,6 +80,13 @@ class ViewerService:
         self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
         self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()   # key → (recipe, outputs)
         self.wanted: str | None = None   # the key the GUI shows (None: whatever was published last)
+        self.scene_runs: dict[str, str] = {}   # key → id of the run its scene shows (when known)
+        # key → (run id, rebuild(cancel) → (recipe, outputs)) | None: finds a finished run that is
+        # not in memory (after a restart); set by the API to read its store
+        self.loader: Callable[[str], tuple[str, Callable[[threading.Event], tuple[dict | None, dict]]] | None] | None = None
+        self._rebuilding: dict[str, dict[str, Any]] = {}   # key → {"run", "since"} while rebuilt
+        self._rebuild_failed: dict[str, dict[str, Any]] = {}   # key → {"run", "message"}
+        self._rebuild_stop = threading.Event()
 
     # ------------------------------------------------------------------------------------------
     # lifecycle
@@ -83,6 +98,7 @@ class ViewerService:
         with self._lock:
             if self.server is not None:
                 return self
+            self._rebuild_stop.clear()   # stop() cancelled the rebuilds of the previous start
             from .embed import embedded_client
 
             with embedded_client():
@@ -96,6 +112,7 @@ class ViewerService:
     def stop(self) -> None:
         """Stop playback and the server; the service can be started again afterwards."""
         self._play_stop.set()
+        self._rebuild_stop.set()
         if self._play_thread is not None:
             self._play_thread.join(timeout=2.0)
             self._play_thread = None
@@ -126,17 +143,24 @@ class ViewerService:
     # ------------------------------------------------------------------------------------------
     # publishing
     # ------------------------------------------------------------------------------------------
-    def publish(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]]) -> dict[str, int]:
-        """Show a run's outputs. Only outputs whose content changed are redrawn; outputs of nodes
-        that are gone are removed. Returns counts: {"redrawn", "kept", "removed", "skipped"}
-        (redrawn = scene nodes added or replaced; skipped = outputs with nothing to draw)."""
+    def publish(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *,
+                run: str | None = None) -> dict[str, int]:
+        """Show a run's outputs (`run`: its id, reported by `state()`). Only outputs whose content
+        changed are redrawn; outputs of nodes that are gone are removed. Returns counts:
+        {"redrawn", "kept", "removed", "skipped"} (redrawn = scene nodes added or replaced;
+        skipped = outputs with nothing to draw)."""
         if self.server is None:
             raise RuntimeError("ViewerService.publish before start()")
         with self._lock:
             self.scenes[key] = (recipe, outputs)
             self.scenes.move_to_end(key)
+            if run is None:
+                self.scene_runs.pop(key, None)
+            else:
+                self.scene_runs[key] = run
+            self._rebuild_failed.pop(key, None)
             while len(self.scenes) > MAX_SCENES:
-                self.scenes.popitem(last=False)
+                self.scene_runs.pop(self.scenes.popitem(last=False)[0], None)
             if self.wanted is not None and key != self.wanted:
                 # another recipe's run: kept for when the GUI asks for it, the shown scene stays
                 return {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0, "deferred": 1}
@@ -181,7 +205,8 @@ class ViewerService:
 
     def show(self, key: str | None) -> bool:
         """Show the latest published run under `key` (the GUI's open recipe); an unknown key
-        empties the scene until a run of it is published. None: follow every publish again.
+        empties the scene until a run of it is published, or until the `loader` has rebuilt the
+        latest finished run of it. None: follow every publish again.
         Returns whether a run of `key` is shown."""
         if self.server is None:
             return False
@@ -202,7 +227,45 @@ class ViewerService:
                 self.key, self.node_types = key, {}
                 self._bounds = None
                 self._after_publish()
+            self._start_rebuild(key)
             return False
+
+    def _start_rebuild(self, key: str) -> None:
+        """Rebuild the latest finished run of `key` in a thread (no-op without a loader, when one
+        is under way, or when `key` has no finished run)."""
+        if self.loader is None or key in self._rebuilding:
+            return
+        try:
+            found = self.loader(key)
+        except Exception as e:   # a broken store must not break the select request
+            log.exception("looking up a run of %s to rebuild failed", key)
+            self._rebuild_failed[key] = {"run": None, "message": str(e)}
+            return
+        if found is None:
+            return
+        run_id, rebuild = found
+        self._rebuild_failed.pop(key, None)
+        self._rebuilding[key] = {"key": key, "run": run_id, "since": time.time()}
+        threading.Thread(target=self._rebuild, args=(key, run_id, rebuild), name=f"viewer-rebuild-{run_id}",
+                         daemon=True).start()
+
+    def _rebuild(self, key: str, run_id: str, rebuild: Callable) -> None:
+        try:
+            recipe, outputs = rebuild(self._rebuild_stop)
+            with self._lock:   # state() sees the scene and the end of loading together
+                self._rebuilding.pop(key, None)
+                # a run that ended meanwhile was published under `key`: it is newer, keep it
+                if self.server is not None and key not in self.scenes:
+                    self.publish(key, recipe, outputs, run=run_id)
+        except Exception as e:
+            log.warning("rebuilding the 3D scene of run %s (%s) failed: %s", run_id, key, e)
+            with self._lock:
+                self._rebuild_failed[key] = {"run": run_id, "message": str(e)}
+        finally:
+            with self._lock:
+                self._rebuilding.pop(key, None)
+                if self._gui and self.key == key:
+                    self._sync_gui()
 
     def set_view(self, *, hidden: set[str] | None = None, fit: bool = False, **fields: Any) -> None:
         """Apply the GUI's view settings (any subset of VIEW_FIELDS, plus hidden node ids);
@@ -267,8 +330,13 @@ class ViewerService:
                                    "robot_note": part.robot_note})
                     duration = max(duration, part.duration())
             v = self.view
+            shown = self.wanted if self.wanted is not None else self.key
             return {
                 "key": self.key, "wanted": self.wanted, "published": list(self.scenes),
+                "run": self.scene_runs.get(self.key) if self.parts else None,
+                # the shown key's latest finished run being rebuilt (after a restart): {key, run, since}
+                "loading": dict(self._rebuilding[shown]) if shown in self._rebuilding else None,
+                "rebuild_error": dict(self._rebuild_failed[shown]) if shown in self._rebuild_failed else None,
                 "nodes": sorted(nodes.values(), key=lambda n: order.get(n["id"], len(order))),
                 "layers": {"lo": lo, "hi": hi} if self.parts else None,
                 "duration_s": duration,
@@ -483,7 +551,10 @@ class ViewerService:
         g["time"].step = max(duration / 1000.0, 0.001)
         g["time"].disabled = not sims
         g["time"].value = min(max(v.time_s, 0.0), g["time"].max)
-        g["run"].content = (f"**Run:** `{self.key}` — {len(self.parts)} outputs" if self.parts else
+        run = self.scene_runs.get(self.key or "")
+        loading = self._rebuilding.get(self.key or "")
+        g["run"].content = (f"**Run:** `{self.key}`{f' ({run})' if run else ''} — {len(self.parts)} outputs" if self.parts else
+                            f"**Rebuilding the scene of run `{loading['run']}`…**" if loading else
                             f"**No run of `{self.key}` yet.**" if self.key else "**No run published yet.**")
         g["legend"].content = self._legend()
 

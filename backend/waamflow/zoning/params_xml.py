@@ -17,8 +17,9 @@ architecture, which the user (or later an algorithm) fills in::
 
 One element per `core.process.ZONE_PARAMETERS` entry, in that order, with its unit; empty text
 means "not set" (the strategy's speed stays). Reading is safe (defusedxml: no DTD, no entities,
-size limit) and validated against the names, units and bounds in core/process.py; every error is a
-RecipeError naming layer/section/zone.
+size limit) and validated against the names, units and bounds in core/process.py, then against
+the XML Schema `data/schemas/zone-params.xsd` (lxml, `zoning/xsd.py`); every error is a
+RecipeError naming the line, the element and layer/section/zone.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from defusedxml import DefusedXmlException
 from ..core.errors import InputFileError, RecipeError
 from ..core.model import LayerPaths, Layered
 from ..core.process import PARAMETERS_BY_NAME, ZONE_PARAMETERS
+from . import xsd
 
 MAX_BYTES = 32 * 1024 * 1024  # ~8 bytes per empty element: room for 10⁴ layers × 10 sections × 5 zones
 FORMAT = "waamflow/1"
@@ -140,19 +142,34 @@ def parse(text: str | bytes) -> ParamTable:
     if len(raw) > MAX_BYTES:
         raise _error(f"{len(raw)} bytes is over the {MAX_BYTES} byte limit")
     try:
-        root = DET.fromstring(raw, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+        DET.fromstring(raw, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DefusedXmlException as e:
         raise _error(f"forbidden XML construct ({type(e).__name__}): no DTDs or entities allowed") from None
     except ET.ParseError as e:
         raise _error(f"not well-formed XML ({e})") from None
+    root = xsd.parse_lxml(raw)       # the same document again, with line numbers (no DTD/entities: checked)
     if root.tag != "parameters":
         raise _error(f"root element is <{root.tag}>, expected <parameters>")
+    cur: list = [root]
+    try:
+        table = _walk(root, cur)
+    except InputFileError as e:
+        el = cur[0]
+        e.message = e.message.replace("parameter file:", f"parameter file line {el.sourceline}, element <{el.tag}>:", 1)
+        raise
+    xsd.validate(root)               # what the walk does not check (attributes, text in odd places, ...)
+    return table
+
+
+def _walk(root, cur: list) -> ParamTable:
+    """The checks with our own messages; `cur[0]` is the element being read (for the line number)."""
     values: dict[ZoneKey, dict[str, float]] = {}
     zones: list[ZoneKey] = []
     colors: dict[ZoneKey, str] = {}
     layer_z: dict[int, float] = {}
     seen_layers: set[int] = set()
     for lel in root:
+        cur[0] = lel
         if not isinstance(lel.tag, str):
             continue
         if lel.tag != "layer":
@@ -171,6 +188,7 @@ def parse(text: str | bytes) -> ParamTable:
                 raise _error(f"z {lel.get('z')!r} is not a number", li) from None
         seen_sections: set[str] = set()
         for sel in lel:
+            cur[0] = sel
             if sel.tag != "section" or not sel.get("id"):
                 raise _error(f"expected <section id=...> in <layer>, got <{sel.tag}>", li)
             sk = sel.get("id")
@@ -179,6 +197,7 @@ def parse(text: str | bytes) -> ParamTable:
             seen_sections.add(sk)
             seen_zones: set[str] = set()
             for zel in sel:
+                cur[0] = zel
                 if zel.tag != "zone" or not zel.get("id"):
                     raise _error(f"expected <zone id=...> in <section>, got <{zel.tag}>", li, sk)
                 zid = zel.get("id")
@@ -190,6 +209,7 @@ def parse(text: str | bytes) -> ParamTable:
                 colors[key] = zel.get("color", "")
                 vals: dict[str, float] = {}
                 for pel in zel:
+                    cur[0] = pel
                     name = pel.tag
                     if name not in PARAMETERS_BY_NAME:
                         known = ", ".join(PARAMETERS_BY_NAME)
@@ -225,9 +245,9 @@ def merge(template_text: str, old_text: str | bytes | None) -> tuple[str, list[s
     longer exists ("layer 3, section 'bs1/A', zone 'z2'"), in the old file's order. Raises
     RecipeError if either file is invalid.
     """
-    tpl = parse(template_text)
     if old_text is None or (isinstance(old_text, (str, bytes)) and not old_text.strip()):
-        return template_text, []
+        return template_text, []   # nothing to fill in: the template as written (no need to parse it)
+    tpl = parse(template_text)
     old = parse(old_text)
     present = set(tpl.zones)
     kept = {k: v for k, v in old.values.items() if k in present}

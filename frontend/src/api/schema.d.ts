@@ -78,6 +78,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/schemas/zone-params.xsd": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Zone Params Xsd
+         * @description The XML Schema (XSD 1.0) of the zone-parameter file (layer > section > zone > parameters,
+         *     units and bounds): the file every zone node reads is validated against it.
+         */
+        get: operations["zone_params_xsd_api_schemas_zone_params_xsd_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs": {
         parameters: {
             query?: never;
@@ -289,7 +310,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Get Artifact */
+        /**
+         * Get Artifact
+         * @description One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
+         *     programs and tables as text/plain, anything else application/octet-stream).
+         */
         get: operations["get_artifact_api_runs__run_id__artifacts__name__get"];
         put?: never;
         post?: never;
@@ -365,8 +390,10 @@ export interface paths {
         };
         /**
          * State
-         * @description The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
-         *     settings and legend data (zone colours, value ranges with units, colour-map stops).
+         * @description The shown run (`key`, `run` id), its nodes (kinds drawn, visibility), layer extent, playback
+         *     duration, view settings and legend data (zone colours, value ranges with units, colour-map
+         *     stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
+         *     (its scene was not in memory, e.g. after a restart); `rebuild_error` {run, message} if that failed.
          */
         get: operations["state_api_viewer_state_get"];
         put?: never;
@@ -767,9 +794,11 @@ export interface components {
         Recipe: {
             /**
              * Format
+             * @description waamflow/1; older formats are migrated on load
              * @default waamflow/1
+             * @enum {string}
              */
-            format: string;
+            format: "waamflow/1" | "waamflow/0" | "waamflow";
             /**
              * Name
              * @default recipe
@@ -780,7 +809,10 @@ export interface components {
              * @default
              */
             description: string;
-            /** Inputs */
+            /**
+             * Inputs
+             * @description named values that node params refer to as "$name"
+             */
             inputs?: {
                 [key: string]: unknown;
             };
@@ -851,6 +883,13 @@ export interface components {
         /**
          * RunRequest
          * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         * @example {
+         *       "graph": "rectangle-study",
+         *       "inputs": {
+         *         "pattern": "swiping",
+         *         "speed": 40
+         *       }
+         *     }
          */
         RunRequest: {
             /**
@@ -874,7 +913,7 @@ export interface components {
             };
             /**
              * Params Xml
-             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it is never stored
+             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it never becomes the graph's XML (the run keeps it, to rebuild its 3D scene after a restart)
              */
             params_xml?: string | null;
         } & (unknown | {
@@ -1165,6 +1204,35 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["MachineProfileInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    zone_params_xsd_api_schemas_zone_params_xsd_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": string;
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -1884,7 +1952,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": string;
+                    "text/event-stream": {
+                        data: string;
+                        /** @description the event's seq (Last-Event-ID to resume) */
+                        id?: string;
+                        event?: string;
+                    };
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -2038,8 +2111,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/json": unknown;
+                    "application/xml": string;
+                    "image/svg+xml": string;
+                    "image/png": string;
                     "text/plain": string;
+                    "application/octet-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */

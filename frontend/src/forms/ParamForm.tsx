@@ -1,7 +1,7 @@
 import { memo, useEffect, useMemo, useState } from "react";
 import type { JSONSchema } from "../api/types";
 import { boundsText, describeFields, enrichFromRoot, fieldKind, parseNumberInput, unwrapNullable, validateField, type FieldSpec } from "./schema";
-import { sectionChoices, useSectionKeys } from "./sectionKeys";
+import { sectionChoices, useSectionFocus, useSectionKeys } from "./sectionKeys";
 
 export interface ParamFormProps {
   schema: JSONSchema;
@@ -149,8 +149,13 @@ function subField(root: JSONSchema, raw: JSONSchema, name: string, title: string
 function MapEditor({ root, f, value, onChange, onUpload, id }: { root: JSONSchema; f: FieldSpec; value: unknown; onChange: (v: unknown) => void; onUpload: Upload; id: string }) {
   const known = useSectionKeys();
   const obj = (value && typeof value === "object" ? value : {}) as Record<string, unknown>;
-  const choices = sectionChoices(known, Object.keys(obj));
-  const [picked, setPicked] = useState<string>(() => Object.keys(obj)[0] ?? choices[0] ?? "");
+  const focus = useSectionFocus();
+  const [picked, setPicked] = useState<string>(() => focus?.key ?? Object.keys(obj)[0] ?? sectionChoices(known, [])[0] ?? "");
+  // A problem clicked in the problems panel shows its section here.
+  useEffect(() => {
+    if (focus) setPicked(focus.key);
+  }, [focus]);
+  const choices = sectionChoices(known, picked ? [...Object.keys(obj), picked] : Object.keys(obj));
   const [newKey, setNewKey] = useState("");
   const key = picked || choices[0] || "";
   const valueSchema = typeof f.schema.additionalProperties === "object" ? f.schema.additionalProperties : {};

@@ -27,3 +27,24 @@ export function useSectionKeys(): readonly string[] {
 export function sectionChoices(known: readonly string[], present: readonly string[]): string[] {
   return [...new Set([...known, ...[...present].sort()])];
 }
+
+/**
+ * The section the user asked to look at (a problem clicked in the problems panel): the mask canvas
+ * selects it and per-section maps in the inspector pick it. `seq` makes a repeated click count.
+ */
+export interface SectionFocus { key: string; seq: number }
+let focus: SectionFocus | null = null;
+const focusListeners = new Set<() => void>();
+
+export function focusSection(key: string): void {
+  focus = { key, seq: (focus?.seq ?? 0) + 1 };
+  focusListeners.forEach((l) => l());
+}
+
+export function useSectionFocus(): SectionFocus | null {
+  return useSyncExternalStore(
+    (l) => (focusListeners.add(l), () => focusListeners.delete(l)),
+    () => focus,
+    () => focus,
+  );
+}

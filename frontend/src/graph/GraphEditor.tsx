@@ -1,13 +1,13 @@
 import {
   Background, Controls, Handle, MiniMap, NodeResizer, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
-  type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
+  useConnection, type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
 } from "@xyflow/react";
 import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
 import { badgeText, type NodeStatus } from "../run/status";
 import { isTyping } from "./useShortcuts";
 import {
-  connect, connectionError, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
+  connect, connectionError, connectionRefusal, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
   updateFrame, type Catalog, type Frame, type XY,
 } from "./recipe";
 
@@ -49,10 +49,40 @@ const FrameNode = memo(function FrameNode({ data, selected }: NodeProps<FNode>) 
   );
 });
 
+type Refusal = { text: string; short: string } | null;
+type Wire = { source: string; sourceHandle: string | null; target: string; targetHandle: string | null };
+
+/** The wire being dragged, as [side it starts from, node, port] (null when none is). */
+function useDraggedWire(): [string, string, string] | null {
+  // A string selector: nodes re-render when a drag starts or ends, not on every pointer move.
+  const key = useConnection((c) => (c.inProgress && c.fromHandle?.id ? JSON.stringify([c.fromHandle.type, c.fromNode.id, c.fromHandle.id]) : null));
+  return useMemo(() => (key ? (JSON.parse(key) as [string, string, string]) : null), [key]);
+}
+
+/** While a wire is dragged: why this node's handle (`side`, `port`) cannot take it, or null. */
+function refusalOf(drag: [string, string, string] | null, nodeId: string, side: "source" | "target", port: string, why: (c: Wire) => Refusal): Refusal {
+  if (!drag || drag[0] === side) return null; // a wire ends on a handle of the other side
+  const [from, fromNode, fromPort] = drag;
+  if (fromNode === nodeId && fromPort === port) return null;
+  return why(from === "source" ? { source: fromNode, sourceHandle: fromPort, target: nodeId, targetHandle: port } : { source: nodeId, sourceHandle: port, target: fromNode, targetHandle: fromPort });
+}
+
+/** A refused handle's reason, on the handle: its title / description and a visible tag beside it. */
+function RefusalTag({ r }: { r: Refusal }) {
+  return r ? (
+    <span className="port-refusal" data-testid="port-refusal" aria-hidden="true">
+      ✕ {r.short}
+    </span>
+  ) : null;
+}
+
 /** One node: title, id, status badge, typed ports (handles keyed by port name, coloured by type). */
 const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
   const { node, spec, status } = data;
   const rows = Math.max(spec?.inputs.length ?? 0, spec?.outputs.length ?? 0);
+  const drag = useDraggedWire();
+  const why = useContext(RefusalContext);
+  const refusal = (side: "source" | "target", port: string) => refusalOf(drag, node.id, side, port, why);
   return (
     <div className={`wnode ${selected ? "selected" : ""} ${status ? "st-" + status.state : ""} ${spec ? "" : "unknown"}`} data-node-id={node.id}>
       <div className="wnode-head" title={spec?.description}>
@@ -71,20 +101,46 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
       <div className="wnode-id">{node.id}</div>
       <div className="wnode-ports" style={{ minHeight: rows * 20 }}>
         <div className="ports-in">
-          {spec?.inputs.map((p) => (
-            <div className="port" key={p.name} title={`${p.type}${p.optional ? " (optional)" : ""}: ${p.description}`}>
-              <Handle type="target" position={Position.Left} id={p.name} style={{ background: p.color }} />
-              <span>{p.name}</span>
-            </div>
-          ))}
+          {spec?.inputs.map((p) => {
+            const r = refusal("target", p.name);
+            return (
+              <div className={`port ${r ? "refused" : ""}`} key={p.name} title={r ? `cannot connect: ${r.text}` : `${p.type}${p.optional ? " (optional)" : ""}: ${p.description}`}>
+                <Handle
+                  type="target"
+                  position={Position.Left}
+                  id={p.name}
+                  style={{ background: p.color }}
+                  className={r ? "refused" : undefined}
+                  title={r ? `cannot connect: ${r.text}` : undefined}
+                  aria-description={r ? `cannot connect: ${r.text}` : undefined}
+                  data-reason={r?.text}
+                />
+                <RefusalTag r={r} />
+                <span>{p.name}</span>
+              </div>
+            );
+          })}
         </div>
         <div className="ports-out">
-          {spec?.outputs.map((p) => (
-            <div className="port out" key={p.name} title={`${p.type}: ${p.description}`}>
-              <span>{p.name}</span>
-              <Handle type="source" position={Position.Right} id={p.name} style={{ background: p.color }} />
-            </div>
-          ))}
+          {spec?.outputs.map((p) => {
+            const r = refusal("source", p.name);
+            return (
+              <div className={`port out ${r ? "refused" : ""}`} key={p.name} title={r ? `cannot connect: ${r.text}` : `${p.type}: ${p.description}`}>
+                <span>{p.name}</span>
+                <RefusalTag r={r} />
+                <Handle
+                  type="source"
+                  position={Position.Right}
+                  id={p.name}
+                  style={{ background: p.color }}
+                  className={r ? "refused" : undefined}
+                  title={r ? `cannot connect: ${r.text}` : undefined}
+                  aria-description={r ? `cannot connect: ${r.text}` : undefined}
+                  data-reason={r?.text}
+                />
+              </div>
+            );
+          })}
         </div>
       </div>
       {status && (
@@ -109,6 +165,9 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
 });
 
 const nodeTypes = { waam: WaamNode, frame: FrameNode };
+
+/** Why a wire cannot connect two handles, full and short (null when it can). */
+const RefusalContext = createContext<(c: Wire) => Refusal>(() => null);
 
 /** Why the wire being dragged cannot end at the handle under the pointer (null when it can). */
 const ReasonContext = createContext<(c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => string | null>(() => null);
@@ -314,6 +373,7 @@ export function GraphEditor(p: GraphEditorProps) {
     (c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => connectionError(catalog, recipe, c),
     [catalog, recipe],
   );
+  const refusalFor = useCallback((c: Wire) => connectionRefusal(catalog, recipe, c), [catalog, recipe]);
   const valid = useCallback(
     (c: Edge | { source: string; target: string; sourceHandle?: string | null; targetHandle?: string | null }) =>
       connectionError(catalog, recipe, { source: c.source, target: c.target, sourceHandle: c.sourceHandle ?? null, targetHandle: c.targetHandle ?? null }) === null,
@@ -352,6 +412,7 @@ export function GraphEditor(p: GraphEditorProps) {
 
   return (
     <ReasonContext.Provider value={reasonOf}>
+    <RefusalContext.Provider value={refusalFor}>
     <div className="graph-editor" onDragOver={(e) => e.preventDefault()} onDrop={onDrop} onDoubleClick={onDoubleClick} data-testid="graph-editor">
       <ReactFlow<AnyNode, Edge>
         nodes={nodes}
@@ -377,6 +438,7 @@ export function GraphEditor(p: GraphEditorProps) {
         <MiniMap pannable zoomable style={{ width: 140, height: 90 }} />
       </ReactFlow>
     </div>
+    </RefusalContext.Provider>
     </ReasonContext.Provider>
   );
 }

@@ -75,14 +75,19 @@ export interface Connection {
  * Returns null when valid, else the reason.
  */
 export function connectionError(cat: Catalog, r: Recipe, c: Connection): string | null {
-  if (!c.sourceHandle || !c.targetHandle) return "connect a port to a port";
-  if (c.source === c.target) return "a node cannot feed itself";
+  return connectionRefusal(cat, r, c)?.text ?? null;
+}
+
+/** Why a connection is refused: the full sentence, and a short form drawn on the refused handle. */
+export function connectionRefusal(cat: Catalog, r: Recipe, c: Connection): { text: string; short: string } | null {
+  if (!c.sourceHandle || !c.targetHandle) return { text: "connect a port to a port", short: "not a port" };
+  if (c.source === c.target) return { text: "a node cannot feed itself", short: "same node" };
   const o = outPort(cat, r, c.source, c.sourceHandle);
   const i = inPort(cat, r, c.target, c.targetHandle);
-  if (!o) return `no output port '${c.sourceHandle}' on ${c.source}`;
-  if (!i) return `no input port '${c.targetHandle}' on ${c.target}`;
-  if (o.type !== i.type) return `type mismatch: ${o.type} → ${i.type}`;
-  if (downstream(r, c.target).has(c.source)) return "this edge would create a cycle";
+  if (!o) return { text: `no output port '${c.sourceHandle}' on ${c.source}`, short: "no such port" };
+  if (!i) return { text: `no input port '${c.targetHandle}' on ${c.target}`, short: "no such port" };
+  if (o.type !== i.type) return { text: `type mismatch: ${o.type} → ${i.type}`, short: `type ${o.type} ≠ ${i.type}` };
+  if (downstream(r, c.target).has(c.source)) return { text: "this edge would create a cycle", short: "would create a cycle" };
   return null;
 }
 

@@ -11,6 +11,7 @@ import { polygonArea, ringSelfIntersects, worldToLayer, type Pt } from "./geom";
 import { beadWidth, COLOR_BY, type ColorBy } from "./canvasTools";
 import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
 import { useLayerPreview } from "./useLayerPreview";
+import { useSectionFocus } from "../forms/sectionKeys";
 
 /** Patterns named by the contract, used only if the strategy node's schema does not list them. */
 /** Port types the canvas can draw for one layer. */
@@ -98,6 +99,12 @@ export function MaskView(p: MaskViewProps) {
     });
     return () => cancelAnimationFrame(id);
   }, [pv.data, pv.editT0]);
+
+  // A problem picked in the problems panel: select its section.
+  const focus = useSectionFocus();
+  useEffect(() => {
+    if (focus) setSelected(focus.key);
+  }, [focus]);
 
   // A failed run: show its layer and section.
   useEffect(() => {

@@ -13,7 +13,7 @@ export function ProblemsPanel({ problems, onPick, onClose }: { problems: readonl
       <ul>
         {problems.map((p) => (
           <li key={p.key}>
-            <button className={`problem ${p.severity}`} onClick={() => onPick(p)} data-problem-node={p.node ?? ""} data-problem-layer={p.layer ?? ""}>
+            <button className={`problem ${p.severity}`} onClick={() => onPick(p)} data-problem-node={p.node ?? ""} data-problem-layer={p.layer ?? ""} data-problem-section={p.section ?? ""}>
               <span className="sev">{p.severity === "error" ? "✖" : "⚠"}</span>
               <span className="where">
                 {[p.node, p.layer != null ? `layer ${p.layer}` : null, p.section, p.field].filter(Boolean).join(" · ")}

@@ -22,6 +22,17 @@ const RANGE_MODES: [RangeMode, string][] = [["all", "all layers"], ["upto", "up 
 const PATH_LABELS: Record<string, string> = { zone: "zone", speed: "speed", arc: "arc on/off", section: "section" };
 const SIM_LABELS: Record<string, string> = { deviation: "deviation", speed: "speed", deposit: "deposit per mm" };
 
+/** The line under the panel's title: which run is shown, or why none is. */
+function runLine(key: string | null, st: ViewerState | null, shownOther: boolean): string {
+  if (!key) return "Save or run the recipe to see it in 3D.";
+  if (st?.loading && st.loading.key === key) return `Rebuilding the scene of run ${st.loading.run}…`;
+  if (!st || st.wanted !== key) return `Loading the scene of ${key}…`; // the select request is on its way
+  if (st.rebuild_error) return `The scene of run ${st.rebuild_error.run ?? "?"} could not be rebuilt: ${st.rebuild_error.message}. Press Run.`;
+  if (!st.nodes?.length) return `No run of ${key} yet: press Run.`;
+  if (shownOther) return `loading ${key}…`;
+  return `Latest run of ${key}${st.run ? ` (run ${st.run})` : ""}`;
+}
+
 /**
  * The 3D workspace tab: viser's scene in an iframe filling the tab, and beside it (never over it)
  * what to show — per-node visibility, the layer range (synced with the mask canvas layer),
@@ -54,10 +65,11 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
     void viewerShow(graph, graph ? null : runId).then(refresh).catch(() => undefined);
   }, [url, key, graph, runId, runPhase, refresh]);
 
-  // Poll while the shown scene is not the open recipe's yet (publishing runs beside the run).
+  // Poll while the shown scene is not the open recipe's yet (publishing runs beside the run, or
+  // a run from before a server restart being rebuilt).
   useEffect(() => {
     if (!url) return;
-    const t = setInterval(refresh, st && st.key === key && (st.nodes?.length ?? 0) > 0 ? 5000 : 1000);
+    const t = setInterval(refresh, st && st.key === key && (st.nodes?.length ?? 0) > 0 && !st.loading ? 5000 : 1000);
     return () => clearInterval(t);
   }, [url, refresh, st, key]);
 
@@ -109,8 +121,8 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
       </div>
       <aside className="viewer3d-panel" aria-label="3D view settings">
         <h2 className="panel-title">3D view</h2>
-        <div className="muted" data-testid="viewer-run">
-          {!key ? "Save or run the recipe to see it in 3D." : !st?.nodes?.length ? `No run of ${key} yet: press Run.` : shownOther ? `loading ${key}…` : `Latest run of ${key}`}
+        <div className="muted" data-testid="viewer-run" role="status" data-run={st?.run ?? ""} data-loading={st?.loading?.run ?? ""}>
+          {runLine(key, st, !!shownOther)}
         </div>
         <button type="button" onClick={() => void send({ fit: true })} disabled={!st?.bounds}>
           Fit part

@@ -23,6 +23,11 @@ export interface ViewerState {
   key?: string | null;
   wanted?: string | null;
   published?: string[];
+  /** id of the run whose scene is shown */
+  run?: string | null;
+  /** the selected recipe's latest finished run, being rebuilt (its scene was not in memory) */
+  loading?: { key: string; run: string; since: number } | null;
+  rebuild_error?: { run: string | null; message: string } | null;
   nodes?: ViewerNode[];
   layers?: { lo: number; hi: number } | null;
   duration_s?: number;

@@ -4,7 +4,7 @@ from dataclasses import asdict
 
 from typing import Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Response
 from pydantic import BaseModel
 
 from ...core.process import ZONE_PARAMETERS
@@ -42,3 +42,13 @@ def list_profiles() -> list[dict]:
     from ...program.profiles import load_profiles
 
     return list(load_profiles().values())
+
+
+@router.get("/api/schemas/zone-params.xsd", response_class=Response,
+            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401)})
+def zone_params_xsd() -> Response:
+    """The XML Schema (XSD 1.0) of the zone-parameter file (layer > section > zone > parameters,
+    units and bounds): the file every zone node reads is validated against it."""
+    from ...zoning.xsd import XSD_PATH
+
+    return Response(XSD_PATH.read_bytes(), media_type="application/xml")

@@ -64,8 +64,10 @@ def view(v: ViewSettings, svc: ServicesDep) -> Response:
 
 @router.get("/state", responses=errors(401))
 def state(svc: ServicesDep) -> dict[str, Any]:
-    """The shown run, its nodes (kinds drawn, visibility), layer extent, playback duration, view
-    settings and legend data (zone colours, value ranges with units, colour-map stops)."""
+    """The shown run (`key`, `run` id), its nodes (kinds drawn, visibility), layer extent, playback
+    duration, view settings and legend data (zone colours, value ranges with units, colour-map
+    stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
+    (its scene was not in memory, e.g. after a restart); `rebuild_error` {run, message} if that failed."""
     if svc.viewer is None:
         return {"running": False}
     return {"running": True, **svc.viewer.state()}

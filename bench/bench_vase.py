@@ -1,0 +1,169 @@
+"""STL → G-code side by side with PrusaSlicer on the thin-walled vase of issue 15.
+
+- `stl_to_gcode_ratio_vs_prusaslicer`: wall time of `waamflow run` (a fresh CLI process, no cache,
+  default workers: mesh → slice → wall-path → post-process, G-code written to disk) / wall time of
+  the `prusa-slicer` CLI (a fresh process: load STL → slice → perimeters → G-code) on the same
+  binary STL in the same run. The vase: an open tube r 80/74 mm, 200 mm high, 1,008,000
+  triangles (2,000 facets round, 125 stacks), 133 layers of 1.5 mm. PrusaSlicer is configured for
+  one perimeter of 6 mm extrusion width, no infill, no top/bottom layers, no skirt or brim
+  (`PRUSA_CONFIG`); waamflow lays one bead per layer on the ring's centre line. Targets: ≤ 0.5,
+  ≤ 1.0 at the very least. Value = ratio of the medians of `REPEATS` alternating runs
+  (`WAAMFLOW_BENCH_REPEATS`); the notes carry both wall and CPU seconds (user + sys of the
+  process and its children), per-node seconds of waamflow's run, both programs' layer counts
+  and the machine load, since other processes on a shared machine move the wall times.
+
+PrusaSlicer comes from Debian (`prusa-slicer`, 2.5.0 on bookworm). When it is not on PATH the
+bench installs it with `apt-get install -y prusa-slicer` (root only); if that is not possible the
+entry has value null and says why, and the rest of the bench runs on.
+Run alone: `.venv/bin/python bench/run.py bench_vase`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "bench"))
+
+R_OUT, R_IN, HEIGHT, LAYER = 80.0, 74.0, 200.0, 1.5
+N_THETA, N_Z = 2000, 125          # 4 · 2000 · 126 = 1,008,000 triangles
+REPEATS = max(1, int(os.environ.get("WAAMFLOW_BENCH_REPEATS", "1")))
+
+PRUSA_CONFIG = """\
+# one 6 mm perimeter per 1.5 mm layer, nothing else (the WAAM comparison of issue 15)
+layer_height = 1.5
+first_layer_height = 1.5
+nozzle_diameter = 6
+max_layer_height = 1.5
+min_layer_height = 0.1
+perimeters = 1
+top_solid_layers = 0
+bottom_solid_layers = 0
+fill_density = 0%
+extrusion_width = 6
+perimeter_extrusion_width = 6
+external_perimeter_extrusion_width = 6
+first_layer_extrusion_width = 6
+thin_walls = 0
+skirts = 0
+brim_width = 0
+support_material = 0
+bed_shape = 0x0,300x0,300x300,0x300
+max_print_height = 300
+gcode_flavor = reprap
+gcode_comments = 0
+"""
+
+
+def _recipe() -> dict:
+    return {"format": "waamflow/1", "name": "bench-vase",
+            "description": "Thin-walled vase r 80/74 mm, 200 mm: one bead per 1.5 mm layer on the ring's centre line",
+            "nodes": [
+                {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
+                {"id": "layers", "type": "slice", "params": {"layer_height": LAYER}},
+                {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "spacing": 1.0, "overlap": 5.0,
+                                                                 "bead_width": 6.0}},
+                {"id": "post", "type": "post-process", "params": {"format": "gcode"}}],
+            "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"},
+                      {"from": "walls.toolpath", "to": "post.toolpath"}]}
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _timed(cmd: list[str], env: dict | None = None, cwd: Path | None = None) -> tuple[float, float, str]:
+    """(wall s, CPU s of the process tree, stderr tail); raises on a non-zero exit."""
+    c0, t0 = _children_cpu(), time.perf_counter()
+    p = subprocess.run(cmd, env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=1800)
+    wall, cpu = time.perf_counter() - t0, _children_cpu() - c0
+    if p.returncode != 0:
+        raise RuntimeError(f"{cmd[0]} exited {p.returncode}: {(p.stderr or p.stdout)[-800:]}")
+    return wall, cpu, p.stderr[-400:]
+
+
+def _prusa_slicer() -> tuple[str | None, str]:
+    """Path of the prusa-slicer CLI (installing the Debian package if missing), or None and why."""
+    exe = shutil.which("prusa-slicer")
+    if exe:
+        return exe, ""
+    if os.geteuid() != 0 or not shutil.which("apt-get"):
+        return None, "prusa-slicer is not on PATH and apt-get cannot install it here (not root or no apt)"
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    for cmd in (["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"],
+                ["apt-get", "update"],
+                ["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"]):
+        subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=1200)
+        exe = shutil.which("prusa-slicer")
+        if exe:
+            return exe, "installed by the bench (apt-get install prusa-slicer)"
+    return None, "apt-get install prusa-slicer failed (is the Debian package reachable?)"
+
+
+def _prusa_version(exe: str) -> str:
+    p = subprocess.run([exe, "--help"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+    line = next((ln for ln in p.stdout.splitlines() if ln.startswith("PrusaSlicer")), "PrusaSlicer ?")
+    return line.split(" based on")[0]
+
+
+def run() -> list[dict]:
+    from bench_slice import ribbed_tube, write_binary_stl
+
+    exe, why = _prusa_slicer()
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        corners = ribbed_tube(N_THETA, N_Z, radius=R_OUT, wall=R_OUT - R_IN, height=HEIGHT, rib_depth=0.0,
+                              twist_deg=0.0)
+        n_tri = len(corners)
+        size = write_binary_stl(str(tmp / "vase.stl"), corners)
+        del corners
+        (tmp / "vase.json").write_text(json.dumps(_recipe()))
+        (tmp / "perimeter.ini").write_text(PRUSA_CONFIG)
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "backend"), os.environ.get("PYTHONPATH", "")])}
+        waam_cmd = [str(Path(sys.executable).parent / "waamflow"), "run", str(tmp / "vase.json"), "--no-cache",
+                    "--out", str(tmp / "out")]
+        if not Path(waam_cmd[0]).exists():
+            waam_cmd[:1] = [sys.executable, "-m", "waamflow.cli"]
+        ours, theirs = [], []
+        for _ in range(REPEATS):     # alternating, so a change of machine load hits both
+            ours.append(_timed(waam_cmd, env=env))
+            if exe:
+                theirs.append(_timed([exe, "--loglevel", "1", "--export-gcode", "--load", str(tmp / "perimeter.ini"),
+                                      "--center", "150,150", "--output", str(tmp / "prusa.gcode"), str(tmp / "vase.stl")],
+                                     cwd=tmp))
+        summary = json.loads((tmp / "out" / "summary.json").read_text())
+        gcode = (tmp / "out" / "post.gcode").read_text()
+        our_layers = sum(1 for ln in gcode.splitlines() if ln.startswith("; layer "))
+        nodes = ", ".join(f"{k} {v['seconds']:.2f}" for k, v in summary["nodes"].items())
+        t_ours = statistics.median(w for w, _, _ in ours)
+        c_ours = statistics.median(c for _, c, _ in ours)
+        base = (f"vase r {R_OUT:g}/{R_IN:g} mm × {HEIGHT:g} mm, {n_tri:,} triangles ({size / 1e6:.0f} MB binary STL), "
+                f"{LAYER} mm layers; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers) "
+                f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU, {our_layers} layers, nodes: {nodes}")
+        if not exe:
+            return [{"name": "stl_to_gcode_ratio_vs_prusaslicer", "value": None, "unit": "x", "peer": None,
+                     "ratio": None, "notes": f"NOT MEASURED: {why}; {base}"}]
+        prusa_layers = (tmp / "prusa.gcode").read_text().count(";LAYER_CHANGE")
+    t_theirs = statistics.median(w for w, _, _ in theirs)
+    c_theirs = statistics.median(c for _, c, _ in theirs)
+    ratio = t_ours / t_theirs
+    return [{"name": "stl_to_gcode_ratio_vs_prusaslicer", "value": round(ratio, 3), "unit": "x",
+             "peer": round(t_theirs, 3), "ratio": round(ratio, 4),
+             "notes": f"{base}; {_prusa_version(exe)} CLI (perimeter only, 6 mm extrusion width{', ' + why if why else ''}) "
+                      f"{t_theirs:.2f} s wall / {c_theirs:.2f} s CPU, {prusa_layers} layers; CPU ratio "
+                      f"{c_ours / c_theirs:.2f}; median of {REPEATS}; load {os.getloadavg()[0]:.1f}; "
+                      f"target <= 0.5 (at least <= 1.0)"}]
+
+
+if __name__ == "__main__":
+    print(json.dumps(run(), indent=2))
