@@ -2,7 +2,7 @@
 
 Program: a 150-layer block on the study's small objective rectangle (21.5 × 43 mm), layers
 cycling through raster-pass (arc switching at every pass), triangular 45° with the arc OFF
-outside the OR, semicircular and the 2.95° zig-zag, at 10 mm/s, 1.5 mm layers, 5 s interlayer
+outside the OR, semicircular and swiping, at 10 mm/s, 1.5 mm layers, 5 s interlayer
 dwell — every feature of the controller model (stops, blends, dwell, arc timing) on ≈ 60 m of path.
 
 - `sim_realtime_factor`: simulated / wall seconds for the whole program with Pinocchio IK (5 mm
@@ -53,7 +53,7 @@ def _timed(moves, profile, kin):
 def run() -> list[dict]:
     moves = program()
     profile = load_profile("kuka_kr100ha_krc2")
-    _timed(study.raster(SPEED), profile, None)  # warm-up (imports, ruckig)
+    _timed(study.raster(SPEED), profile, None)  # warm-up (imports)
     res_ik, wall_ik = _timed(moves, profile, KinematicsOptions(step_mm=5.0))
     res_no, wall_no = _timed(moves, profile, None)
     cell = load_cell("kr150_tilt_rotate")

@@ -49,6 +49,9 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     own_lines = [arc_on, arc_off, end, *post.get("start_code", ()), *post.get("end_code", ()),
                  *(tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split())]
     own = {str(w) for code in own_lines for w in Line(code).block.words}
+    from waamflow.program.common import TOOL_COMMANDS   # a rolling/peening tool's own codes (M110 P… Q…)
+    tool_heads = {ln.split()[0] for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["gcode"])
+                  for ln in (post.get(key) or default).splitlines() if ln.split()}
     m = _Machine()
     pos = np.zeros(3)
     arc = False
@@ -66,6 +69,8 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
         if code in (arc_on, arc_off):
             arc = code == arc_on
             continue
+        if code.split() and code.split()[0] in tool_heads:
+            continue                          # the tool's engage/lift codes: no motion
         block = line.block
         unknown = {str(w) for w in block.words} - _assigned_words(block)
         assert unknown <= own, f"line {ln}: words pygcode does not know: {sorted(unknown)} in {raw!r}"
@@ -142,11 +147,18 @@ def check_krl(files: dict[str, str], post: dict) -> dict:
 def check_rapid(files: dict[str, str], post: dict) -> dict:
     """RAPID: the recursive-descent parser `tests/program/rapid_check.py` (declarations, aggregate
     shapes, every motion/ArcWare instruction's argument types)."""
-    from rapid_check import parse_module
+    from rapid_check import NUM, parse_module
+
+    from waamflow.program.common import TOOL_COMMANDS
 
     (text,) = files.values()
     units = (post.get("positioner_unit") or "STN1",) if post.get("cell") else ()
-    mod = parse_module(text, tool=post.get("tool_name", "tWeldGun"), units=units)
+    routines = {}                      # the rolling/peening tool's routines, declared on the controller
+    for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["rapid"]):
+        for line in (post.get(key) or default).splitlines():
+            name, _, args = line.strip().rstrip(";").partition(" ")
+            routines[name] = [NUM] * len([a for a in args.split(",") if a.strip()])
+    mod = parse_module(text, tool=post.get("tool_name", "tWeldGun"), units=units, routines=routines)
     robtargets = [n for n, (_st, typ, _v) in mod.data.items() if typ == "robtarget"]
     return {"points_declared": len(robtargets), "motions": len(mod.calls("MoveL", "MoveC", "ArcLStart", "ArcL",
                                                                             "ArcLEnd", "ArcC", "ArcCEnd"))}

@@ -119,23 +119,30 @@ def cmd_serve(args) -> int:
     from .api.app import create_app
     from .settings import Settings
 
+    from pydantic import ValidationError
+
     from .api.auth import load_tokens
 
-    extra = {"token_file": Path(args.token_file)} if args.token_file else {}
-    if args.scheduler:
-        extra["scheduler"] = args.scheduler
-    settings = Settings(data_dir=Path(args.data), host=args.host, port=args.port,
-                        viewer_port=args.viewer_port, graphs_dir=Path(args.graphs) if args.graphs else None,
-                        layer_workers=args.layer_workers, **extra)
+    # a flag overrides its WAAMFLOW_* variable (docker/compose.yml sets them); unset flags leave it
+    given = {"data_dir": args.data, "host": args.host, "port": args.port, "viewer_port": args.viewer_port,
+             "graphs_dir": args.graphs, "layer_workers": args.layer_workers, "scheduler": args.scheduler,
+             "token_file": args.token_file}
+    try:
+        settings = Settings(**{k: v for k, v in given.items() if v is not None})
+    except ValidationError as e:
+        where = ", ".join(f"{'.'.join(str(x) for x in err['loc'])}: {err['msg']}" for err in e.errors())
+        print(f"error: invalid server setting ({where}); see `waamflow serve --help` and the WAAMFLOW_* "
+              "variables in README 'Lab server'", file=sys.stderr)
+        return 2
     tokens = load_tokens(settings.token, settings.token_file)  # TokenFileError → exit 2
-    if not tokens and not _loopback(args.host):
-        print(f"error: refusing to serve on {args.host} without authentication: set a token with "
+    if not tokens and not _loopback(settings.host):
+        print(f"error: refusing to serve on {settings.host} without authentication: set a token with "
               "WAAMFLOW_TOKEN=<secret> (e.g. `export WAAMFLOW_TOKEN=$(python -c 'import secrets; "
-              "print(secrets.token_urlsafe(32))')`) or --token-file FILE (lines name:token), "
+              "print(secrets.token_urlsafe(32))')`) or --token-file FILE / WAAMFLOW_TOKEN_FILE (lines name:token), "
               "or serve on 127.0.0.1", file=sys.stderr)
         return 2
     app = create_app(settings)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
     return 0
 
 
@@ -208,27 +215,33 @@ def build_parser() -> argparse.ArgumentParser:
     pr.set_defaults(func=cmd_profiles)
 
     s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
-    s.add_argument("--host", default="127.0.0.1")
-    s.add_argument("--port", type=int, default=8000)
-    s.add_argument("--data", default="data", help="folder for the database and run files")
-    s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: ./graphs)")
-    s.add_argument("--viewer-port", type=int, default=8080, help="port of the viser 3D preview (0 = off)")
+    s.add_argument("--host", default=None, help="address to listen on (default: WAAMFLOW_HOST, else 127.0.0.1; "
+                                                "any other than loopback needs a token)")
+    s.add_argument("--port", type=int, default=None, help="default: WAAMFLOW_PORT, else 8000")
+    s.add_argument("--data", default=None, help="folder for the database and run files (default: WAAMFLOW_DATA_DIR, else ./data)")
+    s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: WAAMFLOW_GRAPHS_DIR, else ./graphs)")
+    s.add_argument("--viewer-port", type=int, default=None,
+                   help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); with a "
+                        "token it listens on 127.0.0.1 and is served under /viewer/")
     s.add_argument("--layer-workers", type=int, default=None, metavar="N",
                    help="processes per run for the layers of layer nodes (default: every core; 1 = serial)")
     s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="Dask scheduler for the layers of every run (default: WAAMFLOW_SCHEDULER)")
     s.add_argument("--token-file", default=None,
-                   help="named bearer tokens (JSON {name: token} or lines name:token); also WAAMFLOW_TOKEN")
+                   help="named bearer tokens (JSON {name: token} or lines name:token; default: WAAMFLOW_TOKEN_FILE); "
+                        "also WAAMFLOW_TOKEN")
     s.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")
     b.add_argument("dir", help="new folder for the backup")
-    b.add_argument("--data", default="data", help="the server's data folder")
+    b.add_argument("--data", default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
+                   help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
     b.set_defaults(func=cmd_backup)
 
     rs = sub.add_parser("restore", help="restore a backup into a data folder (stop the server first)")
     rs.add_argument("dir", help="folder written by `waamflow backup`")
-    rs.add_argument("--data", default="data", help="the server's data folder")
+    rs.add_argument("--data", default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
+                    help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
     rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
     rs.set_defaults(func=cmd_restore)
 

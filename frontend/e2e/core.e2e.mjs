@@ -4,7 +4,7 @@
 // Run: npm run test:e2e (all *.e2e.mjs) or `node e2e/run.mjs e2e/core.e2e.mjs`.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { api, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
+import { api, boxesStl, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
 
 let srv, browser;
 before(async () => {
@@ -314,6 +314,38 @@ test("frames: a frame around selected nodes moves them with it and is saved in t
   const f = saved.ui.frames[0];
   const [zx, zy] = saved.ui.positions.zone;
   assert.ok(zx >= f.x && zy >= f.y && zx <= f.x + f.w && zy <= f.y + f.h, "the saved frame holds the zone node");
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
+test("upload before the first save (sent right after save as), and the same file picked twice uploads twice", async () => {
+  const { page, errors } = await openPage(browser, srv.base);
+  await page.click('.palette-item[data-type="mesh"] .add');
+  await page.waitForSelector('.react-flow__node[data-id="mesh"]');
+  await page.click('.react-flow__node[data-id="mesh"]');
+  const a = Buffer.from(boxesStl([[0, 0, 0, 10, 10, 5]]));
+  const b = Buffer.from(boxesStl([[0, 0, 0, 20, 10, 5], [30, 0, 0, 40, 10, 5]]));
+  const pick = (buffer) => page.setInputFiles('[data-field="path"] input[type=file]', { name: "part.stl", mimeType: "model/stl", buffer });
+  await pick(a);
+  // no graph yet: the file waits, the path names it, "save as" is offered
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part.stl");
+  await page.fill("[data-testid=save-as-name]", "core-upload");
+  await page.press("[data-testid=save-as-name]", "Enter");
+  await page.waitForSelector('.toolbar .title:text-is("core-upload")');
+  const files = async () => (await api(srv.base, "/api/graphs/core-upload/files")).map((f) => [f.name, f.size]);
+  for (let i = 0; i < 50 && !(await files()).length; i++) await page.waitForTimeout(100);
+  assert.deepEqual(await files(), [["part.stl", a.length]], "uploaded right after the save");
+  // saved: picking files uploads at once, the same name again (and the same file again) too
+  const uploads = async () => (await api(srv.base, "/api/audit?limit=100")).filter((e) => e.action === "upload_file" && e.target === "core-upload").length;
+  const n0 = await uploads();
+  await pick(b);
+  await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, b.length]);
+  await pick(b);
+  for (let i = 0; i < 50 && (await uploads()) < n0 + 2; i++) await page.waitForTimeout(100);
+  assert.equal(await uploads(), n0 + 2, "the same file picked twice is uploaded twice");
+  await pick(a);
+  await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, a.length]);
+  assert.deepEqual(await files(), [["part.stl", a.length]]);
   assert.deepEqual(errors, []);
   await page.context().close();
 });

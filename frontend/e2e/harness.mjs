@@ -21,14 +21,16 @@ const freePort = () =>
     });
   });
 
-/** `waamflow serve` over a new temporary data folder, or over `data` (a restart: same store). */
-export async function startServer({ data: reuse } = {}) {
+/** `waamflow serve` over a new temporary data folder, or over `data` (a restart: same store);
+ * `env`: extra environment of the server (e.g. WAAMFLOW_TOKEN); `headers`: sent by the harness's own checks. */
+export async function startServer({ data: reuse, env = {}, headers = {} } = {}) {
   const port = await freePort();
   const viewerPort = await freePort();
   const data = reuse ?? mkdtempSync(path.join(os.tmpdir(), "waamflow-e2e-"));
   const exe = process.env.WAAMFLOW_BIN ?? path.join(ROOT, ".venv/bin/waamflow");
   const proc = spawn(exe, ["serve", "--port", String(port), "--viewer-port", String(viewerPort), "--data", data], {
     cwd: ROOT,
+    env: { ...process.env, ...env },
     stdio: ["ignore", "pipe", "pipe"],
     detached: true,
   });
@@ -46,7 +48,7 @@ export async function startServer({ data: reuse } = {}) {
     }
     await new Promise((r) => setTimeout(r, 100));
   }
-  const index = await fetch(`${base}/`).then((r) => r.text());
+  const index = await fetch(`${base}/`, { headers }).then((r) => r.text());
   if (!index.includes('id="root"')) throw new Error("the server does not serve the built frontend (run `npm run build`)");
   return {
     base,

@@ -1,7 +1,7 @@
 import { describe, expect, it } from "vitest";
 import type { NodeSpec, Recipe } from "../src/api/types";
 import {
-  addNode, amend, autoLayout, catalogMap, changeSignature, commit, setNodeParams, connect, connectionError, copySelection, defaultParams, history,
+  addNode, amend, autoLayout, catalogMap, changeSignature, commit, setNodeParams, connect, connectionError, connectionRefusal, copySelection, defaultParams, history,
   paste, redo, removeNodes, renameNode, undo, uniqueId,
 } from "../src/graph/recipe";
 
@@ -41,6 +41,12 @@ describe("connection validation", () => {
   it("rejects a cycle", () => {
     const r = connect(recipe, c("mask", "sections", "loop", "sections"));
     expect(connectionError(cat, r, c("loop", "layers", "mask", "layers"))).toMatch(/cycle/);
+  });
+  it("gives the short reason drawn on a refused handle", () => {
+    expect(connectionRefusal(cat, recipe, c("part", "mesh", "mask", "layers"))).toEqual({ text: "type mismatch: mesh → layers", short: "type mesh ≠ layers" });
+    const r = connect(recipe, c("mask", "sections", "loop", "sections"));
+    expect(connectionRefusal(cat, r, c("loop", "layers", "mask", "layers"))?.short).toBe("would create a cycle");
+    expect(connectionRefusal(cat, recipe, c("part", "mesh", "layers", "mesh"))).toBeNull();
   });
   it("replaces the edge into an input that is already connected", () => {
     const r = connect(recipe, c("part", "mesh", "layers", "mesh"));

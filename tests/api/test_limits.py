@@ -1,6 +1,7 @@
 """Per-run resource limits: wall time, layers, path points, artifact size, memory; queue → 429."""
 
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,6 +43,25 @@ class ToyPaths(Node):
         return {"blob.txt": "x" * params.bytes}
 
 
+@register
+class ToyEscape(Node):
+    """Writes one artifact under the name given (to try names that leave the run folder)."""
+
+    type = "toy-escape"
+    category = "test"
+    inputs = (Port("layers", "layers"),)
+    outputs = (Port("layers", "layers"),)
+
+    class Params(NodeParams):
+        name: str = "x.txt"
+
+    def run(self, ctx, params, inputs):
+        return {"layers": inputs["layers"]}
+
+    def artifacts(self, ctx, params, outputs):
+        return {params.name: "escaped"}
+
+
 def _client(tmp_path, **kw):
     s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, workers=1, **kw)
     return TestClient(create_app(s))
@@ -69,8 +89,9 @@ def test_limits_fail_runs_with_reason(tmp_path):
         ok = _limit(c, paths(count=3, points=100, nbytes=1000))
         assert ok["status"] == "done", ok
         t0 = time.monotonic()
-        run = _limit(c, slow(count=40, seconds=0.1))  # would take 4 s
-        assert time.monotonic() - t0 < 3.0
+        run = _limit(c, slow(count=60, seconds=0.5))  # would take 30 s
+        assert time.monotonic() - t0 < 15.0  # ended by the limit, with a wide margin for a loaded machine
+        assert run["finished"] - run["started"] < 15.0
         assert run["status"] == "failed" and run["error"]["kind"] == "limit"
         assert "run_timeout_s" in run["error"]["message"]
         log = c.get(f"/api/runs/{run['id']}/log").json()
@@ -102,3 +123,28 @@ def test_full_queue_is_429(tmp_path):
         for i in ids:
             assert wait(c, i)["status"] == "cancelled"
         assert c.post("/api/runs", json={"recipe": slow(count=1)}).status_code == 202
+
+
+def test_artifact_names_never_leave_the_run_folder(tmp_path):
+    with _client(tmp_path) as c:
+        for name in ("../escaped.txt", "../../escaped.txt", "/tmp/escaped.txt", "sub/escaped.txt", ".hidden", ".."):
+            rec = toy.recipe([("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": name})],
+                             [("stack.layers", "e.layers")])
+            run = _limit(c, rec)
+            assert run["status"] == "failed" and "not a plain file name" in run["error"]["message"], (name, run)
+            assert c.get(f"/api/runs/{run['id']}/artifacts").json() == []
+        ok = _limit(c, toy.recipe([("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": "fine.txt"})],
+                                  [("stack.layers", "e.layers")]))
+        assert ok["status"] == "done"
+        assert c.get(f"/api/runs/{ok['id']}/artifacts/e.fine.txt").text == "escaped"  # prefixed by the node id
+    assert not [p for p in tmp_path.rglob("escaped.txt")] and not Path("/tmp/escaped.txt").exists()
+
+
+def test_upload_size_limit(tmp_path):
+    with _client(tmp_path, max_upload_mb=1) as c:
+        assert c.put("/api/graphs/g", json=toy.chain()).status_code == 201
+        r = c.put("/api/graphs/g/files/big.stl", content=b"x" * (1024 * 1024 + 1))
+        assert r.status_code == 413 and r.json()["detail"]["kind"] == "too_large"
+        assert "1 MB" in r.json()["detail"]["message"]
+        assert c.put("/api/graphs/g/files/ok.stl", content=b"x" * (1024 * 1024)).status_code == 204
+        assert [f["name"] for f in c.get("/api/graphs/g/files").json()] == ["ok.stl"]

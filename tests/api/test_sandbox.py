@@ -2,6 +2,7 @@
 
 import json
 import os
+import sys
 
 import pytest
 from fastapi.testclient import TestClient
@@ -20,6 +21,17 @@ endloop
 endfacet
 endsolid c
 """
+
+
+OPENED: list[str] | None = None  # while a list: every path the process opens (audit hook)
+
+
+def _audit(event, args):
+    if OPENED is not None and event == "open" and args and isinstance(args[0], (str, bytes, os.PathLike)):
+        OPENED.append(os.fsdecode(args[0]))
+
+
+sys.addaudithook(_audit)  # cannot be removed; inert while OPENED is None
 
 
 def mesh_recipe(path):
@@ -51,7 +63,13 @@ def env(tmp_path, monkeypatch):
 
 
 def test_rest_recipe_cannot_read_outside(env):
+    global OPENED
     c, secret, reads = env
+    OPENED = []
+    control = secret.parent.parent / "graphs" / "inside.stl"
+    control.read_bytes()
+    assert str(control) in OPENED  # the hook sees opens
+    OPENED.clear()
     for path, why in [(str(secret), "absolute"), ("../outside/secret.stl", "'..'"), ("link.stl", "outside"),
                       ("file:///etc/passwd", "URL"), ("http://example.com/x.stl", "URL"),
                       ("sub/../../outside/secret.stl", "'..'"), ("C:\\x.stl", "absolute")]:
@@ -68,7 +86,10 @@ def test_rest_recipe_cannot_read_outside(env):
     assert c.put("/api/graphs/g", json=rec).status_code == 201
     r = c.post("/api/runs", json={"graph": "g", "inputs": {"mesh_file": str(secret)}})
     assert r.status_code == 422 and r.json()["detail"]["node"] == "part"
-    assert reads == []  # nothing was read
+    opened, OPENED = OPENED, None
+    assert reads == []  # nothing was read: not through the nodes' file resolver,
+    outside = (str(secret.parent), str(secret.parent.resolve()))
+    assert not [p for p in opened if p.startswith(outside)], opened  # nor opened by anything
     assert c.get("/api/runs").json() == []  # and no run was created
 
 

@@ -15,7 +15,7 @@ from waamflow.engine.recipe import apply_overrides, load_recipe
 from waamflow.process.bead_fit import fit_trials, read_trials
 from waamflow.process.fill import FillRules, fill, model_values
 from waamflow.process.interpass import HeatModel, layer_times, plan_dwells
-from waamflow.process.treatment import TreatmentSpec, max_distance_to_centre, plan_treatment, _runs
+from waamflow.process.treatment import TreatmentSpec, max_distance_to_centre, plan_treatment, weave_centre, _runs
 from waamflow.zoning.params_xml import parse
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
@@ -91,22 +91,49 @@ def test_dwell_respects_the_interpass_rule(example):
 
 def test_rolling_path_follows_the_bead_centre(example):
     seq = example.outputs["sequence"]["toolpath"]
+    guides = example.outputs["guide"]["sections"]
     tp, rep = plan_treatment(seq, TreatmentSpec(max_turn_deg=30.0, tolerance_mm=0.05), interleave=False)
     assert rep["strokes"] > 0
+    rolled_weave = torch_len = 0.0
     for lp_dep, lp_roll in zip(seq, tp):
-        beads = [r for sp in lp_dep.sections for r in _runs(sp)]
+        by_key = guides[lp_dep.index].by_key()
         for sp in lp_roll.sections:
+            dep = next(d for d in lp_dep.sections if sp.key.startswith(d.key + "/"))
+            if dep.strategy == "oscillate":
+                # one wide bead along the guide: its centre is the guide line, not the zig-zag
+                g = np.asarray(by_key[dep.key].guide.coords, float)
+                beads = [np.column_stack([g, np.full(len(g), lp_dep.layer.z)])]
+                rolled_weave += float(np.linalg.norm(np.diff(sp.points[:-1], axis=0), axis=1).sum())
+            else:
+                beads = _runs(dep)
             assert max_distance_to_centre(sp, beads) <= 0.1
-            assert not sp.arc.any()
+            assert not sp.arc.any() and sp.tool == "rolling" and sp.tool_params["force_n"] == 25000.0
             # approach and retract at the clearance above the bead top
             assert sp.approach[0, 2] == pytest.approx(lp_dep.layer.z + 10.0)
             assert sp.points[-1, 2] == pytest.approx(lp_dep.layer.z + 10.0)
             assert np.allclose(sp.points[:-1, 2], lp_dep.layer.z)
-    # rolled length ≈ the arc-ON length (strokes end at sharp turns; short ones skipped)
-    arc_len = sum(float(sp.segment_lengths[sp.arc].sum()) for lp in seq for sp in lp.sections)
-    assert 0.8 * arc_len < rep["rolled_length_mm"] <= arc_len + 1e-6
+        torch_len += sum(float(sp.segment_lengths[sp.arc].sum()) for sp in lp_dep.sections if sp.strategy != "oscillate")
+    # the weave (bs1/A, one run over y -60 … 60 per layer) is rolled in one stroke per layer, all
+    # of it but half a weave period (3 mm of guide) at each end
+    assert sum(1 for lp in tp for sp in lp.sections if sp.key.startswith("bs1/A/")) == len(seq)
+    assert rolled_weave == pytest.approx(len(seq) * (120.0 - 6.0), abs=0.5)
+    # elsewhere rolled length ≈ the arc-ON length (strokes end at sharp turns; short ones skipped)
+    other = rep["rolled_length_mm"] - rolled_weave
+    assert 0.8 * torch_len < other <= torch_len + 1e-6
     inter, _ = plan_treatment(seq, TreatmentSpec(), interleave=True)
     assert len(inter[0].sections) == len(seq[0].sections) + rep["layers"][0]["strokes"]
+
+
+def test_weave_centre_of_a_zigzag():
+    # a weave along x: amplitude 3 mm, 3 mm advance per leg, 60 mm long
+    xs = np.arange(0.0, 60.1, 3.0)
+    run = np.column_stack([xs, np.where(np.arange(len(xs)) % 2 == 0, -3.0, 3.0), np.full(len(xs), 1.5)])
+    c = weave_centre(run, 30.0)
+    assert np.abs(c[:, 1]).max() < 1e-9 and np.allclose(c[:, 2], 1.5)
+    assert c[0, 0] == pytest.approx(3.0) and c[-1, 0] == pytest.approx(57.0)    # half a period lost per end
+    # a boustrophedon (turns in pairs: left, left, right, right) is not a weave
+    rast = np.array([[0, 0, 0], [40, 0, 0], [40, 4, 0], [0, 4, 0], [0, 8, 0], [40, 8, 0], [40, 12, 0]], float)
+    assert weave_centre(rast, 30.0) is None
 
 
 def test_worked_example_artifacts(example):

@@ -253,14 +253,17 @@ def _arg_type(mod: Module, arg, tool: str | None) -> str:
     return "undeclared"
 
 
-def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = ()) -> Module:
+def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = (),
+                 routines: dict[str, list[str]] | None = None) -> Module:
     """Parse and check one module; `tool` is the controller's tooldata name, `units` the
-    mechanical units the controller knows (for ActUnit/DeactUnit)."""
+    mechanical units the controller knows (for ActUnit/DeactUnit), `routines` the procedures
+    other loaded modules declare (name → argument types, e.g. a rolling tool's ToolOn)."""
     mod = _Parser(text).module()
+    known = {**{k: (list(v), {}) for k, v in (routines or {}).items()}, **INSTRUCTIONS}
     for call in mod.calls():
-        if call.name not in INSTRUCTIONS:
+        if call.name not in known:
             raise RapidError(f"line {call.line}: unknown instruction {call.name}")
-        types, opts = INSTRUCTIONS[call.name]
+        types, opts = known[call.name]
         if len(call.args) != len(types):
             raise RapidError(f"line {call.line}: {call.name} takes {len(types)} arguments, got {len(call.args)}")
         for a, want in zip(call.args, types):

@@ -6,6 +6,7 @@ import re
 import numpy as np
 import pytest
 from program_checkers import check_gcode
+from pydantic import ValidationError
 
 from waamflow.core.errors import RecipeError
 from waamflow.core.moves import flatten
@@ -88,3 +89,25 @@ def test_feed_in_mm_per_s_and_start_code_and_templates():
 def test_bad_dialect_settings_are_clear_errors(params, words):
     with pytest.raises(RecipeError, match=words):
         _node(**params)
+
+
+def test_rotary_axes_units_letters_and_only_on_change():
+    moves = flatten(build_toolpath(2))
+    n = len(moves.points)
+    ang = np.zeros((n, 2))
+    layer = np.concatenate([moves.layer[:1], moves.layer])            # layer of the motion to each point
+    ang[:, 0] = np.where(layer == 1, 30.0, 10.0)                       # layer 1 tilted further
+    ang[:, 1] = -90.0
+    text = post_process(moves, "gcode", PlanSettings(),
+                        GcodeSettings(rotary_axes=("B", "C"), rotary_units="rad", external_axes=ang)).files["gcode"]
+    b = [float(v) for v in re.findall(r"^G[01] .*\bB(-?[\d.]+)", text, re.M)]
+    c = [float(v) for v in re.findall(r"^G[01] .*\bC(-?[\d.]+)", text, re.M)]
+    assert b == pytest.approx([np.radians(10.0), np.radians(30.0)], abs=1e-6)   # written where they change
+    assert c == pytest.approx([np.radians(-90.0)], abs=1e-6)
+    assert "B = positioner E1 (tilt), C = positioner E2 (turn) in radians" in text
+    with pytest.raises(ValueError, match="rotary_axes"):
+        GcodeSettings(rotary_axes=("A", "A"))
+    with pytest.raises(ValueError, match="names only 1"):
+        post_process(moves, "gcode", PlanSettings(), GcodeSettings(rotary_axes=("A",), external_axes=ang))
+    with pytest.raises(ValidationError, match="rotary_axes"):             # the engine's 422 / exit 2
+        _node(rotary_axes=["A", "X"])

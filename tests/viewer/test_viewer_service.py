@@ -250,7 +250,10 @@ def test_simulated_path_offset_side_by_side(viewer):
     viewer._gui["offset"].value = 5.0
     sim = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0001/simulated")
     prog = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0001/programmed")
-    assert np.allclose(sim.position, [0, 0, 5]) and np.allclose(prog.position, [0, 0, 0])
+    # the thinner lines sit a display hair (1e-3 of the part's size) above the toolpath, in order
+    lift = viewer.parts[("simulate", "simulation")].lift
+    assert 0 < lift < 1e-3 * np.linalg.norm(viewer.bounds()[1] - viewer.bounds()[0]) + 1e-9
+    assert np.allclose(sim.position, [0, 0, 5 + lift]) and np.allclose(prog.position, [0, 0, 2 * lift])
     torch = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/torch")
     s = out["simulate"]["simulation"].trace
     assert torch.position[2] == pytest.approx(s["z"][0] + 5.0)

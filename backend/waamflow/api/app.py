@@ -49,6 +49,60 @@ def _start_viewer(settings: Settings, host: str | None = None):
         return None
 
 
+# OpenAPI links: which answer gives which later request its parameters (a saved graph's name,
+# a run's id). Clients and schemathesis' stateful phase follow them: save → read/run/delete.
+GRAPH = {"name": "$response.body#/name"}
+RUN = {"run_id": "$response.body#/id"}
+LINKS: dict[tuple[str, str], tuple[tuple[str, ...], dict[str, tuple[str, str, dict, dict | None]]]] = {
+    ("put", "/api/graphs/{name}"): (("200", "201"), {
+        "GetGraph": ("get", "/api/graphs/{name}", GRAPH, None),
+        "SaveGraphAgain": ("put", "/api/graphs/{name}", GRAPH, None),
+        "DeleteGraph": ("delete", "/api/graphs/{name}", GRAPH, None),
+        "GetParams": ("get", "/api/graphs/{name}/params", GRAPH, None),
+        "PutParams": ("put", "/api/graphs/{name}/params", GRAPH, None),
+        "ListFiles": ("get", "/api/graphs/{name}/files", GRAPH, None),
+        "UploadFile": ("put", "/api/graphs/{name}/files/{filename}", GRAPH, None),
+        "RunGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/name"}),
+    }),
+    ("get", "/api/graphs"): (("200",), {
+        "GetFirstGraph": ("get", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
+        "DeleteFirstGraph": ("delete", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
+        "RunFirstGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/0/name"}),
+    }),
+    ("post", "/api/runs"): (("202",), {
+        "GetRun": ("get", "/api/runs/{run_id}", RUN, None),
+        "RunEvents": ("get", "/api/runs/{run_id}/events", RUN, None),
+        "RunLog": ("get", "/api/runs/{run_id}/log", RUN, None),
+        "ListArtifacts": ("get", "/api/runs/{run_id}/artifacts", RUN, None),
+        "CancelRun": ("delete", "/api/runs/{run_id}", RUN, None),
+    }),
+    ("get", "/api/runs"): (("200",), {
+        "GetFirstRun": ("get", "/api/runs/{run_id}", {"run_id": "$response.body#/0/id"}, None),
+        "ListFirstRunArtifacts": ("get", "/api/runs/{run_id}/artifacts", {"run_id": "$response.body#/0/id"}, None),
+    }),
+    ("get", "/api/runs/{run_id}/artifacts"): (("200",), {
+        "GetArtifact": ("get", "/api/runs/{run_id}/artifacts/{name}",
+                        {"run_id": "$request.path.run_id", "name": "$response.body#/0/name"}, None),
+    }),
+}
+
+
+def add_links(schema: dict) -> None:
+    paths = schema.get("paths", {})
+    for (method, path), (statuses, links) in LINKS.items():
+        responses = paths[path][method]["responses"]
+        out = {}
+        for name, (t_method, t_path, params, body) in links.items():
+            link = {"operationId": paths[t_path][t_method]["operationId"]}
+            if params:
+                link["parameters"] = params
+            if body is not None:
+                link["requestBody"] = body
+            out[name] = link
+        for status in statuses:
+            responses[status]["links"] = out
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     tokens = load_tokens(settings.token, settings.token_file)
@@ -139,19 +193,22 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         schema.setdefault("components", {})["securitySchemes"] = {
             "bearer": {"type": "http", "scheme": "bearer",
                        "description": "WAAMFLOW_TOKEN or a token of --token-file (only when the server has tokens)"}}
+        # a server with tokens requires one on every route behind the check; without tokens it is optional
+        security = [{"bearer": []}] if tokens else [{"bearer": []}, {}]
         for path, ops in schema.get("paths", {}).items():
             for op in ops.values():
                 responses = op.setdefault("responses", {})
                 if needs_auth(path):
                     responses.setdefault("401", {"description": "Missing or wrong bearer token"})
+                    op["security"] = security
                 if "requestBody" in op and "application/json" in op["requestBody"].get("content", {}):
                     responses.setdefault("400", {"description": "The request body is not valid JSON"})
-                    op["security"] = [{"bearer": []}, {}]
                 for code, resp in responses.items():
                     if code.startswith("4"):
                         resp["content"] = ref
                         if code == "422":
                             resp["description"] = "Invalid request, recipe or file"
+        add_links(schema)
         app.openapi_schema = schema
         return schema
 

@@ -25,7 +25,7 @@ def get_user(request: Request) -> str | None:
 ServicesDep = Annotated[Services, Depends(get_services)]
 UserDep = Annotated[str | None, Depends(get_user)]
 
-GraphName = Annotated[str, Path(pattern=GRAPH_NAME_PATTERN, min_length=1, max_length=80,
+GraphName = Annotated[str, Path(pattern=GRAPH_NAME_PATTERN, min_length=1, max_length=80, examples=["rectangle-study"],
                                 description="graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars")]
 FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120,
                                description="file name: letters, digits, _ . - (no '..'); ≤ 120 chars")]

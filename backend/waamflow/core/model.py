@@ -186,6 +186,10 @@ class SectionPath:
     names from `waamflow.core.process.ZONE_PARAMETERS` (units in the names).
     tool_axis: (n, 3) unit vectors from the torch towards the part, or None (= (0, 0, -1)).
     approach: (k, 3) arc-OFF travel points flown before points[0] (set by sequencing), or None.
+    tool: "" for the deposition torch; else a post-deposition tool ("rolling", "peening") whose
+    contact is every arc-OFF segment with a programmed speed (the post-processor engages the tool
+    before such a run and lifts it after), with `tool_params` (force_n, tool_width_mm,
+    speed_mm_s, ...) stated in the program's tool commands.
     """
 
     key: str
@@ -199,6 +203,8 @@ class SectionPath:
     zone_params: dict[str, dict[str, float]] = field(default_factory=dict)
     tool_axis: np.ndarray | None = None
     approach: np.ndarray | None = None
+    tool: str = ""
+    tool_params: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = len(self.points)
@@ -223,12 +229,14 @@ class SectionPath:
 class LayerPaths:
     """The program of one layer: section paths in deposition order.
 
-    dwell_after_s: interlayer dwell after this layer (s).
+    dwell_after_s: interlayer dwell after this layer (s). dwell_note: why (e.g. the interpass
+    rule that set it), written beside the dwell in the program.
     """
 
     layer: Layer
     sections: tuple[SectionPath, ...]
     dwell_after_s: float = 0.0
+    dwell_note: str = ""
 
     @property
     def index(self) -> int:

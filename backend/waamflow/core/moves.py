@@ -8,7 +8,7 @@ an arc-OFF travel segment (from the previous section's last point through the ne
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,9 @@ class Moves:
     `zone_ids` (-1 for travel). dwell_before: (n,) float s dwell at each point before moving on
     (the interlayer dwell, at the next layer's first point). Zone dwells (e.g. after ignition)
     stay in `zone_params[...]["dwell"]`: their placement is the post-processor's/simulator's call.
+    dwell_notes: point index → why it dwells there (`LayerPaths.dwell_note`).
+    section_tools: section index → (tool, tool_params) of post-deposition tool sections
+    (`SectionPath.tool`); deposition sections are absent.
     """
 
     points: np.ndarray
@@ -45,6 +48,8 @@ class Moves:
     zone_ids: tuple[str, ...]
     zone_params: dict[tuple[int, int], dict[str, float]]  # (section idx, zone idx) → params
     layer_z: dict[int, float]
+    dwell_notes: dict[int, str] = field(default_factory=dict)
+    section_tools: dict[int, tuple[str, dict[str, float]]] = field(default_factory=dict)
 
     @property
     def segment_lengths(self) -> np.ndarray:
@@ -66,6 +71,9 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
     zone_params: dict[tuple[int, int], dict[str, float]] = {}
     layer_z: dict[int, float] = {}
     pending_dwell = 0.0
+    pending_notes: list[str] = []
+    dwell_notes: dict[int, str] = {}
+    section_tools: dict[int, tuple[str, dict[str, float]]] = {}
     down = np.array([0.0, 0.0, -1.0])
 
     def add_segments(kind, arc, inside, speed, layer, section, zone, n):
@@ -87,6 +95,8 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
                 continue
             s_idx = len(section_keys)
             section_keys.append(sp.key)
+            if sp.tool:
+                section_tools[s_idx] = (sp.tool, dict(sp.tool_params))
             # travel: previous end → approach → first point
             travel_pts = [] if sp.approach is None else list(np.asarray(sp.approach, dtype=float))
             travel_pts.append(np.asarray(sp.points[0], dtype=float))
@@ -96,11 +106,20 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
                 axes.append(np.tile(down, (len(travel_pts), 1)))
                 dwell.extend([0.0] * len(travel_pts))
                 dwell[-1] += pending_dwell
+            elif sp.tool and len(travel_pts) > 1:
+                # a tool (roller) starts from its approach above the part, never straight onto it
+                pts.append(np.array(travel_pts))
+                axes.append(np.tile(down, (len(travel_pts), 1)))
+                add_segments(TRAVEL, False, False, np.nan, lp.index, s_idx, -1, len(travel_pts) - 1)
+                dwell.extend([0.0] * (len(travel_pts) - 1) + [pending_dwell])
             else:
                 pts.append(np.array(travel_pts[-1:]))
                 axes.append(down[None, :])
                 dwell.append(pending_dwell)
+            if pending_dwell > 0 and pending_notes:
+                dwell_notes[len(dwell) - 1] = "; ".join(pending_notes)
             pending_dwell = 0.0
+            pending_notes = []
             # deposition
             zones = sp.zone if sp.zone else ("",) * (len(sp.points) - 1)
             z_idx = []
@@ -117,6 +136,8 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
             axes.append(ax[1:])
             dwell.extend([0.0] * (len(sp.points) - 1))
         pending_dwell += float(lp.dwell_after_s)
+        if lp.dwell_after_s > 0 and lp.dwell_note:
+            pending_notes.append(lp.dwell_note)
 
     if not pts:
         empty = np.zeros(0)
@@ -139,4 +160,6 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
         zone_ids=tuple(zone_ids),
         zone_params=zone_params,
         layer_z=layer_z,
+        dwell_notes=dwell_notes,
+        section_tools=section_tools,
     )

@@ -71,6 +71,9 @@ def section_path_json(sp) -> dict[str, Any]:
         d["approach"] = coords(sp.approach)
     if sp.tool_axis is not None:
         d["tool_axis"] = coords(sp.tool_axis)
+    if sp.tool:
+        d["tool"] = sp.tool
+        d["tool_params"] = {k: _r(v) for k, v in sp.tool_params.items()}
     return d
 
 
@@ -83,6 +86,7 @@ def toolpath_json(toolpath: Layered[LayerPaths]) -> dict:
             "index": lp.index,
             "z": _r(lp.layer.z),
             "dwell_after_s": _r(lp.dwell_after_s),
+            **({"dwell_note": lp.dwell_note} if lp.dwell_note else {}),
             "sections": [section_path_json(sp) for sp in lp.sections],
         })
     return {"units": "mm", "layers": layers}

@@ -141,12 +141,15 @@ class NodeStats:
     layers_total: int | None = None
     layers_cached: int | None = None
     layers_computed: int | None = None
+    report: dict = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
 
     def to_dict(self) -> dict:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
             d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
                      layers_computed=self.layers_computed)
+        if self.report:
+            d["report"] = self.report
         return d
 
 
@@ -437,13 +440,15 @@ class _Run:
         hit = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
             outputs, warnings = dict(hit[0]), hit[1]
+            report = hit[2] if len(hit) > 2 else {}
             cached = True
         else:
             outputs = gnode.impl.run(ctx, gnode.params, inputs)
             self._check_outputs(gnode, outputs)
             warnings = ctx.warnings
+            report = ctx.take_report()
             if self.cache is not None:
-                self.cache.put(key, (dict(outputs), warnings))
+                self.cache.put(key, (dict(outputs), warnings, report))
             cached = False
         self.outputs[gnode.id] = outputs
         for port, value in outputs.items():
@@ -455,7 +460,7 @@ class _Run:
                 psig = signature("layered", items_sigs)
             self.sigs[(gnode.id, port)] = psig
         self.add_warnings(warnings)
-        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached)
+        self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
 
     def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
@@ -499,7 +504,9 @@ class _Run:
         n_computed = len(todo)
         ctx.layer = None
         ctx.warnings = []
+        ctx.take_report()
         outputs = impl.combine(ctx, gnode.params, per_layer, inputs)
+        report = ctx.take_report()
         self._check_outputs(gnode, outputs)
         self.add_warnings(ctx.warnings)
         fsig = self.file_sigs(gnode)
@@ -515,7 +522,7 @@ class _Run:
                 self.sigs[(gnode.id, port)] = signature(node_key, port)
         self.outputs[gnode.id] = outputs
         self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
-                                         layers_cached=n_cached, layers_computed=n_computed)
+                                         layers_cached=n_cached, layers_computed=n_computed, report=report)
         return n_computed == 0
 
     def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],

@@ -31,6 +31,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .ports import Port
 
+MAX_REPORT_BYTES = 256 * 1024  # a node's report in summary.json (see Context.report)
+
 # A parameter holding a path to a file (mesh, sketch, XML). Relative paths resolve against the
 # recipe file. The engine hashes the file's content into the node's signature, and the GUI shows
 # a file picker for it.
@@ -162,6 +164,30 @@ class Context:
 
     def progress(self, fraction: float, message: str = "") -> None:  # pragma: no cover
         raise NotImplementedError
+
+    def report(self, data: dict) -> None:
+        """Record a small structured result of this node (totals, per-layer figures: JSON-able,
+        at most `MAX_REPORT_BYTES` as JSON). Keys merge over repeated calls. The engine stores the
+        report with the node's cache entry (a cached re-run states it again) and writes it into
+        `summary.json` under `nodes.<node id>.report`. A `LayerNode` reports from `combine` (it
+        runs on every execution); reports made in `run_layer` are not collected."""
+        import json
+
+        merged = {**getattr(self, "_report", {}), **dict(data)}
+        try:
+            size = len(json.dumps(merged, allow_nan=False))
+        except (TypeError, ValueError) as e:
+            raise TypeError(f"node {self.node_id!r}: report must be finite JSON ({e})") from None
+        if size > MAX_REPORT_BYTES:
+            raise ValueError(f"node {self.node_id!r}: report is {size} bytes as JSON, over {MAX_REPORT_BYTES}; "
+                             "put large results in an artifact")
+        self._report = merged
+
+    def take_report(self) -> dict:
+        """The report recorded so far, and reset (engine side)."""
+        out = getattr(self, "_report", {})
+        self._report = {}
+        return out
 
     def trace(self) -> dict:
         """Traceability of the run (date UTC, waamflow version, recipe name and sha256, sha256 of

@@ -18,6 +18,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..core.errors import InputFileError, RecipeError
 
 FORMAT = "waamflow/1"
+OLD_FORMATS = ("waamflow/0", "waamflow")
+FORMATS = (FORMAT, *OLD_FORMATS)
 NODE_ID = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]{0,63}$")
 INPUT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 MAX_RECIPE_BYTES = 5_000_000
@@ -34,7 +36,8 @@ LEGACY_TYPES: dict[str, str] = {
 
 class NodeEntry(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    id: str = Field(description="Unique node id (letters, digits, _ and -).")
+    id: str = Field(description="Unique node id (letters, digits, _ and -).",
+                    json_schema_extra={"pattern": NODE_ID.pattern})
     type: str = Field(description="Node type id from the catalog.")
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
@@ -42,7 +45,7 @@ class NodeEntry(BaseModel):
     @field_validator("id")
     @classmethod
     def _id(cls, v: str) -> str:
-        if not NODE_ID.match(v):
+        if not NODE_ID.fullmatch(v):
             raise ValueError(f"invalid node id {v!r}: use letters, digits, '_' or '-', start with a letter, ≤ 64 chars")
         return v
 
@@ -57,10 +60,12 @@ class Recipe(BaseModel):
     """A saved graph. `ui` holds editor-only state (node positions); the engine ignores it."""
 
     model_config = ConfigDict(extra="forbid", populate_by_name=True)
-    format: str = FORMAT
+    format: str = Field(FORMAT, json_schema_extra={"enum": list(FORMATS)},
+                        description=f"{FORMAT}; older formats are migrated on load")
     name: str = "recipe"
     description: str = ""
-    inputs: dict[str, Any] = Field(default_factory=dict)
+    inputs: dict[str, Any] = Field(default_factory=dict, json_schema_extra={"propertyNames": {"pattern": INPUT_NAME.pattern}},
+                                   description="named values that node params refer to as \"$name\"")
     nodes: list[NodeEntry] = Field(default_factory=list)
     edges: list[EdgeEntry] = Field(default_factory=list)
     ui: dict[str, Any] | None = None
@@ -69,7 +74,7 @@ class Recipe(BaseModel):
     @classmethod
     def _inputs(cls, v: dict) -> dict:
         for k in v:
-            if not INPUT_NAME.match(k):
+            if not INPUT_NAME.fullmatch(k):
                 raise ValueError(f"invalid input name {k!r}")
         return v
 
@@ -84,7 +89,7 @@ def migrate(data: dict) -> dict:
     """Bring an older recipe dict up to the current format (returns a new dict)."""
     data = copy.deepcopy(data)
     fmt = data.get("format", FORMAT)
-    if fmt in ("waamflow/0", "waamflow"):
+    if fmt in OLD_FORMATS:
         # waamflow/0 stored edges as {"source": "n.port", "target": "n.port"}.
         data["edges"] = [
             {"from": e.get("from", e.get("source")), "to": e.get("to", e.get("target"))} for e in data.get("edges", [])

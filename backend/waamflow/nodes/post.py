@@ -17,7 +17,8 @@ from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
-from ..program.common import KRL_RESERVED, RAPID_RESERVED, check_templates, program_identifier, stamp_trace
+from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
+                              program_identifier, stamp_trace)
 from ..program.krl import ARCTECH_CHANNELS, check_channels
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import load_cell, positioner_angles, to_world
@@ -45,6 +46,9 @@ class PostProcess(Node):
       toolpath point (point, layer_height, up_vector, mesh_normal, frame, extruder_toggle,
       velocity, wait_time, blend_radius, plus layer and section) for compas_rrc/compas_fab drivers.
     Ignition dwell: the zone's `dwell` parameter when it has one, else `ignition_dwell`.
+    Interlayer dwells carry their reason (e.g. the interpass rule) in a comment. Rolling/peening
+    strokes (a `treatment` node's sections) are engaged and lifted by `tool_on`/`tool_off`
+    (force, width, speed filled in) around each stroke's contact motions.
     """
 
     type = "post-process"
@@ -107,6 +111,16 @@ class PostProcess(Node):
             description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
                         "axes (the machine profile's, e.g. A/C or B/C)")
         rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words")
+        # post-deposition tools (rolling, peening: sections from a treatment node)
+        tool_on: str = Field("", max_length=200,
+                             description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
+                                         "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
+                                         "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
+                                         "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
+                                         "`ToolOn force, width, speed;`")
+        tool_off: str = Field("", max_length=200,
+                              description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
+                                          "`TOOL_OFF()`, RAPID `ToolOff;`")
         # KUKA KRL
         tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
         base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")
@@ -156,6 +170,11 @@ class PostProcess(Node):
         @classmethod
         def _templates(cls, v: dict[str, str]) -> dict[str, str]:
             return check_templates(v)
+
+        @field_validator("tool_on", "tool_off")
+        @classmethod
+        def _tool_template(cls, v: str) -> str:
+            return check_tool_template(v, "tool command") if v else v
 
         @field_validator("arctech_channels")
         @classmethod
@@ -265,6 +284,9 @@ def _work_frame(cell) -> tuple[float, ...]:
 
 def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | float | None:
     direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
+    if p.format in TOOL_COMMANDS:
+        on, off = TOOL_COMMANDS[p.format]
+        tools = dict(tool_on=p.tool_on or on, tool_off=p.tool_off or off)
     if p.format == "gcode":
         return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
@@ -273,7 +295,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                              comment_style=p.comment_style, feed_units=p.feed_units,
                              start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
                              end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
-                             preamble=tuple(p.preamble), postamble=tuple(p.postamble))
+                             preamble=tuple(p.preamble), postamble=tuple(p.postamble), **tools)
     if p.format == "krl":
         return KrlSettings(program_name=name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
@@ -281,12 +303,12 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
                            split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes),
                            arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
-                           arctech_velocity_unit=p.arctech_velocity_unit)
+                           arctech_velocity_unit=p.arctech_velocity_unit, **tools)
     if p.format == "rapid":
         return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
                              positioner_unit=p.positioner_unit,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
-                             tool_direction=direction or "z")
+                             tool_direction=direction or "z", **tools)
     if p.format == "printpoints":
         return p.blend_distance
     return None

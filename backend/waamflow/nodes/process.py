@@ -18,12 +18,13 @@ from ..core.moves import flatten
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..process.bead_fit import BeadFit, fit_svg, fit_trials, read_trials
 from ..process.fill import FillRules, fill
-from ..process.interpass import HeatModel, interpass_svg, plan_dwells
+from ..process.interpass import HeatModel, interpass_svg, plan_dwells, summary_report
 from ..process.treatment import TreatmentSpec, plan_treatment
 from ..zoning.params_xml import parse as parse_params
 from ..engine.ports import Port
 from ..process.coverage import section_coverage
-from ..trajectory.compensate import CompensationSettings, compensate, deposit_cv, deposit_ratio_cv, deposit_svg
+from ..trajectory.compensate import (CompensationSettings, compensate, deposit_bin_series, deposit_cv, deposit_ratio_cv,
+                                     deposit_svg)
 from ..trajectory.run import simulate_program
 from .robot import RobotParams, _profile
 
@@ -159,7 +160,8 @@ class CompensateDeposit(Node):
                   "deposit_ratio_cv_before": round(deposit_ratio_cv(plain), 5),
                   "cv_reduction": round(1 - comp.report["deposit_per_mm_cv_after"] / cv0, 4) if cv0 > 0 else 0.0}
         deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
-                   "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"]}
+                   "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
+                   "bins": deposit_bin_series(plain, comp.after)}
         sim = dc_replace(comp.after, deposit=deposit, estimate={**comp.after.estimate, **{
             k: float(v) for k, v in report.items() if isinstance(v, (int, float))}})
         return {"toolpath": comp.toolpath, "simulation": sim}
@@ -350,6 +352,7 @@ class Interpass(Node):
         except ValueError as e:
             raise RecipeError(str(e), node=ctx.node_id) from None
         ctx.progress(1.0, f"interpass dwell {report['total_added_dwell_s']:.1f} s added")
+        ctx.report(summary_report(report))
         return {"toolpath": tp, "report": report}
 
     def artifacts(self, ctx, params, outputs):
@@ -392,6 +395,7 @@ class Treatment(Node):
                              speed=params.speed, clearance_mm=params.clearance, max_turn_deg=params.max_turn_deg,
                              tolerance_mm=params.tolerance, min_stroke_mm=params.min_stroke)
         tp, report = plan_treatment(inputs["toolpath"], spec, params.interleave)
+        ctx.report({k: v for k, v in report.items()})
         return {"toolpath": tp, "report": report}
 
     def artifacts(self, ctx, params, outputs):

@@ -246,28 +246,24 @@ def fit_trials(trials: Trials, form: str = "power", material: str = "", process:
 
 
 def fit_svg(model: BeadFit) -> str:
-    """Measured vs predicted width and height (hand-written SVG, one panel each)."""
+    """Measured against model width and height per trial (one panel each, the 1:1 line)."""
+    from .svgplot import Chart, figure
+
     res = model.fit.get("residuals", [])
-    W, H, pad = 640, 300, 40
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
-           f'<rect width="{W}" height="{H}" fill="#fff"/>']
+    charts = []
     for k, (name, color) in enumerate((("width", "#1d3557"), ("height", "#e76f51"))):
         meas = np.array([r[f"{name}_mm"] for r in res]) if res else np.zeros(0)
         pred = meas - np.array([r[f"{name}_residual_mm"] for r in res]) if res else np.zeros(0)
         lo = float(min(meas.min(), pred.min())) * 0.95 if len(meas) else 0.0
         hi = float(max(meas.max(), pred.max())) * 1.05 if len(meas) else 1.0
-        x0, size = pad + k * (W // 2), W // 2 - 2 * pad
-        sc = lambda v: size * (v - lo) / (hi - lo)  # noqa: E731
         st = model.fit.get(name, {})
-        out.append(f'<text x="{x0}" y="16" font-weight="bold">{name}: measured vs model (RMSE '
-                   f'{st.get("rmse_mm", 0):.3f} mm, R² {st.get("r2", 0):.3f})</text>')
-        out.append(f'<rect x="{x0}" y="{pad}" width="{size}" height="{size}" fill="none" stroke="#444"/>')
-        out.append(f'<line x1="{x0}" y1="{pad + size}" x2="{x0 + size}" y2="{pad}" stroke="#aaa"/>')
-        for m, p in zip(meas, pred):
-            out.append(f'<circle cx="{x0 + sc(p):.1f}" cy="{pad + size - sc(m):.1f}" r="3" fill="{color}"/>')
-        out.append(f'<text x="{x0}" y="{pad + size + 16}">model {lo:.2f} … {hi:.2f} mm → ; measured ↑</text>')
-    out.append("</svg>")
-    return "\n".join(out)
+        ch = Chart(60 + k * 360, 40, 270, 270, (lo, hi), (lo, hi), x_label=f"model {name}, mm",
+                   y_label=f"measured {name}, mm",
+                   legend="left", title=f"{name}: RMSE {st.get('rmse_mm', 0):.3f} mm, R² {st.get('r2', 0):.3f}, n = {len(meas)}")
+        ch.line([lo, hi], [lo, hi], "#aaaaaa", width=1.0, label="1:1")
+        ch.points(pred, meas, color, label="trial")
+        charts.append(ch)
+    return figure(720, 360, charts)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -119,17 +119,20 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
             pts = np.vstack([nxt.sections[0].approach, nxt.sections[0].points[:1]])
             t_next_travel = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum() / m.travel_speed)
         need_time = max(0.0, m.min_layer_time_s - (t_on + t_off)) if nxt is not None else 0.0
-        dwell = max(need_cool - t_next_travel, need_time, 0.0) if nxt is not None else 0.0
-        dwell = max(dwell, float(lp.dwell_after_s))
+        need = max(need_cool - t_next_travel, need_time, 0.0) if nxt is not None else 0.0
+        dwell = max(need, float(lp.dwell_after_s))
         T_next = m.ambient_c + (T_peak - m.ambient_c) * math.exp(-(dwell + t_next_travel) / tau)
+        limited_by = ("none" if nxt is None else "existing" if dwell > need else
+                      "temperature" if need_cool - t_next_travel >= need_time and need_cool > 0 else
+                      "min_layer_time" if need_time > 0 else "none")
         rows.append({"layer": lp.index, "arc_time_s": round(t_on, 3), "travel_time_s": round(t_off, 3),
                      "arc_power_w": round(power, 1), "mass_kg": round(mass, 4), "tau_s": round(tau, 2),
                      "peak_c": round(T_peak, 2), "dwell_s": round(dwell, 3),
                      "added_dwell_s": round(dwell - float(lp.dwell_after_s), 3),
                      "start_next_c": round(T_next, 2) if nxt is not None else None,
-                     "limited_by": ("temperature" if need_cool - t_next_travel >= need_time and need_cool > 0
-                                    else "min_layer_time" if need_time > 0 else "none")})
-        out.append(replace(lp, dwell_after_s=dwell))
+                     "limited_by": limited_by})
+        out.append(replace(lp, dwell_after_s=dwell, dwell_note=dwell_note(limited_by, m, T_peak, T_next, lp.index)
+                           if dwell > 0 else lp.dwell_note))
         T = T_next
     report = {"interpass_c": m.interpass_c, "min_layer_time_s": m.min_layer_time_s,
               "total_dwell_s": round(sum(r["dwell_s"] for r in rows), 3),
@@ -139,28 +142,67 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
     return Layered(tuple(out)), report
 
 
+def dwell_note(limited_by: str, m: HeatModel, peak_c: float, next_c: float, layer: int) -> str:
+    """Why a layer dwells, for the program comment beside the dwell (ASCII: robot controllers)."""
+    if limited_by == "temperature":
+        return (f"interpass control: limit {m.interpass_c:g} degC, lumped heat model: part {peak_c:.0f} degC "
+                f"after layer {layer}, {next_c:.0f} degC at the next layer's start")
+    if limited_by == "min_layer_time":
+        return f"interpass control: minimum layer time {m.min_layer_time_s:g} s"
+    return ""
+
+
+def summary_report(report: dict) -> dict:
+    """The part of the interpass report that summary.json states: per layer dwell, rule and
+    temperatures; totals."""
+    keys = ("layer", "dwell_s", "added_dwell_s", "limited_by", "peak_c", "start_next_c")
+    return {"interpass_c": report["interpass_c"], "min_layer_time_s": report["min_layer_time_s"],
+            "total_dwell_s": report["total_dwell_s"], "total_added_dwell_s": report["total_added_dwell_s"],
+            "max_peak_c": report["max_peak_c"], "layers": [{k: r[k] for k in keys} for r in report["layers"]]}
+
+
 def interpass_svg(report: dict) -> str:
-    """Per layer: peak temperature and temperature at the next layer's start, and the dwell."""
+    """The part's temperature over the build as the lumped model sees it: each layer's heat
+    (drawn as a rise over the layer's arc + travel time; the model adds it at the layer's end),
+    the exponential cooling after it, the dwells (shaded, labelled) and the interpass limit."""
+    from .svgplot import Chart, caption, figure
+
     rows = report["layers"]
-    W, H, pad = 700, 260, 46
-    n = max(len(rows), 1)
-    tmax = max([r["peak_c"] for r in rows] + [report["interpass_c"]]) * 1.1
-    dmax = max([r["dwell_s"] for r in rows] + [1.0])
-    x = lambda i: pad + (W - 2 * pad) * (i + 0.5) / n  # noqa: E731
-    yT = lambda t: H - pad - (H - 2 * pad) * t / tmax  # noqa: E731
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
-           f'<rect width="{W}" height="{H}" fill="#fff"/>',
-           f'<text x="{pad}" y="16" font-weight="bold">Interpass: peak (red) and next-start (blue) temperature, '
-           f'dwell (bars, max {dmax:.0f} s); limit {report["interpass_c"]:.0f} °C</text>',
-           f'<line x1="{pad}" y1="{yT(report["interpass_c"]):.1f}" x2="{W - pad}" y2="{yT(report["interpass_c"]):.1f}" '
-           f'stroke="#888" stroke-dasharray="4 3"/>']
-    bw = 0.6 * (W - 2 * pad) / n
-    for i, r in enumerate(rows):
-        h = (H - 2 * pad) * r["dwell_s"] / dmax
-        out.append(f'<rect x="{x(i) - bw / 2:.1f}" y="{H - pad - h:.1f}" width="{bw:.1f}" height="{h:.1f}" fill="#e9ecef"/>')
-    for key, color in (("peak_c", "#d62828"), ("start_next_c", "#1d3557")):
-        pts = " ".join(f"{x(i):.1f},{yT(r[key]):.1f}" for i, r in enumerate(rows) if r[key] is not None)
-        out.append(f'<polyline fill="none" stroke="{color}" stroke-width="1.5" points="{pts}"/>')
-    out.append(f'<text x="{pad}" y="{H - 10}">layer 0 … {len(rows) - 1}; total dwell {report["total_dwell_s"]:.1f} s</text>')
-    out.append("</svg>")
-    return "\n".join(out)
+    amb = float(report.get("model", {}).get("ambient_c", 20.0))
+    limit = float(report["interpass_c"])
+    t, T = 0.0, amb
+    segs, bands = [], []
+    for r in rows:
+        t_layer = r["arc_time_s"] + r["travel_time_s"]
+        segs.append(([t, t + t_layer], [T, r["peak_c"]], "layer"))
+        t += t_layer
+        peak = r["peak_c"]
+        if r["start_next_c"] is not None:
+            nxt = r["start_next_c"]
+            d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else r["dwell_s"]
+            if r["dwell_s"] > 0:
+                bands.append((t, t + r["dwell_s"], r["dwell_s"]))
+        else:   # after the last layer: cooling down to the limit, for reference
+            nxt = min(peak, limit)
+            d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else 0.0
+        ts = np.linspace(0.0, max(d, 0.0), 40)
+        segs.append((t + ts, amb + (peak - amb) * np.exp(-ts / r["tau_s"]), "last" if r["start_next_c"] is None else "cool"))
+        t, T = t + max(d, 0.0), nxt
+    t_end = max(t, 1.0)
+    t_max = max([limit] + [r["peak_c"] for r in rows] + [amb + 1])
+    ch = Chart(64, 44, 760, 300, (0.0, t_end), (0.0, t_max * 1.08), x_label="build time, s",
+               y_label="part temperature, °C",
+               title=f"Interpass control: {len(rows)} layers, limit {limit:g} °C"
+                     + (f", minimum layer time {report['min_layer_time_s']:g} s" if report["min_layer_time_s"] else ""))
+    for a, b, dwell in bands:
+        ch.span(a, b, "#dde6f0", label="dwell")
+        if len(bands) <= 16:
+            ch.text((a + b) / 2, t_max * 0.06, f"{dwell:.0f} s", anchor="middle", color="#1d3557", size=10)
+    ch.hline(limit, "#555555", label=f"interpass limit {limit:g} °C")
+    for xs, ys, kind in segs:
+        ch.line(xs, ys, "#d62828" if kind == "layer" else "#1d3557", dash="4 3" if kind == "last" else "")
+    ch.legend_items += [("layer deposited (heat)", "#d62828", "line"), ("cooling", "#1d3557", "line")]
+    note = (f"total dwell {report['total_dwell_s']:.0f} s (added {report['total_added_dwell_s']:.0f} s); "
+            f"peak {report['max_peak_c']:.0f} °C; lumped model: one body, η·U·I·t per layer, "
+            f"convection + radiation + conduction to the table")
+    return figure(860, 400, [ch], [caption(64, 392, note)])

@@ -106,6 +106,56 @@ def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     return out
 
 
+# ---- post-deposition tool commands (rolling, peening) -------------------------------------------
+TOOL_FIELDS = ("tool", "force_n", "tool_width_mm", "speed_mm_s")
+
+# Defaults per format; a machine profile or the post-process params replace them. G-code: LinuxCNC
+# user M-codes (M100-M199 take P and Q): the cell's M110 script sets the load and lowers the tool.
+# KRL / RAPID: routine calls the cell provides (like the arc routines), force in N, width in mm,
+# speed in mm/s.
+TOOL_COMMANDS: dict[str, tuple[str, str]] = {
+    "gcode": ("M110 P{force_n:.0f} Q{tool_width_mm:g}", "M111"),
+    "krl": ("TOOL_ON({force_n:.1f}, {tool_width_mm:.2f}, {speed_mm_s:.2f})", "TOOL_OFF()"),
+    "rapid": ("ToolOn {force_n:.1f}, {tool_width_mm:.2f}, {speed_mm_s:.2f};", "ToolOff;"),
+}
+
+
+def check_tool_template(tpl: str, what: str) -> str:
+    """A tool command template: one or more lines (separated by newlines) using only the fields
+    of TOOL_FIELDS and any tool parameter; checked by formatting it with sample values."""
+    fields = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None]
+    bad = [f for f in fields if f not in TOOL_FIELDS]
+    if bad:
+        raise ValueError(f"{what} {tpl!r} uses unknown field(s) {', '.join(bad)} (known: {', '.join(TOOL_FIELDS)})")
+    try:
+        tool_lines(tpl, "rolling", {"force_n": 1.0, "tool_width_mm": 1.0, "speed_mm_s": 1.0})
+    except (ValueError, KeyError, IndexError) as e:
+        raise ValueError(f"{what} {tpl!r}: {e}") from None
+    return tpl
+
+
+def tool_lines(tpl: str, tool: str, params: dict) -> list[str]:
+    """The template's lines for one engagement (`tool` and the tool's parameters filled in)."""
+    values = {"tool": tool, **{k: float(v) for k, v in params.items()}}
+    missing = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None and f not in values]
+    if missing:
+        raise ValueError(f"tool command {tpl!r} needs {', '.join(missing)}, the tool section has "
+                         f"{', '.join(sorted(params)) or 'no parameters'}")
+    return [ln for ln in tpl.format(**values).split("\n") if ln.strip()]
+
+
+def tool_summary(tool: str, params: dict) -> str:
+    """'rolling on: force 20000 N, tool width 8 mm, 10 mm/s' (ASCII, for program comments)."""
+    parts = []
+    if "force_n" in params:
+        parts.append(f"force {short(params['force_n'])} N")
+    if "tool_width_mm" in params:
+        parts.append(f"tool width {short(params['tool_width_mm'])} mm")
+    if "speed_mm_s" in params:
+        parts.append(f"{short(params['speed_mm_s'])} mm/s")
+    return f"{tool} on" + (": " + ", ".join(parts) if parts else "")
+
+
 # Words a program name must not be (case-insensitive): keywords and names the writers use.
 KRL_RESERVED = frozenset(w.upper() for w in (
     "DEF", "END", "DEFDAT", "ENDDAT", "DEFFCT", "ENDFCT", "DECL", "GLOBAL", "PUBLIC", "LIN", "PTP", "CIRC",

@@ -6,7 +6,9 @@ code is a setting. Output: absolute millimetres (G21, G90), G0 travel (or G1 at 
 G1 deposition with F in mm/min (= segment speed mm/s × 60, converted only here), G2/G3 in the XY
 plane (G17, I/J relative to the arc start) when arc fitting is on, `arc_on` + `G4` dwell after
 each ignition, per-zone process commands from templates, `G4` for interlayer dwell, comments
-naming layer/section/zone, `M30`.
+naming layer/section/zone, `M30`. Post-deposition tool sections (rolling, peening) are engaged
+and lifted by the `tool_on` / `tool_off` templates (default LinuxCNC user M-codes
+`M110 P<force N> Q<width mm>` / `M111`), with a comment stating force, width and speed.
 
 Dialect (the machine profile's table): `comment_style` (`;` or `( )`), `feed_units` (F in mm/min,
 G94 — or mm/s for controllers that read it so), `dwell_units` (G4 P in s or ms), `start_code`
@@ -35,8 +37,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .common import check_templates, num, process_lines, process_summary, short
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
+                     short, tool_lines, tool_summary)
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +72,12 @@ class GcodeSettings:
     preamble: tuple[str, ...] = ()
     postamble: tuple[str, ...] = ()
 
+    tool_on: str = TOOL_COMMANDS["gcode"][0]
+    tool_off: str = TOOL_COMMANDS["gcode"][1]
+
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         if self.comment_style not in ("semicolon", "parentheses"):
             raise ValueError(f"comment_style must be 'semicolon' or 'parentheses', not {self.comment_style!r}")
         if self.feed_units not in ("mm/min", "mm/s"):
@@ -209,7 +217,14 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, ArcOff):
             out.append(f"{settings.arc_off} {c('arc off')}")
         elif isinstance(s, Dwell):
-            out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s')}")
+            note = f" ({s.note})" if s.note else ""
+            out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s{note}')}")
+        elif isinstance(s, ToolOn):
+            lines = tool_lines(settings.tool_on, s.tool, s.params)
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(tool_summary(s.tool, s.params))}"])
+        elif isinstance(s, ToolOff):
+            lines = tool_lines(settings.tool_off, s.tool, {})
+            out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
             last = pts[s.end]
             xyz = words[s.end]

@@ -61,8 +61,9 @@ import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
 from .common import check_identifier, check_templates, num, process_lines, process_summary, short
+from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +94,8 @@ class KrlSettings:
     arctech_channels: dict[str, int] = field(default_factory=lambda: dict(ARCTECH_CHANNELS))
     arctech_velocity_unit: str = "m/min"
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["krl"][0]     # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["krl"][1]
 
     @property
     def split(self) -> bool:
@@ -107,6 +110,8 @@ class KrlSettings:
         if self.max_points_per_file < 0 or 0 < self.max_points_per_file < 2:
             raise ValueError("max_points_per_file must be 0 (no limit) or at least 2")
         check_templates(self.process_codes)
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         check_identifier(self.arctech_routine, 24, "ArcTech routine name")
         check_channels(self.arctech_channels)
         if self.arctech_velocity_unit not in VELOCITY_UNITS:
@@ -357,7 +362,13 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
             if arctech is not None and st.reason == "ignition":
                 lines.append(f";- ignition dwell {short(round(st.seconds, 3))} s (Strike.StartTime)")
                 continue
-            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell")
+            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
+        elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
+            approach = None
+            on = isinstance(st, ToolOn)
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
+                f"{tl[-1]} ; {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
         elif isinstance(st, Motion):
             v = s.travel_speed if st.mode == "travel" else st.speed
             start = len(lines)

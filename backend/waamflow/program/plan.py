@@ -15,7 +15,12 @@ Rules (the plan is a faithful rendering of `waamflow.core.moves.Moves`):
   the `ignition_dwell` setting — always emitted, so every ignition is followed by a dwell.
 * A zone that starts inside a run (arc already on) and has a ``dwell`` > 0 dwells there, arc on.
 * `Moves.dwell_before[i]` (interlayer dwell) dwells at point i before anything else happens there
-  (after an arc OFF, before an arc ON).
+  (after an arc OFF, before an arc ON); its `Moves.dwell_notes[i]` (e.g. the interpass rule that
+  set it) goes with it.
+* Post-deposition tool sections (`Moves.section_tools`: rolling, peening): the tool is engaged
+  (`ToolOn`, with the tool's parameters) before each maximal run of the section's arc-OFF
+  segments with a programmed speed (its contact strokes) and lifted (`ToolOff`) after it; the
+  approach and retract around it are ordinary travel.
 * Process parameters (current, voltage, wire feed speed, job) are restated wherever the
   (section, zone) of arc-on segments changes.
 * A motion ends in an exact stop (`stop=True`) when an arc switch or dwell follows it, and at the
@@ -109,14 +114,35 @@ class ArcOff:
 
 @dataclass(frozen=True)
 class Dwell:
-    """Wait at `point` for `seconds`. reason: "ignition" | "zone" | "interlayer"."""
+    """Wait at `point` for `seconds`. reason: "ignition" | "zone" | "interlayer". note: why
+    (interlayer dwells set by a rule, e.g. interpass control), "" when nothing more to say."""
 
     point: int
     seconds: float
     reason: str
+    note: str = ""
 
 
-Step = Union[Motion, LayerStart, SectionStart, ProcessChange, ArcOn, ArcOff, Dwell]
+@dataclass(frozen=True)
+class ToolOn:
+    """Engage a post-deposition tool (rolling, peening) at `point` for the contact motions that
+    follow. params: the section's `tool_params` (force_n, tool_width_mm, speed_mm_s, ...)."""
+
+    point: int
+    section: int
+    tool: str
+    params: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ToolOff:
+    """Lift the tool at `point` (end of a contact run)."""
+
+    point: int
+    tool: str
+
+
+Step = Union[Motion, LayerStart, SectionStart, ProcessChange, ArcOn, ArcOff, Dwell, ToolOn, ToolOff]
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,12 +238,17 @@ def plan_program(moves: Moves, settings: PlanSettings = PlanSettings()) -> Plan:
         steps.append(SectionStart(sec0, moves.section_keys[sec0]))
     steps.append(Motion("travel", -1, 0, float("nan"), layer0, sec0, -1))
     arc_on = False
+    tool_on: str | None = None
     cur_layer, cur_section, cur_process = layer0, sec0, None
     for a, b in _groups(moves) if n > 1 else []:
         mode, _, zone, section, layer = _segment_key(moves, a)
         if arc_on and mode != "weld":
             steps.append(ArcOff(a))
             arc_on = False
+        contact = mode == "move" and section in moves.section_tools
+        if tool_on is not None and (not contact or section != cur_section):
+            steps.append(ToolOff(a, tool_on))
+            tool_on = None
         if layer != cur_layer:
             steps.append(LayerStart(layer, float(moves.layer_z.get(layer, moves.points[a, 2]))))
             cur_layer = layer
@@ -225,7 +256,11 @@ def plan_program(moves: Moves, settings: PlanSettings = PlanSettings()) -> Plan:
             steps.append(SectionStart(section, moves.section_keys[section]))
             cur_section = section
         if moves.dwell_before[a] > 0:
-            steps.append(Dwell(a, float(moves.dwell_before[a]), "interlayer"))
+            steps.append(Dwell(a, float(moves.dwell_before[a]), "interlayer", moves.dwell_notes.get(a, "")))
+        if contact and tool_on is None:
+            tool, tparams = moves.section_tools[section]
+            steps.append(ToolOn(a, section, tool, dict(tparams)))
+            tool_on = tool
         if mode == "weld":
             new_zone = (section, zone) != cur_process
             if new_zone:
@@ -243,6 +278,8 @@ def plan_program(moves: Moves, settings: PlanSettings = PlanSettings()) -> Plan:
         steps.extend(_group_motions(moves, a, b, settings))
     if arc_on:
         steps.append(ArcOff(n - 1))
+    if tool_on is not None:
+        steps.append(ToolOff(n - 1, tool_on))
     steps = _mark_stops(steps)
     return Plan(moves, tuple(steps), _stats(moves, steps, settings))
 
@@ -256,7 +293,7 @@ def _mark_stops(steps: list[Step]) -> list[Step]:
             if pending_stop:
                 out[k] = replace(s, stop=True)
             pending_stop = False
-        elif isinstance(s, (ArcOn, ArcOff, Dwell)):
+        elif isinstance(s, (ArcOn, ArcOff, Dwell, ToolOn, ToolOff)):
             pending_stop = True
     return out
 
@@ -273,6 +310,7 @@ def _stats(moves: Moves, steps: list[Step], settings: PlanSettings) -> dict:
         "motions": sum(1 for s in steps if isinstance(s, Motion)),
         "circular_motions": sum(1 for s in steps if isinstance(s, Motion) and s.circular),
         "arc_on_count": sum(1 for s in steps if isinstance(s, ArcOn)),
+        "tool_on_count": sum(1 for s in steps if isinstance(s, ToolOn)),
         "deposition_length_mm": round(float(seg[arc].sum()), 3),
         "travel_length_mm": round(float(seg[~arc].sum()), 3),
         "dwell_total_s": round(float(dwell), 3),

@@ -42,8 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .common import check_identifier, num, process_summary, short
+from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import quaternions, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,8 +69,12 @@ class RapidSettings:
     positioner_unit: str = "STN1"
     work_frame: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["rapid"][0]   # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["rapid"][1]
 
     def __post_init__(self) -> None:
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
         check_identifier(self.program_name, 32)
         check_identifier(self.tool, 32, "tool name")
         check_identifier(self.wobj, 32, "work object name")
@@ -233,7 +238,12 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
             if held is not None:
                 ignite_at = held.end
                 flush()
-            body.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell")
+            body.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
+        elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
+            flush()
+            on = isinstance(st, ToolOn)
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            body += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
         elif isinstance(st, ArcOff):
             body.append("! arc off")
         elif isinstance(st, Motion):

@@ -334,6 +334,21 @@ def compensate(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = Non
     return Compensation(out, before, after, report)
 
 
+def deposit_bin_series(plain: SimulationResult, after: SimulationResult, bin_mm: float = 1.0) -> dict:
+    """The deposit per mm in `bin_mm` bins of actual arc-ON path (the quantity behind
+    `deposit_per_mm_cv`) of the program at constant feed and compensated, and the programmed
+    deposit, for plotting (`deposit["bins"]`)."""
+    out: dict = {"bin_mm": bin_mm}
+    if "segment" in plain.trace:
+        s0, _, q0, t0 = deposit_bins(plain.trace, bin_mm, plain.deposit["programmed_mm3_per_mm"])
+        out["programmed"] = t0
+    else:
+        s0, _, q0 = deposit_bins(plain.trace, bin_mm)
+    s1, _, q1 = deposit_bins(after.trace, bin_mm)
+    out.update(s_mm=s0, constant_feed=q0, s_compensated_mm=s1, compensated=q1)
+    return out
+
+
 def simulate_compensated(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = None,
                          cfg: CompensationSettings = CompensationSettings(), progress=None) -> SimulationResult:
     """simulate-robot with compensation on: the compensated program's simulation, with
@@ -349,36 +364,58 @@ def simulate_compensated(tp, profile, opt: SimOptions, kin: KinematicsOptions | 
                "feed_ratio_max": comp.report["feed_ratio_max"], "compensated_pieces": float(comp.report["pieces"])}
     deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
                "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
-               "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"]}
+               "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"],
+               "bins": deposit_bin_series(plain, comp.after)}
     return replace(comp.after, metrics=metrics, deposit=deposit, warnings=plain.warnings)
 
 
-def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path") -> str:
-    """Plot (hand-written SVG) of mm³/mm per arc-ON segment against programmed path length:
-    programmed, actual and, when present, the uncompensated actual (constant feed)."""
+def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path",
+                s_range: tuple[float, float] | None = None) -> str:
+    """Plot of the deposit per mm: with compensation (`deposit["bins"]`), constant feed against
+    compensated in the 1 mm bins of actual arc-ON path that `deposit_per_mm_cv` measures, beside
+    the programmed deposit; otherwise programmed and actual mm³/mm per arc-ON segment against
+    programmed path length. Values above 1.15 × the 99th percentile (ignition standstills) are
+    clipped. `s_range` (mm): only that stretch of the path."""
+    from ..process.svgplot import Chart, figure
+
+    if "bins" in deposit:
+        b = deposit["bins"]
+        s0, s1 = np.asarray(b["s_mm"], float), np.asarray(b["s_compensated_mm"], float)
+        series = [("constant feed", "#d62828", s0, np.asarray(b["constant_feed"], float)),
+                  ("compensated", "#2a9d8f", s1, np.asarray(b["compensated"], float))]
+        if "programmed" in b:
+            series.insert(0, ("programmed", "#555555", s0, np.asarray(b["programmed"], float)))
+        if s_range is not None:
+            series = [(lb, c, x[(x >= s_range[0]) & (x <= s_range[1])], q[(x >= s_range[0]) & (x <= s_range[1])])
+                      for lb, c, x, q in series]
+        xs = np.concatenate([x for _, _, x, _ in series])
+        lo, hi = (float(xs.min()), float(xs.max()) + b["bin_mm"]) if len(xs) else (0.0, 1.0)
+        qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, _, q in series) * 1.15
+        ch = Chart(64, 40, 800, 260, (lo if s_range is not None else 0.0, hi), (0.0, qmax), title=title,
+                   x_label=f"actual arc-on path length, mm ({b['bin_mm']:g} mm bins, as deposit_per_mm_cv)",
+                   y_label="deposit, mm³/mm")
+        for label, color, x, q in series:   # steps: one value per bin
+            xx = np.repeat(np.concatenate([x, x[-1:] + b["bin_mm"]]) if len(x) else x, 2)[1:-1]
+            ch.line(xx, np.repeat(q, 2), color, width=2.2 if label == "programmed" else 1.2,
+                    dash="6 3" if label == "programmed" else "", label=label)
+        return figure(900, 350, [ch])
+
     arc = np.asarray(deposit["arc"], bool)
+    if s_range is not None:
+        s_all = np.asarray(deposit["s_mm"], float)
+        arc = arc & (s_all >= s_range[0]) & (s_all <= s_range[1])
     s = np.asarray(deposit["s_mm"], float)[arc]
-    series = [("programmed", "#777777", np.asarray(deposit["programmed_mm3_per_mm"], float)[arc])]
+    series = [("programmed", "#555555", np.asarray(deposit["programmed_mm3_per_mm"], float)[arc])]
     if "uncompensated_mm3_per_mm" in deposit:
         series.append(("constant feed", "#d62828", np.asarray(deposit["uncompensated_mm3_per_mm"], float)[arc]))
         series.append(("compensated", "#2a9d8f", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
     else:
         series.append(("actual", "#d62828", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
-    W, H, pad = 760, 260, 44
     smax = max(float(s.max()) if len(s) else 1.0, 1.0)
+    smin = float(s.min()) if len(s) and s_range is not None else 0.0
     qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, q in series) * 1.15
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
-           f'<rect width="{W}" height="{H}" fill="#fff"/>',
-           f'<text x="{pad}" y="16" font-weight="bold">{title}</text>',
-           f'<line x1="{pad}" y1="{H - pad}" x2="{W - pad}" y2="{H - pad}" stroke="#444"/>',
-           f'<line x1="{pad}" y1="{pad}" x2="{pad}" y2="{H - pad}" stroke="#444"/>',
-           f'<text x="{W - pad}" y="{H - pad + 28}" text-anchor="end">programmed path length, mm (0 … {smax:.0f})</text>',
-           f'<text x="6" y="{pad - 6}">mm³/mm (0 … {qmax:.1f})</text>']
+    ch = Chart(64, 40, 800, 260, (smin, smax), (0.0, qmax), title=title,
+               x_label="programmed path length (arc on), mm", y_label="deposit, mm³/mm")
     for k, (label, color, q) in enumerate(series):
-        x = pad + (W - 2 * pad) * s / smax
-        y = H - pad - (H - 2 * pad) * np.minimum(q, qmax) / qmax
-        pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(x, y))
-        out.append(f'<polyline fill="none" stroke="{color}" stroke-width="1.2" points="{pts}"/>')
-        out.append(f'<text x="{W - 200}" y="{16 + 14 * k}" fill="{color}">{label}</text>')
-    out.append("</svg>")
-    return "\n".join(out)
+        ch.line(s, q, color, width=2.2 if k == 0 else 1.2, dash="6 3" if k == 0 else "", label=label)
+    return figure(900, 350, [ch])

@@ -27,6 +27,12 @@ class RobotProfile:
     path_dec / path_dec_jerk: the same when slowing down (0 = as when speeding up). The KRC2 of
         the study ramps up and down differently: its 10 mm/s stop takes longer than its start,
         its 40 mm/s stop shorter (robot-study.md, identified T/L_init_accel vs T/L_final_decel).
+    ramp_speeds: () or (v_slow, v_fast) mm/s — when set, path_acc / path_dec hold at v_slow and
+        path_acc·acc_ratio_fast / path_dec·dec_ratio_fast at v_fast, interpolated linearly in the
+        programmed speed of the motion (clamped outside): the limits identified per measured
+        speed (the ratios keep path_acc / path_dec the overall level a trace fit can adjust). A single
+        acceleration cannot give the study's ramps: the start lengthens with speed (0.12 s of
+        ramp at 10 mm/s, 0.21 s at 40 mm/s) while the stop hardly does (0.16 s, 0.19 s).
     normal_acc: max centripetal acceleration in blends, mm/s² (corner cap √(a_n·r)).
     normal_jerk: max normal jerk in blends, mm/s³ (corner cap (j_n·r²)^(1/3)).
     smoothing_s: length of the controller's moving-average (FIR) position filter, s — the KRC's
@@ -64,6 +70,9 @@ class RobotProfile:
     path_jerk: float = 50000.0
     path_dec: float = 0.0
     path_dec_jerk: float = 0.0
+    ramp_speeds: tuple = ()
+    acc_ratio_fast: float = 1.0
+    dec_ratio_fast: float = 1.0
     normal_acc: float = 500.0
     normal_jerk: float = 20000.0
     smoothing_s: float = 0.11
@@ -85,13 +94,29 @@ class RobotProfile:
     notes: str = ""
 
     # names of the constants a calibration may fit (all positive floats)
-    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "catchup", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
+    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "acc_ratio_fast", "dec_ratio_fast", "catchup", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
                 "apo_min_mm", "arc_switch_dwell_s", "arc_on_delay_s", "arc_off_delay_s")
 
     @property
     def dec(self) -> tuple[float, float]:
         """(slow-down acceleration mm/s², jerk mm/s³): path_dec / path_dec_jerk or the speed-up ones."""
         return (self.path_dec or self.path_acc, self.path_dec_jerk or self.path_jerk)
+
+    def ramp_limits(self, speed):
+        """Path limits for motions programmed at `speed` (array, mm/s): (acc, jerk, dec, dec_jerk)
+        arrays — constants, or interpolated between the two `ramp_speeds`."""
+        import numpy as np
+
+        v = np.asarray(speed, dtype=float)
+        dec, dj = self.dec
+        acc = np.full(v.shape, self.path_acc)
+        de = np.full(v.shape, dec)
+        if len(self.ramp_speeds) == 2:
+            lo, hi = (float(x) for x in self.ramp_speeds)
+            w = np.clip((v - lo) / (hi - lo), 0.0, 1.0) if hi > lo else np.zeros(v.shape)
+            acc = self.path_acc * (1.0 + w * (self.acc_ratio_fast - 1.0))
+            de = dec * (1.0 + w * (self.dec_ratio_fast - 1.0))
+        return acc, np.full(v.shape, self.path_jerk), de, np.full(v.shape, dj)
 
     def with_values(self, **kw) -> "RobotProfile":
         return replace(self, **kw)
@@ -100,6 +125,7 @@ class RobotProfile:
         d = asdict(self)
         d["tcp_offset_mm"] = list(self.tcp_offset_mm)
         d["base_xyz_mm"] = list(self.base_xyz_mm)
+        d["ramp_speeds"] = list(self.ramp_speeds)
         return d
 
 
@@ -109,9 +135,14 @@ def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
     if unknown:
         raise InputFileError(f"{source}: unknown robot profile keys {unknown}")
     kw = {k: v for k, v in d.items() if k in known}
-    for k in ("tcp_offset_mm", "base_xyz_mm"):
+    for k in ("tcp_offset_mm", "base_xyz_mm", "ramp_speeds"):
         if k in kw:
-            kw[k] = tuple(float(x) for x in kw[k])
+            try:
+                kw[k] = tuple(float(x) for x in kw[k])
+            except (TypeError, ValueError):
+                raise InputFileError(f"{source}: robot profile value {k} must be a list of numbers") from None
+    if len(kw.get("ramp_speeds", ())) not in (0, 2) or (kw.get("ramp_speeds") and kw["ramp_speeds"][0] >= kw["ramp_speeds"][1]):
+        raise InputFileError(f"{source}: ramp_speeds must be [] or [slow, fast] mm/s with slow < fast")
     kw.setdefault("name", Path(source).stem)
     try:
         prof = RobotProfile(**kw)

@@ -6,9 +6,11 @@ Pipeline (each step a pure function on numpy data):
    study's full stops (robot-study.md, "What the robot did"): I/O between motions stops the
    advance run.
 2. Corner blending between stops (`blend.blend_path`): d = min(CDIS, v·apo_time, L_prev/2,
-   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n.
-3. Path speed along arc length (`speedplan`): junction speeds, backward/forward pass, one ruckig
-   call per span (jerk-limited, one DOF).
+   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n; harder cuts
+   on the arc-OFF travel after an arc-OFF stop (the catch-up, `profile.catchup`).
+3. Path speed along arc length (`speedplan`): junction speeds, backward (slow-down limits) and
+   forward (speed-up limits, per programmed speed: `RobotProfile.ramp_limits`) passes, one
+   closed-form jerk-limited profile per span (one DOF).
 4. Controller smoothing: the interpolated Cartesian set-points pass a moving-average (FIR) filter
    of length `smoothing_s` within each stop-to-stop block. This is the ramp smoothing / servo lag
    that makes the KRC2's acceleration take 0.144 s at 10 mm/s and 0.204 s at 40 mm/s
@@ -274,10 +276,10 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
                       normal_jerk=profile.normal_jerk, catchup=_catchup_vertices(prog, profile.catchup))
     stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
-    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec)
+    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits)
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
-    prof = profile_spans(spans, a, j, a_dec, j_dec)
+    prof = profile_spans(spans)
     if progress:
         progress(0.5, "speed profiles done")
 

@@ -41,6 +41,10 @@ class Spans:
     v: np.ndarray
     stop_after: np.ndarray
     vertex_after: np.ndarray
+    acc: np.ndarray | None = None
+    jerk: np.ndarray | None = None
+    dec: np.ndarray | None = None
+    dec_jerk: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,13 +90,16 @@ def reachable_speed(v1: float, length: float, a: float, j: float) -> float:
 
 
 def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float, j: float,
-               a_dec: float | None = None, j_dec: float | None = None) -> Spans:
+               a_dec: float | None = None, j_dec: float | None = None, limits=None) -> Spans:
     """Cut the blended path into spans and plan junction speeds (backward then forward pass).
 
     speed: (n-1,) programmed speed per segment (already capped), mm/s. stop: (n,) bool.
     a, j: speed-up limits; a_dec, j_dec: slow-down limits (None = the speed-up ones). The
     backward pass (can every span slow down to its exit speed?) uses the slow-down limits, the
-    forward pass (can it speed up to it?) the speed-up ones.
+    forward pass (can it speed up to it?) the speed-up ones. limits: optional callable
+    (programmed speed per span (K,) mm/s) → (acc, jerk, dec, dec_jerk) arrays (K,), overriding
+    the constants (limits identified per speed, `RobotProfile.ramp_limits`); a blend curve's
+    programmed speed is the lower of its two segments'.
     """
     a_dec = a if a_dec is None else a_dec
     j_dec = j if j_dec is None else j_dec
@@ -110,8 +117,10 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     lcap = np.concatenate([path.cap[:-1], path.cap[1:-1]])[order]
     rcap = np.concatenate([path.cap[1:], path.cap[1:-1]])[order]
     rvert = np.concatenate([np.arange(1, n), np.arange(1, n - 1)])[order]
+    vprog = np.concatenate([speed, np.minimum(speed[:-1], speed[1:])])[order]
     keep = (s1 - s0) > 1e-9
     s0, s1, vmax, lcap, rcap, rvert = s0[keep], s1[keep], vmax[keep], lcap[keep], rcap[keep], rvert[keep]
+    vprog = vprog[keep]
     K = len(s0)
     jc = np.zeros(K + 1)
     if K > 1:
@@ -120,21 +129,40 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     jc[1:][stop_after] = 0.0
     jc = np.minimum(jc, np.concatenate([[np.inf], vmax])).clip(min=0.0)
     jc[:-1] = np.minimum(jc[:-1], vmax)
+    if limits is not None:
+        A, J, AD, JD = (np.asarray(x, dtype=float) for x in limits(vprog))
+    else:
+        A, J, AD, JD = (np.full(K, float(x)) for x in (a, j, a_dec, j_dec))
+    # a junction that constrains nothing (straight on at the same speed and limits, no stop) is
+    # no junction: merge its spans, so a pass cut into short pieces ramps as one motion (every
+    # span profile starts and ends at zero acceleration)
+    if K > 1:
+        free = (~stop_after[:-1] & (jc[1:-1] >= vmax[:-1] * (1 - 1e-12)) & (vmax[1:] == vmax[:-1])
+                & (A[1:] == A[:-1]) & (J[1:] == J[:-1]) & (AD[1:] == AD[:-1]) & (JD[1:] == JD[:-1]))
+        if free.any():
+            first = np.concatenate([[True], ~free])
+            last = np.concatenate([~free, [True]])
+            s0, s1 = s0[first], s1[last]
+            vmax, rvert, stop_after = vmax[first], rvert[last], stop_after[last]
+            A, J, AD, JD = A[first], J[first], AD[first], JD[first]
+            jc = np.concatenate([jc[:1], jc[1:][last]])
+            K = len(s0)
     L = s1 - s0
     v = jc.tolist()
     Ll = (L * (1 - 1e-4)).tolist()  # keep off the feasibility edge
+    Al, Jl, ADl, JDl = A.tolist(), J.tolist(), AD.tolist(), JD.tolist()
     for i in range(K - 1, -1, -1):
-        r = reachable_speed(v[i + 1], Ll[i], a_dec, j_dec)
+        r = reachable_speed(v[i + 1], Ll[i], ADl[i], JDl[i])
         if r < v[i]:
             v[i] = r
     for i in range(K):
-        r = reachable_speed(v[i], Ll[i], a, j)
+        r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
         if r < v[i + 1]:
             v[i + 1] = r
-    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert)
+    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert, A, J, AD, JD)
 
 
-def _ramp(dv: np.ndarray, a: float, j: float) -> tuple[np.ndarray, np.ndarray]:
+def _ramp(dv: np.ndarray, a, j) -> tuple[np.ndarray, np.ndarray]:
     """Jerk-limited speed change by dv ≥ 0 between zero accelerations: (jerk phase time, constant
     acceleration phase time), s — the ramp is jerk, constant acceleration, jerk (each jerk phase
     t1, so its speed curve is point-symmetric and it covers (v_start + v_end)/2 · (2·t1 + t2))."""
@@ -144,7 +172,7 @@ def _ramp(dv: np.ndarray, a: float, j: float) -> tuple[np.ndarray, np.ndarray]:
     return t1, t2
 
 
-def profile_spans(spans: Spans, a: float, j: float, a_dec: float | None = None,
+def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, a_dec: float | None = None,
                   j_dec: float | None = None) -> SpanProfiles:
     """Time-optimal jerk-limited profile of every span, (0, v_i, 0) → (L_i, v_i+1, 0), vectorised.
 
@@ -154,10 +182,12 @@ def profile_spans(spans: Spans, a: float, j: float, a_dec: float | None = None,
     one-DOF position profiles, which cannot take different limits for speeding up and slowing
     down. v_p = the span's max speed when the span is long enough, else the largest speed whose
     two ramps fit the span (bisection). The junction speeds of `plan_spans` make every span
-    feasible (v_p ≥ max(v_i, v_i+1))."""
-    a_dec = a if a_dec is None else a_dec
-    j_dec = j if j_dec is None else j_dec
+    feasible (v_p ≥ max(v_i, v_i+1)). The limits are the spans' own (`Spans.acc` …) unless given."""
     K = len(spans.s0)
+    a = spans.acc if a is None else np.full(K, float(a))
+    j = spans.jerk if j is None else np.full(K, float(j))
+    a_dec = (spans.dec if spans.dec is not None else a) if a_dec is None else np.full(K, float(a_dec))
+    j_dec = (spans.dec_jerk if spans.dec_jerk is not None else j) if j_dec is None else np.full(K, float(j_dec))
     L = spans.s1 - spans.s0
     v0, v1 = spans.v[:-1], spans.v[1:]
     lo = np.maximum(v0, v1)
@@ -174,10 +204,11 @@ def profile_spans(spans: Spans, a: float, j: float, a_dec: float | None = None,
         a_lo, a_hi = lo[short], hi[short]
         Ls = L[short]
         v0s, v1s = v0[short], v1[short]
+        As, Js, ADs, JDs = a[short], j[short], a_dec[short], j_dec[short]
         for _ in range(60):
             mid = 0.5 * (a_lo + a_hi)
-            tu1, tu2 = _ramp(mid - v0s, a, j)
-            td1, td2 = _ramp(mid - v1s, a_dec, j_dec)
+            tu1, tu2 = _ramp(mid - v0s, As, Js)
+            td1, td2 = _ramp(mid - v1s, ADs, JDs)
             d = 0.5 * (v0s + mid) * (2 * tu1 + tu2) + 0.5 * (mid + v1s) * (2 * td1 + td2)
             over = d > Ls
             a_hi = np.where(over, mid, a_hi)

@@ -100,25 +100,35 @@ def semicircular(speed: float, arc_outside: bool = True, size=SMALL_OR, spacing:
     return _boustrophedon_with_links(speed, size, spacing, link, arc_outside, "semicircular")
 
 
-def swiping(speed: float, size=SMALL_OR, interior_deg: float = 2.95, legs: int = 16,
-            length_mm: float = 464.246) -> Moves:
-    """Swiping reconstruction: a zig-zag along x reversing with the given interior angle, inside the OR.
+def swiping(speed: float, size=SMALL_OR, spacing: float = W_WB, advance: float = 1.0 / 3.0) -> Moves:
+    """The study's swiping on any OR: the product's swiping strategy (`waamflow.paths.swiping`).
 
-    The study gives only the interior angle (≈ 2.95°) and the programmed length (464.246 mm on
-    the small OR). `legs` equal legs of x-extent ℓ advance δ = ℓ·tan(interior/2) each; ℓ follows
-    from the length. 16 legs (15 reversals) is what the study's own numbers imply: the measured
-    corner error at 40 mm/s (1.8 mm short of each reversal) costs ≈ 3.6 mm of length per
-    reversal, and the measured shortfall 464.246 − 411.509 = 52.7 mm ≈ 14.6 reversals.
-    """
+    Derived from the study's description only (a dense zig-zag with many bead overlaps that stays
+    inside the OR), for every OR size: legs along the passes, W_WB/2 short of each end; each leg
+    advances `advance`·W_WB across the band between the first and last pass centre lines,
+    ceil(band / (advance·W_WB)) legs. Small OR: 12 legs, 463.18 mm (study 464.246 mm, −0.23 %),
+    reversals at 4.4°; large OR: 27 legs of 81.6 mm. The study's other swiping figure, a 2.95°
+    reversal, cannot hold together with its 464 mm on a zig-zag covering the passes (see
+    `paths.swiping`); the 2.95° corner errors are checked on `reversals` instead."""
+    return planned("swiping", speed, size=size, spacing=spacing, swipe_advance=advance)
+
+
+def reversals(speed: float, interior_deg: float = 2.95, size=SMALL_OR, spacing: float = W_WB) -> Moves:
+    """A corner test: a zig-zag over the OR's pass band with reversals at `interior_deg`.
+
+    Legs run along the OR's length L, W_WB/2 short of each end (as the swiping's), and advance
+    ℓ·tan(interior/2) across each, from the first pass centre line for as many legs as stay
+    within the band of the passes — every reversal has the measured interior angle (the study's
+    2.95° corner errors: 0.8 mm at 10 mm/s, 1.8 mm at 40 mm/s), whatever the OR size."""
     W, L = size
-    tan_h = math.tan(math.radians(interior_deg) / 2)
-    ell = length_mm / legs / math.sqrt(1 + tan_h ** 2)
-    delta = ell * tan_h
-    x0 = (L - ell) / 2
-    y0 = (W - legs * delta) / 2
-    pts = [(x0 + (ell if i % 2 else 0.0), y0 + i * delta) for i in range(legs + 1)]
+    n, b = pass_layout(W, spacing)
+    ell = L - spacing
+    delta = ell * math.tan(math.radians(interior_deg) / 2)
+    legs = max(2, int(math.floor((n - 1) * spacing / delta + 1e-9)))
+    x0 = spacing / 2
+    pts = [(x0 + (ell if i % 2 else 0.0), b + i * delta) for i in range(legs + 1)]
     m = len(pts) - 1
-    return _moves(pts, np.ones(m, bool), np.ones(m, bool), np.full(m, speed), "swiping")
+    return _moves(pts, np.ones(m, bool), np.ones(m, bool), np.full(m, speed), "reversals")
 
 
 def straight_line(speed: float, length: float = 100.0) -> Moves:

@@ -30,8 +30,8 @@ from . import geometry as G
 from .signature import digest, layer_signatures
 
 LINE_PX = 2.0        # outline / guide thickness in screen pixels (independent of part size)
-PATH_PX = 4.0        # programmed toolpath: the widest line, its zone/speed colours read at a glance
-SIM_PX = 2.0         # simulated path: half the toolpath's width, drawn inside it (zone colours show beside it)
+PATH_PX = 3.0        # programmed toolpath: the widest line, its zone/speed colours read at a glance
+SIM_PX = 1.5         # simulated path: half the toolpath's width, drawn inside it (zone colours show beside it)
 PROGRAMMED_PX = 1.0  # the simulation's programmed reference: a thin dark core line
 FILL_OPACITY = 0.55
 MESH_OPACITY = 0.25

@@ -98,6 +98,7 @@ class ViewerService:
         with self._lock:
             if self.server is not None:
                 return self
+            self._rebuild_stop.clear()   # stop() cancelled the rebuilds of the previous start
             from .embed import embedded_client
 
             with embedded_client():
@@ -250,7 +251,8 @@ class ViewerService:
     def _rebuild(self, key: str, run_id: str, rebuild: Callable) -> None:
         try:
             recipe, outputs = rebuild(self._rebuild_stop)
-            with self._lock:
+            with self._lock:   # state() sees the scene and the end of loading together
+                self._rebuilding.pop(key, None)
                 # a run that ended meanwhile was published under `key`: it is newer, keep it
                 if self.server is not None and key not in self.scenes:
                     self.publish(key, recipe, outputs, run=run_id)

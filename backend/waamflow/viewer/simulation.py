@@ -45,6 +45,7 @@ class SimulationPart(Part):
         self.corner_layer = np.zeros(0, np.int64)
         self.corner_table: dict[str, np.ndarray] = {}
         self.offset = 0.0                       # current sim_offset_mm (the torch rides on the drawn path)
+        self.lift = 0.0                         # display lift of the lines above the toolpath (mm)
         self.deposit: dict[str, np.ndarray] = {}
         self.programmed = np.zeros((0, 3))
         self._deposit_samples: np.ndarray | None = None
@@ -111,6 +112,11 @@ class SimulationPart(Part):
         programmed = getattr(value, "programmed", None)
         prog = np.zeros((0, 3)) if programmed is None else np.asarray(programmed, float).reshape(-1, 3)
         self.programmed = prog
+        # Display only: where simulated and programmed paths coincide with the (wider) toolpath, the
+        # thinner lines are lifted a hair (1e-3 of the part's size) so they draw on top of it seen
+        # from above: toolpath band → simulated line inside it → programmed hairline in the middle.
+        extent = np.ptp(self.points, axis=0) if n else np.zeros(3)
+        self.lift = 1e-3 * float(np.linalg.norm(extent))
         prog_layer = self._programmed_layers(prog, layer)
         prog_chunks = G.split_by_layer(prog_layer) if len(prog) else {}
         added = 0
@@ -122,14 +128,14 @@ class SimulationPart(Part):
                 segs, _ = G.chunk_segments(prog, prog_chunks[index], budget)
                 entry["prog"] = self.scene.add_line_segments(
                     f"{name}/programmed", segs, C.PROGRAMMED_RGB, thickness=PROGRAMMED_PX,
-                    thickness_units="screen", visible=view.show_programmed)
+                    thickness_units="screen", position=(0.0, 0.0, 2 * self.lift), visible=view.show_programmed)
                 entry["programmed"] = len(segs)
             if index in chunks:
                 arc = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
                 segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
                 entry["sim"] = self.scene.add_line_segments(
                     f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
-                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm),
+                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm + self.lift),
                     visible=view.show_simulated)
                 entry["first"] = first
                 entry["bounds"] = G.layers_bounds([segs])
@@ -211,7 +217,7 @@ class SimulationPart(Part):
         for index, e in self.entries.items():
             e["handle"].visible = view.shows_layer(index)
             if "sim" in e:
-                e["sim"].position = (0.0, 0.0, view.sim_offset_mm)
+                e["sim"].position = (0.0, 0.0, view.sim_offset_mm + self.lift)
                 e["sim"].visible = view.show_simulated
             if "prog" in e:
                 e["prog"].visible = view.show_programmed

@@ -310,7 +310,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Get Artifact */
+        /**
+         * Get Artifact
+         * @description One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
+         *     programs and tables as text/plain, anything else application/octet-stream).
+         */
         get: operations["get_artifact_api_runs__run_id__artifacts__name__get"];
         put?: never;
         post?: never;
@@ -790,9 +794,11 @@ export interface components {
         Recipe: {
             /**
              * Format
+             * @description waamflow/1; older formats are migrated on load
              * @default waamflow/1
+             * @enum {string}
              */
-            format: string;
+            format: "waamflow/1" | "waamflow/0" | "waamflow";
             /**
              * Name
              * @default recipe
@@ -803,7 +809,10 @@ export interface components {
              * @default
              */
             description: string;
-            /** Inputs */
+            /**
+             * Inputs
+             * @description named values that node params refer to as "$name"
+             */
             inputs?: {
                 [key: string]: unknown;
             };
@@ -874,6 +883,13 @@ export interface components {
         /**
          * RunRequest
          * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         * @example {
+         *       "graph": "rectangle-study",
+         *       "inputs": {
+         *         "pattern": "swiping",
+         *         "speed": 40
+         *       }
+         *     }
          */
         RunRequest: {
             /**
@@ -1936,7 +1952,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "text/event-stream": string;
+                    "text/event-stream": {
+                        data: string;
+                        /** @description the event's seq (Last-Event-ID to resume) */
+                        id?: string;
+                        event?: string;
+                    };
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -2090,8 +2111,12 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/json": unknown;
+                    "application/xml": string;
+                    "image/svg+xml": string;
+                    "image/png": string;
                     "text/plain": string;
+                    "application/octet-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */

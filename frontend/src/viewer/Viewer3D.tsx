@@ -26,8 +26,9 @@ const SIM_LABELS: Record<string, string> = { deviation: "deviation", speed: "spe
 function runLine(key: string | null, st: ViewerState | null, shownOther: boolean): string {
   if (!key) return "Save or run the recipe to see it in 3D.";
   if (st?.loading && st.loading.key === key) return `Rebuilding the scene of run ${st.loading.run}…`;
-  if (st?.rebuild_error) return `The scene of run ${st.rebuild_error.run ?? "?"} could not be rebuilt: ${st.rebuild_error.message}. Press Run.`;
-  if (!st?.nodes?.length) return `No run of ${key} yet: press Run.`;
+  if (!st || st.wanted !== key) return `Loading the scene of ${key}…`; // the select request is on its way
+  if (st.rebuild_error) return `The scene of run ${st.rebuild_error.run ?? "?"} could not be rebuilt: ${st.rebuild_error.message}. Press Run.`;
+  if (!st.nodes?.length) return `No run of ${key} yet: press Run.`;
   if (shownOther) return `loading ${key}…`;
   return `Latest run of ${key}${st.run ? ` (run ${st.run})` : ""}`;
 }

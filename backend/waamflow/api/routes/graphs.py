@@ -134,7 +134,9 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
 
 @router.put("/{name}/files/{filename}", status_code=204, response_class=Response,
             responses=errors(400, 401, 404, 409, 413, 422),
-            openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}, "required": True}})
+            openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
+                "type": "string", "format": "binary", "minLength": 1,
+                "description": "the file's bytes (not empty; at most max_upload_mb)"}}}, "required": True}})
 async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, request: Request) -> Response:
     """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`."""
     if svc.store.get_graph(name) is None:

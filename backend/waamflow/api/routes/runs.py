@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import mimetypes
 from typing import Any, Literal
 
 from fastapi import APIRouter, Header, HTTPException, Query, Response
@@ -24,7 +23,8 @@ router = APIRouter(prefix="/api/runs", tags=["runs"])
 class RunRequest(BaseModel):
     """`graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too)."""
 
-    model_config = ConfigDict(extra="forbid", json_schema_extra=RUN_REQUEST_RULES)
+    model_config = ConfigDict(extra="forbid", json_schema_extra={
+        **RUN_REQUEST_RULES, "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}]})
     graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
                        description="name of a saved graph (alone: run it as saved; with `recipe`: "
                                    "run `recipe` with this graph's files and parameter XML)")
@@ -118,8 +118,34 @@ def get_run(run_id: RunId, svc: ServicesDep) -> RunStatus:
                      finished=run["finished"])
 
 
+# one Server-Sent Event (OpenAPI 3.1: the schema of a text/event-stream describes each event)
+SSE_EVENT = {"type": "object", "required": ["data"], "properties": {
+    "data": {"type": "string", "contentMediaType": "application/json",
+             "contentSchema": {"$ref": "#/components/schemas/RunEvent"}},
+    "id": {"type": "string", "pattern": "^[0-9]+$", "description": "the event's seq (Last-Event-ID to resume)"},
+    "event": {"type": "string"}}}
+
+# media type of each artifact by file extension (anything else: application/octet-stream)
+TEXT_ARTIFACTS = (".gcode", ".nc", ".ngc", ".src", ".dat", ".mod", ".csv", ".txt", ".log")
+ARTIFACT_MEDIA = {".json": "application/json", ".xml": "application/xml", ".svg": "image/svg+xml",
+                  ".png": "image/png", **{ext: "text/plain" for ext in TEXT_ARTIFACTS}}
+ARTIFACT_SCHEMAS = {
+    "application/json": {"schema": {}},
+    "application/xml": {"schema": {"type": "string"}},
+    "image/svg+xml": {"schema": {"type": "string"}},
+    "image/png": {"schema": {"type": "string", "format": "binary"}},
+    "text/plain": {"schema": {"type": "string"}},
+    "application/octet-stream": {"schema": {"type": "string", "format": "binary"}},
+}
+
+
+def artifact_media_type(name: str) -> str:
+    dot = name.rfind(".")
+    return ARTIFACT_MEDIA.get(name[dot:].lower() if dot >= 0 else "", "application/octet-stream")
+
+
 @router.get("/{run_id}/events", response_class=StreamingResponse,
-            responses={200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
+            responses={200: {"content": {"text/event-stream": {"schema": SSE_EVENT}}}, **errors(401, 404, 422)})
 async def run_events(run_id: RunId, svc: ServicesDep,
                      last_event_id: str | None = Header(None, max_length=20)) -> StreamingResponse:
     """Server-Sent Events: each `data:` line is one JSON event (see engine/events.py); the stream
@@ -167,18 +193,17 @@ def list_artifacts(run_id: RunId, svc: ServicesDep) -> list[ArtifactInfo]:
 
 
 @router.get("/{run_id}/artifacts/{name}", response_class=FileResponse,
-            responses={200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}},
-                                         "text/plain": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
+            responses={200: {"content": ARTIFACT_SCHEMAS}, **errors(401, 404, 422)})
 def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileResponse:
+    """One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
+    programs and tables as text/plain, anything else application/octet-stream)."""
     _get_run(svc, run_id)
     d = svc.runs.run_dir(run_id).resolve()
     p = (d / name).resolve()
     if not p.is_relative_to(d) or not p.is_file():
         raise HTTPException(404, detail={"message": f"run {run_id} has no artifact {name!r}"})
-    media = mimetypes.guess_type(name)[0] or "text/plain"
-    if name.endswith((".gcode", ".src", ".dat", ".mod", ".csv")):
-        media = "text/plain"
-    return FileResponse(p, media_type=media, filename=name)
+    return FileResponse(p, media_type=artifact_media_type(name), filename=name,
+                        headers={"X-Content-Type-Options": "nosniff"})
 
 
 @router.delete("/{run_id}", status_code=202, response_model=RunStatus, responses=errors(401, 404, 422))
