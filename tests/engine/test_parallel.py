@@ -105,3 +105,20 @@ def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
     assert "area" in sent                  # written by a worker, failed there, raised here with its node
     assert e.value.node == "area" and "negative area" in str(e.value)
     assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "area"), ("run_failed", "area")]
+
+
+def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)            # mpp-cross: 8 layers
+    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
+    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    written = []
+    submit = parallel.LayerPool.submit_artifacts
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts",
+                        lambda self, impl, node_id, *a: (written.append(node_id), submit(self, impl, node_id, *a))[1])
+    serial = _run("mpp-cross", 1)
+    par = _run("mpp-cross", 2)
+    assert written[0] == "layers"                               # up right after slicing: even its layers.json
+    assert par.executor["tasks"] >= 4 * 2
+    assert par.artifacts == serial.artifacts and par.warnings == serial.warnings

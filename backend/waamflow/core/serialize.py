@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
 import numpy as np
@@ -46,7 +45,11 @@ def layers_json(layers: Layered[Layer]) -> dict:
 
 
 def _num_list(a) -> list:
-    return [None if (isinstance(v, float) and math.isnan(v)) else v for v in np.round(np.asarray(a, float), DECIMALS).tolist()]
+    r = np.round(np.asarray(a, float), DECIMALS)
+    out = r.tolist()
+    for i in np.flatnonzero(np.isnan(r)).tolist():   # NaN (no value) → null
+        out[i] = None
+    return out
 
 
 def section_path_json(sp) -> dict[str, Any]:
@@ -55,8 +58,8 @@ def section_path_json(sp) -> dict[str, Any]:
         "strategy": sp.strategy,
         "points": coords(sp.points),
         "zone": list(sp.zone) if sp.zone else [""] * max(len(sp.points) - 1, 0),
-        "arc": [bool(v) for v in sp.arc],
-        "inside": [bool(v) for v in sp.inside],
+        "arc": np.asarray(sp.arc, dtype=bool).tolist(),
+        "inside": np.asarray(sp.inside, dtype=bool).tolist(),
         "speed": _num_list(sp.speed),
         "length_mm": _r(sp.length),
     }

@@ -353,7 +353,7 @@ class _Run:
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
         jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
-        for node_id in self.active:
+        for pos, node_id in enumerate(self.active):
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
             t0 = time.perf_counter()
@@ -367,6 +367,7 @@ class _Run:
                     cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
                     if pool is not None and pool.enabled and pool.offload_artifacts:
@@ -401,6 +402,16 @@ class _Run:
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
         return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
+
+    def maybe_warm(self, pos: int) -> None:
+        """Start the layer workers ahead of need when this node made a long layered value and
+        layer nodes follow: their start-up then overlaps this run's first layer nodes."""
+        pool = self.pool
+        if pool is None or not pool.enabled or pool.started or self.layers is not None:
+            return
+        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
+                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
+            pool.warm()
 
     def located(self, node_id: str, ctx: RunContext, fn):
         """fn() with its errors located at the node (and layer), reported as events: never a traceback."""

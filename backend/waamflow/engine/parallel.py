@@ -15,7 +15,9 @@ Whether to go parallel is decided by measurement, not by a guess: the first unca
 a node are computed in the parent and timed. When the rest is expected to take longer than
 `MIN_PARALLEL_S`, the workers are started (`warm`) in a background thread, so the fork server's
 imports and the forks overlap the parent, which goes on computing layers itself until they are
-up; then the remaining layers go to them (`map_layers`). Once they are up, later nodes hand them
+up; then the remaining layers go to them (`map_layers`). A run whose layered value has
+`WARM_LAYERS` layers or more, with layer nodes to come, starts them right then instead, so their
+start-up overlaps the first layer nodes. Once they are up, later nodes hand them
 their layers whenever the rest is worth `WARM_MIN_PARALLEL_S` (only the round trips cost).
 Results are the same objects either way, so artifacts are byte-identical to a serial run.
 
@@ -43,6 +45,7 @@ from .node import Context, LayerNode
 MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
                           # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
 WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
+WARM_LAYERS = 200         # a layered value this long (and layer nodes to come) starts the workers at once
 BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
 PRELOAD = ["waamflow.engine.warm"]
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
