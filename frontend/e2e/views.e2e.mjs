@@ -292,7 +292,7 @@ test("3D tab after a server restart: the open recipe's last run is rebuilt from 
   await page.waitForFunction((id) => {
     const el = document.querySelector("[data-testid=viewer-run]");
     return el?.dataset.run === id && !el.dataset.loading;
-  }, last.id, { timeout: 120_000 });
+  }, last.id, { timeout: 120_000, polling: 250 });
   assert.equal(await page.innerText("[data-testid=viewer-run]"), `Latest run of rectangle-study (run ${last.id})`);
   const lines = await page.evaluate(() => window.__runLines);
   assert.ok(!lines.some((l) => /No run of/.test(l)), `never "no run yet": ${lines.join(" | ")}`);
@@ -315,7 +315,8 @@ test("3D tab after a server restart: the open recipe's last run is rebuilt from 
   ];
   for (const [sel, mode, want] of modes) {
     await page.selectOption(`[data-testid=${sel}]`, mode);
-    await page.waitForFunction(([m, src]) => new RegExp(src).test(document.querySelector("[data-testid=viewer-legend]")?.innerText ?? ""), [mode, want.source]);
+    // polled on a timer: animation frames stall while SwiftShader draws the scene on a busy machine
+    await page.waitForFunction(([m, src]) => new RegExp(src).test(document.querySelector("[data-testid=viewer-legend]")?.innerText ?? ""), [mode, want.source], { polling: 250, timeout: 60_000 });
     assert.match(await legend(), want);
   }
   // programmed (near black, thin) vs simulated (colour map) vs toolpath (wide): the legend names them
