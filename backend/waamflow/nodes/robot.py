@@ -101,7 +101,9 @@ class SimulateRobot(Node):
                                                 "before the positioner turns the next layer")
         positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
-                                 "each layer so its torch axis points straight down (flat-position welding)")
+                                 "each layer so its torch axis points straight down (flat-position welding); "
+                                 "`min-motion` holds the angles while the torch may lean max_tilt_deg. Limits and "
+                                 "axis speeds from the positioner URDF cap and are reported per layer")
         collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
                                          description="With a cell: coal collision checks (arm links, torch, table, "
                                                      "fixtures, layers built so far) every this much programmed path "
