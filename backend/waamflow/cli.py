@@ -223,8 +223,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--viewer-port", type=int, default=None,
                    help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); with a "
                         "token it listens on 127.0.0.1 and is served under /viewer/")
-    s.add_argument("--layer-workers", type=int, default=None, metavar="N",
-                   help="processes per run for the layers of layer nodes (default: every core; 1 = serial)")
+    s.add_argument("--workers", "--layer-workers", dest="layer_workers", type=int, default=None, metavar="N",
+                   help="processes per run for the layers of layer nodes, as `run --workers` (default: every core; "
+                        "1 = serial)")
     s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="Dask scheduler for the layers of every run (default: WAAMFLOW_SCHEDULER)")
     s.add_argument("--token-file", default=None,

@@ -71,3 +71,13 @@ def test_nodes_catalog_has_schemas(capsys):
     assert grow["inputs"][0] == {"name": "layers", "type": "layers", "description": "", "optional": False,
                                  "color": "#4cc9f0"}
     assert grow["params_schema"]["properties"]["distance"]["unit"] == "mm"
+
+
+def test_serve_takes_the_same_workers_setting_as_run():
+    """CONTRACT: `run --workers N` and the same setting for `serve` (`--layer-workers` kept as alias)."""
+    from waamflow.cli import build_parser
+
+    p = build_parser()
+    assert p.parse_args(["serve", "--workers", "3"]).layer_workers == 3
+    assert p.parse_args(["serve", "--layer-workers", "2"]).layer_workers == 2
+    assert p.parse_args(["run", "x.json", "--workers", "4"]).workers == 4

@@ -166,7 +166,7 @@ def test_cell_shapes_mesh_pose_and_link(tmp_path):
                              "xyz_mm": [0.0, 0.0, 60.0], "link": "table_top"})
     cell = Cell.model_validate(data)
     cell.load_meshes(lambda name: (tmp_path / name).read_bytes())
-    bodies = {n: tf for n, _, tf in cell_statics(cell)([30.0, 0.0])}
+    bodies = {b[0]: b[2] for b in cell_statics(cell)([30.0, 0.0])}
     assert {"positioner:table", "fixture:clamp_1", "fixture:block", "fixture:floor"} <= set(bodies)
     # the block turns with the flange: 60 mm above the table top, tilted 30° about x
     R, t = cell.link_pose([30.0, 0.0], "table_top")

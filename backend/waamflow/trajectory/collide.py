@@ -61,15 +61,16 @@ def _shape(sh, cell=None) -> coal.CollisionGeometry:
 
 def cell_statics(cell):
     """The cell's still and positioner-carried bodies: a function angles → [(name, geometry,
-    transform)] (placed at those positioner angles; results cached per angle set)."""
+    transform, centre mm, bounding radius mm)] (placed at those positioner angles; results cached
+    per angle set)."""
     bodies = []
     for prefix, shapes, default in (("positioner", cell.positioner.shapes if cell.positioner else [], None),
                                     ("fixture", cell.fixtures, "")):
         for sh in shapes:
             link = sh.link if sh.link or default is not None else None      # None: the flange
             R, t = sh.pose()
-            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t))
-    still = [(n, g, _tf(R, t)) for n, g, link, R, t in bodies if link == "" or cell.positioner is None]
+            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t, _bound_radius(sh, cell)))
+    still = [(n, g, _tf(R, t), t, r) for n, g, link, R, t, r in bodies if link == "" or cell.positioner is None]
     moving = [b for b in bodies if not (b[2] == "" or cell.positioner is None)]
     cache: dict[tuple, list] = {}
 
@@ -78,11 +79,12 @@ def cell_statics(cell):
         if key not in cache:
             out = list(still)
             poses: dict = {}
-            for n, g, link, R, t in moving:
+            for n, g, link, R, t, r in moving:
                 if link not in poses:
                     poses[link] = cell.link_pose(np.asarray(angles, float), link or "")
                 Rl, tl = poses[link]
-                out.append((n, g, _tf(Rl @ R, Rl @ t + tl)))
+                c = Rl @ t + tl
+                out.append((n, g, _tf(Rl @ R, c), c, r))
             cache[key] = out
         return cache[key]
     return at
@@ -162,7 +164,10 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
         statics = statics_at(angles)
         hit = None
         for name, g, tf, near_part, centre, rad in movers:
-            for sname, sg, stf in statics:
+            for sname, sg, stf, sc, sr in statics:
+                d = centre - sc
+                if d @ d > (rad + sr) ** 2:          # bounding spheres apart: no contact possible
+                    continue
                 hit = _collide(g, tf, sg, stf, req, name, sname)
                 if hit:
                     break

@@ -139,3 +139,128 @@ def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_sample
     joints = 1000.0 * np.asarray(chain) @ Rb.T + offset     # base frame (m) → toolpath frame (mm)
     n = min(len(joints), len(idx))       # one IK sample per trace sample (step > longest move)
     return RobotMotion(t[idx[:n]], joints[:n], np.asarray(kin.reach_err)[:n], setup["description"])
+
+
+# ------------------------------------------------------------------------------------------------
+# The whole cell (simulate-robot with a cell file): arm, torch, positioner, table and fixtures in
+# the world, the part on the positioner, all replayed from the simulation's own solution.
+
+@dataclass(frozen=True, eq=False)
+class CellMotion:
+    """The cell at k playback samples (times `t`, s). chain: (k, m, 3) world mm — arm base, joint
+    origins, flange, TCP; tool: (k, 3, 3) and (k, 3) the flange pose; work: the part frame's
+    pose (rotation (k, 3, 3), translation (k, 3) mm) — the positioner turning the part; links:
+    positioner link → pose arrays like `work`; angles: (k, axes) positioner deg; unreachable:
+    (k,) bool the IK missed the sample; cell: the `trajectory.cell.Cell`."""
+
+    t: np.ndarray
+    chain: np.ndarray
+    tool: tuple[np.ndarray, np.ndarray]
+    work: tuple[np.ndarray, np.ndarray]
+    links: dict[str, tuple[np.ndarray, np.ndarray]]
+    angles: np.ndarray
+    unreachable: np.ndarray
+    cell: Any
+    name: str
+
+    def index(self, t: float) -> int:
+        return int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1))
+
+    def body(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's link tubes at time t (world mm); the last link (flange → TCP) is left to the
+        cell's torch shapes."""
+        return link_mesh(self.chain[self.index(t)][:-1])
+
+    def segments(self, t: float) -> np.ndarray:
+        p = self.chain[self.index(t)].astype(np.float32)
+        return np.stack([p[:-1], p[1:]], axis=1)
+
+    @property
+    def reach_err(self) -> np.ndarray:
+        return np.where(self.unreachable, np.inf, 0.0)
+
+
+def programmed_s(value) -> np.ndarray:
+    """(n,) programmed arc length (mm) of each trace sample: its programmed segment's start plus
+    its projection on the segment (the key to the kinematic solution, which is sampled along
+    programmed arc length)."""
+    tr = value.trace
+    dep = value.deposit
+    seg = np.asarray(tr["segment"], np.int64)
+    prog = np.asarray(value.programmed, float)
+    a, b = prog[seg], prog[seg + 1]
+    p = np.column_stack([np.asarray(tr[k], float) for k in ("x", "y", "z")])
+    ab = b - a
+    f = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0.0, 1.0)
+    return np.asarray(dep["s_mm"], float)[seg] + f * np.asarray(dep["length_mm"], float)[seg]
+
+
+def cell_motion(value, max_samples: int = 600) -> CellMotion:
+    """Replay a cell simulation: at up to `max_samples` trace times, the simulation's joint angles
+    and positioner angles (interpolated in programmed arc length), then forward kinematics of
+    the arm and the positioner. Raises when the result carries no cell motion."""
+    import pinocchio as pin
+
+    from ..trajectory.cell import Cell
+    from ..trajectory.kinematics import load_arm
+
+    mot = (getattr(value, "kinematics", None) or {}).get("motion")
+    if not mot:
+        raise ValueError("the simulation carries no cell motion")
+    cell = Cell.model_validate(mot["cell"])
+    arm = load_arm(cell.robot_urdf, cell.tool.tcp_mm, home_deg=cell.robot_home_deg)
+    t = np.asarray(value.trace["t"], float)
+    idx = np.unique(np.linspace(0, len(t) - 1, min(max_samples, len(t))).round().astype(int))
+    sp = programmed_s(value)[idx]
+    s = np.asarray(mot["s"], float)
+    q = np.column_stack([np.interp(sp, s, np.asarray(mot["q"])[:, j]) for j in range(arm.model.nq)])
+    ang_s = np.asarray(mot["positioner_deg"], float).reshape(len(s), -1)
+    ang = np.column_stack([np.interp(sp, s, ang_s[:, j]) for j in range(ang_s.shape[1])]) if ang_s.shape[1] \
+        else np.zeros((len(sp), 0))
+    bad = np.interp(sp, s, np.asarray(mot["unreachable"], float)) > 0.5
+    model, data = arm.model, arm.model.createData()
+    yaw = np.radians(cell.robot_base.yaw_deg)
+    Rb = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    tb = np.asarray(cell.robot_base.xyz_mm, float)
+    tool0 = model.getFrameId("tool0")
+    chain, tR, tP = [], [], []
+    for qi in q:
+        pin.forwardKinematics(model, data, qi)
+        pin.updateFramePlacements(model, data)
+        pts = [np.zeros(3)] + [data.oMi[j].translation * 1000.0 for j in range(1, model.njoints)]
+        pts += [data.oMf[tool0].translation * 1000.0, data.oMf[arm.tcp].translation * 1000.0]
+        chain.append(np.asarray(pts) @ Rb.T + tb)
+        tR.append(Rb @ data.oMf[tool0].rotation)
+        tP.append(Rb @ data.oMf[tool0].translation * 1000.0 + tb)
+    names = {sh.link for sh in (cell.positioner.shapes if cell.positioner else [])} | \
+        {sh.link for sh in cell.fixtures if sh.link}
+    links: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    work_R, work_t = [], []
+    lp = {n: ([], []) for n in names}
+    for a in ang:
+        R, tw = cell.work_pose(a)
+        work_R.append(R)
+        work_t.append(tw)
+        for n in names:
+            Rl, tl = cell.link_pose(a, n)
+            lp[n][0].append(Rl)
+            lp[n][1].append(tl)
+    for n, (Rs, ts) in lp.items():
+        links[n] = (np.asarray(Rs), np.asarray(ts))
+    return CellMotion(t[idx], np.asarray(chain), (np.asarray(tR), np.asarray(tP)),
+                      (np.asarray(work_R), np.asarray(work_t)), links, ang, bad, cell, cell.name)
+
+
+def shape_arrays(cell, sh) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices float32 mm, faces uint32) of a cell shape in its link frame (its own pose applied)."""
+    v, f = cell.shape_mesh(sh)
+    R, t = sh.pose()
+    return (np.asarray(v, float) @ R.T + t).astype(np.float32), np.asarray(f, np.uint32)
+
+
+def wxyz(R: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z) of a rotation matrix."""
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    return (float(w), float(x), float(y), float(z))

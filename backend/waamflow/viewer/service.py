@@ -104,7 +104,7 @@ class ViewerService:
             with embedded_client():
                 self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
             self.server.scene.set_up_direction("+z")
-            self.server.scene.add_frame("/graph", show_axes=False)
+            self._graph_frame = self.server.scene.add_frame("/graph", show_axes=False)   # moved by a cell's positioner
             self._build_gui()
             self.server.scene.on_click()(self._on_click)
         return self
@@ -192,6 +192,7 @@ class ViewerService:
                         self._node_frames[node] = self.server.scene.add_frame(f"/graph/{slug(node)}", show_axes=False)
                     part = self.parts[(node, port)] = PART_TYPES[kind](self.server.scene, node, port, self.max_segments)
                 if kind == "simulation":
+                    part.graph_frame = getattr(self, "_graph_frame", None)
                     part.node_params = dict(next((nd.get("params") or {} for nd in nodes
                                                   if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
                 n = part.sync(value, self.view)

@@ -7,6 +7,19 @@ typing: `trace` dict, `programmed` (n, 3), optional `corners`, `section_keys`, `
     /graph/<node>/simulation/torch               playback marker at the slider's time
     /graph/<node>/simulation/robot/links         the arm (stick figure) at the slider's time
     /graph/<node>/simulation/robot/body          the arm's link geometry (tubes, torch) at that time
+
+With a cell (simulate-robot `cell`), the cell is drawn in the world and replayed from the
+simulation's own joint and positioner angles (`robot.cell_motion`):
+
+    /cell/<node>/arm/body, /arm/links            the arm's link tubes and stick figure
+    /cell/<node>/torch/<shape>                   the torch shapes on the flange
+    /cell/<node>/positioner/<shape>              table, tilt frame (turning with the positioner)
+    /cell/<node>/fixtures/<shape>                pedestals, floor, clamps (world or positioner link)
+    /graph/<node>/simulation/flags/unreachable   unreachable stretches of the path (red, thick)
+    /graph/<node>/simulation/flags/collisions    collision points (red spheres, on the part)
+
+and the whole `/graph` tree (part, layers, toolpath, simulated path) is placed at the work
+frame's pose at the playback time: the part turns with the positioner.
 """
 
 from __future__ import annotations
@@ -41,6 +54,8 @@ class SimulationPart(Part):
         self.robot = None                       # RobotMotion, or None
         self.robot_note = ""                    # why there is no robot, if there is none
         self.robot_handles: dict[str, Any] = {}
+        self.cell_handles: dict[str, tuple[Any, str | None]] = {}   # name → (handle, link: None still, "" flange…)
+        self.graph_frame = None                 # the service's /graph frame (moved with the positioner)
         self.corner_points = np.zeros((0, 3))
         self.corner_layer = np.zeros(0, np.int64)
         self.corner_table: dict[str, np.ndarray] = {}
@@ -183,8 +198,12 @@ class SimulationPart(Part):
         for h in self.robot_handles.values():
             h.remove()
         self.robot_handles = {}
+        self._remove_cell()
         self.robot, self.robot_note = None, ""
         if len(self.points) < 2 or "t" not in self.trace:
+            return
+        if (getattr(value, "kinematics", None) or {}).get("motion"):
+            self._add_cell(value, view)
             return
         try:
             setup = cell_setup(self.node_params, dict(getattr(value, "profile", {}) or {}))
@@ -200,6 +219,110 @@ class SimulationPart(Part):
         self.robot_handles["body"] = self.scene.add_mesh_simple(
             f"{self.root}/robot/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.45, side="double",
             visible=view.show_robot)
+
+    def _add_cell(self, value, view) -> None:
+        """The cell in the world (see the module doc), the flags on the part."""
+        from .robot import cell_motion, shape_arrays
+
+        self._remove_cell()
+        try:
+            self.robot = cell_motion(value)
+        except Exception as e:   # a cell whose URDF/meshes cannot be loaded here: path only
+            self.robot, self.robot_note = None, f"cell not shown: {e}"
+            return
+        m, cell = self.robot, self.robot.cell
+        root = f"/cell/{self.node}"
+        segs = m.segments(view.time_s)
+        self.robot_handles["links"] = self.scene.add_line_segments(
+            f"{root}/arm/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen", visible=view.show_robot)
+        verts, faces = m.body(view.time_s)
+        self.robot_handles["body"] = self.scene.add_mesh_simple(
+            f"{root}/arm/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.55, side="double",
+            visible=view.show_robot)
+        groups = [("torch", cell.tool.shapes, "tool0", (230, 120, 30)),
+                  ("positioner", cell.positioner.shapes if cell.positioner else [], "", (90, 110, 140)),
+                  ("fixtures", cell.fixtures, None, (150, 150, 150))]
+        for group, shapes, default, rgb in groups:
+            for sh in shapes:
+                link = default if default is not None and not sh.link else (sh.link or None)
+                if group == "fixtures" and sh.name == "floor":
+                    continue                      # the grid stands for the floor
+                try:
+                    v, f = shape_arrays(cell, sh)
+                except Exception:                 # a user's mesh not readable here: skip that body
+                    continue
+                h = self.scene.add_mesh_simple(f"{root}/{group}/{sh.name}", v, f, color=rgb,
+                                               opacity=0.9 if group != "fixtures" else 0.6, side="double",
+                                               visible=view.show_robot)
+                self.cell_handles[f"{group}/{sh.name}"] = (h, link)
+        self._add_flags(value, m)
+        self._place_cell(view.time_s)
+
+    def _add_flags(self, value, m) -> None:
+        """Unreachable stretches (thick red on the programmed path) and collision points (red),
+        in the part frame so they turn with the part."""
+        from .robot import programmed_s
+
+        kin = getattr(value, "kinematics", None) or {}
+        prog = np.asarray(getattr(value, "programmed", np.zeros((0, 3))), float)
+        if len(prog) >= 2:
+            s_prog = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(prog, axis=0), axis=1))])
+            segs = []
+            for it in kin.get("issues", []):
+                if it.get("kind") != "unreachable":
+                    continue
+                k = np.flatnonzero((s_prog >= it["s_from"] - 1e-6) & (s_prog <= it["s_to"] + 1e-6))
+                k = k[k < len(prog) - 1]
+                segs += [prog[[i, i + 1]] for i in k]
+            if segs:
+                self.robot_handles["unreachable"] = self.scene.add_line_segments(
+                    f"{self.root}/flags/unreachable", np.asarray(segs, np.float32), (230, 30, 30), thickness=6.0,
+                    thickness_units="screen")
+        cols = list(getattr(value, "collisions", ()) or ())
+        if cols and m is not None:
+            s_tr = programmed_s(value)
+            pts = []
+            for c in cols:
+                i = m.index(float(np.interp(c.s_mm, s_tr, self.trace["t"])))
+                R, t = m.work[0][i], m.work[1][i]
+                pts.append(R.T @ (np.asarray(c.point_mm, float) - t))     # world → part frame
+            b = self.bounds()
+            size = 0.015 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 2.0
+            self.robot_handles["collisions"] = self.scene.add_point_cloud(
+                f"{self.root}/flags/collisions", np.asarray(pts, np.float32), (255, 0, 0),
+                point_size=max(size, 1.0), point_shape="circle")
+
+    def _place_cell(self, t: float) -> None:
+        """Arm, torch, positioner and the part at time t."""
+        from .robot import wxyz
+
+        m = self.robot
+        i = m.index(t)
+        for name, (h, link) in self.cell_handles.items():
+            if link is None:
+                continue
+            if link == "tool0":
+                R, p = m.tool[0][i], m.tool[1][i]
+            else:
+                R, p = (m.links[link][0][i], m.links[link][1][i])
+            h.wxyz, h.position = wxyz(R), tuple(float(v) for v in p)
+        if self.graph_frame is not None:
+            self.graph_frame.wxyz = wxyz(m.work[0][i])
+            self.graph_frame.position = tuple(float(v) for v in m.work[1][i])
+
+    def _remove_cell(self) -> None:
+        for h, _ in self.cell_handles.values():
+            h.remove()
+        self.cell_handles = {}
+        if self.graph_frame is not None:
+            self.graph_frame.wxyz, self.graph_frame.position = (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+    def remove(self) -> None:
+        self._remove_cell()
+        for h in self.robot_handles.values():
+            h.remove()
+        self.robot_handles = {}
+        super().remove()
 
     def _programmed_layers(self, prog: np.ndarray, trace_layer: np.ndarray) -> np.ndarray:
         """Layer of each programmed point: the trace's own when sampled 1:1, else the layer of
@@ -227,7 +350,10 @@ class SimulationPart(Part):
                 if "sim" in e:
                     e["sim"].colors = self._sim_colors(e["first"], view.sim_color)
             self.mode = view.sim_color
-        for h in self.robot_handles.values():
+        for key in ("links", "body"):
+            if key in self.robot_handles:
+                self.robot_handles[key].visible = view.show_robot
+        for h, _ in self.cell_handles.values():
             h.visible = view.show_robot
         self.set_time(view.time_s)
 
@@ -240,6 +366,8 @@ class SimulationPart(Part):
         if self.robot is not None and self.robot_handles:
             self.robot_handles["links"].points = self.robot.segments(t)
             self.robot_handles["body"].vertices = self.robot.body(t)[0]
+            if self.cell_handles or hasattr(self.robot, "work"):
+                self._place_cell(t)
         return self.sample_info(i)
 
     def sample_info(self, i: int) -> dict[str, Any]:
