@@ -31,7 +31,8 @@ from waamflow.program.profiles import load_profiles
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 LEN_TOL = 5e-4    # relative: coordinates are written to 0.001 mm
 TIME_TOL = 1e-3   # relative: feeds are written to 0.1 mm/min
-LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
+LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "curved-bracket": ("fan", 8),
+               "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
 PROFILES = load_profiles()
 
 
