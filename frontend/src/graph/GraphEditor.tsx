@@ -68,6 +68,23 @@ function refusalOf(drag: [string, string, string] | null, nodeId: string, side: 
 }
 
 /** A refused handle's reason, on the handle: its title / description and a visible tag beside it. */
+/** A port's handle; while a wire is dragged, a refused one carries the reason (ring, title, aria). */
+function PortHandle({ type, name, color, r }: { type: "source" | "target"; name: string; color?: string; r: Refusal }) {
+  const why = r ? `cannot connect: ${r.text}` : undefined;
+  return (
+    <Handle
+      type={type}
+      position={type === "target" ? Position.Left : Position.Right}
+      id={name}
+      style={{ background: color }}
+      className={r ? "refused" : undefined}
+      title={why}
+      aria-description={why}
+      data-reason={r?.text}
+    />
+  );
+}
+
 function RefusalTag({ r }: { r: Refusal }) {
   return r ? (
     <span className="port-refusal" data-testid="port-refusal" aria-hidden="true">
@@ -105,16 +122,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
             const r = refusal("target", p.name);
             return (
               <div className={`port ${r ? "refused" : ""}`} key={p.name} title={r ? `cannot connect: ${r.text}` : `${p.type}${p.optional ? " (optional)" : ""}: ${p.description}`}>
-                <Handle
-                  type="target"
-                  position={Position.Left}
-                  id={p.name}
-                  style={{ background: p.color }}
-                  className={r ? "refused" : undefined}
-                  title={r ? `cannot connect: ${r.text}` : undefined}
-                  aria-description={r ? `cannot connect: ${r.text}` : undefined}
-                  data-reason={r?.text}
-                />
+                <PortHandle type="target" name={p.name} color={p.color} r={r} />
                 <RefusalTag r={r} />
                 <span>{p.name}</span>
               </div>
@@ -128,16 +136,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
               <div className={`port out ${r ? "refused" : ""}`} key={p.name} title={r ? `cannot connect: ${r.text}` : `${p.type}: ${p.description}`}>
                 <span>{p.name}</span>
                 <RefusalTag r={r} />
-                <Handle
-                  type="source"
-                  position={Position.Right}
-                  id={p.name}
-                  style={{ background: p.color }}
-                  className={r ? "refused" : undefined}
-                  title={r ? `cannot connect: ${r.text}` : undefined}
-                  aria-description={r ? `cannot connect: ${r.text}` : undefined}
-                  data-reason={r?.text}
-                />
+                <PortHandle type="source" name={p.name} color={p.color} r={r} />
               </div>
             );
           })}
