@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import signal
 import subprocess
 import tempfile
 import time
@@ -65,6 +66,21 @@ def _devtools_port(profile: Path, proc: subprocess.Popen, timeout: float) -> int
     raise TimeoutError("chromium did not open its DevTools port")
 
 
+def _stop_group(proc: subprocess.Popen) -> None:
+    """Terminate Chromium and every helper process it started (its own session/group)."""
+    for sig, wait_s in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            return
+        try:
+            proc.wait(timeout=wait_s)
+            time.sleep(0.2)         # helpers leave after the browser process
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
 def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: int = 800,
             timeout_s: float = 90.0, ready: Callable[[bytes], bool] | None = None,
             chromium: str = CHROMIUM) -> bytes:
@@ -73,12 +89,14 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
     Returns the PNG bytes."""
     out_png = Path(out_png)
     out_png.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix="waamflow-chromium-") as tmp:
+    # Chromium's helper processes may still write into the profile while it shuts down: the
+    # whole process group is stopped, and what is left of the folder never fails the capture
+    with tempfile.TemporaryDirectory(prefix="waamflow-chromium-", ignore_cleanup_errors=True) as tmp:
         profile = Path(tmp)
         proc = subprocess.Popen(
             [chromium, *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
              f"--window-size={width},{height}", "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
             deadline = time.monotonic() + timeout_s
             port = _devtools_port(profile, proc, timeout=min(30.0, timeout_s))
@@ -103,11 +121,6 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
             finally:
                 cdp.close()
         finally:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=10)
+            _stop_group(proc)
     out_png.write_bytes(png)
     return png
