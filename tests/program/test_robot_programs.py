@@ -19,7 +19,7 @@ from waamflow.program.common import program_identifier, KRL_RESERVED, RAPID_RESE
 from waamflow.program.profiles import load_profiles
 
 from conftest import build_toolpath
-from helpers import arc_runs
+from helpers import arc_runs, wall_recipe
 from krl_check import arctech_seams, parse_program
 from rapid_check import RapidError, parse_module, values
 
@@ -27,25 +27,7 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 
 def _wall_recipe(post_id: str = "post", **post) -> dict:
-    return {
-        "format": "waamflow/1", "name": "robot-wall",
-        "nodes": [
-            {"id": "sketch", "type": "sketch", "params": {"path": "wall.json", "height": 6.0}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
-            {"id": "features", "type": "features", "params": {}},
-            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0}},
-            {"id": "sequence", "type": "sequence", "params": {}},
-            {"id": post_id, "type": "post-process", "params": post},
-        ],
-        "edges": [
-            {"from": "sketch.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "features.layers"},
-            {"from": "layers.layers", "to": "walls.layers"},
-            {"from": "features.features", "to": "walls.features"},
-            {"from": "walls.toolpath", "to": "sequence.toolpath"},
-            {"from": "sequence.toolpath", "to": f"{post_id}.toolpath"},
-        ],
-    }
+    return wall_recipe("robot-wall", post_id, **post)
 
 
 def _run(tmp_path, recipe, cache=None):

@@ -13,27 +13,11 @@ from waamflow.engine.executor import FileResolver, execute, recipe_sha256
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
 
+from helpers import wall_recipe
+
 
 def _recipe(fmt: str) -> dict:
-    return {
-        "format": "waamflow/1", "name": "trace-wall",
-        "nodes": [
-            {"id": "sketch", "type": "sketch", "params": {"path": "wall.json", "height": 6.0}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
-            {"id": "features", "type": "features", "params": {}},
-            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0}},
-            {"id": "sequence", "type": "sequence", "params": {}},
-            {"id": "post", "type": "post-process", "params": {"format": fmt}},
-        ],
-        "edges": [
-            {"from": "sketch.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "features.layers"},
-            {"from": "layers.layers", "to": "walls.layers"},
-            {"from": "features.features", "to": "walls.features"},
-            {"from": "walls.toolpath", "to": "sequence.toolpath"},
-            {"from": "sequence.toolpath", "to": "post.toolpath"},
-        ],
-    }
+    return wall_recipe("trace-wall", format=fmt)
 
 
 def _write_wall(tmp_path, length: float) -> bytes:
