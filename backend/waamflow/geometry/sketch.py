@@ -291,18 +291,11 @@ def read_dxf(data: bytes, filename: str):
     try:
         if data.startswith(b"AutoCAD Binary DXF"):
             # binary DXF: ezdxf.readfile detects and reads it (the recover module reads ASCII only)
-            import os
-            import tempfile
-
             import ezdxf
 
-            fd, path = tempfile.mkstemp(suffix=".dxf")
-            try:
-                with os.fdopen(fd, "wb") as f:
-                    f.write(data)
-                doc = ezdxf.readfile(path)
-            finally:
-                os.unlink(path)
+            from .through_file import read_through_file
+
+            doc = read_through_file(data, ".dxf", ezdxf.readfile)
         else:
             doc, _auditor = recover.read(io.BytesIO(data))
     except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:

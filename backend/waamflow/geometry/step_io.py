@@ -11,14 +11,13 @@ says how many, the node warns that an assembly was flattened.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import PurePosixPath
 
 import numpy as np
 
 from ..core.errors import InputFileError
+from .through_file import read_through_file
 
 CAD_FORMATS = ("step", "stp", "iges", "igs")
 
@@ -51,13 +50,7 @@ def _read_shape(data: bytes, filename: str):
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     step = ext in ("step", "stp")
     reader = STEPControl_Reader() if step else IGESControl_Reader()
-    fd, path = tempfile.mkstemp(suffix="." + ext)       # OCC readers take a path
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        status = reader.ReadFile(path)
-    finally:
-        os.unlink(path)
+    status = read_through_file(data, "." + ext, reader.ReadFile)   # OCC readers take a path
     if status != IFSelect_RetDone:
         raise InputFileError(f"{filename}: not a readable {'STEP' if step else 'IGES'} file (OpenCascade status {int(status)})")
     file_unit = None
