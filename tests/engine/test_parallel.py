@@ -23,6 +23,20 @@ def always_parallel(monkeypatch):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
 
 
+@pytest.fixture()
+def artifact_writers(monkeypatch) -> list[str]:
+    """The node ids whose artifacts were handed to the workers (`LayerPool.submit_artifacts`), in order."""
+    written: list[str] = []
+    submit = parallel.LayerPool.submit_artifacts
+
+    def spy(self, impl, node_id, *args):
+        written.append(node_id)
+        return submit(self, impl, node_id, *args)
+
+    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts", spy)
+    return written
+
+
 def _run(name: str, workers: int, cache=None):
     path = GRAPHS / f"{name}.json"
     graph = build_graph(load_recipe(path))
@@ -58,21 +72,14 @@ def test_small_runs_stay_serial():
     assert res.executor["tasks"] == 0  # 8 quick layers: starting workers would not pay
 
 
-def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch):
+def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, artifact_writers):
     """Workers start in a thread while the parent goes on computing layers; once they are up they
     take the layers of later nodes and write the artifacts, byte for byte as a serial run."""
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
     monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
-    written = []
-    submit = parallel.LayerPool.submit_artifacts
-
-    def spy(self, impl, node_id, *args):
-        written.append(node_id)
-        return submit(self, impl, node_id, *args)
-
-    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts", spy)
+    written = artifact_writers
     serial = _run("mpp-cross", 1)
     background = _run("mpp-cross", 2)      # who computes what depends on when the workers are up: not the result
     assert background.artifacts == serial.artifacts and background.warnings == serial.warnings
@@ -86,7 +93,7 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch):
     assert par.warnings == serial.warnings
 
 
-def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
+def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch, artifact_writers):
     import toy_nodes as toy
     from waamflow.core.errors import PlanningError
     from waamflow.engine.recipe import parse_recipe
@@ -94,10 +101,7 @@ def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
     monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
-    sent = []
-    submit = parallel.LayerPool.submit_artifacts
-    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts",
-                        lambda self, impl, node_id, *a: (sent.append(node_id), submit(self, impl, node_id, *a))[1])
+    sent = artifact_writers
     graph = build_graph(parse_recipe(toy.chain(stack={"count": 8}, area={"scale": -1.0})))
     events = []
     with pytest.raises(PlanningError) as e:
@@ -107,16 +111,13 @@ def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch):
     assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "area"), ("run_failed", "area")]
 
 
-def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch):
+def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch, artifact_writers):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
     monkeypatch.setattr(parallel, "WARM_LAYERS", 8)            # mpp-cross: 8 layers
     monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
-    written = []
-    submit = parallel.LayerPool.submit_artifacts
-    monkeypatch.setattr(parallel.LayerPool, "submit_artifacts",
-                        lambda self, impl, node_id, *a: (written.append(node_id), submit(self, impl, node_id, *a))[1])
+    written = artifact_writers
     serial = _run("mpp-cross", 1)
     par = _run("mpp-cross", 2)
     assert written[0] == "layers"                               # up right after slicing: even its layers.json
