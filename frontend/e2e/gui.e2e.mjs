@@ -380,21 +380,39 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
   const graphs = (await api(srv.base, "/api/graphs")).filter((g) => g.example);
   assert.ok(graphs.length >= 4, `examples: ${graphs.map((g) => g.name)}`);
   for (const g of graphs) {
-    await page.selectOption("[data-testid=open-graph]", g.name);
-    const recipe = await api(srv.base, `/api/graphs/${g.name}`);
-    await page.waitForSelector(`.react-flow__node[data-id="${recipe.nodes.at(-1).id}"]`);
-    await expectRun(page, srv.base, "done");
-    // node statuses arrive on the event stream; the run's end may be seen first
-    await page.waitForFunction((n) => document.querySelectorAll(".react-flow__node .badge").length >= n, recipe.nodes.length, { timeout: 10_000 }).catch(() => undefined);
-    const badges = await page.locator(".react-flow__node .badge").allInnerTexts();
-    assert.equal(badges.length, recipe.nodes.length, `${g.name}: a badge per node`);
-    assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
-    await page.click("[data-tab=mask]");
-    await page.waitForSelector("[data-testid=mask-canvas] .layer-poly, [data-testid=mask-canvas] .layer-curve", { state: "attached" });
-    // Every example plans paths; they are drawn in the layer's own plane (fan-sliced layers too).
-    await page.waitForFunction(() => Number(document.querySelector("[data-testid=mask-canvas]").getAttribute("data-paths")) > 0);
-    await shot(page, `14-example-${g.name}`);
-    await page.click("[data-tab=graph]");
+    let step = "open";
+    const t0 = Date.now();
+    try {
+      await page.selectOption("[data-testid=open-graph]", g.name);
+      const recipe = await api(srv.base, `/api/graphs/${g.name}`);
+      await page.waitForSelector(`.react-flow__node[data-id="${recipe.nodes.at(-1).id}"]`);
+      step = "run";
+      // the heaviest example (curved-bracket: fan sections, 148 layers, cell simulation) takes
+      // ~15 s on an idle 2-core machine; allow for a loaded one
+      await expectRun(page, srv.base, "done", true, 300_000);
+      // node statuses arrive on the event stream; the run's end may be seen first
+      step = "badges";
+      await page
+        .waitForFunction((n) => {
+          const b = [...document.querySelectorAll(".react-flow__node .badge")].map((e) => e.textContent ?? "");
+          return b.length >= n && b.every((t) => /^(done|cached)/.test(t));
+        }, recipe.nodes.length, { timeout: 30_000 })
+        .catch(() => undefined);
+      const badges = await page.locator(".react-flow__node .badge").allInnerTexts();
+      assert.equal(badges.length, recipe.nodes.length, `${g.name}: a badge per node`);
+      assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
+      step = "canvas";
+      await page.click("[data-tab=mask]");
+      await page.waitForSelector("[data-testid=mask-canvas] .layer-poly, [data-testid=mask-canvas] .layer-curve", { state: "attached", timeout: 60_000 });
+      // Every example plans paths; they are drawn in the layer's own plane (fan-sliced layers too).
+      step = "paths";
+      await page.waitForFunction(() => Number(document.querySelector("[data-testid=mask-canvas]").getAttribute("data-paths")) > 0, null, { timeout: 60_000 });
+      await shot(page, `14-example-${g.name}`);
+      await page.click("[data-tab=graph]");
+    } catch (e) {
+      e.message = `example ${g.name}, step ${step}, after ${Date.now() - t0} ms: ${e.message}\nserver log (tail):\n${srv.log().slice(-3000)}`;
+      throw e;
+    }
   }
   assert.deepEqual(errors, []);
   await page.context().close();

@@ -131,7 +131,7 @@ export async function api(base, p, init) {
 }
 
 /** Wait for the run in the toolbar to end in `phase`; else fail with the run's error. */
-export async function expectRun(page, base, phase, clickRun = true) {
+export async function expectRun(page, base, phase, clickRun = true, timeout = 120_000) {
   const before = await page.getAttribute("[data-testid=progress]", "data-run-id");
   if (clickRun) await page.click("[data-testid=run]");
   try {
@@ -143,7 +143,7 @@ export async function expectRun(page, base, phase, clickRun = true) {
     const toasts = await page.locator("[data-testid=toast]").allInnerTexts();
     throw new Error(`no run started; messages: ${toasts.join(" | ")}`);
   }
-  const got = await waitRun(page);
+  const got = await waitRun(page, timeout);
   if (got !== phase) {
     const [last] = await api(base, "/api/runs?limit=1");
     const info = await api(base, `/api/runs/${last.id}`);

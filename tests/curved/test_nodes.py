@@ -279,3 +279,35 @@ def test_duct_krl_is_structurally_valid_with_moving_external_axes(duct):
     assert len(e["X"]) == 6438
     assert len(set(np.round(e["E1"], 2))) == 58 and max(e["E1"]) - min(e["E1"]) > 85    # E1 moves
     assert len(set(np.round(e["E2"], 2))) == 1
+
+
+def _lap_starts(res):
+    """(n, 2) local start (x, y) of each layer's lap, its layer, and the lap direction (+1 CCW)."""
+    out = []
+    for lp in res.outputs["perimeter"]["toolpath"]:
+        sp = lp.sections[0]
+        d = sp.points - lp.layer.frame[:3, 3]
+        x, y = d @ lp.layer.frame[:3, 0], d @ lp.layer.frame[:3, 1]
+        turn = np.sign(np.sum(x[:-1] * y[1:] - x[1:] * y[:-1]))
+        out.append((x[0], y[0], turn))
+    return np.array(out)
+
+
+def test_ring_seams_aligned_or_scattered(duct):
+    # aligned (the recipe's default tubular = helical, which tilted layers cannot take): each lap
+    # starts at the seam below, or — where the greedy order reverses the lap — at its stop, one
+    # overlap (5 mm) further along the 15 mm mid circle
+    starts = _lap_starts(duct)
+    ang = np.arctan2(starts[:, 1], starts[:, 0] - 100.0)
+    step = np.abs(np.angle(np.exp(1j * np.diff(ang))))       # rad between consecutive starts
+    assert np.all(step * 15.0 <= 5.0 + 1.0)
+    assert np.ptp(ang[::2]) * 15.0 < 1.5                       # every other layer: the same seam (± sampling)
+
+    def scattered(recipe):
+        next(n for n in recipe["nodes"] if n["id"] == "perimeter")["params"]["tubular"] = "scattered"
+    sc = _lap_starts(run(scattered))
+    ang = np.arctan2(sc[:, 1], sc[:, 0] - 100.0)
+    # the golden-ratio sequence: starts spread round the lap, no two consecutive ones together
+    hist = np.histogram(np.mod(ang, 2 * np.pi), bins=8, range=(0, 2 * np.pi))[0]
+    assert hist.min() >= 4 and hist.max() <= 11                 # 58 laps over 8 sectors
+    assert np.min(np.abs(np.angle(np.exp(1j * np.diff(ang)))) * 15.0) > 6.0

@@ -41,6 +41,50 @@ def ring_centerline(poly: Polygon, spacing: float = 1.0) -> tuple[np.ndarray, fl
     return mid, float(np.mean(widths))
 
 
+def seam_index(mid: np.ndarray, near: np.ndarray | None = None, straight_deg_per_mm: float = 0.5) -> int:
+    """Where a lap of the closed centre line `mid` ((m, 2), first point repeated, mm) starts.
+
+    With `near` ((2,) mm, the previous layer's seam in the same layer-local coordinates): the
+    sample nearest to it, so seams stay aligned layer to layer however the section's ring happens
+    to be ordered. Without: the middle of the longest straight stretch (turning under
+    `straight_deg_per_mm`), where ignition and the stop's overlap sit on a straight bead rather
+    than in a bend; on a lap with no straight stretch (a circle), its point farthest along +x
+    (on a fan layer: farthest from the axis). Returns an index into mid[:-1].
+    """
+    pts = np.asarray(mid, float)[:-1]
+    n = len(pts)
+    if near is not None:
+        return int(np.argmin(np.hypot(*(pts - np.asarray(near, float)).T)))
+    d_in = pts - np.roll(pts, 1, axis=0)
+    d_out = np.roll(pts, -1, axis=0) - pts
+    turn = np.abs(np.arctan2(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0], np.einsum("ij,ij->i", d_in, d_out)))
+    step = (np.hypot(*d_in.T) + np.hypot(*d_out.T)) / 2.0
+    straight = np.degrees(turn) <= straight_deg_per_mm * np.maximum(step, 1e-9)
+    if straight.all() or not straight.any():
+        return int(np.argmax(pts[:, 0])) if not straight.all() else 0
+    # longest circular run of straight samples: start the scan just after a bent one
+    first = int(np.flatnonzero(~straight)[0])
+    order = (np.arange(n) + first + 1) % n
+    run_start, run_len, best = 0, 0, (0, -1)
+    for k, i in enumerate(order):
+        if straight[i]:
+            if run_len == 0:
+                run_start = k
+            run_len += 1
+            if run_len > best[1]:
+                best = (run_start, run_len)
+        else:
+            run_len = 0
+    return int(order[best[0] + best[1] // 2])
+
+
+def start_at(mid: np.ndarray, i: int) -> np.ndarray:
+    """The closed polyline `mid` ((m, 2), first point repeated) re-started at its sample i."""
+    pts = np.asarray(mid, float)[:-1]
+    pts = np.roll(pts, -int(i), axis=0)
+    return np.vstack([pts, pts[:1]])
+
+
 def nearest_on_polyline(line: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """(n, 2) nearest point on the polyline `line` ((m, 2), m ≥ 2) of each of `pts` ((n, 2))."""
     a, b = line[:-1], line[1:]

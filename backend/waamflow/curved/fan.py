@@ -23,12 +23,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
-from shapely.geometry import LineString, MultiPolygon, Polygon, box
-from shapely.ops import polygonize
+from shapely.geometry import MultiPolygon, box
 
 from ..core.model import Layer, MeshData, as_multipolygon, region_polygons
 from ..core.tolerances import TOL
+from ..slicing.planar import MeshSections
+from ..slicing.rings import loops_to_regions
 
 MAX_FAN_LAYERS = 20_000
 
@@ -129,36 +129,32 @@ def angular_range(axis: FanAxis, vertices: np.ndarray, faces: np.ndarray | None 
     return float(lo), float(hi)
 
 
-def _rings_to_region(segments2d: np.ndarray) -> MultiPolygon:
-    """Even-odd nesting of closed section loops given as (m, 2, 2) segments (mm)."""
-    if not len(segments2d):
-        return MultiPolygon()
-    segs = np.round(segments2d, 7)
-    lines = [LineString(s) for s in segs if np.hypot(*(s[1] - s[0])) > 0]
-    polys = sorted((p for p in polygonize(shapely.node(shapely.MultiLineString(lines)) if lines else [])
-                    if p.area > TOL.min_area), key=lambda p: -p.area)
-    region = Polygon()
-    for p in polys:
-        region = region.symmetric_difference(Polygon(p.exterior))
-    return as_multipolygon(region_polygons(region))
+class FanSections:
+    """Half-plane sections of one closed mesh about any axis. The mesh's edge matching is done
+    once (`slicing.planar.MeshSections`); each section turns the vertices into the half-plane's
+    frame and cuts them by its plane in one vectorised pass, nests the loops into polygons with
+    holes (`slicing.rings`) and keeps the half on the part's side of the axis."""
 
+    def __init__(self, mesh: MeshData):
+        self.vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        self._sections = MeshSections(mesh.faces, len(self.vertices), name=mesh.name)
 
-def section_half_plane(mesh: trimesh.Trimesh, axis: FanAxis, theta: float) -> MultiPolygon:
-    """Cross-section of `mesh` by the half-plane at θ (rad), in half-plane coordinates (x = r, y)."""
-    import trimesh  # lazy: keeps start-up light
-    normal = axis.tangential(theta)
-    segs = trimesh.intersections.mesh_plane(mesh, normal, axis.point)
-    if not len(segs):
-        return MultiPolygon()
-    d = segs - axis.point
-    x = d @ axis.radial(theta)
-    y = -(d @ axis.direction)
-    region = _rings_to_region(np.stack([x, y], axis=-1))
-    if region.is_empty:
-        return region
-    lo, hi = region.bounds[1] - 1.0, region.bounds[3] + 1.0
-    half = box(0.0, lo, max(region.bounds[2], 0.0) + 1.0, hi)
-    return as_multipolygon(region_polygons(region.intersection(half)))
+    def __call__(self, axis: FanAxis, theta: float) -> MultiPolygon:
+        """Cross-section by the half-plane at θ (rad), in half-plane coordinates (x = r, y)."""
+        d = self.vertices - axis.point
+        # right-handed (e_r, −u, e_θ): the mesh keeps its winding, outer loops stay CCW
+        local = np.column_stack([d @ axis.radial(theta), -(d @ axis.direction), d @ axis.tangential(theta)])
+        # a vertex on the plane up to rounding lies on it: the kernel's symbolic perturbation then
+        # treats it exactly like a horizontal plane through a vertex
+        local[np.abs(local[:, 2]) < TOL.merge * 1e-3, 2] = 0.0
+        region = loops_to_regions(self._sections.loops(local, np.zeros(1)), 1)[0]
+        if region.is_empty:
+            return region
+        lo, hi = region.bounds[1] - 1.0, region.bounds[3] + 1.0
+        if region.bounds[0] >= 0.0:
+            return region
+        half = box(0.0, lo, max(region.bounds[2], 0.0) + 1.0, hi)
+        return as_multipolygon(region_polygons(region.intersection(half)))
 
 
 @dataclass(frozen=True)
@@ -191,12 +187,11 @@ def plan_fan(mesh: MeshData, axis: FanAxis, dtheta_deg: float, *, layer_count: i
 
 def fan_slice(mesh: MeshData, plan: FanPlan) -> tuple[Layer, ...]:
     """The fan layers of `mesh` (see module doc for the conventions)."""
-    import trimesh  # lazy: keeps start-up light
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    section = FanSections(mesh)
     layers = []
     z = 0.0
     for j, top in enumerate(plan.tops):
-        region = section_half_plane(tm, plan.axis, float(top - plan.dtheta / 2.0))
+        region = section(plan.axis, float(top - plan.dtheta / 2.0))
         rbar = region.centroid.x if not region.is_empty else plan.r_mid
         z += rbar * plan.dtheta
         layers.append(Layer(index=j, z=float(z), thickness=float(rbar * plan.dtheta), region=region,

@@ -13,7 +13,7 @@ part's end wins at once (smallest such d); otherwise the one building the most l
 next section starts on its last layer's top plane. With `max_sections` reached, the last section
 builds the rest with its axis even where heights leave the range (the caller warns).
 
-All lengths mm, angles rad unless named _deg. Cross-sections come from `fan.section_half_plane`.
+All lengths mm, angles rad unless named _deg. Cross-sections come from `fan.FanSections`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 import shapely
 
 from ..core.model import Layer, MeshData
-from .fan import MAX_FAN_LAYERS, FanAxis, angular_range, make_axis, section_half_plane
+from .fan import MAX_FAN_LAYERS, FanAxis, FanSections, angular_range, make_axis
 
 
 DTHETA_TRIES = 5  # Δθ values tried across the first layer's admissible window, per offset
@@ -68,7 +68,12 @@ def _overhang(prev: _Cut, cur: _Cut, samples_per_mm: float = 1.0) -> float:
     world = (np.column_stack([xy, np.zeros(len(xy)), np.ones(len(xy))]) @ cur.frame.T)[:, :3]
     d = world - prev.frame[:3, 3]
     local = np.column_stack([d @ prev.frame[:3, 0], d @ prev.frame[:3, 1]])
-    return float(shapely.distance(prev.region, shapely.points(local)).max())
+    # most of the boundary lies over the layer below: measure only the points outside it
+    shapely.prepare(prev.region)
+    out = ~shapely.contains_xy(prev.region, local[:, 0], local[:, 1])
+    if not out.any():
+        return 0.0
+    return float(shapely.distance(prev.region, shapely.points(local[out])).max())
 
 
 def _axis_in_plane(start: FanAxis, theta: float, base_point: np.ndarray, offset: float) -> FanAxis:
@@ -80,11 +85,11 @@ def _axis_in_plane(start: FanAxis, theta: float, base_point: np.ndarray, offset:
     return FanAxis(q - offset * er, start.direction, er)
 
 
-def _window(tm, axis: FanAxis, h_min: float, h_max: float) -> tuple[float, float] | None:
+def _window(section: FanSections, axis: FanAxis, h_min: float, h_max: float) -> tuple[float, float] | None:
     """Admissible Δθ (rad) for the first layer about `axis`: [H_min/r_min, H_max/r_max] of the
     part's cross-section just past the start plane; None when the part has ended or the axis is
     inside it."""
-    probe = section_half_plane(tm, axis, 1e-3)
+    probe = section(axis, 1e-3)
     if probe.is_empty:
         return None
     minx, _y0, maxx, _y1 = probe.bounds
@@ -93,14 +98,14 @@ def _window(tm, axis: FanAxis, h_min: float, h_max: float) -> tuple[float, float
     return h_min / minx, h_max / maxx
 
 
-def _sweep(tm, axis: FanAxis, dtheta: float, h_min: float, h_max: float, max_over: float, prev: _Cut | None,
+def _sweep(section: FanSections, axis: FanAxis, dtheta: float, h_min: float, h_max: float, max_over: float, prev: _Cut | None,
            limit: int, strict: bool) -> tuple[list[_Cut], bool]:
     """Layers of Δθ about `axis` from its θ = 0, while (strict) heights and overhang fit.
     Returns (cuts, reached the part's end)."""
     cuts: list[_Cut] = []
     for j in range(limit):
         mid = (j + 0.5) * dtheta
-        region = section_half_plane(tm, axis, mid)
+        region = section(axis, mid)
         if region.is_empty:
             return cuts, True
         cut = _Cut(region, axis.frame(mid), axis.frame((j + 1) * dtheta))
@@ -118,8 +123,7 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
                   step: float, max_offset: float, max_sections: int) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
     """Sections and their layers (see module doc). Layer conventions as `fan.fan_slice`; `z` is the
     running sum of layer thicknesses (mm)."""
-    import trimesh  # lazy: keeps start-up light
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    section = FanSections(mesh)
     axis0 = make_axis(point, direction, mesh.vertices)
     lo, _hi = angular_range(axis0, mesh.vertices, mesh.faces)
     start, theta = axis0, lo
@@ -132,12 +136,12 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
         best = None
         for d in offsets:
             ax = _axis_in_plane(start, theta, axis0.point, d)
-            win = _window(tm, ax, h_min, h_max)
+            win = _window(section, ax, h_min, h_max)
             if win is None or win[0] > win[1]:
                 continue
             # Δθ fixed per section: try across the first layer's window, keep the longest sweep
             for dth in np.linspace(win[0], win[1], DTHETA_TRIES):
-                cuts, done = _sweep(tm, ax, float(dth), h_min, h_max, max_overhang, prev,
+                cuts, done = _sweep(section, ax, float(dth), h_min, h_max, max_overhang, prev,
                                     MAX_FAN_LAYERS - len(cuts_all), True)
                 cand = (done, len(cuts), -d, ax, float(dth), cuts)
                 if best is None or cand[:3] > best[:3]:
@@ -152,12 +156,12 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
             # fitted), Δθ for the mean height at the first region's centroid; heights leave the range
             d = -best[2] if best is not None and best[1] > 0 else 0.0
             ax = _axis_in_plane(start, theta, axis0.point, d)
-            probe = section_half_plane(tm, ax, 1e-3)
+            probe = section(ax, 1e-3)
             if probe.is_empty:
                 break
             dth = best[4] if best is not None and best[1] > 0 else (h_min + h_max) / 2.0 / max(probe.centroid.x, 1e-6)
             limit = MAX_FAN_LAYERS - len(cuts_all) if final else 1
-            cuts, done = _sweep(tm, ax, dth, h_min, h_max, max_overhang, prev, limit, False)
+            cuts, done = _sweep(section, ax, dth, h_min, h_max, max_overhang, prev, limit, False)
             if not cuts:
                 break
         else:

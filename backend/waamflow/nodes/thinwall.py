@@ -7,18 +7,20 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
+import shapely
 from pydantic import Field, model_validator
 
 from ..core import serialize
 from ..core.errors import PlanningError
 from ..core.model import Layer, LayerPaths, Layered, SectionPath, region_polygons
 from ..core.tolerances import TOL
-from ..curved.centerline import ring_centerline
+from ..curved.centerline import ring_centerline, seam_index, start_at
+from ..curved.fan import to_local
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..features import RecognitionSpec, WallSpec, features_for_layer, helix, plan_layer_walls, recognise_layers
 from ..features.recognition import curves_digest
-from ..features.tubular import aligned_loop
+from ..features.tubular import aligned_loop, scattered_loop
 from ..features.walls import WallPass, order_passes
 
 
@@ -81,8 +83,11 @@ class WallPathNode(Node):
     Isolated tubulars: `tubular` = helical (one continuous helix, pitch = layer height, placed in
     the first layer), aligned or scattered start–stop with self-overlap `overlap`; non-isolated
     ones are built layer by layer (scattered). Layers without curves but with ring regions (a
-    fan-sliced hollow wall) get the ring's centre line as one lap with `overlap`. Passes in
-    greedy nearest-neighbour order, each layer starting where the previous ended.
+    fan-sliced hollow wall) get the ring's centre line as one lap with `overlap`, its seam chosen
+    by `tubular`: aligned (and helical, which tilted fan layers cannot take) starts layer 0 in the
+    middle of the lap's longest straight stretch and every later layer at the point nearest the
+    seam below; scattered moves that start on by the golden-ratio fraction of the lap per layer.
+    Passes in greedy nearest-neighbour order, each layer starting where the previous ended.
     Writes `<node>.toolpath.json`.
     """
 
@@ -130,6 +135,7 @@ class WallPathNode(Node):
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
         warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
         pos = None
+        seams: list[np.ndarray] = []    # world seams of the last ring layer: the next aligns to them
         for slot, layer in enumerate(layers):
             ctx.check_cancelled()
             if layer is None:
@@ -138,7 +144,7 @@ class WallPathNode(Node):
             if layer.curves:
                 passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned)
             else:
-                passes = self._rings(ctx, layer, params, spec, pos)
+                passes = self._rings(ctx, layer, params, spec, pos, seams)
             if passes:
                 pos = passes[-1].xy[-1]
             out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
@@ -176,15 +182,30 @@ class WallPathNode(Node):
         return order_passes(passes, start)
 
     @staticmethod
-    def _rings(ctx, layer: Layer, params, spec: WallSpec, start) -> list[WallPass]:
-        passes = []
+    def _rings(ctx, layer: Layer, params, spec: WallSpec, start, seams: list[np.ndarray]) -> list[WallPass]:
+        """Ring laps of a region layer; `seams` (world points of the previous ring layer's seams)
+        is replaced by this layer's."""
+        passes, placed = [], []
+        below = to_local(layer, np.array(seams)) if seams else np.zeros((0, 2))
         for k, poly in enumerate(region_polygons(layer.region)):
             if not poly.interiors:
                 ctx.warn(f"region {k} has no hole (not a single-bead ring): skipped", layer=layer.index)
                 continue
-            mid, _width = ring_centerline(poly, params.spacing)
-            xy = aligned_loop(mid, spec.overlap)
+            mid, width = ring_centerline(poly, params.spacing)
+            near = None
+            if spec.tubular != "scattered" and len(below):
+                # the seam below this lap (within a few bead widths): a new wall starts afresh
+                gap = shapely.distance(shapely.LineString(mid), shapely.points(below))
+                if gap.min() <= max(3.0 * width, 5.0 * params.spacing):
+                    near = below[int(np.argmin(gap))]
+            lap = start_at(mid, seam_index(mid, near))
+            if spec.tubular == "scattered":
+                xy = scattered_loop(lap, layer.index, spec.overlap)
+            else:
+                xy = aligned_loop(lap, spec.overlap)
+            placed.append(layer.to_world(xy[:1])[0])
             passes.append(WallPass(f"ring{k}", "perimeter", xy, np.ones(len(xy) - 1, bool)))
+        seams[:] = placed
         return order_passes(passes, start)
 
     def artifacts(self, ctx, params, outputs):

@@ -48,7 +48,10 @@ def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     sizes = np.diff(loops.offsets)
     lid = np.repeat(np.arange(k), sizes)
     _, prev, _ = _cyclic_neighbours(sizes)
-    keep = (x != np.take(x, prev)) | (y != np.take(y, prev))
+    # repeated points: a plane through a vertex gives the vertex twice (exactly, or to rounding
+    # when the mesh was turned into the plane's frame first); drop both kinds, else the
+    # straight-run test below would take each twin for a point on a straight run
+    keep = np.hypot(x - np.take(x, prev), y - np.take(y, prev)) > TOL.merge * 1e-3
     x, y, lid = x[keep], y[keep], lid[keep]
     # points on a straight run (within TOL.merge of the line through their neighbours): flat
     # faces of triangulated meshes put a crossing point on every internal diagonal
