@@ -5,7 +5,7 @@ import { readFileSync, writeFileSync } from "node:fs";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import {
-  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, shot, startBrowser, startServer, waitRun,
+  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, openRecipe, shot, startBrowser, startServer, waitRun,
 } from "./harness.mjs";
 
 let srv, browser;
@@ -383,9 +383,8 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
     let step = "open";
     const t0 = Date.now();
     try {
-      await page.selectOption("[data-testid=open-graph]", g.name);
-      const recipe = await api(srv.base, `/api/graphs/${g.name}`);
-      await page.waitForSelector(`.react-flow__node[data-id="${recipe.nodes.at(-1).id}"]`);
+      // until the picked recipe is shown the run button waits (it would run the one on screen)
+      const recipe = await openRecipe(page, srv.base, g.name);
       step = "run";
       // the heaviest example (curved-bracket: fan sections, 148 layers, cell simulation) takes
       // ~15 s on an idle 2-core machine; allow for a loaded one
@@ -399,7 +398,13 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
         }, recipe.nodes.length, { timeout: 30_000 })
         .catch(() => undefined);
       const badges = await page.locator(".react-flow__node .badge").allInnerTexts();
-      assert.equal(badges.length, recipe.nodes.length, `${g.name}: a badge per node`);
+      if (badges.length !== recipe.nodes.length) {
+        const shown = await page.$$eval(".react-flow__node", (els) => els.map((e) => `${e.getAttribute("data-id")}: ${e.querySelector(".badge")?.textContent ?? "-"}`));
+        const [last] = await api(srv.base, "/api/runs?limit=1");
+        const log = await api(srv.base, `/api/runs/${last.id}/log`);
+        await shot(page, `14-example-${g.name}-badges`);
+        assert.fail(`${g.name}: a badge per node; nodes ${shown.join(", ")}; run ${last.id} ${last.status}, events ${log.map((e) => `${e.kind}:${e.node ?? ""}`).join(" ")}; progress ${await page.getAttribute("[data-testid=progress]", "data-run-id")}`);
+      }
       assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
       step = "canvas";
       await page.click("[data-tab=mask]");
@@ -410,8 +415,7 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
       await shot(page, `14-example-${g.name}`);
       await page.click("[data-tab=graph]");
     } catch (e) {
-      e.message = `example ${g.name}, step ${step}, after ${Date.now() - t0} ms: ${e.message}\nserver log (tail):\n${srv.log().slice(-3000)}`;
-      throw e;
+      throw new Error(`example ${g.name}, step ${step}, after ${Date.now() - t0} ms: ${e.message}\nserver log (tail):\n${srv.log().slice(-3000)}`, { cause: e });
     }
   }
   assert.deepEqual(errors, []);

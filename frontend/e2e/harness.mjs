@@ -151,6 +151,18 @@ export async function expectRun(page, base, phase, clickRun = true, timeout = 12
   }
 }
 
+/** Pick recipe `name` in the toolbar and wait until exactly its nodes are shown (examples share
+ * node ids such as "part" and "post", so one node of it is no proof); returns the recipe. */
+export async function openRecipe(page, base, name) {
+  await page.selectOption("[data-testid=open-graph]", name);
+  const recipe = await api(base, `/api/graphs/${name}`);
+  await page.waitForFunction((ids) => {
+    const shown = [...document.querySelectorAll(".react-flow__node")].map((e) => e.getAttribute("data-id")).sort();
+    return !document.querySelector("[data-testid=open-graph][data-opening]") && JSON.stringify(shown) === JSON.stringify(ids);
+  }, recipe.nodes.map((n) => n.id).sort());
+  return recipe;
+}
+
 /** Wait for the run in the toolbar to end; returns its phase. */
 export async function waitRun(page, timeout = 120_000) {
   await page.waitForFunction(() => {

@@ -6,7 +6,7 @@ import { createRequire } from "node:module";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import { chromium } from "playwright-core";
-import { OUT, api, startBrowser, startServer } from "./harness.mjs";
+import { OUT, api, openRecipe, startBrowser, startServer } from "./harness.mjs";
 
 const require = createRequire(import.meta.url);
 const AXE = require.resolve("axe-core/axe.min.js");
@@ -253,8 +253,7 @@ test("tabs are ARIA tabs with arrow keys; axe finds no critical/serious violatio
   const found = [];
   for (const g of graphs) {
     await page.click("[data-tab=graph]");
-    await page.selectOption("[data-testid=open-graph]", g);
-    await page.waitForSelector(".react-flow__node");
+    await openRecipe(page, srv.base, g);
     for (const t of tabs) {
       await page.click(`[data-tab=${t}]`);
       await page.waitForTimeout(t === "mask" ? 1500 : 400);

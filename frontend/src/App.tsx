@@ -178,8 +178,12 @@ export function App() {
     [rf, reset],
   );
 
+  // The recipe being fetched after a pick in the toolbar: until it is shown, "run" would run the
+  // one still on screen, so it waits.
+  const [opening, setOpening] = useState<string | null>(null);
   const open = useCallback(
     async (name: string, tabAfter?: Tab) => {
+      setOpening(name);
       try {
         const [r, list] = await Promise.all([API.getGraph(name), API.listGraphs()]);
         setGraphs(list);
@@ -191,6 +195,8 @@ export function App() {
         if (tabAfter) setTab(tabAfter);
       } catch (e) {
         fail(e);
+      } finally {
+        setOpening(null);
       }
     },
     [fail, reset_],
@@ -459,7 +465,8 @@ export function App() {
         dirty={dirty}
         canUndo={hist.past.length > 0}
         canRedo={hist.future.length > 0}
-        canRun={recipe.nodes.length > 0}
+        canRun={recipe.nodes.length > 0 && opening === null}
+        opening={opening}
         run={run}
         isExample={isExample}
         problemCount={problems.length}

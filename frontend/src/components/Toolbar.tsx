@@ -9,6 +9,8 @@ export interface ToolbarProps {
   canUndo: boolean;
   canRedo: boolean;
   canRun: boolean;
+  /** The recipe being fetched after a pick (null when none): shown in the picker, run waits. */
+  opening?: string | null;
   run: RunState;
   /** A shipped example: read-only (save → save as, no delete). */
   isExample: boolean;
@@ -38,7 +40,7 @@ export function Toolbar(p: ToolbarProps) {
   return (
     <header className="toolbar">
       <h1 className="brand">waamflow</h1>
-      <select value={p.graphName ?? ""} onChange={(e) => e.target.value && p.onOpen(e.target.value)} data-testid="open-graph" title="open a saved recipe" aria-label="open a recipe">
+      <select value={p.opening ?? p.graphName ?? ""} onChange={(e) => e.target.value && p.onOpen(e.target.value)} data-testid="open-graph" data-opening={p.opening ?? undefined} aria-busy={p.opening ? true : undefined} title="open a saved recipe" aria-label="open a recipe">
         <option value="">{p.graphName ? "" : "open recipe…"}</option>
         {p.graphs.map((g) => (
           <option key={g.name} value={g.name}>
