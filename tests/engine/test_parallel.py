@@ -87,7 +87,9 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, ar
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
     par = _run("mpp-cross", 2)
     assert written == ["mask", "guide", "strategy", "zone", "sequence", "post"]   # from the first layer node on
-    assert par.executor["tasks"] >= 4 * 2                                        # 4 layer nodes, ≥ 2 chunks each
+    # mask's layers after its timed first go out once, as chains mask → guide → strategy → zone
+    assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 7
+    assert all(par.stats[n].layers_computed == 8 for n in ("mask", "guide", "strategy", "zone"))
     assert list(par.artifacts) == list(serial.artifacts)                         # same files, same order
     assert all(par.artifacts[k] == serial.artifacts[k] for k in serial.artifacts)
     assert par.warnings == serial.warnings
@@ -121,5 +123,48 @@ def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch,
     serial = _run("mpp-cross", 1)
     par = _run("mpp-cross", 2)
     assert written[0] == "layers"                               # up right after slicing: even its layers.json
-    assert par.executor["tasks"] >= 4 * 2
+    assert par.executor["tasks"] == 7                           # one chain task per layer after the timed first
     assert par.artifacts == serial.artifacts and par.warnings == serial.warnings
+
+
+def _toy_chain(**fail):
+    import toy_nodes as toy
+    from waamflow.engine.recipe import parse_recipe
+
+    return build_graph(parse_recipe(toy.recipe(
+        [("stack", "toy-stack", {"count": 12}), ("grow", "toy-grow", {"per_layer": {"3": 6.0, "9": 7.0}}),
+         ("check", "toy-fail", fail), ("grow2", "toy-grow", {"distance": 0.5}), ("area", "toy-area", {})],
+        [("stack.layers", "grow.layers"), ("grow.layers", "check.layers"), ("check.layers", "grow2.layers"),
+         ("grow2.layers", "area.layers")])))
+
+
+def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel):
+    """grow → check → grow2: each layer's three nodes in one worker task (one task per chunk,
+    not per node), with the warnings in layer order and the per-layer cache filled for all three."""
+    import toy_nodes as toy
+
+    serial = execute(_toy_chain(), resolver=FileResolver("."), workers=1)
+    cache = MemoryCache()
+    toy.CALLS.clear()
+    par = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
+    assert toy.CALLS["toy-grow"] == 1 + 1          # the parent computed only the timed first layer of each grow
+    assert par.executor["tasks"] == len(parallel._chunks(list(range(11)), 2)) == 6
+    assert par.outputs["area"]["toolpath"] == pytest.approx(serial.outputs["area"]["toolpath"], rel=1e-12)
+    assert par.outputs["area"]["toolpath"] == pytest.approx(sum((10 + 2 * d + 1) ** 2 for d in [1.0] * 10 + [6.0, 7.0]))
+    assert [(w["node"], w["layer"]) for w in par.warnings] == [("grow", 3), ("grow", 9)] == \
+        [(w["node"], w["layer"]) for w in serial.warnings]
+    for n in ("grow", "check", "grow2"):
+        assert par.stats[n].layers_computed == 12 and par.stats[n].layers_cached == 0
+    again = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
+    assert again.executor["tasks"] == 0 and all(again.stats[n].layers_cached == 12 for n in ("grow", "check", "grow2"))
+
+
+def test_a_link_failing_in_a_worker_is_reported_with_its_node_and_layer(always_parallel):
+    from waamflow.core.errors import PlanningError
+
+    events = []
+    with pytest.raises(PlanningError) as e:
+        execute(_toy_chain(fail_at=7), resolver=FileResolver("."), workers=2, on_event=events.append)
+    assert (e.value.node, e.value.layer, e.value.section) == ("check", 7, "bs1/A")
+    assert "curve yields 2 regions" in str(e.value)
+    assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "check"), ("run_failed", "check")]

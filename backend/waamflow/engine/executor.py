@@ -304,6 +304,9 @@ class _Run:
         self.layer_count: int | None = None
         self.started_utc = run_date_utc()
         self.input_hashes: dict[str, str] = {}
+        # (node id, layer) → (outputs, warnings) computed by a worker as part of a chain
+        # (engine/parallel.py), taken up when the run reaches that node
+        self.precomputed: dict[tuple[str, int], tuple[dict, list]] = {}
 
     # events
     def emit(self, kind: str, **kw) -> None:
@@ -479,6 +482,7 @@ class _Run:
         item_keys: list[str] = [""] * n
         results: dict[int, tuple[dict, list]] = {}   # index → (outputs, warnings)
         todo: list[tuple[int, dict, str]] = []        # uncached: (index, items, key)
+        prefetched: list[tuple[int, str, tuple]] = []  # (index, key, (outputs, warnings)) from a chain
         for i in wanted:
             items = {p: (v.items[i] if isinstance(v, Layered) else v) for p, v in inputs.items()}
             if items[impl.over] is None:
@@ -488,11 +492,19 @@ class _Run:
                             impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
             item_keys[i] = key
             hit = self.cache.get(key) if self.cache is not None else MISSING
+            pre = self.precomputed.pop((gnode.id, i), None)
             if hit is not MISSING:
                 results[i] = hit
+            elif pre is not None:       # computed in a worker right after the layer it depends on
+                prefetched.append((i, key, pre))
             else:
                 todo.append((i, items, key))
         n_cached = len(results)
+        for i, key, (out, warnings) in prefetched:
+            self._check_outputs(gnode, out)
+            results[i] = (out, warnings)
+            if self.cache is not None:
+                self.cache.put(key, (out, warnings))
         self.compute_layers(gnode, ctx, todo, results, n_total=len(results) + len(todo))
         for i in wanted:  # warnings and outputs in layer order, whoever computed them
             if i not in results:
@@ -501,7 +513,7 @@ class _Run:
             self.add_warnings(warnings)
             for port, value in out.items():
                 per_layer[port][i] = value
-        n_computed = len(todo)
+        n_computed = len(todo) + len(prefetched)
         ctx.layer = None
         ctx.warnings = []
         ctx.take_report()
@@ -562,20 +574,61 @@ class _Run:
                 per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
+            chain = self.chain_from(gnode)
 
-            def collect(i: int, out: dict | None, extra) -> None:
+            def collect(i: int, got: list) -> None:
+                out, extra = got[0]
                 if out is None:
                     failed.append(i)
-                else:
-                    finish(i, keys[i], out, extra)
+                    return
+                finish(i, keys[i], out, extra)
+                for link, (later, warnings) in zip(chain[1:], got[1:]):
+                    if later is not None:   # a failed link: that node computes the layer itself
+                        self.precomputed[(link.node_id, i)] = (later, warnings)
 
-            pool.map_layers(impl, gnode.id, gnode.params, self.resolver, [(i, items) for i, items, _ in rest],
+            pool.map_layers(chain, self.resolver, [(i, items) for i, items, _ in rest],
                             collect, lambda: self.cancel is not None and self.cancel.is_set())
             self.check_cancelled()
             # a layer that failed in a worker is re-run here: the error is raised with its context
             rest = [t for t in rest if t[0] in set(failed) or t[0] not in results]
         for t in rest:
             here(*t)
+
+    def chain_from(self, gnode: GraphNode) -> tuple[parallel.ChainLink, ...]:
+        """`gnode` and the layer nodes that can compute their layer i in the same worker task
+        right after it (engine/parallel.py, chains): each fed, through its `over` input, by the
+        previous one's output, whose `combine` hands items on unchanged; its other inputs whole
+        values computed already. Only for whole-part runs (a GUI preview of a few layers stays
+        node by node)."""
+        links = [parallel.ChainLink(gnode.impl, gnode.id, gnode.params.model_dump(mode="json"))]
+        if self.layers is not None:
+            return tuple(links)
+        cur = gnode
+        pos = self.active.index(gnode.id)
+        while True:
+            impl = cur.impl
+            if not (impl.combine_keeps_items or type(impl).combine is LayerNode.combine):
+                break
+            nxt = None
+            for nid in self.active[pos + 1:]:
+                cand = self.graph.nodes[nid]
+                if not isinstance(cand.impl, LayerNode):
+                    continue
+                src = cand.inputs.get(cand.impl.over)
+                if src is None or src[0] != cur.id:
+                    continue
+                others = {p: s for p, s in cand.inputs.items() if p != cand.impl.over}
+                if all(s[0] in self.outputs and not isinstance(self.outputs[s[0]][s[1]], Layered)
+                       for s in others.values()):
+                    nxt = (cand, src[1], {p: self.outputs[s[0]][s[1]] for p, s in others.items()})
+                break
+            if nxt is None:
+                break
+            cand, port, whole = nxt
+            links.append(parallel.ChainLink(cand.impl, cand.id, cand.params.model_dump(mode="json"),
+                                            cand.impl.over, port, whole))
+            cur, pos = cand, self.active.index(cand.id)
+        return tuple(links)
 
     @staticmethod
     def _check_outputs(gnode: GraphNode, outputs: dict) -> None:

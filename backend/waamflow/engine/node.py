@@ -112,6 +112,10 @@ class LayerNode(Node):
     """
 
     over: ClassVar[str] = "layers"
+    # True when `combine` hands each output's per-layer items on unchanged (it may only warn or
+    # report): a layer node fed by this one may then compute its layer i right after this one's,
+    # in the same worker task (engine/parallel.py, chains), instead of waiting for every layer.
+    combine_keeps_items: ClassVar[bool] = False
 
     def layer_params(self, params: Any, index: int, items: dict[str, Any]) -> Any:
         return params.model_dump(mode="json")

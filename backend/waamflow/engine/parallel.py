@@ -21,6 +21,15 @@ start-up overlaps the first layer nodes. Once they are up, later nodes hand them
 their layers whenever the rest is worth `WARM_MIN_PARALLEL_S` (only the round trips cost).
 Results are the same objects either way, so artifacts are byte-identical to a serial run.
 
+Chains. When a layer node's layers go to the workers and the layer node that consumes its
+output only needs that output's layer i (plus whole values already computed), the workers compute
+both in one task, layer by layer: mask → guide → strategy → zone of layer i run back to back in
+one worker, so the layers of the whole chain are spread over the cores at once, and each layer's
+items cross the process boundary once instead of once per node. The later nodes' results wait in
+the parent (`_Run.precomputed`) and are taken up, in layer order, when the run reaches those
+nodes: caching, warnings and artifacts are exactly a serial run's. A link requires the upstream
+node's `combine` to hand its items on unchanged (`LayerNode.combine_keeps_items`).
+
 Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
 outputs) are written by a worker too (`submit_artifacts`) while the parent goes on with the next
 node; the run collects them in node order at its end.
@@ -104,20 +113,48 @@ class _ArtifactContext(_WorkerContext):
         return self._trace
 
 
-def _run_chunk(impl: LayerNode, node_id: str, params_json: Any, resolver, chunk: list[tuple[int, dict]]):
-    """Worker side: [(index, outputs, warnings) | (index, None, error text)] for a chunk. Params
+@dataclass(frozen=True)
+class ChainLink:
+    """A layer node computed in the same worker task as the node before it: `over` is its input
+    fed by that node's output `src_port`; `whole` its other inputs (whole values, computed
+    already). The first link of a chain has over = src_port = None (its items are given). Params
     travel as JSON (their models may hold classes made at run time, which do not pickle) and are
-    validated again here, exactly as the graph validated them."""
-    params = type(impl).Params.model_validate(params_json)
-    ctx = _WorkerContext(node_id, resolver)
+    validated again in the worker, exactly as the graph validated them."""
+
+    impl: Any
+    node_id: str
+    params_json: Any
+    over: str | None = None
+    src_port: str | None = None
+    whole: dict = field(default_factory=dict)
+
+
+def _run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dict]]):
+    """Worker side: per layer of the chunk, each link in turn on the previous link's output:
+    [(index, [(outputs, warnings) | (None, error text)] per link computed)]. A failed link ends
+    that layer's chain; the parent computes the rest (and reports the error with its context)."""
+    links = [(link, type(link.impl).Params.model_validate(link.params_json)) for link in chain]
+    ctxs = [_WorkerContext(link.node_id, resolver) for link in chain]
     out = []
     for i, items in chunk:
-        ctx.layer = i
-        ctx.warnings = []
-        try:
-            out.append((i, impl.run_layer(ctx, params, i, items), ctx.warnings))
-        except Exception as exc:  # re-run in the parent, which reports it with node/layer/section
-            out.append((i, None, f"{type(exc).__name__}: {exc}"))
+        got: list[tuple] = []
+        prev: dict = {}
+        for k, (link, params) in enumerate(links):
+            if k:
+                fed = prev[link.src_port]
+                if fed is None:
+                    break
+                items = {**link.whole, link.over: fed}
+            ctx = ctxs[k]
+            ctx.layer = i
+            ctx.warnings = []
+            try:
+                prev = link.impl.run_layer(ctx, params, i, items)
+            except Exception as exc:  # re-run in the parent, which reports it with node/layer/section
+                got.append((None, f"{type(exc).__name__}: {exc}"))
+                break
+            got.append((prev, ctx.warnings))
+        out.append((i, got))
     return out
 
 
@@ -218,20 +255,21 @@ class LayerPool:
         return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
                                        trace, outputs)
 
-    def map_layers(self, impl: LayerNode, node_id: str, params: Any, resolver, todo: list[tuple[int, dict]],
-                   on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
-        """Compute `todo` [(index, items)] in workers; `on_done(index, outputs, warnings | error)`
+    def map_layers(self, chain: tuple[ChainLink, ...], resolver, todo: list[tuple[int, dict]],
+                   on_done: Callable[[int, list], None], cancelled: Callable[[], bool]) -> None:
+        """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
+        its outputs, in workers; `on_done(index, [(outputs | None, warnings | error)] per link)`
         is called in the parent as chunks finish (any order: the caller orders what must be)."""
         chunks = _chunks(todo, self.workers)
         pool = self._executor()
-        pending: set[Future] = {pool.submit(_run_chunk, impl, node_id, params.model_dump(mode="json"), resolver, c) for c in chunks}
+        pending: set[Future] = {pool.submit(_run_chain, chain, resolver, c) for c in chunks}
         self.tasks += len(pending)
         try:
             while pending:
                 done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    for i, out, extra in fut.result():
-                        on_done(i, out, extra)
+                    for i, got in fut.result():
+                        on_done(i, got)
                 if cancelled():
                     break
         finally:
@@ -259,9 +297,9 @@ def _chunks(todo: list, workers: int) -> list[list]:
     return [todo[k:k + size] for k in range(0, len(todo), size)]
 
 
-def _run_chunk_shared(shared: tuple, chunk: list[tuple[int, dict]]):
-    """Dask worker side: `shared` = (impl, node_id, params JSON, resolver), scattered once per node."""
-    return _run_chunk(*shared, chunk)
+def _run_chain_shared(shared: tuple, chunk: list[tuple[int, dict]]):
+    """Dask worker side: `shared` = (chain, resolver), scattered once per map."""
+    return _run_chain(*shared, chunk)
 
 
 @dataclass
@@ -320,20 +358,20 @@ class DaskPool:
     def info(self) -> dict:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
-    def map_layers(self, impl: LayerNode, node_id: str, params: Any, resolver, todo: list[tuple[int, dict]],
-                   on_done: Callable[[int, dict | None, Any], None], cancelled: Callable[[], bool]) -> None:
+    def map_layers(self, chain: tuple[ChainLink, ...], resolver, todo: list[tuple[int, dict]],
+                   on_done: Callable[[int, list], None], cancelled: Callable[[], bool]) -> None:
         from distributed import as_completed
 
         client = self.client()
         # one object (a list would be scattered item by item), on every worker once
-        shared = client.scatter([(impl, node_id, params.model_dump(mode="json"), resolver)], broadcast=True, hash=False)[0]
-        futures = [client.submit(_run_chunk_shared, shared, c, pure=False)
+        shared = client.scatter([(chain, resolver)], broadcast=True, hash=False)[0]
+        futures = [client.submit(_run_chain_shared, shared, c, pure=False)
                    for c in _chunks(todo, max(1, self.workers))]
         self.tasks += len(futures)
         try:
             for fut in as_completed(futures, loop=client.loop):
-                for i, out, extra in fut.result():
-                    on_done(i, out, extra)
+                for i, got in fut.result():
+                    on_done(i, got)
                 if cancelled():
                     break
         finally:

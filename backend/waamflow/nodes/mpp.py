@@ -71,6 +71,7 @@ class MaskNode(LayerNode):
     """
 
     type = "mask"
+    combine_keeps_items = True   # combine only warns
     title = "Mask (segmentation)"
     category = "mpp"
     inputs = (Port("layers", "layers", "Sliced layers"),)
@@ -134,6 +135,7 @@ class GuideNode(LayerNode):
     """
 
     type = "guide"
+    combine_keeps_items = True   # combine only warns
     title = "Guide"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer"),)

@@ -99,6 +99,7 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
+    combine_keeps_items = True   # combine only warns
     version = "6"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model
     title = "Strategy"
     category = "mpp"
