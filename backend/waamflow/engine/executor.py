@@ -560,11 +560,30 @@ class _Run:
 
         rest = list(todo)
         pool = self.pool
+        chain = self.chain_from(gnode) if pool is not None and pool.enabled and len(todo) > 1 else ()
+
+        def timed(i: int, items: dict, key: str) -> None:
+            """A layer of this node and of the nodes chained to it: what the workers would be sent
+            is what gets timed (its later links wait in `precomputed`, as a worker's would)."""
+            here(i, items, key)
+            out = results[i][0]
+            for link in chain[1:]:
+                fed = out.get(link.src_port)
+                if fed is None:
+                    break
+                lctx = RunContext(self, link.node_id)
+                lctx.layer = i
+                try:
+                    out = link.impl.run_layer(lctx, self.graph.nodes[link.node_id].params, i, {**link.whole, link.over: fed})
+                except Exception:   # that node computes the layer itself and reports the error
+                    break
+                self.precomputed[(link.node_id, i)] = (out, lctx.warnings)
+
         t0 = time.perf_counter()
         if rest:
-            here(*rest.pop(0))
+            timed(*rest.pop(0))
         while rest and time.perf_counter() - t0 < parallel.TIMING_S:  # time one layer, more if tiny
-            here(*rest.pop(0))
+            timed(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
         if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
             pool.warm()            # no-op once started
@@ -574,7 +593,6 @@ class _Run:
                 per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
-            chain = self.chain_from(gnode)
 
             def collect(i: int, got: list) -> None:
                 out, extra = got[0]
