@@ -141,18 +141,16 @@ class FanSections:
 
     def __call__(self, axis: FanAxis, theta: float) -> MultiPolygon:
         """Cross-section by the half-plane at θ (rad), in half-plane coordinates (x = r, y)."""
-        d = self.vertices - axis.point
-        # right-handed (e_r, −u, e_θ): the mesh keeps its winding, outer loops stay CCW
-        local = np.column_stack([d @ axis.radial(theta), -(d @ axis.direction), d @ axis.tangential(theta)])
+        # in the half-plane's frame (e_r, −u, e_θ), right-handed: the mesh keeps its winding,
+        # outer loops stay CCW
+        local = (self.vertices - axis.point) @ axis.frame(theta)[:3, :3]
         # a vertex on the plane up to rounding lies on it: the kernel's symbolic perturbation then
         # treats it exactly like a horizontal plane through a vertex
         local[np.abs(local[:, 2]) < TOL.merge * 1e-3, 2] = 0.0
         region = loops_to_regions(self._sections.loops(local, np.zeros(1)), 1)[0]
-        if region.is_empty:
+        if region.is_empty or region.bounds[0] >= 0.0:
             return region
         lo, hi = region.bounds[1] - 1.0, region.bounds[3] + 1.0
-        if region.bounds[0] >= 0.0:
-            return region
         half = box(0.0, lo, max(region.bounds[2], 0.0) + 1.0, hi)
         return as_multipolygon(region_polygons(region.intersection(half)))
 

@@ -566,18 +566,16 @@ class _Run:
             """A layer of this node and of the nodes chained to it: what the workers would be sent
             is what gets timed (its later links wait in `precomputed`, as a worker's would)."""
             here(i, items, key)
-            out = results[i][0]
-            for link in chain[1:]:
-                fed = out.get(link.src_port)
-                if fed is None:
-                    break
-                lctx = RunContext(self, link.node_id)
-                lctx.layer = i
-                try:
-                    out = link.impl.run_layer(lctx, self.graph.nodes[link.node_id].params, i, {**link.whole, link.over: fed})
-                except Exception:   # that node computes the layer itself and reports the error
-                    break
-                self.precomputed[(link.node_id, i)] = (out, lctx.warnings)
+            if len(chain) < 2:
+                return
+            nxt = chain[1]
+            fed = results[i][0].get(nxt.src_port)
+            if fed is None:
+                return
+            (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, nxt.over: fed})])
+            for link, (out, warnings) in zip(chain[1:], got):
+                if out is not None:   # a failed link: that node computes the layer itself and reports it
+                    self.precomputed[(link.node_id, i)] = (out, warnings)
 
         t0 = time.perf_counter()
         if rest:

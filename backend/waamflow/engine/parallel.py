@@ -129,8 +129,8 @@ class ChainLink:
     whole: dict = field(default_factory=dict)
 
 
-def _run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dict]]):
-    """Worker side: per layer of the chunk, each link in turn on the previous link's output:
+def run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dict]]):
+    """Worker side (and the parent's timed layers): per layer of the chunk, each link in turn on the previous link's output:
     [(index, [(outputs, warnings) | (None, error text)] per link computed)]. A failed link ends
     that layer's chain; the parent computes the rest (and reports the error with its context)."""
     links = [(link, type(link.impl).Params.model_validate(link.params_json)) for link in chain]
@@ -262,7 +262,7 @@ class LayerPool:
         is called in the parent as chunks finish (any order: the caller orders what must be)."""
         chunks = _chunks(todo, self.workers)
         pool = self._executor()
-        pending: set[Future] = {pool.submit(_run_chain, chain, resolver, c) for c in chunks}
+        pending: set[Future] = {pool.submit(run_chain, chain, resolver, c) for c in chunks}
         self.tasks += len(pending)
         try:
             while pending:
@@ -299,7 +299,7 @@ def _chunks(todo: list, workers: int) -> list[list]:
 
 def _run_chain_shared(shared: tuple, chunk: list[tuple[int, dict]]):
     """Dask worker side: `shared` = (chain, resolver), scattered once per map."""
-    return _run_chain(*shared, chunk)
+    return run_chain(*shared, chunk)
 
 
 @dataclass
