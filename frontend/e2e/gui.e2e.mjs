@@ -385,6 +385,15 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
     try {
       // until the picked recipe is shown the run button waits (it would run the one on screen)
       const recipe = await openRecipe(page, srv.base, g.name);
+      // the recipe's inputs are valid as shipped; an optional one left unset is an empty field
+      step = "inputs";
+      assert.deepEqual(await page.locator("[data-testid=inputs] .field.err").allInnerTexts(), [], `${g.name}: inputs shown as errors`);
+      for (const [k, v] of Object.entries(recipe.inputs ?? {}))
+        if (v === null) {
+          const field = page.locator(`[data-input="${k}"] input[type=text]`);
+          assert.equal(await field.inputValue(), "", `${g.name}: unset input ${k}`);
+          assert.equal(await field.getAttribute("placeholder"), "not set");
+        }
       step = "run";
       // the heaviest example (curved-bracket: fan sections, 148 layers, cell simulation) takes
       // ~15 s on an idle 2-core machine; allow for a loaded one

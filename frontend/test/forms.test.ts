@@ -81,6 +81,15 @@ describe("recipe inputs typed by the parameters that use them", () => {
     expect(inputField(nodes, of, "first")).toMatchObject({ kind: "string" });
     expect(inputField(nodes, of, "unused")).toBeUndefined();
   });
+  it("keeps an optional parameter optional: an input set to null is valid and not required", () => {
+    const f = inputField([{ type: "slice", params: { layer_count: "$n", layer_height: "$h" } }], (t) => (t === "slice" ? schema : undefined), "n");
+    expect(f).toMatchObject({ kind: "integer", minimum: 1, nullable: true, required: false, default: null });
+    expect(validateField(f!, null)).toBeNull();
+    expect(validateField(f!, 0)).toBe("must be ≥ 1");
+    const h = inputField([{ type: "slice", params: { layer_height: "$h" } }], (t) => (t === "slice" ? schema : undefined), "h");
+    expect(h).toMatchObject({ kind: "number", nullable: false, required: true, unit: "mm" });
+    expect(validateField(h!, null)).toBe("required");
+  });
   it("resolves a schema at a path", () => {
     expect(schemaAt(strategy, ["sections", "x", "pattern"])?.enum).toEqual(["raster", "spiral"]);
     expect(schemaAt(strategy, ["nope"])).toBeUndefined();

@@ -153,10 +153,11 @@ function InputControl({ f, value, onChange, label }: { f?: FieldSpec; value: unk
       </select>
     );
   if (typeof value === "boolean") return <input aria-label={label} type="checkbox" checked={value} onChange={(e) => onChange(e.target.checked)} />;
-  if (typeof value === "number") {
+  const numeric = f?.kind === "number" || f?.kind === "integer";
+  if (typeof value === "number" || (value === null && numeric && f?.nullable)) {
     const lo = f?.minimum ?? f?.exclusiveMinimum;
     const hi = f?.maximum ?? f?.exclusiveMaximum;
-    return <NumberSlider label={label} value={value} onChange={onChange} lo={lo} hi={hi} integer={f?.kind === "integer"} />;
+    return <NumberSlider label={label} value={value} onChange={onChange} lo={lo} hi={hi} integer={f?.kind === "integer"} nullable={!!f?.nullable} />;
   }
   return <input aria-label={label} value={typeof value === "string" ? value : JSON.stringify(value)} onChange={(e) => onChange(e.target.value)} />;
 }
@@ -165,29 +166,42 @@ function InputControl({ f, value, onChange, label }: { f?: FieldSpec; value: unk
  * A number field with a slider. The slider spans the parameter's bounds when they are of the
  * value's magnitude (≤ 10× it), else 0…2× the value: a knob to explore, the field for anything else.
  */
-function NumberSlider({ label, value, onChange, lo, hi, integer }: { label: string; value: number; onChange: (v: number) => void; lo?: number; hi?: number; integer?: boolean }) {
-  const [text, setText] = useState(String(value));
-  const [range] = useState(() => {
-    const mag = Math.max(1, Math.abs(value));
-    const a = lo !== undefined && Math.abs(lo) <= 10 * mag ? lo : value < 0 ? -2 * mag : 0;
+function NumberSlider({ label, value, onChange, lo, hi, integer, nullable }: { label: string; value: number | null; onChange: (v: number | null) => void; lo?: number; hi?: number; integer?: boolean; nullable?: boolean }) {
+  const [text, setText] = useState(value === null ? "" : String(value));
+  // the slider's span is fixed when a value first appears (it must not move under the thumb)
+  const span = (v: number) => {
+    const mag = Math.max(1, Math.abs(v));
+    const a = lo !== undefined && Math.abs(lo) <= 10 * mag ? lo : v < 0 ? -2 * mag : 0;
     const b = hi !== undefined && Math.abs(hi) <= 10 * mag ? hi : 2 * mag;
     return [a, Math.max(b, a + 1e-9)] as const;
-  });
-  useEffect(() => setText(String(value)), [value]);
+  };
+  const [fixed, setFixed] = useState<readonly [number, number] | null>(() => (value === null ? null : span(value)));
+  useEffect(() => {
+    setText(value === null ? "" : String(value));
+    if (fixed === null && value !== null) setFixed(span(value));
+    // eslint-disable-next-line react-hooks/exhaustive-deps
+  }, [value]);
+  const range = fixed ?? [0, 1];
   const step = integer ? 1 : (range[1] - range[0]) / 200;
   return (
     <span className="num-slider">
-      <input aria-label={`${label} slider`} type="range" min={range[0]} max={range[1]} step={step} value={value} onChange={(e) => onChange(integer ? Math.round(Number(e.target.value)) : Number(Number(e.target.value).toPrecision(4)))} />
+      {value !== null && (
+        <input aria-label={`${label} slider`} type="range" min={range[0]} max={range[1]} step={step} value={value} onChange={(e) => onChange(integer ? Math.round(Number(e.target.value)) : Number(Number(e.target.value).toPrecision(4)))} />
+      )}
       <input
         aria-label={label}
         type="text"
         value={text}
+        placeholder={nullable ? "not set" : undefined}
+        title={nullable ? "optional: leave empty for the parameter's default behaviour" : undefined}
         onChange={(e) => {
           setText(e.target.value);
           const v = Number(e.target.value);
-          if (e.target.value.trim() !== "" && Number.isFinite(v)) onChange(v);
+          if (e.target.value.trim() === "") {
+            if (nullable) onChange(null);
+          } else if (Number.isFinite(v)) onChange(v);
         }}
-        style={{ width: 60 }}
+        style={{ width: value === null ? 120 : 60 }}
       />
     </span>
   );

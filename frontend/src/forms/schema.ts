@@ -265,6 +265,12 @@ export function findEnum(root: JSONSchema, name: string): unknown[] | undefined 
 
 /** The (unwrapped) schema at a params path, e.g. ["default", "pattern"] or ["sections", "bs1/A", "speed"]. */
 export function schemaAt(root: JSONSchema, path: readonly (string | number)[]): JSONSchema | undefined {
+  const cur = rawSchemaAt(root, path);
+  return cur ? unwrapNullable(root, cur).schema : undefined;
+}
+
+/** The schema at a params path as declared (an optional value keeps its `anyOf: [X, null]`). */
+function rawSchemaAt(root: JSONSchema, path: readonly (string | number)[]): JSONSchema | undefined {
   let cur: JSONSchema | undefined = deref(root, root);
   for (const key of path) {
     if (!cur) return undefined;
@@ -274,7 +280,7 @@ export function schemaAt(root: JSONSchema, path: readonly (string | number)[]): 
     else if (typeof d.additionalProperties === "object") cur = deref(root, d.additionalProperties);
     else cur = undefined;
   }
-  return cur ? unwrapNullable(root, cur).schema : undefined;
+  return cur;
 }
 
 /**
@@ -298,13 +304,14 @@ export function inputField(
     };
     walk(n.params, []);
     for (const path of found) {
-      const sch = schemaAt(root, path);
-      if (!sch) continue;
+      const raw = rawSchemaAt(root, path);
+      if (!raw) continue;
+      const { schema: sch, nullable } = unwrapNullable(root, raw);
       const kind = fieldKind(sch, root);
       return {
         name, title: sch.title ?? name, description: sch.description ?? "", kind, unit: sch.unit,
         minimum: sch.minimum, maximum: sch.maximum, exclusiveMinimum: sch.exclusiveMinimum, exclusiveMaximum: sch.exclusiveMaximum,
-        options: options(sch), default: sch.default, hasDefault: "default" in sch, nullable: false, required: true, schema: sch,
+        options: options(sch), default: sch.default ?? raw.default, hasDefault: "default" in sch || "default" in raw, nullable, required: !nullable, schema: sch,
       };
     }
   }
