@@ -49,3 +49,20 @@ def test_artifact_json_is_byte_identical_to_json_dumps_of_the_lists():
 def test_nan_or_infinity_is_an_error(bad):
     with pytest.raises(ValueError, match="not JSON compliant"):
         serialize.dumps({"layers": [{"z": 1.0, "v": bad}]})
+
+
+@pytest.mark.parametrize("bad", [
+    [0.5, 2.0, float("nan")],                      # a list of numbers (checked in one sum)
+    [1, True, float("-inf")],
+    [None, 3.0, float("inf")],                     # speeds with null: element by element
+    ["z1", {"a": [1.0, float("nan")]}],            # nested under a string
+    (1e308, float("inf")),
+])
+def test_non_finite_values_are_found_in_every_kind_of_list(bad):
+    with pytest.raises(ValueError, match="not JSON compliant"):
+        serialize.dumps({"layers": [{"v": bad}]})
+
+
+def test_finite_lists_pass_even_when_their_sum_would_overflow():
+    doc = {"big": [1e308, 1e308, -1e308], "zones": ["start", "z1", "end"], "mixed": [None, 1.5, "x", True]}
+    assert json.loads(serialize.dumps(doc))["big"] == [1e308, 1e308, -1e308]

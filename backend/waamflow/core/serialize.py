@@ -8,6 +8,7 @@ round-trip floats, compact separators), about ten times faster on the 10 MB `lay
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -109,8 +110,10 @@ def dumps(obj: Any) -> str:
 
 
 def _check_finite(obj: Any) -> None:
+    if isinstance(obj, (str, int, type(None))):     # ints and bools: always finite
+        return
     if isinstance(obj, float):
-        if obj != obj or obj in (float("inf"), float("-inf")):
+        if not math.isfinite(obj):
             raise ValueError(f"Out of range float values are not JSON compliant: {obj!r}")
     elif isinstance(obj, np.ndarray):
         if obj.dtype.kind == "f" and not np.isfinite(obj).all():
@@ -119,5 +122,16 @@ def _check_finite(obj: Any) -> None:
         for v in obj.values():
             _check_finite(v)
     elif isinstance(obj, (list, tuple)):
+        try:   # a list of numbers in one C loop: a NaN or infinity makes the sum non-finite
+            if math.isfinite(math.fsum(obj)):
+                return
+        except (TypeError, OverflowError):   # not all numbers, or finite ones that overflow a sum
+            pass
+        try:   # a list of strings (zone names), also in one C loop
+            "".join(obj)
+            return
+        except TypeError:
+            pass
         for v in obj:
-            _check_finite(v)
+            if v is not None:
+                _check_finite(v)

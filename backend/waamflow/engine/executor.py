@@ -373,7 +373,9 @@ class _Run:
                 self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
-                    if pool is not None and pool.enabled and pool.offload_artifacts:
+                    # to a worker while the parent goes on with later nodes; the last node's here
+                    # (nothing to overlap: shipping its outputs would only add the transfer)
+                    if pool is not None and pool.enabled and pool.offload_artifacts and pos < len(self.active) - 1:
                         jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
                                                                        self.trace(), self.outputs[node_id])))
                     else:
@@ -585,8 +587,10 @@ class _Run:
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
         if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
             pool.warm()            # no-op once started
-        while rest and pool is not None and pool.warming:   # workers on their way: go on here meanwhile
-            here(*rest.pop(0))
+        # workers on their way: go on here meanwhile, a layer through the whole chain (its later
+        # links done too, they need no second round of tasks to the workers after this map)
+        while rest and pool is not None and pool.warming:
+            timed(*rest.pop(0))
         if pool is not None and pool.enabled and pool.ready and len(rest) > 1 and \
                 per_layer_s * len(rest) > pool.min_parallel_s:
             keys = {i: key for i, _, key in rest}
