@@ -120,3 +120,26 @@ def chain(grow=None, area=None, stack=None, inputs=None):
         [("stack.layers", "grow.layers"), ("grow.layers", "area.layers")],
         inputs,
     )
+
+
+@register
+class ToyReads(Node):
+    """Sums the numbers in the files named (one per line) in `listing`, a plain string param:
+    the node tells the engine what it reads (`read_files`), as simulate-robot does for a cell."""
+
+    type = "toy-reads"
+    category = "test"
+    outputs = (Port("toolpath", "toolpath"),)
+
+    class Params(NodeParams):
+        listing: str = ""
+
+    def read_files(self, params, read_bytes):
+        data = read_bytes(params.listing) if params.listing else None
+        names = data.decode().split() if data is not None else []
+        return [params.listing, *names] if params.listing else []
+
+    def run(self, ctx, params, inputs):
+        CALLS["toy-reads"] += 1
+        names = ctx.read_text(params.listing).split()
+        return {"toolpath": sum(float(ctx.read_text(n)) for n in names)}

@@ -150,3 +150,28 @@ def test_file_signature_dirties_on_content_change(tmp_path):
     assert r.signature("missing.txt") == "missing"
     with pytest.raises(Exception, match="outside the allowed folders"):
         FileResolver(tmp_path, roots=[tmp_path]).read_bytes("../etc/passwd")
+
+
+def test_files_a_node_reads_by_name_join_its_cache_key(tmp_path):
+    """A node that reads files named in a plain param (simulate-robot: a user's cell and its
+    meshes) says so in `read_files`: editing any of them recomputes it, nothing else does."""
+    (tmp_path / "list.txt").write_text("a.txt b.txt")
+    (tmp_path / "a.txt").write_text("1.5")
+    (tmp_path / "b.txt").write_text("2.25")
+    graph = build_graph(parse_recipe(toy.recipe([("r", "toy-reads", {"listing": "list.txt"})], [])))
+    cache = MemoryCache()
+
+    def total():
+        res = execute(graph, resolver=FileResolver(tmp_path), cache=cache)
+        return res.outputs["r"]["toolpath"], res.stats["r"].cached, res.trace["inputs"]
+
+    assert total()[:2] == (3.75, False)
+    value, cached, inputs = total()
+    assert (value, cached) == (3.75, True)
+    assert set(inputs) == {"list.txt", "a.txt", "b.txt"}          # traced like FileRef inputs
+    (tmp_path / "b.txt").write_text("4.0")                        # a file named inside the listing
+    assert total()[:2] == (5.5, False)
+    (tmp_path / "list.txt").write_text("a.txt")                   # the listing itself
+    assert total()[:2] == (1.5, False)
+    (tmp_path / "b.txt").write_text("9")                          # no longer read: still cached
+    assert total()[:2] == (1.5, True)

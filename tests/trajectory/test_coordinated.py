@@ -209,3 +209,27 @@ def test_old_cells_get_the_table_they_had():
     assert {"kind", "size_mm", "xyz_mm", "rpy_deg", "link", "mesh"} <= set(shape)
     assert set(shape["kind"]["enum"]) == {"box", "cylinder", "mesh"}
     assert "shapes" in cs["properties"]["positioner"]["anyOf"][0]["properties"]
+
+
+def test_a_users_cell_file_and_its_meshes_are_in_the_cache_key(tmp_path):
+    """simulate-robot reads a user's cell file and the meshes it names: `read_files` lists them
+    (next to the cell file) so an edited fixture mesh recomputes the simulation."""
+    from waamflow.engine.node import REGISTRY, load_nodes
+
+    load_nodes()
+
+    data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
+    data["fixtures"] += [{"name": "block", "kind": "mesh", "mesh": "block.stl", "size_mm": [1, 1, 1]},
+                         {"name": "jig", "kind": "mesh", "mesh": "jig.obj", "size_mm": [1, 1, 1]},
+                         {"name": "again", "kind": "mesh", "mesh": "block.stl", "size_mm": [2, 2, 2]}]
+    (tmp_path / "cells").mkdir()
+    (tmp_path / "cells" / "mine.json").write_text(json.dumps(data))
+    node = REGISTRY["simulate-robot"]()
+    read = lambda p: (tmp_path / p).read_bytes() if (tmp_path / p).is_file() else None  # noqa: E731
+    P = node.Params
+    assert node.read_files(P(cell="cells/mine.json"), read) == ["cells/mine.json", "cells/block.stl", "cells/jig.obj"]
+    assert node.read_files(P(cell="kr150_tilt_rotate"), read) == []           # shipped: in the code version
+    assert node.read_files(P(cell="cells/mine.json", kinematics=False), read) == []
+    assert node.read_files(P(cell="cells/missing.json"), read) == ["cells/missing.json"]
+    (tmp_path / "cells" / "bad.json").write_text("{not json")
+    assert node.read_files(P(cell="cells/bad.json"), read) == ["cells/bad.json"]

@@ -335,10 +335,22 @@ class _Run:
             path = getattr(gnode.params, f, None)
             if path:
                 out.append((f, self.resolver.signature(path)))
-                digest = self.resolver.sha256(path)     # cached nodes do not read: hash here too
-                if digest is not None:
-                    self.input_hashes[path] = digest
+                self._hash_input(path)
+        for path in gnode.impl.read_files(gnode.params, self._read_or_none):   # e.g. a cell and its meshes
+            out.append(("read", path, self.resolver.signature(path)))
+            self._hash_input(path)
         return out
+
+    def _hash_input(self, path: str) -> None:
+        digest = self.resolver.sha256(path)     # cached nodes do not read: hash here too
+        if digest is not None:
+            self.input_hashes[path] = digest
+
+    def _read_or_none(self, path: str) -> bytes | None:
+        try:
+            return self.resolver.read_bytes(path, 1_000_000)
+        except (WaamflowError, OSError):
+            return None
 
     def trace(self) -> dict:
         """What a program needs to be traced back to its origin: see `run_trace`. Not part of any

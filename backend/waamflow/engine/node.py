@@ -25,7 +25,7 @@ Bump `version` whenever a node's results change for the same inputs: it is part 
 
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, Callable, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -72,6 +72,12 @@ class Node:
     def artifacts(self, ctx: "Context", params: Any, outputs: dict[str, Any]) -> dict[str, str | bytes]:
         """Files this node writes, keyed by suffix: {"layers.json": text} → `<node id>.layers.json`."""
         return {}
+
+    def read_files(self, params: Any, read_bytes: Callable[[str], bytes | None]) -> list[str]:
+        """Files `run` reads besides its `FileRef` params (a user's cell file and the meshes it
+        names): their content signatures join the node's cache key, so editing one recomputes
+        the node. `read_bytes(path)` → the file's bytes, or None when it cannot be read."""
+        return []
 
     # ---- catalog -----------------------------------------------------------------------------
     @classmethod

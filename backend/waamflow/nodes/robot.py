@@ -57,6 +57,12 @@ class RobotParams(NodeParams):
                           wire_diameter_mm=self.wire_diameter_mm)
 
 
+def _beside(cell_path: str, name: str) -> str:
+    """A file named in a cell file, next to it."""
+    folder = cell_path.replace("\\", "/").rpartition("/")[0]
+    return f"{folder}/{name}" if folder else name
+
+
 def _profile(ctx, params: RobotParams) -> RobotProfile:
     if params.profile_file:
         return load_profile(params.profile_file, text=ctx.read_text(params.profile_file, max_bytes=1_000_000))
@@ -127,15 +133,26 @@ class SimulateRobot(Node):
                                "value through stops and corners (waamflow.trajectory.compensate); reports "
                                "deposit_per_mm_cv before and after and writes deposit.svg")
 
+    def read_files(self, params, read_bytes) -> list[str]:
+        """A user's cell file and the mesh files its shapes name (shipped cells are part of the
+        code version)."""
+        if not (params.kinematics and params.cell.endswith(".json")):
+            return []
+        data = read_bytes(params.cell)
+        try:
+            cell = load_cell(params.cell, text=data.decode("utf-8")) if data is not None else None
+        except Exception:   # unreadable or invalid: the run reports it; its text is in the key
+            cell = None
+        meshes = sorted({sh.mesh for sh in cell.all_shapes() if sh.kind == "mesh"}) if cell else []
+        return [params.cell, *(_beside(params.cell, m) for m in meshes)]
+
     def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
             return None
         if params.cell:
             if params.cell.endswith(".json"):        # a user's cell file; its meshes beside it
                 cell = load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
-                folder = params.cell.replace("\\", "/").rpartition("/")[0]
-                cell.load_meshes(lambda name: ctx.read_bytes(f"{folder}/{name}" if folder else name,
-                                                             max_bytes=200_000_000))
+                cell.load_meshes(lambda name: ctx.read_bytes(_beside(params.cell, name), max_bytes=200_000_000))
             else:
                 cell = load_cell(params.cell).load_meshes()
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
