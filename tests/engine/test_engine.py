@@ -175,3 +175,20 @@ def test_files_a_node_reads_by_name_join_its_cache_key(tmp_path):
     assert total()[:2] == (1.5, False)
     (tmp_path / "b.txt").write_text("9")                          # no longer read: still cached
     assert total()[:2] == (1.5, True)
+
+
+def test_signatures_tell_values_apart_and_ignore_key_order():
+    import numpy as np
+
+    from waamflow.engine.cache import signature
+
+    base = {"speed": 6.5, "pattern": "raster", "split_points": [[1.0, 2.0]]}
+    assert signature(base) == signature(dict(reversed(list(base.items()))))      # key order
+    assert signature(base) != signature({**base, "speed": 6.50001})
+    assert signature(None) != signature(float("nan")) != signature(float("inf"))  # orjson writes all three as null
+    assert signature({"v": None}) != signature({"v": float("nan")})
+    assert signature(2 ** 70) != signature(2 ** 70 + 1)                          # beyond orjson's 64-bit ints
+    assert signature({1: "a"}) == signature({"1": "a"})                          # JSON keys are strings
+    assert signature(np.arange(4.0)) != signature(np.arange(4.0) + 1e-12)        # arrays by their bytes
+    assert signature(np.float64(1.5)) == signature(1.5)
+    assert signature("a", "b") != signature("ab") != signature(["a", "b"])

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import orjson
 
 MISSING = object()
 
@@ -27,9 +28,21 @@ def signature(*parts: Any) -> str:
     """Stable hex digest of JSON-able parts (dicts sorted; numpy converted)."""
     h = hashlib.blake2b(digest_size=16)
     for p in parts:
-        h.update(_ENCODER.encode(p).encode())
+        h.update(_encode(p))
         h.update(b"\x1f")
     return h.hexdigest()
+
+
+def _encode(part: Any) -> bytes:
+    """A part's canonical JSON: orjson (sorted keys, ~5x faster than the json module: a plan of
+    500 layers signs ~5,000 parts), or the json module's form where orjson's could be ambiguous
+    (it writes NaN and infinity as null) or fails (ints over 64 bits). Either way the same value
+    always gives the same bytes."""
+    try:
+        out = orjson.dumps(part, default=_json_default, option=_ORJSON_OPTIONS)
+    except TypeError:
+        return _ENCODER.encode(part).encode()
+    return _ENCODER.encode(part).encode() if b"null" in out else out
 
 
 def _json_default(o: Any) -> Any:
@@ -44,6 +57,7 @@ def _json_default(o: Any) -> Any:
 
 # built once: `json.dumps` with these options builds a new encoder on every call (~10⁴ per plan)
 _ENCODER = json.JSONEncoder(sort_keys=True, default=_json_default, separators=(",", ":"))
+_ORJSON_OPTIONS = orjson.OPT_SORT_KEYS | orjson.OPT_NON_STR_KEYS
 
 
 def bytes_signature(data: bytes) -> str:
