@@ -60,11 +60,9 @@ def _overhang(prev: _Cut, cur: _Cut, samples_per_mm: float = 1.0) -> float:
     `prev`'s region (generic 3D form of `feasibility.max_overhang`)."""
     if prev.region.is_empty or cur.region.is_empty:
         return 0.0
-    pts = []
-    for g in shapely.get_parts(cur.region.boundary):
-        n = max(int(g.length * samples_per_mm), 16)
-        pts.append(shapely.get_coordinates(shapely.line_interpolate_point(g, np.linspace(0, g.length, n))))
-    xy = np.vstack(pts)
+    # the boundary's vertices (its corners: where an overhang peaks) and points ≤ 1/samples_per_mm
+    # apart between them (GEOS segmentize: ~100x faster than interpolating equidistant points)
+    xy = shapely.get_coordinates(shapely.segmentize(cur.region.boundary, 1.0 / samples_per_mm))
     world = (np.column_stack([xy, np.zeros(len(xy)), np.ones(len(xy))]) @ cur.frame.T)[:, :3]
     d = world - prev.frame[:3, 3]
     local = np.column_stack([d @ prev.frame[:3, 0], d @ prev.frame[:3, 1]])

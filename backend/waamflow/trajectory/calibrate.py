@@ -95,12 +95,9 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
 def trace_csv(result: SimulationResult) -> str:
     """The simulated trace as CSV (t,x,y,z,speed,arc,deviation) — the contract's trace.csv."""
     tr = result.trace
-    buf = io.StringIO()
-    buf.write("t,x,y,z,speed,arc,deviation\n")
     cols = np.column_stack([tr["t"], tr["x"], tr["y"], tr["z"], tr["speed"], tr["arc"].astype(float), tr["deviation"]])
-    for r in cols:
-        buf.write(f"{r[0]:.4f},{r[1]:.4f},{r[2]:.4f},{r[3]:.4f},{r[4]:.3f},{int(r[5])},{r[6]:.4f}\n")
-    return buf.getvalue()
+    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"     # rows as Python floats: ~2x faster than numpy scalars
+    return "t,x,y,z,speed,arc,deviation\n" + "".join([row % tuple(r) for r in cols.tolist()])
 
 
 def _motion_start(t: np.ndarray, xyz: np.ndarray, tol: float = 0.05) -> float:
