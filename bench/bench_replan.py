@@ -29,7 +29,7 @@ import numpy as np
 N_EDIT = 200
 N_FULL = 500
 REPEATS = 5
-PARALLEL_REPEATS = 2  # parallel_speedup / dask_overhead: best of this many runs each
+PARALLEL_REPEATS = 3  # parallel_speedup / dask_overhead: best of this many runs each (noise on a shared machine only adds time)
 LAYER = 1.5  # mm (MPP study)
 
 

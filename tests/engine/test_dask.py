@@ -42,7 +42,7 @@ def test_dask_artifacts_equal_a_serial_run(name, cluster, always_parallel):
     assert dask.executor == {"kind": "dask", "address": cluster.scheduler_address, "workers": 2,
                              "tasks": dask.executor["tasks"]}
     # the layers after mask's timed first one go out once, as chains mask → guide → strategy →
-    # zone, in ≤ 2 workers · 4 chunks; the first layer's chain stays in the parent
+    # zone, in guided chunks (large first, small last); the first layer's chain stays in the parent
     layers = len(serial.outputs["zone"]["toolpath"])
     assert dask.executor["tasks"] == len(parallel._chunks(list(range(layers - 1)), 2)) <= 8
     for node in ("mask", "guide", "strategy", "zone"):

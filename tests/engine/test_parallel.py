@@ -90,7 +90,7 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, ar
     # from the first layer node on; the last node's (post) in the parent: nothing left to overlap
     assert written == ["mask", "guide", "strategy", "zone", "sequence"]
     # mask's layers after its timed first go out once, as chains mask → guide → strategy → zone
-    assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 7
+    assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5
     assert all(par.stats[n].layers_computed == 8 for n in ("mask", "guide", "strategy", "zone"))
     assert list(par.artifacts) == list(serial.artifacts)                         # same files, same order
     assert all(par.artifacts[k] == serial.artifacts[k] for k in serial.artifacts)
@@ -130,7 +130,7 @@ def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch,
     serial = _run("mpp-cross", 1)
     par = _run("mpp-cross", 2)
     assert written[0] == "layers"                               # up right after slicing: even its layers.json
-    assert par.executor["tasks"] == 7                           # one chain task per layer after the timed first
+    assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5   # the 7 layers after the timed first, one map of chains
     assert par.artifacts == serial.artifacts and par.warnings == serial.warnings
 
 
@@ -155,7 +155,7 @@ def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel)
     toy.CALLS.clear()
     par = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
     assert toy.CALLS["toy-grow"] == 1 + 1          # the parent computed only the timed first layer of each grow
-    assert par.executor["tasks"] == len(parallel._chunks(list(range(11)), 2)) == 6
+    assert par.executor["tasks"] == len(parallel._chunks(list(range(11)), 2)) == 7
     assert par.outputs["area"]["toolpath"] == pytest.approx(serial.outputs["area"]["toolpath"], rel=1e-12)
     assert par.outputs["area"]["toolpath"] == pytest.approx(sum((10 + 2 * d + 1) ** 2 for d in [1.0] * 10 + [6.0, 7.0]))
     assert [(w["node"], w["layer"]) for w in par.warnings] == [("grow", 3), ("grow", 9)] == \
@@ -175,3 +175,16 @@ def test_a_link_failing_in_a_worker_is_reported_with_its_node_and_layer(always_p
     assert (e.value.node, e.value.layer, e.value.section) == ("check", 7, "bs1/A")
     assert "curve yields 2 regions" in str(e.value)
     assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "check"), ("run_failed", "check")]
+
+
+@pytest.mark.parametrize("n, workers", [(1, 2), (7, 2), (11, 2), (499, 2), (499, 8), (5000, 4)])
+def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
+    """Every layer once, in order; sizes never grow; the last chunk (the run's tail, when one
+    worker may wait for the other) is at most 1/(workers·16) of the layers (or one layer)."""
+    chunks = parallel._chunks(list(range(n)), workers)
+    assert [i for c in chunks for i in c] == list(range(n))
+    sizes = [len(c) for c in chunks]
+    assert all(a >= b for a, b in zip(sizes, sizes[1:]))
+    assert sizes[-1] <= max(1, -(-n // (workers * parallel.CHUNKS_PER_WORKER * 4)))
+    assert sizes[0] == -(-n // (2 * workers)) or n < 2 * workers
+    assert len(chunks) <= 4 * workers * parallel.CHUNKS_PER_WORKER   # round trips stay few

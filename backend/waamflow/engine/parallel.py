@@ -58,7 +58,7 @@ WARM_LAYERS = 200         # a layered value this long (and layer nodes to come) 
 BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
 PRELOAD = ["waamflow.engine.warm"]
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
-CHUNKS_PER_WORKER = 4     # load balance vs. per-chunk overhead (inputs pickled once per chunk)
+CHUNKS_PER_WORKER = 4     # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
 DASK_CONNECT_S = 10.0     # seconds to reach the scheduler before the run fails
 
@@ -292,9 +292,18 @@ class LayerPool:
 
 
 def _chunks(todo: list, workers: int) -> list[list]:
-    n_chunks = min(len(todo), max(1, workers) * CHUNKS_PER_WORKER)
-    size = -(-len(todo) // n_chunks)
-    return [todo[k:k + size] for k in range(0, len(todo), size)]
+    """Guided chunks: each takes 1/(2·workers) of what is left, down to 1/(workers·
+    CHUNKS_PER_WORKER·4) of the whole, so the first are large (few round trips) and the last
+    small (a worker finishing early waits for little: the run's tail is one small chunk, not one
+    of equal size)."""
+    w = max(1, workers)
+    smallest = max(1, -(-len(todo) // (w * CHUNKS_PER_WORKER * 4)))
+    out, k = [], 0
+    while k < len(todo):
+        size = max(smallest, -(-(len(todo) - k) // (2 * w)))
+        out.append(todo[k:k + size])
+        k += size
+    return out
 
 
 def _run_chain_shared(shared: tuple, chunk: list[tuple[int, dict]]):
