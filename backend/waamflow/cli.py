@@ -87,6 +87,11 @@ def cmd_run(args) -> int:
     summary["inputs"] = recipe.inputs
     write_run_dir(out, result.artifacts, summary)
     n_cached = sum(1 for s in result.stats.values() if s.cached)
+    spent = {k: s.compute_seconds for k, s in result.stats.items() if s.compute_seconds}
+    if args.verbose and spent and result.executor.get("tasks"):
+        # in worker processes a chain's first node waits for its followers' layers too: say who computed what
+        print("  layer compute, all processes: " + ", ".join(f"{k} {v:.3f} s" for k, v in spent.items()),
+              file=sys.stderr)
     print(f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
           f"{len(result.warnings)} warnings, {result.seconds:.2f} s → {out}")
     return 0

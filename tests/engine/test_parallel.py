@@ -156,6 +156,13 @@ def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel)
     par = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
     assert toy.CALLS["toy-grow"] == 1 + 1          # the parent computed only the timed first layer of each grow
     assert par.executor["tasks"] == len(parallel._chunks(list(range(11)), 2)) == 7
+    # every chained node's layer time is counted where it was spent (here grow's wall time holds
+    # the whole chain's), so summary.json says what each node costs; whole-part nodes have none
+    assert all(par.stats[n].compute_seconds > 0 for n in ("grow", "check", "grow2"))
+    assert par.summary("x")["nodes"]["grow2"]["compute_seconds"] == round(par.stats["grow2"].compute_seconds, 4)
+    assert par.stats["area"].compute_seconds is None and "compute_seconds" not in par.summary("x")["nodes"]["area"]
+    again = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
+    assert again.stats["grow2"].compute_seconds == 0.0 and again.stats["grow2"].cached
     assert par.outputs["area"]["toolpath"] == pytest.approx(serial.outputs["area"]["toolpath"], rel=1e-12)
     assert par.outputs["area"]["toolpath"] == pytest.approx(sum((10 + 2 * d + 1) ** 2 for d in [1.0] * 10 + [6.0, 7.0]))
     assert [(w["node"], w["layer"]) for w in par.warnings] == [("grow", 3), ("grow", 9)] == \

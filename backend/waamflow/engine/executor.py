@@ -142,12 +142,18 @@ class NodeStats:
     layers_cached: int | None = None
     layers_computed: int | None = None
     report: dict = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
+    # layer nodes: seconds spent computing this node's layers, summed over the processes that did
+    # (`seconds` is the wall time the run spent in the node: in a chain, the first node's
+    # includes its followers' layers, computed in the same worker tasks)
+    compute_seconds: float | None = None
 
     def to_dict(self) -> dict:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
             d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
                      layers_computed=self.layers_computed)
+        if self.compute_seconds is not None:
+            d["compute_seconds"] = round(self.compute_seconds, 4)
         if self.report:
             d["report"] = self.report
         return d
@@ -307,6 +313,7 @@ class _Run:
         # (node id, layer) → (outputs, warnings) computed by a worker as part of a chain
         # (engine/parallel.py), taken up when the run reaches that node
         self.precomputed: dict[tuple[str, int], tuple[dict, list]] = {}
+        self.compute_s: dict[str, float] = {}   # node id → seconds computing its layers, in any process
 
     # events
     def emit(self, kind: str, **kw) -> None:
@@ -357,6 +364,9 @@ class _Run:
         cache key (the date changes every run); stamped when artifacts are written."""
         files = {**self.input_hashes, **self.resolver.read_hashes}
         return run_trace(self.graph.recipe, files, self.started_utc)
+
+    def add_compute(self, node_id: str, seconds: float) -> None:
+        self.compute_s[node_id] = self.compute_s.get(node_id, 0.0) + seconds
 
     def add_warnings(self, ws: list[dict]) -> None:
         for w in ws:
@@ -548,7 +558,8 @@ class _Run:
                 self.sigs[(gnode.id, port)] = signature(node_key, port)
         self.outputs[gnode.id] = outputs
         self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
-                                         layers_cached=n_cached, layers_computed=n_computed, report=report)
+                                         layers_cached=n_cached, layers_computed=n_computed, report=report,
+                                         compute_seconds=self.compute_s.pop(gnode.id, 0.0))
         return n_computed == 0
 
     def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],
@@ -570,7 +581,10 @@ class _Run:
             self.check_cancelled()
             ctx.layer = i
             ctx.warnings = []
-            finish(i, key, impl.run_layer(ctx, gnode.params, i, items), ctx.warnings)
+            t0 = time.perf_counter()
+            out = impl.run_layer(ctx, gnode.params, i, items)
+            self.add_compute(gnode.id, time.perf_counter() - t0)
+            finish(i, key, out, ctx.warnings)
 
         rest = list(todo)
         pool = self.pool
@@ -587,7 +601,8 @@ class _Run:
             if fed is None:
                 return
             (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, nxt.over: fed})])
-            for link, (out, warnings) in zip(chain[1:], got):
+            for link, (out, warnings, sec) in zip(chain[1:], got):
+                self.add_compute(link.node_id, sec)
                 if out is not None:   # a failed link: that node computes the layer itself and reports it
                     self.precomputed[(link.node_id, i)] = (out, warnings)
 
@@ -609,12 +624,14 @@ class _Run:
             failed: list[int] = []
 
             def collect(i: int, got: list) -> None:
-                out, extra = got[0]
+                for link, (_o, _w, sec) in zip(chain, got):
+                    self.add_compute(link.node_id, sec)
+                out, extra, _sec = got[0]
                 if out is None:
                     failed.append(i)
                     return
                 finish(i, keys[i], out, extra)
-                for link, (later, warnings) in zip(chain[1:], got[1:]):
+                for link, (later, warnings, _s) in zip(chain[1:], got[1:]):
                     if later is not None:   # a failed link: that node computes the layer itself
                         self.precomputed[(link.node_id, i)] = (later, warnings)
 

@@ -45,6 +45,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import threading
+import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -131,8 +132,9 @@ class ChainLink:
 
 def run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dict]]):
     """Worker side (and the parent's timed layers): per layer of the chunk, each link in turn on the previous link's output:
-    [(index, [(outputs, warnings) | (None, error text)] per link computed)]. A failed link ends
-    that layer's chain; the parent computes the rest (and reports the error with its context)."""
+    [(index, [(outputs, warnings, seconds) | (None, error text, seconds)] per link computed)]. A
+    failed link ends that layer's chain; the parent computes the rest (and reports the error
+    with its context). `seconds`: the link's compute time on this layer (wall, in the worker)."""
     links = [(link, type(link.impl).Params.model_validate(link.params_json)) for link in chain]
     ctxs = [_WorkerContext(link.node_id, resolver) for link in chain]
     out = []
@@ -148,12 +150,13 @@ def run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dic
             ctx = ctxs[k]
             ctx.layer = i
             ctx.warnings = []
+            t0 = time.perf_counter()
             try:
                 prev = link.impl.run_layer(ctx, params, i, items)
             except Exception as exc:  # re-run in the parent, which reports it with node/layer/section
-                got.append((None, f"{type(exc).__name__}: {exc}"))
+                got.append((None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0))
                 break
-            got.append((prev, ctx.warnings))
+            got.append((prev, ctx.warnings, time.perf_counter() - t0))
         out.append((i, got))
     return out
 
