@@ -378,6 +378,7 @@ test("rectangle-study: run, plots of the simulation and the strategy comparison"
 test("every shipped example opens, runs, and shows its layer on the canvas", async () => {
   const { page, errors } = await openPage(browser, srv.base);
   const graphs = (await api(srv.base, "/api/graphs")).filter((g) => g.example);
+  const catalog = await api(srv.base, "/api/nodes");   // [{type, per_layer, ...}]
   assert.ok(graphs.length >= 4, `examples: ${graphs.map((g) => g.name)}`);
   for (const g of graphs) {
     let step = "open";
@@ -415,6 +416,13 @@ test("every shipped example opens, runs, and shows its layer on the canvas", asy
         assert.fail(`${g.name}: a badge per node; nodes ${shown.join(", ")}; run ${last.id} ${last.status}, events ${log.map((e) => `${e.kind}:${e.node ?? ""}`).join(" ")}; progress ${await page.getAttribute("[data-testid=progress]", "data-run-id")}`);
       }
       assert.ok(badges.every((b) => /^(done|cached)/.test(b)), `${g.name}: ${badges}`);
+      // a computed layer node's badge says how long its layers took, wherever they were computed
+      const perLayer = new Set(catalog.filter((c) => c.per_layer).map((c) => c.type));
+      for (const n of recipe.nodes.filter((n) => perLayer.has(n.type))) {
+        const badge = page.locator(`.react-flow__node[data-id="${n.id}"] .badge`);
+        if (/^done/.test(await badge.innerText()))
+          assert.match((await badge.getAttribute("title")) ?? "", /^layers computed in \d/, `${g.name}: ${n.id}`);
+      }
       step = "canvas";
       await page.click("[data-tab=mask]");
       await page.waitForSelector("[data-testid=mask-canvas] .layer-poly, [data-testid=mask-canvas] .layer-curve", { state: "attached", timeout: 60_000 });

@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { RunEvent } from "../src/api/types";
-import { badgeText, reduceEvent, startedRun } from "../src/run/status";
+import { badgeText, computeText, reduceEvent, startedRun } from "../src/run/status";
 
 const ev = (seq: number, kind: RunEvent["kind"], extra: Partial<RunEvent> = {}): RunEvent => ({ seq, kind, time: seq, progress: 0, ...extra });
 
@@ -21,7 +21,16 @@ describe("run events → badges", () => {
     s = reduceEvent(s, ev(6, "node_finished", { node: "slice", seconds: 0.25 }));
     s = reduceEvent(s, ev(7, "run_finished", { progress: 1 }));
     expect(badgeText(s.nodes.slice)).toBe("done 250 ms");
+    expect(computeText(s.nodes.slice)).toBeNull(); // a whole-part node: its wall time is its cost
     expect(s.phase).toBe("done");
+  });
+  it("says where a chained layer node's time went", () => {
+    let s = startedRun("r3");
+    s = reduceEvent(s, ev(1, "node_finished", { node: "mask", seconds: 1.787, compute_seconds: 0.182 }));
+    s = reduceEvent(s, ev(2, "node_finished", { node: "strategy", seconds: 0.006, compute_seconds: 1.407 }));
+    expect(badgeText(s.nodes.mask)).toBe("done 1.8 s");
+    expect(computeText(s.nodes.mask)).toBe("layers computed in 182 ms (all processes); 1.8 s of the run");
+    expect(computeText(s.nodes.strategy)).toBe("layers computed in 1.4 s (all processes); 6 ms of the run");
   });
   it("keeps the failing node's layer and section and ignores replayed events", () => {
     let s = startedRun("r2");

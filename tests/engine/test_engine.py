@@ -192,3 +192,12 @@ def test_signatures_tell_values_apart_and_ignore_key_order():
     assert signature(np.arange(4.0)) != signature(np.arange(4.0) + 1e-12)        # arrays by their bytes
     assert signature(np.float64(1.5)) == signature(1.5)
     assert signature("a", "b") != signature("ab") != signature(["a", "b"])
+
+
+def test_node_finished_says_how_long_a_layer_nodes_layers_took():
+    res, events = run(toy.chain(stack={"count": 6}))
+    done = {e.node: e for e in events if e.kind == "node_finished"}
+    assert done["grow"].compute_seconds == round(res.stats["grow"].compute_seconds, 4) > 0
+    assert done["grow"].compute_seconds <= done["grow"].seconds         # serial: inside its wall time
+    assert done["stack"].compute_seconds is None and done["area"].compute_seconds is None
+    assert "compute_seconds" not in done["area"].to_dict()

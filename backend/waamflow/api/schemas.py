@@ -69,6 +69,9 @@ class RunEvent(BaseModel):
     section: str | None = None
     message: str | None = None
     seconds: float | None = None
+    compute_seconds: float | None = Field(None, description="node_finished of a layer node: seconds spent on its "
+                                          "layers in any process (in a parallel run a chain's first node's `seconds` "
+                                          "also holds its followers' layers)")
     cached: bool | None = None
     error: dict[str, Any] | None = None
 

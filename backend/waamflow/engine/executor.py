@@ -408,7 +408,8 @@ class _Run:
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1
             self.emit("node_cached" if st.cached else "node_finished", node=node_id, seconds=st.seconds,
-                      cached=st.cached, message=gnode.type)
+                      cached=st.cached, message=gnode.type,
+                      compute_seconds=None if st.cached or st.compute_seconds is None else round(st.compute_seconds, 4))
             for value in self.outputs[node_id].values():
                 if isinstance(value, Layered) and self.layer_count is None:
                     self.layer_count = len(value)

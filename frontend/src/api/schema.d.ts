@@ -856,6 +856,11 @@ export interface components {
             message?: string | null;
             /** Seconds */
             seconds?: number | null;
+            /**
+             * Compute Seconds
+             * @description node_finished of a layer node: seconds spent on its layers in any process (in a parallel run a chain's first node's `seconds` also holds its followers' layers)
+             */
+            compute_seconds?: number | null;
             /** Cached */
             cached?: boolean | null;
             /** Error */

@@ -3,7 +3,7 @@ import type { Recipe, RecipeNode } from "../api/types";
 import { ParamForm } from "../forms/ParamForm";
 import { inputField, validateField, validateParams, type FieldSpec } from "../forms/schema";
 import { referencedInputs, renameNode, setNodeParams, type Catalog } from "../graph/recipe";
-import { badgeText, type NodeStatus } from "../run/status";
+import { badgeText, computeText, type NodeStatus } from "../run/status";
 
 export interface InspectorProps {
   recipe: Recipe;
@@ -48,6 +48,7 @@ export function Inspector(p: InspectorProps) {
         />
       </label>
       {p.status && <div className={`badge b-${p.status.state}`}>{badgeText(p.status)}{p.status.message ? ` — ${p.status.message}` : ""}</div>}
+      {p.status && computeText(p.status) && <div className="muted" data-testid="compute-time">{computeText(p.status)}</div>}
       {spec && <p className="desc">{spec.description}</p>}
       {Object.keys(errors).length > 0 && <div className="error">{Object.keys(errors).length} parameter problem(s)</div>}
       {spec ? (

@@ -4,7 +4,7 @@ import {
 } from "@xyflow/react";
 import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
 import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
-import { badgeText, type NodeStatus } from "../run/status";
+import { badgeText, computeText, type NodeStatus } from "../run/status";
 import { isTyping } from "./useShortcuts";
 import {
   connect, connectionError, connectionRefusal, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
@@ -143,7 +143,7 @@ const WaamNode = memo(function WaamNode({ data, selected }: NodeProps<WNode>) {
         </div>
       </div>
       {status && (
-        <div className={`badge b-${status.state}`} title={status.message ?? undefined}>
+        <div className={`badge b-${status.state}`} title={status.message ?? computeText(status) ?? undefined}>
           {badgeText(status)}
         </div>
       )}

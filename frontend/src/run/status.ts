@@ -12,6 +12,8 @@ export interface NodeStatus {
   section?: string | null;
   message?: string | null;
   seconds?: number | null;
+  /** layer nodes: their layers' compute time in any process (`seconds` is the run's wall time in the node) */
+  computeSeconds?: number | null;
   progress?: number;
 }
 
@@ -46,7 +48,7 @@ export function reduceEvent(s: RunState, e: RunEvent): RunState {
       if (e.node) set(e.node, { state: "cached", seconds: e.seconds });
       break;
     case "node_finished":
-      if (e.node) set(e.node, { state: e.cached ? "cached" : "done", seconds: e.seconds });
+      if (e.node) set(e.node, { state: e.cached ? "cached" : "done", seconds: e.seconds, computeSeconds: e.compute_seconds });
       break;
     case "node_error": {
       const err = e.error ?? { message: e.message ?? "error", node: e.node, layer: e.layer, section: e.section };
@@ -74,10 +76,22 @@ export function reduceEvent(s: RunState, e: RunEvent): RunState {
 
 export const terminal = (s: RunState) => s.phase === "done" || s.phase === "failed" || s.phase === "cancelled";
 
+const secs = (t: number) => (t < 1 ? (t * 1000).toFixed(0) + " ms" : t.toFixed(1) + " s");
+
+/**
+ * Where a finished layer node's time went: its layers' compute time, summed over the processes
+ * that computed them. In a parallel run a chain's first node waits for its followers' layers, so
+ * its wall time says little about its own cost.
+ */
+export function computeText(st: NodeStatus): string | null {
+  if (st.state !== "done" || st.computeSeconds == null) return null;
+  return `layers computed in ${secs(st.computeSeconds)} (all processes); ${secs(st.seconds ?? 0)} of the run`;
+}
+
 /** Short badge text: "cached", "running 40%", "error · layer 5 · bs1/A". */
 export function badgeText(st: NodeStatus): string {
   if (st.state === "error") return ["error", st.layer != null ? `layer ${st.layer}` : "", st.section ?? ""].filter(Boolean).join(" · ");
   if (st.state === "running") return st.layer != null ? `layer ${st.layer}` : "running";
-  if (st.state === "done" && st.seconds != null) return `done ${st.seconds < 1 ? (st.seconds * 1000).toFixed(0) + " ms" : st.seconds.toFixed(1) + " s"}`;
+  if (st.state === "done" && st.seconds != null) return `done ${secs(st.seconds)}`;
   return st.state;
 }
