@@ -26,29 +26,25 @@ W_WB = study.W_WB
 # documented miss (MODEL.md, "Per-case errors"), kept as a guard against regressions.
 DEFAULT_LIMIT = 5.0
 LIMITS = {
-    # ramps: the study's times are multiples of its 12 ms sampling (one sample = 6–8 %), and its
-    # T and L disagree at 10 mm/s (L/(v·T) = 0.43 where a jerk-limited ramp gives ≈ 0.5)
-    "tri45 10 mm/s arc ON all: T_init_accel": 13.5,
-    "tri45 10 mm/s arc OFF outside: T_init_accel": 13.5,
-    "tri45 10 mm/s arc ON all: L_init_accel": 7.0,
+    # ramp lengths: the study's T and L of one ramp cannot both hold for one ramp shape
+    # (L/(v·T) = 0.43 at 10 mm/s, 0.52 at 40; its two measurements of the same 40 mm/s start
+    # differ by 17 % in length); the calibration puts the times first (calibrate.fit_ramps)
+    "tri45 10 mm/s arc ON all: L_init_accel": 9.0,
+    "tri45 10 mm/s arc OFF outside: L_init_accel": 10.5,
     "tri45 10 mm/s arc OFF outside: L_decel": 8.0,
-    "tri45 40 mm/s arc ON all: T_init_accel": 10.0,
-    "tri45 40 mm/s arc ON all: T_final_decel": 7.5,
-    "tri45 40 mm/s arc OFF outside: T_final_decel": 7.5,
-    "tri45 40 mm/s arc ON all: L_final_decel": 7.5,
+    "tri45 40 mm/s arc ON all: L_init_accel": 9.0,
+    "tri45 40 mm/s arc ON all: L_final_decel": 9.5,
     "tri45 40 mm/s arc OFF outside: L_final_decel": 7.5,
-    "tri45 40 mm/s arc OFF outside: L_init_accel": 18.5,
-    "tri45 40 mm/s arc OFF outside: L_accel": 8.0,
+    "tri45 40 mm/s arc OFF outside: L_init_accel": 23.0,
+    "tri45 40 mm/s arc OFF outside: L_accel": 13.0,
     # the arc-ON transition at 10 mm/s: the corner model runs the link too quickly
     "tri45 10 mm/s arc ON all: T_trans": 11.0,
     # not met: two full stops cannot fit in the study's 0.408 s (MODEL.md, "Not met")
-    "tri45 40 mm/s arc OFF outside: T_trans": 145.0,
+    "tri45 40 mm/s arc OFF outside: T_trans": 140.0,
     # where a 99 % speed threshold is crossed before a 22.5° turn (lengths, not times)
-    "tri45 40 mm/s arc ON all: L_decel": 90.0,
-    "tri45 40 mm/s arc ON all: L_accel": 97.0,
-    "corner error 45° 40 mm/s": 7.0,
-    "corner error 2.95° 10 mm/s": 7.0,
-    "corner error 2.95° 40 mm/s": 10.0,
+    "tri45 40 mm/s arc ON all: L_decel": 82.0,
+    "tri45 40 mm/s arc ON all: L_accel": 87.0,
+    "corner error 2.95° 40 mm/s": 8.0,
 }
 
 
@@ -78,18 +74,15 @@ def test_case_error(rows, case):
 
 
 def test_which_times_miss_5_percent(rows):
-    """Every total time (raster, swiping, triangular 45° on both ORs at both speeds) is within
-    5 %; the misses are ramp times (one or two of the study's 12 ms samples), the arc-ON
-    transition at 10 mm/s (−9.6 %) and the 40 mm/s arc-OFF transition (MODEL.md)."""
+    """Every total time (raster, swiping, triangular 45° on both ORs at both speeds) and every
+    ramp time is within 5 %; the misses are the arc-ON transition at 10 mm/s (−9.4 %) and the
+    40 mm/s arc-OFF transition (MODEL.md)."""
     times = {n: r for n, r in rows.items() if n.split(": ")[-1].startswith(("T_", "total_time"))}
     assert len(times) == 18
     totals = [r for n, r in times.items() if n.endswith("total_time_s")]
     assert len(totals) == 6 and all(abs(r["error_pct"]) <= 5.0 for r in totals)
     over = sorted(n for n, r in times.items() if abs(r["error_pct"]) > 5.0)
-    assert over == ["tri45 10 mm/s arc OFF outside: T_init_accel", "tri45 10 mm/s arc ON all: T_init_accel",
-                    "tri45 10 mm/s arc ON all: T_trans", "tri45 40 mm/s arc OFF outside: T_final_decel",
-                    "tri45 40 mm/s arc OFF outside: T_trans", "tri45 40 mm/s arc ON all: T_final_decel",
-                    "tri45 40 mm/s arc ON all: T_init_accel"]
+    assert over == ["tri45 10 mm/s arc ON all: T_trans", "tri45 40 mm/s arc OFF outside: T_trans"]
 
 
 def test_ramps_are_asymmetric_like_the_study():
