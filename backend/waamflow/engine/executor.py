@@ -526,10 +526,7 @@ class _Run:
                 todo.append((i, items, key))
         n_cached = len(results)
         for i, key, (out, warnings) in prefetched:
-            self._check_outputs(gnode, out)
-            results[i] = (out, warnings)
-            if self.cache is not None:
-                self.cache.put(key, (out, warnings))
+            self.keep_layer(gnode, results, i, key, out, warnings)
         self.compute_layers(gnode, ctx, todo, results, n_total=len(results) + len(todo))
         for i in wanted:  # warnings and outputs in layer order, whoever computed them
             if i not in results:
@@ -571,10 +568,7 @@ class _Run:
         done = [n_total - len(todo)]
 
         def finish(i: int, key: str, out: dict, warnings: list) -> None:
-            self._check_outputs(gnode, out)
-            results[i] = (out, warnings)
-            if self.cache is not None:
-                self.cache.put(key, (out, warnings))
+            self.keep_layer(gnode, results, i, key, out, warnings)
             done[0] += 1
             self.node_progress(gnode.id, done[0] / max(n_total, 1), f"layer {i}")
 
@@ -602,10 +596,7 @@ class _Run:
             if fed is None:
                 return
             (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, nxt.over: fed})])
-            for link, (out, warnings, sec) in zip(chain[1:], got):
-                self.add_compute(link.node_id, sec)
-                if out is not None:   # a failed link: that node computes the layer itself and reports it
-                    self.precomputed[(link.node_id, i)] = (out, warnings)
+            self.keep_later_links(chain[1:], i, got)
 
         t0 = time.perf_counter()
         if rest:
@@ -625,16 +616,13 @@ class _Run:
             failed: list[int] = []
 
             def collect(i: int, got: list) -> None:
-                for link, (_o, _w, sec) in zip(chain, got):
-                    self.add_compute(link.node_id, sec)
-                out, extra, _sec = got[0]
-                if out is None:
+                out, extra, sec = got[0]
+                self.add_compute(gnode.id, sec)
+                if out is None:       # the chain ended there: no later links
                     failed.append(i)
                     return
                 finish(i, keys[i], out, extra)
-                for link, (later, warnings, _s) in zip(chain[1:], got[1:]):
-                    if later is not None:   # a failed link: that node computes the layer itself
-                        self.precomputed[(link.node_id, i)] = (later, warnings)
+                self.keep_later_links(chain[1:], i, got[1:])
 
             pool.map_layers(chain, self.resolver, [(i, items) for i, items, _ in rest],
                             collect, lambda: self.cancel is not None and self.cancel.is_set())
@@ -643,6 +631,23 @@ class _Run:
             rest = [t for t in rest if t[0] in set(failed) or t[0] not in results]
         for t in rest:
             here(*t)
+
+    def keep_layer(self, gnode: GraphNode, results: dict, i: int, key: str, out: dict, warnings: list) -> None:
+        """A computed layer of `gnode` (here, in a worker, or ahead in a chain) into `results`
+        and the cache."""
+        self._check_outputs(gnode, out)
+        results[i] = (out, warnings)
+        if self.cache is not None:
+            self.cache.put(key, (out, warnings))
+
+    def keep_later_links(self, links: tuple[parallel.ChainLink, ...], i: int, got: list) -> None:
+        """Layer i of a chain's later links, computed right after the first one's: their time is
+        counted, their results wait in `precomputed` until the run reaches their node (a failed
+        link is absent: that node computes the layer itself and reports the error)."""
+        for link, (out, warnings, sec) in zip(links, got):
+            self.add_compute(link.node_id, sec)
+            if out is not None:
+                self.precomputed[(link.node_id, i)] = (out, warnings)
 
     def chain_from(self, gnode: GraphNode) -> tuple[parallel.ChainLink, ...]:
         """`gnode` and the layer nodes that can compute their layer i in the same worker task

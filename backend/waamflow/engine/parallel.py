@@ -261,7 +261,8 @@ class LayerPool:
     def map_layers(self, chain: tuple[ChainLink, ...], resolver, todo: list[tuple[int, dict]],
                    on_done: Callable[[int, list], None], cancelled: Callable[[], bool]) -> None:
         """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
-        its outputs, in workers; `on_done(index, [(outputs | None, warnings | error)] per link)`
+        its outputs, in workers; `on_done(index, [(outputs | None, warnings | error, seconds)] per
+        link computed)` (see `run_chain`)
         is called in the parent as chunks finish (any order: the caller orders what must be)."""
         chunks = _chunks(todo, self.workers)
         pool = self._executor()

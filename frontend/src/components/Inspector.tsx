@@ -23,6 +23,7 @@ export function Inspector(p: InspectorProps) {
   const node = p.node;
   const spec = p.catalog.get(node.type);
   const errors = spec ? validateParams(spec.params_schema, node.params) : {};
+  const compute = p.status ? computeText(p.status) : null;
   return (
     <div className="inspector" data-testid="inspector">
       <h3>
@@ -48,7 +49,7 @@ export function Inspector(p: InspectorProps) {
         />
       </label>
       {p.status && <div className={`badge b-${p.status.state}`}>{badgeText(p.status)}{p.status.message ? ` — ${p.status.message}` : ""}</div>}
-      {p.status && computeText(p.status) && <div className="muted" data-testid="compute-time">{computeText(p.status)}</div>}
+      {compute && <div className="muted" data-testid="compute-time">{compute}</div>}
       {spec && <p className="desc">{spec.description}</p>}
       {Object.keys(errors).length > 0 && <div className="error">{Object.keys(errors).length} parameter problem(s)</div>}
       {spec ? (

@@ -311,7 +311,7 @@ export function inputField(
       return {
         name, title: sch.title ?? name, description: sch.description ?? "", kind, unit: sch.unit,
         minimum: sch.minimum, maximum: sch.maximum, exclusiveMinimum: sch.exclusiveMinimum, exclusiveMaximum: sch.exclusiveMaximum,
-        options: options(sch), default: sch.default ?? raw.default, hasDefault: "default" in sch || "default" in raw, nullable, required: !nullable, schema: sch,
+        options: options(sch), default: sch.default, hasDefault: "default" in sch, nullable, required: !nullable, schema: sch,
       };
     }
   }
