@@ -46,6 +46,19 @@ def test_corner_cap_from_normal_jerk():
     assert bp.cap[1] == pytest.approx((1e4 * 25.0) ** (1 / 3))
 
 
+def test_turn_rate_cap_scales_with_the_programmed_speed():
+    """The direction turns no faster than v/ρ: a 90° blend of radius r < ρ runs at v·r/ρ, at
+    any programmed speed; one of radius ≥ ρ is not capped by it."""
+    for v in (10.0, 40.0):
+        bp = blend_path(SQUARE, np.full(3, v), np.zeros(4, bool), distance=0.5, turn_radius=2.0)
+        assert bp.radius[1] == pytest.approx(0.5)      # 90° turn: r = d / tan(45°)
+        assert bp.cap[1] == pytest.approx(v * 0.5 / 2.0)
+    wide = blend_path(SQUARE, np.full(3, 10.0), np.zeros(4, bool), distance=5.0, turn_radius=2.0)
+    assert wide.cap[1] == pytest.approx(10.0)
+    off = blend_path(SQUARE, np.full(3, 10.0), np.zeros(4, bool), distance=0.5)
+    assert off.cap[1] == pytest.approx(10.0)
+
+
 def test_polyline_distance():
     q = np.array([[10, 3, 0], [21, 10, 0], [-1, 21, 0]], float)
     d, seg = polyline_distance(q, SQUARE, np.array([0, 1, 2]))

@@ -140,14 +140,17 @@ def test_triangular45_against_identified_time_model(size, v):
     assert t == pytest.approx(ref, rel=0.05)
 
 
-def test_deposit_piles_up_where_the_torch_slows():
-    res = sim("tri45_40", lambda: study.planned("triangular", 40.0, angle_deg=45.0))
+@pytest.mark.parametrize("v", [10.0, 40.0])
+def test_deposit_piles_up_where_the_torch_slows(v):
+    res = sim(f"tri45_{v:g}", lambda: study.planned("triangular", v, angle_deg=45.0))
     d = res.deposit
     ratio = d["actual_mm3_per_mm"][d["arc"]] / d["programmed_mm3_per_mm"][d["arc"]]
-    # short link segments (corners, slow) get far more than programmed; long passes close to it
+    # short link segments (the 45° apex slows the torch at either speed) get more metal than
+    # programmed (3–5 % at 10 mm/s, 5–8 % at 40 mm/s); long passes close to it
     long_ = d["length_mm"][d["arc"]] > 30
     assert np.median(ratio[long_]) == pytest.approx(1.0, abs=0.1)
-    assert ratio[~long_].min() > np.median(ratio[long_]) + 0.05
+    assert ratio[~long_].min() > np.median(ratio[long_]) + 0.025
+    assert ratio[~long_].max() > np.median(ratio[long_]) + 0.045
     # volume bookkeeping: per-segment volumes add up to the total
     total = (d["actual_mm3_per_mm"] * d["length_mm"]).sum()
     assert total == pytest.approx(res.metrics["deposited_volume_mm3"], rel=0.01)

@@ -37,14 +37,14 @@ LIMITS = {
     "tri45 40 mm/s arc OFF outside: L_final_decel": 7.5,
     "tri45 40 mm/s arc OFF outside: L_init_accel": 23.0,
     "tri45 40 mm/s arc OFF outside: L_accel": 13.0,
-    # the arc-ON transition at 10 mm/s: the corner model runs the link too quickly
-    "tri45 10 mm/s arc ON all: T_trans": 11.0,
     # not met: two full stops cannot fit in the study's 0.408 s (MODEL.md, "Not met")
     "tri45 40 mm/s arc OFF outside: T_trans": 140.0,
     # where a 99 % speed threshold is crossed before a 22.5° turn (lengths, not times)
     "tri45 40 mm/s arc ON all: L_decel": 82.0,
     "tri45 40 mm/s arc ON all: L_accel": 87.0,
-    "corner error 2.95° 40 mm/s": 8.0,
+    # the 2.95° reversal at 10 mm/s: the turn-rate cap runs it slowly, so the smoothing cuts it
+    # less (a corner error, not a time)
+    "corner error 2.95° 10 mm/s": 7.0,
 }
 
 
@@ -74,15 +74,40 @@ def test_case_error(rows, case):
 
 
 def test_which_times_miss_5_percent(rows):
-    """Every total time (raster, swiping, triangular 45° on both ORs at both speeds) and every
-    ramp time is within 5 %; the misses are the arc-ON transition at 10 mm/s (−9.4 %) and the
-    40 mm/s arc-OFF transition (MODEL.md)."""
+    """Every total time (raster, swiping, triangular 45° on both ORs at both speeds), every ramp
+    time and every transition is within 5 %, but the 40 mm/s arc-OFF transition, which cannot
+    hold with the study's own full stops (MODEL.md)."""
     times = {n: r for n, r in rows.items() if n.split(": ")[-1].startswith(("T_", "total_time"))}
     assert len(times) == 18
     totals = [r for n, r in times.items() if n.endswith("total_time_s")]
     assert len(totals) == 6 and all(abs(r["error_pct"]) <= 5.0 for r in totals)
     over = sorted(n for n, r in times.items() if abs(r["error_pct"]) > 5.0)
-    assert over == ["tri45 10 mm/s arc ON all: T_trans", "tri45 40 mm/s arc OFF outside: T_trans"]
+    assert over == ["tri45 40 mm/s arc OFF outside: T_trans"]
+
+
+def test_a_sharp_corner_costs_time_at_low_speed_too():
+    """The 45° apex slows the 10 mm/s link (study: T_trans 1.2 s for 11.58 mm programmed, i.e.
+    slower than cruising the uncut link); without the turn-rate cap it runs faster than that."""
+    res = simulate(study.triangular(10.0, 45.0, True), KUKA, SimOptions(interpolation_cycle_s=0.002))
+    assert stretch_time(res, 0.0, 0.0) > 11.576 / 10.0
+    plain = simulate(study.triangular(10.0, 45.0, True), KUKA.with_values(turn_radius_mm=0.0),
+                     SimOptions(interpolation_cycle_s=0.002))
+    assert stretch_time(plain, 0.0, 0.0) < 0.95 * 1.2
+    c = res.corners
+    apex = np.isclose(c["interior_deg"], 45.0)
+    assert c["min_speed_mm_s"][apex].max() < 0.5 * 10.0
+
+
+def test_compass_search_finishes_a_stalled_fit():
+    """The compass search lowers a piecewise-constant cost where finite differences see no slope."""
+    from waamflow.trajectory.calibrate import _compass
+
+    def cost(x):
+        return float(np.sum(np.round(10 * (x - np.array([0.7, -0.4]))) ** 2))
+
+    x, c, n = _compass(cost, np.zeros(2), cost(np.zeros(2)), np.full(2, -3.0), np.full(2, 3.0), 500)
+    assert c == 0.0 and 0 < n <= 500
+    assert x == pytest.approx([0.7, -0.4], abs=0.06)
 
 
 def test_ramps_are_asymmetric_like_the_study():

@@ -59,12 +59,16 @@ class BlendedPath:
 
 def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode: str = "cdis",
                distance: float = 5.0, apo_time_s: float = np.inf, apo_min_mm: float = 0.0, normal_acc: float = np.inf,
-               normal_jerk: float = np.inf, catchup: np.ndarray | None = None) -> BlendedPath:
+               normal_jerk: float = np.inf, turn_radius: float = 0.0,
+               catchup: np.ndarray | None = None) -> BlendedPath:
     """Blend the corners of a polyline.
 
     points: (n, 3) mm, no zero-length segments. speed: (n-1,) programmed mm/s per segment.
     stop: (n,) bool, exact stop at the vertex (arc switch, dwell, ends). mode: "cdis" | "zone".
     distance: CDIS or zone radius, mm (0 = exact stop everywhere).
+    normal_acc, normal_jerk: corner caps √(a_n·r), (j_n·r²)^(1/3) on a blend of radius r.
+    turn_radius: ρ, mm (0 = off): the direction of motion turns no faster than v/ρ rad/s (v the
+    programmed speed) — a blend of radius r < ρ runs at v·r/ρ at most.
     catchup: (n,) 0…1 per vertex or None — the post-stop catch-up (mode "cdis"): the
     speed-dependent limit apo_min_mm + v·apo_time_s is lifted by this fraction towards the
     geometric one, and a neighbour that is an exact stop (no blend of its own) leaves
@@ -107,6 +111,8 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
             else:
                 r = np.where(dk > 0, dk * np.cos(half) ** 2 / np.sin(half), np.inf)
             vc = np.minimum.reduce([v_prev, v_next, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
+            if turn_radius > 0:   # turn rate v_c / r ≤ v / ρ
+                vc = np.minimum(vc, np.minimum(v_prev, v_next) * np.minimum(1.0, r / turn_radius))
         # no blend possible at a real corner (distance 0), or a blend the controller could only
         # creep through (an exact reversal: radius → 0) = exact stop
         crawl = vc < MIN_CORNER_SPEED

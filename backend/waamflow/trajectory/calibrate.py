@@ -126,7 +126,9 @@ def trace_residuals(result: SimulationResult, meas: MeasuredTrace, max_samples: 
 # generic fit
 # ---------------------------------------------------------------------------------------------
 def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[RobotProfile], np.ndarray],
-         max_nfev: int = 200, diff_step: float = 0.02) -> tuple[RobotProfile, dict]:
+         max_nfev: int = 200, diff_step: float = 0.02, polish: int = 0) -> tuple[RobotProfile, dict]:
+    """Least squares on log-parameters, then (polish > 0) at most that many evaluations of a
+    compass search (`_compass`)."""
     from scipy.optimize import least_squares  # lazy: keeps start-up light
     for n in names:
         if n not in RobotProfile.FITTABLE:
@@ -146,10 +148,40 @@ def _fit(profile: RobotProfile, names: tuple[str, ...], residuals: Callable[[Rob
     hi = np.array([min(x + span, math.log(UPPER[n])) if n in UPPER else x + span for n, x in zip(names, x0)])
     lo = np.minimum(x0 - span, hi - 1e-6)
     sol = least_squares(f, np.clip(x0, lo, hi - 1e-9), diff_step=diff_step, max_nfev=max_nfev, bounds=(lo, hi))
-    fitted = make(sol.x)
-    info = {"cost_before": float(0.5 * r0 @ r0), "cost_after": float(sol.cost), "nfev": int(sol.nfev),
+    x, cost, nfev = sol.x, float(sol.cost), int(sol.nfev)
+    if polish:
+        x, cost, n_more = _compass(lambda z: float(0.5 * np.sum(f(z) ** 2)), x, cost, lo, hi, polish)
+        nfev += n_more
+    fitted = make(x)
+    info = {"cost_before": float(0.5 * r0 @ r0), "cost_after": cost, "nfev": nfev,
             "fitted": {n: getattr(fitted, n) for n in names}}
     return fitted, info
+
+
+def _compass(cost_of: Callable[[np.ndarray], float], x: np.ndarray, cost: float, lo: np.ndarray, hi: np.ndarray,
+             max_nfev: int, step: float = math.log(1.3), min_step: float = math.log(1.005)) -> tuple[np.ndarray, float, int]:
+    """Compass search on log-parameters (try ± step on each one, keep what lowers the cost,
+    halve the step when nothing does). The simulated figures are sampled, so the cost is
+    piecewise constant at fine scales and a least-squares step built from finite differences
+    often stalls; this finishes the fit. Returns (x, cost, evaluations)."""
+    x = np.array(x, dtype=float)
+    n = 0
+    while step >= min_step and n < max_nfev:
+        improved = False
+        for i in range(len(x)):
+            for sign in (1.0, -1.0):
+                y = x.copy()
+                y[i] = min(max(y[i] + sign * step, lo[i]), hi[i] - 1e-9)
+                if y[i] == x[i]:
+                    continue
+                c = cost_of(y)
+                n += 1
+                if c < cost - 1e-12:
+                    x, cost, improved = y, c, True
+                    break
+        if not improved:
+            step /= 2
+    return x, cost, n
 
 
 def fit_trace(profile: RobotProfile, moves: Moves, meas: MeasuredTrace, names: tuple[str, ...],
@@ -365,7 +397,7 @@ def study_targets() -> list[StudyTarget]:
 # constants fitted for the shipped profile
 SHIPPED_FIT = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "acc_ratio_fast", "dec_ratio_fast", "smoothing_s",
                "normal_acc", "apo_time_s", "apo_min_mm",
-               "normal_jerk", "arc_on_delay_s", "arc_off_delay_s", "arc_switch_dwell_s", "catchup")
+               "normal_jerk", "turn_radius_mm", "arc_on_delay_s", "arc_off_delay_s", "arc_switch_dwell_s", "catchup")
 UPPER = {"catchup": 1.0}   # fit bounds above the default factor-20 span
 
 
@@ -422,7 +454,7 @@ def evaluate_targets(profile: RobotProfile, targets: list[StudyTarget], opt: Sim
 
 
 def fit_targets(profile: RobotProfile, targets: list[StudyTarget], names: tuple[str, ...],
-                opt: SimOptions = SimOptions(), max_nfev: int = 200) -> tuple[RobotProfile, dict]:
+                opt: SimOptions = SimOptions(), max_nfev: int = 200, polish: int = 0) -> tuple[RobotProfile, dict]:
     """Fit `names` of the profile to summary figures of known programs (held-out ones refused)."""
     if any(t.held_out for t in targets):
         raise ValueError("held-out study figures must not be fitted: " + ", ".join(t.name for t in targets if t.held_out))
@@ -432,7 +464,7 @@ def fit_targets(profile: RobotProfile, targets: list[StudyTarget], names: tuple[
         return np.array([(r["model"] - tg.value) / tg.tol if math.isfinite(r["model"]) else 100.0
                          for r, tg in zip(rows, targets)])
 
-    fitted, info = _fit(profile, names, res, max_nfev)
+    fitted, info = _fit(profile, names, res, max_nfev, polish=polish)
     info["targets"] = evaluate_targets(fitted, targets, opt)
     return fitted, info
 
@@ -495,7 +527,7 @@ def fit_ramps(profile: RobotProfile) -> tuple[RobotProfile, dict]:
 SMOOTHING_GRID = (0.11, 0.13, 0.15)
 
 
-def fit_shipped(profile: RobotProfile, max_nfev: int = 60) -> tuple[RobotProfile, dict]:
+def fit_shipped(profile: RobotProfile, max_nfev: int = 60, polish: int = 300) -> tuple[RobotProfile, dict]:
     """The shipped calibration, in two stages so each least-squares problem stays small: for each
     controller smoothing of `SMOOTHING_GRID` (s), stage 1 (`fit_ramps`) identifies the ramp
     limits, stage 2 fits the remaining constants (blending, corner limit, arc timing, catch-up)
@@ -507,7 +539,7 @@ def fit_shipped(profile: RobotProfile, max_nfev: int = 60) -> tuple[RobotProfile
     best = None
     for tau in SMOOTHING_GRID:
         ramps, _ = fit_ramps(profile.with_values(smoothing_s=tau))
-        fitted, info = fit_targets(ramps, targets, rest, max_nfev=max_nfev)
+        fitted, info = fit_targets(ramps, targets, rest, max_nfev=max_nfev, polish=polish)
         info["smoothing_s"] = tau
         if best is None or info["cost_after"] < best[1]["cost_after"]:
             best = (fitted, info)

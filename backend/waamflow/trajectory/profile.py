@@ -35,6 +35,11 @@ class RobotProfile:
         ramp at 10 mm/s, 0.21 s at 40 mm/s) while the stop hardly does (0.16 s, 0.19 s).
     normal_acc: max centripetal acceleration in blends, mm/s² (corner cap √(a_n·r)).
     normal_jerk: max normal jerk in blends, mm/s³ (corner cap (j_n·r²)^(1/3)).
+    turn_radius_mm: ρ, mm (0 = off): the direction of motion turns no faster than v/ρ rad/s for a
+        programmed speed v — as on an arc of radius ρ run at v — so a blend of radius r < ρ is
+        run at v·r/ρ at most. Unlike √(a_n·r) and (j_n·r²)^(1/3) this cap scales with the
+        programmed speed: a sharp corner costs time at 10 mm/s as it does at 40 (the study's
+        45° apex: the 10 mm/s transition takes 1.2 s for an 11.6 mm link).
     smoothing_s: length of the controller's moving-average (FIR) position filter, s — the KRC's
         ramp smoothing / servo lag; it makes corner cuts grow with speed and adds a fixed
         time to every acceleration (the study's T_init_accel 0.144 s at 10 mm/s vs 0.204 s at
@@ -75,6 +80,7 @@ class RobotProfile:
     dec_ratio_fast: float = 1.0
     normal_acc: float = 500.0
     normal_jerk: float = 20000.0
+    turn_radius_mm: float = 0.0
     smoothing_s: float = 0.11
     apo_time_s: float = 0.1
     apo_min_mm: float = 0.0
@@ -94,7 +100,7 @@ class RobotProfile:
     notes: str = ""
 
     # names of the constants a calibration may fit (all positive floats)
-    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "acc_ratio_fast", "dec_ratio_fast", "catchup", "normal_acc", "normal_jerk", "smoothing_s", "apo_time_s",
+    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "acc_ratio_fast", "dec_ratio_fast", "catchup", "normal_acc", "normal_jerk", "turn_radius_mm", "smoothing_s", "apo_time_s",
                 "apo_min_mm", "arc_switch_dwell_s", "arc_on_delay_s", "arc_off_delay_s")
 
     @property

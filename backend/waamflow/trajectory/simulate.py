@@ -6,7 +6,8 @@ Pipeline (each step a pure function on numpy data):
    study's full stops (robot-study.md, "What the robot did"): I/O between motions stops the
    advance run.
 2. Corner blending between stops (`blend.blend_path`): d = min(CDIS, v·apo_time, L_prev/2,
-   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n; harder cuts
+   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n and the turn
+   rate (direction turns no faster than v/ρ, `profile.turn_radius_mm`); harder cuts
    on the arc-OFF travel after an arc-OFF stop (the catch-up, `profile.catchup`).
 3. Path speed along arc length (`speedplan`): junction speeds, backward (slow-down limits) and
    forward (speed-up limits, per programmed speed: `RobotProfile.ramp_limits`) passes, one
@@ -274,7 +275,8 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     a_dec, j_dec = profile.dec
     path = blend_path(prog.points, prog.speed, prog.stop, mode=opt.blend, distance=opt.cdis,
                       apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
-                      normal_jerk=profile.normal_jerk, catchup=_catchup_vertices(prog, profile.catchup))
+                      normal_jerk=profile.normal_jerk, turn_radius=profile.turn_radius_mm,
+                      catchup=_catchup_vertices(prog, profile.catchup))
     stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
     spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits)
     if progress:
