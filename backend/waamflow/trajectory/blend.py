@@ -10,9 +10,10 @@ The KUKA curve is a circular arc (radius r = d / tan(α/2) for a turn angle α),
 path" a parabola. Both are written as one rational quadratic Bézier with control point at the
 vertex and middle weight w = cos(α/2) (arc) or 1 (parabola). The corner speed cap is
 
-    v_c = min(v_prev, v_next, √(a_n·r), (j_n·r²)^(1/3))
+    v_c = min(v_prev, v_next, √(a_n·r), (j_n·r²)^(1/3), min(v_prev, v_next)·r/ρ)
 
-with r the curve's smallest radius of curvature (arc: d/tan(α/2); parabola: d·cos²(α/2)/sin(α/2)).
+with r the curve's smallest radius of curvature (arc: d/tan(α/2); parabola: d·cos²(α/2)/sin(α/2))
+and ρ the turn radius (the direction turns no faster than v/ρ; the last term is off when ρ = 0).
 
 All arrays are world mm. Pure numpy.
 """
@@ -86,7 +87,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
     if n > 2:
         u1, u2 = U[:-1], U[1:]
         alpha[1:-1] = np.arccos(np.clip(np.einsum("ij,ij->i", u1, u2), -1.0, 1.0))
-        v_prev, v_next = speed[:-1], speed[1:]
+        v_corner = np.minimum(speed[:-1], speed[1:])   # a blend's programmed speed: the lower of its two
         share_prev = np.full(n - 2, 0.5)
         share_next = np.full(n - 2, 0.5)
         c = None
@@ -98,7 +99,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
             share_next = np.where(st0[2:], 0.5 + 0.5 * c, 0.5)
         dk = np.minimum.reduce([np.full(n - 2, float(distance)), L[:-1] * share_prev, L[1:] * share_next])
         if mode == "cdis":
-            d_apo = apo_min_mm + apo_time_s * np.minimum(v_prev, v_next)
+            d_apo = apo_min_mm + apo_time_s * v_corner
             if c is not None:
                 d_apo = np.where(c > 0, d_apo + c * np.maximum(dk - d_apo, 0.0), d_apo)
             dk = np.minimum(dk, d_apo)
@@ -110,9 +111,9 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
                 r = np.where(dk > 0, dk / np.tan(half), np.inf)
             else:
                 r = np.where(dk > 0, dk * np.cos(half) ** 2 / np.sin(half), np.inf)
-            vc = np.minimum.reduce([v_prev, v_next, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
+            vc = np.minimum.reduce([v_corner, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
             if turn_radius > 0:   # turn rate v_c / r ≤ v / ρ
-                vc = np.minimum(vc, np.minimum(v_prev, v_next) * np.minimum(1.0, r / turn_radius))
+                vc = np.minimum(vc, v_corner * np.minimum(1.0, r / turn_radius))
         # no blend possible at a real corner (distance 0), or a blend the controller could only
         # creep through (an exact reversal: radius → 0) = exact stop
         crawl = vc < MIN_CORNER_SPEED
