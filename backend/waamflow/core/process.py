@@ -34,3 +34,28 @@ ZONE_PARAMETERS: tuple[ProcessParameter, ...] = (
 )
 
 PARAMETERS_BY_NAME = {p.name: p for p in ZONE_PARAMETERS}
+
+
+# ---- mass balance: wire fed vs metal in the part --------------------------------------------------
+# Wire volume fed per second = WFS · π d²/4; of it, the deposition efficiency η ends in the part
+# (GMAW/CMT with solid wire: spatter and fume losses of 2–8 %, η ≈ 0.95; Ding et al. 2015, Rodrigues
+# et al. 2019). A single bead's cross-section is A = k · w · h (w width, h height): k = 2/3 for a
+# parabolic cap, π/4 ≈ 0.785 for an elliptic one; WAAM beads on a previous layer measure 0.70–0.80
+# (Xiong et al. 2013, Suryakumar 2011). With overlapping beads at step s, a layer of height h takes
+# s · h per mm of path.
+WIRE_DIAMETER_MM = 1.2          # the most common WAAM steel/aluminium wire
+DEPOSITION_EFFICIENCY = 0.95    # stated, not fitted
+BEAD_SHAPE_FACTOR = 0.75        # k in A = k·w·h, stated (between parabolic 0.667 and elliptic 0.785)
+
+
+def wire_area_mm2(diameter_mm: float = WIRE_DIAMETER_MM) -> float:
+    """Cross-section of the wire, mm²."""
+    import math
+
+    return math.pi * diameter_mm * diameter_mm / 4.0
+
+
+def deposit_rate_mm3_s(wfs_m_min: float, diameter_mm: float = WIRE_DIAMETER_MM,
+                       efficiency: float = DEPOSITION_EFFICIENCY) -> float:
+    """Metal that ends in the part per second of arc time, mm³/s, for a wire feed in m/min."""
+    return wfs_m_min * 1000.0 / 60.0 * wire_area_mm2(diameter_mm) * efficiency
