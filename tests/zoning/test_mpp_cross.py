@@ -68,3 +68,15 @@ def test_nearest_order_cuts_travel_on_the_cross(runs):
     near = json.loads((runs["nearest"] / "sequence.travel.json").read_text())
     assert [l["order"] for l in mask["layers"]] == [["bs1/A", "bs1/B", "bs1/C"]] * 8
     assert near["total_travel_mm"] < 0.9 * mask["total_travel_mm"]   # measured 1786.9 vs 2154.9 mm
+
+
+def test_intersection_zone_boundaries_lie_exactly_at_the_split_points(runs):
+    """Issue #22: the intersection zone asked for at y = ±6 mm spans exactly −6 … +6 on every layer
+    (it was −7.2 … +4.8: split points projected onto the nearest weave point)."""
+    tp = json.loads((runs["mask"] / "sequence.toolpath.json").read_text())
+    for layer in tp["layers"]:
+        a = next(s for s in layer["sections"] if s["key"] == "bs1/A")
+        pts, zone = np.asarray(a["points"]), np.array(a["zone"])
+        idx = np.flatnonzero(zone == "z2")
+        ends = pts[[idx[0], idx[-1] + 1], 1]
+        assert sorted(ends.tolist()) == pytest.approx([-6.0, 6.0], abs=0.01)

@@ -91,3 +91,29 @@ def test_zone_travel_speed_sets_arc_on_segments_only():
     assert out.speed.tolist() == [6.0, 8.0, 5.0, 8.0]
     assert set(out.zone_params) == {"start", "z1"} and out.zone_params["start"]["current"] == 200.0
     assert zp.speed.tolist() == [5.0] * 4  # input not mutated
+
+
+def test_split_points_cut_a_weave_at_their_station_along_the_guide():
+    """Issue #22: split points at y = ±6 on a zigzag weave (±3 mm, 3 mm step along y) landed at the
+    nearest weave point (y = −7.2 / +4.8); the boundary must be where the weave crosses y = ±6."""
+    ys = np.arange(-30.0, 30.0 + 1e-9, 3.0)
+    pts = [(3.0 if k % 2 == 0 else -3.0, y) for k, y in enumerate(ys)]
+    zp = zone_path(path(pts), ZoneSpec(start_length=5, end_length=5, split_points=((0, -6), (0, 6))))
+    ids = list(zone_lengths(zp))
+    assert ids == ["start", "z1", "z2", "z3", "end"]
+    z = np.array(zp.zone)
+    first = {zid: zp.points[int(np.flatnonzero(z == zid)[0])] for zid in ("z2", "z3")}
+    assert first["z2"][1] == pytest.approx(-6.0, abs=0.01)
+    assert first["z3"][1] == pytest.approx(6.0, abs=0.01)
+    # a split point between weave vertices: the cut is interpolated inside the stroke
+    zp = zone_path(path(pts), ZoneSpec(split_points=((0, 1.0),)))
+    z = np.array(zp.zone)
+    assert zp.points[int(np.flatnonzero(z == "z2")[0])][1] == pytest.approx(1.0, abs=0.01)
+
+
+def test_split_point_on_a_square_weave_stroke_lying_on_its_station():
+    # square weave: strokes across x at y = 0, 2, 4, ...; split point (5, 4) lies on the third stroke
+    pts = [(0, 0), (10, 0), (10, 2), (0, 2), (0, 4), (10, 4), (10, 6), (0, 6)]
+    zp = zone_path(path(pts), ZoneSpec(split_points=((5, 4),)))
+    z = np.array(zp.zone)
+    assert zp.points[int(np.flatnonzero(z == "z2")[0])].tolist() == pytest.approx([5.0, 4.0, 1.5])

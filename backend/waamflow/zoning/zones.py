@@ -2,7 +2,8 @@
 
 Each section path starts as one zone. The user splits it by *lengths* measured along the path from
 its start and from its end (ignition and termination need their own parameters for a limited
-length) and by *points*, projected onto the path. Along the path the zones are, in order:
+length) and by *points*: a point cuts the path where it crosses the plane through the point normal to
+the path's axis (the guide direction), i.e. exactly at the point's station along the section. Along the path the zones are, in order:
 
     start  [0, start_length)         — only when start_length > 0
     z1 … zK                          — between the start zone, the split points and the end zone
@@ -92,6 +93,52 @@ def project_onto_path(points: np.ndarray, query: np.ndarray) -> np.ndarray:
     return cumulative_length(points)[i] + t[np.arange(len(i)), i] * np.sqrt(dd[i])
 
 
+def path_axis(points: np.ndarray) -> np.ndarray:
+    """(3,) unit vector: the principal direction of a path's points (its advance: the guide of an
+    oscillated or parallel section), from the largest singular vector of the centred points."""
+    pts = np.asarray(points, dtype=float)
+    c = pts - pts.mean(axis=0)
+    if not np.any(np.abs(c) > TOL.min_segment):
+        return np.array([1.0, 0.0, 0.0])
+    _, _, vt = np.linalg.svd(c, full_matrices=False)
+    return vt[0] / np.linalg.norm(vt[0])
+
+
+def split_arclength(points: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Arc length (mm) where the path `points` (n, 3) crosses the plane through each query (m, 3)
+    normal to the path's axis (`path_axis`): the split point's projection along the section's
+    guide, so a weave is cut exactly at the split point's station and not at its nearest weave
+    vertex (issue #22: ±6 mm asked, −7.2/+4.8 mm got). Of several crossings (parallel passes)
+    the one nearest the query wins, on ties the earliest. A query beyond the path's extent (no
+    crossing) falls back to `project_onto_path`.
+    """
+    pts = np.asarray(points, dtype=float)
+    q = np.asarray(query, dtype=float).reshape(-1, 3)
+    axis = path_axis(pts)
+    s = cumulative_length(pts)
+    out = project_onto_path(pts, q) if len(q) else np.zeros(0)
+    eps = TOL.min_segment
+    for m, qq in enumerate(q):
+        f = (pts - qq) @ axis                       # signed station of each vertex past the query, mm
+        fa, fb = f[:-1], f[1:]
+        best = None
+        for k in np.flatnonzero((np.minimum(fa, fb) <= eps) & (np.maximum(fa, fb) >= -eps)):
+            a, b = pts[k], pts[k + 1]
+            seg = s[k + 1] - s[k]
+            if abs(fa[k]) <= eps and abs(fb[k]) <= eps:      # the segment lies in the plane
+                d = b - a
+                t = float(np.clip((qq - a) @ d / max(d @ d, 1e-18), 0.0, 1.0))
+            else:
+                t = float(np.clip(fa[k] / (fa[k] - fb[k]), 0.0, 1.0))
+            p = a + t * (b - a)
+            dist = float(np.linalg.norm(p - qq))
+            if best is None or dist < best[0] - 1e-9:
+                best = (dist, s[k] + t * seg)
+        if best is not None:
+            out[m] = best[1]
+    return out
+
+
 def zone_layout(path_length: float, spec: ZoneSpec, split_s: np.ndarray) -> ZoneLayout:
     """Zone ids and arc-length intervals of a path of length `path_length` (mm).
 
@@ -164,7 +211,7 @@ def zone_path(path: SectionPath, spec: ZoneSpec, split_points_world: np.ndarray 
     if split_points_world is None:
         sp = np.asarray(spec.split_points, dtype=float).reshape(-1, 2)
         split_points_world = np.column_stack([sp, np.full(len(sp), pts[:, 2].mean())])
-    split_s = project_onto_path(pts, np.asarray(split_points_world, float).reshape(-1, 3)) \
+    split_s = split_arclength(pts, np.asarray(split_points_world, float).reshape(-1, 3)) \
         if len(split_points_world) else np.zeros(0)
     layout = zone_layout(cumulative_length(pts)[-1], spec, split_s)
     cuts = [b[0] for b in layout.bounds[1:]]
