@@ -92,14 +92,18 @@ def test_inside_out_mesh_slices_the_same():
 
 def test_explicit_thicknesses_give_listed_planes_then_layer_height():
     layers = slice_part(as_mesh(box((10, 10, 10))), layer_height=1.5, thicknesses=[0.5, 1.0, 2.0])
-    np.testing.assert_allclose([l.thickness for l in layers], [0.5, 1.0, 2.0, 1.5, 1.5, 1.5, 1.5])
-    np.testing.assert_allclose([l.z for l in layers], [0.5, 1.5, 3.5, 5.0, 6.5, 8.0, 9.5])
+    # issue #22: the 0.5 mm left above 9.5 (1/3 of a layer) is merged into the last layer (2.0 mm),
+    # which now tops at the part's top 10 instead of 0.5 mm below it
+    np.testing.assert_allclose([l.thickness for l in layers], [0.5, 1.0, 2.0, 1.5, 1.5, 1.5, 2.0])
+    np.testing.assert_allclose([l.z for l in layers], [0.5, 1.5, 3.5, 5.0, 6.5, 8.0, 10.0])
     assert all(l.area == pytest.approx(100.0) for l in layers)
 
 
 def test_start_offset_shifts_layer_zero():
     layers = slice_part(as_mesh(box((10, 10, 10), corner=(0, 0, 5))), layer_height=1.5, start_offset=0.75)
-    np.testing.assert_allclose([l.z for l in layers], 5.75 + 1.5 * np.arange(1, 7))
+    # issue #22: the last layer takes the 0.25 mm left below the top (1.75 mm, top 15 instead of 14.75)
+    np.testing.assert_allclose([l.z for l in layers], [7.25, 8.75, 10.25, 11.75, 13.25, 15.0])
+    np.testing.assert_allclose([l.thickness for l in layers], [1.5] * 5 + [1.75])
     assert len(layers) == 6
 
 
@@ -126,7 +130,9 @@ def _ring_by_angle(points: np.ndarray) -> Polygon:
 def test_planes_through_vertices_still_close():
     """Cut planes exactly at vertex rows: loops stay closed and areas exact (symbolic perturbation)."""
     mesh = mesh_from_triangles(ribbed_tube(96, 10, radius=30, wall=5, height=10, ribs=6, rib_depth=2))
-    layers = slice_part(mesh, layer_height=1.0, z_min=-0.5)   # cuts at z = 0, 1, ..., 9: vertex rows
+    # cuts at z = 0, 1, ..., 9: vertex rows ('nearest': with 'ceil' an 11th layer of 0.5 mm would
+    # end on the top at 10 and be cut at 9.75, between the rows this test is about)
+    layers = slice_part(mesh, layer_height=1.0, z_min=-0.5, top="nearest")
     assert len(layers) == 10
     assert layers[0].region.is_empty          # a plane through the bottom face touches no volume
     v = mesh.vertices

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, model_validator
 
 from ..core import serialize
@@ -9,7 +11,8 @@ from ..core.errors import PlanningError, RecipeError
 from ..core.model import Layered, Midsurface
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..slicing import empty_layers_inside, slice_part
+from ..slicing import empty_layers_inside, slice_part_scheduled
+from ..slicing.planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION, LayerSchedule
 
 
 def model_layer_height(ctx, param: float, model, explicit: bool = True) -> float:
@@ -31,6 +34,36 @@ def model_layer_height(ctx, param: float, model, explicit: bool = True) -> float
     return target
 
 
+def _mm(x: float) -> str:
+    return f"{round(float(x), 4):g} mm"
+
+
+def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fraction: float, max_factor: float) -> None:
+    """Warnings about where the layers end: a `nearest` gap or overshoot, a `ceil` overshoot, and
+    `layer_count` keeping fewer layers than reach the top."""
+    fit = schedule.fit
+    if fit is None:
+        return
+    where = (f"{_mm(fit.gap)} below" if fit.gap > 0 else f"{_mm(-fit.gap)} above")
+    if fit.action == "nearest" and abs(fit.gap) > 0:
+        ctx.warn(f"top 'nearest': the last layer tops at {_mm(fit.reached)}, {where} the part's top "
+                 f"{_mm(fit.target)} ({'a gap' if fit.gap > 0 else 'an overshoot'}; top 'ceil' ends on it)",
+                 layer=fit.layer)
+    elif fit.action == "overshoot":
+        below = ("there is no layer below to thicken" if fit.layer == 0 else
+                 f"thickening the layer below would pass top_max_factor {max_factor:g}")
+        ctx.warn(f"top 'ceil': the {_mm(fit.target - (fit.reached - fit.thickness))} of part above the last whole "
+                 f"layer is less than top_min_fraction {min_fraction:g} of a layer and {below}: one more layer of "
+                 f"{_mm(fit.thickness)} tops at {_mm(fit.reached)}, {where} the part's top {_mm(fit.target)} "
+                 f"(an overshoot to machine off)", layer=fit.layer)
+    if len(schedule) < schedule.total:
+        last = len(schedule) - 1
+        gap = fit.target - float(schedule.tops[-1])
+        ctx.warn(f"layer_count {layer_count} keeps the first {len(schedule)} of {schedule.total} layers: the last "
+                 f"tops at {_mm(schedule.tops[-1])}, {_mm(gap)} below the part's top {_mm(fit.target)} "
+                 f"(a quick look, not the whole part)", layer=last)
+
+
 @register
 class SliceNode(Node):
     """Planar slicing into layers along a build direction (default +Z).
@@ -38,8 +71,14 @@ class SliceNode(Node):
     Layer i occupies [z − t, z]: `z` is the layer's *top* (where the bead top sits and the torch
     deposits) and t its thickness; the geometry is cut at *mid-layer*, z − t/2. Layer 0 starts
     at the part's bottom (or `z_min`) plus `start_offset`; thicknesses come from `thicknesses`
-    in order, then `layer_height`. Layers continue while their cutting plane is below the part's
-    top (or `z_max`), at most `layer_count`. Solids give polygons with holes (even-odd nesting,
+    in order, then `layer_height`, up to the part's top (or `z_max`) by the `top` policy:
+    `ceil` (default) ends the last layer on the top — the remainder above the last whole layer
+    is a thinned last layer when it is ≥ `top_min_fraction` (0.5) of a layer, else it is merged
+    into the layer below up to `top_max_factor` (1.5) × its thickness, else one more layer is
+    built and its overshoot warned; `nearest` ends on the nearest whole layer and warns the gap
+    or overshoot; `exact` allows whole layers only and fails (exit 3) naming two layer heights
+    that fit. `layer_count` keeps only the first layers (a quick look; a warning says how far
+    below the top they stop). Solids give polygons with holes (even-odd nesting,
     any number of bodies and islands, overlapping bodies united); midsurface sketches give their curves on every layer
     within the extrusion. With a `direction` other than +Z, heights are measured along it and each
     layer carries its frame (layer-local x, y → world; in `layers.json` as "frame"). Warns on
@@ -51,6 +90,7 @@ class SliceNode(Node):
     """
 
     type = "slice"
+    version = "2"  # 2: the `top` policy (ceil by default: the last layer ends on the part's top)
     title = "Slice"
     category = "slicing"
     inputs = (Port("mesh", "mesh", "Part: solid mesh or midsurface"),
@@ -66,11 +106,27 @@ class SliceNode(Node):
                                          json_schema_extra=unit("mm"))
         start_offset: float = Field(0.0, ge=0, le=10_000, description="Bottom of layer 0 above the part's bottom (or z_min)",
                                     json_schema_extra=unit("mm"))
-        layer_count: int | None = Field(None, ge=1, le=200_000, description="At most this many layers")
+        layer_count: int | None = Field(None, ge=1, le=200_000,
+                                        description="Only the first this many layers (a quick look; warned when "
+                                                    "they stop below the top)")
         z_min: float | None = Field(None, description="Bottom of layer 0 instead of the part's bottom",
                                     json_schema_extra=unit("mm"))
-        z_max: float | None = Field(None, description="No layer is cut at or above this height",
+        z_max: float | None = Field(None, description="The layers end at this height instead of the part's top "
+                                                      "(by the `top` policy)",
                                     json_schema_extra=unit("mm"))
+        top: Literal["ceil", "nearest", "exact"] = Field(
+            "ceil", description="How the last layer meets the part's top (or z_max): 'ceil' ends on it (last layer "
+                                "thinned, or merged into the one below, else one layer more, warned); 'nearest' "
+                                "the nearest whole layer, gap or overshoot warned; 'exact' whole layers only, "
+                                "else an error naming layer heights that fit")
+        top_min_fraction: float = Field(
+            TOP_MIN_FRACTION, ge=0.05, le=1.0,
+            description="'ceil': a thinned last layer is at least this fraction of its nominal thickness "
+                        "(a thinner remainder is merged into the layer below)")
+        top_max_factor: float = Field(
+            TOP_MAX_FACTOR, ge=1.0, le=3.0,
+            description="'ceil': a layer thickened by a merged remainder stays at most this factor of its "
+                        "thickness (else one layer more is built above the top)")
         direction: tuple[float, float, float] = Field(
             (0.0, 0.0, 1.0), description="Build direction (world); layers stack along it, heights are measured along it")
 
@@ -87,15 +143,17 @@ class SliceNode(Node):
         layer_height = model_layer_height(ctx, params.layer_height, inputs.get("model"),
                                           "layer_height" in params.model_fields_set)
         try:
-            layers = slice_part(
+            layers, schedule = slice_part_scheduled(
                 part, layer_height=layer_height, thicknesses=params.thicknesses,
                 start_offset=params.start_offset, layer_count=params.layer_count,
-                z_min=params.z_min, z_max=params.z_max, direction=params.direction,
+                z_min=params.z_min, z_max=params.z_max, direction=params.direction, top=params.top,
+                min_fraction=params.top_min_fraction, max_factor=params.top_max_factor,
             )
         except ValueError as exc:
             raise RecipeError(str(exc)) from exc
         if not layers:
             raise PlanningError("no layers: the slicing range (part height, start_offset, z_min/z_max) is empty")
+        _warn_top(ctx, schedule, params.layer_count, params.top_min_fraction, params.top_max_factor)
         for i in empty_layers_inside(layers, part, params.direction):
             ctx.warn("layer is empty although it lies within the part's height (gap between bodies?)", layer=i)
         if isinstance(part, Midsurface) and not any(l.curves for l in layers):

@@ -5,9 +5,9 @@ polygons with holes, `slicer` ties them into `core.model.Layer`s.
 """
 
 from .planar import Loops, section_loops
-from .planes import LayerSchedule, layer_schedule
+from .planes import LayerSchedule, TopFit, layer_schedule
 from .rings import loops_to_regions
-from .slicer import empty_layers_inside, part_z_range, slice_mesh, slice_midsurface, slice_part
+from .slicer import empty_layers_inside, part_z_range, slice_mesh, slice_midsurface, slice_part, slice_part_scheduled
 
 __all__ = [
     "LayerSchedule",
@@ -20,4 +20,6 @@ __all__ = [
     "slice_mesh",
     "slice_midsurface",
     "slice_part",
+    "slice_part_scheduled",
+    "TopFit",
 ]

@@ -16,7 +16,7 @@ from shapely.geometry import LineString, MultiPolygon
 
 from ..core.model import Layer, MeshData, Midsurface
 from .planar import section_loops
-from .planes import LayerSchedule, layer_schedule
+from .planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION, LayerSchedule, TopPolicy, layer_schedule
 from .rings import loops_to_regions
 
 
@@ -127,28 +127,55 @@ def slice_part(
     z_min: float | None = None,
     z_max: float | None = None,
     direction: Sequence[float] = Z_UP,
+    top: TopPolicy = "ceil",
+    min_fraction: float = TOP_MIN_FRACTION,
+    max_factor: float = TOP_MAX_FACTOR,
 ) -> tuple[Layer, ...]:
     """Slice a solid or a midsurface with the schedule of `planes.layer_schedule` (all mm).
 
     direction: build direction (world vector); z_min/z_max are distances along it. Midsurfaces
-    are extruded along +Z and can only be sliced along +Z.
+    are extruded along +Z and can only be sliced along +Z. top, min_fraction, max_factor: how the
+    last layer meets the part's top (`planes` docstring). `slice_part_scheduled` also returns
+    the schedule (with its `fit`).
     """
+    return slice_part_scheduled(
+        part, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
+        layer_count=layer_count, z_min=z_min, z_max=z_max, direction=direction, top=top,
+        min_fraction=min_fraction, max_factor=max_factor)[0]
+
+
+def slice_part_scheduled(
+    part: MeshData | Midsurface,
+    *,
+    layer_height: float,
+    thicknesses: Sequence[float] = (),
+    start_offset: float = 0.0,
+    layer_count: int | None = None,
+    z_min: float | None = None,
+    z_max: float | None = None,
+    direction: Sequence[float] = Z_UP,
+    top: TopPolicy = "ceil",
+    min_fraction: float = TOP_MIN_FRACTION,
+    max_factor: float = TOP_MAX_FACTOR,
+) -> tuple[tuple[Layer, ...], LayerSchedule]:
+    """`slice_part`, and the layer schedule it used: (layers, schedule)."""
     rot = build_rotation(direction)
     if rot is not None:
         if isinstance(part, Midsurface):
             raise ValueError("a sketch (midsurface) is extruded along +Z: slice it with direction [0, 0, 1]")
         part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name,
                         surface=part.surface)
-    bottom, top = part_z_range(part)
+    bottom, top_z = part_z_range(part)
     schedule = layer_schedule(
-        bottom, top, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
-        layer_count=layer_count, z_min=z_min, z_max=z_max,
+        bottom, top_z, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
+        layer_count=layer_count, z_min=z_min, z_max=z_max, top_policy=top, min_fraction=min_fraction,
+        max_factor=max_factor,
     )
     if isinstance(part, Midsurface):
-        return slice_midsurface(part, schedule)
+        return slice_midsurface(part, schedule), schedule
     if part.surface:
-        return slice_surface(part, schedule, rot)
-    return slice_mesh(part, schedule, rot)
+        return slice_surface(part, schedule, rot), schedule
+    return slice_mesh(part, schedule, rot), schedule
 
 
 def empty_layers_inside(layers: Sequence[Layer], part: MeshData | Midsurface,
