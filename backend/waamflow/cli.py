@@ -1,6 +1,7 @@
 """`waamflow` command line: run | nodes | serve | openapi (see CONTRACT.md).
 
-Exit codes: 0 done; 2 invalid recipe; 3 planning failure; 130 cancelled (Ctrl-C).
+Exit codes: 0 done; 2 invalid recipe; 3 planning failure; 4 preflight failed (the program would build
+the wrong part; `--accept-preflight` writes it anyway); 130 cancelled (Ctrl-C).
 On failure one line on stderr starting `error:` names the node, layer and section.
 """
 
@@ -85,16 +86,55 @@ def cmd_run(args) -> int:
                      workers=args.workers, scheduler=scheduler)
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
-    write_run_dir(out, result.artifacts, summary)
+    files = result.artifacts
+    failed = _preflight_failure(result.preflight)
+    if failed is not None and args.accept_preflight:
+        from .preflight import stamp_acceptance
+
+        result.preflight["accepted"] = True
+        files = stamp_acceptance(files, result.preflight)
+        files["preflight.json"] = json.dumps(result.preflight, indent=1).encode("utf-8")
+    elif failed is not None:
+        # the programs stay inside waamflow: the folder holds the report and the plan, not a program
+        # that builds the wrong part
+        held = {n for r in result.preflight["programs"] for n in r.get("files", []) if not n.endswith(".toolpath.json")}
+        result.preflight["withheld"] = sorted(held)
+        files = {n: d for n, d in files.items() if n not in held}
+        files["preflight.json"] = json.dumps(result.preflight, indent=1).encode("utf-8")
+        summary["status"] = "preflight_failed"
+    summary["preflight"] = result.preflight
+    write_run_dir(out, files, summary)
     n_cached = sum(1 for s in result.stats.values() if s.cached)
     spent = {k: s.compute_seconds for k, s in result.stats.items() if s.compute_seconds}
     if args.verbose and spent and result.executor.get("tasks"):
         # in worker processes a chain's first node waits for its followers' layers too: say who computed what
         print("  layer compute, all processes: " + ", ".join(f"{k} {v:.3f} s" for k, v in spent.items()),
               file=sys.stderr)
+    pf = result.preflight
+    verdict = f", preflight {pf['verdict']}" + (" (accepted)" if pf.get("accepted") else "") if pf else ""
+    if pf:
+        for p in pf["problems"]:
+            where = "".join([f"layer {p['layer']}: " if p.get("layer") is not None else "",
+                             f"section '{p['section']}': " if p.get("section") else ""])
+            print(f"preflight {p['severity']}: {p['node']}: {where}{p['message']}", file=sys.stderr)
+    if failed is not None and not args.accept_preflight:
+        where = ", ".join(x for x in (f"layer {failed['layer']}" if failed.get("layer") is not None else "",
+                                      f"section '{failed['section']}'" if failed.get("section") else "") if x)
+        print(f"error: node '{failed['node']}'{', ' + where if where else ''}: preflight failed ({failed['check']}): "
+              f"{failed['message']}. The program was not written ({out}/preflight.json says why); fix the plan, "
+              "or re-run with --accept-preflight to write it anyway (recorded in its header)", file=sys.stderr)
+        return 4
     print(f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
-          f"{len(result.warnings)} warnings, {result.seconds:.2f} s → {out}")
+          f"{len(result.warnings)} warnings{verdict}, {result.seconds:.2f} s → {out}")
     return 0
+
+
+def _preflight_failure(report: dict | None) -> dict | None:
+    if not report or report.get("verdict") != "fail":
+        return None
+    from .preflight import first_error
+
+    return first_error(report) or {"check": "preflight", "message": "failed", "node": None}
 
 
 def cmd_nodes(args) -> int:
@@ -205,6 +245,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="set a recipe input (name=value) or node param (nodeid.param.sub=value); VALUE is JSON or a string")
     r.add_argument("--no-cache", action="store_true", help="recompute everything, do not read or write the cache")
     r.add_argument("-v", "--verbose", action="store_true", help="one line per node")
+    r.add_argument("--accept-preflight", action="store_true",
+                   help="write the programs even when the preflight fails (exit 0; the acceptance is written into "
+                        "each program's header and preflight.json)")
     r.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes for the layers of layer nodes (default: WAAMFLOW_LAYER_WORKERS, else every core; 1 = serial)")
     r.set_defaults(func=cmd_run)

@@ -170,6 +170,7 @@ class RunResult:
     signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
     executor: dict = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
     trace: dict = field(default_factory=dict)  # see `run_trace`
+    preflight: dict | None = None  # see `waamflow.preflight`: the emitted programs checked against the part
 
     def summary(self, recipe_name: str, status: str = "done") -> dict:
         return {
@@ -184,6 +185,7 @@ class RunResult:
             "executor": self.executor,
             "trace": self.trace,
             "programs": self.program_stats(),
+            **({"preflight": self.preflight} if self.preflight is not None else {}),
         }
 
     def program_stats(self) -> dict[str, dict]:
@@ -693,6 +695,24 @@ class _Run:
             raise PlanningError(f"node returned outputs {got}, expected {sorted(expected)}")
 
 
+def _preflight(run: "_Run", graph: Graph) -> dict | None:
+    """The preflight of a full run (`waamflow.preflight`); its report is also the artifact
+    `preflight.json`. An internal error of the check itself is a failed check, never a silent pass."""
+    from ..preflight import run_preflight
+
+    run.emit("node_started", node="preflight", progress=1.0, message="preflight")
+    try:
+        report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None))
+    except Exception as exc:  # noqa: BLE001 - reported, never swallowed
+        report = {"verdict": "fail", "accepted": False, "programs": [], "layers": [],
+                  "problems": [{"check": "preflight", "severity": "fail", "node": None, "layer": None,
+                                "section": None, "message": f"the preflight itself failed: {type(exc).__name__}: {exc}",
+                                "value": None, "limit": None, "point": None}]}
+    if report is not None:
+        run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
+    return report
+
+
 def execute(
     graph: Graph,
     *,
@@ -705,6 +725,7 @@ def execute(
     artifacts: bool = True,
     workers: int | None = None,
     scheduler: str | None = None,
+    preflight: bool = True,
 ) -> RunResult:
     """Run `graph`. Raises WaamflowError subclasses (with node/layer/section) on failure after
     emitting `node_error` and `run_failed`/`run_cancelled`. `workers`: processes for the layers of
@@ -740,9 +761,12 @@ def execute(
         pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
+    report = None
+    if preflight and targets is None and layers is None and artifacts:
+        report = _preflight(run, graph)
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
                        info,
-                       run.trace())
+                       run.trace(), report)
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result

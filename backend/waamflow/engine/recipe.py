@@ -16,6 +16,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..core.errors import InputFileError, RecipeError
+from ..preflight.settings import PreflightSettings
 
 FORMAT = "waamflow/1"
 OLD_FORMATS = ("waamflow/0", "waamflow")
@@ -68,6 +69,8 @@ class Recipe(BaseModel):
                                    description="named values that node params refer to as \"$name\"")
     nodes: list[NodeEntry] = Field(default_factory=list)
     edges: list[EdgeEntry] = Field(default_factory=list)
+    preflight: PreflightSettings | None = Field(None, description="thresholds of the check of every emitted "
+                                                "program against its part (README 'Preflight'); empty = defaults")
     ui: dict[str, Any] | None = None
 
     @field_validator("inputs")

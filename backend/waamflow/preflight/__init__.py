@@ -1,0 +1,146 @@
+"""Preflight: after every run, an independent check of each emitted program against its part.
+
+`run_preflight` reads the programs as written (the artifacts' text, through `read`) and the part
+(the mesh, sketch or region the recipe starts from), and returns the report that goes into
+`preflight.json` and `summary.json["preflight"]`: whole-run figures (`top_gap_mm`,
+`uncovered_share`, `wire_part_volume_ratio`, `min_arc_run_mm`, `start_spread_mm`,
+`weld_data_missing`), per program and per layer, a list of problems naming layer and section, and
+a verdict `ok | warn | fail`. A recipe without a program is checked on its last toolpath.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from typing import Any
+
+from .settings import PreflightSettings
+
+__all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error"]
+
+SUMMARY_KEYS = ("top_gap_mm", "uncovered_share", "wire_part_volume_ratio", "min_arc_run_mm", "start_spread_mm",
+                "weld_data_missing")
+DEFAULT_BEAD_WIDTH_MM = 6.0
+
+
+def _part_of(graph, outputs: dict, node_id: str):
+    from ..core.model import Layered, Layer, MeshData, Midsurface
+    from .check import Part
+
+    order = [n for n in graph.order if n in graph.ancestors(node_id)]
+    for nid in order:                       # the first input in topological order is the part
+        for value in outputs.get(nid, {}).values():
+            if isinstance(value, MeshData):
+                return Part("surface" if value.surface else "solid", nid, vertices=value.vertices, faces=value.faces)
+            if isinstance(value, Midsurface):
+                return Part("midsurface", nid, curves=value.curves, z0=value.z0, height=value.height)
+    for nid in order:
+        if graph.nodes[nid].type == "rectangle":
+            for value in outputs.get(nid, {}).values():
+                if isinstance(value, Layered) and value.items and isinstance(value.items[0], Layer):
+                    return Part("region", nid, regions=[(L.z, L.thickness, L.region) for L in value.items])
+    return None
+
+
+def _bead_width(graph, node_id: str, s: PreflightSettings) -> tuple[float, str]:
+    if s.bead_width_mm:
+        return s.bead_width_mm, "preflight.bead_width_mm"
+    for nid in [n for n in graph.order if n in graph.ancestors(node_id) | {node_id}]:
+        params = graph.nodes[nid].params
+        default = getattr(params, "default", None)
+        for owner, path in ((default, f"{nid}.default.bead_width"), (params, f"{nid}.bead_width")):
+            w = getattr(owner, "bead_width", None) if owner is not None else None
+            if isinstance(w, (int, float)) and w > 0:
+                return float(w), path
+    return DEFAULT_BEAD_WIDTH_MM, "default 6 mm (no bead_width in the recipe)"
+
+
+def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str, bytes],
+                  settings: PreflightSettings | None = None) -> dict | None:
+    """The preflight report of a finished run, or None when disabled."""
+    from ..core.model import Layered, LayerPaths
+    from ..program.program import Program
+    from .check import VERDICT_ORDER, check_program
+    from .read import read_program, read_toolpath
+
+    s = settings or PreflightSettings()
+    if not s.enabled:
+        return None
+    reports = []
+    for nid in graph.order:
+        for value in outputs.get(nid, {}).values():
+            if not isinstance(value, Program):
+                continue
+            names = {f"{nid}.{suffix}" for suffix in value.files}
+            files = {n: artifacts[n].decode("utf-8", "replace") for n in sorted(names) if n in artifacts}
+            if not files:
+                continue
+            prog = read_program(value.format, files)
+            if not prog.runs and value.stats.get("tool_on_count", 0):
+                continue                    # a rolling/peening program deposits nothing
+            width, source = _bead_width(graph, nid, s)
+            rep = check_program(_part_of(graph, outputs, nid), prog, nid, s, width,
+                                weld_expected=prog.weld_commanded or prog.format == "csv")
+            rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
+            reports.append(rep)
+    if not reports:                          # no program: the last toolpath a node hands out
+        last = None
+        for nid in graph.order:
+            for value in outputs.get(nid, {}).values():
+                if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
+                    last = nid
+        doc_name = f"{last}.toolpath.json" if last else None
+        if doc_name and doc_name in artifacts:
+            prog = read_toolpath(json.loads(artifacts[doc_name]))
+            width, source = _bead_width(graph, last, s)
+            rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False)
+            rep.update(files=[doc_name], bead_width_mm=width, bead_width_source=source,
+                       notes=rep["notes"] + ["no program is emitted: the last toolpath was checked (weld data and "
+                                             "wire volume are the program's to carry)"])
+            reports.append(rep)
+    verdict = max((r["verdict"] for r in reports), key=VERDICT_ORDER.get, default="ok")
+    out: dict = {"verdict": verdict, "accepted": False}
+    for key in SUMMARY_KEYS:
+        vals = [r.get(key) for r in reports if r.get(key) is not None]
+        if not vals:
+            out[key] = None
+        elif key in ("min_arc_run_mm", "start_spread_mm"):
+            out[key] = min(vals)
+        elif key == "wire_part_volume_ratio":
+            out[key] = max(vals, key=lambda v: abs(v - 1.0))
+        else:
+            out[key] = max(vals)
+    out["programs"] = reports
+    out["problems"] = [p for r in reports for p in r["problems"]]
+    out["layers"] = reports[0]["layers"] if len(reports) == 1 else []
+    out["part"] = None
+    out["settings"] = s.model_dump(mode="json")
+    return out
+
+
+def first_error(report: dict) -> dict | None:
+    return next((p for p in report.get("problems", []) if p["severity"] == "fail"), None)
+
+
+_TRACE = re.compile(r"^(.*?)waamflow trace:(.*?)$", re.MULTILINE)
+
+
+def stamp_acceptance(files: dict[str, bytes], report: dict, who: str = "--accept-preflight") -> dict[str, bytes]:
+    """Write into each program file's header that its failed preflight was accepted (and why it
+    failed), in the file's own comment style (the line before its first `waamflow trace:` line)."""
+    names = {n for r in report.get("programs", []) for n in r.get("files", [])}
+    fails = [p for p in report.get("problems", []) if p["severity"] == "fail"]
+    text = "; ".join(f"{p['check']}: {p['message']}" for p in fails)[:600]
+    out = dict(files)
+    for name in names:
+        if name not in files or name.endswith(".json"):
+            continue
+        body = files[name].decode("utf-8", "replace")
+        m = _TRACE.search(body)
+        if not m:
+            continue
+        close = ")" if m.group(1).rstrip().endswith("(") else ""
+        line = (f"{m.group(1)}waamflow preflight: FAILED, accepted by the user ({who}): "
+                f"{text.replace('(', '[').replace(')', ']')}{close}\n")
+        out[name] = (body[:m.start()] + line + body[m.start():]).encode("utf-8")
+    return out

@@ -1,0 +1,437 @@
+"""The preflight kernel: a part and a program read back → figures, problems and a verdict.
+
+Two geometric methods, chosen by what the program is:
+- **planar slabs** (a solid or 2D-region part, every run at one height): the part is cut at the
+  middle of each deposited layer's slab (trimesh's own section, not our slicer); the slab's
+  footprint is the union of its arc-ON runs buffered by half a bead width. Covered volume =
+  Σ area(part ∩ footprint) · slab height; uncovered share = 1 − covered / part volume, so layers
+  never deposited (a missing top) count in full.
+- **3D samples** (midsurfaces, open single-wall surfaces, non-planar layers): points on the part
+  (surface samples of a wall, volume samples of a solid) are covered when the deposit passes within
+  reach: half a bead width across and the measured layer spacing along the build direction.
+
+Wire ending in the part = Σ over arc-ON segments of length / speed · WFS · π d²/4 · η, from the
+values the program commands; compared with the part's volume (a wall: its area × bead width).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, MultiLineString, MultiPolygon, Polygon
+from shapely.ops import unary_union
+
+from ..core.process import wire_area_mm2
+from .read import ProgramRead, Run
+from .settings import PreflightSettings
+
+PLANAR_TOL_MM = 0.05       # a run whose z varies less than this is planar
+MAX_SAMPLES = 200_000
+
+
+@dataclass
+class Part:
+    """What the part is, for the preflight.
+
+    kind: "solid" (closed mesh: vertices/faces), "surface" (open single-wall mesh), "midsurface"
+    (curves extruded from z0 by height), "region" (2D layers: (z, thickness, polygon) triples).
+    """
+
+    kind: str
+    node: str
+    vertices: np.ndarray | None = None
+    faces: np.ndarray | None = None
+    curves: tuple = ()
+    z0: float = 0.0
+    height: float = 0.0
+    regions: list = field(default_factory=list)
+
+    @property
+    def top(self) -> float:
+        if self.kind in ("solid", "surface"):
+            return float(self.vertices[:, 2].max())
+        if self.kind == "midsurface":
+            return self.z0 + self.height
+        return max(z for z, _t, _g in self.regions)
+
+    @property
+    def bottom(self) -> float:
+        if self.kind in ("solid", "surface"):
+            return float(self.vertices[:, 2].min())
+        if self.kind == "midsurface":
+            return self.z0
+        return min(z - t for z, t, _g in self.regions)
+
+
+class Report:
+    def __init__(self, node: str, fmt: str) -> None:
+        self.node, self.fmt = node, fmt
+        self.problems: list[dict] = []
+        self.layers: dict[int, dict] = {}
+
+    def problem(self, check: str, severity: str, message: str, *, layer=None, section=None, value=None,
+                limit=None, point=None) -> None:
+        self.problems.append({"check": check, "severity": severity, "node": self.node, "layer": layer,
+                              "section": section, "message": message, "value": _r(value), "limit": _r(limit),
+                              "point": None if point is None else [round(float(v), 3) for v in point]})
+
+    def layer(self, i: int) -> dict:
+        return self.layers.setdefault(i, {"index": i})
+
+
+def _r(v, nd: int = 4):
+    if v is None:
+        return None
+    if isinstance(v, (list, tuple)):
+        return [_r(x, nd) for x in v]
+    v = float(v)
+    return round(v, nd) if math.isfinite(v) else None
+
+
+# ---- layers of the program ------------------------------------------------------------------------
+def program_layers(prog: ProgramRead) -> list[tuple[int, list[Run]]]:
+    """The runs grouped into layers in program order: by the program's `layer N` comments, else by
+    height (a new layer whenever a run starts higher than the previous one)."""
+    if prog.runs and all(r.layer is not None for r in prog.runs):
+        groups: dict[int, list[Run]] = {}
+        for r in prog.runs:
+            groups.setdefault(r.layer, []).append(r)
+        return list(groups.items())
+    out: list[tuple[int, list[Run]]] = []
+    last_z = -math.inf
+    for r in prog.runs:
+        z = float(np.median(r.points[:, 2]))
+        if not out or z > last_z + PLANAR_TOL_MM:
+            out.append((len(out), []))
+            last_z = z
+        out[-1][1].append(r)
+    return out
+
+
+def _planar(layers: list[tuple[int, list[Run]]]) -> bool:
+    for _i, runs in layers:
+        zs = np.concatenate([r.points[:, 2] for r in runs])
+        if zs.max() - zs.min() > PLANAR_TOL_MM:
+            return False
+    return True
+
+
+def _segments(run: Run) -> tuple[np.ndarray, np.ndarray]:
+    d = np.diff(run.points, axis=0)
+    return d, np.linalg.norm(d, axis=1)
+
+
+def wire_volume(run: Run, s: PreflightSettings) -> tuple[float, int]:
+    """(metal ending in the part from this run, mm³; arc-ON segments with no commanded wire feed or
+    speed — their metal is unknown and left out)."""
+    _d, length = _segments(run)
+    ok = np.isfinite(run.wfs) & np.isfinite(run.speed) & (run.speed > 0) & (length > 0)
+    rate = run.wfs * 1000.0 / 60.0 * wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency  # mm³/s
+    vol = float(np.sum(np.where(ok, length / np.where(ok, run.speed, 1.0) * np.where(ok, rate, 0.0), 0.0)))
+    return vol, int(np.count_nonzero(~ok & (length > 0)))
+
+
+def footprint(paths: list[np.ndarray], width: float):
+    """The area the beads of these (k, 2) paths cover: each path buffered by half a bead width, plus
+    the weld pool bridging a weave: where a path comes back across within one bead width of travel
+    (the chord of three consecutive points ≤ width), the triangle they span is deposited too — an
+    oscillated bead is as wide as its weave, not a zigzag with notches."""
+    parts = []
+    for p in paths:
+        parts.append(LineString(p).buffer(width / 2.0, quad_segs=8))
+        if len(p) >= 3:
+            chord = np.linalg.norm(p[2:] - p[:-2], axis=1)
+            for i in np.nonzero(chord <= width * (1 + 1e-9))[0]:
+                tri = Polygon(p[i:i + 3])
+                if tri.area > 1e-9:
+                    parts.append(tri.buffer(width / 2.0, quad_segs=4))
+    return unary_union(parts) if parts else Polygon()
+
+
+# ---- coverage: planar slabs ----------------------------------------------------------------------
+def _section_polygons(part: Part, z: float, mesh=None):
+    if part.kind == "region":
+        best = min(part.regions, key=lambda r: abs((r[0] - r[1] / 2) - z))
+        return best[2]
+    sec = mesh.section(plane_origin=[0, 0, z], plane_normal=[0, 0, 1])
+    if sec is None:
+        return MultiPolygon()
+    polys = []
+    for path in sec.discrete:
+        if len(path) >= 4:
+            pg = Polygon(path[:, :2])
+            if not pg.is_valid:
+                pg = pg.buffer(0)
+            polys.append(pg)
+    if not polys:
+        return MultiPolygon()
+    # even-odd: nested loops are holes
+    geom = polys[0]
+    for pg in polys[1:]:
+        geom = geom.symmetric_difference(pg)
+    return geom
+
+
+def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
+    mesh = None
+    if part.kind == "solid":
+        import trimesh
+
+        mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+        part_volume = float(abs(mesh.volume))
+    else:
+        part_volume = float(sum(t * g.area for _z, t, g in part.regions))
+    covered_vol = 0.0
+    prev_top = part.bottom
+    over_area = 0.0
+    for idx, runs in layers:
+        z = float(np.median(np.concatenate([r.points[:, 2] for r in runs])))
+        h = max(z - prev_top, 1e-6)
+        prev_top = z
+        section = _section_polygons(part, z - h / 2, mesh)
+        foot = footprint([r.points[:, :2] for r in runs if len(r.points) > 1], width)
+        area = float(section.area)
+        cov = float(section.intersection(foot).area) if area > 0 else 0.0
+        covered_vol += cov * h
+        unc = section.difference(foot) if area > 0 else Polygon()
+        over_area += float(foot.difference(section).area) * h
+        L = rep.layer(idx)
+        L.update(z=_r(z, 3), height_mm=_r(h, 3), part_area_mm2=_r(area, 2), uncovered_mm2=_r(area - cov, 2),
+                 uncovered_share=_r((area - cov) / area) if area > 0 else None, part_mm3=_r(area * h, 1))
+        if area > 0 and not unc.is_empty:
+            biggest = max(shapely.get_parts(unc), key=lambda g: g.area)
+            L["uncovered_point"] = [round(biggest.representative_point().x, 3),
+                                    round(biggest.representative_point().y, 3), round(z - h / 2, 3)]
+    share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
+    return {"part_volume_mm3": part_volume, "uncovered_share": share, "outside_mm3": over_area,
+            "method": "planar slabs"}
+
+
+# ---- coverage: 3D samples -------------------------------------------------------------------------
+def _resample(points: np.ndarray, step: float) -> np.ndarray:
+    d = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(d)])
+    if s[-1] <= 0:
+        return points[:1]
+    t = np.linspace(0.0, s[-1], max(2, int(math.ceil(s[-1] / step)) + 1))
+    return np.column_stack([np.interp(t, s, points[:, k]) for k in range(3)])
+
+
+def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float]:
+    """(n, 3) samples and the volume they stand for (a wall: area × 1, multiplied by the width later)."""
+    if part.kind == "midsurface":
+        out = []
+        area = 0.0
+        zs = np.arange(part.z0 + step / 2, part.z0 + part.height, step)
+        for c in part.curves:
+            pts = np.column_stack([_resample(np.column_stack([c, np.zeros(len(c))]), step)[:, :2]])
+            length = float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum())
+            area += length * part.height
+            out.append(np.column_stack([np.repeat(pts, len(zs), axis=0), np.tile(zs, len(pts))]))
+        return np.vstack(out), area
+    import trimesh
+
+    # a solid with non-planar layers is checked on its boundary: every point of it must lie within
+    # reach of a bead (interior voids of thick parts are the planar check's to find)
+    mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+    n = int(min(MAX_SAMPLES, max(1000, mesh.area / step ** 2)))
+    pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
+    return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area)
+
+
+def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings) -> dict:
+    from scipy.spatial import cKDTree
+
+    step = s.sample_mm or max(width / 4.0, 0.5)
+    samples, measure = _part_samples(part, step)
+    dep, dep_layer = [], []
+    for idx, runs in layers:
+        for r in runs:
+            p = _resample(r.points, min(step, width / 4.0))
+            dep.append(p)
+            dep_layer.append(np.full(len(p), idx))
+    if not dep or len(samples) == 0:
+        return {"part_volume_mm3": measure * (width if part.kind != "solid" else 1.0), "uncovered_share": 1.0,
+                "method": "3D samples", "top_gap_mm": None}
+    dep = np.vstack(dep)
+    dep_layer = np.concatenate(dep_layer)
+    # layer spacing measured from the program: each layer's points to the previous layer's
+    spacing = []
+    order = [idx for idx, _ in layers]
+    for a, b in zip(order, order[1:]):
+        pa, pb = dep[dep_layer == a], dep[dep_layer == b]
+        if len(pa) and len(pb):
+            spacing.append(cKDTree(pa).query(pb)[0])
+    h = float(np.percentile(np.concatenate(spacing), 95)) if spacing else width / 2.0
+    tree = cKDTree(dep)
+    dist, near = tree.query(samples)
+    if part.kind == "solid":
+        reach = math.hypot(width / 2.0, h) * 1.05 + step / 2.0
+    else:
+        reach = max(h, width / 2.0) * 1.1 + step / 2.0
+    unc = dist > reach
+    share = float(unc.mean())
+    lay = dep_layer[near]
+    for idx, _runs in layers:
+        m = lay == idx
+        if m.any():
+            L = rep.layer(idx)
+            L.update(samples=int(m.sum()), uncovered_share=_r(float(unc[m].mean())))
+    gap = float(max(0.0, dist.max() - reach))
+    worst = samples[int(np.argmax(dist))]
+    return {"part_volume_mm3": measure * (width if part.kind != "solid" else 1.0), "uncovered_share": share,
+            "method": "3D samples", "layer_spacing_mm": h, "top_gap_mm": gap, "worst_point": worst,
+            "worst_layer": int(lay[int(np.argmax(dist))]), "reach_mm": reach,
+            "uncovered_by_layer": {}}
+
+
+# ---- the whole check -----------------------------------------------------------------------------
+def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightSettings, width: float,
+                  *, weld_expected: bool = True) -> dict:
+    rep = Report(node, prog.format)
+    layers = program_layers(prog)
+    out: dict = {"node": node, "format": prog.format, "runs": len(prog.runs), "layers_deposited": len(layers),
+                 "notes": list(prog.notes)}
+    if not prog.runs:
+        rep.problem("program", "fail", f"program {node} has no arc-ON motion: nothing would be deposited")
+        return _finish(out, rep, s)
+    planar = _planar(layers)
+    # top
+    top_dep = max(float(r.points[:, 2].max()) for r in prog.runs)
+    heights = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _i, runs in layers]
+    h_typ = float(np.median(np.diff([part.bottom if part else 0.0] + heights))) if planar and heights else None
+    # coverage
+    cov = None
+    if part is not None:
+        if planar and part.kind in ("solid", "region"):
+            cov = coverage_planar(part, layers, width, rep)
+            top_gap = part.top - max(heights)
+        else:
+            cov = coverage_3d(part, layers, width, rep, s)
+            top_gap = cov.get("top_gap_mm")
+            h_typ = cov.get("layer_spacing_mm")
+        out.update(part_top_mm=_r(part.top, 3), deposit_top_mm=_r(top_dep, 3), top_gap_mm=_r(top_gap, 3),
+                   uncovered_share=_r(cov["uncovered_share"]), part_volume_mm3=_r(cov["part_volume_mm3"], 1),
+                   coverage_method=cov["method"], layer_height_mm=_r(h_typ, 3))
+        last_idx, last_runs = layers[-1]
+        if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
+            p = cov.get("worst_point") if not planar else None
+            rep.problem("top_gap", "fail",
+                        f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
+                        f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
+                        layer=last_idx, value=top_gap, limit=s.top_gap_max_layers * h_typ, point=p)
+        elif top_gap is not None and h_typ and planar and -top_gap > s.overshoot_warn_layers * h_typ:
+            rep.problem("top_gap", "warn", f"the deposit ends {-top_gap:.2f} mm above the part's top "
+                        f"({part.top:.2f} mm) at layer {last_idx}", layer=last_idx, value=top_gap)
+        share = cov["uncovered_share"]
+        if share > s.uncovered_warn:
+            sev = "fail" if share > s.uncovered_fail else "warn"
+            worst = max((L for L in rep.layers.values() if L.get("uncovered_share") is not None),
+                        key=lambda L: L["uncovered_share"], default=None)
+            where = ""
+            if worst is not None and worst["uncovered_share"] > 0:
+                where = (f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
+                         + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
+                         + "without a bead")
+            rep.problem("uncovered", sev, f"{share * 100:.1f} % of the part gets no bead{where}: add a mask "
+                        "section or a filling pattern there", layer=worst["index"] if worst else None,
+                        value=share, limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
+                        point=(worst or {}).get("uncovered_point"))
+    # wire fed vs metal needed
+    wire_total, missing = 0.0, 0
+    for idx, runs in layers:
+        w = 0.0
+        for r in runs:
+            v, m = wire_volume(r, s)
+            w += v
+            missing += m
+        L = rep.layer(idx)
+        L["wire_mm3"] = _r(w, 1)
+        if L.get("part_mm3"):
+            L["volume_ratio"] = _r(w / L["part_mm3"], 3)
+    seg_total = sum(len(r.speed) for r in prog.runs)
+    weld_missing = sum(int(np.count_nonzero(~r.weld)) for r in prog.runs)
+    out["weld_data_missing"] = weld_missing if weld_expected else None
+    ratio = None
+    if part is not None and cov and cov["part_volume_mm3"] > 0 and missing == 0:
+        ratio = wire_total_all(layers, s) / cov["part_volume_mm3"]
+    out["wire_mm3"] = _r(wire_total_all(layers, s), 1) if missing == 0 else None
+    out["wire_part_volume_ratio"] = _r(ratio, 3)
+    if weld_expected and weld_missing and s.weld_data != "off":
+        first = next(r for r in prog.runs if (~r.weld).any())
+        rep.problem("weld_data", s.weld_data,
+                    f"{weld_missing} of {seg_total} arc-ON moves have no weld parameter commanded (first: layer "
+                    f"{first.layer}, section {first.section}): the power source would weld with whatever job it "
+                    "holds; command wire feed/current in the machine profile (comments do not count)",
+                    layer=first.layer, section=first.section, value=weld_missing, limit=0,
+                    point=first.points[0])
+    if ratio is not None:
+        lo, hi = s.volume_ratio_ok
+        flo, fhi = s.volume_ratio_fail
+        if not lo <= ratio <= hi:
+            sev = "fail" if not flo <= ratio <= fhi else "warn"
+            word = "more" if ratio > hi else "less"
+            worst = max((L for L in rep.layers.values() if L.get("volume_ratio")),
+                        key=lambda L: abs(math.log(L["volume_ratio"])), default=None)
+            rep.problem("volume_ratio", sev,
+                        f"the wire fed puts {ratio:.2f}× the part's volume into it ({word} metal than the part "
+                        f"needs; wire {s.wire_diameter_mm} mm, deposition efficiency {s.deposition_efficiency}): "
+                        "balance wire feed and travel speed in the zone parameters (fill-parameters does)",
+                        layer=worst["index"] if worst else None, value=ratio, limit=hi if ratio > hi else lo)
+    # arc runs
+    min_run = s.min_arc_run_mm if s.min_arc_run_mm is not None else 2.0 * width
+    lengths = [(r.length, r) for r in prog.runs]
+    out["min_arc_run_mm"] = _r(min(v for v, _ in lengths), 3)
+    short = [(v, r) for v, r in lengths if v < min_run]
+    for idx, runs in layers:
+        rep.layer(idx)["min_arc_run_mm"] = _r(min(r.length for r in runs), 3)
+    if short:
+        v, r = min(short, key=lambda t: t[0])
+        rep.problem("arc_run", "warn", f"{len(short)} arc-ON runs are shorter than {min_run:.1f} mm (shortest "
+                    f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
+                    "(sequence `min_arc_run_mm`)", layer=r.layer, section=r.section, value=v, limit=min_run,
+                    point=r.points[0])
+    # ignitions
+    spread = None
+    stacked = []
+    prev = None
+    for idx, runs in layers:
+        starts = np.array([r.points[0] for r in runs])
+        rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
+        if prev is not None and len(prev):
+            diff = starts[:, None, :] - prev[None, :, :]
+            if planar:
+                diff = diff[..., :2]
+            d = np.linalg.norm(diff, axis=2).min(axis=1)
+            spread = float(d.min()) if spread is None else min(spread, float(d.min()))
+            for k in np.nonzero(d < width)[0]:
+                stacked.append((idx, runs[k], float(d[k])))
+        prev = starts
+    out["start_spread_mm"] = _r(spread, 3)
+    out["stacked_starts"] = len(stacked)
+    if stacked and s.stacked_starts != "off":
+        idx, r, d = stacked[0]
+        rep.problem("stacked_starts", s.stacked_starts,
+                    f"{len(stacked)} ignitions lie within one bead width ({width:g} mm) of an ignition on the "
+                    f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
+                    "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
+                    layer=idx, section=r.section, value=d, limit=width, point=r.points[0])
+    return _finish(out, rep, s)
+
+
+def wire_total_all(layers, s: PreflightSettings) -> float:
+    return sum(wire_volume(r, s)[0] for _i, runs in layers for r in runs)
+
+
+def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:
+    sev = {p["severity"] for p in rep.problems}
+    out["verdict"] = "fail" if "fail" in sev else "warn" if "warn" in sev else "ok"
+    out["problems"] = rep.problems
+    out["layers"] = [rep.layers[k] for k in sorted(rep.layers)]
+    return out
+
+
+VERDICT_ORDER = {"ok": 0, "warn": 1, "fail": 2}

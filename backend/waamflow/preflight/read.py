@@ -1,0 +1,540 @@
+"""Read an emitted program back into welded runs — from the text as written, not the planner's objects.
+
+One reader per format (G-code, KUKA KRL, ABB RAPID, cutter-location CSV, compas print points, and a
+toolpath JSON for recipes that write no program). Each gives the same `ProgramRead`: the arc-ON runs
+in program order, each with its points (mm, part frame), the programmed speed and the commanded wire
+feed of every segment, and the layer/section the program's own comments put it in (for messages).
+
+What counts as weld data is what the controller executes: a G-code command matched by the program's
+`waamflow-weld:` header (`name=TEMPLATE` pairs), a KRL ArcTech weld data set's channel, an `$ANOUT`
+named in the KRL header, RAPID welddata/arcdata values. Comments never count.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_LAYER = re.compile(r"\blayer (\d+)\b")
+_SECTION = re.compile(r"\bsection (\S+)")
+_WELD_TAG = re.compile(r"waamflow-weld:\s*(.*)$")
+_PAIR = re.compile(r"(?<![\w\]@])(\w+)(?:\[[^\]]*\])?(?:@\w+)?=(\"[^\"]*\"|\S+)")
+WELD_NAMES = ("wire_feed_speed", "current", "voltage", "job")
+
+
+@dataclass
+class Run:
+    """One arc-ON run: ignition to extinction.
+
+    points: (k, 3) float mm. speed: (k - 1,) float mm/s (nan: not stated). wfs: (k - 1,) float
+    m/min (nan: not commanded). weld: (k - 1,) bool, some weld parameter commanded for the segment.
+    """
+
+    points: np.ndarray
+    speed: np.ndarray
+    wfs: np.ndarray
+    weld: np.ndarray
+    layer: int | None
+    section: str | None
+    line: int
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(np.diff(self.points, axis=0), axis=1).sum()) if len(self.points) > 1 else 0.0
+
+
+@dataclass
+class ProgramRead:
+    format: str
+    runs: list[Run] = field(default_factory=list)
+    travel_mm: float = 0.0
+    notes: list[str] = field(default_factory=list)   # what the reader could not interpret
+    weld_commanded: bool = True                      # False: the format carries no weld data at all
+
+
+class _RunBuilder:
+    """Collects motions while the arc is on; layer/section from the program's comments."""
+
+    def __init__(self, fmt: str) -> None:
+        self.out = ProgramRead(fmt)
+        self.layer: int | None = None
+        self.section: str | None = None
+        self.pts: list | None = None
+        self.speed: list[float] = []
+        self.wfs: list[float] = []
+        self.weld: list[bool] = []
+        self.line = 0
+        self.run_layer: int | None = None
+        self.run_section: str | None = None
+        self.pos: np.ndarray | None = None
+        self.pending: str | None = None       # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
+
+    def comment(self, text: str) -> None:
+        m = _LAYER.search(text)
+        if m and text.lstrip(" -;!#(").startswith("layer"):
+            self.layer = int(m.group(1))
+        m = _SECTION.search(text)
+        if m and text.lstrip(" -;!#(").startswith("section"):
+            self.section = m.group(1)
+
+    def arc_on(self, line: int) -> None:
+        self.close()
+        start = self.pos if self.pos is not None else np.full(3, np.nan)
+        self.pts, self.speed, self.wfs, self.weld, self.line = [start.copy()], [], [], [], line
+        self.run_layer, self.run_section = self.layer, self.section
+
+    def close(self) -> None:
+        if self.pts is not None and len(self.pts) > 1 and np.isfinite(self.pts[0]).all():
+            self.out.runs.append(Run(np.asarray(self.pts, float), np.asarray(self.speed, float),
+                                     np.asarray(self.wfs, float), np.asarray(self.weld, bool),
+                                     self.run_layer, self.run_section, self.line))
+        self.pts = None
+
+    def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
+        targets = np.atleast_2d(np.asarray(targets, float))
+        if self.pts is not None:
+            if not np.isfinite(self.pts[0]).all():    # arc on before any position: start where it first moves
+                self.pts = [targets[0]]
+                targets = targets[1:]
+            for t in targets:
+                self.pts.append(t)
+                self.speed.append(speed)
+                self.wfs.append(wfs)
+                self.weld.append(weld)
+        elif self.pos is not None:
+            seg = np.vstack([self.pos, targets])
+            self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
+        self.pos = targets[-1].copy()
+        if self.pending == "off":
+            self.close()
+        elif self.pending == "on":
+            self.arc_on(self.line)
+        self.pending = None
+
+
+# ---- G-code -------------------------------------------------------------------------------------
+_GWORD = re.compile(r"([A-Z])\s*(" + NUM + ")")
+_POST_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
+                       r"(?:\s+feed_units=(mm/min|mm/s))?")
+
+
+def _template_regex(template: str) -> tuple[re.Pattern, float]:
+    """A command template (`M67 E0 Q{value:.2f}`, `M68 E1 Q{value*0.1}`) → a regex capturing the
+    value; fixed words must match, `{value…}` captures a number."""
+    parts = re.split(r"\{value[^}]*\}", template.strip())
+    if len(parts) != 2:
+        raise ValueError(f"weld command template {template!r} must hold one {{value}}")
+    words = [re.escape(p.strip()).replace(r"\ ", r"\s*") for p in parts]
+    rx = r"^\s*" + words[0] + (r"\s*" if words[0] else "") + "(" + NUM + ")" + r"\s*" + words[1] + r"\s*$"
+    return re.compile(rx, re.IGNORECASE), 1.0
+
+
+def _weld_templates(text: str) -> dict[str, list[re.Pattern]]:
+    """parameter → the command patterns that set it (`name[unit]="TPL"`, `name[unit]@start="TPL"`)."""
+    out: dict[str, list[re.Pattern]] = {}
+    for line in text.splitlines()[:200]:
+        m = _WELD_TAG.search(line)
+        if not m:
+            continue
+        for name, tpl in _PAIR.findall(m.group(1)):
+            tpl = tpl.strip('"').replace("_", " ") if not tpl.startswith('"') else tpl.strip('"')
+            try:
+                out.setdefault(name, []).append(_template_regex(tpl)[0])
+            except ValueError:
+                continue
+    return out
+
+
+def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> np.ndarray:
+    c = p0[:2] + (i, j)
+    a0 = math.atan2(p0[1] - c[1], p0[0] - c[0])
+    a1 = math.atan2(p1[1] - c[1], p1[0] - c[0])
+    sweep = a1 - a0
+    if cw and sweep >= 0:
+        sweep -= 2 * math.pi
+    elif not cw and sweep <= 0:
+        sweep += 2 * math.pi
+    r = float(np.hypot(*(p0[:2] - c)))
+    n = max(1, int(math.ceil(abs(sweep) / math.radians(5))))
+    t = np.arange(1, n + 1) / n
+    a = a0 + sweep * t
+    pts = np.column_stack([c[0] + r * np.cos(a), c[1] + r * np.sin(a), p0[2] + (p1[2] - p0[2]) * t])
+    pts[-1] = p1
+    return pts
+
+
+def read_gcode(text: str) -> ProgramRead:
+    tag = _POST_TAG.search(text)
+    arc_on = (tag.group(1) if tag else "M3").replace("_", " ").upper().split()
+    arc_off = (tag.group(2) if tag else "M5").replace("_", " ").upper().split()
+    per_s = tag is not None and tag.group(4) == "mm/s"
+    weld_rx = _weld_templates(text)
+    b = _RunBuilder("gcode")
+    if not weld_rx:
+        b.out.notes.append("no `waamflow-weld:` header: the program commands no weld parameter the reader knows")
+    feed = math.nan
+    motion = 0
+    values: dict[str, float] = {}
+    for ln, raw in enumerate(text.splitlines(), start=1):
+        code, _, comment = raw.partition(";")
+        parens = re.findall(r"\(([^)]*)\)", code)
+        code = re.sub(r"\([^)]*\)", " ", code).strip()
+        for c in [comment, *parens]:
+            if c.strip():
+                b.comment(c.strip())
+        if not code:
+            continue
+        upper = code.upper()
+        words = [f"{a}{float(v):g}" for a, v in _GWORD.findall(upper)]
+        if words == [f"{w[0]}{float(w[1:]):g}" for w in arc_on]:
+            b.arc_on(ln)
+            continue
+        if words == [f"{w[0]}{float(w[1:]):g}" for w in arc_off]:
+            b.close()
+            continue
+        matched = False
+        for name, rxs in weld_rx.items():
+            for rx in rxs:
+                m = rx.match(code)
+                if m:
+                    values[name] = float(m.group(1))
+                    matched = True
+        if matched:
+            continue
+        vals: dict[str, float] = {}
+        gs: list[float] = []
+        for a, v in _GWORD.findall(upper):
+            if a == "G":
+                gs.append(float(v))
+            else:
+                vals[a] = float(v)
+        for g in gs:
+            if g in (0, 1, 2, 3):
+                motion = int(g)
+        if "F" in vals:
+            feed = vals["F"] * (1.0 if per_s else 1.0 / 60.0)
+        if 4 in gs or not any(k in vals for k in "XYZ"):
+            continue
+        here = b.pos if b.pos is not None else np.zeros(3)
+        target = here.copy()
+        for axis, k in enumerate("XYZ"):
+            if k in vals:
+                target[axis] = vals[k]
+        seg = (_gcode_arc(here, target, vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
+               if motion in (2, 3) else target[None])
+        speed = math.nan if motion == 0 else feed
+        b.move(seg, speed, values.get("wire_feed_speed", math.nan), bool(values))
+    b.close()
+    return b.out
+
+
+# ---- KUKA KRL -----------------------------------------------------------------------------------
+_E6 = re.compile(r"DECL\s+E6POS\s+(\w+)\s*=\s*\{([^}]*)\}", re.IGNORECASE)
+_FIELD = re.compile(r"([A-Z]\w*)\s+(" + NUM + ")", re.IGNORECASE)
+_WDAT = re.compile(r"DECL\s+stArcDat_T\s+(\w+)\s*=\s*\{(.*)\}\s*$", re.IGNORECASE)
+_CHANNELS = re.compile(r"channels\s+([^)]*?)\)")
+_ANOUT_TAG = re.compile(r"\$ANOUT\[(\d+)\]")
+
+
+def _krl_points(dat: str) -> dict[str, np.ndarray]:
+    pts = {}
+    for name, body in _E6.findall(dat):
+        f = {k.upper(): float(v) for k, v in _FIELD.findall(body)}
+        pts[name.upper()] = np.array([f.get("X", 0.0), f.get("Y", 0.0), f.get("Z", 0.0)])
+    return pts
+
+
+def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]:
+    out = {}
+    for line in dat.splitlines():
+        m = _WDAT.search(line)
+        if not m:
+            continue
+        weld = re.search(r"Weld\s*\{([^}]*)\}", m.group(2))
+        if not weld:
+            continue
+        f = dict(_FIELD.findall(weld.group(1)))
+        vals = {}
+        for ch, name in channels.items():
+            v = f.get(f"Channel{ch}")
+            if v is not None and float(v) != 0.0:
+                vals[name] = float(v)
+        out[m.group(1).upper()] = vals
+    return out
+
+
+def read_krl(files: dict[str, str]) -> ProgramRead:
+    """files: artifact name → text of every .src/.dat of one program. Follows the main program's
+    subprogram calls in order."""
+    srcs = {n: t for n, t in files.items() if n.lower().endswith(".src")}
+    dats = {n[:-4]: t for n, t in files.items() if n.lower().endswith(".dat")}
+    by_def: dict[str, str] = {}
+    for n, t in srcs.items():
+        m = re.search(r"^\s*DEF\s+(\w+)\s*\(", t, re.MULTILINE | re.IGNORECASE)
+        if m:
+            by_def[m.group(1).upper()] = n
+    called = set()
+    for t in srcs.values():
+        called |= {c.upper() for c in re.findall(r"^\s*(\w+)\(\s*\)\s*$", t, re.MULTILINE)}
+    mains = [n for d, n in by_def.items() if d not in called]
+    main = mains[0] if mains else next(iter(srcs))
+    header = srcs[main]
+    channels: dict[int, str] = {}
+    m = _CHANNELS.search(header)
+    if m:
+        for ch, name in re.findall(r"(\d+)\s+(\w+)", m.group(1)):
+            channels[int(ch)] = name
+    anout: dict[str, str] = {}      # `$ANOUT[n]` → parameter, from the header's waamflow-weld tag
+    for line in header.splitlines()[:200]:
+        t = _WELD_TAG.search(line)
+        if t:
+            for name, tpl in _PAIR.findall(t.group(1)):
+                a = _ANOUT_TAG.search(tpl)
+                if a:
+                    anout[a.group(1)] = name
+    b = _RunBuilder("krl")
+    state = {"vel": math.nan, "values": {}, "wdat": None, "arc_after_move": False, "off_after_move": False}
+    out_no = re.search(r"digital output \$OUT\[(\d+)\]", header)
+    out_no = out_no.group(1) if out_no else None
+
+    def walk(name: str, depth: int = 0) -> None:
+        if depth > 4:
+            return
+        text = srcs[name]
+        stem = name[:-4]
+        pts = _krl_points(dats.get(stem, ""))
+        wdats = _krl_wdat(dats.get(stem, ""), channels)
+        for ln, raw in enumerate(text.splitlines(), start=1):
+            code, _, comment = raw.partition(";")
+            if comment.strip():
+                b.comment(comment.strip())
+            code = code.strip()
+            if not code:
+                continue
+            up = code.upper()
+            call = re.fullmatch(r"(\w+)\(\s*\)", code)
+            if call and call.group(1).upper() in by_def and by_def[call.group(1).upper()] != name:
+                walk(by_def[call.group(1).upper()], depth + 1)
+                continue
+            v = re.match(r"\$VEL\.CP\s*=\s*(" + NUM + ")", up)
+            if v:
+                state["vel"] = float(v.group(1)) * 1000.0
+                continue
+            a = re.match(r"\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
+            if a and a.group(1) in anout:
+                state["values"][anout[a.group(1)]] = float(a.group(2))
+                continue
+            trig = re.match(r"TRIGGER\s+WHEN\s+DISTANCE\s*=\s*([01])\b.*\bDO\s+\$OUT\[(\d+)\]\s*=\s*(TRUE|FALSE)", up)
+            if out_no and trig and trig.group(2) == out_no:
+                if trig.group(1) == "0":          # at the start of the next motion
+                    (b.arc_on(ln) if trig.group(3) == "TRUE" else b.close())
+                else:                             # at its end
+                    b.line = ln
+                    b.pending = "on" if trig.group(3) == "TRUE" else "off"
+                continue
+            if out_no and re.match(r"\$OUT\[" + out_no + r"\]\s*=\s*TRUE", up):
+                b.arc_on(ln)
+                continue
+            if out_no and re.match(r"\$OUT\[" + out_no + r"\]\s*=\s*FALSE", up):
+                b.close()
+                continue
+            arc = re.match(r"ARCMAINNG\(#(\w+)\s*,\s*(\w+)", up)
+            if arc:
+                action, wdat = arc.group(1), arc.group(2)
+                if action == "ARCONAFTERMOVESTD":
+                    b.arc_on(ln)
+                    state["wdat"] = wdat
+                elif action in ("ARCSWIBEFOREMOVESTD",):
+                    state["wdat"] = wdat
+                elif action == "ARCOFFBEFOREMOVESTD":
+                    state["wdat"] = wdat
+                elif action == "ARCOFFAFTERMOVESTD":
+                    b.close()
+                continue
+            mv = re.match(r"(LIN|PTP|CIRC)\s+(\w+)(?:\s*,\s*(\w+))?", up)
+            if mv:
+                kind, p1, p2 = mv.group(1), mv.group(2), mv.group(3)
+                if p1 not in pts or (kind == "CIRC" and p2 not in pts):
+                    b.out.notes.append(f"{name} line {ln}: target {p1} not declared in the .dat")
+                    continue
+                target = pts[p2] if kind == "CIRC" else pts[p1]
+                seg = np.vstack([pts[p1], target]) if kind == "CIRC" else target[None]
+                vals = dict(state["values"])
+                if state["wdat"] is not None:
+                    vals.update(wdats.get(state["wdat"], {}))
+                speed = state["vel"] if kind != "PTP" else math.nan
+                b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
+        return
+
+    walk(main)
+    b.close()
+    if not channels and not anout:
+        b.out.notes.append("no weld channels or analog outputs named in the header: the program commands no weld parameter")
+    return b.out
+
+
+# ---- ABB RAPID ----------------------------------------------------------------------------------
+_ROBT = re.compile(r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\]",
+                   re.IGNORECASE)
+_SPEED = re.compile(r"speeddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + ")", re.IGNORECASE)
+_WELD = re.compile(r"welddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*\[([^\]]*)\]", re.IGNORECASE)
+_RAPID_MOVE = re.compile(r"^\s*(MoveL|MoveJ|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCStart|ArcCEnd)\s+(.*?);", re.IGNORECASE)
+_ARCDATA_DEFAULT = ("job", "mode", "voltage", "wire_feed_speed", "control", "current")
+
+
+def read_rapid(text: str) -> ProgramRead:
+    pts = {n.lower(): np.array([float(x), float(y), float(z)]) for n, x, y, z in _ROBT.findall(text)}
+    speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
+    builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
+    fields = _ARCDATA_DEFAULT
+    m = re.search(r"arcdata\s*=\s*\[([^\]]*)\]", text)
+    if m:
+        fields = tuple(("wire_feed_speed" if "wirefeed" in f else "current" if "current" in f else
+                        "voltage" if "voltage" in f and "2" not in f else "job" if "job" in f else f.strip())
+                       for f in m.group(1).split(","))
+    welds: dict[str, dict[str, float]] = {}
+    for name, speed, _org, main in _WELD.findall(text):
+        vals = [float(v) for v in re.findall(NUM, main)]
+        d = {}
+        for f, v in zip(fields, vals):
+            if f in WELD_NAMES and v != 0.0:
+                d[f] = v
+        welds[name.lower()] = d | {"_speed": float(speed)}
+    b = _RunBuilder("rapid")
+    for ln, raw in enumerate(text.splitlines(), start=1):
+        code, _, comment = raw.partition("!")
+        if comment.strip():
+            b.comment(comment.strip())
+        m = _RAPID_MOVE.match(code)
+        if not m:
+            continue
+        instr = m.group(1).lower()
+        args = [a.strip() for a in re.split(r",(?![^\[]*\])", m.group(2))]
+        names = [a.split("\\")[0].lower() for a in args]
+        circ = instr in ("movec", "arcc", "arccstart", "arccend")
+        targets = names[:2] if circ else names[:1]
+        if any(t not in pts for t in targets):
+            b.out.notes.append(f"line {ln}: target {targets} not declared")
+            continue
+        seg = np.vstack([pts[t] for t in targets])
+        sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
+        weld = next((welds[n] for n in names if n in welds), None)
+        speed = speeds.get(sp, builtin.get(sp, math.nan))
+        if weld is not None and weld.get("_speed"):
+            speed = weld["_speed"]              # ArcWare: the weld speed of welddata governs the weld
+        vals = {k: v for k, v in (weld or {}).items() if not k.startswith("_")}
+        if instr in ("arclstart", "arccstart"):
+            b.move(seg, math.nan, math.nan, False)   # moves to the start, the arc strikes there
+            b.arc_on(ln)
+            continue
+        b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
+        if instr in ("arclend", "arccend"):
+            b.close()
+    b.close()
+    return b.out
+
+
+# ---- cutter location CSV, print points, toolpath JSON ----------------------------------------------
+def read_cl_csv(text: str) -> ProgramRead:
+    lines = [ln for ln in text.splitlines() if ln and not ln.startswith("#")]
+    head = lines[0].split(",")
+    col = {h.strip(): i for i, h in enumerate(head)}
+    b = _RunBuilder("csv")
+    wfs_col = next((c for c in ("wire_feed_speed_m_min", "wire_feed_speed", "wfs_m_min") if c in col), None)
+    if wfs_col is None:
+        b.out.weld_commanded = False
+        b.out.notes.append("the CL file has no wire feed column")
+    arc_prev = False
+    for ln, row in enumerate(lines[1:], start=2):
+        f = row.split(",")
+        p = np.array([float(f[col["x"]]), float(f[col["y"]]), float(f[col["z"]])])
+        arc = f[col["arc"]].strip() in ("1", "true", "True")
+        b.layer = int(f[col["layer"]]) if f[col["layer"]].strip() else b.layer
+        b.section = f[col["section"]] or b.section
+        if arc and not arc_prev:
+            b.arc_on(ln)
+        if not arc and arc_prev:
+            b.close()
+        sp = f[col["speed_mm_s"]].strip()
+        w = f[wfs_col].strip() if wfs_col else ""
+        b.move(p[None], float(sp) if sp else math.nan, float(w) if w else math.nan, bool(w))
+        arc_prev = arc
+    b.close()
+    return b.out
+
+
+def read_printpoints(text: str) -> ProgramRead:
+    data = json.loads(text)
+    entries = data if isinstance(data, list) else [data[k] for k in sorted(data, key=lambda s: int(s))] \
+        if all(str(k).isdigit() for k in data) else data.get("points", [])
+    b = _RunBuilder("printpoints")
+    b.out.weld_commanded = any("wire_feed_speed" in e for e in entries)
+    on = False
+    for i, e in enumerate(entries):
+        p = np.asarray(e["point"], float)
+        b.layer = e.get("layer", b.layer)
+        b.section = e.get("section", b.section)
+        toggle = bool(e.get("extruder_toggle"))
+        if toggle and not on:
+            b.move(p[None], math.nan, math.nan, False)
+            b.arc_on(i)
+            on = True
+            continue
+        w = e.get("wire_feed_speed")
+        b.move(p[None], float(e.get("velocity") or math.nan), float(w) if w is not None else math.nan, w is not None)
+        if not toggle and on:
+            b.close()
+            on = False
+    b.close()
+    return b.out
+
+
+def read_toolpath(doc: dict) -> ProgramRead:
+    """A `<node>.toolpath.json` for recipes that write no program: the arc-ON runs and the zone
+    parameters in force (weld data as the toolpath states it)."""
+    b = _RunBuilder("toolpath")
+    for layer in doc.get("layers", []):
+        b.layer = layer.get("index")
+        for sec in layer.get("sections", []):
+            b.section = sec.get("key")
+            pts = np.asarray(sec.get("points", []), float)
+            arcs = sec.get("arc", [])
+            speeds = sec.get("speed", [])
+            zones = sec.get("zone", [])
+            zp = sec.get("zone_params", {})
+            if len(pts) == 0:
+                continue
+            b.close()
+            b.pos = pts[0].copy()
+            for i in range(len(pts) - 1):
+                if arcs[i] and b.pts is None:
+                    b.arc_on(0)
+                elif not arcs[i] and b.pts is not None:
+                    b.close()
+                params = zp.get(zones[i], {}) if i < len(zones) else {}
+                w = params.get("wire_feed_speed")
+                b.move(pts[i + 1][None], float(speeds[i]) if i < len(speeds) else math.nan,
+                       float(w) if w is not None else math.nan, bool(params))
+            b.close()
+    b.out.weld_commanded = False
+    return b.out
+
+
+def read_program(fmt: str, files: dict[str, str]) -> ProgramRead:
+    """fmt: the post-process format; files: artifact name → text."""
+    if fmt == "gcode":
+        return read_gcode(next(iter(files.values())))
+    if fmt == "krl":
+        return read_krl(files)
+    if fmt == "rapid":
+        return read_rapid("\n".join(files.values()))
+    if fmt == "csv":
+        return read_cl_csv(next(iter(files.values())))
+    if fmt == "printpoints":
+        return read_printpoints(next(iter(files.values())))
+    raise ValueError(f"preflight cannot read format {fmt!r}")

@@ -1,0 +1,57 @@
+"""The preflight's thresholds: a recipe's optional top-level `"preflight": {...}` block.
+
+Defaults are what a WAAM engineer would sign off: the top within half a layer, at most 2 % of the
+part without a bead (fail above 5 %), wire ending in the part 0.9–1.2× the part's volume (fail
+outside 0.75–1.5×: machining stock is wanted, three times the metal is not), no arc-ON run shorter
+than two bead widths, no ignition within one bead width of one on the layer below, and weld data
+commanded for every arc-ON move.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM
+
+
+class PreflightSettings(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    enabled: bool = Field(True, description="Run the preflight after every full run")
+    bead_width_mm: float | None = Field(None, gt=0.1, le=100, description="Bead width, mm; empty = the recipe's "
+                                        "strategy/wall-path bead_width, else 6 mm")
+    top_gap_max_layers: float = Field(0.5, ge=0, le=10, description="Fail when the highest deposited layer ends "
+                                      "more than this many layer heights below the part's top")
+    overshoot_warn_layers: float = Field(1.0, ge=0, le=100, description="Warn when the deposit ends more than this "
+                                         "many layer heights above the part's top")
+    uncovered_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the part with no bead")
+    uncovered_fail: float = Field(0.05, ge=0, le=1, description="Fail above this share of the part with no bead")
+    volume_ratio_ok: tuple[float, float] = Field((0.9, 1.2), description="Wire ending in the part / part volume: "
+                                                 "no remark inside this band")
+    volume_ratio_fail: tuple[float, float] = Field((0.75, 1.5), description="Fail outside this band (warn between)")
+    min_arc_run_mm: float | None = Field(None, ge=0, le=1000, description="Warn for arc-ON runs shorter than this, "
+                                         "mm; empty = two bead widths")
+    stacked_starts: Literal["off", "warn", "fail"] = Field("warn", description="Ignitions within one bead width "
+                                                             "of an ignition on the layer below")
+    weld_data: Literal["off", "warn", "fail"] = Field("fail", description="Arc-ON moves with no weld parameter "
+                                                       "commanded (comments do not count)")
+    wire_diameter_mm: float = Field(WIRE_DIAMETER_MM, gt=0.1, le=10)
+    deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.1, le=1.0,
+                                         description="Share of the wire fed that ends in the part")
+    bead_shape_factor: float = Field(BEAD_SHAPE_FACTOR, gt=0.3, le=1.0,
+                                     description="k in bead area = k·w·h (stated for the report; a stacked layer "
+                                                 "adds w·h, so the balance uses the part's volume)")
+    sample_mm: float | None = Field(None, gt=0.1, le=50, description="Sample spacing of the 3D coverage check, "
+                                    "mm; empty = a quarter bead width, coarsened to at most 200,000 samples")
+
+    @model_validator(mode="after")
+    def _bands(self) -> "PreflightSettings":
+        lo, hi = self.volume_ratio_ok
+        flo, fhi = self.volume_ratio_fail
+        if not (0 < flo <= lo <= hi <= fhi):
+            raise ValueError("volume bands must nest: 0 < fail low ≤ ok low ≤ ok high ≤ fail high")
+        if self.uncovered_warn > self.uncovered_fail:
+            raise ValueError("uncovered_warn must not exceed uncovered_fail")
+        return self
