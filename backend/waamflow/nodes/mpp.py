@@ -26,6 +26,7 @@ from ..sections.guide import guide_line
 from ..sections.mask import uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel
+from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
 from ..zoning.params_xml import orphan_label
 
@@ -297,16 +298,25 @@ class SequenceNode(Node):
     """MPP layer path: join a layer's section paths into one program with arc-OFF travel between them.
 
     Order: `mask` (the mask's section order), `nearest` (shortest travel from the previous layer's
-    end: exact up to 6 sections, else nearest neighbour + 2-opt/Or-opt) or an explicit list of
-    section keys. Travel: retract by `retract_height` along the build direction, travel, plunge.
-    `alternate` reverses the section order on odd layers. `dwell` adds an interlayer dwell. Writes
-    `toolpath.json` and `travel.json` (travel length per layer).
+    end, keeping the MPP order rule: `precedence` keys, then oscillated sections, then the parallel
+    ones they feed; exact up to 6 sections, else nearest neighbour + 2-opt/Or-opt) or an explicit
+    list of section keys (a mask/explicit order that breaks the rule is warned). `seam`: where each
+    section ignites — `auto` (the entry farthest from the layer below's ignitions; loops move on by
+    `seam_shift`), `alternate` (odd layers reversed), `stagger`, `scattered`, `aligned` (as
+    planned) or an [x, y] point; a path may be reversed, a serpentine of passes re-threaded from its
+    other end, a loop rotated; never at a junction with another section (within `bead_width`) unless
+    `seam_at_junctions`; machining stock (segments outside the section) first. Arc-ON runs shorter
+    than `min_arc_run_mm` are bridged across an inside gap or dropped, warned and counted in the
+    report. Travel: retract by `retract_height` along the build direction, travel, plunge.
+    `alternate` also reverses the section order on odd layers. `dwell` adds an interlayer dwell.
+    Writes `toolpath.json` and `travel.json` (travel length per layer).
     """
 
-    # Not a LayerNode on purpose: layer i starts where layer i-1 ended (approach, and the nearest
-    # order), so a per-layer signature would miss a change below. As a whole-part node its output
-    # signatures change with any input layer; it costs ~0.5 ms per layer and is cached as a whole.
+    # Not a LayerNode on purpose: layer i starts where layer i-1 ended (approach, the nearest order
+    # and the seams, chosen away from the ignitions below), so a per-layer signature would miss a
+    # change below. As a whole-part node its output signatures change with any input layer.
     type = "sequence"
+    version = "2"
     title = "Sequence (layer path)"
     category = "mpp"
     inputs = (Port("toolpath", "toolpath", "Zoned section paths"),)
@@ -314,10 +324,27 @@ class SequenceNode(Node):
 
     class Params(NodeParams):
         order: Literal["mask", "nearest"] | list[str] = Field(
-            "mask", description="`mask`, `nearest` (shortest travel) or a list of section keys")
+            "mask", description="`mask`, `nearest` (shortest travel within the MPP order rule) or a list of "
+            "section keys")
+        precedence: list[str] = Field(default_factory=list, description="Section keys deposited first on every "
+                                      "layer, in this order, before the oscillated and then the other sections "
+                                      "(the order rule `nearest` keeps)")
         retract_height: float = Field(10.0, ge=0, le=500, description="Clearance of arc-OFF travel above the "
                                       "higher end point", json_schema_extra=unit("mm"))
-        alternate: bool = Field(False, description="Reverse the section order on odd layers")
+        alternate: bool = Field(False, description="Reverse open sections and the section order on odd layers "
+                                "(seam `alternate`)")
+        seam: Literal["auto", "alternate", "stagger", "scattered", "aligned"] | Point2 = Field(
+            "auto", description="Where sections ignite: auto (farthest from the ignitions of the layer below), "
+            "alternate, stagger, scattered, aligned (as planned) or an [x, y] point (layer-local, mm)")
+        seam_shift: float = Field(0.0, ge=0, le=1000, description="Distance a closed loop's seam moves per layer "
+                                  "(stagger/auto); 0 = 2 bead widths", json_schema_extra=unit("mm"))
+        seam_at_junctions: bool = Field(False, description="Allow ignition at a junction with another section")
+        bead_width: float = Field(0.0, ge=0, le=100, description="Bead width: junction clearance and the "
+                                  "defaults of seam_shift and min_arc_run_mm; 0 = unknown (6 mm clearance, "
+                                  "12 mm minimum run)", json_schema_extra=unit("mm"))
+        min_arc_run_mm: float | None = Field(None, ge=0, le=1000, description="Shortest arc-ON run; shorter "
+                                             "ones are bridged or dropped (0 = off; empty = 2 bead widths, "
+                                             "12 mm without a bead width)", json_schema_extra=unit("mm"))
         dwell: float = Field(0.0, ge=0, le=3600, description="Interlayer dwell after each layer",
                              json_schema_extra=unit("s"))
 
@@ -328,8 +355,8 @@ class SequenceNode(Node):
             for key in params.order:
                 if key not in seen:
                     ctx.warn(f"order lists {key!r}, which matches no section", section=key)
-        layers, _ = sequence_part(list(tp), order=params.order, retract_height=params.retract_height,
-                                  alternate=params.alternate, dwell_after_s=params.dwell)
+        layers, notes = sequence_with_notes(list(tp), params)
+        _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}
 
     def artifacts(self, ctx, params, outputs):
@@ -338,6 +365,58 @@ class SequenceNode(Node):
         total = round(sum(t["travel_mm"] for t in travel), 3)
         return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"])),
                 "travel.json": serialize.dumps({"units": "mm", "total_travel_mm": total, "layers": travel})}
+
+
+def sequence_with_notes(layers: list, params) -> tuple[list, list[dict]]:
+    """Run `sequence_part` with the node's params; returns the layers and the kernel's notes."""
+    bw = params.bead_width
+    clearance = bw if bw > 0 else DEFAULT_CLEARANCE
+    shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
+    min_run = params.min_arc_run_mm if params.min_arc_run_mm is not None else (2.0 * bw if bw > 0 else 12.0)
+    policy = "alternate" if params.alternate and params.seam == "auto" else params.seam
+    notes: list[dict] = []
+    seq, _ = sequence_part(layers, order=params.order, retract_height=params.retract_height,
+                           alternate=params.alternate, dwell_after_s=params.dwell, min_run=min_run,
+                           precedence=tuple(params.precedence), notes=notes,
+                           seam=SeamSpec(policy if isinstance(policy, str) else tuple(policy), clearance, shift,
+                                                params.seam_at_junctions))
+    return seq, notes
+
+
+def _report(ctx, params, layers, notes: list[dict]) -> None:
+    """Warn each event (layer, section) and report the counts and the seam distances."""
+    kinds = {"bridged": 0, "dropped": 0, "junction": 0, "order-rule": 0}
+    for n in notes:
+        kinds[n["kind"]] += 1
+        if n["kind"] in ("bridged", "dropped"):
+            what = ("bridged to its neighbour, arc kept on" if n["kind"] == "bridged"
+                    else "dropped (no inside gap to bridge): flown arc-OFF")
+            ctx.warn(f"arc-ON run of {n['length']:.2f} mm at {n['at'][:2]} is shorter than the minimum arc run: "
+                     f"{what}", layer=n["layer"], section=n["section"])
+        elif n["kind"] == "junction":
+            ctx.warn(f"ignites at a junction with another section at {n['at'][:2]}: every entry does (set "
+                     "`seam_at_junctions` to accept it, or change the guide)", layer=n["layer"], section=n["section"])
+    breaks = [n for n in notes if n["kind"] == "order-rule"]
+    if breaks:
+        first = breaks[0]
+        ctx.warn(f"order deposits {first['before']!r} before {first['section']!r} against the MPP order rule "
+                 f"(oscillated sections, then the parallel ones they feed) on {len({n['layer'] for n in breaks})} "
+                 "layer(s): use order `nearest` or list them in `precedence`", layer=first["layer"],
+                 section=first["section"])
+    gaps = []
+    below = None
+    for lp in layers:
+        if lp is None:
+            below = None
+            continue
+        ign = ignition_points(lp.sections)
+        if below is not None and len(below):
+            gaps += [nearest_distance(p, below) for p in ign]
+        below = ign
+    ctx.report({"short_runs_bridged": kinds["bridged"], "short_runs_dropped": kinds["dropped"],
+                "junction_ignitions": kinds["junction"], "order_rule_breaks": kinds["order-rule"],
+                "ignitions": int(sum(len(ignition_points(lp.sections)) for lp in layers if lp is not None)),
+                "min_ignition_gap_to_layer_below_mm": round(min(gaps), 3) if gaps else None})
 
 
 __all__ = ["GuideNode", "MaskNode", "SequenceNode", "ZoneNode"]

@@ -7,12 +7,15 @@ a sorting algorithm cuts travel, but the user may impose an order (depositing ac
 border of an earlier oscillated section closes voids; the sequence affects distortion).
 
 Orders: `mask` (the mask's section order, i.e. the order of the input), `nearest` (nearest neighbour
-from the previous layer's end, improved by 2-opt on the open, asymmetric tour), or an explicit list
-of section keys (keys missing from the list follow in mask order).
+from the previous layer's end, improved by 2-opt on the open, asymmetric tour, within the ranks of
+the MPP order rule: sections listed in `precedence`, then oscillated sections, then the parallel
+ones they feed), or an explicit list of section keys (keys missing from the list follow in mask
+order). A mask or explicit order that breaks the rule is kept and reported.
 
-Sections are never reversed here: zoning has already placed the ignition (`start`) and termination
-(`end`) zones, so reversing a path would swap them. `alternate` reverses the *order of sections*
-on odd layers.
+Where each path ignites is chosen by a seam policy (`seams.py`: a path may be reversed, a
+serpentine re-threaded, a loop rotated; start/end zones are re-measured at the new ends), and
+arc-ON runs shorter than `min_run` are bridged or dropped (`arc_runs.py`). `alternate` also
+reverses the *order of sections* on odd layers (within the rule's ranks for `nearest`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ from typing import Sequence
 import numpy as np
 
 from ..core.model import LayerPaths, SectionPath
+from .arc_runs import enforce_min_run
+from .seams import SeamSpec, choose_entry, ignition_points
 
 MAX_2OPT_ROUNDS = 50
 EXACT_MAX = 6  # up to 6 sections (720 orders) every order is scored at once with numpy: exact
@@ -142,23 +147,88 @@ def travel_length(prev_end: np.ndarray | None, sp: SectionPath) -> float:
     poly = np.vstack([prev_end[None, :], sp.approach, sp.points[:1]])
     return float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
 
-def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_end: np.ndarray | None = None,
-                   retract_height: float = 10.0, alternate: bool = False, dwell_after_s: float = 0.0
-                   ) -> tuple[LayerPaths, float]:
-    """Order the section paths of one layer and set their approach travel.
+OSCILLATED = frozenset({"oscillate"})  # MPP: the oscillated section first, then the parallel ones it feeds
 
-    order: "mask" | "nearest" | explicit list of section keys. prev_end: (3,) world mm where the
-    torch is before this layer (the previous layer's last point), or None. Returns the new layer
+
+def section_rank(sp: SectionPath, precedence: Sequence[str] = ()) -> int:
+    """Order rule rank (lower goes first): the keys listed in `precedence` by their position, then
+    oscillated sections, then the rest (Michel et al. 2019: deposit across the waving border of an
+    earlier oscillated section to close voids)."""
+    if sp.key in precedence:
+        return list(precedence).index(sp.key)
+    return len(precedence) + (0 if sp.strategy in OSCILLATED else 1)
+
+
+def ranked_nearest_order(paths: Sequence[SectionPath], prev_end: np.ndarray | None,
+                         precedence: Sequence[str] = ()) -> list[int]:
+    """`nearest_order` within each rank of the order rule, ranks in turn: travel is shortened
+    without ever depositing a later rank before an earlier one."""
+    ranks = [section_rank(sp, precedence) for sp in paths]
+    out: list[int] = []
+    here = prev_end
+    for r in sorted(set(ranks)):
+        idx = [i for i, k in enumerate(ranks) if k == r]
+        starts = np.array([paths[i].points[0] for i in idx], dtype=float)
+        ends = np.array([paths[i].points[-1] for i in idx], dtype=float)
+        start_cost = None if here is None else np.linalg.norm(starts - np.asarray(here)[None, :], axis=1)
+        sub = nearest_order(travel_cost(ends, starts), start_cost)
+        out += [idx[j] for j in sub]
+        here = np.asarray(paths[out[-1]].points[-1], dtype=float)
+    return out
+
+
+def rule_breaks(order_keys: Sequence[SectionPath], precedence: Sequence[str] = ()) -> list[tuple[str, str]]:
+    """(earlier, later) key pairs where a section of a later rank is deposited before one of an earlier rank."""
+    out = []
+    for i, a in enumerate(order_keys):
+        for b in order_keys[i + 1:]:
+            if section_rank(b, precedence) < section_rank(a, precedence):
+                out.append((a.key, b.key))
+    return out
+
+
+def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_end: np.ndarray | None = None,
+                   retract_height: float = 10.0, alternate: bool = False, dwell_after_s: float = 0.0,
+                   seam: SeamSpec | None = None, below: np.ndarray | None = None, min_run: float = 0.0,
+                   precedence: Sequence[str] = (), notes: list[dict] | None = None
+                   ) -> tuple[LayerPaths, float]:
+    """Order the section paths of one layer, choose where each ignites and set their approach travel.
+
+    order: "mask" | "nearest" (shortest travel within the order rule's ranks, see `section_rank`)
+    | explicit list of section keys. prev_end: (3,) world mm where the torch is before this layer
+    (the previous layer's last point), or None. seam: where each path ignites (`seams.choose_entry`;
+    None: as planned). below: (k, 3) ignition points of the layer below. min_run: shortest arc-ON
+    run, mm (`arc_runs.enforce_min_run`; 0: off). notes: receives one dict per event (kind
+    "junction" | "bridged" | "dropped" | "order-rule", layer, section, ...). Returns the new layer
     program and its travel length in mm (including the move in from prev_end).
     """
     paths = [sp for sp in lp.sections if len(sp.points) >= 2]
     if not paths:
         return dataclasses.replace(lp, sections=tuple(lp.sections), dwell_after_s=dwell_after_s), 0.0
-    starts = np.array([sp.points[0] for sp in paths], dtype=float)
-    ends = np.array([sp.points[-1] for sp in paths], dtype=float)
+    notes = [] if notes is None else notes
+    below = np.zeros((0, 3)) if below is None else np.asarray(below, dtype=float).reshape(-1, 3)
+    if seam is not None:
+        if not isinstance(seam.policy, str) and len(seam.policy) == 2:   # layer-local (x, y) → world
+            seam = dataclasses.replace(seam, policy=tuple(lp.layer.to_world(np.asarray([seam.policy], float))[0]))
+        chosen = []
+        for i, sp in enumerate(paths):
+            entry, ok = choose_entry(sp, lp.index, seam, paths[:i] + paths[i + 1:], below)
+            if not ok:
+                notes.append({"kind": "junction", "layer": lp.index, "section": sp.key,
+                              "at": np.round(entry.ignition, 3).tolist()})
+            chosen.append(entry.path)
+        paths = chosen
+    if min_run > 0:
+        fixed = []
+        for sp in paths:
+            new, fixes = enforce_min_run(sp, min_run)
+            for f in fixes:
+                notes.append({"kind": f.action, "layer": lp.index, "section": sp.key, "length": f.length,
+                              "at": list(f.at)})
+            fixed.append(new)
+        paths = fixed
     if isinstance(order, str) and order == "nearest":
-        start_cost = None if prev_end is None else np.linalg.norm(starts - prev_end[None, :], axis=1)
-        idx = nearest_order(travel_cost(ends, starts), start_cost)
+        idx = ranked_nearest_order(paths, prev_end, precedence)
     elif isinstance(order, str):
         if order != "mask":
             raise ValueError(f"unknown order {order!r}")
@@ -167,6 +237,10 @@ def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_
         idx = explicit_order([sp.key for sp in paths], order)
     if alternate and lp.index % 2 == 1:
         idx = idx[::-1]
+        if isinstance(order, str) and order == "nearest":
+            idx = sorted(idx, key=lambda i: section_rank(paths[i], precedence))
+    for a, b in rule_breaks([paths[i] for i in idx], precedence):
+        notes.append({"kind": "order-rule", "layer": lp.index, "section": b, "before": a})
     up = lp.layer.normal
     out: list[SectionPath] = []
     total = 0.0
@@ -190,23 +264,26 @@ def last_point(lp: LayerPaths | None) -> np.ndarray | None:
     return None
 
 def sequence_part(layers: Sequence[LayerPaths | None], **kw) -> tuple[list[LayerPaths | None], list[float]]:
-    """Sequence every layer, each starting where the previous one ended. Returns layers and travel (mm) per layer.
+    """Sequence every layer, each starting where the previous one ended (and, with a seam policy,
+    igniting away from the layer below's ignitions). Returns layers and travel (mm) per layer.
 
     None layers (partial runs) stay None and break the chain (the next layer starts fresh).
     """
     out: list[LayerPaths | None] = []
     travel: list[float] = []
     prev = None
+    below = None
     for lp in layers:
         if lp is None:
             out.append(None)
             travel.append(0.0)
-            prev = None
+            prev = below = None
             continue
-        new, t = sequence_layer(lp, prev_end=prev, **kw)
+        new, t = sequence_layer(lp, prev_end=prev, below=below, **kw)
         out.append(new)
         travel.append(t)
         prev = last_point(new)
+        below = ignition_points(new.sections)
     return out, travel
 
 def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:
@@ -225,5 +302,5 @@ def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:
     return out
 
 
-__all__ = ["approach_points", "explicit_order", "last_point", "nearest_order", "part_travel", "sequence_layer",
+__all__ = ["OSCILLATED", "approach_points", "explicit_order", "ranked_nearest_order", "rule_breaks", "section_rank", "last_point", "nearest_order", "part_travel", "sequence_layer",
            "sequence_part", "tour_length", "travel_cost", "travel_length"]

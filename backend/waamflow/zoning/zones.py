@@ -166,7 +166,7 @@ def zone_layout(path_length: float, spec: ZoneSpec, split_s: np.ndarray) -> Zone
     return ZoneLayout(tuple(ids), tuple(bounds), L)
 
 
-def _insert_points(path: SectionPath, cut_s: list[float]) -> SectionPath:
+def insert_points(path: SectionPath, cut_s: list[float]) -> SectionPath:
     """A copy of `path` with a vertex at each arc length in cut_s (segments split, attributes copied)."""
     pts = np.asarray(path.points, dtype=float)
     s = cumulative_length(pts)
@@ -215,7 +215,7 @@ def zone_path(path: SectionPath, spec: ZoneSpec, split_points_world: np.ndarray 
         if len(split_points_world) else np.zeros(0)
     layout = zone_layout(cumulative_length(pts)[-1], spec, split_s)
     cuts = [b[0] for b in layout.bounds[1:]]
-    out = _insert_points(path, cuts)
+    out = insert_points(path, cuts)
     s = cumulative_length(np.asarray(out.points))
     mid = 0.5 * (s[:-1] + s[1:])
     starts = np.asarray([b[0] for b in layout.bounds])
@@ -223,6 +223,9 @@ def zone_path(path: SectionPath, spec: ZoneSpec, split_points_world: np.ndarray 
     zones = tuple(layout.ids[i] for i in zi)
     colors = {z: zone_color(z) for z in layout.ids if z in set(zones)}
     return dataclasses.replace(out, zone=zones, zone_colors=colors, zone_params={})
+
+
+_insert_points = insert_points
 
 
 def zone_lengths(path: SectionPath) -> dict[str, float]:

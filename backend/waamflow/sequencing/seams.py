@@ -1,0 +1,340 @@
+"""Seams: where each section path ignites, layer after layer (issue #22).
+
+Stacked arc starts are the classic WAAM defect: the ignition hump and the extinction crater of one
+layer sit on those of the layer below. A zoned section path can be entered in a few ways without
+re-planning it:
+
+- `planned`: as the strategy laid it;
+- `reversed`: run backwards;
+- `rethreaded` / `rethreaded-reversed` (a serpentine of ≥ 2 parallel passes): every pass run the
+  other way and the links moved to the other side, so the path starts and ends at the other end
+  of the passes (a 2-pass serpentine that starts and ends at a junction then starts and ends at
+  the section's free end);
+- `rotated` (a closed loop): started at another point of the loop.
+
+Zones follow the path: the ignition zone `start` is re-measured as the first start-zone length of
+the new path, `end` as the last end-zone length, middle zones keep their geometry and ids, and
+arc-ON speeds are re-applied from the zone parameters.
+
+An entry is *allowed* unless it ignites on the finished part at a junction: within the clearance
+(one bead width) of another section's deposition in the same layer. An entry whose first segment
+lies outside the section (`inside` False: machining stock, thin-wall extensions and fillet leads)
+is preferred over every entry that ignites on the part (Venturini et al. 2018: start and stop in
+stock that is machined off).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..core.model import SectionPath
+from ..zoning.zones import cumulative_length, insert_points, path_axis, zone_color
+
+GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+DEFAULT_CLEARANCE = 6.0   # mm: one bead width of the shipped MPP recipes, used when none is given
+PASS_COS = math.cos(math.radians(30.0))  # a segment within 30° of the path's axis belongs to a pass
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One way into a section path: `name` and the path as it would be deposited."""
+
+    name: str
+    path: SectionPath
+
+    @property
+    def ignition(self) -> np.ndarray:
+        return np.asarray(self.path.points[0], dtype=float)
+
+    @property
+    def in_stock(self) -> bool:
+        return bool(len(self.path.inside)) and not bool(self.path.inside[0])
+
+
+# ------------------------------------------------------------------------------------------------
+# zones of a re-threaded path
+# ------------------------------------------------------------------------------------------------
+def _rezone(new: SectionPath, start_len: float, end_len: float, speeds_by_zone: dict[str, float],
+            plain_speed: float | None) -> SectionPath:
+    """Relabel `new` (segments carry the zone ids they had in the original path): `start` = the first
+    start_len mm, `end` = the last end_len mm, former start/end segments elsewhere take the id of
+    the nearest middle zone. Arc-ON speeds from `speeds_by_zone` (zone → travel_speed), else
+    `plain_speed` for segments whose old zone had a travel speed and whose new one has none."""
+    if not new.zone:
+        return new
+    pts = np.asarray(new.points, dtype=float)
+    L = float(cumulative_length(pts)[-1])
+    cuts = [c for c in (start_len, L - end_len) if 0.0 < c < L]
+    out = insert_points(new, cuts)
+    s = cumulative_length(np.asarray(out.points, dtype=float))
+    mid = 0.5 * (s[:-1] + s[1:])
+    old = list(out.zone)
+    middle = [i for i, z in enumerate(old) if z not in ("start", "end")]
+    zones: list[str] = []
+    for i, m in enumerate(mid):
+        if start_len > 0 and m < start_len:
+            zones.append("start")
+        elif end_len > 0 and m > L - end_len:
+            zones.append("end")
+        elif old[i] not in ("start", "end"):
+            zones.append(old[i])
+        elif middle:
+            zones.append(old[min(middle, key=lambda j: abs(mid[j] - m))])
+        else:
+            zones.append("z1")
+    speed = np.asarray(out.speed, dtype=float).copy()
+    arc = np.asarray(out.arc, dtype=bool)
+    for i, (zo, zn) in enumerate(zip(old, zones)):
+        if not arc[i] or zo == zn:
+            continue
+        if zn in speeds_by_zone:
+            speed[i] = speeds_by_zone[zn]
+        elif zo in speeds_by_zone and plain_speed is not None:
+            speed[i] = plain_speed
+    colors = {z: new.zone_colors.get(z, zone_color(z)) for z in dict.fromkeys(zones)}
+    return dataclasses.replace(out, zone=tuple(zones), zone_colors=colors, speed=speed)
+
+
+def _zone_context(sp: SectionPath) -> tuple[float, float, dict[str, float], float | None]:
+    lengths = sp.segment_lengths
+    start_len = float(sum(l for z, l in zip(sp.zone, lengths) if z == "start"))
+    end_len = float(sum(l for z, l in zip(sp.zone, lengths) if z == "end"))
+    speeds = {z: float(v["travel_speed"]) for z, v in sp.zone_params.items() if v.get("travel_speed") is not None}
+    arc = np.asarray(sp.arc, dtype=bool)
+    plain = [float(v) for v, z, a in zip(sp.speed, sp.zone or [""] * len(arc), arc) if a and z not in speeds]
+    return start_len, end_len, speeds, (float(np.median(plain)) if plain else None)
+
+
+def _with(sp: SectionPath, pts, arc, inside, speed, zone, axis) -> SectionPath:
+    return dataclasses.replace(sp, points=np.asarray(pts, float), arc=np.asarray(arc, bool),
+                               inside=np.asarray(inside, bool), speed=np.asarray(speed, float),
+                               zone=tuple(zone), tool_axis=None if axis is None else np.asarray(axis, float),
+                               approach=None)
+
+
+def reverse_path(sp: SectionPath) -> SectionPath:
+    """The path run backwards, its start and end zones re-measured at the new ends."""
+    ax = None if sp.tool_axis is None else np.asarray(sp.tool_axis)[::-1]
+    rev = _with(sp, np.asarray(sp.points)[::-1], np.asarray(sp.arc)[::-1], np.asarray(sp.inside)[::-1],
+                np.asarray(sp.speed)[::-1], tuple(reversed(sp.zone)), ax)
+    return _rezone(rev, *_zone_context(sp))
+
+
+def _passes(sp: SectionPath) -> list[tuple[int, int]] | None:
+    """Vertex ranges [a, b] of the passes of a serpentine (runs of segments along the path's axis),
+    or None when the path is not pass, link, pass, … (≥ 2 passes, starting and ending on a pass)."""
+    pts = np.asarray(sp.points, dtype=float)
+    d = np.diff(pts, axis=0)
+    n = np.linalg.norm(d, axis=1)
+    axis = path_axis(pts)
+    along = np.abs(d @ axis) >= PASS_COS * np.maximum(n, 1e-12)
+    runs: list[tuple[int, int]] = []
+    k = 0
+    while k < len(along):
+        if along[k]:
+            j = k
+            while j < len(along) and along[j]:
+                j += 1
+            runs.append((k, j))
+            k = j
+        else:
+            k += 1
+    if len(runs) < 2 or runs[0][0] != 0 or runs[-1][1] != len(along):
+        return None
+    for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):   # passes alternate direction
+        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:
+            return None
+    return runs
+
+
+def rethread_path(sp: SectionPath) -> SectionPath | None:
+    """A serpentine of parallel passes threaded from the other end (each pass reversed, links on
+    the other side, attributes of the original links), or None when `sp` is not a serpentine."""
+    runs = _passes(sp)
+    if runs is None:
+        return None
+    pts, arc, ins, spd = (np.asarray(x) for x in (sp.points, sp.arc, sp.inside, sp.speed))
+    zone = list(sp.zone) if sp.zone else [""] * len(arc)
+    ax = None if sp.tool_axis is None else np.asarray(sp.tool_axis)
+    P, A, I, S, Z, X = [], [], [], [], [], []
+    for r, (a, b) in enumerate(runs):
+        if r:   # link from the end of the previous reversed pass (its vertex a_prev) to this one's end b
+            link = runs[r - 1][1]   # first segment of the original link
+            A.append(arc[link]); I.append(ins[link]); S.append(spd[link]); Z.append(zone[link])
+        P.extend(pts[a:b + 1][::-1])
+        if ax is not None:
+            X.extend(ax[a:b + 1][::-1])
+        A.extend(arc[a:b][::-1]); I.extend(ins[a:b][::-1]); S.extend(spd[a:b][::-1]); Z.extend(zone[a:b][::-1])
+    new = _with(sp, P, A, I, S, tuple(Z) if sp.zone else (), X if ax is not None else None)
+    return _rezone(new, *_zone_context(sp))
+
+
+def rotate_loop(sp: SectionPath, s0: float) -> SectionPath:
+    """A closed loop (first point = last) started at arc length s0 (mm) along it."""
+    pts = np.asarray(sp.points, dtype=float)
+    L = float(cumulative_length(pts)[-1])
+    s0 = float(s0) % L if L > 0 else 0.0
+    cut = insert_points(sp, [s0])
+    cp = np.asarray(cut.points, dtype=float)
+    s = cumulative_length(cp)
+    k = int(np.argmin(np.abs(s - s0)))
+    if k in (0, len(cp) - 1):
+        return _rezone(dataclasses.replace(sp, approach=None), *_zone_context(sp))
+    order = list(range(k, len(cp) - 1)) + list(range(0, k))          # segment indices from the seam
+    P = np.vstack([cp[k:], cp[1:k + 1]])
+    X = None
+    if cut.tool_axis is not None:
+        ta = np.asarray(cut.tool_axis)
+        X = np.vstack([ta[k:], ta[1:k + 1]])
+    z = tuple(cut.zone[i] for i in order) if cut.zone else ()
+    new = _with(cut, P, np.asarray(cut.arc)[order], np.asarray(cut.inside)[order], np.asarray(cut.speed)[order],
+                z, X)
+    return _rezone(new, *_zone_context(sp))
+
+
+def is_closed(sp: SectionPath, tol: float = 1e-6) -> bool:
+    pts = np.asarray(sp.points, dtype=float)
+    return len(pts) > 3 and float(np.linalg.norm(pts[0] - pts[-1])) <= tol and bool(np.all(sp.arc))
+
+
+# strategies that place their own seams (thin-wall tubulars and ring laps): entered as planned
+OWN_SEAM = frozenset({"helical", "aligned", "scattered", "perimeter"})
+
+
+def entries(sp: SectionPath) -> list[Entry]:
+    """The open-path entries of `sp` (closed loops: see `rotate_loop`)."""
+    out = [Entry("planned", dataclasses.replace(sp, approach=None))]
+    if sp.strategy in OWN_SEAM or sp.tool or len(sp.points) < 2:
+        return out
+    out.append(Entry("reversed", reverse_path(sp)))
+    re = rethread_path(sp)
+    if re is not None:
+        out += [Entry("rethreaded", re), Entry("rethreaded-reversed", reverse_path(re))]
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# the choice
+# ------------------------------------------------------------------------------------------------
+def _deposit_segments(paths: Sequence[SectionPath]) -> tuple[np.ndarray, np.ndarray]:
+    a, b = [], []
+    for sp in paths:
+        pts = np.asarray(sp.points, dtype=float)
+        on = np.asarray(sp.arc, dtype=bool) & np.asarray(sp.inside, dtype=bool)
+        a.append(pts[:-1][on])
+        b.append(pts[1:][on])
+    if not a:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    return np.vstack(a), np.vstack(b)
+
+
+def distance_to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance (mm) in the layer plane (x, y) from p to the nearest segment a→b; inf if none."""
+    if not len(a):
+        return math.inf
+    p2, a2, b2 = p[:2], a[:, :2], b[:, :2]
+    d = b2 - a2
+    dd = np.einsum("ij,ij->i", d, d)
+    t = np.clip(np.einsum("ij,ij->i", p2 - a2, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    foot = a2 + t[:, None] * d
+    return float(np.min(np.linalg.norm(foot - p2, axis=1)))
+
+
+def nearest_distance(p: np.ndarray, points: np.ndarray) -> float:
+    """Distance (mm) in the layer plane from p to the nearest of `points` (k, 3); inf if none."""
+    if not len(points):
+        return math.inf
+    return float(np.min(np.linalg.norm(np.asarray(points, float)[:, :2] - p[:2], axis=1)))
+
+
+@dataclass(frozen=True)
+class SeamSpec:
+    """policy: auto | alternate | aligned | stagger | scattered, or an (x, y, z) world point.
+    clearance: mm, one bead width (junction test; the distance auto/stagger keep from the layer
+    below). shift: mm the seam of a closed loop moves per layer (stagger). at_junctions: allow
+    ignition at a junction."""
+
+    policy: str | tuple[float, float, float] = "auto"
+    clearance: float = DEFAULT_CLEARANCE
+    shift: float = 2 * DEFAULT_CLEARANCE
+    at_junctions: bool = False
+
+
+_PREF = {0: ("planned", "rethreaded", "reversed", "rethreaded-reversed"),
+         1: ("reversed", "rethreaded-reversed", "planned", "rethreaded")}
+
+
+def _loop_entry(sp: SectionPath, index: int, spec: SeamSpec, below: np.ndarray) -> Entry:
+    pts = np.asarray(sp.points, dtype=float)
+    L = float(cumulative_length(pts)[-1])
+    pol = spec.policy
+    if not isinstance(pol, str):
+        from ..zoning.zones import project_onto_path
+        s0 = float(project_onto_path(pts, np.asarray(pol, float)[None, :])[0])
+    elif pol == "aligned":
+        s0 = 0.0
+    elif pol == "scattered":
+        s0 = (index * GOLDEN % 1.0) * L
+    elif pol == "alternate":
+        path = reverse_path(sp) if index % 2 else dataclasses.replace(sp, approach=None)
+        return Entry("reversed" if index % 2 else "planned", path)
+    else:   # stagger / auto: the seam moves on by `shift` mm per layer
+        s0 = (index * spec.shift) % L if L > 0 else 0.0
+    return Entry("rotated", rotate_loop(sp, s0))
+
+
+def choose_entry(sp: SectionPath, index: int, spec: SeamSpec, others: Sequence[SectionPath],
+                 below: np.ndarray) -> tuple[Entry, bool]:
+    """The entry of `sp` on layer `index`. others: the layer's other section paths (junction test);
+    below: (k, 3) ignition points of the layer below. Returns (entry, ok) with ok False when every
+    entry ignites at a junction (the caller warns)."""
+    if sp.strategy not in OWN_SEAM and not sp.tool and is_closed(sp):
+        return _loop_entry(sp, index, spec, below), True
+    cands = entries(sp)
+    a, b = _deposit_segments(others)
+
+    def at_junction(e: Entry) -> bool:
+        return not e.in_stock and distance_to_segments(e.ignition, a, b) < spec.clearance - 1e-9
+
+    ok = cands if spec.at_junctions else [e for e in cands if not at_junction(e)]
+    fine = bool(ok)
+    if not ok:
+        ok = cands
+    stock = [e for e in ok if e.in_stock]
+    if stock:
+        ok = stock
+    pref = _PREF[index % 2 if spec.policy in ("alternate", "auto", "stagger", "scattered") else 0]
+    ok = sorted(ok, key=lambda e: pref.index(e.name) if e.name in pref else len(pref))
+    pol = spec.policy
+    if not isinstance(pol, str):
+        p = np.asarray(pol, float)
+        return min(ok, key=lambda e: nearest_distance(e.ignition, p[None, :])), fine
+    if pol in ("aligned", "alternate") or not len(below):
+        return ok[0], fine
+    # auto / stagger / scattered on an open path: the allowed entry farthest from the starts below
+    # (ties: the alternate preference), so consecutive layers never share an ignition point
+    best = max(ok, key=lambda e: (round(min(nearest_distance(e.ignition, below), 1e6), 6), -ok.index(e)))
+    return best, fine
+
+
+def ignition_points(paths: Sequence[SectionPath]) -> np.ndarray:
+    """(k, 3) world mm: the first point of every arc-ON run of the paths."""
+    out = []
+    for sp in paths:
+        arc = np.asarray(sp.arc, dtype=bool)
+        pts = np.asarray(sp.points, dtype=float)
+        prev = False
+        for i, on in enumerate(arc):
+            if on and not prev:
+                out.append(pts[i])
+            prev = bool(on)
+    return np.asarray(out, dtype=float).reshape(-1, 3)
+
+
+__all__ = ["DEFAULT_CLEARANCE", "Entry", "SeamSpec", "choose_entry", "distance_to_segments", "entries",
+           "ignition_points", "is_closed", "nearest_distance", "rethread_path", "reverse_path", "rotate_loop"]
