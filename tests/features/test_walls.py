@@ -148,3 +148,17 @@ def test_self_crossing_is_cut_like_a_direct_crossing():
     wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
     assert wall == pytest.approx(60.0 - 4 * 2.0, abs=1e-9)   # 20 + 10 + 10 + 20 mm, less 4 r_c
     assert sum(int((~p.inside).sum()) for p in lw.passes) == 4   # four fillet leads
+
+
+def test_wall_passes_ignite_in_their_machining_stock():
+    """Issue #22 (Venturini et al. 2018): a pass with stock at one end only (free-end extension)
+    ignites in that stock whichever end the torch is nearer; "nearest" keeps the old choice."""
+    from waamflow.features.walls import WallPass, order_passes, passes_without_stock
+
+    xy = np.array([[0.0, 0.0], [100.0, 0.0], [105.0, 0.0]])
+    p = WallPass("wall0", "wall", xy, np.array([True, False]))
+    near_start = np.array([-1.0, 0.0])
+    assert order_passes([p], near_start, "nearest")[0].xy[0].tolist() == [0.0, 0.0]
+    assert order_passes([p], near_start)[0].xy[0].tolist() == [105.0, 0.0]
+    bare = WallPass("wall1", "wall", xy[:2], np.array([True]))
+    assert passes_without_stock([p, bare]) == ["wall1"]

@@ -13,7 +13,8 @@ fillets). Free ends are extended by a length beyond the wall so arc ignition/ext
 stock that is machined off. Tubulars: see `tubular.py`.
 
 All coordinates are layer-local (x, y) mm. Passes come out in a greedy nearest-neighbour order
-(each pass may be reversed: no branch needs a particular direction).
+(each pass may be reversed: no branch needs a particular direction), igniting in machining stock
+where a pass has it at one end only (seam "stock").
 """
 
 from __future__ import annotations
@@ -313,9 +314,18 @@ def _apply_free_end(chains: list[_Chain], f: dict, spec: WallSpec) -> None:
 # ------------------------------------------------------------------------------------------
 # Ordering
 # ------------------------------------------------------------------------------------------
-def order_passes(passes: list[WallPass], start=None) -> list[WallPass]:
-    """Greedy nearest neighbour from `start` (default: lower-left of all passes); each pass may be
-    reversed, closed laps are not rotated."""
+def stock_ends(p: WallPass) -> tuple[bool, bool]:
+    """(start, end): whether the pass's first/last segment lies in machining stock (inside False)."""
+    if not len(p.inside):
+        return False, False
+    return not bool(p.inside[0]), not bool(p.inside[-1])
+
+
+def order_passes(passes: list[WallPass], start=None, seam: str = "stock") -> list[WallPass]:
+    """Greedy nearest neighbour from `start` (default: lower-left of all passes); closed laps are
+    not rotated. seam "stock": a pass with machining stock at one end only (an extension or a
+    fillet lead) ignites there (Venturini et al. 2018: start/stop in stock that is machined off),
+    else either end may lead; "nearest": either end, whichever is nearer."""
     if not passes:
         return []
     left = list(passes)
@@ -324,7 +334,10 @@ def order_passes(passes: list[WallPass], start=None) -> list[WallPass]:
     while left:
         best = None
         for k, p in enumerate(left):
+            s0, s1 = stock_ends(p)
             for rev in (False, True):
+                if seam == "stock" and s0 != s1 and (s1 if not rev else s0):
+                    continue   # this way round it would ignite on the wall and stop in the stock
                 q = p.xy[-1] if rev else p.xy[0]
                 d = float(np.hypot(*(q - pos)))
                 if best is None or d < best[0] - 1e-9:
@@ -337,11 +350,16 @@ def order_passes(passes: list[WallPass], start=None) -> list[WallPass]:
     return out
 
 
+def passes_without_stock(passes) -> list[str]:
+    """Keys of wall passes that have no machining stock at either end (they ignite on the wall)."""
+    return [p.key for p in passes if p.strategy == "wall" and not any(stock_ends(p))]
+
+
 # ------------------------------------------------------------------------------------------
 # Entry point
 # ------------------------------------------------------------------------------------------
 def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), *, layer_index: int = 0,
-                     start=None) -> LayerWalls:
+                     start=None, seam: str = "stock") -> LayerWalls:
     """Passes of one layer from its curves ((k, 2) arrays or LineStrings, mm) and its features."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     tol = spec.tol
@@ -373,4 +391,8 @@ def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), 
             notes.append(f"{key} is not isolated (torch could collide): built layer by layer, scattered")
         xy = aligned_loop(ring, spec.overlap) if mode == "aligned" else scattered_loop(ring, layer_index, spec.overlap)
         passes.append(WallPass(key, mode, xy, np.ones(len(xy) - 1, bool)))
-    return LayerWalls(tuple(order_passes(passes, start)), tuple(helical), tuple(notes))
+    if seam == "stock":
+        for key in passes_without_stock(passes):
+            notes.append(f"{key} has no machining stock at either end: it ignites on the finished wall "
+                         "(extend its ends or start it at a crossing)")
+    return LayerWalls(tuple(order_passes(passes, start, seam)), tuple(helical), tuple(notes))

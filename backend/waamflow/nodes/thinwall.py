@@ -87,11 +87,14 @@ class WallPathNode(Node):
     by `tubular`: aligned (and helical, which tilted fan layers cannot take) starts layer 0 in the
     middle of the lap's longest straight stretch and every later layer at the point nearest the
     seam below; scattered moves that start on by the golden-ratio fraction of the lap per layer.
-    Passes in greedy nearest-neighbour order, each layer starting where the previous ended.
+    Passes in greedy nearest-neighbour order, each layer starting where the previous ended; `seam`
+    stock (default) ignites a pass with machining stock at one end only (free-end extension, fillet
+    lead) in that stock and warns, with the layer, of walls that have none.
     Writes `<node>.toolpath.json`.
     """
 
     type = "wall-path"
+    version = "2"
     title = "Wall path (thin walls)"
     category = "thin walls"
     inputs = (Port("layers", "layers", "Layers (midsurface curves or ring regions)"),
@@ -116,6 +119,9 @@ class WallPathNode(Node):
                                               "theoretical bounds (0 = no check)")
         spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
                                description="Point spacing of ring centre lines (region layers)")
+        seam: Literal["stock", "nearest"] = Field(
+            "stock", description="Wall ignition: stock (a pass with machining stock at one end only starts "
+            "there; passes without stock are warned) or nearest (the end nearer the torch)")
 
         @model_validator(mode="after")
         def _radii(self):
@@ -142,7 +148,7 @@ class WallPathNode(Node):
                 out.append(None)
                 continue
             if layer.curves:
-                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned)
+                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos, seams)
             if passes:
@@ -159,8 +165,10 @@ class WallPathNode(Node):
         return {"toolpath": Layered(tuple(out))}
 
     @staticmethod
-    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set) -> list[WallPass]:
-        lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start)
+    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set,
+               seam: str = "stock") -> list[WallPass]:
+        lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start,
+                              seam=seam)
         for note in lw.warnings:
             if note not in warned:
                 warned.add(note)
@@ -179,7 +187,7 @@ class WallPathNode(Node):
                 run = helices.setdefault((dg, slot), {"key": key, "ring": ring, "slot": slot, "last": slot, "zs": []})
             run["last"] = slot
             run["zs"].append(layer.z)
-        return order_passes(passes, start)
+        return order_passes(passes, start, seam)
 
     @staticmethod
     def _rings(ctx, layer: Layer, params, spec: WallSpec, start, seams: list[np.ndarray]) -> list[WallPass]:
