@@ -6,7 +6,8 @@ Params follow the contract: a `default` spec plus per-section overrides keyed "<
 from __future__ import annotations
 
 import json
-from typing import Any, Optional
+from dataclasses import dataclass
+from typing import Any, Literal, Optional
 
 import numpy as np
 from pydantic import ConfigDict, Field, create_model, field_validator, model_validator
@@ -16,8 +17,9 @@ from ..core.errors import PlanningError
 from ..core.model import LayerPaths, LayerSections, SectionPath
 from ..engine.node import LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
-from ..paths import StrategySpec, plan_section
+from ..paths import StrategySpec
 from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
+from ..paths.whole import plan_whole
 
 
 class SectionStrategy(StrategySpec):
@@ -62,6 +64,57 @@ def paths_summary(toolpath) -> dict:
     return {"units": "mm", "total": total, "sections": rows}
 
 
+@dataclass(frozen=True, eq=False)
+class PlannedLayerPaths(LayerPaths):
+    """A layer's section paths as the strategy planned them, with per section (in order) how its
+    path was chosen and what it leaves uncovered: {"section", "how", "pattern", "pieces",
+    "uncovered_mm2", "area_mm2"} (`combine` reports them; nodes downstream see a LayerPaths)."""
+
+    fills: tuple[dict, ...] = ()
+
+
+def _layer_ranges(indices: list[int]) -> str:
+    """[0, 1, 2, 5, 7, 8] → "0-2, 5, 7-8"."""
+    out, run = [], []
+    for i in sorted(indices):
+        if run and i == run[-1] + 1:
+            run.append(i)
+            continue
+        if run:
+            out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
+        run = [i]
+    if run:
+        out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
+    return ", ".join(out)
+
+
+def cover_report(toolpath) -> dict:
+    """What the strategy chose per section and what its paths leave uncovered (node report):
+    counts of sections planned as given / split at corners / filled with contour, the uncovered
+    area in total and its largest share of one section, and one row per (section, choice) with
+    the layers it applies to."""
+    rows: dict[tuple, dict] = {}
+    counts = {"as planned": 0, "split": 0, "contour": 0}
+    total, worst = 0.0, 0.0
+    for lp in toolpath:
+        for f in getattr(lp, "fills", ()) if lp is not None else ():
+            counts[f["how"]] = counts.get(f["how"], 0) + 1
+            total += f["uncovered_mm2"]
+            share = f["uncovered_mm2"] / f["area_mm2"] if f["area_mm2"] > 0 else 0.0
+            worst = max(worst, share)
+            if f["how"] == "as planned":
+                continue
+            row = rows.setdefault((f["section"], f["how"], f["pattern"], f["pieces"]), {
+                "section": f["section"], "how": f["how"], "pattern": f["pattern"], "pieces": f["pieces"],
+                "layers": [], "max_uncovered_share": 0.0})
+            row["layers"].append(lp.index)
+            row["max_uncovered_share"] = round(max(row["max_uncovered_share"], share), 5)
+    changed = [{**r, "layers": _layer_ranges(r["layers"])} for r in rows.values()][:200]
+    return {"cover": {"sections_as_planned": counts["as planned"], "sections_split": counts["split"],
+                      "sections_contour": counts["contour"], "uncovered_mm2": round(total, 3),
+                      "max_uncovered_share": round(worst, 5), "changed": changed}}
+
+
 _COMPARISONS: dict[str, dict] = {}
 
 
@@ -91,6 +144,16 @@ class StrategyNode(LayerNode):
     `comparison.svg` compare patterns on the same sections (length, arc switches, share outside,
     time at programmed speed).
 
+    The whole section gets a path: each section's path is checked against the section (arc-ON path
+    buffered by half the bead width; a weave's pool bridges its strokes). A section of a layer with
+    no mask (a connected region, key `region<k>`) that its path leaves more than `max_uncovered`
+    (2 %) without a bead is split at its reflex corners into pieces, each filled along its own long
+    axis and joined by arc-OFF links, or else filled with contour rings (`whole_regions: auto`); its
+    toolpath `strategy` names the pattern used. Any section still left more than `max_uncovered`
+    uncovered (a drawn mask section, or `whole_regions: off`) is warned about with its area, layer
+    and section. The node report `cover` counts the sections planned as given, split and filled
+    with contour, and lists the changed ones by layer.
+
     With a bead model connected (`model`, from bead-fit), the default bead width is the model's
     target width and the spacing its step-over, 0.738·width (Ding et al. 2015 tangent overlap
     model, as the contour pattern uses): the connected model wins over `default`'s bead_width and
@@ -100,7 +163,7 @@ class StrategyNode(LayerNode):
 
     type = "strategy"
     combine_keeps_items = True   # combine only warns
-    version = "6"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model
+    version = "7"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model; 7: whole regions covered, uncovered area warned
     title = "Strategy"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer (with guides)"),
@@ -111,6 +174,16 @@ class StrategyNode(LayerNode):
 
     class Params(NodeParams):
         default: SectionStrategy = Field(default_factory=SectionStrategy, description="Spec for every section")
+        whole_regions: Literal["auto", "off"] = Field(
+            "auto", description="Sections of layers with no mask (each connected region is one section): "
+                                "'auto' re-plans a region its path leaves more than max_uncovered without a bead "
+                                "(split at its reflex corners, each piece along its own long axis; else contour "
+                                "rings); 'off' keeps the path as planned (still warned about)")
+        max_uncovered: float = Field(2.0, ge=0.0, le=100.0, json_schema_extra=unit("%"),
+                                     description="Share of a section's area its path may leave without a bead "
+                                                 "(arc-ON path buffered by half the bead width; a weave's pool "
+                                                 "bridges its strokes) before the section is re-planned (auto) "
+                                                 "or warned about")
         sections: dict[str, SectionOverride] = Field(  # type: ignore[valid-type]
             default_factory=dict, description="Section key (\"bs1/A\") → fields that differ from the default")
         compare: list[str] = Field(default_factory=list, max_length=16,
@@ -151,25 +224,38 @@ class StrategyNode(LayerNode):
             "default": params.default.model_dump(mode="json"),
             "sections": {s.key: params.sections[s.key].model_dump(mode="json", exclude_none=True)
                          for s in ls.sections if s.key in params.sections},
+            "whole_regions": params.whole_regions,
+            "max_uncovered": params.max_uncovered,
         }
 
     def run_layer(self, ctx, params, index, items):
         params = self.effective(params, items.get("model"))
         ls: LayerSections = items["sections"]
-        out = []
+        out, fills = [], []
+        limit = params.max_uncovered / 100.0
         for s in ls.sections:
             spec = spec_for(params.default, params.sections.get(s.key))
+            # a key without "/" is a connected region (no mask): a section nobody drew
+            adapt = params.whole_regions == "auto" and "/" not in s.key
             try:
-                path = plan_section(s.region, s.guide, spec)
+                whole = plan_whole(s.region, s.guide, spec, adapt=adapt, max_uncovered=limit)
             except PlanningError as e:
                 raise e.located(layer=index, section=s.key)
             except ValueError as e:
                 raise PlanningError(f"{spec.pattern}: {e}", layer=index, section=s.key) from e
+            path = whole.path
+            if whole.uncovered_share > limit and ctx is not None:
+                ctx.warn(f"{whole.uncovered:.1f} mm² ({100 * whole.uncovered_share:.1f} %) of section {s.key} on "
+                         f"layer {index} gets no bead ({whole.pattern}"
+                         f"{', split at its corners' if whole.how == 'split' else ''}): add a mask section there "
+                         "or choose a filling pattern (contour, parallel)", layer=index, section=s.key)
+            fills.append({"section": s.key, "how": whole.how, "pattern": whole.pattern, "pieces": whole.pieces,
+                          "uncovered_mm2": round(whole.uncovered, 3), "area_mm2": round(whole.area, 3)})
             out.append(SectionPath(
-                key=s.key, strategy=spec.pattern, points=ls.layer.to_world(path.points),
+                key=s.key, strategy=whole.pattern, points=ls.layer.to_world(path.points),
                 arc=path.arc.copy(), inside=path.inside.copy(),
                 speed=np.full(len(path.points) - 1, spec.speed)))
-        return {"toolpath": LayerPaths(ls.layer, tuple(out))}
+        return {"toolpath": PlannedLayerPaths(ls.layer, tuple(out), fills=tuple(fills))}
 
     def combine(self, ctx, params, outputs, inputs):
         model = inputs.get("model")
@@ -200,6 +286,7 @@ class StrategyNode(LayerNode):
                     _COMPARISONS[key] = self._comparison
                     while len(_COMPARISONS) > 8:
                         _COMPARISONS.pop(next(iter(_COMPARISONS)))
+        ctx.report(cover_report(outputs["toolpath"]))
         return super().combine(ctx, params, outputs, inputs)
 
     def artifacts(self, ctx, params, outputs) -> dict[str, Any]:

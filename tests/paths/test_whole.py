@@ -1,0 +1,114 @@
+"""paths.whole (plan a section and check what it leaves uncovered) and paths.deposit (footprint)."""
+
+import math
+
+import numpy as np
+import pytest
+from shapely.geometry import LineString, box
+
+from waamflow.paths import StrategySpec, plan_section
+from waamflow.paths.deposit import deposit, uncovered_area
+from waamflow.paths.whole import plan_whole
+from waamflow.sections.corners import corner_division
+from waamflow.sections.guide import apply_guide
+from waamflow.core.model import Section
+
+from .test_whole_section import CONVEX, FRAME, L_SHAPE, RING, T_SHAPE, U_SHAPE
+
+
+def default_guide(region):
+    return apply_guide(Section("region0", region), None).guide
+
+
+def test_weave_pool_bridges_its_strokes():
+    """120 × 16 box, default weave (bead 6 mm, step 3 mm: 41 vertices, same-side vertices 6 mm
+    apart): the round-bead footprint alone leaves the scallops between vertices along both edges
+    (8.05 %); with the pool bridging consecutive strokes 0.20 % is left (the box's four corners)."""
+    spec = StrategySpec()
+    p = plan_section(CONVEX, default_guide(CONVEX), spec)
+    assert len(p.points) == 41
+    assert uncovered_area(CONVEX, p.points, p.arc, 6.0) / CONVEX.area == pytest.approx(0.0805, abs=5e-4)
+    assert uncovered_area(CONVEX, p.points, p.arc, 6.0, weave=True) / CONVEX.area == pytest.approx(0.0020, abs=2e-4)
+
+
+def test_no_bridge_when_the_strokes_come_back_further_than_a_bead():
+    # step 4 mm: same-side vertices 8 mm apart > 6 mm bead: no bridge, the scallops stay
+    spec = StrategySpec(step=4.0)
+    p = plan_section(CONVEX, default_guide(CONVEX), spec)
+    plain = uncovered_area(CONVEX, p.points, p.arc, 6.0)
+    assert uncovered_area(CONVEX, p.points, p.arc, 6.0, weave=True) == pytest.approx(plain, rel=1e-9)
+    assert plain / CONVEX.area > 0.1
+
+
+def test_arc_off_segments_deposit_nothing():
+    pts = np.array([[0, 8], [50, 8], [70, 8], [120, 8]], float)
+    foot = deposit(pts, np.array([True, False, True]), 6.0)
+    # two 50 mm beads with round caps, 6 mm wide: 2 × (50·6 + π·9)
+    assert foot.area == pytest.approx(2 * (300 + math.pi * 9), rel=2e-3)
+
+
+@pytest.mark.parametrize("pattern", ["oscillate", "parallel", "raster", "contour"])
+def test_convex_section_is_planned_as_given(pattern):
+    spec = StrategySpec(pattern=pattern)
+    g = default_guide(CONVEX)
+    w = plan_whole(CONVEX, g, spec, adapt=True)
+    p = plan_section(CONVEX, g, spec)
+    assert w.how == "as planned" and w.pattern == pattern and w.pieces == 1
+    np.testing.assert_array_equal(w.path.points, p.points)
+    np.testing.assert_array_equal(w.path.arc, p.arc)
+    assert w.uncovered_share <= 0.02
+
+
+def test_l_is_split_into_its_two_arms_each_woven_along_its_axis():
+    spec = StrategySpec()
+    w = plan_whole(L_SHAPE, default_guide(L_SHAPE), spec, adapt=True)
+    assert (w.how, w.pattern, w.pieces) == ("split", "oscillate", 2)
+    assert w.area == pytest.approx(2688.0)
+    assert w.uncovered == pytest.approx(7.7, abs=0.1) and w.uncovered_share < 0.003
+    p = w.path
+    assert p.inside.all()                                    # the link runs inside the L
+    off = ~p.arc
+    assert off.sum() == 1                                    # one arc-OFF link between the arms
+    # the 120 mm arm: ceil(120 / 3) = 40 strokes; the 48 mm arm: 16 strokes; + the link
+    assert len(p.points) - 1 == 40 + 16 + 1
+    long_arm = p.points[:41] if np.ptp(p.points[:41, 0]) > 100 else p.points[-41:]
+    assert long_arm[:, 1].min() == pytest.approx(3.0) and long_arm[:, 1].max() == pytest.approx(13.0)
+    # without adapting (a drawn mask section) the weave stays on one arm and 60 % is uncovered
+    given = plan_whole(L_SHAPE, default_guide(L_SHAPE), spec, adapt=False)
+    assert given.how == "as planned" and given.uncovered_share == pytest.approx(0.6043, abs=1e-3)
+
+
+@pytest.mark.parametrize("region, pieces", [(T_SHAPE, 2), (U_SHAPE, 3), (FRAME, 4)])
+def test_t_u_frame_are_split(region, pieces):
+    w = plan_whole(region, default_guide(region), StrategySpec(), adapt=True)
+    assert (w.how, w.pieces) == ("split", pieces)
+    assert w.uncovered_share < 0.005
+    assert int(np.count_nonzero(~w.path.arc)) >= pieces - 1
+
+
+def test_round_ring_falls_back_to_contour():
+    w = plan_whole(RING, default_guide(RING), StrategySpec(), adapt=True)
+    assert (w.how, w.pattern, w.pieces) == ("contour", "contour", 1)
+    assert w.uncovered_share < 0.001
+
+
+def test_a_pattern_that_covers_the_l_is_kept():
+    spec = StrategySpec(pattern="parallel")
+    w = plan_whole(L_SHAPE, default_guide(L_SHAPE), spec, adapt=True)
+    assert w.how == "as planned" and w.uncovered_share < 1e-6
+
+
+def test_run_ups_keep_each_piece_forward():
+    """With unequal run-ups a piece is never reversed (its run-up would become a run-out): the path
+    is each piece's own forward path, joined by one straight arc-OFF link."""
+    spec = StrategySpec(extension_before=4.5, extension_after=0.0, arc_outside="off")
+    w = plan_whole(L_SHAPE, default_guide(L_SHAPE), spec, adapt=True)
+    assert w.how == "split"
+    pieces = [plan_section(p, None, spec) for p in corner_division(L_SHAPE)]
+    first = next(q for q in pieces if np.allclose(q.points[0], w.path.points[0]))
+    second = next(q for q in pieces if q is not first)
+    np.testing.assert_allclose(w.path.points[-1], second.points[-1])
+    link = float(np.hypot(*(second.points[0] - first.points[-1])))
+    assert w.path.length == pytest.approx(first.length + second.length + link, abs=1e-9)
+    assert w.path.arc_on_length == pytest.approx(first.arc_on_length + second.arc_on_length, abs=1e-9)
+    assert np.all(w.path.arc <= w.path.inside)
