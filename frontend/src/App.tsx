@@ -21,6 +21,11 @@ import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
 import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
 import { ProblemsPanel } from "./problems/ProblemsPanel";
+import { PreflightBadge } from "./preflight/PreflightBadge";
+import {
+  beadWidthOf, isStale, layerStarts, parsePreflight, preflightBadge, recipeSignature, type Preflight, type PreflightProblem, type RunInputs,
+} from "./preflight/preflight";
+import type { PreflightMark } from "./mask/MaskView";
 import { focusSection } from "./forms/sectionKeys";
 import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
@@ -61,6 +66,11 @@ export function App() {
   const [search, setSearch] = useState<{ x: number; y: number; at: XY } | null>(null);
   const [requestError, setRequestError] = useState<RunError | null>(null);
   const [showProblems, setShowProblems] = useState(false);
+  // The last run's preflight report, and the recipe and XML it was run with: once either changes
+  // the report no longer describes what is on screen (the badge greys out until the next run).
+  const [preflight, setPreflight] = useState<Preflight | null>(null);
+  const [preflightOf, setPreflightOf] = useState<RunInputs | null>(null);
+  const [pfMark, setPfMark] = useState<PreflightMark | null>(null);
   const clip = useRef<Clip | null>(null);
   const rf = useReactFlow();
 
@@ -68,6 +78,8 @@ export function App() {
   const xmlDirty = xmlDraft !== null && xmlDraft !== savedXml;
   const recipeDirty = JSON.stringify(recipe) !== savedJson;
   const dirty = recipeDirty || xmlDirty;
+  // The recipe as the engine runs it, without its name (a save under a new name changes nothing).
+  const recipeSig = useMemo(() => recipeSignature(recipe), [recipe]);
   const isExample = !!graphName && graphs.some((g) => g.name === graphName && g.example);
 
   // Keep the selection to nodes that exist (after delete, undo, open).
@@ -117,9 +129,13 @@ export function App() {
         const text = await API.artifactText(s.id, merged.name);
         if (text !== null && text !== xmlNow.current) {
           setXmlDraft(text);
+          // the merged XML is what the run used: the report still describes it
+          setPreflightOf((o) => o && { ...o, xml: text });
           message("the run's parameter XML is in the Parameters tab as an unsaved draft");
         }
       }
+      // Read whenever the run wrote one (a failing preflight may end the run as failed).
+      if (arts.some((a) => a.name === "preflight.json")) setPreflight(parsePreflight(await API.artifactText(s.id, "preflight.json")));
     } catch (e) {
       fail(e);
     }
@@ -169,6 +185,9 @@ export function App() {
       setFailure(null);
       setRequestError(null);
       setArtifacts([]);
+      setPreflight(null);
+      setPreflightOf(null);
+      setPfMark(null);
       setLayer(0);
       reset();
       const d = readDraft(localStorage, name);
@@ -313,6 +332,9 @@ export function App() {
     setFailure(null);
     setRequestError(null);
     setArtifacts([]);
+    setPreflight(null);
+    setPfMark(null);
+    setPreflightOf({ recipe: recipeSig, xml: xmlText });
     reset(); // the progress bar starts from zero for the new run
     try {
       // The recipe runs exactly as displayed (unsaved edits included) with the XML as shown in the
@@ -452,8 +474,22 @@ export function App() {
     return true;
   };
 
+  /** A preflight problem: its node selected, its layer and section shown on the mask canvas, its point marked. */
+  const pickPreflight = (pr: PreflightProblem, draw = false) => {
+    if (pr.node && recipe.nodes.some((n) => n.id === pr.node)) setSelected(new Set([pr.node]));
+    if (pr.section) focusSection(pr.section);
+    if (pr.layer != null) {
+      setLayer(pr.layer);
+      setPfMark((m) => ({ layer: pr.layer!, point: pr.point ?? null, section: pr.section ?? null, draw, message: pr.message, seq: (m?.seq ?? 0) + 1 }));
+      setTab("mask");
+    } else if (pr.node) setTab("graph");
+  };
+
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
+  const preflightStale = isStale(preflight, preflightOf, { recipe: recipeSig, xml: xmlText });
+  const badge = preflightBadge({ phase: run.phase, report: preflight, stale: preflightStale });
+  const canvasStarts = useMemo(() => (preflight && !preflightStale ? { ...layerStarts(preflight, layer), radius: beadWidthOf(preflight) } : null), [preflight, preflightStale, layer]);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
 
   return (
@@ -472,6 +508,7 @@ export function App() {
         problemCount={problems.length}
         errorCount={problems.filter((x) => x.severity === "error").length}
         onProblems={() => setShowProblems((v) => !v)}
+        preflight={<PreflightBadge view={badge} onOpen={() => setShowProblems(true)} />}
         onFrame={() => {
           const box = document.querySelector("[data-testid=graph-editor]")?.getBoundingClientRect();
           const c = box ? rf.screenToFlowPosition({ x: box.left + 40, y: box.top + 40 }) : { x: 0, y: 0 };
@@ -540,6 +577,9 @@ export function App() {
                   onDismissFailure={() => setFailure(null)}
                   onMessage={message}
                   onNewMask={newMaskFrom}
+                  starts={canvasStarts}
+                  mark={pfMark}
+                  onMarkDone={() => setPfMark((m) => (m ? { ...m, draw: false } : m))}
                 />
               </div>
             )}
@@ -593,7 +633,17 @@ export function App() {
           </div>
         </aside>
       </div>
-      {showProblems && <ProblemsPanel problems={problems} onPick={pickProblem} onClose={() => setShowProblems(false)} />}
+      {showProblems && (
+        <ProblemsPanel
+          problems={problems}
+          onPick={pickProblem}
+          onClose={() => setShowProblems(false)}
+          preflight={preflight}
+          preflightStale={preflightStale}
+          onPickPreflight={(pr) => pickPreflight(pr)}
+          onMaskHere={(pr) => pickPreflight(pr, true)}
+        />
+      )}
       {search && (
         <NodeSearch
           specs={specs}

@@ -6,6 +6,7 @@ import "./api/auth"; // first: wraps fetch before the API client captures it
 import { App } from "./App";
 import "./styles.css";
 import "./core.css";
+import "./preflight/preflight.css";
 
 createRoot(document.getElementById("root")!).render(
   <StrictMode>

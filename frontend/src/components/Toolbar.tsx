@@ -1,3 +1,4 @@
+import type { ReactNode } from "react";
 import type { GraphInfo } from "../api/types";
 import type { RunState } from "../run/status";
 
@@ -17,6 +18,8 @@ export interface ToolbarProps {
   problemCount: number;
   errorCount: number;
   onProblems: () => void;
+  /** The last run's preflight verdict badge (shown after the problem count). */
+  preflight?: ReactNode;
   /** Frame the selected nodes (a node group that moves them together). */
   onFrame: () => void;
   onOpen: (name: string) => void;
@@ -103,6 +106,7 @@ export function Toolbar(p: ToolbarProps) {
       >
         {p.errorCount ? `✖ ${p.errorCount} ` : ""}⚠ {p.problemCount - p.errorCount}
       </button>
+      {p.preflight}
       <span className="title">{p.graphName ?? "unsaved recipe"}</span>
       {p.isExample && (
         <span className="example-badge" data-testid="example-badge" title="shipped example: save as a new name to keep changes">

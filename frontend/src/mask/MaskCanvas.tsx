@@ -49,6 +49,11 @@ export interface MaskCanvasProps {
   beadWidthOf: (key: string) => number | null;
   /** Move the shown layer by ±1 (PageUp / PageDown). */
   onLayerStep: (delta: number) => void;
+  /** The last run's ignition points (preflight, layer mm) of this layer and the one below;
+   * `stacked[i]`: start i lies within a bead width of one below. */
+  starts?: { here: number[][]; below: number[][]; stacked: boolean[] } | null;
+  /** A point a picked preflight problem names (layer mm), marked with a crosshair. */
+  mark?: number[] | null;
 }
 
 type Drag =
@@ -361,6 +366,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             </g>
           );
         })}
+        {p.starts && <StartMarkers starts={p.starts} size={r * 2.4} />}
         {curves.map(({ key, curve }) => (
           <g key={`c-${key}`} className={`mask-curve ${key === p.selected ? "selected" : ""} ${key === p.highlight ? "failing" : ""}`}>
             <path d={ringPathD(curve, true)} data-curve={key} style={{ stroke: colorOf(key) }} />
@@ -394,6 +400,12 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             )}
           </g>
         )}
+        {p.mark && (
+          <g className="pf-mark" data-testid="pf-mark" data-x={p.mark[0].toFixed(2)} data-y={p.mark[1].toFixed(2)} pointerEvents="none">
+            <circle cx={p.mark[0]} cy={-p.mark[1]} r={r * 4} />
+            <path d={`M${p.mark[0] - r * 6} ${-p.mark[1]}H${p.mark[0] - r * 2}M${p.mark[0] + r * 2} ${-p.mark[1]}H${p.mark[0] + r * 6}M${p.mark[0]} ${-p.mark[1] - r * 6}V${-p.mark[1] - r * 2}M${p.mark[0]} ${-p.mark[1] + r * 2}V${-p.mark[1] + r * 6}`} />
+          </g>
+        )}
         {cursor && <circle className={`cursor snap-${cursor.kind}`} cx={cursor.p[0]} cy={-cursor.p[1]} r={r * 1.5} />}
       </svg>
       <div className="canvas-legend" data-testid="canvas-legend" aria-label="path colours">
@@ -412,6 +424,17 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
             {s.label}
           </span>
         ))}
+        {p.starts && (
+          <span className="legend-swatch pf-legend" title="arc ignition points read back from the program (preflight); red: within a bead width of one on the layer below">
+            <span aria-hidden="true" className="pf-tri">▲</span> arc starts <span aria-hidden="true" className="pf-tri below">△</span> layer below
+            {p.starts.stacked.some(Boolean) && (
+              <>
+                {" "}
+                <span aria-hidden="true" className="pf-tri stacked">▲</span> stacked ({p.starts.stacked.filter(Boolean).length})
+              </>
+            )}
+          </span>
+        )}
       </div>
       <div className="canvas-hud">
         <button onClick={fit} title="fit view (F)">fit</button>
@@ -432,6 +455,26 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
 });
 
 const round3 = (v: number) => Math.round(v * 1000) / 1000;
+
+/** An upward triangle of circumradius `s` centred on layer point q (SVG y = −y). */
+const triangleD = (q: number[], s: number) =>
+  `M${q[0]} ${-q[1] - s}L${q[0] + 0.866 * s} ${-q[1] + 0.5 * s}L${q[0] - 0.866 * s} ${-q[1] + 0.5 * s}Z`;
+
+/** The preflight's arc ignition points: this layer's filled (red when stacked on one below), the layer below's hollow. */
+const StartMarkers = memo(function StartMarkers({ starts, size }: { starts: { here: number[][]; below: number[][]; stacked: boolean[] }; size: number }) {
+  return (
+    <g className="pf-starts" data-testid="pf-starts" data-count={starts.here.length} data-stacked={starts.stacked.filter(Boolean).length} pointerEvents="none">
+      {starts.below.map((q, i) => (
+        <path key={`b${i}`} d={triangleD(q, size * 1.25)} className="pf-start-below" />
+      ))}
+      {starts.here.map((q, i) => (
+        <path key={`h${i}`} d={triangleD(q, size)} className={`pf-start ${starts.stacked[i] ? "stacked" : ""}`} data-start={i}>
+          <title>{`arc start ${i + 1}: x ${mm(q[0])} y ${mm(q[1])} mm${starts.stacked[i] ? " (stacked on a start of the layer below)" : ""}`}</title>
+        </path>
+      ))}
+    </g>
+  );
+});
 
 function nearestPath(paths: PreviewPath[], w: Pt): PreviewPath | undefined {
   let best: PreviewPath | undefined, bd = Infinity;

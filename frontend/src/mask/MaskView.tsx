@@ -12,6 +12,7 @@ import { beadWidth, COLOR_BY, type ColorBy } from "./canvasTools";
 import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
 import { useLayerPreview } from "./useLayerPreview";
 import { useSectionFocus } from "../forms/sectionKeys";
+import { stackedStarts } from "../preflight/preflight";
 
 /** Patterns named by the contract, used only if the strategy node's schema does not list them. */
 /** Port types the canvas can draw for one layer. */
@@ -28,6 +29,17 @@ export interface NewMaskEvent {
   regions: { key: string; polygon: { exterior: number[][]; holes: number[][][] } }[];
 }
 
+/** A preflight problem shown on the canvas: its layer, its point (world mm) marked; `draw` = the
+ * "new mask here" action (the mask-drawing tool on that layer). `seq` makes a repeated click count. */
+export interface PreflightMark {
+  layer: number;
+  point: number[] | null;
+  section: string | null;
+  draw: boolean;
+  message: string;
+  seq: number;
+}
+
 export interface MaskViewProps {
   /** "New mask from layer N": the App applies it (with carry-over); false when the user declined. */
   onNewMask?: (e: NewMaskEvent) => boolean;
@@ -42,6 +54,12 @@ export interface MaskViewProps {
   failure: RunError | null;
   onDismissFailure: () => void;
   onMessage: (m: string) => void;
+  /** The last run's ignition points of the shown layer and the layer below (world mm), with the
+   * distance (mm) under which a start counts as stacked on one below; null = none to show. */
+  starts?: { here: number[][]; below: number[][]; radius: number } | null;
+  mark?: PreflightMark | null;
+  /** The "new mask here" drawing is finished or abandoned. */
+  onMarkDone?: () => void;
 }
 
 declare global {
@@ -80,6 +98,17 @@ export function MaskView(p: MaskViewProps) {
     if (!pv.data || !frame) return pv.data;
     return { ...pv.data, paths: pv.data.paths.map((q) => ({ ...q, points: worldToLayer(q.points, frame) })) };
   }, [pv.data]);
+  // The preflight's points are world coordinates too (read back from the program).
+  const frame = pv.data?.layer?.frame;
+  const starts = useMemo(() => {
+    if (!p.starts || (!p.starts.here.length && !p.starts.below.length)) return null;
+    const here = worldToLayer(p.starts.here, frame), below = worldToLayer(p.starts.below, frame);
+    return { here, below, stacked: stackedStarts(here, below, p.starts.radius) };
+  }, [p.starts, frame]);
+  const markPoint = useMemo(
+    () => (p.mark?.point && p.mark.layer === layer ? worldToLayer([p.mark.point], frame)[0] : null),
+    [p.mark, layer, frame],
+  );
   const [tool, setTool] = useState<Tool>("select");
   const [grid, setGrid] = useState(1);
   const [snapVertices, setSnapVertices] = useState(true);
@@ -87,6 +116,24 @@ export function MaskView(p: MaskViewProps) {
   const [replanMs, setReplanMs] = useState<number | null>(null);
   const [colorBy, setColorBy] = useState<ColorBy>("zone");
   const [showBead, setShowBead] = useState(true);
+  // "new mask here": the curve tool on the problem's layer, with a hint until a curve is drawn.
+  const [drawHint, setDrawHint] = useState<PreflightMark | null>(null);
+  useEffect(() => {
+    if (!p.mark) return;
+    if (p.mark.section) setSelected(p.mark.section);
+    if (p.mark.draw) {
+      setTool("curve");
+      setDrawHint(p.mark);
+    } else setDrawHint(null);
+    // eslint-disable-next-line react-hooks/exhaustive-deps
+  }, [p.mark?.seq]);
+  const endDraw = useCallback(() => {
+    setDrawHint(null);
+    p.onMarkDone?.();
+  }, [p]);
+  useEffect(() => {
+    if (tool !== "curve" && drawHint) endDraw();
+  }, [tool, drawHint, endDraw]);
 
   // Edit → canvas latency, measured after the frame that shows the re-planned layer.
   useEffect(() => {
@@ -147,6 +194,12 @@ export function MaskView(p: MaskViewProps) {
         }
         setSelected(addSection(maskParams, layer, curve).key);
         edit(maskId, (m) => addSection(m as MaskParams, layer, curve).params);
+        if (drawHint) {
+          p.onMessage(`new section ${addSection(maskParams, layer, curve).key} drawn over the uncovered area: run again to check it`);
+          setDrawHint(null);
+          setTool("select");
+          p.onMarkDone?.();
+        }
       },
       setCurve: (key, curve) => edit(maskId, (m) => setCurve(m as MaskParams, key, curve)),
       setGuide: (key, guide) => edit(guideId, (g) => setGuide(g as GuideParams, key, guide)),
@@ -172,7 +225,7 @@ export function MaskView(p: MaskViewProps) {
         });
       },
     }),
-    [edit, maskId, guideId, strategyId, zoneId, layer, p, maskParams],
+    [edit, maskId, guideId, strategyId, zoneId, layer, p, maskParams, drawHint],
   );
 
   const { patterns, schemaDefault } = useMemo(() => {
@@ -270,6 +323,16 @@ export function MaskView(p: MaskViewProps) {
             <button onClick={p.onDismissFailure}>dismiss</button>
           </div>
         )}
+        {drawHint && (
+          <div className="pf-draw-hint" data-testid="pf-draw-hint" role="status">
+            <b>New mask section</b>
+            {drawHint.section ? ` for the uncovered area of ${drawHint.section}` : " for the uncovered area"} on layer {drawHint.layer}:{" "}
+            {maskId
+              ? `draw a closed curve around the marked spot (click points, click the first one to close; Esc clears the points). ${mask ? `It joins mask ${mask.id} (layers ${ranges.find((m) => m.id === mask.id)?.from ?? mask.from_layer}–${ranges.find((m) => m.id === mask.id)?.to ?? "end"}).` : "It starts mask bs1 (all layers)."}`
+              : "this recipe has no mask node: add one (palette → mask) to draw sections."}
+            <button onClick={() => setTool("select")}>cancel</button>
+          </div>
+        )}
         {err && (
           <div className="preview-error" data-testid="preview-error">
             {err.layer != null ? `layer ${err.layer}` : ""} {err.section ?? ""} {err.message}
@@ -294,6 +357,8 @@ export function MaskView(p: MaskViewProps) {
           colorBy={colorBy}
           beadWidthOf={beadWidthOf}
           onLayerStep={onLayerStep}
+          starts={starts}
+          mark={markPoint}
         />
       </div>
       <aside className="mask-panel">

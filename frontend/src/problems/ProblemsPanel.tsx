@@ -1,7 +1,21 @@
+import { canMaskHere, checkLabel, figureRows, problemKey, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
 import type { Problem } from "./problems";
 
-/** The problems of the last run or request; a click selects the node (and its layer/section). */
-export function ProblemsPanel({ problems, onPick, onClose }: { problems: readonly Problem[]; onPick: (p: Problem) => void; onClose: () => void }) {
+export interface ProblemsPanelProps {
+  problems: readonly Problem[];
+  onPick: (p: Problem) => void;
+  onClose: () => void;
+  /** The last run's preflight report (null: none) and whether the recipe changed since. */
+  preflight?: Preflight | null;
+  preflightStale?: boolean;
+  /** A preflight problem clicked: show its layer (and section, point) on the mask canvas. */
+  onPickPreflight?: (p: PreflightProblem) => void;
+  /** "new mask here" on an uncovered area: the mask-drawing tool on that layer, at that point. */
+  onMaskHere?: (p: PreflightProblem) => void;
+}
+
+/** The problems of the last run or request, then its preflight; a click selects the node (and its layer/section). */
+export function ProblemsPanel({ problems, onPick, onClose, preflight, preflightStale, onPickPreflight, onMaskHere }: ProblemsPanelProps) {
   return (
     <section className="problems" data-testid="problems" aria-label="problems">
       <header>
@@ -9,17 +23,67 @@ export function ProblemsPanel({ problems, onPick, onClose }: { problems: readonl
         <span className="grow" />
         <button onClick={onClose} aria-label="close the problems panel">✕</button>
       </header>
-      {!problems.length && <div className="muted">No problems in the last run.</div>}
+      <div className="problems-body">
+        {!problems.length && <div className="muted pad">No errors or warnings in the last run.</div>}
+        {problems.length > 0 && (
+          <ul>
+            {problems.map((p) => (
+              <li key={p.key}>
+                <button className={`problem ${p.severity}`} onClick={() => onPick(p)} data-problem-node={p.node ?? ""} data-problem-layer={p.layer ?? ""} data-problem-section={p.section ?? ""}>
+                  <span className="sev">{p.severity === "error" ? "✖" : "⚠"}</span>
+                  <span className="where">
+                    {[p.node, p.layer != null ? `layer ${p.layer}` : null, p.section, p.field].filter(Boolean).join(" · ")}
+                  </span>
+                  <span className="msg">{p.message}</span>
+                </button>
+              </li>
+            ))}
+          </ul>
+        )}
+        {preflight && <PreflightSection report={preflight} stale={!!preflightStale} onPick={onPickPreflight} onMaskHere={onMaskHere} />}
+      </div>
+    </section>
+  );
+}
+
+function PreflightSection({ report, stale, onPick, onMaskHere }: { report: Preflight; stale: boolean; onPick?: (p: PreflightProblem) => void; onMaskHere?: (p: PreflightProblem) => void }) {
+  const list = sortedProblems(report);
+  return (
+    <section className={`preflight-section ${stale ? "stale" : ""}`} data-testid="preflight-section" aria-label="preflight">
+      <h3>
+        Preflight <span className={`pf-verdict pf-${report.verdict}`}>{report.verdict}</span>
+        {report.accepted && <span className="muted"> · accepted by the user</span>}
+        {stale && <span className="muted"> · out of date: the recipe changed, run again</span>}
+      </h3>
+      <dl className="pf-figures">
+        {figureRows(report).map(([k, v]) => (
+          <div key={k}>
+            <dt>{k}</dt>
+            <dd>{v}</dd>
+          </div>
+        ))}
+      </dl>
+      {!list.length && <div className="muted pad">The program builds the part: no preflight problems.</div>}
       <ul>
-        {problems.map((p) => (
-          <li key={p.key}>
-            <button className={`problem ${p.severity}`} onClick={() => onPick(p)} data-problem-node={p.node ?? ""} data-problem-layer={p.layer ?? ""} data-problem-section={p.section ?? ""}>
-              <span className="sev">{p.severity === "error" ? "✖" : "⚠"}</span>
-              <span className="where">
-                {[p.node, p.layer != null ? `layer ${p.layer}` : null, p.section, p.field].filter(Boolean).join(" · ")}
-              </span>
+        {list.map((p, i) => (
+          <li key={problemKey(p, i)} className="pf-row">
+            <button
+              className={`pf-problem ${p.severity === "fail" ? "pf-sev-fail" : "pf-sev-warn"}`}
+              onClick={() => onPick?.(p)}
+              data-pf-check={p.check}
+              data-problem-layer={p.layer ?? ""}
+              data-problem-section={p.section ?? ""}
+              title={p.value != null && p.limit != null ? `value ${p.value}, limit ${p.limit}` : undefined}
+            >
+              <span className="sev" aria-label={p.severity === "fail" ? "fail" : "warning"}>{p.severity === "fail" ? "✗" : "⚠"}</span>
+              <span className="where">{[checkLabel(String(p.check)), p.node, p.layer != null ? `layer ${p.layer}` : null, p.section].filter(Boolean).join(" · ")}</span>
               <span className="msg">{p.message}</span>
             </button>
+            {canMaskHere(p) && onMaskHere && (
+              <button className="pf-action" onClick={() => onMaskHere(p)} data-testid="pf-mask-here" title={`draw a new mask section on layer ${p.layer} around the uncovered area`}>
+                new mask here
+              </button>
+            )}
           </li>
         ))}
       </ul>

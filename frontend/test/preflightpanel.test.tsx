@@ -1,0 +1,53 @@
+// @vitest-environment jsdom
+import { act } from "react";
+import { createRoot } from "react-dom/client";
+import { describe, expect, it } from "vitest";
+import { PreflightBadge } from "../src/preflight/PreflightBadge";
+import { preflightBadge, type Preflight, type PreflightProblem } from "../src/preflight/preflight";
+import { ProblemsPanel } from "../src/problems/ProblemsPanel";
+
+(globalThis as { IS_REACT_ACT_ENVIRONMENT?: boolean }).IS_REACT_ACT_ENVIRONMENT = true;
+
+const report: Preflight = {
+  verdict: "warn", accepted: false, top_gap_mm: 0, uncovered_share: 0.04, wire_part_volume_ratio: 1.1, min_arc_run_mm: 9, start_spread_mm: 3, weld_data_missing: 0,
+  layers: [], programs: [],
+  problems: [
+    { check: "uncovered", severity: "warn", node: "post", layer: 3, section: "bs1/A", message: "layer 3, bs1/A: 12 mm² gets no bead", value: 0.04, limit: 0.02, point: [10, 2, 6] },
+    { check: "stacked_starts", severity: "warn", node: "post", layer: 4, section: null, message: "layer 4 ignites on layer 3's start", value: 1, limit: 6, point: null },
+  ],
+};
+
+function render(el: React.ReactElement) {
+  const host = document.createElement("div");
+  document.body.appendChild(host);
+  const root = createRoot(host);
+  act(() => root.render(el));
+  return host;
+}
+
+describe("preflight in the GUI", () => {
+  it("the badge is a labelled button with its figures in the tooltip; a click opens the list", () => {
+    let opened = 0;
+    const host = render(<PreflightBadge view={preflightBadge({ phase: "done", report, stale: false })} onOpen={() => opened++} />);
+    const b = host.querySelector("[data-testid=preflight-badge]") as HTMLButtonElement;
+    expect(b.textContent).toBe("preflight ⚠ 2");
+    expect(b.getAttribute("aria-label")).toBe("preflight warnings: 2 problems; open the list");
+    expect(b.title).toMatch(/uncovered: 4.0 %/);
+    act(() => b.click());
+    expect(opened).toBe(1);
+  });
+  it("the problems panel lists each preflight problem; an uncovered one offers 'new mask here'", () => {
+    const picked: PreflightProblem[] = [], masked: PreflightProblem[] = [];
+    const host = render(
+      <ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={report} onPickPreflight={(p) => picked.push(p)} onMaskHere={(p) => masked.push(p)} />,
+    );
+    const rows = [...host.querySelectorAll(".pf-problem")];
+    expect(rows.map((r) => r.querySelector(".where")!.textContent)).toEqual(["uncovered area · post · layer 3 · bs1/A", "stacked starts · post · layer 4"]);
+    expect(host.querySelectorAll("[data-testid=pf-mask-here]")).toHaveLength(1);
+    act(() => (rows[1] as HTMLButtonElement).click());
+    act(() => (host.querySelector("[data-testid=pf-mask-here]") as HTMLButtonElement).click());
+    expect(picked.map((p) => p.check)).toEqual(["stacked_starts"]);
+    expect(masked.map((p) => p.layer)).toEqual([3]);
+    expect(host.querySelector("[data-testid=preflight-section] h3")!.textContent).toMatch(/Preflight\s*warn/);
+  });
+});
