@@ -86,23 +86,13 @@ def cmd_run(args) -> int:
                      workers=args.workers, scheduler=scheduler)
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
-    files = result.artifacts
-    failed = _preflight_failure(result.preflight)
-    if failed is not None and args.accept_preflight:
-        from .preflight import stamp_acceptance
+    from .preflight import gate
 
-        result.preflight["accepted"] = True
-        files = stamp_acceptance(files, result.preflight)
-        files["preflight.json"] = json.dumps(result.preflight, indent=1).encode("utf-8")
-    elif failed is not None:
-        # the programs stay inside waamflow: the folder holds the report and the plan, not a program
-        # that builds the wrong part
-        held = {n for r in result.preflight["programs"] for n in r.get("files", []) if not n.endswith(".toolpath.json")}
-        result.preflight["withheld"] = sorted(held)
-        files = {n: d for n, d in files.items() if n not in held}
-        files["preflight.json"] = json.dumps(result.preflight, indent=1).encode("utf-8")
+    files, failed = gate(result.preflight, result.artifacts, args.accept_preflight, "--accept-preflight")
+    if failed is not None and not args.accept_preflight:
         summary["status"] = "preflight_failed"
     summary["preflight"] = result.preflight
+    summary["artifacts"] = sorted(files)
     write_run_dir(out, files, summary)
     n_cached = sum(1 for s in result.stats.values() if s.cached)
     spent = {k: s.compute_seconds for k, s in result.stats.items() if s.compute_seconds}
@@ -127,14 +117,6 @@ def cmd_run(args) -> int:
     print(f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
           f"{len(result.warnings)} warnings{verdict}, {result.seconds:.2f} s → {out}")
     return 0
-
-
-def _preflight_failure(report: dict | None) -> dict | None:
-    if not report or report.get("verdict") != "fail":
-        return None
-    from .preflight import first_error
-
-    return first_error(report) or {"check": "preflight", "message": "failed", "node": None}
 
 
 def cmd_nodes(args) -> int:

@@ -16,6 +16,7 @@ from ..core.errors import CancelledError, WaamflowError
 from ..core.model import LayerPaths, Layered
 from ..engine.artifacts import write_run_dir
 from ..engine.events import TERMINAL_KINDS, Event
+from ..preflight import gate
 from ..engine.executor import FileResolver, RunResult, execute
 from ..engine.graph import build_graph
 from ..engine.recipe import Recipe
@@ -123,7 +124,8 @@ class RunManager:
         self.resolver_for = resolver_for
         self.on_done = on_done
 
-    def submit(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> str:
+    def submit(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None, *,
+               accept_preflight: bool = False) -> str:
         """Validate now (so a bad recipe is a 422, not a failed run), then queue. `params_xml` is a
         draft zone-parameter file used for this run only."""
         graph = build_graph(recipe)
@@ -135,7 +137,7 @@ class RunManager:
         self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs, params_xml)
         live = LiveRun(run_id)
         self.live[run_id] = live
-        self.pool.submit(self._run, run_id, graph_name, recipe, graph, live, params_xml)
+        self.pool.submit(self._run, run_id, graph_name, recipe, graph, live, params_xml, accept_preflight)
         return run_id
 
     def run_dir(self, run_id: str) -> Path:
@@ -149,7 +151,7 @@ class RunManager:
         return True
 
     def _run(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
-             params_xml: str | None = None) -> None:
+             params_xml: str | None = None, accept_preflight: bool = False) -> None:
         if live.cancel.is_set():
             self._finish(run_id, live, "cancelled", error={"kind": "cancelled", "message": "cancelled before start",
                                                            "text": "cancelled before start"})
@@ -177,7 +179,11 @@ class RunManager:
             self._check_result(result)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs
-            write_run_dir(self.run_dir(run_id), result.artifacts, summary)
+            files, _failed = gate(result.preflight, result.artifacts, accept_preflight,
+                                  "accept_preflight in POST /api/runs")
+            summary["preflight"] = result.preflight
+            summary["artifacts"] = sorted(files)
+            write_run_dir(self.run_dir(run_id), files, summary)
             if self.on_done is not None:
                 try:
                     self.on_done(run_id, graph_name, recipe, result)

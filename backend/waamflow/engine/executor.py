@@ -700,7 +700,6 @@ def _preflight(run: "_Run", graph: Graph) -> dict | None:
     `preflight.json`. An internal error of the check itself is a failed check, never a silent pass."""
     from ..preflight import run_preflight
 
-    run.emit("node_started", node="preflight", progress=1.0, message="preflight")
     try:
         report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None))
     except Exception as exc:  # noqa: BLE001 - reported, never swallowed

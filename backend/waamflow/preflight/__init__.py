@@ -16,7 +16,7 @@ from typing import Any
 
 from .settings import PreflightSettings
 
-__all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error"]
+__all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error", "gate"]
 
 SUMMARY_KEYS = ("top_gap_mm", "uncovered_share", "wire_part_volume_ratio", "min_arc_run_mm", "start_spread_mm",
                 "weld_data_missing")
@@ -57,7 +57,8 @@ def _bead_width(graph, node_id: str, s: PreflightSettings) -> tuple[float, str]:
 
 def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str, bytes],
                   settings: PreflightSettings | None = None) -> dict | None:
-    """The preflight report of a finished run, or None when disabled."""
+    """The preflight report of a finished run; None when disabled or when the run hands out neither
+    a program nor a toolpath."""
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import VERDICT_ORDER, check_program
@@ -98,7 +99,9 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
                        notes=rep["notes"] + ["no program is emitted: the last toolpath was checked (weld data and "
                                              "wire volume are the program's to carry)"])
             reports.append(rep)
-    verdict = max((r["verdict"] for r in reports), key=VERDICT_ORDER.get, default="ok")
+    if not reports:
+        return None                          # nothing leaves this run that could build a part
+    verdict = max((r["verdict"] for r in reports), key=VERDICT_ORDER.get)
     out: dict = {"verdict": verdict, "accepted": False}
     for key in SUMMARY_KEYS:
         vals = [r.get(key) for r in reports if r.get(key) is not None]
@@ -144,3 +147,24 @@ def stamp_acceptance(files: dict[str, bytes], report: dict, who: str = "--accept
                 f"{text.replace('(', '[').replace(')', ']')}{close}\n")
         out[name] = (body[:m.start()] + line + body[m.start():]).encode("utf-8")
     return out
+
+
+def gate(report: dict | None, files: dict[str, bytes], accept: bool, who: str) -> tuple[dict[str, bytes], dict | None]:
+    """What a run may hand out after its preflight: (files, the first failing problem or None).
+
+    A failed preflight keeps the programs inside waamflow (the files hold the report and the plan;
+    `report["withheld"]` names what was kept back) unless the user accepts it, in which case every
+    program's header says so (`stamp_acceptance`) and `report["accepted"]` is true."""
+    if not report or report.get("verdict") != "fail":
+        return files, None
+    failed = first_error(report) or {"check": "preflight", "message": "failed", "node": None, "layer": None,
+                                     "section": None}
+    if accept:
+        report["accepted"] = True
+        files = stamp_acceptance(files, report, who)
+    else:
+        held = {n for r in report.get("programs", []) for n in r.get("files", []) if not n.endswith(".toolpath.json")}
+        report["withheld"] = sorted(held)
+        files = {n: d for n, d in files.items() if n not in held}
+    files = {**files, "preflight.json": json.dumps(report, indent=1).encode("utf-8")}
+    return files, failed

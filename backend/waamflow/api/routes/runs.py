@@ -34,6 +34,9 @@ class RunRequest(BaseModel):
                             description="with `graph`: a draft zone-parameter XML used for this run "
                                         "instead of the saved one; it never becomes the graph's XML (the "
                                         "run keeps it, to rebuild its 3D scene after a restart)")
+    accept_preflight: bool = Field(False, description="hand out the programs even when the preflight fails (the "
+                                   "acceptance is written into each program's header); else a failed preflight keeps "
+                                   "them back and `summary.preflight.withheld` names them")
 
     @model_validator(mode="after")
     def _one(self) -> "RunRequest":
@@ -100,8 +103,9 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
         validate_xml(req.params_xml)  # RecipeError (naming layer/section/zone) → 422
     recipe = svc.prepare(req.graph, recipe, req.params_xml)
     svc.check_sandbox(build_graph(recipe), svc.resolver_for(req.graph, recipe, req.params_xml))  # → 422
-    run_id = svc.runs.submit(req.graph, recipe, req.params_xml)  # validates the graph: RecipeError → 422
-    svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None})
+    run_id = svc.runs.submit(req.graph, recipe, req.params_xml, accept_preflight=req.accept_preflight)  # validates the graph: RecipeError → 422
+    svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None,
+                                                   **({"accept_preflight": True} if req.accept_preflight else {})})
     return RunCreated(id=run_id)
 
 
