@@ -67,7 +67,11 @@ def test_nearest_order_cuts_travel_on_the_cross(runs):
     mask = json.loads((runs["mask"] / "sequence.travel.json").read_text())
     near = json.loads((runs["nearest"] / "sequence.travel.json").read_text())
     assert [l["order"] for l in mask["layers"]] == [["bs1/A", "bs1/B", "bs1/C"]] * 8
-    assert near["total_travel_mm"] < 0.9 * mask["total_travel_mm"]   # measured 1786.9 vs 2154.9 mm
+    # issue #22: nearest keeps the MPP order rule (oscillated A first, then B and C it feeds); it
+    # saved 17 % before (1786.9 vs 2154.9 mm) by depositing B and C before A. With the rule and the
+    # seams (ends alternate layer to layer) the saving is what the B/C order gives: 2706.1 vs 2708.7 mm
+    assert [l["order"][0] for l in near["layers"]] == ["bs1/A"] * 8
+    assert near["total_travel_mm"] <= mask["total_travel_mm"]
 
 
 def test_intersection_zone_boundaries_lie_exactly_at_the_split_points(runs):
