@@ -183,3 +183,12 @@ def test_krl_and_rapid_readers_give_the_same_runs():
 def test_settings_refuse_bands_that_do_not_nest():
     with pytest.raises(ValueError):
         PreflightSettings(volume_ratio_ok=(0.7, 1.2), volume_ratio_fail=(0.75, 1.5))
+
+
+def test_starts_in_machining_stock_may_stack():
+    # every layer ignites at one point 3 mm beyond the part's end (the thin-wall rule: stock is machined off)
+    runs = [[(-L / 2 - 3.0, YS[0])] + passes(YS)]
+    same = [((i + 1) * LAYER, runs) for i in range(4)]
+    rep = check(gcode(same))
+    assert rep["stacked_starts"] == 0 and rep["starts_in_stock"] == 4
+    assert not [p for p in rep["problems"] if p["check"] == "stacked_starts"]

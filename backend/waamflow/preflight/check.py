@@ -394,24 +394,30 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                     f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
                     "(sequence `min_arc_run_mm`)", layer=r.layer, section=r.section, value=v, limit=min_run,
                     point=r.points[0])
-    # ignitions
+    # ignitions: those in machining stock (outside the part, machined off: the thin-wall rule) may
+    # stack; those in the part must not
     spread = None
     stacked = []
     prev = None
+    in_stock = 0
     for idx, runs in layers:
         starts = np.array([r.points[0] for r in runs])
         rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
-        if prev is not None and len(prev):
-            diff = starts[:, None, :] - prev[None, :, :]
+        inside = in_part(part, starts, width) if part is not None else np.ones(len(starts), bool)
+        in_stock += int(np.count_nonzero(~inside))
+        if prev is not None and len(prev) and inside.any():
+            diff = starts[inside][:, None, :] - prev[None, :, :]
             if planar:
                 diff = diff[..., :2]
             d = np.linalg.norm(diff, axis=2).min(axis=1)
             spread = float(d.min()) if spread is None else min(spread, float(d.min()))
+            kept = [r for r, ok in zip(runs, inside) if ok]
             for k in np.nonzero(d < width)[0]:
-                stacked.append((idx, runs[k], float(d[k])))
-        prev = starts
+                stacked.append((idx, kept[k], float(d[k])))
+        prev = starts[inside] if inside.any() else prev
     out["start_spread_mm"] = _r(spread, 3)
     out["stacked_starts"] = len(stacked)
+    out["starts_in_stock"] = in_stock
     if stacked and s.stacked_starts != "off":
         idx, r, d = stacked[0]
         rep.problem("stacked_starts", s.stacked_starts,
@@ -420,6 +426,28 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                     "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
                     layer=idx, section=r.section, value=d, limit=width, point=r.points[0])
     return _finish(out, rep, s)
+
+
+STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in machining stock
+
+
+def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
+    """(n,) bool: the points lie in the part (a wall: on its midsurface, within STOCK_TOL_MM), not in
+    the stock beyond it that is machined off."""
+    if part.kind == "midsurface":
+        geom = MultiLineString([np.asarray(c)[:, :2] for c in part.curves])
+        return np.array([geom.distance(shapely.Point(p[0], p[1])) <= STOCK_TOL_MM for p in pts])
+    if part.kind == "region":
+        geom = unary_union([g for _z, _t, g in part.regions])
+        return np.array([geom.buffer(STOCK_TOL_MM).contains(shapely.Point(p[0], p[1])) for p in pts])
+    import trimesh
+
+    mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+    if part.kind == "surface":
+        _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
+        return dist <= STOCK_TOL_MM + width / 2.0
+    _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
+    return mesh.contains(pts) | (dist <= STOCK_TOL_MM)
 
 
 def wire_total_all(layers, s: PreflightSettings) -> float:
