@@ -46,13 +46,29 @@ def test_fill_keeps_user_values_and_fills_the_rest(example, model):
         assert set(table.values[k]) == {"current", "voltage", "wire_feed_speed", "travel_speed", "dwell"}, k
     kept = {(r["layer"], r["zone"], r["parameter"]) for r in report["kept_user_values"]}
     assert kept == {(0, "z1", "travel_speed"), (0, "z1", "current"), (1, "start", "dwell")}
+    # a single 6 × 1.5 mm bead: the model's travel speed for it, the wire feed of its k·w·h (issue #22
+    # item 5: mass-balanced; the synthetic trials are consistent, so the model's bead is within 2 %)
     body = model_values(model, FillRules(width_mm=6.0), "z2", 1.5)
-    assert model.height(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(1.5, rel=1e-3)
-    assert model.width(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(6.0, rel=1e-3)
+    assert body["travel_speed"] == pytest.approx(model.speeds_for(1.5, 6.0)[1], rel=1e-3)
+    assert model.wire_per_mm(body["wire_feed_speed"], body["travel_speed"]) == \
+        pytest.approx(model.shape_factor * 6.0 * 1.5, rel=1e-3)
+    assert model.height(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(1.5, rel=0.02)
+    assert model.width(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(6.0, rel=0.02)
+    # the section path needs step × 1.5 mm per mm: the body zones of the filled file feed that (2 %)
+    need = [s for s in report["mass_balance"]["sections"] if (s["layer"], s["section"]) == (0, key)][0]
+    z2 = table.values[(0, key, "z2")]
+    assert model.wire_per_mm(z2["wire_feed_speed"], z2["travel_speed"]) == \
+        pytest.approx(need["deposit_mm3_per_mm"], rel=0.02)
+    assert need["deposit_mm3_per_mm"] == pytest.approx(need["step_mm"] * 1.5)
     start = table.values[(0, key, "start")]
-    assert start["travel_speed"] == pytest.approx(0.75 * body["travel_speed"], rel=1e-3)
+    assert start["travel_speed"] == pytest.approx(0.75 * z2["travel_speed"], rel=1e-3)
     end = table.values[(0, key, "end")]
-    assert end["wire_feed_speed"] == pytest.approx(0.83 * body["wire_feed_speed"], rel=1e-3)
+    # the ramps' default factors are equal (0.75, 0.5: before 0.83 of the wire, a 1.1× and 1.66× over-feed)
+    assert end["wire_feed_speed"] == pytest.approx(0.5 * z2["wire_feed_speed"], rel=1e-3)
+    assert model.wire_per_mm(end["wire_feed_speed"], end["travel_speed"]) == \
+        pytest.approx(need["deposit_mm3_per_mm"], rel=0.02)
+    # the user's z1 (7 mm/s at the model's wire feed) is kept and reported as unbalanced
+    assert {(r["layer"], r["zone"]) for r in report["mass_balance"]["unbalanced_zones"]} == {(0, "z1")}
     # the user's travel speed is the programmed speed of that zone's arc-ON segments
     sp = tp[0].sections[0]
     sel = np.array([z == "z1" for z in sp.zone]) & sp.arc

@@ -14,6 +14,7 @@ from ..core.model import LayerPaths, LayerSections
 from dataclasses import replace as dc_replace
 
 from ..core.errors import InputFileError, PlanningError, RecipeError
+from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY
 from ..core.moves import flatten
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..process.bead_fit import BeadFit, fit_svg, fit_trials, read_trials
@@ -184,13 +185,17 @@ class BeadFitNode(Node):
     `height`/`width` targets, the travel speed, wire feed, layer height and step-over
     (0.738·width, tangent overlap model) in `<node>.targets.json`. The output model carries the
     targets (a loaded model's are replaced by this node's `height`/`width`): a `slice` connected to
-    it takes its layer height, a `strategy` its bead width and step-over."""
+    it takes its layer height, a `strategy` its bead width and step-over.
+    Mass balance: the model states the wire diameter, the deposition efficiency η and the bead
+    shape factor k (area = k·w·h; fitted from an `area` column of the trials, else `shape_factor`)
+    and, per trial, the metal fed η·WFS·(π d²/4)/TS over k·w·h (`fit.mass_balance`); trials whose
+    mean is off by more than 20 % are warned about (a unit or measurement error)."""
 
     type = "bead-fit"
     title = "Bead fit"
     category = "process"
     outputs = (Port("model", "bead-model", "Bead width and height as functions of WFS and TS"),)
-    version = "2"  # 2: the model carries the targets
+    version = "3"  # 2: the model carries the targets; 3: wire diameter, efficiency, shape factor, mass balance
 
     class Params(NodeParams):
         trials: FileRef = Field("", description="Bead trials CSV (wfs, ts, width, height); empty = use `model`")
@@ -199,14 +204,26 @@ class BeadFitNode(Node):
         material: str = Field("", max_length=80, description="Material (recorded in the model file)")
         process: str = Field("", max_length=80, description="Process, e.g. CMT, GMAW, plasma (recorded)")
         wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
-                                               description="Wire diameter (recorded)")
+                                               description="Wire diameter for the mass balance (empty = 1.2 mm)")
+        deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.5, le=1.0,
+                                             description="Share η of the wire that ends in the part (GMAW/CMT ≈ 0.95)")
+        shape_factor: float = Field(BEAD_SHAPE_FACTOR, gt=0.5, le=1.0,
+                                    description="Bead shape factor k, area = k·width·height, when the trials have "
+                                                "no measured `area` column (parabolic 0.667, elliptic 0.785)")
         height: float = Field(1.5, gt=0.05, le=20, json_schema_extra=unit("mm"), description="Target bead height")
         width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Target bead width")
 
     def run(self, ctx, params, inputs):
         if params.trials:
             trials = read_trials(ctx.read_text(params.trials, max_bytes=20_000_000), source=params.trials)
-            model = fit_trials(trials, params.form, params.material, params.process, params.wire_diameter_mm)
+            model = fit_trials(trials, params.form, params.material, params.process, params.wire_diameter_mm,
+                               params.deposition_efficiency, params.shape_factor)
+            mb = model.fit["mass_balance"]
+            if not 0.8 <= mb["mean"] <= 1.25:
+                ctx.warn(f"{params.trials}: the trials are not mass-balanced: the wire fed per mm "
+                         f"(η {model.deposition_efficiency:g} · WFS · π d²/4 / TS, d {model.wire_d:g} mm) is "
+                         f"{mb['min']:.2f}–{mb['max']:.2f} × the bead area k·w·h (k {model.shape_factor:.3g}); "
+                         "check the units (WFS m/min, TS mm/s, mm) and the wire diameter")
         elif params.model:
             try:
                 data = json.loads(ctx.read_text(params.model, max_bytes=5_000_000))
@@ -225,7 +242,11 @@ class BeadFitNode(Node):
             files["targets.json"] = json.dumps({
                 "height_mm": params.height, "width_mm": params.width, "wire_feed_speed_m_min": round(wfs, 4),
                 "travel_speed_mm_s": round(ts, 4), "layer_height_mm": params.height,
-                "step_over_mm": round(m.step_over(params.width), 4), "in_model_range": m.in_range(wfs, ts)}, indent=1)
+                "step_over_mm": round(m.step_over(params.width), 4), "in_model_range": m.in_range(wfs, ts),
+                "bead_area_mm2": round(m.shape_factor * params.width * params.height, 4),
+                "wire_per_mm_mm3": round(m.wire_per_mm(wfs, ts), 4),
+                "feed_ratio": round(m.wire_per_mm(wfs, ts) / (m.shape_factor * params.width * params.height), 4)},
+                indent=1)
         except ValueError as e:
             ctx.warn(f"targets: {e}")
         return files
@@ -239,9 +260,13 @@ class FillParameters(Node):
     voltage from a synergic line; dwell), values the user gave (the zone node's XML, or
     `parameters`) are kept and reported beside the model's.
     The ignition zone `start` and termination zone `end` get their own ramp rules (slower travel,
-    less wire; ignition dwell). Writes `<node>.params.xml` (filled) and `<node>.fill.json` (counts,
-    kept user values, zones outside the model's trial range, ramp lengths); the output toolpath
-    carries the filled values (speeds set per zone)."""
+    less wire; ignition dwell). Mass balance by design: every zone's wire feed makes the metal that
+    ends in the part, η·WFS·(π d²/4)/TS, equal to what its layer needs per mm of path — layer
+    height × the passes' step (measured on each section path, or `step`) for overlapping passes,
+    k·w·h for a single bead. Writes `<node>.params.xml` (filled; each zone states its feed ratio)
+    and `<node>.fill.json` (counts, kept user values, zones outside the model's trial range, ramp
+    lengths, mass balance per section and zone); the output toolpath carries the filled values
+    (speeds set per zone). Zones whose (user-given) values feed more than 2 % off are warned about."""
 
     type = "fill-parameters"
     title = "Fill parameters"
@@ -249,7 +274,7 @@ class FillParameters(Node):
     inputs = (Port("toolpath", "toolpath", "Zoned toolpath"), Port("model", "bead-model", "Bead model"))
     outputs = (Port("toolpath", "toolpath", "Toolpath with every zone's parameters"),
                Port("report", "report", "The filled XML text and the fill report"))
-    version = "1"
+    version = "2"  # 2: mass-balanced wire feed, balanced ramp defaults, CMT synergic line
 
     class Params(NodeParams):
         parameters: FileRef = Field("", description="Optional XML with user values (kept); the toolpath's own zone "
@@ -259,15 +284,22 @@ class FillParameters(Node):
         width: float | None = Field(None, gt=0.1, le=60, json_schema_extra=unit("mm"),
                                     description="Target bead width (empty = the bead model's target width, else 6)")
         travel_speed: float | None = Field(None, gt=0.1, le=500, json_schema_extra=unit("mm/s"),
-                                           description="Fixed travel speed: WFS from the height alone (else both from "
-                                                       "height and width)")
+                                           description="Fixed travel speed of body zones (else the bead model's for "
+                                                       "the target height and width); WFS from the mass balance")
+        step: float | None = Field(None, gt=0.1, le=60, json_schema_extra=unit("mm"),
+                                   description="Centre distance of neighbouring passes: the layer takes step × height "
+                                               "per mm of path (empty = measured on each section path; a single "
+                                               "bead takes k·width·height)")
         start_ts_factor: float = Field(0.75, gt=0.05, le=3, description="Ignition zone: travel speed × this")
-        start_wfs_factor: float = Field(0.83, gt=0.05, le=3, description="Ignition zone: wire feed × this")
+        start_wfs_factor: float = Field(0.75, gt=0.05, le=3, description="Ignition zone: wire feed × this (equal to "
+                                                                          "the travel factor = mass-balanced)")
         start_dwell_s: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"), description="Ignition zone dwell")
         end_ts_factor: float = Field(0.5, gt=0.05, le=3, description="Termination zone: travel speed × this")
-        end_wfs_factor: float = Field(0.83, gt=0.05, le=3, description="Termination zone: wire feed × this")
-        current_line: tuple[float, float] = Field((150.0, 5.0), description="Synergic current: A at 0 and A per m/min")
-        voltage_line: tuple[float, float] = Field((14.0, 0.5), description="Synergic voltage: V at 0 and V per m/min")
+        end_wfs_factor: float = Field(0.5, gt=0.05, le=3, description="Termination zone: wire feed × this (above the "
+                                                                       "travel factor = extra metal for the crater)")
+        current_line: tuple[float, float] = Field((55.0, 15.0), description="Synergic current: A at 0 and A per m/min "
+                                                                             "(CMT steel 1.2 mm: 100 A at 3 m/min)")
+        voltage_line: tuple[float, float] = Field((11.0, 0.6), description="Synergic voltage: V at 0 and V per m/min")
         job: float | None = Field(None, ge=0, le=9999, description="Power-source job number for every zone")
 
     def run(self, ctx, params, inputs):
@@ -279,7 +311,7 @@ class FillParameters(Node):
                           start_ts_factor=params.start_ts_factor, start_wfs_factor=params.start_wfs_factor,
                           start_dwell_s=params.start_dwell_s, end_ts_factor=params.end_ts_factor,
                           end_wfs_factor=params.end_wfs_factor, current_line=tuple(params.current_line),
-                          voltage_line=tuple(params.voltage_line), job=params.job)
+                          voltage_line=tuple(params.voltage_line), job=params.job, step_mm=params.step)
         try:
             tp, xml, report = fill(inputs["toolpath"], inputs["model"], rules, user)
         except ValueError as e:
@@ -292,6 +324,12 @@ class FillParameters(Node):
             r = report["out_of_model_range"][0]
             ctx.warn(f"{report['out_of_model_range_count']} zone(s) need speeds outside the bead trials' range "
                      f"(e.g. WFS {r['wire_feed_speed']} m/min, TS {r['travel_speed']} mm/s)",
+                     layer=r["layer"], section=r["section"])
+        mb = report["mass_balance"]
+        if mb["unbalanced_count"]:
+            r = mb["unbalanced_zones"][0]
+            ctx.warn(f"{mb['unbalanced_count']} zone(s) feed more than 2 % off the metal their layer needs "
+                     f"(e.g. zone {r['zone']!r}: wire/need {r['feed_ratio']:.2f}); given values are kept",
                      layer=r["layer"], section=r["section"])
         return {"toolpath": tp, "report": {"xml": xml, "fill": report}}
 

@@ -17,8 +17,16 @@ for. Inverse: a target (height, width) fixes (WFS, TS) by solving the two log-li
 
 Trials CSV: a header row naming at least the four columns (case-insensitive; units may follow in
 brackets or after an underscore): `wfs` (or `wire_feed_speed`, m/min), `ts` (or `travel_speed`,
-mm/s), `width` (mm), `height` (mm); optional `material`, `process`. Lines starting with '#' are
-comments. A non-numeric or non-positive value fails naming its row and column.
+mm/s), `width` (mm), `height` (mm); optional `area` (measured bead cross-section, mm²),
+`material`, `process`. Lines starting with '#' are comments. A non-numeric or non-positive value
+fails naming its row and column.
+
+Mass balance (issue #22 item 5). The model also states the wire diameter d, the deposition
+efficiency η and the bead shape factor k (cross-section = k·w·h): k is fitted from the trials'
+measured areas when the CSV has an `area` column (k = mean of area / (w·h)), else the stated
+constant (`core.process.BEAD_SHAPE_FACTOR`). The fit record's `mass_balance` gives, per trial,
+the metal fed per mm η·WFS·(π d²/4)/TS over k·w·h: a real bead is 1 within its scatter, so a
+trials file far from 1 has a unit or measurement error (see process/mass.py).
 """
 
 from __future__ import annotations
@@ -33,6 +41,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.errors import InputFileError
+from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM
+from .mass import wire_per_mm
 
 FORMAT = "waamflow/bead-model/1"
 #: Centre distance / width for a flat top between neighbouring beads (Ding et al. 2015, TOM).
@@ -45,6 +55,7 @@ _ALIASES = {
     "width": ("width", "w", "bead_width"),
     "height": ("height", "h", "bead_height"),
 }
+_OPTIONAL = {"area": ("area", "bead_area", "cross_section", "section_area")}
 
 
 @dataclass(frozen=True)
@@ -56,11 +67,12 @@ class Trials:
     width: np.ndarray
     height: np.ndarray
     source: str = ""
+    area: np.ndarray | None = None     # (n,) measured cross-section, mm² (optional column)
 
 
 def _column(name: str) -> str | None:
     key = re.sub(r"\s*[\[(].*$", "", name.strip().lower()).replace(" ", "_")
-    for canon, names in _ALIASES.items():
+    for canon, names in (*_ALIASES.items(), *_OPTIONAL.items()):
         for n in names:
             if key == n or key.startswith(n + "_"):
                 return canon
@@ -80,7 +92,7 @@ def read_trials(text: str, source: str = "trials") -> Trials:
     if missing:
         raise InputFileError(f"{source}: header lacks column(s) {', '.join(missing)} "
                              f"(need wfs [m/min], ts [mm/s], width [mm], height [mm])")
-    data = {c: [] for c in _ALIASES}
+    data = {c: [] for c in cols}
     for i, r in enumerate(rows[1:], start=2):
         for c, j in cols.items():
             try:
@@ -92,7 +104,8 @@ def read_trials(text: str, source: str = "trials") -> Trials:
             data[c].append(v)
     if len(data["wfs"]) < 3:
         raise InputFileError(f"{source}: need at least 3 measured beads, got {len(data['wfs'])}")
-    return Trials(*(np.asarray(data[c]) for c in ("wfs", "ts", "width", "height")), source=source)
+    return Trials(*(np.asarray(data[c]) for c in ("wfs", "ts", "width", "height")), source=source,
+                  area=np.asarray(data["area"]) if "area" in data else None)
 
 
 @dataclass(frozen=True)
@@ -165,6 +178,23 @@ class BeadFit:
     #: take a connected model read their layer height (slice) and step-over (strategy) from it.
     target_height_mm: float | None = None
     target_width_mm: float | None = None
+    #: Mass balance: η (stated) and k in area = k·w·h (fitted from measured areas, else stated).
+    deposition_efficiency: float = DEPOSITION_EFFICIENCY
+    shape_factor: float = BEAD_SHAPE_FACTOR
+    shape_factor_source: str = "stated"
+
+    @property
+    def wire_d(self) -> float:
+        """Wire diameter for the mass balance, mm (the stated 1.2 mm when the model does not say)."""
+        return float(self.wire_diameter_mm or WIRE_DIAMETER_MM)
+
+    def bead_area(self, wfs, ts):
+        """Bead cross-section k·w·h (mm²) the model predicts at (WFS m/min, TS mm/s)."""
+        return self.shape_factor * self.width(wfs, ts) * self.height(wfs, ts)
+
+    def wire_per_mm(self, wfs: float, ts: float) -> float:
+        """Metal fed per mm of path, η·WFS·(π d²/4)/TS (mm³/mm)."""
+        return wire_per_mm(wfs, ts, self.wire_d, self.deposition_efficiency)
 
     def with_targets(self, height_mm: float | None, width_mm: float | None) -> "BeadFit":
         return replace(self, target_height_mm=height_mm, target_width_mm=width_mm)
@@ -206,7 +236,9 @@ class BeadFit:
 
     def to_json(self) -> dict:
         return {"format": FORMAT, "material": self.material, "process": self.process,
-                "wire_diameter_mm": self.wire_diameter_mm,
+                "wire_diameter_mm": self.wire_diameter_mm, "deposition_efficiency": self.deposition_efficiency,
+                "shape_factor": {"k": self.shape_factor, "source": self.shape_factor_source,
+                                 "definition": "bead cross-section = k * width * height"},
                 "units": {"wfs": "m/min", "ts": "mm/s", "width": "mm", "height": "mm"},
                 "width": self.width.to_json(), "height": self.height.to_json(),
                 "validity": {"wfs_m_min": list(self.wfs_range), "ts_mm_s": list(self.ts_range)},
@@ -221,28 +253,44 @@ class BeadFit:
                 raise ValueError(f"format must be {FORMAT!r}")
             v = d["validity"]
             t = d.get("targets") or {}
+            sf = d.get("shape_factor") or {}
             th, tw = t.get("height_mm"), t.get("width_mm")
             return cls(PowerLaw.from_json(d["width"]), PowerLaw.from_json(d["height"]),
                        tuple(map(float, v["wfs_m_min"])), tuple(map(float, v["ts_mm_s"])),
                        d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}),
-                       None if th is None else float(th), None if tw is None else float(tw))
+                       None if th is None else float(th), None if tw is None else float(tw),
+                       float(d.get("deposition_efficiency", DEPOSITION_EFFICIENCY)),
+                       float(sf.get("k", BEAD_SHAPE_FACTOR)), str(sf.get("source", "stated")))
         except (KeyError, TypeError, ValueError) as e:
             raise InputFileError(f"{source}: not a bead model ({e})") from None
 
 
 def fit_trials(trials: Trials, form: str = "power", material: str = "", process: str = "",
-               wire_diameter_mm: float | None = None) -> BeadFit:
+               wire_diameter_mm: float | None = None, deposition_efficiency: float = DEPOSITION_EFFICIENCY,
+               shape_factor: float = BEAD_SHAPE_FACTOR) -> BeadFit:
     """Fit width and height; the fit record holds statistics and per-trial residuals (mm)."""
     w = fit_power(trials.wfs, trials.ts, trials.width, form)
     h = fit_power(trials.wfs, trials.ts, trials.height, form)
     pw, ph = w(trials.wfs, trials.ts), h(trials.wfs, trials.ts)
+    rect = trials.width * trials.height
+    k, k_src = (float(np.mean(trials.area / rect)), "fitted") if trials.area is not None else (shape_factor, "stated")
+    d = float(wire_diameter_mm or WIRE_DIAMETER_MM)
+    fed = np.array([wire_per_mm(a, b, d, deposition_efficiency) for a, b in zip(trials.wfs, trials.ts)])
+    mb = fed / (k * rect)
     fit = {"trials": int(len(trials.wfs)), "source": trials.source,
            "width": _stats(trials.width, pw), "height": _stats(trials.height, ph),
+           "mass_balance": {"definition": "eta * WFS * (pi d^2/4) / TS over k * width * height, per trial",
+                            "mean": round(float(mb.mean()), 4), "min": round(float(mb.min()), 4),
+                            "max": round(float(mb.max()), 4), "shape_factor_k": round(k, 4),
+                            **({"shape_factor_k_stderr": round(float(np.std(trials.area / rect, ddof=1)
+                                                                     / math.sqrt(len(rect))), 4)}
+                               if trials.area is not None else {})},
            "residuals": [{"wfs_m_min": float(a), "ts_mm_s": float(b), "width_mm": float(c), "height_mm": float(d),
                           "width_residual_mm": round(float(c - e), 5), "height_residual_mm": round(float(d - f), 5)}
                          for a, b, c, d, e, f in zip(trials.wfs, trials.ts, trials.width, trials.height, pw, ph)]}
     return BeadFit(w, h, (float(trials.wfs.min()), float(trials.wfs.max())),
-                   (float(trials.ts.min()), float(trials.ts.max())), material, process, wire_diameter_mm, fit)
+                   (float(trials.ts.min()), float(trials.ts.max())), material, process, wire_diameter_mm, fit,
+                   deposition_efficiency=deposition_efficiency, shape_factor=k, shape_factor_source=k_src)
 
 
 def fit_svg(model: BeadFit) -> str:

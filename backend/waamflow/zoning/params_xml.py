@@ -20,6 +20,13 @@ means "not set" (the strategy's speed stays). Reading is safe (defusedxml: no DT
 size limit) and validated against the names, units and bounds in core/process.py, then against
 the XML Schema `data/schemas/zone-params.xsd` (lxml, `zoning/xsd.py`); every error is a
 RecipeError naming the line, the element and layer/section/zone.
+
+Feed (issue #22 item 5, mass balance). Each zone may carry `bead_mm3_per_mm`: the metal its layer
+needs per mm of path (layer height × the section's pass step, or k·w·h for a single bead; see
+process/mass.py), written by waamflow from the path and a bead width. With it, the writer adds a
+comment in the zone comparing the wire it is fed, η·WFS·(π d²/4)/TS, with that bead:
+`<!-- feed: wire 9.40 mm³/mm vs bead 9.00 mm³/mm = 1.04 -->` (> 1 over-feed, < 1 under-feed).
+The attribute is informational: it is rewritten on every run and never read as a parameter.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from functools import cached_property
 from typing import Iterable
 
 import defusedxml.ElementTree as DET
+import numpy as np
 from defusedxml import DefusedXmlException
 
 from ..core.errors import InputFileError, RecipeError
@@ -38,6 +46,9 @@ from ..core.model import LayerPaths, Layered
 from ..core.process import PARAMETERS_BY_NAME, ZONE_PARAMETERS
 from . import xsd
 
+#: Bead width (mm) the zone node's feed comments assume: the MPP study's 6 mm bead (the zone node
+#: has no bead width of its own; fill-parameters uses the bead model's).
+FEED_BEAD_WIDTH_MM = 6.0
 MAX_BYTES = 32 * 1024 * 1024  # ~8 bytes per empty element: room for 10⁴ layers × 10 sections × 5 zones
 FORMAT = "waamflow/1"
 
@@ -57,6 +68,7 @@ class ParamTable:
     zones: tuple[ZoneKey, ...] = ()
     colors: dict[ZoneKey, str] = field(default_factory=dict)
     layer_z: dict[int, float] = field(default_factory=dict)
+    beads: dict[ZoneKey, float] = field(default_factory=dict)   # zone → bead_mm3_per_mm attribute
 
     @cached_property
     def _by_layer(self) -> dict[int, dict[str, dict[str, dict[str, float]]]]:
@@ -74,10 +86,29 @@ def _fmt(v: float) -> str:
     return f"{v:.10g}"
 
 
-def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]]) -> str:
-    """zones: (layer index, layer z, section key, zone id, colour) in file order. Written line by
-    line (a part has ~10⁵ elements), exactly as ElementTree with `ET.indent(space="  ")` and
-    `short_empty_elements=False` writes the same tree (`tests/zoning` compares the two)."""
+FEED_NOTE = (" feed: per zone, the wire that ends in the part per mm of path, eta*WFS*(pi d^2/4)/TS (eta 0.95, "
+             "d 1.2 mm), against bead_mm3_per_mm, the metal the layer needs per mm of path (layer height x "
+             "pass step, or k*w*h for a single bead); ratio > 1 over-feeds, < 1 under-feeds ")
+
+
+def _feed_comment(vals: dict[str, float], bead: float) -> str:
+    from ..process.mass import wire_per_mm   # lazy: process imports this module
+
+    wfs, ts = vals.get("wire_feed_speed"), vals.get("travel_speed")
+    if not wfs or not ts:
+        return f" feed: bead {bead:.2f} mm³/mm (set wire_feed_speed and travel_speed to compare) "
+    wire = wire_per_mm(wfs, ts)
+    return f" feed: wire {wire:.2f} mm³/mm vs bead {bead:.2f} mm³/mm = {wire / bead:.2f} "
+
+
+def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]],
+           beads: dict[ZoneKey, float] | None = None) -> str:
+    """zones: (layer index, layer z, section key, zone id, colour) in file order; beads: zone →
+    metal needed per mm of path (mm³/mm), written as the zone's `bead_mm3_per_mm` with a feed
+    comment. Written line by line (a part has ~10⁵ elements), exactly as ElementTree with
+    `ET.indent(space="  ")` and `short_empty_elements=False` writes the same tree (`tests/zoning`
+    compares the two)."""
+    beads = beads or {}
     comment = (" Deposition parameters per layer > section > zone (MPP). Empty = not set. "
                "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " ")
     params = [(p.name, f'        <{p.name} unit="{_attr(p.unit)}">', f"</{p.name}>") for p in ZONE_PARAMETERS]
@@ -85,14 +116,22 @@ def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dic
     for li, z, sk, zid, color in zones:       # grouped as ElementTree would append them
         tree.setdefault(li, (z, {}))[1].setdefault(sk, []).append((zid, color))
     out = ['<?xml version="1.0" encoding="utf-8"?>', f'<parameters format="{_attr(FORMAT)}">', f"  <!--{comment}-->"]
+    if beads:
+        out.append(f"  <!--{FEED_NOTE}-->")
     for li, (z, sections) in tree.items():
         zattr = "" if z is None else f' z="{_attr(_fmt(round(z, 6)))}"'
         out.append(f'  <layer index="{li}"{zattr}>')
         for sk, zs in sections.items():
             out.append(f'    <section id="{_attr(sk)}">')
             for zid, color in zs:
-                out.append(f'      <zone id="{_attr(zid)}" color="{_attr(color)}">')
                 vals = values.get((li, sk, zid), {})
+                bead = beads.get((li, sk, zid))
+                if bead is None:
+                    out.append(f'      <zone id="{_attr(zid)}" color="{_attr(color)}">')
+                else:
+                    out.append(f'      <zone id="{_attr(zid)}" color="{_attr(color)}" '
+                               f'bead_mm3_per_mm="{_fmt(round(bead, 4))}">')
+                    out.append(f"        <!--{_feed_comment(vals, bead)}-->")
                 for name, head, tail in params:
                     out.append(head + (_cdata(_fmt(vals[name])) if name in vals else "") + tail)
                 out.append("      </zone>")
@@ -118,11 +157,15 @@ def _cdata(text: str) -> str:
     return text
 
 
-def _write_etree(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]]) -> str:
+def _write_etree(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]],
+                 beads: dict[ZoneKey, float] | None = None) -> str:
     """The same file through ElementTree (reference for the tests of `_write`)."""
+    beads = beads or {}
     root = ET.Element("parameters", {"format": FORMAT})
     root.append(ET.Comment(" Deposition parameters per layer > section > zone (MPP). Empty = not set. "
                            "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " "))
+    if beads:
+        root.append(ET.Comment(FEED_NOTE))
     layer_el: dict[int, ET.Element] = {}
     section_el: dict[tuple[int, str], ET.Element] = {}
     for li, z, sk, zid, color in zones:
@@ -133,8 +176,14 @@ def _write_etree(zones: Iterable[tuple[int, float | None, str, str, str]], value
             layer_el[li] = ET.SubElement(root, "layer", attrs)
         if (li, sk) not in section_el:
             section_el[(li, sk)] = ET.SubElement(layer_el[li], "section", {"id": sk})
-        zel = ET.SubElement(section_el[(li, sk)], "zone", {"id": zid, "color": color})
         vals = values.get((li, sk, zid), {})
+        bead = beads.get((li, sk, zid))
+        zattrs = {"id": zid, "color": color}
+        if bead is not None:
+            zattrs["bead_mm3_per_mm"] = _fmt(round(bead, 4))
+        zel = ET.SubElement(section_el[(li, sk)], "zone", zattrs)
+        if bead is not None:
+            zel.append(ET.Comment(_feed_comment(vals, bead)))
         for p in ZONE_PARAMETERS:
             e = ET.SubElement(zel, p.name, {"unit": p.unit})
             if p.name in vals:
@@ -157,9 +206,32 @@ def _toolpath_zones(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]):
                 yield lp.index, float(lp.layer.z), sp.key, z, sp.zone_colors.get(z, "")
 
 
-def template(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]) -> str:
-    """An empty parameter file mirroring a zoned toolpath: layer > section > zone (path order)."""
-    return _write(_toolpath_zones(toolpath), {})
+def toolpath_beads(toolpath: Layered[LayerPaths] | Iterable[LayerPaths], width_mm: float = FEED_BEAD_WIDTH_MM,
+                   step_mm: float | None = None) -> dict[ZoneKey, float]:
+    """Zone → metal its layer needs per mm of path (mm³/mm), from each section path's own pass
+    step (or k·w·h for a single bead) and the layer height (process/mass.py)."""
+    from ..process.mass import section_deposit_per_mm   # lazy: process imports this module
+
+    items = toolpath.items if isinstance(toolpath, Layered) else toolpath
+    out: dict[ZoneKey, float] = {}
+    for lp in items:
+        if lp is None:
+            continue
+        for sp in lp.sections:
+            if not sp.zone or not np.any(sp.arc):
+                continue
+            bead, _ = section_deposit_per_mm(sp, lp.layer, width_mm, step_mm)
+            for z in dict.fromkeys(sp.zone):
+                if z:
+                    out[(lp.index, sp.key, z)] = bead
+    return out
+
+
+def template(toolpath: Layered[LayerPaths] | Iterable[LayerPaths], feed: bool = True) -> str:
+    """An empty parameter file mirroring a zoned toolpath: layer > section > zone (path order);
+    with `feed`, each zone's bead_mm3_per_mm for a FEED_BEAD_WIDTH_MM bead."""
+    items = list(toolpath.items if isinstance(toolpath, Layered) else toolpath)
+    return _write(_toolpath_zones(items), {}, toolpath_beads(items) if feed else None)
 
 
 def _error(msg: str, li: int | None = None, sk: str | None = None, zid: str | None = None,
@@ -211,6 +283,7 @@ def _walk(root, cur: list) -> ParamTable:
     zones: list[ZoneKey] = []
     colors: dict[ZoneKey, str] = {}
     layer_z: dict[int, float] = {}
+    beads: dict[ZoneKey, float] = {}
     seen_layers: set[int] = set()
     for lel in root:
         cur[0] = lel
@@ -233,6 +306,8 @@ def _walk(root, cur: list) -> ParamTable:
         seen_sections: set[str] = set()
         for sel in lel:
             cur[0] = sel
+            if not isinstance(sel.tag, str):
+                continue
             if sel.tag != "section" or not sel.get("id"):
                 raise _error(f"expected <section id=...> in <layer>, got <{sel.tag}>", li)
             sk = sel.get("id")
@@ -242,6 +317,8 @@ def _walk(root, cur: list) -> ParamTable:
             seen_zones: set[str] = set()
             for zel in sel:
                 cur[0] = zel
+                if not isinstance(zel.tag, str):      # comments, processing instructions
+                    continue
                 if zel.tag != "zone" or not zel.get("id"):
                     raise _error(f"expected <zone id=...> in <section>, got <{zel.tag}>", li, sk)
                 zid = zel.get("id")
@@ -251,9 +328,17 @@ def _walk(root, cur: list) -> ParamTable:
                 key = (li, sk, zid)
                 zones.append(key)
                 colors[key] = zel.get("color", "")
+                if zel.get("bead_mm3_per_mm") not in (None, ""):
+                    try:
+                        beads[key] = float(zel.get("bead_mm3_per_mm"))
+                    except ValueError:
+                        raise _error(f"bead_mm3_per_mm {zel.get('bead_mm3_per_mm')!r} is not a number", li, sk,
+                                     zid) from None
                 vals: dict[str, float] = {}
                 for pel in zel:
                     cur[0] = pel
+                    if not isinstance(pel.tag, str):  # comments (the feed note), processing instructions
+                        continue
                     name = pel.tag
                     if name not in PARAMETERS_BY_NAME:
                         known = ", ".join(PARAMETERS_BY_NAME)
@@ -269,7 +354,7 @@ def _walk(root, cur: list) -> ParamTable:
                         vals[name] = _number(t, name, li, sk, zid)
                 if vals:
                     values[key] = vals
-    return ParamTable(values=values, zones=tuple(zones), colors=colors, layer_z=layer_z)
+    return ParamTable(values=values, zones=tuple(zones), colors=colors, layer_z=layer_z, beads=beads)
 
 
 def validate_xml(text: str | bytes) -> None:
@@ -297,4 +382,4 @@ def merge(template_text: str, old_text: str | bytes | None) -> tuple[str, list[s
     kept = {k: v for k, v in old.values.items() if k in present}
     orphans = [orphan_label(k) for k in old.zones if k in old.values and k not in present]
     rows = [(li, tpl.layer_z.get(li), sk, zid, tpl.colors.get((li, sk, zid), "")) for (li, sk, zid) in tpl.zones]
-    return _write(rows, kept), orphans
+    return _write(rows, kept, tpl.beads), orphans

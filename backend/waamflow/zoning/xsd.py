@@ -80,6 +80,11 @@ def render_xsd() -> str:
         '      <xs:simpleType><xs:restriction base="xs:string"><xs:minLength value="1"/></xs:restriction></xs:simpleType>',
         "    </xs:attribute>",
         '    <xs:attribute name="color" type="xs:string"/>',
+        '    <xs:attribute name="bead_mm3_per_mm" type="optionalNumber">',
+        '      <xs:annotation><xs:documentation>Metal the layer needs per mm of path at this zone [mm3/mm] '
+        '(layer height x pass step, or k*w*h for a single bead), written by waamflow with a feed comment; '
+        'informational.</xs:documentation></xs:annotation>',
+        '    </xs:attribute>',
         "  </xs:complexType>",
         "",
         '  <xs:complexType name="sectionType">',
