@@ -127,6 +127,11 @@ def test_exact_fails_with_heights_that_fit():
         assert text in str(err.value)
     s = layer_schedule(0.0, 12.0, layer_height=1.5, top_policy="exact")
     assert len(s) == 8 and s.fit.action == "exact"
+    # with z_max the layers aim at z_max, and the message says so
+    with pytest.raises(PlanningError) as err:
+        layer_schedule(0.0, 30.0, layer_height=2.0, z_min=3.0, z_max=20.0, top_policy="exact")
+    for text in ("17 mm (from 3 to z_max 20 mm)", "1.8889 mm (9 layers)", "2.125 mm (8 layers)"):
+        assert text in str(err.value)
 
 
 # ---------------------------------------------------------------------------- meshes and node

@@ -46,7 +46,7 @@ def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fractio
         return
     where = (f"{_mm(fit.gap)} below" if fit.gap > 0 else f"{_mm(-fit.gap)} above")
     if fit.action == "nearest" and abs(fit.gap) > 0:
-        ctx.warn(f"top 'nearest': the last layer tops at {_mm(fit.reached)}, {where} the part's top "
+        ctx.warn(f"top 'nearest': the last layer tops at {_mm(fit.reached)}, {where} {fit.limit} "
                  f"{_mm(fit.target)} ({'a gap' if fit.gap > 0 else 'an overshoot'}; top 'ceil' ends on it)",
                  layer=fit.layer)
     elif fit.action == "overshoot":
@@ -54,13 +54,13 @@ def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fractio
                  f"thickening the layer below would pass top_max_factor {max_factor:g}")
         ctx.warn(f"top 'ceil': the {_mm(fit.target - (fit.reached - fit.thickness))} of part above the last whole "
                  f"layer is less than top_min_fraction {min_fraction:g} of a layer and {below}: one more layer of "
-                 f"{_mm(fit.thickness)} tops at {_mm(fit.reached)}, {where} the part's top {_mm(fit.target)} "
+                 f"{_mm(fit.thickness)} tops at {_mm(fit.reached)}, {where} {fit.limit} {_mm(fit.target)} "
                  f"(an overshoot to machine off)", layer=fit.layer)
     if len(schedule) < schedule.total:
         last = len(schedule) - 1
         gap = fit.target - float(schedule.tops[-1])
         ctx.warn(f"layer_count {layer_count} keeps the first {len(schedule)} of {schedule.total} layers: the last "
-                 f"tops at {_mm(schedule.tops[-1])}, {_mm(gap)} below the part's top {_mm(fit.target)} "
+                 f"tops at {_mm(schedule.tops[-1])}, {_mm(gap)} below {fit.limit} {_mm(fit.target)} "
                  f"(a quick look, not the whole part)", layer=last)
 
 

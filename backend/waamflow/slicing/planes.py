@@ -65,6 +65,7 @@ class TopFit:
     nominal: float
     thickness: float
     action: str
+    limit: str = "the part's top"    # what `target` is: "the part's top" or "z_max"
 
     @property
     def gap(self) -> float:
@@ -107,7 +108,7 @@ def _exact_error(end: float, base: float, last: float, listed: np.ndarray, layer
                  n_full: int, tol: float, end_name: str) -> PlanningError:
     """The PlanningError of `top: exact` when whole layers do not end on the top."""
     height = end - base
-    what = (f"the part is {_g(height)} mm tall (from {_g(base)} to its top at {_g(end)} mm)" if end_name == "top"
+    what = (f"the part is {_g(height)} mm tall (from {_g(base)} to its top at {_g(end)} mm)" if end_name != "z_max"
             else f"the layers span {_g(height)} mm (from {_g(base)} to z_max {_g(end)} mm)")
     if last > end + tol:     # the listed thicknesses alone pass the top
         return PlanningError(
@@ -164,6 +165,7 @@ def layer_schedule(
     tol = TOL.join
     base = (bottom if z_min is None else z_min) + start_offset
     end = top if z_max is None else min(top, z_max)
+    limit = "the part's top" if z_max is None or top <= z_max else "z_max"
     empty = LayerSchedule(tops=np.zeros(0), thickness=np.zeros(0))
     if not end - base > tol:
         return empty
@@ -193,8 +195,7 @@ def layer_schedule(
     if rest <= tol:
         action = "exact"
     elif top_policy == "exact":
-        raise _exact_error(end, base, last, listed, float(layer_height), n_full, tol,
-                           "top" if z_max is None or top <= z_max else "z_max")
+        raise _exact_error(end, base, last, listed, float(layer_height), n_full, tol, limit)
     elif top_policy == "nearest":
         action = "nearest"
         if prev + nominal / 2.0 < end:       # the old rule: a layer is kept while its cut is below the end
@@ -222,7 +223,7 @@ def layer_schedule(
     fit = TopFit(policy=top_policy, target=float(end), reached=float(tops[i]), layer=i,
                  nominal=nominal if action in ("thinned", "thickened", "overshoot") else float(thick[i]),
                  thickness=float(thick[i]),
-                 action=action)
+                 action=action, limit=limit)
     n = n_total if layer_count is None else min(n_total, int(layer_count))
     return LayerSchedule(tops=tops[:n], thickness=thick[:n],
                          cut_heights=None if cut_heights is None else cut_heights[:n], fit=fit, total=n_total)
