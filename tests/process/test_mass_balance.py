@@ -137,3 +137,27 @@ def test_zone_params_xml_states_the_feed_per_zone(tmp_path, monkeypatch):
     shipped = (GRAPHS / "mpp-cross.params.xml").read_text()
     assert re.findall(r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", xml) == \
         re.findall(r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", shipped)
+
+
+def test_bead_fit_node_warns_about_trials_that_are_not_mass_balanced(tmp_path):
+    """The old shipped trials (WFS 5–11 m/min, TS 5–15 mm/s, beads 4–10 × 1.1–2.2 mm) feed 1.9–2.7 ×
+    k·w·h: the node says so; the regenerated ones raise no warning."""
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    old = ["wfs [m/min],ts [mm/s],width [mm],height [mm]", "5.0,5.0,6.37,1.76", "5.0,10.0,4.84,1.29",
+           "8.0,7.5,6.81,1.69", "11.0,10.0,7.17,1.69", "11.0,15.0,6.26,1.53"]
+    (tmp_path / "old.csv").write_text("\n".join(old) + "\n")
+    (tmp_path / "new.csv").write_text(CSV.read_text())
+    for name, expect in (("old.csv", 1), ("new.csv", 0)):
+        rec = parse_recipe({"format": "waamflow/1", "name": "fit", "edges": [],
+                            "nodes": [{"id": "fit", "type": "bead-fit", "params": {"trials": name}}]})
+        res = execute(build_graph(rec), resolver=FileResolver(tmp_path))
+        warns = [w for w in res.warnings if "not mass-balanced" in w["message"]]
+        assert len(warns) == expect, res.warnings
+        mb = res.outputs["fit"]["model"].fit["mass_balance"]
+        if expect:
+            assert 1.8 <= mb["min"] and mb["max"] <= 2.8, mb
+        else:
+            assert 0.95 <= mb["min"] and mb["max"] <= 1.05, mb
