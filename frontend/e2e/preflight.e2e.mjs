@@ -5,11 +5,13 @@
 // state is seen; the second checks the badge against the real backend's preflight.json.
 import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
+import { createRequire } from "node:module";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import { fileURLToPath } from "node:url";
 import { OUT, api, canvasPoint, drawClosed, expectRun, openRecipe, startBrowser, startServer, waitRun } from "./harness.mjs";
 
+const AXE = createRequire(import.meta.url).resolve("axe-core/axe.min.js");
 const FIXTURE = readFileSync(path.join(path.dirname(fileURLToPath(import.meta.url)), "fixtures/preflight-mpp-cross.json"), "utf8");
 
 let srv, browser;
@@ -58,7 +60,7 @@ for (const [w, h] of [[1600, 1000], [1366, 768]]) {
     // the badge: amber, the count, words for screen readers, the figures in its tooltip
     await page.waitForSelector(`${badge}[data-tone=warn]`);
     assert.equal(await page.innerText(badge), "preflight ⚠ 3");
-    assert.equal(await page.getAttribute(badge, "aria-label"), "preflight warnings: 3 problems; open the list");
+    assert.equal(await page.getAttribute(badge, "aria-label"), "preflight ⚠ 3: preflight warnings, 3 problems; open the list");
     const tip = await page.getAttribute(badge, "title");
     for (const want of ["top gap: 0.00 mm", "uncovered: 0.2 %", "wire/part volume: 1.24", "min arc run: 18.2 mm", "start spread: 0.0 mm", "weld data missing: 0"])
       assert.ok(tip.includes(want), `tooltip has "${want}": ${tip}`);
@@ -71,6 +73,13 @@ for (const [w, h] of [[1600, 1000], [1366, 768]]) {
     assert.deepEqual(rows, ["wire/part volume · post", "stacked starts · post · layer 3 · bs1/C", "uncovered area · post · layer 3 · bs1/C"]);
     assert.equal(await page.locator("[data-testid=pf-mask-here]").count(), 1, "'new mask here' on the uncovered area only");
     await shot(page, `${w}-panel`);
+    // axe: no critical/serious violation in the toolbar (badge) or the panel
+    await page.addScriptTag({ path: AXE });
+    const axe = await page.evaluate(async () => {
+      const r = await window.axe.run({ include: [[".toolbar"], ["[data-testid=problems]"]] }, { resultTypes: ["violations"] });
+      return r.violations.filter((v) => v.impact === "critical" || v.impact === "serious").map((v) => `${v.id}: ${v.nodes.map((n) => n.target.join(" ")).join(" | ")}`);
+    });
+    assert.deepEqual(axe, []);
 
     // a problem → its layer and section on the mask canvas, its point marked, the layer's starts drawn
     await page.click('[data-testid=preflight-section] .pf-problem[data-pf-check="stacked_starts"]');

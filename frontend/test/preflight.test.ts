@@ -17,7 +17,7 @@ describe("preflight badge: verdict → label, tone, figures", () => {
     const b = preflightBadge({ phase: "done", report: report(), stale: false })!;
     expect(b.tone).toBe("ok");
     expect(b.label).toBe("preflight ok");
-    expect(b.aria).toMatch(/^preflight passed: 0 problems/);
+    expect(b.aria).toBe("preflight ok: preflight passed, 0 problems; open the list");
     expect(b.count).toBe(0);
     expect(b.clickable).toBe(true);
   });
@@ -26,17 +26,17 @@ describe("preflight badge: verdict → label, tone, figures", () => {
     expect(b.tone).toBe("warn");
     expect(b.label).toBe("preflight ⚠ 3");
     expect(b.count).toBe(3);
-    expect(b.aria).toBe("preflight warnings: 3 problems; open the list");
+    expect(b.aria).toBe("preflight ⚠ 3: preflight warnings, 3 problems; open the list");
   });
   it("fail is red, counts the failing ones in its label for screen readers, and marks an accepted run", () => {
     const ps = [problem({ check: "top_gap", severity: "fail", layer: null, section: null }), problem()];
     const b = preflightBadge({ phase: "done", report: report({ verdict: "fail", problems: ps }), stale: false })!;
     expect(b.tone).toBe("fail");
     expect(b.label).toBe("preflight ✗ 2");
-    expect(b.aria).toBe("preflight failed: 2 problems (1 failing); open the list");
+    expect(b.aria).toBe("preflight ✗ 2: preflight failed, 2 problems (1 failing); open the list");
     const acc = preflightBadge({ phase: "done", report: report({ verdict: "fail", accepted: true, problems: ps }), stale: false })!;
     expect(acc.label).toBe("preflight ✗ 2 (accepted)");
-    expect(acc.aria).toMatch(/^preflight failed \(accepted\): 2 problems/);
+    expect(acc.aria).toMatch(/^preflight ✗ 2 \(accepted\): preflight failed, 2 problems/);
   });
   it("a failed run that still wrote its report shows the report", () => {
     expect(preflightBadge({ phase: "failed", report: report({ verdict: "fail", problems: [problem({ severity: "fail" })] }), stale: false })!.label).toBe("preflight ✗ 1");
@@ -56,7 +56,7 @@ describe("preflight badge: never stale, never early", () => {
     expect(b.tone).toBe("stale");
     expect(b.label).toBe("preflight: re-run");
     expect(b.label).not.toMatch(/ok|⚠|✗/);
-    expect(b.aria).toMatch(/out of date.*run again/);
+    expect(b.aria).toMatch(/^preflight: re-run, out of date/);
     expect(b.tooltip).toMatch(/last run \(warn\)/);
   });
   it("shows progress while running, even with an old report", () => {

@@ -31,7 +31,7 @@ describe("preflight in the GUI", () => {
     const host = render(<PreflightBadge view={preflightBadge({ phase: "done", report, stale: false })} onOpen={() => opened++} />);
     const b = host.querySelector("[data-testid=preflight-badge]") as HTMLButtonElement;
     expect(b.textContent).toBe("preflight ⚠ 2");
-    expect(b.getAttribute("aria-label")).toBe("preflight warnings: 2 problems; open the list");
+    expect(b.getAttribute("aria-label")).toBe("preflight ⚠ 2: preflight warnings, 2 problems; open the list");
     expect(b.title).toMatch(/uncovered: 4.0 %/);
     act(() => b.click());
     expect(opened).toBe(1);

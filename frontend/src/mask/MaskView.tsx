@@ -261,6 +261,10 @@ export function MaskView(p: MaskViewProps) {
   const sectionKeys = mask ? mask.sections.map((s) => sectionKey(mask.id, s.id)) : (pv.data?.sections ?? []).map((s) => s.key);
   const err = pv.error;
 
+  // Which layers a section drawn now applies to: those of the mask governing the shown layer.
+  const range = mask ? ranges.find((m) => m.id === mask.id) : undefined;
+  const joinsText = mask ? `It joins mask ${mask.id} (layers ${range?.from ?? mask.from_layer}–${range?.to ?? "end"}).` : "It starts mask bs1 (all layers).";
+
   const newMask = () => {
     const r = newMaskFromLayer(maskParams, layer);
     if ("error" in r) {
@@ -325,11 +329,10 @@ export function MaskView(p: MaskViewProps) {
         )}
         {drawHint && (
           <div className="pf-draw-hint" data-testid="pf-draw-hint" role="status">
-            <b>New mask section</b>
-            {drawHint.section ? ` for the uncovered area of ${drawHint.section}` : " for the uncovered area"} on layer {drawHint.layer}:{" "}
-            {maskId
-              ? `draw a closed curve around the marked spot (click points, click the first one to close; Esc clears the points). ${mask ? `It joins mask ${mask.id} (layers ${ranges.find((m) => m.id === mask.id)?.from ?? mask.from_layer}–${ranges.find((m) => m.id === mask.id)?.to ?? "end"}).` : "It starts mask bs1 (all layers)."}`
-              : "this recipe has no mask node: add one (palette → mask) to draw sections."}
+            <span>
+              <b>New mask section</b> for the uncovered area{drawHint.section ? ` of ${drawHint.section}` : ""} on layer {drawHint.layer}:{" "}
+              {maskId ? `draw a closed curve around the marked spot (click points, click the first one to close; Esc clears the points). ${joinsText}` : "this recipe has no mask node: add one (palette → mask) to draw sections."}
+            </span>
             <button onClick={() => setTool("select")}>cancel</button>
           </div>
         )}

@@ -117,11 +117,11 @@ export function figureRows(f: PreflightFigures): [string, string][] {
 /** What the toolbar shows for the last run's preflight; null = nothing (no run yet, or it failed). */
 export function preflightBadge({ phase, report, stale }: BadgeInput): BadgeView | null {
   if (phase === "running")
-    return { tone: "pending", label: "preflight …", aria: "preflight: the run is still going", tooltip: "preflight runs when the run ends", count: 0, clickable: false };
+    return { tone: "pending", label: "preflight …", aria: "preflight … runs when the run ends", tooltip: "preflight runs when the run ends", count: 0, clickable: false };
   if (!report) {
     if (phase !== "done") return null;
     return {
-      tone: "none", label: "no preflight", aria: "preflight: this run wrote no preflight report",
+      tone: "none", label: "no preflight", aria: "no preflight: this run wrote no preflight report",
       tooltip: "this run wrote no preflight.json (no program, or a server without the preflight check)", count: 0, clickable: false,
     };
   }
@@ -129,14 +129,15 @@ export function preflightBadge({ phase, report, stale }: BadgeInput): BadgeView 
   const figures = figureRows(report).map(([k, v]) => `${k}: ${v}`).join("\n");
   if (stale)
     return {
-      tone: "stale", label: "preflight: re-run", aria: `preflight out of date: the recipe changed since the run (it was ${report.verdict}); run again`,
+      tone: "stale", label: "preflight: re-run", aria: `preflight: re-run, out of date: the recipe changed since the run (it was ${report.verdict})`,
       tooltip: `out of date: the recipe or parameter XML changed since this run; run again.\nlast run (${report.verdict}):\n${figures}`, count, clickable: true,
     };
   const accepted = report.accepted ? " (accepted)" : "";
   const label = report.verdict === "ok" ? (count ? `preflight ok · ${count}` : "preflight ok") : report.verdict === "warn" ? `preflight ⚠ ${count}` : `preflight ✗ ${count}`;
   const words = report.verdict === "ok" ? "passed" : report.verdict === "warn" ? "warnings" : "failed";
   const fails = (report.problems ?? []).filter((p) => p.severity === "fail").length;
-  const aria = `preflight ${words}${accepted}: ${count} problem${count === 1 ? "" : "s"}${fails ? ` (${fails} failing)` : ""}; open the list`;
+  // The accessible name starts with the visible text (WCAG 2.5.3), then says it in words.
+  const aria = `${label}${accepted}: preflight ${words}, ${count} problem${count === 1 ? "" : "s"}${fails ? ` (${fails} failing)` : ""}; open the list`;
   return {
     tone: report.verdict, label: label + accepted, aria,
     tooltip: `preflight ${report.verdict}${accepted}: ${count} problem${count === 1 ? "" : "s"}\n${figures}`, count, clickable: true,
