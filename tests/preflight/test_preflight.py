@@ -192,3 +192,15 @@ def test_starts_in_machining_stock_may_stack():
     rep = check(gcode(same))
     assert rep["stacked_starts"] == 0 and rep["starts_in_stock"] == 4
     assert not [p for p in rep["problems"] if p["check"] == "stacked_starts"]
+
+
+def test_weave_footprint_survives_resampling():
+    # the same weave cut into 0.5 mm pieces (as wire-feed compensation writes it) covers the same strip
+    corners = np.array([(3.0 if k % 2 == 0 else -3.0, -30.0 + 3.0 * k) for k in range(21)])
+    pieces = [corners[0]]
+    for a, b in zip(corners, corners[1:]):
+        n = int(np.ceil(np.linalg.norm(b - a) / 0.5))
+        pieces += [a + (b - a) * t for t in np.arange(1, n + 1) / n]
+    strip = footprint([np.array(pieces)], 6.0).intersection(
+        trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)]))
+    assert strip.area == pytest.approx(12 * 54, rel=0.01)

@@ -141,7 +141,11 @@ def footprint(paths: list[np.ndarray], width: float):
     oscillated bead is as wide as its weave, not a zigzag with notches."""
     parts = []
     for p in paths:
-        parts.append(LineString(p).buffer(width / 2.0, quad_segs=8))
+        line = LineString(p)
+        parts.append(line.buffer(width / 2.0, quad_segs=8))
+        # the weave's own vertices: a path resampled into short pieces (wire-feed compensation) has
+        # collinear triples only; simplifying by a hundredth of a bead width recovers the strokes
+        p = np.asarray(line.simplify(width * 0.01, preserve_topology=False).coords)
         if len(p) >= 3:
             chord = np.linalg.norm(p[2:] - p[:-2], axis=1)
             for i in np.nonzero(chord <= width * (1 + 1e-9))[0]:
