@@ -32,7 +32,7 @@ def pass_offsets(sp) -> list[float]:
 
 
 def test_layer_height_and_spacing_come_from_the_model():
-    res = run([("height", 1.8), ("width", 5.0)])
+    res = run([("height", 1.8), ("width", 5.0), ("layers", 2)])   # two layers: a quick look
     layers = res.outputs["layers"]["layers"]
     assert [l.thickness for l in layers] == pytest.approx([1.8, 1.8])
     assert [l.z for l in layers] == pytest.approx([1.8, 3.6])
@@ -60,7 +60,11 @@ def test_layer_height_and_spacing_come_from_the_model():
     assert model.wire_per_mm(p["wire_feed_speed"], p["travel_speed"]) == pytest.approx(sec["step_mm"] * 1.8, rel=0.02)
     assert model.width(p["wire_feed_speed"], p["travel_speed"]) == pytest.approx(5.0, rel=0.06)
     assert model.height(p["wire_feed_speed"], p["travel_speed"]) == pytest.approx(1.8, rel=0.12)
-    assert not [w for w in res.warnings if w["node"] == "strategy"]
+    # the model's wider spacing clashes with nothing; but a 5 mm bead on the 3 mm-step weave of arm A no
+    # longer reaches across its 6 mm same-side period: the strategy says how much of A gets no bead
+    strategy_warnings = [w for w in res.warnings if w["node"] == "strategy"]
+    assert [(w["section"], w["layer"]) for w in strategy_warnings] == [("bs1/A", 0), ("bs1/A", 1)]
+    assert "14.5 %" in strategy_warnings[0]["message"] and "gets no bead" in strategy_warnings[0]["message"]
     # the recipe builds the first 2 of the cross's 7 layers (12 mm at 1.8 mm): slice says so (issue #22),
     # and nothing else
     [w] = [w for w in res.warnings if w["node"] == "layers"]
@@ -103,16 +107,17 @@ def test_without_a_model_the_params_hold():
 
 def test_the_cache_follows_the_model():
     cache = MemoryCache()
-    run(cache=cache)
-    again = run(cache=cache)
+    quick = [("layers", 2)]
+    run(quick, cache=cache)
+    again = run(quick, cache=cache)
     assert again.stats["strategy"].layers_computed == 0 and again.stats["layers"].cached
     # a new target width: a new model, so strategy's layers are recomputed with the new spacing
-    wider = run([("width", 7.0)], cache=cache)
+    wider = run([*quick, ("width", 7.0)], cache=cache)
     assert wider.stats["strategy"].layers_computed == 2
     ys = pass_offsets({sp.key: sp for sp in wider.outputs["strategy"]["toolpath"][0].sections}["bs1/B"])
     assert np.diff(ys) == pytest.approx([0.738 * 7.0] * (len(ys) - 1), abs=1e-6)
     # a new target height re-slices, whatever the slice's params say
-    taller = run([("height", 2.0)], cache=cache)
+    taller = run([*quick, ("height", 2.0)], cache=cache)
     assert not taller.stats["layers"].cached
     assert taller.outputs["layers"]["layers"][1].z == pytest.approx(4.0)
 
