@@ -22,6 +22,19 @@ from pygcode import GCodeArcMove, GCodeDwell, GCodeFeedRate, GCodeLinearMove, GC
 
 _TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\s+"
                   r"feed_units=(mm/min|mm/s)\s+end=([^\s)]+)")
+_WELD_ITEM = re.compile(r'\w+\[[^\]]*\](?:\*[-+\d.eE]+)?(?:@start)?="([^"]*)"')
+
+
+def weld_command_patterns(text: str) -> list[re.Pattern]:
+    """The weld commands the program's `waamflow-weld:` line declares, as whole-line patterns
+    (each {…} field a number): lines matching one set a power-source value, no motion."""
+    line = next((ln for ln in text.splitlines() if "waamflow-weld:" in ln), "")
+    pats = []
+    for tpl in _WELD_ITEM.findall(line):
+        if "{" in tpl:
+            pieces = re.split(r"\{[^}]*\}", tpl)
+            pats.append(re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)".join(re.escape(x) for x in pieces) + "$"))
+    return pats
 
 
 class _Machine(Machine):
@@ -52,6 +65,7 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     from waamflow.program.common import TOOL_COMMANDS   # a rolling/peening tool's own codes (M110 P… Q…)
     tool_heads = {ln.split()[0] for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["gcode"])
                   for ln in (post.get(key) or default).splitlines() if ln.split()}
+    weld_cmds = weld_command_patterns(text)
     m = _Machine()
     pos = np.zeros(3)
     arc = False
@@ -71,6 +85,8 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
             continue
         if code.split() and code.split()[0] in tool_heads:
             continue                          # the tool's engage/lift codes: no motion
+        if any(p.match(code) for p in weld_cmds):
+            continue                          # a weld value (M67/M68, M106 P1 S…, G65 P9100 …): no motion
         block = line.block
         unknown = {str(w) for w in block.words} - _assigned_words(block)
         assert unknown <= own, f"line {ln}: words pygcode does not know: {sorted(unknown)} in {raw!r}"

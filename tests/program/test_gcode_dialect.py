@@ -58,7 +58,8 @@ def test_marlin_layer_code_lift_and_end():
     assert re.findall(r"^;LAYER:(\d+)$", text, re.M) == ["0", "1", "2"]
     tail = text.splitlines()[-3:]
     last_z = flatten(build_toolpath(3)).points[-1, 2]
-    assert tail[0] == f"G0 Z{last_z + 10:.3f} ; final lift 10 mm" and tail[1] == "M107" and tail[2].startswith("M84")
+    # issue 23: Marlin's G0 moves at the modal feed, so the lift carries F = travel_speed (100 mm/s)
+    assert tail[0] == f"G0 Z{last_z + 10:.3f} F6000 ; final lift 10 mm" and tail[1] == "M107" and tail[2].startswith("M84")
     assert not re.search(r"^M30", text, re.M)                        # Marlin's M30 deletes an SD file
     assert parse_gcode(text).ended
 

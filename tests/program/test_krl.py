@@ -55,8 +55,12 @@ def test_single_program(moves):
     n_runs = len(arc_runs(moves))
     assert src.count("$OUT[1]=TRUE") == n_runs
     assert src.count("TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[1]=FALSE") == n_runs
-    trig = [i for i, l in enumerate(src.splitlines()) if l.startswith("TRIGGER")]
-    assert all(re.fullmatch(r"(LIN|CIRC) P\d+(,P\d+)?", src.splitlines()[i + 1]) for i in trig)
+    # every TRIGGER (arc off, and since issue 23 the weld values inside a run) arms the next line's motion
+    lines = src.splitlines()
+    trig = [i for i, l in enumerate(lines) if l.startswith("TRIGGER")]
+    assert all(re.fullmatch(r"(LIN|CIRC) P\d+(,P\d+)?( C_DIS)?", next(x for x in lines[i + 1:] if not x.startswith("TRIGGER")))
+               for i in trig)
+    assert all(re.fullmatch(r"(LIN|CIRC) P\d+(,P\d+)?", lines[i + 1]) for i in trig if "$OUT[1]=FALSE" in lines[i])
     waits = re.findall(r"^WAIT SEC ([\d.]+) ; (\w+) dwell$", src, re.M)
     assert sum(r == "ignition" for _, r in waits) == n_runs
     assert [float(s) for s, r in waits if r == "interlayer"] == [20.0, 20.0]
@@ -168,7 +172,11 @@ def test_arctech_mode(moves):
     w = {n: dict(dict(v)["Weld"]) for n, (t, v) in parsed2.data.items() if n.startswith("WDAT")}
     assert sorted({(x["Velocity"], x["Channel1"], x["Channel2"]) for x in w.values()}) == [
         (0.005, 220.0, 21.0), (0.006, 200.0, 20.0), (0.007, 180.0, 19.0)]
-    assert p2.weld_issues == ()
+    # issue 23: this map has no channel for wire feed and job: reported per zone, no longer dropped silently
+    assert {i.message for i in p2.weld_issues} == {
+        "wire_feed_speed 11 m/min, job 12 not commanded: the program has no command for them (map it to a channel in arctech_channels)",
+        "wire_feed_speed 10 m/min not commanded: the program has no command for it (map it to a channel in arctech_channels)",
+        "wire_feed_speed 8.5 m/min not commanded: the program has no command for it (map it to a channel in arctech_channels)"}
     with pytest.raises(ValueError, match="channel"):
         KrlSettings(arctech_channels={"voltage": 9})
 

@@ -196,6 +196,21 @@ def _rounded(obj):
     return obj
 
 
+def _with_wire_feed(lp, wfs: float):
+    """The layer's paths with `wire_feed_speed` = wfs (m/min) in every welded zone lacking one."""
+    from dataclasses import replace
+
+    sections = []
+    for sp in lp.sections:
+        arc = np.asarray(sp.arc, bool)
+        zones = {sp.zone[i] if i < len(sp.zone) else "" for i in np.flatnonzero(arc)}
+        params = {z: dict(v) for z, v in sp.zone_params.items()}
+        for z in zones:
+            params.setdefault(z, {}).setdefault("wire_feed_speed", round(wfs, 4))
+        sections.append(replace(sp, zone_params=params) if zones else sp)
+    return type(lp)(lp.layer, tuple(sections), lp.dwell_after_s)
+
+
 @register
 class BeadModelNode(LayerNode):
     """Bead-height model: each deposition segment's travel speed from its local layer height.
@@ -205,7 +220,10 @@ class BeadModelNode(LayerNode):
     400–1200 mm/min, i.e. H 3.23 → 2.24 mm. A segment's needed height is the local layer height at
     its midpoint: r·Δθ on a fan layer (r = distance from the slicing axis), the thickness on a
     planar one. The model is inverted there; heights outside [H(ts_max), H(ts_min)] are clamped
-    with a warning naming the layer. Arc-off segments keep their speed. Writes `<node>.bead.json`
+    with a warning naming the layer. Arc-off segments keep their speed. The model holds only at its
+    wire feed, so every welded zone gets `wire_feed_speed` = that feed (`model_wfs`, the study's
+    8.1 m/min; with a fitted model the `wfs` it is read at) unless the zone states its own: the
+    post-processor commands it. Writes `<node>.bead.json`
     (model, height range, minimum CSratio (1 + q)/(2(1 − q)), per-layer radii, heights, speeds).
     """
 
@@ -217,6 +235,7 @@ class BeadModelNode(LayerNode):
                                           "replaces the coefficients", optional=True))
     outputs = (Port("toolpath", "toolpath", "Same paths, travel speed per segment from the model"),)
     over = "toolpath"
+    version = "2"                # 2: the model's wire feed in every welded zone
 
     class Params(NodeParams):
         a2: float = Field(1.2245e-6, description="Quadratic coefficient", json_schema_extra=unit("mm/(mm/min)²"))
@@ -229,6 +248,9 @@ class BeadModelNode(LayerNode):
         wfs: float | None = Field(None, gt=0, le=40, json_schema_extra=unit("m/min"),
                                   description="With a connected bead model: the wire feed it is read at "
                                               "(empty = the middle of its trials)")
+        model_wfs: float = Field(8.1, gt=0, le=40, json_schema_extra=unit("m/min"),
+                                 description="Wire feed the coefficients hold at (Rauch et al. 2021: 8.1 m/min); "
+                                             "written as wire_feed_speed into every welded zone without one")
 
         @model_validator(mode="after")
         def _check(self):
@@ -247,6 +269,10 @@ class BeadModelNode(LayerNode):
             except ValueError as e:
                 raise PlanningError(f"bead model: {e}", layer=index) from None
         new = apply_bead_model(items["toolpath"], model)
+        fit = items.get("model")
+        wfs = params.model_wfs if fit is None else (
+            params.wfs if params.wfs is not None else 0.5 * (fit.wfs_range[0] + fit.wfs_range[1]))
+        new = _with_wire_feed(new, float(wfs))
         row = layer_report(new, model)
         if row["clamped"]:
             h_lo, h_hi = model.h_range

@@ -19,7 +19,8 @@ from ..engine.ports import Port
 from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
 from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
                               program_identifier, stamp_trace)
-from ..program.krl import ARCTECH_CHANNELS, check_channels
+from ..program.gcode import GCODE_WELD_CODES
+from ..program.krl import ARCTECH_CHANNELS, KRL_WELD_CODES, check_channels
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import load_cell, positioner_angles, to_world
 
@@ -56,7 +57,7 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "2"
+    version = "3"
     uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
@@ -103,8 +104,22 @@ class PostProcess(Node):
                                  description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)")
         process_codes: dict[str, str] = Field(
             default_factory=dict,
-            description="G-code / KRL output mode: zone parameter name → command template using {value}, "
-                        "e.g. {\"wire_feed_speed\": \"M100 S{value:.1f}\", \"job\": \"M101 P{value:.0f}\"}")
+            description="G-code / KRL output mode: zone weld value (wire_feed_speed m/min, current A, voltage V, "
+                        "job) → the command that sets it, a template using {value}, e.g. {\"wire_feed_speed\": "
+                        "\"M100 S{value:.1f}\"}; written at every zone change (inside a run: the changes). Empty = "
+                        "the format's default: G-code LinuxCNC analog outputs M67 E0 (WFS) / E1 (current) / E2 "
+                        "(voltage) Q<value>, job M120 P<job>; KRL $ANOUT[1] = WFS/20, [2] = current/500, [3] = "
+                        "voltage/50. A value without a command (\"\") is reported as a weld issue")
+        process_codes_start: dict[str, str] = Field(
+            default_factory=dict,
+            description="G-code: the form of a process_codes command written before an ignition (arc off); empty = "
+                        "LinuxCNC's immediate M68 E<n> Q<value> with the default process_codes, else process_codes")
+        process_scale: dict[str, float] = Field(
+            default_factory=dict,
+            description="G-code: zone weld value → factor applied before it fills {value} (e.g. Marlin PWM: "
+                        "{\"wire_feed_speed\": 12.75} for S0-255 = 0-20 m/min); default 1")
+        travel_feed: bool = Field(False, description="G-code: F at travel_speed on every G0 travel line (controllers "
+                                                     "whose G0 moves at the modal feed, e.g. Marlin)")
         rotary_axes: list[str] = Field(
             default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
             json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
@@ -166,10 +181,19 @@ class PostProcess(Node):
                 raise ValueError(f"rotary_axes {v}: distinct letters among A, B, C, U, V, W")
             return v
 
-        @field_validator("process_codes")
+        @field_validator("process_codes", "process_codes_start")
         @classmethod
         def _templates(cls, v: dict[str, str]) -> dict[str, str]:
             return check_templates(v)
+
+        @field_validator("process_scale")
+        @classmethod
+        def _scale(cls, v: dict[str, float]) -> dict[str, float]:
+            check_templates({k: "" for k in v})
+            bad = {k: x for k, x in v.items() if not (math.isfinite(x) and x > 0)}
+            if bad:
+                raise ValueError(f"process_scale factors must be > 0: {bad}")
+            return v
 
         @field_validator("tool_on", "tool_off")
         @classmethod
@@ -212,7 +236,9 @@ class PostProcess(Node):
             ctx.warn(f"KRL program {name}: the controller needs the files named {name}.src / {name}.dat "
                      f"(DEF name = file name); rename {ctx.node_id}.src/.dat when copying them"
                      + ("" if params.program_name else " or give the node an identifier id"))
-        _warn_weld_data(ctx, program, "ArcTech weld data" if params.format == "krl" else "RAPID welddata")
+        what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands",
+                "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands"}
+        _warn_weld_data(ctx, program, what.get(params.format, "weld data"))
         tilt = program.stats.get("max_tool_tilt_deg", 0.0) if world_tilt is None else world_tilt
         if params.format == "gcode" and tilt > TILT_WARN_DEG:
             if world_tilt is None:
@@ -290,7 +316,9 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
     if p.format == "gcode":
         return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
-                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes),
+                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes or GCODE_WELD_CODES),
+                             process_codes_start=dict(p.process_codes_start) or None,
+                             process_scale=dict(p.process_scale), travel_feed=p.travel_feed,
                              rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units,
                              comment_style=p.comment_style, feed_units=p.feed_units,
                              start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
@@ -301,7 +329,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                            arc_control=p.arc_control, arc_output=p.arc_output,
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
-                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes),
+                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes or KRL_WELD_CODES),
                            arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
                            arctech_velocity_unit=p.arctech_velocity_unit, **tools)
     if p.format == "rapid":

@@ -75,8 +75,18 @@ def post_process(
         files = {"csv": write_cl_csv(moves)}
     stats["files"] = len(files)
     issues: tuple = ()
-    if fmt == "rapid":
+    if fmt == "rapid":                        # welddata carries job, voltage, wire feed, current
         issues = tuple(weld_data_issues(plan))
-    elif fmt == "krl" and isinstance(writer_settings, KrlSettings) and writer_settings.arc_control == "arctech":
-        issues = tuple(weld_data_issues(plan, tuple(writer_settings.arctech_channels)))
+    elif fmt == "krl" and (writer_settings or KrlSettings()).arc_control == "arctech":
+        ks = writer_settings or KrlSettings()
+        issues = tuple(weld_data_issues(plan, tuple(ks.arctech_channels), tuple(ks.arctech_channels),
+                                        "map it to a channel in arctech_channels"))
+    elif fmt == "krl":
+        ks = writer_settings or KrlSettings()
+        issues = tuple(weld_data_issues(plan, commanded=tuple(k for k, v in ks.process_codes.items() if v),
+                                        hint="give it a KRL statement in process_codes", empty=False))
+    elif fmt == "gcode":
+        gs = writer_settings or GcodeSettings()
+        issues = tuple(weld_data_issues(plan, commanded=tuple(k for k, v in gs.process_codes.items() if v),
+                                        hint="give it a command template in process_codes", empty=False))
     return Program(fmt, files, stats, issues)

@@ -44,11 +44,14 @@ def process_summary(params: dict) -> str:
 
 
 def check_templates(templates: dict[str, str]) -> dict[str, str]:
-    """Validate process-command templates: known parameter names, only the `{value}` field."""
+    """Validate process-command templates: known parameter names, only the `{value}` field, one
+    line without quotes (the `waamflow-weld:` header quotes them); "" = not commanded."""
     for name, tpl in templates.items():
         if name not in PARAMETERS_BY_NAME:
             raise ValueError(f"process template for unknown parameter {name!r} "
                              f"(known: {', '.join(PARAMETERS_BY_NAME)})")
+        if any(c in tpl for c in '"\n'):
+            raise ValueError(f"process template {tpl!r} for {name!r}: one line, no double quotes")
         fields = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None]
         if any(f != "value" for f in fields):
             raise ValueError(f"process template {tpl!r} for {name!r} may only use the field {{value}}")
@@ -56,10 +59,90 @@ def check_templates(templates: dict[str, str]) -> dict[str, str]:
     return dict(templates)
 
 
-def process_lines(params: dict, templates: dict[str, str]) -> list[str]:
-    """One command per parameter present in both `params` and `templates`, in table order."""
-    return [templates[p.name].format(value=float(params[p.name]))
-            for p in ZONE_PARAMETERS if p.name in params and p.name in templates]
+def process_lines(params: dict, templates: dict[str, str], scale: dict[str, float] | None = None,
+                  names=None) -> list[str]:
+    """One command per parameter present in both `params` and `templates` (an empty template
+    commands nothing), in table order; the value times `scale[name]` (default 1) fills {value}.
+    `names`: only these parameters (e.g. those that changed)."""
+    scale = scale or {}
+    return [templates[p.name].format(value=float(params[p.name]) * float(scale.get(p.name, 1.0)))
+            for p in ZONE_PARAMETERS if p.name in params and templates.get(p.name)
+            and (names is None or p.name in names)]
+
+
+# ---- the weld in the program: which command carries which zone parameter ------------------------
+# Every program format writes one header comment `waamflow-weld: ...` listing, for each weld value
+# of a zone (WELD_COMMANDED), the command that carries it, so an independent reader (the preflight,
+# the tests) can read the values back:
+#     name[unit]="<template with {value}>"          the command, value in the unit (× scale)
+#     name[unit]*<scale>="<template>"               the command carries value × scale
+#     name[unit]@start="<template>"                 the form used before an ignition (arc off)
+#     name[unit]="<data field>"                     (no {value}) a field of a weld data set
+#     name[unit]=none                               the dialect cannot command it (a weld issue)
+WELD_COMMANDED = ("current", "voltage", "wire_feed_speed", "job")
+WELD_TAG = "waamflow-weld:"
+_TAG_ITEM = re.compile(r'(\w+)\[([^\]]*)\](?:\*([-+\d.eE]+))?(@start)?=(?:"([^"]*)"|none)')
+_NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+))"
+
+
+def weld_tag(templates: dict[str, str], start: dict[str, str] | None = None,
+             scale: dict[str, float] | None = None) -> str:
+    """The `waamflow-weld:` header text (without comment marks) for these templates (see above)."""
+    parts = []
+    for name in WELD_COMMANDED:
+        unit = PARAMETERS_BY_NAME[name].unit
+        k = (scale or {}).get(name)
+        head = f"{name}[{unit}]" + (f"*{k:g}" if k is not None and float(k) != 1.0 else "")
+        tpl = templates.get(name) or ""
+        parts.append(f'{head}="{tpl}"' if tpl else f"{head}=none")
+        st = (start or {}).get(name) or ""
+        if tpl and st and st != tpl:
+            parts.append(f'{head}@start="{st}"')
+    return WELD_TAG + " " + " ".join(parts)
+
+
+def parse_weld_tag(text: str) -> dict[str, dict]:
+    """name → {"unit", "scale", "commands": [templates or data fields]} from a program's
+    `waamflow-weld:` line; names the dialect cannot command map to commands []. {} when absent."""
+    line = next((ln for ln in text.splitlines() if WELD_TAG in ln), None)
+    if line is None:
+        return {}
+    out: dict[str, dict] = {}
+    for name, unit, k, _start, tpl in _TAG_ITEM.findall(line.split(WELD_TAG, 1)[1]):
+        e = out.setdefault(name, {"unit": unit, "scale": float(k) if k else 1.0, "commands": []})
+        if tpl:
+            e["commands"].append(tpl)
+    return out
+
+
+def template_regex(tpl: str) -> re.Pattern:
+    """A regular expression matching a command written from `tpl`, group 1 = the {value} number."""
+    parts = []
+    for literal, fld, _spec, _conv in string.Formatter().parse(tpl):
+        parts.append(re.escape(literal))
+        if fld is not None:
+            parts.append(_NUMBER)
+    return re.compile(r"(?<![\w$#])" + "".join(parts) + r"(?![\w.])")
+
+
+def read_weld_commands(text: str) -> dict[str, list[float]]:
+    """The weld values a program commands, in program order, read through its `waamflow-weld:`
+    line: name → values in the parameter's unit (the scale divided out). Whole-line comments
+    (`;`, `(`, `!`) and trailing `;`/`!` comments are skipped. Data-set fields are not read here."""
+    tag = parse_weld_tag(text)
+    pats = [(name, e["scale"], template_regex(t)) for name, e in tag.items() for t in e["commands"] if "{" in t]
+    out: dict[str, list[float]] = {name: [] for name in tag}
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line[0] in ";(!":
+            continue
+        code = re.split(r"[;!]", line, maxsplit=1)[0]
+        for name, k, pat in pats:
+            m = pat.search(code)
+            if m:
+                out[name].append(float(m.group(1)) / k)
+                break
+    return out
 
 
 def finite(x: float) -> bool:
@@ -197,11 +280,13 @@ class WeldDataIssue:
 WELD_VALUES = ("current", "voltage", "wire_feed_speed")
 
 
-def weld_data_issues(plan, required: tuple[str, ...] = ()) -> list[WeldDataIssue]:
+def weld_data_issues(plan, required: tuple[str, ...] = (), commanded: tuple[str, ...] | None = None,
+                     hint: str = "", empty: bool = True) -> list[WeldDataIssue]:
     """Zones welded in `plan` whose weld data is empty (none of current, voltage, wire feed speed
-    or job given), has a zero value (current, voltage, wire feed speed, weld speed) or lacks one of
-    the `required` parameters (e.g. those mapped to ArcTech channels), once per (section, zone),
-    in deposition order."""
+    or job given; only with `empty`), has a zero value (current, voltage, wire feed speed, weld
+    speed), lacks one of the `required` parameters (e.g. those mapped to ArcTech channels) or has
+    a weld value (WELD_COMMANDED) the program cannot command (not in `commanded`, when given;
+    `hint` says what to set), once per (section, zone), in deposition order."""
     from .plan import Motion
 
     moves = plan.moves
@@ -213,8 +298,10 @@ def weld_data_issues(plan, required: tuple[str, ...] = ()) -> list[WeldDataIssue
         params = moves.zone_params.get(key, {})
         zid = moves.zone_ids[st.zone] if 0 <= st.zone < len(moves.zone_ids) else "-"
         problems = []
-        if not any(float(params.get(k, 0.0) or 0.0) > 0 for k in WELD_VALUES + ("job",)):
-            problems.append("no weld data (current, voltage, wire_feed_speed and job all missing or 0)")
+        has_data = any(float(params.get(k, 0.0) or 0.0) > 0 for k in WELD_VALUES + ("job",))
+        if not has_data:
+            if empty:
+                problems.append("no weld data (current, voltage, wire_feed_speed and job all missing or 0)")
         else:
             zero = [k for k in WELD_VALUES if k in params and float(params[k]) <= 0]
             if zero:
@@ -223,6 +310,13 @@ def weld_data_issues(plan, required: tuple[str, ...] = ()) -> list[WeldDataIssue
                        or k in WELD_VALUES and k not in params]
             if missing:
                 problems.append(f"{', '.join(missing)} missing (written as 0)")
+        if commanded is not None:
+            lost = [k for k in WELD_COMMANDED if k in params and k not in commanded]
+            if lost:
+                vals = ", ".join(f"{k} {short(params[k])}{(' ' + PARAMETERS_BY_NAME[k].unit) if PARAMETERS_BY_NAME[k].unit else ''}"
+                                 for k in lost)
+                problems.append(f"{vals} not commanded: the program has no command for "
+                                f"{'it' if len(lost) == 1 else 'them'}" + (f" ({hint})" if hint else ""))
         if not (np.isfinite(st.speed) and st.speed > 0):
             problems.append("weld speed 0")
         issue = WeldDataIssue(moves.section_keys[st.section], st.layer, zid, "; ".join(problems))

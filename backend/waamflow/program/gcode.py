@@ -21,6 +21,22 @@ delimiters and `O` program number).
 The header carries a machine-readable line `; waamflow-post: arc_on=… arc_off=… dwell_units=…
 feed_units=… end=…` that `gcode_parse.parse_gcode` uses to read the program back.
 
+The weld as commands (`process_codes`, default `GCODE_WELD_CODES`: LinuxCNC analog outputs). At
+every zone change the zone's weld values (wire feed m/min, current A, voltage V, job) are written
+as commands, not only as the comment: before an ignition (arc off) in the `process_codes_start`
+form — default `M68 E<n> Q<value>`, immediate, so the output is set before the arc-on code — and
+while welding (a zone or a compensation step inside a run) in the `process_codes` form, only the
+values that changed — default `M67 E<n> Q<value>`, synchronised with the start of the next
+motion, no stop. Channels: E0 wire feed (m/min), E1 current (A), E2 voltage (V), values in the
+parameter's unit (scale to the power source's 0-10 V in HAL); job by the user M-code `M120 P<job>`
+(a script `M120` in the config's USER_M_PATH). `process_scale` multiplies a value before it is
+written (e.g. Marlin PWM 0-255). A header line `; waamflow-weld: name[unit]="template" …` lists
+every command (common.weld_tag); a zone value without one is a weld issue (post_process).
+
+Travel: G0 at the controller's rapid rate (`rapid_travel`; the time estimate assumes
+`travel_speed`), or — `travel_feed`, for controllers whose G0 moves at the modal feed (Marlin:
+G0 = G1) — G0 with F = `travel_speed` on every travel line, or G1 at `travel_speed`.
+
 Positioner cells: with `external_axes` (the positioner angles in degrees at every toolpath point,
 columns E1 tilt, E2 turn, from `trajectory.cell.positioner_angles`) each motion carries them as
 rotary-axis words, letters from `rotary_axes` (the machine profile's, e.g. A/C for a table that
@@ -38,7 +54,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
-                     short, tool_lines, tool_summary)
+                     short, tool_lines, tool_summary, weld_tag)
+
+# LinuxCNC analog outputs (motion.analog-out-NN): E0 wire feed m/min, E1 current A, E2 voltage V;
+# M67 = synchronised with the next motion (inside a run), M68 = immediate (before an ignition).
+# Job: LinuxCNC user M-code M120 P<job> (M100-M199 take P and Q).
+GCODE_WELD_CODES = {"wire_feed_speed": "M67 E0 Q{value:.2f}", "current": "M67 E1 Q{value:.1f}",
+                    "voltage": "M67 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
+GCODE_WELD_CODES_START = {"wire_feed_speed": "M68 E0 Q{value:.2f}", "current": "M68 E1 Q{value:.1f}",
+                          "voltage": "M68 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
@@ -46,10 +70,13 @@ from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange,
 class GcodeSettings:
     """program_name: written in the header. arc_on / arc_off: the machine's codes (a whole line,
     may hold several words). dwell_units: "s" or "ms" — unit of the G4 P word on this controller.
-    rapid_travel: G0 for arc-off travel; False → G1 at `travel_speed` mm/s. process_codes:
+    rapid_travel: G0 for arc-off travel; False → G1 at `travel_speed` mm/s. travel_feed: write
+    F = travel_speed on every G0 (controllers whose G0 uses the modal feed: Marlin). process_codes:
     parameter name (core/process.py) → template using {value}, e.g. {"wire_feed_speed":
-    "M100 S{value:.1f}"}; one line per parameter the zone has, where the zone changes. decimals:
-    digits after the point for coordinates (mm)."""
+    "M100 S{value:.1f}"}, written where the zone changes while welding ("" = not commanded);
+    process_codes_start: the form before an ignition (None: GCODE_WELD_CODES_START when
+    process_codes is the default, else process_codes); process_scale: name → factor applied to
+    the value. decimals: digits after the point for coordinates (mm)."""
 
     program_name: str = "waamflow"
     arc_on: str = "M3"
@@ -57,7 +84,10 @@ class GcodeSettings:
     dwell_units: str = "s"
     rapid_travel: bool = True
     travel_speed: float = 100.0
-    process_codes: dict[str, str] = field(default_factory=dict)
+    process_codes: dict[str, str] = field(default_factory=lambda: dict(GCODE_WELD_CODES))
+    process_codes_start: dict[str, str] | None = None
+    process_scale: dict[str, float] = field(default_factory=dict)
+    travel_feed: bool = False
     decimals: int = 3
     rotary_axes: tuple[str, ...] = ("A", "C")
     rotary_units: str = "deg"
@@ -106,6 +136,21 @@ class GcodeSettings:
         if self.arc_on.strip().upper() == self.arc_off.strip().upper():
             raise ValueError("arc_on and arc_off must differ")
         check_templates(self.process_codes)
+        check_templates(self.process_codes_start or {})
+        for name, k in self.process_scale.items():
+            check_templates({name: ""})
+            if not (np.isfinite(k) and k > 0):
+                raise ValueError(f"process_scale of {name!r} must be > 0, not {k}")
+        for tpl in [*self.process_codes.values(), *(self.process_codes_start or {}).values()]:
+            if any(c in tpl for c in ";()"):
+                raise ValueError(f"process template {tpl!r}: no comments (; or parentheses) in a G-code command")
+
+    @property
+    def start_codes(self) -> dict[str, str]:
+        """The commands written before an ignition: process_codes_start over process_codes."""
+        if self.process_codes_start is None:
+            return dict(GCODE_WELD_CODES_START) if self.process_codes == GCODE_WELD_CODES else dict(self.process_codes)
+        return {**self.process_codes, **self.process_codes_start}
 
 
 def check_line_template(tpl: str) -> str:
@@ -127,6 +172,17 @@ def header_tag(settings: GcodeSettings) -> str:
     return (f"waamflow-post: arc_on={settings.arc_on.strip().replace(' ', '_')} "
             f"arc_off={settings.arc_off.strip().replace(' ', '_')} dwell_units={settings.dwell_units} "
             f"feed_units={settings.feed_units} end={settings.program_end.strip().replace(' ', '_')}")
+
+
+def _travel_note(settings: GcodeSettings) -> str:
+    """What the controller does on travel, as the header states it (no false time claim)."""
+    v = short(settings.travel_speed)
+    if not settings.rapid_travel:
+        return f"travel: G1 at travel_speed {v} mm/s (F on the first travel line after a feed change)"
+    if settings.travel_feed:
+        return f"travel: G0 with F at travel_speed {v} mm/s on every travel line (G0 moves at the modal feed)"
+    return (f"travel: G0 at the controller's rapid rate; the estimated time assumes {v} mm/s "
+            "(set travel_speed to the machine's rapid rate)")
 
 
 def _commenter(settings: GcodeSettings):
@@ -182,7 +238,9 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
           f"deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
           f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s, "
           f"estimated time {st['estimated_time_s']:.1f} s"),
+        c(_travel_note(settings)),
         c(header_tag(settings)),
+        c(weld_tag(settings.process_codes, settings.start_codes, settings.process_scale)),
         f"G21 {c('millimetres')}",
         f"G90 {c('absolute coordinates')}",
     ]
@@ -202,6 +260,11 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     keys = plan.moves.section_keys
     words = _xyz_words(pts, d)
     last = None
+    arc = False
+    commanded: dict[str, float] = {}          # weld values in force (written while welding: changes only)
+    start_codes = settings.start_codes
+    scale = settings.process_scale
+    travel_f = round(settings.travel_speed * feed_scale, 1 if feed_scale == 60.0 else 3)
     for s in plan.steps:
         if isinstance(s, LayerStart):
             out.append(c(f"layer {s.layer} z={num(s.z, d)}"))
@@ -211,11 +274,18 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         elif isinstance(s, ProcessChange):
             desc = process_summary(s.params)
             out.append(c(f"zone {s.zone_id or '-'}" + (f": {desc}" if desc else "")))
-            out.extend(process_lines(s.params, settings.process_codes))
+            if arc:                           # inside a run: only what changed, synchronised with motion
+                changed = {k for k, v in s.params.items() if commanded.get(k) != float(v)}
+                out.extend(process_lines(s.params, settings.process_codes, scale, changed))
+            else:
+                out.extend(process_lines(s.params, start_codes, scale))
+            commanded.update({k: float(v) for k, v in s.params.items()})
         elif isinstance(s, ArcOn):
             out.append(f"{settings.arc_on} {c('arc on')}")
+            arc = True
         elif isinstance(s, ArcOff):
             out.append(f"{settings.arc_off} {c('arc off')}")
+            arc = False
         elif isinstance(s, Dwell):
             note = f" ({s.note})" if s.note else ""
             out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s{note}')}")
@@ -235,7 +305,11 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
                         xyz += f" {letter}{v}"
                         rot_last[k] = v
             if s.mode == "travel" and settings.rapid_travel:
-                out.append(f"G0 {xyz}")
+                if settings.travel_feed:      # G0 at the modal feed (Marlin): F on every travel line
+                    out.append(f"G0 {xyz} F{short(travel_f)}")
+                    feed = travel_f
+                else:
+                    out.append(f"G0 {xyz}")
                 continue
             v = settings.travel_speed if s.mode == "travel" else s.speed
             f_word = ""
@@ -250,7 +324,8 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             else:
                 out.append(f"G1 {xyz}{f_word}")
     if settings.final_lift > 0 and last is not None:
-        out.append(f"G0 Z{num(last[2] + settings.final_lift, d)} {c(f'final lift {short(settings.final_lift)} mm')}")
+        f_lift = f" F{short(travel_f)}" if settings.travel_feed else ""
+        out.append(f"G0 Z{num(last[2] + settings.final_lift, d)}{f_lift} {c(f'final lift {short(settings.final_lift)} mm')}")
     out.extend(settings.end_code)
     out.append(f"{settings.program_end} {c('end of program')}")
     out.extend(settings.postamble)

@@ -15,8 +15,15 @@ Arc control (`arc_control`):
 * ``"output"``: the arc is a digital output. ON: ``$OUT[n]=TRUE`` at the (exactly reached) start
   point, then the ignition dwell. OFF: ``TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[n]=FALSE``
   armed on the last welding motion, so the output drops exactly at its end point without
-  stopping the advance run. Process values go through `process_codes` templates (KRL statements,
-  e.g. {"current": "$ANOUT[1]={value:.0f}/500"}) plus a comment.
+  stopping the advance run. The zone's weld values are commands from `process_codes` templates
+  (KRL statements), default `KRL_WELD_CODES`: analog outputs, $ANOUT[n] = value / full scale
+  (±1.0 = ±10 V): $ANOUT[1] wire feed /20 (10 V = 20 m/min), $ANOUT[2] current /500 (10 V =
+  500 A), $ANOUT[3] voltage /50 (10 V = 50 V); before an ignition as plain statements (the
+  advance-run stop they cause falls on the exact stop there), inside a run (a zone change, a
+  compensation step) only the changed values, each as `TRIGGER WHEN DISTANCE=0 DELAY=0 DO …` on
+  the next motion (path-synchronised, no stop). A job number has no default command (map it to a
+  template, e.g. a SIGNAL group output, or use ArcTech); a zone value without a command is a
+  weld issue.
 * ``"arctech"``: KUKA.ArcTech (Basic 3.x, KSS 8.x) in the expert form its inline forms ARC ON /
   ARC SWI / ARC OFF expand to: every welding motion is wrapped in calls of the ArcTech main routine
   (`arctech_routine`, default ``ArcMainNG``) with ArcTech path TRIGGERs, e.g. ::
@@ -32,7 +39,7 @@ Arc control (`arc_control`):
   ``DECL stArcDat_T WDAT<k>`` in the .dat are filled from the zone parameters: Weld.Velocity =
   the segment's programmed speed (`arctech_velocity_unit`), Channel<n> = the zone parameter that
   `arctech_channels` maps to channel n (power-source dependent; default 1 job, 2 wire feed m/min,
-  3 voltage V), Strike.StartTime = the ignition dwell, Strike/Crater channels as Weld. One set per
+  3 voltage V, 4 current A), Strike.StartTime = the ignition dwell, Strike/Crater channels as Weld. One set per
   distinct (channels, speed, ignition dwell). The seam data ``WP1`` names the program.
 
 Points: every motion target (and CIRC auxiliary point) is ``P<i+1>`` for toolpath point i,
@@ -60,7 +67,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
-from .common import check_identifier, check_templates, num, process_lines, process_summary, short
+from .common import check_identifier, check_templates, num, process_lines, process_summary, short, weld_tag
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
@@ -88,7 +95,7 @@ class KrlSettings:
     tool_direction: str = "x"
     max_points_per_file: int = 0
     split_per_layer: bool = False
-    process_codes: dict[str, str] = field(default_factory=dict)
+    process_codes: dict[str, str] = field(default_factory=lambda: dict(KRL_WELD_CODES))
     external_axes: np.ndarray | None = None
     arctech_routine: str = "ArcMainNG"
     arctech_channels: dict[str, int] = field(default_factory=lambda: dict(ARCTECH_CHANNELS))
@@ -118,7 +125,10 @@ class KrlSettings:
             raise ValueError(f"arctech_velocity_unit must be one of {', '.join(VELOCITY_UNITS)}")
 
 
-ARCTECH_CHANNELS = {"job": 1, "wire_feed_speed": 2, "voltage": 3}
+ARCTECH_CHANNELS = {"job": 1, "wire_feed_speed": 2, "voltage": 3, "current": 4}
+# Output mode: analog outputs, value / full scale (KRL $ANOUT is -1.0..1.0 = -10..10 V).
+KRL_WELD_CODES = {"wire_feed_speed": "$ANOUT[1]={value:.3f}/20", "current": "$ANOUT[2]={value:.1f}/500",
+                  "voltage": "$ANOUT[3]={value:.2f}/50"}
 VELOCITY_UNITS = {"m/min": 0.06, "m/s": 0.001}   # factor from mm/s
 
 
@@ -313,6 +323,11 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
     out_no = s.arc_output
     approach: tuple[int, int] | None = None   # lines[a:b] of the arc-off motion just written (ArcTech)
     strike = 0.0                              # ignition dwell of the run being started (ArcTech)
+    arc = any(isinstance(steps[j], ArcOn) for j in range(chunk.steps[0] if chunk.steps else 0)) and not isinstance(
+        next((steps[j] for j in range((chunk.steps[0] if chunk.steps else 0) - 1, -1, -1)
+              if isinstance(steps[j], (ArcOn, ArcOff))), None), ArcOff)   # output mode: arc on across a call
+    commanded: dict[str, float] = {}
+    pending: list[str] = []                   # path triggers of weld values, right before the next motion
 
     def speed_lines(v: float) -> list[str]:
         nonlocal vel
@@ -339,10 +354,17 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
             desc = process_summary(st.params)
             lines.append(f";- zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
             if arctech is None:
-                lines.extend(process_lines(st.params, s.process_codes))
+                if arc:                        # inside a run: the changes, at the next motion's start
+                    changed = {n for n, v in st.params.items() if commanded.get(n) != float(v)}
+                    pending = [f"TRIGGER WHEN DISTANCE=0 DELAY=0 DO {ln}"
+                               for ln in process_lines(st.params, s.process_codes, names=changed)]
+                else:
+                    lines.extend(process_lines(st.params, s.process_codes))
+                commanded.update({n: float(v) for n, v in st.params.items()})
         elif isinstance(st, ArcOn):
             if arctech is None:
                 lines.append(f"$OUT[{out_no}]=TRUE ; arc on")
+                arc = True
                 continue
             nxt = steps[k + 1] if k + 1 < len(steps) else None
             strike = nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
@@ -355,6 +377,7 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
                 used.append(st.point)
                 lines.extend(arctech.arc_on(wdat, [f"LIN P{st.point + 1} ; ignite in place"]))
         elif isinstance(st, ArcOff):
+            arc = False
             if arctech is None:
                 lines.append(f";- arc off at P{st.point + 1} (trigger)")
         elif isinstance(st, Dwell):
@@ -373,6 +396,8 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
             v = s.travel_speed if st.mode == "travel" else st.speed
             start = len(lines)
             lines.extend(speed_lines(v))
+            lines.extend(pending)
+            pending = []
             nxt = steps[k + 1] if k + 1 < len(steps) else None
             blend = " C_DIS" if (s.blend_distance > 0 and not st.stop) else ""
             if arctech is not None and st.mode == "weld":
@@ -402,6 +427,8 @@ def _header(plan: Plan, s: KrlSettings) -> list[str]:
         f";- units: mm, degrees, $VEL.CP in m/s; tool {s.tool}, base {s.base}, "
         f"tool direction {s.tool_direction.upper()}, blend $APO.CDIS {short(s.blend_distance)} mm",
         f";- arc control: {arc}",
+        ";- " + (weld_tag(s.process_codes) if s.arc_control == "output" else
+                 weld_tag({n: f"stArcDat_T.Weld.Channel{ch}" for n, ch in s.arctech_channels.items()})),
     ]
 
 
@@ -463,7 +490,8 @@ def write_krl(plan: Plan, settings: KrlSettings = KrlSettings()) -> dict[str, st
     calls = []
     for ch in chunks:
         body, used, decls = render(ch)
-        files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src"], body)
+        files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src",
+                                                   header[-1]], body)
         files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals, decls)
         calls.append(f"{ch.name}( )")
     off = [f"$OUT[{s.arc_output}]=FALSE ; arc off (safety)"] if s.arc_control == "output" else []

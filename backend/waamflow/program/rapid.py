@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .common import check_identifier, num, process_summary, short
+from .common import check_identifier, num, process_summary, short, weld_tag
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import quaternions, tool_frames
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
@@ -105,6 +105,11 @@ def coordinated_wobj(s: RapidSettings) -> str:
     qs = ",".join(num(v, 6) for v in q)
     return (f"PERS wobjdata {s.wobj_name} := [FALSE,FALSE,\"{s.positioner_unit}\",[[0,0,0],[1,0,0,0]],"
             f"[[{num(x, 3)},{num(y, 3)},{num(z, 3)}],[{qs}]]];")
+
+
+# Where each zone weld value goes: the welddata's main_arc (and the seamdata's ign_arc) arcdata.
+RAPID_WELD_FIELDS = {"current": "welddata.main_arc.current", "voltage": "welddata.main_arc.voltage",
+                     "wire_feed_speed": "welddata.main_arc.wirefeed", "job": "welddata.main_arc.sched"}
 
 
 def _arcdata(params: dict) -> str:
@@ -275,6 +280,7 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
         f"  ! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
         "  ! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
         "arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A, voltage2, wirefeed2, control2]",
+        "  ! " + weld_tag(RAPID_WELD_FIELDS),
     ]
     if ext is not None:
         out.append(f"  ! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
