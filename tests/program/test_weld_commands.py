@@ -268,3 +268,37 @@ def test_template_regex_reads_numbers_back():
     assert float(pat.search("TRIGGER WHEN DISTANCE=0 DELAY=0 DO $ANOUT[1]=8.100/20").group(1)) == 8.1
     assert template_regex("M67 E0 Q{value:.2f}").search("M67 E1 Q10.00") is None
     assert math.isclose(float(template_regex("M106 P1 S{value:.0f}").search("M106 P1 S140").group(1)), 140.0)
+
+
+# ---- weld_values: a recipe without a parameter file states the weld it was planned for -----------
+def test_weld_values_fill_zones_without_their_own():
+    from dataclasses import replace
+
+    from pydantic import ValidationError
+
+    tp = build_toolpath(1)
+    lp = tp.items[0]
+    bare = type(tp)((replace(lp, sections=tuple(replace(sp, zone_params={}) for sp in lp.sections)),))
+    prog, warnings = _node(bare, weld_values={"wire_feed_speed": 4.3, "current": 150})
+    got = read_weld_commands(prog.files["gcode"])
+    assert got["wire_feed_speed"] == [4.3] * 5 and got["current"] == [150.0] * 5    # one per ignition (5 runs)
+    assert prog.weld_issues == () and warnings == []
+    own, _ = _node(tp, weld_values={"wire_feed_speed": 4.3})                         # a zone's own value stays
+    assert read_weld_commands(own.files["gcode"])["wire_feed_speed"][:3] == [11.0, 10.0, 8.5]
+    with pytest.raises(ValidationError, match="travel_speed not a weld value"):
+        load_nodes()["post-process"].Params(weld_values={"travel_speed": 5.0})
+    with pytest.raises(ValidationError, match="wire_feed_speed 0"):
+        load_nodes()["post-process"].Params(weld_values={"wire_feed_speed": 0.0})
+
+
+def test_shipped_thin_wall_panel_commands_its_wire_feed(tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from waamflow.cli import main
+
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    recipe = Path(__file__).resolve().parents[2] / "graphs" / "thin-wall-panel.json"
+    assert main(["run", str(recipe), "--out", str(tmp_path / "out")]) == 0
+    text = (tmp_path / "out" / "post.gcode").read_text()
+    ignitions = len(re.findall(r"^M3 ", text, re.M))
+    assert read_weld_commands(text)["wire_feed_speed"] == [2.0] * ignitions and ignitions == 301

@@ -208,7 +208,7 @@ def _with_wire_feed(lp, wfs: float):
         for z in zones:
             params.setdefault(z, {}).setdefault("wire_feed_speed", round(wfs, 4))
         sections.append(replace(sp, zone_params=params) if zones else sp)
-    return type(lp)(lp.layer, tuple(sections), lp.dwell_after_s)
+    return replace(lp, sections=tuple(sections))
 
 
 @register

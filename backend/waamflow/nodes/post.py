@@ -118,6 +118,11 @@ class PostProcess(Node):
             default_factory=dict,
             description="G-code: zone weld value → factor applied before it fills {value} (e.g. Marlin PWM: "
                         "{\"wire_feed_speed\": 12.75} for S0-255 = 0-20 m/min); default 1")
+        weld_values: dict[str, float] = Field(
+            default_factory=dict,
+            description="Weld values (current A, voltage V, wire_feed_speed m/min, job) for every welded zone that "
+                        "does not state them itself: the power-source setting the plan was made for (e.g. a recipe "
+                        "without a parameter file), so the program commands it; empty = none")
         travel_feed: bool = Field(False, description="G-code: F at travel_speed on every G0 travel line (controllers "
                                                      "whose G0 moves at the modal feed, e.g. Marlin)")
         rotary_axes: list[str] = Field(
@@ -186,6 +191,21 @@ class PostProcess(Node):
         def _templates(cls, v: dict[str, str]) -> dict[str, str]:
             return check_templates(v)
 
+        @field_validator("weld_values")
+        @classmethod
+        def _weld_values(cls, v: dict[str, float]) -> dict[str, float]:
+            from ..core.process import PARAMETERS_BY_NAME
+            from ..program.common import WELD_COMMANDED
+
+            bad = [k for k in v if k not in WELD_COMMANDED]
+            if bad:
+                raise ValueError(f"weld_values: {', '.join(bad)} not a weld value (one of {', '.join(WELD_COMMANDED)})")
+            for k, x in v.items():
+                p = PARAMETERS_BY_NAME[k]
+                if not p.minimum <= x <= p.maximum or (k != "job" and x <= 0):
+                    raise ValueError(f"weld_values: {k} {x} {p.unit} outside ({p.minimum}, {p.maximum}] {p.unit}")
+            return v
+
         @field_validator("process_scale")
         @classmethod
         def _scale(cls, v: dict[str, float]) -> dict[str, float]:
@@ -215,6 +235,8 @@ class PostProcess(Node):
         except ValueError as err:
             raise RecipeError(str(err)) from err
         world_tilt = None
+        if params.weld_values:
+            inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
         if params.cell and params.format in ("krl", "rapid", "gcode"):
             cell = load_cell(params.cell)
             moves = flatten(inputs["toolpath"])
@@ -269,6 +291,30 @@ def with_profile(params: PostProcess.Params) -> PostProcess.Params:
     merged = {**{k: v for k, v in preset.items() if k not in params.model_fields_set},
               **params.model_dump(include=params.model_fields_set)}
     return PostProcess.Params.model_validate(merged)
+
+
+def _with_weld_values(toolpath, values: dict[str, float]):
+    """The toolpath with `values` in every welded zone's parameters that lacks them."""
+    from dataclasses import replace as _replace
+
+    from ..core.model import Layered
+
+    layers = []
+    for lp in toolpath.items:
+        if lp is None:
+            layers.append(lp)
+            continue
+        sections = []
+        for sp in lp.sections:
+            arc = np.asarray(sp.arc, bool)
+            zones = {sp.zone[i] if i < len(sp.zone) else "" for i in np.flatnonzero(arc)}
+            params = {z: dict(v) for z, v in sp.zone_params.items()}
+            for z in zones:
+                for k, x in values.items():
+                    params.setdefault(z, {}).setdefault(k, float(x))
+            sections.append(_replace(sp, zone_params=params) if zones else sp)
+        layers.append(_replace(lp, sections=tuple(sections)))
+    return Layered(tuple(layers))
 
 
 def _warn_weld_data(ctx, program: Program, what: str) -> None:
