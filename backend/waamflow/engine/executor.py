@@ -700,6 +700,7 @@ def _preflight(run: "_Run", graph: Graph) -> dict | None:
     `preflight.json`. An internal error of the check itself is a failed check, never a silent pass."""
     from ..preflight import run_preflight
 
+    t0 = time.perf_counter()
     try:
         report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None))
     except Exception as exc:  # noqa: BLE001 - reported, never swallowed
@@ -708,6 +709,7 @@ def _preflight(run: "_Run", graph: Graph) -> dict | None:
                                 "section": None, "message": f"the preflight itself failed: {type(exc).__name__}: {exc}",
                                 "value": None, "limit": None, "point": None}]}
     if report is not None:
+        report["seconds"] = round(time.perf_counter() - t0, 3)
         run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
     return report
 

@@ -404,10 +404,14 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
     stacked = []
     prev = None
     in_stock = 0
+    all_starts = np.array([r.points[0] for _i, runs in layers for r in runs])
+    all_inside = in_part(part, all_starts, width) if part is not None else np.ones(len(all_starts), bool)
+    offset = 0
     for idx, runs in layers:
-        starts = np.array([r.points[0] for r in runs])
+        starts = all_starts[offset:offset + len(runs)]
+        inside = all_inside[offset:offset + len(runs)]
+        offset += len(runs)
         rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
-        inside = in_part(part, starts, width) if part is not None else np.ones(len(starts), bool)
         in_stock += int(np.count_nonzero(~inside))
         if prev is not None and len(prev) and inside.any():
             diff = starts[inside][:, None, :] - prev[None, :, :]
