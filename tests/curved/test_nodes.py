@@ -111,11 +111,18 @@ def test_too_curved_part_reports_the_radius_search(tmp_path):
     assert fan["search"]["feasible"] is False and len(fan["search"]["candidates"]) == 7   # 0, 10, …, 60 mm
 
 
-def test_sections_mode_gives_each_section_its_own_axis(tmp_path):
+def test_sections_mode_closes_on_the_end_face_or_fails(tmp_path):
+    """R 75 mm (CSratio 75/33 = 2.27 < 2.7, wall 91.5/58.5 = 1.56 times longer outside than inside,
+    h_max/h_min = 1.45): no plan that ends on the end face keeps the heights in range. Before,
+    3 greedy sections kept the first ones in range and the last ran past the end face (open
+    layers, only a warning). Now the best closed plan (one fan about the bend axis, 44 layers)
+    needs 2.09..3.26 mm, 0.11 mm outside: over the default height_tolerance 0.1 mm, a
+    PlanningError at layer 39; with height_tolerance 0.12 mm it is built, warned."""
     import trimesh
 
+    from waamflow.core.errors import PlanningError
     from waamflow.curved.shapes import bent_tube
-    part = bent_tube(bend=75, mid=15, wall=3, n_phi=24, n_psi=16)   # CSratio 75/33 = 2.27 < 2.7
+    part = bent_tube(bend=75, mid=15, wall=3, n_phi=24, n_psi=16)
     trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "bend.stl")
     recipe = {"format": "waamflow/1", "name": "bend", "nodes": [
         {"id": "part", "type": "mesh", "params": {"path": "bend.stl"}},
@@ -123,24 +130,21 @@ def test_sections_mode_gives_each_section_its_own_axis(tmp_path):
                                                       "mode": "sections", "search_step": 20, "search_max": 60,
                                                       "max_sections": 3}}],
         "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    with pytest.raises(PlanningError, match=r"needs heights 2\.09\.\.3\.26 mm at layer 39") as err:
+        execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    assert err.value.layer == 39 and "height_tolerance ≥ 0.12" in str(err.value)
+    recipe["nodes"][1]["params"]["height_tolerance"] = 0.12
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     fan = json.loads(res.artifacts["fan.fan.json"])
     secs = fan["sections"]
-    assert len(secs) == 3 and sum(s["layers"] for s in secs) == fan["layer_count"]
-    assert len({tuple(s["axis_point"]) for s in secs}) == 3            # each section its own axis
-    # the first sections keep every layer's height r·Δθ within the bead range; the tight bend's
-    # last section cannot (warned, named by its layers)
-    assert [s["heights_fit"] for s in secs] == [True, True, False]
-    assert secs[0]["layers"] > 15
-    texts = [json.dumps(w) if not isinstance(w, str) else w for w in res.warnings]
-    assert len(texts) == 1 and "fan section 2" in texts[0]
+    assert len(secs) == 1 and secs[0]["layers"] == fan["layer_count"] == 44
+    assert np.allclose(secs[0]["axis_point"], [-75, 0, 0], atol=1e-6)
+    assert secs[0]["dtheta_deg"] * 44 == pytest.approx(90.0, abs=1e-4)  # fan.json: 8 digits; ends on the end face
+    texts = [w["message"] for w in res.warnings]
+    assert len(texts) == 1 and "fan section 0" in texts[0] and "0.1" in texts[0]
     layers = res.outputs["fan"]["layers"]
-    # each section's axis lies in the previous section's last top plane: no open layer between them
-    for s in secs[1:]:
-        prev_top = layers[s["first_layer"] - 1].frame
-        assert abs((np.array(s["axis_point"]) - prev_top[:3, 3]) @ prev_top[:3, 2]) < 1e-5   # report rounds to 1e-6
-    # the part is swept to its end: the last layer's top plane is past the end face
-    assert fan["layer_count"] == len(layers) and not layers[-1].region.is_empty
+    assert np.allclose(layers[-1].frame[:3, 2], [-1, 0, 0], atol=1e-9)            # the end face x = −75
+    assert layers[-1].frame[:3, 3][0] == pytest.approx(-75.0, abs=1e-9)
 
 
 def test_duct_on_the_positioner_cell_is_reachable(duct):

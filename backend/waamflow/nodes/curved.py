@@ -15,9 +15,9 @@ from ..core import serialize
 from ..core.errors import PlanningError, RecipeError
 from ..core.model import Layered, MeshData
 from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
-from ..curved.fan import fan_slice, make_axis, plan_fan
+from ..curved.fan import fan_slice, height_range, make_axis, plan_fan
 from ..curved.feasibility import plan_report, search_radius
-from ..curved.sections import plan_sections
+from ..curved.sections import plan_sections, topology
 from ..curved.speeds import apply_bead_model, layer_report, toolpath_report
 from ..engine.node import LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -40,15 +40,23 @@ class FanSliceNode(Node):
     projected onto the previous plane) stays within `max_overhang`. Leave `dtheta_deg` empty for the middle of the admissible window
     [h_min/r_min, h_max/r_max]. Warns when the plan's heights leave the bead range
     (CSratio below (1 + q)/(2(1 − q)), q = h_min/h_max: 2.7 for 2.2/3.2 mm).
-    `mode` = sections: for parts too curved for one fan, consecutive sections each get their own
-    axis, lying in the section's start plane (the previous section's last top plane: no open
-    layers), moved outward by the smallest offset that builds furthest with heights and overhang
-    in bounds, with its own Δθ (up to `max_sections`; the last one builds the rest, warned when
-    out of bounds).
+    `mode` = sections (Rauch's iteration): N = 1, 2, … up to `max_sections` sections, each with its
+    own axis lying in the section's start plane (the previous section's last top plane: no open
+    layer between sections) and its own Δθ; the first N − 1 sections keep heights, overhang and
+    closed layers in bounds (smallest offset that builds furthest), and the last one *closes on
+    the part's end face* (its axis is where its start plane meets the end face), so every layer is
+    a closed cross-section and the last one tops at the end face. The first N whose heights all fit
+    wins; otherwise the plan whose worst layer leaves [h_min, h_max] least — warned when within
+    `height_tolerance` (bead-model clamps the speeds), a PlanningError naming the layer beyond it.
+    A wall longer outside than inside by more than h_max/h_min (CSratio below the minimum) cannot
+    be built within the range by any plan that ends on its end face; its best plan is usually the
+    one fan about the part's own bend axis, with the excess spread over every layer.
+    Both modes refuse an open layer (a plane crossing an end face: a ring cut into a C).
     Writes `<node>.layers.json` and `<node>.fan.json` (axis, Δθ, sections, per-layer heights).
     """
 
     type = "fan-slice"
+    version = "2"                # 2: sections close on the end face (no open layers); open layers refused
     title = "Fan slice (curved parts)"
     category = "curved"
     inputs = (Port("mesh", "mesh", "Solid part (mesh)"),)
@@ -74,6 +82,10 @@ class FanSliceNode(Node):
         search_max: float = Field(100.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
                                   description="Radius search: largest offset tried")
         max_sections: int = Field(4, ge=1, le=32, description="mode = sections: at most this many sections")
+        height_tolerance: float = Field(0.1, ge=0, le=5, json_schema_extra=unit("mm"),
+                                        description="mode = sections: how far a layer's heights r·Δθ may leave "
+                                                    "[h_min, h_max] when no plan keeps them inside (warned, speeds "
+                                                    "clamped; about the bead fit's scatter); beyond: error")
         layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers")
         mode: Literal["single", "sections"] = Field(
             "single", description="single: one fan (dtheta_deg, radius_offset); sections: cut the part into "
@@ -94,6 +106,7 @@ class FanSliceNode(Node):
         if params.mode == "sections":
             return {"layers": Layered(self._sections(ctx, params, mesh))}
         search = None
+        searched = False
         offset = params.radius_offset
         dtheta = params.dtheta_deg
         if offset is None:
@@ -102,6 +115,7 @@ class FanSliceNode(Node):
                                    max_offset=params.search_max)
             best = search.best
             if best is None:
+                searched = True
                 ctx.warn(f"no slicing radius up to +{params.search_max} mm fits heights [{params.h_min}, "
                          f"{params.h_max}] mm with overhang ≤ {params.max_overhang} mm in one fan (candidates in "
                          "fan.json): slicing at offset 0; mode = sections cuts the part into sections with their "
@@ -117,9 +131,14 @@ class FanSliceNode(Node):
             lo, hi = dtheta_window(r_min, r_max, params.h_min, params.h_max)
             if dtheta is None:
                 if lo > hi:
+                    fix = (f"no offset up to search_max = {params.search_max:g} mm fitted: use mode = sections, "
+                           "raise search_max, or set dtheta_deg to slice anyway (heights leave the range)"
+                           if searched else
+                           "set dtheta_deg, or leave radius_offset empty to search a larger radius, or use "
+                           "mode = sections")
                     raise PlanningError(f"no Δθ fits: radial extent {r_min:.1f}..{r_max:.1f} mm needs heights in the "
                                         f"ratio {r_min / r_max:.3f} < h_min/h_max = {params.h_min / params.h_max:.3f}; "
-                                        "set dtheta_deg, or leave radius_offset empty to search a larger radius")
+                                        + fix)
                 dtheta = math.degrees((lo + hi) / 2.0)
             plan = plan_fan(mesh, axis, dtheta, layer_count=params.layer_count)
         except ValueError as exc:
@@ -133,6 +152,9 @@ class FanSliceNode(Node):
         for l in layers:
             if l.region.is_empty:
                 ctx.warn("fan layer is empty", layer=l.index)
+        _refuse_open(layers, "radius_offset 0 (the part's own bend axis) or mode = sections, which closes "
+                             "on the end face" if offset else "set axis_point / axis_direction to the part's bend "
+                             "axis (its end face must be a plane through it)")
         if search is not None:
             _remember_search(params, layers, search.to_json())
         return {"layers": Layered(layers)}
@@ -148,15 +170,30 @@ class FanSliceNode(Node):
             raise PlanningError(str(exc)) from exc
         if not layers:
             raise PlanningError("fan sections: no layer (the part has no cross-section past its start plane)")
-        if params.layer_count is not None:
-            layers = layers[: params.layer_count]
+        _refuse_open(layers, "set axis_point / axis_direction to the part's bend axis: the last section closes "
+                             "on the half-plane through it at the part's end, which must be the end face")
         first = 0
         for k, sec in enumerate(sections):
+            last = first + sec.layers - 1
+            if not sec.fits and sec.excess > params.height_tolerance + 1e-9:
+                w = layers[sec.worst_layer]
+                lo_h, hi_h = height_range(w)
+                raise PlanningError(
+                    f"fan section {k} of {len(sections)} (layers {first}..{last}; the best plan of up to "
+                    f"max_sections = {params.max_sections} sections that ends on the end face) needs heights {lo_h:.2f}..{hi_h:.2f} mm at layer "
+                    f"{w.index} (or overhang over {params.max_overhang:g} mm): {sec.excess:.2f} mm outside "
+                    f"[{params.h_min:g}, {params.h_max:g}] mm, more than height_tolerance = "
+                    f"{params.height_tolerance:g} mm. Fix: a bead range (h_min, h_max and its bead model) "
+                    f"spanning {lo_h:.2f}..{hi_h:.2f} mm, or height_tolerance ≥ {math.ceil(sec.excess * 100) / 100:.2f} "
+                    "mm if the process tolerates it, or a part with a larger bend radius", layer=w.index)
             if not sec.fits:
-                ctx.warn(f"fan section {k} (layers {first}..{first + sec.layers - 1}): no axis offset up to "
-                         f"+{params.search_max} mm keeps heights in [{params.h_min}, {params.h_max}] mm and overhang "
-                         f"≤ {params.max_overhang} mm (max_sections {params.max_sections} reached)")
+                ctx.warn(f"fan section {k} (layers {first}..{last}): heights r·Δθ leave [{params.h_min:g}, "
+                         f"{params.h_max:g}] mm by up to {sec.excess:.3f} mm (layer {sec.worst_layer}; within "
+                         f"height_tolerance {params.height_tolerance:g} mm): no plan of up to {params.max_sections} "
+                         "sections that ends on the part's end face keeps them inside; bead-model clamps the speeds")
             first += sec.layers
+        if params.layer_count is not None:
+            layers = layers[: params.layer_count]
         return layers
 
     def artifacts(self, ctx, params, outputs):
@@ -167,6 +204,19 @@ class FanSliceNode(Node):
             report["search"] = search
         return {"layers.json": serialize.dumps(serialize.layers_json(layers)),
                 "fan.json": serialize.dumps(_rounded(report))}
+
+
+def _refuse_open(layers, fix: str) -> None:
+    """PlanningError at the first layer whose cross-section is open (fewer holes than the part's
+    first cross-section: its plane crosses an end face): wall-path could not lay it."""
+    if not layers:
+        return
+    shape = topology(layers[0].region)
+    for l in layers:
+        if not l.region.is_empty and topology(l.region) != shape:
+            raise PlanningError(f"fan layer {l.index} of {len(layers)} is open (cross-section holes {list(topology(l.region))}"
+                                f" vs {list(shape)} at layer 0): its plane crosses the part's end face, so that "
+                                f"layer and the part beyond could not be built; {fix}", layer=l.index)
 
 
 # Radius-search results by (params, first layer frame): the search needs the mesh, which
