@@ -204,3 +204,35 @@ def test_weave_footprint_survives_resampling():
     strip = footprint([np.array(pieces)], 6.0).intersection(
         trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)]))
     assert strip.area == pytest.approx(12 * 54, rel=0.01)
+
+
+def test_non_planar_program_missing_its_last_wedge_fails(tmp_path, monkeypatch):
+    """curved-duct (fan layers, KRL): the program as written, then the same program without its last
+    6 of 58 layers (a 9.3° wedge of the bend): the 3D check must find the gap at the part's end face."""
+    import json as _json
+    from pathlib import Path
+
+    from waamflow.cli import main
+    from waamflow.preflight.read import read_program
+
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    graphs = Path(__file__).resolve().parents[2] / "graphs"
+    out = tmp_path / "duct"
+    main(["run", str(graphs / "curved-duct.json"), "--out", str(out), "--accept-preflight"])
+    pf = _json.loads((out / "preflight.json").read_text())["programs"][0]
+    assert pf["coverage_method"] == "3D samples" and pf["top_gap_mm"] == pytest.approx(0.0, abs=1e-6)
+    assert pf["uncovered_share"] < 0.02
+    files = {p.name: p.read_text() for p in out.glob("post*.src")} | {p.name: p.read_text() for p in out.glob("post*.dat")}
+    prog = read_program("krl", files)
+    layers = sorted({r.layer for r in prog.runs})
+    assert len(layers) == 58
+    prog.runs = [r for r in prog.runs if r.layer < layers[-6]]
+    import trimesh
+
+    mesh = trimesh.load(graphs / "parts" / "duct.stl")
+    part = Part("solid", "part", vertices=np.asarray(mesh.vertices), faces=np.asarray(mesh.faces))
+    rep = check_program(part, prog, "post", PreflightSettings(weld_data="off"), pf["bead_width_mm"])
+    gap = [p for p in rep["problems"] if p["check"] == "top_gap"]
+    # 6 wedges of 1.54° at the duct's centre radius 100 mm: about 16 mm of wall never built
+    assert gap and gap[0]["severity"] == "fail" and rep["top_gap_mm"] > 10
+    assert rep["uncovered_share"] > 0.05
