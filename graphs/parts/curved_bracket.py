@@ -1,12 +1,14 @@
-"""Generates curved_bracket.stl: a large curved hollow bracket (single-bead wall 3 mm), in mm.
+"""Generates curved_bracket.stl: a large curved hollow bracket (single-bead wall 5 mm), in mm.
 
 Cross-section: a stadium (slot) wall — two straight sides 80 mm long joined by half circles of
-radius 25 mm about the wall's mid line — whose long axis lies radially, so the wall spans
-bend − 66.5 … bend + 66.5 mm about the bend axis. The section is swept by `sweep` degrees about a
+radius 20 mm about the wall's mid line — whose long axis lies radially, so the wall spans
+bend − 52.5 … bend + 52.5 mm about the bend axis. The wall is 5 mm, the width the 316L bead
+model's process (8.1 m/min of 1.2 mm wire at its speeds and heights) lays by mass balance: with
+3 mm the program fed 1.69× the part's metal. The section is swept by `sweep` degrees about a
 horizontal bend axis through (−bend·cos(yaw), −bend·sin(yaw), 0) whose direction is −y turned by
 `yaw` about z (a tilted axis: the part leans out of the xz-plane, so the positioner must turn it
 with E2 as well as tilt it). The first section lies on the substrate z = 0, centred on the origin.
-With bend 200 mm the curvature-size ratio is 200/133 = 1.5 < 2.7: a single fan of planes cannot
+With bend 250 mm the curvature-size ratio is 250/105 = 2.4 < 2.7: a single fan of planes cannot
 keep the wedge heights in the bead range, so the recipe slices it in fan sections (Rauch et al.
 2021), each with its own axis.
 
@@ -19,7 +21,7 @@ import numpy as np
 import trimesh
 
 BEND, SWEEP_DEG, YAW_DEG = 250.0, 90.0, 30.0
-HALF_STRAIGHT, RADIUS, WALL = 30.0, 20.0, 3.0
+HALF_STRAIGHT, RADIUS, WALL = 30.0, 20.0, 5.0
 
 
 def stadium(offset: float, n_arc: int = 24) -> np.ndarray:

@@ -29,10 +29,12 @@ def test_bracket_is_reachable_and_collision_free_on_the_abb_cell(bracket):
     sim = json.loads(bracket.artifacts["sim.simulation.json"])
     fan = json.loads(bracket.artifacts["fan.fan.json"])
     # one fan about the bend axis (the best closed plan: tests/curved/test_fan_sections.py); its
-    # heights leave [2.2, 3.2] mm by at most 0.064 mm over the whole part (before: a first section
-    # in range, and an end never built)
+    # heights leave [2.2, 3.2] mm by at most 0.0752 mm over the whole part (before: a first section
+    # in range, and an end never built). The bound is the part's: its 5 mm wall (the width the
+    # 8.1 m/min bead lays, by mass balance) spans 197.5..302.5 mm about the axis, 1.53x, against the
+    # bead's 1.45x; with the earlier 3 mm wall (198.5..301.5) it was 0.064 mm
     assert fan["layer_count"] == LAYERS and len(fan["sections"]) == 1
-    assert max(max(2.2 - r["height_min_mm"], r["height_max_mm"] - 3.2) for r in fan["layers"]) <= 0.065
+    assert max(max(2.2 - r["height_min_mm"], r["height_max_mm"] - 3.2) for r in fan["layers"]) <= 0.0753
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["axis_limit_stretches"] == 0
     assert sim["collision_count"] == 0 and sim["collision_samples_checked"] >= LAYERS
