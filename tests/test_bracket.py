@@ -29,7 +29,13 @@ def test_bracket_part_is_the_documented_solid():
 def _run(tmp_path, monkeypatch, layers):
     monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
     out = tmp_path / f"out{layers}"
-    assert main(["run", str(GRAPHS / "bracket.json"), "--out", str(out), "--set", f"layers.layer_count={layers}"]) == 0
+    # the first N layers of a 300-layer part: the preflight fails the program (it stops below the
+    # top), so the quick look accepts it; the failure must name the gap
+    assert main(["run", str(GRAPHS / "bracket.json"), "--out", str(out), "--set", f"layers.layer_count={layers}",
+                 "--accept-preflight"]) == 0
+    pf = json.loads((out / "preflight.json").read_text())
+    assert pf["verdict"] == "fail" and pf["accepted"] is True
+    assert pf["top_gap_mm"] == pytest.approx(450.0 - 1.5 * layers, abs=1e-6)
     return out
 
 

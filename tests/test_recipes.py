@@ -23,6 +23,15 @@ def test_recipe_runs_as_shipped(recipe, tmp_path, monkeypatch):
     assert set(summary["nodes"]) == {n["id"] for n in data["nodes"]}
     # every node produced its artifacts and nothing is left half-written
     assert not list(tmp_path.glob(".out.partial-*"))
+    # issue 22: every shipped example passes its own preflight, with every figure in its band
+    pf = json.loads((out / "preflight.json").read_text())
+    assert summary["preflight"]["verdict"] == pf["verdict"] == "ok", pf["problems"]
+    for prog in pf["programs"]:
+        assert prog["top_gap_mm"] is not None and prog["top_gap_mm"] <= 0.5 * prog["layer_height_mm"] + 1e-6
+        assert prog["uncovered_share"] <= 0.02
+        assert prog["weld_data_missing"] in (0, None)
+        if prog["wire_part_volume_ratio"] is not None:
+            assert 0.9 <= prog["wire_part_volume_ratio"] <= 1.2
 
 
 def test_required_example_recipes_present():

@@ -69,7 +69,7 @@ def test_xml_edit_flows_into_toolpath_and_gcode(client):
 def test_invalid_xml_is_422_naming_the_place(client):
     _save_as(client, "mpp-cross", "mine")
     xml = client.get("/api/graphs/mine/params").text
-    bad = xml.replace('<current unit="A">200</current>', '<current unit="A">lots</current>', 1)
+    bad = xml.replace('<current unit="A">91</current>', '<current unit="A">lots</current>', 1)
     r = client.put("/api/graphs/mine/params", content=bad, headers={"content-type": "application/xml"})
     assert r.status_code == 422
     text = r.json()["detail"]["text"]
@@ -112,7 +112,7 @@ def test_unsaved_run_never_changes_the_saved_graph_or_xml(client):
     mask = next(n for n in edited["nodes"] if n["type"] == "mask")
     first = mask["params"]["masks"][0]
     mask["params"]["masks"].append({**first, "id": "bs2", "from_layer": 4})
-    draft = saved_xml.decode().replace('<current unit="A">200</current>', '<current unit="A">180</current>', 1)
+    draft = saved_xml.decode().replace('<current unit="A">91</current>', '<current unit="A">180</current>', 1)
     for body in ({"graph": "copy", "recipe": edited}, {"graph": "copy", "recipe": edited, "params_xml": draft},
                  {"graph": "copy"}):
         run = wait(client, client.post("/api/runs", json=body).json()["id"])
@@ -124,7 +124,7 @@ def test_unsaved_run_never_changes_the_saved_graph_or_xml(client):
     merged = client.get(f"/api/runs/{runs[1]['id']}/artifacts/zone.params.xml").text
     assert '<current unit="A">180</current>' in merged
     # an invalid draft is refused before anything runs, naming the place
-    bad = saved_xml.decode().replace('<current unit="A">200</current>', '<current unit="A">lots</current>', 1)
+    bad = saved_xml.decode().replace('<current unit="A">91</current>', '<current unit="A">lots</current>', 1)
     r = client.post("/api/runs", json={"graph": "copy", "params_xml": bad})
     assert r.status_code == 422 and "bs1/A" in r.json()["detail"]["text"]
 
