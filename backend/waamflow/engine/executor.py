@@ -171,6 +171,7 @@ class RunResult:
     executor: dict = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
     trace: dict = field(default_factory=dict)  # see `run_trace`
     preflight: dict | None = None  # see `waamflow.preflight`: the emitted programs checked against the part
+    preflight_seconds: float | None = None
 
     def summary(self, recipe_name: str, status: str = "done") -> dict:
         return {
@@ -185,7 +186,8 @@ class RunResult:
             "executor": self.executor,
             "trace": self.trace,
             "programs": self.program_stats(),
-            **({"preflight": self.preflight} if self.preflight is not None else {}),
+            **({"preflight": self.preflight, "preflight_seconds": self.preflight_seconds}
+               if self.preflight is not None else {}),
         }
 
     def program_stats(self) -> dict[str, dict]:
@@ -768,6 +770,6 @@ def execute(
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
                        info,
-                       run.trace(), report)
+                       run.trace(), report, getattr(run, "preflight_seconds", None))
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result
