@@ -118,14 +118,20 @@ describe("preflight report: parsing, problem order, starts", () => {
     // distances to the nearest start below: 5 mm, 7 mm, 50 mm; bead width 6 mm
     expect(stackedStarts(s.here, s.below, 6)).toEqual([true, false, false]);
     expect(layerStarts(r, 2).below).toEqual([]);
-    expect(layerStarts(null, 0)).toEqual({ here: [], below: [] });
+    expect(layerStarts(null, 0)).toEqual({ here: [], below: [], stops: [] });
+  });
+  it("gives the shown layer's arc stops beside its starts", () => {
+    const r = report({ layers: [{ index: 4, starts: [[3, -60, 7.5]], stops: [[-3, 60, 7.5], [60, 3, 7.5]] }] });
+    const s = layerStarts(r, 4);
+    expect(s.stops).toEqual([[-3, 60, 7.5], [60, 3, 7.5]]);
+    expect(layerStarts(r, 5).stops).toEqual([]);
   });
   it("reads the layers and bead width of the first program when the report has none of its own", () => {
     const r = report({
       layers: undefined, settings: { bead_width_mm: null },
       programs: [{ node: "post", format: "gcode", files: ["post.gcode"], verdict: "warn", bead_width_mm: 5, layers: [{ index: 0, starts: [[3, -60, 1.5]] }, { index: 1, starts: [[3, -60, 3]] }] }],
     });
-    expect(layerStarts(r, 1)).toEqual({ here: [[3, -60, 3]], below: [[3, -60, 1.5]] });
+    expect(layerStarts(r, 1)).toEqual({ here: [[3, -60, 3]], below: [[3, -60, 1.5]], stops: [] });
     expect(beadWidthOf(r)).toBe(5);
     expect(beadWidthOf(report())).toBe(6);
   });

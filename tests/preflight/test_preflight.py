@@ -90,6 +90,10 @@ def test_the_right_program_passes():
     assert rep["wire_part_volume_ratio"] == pytest.approx((4 * 38 + 3 * 5) * STEP * LAYER / (L * W * LAYER), rel=1e-3)
     assert rep["weld_data_missing"] == 0
     assert rep["start_spread_mm"] >= BEAD
+    # starts and stops per layer: one run a layer, alternating ends
+    first, second = rep["layers"][0], rep["layers"][1]
+    assert first["starts"] == [[-19.0, -7.5, 1.5]] and first["stops"] == [[-19.0, 7.5, 1.5]]
+    assert second["starts"] == [[19.0, 7.5, 3.0]]
 
 
 def test_missing_top_layer_fails_with_the_gap_and_the_layer():

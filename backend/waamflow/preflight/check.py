@@ -412,6 +412,7 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
         inside = all_inside[offset:offset + len(runs)]
         offset += len(runs)
         rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
+        rep.layer(idx)["stops"] = np.round(np.array([r.points[-1] for r in runs]), 3).tolist()
         in_stock += int(np.count_nonzero(~inside))
         if prev is not None and len(prev) and inside.any():
             diff = starts[inside][:, None, :] - prev[None, :, :]

@@ -51,7 +51,7 @@ export interface MaskCanvasProps {
   onLayerStep: (delta: number) => void;
   /** The last run's ignition points (preflight, layer mm) of this layer and the one below;
    * `stacked[i]`: start i lies within a bead width of one below. */
-  starts?: { here: number[][]; below: number[][]; stacked: boolean[] } | null;
+  starts?: { here: number[][]; below: number[][]; stops?: number[][]; stacked: boolean[] } | null;
   /** A point a picked preflight problem names (layer mm), marked with a crosshair. */
   mark?: number[] | null;
 }
@@ -426,7 +426,8 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
         ))}
         {p.starts && (
           <span className="legend-swatch pf-legend" title="arc ignition points read back from the program (preflight); red: within a bead width of one on the layer below">
-            <span aria-hidden="true" className="pf-tri">▲</span> arc starts <span aria-hidden="true" className="pf-tri below">△</span> layer below
+            <span aria-hidden="true" className="pf-tri">▲</span> arc starts <span aria-hidden="true" className="pf-tri below">△</span> layer below{" "}
+            <span aria-hidden="true" className="pf-tri">■</span> arc stops
             {p.starts.stacked.some(Boolean) && (
               <>
                 {" "}
@@ -461,11 +462,17 @@ const triangleD = (q: number[], s: number) =>
   `M${q[0]} ${-q[1] - s}L${q[0] + 0.866 * s} ${-q[1] + 0.5 * s}L${q[0] - 0.866 * s} ${-q[1] + 0.5 * s}Z`;
 
 /** The preflight's arc ignition points: this layer's filled (red when stacked on one below), the layer below's hollow. */
-const StartMarkers = memo(function StartMarkers({ starts, size }: { starts: { here: number[][]; below: number[][]; stacked: boolean[] }; size: number }) {
+const StartMarkers = memo(function StartMarkers({ starts, size }: { starts: { here: number[][]; below: number[][]; stops?: number[][]; stacked: boolean[] }; size: number }) {
   return (
     <g className="pf-starts" data-testid="pf-starts" data-count={starts.here.length} data-stacked={starts.stacked.filter(Boolean).length} pointerEvents="none">
       {starts.below.map((q, i) => (
         <path key={`b${i}`} d={triangleD(q, size * 1.25)} className="pf-start-below" />
+      ))}
+      {(starts.stops ?? []).map((q, i) => (
+        <rect key={`s${i}`} x={q[0] - size * 0.55} y={-q[1] - size * 0.55} width={size * 1.1} height={size * 1.1}
+          className="pf-stop" data-stop={i}>
+          <title>{`arc stop ${i + 1}: x ${mm(q[0])} y ${mm(q[1])} mm`}</title>
+        </rect>
       ))}
       {starts.here.map((q, i) => (
         <path key={`h${i}`} d={triangleD(q, size)} className={`pf-start ${starts.stacked[i] ? "stacked" : ""}`} data-start={i}>

@@ -56,7 +56,7 @@ export interface MaskViewProps {
   onMessage: (m: string) => void;
   /** The last run's ignition points of the shown layer and the layer below (world mm), with the
    * distance (mm) under which a start counts as stacked on one below; null = none to show. */
-  starts?: { here: number[][]; below: number[][]; radius: number } | null;
+  starts?: { here: number[][]; below: number[][]; stops?: number[][]; radius: number } | null;
   mark?: PreflightMark | null;
   /** The "new mask here" drawing is finished or abandoned. */
   onMarkDone?: () => void;
@@ -103,7 +103,8 @@ export function MaskView(p: MaskViewProps) {
   const starts = useMemo(() => {
     if (!p.starts || (!p.starts.here.length && !p.starts.below.length)) return null;
     const here = worldToLayer(p.starts.here, frame), below = worldToLayer(p.starts.below, frame);
-    return { here, below, stacked: stackedStarts(here, below, p.starts.radius) };
+    const stops = worldToLayer(p.starts.stops ?? [], frame);
+    return { here, below, stops, stacked: stackedStarts(here, below, p.starts.radius) };
   }, [p.starts, frame]);
   const markPoint = useMemo(
     () => (p.mark?.point && p.mark.layer === layer ? worldToLayer([p.mark.point], frame)[0] : null),

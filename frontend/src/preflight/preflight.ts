@@ -40,6 +40,8 @@ export interface PreflightLayer {
   volume_ratio?: number | null;
   /** Ignition points (arc on) of this layer, world mm. */
   starts?: number[][] | null;
+  /** Extinction points (arc off) of this layer, world mm. */
+  stops?: number[][] | null;
   min_arc_run_mm?: number | null;
 }
 
@@ -173,6 +175,8 @@ export interface LayerStarts {
   here: Point3[];
   /** Ignition points of the layer below, to see stacking. */
   below: Point3[];
+  /** Extinction points (arc off) of the shown layer (world mm). */
+  stops: Point3[];
 }
 
 const asPoint = (q: number[]): Point3 => [q[0] ?? 0, q[1] ?? 0, q[2] ?? 0];
@@ -189,6 +193,7 @@ export function layerStarts(report: Preflight | null, index: number): LayerStart
   return {
     here: (byIndex.get(index)?.starts ?? []).map(asPoint),
     below: (byIndex.get(index - 1)?.starts ?? []).map(asPoint),
+    stops: (byIndex.get(index)?.stops ?? []).map(asPoint),
   };
 }
 
