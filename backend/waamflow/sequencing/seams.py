@@ -34,6 +34,7 @@ import numpy as np
 
 from ..core.model import SectionPath
 from ..zoning.zones import cumulative_length, insert_points, path_axis, zone_color
+from .arc_runs import arc_runs
 
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 DEFAULT_CLEARANCE = 6.0   # mm: one bead width of the shipped MPP recipes, used when none is given
@@ -133,17 +134,7 @@ def _passes(sp: SectionPath) -> list[tuple[int, int]] | None:
     n = np.linalg.norm(d, axis=1)
     axis = path_axis(pts)
     along = np.abs(d @ axis) >= PASS_COS * np.maximum(n, 1e-12)
-    runs: list[tuple[int, int]] = []
-    k = 0
-    while k < len(along):
-        if along[k]:
-            j = k
-            while j < len(along) and along[j]:
-                j += 1
-            runs.append((k, j))
-            k = j
-        else:
-            k += 1
+    runs = arc_runs(along)                  # [start, stop) ranges of segments along the axis
     if len(runs) < 2 or runs[0][0] != 0 or runs[-1][1] != len(along):
         return None
     for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):   # passes alternate direction
