@@ -161,23 +161,23 @@ def check_krl(files: dict[str, str], post: dict) -> dict:
 
 
 def check_rapid(files: dict[str, str], post: dict) -> dict:
-    """RAPID: the recursive-descent parser `tests/program/rapid_check.py` (declarations, aggregate
+    """RAPID (files: file name → text, every module of the program): the recursive-descent parser
+    `tests/program/rapid_check.py` (modules named like their files, late-bound part modules; declarations, aggregate
     shapes, every motion/ArcWare instruction's argument types)."""
-    from rapid_check import NUM, parse_module
+    from rapid_check import NUM, parse_program
 
     from waamflow.program.common import TOOL_COMMANDS
 
-    (text,) = files.values()
     units = (post.get("positioner_unit") or "STN1",) if post.get("cell") else ()
     routines = {}                      # the rolling/peening tool's routines, declared on the controller
     for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["rapid"]):
         for line in (post.get(key) or default).splitlines():
             name, _, args = line.strip().rstrip(";").partition(" ")
             routines[name] = [NUM] * len([a for a in args.split(",") if a.strip()])
-    mod = parse_module(text, tool=post.get("tool_name", "tWeldGun"), units=units, routines=routines)
-    robtargets = [n for n, (_st, typ, _v) in mod.data.items() if typ == "robtarget"]
-    return {"points_declared": len(robtargets), "motions": len(mod.calls("MoveL", "MoveC", "ArcLStart", "ArcL",
-                                                                            "ArcLEnd", "ArcC", "ArcCEnd"))}
+    mods = parse_program(files, tool=post.get("tool_name", "tWeldGun"), units=units, routines=routines)
+    robtargets = {n for mod in mods for n, (_st, typ, _v) in mod.data.items() if typ == "robtarget"}
+    motions = sum(len(mod.calls("MoveL", "MoveC", "ArcLStart", "ArcL", "ArcLEnd", "ArcC", "ArcCEnd")) for mod in mods)
+    return {"points_declared": len(robtargets), "motions": motions, "modules": len(mods)}
 
 
 PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid}

@@ -238,7 +238,7 @@ def test_duct_rapid_robtargets_carry_extax():
         recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "sim"]
         recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("sim.")]
 
-    mod = run(rapid).artifacts["post.mod"]
+    mod = b"".join(v for k, v in sorted(run(rapid).artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k))  # main + part modules
     mod = mod.decode() if isinstance(mod, bytes) else mod
     ext = re.findall(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]\];", mod)
     assert len(ext) == mod.count("CONST robtarget") > 58

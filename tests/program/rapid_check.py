@@ -5,7 +5,8 @@ No open RAPID grammar covers robtargets and motion instructions (grammars-v4's `
 parser after the RAPID reference: MODULE … ENDMODULE; data declarations `[LOCAL] CONST|PERS|VAR
 type name [:= expression];` with aggregates `[…]`; routines `PROC name() … ENDPROC`; procedure
 calls `Name arg, arg\\Switch, arg\\Opt:=value;`. Then the semantic checks a controller would make
-on load: identifiers ≤ 32 characters, declared once and before use, each data type's aggregate
+on load (`parse_program`: a main module that loads part modules, StartLoad/WaitLoad/UnLoad and
+late-bound calls `%"name"%;` of routines those modules declare): identifiers ≤ 32 characters, declared once and before use, each data type's aggregate
 shape, and the argument list of each motion / ArcWare instruction with the type of every
 argument. `parse_module` raises `RapidError` naming the line; it returns the parsed module.
 """
@@ -19,7 +20,7 @@ TOKEN = re.compile(r"""
     (?P<ws>[ \t\r]+) | (?P<nl>\n) | (?P<comment>![^\n]*)
   | (?P<num>\d+\.\d*(?:[eE][-+]?\d+)? | \.\d+(?:[eE][-+]?\d+)? | \d+[eE][-+]?\d+ | \d+)
   | (?P<str>"[^"\n]*") | (?P<ident>[A-Za-z][A-Za-z0-9_]*)
-  | (?P<op>:=|\\|[\[\](),;+\-*/{}:<>=])
+  | (?P<op>:=|\\|[\[\](),;+\-*/{}:<>=%])
 """, re.X)
 KEYWORDS = {"MODULE", "ENDMODULE", "PROC", "ENDPROC", "CONST", "PERS", "VAR", "LOCAL", "TRUE", "FALSE"}
 NUM, AGG = "num", "agg"
@@ -43,9 +44,13 @@ INSTRUCTIONS = {
     "ArcCEnd": (["robtarget", "robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
     "WaitTime": ([NUM], {"InPos": None}),
     "ConfL": ([], {"On": None, "Off": None}),
+    "StartLoad": (["string", "loadsession"], {"Dynamic": None, "File": "string"}),
+    "WaitLoad": (["loadsession"], {}),
+    "UnLoad": (["string"], {"File": "string"}),
     "ActUnit": (["mecunit"], {}),
     "DeactUnit": (["mecunit"], {}),
 }
+LATE = "%late%"                                            # a late-bound procedure call
 BUILTIN = {"fine": "zonedata", "wobj0": "wobjdata", "tool0": "tooldata"}
 
 
@@ -201,6 +206,12 @@ class _Parser:
 
     def call(self) -> Call:
         line = self.peek()[2]
+        if self.peek()[1] == "%":                 # late binding: %"routine"%; (a routine loaded at run time)
+            self.next()
+            name = self.expect(kind="str")[1][1:-1]
+            self.expect("%")
+            self.expect(";")
+            return Call(LATE, [("string", name)], {}, line)
         name = self.ident()
         args, options = [], {}
         self.options(options)
@@ -254,13 +265,23 @@ def _arg_type(mod: Module, arg, tool: str | None) -> str:
 
 
 def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = (),
-                 routines: dict[str, list[str]] | None = None) -> Module:
+                 routines: dict[str, list[str]] | None = None, extern: dict | None = None) -> Module:
     """Parse and check one module; `tool` is the controller's tooldata name, `units` the
     mechanical units the controller knows (for ActUnit/DeactUnit), `routines` the procedures
-    other loaded modules declare (name → argument types, e.g. a rolling tool's ToolOn)."""
+    other loaded modules declare (name → argument types, e.g. a rolling tool's ToolOn), `extern`
+    the global data other modules of the program declare (name → (storage, type, value))."""
     mod = _Parser(text).module()
+    _check_calls(mod, tool, units, routines, extern)
+    return mod
+
+
+def _check_calls(mod: Module, tool, units, routines, extern) -> None:
+    data = mod.data
+    mod = Module(mod.name, {**(extern or {}), **data}, mod.routines)
     known = {**{k: (list(v), {}) for k, v in (routines or {}).items()}, **INSTRUCTIONS}
     for call in mod.calls():
+        if call.name == LATE:                   # checked against the loaded modules (parse_program)
+            continue
         if call.name not in known:
             raise RapidError(f"line {call.line}: unknown instruction {call.name}")
         types, opts = known[call.name]
@@ -279,10 +300,52 @@ def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = ()
                 raise RapidError(f"line {call.line}: {call.name} has no argument \\{o}")
             if opts[o] is not None and (v is None or _arg_type(mod, v, tool) != opts[o]):
                 raise RapidError(f"line {call.line}: {call.name}\\{o} must be a {opts[o]}")
-    return mod
 
 
 def values(agg) -> list:
     """A parsed aggregate as nested Python lists of numbers / strings / bools."""
     kind, v = agg
     return [values(x) for x in v] if kind == AGG else v
+
+
+def parse_program(files: dict[str, str], tool: str | None = None, units: tuple[str, ...] = (),
+                  routines: dict[str, list[str]] | None = None) -> list[Module]:
+    """Parse every module of a program (file name → text), main module first then the modules it
+    calls in call order. Checks: one module has `main`; every late-bound call names a routine of
+    another module whose file main() loads (StartLoad \\File) before the call and unloads after;
+    global data is declared in one module only (part modules declare theirs LOCAL)."""
+    mods = {}
+    for fname, text in files.items():
+        mod = _Parser(text).module()
+        if fname.rsplit(".", 1)[0] != mod.name:
+            raise RapidError(f"{fname}: holds MODULE {mod.name}, not named like its file")
+        mods[mod.name] = (mod, text)
+    local = {n: set(re.findall(r"^\s*LOCAL\s+(?:CONST|PERS|VAR)\s+\w+\s+(\w+)", t, re.M)) for n, (_m, t) in mods.items()}
+    for name, (mod, _t) in mods.items():
+        extern = {k: v for other, (m, _t2) in mods.items() if other != name
+                  for k, v in m.data.items() if k not in local[other]}
+        _check_calls(mod, tool, units, routines, extern)
+    mains = [m for m, _t in mods.values() if "main" in m.routines]
+    if len(mains) != 1:
+        raise RapidError(f"{len(mains)} modules with PROC main")
+    main = mains[0]
+    order, loaded = [main], set()
+    for c in main.calls():
+        if c.name == "StartLoad":
+            loaded.add(str(c.options["File"][1]))
+        elif c.name == "UnLoad":
+            loaded.discard(str(c.options["File"][1]))
+        elif c.name == LATE:
+            target = c.args[0][1]
+            owner = next((m for m, _t in mods.values() if target in m.routines and m is not main), None)
+            if owner is None or f"{owner.name}.mod" not in loaded:
+                raise RapidError(f"line {c.line}: %\"{target}\"% calls a routine of no loaded module")
+            order.append(owner)
+    globals_: dict[str, str] = {}
+    for m, _text in mods.values():
+        for name in m.data:
+            if name not in local[m.name]:
+                if name in globals_:
+                    raise RapidError(f"{name} declared globally in {globals_[name]} and {m.name}")
+                globals_[name] = m.name
+    return order

@@ -38,7 +38,9 @@ def test_catalog_entry():
     assert props["arc_on"]["default"] == "M3" and props["arc_off"]["default"] == "M5"
 
 
-@pytest.mark.parametrize("fmt, suffixes", [("gcode", {"gcode"}), ("krl", {"src", "dat"}), ("rapid", {"mod"}), ("csv", {"csv"})])
+# KRL / RAPID files are named after the program ("/<name>.<ext>": not `<node id>.<ext>`), G-code and CSV after the node
+@pytest.mark.parametrize("fmt, suffixes", [("gcode", {"gcode"}), ("krl", {"/part.src", "/part.dat"}),
+                                           ("rapid", {"/part.mod"}), ("csv", {"csv"})])
 def test_artifacts_by_format(fmt, suffixes):
     program, files = _run(format=fmt, program_name="part")
     assert set(files) == suffixes and program.format == fmt
@@ -48,7 +50,7 @@ def test_artifacts_by_format(fmt, suffixes):
 
 def test_krl_split_artifacts_and_gcode_params():
     _, files = _run(format="krl", split_per_layer=True)
-    assert set(files) == {"src", "dat", "L000.src", "L000.dat", "L001.src", "L001.dat"}
+    assert set(files) == {"src", "dat", "/post_L000.src", "/post_L000.dat", "/post_L001.src", "/post_L001.dat"}
     _, files = _run(format="gcode", arc_on="M7", arc_off="M9", dwell_units="ms", ignition_dwell=2,
                     process_codes={"job": "M101 P{value:.0f}"})
     g = files["gcode"]

@@ -22,6 +22,7 @@ import pytest
 from program_checkers import PROGRAM_CHECKERS
 
 from waamflow import __version__
+from waamflow.buildinfo import source_revision
 from waamflow.engine.cache import MemoryCache
 from waamflow.engine.executor import FileResolver, execute, recipe_sha256
 from waamflow.engine.graph import build_graph
@@ -101,10 +102,12 @@ def test_every_recipe_and_profile_is_in_the_matrix(runs):
         for r in RECIPES)
 
 
-def _files(result, node_id: str) -> dict[str, str]:
-    pre = f"{node_id}."
-    return {k[len(pre):]: (v.decode() if isinstance(v, bytes) else v)
-            for k, v in result.artifacts.items() if k.startswith(pre)}
+def _files(result, node_id: str, named: bool = False) -> dict[str, str]:
+    """The node's program files by key ("src", "L003.src", "mod", "M001.mod") or, `named`, by the
+    file name they are written as (KRL / RAPID: named after the program, e.g. `post_M001.mod`)."""
+    names = result.outputs[node_id]["program"].file_names(node_id)
+    return {(names[k] if named else k): (v.decode() if isinstance(v, bytes) else v)
+            for k in names if (v := result.artifacts.get(names[k])) is not None}
 
 
 @pytest.mark.parametrize("name", RECIPES)
@@ -118,7 +121,7 @@ def test_programs_parse_and_agree_with_the_summary(runs, name):
         assert files, f"{name}/{prof}: no program files"
         stats = programs[nid]
         assert stats["format"] == fmt
-        got = PROGRAM_CHECKERS[fmt](files, {**PROFILES[prof]["post"], **params})
+        got = PROGRAM_CHECKERS[fmt](_files(result, nid, named=fmt == "rapid"), {**PROFILES[prof]["post"], **params})
         where = f"{name} in profile {prof}"
         if fmt == "gcode":
             assert got["points"] == stats["motions"], where
@@ -134,9 +137,9 @@ def test_programs_parse_and_agree_with_the_summary(runs, name):
 
 
 def _trace(text: str) -> dict:
-    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), recipe ([^\s)]+)", text)
+    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), revision (\S+), recipe ([^\s)]+)", text)
     rsha = re.search(r"waamflow trace: recipe sha256 ([0-9a-f]{64})", text)
-    return {"version": head.group(2), "recipe": head.group(3), "recipe_sha256": rsha.group(1),
+    return {"version": head.group(2), "revision": head.group(3), "recipe": head.group(4), "recipe_sha256": rsha.group(1),
             "inputs": dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text))}
 
 
@@ -153,8 +156,11 @@ def test_headers_carry_version_and_hashes(runs, name):
         files = _files(result, nid)
         main = {"gcode": "gcode", "krl": "src", "rapid": "mod"}[params["format"]]
         got = _trace(files[main])
-        assert got == {"version": __version__, "recipe": recipe.name, "recipe_sha256": trace["recipe_sha256"],
-                       "inputs": trace["inputs"]}, f"{name}/{prof}"
+        assert got == {"version": __version__, "revision": source_revision(), "recipe": recipe.name,
+                       "recipe_sha256": trace["recipe_sha256"], "inputs": trace["inputs"]}, f"{name}/{prof}"
+        assert trace["revision"] == source_revision()
+        for text in files.values():                      # every file of the program (parts too)
+            assert _trace(text)["revision"] == source_revision(), f"{name}/{prof}"
 
 
 def test_rerun_gives_the_same_hashes(runs):

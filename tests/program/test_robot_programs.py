@@ -21,7 +21,8 @@ from waamflow.program.profiles import load_profiles
 from conftest import build_toolpath
 from helpers import arc_runs, wall_recipe
 from krl_check import arctech_seams, parse_program
-from rapid_check import RapidError, parse_module, values
+from rapid_check import Module, RapidError, parse_module, values
+from rapid_check import parse_program as parse_rapid_program
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
@@ -51,24 +52,22 @@ def test_identifiers_follow_the_controller_rules():
     assert program_identifier("post_", 24) == "post"                               # no trailing '_' left by a cut
 
 
-@pytest.mark.parametrize("node_id, fmt, name, warns", [
-    ("post", "krl", "post", False),
-    ("duct_robot", "krl", "duct_robot", False),
-    ("duct-robot", "krl", "duct_robot", True),       # file duct-robot.src cannot hold DEF duct-robot
-    ("duct-robot", "rapid", "duct_robot", False),
+@pytest.mark.parametrize("node_id, fmt, name", [
+    ("post", "krl", "post"),
+    ("duct_robot", "krl", "duct_robot"),
+    ("duct-robot", "krl", "duct_robot"),       # not duct-robot.src: it could not hold DEF duct-robot
+    ("duct-robot", "rapid", "duct_robot"),
 ])
-def test_program_is_named_after_its_node(tmp_path, node_id, fmt, name, warns):
+def test_program_is_named_after_its_node(tmp_path, node_id, fmt, name):
     res = _run(tmp_path, _wall_recipe(node_id, format=fmt))
     if fmt == "krl":
-        src, dat = _text(res, f"{node_id}.src"), _text(res, f"{node_id}.dat")
+        src, dat = _text(res, f"{name}.src"), _text(res, f"{name}.dat")     # file name = DEF name
         assert parse_program(src, dat).name == name
         assert f"\nDEF {name}( )\n" in src and dat.startswith(f"DEFDAT {name}\n")
     else:
-        assert parse_module(_text(res, f"{node_id}.mod"), tool="tWeldGun").name == name
-    rename = [w for w in res.warnings if "rename" in w["message"]]
-    assert bool(rename) == warns
-    if warns:
-        assert f"{name}.src" in rename[0]["message"] and rename[0]["node"] == node_id
+        assert parse_module(_text(res, f"{name}.mod"), tool="tWeldGun").name == name
+    assert not [n for n in res.artifacts if n.startswith(f"{node_id}.")] or node_id == name
+    assert not [w for w in res.warnings if "rename" in w["message"]]   # named right: nothing to warn about
 
 
 def test_renamed_node_is_not_served_from_the_cache(tmp_path):
@@ -83,14 +82,14 @@ def test_renamed_node_is_not_served_from_the_cache(tmp_path):
 
 def test_split_program_names(tmp_path):
     res = _run(tmp_path, _wall_recipe("wall_robot_program_x", format="krl", split_per_layer=True))
-    files = {k: v.decode() for k, v in res.artifacts.items() if k.startswith("wall_robot_program_x.")}
-    main = parse_program(files["wall_robot_program_x.src"], files["wall_robot_program_x.dat"])
+    files = {k: v.decode() for k, v in res.artifacts.items() if k.startswith("wall_robot_progr")}
+    main = parse_program(files["wall_robot_progr.src"], files["wall_robot_progr.dat"])  # files named after DEF
     assert main.name == "wall_robot_progr"                           # 16 characters: room for _L003_1
-    subs = sorted(k for k in files if re.fullmatch(r".*\.L\d{3}\.src", k))
-    assert len(subs) == 3
+    subs = sorted(k for k in files if re.fullmatch(r"wall_robot_progr_L\d{3}\.src", k))
+    assert len(subs) == 3 and len(files) == 8
     for k in subs:
         sub = parse_program(files[k], files[k[:-3] + "dat"])
-        assert sub.name == f"wall_robot_progr_{k.split('.')[1]}" and len(sub.name) <= 24
+        assert sub.name == k[:-4] and len(sub.name) <= 24
     assert [s.args[0] for s in main.body if s.kind == "call" and s.args[0].startswith("wall")] == \
         [f"wall_robot_progr_L00{i}" for i in range(3)]
 
@@ -165,14 +164,22 @@ ROBOT_PROFILES = sorted(n for n, p in load_profiles().items() if p["post"].get("
 
 
 def _check_program(res, node: str, fmt: str, tool: str = "tWeldGun"):
-    """Parse every program file of `node`; returns the parsed main program/module."""
+    """Parse every program file of `node` (named as `Program.file_names` says); returns the parsed
+    main program, for RAPID the modules merged (data and routines of the main and part modules)."""
+    prog = res.outputs[node]["program"]
+    names = prog.file_names(node)
     if fmt == "rapid":
-        return parse_module(_text(res, f"{node}.mod"), tool=tool, units=("STN1",))
-    arts = {k: v.decode() for k, v in res.artifacts.items() if k.startswith(node + ".")}
+        mods = parse_rapid_program({names[k]: _text(res, names[k]) for k in prog.files}, tool=tool, units=("STN1",))
+        merged = Module(mods[0].name)
+        for m in mods:
+            merged.data.update(m.data)
+            merged.routines.update(m.routines)
+        return merged
+    arts = {k: _text(res, names[k]) for k in prog.files}
     for k in arts:
-        if k.endswith(".src"):
+        if k.endswith("src"):
             parse_program(arts[k], arts[k[:-3] + "dat"])
-    return parse_program(arts[f"{node}.src"], arts[f"{node}.dat"])
+    return parse_program(arts["src"], arts["dat"])
 
 
 @pytest.mark.parametrize("profile", ROBOT_PROFILES)

@@ -27,7 +27,7 @@ def _write_wall(tmp_path, length: float) -> bytes:
 
 
 def _trace_from(text: str) -> dict:
-    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), recipe (\S+)", text)
+    head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), revision \S+, recipe (\S+)", text)
     rsha = re.search(r"waamflow trace: recipe sha256 ([0-9a-f]{64})", text)
     inputs = dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text))
     return {"date": head.group(1), "version": head.group(2), "recipe": head.group(3),

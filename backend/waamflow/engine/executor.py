@@ -246,10 +246,20 @@ def recipe_sha256(recipe) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def artifact_name(node_id: str, key: str) -> str:
+    """The file name of a node's artifact: `<node id>.<key>` for a suffix key, or the key itself
+    (without its "/") for a key "/<file name>" (a program file named after its controller
+    identifier, e.g. `duct_post.src` of node `duct-post`: KRL requires file name = DEF name)."""
+    return key[1:] if key.startswith("/") else f"{node_id}.{key}"
+
+
 def run_trace(recipe, files: dict[str, str], date_utc: str) -> dict:
-    """{"date": ISO UTC, "waamflow": version, "recipe": name, "recipe_sha256": …,
-    "inputs": {path: sha256}} for program headers and summary.json."""
-    return {"date": date_utc, "waamflow": __version__, "recipe": recipe.name,
+    """{"date": ISO UTC, "waamflow": version, "revision": source revision (git describe),
+    "recipe": name, "recipe_sha256": …, "inputs": {path: sha256}} for program headers and
+    summary.json."""
+    from ..buildinfo import source_revision
+
+    return {"date": date_utc, "waamflow": __version__, "revision": source_revision(), "recipe": recipe.name,
             "recipe_sha256": recipe_sha256(recipe), "inputs": dict(sorted(files.items()))}
 
 
@@ -429,7 +439,7 @@ class _Run:
                 else:
                     files = written
                     ctx.warnings.extend(extra)
-            self.artifacts.update({f"{gnode.id}.{suffix}": data for suffix, data in files.items()})
+            self.artifacts.update({artifact_name(gnode.id, suffix): data for suffix, data in files.items()})
 
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])

@@ -36,11 +36,15 @@ class PostProcess(Node):
       zone's speed, optional G2/G3 arc fitting, `arc_on`/`arc_off` codes (default M3/M5, the ORNL
       Slicer 2 wire-arc convention), G4 dwell after every ignition and between layers, per-zone
       process commands from `process_codes` templates, M30. Artifact `<node>.gcode`.
-    - `krl` (KUKA): `<node>.src` + `<node>.dat` — LIN/CIRC, $VEL.CP per zone (m/s), $APO.CDIS +
+    - `krl` (KUKA): `<name>.src` + `<name>.dat` — LIN/CIRC, $VEL.CP per zone (m/s), $APO.CDIS +
       C_DIS blending, arc by digital output (TRIGGER) or ArcTech-style calls, E6POS from the tool
-      axis; split into subprograms per layer / per N points (`<node>.L003.src`, ...).
-    - `rapid` (ABB): `<node>.mod` — MoveL travel, ArcLStart/ArcL/ArcLEnd with seamdata/welddata
-      per zone, zonedata from the blend distance, WaitTime for dwell.
+      axis; split into subprograms per layer / per N points (`<name>_L003.src`, ...).
+    - `rapid` (ABB): `<name>.mod` — MoveL travel, ArcLStart/ArcL/ArcLEnd with seamdata/welddata
+      per zone, zonedata from the blend distance, WaitTime for dwell; above `max_module_bytes` a
+      main module that loads part modules `<name>_M001.mod`, ... (layer ranges) one by one.
+    KRL and RAPID files are named after the program (`<name>` = `program_name`, else the node id
+    made an identifier: node `duct-post` writes `duct_post.src` holding `DEF duct_post`), since
+    the controller needs file name = DEF / module name; G-code and CSV are `<node>.<suffix>`.
     - `csv`: cutter-location file `<node>.csv`, one row per point (x, y, z, tool axis, speed,
       arc, layer, section, zone, dwell).
     - `printpoints`: compas_slicer's print-points JSON `<node>.printpoints.json`, one entry per
@@ -69,7 +73,8 @@ class PostProcess(Node):
         program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                   description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
                                               "identifier, so the program is named like its files (KRL requires "
-                                              "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32)")
+                                              "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32, ≤ 27 "
+                                              "with a module size limit); the KRL / RAPID files are named after it")
         ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
                                       description="Dwell after each arc ignition when the zone has no `dwell` parameter")
         arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
@@ -123,6 +128,8 @@ class PostProcess(Node):
             description="Weld values (current A, voltage V, wire_feed_speed m/min, job) for every welded zone that "
                         "does not state them itself: the power-source setting the plan was made for (e.g. a recipe "
                         "without a parameter file), so the program commands it; empty = none")
+        tcp_control: bool = Field(True, description="G-code with a positioner: the controller has tool centre point "
+                                                    "control (LinuxCNC TCP kinematics, TRAORI, G43.4); Marlin has none")
         travel_feed: bool = Field(False, description="G-code: F at travel_speed on every G0 travel line (controllers "
                                                      "whose G0 moves at the modal feed, e.g. Marlin)")
         rotary_axes: list[str] = Field(
@@ -166,6 +173,13 @@ class PostProcess(Node):
         positioner_unit: str = Field("STN1", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                      description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
                                                  "the coordinated work object); empty = no coordination")
+        max_module_bytes: int = Field(512_000, ge=0, le=100_000_000, json_schema_extra=unit("B"),
+                                      description="RAPID: most bytes per module file; a larger program is a main "
+                                                  "module that loads part modules <name>_M001.mod, ... (layer ranges) "
+                                                  "one after the other (StartLoad/WaitLoad/UnLoad); 0 = one module. "
+                                                  "At least 16384")
+        module_dir: str = Field("HOME:", pattern=r'^[^"\\]+$', max_length=80,
+                                description="RAPID: controller folder the main module loads its part modules from")
         # robots
         cell: str = Field("", max_length=64,
                           description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
@@ -254,10 +268,6 @@ class PostProcess(Node):
             raise RecipeError(str(err)) from err
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
-        if params.format == "krl" and name != ctx.node_id:
-            ctx.warn(f"KRL program {name}: the controller needs the files named {name}.src / {name}.dat "
-                     f"(DEF name = file name); rename {ctx.node_id}.src/.dat when copying them"
-                     + ("" if params.program_name else " or give the node an identifier id"))
         what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands",
                 "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands"}
         _warn_weld_data(ctx, program, what.get(params.format, "weld data"))
@@ -274,7 +284,13 @@ class PostProcess(Node):
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
         program: Program = outputs["program"]
         trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
-        return stamp_trace(program.format, dict(program.files), trace)
+        files = stamp_trace(program.format, dict(program.files), trace)
+        nid = getattr(ctx, "node_id", "")
+        if not nid:
+            return files
+        # a file named otherwise than `<node id>.<key>` (after its controller identifier): "/<name>"
+        names = program.file_names(nid)
+        return {(k if names[k] == f"{nid}.{k}" else "/" + names[k]): v for k, v in files.items()}
 
 
 def with_profile(params: PostProcess.Params) -> PostProcess.Params:
@@ -332,12 +348,12 @@ def _warn_weld_data(ctx, program: Program, what: str) -> None:
 
 def _program_name(ctx, p: PostProcess.Params) -> str:
     """The program name: `program_name`, else the node id made a controller identifier (KRL ≤ 24
-    characters, ≤ 16 when split so `<name>_L003_1` fits; RAPID ≤ 32), so the program is named like
-    the `<node id>.<suffix>` files holding it."""
+    characters, ≤ 16 when split so `<name>_L003_1` fits; RAPID ≤ 32, ≤ 27 so `<name>_M001`
+    fits); the KRL / RAPID files are named after it (`Program.file_names`)."""
     if p.format == "krl":
         limit, reserved = (16 if p.split_per_layer or p.max_points_per_file else 24), KRL_RESERVED
-    elif p.format == "rapid":
-        limit, reserved = 32, RAPID_RESERVED
+    elif p.format == "rapid":                 # ≤ 27 so `<name>_M001` fits when split into modules
+        limit, reserved = (27 if p.max_module_bytes else 32), RAPID_RESERVED
     else:
         limit, reserved = 64, frozenset()
     if p.program_name:
@@ -365,7 +381,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                              travel_speed=p.travel_speed, process_codes=dict(p.process_codes or GCODE_WELD_CODES),
                              process_codes_start=dict(p.process_codes_start) or None,
                              process_scale=dict(p.process_scale), travel_feed=p.travel_feed,
-                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units,
+                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units, tcp_control=p.tcp_control,
                              comment_style=p.comment_style, feed_units=p.feed_units,
                              start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
                              end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
@@ -382,6 +398,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
         return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
                              positioner_unit=p.positioner_unit,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
+                             max_module_bytes=p.max_module_bytes, module_dir=p.module_dir,
                              tool_direction=direction or "z", **tools)
     if p.format == "printpoints":
         return p.blend_distance

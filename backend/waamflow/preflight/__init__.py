@@ -72,7 +72,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
         for value in outputs.get(nid, {}).values():
             if not isinstance(value, Program):
                 continue
-            names = {f"{nid}.{suffix}" for suffix in value.files}
+            names = set(value.file_names(nid).values())
             files = {n: artifacts[n].decode("utf-8", "replace") for n in sorted(names) if n in artifacts}
             if not files:
                 continue

@@ -439,6 +439,25 @@ def read_rapid(text: str) -> ProgramRead:
     return b.out
 
 
+_MODULE = re.compile(r"^\s*MODULE\s+(\w+)", re.IGNORECASE | re.MULTILINE)
+_LATE_CALL = re.compile(r'^\s*%"(\w+)"%\s*;', re.MULTILINE)
+
+
+def rapid_in_call_order(files: dict[str, str]) -> str:
+    """The text of a RAPID program of several modules in the order it runs: the main module (the
+    one with `PROC main`), then each module whose routine main() calls by late binding
+    (`%"name"%;`, the routine named like its module, loaded by StartLoad/WaitLoad), in call
+    order; modules not called follow in file-name order."""
+    texts = list(files.values())
+    if len(texts) == 1:
+        return texts[0]
+    by_module = {m.group(1).lower(): t for t in texts if (m := _MODULE.search(t))}
+    main = next((t for t in texts if re.search(r"^\s*PROC\s+main\s*\(", t, re.IGNORECASE | re.MULTILINE)), texts[0])
+    order = [main] + [by_module[c.lower()] for c in _LATE_CALL.findall(main) if c.lower() in by_module]
+    order += [t for t in texts if not any(t is o for o in order)]
+    return "\n".join(order)
+
+
 # ---- cutter location CSV, print points, toolpath JSON ----------------------------------------------
 def read_cl_csv(text: str) -> ProgramRead:
     lines = [ln for ln in text.splitlines() if ln and not ln.startswith("#")]
@@ -532,7 +551,7 @@ def read_program(fmt: str, files: dict[str, str]) -> ProgramRead:
     if fmt == "krl":
         return read_krl(files)
     if fmt == "rapid":
-        return read_rapid("\n".join(files.values()))
+        return read_rapid(rapid_in_call_order(files))
     if fmt == "csv":
         return read_cl_csv(next(iter(files.values())))
     if fmt == "printpoints":

@@ -20,14 +20,14 @@ from .krl import KrlSettings, write_krl
 from .plan import Plan, PlanSettings, plan_program
 from .printpoints import point_layer_heights, write_print_points
 from .program import Program
-from .rapid import RapidSettings, write_rapid
+from .rapid import RapidSettings, write_rapid, write_rapid_modules
 
 FORMATS = ("gcode", "krl", "rapid", "csv", "printpoints")
 
 __all__ = [
     "FORMATS", "GcodeSettings", "KrlSettings", "ParsedProgram", "Plan", "PlanSettings", "Program",
     "RapidSettings", "parse_gcode", "plan_program", "post_process", "write_cl_csv", "write_gcode",
-    "write_krl", "write_print_points", "write_rapid",
+    "write_krl", "write_print_points", "write_rapid", "write_rapid_modules",
 ]
 
 
@@ -66,7 +66,9 @@ def post_process(
     elif fmt == "krl":
         files = write_krl(plan, writer_settings or KrlSettings())
     elif fmt == "rapid":
-        files = {"mod": write_rapid(plan, writer_settings or RapidSettings())}
+        files = write_rapid_modules(plan, writer_settings or RapidSettings())
+        if len(files) > 1:
+            stats["modules"] = len(files) - 1           # part modules loaded by the main module
     elif fmt == "printpoints":
         heights = point_layer_heights(None if isinstance(toolpath, Moves) else toolpath, moves)
         blend = 1.0 if writer_settings is None else float(writer_settings)
@@ -89,4 +91,6 @@ def post_process(
         gs = writer_settings or GcodeSettings()
         issues = tuple(weld_data_issues(plan, commanded=tuple(k for k, v in gs.process_codes.items() if v),
                                         hint="give it a command template in process_codes", empty=False))
-    return Program(fmt, files, stats, issues)
+    name = (writer_settings or (KrlSettings() if fmt == "krl" else RapidSettings())).program_name \
+        if fmt in ("krl", "rapid") else ""                 # the files are named after the program
+    return Program(fmt, files, stats, issues, name)

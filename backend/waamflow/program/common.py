@@ -151,11 +151,13 @@ def finite(x: float) -> bool:
 
 def trace_lines(trace: dict) -> list[str]:
     """The traceability lines of a program header (without comment marks): date UTC, waamflow
-    version, recipe name, sha256 of the canonical recipe JSON and of each input file read."""
+    version and source revision (`buildinfo.source_revision`, git describe), recipe name, sha256 of the canonical recipe JSON and of each input file read."""
     if not trace:
         return []
+    from ..buildinfo import source_revision
+
     lines = [f"waamflow trace: date {trace.get('date', '?')}, waamflow {trace.get('waamflow', '?')}, "
-             f"recipe {trace.get('recipe', '?')}",
+             f"revision {trace.get('revision') or source_revision()}, recipe {trace.get('recipe', '?')}",
              f"waamflow trace: recipe sha256 {trace.get('recipe_sha256', '?')}"]
     for path, digest in (trace.get("inputs") or {}).items():
         lines.append(f"waamflow trace: input {path} sha256 {digest}")

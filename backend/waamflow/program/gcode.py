@@ -91,6 +91,7 @@ class GcodeSettings:
     decimals: int = 3
     rotary_axes: tuple[str, ...] = ("A", "C")
     rotary_units: str = "deg"
+    tcp_control: bool = True          # the controller turns part-frame X Y Z + rotary words into machine motion
     external_axes: np.ndarray | None = None
     comment_style: str = "semicolon"
     feed_units: str = "mm/min"
@@ -252,7 +253,10 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         out.append(c("rotary axes: " + ", ".join(f"{a} = positioner {names[k]}" for k, a in
                                                enumerate(settings.rotary_axes[: ext.shape[1]]))
                      + f" in {'degrees' if settings.rotary_units == 'deg' else 'radians'}; X Y Z in the part "
-                       "frame on the positioner (tool centre point control on)"))
+                       + ("frame on the positioner (needs the controller's tool centre point control)"
+                          if settings.tcp_control else
+                          "frame on the positioner; this controller has no tool centre point control: the part "
+                          "frame must coincide with the table's axes")))
     if st.get("circular_motions"):
         out.append(f"G17 {c('arcs in the XY plane')}")
     feed: float | None = None

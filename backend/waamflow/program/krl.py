@@ -52,7 +52,7 @@ and calls subprograms. `split_per_layer`: one per layer, ``name_L003`` (files ``
 ``L003.dat``). `max_points_per_file` = N: no file holds more than N motions; a file ends after
 an arc OFF when that leaves it at least half full, else between two motions (the arc output then
 stays on across the call). Names ``name_P001``, … or, with both, ``name_L003_1``, ``name_L003_2``.
-On the controller, name the files after their DEF (KRL requires module name = DEF name):
+The files are named after their DEF (KRL requires module name = DEF name; `Program.file_names`):
 ``<program_name>.src``, ``<program_name>_L003.src``, …
 
 Why ON is a plain output and OFF a TRIGGER: the ignition dwell must follow the switch-on with

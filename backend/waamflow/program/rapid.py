@@ -1,4 +1,5 @@
-"""ABB RAPID writer: one module (.mod) with ArcWare welding instructions.
+"""ABB RAPID writer: one module (.mod) with ArcWare welding instructions, or, above
+`max_module_bytes`, a main module and part modules (see "Controller-sized programs" below).
 
 Module shape::
 
@@ -33,10 +34,26 @@ seamdata = [purge_time, preflow_time, ign_arc, ign_move_delay, scrape_start, hea
 heat_time, heat_distance, heat_arc, cool_time, fill_time, fill_arc, bback_time, rback_time,
 bback_arc, postflow_time] with ign_arc = the first zone's arcdata, ign_move_delay = dwell (s).
 robtarget orientation: quaternion from the tool axis (orientation.py, tool z along the axis).
+
+Controller-sized programs (`write_rapid_modules`): an IRC5 loads a whole program into its
+program memory, and a large module takes long to load, so a program above `max_module_bytes`
+(the abb_irc5 profile: 512 kB) is written as a main module `<name>.mod` and part modules
+`<name>_M001.mod`, ... (module name = file stem), each a layer range (cut at layer starts with
+the arc off) with its data declared LOCAL and one routine `<name>_M001`. `main()` loads them one
+after the other as ABB documents for programs larger than memory (RAPID Instructions, StartLoad /
+WaitLoad / UnLoad; Technical reference manual - RAPID overview, late binding)::
+
+    StartLoad \\Dynamic, post_dir \\File:="post_M001.mod", post_load;   WaitLoad post_load;
+    StartLoad \\Dynamic, post_dir \\File:="post_M002.mod", post_load;   ! loads while M001 runs
+    %"post_M001"%;   UnLoad post_dir \\File:="post_M001.mod";   WaitLoad post_load;   ...
+
+with `post_dir` = `module_dir` (default "HOME:", as in ABB's StartLoad example): copy every .mod file into that folder and load
+only `<name>.mod` into the task; at most two part modules are in program memory at a time.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +62,9 @@ from .common import check_identifier, num, process_summary, short, weld_tag
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import quaternions, tool_frames
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+
+
+MIN_MODULE_BYTES = 16_384
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +76,9 @@ class RapidSettings:
     positioner_unit: mechanical unit of the positioner (e.g. "STN1"); with external axes the
     module declares a coordinated work object (see `coordinated_wobj`) on it and brackets the
     motion with ActUnit/DeactUnit. work_frame: the part origin in the positioner flange frame
-    (x, y, z mm, q1..q4), the oframe of that work object."""
+    (x, y, z mm, q1..q4), the oframe of that work object. max_module_bytes: most bytes per
+    module file (0 = no limit; name then ≤ 27 characters for the `_M001` parts); module_dir:
+    the controller folder main() loads the part modules from."""
 
     program_name: str = "waamflow"
     tool: str = "tWeldGun"
@@ -69,13 +91,19 @@ class RapidSettings:
     positioner_unit: str = "STN1"
     work_frame: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     decimals: int = 3
+    max_module_bytes: int = 0        # 0 = one module whatever its size; else split (write_rapid_modules)
+    module_dir: str = "HOME:"        # where main() loads the part modules from (the controller's file system)
     tool_on: str = TOOL_COMMANDS["rapid"][0]   # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["rapid"][1]
 
     def __post_init__(self) -> None:
         check_tool_template(self.tool_on, "tool_on")
         check_tool_template(self.tool_off, "tool_off")
-        check_identifier(self.program_name, 32)
+        check_identifier(self.program_name, 27 if self.max_module_bytes else 32)
+        if self.max_module_bytes and self.max_module_bytes < MIN_MODULE_BYTES:
+            raise ValueError(f"max_module_bytes must be 0 (no limit) or at least {MIN_MODULE_BYTES}")
+        if not self.module_dir or any(c in self.module_dir for c in '"\\\n'):
+            raise ValueError(f"module_dir {self.module_dir!r}: a controller path without quotes or backslashes")
         check_identifier(self.tool, 32, "tool name")
         check_identifier(self.wobj, 32, "work object name")
         if self.positioner_unit:
@@ -161,8 +189,8 @@ def _next_motion(steps, k: int) -> Motion | None:
     return None
 
 
-def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
-    """Render a `Plan` as a RAPID module (see module doc)."""
+def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
+    """Render a `Plan` as RAPID lines (see module doc), not yet put into modules."""
     s = settings
     d = s.decimals
     pts = plan.moves.points
@@ -271,32 +299,181 @@ def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
 
     st_ = plan.stats
     bd = float(s.blend_distance)
-    out = [
-        f"MODULE {s.program_name}",
-        f"  ! waamflow ABB RAPID program {s.program_name} (ArcWare)",
-        f"  ! layers {st_['layers']}, sections {st_['sections']}, points {st_['points']}, motions {st_['motions']}",
-        f"  ! deposition {st_['deposition_length_mm']:.3f} mm, travel {st_['travel_length_mm']:.3f} mm, "
+    head = [
+        f"! waamflow ABB RAPID program {s.program_name} (ArcWare)",
+        f"! layers {st_['layers']}, sections {st_['sections']}, points {st_['points']}, motions {st_['motions']}",
+        f"! deposition {st_['deposition_length_mm']:.3f} mm, travel {st_['travel_length_mm']:.3f} mm, "
         f"arc-on count {st_['arc_on_count']}, dwell {st_['dwell_total_s']:.3f} s",
-        f"  ! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
-        "  ! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
+        f"! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
+        "! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
         "arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A, voltage2, wirefeed2, control2]",
-        "  ! " + weld_tag(RAPID_WELD_FIELDS),
+        "! " + weld_tag(RAPID_WELD_FIELDS),
     ]
     if ext is not None:
-        out.append(f"  ! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
-                   + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else ""))
-    if s.coordinated:
-        out.append("  " + coordinated_wobj(s))
+        head.append(f"! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
+                    + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else ""))
+    shared = [coordinated_wobj(s)] if s.coordinated else []
+    data: dict[str, str] = {}
     if bd > 0:
-        out.append(f"  CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
-                   f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
-    out += ["  " + x for x in speeds.decls() + seams.decls() + welds.decls()]
-    out += ["  " + _robtarget(i, pts, quat, ext, d) for i in sorted(set(used))]
-    out += ["  PROC main()", "    ConfL\\Off;"]
-    if s.coordinated:
-        out.append(f"    ActUnit {s.positioner_unit};")
-    out += ["    " + x for x in body]
-    if s.coordinated:
-        out.append(f"    DeactUnit {s.positioner_unit};")
-    out += ["  ENDPROC", "ENDMODULE"]
+        data["zw"] = (f"CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
+                      f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
+    for names in (speeds, seams, welds):
+        data.update({n: decl for n, decl in names.items.values()})
+    data.update({f"p{i + 1}": _robtarget(i, pts, quat, ext, d) for i in sorted(set(used))})
+    start = ["ConfL\\Off;"] + ([f"ActUnit {s.positioner_unit};"] if s.coordinated else [])
+    end = [f"DeactUnit {s.positioner_unit};"] if s.coordinated else []
+    return _Rendered(head, shared, data, body, start, end)
+
+
+@dataclass(frozen=True)
+class _Rendered:
+    """A rendered program before it is cut into modules: header comments, shared declarations
+    (the coordinated work object), data name → declaration (in declaration order), the body of
+    the motion routine and the lines before / after it."""
+
+    head: list[str]
+    shared: list[str]
+    data: dict[str, str]
+    body: list[str]
+    start: list[str]
+    end: list[str]
+
+
+def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
+    """Render a `Plan` as one RAPID module (see module doc), whatever its size."""
+    r = _render(plan, settings)
+    out = [f"MODULE {settings.program_name}", *("  " + x for x in r.head + r.shared),
+           *("  " + x for x in r.data.values()), "  PROC main()",
+           *("    " + x for x in r.start + r.body + r.end), "  ENDPROC", "ENDMODULE"]
+    return "\n".join(out) + "\n"
+
+
+def write_rapid_modules(plan: Plan, settings: RapidSettings = RapidSettings()) -> dict[str, str]:
+    """Render a `Plan` as RAPID files: {"mod": the module} when it fits `max_module_bytes` (or
+    there is no limit), else {"mod": the main module, "M001.mod": part 1, ...}: the motion
+    routine cut into part modules at layer starts where the arc is off (inside a layer too big
+    for one module: after an arc end, else between two instructions), each part module at most
+    `max_module_bytes - TRACE_RESERVE` bytes (room for the trace lines stamped in later)."""
+    s = settings
+    whole = write_rapid(plan, s)
+    if not s.max_module_bytes or len(whole.encode()) <= s.max_module_bytes - TRACE_RESERVE:
+        return {"mod": whole}
+    r = _render(plan, s)
+    budget = s.max_module_bytes - TRACE_RESERVE
+    for _ in range(20):
+        groups = _pack(r, budget - _PART_OVERHEAD - 4 * len(s.program_name))
+        parts = [_part_module(r, s, k + 1, len(groups), g) for k, g in enumerate(groups)]
+        if all(len(t.encode()) <= s.max_module_bytes - TRACE_RESERVE for t in parts):
+            break
+        budget = int(budget * 0.95)
+    else:                                                          # pragma: no cover - defensive
+        raise ValueError(f"RAPID: cannot cut the program into modules of at most {s.max_module_bytes} bytes")
+    files = {"mod": _main_module(r, s, len(parts))}
+    files.update({f"M{k + 1:03d}.mod": t for k, t in enumerate(parts)})
+    return files
+
+
+TRACE_RESERVE = 4096     # bytes kept free in every module for the trace lines (common.stamp_trace)
+_PART_OVERHEAD = 400     # MODULE/PROC/ENDPROC/ENDMODULE lines and the part's header comment
+_USES = re.compile(r"\b(p\d+|vw\d+|sm\d+|wd\d+|zw)\b")
+_LAYER = re.compile(r"^! layer (\d+) ")
+
+
+def _uses(line: str) -> set[str]:
+    return set(_USES.findall(line.split("!", 1)[0]))
+
+
+def _pack(r: _Rendered, budget: int) -> list[tuple[int, int]]:
+    """Body line ranges [a, b) of the part modules: whole layer ranges where they fit, cut at
+    layer starts with the arc off; a piece larger than `budget` is cut after arc ends, then
+    between instructions. Bytes counted as written (indent, newline, the data each range uses)."""
+    body = r.body
+    arc = False
+    layer_cuts, end_cuts = [0], [0]
+    for i, ln in enumerate(body):
+        if i and _LAYER.match(ln) and not arc:
+            layer_cuts.append(i)
+        w = ln.split(" ", 1)[0]
+        if w in ("ArcLStart", "ArcCStart"):
+            arc = True
+        elif w in ("ArcLEnd", "ArcCEnd"):
+            arc = False
+            end_cuts.append(i + 1)
+    cost_line = [len(ln.encode()) + 5 for ln in body]
+    uses = [_uses(ln) for ln in body]
+    dcost = {n: len(v.encode()) + 9 for n, v in r.data.items()}
+
+    def cost(a: int, b: int) -> int:
+        names = set().union(*uses[a:b]) if b > a else set()
+        return sum(cost_line[a:b]) + sum(dcost.get(n, 0) for n in names)
+
+    def pieces(a: int, b: int, cuts: list[list[int]]) -> list[tuple[int, int]]:
+        if cost(a, b) <= budget or not cuts:
+            return [(a, b)]
+        inner = sorted({c for c in cuts[0] if a < c < b} | {a, b})
+        if len(inner) <= 2:
+            return pieces(a, b, cuts[1:])
+        out: list[tuple[int, int]] = []
+        for x, y in zip(inner, inner[1:]):
+            out += pieces(x, y, cuts[1:])
+        return out
+
+    every = list(range(len(body) + 1))
+    segs = pieces(0, len(body), [layer_cuts, end_cuts, every])
+    groups: list[tuple[int, int]] = []
+    for a, b in segs:                          # greedy: add whole pieces while the module fits
+        if groups and cost(groups[-1][0], b) <= budget:
+            groups[-1] = (groups[-1][0], b)
+        else:
+            groups.append((a, b))
+    return groups
+
+
+def _layers_of(lines: list[str]) -> str:
+    layers = [int(m.group(1)) for ln in lines if (m := _LAYER.match(ln))]
+    if not layers:
+        return "no layer start"
+    return f"layer {layers[0]}" if layers[0] == layers[-1] else f"layers {layers[0]}-{layers[-1]}"
+
+
+def part_name(program_name: str, k: int) -> str:
+    """Name of part module k (1-based), also its file stem: `<program>_M001`."""
+    return f"{program_name}_M{k:03d}"
+
+
+def _part_module(r: _Rendered, s: RapidSettings, k: int, n: int, rng: tuple[int, int]) -> str:
+    name = part_name(s.program_name, k)
+    lines = r.body[rng[0]:rng[1]]
+    names = set().union(*(_uses(ln) for ln in lines)) if lines else set()
+    out = [f"MODULE {name}",
+           f"  ! part {k} of {n} of RAPID program {s.program_name} ({_layers_of(lines)}), loaded and called by "
+           f"{s.program_name}.mod; data LOCAL (two parts are loaded at a time)",
+           *(f"  LOCAL {decl}" for nm, decl in r.data.items() if nm in names),
+           f"  PROC {name}()", *("    " + x for x in lines), "  ENDPROC", "ENDMODULE"]
+    return "\n".join(out) + "\n"
+
+
+def _main_module(r: _Rendered, s: RapidSettings, n: int) -> str:
+    """The main module: `main()` loads the part modules one after the other from `module_dir`
+    (ABB: StartLoad\\Dynamic starts loading while the program runs on, WaitLoad links the
+    module, a late-bound call %"name"% runs a routine of a module loaded at run time, UnLoad
+    frees its memory), so at most two part modules are in program memory at a time."""
+    name = s.program_name
+    dvar, lvar = f"{name}_dir", f"{name}_load"
+    first, last = part_name(name, 1), part_name(name, n)
+    body = [f"StartLoad \\Dynamic, {dvar} \\File:=\"{first}.mod\", {lvar};", f"WaitLoad {lvar};"]
+    for k in range(1, n + 1):
+        part = part_name(name, k)
+        if k < n:
+            body.append(f"StartLoad \\Dynamic, {dvar} \\File:=\"{part_name(name, k + 1)}.mod\", {lvar}; "
+                        "! the next part loads while this one runs")
+        body += [f"%\"{part}\"%;", f"UnLoad {dvar} \\File:=\"{part}.mod\";"]
+        if k < n:
+            body.append(f"WaitLoad {lvar};")
+    out = [f"MODULE {name}", *("  " + x for x in r.head),
+           f"  ! main module: {n} part modules {first}..{last} (files {first}.mod ... {last}.mod, each at most "
+           f"{s.max_module_bytes} bytes) in {s.module_dir}; keep them beside {name}.mod and load only this module",
+           *("  " + x for x in r.shared),
+           f"  CONST string {dvar} := \"{s.module_dir}\";", f"  VAR loadsession {lvar};",
+           "  PROC main()", *("    " + x for x in r.start + body + r.end), "  ENDPROC", "ENDMODULE"]
     return "\n".join(out) + "\n"
