@@ -26,9 +26,9 @@ _WELD_ITEM = re.compile(r'\w+\[[^\]]*\](?:\*[-+\d.eE]+)?(?:@start)?="([^"]*)"')
 
 
 def weld_command_patterns(text: str) -> list[re.Pattern]:
-    """The weld commands the program's `waamflow-weld:` line declares, as whole-line patterns
+    """The weld commands the program's `waamflow-weld:` lines declare, as whole-line patterns
     (each {…} field a number): lines matching one set a power-source value, no motion."""
-    line = next((ln for ln in text.splitlines() if "waamflow-weld:" in ln), "")
+    line = " ".join(ln for ln in text.splitlines() if "waamflow-weld:" in ln)
     pats = []
     for tpl in _WELD_ITEM.findall(line):
         if "{" in tpl:

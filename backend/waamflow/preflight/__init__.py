@@ -133,7 +133,8 @@ def stamp_acceptance(files: dict[str, bytes], report: dict, who: str = "--accept
     failed), in the file's own comment style (the line before its first `waamflow trace:` line)."""
     names = {n for r in report.get("programs", []) for n in r.get("files", [])}
     fails = [p for p in report.get("problems", []) if p["severity"] == "fail"]
-    text = "; ".join(f"{p['check']}: {p['message']}" for p in fails)[:600]
+    # short: the line must stay under controllers' line limits (LinuxCNC: 255 characters)
+    text = ", ".join(sorted({p["check"] for p in fails})) + " (preflight.json)"
     out = dict(files)
     for name in names:
         if name not in files or name.endswith(".json"):

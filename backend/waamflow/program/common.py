@@ -71,8 +71,9 @@ def process_lines(params: dict, templates: dict[str, str], scale: dict[str, floa
 
 
 # ---- the weld in the program: which command carries which zone parameter ------------------------
-# Every program format writes one header comment `waamflow-weld: ...` listing, for each weld value
-# of a zone (WELD_COMMANDED), the command that carries it, so an independent reader (the preflight,
+# Every program format writes header comments `waamflow-weld: ...`, one line per weld value of a
+# zone (WELD_COMMANDED, so no line nears a controller's limit: LinuxCNC rejects lines of 256
+# characters), each naming the command that carries it, so an independent reader (the preflight,
 # the tests) can read the values back:
 #     name[unit]="<template with {value}>"          the command, value in the unit (× scale)
 #     name[unit]*<scale>="<template>"               the command carries value × scale
@@ -86,29 +87,29 @@ _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+))"
 
 
 def weld_tag(templates: dict[str, str], start: dict[str, str] | None = None,
-             scale: dict[str, float] | None = None) -> str:
-    """The `waamflow-weld:` header text (without comment marks) for these templates (see above)."""
-    parts = []
+             scale: dict[str, float] | None = None) -> list[str]:
+    """The `waamflow-weld:` header lines (without comment marks) for these templates (see above),
+    one per weld value."""
+    lines = []
     for name in WELD_COMMANDED:
         unit = PARAMETERS_BY_NAME[name].unit
         k = (scale or {}).get(name)
         head = f"{name}[{unit}]" + (f"*{k:g}" if k is not None and float(k) != 1.0 else "")
         tpl = templates.get(name) or ""
-        parts.append(f'{head}="{tpl}"' if tpl else f"{head}=none")
+        parts = [f'{head}="{tpl}"' if tpl else f"{head}=none"]
         st = (start or {}).get(name) or ""
         if tpl and st and st != tpl:
             parts.append(f'{head}@start="{st}"')
-    return WELD_TAG + " " + " ".join(parts)
+        lines.append(WELD_TAG + " " + " ".join(parts))
+    return lines
 
 
 def parse_weld_tag(text: str) -> dict[str, dict]:
     """name → {"unit", "scale", "commands": [templates or data fields]} from a program's
-    `waamflow-weld:` line; names the dialect cannot command map to commands []. {} when absent."""
-    line = next((ln for ln in text.splitlines() if WELD_TAG in ln), None)
-    if line is None:
-        return {}
+    `waamflow-weld:` lines; names the dialect cannot command map to commands []. {} when absent."""
+    tagged = [ln.split(WELD_TAG, 1)[1] for ln in text.splitlines() if WELD_TAG in ln]
     out: dict[str, dict] = {}
-    for name, unit, k, _start, tpl in _TAG_ITEM.findall(line.split(WELD_TAG, 1)[1]):
+    for name, unit, k, _start, tpl in (item for ln in tagged for item in _TAG_ITEM.findall(ln)):
         e = out.setdefault(name, {"unit": unit, "scale": float(k) if k else 1.0, "commands": []})
         if tpl:
             e["commands"].append(tpl)

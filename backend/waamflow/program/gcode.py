@@ -241,7 +241,7 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
           f"estimated time {st['estimated_time_s']:.1f} s"),
         c(_travel_note(settings)),
         c(header_tag(settings)),
-        c(weld_tag(settings.process_codes, settings.start_codes, settings.process_scale)),
+        *(c(t) for t in weld_tag(settings.process_codes, settings.start_codes, settings.process_scale)),
         f"G21 {c('millimetres')}",
         f"G90 {c('absolute coordinates')}",
     ]

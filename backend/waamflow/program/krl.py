@@ -67,7 +67,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
-from .common import check_identifier, check_templates, num, process_lines, process_summary, short, weld_tag
+from .common import (WELD_TAG, check_identifier, check_templates, num, process_lines, process_summary, short,
+                     weld_tag)
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
@@ -427,8 +428,8 @@ def _header(plan: Plan, s: KrlSettings) -> list[str]:
         f";- units: mm, degrees, $VEL.CP in m/s; tool {s.tool}, base {s.base}, "
         f"tool direction {s.tool_direction.upper()}, blend $APO.CDIS {short(s.blend_distance)} mm",
         f";- arc control: {arc}",
-        ";- " + (weld_tag(s.process_codes) if s.arc_control == "output" else
-                 weld_tag({n: f"stArcDat_T.Weld.Channel{ch}" for n, ch in s.arctech_channels.items()})),
+        *(";- " + t for t in (weld_tag(s.process_codes) if s.arc_control == "output" else
+                              weld_tag({n: f"stArcDat_T.Weld.Channel{ch}" for n, ch in s.arctech_channels.items()}))),
     ]
 
 
@@ -491,7 +492,7 @@ def write_krl(plan: Plan, settings: KrlSettings = KrlSettings()) -> dict[str, st
     for ch in chunks:
         body, used, decls = render(ch)
         files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src",
-                                                   header[-1]], body)
+                                                   *(h for h in header if WELD_TAG in h)], body)
         files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals, decls)
         calls.append(f"{ch.name}( )")
     off = [f"$OUT[{s.arc_output}]=FALSE ; arc off (safety)"] if s.arc_control == "output" else []

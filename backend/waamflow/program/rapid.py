@@ -307,7 +307,7 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
         f"! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
         "! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
         "arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A, voltage2, wirefeed2, control2]",
-        "! " + weld_tag(RAPID_WELD_FIELDS),
+        *("! " + t for t in weld_tag(RAPID_WELD_FIELDS)),
     ]
     if ext is not None:
         head.append(f"! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
