@@ -5,7 +5,7 @@ import pytest
 
 from waamflow.core.model import SectionPath
 from waamflow.zoning import ZoneSpec, apply_zone_params, zone_color, zone_lengths, zone_path
-from waamflow.zoning.zones import project_onto_path
+from waamflow.zoning.zones import project_onto_path, with_weld_defaults
 
 
 def path(points, z=1.5, speed=5.0, arc=None, key="bs1/A"):
@@ -117,3 +117,16 @@ def test_split_point_on_a_square_weave_stroke_lying_on_its_station():
     zp = zone_path(path(pts), ZoneSpec(split_points=((5, 4),)))
     z = np.array(zp.zone)
     assert zp.points[int(np.flatnonzero(z == "z2")[0])].tolist() == pytest.approx([5.0, 4.0, 1.5])
+
+
+def test_weld_defaults_fill_only_welded_zones_that_lack_them():
+    pts = np.array([[0.0, 0, 1], [10, 0, 1], [20, 0, 1], [30, 0, 1]])
+    sp = SectionPath("s", "parallel", pts, arc=np.array([True, True, False]), inside=np.ones(3, bool),
+                     speed=np.full(3, 8.0), zone=("start", "z1", "link"),
+                     zone_params={"start": {"wire_feed_speed": 3.0}})
+    out = with_weld_defaults(sp, {"wire_feed_speed": 8.1, "current": 120})
+    assert out.zone_params == {"start": {"wire_feed_speed": 3.0, "current": 120.0},
+                               "z1": {"wire_feed_speed": 8.1, "current": 120.0}}
+    assert sp.zone_params == {"start": {"wire_feed_speed": 3.0}}          # the input is not changed
+    off = SectionPath("t", "parallel", pts, arc=np.zeros(3, bool), inside=np.ones(3, bool), speed=np.full(3, 8.0))
+    assert with_weld_defaults(off, {"wire_feed_speed": 8.1}) is off

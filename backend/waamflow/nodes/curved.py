@@ -250,15 +250,10 @@ def _with_wire_feed(lp, wfs: float):
     """The layer's paths with `wire_feed_speed` = wfs (m/min) in every welded zone lacking one."""
     from dataclasses import replace
 
-    sections = []
-    for sp in lp.sections:
-        arc = np.asarray(sp.arc, bool)
-        zones = {sp.zone[i] if i < len(sp.zone) else "" for i in np.flatnonzero(arc)}
-        params = {z: dict(v) for z, v in sp.zone_params.items()}
-        for z in zones:
-            params.setdefault(z, {}).setdefault("wire_feed_speed", round(wfs, 4))
-        sections.append(replace(sp, zone_params=params) if zones else sp)
-    return replace(lp, sections=tuple(sections))
+    from ..zoning.zones import with_weld_defaults
+
+    return replace(lp, sections=tuple(with_weld_defaults(sp, {"wire_feed_speed": round(wfs, 4)})
+                                      for sp in lp.sections))
 
 
 @register

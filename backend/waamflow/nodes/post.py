@@ -314,22 +314,14 @@ def _with_weld_values(toolpath, values: dict[str, float]):
     from dataclasses import replace as _replace
 
     from ..core.model import Layered
+    from ..zoning.zones import with_weld_defaults
 
     layers = []
     for lp in toolpath.items:
         if lp is None:
             layers.append(lp)
             continue
-        sections = []
-        for sp in lp.sections:
-            arc = np.asarray(sp.arc, bool)
-            zones = {sp.zone[i] if i < len(sp.zone) else "" for i in np.flatnonzero(arc)}
-            params = {z: dict(v) for z, v in sp.zone_params.items()}
-            for z in zones:
-                for k, x in values.items():
-                    params.setdefault(z, {}).setdefault(k, float(x))
-            sections.append(_replace(sp, zone_params=params) if zones else sp)
-        layers.append(_replace(lp, sections=tuple(sections)))
+        layers.append(_replace(lp, sections=tuple(with_weld_defaults(sp, values) for sp in lp.sections)))
     return Layered(tuple(layers))
 
 

@@ -252,3 +252,18 @@ def apply_zone_params(path: SectionPath, params: dict[str, dict[str, float]]) ->
             sel = np.fromiter((zz == z for zz in path.zone), bool, len(path.zone)) & arc
             speed[sel] = ts
     return dataclasses.replace(path, zone_params=zp, speed=speed)
+
+
+def with_weld_defaults(path: SectionPath, values: dict[str, float]) -> SectionPath:
+    """The path with `values` (zone parameter → value) in every welded zone that does not state
+    them: the process a recipe or a model holds at, never over what a zone says. A path without an
+    arc-ON segment is returned as it is."""
+    arc = np.asarray(path.arc, bool)
+    zones = {path.zone[i] if i < len(path.zone) else "" for i in np.flatnonzero(arc)}
+    if not zones:
+        return path
+    params = {z: dict(v) for z, v in path.zone_params.items()}
+    for z in zones:
+        for name, value in values.items():
+            params.setdefault(z, {}).setdefault(name, float(value))
+    return dataclasses.replace(path, zone_params=params)
