@@ -110,7 +110,8 @@ def cmd_run(args) -> int:
     if failed is not None and not args.accept_preflight:
         where = ", ".join(x for x in (f"layer {failed['layer']}" if failed.get("layer") is not None else "",
                                       f"section '{failed['section']}'" if failed.get("section") else "") if x)
-        print(f"error: node '{failed['node']}'{', ' + where if where else ''}: preflight failed ({failed['check']}): "
+        who = f"node '{failed['node']}'" if failed.get("node") else "preflight"
+        print(f"error: {who}{', ' + where if where else ''}: preflight failed ({failed['check']}): "
               f"{failed['message']}. The program was not written ({out}/preflight.json says why); fix the plan, "
               "or re-run with --accept-preflight to write it anyway (recorded in its header)", file=sys.stderr)
         return 4

@@ -325,8 +325,8 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
             if v:
                 state["vel"] = float(v.group(1)) * 1000.0
                 continue
-            a = re.match(r"\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
-            if a and a.group(1) in anout:
+            a = re.match(r"(?:TRIGGER\s+WHEN\s+DISTANCE\s*=\s*0\b.*\bDO\s+)?\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
+            if a and a.group(1) in anout:   # a statement, or path-triggered at the next motion's start
                 state["values"][anout[a.group(1)]] = float(a.group(2))
                 continue
             trig = re.match(r"TRIGGER\s+WHEN\s+DISTANCE\s*=\s*([01])\b.*\bDO\s+\$OUT\[(\d+)\]\s*=\s*(TRUE|FALSE)", up)
@@ -465,6 +465,7 @@ def read_cl_csv(text: str) -> ProgramRead:
     col = {h.strip(): i for i, h in enumerate(head)}
     b = _RunBuilder("csv")
     wfs_col = next((c for c in ("wire_feed_speed_m_min", "wire_feed_speed", "wfs_m_min") if c in col), None)
+    weld_cols = [c for c in (wfs_col, "current_a", "voltage_v", "job") if c and c in col]
     if wfs_col is None:
         b.out.weld_commanded = False
         b.out.notes.append("the CL file has no wire feed column")
@@ -480,8 +481,9 @@ def read_cl_csv(text: str) -> ProgramRead:
         if not arc and arc_prev:
             b.close()
         sp = f[col["speed_mm_s"]].strip()
-        w = f[wfs_col].strip() if wfs_col else ""
-        b.move(p[None], float(sp) if sp else math.nan, float(w) if w else math.nan, bool(w))
+        w = f[col[wfs_col]].strip() if wfs_col else ""
+        b.move(p[None], float(sp) if sp else math.nan, float(w) if w else math.nan,
+               any(f[col[c]].strip() for c in weld_cols))
         arc_prev = arc
     b.close()
     return b.out
@@ -498,17 +500,15 @@ def read_printpoints(text: str) -> ProgramRead:
         p = np.asarray(e["point"], float)
         b.layer = e.get("layer", b.layer)
         b.section = e.get("section", b.section)
-        toggle = bool(e.get("extruder_toggle"))
+        toggle = bool(e.get("extruder_toggle"))      # the arc is on during the motion *to* this point
         if toggle and not on:
-            b.move(p[None], math.nan, math.nan, False)
             b.arc_on(i)
             on = True
-            continue
-        w = e.get("wire_feed_speed")
-        b.move(p[None], float(e.get("velocity") or math.nan), float(w) if w is not None else math.nan, w is not None)
-        if not toggle and on:
+        elif not toggle and on:
             b.close()
             on = False
+        w = e.get("wire_feed_speed")
+        b.move(p[None], float(e.get("velocity") or math.nan), float(w) if w is not None else math.nan, w is not None)
     b.close()
     return b.out
 
