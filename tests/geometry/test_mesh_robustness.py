@@ -46,18 +46,23 @@ def test_seam_gap_stl_welds_by_default_and_is_reported(tmp_path):
     assert any("welded 2 vertices" in w["message"] and "weld_tolerance" in w["message"] for w in out.warnings)
 
 
-def test_open_mesh_error_suggests_weld_tolerance(tmp_path):
-    data, _ = _seam_gap_stl(0.05)                                        # a real 0.05 mm gap
+def test_open_mesh_error_suggests_crack_tolerance(tmp_path):
+    # #24: a real 0.05 mm seam gap in a closed cylinder is a crack, closed by the default
+    # crack_tolerance (0.1 mm): a solid (it used to be read as an open surface in 'auto')
+    data, cyl = _seam_gap_stl(0.05)
     (tmp_path / "seam.stl").write_bytes(data)
-    with pytest.raises(InputFileError, match=r"open edges.*'weld_tolerance'") as err:
-        _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "as": "solid"}})
-    assert err.value.node == "m"
-    auto = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl"}})    # auto: read as a surface
-    assert auto.outputs["m"]["mesh"].surface
-    assert any("weld_tolerance" in w["message"] and "surface" in w["message"] for w in auto.warnings)
-    out = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "weld_tolerance": 0.1}})
+    out = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl"}})
     mesh = out.outputs["m"]["mesh"]
-    assert edge_report(mesh.faces, len(mesh.vertices)).closed
+    assert not mesh.surface and edge_report(mesh.faces, len(mesh.vertices)).closed
+    assert len(mesh.vertices) == len(cyl.vertices)
+    assert out.stats["m"].report["vertices_merged"] == 2
+    # without crack closing, 'solid' refuses it with the open-edge count and the parameter to raise
+    with pytest.raises(InputFileError, match=r"6 open edges.*'crack_tolerance'") as err:
+        _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "as": "solid", "crack_tolerance": 0}})
+    assert err.value.node == "m"
+    auto = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "crack_tolerance": 0}})
+    assert auto.outputs["m"]["mesh"].surface                                 # open, said so
+    assert any("crack_tolerance" in w["message"] and "surface" in w["message"] for w in auto.warnings)
 
 
 def test_binary_stl_named_obj_is_read_by_content(tmp_path):

@@ -24,6 +24,13 @@ class Tolerances:
     min_segment: float = 1e-3
     # Planes exactly through vertices are nudged by this (mm) so sections are manifold loops.
     plane_nudge: float = 1e-6
+    # Mesh input: vertices on open edges closer than `weld` (mm) are one vertex (exporters that
+    # round each triangle's corners differently leave cracks of ~1e-5 relative).
+    weld: float = 1e-3
+    # Mesh input: cracks up to `crack` (mm) between a solid's faces are closed by merging the
+    # vertices on open edges, accepted only when that leaves no open edge at all. 0.1 mm is a
+    # twentieth of a WAAM layer (1.5-3 mm) and of a bead (3-10 mm wide): no deposit can tell.
+    crack: float = 0.1
 
 
 TOL = Tolerances()

@@ -25,7 +25,8 @@ import numpy as np
 
 from ..core.errors import InputFileError
 from ..core.model import MeshData
-from .topology import check_closed, drop_degenerate, edge_report, merge_vertices, signed_volume
+from .topology import (EdgeReport, check_closed, drop_degenerate, edge_report, edge_twins, edge_uses, face_components,
+                       face_volumes, merge_vertices, signed_volume, split_nonmanifold)
 from .transform import Transform, unit_scale
 from .units import threemf_units
 
@@ -177,6 +178,55 @@ def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[n
     return verts[keep], faces, int(len(verts) - len(keep))
 
 
+def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Repair what can be repaired without changing the shape; returns (vertices, faces, counts).
+
+    In order: (1) cracks: vertices on open edges within `crack_tolerance` (vertex units) are
+    merged (`weld_open_edges`), kept only when that leaves no open edge (a real hole or an open
+    surface is left as it is); (2) bodies touching along non-manifold edges (two solids sharing
+    an edge) get their own vertices (`split_nonmanifold`), kept only when every body is then
+    closed; (3) winding: faces are re-wound consistently with their neighbours
+    (`trimesh.repair.fix_winding`: a BFS over the face adjacency, well kept and already a
+    dependency, networkx included), then every closed body whose volume is negative is turned
+    inside out so normals point outwards. Counts: vertices_merged, nonmanifold_edges_split,
+    faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport).
+    """
+    out = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
+    rep = edge_report(faces, len(verts))
+    if rep.open and crack_tolerance > 0:
+        v2, f2, merged = weld_open_edges(verts, faces, crack_tolerance)
+        r2 = edge_report(f2, len(v2))
+        if len(f2) and r2.open == 0:
+            verts, faces, rep, out["vertices_merged"] = v2, f2, r2, merged
+    if rep.nonmanifold and rep.open == 0:
+        f2, src, _ = split_nonmanifold(faces, len(verts))
+        r2 = edge_report(f2, len(src))
+        if r2.open == 0 and r2.nonmanifold == 0:
+            out["nonmanifold_edges_split"] = rep.nonmanifold
+            verts, faces, rep = verts[src], f2, r2
+    before = np.asarray(faces, dtype=np.int64).copy()
+    if rep.misoriented and rep.nonmanifold == 0:
+        import trimesh
+
+        tm = trimesh.Trimesh(vertices=np.asarray(verts, dtype=np.float64), faces=before, process=False)
+        trimesh.repair.fix_winding(tm)
+        faces = np.asarray(tm.faces, dtype=np.int64)
+        rep = edge_report(faces, len(verts))
+    if rep.closed:
+        twin = edge_twins(faces, len(verts))
+        n, label = face_components(twin, len(faces))
+        vol = np.bincount(label, weights=face_volumes(verts, faces), minlength=n)
+        inside_out = vol[label] < 0
+        if inside_out.any():
+            faces = np.where(inside_out[:, None], faces[:, ::-1], faces)
+    same = np.zeros(len(faces), dtype=bool)
+    for k in range(3):
+        same |= (faces == np.roll(before, k, axis=1)).all(axis=1)
+    out["faces_rewound"] = int(np.count_nonzero(~same))
+    out["edges"] = rep
+    return verts, faces, out
+
+
 def mesh_from_triangles(
     triangles: np.ndarray,
     *,
@@ -187,6 +237,7 @@ def mesh_from_triangles(
     source: str | None = None,
     weld_tolerance: float = 0.0,
     stats: dict | None = None,
+    crack_tolerance: float | None = None,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
@@ -196,7 +247,9 @@ def mesh_from_triangles(
     (`weld_open_edges`), closing cracks and seam gaps left by exporters that write each
     triangle's corners with slightly different rounding; a closed mesh is left untouched.
     stats (optional dict) receives "welded": the number of vertices merged that way, and
-    "edges": the final `EdgeReport`. Faces that
+    "edges": the final `EdgeReport`. crack_tolerance (mm): None = no repair (a mesh is used as
+    welded); a number = `repair_mesh` with cracks up to it closed, its counts and "volume_mm3"
+    (after placement) added to stats. Faces that
     collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
     normals point outwards. source: how error messages name the input (default: name).
     """
@@ -217,15 +270,25 @@ def mesh_from_triangles(
         if len(faces) == 0:
             raise InputFileError(f"{label}: mesh is empty after welding within {weld_tolerance:g} mm")
         rep = edge_report(faces, len(verts))
+    fixes: dict = {}
+    if crack_tolerance is not None:
+        verts, faces, fixes = repair_mesh(verts, faces, crack_tolerance=crack_tolerance / unit_scale(units))
+        rep = fixes["edges"]
     if stats is not None:
         stats["welded"] = welded
+        stats.update(fixes)
         if rep is not None:
             stats["edges"] = rep
     if require_closed and not rep.closed:
         check_closed(faces, len(verts), name=label)             # raises, saying what is open
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
-    if signed_volume(verts, faces) < 0:
-        faces = faces[:, ::-1]
+    volume = signed_volume(verts, faces)
+    if volume < 0 and crack_tolerance is None:
+        faces, volume = faces[:, ::-1], -volume
+    if stats is not None:
+        stats["volume_mm3"] = volume
+        if rep is not None and not rep.closed:
+            stats["defect_at"] = first_defect(verts, faces)
     return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name)
 
 
@@ -246,6 +309,7 @@ def load_mesh_bytes(
     weld_tolerance: float = 0.0,
     stats: dict | None = None,
     require_closed: bool = True,
+    crack_tolerance: float | None = None,
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
 
@@ -258,4 +322,44 @@ def load_mesh_bytes(
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
     return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
                                source=filename, weld_tolerance=weld_tolerance, stats=stats,
-                               require_closed=require_closed)
+                               require_closed=require_closed, crack_tolerance=crack_tolerance)
+
+
+def classify_mesh(stats: dict, as_: str, label: str) -> str:
+    """'solid' or 'surface' for a repaired mesh (stats from `mesh_from_triangles` with repair),
+    by what it measures: closed (no open, non-manifold or misoriented edge) with a positive
+    volume → solid; no non-manifold and no misoriented edge but open edges → a single-wall
+    surface; anything else is neither and is refused with its counts and where the first
+    defective edge is. as_ 'solid' / 'surface' force the reading ('solid' refuses an open mesh)."""
+    rep: EdgeReport = stats["edges"]
+    volume = float(stats.get("volume_mm3", 0.0))
+    solid = rep.closed and volume > 0
+    surface = rep.open > 0 and rep.nonmanifold == 0 and rep.misoriented == 0
+    if as_ == "surface":
+        return "surface"
+    if solid:
+        return "solid"
+    if as_ == "auto" and surface:
+        return "surface"
+    where = f" (first at {stats['defect_at']})" if stats.get("defect_at") else ""
+    what = ("neither a closed solid nor a single-wall surface" if as_ == "auto" else "not a closed solid")
+    raise InputFileError(
+        f"{label}: the mesh is {what} after repair: {rep.open} open edges, {rep.nonmanifold} non-manifold edges, "
+        f"{rep.misoriented} inconsistently wound edges (of {rep.edges}), volume {volume:.6g} mm³{where}; "
+        "non-manifold edges are faces joined to a body by one edge (fins, internal walls) or bodies sharing "
+        "faces — repair the model in CAD or a mesh tool (remove the extra faces, close holes), or raise "
+        "'crack_tolerance' if these are gaps between faces that should touch"
+    )
+
+
+def first_defect(verts: np.ndarray, faces: np.ndarray) -> str | None:
+    """Where the first non-manifold (else open) edge of a mesh is: its midpoint, as text (mm)."""
+    if len(faces) == 0:
+        return None
+    edges, counts, _ = edge_uses(faces, len(verts))
+    for bad, kind in ((counts > 2, "non-manifold edge"), (counts == 1, "open edge")):
+        if bad.any():
+            a, b = edges[np.flatnonzero(bad)[0]]
+            p = (np.asarray(verts[a], float) + np.asarray(verts[b], float)) / 2
+            return f"{kind} at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm"
+    return None

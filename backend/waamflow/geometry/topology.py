@@ -223,3 +223,39 @@ def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     vertex to keep precision on parts far from the origin.
     """
     return float(face_volumes(vertices, faces).sum())
+
+
+def edge_uses(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Undirected edges with their use counts: (edges (k, 2) int64 vertex ids, counts (k,),
+    edge id per directed edge 3·face + i (3m,))."""
+    a, b, order, k = _edge_sort(faces, n_vertices)
+    new = np.concatenate([[True], k[1:] != k[:-1]])
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, len(k)))
+    eid = np.empty(len(k), dtype=np.int64)
+    eid[order] = np.cumsum(new) - 1
+    first = order[starts]
+    edges = np.stack([np.minimum(a[first], b[first]), np.maximum(a[first], b[first])], axis=1)
+    return edges, counts, eid
+
+
+def split_nonmanifold(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Separate bodies that touch along non-manifold edges (two solids sharing an edge).
+
+    Faces are grouped by connectivity across manifold edges only (edges used by exactly two
+    faces); each group gets its own copies of its vertices. Returns (faces (m, 3) into the new
+    vertex list, source vertex id per new vertex, number of groups)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = len(faces)
+    _, counts, eid = edge_uses(faces, n_vertices)
+    manifold = counts[eid] == 2
+    d = np.flatnonzero(manifold)
+    order = np.argsort(eid[d], kind="stable")
+    pairs = (d[order] // 3).reshape(-1, 2)
+    graph = csr_matrix((np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    n, label = connected_components(graph, directed=False)
+    key = label[:, None].astype(np.int64) * n_vertices + np.asarray(faces, dtype=np.int64)
+    uniq, inverse = np.unique(key.reshape(-1), return_inverse=True)
+    return inverse.reshape(-1, 3), uniq % n_vertices, int(n)

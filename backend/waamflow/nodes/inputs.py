@@ -15,7 +15,8 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
-from ..geometry.mesh_io import mesh_file_units
+from ..core.tolerances import TOL
+from ..geometry.mesh_io import classify_mesh, mesh_file_units
 from ..geometry.topology import edge_report
 from ..geometry.step_io import is_cad_file, load_cad_bytes
 from ..geometry.units import implausible_size, placement_offset
@@ -39,6 +40,39 @@ def _report_part(ctx, label: str, lo, hi, units: str, shift) -> None:
     if shift is not None and np.any(shift):
         ctx.warn(f"{label}: placed by translate ({shift[0]:.3f}, {shift[1]:.3f}, {shift[2]:.3f}) mm")
 
+
+def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
+    """Node report and warnings of a mesh file's repair and of how it is read (solid / surface)."""
+    rep = st["edges"]
+    solid = rep.closed and st["volume_mm3"] > 0
+    read_as = "solid" if params.as_ == "solid" or (params.as_ == "auto" and solid) else "surface"
+    ctx.report({"read_as": read_as, "volume_mm3": round(float(st["volume_mm3"]), 3),
+                "open_edges": rep.open, "nonmanifold_edges": rep.nonmanifold, "misoriented_edges": rep.misoriented,
+                "vertices_welded": st.get("welded", 0), "vertices_merged": st["vertices_merged"],
+                "nonmanifold_edges_split": st["nonmanifold_edges_split"], "faces_rewound": st["faces_rewound"]})
+    if st.get("welded"):
+        ctx.warn(f"{params.path}: welded {st['welded']} vertices on open edges within weld_tolerance "
+                 f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
+    fixes = []
+    if st["vertices_merged"]:
+        fixes.append(f"closed cracks up to crack_tolerance {params.crack_tolerance:g} mm by merging "
+                     f"{st['vertices_merged']} vertices")
+    if st["nonmanifold_edges_split"]:
+        fixes.append(f"separated bodies sharing {st['nonmanifold_edges_split']} non-manifold edge(s)")
+    if st["faces_rewound"]:
+        fixes.append(f"re-wound {st['faces_rewound']} faces (consistent winding, normals outwards)")
+    if fixes and solid:
+        ctx.warn(f"{params.path}: repaired: {'; '.join(fixes)}; now a closed solid of "
+                 f"{st['volume_mm3']:.6g} mm³")
+    elif fixes:
+        ctx.warn(f"{params.path}: repaired: {'; '.join(fixes)}")
+    if params.as_ == "auto" and not solid and rep.open and not rep.nonmanifold and not rep.misoriented:
+        ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges, "
+                 f"after repair): read as a single-wall surface, sliced into per-layer curves; if it is a solid "
+                 f"with gaps wider than crack_tolerance {params.crack_tolerance:g} mm raise it, or set 'as': "
+                 "'solid' to see the error")
+
+
 Vec3 = tuple[float, float, float]
 
 
@@ -56,13 +90,19 @@ class MeshNode(Node):
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
     Corners that are bit-identical in the file are welded; where open edges remain, vertices on
-    them closer than `weld_tolerance` (default 1 µm) are merged too, reported as a warning. The mesh must be closed (watertight,
-    consistently wound): otherwise the run stops with exit 2 saying how many edges are open,
-    non-manifold or misoriented. Files over `max_file_mb` or with more than `max_triangles`
-    triangles are refused.
+    them closer than `weld_tolerance` (default 1 µm) are merged too, reported as a warning.
+    Mesh files are then repaired where that cannot change the shape (`geometry.mesh_io.repair_mesh`):
+    cracks up to `crack_tolerance` (default 0.1 mm) closed when that closes the mesh, bodies
+    sharing an edge separated, faces re-wound consistently and outwards; every repair is
+    counted in the node report and warned. The repaired mesh is classified by what it measures:
+    closed with a positive volume → solid; open without non-manifold or misoriented edges → a
+    single-wall surface (`as: auto`, warned); anything else stops the run (exit 2) with the edge
+    counts and where the first defect is. `as: solid` refuses an open mesh the same way. Files
+    over `max_file_mb` or with more than `max_triangles` triangles are refused.
     """
 
     type = "mesh"
+    version = "2"  # 2: repair (cracks, shared edges, winding) and classification by measurement
     title = "Mesh"
     category = "inputs"
     outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface"),)
@@ -87,6 +127,11 @@ class MeshNode(Node):
                                       description="Merge vertices on open edges closer than this (exporter cracks, "
                                                   "seam gaps; reported). 0: bit-identical corners only",
                                       json_schema_extra=unit("mm"))
+        crack_tolerance: float = Field(TOL.crack, ge=0, le=1.0,
+                                       description="Mesh files: close cracks up to this size between faces of a solid "
+                                                   "(merging vertices on open edges; kept only when that closes the "
+                                                   "mesh, reported). 0: no crack closing",
+                                       json_schema_extra=unit("mm"))
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
@@ -109,24 +154,16 @@ class MeshNode(Node):
             mesh = load_mesh_bytes(
                 data,
                 params.path,
-                require_closed=params.as_ == "solid",
+                require_closed=False,
                 units=units,
                 transform=transform,
                 limits=MeshLimits(max_bytes=int(params.max_file_mb * 2**20), max_triangles=params.max_triangles),
                 weld_tolerance=params.weld_tolerance,
                 stats=weld,
+                crack_tolerance=params.crack_tolerance,
             )
-            if weld.get("welded"):
-                ctx.warn(f"{params.path}: welded {weld['welded']} vertices on open edges within weld_tolerance "
-                         f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
-        if params.as_ != "solid" and not is_cad_file(params.path):
-            rep = weld.get("edges") or edge_report(mesh.faces, len(mesh.vertices))
-            surface = params.as_ == "surface" or not rep.closed
-            if surface and params.as_ == "auto":
-                ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges): "
-                         "read as a single-wall surface, sliced into per-layer curves; if it is a solid with "
-                         "cracks raise 'weld_tolerance' or set 'as': 'solid' to see the error")
-            if surface:
+            _report_mesh(ctx, params, mesh, weld)
+            if classify_mesh(weld, params.as_, params.path) == "surface":
                 mesh = MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         shift = placement_offset(lo, hi, params.placement)

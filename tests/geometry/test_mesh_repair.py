@@ -1,0 +1,97 @@
+"""#24 fault 1: defective solids (flipped triangles, cracks, shared edges) are repaired and read as
+solids in `as: auto`; honest open surfaces stay surfaces; a mesh that is neither is refused at
+the mesh node with its counts. Meshes generated here."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from waamflow.core.errors import InputFileError
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import parse_recipe
+from waamflow.geometry.topology import edge_report, signed_volume
+
+
+def _soup_stl(tri: np.ndarray) -> bytes:
+    tri = np.asarray(tri, dtype=float)
+    soup = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3), process=False)
+    return trimesh.exchange.stl.export_stl(soup)
+
+
+def _run(tmp_path, name, data, mesh_params=None, slice_=False):
+    (tmp_path / name).write_bytes(data)
+    nodes = [{"id": "m", "type": "mesh", "params": {"path": name, "placement": "on_plate", **(mesh_params or {})}}]
+    edges = []
+    if slice_:
+        nodes.append({"id": "layers", "type": "slice", "params": {"layer_height": 1.5}})
+        edges.append({"from": "m.mesh", "to": "layers.mesh"})
+    recipe = {"format": "waamflow/1", "name": "t", "nodes": nodes, "edges": edges}
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+
+
+def _box_tri(extents=(60, 40, 30), shift=(0, 0, 0)):
+    box = trimesh.creation.box(extents=extents)
+    return np.asarray(box.triangles) + np.asarray(shift, float)
+
+
+def test_box_with_half_its_triangles_flipped_is_a_solid(tmp_path):
+    tri = _box_tri()
+    tri[::2] = tri[::2, ::-1]                                    # every other triangle wound the wrong way
+    res = _run(tmp_path, "flipped.stl", _soup_stl(tri), slice_=True)
+    mesh = res.outputs["m"]["mesh"]
+    assert not mesh.surface
+    assert edge_report(mesh.faces, len(mesh.vertices)).closed
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(72_000, rel=1e-3)
+    layers = res.outputs["layers"]["layers"]
+    assert len(layers) == 20
+    assert [lay.region.area for lay in layers] == pytest.approx([2400.0] * 20, rel=1e-3)
+    msgs = " | ".join(w["message"] for w in res.warnings)
+    assert "re-wound 6 faces" in msgs and "solid" in msgs
+    rep = res.stats["m"].report
+    assert rep["faces_rewound"] == 6 and rep["read_as"] == "solid"
+    assert rep["volume_mm3"] == pytest.approx(72_000, rel=1e-3)
+
+
+def test_box_with_a_0_05_mm_crack_is_a_solid(tmp_path):
+    tri = _box_tri()
+    top = np.all(np.abs(tri[:, :, 2] - 15) < 1e-9, axis=1)      # the two top triangles float 0.05 mm up
+    tri[top, :, 2] += 0.05
+    res = _run(tmp_path, "crack.stl", _soup_stl(tri), slice_=True)
+    mesh = res.outputs["m"]["mesh"]
+    assert not mesh.surface and edge_report(mesh.faces, len(mesh.vertices)).closed
+    assert mesh.bounds[1] - mesh.bounds[0] == pytest.approx([60, 40, 30], abs=0.051)
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(72_000, rel=2e-3)
+    assert res.stats["m"].report["vertices_merged"] == 4
+    assert any("closed cracks" in w["message"] and "4 vertices" in w["message"] for w in res.warnings)
+    assert len(res.outputs["layers"]["layers"]) == 20
+
+
+def test_two_boxes_sharing_an_edge_are_two_solid_bodies(tmp_path):
+    tri = np.concatenate([_box_tri((20, 20, 20)), _box_tri((20, 20, 20), shift=(20, 20, 0))])
+    res = _run(tmp_path, "pair.stl", _soup_stl(tri), slice_=True)
+    mesh = res.outputs["m"]["mesh"]
+    assert not mesh.surface and edge_report(mesh.faces, len(mesh.vertices)).closed
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(16_000, rel=1e-6)
+    assert res.stats["m"].report["nonmanifold_edges_split"] == 1
+    layers = res.outputs["layers"]["layers"]
+    assert [lay.region.area for lay in layers] == pytest.approx([800.0] * len(layers), rel=1e-3)
+
+
+def test_cylinder_without_caps_stays_a_surface(tmp_path):
+    cyl = trimesh.creation.cylinder(radius=30, height=40, sections=48)
+    side = np.abs(cyl.face_normals[:, 2]) < 0.5
+    res = _run(tmp_path, "tube.stl", _soup_stl(np.asarray(cyl.triangles)[side]))
+    assert res.outputs["m"]["mesh"].surface
+    assert res.stats["m"].report["read_as"] == "surface" and res.stats["m"].report["open_edges"] == 96
+    assert any("96 open" in w["message"] and "surface" in w["message"] for w in res.warnings)
+
+
+def test_box_with_a_fin_is_neither_and_is_refused_with_counts(tmp_path):
+    tri = _box_tri()
+    fin = np.array([[[30, 20, 15], [30, -20, 15], [45, 0, 15]]], float)   # a sheet on the top's edge
+    fin2 = np.array([[[30, 20, 15], [30, 20, -15], [45, 25, 0]]], float)  # and one on a side edge
+    with pytest.raises(InputFileError, match=r"fin\.stl.*neither a closed solid nor a single-wall surface.*"
+                                             r"2 non-manifold edges") as err:
+        _run(tmp_path, "fin.stl", _soup_stl(np.concatenate([tri, fin, fin2])))
+    assert err.value.node == "m"
