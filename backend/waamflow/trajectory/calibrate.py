@@ -29,7 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ..core.errors import InputFileError
-from ..core.moves import Moves
+from ..core.moves import DEPOSIT, Moves
 from . import study
 from .profile import RobotProfile
 from .simulate import SimOptions, SimulationResult, simulate
@@ -40,15 +40,18 @@ from .simulate import SimOptions, SimulationResult, simulate
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class MeasuredTrace:
-    """t: (k,) s increasing. xyz: (k, 3) mm. arc: (k,) bool or None when not measured."""
+    """t: (k,) s increasing. xyz: (k, 3) mm. arc: (k,) bool or None when not measured.
+    speed: (k,) mm/s path speed at each sample, or None when the trace has no speed column."""
 
     t: np.ndarray
     xyz: np.ndarray
     arc: np.ndarray | None
+    speed: np.ndarray | None = None
 
 
 def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
-    """Parse a measured trace CSV: header with t, x, y, z and optionally arc (0/1/true/false).
+    """Parse a measured trace CSV: header with t, x, y, z and optionally arc (0/1/true/false)
+    and speed (mm/s).
 
     Bad rows raise InputFileError naming the row (1-based line number of the file).
     """
@@ -63,7 +66,8 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
         raise InputFileError(f"{source}: header must name columns t,x,y,z[,arc]; missing {missing}")
     col = {c: header.index(c) for c in need}
     arc_col = header.index("arc") if "arc" in header else None
-    rows, arcs = [], []
+    speed_col = header.index("speed") if "speed" in header else None
+    rows, arcs, speeds = [], [], []
     for lineno, row in enumerate(reader, start=2):
         if not row or all(not c.strip() for c in row):
             continue
@@ -78,6 +82,14 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
         if rows and vals[0] <= rows[-1][0]:
             raise InputFileError(f"{source}: row {lineno}: time {vals[0]} does not increase")
         rows.append(vals)
+        if speed_col is not None:
+            try:
+                sp = float(row[speed_col])
+            except ValueError:
+                raise InputFileError(f"{source}: row {lineno}: speed is not a number: {row[speed_col]!r}") from None
+            if not math.isfinite(sp) or sp < 0:
+                raise InputFileError(f"{source}: row {lineno}: speed must be a finite number ≥ 0, got {sp}")
+            speeds.append(sp)
         if arc_col is not None:
             a = row[arc_col].strip().lower()
             if a in ("1", "true", "on", "1.0"):
@@ -89,7 +101,8 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
     if len(rows) < 10:
         raise InputFileError(f"{source}: need at least 10 samples, got {len(rows)}")
     a = np.asarray(rows)
-    return MeasuredTrace(a[:, 0], a[:, 1:4], np.asarray(arcs, bool) if arc_col is not None else None)
+    return MeasuredTrace(a[:, 0], a[:, 1:4], np.asarray(arcs, bool) if arc_col is not None else None,
+                         np.asarray(speeds, float) if speed_col is not None else None)
 
 
 def trace_csv(result: SimulationResult) -> str:
@@ -197,6 +210,136 @@ def fit_trace(profile: RobotProfile, moves: Moves, meas: MeasuredTrace, names: t
     r = trace_residuals(simulate(moves, fitted, opt), meas)
     info["rms_position_error_mm"] = float(np.sqrt(np.mean(r[:-1] ** 2)))
     return fitted, info
+
+
+# ---------------------------------------------------------------------------------------------
+# the study's time model (Table 5) from a measured trace
+# ---------------------------------------------------------------------------------------------
+def _section_passes(moves: Moves, dep: np.ndarray, collinear_deg: float, min_len: float) -> list[tuple[int, int]]:
+    """(first, last) segment indices of the section's passes: maximal runs of consecutive,
+    collinear, arc-ON, inside segments at least `min_len` mm long (as `estimate._runs`)."""
+    P, L = moves.points, moves.segment_lengths
+    U = np.diff(P, axis=0) / np.maximum(L, 1e-12)[:, None]
+    cos_tol = math.cos(math.radians(collinear_deg))
+    out: list[list[int]] = []
+    for i in dep:
+        if not (moves.arc[i] and moves.inside[i]):
+            continue
+        if out and out[-1][1] == i - 1 and U[i - 1] @ U[i] >= cos_tol:
+            out[-1][1] = i
+        else:
+            out.append([int(i), int(i)])
+    return [(a, b) for a, b in out if L[a:b + 1].sum() >= min_len]
+
+
+def _crossing(t, x, v, i, j, thr):
+    """Time and position where the speed crosses `thr` between samples i and j (linear)."""
+    if not (0 <= j < len(t)) or v[j] >= thr or v[i] == v[j]:
+        return t[i], x[i]
+    w = (thr - v[j]) / (v[i] - v[j])
+    return t[j] + w * (t[i] - t[j]), x[j] + w * (x[i] - x[j])
+
+
+def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str, ...] | None = None,
+                        frac: float = 0.99, line_tol_mm: float = 0.5, collinear_deg: float = 1.0,
+                        min_pass_mm: float = 10.0, source: str = "trace") -> tuple[dict, dict]:
+    """The study's Table-5 constants of the measured robot, read off its trace of the known program
+    `moves` the way the authors read them (robot-study.md; `identify_passes` on a simulation).
+
+    Per section with at least two passes (`_section_passes`; protocol "off" when any of its
+    deposition is arc OFF, else "on"; TS = the passes' median programmed speed): the trace samples
+    of each pass are the first contiguous run after the previous pass's that lie within
+    `line_tol_mm` of the pass line; "constant speed" is ≥ `frac`·TS, its first / last instant
+    interpolated between samples. T/L_init_accel: motion start → the first pass's constant speed;
+    T/L_final_decel: the last pass's constant speed → stop (lengths along the trace); L_decel /
+    L_accel: the pass length after / before its constant speed (means over the transitions);
+    T_trans: last constant speed of a pass → first of the next (mean); L_trans_ref: the mean
+    programmed length between consecutive passes. Motion start / stop: half a sample after the
+    last / before the first sample at rest (speed ≤ 0.2 % of TS) — 1.5 samples when the speed is
+    derived from positions (central differences smear a start over one sample each side).
+
+    Sections with the same (speed, protocol[, strategy family]) are averaged. Returns (time_model
+    keyed "<TS>_<protocol>[_<family>]" — the family when `strategies` (one per section, as
+    `estimate.section_strategies`) is given —, info with per-section rows and skipped sections)."""
+    from .estimate import KEYS as TM_KEYS, strategy_family
+
+    t, x = meas.t, meas.xyz
+    if meas.speed is not None:
+        v, lag = meas.speed, 0.5
+    else:
+        v, lag = np.linalg.norm(np.gradient(x, t, axis=0), axis=1), 1.5
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
+    P, L = moves.points, moves.segment_lengths
+    cursor = 0
+    groups: dict[str, list[dict]] = {}
+    info: dict = {"sections": [], "skipped": []}
+    for sec in np.unique(moves.section):
+        idx = np.flatnonzero(moves.section == sec)
+        dep = idx[moves.kind[idx] == DEPOSIT]
+        passes = _section_passes(moves, dep, collinear_deg, min_pass_mm)
+        if len(passes) < 2:
+            info["skipped"].append(f"section {moves.section_keys[sec]}: {len(passes)} pass(es), need 2")
+            continue
+        TS = float(np.median(np.concatenate([moves.speed[a:b + 1] for a, b in passes])))
+        thr = frac * TS
+        protocol = "off" if np.any(~moves.arc[dep]) else "on"
+        rows, ok = [], True
+        for a, b in passes:
+            p0, p1 = P[a], P[b + 1]
+            ln = float(L[a:b + 1].sum())
+            u = (p1 - p0) / ln
+            rel = x[cursor:] - p0
+            proj = rel @ u
+            lat = np.linalg.norm(rel - proj[:, None] * u, axis=1)
+            on = np.flatnonzero((lat < line_tol_mm) & (proj > -line_tol_mm) & (proj < ln + line_tol_mm)) + cursor
+            if not len(on):
+                ok = False
+                break
+            block = on[:np.argmax(np.diff(on) > 1) + 1] if np.any(np.diff(on) > 1) else on
+            fast = block[v[block] >= thr]
+            if not len(fast):
+                ok = False
+                break
+            ta, xa = _crossing(t, x, v, fast[0], fast[0] - 1, thr)
+            tb, xb = _crossing(t, x, v, fast[-1], fast[-1] + 1, thr)
+            sa = float(np.interp(ta, t, s))
+            sb = float(np.interp(tb, t, s))
+            rows.append({"ta": ta, "tb": tb, "sa": sa, "sb": sb, "l_acc": float((xa - p0) @ u),
+                         "l_dec": float(ln - (xb - p0) @ u), "j0": int(fast[0]), "j1": int(fast[-1])})
+            cursor = int(block[-1]) + 1
+        if not ok:
+            info["skipped"].append(f"section {moves.section_keys[sec]}: a pass is not in the trace at "
+                                   f"{frac:.0%} of {TS:g} mm/s within {line_tol_mm} mm of its line")
+            continue
+        rest = v <= 0.002 * TS
+        before = np.flatnonzero(rest[:rows[0]["j0"]])
+        after = np.flatnonzero(rest[rows[-1]["j1"]:]) + rows[-1]["j1"]
+        if not len(before) or not len(after):
+            info["skipped"].append(f"section {moves.section_keys[sec]}: the trace does not show its start "
+                                   f"and stop at rest")
+            continue
+        r0, r1 = int(before[-1]), int(after[0])
+        dt0 = t[min(r0 + 1, len(t) - 1)] - t[r0]
+        dt1 = t[r1] - t[max(r1 - 1, 0)]
+        t_start, t_stop = t[r0] + lag * dt0, t[r1] - lag * dt1
+        s_start, s_stop = float(np.interp(t_start, t, s)), float(np.interp(t_stop, t, s))
+        links = [float(L[b0 + 1:a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
+        ent = {"T_init_accel": rows[0]["ta"] - t_start, "L_init_accel": rows[0]["sa"] - s_start,
+               "L_decel": float(np.mean([r["l_dec"] for r in rows[:-1]])),
+               "L_accel": float(np.mean([r["l_acc"] for r in rows[1:]])),
+               "T_trans": float(np.mean([r1_["ta"] - r0_["tb"] for r0_, r1_ in zip(rows[:-1], rows[1:])])),
+               "L_final_decel": s_stop - rows[-1]["sb"], "T_final_decel": t_stop - rows[-1]["tb"],
+               "L_trans_ref": float(np.mean(links)), "passes": len(rows)}
+        key = f"{round(TS, 1):g}_{protocol}"
+        if strategies is not None and sec < len(strategies) and strategy_family(strategies[sec]):
+            key += "_" + strategy_family(strategies[sec])
+        groups.setdefault(key, []).append(ent)
+        info["sections"].append({"section": moves.section_keys[sec], "key": key, **ent})
+    tm = {}
+    for key, ents in groups.items():
+        tm[key] = {k: round(float(np.mean([e[k] for e in ents])), 6) for k in (*TM_KEYS, "L_trans_ref")}
+        tm[key].update(passes=int(sum(e["passes"] for e in ents)), sections=len(ents), source=source)
+    return tm, info
 
 
 # ---------------------------------------------------------------------------------------------

@@ -14,6 +14,14 @@ T_final_decel) were identified on the triangular 45° strategy at 10 and 40 mm/s
 throughout ("on") or OFF outside the OR ("off"); they live in the robot profile's `time_model`.
 Other speeds interpolate linearly between the identified ones (clamped outside).
 
+Keys are "<speed>_<protocol>" (any strategy) or "<speed>_<protocol>_<family>" (identified on
+that strategy family, e.g. "40_on_triangular": `calibrate.identify_time_model` writes these from
+the user's trace). A section of strategy family f uses f's entries when the profile has them, else
+the generic ones, else the entries of the other families (noted); a protocol the profile has no
+entry for at all falls back to the study's (`STUDY_TIME_MODEL`, triangular 45° on the KR 100),
+with a note. The study identified its constants on triangular 45° only; the shipped profile's
+generic entries are those.
+
 For a general toolpath the model is applied per section, pass by pass: passes are maximal runs
 of straight, collinear, arc-ON segments inside the section at least `min_pass_mm` long (long
 enough to accelerate and stop: L_init_accel + L_final_decel at that speed), each with its own
@@ -28,13 +36,33 @@ dwells as they are.
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.moves import DEPOSIT, Moves
+from . import study
 
 KEYS = ("T_init_accel", "L_init_accel", "L_decel", "L_accel", "T_trans", "L_final_decel", "T_final_decel")
+
+# the study's identification link: triangular 45° with W_WB = 4.43 mm (2·(W_WB/2)/sin 22.5°)
+STUDY_L_TRANS_REF = 2 * (study.W_WB / 2) / math.sin(math.radians(22.5))
+STUDY_TIME_MODEL = {f"{v}_{p}": {**vals, "L_trans_ref": STUDY_L_TRANS_REF} for (v, p), vals in study.IDENTIFIED.items()}
+
+
+def strategy_family(strategy: str) -> str:
+    """'triangular45' → 'triangular', 'semi-circular' → 'semicircular' (letters only, lower case)."""
+    return re.sub(r"[^a-z]", "", strategy.lower())
+
+
+def section_strategies(toolpath) -> tuple[str, ...]:
+    """The strategy of each section of `core.moves.flatten(toolpath)`, in its section order."""
+    from ..core.model import Layered
+
+    items = toolpath.items if isinstance(toolpath, Layered) else toolpath
+    return tuple(sp.strategy for lp in items if lp is not None for sp in lp.sections if len(sp.points) >= 2)
 
 
 def cycle_time(n: int, L: float, TS: float, p: dict[str, float]) -> float:
@@ -47,13 +75,34 @@ def cycle_time(n: int, L: float, TS: float, p: dict[str, float]) -> float:
     return p["T_init_accel"] + t_init + (n - 1) * p["T_trans"] + (n - 2) * t_str + t_fin + p["T_final_decel"]
 
 
-def model_params(time_model: dict, speed: float, protocol: str) -> dict[str, float]:
-    """Identified parameters at `speed` (mm/s) for protocol "on"/"off", interpolated in speed."""
-    table = {}
+def _entries(time_model: dict, protocol: str, family: str | None) -> tuple[dict[float, dict], str]:
+    """(speed → entry, which) for protocol: family's entries, else generic, else other families'
+    (`which` names the choice: "family", "generic" or "other:<families>")."""
+    fam: dict[str, dict[float, dict]] = {}
     for key, vals in time_model.items():
-        sp, prot = key.split("_")
+        sp, prot, *rest = key.split("_")
         if prot == protocol:
-            table[float(sp)] = vals
+            fam.setdefault(rest[0] if rest else "", {})[float(sp)] = vals
+    if family and family in fam:
+        return fam[family], "family"
+    if "" in fam:
+        return fam[""], "generic"
+    if not fam:
+        return {}, ""
+    names = sorted(fam)
+    table: dict[float, list] = {}
+    for f in names:
+        for v, vals in fam[f].items():
+            table.setdefault(v, []).append(vals)
+    return ({v: {k: float(np.mean([e[k] for e in es])) for k in es[0]
+                 if isinstance(es[0][k], (int, float)) and all(k in e for e in es)}
+             for v, es in table.items()}, "other:" + ",".join(names))
+
+
+def model_params(time_model: dict, speed: float, protocol: str, family: str | None = None) -> dict[str, float]:
+    """Identified parameters at `speed` (mm/s) for protocol "on"/"off" (and strategy `family`:
+    see the module doc for the choice of entries), interpolated in speed."""
+    table, _ = _entries(time_model, protocol, family)
     if not table:
         raise ValueError(f"robot profile has no time_model entries for protocol {protocol!r}")
     speeds = sorted(table)
@@ -69,17 +118,20 @@ class Estimate:
     passes: int
     sections: int
     method: str = "closed-form (da Silva Viola et al. 2023)"
+    notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, float]:
         return {"estimate_total_time_s": self.total_time_s, "estimate_passes": float(self.passes)}
 
 
 def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0,
-                   min_pass_mm: float = 10.0) -> Estimate:
-    """Closed-form estimate of a whole program (see module doc)."""
+                   min_pass_mm: float = 10.0, strategies: tuple[str, ...] | None = None) -> Estimate:
+    """Closed-form estimate of a whole program (see module doc). strategies: each section's
+    strategy (`section_strategies`), for strategy-specific entries of the time model."""
     P = moves.points
     if len(P) < 2:
         return Estimate(0.0, 0, 0)
+    notes: dict[str, None] = {}
     L = moves.segment_lengths
     U = np.diff(P, axis=0) / np.maximum(L, 1e-12)[:, None]
     total = float(moves.dwell_before.sum())
@@ -99,7 +151,17 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
         speed = float(np.nanmedian(np.where(is_pass, moves.speed[dep], np.nan))) if is_pass.any() else float(np.nanmedian(moves.speed[dep]))
         if not np.isfinite(speed) or speed <= 0:
             speed = travel_speed
-        p = model_params(time_model, speed, protocol)
+        family = strategy_family(strategies[sec]) if strategies is not None and sec < len(strategies) else None
+        table, which = _entries(time_model, protocol, family)
+        if not table:
+            notes[f"no time-model entry for arc {protocol.upper()} ({protocol!r}) in the profile: "
+                  f"the study's (KUKA KR 100, triangular 45°) used"] = None
+            p = model_params(STUDY_TIME_MODEL, speed, protocol)
+        else:
+            if which.startswith("other:") and family:
+                notes[f"strategy {family!r}: no time-model entry of its own for arc {protocol.upper()}, "
+                      f"those identified on {which[6:]} used"] = None
+            p = model_params(time_model, speed, protocol, family)
         runs = _runs(dep, is_pass, L, U, cos_tol, max(min_pass_mm, p["L_init_accel"] + p["L_final_decel"]))
         passes = [length for kind, length in runs if kind]
         if not passes:
@@ -107,7 +169,7 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
             continue
         total += _section_time(runs, speed, p)
         n_pass_all += len(passes)
-    return Estimate(total, n_pass_all, sections)
+    return Estimate(total, n_pass_all, sections, notes=tuple(notes))
 
 
 def _runs(dep, is_pass, L, U, cos_tol, min_len) -> list[tuple[bool, float]]:
