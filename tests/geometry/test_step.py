@@ -50,7 +50,7 @@ def _step(shape, unit="MM") -> bytes:
 @pytest.mark.parametrize("unit", ["MM", "INCH"])
 def test_step_box_with_hole_size_and_volume(unit):
     tol = 0.01
-    mesh, res = load_cad_bytes(_step(_box_with_hole(), unit), "block.step", chordal_tolerance=tol)
+    mesh, res, _ = load_cad_bytes(_step(_box_with_hole(), unit), "block.step", chordal_tolerance=tol)
     assert res.solids == 1 and res.file_unit == ("mm" if unit == "MM" else "in")
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     assert lo == pytest.approx([0, 0, 0], abs=0.1) and hi == pytest.approx([40, 30, 20], abs=0.1)
@@ -59,12 +59,12 @@ def test_step_box_with_hole_size_and_volume(unit):
     v = signed_volume(mesh.vertices, mesh.faces)
     assert exact <= v <= exact + 2 * math.pi * 5 * tol * 20 + 1e-6
     # chordal tolerance governs the hole's facet count: sagitta r(1 − cos(π/n)) ≤ tol
-    mesh_c, _ = load_cad_bytes(_step(_box_with_hole()), "block.step", chordal_tolerance=0.5)
+    mesh_c, _, _ = load_cad_bytes(_step(_box_with_hole()), "block.step", chordal_tolerance=0.5)
     assert len(mesh_c.faces) < len(mesh.faces)
 
 
 def test_step_units_override_reinterprets_numbers():
-    mesh, _ = load_cad_bytes(_step(_box_with_hole(), "MM"), "block.step", units="in", chordal_tolerance=0.05)
+    mesh, _, _ = load_cad_bytes(_step(_box_with_hole(), "MM"), "block.step", units="in", chordal_tolerance=0.05)
     assert mesh.vertices.max(axis=0) == pytest.approx([40 * 25.4, 30 * 25.4, 20 * 25.4], abs=0.1)
 
 
@@ -96,7 +96,7 @@ def test_iges_and_garbage():
         data = open(path, "rb").read()
     finally:
         os.unlink(path)
-    mesh, _ = load_cad_bytes(data, "b.igs")
+    mesh, _, _ = load_cad_bytes(data, "b.igs")
     assert mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0) == pytest.approx([25, 15, 10], abs=0.1)
     with pytest.raises(InputFileError, match="not a readable STEP"):
         load_cad_bytes(b"ISO-10303-21; garbage", "x.step")

@@ -53,7 +53,7 @@ def test_sketch_node_reads_inch_dxf_and_warns_on_metre_giant(tmp_path):
     (tmp_path / "in.dxf").write_bytes(_dxf(1, _rect))
     res = _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": "in.dxf", "height": 20}})
     assert _extent(res.outputs["sk"]["mesh"]) == pytest.approx([101.6, 50.8], abs=0.1)
-    assert any("read in in" in w["message"] for w in res.warnings)
+    assert any("file unit inch → mm ×25.4" in w["message"] for w in res.warnings)
     (tmp_path / "m.dxf").write_bytes(_dxf(6, lambda d: _rect(d, 40, 2)))       # 40 m: a typo in units
     res = _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": "m.dxf", "height": 20}})
     assert _extent(res.outputs["sk"]["mesh"])[0] == pytest.approx(40_000.0, abs=0.1)
@@ -106,7 +106,7 @@ def test_3mf_in_inch(tmp_path):
     assert v.min(axis=0)[2] == pytest.approx(0.0, abs=1e-9)
     assert v.max(axis=0) == pytest.approx([25.4, 12.7, 12.7], abs=0.1)
     msgs = " | ".join(w["message"] for w in res.warnings)
-    assert "read in in" in msgs and "placed by translate (0.000, 0.000, 6.350) mm" in msgs
+    assert "file unit inch → mm ×25.4" in msgs and "placed by translate (0.000, 0.000, 6.350) mm" in msgs
 
 
 def test_placement_modes_and_plausibility():

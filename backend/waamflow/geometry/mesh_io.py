@@ -294,9 +294,15 @@ def mesh_from_triangles(
 
 def mesh_file_units(data: bytes, filename: str) -> str:
     """Length unit the file declares (3MF `unit`), mm for formats without one (STL, OBJ, PLY)."""
+    return declared_mesh_unit(data, filename) or "mm"
+
+
+def declared_mesh_unit(data: bytes, filename: str) -> str | None:
+    """Length unit a mesh file declares (3MF `unit`, millimeter by default), None for formats
+    that declare none (STL, OBJ, PLY)."""
     if PurePosixPath(filename).suffix.lower() == ".3mf":
         return threemf_units(data) or "mm"
-    return "mm"
+    return None
 
 
 def load_mesh_bytes(

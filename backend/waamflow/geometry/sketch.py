@@ -31,7 +31,7 @@ from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
 from .transform import unit_scale
-from .units import dxf_units
+from .units import conversion_notice, dxf_units
 
 SKETCH_FORMATS = ("json", "dxf")
 
@@ -44,6 +44,8 @@ class SketchResult:
     midsurface: Midsurface
     skipped: dict[str, int]
     units: str = "mm"
+    file_unit: str | None = None     # the unit the file declares (DXF $INSUNITS), None: none
+    notice: str | None = None        # the unit conversion, said (units.conversion_notice)
 
 
 # ------------------------------------------------------------------------------------------
@@ -241,16 +243,15 @@ def load_sketch_bytes(
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     name = PurePosixPath(filename).stem
     skipped: dict[str, int] = {}
+    file_unit = None
     if ext == "json":
-        units = "mm" if units == "file" else units
-        scale = unit_scale(units)
+        units, scale, notice = conversion_notice(None, units)
         raw, file_h, file_z0 = _json_curves(data, filename)
         curves = raw
     elif ext == "dxf":
         doc = read_dxf(data, filename)
-        if units == "file":
-            units = dxf_units(doc) or "mm"
-        scale = unit_scale(units)
+        file_unit = dxf_units(doc)
+        units, scale, notice = conversion_notice(file_unit, units)
         # DXF coordinates are in file units; discretise with the tolerance in file units
         curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout)
         if not curves:
@@ -277,7 +278,7 @@ def load_sketch_bytes(
     )
     return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
                                                   joints=mid.joints),
-                        skipped=skipped, units=units)
+                        skipped=skipped, units=units, file_unit=file_unit, notice=notice)
 
 
 # ------------------------------------------------------------------------------------------

@@ -59,6 +59,13 @@ def _read_shape(data: bytes, filename: str):
         reader.FileUnits(lengths, angles, solid)
         if lengths.Length() >= 1:
             file_unit = _OCC_UNITS.get(lengths.Value(1).ToCString().upper())
+    else:
+        from .units import IGES_UNIT_FLAGS
+
+        gs = reader.Model().GlobalSection()
+        flag = int(gs.UnitFlag())
+        uname = gs.UnitName().ToCString() if gs.UnitName() is not None else ""
+        file_unit = IGES_UNIT_FLAGS.get(flag) or _OCC_UNITS.get(uname.strip().upper().replace("2H", ""))
     roots = reader.TransferRoots()
     if roots == 0 or reader.NbShapes() == 0:
         raise InputFileError(f"{filename}: the file holds no shape OpenCascade can transfer")
@@ -126,15 +133,19 @@ def read_cad_triangles(data: bytes, filename: str, *, chordal_tolerance: float =
 
 def load_cad_bytes(data: bytes, filename: str, *, units: str = "file", chordal_tolerance: float = 0.05,
                    transform=None, weld_tolerance: float = 0.0):
-    """(MeshData in mm, StepResult) of a STEP/IGES file. units: "file" keeps OpenCascade's
-    conversion of the declared unit to mm; an explicit unit reinterprets the file's numbers."""
+    """(MeshData in mm, StepResult, notice) of a STEP/IGES file. OpenCascade converts the declared
+    unit (STEP length unit, IGES global unit flag) to mm; units "file" or the declared unit keep
+    that conversion (exactly once), another unit reinterprets the file's numbers (an override,
+    said in the notice; `units.conversion_notice`)."""
     from .mesh_io import mesh_from_triangles
     from .transform import Transform, unit_scale
+    from .units import conversion_notice
 
     res = read_cad_triangles(data, filename, chordal_tolerance=chordal_tolerance)
     tri = res.triangles
-    if units != "file":
-        tri = tri / unit_scale(res.file_unit or "mm") * unit_scale(units)
+    applied, factor, notice = conversion_notice(res.file_unit, units)
+    if applied != (res.file_unit or "mm"):
+        tri = tri / unit_scale(res.file_unit or "mm") * factor
     mesh = mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units="mm",
                                transform=transform or Transform(), source=filename, weld_tolerance=weld_tolerance)
-    return mesh, res
+    return mesh, res, notice

@@ -16,10 +16,10 @@ from ..core.errors import InputFileError
 from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..core.tolerances import TOL
-from ..geometry.mesh_io import classify_mesh, mesh_file_units
+from ..geometry.mesh_io import classify_mesh, declared_mesh_unit
 from ..geometry.topology import edge_report
 from ..geometry.step_io import is_cad_file, load_cad_bytes
-from ..geometry.units import implausible_size, placement_offset
+from ..geometry.units import conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
@@ -30,11 +30,16 @@ PLACEMENT_DOC = ("After the transform: 'as_is' keeps coordinates, 'on_plate' put
                  "'centred' also puts the x/y bounding-box centre on the origin")
 
 
-def _report_part(ctx, label: str, lo, hi, units: str, shift) -> None:
-    """Warnings: the unit used when taken from the file and not mm, an implausible size, the placement shift."""
+def _report_part(ctx, label: str, lo, hi, units: str, shift, *, file_unit: str | None = None,
+                 notice: str | None = None) -> None:
+    """Report the unit conversion (node report; a notice warning unless mm), an implausible size
+    and the placement shift."""
+    from ..geometry.transform import unit_scale
+
     extent = float(np.max(np.asarray(hi) - np.asarray(lo)))
-    if units not in ("mm",):
-        ctx.warn(f"{label}: coordinates read in {units} (declared by the file), converted to mm")
+    ctx.report({"file_unit": file_unit, "unit": units, "unit_factor": unit_scale(units)})
+    if notice:
+        ctx.warn(f"{label}: {notice}")
     if (msg := implausible_size(extent)) is not None:
         ctx.warn(f"{label}: {msg}")
     if shift is not None and np.any(shift):
@@ -102,7 +107,7 @@ class MeshNode(Node):
     """
 
     type = "mesh"
-    version = "2"  # 2: repair (cracks, shared edges, winding) and classification by measurement
+    version = "2"  # 2: repair (cracks, shared edges, winding), classification by measurement; one unit rule (IGES unit read)
     title = "Mesh"
     category = "inputs"
     outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface"),)
@@ -138,18 +143,20 @@ class MeshNode(Node):
         t = params.transform
         transform = Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale)
         if is_cad_file(params.path):
-            mesh, cad = load_cad_bytes(data, params.path, units=params.units, transform=transform,
+            mesh, cad, notice = load_cad_bytes(data, params.path, units=params.units, transform=transform,
                                        chordal_tolerance=params.chordal_tolerance,
                                        weld_tolerance=params.weld_tolerance)
-            units = cad.file_unit or "mm"
+            file_unit = cad.file_unit
+            units, _, _ = conversion_notice(file_unit, params.units)
             if len(mesh.faces) > params.max_triangles:
                 raise InputFileError(f"{params.path}: {len(mesh.faces)} triangles exceed the cap of {params.max_triangles}; "
                                      "raise 'chordal_tolerance' or 'max_triangles'")
             if cad.roots > 1 or cad.solids > 1:
                 ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.solids} bodies flattened into one part "
-                         "(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+                         f"(each body kept); tessellated within {params.chordal_tolerance:g} mm")
         else:
-            units = mesh_file_units(data, params.path) if params.units == "file" else params.units
+            file_unit = declared_mesh_unit(data, params.path)
+            units, _, notice = conversion_notice(file_unit, params.units)
             weld: dict = {}
             mesh = load_mesh_bytes(
                 data,
@@ -169,7 +176,7 @@ class MeshNode(Node):
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
             mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name, surface=mesh.surface)
-        _report_part(ctx, params.path, lo, hi, units if params.units == "file" else "mm", shift)
+        _report_part(ctx, params.path, lo, hi, units, shift, file_unit=file_unit, notice=notice)
         return {"mesh": mesh}
 
 
@@ -187,6 +194,7 @@ class SketchNode(Node):
     """
 
     type = "sketch"
+    version = "2"  # 2: the full DXF $INSUNITS table (yd, dm, km, mil, ... were read as mm)
     title = "Sketch (midsurface)"
     category = "inputs"
     outputs = (Port("mesh", "mesh", "Midsurface: curves extruded along +Z (Midsurface), mm"),)
@@ -226,6 +234,6 @@ class SketchNode(Node):
             mid = Midsurface(curves=tuple(c + shift[:2] for c in mid.curves), height=mid.height,
                              z0=mid.z0 + float(shift[2]), name=mid.name,
                              joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in mid.joints))
-        _report_part(ctx, params.path, lo, hi, res.units if params.units == "file" else "mm", shift)
+        _report_part(ctx, params.path, lo, hi, res.units, shift, file_unit=res.file_unit, notice=res.notice)
         return {"mesh": mid}
 
