@@ -124,7 +124,7 @@ def test_abb_cell_builds_the_duct_with_the_gravity_policy():
     def on_abb(policy):
         def mutate(recipe):
             recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
-            recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("post.")]
+            recipe["edges"] = [e for e in recipe["edges"] if not (e["to"].startswith("post.") or e["from"].startswith("post."))]
             sim = next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]
             sim.update({"cell": "irb4600_tilt_rotate", "positioner_policy": policy})
         return json.loads(run_recipe(mutate).artifacts["sim.simulation.json"])

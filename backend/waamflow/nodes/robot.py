@@ -8,16 +8,16 @@ from typing import Literal
 
 from pydantic import Field
 
-from ..core.errors import InputFileError, PlanningError
+from ..core.errors import InputFileError, PlanningError, RecipeError
 from ..core.moves import flatten
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..trajectory.calibrate import fit_trace, identify_time_model, read_trace_csv, trace_csv
-from ..trajectory.estimate import estimate_moves, estimate_result, section_strategies
+from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
+from ..trajectory.estimate import estimate_moves, estimate_result
 from ..trajectory.cell import cell_schema, load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
-from ..trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
+from ..trajectory.run import KinematicsOptions, deposit_csv, program_settings, simulate_program, simulation_json
 from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, deposit_svg, simulate_compensated
 from ..trajectory.simulate import SimOptions
 
@@ -86,14 +86,26 @@ class SimulateRobot(Node):
     limits and near-singular stretches. Writes `<node>.simulation.json` (time, lengths, ratio,
     arc-on time/length, volume, deviation, time inside/outside, the closed-form estimate beside),
     `<node>.trace.csv` (t,x,y,z,speed,arc,deviation every cycle) and `<node>.deposit.csv`
-    (mm³/mm actual vs programmed per segment)."""
+    (mm³/mm actual vs programmed per segment).
+
+    With the `program` input connected (the post-process that writes the program for this same
+    toolpath) the program is the one declaration of how the controller moves: its dialect gives
+    the controller family (KRL → KUKA KRC, C_DIS arc blend, profile kuka_kr100ha_krc2; RAPID →
+    ABB IRC5, zone parabola, profile abb_irb4600_irc5; G-code → the node's own blend params, a
+    G-code controller's blending is a machine setting), its `$APO.CDIS` / `zw` zonedata the blend
+    distance, and its ignition dwells (WAIT SEC, seamdata, G4) the standstill at every ignition.
+    Setting `cdis`, `blend` or `ignition_dwell_s` here as well is a RecipeError (two declarations);
+    `robot_profile` / `profile_file` still choose the robot's dynamics when set."""
 
     type = "simulate-robot"
     title = "Simulate robot"
     category = "trajectory"
-    inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
+    inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),
+              Port("program", "program", "The program post-processed from this toolpath: its blend distance, "
+                                         "ignition dwells and controller family are simulated", optional=True))
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "13"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    version = "14"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    # 14: program input (blend, dwells, controller as written); C_DIS scales the blend law; arc-on ≤ total
 
 
     class Params(RobotParams):
@@ -167,21 +179,50 @@ class SimulateRobot(Node):
         return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(tcp),
                                  frames=frames, step_mm=params.ik_step_mm)
 
+    def _from_program(self, ctx, params, program, profile: RobotProfile):
+        """The options and robot profile the connected program declares (see the class doc)."""
+        opt = params.sim_options()
+        try:
+            st = program_settings(program.format, program.files)
+        except ValueError as e:
+            raise RecipeError(f"simulate-robot cannot simulate its `program` input: {e}; connect a KRL, RAPID or "
+                              f"G-code post-process", node=ctx.node_id) from None
+        declared = {"ignition_dwell_s": f"{len(st['ignition_dwells_s'])} ignition dwells"}
+        if st["blend_distance_mm"] is not None:
+            declared["cdis"] = f"blend distance {st['blend_distance_mm']:g} mm"
+            declared["blend"] = f"{st['controller']} blending ({st['blend']})"
+        twice = sorted(set(declared) & set(params.model_fields_set))
+        if twice:
+            raise RecipeError(f"simulate-robot sets {', '.join(twice)} and its `program` input declares "
+                              f"{'; '.join(declared[k] for k in twice)}: one declaration — remove {', '.join(twice)} "
+                              f"from simulate-robot (the post-process's blend_distance / ignition_dwell / machine "
+                              f"profile decide)", node=ctx.node_id)
+        opt = replace(opt, ignition_dwells_s=st["ignition_dwells_s"], controller=st["controller"])
+        if st["blend_distance_mm"] is not None:
+            opt = replace(opt, cdis=st["blend_distance_mm"], blend=st["blend"])
+        if st["robot_profile"] and not params.profile_file and "robot_profile" not in params.model_fields_set:
+            profile = load_profile(st["robot_profile"])
+        return opt, profile
+
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
+        opt = params.sim_options()
+        if inputs.get("program") is not None:
+            opt, profile = self._from_program(ctx, params, inputs["program"], profile)
 
         def progress(fraction: float, message: str = "") -> None:
             ctx.check_cancelled()
             ctx.progress(fraction, message)
 
         if params.compensate == "on":
-            res = simulate_compensated(inputs["toolpath"], profile, params.sim_options(), self._kin(ctx, params, profile),
+            res = simulate_compensated(inputs["toolpath"], profile, opt, self._kin(ctx, params, profile),
                                        progress=progress)
         else:
-            res = simulate_program(moves, profile, params.sim_options(), self._kin(ctx, params, profile), progress=progress)
+            res = simulate_program(moves, profile, opt, self._kin(ctx, params, profile), progress=progress)
             res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
                                         "deposit_ratio_cv": deposit_ratio_cv(res)})
+        res = replace(res, options=opt)
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}
@@ -189,7 +230,7 @@ class SimulateRobot(Node):
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
         return {
-            "simulation.json": json.dumps(simulation_json(res, params.sim_options()), indent=1),
+            "simulation.json": json.dumps(simulation_json(res, res.options or params.sim_options()), indent=1),
             "trace.csv": trace_csv(res),
             "deposit.csv": deposit_csv(res),
             "deposit.svg": deposit_svg(res.deposit),
@@ -202,19 +243,14 @@ class EstimateTime(Node):
     2023): per section, passes and transitions timed with the identified acceleration/deceleration
     lengths and times in the robot profile's `time_model` (interpolated in speed). The output is
     an estimate-only SimulationResult (metrics, empty trace). Writes `<node>.estimate.json`.
-    simulate-robot reports the same estimate beside its own figures.
-
-    A profile from calibrate-robot holds the user's robot's constants per speed, arc protocol and
-    strategy family ("40_on_triangular"); each section uses its strategy's entries, else the
-    generic ones, else another strategy's; an arc protocol the profile has no entry for is timed
-    with the study's (KUKA KR 100) constants, and a note says so (warning and `notes`)."""
+    simulate-robot reports the same estimate beside its own figures."""
 
     type = "estimate-time"
     title = "Estimate time"
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Toolpath"),)
     outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
-    version = "10"  # 10: strategy-specific time-model entries; the study's as a noted fallback
+    version = "9"
 
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
@@ -226,20 +262,17 @@ class EstimateTime(Node):
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
-        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed,
-                             strategies=section_strategies(inputs["toolpath"]))
-        for note in est.notes:
-            ctx.warn(note)
-        res = estimate_result(moves, est)
-        return {"estimate": replace(res, warnings=[(n, None, None) for n in est.notes])}
+        if not profile.time_model:
+            raise InputFileError(f"robot profile {profile.name!r} has no time_model")
+        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed)
+        return {"estimate": estimate_result(moves, est)}
 
     def artifacts(self, ctx, params, outputs):
         m = outputs["estimate"].metrics
         return {"estimate.json": json.dumps({"total_time_s": round(m["total_time_s"], 6),
                                              "passes": int(m["estimate_passes"]),
                                              "sections": int(m["estimate_sections"]),
-                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023",
-                                             "notes": [w[0] for w in outputs["estimate"].warnings]},
+                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023"},
                                             indent=1)}
 
 
@@ -248,13 +281,8 @@ class CalibrateRobot(Node):
     """Fit the robot profile's constants (path acceleration/jerk, smoothing, blend start, corner
     jerk, arc-switch delays, ...) to a measured trace CSV (columns t, x, y, z[, arc]; s and mm) of
     the known program on the input, with scipy least squares on the simulated positions at the
-    measured times. It also reads the study's Table-5 constants of the time model off the trace
-    (`identify_time_model`: ramp-up/-down times and lengths at the start/stop, L_decel/L_accel
-    and T_trans between passes, per programmed speed, arc protocol and strategy family) and
-    writes them as the profile's `time_model` (replacing the study's KR 100 values: estimate-time
-    then predicts this robot). `fit` may be empty: time model only. Writes `<node>.profile.json`
-    (the fitted profile, usable as simulate-robot's and estimate-time's `profile_file`) and
-    `<node>.calibration.json` (cost before/after, RMS position error, identified time model).
+    measured times. Writes `<node>.profile.json` (the fitted profile, usable as simulate-robot's
+    `profile_file`) and `<node>.calibration.json` (cost before/after, RMS position error).
     A CSV row that is not numeric, short or out of time order fails with its row number."""
 
     type = "calibrate-robot"
@@ -262,48 +290,29 @@ class CalibrateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
     outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
-    version = "10"  # 10: identifies the time model (Table 5) from the trace; fit may be empty
+    version = "9"
 
     class Params(RobotParams):
         trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")
         fit: list[Literal[RobotProfile.FITTABLE]] = Field(  # type: ignore[valid-type]
             default_factory=lambda: ["path_acc", "path_jerk", "smoothing_s", "apo_time_s", "normal_jerk"],
-            description="Profile constants to fit (empty: identify the time model only)")
-        time_model: bool = Field(True, description="Identify the study's time-model constants (Table 5) from the "
-                                                   "trace and write them into the profile")
+            min_length=1, description="Profile constants to fit")
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         base = _profile(ctx, params)
         meas = read_trace_csv(ctx.read_text(params.trace, max_bytes=200_000_000), source=params.trace)
-        names = tuple(dict.fromkeys(params.fit))
-        tm, tm_info = {}, {}
-        if params.time_model:
-            tm, tm_info = identify_time_model(moves, meas, section_strategies(inputs["toolpath"]), source=params.trace)
-            for msg in tm_info["skipped"]:
-                ctx.warn(f"time model: {msg}")
-            if not tm:
-                ctx.warn("time model: no section of the program shows passes and transitions in the trace; "
-                         f"the profile keeps {base.name!r}'s time_model")
-        metrics = {}
-        if names:
-            ctx.progress(0.05, "fitting")
-            fitted, info = fit_trace(base, moves, meas, names, params.sim_options())
-            metrics = {"fit_rms_position_error_mm": info["rms_position_error_mm"],
-                       "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]}
-        else:
-            fitted, info = base, {}
-        if tm:
-            fitted = fitted.with_values(time_model=tm)
-            info["time_model"] = tm_info["sections"]
+        ctx.progress(0.05, "fitting")
+        fitted, info = fit_trace(base, moves, meas, tuple(dict.fromkeys(params.fit)), params.sim_options())
         res = simulate_program(moves, fitted, params.sim_options())
         prof = fitted.to_json()
         prof["fit"] = {"trace": params.trace, **info}
-        res = replace(res, profile=prof, metrics={**res.metrics, **metrics})
+        res = replace(res, profile=prof,
+                      metrics={**res.metrics, "fit_rms_position_error_mm": info["rms_position_error_mm"],
+                               "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]})
         return {"simulation": res}
 
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
         return {"profile.json": json.dumps(res.profile, indent=1, ensure_ascii=False),
-                "calibration.json": json.dumps({**{k: v for k, v in res.metrics.items() if k.startswith("fit_")},
-                                                "time_model": res.profile.get("time_model", {})}, indent=1)}
+                "calibration.json": json.dumps({k: v for k, v in res.metrics.items() if k.startswith("fit_")}, indent=1)}

@@ -3,7 +3,7 @@
 Model (robot-modelling-notes.md, "Corner blending model"): at every vertex that is not an exact
 stop, the vertex is replaced by a tangent curve that starts d before and ends d after it, with
 
-    d = min(CDIS, d_min + v·apo_time, L_prev/2, L_next/2)   (KUKA `C_DIS`, mode "cdis")
+    d = min(CDIS, (CDIS/CDIS_REF)·(d_min + v·apo_time), L_prev/2, L_next/2)   (KUKA `C_DIS`, mode "cdis")
     d = min(zone, L_prev/2, L_next/2)                     (ABB zonedata `zN`, mode "zone")
 
 The KUKA curve is a circular arc (radius r = d / tan(α/2) for a turn angle α), the ABB "corner
@@ -15,6 +15,14 @@ vertex and middle weight w = cos(α/2) (arc) or 1 (parabola). The corner speed c
 with r the curve's smallest radius of curvature (arc: d/tan(α/2); parabola: d·cos²(α/2)/sin(α/2))
 and ρ the turn radius (the direction turns no faster than v/ρ; the last term is off when ρ = 0).
 
+The speed-dependent part is the share of C_DIS a KRC really uses at speed v: the profile's
+d_min and apo_time were fitted at the study's `$APO.CDIS = 5 mm` (CDIS_REF), and the law scales
+them in proportion to the programmed C_DIS, so a larger C_DIS cuts corners further (more
+deviation, shorter time) until half a segment limits it. At CDIS_REF the law is the fitted one.
+(Before, `min(CDIS, d_min + v·apo_time)` saturated at d_min + v·apo_time = 1.81 mm at 40 mm/s:
+every C_DIS ≥ 2 mm gave the same path.) The proportionality is assumed, not measured: the study
+ran one C_DIS only.
+
 All arrays are world mm. Pure numpy.
 """
 
@@ -25,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 CURVE_POINTS = 9  # samples per blend curve (odd: the middle one is the curve's apex)
+CDIS_REF = 5.0   # mm: the $APO.CDIS the profiles' apo_min_mm / apo_time_s were fitted at (the study's)
 MIN_CORNER_SPEED = 0.01  # mm/s: a blend slower than this is an exact stop (exact reversals)
 
 
@@ -99,7 +108,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
             share_next = np.where(st0[2:], 0.5 + 0.5 * c, 0.5)
         dk = np.minimum.reduce([np.full(n - 2, float(distance)), L[:-1] * share_prev, L[1:] * share_next])
         if mode == "cdis":
-            d_apo = apo_min_mm + apo_time_s * v_corner
+            d_apo = (float(distance) / CDIS_REF) * (apo_min_mm + apo_time_s * v_corner)
             if c is not None:
                 d_apo = np.where(c > 0, d_apo + c * np.maximum(dk - d_apo, 0.0), d_apo)
             dk = np.minimum(dk, d_apo)

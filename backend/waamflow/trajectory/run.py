@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -21,6 +22,67 @@ from .profile import RobotProfile
 from .simulate import METRIC_UNITS, SimOptions, SimulationResult, simulate
 
 MAX_WARNINGS_PER_KIND = 20
+
+# Controller family of each program dialect: how its blend setting is read and which corner
+# curve it runs (blend.blend_path modes), and the robot profile simulated when the recipe names none.
+CONTROLLER_FAMILIES = {
+    "krl": {"controller": "kuka_krc", "blend": "cdis", "robot_profile": "kuka_kr100ha_krc2"},
+    "rapid": {"controller": "abb_irc5", "blend": "zone", "robot_profile": "abb_irb4600_irc5"},
+    "gcode": {"controller": "gcode", "blend": None, "robot_profile": None},
+}
+
+_KRL_CDIS = re.compile(r"^\s*\$APO\.CDIS\s*=\s*([0-9.]+)", re.I | re.M)
+_RAPID_ZONE = re.compile(r"zonedata\s+zw\s*:=\s*\[\s*FALSE\s*,\s*([0-9.]+)", re.I)
+_RAPID_ZW_USED = re.compile(r"^\s*(?:MoveL|MoveC|ArcL|ArcC)\b[^;]*,\s*zw\s*,", re.I | re.M)
+_DWELL_COMMENT = re.compile(r"^\s*(?:;-?|!)\s*ignition dwell\s+([0-9.]+)\s*s\b", re.I)
+_DWELL_CODE = re.compile(r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*;\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I)
+
+
+def program_settings(fmt: str, files: dict[str, str]) -> dict:
+    """What a program as written declares about its motion: the controller family (from the
+    dialect), the blend distance (KRL `$APO.CDIS=d`; RAPID the `zw` zonedata radius, 0 when no
+    motion uses it — every point `fine`; G-code: none, a G-code controller's blending is a machine
+    setting) and the dwell at every arc ignition in program order (KRL `WAIT SEC t ; ignition
+    dwell`, ArcTech `;- ignition dwell t s (Strike.StartTime)`, RAPID `! ignition dwell t s
+    (seamdata ign_move_delay)`, G-code `G4 P… ; ignition dwell t s`). Files are read in the
+    program's own order (main program first, then its parts).
+
+    Returns {"controller", "blend" (mode or None), "blend_distance_mm" (or None), "robot_profile"
+    (or None), "ignition_dwells_s" (tuple)}. A dialect without a family is a ValueError.
+    """
+    if fmt not in CONTROLLER_FAMILIES:
+        raise ValueError(f"no controller family for {fmt!r} programs (known: {', '.join(CONTROLLER_FAMILIES)})")
+    fam = CONTROLLER_FAMILIES[fmt]
+    texts = list(files.values())
+    dist = None
+    if fmt == "krl":
+        vals = [float(m) for t in texts for m in _KRL_CDIS.findall(t)]
+        if len(set(vals)) > 1:
+            raise ValueError(f"the KRL program sets $APO.CDIS to several values {sorted(set(vals))}: one per program is simulated")
+        dist = vals[0] if vals else 0.0
+    elif fmt == "rapid":
+        zones = [float(m) for t in texts for m in _RAPID_ZONE.findall(t)]
+        used = any(_RAPID_ZW_USED.search(t) for t in texts)
+        dist = zones[0] if (zones and used) else 0.0
+    ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t for t in texts)
+    dwells = []
+    for t in texts:
+        for line in t.splitlines():
+            m = _DWELL_COMMENT.match(line)
+            if m:
+                dwells.append(float(m.group(1)))
+                continue
+            m = _DWELL_CODE.match(line)
+            if m:
+                if m.group(4):
+                    dwells.append(float(m.group(4)))
+                elif m.group(2):
+                    dwells.append(float(m.group(2)))
+                else:
+                    dwells.append(float(m.group(3)) / (1000.0 if ms else 1.0))
+    return {"controller": fam["controller"], "blend": fam["blend"], "blend_distance_mm": dist,
+            "robot_profile": fam["robot_profile"], "ignition_dwells_s": tuple(dwells)}
+
 MAX_ISSUES = 1000        # stretches listed in simulation.json's kinematics_issues
 
 
@@ -270,7 +332,11 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
         out["kinematics_issues"] = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
                                     for it in res.kinematics.get("issues", [])]
     out["robot_profile"] = res.profile.get("name")
-    out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "wire_feed_mm3_s": opt.wire_feed_mm3_s,
+    out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "controller": opt.controller or None,
+                       "ignition_dwells": (len(opt.ignition_dwells_s) if opt.ignition_dwells_s is not None else None),
+                       "ignition_dwell_total_s": (round(sum(opt.ignition_dwells_s), 6)
+                                                  if opt.ignition_dwells_s is not None else None),
+                       "wire_feed_mm3_s": opt.wire_feed_mm3_s,
                        "speed_override_mm_s": opt.speed_override,
                        "interpolation_cycle_s": opt.interpolation_cycle_s or res.profile.get("interpolation_cycle_s")}
     c = res.corners

@@ -5,8 +5,8 @@ Pipeline (each step a pure function on numpy data):
 1. Exact stops at every arc ON/OFF switch, at dwells (ignition, interlayer) and at the ends — the
    study's full stops (robot-study.md, "What the robot did"): I/O between motions stops the
    advance run.
-2. Corner blending between stops (`blend.blend_path`): d = min(CDIS, v·apo_time, L_prev/2,
-   L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n and the turn
+2. Corner blending between stops (`blend.blend_path`): d = min(CDIS, (CDIS/5 mm)·(d_min +
+   v·apo_time), L_prev/2, L_next/2), tangent arc (KUKA) or parabola (ABB zone); corner caps from a_n, j_n and the turn
    rate (direction turns no faster than v/ρ, `profile.turn_radius_mm`); harder cuts
    on the arc-OFF travel after an arc-OFF stop (the catch-up, `profile.catchup`).
 3. Path speed along arc length (`speedplan`): junction speeds, backward (slow-down limits) and
@@ -56,6 +56,9 @@ class SimOptions:
     travel_speed: speed of arc-OFF moves that carry no speed (None = the profile's).
     segment_cap: (n_moves_points - 1,) extra speed cap per move segment (from kinematics), or None.
     ignition_dwell_s: standstill after each arc ignition when the zone has no `dwell` parameter.
+    ignition_dwells_s: the dwell at every arc ignition in program order, as a program writes them
+        (`run.program_settings`), or None (then `ignition_dwell_s` and the zones' `dwell`).
+    controller: the controller family simulated ("kuka_krc", "abb_irc5", ...: reported only).
     wire_diameter_mm: when set, zones with a `wire_feed_speed` parameter (m/min) feed
         WFS·π·d²/4 instead of the constant wire_feed_mm3_s (volume still accrues with time).
     """
@@ -68,6 +71,8 @@ class SimOptions:
     travel_speed: float | None = None
     segment_cap: np.ndarray | None = None
     ignition_dwell_s: float = 0.0
+    ignition_dwells_s: tuple[float, ...] | None = None
+    controller: str = ""
     wire_diameter_mm: float | None = None
 
 
@@ -104,11 +109,12 @@ class SimulationResult:
     profile: dict = field(default_factory=dict)
     collisions: tuple = ()      # trajectory.collide.Collision, the first ones found (cell simulations)
     kinematics: dict = field(default_factory=dict)   # per-axis report, kinematics issues, the solved motion (run.py)
+    options: "SimOptions | None" = None   # the settings simulated (simulate-robot: as read from the program)
 
 
 METRIC_UNITS = {
     "total_time_s": "s", "programmed_length_mm": "mm", "actual_length_mm": "mm", "length_ratio": "",
-    "arc_on_time_s": "s", "arc_on_length_mm": "mm", "deposited_volume_mm3": "mm³",
+    "arc_on_time_s": "s", "arc_off_lag_after_end_s": "s", "arc_on_length_mm": "mm", "deposited_volume_mm3": "mm³",
     "programmed_volume_mm3": "mm³", "max_deviation_mm": "mm", "mean_deviation_mm": "mm",
     "time_inside_s": "s", "time_outside_s": "s", "arc_off_time_inside_s": "s",
     "arc_on_time_outside_s": "s", "actual_length_outside_mm": "mm", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
@@ -142,10 +148,11 @@ class _Program:
     ignite: np.ndarray      # (n,) part of the standstill after the arc ON command (ignition dwell), s
 
 
-def _ignition_dwell(moves: Moves, default_s: float) -> np.ndarray:
+def _ignition_dwell(moves: Moves, default_s: float, sequence: tuple[float, ...] | None = None) -> np.ndarray:
     """(n,) dwell (s) before moving on at each point: at every arc ignition the zone's `dwell`
-    parameter (or `default_s` when the zone has none); at the start of any other zone run its
-    `dwell` parameter if it has one."""
+    parameter (or `default_s` when the zone has none) — or, with `sequence`, the program's own
+    dwell at each ignition in order; at the start of any other zone run its `dwell` parameter if
+    it has one. A sequence whose length is not the toolpath's ignition count is a PlanningError."""
     n = len(moves.points)
     out = np.zeros(n)
     if n < 2:
@@ -154,10 +161,17 @@ def _ignition_dwell(moves: Moves, default_s: float) -> np.ndarray:
     ignite = arc & ~np.concatenate([[False], arc[:-1]])
     zstart = np.ones(n - 1, dtype=bool)
     zstart[1:] = (moves.zone[1:] != moves.zone[:-1]) | (moves.section[1:] != moves.section[:-1])
+    if sequence is not None and len(sequence) != int(ignite.sum()):
+        raise PlanningError(f"the program writes {len(sequence)} ignition dwells but the toolpath has "
+                            f"{int(ignite.sum())} arc ignitions: connect the program made from this toolpath")
+    k = 0
     for i in np.flatnonzero((ignite | (zstart & arc))):
         params = moves.zone_params.get((int(moves.section[i]), int(moves.zone[i])), {})
         dw = params.get("dwell")
-        if dw is None and ignite[i]:
+        if ignite[i] and sequence is not None:
+            dw = sequence[k]
+            k += 1
+        elif dw is None and ignite[i]:
             dw = default_s
         out[i] += float(dw or 0.0)
     return out
@@ -173,7 +187,7 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
     wait = np.zeros(len(P))
     np.add.at(wait, owner, np.asarray(moves.dwell_before, dtype=float))
     ignite = np.zeros(len(P))
-    np.add.at(ignite, owner, _ignition_dwell(moves, opt.ignition_dwell_s))
+    np.add.at(ignite, owner, _ignition_dwell(moves, opt.ignition_dwell_s, opt.ignition_dwells_s))
     wait, ignite = wait[kept_pts], ignite[kept_pts]
     standstill = wait + ignite
     src = np.flatnonzero(keep)
@@ -366,7 +380,9 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     t_to = np.where(last, t, t_next)
     w = t_to - t_from
     arc_w = arc_time(t_to) - arc_time(t_from)
-    arc_w[-1] += arc_time(np.inf) - arc_time(t_end_motion)      # arc-OFF lag after the last motion
+    # the arc-OFF lag after the last motion: metal still lands at the end point (volume), but the
+    # cycle (total_time_s) ends with the motion, so it is reported apart, not as arc-on time
+    burnback = arc_time(np.inf) - arc_time(t_end_motion)
     arc_on = arc_w > 0.5 * np.maximum(w, 1e-12)
     moving = np.concatenate([step > 1e-9, [False]])
     inside = prog.inside[seg] & (prog.kind[seg] == DEPOSIT)
@@ -374,9 +390,10 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     total_time = float(t_end_motion)
     prog_len = float(np.linalg.norm(np.diff(prog.points, axis=0), axis=1).sum())
     act_len = float(step.sum())
-    arc_time_full = float(arc_w.sum())
+    arc_time_full = float(arc_w.sum())   # within the cycle [0, total_time]: ≤ total_time
     rate = prog.wire_rate  # (n-1,) mm³/s while the arc burns on each segment
     vol_samples = rate[seg] * arc_w
+    vol_samples[-1] += rate[seg[-1]] * burnback
     seg_len = np.linalg.norm(np.diff(prog.points, axis=0), axis=1)
     dev_w = w * moving
     metrics = {
@@ -385,6 +402,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "actual_length_mm": act_len,
         "length_ratio": act_len / prog_len if prog_len > 0 else 0.0,
         "arc_on_time_s": arc_time_full,
+        "arc_off_lag_after_end_s": float(burnback),
         "arc_on_length_mm": float((step * arc_on[:-1]).sum()),
         "deposited_volume_mm3": float(vol_samples.sum()),
         "programmed_volume_mm3": float((rate * seg_len / prog.speed)[prog.arc].sum()),
