@@ -12,8 +12,8 @@ from ..core.errors import InputFileError, PlanningError, RecipeError
 from ..core.moves import flatten
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..trajectory.calibrate import fit_trace, read_trace_csv, trace_csv
-from ..trajectory.estimate import estimate_moves, estimate_result
+from ..trajectory.calibrate import fit_trace, identify_time_model, read_trace_csv, trace_csv
+from ..trajectory.estimate import estimate_moves, estimate_result, section_strategies
 from ..trajectory.cell import cell_schema, load_cell
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
@@ -243,14 +243,19 @@ class EstimateTime(Node):
     2023): per section, passes and transitions timed with the identified acceleration/deceleration
     lengths and times in the robot profile's `time_model` (interpolated in speed). The output is
     an estimate-only SimulationResult (metrics, empty trace). Writes `<node>.estimate.json`.
-    simulate-robot reports the same estimate beside its own figures."""
+    simulate-robot reports the same estimate beside its own figures.
+
+    A profile from calibrate-robot holds the user's robot's constants per speed, arc protocol and
+    strategy family ("40_on_triangular"); each section uses its strategy's entries, else the
+    generic ones, else another strategy's; an arc protocol the profile has no entry for is timed
+    with the study's (KUKA KR 100) constants, and a note says so (warning and `notes`)."""
 
     type = "estimate-time"
     title = "Estimate time"
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "Toolpath"),)
     outputs = (Port("estimate", "simulation", "Estimate-only result: metrics, no trace"),)
-    version = "9"
+    version = "10"  # 10: strategy-specific time-model entries; the study's as a noted fallback
 
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
@@ -262,17 +267,20 @@ class EstimateTime(Node):
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
-        if not profile.time_model:
-            raise InputFileError(f"robot profile {profile.name!r} has no time_model")
-        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed)
-        return {"estimate": estimate_result(moves, est)}
+        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed,
+                             strategies=section_strategies(inputs["toolpath"]))
+        for note in est.notes:
+            ctx.warn(note)
+        res = estimate_result(moves, est)
+        return {"estimate": replace(res, warnings=[(n, None, None) for n in est.notes])}
 
     def artifacts(self, ctx, params, outputs):
         m = outputs["estimate"].metrics
         return {"estimate.json": json.dumps({"total_time_s": round(m["total_time_s"], 6),
                                              "passes": int(m["estimate_passes"]),
                                              "sections": int(m["estimate_sections"]),
-                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023"},
+                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023",
+                                             "notes": [w[0] for w in outputs["estimate"].warnings]},
                                             indent=1)}
 
 
@@ -281,8 +289,13 @@ class CalibrateRobot(Node):
     """Fit the robot profile's constants (path acceleration/jerk, smoothing, blend start, corner
     jerk, arc-switch delays, ...) to a measured trace CSV (columns t, x, y, z[, arc]; s and mm) of
     the known program on the input, with scipy least squares on the simulated positions at the
-    measured times. Writes `<node>.profile.json` (the fitted profile, usable as simulate-robot's
-    `profile_file`) and `<node>.calibration.json` (cost before/after, RMS position error).
+    measured times. It also reads the study's Table-5 constants of the time model off the trace
+    (`identify_time_model`: ramp-up/-down times and lengths at the start/stop, L_decel/L_accel
+    and T_trans between passes, per programmed speed, arc protocol and strategy family) and
+    writes them as the profile's `time_model` (replacing the study's KR 100 values: estimate-time
+    then predicts this robot). `fit` may be empty: time model only. Writes `<node>.profile.json`
+    (the fitted profile, usable as simulate-robot's and estimate-time's `profile_file`) and
+    `<node>.calibration.json` (cost before/after, RMS position error, identified time model).
     A CSV row that is not numeric, short or out of time order fails with its row number."""
 
     type = "calibrate-robot"
@@ -290,29 +303,48 @@ class CalibrateRobot(Node):
     category = "trajectory"
     inputs = (Port("toolpath", "toolpath", "The program that was measured"),)
     outputs = (Port("simulation", "simulation", "Simulation of the program with the fitted profile"),)
-    version = "9"
+    version = "10"  # 10: identifies the time model (Table 5) from the trace; fit may be empty
 
     class Params(RobotParams):
         trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")
         fit: list[Literal[RobotProfile.FITTABLE]] = Field(  # type: ignore[valid-type]
             default_factory=lambda: ["path_acc", "path_jerk", "smoothing_s", "apo_time_s", "normal_jerk"],
-            min_length=1, description="Profile constants to fit")
+            description="Profile constants to fit (empty: identify the time model only)")
+        time_model: bool = Field(True, description="Identify the study's time-model constants (Table 5) from the "
+                                                   "trace and write them into the profile")
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         base = _profile(ctx, params)
         meas = read_trace_csv(ctx.read_text(params.trace, max_bytes=200_000_000), source=params.trace)
-        ctx.progress(0.05, "fitting")
-        fitted, info = fit_trace(base, moves, meas, tuple(dict.fromkeys(params.fit)), params.sim_options())
+        names = tuple(dict.fromkeys(params.fit))
+        tm, tm_info = {}, {}
+        if params.time_model:
+            tm, tm_info = identify_time_model(moves, meas, section_strategies(inputs["toolpath"]), source=params.trace)
+            for msg in tm_info["skipped"]:
+                ctx.warn(f"time model: {msg}")
+            if not tm:
+                ctx.warn("time model: no section of the program shows passes and transitions in the trace; "
+                         f"the profile keeps {base.name!r}'s time_model")
+        metrics = {}
+        if names:
+            ctx.progress(0.05, "fitting")
+            fitted, info = fit_trace(base, moves, meas, names, params.sim_options())
+            metrics = {"fit_rms_position_error_mm": info["rms_position_error_mm"],
+                       "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]}
+        else:
+            fitted, info = base, {}
+        if tm:
+            fitted = fitted.with_values(time_model=tm)
+            info["time_model"] = tm_info["sections"]
         res = simulate_program(moves, fitted, params.sim_options())
         prof = fitted.to_json()
         prof["fit"] = {"trace": params.trace, **info}
-        res = replace(res, profile=prof,
-                      metrics={**res.metrics, "fit_rms_position_error_mm": info["rms_position_error_mm"],
-                               "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]})
+        res = replace(res, profile=prof, metrics={**res.metrics, **metrics})
         return {"simulation": res}
 
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
         return {"profile.json": json.dumps(res.profile, indent=1, ensure_ascii=False),
-                "calibration.json": json.dumps({k: v for k, v in res.metrics.items() if k.startswith("fit_")}, indent=1)}
+                "calibration.json": json.dumps({**{k: v for k, v in res.metrics.items() if k.startswith("fit_")},
+                                                "time_model": res.profile.get("time_model", {})}, indent=1)}
