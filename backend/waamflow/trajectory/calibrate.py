@@ -242,7 +242,8 @@ def _crossing(t, x, v, i, j, thr):
 
 def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str, ...] | None = None,
                         frac: float = 0.99, line_tol_mm: float = 0.5, collinear_deg: float = 1.0,
-                        min_pass_mm: float = 10.0, source: str = "trace") -> tuple[dict, dict]:
+                        min_pass_mm: float = 10.0, rest_frac: float = 0.0005,
+                        source: str = "trace") -> tuple[dict, dict]:
     """The study's Table-5 constants of the measured robot, read off its trace of the known program
     `moves` the way the authors read them (robot-study.md; `identify_passes` on a simulation).
 
@@ -250,13 +251,17 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
     deposition is arc OFF, else "on"; TS = the passes' median programmed speed): the trace samples
     of each pass are the first contiguous run after the previous pass's that lie within
     `line_tol_mm` of the pass line; "constant speed" is ≥ `frac`·TS, its first / last instant
-    interpolated between samples. T/L_init_accel: motion start → the first pass's constant speed;
-    T/L_final_decel: the last pass's constant speed → stop (lengths along the trace); L_decel /
-    L_accel: the pass length after / before its constant speed (means over the transitions);
+    interpolated between samples; only samples between the pass's ends count (a blend run at
+    full speed past the end does not make L_decel negative). T/L_init_accel: motion start → the
+    first pass's constant speed; T/L_final_decel: the last pass's constant speed → stop; L_decel /
+    L_accel: the pass length after / before its constant speed (means over the transitions; all
+    lengths along the pass line, so transverse backlash does not count);
     T_trans: last constant speed of a pass → first of the next (mean); L_trans_ref: the mean
     programmed length between consecutive passes. Motion start / stop: half a sample after the
-    last / before the first sample at rest (speed ≤ 0.2 % of TS) — 1.5 samples when the speed is
-    derived from positions (central differences smear a start over one sample each side).
+    last / before the first sample at rest (speed ≤ `rest_frac`·TS) — 1.5 samples when the speed is
+    derived from positions (central differences smear a start over one sample each side); a
+    trace that begins or ends in motion (as simulate-robot's) starts / stops at its first / last
+    sample.
 
     Sections with the same (speed, protocol[, strategy family]) are averaged. Returns (time_model
     keyed "<TS>_<protocol>[_<family>]" — the family when `strategies` (one per section, as
@@ -268,7 +273,6 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
         v, lag = meas.speed, 0.5
     else:
         v, lag = np.linalg.norm(np.gradient(x, t, axis=0), axis=1), 1.5
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
     P, L = moves.points, moves.segment_lengths
     cursor = 0
     groups: dict[str, list[dict]] = {}
@@ -296,39 +300,46 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
                 ok = False
                 break
             block = on[:np.argmax(np.diff(on) > 1) + 1] if np.any(np.diff(on) > 1) else on
-            fast = block[v[block] >= thr]
+            inner = block[(proj[block - cursor] >= 0.0) & (proj[block - cursor] <= ln)]
+            fast = inner[v[inner] >= thr]
             if not len(fast):
                 ok = False
                 break
             ta, xa = _crossing(t, x, v, fast[0], fast[0] - 1, thr)
             tb, xb = _crossing(t, x, v, fast[-1], fast[-1] + 1, thr)
-            sa = float(np.interp(ta, t, s))
-            sb = float(np.interp(tb, t, s))
-            rows.append({"ta": ta, "tb": tb, "sa": sa, "sb": sb, "l_acc": float((xa - p0) @ u),
-                         "l_dec": float(ln - (xb - p0) @ u), "j0": int(fast[0]), "j1": int(fast[-1])})
+            rows.append({"ta": ta, "tb": tb, "p0": p0, "u": u, "l_acc": float(np.clip((xa - p0) @ u, 0.0, ln)),
+                         "l_dec": float(np.clip(ln - (xb - p0) @ u, 0.0, ln)), "j0": int(fast[0]), "j1": int(fast[-1])})
             cursor = int(block[-1]) + 1
         if not ok:
             info["skipped"].append(f"section {moves.section_keys[sec]}: a pass is not in the trace at "
                                    f"{frac:.0%} of {TS:g} mm/s within {line_tol_mm} mm of its line")
             continue
-        rest = v <= 0.002 * TS
+        rest = v <= rest_frac * TS
         before = np.flatnonzero(rest[:rows[0]["j0"]])
         after = np.flatnonzero(rest[rows[-1]["j1"]:]) + rows[-1]["j1"]
-        if not len(before) or not len(after):
-            info["skipped"].append(f"section {moves.section_keys[sec]}: the trace does not show its start "
-                                   f"and stop at rest")
-            continue
-        r0, r1 = int(before[-1]), int(after[0])
-        dt0 = t[min(r0 + 1, len(t) - 1)] - t[r0]
-        dt1 = t[r1] - t[max(r1 - 1, 0)]
-        t_start, t_stop = t[r0] + lag * dt0, t[r1] - lag * dt1
-        s_start, s_stop = float(np.interp(t_start, t, s)), float(np.interp(t_stop, t, s))
+        # a trace that begins (ends) in motion: its first (last) sample is the start (stop)
+        if len(before):
+            r0 = int(before[-1])
+            t_start = t[r0] + lag * (t[min(r0 + 1, len(t) - 1)] - t[r0])
+        else:
+            t_start = t[0]
+        if len(after):
+            r1 = int(after[0])
+            t_stop = t[r1] - lag * (t[r1] - t[max(r1 - 1, 0)])
+        else:
+            t_stop = t[-1]
+        x_start = np.array([np.interp(t_start, t, x[:, i]) for i in range(3)])
+        x_stop = np.array([np.interp(t_stop, t, x[:, i]) for i in range(3)])
+        first, last = rows[0], rows[-1]
+        passes_len = [float(L[a:b + 1].sum()) for a, b in passes]
         links = [float(L[b0 + 1:a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
-        ent = {"T_init_accel": rows[0]["ta"] - t_start, "L_init_accel": rows[0]["sa"] - s_start,
+        ent = {"T_init_accel": first["ta"] - t_start,
+               "L_init_accel": first["l_acc"] - float((x_start - first["p0"]) @ first["u"]),
                "L_decel": float(np.mean([r["l_dec"] for r in rows[:-1]])),
                "L_accel": float(np.mean([r["l_acc"] for r in rows[1:]])),
                "T_trans": float(np.mean([r1_["ta"] - r0_["tb"] for r0_, r1_ in zip(rows[:-1], rows[1:])])),
-               "L_final_decel": s_stop - rows[-1]["sb"], "T_final_decel": t_stop - rows[-1]["tb"],
+               "L_final_decel": float((x_stop - last["p0"]) @ last["u"]) - (passes_len[-1] - last["l_dec"]),
+               "T_final_decel": t_stop - last["tb"],
                "L_trans_ref": float(np.mean(links)), "passes": len(rows)}
         key = f"{round(TS, 1):g}_{protocol}"
         if strategies is not None and sec < len(strategies) and strategy_family(strategies[sec]):
