@@ -143,3 +143,24 @@ def test_krl_program_simulated_with_its_dwells_and_cdis():
 def test_two_declarations_of_the_blend_are_refused():
     with pytest.raises(RecipeError, match="one declaration.*cdis"):
         _duct_run(True, {"cdis": 5.0})
+
+
+@pytest.mark.parametrize("fmt, controller, blend, profile", [
+    ("rapid", "abb_irc5", "zone", "abb_irb4600_irc5"),
+    ("krl", "kuka_krc", "cdis", "kuka_kr100ha_krc2"),
+])
+def test_controller_family_follows_the_dialect(fmt, controller, blend, profile):
+    from .test_nodes import run
+    nodes = [{"id": "post", "type": "post-process", "params": {"format": fmt, "blend_distance": 2.0, "ignition_dwell": 0.25}},
+             {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False}}]
+    edges = [("strategy.toolpath", "post.toolpath"), ("strategy.toolpath", "sim.toolpath"), ("post.program", "sim.program")]
+    # a spiral: one arc-ON run with corners, so the program's motions use the blend (raster
+    # passes are single ArcL…fine moves: RAPID writes no zw use and the reader says 0 mm)
+    res = run(nodes, edges, pattern="spiral").outputs["sim"]["simulation"]
+    assert (res.options.controller, res.options.blend, res.options.cdis) == (controller, blend, 2.0)
+    assert res.profile["name"] == profile
+    assert set(res.options.ignition_dwells_s) == {0.25}
+    # the recipe's own robot stays its choice (dynamics), the program still gives the blending
+    nodes[1]["params"]["robot_profile"] = "kuka_kr100ha_krc2"
+    res = run(nodes, edges, pattern="spiral").outputs["sim"]["simulation"]
+    assert res.profile["name"] == "kuka_kr100ha_krc2" and res.options.blend == blend
