@@ -11,7 +11,7 @@ import { GraphEditor } from "./graph/GraphEditor";
 import { NodeSearch } from "./graph/NodeSearch";
 import { useShortcuts } from "./graph/useShortcuts";
 import {
-  addFrame, addNode, amend, autoWire, setNodeParams, catalogMap, changeSignature, commit, copySelection, emptyRecipe, engineView, freeSpot, history, paste, positionsOf, redo, undo,
+  addFrame, addNode, autoWire, setNodeParams, catalogMap, changeSignature, copySelection, emptyRecipe, freeSpot, paste, positionsOf, redo, undo,
   type Clip, type History, type XY,
 } from "./graph/recipe";
 import { carryOver, matchByOverlap } from "./graph/carry";
@@ -29,6 +29,7 @@ import type { PreflightMark } from "./mask/MaskView";
 import { focusSection } from "./forms/sectionKeys";
 import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
+import { change, isDirty, newDocument, recipeDirty as recipeIsDirty, runRequest, savedOf, withRecipe, withXml, xmlDirty as xmlIsDirty, type Doc, type Saved } from "./document/document";
 import { boundsByName, saveBlocker } from "./xml/params";
 
 type Tab = "graph" | "mask" | "params" | "results" | "viewer";
@@ -42,10 +43,13 @@ export function App() {
   const catalog = useMemo(() => catalogMap(specs), [specs]);
   const [graphs, setGraphs] = useState<GraphInfo[]>([]);
   const [healthInfo, setHealth] = useState<Health | null>(null);
-  const [hist, setHist] = useState<History<Recipe>>(() => history(emptyRecipe()));
-  const recipe = hist.present;
+  // The open recipe's document: recipe + parameter XML, one history (undo/redo restore both).
+  const [hist, setHist] = useState<History<Doc>>(() => newDocument(emptyRecipe(), null));
+  const doc = hist.present;
+  const recipe = doc.recipe;
   const [graphName, setGraphName] = useState<string | null>(null);
-  const [savedJson, setSavedJson] = useState(JSON.stringify(emptyRecipe()));
+  const [saved, setSaved] = useState<Saved>(() => savedOf({ recipe: emptyRecipe(), xml: null }));
+  const savedXml = saved.xml;
   const [selected, setSelected] = useState<Set<string>>(new Set());
   const [tab, setTab] = useState<Tab>("graph");
   const [layer, setLayer] = useState(0);
@@ -54,9 +58,9 @@ export function App() {
   const [failure, setFailure] = useState<RunError | null>(null);
   const [messages, setMessages] = useState<{ id: number; text: string }[]>([]);
   const [saveAs, setSaveAs] = useState<string | null>(null);
-  // The parameter XML: the saved file and the draft shown in the editor (null = none).
-  const [savedXml, setSavedXml] = useState<string | null>(null);
-  const [xmlDraft, setXmlDraft] = useState<string | null>(null);
+  // The last run's merged parameter XML: shown in the editor only while the user has no XML of
+  // their own (a template to start from); it never replaces the user's text.
+  const [runXml, setRunXml] = useState<string | null>(null);
   const [xmlLoadError, setXmlLoadError] = useState<string | null>(null);
   const [xmlError, setXmlError] = useState<(RunError & Record<string, unknown>) | null>(null);
   // A stored draft offered back when its recipe opens.
@@ -74,10 +78,19 @@ export function App() {
   const clip = useRef<Clip | null>(null);
   const rf = useReactFlow();
 
-  const xmlText = xmlDraft ?? savedXml;
-  const xmlDirty = xmlDraft !== null && xmlDraft !== savedXml;
-  const recipeDirty = JSON.stringify(recipe) !== savedJson;
-  const dirty = recipeDirty || xmlDirty;
+  const xmlText = doc.xml ?? runXml;
+  const xmlDirty = xmlIsDirty(doc, saved);
+  const recipeDirty = recipeIsDirty(doc, saved);
+  const dirty = isDirty(doc, saved);
+  const xmlDraft = xmlDirty ? doc.xml : null;
+  /** The XML editor's text becomes the document's (one undo step per pause in typing). */
+  const lastXmlEdit = useRef(0);
+  const setXmlDraft = useCallback((text: string | null, typing = false) => {
+    const now = performance.now();
+    const same = typing && now - lastXmlEdit.current < 800;
+    lastXmlEdit.current = typing ? now : 0;
+    setHist((h) => change(h, withXml(h.present, text), same));
+  }, []);
   // The recipe as the engine runs it, without its name (a save under a new name changes nothing).
   const recipeSig = useMemo(() => recipeSignature(recipe), [recipe]);
   const isExample = !!graphName && graphs.some((g) => g.name === graphName && g.example);
@@ -103,37 +116,27 @@ export function App() {
   const edit = useCallback(
     (fn: (r: Recipe) => Recipe, typing = false) =>
       setHist((h) => {
-        const next = fn(h.present);
-        if (next === h.present) return h;
-        const sig = typing ? changeSignature(h.present, next) : null;
+        const next = fn(h.present.recipe);
+        if (next === h.present.recipe) return h;
+        const sig = typing ? changeSignature(h.present.recipe, next) : null;
         const now = performance.now();
         const same = sig !== null && lastEdit.current?.sig === sig && now - lastEdit.current.t < 800 && h.past.length > 0;
         lastEdit.current = sig !== null ? { sig, t: now } : null;
-        return same ? amend(h, next) : commit(h, next);
+        return change(h, withRecipe(h.present, next), same);
       }),
     [],
   );
   const typingEdit = useCallback((fn: (r: Recipe) => Recipe) => edit(fn, true), [edit]);
 
-  const xmlNow = useRef<string | null>(null);
-  xmlNow.current = xmlText;
   const { run, follow, cancel, reset } = useRun(async (s) => {
     if (!s.id) return;
     try {
       const arts = await API.listArtifacts(s.id);
       setArtifacts(arts);
-      // The run's merged parameter XML (new zones filled from the template) becomes the editor's
-      // draft: it is saved only when the user saves the recipe.
+      // The run's merged parameter XML (new zones filled from the template) never replaces the
+      // user's text nor marks the recipe unsaved: it is kept aside, shown while the user has no XML.
       const merged = arts.find((a) => a.name.endsWith(".params.xml"));
-      if (s.phase === "done" && merged) {
-        const text = await API.artifactText(s.id, merged.name);
-        if (text !== null && text !== xmlNow.current) {
-          setXmlDraft(text);
-          // the merged XML is what the run used: the report still describes it
-          setPreflightOf((o) => o && { ...o, xml: text });
-          message("the run's parameter XML is in the Parameters tab as an unsaved draft");
-        }
-      }
+      if (s.phase === "done" && merged) setRunXml(await API.artifactText(s.id, merged.name));
       // Read whenever the run wrote one (a failing preflight may end the run as failed).
       if (arts.some((a) => a.name === "preflight.json")) setPreflight(parsePreflight(await API.artifactText(s.id, "preflight.json")));
     } catch (e) {
@@ -174,11 +177,10 @@ export function App() {
 
   const reset_ = useCallback(
     (full: Recipe, name: string | null, xml: string | null) => {
-      setHist(history(full));
-      setSavedJson(JSON.stringify(full));
+      setHist(newDocument(full, xml));
+      setSaved(savedOf({ recipe: full, xml }));
       setGraphName(name);
-      setSavedXml(xml);
-      setXmlDraft(null);
+      setRunXml(null);
       setXmlError(null);
       setSelected(new Set());
       setPreviewNode(null);
@@ -224,8 +226,7 @@ export function App() {
   const restoreOffer = () => {
     if (!offer) return;
     // One undo step back to the saved recipe.
-    setHist((h) => commit(h, offer.recipe));
-    setXmlDraft(offer.xml);
+    setHist((h) => change(h, { recipe: offer.recipe, xml: offer.xml ?? h.present.xml }));
     setTab(asTab(offer.tab));
     setOffer(null);
     message("restored the unsaved changes");
@@ -294,10 +295,8 @@ export function App() {
         }
         clearDraft(localStorage, graphName);
         clearDraft(localStorage, name);
-        setHist((h) => ({ ...h, present: toSave }));
-        setSavedJson(JSON.stringify(toSave));
-        setSavedXml(xml);
-        setXmlDraft(null);
+        setHist((h) => ({ ...h, present: { recipe: toSave, xml } }));
+        setSaved(savedOf({ recipe: toSave, xml }));
         setXmlError(null);
         setXmlLoadError(null);
         setGraphName(name);
@@ -321,7 +320,7 @@ export function App() {
       message(`deleted ${graphName}`);
       clearDraft(localStorage, graphName);
       setGraphName(null);
-      setSavedJson("");
+      setSaved((s) => ({ ...s, recipeJson: "" }));
       void refreshGraphs();
     } catch (e) {
       fail(e);
@@ -334,14 +333,12 @@ export function App() {
     setArtifacts([]);
     setPreflight(null);
     setPfMark(null);
-    setPreflightOf({ recipe: recipeSig, xml: xmlText });
+    setPreflightOf({ recipe: recipeSig, xml: doc.xml });
     reset(); // the progress bar starts from zero for the new run
     try {
       // The recipe runs exactly as displayed (unsaved edits included) with the XML as shown in the
       // editor (a draft: never stored by the run); a saved graph lends it its uploaded files.
-      const { id } = await API.startRun({
-        graph: graphName, recipe: engineView(recipe), ...(graphName && xmlText !== null ? { params_xml: xmlText } : {}),
-      });
+      const { id } = await API.startRun(runRequest(doc, graphName));
       follow(id);
     } catch (e) {
       if (e instanceof API.ApiError) {
@@ -407,8 +404,8 @@ export function App() {
   useShortcuts({
     graphActive: tab === "graph",
     save: () => void save(),
-    undo: () => setHist(undo),
-    redo: () => setHist(redo),
+    undo: () => setHist(undo<Doc>),
+    redo: () => setHist(redo<Doc>),
     copy: () => {
       if (!selected.size) return;
       clip.current = copySelection(recipe, selected);
@@ -468,8 +465,8 @@ export function App() {
       plan.lost.length ? `Could NOT carry:\n  ${plan.lost.join("\n  ")}` : "Everything carried over.",
     ].join("\n\n");
     if (!window.confirm(text)) return false;
-    edit(() => plan.recipe);
-    if (plan.xml !== xmlText) setXmlDraft(plan.xml);
+    // recipe and XML in one undo step
+    setHist((h) => change(h, { recipe: plan.recipe, xml: plan.xml !== xmlText ? plan.xml : h.present.xml }));
     message(`mask ${made.id} from layer ${e.layer}: ${plan.carried.length} setting(s) carried${plan.lost.length ? `, ${plan.lost.length} not` : ""}`);
     return true;
   };
@@ -487,7 +484,7 @@ export function App() {
 
   const single = selected.size === 1 ? recipe.nodes.find((n) => selected.has(n.id)) ?? null : null;
   const onPreview = useCallback((id: string) => setPreviewNode((cur) => (cur === id ? null : id)), []);
-  const preflightStale = isStale(preflight, preflightOf, { recipe: recipeSig, xml: xmlText });
+  const preflightStale = isStale(preflight, preflightOf, { recipe: recipeSig, xml: doc.xml });
   const badge = preflightBadge({ phase: run.phase, report: preflight, stale: preflightStale });
   const canvasStarts = useMemo(() => (preflight && !preflightStale ? { ...layerStarts(preflight, layer), radius: beadWidthOf(preflight) } : null), [preflight, preflightStale, layer]);
   const zoneArtifacts = useMemo(() => artifacts.filter((a) => a.name.endsWith(".params.xml")).map((a) => a.name), [artifacts]);
@@ -523,8 +520,8 @@ export function App() {
         }}
         onSave={save}
         onDelete={remove}
-        onUndo={() => setHist(undo)}
-        onRedo={() => setHist(redo)}
+        onUndo={() => setHist(undo<Doc>)}
+        onRedo={() => setHist(redo<Doc>)}
         onRun={startRun}
         onCancel={() => void cancel()}
         saveAs={saveAs}
@@ -590,10 +587,10 @@ export function App() {
                   text={xmlText}
                   unsaved={xmlDirty}
                   loadError={xmlText === null ? xmlLoadError : null}
-                  onChange={setXmlDraft}
+                  onChange={(t) => setXmlDraft(t, true)}
                   onSave={() => void save()}
                   onDiscard={() => {
-                    if (window.confirm("Drop the unsaved parameter XML?")) setXmlDraft(null);
+                    if (window.confirm("Drop the unsaved parameter XML?")) setXmlDraft(savedXml);
                   }}
                   serverError={xmlError}
                   runId={run.phase === "done" ? run.id : null}

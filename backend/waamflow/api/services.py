@@ -110,13 +110,13 @@ class Services:
     def prepare(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> Recipe:
         """A saved graph's zone nodes that name no parameter file use the XML stored with the graph
         (`<graph>.params.xml`), or the draft XML sent with the run, so values filled in the GUI reach
-        the run without setting a path."""
-        if not graph_name or (params_xml is None and self.store.get_params_xml(graph_name) is None):
+        the run without setting a path. An unsaved recipe's draft XML is the file `draft.params.xml`."""
+        if params_xml is None and (not graph_name or self.store.get_params_xml(graph_name) is None):
             return recipe
         r = recipe.model_copy(deep=True)
         for n in r.nodes:
             if n.type == "zone" and not n.params.get("parameters"):
-                n.params["parameters"] = f"{graph_name}.params.xml"
+                n.params["parameters"] = f"{graph_name or 'draft'}.params.xml"
         return r
 
     # files a graph's nodes may read: its stored files + its parameter XML, then the graphs folder
@@ -125,10 +125,10 @@ class Services:
         attachments: dict[str, bytes] = {}
         if graph_name:
             attachments.update(self.store.get_files(graph_name))
-            xml = params_xml if params_xml is not None else self.store.get_params_xml(graph_name)
-            if xml:
-                for fname in params_file_names(recipe):
-                    attachments[fname] = xml.encode("utf-8")
+        xml = params_xml if params_xml is not None or not graph_name else self.store.get_params_xml(graph_name)
+        if xml:
+            for fname in params_file_names(recipe):
+                attachments[fname] = xml.encode("utf-8")
         base = self.settings.graphs_dir or self.settings.data_dir
         roots = [p for p in (self.settings.graphs_dir, self.settings.data_dir) if p is not None]
         return FileResolver(base, attachments, roots=roots)

@@ -14,25 +14,25 @@ from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides
 from ..services import parse_api_recipe
 from ..deps import ArtifactName, RunId, ServicesDep, UserDep
-from ..schemas import RUN_REQUEST_RULES, RunEvent, errors
+from ..schemas import RunEvent, errors
 from ..store import GRAPH_NAME_PATTERN
 
 router = APIRouter(prefix="/api/runs", tags=["runs"])
 
 
 class RunRequest(BaseModel):
-    """`graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too)."""
+    """`graph`, `recipe` or both; `params_xml` with either (an unsaved recipe's draft XML too)."""
 
     model_config = ConfigDict(extra="forbid", json_schema_extra={
-        **RUN_REQUEST_RULES, "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}]})
+        "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}]})
     graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
                        description="name of a saved graph (alone: run it as saved; with `recipe`: "
                                    "run `recipe` with this graph's files and parameter XML)")
     recipe: dict[str, Any] | None = Field(None, description="an inline recipe (e.g. unsaved edits; see Recipe)")
     inputs: dict[str, Any] = Field(default_factory=dict, description="recipe input values to override")
     params_xml: str | None = Field(None, max_length=20_000_000,
-                            description="with `graph`: a draft zone-parameter XML used for this run "
-                                        "instead of the saved one; it never becomes the graph's XML (the "
+                            description="a draft zone-parameter XML used for this run (with `graph`: "
+                                        "instead of the saved one); it never becomes a graph's XML (the "
                                         "run keeps it, to rebuild its 3D scene after a restart)")
     accept_preflight: bool = Field(False, description="hand out the programs even when the preflight fails (the "
                                    "acceptance is written into each program's header); else a failed preflight keeps "
@@ -42,8 +42,6 @@ class RunRequest(BaseModel):
     def _one(self) -> "RunRequest":
         if self.graph is None and self.recipe is None:
             raise ValueError("give 'graph', 'recipe', or both")
-        if self.params_xml is not None and self.graph is None:
-            raise ValueError("'params_xml' needs 'graph' (the graph whose files the run uses)")
         return self
 
 

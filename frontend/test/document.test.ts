@@ -1,0 +1,68 @@
+import { describe, expect, it } from "vitest";
+import type { Recipe } from "../src/api/types";
+import { change, isDirty, newDocument, runRequest, savedOf, withRecipe, withXml, xmlDirty } from "../src/document/document";
+import { emptyRecipe, redo, removeNodes, undo } from "../src/graph/recipe";
+
+const recipe: Recipe = {
+  ...emptyRecipe("copy"),
+  nodes: [
+    { id: "mask", type: "mask", params: { masks: [{ id: "bs1", from_layer: 0, sections: [{ id: "A" }, { id: "C" }] }] } },
+    { id: "zone", type: "zone", params: {} },
+  ],
+  edges: [{ from: "mask.sections", to: "zone.sections" }],
+  ui: { positions: { mask: [0, 0], zone: [200, 0] } },
+} as unknown as Recipe;
+// user's own XML: comments and formatting must survive
+const XML = `<!-- my notes -->\n<params>\n  <section id="bs1/C"><zone name="start"><travel_speed unit="mm/s">6</travel_speed></zone></section>\n</params>\n`;
+const withoutC = XML.replace(/  <section id="bs1\/C">.*\n/, "");
+
+describe("document: recipe and parameter XML in one history", () => {
+  it("undo restores the XML together with the recipe (delete section, undo → both as saved)", () => {
+    let h = newDocument(recipe, XML);
+    const saved = savedOf(h.present);
+    // deleting a section changes the recipe and drops its XML values in one step
+    h = change(h, { recipe: removeNodes(recipe, new Set(["zone"])), xml: withoutC });
+    expect(isDirty(h.present, saved)).toBe(true);
+    h = undo(h);
+    expect(h.present.recipe).toEqual(recipe);
+    expect(h.present.xml).toBe(XML);
+    expect(isDirty(h.present, saved)).toBe(false);
+    h = redo(h);
+    expect(h.present.xml).toBe(withoutC);
+  });
+
+  it("an XML edit is its own undo step; typing folds into one", () => {
+    let h = newDocument(recipe, XML);
+    h = change(h, withXml(h.present, XML.replace(">6<", ">3<")));
+    h = change(h, withXml(h.present, XML.replace(">6<", ">35<")), true);
+    expect(h.past).toHaveLength(1);
+    h = change(h, withRecipe(h.present, { ...recipe, description: "d" }));
+    h = undo(h);
+    expect(h.present.xml).toBe(XML.replace(">6<", ">35<"));
+    expect(h.present.recipe).toBe(recipe);
+    h = undo(h);
+    expect(h.present.xml).toBe(XML);
+  });
+
+  it("the run request is exactly what is on screen: recipe + XML draft, saved or not", () => {
+    const h = change(newDocument(recipe, XML), withXml(newDocument(recipe, XML).present, XML.replace(">6<", ">3<")));
+    const req = runRequest(h.present, "copy");
+    expect(req).toEqual({ graph: "copy", recipe: { ...recipe, ui: undefined }, accept_preflight: false, params_xml: XML.replace(">6<", ">3<") });
+    expect("ui" in req.recipe && req.recipe.ui !== undefined).toBe(false);
+    // an unsaved recipe sends its draft XML too
+    expect(runRequest(h.present, null).params_xml).toBe(XML.replace(">6<", ">3<"));
+    // no XML of the user's own: none sent (the server uses the stored one or its template)
+    expect("params_xml" in runRequest(newDocument(recipe, null).present, "copy")).toBe(false);
+  });
+
+  it("a run changes nothing: the document and its dirty state are the same before and after", () => {
+    const h = newDocument(recipe, XML);
+    const saved = savedOf(h.present);
+    const before = JSON.stringify(h.present);
+    runRequest(h.present, "copy");
+    expect(JSON.stringify(h.present)).toBe(before);
+    expect(isDirty(h.present, saved)).toBe(false);
+    // a document without XML of its own is not dirty (the run's template is shown beside it)
+    expect(xmlDirty(newDocument(recipe, null).present, savedOf(newDocument(recipe, null).present))).toBe(false);
+  });
+});
