@@ -6,6 +6,7 @@ import { Inspector } from "./components/Inspector";
 import { Palette } from "./components/Palette";
 import { Tabs, tabPanelProps } from "./components/Tabs";
 import { Toolbar } from "./components/Toolbar";
+import { ConflictDialog, conflictOf, overwriteWith, type Conflict } from "./components/ConflictDialog";
 import { clearDraft, draftDiffers, parsePlace, placeSearch, readDraft, writeDraft, type Draft } from "./graph/drafts";
 import { GraphEditor } from "./graph/GraphEditor";
 import { NodeSearch } from "./graph/NodeSearch";
@@ -266,6 +267,8 @@ export function App() {
   }, [graphName, tab]);
 
   const bounds = useMemo(() => boundsByName(processParams), [processParams]);
+  // A save refused because someone saved since this recipe was opened (409): the user decides.
+  const [conflict, setConflict] = useState<Conflict | null>(null);
 
   const save = useCallback(
     async (name: string | null = graphName) => {
@@ -305,6 +308,11 @@ export function App() {
         void refreshGraphs();
         return true;
       } catch (e) {
+        const c = conflictOf(e);
+        if (c) {
+          setConflict(c);
+          return false;
+        }
         if (e instanceof API.ApiError) setXmlError(e.detail.layer != null ? e.detail : null);
         fail(e);
         return false;
@@ -639,6 +647,26 @@ export function App() {
           preflightStale={preflightStale}
           onPickPreflight={(pr) => pickPreflight(pr)}
           onMaskHere={(pr) => pickPreflight(pr, true)}
+        />
+      )}
+      {conflict && (
+        <ConflictDialog
+          conflict={conflict}
+          onReload={() => {
+            setConflict(null);
+            clearDraft(localStorage, conflict.name);
+            void open(conflict.name);
+          }}
+          onOverwrite={() => {
+            overwriteWith(conflict);
+            setConflict(null);
+            void save(conflict.name);
+          }}
+          onSaveAs={() => {
+            setConflict(null);
+            setSaveAs(`${conflict.name}-copy`);
+          }}
+          onCancel={() => setConflict(null)}
         />
       )}
       {search && (

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -204,7 +205,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 if "requestBody" in op and "application/json" in op["requestBody"].get("content", {}):
                     responses.setdefault("400", {"description": "The request body is not valid JSON"})
                 for code, resp in responses.items():
-                    if code.startswith("4"):
+                    if code.startswith("4") and "ConflictResponse" not in json.dumps(resp.get("content", {})):
                         resp["content"] = ref
                         if code == "422":
                             resp["description"] = "Invalid request, recipe or file"
@@ -216,7 +217,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     if settings.cors_origins:
         app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False,
-                           allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type"])
+                           allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type", "If-Match"],
+                           expose_headers=["ETag"])
     app.add_middleware(AuthMiddleware, tokens=tokens)
 
     if tokens:  # viser listens on loopback: reach it through this origin, under the API's auth

@@ -142,6 +142,19 @@ class ErrorResponse(BaseModel):
     detail: ErrorDetail
 
 
+class ConflictDetail(ErrorDetail):
+    """A 409: a read-only example (only the error fields), or a stale If-Match (also both versions)."""
+
+    yours: Any = Field(None, description="stale If-Match: the body that was sent (recipe JSON or XML text)")
+    theirs: dict[str, Any] | None = Field(None, description='stale If-Match: the stored version, `{"revision": n, '
+                                          '"recipe": {...}}` or `{"revision": n, "xml": "..."}`; null when the '
+                                          'graph was deleted meanwhile')
+
+
+class ConflictResponse(BaseModel):
+    detail: ConflictDetail
+
+
 STATUS_KIND = {400: "bad_request", 401: "unauthorized", 404: "not_found", 405: "method_not_allowed",
                409: "conflict", 413: "too_large", 422: "invalid_request", 429: "busy"}
 STATUS_TEXT = {400: "Bad request", 401: "Missing or wrong bearer token", 404: "Not found",

@@ -25,7 +25,8 @@ FILE_NAME = re.compile(FILE_NAME_PATTERN)
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS graphs (
   name TEXT PRIMARY KEY, recipe TEXT NOT NULL, params_xml TEXT, example INTEGER DEFAULT 0,
-  created REAL NOT NULL, updated REAL NOT NULL);
+  created REAL NOT NULL, updated REAL NOT NULL, revision INTEGER NOT NULL DEFAULT 1,
+  params_revision INTEGER NOT NULL DEFAULT 1);
 CREATE TABLE IF NOT EXISTS graph_files (
   graph TEXT NOT NULL, name TEXT NOT NULL, data BLOB NOT NULL, updated REAL NOT NULL,
   PRIMARY KEY (graph, name));
@@ -35,9 +36,27 @@ CREATE TABLE IF NOT EXISTS runs (
 CREATE TABLE IF NOT EXISTS run_params (run TEXT PRIMARY KEY, xml TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS events (run TEXT NOT NULL, seq INTEGER NOT NULL, data TEXT NOT NULL,
   PRIMARY KEY (run, seq));
+CREATE TABLE IF NOT EXISTS graph_revisions (graph TEXT NOT NULL, kind TEXT NOT NULL, revision INTEGER NOT NULL,
+  time REAL NOT NULL, user TEXT, content TEXT, PRIMARY KEY (graph, kind, revision));
 CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REAL NOT NULL, who TEXT,
   action TEXT NOT NULL, target TEXT, detail TEXT);
 """
+
+
+# columns added after the first release: (table, column, declaration); added to older databases
+# at start-up (a graph saved before revisions existed is revision 1)
+MIGRATIONS = (("graphs", "revision", "INTEGER NOT NULL DEFAULT 1"),
+              ("graphs", "params_revision", "INTEGER NOT NULL DEFAULT 1"))
+
+
+class RevisionConflict(Exception):
+    """A write with an expected revision (If-Match) that is no longer the stored one. `current`
+    is the stored revision (None: the graph does not exist) and `content` the stored version."""
+
+    def __init__(self, current: int | None, content: Any) -> None:
+        super().__init__(f"stored revision is {current}")
+        self.current = current
+        self.content = content
 
 
 def valid_graph_name(name: str) -> bool:
@@ -57,7 +76,14 @@ class Store:
         self._conn.row_factory = sqlite3.Row
         self._conn.execute("PRAGMA journal_mode=WAL")
         self._conn.executescript(SCHEMA)
+        self._migrate()
         self._conn.commit()
+
+    def _migrate(self) -> None:
+        for table, column, decl in MIGRATIONS:
+            have = {r["name"] for r in self._conn.execute(f"PRAGMA table_info({table})")}
+            if column not in have:
+                self._conn.execute(f"ALTER TABLE {table} ADD COLUMN {column} {decl}")
 
     def close(self) -> None:
         with self._lock:
@@ -92,24 +118,58 @@ class Store:
         rows = self._query("SELECT example FROM graphs WHERE name=?", (name,))
         return bool(rows and rows[0]["example"])
 
-    def put_graph(self, name: str, recipe: dict, *, example: bool = False) -> bool:
-        """Insert or replace; returns True when it was created."""
+    def graph_revision(self, name: str) -> int | None:
+        rows = self._query("SELECT revision FROM graphs WHERE name=?", (name,))
+        return int(rows[0]["revision"]) if rows else None
+
+    def params_revision(self, name: str) -> int | None:
+        rows = self._query("SELECT params_revision FROM graphs WHERE name=?", (name,))
+        return int(rows[0]["params_revision"]) if rows else None
+
+    def put_graph(self, name: str, recipe: dict, *, example: bool = False, expect: int | None = None,
+                  user: str | None = None) -> tuple[bool, int]:
+        """Insert or replace; returns (created, new revision). `expect`: the revision the writer
+        loaded (If-Match); when it is not the stored one → RevisionConflict and nothing changes
+        (checked and written under one lock and one transaction)."""
         now = time.time()
+        text = json.dumps(recipe)
         with self._lock:
-            exists = self._conn.execute("SELECT 1 FROM graphs WHERE name=?", (name,)).fetchone() is not None
-            if exists:
-                self._conn.execute("UPDATE graphs SET recipe=?, updated=?, example=? WHERE name=?",
-                                   (json.dumps(recipe), now, int(example), name))
+            row = self._conn.execute("SELECT recipe, revision FROM graphs WHERE name=?", (name,)).fetchone()
+            if expect is not None and (row is None or int(row["revision"]) != expect):
+                raise RevisionConflict(int(row["revision"]) if row else None,
+                                       json.loads(row["recipe"]) if row else None)
+            if row is not None:
+                rev = int(row["revision"]) + 1
+                self._conn.execute("UPDATE graphs SET recipe=?, updated=?, example=?, revision=? WHERE name=?",
+                                   (text, now, int(example), rev, name))
             else:
-                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated) VALUES (?,?,?,?,?)",
-                                   (name, json.dumps(recipe), int(example), now, now))
+                # a name used before (deleted) continues its history: revisions only grow
+                last = self._conn.execute("SELECT max(revision) FROM graph_revisions WHERE graph=? AND kind='recipe'",
+                                          (name,)).fetchone()[0]
+                rev = int(last or 0) + 1
+                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated, revision) "
+                                   "VALUES (?,?,?,?,?,?)", (name, text, int(example), now, now, rev))
+            self._conn.execute("INSERT OR REPLACE INTO graph_revisions (graph, kind, revision, time, user, content) "
+                               "VALUES (?,?,?,?,?,?)", (name, "recipe", rev, now, user, text))
             self._conn.commit()
-        return not exists
+        return row is None, rev
+
+    def list_revisions(self, name: str, kind: str = "recipe") -> list[dict]:
+        rows = self._query("SELECT revision, time, user FROM graph_revisions WHERE graph=? AND kind=? "
+                           "ORDER BY revision DESC", (name, kind))
+        return [dict(r) for r in rows]
+
+    def get_revision(self, name: str, revision: int, kind: str = "recipe") -> str | None:
+        rows = self._query("SELECT content FROM graph_revisions WHERE graph=? AND kind=? AND revision=?",
+                           (name, kind, revision))
+        return rows[0]["content"] if rows else None
 
     def delete_graph(self, name: str) -> bool:
         with self._lock:
             cur = self._conn.execute("DELETE FROM graphs WHERE name=?", (name,))
             self._conn.execute("DELETE FROM graph_files WHERE graph=?", (name,))
+            # a graph's history outlives it only for the recipe's revision numbers (kept monotonic)
+            self._conn.execute("DELETE FROM graph_revisions WHERE graph=? AND kind='params'", (name,))
             self._conn.commit()
             return cur.rowcount > 0
 
@@ -117,8 +177,24 @@ class Store:
         rows = self._query("SELECT params_xml FROM graphs WHERE name=?", (name,))
         return rows[0]["params_xml"] if rows else None
 
-    def put_params_xml(self, name: str, xml: str) -> None:
-        self._exec("UPDATE graphs SET params_xml=?, updated=? WHERE name=?", (xml, time.time(), name))
+    def put_params_xml(self, name: str, xml: str, *, expect: int | None = None, user: str | None = None) -> int:
+        """Replace the graph's parameter XML; returns its new revision. The first XML of a graph is
+        revision 1; `expect` as in put_graph."""
+        now = time.time()
+        with self._lock:
+            row = self._conn.execute("SELECT params_xml, params_revision FROM graphs WHERE name=?", (name,)).fetchone()
+            if row is None:
+                raise RevisionConflict(None, None)
+            cur = int(row["params_revision"])
+            if expect is not None and cur != expect:
+                raise RevisionConflict(cur, row["params_xml"])
+            rev = cur + 1 if row["params_xml"] else cur
+            self._conn.execute("UPDATE graphs SET params_xml=?, updated=?, params_revision=? WHERE name=?",
+                               (xml, now, rev, name))
+            self._conn.execute("INSERT OR REPLACE INTO graph_revisions (graph, kind, revision, time, user, content) "
+                               "VALUES (?,?,?,?,?,?)", (name, "params", rev, now, user, xml))
+            self._conn.commit()
+        return rev
 
     def list_files(self, graph: str) -> list[dict]:
         rows = self._query("SELECT name, length(data) AS size, updated FROM graph_files WHERE graph=? ORDER BY name", (graph,))

@@ -48,10 +48,63 @@ export function normalizeRecipe(r: WireRecipe): Recipe {
   };
 }
 
-export const getGraph = async (name: string) =>
-  normalizeRecipe(await unwrap<WireRecipe>(api.GET("/api/graphs/{name}", { params: { path: { name } } })));
-export const putGraph = (name: string, recipe: Recipe) =>
-  unwrap<SaveResult>(api.PUT("/api/graphs/{name}", { params: { path: { name } }, body: recipe }));
+// ---- revisions (#25): every save sends the revision it loaded (If-Match) ----------------------
+/** What was saved: the recipe or its parameter XML (each has its own revision). */
+export type Saved = "recipe" | "params";
+/** The ETag (quoted revision) last loaded or saved per graph and kind; a save sends it as If-Match. */
+const loaded = new Map<string, string>();
+const key = (kind: Saved, name: string) => `${kind}:${name}`;
+export const loadedRevision = (kind: Saved, name: string) => loaded.get(key(kind, name)) ?? null;
+/** Remember a revision (after a load or save); `null` forgets it (the next save is unconditional). */
+export function setLoadedRevision(kind: Saved, name: string, etag: string | null): void {
+  if (etag) loaded.set(key(kind, name), etag);
+  else loaded.delete(key(kind, name));
+}
+function remember(kind: Saved, name: string, res: Response): void {
+  const etag = res.headers.get("ETag");
+  if (etag) loaded.set(key(kind, name), etag);
+}
+
+/** A save refused because someone saved since this client loaded (409 on a stale If-Match). */
+export class ConflictError extends ApiError {
+  constructor(
+    status: number,
+    detail: RunError & Record<string, unknown>,
+    public kind: Saved,
+    public name: string,
+    /** Their stored revision, or null when the graph was deleted meanwhile. */
+    public theirs: { revision: number; recipe?: WireRecipe; xml?: string } | null,
+  ) {
+    super(status, detail);
+  }
+}
+
+function conflictOr(kind: Saved, name: string, status: number, body: unknown): ApiError {
+  const detail = toDetail(status, body);
+  if (status === 409 && "theirs" in detail)
+    return new ConflictError(status, detail, kind, name, (detail.theirs as ConflictError["theirs"]) ?? null);
+  return new ApiError(status, detail);
+}
+
+export async function getGraph(name: string): Promise<Recipe> {
+  const { data, error, response } = await api.GET("/api/graphs/{name}", { params: { path: { name } } });
+  if (!response.ok) throw new ApiError(response.status, toDetail(response.status, error));
+  remember("recipe", name, response);
+  return normalizeRecipe(data as WireRecipe);
+}
+
+/** Save a recipe with If-Match = the revision this client loaded (none known: unconditional). A
+ * stale revision → ConflictError (nothing was saved). */
+export async function putGraph(name: string, recipe: Recipe): Promise<SaveResult> {
+  const ifMatch = loadedRevision("recipe", name);
+  const { data, error, response } = await api.PUT("/api/graphs/{name}", {
+    params: { path: { name }, header: ifMatch ? { "If-Match": ifMatch } : undefined },
+    body: recipe,
+  });
+  if (!response.ok) throw conflictOr("recipe", name, response.status, error);
+  remember("recipe", name, response);
+  return data as SaveResult;
+}
 export const deleteGraph = (name: string) => unwrap<void>(api.DELETE("/api/graphs/{name}", { params: { path: { name } }, parseAs: "text" }));
 export const listFiles = (name: string) => unwrap<FileInfo[]>(api.GET("/api/graphs/{name}/files", { params: { path: { name } } }));
 
@@ -60,17 +113,20 @@ export async function getParams(name: string): Promise<string | null> {
   const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/params`);
   if (res.status === 404) return null;
   if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  remember("params", name, res);
   return res.text();
 }
 
 // XML and binary bodies go through fetch directly: openapi-fetch serialises bodies as JSON.
 export async function putParams(name: string, xml: string): Promise<void> {
+  const ifMatch = loadedRevision("params", name);
   const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/params`, {
     method: "PUT",
-    headers: { "Content-Type": "application/xml" },
+    headers: { "Content-Type": "application/xml", ...(ifMatch ? { "If-Match": ifMatch } : {}) },
     body: xml,
   });
-  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  if (!res.ok) throw conflictOr("params", name, res.status, await res.json().catch(() => undefined));
+  remember("params", name, res);
 }
 
 export async function putFile(name: string, filename: string, body: Blob): Promise<void> {
@@ -86,8 +142,9 @@ export async function putFile(name: string, filename: string, body: Blob): Promi
  * Start a run: `graph` alone runs the saved graph; `recipe` alone an inline recipe; both run the
  * (possibly unsaved) `recipe` with the saved graph's files and parameter XML.
  */
-export const startRun = (body: Omit<RunRequest, "recipe"> & { recipe?: Recipe | Omit<Recipe, "ui"> }) =>
-  unwrap<RunCreated>(api.POST("/api/runs", { body }));
+export const startRun = (
+  body: Omit<RunRequest, "recipe" | "accept_preflight"> & { recipe?: Recipe | Omit<Recipe, "ui">; accept_preflight?: boolean },
+) => unwrap<RunCreated>(api.POST("/api/runs", { body: { ...body, accept_preflight: body.accept_preflight ?? false } }));
 export const getRun = (id: string) => unwrap<RunInfo>(api.GET("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const cancelRun = (id: string) => unwrap<RunInfo>(api.DELETE("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const listArtifacts = (id: string) =>

@@ -129,6 +129,8 @@ export interface paths {
          * Put Graph
          * @description Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
          *     unconnected input while the user is still wiring) is saved and its problems are returned.
+         *     With `If-Match` the save happens only on that revision, else 409 with `yours` (the body sent)
+         *     and `theirs` (`{"revision", "recipe"}` as stored); without it the save is unconditional.
          */
         put: operations["put_graph_api_graphs__name__put"];
         post?: never;
@@ -155,9 +157,50 @@ export interface paths {
         get: operations["get_params_api_graphs__name__params_get"];
         /**
          * Put Params
-         * @description Replace the graph's zone-parameter XML (validated: numbers, units, ranges).
+         * @description Replace the graph's zone-parameter XML (validated: numbers, units, ranges). `If-Match` as
+         *     for the recipe (the XML has its own revision); a 409's `theirs` is `{"revision", "xml"}`.
          */
         put: operations["put_params_api_graphs__name__params_put"];
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/graphs/{name}/revisions": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Revisions
+         * @description The recipe's saved revisions, newest first (revision, time, user).
+         */
+        get: operations["list_revisions_api_graphs__name__revisions_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/graphs/{name}/revisions/{rev}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Revision
+         * @description One earlier revision of the recipe (restore it by PUTting it back).
+         */
+        get: operations["get_revision_api_graphs__name__revisions__rev__get"];
+        put?: never;
         post?: never;
         delete?: never;
         options?: never;
@@ -465,6 +508,65 @@ export interface components {
             } | null;
         };
         /**
+         * ConflictDetail
+         * @description A 409: a read-only example (only the error fields), or a stale If-Match (also both versions).
+         */
+        ConflictDetail: {
+            /**
+             * Kind
+             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             */
+            kind: string;
+            /** Message */
+            message: string;
+            /**
+             * Node
+             * @description node id the error is about
+             */
+            node?: string | null;
+            /**
+             * Layer
+             * @description layer index
+             */
+            layer?: number | null;
+            /**
+             * Section
+             * @description section key
+             */
+            section?: string | null;
+            /**
+             * Field
+             * @description parameter or request field
+             */
+            field?: string | null;
+            /**
+             * Text
+             * @description one line for people: location + message
+             */
+            text: string;
+            /**
+             * Errors
+             * @description every violation of a request schema (422)
+             */
+            errors?: components["schemas"]["ValidationItem"][] | null;
+            /**
+             * Yours
+             * @description stale If-Match: the body that was sent (recipe JSON or XML text)
+             */
+            yours?: unknown;
+            /**
+             * Theirs
+             * @description stale If-Match: the stored version, `{"revision": n, "recipe": {...}}` or `{"revision": n, "xml": "..."}`; null when the graph was deleted meanwhile
+             */
+            theirs?: {
+                [key: string]: unknown;
+            } | null;
+        };
+        /** ConflictResponse */
+        ConflictResponse: {
+            detail: components["schemas"]["ConflictDetail"];
+        };
+        /**
          * CoverageJSON
          * @description Bead coverage of one section path (waamflow.process.coverage): areas in mm², polygons layer-local.
          */
@@ -705,6 +807,109 @@ export interface components {
             /** Color */
             color: string;
         };
+        /** PreflightSettings */
+        PreflightSettings: {
+            /**
+             * Enabled
+             * @description Run the preflight after every full run
+             * @default true
+             */
+            enabled: boolean;
+            /**
+             * Bead Width Mm
+             * @description Bead width, mm; empty = the recipe's strategy/wall-path bead_width, else 6 mm
+             */
+            bead_width_mm?: number | null;
+            /**
+             * Top Gap Max Layers
+             * @description Fail when the highest deposited layer ends more than this many layer heights below the part's top
+             * @default 0.5
+             */
+            top_gap_max_layers: number;
+            /**
+             * Overshoot Warn Layers
+             * @description Warn when the deposit ends more than this many layer heights above the part's top
+             * @default 1
+             */
+            overshoot_warn_layers: number;
+            /**
+             * Uncovered Warn
+             * @description Warn above this share of the part with no bead
+             * @default 0.02
+             */
+            uncovered_warn: number;
+            /**
+             * Uncovered Fail
+             * @description Fail above this share of the part with no bead
+             * @default 0.05
+             */
+            uncovered_fail: number;
+            /**
+             * Volume Ratio Ok
+             * @description Wire ending in the part / part volume: no remark inside this band
+             * @default [
+             *       0.9,
+             *       1.2
+             *     ]
+             */
+            volume_ratio_ok: [
+                number,
+                number
+            ];
+            /**
+             * Volume Ratio Fail
+             * @description Fail outside this band (warn between)
+             * @default [
+             *       0.75,
+             *       1.5
+             *     ]
+             */
+            volume_ratio_fail: [
+                number,
+                number
+            ];
+            /**
+             * Min Arc Run Mm
+             * @description Warn for arc-ON runs shorter than this, mm; empty = two bead widths
+             */
+            min_arc_run_mm?: number | null;
+            /**
+             * Stacked Starts
+             * @description Ignitions within one bead width of an ignition on the layer below
+             * @default warn
+             * @enum {string}
+             */
+            stacked_starts: "off" | "warn" | "fail";
+            /**
+             * Weld Data
+             * @description Arc-ON moves with no weld parameter commanded (comments do not count)
+             * @default fail
+             * @enum {string}
+             */
+            weld_data: "off" | "warn" | "fail";
+            /**
+             * Wire Diameter Mm
+             * @default 1.2
+             */
+            wire_diameter_mm: number;
+            /**
+             * Deposition Efficiency
+             * @description Share of the wire fed that ends in the part
+             * @default 0.95
+             */
+            deposition_efficiency: number;
+            /**
+             * Bead Shape Factor
+             * @description k in bead area = k·w·h (stated for the report; a stacked layer adds w·h, so the balance uses the part's volume)
+             * @default 0.75
+             */
+            bead_shape_factor: number;
+            /**
+             * Sample Mm
+             * @description Sample spacing of the 3D coverage check, mm; empty = a quarter bead width, coarsened to at most 200,000 samples
+             */
+            sample_mm?: number | null;
+        };
         /** PreviewRequest */
         PreviewRequest: {
             /**
@@ -820,10 +1025,24 @@ export interface components {
             nodes?: components["schemas"]["NodeEntry"][];
             /** Edges */
             edges?: components["schemas"]["EdgeEntry"][];
+            /** @description thresholds of the check of every emitted program against its part (README 'Preflight'); empty = defaults */
+            preflight?: components["schemas"]["PreflightSettings"] | null;
             /** Ui */
             ui?: {
                 [key: string]: unknown;
             } | null;
+        };
+        /** RevisionInfo */
+        RevisionInfo: {
+            /** Revision */
+            revision: number;
+            /** Time */
+            time: number;
+            /**
+             * User
+             * @description who saved it (token name; null without authentication)
+             */
+            user?: string | null;
         };
         /** RunCreated */
         RunCreated: {
@@ -887,7 +1106,7 @@ export interface components {
         };
         /**
          * RunRequest
-         * @description `graph`, `recipe` or both; `params_xml` only with `graph` (declared in the schema too).
+         * @description `graph`, `recipe` or both; `params_xml` with either (an unsaved recipe's draft XML too).
          * @example {
          *       "graph": "rectangle-study",
          *       "inputs": {
@@ -918,14 +1137,16 @@ export interface components {
             };
             /**
              * Params Xml
-             * @description with `graph`: a draft zone-parameter XML used for this run instead of the saved one; it never becomes the graph's XML (the run keeps it, to rebuild its 3D scene after a restart)
+             * @description a draft zone-parameter XML used for this run (with `graph`: instead of the saved one); it never becomes a graph's XML (the run keeps it, to rebuild its 3D scene after a restart)
              */
             params_xml?: string | null;
-        } & (unknown | {
-            params_xml?: null;
-        } | {
-            graph: string;
-        });
+            /**
+             * Accept Preflight
+             * @description hand out the programs even when the preflight fails (the acceptance is written into each program's header); else a failed preflight keeps them back and `summary.preflight.withheld` names them
+             * @default false
+             */
+            accept_preflight: boolean;
+        };
         /** RunStatus */
         RunStatus: {
             /** Id */
@@ -965,6 +1186,11 @@ export interface components {
             problems: {
                 [key: string]: unknown;
             }[];
+            /**
+             * Revision
+             * @description the saved revision (also the ETag header, quoted)
+             */
+            revision: number;
         };
         /** SectionJSON */
         SectionJSON: {
@@ -1292,9 +1518,11 @@ export interface operations {
         };
         requestBody?: never;
         responses: {
-            /** @description Successful Response */
+            /** @description The recipe */
             200: {
                 headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content: {
@@ -1333,7 +1561,10 @@ export interface operations {
     put_graph_api_graphs__name__put: {
         parameters: {
             query?: never;
-            header?: never;
+            header?: {
+                /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
+                "If-Match"?: string | null;
+            };
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
@@ -1346,9 +1577,11 @@ export interface operations {
             };
         };
         responses: {
-            /** @description Successful Response */
+            /** @description Saved */
             200: {
                 headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content: {
@@ -1358,6 +1591,8 @@ export interface operations {
             /** @description Created */
             201: {
                 headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content: {
@@ -1382,13 +1617,13 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
-            /** @description Conflict (e.g. a read-only example) */
+            /** @description Conflict: a read-only example, or the stored revision is no longer the If-Match one (`detail.yours` / `detail.theirs` hold both versions) */
             409: {
                 headers: {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["ErrorResponse"];
+                    "application/json": components["schemas"]["ConflictResponse"];
                 };
             };
             /** @description Too large */
@@ -1483,6 +1718,8 @@ export interface operations {
             /** @description Successful Response */
             200: {
                 headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content: {
@@ -1521,7 +1758,10 @@ export interface operations {
     put_params_api_graphs__name__params_put: {
         parameters: {
             query?: never;
-            header?: never;
+            header?: {
+                /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
+                "If-Match"?: string | null;
+            };
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
@@ -1534,9 +1774,11 @@ export interface operations {
             };
         };
         responses: {
-            /** @description Successful Response */
+            /** @description Saved */
             204: {
                 headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content?: never;
@@ -1568,8 +1810,17 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
-            /** @description Conflict (e.g. a read-only example) */
+            /** @description Conflict: a read-only example, or the stored revision is no longer the If-Match one (`detail.yours` / `detail.theirs` hold both versions) */
             409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ConflictResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1577,8 +1828,102 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
-            /** @description Too large */
-            413: {
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    list_revisions_api_graphs__name__revisions_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RevisionInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    get_revision_api_graphs__name__revisions__rev__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
+                name: string;
+                rev: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description The recipe as saved in that revision */
+            200: {
+                headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Recipe"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };

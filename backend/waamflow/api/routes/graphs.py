@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
-from fastapi import APIRouter, Body, HTTPException, Request, Response
+from fastapi import APIRouter, Body, Header, HTTPException, Request, Response
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 from ...core.errors import RecipeError
@@ -12,7 +14,8 @@ from ...engine.graph import build_graph
 from ...engine.recipe import Recipe
 from ..services import parse_api_recipe
 from ..deps import FileName, GraphName, ServicesDep, UserDep
-from ..schemas import errors
+from ..schemas import ConflictResponse, error_body, errors
+from ..store import RevisionConflict
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
 
@@ -29,6 +32,59 @@ class SaveResult(BaseModel):
     name: str
     created: bool
     problems: list[dict[str, Any]]
+    revision: int = Field(description="the saved revision (also the ETag header, quoted)")
+
+
+class RevisionInfo(BaseModel):
+    revision: int
+    time: float
+    user: str | None = Field(None, description="who saved it (token name; null without authentication)")
+
+
+# Optimistic concurrency (#25): GET answers the stored revision as a strong ETag; a PUT that sends
+# If-Match saves only when it is still the stored revision, else 409 with both versions. A PUT
+# without If-Match saves unconditionally (scripts, the CLI, older clients).
+ETAG_HEADER = {"ETag": {"description": 'the stored revision, a strong entity tag: `"<revision>"`',
+                        "schema": {"type": "string", "pattern": '^"[0-9]+"$'}}}
+IfMatch = Header(None, alias="If-Match", pattern=r'^\s*(\*|(W/)?"[^"]*"(\s*,\s*(W/)?"[^"]*")*)\s*$',
+                 description='the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is '
+                             'still the stored revision, else 409 with both versions. `*`: any stored revision. '
+                             'Without it the PUT saves unconditionally.')
+CONFLICT_409 = {409: {"model": ConflictResponse,
+                      "description": "Conflict: a read-only example, or the stored revision is no longer the "
+                                     "If-Match one (`detail.yours` / `detail.theirs` hold both versions)"}}
+
+
+def etag(revision: int) -> str:
+    return f'"{revision}"'
+
+
+def _expected(if_match: str | None, current: int | None) -> int | None:
+    """The revision an If-Match asks for: None = no condition; -1 = one that never matches.
+    Weak tags never match (strong comparison, RFC 9110 13.1.1)."""
+    if if_match is None:
+        return None
+    tags = [t.strip() for t in if_match.split(",")]
+    if "*" in tags:
+        return current if current is not None else -1
+    for t in tags:
+        if t.startswith('"') and t.endswith('"') and t[1:-1].isdigit() and current is not None and int(t[1:-1]) == current:
+            return current
+    return -1
+
+
+def _conflict(what: str, name: str, yours: Any, err: RevisionConflict, key: str) -> JSONResponse:
+    if err.current is None:
+        msg = f"{name!r} was deleted since you opened it"
+        theirs = None
+    else:
+        msg = (f"Someone saved this {what} since you opened it: {name!r} is now at revision {err.current}. "
+               "Reload theirs, overwrite (If-Match their revision) or save under another name.")
+        theirs = {"revision": err.current, key: err.content}
+    body = error_body(409, {"message": msg, "kind": "conflict"})
+    body["detail"].update({"yours": yours, "theirs": theirs})
+    return JSONResponse(status_code=409, content=body,
+                        headers={"ETag": etag(err.current)} if err.current is not None else None)
 
 
 class FileInfo(BaseModel):
@@ -50,22 +106,29 @@ def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
 
 
 @router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True,
-            responses=errors(401, 404, 422))
-def get_graph(name: GraphName, svc: ServicesDep) -> dict[str, Any]:
+            responses={200: {"description": "The recipe", "headers": ETAG_HEADER}, **errors(401, 404, 422)})
+def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str, Any]:
     recipe = svc.store.get_graph(name)
-    if recipe is None:
+    rev = svc.store.graph_revision(name)
+    if recipe is None or rev is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    response.headers["ETag"] = etag(rev)
     return recipe
 
 
-@router.put("/{name}", response_model=SaveResult, responses={201: {"model": SaveResult, "description": "Created"},
-                                                                **errors(401, 409, 413, 422)},
+@router.put("/{name}", response_model=SaveResult,
+            responses={200: {"description": "Saved", "headers": ETAG_HEADER},
+                       201: {"model": SaveResult, "description": "Created", "headers": ETAG_HEADER},
+                       **errors(401, 413, 422), **CONFLICT_409},
             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
                 "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
 def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Response,
-              recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)")) -> SaveResult:
+              recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)"),
+              if_match: str | None = IfMatch) -> Any:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
-    unconnected input while the user is still wiring) is saved and its problems are returned."""
+    unconnected input while the user is still wiring) is saved and its problems are returned.
+    With `If-Match` the save happens only on that revision, else 409 with `yours` (the body sent)
+    and `theirs` (`{"revision", "recipe"}` as stored); without it the save is unconditional."""
     _writable(svc, name)
     parsed = parse_api_recipe(recipe)  # RecipeError → 422 via the app's handler
     parsed = parsed.model_copy(update={"name": name})
@@ -74,10 +137,15 @@ def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Respon
         build_graph(parsed)
     except RecipeError as err:
         problems.append(err.to_dict())
-    created = svc.store.put_graph(name, parsed.to_json())
-    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes)})
+    try:
+        created, rev = svc.store.put_graph(name, parsed.to_json(), user=user,
+                                           expect=_expected(if_match, svc.store.graph_revision(name)))
+    except RevisionConflict as err:
+        return _conflict("recipe", name, recipe, err, "recipe")
+    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes), "revision": rev})
     response.status_code = 201 if created else 200
-    return SaveResult(name=name, created=created, problems=problems)
+    response.headers["ETag"] = etag(rev)
+    return SaveResult(name=name, created=created, problems=problems, revision=rev)
 
 
 @router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 404, 409, 422))
@@ -90,7 +158,8 @@ def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep) -> Response:
 
 
 @router.get("/{name}/params", response_class=Response,
-            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401, 404, 422)})
+            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}, "headers": ETAG_HEADER},
+                       **errors(401, 404, 422)})
 def get_params(name: GraphName, svc: ServicesDep) -> Response:
     """The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
@@ -100,13 +169,17 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
     xml = svc.store.get_params_xml(name)
     if not xml:
         raise HTTPException(404, detail={"message": f"graph {name!r} has no parameter file yet: run it once to create the template"})
-    return Response(xml, media_type="application/xml")
+    return Response(xml, media_type="application/xml", headers={"ETag": etag(svc.store.params_revision(name) or 1)})
 
 
-@router.put("/{name}/params", response_class=Response, status_code=204, responses=errors(400, 401, 404, 409, 413, 422),
+@router.put("/{name}/params", response_class=Response, status_code=204,
+            responses={204: {"description": "Saved", "headers": ETAG_HEADER}, **errors(400, 401, 404, 413, 422),
+                       **CONFLICT_409},
             openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
-async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: Request) -> Response:
-    """Replace the graph's zone-parameter XML (validated: numbers, units, ranges)."""
+async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: Request,
+                     if_match: str | None = IfMatch) -> Response:
+    """Replace the graph's zone-parameter XML (validated: numbers, units, ranges). `If-Match` as
+    for the recipe (the XML has its own revision); a 409's `theirs` is `{"revision", "xml"}`."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
     _writable(svc, name)
@@ -120,9 +193,34 @@ async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: 
     from ...zoning.params_xml import validate_xml
 
     validate_xml(text)  # RecipeError (naming layer/section/zone) → 422
-    svc.store.put_params_xml(name, text)
-    svc.store.audit(user, "save_params", name, {"bytes": len(body)})
-    return Response(status_code=204)
+    try:
+        rev = svc.store.put_params_xml(name, text, user=user,
+                                       expect=_expected(if_match, svc.store.params_revision(name)))
+    except RevisionConflict as err:
+        return _conflict("parameter file", name, text, err, "xml")
+    svc.store.audit(user, "save_params", name, {"bytes": len(body), "revision": rev})
+    return Response(status_code=204, headers={"ETag": etag(rev)})
+
+
+@router.get("/{name}/revisions", response_model=list[RevisionInfo], responses=errors(401, 404, 422))
+def list_revisions(name: GraphName, svc: ServicesDep) -> list[RevisionInfo]:
+    """The recipe's saved revisions, newest first (revision, time, user)."""
+    if svc.store.get_graph(name) is None:
+        raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    return [RevisionInfo(**r) for r in svc.store.list_revisions(name)]
+
+
+@router.get("/{name}/revisions/{rev}", response_model=Recipe, response_model_exclude_none=True,
+            response_model_by_alias=True,
+            responses={200: {"description": "The recipe as saved in that revision", "headers": ETAG_HEADER},
+                       **errors(401, 404, 422)})
+def get_revision(name: GraphName, rev: int, svc: ServicesDep, response: Response) -> dict[str, Any]:
+    """One earlier revision of the recipe (restore it by PUTting it back)."""
+    text = svc.store.get_revision(name, rev) if svc.store.get_graph(name) is not None else None
+    if text is None:
+        raise HTTPException(404, detail={"message": f"graph {name!r} has no revision {rev}"})
+    response.headers["ETag"] = etag(rev)
+    return json.loads(text)
 
 
 @router.get("/{name}/files", response_model=list[FileInfo], responses=errors(401, 404, 422))
