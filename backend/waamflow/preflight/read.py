@@ -19,12 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..program.common import WELD_COMMANDED, parse_weld_tag, template_regex
+
 NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _LAYER = re.compile(r"\blayer (\d+)\b")
 _SECTION = re.compile(r"\bsection (\S+)")
-_WELD_TAG = re.compile(r"waamflow-weld:\s*(.*)$")
-_PAIR = re.compile(r"(?<![\w\]@])(\w+)(?:\[[^\]]*\])?(?:@\w+)?=(\"[^\"]*\"|\S+)")
-WELD_NAMES = ("wire_feed_speed", "current", "voltage", "job")
 
 
 @dataclass
@@ -123,31 +122,12 @@ _POST_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_u
                        r"(?:\s+feed_units=(mm/min|mm/s))?")
 
 
-def _template_regex(template: str) -> tuple[re.Pattern, float]:
-    """A command template (`M67 E0 Q{value:.2f}`, `M68 E1 Q{value*0.1}`) → a regex capturing the
-    value; fixed words must match, `{value…}` captures a number."""
-    parts = re.split(r"\{value[^}]*\}", template.strip())
-    if len(parts) != 2:
-        raise ValueError(f"weld command template {template!r} must hold one {{value}}")
-    words = [re.escape(p.strip()).replace(r"\ ", r"\s*") for p in parts]
-    rx = r"^\s*" + words[0] + (r"\s*" if words[0] else "") + "(" + NUM + ")" + r"\s*" + words[1] + r"\s*$"
-    return re.compile(rx, re.IGNORECASE), 1.0
-
-
-def _weld_templates(text: str) -> dict[str, list[re.Pattern]]:
-    """parameter → the command patterns that set it (`name[unit]="TPL"`, `name[unit]@start="TPL"`)."""
-    out: dict[str, list[re.Pattern]] = {}
-    for line in text.splitlines()[:200]:
-        m = _WELD_TAG.search(line)
-        if not m:
-            continue
-        for name, tpl in _PAIR.findall(m.group(1)):
-            tpl = tpl.strip('"').replace("_", " ") if not tpl.startswith('"') else tpl.strip('"')
-            try:
-                out.setdefault(name, []).append(_template_regex(tpl)[0])
-            except ValueError:
-                continue
-    return out
+def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float]]]:
+    """parameter → (pattern of a command that sets it, scale the command carries the value at), from
+    the program's `waamflow-weld:` header lines (the format `program.common` documents: a reader of
+    the declared syntax, scales `name[unit]*k=` included)."""
+    return {name: [(template_regex(t), e["scale"]) for t in e["commands"] if "{" in t]
+            for name, e in parse_weld_tag(text).items()}
 
 
 def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> np.ndarray:
@@ -198,11 +178,11 @@ def read_gcode(text: str) -> ProgramRead:
             b.close()
             continue
         matched = False
-        for name, rxs in weld_rx.items():
-            for rx in rxs:
-                m = rx.match(code)
+        for name, pats in weld_rx.items():
+            for rx, scale in pats:
+                m = rx.search(code)
                 if m:
-                    values[name] = float(m.group(1))
+                    values[name] = float(m.group(1)) / scale
                     matched = True
         if matched:
             continue
@@ -290,15 +270,13 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
         for ch, name in re.findall(r"(\d+)\s+(\w+)", m.group(1)):
             channels[int(ch)] = name
     anout: dict[str, str] = {}      # `$ANOUT[n]` → parameter, from the header's waamflow-weld tag
-    for line in header.splitlines()[:200]:
-        t = _WELD_TAG.search(line)
-        if t:
-            for name, tpl in _PAIR.findall(t.group(1)):
-                a = _ANOUT_TAG.search(tpl)
-                if a:
-                    anout[a.group(1)] = name
+    for name, e in parse_weld_tag(header).items():
+        for tpl in e["commands"]:
+            a = _ANOUT_TAG.search(tpl)
+            if a:
+                anout[a.group(1)] = name
     b = _RunBuilder("krl")
-    state = {"vel": math.nan, "values": {}, "wdat": None, "arc_after_move": False, "off_after_move": False}
+    state = {"vel": math.nan, "values": {}, "wdat": None}
     out_no = re.search(r"digital output \$OUT\[(\d+)\]", header)
     out_no = out_no.group(1) if out_no else None
 
@@ -402,7 +380,7 @@ def read_rapid(text: str) -> ProgramRead:
         vals = [float(v) for v in re.findall(NUM, main)]
         d = {}
         for f, v in zip(fields, vals):
-            if f in WELD_NAMES and v != 0.0:
+            if f in WELD_COMMANDED and v != 0.0:
                 d[f] = v
         welds[name.lower()] = d | {"_speed": float(speed)}
     b = _RunBuilder("rapid")
