@@ -352,6 +352,7 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
             v, m = wire_volume(r, s)
             w += v
             missing += m
+        wire_total += w
         L = rep.layer(idx)
         L["wire_mm3"] = _r(w, 1)
         if L.get("part_mm3"):
@@ -361,8 +362,8 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
     out["weld_data_missing"] = weld_missing if weld_expected else None
     ratio = None
     if part is not None and cov and cov["part_volume_mm3"] > 0 and missing == 0:
-        ratio = wire_total_all(layers, s) / cov["part_volume_mm3"]
-    out["wire_mm3"] = _r(wire_total_all(layers, s), 1) if missing == 0 else None
+        ratio = wire_total / cov["part_volume_mm3"]
+    out["wire_mm3"] = _r(wire_total, 1) if missing == 0 else None
     out["wire_part_volume_ratio"] = _r(ratio, 3)
     if weld_expected and weld_missing and s.weld_data != "off":
         first = next(r for r in prog.runs if (~r.weld).any())
@@ -443,12 +444,10 @@ STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in mach
 def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
     """(n,) bool: the points lie in the part (a wall: on its midsurface, within STOCK_TOL_MM), not in
     the stock beyond it that is machined off."""
-    if part.kind == "midsurface":
-        geom = MultiLineString([np.asarray(c)[:, :2] for c in part.curves])
-        return np.array([geom.distance(shapely.Point(p[0], p[1])) <= STOCK_TOL_MM for p in pts])
-    if part.kind == "region":
-        geom = unary_union([g for _z, _t, g in part.regions])
-        return np.array([geom.buffer(STOCK_TOL_MM).contains(shapely.Point(p[0], p[1])) for p in pts])
+    if part.kind in ("midsurface", "region"):    # the wall's midsurface, or the 2D region: its distance
+        geom = (MultiLineString([np.asarray(c)[:, :2] for c in part.curves]) if part.kind == "midsurface"
+                else unary_union([g for _z, _t, g in part.regions]))
+        return shapely.distance(geom, shapely.points(np.asarray(pts)[:, :2])) <= STOCK_TOL_MM
     import trimesh
 
     mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
@@ -458,9 +457,6 @@ def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
     _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
     return mesh.contains(pts) | (dist <= STOCK_TOL_MM)
 
-
-def wire_total_all(layers, s: PreflightSettings) -> float:
-    return sum(wire_volume(r, s)[0] for _i, runs in layers for r in runs)
 
 
 def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:
