@@ -4,7 +4,7 @@
 // Run: npm run test:e2e (all *.e2e.mjs) or `node e2e/run.mjs e2e/core.e2e.mjs`.
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { api, boxesStl, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
+import { api, boxesStl, expectRun, openPage, saveAs, shot, startBrowser, startServer } from "./harness.mjs";
 
 let srv, browser;
 before(async () => {
@@ -35,10 +35,7 @@ test("a run never changes what was saved: save as, new mask from layer 4, run un
   const { page, errors } = await openPage(browser, srv.base);
   await page.selectOption("[data-testid=open-graph]", "mpp-cross");
   await page.waitForSelector('.react-flow__node[data-id="zone"]');
-  await page.getByRole("button", { name: /save as/ }).click();
-  await page.fill("[data-testid=save-as-name]", "core-cross");
-  await page.press("[data-testid=save-as-name]", "Enter");
-  await page.waitForSelector('.toolbar .title:text-is("core-cross")');
+  await saveAs(page, "core-cross");
   await page.waitForURL(/[?&]graph=core-cross\b/); // the URL names the open recipe
   const savedXml = await api(srv.base, "/api/graphs/core-cross/params");
   const exampleXml = await api(srv.base, "/api/graphs/mpp-cross/params");

@@ -3,7 +3,7 @@
 // Run: `node e2e/run.mjs e2e/document.e2e.mjs` (after `npm run build`, or SKIP_BUILD=1 to skip it).
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { api, expectRun, openPage, shot, startBrowser, startServer } from "./harness.mjs";
+import { api, expectRun, openPage, saveAs, shot, startBrowser, startServer } from "./harness.mjs";
 
 let srv, browser;
 before(async () => {
@@ -27,10 +27,7 @@ test("undo restores recipe and XML together; an unchanged saved recipe stays cle
   // examples are read-only: save a copy first
   await page.selectOption("[data-testid=open-graph]", "mpp-cross");
   await page.waitForSelector('.react-flow__node[data-id="zone"]');
-  await page.getByRole("button", { name: /save as/ }).click();
-  await page.fill("[data-testid=save-as-name]", "doc-cross");
-  await page.press("[data-testid=save-as-name]", "Enter");
-  await page.waitForSelector('.toolbar .title:text-is("doc-cross")');
+  await saveAs(page, "doc-cross");
   const savedXml = await api(srv.base, "/api/graphs/doc-cross/params");
   const savedRecipe = await api(srv.base, "/api/graphs/doc-cross");
 

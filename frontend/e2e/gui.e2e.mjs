@@ -5,7 +5,7 @@ import { readFileSync, writeFileSync } from "node:fs";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import {
-  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, openRecipe, shot, startBrowser, startServer, waitRun,
+  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, openRecipe, saveAs, shot, startBrowser, startServer, waitRun,
 } from "./harness.mjs";
 
 let srv, browser;
@@ -25,13 +25,6 @@ function xmlValue(xml, layer, section, zone, tag) {
   const s = l.match(new RegExp(`<section id="${section.replace("/", "\\/")}"[^>]*>([\\s\\S]*?)</section>`))?.[1] ?? "";
   const z = s.match(new RegExp(`<zone id="${zone}"[^>]*>([\\s\\S]*?)</zone>`))?.[1] ?? "";
   return z.match(new RegExp(`<${tag}[^>]*>([^<]*)</${tag}>`))?.[1] ?? (z.includes(`<${tag}`) ? "" : null);
-}
-
-async function saveAs(page, name) {
-  await page.getByRole("button", { name: /save as/ }).click().catch(() => undefined);
-  await page.fill("[data-testid=save-as-name]", name);
-  await page.press("[data-testid=save-as-name]", "Enter");
-  await page.waitForSelector(`.toolbar .title:text-is("${name}")`);
 }
 
 /** Edit → re-planned canvas latency: make `edit` and wait for the canvas to report the re-plan. */

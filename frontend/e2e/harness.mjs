@@ -153,6 +153,14 @@ export async function expectRun(page, base, phase, clickRun = true, timeout = 12
 
 /** Pick recipe `name` in the toolbar and wait until exactly its nodes are shown (examples share
  * node ids such as "part" and "post", so one node of it is no proof); returns the recipe. */
+/** "save as" `name` (opening the dialog unless it is open) and wait for the toolbar to show it. */
+export async function saveAs(page, name) {
+  await page.getByRole("button", { name: /save as/ }).click().catch(() => undefined);
+  await page.fill("[data-testid=save-as-name]", name);
+  await page.press("[data-testid=save-as-name]", "Enter");
+  await page.waitForSelector(`.toolbar .title:text-is("${name}")`);
+}
+
 export async function openRecipe(page, base, name) {
   await page.selectOption("[data-testid=open-graph]", name);
   const recipe = await api(base, `/api/graphs/${name}`);
