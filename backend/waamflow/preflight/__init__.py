@@ -27,7 +27,8 @@ def _part_of(graph, outputs: dict, node_id: str):
     from ..core.model import Layered, Layer, MeshData, Midsurface
     from .check import Part
 
-    order = [n for n in graph.order if n in graph.ancestors(node_id)]
+    upstream = graph.ancestors(node_id)
+    order = [n for n in graph.order if n in upstream]
     for nid in order:                       # the first input in topological order is the part
         for value in outputs.get(nid, {}).values():
             if isinstance(value, MeshData):
@@ -45,7 +46,8 @@ def _part_of(graph, outputs: dict, node_id: str):
 def _bead_width(graph, node_id: str, s: PreflightSettings) -> tuple[float, str]:
     if s.bead_width_mm:
         return s.bead_width_mm, "preflight.bead_width_mm"
-    for nid in [n for n in graph.order if n in graph.ancestors(node_id) | {node_id}]:
+    upstream = graph.ancestors(node_id) | {node_id}
+    for nid in [n for n in graph.order if n in upstream]:
         params = graph.nodes[nid].params
         default = getattr(params, "default", None)
         for owner, path in ((default, f"{nid}.default.bead_width"), (params, f"{nid}.bead_width")):
