@@ -707,9 +707,10 @@ class _Run:
             raise PlanningError(f"node returned outputs {got}, expected {sorted(expected)}")
 
 
-def _preflight(run: "_Run", graph: Graph) -> dict | None:
-    """The preflight of a full run (`waamflow.preflight`); its report is also the artifact
-    `preflight.json`. An internal error of the check itself is a failed check, never a silent pass."""
+def _preflight(run: "_Run", graph: Graph) -> tuple[dict | None, float | None]:
+    """The preflight of a full run (`waamflow.preflight`) and the seconds it took (for the summary
+    only: the artifacts stay reproducible); the report is also the artifact `preflight.json`. An
+    internal error of the check itself is a failed check, never a silent pass."""
     from ..preflight import run_preflight
 
     t0 = time.perf_counter()
@@ -720,10 +721,10 @@ def _preflight(run: "_Run", graph: Graph) -> dict | None:
                   "problems": [{"check": "preflight", "severity": "fail", "node": None, "layer": None,
                                 "section": None, "message": f"the preflight itself failed: {type(exc).__name__}: {exc}",
                                 "value": None, "limit": None, "point": None}]}
-    if report is not None:
-        run.preflight_seconds = round(time.perf_counter() - t0, 3)   # summary only: artifacts stay reproducible
-        run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
-    return report
+    if report is None:
+        return None, None
+    run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
+    return report, round(time.perf_counter() - t0, 3)
 
 
 def execute(
@@ -774,12 +775,12 @@ def execute(
         pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
-    report = None
+    report, report_s = None, None
     if preflight and targets is None and layers is None and artifacts:
-        report = _preflight(run, graph)
+        report, report_s = _preflight(run, graph)
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
                        info,
-                       run.trace(), report, getattr(run, "preflight_seconds", None))
+                       run.trace(), report, report_s)
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result
