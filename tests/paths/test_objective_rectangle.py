@@ -70,8 +70,10 @@ def test_semicircle_is_g1_smooth():
     turn = np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(axis=1), -1, 1)))
     # no corners: only the turns between chords of a half circle cut into k = 53 pieces (0.001 mm
     # sagitta at r = 2.215 mm), and half of that where a pass meets its half circle
-    assert turn.max() == pytest.approx(180 / 53)
-    assert np.sort(turn)[:4] == pytest.approx([0, 0, 0, 0], abs=1e-9) or turn.min() < 180 / 53
+    # (4 half circles: 4 × 52 inner turns of 180/53°, 8 half turns where they meet the passes)
+    values, counts = np.unique(np.round(turn, 9), return_counts=True)
+    assert values == pytest.approx([90 / 53, 180 / 53], abs=1e-9)
+    assert counts.tolist() == [8, 4 * 52]
 
 
 def test_triangular_apex_angle():
