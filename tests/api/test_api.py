@@ -1,8 +1,10 @@
 import json
+import time
 
 import pytest
 from fastapi.testclient import TestClient
 
+import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
@@ -84,11 +86,21 @@ def test_run_failures_are_4xx_or_failed_status(client):
 
 
 def test_cancel(client):
-    big = toy.chain(stack={"count": 3000})
-    rid = client.post("/api/runs", json={"recipe": big}).json()["id"]
-    client.delete(f"/api/runs/{rid}")
+    # 40 layers × 0.25 s (at least 5 s on 2 workers): the cancel always lands mid-run, so the
+    # only right answer is "cancelled", within a second or two, with layers left undone
+    slow = toy.recipe([("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.25})],
+                      [("stack.layers", "slow.layers")])
+    rid = client.post("/api/runs", json={"recipe": slow}).json()["id"]
+    t0 = time.monotonic()
+    while client.get(f"/api/runs/{rid}").json()["status"] != "running":
+        assert time.monotonic() - t0 < 10, "the run never started"
+        time.sleep(0.02)
+    t1 = time.monotonic()
+    assert client.delete(f"/api/runs/{rid}").status_code == 202
     run = wait(client, rid)
-    assert run["status"] in ("cancelled", "done")  # done only if it won the race
+    assert run["status"] == "cancelled"
+    assert time.monotonic() - t1 < 2.5
+    assert run["progress"] < 1.0
 
 
 def test_preview_one_layer(client):
