@@ -202,6 +202,9 @@ def cmd_restore(args) -> int:
     c = m["counts"]
     print(f"restored: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
           f"{len(m['files'])} run files → {args.data}")
+    if m.get("kept"):
+        k = m["kept"]["counts"]
+        print(f"kept aside: {k['graphs']} graphs, {k['graph_files']} files, {k['runs']} runs → {m['kept']['path']}")
     return 0
 
 
@@ -270,7 +273,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
     b.set_defaults(func=cmd_backup)
 
-    rs = sub.add_parser("restore", help="restore a backup into a data folder (stop the server first)")
+    rs = sub.add_parser("restore", help="restore a backup into a data folder (refused while a server uses it)")
     rs.add_argument("dir", help="folder written by `waamflow backup`")
     rs.add_argument("--data", default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
                     help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")

@@ -6,8 +6,11 @@ atomically, so it is complete or absent) and `manifest.json` (counts and the SHA
 The result cache is not backed up: it is rebuilt on demand.
 
 restore: checks the backup against its manifest and `PRAGMA integrity_check`, then puts database and
-run folders in place (atomic renames). Stop the server first; an existing database is kept as
-`waamflow.sqlite.before-restore-<time>` unless --force.
+run folders in place (atomic renames). It refuses while a server holds the data folder (the flock on
+`waamflow.sqlite.lock` every server holds shared while it runs; the kernel drops it when a server
+dies, even by kill -9). An existing database is first checkpointed (its WAL, e.g. a killed server's
+last saves, written into the file), checked and kept as `waamflow.sqlite.before-restore-<time>`
+unless --force; the copy put in place is checked against the manifest's counts.
 """
 
 from __future__ import annotations
@@ -20,10 +23,15 @@ import sqlite3
 import time
 from pathlib import Path
 
+from contextlib import contextmanager
+
 from .. import __version__
 from ..core.errors import WaamflowError
+from .store import LOCK_SUFFIX, DataFolderBusy, lock_file
 
 DB = "waamflow.sqlite"
+LOCK = DB + LOCK_SUFFIX
+TABLES = ("graphs", "graph_files", "runs", "events", "audit")
 
 
 class BackupError(WaamflowError):
@@ -39,11 +47,22 @@ def _sha256(p: Path) -> str:
     return h.hexdigest()
 
 
+@contextmanager
+def data_lock(data_dir: str | Path, *, exclusive: bool):
+    """Hold the data folder's lock (see store.lock_file) for the duration of the block."""
+    fd = lock_file(Path(data_dir) / DB, exclusive=exclusive,
+                   busy=f"a waamflow server is using {data_dir}: stop it first (restore replaces its database)")
+    try:
+        yield
+    finally:
+        os.close(fd)
+
+
 def _counts(db: Path) -> dict[str, int]:
     con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
     try:
         out = {}
-        for table in ("graphs", "graph_files", "runs", "events", "audit"):
+        for table in TABLES:
             try:
                 out[table] = con.execute(f"SELECT count(*) FROM {table}").fetchone()[0]
             except sqlite3.OperationalError:
@@ -112,17 +131,11 @@ def restore(src: str | Path, data_dir: str | Path, *, force: bool = False) -> di
             raise BackupError(f"backup file {rel} is missing or damaged")
     _counts(src / DB)  # integrity check
     data.mkdir(parents=True, exist_ok=True)
-    db = data / DB
-    if db.exists():
-        if force:
-            db.unlink()
-        else:
-            os.replace(db, data / f"{DB}.before-restore-{int(time.time())}")
-    for suffix in ("-wal", "-shm"):
-        Path(str(db) + suffix).unlink(missing_ok=True)
-    tmp = data / f".{DB}.restore"
-    shutil.copy2(src / DB, tmp)
-    os.replace(tmp, db)
+    try:
+        with data_lock(data, exclusive=True):
+            kept = _replace_database(src, data, manifest, force)
+    except DataFolderBusy as e:
+        raise BackupError(str(e)) from None
     runs = data / "runs"
     for rel in manifest["files"]:
         run_id = Path(rel).parts[1]
@@ -133,4 +146,57 @@ def restore(src: str | Path, data_dir: str | Path, *, force: bool = False) -> di
         shutil.rmtree(stage, ignore_errors=True)
         shutil.copytree(src / "runs" / run_id, stage)
         os.replace(stage, target)
-    return manifest
+    return {**manifest, "kept": kept}
+
+
+def _checkpoint(db: Path) -> dict[str, int]:
+    """Write the WAL of `db` (acknowledged saves a killed server left there) into the file and
+    check it: the table counts, or BackupError when it is not a sound waamflow database."""
+    try:
+        con = sqlite3.connect(str(db), timeout=5)
+        try:
+            busy, _, _ = con.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
+            if busy:
+                raise BackupError(f"{db}: its WAL could not be checkpointed (in use)")
+            ok = con.execute("PRAGMA integrity_check").fetchone()[0]
+            have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            counts = {t: con.execute(f"SELECT count(*) FROM {t}").fetchone()[0] for t in TABLES if t in have}
+            con.execute("PRAGMA journal_mode=DELETE")  # the kept copy is one self-contained file
+        finally:
+            con.close()
+    except sqlite3.DatabaseError as e:
+        raise BackupError(f"{db} cannot be read as a database ({e}): move it away yourself, or restore "
+                          "with --force to delete it") from None
+    if ok != "ok":
+        raise BackupError(f"{db}: integrity check failed ({ok}): restore with --force to delete it")
+    return counts
+
+
+def _replace_database(src: Path, data: Path, manifest: dict, force: bool) -> dict | None:
+    """Under the exclusive lock: set the existing database aside (checkpointed, verified) and put the
+    backup's in place (verified). Returns the kept copy's {"path", "counts"} (None: nothing kept)."""
+    db = data / DB
+    kept = None
+    wal, shm = Path(f"{db}-wal"), Path(f"{db}-shm")
+    if db.exists() and not force:
+        counts = _checkpoint(db)
+        aside = data / f"{DB}.before-restore-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
+        os.replace(db, aside)
+        wal.unlink(missing_ok=True)   # empty after the checkpoint
+        shm.unlink(missing_ok=True)
+        again = _counts(aside)          # the copy as it lies on disk now, without any WAL
+        if again != {t: counts.get(t, 0) for t in TABLES}:
+            raise BackupError(f"{aside}: after setting it aside it holds {again}, before {counts}")
+        kept = {"path": str(aside), "counts": again}
+    else:
+        db.unlink(missing_ok=True)
+        wal.unlink(missing_ok=True)
+        shm.unlink(missing_ok=True)
+    tmp = data / f".{DB}.restore"
+    shutil.copy2(src / DB, tmp)
+    got = _counts(tmp)
+    if got != manifest["counts"]:
+        tmp.unlink(missing_ok=True)
+        raise BackupError(f"the restored copy holds {got}, the manifest says {manifest['counts']}")
+    os.replace(tmp, db)
+    return kept

@@ -6,7 +6,9 @@ recipe. Run artifacts live in files under data/runs/<id>/ (written atomically).
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
 import re
 import sqlite3
 import threading
@@ -49,6 +51,33 @@ MIGRATIONS = (("graphs", "revision", "INTEGER NOT NULL DEFAULT 1"),
               ("graphs", "params_revision", "INTEGER NOT NULL DEFAULT 1"))
 
 
+LOCK_SUFFIX = ".lock"
+
+
+class DataFolderBusy(Exception):
+    """The data folder's lock is held the other way (a restore while a server starts, or a server
+    while a restore runs)."""
+
+
+def lock_file(db: str | Path, *, exclusive: bool, timeout: float = 0.0, busy: str = "") -> int:
+    """An flock on `<db>.lock` as an open file descriptor (close it to release). Servers hold it
+    shared (several may share a folder), `waamflow restore` exclusive. The kernel drops it when the
+    process ends, even by kill -9: a lock is never stale. DataFolderBusy after `timeout` s."""
+    path = Path(str(db) + LOCK_SUFFIX)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            fcntl.flock(fd, (fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH) | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                os.close(fd)
+                raise DataFolderBusy(busy or f"{path.parent} is in use") from None
+            time.sleep(0.05)
+
+
 class RevisionConflict(Exception):
     """A write with an expected revision (If-Match) that is no longer the stored one. `current`
     is the stored revision (None: the graph does not exist) and `content` the stored version."""
@@ -68,16 +97,24 @@ def valid_file_name(name: str) -> bool:
 
 
 class Store:
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, lock_timeout: float = 30.0) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        # held while the store is open: `waamflow restore` refuses while any server holds it
+        self._folder_lock = lock_file(self.path, exclusive=False, timeout=lock_timeout,
+                                      busy=f"{self.path.parent} is being restored (waamflow restore): "
+                                           "start the server when it has finished")
         self._lock = threading.RLock()
-        self._conn = sqlite3.connect(str(self.path), check_same_thread=False, timeout=30)
-        self._conn.row_factory = sqlite3.Row
-        self._conn.execute("PRAGMA journal_mode=WAL")
-        self._conn.executescript(SCHEMA)
-        self._migrate()
-        self._conn.commit()
+        try:
+            self._conn = sqlite3.connect(str(self.path), check_same_thread=False, timeout=30)
+            self._conn.row_factory = sqlite3.Row
+            self._conn.execute("PRAGMA journal_mode=WAL")
+            self._conn.executescript(SCHEMA)
+            self._migrate()
+            self._conn.commit()
+        except BaseException:
+            os.close(self._folder_lock)
+            raise
 
     def _migrate(self) -> None:
         for table, column, decl in MIGRATIONS:
@@ -88,6 +125,9 @@ class Store:
     def close(self) -> None:
         with self._lock:
             self._conn.close()
+            if self._folder_lock >= 0:
+                os.close(self._folder_lock)
+                self._folder_lock = -1
 
     def _exec(self, sql: str, args: tuple = ()) -> sqlite3.Cursor:
         with self._lock:
