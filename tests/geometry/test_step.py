@@ -7,7 +7,6 @@ import tempfile
 import numpy as np
 import pytest
 
-pytest.importorskip("OCP")
 
 from OCP.BRep import BRep_Builder  # noqa: E402
 from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut  # noqa: E402

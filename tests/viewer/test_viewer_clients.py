@@ -2,7 +2,6 @@
 
 import time
 
-import pytest
 
 from viewer_fixtures import RECIPE, outputs
 
@@ -33,7 +32,6 @@ def scene_names_received(ws, seconds: float = 3.0) -> set[str]:
 
 
 def test_two_clients_receive_the_same_scene(viewer):
-    pytest.importorskip("zstandard")
     import viser
     from websockets.sync.client import connect
 

@@ -11,7 +11,7 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 
 def run_recipe(name: str, artifacts: bool = False):
-    executor = pytest.importorskip("waamflow.engine.executor")
+    from waamflow.engine import executor
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import load_recipe
 
@@ -75,7 +75,6 @@ def test_rectangle_study_scene(viewer):
 
 
 def test_robot_follows_the_trace(viewer):
-    pytest.importorskip("pinocchio")
     recipe, out = run_recipe("rectangle-study")
     viewer.publish("rectangle-study", recipe, out)
     part = viewer.parts[("simulate", "simulation")]

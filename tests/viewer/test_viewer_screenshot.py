@@ -31,7 +31,6 @@ def coloured_fraction(png: bytes) -> float:
 
 @pytest.mark.skipif(not os.access(CHROMIUM, os.X_OK), reason="chromium not installed")
 def test_headless_chromium_shows_the_scene(viewer):
-    pytest.importorskip("PIL")
     from waamflow.viewer.screenshot import capture
 
     viewer.publish("viewer-test", RECIPE, outputs(8))
