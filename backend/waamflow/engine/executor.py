@@ -403,9 +403,9 @@ class _Run:
                 inputs = {port: self.outputs[src][sport] for port, (src, sport) in gnode.inputs.items()}
                 in_sigs = {port: self.sigs[(src, sport)] for port, (src, sport) in gnode.inputs.items()}
                 if isinstance(gnode.impl, LayerNode):
-                    cached = self.run_layer_node(gnode, ctx, inputs, in_sigs)
+                    self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
-                    cached = self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                    self.run_plain_node(gnode, ctx, inputs, in_sigs)
                 self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool

@@ -50,7 +50,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from .node import Context, LayerNode
+from .node import Context
 
 MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
                           # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)

@@ -290,7 +290,7 @@ def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
 
 def classify(j: Junction, corner_angle_deg: float) -> str | None:
     """Feature kind of a junction (see module table), or None (an isolated closing point)."""
-    ents, ends = j.entities, j.ends
+    ents = j.entities
     arms = sum(len(i.directions) for i in j.incidences)
     if arms == 1:
         return "free_end"

@@ -30,7 +30,6 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
-from .transform import unit_scale
 from .units import conversion_notice, dxf_units
 
 SKETCH_FORMATS = ("json", "dxf")

@@ -8,7 +8,6 @@ without a unit (STL, OBJ, PLY, JSON sketches) are taken as millimetres.
 from __future__ import annotations
 
 import io
-import re
 import zipfile
 
 import numpy as np

@@ -17,7 +17,6 @@ from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..core.tolerances import TOL
 from ..geometry.mesh_io import classify_mesh, declared_mesh_unit
-from ..geometry.topology import edge_report
 from ..geometry.step_io import is_cad_file, load_cad_bytes
 from ..geometry.units import conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit

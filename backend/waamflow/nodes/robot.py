@@ -8,7 +8,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from ..core.errors import InputFileError, PlanningError, RecipeError
+from ..core.errors import PlanningError, RecipeError
 from ..core.moves import flatten
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port

@@ -19,9 +19,9 @@ from shapely.geometry import LineString, Polygon
 
 from ..process.coverage import section_coverage
 from .registry import PATTERNS, plan_section
+from .spec import StrategySpec
 
 COVERAGE_KEYS = ("void_area_mm2", "overlap_area_mm2", "over_deposit_area_mm2", "region_area_mm2")
-from .spec import StrategySpec
 
 
 @dataclass(frozen=True)

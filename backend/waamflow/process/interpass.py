@@ -89,7 +89,6 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
     """Toolpath with `dwell_after_s` per layer (never below what it had) and the per-layer report."""
     if m.interpass_c <= m.ambient_c:
         raise ValueError(f"interpass temperature {m.interpass_c} °C must be above ambient {m.ambient_c} °C")
-    rho_c = m.density_kg_m3 * m.specific_heat_j_kgk
     items = [lp for lp in toolpath.items]
     mass = m.substrate_mass_kg
     lateral_m2 = 0.0

@@ -55,6 +55,7 @@ import numpy as np
 
 from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
                      short, tool_lines, tool_summary, weld_tag)
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 # LinuxCNC analog outputs (motion.analog-out-NN): E0 wire feed m/min, E1 current A, E2 voltage V;
 # M67 = synchronised with the next motion (inside a run), M68 = immediate (before an ignition).
@@ -63,7 +64,6 @@ GCODE_WELD_CODES = {"wire_feed_speed": "M67 E0 Q{value:.2f}", "current": "M67 E1
                     "voltage": "M67 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
 GCODE_WELD_CODES_START = {"wire_feed_speed": "M68 E0 Q{value:.2f}", "current": "M68 E1 Q{value:.1f}",
                           "voltage": "M68 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
 
 
 @dataclass(frozen=True, eq=False)

@@ -156,11 +156,17 @@ def rethread_path(sp: SectionPath) -> SectionPath | None:
     for r, (a, b) in enumerate(runs):
         if r:   # link from the end of the previous reversed pass (its vertex a_prev) to this one's end b
             link = runs[r - 1][1]   # first segment of the original link
-            A.append(arc[link]); I.append(ins[link]); S.append(spd[link]); Z.append(zone[link])
+            A.append(arc[link])
+            I.append(ins[link])
+            S.append(spd[link])
+            Z.append(zone[link])
         P.extend(pts[a:b + 1][::-1])
         if ax is not None:
             X.extend(ax[a:b + 1][::-1])
-        A.extend(arc[a:b][::-1]); I.extend(ins[a:b][::-1]); S.extend(spd[a:b][::-1]); Z.extend(zone[a:b][::-1])
+        A.extend(arc[a:b][::-1])
+        I.extend(ins[a:b][::-1])
+        S.extend(spd[a:b][::-1])
+        Z.extend(zone[a:b][::-1])
     new = _with(sp, P, A, I, S, tuple(Z) if sp.zone else (), X if ax is not None else None)
     return _rezone(new, *_zone_context(sp))
 

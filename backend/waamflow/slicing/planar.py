@@ -100,7 +100,8 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
       sums the ones after it, doubling the reach each round (⌈log₂ L_max⌉ whole-array rounds),
       best for a few very long loops.
     """
-    from scipy.sparse import csr_matrix; from scipy.sparse.csgraph import connected_components  # lazy: keeps start-up light
+    from scipy.sparse import csr_matrix  # lazy: keeps start-up light
+    from scipy.sparse.csgraph import connected_components
     n = len(nxt)
     graph = csr_matrix((np.ones(n, dtype=np.int8), (np.arange(n), nxt)), shape=(n, n))
     n_cycles, label = connected_components(graph, directed=True, connection="weak")

@@ -9,7 +9,7 @@ points on the layer's top plane.
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from shapely.geometry import LineString, MultiPolygon
@@ -18,6 +18,9 @@ from ..core.model import Layer, MeshData, Midsurface
 from .planar import section_loops
 from .planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION, LayerSchedule, TopPolicy, layer_schedule
 from .rings import loops_to_regions
+
+if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+    import trimesh
 
 
 Z_UP = (0.0, 0.0, 1.0)

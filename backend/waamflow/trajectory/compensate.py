@@ -43,7 +43,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.model import LayerPaths, Layered, SectionPath
+from ..core.model import Layered, SectionPath
 from ..core.moves import Moves, flatten
 from .run import KinematicsOptions, simulate_program
 from .simulate import SimOptions, SimulationResult

@@ -26,11 +26,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.errors import InputFileError
 from .profile import ROBOTS_DIR
+
+if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+    import pinocchio as pin
 
 SINGULAR_SIGMA = 0.02   # smallest singular value of the 5x6 task Jacobian (m or rad per rad) below which we warn
 REACH_TOL_MM = 0.5       # IK position residual above which a point is unreachable
