@@ -23,8 +23,6 @@ And `DELETE /api/runs/{id}` is the contract's cancel, not a removal: the run sta
 Bounded: a few examples per operation and a few dozen short scenarios (see the constants)."""
 
 import json
-import shutil
-import tempfile
 from collections import Counter
 from pathlib import Path
 
