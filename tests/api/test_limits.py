@@ -4,7 +4,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 from fastapi.testclient import TestClient
 from pydantic import Field
 
