@@ -19,7 +19,6 @@ import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
-from waamflow.api.backup import restore
 from waamflow.cli import main as cli
 from waamflow.settings import Settings
 
