@@ -1,6 +1,5 @@
 """Recipes arriving over REST read only uploaded files and files in the data/graphs folders."""
 
-import json
 import os
 import sys
 
