@@ -8,7 +8,6 @@ import zipfile
 import ezdxf
 import numpy as np
 import pytest
-import trimesh
 
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
