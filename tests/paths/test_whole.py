@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from shapely.geometry import LineString, box
+from shapely.geometry import box
 
 from waamflow.paths import StrategySpec, plan_section
 from waamflow.paths.deposit import deposit, uncovered_area
