@@ -4,7 +4,6 @@ starts, missing weld values, arc flicker; and the right program, which must pass
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
