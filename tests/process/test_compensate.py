@@ -4,7 +4,6 @@ study's rectangular and triangular patterns at 40 mm/s (small objective rectangl
 import json
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from waamflow.core.moves import flatten
