@@ -9,7 +9,8 @@ def test_circle_through_tilted_circle():
     rng = np.random.default_rng(3)
     center = np.array([5.0, -2.0, 7.0])
     n = np.array([1.0, 2.0, 2.0]) / 3.0
-    u = np.cross(n, [0, 0, 1.0]); u /= np.linalg.norm(u)
+    u = np.cross(n, [0, 0, 1.0])
+    u /= np.linalg.norm(u)
     v = np.cross(n, u)
     a = np.sort(rng.uniform(0, 5, 3))
     pts = center + 12.5 * (np.outer(np.cos(a), u) + np.outer(np.sin(a), v))
