@@ -8,7 +8,7 @@ import pytest
 from waamflow.core.moves import flatten
 from waamflow.program import GcodeSettings, PlanSettings, parse_gcode, post_process
 
-from conftest import SPEED, ZONE_PARAMS, build_toolpath
+from conftest import SPEED, build_toolpath
 from helpers import arc_runs, polyline_length
 
 
