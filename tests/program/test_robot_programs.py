@@ -19,7 +19,7 @@ from waamflow.program.common import program_identifier, KRL_RESERVED, RAPID_RESE
 from waamflow.program.profiles import load_profiles
 
 from conftest import build_toolpath
-from helpers import arc_runs, wall_recipe
+from helpers import wall_recipe
 from krl_check import arctech_seams, parse_program
 from rapid_check import Module, RapidError, parse_module, values
 from rapid_check import parse_program as parse_rapid_program
