@@ -15,7 +15,7 @@ from program_checkers import check_gcode
 
 from waamflow.core.moves import flatten
 from waamflow.engine.node import load_nodes
-from waamflow.program import GcodeSettings, KrlSettings, PlanSettings, plan_program, post_process
+from waamflow.program import GcodeSettings, KrlSettings, plan_program, post_process
 from waamflow.program.common import parse_weld_tag, read_weld_commands, template_regex
 from waamflow.program.plan import ArcOff, ArcOn, ProcessChange
 
