@@ -1,6 +1,5 @@
 """Seams (issue #22): where sections ignite layer after layer, minimum arc run, the MPP order rule."""
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +12,7 @@ from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import apply_overrides, load_recipe, parse_set
 from waamflow.sequencing import sequence_layer, sequence_part
 from waamflow.sequencing.arc_runs import arc_runs, enforce_min_run
-from waamflow.sequencing.seams import SeamSpec, ignition_points, nearest_distance, rethread_path, reverse_path
+from waamflow.sequencing.seams import SeamSpec, ignition_points, nearest_distance, rethread_path
 from waamflow.zoning import ZoneSpec, apply_zone_params, zone_lengths, zone_path
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
