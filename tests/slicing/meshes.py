@@ -12,7 +12,7 @@ from waamflow.core.model import MeshData
 from waamflow.geometry.mesh_io import mesh_from_triangles
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
-from bench_slice import ribbed_tube  # noqa: E402  (the bench's generator: one definition)
+from bench_slice import ribbed_tube  # noqa: E402, F401  (the bench's generator: one definition; re-exported)
 
 SECTIONS = 256
 
