@@ -3,7 +3,6 @@ orientation continuity (no wrist flips), cell shapes (mesh, pose, link) in the c
 
 import json
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -26,7 +25,7 @@ def _normal(tilt_x_deg=0.0, tilt_y_deg=0.0):
 
 def _moves(normals, length=100.0, per_layer=5):
     """Straight 100 mm lines, one layer per normal, arc ON, 10 mm/s, joined by 20 mm travels."""
-    pts, axes, layer, arc, kind, speed = [], [], [], [], [], []
+    pts, axes, layer, arc = [], [], [], []
     for L, n in enumerate(normals):
         for k in range(per_layer):
             pts.append([-length / 2 + k * length / (per_layer - 1), 0.0, 10.0 + 5 * L])
