@@ -9,7 +9,7 @@ from waamflow.viewer import colors as C
 from waamflow.viewer import geometry as G
 from waamflow.viewer.signature import digest, layer_signatures
 
-from viewer_fixtures import ZONE_COLORS, make_layers, make_toolpath, section_path
+from viewer_fixtures import ZONE_COLORS, make_layers, make_toolpath
 
 
 def test_polygon_triangles_cover_area_with_hole():
