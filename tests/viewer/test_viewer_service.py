@@ -7,7 +7,7 @@ from waamflow.core.model import LayerPaths, Layered, SectionPath
 from waamflow.viewer import colors as C
 from waamflow.viewer import geometry as G
 
-from viewer_fixtures import RECIPE, ZONE_COLORS, make_layers, make_toolpath, outputs
+from viewer_fixtures import RECIPE, ZONE_COLORS, outputs
 
 
 def handle(v, name):
