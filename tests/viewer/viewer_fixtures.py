@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from shapely.geometry import LineString, MultiPolygon, Polygon, box
+from shapely.geometry import LineString, MultiPolygon, box
 
 from waamflow.core.model import Layer, LayerPaths, LayerSections, Layered, MeshData, Section, SectionPath
 
