@@ -18,34 +18,13 @@ from waamflow.trajectory.calibrate import (
 from waamflow.trajectory.profile import load_profile
 from waamflow.trajectory.simulate import SimOptions, simulate
 
+from tolerances_table import STUDY_LIMITS, study_limit
+
 KUKA = load_profile("kuka_kr100ha_krc2")
 CASES = study_cases()
 W_WB = study.W_WB
 
-# |error| limit per case, % — times within 5 % unless listed; a listed limit is the model's
-# documented miss (MODEL.md, "Per-case errors"), kept as a guard against regressions.
-DEFAULT_LIMIT = 5.0
-LIMITS = {
-    # ramp lengths: the study's T and L of one ramp cannot both hold for one ramp shape
-    # (L/(v·T) = 0.43 at 10 mm/s, 0.52 at 40; its two measurements of the same 40 mm/s start
-    # differ by 17 % in length); the calibration puts the times first (calibrate.fit_ramps)
-    "tri45 10 mm/s arc ON all: L_init_accel": 9.0,
-    "tri45 10 mm/s arc OFF outside: L_init_accel": 10.5,
-    "tri45 10 mm/s arc OFF outside: L_decel": 8.0,
-    "tri45 40 mm/s arc ON all: L_init_accel": 9.0,
-    "tri45 40 mm/s arc ON all: L_final_decel": 9.5,
-    "tri45 40 mm/s arc OFF outside: L_final_decel": 7.5,
-    "tri45 40 mm/s arc OFF outside: L_init_accel": 23.0,
-    "tri45 40 mm/s arc OFF outside: L_accel": 13.0,
-    # not met: two full stops cannot fit in the study's 0.408 s (MODEL.md, "Not met")
-    "tri45 40 mm/s arc OFF outside: T_trans": 140.0,
-    # where a 99 % speed threshold is crossed before a 22.5° turn (lengths, not times)
-    "tri45 40 mm/s arc ON all: L_decel": 82.0,
-    "tri45 40 mm/s arc ON all: L_accel": 87.0,
-    # the 2.95° reversal at 10 mm/s: the turn-rate cap runs it slowly, so the smoothing cuts it
-    # less (a corner error, not a time)
-    "corner error 2.95° 10 mm/s": 7.0,
-}
+# |error| limit per case, %: STUDY_LIMITS in tests/tolerances_table.py, with the reason and history of each
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +35,7 @@ def rows():
 def test_every_case_is_listed_once_and_the_split_is_clean():
     names = [c.name for c in CASES]
     assert len(names) == len(set(names)) == 38
+    assert set(STUDY_LIMITS) <= set(names), "the tolerance table names a case that no longer exists"
     held = [c for c in CASES if c.held_out]
     assert len(held) == 20 and len(study_targets()) == 18
     assert not any(c.held_out for c in study_targets())
@@ -68,7 +48,7 @@ def test_every_case_is_listed_once_and_the_split_is_clean():
 @pytest.mark.parametrize("case", [c.name for c in CASES])
 def test_case_error(rows, case):
     r = rows[case]
-    limit = LIMITS.get(case, DEFAULT_LIMIT)
+    limit = study_limit(case)
     assert math.isfinite(r["model"])
     assert abs(r["error_pct"]) <= limit, f"{case}: model {r['model']:.4g} vs study {r['target']:.4g}"
 
