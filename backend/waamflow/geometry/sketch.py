@@ -32,7 +32,7 @@ from ..core.model import Midsurface
 from ..core.tolerances import TOL
 from .units import conversion_notice, dxf_units
 
-SKETCH_FORMATS = ("json", "dxf")
+SKETCH_FORMATS = ("json", "dxf", "step", "stp", "iges", "igs")
 
 
 @dataclass(frozen=True)
@@ -261,6 +261,8 @@ def load_sketch_bytes(
                                      + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
                                      + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'")
         file_h = file_z0 = None
+    elif ext in ("step", "stp", "iges", "igs"):
+        curves, file_h, file_z0, file_unit, units, scale, notice = _cad_curves(data, filename, units, arc_tolerance)
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
     if not curves and skipped:
@@ -278,6 +280,24 @@ def load_sketch_bytes(
     return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
                                                   joints=mid.joints),
                         skipped=skipped, units=units, file_unit=file_unit, notice=notice)
+
+
+def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
+    """(curves in OpenCascade's mm, height, z0, file unit, unit applied, scale, notice) of a STEP/IGES
+    midsurface: the bottom curves of vertical wall faces with their height, or, in a file without
+    faces, its curves (IGES 126 B-splines, 110 lines, 100 arcs) in one horizontal plane at its z."""
+    from .step_io import planar_curves, read_cad_shape, unit_rescale, vertical_midsurface
+
+    cad = read_cad_shape(data, filename)
+    units, scale, notice = unit_rescale(cad.file_unit, units)
+    if cad.faces:
+        cc, why = vertical_midsurface(cad, arc_tolerance / scale)
+        if cc is None:
+            raise InputFileError(f"{filename}: the faces are not a midsurface of vertical walls ({why}); read the "
+                                 "file with a 'mesh' node ('as': 'surface') for a tessellated single-wall surface")
+    else:
+        cc = planar_curves(cad, arc_tolerance / scale, filename)
+    return cc.curves, cc.height, cc.z0, cad.file_unit, units, scale, notice
 
 
 # ------------------------------------------------------------------------------------------

@@ -1,18 +1,29 @@
-"""STEP and IGES parts through OpenCascade (`cadquery-ocp`, module OCP): B-rep → triangles.
+"""STEP and IGES parts through OpenCascade (`cadquery-ocp`, module OCP): B-rep → triangles, or
+a midsurface's curves.
 
 The reader converts the file's length unit to millimetres itself (OCC's `xstep.cascade.unit`
-is mm); the file's declared unit is reported. Every solid (or, without solids, every shell) of
-the file is tessellated with `BRepMesh_IncrementalMesh` at `chordal_tolerance` (mm, the maximum
-distance between the B-rep surface and its triangles) and a 0.5 rad angular limit; faces with
-reversed orientation get their triangles flipped, so normals point out of the solid. Several
-solids (an assembly, or a multi-body part) stay separate bodies in one mesh; `StepResult.solids`
-says how many, the node warns that an assembly was flattened.
+is mm); the file's declared unit is reported. Bodies are the file's solids, its shells outside
+solids and its free faces (IGES 144 trimmed surfaces, 143 bounded surfaces). Each face is
+tessellated on its own with `BRepMesh_IncrementalMesh` at `chordal_tolerance` (mm, the maximum
+distance between the B-rep surface and its triangles) and a 0.5 rad angular limit, so a long
+read reports progress and can be cancelled between faces (BRepMesh discretises a shared edge
+once, so faces meshed one by one still meet without cracks); faces with reversed orientation
+get their triangles flipped, so normals point out of the solid. Below `ESTIMATE_BELOW` mm the
+triangle count is estimated first from two coarse tessellations and a tolerance that would
+exceed the cap is refused before the long run; the running count is checked after every face.
+
+Midsurfaces (thin-wall parts, the thin-walls study's input): an open surface whose faces are
+all vertical walls between one bottom and one top height is the extrusion of its bottom edges
+(`vertical_midsurface`), read as a sketch; a file of curves only (IGES 126 B-splines, 110
+lines, 100 arcs) lying in one horizontal plane gives the sketch's curves (`planar_curves`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import PurePosixPath
+from typing import Callable
 
 import numpy as np
 
@@ -21,16 +32,39 @@ from .through_file import read_through_file
 
 CAD_FORMATS = ("step", "stp", "iges", "igs")
 
+ANGULAR_TOLERANCE = 0.5        # rad, BRepMesh's angular deflection limit
+ESTIMATE_BELOW = 0.01          # mm: finer chordal tolerances estimate their triangle count first
+CURVE_ANGLE = 0.1              # rad, tangent turn per chord when a curve is discretised
+VERTICAL_SIN = 1e-6            # a wall face's normal has |n_z| below this (sin of its tilt)
+Z_TOL = 1e-4                   # mm: an edge lies at the bottom / top height within this
+EXTRUSION_REL = 1e-4           # relative: the top edges are as long as the bottom ones
+
+
+@dataclass(frozen=True)
+class CadShape:
+    """A read STEP/IGES file: shape (TopoDS_Shape, mm), roots (top-level shapes), file_unit (the
+    length unit the file declares, or None), faces: [(TopoDS_Face, body index)], bodies: count,
+    edges: curve edges outside any face (wireframe)."""
+
+    shape: object
+    roots: int
+    file_unit: str | None
+    faces: tuple
+    bodies: int
+    edges: tuple
+
 
 @dataclass(frozen=True)
 class StepResult:
     """triangles: (m, 3, 3) float64 mm. solids: bodies found. roots: top-level shapes (> 1:
-    an assembly or several parts). file_unit: the length unit the file declares (or None)."""
+    an assembly or several parts). file_unit: the length unit the file declares (or None).
+    faces: faces tessellated."""
 
     triangles: np.ndarray
     solids: int
     roots: int
     file_unit: str | None
+    faces: int = 0
 
 
 _OCC_UNITS = {"MM": "mm", "MILLIMETRE": "mm", "CM": "cm", "CENTIMETRE": "cm", "M": "m", "METRE": "m",
@@ -42,10 +76,13 @@ def is_cad_file(filename: str) -> bool:
 
 
 def _read_shape(data: bytes, filename: str):
-    from OCP.IFSelect import IFSelect_RetDone
-    from OCP.IGESControl import IGESControl_Reader
-    from OCP.STEPControl import STEPControl_Reader
-    from OCP.OCP.collections import Sequence_TCollection_AsciiString
+    try:
+        from OCP.IFSelect import IFSelect_RetDone
+        from OCP.IGESControl import IGESControl_Reader
+        from OCP.OCP.collections import Sequence_TCollection_AsciiString
+        from OCP.STEPControl import STEPControl_Reader
+    except ImportError as exc:  # pragma: no cover - dependency declared in pyproject
+        raise InputFileError(f"{filename}: STEP/IGES input needs the 'cadquery-ocp-novtk' package") from exc
 
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     step = ext in ("step", "stp")
@@ -72,80 +109,273 @@ def _read_shape(data: bytes, filename: str):
     return reader.OneShape(), int(reader.NbShapes()), file_unit
 
 
-def _bodies(shape):
-    from OCP.TopAbs import TopAbs_SHELL, TopAbs_SOLID
+def _explore(shape, kind, avoid=None) -> list:
     from OCP.TopExp import TopExp_Explorer
 
+    exp = TopExp_Explorer(shape, kind) if avoid is None else TopExp_Explorer(shape, kind, avoid)
     out = []
-    for kind in (TopAbs_SOLID, TopAbs_SHELL):
-        exp = TopExp_Explorer(shape, kind)
-        while exp.More():
-            out.append(exp.Current())
-            exp.Next()
-        if out:
-            return out
-    return [shape]
+    while exp.More():
+        out.append(exp.Current())
+        exp.Next()
+    return out
 
 
-def _triangles(body) -> np.ndarray:
-    from OCP.BRep import BRep_Tool
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
+def read_cad_shape(data: bytes, filename: str) -> CadShape:
+    """Read a STEP/IGES file: its shape in mm, its bodies' faces and its free curve edges."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID
     from OCP.TopoDS import TopoDS
 
-    tris = []
-    exp = TopExp_Explorer(body, TopAbs_FACE)
-    while exp.More():
-        face = TopoDS.Face(exp.Current())
-        loc = TopLoc_Location()
-        tri = BRep_Tool.Triangulation_s(face, loc)
-        exp.Next()
-        if tri is None:
-            continue
-        trsf = loc.Transformation()
-        nodes = np.array([[p.X(), p.Y(), p.Z()] for p in
-                          (tri.Node(i).Transformed(trsf) for i in range(1, tri.NbNodes() + 1))])
-        idx = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
-        if face.Orientation() == TopAbs_REVERSED:
-            idx = idx[:, ::-1]
-        tris.append(nodes[idx])
-    return np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    shape, roots, file_unit = _read_shape(data, filename)
+    bodies = (_explore(shape, TopAbs_SOLID) + _explore(shape, TopAbs_SHELL, TopAbs_SOLID))
+    free = _explore(shape, TopAbs_FACE, TopAbs_SHELL)
+    faces = [(TopoDS.Face(f), b) for b, body in enumerate(bodies) for f in _explore(body, TopAbs_FACE)]
+    faces += [(TopoDS.Face(f), len(bodies)) for f in free]
+    edges = tuple(TopoDS.Edge(e) for e in _explore(shape, TopAbs_EDGE, TopAbs_FACE))
+    return CadShape(shape=shape, roots=roots, file_unit=file_unit, faces=tuple(faces),
+                    bodies=len(bodies) + (1 if free else 0), edges=edges)
+
+
+def _face_triangles(face) -> np.ndarray:
+    """(m, 3, 3) mm triangles of a meshed face, wound along the face's orientation."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_REVERSED
+    from OCP.TopLoc import TopLoc_Location
+
+    loc = TopLoc_Location()
+    tri = BRep_Tool.Triangulation_s(face, loc)
+    if tri is None or tri.NbTriangles() == 0:
+        return np.zeros((0, 3, 3))
+    trsf = loc.Transformation()
+    nodes = np.array([[p.X(), p.Y(), p.Z()] for p in
+                      (tri.Node(i).Transformed(trsf) for i in range(1, tri.NbNodes() + 1))])
+    idx = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
+    if face.Orientation() == TopAbs_REVERSED:
+        idx = idx[:, ::-1]
+    return nodes[idx]
+
+
+def _count_triangles(faces, tol: float) -> int:
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.TopLoc import TopLoc_Location
+
+    n = 0
+    for face, _ in faces:
+        BRepMesh_IncrementalMesh(face, tol, False, ANGULAR_TOLERANCE, False)
+        tri = BRep_Tool.Triangulation_s(face, TopLoc_Location())
+        n += 0 if tri is None else tri.NbTriangles()
+    return n
+
+
+def estimate_triangles(faces, chordal_tolerance: float) -> int:
+    """Triangles a tessellation at `chordal_tolerance` (mm) would give, extrapolated from two
+    coarse ones (t1 = 32·tol, t0 = 4·t1): n ∝ tol^-k with k fitted between them and held in
+    [0.5, 1] (a singly curved face refines as tol^-1/2, a doubly curved one as tol^-1)."""
+    t1 = 32.0 * chordal_tolerance
+    t0 = 4.0 * t1
+    n0 = max(_count_triangles(faces, t0), 1)
+    n1 = max(_count_triangles(faces, t1), 1)
+    k = min(max(math.log(n1 / n0) / math.log(4.0), 0.5), 1.0)
+    return int(n1 * (t1 / chordal_tolerance) ** k)
+
+
+def tessellate(cad: CadShape, filename: str, *, chordal_tolerance: float = 0.05,
+               angular_tolerance: float = ANGULAR_TOLERANCE, max_triangles: int | None = None,
+               progress: Callable[[float, str], None] | None = None,
+               check_cancelled: Callable[[], None] | None = None) -> np.ndarray:
+    """Triangles (m, 3, 3) mm of every face, tessellated face by face within chordal_tolerance.
+
+    progress(fraction, message) is called after every face, check_cancelled() before every face
+    (it raises to stop). A tolerance finer than ESTIMATE_BELOW whose estimated triangle count
+    exceeds max_triangles is refused before tessellating; the running count is checked after
+    every face either way (InputFileError naming the count, the cap and what to change)."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    if not chordal_tolerance > 0:
+        raise InputFileError(f"{filename}: chordal_tolerance must be > 0 mm (got {chordal_tolerance})")
+    faces = cad.faces
+    if not faces:
+        raise InputFileError(f"{filename}: no faces to tessellate (wireframe or empty model)")
+    what = ("raise 'chordal_tolerance' (triangles grow about as 1/tolerance on curved faces) or 'max_triangles'")
+    if max_triangles is not None and chordal_tolerance < ESTIMATE_BELOW:
+        if progress:
+            progress(0.0, f"estimating the triangle count at chordal_tolerance {chordal_tolerance:g} mm")
+        est = estimate_triangles(faces, chordal_tolerance)
+        if est > max_triangles:
+            raise InputFileError(
+                f"{filename}: chordal_tolerance {chordal_tolerance:g} mm would give about {est:,} triangles "
+                f"({len(faces)} faces), over the cap of {max_triangles:,}; {what}")
+    parts, n = [], 0
+    for i, (face, _) in enumerate(faces):
+        if check_cancelled:
+            check_cancelled()
+        BRepMesh_IncrementalMesh(face, chordal_tolerance, False, angular_tolerance, False)
+        t = _face_triangles(face)
+        parts.append(t)
+        n += len(t)
+        if max_triangles is not None and n > max_triangles:
+            raise InputFileError(
+                f"{filename}: {n:,} triangles after {i + 1} of {len(faces)} faces at chordal_tolerance "
+                f"{chordal_tolerance:g} mm, over the cap of {max_triangles:,}; {what}")
+        if progress:
+            progress((i + 1) / len(faces), f"tessellated face {i + 1} of {len(faces)} ({n:,} triangles)")
+    tri = np.concatenate(parts)
+    if len(tri) == 0:
+        raise InputFileError(f"{filename}: no faces to tessellate (wireframe or empty model)")
+    return tri
 
 
 def read_cad_triangles(data: bytes, filename: str, *, chordal_tolerance: float = 0.05,
-                       angular_tolerance: float = 0.5) -> StepResult:
-    """Triangles (mm) of every solid of a STEP/IGES file, tessellated within chordal_tolerance (mm)."""
-    try:
-        from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    except ImportError as exc:  # pragma: no cover - dependency declared in pyproject
-        raise InputFileError(f"{filename}: STEP/IGES input needs the 'cadquery-ocp-novtk' package") from exc
+                       angular_tolerance: float = ANGULAR_TOLERANCE, max_triangles: int | None = None,
+                       progress=None, check_cancelled=None) -> StepResult:
+    """Triangles (mm) of every face of a STEP/IGES file, tessellated within chordal_tolerance (mm)."""
     if not chordal_tolerance > 0:
         raise InputFileError(f"{filename}: chordal_tolerance must be > 0 mm (got {chordal_tolerance})")
-    shape, roots, file_unit = _read_shape(data, filename)
-    BRepMesh_IncrementalMesh(shape, chordal_tolerance, False, angular_tolerance, True)
-    bodies = _bodies(shape)
-    tri = np.concatenate([_triangles(b) for b in bodies])
-    if len(tri) == 0:
-        raise InputFileError(f"{filename}: no faces to tessellate (wireframe or empty model)")
-    return StepResult(triangles=tri, solids=len(bodies), roots=roots, file_unit=file_unit)
+    cad = read_cad_shape(data, filename)
+    tri = tessellate(cad, filename, chordal_tolerance=chordal_tolerance, angular_tolerance=angular_tolerance,
+                     max_triangles=max_triangles, progress=progress, check_cancelled=check_cancelled)
+    return StepResult(triangles=tri, solids=cad.bodies, roots=cad.roots, file_unit=cad.file_unit,
+                      faces=len(cad.faces))
+
+
+def unit_rescale(file_unit: str | None, units: str) -> tuple[str, float, str | None]:
+    """(unit applied, factor on OpenCascade's mm, notice): OCC has converted the declared unit to
+    mm; an overriding `units` reinterprets the file's numbers (`units.conversion_notice`)."""
+    from .transform import unit_scale
+    from .units import conversion_notice
+
+    applied, factor, notice = conversion_notice(file_unit, units)
+    if applied == (file_unit or "mm"):
+        return applied, 1.0, notice
+    return applied, factor / unit_scale(file_unit or "mm"), notice
 
 
 def load_cad_bytes(data: bytes, filename: str, *, units: str = "file", chordal_tolerance: float = 0.05,
-                   transform=None, weld_tolerance: float = 0.0):
+                   transform=None, weld_tolerance: float = 0.0, max_triangles: int | None = None,
+                   progress=None, check_cancelled=None, stats: dict | None = None,
+                   crack_tolerance: float | None = None, require_closed: bool = True):
     """(MeshData in mm, StepResult, notice) of a STEP/IGES file. OpenCascade converts the declared
     unit (STEP length unit, IGES global unit flag) to mm; units "file" or the declared unit keep
     that conversion (exactly once), another unit reinterprets the file's numbers (an override,
-    said in the notice; `units.conversion_notice`)."""
+    said in the notice; `units.conversion_notice`). stats, crack_tolerance, require_closed: as
+    `mesh_io.mesh_from_triangles` (the repair and classification of mesh files)."""
     from .mesh_io import mesh_from_triangles
-    from .transform import Transform, unit_scale
-    from .units import conversion_notice
+    from .transform import Transform
 
-    res = read_cad_triangles(data, filename, chordal_tolerance=chordal_tolerance)
-    tri = res.triangles
-    applied, factor, notice = conversion_notice(res.file_unit, units)
-    if applied != (res.file_unit or "mm"):
-        tri = tri / unit_scale(res.file_unit or "mm") * factor
+    res = read_cad_triangles(data, filename, chordal_tolerance=chordal_tolerance, max_triangles=max_triangles,
+                             progress=progress, check_cancelled=check_cancelled)
+    _, k, notice = unit_rescale(res.file_unit, units)
+    tri = res.triangles * k if k != 1.0 else res.triangles
     mesh = mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units="mm",
-                               transform=transform or Transform(), source=filename, weld_tolerance=weld_tolerance)
+                               transform=transform or Transform(), source=filename, weld_tolerance=weld_tolerance,
+                               stats=stats, crack_tolerance=crack_tolerance, require_closed=require_closed)
     return mesh, res, notice
+
+
+# ------------------------------------------------------------------------------------------
+# Midsurfaces: vertical walls and planar curves
+# ------------------------------------------------------------------------------------------
+def edge_points(edge, tol: float) -> np.ndarray:
+    """(k, 3) mm points along an edge, chords within `tol` of the curve (sagitta) and turning at
+    most CURVE_ANGLE each, in the edge's own direction."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.GCPnts import GCPnts_TangentialDeflection
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    c = BRepAdaptor_Curve(edge)
+    d = GCPnts_TangentialDeflection(c, CURVE_ANGLE, tol)
+    pts = np.array([[p.X(), p.Y(), p.Z()] for p in (d.Value(i) for i in range(1, d.NbPoints() + 1))])
+    return pts[::-1] if edge.Orientation() == TopAbs_REVERSED else pts
+
+
+def _edge_length(edge) -> float:
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
+    from OCP.GCPnts import GCPnts_AbscissaPoint
+
+    return float(GCPnts_AbscissaPoint.Length_s(BRepAdaptor_Curve(edge), 1e-9))   # (without a tolerance: 0.1 % off)
+
+
+@dataclass(frozen=True)
+class CadCurves:
+    """Midsurface curves read from a CAD file: curves (k, 2) mm, z0 mm, height mm (None: the
+    file holds curves only), lengths: total curve length mm."""
+
+    curves: list
+    z0: float
+    height: float | None
+    length: float
+
+
+def _unique_edges(shape):
+    from OCP.OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp
+    from OCP.TopoDS import TopoDS
+
+    m = ShapeMap()
+    TopExp.MapShapes_s(shape, TopAbs_EDGE, m)
+    return [TopoDS.Edge(m.FindKey(i)) for i in range(1, m.Extent() + 1)]
+
+
+def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, str]:
+    """The sketch of a midsurface made of vertical walls: (CadCurves, "") when every face is
+    vertical (normal ⟂ z at a 5 × 5 grid of its parameter box), the faces span one bottom and one
+    top height, the bottom edges are as long as the top ones and the faces' area is that length
+    × the height (a vertical extrusion of the bottom edges); else (None, why not)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepLProp import BRepLProp_SLProps
+    from OCP.BRepTools import BRepTools
+
+    if not cad.faces:
+        return None, "no faces"
+    for face, _ in cad.faces:
+        umin, umax, vmin, vmax = BRepTools.UVBounds_s(face)
+        props = BRepLProp_SLProps(BRepAdaptor_Surface(face), 1, 1e-9)
+        for u in np.linspace(umin, umax, 5):
+            for v in np.linspace(vmin, vmax, 5):
+                props.SetParameters(float(u), float(v))
+                if props.IsNormalDefined() and abs(props.Normal().Z()) > VERTICAL_SIN:
+                    p = props.Value()
+                    return None, (f"a face is not vertical (normal z {props.Normal().Z():.3g} at "
+                                  f"({p.X():.3f}, {p.Y():.3f}, {p.Z():.3f}) mm)")
+    edges = _unique_edges(cad.shape)
+    pts = [edge_points(e, tol) for e in edges]
+    z0 = min(float(p[:, 2].min()) for p in pts)
+    z1 = max(float(p[:, 2].max()) for p in pts)
+    height = z1 - z0
+    if not height > Z_TOL:
+        return None, "the faces have no height"
+    bottom = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z0) <= Z_TOL)]
+    top = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z1) <= Z_TOL)]
+    lb = sum(_edge_length(edges[i]) for i in bottom)
+    lt = sum(_edge_length(edges[i]) for i in top)
+    if not lb > 0 or abs(lb - lt) > EXTRUSION_REL * lb:
+        return None, (f"not one extrusion: bottom edges {lb:.6g} mm long, top edges {lt:.6g} mm "
+                      f"(walls {height:.6g} mm high)")
+    gap = _plan_gap([pts[i][:, :2] for i in bottom], [pts[i][:, :2] for i in top])
+    if gap > 2 * tol + Z_TOL:
+        return None, f"not one extrusion: the top edges lie up to {gap:.3g} mm off the bottom ones in plan"
+    return CadCurves(curves=[pts[i][:, :2] for i in bottom], z0=z0, height=height, length=lb), ""
+
+
+def _plan_gap(a: list, b: list) -> float:
+    """Largest distance (mm) from a point of one set of polylines (k, 2) to the other set, both ways."""
+    import shapely
+
+    la, lb = (shapely.MultiLineString([c for c in cs if len(c) > 1]) for cs in (a, b))
+    return float(max(shapely.distance(shapely.points(np.vstack(a)), lb).max(),
+                     shapely.distance(shapely.points(np.vstack(b)), la).max()))
+
+
+def planar_curves(cad: CadShape, tol: float, filename: str) -> CadCurves:
+    """The curve edges of a wireframe file (no faces) as sketch curves; they must lie in one
+    horizontal plane (within Z_TOL), else InputFileError naming the heights found."""
+    if not cad.edges:
+        raise InputFileError(f"{filename}: the file holds neither faces nor curves")
+    pts = [edge_points(e, tol) for e in cad.edges]
+    z = np.concatenate([p[:, 2] for p in pts])
+    if z.max() - z.min() > Z_TOL:
+        raise InputFileError(f"{filename}: the {len(pts)} curves are not in one horizontal plane (z from "
+                             f"{z.min():.6g} to {z.max():.6g} mm); a sketch's curves lie in a plane z = const")
+    return CadCurves(curves=[p[:, :2] for p in pts], z0=float(z.min()), height=None,
+                     length=sum(_edge_length(e) for e in cad.edges))

@@ -6,6 +6,7 @@ their content is part of the node's signature.
 
 from __future__ import annotations
 
+from pathlib import PurePosixPath
 from typing import Literal
 
 from pydantic import ConfigDict, Field
@@ -17,7 +18,9 @@ from ..core.model import MeshData, Midsurface
 from ..geometry import MeshLimits, Transform, load_mesh_bytes, load_sketch_bytes
 from ..core.tolerances import TOL
 from ..geometry.mesh_io import classify_mesh, declared_mesh_unit
-from ..geometry.step_io import is_cad_file, load_cad_bytes
+from ..geometry.mesh_io import mesh_from_triangles
+from ..geometry.sketch import sketch_from_curves
+from ..geometry.step_io import is_cad_file, read_cad_shape, tessellate, unit_rescale, vertical_midsurface
 from ..geometry.units import conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -30,12 +33,14 @@ PLACEMENT_DOC = ("After the transform: 'as_is' keeps coordinates, 'on_plate' put
 
 
 def _report_part(ctx, label: str, lo, hi, units: str, shift, *, file_unit: str | None = None,
-                 notice: str | None = None) -> None:
+                 notice: str | None = None, drawing: bool = False) -> None:
     """Report the unit conversion (node report; a notice warning unless mm), an implausible size
-    and the placement shift."""
+    and the placement shift. drawing: a midsurface, whose size is its curves' x/y extent only (the
+    extrusion height is the node's, not the drawing's: a 1 mm drawing extruded 30 mm is 1 mm)."""
     from ..geometry.transform import unit_scale
 
-    extent = float(np.max(np.asarray(hi) - np.asarray(lo)))
+    span = np.asarray(hi) - np.asarray(lo)
+    extent = float(np.max(span[:2] if drawing else span))
     ctx.report({"file_unit": file_unit, "unit": units, "unit_factor": unit_scale(units)})
     if notice:
         ctx.warn(f"{label}: {notice}")
@@ -77,6 +82,75 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
                  "'solid' to see the error")
 
 
+def _shifted(part, shift):
+    """The part (MeshData or Midsurface) translated by shift (3,) mm."""
+    if isinstance(part, Midsurface):
+        return Midsurface(curves=tuple(c + shift[:2] for c in part.curves), height=part.height,
+                          z0=part.z0 + float(shift[2]), name=part.name,
+                          joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in part.joints))
+    return MeshData(vertices=part.vertices + shift, faces=part.faces, name=part.name, surface=part.surface)
+
+
+def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> Midsurface | None:
+    """The midsurface of an open CAD surface made of vertical walls (its bottom curves extruded),
+    in mm after the unit factor k and the transform; None (with the reason warned) when the faces
+    are not one vertical extrusion or the transform tilts them."""
+    cc, why = vertical_midsurface(cad, params.chordal_tolerance / k)
+    if cc is not None:
+        axis = transform.apply(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+        up = axis[1] - axis[0]
+        if np.hypot(up[0], up[1]) > 1e-9 * abs(up[2]) or up[2] <= 0:
+            why = "the transform tilts the walls out of vertical"
+            cc = None
+    if cc is None:
+        ctx.warn(f"{params.path}: read as a tessellated single-wall surface, not as a sketch: {why}")
+        return None
+    ends = []
+    for c in cc.curves:
+        p = transform.apply(np.column_stack([c * k, np.full(len(c), cc.z0 * k)]))
+        ends.append(p)
+    z0 = float(ends[0][0, 2])
+    height = float(cc.height * k * transform.scale)
+    mid = sketch_from_curves([p[:, :2] for p in ends], height=height, z0=z0, name=params.path, join_tol=TOL.join)
+    mid = Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=PurePosixPath(params.path).stem,
+                     joints=mid.joints)
+    ctx.report({"read_as": "midsurface", "curves": len(mid.curves),
+                "curve_length_mm": round(float(sum(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()
+                                                   for c in mid.curves)), 4),
+                "height_mm": round(height, 6)})
+    ctx.warn(f"{params.path}: read as a midsurface (a sketch): {len(cad.faces)} vertical wall face(s), the "
+             f"extrusion of {len(mid.curves)} curve(s) of {cc.length * k * transform.scale:.6g} mm from z "
+             f"{z0:g} mm by {height:g} mm")
+    return mid
+
+
+def _read_cad_part(ctx, params, data: bytes, transform: Transform):
+    """(part, file unit, unit applied, notice) of a STEP/IGES file: tessellated face by face (progress,
+    cancel, triangle cap), repaired and classified like a mesh file; an open surface of vertical
+    walls becomes a Midsurface."""
+    cad = read_cad_shape(data, params.path)
+    if not cad.faces:
+        raise InputFileError(f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
+                             "'sketch' node, which extrudes the curves by its 'height'")
+    tri = tessellate(cad, params.path, chordal_tolerance=params.chordal_tolerance, max_triangles=params.max_triangles,
+                     progress=ctx.progress, check_cancelled=ctx.check_cancelled)
+    units, k, notice = unit_rescale(cad.file_unit, params.units)
+    st: dict = {}
+    mesh = mesh_from_triangles(tri * k, name=PurePosixPath(params.path).stem, units="mm", transform=transform,
+                               source=params.path, weld_tolerance=params.weld_tolerance, stats=st,
+                               crack_tolerance=params.crack_tolerance, require_closed=False)
+    _report_mesh(ctx, params, mesh, st)
+    ctx.report({"faces": len(cad.faces), "triangles": int(len(mesh.faces))})
+    if cad.roots > 1 or cad.bodies > 1:
+        ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.bodies} bodies flattened into one part "
+                 f"(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+    part = mesh
+    if classify_mesh(st, params.as_, params.path) == "surface":
+        part = _cad_midsurface(ctx, params, cad, k, transform) or MeshData(
+            vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
+    return part, cad.file_unit, units, notice
+
+
 Vec3 = tuple[float, float, float]
 
 
@@ -103,13 +177,23 @@ class MeshNode(Node):
     single-wall surface (`as: auto`, warned); anything else stops the run (exit 2) with the edge
     counts and where the first defect is. `as: solid` refuses an open mesh the same way. Files
     over `max_file_mb` or with more than `max_triangles` triangles are refused.
+
+    STEP/IGES: every face (of solids, shells and free faces such as IGES 144 trimmed surfaces)
+    is tessellated one by one, with progress events and cancel between faces; a chordal
+    tolerance whose estimated triangle count exceeds `max_triangles` is refused before the long
+    run. The triangles are repaired and classified as above; an open surface whose faces are all
+    vertical walls between one bottom and one top height (a thin-wall midsurface) is read as a
+    sketch: its bottom curves extruded (a Midsurface, as from the `sketch` node); other open
+    surfaces stay tessellated single-wall surfaces. A file of curves only is refused here (read
+    it with `sketch`).
     """
 
     type = "mesh"
-    version = "2"  # 2: repair (cracks, shared edges, winding), classification by measurement; one unit rule (IGES unit read)
+    version = "3"  # 3: CAD surfaces/midsurfaces, CAD repair + classification, tessellation progress/cancel/estimate
     title = "Mesh"
     category = "inputs"
-    outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface"),)
+    outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface; "
+                                    "a CAD midsurface of vertical walls: its curves extruded (Midsurface)"),)
 
     class Params(NodeParams):
         model_config = ConfigDict(extra="forbid", populate_by_name=True)
@@ -142,17 +226,7 @@ class MeshNode(Node):
         t = params.transform
         transform = Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale)
         if is_cad_file(params.path):
-            mesh, cad, notice = load_cad_bytes(data, params.path, units=params.units, transform=transform,
-                                       chordal_tolerance=params.chordal_tolerance,
-                                       weld_tolerance=params.weld_tolerance)
-            file_unit = cad.file_unit
-            units, _, _ = conversion_notice(file_unit, params.units)
-            if len(mesh.faces) > params.max_triangles:
-                raise InputFileError(f"{params.path}: {len(mesh.faces)} triangles exceed the cap of {params.max_triangles}; "
-                                     "raise 'chordal_tolerance' or 'max_triangles'")
-            if cad.roots > 1 or cad.solids > 1:
-                ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.solids} bodies flattened into one part "
-                         f"(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+            mesh, file_unit, units, notice = _read_cad_part(ctx, params, data, transform)
         else:
             file_unit = declared_mesh_unit(data, params.path)
             units, _, notice = conversion_notice(file_unit, params.units)
@@ -171,11 +245,12 @@ class MeshNode(Node):
             _report_mesh(ctx, params, mesh, weld)
             if classify_mesh(weld, params.as_, params.path) == "surface":
                 mesh = MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
-        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        lo, hi = mesh.bounds
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
-            mesh = MeshData(vertices=mesh.vertices + shift, faces=mesh.faces, name=mesh.name, surface=mesh.surface)
-        _report_part(ctx, params.path, lo, hi, units, shift, file_unit=file_unit, notice=notice)
+            mesh = _shifted(mesh, shift)
+        _report_part(ctx, params.path, lo, hi, units, shift, file_unit=file_unit, notice=notice,
+                     drawing=isinstance(mesh, Midsurface))
         return {"mesh": mesh}
 
 
@@ -189,22 +264,27 @@ class SketchNode(Node):
     within `arc_tolerance`), from the modelspace or the paperspace layout named by `layout`. Curves
     meeting end to end (exactly two ends at a point) are joined into one polyline. DXF entities
     without curve geometry (TEXT, DIMENSION, HATCH, ...) and zero-length ones are skipped with a
-    warning.
+    warning. STEP/IGES (OpenCascade): a midsurface of vertical wall faces gives its bottom curves,
+    z0 and height (IGES 144 trimmed surfaces); a file of curves only (IGES 126 B-splines, 110
+    lines, 100 arcs) in one horizontal plane gives its curves at that plane's z; curves are
+    discretised within `arc_tolerance`.
     """
 
     type = "sketch"
-    version = "2"  # 2: the full DXF $INSUNITS table (yd, dm, km, mil, ... were read as mm)
+    version = "3"  # 3: STEP/IGES midsurfaces and curves
     title = "Sketch (midsurface)"
     category = "inputs"
     outputs = (Port("mesh", "mesh", "Midsurface: curves extruded along +Z (Midsurface), mm"),)
 
     class Params(NodeParams):
-        path: FileRef = Field(description="Sketch file (.json or .dxf), relative to the recipe")
+        path: FileRef = Field(description="Sketch file (.json, .dxf, or .step/.stp/.iges/.igs curves or vertical "
+                                          "wall faces), relative to the recipe")
         height: float | None = Field(None, gt=0, le=10_000,
-                                     description="Extrusion height; default: the JSON file's 'height'",
+                                     description="Extrusion height; default: the JSON file's 'height', a CAD file's wall height",
                                      json_schema_extra=unit("mm"))
         z0: float | None = Field(None, ge=-10_000, le=10_000,
-                                 description="Bottom of the extrusion; default: the JSON file's 'z0', else 0",
+                                 description="Bottom of the extrusion; default: the JSON file's 'z0', a CAD file's bottom "
+                                             "(or its curves' plane), else 0",
                                  json_schema_extra=unit("mm"))
         units: LengthUnit = Field("file", description=UNITS_DOC)
         placement: Placement = Field("as_is", description=PLACEMENT_DOC)
@@ -230,9 +310,8 @@ class SketchNode(Node):
         hi = np.array([*pts.max(axis=0), mid.z0 + mid.height])
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
-            mid = Midsurface(curves=tuple(c + shift[:2] for c in mid.curves), height=mid.height,
-                             z0=mid.z0 + float(shift[2]), name=mid.name,
-                             joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in mid.joints))
-        _report_part(ctx, params.path, lo, hi, res.units, shift, file_unit=res.file_unit, notice=res.notice)
+            mid = _shifted(mid, shift)
+        _report_part(ctx, params.path, lo, hi, res.units, shift, file_unit=res.file_unit, notice=res.notice,
+                     drawing=True)
         return {"mesh": mid}
 
