@@ -24,8 +24,16 @@ def connect(viewer, view_id: str | None):
     import viser
     from websockets.sync.client import connect as ws_connect
 
+    import msgspec
+
     url = viewer.url.replace("http://", "ws://") + ("/" if view_id is None else f"/?view={view_id}")
-    return ws_connect(url, max_size=None, subprotocols=[f"viser-v{viser.__version__}"])
+    ws = ws_connect(url, max_size=None, subprotocols=[f"viser-v{viser.__version__}"])
+    # viser counts a client as connected once it reports its camera (the browser does at once)
+    ws.send(msgspec.msgpack.encode({
+        "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, -300.0, 200.0],
+        "fov": 1.3, "near": 0.01, "far": 1000.0, "image_height": 600, "image_width": 800,
+        "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}))
+    return ws
 
 
 def wait_for(pred, seconds: float = 5.0):
@@ -59,6 +67,7 @@ def test_two_views_see_their_own_recipes(private_viewer):
         a, b = v.state(view="tab-one"), v.state(view="tab-two")
         assert (a["view"]["time_s"], a["view"]["sim_color"], a["view"]["path_color"]) == (0.0, "deviation", "zone")
         assert (b["view"]["time_s"], b["view"]["sim_color"], b["view"]["path_color"]) == (2.0, "deposit", "speed")
+        scene_names_received(two, seconds=1.0)   # drain tab two's recolouring
         # a script steering the server-wide default changes neither tab
         assert v.show("bracket") is True
         assert v.state(view="tab-one")["key"] == "duct" and v.state()["key"] == "bracket"

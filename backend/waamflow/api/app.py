@@ -22,7 +22,7 @@ from .auth import AuthMiddleware, load_tokens, needs_auth
 from .routes import audit, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
-from .static import CompressedAssets, index_response
+from .static import CompressedAssets, index_response, mount_viewer_client
 from .worker import Limits, RunManager
 
 log = logging.getLogger("waamflow.server")
@@ -225,6 +225,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         from .viewer_proxy import mount_viewer_proxy
 
         mount_viewer_proxy(app)
+    mount_viewer_client(app)  # viser's page under a content-hashed URL, cached like the hashed assets
 
     static = settings.static_dir
     if static is not None and (Path(static) / "index.html").is_file():

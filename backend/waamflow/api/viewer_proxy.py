@@ -2,7 +2,8 @@
 relayed to the viser server on 127.0.0.1 behind the API's authentication (AuthMiddleware covers
 `/viewer`: the GUI's session cookie lets the iframe and its websocket in). Used when the server has
 tokens, since viser then listens on loopback only. viser's client opens its websocket at the page's
-own URL (http→ws), so the websocket arrives at `/viewer` too."""
+own URL (http→ws), so the websocket arrives at `/viewer` too; its query (`?view=<id>`, which
+browser view the client belongs to) is passed on to viser."""
 
 from __future__ import annotations
 
@@ -56,7 +57,8 @@ def mount_viewer_proxy(app: FastAPI) -> None:
             return
         protocols = ws.scope.get("subprotocols") or []
         try:
-            upstream = await wsc.connect(f"ws://127.0.0.1:{port}/", subprotocols=protocols or None,
+            query = ws.url.query
+            upstream = await wsc.connect(f"ws://127.0.0.1:{port}/" + (f"?{query}" if query else ""), subprotocols=protocols or None,
                                          max_size=None, compression=None, open_timeout=10)
         except Exception as e:
             log.warning("3D preview websocket relay failed: %s", e)

@@ -3,7 +3,10 @@
 The GUI shows the scene in an iframe with its own controls beside it, so inside the iframe
 nothing may cover the scene: with `?embedded` in the URL the page hides viser's notification
 stack (the "software WebGL rendering" / "WebGL unavailable" notices a headless or GPU-less
-browser raises over the canvas). The client files are viser's own, linked from a folder next to
+browser raises over the canvas). With `?view=<id>` (the GUI tab's 3D view) the page opens its
+websocket at `<page>/?view=<id>` — viser's client takes its server from a `websocket` parameter,
+which the script adds before the client starts — so the server knows which view the browser
+client belongs to (`ViewerService`, one scene per view). The client files are viser's own, linked from a folder next to
 them in the temp directory; only index.html gains a few lines of CSS and script.
 """
 
@@ -18,8 +21,12 @@ from typing import Iterator
 
 EMBED_HEAD = (
     "<style>html.wf-embedded .mantine-Notifications-root{display:none!important}</style>"
-    "<script>if(new URLSearchParams(location.search).has('embedded'))"
-    "document.documentElement.classList.add('wf-embedded')</script>"
+    "<script>(function(){var q=new URLSearchParams(location.search);"
+    "if(q.has('embedded'))document.documentElement.classList.add('wf-embedded');"
+    "var v=q.get('view');if(v&&!q.has('websocket')){"
+    "var u=location.href.split('?')[0].split('#')[0].replace(/^http/,'ws');if(!u.endsWith('/'))u+='/';"
+    "q.set('websocket',u+'?view='+encodeURIComponent(v));"
+    "history.replaceState(null,'',location.pathname+'?'+q.toString()+location.hash)}})()</script>"
 )
 
 

@@ -3,24 +3,35 @@
     viewer = ViewerService(host="127.0.0.1", port=8080)
     viewer.start()                       # non-blocking: viser serves from its own thread
     viewer.publish("mpp-cross", recipe, outputs)   # outputs: node id → port → value
-    viewer.select("toolpath", 3)         # the GUI follows the selected node / layer
-    viewer.show("mpp-cross")             # the GUI's open recipe: its latest published run
+    viewer.show("mpp-cross", view="tab-1")         # that browser view's open recipe
+    viewer.set_view(view="tab-1", hidden={"slice"}, layer_lo=2, layer_hi=5, sim_color="deposit", time_s=3.0)
+    viewer.state(view="tab-1")           # nodes, layer extent, view and legend data for the GUI
+    viewer.select("toolpath", 3)         # the default view follows the selected node / layer
     viewer.loader = source               # optional: key → (run id, rebuild) for runs not in memory
-    viewer.set_view(hidden={"slice"}, layer_lo=2, layer_hi=5, sim_color="deposit", time_s=3.0)
-    viewer.state()                       # nodes, layer extent, view and legend data for the GUI
     viewer.url                           # → /api/health `viewer_url`
     viewer.stop()
 
+**One scene per view.** Each browser tab's 3D view has a view id (the GUI makes one per page
+load and opens viser's page as `/?embedded&view=<id>`); the viser client connecting with it gets
+its own scene, GUI panel, camera, layer range, colours and playback (`ViewSession`, drawn with
+viser's per-client `client.scene` / `client.gui`). The REST calls of that tab name the same id,
+so two tabs — or two users — on one server each see their own recipe, and a run of another
+recipe never replaces what a user looks at. A view exists before its browser connects (headless,
+so its state is known at once) and outlives a reconnect (the GUI's 3D tab remounts its iframe);
+views idle for `VIEW_TTL_S` are dropped, at most `MAX_VIEWS` are kept. A client without a view id
+gets a view of its own that follows every published run, dropped when it disconnects.
+
+The default view (`view=None`): headless by default — scripts read its state through
+/api/viewer without a view id; with `shared=True` (one-off previews, tests) it draws on the
+server-wide scene and GUI that every client without a view id sees.
+
 Scenes are keyed (graph name, or run id for an unsaved recipe): the last few published runs are
-kept, and `show(key)` switches the scene to one of them — the GUI asks for the open recipe's, so
-a run of another recipe on the same server does not replace what the user looks at. Scenes live in
-memory: when `show(key)` finds none (the server restarted, or the scene was evicted) and a `loader`
-is set, the latest finished run of `key` is rebuilt beside the server (`state()["loading"]` says
-which run meanwhile) and shown when ready.
-The scene is shared: every connected browser sees the same content and GUI. Re-publishing
-redraws only outputs (and, for per-layer outputs, only layers) whose content signature changed.
-Large parts are decimated for display (`max_segments` line segments per output in total); the
-data is never modified.
+kept, and `show(key)` switches a view to one of them. Scenes live in memory: when `show(key)`
+finds none (the server restarted, or the scene was evicted) and a `loader` is set, the latest
+finished run of `key` is rebuilt beside the server (`state()["loading"]` says which run
+meanwhile) and shown when ready. Re-publishing redraws only outputs (and, for per-layer outputs,
+only layers) whose content signature changed. Large parts are decimated for display
+(`max_segments` line segments per output in total); the data is never modified.
 """
 
 from __future__ import annotations
@@ -30,56 +41,39 @@ import threading
 import time
 from collections import OrderedDict
 from typing import Any, Callable
+from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
-from . import colors as C
-from . import geometry as G
-from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
-                    SectionsPart, ToolpathPart, ViewState, kind_of, slug)
-from .simulation import SimulationPart
+from .session import NullScene, Target, ViewSession
 
 log = logging.getLogger("waamflow.viewer")
 
-PART_TYPES: dict[str, type[Part]] = {
-    "mesh": MeshPart, "layers": LayersPart, "sections": SectionsPart, "toolpath": ToolpathPart,
-    "simulation": SimulationPart, "features": FeaturesPart,
-}
-
-PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
 MAX_SCENES = 4         # published runs kept for `show(key)` (outputs are held by reference)
-VIEW_FIELDS = ("layer_lo", "layer_hi", "path_color", "sim_color", "time_s", "show_robot",
-               "sim_offset_mm", "show_programmed", "show_simulated")
+MAX_VIEWS = 32         # browser views kept (the least recently used detached one goes first)
+VIEW_TTL_S = 1800.0    # a view without a browser and without requests for this long is dropped
+VIEW_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_.")
+
+
+def valid_view_id(view: str) -> bool:
+    return 0 < len(view) <= 64 and set(view) <= VIEW_ID_CHARS
 
 
 class ViewerService:
-    """viser server + scene adapters + GUI panel (layer range, colour-by, per-node visibility,
-    playback, picked-point readout). Thread-safe: publish/select may come from any thread."""
+    """viser server + one `ViewSession` per browser view. Thread-safe: publish/show/set_view
+    may come from any thread (one lock for all views)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8080, *, max_segments: int = 300_000,
-                 label: str = "waamflow") -> None:
+                 label: str = "waamflow", shared: bool = False) -> None:
         self.host = host
         self.port = port
         self.max_segments = int(max_segments)
         self.label = label
+        self.shared = shared
         self.server = None
-        self.parts: dict[tuple[str, str], Part] = {}
-        self.view = ViewState()
-        self.key: str | None = None
-        self.node_types: dict[str, str] = {}
-        self.selected: tuple[str | None, int | None] = (None, None)
-        self.last_pick: dict[str, Any] | None = None
         self._lock = threading.RLock()
-        self._gui: dict[str, Any] = {}
-        self._syncing = False
-        self._node_boxes: dict[str, Any] = {}
-        self._node_frames: dict[str, Any] = {}     # /graph/<node>: toggles the node's visibility
-        self._play_stop = threading.Event()
-        self._play_thread: threading.Thread | None = None
-        self._bounds: np.ndarray | None = None
-        self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
+        self.sessions: OrderedDict[str, ViewSession] = OrderedDict()   # "" = the default view
         self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()   # key → (recipe, outputs)
-        self.wanted: str | None = None   # the key the GUI shows (None: whatever was published last)
         self.scene_runs: dict[str, str] = {}   # key → id of the run its scene shows (when known)
         # key → (run id, rebuild(cancel) → (recipe, outputs)) | None: finds a finished run that is
         # not in memory (after a restart); set by the API to read its store
@@ -104,27 +98,24 @@ class ViewerService:
             with embedded_client():
                 self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
             self.server.scene.set_up_direction("+z")
-            self._graph_frame = self.server.scene.add_frame("/graph", show_axes=False)   # moved by a cell's positioner
-            self._build_gui()
-            self.server.scene.on_click()(self._on_click)
+            self.sessions[""] = ViewSession(self, "", self._default_target())
+            self.server.on_client_connect(self._on_connect)
+            self.server.on_client_disconnect(self._on_disconnect)
         return self
 
     def stop(self) -> None:
         """Stop playback and the server; the service can be started again afterwards."""
-        self._play_stop.set()
         self._rebuild_stop.set()
-        if self._play_thread is not None:
-            self._play_thread.join(timeout=2.0)
-            self._play_thread = None
+        with self._lock:
+            sessions = list(self.sessions.values())
+        for s in sessions:
+            s.stop_playback()
         with self._lock:
             if self.server is not None:
                 self.server.stop()
             self.server = None
-            self.parts.clear()
+            self.sessions.clear()
             self.scenes.clear()
-            self._gui.clear()
-            self._node_boxes.clear()
-            self._node_frames.clear()
 
     @property
     def url(self) -> str | None:
@@ -141,14 +132,94 @@ class ViewerService:
         return None if self.server is None else int(self.server.get_port())
 
     # ------------------------------------------------------------------------------------------
+    # views
+    # ------------------------------------------------------------------------------------------
+    def _default_target(self) -> Target:
+        if not self.shared:
+            return Target(NullScene())
+        srv = self.server
+        viewless = lambda: [c.camera for cid, c in srv.get_clients().items()   # noqa: E731
+                            if not any(s.client is c for s in self.sessions.values())]
+        return Target(srv.scene, srv.gui, srv.atomic, viewless, srv.initial_camera)
+
+    @staticmethod
+    def _client_target(client) -> Target:
+        return Target(client.scene, client.gui, client.atomic, lambda: [client.camera], client=client)
+
+    def session(self, view: str | None = None, *, create: bool = True) -> ViewSession:
+        """The view `view` (None or "": the default view), made headless when new."""
+        if self.server is None:
+            raise RuntimeError("the 3D preview is not running")
+        key = view or ""
+        if key and not valid_view_id(key):
+            raise ValueError("view must be 1–64 letters, digits, '-', '_' or '.'")
+        with self._lock:
+            s = self.sessions.get(key)
+            if s is None:
+                if not create:
+                    raise KeyError(view)
+                s = self.sessions[key] = ViewSession(self, key, Target(NullScene()))
+                self._evict()
+            self.sessions.move_to_end(key)
+            s.last_used = time.monotonic()
+            return s
+
+    def _evict(self) -> None:
+        now = time.monotonic()
+        for k in [k for k, s in self.sessions.items() if k and s.client is None and now - s.last_used > VIEW_TTL_S]:
+            self.sessions.pop(k).stop_playback()
+        while len(self.sessions) - ("" in self.sessions) > MAX_VIEWS:
+            idle = [k for k, s in self.sessions.items() if k and s.client is None]
+            victim = idle[0] if idle else next(k for k in self.sessions if k)
+            self.sessions.pop(victim).stop_playback()
+
+    def _view_of_client(self, client) -> str | None:
+        """The `view` query parameter of the client's websocket request (viser's page passes it
+        on, see `embed`), or None."""
+        try:
+            conn = self.server._websock_server._live_connections.get(client.client_id)
+            query = urlsplit(conn.request.path).query if conn is not None and conn.request is not None else ""
+        except AttributeError:
+            return None
+        view = (parse_qs(query).get("view") or [None])[0]
+        return view if view and valid_view_id(view) else None
+
+    def _on_connect(self, client) -> None:
+        view = self._view_of_client(client)
+        if view is None and self.shared:
+            return   # sees the server-wide scene
+        with self._lock:
+            if self.server is None:
+                return
+            s = self.session(view or f"client-{client.client_id}")
+            old = s.client
+            s.retarget(self._client_target(client), drop_old=old is not None and old.client_id in self.server.get_clients())
+            if view is None and s.wanted is None and s.key is None and self.scenes:
+                key = next(reversed(self.scenes))
+                s.draw(key, *self.scenes[key])
+
+    def _on_disconnect(self, client) -> None:
+        with self._lock:
+            for k, s in list(self.sessions.items()):
+                if s.client is client:
+                    if k.startswith("client-"):
+                        self.sessions.pop(k).stop_playback()
+                    else:
+                        s.retarget(Target(NullScene()), drop_old=False)
+                        s.last_used = time.monotonic()
+
+    # ------------------------------------------------------------------------------------------
     # publishing
     # ------------------------------------------------------------------------------------------
     def publish(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *,
                 run: str | None = None) -> dict[str, int]:
-        """Show a run's outputs (`run`: its id, reported by `state()`). Only outputs whose content
-        changed are redrawn; outputs of nodes that are gone are removed. Returns counts:
-        {"redrawn", "kept", "removed", "skipped"} (redrawn = scene nodes added or replaced;
-        skipped = outputs with nothing to draw)."""
+        """Keep a run's outputs under `key` (`run`: its id, reported by `state()`) and draw them in
+        every view that shows `key` (or follows every run). Only outputs whose content changed
+        are redrawn; outputs of nodes that are gone are removed. Returns counts of the default
+        view's redraw (else of the first view that drew): {"redrawn", "kept", "removed",
+        "skipped"} (redrawn = scene nodes added or replaced; skipped = outputs with nothing to
+        draw), "sessions": how many browser views drew it (when any did), "deferred": 1 when
+        no view did."""
         if self.server is None:
             raise RuntimeError("ViewerService.publish before start()")
         with self._lock:
@@ -161,74 +232,36 @@ class ViewerService:
             self._rebuild_failed.pop(key, None)
             while len(self.scenes) > MAX_SCENES:
                 self.scene_runs.pop(self.scenes.popitem(last=False)[0], None)
-            if self.wanted is not None and key != self.wanted:
-                # another recipe's run: kept for when the GUI asks for it, the shown scene stays
+            drawn: list[tuple[str, dict[str, int]]] = []
+            for vid, s in list(self.sessions.items()):
+                if s.wanted == key or (s.wanted is None and self._follows(s)):
+                    drawn.append((vid, s.draw(key, recipe, outputs)))
+            if not drawn:
+                # another recipe's run: kept for when a view asks for it, the shown scenes stay
                 return {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0, "deferred": 1}
-            return self._draw(key, recipe, outputs)
+            stats = dict(next((st for vid, st in drawn if vid == ""), drawn[0][1]))
+            if any(vid for vid, _ in drawn):
+                stats["sessions"] = len([vid for vid, _ in drawn if vid])
+            return stats
 
-    def _draw(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]]) -> dict[str, int]:
-        stats = {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0}
-        nodes = (recipe or {}).get("nodes", [])
-        with self._lock, self.server.atomic():
-            self.key = key
-            self.node_types = {str(n.get("id")): str(n.get("type", "")) for n in nodes if isinstance(n, dict)}
-            wanted: dict[tuple[str, str], tuple[str, Any]] = {}
-            for node, ports in outputs.items():
-                for port, value in (ports or {}).items():
-                    kind = kind_of(value)
-                    if kind is None:
-                        stats["skipped"] += 1
-                        continue
-                    wanted[(str(node), str(port))] = (kind, value)
-            for k in [k for k, p in self.parts.items() if k not in wanted or p.kind != wanted[k][0]]:
-                self.parts.pop(k).remove()
-                stats["removed"] += 1
-            for node in [n for n in self._node_frames if all(k[0] != n for k in wanted)]:
-                self._node_frames.pop(node).remove()
-            for (node, port), (kind, value) in wanted.items():
-                part = self.parts.get((node, port))
-                if part is None:
-                    if node not in self._node_frames:
-                        self._node_frames[node] = self.server.scene.add_frame(f"/graph/{slug(node)}", show_axes=False)
-                    part = self.parts[(node, port)] = PART_TYPES[kind](self.server.scene, node, port, self.max_segments)
-                if kind == "simulation":
-                    part.graph_frame = getattr(self, "_graph_frame", None)
-                    part.node_params = dict(next((nd.get("params") or {} for nd in nodes
-                                                  if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
-                n = part.sync(value, self.view)
-                if n:
-                    stats["redrawn"] += n
-                else:
-                    stats["kept"] += 1
-            self._after_publish()
-        return stats
+    def _follows(self, s: ViewSession) -> bool:
+        """A view without a chosen recipe follows every run — unless it is the headless default
+        (nobody sees it: it catches up when asked for its state)."""
+        return not (s.id == "" and not self.shared)
 
-    def show(self, key: str | None) -> bool:
-        """Show the latest published run under `key` (the GUI's open recipe); an unknown key
-        empties the scene until a run of it is published, or until the `loader` has rebuilt the
-        latest finished run of it. None: follow every publish again.
+    def show(self, key: str | None, *, view: str | None = None) -> bool:
+        """Show the latest published run under `key` (the open recipe) in `view`; an unknown key
+        empties that view's scene until a run of it is published, or until the `loader` has
+        rebuilt the latest finished run of it. None: follow every publish again.
         Returns whether a run of `key` is shown."""
         if self.server is None:
             return False
         with self._lock:
-            self.wanted = key
-            if key is None or key == self.key:
-                return key is not None
-            self.view.hidden.clear()   # node ids of another recipe say nothing about this one
-            if key in self.scenes:
-                recipe, outputs = self.scenes[key]
-                self._draw(key, recipe, outputs)
-                return True
-            with self.server.atomic():
-                for k in list(self.parts):
-                    self.parts.pop(k).remove()
-                for node in list(self._node_frames):
-                    self._node_frames.pop(node).remove()
-                self.key, self.node_types = key, {}
-                self._bounds = None
-                self._after_publish()
-            self._start_rebuild(key)
-            return False
+            s = self.session(view)
+            shown = s.show(key)
+            if key is not None and not shown and key not in self.scenes:
+                self._start_rebuild(key)
+            return shown
 
     def _start_rebuild(self, key: str) -> None:
         """Rebuild the latest finished run of `key` in a thread (no-op without a loader, when one
@@ -264,417 +297,89 @@ class ViewerService:
         finally:
             with self._lock:
                 self._rebuilding.pop(key, None)
-                if self._gui and self.key == key:
-                    self._sync_gui()
+                for s in self.sessions.values():
+                    if s.key == key:
+                        s._sync_gui()
 
-    def set_view(self, *, hidden: set[str] | None = None, fit: bool = False, **fields: Any) -> None:
-        """Apply the GUI's view settings (any subset of VIEW_FIELDS, plus hidden node ids);
-        `fit` frames the camera on what is published."""
-        unknown = set(fields) - set(VIEW_FIELDS)
-        if unknown:
-            raise ValueError(f"unknown view setting(s): {', '.join(sorted(unknown))}")
+    def set_view(self, *, view: str | None = None, hidden: set[str] | None = None, fit: bool | str = False,
+                 **fields: Any) -> None:
+        """Apply a view's settings (any subset of VIEW_FIELDS, plus hidden node ids); `fit`
+        frames its camera: True or "part" on the part, "cell" on part + cell, as they stand at
+        the playback time."""
+        if self.server is None:
+            raise RuntimeError("the 3D preview is not running")
         with self._lock:
-            if fields.get("path_color", PATH_COLOR_MODES[0]) not in PATH_COLOR_MODES:
-                raise ValueError(f"path_color must be one of {', '.join(PATH_COLOR_MODES)}")
-            if fields.get("sim_color", SIM_COLOR_MODES[0]) not in SIM_COLOR_MODES:
-                raise ValueError(f"sim_color must be one of {', '.join(SIM_COLOR_MODES)}")
-            for k, v in fields.items():
-                if v is not None:
-                    setattr(self.view, k, type(getattr(self.view, k))(v))
-            if hidden is not None:
-                self.view.hidden = set(hidden)
-            lo, hi = self._layer_extent()
-            if "layer_lo" in fields or "layer_hi" in fields:
-                self.view.layer_lo = int(np.clip(self.view.layer_lo, lo, hi))
-                self.view.layer_hi = int(np.clip(self.view.layer_hi, self.view.layer_lo, hi))
-            if self.server is None:
-                return
-            with self.server.atomic():
-                self._sync_gui()
-                self._apply()
-                if "time_s" in fields:
-                    for p in self.parts.values():
-                        if p.kind == "simulation":
-                            p.set_time(self.view.time_s)
-            b = self.part_bounds()
-            if fit and b is not None:
-                self._frame_camera(b)
+            self.session(view).set_view(hidden=hidden, fit=fit, **fields)
 
-    def state(self) -> dict[str, Any]:
-        """What the GUI's 3D tab shows beside the scene: the shown run, its nodes (with what each
-        draws and whether it is visible), layer extent, playback duration, view settings and the
-        legend data (zone colours, scalar ranges with units, the colour map's stops)."""
+    def state(self, *, view: str | None = None) -> dict[str, Any]:
+        """What the GUI's 3D tab shows beside the scene of `view`: the shown run, its nodes (with
+        what each draws and whether it is visible), layer extent, playback duration, view
+        settings and the legend data (zone colours, scalar ranges with units, the colour map's
+        stops)."""
         with self._lock:
-            lo, hi = self._layer_extent()
-            nodes: dict[str, dict[str, Any]] = {}
-            for (node, port), part in self.parts.items():
-                e = nodes.setdefault(node, {"id": node, "type": self.node_types.get(node, ""), "kinds": [],
-                                            "visible": node not in self.view.hidden})
-                e["kinds"].append(part.kind)
-            order = {n: i for i, n in enumerate(self.node_types)}
-            legend: list[dict[str, Any]] = []
-            duration = 0.0
-            for part in self.parts.values():
-                if part.kind == "toolpath":
-                    legend.append({"node": part.node, "kind": "toolpath", "mode": self.view.path_color,
-                                   "zones": [{"zone": z, "color": h} for z, h in part.zone_legend()],
-                                   "ranges": {"speed": {"lo": part.speed_range[0], "hi": part.speed_range[1], "unit": "mm/s"}},
-                                   "arc": {"on": C.rgb_to_hex(C.ARC_ON_RGB), "off": C.rgb_to_hex(C.ARC_OFF_RGB)},
-                                   "travel": C.rgb_to_hex(C.TRAVEL_RGB)})
-                elif part.kind == "simulation":
-                    units = {"deviation": "mm", "speed": "mm/s", "deposit": "mm³/mm"}
-                    legend.append({"node": part.node, "kind": "simulation", "mode": self.view.sim_color,
-                                   "ranges": {k: {"lo": a, "hi": b, "unit": units[k]} for k, (a, b) in part.ranges.items()},
-                                   "programmed": C.rgb_to_hex(C.PROGRAMMED_RGB), "travel": C.rgb_to_hex(C.TRAVEL_RGB),
-                                   "robot": part.robot.name if part.robot is not None else None,
-                                   "robot_note": part.robot_note})
-                    duration = max(duration, part.duration())
-            v = self.view
-            shown = self.wanted if self.wanted is not None else self.key
-            return {
-                "key": self.key, "wanted": self.wanted, "published": list(self.scenes),
-                "run": self.scene_runs.get(self.key) if self.parts else None,
-                # the shown key's latest finished run being rebuilt (after a restart): {key, run, since}
-                "loading": dict(self._rebuilding[shown]) if shown in self._rebuilding else None,
-                "rebuild_error": dict(self._rebuild_failed[shown]) if shown in self._rebuild_failed else None,
-                "nodes": sorted(nodes.values(), key=lambda n: order.get(n["id"], len(order))),
-                "layers": {"lo": lo, "hi": hi} if self.parts else None,
-                "duration_s": duration,
-                "view": {"layer_lo": v.layer_lo, "layer_hi": v.layer_hi, "path_color": v.path_color,
-                         "sim_color": v.sim_color, "time_s": v.time_s, "show_robot": v.show_robot,
-                         "sim_offset_mm": v.sim_offset_mm, "show_programmed": v.show_programmed,
-                         "show_simulated": v.show_simulated, "hidden": sorted(v.hidden)},
-                "path_color_modes": list(PATH_COLOR_MODES), "sim_color_modes": list(SIM_COLOR_MODES),
-                "colormap": [C.rgb_to_hex(c) for c in C.VIRIDIS_STOPS],
-                "legend": legend,
-                "bounds": None if self._bounds is None else [[round(float(x), 3) for x in r] for r in self._bounds],
-            }
+            s = self.session(view)
+            if s.wanted is None and not self._follows(s) and self.scenes:
+                latest = next(reversed(self.scenes))
+                if s.key != latest:
+                    s.draw(latest, *self.scenes[latest])
+            return s.state()
 
-    def select(self, node_id: str | None, layer: int | None) -> None:
+    def select(self, node_id: str | None, layer: int | None, *, view: str | None = None) -> None:
         """Follow the GUI: show `node_id`'s output (meshes stay as context; None shows every node)
         and only `layer` (None shows all layers)."""
         with self._lock:
-            self.selected = (node_id, layer)
-            if node_id is None:
-                self.view.hidden.clear()
-            else:
-                self.view.hidden = {n for (n, _), p in self.parts.items() if n != node_id and p.kind != "mesh"}
-            lo, hi = self._layer_extent()
-            if layer is None:
-                self.view.layer_lo, self.view.layer_hi = lo, hi
-            else:
-                self.view.layer_lo = self.view.layer_hi = int(np.clip(layer, lo, hi))
-            self._sync_gui()
-            self._apply()
+            self.session(view).select(node_id, layer)
 
     # ------------------------------------------------------------------------------------------
-    # queries (also used by tests)
+    # queries of the default view (also used by tests)
     # ------------------------------------------------------------------------------------------
-    def scene_names(self, prefix: str = "/graph") -> list[str]:
-        """Names of the scene nodes under `prefix`, from viser's server-side scene registry."""
+    @property
+    def default(self) -> ViewSession:
+        return self.sessions[""]
+
+    @property
+    def parts(self):
+        return self.default.parts
+
+    @property
+    def view(self):
+        return self.default.view
+
+    @property
+    def key(self) -> str | None:
+        return self.default.key
+
+    @property
+    def wanted(self) -> str | None:
+        return self.default.wanted
+
+    @property
+    def _gui(self) -> dict[str, Any]:
+        return self.default._gui
+
+    @property
+    def _node_boxes(self) -> dict[str, Any]:
+        return self.default._node_boxes
+
+    @property
+    def _graph_frame(self):
+        return self.default._graph_frame
+
+    def scene_names(self, prefix: str = "/graph", *, view: str | None = None) -> list[str]:
+        """Names of the scene nodes under `prefix`, from viser's scene registry of that view."""
         if self.server is None:
             return []
-        names = self.server.scene._handle_from_node_name  # viser's own registry of live nodes
-        return sorted(n for n in names if n == prefix or n.startswith(prefix + "/"))
+        with self._lock:
+            return self.session(view).scene_names(prefix)
 
     def bounds(self) -> np.ndarray | None:
-        """(2, 3) min/max corner (mm) of everything published, or None."""
-        return G.layers_bounds([b for b in (p.bounds() for p in self.parts.values()) if b is not None])
+        return self.default.bounds()
 
     def part_bounds(self) -> np.ndarray | None:
-        """(2, 3) bounds of the part itself (mesh, layers, sections), else of everything: what
-        the camera frames, so travel moves to a home position do not shrink the part on screen."""
-        own = [b for b in (p.bounds() for p in self.parts.values() if p.kind in ("mesh", "layers", "sections")) if b is not None]
-        return G.layers_bounds(own) if own else self.bounds()
+        return self.default.part_bounds()
 
-    def pick(self, origin, direction) -> dict[str, Any] | None:
+    def pick(self, origin, direction, *, view: str | None = None) -> dict[str, Any] | None:
         """Readout of the point nearest a view ray (what a click in the browser does): layer,
         section, zone, programmed and actual speed. None if nothing visible is near the ray."""
         with self._lock:
-            b = self._bounds if self._bounds is not None else self.bounds()
-            if b is None:
-                return None
-            tol = max(PICK_TOLERANCE * float(np.linalg.norm(b[1] - b[0])), 0.1)
-            picks: list[tuple[Part, Pick]] = []
-            for (node, _), part in self.parts.items():
-                if node in self.view.hidden:
-                    continue
-                p = part.pick(origin, direction, tol, self.view)
-                if p is not None:
-                    picks.append((part, p))
-            if not picks:
-                return None
-            # Points (paths, traces, features) win over areas (section fills) they lie on.
-            pointlike = [x for x in picks if x[0].kind != "sections"] or picks
-            part, best = min(pointlike, key=lambda x: x[1].along)
-            info = {"node": part.node, "port": part.port, "point": [round(float(v), 3) for v in best.point]}
-            info.update(best.info)
-            info.update(self._complement(part, best))
-            self.last_pick = info
-            return info
-
-    # ------------------------------------------------------------------------------------------
-    # internals
-    # ------------------------------------------------------------------------------------------
-    def _complement(self, part: Part, best: Pick) -> dict[str, Any]:
-        """Programmed speed for a picked trace sample, actual speed for a picked path point."""
-        out: dict[str, Any] = {}
-        layer = best.info.get("layer")
-        if part.kind == "toolpath":
-            for p in self.parts.values():
-                if p.kind == "simulation":
-                    s = p.nearest_sample(best.point, layer)
-                    if s:
-                        out["actual_speed_mm_s"] = s.get("actual_speed_mm_s")
-                        out["deviation_mm"] = s.get("deviation_mm")
-                    break
-        elif part.kind == "simulation":
-            for p in self.parts.values():
-                if p.kind == "toolpath":
-                    q = p.nearest_point(best.point, layer)
-                    if q is not None:
-                        out["section"] = q.get("section", best.info.get("section"))
-                        out["zone"] = q.get("zone")
-                        out["programmed_speed_mm_s"] = q.get("programmed_speed_mm_s")
-                    break
-        return out
-
-    def _layer_extent(self) -> tuple[int, int]:
-        idx = [i for p in self.parts.values() for i in p.layer_indices()]
-        return (min(idx), max(idx)) if idx else (0, 0)
-
-    def _after_publish(self) -> None:
-        # A range showing every layer keeps doing so; a narrowed one is kept, clipped to the part.
-        lo, hi = self._layer_extent()
-        full = (self.view.layer_lo, self.view.layer_hi) == self._extent
-        self._extent = (lo, hi)
-        if full:
-            self.view.layer_lo, self.view.layer_hi = lo, hi
-        else:
-            self.view.layer_lo = int(np.clip(self.view.layer_lo, lo, hi))
-            self.view.layer_hi = int(np.clip(self.view.layer_hi, self.view.layer_lo, hi))
-        self.view.hidden &= {n for n, _ in self.parts}
-        b = self.bounds()
-        if b is None:
-            self._bounds = None
-        elif self._bounds is None or not np.allclose(b, self._bounds):
-            self._bounds = b
-            self._frame_camera(self.part_bounds())
-        self._sync_gui()
-        self._apply()
-
-    def _apply(self) -> None:
-        for node, frame in self._node_frames.items():
-            frame.visible = node not in self.view.hidden
-        for part in self.parts.values():
-            part.apply(self.view)
-
-    def _frame_camera(self, b: np.ndarray) -> None:
-        center = (b[0] + b[1]) / 2
-        diag = max(float(np.linalg.norm(b[1] - b[0])), 1.0)
-        eye = center + diag * np.array([0.42, -0.58, 0.46])   # ~0.85 diagonals away: the part fills the view
-        cam = self.server.initial_camera
-        cam.near, cam.far = diag * 1e-3, diag * 20
-        cam.position, cam.look_at = tuple(eye), tuple(center)
-        for client in self.server.get_clients().values():
-            client.camera.position, client.camera.look_at = tuple(eye), tuple(center)
-        grid_size = float(np.ceil(diag * 1.2 / 10.0) * 10.0)
-        self.server.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
-                                   section_size=grid_size / 4, position=(center[0], center[1], b[0][2]))
-
-    # ---- GUI -----------------------------------------------------------------------------
-    def _build_gui(self) -> None:
-        gui = self.server.gui
-        # A sidebar beside the canvas (not floating over it), no share button: the preview is local.
-        gui.configure_theme(show_logo=False, show_share_button=False, brand_color=(248, 150, 30))
-        gui.main_panel.dock_right()
-        gui.main_panel.set_width(260)
-        # Embedded in the GUI the view is small: start with the panel folded to its rail so the
-        # scene is visible; one click unfolds it.
-        gui.main_panel.minimize()
-        g = self._gui
-        g["run"] = gui.add_markdown("**No run published yet.**")
-        g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
-        g["path_color"] = gui.add_dropdown("Toolpath colour", PATH_COLOR_MODES, initial_value=self.view.path_color)
-        g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
-        g["offset"] = gui.add_number("Sim. offset z (mm)", initial_value=0.0, min=0.0, max=1000.0, step=0.5,
-                                     hint="Draw the simulated path this far above the programmed one")
-        g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
-        g["play"] = gui.add_button("Play / pause")
-        g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
-        g["legend"] = gui.add_html("")
-        g["nodes"] = gui.add_folder("Nodes")
-        g["pick"] = gui.add_markdown("*Click a path point for its layer, section, zone and speeds.*")
-
-        g["layers"].on_update(lambda _: self._on_layers())
-        g["path_color"].on_update(lambda _: self._on_color())
-        g["sim_color"].on_update(lambda _: self._on_color())
-        g["time"].on_update(lambda _: self._on_time())
-        g["play"].on_click(lambda _: self._toggle_play())
-        g["robot"].on_update(lambda _: self._on_robot())
-        g["offset"].on_update(lambda _: self._on_offset())
-
-    def _sync_gui(self) -> None:
-        g = self._gui
-        if not g:
-            return
-        self._syncing = True   # setting a widget calls its handler: they must not write back
-        try:
-            self._sync_widgets(g)
-        finally:
-            self._syncing = False
-
-    def _sync_widgets(self, g: dict[str, Any]) -> None:
-        v = self.view
-        g["path_color"].value = v.path_color
-        g["sim_color"].value = v.sim_color
-        g["offset"].value = v.sim_offset_mm
-        g["robot"].value = v.show_robot
-        lo, hi = self._layer_extent()
-        g["layers"].min, g["layers"].max = lo, max(hi, lo + 1)
-        g["layers"].value = (self.view.layer_lo, self.view.layer_hi)
-        names = [n for n in self.node_types if any(k[0] == n for k in self.parts)]
-        names += sorted({n for n, _ in self.parts} - set(names))
-        for n in [n for n in self._node_boxes if n not in names]:
-            self._node_boxes.pop(n).remove()
-        with g["nodes"]:
-            for n in names:
-                if n not in self._node_boxes:
-                    box = self.server.gui.add_checkbox(f"{n} ({self.node_types.get(n, '?')})", initial_value=True)
-                    box.on_update(lambda ev, node=n: self._on_node_box(node, ev.target.value))
-                    self._node_boxes[n] = box
-        for n, box in self._node_boxes.items():
-            box.value = n not in self.view.hidden
-        sims = [p for p in self.parts.values() if p.kind == "simulation"]
-        duration = max([p.duration() for p in sims], default=0.0)
-        g["time"].max = max(duration, 0.01)
-        g["time"].step = max(duration / 1000.0, 0.001)
-        g["time"].disabled = not sims
-        g["time"].value = min(max(v.time_s, 0.0), g["time"].max)
-        run = self.scene_runs.get(self.key or "")
-        loading = self._rebuilding.get(self.key or "")
-        g["run"].content = (f"**Run:** `{self.key}`{f' ({run})' if run else ''} — {len(self.parts)} outputs" if self.parts else
-                            f"**Rebuilding the scene of run `{loading['run']}`…**" if loading else
-                            f"**No run of `{self.key}` yet.**" if self.key else "**No run published yet.**")
-        g["legend"].content = self._legend()
-
-    def _legend(self) -> str:
-        """HTML legend: zone colour swatches, scalar ranges, robot state, feature kinds."""
-        from html import escape
-
-        from . import colors as C
-
-        def swatch(hexcol: str, label: str) -> str:
-            return (f'<span style="display:inline-block;width:0.8em;height:0.8em;background:{hexcol};'
-                    f'margin:0 0.25em 0 0.6em;vertical-align:middle"></span>{escape(label)}')
-
-        rows = []
-        for p in self.parts.values():
-            head = f"<b>{escape(p.node)}</b> "
-            if p.kind == "toolpath":
-                lo, hi = p.speed_range
-                zones = "".join(swatch(h, z) for z, h in p.zone_legend()) or " not zoned (coloured by section)"
-                rows.append(head + f"zones{zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
-            elif p.kind == "simulation":
-                ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
-                                   if k in p.ranges for lo, hi in [p.ranges[k]])
-                robot = (f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
-                         if p.robot is not None else escape(p.robot_note))
-                rows.append(head + ranges + (f"<br>{robot}" if robot else ""))
-            elif p.kind == "features":
-                kinds = sorted(set(p.kinds))
-                rows.append(head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds))
-        return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
-
-    def _on_layers(self) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            lo, hi = (int(v) for v in self._gui["layers"].value)
-            self.view.layer_lo, self.view.layer_hi = min(lo, hi), max(lo, hi)
-            self._apply()
-
-    def _on_color(self) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            self.view.path_color = self._gui["path_color"].value
-            self.view.sim_color = self._gui["sim_color"].value
-            with self.server.atomic():
-                self._apply()
-
-    def _on_offset(self) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            self.view.sim_offset_mm = float(self._gui["offset"].value)
-            self._apply()
-
-    def _on_robot(self) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            self.view.show_robot = bool(self._gui["robot"].value)
-            self._apply()
-
-    def _on_node_box(self, node: str, shown: bool) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            (self.view.hidden.discard if shown else self.view.hidden.add)(node)
-            self._apply()
-
-    def _on_time(self) -> None:
-        if self._syncing:
-            return
-        with self._lock:
-            self.view.time_s = float(self._gui["time"].value)
-            for p in self.parts.values():
-                if p.kind == "simulation":
-                    info = p.set_time(self.view.time_s)
-                    if info:
-                        self._gui["pick"].content = "**Torch at t**  \n" + _table(info)
-
-    def _toggle_play(self) -> None:
-        if self._play_thread is not None and self._play_thread.is_alive():
-            self._play_stop.set()
-            self._play_thread.join(timeout=2.0)
-            self._play_thread = None
-            return
-        self._play_stop.clear()
-        self._play_thread = threading.Thread(target=self._play, name="viewer-playback", daemon=True)
-        self._play_thread.start()
-
-    def _play(self) -> None:
-        """Advance the time slider in real time (30 frames/s) until the end or pause."""
-        frame = 1 / 30
-        while not self._play_stop.wait(frame):
-            slider = self._gui.get("time")
-            if slider is None:
-                return
-            t = float(slider.value) + frame
-            if t >= slider.max:
-                slider.value = slider.max
-                return
-            slider.value = t
-
-    def _on_click(self, event) -> None:
-        info = self.pick(np.asarray(event.ray_origin, float), np.asarray(event.ray_direction, float))
-        with self._lock:
-            if "pick" not in self._gui:
-                return
-            if info is None:
-                self._gui["pick"].content = "*Nothing picked.*"
-                return
-            self._gui["pick"].content = "**Picked point**  \n" + _table(info)
-            self.server.scene.add_icosphere("/pick", radius=max(self._pick_radius(), 0.2), color=(255, 0, 110),
-                                            position=tuple(info["point"]), cast_shadow=False)
-
-    def _pick_radius(self) -> float:
-        b = self._bounds
-        return 0.005 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 0.5
-
-
-def _table(info: dict[str, Any]) -> str:
-    return "  \n".join(f"{k}: `{v}`" for k, v in info.items() if v is not None)
-
+            return self.session(view).pick(origin, direction)

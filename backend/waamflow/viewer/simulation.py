@@ -310,6 +310,58 @@ class SimulationPart(Part):
             self.graph_frame.wxyz = wxyz(m.work[0][i])
             self.graph_frame.position = tuple(float(v) for v in m.work[1][i])
 
+    def work_pose(self, t: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(R (3, 3), translation (3,) mm) of the part frame in the world at time t — where the
+        positioner holds the part — or None without a cell (the part frame is the world)."""
+        m = self.robot
+        if m is None or not hasattr(m, "work"):
+            return None
+        i = m.index(t)
+        return np.asarray(m.work[0][i], float), np.asarray(m.work[1][i], float)
+
+    def cell_points(self, t: float) -> list[np.ndarray]:
+        """World points (mm) of what stands in the cell at time t: the arm, and the torch,
+        positioner and fixtures as placed then (the floor left out, as when drawn)."""
+        m = self.robot
+        if m is None:
+            return []
+        pts = [np.asarray(m.body(t)[0], float).reshape(-1, 3)]
+        if not self.cell_handles:
+            return pts
+        from .robot import shape_arrays
+
+        i = m.index(t)
+        cell = m.cell
+        for group, shapes, default in (("torch", cell.tool.shapes, "tool0"),
+                                       ("positioner", cell.positioner.shapes if cell.positioner else [], ""),
+                                       ("fixtures", cell.fixtures, None)):
+            for sh in shapes:
+                if f"{group}/{sh.name}" not in self.cell_handles:
+                    continue
+                link = default if default is not None and not sh.link else (sh.link or None)
+                try:
+                    v = np.asarray(shape_arrays(cell, sh)[0], float).reshape(-1, 3)
+                except Exception:
+                    continue
+                if link == "tool0":
+                    R, p = m.tool[0][i], m.tool[1][i]
+                    v = v @ np.asarray(R).T + p
+                elif link:
+                    R, p = m.links[link][0][i], m.links[link][1][i]
+                    v = v @ np.asarray(R).T + p
+                pts.append(v)
+        return pts
+
+    def robot_base(self) -> np.ndarray | None:
+        """World position (mm) of the arm's base, or None without an arm."""
+        m = self.robot
+        if m is None:
+            return None
+        chain = getattr(m, "chain", None)
+        if chain is None:
+            chain = getattr(m, "joints", None)
+        return None if chain is None or not len(chain) else np.asarray(chain[0][0], float)
+
     def _remove_cell(self) -> None:
         for h, _ in self.cell_handles.values():
             h.remove()
