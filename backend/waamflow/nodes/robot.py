@@ -90,12 +90,17 @@ class SimulateRobot(Node):
 
     With the `program` input connected (the post-process that writes the program for this same
     toolpath) the program is the one declaration of how the controller moves: its dialect gives
-    the controller family (KRL → KUKA KRC, C_DIS arc blend, profile kuka_kr100ha_krc2; RAPID →
-    ABB IRC5, zone parabola, profile abb_irb4600_irc5; G-code → the node's own blend params, a
-    G-code controller's blending is a machine setting), its `$APO.CDIS` / `zw` zonedata the blend
-    distance, and its ignition dwells (WAIT SEC, seamdata, G4) the standstill at every ignition.
-    Setting `cdis`, `blend` or `ignition_dwell_s` here as well is a RecipeError (two declarations);
-    `robot_profile` / `profile_file` still choose the robot's dynamics when set."""
+    the controller family (KRL → KUKA KR C2, C_DIS arc blend, profile kuka_kr100ha_krc2; KRL for
+    ArcTech Basic 3.x (ArcMainNG, KSS 8.x) → KUKA KR C4, profile kuka_kr100ha_krc4; RAPID → ABB
+    IRC5, zone parabola, profile abb_irb4600_irc5; G-code → a G-code motion planner, profile
+    gcode_planner: exact path, junction speeds from the junction deviation and acceleration,
+    trapezoidal ramps, a 16-block look-ahead, travel at the program's G0 feed or the machine's
+    rapid rate — unless the recipe sets robot_profile, profile_file, cdis or blend here: then the
+    G-code runs on that robot controller with its blending, e.g. a robot's CNC option), its
+    `$APO.CDIS` / `zw` zonedata the blend distance, and its ignition dwells
+    (WAIT SEC, seamdata, G4) the standstill at every ignition. Setting `cdis`, `blend`,
+    `ignition_dwell_s` (or, for G-code, `travel_speed`) here as well is a RecipeError (two
+    declarations); `robot_profile` / `profile_file` still choose the robot's dynamics when set."""
 
     type = "simulate-robot"
     title = "Simulate robot"
@@ -104,7 +109,9 @@ class SimulateRobot(Node):
               Port("program", "program", "The program post-processed from this toolpath: its blend distance, "
                                          "ignition dwells and controller family are simulated", optional=True))
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "14"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    version = "15"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    # 15: G-code programs run the G-code planner family (junction deviation, look-ahead, travel as written);
+    #     ArcTech KRL -> KR C4 profile
     # 14: program input (blend, dwells, controller as written); C_DIS scales the blend law; arc-on ≤ total
 
 
@@ -161,6 +168,8 @@ class SimulateRobot(Node):
     def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
             return None
+        if not (params.cell or params.robot_description or profile.description):
+            return None          # no arm to solve (a gantry's G-code planner profile)
         if params.cell:
             if params.cell.endswith(".json"):        # a user's cell file; its meshes beside it
                 cell = load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
@@ -187,10 +196,15 @@ class SimulateRobot(Node):
         except ValueError as e:
             raise RecipeError(f"simulate-robot cannot simulate its `program` input: {e}; connect a KRL, RAPID or "
                               f"G-code post-process", node=ctx.node_id) from None
+        own_robot = bool(params.profile_file) or bool({"robot_profile", "cdis", "blend"} & set(params.model_fields_set))
+        planner = program.format == "gcode" and not own_robot
         declared = {"ignition_dwell_s": f"{len(st['ignition_dwells_s'])} ignition dwells"}
         if st["blend_distance_mm"] is not None:
             declared["cdis"] = f"blend distance {st['blend_distance_mm']:g} mm"
             declared["blend"] = f"{st['controller']} blending ({st['blend']})"
+        if planner and (st.get("travel_speed_mm_s") is not None or st.get("rapid_travel")):
+            declared["travel_speed"] = ("its travel feed" if st.get("travel_speed_mm_s") is not None
+                                        else "G0 travel at the machine's rapid rate")
         twice = sorted(set(declared) & set(params.model_fields_set))
         if twice:
             raise RecipeError(f"simulate-robot sets {', '.join(twice)} and its `program` input declares "
@@ -200,8 +214,18 @@ class SimulateRobot(Node):
         opt = replace(opt, ignition_dwells_s=st["ignition_dwells_s"], controller=st["controller"])
         if st["blend_distance_mm"] is not None:
             opt = replace(opt, cdis=st["blend_distance_mm"], blend=st["blend"])
-        if st["robot_profile"] and not params.profile_file and "robot_profile" not in params.model_fields_set:
+        if program.format == "gcode" and own_robot:
+            # the recipe says which controller runs this G-code (a robot's CNC option, e.g. KUKA.CNC):
+            # its robot and blending, as before the planner family existed
+            opt = replace(opt, controller=profile.controller or profile.name)
+        elif st["robot_profile"] and not params.profile_file and "robot_profile" not in params.model_fields_set:
             profile = load_profile(st["robot_profile"])
+        if planner:
+            opt = replace(opt, blend="junction")
+            if st.get("travel_speed_mm_s") is not None:
+                opt = replace(opt, travel_speed=st["travel_speed_mm_s"])
+            elif st.get("rapid_travel"):
+                opt = replace(opt, travel_speed=profile.max_speed)
         return opt, profile
 
     def run(self, ctx, params, inputs):

@@ -23,6 +23,15 @@ deviation, shorter time) until half a segment limits it. At CDIS_REF the law is 
 every C_DIS ≥ 2 mm gave the same path.) The proportionality is assumed, not measured: the study
 ran one C_DIS only.
 
+G-code motion planners (mode "junction": grbl, Marlin with JUNCTION_DEVIATION, Klipper, and
+LinuxCNC's exact-path mode) do not cut the corner: the tool follows the polyline and only the
+speed at the junction is limited, from the junction deviation δ and the acceleration a
+(grbl `planner.c`, the robot-modelling notes' CNC fallback):
+
+    v_j = √(a·δ·sin(θ/2) / (1 − sin(θ/2))),   θ the interior angle between the two moves
+
+(straight on: no limit; an exact reversal: 0, a stop).
+
 All arrays are world mm. Pure numpy.
 """
 
@@ -93,7 +102,10 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
     alpha = np.zeros(n)
     cap = np.zeros(n)
     radius = np.full(n, np.inf)
-    if n > 2:
+    if mode == "junction":
+        if n > 2:
+            cap[1:-1] = junction_speed(U[:-1], U[1:], np.minimum(speed[:-1], speed[1:]), normal_acc, float(distance))
+    elif n > 2:
         u1, u2 = U[:-1], U[1:]
         alpha[1:-1] = np.arccos(np.clip(np.einsum("ij,ij->i", u1, u2), -1.0, 1.0))
         v_corner = np.minimum(speed[:-1], speed[1:])   # a blend's programmed speed: the lower of its two
@@ -166,6 +178,23 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
         s_out[1:-1] = s[idx0 + m - 1]
     s_in[-1] = s_out[-1] = s[-1]
     return BlendedPath(dense, s, seg, d, radius, cap, s_in, s_out)
+
+
+def junction_speed(u_in: np.ndarray, u_out: np.ndarray, v: np.ndarray, acc: float, deviation: float) -> np.ndarray:
+    """Junction speed of a G-code planner (grbl `planner.c` junction deviation), mm/s.
+
+    u_in, u_out: (k, 3) unit directions of the moves into and out of each junction. v: (k,) the
+    lower programmed speed of the two moves, mm/s. acc: mm/s². deviation: δ, mm. With cos θ =
+    −u_in·u_out (θ the interior angle) and sin(θ/2) = √((1 − cos θ)/2): v_j² = a·δ·sin(θ/2) /
+    (1 − sin(θ/2)); straight on (sin(θ/2) → 1) no limit, a reversal (sin(θ/2) = 0) a stop.
+    Junctions below MIN_CORNER_SPEED are stops."""
+    cos_theta = -np.einsum("ij,ij->i", u_in, u_out)
+    sin_half = np.sqrt(np.clip(0.5 * (1.0 - cos_theta), 0.0, 1.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vj = np.where(sin_half < 1.0 - 1e-12,
+                      np.sqrt(acc * deviation * sin_half / np.maximum(1.0 - sin_half, 1e-300)), np.inf)
+    vj = np.minimum(vj, v)
+    return np.where(vj < MIN_CORNER_SPEED, 0.0, vj)
 
 
 def polyline_distance(q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3) -> tuple[np.ndarray, np.ndarray]:

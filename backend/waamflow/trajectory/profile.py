@@ -67,6 +67,17 @@ class RobotProfile:
     time_model: the study's identified parameters of the closed-form cycle-time model keyed by
         "<speed>_<protocol>" (protocol "on" = arc ON throughout, "off" = arc OFF outside), plus
         L_trans_ref (mm), the programmed length of the link they were identified on.
+    controller: the controller family this profile models ("kuka_krc2", "kuka_krc4", "abb_irc5",
+        "gcode_planner"; "" = not stated): reported with the simulation.
+    junction_deviation_mm: δ, mm (0 = off). When set the profile is a G-code motion planner
+        (grbl / Marlin JUNCTION_DEVIATION / Klipper / LinuxCNC-style): the tool follows the
+        polyline exactly (no corner cut), each junction's speed is
+        v_j = √(a·δ·sin(θ/2) / (1 − sin(θ/2))) for the interior angle θ between the two moves and
+        a = path_acc (grbl planner.c), ramps are trapezoidal (path_jerk very large), and the
+        node's cdis / blend do not apply.
+    lookahead_blocks: N ≥ 0, the planner's block buffer (grbl / Marlin BLOCK_BUFFER_SIZE 16);
+        every block's entry speed allows a stop at the end of the N blocks the planner sees
+        (0 = the whole program is known, as a robot controller's advance run is not).
     notes: how the constants were obtained.
     """
 
@@ -97,6 +108,9 @@ class RobotProfile:
     tcp_offset_mm: tuple[float, float, float] = (0.0, 0.0, 400.0)
     base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
     time_model: dict = field(default_factory=dict)
+    controller: str = ""
+    junction_deviation_mm: float = 0.0
+    lookahead_blocks: int = 0
     notes: str = ""
 
     # names of the constants a calibration may fit (all positive floats)
@@ -160,6 +174,12 @@ def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
             raise InputFileError(f"{source}: robot profile value {k}={v!r} must be a number ≥ 0")
     if prof.interpolation_cycle_s <= 0 or prof.path_acc <= 0 or prof.path_jerk <= 0:
         raise InputFileError(f"{source}: interpolation_cycle_s, path_acc and path_jerk must be > 0")
+    if not isinstance(prof.junction_deviation_mm, (int, float)) or prof.junction_deviation_mm < 0:
+        raise InputFileError(f"{source}: robot profile value junction_deviation_mm={prof.junction_deviation_mm!r} "
+                             f"must be a number ≥ 0 (mm)")
+    if not isinstance(prof.lookahead_blocks, int) or isinstance(prof.lookahead_blocks, bool) or prof.lookahead_blocks < 0:
+        raise InputFileError(f"{source}: robot profile value lookahead_blocks={prof.lookahead_blocks!r} "
+                             f"must be a whole number ≥ 0")
     if prof.catchup > 1:
         raise InputFileError(f"{source}: robot profile value catchup={prof.catchup!r} must be within 0…1")
     return prof

@@ -25,17 +25,21 @@ MAX_WARNINGS_PER_KIND = 20
 
 # Controller family of each program dialect: how its blend setting is read and which corner
 # curve it runs (blend.blend_path modes), and the robot profile simulated when the recipe names none.
+# A KRL program written for KUKA.ArcTech Basic 3.x (ArcMainNG, a KSS 8.x package) runs on a KR C4.
 CONTROLLER_FAMILIES = {
     "krl": {"controller": "kuka_krc", "blend": "cdis", "robot_profile": "kuka_kr100ha_krc2"},
+    "krl_krc4": {"controller": "kuka_krc4", "blend": "cdis", "robot_profile": "kuka_kr100ha_krc4"},
     "rapid": {"controller": "abb_irc5", "blend": "zone", "robot_profile": "abb_irb4600_irc5"},
-    "gcode": {"controller": "gcode", "blend": None, "robot_profile": None},
+    "gcode": {"controller": "gcode_planner", "blend": "junction", "robot_profile": "gcode_planner"},
 }
+_KRC4_ARCTECH = re.compile(r"\bArcMainNG\b|\bstArcDat_T\b", re.I)
+_GCODE_MOTION = re.compile(r"^\s*(G0?[01])(?![0-9])([^;(\n]*)", re.I | re.M)
 
 _KRL_CDIS = re.compile(r"^\s*\$APO\.CDIS\s*=\s*([0-9.]+)", re.I | re.M)
 _RAPID_ZONE = re.compile(r"zonedata\s+zw\s*:=\s*\[\s*FALSE\s*,\s*([0-9.]+)", re.I)
 _RAPID_ZW_USED = re.compile(r"^\s*(?:MoveL|MoveC|ArcL|ArcC)\b[^;]*,\s*zw\s*,", re.I | re.M)
 _DWELL_COMMENT = re.compile(r"^\s*(?:;-?|!)\s*ignition dwell\s+([0-9.]+)\s*s\b", re.I)
-_DWELL_CODE = re.compile(r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*;\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I)
+_DWELL_CODE = re.compile(r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*(?:;|\()\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I)
 
 
 def program_settings(fmt: str, files: dict[str, str]) -> dict:
@@ -50,10 +54,12 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
     Returns {"controller", "blend" (mode or None), "blend_distance_mm" (or None), "robot_profile"
     (or None), "ignition_dwells_s" (tuple)}. A dialect without a family is a ValueError.
     """
-    if fmt not in CONTROLLER_FAMILIES:
-        raise ValueError(f"no controller family for {fmt!r} programs (known: {', '.join(CONTROLLER_FAMILIES)})")
-    fam = CONTROLLER_FAMILIES[fmt]
+    if fmt not in CONTROLLER_FAMILIES or fmt == "krl_krc4":
+        raise ValueError(f"no controller family for {fmt!r} programs (known: krl, rapid, gcode)")
     texts = list(files.values())
+    fam = CONTROLLER_FAMILIES[fmt]
+    if fmt == "krl" and any(_KRC4_ARCTECH.search(t) for t in texts):
+        fam = CONTROLLER_FAMILIES["krl_krc4"]
     dist = None
     if fmt == "krl":
         vals = [float(m) for t in texts for m in _KRL_CDIS.findall(t)]
@@ -64,7 +70,7 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
         zones = [float(m) for t in texts for m in _RAPID_ZONE.findall(t)]
         used = any(_RAPID_ZW_USED.search(t) for t in texts)
         dist = zones[0] if (zones and used) else 0.0
-    ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t for t in texts)
+    ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t or "dwell_units=ms" in t for t in texts)
     dwells = []
     for t in texts:
         for line in t.splitlines():
@@ -80,8 +86,32 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
                     dwells.append(float(m.group(2)))
                 else:
                     dwells.append(float(m.group(3)) / (1000.0 if ms else 1.0))
-    return {"controller": fam["controller"], "blend": fam["blend"], "blend_distance_mm": dist,
-            "robot_profile": fam["robot_profile"], "ignition_dwells_s": tuple(dwells)}
+    out = {"controller": fam["controller"], "blend": fam["blend"], "blend_distance_mm": dist,
+           "robot_profile": fam["robot_profile"], "ignition_dwells_s": tuple(dwells)}
+    if fmt == "gcode":
+        out["travel_speed_mm_s"], out["rapid_travel"] = _gcode_travel(texts)
+    return out
+
+
+def _gcode_travel(texts: list[str]) -> tuple[float | None, bool]:
+    """(travel feed mm/s or None, travel by G0 without F): the F the program writes on its G0
+    lines (Marlin-style travel, F in force), else whether its travel is G0 at the machine's rapid
+    rate (LinuxCNC, generic: G0 carries no F). Feeds in mm/min unless the `waamflow-post` header
+    says feed_units=mm/s."""
+    per_s = any("feed_units=mm/s" in t for t in texts)
+    feeds, bare = [], False
+    for t in texts:
+        for m in _GCODE_MOTION.finditer(t):
+            if m.group(1).upper() not in ("G0", "G00"):
+                continue
+            f = re.search(r"\bF\s*([0-9.]+)", m.group(2), re.I)
+            if f:
+                feeds.append(float(f.group(1)))
+            else:
+                bare = True
+    if feeds:
+        return float(np.median(feeds)) / (1.0 if per_s else 60.0), False
+    return None, bare
 
 MAX_ISSUES = 1000        # stretches listed in simulation.json's kinematics_issues
 

@@ -52,6 +52,8 @@ class SimOptions:
     """Run settings of one simulation (node params). Lengths mm, speeds mm/s, times s.
 
     cdis: blend distance ($APO.CDIS, or the zone radius with blend="zone"); 0 = exact stops.
+    blend: "cdis" (KUKA arc), "zone" (ABB parabola) or "junction" (a G-code planner: exact path,
+        junction speeds from the profile's junction_deviation_mm; a profile with one is always run so).
     speed_override: replaces the programmed speed of arc-ON segments when set.
     travel_speed: speed of arc-OFF moves that carry no speed (None = the profile's).
     segment_cap: (n_moves_points - 1,) extra speed cap per move segment (from kinematics), or None.
@@ -146,6 +148,13 @@ class _Program:
     wire_rate: np.ndarray   # (n-1,) wire volume feed while the arc is ON, mm³/s
     pause: np.ndarray       # (n,) arc OFF and ON again at the vertex (zero-length arc-OFF move)
     ignite: np.ndarray      # (n,) part of the standstill after the arc ON command (ignition dwell), s
+
+
+def blend_mode(profile: RobotProfile, opt: SimOptions) -> str:
+    """The corner model simulated: "junction" for a G-code planner profile (junction deviation
+    set: the planner's setting, the node's cdis / blend do not apply) or when the options ask for
+    it (δ = the profile's; 0 = an exact stop at every corner), else the options' blend."""
+    return "junction" if profile.junction_deviation_mm > 0 else opt.blend
 
 
 def _ignition_dwell(moves: Moves, default_s: float, sequence: tuple[float, ...] | None = None) -> np.ndarray:
@@ -287,12 +296,18 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
     a, j = profile.path_acc, profile.path_jerk
     a_dec, j_dec = profile.dec
-    path = blend_path(prog.points, prog.speed, prog.stop, mode=opt.blend, distance=opt.cdis,
-                      apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
-                      normal_jerk=profile.normal_jerk, turn_radius=profile.turn_radius_mm,
-                      catchup=_catchup_vertices(prog, profile.catchup))
+    mode = blend_mode(profile, opt)
+    if mode == "junction":   # a G-code planner: exact path, junction speeds from δ and the acceleration
+        path = blend_path(prog.points, prog.speed, prog.stop, mode=mode, distance=profile.junction_deviation_mm,
+                          normal_acc=profile.path_acc)
+    else:
+        path = blend_path(prog.points, prog.speed, prog.stop, mode=mode, distance=opt.cdis,
+                          apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
+                          normal_jerk=profile.normal_jerk, turn_radius=profile.turn_radius_mm,
+                          catchup=_catchup_vertices(prog, profile.catchup))
     stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
-    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits)
+    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits,
+                       lookahead=profile.lookahead_blocks if mode == "junction" else 0)
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
     prof = profile_spans(spans)
@@ -358,7 +373,7 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     # transient (a fraction of a mm that decays in ~0.1 s) shows in positions and deviation only
     # — the study's measured raster length (386.97 mm for 387.91 programmed) has no such excess
     step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    if opt.blend == "cdis" and (profile.backlash_start_mm or profile.backlash_end_mm):
+    if mode == "cdis" and (profile.backlash_start_mm or profile.backlash_end_mm):
         xyz = _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, profile)
 
     # ---- attribution, deviation, arc state -------------------------------------------------

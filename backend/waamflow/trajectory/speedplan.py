@@ -90,7 +90,7 @@ def reachable_speed(v1: float, length: float, a: float, j: float) -> float:
 
 
 def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float, j: float,
-               a_dec: float | None = None, j_dec: float | None = None, limits=None) -> Spans:
+               a_dec: float | None = None, j_dec: float | None = None, limits=None, lookahead: int = 0) -> Spans:
     """Cut the blended path into spans and plan junction speeds (backward then forward pass).
 
     speed: (n-1,) programmed speed per segment (already capped), mm/s. stop: (n,) bool.
@@ -100,6 +100,9 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     (programmed speed per span (K,) mm/s) → (acc, jerk, dec, dec_jerk) arrays (K,), overriding
     the constants (limits identified per speed, `RobotProfile.ramp_limits`); a blend curve's
     programmed speed is the lower of its two segments'.
+    lookahead: N > 0 = a G-code planner's block buffer: every span's entry speed must allow a
+    stop at the end of the N spans from it (the planner sees N blocks and plans the last to
+    stop), with the trapezoid distance v² = v_end² + 2·a_dec·L (planners with unlimited jerk).
     """
     a_dec = a if a_dec is None else a_dec
     j_dec = j if j_dec is None else j_dec
@@ -159,7 +162,22 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
         r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
         if r < v[i + 1]:
             v[i + 1] = r
+    if 0 < lookahead < K:
+        v = _buffer_limit(np.asarray(v), np.asarray(Ll), AD, int(lookahead)).tolist()
+        for i in range(K):
+            r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
+            if r < v[i + 1]:
+                v[i + 1] = r
     return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert, A, J, AD, JD)
+
+
+def _buffer_limit(v: np.ndarray, L: np.ndarray, dec: np.ndarray, n: int) -> np.ndarray:
+    """Junction speeds (K+1,) lowered so that from every junction i a stop fits within the next n
+    spans: R_0 = 0, R_m(i) = min(v_i, √(R_{m−1}(i+1)² + 2·dec_i·L_i)); v_i ≤ R_n(i)."""
+    r = np.zeros(len(v))
+    for _ in range(n):
+        r = np.minimum(v, np.concatenate([np.sqrt(r[1:] ** 2 + 2.0 * dec * L), [0.0]]))
+    return np.minimum(v, r)
 
 
 def _ramp(dv: np.ndarray, a, j) -> tuple[np.ndarray, np.ndarray]:
