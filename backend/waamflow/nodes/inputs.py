@@ -20,7 +20,7 @@ from ..core.tolerances import TOL
 from ..geometry.mesh_io import classify_mesh, declared_mesh_unit
 from ..geometry.mesh_io import mesh_from_triangles
 from ..geometry.sketch import sketch_from_curves
-from ..geometry.step_io import is_cad_file, read_cad_shape, tessellate, unit_rescale, vertical_midsurface
+from ..geometry.step_io import MAX_FACE_TRIANGLES, is_cad_file, read_cad_shape, tessellate, unit_rescale, vertical_midsurface
 from ..geometry.units import conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -133,7 +133,8 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
         raise InputFileError(f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
                              "'sketch' node, which extrudes the curves by its 'height'")
     tri = tessellate(cad, params.path, chordal_tolerance=params.chordal_tolerance, max_triangles=params.max_triangles,
-                     progress=ctx.progress, check_cancelled=ctx.check_cancelled)
+                     max_face_triangles=params.max_face_triangles, progress=ctx.progress,
+                     check_cancelled=ctx.check_cancelled)
     units, k, notice = unit_rescale(cad.file_unit, params.units)
     st: dict = {}
     mesh = mesh_from_triangles(tri * k, name=PurePosixPath(params.path).stem, units="mm", transform=transform,
@@ -211,6 +212,10 @@ class MeshNode(Node):
                                          json_schema_extra=unit("mm"))
         max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
         max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
+        max_face_triangles: int = Field(MAX_FACE_TRIANGLES, ge=1, le=20_000_000,
+                                        description="STEP/IGES: refuse a chordal_tolerance that would give one face "
+                                                    "more triangles (estimated before tessellating; one face is "
+                                                    "meshed in one call that cannot be cancelled)")
         weld_tolerance: float = Field(0.001, ge=0, le=1.0,
                                       description="Merge vertices on open edges closer than this (exporter cracks, "
                                                   "seam gaps; reported). 0: bit-identical corners only",
