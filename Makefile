@@ -8,7 +8,7 @@ PORT   ?= 8000
 HOST   ?= 127.0.0.1
 DATA   ?= data
 
-.PHONY: run test bench venv frontend test-backend test-frontend test-e2e clean
+.PHONY: run test bench venv frontend test-backend test-frontend test-e2e clean lint docs
 
 $(VENV)/.installed: requirements.lock pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -31,13 +31,28 @@ frontend: frontend/dist/index.html
 run: venv frontend
 	$(VENV)/bin/waamflow serve --host $(HOST) --port $(PORT) --data $(DATA)
 
-test: venv frontend
+test: venv frontend lint
 	$(PY) -m pytest -q
 	npm run test:unit
 	SKIP_BUILD=1 npm run test:e2e
 
 test-backend: venv
 	$(PY) -m pytest -q
+
+# ruff (lint rules in pyproject.toml [tool.ruff.lint]) and deptry (imports = declared dependencies)
+lint: venv
+	$(VENV)/bin/ruff check backend tests bench scripts
+	$(VENV)/bin/deptry backend
+
+$(VENV)/.docs-installed: requirements-docs.lock $(VENV)/.installed
+	$(PY) -m pip install --quiet -r requirements-docs.lock
+	@touch $@
+
+# the documentation site: generated pages (node and REST reference, validation, bench) from the
+# code, then mkdocs with --strict (a broken link or a missing page fails); site in out/site/
+docs: $(VENV)/.docs-installed
+	$(PY) scripts/gen_docs.py
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet --site-dir out/site
 
 bench: venv
 	$(PY) bench/run.py
