@@ -120,6 +120,25 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_build_sim(args) -> int:
+    from .asbuilt.run import build_sim, write
+    from .asbuilt.sim import Disturbance
+    from .engine.recipe import parse_set
+
+    path = Path(args.recipe)
+    modes = ("open", "closed") if args.mode == "both" else (args.mode,)
+    doc = build_sim(path, parse_set(args.set or []), modes, Disturbance(seed=args.seed))
+    out = Path(args.out) if args.out else Path("out") / doc["recipe"]
+    files = write(doc, out)
+    print(f"{doc['recipe']}: {doc['layers_planned']} layers planned (toolpath of '{doc['toolpath_node']}')")
+    for mode, b in doc["builds"].items():
+        print(f"  {mode:6s} loop: last layer top error RMS {b['last_layer_rms_mm']:.3f} mm, max {b['last_layer_max_mm']:.3f} mm, "
+              f"mean {b['last_layer_mean_mm']:+.3f} mm; {b['layers_built']} layers built "
+              f"({b['layers_added']} added, {b['layers_dropped']} dropped), {b['seconds']:.2f} s")
+    print(f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
 def cmd_nodes(args) -> int:
     from .engine.node import catalog
 
@@ -279,6 +298,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
     rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
     rs.set_defaults(func=cmd_restore)
+
+    bs = sub.add_parser("build-sim", help="build a recipe in the process simulator, open and closed loop "
+                                          "(scans after every layer, the next layer adapted), and compare")
+    bs.add_argument("recipe", help="recipe JSON file (graphs/*.json)")
+    bs.add_argument("--set", action="append", metavar="KEY=VALUE", help="as for `run` (e.g. layers.layer_count=20)")
+    bs.add_argument("--out", help="output folder for asbuilt.json and asbuilt.svg (default out/<recipe name>/)")
+    bs.add_argument("--mode", choices=("both", "open", "closed"), default="both")
+    bs.add_argument("--seed", type=int, default=1, help="random seed of the simulated noise")
+    bs.set_defaults(func=cmd_build_sim)
 
     o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")
     o.set_defaults(func=cmd_openapi)
