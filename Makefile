@@ -31,7 +31,7 @@ frontend: frontend/dist/index.html
 run: venv frontend
 	$(VENV)/bin/waamflow serve --host $(HOST) --port $(PORT) --data $(DATA)
 
-test: venv frontend lint
+test: venv frontend lint docs
 	$(PY) -m pytest -q
 	npm run test:unit
 	SKIP_BUILD=1 npm run test:e2e
