@@ -251,8 +251,10 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
     deposition is arc OFF, else "on"; TS = the passes' median programmed speed): the trace samples
     of each pass are the first contiguous run after the previous pass's that lie within
     `line_tol_mm` of the pass line; "constant speed" is ≥ `frac`·TS, its first / last instant
-    interpolated between samples; only samples between the pass's ends count (a blend run at
-    full speed past the end does not make L_decel negative). T/L_init_accel: motion start → the
+    interpolated between samples; only samples between the pass's ends that move along the pass
+    (within 25° of its direction) count (a blend run at full speed past the end does not make
+    L_decel negative; a raster's return or the travel to the next section, which leave the pass
+    line at speed in another direction, are not the pass). T/L_init_accel: motion start → the
     first pass's constant speed; T/L_final_decel: the last pass's constant speed → stop; L_decel /
     L_accel: the pass length after / before its constant speed (means over the transitions; all
     lengths along the pass line, so transverse backlash does not count);
@@ -275,6 +277,7 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
         v, lag = np.linalg.norm(np.gradient(x, t, axis=0), axis=1), 1.5
     P, L = moves.points, moves.segment_lengths
     cursor = 0
+    cos_along = math.cos(math.radians(25.0))
     groups: dict[str, list[dict]] = {}
     info: dict = {"sections": [], "skipped": []}
     for sec in np.unique(moves.section):
@@ -301,7 +304,11 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
                 break
             block = on[:np.argmax(np.diff(on) > 1) + 1] if np.any(np.diff(on) > 1) else on
             inner = block[(proj[block - cursor] >= 0.0) & (proj[block - cursor] <= ln)]
-            fast = inner[v[inner] >= thr]
+            # only motion along the pass counts: a raster's return or the travel to the next
+            # section can leave (or reach) the pass line at full speed, heading elsewhere
+            step = x[np.minimum(inner + 1, len(x) - 1)] - x[np.maximum(inner - 1, 0)]
+            along = step @ u > cos_along * np.linalg.norm(step, axis=1)
+            fast = inner[(v[inner] >= thr) & along]
             if not len(fast):
                 ok = False
                 break
