@@ -365,6 +365,28 @@ def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
     return "\n".join(s) + "\n"
 
 
+def profile_note_checks(profile: dict, swiping_held_out: bool) -> list[tuple[str, str, bool]]:
+    """Claims of the shipped profile's free-text `notes` checked against the values in the same
+    file and against the study split: (claim, what the data says, consistent)."""
+    import re
+
+    notes = profile.get("notes", "")
+    out = []
+    m = re.search(r"normal_acc[^.]*?set to ([0-9.]+)", notes)
+    if m:
+        out.append((f"notes: normal_acc set to {m.group(1)} mm/s²", f"file: normal_acc {profile.get('normal_acc')}",
+                    float(m.group(1)) == float(profile.get("normal_acc", float("nan")))))
+    if re.search(r"\bsymmetric in acceleration/deceleration", notes):
+        asym = (profile.get("path_acc") != profile.get("path_dec")
+                or profile.get("acc_ratio_fast") != profile.get("dec_ratio_fast"))
+        out.append(("notes: the model is symmetric in acceleration/deceleration",
+                    f"file: path_acc {profile.get('path_acc')}, path_dec {profile.get('path_dec')}", not asym))
+    if re.search(r"raster-pass and swiping: total time", notes):
+        out.append(("notes: fitted to swiping's total time, length and volume",
+                    "calibrate.study_cases: swiping " + ("held out" if swiping_held_out else "fit"), not swiping_held_out))
+    return out
+
+
 def _fmt(v: float) -> str:
     return f"{v:.4g}" if math.isfinite(v) else "–"
 
@@ -417,6 +439,15 @@ def validation_page() -> tuple[str, dict[str, str]]:
         out.append(f"| {_cell(r['name'])} | {r['source']} | {r['set']} | {_fmt(r['target'])} | {_fmt(r['model'])} | "
                    f"{r['error_pct']:+.1f} % | ±{r['limit']:g} % | {_cell(r['notes'])} |")
     out.append("")
+    prof = json.loads((ROOT / "backend/waamflow/data/robots/kuka_kr100ha_krc2.json").read_text())
+    checks = profile_note_checks(prof, any(r["set"] == "held out" for r in rows if r["name"].startswith("swiping")))
+    if checks:
+        out.append("### The shipped profile's notes against its data\n")
+        out.append("The profile file's free-text `notes` checked against the values in the same file and the "
+                   "fit/held-out split above:\n")
+        out.append("| claim | data | consistent |\n|---|---|---|")
+        out += [f"| {_cell(c)} | {_cell(d)} | {'yes' if ok else '**no**'} |" for c, d, ok in checks]
+        out.append("")
     out.append("### The study's qualitative observations\n")
     out.append("`calibrate.validation_report` also checks what the study states without a single number: "
                "accuracy bands (actual ÷ programmed length) per strategy at 40 mm/s, arc OFF outside "

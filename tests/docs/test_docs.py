@@ -222,3 +222,14 @@ def test_validation_page_says_what_each_figure_is(gen):
         assert f"| {name} | ±{t.limit_pct:g} % |" in page
     assert set(svgs) == {"validation-robot-study.svg", "validation-lengths.svg"}
     assert all(s.startswith("<svg") and s.count("<rect") >= 7 for s in svgs.values())
+
+
+def test_profile_notes_are_checked_against_the_profile(gen):
+    notes = ("Fitted (raster-pass and swiping: total time, actual length). normal_acc is not identifiable, set to "
+             "5000 mm/s2. The model is symmetric in acceleration/deceleration.")
+    stale = {"notes": notes, "normal_acc": 2000.0, "path_acc": 700.0, "path_dec": 180.0}
+    assert [ok for _c, _d, ok in gen.profile_note_checks(stale, swiping_held_out=True)] == [False, False, False]
+    true = {"notes": notes, "normal_acc": 5000.0, "path_acc": 700.0, "path_dec": 700.0,
+            "acc_ratio_fast": 1.0, "dec_ratio_fast": 1.0}
+    assert [ok for _c, _d, ok in gen.profile_note_checks(true, swiping_held_out=False)] == [True, True, True]
+    assert gen.profile_note_checks({"notes": "nothing claimed"}, swiping_held_out=True) == []
