@@ -177,3 +177,45 @@ def test_build_sim_cli(tmp_path, capsys):
     assert (out / "asbuilt.svg").read_text().startswith("<svg")
     assert main(["build-sim", str(tmp_path / "nope.json")]) == 2
     assert capsys.readouterr().err.startswith("error:")
+
+
+def test_live_build_session_adapts_persists_and_resumes(tmp_path):
+    from waamflow.asbuilt import BuildSession
+    from waamflow.asbuilt.run import plan_for_build
+    from waamflow.engine.executor import FileResolver
+    from waamflow.engine.recipe import load_recipe
+
+    toolpath, post, src = plan_for_build(load_recipe(ROOT / "graphs" / "mpp-cross.json"), FileResolver(ROOT / "graphs"))
+    assert src == "sequence" and post is not None
+    folder = tmp_path / "b1"
+    s = BuildSession.create(folder, toolpath, {"recipe": "mpp-cross", "layers": 8}, who="alice", post=post)
+    first = s.next_program("alice")
+    assert first["layer"] == 0 and first["adaptation"]["adapted"] is False
+    (name, gcode), = first["files"].items()
+    assert name == "post.gcode" and "G1" in gcode
+    rng = np.random.default_rng(5)
+    tr0 = s.tracks[0]
+    with pytest.raises(ScanError, match="expects layer 0"):
+        s.add_scan(synth_scan(s.tracks[1], s.tracks[1].planned_height(), Disturbance(), rng), who="alice")
+    low = tr0.planned_height() - 0.4                      # the first layer came out 0.4 mm low
+    row = s.add_scan(synth_scan(tr0, low, Disturbance(), rng), who="alice")
+    assert row["layer"] == 0 and row["mean_error_mm"] == pytest.approx(-0.4, abs=0.05)
+    # a server restart: a new session object from the folder and the re-planned recipe
+    s2 = BuildSession.load(folder, toolpath, post=post)
+    assert s2.next_layer == 1 and s2.summary()["layers_scanned"] == 1
+    nxt = s2.next_program("bob")
+    assert nxt["layer"] == 1 and nxt["adaptation"]["adapted"] is True
+    # 1.9 mm to fill with a measured gain of 0.73 (1.1 of 1.5 mm): v = 0.73 · 1.5 / 1.9 = 0.58 × plan,
+    # below the window: clamped at 0.6 × plan nearly everywhere, and said so
+    ad = nxt["adaptation"]
+    assert ad["speed_factor_min"] == pytest.approx(0.6) and ad["speed_factor_max"] < 0.63
+    assert ad["clamped_slow"] > 0.9 * ad["samples"]
+    import re
+
+    planned = {int(x) for x in re.findall(r"F(\d+)", gcode)}
+    assert planned == {240, 360, 480}                         # the zones' 4, 6, 8 mm/s
+    adapted = [float(x) for x in re.findall(r"F(\d+(?:\.\d+)?)", next(iter(nxt["files"].values())))]
+    assert adapted and all(any(0.6 - 1e-6 <= f / p <= 0.63 for p in planned) for f in adapted)
+    log = [e["action"] for e in s2.summary()["log"]]
+    assert log == ["start", "program", "scan_refused", "scan", "program"]
+    assert [e["who"] for e in s2.summary()["log"]][-1] == "bob"

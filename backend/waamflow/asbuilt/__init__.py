@@ -8,9 +8,10 @@ process simulator to run the loop without a cell (issue #29).
 
 from .adapt import Adaptation, Window, adapted_layer, beneath, carry, plan_speeds, planned_heights
 from .scan import Measured, Registration, Scan, ScanError, measure, read_heights, read_points, register
+from .session import BuildSession
 from .sim import BuildLog, Disturbance, simulate_build, synth_scan
 from .track import Track, layer_track
 
-__all__ = ["Adaptation", "BuildLog", "Disturbance", "Measured", "Registration", "Scan", "ScanError", "Track",
+__all__ = ["Adaptation", "BuildLog", "BuildSession", "Disturbance", "Measured", "Registration", "Scan", "ScanError", "Track",
            "Window", "adapted_layer", "beneath", "carry", "layer_track", "measure", "plan_speeds", "planned_heights", "read_heights",
            "read_points", "register", "simulate_build", "synth_scan"]

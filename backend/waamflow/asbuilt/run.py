@@ -82,3 +82,43 @@ def write(doc: dict, out: Path) -> list[Path]:
     a.write_text(json.dumps(doc, indent=1))
     b.write_text(svg(doc))
     return [a, b]
+
+
+class _PostContext:
+    """The little the post-process node asks of the engine when it writes one layer."""
+
+    def __init__(self, node_id: str) -> None:
+        self.node_id = node_id
+        self.layer = None
+        self.warnings: list[dict] = []
+
+    def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
+        self.warnings.append({"node": self.node_id, "message": message, "layer": layer, "section": section})
+
+
+def post_callable(graph, post_id: str):
+    """`lp -> {file name: text}`: the recipe's post-process node writing a one-layer program with
+    the recipe's own settings (dialect, profile, weld data, cell)."""
+    from ..core.model import Layered
+
+    node = graph.nodes[post_id]
+
+    def post(lp) -> dict[str, str]:
+        ctx = _PostContext(post_id)
+        program = node.impl.run(ctx, node.params, {"toolpath": Layered((lp,))})["program"]
+        names = program.file_names(post_id)
+        return {names[k]: v for k, v in program.files.items()}
+
+    return post
+
+
+def plan_for_build(recipe, resolver):
+    """Plan `recipe` and return (toolpath, post callable or None, toolpath node id)."""
+    from ..engine.executor import execute
+    from ..engine.graph import build_graph
+
+    graph = build_graph(recipe)
+    result = execute(graph, resolver=resolver, artifacts=False, preflight=False)
+    toolpath, src = program_toolpath(graph, result.outputs)
+    post_id = next((nid for nid in graph.order if graph.nodes[nid].type == "post-process"), None)
+    return toolpath, (post_callable(graph, post_id) if post_id else None), src

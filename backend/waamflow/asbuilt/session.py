@@ -1,0 +1,196 @@
+"""A live build: the plan, what was measured after each layer, and the next layer's program.
+
+The cell (or its PC) builds layer k from the program it was given, scans it, and posts the scan;
+the session measures it against the plan, keeps the measured tops and the gain of every sample
+(`adapt`), and answers with the program of the next layer adapted to what was built. State lives
+in one folder and is written atomically after every step (`state.json` + the scans as received),
+so a server restart resumes the build where it stood: the plan itself is not stored but
+re-planned from the recipe (deterministic, and cached on content signatures).
+
+Log: every step (start, scan received, program issued, refusals) with who, when (UTC) and what.
+
+Units: mm, mm/s.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..core.model import LayerPaths, Layered
+from .adapt import Window, adapted_layer, beneath, carry, plan_speeds, planned_heights
+from .scan import Scan, ScanError, measure, register
+from .track import Track, layer_track
+
+STATE = "state.json"
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _utc() -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+
+
+def _arr(a: np.ndarray | None) -> list | None:
+    return None if a is None else [None if not np.isfinite(v) else round(float(v), 5) for v in a]
+
+
+def _unarr(a: list | None) -> np.ndarray | None:
+    return None if a is None else np.array([np.nan if v is None else v for v in a], float)
+
+
+@dataclass
+class LayerRecord:
+    layer: int
+    measured_top: np.ndarray
+    gain: np.ndarray
+    speed: np.ndarray
+
+
+class BuildSession:
+    """One build (see module doc). `post(lp) -> {file name: text}` writes a one-layer program."""
+
+    def __init__(self, folder: Path, toolpath: Layered[LayerPaths], state: dict,
+                 post: Callable[[LayerPaths], dict[str, str]] | None = None, window: Window = Window()):
+        self.folder = Path(folder)
+        self.items = [lp for lp in toolpath.items if lp is not None]
+        self.tracks = [layer_track(lp) for lp in self.items]
+        self.state = state
+        self.post = post
+        self.window = window
+
+    # ---- persistence -------------------------------------------------------------------------
+    @classmethod
+    def create(cls, folder: Path, toolpath: Layered[LayerPaths], meta: dict, who: str | None = None,
+               post=None, window: Window = Window()) -> "BuildSession":
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=False)
+        state = {"meta": meta, "created": _utc(), "next_layer": 0, "status": "building", "records": {}, "log": []}
+        s = cls(folder, toolpath, state, post, window)
+        if not s.tracks:
+            raise ValueError("the plan has no layers to build")
+        s._log(who, "start", layers=len(s.tracks))
+        s.save()
+        return s
+
+    @classmethod
+    def load(cls, folder: Path, toolpath: Layered[LayerPaths], post=None, window: Window = Window()) -> "BuildSession":
+        state = json.loads((Path(folder) / STATE).read_text(encoding="utf-8"))
+        s = cls(folder, toolpath, state, post, window)
+        if len(s.tracks) != state["meta"].get("layers", len(s.tracks)):
+            raise ValueError(f"the re-planned recipe has {len(s.tracks)} layers, the build was started with "
+                             f"{state['meta']['layers']}: the recipe or its inputs changed")
+        return s
+
+    def save(self) -> None:
+        _write_atomic(self.folder / STATE, json.dumps(self.state, indent=1))
+
+    def _log(self, who: str | None, action: str, **detail: Any) -> None:
+        self.state["log"].append({"time": _utc(), "who": who, "action": action, **detail})
+
+    # ---- state -------------------------------------------------------------------------------
+    @property
+    def next_layer(self) -> int:
+        return int(self.state["next_layer"])
+
+    @property
+    def done(self) -> bool:
+        return self.next_layer >= len(self.tracks)
+
+    def record(self, k: int) -> LayerRecord | None:
+        r = self.state["records"].get(str(k))
+        if r is None:
+            return None
+        return LayerRecord(k, _unarr(r["measured_top"]), _unarr(r["gain"]), _unarr(r["speed"]))
+
+    def _track(self, k: int) -> Track:
+        return self.tracks[k]
+
+    def speeds_for(self, k: int) -> tuple[np.ndarray, dict]:
+        """Speeds for layer k from what was measured of layer k−1 (the plan's on layer 0 or when
+        layer k−1 was not scanned)."""
+        tr = self._track(k)
+        prev = self.record(k - 1) if k > 0 else None
+        if prev is None:
+            return tr.speed.copy(), {"layer": tr.layer, "adapted": False, "reason": "no scan of the layer below"}
+        pt = self._track(k - 1)
+        ad = plan_speeds(tr, beneath(tr, pt, prev.measured_top), carry(tr, pt, prev.gain, 1.0), self.window,
+                         planned_heights(tr, pt))
+        return ad.speed, {**ad.summary(tr), "adapted": True}
+
+    def next_program(self, who: str | None = None) -> dict:
+        """The program of the next layer (adapted), as files, with what was adapted."""
+        if self.done:
+            raise ValueError("the build is complete: every planned layer has been scanned")
+        k = self.next_layer
+        v, why = self.speeds_for(k)
+        lp = adapted_layer(self.items[k], self._track(k), v)
+        files = self.post(lp) if self.post is not None else {}
+        self._log(who, "program", layer=self._track(k).layer, adapted=why.get("adapted", False))
+        self.save()
+        return {"layer": self._track(k).layer, "adaptation": why, "files": files, "toolpath": lp}
+
+    def add_scan(self, scan: Scan, who: str | None = None, register_frame: bool = False,
+                 raw: bytes | None = None) -> dict:
+        """Measure the scan of the next layer, keep it, and return the layer's as-built figures."""
+        if self.done:
+            raise ScanError("the build is complete: no further layer expects a scan")
+        k = self.next_layer
+        tr = self._track(k)
+        if scan.layer != tr.layer:
+            self._log(who, "scan_refused", layer=scan.layer, reason=f"expected layer {tr.layer}")
+            self.save()
+            raise ScanError(f"{scan.source}: the scan is of layer {scan.layer}, the build expects layer {tr.layer}")
+        v, _ = self.speeds_for(k)
+        prev = self.record(k - 1) if k > 0 else None
+        pt = self._track(k - 1) if k > 0 else None
+        below = beneath(tr, pt, prev.measured_top if prev is not None else None)
+        hp = planned_heights(tr, pt)
+        expected = below + carry(tr, pt, prev.gain if prev is not None else None, 1.0) * hp * tr.speed / v
+        reg = None
+        try:
+            if register_frame and scan.kind == "cloud":
+                scan, reg = register(tr, scan)
+            m = measure(tr, scan, expected=expected)
+        except ScanError as err:
+            self._log(who, "scan_refused", layer=tr.layer, reason=str(err))
+            self.save()
+            raise
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gain = (m.height - below) / (hp * tr.speed / v)
+        dev = m.height - tr.planned_height()
+        if raw is not None:
+            (self.folder / f"scan_{tr.layer:05d}.bin").write_bytes(raw)
+        self.state["records"][str(k)] = {"layer": tr.layer, "measured_top": _arr(m.height), "gain": _arr(gain),
+                                         "speed": _arr(v)}
+        fin = np.isfinite(dev)
+        row = {"layer": tr.layer, "coverage": round(m.coverage, 4),
+               "mean_error_mm": round(float(np.mean(dev[fin])), 4), "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
+               "max_error_mm": round(float(np.max(np.abs(dev[fin]))), 4),
+               "registration": reg.to_dict() if reg is not None else None}
+        self.state.setdefault("layers", []).append(row)
+        self.state["next_layer"] = k + 1
+        if self.done:
+            self.state["status"] = "complete"
+        self._log(who, "scan", **{k2: v2 for k2, v2 in row.items() if k2 != "registration"})
+        self.save()
+        return row
+
+    def summary(self) -> dict:
+        return {"meta": self.state["meta"], "status": self.state["status"], "created": self.state["created"],
+                "next_layer": self.tracks[self.next_layer].layer if not self.done else None,
+                "layers_planned": len(self.tracks), "layers_scanned": len(self.state.get("layers", [])),
+                "layers": self.state.get("layers", []), "log": self.state["log"]}
