@@ -34,6 +34,13 @@ from .parallel import DaskPool, LayerPool, make_pool
 MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
 
 
+def _over_limit(path: str, size: int, limit: int) -> str:
+    """The over-size message in the unit of the nodes' `max_file_mb` settings, MB of 2^20 bytes (a
+    200 MB setting is 200 here, not the 210 of decimal megabytes)."""
+    return (f"file {path} is {size / 2**20:.1f} MB, over the {limit / 2**20:g} MB limit (MB of 2^20 bytes: "
+            f"the node's 'max_file_mb'; at most {MAX_INPUT_FILE_BYTES // 2**20} MB for any file)")
+
+
 # Content signatures of files by (path, mtime, size), shared by every resolver in the process so
 # the GUI's one-layer preview does not re-hash a large mesh on each request.
 _FILE_SIGS: dict[tuple[str, int, int], str] = {}
@@ -79,10 +86,10 @@ class FileResolver:
                 raise InputFileError(f"file not found: {path} (looked in {p.parent})")
             size = p.stat().st_size
             if size > limit:
-                raise InputFileError(f"file {path} is {size / 1e6:.1f} MB, over the {limit / 1e6:.0f} MB limit")
+                raise InputFileError(_over_limit(path, size, limit))
             data = p.read_bytes()
         if len(data) > limit:
-            raise InputFileError(f"file {path} is {len(data) / 1e6:.1f} MB, over the {limit / 1e6:.0f} MB limit")
+            raise InputFileError(_over_limit(path, len(data), limit))
         self.read_hashes[path] = hashlib.sha256(data).hexdigest()
         return data
 

@@ -45,6 +45,8 @@ class SketchResult:
     units: str = "mm"
     file_unit: str | None = None     # the unit the file declares (DXF $INSUNITS), None: none
     notice: str | None = None        # the unit conversion, said (units.conversion_notice)
+    defects: tuple[str, ...] = ()    # DXF entities skipped as degenerate, each naming type, handle and why
+    repairs: tuple[str, ...] = ()    # what ezdxf's recover/audit repaired while reading the DXF
 
 
 # ------------------------------------------------------------------------------------------
@@ -242,17 +244,19 @@ def load_sketch_bytes(
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     name = PurePosixPath(filename).stem
     skipped: dict[str, int] = {}
+    defects: list[str] = []
+    repairs: list[str] = []
     file_unit = None
     if ext == "json":
         units, scale, notice = conversion_notice(None, units)
         raw, file_h, file_z0 = _json_curves(data, filename)
         curves = raw
     elif ext == "dxf":
-        doc = read_dxf(data, filename)
+        doc, repairs = read_dxf_audited(data, filename)
         file_unit = dxf_units(doc)
         units, scale, notice = conversion_notice(file_unit, units)
         # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout)
+        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout, defects)
         if not curves:
             others = [f"{lay.name} ({len(lay)} entities)" for lay in doc.layouts
                       if lay.name.lower() != layout.lower() and len(lay)]
@@ -265,9 +269,10 @@ def load_sketch_bytes(
         curves, file_h, file_z0, file_unit, units, scale, notice = _cad_curves(data, filename, units, arc_tolerance)
     else:
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
-    if not curves and skipped:
+    if not curves and (skipped or defects):
         kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
-        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: {kinds}")
+        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: "
+                             f"{kinds or 'none'}" + (f"; degenerate: {'; '.join(defects[:5])}" if defects else ""))
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
@@ -279,7 +284,8 @@ def load_sketch_bytes(
     )
     return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
                                                   joints=mid.joints),
-                        skipped=skipped, units=units, file_unit=file_unit, notice=notice)
+                        skipped=skipped, units=units, file_unit=file_unit, notice=notice, defects=tuple(defects),
+                        repairs=tuple(repairs))
 
 
 def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
@@ -305,6 +311,13 @@ def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
 # ------------------------------------------------------------------------------------------
 def read_dxf(data: bytes, filename: str):
     """An ezdxf document from DXF bytes (ezdxf's recover mode: tolerant of common defects)."""
+    return read_dxf_audited(data, filename)[0]
+
+
+def read_dxf_audited(data: bytes, filename: str):
+    """(ezdxf document, repairs): the document read in ezdxf's recover mode (ASCII) or read and
+    audited (binary), and every fix and unfixed error its auditor reports, as text naming the
+    entity (ezdxf's own messages, e.g. 'Removed invalid color index of LINE(#2F).')."""
     from ezdxf import recover
     from ezdxf.lldxf.const import DXFStructureError
 
@@ -316,11 +329,14 @@ def read_dxf(data: bytes, filename: str):
             from .through_file import read_through_file
 
             doc = read_through_file(data, ".dxf", ezdxf.readfile)
+            auditor = doc.audit()
         else:
-            doc, _auditor = recover.read(io.BytesIO(data))
+            doc, auditor = recover.read(io.BytesIO(data))
     except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:
         raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
-    return doc
+    repairs = [f"repaired: {f.message}" for f in auditor.fixes]
+    repairs += [f"unrepaired error: {e.message}" for e in auditor.errors]
+    return doc, repairs
 
 
 def dxf_layout(doc, layout: str, filename: str):
@@ -340,25 +356,48 @@ def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray]
     return dxf_doc_curves(read_dxf(data, filename), filename, tol)
 
 
-def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model") -> tuple[list[np.ndarray], dict[str, int]]:
+def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model",
+                   defects: list | None = None) -> tuple[list[np.ndarray], dict[str, int]]:
     """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
-    modelspace), and the skipped entity types → count."""
+    modelspace), and the skipped entity types → count. defects (optional list) receives one
+    text per degenerate entity skipped (zero radius, fewer than two vertices, a spline or ellipse
+    that cannot be discretised), naming its type and handle; they are skipped either way."""
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
+    sink = [] if defects is None else defects
     for e in dxf_layout(doc, layout, filename):
-        _entity_curves(e, filename, tol, curves, skipped, depth=0)
+        _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink)
     return curves, skipped
 
 
 def _where(filename: str, e) -> str:
-    return f"{filename}: {e.dxftype()} (handle {e.dxf.get('handle', '?')})"
+    return f"{filename}: {_entity(e)}"
+
+
+def _entity(e) -> str:
+    """'CIRCLE (handle 30, layer WALLS)': how messages name a DXF entity (an entity exploded from a
+    block reference has no handle of its own: its block is named instead)."""
+    handle = e.dxf.get("handle", None)
+    layer = e.dxf.get("layer", None)
+    src = f"handle {handle}" if handle else "in a block reference"
+    return f"{e.dxftype()} ({src}" + (f", layer {layer})" if layer else ")")
+
+
+def _skip(defects: list, skipped: dict, e, why: str) -> None:
+    """Skip a degenerate entity: counted under its type and named with its handle in defects."""
+    key = f"degenerate {e.dxftype()}"
+    skipped[key] = skipped.get(key, 0) + 1
+    defects.append(f"{_entity(e)}: {why}")
 
 
 def _ocs_to_xy(e, pts2d: np.ndarray, filename: str) -> np.ndarray:
     """OCS (x, y) points of a planar entity → world (x, y); the entity must lie in an XY plane."""
     extr = np.asarray(e.dxf.get("extrusion", (0.0, 0.0, 1.0)), dtype=float)
     if abs(abs(extr[2]) - np.linalg.norm(extr)) > 1e-9:
-        raise InputFileError(f"{_where(filename, e)} does not lie in an XY plane (extrusion {tuple(extr)})")
+        x, y, z = (float(v) for v in extr)
+        raise InputFileError(f"{_where(filename, e)} does not lie in an XY plane (its extrusion direction is "
+                             f"({x:g}, {y:g}, {z:g}), not ±Z): a sketch is drawn in the XY plane; rotate or flatten "
+                             "the entity in CAD (world UCS) or delete it")
     if extr[2] > 0:
         return pts2d
     # OCS of extrusion (0, 0, -1): x axis is world -x (arbitrary axis algorithm), y stays world y
@@ -375,30 +414,38 @@ def _add(out: list, skipped: dict, kind: str, pts: np.ndarray) -> None:
     out.append(pts)
 
 
-def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth: int) -> None:
+def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth: int,
+                   defects: list | None = None) -> None:
+    defects = [] if defects is None else defects
     t = e.dxftype()
     if t == "LINE":
         s, n = e.dxf.start, e.dxf.end
         _add(out, skipped, t, np.array([[s.x, s.y], [n.x, n.y]]))
     elif t == "LWPOLYLINE":
         pts = np.array([(x, y, b) for x, y, b in e.get_points("xyb")], dtype=float).reshape(-1, 3)
+        if len(pts) < 2:
+            return _skip(defects, skipped, e, f"{len(pts)} vertex, a curve needs two; skipped")
         _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
     elif t == "POLYLINE":
         if e.is_2d_polyline:
             pts = np.array([(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices],
                            dtype=float).reshape(-1, 3)
+            if len(pts) < 2:
+                return _skip(defects, skipped, e, f"{len(pts)} vertex, a curve needs two; skipped")
             _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
         elif e.is_3d_polyline:
             pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in e.vertices], dtype=float).reshape(-1, 2)
             if e.is_closed and len(pts):
                 pts = np.vstack([pts, pts[:1]])
             _add(out, skipped, t, pts)
-        else:
-            raise InputFileError(f"{_where(filename, e)}: polyface/polygon-mesh POLYLINEs are surfaces, not sketch curves")
+        else:                               # polyface / polygon mesh: a surface, no curve of a sketch
+            key = "POLYLINE mesh"
+            skipped[key] = skipped.get(key, 0) + 1
     elif t in ("ARC", "CIRCLE"):
         r = float(e.dxf.radius)
         if not r > 0:
-            raise InputFileError(f"{_where(filename, e)}: radius must be > 0 (got {r})")
+            return _skip(defects, skipped, e, f"radius {r:g}, no curve; skipped (delete it in CAD if it is debris, "
+                                              "or give it its radius)")
         c = e.dxf.center
         if t == "CIRCLE":
             start, sweep = 0.0, 2 * math.pi
@@ -412,8 +459,9 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
     elif t in ("ELLIPSE", "SPLINE"):
         try:
             pts = np.array([(v.x, v.y) for v in e.flattening(tol)], dtype=float)
-        except Exception as exc:  # ezdxf raises construction errors for degenerate curves
-            raise InputFileError(f"{_where(filename, e)}: cannot be discretised: {exc}") from exc
+        except Exception:  # ezdxf raises construction errors (even IndexError) for degenerate curves
+            return _skip(defects, skipped, e, "degenerate (too few distinct control or fit points, or a zero axis): "
+                                              "ezdxf cannot discretise it; skipped (redraw or delete it in CAD)")
         _add(out, skipped, t, pts)
     elif t == "INSERT":
         if depth > 16:
@@ -421,7 +469,7 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
         # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
         for ins in (e.multi_insert() if e.mcount > 1 else (e,)):
             for sub in ins.virtual_entities():
-                _entity_curves(sub, filename, tol, out, skipped, depth + 1)
+                _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects)
     else:
         skipped[t] = skipped.get(t, 0) + 1
 

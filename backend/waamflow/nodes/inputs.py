@@ -153,6 +153,7 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
 
 
 Vec3 = tuple[float, float, float]
+MAX_LISTED = 10   # warnings listing one item each (DXF defects, repairs): the first this many, then a count
 
 
 class TransformParams(NodeParams):
@@ -308,7 +309,13 @@ class SketchNode(Node):
         )
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
-            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry or zero length): {kinds}")
+            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry, zero length or degenerate): {kinds}")
+        for what, items in (("degenerate entity skipped", res.defects), ("DXF read", res.repairs)):
+            for text in items[:MAX_LISTED]:
+                ctx.warn(f"{params.path}: {what}: {text}")
+            if len(items) > MAX_LISTED:
+                ctx.warn(f"{params.path}: {what}: {len(items) - MAX_LISTED} more not listed")
+        ctx.report({"dxf_degenerate_skipped": len(res.defects), "dxf_repairs": len(res.repairs)})
         mid = res.midsurface
         pts = np.vstack(mid.curves)
         lo = np.array([*pts.min(axis=0), mid.z0])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from ..core import serialize
@@ -36,6 +37,29 @@ def model_layer_height(ctx, param: float, model, explicit: bool = True) -> float
 
 def _mm(x: float) -> str:
     return f"{round(float(x), 4):g} mm"
+
+
+def _no_layers(part, params, layer_height: float) -> str:
+    """Why a slice gave no layers: the part's height along the build direction against the layer
+    height and the range settings, and what to change."""
+    d = np.asarray(params.direction, dtype=float)
+    d = d / np.linalg.norm(d)
+    if isinstance(part, Midsurface):
+        pts = np.vstack([np.column_stack([c, np.full(len(c), z)]) for c in part.curves
+                         for z in (part.z0, part.z0 + part.height)])
+    else:
+        pts = np.asarray(part.vertices, dtype=float)
+    h = pts @ d
+    lo, hi = float(h.min()), float(h.max())
+    tall = hi - lo
+    what = (f"no layers: the part is {_mm(tall)} tall (from {_mm(lo)} to {_mm(hi)} along the build direction), "
+            f"layer height {_mm(layer_height)}, top '{params.top}'")
+    if tall < layer_height:
+        return (what + f": thinner than one layer; use top 'ceil' (one thinner layer), a layer_height of at most "
+                f"{_mm(tall)}, or check the part's size (the input node's 'units': a part in m or in read as mm "
+                "is 1000 or 25.4 times too small)")
+    return (what + f", start_offset {_mm(params.start_offset)}, z_min {params.z_min}, z_max {params.z_max}: the "
+            "slicing range is empty; set start_offset, z_min and z_max within the part's range")
 
 
 def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fraction: float, max_factor: float) -> None:
@@ -152,7 +176,7 @@ class SliceNode(Node):
         except ValueError as exc:
             raise RecipeError(str(exc)) from exc
         if not layers:
-            raise PlanningError("no layers: the slicing range (part height, start_offset, z_min/z_max) is empty")
+            raise PlanningError(_no_layers(part, params, layer_height))
         _warn_top(ctx, schedule, params.layer_count, params.top_min_fraction, params.top_max_factor)
         for i in empty_layers_inside(layers, part, params.direction):
             ctx.warn("layer is empty although it lies within the part's height (gap between bodies?)", layer=i)
