@@ -233,3 +233,15 @@ def test_profile_notes_are_checked_against_the_profile(gen):
             "acc_ratio_fast": 1.0, "dec_ratio_fast": 1.0}
     assert [ok for _c, _d, ok in gen.profile_note_checks(true, swiping_held_out=False)] == [True, True, True]
     assert gen.profile_note_checks({"notes": "nothing claimed"}, swiping_held_out=True) == []
+
+
+def test_every_bash_block_is_runnable_and_every_json_block_parses():
+    """The convention the docs state: ```bash = run by this test, ```sh = shown only."""
+    for path in MARKDOWN:
+        lines = path.read_text().splitlines()
+        for i, line in enumerate(lines):
+            if line.strip() == "```bash":
+                assert i > 0 and lines[i - 1].strip() == RUNNABLE, f"{path.relative_to(ROOT)}:{i + 1}"
+            if line.strip() == "```json":
+                j = lines.index("```", i + 1)
+                json.loads("\n".join(lines[i + 1:j]))
