@@ -136,8 +136,11 @@ class KinematicsOptions:
 
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
                      kin: KinematicsOptions | None = None,
-                     progress: Callable[[float, str], None] | None = None) -> SimulationResult:
-    """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate."""
+                     progress: Callable[[float, str], None] | None = None,
+                     strategies: tuple[str, ...] | None = None) -> SimulationResult:
+    """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate
+    (strategies: each section's strategy, `estimate.section_strategies`, for the time model's
+    per-family entries; None = the generic ones)."""
     warnings: list[tuple[str, int | None, str | None]] = []
     kin_metrics: dict[str, float] = {}
     collision_list: tuple = ()
@@ -232,7 +235,8 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                                     "unreachable": ks.reach_err > REACH_TOL_MM}
     res = simulate(sim_moves, profile, opt,
                    progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
-    est = estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed) if profile.time_model else None
+    est = (estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
+           if profile.time_model else None)
     estimate = {}
     if est is not None:
         estimate = {"total_time_s": est.total_time_s, "passes": float(est.passes),
