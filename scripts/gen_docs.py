@@ -395,7 +395,7 @@ def validation_page() -> tuple[str, dict[str, str]]:
     from waamflow.trajectory.calibrate import validation_report
     from waamflow.trajectory.profile import load_profile
 
-    from tolerances_table import STUDY_DEFAULT, STUDY_LIMITS
+    from tolerances_table import STUDY_BANDS, STUDY_DEFAULT, STUDY_LIMITS
 
     rows = study_rows()
     n_fit = sum(r["set"] == "fit" for r in rows)
@@ -491,6 +491,13 @@ def validation_page() -> tuple[str, dict[str, str]]:
         e = abs(r["error_pct"]) if r else float("nan")
         out.append(f"| {_cell(name)} | ±{t.limit_pct:g} % | {_fmt(e)} % | {_fmt(t.limit_pct - e)} points | "
                    f"{_cell(t.reason)} | {_cell(t.history)} |")
+    out.append("")
+    out.append("Ranges `tests/trajectory/test_study.py` accepts for the study's qualitative observations and "
+               "corner errors (`STUDY_BANDS`):\n")
+    out.append("| figure | accepted | study | reason | history |\n|---|---|---|---|---|")
+    for name, b in STUDY_BANDS.items():
+        out.append(f"| {_cell(name)} | {b.lo:.4g} … {b.hi:.4g} {b.unit} | {_cell(b.study)} | {_cell(b.reason)} | "
+                   f"{_cell(b.history)} |")
     out.append("")
     return "\n".join(out), svgs
 

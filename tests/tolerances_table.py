@@ -68,3 +68,43 @@ STUDY_LIMITS: dict[str, Tolerance] = {
 def study_limit(case: str) -> float:
     """|error| limit in percent for a study case (its entry, else the default)."""
     return STUDY_LIMITS.get(case, STUDY_DEFAULT).limit_pct
+
+
+@dataclass(frozen=True)
+class Band:
+    """An accepted range for a model figure the study states (a band or a value ± an absolute
+    margin), with why."""
+
+    lo: float
+    hi: float
+    unit: str
+    study: str
+    reason: str
+    history: str = ""
+
+    def holds(self, value: float) -> bool:
+        return self.lo <= value <= self.hi
+
+
+# tests/trajectory/test_study.py: the study's qualitative observations and its measured corner errors
+STUDY_BANDS: dict[str, Band] = {
+    "raster 40 mm/s total time": Band(11.580 * 0.97, 11.580 * 1.03, "s", "11.580 s (calibration table)",
+                                      "±3 %: a fitted figure; the per-case table above holds it to ±5 %",
+                                      "±3 % since 3a0dd20"),
+    "raster 40 mm/s deposited volume": Band(615.133 * 0.97, 615.133 * 1.03, "mm³", "615.133 mm³",
+                                            "±3 %: a fitted figure", "±3 % since 3a0dd20"),
+    "corner error 45° 40 mm/s": Band(1.62 - 0.25, 1.62 + 0.25, "mm", "1.62 mm",
+                                     "±0.25 mm: the study reads the error off a 12 ms trace", "since 3a0dd20"),
+    "corner error 2.95° 10 mm/s": Band(0.8 - 0.15, 0.8 + 0.15, "mm", "0.8 mm", "±0.15 mm (one figure read off a plot)",
+                                       "since 3a0dd20"),
+    "corner error 2.95° 40 mm/s": Band(1.8 - 0.4, 1.8 + 0.4, "mm", "1.8 mm", "±0.4 mm (one figure read off a plot)",
+                                       "since 3a0dd20"),
+    "raster length ratio 40 mm/s": Band(0.995, 1.005, "", "≈ 0.998", "±0.005 around 1", "since 3a0dd20"),
+    "swiping length ratio 40 mm/s": Band(0.86, 0.92, "", "≈ 0.89",
+                                         "±0.03: the derived swiping reverses at 4.4°, the study's at 2.95° (cuts more)",
+                                         "±0.02 (3a0dd20) → ±0.03 (e880f9d)"),
+    "smooth / in-OR length ratio 40 mm/s": Band(0.93, 0.985, "", "0.95–0.97",
+                                                "WIDER than the study's band: the model's rectangular (≈ 0.949) and "
+                                                "spiral (≈ 0.944) fall below 0.95",
+                                                "0.94–0.985 (3a0dd20) → 0.93–0.985 (82e6c77)"),
+}

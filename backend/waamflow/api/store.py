@@ -291,8 +291,10 @@ class Store:
                 r[k] = json.loads(r[k])
         return r
 
-    def list_runs(self, limit: int = 50) -> list[dict]:
-        rows = self._query("SELECT id, graph, status, progress, created, finished FROM runs ORDER BY created DESC LIMIT ?", (limit,))
+    def list_runs(self, limit: int = 50, graph: str | None = None) -> list[dict]:
+        where, args = ("WHERE graph=? ", (graph,)) if graph is not None else ("", ())
+        rows = self._query(f"SELECT id, graph, status, progress, created, finished FROM runs {where}ORDER BY created DESC LIMIT ?",
+                           (*args, limit))
         return [dict(r) for r in rows]
 
     def add_events(self, run_id: str, events: list[dict]) -> None:

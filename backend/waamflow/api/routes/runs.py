@@ -108,8 +108,10 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
 
 
 @router.get("", response_model=list[RunListItem], responses=errors(401, 422))
-def list_runs(svc: ServicesDep, limit: int = Query(50, ge=1, le=500)) -> list[dict[str, Any]]:
-    return svc.store.list_runs(limit)
+def list_runs(svc: ServicesDep, limit: int = Query(50, ge=1, le=500),
+              graph: str | None = Query(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
+                                        description="only the runs of this saved graph (newest first)")) -> list[dict[str, Any]]:
+    return svc.store.list_runs(limit, graph=graph)
 
 
 @router.get("/{run_id}", response_model=RunStatus, responses=errors(401, 404, 422))
