@@ -6,7 +6,7 @@ import { createRequire } from "node:module";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import { chromium } from "playwright-core";
-import { OUT, api, openRecipe, startBrowser, startServer } from "./harness.mjs";
+import { OUT, api, expectRun, openRecipe, startBrowser, startServer } from "./harness.mjs";
 
 const require = createRequire(import.meta.url);
 const AXE = require.resolve("axe-core/axe.min.js");
@@ -74,7 +74,7 @@ test("3D tab: fills the window, shows the open recipe's run, node toggles, colou
   assert.deepEqual(st.nodes.map((n) => n.id), ["or", "mask", "strategy", "simulate"]);
 
   // Nothing covers the scene: viser's panel is folded, its notices (software WebGL) hidden.
-  assert.match(await page.getAttribute("[data-testid=viewer]", "src"), /\/\?embedded$/);
+  assert.match(await page.getAttribute("[data-testid=viewer]", "src"), /[?&]embedded(&|$)/);
   const frame = page.frames().find((f) => f !== page.mainFrame());
   assert.ok(frame, "the viewer frame is loaded");
   await frame.waitForSelector("canvas", { timeout: 30_000 });
@@ -251,9 +251,7 @@ test("tabs are ARIA tabs with arrow keys; axe finds no critical/serious violatio
   assert.equal(await page.locator("h1").count(), 1);
 
   const found = [];
-  for (const g of graphs) {
-    await page.click("[data-tab=graph]");
-    await openRecipe(page, srv.base, g);
+  const axeTabs = async (g) => {
     for (const t of tabs) {
       await page.click(`[data-tab=${t}]`);
       await page.waitForTimeout(t === "mask" ? 1500 : 400);
@@ -265,7 +263,17 @@ test("tabs are ARIA tabs with arrow keys; axe finds no critical/serious violatio
       });
       for (const v of res) found.push(`${g}/${t}: ${v}`);
     }
+  };
+  for (const g of graphs) {
+    await page.click("[data-tab=graph]");
+    await openRecipe(page, srv.base, g);
+    await axeTabs(g);
   }
+  // #25 fault 11: after a run too (progress bar "done 100%", preflight badge, results and plots)
+  await page.click("[data-tab=graph]");
+  await openRecipe(page, srv.base, "rectangle-study");
+  await expectRun(page, srv.base, "done");
+  await axeTabs("rectangle-study after a run");
   await context.close();
   await plain.close();
   assert.deepEqual(found, []);

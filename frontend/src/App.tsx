@@ -15,12 +15,12 @@ import {
   addFrame, addNode, autoWire, setNodeParams, catalogMap, changeSignature, copySelection, emptyRecipe, freeSpot, paste, positionsOf, redo, undo,
   type Clip, type History, type XY,
 } from "./graph/recipe";
-import { carryOver, matchByOverlap } from "./graph/carry";
+import { carryOver, matchByOverlap, oldRegionsForCarry } from "./graph/carry";
 import { governingMask, sectionKey, type MaskParams } from "./mask/edits";
 import { MaskView, type NewMaskEvent } from "./mask/MaskView";
 import { Results } from "./plots/Results";
 import { useRun } from "./run/useRun";
-import { collectProblems, problemsByNode, type Problem } from "./problems/problems";
+import { collectProblems, currentProblems, problemsByNode, type Problem } from "./problems/problems";
 import { ProblemsPanel } from "./problems/ProblemsPanel";
 import { PreflightBadge } from "./preflight/PreflightBadge";
 import {
@@ -129,8 +129,13 @@ export function App() {
   );
   const typingEdit = useCallback((fn: (r: Recipe) => Recipe) => edit(fn, true), [edit]);
 
+  // The run the GUI shows: one started here, or the latest run of a recipe just opened (replayed
+  // from the store, #25 fault 8: quietly, no toast and no jump to the mask tab).
+  const shownRun = useRef<{ id: string; replay: boolean } | null>(null);
+  const lastOpened = useRef<string | null>(null); // the recipe opened last (null: a new one)
   const { run, follow, cancel, reset } = useRun(async (s) => {
-    if (!s.id) return;
+    if (!s.id || shownRun.current?.id !== s.id) return; // another recipe was opened meanwhile
+    const quiet = shownRun.current.replay;
     try {
       const arts = await API.listArtifacts(s.id);
       setArtifacts(arts);
@@ -145,9 +150,10 @@ export function App() {
     }
     if (s.phase === "failed" && s.error) {
       setFailure(s.error);
+      if (quiet) return;
       if (s.error.layer != null) setTab("mask");
       message(`run failed: ${s.error.message}`);
-    } else if (s.phase === "done") message("run finished");
+    } else if (s.phase === "done" && !quiet) message("run finished");
   });
 
   // ---- loading ----------------------------------------------------------------------------------
@@ -192,12 +198,28 @@ export function App() {
       setPreflightOf(null);
       setPfMark(null);
       setLayer(0);
+      shownRun.current = null;
+      lastOpened.current = name;
       reset();
       const d = readDraft(localStorage, name);
       setOffer(d && draftDiffers(d, full, xml) ? d : null);
       setTimeout(() => rf.fitView({ padding: 0.15 }), 50);
     },
     [rf, reset],
+  );
+
+  /** Reopened recipe: its latest run's results, plots, problems and preflight (#25 fault 8). Its
+   * preflight counts as current when the run started after the recipe's last save. */
+  const showLatestRun = useCallback(
+    async (name: string, full: Recipe, xml: string | null, savedAt: number | null) => {
+      const [last] = await API.runsOf(name, 1);
+      if (!last || lastOpened.current !== name) return; // another recipe opened meanwhile
+      const current = savedAt === null || last.created >= savedAt;
+      setPreflightOf({ recipe: current ? recipeSignature(full) : "(an earlier revision)", xml });
+      shownRun.current = { id: last.id, replay: true };
+      follow(last.id);
+    },
+    [follow],
   );
 
   // The recipe being fetched after a pick in the toolbar: until it is shown, "run" would run the
@@ -215,13 +237,14 @@ export function App() {
         setXmlLoadError(xml === null ? "This graph has no parameter file yet: run it once to create the template." : null);
         reset_(full, name, xml);
         if (tabAfter) setTab(tabAfter);
+        await showLatestRun(name, full, xml, list.find((g) => g.name === name)?.updated ?? null);
       } catch (e) {
         fail(e);
       } finally {
         setOpening(null);
       }
     },
-    [fail, reset_],
+    [fail, reset_, showLatestRun],
   );
 
   const restoreOffer = () => {
@@ -347,6 +370,7 @@ export function App() {
       // The recipe runs exactly as displayed (unsaved edits included) with the XML as shown in the
       // editor (a draft: never stored by the run); a saved graph lends it its uploaded files.
       const { id } = await API.startRun(runRequest(doc, graphName));
+      shownRun.current = { id, replay: false };
       follow(id);
     } catch (e) {
       if (e instanceof API.ApiError) {
@@ -436,7 +460,11 @@ export function App() {
     },
   });
 
-  const problems = useMemo(() => collectProblems(run.warnings, [requestError, run.error]), [run.warnings, run.error, requestError]);
+  // Badges, count and list describe the run of the recipe and XML on screen: stale once either changes.
+  const problems = useMemo(
+    () => currentProblems(collectProblems(run.warnings, [requestError, run.error]), preflightOf, { recipe: recipeSig, xml: doc.xml }),
+    [run.warnings, run.error, requestError, preflightOf, recipeSig, doc.xml],
+  );
   const nodeProblems = useMemo(() => problemsByNode(problems), [problems]);
   const pickProblem = (pr: Problem) => {
     if (pr.node && recipe.nodes.some((n) => n.id === pr.node)) {
@@ -460,7 +488,7 @@ export function App() {
     const before: MaskParams = { ...e.params, masks: masks.filter((m) => m.id !== e.newId) };
     const old = governingMask(before, e.layer);
     const oldKeys = old ? old.sections.map((x) => sectionKey(old.id, x.id)) : [];
-    const oldRegions = e.regions.filter((x) => oldKeys.includes(x.key));
+    const oldRegions = old ? oldRegionsForCarry(old.id, old.sections, e.regions) : [];
     const next = made.sections.map((x) => ({ key: sectionKey(made.id, x.id), polygon: { exterior: x.curve, holes: [] } }));
     const above = masks.filter((m) => m.from_layer > e.layer).map((m) => m.from_layer);
     const plan = carryOver(setNodeParams(recipe, e.maskNode, e.params), {

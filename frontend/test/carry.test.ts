@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { Recipe } from "../src/api/types";
-import { carryOver, matchByOverlap, overlapArea } from "../src/graph/carry";
+import { carryOver, matchByOverlap, oldRegionsForCarry, overlapArea } from "../src/graph/carry";
 
 const rect = (x0: number, y0: number, x1: number, y1: number) => ({ exterior: [[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]], holes: [] as number[][][] });
 
@@ -59,5 +59,21 @@ describe("carryOver", () => {
     const plan = carryOver(recipe, { matches: new Map([["bs2/A", "bs1/A"]]), oldKeys: ["bs1/A", "bs1/B"], oldRegions: ["bs1/A", "bs1/B"], from: 1, to: null, xml: null });
     expect(plan.lost).toEqual(["bs1/B: no new section overlaps its region on layer 1"]);
     expect(plan.xml).toBeNull();
+  });
+});
+
+describe("after a failed run (#25 fault 7)", () => {
+  it("matches by the old curves when the layer has no regions, by the regions where it has them", () => {
+    const sections = [{ id: "A", curve: rect(0, 0, 50, 10).exterior }, { id: "B", curve: rect(50, 0, 100, 10).exterior }];
+    // the failed layer: the preview gave no regions at all
+    const none = oldRegionsForCarry("bs1", sections, []);
+    expect(none.map((r) => r.key)).toEqual(["bs1/A", "bs1/B"]);
+    expect(Math.round(overlapArea(none[0].polygon, rect(0, 0, 50, 10)))).toBe(500);
+    const next = [{ key: "bs2/A", polygon: rect(0, 0, 50, 10) }, { key: "bs2/B", polygon: rect(50, 0, 100, 10) }];
+    expect([...matchByOverlap(none, next)]).toEqual([["bs2/A", "bs1/A"], ["bs2/B", "bs1/B"]]);
+    // a region the preview has wins over the curve (here: only the left 20 mm of A's curve)
+    const some = oldRegionsForCarry("bs1", sections, [{ key: "bs1/A", polygon: rect(0, 0, 20, 10) }]);
+    expect(Math.round(overlapArea(some[0].polygon, rect(0, 0, 50, 10)))).toBe(200);
+    expect(some[1].polygon.exterior).toEqual(sections[1].curve);
   });
 });

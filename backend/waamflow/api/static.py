@@ -8,8 +8,10 @@ clients that accept gzip.
 from __future__ import annotations
 
 import gzip
+import hashlib
 from pathlib import Path
 
+from fastapi import Request
 from fastapi.responses import FileResponse
 from starlette.responses import Response
 from starlette.staticfiles import StaticFiles
@@ -57,3 +59,60 @@ class CompressedAssets(StaticFiles):
 def index_response(file: Path) -> FileResponse:
     """index.html (and other unhashed files at the root): always revalidated."""
     return FileResponse(file, headers={"Cache-Control": "no-cache"})
+
+
+class ViewerClientPage:
+    """viser's client page (one self-contained index.html of ~0.8 MB) under a content-hashed URL,
+    cached like the hashed assets: viser's own HTTP server sends it without a cache header, so every
+    visit to the 3D tab downloaded it again. The page finds viser's websocket from its `websocket`
+    query parameter (viser's client reads it), so it may be served from this origin."""
+
+    PREFIX = "/viewer-client/"
+
+    def __init__(self, file: Path):
+        self.data = file.read_bytes()
+        self.digest = hashlib.sha256(self.data).hexdigest()[:16]
+        self.gz = gzip.compress(self.data, compresslevel=9, mtime=0)
+
+    @property
+    def url(self) -> str:
+        return f"{self.PREFIX}{self.digest}/index.html"
+
+    @classmethod
+    def find(cls) -> "ViewerClientPage | None":
+        try:
+            import viser
+        except ImportError:
+            return None
+        build = Path(viser.__file__).parent / "client" / "build"
+        if not (build / "index.html").is_file():
+            return None
+        try:  # the page as the viewer serves it: viser's, with the embedding lines (viewer/embed.py)
+            from ..viewer.embed import client_root
+
+            build = client_root(build)
+        except (ImportError, OSError):
+            pass
+        return cls(build / "index.html")
+
+    def response(self, digest: str, accept_gzip: bool) -> Response:
+        if digest != self.digest:  # an old hash after a viser upgrade: the page asks health again
+            return Response("no such viewer page version", status_code=404, media_type="text/plain",
+                            headers={"Cache-Control": "no-cache"})
+        headers = {"Cache-Control": IMMUTABLE, "Vary": "Accept-Encoding", "ETag": f'"{self.digest}"'}
+        if accept_gzip:
+            headers["Content-Encoding"] = "gzip"
+        return Response(self.gz if accept_gzip else self.data, media_type="text/html; charset=utf-8", headers=headers)
+
+
+def mount_viewer_client(app) -> ViewerClientPage | None:
+    """GET /viewer-client/<sha256 prefix>/index.html: viser's client page, cached for a year."""
+    page = ViewerClientPage.find()
+    if page is None:
+        return None
+    @app.get(ViewerClientPage.PREFIX + "{digest}/index.html", include_in_schema=False)
+    def viewer_client(digest: str, request: Request) -> Response:
+        return page.response(digest, _accepts_gzip(request.scope))
+
+    app.state.viewer_client = page
+    return page

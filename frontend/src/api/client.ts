@@ -5,7 +5,7 @@
 import createClient from "openapi-fetch";
 import type { paths } from "./schema";
 import type {
-  Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, PreviewRequest, ProcessParameter, Recipe, RunCreated, RunError, RunInfo, RunRequest,
+  Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, PreviewRequest, ProcessParameter, Recipe, RunCreated, RunError, RunInfo, RunListItem, RunRequest,
   SaveResult, WireRecipe,
 } from "./types";
 
@@ -145,6 +145,9 @@ export async function putFile(name: string, filename: string, body: Blob): Promi
 export const startRun = (
   body: Omit<RunRequest, "recipe" | "accept_preflight"> & { recipe?: Recipe | Omit<Recipe, "ui">; accept_preflight?: boolean },
 ) => unwrap<RunCreated>(api.POST("/api/runs", { body: { ...body, accept_preflight: body.accept_preflight ?? false } }));
+/** The newest runs of a saved graph, newest first (`limit` of them). */
+export const runsOf = (graph: string, limit = 1) =>
+  unwrap<RunListItem[]>(api.GET("/api/runs", { params: { query: { graph, limit } } }));
 export const getRun = (id: string) => unwrap<RunInfo>(api.GET("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const cancelRun = (id: string) => unwrap<RunInfo>(api.DELETE("/api/runs/{run_id}", { params: { path: { run_id: id } } }));
 export const listArtifacts = (id: string) =>
@@ -167,6 +170,17 @@ export const viewerSelect = (node: string | null, layer: number | null) =>
 export function viewerUrl(h: Health): string | null {
   if (h.viewer_port) return `${location.protocol}//${location.hostname}:${h.viewer_port}`;
   return h.viewer_url ?? null;
+}
+
+/**
+ * The 3D view's iframe address: viser's page from this origin under its content-hashed URL (cached
+ * like the app's assets, #25) told where viser's websocket is; else viser's own page (uncached).
+ */
+export function viewerPage(h: Health, url: string, loc: { protocol: string; host: string } = location): string {
+  if (!h.viewer_page) return `${url}/?embedded`;
+  const abs = url.startsWith("/") ? `${loc.protocol}//${loc.host}${url}` : url;
+  const ws = abs.replace(/^http/, "ws").replace(/\/+$/, "");
+  return `${h.viewer_page}?embedded&websocket=${encodeURIComponent(ws)}`;
 }
 
 export const eventsUrl = (id: string) => `/api/runs/${encodeURIComponent(id)}/events`;

@@ -699,6 +699,11 @@ export interface components {
              * @description the other routes need 'Authorization: Bearer <token>'
              */
             auth_required: boolean;
+            /**
+             * Viewer Page
+             * @description viser's client page on this origin under a content-hashed URL (cached for a year); open it with `?websocket=<viewer websocket URL>`
+             */
+            viewer_page?: string | null;
         };
         /** LayerJSON */
         LayerJSON: {
@@ -2077,6 +2082,8 @@ export interface operations {
         parameters: {
             query?: {
                 limit?: number;
+                /** @description only the runs of this saved graph (newest first) */
+                graph?: string | null;
             };
             header?: never;
             path?: never;

@@ -42,6 +42,21 @@ export function matchByOverlap(old: readonly Region[], next: readonly Region[]):
   return out;
 }
 
+/**
+ * The old mask's section regions on the layer for matching: the preview's regions where the layer
+ * has them, else the section's own curve. After a run failed on that layer (a curve yielding no
+ * region or several) the preview has no regions at all, yet the new mask starts there: its
+ * sections still overlap the old curves, so they carry over like in the normal case.
+ */
+export function oldRegionsForCarry(
+  maskId: string, sections: readonly { id: string; curve: number[][] }[], regions: readonly Region[],
+): Region[] {
+  return sections.map((s) => {
+    const key = `${maskId}/${s.id}`;
+    return regions.find((r) => r.key === key) ?? { key, polygon: { exterior: s.curve, holes: [] } };
+  });
+}
+
 export interface CarryPlan {
   recipe: Recipe;
   xml: string | null;

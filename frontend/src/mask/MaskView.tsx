@@ -388,7 +388,7 @@ export function MaskView(p: MaskViewProps) {
               data-testid="layer-slider"
               aria-label="layer"
             />
-            <input aria-label="layer index" type="number" min={0} max={layerCount !== null ? layerCount - 1 : undefined} value={layer} onChange={(e) => p.setLayer(Math.max(0, Number(e.target.value) || 0))} style={{ width: 52 }} />
+            <input aria-label="layer index" type="number" min={0} max={layerCount !== null ? layerCount - 1 : undefined} value={layer} onChange={(e) => p.setLayer(Math.max(0, Number(e.target.value) || 0))} className="layer-num" />
           </div>
           <div className="muted">
             {layerCount !== null ? `${layerCount} layers` : ""}
@@ -409,7 +409,7 @@ export function MaskView(p: MaskViewProps) {
                   </td>
                   <td>
                     layers{" "}
-                    <input aria-label={`first layer of mask ${m.id}`} type="number" min={0} value={m.from} style={{ width: 42 }} onChange={(e) => edit(maskId, (mp) => setMaskFrom(mp as MaskParams, m.id, Number(e.target.value)))} />
+                    <input aria-label={`first layer of mask ${m.id}`} type="number" min={0} value={m.from} className="layer-num" onChange={(e) => edit(maskId, (mp) => setMaskFrom(mp as MaskParams, m.id, Number(e.target.value)))} />
                     –{m.to ?? "end"}
                   </td>
                   <td>

@@ -49,3 +49,13 @@ export function problemsByNode(ps: readonly Problem[]): Map<string, { errors: nu
   }
   return m;
 }
+
+/**
+ * The problems that still describe what is on screen: those of the run (or refused run request)
+ * made with the recipe and XML `ran`, as long as the document is still `now`. Once the graph or
+ * the XML changes they are stale (a fixed field keeps no error badge); undoing back brings them
+ * back. `ran` null: no run yet, nothing to compare.
+ */
+export function currentProblems(ps: Problem[], ran: { recipe: string; xml: string | null } | null, now: { recipe: string; xml: string | null }): Problem[] {
+  return ran && (ran.recipe !== now.recipe || ran.xml !== now.xml) ? [] : ps;
+}

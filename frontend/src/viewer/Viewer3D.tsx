@@ -1,5 +1,5 @@
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
-import { viewerUrl } from "../api/client";
+import { viewerPage, viewerUrl } from "../api/client";
 import type { Health } from "../api/types";
 import { viewerShow, viewerState, viewerView, type ViewSettings, type ViewerState } from "./api";
 import { layerRange, legendBlocks } from "./legend";
@@ -117,7 +117,7 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
   return (
     <div className="viewer3d" data-testid="viewer3d">
       <div className="viewer3d-scene">
-        <iframe title="3D view of the open recipe's latest run" src={`${url}/?embedded`} data-testid="viewer" />
+        <iframe title="3D view of the open recipe's latest run" src={viewerPage(health!, url)} data-testid="viewer" />
       </div>
       <aside className="viewer3d-panel" aria-label="3D view settings">
         <h2 className="panel-title">3D view</h2>
