@@ -1,7 +1,8 @@
 """#24 item 4 (long reads visible) and the 0.0005 mm STEP of item 5: STEP/IGES tessellation reports
 progress per face through the engine's node_progress events, stops between faces when the run is
 cancelled, and a chordal tolerance that would give too many triangles is refused up front with an
-estimate and the tolerance that would do. STEP files generated here with OpenCascade."""
+estimate and the tolerance that would do; mesh files report their read stages (parsed, welded,
+repaired) and stop between them. STEP files generated here with OpenCascade."""
 
 import threading
 import time
@@ -69,7 +70,7 @@ def test_engine_shows_tessellation_progress_and_cancels_it(tmp_path):
     events = []
     execute(_recipe("b.step"), resolver=FileResolver(tmp_path), on_event=events.append)
     mine = [e for e in events if e.kind == "node_progress" and e.node == "m"]
-    assert mine[0].message == "estimating the triangle count at chordal_tolerance 0.05 mm"
+    assert mine[0].message.startswith("read b.step (0.0")            # MB
     assert mine[-1].message.startswith("tessellated face 7 of 7 (")
 
     cancel = threading.Event()
@@ -105,3 +106,25 @@ def test_a_0_0005_mm_tolerance_is_refused_up_front_with_an_estimate(tmp_path):
     # the total cap is named when it is the one exceeded
     with pytest.raises(InputFileError, match=r"about [\d,]+ triangles in all, over the cap of 20,000 \(max_triangles\)"):
         execute(_recipe("torus.step", chordal_tolerance=0.01, max_triangles=20_000), resolver=FileResolver(tmp_path))
+
+
+def test_mesh_file_read_reports_its_stages_and_stops_between_them(tmp_path):
+    import trimesh
+
+    from waamflow.geometry.mesh_io import load_mesh_bytes
+
+    data = trimesh.exchange.stl.export_stl(trimesh.creation.icosphere(subdivisions=4, radius=20))   # 5120 triangles
+    seen = []
+    load_mesh_bytes(data, "ball.stl", crack_tolerance=0.1, stage=lambda f, m: seen.append((f, m)))
+    assert seen == [(0.2, "parsed 5,120 triangles (0.2 MB)"), (0.5, "welded 5,120 triangles into 2,562 vertices"),
+                    (0.8, "checked and repaired 5,120 faces (0 open, 0 non-manifold edges left)")]
+
+    (tmp_path / "ball.stl").write_bytes(data)
+    cancel = threading.Event()
+
+    def sink(e):
+        if e.kind == "node_progress" and e.node == "m":
+            cancel.set()
+
+    with pytest.raises(CancelledError):
+        execute(_recipe("ball.stl"), resolver=FileResolver(tmp_path), on_event=sink, cancel=cancel)

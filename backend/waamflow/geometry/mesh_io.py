@@ -20,6 +20,7 @@ import io
 import warnings
 from dataclasses import dataclass
 from pathlib import PurePosixPath
+from typing import Callable
 
 import numpy as np
 
@@ -238,6 +239,7 @@ def mesh_from_triangles(
     weld_tolerance: float = 0.0,
     stats: dict | None = None,
     crack_tolerance: float | None = None,
+    stage: Callable[[float, str], None] | None = None,
 ) -> MeshData:
     """Weld a triangle soup (m, 3, 3) in `units` into a MeshData in mm.
 
@@ -252,12 +254,16 @@ def mesh_from_triangles(
     (after placement) added to stats. Faces that
     collapse to a line are dropped; a mesh wound inside out (negative volume) is flipped so face
     normals point outwards. source: how error messages name the input (default: name).
+    stage(fraction, message), optional: called after welding and after repair (a long read shows
+    where it is; the caller may raise from it to cancel).
     """
     label = source or name
     tri = np.asarray(triangles)
     if tri.size == 0:
         raise InputFileError(f"{label}: mesh is empty (no triangles)")
     verts, inverse = merge_vertices(tri.reshape(-1, 3))
+    if stage:
+        stage(0.5, f"welded {len(tri):,} triangles into {len(verts):,} vertices")
     if not np.isfinite(verts).all():
         raise InputFileError(f"{label}: mesh has non-finite (NaN/inf) vertex coordinates")
     faces = drop_degenerate(inverse.reshape(-1, 3))
@@ -274,6 +280,9 @@ def mesh_from_triangles(
     if crack_tolerance is not None:
         verts, faces, fixes = repair_mesh(verts, faces, crack_tolerance=crack_tolerance / unit_scale(units))
         rep = fixes["edges"]
+        if stage:
+            stage(0.8, f"checked and repaired {len(faces):,} faces ({rep.open} open, {rep.nonmanifold} "
+                       "non-manifold edges left)")
     if stats is not None:
         stats["welded"] = welded
         stats.update(fixes)
@@ -316,8 +325,10 @@ def load_mesh_bytes(
     stats: dict | None = None,
     require_closed: bool = True,
     crack_tolerance: float | None = None,
+    stage: Callable[[float, str], None] | None = None,
 ) -> MeshData:
     """Parse, weld, check and place a mesh file's content. Raises InputFileError on bad input.
+    stage(fraction, message): optional progress after parsing, welding and repair.
 
     units: the file's length unit, or "file" for the unit the file declares (`mesh_file_units`).
     weld_tolerance: mm, 0 = weld bit-identical corners only (see `mesh_from_triangles`)."""
@@ -326,9 +337,11 @@ def load_mesh_bytes(
     if len(data) > limits.max_bytes:
         raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
+    if stage:
+        stage(0.2, f"parsed {len(tri):,} triangles ({len(data) / 2**20:.1f} MB)")
     return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
                                source=filename, weld_tolerance=weld_tolerance, stats=stats,
-                               require_closed=require_closed, crack_tolerance=crack_tolerance)
+                               require_closed=require_closed, crack_tolerance=crack_tolerance, stage=stage)
 
 
 def classify_mesh(stats: dict, as_: str, label: str) -> str:

@@ -91,6 +91,14 @@ def _shifted(part, shift):
     return MeshData(vertices=part.vertices + shift, faces=part.faces, name=part.name, surface=part.surface)
 
 
+def _stage(ctx):
+    """A kernel's stage callback: report progress, then stop here if the run was cancelled."""
+    def stage(fraction: float, message: str) -> None:
+        ctx.progress(fraction, message)
+        ctx.check_cancelled()
+    return stage
+
+
 def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> Midsurface | None:
     """The midsurface of an open CAD surface made of vertical walls (its bottom curves extruded),
     in mm after the unit factor k and the transform; None (with the reason warned) when the faces
@@ -229,6 +237,8 @@ class MeshNode(Node):
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
+        ctx.progress(0.0, f"read {params.path} ({len(data) / 2**20:.1f} MB)")
+        ctx.check_cancelled()
         t = params.transform
         transform = Transform(translate=t.translate, rotate_deg=t.rotate_deg, scale=t.scale)
         if is_cad_file(params.path):
@@ -247,6 +257,7 @@ class MeshNode(Node):
                 weld_tolerance=params.weld_tolerance,
                 stats=weld,
                 crack_tolerance=params.crack_tolerance,
+                stage=_stage(ctx),
             )
             _report_mesh(ctx, params, mesh, weld)
             if classify_mesh(weld, params.as_, params.path) == "surface":
