@@ -534,6 +534,24 @@ def main(docs: Path = DOCS) -> list[Path]:
     return list(pages)
 
 
+# docs/img/<name> ← out/e2e/<file>: screenshots the e2e run takes (frontend/e2e/gui.e2e.mjs)
+SCREENSHOTS = {f"gui-{n}.png": f"{n}.png" for n in
+               ("01-start", "08-new-graph", "09-failure", "10-two-masks", "11-xml-filled", "12-results")}
+
+
+def copy_screenshots(src: Path = ROOT / "out" / "e2e", docs: Path = DOCS) -> list[Path]:
+    """Refresh the Getting-started screenshots from the last e2e run (`npm run test:e2e`). Opt in
+    (`--screenshots`): a PNG differs byte-wise on every run, so `make docs` leaves them alone."""
+    import shutil
+
+    out = []
+    for name, file in SCREENSHOTS.items():
+        if (src / file).is_file():
+            shutil.copyfile(src / file, docs / "img" / name)
+            out.append(docs / "img" / name)
+    return out
+
+
 if __name__ == "__main__":
-    for p in main():
+    for p in main() + (copy_screenshots() if "--screenshots" in sys.argv[1:] else []):
         print(p.relative_to(ROOT))
