@@ -127,17 +127,19 @@ def test_isolated_tube_goes_helical_non_isolated_scattered():
 
 def test_crossing_radii_bounds():
     from waamflow.features import crossing_bounds
-    rc_max, ri_min = crossing_bounds(4.0, 90.0, 2.0)
-    assert rc_max == pytest.approx(4.0 / math.sqrt(2))       # 2.83 mm: the study's 2.0 and 2.5 fit
-    assert ri_min == pytest.approx(math.hypot(2.0, 2.0))     # 2.83 mm: 7, 8 and 10 clear it
-    assert crossing_bounds(4.0, 60.0, 2.0)[0] == pytest.approx(4.0)   # narrower corner: larger bound
+    from waamflow.features.walls import crossing_window
+    rc_max, ri_min = crossing_bounds(4.0, 90.0)
+    assert rc_max == pytest.approx(2.0)                       # w/2: the cut wall ends reach the crossing
+    assert ri_min == pytest.approx(4.0 * math.sqrt(2))       # w/sin(45°): one bead width off both branches
+    assert crossing_bounds(4.0, 60.0) == (2.0, pytest.approx(8.0))   # narrower corner: larger influence
+    assert crossing_window(5.0, 90.0) == (pytest.approx(2.0), pytest.approx(10.0))   # the study's Test 3
     curves = [c((-30, 0), (30, 0)), c((0, -30), (0, 30))]
-    ok = plan(curves, bead_width=4.0)
+    ok = plan(curves, bead_width=5.0)
     assert ok.warnings == ()
-    bad = plan(curves, bead_width=4.0, cut_radius=3.5)
-    assert len(bad.warnings) == 1 and "void" in bad.warnings[0]
-    bad = plan(curves, bead_width=4.0, cut_radius=2.0, influence_radius=2.5)
-    assert len(bad.warnings) == 1 and "inside the wall" in bad.warnings[0]
+    bad = plan(curves, bead_width=5.0, cut_radius=3.5)
+    assert len(bad.warnings) == 1 and "void" in bad.warnings[0] and "beyond the bound itself" in bad.warnings[0]
+    bad = plan(curves, bead_width=5.0, cut_radius=2.0, influence_radius=2.5)
+    assert len(bad.warnings) == 1 and "thin fillets" in bad.warnings[0] and "below the bound itself" in bad.warnings[0]
 
 
 def test_self_crossing_is_cut_like_a_direct_crossing():

@@ -5,12 +5,14 @@ walls: features → one bead pass per wall entity (crossing circles, free-end ex
 tubular: helical / aligned / scattered laps of tubulars.
 """
 
-from .recognition import FEATURE_KINDS, FeatureSet, RecognitionSpec, features_for_layer, recognise, recognise_layers
+from .recognition import (FEATURE_KINDS, FeatureSet, RecognitionSpec, features_for_layer, join_collinear, recognise,
+                          recognise_layers)
 from .tubular import aligned_loop, helix, scattered_loop
-from .walls import LayerWalls, WallPass, WallSpec, crossing_bounds, crossing_geometry, plan_layer_walls
+from .walls import (LayerWalls, WallPass, WallSpec, crossing_bounds, crossing_geometry, crossing_window,
+                    plan_layer_walls)
 
 __all__ = [
-    "FEATURE_KINDS", "FeatureSet", "RecognitionSpec", "features_for_layer", "recognise", "recognise_layers",
+    "FEATURE_KINDS", "FeatureSet", "RecognitionSpec", "features_for_layer", "join_collinear", "recognise", "recognise_layers",
     "aligned_loop", "helix", "scattered_loop",
-    "LayerWalls", "WallPass", "WallSpec", "crossing_bounds", "crossing_geometry", "plan_layer_walls",
+    "LayerWalls", "WallPass", "WallSpec", "crossing_bounds", "crossing_geometry", "crossing_window", "plan_layer_walls",
 ]

@@ -17,6 +17,18 @@ number of branches:
     3         2     4         odd_direct_crossing      (6, 2)
     4         4     4         four_direct_crossing     (12, 4)
 
+A drawn entity split where another wall passes (an X whose crossing arm is two collinear curves)
+stays two entities even when the sketch reader joined it into one polyline: a sketch joint on a
+pass-through counts as two entity ends there, so that X is an odd direct crossing as in the study.
+Curves that continue each other across a small gap are joined first (`join_collinear`).
+
+T sub-types (study: straight / open / closed T-crossing), for every three-branch crossing, by the
+largest angle θ between neighbouring branches and the flat-corner threshold c = corner_angle_deg:
+straight when 180° − c < θ < 180° + c (a flat side, bridged straight across), open when
+θ ≥ 180° + c (a reflex side: the stem stands inside a bent wall's corner), closed when
+θ ≤ 180° − c (every side a fillet corner). Reported as "subtype" on t_crossing and
+odd_t_crossing (a straight odd_t_crossing is a straight wall split at the stem).
+
 Other combinations map by branch count: 3 branches → t_crossing (2 entities) or odd_t_crossing
 (≥ 3); ≥ 4 branches → direct_crossing / odd_direct_crossing / four_direct_crossing by entities.
 A sharp vertex inside one polyline (turning by at least `corner_angle_deg`) is a corner too, and
@@ -64,12 +76,18 @@ class RecognitionSpec:
     turn by at least this angle (0 = straight on) is a corner, else continuous. encumbrance: mm,
     the torch's maximum encumbrance (diameter), for the isolated-tubular test. continuous_min_deg:
     a vertex inside one polyline whose walls turn by at least this angle (and less than
-    corner_angle_deg, without a run of similar turns around it) is a continuous junction."""
+    corner_angle_deg, without a run of similar turns around it) is a continuous junction.
+    join_gap (mm), join_angle_deg: two open curve ends at most join_gap apart whose curves continue
+    each other (end directions opposite, and the gap along them, within join_angle_deg) are joined
+    before classifying (`join_collinear`): a crossing arm drawn as two collinear curves that stop
+    short of the other wall meets it."""
 
     merge_tol: float = TOL.merge
     corner_angle_deg: float = 30.0
     encumbrance: float = 30.0
     continuous_min_deg: float = 2.0
+    join_gap: float = 0.05
+    join_angle_deg: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,18 +142,84 @@ def _angle(v) -> float:
 
 
 # ------------------------------------------------------------------------------------------
+# Joining collinear curves
+# ------------------------------------------------------------------------------------------
+def _end_direction(c: np.ndarray, at_start: bool, tol: float) -> np.ndarray:
+    """Unit direction pointing out of the curve beyond its start (or end)."""
+    seq = c if at_start else c[::-1]
+    nxt = next((q for q in seq[1:] if np.hypot(*(q - seq[0])) > tol), seq[-1])
+    return _unit(seq[0] - nxt)
+
+
+def join_collinear(curves: list[np.ndarray], gap: float, angle_deg: float, tol: float) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
+    """Join open curves that continue each other across a gap of at most `gap` mm.
+
+    Two ends of different open curves are joined when they are within `gap` of each other, the
+    curves leave them in opposite directions (within `angle_deg`) and the gap runs along them
+    (within `angle_deg`): the same wall drawn as two collinear pieces, e.g. an X's crossing arm that
+    stops short of the other wall on both sides. Both ends move to one point: where another curve
+    crosses the gap, else its midpoint. The pieces stay separate curves (the study counts drawn
+    entities: that X is an odd direct crossing), now meeting. Ends already within `tol` are left as
+    they are. Each end joins at most once (its nearest partner). Returns (curves, join points).
+    """
+    curves = [np.array(c, float) for c in curves]
+    if gap <= tol:
+        return curves, []
+    cos_a = math.cos(math.radians(angle_deg))
+    ends = [(ci, at_start) for ci, c in enumerate(curves) if len(c) >= 2 and not is_closed(c, tol)
+            for at_start in (True, False)]
+    if len(ends) < 2:
+        return curves, []
+    from scipy.spatial import cKDTree  # lazy: keeps start-up light
+    pts = np.array([curves[ci][0] if a else curves[ci][-1] for ci, a in ends])
+    dirs = np.array([_end_direction(curves[ci], a, tol) for ci, a in ends])
+    pairs = []
+    for i, j in cKDTree(pts).query_pairs(gap):
+        if ends[i][0] == ends[j][0]:
+            continue
+        d = pts[j] - pts[i]
+        dist = float(np.hypot(*d))
+        if dist <= tol or float(dirs[i] @ dirs[j]) > -cos_a:
+            continue
+        if float(d @ dirs[i]) < dist * cos_a or float(-d @ dirs[j]) < dist * cos_a:
+            continue
+        pairs.append((dist, i, j))
+    used: set[int] = set()
+    lines = [LineString(c) for c in curves]
+    joins: list[tuple[float, float]] = []
+    for dist, i, j in sorted(pairs):
+        if i in used or j in used:
+            continue
+        used.update((i, j))
+        seg = LineString([pts[i], pts[j]])
+        mid = (pts[i] + pts[j]) / 2.0
+        target = mid
+        hits = [q for k, line in enumerate(lines) if k not in (ends[i][0], ends[j][0])
+                for q in _intersection_points(seg.intersection(line))]
+        if hits:
+            target = np.asarray(min(hits, key=lambda q: float(np.hypot(*(np.asarray(q) - mid)))), float)
+        for k in (i, j):
+            ci, at_start = ends[k]
+            curves[ci][0 if at_start else -1] = target
+        joins.append((float(target[0]), float(target[1])))
+    return curves, joins
+
+
+# ------------------------------------------------------------------------------------------
 # Junctions
 # ------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Incidence:
     """Curve `curve` meets a junction at arc length `s` (mm); `end` is True when the curve ends
     there. directions: unit (2,) vectors leaving the junction along the curve (1 for an end,
-    2 for a pass-through)."""
+    2 for a pass-through). split: a pass-through where the sketch joined two drawn entities end to
+    end (counts as two entities ending there)."""
 
     curve: int
     s: float
     end: bool
     directions: tuple[tuple[float, float], ...]
+    split: bool = False
 
 
 @dataclass(frozen=True)
@@ -145,11 +229,11 @@ class Junction:
 
     @property
     def entities(self) -> int:
-        return len({i.curve for i in self.incidences})
+        return len({i.curve for i in self.incidences}) + sum(1 for i in self.incidences if i.split)
 
     @property
     def ends(self) -> int:
-        return sum(1 for i in self.incidences if i.end)
+        return sum(1 for i in self.incidences if i.end) + 2 * sum(1 for i in self.incidences if i.split)
 
     @property
     def branches(self) -> list[np.ndarray]:
@@ -227,8 +311,18 @@ def self_crossings(line: LineString) -> list[tuple[float, float]]:
     return [q for q, n in counts.items() if n >= 3 or (n == 2 and q not in ends)]
 
 
-def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
-    """All end points and intersections, merged within `tol` (mm), with their incidences."""
+def _joined_at(c: np.ndarray, p: np.ndarray, splits: np.ndarray, tol: float) -> bool:
+    """True when polyline c has a vertex at p (within tol) that is a join point in `splits`: the
+    curve was two drawn entities meeting there."""
+    if not len(splits) or float(np.hypot(*(splits - p).T).min()) > tol:
+        return False
+    return bool(float(np.hypot(*(c - p).T).min()) <= tol)
+
+
+def find_junctions(curves: list[np.ndarray], tol: float, splits=(), split_tol: float = 0.0) -> list[Junction]:
+    """All end points and intersections, merged within `tol` (mm), with their incidences.
+    splits: (x, y) points where two drawn entities were joined end to end into one curve; a
+    pass-through of a curve with a vertex within max(tol, split_tol) of one is marked `split`."""
     from scipy.spatial import cKDTree  # lazy: keeps start-up light
     lines = [LineString(c) for c in curves]
     closed = [is_closed(c, tol) for c in curves]
@@ -260,6 +354,8 @@ def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
     for k in range(len(pts)):
         groups.setdefault(find(k), []).append(k)
     step = max(100 * tol, 1e-4)
+    split_pts = np.asarray(splits, float).reshape(-1, 2)
+    stol = max(tol, split_tol)
     junctions: list[Junction] = []
     for members in groups.values():
         p = pts[members].mean(axis=0)
@@ -281,7 +377,8 @@ def find_junctions(curves: list[np.ndarray], tol: float) -> list[Junction]:
                 else:
                     d1 = direction_at(line, s_, 1.0, closed[j], step)
                     d2 = direction_at(line, s_, -1.0, closed[j], step)
-                    incs.append(Incidence(j, s_, False, (tuple(d1), tuple(d2))))
+                    split = _joined_at(c, p, split_pts, stol)
+                    incs.append(Incidence(j, s_, False, (tuple(d1), tuple(d2)), split))
         incs.sort(key=lambda i: (i.curve, i.s))
         junctions.append(Junction((float(p[0]), float(p[1])), tuple(incs)))
     junctions.sort(key=lambda jn: (round(jn.point[0], 6), round(jn.point[1], 6)))
@@ -307,6 +404,18 @@ def classify(j: Junction, corner_angle_deg: float) -> str | None:
     if ents == 3:
         return "odd_direct_crossing"
     return "four_direct_crossing"
+
+
+def t_subtype(branches: list[np.ndarray], corner_angle_deg: float) -> str:
+    """Sub-type of a three-branch crossing (study: straight / open / closed T-crossing) from the
+    largest angle θ between neighbouring branches: straight when within corner_angle_deg of 180°,
+    open when larger (a reflex side), closed when smaller (every side a fillet corner)."""
+    theta = max(_corner_angles(branches))
+    if theta >= 180.0 + corner_angle_deg:
+        return "open"
+    if theta <= 180.0 - corner_angle_deg:
+        return "closed"
+    return "straight"
 
 
 def _corner_angles(branches: list[np.ndarray]) -> list[float]:
@@ -335,7 +444,7 @@ def find_loops(curves: list[np.ndarray], junctions: list[Junction], kinds: list[
         return a
 
     for j, kind in zip(junctions, kinds):
-        if kind in JUNCTION_KINDS:
+        if kind in JUNCTION_KINDS and len(j.incidences) == 2:
             a, b = (inc.curve for inc in j.incidences)
             parent[find(a)] = find(b)
     groups: dict[int, list[int]] = {}
@@ -466,7 +575,8 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     curves = [c for c in curves if len(c) >= 2]
     tol = spec.merge_tol
-    junctions = find_junctions(curves, tol)
+    curves, _ = join_collinear(curves, spec.join_gap, spec.join_angle_deg, tol)
+    junctions = find_junctions(curves, tol, joints, spec.join_gap)
     kinds = [classify(j, spec.corner_angle_deg) for j in junctions]
     feats: list[dict] = []
 
@@ -486,6 +596,8 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
         if kind in CROSSING_KINDS:
             f["directions"] = [[round(float(d[0]), 9), round(float(d[1]), 9)] for d in br]
             f["corner_angles_deg"] = [round(a, 3) for a in _corner_angles(br)]
+            if len(br) == 3:
+                f["subtype"] = t_subtype(br, spec.corner_angle_deg)
         feats.append(f)
     jpts = [np.array(j.point) for j in junctions]
     for ci, c in enumerate(curves):

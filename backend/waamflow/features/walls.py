@@ -12,6 +12,15 @@ cutting point instead. Study trials: r_i/r_c = 10.0/2.0 mm was best (7.0/2.5 lef
 fillets). Free ends are extended by a length beyond the wall so arc ignition/extinction land in
 stock that is machined off. Tubulars: see `tubular.py`.
 
+Crossing-radius bounds (`crossing_bounds`, `crossing_window`) follow the paper's description,
+and the radii its trials found defective are warned about by junction and radius (see there).
+The user's wall widths (effective EWW after machining, total TWW as deposited = the bead width,
+deposition efficiency DE = EWW/TWW) and the part's internal fillet radius R_f are used where the
+study uses them: the bead width in the radius bounds; at corner junctions the path turns on the
+midsurface of the filleted wall (radius R_f + EWW/2, uniform machining stock round the corner);
+at crossings (T, X) the fillet corners are checked to get metal from the walls and fillet leads
+(`fillet_uncovered`).
+
 All coordinates are layer-local (x, y) mm. Passes come out in a greedy nearest-neighbour order
 (each pass may be reversed: no branch needs a particular direction), igniting in machining stock
 where a pass has it at one end only (seam "stock").
@@ -27,7 +36,10 @@ import numpy as np
 from shapely.geometry import LineString
 from shapely.ops import substring
 
-from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, is_closed, passes_through
+from shapely.geometry import Point, Polygon
+from shapely.ops import unary_union
+
+from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, is_closed, join_collinear, passes_through
 from .tubular import aligned_loop, scattered_loop
 
 TubularStrategy = Literal["helical", "aligned", "scattered"]
@@ -39,8 +51,13 @@ class WallSpec:
     free_end_extension: path extension beyond a free wall end (mm). tubular: strategy for isolated
     tubulars (non-isolated ones are always built layer by layer, scattered). overlap: O_l, the
     self-overlap at the stop of a start–stop tubular lap (mm, ≈ crater length).
-    corner_angle_deg: corners turning less than this are flat (no fillet). bead_width: mm, for the
-    theoretical bounds on the crossing radii (`crossing_bounds`); 0 = no check."""
+    corner_angle_deg: corners turning less than this are flat (no fillet). bead_width: mm, the
+    total wall width TWW as deposited, for the bounds on the crossing radii (`crossing_bounds`,
+    `crossing_window`) and the fillet check; 0 = no check. eww: mm, effective wall width after
+    machining (0 = the bead width). fillet_radius: mm, the part's internal fillet radius R_f
+    (corners turn on radius R_f + EWW/2; crossings' fillet corners are checked); 0 = sharp.
+    join_gap (mm), join_angle_deg: collinear curve ends this close are joined first
+    (`recognition.join_collinear`, as the recognition does)."""
 
     cut_radius: float = 2.0
     influence_radius: float = 10.0
@@ -50,6 +67,15 @@ class WallSpec:
     corner_angle_deg: float = 30.0
     tol: float = 1e-6
     bead_width: float = 0.0
+    eww: float = 0.0
+    fillet_radius: float = 0.0
+    join_gap: float = 0.05
+    join_angle_deg: float = 1.0
+
+    @property
+    def effective_width(self) -> float:
+        """EWW (mm): the given one, else the bead width (no machining allowance)."""
+        return self.eww if self.eww > 0 else self.bead_width
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,21 +244,76 @@ def crossing_geometry(center, directions, cut_radius: float, influence_radius: f
     return CrossingGeometry(cuts, infl, alpha, lengths)
 
 
-def crossing_bounds(bead_width: float, corner_angle_deg: float, cut_radius: float) -> tuple[float, float]:
-    """The study's theoretical bounds on the crossing radii for bead width w (mm) and the
-    narrowest fillet corner α (deg), as we read them:
+# The study's trials (Venturini et al. 2018, §4.2; 80 A, 18 V, 300 mm/min, WFS 4.6 m/min, a bead
+# of ~5 mm): the theoretical radii (Test 1, 7.0/2.5 mm) left a central void and thin fillets, 8.0/2.0
+# (Test 2) still thin fillets, 10.0/2.0 (Test 3) was sound. Scaled by the theoretical bounds at
+# w = 5 mm (2.5 / 7.07 mm): a sound cut radius is at most 0.8 of its bound, a sound influence
+# radius at least √2 times its bound. Scaling them with the bead width and corner angle is ours.
+TRIAL_CUT_SHARE = 0.8
+TRIAL_INFLUENCE_FACTOR = math.sqrt(2.0)
 
-    - cutting circle ≤ the circle through the centres of bead-width circles (diameter w) centred
-      on neighbouring branches and tangent to each other: r_c ≤ (w/2) / sin(α/2)
-      (w/√2 at a right-angled crossing); larger leaves a void at the centre;
-    - influence circle ≥ the reach of the bead-width segments perpendicular to the branches at the
-      cut points, c_k ± (w/2)·n_k: r_i ≥ √(r_c² + (w/2)²); the arc then starts in stock that is
-      machined off.
 
-    Returns (largest cut radius, smallest influence radius), mm.
+def crossing_bounds(bead_width: float, corner_angle_deg: float = 90.0) -> tuple[float, float]:
+    """The study's theoretical bounds on the crossing radii for bead width w (mm) and the narrowest
+    fillet corner α (deg). Returns (largest cut radius, smallest influence radius), mm.
+
+    Paper: the cutting circle's maximum "should intersect the centers" of "the four circles (one
+    for each branch of the crossing) with diameter equal to the bead width, centered on the branches
+    and tangent between each other"; the minimum influence circle "should be tangent to the four
+    segments (one per each of the crossing branches) perpendicular to the skeleton line and having a
+    length equal to the bead width".
+
+    Our reading:
+    - cut: the bead-width circles are the rounded ends of the cut walls. Tangent across the
+      crossing (each opposite pair touching at the crossing point), their centres lie w/2 from it:
+      r_c ≤ w/2 — the wall ends then still reach the crossing point, a larger circle leaves a void
+      there (the study's failure mode). Reading "tangent" between neighbouring circles instead,
+      r_c = (w/2)/sin(α/2) = w/√2, puts a void at the centre by construction, and with any one w
+      no influence reading then meets Test 1's 7.0 mm as well as 2.5 mm.
+    - influence: each segment stands on its branch, perpendicular to it, one bead width long; its
+      far end, on the corner bisector, is one bead width from both neighbouring branches, so an
+      arc started there lays its bead (w/2 each side) outside both walls' beads, in stock that is
+      machined off: r_i ≥ w / sin(α/2) (√2·w at a right angle).
+    At a right-angled crossing one bead width, 4.95 mm, gives (2.475, 7.000) mm: Test 1's
+    (2.5, 7.0) to the paper's 0.1 mm (any w in [6.95/√2, 7.05/√2) = [4.914, 4.985) mm does); w = 5 mm gives 2.5/7.07.
+    No reading gives both exactly: constructions from bead-width circles and segments at a right
+    angle give ratios r_i/r_c that are multiples of √2 (here 2√2 = 2.83), Test 1's is 2.8.
     """
-    half = bead_width / 2.0
-    return half / math.sin(math.radians(corner_angle_deg) / 2.0), math.hypot(cut_radius, half)
+    half = math.radians(corner_angle_deg) / 2.0
+    return bead_width / 2.0, bead_width / math.sin(half)
+
+
+def crossing_window(bead_width: float, corner_angle_deg: float = 90.0) -> tuple[float, float]:
+    """Radii the study's trials found sound, scaled to bead width w (mm) and narrowest fillet corner
+    α (deg): (largest cut radius, smallest influence radius) = (0.8·w/2, √2·w/sin(α/2)); for
+    w = 5 mm at a right angle (2.0, 10.0) mm — Test 3."""
+    rc_max, ri_min = crossing_bounds(bead_width, corner_angle_deg)
+    return TRIAL_CUT_SHARE * rc_max, TRIAL_INFLUENCE_FACTOR * ri_min
+
+
+def _where(f: dict) -> str:
+    return f"{f['kind']} at {[round(float(x), 3) + 0.0 for x in f['point']]}"
+
+
+def radius_warnings(f: dict, spec: "WallSpec", narrowest_deg: float) -> list[str]:
+    """Warnings for crossing radii the study's trials found defective, naming junction and radius."""
+    w = spec.bead_width
+    rc_max, ri_min = crossing_bounds(w, narrowest_deg)
+    rc_ok, ri_ok = crossing_window(w, narrowest_deg)
+    eps = 1e-9
+    out = []
+    if spec.cut_radius > rc_ok + eps:
+        beyond = " — beyond the bound itself" if spec.cut_radius > rc_max + eps else ""
+        out.append(f"{_where(f)}: cut_radius {spec.cut_radius:g} mm exceeds {rc_ok:.1f} mm, 0.8 × the "
+                   f"theoretical maximum w/2 = {rc_max:.2f} mm for bead width {w:g} mm{beyond}: the study's "
+                   "Test 1 at the theoretical radius left a central void (Venturini et al. 2018); lower it")
+    if spec.influence_radius < ri_ok - eps:
+        beyond = " — below the bound itself" if spec.influence_radius < ri_min - eps else ""
+        out.append(f"{_where(f)}: influence_radius {spec.influence_radius:g} mm is below {ri_ok:.1f} mm, √2 × "
+                   f"the theoretical minimum w/sin(α/2) = {ri_min:.2f} mm (bead width {w:g} mm, fillet corner "
+                   f"{narrowest_deg:g}°){beyond}: the study's Tests 1-2 (7.0 and 8.0 mm with a 5 mm bead) left "
+                   "thin fillets; raise it")
+    return out
 
 
 def _apply_crossing(chains: list[_Chain], f: dict, spec: WallSpec, notes: list[str]) -> None:
@@ -253,14 +334,7 @@ def _apply_crossing(chains: list[_Chain], f: dict, spec: WallSpec, notes: list[s
     geo = crossing_geometry(J, [e[2] for e in ends], spec.cut_radius, spec.influence_radius, spec.corner_angle_deg)
     fillets = geo.corner_angles_deg[~np.isnan(geo.fillet_lengths)]
     if spec.bead_width > 0 and len(fillets):
-        rc_max, ri_min = crossing_bounds(spec.bead_width, float(fillets.min()), spec.cut_radius)
-        where = f"{f['kind']} at {np.round(J, 3).tolist()}"
-        if spec.cut_radius > rc_max + 1e-9:
-            notes.append(f"{where}: cut_radius {spec.cut_radius:g} mm > {rc_max:.2f} mm (bead-width circles "
-                         "no longer meet: void at the centre)")
-        if spec.influence_radius < ri_min - 1e-9:
-            notes.append(f"{where}: influence_radius {spec.influence_radius:g} mm < {ri_min:.2f} mm (arc starts "
-                         "inside the wall)")
+        notes.extend(radius_warnings(f, spec, float(fillets.min())))
     trimmed_ok = []
     for k, (ch, at_start, _d) in enumerate(ends):
         seq = ch.xy if at_start else ch.xy[::-1]
@@ -309,6 +383,121 @@ def _apply_free_end(chains: list[_Chain], f: dict, spec: WallSpec) -> None:
                 ch.head, ch.head_inside = [ext], [False]
             else:
                 ch.tail, ch.tail_inside = [ext], [False]
+
+
+# ------------------------------------------------------------------------------------------
+# Fillets
+# ------------------------------------------------------------------------------------------
+# Largest sagitta (mm) of the chords that lay a corner fillet arc: far below a bead's ripple.
+FILLET_SAGITTA = 0.002
+
+
+def _arc(a: np.ndarray, b: np.ndarray, center: np.ndarray, radius: float, left: bool) -> np.ndarray:
+    """(m, 2) points from a to b (both on the circle) along the shorter arc, turning left or right,
+    chords deviating at most FILLET_SAGITTA from the arc; a and b excluded."""
+    a0 = math.atan2(*(a - center)[::-1])
+    b0 = math.atan2(*(b - center)[::-1])
+    sweep = (b0 - a0) % (2 * math.pi) if left else -((a0 - b0) % (2 * math.pi))
+    step = 2.0 * math.acos(max(1.0 - FILLET_SAGITTA / radius, -1.0))
+    n = max(8, int(math.ceil(abs(sweep) / step)))
+    t = a0 + sweep * np.arange(1, n) / n
+    return center + radius * np.column_stack([np.cos(t), np.sin(t)])
+
+
+def round_corners(xy: np.ndarray, corners: list[dict], radius: float, tol: float) -> tuple[np.ndarray, list[str]]:
+    """Turn the path `xy` (k, 2) at every interior vertex that is a corner feature on an arc of
+    `radius` mm tangent to both walls (a shorter wall clips the radius, with a note). Corner
+    features: dicts with "point" and "kind". Returns (new points, notes)."""
+    if radius <= 0 or len(xy) < 3 or not corners:
+        return xy, []
+    pts = np.array([f["point"] for f in corners], float)
+    at = [k for k in range(1, len(xy) - 1) if float(np.hypot(*(pts - xy[k]).T).min()) <= tol]
+    if not at:
+        return xy, []
+    notes: list[str] = []
+    out: list[np.ndarray] = [xy[0]]
+    for k in range(1, len(xy) - 1):
+        p = xy[k]
+        if k not in at:
+            out.append(p)
+            continue
+        u, v = _unit(p - xy[k - 1]), _unit(xy[k + 1] - p)
+        turn = math.atan2(u[0] * v[1] - u[1] * v[0], float(u @ v))
+        if abs(turn) < 1e-9:
+            out.append(p)
+            continue
+        share_a = 0.5 if k - 1 in at else 1.0         # a wall between two rounded corners: half each
+        share_b = 0.5 if k + 1 in at else 1.0
+        room = min(share_a * float(np.hypot(*(p - xy[k - 1]))), share_b * float(np.hypot(*(xy[k + 1] - p))))
+        r = radius
+        t = r * math.tan(abs(turn) / 2.0)
+        if t > room + 1e-9:
+            r = room / math.tan(abs(turn) / 2.0)
+            t = room
+            where = [round(float(x), 3) + 0.0 for x in p]
+            notes.append(f"corner at {where}: fillet path radius {radius:g} mm needs {radius * math.tan(abs(turn) / 2):.1f} "
+                         f"mm of straight wall each side, there is {room:.1f} mm: turned on {r:.2f} mm")
+        if r <= tol:
+            out.append(p)
+            continue
+        a, b = p - u * t, p + v * t
+        left = turn > 0
+        normal = np.array([-u[1], u[0]]) if left else np.array([u[1], -u[0]])
+        center = a + normal * r
+        out.append(a)
+        out.extend(_arc(a, b, center, r, left))
+        out.append(b)
+    out.append(xy[-1])
+    arr = np.asarray(out, float)
+    keep = np.concatenate([[True], np.hypot(*np.diff(arr, axis=0).T) > 1e-9])
+    return arr[keep], notes
+
+
+def fillet_region(center, d0, d1, eww: float, fillet_radius: float) -> Polygon:
+    """The finished fillet between two branches leaving `center` along unit d0 and d1 (CCW, corner
+    angle α < 180°): bounded by the wall faces at EWW/2 from the branches and the fillet arc of
+    radius R_f tangent to both. Polygon (mm)."""
+    center, d0, d1 = (np.asarray(x, float) for x in (center, d0, d1))
+    alpha = math.atan2(d0[0] * d1[1] - d0[1] * d1[0], float(d0 @ d1)) % (2 * math.pi)
+    bis = _unit(d0 + d1)
+    e, R = eww / 2.0, fillet_radius
+    q = center + bis * (e / math.sin(alpha / 2.0))                  # where the two faces meet
+    o = center + bis * ((e + R) / math.sin(alpha / 2.0))            # fillet arc centre
+    n0 = np.array([-d0[1], d0[0]])                                   # d0's normal into the corner
+    n1 = np.array([d1[1], -d1[0]])                                   # d1's normal into the corner
+    t0 = center + d0 * float((o - center) @ d0) + n0 * e
+    t1 = center + d1 * float((o - center) @ d1) + n1 * e
+    kite = Polygon([q, t0, o, t1])
+    return kite.difference(Point(o).buffer(R, quad_segs=64))
+
+
+def fillet_uncovered(f: dict, passes, spec: "WallSpec") -> list[tuple[float, float, float]]:
+    """Fillet corners of crossing `f` that the deposited beads (width spec.bead_width, centred on
+    `passes`) leave partly empty: (branch angle, next branch angle (deg), empty area mm²) for
+    each corner whose empty share of the finished fillet (radius spec.fillet_radius) exceeds 1 %."""
+    w, R = spec.bead_width, spec.fillet_radius
+    if w <= 0 or R <= 0 or "directions" not in f:
+        return []
+    J = np.asarray(f["point"], float)
+    dirs = [np.asarray(d, float) for d in f["directions"]]
+    reach = (spec.effective_width / 2.0 + R) * 4.0 + spec.influence_radius + w
+    near = Point(J).buffer(reach)
+    beads = [LineString(p.xy).buffer(w / 2.0, quad_segs=16) for p in passes
+             if len(p.xy) >= 2 and LineString(p.xy).intersects(near)]
+    deposit = unary_union(beads) if beads else Polygon()
+    out = []
+    for k, alpha in enumerate(f["corner_angles_deg"]):
+        if alpha > 180.0 - spec.corner_angle_deg:
+            continue                                                  # flat or reflex: no fillet
+        region = fillet_region(J, dirs[k], dirs[(k + 1) % len(dirs)], spec.effective_width, R)
+        if region.is_empty or region.area <= 0:
+            continue
+        empty = region.difference(deposit).area
+        if empty > 0.01 * region.area:
+            a0 = math.degrees(math.atan2(dirs[k][1], dirs[k][0])) % 360.0
+            a1 = math.degrees(math.atan2(dirs[(k + 1) % len(dirs)][1], dirs[(k + 1) % len(dirs)][0])) % 360.0
+            out.append((a0, a1, float(empty)))
+    return out
 
 
 # ------------------------------------------------------------------------------------------
@@ -363,6 +552,7 @@ def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), 
     """Passes of one layer from its curves ((k, 2) arrays or LineStrings, mm) and its features."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     tol = spec.tol
+    curves, _ = join_collinear(curves, spec.join_gap, spec.join_angle_deg, tol)
     notes: list[str] = []
     tubes = [f for f in features if f["kind"] == "tubular"]
     in_tubes = {e for f in tubes for e in f["entities"]}
@@ -375,10 +565,23 @@ def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), 
     for f in features:
         if f["kind"] == "free_end":
             _apply_free_end(chains, f, spec)
+    corners = [f for f in features if f["kind"] == "corner"]
+    corner_r = spec.fillet_radius + spec.effective_width / 2.0 if spec.fillet_radius > 0 else 0.0
+    for ch in chains:
+        if not ch.dropped and corner_r > 0:
+            ch.xy, more = round_corners(ch.xy, corners, corner_r, max(tol, 1e-6))
+            notes.extend(more)
     passes: list[WallPass] = []
     for k, ch in enumerate(c for c in chains if not c.dropped):
         xy, inside = ch.path()
         passes.append(WallPass(f"wall{k}", "wall", xy, inside))
+    if spec.fillet_radius > 0 and spec.bead_width > 0:
+        for f in crossings:
+            for a0, a1, empty in fillet_uncovered(f, passes, spec):
+                notes.append(f"{_where(f)}: fillet_radius {spec.fillet_radius:g} mm between the branches at "
+                             f"{a0:.0f}° and {a1:.0f}° gets no metal on {empty:.1f} mm² (bead {spec.bead_width:g} "
+                             f"mm, EWW {spec.effective_width:g} mm): raise influence_radius or the bead width, "
+                             "or lower fillet_radius")
     helical: list[tuple[str, np.ndarray]] = []
     for k, f in enumerate(tubes):
         ring = chain_loop(curves, f["entities"], tol)

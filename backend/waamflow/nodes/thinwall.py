@@ -23,6 +23,10 @@ from ..features.recognition import curves_digest
 from ..features.tubular import aligned_loop, scattered_loop
 from ..features.walls import WallPass, order_passes
 
+# The bead of the study's trials (80 A, 18 V, 300 mm/min, WFS 4.6 m/min): ~5 mm, the width at
+# which its radii 2.0/10.0 mm were sound (see features.walls.crossing_window).
+STUDY_BEAD_WIDTH = 5.0
+
 
 @register
 class FeaturesNode(Node):
@@ -32,8 +36,13 @@ class FeaturesNode(Node):
     it — or every distinct layer). End points and curve–curve intersections within `merge_tol` are
     one point; the entities, ends and branches there give the kind: free_end, corner/continuous
     (by `corner_angle_deg`), t_crossing, direct_crossing, odd_t_crossing, odd_direct_crossing,
-    four_direct_crossing. Closed loops touching nothing are tubulars, `isolated` when the band of
-    half the torch `encumbrance` about them touches no other curve. Writes `<node>.features.json`.
+    four_direct_crossing. Entities are counted as drawn: an X whose crossing arm is two collinear
+    curves is an odd direct crossing (also when the sketch joined them, or when they stop up to
+    `join_gap` short of the other wall). Three-branch crossings carry the study's T sub-type,
+    `subtype`: straight (a side within `corner_angle_deg` of 180°), open (a side wider: the stem
+    inside a bent wall's corner) or closed (every side narrower). Closed loops touching nothing
+    are tubulars, `isolated` when the band of half the torch `encumbrance` about them touches no
+    other curve. Writes `<node>.features.json`.
     """
 
     type = "features"
@@ -51,9 +60,16 @@ class FeaturesNode(Node):
         encumbrance: float = Field(30.0, gt=0, le=1000, json_schema_extra=unit("mm"),
                                    description="Torch maximum encumbrance (diameter) for the isolated-tubular test")
         every_layer: bool = Field(False, description="Recognise every distinct layer, not only the first")
+        join_gap: float = Field(0.05, ge=0, le=5.0, json_schema_extra=unit("mm"),
+                                description="Open curve ends this close whose curves continue each other (collinear "
+                                            "within join_angle_deg) are joined before classifying; 0 = only "
+                                            "coincident ends meet")
+        join_angle_deg: float = Field(1.0, ge=0, le=30, json_schema_extra=unit("deg"),
+                                      description="Angle tolerance for joining collinear curves")
 
     def run(self, ctx, params, inputs):
-        spec = RecognitionSpec(params.merge_tol, params.corner_angle_deg, params.encumbrance)
+        spec = RecognitionSpec(params.merge_tol, params.corner_angle_deg, params.encumbrance,
+                               join_gap=params.join_gap, join_angle_deg=params.join_angle_deg)
         fs = recognise_layers(inputs["layers"], spec, every_layer=params.every_layer)
         if not fs.layers:
             ctx.warn("no layer has midsurface curves: nothing to recognise (connect a sketch)")
@@ -78,7 +94,14 @@ class WallPathNode(Node):
     Curves are split into entities at crossings; corner/continuous junctions are deposited in one
     go. At crossings a cutting circle (`cut_radius`) removes the walls and, per fillet corner, a
     segment joins the branch's cut point to the influence-circle point (`influence_radius`) on the
-    corner bisector (study best: 10.0 / 2.0 mm); flat corners of a T are bridged across. Free ends
+    corner bisector (study best: 10.0 / 2.0 mm); flat corners of a T are bridged across. The
+    study's wall widths: `tww` (total wall width as deposited = the bead width), `eww` (effective,
+    after machining) and `deposition_efficiency` (EWW/TWW) — any two give the third, the bead
+    width is TWW (else `bead_width`, else the study's 5 mm). With it, radii the study's trials
+    found defective are warned by junction and radius (cut > 0.8·w/2, influence < √2·w/sin(α/2);
+    theoretical bounds w/2 and w/sin(α/2)). `fillet_radius` R_f: corners turn on the filleted
+    wall's midsurface, radius R_f + EWW/2; crossings warn where walls and fillet leads leave a
+    fillet corner partly empty. Free ends
     are extended by `free_end_extension` so ignition/extinction fall outside the useful wall.
     Isolated tubulars: `tubular` = helical (one continuous helix, pitch = layer height, placed in
     the first layer), aligned or scattered start–stop with self-overlap `overlap`; non-isolated
@@ -114,9 +137,20 @@ class WallPathNode(Node):
             "helical", description="Strategy for isolated tubulars")
         overlap: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
                                description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)")
-        bead_width: float = Field(4.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                                  description="Bead width: warns when the crossing radii leave the study's "
-                                              "theoretical bounds (0 = no check)")
+        bead_width: float | None = Field(None, ge=0, le=100, json_schema_extra=unit("mm"),
+                                         description="Bead width = total wall width TWW; empty: tww, else "
+                                                     "eww / deposition_efficiency, else 5 mm (the study's bead). "
+                                                     "Sets the crossing-radius bounds and the fillet check (0 = no check)")
+        eww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
+                           description="Effective wall width EWW, left after machining (0 = not given: the bead width)")
+        tww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
+                           description="Total wall width TWW as deposited, ≥ EWW: the bead width (0 = not given)")
+        deposition_efficiency: float = Field(0.0, ge=0, le=1, json_schema_extra=unit("1"),
+                                             description="DE = useful / deposited area = EWW / TWW for a single-bead "
+                                                         "wall; with EWW gives TWW (0 = not given)")
+        fillet_radius: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
+                                     description="Internal fillet radius R_f of the part: corners turn on R_f + EWW/2; "
+                                                 "crossings warn where the fillet leads leave it empty (0 = sharp)")
         spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
                                description="Point spacing of ring centre lines (region layers)")
         seam: Literal["stock", "nearest"] = Field(
@@ -129,6 +163,34 @@ class WallPathNode(Node):
                 raise ValueError("influence_radius must exceed cut_radius")
             return self
 
+        @model_validator(mode="after")
+        def _widths(self):
+            """EWW, TWW and DE = EWW/TWW: any two give the third; the bead width is TWW."""
+            eww, tww, de = self.eww, self.tww, self.deposition_efficiency
+            if eww and tww and eww > tww + 1e-9:
+                raise ValueError(f"eww {eww:g} mm exceeds tww {tww:g} mm: the wall as deposited must hold the "
+                                 "machined one")
+            if eww and tww and de and abs(eww / tww - de) > 5e-3:
+                raise ValueError(f"deposition_efficiency {de:g} disagrees with eww / tww = {eww:g} / {tww:g} = "
+                                 f"{eww / tww:.3f}: give two of the three")
+            if eww and de and not tww:
+                tww = self.tww = eww / de
+            elif tww and de and not eww:
+                eww = self.eww = tww * de
+            elif eww and tww and not de:
+                self.deposition_efficiency = eww / tww
+            if tww:
+                if self.bead_width is not None and abs(self.bead_width - tww) > 1e-9:
+                    raise ValueError(f"bead_width {self.bead_width:g} mm disagrees with tww {tww:g} mm (the bead "
+                                     "width is the total wall width): give one")
+                self.bead_width = tww
+            elif self.bead_width is None:
+                self.bead_width = STUDY_BEAD_WIDTH
+            if eww and self.bead_width and eww > self.bead_width + 1e-9:
+                raise ValueError(f"eww {eww:g} mm exceeds the bead width {self.bead_width:g} mm: give tww or "
+                                 "deposition_efficiency")
+            return self
+
     def run(self, ctx, params, inputs):
         layers: Layered[Layer] = inputs["layers"]
         fs = inputs.get("features")
@@ -136,7 +198,8 @@ class WallPathNode(Node):
             fs = recognise_layers(layers, RecognitionSpec())
         spec = WallSpec(params.cut_radius, params.influence_radius, params.free_end_extension,
                         params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol,
-                        params.bead_width)
+                        params.bead_width or 0.0, eww=params.eww, fillet_radius=params.fillet_radius,
+                        join_gap=fs.spec.join_gap, join_angle_deg=fs.spec.join_angle_deg)
         out: list[LayerPaths | None] = []
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
         warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
