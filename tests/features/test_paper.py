@@ -246,3 +246,36 @@ def test_fillet_radius_at_t_crossings_is_checked_against_the_fillet_leads():
     assert 0.01 * region.area < area < region.area
     wide = plan_layer_walls(T, recognise(T), WallSpec(2.0, 10.0, bead_width=7.0, eww=4.0, fillet_radius=10.0))
     assert not any("fillet_radius" in w for w in wide.warnings)
+
+
+# ------------------------------------------------------------------------------------------
+# Through the engine, on the shipped stiffened panel
+# ------------------------------------------------------------------------------------------
+def _panel(**inputs):
+    recipe = json.loads((ROOT / "graphs" / "thin-wall-panel.json").read_text())
+    recipe["inputs"].update(inputs)
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] in ("sketch", "layers", "features", "walls")]
+    recipe["edges"] = [e for e in recipe["edges"] if e["to"].split(".")[0] in ("layers", "features", "walls")]
+    recipe["inputs"]["layer_height"] = 10.0                     # 3 layers are enough here
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(ROOT / "graphs"))
+
+
+def test_panel_sub_types_widths_and_fillets():
+    base = _panel()
+    feats = json.loads(base.artifacts["features.features.json"])["features"]
+    assert Counter(f.get("subtype") for f in feats if f["kind"] == "t_crossing") == {"straight": 9}
+    assert base.warnings == []                                   # TWW 5 mm: the radii 2.0/10.0 are Test 3's
+    # a 4 mm bead with the same radii: the 2 mm cutting circle exceeds 0.8 × 4/2 at all 12 crossings
+    narrow = _panel(tww=4.0)
+    msgs = [w["message"] for w in narrow.warnings]
+    assert len(msgs) == 12 and all("cut_radius 2 mm exceeds 1.6 mm" in m for m in msgs)
+    assert sum(m.startswith("four_direct_crossing at [100.0, 60.0]") for m in msgs) == 1
+    # a 3 mm internal fillet turns the four skin corners on R = 3 + 4/2 = 5 mm: each layer is
+    # 4·(2R − πR/2) = 8.584 mm shorter
+    def layer_len(res, i):
+        doc = json.loads(res.artifacts["walls.toolpath.json"])
+        return sum(s["length_mm"] for s in doc["layers"][i]["sections"] if s["key"].startswith("wall"))
+    fil = _panel(fillet_radius=3.0)
+    R = 5.0
+    assert layer_len(base, 1) - layer_len(fil, 1) == pytest.approx(4 * (2 * R - math.pi * R / 2), abs=0.01)
+    assert fil.warnings == []
