@@ -184,3 +184,37 @@ def test_sketch_node_reads_the_wall_iges_with_its_height(tmp_path):
     _iges(tmp_path / "arch.igs", _arch())
     with pytest.raises(InputFileError, match=r"arch\.igs: the faces are not a midsurface of vertical walls"):
         _run(tmp_path, [{"id": "sk", "type": "sketch", "params": {"path": "arch.igs", "height": 10}}])
+
+
+def test_iges_midsurface_with_a_t_and_an_x_feeds_feature_recognition_like_the_sketch(tmp_path):
+    """The thin-walls study's input as the study has it: an IGES midsurface, one 144 face per wall.
+    Walls meeting in a T or an X are non-manifold as a mesh; read as a midsurface they give the same
+    features as the same walls drawn as a JSON sketch."""
+    import json
+
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    walls = [[(0, 0), (100, 0)], [(50, 0), (50, 60)], [(20, 40), (80, 40)]]   # a T at (50, 0), an X at (50, 40)
+    comp = TopoDS_Compound()
+    b = BRep_Builder()
+    b.MakeCompound(comp)
+    for (x0, y0), (x1, y1) in walls:
+        edge = BRepBuilderAPI_MakeEdge(gp_Pnt(x0, y0, 0), gp_Pnt(x1, y1, 0)).Edge()
+        b.Add(comp, BRepPrimAPI_MakePrism(edge, gp_Vec(0, 0, 20)).Shape())
+    _iges(tmp_path / "walls.igs", comp)
+    (tmp_path / "walls.json").write_text(json.dumps({"curves": walls, "height": 20}))
+
+    def kinds(node):
+        nodes = [node, {"id": "layers", "type": "slice", "params": {"layer_height": 2}},
+                 {"id": "features", "type": "features", "params": {}}]
+        edges = [{"from": "p.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}]
+        res = _run(tmp_path, nodes, edges)
+        fs = res.outputs["features"]["features"]
+        return res, sorted((f["kind"], tuple(f["point"])) for f in fs.features if f["layer"] == 0)
+
+    res, from_iges = kinds({"id": "p", "type": "mesh", "params": {"path": "walls.igs"}})
+    assert isinstance(res.outputs["p"]["mesh"], Midsurface) and res.stats["p"].report["faces"] == 3
+    _, from_json = kinds({"id": "p", "type": "sketch", "params": {"path": "walls.json"}})
+    assert from_iges == from_json
+    assert ("t_crossing", (50.0, 0.0)) in from_iges and ("direct_crossing", (50.0, 40.0)) in from_iges

@@ -99,51 +99,52 @@ def _stage(ctx):
     return stage
 
 
-def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> Midsurface | None:
-    """The midsurface of an open CAD surface made of vertical walls (its bottom curves extruded),
-    in mm after the unit factor k and the transform; None (with the reason warned) when the faces
-    are not one vertical extrusion or the transform tilts them."""
+def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> tuple[Midsurface | None, str]:
+    """(the midsurface, "") of a CAD file whose faces are all vertical walls between one bottom and
+    one top height (their bottom curves extruded), in mm after the unit factor k and the
+    transform; (None, why not) otherwise or when the transform tilts the walls."""
     cc, why = vertical_midsurface(cad, params.chordal_tolerance / k)
-    if cc is not None:
-        axis = transform.apply(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
-        up = axis[1] - axis[0]
-        if np.hypot(up[0], up[1]) > 1e-9 * abs(up[2]) or up[2] <= 0:
-            why = "the transform tilts the walls out of vertical"
-            cc = None
     if cc is None:
-        ctx.warn(f"{params.path}: read as a tessellated single-wall surface, not as a sketch: {why}")
-        return None
-    ends = []
-    for c in cc.curves:
-        p = transform.apply(np.column_stack([c * k, np.full(len(c), cc.z0 * k)]))
-        ends.append(p)
+        return None, why
+    axis = transform.apply(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    up = axis[1] - axis[0]
+    if np.hypot(up[0], up[1]) > 1e-9 * abs(up[2]) or up[2] <= 0:
+        return None, "the transform tilts the walls out of vertical"
+    ends = [transform.apply(np.column_stack([c * k, np.full(len(c), cc.z0 * k)])) for c in cc.curves]
     z0 = float(ends[0][0, 2])
     height = float(cc.height * k * transform.scale)
     mid = sketch_from_curves([p[:, :2] for p in ends], height=height, z0=z0, name=params.path, join_tol=TOL.join)
     mid = Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=PurePosixPath(params.path).stem,
                      joints=mid.joints)
-    ctx.report({"read_as": "midsurface", "curves": len(mid.curves),
+    ctx.report({"read_as": "midsurface", "faces": len(cad.faces), "curves": len(mid.curves),
                 "curve_length_mm": round(float(sum(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()
                                                    for c in mid.curves)), 4),
                 "height_mm": round(height, 6)})
     ctx.warn(f"{params.path}: read as a midsurface (a sketch): {len(cad.faces)} vertical wall face(s), the "
              f"extrusion of {len(mid.curves)} curve(s) of {cc.length * k * transform.scale:.6g} mm from z "
              f"{z0:g} mm by {height:g} mm")
-    return mid
+    return mid, ""
 
 
 def _read_cad_part(ctx, params, data: bytes, transform: Transform):
-    """(part, file unit, unit applied, notice) of a STEP/IGES file: tessellated face by face (progress,
-    cancel, triangle cap), repaired and classified like a mesh file; an open surface of vertical
-    walls becomes a Midsurface."""
+    """(part, file unit, unit applied, notice) of a STEP/IGES file. Unless `as` is 'solid', faces
+    that are all vertical walls are a midsurface (a Midsurface, never tessellated: walls meeting in
+    T's and crossings are non-manifold as a mesh, yet the thin-walls study's input). Otherwise the
+    faces are tessellated face by face (progress, cancel, triangle caps), repaired and classified
+    like a mesh file; an open surface stays a tessellated single-wall surface."""
     cad = read_cad_shape(data, params.path)
     if not cad.faces:
         raise InputFileError(f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
                              "'sketch' node, which extrudes the curves by its 'height'")
+    units, k, notice = unit_rescale(cad.file_unit, params.units)
+    why = "'as': 'solid'"
+    if params.as_ != "solid":
+        mid, why = _cad_midsurface(ctx, params, cad, k, transform)
+        if mid is not None:
+            return mid, cad.file_unit, units, notice
     tri = tessellate(cad, params.path, chordal_tolerance=params.chordal_tolerance, max_triangles=params.max_triangles,
                      max_face_triangles=params.max_face_triangles, progress=ctx.progress,
                      check_cancelled=ctx.check_cancelled)
-    units, k, notice = unit_rescale(cad.file_unit, params.units)
     st: dict = {}
     mesh = mesh_from_triangles(tri * k, name=PurePosixPath(params.path).stem, units="mm", transform=transform,
                                source=params.path, weld_tolerance=params.weld_tolerance, stats=st,
@@ -153,12 +154,11 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
     if cad.roots > 1 or cad.bodies > 1:
         ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.bodies} bodies flattened into one part "
                  f"(each body kept); tessellated within {params.chordal_tolerance:g} mm")
-    part = mesh
     if classify_mesh(st, params.as_, params.path) == "surface":
-        part = _cad_midsurface(ctx, params, cad, k, transform) or MeshData(
-            vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True)
-    return part, cad.file_unit, units, notice
-
+        ctx.warn(f"{params.path}: read as a tessellated single-wall surface, not as a sketch: {why}")
+        return (MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True),
+                cad.file_unit, units, notice)
+    return mesh, cad.file_unit, units, notice
 
 Vec3 = tuple[float, float, float]
 MAX_LISTED = 10   # warnings listing one item each (DXF defects, repairs): the first this many, then a count
