@@ -5,6 +5,7 @@ The planner's closed form: a move from junction speed v_a to v_b with the feed F
 (F − v_a)/a + (F − v_b)/a + (s − (F² − v_a²)/2a − (F² − v_b²)/2a)/F; a 90° junction (interior
 angle θ = 90°) runs at v_j = √(a·δ·sin 45°/(1 − sin 45°)) (grbl planner.c)."""
 
+import json
 import math
 
 import numpy as np
@@ -91,7 +92,6 @@ def test_gcode_program_is_simulated_by_the_planner_family():
 
 
 def test_profile_validation_names_the_value():
-    import json
     d = json.loads((PLANNER_FILE := __import__("waamflow.trajectory.profile", fromlist=["ROBOTS_DIR"]).ROBOTS_DIR
                     / "gcode_planner.json").read_text())
     with pytest.raises(InputFileError, match="lookahead_blocks"):
@@ -107,8 +107,9 @@ def _post_and_sim(fmt, machine, pattern="raster", sim_params=None, dwell=0.25):
              {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False, **(sim_params or {})}}]
     edges = [("strategy.toolpath", "post.toolpath"), ("strategy.toolpath", "sim.toolpath"),
              ("post.program", "sim.program")]
-    out = run(nodes, edges, pattern=pattern).outputs
-    return out["post"]["program"], out["sim"]["simulation"]
+    r = run(nodes, edges, pattern=pattern)
+    _post_and_sim.artifacts = r.artifacts
+    return r.outputs["post"]["program"], r.outputs["sim"]["simulation"]
 
 
 @pytest.mark.parametrize("machine, travel", [("linuxcnc", 200.0), ("generic", 200.0), ("fanuc", 200.0),
@@ -124,6 +125,10 @@ def test_gcode_program_runs_the_planner_with_its_feeds_and_dwells(machine, trave
     assert (res.options.controller, res.profile["name"]) == ("gcode_planner", "gcode_planner")
     assert res.options.ignition_dwells_s == (0.25,) * 5
     assert res.options.travel_speed == travel
+    settings = json.loads(_post_and_sim.artifacts["sim.simulation.json"])["settings"]
+    assert settings == {**settings, "controller": "gcode_planner", "blend": "junction", "cdis_mm": None,
+                        "junction_deviation_mm": 0.05, "lookahead_blocks": 16, "travel_speed_mm_s": travel,
+                        "ignition_dwells": 5}
     feeds = np.concatenate([r.feed_mm_min for r in parse_gcode(prog.files["gcode"]).runs])
     F = float(np.unique(feeds)[0]) / 60.0
     assert np.unique(feeds).tolist() == [2400.0]

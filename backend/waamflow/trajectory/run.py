@@ -366,7 +366,12 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
         out["kinematics_issues"] = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
                                     for it in res.kinematics.get("issues", [])]
     out["robot_profile"] = res.profile.get("name")
-    out["settings"] = {"cdis_mm": opt.cdis, "blend": opt.blend, "controller": opt.controller or None,
+    junction = opt.blend == "junction" or res.profile.get("junction_deviation_mm", 0.0) > 0
+    out["settings"] = {"cdis_mm": None if junction else opt.cdis, "blend": "junction" if junction else opt.blend,
+                       "junction_deviation_mm": res.profile.get("junction_deviation_mm") if junction else None,
+                       "lookahead_blocks": res.profile.get("lookahead_blocks") if junction else None,
+                       "travel_speed_mm_s": opt.travel_speed or res.profile.get("travel_speed"),
+                       "controller": opt.controller or None,
                        "ignition_dwells": (len(opt.ignition_dwells_s) if opt.ignition_dwells_s is not None else None),
                        "ignition_dwell_total_s": (round(sum(opt.ignition_dwells_s), 6)
                                                   if opt.ignition_dwells_s is not None else None),
