@@ -160,25 +160,56 @@ def _rotation(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K
 
 
+def _near_axis(track: Track, ref: np.ndarray, P: np.ndarray, radius: float, reach: float):
+    """Each scan point paired with its four nearest samples (by distance to ref[i], at most
+    `reach`), a pair kept when it lies within `radius` of that sample's axis (the line through ref[i] along its
+    build direction), with its offset along that direction from the planned crest:
+    (i, j, along), sorted by i then along."""
+    k = min(4, len(ref))
+    d, i = cKDTree(ref).query(P, k=k, distance_upper_bound=reach)
+    d, i = d.reshape(len(P), k), i.reshape(len(P), k)
+    hit = np.isfinite(d)
+    j = np.repeat(np.arange(len(P)), k).reshape(len(P), k)[hit]
+    i = i[hit].astype(np.int64)
+    n = track.normal[i]
+    off = P[j] - ref[i]
+    dn = np.einsum("ij,ij->i", off, n)
+    lateral = np.linalg.norm(off - dn[:, None] * n, axis=1)
+    ok = lateral <= radius
+    i, j = i[ok], j[ok]
+    along = np.einsum("ij,ij->i", P[j] - track.points[i], track.normal[i])
+    order = np.lexsort((along, i))
+    return i[order], j[order], along[order]
+
+
+def _group_percentile(i: np.ndarray, values: np.ndarray, n: int, q: float, min_count: int):
+    """Per group (i sorted, values sorted within a group): the q-quantile (linear, as
+    numpy.percentile) and the index into the pairs of the element at or below it; NaN / -1 for
+    groups with fewer than `min_count` values."""
+    counts = np.bincount(i, minlength=n)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    ok = counts >= max(min_count, 1)
+    pos = (counts - 1) * q
+    lo = np.floor(pos).astype(np.int64)
+    frac = pos - lo
+    hi = np.minimum(lo + 1, counts - 1)
+    out = np.full(n, np.nan)
+    pick = np.full(n, -1, dtype=np.int64)
+    if ok.any():
+        a = start[ok] + lo[ok]
+        b = start[ok] + hi[ok]
+        out[ok] = values[a] * (1 - frac[ok]) + values[b] * frac[ok]
+        pick[ok] = start[ok] + np.round(pos[ok]).astype(np.int64)
+    return out, pick
+
+
 def _crest_points(track: Track, P: np.ndarray, radius: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
     """Per planned sample, the scan point at the crest over it (90th percentile along the build
     direction of the points within `radius` of its axis): (sample indices, point indices)."""
-    lists = cKDTree(P).query_ball_point(track.points, r=reach)
-    si, pi = [], []
-    for i, ids in enumerate(lists):
-        if len(ids) < 3:
-            continue
-        ids = np.asarray(ids)
-        d = P[ids] - track.points[i]
-        along = d @ track.normal[i]
-        lateral = np.linalg.norm(d - along[:, None] * track.normal[i], axis=1)
-        ok = lateral <= radius
-        if ok.sum() < 3:
-            continue
-        a, cand = along[ok], ids[ok]
-        k = int(np.argsort(a)[min(len(a) - 1, int(round(0.9 * (len(a) - 1))))])
-        si.append(i), pi.append(int(cand[k]))
-    return np.asarray(si, int), np.asarray(pi, int)
+    i, j, along = _near_axis(track, track.points, P, radius, reach)
+    _, pick = _group_percentile(i, along, track.n, 0.9, 3)
+    si = np.flatnonzero(pick >= 0)
+    return si, j[pick[si]]
 
 
 def register(track: Track, scan: Scan, radius: float = 0.75, iterations: int = 20, reach: float | None = None,
@@ -260,23 +291,14 @@ def measure(track: Track, scan: Scan, radius: float = 1.0, min_points: int = 3, 
             if scan.width is not None and np.isfinite(scan.width).any() else np.full(n, np.nan)
     else:
         P = scan.points
-        tree = cKDTree(P)
-        # gather the points near each sample's axis: first a ball big enough for the deviations we accept
+        # the points near each sample's axis, searched around where the crest is expected
         ref0 = track.points if expected is None else \
             track.points + (np.asarray(expected, float) - track.planned_height())[:, None] * track.normal
-        reach = radius + max_layer_offset * max(track.thickness, 1.0) + 1.0
-        lists = tree.query_ball_point(ref0, r=reach)
-        h = np.full(n, np.nan)
-        for i, ids in enumerate(lists):
-            if len(ids) < min_points:
-                continue
-            d = P[ids] - track.points[i]
-            along = d @ track.normal[i]
-            d = P[ids] - ref0[i]
-            lateral = np.linalg.norm(d - (d @ track.normal[i])[:, None] * track.normal[i], axis=1)
-            a = along[lateral <= radius]
-            if len(a) >= min_points:
-                h[i] = float(track.points[i] @ track.normal[i] + np.percentile(a, 90))
+        reach = radius + max(max_layer_offset, 0.75) * max(track.thickness, 1.0) + 1.0 \
+            if np.isfinite(max_layer_offset) else radius + 2.0 * max(track.thickness, 1.0) + 1.0
+        i, _, along = _near_axis(track, ref0, P, radius, reach)
+        q, _ = _group_percentile(i, along, n, 0.9, min_points)
+        h = track.planned_height() + q
         w = np.full(n, np.nan)
     m = Measured(h, w)
     if m.coverage < min_coverage:

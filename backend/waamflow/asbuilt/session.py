@@ -4,7 +4,8 @@ The cell (or its PC) builds layer k from the program it was given, scans it, and
 the session measures it against the plan, keeps the measured tops and the gain of every sample
 (`adapt`), and answers with the program of the next layer adapted to what was built. State lives
 in one folder and is written atomically after every step (`state.json` + the scans as received),
-so a server restart resumes the build where it stood: the plan itself is not stored but
+so a server restart resumes the build where it stood (the per-sample arrays of each scanned
+layer in `layer_<k>.npz`, written once): the plan itself is not stored but
 re-planned from the recipe (deterministic, and cached on content signatures).
 
 Log: every step (start, scan received, program issued, refusals) with who, when (UTC) and what.
@@ -42,14 +43,6 @@ def _write_atomic(path: Path, text: str) -> None:
 
 def _utc() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-
-
-def _arr(a: np.ndarray | None) -> list | None:
-    return None if a is None else [None if not np.isfinite(v) else round(float(v), 5) for v in a]
-
-
-def _unarr(a: list | None) -> np.ndarray | None:
-    return None if a is None else np.array([np.nan if v is None else v for v in a], float)
 
 
 @dataclass
@@ -111,10 +104,11 @@ class BuildSession:
         return self.next_layer >= len(self.tracks)
 
     def record(self, k: int) -> LayerRecord | None:
-        r = self.state["records"].get(str(k))
-        if r is None:
+        name = self.state["records"].get(str(k))
+        if name is None:
             return None
-        return LayerRecord(k, _unarr(r["measured_top"]), _unarr(r["gain"]), _unarr(r["speed"]))
+        with np.load(self.folder / name, allow_pickle=False) as z:
+            return LayerRecord(k, z["measured_top"], z["gain"], z["speed"])
 
     def _track(self, k: int) -> Track:
         return self.tracks[k]
@@ -174,8 +168,11 @@ class BuildSession:
         dev = m.height - tr.planned_height()
         if raw is not None:
             (self.folder / f"scan_{tr.layer:05d}.bin").write_bytes(raw)
-        self.state["records"][str(k)] = {"layer": tr.layer, "measured_top": _arr(m.height), "gain": _arr(gain),
-                                         "speed": _arr(v)}
+        name = f"layer_{k:05d}.npz"
+        tmp = self.folder / (name + ".tmp.npz")
+        np.savez(tmp, measured_top=m.height, gain=gain, speed=v)
+        os.replace(tmp, self.folder / name)
+        self.state["records"][str(k)] = name
         fin = np.isfinite(dev)
         row = {"layer": tr.layer, "coverage": round(m.coverage, 4),
                "mean_error_mm": round(float(np.mean(dev[fin])), 4), "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
