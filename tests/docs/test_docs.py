@@ -170,7 +170,7 @@ def test_node_reference_has_every_node_port_and_param(gen):
             assert f"| `{p}` |" in page, (n["type"], p)
     slice_ = next(n for n in cat if n["type"] == "slice")
     lh = slice_["params_schema"]["properties"]["layer_height"]
-    assert f"| `layer_height` | number | mm | > {lh['exclusiveMinimum']}, ≤ {lh['maximum']} | `{lh['default']}` |" in page
+    assert f"| `layer_height` | number | mm | &gt; {lh['exclusiveMinimum']}, ≤ {lh['maximum']} | `{lh['default']}` |" in page
     assert "`graphs/mpp-cross.json`" in page
 
 
@@ -245,3 +245,7 @@ def test_every_bash_block_is_runnable_and_every_json_block_parses():
             if line.strip() == "```json":
                 j = lines.index("```", i + 1)
                 json.loads("\n".join(lines[i + 1:j]))
+
+
+def test_table_cells_keep_angle_brackets_visible(gen):
+    assert gen._cell("a <name>_M001.mod | b `<node>.json`") == "a &lt;name&gt;_M001.mod \\| b `<node>.json`"
