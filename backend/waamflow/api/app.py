@@ -19,7 +19,7 @@ from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
 from .auth import AuthMiddleware, load_tokens, needs_auth
-from .routes import audit, graphs, health, nodes, preview, runs, viewer
+from .routes import audit, builds, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
 from .static import CompressedAssets, index_response, mount_viewer_client
@@ -174,7 +174,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                           "errors": [{"loc": [x if isinstance(x, int) else str(x) for x in e.get("loc", ())],
                                       "msg": str(e.get("msg"))} for e in errs]})
 
-    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router, audit.router):
+    for r in (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router, audit.router,
+              builds.router):
         app.include_router(r)
 
     def openapi() -> dict:

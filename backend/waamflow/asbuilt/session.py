@@ -91,6 +91,11 @@ class BuildSession:
     def save(self) -> None:
         _write_atomic(self.folder / STATE, json.dumps(self.state, indent=1))
 
+    def refuse(self, who: str | None, layer: int, reason: str) -> None:
+        """Log a scan refused before it reached the session (unreadable file) and save."""
+        self._log(who, "scan_refused", layer=layer, reason=reason)
+        self.save()
+
     def _log(self, who: str | None, action: str, **detail: Any) -> None:
         self.state["log"].append({"time": _utc(), "who": who, "action": action, **detail})
 
