@@ -324,7 +324,8 @@ def published_lengths() -> list[dict]:
     return out
 
 
-COLORS = {"fit": "#4361ee", "held out": "#2a9d8f", "closed-form model": "#e9c46a"}
+COLORS = {"fit": "#4361ee", "held out": "#2a9d8f", "held out, model = a fitted figure's": "#adb5bd",
+          "closed-form model": "#e9c46a"}
 
 
 def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
@@ -337,7 +338,7 @@ def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
     def x(v):
         return x0 + max(-clip, min(clip, v)) / clip * (width / 2)
 
-    s = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{left + width + 90}" height="{h}" '
+    s = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{left + width + 110}" height="{h}" '
          f'font-family="sans-serif" font-size="11">',
          f'<text x="8" y="18" font-size="13" font-weight="bold">{escape(title)}</text>']
     for k in range(-int(clip), int(clip) + 1, 5):
@@ -345,7 +346,9 @@ def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
         s.append(f'<text x="{x(k):.1f}" y="{h - 22}" text-anchor="middle">{k:+d} %</text>')
     for i, r in enumerate(rows):
         y = top + i * bar_h
-        kind = "closed-form model" if r.get("source") == "closed-form model" else r.get("set", "fit")
+        kind = ("closed-form model" if r.get("source") == "closed-form model"
+                else "held out, model = a fitted figure's" if "identical to the fitted case" in r.get("notes", "")
+                else r.get("set", "fit"))
         e = r["error_pct"]
         s.append(f'<text x="{left - 6}" y="{y + 11}" text-anchor="end">{escape(r["name"][:58])}</text>')
         if math.isfinite(e):
@@ -359,12 +362,13 @@ def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
             for sign in (-1, 1):
                 s.append(f'<line x1="{x(sign * lim):.1f}" y1="{y + 1}" x2="{x(sign * lim):.1f}" y2="{y + bar_h - 1}" '
                          f'stroke="#c1121f" stroke-width="2"/>')
-    ly = h - 8
-    for j, (k, c) in enumerate(COLORS.items()):
-        s.append(f'<rect x="{8 + j * 150}" y="{ly - 9}" width="10" height="10" fill="{c}"/>'
-                 f'<text x="{22 + j * 150}" y="{ly}">{k}</text>')
-    s.append(f'<line x1="{8 + 3 * 150}" y1="{ly - 9}" x2="{8 + 3 * 150}" y2="{ly + 1}" stroke="#c1121f" stroke-width="2"/>'
-             f'<text x="{14 + 3 * 150}" y="{ly}">test limit ±</text>')
+    ly, lx = h - 8, 8.0
+    for k, c in COLORS.items():
+        s.append(f'<rect x="{lx:.0f}" y="{ly - 9}" width="10" height="10" fill="{c}"/>'
+                 f'<text x="{lx + 14:.0f}" y="{ly}">{escape(k)}</text>')
+        lx += 30 + 6.2 * len(k)
+    s.append(f'<line x1="{lx:.0f}" y1="{ly - 9}" x2="{lx:.0f}" y2="{ly + 1}" stroke="#c1121f" stroke-width="2"/>'
+             f'<text x="{lx + 6:.0f}" y="{ly}">test limit ±</text>')
     s.append("</svg>")
     return "\n".join(s) + "\n"
 
