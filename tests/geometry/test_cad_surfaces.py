@@ -74,7 +74,7 @@ def _arch():
 
 def _run(tmp_path, nodes, edges=(), **kw):
     recipe = {"format": "waamflow/1", "name": "t", "nodes": nodes, "edges": list(edges)}
-    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), **kw)
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1, **kw)   # serial: no process pool
 
 
 def _mesh_and_slice(path, mesh_params=None, layer_height=1.5):
@@ -218,3 +218,16 @@ def test_iges_midsurface_with_a_t_and_an_x_feeds_feature_recognition_like_the_sk
     _, from_json = kinds({"id": "p", "type": "sketch", "params": {"path": "walls.json"}})
     assert from_iges == from_json
     assert ("t_crossing", (50.0, 0.0)) in from_iges and ("direct_crossing", (50.0, 40.0)) in from_iges
+
+
+def test_horizontal_100x50_trimmed_surface_is_a_surface_of_5000_mm2_and_has_no_height(tmp_path):
+    poly = BRepBuilderAPI_MakePolygon(gp_Pnt(0, 0, 0), gp_Pnt(100, 0, 0), gp_Pnt(100, 50, 0), gp_Pnt(0, 50, 0), True)
+    _iges(tmp_path / "flat.igs", BRepBuilderAPI_MakeFace(poly.Wire()).Face())
+    res = _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "flat.igs"}}])
+    mesh = res.outputs["m"]["mesh"]
+    assert isinstance(mesh, MeshData) and mesh.surface and _area(mesh) == pytest.approx(5000.0)
+    assert res.stats["m"].report["open_edges"] == 4
+    from waamflow.core.errors import PlanningError
+
+    with pytest.raises(PlanningError, match=r"no layers: the part is 0 mm tall .*thinner than one layer"):
+        _run(tmp_path, *_mesh_and_slice("flat.igs"))

@@ -19,7 +19,7 @@ from waamflow.engine.recipe import parse_recipe
 
 def _run(tmp_path, nodes, edges=()):
     recipe = {"format": "waamflow/1", "name": "t", "nodes": nodes, "edges": list(edges)}
-    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1)
 
 
 def _dxf(tmp_path, fill, name="s.dxf") -> dict:
