@@ -173,7 +173,8 @@ def cmd_serve(args) -> int:
     # a flag overrides its WAAMFLOW_* variable (docker/compose.yml sets them); unset flags leave it
     given = {"data_dir": args.data, "host": args.host, "port": args.port, "viewer_port": args.viewer_port,
              "graphs_dir": args.graphs, "layer_workers": args.layer_workers, "scheduler": args.scheduler,
-             "token_file": args.token_file}
+             "token_file": args.token_file, "max_connections": args.max_connections,
+             "header_timeout_s": args.header_timeout}
     try:
         settings = Settings(**{k: v for k, v in given.items() if v is not None})
     except ValidationError as e:
@@ -189,7 +190,9 @@ def cmd_serve(args) -> int:
               "or serve on 127.0.0.1", file=sys.stderr)
         return 2
     app = create_app(settings)
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
+    from .api.serving import uvicorn_options
+
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="info", **uvicorn_options(settings))
     return 0
 
 
@@ -284,6 +287,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--token-file", default=None,
                    help="named bearer tokens (JSON {name: token} or lines name:token; default: WAAMFLOW_TOKEN_FILE); "
                         "also WAAMFLOW_TOKEN")
+    s.add_argument("--max-connections", type=int, default=None, metavar="N",
+                   help="open connections at once; more are closed at once (default: WAAMFLOW_MAX_CONNECTIONS, else 1000)")
+    s.add_argument("--header-timeout", type=float, default=None, metavar="S",
+                   help="seconds a connection has to send its request head (default: WAAMFLOW_HEADER_TIMEOUT_S, else 10)")
     s.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")

@@ -44,6 +44,14 @@ class Settings(BaseSettings):
     scheduler: str | None = Field(None, description="Dask scheduler (tcp://HOST:PORT) the layers of runs go to "
                                                     "instead of local processes (WAAMFLOW_SCHEDULER)")
     max_upload_mb: int = 200
+    max_body_mb: float = Field(32.0, gt=0, description="any request body but a file upload (recipes, parameter XML, "
+                                                       "previews), MB; a larger Content-Length gets 413 unread")
+    body_timeout_s: float = Field(30.0, ge=0, description="a request body that sends nothing for this long gets 408, s")
+    # connections (`waamflow serve`; uvicorn h11 with a header timeout and a connection cap)
+    max_connections: int = Field(1000, ge=1, description="open connections; one more is closed at once")
+    header_timeout_s: float = Field(10.0, gt=0, description="a connection must send its request head within this, s")
+    keep_alive_s: float = Field(5.0, gt=0, description="an idle keep-alive connection is closed after this, s")
+    max_header_kb: int = Field(64, ge=4, description="size of a request's head (line + headers), kB")
     memory_cache_entries: int = 50_000
     disk_cache_gb: float = 2.0
     # security (README "Security model")
@@ -51,6 +59,11 @@ class Settings(BaseSettings):
     token_file: Path | None = Field(None, description="file of named tokens: JSON {name: token} or lines name:token")
     cors_origins: list[str] = Field(default_factory=list,
                                     description="origins allowed to call the API from a browser (none by default)")
+    allowed_hosts: list[str] = Field(default_factory=list,
+                                     description="Host names answered without a token besides loopback names and "
+                                                 "--host (DNS-rebinding protection; JSON list in WAAMFLOW_ALLOWED_HOSTS)")
+    auth_failures_per_minute: int = Field(10, ge=1, description="wrong tokens one client address may send per "
+                                                                "minute before 429 (the wait doubles each time)")
     # resource limits per run (README "Limits"); 0 = no limit
     run_timeout_s: float = Field(1800.0, ge=0, description="wall time of one run, s")
     max_layers: int = Field(5000, ge=0, description="layers a run may produce")

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
+import sqlite3
 from contextlib import asynccontextmanager
 from pathlib import Path
 
@@ -19,6 +21,8 @@ from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
 from .auth import AuthMiddleware, load_tokens, needs_auth
+from .guards import (AuthThrottle, BodyLimitMiddleware, HostOriginMiddleware, ThrottleAuditMiddleware,
+                     is_loopback_host, store_auditor)
 from .routes import audit, builds, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
@@ -31,6 +35,24 @@ log = logging.getLogger("waamflow.server")
 def viewer_host(settings: Settings, tokens: dict) -> str:
     """viser has no authentication of its own: with tokens configured it listens on loopback only."""
     return "127.0.0.1" if tokens else settings.host
+
+
+def disk_full(err: BaseException) -> bool:
+    """An OSError ENOSPC/EDQUOT or SQLite's 'database or disk is full'."""
+    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    return isinstance(err, sqlite3.OperationalError) and "full" in str(err).lower()
+
+
+def allowed_hosts(settings: Settings, tokens: dict) -> set[str] | None:
+    """Host names answered by a server without tokens (DNS-rebinding protection): loopback names,
+    the address it listens on and `allowed_hosts`. None (any Host) once tokens are required."""
+    if tokens:
+        return None
+    names = {h.lower() for h in settings.allowed_hosts}
+    if not is_loopback_host(settings.host.lower()):
+        names.add(settings.host.lower())
+    return names
 
 
 def _start_viewer(settings: Settings, host: str | None = None):
@@ -150,6 +172,27 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def _waamflow_error(_: Request, err: WaamflowError):
         return _err(getattr(err, "http_status", 400), err.to_dict(), getattr(err, "headers", None))
 
+    @app.exception_handler(OSError)
+    async def _os_error(request: Request, err: OSError):
+        if not disk_full(err):
+            raise err
+        return _disk_full(request)
+
+    @app.exception_handler(sqlite3.OperationalError)
+    async def _sqlite_error(request: Request, err: sqlite3.OperationalError):
+        if not disk_full(err):
+            raise err
+        return _disk_full(request)
+
+    def _disk_full(request: Request) -> JSONResponse:
+        svc = getattr(request.app.state, "services", None)
+        freed = svc.release_reserve() if svc is not None else 0
+        log.error("disk full under %s (%s %s); released %d bytes of reserve", settings.data_dir, request.method,
+                  request.url.path, freed)
+        return _err(507, {"kind": "disk_full", "message":
+                          f"the disk holding the data folder is full: nothing was saved. Free space (delete graphs, "
+                          f"runs or uploads you no longer need: deletes still work) and try again"})
+
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, err: StarletteHTTPException):
         headers = dict(getattr(err, "headers", None) or {})
@@ -220,7 +263,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False,
                            allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type", "If-Match"],
                            expose_headers=["ETag"])
+    app.add_middleware(BodyLimitMiddleware, body_limit=int(settings.max_body_mb * 2**20),
+                       upload_limit=int(settings.max_upload_mb * 2**20), timeout_s=settings.body_timeout_s)
     app.add_middleware(AuthMiddleware, tokens=tokens)
+    app.state.auth_throttle = AuthThrottle(settings.auth_failures_per_minute) if tokens else None
+
+    def _store(scope):
+        svc = getattr(scope["app"].state, "services", None)
+        return getattr(svc, "store", None)
+
+    app.add_middleware(ThrottleAuditMiddleware, throttle=app.state.auth_throttle, audit=store_auditor(_store))
+    app.add_middleware(HostOriginMiddleware, allowed_hosts=allowed_hosts(settings, tokens),
+                       cors_origins=set(settings.cors_origins))
 
     if tokens:  # viser listens on loopback: reach it through this origin, under the API's auth
         from .viewer_proxy import mount_viewer_proxy

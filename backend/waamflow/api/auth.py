@@ -21,6 +21,9 @@ from ..core.errors import WaamflowError
 COOKIE = "waamflow_token"
 TOKEN_NAME = re.compile(r"^[A-Za-z0-9_.@-]{1,64}$")
 MIN_TOKEN_LENGTH = 16
+# a token is refused when it has fewer distinct characters than this: 16 × 'a' passes the length
+# rule but is guessed at once (`secrets.token_urlsafe(32)` has ~30 distinct of 43)
+MIN_DISTINCT_CHARS = 8
 OPEN_PATHS = ("/api/health",)
 
 
@@ -65,6 +68,11 @@ def check_token(token: object, what: str) -> None:
     if not isinstance(token, str) or len(token) < MIN_TOKEN_LENGTH or any(c.isspace() for c in token) or ":" in token:
         raise TokenFileError(f"{what} must be a string of at least {MIN_TOKEN_LENGTH} characters without "
                              "spaces or ':' (e.g. `python -c 'import secrets; print(secrets.token_urlsafe(32))'`)")
+    distinct = len(set(token))
+    if distinct < MIN_DISTINCT_CHARS:
+        raise TokenFileError(f"{what} is too weak: {'one character repeated' if distinct == 1 else f'{distinct} distinct characters'}"
+                             f" (at least {MIN_DISTINCT_CHARS} distinct needed); make one with "
+                             "`python -c 'import secrets; print(secrets.token_urlsafe(32))'`")
 
 
 def load_tokens(token: str | None, token_file: str | Path | None) -> dict[str, str]:
@@ -72,6 +80,11 @@ def load_tokens(token: str | None, token_file: str | Path | None) -> dict[str, s
     if token_file:
         p = Path(token_file)
         try:
+            mode = p.stat().st_mode
+            if mode & 0o006:  # other users could read the tokens, or add their own
+                what = "readable and writable" if mode & 0o006 == 0o006 else "readable" if mode & 0o004 else "writable"
+                raise TokenFileError(f"token file {p} is {what} by every user (mode {mode & 0o777:04o}): "
+                                     f"run `chmod 600 {p}` (or 640 for a group) and start again")
             text = p.read_text(encoding="utf-8")
         except OSError as e:
             raise TokenFileError(f"cannot read token file {p}: {e.strerror}") from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import re
 import threading
 from dataclasses import dataclass, field
@@ -107,6 +108,17 @@ class Services:
     extra: dict = field(default_factory=dict)
     auth_required: bool = False
 
+    def release_reserve(self) -> int:
+        """Delete the disk reserve (bytes freed): after a disk-full error, so that deletes, whose
+        database journal needs a little room, go through. Made again at the next start."""
+        p = Path(self.settings.data_dir) / RESERVE_NAME
+        try:
+            n = p.stat().st_size
+            p.unlink()
+            return n
+        except OSError:
+            return 0
+
     def prepare(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None) -> Recipe:
         """A saved graph's zone nodes that name no parameter file use the XML stored with the graph
         (`<graph>.params.xml`), or the draft XML sent with the run, so values filled in the GUI reach
@@ -180,9 +192,32 @@ class Services:
         return run_id, rebuild
 
 
+RESERVE_NAME = ".disk-reserve"
+RESERVE_BYTES = 16 * 2**20   # room for the journal of deletes once the disk is full (SQLite WAL pages)
+
+
+def make_reserve(data: Path, nbytes: int = RESERVE_BYTES) -> bool:
+    """A file of `nbytes` really allocated on the data folder's disk, given back when the disk is full."""
+    p = data / RESERVE_NAME
+    try:
+        if p.is_file() and p.stat().st_size >= nbytes:
+            return True
+        with open(p, "wb") as f:
+            os.posix_fallocate(f.fileno(), 0, nbytes)
+        return True
+    except (OSError, AttributeError):
+        try:
+            p.unlink()
+        except OSError:
+            pass
+        return False
+
+
 def build_services(settings: Settings) -> Services:
     data = Path(settings.data_dir)
     data.mkdir(parents=True, exist_ok=True)
+    if not make_reserve(data):
+        log.warning("no room for the %d MB disk reserve in %s: free some space", RESERVE_BYTES // 2**20, data)
     store = Store(data / "waamflow.sqlite")
     disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
     cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
@@ -204,6 +239,11 @@ def seed_examples(svc: Services) -> None:
         if not valid_graph_name(name) or svc.store.get_graph(name) is not None:
             continue
         try:
+            size = path.stat().st_size   # checked before reading: the same limit as PUT /api/graphs
+            if size > svc.settings.max_body_mb * 2**20:
+                log.warning("example %s not loaded: %.1f MB, over the %g MB recipe limit (max_body_mb)",
+                            path.name, size / 2**20, svc.settings.max_body_mb)
+                continue
             recipe = parse_recipe(json.loads(path.read_text(encoding="utf-8")))
         except Exception as e:  # a broken example must not stop the server
             log.warning("example %s not loaded: %s", path.name, e)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ...core.errors import PlanningError, RecipeError
@@ -146,8 +146,9 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
 
 
 @router.post("/api/preview", response_model=PreviewResponse, responses=errors(401, 404, 422))
-def preview(req: PreviewRequest, svc: ServicesDep) -> PreviewResponse:
+def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> PreviewResponse:
     t0 = time.perf_counter()
+    request.state.audit_target, request.state.audit_node, request.state.audit_layer = req.graph, req.node, req.layer
     if req.graph is not None and svc.store.get_graph(req.graph) is None:
         raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
     recipe = svc.prepare(req.graph, apply_overrides(parse_api_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
