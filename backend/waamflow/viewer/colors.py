@@ -106,3 +106,20 @@ def finite_range(*arrays: np.ndarray) -> tuple[float, float]:
         return 0.0, 1.0
     allv = np.concatenate(finite)
     return float(allv.min()), float(allv.max())
+
+
+# Colour maps span the 2nd–98th percentile of the data: one ignition spike (deposit per mm at a
+# standing start) or one absurd speed must not squeeze every ordinary value into one colour.
+# Values beyond are clamped to the end colours; legends give the full extent beside the limits.
+ROBUST_PERCENTILES = (2.0, 98.0)
+
+
+def robust_range(*arrays: np.ndarray, pct: tuple[float, float] = ROBUST_PERCENTILES) -> tuple[float, float]:
+    """(lo, hi) percentiles `pct` over the finite entries of the arrays (linear interpolation,
+    numpy's default); (0, 1) when there are none."""
+    finite = [a[np.isfinite(a)] for a in (np.asarray(x, dtype=float).reshape(-1) for x in arrays)]
+    finite = [a for a in finite if a.size]
+    if not finite:
+        return 0.0, 1.0
+    lo, hi = np.percentile(np.concatenate(finite), pct)
+    return float(lo), float(hi)

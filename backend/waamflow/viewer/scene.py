@@ -283,12 +283,14 @@ class ToolpathPart(LayeredPart):
 
     def __init__(self, *a, **k) -> None:
         super().__init__(*a, **k)
-        self.speed_range = (0.0, 1.0)
+        self.speed_range = (0.0, 1.0)    # colour-map limits (robust), mm/s
+        self.speed_full = (0.0, 1.0)     # the speeds' full extent, mm/s
         self.color_mode = "zone"
 
     def _prepare(self, value, present):
         speeds = [np.asarray(sp.speed, float) for item, _ in present.values() for sp in item.sections]
-        new_range = C.finite_range(*speeds) if speeds else (0.0, 1.0)
+        new_range = C.robust_range(*speeds) if speeds else (0.0, 1.0)
+        self.speed_full = C.finite_range(*speeds) if speeds else (0.0, 1.0)
         if new_range != self.speed_range:
             self.speed_range = new_range
             for e in self.entries.values():

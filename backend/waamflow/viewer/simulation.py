@@ -48,7 +48,8 @@ class SimulationPart(Part):
         self.section_keys: tuple[str, ...] = ()
         self.points = np.zeros((0, 3))
         self.torch = None
-        self.ranges: dict[str, tuple[float, float]] = {}
+        self.ranges: dict[str, tuple[float, float]] = {}        # colour-map limits (robust)
+        self.full_ranges: dict[str, tuple[float, float]] = {}   # the data's full extent
         self.mode = "deviation"
         self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
         self.robot = None                       # RobotMotion, or None
@@ -114,13 +115,15 @@ class SimulationPart(Part):
         self.section_keys = tuple(getattr(value, "section_keys", ()) or ())
         self.points = G.trace_points(trace)
         n = len(self.points)
-        self.ranges = {k: C.finite_range(trace[k]) for k in ("deviation", "speed") if k in trace}
+        self.ranges = {k: C.robust_range(trace[k]) for k in ("deviation", "speed") if k in trace}
+        self.full_ranges = {k: C.finite_range(trace[k]) for k in ("deviation", "speed") if k in trace}
         self.deposit = {k: np.asarray(v) for k, v in (getattr(value, "deposit", None) or {}).items()}
         self._deposit_samples = None
         if "actual_mm3_per_mm" in self.deposit:
             dep = np.asarray(self.deposit["actual_mm3_per_mm"], float)
             arc = np.asarray(self.deposit.get("arc", np.ones(len(dep), bool)), bool)
-            self.ranges["deposit"] = C.finite_range(dep[arc] if arc.any() else dep)
+            self.ranges["deposit"] = C.robust_range(dep[arc] if arc.any() else dep)
+            self.full_ranges["deposit"] = C.finite_range(dep[arc] if arc.any() else dep)
         layer = np.asarray(trace.get("layer", np.zeros(n)), np.int64)
         chunks = G.split_by_layer(layer)
         budget = max(self.max_segments // max(len(chunks), 1) // 2, 64)
