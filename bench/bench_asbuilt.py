@@ -23,7 +23,7 @@ import numpy as np
 from waamflow.asbuilt import BuildSession, Disturbance, synth_scan
 from waamflow.asbuilt.run import build_sim, plan_for_build
 from waamflow.engine.executor import FileResolver
-from waamflow.engine.recipe import apply_overrides, load_recipe
+from waamflow.engine.recipe import load_recipe
 
 GRAPHS = Path(__file__).resolve().parents[1] / "graphs"
 

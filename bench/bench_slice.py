@@ -29,19 +29,21 @@ REPEATS = 2
 
 
 def ribbed_tube(n_theta: int, n_z: int, *, radius: float = 60.0, wall: float = 6.0, height: float = 100.0,
-                ribs: int = 24, rib_depth: float = 3.0, twist_deg: float = 90.0) -> np.ndarray:
+                ribs: int = 24, rib_depth: float = 3.0, twist_deg: float = 90.0,
+                inner_follows: bool = False) -> np.ndarray:
     """Triangle corners (4·n_theta·(n_z + 1), 3, 3) float32, mm, of a closed hollow tube.
 
     Outer wall carries `ribs` sinusoidal ribs of depth `rib_depth` twisting by `twist_deg` over
-    the height; the inner wall is a plain cylinder of radius − wall, so every section is one
-    ribbed ring with one hole. Faces are wound outwards.
+    the height; the inner wall is a plain cylinder of radius − wall (or, `inner_follows`, the
+    outer wall moved in by `wall`: a rippled thin wall), so every section is one ring with one
+    hole. Faces are wound outwards.
     """
     th = np.linspace(0.0, 2 * np.pi, n_theta, endpoint=False)
     z = np.linspace(0.0, height, n_z + 1)
     T, Z = np.meshgrid(th, z, indexing="ij")                 # (n_theta, n_z + 1)
     phase = T + np.radians(twist_deg) * Z / height
     r_out = radius + rib_depth * np.sin(ribs * phase)
-    r_in = np.full_like(T, radius - wall)
+    r_in = r_out - wall if inner_follows else np.full_like(T, radius - wall)
     outer = np.stack([r_out * np.cos(T), r_out * np.sin(T), Z], axis=-1)
     inner = np.stack([r_in * np.cos(T), r_in * np.sin(T), Z], axis=-1)
     j1 = np.roll(np.arange(n_theta), -1)
