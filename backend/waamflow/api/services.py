@@ -13,7 +13,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from ..core.errors import RecipeError
+from ..core.errors import InputFileError, RecipeError
+from ..core.files import not_regular, read_regular
 from ..engine.cache import MemoryCache, SqliteCache, TieredCache
 from ..engine.executor import FileResolver, RunResult
 from ..engine.graph import Graph
@@ -44,9 +45,18 @@ class SandboxError(RecipeError):
     kind = "outside_sandbox"
 
 
-def _is_file_field(field) -> bool:
+def _is_file_field(field, value: Any = None) -> bool:
+    """A file parameter: `x-file` (engine.node.FileRef), or `x-file-suffix` when the value ends with
+    it (simulate-robot's `cell`: a shipped name, or a user's cell .json file)."""
     extras = [field.json_schema_extra] + [getattr(m, "json_schema_extra", None) for m in field.metadata]
-    return any(isinstance(e, dict) and (e.get("x-file") or e.get("format") == "path") for e in extras)
+    for e in extras:
+        if not isinstance(e, dict):
+            continue
+        if e.get("x-file") or e.get("format") == "path":
+            return True
+        if e.get("x-file-suffix") and isinstance(value, str) and value.endswith(e["x-file-suffix"]):
+            return True
+    return False
 
 
 def file_params(model: BaseModel, prefix: str = "") -> list[tuple[str, str]]:
@@ -56,7 +66,7 @@ def file_params(model: BaseModel, prefix: str = "") -> list[tuple[str, str]]:
     for name, f in type(model).model_fields.items():
         value = getattr(model, name, None)
         key = f"{prefix}{name}"
-        if _is_file_field(f):
+        if _is_file_field(f, value):
             for i, v in enumerate(value if isinstance(value, (list, tuple)) else [value]):
                 if isinstance(v, str) and v:
                     out.append((key if not isinstance(value, (list, tuple)) else f"{key}.{i}", v))
@@ -82,10 +92,17 @@ def sandbox_problem(path: str, resolver: FileResolver) -> str | None:
     if ".." in re.split(r"[\\/]", path):
         return "'..' is not allowed in a file name over the API"
     try:
-        resolver.resolve(path)  # follows symlinks; must end inside the data or graphs folder
+        p = resolver.resolve(path)  # follows symlinks; must end inside the data or graphs folder
     except RecipeError:
         return "the file (or the link it goes through) lies outside the server's data and graphs folders"
-    return None
+    return not_regular(p)  # a FIFO, device or socket inside: refused unopened (stat only)
+
+
+def _check_files(node_id: str, params: BaseModel, resolver: FileResolver) -> None:
+    for pname, value in file_params(params):
+        why = sandbox_problem(value, resolver)
+        if why:
+            raise SandboxError(f"file {value!r} refused: {why}", node=node_id, field=pname)
 
 
 def parse_api_recipe(data: Any) -> Recipe:
@@ -147,12 +164,24 @@ class Services:
 
     def check_sandbox(self, graph: Graph, resolver: FileResolver) -> None:
         """Before anything runs: every file parameter of every node of a recipe that came over REST
-        names an uploaded file or a file inside the data/graphs folders (422 naming node and param)."""
+        names an uploaded file or a regular file inside the data/graphs folders (422 naming node and
+        param)."""
         for nid, gnode in graph.nodes.items():
-            for pname, value in file_params(gnode.params):
-                why = sandbox_problem(value, resolver)
-                if why:
-                    raise SandboxError(f"file {value!r} refused: {why}", node=nid, field=pname)
+            _check_files(nid, gnode.params, resolver)
+
+    def check_recipe_files(self, recipe: Recipe, resolver: FileResolver) -> None:
+        """check_sandbox on each node's validated params alone, before the graph's edges are checked:
+        a file reference is judged first, whatever else the recipe lacks (422 naming node and
+        param; a shipped name that is not one fails its pattern here too)."""
+        from ..engine.graph import REGISTRY, _validate_params, load_nodes, substitute_inputs
+
+        load_nodes()
+        for entry in recipe.nodes:
+            cls = REGISTRY.get(entry.type)
+            if cls is None:
+                continue  # build_graph names it
+            raw = substitute_inputs(entry.params, recipe.inputs, entry.id)
+            _check_files(entry.id, _validate_params(entry.id, cls, raw), resolver)
 
     def after_run(self, run_id: str, graph_name: str | None, recipe: Recipe, result: RunResult) -> None:
         # A run never writes what the user saved: the merged parameter XML (values kept, orphans
@@ -244,7 +273,8 @@ def seed_examples(svc: Services) -> None:
                 log.warning("example %s not loaded: %.1f MB, over the %g MB recipe limit (max_body_mb)",
                             path.name, size / 2**20, svc.settings.max_body_mb)
                 continue
-            recipe = parse_recipe(json.loads(path.read_text(encoding="utf-8")))
+            # through the file gate: a FIFO named *.json in the graphs folder must not hang the start
+            recipe = parse_recipe(json.loads(read_regular(path, 64 * 2**20).decode("utf-8")))
         except Exception as e:  # a broken example must not stop the server
             log.warning("example %s not loaded: %s", path.name, e)
             continue
@@ -252,5 +282,8 @@ def seed_examples(svc: Services) -> None:
         for fname in params_file_names(recipe):
             p = Path(gdir) / fname
             if p.is_file():
-                svc.store.put_params_xml(name, p.read_text(encoding="utf-8"))
+                try:
+                    svc.store.put_params_xml(name, read_regular(p, 32 * 2**20).decode("utf-8"))
+                except (InputFileError, UnicodeDecodeError) as e:
+                    log.warning("parameter file %s of example %s not loaded: %s", fname, name, e)
                 break

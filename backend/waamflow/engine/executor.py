@@ -23,6 +23,7 @@ import shapely
 
 from .. import __version__
 from ..core.errors import CancelledError, InputFileError, PlanningError, WaamflowError
+from ..core.files import not_regular, read_regular
 from ..core.model import Layer, Layered
 from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
@@ -82,12 +83,15 @@ class FileResolver:
             data = self.attachments[path]
         else:
             p = self.resolve(path)
-            if not p.is_file():
+            if not p.exists():
                 raise InputFileError(f"file not found: {path} (looked in {p.parent})")
+            why = not_regular(p)   # a FIFO would block the read, a device never end it
+            if why:
+                raise InputFileError(f"file {path} refused: {why}")
             size = p.stat().st_size
             if size > limit:
                 raise InputFileError(_over_limit(path, size, limit))
-            data = p.read_bytes()
+            data = read_regular(p, limit, label=path)   # one open, checked again on the descriptor
         if len(data) > limit:
             raise InputFileError(_over_limit(path, len(data), limit))
         self.read_hashes[path] = hashlib.sha256(data).hexdigest()
@@ -105,7 +109,10 @@ class FileResolver:
         key = ("sha256", str(p), st.st_mtime_ns, st.st_size)
         h = _FILE_SIGS.get(key)
         if h is None:
-            h = hashlib.sha256(p.read_bytes()).hexdigest()
+            try:
+                h = hashlib.sha256(read_regular(p, MAX_INPUT_FILE_BYTES)).hexdigest()
+            except InputFileError:
+                return None   # not readable (FIFO, device, too large): the read reports why
             _FILE_SIGS[key] = h
         return h
 
@@ -121,7 +128,10 @@ class FileResolver:
         key = (str(p), st.st_mtime_ns, st.st_size)
         sig = _FILE_SIGS.get(key)
         if sig is None:
-            sig = bytes_signature(p.read_bytes())
+            try:
+                sig = bytes_signature(read_regular(p, MAX_INPUT_FILE_BYTES))
+            except InputFileError as e:   # FIFO, device, too large: the read reports why
+                return "unreadable:" + bytes_signature(str(e).encode())
             if len(_FILE_SIGS) > 4096:
                 _FILE_SIGS.clear()
             _FILE_SIGS[key] = sig

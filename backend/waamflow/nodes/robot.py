@@ -6,9 +6,10 @@ import json
 from dataclasses import replace
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from ..core.errors import PlanningError, RecipeError
+from ..core.files import SHIPPED_NAME, SHIPPED_NAME_PATTERN
 from ..core.moves import flatten
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -27,7 +28,8 @@ Vec3 = tuple[float, float, float]
 class RobotParams(NodeParams):
     """Parameters shared by the robot nodes: which robot and how it is set up in the cell."""
 
-    robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
+    robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
+                               json_schema_extra={"x-shipped": "robots"},
                                description="Shipped robot profile (controller constants, data/robots/<name>.json)")
     profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
     cdis: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
@@ -117,7 +119,8 @@ class SimulateRobot(Node):
 
     class Params(RobotParams):
         kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
-        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema()},
+        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells",
+                                                                 "x-file-suffix": ".json"},
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below")
@@ -134,7 +137,8 @@ class SimulateRobot(Node):
                                                      "fixtures, layers built so far) every this much programmed path "
                                                      "and at every layer change")
         collisions: bool = Field(True, description="With a cell: check collisions along the path")
-        robot_description: str = Field("", max_length=128,
+        robot_description: str = Field("", max_length=128, pattern=SHIPPED_NAME_PATTERN,
+                                       json_schema_extra={"x-shipped": "robots"},
                                        description="Arm URDF in data/robots (empty = the profile's description)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
                                   description="IK sample spacing along the path (vertices always included)")
@@ -151,6 +155,15 @@ class SimulateRobot(Node):
             "off", description="Modulate the wire feed per ≤1 mm piece so deposit per mm stays at its programmed "
                                "value through stops and corners (waamflow.trajectory.compensate); reports "
                                "deposit_per_mm_cv before and after and writes deposit.svg")
+
+        @field_validator("cell")
+        @classmethod
+        def _cell_name(cls, v: str) -> str:
+            # a user's cell is a .json file (read through the engine's file gate); anything else is
+            # the name of a shipped cell, never a path
+            if v and not v.endswith(".json") and not SHIPPED_NAME.match(v):
+                raise ValueError("a shipped cell name (letters, digits, _ - .) or a cell .json file")
+            return v
 
     def read_files(self, params, read_bytes) -> list[str]:
         """A user's cell file and the mesh files its shapes name (shipped cells are part of the
@@ -283,7 +296,8 @@ class EstimateTime(Node):
     version = "10"  # 10: strategy-specific time-model entries; the study's as a noted fallback
 
     class Params(NodeParams):
-        robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64,
+        robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
+                               json_schema_extra={"x-shipped": "robots"},
                                    description="Robot profile whose `time_model` holds the identified parameters")
         profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
         travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),

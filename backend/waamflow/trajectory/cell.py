@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
 from ..core.errors import InputFileError
+from ..core.files import read_shipped
 from .kinematics import CellFrames
 from .profile import ROBOTS_DIR
 
@@ -297,11 +298,10 @@ def _urdf_path(name: str) -> Path:
 def _positioner_model(urdf: str):
     import pinocchio as pin
 
-    path = _urdf_path(urdf)
-    if not path.exists():
-        raise InputFileError(f"positioner description {urdf!r} not found")
+    text = read_shipped(ROBOTS_DIR, _urdf_path(urdf).name, "positioner description",
+                        sorted(p.name for p in ROBOTS_DIR.glob("*.urdf"))).decode("utf-8")
     try:
-        return pin.buildModelFromXML(path.read_text())
+        return pin.buildModelFromXML(text)
     except Exception as e:
         raise InputFileError(f"positioner description {urdf}: {e}") from e
 
@@ -330,11 +330,9 @@ def shipped_cells() -> list[str]:
 def load_cell(name_or_path: str, text: str | None = None) -> Cell:
     """A shipped cell by name, or a cell JSON's text (a user's file read by the caller).
     Errors name the file and field."""
-    if text is None:
-        path = CELLS_DIR / f"{Path(name_or_path).name}.json"
-        if not path.exists():
-            raise InputFileError(f"cell {name_or_path!r} not found (shipped: {', '.join(shipped_cells())})")
-        text = path.read_text()
+    if text is None:   # a shipped name, never a path (core.files)
+        text = read_shipped(CELLS_DIR, f"{name_or_path}.json", "cell", shipped_cells(),
+                            limit=5_000_000).decode("utf-8")
     try:
         return Cell.model_validate(json.loads(text))
     except json.JSONDecodeError as e:

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.errors import InputFileError
+from ..core.files import read_shipped
 from .profile import ROBOTS_DIR
 
 if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
@@ -55,16 +56,19 @@ class Arm:
     name: str
 
 
+def shipped_descriptions() -> list[str]:
+    """File names of the arm URDFs shipped in waamflow/data/robots."""
+    return sorted(p.name for p in ROBOTS_DIR.glob("*.urdf"))
+
+
 def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None,
              home_deg=None) -> Arm:
     """Build the arm from a shipped URDF name (file in data/robots) or URDF text. home_deg: the IK
     seed pose (default: KUKA-style upright with the wrist down, 0 −90 90 0 90 0)."""
     import pinocchio as pin  # lazy: keeps start-up light
-    if urdf_text is None:
-        path = ROBOTS_DIR / description
-        if not path.exists():
-            raise InputFileError(f"robot description {description!r} not found in {ROBOTS_DIR}")
-        urdf_text = path.read_text()
+    if urdf_text is None:   # a shipped name, never a path (core.files: '/dev/zero' is refused unread)
+        urdf_text = read_shipped(ROBOTS_DIR, description, "robot description", shipped_descriptions(),
+                                 limit=20_000_000).decode("utf-8")
     try:
         model = pin.buildModelFromXML(urdf_text)
     except Exception as e:  # pinocchio raises ValueError/RuntimeError on bad XML

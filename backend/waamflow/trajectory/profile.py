@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 from ..core.errors import InputFileError
+from ..core.files import read_shipped
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "data" / "robots"
 
@@ -152,8 +153,9 @@ class RobotProfile:
 def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
     known = {f.name for f in fields(RobotProfile)}
     unknown = sorted(set(d) - known - {"comment", "fit"})
-    if unknown:
-        raise InputFileError(f"{source}: unknown robot profile keys {unknown}")
+    if unknown:   # named by count only: an error never echoes a file's content (#26 fault 3)
+        raise InputFileError(f"{source}: {len(unknown)} keys are not robot profile fields (a profile holds only: "
+                             f"{', '.join(sorted(known))}, comment, fit)")
     kw = {k: v for k, v in d.items() if k in known}
     for k in ("tcp_offset_mm", "base_xyz_mm", "ramp_speeds"):
         if k in kw:
@@ -199,12 +201,9 @@ def shipped_profiles() -> list[str]:
 
 def load_profile(name_or_path: str, text: str | None = None) -> RobotProfile:
     """A shipped profile by name ("kuka_kr100ha_krc2"), or a JSON file's text (`text` given)."""
-    if text is None:
-        path = ROBOTS_DIR / f"{name_or_path}.json"
-        if not path.exists():
-            raise InputFileError(
-                f"unknown robot profile {name_or_path!r}; shipped: {', '.join(shipped_profiles())}")
-        text = path.read_text()
+    if text is None:   # a shipped name, never a path (core.files)
+        text = read_shipped(ROBOTS_DIR, f"{name_or_path}.json", "robot profile", shipped_profiles(),
+                            limit=1_000_000).decode("utf-8")
     try:
         d = json.loads(text)
     except ValueError as e:

@@ -100,7 +100,9 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
 
         validate_xml(req.params_xml)  # RecipeError (naming layer/section/zone) → 422
     recipe = svc.prepare(req.graph, recipe, req.params_xml)
-    svc.check_sandbox(build_graph(recipe), svc.resolver_for(req.graph, recipe, req.params_xml))  # → 422
+    resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
+    svc.check_recipe_files(recipe, resolver)            # files first: 422 naming node and param
+    svc.check_sandbox(build_graph(recipe), resolver)    # → 422
     run_id = svc.runs.submit(req.graph, recipe, req.params_xml, accept_preflight=req.accept_preflight)  # validates the graph: RecipeError → 422
     svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None,
                                                    **({"accept_preflight": True} if req.accept_preflight else {})})
