@@ -231,3 +231,14 @@ def test_horizontal_100x50_trimmed_surface_is_a_surface_of_5000_mm2_and_has_no_h
 
     with pytest.raises(PlanningError, match=r"no layers: the part is 0 mm tall .*thinner than one layer"):
         _run(tmp_path, *_mesh_and_slice("flat.igs"))
+
+
+def test_reading_iges_prints_nothing_on_stdout(tmp_path, capfd):
+    from waamflow.geometry.step_io import read_cad_shape
+
+    _iges(tmp_path / "curve.igs", _s_edge())
+    capfd.readouterr()
+    cad = read_cad_shape((tmp_path / "curve.igs").read_bytes(), "curve.igs")
+    assert len(cad.edges) == 1
+    out = capfd.readouterr().out
+    assert "loaded entities" not in out and out == ""        # before: OpenCascade's coloured info line

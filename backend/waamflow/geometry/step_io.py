@@ -79,6 +79,16 @@ def is_cad_file(filename: str) -> bool:
     return PurePosixPath(filename).suffix.lower().lstrip(".") in CAD_FORMATS
 
 
+def _quiet_occ() -> None:
+    """OpenCascade's default messenger prints the readers' info lines ('Total number of loaded
+    entities') in colour on stdout, into the CLI's output and the server's log: keep only failures
+    (the readers' status codes and our own messages say what went wrong)."""
+    from OCP.Message import Message, Message_Gravity
+
+    for printer in Message.DefaultMessenger_s().Printers():
+        printer.SetTraceLevel(Message_Gravity.Message_Fail)
+
+
 def _read_shape(data: bytes, filename: str):
     try:
         from OCP.IFSelect import IFSelect_RetDone
@@ -87,6 +97,7 @@ def _read_shape(data: bytes, filename: str):
         from OCP.STEPControl import STEPControl_Reader
     except ImportError as exc:  # pragma: no cover - dependency declared in pyproject
         raise InputFileError(f"{filename}: STEP/IGES input needs the 'cadquery-ocp-novtk' package") from exc
+    _quiet_occ()
 
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     step = ext in ("step", "stp")
