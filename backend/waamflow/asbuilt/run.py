@@ -67,7 +67,7 @@ def svg(doc: dict) -> str:
     lo, hi = (min(ys + [0.0]), max(ys + [0.0])) if ys else (-1.0, 1.0)
     ch = Chart(64, 44, 760, 300, (0.0, max(n - 1, 1)), (lo - 0.1 * (hi - lo + 1e-9), hi + 0.1 * (hi - lo + 1e-9)),
                title=f"{doc['recipe']}: top height vs plan after each layer (simulated build)",
-               x_label="layer built (in order)", y_label="top error, mm")
+               x_label="layer built (in order)", y_label="top error, mm", legend="left")
     ch.hline(0.0, "#888")
     for m, r in rows.items():
         xs = np.arange(len(r))
