@@ -43,6 +43,9 @@ async function open(width, height, graph, on = browser) {
   return { page, context, errors };
 }
 
+/** The 3D state of this page's own view (one scene per browser tab, #25). */
+const viewState = async (page) => api(srv.base, `/api/viewer/state?view=${await page.getAttribute("[data-testid=viewer3d]", "data-view")}`);
+
 async function runToEnd(page) {
   const before = await page.getAttribute("[data-testid=progress]", "data-run-id");
   await page.click("[data-testid=run]");
@@ -69,7 +72,7 @@ test("3D tab: fills the window, shows the open recipe's run, node toggles, colou
   await page.waitForSelector('[data-testid=viewer3d] [data-node="simulate"]', { timeout: 60_000 });
   const box = await page.locator("[data-testid=viewer]").boundingBox();
   assert.ok((box.width * box.height) / (1600 * 1000) >= 0.45, `iframe ${box.width}×${box.height} < 45 % of 1600×1000`);
-  let st = await api(srv.base, "/api/viewer/state");
+  let st = await viewState(page);
   assert.equal(st.key, "rectangle-study");
   assert.deepEqual(st.nodes.map((n) => n.id), ["or", "mask", "strategy", "simulate"]);
 
@@ -87,10 +90,10 @@ test("3D tab: fills the window, shows the open recipe's run, node toggles, colou
   // force: under load SwiftShader renders the scene at seconds per frame, and Playwright's
   // "stable" check waits for animation frames; the checkbox itself is there and enabled.
   await page.locator('[data-node="mask"] input').uncheck({ force: true });
-  await page.waitForFunction(async (base) => (await (await fetch(base + "/api/viewer/state")).json()).view.hidden.includes("mask"), srv.base);
+  await page.waitForFunction(async (base) => (await (await fetch(base + "/api/viewer/state?view=" + document.querySelector("[data-testid=viewer3d]").dataset.view)).json()).view.hidden.includes("mask"), srv.base);
   await page.selectOption("[data-testid=sim-color]", "deposit");
   await page.waitForFunction(() => /deposit per mm[\s\S]*mm³\/mm/.test(document.querySelector("[data-testid=viewer-legend]")?.textContent ?? ""));
-  st = await api(srv.base, "/api/viewer/state");
+  st = await viewState(page);
   assert.equal(st.view.sim_color, "deposit");
   assert.ok(st.legend.some((l) => l.kind === "simulation" && l.ranges.deposit.unit === "mm³/mm" && l.ranges.deposit.lo > 0));
   await page.waitForTimeout(1500);
@@ -100,14 +103,14 @@ test("3D tab: fills the window, shows the open recipe's run, node toggles, colou
   const { id } = await api(srv.base, "/api/runs", { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify({ graph: "mpp-cross" }) });
   assert.equal((await waitRunApi(id)).status, "done");
   await page.waitForTimeout(1500);
-  st = await api(srv.base, "/api/viewer/state");
+  st = await viewState(page);
   assert.equal(st.key, "rectangle-study");
   assert.ok(st.published.includes("mpp-cross"));
 
   // Layer range synced with the canvas layer.
   await page.selectOption("[data-testid=layer-mode]", "only");
   await page.waitForFunction(async (base) => {
-    const s = await (await fetch(base + "/api/viewer/state")).json();
+    const s = await (await fetch(base + "/api/viewer/state?view=" + document.querySelector("[data-testid=viewer3d]").dataset.view)).json();
     return s.view.layer_lo === 0 && s.view.layer_hi === 0;
   }, srv.base);
   assert.deepEqual(errors, []);
@@ -119,7 +122,7 @@ test("3D tab: fills the window, shows the open recipe's run, node toggles, colou
   await small.page.waitForSelector('[data-testid=viewer3d] [data-node="zone"]', { timeout: 60_000 });
   const b2 = await small.page.locator("[data-testid=viewer]").boundingBox();
   assert.ok((b2.width * b2.height) / (1366 * 768) >= 0.45, `iframe ${b2.width}×${b2.height} < 45 % of 1366×768`);
-  assert.equal((await api(srv.base, "/api/viewer/state")).key, "mpp-cross");
+  assert.equal((await viewState(small.page)).key, "mpp-cross");
   await small.page.waitForTimeout(2500);
   await shot(small.page, "3d-1366");
   await small.context.close();
@@ -304,7 +307,7 @@ test("3D tab after a server restart: the open recipe's last run is rebuilt from 
   const lines = await page.evaluate(() => window.__runLines);
   assert.ok(!lines.some((l) => /No run of/.test(l)), `never "no run yet": ${lines.join(" | ")}`);
   console.log(`# 3D panel lines after the restart: ${lines.join(" | ")}`);
-  const st = await api(srv.base, "/api/viewer/state");
+  const st = await viewState(page);
   assert.equal(st.run, last.id);
   assert.equal(st.loading, null);
   assert.deepEqual(st.nodes.map((n) => n.id), ["or", "mask", "strategy", "simulate"]);

@@ -437,6 +437,8 @@ export interface paths {
          *     duration, view settings and legend data (zone colours, value ranges with units, colour-map
          *     stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
          *     (its scene was not in memory, e.g. after a restart); `rebuild_error` {run, message} if that failed.
+         *     Legend ranges are robust (2nd–98th percentile): `min`/`max` give the data's extent and
+         *     `clamped` says values beyond the colour map's ends are drawn in its end colours.
          */
         get: operations["state_api_viewer_state_get"];
         put?: never;
@@ -461,6 +463,85 @@ export interface paths {
         get: operations["audit_log_api_audit_get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/builds": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Builds */
+        get: operations["list_builds_api_builds_get"];
+        put?: never;
+        /**
+         * Start Build
+         * @description Start a build from a finished run (its recipe re-planned: seconds for a large part).
+         */
+        post: operations["start_build_api_builds_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/builds/{build_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Build */
+        get: operations["get_build_api_builds__build_id__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/builds/{build_id}/program": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Next Program
+         * @description The program of the next layer to build, adapted to the scans so far.
+         */
+        get: operations["next_program_api_builds__build_id__program_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/builds/{build_id}/scans": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Post Scan
+         * @description The scan of the layer just built: measured against the plan, kept, and answered with the next
+         *     layer's program. A scan of another layer, off the part, empty or with NaNs → 422 with the reason.
+         */
+        post: operations["post_scan_api_builds__build_id__scans_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -506,6 +587,87 @@ export interface components {
             detail: {
                 [key: string]: unknown;
             } | null;
+        };
+        /** BuildDetail */
+        BuildDetail: {
+            /** Id */
+            id: string;
+            /** Run */
+            run: string;
+            /** Graph */
+            graph?: string | null;
+            /**
+             * Status
+             * @enum {string}
+             */
+            status: "building" | "complete";
+            /** Created */
+            created: string;
+            /** Layers Planned */
+            layers_planned: number;
+            /** Layers Scanned */
+            layers_scanned: number;
+            /** Next Layer */
+            next_layer: number | null;
+            /**
+             * Layers
+             * @description per scanned layer: coverage, mean/RMS/max top error (mm)
+             */
+            layers: {
+                [key: string]: unknown;
+            }[];
+            /**
+             * Log
+             * @description every step: time (UTC), who, action, detail
+             */
+            log: {
+                [key: string]: unknown;
+            }[];
+        };
+        /** BuildInfo */
+        BuildInfo: {
+            /** Id */
+            id: string;
+            /** Run */
+            run: string;
+            /** Graph */
+            graph?: string | null;
+            /**
+             * Status
+             * @enum {string}
+             */
+            status: "building" | "complete";
+            /** Created */
+            created: string;
+            /** Layers Planned */
+            layers_planned: number;
+            /** Layers Scanned */
+            layers_scanned: number;
+        };
+        /**
+         * BuildRequest
+         * @example {
+         *       "run": "3f2a9c01b7de"
+         *     }
+         */
+        BuildRequest: {
+            /**
+             * Run
+             * @description a finished run: its recipe is the plan
+             */
+            run: string;
+            /**
+             * Min Speed Factor
+             * @description slowest adapted speed, × the planned one
+             * @default 0.6
+             */
+            min_speed_factor: number;
+            /**
+             * Max Speed Factor
+             * @description fastest adapted speed, × the planned one
+             * @default 1.6
+             */
+            max_speed_factor: number;
         };
         /**
          * ConflictDetail
@@ -730,6 +892,28 @@ export interface components {
              * @description 4×4 layer-local → world, for non-horizontal layers
              */
             frame?: number[][] | null;
+        };
+        /** LayerProgram */
+        LayerProgram: {
+            /**
+             * Layer
+             * @description the layer this program builds
+             */
+            layer: number;
+            /**
+             * Adaptation
+             * @description what was adapted: speed factors, heights needed, samples clamped to the window
+             */
+            adaptation: {
+                [key: string]: unknown;
+            };
+            /**
+             * Files
+             * @description file name → program text of this one layer
+             */
+            files: {
+                [key: string]: string;
+            };
         };
         /**
          * MachineProfileInfo
@@ -1197,6 +1381,18 @@ export interface components {
              */
             revision: number;
         };
+        /** ScanResult */
+        ScanResult: {
+            /**
+             * Layer
+             * @description the scanned layer's as-built figures
+             */
+            layer: {
+                [key: string]: unknown;
+            };
+            /** @description the next layer's program (none when the build is complete) */
+            next?: components["schemas"]["LayerProgram"] | null;
+        };
         /** SectionJSON */
         SectionJSON: {
             /** Key */
@@ -1270,6 +1466,8 @@ export interface components {
              * @description show this run (an unsaved recipe's run is keyed by its run id)
              */
             run?: string | null;
+            /** View */
+            view?: string | null;
         };
         /** ValidationItem */
         ValidationItem: {
@@ -1332,10 +1530,12 @@ export interface components {
             sim_offset_mm?: number | null;
             /**
              * Fit
-             * @description frame the camera on the shown part
+             * @description frame the camera at the playback time: true or 'part' on the part as the positioner holds it, 'cell' on the part with robot, torch and positioner
              * @default false
              */
-            fit: boolean;
+            fit: boolean | ("part" | "cell");
+            /** View */
+            view?: string | null;
         };
     };
     responses: never;
@@ -2674,7 +2874,10 @@ export interface operations {
     };
     state_api_viewer_state_get: {
         parameters: {
-            query?: never;
+            query?: {
+                /** @description the browser view; none: the default view */
+                view?: string | null;
+            };
             header?: never;
             path?: never;
             cookie?: never;
@@ -2694,6 +2897,15 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -2729,6 +2941,291 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    list_builds_api_builds_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["BuildInfo"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    start_build_api_builds_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["BuildRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["BuildDetail"];
+                };
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    get_build_api_builds__build_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description build id (12 hex digits) */
+                build_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["BuildDetail"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    next_program_api_builds__build_id__program_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description build id (12 hex digits) */
+                build_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LayerProgram"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    post_scan_api_builds__build_id__scans_post: {
+        parameters: {
+            query: {
+                /** @description the layer the scan is of */
+                layer: number;
+                kind?: "cloud" | "heights";
+                /** @description best-fit the scan's frame to the planned top first (an uncalibrated scanner; it also removes a uniform error) */
+                register?: boolean;
+            };
+            header?: never;
+            path: {
+                /** @description build id (12 hex digits) */
+                build_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/octet-stream": string;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ScanResult"];
+                };
+            };
+            /** @description Bad request */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Too large */
+            413: {
                 headers: {
                     [name: string]: unknown;
                 };

@@ -1,7 +1,7 @@
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import { viewerPage, viewerUrl } from "../api/client";
 import type { Health } from "../api/types";
-import { viewerShow, viewerState, viewerView, type ViewSettings, type ViewerState } from "./api";
+import { VIEW_ID, viewerShow, viewerState, viewerView, withView, type ViewSettings, type ViewerState } from "./api";
 import { layerRange, legendBlocks } from "./legend";
 
 export interface Viewer3DProps {
@@ -22,6 +22,10 @@ const RANGE_MODES: [RangeMode, string][] = [["all", "all layers"], ["upto", "up 
 const PATH_LABELS: Record<string, string> = { zone: "zone", speed: "speed", arc: "arc on/off", section: "section" };
 const SIM_LABELS: Record<string, string> = { deviation: "deviation", speed: "speed", deposit: "deposit per mm" };
 
+/** The panel's own choices, per recipe, kept while the tab is left (the panel unmounts). */
+interface PanelChoices { rangeMode: RangeMode; custom: [number, number] }
+const PANEL = new Map<string, PanelChoices>();
+
 /** The line under the panel's title: which run is shown, or why none is. */
 function runLine(key: string | null, st: ViewerState | null, shownOther: boolean): string {
   if (!key) return "Save or run the recipe to see it in 3D.";
@@ -40,13 +44,25 @@ function runLine(key: string | null, st: ViewerState | null, shownOther: boolean
  * through /api/viewer. It shows the open recipe's latest run, not whatever ran last on the server.
  */
 export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMessage }: Viewer3DProps) {
+  const key = graph ?? runId;
+  const saved = PANEL.get(key ?? "");
   const [st, setSt] = useState<ViewerState | null>(null);
-  const [rangeMode, setRangeMode] = useState<RangeMode>("all");
-  const [custom, setCustom] = useState<[number, number]>([0, 0]);
+  const [rangeMode, setRangeMode] = useState<RangeMode>(saved?.rangeMode ?? "all");
+  const [custom, setCustom] = useState<[number, number]>(saved?.custom ?? [0, 0]);
   const [playing, setPlaying] = useState(false);
   const url = health ? viewerUrl(health) : null;
-  const key = graph ?? runId;
-  const fitted = useRef<string | null>(null);
+  const shownKey = useRef(key);
+  useEffect(() => {
+    // another recipe opened: its own choices (or the defaults)
+    if (shownKey.current === key) return;
+    shownKey.current = key;
+    const c = PANEL.get(key ?? "");
+    setRangeMode(c?.rangeMode ?? "all");
+    setCustom(c?.custom ?? [0, 0]);
+  }, [key]);
+  useEffect(() => {
+    if (key && shownKey.current === key) PANEL.set(key, { rangeMode, custom });
+  }, [key, rangeMode, custom]);
 
   const refresh = useCallback(() => viewerState().then(setSt).catch(() => undefined), []);
   const send = useCallback(
@@ -72,14 +88,6 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
     const t = setInterval(refresh, st && st.key === key && (st.nodes?.length ?? 0) > 0 && !st.loading ? 5000 : 1000);
     return () => clearInterval(t);
   }, [url, refresh, st, key]);
-
-  // Frame the part once per opened recipe, as soon as its scene has content.
-  useEffect(() => {
-    if (st?.key && st.key === key && st.bounds && fitted.current !== key) {
-      fitted.current = key;
-      void send({ fit: true });
-    }
-  }, [st, key, send]);
 
   // The layer range follows the canvas layer (or the chosen range).
   const extent = st?.layers ?? null;
@@ -115,18 +123,23 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
   const shownOther = st?.key && key && st.key !== key;
 
   return (
-    <div className="viewer3d" data-testid="viewer3d">
+    <div className="viewer3d" data-testid="viewer3d" data-view={VIEW_ID}>
       <div className="viewer3d-scene">
-        <iframe title="3D view of the open recipe's latest run" src={viewerPage(health!, url)} data-testid="viewer" />
+        <iframe title="3D view of the open recipe's latest run" src={withView(viewerPage(health!, url))} data-testid="viewer" />
       </div>
       <aside className="viewer3d-panel" aria-label="3D view settings">
         <h2 className="panel-title">3D view</h2>
         <div className="muted" data-testid="viewer-run" role="status" data-run={st?.run ?? ""} data-loading={st?.loading?.run ?? ""}>
           {runLine(key, st, !!shownOther)}
         </div>
-        <button type="button" onClick={() => void send({ fit: true })} disabled={!st?.bounds}>
-          Fit part
-        </button>
+        <div className="row" role="group" aria-label="camera">
+          <button type="button" data-testid="fit-part" onClick={() => void send({ fit: "part" })} disabled={!st?.bounds} title="Frame the part as the positioner holds it at the playback time">
+            Fit part
+          </button>
+          <button type="button" data-testid="fit-cell" onClick={() => void send({ fit: "cell" })} disabled={!st?.bounds || !st?.has_cell} title="Frame the part with the robot, torch and positioner at the playback time">
+            Fit cell
+          </button>
+        </div>
 
         <section aria-labelledby="v3d-nodes">
           <h3 id="v3d-nodes">Nodes</h3>
@@ -168,10 +181,10 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
           {rangeMode === "custom" && (
             <div className="row">
               <label>
-                from <input type="number" min={extent?.lo ?? 0} max={extent?.hi ?? undefined} value={custom[0]} onChange={(e) => setCustom([Number(e.target.value) || 0, custom[1]])} />
+                from <input type="number" data-testid="layer-from" min={extent?.lo ?? 0} max={extent?.hi ?? undefined} value={custom[0]} onChange={(e) => setCustom([Number(e.target.value) || 0, custom[1]])} />
               </label>
               <label>
-                to <input type="number" min={extent?.lo ?? 0} max={extent?.hi ?? undefined} value={custom[1]} onChange={(e) => setCustom([custom[0], Number(e.target.value) || 0])} />
+                to <input type="number" data-testid="layer-to" min={extent?.lo ?? 0} max={extent?.hi ?? undefined} value={custom[1]} onChange={(e) => setCustom([custom[0], Number(e.target.value) || 0])} />
               </label>
             </div>
           )}
@@ -258,7 +271,7 @@ export function Viewer3D({ health, graph, runId, runPhase, layer, setLayer, onMe
               </button>
               <label className="grow">
                 <span className="sr-only">playback time</span>
-                <input type="range" min={0} max={st?.duration_s ?? 0} step={Math.max((st?.duration_s ?? 1) / 500, 0.01)} value={view.time_s} onChange={(e) => void send({ time_s: Number(e.target.value) })} />
+                <input type="range" data-testid="viewer-time" min={0} max={st?.duration_s ?? 0} step={Math.max((st?.duration_s ?? 1) / 500, 0.01)} value={view.time_s} onChange={(e) => void send({ time_s: Number(e.target.value) })} />
               </label>
               <span className="muted">{view.time_s.toFixed(1)} s</span>
             </div>
