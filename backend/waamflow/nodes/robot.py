@@ -286,7 +286,10 @@ class EstimateTime(Node):
     A profile from calibrate-robot holds the user's robot's constants per speed, arc protocol and
     strategy family ("40_on_triangular"); each section uses its strategy's entries, else the
     generic ones, else another strategy's; an arc protocol the profile has no entry for is timed
-    with the study's (KUKA KR 100) constants, and a note says so (warning and `notes`)."""
+    with the study's (KUKA KR 100) constants, and a note says so (warning and `notes`). The
+    shipped KR C2 / KR C4 profiles hold the study's triangular 45° constants as the generic entries
+    and per-family entries for raster, semicircular and rectangular read off the controller model
+    (trajectory/MODEL.md, "Time model per strategy family")."""
 
     type = "estimate-time"
     title = "Estimate time"
