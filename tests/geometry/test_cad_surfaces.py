@@ -109,11 +109,15 @@ def test_iges_144_vertical_rectangle_is_a_midsurface(tmp_path, as_):
     assert any("read as a midsurface" in w["message"] and "1 curve(s) of 100 mm" in w["message"] for w in res.warnings)
 
 
-def test_iges_ruled_bspline_wall_is_a_midsurface_of_the_curve(tmp_path):
+@pytest.mark.parametrize("name", ["wall.igs", "wall.step"])
+def test_ruled_bspline_wall_is_a_midsurface_of_the_curve(tmp_path, name):
     wall = BRepPrimAPI_MakePrism(_s_edge(), gp_Vec(0, 0, 40)).Shape()
-    _iges(tmp_path / "wall.igs", wall)
-    assert {144, 122, 126}.issubset(_entity_types(tmp_path / "wall.igs"))
-    res = _run(tmp_path, *_mesh_and_slice("wall.igs", {"as": "surface", "chordal_tolerance": 0.01}, layer_height=2.0))
+    if name.endswith(".igs"):
+        _iges(tmp_path / name, wall)
+        assert {144, 122, 126}.issubset(_entity_types(tmp_path / name))
+    else:
+        _step(tmp_path / name, wall)
+    res = _run(tmp_path, *_mesh_and_slice(name, {"as": "surface", "chordal_tolerance": 0.01}, layer_height=2.0))
     mid = res.outputs["m"]["mesh"]
     assert isinstance(mid, Midsurface) and mid.height == pytest.approx(40.0, abs=1e-6)
     exact = _s_length()

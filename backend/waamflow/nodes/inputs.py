@@ -193,7 +193,9 @@ class MeshNode(Node):
     tolerance whose estimated triangle count exceeds `max_triangles` is refused before the long
     run. The triangles are repaired and classified as above; an open surface whose faces are all
     vertical walls between one bottom and one top height (a thin-wall midsurface) is read as a
-    sketch: its bottom curves extruded (a Midsurface, as from the `sketch` node); other open
+    sketch: its bottom curves (discretised within `chordal_tolerance`) extruded (a Midsurface, as
+    from the `sketch` node; never tessellated, so walls meeting in T's and crossings, which are
+    non-manifold as a mesh, are read as the thin-walls study has them); other open
     surfaces stay tessellated single-wall surfaces. A file of curves only is refused here (read
     it with `sketch`).
     """
@@ -314,6 +316,8 @@ class SketchNode(Node):
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
+        ctx.progress(0.0, f"read {params.path} ({len(data) / 2**20:.1f} MB)")
+        ctx.check_cancelled()
         res = load_sketch_bytes(
             data, params.path, height=params.height, z0=params.z0, units=params.units,
             arc_tolerance=params.arc_tolerance, join=params.join, layout=params.layout,
