@@ -7,6 +7,14 @@ Tokens come from `WAAMFLOW_TOKEN` (one token, named "default") and/or a token fi
 the "who" of the audit log. GET requests (an `EventSource`, an artifact link) may carry the token
 in the `waamflow_token` session cookie the GUI sets, since a browser cannot add a header to them;
 requests that change anything need the header.
+
+Roles (#26 fault 7): each token has one — `viewer` (reads: graphs, runs, artifacts, the 3D view),
+`operator` (+ starts, previews and cancels runs), `editor` (+ saves, uploads and deletes the graphs
+it created), `admin` (everything: any graph, restoring deleted or overwritten revisions, the audit
+log). A token file line `name:token:role` or a JSON entry `{"name": {"token": "...", "role":
+"editor"}}` sets it; a token without one (`name:token`, `{"name": "token"}`, WAAMFLOW_TOKEN — every
+file written before roles) is `admin`, so existing set-ups keep working. Without tokens the one
+local user is `admin`. A request beyond the role's rights → 403 naming the role and what it needs.
 """
 
 from __future__ import annotations
@@ -25,6 +33,44 @@ MIN_TOKEN_LENGTH = 16
 # rule but is guessed at once (`secrets.token_urlsafe(32)` has ~30 distinct of 43)
 MIN_DISTINCT_CHARS = 8
 OPEN_PATHS = ("/api/health",)
+ROLES = ("viewer", "operator", "editor", "admin")   # each may do what those before it may
+DEFAULT_ROLE = "admin"   # a token with no role (token files written before roles) keeps every right
+# what an operator may change besides reading: run, preview, cancel; a viewer only moves the 3D view
+OPERATOR_WRITES = (("POST", re.compile(r"^/api/runs/?$")), ("DELETE", re.compile(r"^/api/runs/[^/]+/?$")),
+                   ("POST", re.compile(r"^/api/preview/?$")))
+VIEWER_WRITES = (("POST", re.compile(r"^/api/viewer/(select|view)/?$")),)
+SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
+
+
+class Tokens(dict):
+    """name → token (a plain dict for every existing use), plus `roles`: name → role."""
+
+    def __init__(self, *args, roles: dict[str, str] | None = None, **kw) -> None:
+        super().__init__(*args, **kw)
+        self.roles: dict[str, str] = dict(roles or {})
+
+    def role(self, name: str | None) -> str:
+        return self.roles.get(name or "", DEFAULT_ROLE)
+
+
+def role_of(tokens: dict, name: str | None) -> str:
+    return tokens.role(name) if isinstance(tokens, Tokens) else DEFAULT_ROLE
+
+
+def at_least(role: str | None, needed: str) -> bool:
+    return ROLES.index(role if role in ROLES else DEFAULT_ROLE) >= ROLES.index(needed)
+
+
+def method_allowed(role: str, method: str, path: str) -> str | None:
+    """None when `role` may send `method` to `path`, else the role that may (the coarse rule every
+    route gets; ownership of graphs is checked by the graph routes)."""
+    if role in ("editor", "admin") or method in SAFE_METHODS:
+        return None
+    if any(m == method and rx.match(path) for m, rx in VIEWER_WRITES):
+        return None
+    if role == "operator" and any(m == method and rx.match(path) for m, rx in OPERATOR_WRITES):
+        return None
+    return "operator" if any(m == method and rx.match(path) for m, rx in OPERATOR_WRITES) else "editor"
 
 
 class TokenFileError(WaamflowError):
@@ -35,30 +81,40 @@ class TokenFileError(WaamflowError):
 def parse_tokens(text: str, source: str = "token file") -> dict[str, str]:
     """name → token from a token file's text (JSON object or `name:token` lines)."""
     stripped = text.strip()
-    pairs: list[tuple[str, str]] = []
+    pairs: list[tuple[str, object, object]] = []   # (name, token, role or None)
     if stripped.startswith("{"):
         try:
             data = json.loads(stripped)
         except json.JSONDecodeError as e:
             raise TokenFileError(f"{source}: invalid JSON ({e})") from None
-        pairs = [(str(k), v) for k, v in data.items()]
+        for k, v in data.items():
+            if isinstance(v, dict):   # {"name": {"token": "...", "role": "editor"}}
+                extra = sorted(set(v) - {"token", "role"})
+                if extra:
+                    raise TokenFileError(f"{source}: token {k!r} has unknown fields {extra} (token, role)")
+                pairs.append((str(k), v.get("token"), v.get("role")))
+            else:
+                pairs.append((str(k), v, None))
     else:
         for i, line in enumerate(text.splitlines(), 1):
             line = line.strip()
             if not line or line.startswith("#"):
                 continue
-            name, sep, token = line.partition(":")
-            if not sep:
-                raise TokenFileError(f"{source} line {i}: expected 'name:token'")
-            pairs.append((name.strip(), token.strip()))
-    out: dict[str, str] = {}
-    for name, token in pairs:
+            parts = line.split(":")
+            if len(parts) not in (2, 3):
+                raise TokenFileError(f"{source} line {i}: expected 'name:token' or 'name:token:role'")
+            pairs.append((parts[0].strip(), parts[1].strip(), parts[2].strip() if len(parts) == 3 else None))
+    out = Tokens()
+    for name, token, role in pairs:
         if not TOKEN_NAME.match(name):
             raise TokenFileError(f"{source}: invalid token name {name!r} (letters, digits, _ . @ -; ≤ 64 chars)")
         check_token(token, f"{source}: token {name!r}")
         if name in out:
             raise TokenFileError(f"{source}: token name {name!r} appears twice")
+        if role is not None and role not in ROLES:
+            raise TokenFileError(f"{source}: token {name!r} has role {role!r}; roles: {', '.join(ROLES)}")
         out[name] = token
+        out.roles[name] = role or DEFAULT_ROLE
     if not out:
         raise TokenFileError(f"{source}: no tokens")
     return out
@@ -75,8 +131,8 @@ def check_token(token: object, what: str) -> None:
                              "`python -c 'import secrets; print(secrets.token_urlsafe(32))'`")
 
 
-def load_tokens(token: str | None, token_file: str | Path | None) -> dict[str, str]:
-    tokens: dict[str, str] = {}
+def load_tokens(token: str | None, token_file: str | Path | None) -> Tokens:
+    tokens = Tokens()
     if token_file:
         p = Path(token_file)
         try:
@@ -88,10 +144,13 @@ def load_tokens(token: str | None, token_file: str | Path | None) -> dict[str, s
             text = p.read_text(encoding="utf-8")
         except OSError as e:
             raise TokenFileError(f"cannot read token file {p}: {e.strerror}") from None
-        tokens.update(parse_tokens(text, str(p)))
+        parsed = parse_tokens(text, str(p))
+        tokens.update(parsed)
+        tokens.roles.update(parsed.roles)
     if token:
         check_token(token, "WAAMFLOW_TOKEN")
         tokens.setdefault("default", token)
+        tokens.roles.setdefault("default", DEFAULT_ROLE)
     return tokens
 
 
@@ -125,6 +184,15 @@ def needs_auth(path: str) -> bool:
     return (path.startswith("/api/") or path == "/api" or path.startswith("/viewer")) and path not in OPEN_PATHS
 
 
+async def _forbidden(send, user: str, role: str, needed: str) -> None:
+    msg = f"token {user!r} has role {role!r}: this needs {needed} or above (roles: {', '.join(ROLES)})"
+    body = json.dumps({"detail": {"kind": "forbidden", "message": msg, "text": msg, "node": None, "layer": None,
+                                  "section": None, "field": None}}).encode()
+    await send({"type": "http.response.start", "status": 403, "headers": [
+        (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+    await send({"type": "http.response.body", "body": body})
+
+
 class AuthMiddleware:
     """ASGI middleware: http and websocket requests to protected paths need a known token.
     The matched token name is put in `scope["state"]["user"]` (request.state.user)."""
@@ -139,6 +207,7 @@ class AuthMiddleware:
         scope.setdefault("state", {})
         if not self.tokens:
             scope["state"]["user"] = "anonymous"
+            scope["state"]["role"] = DEFAULT_ROLE   # the one local user
             return await self.app(scope, receive, send)
         headers = dict(scope.get("headers") or [])
         user = match_token(self.tokens, _bearer(headers))
@@ -146,6 +215,11 @@ class AuthMiddleware:
             user = match_token(self.tokens, _cookie(headers))
         if user is not None:
             scope["state"]["user"] = user
+            scope["state"]["role"] = role = role_of(self.tokens, user)
+            needed = method_allowed(role, scope.get("method", "GET"), scope["path"]) \
+                if scope["type"] == "http" and needs_auth(scope["path"]) else None
+            if needed is not None:
+                return await _forbidden(send, user, role, needed)
             return await self.app(scope, receive, send)
         if not needs_auth(scope["path"]):
             scope["state"]["user"] = None

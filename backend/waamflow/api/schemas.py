@@ -115,7 +115,7 @@ class SectionPathJSON(BaseModel):
 
 
 # ---- the one error model of every 4xx answer --------------------------------------------------
-ERROR_KINDS = ("bad_request", "unauthorized", "not_found", "method_not_allowed", "conflict", "too_large",
+ERROR_KINDS = ("bad_request", "unauthorized", "forbidden", "not_found", "method_not_allowed", "conflict", "too_large",
                "invalid_request", "invalid_recipe", "invalid_input", "planning_failed", "outside_sandbox",
                "busy", "error")
 
@@ -155,9 +155,10 @@ class ConflictResponse(BaseModel):
     detail: ConflictDetail
 
 
-STATUS_KIND = {400: "bad_request", 401: "unauthorized", 404: "not_found", 405: "method_not_allowed",
+STATUS_KIND = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found", 405: "method_not_allowed",
                409: "conflict", 413: "too_large", 422: "invalid_request", 429: "busy"}
-STATUS_TEXT = {400: "Bad request", 401: "Missing or wrong bearer token", 404: "Not found",
+STATUS_TEXT = {400: "Bad request", 401: "Missing or wrong bearer token",
+               403: "The token's role does not allow this (roles: viewer, operator, editor, admin)", 404: "Not found",
                409: "Conflict (e.g. a read-only example)", 413: "Too large", 422: "Invalid request, recipe or file",
                429: "Run queue full (see Retry-After)"}
 

@@ -48,6 +48,7 @@ CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REA
 # columns added after the first release: (table, column, declaration); added to older databases
 # at start-up (a graph saved before revisions existed is revision 1)
 MIGRATIONS = (("graphs", "revision", "INTEGER NOT NULL DEFAULT 1"),
+              ("graphs", "owner", "TEXT"),   # the token name that created it (#26: editors change their own)
               ("graphs", "params_revision", "INTEGER NOT NULL DEFAULT 1"))
 
 
@@ -141,13 +142,14 @@ class Store:
 
     # graphs
     def list_graphs(self) -> list[dict]:
-        rows = self._query("SELECT name, recipe, example, updated, coalesce(length(params_xml), 0) > 0 AS has_params "
-                           "FROM graphs ORDER BY name")
+        rows = self._query("SELECT name, recipe, example, updated, coalesce(length(params_xml), 0) > 0 AS has_params, "
+                           "owner FROM graphs ORDER BY name")
         out = []
         for r in rows:
             rec = json.loads(r["recipe"])
             out.append({"name": r["name"], "description": rec.get("description", ""),
-                        "example": bool(r["example"]), "updated": r["updated"], "has_params": bool(r["has_params"])})
+                        "example": bool(r["example"]), "updated": r["updated"], "has_params": bool(r["has_params"]),
+                        "owner": r["owner"]})
         return out
 
     def get_graph(self, name: str) -> dict | None:
@@ -166,8 +168,13 @@ class Store:
         rows = self._query("SELECT params_revision FROM graphs WHERE name=?", (name,))
         return int(rows[0]["params_revision"]) if rows else None
 
+    def graph_owner(self, name: str) -> str | None:
+        """The token name that created the graph (None: before owners were recorded, or no graph)."""
+        rows = self._query("SELECT owner FROM graphs WHERE name=?", (name,))
+        return rows[0]["owner"] if rows else None
+
     def put_graph(self, name: str, recipe: dict, *, example: bool = False, expect: int | None = None,
-                  user: str | None = None) -> tuple[bool, int]:
+                  user: str | None = None, owner: str | None = None) -> tuple[bool, int]:
         """Insert or replace; returns (created, new revision). `expect`: the revision the writer
         loaded (If-Match); when it is not the stored one → RevisionConflict and nothing changes
         (checked and written under one lock and one transaction)."""
@@ -187,8 +194,8 @@ class Store:
                 last = self._conn.execute("SELECT max(revision) FROM graph_revisions WHERE graph=? AND kind='recipe'",
                                           (name,)).fetchone()[0]
                 rev = int(last or 0) + 1
-                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated, revision) "
-                                   "VALUES (?,?,?,?,?,?)", (name, text, int(example), now, now, rev))
+                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated, revision, owner) "
+                                   "VALUES (?,?,?,?,?,?,?)", (name, text, int(example), now, now, rev, owner or user))
             self._conn.execute("INSERT OR REPLACE INTO graph_revisions (graph, kind, revision, time, user, content) "
                                "VALUES (?,?,?,?,?,?)", (name, "recipe", rev, now, user, text))
             self._conn.commit()

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from fastapi import APIRouter, Body, Header, HTTPException, Request, Response
+from fastapi import APIRouter, Body, Depends, Header, HTTPException, Request, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
@@ -14,10 +14,36 @@ from ...engine.graph import build_graph
 from ...engine.recipe import Recipe
 from ..services import parse_api_recipe
 from ..deps import FileName, GraphName, ServicesDep, UserDep
+from ..auth import DEFAULT_ROLE
 from ..schemas import ConflictResponse, error_body, errors
 from ..store import RevisionConflict
 
-router = APIRouter(prefix="/api/graphs", tags=["graphs"])
+def _owned(request: Request) -> None:
+    """Every change under /api/graphs/{name} (recipe, parameter XML, files, delete): an editor changes
+    only the graphs it created, an admin any (#26 fault 7). A name not in use is the saver's; a
+    shipped example is left to the routes' 409."""
+    if request.method in ("GET", "HEAD", "OPTIONS"):
+        return
+    role = getattr(request.state, "role", DEFAULT_ROLE)
+    name = request.path_params.get("name")
+    if role == "admin" or not isinstance(name, str):
+        return
+    store = request.app.state.services.store
+    if store.graph_revision(name) is None or store.is_example(name):
+        return
+    owner, user = store.graph_owner(name), getattr(request.state, "user", None)
+    if owner is None or owner != user:
+        whose = f"belongs to {owner!r}" if owner else "was saved before owners were recorded"
+        raise HTTPException(403, detail={"kind": "forbidden", "message": f"graph {name!r} {whose}: role {role!r} "
+                                         "changes only the graphs it created (an admin changes any; save yours "
+                                         "under another name)"})
+
+
+def get_role(request: Request) -> str:
+    return getattr(request.state, "role", DEFAULT_ROLE)
+
+
+router = APIRouter(prefix="/api/graphs", tags=["graphs"], dependencies=[Depends(_owned)])
 
 
 class GraphInfo(BaseModel):
@@ -26,6 +52,8 @@ class GraphInfo(BaseModel):
     example: bool
     updated: float
     has_params: bool = Field(False, description="whether GET /api/graphs/{name}/params has a file to return")
+    owner: str | None = Field(None, description="token name that created it (editors change only their own); "
+                                                "null: a shipped example or saved before owners were recorded")
 
 
 class SaveResult(BaseModel):
@@ -119,7 +147,7 @@ def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str
 @router.put("/{name}", response_model=SaveResult,
             responses={200: {"description": "Saved", "headers": ETAG_HEADER},
                        201: {"model": SaveResult, "description": "Created", "headers": ETAG_HEADER},
-                       **errors(401, 413, 422), **CONFLICT_409},
+                       **errors(401, 403, 413, 422), **CONFLICT_409},
             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
                 "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
 def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Response,
@@ -148,7 +176,7 @@ def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Respon
     return SaveResult(name=name, created=created, problems=problems, revision=rev)
 
 
-@router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 404, 409, 422))
+@router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 403, 404, 409, 422))
 def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep) -> Response:
     _writable(svc, name)
     if not svc.store.delete_graph(name):
@@ -173,7 +201,7 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
 
 
 @router.put("/{name}/params", response_class=Response, status_code=204,
-            responses={204: {"description": "Saved", "headers": ETAG_HEADER}, **errors(400, 401, 404, 413, 422),
+            responses={204: {"description": "Saved", "headers": ETAG_HEADER}, **errors(400, 401, 403, 404, 413, 422),
                        **CONFLICT_409},
             openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
 async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: Request,
@@ -204,10 +232,12 @@ async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: 
 
 @router.get("/{name}/revisions", response_model=list[RevisionInfo], responses=errors(401, 404, 422))
 def list_revisions(name: GraphName, svc: ServicesDep) -> list[RevisionInfo]:
-    """The recipe's saved revisions, newest first (revision, time, user)."""
-    if svc.store.get_graph(name) is None:
-        raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
-    return [RevisionInfo(**r) for r in svc.store.list_revisions(name)]
+    """The recipe's saved revisions, newest first (revision, time, user) — also of a deleted graph,
+    whose revisions stay until an admin restores one (POST .../revisions/{rev}/restore)."""
+    revs = svc.store.list_revisions(name)
+    if not revs:
+        raise HTTPException(404, detail={"message": f"no graph named {name!r} (and none deleted under that name)"})
+    return [RevisionInfo(**r) for r in revs]
 
 
 @router.get("/{name}/revisions/{rev}", response_model=Recipe, response_model_exclude_none=True,
@@ -215,12 +245,41 @@ def list_revisions(name: GraphName, svc: ServicesDep) -> list[RevisionInfo]:
             responses={200: {"description": "The recipe as saved in that revision", "headers": ETAG_HEADER},
                        **errors(401, 404, 422)})
 def get_revision(name: GraphName, rev: int, svc: ServicesDep, response: Response) -> dict[str, Any]:
-    """One earlier revision of the recipe (restore it by PUTting it back)."""
-    text = svc.store.get_revision(name, rev) if svc.store.get_graph(name) is not None else None
+    """One earlier revision of the recipe, also of a deleted graph (restore it by PUTting it back, or
+    as an admin with POST .../restore)."""
+    text = svc.store.get_revision(name, rev)
     if text is None:
         raise HTTPException(404, detail={"message": f"graph {name!r} has no revision {rev}"})
     response.headers["ETag"] = etag(rev)
     return json.loads(text)
+
+
+@router.post("/{name}/revisions/{rev}/restore", response_model=SaveResult,
+             responses={200: {"description": "Restored as the graph's new revision", "headers": ETAG_HEADER},
+                        201: {"model": SaveResult, "description": "A deleted graph restored", "headers": ETAG_HEADER},
+                        **errors(401, 403, 404, 422), **CONFLICT_409})
+def restore_revision(name: GraphName, rev: int, svc: ServicesDep, user: UserDep, response: Response,
+                     role: str = Depends(get_role), if_match: str | None = IfMatch) -> Any:
+    """Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
+    content) or as the graph again after a delete. It becomes a new revision (history only grows);
+    the graph's owner is who saved `rev`. `If-Match` as for PUT."""
+    if role != "admin":
+        raise HTTPException(403, detail={"kind": "forbidden",
+                                         "message": f"restoring a revision needs role 'admin' (this token: {role!r})"})
+    _writable(svc, name)
+    text = svc.store.get_revision(name, rev)
+    if text is None:
+        raise HTTPException(404, detail={"message": f"graph {name!r} has no revision {rev}"})
+    owner = next((r["user"] for r in svc.store.list_revisions(name) if r["revision"] == rev), None)
+    try:
+        created, new = svc.store.put_graph(name, json.loads(text), user=user, owner=owner,
+                                           expect=_expected(if_match, svc.store.graph_revision(name)))
+    except RevisionConflict as err:
+        return _conflict("recipe", name, {"restore": rev}, err, "recipe")
+    svc.store.audit(user, "restore_graph", name, {"from_revision": rev, "revision": new, "created": created})
+    response.status_code = 201 if created else 200
+    response.headers["ETag"] = etag(new)
+    return SaveResult(name=name, created=created, problems=[], revision=new)
 
 
 @router.get("/{name}/files", response_model=list[FileInfo], responses=errors(401, 404, 422))
