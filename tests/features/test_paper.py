@@ -264,18 +264,21 @@ def test_panel_sub_types_widths_and_fillets():
     base = _panel()
     feats = json.loads(base.artifacts["features.features.json"])["features"]
     assert Counter(f.get("subtype") for f in feats if f["kind"] == "t_crossing") == {"straight": 9}
-    assert base.warnings == []                                   # TWW 5 mm: the radii 2.0/10.0 are Test 3's
-    # a 4 mm bead with the same radii: the 2 mm cutting circle exceeds 0.8 × 4/2 at all 12 crossings
-    narrow = _panel(tww=4.0)
+    assert base.warnings == []                                   # TWW 4 mm, radii 1.6/8.0: Test 3's scaled
+    # the study's 2.0/10.0 on this 4 mm bead: the 2 mm cutting circle exceeds 0.8 × 4/2 at all 12 crossings
+    narrow = _panel(cut_radius=2.0, influence_radius=10.0)
     msgs = [w["message"] for w in narrow.warnings]
     assert len(msgs) == 12 and all("cut_radius 2 mm exceeds 1.6 mm" in m for m in msgs)
     assert sum(m.startswith("four_direct_crossing at [100.0, 60.0]") for m in msgs) == 1
-    # a 3 mm internal fillet turns the four skin corners on R = 3 + 4/2 = 5 mm: each layer is
-    # 4·(2R − πR/2) = 8.584 mm shorter
+    # a 3 mm internal fillet turns the four skin corners on R = 3 + EWW/2 = 3 + 3.2/2 = 4.6 mm:
+    # each layer is 4·(2R − πR/2) = 7.897 mm shorter
     def layer_len(res, i):
         doc = json.loads(res.artifacts["walls.toolpath.json"])
         return sum(s["length_mm"] for s in doc["layers"][i]["sections"] if s["key"].startswith("wall"))
     fil = _panel(fillet_radius=3.0)
-    R = 5.0
+    R = 4.6
     assert layer_len(base, 1) - layer_len(fil, 1) == pytest.approx(4 * (2 * R - math.pi * R / 2), abs=0.01)
     assert fil.warnings == []
+    # on a 5 mm bead 1.6 mm cuts are fine, an 8 mm influence circle is Test 2's: 12 warnings
+    wide = [w["message"] for w in _panel(tww=5.0).warnings]
+    assert len(wide) == 12 and all("influence_radius 8 mm is below 10.0 mm" in m for m in wide)
