@@ -246,3 +246,21 @@ def test_reading_iges_prints_nothing_on_stdout(tmp_path, capfd):
     assert len(cad.edges) == 1
     out = capfd.readouterr().out
     assert "loaded entities" not in out and out == ""        # before: OpenCascade's coloured info line
+
+
+@pytest.mark.parametrize("lean,midsurface", [(0.02, True), (0.2, False), (1.0, False)])
+def test_a_wall_leaning_less_than_the_tolerance_is_a_midsurface(tmp_path, lean, midsurface):
+    """A 100 × 50 mm wall whose top is `lean` mm off its bottom: within chordal_tolerance 0.05 mm it
+    is a vertical wall (a CAD export's rounding); beyond, a tessellated surface saying why."""
+    poly = BRepBuilderAPI_MakePolygon(gp_Pnt(0, 0, 0), gp_Pnt(100, 0, 0), gp_Pnt(100, lean, 50), gp_Pnt(0, lean, 50),
+                                      True)
+    _iges(tmp_path / "lean.igs", BRepBuilderAPI_MakeFace(poly.Wire()).Face())
+    res = _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "lean.igs"}}])
+    part = res.outputs["m"]["mesh"]
+    assert isinstance(part, Midsurface) == midsurface
+    if midsurface:
+        assert _length(part.curves[0]) == pytest.approx(100.0) and part.height == pytest.approx(50.0)
+    else:
+        why = f"leans {lean:g} mm over its 50 mm height" if lean < 0.5 else "a face is not vertical"
+        assert any("not as a sketch" in w["message"] and why in w["message"] for w in res.warnings)
+        assert _area(part) == pytest.approx(100 * math.hypot(50, lean))

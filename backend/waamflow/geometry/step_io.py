@@ -39,9 +39,10 @@ ANGULAR_TOLERANCE = 0.5        # rad, BRepMesh's angular deflection limit
 # and 11-27 s for 194 k on the 2-core dev box; 1 M (0.0005 mm) ran 290 s.
 MAX_FACE_TRIANGLES = 250_000
 CURVE_ANGLE = 0.1              # rad, tangent turn per chord when a curve is discretised
-VERTICAL_SIN = 1e-6            # a wall face's normal has |n_z| below this (sin of its tilt)
+VERTICAL_SIN = 1e-6            # a wall face's normal has |n_z| below this, or below tol / wall height
+LEAN_MAX = 1e-2                # |n_z| above this (0.6°) is no wall whatever its height: no edge is read
 Z_TOL = 1e-4                   # mm: an edge lies at the bottom / top height within this
-EXTRUSION_REL = 1e-4           # relative: the top edges are as long as the bottom ones
+EXTRUSION_REL = 1e-3           # relative (+ 2 tol): the top edges are as long as the bottom ones
 
 
 @dataclass(frozen=True)
@@ -381,25 +382,32 @@ def _unique_edges(shape):
 
 def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, str]:
     """The sketch of a midsurface made of vertical walls: (CadCurves, "") when every face is
-    vertical (normal ⟂ z at a 5 × 5 grid of its parameter box), the faces span one bottom and one
-    top height, the bottom edges are as long as the top ones and the faces' area is that length
-    × the height (a vertical extrusion of the bottom edges); else (None, why not)."""
+    vertical (its normal, sampled on a 5 × 5 grid of its parameter box, tilts from horizontal by
+    less than tol / wall height: the wall leans less than the chordal tolerance), the faces span
+    one bottom and one top height, and the top edges are the bottom ones lifted (as long, within
+    2·tol of them in plan): a vertical extrusion of the bottom edges; else (None, why not).
+    An edge lies at the bottom or top within its own tolerance in the file (at least Z_TOL)."""
+    from OCP.BRep import BRep_Tool
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.BRepLProp import BRepLProp_SLProps
     from OCP.BRepTools import BRepTools
 
     if not cad.faces:
         return None, "no faces"
+    tilt, where = 0.0, None
     for face, _ in cad.faces:
         umin, umax, vmin, vmax = BRepTools.UVBounds_s(face)
         props = BRepLProp_SLProps(BRepAdaptor_Surface(face), 1, 1e-9)
         for u in np.linspace(umin, umax, 5):
             for v in np.linspace(vmin, vmax, 5):
                 props.SetParameters(float(u), float(v))
-                if props.IsNormalDefined() and abs(props.Normal().Z()) > VERTICAL_SIN:
-                    p = props.Value()
-                    return None, (f"a face is not vertical (normal z {props.Normal().Z():.3g} at "
-                                  f"({p.X():.3f}, {p.Y():.3f}, {p.Z():.3f}) mm)")
+                if props.IsNormalDefined() and abs(props.Normal().Z()) > tilt:
+                    tilt, q = abs(props.Normal().Z()), props.Value()
+                    where = (q.X(), q.Y(), q.Z())
+        if tilt > LEAN_MAX:                        # clearly not a wall: stop before the edges
+            break
+    if tilt > LEAN_MAX:
+        return None, f"a face is not vertical (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)"
     edges = _unique_edges(cad.shape)
     pts = [edge_points(e, tol) for e in edges]
     z0 = min(float(p[:, 2].min()) for p in pts)
@@ -407,15 +415,19 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
     height = z1 - z0
     if not height > Z_TOL:
         return None, "the faces have no height"
-    bottom = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z0) <= Z_TOL)]
-    top = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z1) <= Z_TOL)]
+    if tilt > max(VERTICAL_SIN, tol / height):
+        return None, (f"a face leans {tilt * height:.3g} mm over its {height:.6g} mm height, more than the "
+                      f"tolerance {tol:g} mm (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)")
+    ztol = [max(Z_TOL, BRep_Tool.Tolerance_s(e)) for e in edges]
+    bottom = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z0) <= ztol[i])]
+    top = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z1) <= ztol[i])]
     lb = sum(_edge_length(edges[i]) for i in bottom)
     lt = sum(_edge_length(edges[i]) for i in top)
-    if not lb > 0 or abs(lb - lt) > EXTRUSION_REL * lb:
+    if not lb > 0 or abs(lb - lt) > EXTRUSION_REL * lb + 2 * tol:
         return None, (f"not one extrusion: bottom edges {lb:.6g} mm long, top edges {lt:.6g} mm "
                       f"(walls {height:.6g} mm high)")
     gap = _plan_gap([pts[i][:, :2] for i in bottom], [pts[i][:, :2] for i in top])
-    if gap > 2 * tol + Z_TOL:
+    if gap > 2 * tol + max(ztol):
         return None, f"not one extrusion: the top edges lie up to {gap:.3g} mm off the bottom ones in plan"
     return CadCurves(curves=[pts[i][:, :2] for i in bottom], z0=z0, height=height, length=lb), ""
 
