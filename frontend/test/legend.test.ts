@@ -48,3 +48,18 @@ describe("3D legend", () => {
     expect(layerRange(false, 3, [-4, 40], { lo: 1, hi: 7 })).toEqual([1, 7]);
   });
 });
+
+describe("legend of robust colour ranges", () => {
+  it("marks clamped outliers at the bar's ends and gives the data's extent", () => {
+    const [b] = legendBlocks(
+      [{ node: "sim", kind: "simulation", mode: "deposit", ranges: { deposit: { lo: 4.1, hi: 6.2, unit: "mm³/mm", min: 0, max: 48500, clamped: true } } }],
+      ["#440154", "#fde725"],
+    );
+    expect([b.bar?.lo, b.bar?.hi]).toEqual(["≤ 4.1", "≥ 6.2"]);
+    expect(b.note).toMatch(/outliers clamped.*0–48500 mm³\/mm/);
+  });
+  it("nothing clamped: plain ends", () => {
+    const [b] = legendBlocks([{ node: "tp", kind: "toolpath", mode: "speed", ranges: { speed: { lo: 10, hi: 20, unit: "mm/s", min: 10, max: 20, clamped: false } } }], []);
+    expect([b.bar?.lo, b.bar?.hi, b.note]).toEqual(["10", "20", undefined]);
+  });
+});

@@ -1,5 +1,10 @@
 import { memo, useMemo } from "react";
 import { decimate, ticks } from "./data";
+import { robustRange } from "./robust";
+
+/** Clamp the y axis to robust limits (2nd–98th percentile) when the outliers would squeeze the
+ * ordinary values into less than this share of the axis. */
+const OUTLIER_SQUEEZE = 1 / 3;
 
 export interface Series {
   label: string;
@@ -15,19 +20,25 @@ export interface Series {
 export const LineChart = memo(function LineChart({ title, xLabel, yLabel, series, height = 190 }: { title: string; xLabel: string; yLabel: string; series: Series[]; height?: number }) {
   const W = 560, H = height, L = 52, R = 10, T = 22, B = 34;
   const data = useMemo(() => series.map((s) => ({ ...s, pts: decimate(s.x, s.y) })), [series]);
+  const robust = useMemo(() => robustRange(...series.map((s) => s.y)), [series]);
   let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
   for (const s of data) {
     s.pts[0].forEach((v) => Number.isFinite(v) && ((x0 = Math.min(x0, v)), (x1 = Math.max(x1, v))));
     s.pts[1].forEach((v) => Number.isFinite(v) && ((y0 = Math.min(y0, v)), (y1 = Math.max(y1, v))));
   }
   if (!Number.isFinite(x0)) return <div className="chart empty">{title}: no data</div>;
+  // One outlier must not flatten the chart: clamp to the robust limits, mark what was clamped.
+  const clamp = robust.clamped && robust.hi > robust.lo && (robust.hi - robust.lo) < OUTLIER_SQUEEZE * (robust.max - robust.min);
+  if (clamp) (y0 = robust.lo), (y1 = robust.hi);
   if (y1 === y0) (y0 -= 1), (y1 += 1);
   const pad = (y1 - y0) * 0.05;
   y0 -= pad;
   y1 += pad;
   if (x1 === x0) x1 = x0 + 1;
+  let beyond = 0;
+  if (clamp) for (const sr of series) for (let i = 0; i < sr.y.length; i++) if (sr.y[i] < y0 || sr.y[i] > y1) beyond++;
   const sx = (v: number) => L + ((v - x0) / (x1 - x0)) * (W - L - R);
-  const sy = (v: number) => T + (1 - (v - y0) / (y1 - y0)) * (H - T - B);
+  const sy = (v: number) => T + (1 - (Math.min(Math.max(v, y0), y1) - y0) / (y1 - y0)) * (H - T - B);
   const fmt = (v: number) => (Math.abs(v) >= 1000 ? v.toFixed(0) : Number(v.toPrecision(3)).toString());
   return (
     <svg className="chart" viewBox={`0 0 ${W} ${H}`} data-chart={title}>
@@ -61,6 +72,12 @@ export const LineChart = memo(function LineChart({ title, xLabel, yLabel, series
         }
         return <path key={s.label} d={d} fill="none" stroke={s.color} strokeWidth={1.3} strokeDasharray={s.dashed ? "5 3" : undefined} />;
       })}
+      {clamp && beyond > 0 && (
+        <text x={W - R} y={14} textAnchor="end" className="chart-note" style={{ fontSize: 10, fill: "#9b2226" }} data-clamped={beyond}>
+          <title>{`${beyond} value${beyond === 1 ? "" : "s"} beyond the axis (2nd–98th percentile) drawn at its edge; data ${fmt(robust.min)}…${fmt(robust.max)}`}</title>
+          {`⇕ ${beyond} clamped (data ${fmt(robust.min)}…${fmt(robust.max)})`}
+        </text>
+      )}
       {data.map((s, i) => (
         <g key={`lg${s.label}`} transform={`translate(${W - R - 150} ${T + 4 + i * 13})`}>
           <line x1={0} x2={16} y1={0} y2={0} stroke={s.color} strokeDasharray={s.dashed ? "5 3" : undefined} strokeWidth={2} />

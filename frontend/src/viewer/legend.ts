@@ -35,7 +35,13 @@ export function legendBlocks(entries: readonly LegendEntry[], colormap: readonly
     let bar: Bar | null = null;
     let note: string | undefined;
     const range = e.ranges[e.mode];
-    if (range) bar = { label: LABELS[e.mode] ?? e.mode, gradient: grad, lo: fmt(range.lo), hi: fmt(range.hi), unit: range.unit };
+    if (range) {
+      // robust limits: values beyond are drawn in the end colours; the ends say so (≤ / ≥)
+      const below = range.clamped && range.min !== undefined && range.min < range.lo;
+      const above = range.clamped && range.max !== undefined && range.max > range.hi;
+      bar = { label: LABELS[e.mode] ?? e.mode, gradient: grad, lo: `${below ? "≤ " : ""}${fmt(range.lo)}`, hi: `${above ? "≥ " : ""}${fmt(range.hi)}`, unit: range.unit };
+      if (below || above) note = `outliers clamped to the ends (2nd–98th percentile); data ${fmt(range.min ?? range.lo)}–${fmt(range.max ?? range.hi)} ${range.unit}`;
+    }
     if (e.kind === "toolpath") {
       if (e.mode === "zone") {
         swatches.push(...(e.zones ?? []).map((z) => ({ label: z.zone, color: z.color })));
@@ -48,8 +54,8 @@ export function legendBlocks(entries: readonly LegendEntry[], colormap: readonly
       if (e.programmed) swatches.push({ label: "programmed", color: e.programmed });
       if (e.travel) swatches.push({ label: "arc off", color: e.travel });
       if (!range) note = `no ${LABELS[e.mode] ?? e.mode} data in this simulation`;
-      if (e.robot) note = `robot ${e.robot}`;
-      else if (e.robot_note) note = e.robot_note;
+      const robot = e.robot ? `robot ${e.robot}` : e.robot_note;
+      if (robot) note = note ? `${note}; ${robot}` : robot;
     }
     return { title, swatches, bar, note };
   });
