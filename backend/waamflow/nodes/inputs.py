@@ -160,6 +160,7 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
                 cad.file_unit, units, notice)
     return mesh, cad.file_unit, units, notice
 
+
 Vec3 = tuple[float, float, float]
 MAX_LISTED = 10   # warnings listing one item each (DXF defects, repairs): the first this many, then a count
 
