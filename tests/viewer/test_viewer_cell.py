@@ -87,3 +87,34 @@ def test_collisions_and_unreachable_stretches_are_flagged(viewer):
     part = viewer.parts[("sim", "simulation")]
     segs = np.asarray(part.robot_handles["unreachable"].points)
     assert len(segs) >= 1 and segs.shape[1:] == (2, 3)
+
+
+def test_fit_frames_the_part_where_the_positioner_holds_it(viewer):
+    """Issue 25, fault 9: at 75 % playback the positioner has tilted the part; "fit part" looks
+    at the part's centre in the world at that time (not at its centre in the part frame), from the
+    side away from the robot (the torch stands behind the part, not in front of it); "fit cell"
+    frames part + arm + positioner from farther away."""
+    cell = load_cell("kr150_tilt_rotate")
+    res = _simulate(cell)
+    viewer.publish("cell-view", RECIPE, {"sim": {"simulation": res}})
+    part = viewer.parts[("sim", "simulation")]
+    t = 0.75 * part.duration()
+    viewer.set_view(time_s=t, fit="part")
+    R, tw = part.work_pose(t)
+    b = viewer.part_bounds()
+    corners = np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]]) @ R.T + tw
+    world_center = (corners.min(axis=0) + corners.max(axis=0)) / 2
+    cam = viewer.server.initial_camera
+    look, eye = np.asarray(cam.look_at), np.asarray(cam.position)
+    assert np.linalg.norm(look - world_center) < 1.0
+    assert np.linalg.norm(world_center - (b[0] + b[1]) / 2) > 50.0        # the tilt moved the part
+    radius = np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)) / 2
+    part_dist = float(np.linalg.norm(eye - look))
+    assert 1.5 * radius < part_dist < 3.0 * radius                        # the part fills the view
+    base = part.robot_base()
+    assert np.dot((eye - look)[:2], (look - base)[:2]) > 0                 # looking from beyond the part
+    viewer.set_view(fit="cell")
+    cell_dist = float(np.linalg.norm(np.asarray(cam.position) - np.asarray(cam.look_at)))
+    pts = np.vstack(part.cell_points(t))
+    assert cell_dist > 2 * part_dist
+    assert np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)) / 2 < cell_dist   # the arm is in view
