@@ -27,7 +27,10 @@ largest angle θ between neighbouring branches and the flat-corner threshold c =
 straight when 180° − c < θ < 180° + c (a flat side, bridged straight across), open when
 θ ≥ 180° + c (a reflex side: the stem stands inside a bent wall's corner), closed when
 θ ≤ 180° − c (every side a fillet corner). Reported as "subtype" on t_crossing and
-odd_t_crossing (a straight odd_t_crossing is a straight wall split at the stem).
+odd_t_crossing (a straight odd_t_crossing is a straight wall split at the stem). The study's
+summary names the sub-types without defining them; reading them by the largest angle is ours,
+chosen so the sub-type says what the crossing construction does (bridge, reflex side, three
+fillets).
 
 Other combinations map by branch count: 3 branches → t_crossing (2 entities) or odd_t_crossing
 (≥ 3); ≥ 4 branches → direct_crossing / odd_direct_crossing / four_direct_crossing by entities.
