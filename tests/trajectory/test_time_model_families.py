@@ -254,3 +254,52 @@ def test_estimate_time_of_raster_against_the_study():
               [("strategy.toolpath", "sim.toolpath")]).outputs["sim"]["simulation"]
     # simulate-robot's estimate beside the simulation uses the section's family as well
     assert sim.estimate["total_time_s"] == pytest.approx(got["total_time_s"], abs=1e-6)   # the JSON rounds to 1 µs
+
+
+def test_calibrate_robot_writes_each_familys_constants_and_estimate_time_uses_them(tmp_path):
+    """Through the engine: a 43 × 43 mm rectangle cut by a mask into two sections, the lower one
+    raster, the upper one triangular 45° with the arc OFF outside, 40 mm/s; the synthetic robot's
+    trace of that toolpath (each family its own constants) → calibrate-robot (fit empty) writes
+    "40_off_raster" and "40_off_triangular" into profile.json within 5 %; estimate-time with that
+    profile file gives the synthetic robot's motion time within 1 %, the shipped KR 100 profile
+    does not."""
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    nodes = [{"id": "or", "type": "rectangle", "params": {"length": 43, "width": 43, "layer_count": 1}},
+             {"id": "mask", "type": "mask", "params": {"masks": [{"id": "bs1", "sections": [
+                 {"id": "A", "curve": [[-1, -1], [44, -1], [44, 21.5], [-1, 21.5]]},
+                 {"id": "B", "curve": [[-1, 21.5], [44, 21.5], [44, 44], [-1, 44]]}]}]}},
+             {"id": "strategy", "type": "strategy", "params": {
+                 "default": {"pattern": "raster", "speed": 40},
+                 "sections": {"bs1/B": {"pattern": "triangular", "angle_deg": 45, "speed": 40, "arc_outside": "off"}}}}]
+    edges = [("or.layers", "mask.layers"), ("mask.sections", "strategy.sections")]
+
+    def recipe(extra, extra_edges):
+        return build_graph(parse_recipe({"format": "waamflow/1", "name": "fam", "inputs": {}, "nodes": nodes + extra,
+                                         "edges": [{"from": a, "to": b} for a, b in edges + extra_edges]}))
+
+    probe = execute(recipe([], []), resolver=FileResolver(tmp_path))
+    tp = probe.outputs["strategy"]["toolpath"]
+    mv = flatten(tp)
+    fams = [("raster" if s.startswith("raster") else "triangular") for s in section_strategies(tp)]
+    assert fams == ["raster", "triangular"]
+    text, motion = synthetic_trace(mv, lambda sec: (40.0, TRUTH[(fams[sec], 40, "off")], False))
+    (tmp_path / "m.csv").write_text(text)
+    r = execute(recipe([{"id": "cal", "type": "calibrate-robot", "params": {"trace": "m.csv", "fit": []}}],
+                       [("strategy.toolpath", "cal.toolpath")]), resolver=FileResolver(tmp_path))
+    prof = json.loads(r.artifacts["cal.profile.json"])
+    assert sorted(prof["time_model"]) == ["40_off_raster", "40_off_triangular"]
+    for f in ("raster", "triangular"):
+        for k in KEYS:
+            assert prof["time_model"][f"40_off_{f}"][k] == pytest.approx(TRUTH[(f, 40, "off")][k], rel=0.05), (f, k)
+    (tmp_path / "own.json").write_text(r.artifacts["cal.profile.json"].decode())
+    times = {}
+    for name, params in (("own", {"profile_file": "own.json", "travel_speed": 50}), ("kuka", {"travel_speed": 50})):
+        e = execute(recipe([{"id": "est", "type": "estimate-time", "params": params}],
+                           [("strategy.toolpath", "est.toolpath")]), resolver=FileResolver(tmp_path))
+        times[name] = json.loads(e.artifacts["est.estimate.json"])["total_time_s"]
+    travel = float(mv.segment_lengths[mv.kind != DEPOSIT].sum()) / 50.0     # the estimate's travel at 50 mm/s
+    assert times["own"] == pytest.approx(sum(motion) + travel, rel=0.01)
+    assert abs(times["kuka"] - (sum(motion) + travel)) / (sum(motion) + travel) > 0.05
