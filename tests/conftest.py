@@ -1,10 +1,9 @@
+import os
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-
-import os
 
 # TestClient sends `Host: testserver`; a server without a token answers only the Host names of
 # this machine (DNS-rebinding protection), so the tests name theirs, as Django's test runner does.
