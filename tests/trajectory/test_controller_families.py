@@ -15,7 +15,7 @@ from waamflow.core.errors import InputFileError
 from waamflow.trajectory.blend import junction_speed
 from waamflow.trajectory.profile import load_profile
 from waamflow.trajectory.run import program_settings
-from waamflow.trajectory.simulate import SimOptions, simulate
+from waamflow.trajectory.simulate import simulate
 
 from .test_simulate import moves, section
 
