@@ -59,7 +59,9 @@ def test_two_views_see_their_own_recipes(private_viewer):
         assert (a["key"], a["layers"]) == ("duct", {"lo": 0, "hi": 2})
         assert (b["key"], b["layers"]) == ("bracket", {"lo": 0, "hi": 5})
         got_one, got_two = scene_names_received(one), scene_names_received(two)
-        layers = lambda names: sorted(n for n in names if n.startswith("/graph/zone/toolpath/L"))
+        def layers(names):
+            return sorted(n for n in names if n.startswith("/graph/zone/toolpath/L"))
+
         assert layers(got_one) == [f"/graph/zone/toolpath/L{i:04d}" for i in range(3)]
         assert layers(got_two) == [f"/graph/zone/toolpath/L{i:04d}" for i in range(6)]
         # own playback time and colours: tab two's settings never reach tab one
