@@ -87,19 +87,38 @@ def _default(schema: dict, required: bool) -> str:
 def recipe_usage(graphs: Path = ROOT / "graphs") -> dict[str, list[str]]:
     """node type → the shipped recipes (graphs/*.json) that use it."""
     use: dict[str, list[str]] = defaultdict(list)
+    for name, doc in _recipes(graphs):
+        for t in sorted({n.get("type") for n in doc["nodes"] if isinstance(n, dict)}):
+            use[t].append(name)
+    return use
+
+
+def _recipes(graphs: Path):
     for p in sorted(graphs.glob("*.json")):
         try:
             doc = json.loads(p.read_text())
         except (OSError, ValueError):
             continue
-        if not isinstance(doc, dict) or "nodes" not in doc:
-            continue
-        for t in sorted({n.get("type") for n in doc["nodes"] if isinstance(n, dict)}):
-            use[t].append(p.name)
-    return use
+        if isinstance(doc, dict) and isinstance(doc.get("nodes"), list):
+            yield p.name, doc
 
 
-def node_reference(catalog: list[dict], usage: dict[str, list[str]]) -> str:
+def recipe_examples(graphs: Path = ROOT / "graphs", max_chars: int = 900) -> dict[str, tuple[str, str]]:
+    """node type → (recipe, the shortest node entry of that type in the shipped recipes as JSON),
+    when one fits in `max_chars`."""
+    best: dict[str, tuple[str, str]] = {}
+    for name, doc in _recipes(graphs):
+        for n in doc["nodes"]:
+            if not isinstance(n, dict) or "type" not in n:
+                continue
+            text = json.dumps({k: n[k] for k in ("id", "type", "params") if k in n}, indent=2, ensure_ascii=False)
+            if len(text) <= max_chars and (n["type"] not in best or len(text) < len(best[n["type"]][1])):
+                best[n["type"]] = (name, text)
+    return best
+
+
+def node_reference(catalog: list[dict], usage: dict[str, list[str]],
+                   examples: dict[str, tuple[str, str]] | None = None) -> str:
     out = [GENERATED, "# Node reference\n",
            f"{len(catalog)} node types, from the node catalog (`waamflow nodes`, `GET /api/nodes`): the same "
            "declaration the engine runs and the GUI builds its forms from. Units: mm, s, deg unless a "
@@ -138,8 +157,11 @@ def node_reference(catalog: list[dict], usage: dict[str, list[str]]) -> str:
             else:
                 out.append("No parameters.\n")
             used = usage.get(n["type"], [])
-            out.append("Examples: " + (", ".join(f"`graphs/{g}`" for g in used) if used else "none of the shipped recipes")
+            out.append("Used in: " + (", ".join(f"`graphs/{g}`" for g in used) if used else "none of the shipped recipes")
                        + ".\n")
+            if examples and n["type"] in examples:
+                rec, text = examples[n["type"]]
+                out += [f"Example (`graphs/{rec}`):\n", "```json", text, "```", ""]
     return "\n".join(out)
 
 
@@ -572,7 +594,7 @@ def openapi() -> dict:
 
 def main(docs: Path = DOCS) -> list[Path]:
     pages = {
-        docs / "reference" / "nodes.md": node_reference(catalog(), recipe_usage()),
+        docs / "reference" / "nodes.md": node_reference(catalog(), recipe_usage(), recipe_examples()),
         docs / "reference" / "rest.md": rest_reference(openapi()),
         docs / "bench.md": bench_page(ROOT / "out" / "bench" / "results.json"),
         docs / "reference" / "data.md": data_page(),

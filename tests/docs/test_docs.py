@@ -172,6 +172,11 @@ def test_node_reference_has_every_node_port_and_param(gen):
     lh = slice_["params_schema"]["properties"]["layer_height"]
     assert f"| `layer_height` | number | mm | &gt; {lh['exclusiveMinimum']}, ≤ {lh['maximum']} | `{lh['default']}` |" in page
     assert "`graphs/mpp-cross.json`" in page
+    ex = gen.recipe_examples()
+    assert {"mesh", "slice", "post-process"} <= set(ex)
+    page = gen.node_reference(cat, gen.recipe_usage(), ex)
+    rec, text = ex["slice"]
+    assert f"Example (`graphs/{rec}`):\n\n```json\n{text}\n```" in page and json.loads(text)["type"] == "slice"
 
 
 def test_rest_reference_has_every_route(gen):
