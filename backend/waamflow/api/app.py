@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import json
 import logging
+import re
 import sqlite3
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -15,7 +16,6 @@ from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import Match
 
 from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
@@ -126,6 +126,16 @@ def add_links(schema: dict) -> None:
             responses[status]["links"] = out
 
 
+def allowed_methods(schema: dict, path: str) -> list[str]:
+    """The methods the OpenAPI schema declares for the path a request went to (the `Allow` of a 405:
+    exactly what the resource supports, RFC 9110 10.2.1; HEAD where a route answers it)."""
+    for template, ops in schema.get("paths", {}).items():
+        if re.fullmatch(re.sub(r"\\\{[^/]+?\\\}", "[^/]+", re.escape(template)), path):
+            methods = {m.upper() for m in ops if m in ("get", "put", "post", "delete", "patch", "head", "options")}
+            return sorted(methods)
+    return []
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     tokens = load_tokens(settings.token, settings.token_file)
@@ -198,8 +208,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         headers = dict(getattr(err, "headers", None) or {})
         detail = err.detail
         if err.status_code == 405:  # Allow: every method of the path, not only of the route tried first
-            methods = sorted({m for r in app.router.routes if getattr(r, "methods", None)
-                              and r.matches(request.scope)[0] != Match.NONE for m in r.methods} - {"HEAD"})
+            methods = allowed_methods(app.openapi(), request.url.path)
             headers["Allow"] = ", ".join(methods)
             detail = {"message": f"{request.method} is not allowed here; use {', '.join(methods)}"}
         if err.status_code == 400 and detail == "There was an error parsing the body":

@@ -263,7 +263,12 @@ def parse(text: str | bytes) -> ParamTable:
         raise _error(f"forbidden XML construct ({type(e).__name__}): no DTDs or entities allowed") from None
     except ET.ParseError as e:
         raise _error(f"not well-formed XML ({e})") from None
-    root = xsd.parse_lxml(raw)       # the same document again, with line numbers (no DTD/entities: checked)
+    try:
+        root = xsd.parse_lxml(raw)   # the same document again, with line numbers (no DTD/entities: checked)
+    except SyntaxError as e:         # lxml's limits: nesting over 256 levels, a text or attribute over 10 MB
+        why = str(e.msg).split(", use XML_PARSE_HUGE")[0].split(", try XML_PARSE_HUGE")[0]
+        raise _error(f"XML refused at line {e.lineno}: {why} (at most 256 levels of nesting and 10 MB per text "
+                     "or attribute)") from None
     if root.tag != "parameters":
         raise _error(f"root element is <{root.tag}>, expected <parameters>")
     cur: list = [root]

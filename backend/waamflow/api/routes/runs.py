@@ -6,7 +6,7 @@ import asyncio
 import json
 from typing import Any, Literal
 
-from fastapi import APIRouter, Header, HTTPException, Query
+from fastapi import APIRouter, Header, HTTPException, Query, Response
 from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -23,8 +23,12 @@ router = APIRouter(prefix="/api/runs", tags=["runs"])
 class RunRequest(BaseModel):
     """`graph`, `recipe` or both; `params_xml` with either (an unsaved recipe's draft XML too)."""
 
+    # "`graph`, `recipe` or both" in JSON Schema: not both absent/null (a `not` the TypeScript
+    # generator leaves alone, so the request type stays one object of optional fields); `{}` is
+    # schema-invalid, as the server has always answered (422)
     model_config = ConfigDict(extra="forbid", json_schema_extra={
-        "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}]})
+        "examples": [{"graph": "rectangle-study", "inputs": {"pattern": "swiping", "speed": 40}}],
+        "not": {"properties": {"graph": {"type": "null"}, "recipe": {"type": "null"}}}})
     graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
                        description="name of a saved graph (alone: run it as saved; with `recipe`: "
                                    "run `recipe` with this graph's files and parameter XML)")
@@ -198,6 +202,14 @@ def list_artifacts(run_id: RunId, svc: ServicesDep) -> list[ArtifactInfo]:
     return [ArtifactInfo(name=p.name, size=p.stat().st_size) for p in sorted(d.iterdir()) if p.is_file()]
 
 
+@router.head("/{run_id}/artifacts/{name}", response_class=Response,
+             responses={200: {"description": "The artifact's headers (Content-Length, Content-Type), no body"},
+                        **errors(401, 404, 422)})
+def head_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileResponse:
+    """GET's headers without the body (a download's size and type)."""
+    return get_artifact(run_id, name, svc)
+
+
 @router.get("/{run_id}/artifacts/{name}", response_class=FileResponse,
             responses={200: {"content": ARTIFACT_SCHEMAS}, **errors(401, 404, 422)})
 def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileResponse:
@@ -214,7 +226,10 @@ def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileRes
 
 @router.delete("/{run_id}", status_code=202, response_model=RunStatus, responses=errors(401, 404, 422))
 def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep) -> RunStatus:
-    """Cancel a queued or running run (finished runs are left as they are)."""
+    """Cancel (CONTRACT.md): a queued or running run stops and becomes `cancelled`; a finished one
+    (done, failed, cancelled, interrupted) is left as it is. It never removes anything: the run's
+    status, log and artifacts stay readable (GET answers 200 afterwards), the answer is the run's
+    status after the request (202)."""
     run = _get_run(svc, run_id)
     if svc.runs.cancel(run_id):
         svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id})
