@@ -64,32 +64,32 @@ class FanSliceNode(Node):
 
     class Params(NodeParams):
         axis_point: Vec3 = Field((0.0, 0.0, 0.0), description="A point of the slicing axis",
-                                 json_schema_extra=unit("mm"))
+                                 json_schema_extra=unit("mm"), title="Point on the axis")
         axis_direction: Vec3 = Field((0.0, 1.0, 0.0), description="Slicing axis direction (layers grow "
-                                     "counter-clockwise about it)")
+                                     "counter-clockwise about it)", title="Axis direction")
         dtheta_deg: float | None = Field(None, gt=0, le=45, json_schema_extra=unit("deg"),
-                                         description="Angle increment Δθ; empty: middle of the admissible window")
+                                         description="Angle increment Δθ; empty: middle of the admissible window", title="Angle increment Δθ")
         radius_offset: float | None = Field(0.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
-                                            description="Move the axis outward by this much; empty: search")
+                                            description="Move the axis outward by this much; empty: search", title="Axis offset")
         h_min: float = Field(2.2, gt=0, le=50, json_schema_extra=unit("mm"),
-                             description="Smallest bead height the process makes (316L study: 2.2)")
+                             description="Smallest bead height the process makes (316L study: 2.2)", title="Smallest bead height")
         h_max: float = Field(3.2, gt=0, le=50, json_schema_extra=unit("mm"),
-                             description="Largest bead height the process makes (316L study: 3.2)")
+                             description="Largest bead height the process makes (316L study: 3.2)", title="Largest bead height")
         max_overhang: float = Field(1.5, gt=0, le=50, json_schema_extra=unit("mm"),
-                                    description="Largest admissible overhang between consecutive layers (search)")
+                                    description="Largest admissible overhang between consecutive layers (search)", title="Largest overhang")
         search_step: float = Field(5.0, gt=0, le=1000, json_schema_extra=unit("mm"),
-                                   description="Radius search: offset increment")
+                                   description="Radius search: offset increment", title="Offset search step")
         search_max: float = Field(100.0, ge=0, le=10_000, json_schema_extra=unit("mm"),
-                                  description="Radius search: largest offset tried")
-        max_sections: int = Field(4, ge=1, le=32, description="mode = sections: at most this many sections")
+                                  description="Radius search: largest offset tried", title="Largest offset searched")
+        max_sections: int = Field(4, ge=1, le=32, description="mode = sections: at most this many sections", title="Most sections")
         height_tolerance: float = Field(0.1, ge=0, le=5, json_schema_extra=unit("mm"),
                                         description="mode = sections: how far a layer's heights r·Δθ may leave "
                                                     "[h_min, h_max] when no plan keeps them inside (warned, speeds "
-                                                    "clamped; about the bead fit's scatter); beyond: error")
-        layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers")
+                                                    "clamped; about the bead fit's scatter); beyond: error", title="Height tolerance")
+        layer_count: int | None = Field(None, ge=1, le=20_000, description="At most this many layers", title="Most layers")
         mode: Literal["single", "sections"] = Field(
             "single", description="single: one fan (dtheta_deg, radius_offset); sections: cut the part into "
-                                  "consecutive fan sections, each with its own axis and Δθ, searched greedily")
+                                  "consecutive fan sections, each with its own axis and Δθ, searched greedily", title="Fan mode")
 
         @model_validator(mode="after")
         def _check(self):
@@ -283,19 +283,19 @@ class BeadModelNode(LayerNode):
     version = "2"                # 2: the model's wire feed in every welded zone
 
     class Params(NodeParams):
-        a2: float = Field(1.2245e-6, description="Quadratic coefficient", json_schema_extra=unit("mm/(mm/min)²"))
-        a1: float = Field(-0.0032, description="Linear coefficient", json_schema_extra=unit("mm/(mm/min)"))
-        a0: float = Field(4.3126, description="Constant term", json_schema_extra=unit("mm"))
+        a2: float = Field(1.2245e-6, description="Quadratic coefficient", json_schema_extra=unit("mm/(mm/min)²"), title="Quadratic coefficient a₂")
+        a1: float = Field(-0.0032, description="Linear coefficient", json_schema_extra=unit("mm/(mm/min)"), title="Linear coefficient a₁")
+        a0: float = Field(4.3126, description="Constant term", json_schema_extra=unit("mm"), title="Constant term a₀")
         ts_min: float = Field(400.0, gt=0, le=100_000, description="Lowest travel speed of the fit",
-                              json_schema_extra=unit("mm/min"))
+                              json_schema_extra=unit("mm/min"), title="Lowest travel speed of the fit")
         ts_max: float = Field(1200.0, gt=0, le=100_000, description="Highest travel speed of the fit",
-                              json_schema_extra=unit("mm/min"))
+                              json_schema_extra=unit("mm/min"), title="Highest travel speed of the fit")
         wfs: float | None = Field(None, gt=0, le=40, json_schema_extra=unit("m/min"),
                                   description="With a connected bead model: the wire feed it is read at "
-                                              "(empty = the middle of its trials)")
+                                              "(empty = the middle of its trials)", title="Wire feed speed")
         model_wfs: float = Field(8.1, gt=0, le=40, json_schema_extra=unit("m/min"),
                                  description="Wire feed the coefficients hold at (Rauch et al. 2021: 8.1 m/min); "
-                                             "written as wire_feed_speed into every welded zone without one")
+                                             "written as wire_feed_speed into every welded zone without one", title="Wire feed of the coefficients")
 
         @model_validator(mode="after")
         def _check(self):

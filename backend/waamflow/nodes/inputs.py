@@ -166,10 +166,10 @@ MAX_LISTED = 10   # warnings listing one item each (DXF defects, repairs): the f
 
 
 class TransformParams(NodeParams):
-    translate: Vec3 = Field((0.0, 0.0, 0.0), description="Translation after rotation", json_schema_extra=unit("mm"))
+    translate: Vec3 = Field((0.0, 0.0, 0.0), description="Translation after rotation", json_schema_extra=unit("mm"), title="Translation (x, y, z)")
     rotate_deg: Vec3 = Field((0.0, 0.0, 0.0), description="Rotation about the x, then y, then z axis (fixed axes)",
-                             json_schema_extra=unit("deg"))
-    scale: float = Field(1.0, gt=0, le=1000, description="Uniform scale factor, applied first")
+                             json_schema_extra=unit("deg"), title="Rotation (x, y, z)")
+    scale: float = Field(1.0, gt=0, le=1000, description="Uniform scale factor, applied first", title="Scale factor")
 
 
 @register
@@ -211,32 +211,32 @@ class MeshNode(Node):
     class Params(NodeParams):
         model_config = ConfigDict(extra="forbid", populate_by_name=True)
 
-        path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe")
-        units: LengthUnit = Field("file", description=UNITS_DOC)
-        transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part")
-        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+        path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe", title="Mesh or CAD file")
+        units: LengthUnit = Field("file", description=UNITS_DOC, title="File units")
+        transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part", title="Transform")
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC, title="Placement")
         as_: Literal["auto", "solid", "surface"] = Field(
             "auto", alias="as",
             description="solid: must be closed (sliced into regions); surface: an open single-wall surface, sliced "
-                        "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)")
+                        "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)", title="Read as")
         chordal_tolerance: float = Field(0.05, gt=0, le=5,
                                          description="STEP/IGES: max distance between the CAD surface and its triangles",
-                                         json_schema_extra=unit("mm"))
-        max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
-        max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles")
+                                         json_schema_extra=unit("mm"), title="Chordal tolerance")
+        max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file")
+        max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles", title="Most triangles")
         max_face_triangles: int = Field(MAX_FACE_TRIANGLES, ge=1, le=20_000_000,
                                         description="STEP/IGES: refuse a chordal_tolerance that would give one face "
                                                     "more triangles (estimated before tessellating; one face is "
-                                                    "meshed in one call that cannot be cancelled)")
+                                                    "meshed in one call that cannot be cancelled)", title="Most triangles per CAD face")
         weld_tolerance: float = Field(0.001, ge=0, le=1.0,
                                       description="Merge vertices on open edges closer than this (exporter cracks, "
                                                   "seam gaps; reported). 0: bit-identical corners only",
-                                      json_schema_extra=unit("mm"))
+                                      json_schema_extra=unit("mm"), title="Open-edge weld tolerance")
         crack_tolerance: float = Field(TOL.crack, ge=0, le=1.0,
                                        description="Mesh files: close cracks up to this size between faces of a solid "
                                                    "(merging vertices on open edges; kept only when that closes the "
                                                    "mesh, reported). 0: no crack closing",
-                                       json_schema_extra=unit("mm"))
+                                       json_schema_extra=unit("mm"), title="Crack closing tolerance")
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
@@ -298,22 +298,22 @@ class SketchNode(Node):
 
     class Params(NodeParams):
         path: FileRef = Field(description="Sketch file (.json, .dxf, or .step/.stp/.iges/.igs curves or vertical "
-                                          "wall faces), relative to the recipe")
+                                          "wall faces), relative to the recipe", title="Sketch file")
         height: float | None = Field(None, gt=0, le=10_000,
                                      description="Extrusion height; default: the JSON file's 'height', a CAD file's wall height",
-                                     json_schema_extra=unit("mm"))
+                                     json_schema_extra=unit("mm"), title="Extrusion height")
         z0: float | None = Field(None, ge=-10_000, le=10_000,
                                  description="Bottom of the extrusion; default: the JSON file's 'z0', a CAD file's bottom "
                                              "(or its curves' plane), else 0",
-                                 json_schema_extra=unit("mm"))
-        units: LengthUnit = Field("file", description=UNITS_DOC)
-        placement: Placement = Field("as_is", description=PLACEMENT_DOC)
+                                 json_schema_extra=unit("mm"), title="Extrusion bottom")
+        units: LengthUnit = Field("file", description=UNITS_DOC, title="File units")
+        placement: Placement = Field("as_is", description=PLACEMENT_DOC, title="Placement")
         arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
-                                     json_schema_extra=unit("mm"))
+                                     json_schema_extra=unit("mm"), title="Arc tolerance")
         layout: str = Field("Model", min_length=1, max_length=255,
-                            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name")
-        join: bool = Field(True, description="Join curves that meet end to end into one polyline")
-        max_file_mb: float = Field(50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"))
+                            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name", title="DXF layout")
+        join: bool = Field(True, description="Join curves that meet end to end into one polyline", title="Join touching curves")
+        max_file_mb: float = Field(50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file")
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))

@@ -41,15 +41,15 @@ class _Strict(BaseModel):
 # mask
 # ------------------------------------------------------------------------------------------------
 class MaskSectionParams(_Strict):
-    id: str = Field(min_length=1, max_length=64, description="Section id, unique in the mask")
+    id: str = Field(min_length=1, max_length=64, description="Section id, unique in the mask", title="Section id")
     curve: list[Point2] = Field(min_length=3, description="Closed planar curve over the layer (layer-local x, y)",
-                                json_schema_extra=unit("mm"))
+                                json_schema_extra=unit("mm"), title="Section curve")
 
 
 class MaskParams(_Strict):
-    id: str = Field(min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)")
-    from_layer: int = Field(0, ge=0, description="First layer this mask governs (until the next mask's from_layer)")
-    sections: list[MaskSectionParams] = Field(min_length=1, description="Sections in default deposition order")
+    id: str = Field(min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)", title="Mask id")
+    from_layer: int = Field(0, ge=0, description="First layer this mask governs (until the next mask's from_layer)", title="From layer")
+    sections: list[MaskSectionParams] = Field(min_length=1, description="Sections in default deposition order", title="Sections")
 
     @model_validator(mode="after")
     def _curves(self) -> "MaskParams":
@@ -80,7 +80,7 @@ class MaskNode(LayerNode):
     over = "layers"
 
     class Params(NodeParams):
-        masks: list[MaskParams] = Field(default_factory=list, description="Building-Strategy masks")
+        masks: list[MaskParams] = Field(default_factory=list, description="Building-Strategy masks", title="Masks")
 
         @field_validator("masks")
         @classmethod
@@ -146,7 +146,7 @@ class GuideNode(LayerNode):
     class Params(NodeParams):
         guides: dict[str, Annotated[list[Point2], Field(min_length=2)]] = Field(
             default_factory=dict, description="Section key (\"bs1/A\") → guide polyline (layer-local x, y)",
-            json_schema_extra=unit("mm"))
+            json_schema_extra=unit("mm"), title="Guides by section")
 
     def layer_params(self, params, index, items):
         ls: LayerSections = items["sections"]
@@ -175,11 +175,11 @@ class GuideNode(LayerNode):
 # ------------------------------------------------------------------------------------------------
 class ZoneSpecParams(_Strict):
     start_length: float = Field(0.0, ge=0, le=1e5, description="Length of the ignition zone `start`, measured "
-                                "along the path from its start", json_schema_extra=unit("mm"))
+                                "along the path from its start", json_schema_extra=unit("mm"), title="Start zone length")
     end_length: float = Field(0.0, ge=0, le=1e5, description="Length of the termination zone `end`, measured "
-                              "back from the path's end", json_schema_extra=unit("mm"))
+                              "back from the path's end", json_schema_extra=unit("mm"), title="End zone length")
     split_points: list[Point2] = Field(default_factory=list, description="Points (layer-local x, y) projected "
-                                       "onto the path; each starts a new middle zone", json_schema_extra=unit("mm"))
+                                       "onto the path; each starts a new middle zone", json_schema_extra=unit("mm"), title="Split points")
 
     def spec(self) -> ZoneSpec:
         return ZoneSpec(self.start_length, self.end_length, tuple(tuple(p) for p in self.split_points))
@@ -226,11 +226,11 @@ class ZoneNode(LayerNode):
     over = "toolpath"
 
     class Params(NodeParams):
-        default: ZoneSpecParams = Field(default_factory=ZoneSpecParams, description="Zoning of every section")
+        default: ZoneSpecParams = Field(default_factory=ZoneSpecParams, description="Zoning of every section", title="Default zoning")
         sections: dict[str, ZoneSpecParams] = Field(default_factory=dict,
-                                                    description="Section key → zoning (replaces the default)")
+                                                    description="Section key → zoning (replaces the default)", title="Zoning by section")
         parameters: FileRef = Field("", description="XML deposition-parameter file (layer > section > zone); "
-                                    "empty: none")
+                                    "empty: none", title="Parameter XML file")
 
     def _spec(self, params, key: str) -> ZoneSpecParams:
         return params.sections.get(key, params.default)
@@ -325,28 +325,28 @@ class SequenceNode(Node):
     class Params(NodeParams):
         order: Literal["mask", "nearest"] | list[str] = Field(
             "mask", description="`mask`, `nearest` (shortest travel within the MPP order rule) or a list of "
-            "section keys")
+            "section keys", title="Section order")
         precedence: list[str] = Field(default_factory=list, description="Section keys deposited first on every "
                                       "layer, in this order, before the oscillated and then the other sections "
-                                      "(the order rule `nearest` keeps)")
+                                      "(the order rule `nearest` keeps)", title="Sections first")
         retract_height: float = Field(10.0, ge=0, le=500, description="Clearance of arc-OFF travel above the "
-                                      "higher end point", json_schema_extra=unit("mm"))
+                                      "higher end point", json_schema_extra=unit("mm"), title="Retract height")
         alternate: bool = Field(False, description="Reverse open sections and the section order on odd layers "
-                                "(seam `alternate`)")
+                                "(seam `alternate`)", title="Alternate odd layers")
         seam: Literal["auto", "alternate", "stagger", "scattered", "aligned"] | Point2 = Field(
             "auto", description="Where sections ignite: auto (farthest from the ignitions of the layer below), "
-            "alternate, stagger, scattered, aligned (as planned) or an [x, y] point (layer-local, mm)")
+            "alternate, stagger, scattered, aligned (as planned) or an [x, y] point (layer-local, mm)", title="Seam placement")
         seam_shift: float = Field(0.0, ge=0, le=1000, description="Distance a closed loop's seam moves per layer "
-                                  "(stagger/auto); 0 = 2 bead widths", json_schema_extra=unit("mm"))
-        seam_at_junctions: bool = Field(False, description="Allow ignition at a junction with another section")
+                                  "(stagger/auto); 0 = 2 bead widths", json_schema_extra=unit("mm"), title="Seam shift per layer")
+        seam_at_junctions: bool = Field(False, description="Allow ignition at a junction with another section", title="Seams at junctions")
         bead_width: float = Field(0.0, ge=0, le=100, description="Bead width: junction clearance and the "
                                   "defaults of seam_shift and min_arc_run_mm; 0 = unknown (6 mm clearance, "
-                                  "12 mm minimum run)", json_schema_extra=unit("mm"))
+                                  "12 mm minimum run)", json_schema_extra=unit("mm"), title="Bead width")
         min_arc_run_mm: float | None = Field(None, ge=0, le=1000, description="Shortest arc-ON run; shorter "
                                              "ones are bridged or dropped (0 = off; empty = 2 bead widths, "
-                                             "12 mm without a bead width)", json_schema_extra=unit("mm"))
+                                             "12 mm without a bead width)", json_schema_extra=unit("mm"), title="Shortest arc-on run")
         dwell: float = Field(0.0, ge=0, le=3600, description="Interlayer dwell after each layer",
-                             json_schema_extra=unit("s"))
+                             json_schema_extra=unit("s"), title="Interlayer dwell")
 
     def run(self, ctx, params, inputs):
         tp = inputs["toolpath"]

@@ -68,46 +68,46 @@ class PostProcess(Node):
     class Params(NodeParams):
         profile: str = Field("", max_length=64, pattern=SHIPPED_NAME_PATTERN, json_schema_extra={"x-shipped": "machines"},
                              description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
-                                         "abb_irc5): presets for every param this recipe does not set; empty = none")
+                                         "abb_irc5): presets for every param this recipe does not set; empty = none", title="Machine profile")
         format: Literal["gcode", "krl", "rapid", "csv", "printpoints"] = Field(
-            "gcode", description="Program format; printpoints = compas_slicer print-points JSON")
+            "gcode", description="Program format; printpoints = compas_slicer print-points JSON", title="Program format")
         program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                   description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
                                               "identifier, so the program is named like its files (KRL requires "
                                               "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32, ≤ 27 "
-                                              "with a module size limit); the KRL / RAPID files are named after it")
+                                              "with a module size limit); the KRL / RAPID files are named after it", title="Program name")
         ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
-                                      description="Dwell after each arc ignition when the zone has no `dwell` parameter")
+                                      description="Dwell after each arc ignition when the zone has no `dwell` parameter", title="Ignition dwell")
         arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
-                                     description="Arc fitting tolerance (G2/G3, CIRC, ArcC); 0 = off, every point a linear move")
+                                     description="Arc fitting tolerance (G2/G3, CIRC, ArcC); 0 = off, every point a linear move", title="Arc fitting tolerance")
         travel_speed: float = Field(100.0, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                    description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate")
+                                    description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate", title="Travel speed")
         blend_distance: float = Field(1.0, ge=0, le=100, json_schema_extra=unit("mm"),
                                       description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius, print points "
-                                                  "blend_radius; 0 = exact stops")
+                                                  "blend_radius; 0 = exact stops", title="Corner blend distance")
         # G-code
-        arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on")
-        arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off")
-        dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller")
-        rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)")
+        arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code")
+        arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off", title="Arc off code")
+        dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller", title="Dwell units")
+        rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)", title="Rapid travel (G0)")
         comment_style: Literal["semicolon", "parentheses"] = Field(
-            "semicolon", description="G-code: comments as `; text` or `(text)` (controllers without `;`)")
-        feed_units: Literal["mm/min", "mm/s"] = Field("mm/min", description="G-code: unit of the F word")
+            "semicolon", description="G-code: comments as `; text` or `(text)` (controllers without `;`)", title="Comment style")
+        feed_units: Literal["mm/min", "mm/s"] = Field("mm/min", description="G-code: unit of the F word", title="Feed units")
         start_code: list[str] = Field(default_factory=list, max_length=50,
-                                      description="G-code: lines written after the header (e.g. homing, gas on)")
+                                      description="G-code: lines written after the header (e.g. homing, gas on)", title="Start code")
         layer_code: list[str] = Field(default_factory=list, max_length=20,
                                       description="G-code: lines written at every layer change; templates with "
-                                                  "{layer} and {z} (mm), e.g. \";LAYER:{layer}\"")
+                                                  "{layer} and {z} (mm), e.g. \";LAYER:{layer}\"", title="Layer change code")
         end_code: list[str] = Field(default_factory=list, max_length=50,
-                                    description="G-code: lines written after the last motion and the final lift")
+                                    description="G-code: lines written after the last motion and the final lift", title="End code")
         final_lift: float = Field(0.0, ge=0, le=500, json_schema_extra=unit("mm"),
-                                  description="G-code: G0 up by this much at the end, after the arc is off; 0 = none")
+                                  description="G-code: G0 up by this much at the end, after the arc is off; 0 = none", title="Final lift")
         preamble: list[str] = Field(default_factory=list, max_length=10,
-                                    description="G-code: lines before everything else (e.g. \"%\", \"O0001\")")
+                                    description="G-code: lines before everything else (e.g. \"%\", \"O0001\")", title="Preamble")
         postamble: list[str] = Field(default_factory=list, max_length=10,
-                                     description="G-code: lines after the program end (e.g. \"%\")")
+                                     description="G-code: lines after the program end (e.g. \"%\")", title="Postamble")
         program_end: str = Field("M30", min_length=1, max_length=32,
-                                 description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)")
+                                 description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)", title="Program end")
         process_codes: dict[str, str] = Field(
             default_factory=dict,
             description="G-code / KRL output mode: zone weld value (wire_feed_speed m/min, current A, voltage V, "
@@ -115,82 +115,82 @@ class PostProcess(Node):
                         "\"M100 S{value:.1f}\"}; written at every zone change (inside a run: the changes). Empty = "
                         "the format's default: G-code LinuxCNC analog outputs M67 E0 (WFS) / E1 (current) / E2 "
                         "(voltage) Q<value>, job M120 P<job>; KRL $ANOUT[1] = WFS/20, [2] = current/500, [3] = "
-                        "voltage/50. A value without a command (\"\") is reported as a weld issue")
+                        "voltage/50. A value without a command (\"\") is reported as a weld issue", title="Process codes")
         process_codes_start: dict[str, str] = Field(
             default_factory=dict,
             description="G-code: the form of a process_codes command written before an ignition (arc off); empty = "
-                        "LinuxCNC's immediate M68 E<n> Q<value> with the default process_codes, else process_codes")
+                        "LinuxCNC's immediate M68 E<n> Q<value> with the default process_codes, else process_codes", title="Process code before ignition")
         process_scale: dict[str, float] = Field(
             default_factory=dict,
             description="G-code: zone weld value → factor applied before it fills {value} (e.g. Marlin PWM: "
-                        "{\"wire_feed_speed\": 12.75} for S0-255 = 0-20 m/min); default 1")
+                        "{\"wire_feed_speed\": 12.75} for S0-255 = 0-20 m/min); default 1", title="Process value scale")
         weld_values: dict[str, float] = Field(
             default_factory=dict,
             description="Weld values (current A, voltage V, wire_feed_speed m/min, job) for every welded zone that "
                         "does not state them itself: the power-source setting the plan was made for (e.g. a recipe "
-                        "without a parameter file), so the program commands it; empty = none")
+                        "without a parameter file), so the program commands it; empty = none", title="Weld values")
         tcp_control: bool = Field(True, description="G-code with a positioner: the controller has tool centre point "
-                                                    "control (LinuxCNC TCP kinematics, TRAORI, G43.4); Marlin has none")
+                                                    "control (LinuxCNC TCP kinematics, TRAORI, G43.4); Marlin has none", title="TCP control")
         travel_feed: bool = Field(False, description="G-code: F at travel_speed on every G0 travel line (controllers "
-                                                     "whose G0 moves at the modal feed, e.g. Marlin)")
+                                                     "whose G0 moves at the modal feed, e.g. Marlin)", title="Feed on rapid moves")
         rotary_axes: list[str] = Field(
             default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
             json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
             description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
-                        "axes (the machine profile's, e.g. A/C or B/C)")
-        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words")
+                        "axes (the machine profile's, e.g. A/C or B/C)", title="Rotary axis letters")
+        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words", title="Rotary axis units")
         # post-deposition tools (rolling, peening: sections from a treatment node)
         tool_on: str = Field("", max_length=200,
                              description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
                                          "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
                                          "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
                                          "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
-                                         "`ToolOn force, width, speed;`")
+                                         "`ToolOn force, width, speed;`", title="Tool on code")
         tool_off: str = Field("", max_length=200,
                               description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
-                                          "`TOOL_OFF()`, RAPID `ToolOff;`")
+                                          "`TOOL_OFF()`, RAPID `ToolOff;`", title="Tool off code")
         # KUKA KRL
-        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number")
-        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number")
+        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number", title="Tool number (KRL)")
+        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number", title="Base number (KRL)")
         arc_control: Literal["output", "arctech"] = Field(
-            "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF")
-        arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc")
+            "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF", title="Arc control (KRL)")
+        arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc", title="Arc output number (KRL)")
         arctech_routine: str = Field("ArcMainNG", pattern=_NAME, max_length=24,
-                                     description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through")
+                                     description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through", title="ArcTech routine")
         arctech_channels: dict[str, int] = Field(
             default_factory=lambda: dict(ARCTECH_CHANNELS),
             description="KRL ArcTech: zone parameter → power-source channel 1..8 of the weld data sets "
-                        "(e.g. {\"job\": 1, \"wire_feed_speed\": 2, \"voltage\": 3})")
+                        "(e.g. {\"job\": 1, \"wire_feed_speed\": 2, \"voltage\": 3})", title="ArcTech channels")
         arctech_velocity_unit: Literal["m/min", "m/s"] = Field(
-            "m/min", description="KRL ArcTech: unit of Weld.Velocity in the weld data sets")
+            "m/min", description="KRL ArcTech: unit of Weld.Velocity in the weld data sets", title="ArcTech velocity unit")
         max_points_per_file: int = Field(0, ge=0, le=1_000_000,
-                                         description="KRL: most motions per file, 0 = no limit (main program calls subprograms)")
-        split_per_layer: bool = Field(False, description="KRL: one subprogram per layer")
+                                         description="KRL: most motions per file, 0 = no limit (main program calls subprograms)", title="Most motions per file (KRL)")
+        split_per_layer: bool = Field(False, description="KRL: one subprogram per layer", title="Subprogram per layer")
         # ABB RAPID
-        tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name")
+        tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name", title="Tool name (RAPID)")
         wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32,
                                description="RAPID: wobjdata name (with a cell's positioner: a coordinated work "
-                                           "object declared in the module, wobj_<unit> when this is wobj0)")
+                                           "object declared in the module, wobj_<unit> when this is wobj0)", title="Work object (RAPID)")
         positioner_unit: str = Field("STN1", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                      description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
-                                                 "the coordinated work object); empty = no coordination")
+                                                 "the coordinated work object); empty = no coordination", title="Positioner unit (RAPID)")
         max_module_bytes: int = Field(512_000, ge=0, le=100_000_000, json_schema_extra=unit("B"),
                                       description="RAPID: most bytes per module file; a larger program is a main "
                                                   "module that loads part modules <name>_M001.mod, ... (layer ranges) "
                                                   "one after the other (StartLoad/WaitLoad/UnLoad); 0 = one module. "
-                                                  "At least 16384")
+                                                  "At least 16384", title="Largest module (RAPID)")
         module_dir: str = Field("HOME:", pattern=r'^[^"\\]+$', max_length=80,
-                                description="RAPID: controller folder the main module loads its part modules from")
+                                description="RAPID: controller folder the main module loads its part modules from", title="Module folder (RAPID)")
         # robots
         cell: str = Field("", max_length=64, pattern=SHIPPED_NAME_PATTERN, json_schema_extra={"x-shipped": "cells"},
                           description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
                                       "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, G-code rotary axes "
-                                      "(`rotary_axes`); empty = no external axes")
+                                      "(`rotary_axes`); empty = no external axes", title="Robot cell")
         positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
-                                   "(min-motion with its default 30° lean)")
+                                   "(min-motion with its default 30° lean)", title="Positioner policy")
         tool_direction: Literal["default", "x", "z"] = Field(
-            "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z")
+            "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z", title="Tool axis")
 
         @field_validator("rotary_axes")
         @classmethod

@@ -86,9 +86,9 @@ class CoverageNode(LayerNode):
     class Params(NodeParams):
         bead_width: float = Field(6.0, gt=0.05, le=100, json_schema_extra=unit("mm"),
                                   description="Bead width (MPP study: 6 mm); a bead-fit node's width at the "
-                                              "chosen speeds is the measured value")
-        sections: dict[str, float] = Field(default_factory=dict, description="Section key → bead width (mm) where it differs")
-        polygons: bool = Field(True, description="Write the void and overlap polygons (for the 2D canvas)")
+                                              "chosen speeds is the measured value", title="Bead width")
+        sections: dict[str, float] = Field(default_factory=dict, description="Section key → bead width (mm) where it differs", title="Bead width by section")
+        polygons: bool = Field(True, description="Write the void and overlap polygons (for the 2D canvas)", title="Write void and overlap polygons")
 
     def run_layer(self, ctx, params, index, items):
         lp: LayerPaths = items["toolpath"]
@@ -142,12 +142,12 @@ class CompensateDeposit(Node):
     version = "1"
 
     class Params(RobotParams):
-        step_mm: float = Field(1.0, ge=0.2, le=50, json_schema_extra=unit("mm"), description="Longest compensated piece")
-        min_ratio: float = Field(0.3, gt=0.0, le=1.0, description="Lowest feed, as a fraction of the programmed feed")
-        max_ratio: float = Field(1.6, ge=1.0, le=5.0, description="Highest feed, as a fraction of the programmed feed")
+        step_mm: float = Field(1.0, ge=0.2, le=50, json_schema_extra=unit("mm"), description="Longest compensated piece", title="Longest compensated piece")
+        min_ratio: float = Field(0.3, gt=0.0, le=1.0, description="Lowest feed, as a fraction of the programmed feed", title="Lowest feed ratio")
+        max_ratio: float = Field(1.6, ge=1.0, le=5.0, description="Highest feed, as a fraction of the programmed feed", title="Highest feed ratio")
         wire_diameter_mm: float | None = Field(1.2, gt=0.1, le=10, json_schema_extra=unit("mm"),
                                                description="Wire diameter: zones' wire_feed_speed (m/min) sets the feed "
-                                                           "(else wire_feed_mm3_s), and the compensated feed is written as WFS")
+                                                           "(else wire_feed_mm3_s), and the compensated feed is written as WFS", title="Wire diameter")
 
     def run(self, ctx, params, inputs):
         cfg = CompensationSettings(step_mm=params.step_mm, min_ratio=params.min_ratio, max_ratio=params.max_ratio,
@@ -198,20 +198,20 @@ class BeadFitNode(Node):
     version = "3"  # 2: the model carries the targets; 3: wire diameter, efficiency, shape factor, mass balance
 
     class Params(NodeParams):
-        trials: FileRef = Field("", description="Bead trials CSV (wfs, ts, width, height); empty = use `model`")
-        model: FileRef = Field("", description="A saved bead-model JSON (waamflow/bead-model/1) instead of trials")
-        form: Literal["power", "power-ratio"] = Field("power", description="y = a·WFS^b·TS^c or y = a·(WFS/TS)^b")
-        material: str = Field("", max_length=80, description="Material (recorded in the model file)")
-        process: str = Field("", max_length=80, description="Process, e.g. CMT, GMAW, plasma (recorded)")
+        trials: FileRef = Field("", description="Bead trials CSV (wfs, ts, width, height); empty = use `model`", title="Bead trials")
+        model: FileRef = Field("", description="A saved bead-model JSON (waamflow/bead-model/1) instead of trials", title="Saved bead model")
+        form: Literal["power", "power-ratio"] = Field("power", description="y = a·WFS^b·TS^c or y = a·(WFS/TS)^b", title="Model form")
+        material: str = Field("", max_length=80, description="Material (recorded in the model file)", title="Material")
+        process: str = Field("", max_length=80, description="Process, e.g. CMT, GMAW, plasma (recorded)", title="Welding process")
         wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
-                                               description="Wire diameter for the mass balance (empty = 1.2 mm)")
+                                               description="Wire diameter for the mass balance (empty = 1.2 mm)", title="Wire diameter")
         deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.5, le=1.0,
-                                             description="Share η of the wire that ends in the part (GMAW/CMT ≈ 0.95)")
+                                             description="Share η of the wire that ends in the part (GMAW/CMT ≈ 0.95)", title="Deposition efficiency η")
         shape_factor: float = Field(BEAD_SHAPE_FACTOR, gt=0.5, le=1.0,
                                     description="Bead shape factor k, area = k·width·height, when the trials have "
-                                                "no measured `area` column (parabolic 0.667, elliptic 0.785)")
-        height: float = Field(1.5, gt=0.05, le=20, json_schema_extra=unit("mm"), description="Target bead height")
-        width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Target bead width")
+                                                "no measured `area` column (parabolic 0.667, elliptic 0.785)", title="Bead shape factor k")
+        height: float = Field(1.5, gt=0.05, le=20, json_schema_extra=unit("mm"), description="Target bead height", title="Target bead height")
+        width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Target bead width", title="Target bead width")
 
     def run(self, ctx, params, inputs):
         if params.trials:
@@ -278,29 +278,29 @@ class FillParameters(Node):
 
     class Params(NodeParams):
         parameters: FileRef = Field("", description="Optional XML with user values (kept); the toolpath's own zone "
-                                                    "parameters are kept as well")
+                                                    "parameters are kept as well", title="User parameter XML")
         height: float | None = Field(None, gt=0.05, le=20, json_schema_extra=unit("mm"),
-                                     description="Target bead height (empty = each layer's height)")
+                                     description="Target bead height (empty = each layer's height)", title="Target bead height")
         width: float | None = Field(None, gt=0.1, le=60, json_schema_extra=unit("mm"),
-                                    description="Target bead width (empty = the bead model's target width, else 6)")
+                                    description="Target bead width (empty = the bead model's target width, else 6)", title="Target bead width")
         travel_speed: float | None = Field(None, gt=0.1, le=500, json_schema_extra=unit("mm/s"),
                                            description="Fixed travel speed of body zones (else the bead model's for "
-                                                       "the target height and width); WFS from the mass balance")
+                                                       "the target height and width); WFS from the mass balance", title="Body zone travel speed")
         step: float | None = Field(None, gt=0.1, le=60, json_schema_extra=unit("mm"),
                                    description="Centre distance of neighbouring passes: the layer takes step × height "
                                                "per mm of path (empty = measured on each section path; a single "
-                                               "bead takes k·width·height)")
-        start_ts_factor: float = Field(0.75, gt=0.05, le=3, description="Ignition zone: travel speed × this")
+                                               "bead takes k·width·height)", title="Pass step")
+        start_ts_factor: float = Field(0.75, gt=0.05, le=3, description="Ignition zone: travel speed × this", title="Start zone travel speed factor")
         start_wfs_factor: float = Field(0.75, gt=0.05, le=3, description="Ignition zone: wire feed × this (equal to "
-                                                                          "the travel factor = mass-balanced)")
-        start_dwell_s: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"), description="Ignition zone dwell")
-        end_ts_factor: float = Field(0.5, gt=0.05, le=3, description="Termination zone: travel speed × this")
+                                                                          "the travel factor = mass-balanced)", title="Start zone wire feed factor")
+        start_dwell_s: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"), description="Ignition zone dwell", title="Start zone dwell")
+        end_ts_factor: float = Field(0.5, gt=0.05, le=3, description="Termination zone: travel speed × this", title="End zone travel speed factor")
         end_wfs_factor: float = Field(0.5, gt=0.05, le=3, description="Termination zone: wire feed × this (above the "
-                                                                       "travel factor = extra metal for the crater)")
+                                                                       "travel factor = extra metal for the crater)", title="End zone wire feed factor")
         current_line: tuple[float, float] = Field((55.0, 15.0), description="Synergic current: A at 0 and A per m/min "
-                                                                             "(CMT steel 1.2 mm: 100 A at 3 m/min)")
-        voltage_line: tuple[float, float] = Field((11.0, 0.6), description="Synergic voltage: V at 0 and V per m/min")
-        job: float | None = Field(None, ge=0, le=9999, description="Power-source job number for every zone")
+                                                                             "(CMT steel 1.2 mm: 100 A at 3 m/min)", title="Synergic current line")
+        voltage_line: tuple[float, float] = Field((11.0, 0.6), description="Synergic voltage: V at 0 and V per m/min", title="Synergic voltage line")
+        job: float | None = Field(None, ge=0, le=9999, description="Power-source job number for every zone", title="Job number")
 
     def run(self, ctx, params, inputs):
         user = {}
@@ -358,25 +358,25 @@ class Interpass(Node):
 
     class Params(NodeParams):
         interpass_c: float = Field(200.0, gt=-50, le=1500, json_schema_extra=unit("°C"),
-                                   description="Highest part temperature when a layer starts")
+                                   description="Highest part temperature when a layer starts", title="Interpass temperature")
         min_layer_time_s: float = Field(0.0, ge=0, le=36000, json_schema_extra=unit("s"),
-                                        description="Minimum layer time (arc + travel + dwell)")
-        ambient_c: float = Field(20.0, ge=-50, le=100, json_schema_extra=unit("°C"), description="Ambient temperature")
-        density_kg_m3: float = Field(7850.0, gt=100, le=25000, json_schema_extra=unit("kg/m³"), description="Density")
+                                        description="Minimum layer time (arc + travel + dwell)", title="Minimum layer time")
+        ambient_c: float = Field(20.0, ge=-50, le=100, json_schema_extra=unit("°C"), description="Ambient temperature", title="Ambient temperature")
+        density_kg_m3: float = Field(7850.0, gt=100, le=25000, json_schema_extra=unit("kg/m³"), description="Density", title="Density")
         specific_heat_j_kgk: float = Field(600.0, gt=50, le=5000, json_schema_extra=unit("J/(kg·K)"),
-                                           description="Specific heat (steel ≈ 600, Ti-6Al-4V ≈ 650, Al ≈ 950)")
-        arc_efficiency: float = Field(0.8, gt=0, le=1, description="Arc efficiency η (GMAW/CMT ≈ 0.8)")
+                                           description="Specific heat (steel ≈ 600, Ti-6Al-4V ≈ 650, Al ≈ 950)", title="Specific heat")
+        arc_efficiency: float = Field(0.8, gt=0, le=1, description="Arc efficiency η (GMAW/CMT ≈ 0.8)", title="Arc efficiency η")
         arc_power_w: float = Field(4000.0, gt=0, le=100000, json_schema_extra=unit("W"),
-                                   description="Arc power where a zone has no current and voltage")
+                                   description="Arc power where a zone has no current and voltage", title="Default arc power")
         h_w_m2k: float = Field(35.0, gt=0, le=1000, json_schema_extra=unit("W/(m²·K)"),
-                               description="Surface heat transfer: convection + linearised radiation")
+                               description="Surface heat transfer: convection + linearised radiation", title="Surface heat transfer")
         base_conductance_w_k: float = Field(2.0, ge=0, le=10000, json_schema_extra=unit("W/K"),
-                                            description="Conduction into the table/fixture")
+                                            description="Conduction into the table/fixture", title="Base conductance")
         substrate_mass_kg: float = Field(1.0, ge=0, le=10000, json_schema_extra=unit("kg"),
-                                         description="Substrate mass heated with the part")
-        bead_width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Bead width (deposited mass)")
+                                         description="Substrate mass heated with the part", title="Substrate mass")
+        bead_width: float = Field(6.0, gt=0.1, le=60, json_schema_extra=unit("mm"), description="Bead width (deposited mass)", title="Bead width")
         travel_speed: float = Field(100.0, gt=1, le=2000, json_schema_extra=unit("mm/s"),
-                                    description="Speed of arc-OFF moves without a programmed speed")
+                                    description="Speed of arc-OFF moves without a programmed speed", title="Travel speed")
 
     def run(self, ctx, params, inputs):
         m = HeatModel(interpass_c=params.interpass_c, ambient_c=params.ambient_c,
@@ -417,16 +417,16 @@ class Treatment(Node):
     version = "1"
 
     class Params(NodeParams):
-        tool: Literal["rolling", "peening"] = Field("rolling", description="Treatment tool")
-        tool_width: float = Field(8.0, gt=0.5, le=100, json_schema_extra=unit("mm"), description="Roller/peen width")
-        force: float = Field(25000.0, ge=0, le=500000, json_schema_extra=unit("N"), description="Rolling load")
-        speed: float = Field(10.0, gt=0.1, le=1000, json_schema_extra=unit("mm/s"), description="Speed along the bead")
-        clearance: float = Field(10.0, ge=0, le=500, json_schema_extra=unit("mm"), description="Approach/retract height")
+        tool: Literal["rolling", "peening"] = Field("rolling", description="Treatment tool", title="Treatment tool")
+        tool_width: float = Field(8.0, gt=0.5, le=100, json_schema_extra=unit("mm"), description="Roller/peen width", title="Tool width")
+        force: float = Field(25000.0, ge=0, le=500000, json_schema_extra=unit("N"), description="Rolling load", title="Rolling force")
+        speed: float = Field(10.0, gt=0.1, le=1000, json_schema_extra=unit("mm/s"), description="Speed along the bead", title="Treatment speed")
+        clearance: float = Field(10.0, ge=0, le=500, json_schema_extra=unit("mm"), description="Approach/retract height", title="Clearance")
         max_turn_deg: float = Field(30.0, gt=0, le=180, json_schema_extra=unit("deg"),
-                                    description="A sharper turn ends the stroke")
-        tolerance: float = Field(0.05, gt=0, le=1, json_schema_extra=unit("mm"), description="Centre-line simplification")
-        min_stroke: float = Field(2.0, ge=0, le=1000, json_schema_extra=unit("mm"), description="Shorter strokes are skipped")
-        interleave: bool = Field(False, description="Deposition then treatment, layer by layer, in one toolpath")
+                                    description="A sharper turn ends the stroke", title="Sharpest turn in a stroke")
+        tolerance: float = Field(0.05, gt=0, le=1, json_schema_extra=unit("mm"), description="Centre-line simplification", title="Centre-line tolerance")
+        min_stroke: float = Field(2.0, ge=0, le=1000, json_schema_extra=unit("mm"), description="Shorter strokes are skipped", title="Shortest stroke")
+        interleave: bool = Field(False, description="Deposition then treatment, layer by layer, in one toolpath", title="Interleave with deposition")
 
     def run(self, ctx, params, inputs):
         spec = TreatmentSpec(tool=params.tool, tool_width_mm=params.tool_width, force_n=params.force,

@@ -30,26 +30,26 @@ class RobotParams(NodeParams):
 
     robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
                                json_schema_extra={"x-shipped": "robots"},
-                               description="Shipped robot profile (controller constants, data/robots/<name>.json)")
-    profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
+                               description="Shipped robot profile (controller constants, data/robots/<name>.json)", title="Robot profile")
+    profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
     cdis: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                        description="Blend distance: KUKA $APO.CDIS (blend=cdis) or ABB zone radius (blend=zone); 0 = exact stops")
-    blend: Literal["cdis", "zone"] = Field("cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola")
+                        description="Blend distance: KUKA $APO.CDIS (blend=cdis) or ABB zone radius (blend=zone); 0 = exact stops", title="Blend distance")
+    blend: Literal["cdis", "zone"] = Field("cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola", title="Corner blending")
     speed_override: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                         description="Replace the programmed speed of arc-ON moves (empty = as programmed)")
+                                         description="Replace the programmed speed of arc-ON moves (empty = as programmed)", title="Weld speed override")
     speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                description="Same as speed_override (the contract's example recipe sets `speed` here)")
+                                description="Same as speed_override (the contract's example recipe sets `speed` here)", title="Speed")
     travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                       description="Speed of arc-OFF moves that carry no speed (empty = the profile's)")
+                                       description="Speed of arc-OFF moves that carry no speed (empty = the profile's)", title="Travel speed")
     interpolation_cycle_s: float = Field(0.012, gt=0.0005, le=0.1, json_schema_extra=unit("s"),
-                                         description="Controller interpolation cycle (KRC2: 12 ms); trace sampling period")
+                                         description="Controller interpolation cycle (KRC2: 12 ms); trace sampling period", title="Interpolation cycle")
     ignition_dwell_s: float = Field(0.0, ge=0, le=60, json_schema_extra=unit("s"),
-                                    description="Standstill after each arc ignition when the zone has no `dwell` parameter")
+                                    description="Standstill after each arc ignition when the zone has no `dwell` parameter", title="Ignition dwell")
     wire_feed_mm3_s: float = Field(94.25, gt=0, le=10000, json_schema_extra=unit("mm³/s"),
-                                   description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)")
+                                   description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)", title="Wire feed volume rate")
     wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
                                            description="Wire diameter: when set, zones with a wire_feed_speed parameter "
-                                                       "feed WFS·π·d²/4 instead of wire_feed_mm3_s")
+                                                       "feed WFS·π·d²/4 instead of wire_feed_mm3_s", title="Wire diameter")
 
     def sim_options(self) -> SimOptions:
         return SimOptions(cdis=self.cdis, blend=self.blend, wire_feed_mm3_s=self.wire_feed_mm3_s,
@@ -118,43 +118,43 @@ class SimulateRobot(Node):
 
 
     class Params(RobotParams):
-        kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)")
+        kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)", title="Solve inverse kinematics")
         cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells",
                                                                  "x-file-suffix": ".json"},
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
-                                      "`fixed_deg` angles, replacing the base/work/TCP parameters below")
+                                      "`fixed_deg` angles, replacing the base/work/TCP parameters below", title="Robot cell")
         max_tilt_deg: float = Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
                                     description="positioner_policy min-motion: torch lean from vertical tolerated "
-                                                "before the positioner turns the next layer")
+                                                "before the positioner turns the next layer", title="Largest torch lean")
         positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
                                  "each layer so its torch axis points straight down (flat-position welding); "
                                  "`min-motion` holds the angles while the torch may lean max_tilt_deg. Limits and "
-                                 "axis speeds from the positioner URDF cap and are reported per layer")
+                                 "axis speeds from the positioner URDF cap and are reported per layer", title="Positioner policy")
         collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
                                          description="With a cell: coal collision checks (arm links, torch, table, "
                                                      "fixtures, layers built so far) every this much programmed path "
-                                                     "and at every layer change")
-        collisions: bool = Field(True, description="With a cell: check collisions along the path")
+                                                     "and at every layer change", title="Collision check spacing")
+        collisions: bool = Field(True, description="With a cell: check collisions along the path", title="Check collisions")
         robot_description: str = Field("", max_length=128, pattern=SHIPPED_NAME_PATTERN,
                                        json_schema_extra={"x-shipped": "robots"},
-                                       description="Arm URDF in data/robots (empty = the profile's description)")
+                                       description="Arm URDF in data/robots (empty = the profile's description)", title="Robot description (URDF)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
-                                  description="IK sample spacing along the path (vertices always included)")
+                                  description="IK sample spacing along the path (vertices always included)", title="IK sample spacing")
         base_xyz_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
-                                         description="Robot base position in the world frame (empty = the profile's)")
+                                         description="Robot base position in the world frame (empty = the profile's)", title="Robot base position")
         base_yaw_deg: float = Field(0.0, ge=-360, le=360, json_schema_extra=unit("deg"),
-                                    description="Robot base rotation about world z")
+                                    description="Robot base rotation about world z", title="Robot base yaw")
         work_xyz_mm: Vec3 = Field((0.0, 0.0, 0.0), json_schema_extra=unit("mm"),
-                                  description="Work frame (part origin) in the world frame")
+                                  description="Work frame (part origin) in the world frame", title="Work frame position")
         tcp_offset_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
                                            description="TCP (torch tip) in the flange frame (tool0; z along the torch; "
-                                                       "empty = the profile's)")
+                                                       "empty = the profile's)", title="TCP offset")
         compensate: Literal["off", "on"] = Field(
             "off", description="Modulate the wire feed per ≤1 mm piece so deposit per mm stays at its programmed "
                                "value through stops and corners (waamflow.trajectory.compensate); reports "
-                               "deposit_per_mm_cv before and after and writes deposit.svg")
+                               "deposit_per_mm_cv before and after and writes deposit.svg", title="Compensate deposit")
 
         @field_validator("cell")
         @classmethod
@@ -301,10 +301,10 @@ class EstimateTime(Node):
     class Params(NodeParams):
         robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
                                json_schema_extra={"x-shipped": "robots"},
-                                   description="Robot profile whose `time_model` holds the identified parameters")
-        profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile")
+                                   description="Robot profile whose `time_model` holds the identified parameters", title="Robot profile")
+        profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
         travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                           description="Travel speed between sections (empty = the profile's)")
+                                           description="Travel speed between sections (empty = the profile's)", title="Travel speed")
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
@@ -348,12 +348,12 @@ class CalibrateRobot(Node):
     version = "10"  # 10: identifies the time model (Table 5) from the trace; fit may be empty
 
     class Params(RobotParams):
-        trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)")
+        trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)", title="Measured trace")
         fit: list[Literal[RobotProfile.FITTABLE]] = Field(  # type: ignore[valid-type]
             default_factory=lambda: ["path_acc", "path_jerk", "smoothing_s", "apo_time_s", "normal_jerk"],
-            description="Profile constants to fit (empty: identify the time model only)")
+            description="Profile constants to fit (empty: identify the time model only)", title="Constants to fit")
         time_model: bool = Field(True, description="Identify the study's time-model constants (Table 5) from the "
-                                                   "trace and write them into the profile")
+                                                   "trace and write them into the profile", title="Identify the time model")
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)

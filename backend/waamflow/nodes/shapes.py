@@ -35,14 +35,14 @@ class RectangleNode(Node):
 
     class Params(NodeParams):
         length: float = Field(43.0, gt=0, le=10_000, description="Length along x (along the passes)",
-                              json_schema_extra=unit("mm"))
-        width: float = Field(21.5, gt=0, le=10_000, description="Width along y", json_schema_extra=unit("mm"))
+                              json_schema_extra=unit("mm"), title="Length")
+        width: float = Field(21.5, gt=0, le=10_000, description="Width along y", json_schema_extra=unit("mm"), title="Width")
         origin_x: float = Field(0.0, ge=-10_000, le=10_000, description="x of the lower-left corner",
-                                json_schema_extra=unit("mm"))
+                                json_schema_extra=unit("mm"), title="Corner x")
         origin_y: float = Field(0.0, ge=-10_000, le=10_000, description="y of the lower-left corner",
-                                json_schema_extra=unit("mm"))
-        layer_count: int = Field(1, ge=1, le=10_000, description="Number of layers")
-        layer_height: float = Field(1.5, gt=0, le=50, description="Layer height", json_schema_extra=unit("mm"))
+                                json_schema_extra=unit("mm"), title="Corner y")
+        layer_count: int = Field(1, ge=1, le=10_000, description="Number of layers", title="Number of layers")
+        layer_height: float = Field(1.5, gt=0, le=50, description="Layer height", json_schema_extra=unit("mm"), title="Layer height")
 
     def run(self, ctx, params, inputs):
         return {"layers": rectangle_layers(params.length, params.width, params.origin_x, params.origin_y,

@@ -124,35 +124,35 @@ class SliceNode(Node):
 
     class Params(NodeParams):
         layer_height: float = Field(1.5, gt=0, le=50, description="Layer height (after the listed thicknesses)",
-                                    json_schema_extra=unit("mm"))
+                                    json_schema_extra=unit("mm"), title="Layer height")
         thicknesses: list[float] = Field(default_factory=list, max_length=10_000,
                                          description="Explicit thicknesses of the first layers, bottom up",
-                                         json_schema_extra=unit("mm"))
+                                         json_schema_extra=unit("mm"), title="First layer thicknesses")
         start_offset: float = Field(0.0, ge=0, le=10_000, description="Bottom of layer 0 above the part's bottom (or z_min)",
-                                    json_schema_extra=unit("mm"))
+                                    json_schema_extra=unit("mm"), title="Start offset")
         layer_count: int | None = Field(None, ge=1, le=200_000,
                                         description="Only the first this many layers (a quick look; warned when "
-                                                    "they stop below the top)")
+                                                    "they stop below the top)", title="Only the first layers")
         z_min: float | None = Field(None, description="Bottom of layer 0 instead of the part's bottom",
-                                    json_schema_extra=unit("mm"))
+                                    json_schema_extra=unit("mm"), title="Bottom height")
         z_max: float | None = Field(None, description="The layers end at this height instead of the part's top "
                                                       "(by the `top` policy)",
-                                    json_schema_extra=unit("mm"))
+                                    json_schema_extra=unit("mm"), title="Top height")
         top: Literal["ceil", "nearest", "exact"] = Field(
             "ceil", description="How the last layer meets the part's top (or z_max): 'ceil' ends on it (last layer "
                                 "thinned, or merged into the one below, else one layer more, warned); 'nearest' "
                                 "the nearest whole layer, gap or overshoot warned; 'exact' whole layers only, "
-                                "else an error naming layer heights that fit")
+                                "else an error naming layer heights that fit", title="Top layer rule")
         top_min_fraction: float = Field(
             TOP_MIN_FRACTION, ge=0.05, le=1.0,
             description="'ceil': a thinned last layer is at least this fraction of its nominal thickness "
-                        "(a thinner remainder is merged into the layer below)")
+                        "(a thinner remainder is merged into the layer below)", title="Thinned top layer limit")
         top_max_factor: float = Field(
             TOP_MAX_FACTOR, ge=1.0, le=3.0,
             description="'ceil': a layer thickened by a merged remainder stays at most this factor of its "
-                        "thickness (else one layer more is built above the top)")
+                        "thickness (else one layer more is built above the top)", title="Thickened top layer limit")
         direction: tuple[float, float, float] = Field(
-            (0.0, 0.0, 1.0), description="Build direction (world); layers stack along it, heights are measured along it")
+            (0.0, 0.0, 1.0), description="Build direction (world); layers stack along it, heights are measured along it", title="Build direction")
 
         @model_validator(mode="after")
         def _check(self):

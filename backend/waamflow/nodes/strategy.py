@@ -26,7 +26,7 @@ class SectionStrategy(StrategySpec):
     """A section's fill spec plus its programmed travel speed."""
 
     speed: float = Field(10.0, gt=0.0, le=500.0, description="Programmed travel speed (zones may override)",
-                         json_schema_extra=unit("mm/s"))
+                         json_schema_extra=unit("mm/s"), title="Travel speed")
 
 
 def _partial(model) -> type:
@@ -34,7 +34,7 @@ def _partial(model) -> type:
     fields = {}
     for name, f in model.model_fields.items():
         extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else None
-        fields[name] = (Optional[f.annotation], Field(None, description=f.description, json_schema_extra=extra))
+        fields[name] = (Optional[f.annotation], Field(None, title=f.title, description=f.description, json_schema_extra=extra))
     return create_model("SectionStrategyOverride", __config__=ConfigDict(extra="forbid"), **fields)
 
 
@@ -173,22 +173,22 @@ class StrategyNode(LayerNode):
     over = "sections"
 
     class Params(NodeParams):
-        default: SectionStrategy = Field(default_factory=SectionStrategy, description="Spec for every section")
+        default: SectionStrategy = Field(default_factory=SectionStrategy, description="Spec for every section", title="Default strategy")
         whole_regions: Literal["auto", "off"] = Field(
             "auto", description="Sections of layers with no mask (each connected region is one section): "
                                 "'auto' re-plans a region its path leaves more than max_uncovered without a bead "
                                 "(split at its reflex corners, each piece along its own long axis; else contour "
-                                "rings); 'off' keeps the path as planned (still warned about)")
+                                "rings); 'off' keeps the path as planned (still warned about)", title="Whole regions")
         max_uncovered: float = Field(2.0, ge=0.0, le=100.0, json_schema_extra=unit("%"),
                                      description="Share of a section's area its path may leave without a bead "
                                                  "(arc-ON path buffered by half the bead width; a weave's pool "
                                                  "bridges its strokes) before the section is re-planned (auto) "
-                                                 "or warned about")
+                                                 "or warned about", title="Largest uncovered share")
         sections: dict[str, SectionOverride] = Field(  # type: ignore[valid-type]
-            default_factory=dict, description="Section key (\"bs1/A\") → fields that differ from the default")
+            default_factory=dict, description="Section key (\"bs1/A\") → fields that differ from the default", title="Strategy by section")
         compare: list[str] = Field(default_factory=list, max_length=16,
                                    description="Patterns to compare on the same sections (\"triangular:60\" sets "
-                                               "the apex angle); empty = no comparison artifacts")
+                                               "the apex angle); empty = no comparison artifacts", title="Patterns to compare")
 
         @model_validator(mode="after")
         def _overrides_valid(self):

@@ -53,19 +53,19 @@ class FeaturesNode(Node):
 
     class Params(NodeParams):
         merge_tol: float = Field(TOL.merge, gt=0, le=1.0, json_schema_extra=unit("mm"),
-                                 description="Points closer than this are one point (study: 1e-6 mm)")
+                                 description="Points closer than this are one point (study: 1e-6 mm)", title="Merge tolerance")
         corner_angle_deg: float = Field(30.0, gt=0, lt=180, json_schema_extra=unit("deg"),
                                         description="Walls turning by at least this angle meet at a corner, "
-                                                    "less: continuous junction")
+                                                    "less: continuous junction", title="Corner angle")
         encumbrance: float = Field(30.0, gt=0, le=1000, json_schema_extra=unit("mm"),
-                                   description="Torch maximum encumbrance (diameter) for the isolated-tubular test")
-        every_layer: bool = Field(False, description="Recognise every distinct layer, not only the first")
+                                   description="Torch maximum encumbrance (diameter) for the isolated-tubular test", title="Torch encumbrance")
+        every_layer: bool = Field(False, description="Recognise every distinct layer, not only the first", title="Every layer")
         join_gap: float = Field(0.05, ge=0, le=5.0, json_schema_extra=unit("mm"),
                                 description="Open curve ends this close whose curves continue each other (collinear "
                                             "within join_angle_deg) are joined before classifying; 0 = only "
-                                            "coincident ends meet")
+                                            "coincident ends meet", title="Join gap")
         join_angle_deg: float = Field(1.0, ge=0, le=30, json_schema_extra=unit("deg"),
-                                      description="Angle tolerance for joining collinear curves")
+                                      description="Angle tolerance for joining collinear curves", title="Join angle tolerance")
 
     def run(self, ctx, params, inputs):
         spec = RecognitionSpec(params.merge_tol, params.corner_angle_deg, params.encumbrance,
@@ -126,36 +126,36 @@ class WallPathNode(Node):
 
     class Params(NodeParams):
         speed: float = Field(5.0, gt=0, le=200, json_schema_extra=unit("mm/s"),
-                             description="Travel speed (study trials: 300 mm/min = 5 mm/s)")
+                             description="Travel speed (study trials: 300 mm/min = 5 mm/s)", title="Travel speed")
         cut_radius: float = Field(2.0, gt=0, le=100, json_schema_extra=unit("mm"),
-                                  description="Cutting circle radius at crossings (study best 2.0)")
+                                  description="Cutting circle radius at crossings (study best 2.0)", title="Cutting radius")
         influence_radius: float = Field(10.0, gt=0, le=500, json_schema_extra=unit("mm"),
-                                        description="Influence circle radius at crossings (study best 10.0)")
+                                        description="Influence circle radius at crossings (study best 10.0)", title="Influence radius")
         free_end_extension: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                                          description="Path extension beyond a free wall end (arc start/stop zone)")
+                                          description="Path extension beyond a free wall end (arc start/stop zone)", title="Free end extension")
         tubular: Literal["helical", "aligned", "scattered"] = Field(
-            "helical", description="Strategy for isolated tubulars")
+            "helical", description="Strategy for isolated tubulars", title="Isolated tubulars")
         overlap: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                               description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)")
+                               description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)", title="Start–stop overlap")
         bead_width: float | None = Field(None, ge=0, le=100, json_schema_extra=unit("mm"),
                                          description="Bead width = total wall width TWW; empty: tww, else "
                                                      "eww / deposition_efficiency, else 5 mm (the study's bead). "
-                                                     "Sets the crossing-radius bounds and the fillet check (0 = no check)")
+                                                     "Sets the crossing-radius bounds and the fillet check (0 = no check)", title="Bead width")
         eww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                           description="Effective wall width EWW, left after machining (0 = not given: the bead width)")
+                           description="Effective wall width EWW, left after machining (0 = not given: the bead width)", title="Effective wall width")
         tww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                           description="Total wall width TWW as deposited, ≥ EWW: the bead width (0 = not given)")
+                           description="Total wall width TWW as deposited, ≥ EWW: the bead width (0 = not given)", title="Total wall width")
         deposition_efficiency: float = Field(0.0, ge=0, le=1, json_schema_extra=unit("1"),
                                              description="DE = useful / deposited area = EWW / TWW for a single-bead "
-                                                         "wall; with EWW gives TWW (0 = not given)")
+                                                         "wall; with EWW gives TWW (0 = not given)", title="Deposition efficiency")
         fillet_radius: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
                                      description="Internal fillet radius R_f of the part: corners turn on R_f + EWW/2; "
-                                                 "crossings warn where the fillet leads leave it empty (0 = sharp)")
+                                                 "crossings warn where the fillet leads leave it empty (0 = sharp)", title="Fillet radius")
         spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
-                               description="Point spacing of ring centre lines (region layers)")
+                               description="Point spacing of ring centre lines (region layers)", title="Point spacing")
         seam: Literal["stock", "nearest"] = Field(
             "stock", description="Wall ignition: stock (a pass with machining stock at one end only starts "
-            "there; passes without stock are warned) or nearest (the end nearer the torch)")
+            "there; passes without stock are warned) or nearest (the end nearer the torch)", title="Wall seam")
 
         @model_validator(mode="after")
         def _radii(self):
