@@ -335,15 +335,18 @@ test("upload before the first save (sent right after save as), and the same file
   const files = async () => (await api(srv.base, "/api/graphs/core-upload/files")).map((f) => [f.name, f.size]);
   for (let i = 0; i < 50 && !(await files()).length; i++) await page.waitForTimeout(100);
   assert.deepEqual(await files(), [["part.stl", a.length]], "uploaded right after the save");
-  // saved: picking files uploads at once, the same name again (and the same file again) too
+  // saved: other content under the same name asks first (#25: replace / keep both / cancel); the
+  // same file again uploads at once (and the same file picked twice uploads twice)
   const uploads = async () => (await api(srv.base, "/api/audit?limit=100")).filter((e) => e.action === "upload_file" && e.target === "core-upload").length;
   const n0 = await uploads();
   await pick(b);
+  await page.click("[data-testid=upload-replace]");
   await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, b.length]);
   await pick(b);
   for (let i = 0; i < 50 && (await uploads()) < n0 + 2; i++) await page.waitForTimeout(100);
   assert.equal(await uploads(), n0 + 2, "the same file picked twice is uploaded twice");
   await pick(a);
+  await page.click("[data-testid=upload-replace]");
   await page.waitForFunction(async ([base, size]) => (await (await fetch(`${base}/api/graphs/core-upload/files`)).json())[0].size === size, [srv.base, a.length]);
   assert.deepEqual(await files(), [["part.stl", a.length]]);
   assert.deepEqual(errors, []);

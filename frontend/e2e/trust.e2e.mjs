@@ -218,3 +218,78 @@ test("fault 11: the 3D viewer page is served with the hashed assets' cache heade
   assert.deepEqual(errors, []);
   await page.context().close();
 });
+
+test("fault 5: a same-name upload asks (cancel / replace / keep both); the recipe pins the content it runs with; undo runs the old geometry", async () => {
+  const tall = boxesStl([[-30, -6, 0, 30, 6, 24]]); // 16 layers of 1.5 mm
+  const low = boxesStl([[-30, -6, 0, 30, 6, 12]]); // 8 layers
+  const recipe = {
+    format: "waamflow/1", name: "trust-upload", description: "one box", inputs: {},
+    nodes: [{ id: "part", type: "mesh", params: { path: "part.stl" } }, { id: "layers", type: "slice", params: { layer_height: 1.5 } }],
+    edges: [{ from: "part.mesh", to: "layers.mesh" }],
+  };
+  await api(srv.base, "/api/graphs/trust-upload", json(recipe));
+  await api(srv.base, "/api/graphs/trust-upload/files/part.stl", { method: "PUT", body: tall });
+  const { page, errors } = await openPage(browser, srv.base);
+  await openGraph(page, "trust-upload");
+  const layers = async () => {
+    const id = await page.getAttribute("[data-testid=progress]", "data-run-id");
+    return (await api(srv.base, `/api/runs/${id}`)).summary.layer_count;
+  };
+  await expectRun(page, srv.base, "done");
+  assert.equal(await layers(), 16);
+  const versions = () => api(srv.base, "/api/graphs/trust-upload/files/part.stl/versions");
+  assert.equal((await versions()).length, 1);
+  const pick = () => page.setInputFiles('[data-field="path"] input[type=file]', { name: "part.stl", mimeType: "model/stl", buffer: Buffer.from(low) });
+  await page.click('.react-flow__node[data-id="part"]');
+
+  // cancel: nothing stored, nothing changed
+  await pick();
+  await page.waitForSelector("[data-testid=upload-dialog]");
+  assert.match(await page.innerText("[data-testid=upload-dialog]"), /part\.stl.*already in this recipe/);
+  await page.setViewportSize({ width: 1600, height: 1000 });
+  await shot(page, "trust-05-upload-dialog-1600");
+  await page.setViewportSize({ width: 1366, height: 768 });
+  await shot(page, "trust-05-upload-dialog-1366");
+  await page.click("[data-testid=upload-cancel]");
+  await page.waitForSelector("[data-testid=upload-dialog]", { state: "detached" });
+  assert.equal((await versions()).length, 1, "cancel stores nothing");
+  assert.equal(await page.locator("[data-testid=save]").innerText(), "save");
+
+  // replace: stored as a new version, the recipe unsaved and pinned to it; the run uses it
+  await pick();
+  await page.click("[data-testid=upload-replace]");
+  await page.waitForFunction(() => document.querySelector("[data-testid=save]")?.textContent === "save *");
+  const [v2, v1] = await versions();
+  assert.equal(v2.version, 2);
+  assert.equal(v2.size, low.length);
+  await expectRun(page, srv.base, "done");
+  assert.equal(await layers(), 8);
+  // undo: the old content again (still stored, still what the saved recipe ran with)
+  await page.click("[data-testid=undo]");
+  await page.waitForFunction(() => document.querySelector("[data-testid=save]")?.textContent === "save");
+  await expectRun(page, srv.base, "done");
+  assert.equal(await layers(), 16, "undo of a replace runs the old geometry");
+  const [last] = await api(srv.base, "/api/runs?graph=trust-upload&limit=1");
+  const summary = (await api(srv.base, `/api/runs/${last.id}`)).summary;
+  assert.ok(JSON.stringify(summary).includes(v1.sha256), "the run record names the content it used");
+  // redo + save: the saved recipe pins the new content
+  await page.click("[data-testid=redo]");
+  await page.click("[data-testid=save]");
+  await page.waitForFunction(() => document.querySelector("[data-testid=save]")?.textContent === "save");
+  assert.deepEqual((await api(srv.base, "/api/graphs/trust-upload")).files, { "part.stl": v2.sha256 });
+
+  // the same content again asks nothing; other content and "keep both": a free name, the node reads it
+  await pick();
+  await page.waitForFunction(async (base) => (await (await fetch(`${base}/api/graphs/trust-upload/files/part.stl/versions`)).json()).length === 3, srv.base);
+  assert.equal(await page.locator("[data-testid=upload-dialog]").count(), 0);
+  const tall2 = boxesStl([[-30, -6, 0, 30, 6, 3]]);
+  await page.setInputFiles('[data-field="path"] input[type=file]', { name: "part.stl", mimeType: "model/stl", buffer: Buffer.from(tall2) });
+  await page.click("[data-testid=upload-keep-both]");
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part-2.stl");
+  const files = (await api(srv.base, "/api/graphs/trust-upload/files")).map((f) => [f.name, f.size]);
+  assert.deepEqual(files, [["part-2.stl", tall2.length], ["part.stl", low.length]]);
+  await expectRun(page, srv.base, "done");
+  assert.equal(await layers(), 2);
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});

@@ -7,6 +7,7 @@ import { Palette } from "./components/Palette";
 import { Tabs, tabPanelProps } from "./components/Tabs";
 import { Toolbar } from "./components/Toolbar";
 import { ConflictDialog, conflictOf, overwriteWith, type Conflict } from "./components/ConflictDialog";
+import { UploadDialog, type UploadAsk, type UploadChoice } from "./components/UploadDialog";
 import { clearDraft, draftDiffers, parsePlace, placeSearch, readDraft, writeDraft, type Draft } from "./graph/drafts";
 import { GraphEditor } from "./graph/GraphEditor";
 import { NodeSearch } from "./graph/NodeSearch";
@@ -30,6 +31,7 @@ import type { PreflightMark } from "./mask/MaskView";
 import { focusSection } from "./forms/sectionKeys";
 import { Viewer3D } from "./viewer/Viewer3D";
 import { ParamsEditor } from "./xml/ParamsEditor";
+import { freeName, pinStored, sha256Hex, withPin } from "./document/document";
 import { change, isDirty, newDocument, recipeDirty as recipeIsDirty, runRequest, savedOf, withRecipe, withXml, xmlDirty as xmlIsDirty, type Doc, type Saved } from "./document/document";
 import { boundsByName, saveBlocker } from "./xml/params";
 
@@ -233,7 +235,8 @@ export function App() {
         setGraphs(list);
         // Only asked for when there is one: a 404 would be noise in the browser's console.
         const xml = list.find((g) => g.name === name)?.has_params ? await API.getParams(name) : null;
-        const full: Recipe = { ...emptyRecipe(name), ...r };
+        const stored = await API.listFiles(name).catch(() => []);
+        const full: Recipe = pinStored({ ...emptyRecipe(name), ...r }, stored);
         setXmlLoadError(xml === null ? "This graph has no parameter file yet: run it once to create the template." : null);
         reset_(full, name, xml);
         if (tabAfter) setTab(tabAfter);
@@ -422,9 +425,26 @@ export function App() {
         return file.name;
       }
       try {
-        await API.putFile(graphName, file.name, file);
-        message(`uploaded ${file.name}`);
-        return file.name;
+        // A name the recipe's files already have: the user decides (never replaced at once).
+        const [stored, sha] = await Promise.all([API.listFiles(graphName), sha256Hex(file)]);
+        const have = stored.find((f) => f.name === file.name);
+        let name = file.name;
+        if (have?.sha256 && have.sha256 !== sha) {
+          const other = freeName(file.name, stored.map((f) => f.name));
+          const choice = await new Promise<UploadChoice>((resolve) =>
+            setUploadAsk({ ask: { name, size: file.size, have: { size: have.size, updated: have.updated, sha256: have.sha256! }, other }, resolve }));
+          setUploadAsk(null);
+          if (choice === "cancel") {
+            message(`${file.name} not uploaded: the recipe keeps the stored one`);
+            return null;
+          }
+          if (choice === "both") name = other;
+        }
+        const digest = (await API.putFile(graphName, name, file)) ?? sha;
+        // the recipe now runs with this content: one undo step (undo pins the previous content again)
+        setHist((h) => change(h, withPin(h.present, name, digest)));
+        message(`uploaded ${name}${have && name === file.name && have.sha256 !== digest ? " (replaced: undo brings the old one back)" : ""}`);
+        return name;
       } catch (e) {
         fail(e);
         return null;
@@ -432,6 +452,7 @@ export function App() {
     },
     [graphName, isExample, recipe.name, message, fail],
   );
+  const [uploadAsk, setUploadAsk] = useState<{ ask: UploadAsk; resolve: (c: UploadChoice) => void } | null>(null);
 
   useShortcuts({
     graphActive: tab === "graph",
@@ -697,6 +718,7 @@ export function App() {
           onCancel={() => setConflict(null)}
         />
       )}
+      {uploadAsk && <UploadDialog ask={uploadAsk.ask} onChoose={uploadAsk.resolve} />}
       {search && (
         <NodeSearch
           specs={specs}

@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import type { Recipe } from "../src/api/types";
-import { change, isDirty, newDocument, runRequest, savedOf, withRecipe, withXml, xmlDirty } from "../src/document/document";
+import { change, freeName, isDirty, newDocument, pinStored, runRequest, savedOf, sha256Hex, withPin, withRecipe, withXml, xmlDirty } from "../src/document/document";
 import { emptyRecipe, redo, removeNodes, undo } from "../src/graph/recipe";
 
 const recipe: Recipe = {
@@ -64,5 +64,39 @@ describe("document: recipe and parameter XML in one history", () => {
     expect(isDirty(h.present, saved)).toBe(false);
     // a document without XML of its own is not dirty (the run's template is shown beside it)
     expect(xmlDirty(newDocument(recipe, null).present, savedOf(newDocument(recipe, null).present))).toBe(false);
+  });
+});
+
+describe("uploads pinned by content (#25 fault 5)", () => {
+  const base = { format: "waamflow/1", name: "u", description: "", inputs: {}, nodes: [], edges: [] } as Recipe;
+  const A = "a".repeat(64), B = "b".repeat(64);
+  it("a replace is one undo step; undo pins the old content, the document clean again", () => {
+    const opened = pinStored(base, [{ name: "part.stl", sha256: A }, { name: "old.dxf", sha256: null }]);
+    expect(opened.files).toEqual({ "part.stl": A });
+    let h = newDocument(opened, null);
+    const saved = savedOf(h.present);
+    h = change(h, withPin(h.present, "part.stl", B));
+    expect(h.present.recipe.files).toEqual({ "part.stl": B });
+    expect(isDirty(h.present, saved)).toBe(true);
+    expect(runRequest(h.present, "u").recipe.files).toEqual({ "part.stl": B });
+    h = undo(h);
+    expect(h.present.recipe.files).toEqual({ "part.stl": A });
+    expect(isDirty(h.present, saved)).toBe(false);
+    expect(withPin(h.present, "part.stl", A)).toBe(h.present); // same content: no change
+  });
+  it("keeps a pin the recipe has; keep-both names are free; sha256 as the server computes it", async () => {
+    expect(pinStored({ ...base, files: { "part.stl": B } }, [{ name: "part.stl", sha256: A }]).files).toEqual({ "part.stl": B });
+    expect(freeName("part.stl", ["part.stl", "part-2.stl"])).toBe("part-3.stl");
+    expect(freeName("README", ["README"])).toBe("README-2");
+    expect(await sha256Hex(new Blob(["abc"]))).toBe("ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  });
+});
+
+describe("no empty undo steps", () => {
+  it("an edit to the same document is no step", () => {
+    const r = { format: "waamflow/1", name: "u", description: "", inputs: {}, nodes: [{ id: "a", type: "mesh", params: { path: "p.stl" } }], edges: [] } as Recipe;
+    const h = newDocument(r, null);
+    expect(change(h, withRecipe(h.present, structuredClone(r)))).toBe(h);
+    expect(change(h, withRecipe(h.present, { ...r, description: "x" })).past).toHaveLength(1);
   });
 });

@@ -154,6 +154,7 @@ class Services:
         attachments: dict[str, bytes] = {}
         if graph_name:
             attachments.update(self.store.get_files(graph_name))
+        attachments.update(self.pinned_files(graph_name, recipe))
         xml = params_xml if params_xml is not None or not graph_name else self.store.get_params_xml(graph_name)
         if xml:
             for fname in params_file_names(recipe):
@@ -161,6 +162,19 @@ class Services:
         base = self.settings.graphs_dir or self.settings.data_dir
         roots = [p for p in (self.settings.graphs_dir, self.settings.data_dir) if p is not None]
         return FileResolver(base, attachments, roots=roots)
+
+    def pinned_files(self, graph_name: str | None, recipe: Recipe) -> dict[str, bytes]:
+        """The recipe's `files` pins (name → sha256): exactly that content of the graph's uploads,
+        whatever the name points at now (#25: a same-name upload never changes a pinned recipe's run)."""
+        out: dict[str, bytes] = {}
+        for name, digest in (recipe.files or {}).items():
+            data = self.store.get_file_content(graph_name, digest) if graph_name else None
+            if data is None:
+                where = f"graph {graph_name!r}" if graph_name else "an unsaved recipe (save it first)"
+                raise RecipeError(f"file {name!r} is pinned to content sha256 {digest[:12]}… that {where} does not have",
+                                  field=f"files.{name}")
+            out[name] = data
+        return out
 
     def check_sandbox(self, graph: Graph, resolver: FileResolver) -> None:
         """Before anything runs: every file parameter of every node of a recipe that came over REST

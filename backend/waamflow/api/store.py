@@ -7,6 +7,7 @@ recipe. Run artifacts live in files under data/runs/<id>/ (written atomically).
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import json
 import os
 import re
@@ -42,6 +43,9 @@ CREATE TABLE IF NOT EXISTS graph_revisions (graph TEXT NOT NULL, kind TEXT NOT N
   time REAL NOT NULL, user TEXT, content TEXT, PRIMARY KEY (graph, kind, revision));
 CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REAL NOT NULL, who TEXT,
   action TEXT NOT NULL, target TEXT, detail TEXT);
+CREATE TABLE IF NOT EXISTS file_blobs (sha256 TEXT PRIMARY KEY, data BLOB NOT NULL);
+CREATE TABLE IF NOT EXISTS graph_file_versions (graph TEXT NOT NULL, name TEXT NOT NULL, version INTEGER NOT NULL,
+  sha256 TEXT NOT NULL, size INTEGER NOT NULL, time REAL NOT NULL, user TEXT, PRIMARY KEY (graph, name, version));
 """
 
 
@@ -49,7 +53,8 @@ CREATE TABLE IF NOT EXISTS audit (id INTEGER PRIMARY KEY AUTOINCREMENT, time REA
 # at start-up (a graph saved before revisions existed is revision 1)
 MIGRATIONS = (("graphs", "revision", "INTEGER NOT NULL DEFAULT 1"),
               ("graphs", "owner", "TEXT"),   # the token name that created it (#26: editors change their own)
-              ("graphs", "params_revision", "INTEGER NOT NULL DEFAULT 1"))
+              ("graphs", "params_revision", "INTEGER NOT NULL DEFAULT 1"),
+              ("graph_files", "sha256", "TEXT"))
 
 
 LOCK_SUFFIX = ".lock"
@@ -215,6 +220,8 @@ class Store:
         with self._lock:
             cur = self._conn.execute("DELETE FROM graphs WHERE name=?", (name,))
             self._conn.execute("DELETE FROM graph_files WHERE graph=?", (name,))
+            self._conn.execute("DELETE FROM graph_file_versions WHERE graph=?", (name,))
+            self._conn.execute("DELETE FROM file_blobs WHERE sha256 NOT IN (SELECT sha256 FROM graph_file_versions)")
             # a graph's history outlives it only for the recipe's revision numbers (kept monotonic)
             self._conn.execute("DELETE FROM graph_revisions WHERE graph=? AND kind='params'", (name,))
             self._conn.commit()
@@ -244,16 +251,68 @@ class Store:
         return rev
 
     def list_files(self, graph: str) -> list[dict]:
-        rows = self._query("SELECT name, length(data) AS size, updated FROM graph_files WHERE graph=? ORDER BY name", (graph,))
-        return [dict(r) for r in rows]
+        """name, size, updated and the sha256 of the content the name points at now (computed once
+        for files stored before content hashes existed)."""
+        rows = self._query("SELECT name, length(data) AS size, updated, sha256 FROM graph_files WHERE graph=? ORDER BY name",
+                           (graph,))
+        out = [dict(r) for r in rows]
+        for f in out:
+            if not f["sha256"]:
+                data = self._query("SELECT data FROM graph_files WHERE graph=? AND name=?", (graph, f["name"]))[0]["data"]
+                f["sha256"] = hashlib.sha256(bytes(data)).hexdigest()
+                self._exec("UPDATE graph_files SET sha256=? WHERE graph=? AND name=?", (f["sha256"], graph, f["name"]))
+        return out
 
     def get_files(self, graph: str) -> dict[str, bytes]:
         rows = self._query("SELECT name, data FROM graph_files WHERE graph=?", (graph,))
         return {r["name"]: bytes(r["data"]) for r in rows}
 
-    def put_file(self, graph: str, name: str, data: bytes) -> None:
-        self._exec("INSERT OR REPLACE INTO graph_files (graph, name, data, updated) VALUES (?,?,?,?)",
-                   (graph, name, data, time.time()))
+    def put_file(self, graph: str, name: str, data: bytes, user: str | None = None) -> dict:
+        """Store `data` under its sha256 and point `name` at it (the graph's current file of that
+        name, as before); every content a name pointed at stays readable by hash (a recipe pins the
+        exact content it runs with, #25). Returns {sha256, size, version, previous} (previous: the
+        sha256 the name pointed at before, None for a new name)."""
+        digest = hashlib.sha256(data).hexdigest()
+        now = time.time()
+        with self._lock:
+            prev = self._conn.execute("SELECT sha256, data FROM graph_files WHERE graph=? AND name=?", (graph, name)).fetchone()
+            previous = (prev["sha256"] or hashlib.sha256(bytes(prev["data"])).hexdigest()) if prev else None
+            last = self._conn.execute("SELECT max(version) FROM graph_file_versions WHERE graph=? AND name=?",
+                                      (graph, name)).fetchone()[0]
+            if previous is not None and last is None:  # a file from before versions: its content is version 1
+                self._conn.execute("INSERT OR IGNORE INTO file_blobs (sha256, data) VALUES (?,?)", (previous, prev["data"]))
+                self._conn.execute("INSERT INTO graph_file_versions (graph, name, version, sha256, size, time, user) "
+                                   "VALUES (?,?,?,?,?,?,?)", (graph, name, 1, previous, len(prev["data"]), now, None))
+                last = 1
+            version = int(last or 0) + 1
+            self._conn.execute("INSERT OR IGNORE INTO file_blobs (sha256, data) VALUES (?,?)", (digest, data))
+            self._conn.execute("INSERT INTO graph_file_versions (graph, name, version, sha256, size, time, user) "
+                               "VALUES (?,?,?,?,?,?,?)", (graph, name, version, digest, len(data), now, user))
+            self._conn.execute("INSERT OR REPLACE INTO graph_files (graph, name, data, updated, sha256) VALUES (?,?,?,?,?)",
+                               (graph, name, data, now, digest))
+            self._conn.commit()
+        return {"sha256": digest, "size": len(data), "version": version, "previous": previous}
+
+    def list_file_versions(self, graph: str, name: str) -> list[dict]:
+        """Every content the graph's file `name` pointed at, newest first."""
+        rows = self._query("SELECT version, sha256, size, time, user FROM graph_file_versions WHERE graph=? AND name=? "
+                           "ORDER BY version DESC", (graph, name))
+        if not rows:  # a file from before versions
+            return [{"version": 1, "sha256": f["sha256"], "size": f["size"], "time": f["updated"], "user": None}
+                    for f in self.list_files(graph) if f["name"] == name]
+        return [dict(r) for r in rows]
+
+    def get_file_content(self, graph: str, sha256: str) -> bytes | None:
+        """Content with this sha256 that one of the graph's files held (another graph's uploads stay
+        out of reach, whatever hash is asked for)."""
+        rows = self._query("SELECT b.data FROM file_blobs b JOIN graph_file_versions v ON v.sha256=b.sha256 "
+                           "WHERE v.graph=? AND b.sha256=? LIMIT 1", (graph, sha256))
+        if rows:
+            return bytes(rows[0]["data"])
+        for f in self.get_files(graph).values():  # a file from before versions
+            if hashlib.sha256(f).hexdigest() == sha256:
+                return f
+        return None
 
     # runs
     def create_run(self, run_id: str, graph: str | None, recipe: dict, inputs: dict | None,

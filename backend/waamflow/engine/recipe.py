@@ -11,9 +11,9 @@ import copy
 import json
 import re
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationError, field_validator
 
 from ..core.errors import InputFileError, RecipeError
 from ..preflight.settings import PreflightSettings
@@ -71,6 +71,10 @@ class Recipe(BaseModel):
     edges: list[EdgeEntry] = Field(default_factory=list)
     preflight: PreflightSettings | None = Field(None, description="thresholds of the check of every emitted "
                                                 "program against its part (README 'Preflight'); empty = defaults")
+    files: dict[str, Annotated[str, StringConstraints(pattern=r"^[0-9a-f]{64}$")]] | None = Field(
+        None, description="uploaded files pinned to their content: file name → sha256 (hex) of the exact content "
+                          "this recipe runs with on the server; an upload under the same name changes nothing "
+                          "until the recipe is pinned to it (the GUI asks). Part of the recipe hash.")
     ui: dict[str, Any] | None = None
 
     @field_validator("inputs")

@@ -129,13 +129,15 @@ export async function putParams(name: string, xml: string): Promise<void> {
   remember("params", name, res);
 }
 
-export async function putFile(name: string, filename: string, body: Blob): Promise<void> {
+/** Upload a graph's file; resolves to the sha256 (hex) the server stored it under (its ETag). */
+export async function putFile(name: string, filename: string, body: Blob): Promise<string | null> {
   const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/files/${encodeURIComponent(filename)}`, {
     method: "PUT",
     headers: { "Content-Type": "application/octet-stream" },
     body,
   });
   if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  return res.headers.get("ETag")?.match(/^"([0-9a-f]{64})"$/)?.[1] ?? null;
 }
 
 /**

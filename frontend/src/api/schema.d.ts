@@ -177,7 +177,8 @@ export interface paths {
         };
         /**
          * List Revisions
-         * @description The recipe's saved revisions, newest first (revision, time, user).
+         * @description The recipe's saved revisions, newest first (revision, time, user) — also of a deleted graph,
+         *     whose revisions stay until an admin restores one (POST .../revisions/{rev}/restore).
          */
         get: operations["list_revisions_api_graphs__name__revisions_get"];
         put?: never;
@@ -197,11 +198,34 @@ export interface paths {
         };
         /**
          * Get Revision
-         * @description One earlier revision of the recipe (restore it by PUTting it back).
+         * @description One earlier revision of the recipe, also of a deleted graph (restore it by PUTting it back, or
+         *     as an admin with POST .../restore).
          */
         get: operations["get_revision_api_graphs__name__revisions__rev__get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/graphs/{name}/revisions/{rev}/restore": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Restore Revision
+         * @description Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
+         *     content) or as the graph again after a delete. It becomes a new revision (history only grows);
+         *     the graph's owner is who saved `rev`. `If-Match` as for PUT.
+         */
+        post: operations["restore_revision_api_graphs__name__revisions__rev__restore_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -225,6 +249,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/graphs/{name}/files/{filename}/versions": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List File Versions
+         * @description Every content uploaded under `filename`, newest first: each stays readable by its sha256, so a
+         *     recipe that pinned it runs with exactly that content after a same-name upload.
+         */
+        get: operations["list_file_versions_api_graphs__name__files__filename__versions_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs/{name}/files/{filename}": {
         parameters: {
             query?: never;
@@ -236,6 +281,8 @@ export interface paths {
         /**
          * Put File
          * @description Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`.
+         *     The content is stored under its sha256 (the `ETag`) and the name points at it; what the name
+         *     pointed at before stays stored (GET .../versions), so a recipe pinned to it is unchanged.
          */
         put: operations["put_file_api_graphs__name__files__filename__put"];
         post?: never;
@@ -676,7 +723,7 @@ export interface components {
         ConflictDetail: {
             /**
              * Kind
-             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             * @description machine-readable class: bad_request, unauthorized, forbidden, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
              */
             kind: string;
             /** Message */
@@ -778,7 +825,7 @@ export interface components {
         ErrorDetail: {
             /**
              * Kind
-             * @description machine-readable class: bad_request, unauthorized, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
+             * @description machine-readable class: bad_request, unauthorized, forbidden, not_found, method_not_allowed, conflict, too_large, invalid_request, invalid_recipe, invalid_input, planning_failed, outside_sandbox, busy, error
              */
             kind: string;
             /** Message */
@@ -826,6 +873,27 @@ export interface components {
             size: number;
             /** Updated */
             updated: number;
+            /**
+             * Sha256
+             * @description sha256 (hex) of the content the name points at now; a run request's `files` pins a name to one such content
+             */
+            sha256?: string | null;
+        };
+        /** FileVersion */
+        FileVersion: {
+            /**
+             * Version
+             * @description 1 for the first content uploaded under the name, then +1 per upload
+             */
+            version: number;
+            /** Sha256 */
+            sha256: string;
+            /** Size */
+            size: number;
+            /** Time */
+            time: number;
+            /** User */
+            user?: string | null;
         };
         /** GraphInfo */
         GraphInfo: {
@@ -843,6 +911,11 @@ export interface components {
              * @default false
              */
             has_params: boolean;
+            /**
+             * Owner
+             * @description token name that created it (editors change only their own); null: a shipped example or saved before owners were recorded
+             */
+            owner?: string | null;
         };
         /** Health */
         Health: {
@@ -1216,6 +1289,13 @@ export interface components {
             edges?: components["schemas"]["EdgeEntry"][];
             /** @description thresholds of the check of every emitted program against its part (README 'Preflight'); empty = defaults */
             preflight?: components["schemas"]["PreflightSettings"] | null;
+            /**
+             * Files
+             * @description uploaded files pinned to their content: file name → sha256 (hex) of the exact content this recipe runs with on the server; an upload under the same name changes nothing until the recipe is pinned to it (the GUI asks). Part of the recipe hash.
+             */
+            files?: {
+                [key: string]: string;
+            } | null;
             /** Ui */
             ui?: {
                 [key: string]: unknown;
@@ -1822,6 +1902,15 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorResponse"];
                 };
             };
+            /** @description The token's role does not allow this (roles: viewer, operator, editor, admin) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
             /** @description Conflict: a read-only example, or the stored revision is no longer the If-Match one (`detail.yours` / `detail.theirs` hold both versions) */
             409: {
                 headers: {
@@ -1872,6 +1961,15 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description The token's role does not allow this (roles: viewer, operator, editor, admin) */
+            403: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -1999,6 +2097,15 @@ export interface operations {
             };
             /** @description Missing or wrong bearer token */
             401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description The token's role does not allow this (roles: viewer, operator, editor, admin) */
+            403: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -2147,6 +2254,91 @@ export interface operations {
             };
         };
     };
+    restore_revision_api_graphs__name__revisions__rev__restore_post: {
+        parameters: {
+            query?: never;
+            header?: {
+                /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
+                "If-Match"?: string | null;
+            };
+            path: {
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
+                name: string;
+                rev: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Restored as the graph's new revision */
+            200: {
+                headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SaveResult"];
+                };
+            };
+            /** @description A deleted graph restored */
+            201: {
+                headers: {
+                    /** @description the stored revision, a strong entity tag: `"<revision>"` */
+                    ETag?: string;
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SaveResult"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description The token's role does not allow this (roles: viewer, operator, editor, admin) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict: a read-only example, or the stored revision is no longer the If-Match one (`detail.yours` / `detail.theirs` hold both versions) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ConflictResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
     list_files_api_graphs__name__files_get: {
         parameters: {
             query?: never;
@@ -2197,10 +2389,65 @@ export interface operations {
             };
         };
     };
-    put_file_api_graphs__name__files__filename__put: {
+    list_file_versions_api_graphs__name__files__filename__versions_get: {
         parameters: {
             query?: never;
             header?: never;
+            path: {
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
+                name: string;
+                /** @description file name: letters, digits, _ . - (no '..'); ≤ 120 chars */
+                filename: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FileVersion"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    put_file_api_graphs__name__files__filename__put: {
+        parameters: {
+            query?: never;
+            header?: {
+                /** @description `*`: store only if the graph has no file of this name yet; `"<sha256>"`: only if the name does not hold that content (else 412: ask before replacing) */
+                "If-None-Match"?: string | null;
+            };
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
@@ -2215,9 +2462,11 @@ export interface operations {
             };
         };
         responses: {
-            /** @description Successful Response */
+            /** @description Stored; the name points at this content now */
             204: {
                 headers: {
+                    /** @description the stored content's sha256 (hex), quoted: `"<sha256>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content?: never;
@@ -2256,6 +2505,15 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description `If-None-Match: *` and the name exists (`detail.theirs` is its current {sha256, size}); nothing was stored */
+            412: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ConflictResponse"];
                 };
             };
             /** @description Too large */

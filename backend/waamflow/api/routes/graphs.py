@@ -119,6 +119,20 @@ class FileInfo(BaseModel):
     name: str
     size: int
     updated: float
+    sha256: str | None = Field(None, description="sha256 (hex) of the content the name points at now; a run "
+                                                 "request's `files` pins a name to one such content")
+
+
+class FileVersion(BaseModel):
+    version: int = Field(description="1 for the first content uploaded under the name, then +1 per upload")
+    sha256: str
+    size: int
+    time: float
+    user: str | None = None
+
+
+FILE_ETAG = {"ETag": {"description": 'the stored content\'s sha256 (hex), quoted: `"<sha256>"`',
+                      "schema": {"type": "string", "pattern": '^"[0-9a-f]{64}"$'}}}
 
 
 def _writable(svc, name: str) -> None:
@@ -289,13 +303,35 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
     return [FileInfo(**f) for f in svc.store.list_files(name)]
 
 
+@router.get("/{name}/files/{filename}/versions", response_model=list[FileVersion], responses=errors(401, 404, 422))
+def list_file_versions(name: GraphName, filename: FileName, svc: ServicesDep) -> list[FileVersion]:
+    """Every content uploaded under `filename`, newest first: each stays readable by its sha256, so a
+    recipe that pinned it runs with exactly that content after a same-name upload."""
+    if svc.store.get_graph(name) is None:
+        raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    versions = svc.store.list_file_versions(name, filename)
+    if not versions:
+        raise HTTPException(404, detail={"message": f"graph {name!r} has no file {filename!r}"})
+    return [FileVersion(**v) for v in versions]
+
+
 @router.put("/{name}/files/{filename}", status_code=204, response_class=Response,
-            responses=errors(400, 401, 404, 409, 413, 422),
+            responses={204: {"description": "Stored; the name points at this content now", "headers": FILE_ETAG},
+                       **errors(400, 401, 404, 409, 413, 422),
+                       412: {"model": ConflictResponse,
+                             "description": "`If-None-Match: *` and the name exists (`detail.theirs` is its "
+                                            "current {sha256, size}); nothing was stored"}},
             openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
                 "type": "string", "format": "binary", "minLength": 1,
                 "description": "the file's bytes (not empty; at most max_upload_mb)"}}}, "required": True}})
-async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, request: Request) -> Response:
-    """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`."""
+async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, request: Request,
+                   if_none_match: str | None = Header(None, alias="If-None-Match", max_length=2000,
+                                                      description="`*`: store only if the graph has no file of this name "
+                                                                  "yet; `\"<sha256>\"`: only if the name does not hold that "
+                                                                  "content (else 412: ask before replacing)")) -> Response:
+    """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`.
+    The content is stored under its sha256 (the `ETag`) and the name points at it; what the name
+    pointed at before stays stored (GET .../versions), so a recipe pinned to it is unchanged."""
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}: save the graph first"})
     _writable(svc, name)
@@ -305,6 +341,16 @@ async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: 
         raise HTTPException(413, detail={"message": f"file larger than {svc.settings.max_upload_mb} MB"})
     if not body:
         raise HTTPException(400, detail={"message": "empty file"})
-    svc.store.put_file(name, filename, body)
-    svc.store.audit(user, "upload_file", name, {"file": filename, "bytes": len(body)})
-    return Response(status_code=204)
+    if if_none_match is not None:
+        have = next((f for f in svc.store.list_files(name) if f["name"] == filename), None)
+        tags = {t.strip().removeprefix("W/").strip('"') for t in if_none_match.split(",")}
+        if have is not None and ("*" in tags or have["sha256"] in tags):
+            body412 = error_body(412, {"message": f"graph {name!r} already has a file {filename!r}: replace it (PUT "
+                                                  "without If-None-Match), keep both (another name) or cancel",
+                                       "kind": "conflict"})
+            body412["detail"].update({"yours": {"size": len(body)}, "theirs": {"sha256": have["sha256"], "size": have["size"]}})
+            return JSONResponse(status_code=412, content=body412, headers={"ETag": f'"{have["sha256"]}"'})
+    stored = svc.store.put_file(name, filename, body, user=user)
+    svc.store.audit(user, "upload_file", name, {"file": filename, "bytes": len(body), "sha256": stored["sha256"],
+                                                "version": stored["version"], "replaced": stored["previous"]})
+    return Response(status_code=204, headers={"ETag": f'"{stored["sha256"]}"'})
