@@ -206,6 +206,7 @@ def test_iges_midsurface_with_a_t_and_an_x_feeds_feature_recognition_like_the_sk
     for (x0, y0), (x1, y1) in walls:
         edge = BRepBuilderAPI_MakeEdge(gp_Pnt(x0, y0, 0), gp_Pnt(x1, y1, 0)).Edge()
         b.Add(comp, BRepPrimAPI_MakePrism(edge, gp_Vec(0, 0, 20)).Shape())
+    b.Add(comp, BRepBuilderAPI_MakeEdge(gp_Pnt(0, -10, 0), gp_Pnt(100, -10, 0)).Edge())   # a construction line
     _iges(tmp_path / "walls.igs", comp)
     (tmp_path / "walls.json").write_text(json.dumps({"curves": walls, "height": 20}))
 
@@ -219,6 +220,7 @@ def test_iges_midsurface_with_a_t_and_an_x_feeds_feature_recognition_like_the_sk
 
     res, from_iges = kinds({"id": "p", "type": "mesh", "params": {"path": "walls.igs"}})
     assert isinstance(res.outputs["p"]["mesh"], Midsurface) and res.stats["p"].report["faces"] == 3
+    assert any("1 curve(s) outside any face ignored" in w["message"] for w in res.warnings)
     _, from_json = kinds({"id": "p", "type": "sketch", "params": {"path": "walls.json"}})
     assert from_iges == from_json
     assert ("t_crossing", (50.0, 0.0)) in from_iges and ("direct_crossing", (50.0, 40.0)) in from_iges

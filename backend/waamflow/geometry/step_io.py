@@ -369,14 +369,16 @@ class CadCurves:
     length: float
 
 
-def _unique_edges(shape):
+def _face_edges(faces):
+    """The edges of the faces, each once (an edge shared by two faces is one edge)."""
     from OCP.OCP.collections import IndexedMap_TopoDS_Shape_TopTools_ShapeMapHasher as ShapeMap
     from OCP.TopAbs import TopAbs_EDGE
     from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
 
     m = ShapeMap()
-    TopExp.MapShapes_s(shape, TopAbs_EDGE, m)
+    for face, _ in faces:
+        TopExp.MapShapes_s(face, TopAbs_EDGE, m)
     return [TopoDS.Edge(m.FindKey(i)) for i in range(1, m.Extent() + 1)]
 
 
@@ -408,7 +410,7 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
             break
     if tilt > LEAN_MAX:
         return None, f"a face is not vertical (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)"
-    edges = _unique_edges(cad.shape)
+    edges = _face_edges(cad.faces)              # free curves beside the walls are not walls
     pts = [edge_points(e, tol) for e in edges]
     z0 = min(float(p[:, 2].min()) for p in pts)
     z1 = max(float(p[:, 2].max()) for p in pts)

@@ -137,6 +137,9 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
         raise InputFileError(f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
                              "'sketch' node, which extrudes the curves by its 'height'")
     units, k, notice = unit_rescale(cad.file_unit, params.units)
+    if cad.edges:
+        ctx.warn(f"{params.path}: {len(cad.edges)} curve(s) outside any face ignored (construction lines? a sketch "
+                 "node reads the curves of a file without faces)")
     why = "'as': 'solid'"
     if params.as_ != "solid":
         mid, why = _cad_midsurface(ctx, params, cad, k, transform)
