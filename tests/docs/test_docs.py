@@ -254,3 +254,10 @@ def test_every_bash_block_is_runnable_and_every_json_block_parses():
 
 def test_table_cells_keep_angle_brackets_visible(gen):
     assert gen._cell("a <name>_M001.mod | b `<node>.json`") == "a &lt;name&gt;_M001.mod \\| b `<node>.json`"
+
+
+def test_thin_wall_radii_are_compared_with_test_1(gen):
+    rows = {(r["w"], r["name"]): r for r in gen.thin_wall_rows()}
+    assert rows[(5.0, "cutting radius (max)")]["model"] == pytest.approx(2.5)
+    assert rows[(5.0, "influence radius (min)")]["error_pct"] == pytest.approx(100 * (5 * 2 ** 0.5 - 7) / 7)
+    assert rows[(4.95, "influence radius (min)")]["model"] == pytest.approx(7.0, abs=1e-3)
