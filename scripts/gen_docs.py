@@ -286,6 +286,30 @@ def last_commit(path: str) -> str:
     return s or "unknown (no git history)"
 
 
+def constants_frozen_commit(path: str = "backend/waamflow/data/robots/kuka_kr100ha_krc2.json") -> str:
+    """'<hash> (<date>)' of the last commit that changed a fitted constant (calibrate.SHIPPED_FIT) of
+    the shipped profile, found by reading the file at each commit that touched it."""
+    from waamflow.trajectory.calibrate import SHIPPED_FIT
+
+    def fitted(text: str) -> dict:
+        try:
+            d = json.loads(text)
+        except ValueError:
+            return {}
+        return {k: d.get(k) for k in SHIPPED_FIT}
+
+    log = [line.split(" ", 1) for line in _git("log", "--format=%h %ad", "--date=short", "--", path).splitlines()]
+    if not log:
+        return "unknown (no git history)"
+    now = fitted((ROOT / path).read_text())
+    since = None
+    for h, date in log:                     # newest first: the oldest commit of the newest run of equal values
+        if fitted(_git("show", f"{h}:{path}")) != now:
+            break
+        since = f"{h} ({date})"
+    return since or "uncommitted (the working tree differs from the last commit)"
+
+
 def study_source(case) -> str:
     if case.note and "closed-form" in case.note:
         return "closed-form model"
@@ -446,7 +470,7 @@ def validation_page() -> tuple[str, dict[str, str]]:
     closed = [r for r in held if r["source"] == "closed-form model"]
     twins = [r for r in held if "identical to the fitted case" in r["notes"]]
     measured_held = [r for r in held if r not in closed and r not in twins]
-    profile_commit = last_commit("backend/waamflow/data/robots/kuka_kr100ha_krc2.json")
+    profile_commit = constants_frozen_commit()
     split_commit = last_commit("backend/waamflow/trajectory/calibrate.py")
     svgs = {"validation-robot-study.svg": error_svg(rows, "Robot study: model error per figure (%)")}
     pub = published_lengths()
@@ -463,9 +487,9 @@ def validation_page() -> tuple[str, dict[str, str]]:
            "to choose a model variant*) applies to none of them: model variants (the turn-rate corner "
            "cap, commit 948922a; the smoothing grid, 41c8f34; ramp-time weighting, 287e635) were chosen "
            "looking at the errors of all figures, held-out ones included.",
-           f"- The shipped profile's constants were last changed in commit {profile_commit} "
-           f"(`data/robots/kuka_kr100ha_krc2.json`); the fit/held-out split in {split_commit} "
-           "(`trajectory/calibrate.py`, last change).\n",
+           f"- The shipped profile's fitted constants (`calibrate.SHIPPED_FIT`) are those of commit "
+           f"{profile_commit} (`data/robots/kuka_kr100ha_krc2.json`: the last commit that changed one); "
+           f"the fit/held-out split is `trajectory/calibrate.py` as last changed in {split_commit}.\n",
            "## Robot study (da Silva Viola et al. 2023)\n",
            "*Complex interaction between CMT equipment and robot controllers during the WAAM process*, "
            "Int J Adv Manuf Technol 127 (2023) 5611–5631 — the KUKA KR 100 HA + KRC2 cell the shipped "

@@ -261,3 +261,22 @@ def test_thin_wall_radii_are_compared_with_test_1(gen):
     assert rows[(5.0, "cutting radius (max)")]["model"] == pytest.approx(2.5)
     assert rows[(5.0, "influence radius (min)")]["error_pct"] == pytest.approx(100 * (5 * 2 ** 0.5 - 7) / 7)
     assert rows[(4.95, "influence radius (min)")]["model"] == pytest.approx(7.0, abs=1e-3)
+
+
+def test_the_commit_that_froze_the_constants_is_read_from_git(gen):
+    """948922a (turn-rate cap) set the fitted constants the profile still has; later commits that
+    touched the file (e.g. the controller field) did not change them."""
+    from waamflow.trajectory.calibrate import SHIPPED_FIT
+
+    got = gen.constants_frozen_commit()
+    if got.startswith(("unknown", "uncommitted")):
+        pytest.skip(f"no usable git history here: {got}")
+    h = got.split()[0]
+    path = "backend/waamflow/data/robots/kuka_kr100ha_krc2.json"
+    then = json.loads(subprocess.run(["git", "show", f"{h}:{path}"], cwd=ROOT, capture_output=True, text=True).stdout)
+    parent = subprocess.run(["git", "show", f"{h}~1:{path}"], cwd=ROOT, capture_output=True, text=True)
+    now = json.loads((ROOT / path).read_text())
+    assert all(then[k] == now[k] for k in SHIPPED_FIT)
+    if parent.returncode == 0:
+        before = json.loads(parent.stdout)
+        assert any(before.get(k) != now[k] for k in SHIPPED_FIT)
