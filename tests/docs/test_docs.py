@@ -280,3 +280,11 @@ def test_the_commit_that_froze_the_constants_is_read_from_git(gen):
     if parent.returncode == 0:
         before = json.loads(parent.stdout)
         assert any(before.get(k) != now[k] for k in SHIPPED_FIT)
+
+
+def test_every_shipped_recipe_is_in_the_readme_and_the_docs_table():
+    recipes = sorted(p.name for p in (ROOT / "graphs").glob("*.json"))
+    readme = (ROOT / "README.md").read_text()
+    index = (DOCS / "index.md").read_text()
+    assert [r for r in recipes if f"| `{r}` |" not in readme] == []
+    assert [r for r in recipes if f"| `{r}` |" not in index] == []
