@@ -53,3 +53,29 @@ def test_titles_are_declared_with_the_params():
             _models(cls.Params, seen)
     missing = [f"{m.__qualname__}.{n}" for m in seen for n, f in m.model_fields.items() if not f.title]
     assert len(seen) >= 25 and missing == []
+
+
+def _prop(node_type: str, name: str) -> dict:
+    node = next(n for n in catalog() if n["type"] == node_type)
+    return node["params_schema"]["properties"][name]
+
+
+def test_shipped_cells_robots_machines_and_materials_are_listed():
+    """The GUI's pickers come from the catalog: a `x-shipped` field lists the shipped names as
+    `examples` (the files in waamflow/data), a material field common materials."""
+    from pathlib import Path
+
+    import waamflow
+
+    data = Path(waamflow.__file__).parent / "data"
+    cells = sorted(p.stem for p in (data / "cells").glob("*.json"))
+    assert len(cells) >= 3
+    assert _prop("simulate-robot", "cell")["examples"] == cells
+    assert _prop("post-process", "cell")["examples"] == cells
+    machines = _prop("post-process", "profile")["examples"]
+    assert machines == sorted(p.stem for p in (data / "machines").glob("*.json")) and {"marlin", "kuka_krc4"} <= set(machines)
+    profiles = _prop("simulate-robot", "robot_profile")["examples"]
+    assert "kuka_kr100ha_krc2" in profiles and not any(p.endswith(".urdf") for p in profiles)
+    urdfs = _prop("simulate-robot", "robot_description")["examples"]
+    assert "kuka_kr150_2.urdf" in urdfs and all(u.endswith(".urdf") for u in urdfs)
+    assert len(_prop("bead-fit", "material")["examples"]) >= 4

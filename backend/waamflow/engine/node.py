@@ -44,6 +44,34 @@ def unit(u: str) -> dict:
     return {"unit": u}
 
 
+# Fields that name a shipped file carry `json_schema_extra={"x-shipped": KIND}`; the catalog lists
+# the shipped names as the field's JSON-Schema `examples`, so the GUI offers them in a picker
+# (a user's own file path stays allowed where the field takes one).
+SHIPPED_KINDS: dict[str, tuple[str, str]] = {   # kind → (folder in waamflow/data, file pattern)
+    "cells": ("cells", "*.json"), "machines": ("machines", "*.json"), "robots": ("robots", "*.json"),
+    "robot-descriptions": ("robots", "*.urdf"),
+}
+
+
+def shipped_names(kind: str) -> list[str]:
+    """Names of the shipped files of `kind`: stems of JSON files, full names of URDFs."""
+    from pathlib import Path
+
+    folder, pattern = SHIPPED_KINDS[kind]
+    root = Path(__file__).resolve().parent.parent / "data" / folder
+    return sorted(p.name if pattern == "*.urdf" else p.stem for p in root.glob(pattern))
+
+
+def with_shipped(schema: dict) -> dict:
+    """The params schema with `examples` (the shipped names) on every `x-shipped` field."""
+    for props in [schema.get("properties") or {}] + [d.get("properties") or {} for d in (schema.get("$defs") or {}).values()]:
+        for prop in props.values():
+            kind = prop.get("x-shipped")
+            if kind in SHIPPED_KINDS and "examples" not in prop:
+                prop["examples"] = shipped_names(kind)
+    return schema
+
+
 class NodeParams(BaseModel):
     """Base of every node's params model: unknown keys are an error (typos must not pass silently)."""
 
@@ -92,7 +120,7 @@ class Node:
             "per_layer": issubclass(cls, LayerNode),
             "inputs": [p.to_dict() for p in cls.inputs],
             "outputs": [p.to_dict() for p in cls.outputs],
-            "params_schema": cls.Params.model_json_schema(),
+            "params_schema": with_shipped(cls.Params.model_json_schema()),
         }
 
     @classmethod

@@ -201,7 +201,9 @@ class BeadFitNode(Node):
         trials: FileRef = Field("", description="Bead trials CSV (wfs, ts, width, height); empty = use `model`", title="Bead trials")
         model: FileRef = Field("", description="A saved bead-model JSON (waamflow/bead-model/1) instead of trials", title="Saved bead model")
         form: Literal["power", "power-ratio"] = Field("power", description="y = a·WFS^b·TS^c or y = a·(WFS/TS)^b", title="Model form")
-        material: str = Field("", max_length=80, description="Material (recorded in the model file)", title="Material")
+        material: str = Field("", max_length=80, description="Material (recorded in the model file)", title="Material",
+                              examples=["ER70S-6 (G3Si1) steel", "ER316LSi stainless", "Ti-6Al-4V", "ER4043 (AlSi5)",
+                                        "ER5356 (AlMg5)", "ERCuAl-A2 bronze", "Inconel 625"])
         process: str = Field("", max_length=80, description="Process, e.g. CMT, GMAW, plasma (recorded)", title="Welding process")
         wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
                                                description="Wire diameter for the mass balance (empty = 1.2 mm)", title="Wire diameter")

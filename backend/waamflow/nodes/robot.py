@@ -138,7 +138,7 @@ class SimulateRobot(Node):
                                                      "and at every layer change", title="Collision check spacing")
         collisions: bool = Field(True, description="With a cell: check collisions along the path", title="Check collisions")
         robot_description: str = Field("", max_length=128, pattern=SHIPPED_NAME_PATTERN,
-                                       json_schema_extra={"x-shipped": "robots"},
+                                       json_schema_extra={"x-shipped": "robot-descriptions"},
                                        description="Arm URDF in data/robots (empty = the profile's description)", title="Robot description (URDF)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
                                   description="IK sample spacing along the path (vertices always included)", title="IK sample spacing")
