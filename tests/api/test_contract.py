@@ -20,9 +20,11 @@ schema-valid data; so are 404 (a graph name that is not saved) and 409 (writing 
 And `DELETE /api/runs/{id}` is the contract's cancel, not a removal: the run stays readable, so the
 `use_after_free` check is off for the run's read operations (it stays on for graphs).
 
-Bounded: a few examples per operation and a few dozen short scenarios (see the constants)."""
+Bounded: a few examples per operation and a few dozen short scenarios (see the constants): about
+1,500 cases with the token in ~30 s; `WAAMFLOW_CONTRACT_EXAMPLES=50` generates more."""
 
 import json
+import os
 from collections import Counter
 from pathlib import Path
 
@@ -38,11 +40,14 @@ from waamflow.settings import Settings
 
 DOCUMENT_OPS = r"^/api/(runs|preview|graphs/\{name\}|graphs/\{name\}/params)$"
 # DELETE /api/runs/{id} cancels a run (CONTRACT.md): the run stays readable afterwards (status
-# "cancelled", its log and artifacts), so "deleted resource still available" does not apply to it
+# "cancelled", its log and artifacts), so "deleted resource still available" does not apply to it;
+# nor to a deleted graph's revisions: they stay readable so an admin can restore one (#26)
 RUN_READS = r"^/api/runs/\{run_id\}(/.*)?$"
+KEPT_HISTORY = r"^/api/graphs/\{name\}/revisions(/.*)?$"
 TOKEN = "contract-token-0123456789abcdef"
 ALL_PHASES = ("examples", "coverage", "fuzzing", "stateful")
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
+EXAMPLES = int(os.environ.get("WAAMFLOW_CONTRACT_EXAMPLES", "8"))  # per operation and phase
 
 
 def _config(phases, examples: int, scenarios: int, headers: dict | None = None) -> schemathesis.Config:
@@ -52,7 +57,8 @@ def _config(phases, examples: int, scenarios: int, headers: dict | None = None) 
         "checks": {"enabled": True},
         "operations": [{"include-path-regex": DOCUMENT_OPS, "checks": {"positive_data_acceptance": {
             "expected-statuses": ["2xx", "401", "404", "409", "422", "429"]}}},
-                       {"include-path-regex": RUN_READS, "checks": {"use_after_free": {"enabled": False}}}],
+                       {"include-path-regex": RUN_READS, "checks": {"use_after_free": {"enabled": False}}},
+                       {"include-path-regex": KEPT_HISTORY, "checks": {"use_after_free": {"enabled": False}}}],
         "seed": 13,
     }
     cfg["phases"]["stateful"].update({"max-steps": 6, "generation": {"max-examples": scenarios}})
@@ -126,13 +132,15 @@ def save_is_a_root(monkeypatch):
 
 
 def test_contract_with_token(tmp_path):
-    found, calls = run_schemathesis(_server(tmp_path, TOKEN), _config(("examples", "coverage", "fuzzing"), examples=8,
+    found, calls = run_schemathesis(_server(tmp_path, TOKEN), _config(("examples", "coverage", "fuzzing"), examples=EXAMPLES,
                                                                      scenarios=1, headers=AUTH))
     assert not found, "\n\n".join(found)
     examples = _phase_calls(calls, "examples")
     assert examples[("POST", "/api/runs", 202)] >= 1 and examples[("GET", "/api/graphs/{name}", 200)] >= 1, examples
     for phase in ("coverage", "fuzzing"):
         assert sum(_phase_calls(calls, phase).values()) > 100, (phase, calls)
+    # #26: at least 1,000 cases with the token in CI (~30 s); WAAMFLOW_CONTRACT_EXAMPLES=50 for a longer run
+    assert sum(calls.values()) >= 1000, {p: sum(_phase_calls(calls, p).values()) for p in ALL_PHASES}
 
 
 def test_stateful_with_token(tmp_path, save_is_a_root):
