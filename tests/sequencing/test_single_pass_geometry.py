@@ -58,7 +58,7 @@ def test_filleted_l_wall_is_one_pass_and_keeps_its_geometry():
         s = lp.sections[0]
         assert arc_on_length([s]) == pytest.approx(L_LENGTH, abs=1e-6)
         # the same polyline, one way or the other; ignition in the stock lead
-        fwd = np.asarray(filleted_l(lp.z).points)
+        fwd = np.asarray(filleted_l(lp.layer.z).points)
         assert np.allclose(s.points, fwd) or np.allclose(s.points, fwd[::-1])
         assert not s.inside[0]
 

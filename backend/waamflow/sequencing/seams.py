@@ -6,7 +6,8 @@ re-planning it:
 
 - `planned`: as the strategy laid it;
 - `reversed`: run backwards;
-- `rethreaded` / `rethreaded-reversed` (a serpentine of ≥ 2 parallel passes): every pass run the
+- `rethreaded` / `rethreaded-reversed` (a serpentine of ≥ 2 parallel passes joined by straight links
+  whose other ends line up — see `_passes`; a rounded corner is not a link): every pass run the
   other way and the links moved to the other side, so the path starts and ends at the other end
   of the passes (a 2-pass serpentine that starts and ends at a junction then starts and ends at
   the section's free end);
@@ -33,6 +34,7 @@ from typing import Sequence
 import numpy as np
 
 from ..core.model import SectionPath
+from ..core.tolerances import TOL
 from ..zoning.zones import cumulative_length, insert_points, path_axis, zone_color
 from .arc_runs import arc_runs
 
@@ -128,7 +130,15 @@ def reverse_path(sp: SectionPath) -> SectionPath:
 
 def _passes(sp: SectionPath) -> list[tuple[int, int]] | None:
     """Vertex ranges [a, b] of the passes of a serpentine (runs of segments along the path's axis),
-    or None when the path is not pass, link, pass, … (≥ 2 passes, starting and ending on a pass)."""
+    or None when the path is not pass, link, pass, … (≥ 2 passes, starting and ending on a pass).
+
+    Re-threading replaces each link by one straight segment between the other ends of its passes,
+    so a serpentine here is one whose every link *is* one straight segment, between passes that run
+    opposite ways, and whose other ends are as far apart as the link (`TOL.merge`): the deposit
+    keeps its length. A corner turned over several segments (a fillet, a semicircular or triangular
+    link) is path, not link: the segments of a rounded L wall whose axis runs diagonally fall on
+    both sides of the 30° test, and reading them as two passes dropped the corner (thin-wall-panel,
+    fillet_radius 3: 1459.479 mm welded on odd layers instead of 1412.334)."""
     pts = np.asarray(sp.points, dtype=float)
     d = np.diff(pts, axis=0)
     n = np.linalg.norm(d, axis=1)
@@ -137,8 +147,12 @@ def _passes(sp: SectionPath) -> list[tuple[int, int]] | None:
     runs = arc_runs(along)                  # [start, stop) ranges of segments along the axis
     if len(runs) < 2 or runs[0][0] != 0 or runs[-1][1] != len(along):
         return None
-    for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):   # passes alternate direction
-        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:
+    for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):
+        if b0 - a1 != 1:                    # the link is one segment
+            return None
+        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:   # passes alternate direction
+            return None
+        if abs(float(np.linalg.norm(pts[b1] - pts[a0])) - float(n[a1])) > TOL.merge:   # ends line up
             return None
     return runs
 
