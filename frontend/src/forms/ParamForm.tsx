@@ -98,6 +98,36 @@ function FieldRow({ root, f, value, onChange, onUpload, id }: { root: JSONSchema
   );
 }
 
+const OTHER = "\u0000other";
+
+/** A string field with names to pick from (the catalog's shipped cells, robots, machine profiles,
+ * materials): a list, and "other…" for a value of the user's own (a cell file path, a material). */
+function Picker({ id, f, value, shown, onChange }: { id: string; f: FieldSpec; value: unknown; shown: unknown; onChange: (v: unknown) => void }) {
+  const v = typeof value === "string" ? value : "";
+  const list = f.suggestions ?? [];
+  const [other, setOther] = useState(v !== "" && !list.includes(v));
+  const isOther = other || (v !== "" && !list.includes(v));
+  return (
+    <div className="picker">
+      <select id={id} value={isOther ? OTHER : v} onChange={(e) => {
+        const x = e.target.value;
+        if (x === OTHER) return setOther(true);
+        setOther(false);
+        onChange(x === "" ? undefined : x);
+      }}>
+        <option value="">{typeof shown === "string" && shown ? `default (${shown})` : "— none —"}</option>
+        {list.map((o) => (
+          <option key={o} value={o}>
+            {o}
+          </option>
+        ))}
+        <option value={OTHER}>other…</option>
+      </select>
+      {isOther && <input type="text" aria-label={`${f.title}: your own value`} value={v} onChange={(e) => onChange(e.target.value === "" ? undefined : e.target.value)} />}
+    </div>
+  );
+}
+
 function Control({ root, f, value, shown, onChange, onUpload, id }: { root: JSONSchema; f: FieldSpec; value: unknown; shown: unknown; onChange: (v: unknown) => void; onUpload: Upload; id: string }) {
   switch (f.kind) {
     case "number":
@@ -119,6 +149,7 @@ function Control({ root, f, value, shown, onChange, onUpload, id }: { root: JSON
     case "file":
       return <FileControl id={id} value={value} shown={shown} onChange={onChange} onUpload={onUpload} label={f.title} />;
     case "string":
+      if (f.suggestions) return <Picker id={id} f={f} value={value} shown={shown} onChange={onChange} />;
       return <input id={id} type="text" value={typeof value === "string" ? value : ""} placeholder={typeof shown === "string" ? shown : ""} onChange={(e) => onChange(e.target.value === "" ? undefined : e.target.value)} />;
     case "object":
       return <ObjectFields root={root} fields={describeFields(root, f.schema)} value={value} onChange={(v) => onChange(v)} onUpload={onUpload} id={id} keepEmpty={false} />;

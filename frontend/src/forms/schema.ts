@@ -25,6 +25,9 @@ export interface FieldSpec {
   exclusiveMinimum?: number;
   exclusiveMaximum?: number;
   options?: unknown[];
+  /** Names to pick from (the catalog's `examples`: shipped cells, robots, machine profiles,
+   * materials); the field still takes another value. */
+  suggestions?: string[];
   default?: unknown;
   hasDefault: boolean;
   nullable: boolean;
@@ -118,6 +121,12 @@ function options(s: JSONSchema): unknown[] | undefined {
   return undefined;
 }
 
+/** The catalog's `examples` of a string field (shipped names, common values), if any. */
+function suggestions(s: JSONSchema): string[] | undefined {
+  const ex = (s as { examples?: unknown }).examples;
+  return Array.isArray(ex) && ex.length && ex.every((e) => typeof e === "string") ? (ex as string[]) : undefined;
+}
+
 /** "bead_width" → "Bead width", "angle_deg" → "Angle (deg)". */
 export function humanize(name: string): string {
   const words = name.replace(/([a-z])([A-Z])/g, "$1 $2").split(/[_\s]+/).filter(Boolean);
@@ -154,6 +163,7 @@ export function describeFields(root: JSONSchema, objSchema?: JSONSchema): FieldS
       exclusiveMinimum: schema.exclusiveMinimum,
       exclusiveMaximum: schema.exclusiveMaximum,
       options: options(schema),
+      suggestions: suggestions(raw) ?? suggestions(schema),
       default: raw.default ?? schema.default,
       hasDefault: "default" in raw || "default" in schema,
       nullable,
