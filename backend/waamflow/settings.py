@@ -72,6 +72,11 @@ class Settings(BaseSettings):
     max_memory_mb: float = Field(8192.0, ge=0, description="resident memory of the server process while runs are going, MB "
                                                         "(0 = unlimited); over it the largest running run fails")
     max_queued_runs: int = Field(16, ge=1, description="runs waiting or running; one more gets 429 + Retry-After")
+    # estimates checked before a run or preview starts (422 with the estimate); 0 = no limit
+    max_triangles: int = Field(20_000_000, ge=0, description="triangles of a run's meshes (STL header, OBJ faces)")
+    max_dxf_entities: int = Field(500_000, ge=0, description="entities of a run's DXF sketches")
+    max_uncompressed_mb: float = Field(1024.0, ge=0, description="what a run's 3MF files expand to (zip directory), MB")
+    preview_timeout_s: float = Field(60.0, ge=0, description="wall time of one POST /api/preview, s")
 
     def model_post_init(self, _ctx) -> None:
         if self.graphs_dir is None:

@@ -88,7 +88,7 @@ def test_limits_fail_runs_with_reason(tmp_path):
         ok = _limit(c, paths(count=3, points=100, nbytes=1000))
         assert ok["status"] == "done", ok
         t0 = time.monotonic()
-        run = _limit(c, slow(count=60, seconds=0.5))  # would take 30 s
+        run = _limit(c, slow(count=20, seconds=0.5))  # would take 10 s (20 layers: within max_layers)
         assert time.monotonic() - t0 < 15.0  # ended by the limit, with a wide margin for a loaded machine
         assert run["finished"] - run["started"] < 15.0
         assert run["status"] == "failed" and run["error"]["kind"] == "limit"

@@ -7,7 +7,6 @@ import os
 import threading
 import time
 import uuid
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -19,6 +18,7 @@ from ..engine.events import TERMINAL_KINDS, Event
 from ..preflight import gate
 from ..engine.executor import FileResolver, RunResult, execute
 from ..engine.graph import build_graph
+from ..engine.estimate import check_estimate, estimate
 from ..engine.recipe import Recipe
 from .store import Store, valid_file_name
 
@@ -35,12 +35,25 @@ class Limits:
     artifact_bytes: int = 0
     memory_bytes: int = 0
     queue: int = 0
+    triangles: int = 0
+    dxf_entities: int = 0
+    uncompressed_bytes: int = 0
+    preview_s: float = 0.0
 
     @classmethod
     def from_settings(cls, s) -> "Limits":
         return cls(wall_s=s.run_timeout_s, layers=s.max_layers, points=s.max_points,
                    artifact_bytes=int(s.max_artifact_mb * 1024 * 1024), memory_bytes=int(s.max_memory_mb * 1024 * 1024),
-                   queue=s.max_queued_runs)
+                   queue=s.max_queued_runs, triangles=s.max_triangles, dxf_entities=s.max_dxf_entities,
+                   uncompressed_bytes=int(s.max_uncompressed_mb * 2**20), preview_s=s.preview_timeout_s)
+
+    def check_estimate(self, graph, resolver) -> dict:
+        """Before a run or preview: its estimate (layers, triangles, DXF entities, 3MF size) against
+        these limits → EstimateError (422) naming the estimate; else the estimate."""
+        est = estimate(graph, resolver)
+        check_estimate(est, max_layers=self.layers, max_triangles=self.triangles, max_dxf_entities=self.dxf_entities,
+                       max_uncompressed_bytes=self.uncompressed_bytes)
+        return est.to_dict()
 
 
 class LimitError(WaamflowError):
@@ -61,12 +74,28 @@ class QueueFullError(WaamflowError):
 
 
 def rss_bytes() -> int:
-    """Resident memory of this process (Linux /proc; 0 where unknown)."""
+    """Resident memory of this process and every process it started (layer workers, the fork
+    server), bytes (0 where unknown): the memory limit covers the whole tree."""
     try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, IndexError):
-        return 0
+        import psutil
+
+        me = psutil.Process()
+        total = me.memory_info().rss
+        for child in me.children(recursive=True):
+            try:
+                total += child.memory_info().rss
+            except (psutil.NoSuchProcess, psutil.AccessDenied):
+                pass
+        return total
+    except Exception:
+        try:
+            with open("/proc/self/statm") as f:
+                return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+        except (OSError, ValueError, IndexError):
+            return 0
+
+
+CANCEL_GRACE_S = 1.5   # a cancelled run whose thread has not ended by then (a blocking read) is ended for it
 
 
 def point_count(outputs: dict) -> int:
@@ -91,6 +120,8 @@ class LiveRun:
         self.done = threading.Event()
         self.lock = threading.Lock()
         self.limit: str | None = None  # why a limit stopped the run
+        self.finished = False   # _finish ran (once, by the run's thread or the watchdog)
+        self.slot = False       # holds one of the manager's run slots
 
     def trip(self, reason: str) -> None:
         if self.limit is None:
@@ -119,7 +150,12 @@ class RunManager:
         self.runs_dir = data_dir / "runs"
         self.runs_dir.mkdir(parents=True, exist_ok=True)
         self.cache = cache
-        self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="waamflow-run")
+        self.workers = workers
+        self.slots = threading.BoundedSemaphore(workers)
+        self.threads: dict[str, threading.Thread] = {}
+        self.closing = False
+        self.previews = 0
+        self.plock = threading.Lock()
         self.live: dict[str, LiveRun] = {}
         self.resolver_for = resolver_for
         self.on_done = on_done
@@ -129,16 +165,51 @@ class RunManager:
         """Validate now (so a bad recipe is a 422, not a failed run), then queue. `params_xml` is a
         draft zone-parameter file used for this run only."""
         graph = build_graph(recipe)
-        active = sum(1 for lv in list(self.live.values()) if not lv.done.is_set())
+        active = self.active()
         if self.limits.queue and active >= self.limits.queue:
             raise QueueFullError(f"{active} runs are queued or running (limit {self.limits.queue}): try again later",
                                  retry_after=max(1, min(60, int(self.limits.wall_s or 30) // 10 or 5)))
+        self.limits.check_estimate(graph, self.resolver_for(graph_name, recipe, params_xml))
         run_id = uuid.uuid4().hex[:12]
         self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs, params_xml)
         live = LiveRun(run_id)
         self.live[run_id] = live
-        self.pool.submit(self._run, run_id, graph_name, recipe, graph, live, params_xml, accept_preflight)
+        t = threading.Thread(target=self._slot_run, args=(run_id, graph_name, recipe, graph, live, params_xml,
+                                                          accept_preflight), name=f"waamflow-run-{run_id}", daemon=True)
+        self.threads[run_id] = t
+        t.start()
         return run_id
+
+    def _slot_run(self, *args) -> None:
+        """A run's thread: waits for one of the `workers` slots, runs, and gives the slot back when
+        the run has ended (by its thread, or by the watchdog for a run that did not stop)."""
+        live: LiveRun = args[4]
+        while not self.slots.acquire(timeout=0.2):
+            if self.closing or live.cancel.is_set():
+                break
+        else:
+            live.slot = True
+        try:
+            self._run(*args)
+        finally:
+            self.threads.pop(args[0], None)
+
+    def active(self) -> int:
+        """Runs queued or running plus previews computing (the queue limit counts both)."""
+        return sum(1 for lv in list(self.live.values()) if not lv.done.is_set()) + self.previews
+
+    def preview(self, work: Callable[[threading.Event], Any]) -> "PreviewJob":
+        """A preview under the run queue's limits: counted in the queue (429 when full), at most
+        `workers` at once (429), stopped by `cancel` on wall time (preview_timeout_s) or memory."""
+        with self.plock:
+            if self.limits.queue and self.active() >= self.limits.queue:
+                raise QueueFullError(f"{self.active()} runs and previews are queued or running (limit "
+                                     f"{self.limits.queue}): try again later", retry_after=2)
+            if self.previews >= self.workers:
+                raise QueueFullError(f"{self.previews} previews are computing (limit {self.workers}, the server's "
+                                     "workers): try again in a moment", retry_after=1)
+            self.previews += 1
+        return PreviewJob(self, work)
 
     def run_dir(self, run_id: str) -> Path:
         return self.runs_dir / run_id
@@ -175,7 +246,7 @@ class RunManager:
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
-                             workers=self.layer_workers, scheduler=self.scheduler)
+                             workers=self.layer_workers, scheduler=self.scheduler, max_layers=lim.layers)
             self._check_result(result)
             summary = result.summary(recipe.name)
             summary["inputs"] = recipe.inputs
@@ -205,11 +276,23 @@ class RunManager:
         """Wall-time and memory limits of one run, checked twice a second until it ends."""
         t0 = time.monotonic()
         lim = self.limits
+        cancelled_at = None
         while not live.done.wait(0.25):
             if lim.wall_s and time.monotonic() - t0 > lim.wall_s:
                 live.trip(f"ran longer than {lim.wall_s:g} s (limit run_timeout_s)")
             if lim.memory_bytes and rss_bytes() > lim.memory_bytes:
-                live.trip(f"server memory over {lim.memory_bytes / 2**20:.0f} MB (limit max_memory_mb)")
+                live.trip(f"server memory over {lim.memory_bytes / 2**20:.0f} MB with its workers (limit max_memory_mb)")
+            if live.cancel.is_set():
+                cancelled_at = cancelled_at or time.monotonic()
+                if time.monotonic() - cancelled_at > CANCEL_GRACE_S:
+                    # the run's thread is stuck where cancel is not looked at (a blocking read):
+                    # the run ends now; the thread's result, if it ever comes, is dropped
+                    why = "cancelled (the run did not stop by itself within 1.5 s and was abandoned)"
+                    if live.limit is not None:
+                        self._finish(live.id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
+                    else:
+                        self._finish(live.id, live, "cancelled", error={"kind": "cancelled", "message": why, "text": why})
+                    return
 
     def _check_result(self, result: RunResult) -> None:
         lim = self.limits
@@ -229,6 +312,10 @@ class RunManager:
 
     def _finish(self, run_id: str, live: LiveRun, status: str, *, summary: dict | None = None,
                 error: dict | None = None) -> None:
+        with live.lock:
+            if live.finished:   # ended already (the watchdog ended a run that did not stop)
+                return
+            live.finished = True
         kind = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}[status]
         terminal = [e.get("kind") for e in live.events if e.get("kind") in TERMINAL_KINDS]
         if not terminal or terminal[-1] != kind:  # e.g. a limit turns the engine's run_cancelled into run_failed
@@ -240,6 +327,9 @@ class RunManager:
             fields["progress"] = 1.0
         self.store.update_run(run_id, **fields)
         live.done.set()
+        if live.slot:
+            live.slot = False
+            self.slots.release()
         # the events are in the store now; streams that still hold `live` finish from it
         self.live.pop(run_id, None)
 
@@ -252,6 +342,65 @@ class RunManager:
         return self.store.get_events(run_id, seq), True
 
     def shutdown(self) -> None:
-        for live in self.live.values():
+        self.closing = True
+        for live in list(self.live.values()):
             live.cancel.set()
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        deadline = time.monotonic() + 10.0
+        for t in list(self.threads.values()):
+            t.join(timeout=max(0.0, deadline - time.monotonic()))
+
+
+class PreviewStopped(LimitError):
+    """A preview stopped by a limit (or its client leaving): 422 naming the limit."""
+
+    http_status = 422
+
+
+class PreviewJob:
+    """One preview: `run()` computes `work(cancel)` in a thread while the caller watches for the
+    client leaving (`cancel`), with the preview's wall-time and memory limits."""
+
+    def __init__(self, manager: RunManager, work: Callable[[threading.Event], Any]) -> None:
+        self.manager = manager
+        self.work = work
+        self.cancel = threading.Event()
+        self.limit: str | None = None
+
+    def _result(self, fut):
+        try:
+            return fut.result()
+        except CancelledError:
+            if self.limit is not None:
+                raise PreviewStopped(f"preview stopped: {self.limit}") from None
+            raise
+
+    async def run(self, disconnected: Callable[[], Any]) -> Any:
+        import asyncio
+
+        lim = self.manager.limits
+        loop = asyncio.get_running_loop()
+        fut = loop.run_in_executor(None, self.work, self.cancel)
+        t0 = time.monotonic()
+        try:
+            while True:
+                done, _ = await asyncio.wait({fut}, timeout=0.1)
+                if done:
+                    return self._result(fut)
+                if await disconnected():
+                    self.cancel.set()
+                    self.limit = "the client left"
+                elif lim.preview_s and time.monotonic() - t0 > lim.preview_s:
+                    self.limit = f"ran longer than {lim.preview_s:g} s (limit preview_timeout_s)"
+                    self.cancel.set()
+                elif lim.memory_bytes and rss_bytes() > lim.memory_bytes:
+                    self.limit = f"server memory over {lim.memory_bytes / 2**20:.0f} MB (limit max_memory_mb)"
+                    self.cancel.set()
+                if self.cancel.is_set() and time.monotonic() - t0 > 0 and not done:
+                    # give the computation its grace to see cancel, then answer without it
+                    done, _ = await asyncio.wait({fut}, timeout=CANCEL_GRACE_S)
+                    if done:
+                        return self._result(fut)
+                    raise PreviewStopped(f"preview stopped: {self.limit}")
+        finally:
+            with self.manager.plock:
+                self.manager.previews -= 1

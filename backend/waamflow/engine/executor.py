@@ -48,6 +48,12 @@ _FILE_SIGS: dict[tuple[str, int, int], str] = {}
 
 
 # ---- files --------------------------------------------------------------------------------------
+class LayerLimitError(WaamflowError):
+    """A node made more layers than the run may have (`execute(max_layers=)`): the run stops there."""
+
+    kind = "limit"
+
+
 class FileResolver:
     """Resolves file params: attachments (server-stored files) first, then paths relative to
     `base_dir`. With `roots`, a resolved path must lie under one of them (server: no escaping the
@@ -345,6 +351,7 @@ class _Run:
         # (engine/parallel.py), taken up when the run reaches that node
         self.precomputed: dict[tuple[str, int], tuple[dict, list]] = {}
         self.compute_s: dict[str, float] = {}   # node id → seconds computing its layers, in any process
+        self.max_layers = 0   # 0: no limit (see execute)
 
     # events
     def emit(self, kind: str, **kw) -> None:
@@ -354,13 +361,13 @@ class _Run:
         kw.setdefault("progress", self.done_nodes / max(len(self.active), 1))
         self.on_event(Event(kind=kind, seq=self.seq, **kw))  # type: ignore[arg-type]
 
-    def node_progress(self, node_id: str, fraction: float, message: str = "") -> None:
+    def node_progress(self, node_id: str, fraction: float, message: str = "", layer: int | None = None) -> None:
         now = time.monotonic()
         if now - self.last_progress_emit < 0.1 and fraction < 1.0:
             return
         self.last_progress_emit = now
         frac = max(0.0, min(1.0, float(fraction)))
-        self.emit("node_progress", node=node_id, message=message,
+        self.emit("node_progress", node=node_id, message=message, layer=layer,
                   progress=(self.done_nodes + frac) / max(len(self.active), 1))
 
     def check_cancelled(self) -> None:
@@ -423,6 +430,7 @@ class _Run:
                     self.run_layer_node(gnode, ctx, inputs, in_sigs)
                 else:
                     self.run_plain_node(gnode, ctx, inputs, in_sigs)
+                self.check_layer_limit(node_id)
                 self.maybe_warm(pos)
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
@@ -461,6 +469,13 @@ class _Run:
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
         return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}
+
+    def check_layer_limit(self, node_id: str) -> None:
+        """`max_layers`: a node that made more layers stops the run before anything uses them."""
+        for value in self.outputs[node_id].values():
+            if isinstance(value, Layered) and self.max_layers and len(value) > self.max_layers:
+                raise LayerLimitError(f"{len(value)} layers, over the limit of {self.max_layers} (max_layers): "
+                                      "stopped before the nodes after it ran", node=node_id)
 
     def maybe_warm(self, pos: int) -> None:
         """Start the layer workers ahead of need when this node made a long layered value and
@@ -601,7 +616,7 @@ class _Run:
         def finish(i: int, key: str, out: dict, warnings: list) -> None:
             self.keep_layer(gnode, results, i, key, out, warnings)
             done[0] += 1
-            self.node_progress(gnode.id, done[0] / max(n_total, 1), f"layer {i}")
+            self.node_progress(gnode.id, done[0] / max(n_total, 1), f"layer {i}", layer=i)
 
         def here(i: int, items: dict, key: str) -> None:
             self.check_cancelled()
@@ -757,11 +772,14 @@ def execute(
     workers: int | None = None,
     scheduler: str | None = None,
     preflight: bool = True,
+    max_layers: int = 0,
 ) -> RunResult:
     """Run `graph`. Raises WaamflowError subclasses (with node/layer/section) on failure after
     emitting `node_error` and `run_failed`/`run_cancelled`. `workers`: processes for the layers of
     layer nodes (None: `WAAMFLOW_LAYER_WORKERS`, else every core; 1: serial). `scheduler`: a Dask
-    scheduler address (tcp://HOST:PORT) to send the layers to instead of local processes."""
+    scheduler address (tcp://HOST:PORT) to send the layers to instead of local processes. `max_layers`
+    (0 = none): a node that makes more layers stops the run at once (LayerLimitError), before any
+    layer of the nodes after it is computed."""
     t0 = time.perf_counter()
     active = list(graph.order)
     if targets is not None:
@@ -776,6 +794,7 @@ def execute(
     pool = make_pool(workers, scheduler)
     run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts,
                pool)
+    run.max_layers = max_layers
     finished = False
     try:
         run.run()

@@ -145,8 +145,11 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
     return out
 
 
-@router.post("/api/preview", response_model=PreviewResponse, responses=errors(401, 404, 422))
-def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> PreviewResponse:
+@router.post("/api/preview", response_model=PreviewResponse, responses=errors(401, 404, 422, 429))
+async def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> PreviewResponse:
+    """One layer of one node. Under the run queue's limits: counted in the queue (429 when full),
+    refused by its estimate before it starts (422), stopped on preview_timeout_s or when the client
+    leaves."""
     t0 = time.perf_counter()
     request.state.audit_target, request.state.audit_node, request.state.audit_layer = req.graph, req.node, req.layer
     if req.graph is not None and svc.store.get_graph(req.graph) is None:
@@ -157,11 +160,19 @@ def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> PreviewR
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)
     resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
     svc.check_sandbox(graph, resolver)  # → 422 before anything is read
+    if svc.runs is None:
+        return _compute(req, svc, recipe, graph, resolver, t0, None)
+    svc.runs.limits.check_estimate(graph, resolver)   # → 422 with the estimate, before anything runs
+    job = svc.runs.preview(lambda cancel: _compute(req, svc, recipe, graph, resolver, t0, cancel))
+    return await job.run(request.is_disconnected)
+
+
+def _compute(req: PreviewRequest, svc, recipe, graph, resolver, t0: float, cancel) -> PreviewResponse:
     error = None
     node = req.node
     try:
         result = execute(graph, resolver=resolver, cache=svc.cache, targets=[node], layers=[req.layer], artifacts=False,
-                             workers=1)
+                         workers=1, cancel=cancel)
         outputs, count = result.outputs, result.layer_count
     except PlanningError as err:
         error = err.to_dict()
@@ -169,8 +180,8 @@ def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> PreviewR
         outputs, count = {}, None
         if parents:
             try:
-                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer], artifacts=False,
-                             workers=1)
+                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer],
+                             artifacts=False, workers=1, cancel=cancel)
                 outputs, count, node = r2.outputs, r2.layer_count, parents[0]
             except PlanningError:
                 pass
