@@ -103,6 +103,8 @@ def test_editors_change_only_their_own_and_admin_restores(c):
     assert c.get("/api/graphs/bobs", headers=h("bob")).json()["nodes"] == toy.chain()["nodes"]
     assert c.post("/api/graphs/bobs/revisions/9/restore", headers=h("root")).status_code == 404
     assert c.delete("/api/graphs/bobs", headers=h("root")).status_code == 204
+    for who in ("alice", "ola", "vic"):   # the audit log (who, what, from where) is for admins
+        assert c.get("/api/audit", headers=h(who)).status_code == 403
     actions = [(e["who"], e["action"], e["target"]) for e in c.get("/api/audit", headers=h("root")).json()]
     assert ("root", "restore_graph", "alices") in actions and ("root", "delete_graph", "bobs") in actions
 

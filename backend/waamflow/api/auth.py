@@ -61,9 +61,14 @@ def at_least(role: str | None, needed: str) -> bool:
     return ROLES.index(role if role in ROLES else DEFAULT_ROLE) >= ROLES.index(needed)
 
 
+ADMIN_ONLY = re.compile(r"^/api/audit(/.*)?$")   # who did what, from where: for admins
+
+
 def method_allowed(role: str, method: str, path: str) -> str | None:
     """None when `role` may send `method` to `path`, else the role that may (the coarse rule every
     route gets; ownership of graphs is checked by the graph routes)."""
+    if ADMIN_ONLY.match(path):
+        return None if role == "admin" else "admin"
     if role in ("editor", "admin") or method in SAFE_METHODS:
         return None
     if any(m == method and rx.match(path) for m, rx in VIEWER_WRITES):
