@@ -112,6 +112,18 @@ def test_every_file_parameter_refuses_the_attack_set(folders):
                     assert why in d["message"], (ntype, pname, value, d["message"])
                 assert SECRET_KEY not in r.text and "root:" not in r.text
                 answered += 1
+        # a file outside answers the same whether it exists or not (nothing is looked at out there)
+        os.symlink(outside / "missing.json", g / "dangling.json")
+        for there, missing in [("../outside/secret.json", "../outside/missing.json"),
+                               (str(outside / "secret.json"), str(outside / "missing.json")),
+                               ("out-link.json", "dangling.json")]:
+            answers = []
+            for value in (there, missing):
+                rec = {"format": "waamflow/1", "name": "gate", "edges": [],
+                       "nodes": [{"id": "n", "type": "mesh", "params": {"path": value}}]}
+                r = c.post("/api/runs", json={"recipe": rec})
+                answers.append((r.status_code, r.json()["detail"]["message"].replace(value, "<value>")))
+            assert answers[0] == answers[1] and answers[0][0] == 422, answers
         opened, OPENED = OPENED, None
         assert answered >= 150, answered
         forbidden = (str(outside), str(g / "fifo"), str(g / "sock"), str(g / "zero-link"), "/dev/", "/etc/", "/proc/")

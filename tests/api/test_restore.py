@@ -144,3 +144,31 @@ def test_restore_is_locked_against_a_server_starting(tmp_path):
     s = Store(data / DB, lock_timeout=0.3)
     s.close()
     assert (data / LOCK).exists()
+
+
+def test_restore_around_a_real_server_killed_with_9(tmp_path, capsys):
+    """The issue's sequence with `waamflow serve`: acknowledged saves over HTTP, restore refused
+    while it serves, kill -9, restore: the kept-aside copy holds every acknowledged save."""
+    import httpx
+    from test_operations import ALICE, _free_port, _start_server
+
+    bk = _backup(tmp_path)
+    data, port = tmp_path / "data", _free_port()
+    server = _start_server(data, port)
+    try:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {ALICE}"},
+                          timeout=10) as cl:
+            for i in range(N):
+                assert cl.put(f"/api/graphs/served{i}", json=toy.chain(stack={"count": 1 + i})).status_code == 201
+        assert cli(["restore", str(bk), "--data", str(data)]) == 2
+        assert "stop it first" in capsys.readouterr().err
+        os.kill(server.pid, signal.SIGKILL)
+        server.wait(10)
+    finally:
+        if server.poll() is None:
+            server.kill()
+            server.wait(10)
+    assert cli(["restore", str(bk), "--data", str(data)]) == 0
+    kept = list(data.glob(f"{DB}.before-restore-*"))
+    assert len(kept) == 1 and _graphs(kept[0]) == [f"served{i}" for i in range(N)]
+    assert _graphs(data / DB) == ["from-backup"]
