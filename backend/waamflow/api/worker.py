@@ -9,7 +9,7 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from ..core.errors import CancelledError, WaamflowError
 from ..core.model import LayerPaths, Layered
