@@ -200,8 +200,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         log.error("disk full under %s (%s %s); released %d bytes of reserve", settings.data_dir, request.method,
                   request.url.path, freed)
         return _err(507, {"kind": "disk_full", "message":
-                          f"the disk holding the data folder is full: nothing was saved. Free space (delete graphs, "
-                          f"runs or uploads you no longer need: deletes still work) and try again"})
+                          "the disk holding the data folder is full: nothing was saved. Free space (delete graphs, "
+                          "runs or uploads you no longer need: deletes still work) and try again"})
 
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, err: StarletteHTTPException):
