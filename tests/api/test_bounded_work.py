@@ -7,7 +7,6 @@ the client leaves; cancel ends a run within 2 s, its layer workers killed, a blo
 import asyncio
 import io
 import json
-import os
 import struct
 import threading
 import time
@@ -15,7 +14,6 @@ import zipfile
 
 import numpy as np
 import psutil
-import pytest
 from fastapi.testclient import TestClient
 from pydantic import Field
 
@@ -23,7 +21,6 @@ import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
-from waamflow.core.model import Layered
 from waamflow.engine.node import Node, NodeParams, Port, register
 from waamflow.settings import Settings
 
