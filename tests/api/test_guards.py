@@ -4,7 +4,6 @@ and the audit of reads (previews, viewer actions, downloads, failed logins) with
 
 import errno
 import json
-import os
 import sqlite3
 import time
 
