@@ -180,4 +180,11 @@ def check_rapid(files: dict[str, str], post: dict) -> dict:
     return {"points_declared": len(robtargets), "motions": motions, "modules": len(mods)}
 
 
-PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid}
+def check_inform(files: dict[str, str], post: dict) -> dict:
+    """INFORM (files: key → job text): `tests/program/inform_check.py` on every job."""
+    from inform_check import check_program
+
+    return check_program(files)
+
+
+PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid, "inform": check_inform}

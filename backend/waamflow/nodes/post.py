@@ -17,7 +17,7 @@ from ..core.files import SHIPPED_NAME_PATTERN
 from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..program import GcodeSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
+from ..program import GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
 from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
                               program_identifier, stamp_trace)
 from ..program.gcode import GCODE_WELD_CODES
@@ -69,8 +69,9 @@ class PostProcess(Node):
         profile: str = Field("", max_length=64, pattern=SHIPPED_NAME_PATTERN, json_schema_extra={"x-shipped": "machines"},
                              description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
                                          "abb_irc5): presets for every param this recipe does not set; empty = none", title="Machine profile")
-        format: Literal["gcode", "krl", "rapid", "csv", "printpoints"] = Field(
-            "gcode", description="Program format; printpoints = compas_slicer print-points JSON", title="Program format")
+        format: Literal["gcode", "krl", "rapid", "inform", "csv", "printpoints"] = Field(
+            "gcode", description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); printpoints = "
+                                 "compas_slicer print-points JSON", title="Program format")
         program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                   description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
                                               "identifier, so the program is named like its files (KRL requires "
@@ -85,6 +86,9 @@ class PostProcess(Node):
         blend_distance: float = Field(1.0, ge=0, le=100, json_schema_extra=unit("mm"),
                                       description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius, print points "
                                                   "blend_radius; 0 = exact stops", title="Corner blend distance")
+        position_level: int = Field(1, ge=0, le=8, title="Position level (INFORM PL)",
+                                    description="INFORM: PL of blended motions (0 = exact stop everywhere; the "
+                                                "controller's position level table sets the distance of 1..8)")
         # G-code
         arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code")
         arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off", title="Arc off code")
@@ -150,8 +154,8 @@ class PostProcess(Node):
                               description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
                                           "`TOOL_OFF()`, RAPID `ToolOff;`", title="Tool off code")
         # KUKA KRL
-        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number", title="Tool number (KRL)")
-        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number", title="Base number (KRL)")
+        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number; INFORM: the job's tool (///TOOL)", title="Tool number (KRL)")
+        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number; INFORM: the user frame (///USER, at least 1)", title="Base number (KRL)")
         arc_control: Literal["output", "arctech"] = Field(
             "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF", title="Arc control (KRL)")
         arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc", title="Arc output number (KRL)")
@@ -252,6 +256,9 @@ class PostProcess(Node):
         world_tilt = None
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
+        if params.cell and params.format == "inform":
+            raise RecipeError("format inform: station axes (a positioner cell) are not written yet; use krl or rapid "
+                              "for a cell with a positioner, or remove `cell`", field="cell")
         if params.cell and params.format in ("krl", "rapid", "gcode"):
             cell = load_cell(params.cell)
             moves = flatten(inputs["toolpath"])
@@ -347,6 +354,8 @@ def _program_name(ctx, p: PostProcess.Params) -> str:
         limit, reserved = (16 if p.split_per_layer or p.max_points_per_file else 24), KRL_RESERVED
     elif p.format == "rapid":                 # ≤ 27 so `<name>_M001` fits when split into modules
         limit, reserved = (27 if p.max_module_bytes else 32), RAPID_RESERVED
+    elif p.format == "inform":                # ≤ 24 so `<NAME>_L003_1` fits INFORM's 32
+        limit, reserved = 24, frozenset()
     else:
         limit, reserved = 64, frozenset()
     if p.program_name:
@@ -393,6 +402,10 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                              max_module_bytes=p.max_module_bytes, module_dir=p.module_dir,
                              tool_direction=direction or "z", **tools)
+    if p.format == "inform":
+        return InformSettings(program_name=name, tool=p.tool_number, user_frame=max(1, p.base_number),
+                              travel_speed=p.travel_speed, position_level=p.position_level if p.blend_distance > 0 else 0,
+                              **tools)
     if p.format == "printpoints":
         return p.blend_distance
     return None

@@ -373,6 +373,14 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                     "holds; command wire feed/current in the machine profile (comments do not count)",
                     layer=first.layer, section=first.section, value=weld_missing, limit=0,
                     point=first.points[0])
+    if weld_expected and missing and not weld_missing and part is not None and cov and cov["part_volume_mm3"] > 0:
+        # welded with weld data, but no wire feed the reader can see: the metal balance is unknown
+        first = next(r for r in prog.runs if not np.isfinite(r.wfs).all())
+        rep.problem("volume_ratio", "warn",
+                    f"{missing} arc-ON moves weld without a wire feed in the program (first: layer {first.layer}, "
+                    f"section {first.section}): the wire the part gets cannot be checked against its volume; "
+                    "command the wire feed, or check the power source's synergic line gives the zones' feeds",
+                    layer=first.layer, section=first.section, value=missing, limit=0, point=first.points[0])
     if ratio is not None:
         lo, hi = s.volume_ratio_ok
         flo, fhi = s.volume_ratio_fail

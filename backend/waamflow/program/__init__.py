@@ -16,18 +16,19 @@ from .cl import write_cl_csv
 from .common import weld_data_issues
 from .gcode import GcodeSettings, write_gcode
 from .gcode_parse import ParsedProgram, parse_gcode
+from .inform import INFORM_WELD_CODES, InformSettings, write_inform
 from .krl import KrlSettings, write_krl
 from .plan import Plan, PlanSettings, plan_program
 from .printpoints import point_layer_heights, write_print_points
 from .program import Program
 from .rapid import RapidSettings, write_rapid, write_rapid_modules
 
-FORMATS = ("gcode", "krl", "rapid", "csv", "printpoints")
+FORMATS = ("gcode", "krl", "rapid", "inform", "csv", "printpoints")
 
 __all__ = [
-    "FORMATS", "GcodeSettings", "KrlSettings", "ParsedProgram", "Plan", "PlanSettings", "Program",
+    "FORMATS", "GcodeSettings", "InformSettings", "KrlSettings", "ParsedProgram", "Plan", "PlanSettings", "Program",
     "RapidSettings", "parse_gcode", "plan_program", "post_process", "write_cl_csv", "write_gcode",
-    "write_krl", "write_print_points", "write_rapid", "write_rapid_modules",
+    "write_inform", "write_krl", "write_print_points", "write_rapid", "write_rapid_modules",
 ]
 
 
@@ -50,7 +51,7 @@ def post_process(
         from dataclasses import replace
 
         plan_settings = replace(plan_settings, arc_plane_normal=(0.0, 0.0, 1.0))
-    if fmt == "printpoints":
+    if fmt in ("printpoints", "inform"):        # one entry per point / INFORM: lines only
         from dataclasses import replace
 
         plan_settings = replace(plan_settings, arc_tolerance=0.0)
@@ -69,6 +70,9 @@ def post_process(
         files = write_rapid_modules(plan, writer_settings or RapidSettings())
         if len(files) > 1:
             stats["modules"] = len(files) - 1           # part modules loaded by the main module
+    elif fmt == "inform":
+        files = write_inform(plan, writer_settings or InformSettings())
+        stats["jobs"] = len(files) - 1                  # per-layer jobs called by the main job
     elif fmt == "printpoints":
         heights = point_layer_heights(None if isinstance(toolpath, Moves) else toolpath, moves)
         blend = 1.0 if writer_settings is None else float(writer_settings)
@@ -91,6 +95,12 @@ def post_process(
         gs = writer_settings or GcodeSettings()
         issues = tuple(weld_data_issues(plan, commanded=tuple(k for k, v in gs.process_codes.items() if v),
                                         hint="give it a command template in process_codes", empty=False))
-    name = (writer_settings or (KrlSettings() if fmt == "krl" else RapidSettings())).program_name \
-        if fmt in ("krl", "rapid") else ""                 # the files are named after the program
+    elif fmt == "inform":
+        issues = tuple(weld_data_issues(plan, commanded=tuple(INFORM_WELD_CODES),
+                                        hint="INFORM commands current (AC=) and voltage (AV=) inline; wire feed and "
+                                             "job live in the arc start condition file / synergic line", empty=False))
+    name = (writer_settings or {"krl": KrlSettings, "rapid": RapidSettings, "inform": InformSettings}[fmt]()).program_name \
+        if fmt in ("krl", "rapid", "inform") else ""       # the files are named after the program
+    if fmt == "inform":
+        name = name.upper()                                # job names are upper case on the pendant
     return Program(fmt, files, stats, issues, name)

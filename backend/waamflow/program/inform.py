@@ -1,0 +1,204 @@
+"""Yaskawa Motoman INFORM writer (YRC1000 / DX200 `.JBI` jobs, ArcWorld arc welding).
+
+Job shape (one job per layer, called by the main job, so no job outgrows the controller's
+position table; `max_points_per_job` cuts a layer further)::
+
+    /JOB
+    //NAME WAAMFLOW_L003
+    //POS
+    ///NPOS 412,0,0,0,0,0          ; C (robot) positions, BC, EC, P, BP, EP
+    ///TOOL 1
+    ///POSTYPE USER
+    ///USER 1
+    ///RECTAN
+    ///RCONF 0,0,0,0,0,0,0,0
+    C00000=x,y,z,rx,ry,rz          ; mm, deg: the user frame `user_frame` (the part frame)
+    //INST
+    ///DATE 2026/11/25 12:00
+    ///COMM waamflow layer 3
+    ///ATTR SC,RW
+    ///GROUP1 RB1
+    NOP
+    'layer 3 z=4.500
+    MOVL C00000 V=100.0 PL=0        ; arc-off travel (PL=0: exact stop before an ignition)
+    ARCON AC=150 AV=20.0 T=0.50     ; ignite: current A, voltage V, T = the ignition dwell s
+    MOVL C00001 V=8.0 PL=1          ; welding (PL = position level `position_level`)
+    ARCSET AC=160 AV=21.0           ; a zone or compensation step changes the weld while welding
+    ARCOF
+    TIMER T=20.00                   ; interlayer / zone dwell
+    END
+
+Comments (') are cut to 32 characters, the controller's limit; the layer / section / zone of
+each motion is in them. The weld: `ARCON`/`ARCSET` carry the zone's current (`AC=`, A) and voltage (`AV=`, V) — the
+inline form of the arc start condition. Wire feed speed and a job number have no inline form in
+INFORM (they live in the arc start condition file `ASF#()` and the power source's synergic line):
+a zone that sets them is a weld issue, and the preflight refuses the program (so the values are
+never silently dropped). `V=` is the TCP speed in mm/s (the controller's default unit, S2C
+parameter; check it is not cm/min). Orientation Rx, Ry, Rz: fixed XYZ angles, R = Rz·Ry·Rx (as
+KUKA's A, B, C reversed). Circular motions are not written (the planner gives lines).
+
+Positioner (station axes) are not written yet: a toolpath with external axes is refused with a
+message (INFORM needs station pulses per degree from the controller's parameters).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
+from .orientation import kuka_abc, tool_frames
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+
+# INFORM inline weld values: parameter → ARCON/ARCSET tag (what a power source takes inline)
+INFORM_WELD_CODES = {"current": "AC={value:.0f}", "voltage": "AV={value:.1f}"}
+
+
+@dataclass(frozen=True, eq=False)
+class InformSettings:
+    """program_name: main job name (≤ 24 characters so `<name>_L001` fits 32; stored uppercase).
+    tool / user_frame: tool and user frame numbers. travel_speed: mm/s. position_level: PL of
+    blended motions (0 = exact stop everywhere). max_points_per_job: positions per job (0 = only
+    the per-layer split). external_axes: must be None (see module doc)."""
+
+    program_name: str = "WAAMFLOW"
+    tool: int = 1
+    user_frame: int = 1
+    travel_speed: float = 100.0
+    position_level: int = 1
+    max_points_per_job: int = 999
+    external_axes: np.ndarray | None = None
+    decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["inform"][0]      # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["inform"][1]
+
+    def __post_init__(self) -> None:
+        check_identifier(self.program_name, 24, "INFORM job name")
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
+        if not 0 <= self.position_level <= 8:
+            raise ValueError("position_level must be 0..8 (INFORM PL)")
+        if self.max_points_per_job < 0 or 0 < self.max_points_per_job < 10:
+            raise ValueError("max_points_per_job must be 0 (per layer only) or at least 10")
+        if not 0 <= self.tool <= 63 or not 1 <= self.user_frame <= 63:
+            raise ValueError("tool must be 0..63 and user_frame 1..63")
+        if self.external_axes is not None:
+            raise ValueError("INFORM station axes (a positioner) are not written yet: use the krl or rapid "
+                             "format for a cell with a positioner, or a cell without one")
+
+
+COMMENT_MAX = 32       # INFORM comment lines (') hold at most 32 characters
+
+
+def _comment(text: str) -> str:
+    return "'" + text[:COMMENT_MAX]
+
+
+def _name(base: str, k: int | None) -> str:
+    return base.upper() if k is None else f"{base.upper()}_L{k:03d}"
+
+
+def _weld_fields(params: dict, names=None) -> str:
+    out = [INFORM_WELD_CODES[n].format(value=float(params[n])) for n in ("current", "voltage")
+           if n in params and (names is None or n in names)]
+    return " ".join(out)
+
+
+def _job(name: str, comment: str, lines: list[str], pts: list[int], P: np.ndarray, R: np.ndarray,
+         s: InformSettings) -> str:
+    d = s.decimals
+    head = ["/JOB", f"//NAME {name}", "//POS", f"///NPOS {len(pts)},0,0,0,0,0", f"///TOOL {s.tool}",
+            "///POSTYPE USER", f"///USER {s.user_frame}", "///RECTAN", "///RCONF 0,0,0,0,0,0,0,0"]
+    head += [f"C{k:05d}={num(P[i, 0], d)},{num(P[i, 1], d)},{num(P[i, 2], d)},"
+             f"{num(R[i, 0], 4)},{num(R[i, 1], 4)},{num(R[i, 2], 4)}" for k, i in enumerate(pts)]
+    # a fixed date: the same plan gives the same bytes (the run's trace says when it was made)
+    head += ["//INST", "///DATE 2000/01/01 00:00", f"///COMM {comment[:COMMENT_MAX]}",
+             "///ATTR SC,RW", "///GROUP1 RB1", "NOP"]
+    return "\n".join(head + lines + ["END"]) + "\n"
+
+
+def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dict[str, str]:
+    """The main job {"JBI": ...} and one job per layer {"L003.JBI": ...} (see module doc)."""
+    s = settings
+    P = plan.moves.points
+    keys = plan.moves.section_keys
+    # INFORM Rx, Ry, Rz (R = Rz·Ry·Rx) = KUKA's (C, B, A)
+    R = kuka_abc(tool_frames(plan.moves.tool_axis, "z"))[:, ::-1] if len(P) else np.zeros((0, 3))
+    jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
+    cur: list[str] = []
+    cur_pts: list[int] = []
+    index: dict[int, int] = {}
+    layer = None
+    part = 0
+    params: dict = {}
+    arc = False
+    skip_dwell = False
+
+    def flush(next_layer) -> None:
+        nonlocal cur, cur_pts, index, part
+        if cur or cur_pts:
+            k = layer if layer is not None else 0
+            name = _name(s.program_name, k) + (f"_{part}" if part else "")
+            jobs.append((name, f"waamflow layer {k}", cur, cur_pts))
+        cur, cur_pts, index = [], [], {}
+        part = 0 if next_layer is not None else part + 1
+
+    def ref(i: int) -> str:
+        if i not in index:
+            index[i] = len(cur_pts)
+            cur_pts.append(i)
+        return f"C{index[i]:05d}"
+
+    steps = plan.steps
+    for k, st in enumerate(steps):
+        if isinstance(st, LayerStart):
+            flush(st.layer)
+            layer = st.layer
+            cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
+        elif isinstance(st, SectionStart):
+            cur.append(_comment(f"section {keys[st.section]}"))
+        elif isinstance(st, ProcessChange):
+            changed = [n for n in ("current", "voltage") if st.params.get(n) != params.get(n)]
+            params = st.params
+            cur.append(_comment(f"zone {st.zone_id or '-'}"))
+            if arc and changed and _weld_fields(params, changed):
+                cur.append(f"ARCSET {_weld_fields(params, changed)}")
+        elif isinstance(st, ArcOn):
+            ign = steps[k + 1].seconds if k + 1 < len(steps) and isinstance(steps[k + 1], Dwell) \
+                and steps[k + 1].reason == "ignition" else 0.0
+            skip_dwell = ign > 0
+            fields = _weld_fields(params)
+            cur.append("ARCON" + (f" {fields}" if fields else "") + f" T={num(ign, 2)}")
+            arc = True
+        elif isinstance(st, ArcOff):
+            cur.append("ARCOF")
+            arc = False
+        elif isinstance(st, Dwell):
+            if st.reason == "ignition" and skip_dwell:
+                skip_dwell = False
+                continue
+            cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
+            cur.append(f"TIMER T={num(st.seconds, 2)}")
+        elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
+            on = isinstance(st, ToolOn)
+            cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
+            cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+        elif isinstance(st, Motion):
+            if st.circular:
+                raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")
+            v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
+            pl = 0 if st.stop else s.position_level
+            cur.append(f"MOVL {ref(st.end)} V={num(v, 1)} PL={pl}")
+            if s.max_points_per_job and len(cur_pts) >= s.max_points_per_job and not arc:
+                flush(None)
+    flush(None)
+    st_ = plan.stats
+    main = [_comment(f"waamflow: {len(jobs)} jobs"), _comment(f"layers {st_['layers']}"),
+            _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"), _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
+            _comment("AC=current A AV=voltage V")]
+    main += [f"CALL JOB:{name}" for name, _, _, _ in jobs]
+    files = {"JBI": _job(s.program_name.upper(), "waamflow main job", main, [], P, R, s)}
+    for name, comment, lines, pts in jobs:
+        files[name[len(s.program_name) + 1:] + ".JBI"] = _job(name, comment, lines, pts, P, R, s)
+    return files
