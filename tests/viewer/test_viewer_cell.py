@@ -113,6 +113,12 @@ def test_fit_frames_the_part_where_the_positioner_holds_it(viewer):
     assert 1.5 * radius < part_dist < 3.0 * radius                        # the part fills the view
     base = part.robot_base()
     assert np.dot((eye - look)[:2], (look - base)[:2]) > 0                 # looking from beyond the part
+    # above the part's (tilted) table plane, never looking at the part through the table
+    assert np.dot(eye - look, R[:, 2]) > 0.5 * part_dist
+    viewer.set_view(time_s=part.duration(), fit="part")
+    R1 = part.work_pose(part.duration())[0]
+    assert np.dot(np.asarray(cam.position) - np.asarray(cam.look_at), R1[:, 2]) > 0.5 * np.linalg.norm(np.asarray(cam.position) - np.asarray(cam.look_at))
+    viewer.set_view(time_s=t)
     viewer.set_view(fit="cell")
     cell_dist = float(np.linalg.norm(np.asarray(cam.position) - np.asarray(cam.look_at)))
     pts = np.vstack(part.cell_points(t))

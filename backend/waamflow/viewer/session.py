@@ -459,15 +459,33 @@ class ViewSession:
         center = (b[0] + b[1]) / 2
         radius = max(float(np.linalg.norm(b[1] - b[0])) / 2, 1.0)
         dist = CAMERA_MARGIN * radius / np.sin(np.radians(CAMERA_FOV_DEG / 2))
-        az = self._azimuth(center)
-        el = np.radians(CAMERA_ELEVATION_DEG)
-        eye = center + dist * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        eye = center + dist * self._view_direction(center)
         self.camera = (tuple(float(x) for x in eye), tuple(float(x) for x in center), dist * 1e-3, dist * 20)
         self._set_camera(*self.camera)
         floor = float(self.world_bounds("part")[0][2]) if what == "cell" else float(b[0][2])
         grid_size = float(np.ceil(radius * 2.4 / 10.0) * 10.0)
         self.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
                             section_size=grid_size / 4, position=(float(center[0]), float(center[1]), floor))
+
+    def _view_direction(self, center: np.ndarray) -> np.ndarray:
+        """Unit vector from the part to the camera: CAMERA_ELEVATION_DEG above the part's own
+        table plane (the positioner may have tilted it: the camera stays on the part's side of
+        the table, never looking at the part through it), at `_azimuth` about the world z."""
+        az = self._azimuth(center)
+        el = np.radians(CAMERA_ELEVATION_DEG)
+        up = np.array([0.0, 0.0, 1.0])
+        for p in self.parts.values():
+            if p.kind == "simulation":
+                pose = p.work_pose(self.view.time_s)
+                if pose is not None:
+                    up = pose[0][:, 2] / np.linalg.norm(pose[0][:, 2])
+                    break
+        h = np.array([np.cos(az), np.sin(az), 0.0])
+        h = h - (h @ up) * up
+        if np.linalg.norm(h) < 1e-6:
+            h = np.cross(up, [1.0, 0.0, 0.0])
+        h /= np.linalg.norm(h)
+        return np.cos(el) * h + np.sin(el) * up
 
     def _azimuth(self, center: np.ndarray) -> float:
         """Camera azimuth (rad): 40° off the direction robot base → part, so the part is seen
