@@ -56,6 +56,16 @@ def model_width(model: BeadFit, sp, default: float) -> float:
     return num / den if den > 0 else default
 
 
+def coverage_width(params, sp, model: BeadFit | None) -> float:
+    """The bead width (mm) the coverage node uses for section path `sp`: its per-section width,
+    else the connected bead model's at the zones' feeds and speeds, else `bead_width`. The live
+    coverage overlay (/api/preview) calls this too, so the canvas and the node agree."""
+    width = float(params.sections.get(sp.key, params.bead_width))
+    if model is not None and sp.key not in params.sections:
+        width = model_width(model, sp, width)
+    return width
+
+
 def _geom_json(g) -> list[dict]:
     from ..core.model import region_polygons
 
@@ -100,9 +110,7 @@ class CoverageNode(LayerNode):
             if sec is None:
                 ctx.warn(f"no section {sp.key!r} on this layer: coverage skipped", layer=index, section=sp.key)
                 continue
-            width = float(params.sections.get(sp.key, params.bead_width))
-            if items.get("model") is not None and sp.key not in params.sections:
-                width = model_width(items["model"], sp, width)
+            width = coverage_width(params, sp, items.get("model"))
             cov = section_coverage(sec.region, layer_local(lp.layer, sp.points), sp.arc, width)
             row = {"key": sp.key, **cov.summary()}
             if params.polygons:

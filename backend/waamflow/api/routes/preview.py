@@ -38,8 +38,9 @@ class PreviewRequest(BaseModel):
     inputs: dict[str, Any] = Field(default_factory=dict)
     coverage: bool = Field(False, description="also return each path's bead coverage (void/overlap polygons)")
     bead_width: float | None = Field(None, gt=0.05, le=100,
-                                     description="bead width for coverage, mm (default: the recipe's coverage "
-                                                 "node, else the strategy's default bead_width, else 6)")
+                                     description="bead width for coverage, mm (default: what the recipe's coverage "
+                                                 "node uses: its per-section widths and connected bead model, with "
+                                                 "$input values; else the strategy's width of the section; else 6)")
 
     @model_validator(mode="after")
     def _xml_needs_graph(self) -> "PreviewRequest":
@@ -115,21 +116,38 @@ def _sections_json(ls: LayerSections | None) -> list[dict]:
     return out
 
 
-def _bead_width(recipe, asked: float | None) -> float:
+def _coverage_node(graph) -> str | None:
+    return next((nid for nid in graph.order if graph.nodes[nid].type == "coverage"), None)
+
+
+def _width_of(graph, outputs: dict, asked: float | None):
+    """sp -> bead width (mm) for the overlay: the request's `bead_width`; else what the recipe's
+    coverage node would use (`coverage_width`: resolved params, per-section widths, the connected
+    bead model); else the strategy's resolved width for the section; else 6 mm (the MPP study)."""
+    from ...nodes.process import coverage_width
+
     if asked is not None:
-        return asked
-    for kind, path in (("coverage", ("bead_width",)), ("strategy", ("default", "bead_width"))):
-        for n in recipe.nodes:
-            if n.type == kind:
-                v: Any = n.params
-                for k in path:
-                    v = v.get(k) if isinstance(v, dict) else None
-                if isinstance(v, (int, float)) and v > 0:
-                    return float(v)
-    return 6.0
+        return lambda sp: float(asked)
+    cov = _coverage_node(graph)
+    if cov is not None:
+        gn = graph.nodes[cov]
+        src = gn.inputs.get("model")
+        model = outputs.get(src[0], {}).get(src[1]) if src else None
+        return lambda sp: coverage_width(gn.params, sp, model)
+    strat = next((nid for nid in graph.order if graph.nodes[nid].type == "strategy"), None)
+    if strat is not None:
+        p = graph.nodes[strat].params
+
+        def width(sp) -> float:
+            o = p.sections.get(sp.key)
+            w = getattr(o, "bead_width", None) if o is not None else None
+            return float(w if w is not None else p.default.bead_width)
+
+        return width
+    return lambda sp: 6.0
 
 
-def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, width: float) -> list[dict]:
+def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, width) -> list[dict]:
     from ...nodes.process import _geom_json, layer_local
     from ...process.coverage import section_coverage
 
@@ -139,7 +157,7 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
     out = []
     for sp in paths.sections:
         if sp.key in regions:
-            cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width)
+            cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width(sp))
             out.append({"key": sp.key, **cov.summary(), "void": _geom_json(cov.void),
                         "overlap": _geom_json(cov.overlap_outline())})
     return out
@@ -170,8 +188,11 @@ async def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> Pr
 def _compute(req: PreviewRequest, svc, recipe, graph, resolver, t0: float, cancel) -> PreviewResponse:
     error = None
     node = req.node
+    cov = _coverage_node(graph) if req.coverage and req.bead_width is None else None
+    model_src = graph.nodes[cov].inputs.get("model") if cov is not None else None
+    targets = [node] + ([model_src[0]] if model_src and model_src[0] != node else [])
     try:
-        result = execute(graph, resolver=resolver, cache=svc.cache, targets=[node], layers=[req.layer], artifacts=False,
+        result = execute(graph, resolver=resolver, cache=svc.cache, targets=targets, layers=[req.layer], artifacts=False,
                          workers=1, cancel=cancel)
         outputs, count = result.outputs, result.layer_count
     except PlanningError as err:
@@ -180,7 +201,7 @@ def _compute(req: PreviewRequest, svc, recipe, graph, resolver, t0: float, cance
         outputs, count = {}, None
         if parents:
             try:
-                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents, layers=[req.layer],
+                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents + targets[1:], layers=[req.layer],
                              artifacts=False, workers=1, cancel=cancel)
                 outputs, count, node = r2.outputs, r2.layer_count, parents[0]
             except PlanningError:
@@ -194,6 +215,6 @@ def _compute(req: PreviewRequest, svc, recipe, graph, resolver, t0: float, cance
         paths=[section_path_json(sp) for sp in paths.sections] if paths is not None else [],
         layer_count=count,
         error=error,
-        coverage=_coverage_json(sections, paths, _bead_width(recipe, req.bead_width)) if req.coverage else None,
+        coverage=_coverage_json(sections, paths, _width_of(graph, outputs, req.bead_width)) if req.coverage else None,
         ms=round((time.perf_counter() - t0) * 1000, 2),
     )
