@@ -8,7 +8,7 @@ PORT   ?= 8000
 HOST   ?= 127.0.0.1
 DATA   ?= data
 
-.PHONY: run test bench venv frontend test-backend test-frontend test-e2e clean lint docs
+.PHONY: run test bench soak venv frontend test-backend test-frontend test-e2e clean lint docs
 
 $(VENV)/.installed: requirements.lock pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -56,6 +56,11 @@ docs: $(VENV)/.docs-installed
 
 bench: venv
 	$(PY) bench/run.py
+
+# a real server under 50 clients and the hostile inputs of issue 26 for SOAK_S seconds: RSS, p99, alive
+SOAK_S ?= 60
+soak: venv
+	$(PY) bench/bench_soak.py $(SOAK_S) 50
 
 clean:
 	rm -rf out frontend/dist

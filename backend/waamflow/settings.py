@@ -49,6 +49,8 @@ class Settings(BaseSettings):
     body_timeout_s: float = Field(30.0, ge=0, description="a request body that sends nothing for this long gets 408, s")
     # connections (`waamflow serve`; uvicorn h11 with a header timeout and a connection cap)
     max_connections: int = Field(1000, ge=1, description="open connections; one more is closed at once")
+    max_connections_per_client: int = Field(256, ge=1, description="open connections from one address; more are "
+                                                                    "closed at once (clients behind one proxy share it)")
     header_timeout_s: float = Field(10.0, gt=0, description="a connection must send its request head within this, s")
     keep_alive_s: float = Field(5.0, gt=0, description="an idle keep-alive connection is closed after this, s")
     max_header_kb: int = Field(64, ge=4, description="size of a request's head (line + headers), kB")

@@ -22,7 +22,8 @@ def _free_port() -> int:
 def server(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("serve")
     port = _free_port()
-    env = {**os.environ, "WAAMFLOW_START_VIEWER": "false", "WAAMFLOW_GRAPHS_DIR": str(tmp_path / "none")}
+    env = {**os.environ, "WAAMFLOW_START_VIEWER": "false", "WAAMFLOW_GRAPHS_DIR": str(tmp_path / "none"),
+           "WAAMFLOW_MAX_CONNECTIONS_PER_CLIENT": "10"}
     proc = subprocess.Popen([sys.executable, "-m", "waamflow.cli", "serve", "--port", str(port), "--data",
                              str(tmp_path / "data"), "--viewer-port", "0", "--header-timeout", "1",
                              "--max-connections", "30"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -76,13 +77,33 @@ def test_half_open_and_slow_heads_are_closed(server):
     assert httpx.get(base + "/api/health").status_code == 200
 
 
-def test_connections_over_the_cap_are_closed_and_health_answers(server):
+def _open(port, addr, n):
+    """n connections from `addr`; each sends one request and waits for its answer (then it idles as
+    keep-alive, past the 1 s head timeout); one the server closed at once has no answer."""
+    out = [socket.create_connection(("127.0.0.1", port), source_address=(addr, 0)) for _ in range(n)]
+    answered = []
+    for s in out:
+        try:
+            s.sendall(b"GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+            s.settimeout(2)
+            answered.append(s.recv(4096).startswith(b"HTTP/1.1 200"))
+        except OSError:
+            answered.append(False)
+    return out, answered
+
+
+def test_connections_over_the_caps_are_closed_and_health_answers(server):
     port, base = server
-    socks = [socket.create_connection(("127.0.0.1", port)) for _ in range(60)]
-    time.sleep(0.3)
-    dropped = sum(_closed(s, 0.05) for s in socks)
-    assert dropped >= 25   # 60 opened, at most 30 kept
-    for s in socks:
+    one, ok = _open(port, "127.0.0.3", 25)        # one address: 10 kept, 15 closed at once
+    assert sum(ok) == 10
+    assert httpx.get(base + "/api/health").status_code == 200   # others still get in
+    more, ok4 = _open(port, "127.0.0.4", 10)
+    more5, ok5 = _open(port, "127.0.0.5", 10)     # 30 held: the server's cap
+    assert 15 <= sum(ok4) + sum(ok5) <= 20       # (closing connections count until the server sees them go)
+    late, ok6 = _open(port, "127.0.0.6", 10)      # within its own cap, but the server is full
+    assert sum(ok6) <= 30 - 10 - sum(ok4) - sum(ok5) and sum(ok6) <= 5
+    more += more5
+    for s in one + more + late:
         s.close()
-    time.sleep(0.2)
+    time.sleep(0.3)
     assert httpx.get(base + "/api/health").status_code == 200

@@ -16,19 +16,26 @@ log = logging.getLogger("waamflow.server")
 
 
 class GuardedH11Protocol(H11Protocol):
-    """uvicorn's h11 protocol, plus: a connection beyond `max_connections` is closed as soon as it
-    is accepted; one that has not sent a complete request head `header_timeout_s` after it
+    """uvicorn's h11 protocol, plus: a connection beyond `max_connections`, or beyond
+    `max_per_client` from one address, is closed as soon as it is accepted; one that has not sent
+    a complete request head `header_timeout_s` after it
     opened (or after its previous response) is closed (slowloris)."""
 
     max_connections = 1000
+    max_per_client = 64
     header_timeout_s = 10.0
+    per_client: dict = {}   # client address → open connections (one dict per configured subclass)
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         self._head_timer: asyncio.TimerHandle | None = None
+        self._counted: str | None = None
         super().connection_made(transport)
-        if len(self.connections) > self.max_connections:
-            transport.abort()
+        addr = self.client[0] if self.client else "?"
+        if len(self.connections) > self.max_connections or self.per_client.get(addr, 0) >= self.max_per_client:
+            transport.abort()   # one address cannot take every connection from the others
             return
+        self.per_client[addr] = self.per_client.get(addr, 0) + 1
+        self._counted = addr
         self._arm()
 
     def _arm(self) -> None:
@@ -60,6 +67,14 @@ class GuardedH11Protocol(H11Protocol):
         if getattr(self, "_head_timer", None) is not None:
             self._head_timer.cancel()
             self._head_timer = None
+        addr = getattr(self, "_counted", None)
+        if addr is not None:
+            self._counted = None
+            n = self.per_client.get(addr, 1) - 1
+            if n > 0:
+                self.per_client[addr] = n
+            else:
+                self.per_client.pop(addr, None)
         super().connection_lost(exc)
 
 
@@ -84,7 +99,9 @@ def uvicorn_options(settings) -> dict:
 
     class Protocol(GuardedH11Protocol):
         max_connections = cap
+        max_per_client = min(cap, settings.max_connections_per_client)
         header_timeout_s = settings.header_timeout_s
+        per_client: dict = {}
 
     return dict(http=Protocol, timeout_keep_alive=int(max(1, settings.keep_alive_s)),
                 h11_max_incomplete_event_size=settings.max_header_kb * 1024,
