@@ -133,7 +133,8 @@ class Soak:
     def big_uploads(self) -> None:
         with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:
             c.put("/api/graphs/target", json=_sliced("tall.stl"))
-            while not self.stop.wait(1.0):
+        while not self.stop.wait(1.0):
+            with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:   # a new connection each time
                 def body():
                     for _ in range(10 * 1024):
                         yield b"x" * 2**20

@@ -78,6 +78,33 @@ def _threemf_size(data: bytes) -> int:
         return 0
 
 
+_FACTS: dict[tuple[str, str], tuple[int, tuple[float, float] | None, int]] = {}
+
+
+def _mesh_facts(resolver, path: str, cap: int) -> tuple[int, tuple[float, float] | None, int] | None:
+    """(triangles, z range in file units, uncompressed bytes) of a mesh file, memoised on its
+    content signature (the GUI's previews ask again on every edit)."""
+    sig = resolver.signature(path)
+    key = (path, sig)
+    if sig != "missing" and key in _FACTS:
+        return _FACTS[key]
+    data = _read(resolver, path, cap)
+    if data is None:
+        return None
+    ext = path.lower().rsplit(".", 1)[-1]
+    tri, zr, unpacked = 0, None, 0
+    if ext == "stl":
+        tri, zr = _stl(data)
+    elif ext == "3mf":
+        unpacked = _threemf_size(data)
+    elif ext == "obj":
+        tri = len(re.findall(rb"(?m)^f\s", data))
+    if len(_FACTS) > 256:
+        _FACTS.clear()
+    _FACTS[key] = (tri, zr, unpacked)
+    return _FACTS[key]
+
+
 def _read(resolver, path: str, cap: int) -> bytes | None:
     try:
         return resolver.read_bytes(path, cap)
@@ -94,20 +121,15 @@ def estimate(graph, resolver, read_cap: int = 512 * 2**20) -> Estimate:
         p = g.params
         path = getattr(p, "path", None)
         if g.type == "mesh" and isinstance(path, str):
-            data = _read(resolver, path, read_cap)
-            if data is None:
+            got = _mesh_facts(resolver, path, read_cap)
+            if got is None:
                 continue
-            ext = path.lower().rsplit(".", 1)[-1]
+            tri, zr, unpacked = got
             scale = UNIT_MM.get(str(getattr(p, "units", "file")), 1.0)
-            if ext == "stl":
-                tri, zr = _stl(data)
-                est.triangles += tri
-                if zr is not None:
-                    z_range[nid] = (zr[0] * scale, zr[1] * scale)
-            elif ext == "3mf":
-                est.uncompressed_bytes += _threemf_size(data)
-            elif ext == "obj":
-                est.triangles += len(re.findall(rb"(?m)^f\s", data))
+            est.triangles += tri
+            est.uncompressed_bytes += unpacked
+            if zr is not None:
+                z_range[nid] = (zr[0] * scale, zr[1] * scale)
         elif g.type == "sketch" and isinstance(path, str):
             data = _read(resolver, path, read_cap)
             if data is None:
