@@ -54,7 +54,9 @@ for (const [w, h] of [[1600, 1000], [1366, 768]]) {
     const { page, context, errors } = await open(w, h);
     await serveFixture(page);
     await openRecipe(page, srv.base, "mpp-cross");
-    assert.equal(await page.locator(badge).count(), 0, "no badge before the first run");
+    // the first opening: no run yet, no badge; later (#25 fault 8) the recipe shows its latest run's
+    if (w === 1600) assert.equal(await page.locator(badge).count(), 0, "no badge before the first run");
+    else await page.waitForSelector(badge);
     await expectRun(page, srv.base, "done");
 
     // the badge: amber, the count, words for screen readers, the figures in its tooltip
