@@ -63,3 +63,11 @@ describe("legend of robust colour ranges", () => {
     expect([b.bar?.lo, b.bar?.hi, b.note]).toEqual(["10", "20", undefined]);
   });
 });
+
+describe("clamping marks only what matters", () => {
+  it("a low end beyond by less than 1 % of the span is not marked (deviation 5e-12 vs 5.6e-10 of 0.098 mm)", () => {
+    const [b] = legendBlocks([{ node: "sim", kind: "simulation", mode: "deviation", ranges: { deviation: { lo: 5.64e-10, hi: 0.0981, unit: "mm", min: 5.11e-12, max: 0.2, clamped: true } } }], []);
+    expect(b.bar?.lo.startsWith("≤")).toBe(false);
+    expect(b.bar?.hi).toBe("≥ 0.0981");
+  });
+});

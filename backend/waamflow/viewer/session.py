@@ -700,7 +700,8 @@ def _range(r: tuple[float, float], unit: str, full: tuple[float, float] | None) 
     out: dict[str, Any] = {"lo": r[0], "hi": r[1], "unit": unit}
     if full is not None:
         out["min"], out["max"] = full
-        out["clamped"] = bool(full[0] < r[0] - 1e-12 or full[1] > r[1] + 1e-12)
+        tol = 0.01 * max(r[1] - r[0], 1e-12)   # beyond the ends by more than 1 % of the span
+        out["clamped"] = bool(full[0] < r[0] - tol or full[1] > r[1] + tol)
     return out
 
 

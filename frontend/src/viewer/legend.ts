@@ -37,8 +37,9 @@ export function legendBlocks(entries: readonly LegendEntry[], colormap: readonly
     const range = e.ranges[e.mode];
     if (range) {
       // robust limits: values beyond are drawn in the end colours; the ends say so (≤ / ≥)
-      const below = range.clamped && range.min !== undefined && range.min < range.lo;
-      const above = range.clamped && range.max !== undefined && range.max > range.hi;
+      const tol = 0.01 * Math.max(range.hi - range.lo, 1e-12); // beyond an end by more than 1 % of the span
+      const below = !!range.clamped && range.min !== undefined && range.min < range.lo - tol;
+      const above = !!range.clamped && range.max !== undefined && range.max > range.hi + tol;
       bar = { label: LABELS[e.mode] ?? e.mode, gradient: grad, lo: `${below ? "≤ " : ""}${fmt(range.lo)}`, hi: `${above ? "≥ " : ""}${fmt(range.hi)}`, unit: range.unit };
       if (below || above) note = `outliers clamped to the ends (2nd–98th percentile); data ${fmt(range.min ?? range.lo)}–${fmt(range.max ?? range.hi)} ${range.unit}`;
     }
