@@ -5,7 +5,9 @@
 `preflight.json` and `summary.json["preflight"]`: whole-run figures (`top_gap_mm`,
 `uncovered_share`, `wire_part_volume_ratio`, `min_arc_run_mm`, `start_spread_mm`,
 `weld_data_missing`), per program and per layer, a list of problems naming layer and section, and
-a verdict `ok | warn | fail`. A recipe without a program is checked on its last toolpath.
+a verdict `ok | warn | fail`. A recipe without a program is checked on its last toolpath. Nodes that
+only order the deposit (the sequence node) are checked to weld what they were given, read back from
+their input and output toolpath artifacts (`conserve`).
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import VERDICT_ORDER, check_program
+    from .conserve import check_conservation
     from .read import read_program, read_toolpath
 
     s = settings or PreflightSettings()
@@ -103,7 +106,8 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
             reports.append(rep)
     if not reports:
         return None                          # nothing leaves this run that could build a part
-    verdict = max((r["verdict"] for r in reports), key=VERDICT_ORDER.get)
+    conserved = check_conservation(graph, artifacts, s.deposit_changed)
+    verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.get)
     out: dict = {"verdict": verdict, "accepted": False}
     for key in SUMMARY_KEYS:
         vals = [r.get(key) for r in reports if r.get(key) is not None]
@@ -116,7 +120,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
         else:
             out[key] = max(vals)
     out["programs"] = reports
-    out["problems"] = [p for r in reports for p in r["problems"]]
+    out["problems"] = [p for r in reports for p in r["problems"]] + conserved
     out["layers"] = reports[0]["layers"] if len(reports) == 1 else []
     out["part"] = None
     out["settings"] = s.model_dump(mode="json")

@@ -3,8 +3,8 @@
 Defaults are what a WAAM engineer would sign off: the top within half a layer, at most 2 % of the
 part without a bead (fail above 5 %), wire ending in the part 0.9–1.2× the part's volume (fail
 outside 0.75–1.5×: machining stock is wanted, three times the metal is not), no arc-ON run shorter
-than two bead widths, no ignition within one bead width of one on the layer below, and weld data
-commanded for every arc-ON move.
+than two bead widths, no ignition within one bead width of one on the layer below, weld data
+commanded for every arc-ON move, and a sequence node that welds exactly what it was given.
 """
 
 from __future__ import annotations
@@ -37,6 +37,9 @@ class PreflightSettings(BaseModel):
                                                              "of an ignition on the layer below")
     weld_data: Literal["off", "warn", "fail"] = Field("fail", description="Arc-ON moves with no weld parameter "
                                                        "commanded (comments do not count)")
+    deposit_changed: Literal["off", "warn", "fail"] = Field("fail", description="A sequence node whose output "
+                                                             "welds another arc-ON length in a section than its "
+                                                             "input (short-run fixes aside)")
     wire_diameter_mm: float = Field(WIRE_DIAMETER_MM, gt=0.1, le=10)
     deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.1, le=1.0,
                                          description="Share of the wire fed that ends in the part")

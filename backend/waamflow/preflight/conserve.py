@@ -1,0 +1,89 @@
+"""Deposit conservation: a node that only orders the deposit welds what it was given.
+
+The sequence node chooses the order and direction of a layer's sections and where a closed loop
+starts; it never re-plans a bead. So, read back from the two `toolpath.json` artifacts as written,
+every (layer, section) welds as many millimetres arc-ON after the node as before it. The one
+licensed change is the minimum arc run: a short run bridged to its neighbour or dropped (the node
+warns each one) changes the section's number of arc-ON runs, and such sections are left out. A
+section whose run count holds but whose length moves is a planning defect — the fault class of a
+filleted L wall read as a two-pass serpentine and re-threaded without its corner (thin-wall-panel,
+fillet_radius 3: 1459.479 mm welded on odd layers against 1412.334 mm planned).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+
+import numpy as np
+
+from ..core.tolerances import TOL
+from .read import ProgramRead, read_toolpath
+
+#: node type → its input port whose deposit the node's `toolpath` output must keep
+KEEPS_DEPOSIT = {"sequence": "toolpath"}
+#: mm: the artifacts round coordinates to `serialize.DECIMALS` (1e-4 mm), the same on both sides
+#: except for the points a sequencer inserts (a loop's seam, zone cuts), which lie on a segment and
+#: move its length by ~1e-8 mm; a lost corner moves it by millimetres. One `TOL.min_segment`.
+LENGTH_TOL_MM = TOL.min_segment
+
+
+def arc_on_by_section(prog: ProgramRead) -> dict[tuple[int | None, str | None], tuple[float, int]]:
+    """(layer, section) → (arc-ON length mm, number of arc-ON runs)."""
+    out: dict = defaultdict(lambda: (0.0, 0))
+    for r in prog.runs:
+        length = float(np.linalg.norm(np.diff(r.points, axis=0), axis=1).sum())
+        total, runs = out[(r.layer, r.section)]
+        out[(r.layer, r.section)] = (total + length, runs + 1)
+    return dict(out)
+
+
+def deposit_changes(before: ProgramRead, after: ProgramRead, tol: float = LENGTH_TOL_MM) -> list[dict]:
+    """The (layer, section)s with as many arc-ON runs after as before but another arc-ON length:
+    dicts with layer, section, before_mm, after_mm; sorted by layer then section."""
+    a, b = arc_on_by_section(before), arc_on_by_section(after)
+    out = []
+    for key in sorted(set(a) | set(b), key=lambda k: (-1 if k[0] is None else k[0], k[1] or "")):
+        (la, na), (lb, nb) = a.get(key, (0.0, 0)), b.get(key, (0.0, 0))
+        if na == nb and abs(lb - la) > tol:
+            out.append({"layer": key[0], "section": key[1], "before_mm": la, "after_mm": lb})
+    return out
+
+
+def check_conservation(graph, artifacts: dict[str, bytes], severity: str = "fail") -> list[dict]:
+    """Preflight problems (check `deposit_changed`, one per node and layer, naming the first section)
+    for every node of a `KEEPS_DEPOSIT` type whose input and output toolpath artifacts are both
+    present. A node fed by one that writes no `toolpath.json` (bead-trials: `fill-parameters`) is
+    not checked: comparing with the planner's objects instead would not be reading what was written."""
+    if severity == "off":
+        return []
+    problems = []
+    for nid in graph.order:
+        node = graph.nodes[nid]
+        port = KEEPS_DEPOSIT.get(node.type)
+        if port is None or port not in node.inputs:
+            continue
+        src = node.inputs[port][0]
+        names = (f"{src}.toolpath.json", f"{nid}.toolpath.json")
+        if not all(n in artifacts for n in names):
+            continue
+        before, after = (read_toolpath(json.loads(artifacts[n])) for n in names)
+        by_layer: dict = defaultdict(list)
+        for c in deposit_changes(before, after):
+            by_layer[c["layer"]].append(c)
+        for layer, cs in by_layer.items():
+            first = cs[0]
+            la = sum(c["before_mm"] for c in cs)
+            lb = sum(c["after_mm"] for c in cs)
+            secs = ", ".join(str(c["section"]) for c in cs)
+            problems.append({
+                "check": "deposit_changed", "severity": severity, "node": nid, "layer": layer,
+                "section": first["section"],
+                "message": (f"{nid} welds {lb:.3f} mm arc-ON in section(s) {secs} of layer {layer} where {src} "
+                            f"planned {la:.3f} mm: a sequencer only orders, reverses and re-seams the deposit, "
+                            "so this is a planning defect (report it); the program does not build the planned part"),
+                "value": round(lb - la, 4), "limit": LENGTH_TOL_MM, "point": None})
+    return problems
+
+
+__all__ = ["KEEPS_DEPOSIT", "arc_on_by_section", "check_conservation", "deposit_changes"]

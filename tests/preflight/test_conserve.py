@@ -1,0 +1,73 @@
+"""Preflight `deposit_changed`: a sequence node welds, section by section, what it was given."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import apply_overrides, load_recipe, parse_set
+from waamflow.preflight.conserve import deposit_changes
+from waamflow.preflight.read import read_toolpath
+from waamflow.sequencing import seams
+from waamflow.sequencing.arc_runs import arc_runs
+from waamflow.zoning.zones import path_axis
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def doc(*sections, index=0):
+    """A toolpath.json with one layer; sections: (key, points [(x, y)], arc flags)."""
+    return {"layers": [{"index": index, "sections": [
+        {"key": k, "points": [[x, y, 2.0] for x, y in pts], "arc": list(arc), "speed": [5.0] * len(arc),
+         "zone": [""] * len(arc)} for k, pts, arc in sections]}]}
+
+
+def test_reordered_reversed_and_short_run_fixes_pass_a_changed_length_does_not():
+    wall = ("W", [(0, 0), (40, 0), (40, 30)], [True, True])                       # 70 mm
+    runs = ("R", [(0, 10), (20, 10), (21, 10), (30, 10)], [True, False, True])     # 20 + 9 mm, two runs
+    before = read_toolpath(doc(wall, runs))
+    same = read_toolpath(doc(("R", [(30, 10), (21, 10), (20, 10), (0, 10)], [True, False, True]),
+                             ("W", [(40, 30), (40, 0), (0, 0)], [True, True])))
+    assert deposit_changes(before, same) == []
+    bridged = read_toolpath(doc(wall, ("R", [(0, 10), (20, 10), (21, 10), (30, 10)], [True, True, True])))
+    assert deposit_changes(before, bridged) == []                 # 30 mm in one run: the node's own fix
+    cut = read_toolpath(doc(("W", [(0, 0), (40, 30)], [True]), runs))                # the corner cut: 50 mm
+    assert deposit_changes(before, cut) == [{"layer": 0, "section": "W", "before_mm": 70.0, "after_mm": 50.0}]
+
+
+def passes_before_the_fix(sp):
+    """seams._passes as it was: runs along the axis, any link, passes merely opposite."""
+    pts = np.asarray(sp.points, dtype=float)
+    d = np.diff(pts, axis=0)
+    along = np.abs(d @ path_axis(pts)) >= seams.PASS_COS * np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+    runs = arc_runs(along)
+    if len(runs) < 2 or runs[0][0] != 0 or runs[-1][1] != len(along):
+        return None
+    for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):
+        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:
+            return None
+    return runs
+
+
+def run_panel():
+    r = apply_overrides(load_recipe(GRAPHS / "thin-wall-panel.json"), parse_set(["fillet_radius=3"]))
+    return execute(build_graph(r), resolver=FileResolver(GRAPHS), workers=1)
+
+
+def test_filleted_panel_preflight_is_ok_and_catches_the_lost_corner(monkeypatch):
+    res = run_panel()
+    assert res.preflight["verdict"] == "ok"
+    assert not [p for p in res.preflight["problems"] if p["check"] == "deposit_changed"]
+    monkeypatch.setattr(seams, "_passes", passes_before_the_fix)
+    res = run_panel()
+    found = [p for p in res.preflight["problems"] if p["check"] == "deposit_changed"]
+    assert res.preflight["verdict"] == "fail"
+    assert [p["layer"] for p in found] == [1, 3, 5, 7, 9, 11, 13]
+    # wall2 and wall6 (the two filleted L walls): 138.558 mm each instead of 114.986 on every odd layer
+    # (1459.479 vs 1412.334 mm in the layer); read from the artifacts, coordinates to 1e-4 mm
+    assert all(p["value"] == pytest.approx(47.1443, abs=1e-4) and p["node"] == "sequence" for p in found)
+    assert "wall2, wall6" in found[0]["message"] or "wall6, wall2" in found[0]["message"]
