@@ -4,7 +4,7 @@
 // Run: `node e2e/run.mjs e2e/trust.e2e.mjs` (after `npm run build`, or SKIP_BUILD=1 to skip it).
 import assert from "node:assert/strict";
 import { after, before, test } from "node:test";
-import { api, boxesStl, expectRun, openPage, openRecipe, shot, startBrowser, startServer } from "./harness.mjs";
+import { api, boxesStl, expectRun, openPage, openRecipe, saveAs, shot, startBrowser, startServer } from "./harness.mjs";
 
 let srv, browser;
 before(async () => {
@@ -288,6 +288,14 @@ test("fault 5: a same-name upload asks (cancel / replace / keep both); the recip
   await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part-2.stl");
   const files = (await api(srv.base, "/api/graphs/trust-upload/files")).map((f) => [f.name, f.size]);
   assert.deepEqual(files, [["part-2.stl", tall2.length], ["part.stl", low.length]]);
+  await expectRun(page, srv.base, "done");
+  assert.equal(await layers(), 2);
+  // "save as" takes the pinned uploads along (the exact content), so the copy runs the same
+  await saveAs(page, "trust-upload-copy");
+  const copied = (await api(srv.base, "/api/graphs/trust-upload-copy/files")).map((f) => [f.name, f.sha256]);
+  const pins = (await api(srv.base, "/api/graphs/trust-upload-copy")).files;
+  assert.deepEqual(Object.fromEntries(copied), pins);
+  assert.equal(pins["part.stl"], v2.sha256);
   await expectRun(page, srv.base, "done");
   assert.equal(await layers(), 2);
   assert.deepEqual(errors, []);

@@ -318,6 +318,9 @@ export function App() {
         // in between loses nothing (the draft is offered back on the next open).
         const res = await API.putGraph(name, toSave);
         if (xml !== null && (xmlDirty || name !== graphName)) await API.putParams(name, xml);
+        // "save as": the pinned uploads go along, the exact content each pin names
+        if (graphName && name !== graphName)
+          for (const [fname, sha] of Object.entries(toSave.files ?? {})) await API.putFile(name, fname, await API.getFile(graphName, fname, sha));
         for (const f of pendingFiles.current.splice(0)) {
           await API.putFile(name, f.name, f);
           message(`uploaded ${f.name}`);

@@ -96,3 +96,20 @@ def test_uploads_are_versioned_content_and_a_pinned_recipe_runs_with_its_content
     assert bad.status_code == 422 and "part.stl" in bad.json()["detail"]["message"]
     assert client.put("/api/graphs/up", json=_mesh_recipe({"part.stl": "not-a-hash"})).status_code == 422
     assert client.get("/api/graphs/up/files/none.stl/versions").status_code == 404
+
+
+def test_a_file_by_name_or_by_content(client):
+    a, b = b"solid a\nendsolid a\n", b"solid b\nendsolid b\n"
+    client.put("/api/graphs/g", json=_mesh_recipe())
+    client.put("/api/graphs/g/files/part.stl", content=a)
+    client.put("/api/graphs/g/files/part.stl", content=b)
+    now = client.get("/api/graphs/g/files/part.stl")
+    assert now.status_code == 200 and now.content == b and now.headers["etag"] == f'"{hashlib.sha256(b).hexdigest()}"'
+    assert client.get(f"/api/graphs/g/files/part.stl?sha256={hashlib.sha256(a).hexdigest()}").content == a
+    # content another graph holds is out of reach by hash
+    client.put("/api/graphs/h", json=_mesh_recipe())
+    client.put("/api/graphs/h/files/secret.stl", content=b"solid s\nendsolid s\n")
+    other = hashlib.sha256(b"solid s\nendsolid s\n").hexdigest()
+    assert client.get(f"/api/graphs/g/files/part.stl?sha256={other}").status_code == 404
+    assert client.get("/api/graphs/g/files/none.stl").status_code == 404
+    assert client.get("/api/graphs/g/files/part.stl?sha256=xyz").status_code == 422

@@ -129,6 +129,14 @@ export async function putParams(name: string, xml: string): Promise<void> {
   remember("params", name, res);
 }
 
+/** A graph's file: the content `sha256` it held (a recipe's pin), else what the name holds now. */
+export async function getFile(name: string, filename: string, sha256?: string): Promise<Blob> {
+  const q = sha256 ? `?sha256=${sha256}` : "";
+  const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/files/${encodeURIComponent(filename)}${q}`);
+  if (!res.ok) throw new ApiError(res.status, toDetail(res.status, await res.json().catch(() => undefined)));
+  return res.blob();
+}
+
 /** Upload a graph's file; resolves to the sha256 (hex) the server stored it under (its ETag). */
 export async function putFile(name: string, filename: string, body: Blob): Promise<string | null> {
   const res = await fetch(`/api/graphs/${encodeURIComponent(name)}/files/${encodeURIComponent(filename)}`, {

@@ -222,8 +222,8 @@ export interface paths {
         /**
          * Restore Revision
          * @description Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
-         *     content) or as the graph again after a delete. It becomes a new revision (history only grows);
-         *     the graph's owner is who saved `rev`. `If-Match` as for PUT.
+         *     content) or as the graph again after a delete. It becomes a new revision (history only grows,
+         *     nothing is lost, so no If-Match is needed); the graph's owner is who saved `rev`.
          */
         post: operations["restore_revision_api_graphs__name__revisions__rev__restore_post"];
         delete?: never;
@@ -249,6 +249,33 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/graphs/{name}/files/{filename}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get File
+         * @description A file of the graph: what `filename` holds now, or the content `sha256` it held (the exact
+         *     bytes a recipe pinned; e.g. to take them along when saving the recipe under another name).
+         */
+        get: operations["get_file_api_graphs__name__files__filename__get"];
+        /**
+         * Put File
+         * @description Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`.
+         *     The content is stored under its sha256 (the `ETag`) and the name points at it; what the name
+         *     pointed at before stays stored (GET .../versions), so a recipe pinned to it is unchanged.
+         */
+        put: operations["put_file_api_graphs__name__files__filename__put"];
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/graphs/{name}/files/{filename}/versions": {
         parameters: {
             query?: never;
@@ -263,28 +290,6 @@ export interface paths {
          */
         get: operations["list_file_versions_api_graphs__name__files__filename__versions_get"];
         put?: never;
-        post?: never;
-        delete?: never;
-        options?: never;
-        head?: never;
-        patch?: never;
-        trace?: never;
-    };
-    "/api/graphs/{name}/files/{filename}": {
-        parameters: {
-            query?: never;
-            header?: never;
-            path?: never;
-            cookie?: never;
-        };
-        get?: never;
-        /**
-         * Put File
-         * @description Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`.
-         *     The content is stored under its sha256 (the `ETag`) and the name points at it; what the name
-         *     pointed at before stays stored (GET .../versions), so a recipe pinned to it is unchanged.
-         */
-        put: operations["put_file_api_graphs__name__files__filename__put"];
         post?: never;
         delete?: never;
         options?: never;
@@ -327,7 +332,10 @@ export interface paths {
         post?: never;
         /**
          * Cancel Run
-         * @description Cancel a queued or running run (finished runs are left as they are).
+         * @description Cancel (CONTRACT.md): a queued or running run stops and becomes `cancelled`; a finished one
+         *     (done, failed, cancelled, interrupted) is left as it is. It never removes anything: the run's
+         *     status, log and artifacts stay readable (GET answers 200 afterwards), the answer is the run's
+         *     status after the request (202).
          */
         delete: operations["cancel_run_api_runs__run_id__delete"];
         options?: never;
@@ -410,7 +418,11 @@ export interface paths {
         post?: never;
         delete?: never;
         options?: never;
-        head?: never;
+        /**
+         * Head Artifact
+         * @description GET's headers without the body (a download's size and type).
+         */
+        head: operations["head_artifact_api_runs__run_id__artifacts__name__head"];
         patch?: never;
         trace?: never;
     };
@@ -423,7 +435,12 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Preview */
+        /**
+         * Preview
+         * @description One layer of one node. Under the run queue's limits: counted in the queue (429 when full),
+         *     refused by its estimate before it starts (422), stopped on preview_timeout_s or when the client
+         *     leaves.
+         */
         post: operations["preview_api_preview_post"];
         delete?: never;
         options?: never;
@@ -1150,6 +1167,13 @@ export interface components {
              */
             weld_data: "off" | "warn" | "fail";
             /**
+             * Deposit Changed
+             * @description A sequence node whose output welds another arc-ON length in a section than its input (short-run fixes aside)
+             * @default fail
+             * @enum {string}
+             */
+            deposit_changed: "off" | "warn" | "fail";
+            /**
              * Wire Diameter Mm
              * @default 1.2
              */
@@ -1213,7 +1237,7 @@ export interface components {
             coverage: boolean;
             /**
              * Bead Width
-             * @description bead width for coverage, mm (default: the recipe's coverage node, else the strategy's default bead_width, else 6)
+             * @description bead width for coverage, mm (default: what the recipe's coverage node uses: its per-section widths and connected bead model, with $input values; else the strategy's width of the section; else 6)
              */
             bead_width?: number | null;
         } & (unknown | {
@@ -1848,7 +1872,7 @@ export interface operations {
             query?: never;
             header?: {
                 /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
-                "If-Match"?: string | null;
+                "If-Match"?: string;
             };
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
@@ -2063,7 +2087,7 @@ export interface operations {
             query?: never;
             header?: {
                 /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
-                "If-Match"?: string | null;
+                "If-Match"?: string;
             };
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
@@ -2257,10 +2281,7 @@ export interface operations {
     restore_revision_api_graphs__name__revisions__rev__restore_post: {
         parameters: {
             query?: never;
-            header?: {
-                /** @description the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is still the stored revision, else 409 with both versions. `*`: any stored revision. Without it the PUT saves unconditionally. */
-                "If-Match"?: string | null;
-            };
+            header?: never;
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
@@ -2389,9 +2410,12 @@ export interface operations {
             };
         };
     };
-    list_file_versions_api_graphs__name__files__filename__versions_get: {
+    get_file_api_graphs__name__files__filename__get: {
         parameters: {
-            query?: never;
+            query?: {
+                /** @description one content the name held (GET .../versions); default: what it holds now */
+                sha256?: string | null;
+            };
             header?: never;
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
@@ -2406,10 +2430,12 @@ export interface operations {
             /** @description Successful Response */
             200: {
                 headers: {
+                    /** @description the stored content's sha256 (hex), quoted: `"<sha256>"` */
+                    ETag?: string;
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["FileVersion"][];
+                    "application/octet-stream": string;
                 };
             };
             /** @description Missing or wrong bearer token */
@@ -2518,6 +2544,58 @@ export interface operations {
             };
             /** @description Too large */
             413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    list_file_versions_api_graphs__name__files__filename__versions_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
+                name: string;
+                /** @description file name: letters, digits, _ . - (no '..'); ≤ 120 chars */
+                filename: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FileVersion"][];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -2963,6 +3041,56 @@ export interface operations {
             };
         };
     };
+    head_artifact_api_runs__run_id__artifacts__name__head: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description run id (letters and digits) */
+                run_id: string;
+                /** @description artifact file name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description The artifact's headers (Content-Length, Content-Type), no body */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
     preview_api_preview_post: {
         parameters: {
             query?: never;
@@ -3014,6 +3142,15 @@ export interface operations {
             };
             /** @description Invalid request, recipe or file */
             422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Run queue full (see Retry-After) */
+            429: {
                 headers: {
                     [name: string]: unknown;
                 };

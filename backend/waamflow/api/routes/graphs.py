@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from fastapi import APIRouter, Body, Depends, Header, HTTPException, Request, Response
+from fastapi import APIRouter, Body, Depends, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
@@ -300,6 +300,25 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
     if svc.store.get_graph(name) is None:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
     return [FileInfo(**f) for f in svc.store.list_files(name)]
+
+
+@router.get("/{name}/files/{filename}", response_class=Response,
+            responses={200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
+                             "headers": FILE_ETAG}, **errors(401, 404, 422)})
+def get_file(name: GraphName, filename: FileName, svc: ServicesDep,
+             sha256: str | None = Query(None, pattern=r"^[0-9a-f]{64}$",
+                                        description="one content the name held (GET .../versions); default: what it holds now")) -> Response:
+    """A file of the graph: what `filename` holds now, or the content `sha256` it held (the exact
+    bytes a recipe pinned; e.g. to take them along when saving the recipe under another name)."""
+    if svc.store.get_graph(name) is None:
+        raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
+    versions = svc.store.list_file_versions(name, filename)
+    want = sha256 or (versions[0]["sha256"] if versions else None)
+    data = svc.store.get_file_content(name, want) if want and any(v["sha256"] == want for v in versions) else None
+    if data is None:
+        what = f"content sha256 {sha256[:12]}… of {filename!r}" if sha256 else f"file {filename!r}"
+        raise HTTPException(404, detail={"message": f"graph {name!r} has no {what}"})
+    return Response(data, media_type="application/octet-stream", headers={"ETag": f'"{want}"'})
 
 
 @router.get("/{name}/files/{filename}/versions", response_model=list[FileVersion], responses=errors(401, 404, 422))
