@@ -273,3 +273,20 @@ def test_cancel_ends_a_blocked_run_within_2_s(tmp_path):
             assert c.get(f"/api/runs/{rid}").json()["status"] == "cancelled"
     finally:
         RELEASE.set()
+
+
+def test_concurrent_previews_wait_their_turn(tmp_path):
+    """One computing at a time (workers=1): four sent at once all answer, one after the other."""
+    with _client(tmp_path) as c:
+        out = []
+
+        def one(k):   # four different recipes: none answered from the cache
+            out.append(c.post("/api/preview", json={"recipe": spin(0.3 + k / 1000), "node": "spin", "layer": 0}).status_code)
+        t0 = time.monotonic()
+        ts = [threading.Thread(target=one, args=(k,)) for k in range(4)]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join()
+        assert out == [200] * 4
+        assert time.monotonic() - t0 >= 4 * 0.3 * 0.9     # not at the same time

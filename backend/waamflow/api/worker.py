@@ -95,6 +95,7 @@ def rss_bytes() -> int:
             return 0
 
 
+PREVIEW_WAIT_S = 10.0  # a preview waits this long for its turn before 429
 CANCEL_GRACE_S = 1.5   # a cancelled run whose thread has not ended by then (a blocking read) is ended for it
 
 
@@ -154,7 +155,8 @@ class RunManager:
         self.slots = threading.BoundedSemaphore(workers)
         self.threads: dict[str, threading.Thread] = {}
         self.closing = False
-        self.previews = 0
+        self.previews = 0          # previews waiting or computing (counted in the queue limit)
+        self.computing = 0         # previews computing: at most `workers`, the others wait their turn
         self.plock = threading.Lock()
         self.live: dict[str, LiveRun] = {}
         self.resolver_for = resolver_for
@@ -205,9 +207,6 @@ class RunManager:
             if self.limits.queue and self.active() >= self.limits.queue:
                 raise QueueFullError(f"{self.active()} runs and previews are queued or running (limit "
                                      f"{self.limits.queue}): try again later", retry_after=2)
-            if self.previews >= self.workers:
-                raise QueueFullError(f"{self.previews} previews are computing (limit {self.workers}, the server's "
-                                     "workers): try again in a moment", retry_after=1)
             self.previews += 1
         return PreviewJob(self, work)
 
@@ -378,10 +377,25 @@ class PreviewJob:
         import asyncio
 
         lim = self.manager.limits
-        loop = asyncio.get_running_loop()
-        fut = loop.run_in_executor(None, self.work, self.cancel)
+        m = self.manager
         t0 = time.monotonic()
+        computing = False
         try:
+            while True:   # a turn among the `workers` previews computing at once
+                with m.plock:
+                    if m.computing < m.workers:
+                        m.computing += 1
+                        computing = True
+                        break
+                if await disconnected():
+                    raise PreviewStopped("preview stopped: the client left before its turn")
+                if time.monotonic() - t0 > PREVIEW_WAIT_S:
+                    raise QueueFullError(f"{m.workers} previews are computing and others wait: try again in a moment",
+                                         retry_after=1)
+                await asyncio.sleep(0.02)
+            loop = asyncio.get_running_loop()
+            fut = loop.run_in_executor(None, self.work, self.cancel)
+            t0 = time.monotonic()   # the time limit counts from the preview's turn
             while True:
                 done, _ = await asyncio.wait({fut}, timeout=0.1)
                 if done:
@@ -395,12 +409,14 @@ class PreviewJob:
                 elif lim.memory_bytes and rss_bytes() > lim.memory_bytes:
                     self.limit = f"server memory over {lim.memory_bytes / 2**20:.0f} MB (limit max_memory_mb)"
                     self.cancel.set()
-                if self.cancel.is_set() and time.monotonic() - t0 > 0 and not done:
+                if self.cancel.is_set():
                     # give the computation its grace to see cancel, then answer without it
                     done, _ = await asyncio.wait({fut}, timeout=CANCEL_GRACE_S)
                     if done:
                         return self._result(fut)
                     raise PreviewStopped(f"preview stopped: {self.limit}")
         finally:
-            with self.manager.plock:
-                self.manager.previews -= 1
+            with m.plock:
+                m.previews -= 1
+                if computing:
+                    m.computing -= 1
