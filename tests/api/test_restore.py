@@ -172,3 +172,47 @@ def test_restore_around_a_real_server_killed_with_9(tmp_path, capsys):
     kept = list(data.glob(f"{DB}.before-restore-*"))
     assert len(kept) == 1 and _graphs(kept[0]) == [f"served{i}" for i in range(N)]
     assert _graphs(data / DB) == ["from-backup"]
+
+
+def test_restore_checks_both_copies_hold_the_tables(tmp_path, capsys):
+    """A database without waamflow's tables is not set aside as if it were one, and a backup whose
+    database lost a table is not put in place."""
+    bk = _backup(tmp_path)
+    data = tmp_path / "data"
+    data.mkdir()
+    con = sqlite3.connect(data / DB)
+    con.execute("CREATE TABLE other (x)")
+    con.commit()
+    con.close()
+    assert cli(["restore", str(bk), "--data", str(data)]) == 2
+    err = capsys.readouterr().err
+    assert "graphs" in err and "--force" in err, err
+    assert _graphs_or_none(data / DB) is None  # left as it was
+    # a backup without the graphs table (manifest rewritten to match): refused, nothing replaced
+    bad = tmp_path / "bad"
+    import shutil
+    shutil.copytree(bk, bad)
+    con = sqlite3.connect(bad / DB)
+    con.execute("DROP TABLE graphs")
+    con.commit()
+    con.close()
+    import hashlib
+    import json
+    m = json.loads((bad / "manifest.json").read_text())
+    m["database_sha256"] = hashlib.sha256((bad / DB).read_bytes()).hexdigest()
+    m["counts"]["graphs"] = 0
+    (bad / "manifest.json").write_text(json.dumps(m))
+    fresh = tmp_path / "fresh"
+    assert cli(["restore", str(bad), "--data", str(fresh)]) == 2
+    assert "graphs" in capsys.readouterr().err
+    assert not (fresh / DB).exists()
+    src = tmp_path / "src"   # a folder with a database: it stays in place, nothing set aside
+    assert cli(["restore", str(bad), "--data", str(src)]) == 2
+    assert _graphs(src / DB) == ["from-backup"] and not list(src.glob(f"{DB}.before-restore-*"))
+
+
+def _graphs_or_none(db: Path):
+    try:
+        return _graphs(db)
+    except sqlite3.OperationalError:
+        return None

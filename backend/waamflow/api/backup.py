@@ -58,9 +58,15 @@ def data_lock(data_dir: str | Path, *, exclusive: bool):
         os.close(fd)
 
 
-def _counts(db: Path) -> dict[str, int]:
+def _counts(db: Path, *, tables: bool = False) -> dict[str, int]:
+    """Rows per table, after `PRAGMA integrity_check`; `tables`: every table of TABLES must exist."""
     con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
     try:
+        if tables:
+            have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            missing = [t for t in TABLES if t not in have]
+            if missing:
+                raise BackupError(f"{db} lacks the table(s) {', '.join(missing)}: not a complete waamflow database")
         out = {}
         for table in TABLES:
             try:
@@ -129,7 +135,7 @@ def restore(src: str | Path, data_dir: str | Path, *, force: bool = False) -> di
         p = src / rel
         if ".." in Path(rel).parts or not p.is_file() or _sha256(p) != digest:
             raise BackupError(f"backup file {rel} is missing or damaged")
-    _counts(src / DB)  # integrity check
+    _counts(src / DB, tables=True)  # integrity check and every table, before anything is touched
     data.mkdir(parents=True, exist_ok=True)
     try:
         with data_lock(data, exclusive=True):
@@ -160,6 +166,9 @@ def _checkpoint(db: Path) -> dict[str, int]:
                 raise BackupError(f"{db}: its WAL could not be checkpointed (in use)")
             ok = con.execute("PRAGMA integrity_check").fetchone()[0]
             have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            if have and "graphs" not in have:
+                raise BackupError(f"{db} has no graphs table: not a waamflow database; move it away yourself, "
+                                  "or restore with --force to delete it")
             counts = {t: con.execute(f"SELECT count(*) FROM {t}").fetchone()[0] for t in TABLES if t in have}
             con.execute("PRAGMA journal_mode=DELETE")  # the kept copy is one self-contained file
         finally:
@@ -194,7 +203,11 @@ def _replace_database(src: Path, data: Path, manifest: dict, force: bool) -> dic
         shm.unlink(missing_ok=True)
     tmp = data / f".{DB}.restore"
     shutil.copy2(src / DB, tmp)
-    got = _counts(tmp)
+    try:
+        got = _counts(tmp, tables=True)
+    except BackupError:
+        tmp.unlink(missing_ok=True)
+        raise
     if got != manifest["counts"]:
         tmp.unlink(missing_ok=True)
         raise BackupError(f"the restored copy holds {got}, the manifest says {manifest['counts']}")
