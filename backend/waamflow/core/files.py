@@ -16,6 +16,9 @@ import os
 import re
 import stat
 from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import AfterValidator, Field
 
 from .errors import InputFileError
 
@@ -23,6 +26,24 @@ from .errors import InputFileError
 # params that take one; no look-ahead, so JSON Schema and pydantic's engine read it alike)
 SHIPPED_NAME_PATTERN = r"^(?:[A-Za-z0-9][A-Za-z0-9_-]*(?:\.[A-Za-z0-9_-]+)*)?$"
 SHIPPED_NAME = re.compile(SHIPPED_NAME_PATTERN)
+
+
+def _shipped_name(v: str) -> str:
+    if v and not SHIPPED_NAME.match(v):
+        raise ValueError("a shipped name (letters, digits, _ - . without '/' or '..'): a path is never read here")
+    return v
+
+
+def shipped(folder: str, **field: Any) -> Any:
+    """A params field that names shipped data in `data/<folder>`: the pattern in its JSON Schema
+    (and `x-shipped`, so the catalog lists it with the file parameters), checked with a message
+    that says what a name is (pydantic's own 'should match pattern' would quote the regex)."""
+    extra = {"x-shipped": folder, "pattern": SHIPPED_NAME_PATTERN, **field.pop("json_schema_extra", {})}
+    return Field(json_schema_extra=extra, **field)
+
+
+# the type of such a field: `robot_profile: ShippedName = shipped("robots", default=...)`
+ShippedName = Annotated[str, AfterValidator(_shipped_name)]
 
 
 def _kind(mode: int) -> str:

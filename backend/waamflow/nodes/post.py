@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ..core.errors import RecipeError
-from ..core.files import SHIPPED_NAME_PATTERN
+from ..core.files import ShippedName, shipped
 from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -66,7 +66,7 @@ class PostProcess(Node):
     uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
-        profile: str = Field("", max_length=64, pattern=SHIPPED_NAME_PATTERN, json_schema_extra={"x-shipped": "machines"},
+        profile: ShippedName = shipped("machines", default="", max_length=64,
                              description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
                                          "abb_irc5): presets for every param this recipe does not set; empty = none", title="Machine profile")
         format: Literal["gcode", "krl", "rapid", "inform", "csv", "printpoints"] = Field(
@@ -186,7 +186,7 @@ class PostProcess(Node):
         module_dir: str = Field("HOME:", pattern=r'^[^"\\]+$', max_length=80,
                                 description="RAPID: controller folder the main module loads its part modules from", title="Module folder (RAPID)")
         # robots
-        cell: str = Field("", max_length=64, pattern=SHIPPED_NAME_PATTERN, json_schema_extra={"x-shipped": "cells"},
+        cell: ShippedName = shipped("cells", default="", max_length=64,
                           description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
                                       "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, G-code rotary axes "
                                       "(`rotary_axes`); empty = no external axes", title="Robot cell")

@@ -9,7 +9,7 @@ from typing import Literal
 from pydantic import Field, field_validator
 
 from ..core.errors import PlanningError, RecipeError
-from ..core.files import SHIPPED_NAME, SHIPPED_NAME_PATTERN
+from ..core.files import SHIPPED_NAME, ShippedName, shipped
 from ..core.moves import flatten
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -28,8 +28,7 @@ Vec3 = tuple[float, float, float]
 class RobotParams(NodeParams):
     """Parameters shared by the robot nodes: which robot and how it is set up in the cell."""
 
-    robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
-                               json_schema_extra={"x-shipped": "robots"},
+    robot_profile: ShippedName = shipped("robots", default="kuka_kr100ha_krc2", min_length=1, max_length=64,
                                description="Shipped robot profile (controller constants, data/robots/<name>.json)", title="Robot profile")
     profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
     cdis: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
@@ -137,8 +136,7 @@ class SimulateRobot(Node):
                                                      "fixtures, layers built so far) every this much programmed path "
                                                      "and at every layer change", title="Collision check spacing")
         collisions: bool = Field(True, description="With a cell: check collisions along the path", title="Check collisions")
-        robot_description: str = Field("", max_length=128, pattern=SHIPPED_NAME_PATTERN,
-                                       json_schema_extra={"x-shipped": "robot-descriptions"},
+        robot_description: ShippedName = shipped("robot-descriptions", default="", max_length=128,
                                        description="Arm URDF in data/robots (empty = the profile's description)", title="Robot description (URDF)")
         ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
                                   description="IK sample spacing along the path (vertices always included)", title="IK sample spacing")
@@ -299,8 +297,7 @@ class EstimateTime(Node):
     version = "10"  # 10: strategy-specific time-model entries; the study's as a noted fallback
 
     class Params(NodeParams):
-        robot_profile: str = Field("kuka_kr100ha_krc2", min_length=1, max_length=64, pattern=SHIPPED_NAME_PATTERN,
-                               json_schema_extra={"x-shipped": "robots"},
+        robot_profile: ShippedName = shipped("robots", default="kuka_kr100ha_krc2", min_length=1, max_length=64,
                                    description="Robot profile whose `time_model` holds the identified parameters", title="Robot profile")
         profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
         travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
