@@ -44,6 +44,8 @@ class Settings(BaseSettings):
     scheduler: str | None = Field(None, description="Dask scheduler (tcp://HOST:PORT) the layers of runs go to "
                                                     "instead of local processes (WAAMFLOW_SCHEDULER)")
     max_upload_mb: int = 200
+    disk_reserve_mb: float = Field(16.0, ge=0, description="space kept in a file in the data folder and given back when "
+                                                          "the disk is full, so that deletes still go through, MB")
     max_body_mb: float = Field(32.0, gt=0, description="any request body but a file upload (recipes, parameter XML, "
                                                        "previews), MB; a larger Content-Length gets 413 unread")
     body_timeout_s: float = Field(30.0, ge=0, description="a request body that sends nothing for this long gets 408, s")

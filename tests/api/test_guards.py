@@ -186,7 +186,7 @@ def test_weak_or_exposed_token_files_are_refused(tmp_path):
 # ---- fault 8: disk full -------------------------------------------------------------------------
 def test_disk_full_is_507_and_deletes_still_work(tmp_path, monkeypatch):
     with TestClient(create_app(_settings(tmp_path))) as c:
-        assert (tmp_path / "data" / ".disk-reserve").stat().st_blocks * 512 >= 16 * 2**20
+        assert (tmp_path / "data" / ".disk-reserve").stat().st_blocks * 512 >= 2**20   # allocated, not sparse
         assert c.put("/api/graphs/g", json=toy.chain()).status_code == 201
         store = c.app.state.services.store
 

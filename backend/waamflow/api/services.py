@@ -236,10 +236,9 @@ class Services:
 
 
 RESERVE_NAME = ".disk-reserve"
-RESERVE_BYTES = 16 * 2**20   # room for the journal of deletes once the disk is full (SQLite WAL pages)
 
 
-def make_reserve(data: Path, nbytes: int = RESERVE_BYTES) -> bool:
+def make_reserve(data: Path, nbytes: int) -> bool:
     """A file of `nbytes` really allocated on the data folder's disk, given back when the disk is full."""
     p = data / RESERVE_NAME
     try:
@@ -259,8 +258,8 @@ def make_reserve(data: Path, nbytes: int = RESERVE_BYTES) -> bool:
 def build_services(settings: Settings) -> Services:
     data = Path(settings.data_dir)
     data.mkdir(parents=True, exist_ok=True)
-    if not make_reserve(data):
-        log.warning("no room for the %d MB disk reserve in %s: free some space", RESERVE_BYTES // 2**20, data)
+    if settings.disk_reserve_mb and not make_reserve(data, int(settings.disk_reserve_mb * 2**20)):
+        log.warning("no room for the %g MB disk reserve in %s: free some space", settings.disk_reserve_mb, data)
     store = Store(data / "waamflow.sqlite")
     disk = SqliteCache(data / "cache.sqlite", max_bytes=int(settings.disk_cache_gb * 1024**3))
     cache = TieredCache(MemoryCache(settings.memory_cache_entries), disk)
