@@ -64,6 +64,8 @@ def test_operator_runs_but_does_not_save(c):
     r = c.post("/api/runs", json={"graph": "a1"}, headers=h("ola"))
     assert r.status_code == 202
     assert c.delete(f"/api/runs/{r.json()['id']}", headers=h("ola")).status_code == 202
+    for who, status in (("ola", 422), ("vic", 403)):   # the machine side of a build: operators, not viewers
+        assert c.post("/api/builds", json={}, headers=h(who)).status_code == status
     assert c.put("/api/graphs/o1", json=toy.chain(), headers=h("ola")).status_code == 403
     assert c.delete("/api/graphs/a1", headers=h("ola")).status_code == 403
     assert c.get("/api/graphs/a1", headers=h("alice")).json()["nodes"] == toy.chain()["nodes"]

@@ -35,9 +35,11 @@ MIN_DISTINCT_CHARS = 8
 OPEN_PATHS = ("/api/health",)
 ROLES = ("viewer", "operator", "editor", "admin")   # each may do what those before it may
 DEFAULT_ROLE = "admin"   # a token with no role (token files written before roles) keeps every right
-# what an operator may change besides reading: run, preview, cancel; a viewer only moves the 3D view
+# what an operator may change besides reading: run, preview, cancel, and the machine side of an
+# as-built build (start one, upload a layer's scan); a viewer only moves the 3D view
 OPERATOR_WRITES = (("POST", re.compile(r"^/api/runs/?$")), ("DELETE", re.compile(r"^/api/runs/[^/]+/?$")),
-                   ("POST", re.compile(r"^/api/preview/?$")))
+                   ("POST", re.compile(r"^/api/preview/?$")), ("POST", re.compile(r"^/api/builds/?$")),
+                   ("POST", re.compile(r"^/api/builds/[^/]+/scans/?$")))
 VIEWER_WRITES = (("POST", re.compile(r"^/api/viewer/(select|view)/?$")),)
 SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 
