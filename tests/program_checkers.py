@@ -187,4 +187,13 @@ def check_inform(files: dict[str, str], post: dict) -> dict:
     return check_program(files)
 
 
-PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid, "inform": check_inform}
+def check_tp(files: dict[str, str], post: dict) -> dict:
+    """Fanuc TP (files: key → text, the .LS programs and the schedule table):
+    `tests/program/tp_check.py`."""
+    from tp_check import check_program
+
+    return check_program(files)
+
+
+PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid, "inform": check_inform,
+                    "tp": check_tp}

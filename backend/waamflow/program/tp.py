@@ -1,0 +1,305 @@
+"""Fanuc TP writer (ASCII `.LS` programs for an R-30iB ArcTool controller).
+
+Program shape (one program per layer, called by the main program, so no program outgrows the
+controller's memory; `max_points_per_program` cuts a layer further)::
+
+    /PROG  WAAMFLOW_L003
+    /ATTR
+    OWNER       = MNEDITOR;
+    COMMENT     = "waamflow L3";
+    ...                                   ; fixed CREATE/MODIFIED date: the same plan, the same bytes
+    LINE_COUNT  = 57;                     ; = the numbered /MN lines
+    DEFAULT_GROUP   = 1,*,*,*,*;
+    CONTROL_CODE    = 00000000 00000000;
+    /APPL
+      ARC Welding Equipment : 1,*,*,*,*;
+    /MN
+       1:  UFRAME_NUM=1 ;
+       2:  UTOOL_NUM=1 ;
+       3:  ! layer 3 z=4.500 ;
+       4:L P[1] 100mm/sec FINE    ;        ; arc-off travel (FINE: exact stop before an ignition)
+       5:  Arc Start[2] ;                  ; ignite with weld schedule 2
+       6:  WAIT   0.50(sec) ;              ; the ignition dwell
+       7:L P[2] 8mm/sec CNT100    ;        ; welding (CNT = `cnt`, 0..100)
+       8:  Arc Start[3] ;                  ; a zone change while welding: the next schedule
+       9:L P[3] 49cm/min CNT100    ;
+      10:  Arc End[3] ;
+    /POS
+    P[1]{
+       GP1:
+        UF : 1, UT : 1,     CONFIG : 'N U T, 0, 0, 0',
+        X = 12.000 mm, Y = 3.000 mm, Z = 4.500 mm,
+        W = 180.000 deg, P = 0.000 deg, R = 0.000 deg
+    };
+    /END
+
+The weld: TP carries no voltage, current or wire feed inline — ArcTool keeps them in the
+controller's weld schedules. The distinct weld-value sets of the zones (voltage, current, wire feed,
+job, travel speed) are numbered 1..n as schedules; `Arc Start[k]` ignites with schedule k and, while
+welding, switches to it at a zone change; `Arc End[k]` ends the bead. The table is the program's
+second file `<NAME>_SCHED.CSV` (SCHEDULE_COLUMNS, plus the zones that use each schedule) and is
+repeated as comments in the main program; the schedules must be entered on the controller (the post
+says so per schedule). Speeds: `mm/sec` when the speed is a whole number, else `cm/min` (the
+controller takes whole numbers; 1 cm/min = 1/6 mm/s). Orientation W, P, R: fixed XYZ angles,
+R = Rz(R)·Ry(P)·Rx(W) (KUKA's A, B, C reversed). Comments (`!`) hold at most 32 characters.
+Circular motions are not written (the planner gives lines). A positioner (group 2) is not written
+yet: a toolpath with external axes is refused.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.process import PARAMETERS_BY_NAME
+from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
+from .orientation import kuka_abc, tool_frames
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+
+# a schedule's values, in the order of the schedule file's columns (zone parameter names)
+SCHEDULE_VALUES = ("voltage", "current", "wire_feed_speed", "job", "travel_speed")
+SCHEDULE_COLUMNS = ("schedule", "voltage_V", "current_A", "wire_feed_speed_m_min", "job", "travel_speed_mm_s", "zones")
+SCHEDULE_FILE = "SCHED.CSV"
+COMMENT_MAX = 32        # a TP comment (!) holds at most 32 characters
+ATTR_COMMENT_MAX = 16   # /ATTR COMMENT holds at most 16
+
+
+@dataclass(frozen=True, eq=False)
+class TpSettings:
+    """program_name: main program name (≤ 24 characters so `<NAME>_L0003_12` fits the
+    controller's 36; written upper case). tool / user_frame: UT and UF numbers. travel_speed: mm/s.
+    cnt: CNT of blended motions (0..100; exact stops are FINE). max_points_per_program: positions
+    per program (0 = only the per-layer split). external_axes: must be None (see module doc)."""
+
+    program_name: str = "WAAMFLOW"
+    tool: int = 1
+    user_frame: int = 1
+    travel_speed: float = 100.0
+    cnt: int = 100
+    max_points_per_program: int = 1000
+    external_axes: np.ndarray | None = None
+    decimals: int = 3
+    tool_on: str = TOOL_COMMANDS["tp"][0]       # post-deposition tool (rolling, peening): common.py
+    tool_off: str = TOOL_COMMANDS["tp"][1]
+
+    def __post_init__(self) -> None:
+        check_identifier(self.program_name, 24, "TP program name")
+        check_tool_template(self.tool_on, "tool_on")
+        check_tool_template(self.tool_off, "tool_off")
+        if not 0 <= self.cnt <= 100:
+            raise ValueError("cnt must be 0..100 (TP CNT)")
+        if self.max_points_per_program < 0 or 0 < self.max_points_per_program < 10:
+            raise ValueError("max_points_per_program must be 0 (per layer only) or at least 10")
+        if not 1 <= self.tool <= 10 or not 0 <= self.user_frame <= 9:
+            raise ValueError("tool must be 1..10 (UT) and user_frame 0..9 (UF)")
+        if self.external_axes is not None:
+            raise ValueError("TP group 2 (a positioner) is not written yet: use the krl or rapid format for a "
+                             "cell with a positioner, or a cell without one")
+
+
+def schedule_key(params: dict) -> tuple:
+    """The weld-value set of a zone's parameters (None where the zone does not give a value)."""
+    return tuple(float(params[n]) if n in params else None for n in SCHEDULE_VALUES)
+
+
+def _comment(text: str) -> str:
+    return "! " + text[:COMMENT_MAX - 2]
+
+
+def speed_text(v: float) -> str:
+    """A TP linear speed: whole mm/sec, else whole cm/min (see module doc)."""
+    if abs(v - round(v)) < 1e-6 and round(v) >= 1:
+        return f"{round(v)}mm/sec"
+    return f"{max(1, round(v * 6.0))}cm/min"
+
+
+def _pos(k: int, p: np.ndarray, r: np.ndarray, s: TpSettings) -> list[str]:
+    d = s.decimals
+    return [f"P[{k}]{{", "   GP1:",
+            f"\tUF : {s.user_frame}, UT : {s.tool},\t\tCONFIG : 'N U T, 0, 0, 0',",
+            f"\tX = {num(p[0], d):>10} mm,\tY = {num(p[1], d):>10} mm,\tZ = {num(p[2], d):>10} mm,",
+            f"\tW = {num(r[0], d):>10} deg,\tP = {num(r[1], d):>10} deg,\tR = {num(r[2], d):>10} deg",
+            "};"]
+
+
+def _mn_line(k: int, body: str) -> str:
+    """A numbered /MN line: motions right after the colon, other instructions after two spaces."""
+    return f"{k:4d}:{body}" if body.startswith(("L ", "J ")) else f"{k:4d}:  {body}"
+
+
+def render(name: str, comment: str, body: list[str], positions: list[str], groups: str = "1,*,*,*,*") -> str:
+    """A whole .LS file from its /MN instructions (without numbers or the trailing `;`) and the
+    /POS lines. Creation date fixed (the trace comment says when it was made)."""
+    mn = [_mn_line(k, ln + ("    ;" if ln.startswith(("L ", "J ")) else " ;")) for k, ln in enumerate(body, 1)]
+    size = sum(len(x) + 1 for x in mn + positions)
+    head = ["/PROG  " + name, "/ATTR", "OWNER\t\t= MNEDITOR;", f'COMMENT\t\t= "{comment[:ATTR_COMMENT_MAX]}";',
+            f"PROG_SIZE\t= {size};", "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
+            "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;", "FILE_NAME\t= ;", "VERSION\t\t= 0;",
+            f"LINE_COUNT\t= {len(mn)};", f"MEMORY_SIZE\t= {size + 512};", "PROTECT\t\t= READ_WRITE;",
+            "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,",
+            "      BUSY_LAMP_OFF\t= 0,", "      ABORT_REQUEST\t= 0,", "      PAUSE_REQUEST\t= 0;",
+            f"DEFAULT_GROUP\t= {groups};", "CONTROL_CODE\t= 00000000 00000000;",
+            "/APPL", "  ARC Welding Equipment : 1,*,*,*,*;", "/MN"]
+    return "\n".join(head + mn + ["/POS"] + positions + ["/END"]) + "\n"
+
+
+_NUMBERED = re.compile(r"^\s*\d+:(.*?)\s*;\s*$")
+
+
+def mn_body(text: str) -> list[str]:
+    """The /MN instructions of an .LS file without their numbers and `;` (inverse of `render`)."""
+    mn = text.split("\n/MN\n", 1)[1].split("\n/POS\n", 1)[0]
+    return [m.group(1).strip() for ln in mn.splitlines() if (m := _NUMBERED.match(ln))]
+
+
+def with_comments(text: str, comments: list[str]) -> str:
+    """The .LS file with `comments` as the first /MN lines (renumbered, LINE_COUNT updated)."""
+    name = text.split("\n", 1)[0].split()[1]
+    comment = re.search(r'^COMMENT\t\t= "([^"]*)";', text, re.M).group(1)
+    groups = re.search(r"^DEFAULT_GROUP\t= (\S+);", text, re.M).group(1)
+    positions = text.split("\n/POS\n", 1)[1].rsplit("/END", 1)[0].splitlines()
+    return render(name, comment, [_comment(c) for c in comments] + mn_body(text), positions, groups)
+
+
+def schedule_csv(numbers: dict[tuple, int], zones: dict[int, list[str]]) -> str:
+    """The schedule table (SCHEDULE_COLUMNS): one row per schedule, empty where a zone gives no value."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(SCHEDULE_COLUMNS)
+    for key, n in sorted(numbers.items(), key=lambda kv: kv[1]):
+        w.writerow([n, *("" if v is None else f"{v:.6g}" for v in key), " ".join(zones.get(n, []))])
+    return buf.getvalue()
+
+
+def schedule_comment(n: int, key: tuple) -> list[str]:
+    """The schedule as ≤ 32-character comment lines (what to enter on the controller)."""
+    units = {name: PARAMETERS_BY_NAME[name].unit for name in SCHEDULE_VALUES}
+    vals = dict(zip(SCHEDULE_VALUES, key))
+    first = " ".join(f"{short(vals[n])}{units[n]}" for n in ("voltage", "current") if vals[n] is not None)
+    second = " ".join(f"{short(vals[n])}{units[n]}" if n != "job" else f"job {short(vals[n])}"
+                      for n in ("wire_feed_speed", "job", "travel_speed") if vals[n] is not None)
+    return [f"sched {n}: {first or 'no values'}"[:COMMENT_MAX - 2]] + ([f" {second}"[:COMMENT_MAX - 2]] if second else [])
+
+
+def tp_schedule_issues(plan: Plan, base: str) -> tuple:
+    """One `WeldDataIssue` per weld schedule, at the first zone that welds with it: TP has no inline
+    weld values, so the schedule must be entered on the controller (numbered as `write_tp` does)."""
+    from .common import WeldDataIssue
+
+    numbers: dict[tuple, int] = {}
+    out = []
+    layer = None
+    for st in plan.steps:
+        if isinstance(st, LayerStart):
+            layer = st.layer
+        elif isinstance(st, ProcessChange):
+            key = schedule_key(st.params)
+            if key in numbers:
+                continue
+            n = numbers[key] = len(numbers) + 1
+            vals = schedule_comment(n, key)
+            out.append(WeldDataIssue(plan.moves.section_keys[st.section], layer, st.zone_id or "-",
+                                     f"weld schedule {n} ({' '.join(v.strip() for v in vals).split(': ', 1)[1]}) "
+                                     f"must be entered on the controller: TP has no inline weld values "
+                                     f"(Arc Start[{n}]; table in {base}_{SCHEDULE_FILE})"))
+    return tuple(out)
+
+
+def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
+    """The main program {"LS": ...}, one program per layer {"L003.LS": ...} and the schedule table
+    {"SCHED.CSV": ...} (see module doc)."""
+    s = settings
+    base = s.program_name.upper()
+    P = plan.moves.points
+    keys = plan.moves.section_keys
+    # TP W, P, R (R = Rz·Ry·Rx) = KUKA's (C, B, A)
+    R = kuka_abc(tool_frames(plan.moves.tool_axis, "z"))[:, ::-1] if len(P) else np.zeros((0, 3))
+    numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
+    zones: dict[int, list[str]] = {}      # schedule → the zones that use it
+    progs: list[tuple[str, str, list[str], list[int]]] = []     # (name, comment, body, point indices)
+    cur: list[str] = []
+    cur_pts: list[int] = []
+    layer = None
+    part = 0
+    sched = 0
+    arc = False
+    skip_dwell = False
+    frames = [f"UFRAME_NUM={s.user_frame}", f"UTOOL_NUM={s.tool}"]
+
+    def flush(next_layer) -> None:
+        nonlocal cur, cur_pts, part
+        if cur or cur_pts:
+            k = layer if layer is not None else 0
+            name = f"{base}_L{k:03d}" + (f"_{part}" if part else "")
+            progs.append((name, f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
+        cur, cur_pts = [], []
+        part = 0 if next_layer is not None else part + 1
+
+    steps = plan.steps
+    for k, st in enumerate(steps):
+        if isinstance(st, LayerStart):
+            flush(st.layer)
+            layer = st.layer
+            cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
+        elif isinstance(st, SectionStart):
+            cur.append(_comment(f"section {keys[st.section]}"))
+        elif isinstance(st, ProcessChange):
+            new = numbers.setdefault(schedule_key(st.params), len(numbers) + 1)
+            zid = st.zone_id or "-"
+            if zid not in zones.setdefault(new, []):
+                zones[new].append(zid)
+            cur.append(_comment(f"zone {st.zone_id or '-'} sched {new}"))
+            if arc and new != sched:
+                cur.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
+            sched = new
+        elif isinstance(st, ArcOn):
+            ign = steps[k + 1].seconds if k + 1 < len(steps) and isinstance(steps[k + 1], Dwell) \
+                and steps[k + 1].reason == "ignition" else 0.0
+            if not sched:                                 # no weld values given: an empty schedule
+                sched = numbers.setdefault(schedule_key({}), len(numbers) + 1)
+            cur.append(f"Arc Start[{sched}]")
+            if ign > 0:
+                cur.append(f"WAIT {ign:6.2f}(sec)")
+            skip_dwell = ign > 0
+            arc = True
+        elif isinstance(st, ArcOff):
+            cur.append(f"Arc End[{sched}]")
+            arc = False
+        elif isinstance(st, Dwell):
+            if st.reason == "ignition" and skip_dwell:
+                skip_dwell = False
+                continue
+            cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
+            cur.append(f"WAIT {st.seconds:6.2f}(sec)")
+        elif isinstance(st, (ToolOn, ToolOff)):          # after the (exact-stop) motion to the point
+            on = isinstance(st, ToolOn)
+            cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
+            cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+        elif isinstance(st, Motion):
+            if st.circular:
+                raise ValueError("TP: circular motions are not written (plan with arc_tolerance 0)")
+            v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
+            cur_pts.append(st.end)
+            term = "FINE" if st.stop else f"CNT{s.cnt}"
+            cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}")
+            if s.max_points_per_program and len(cur_pts) >= s.max_points_per_program and not arc:
+                flush(None)
+    flush(None)
+    st_ = plan.stats
+    main = [_comment(f"waamflow: {len(progs)} programs"), _comment(f"layers {st_['layers']}"),
+            _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
+            _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
+            _comment(f"weld schedules: {base}_SCHED"), _comment("enter them on the controller")]
+    for key, n in sorted(numbers.items(), key=lambda kv: kv[1]):
+        main += [_comment(c) for c in schedule_comment(n, key)]
+    main += [f"CALL {name}" for name, _, _, _ in progs]
+    files = {"LS": render(base, "waamflow main", main, [])}
+    for name, comment, body, pts in progs:
+        pos = [ln for j, i in enumerate(pts, 1) for ln in _pos(j, P[i], R[i], s)]
+        files[name[len(base) + 1:] + ".LS"] = render(name, comment, body, pos)
+    files[SCHEDULE_FILE] = schedule_csv(numbers, zones)
+    return files

@@ -1,0 +1,130 @@
+"""Fanuc TP programs (#28 item 4): a structural checker of the .LS files, the weld as Arc Start /
+Arc End with schedules numbered from the zones' weld values, the schedule table read back equal to
+the zones, lengths read back equal to the program's statistics, refusals."""
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.core.errors import RecipeError
+from waamflow.core.moves import flatten
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import apply_overrides, load_recipe
+from waamflow.preflight.read import read_tp
+from waamflow.program import PlanSettings, TpSettings, plan_program, write_tp
+from waamflow.program.tp import speed_text
+
+from tp_check import check_ls, check_program, read_schedules
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+@pytest.fixture(scope="module")
+def cross():
+    recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), [("format", "tp")])
+    return execute(build_graph(recipe), resolver=FileResolver(GRAPHS), preflight=True)
+
+
+def test_mpp_cross_as_tp_programs(cross):
+    program = cross.outputs["post"]["program"]
+    assert program.format == "tp" and program.name == "POST" and program.main_suffix == "LS"
+    names = program.file_names("post")
+    assert names["LS"] == "POST.LS" and names["L003.LS"] == "POST_L003.LS" and names["SCHED.CSV"] == "POST_SCHED.CSV"
+    info = check_program(program.files)
+    assert info["programs"] == 9 and info["arcs"] == program.stats["arc_on_count"] == 24
+    assert info["motions"] == program.stats["motions"] == 502
+    assert info["schedules"] == program.stats["weld_schedules"] == 6
+    main = program.files["LS"]
+    assert re.findall(r"CALL (\S+) ;", main) == [f"POST_L{k:03d}" for k in range(8)]
+    # read back by the preflight's reader: the arc-ON length is the program's deposition length
+    read = read_tp(program.files)
+    assert sum(r.length for r in read.runs) == pytest.approx(program.stats["deposition_length_mm"], abs=0.01)
+    assert len(read.runs) == 24 and all(r.weld.all() for r in read.runs) and not read.notes
+
+
+def test_artifacts_as_written_pass_the_checker(cross):
+    """The trace comments the node stamps into the main program keep the numbering and LINE_COUNT."""
+    files = {k.lstrip("/"): v.decode() for k, v in cross.artifacts.items() if k.lstrip("/").startswith("POST")}
+    assert set(files) == {"POST.LS", "POST_SCHED.CSV", *(f"POST_L{k:03d}.LS" for k in range(8))}
+    info = check_ls(files["POST.LS"])
+    assert info["calls"] and "  ! waamflow " in files["POST.LS"] and "! recipe sha256 " in files["POST.LS"]
+    assert check_program(files)["programs"] == 9
+
+
+def test_schedules_are_the_zones_weld_values(cross):
+    """Every welded segment's wire feed, current and travel speed (the zone's) is its Arc Start
+    schedule's in the table, read through the programs as written."""
+    program = cross.outputs["post"]["program"]
+    moves = flatten(cross.outputs["sequence"]["toolpath"])
+    table = read_schedules(program.files["SCHED.CSV"])
+    rows = {k: {c: float(v) for c, v in r.items() if c not in ("schedule", "zones") and v} for k, r in table.items()}
+    seg = np.flatnonzero(moves.arc[:len(moves.points) - 1])
+    wfs = np.concatenate([r.wfs for r in read_tp(program.files).runs])
+    assert len(wfs) == len(seg)
+    expected = np.array([moves.zone_params[(int(moves.section[i]), int(moves.zone[i]))]["wire_feed_speed"] for i in seg])
+    assert np.allclose(wfs, expected, atol=1e-9)
+    assert sorted(set(expected)) == [1.6, 2.0, 2.4, 3.0, 3.2, 4.0]
+    # each welded zone's values are one schedule's row, and the row names the zone
+    for (sec, z), params in moves.zone_params.items():
+        if not any(moves.arc[i] and moves.section[i] == sec and moves.zone[i] == z for i in seg):
+            continue
+        want = {"current_A": params["current"], "wire_feed_speed_m_min": params["wire_feed_speed"],
+                "travel_speed_mm_s": params["travel_speed"]}
+        hits = [k for k, r in rows.items() if all(r.get(c) == pytest.approx(v) for c, v in want.items())]
+        assert len(hits) == 1 and moves.zone_ids[z] in table[hits[0]]["zones"].split(), (sec, z)
+    # the table is in the main program's comments too, and the post says to enter it
+    assert "! sched 2: 103A ;" in program.files["LS"]
+    warns = [w["message"] for w in cross.warnings if w["node"] == "post"]
+    assert sum("must be entered on the controller" in w for w in warns) == 6
+
+
+def test_metal_balance_is_checked(cross):
+    """The preflight reads the wire feed from the schedule table: no 'without a wire feed' warning."""
+    probs = cross.preflight["programs"][0]["problems"]
+    assert not any("without a wire feed" in p["message"] for p in probs)
+    assert cross.preflight["verdict"] == "ok"
+
+
+def test_same_plan_same_bytes_and_a_cut_layer(cross):
+    moves = flatten(cross.outputs["sequence"]["toolpath"])
+    plan = plan_program(moves, PlanSettings())
+    assert write_tp(plan) == write_tp(plan)
+    cut = write_tp(plan, TpSettings(max_points_per_program=20))
+    info = check_program(cut)
+    assert info["programs"] > 9 and "L002_1.LS" in cut and info["motions"] == 502
+    # cut only with the arc off (a bead never spans two programs: check_ls has each end arc-off)
+    full = {k: check_ls(v)["positions"] for k, v in write_tp(plan).items() if k.endswith(".LS") and k != "LS"}
+    parts = {k: check_ls(v)["positions"] for k, v in cut.items() if k.endswith(".LS") and k != "LS"}
+    for k, n in full.items():
+        mine = [m for p, m in parts.items() if p.split(".")[0].split("_")[0] == k.split(".")[0]]
+        assert sum(mine) == n and len(mine) == 2 and max(mine) < n, (k, mine)
+    assert sum(r.length for r in read_tp(cut).runs) == pytest.approx(plan.stats["deposition_length_mm"], abs=0.01)
+
+
+def test_speed_units_and_orientation(cross):
+    assert speed_text(8.0) == "8mm/sec" and speed_text(8.3) == "50cm/min" and speed_text(0.1) == "1cm/min"
+    program = cross.outputs["post"]["program"]
+    pos = re.findall(r"Z = +([-\d.]+) mm,\n\tW = +([-\d.]+) deg,\tP = +([-\d.]+) deg,\tR = +([-\d.]+) deg",
+                     program.files["L002.LS"])
+    z = np.array([[float(v) for v in p] for p in pos])
+    down = np.isclose(z[:, 0], 4.5)
+    assert down.sum() > 10
+    # a vertical torch (tool z down, tool x = world -X): W 180, P 0, R 180 (R = Rz(R) Ry(P) Rx(W))
+    assert np.allclose(np.abs(z[down, 1]), 180.0) and np.allclose(z[down, 2], 0.0) and np.allclose(np.abs(z[down, 3]), 180.0)
+
+
+def test_refusals():
+    rec = load_recipe(GRAPHS / "curved-duct.json").model_copy(deep=True)
+    post = next(n for n in rec.nodes if n.type == "post-process")
+    post.params["format"] = "tp"
+    assert post.params.get("cell") == "kr150_tilt_rotate"     # the shipped duct runs on a positioner cell
+    with pytest.raises(RecipeError, match="group 2"):
+        execute(build_graph(rec), resolver=FileResolver(GRAPHS), preflight=False)
+    with pytest.raises(ValueError, match="36|24"):
+        TpSettings(program_name="A" * 25)
+    with pytest.raises(ValueError, match="group 2"):
+        replace(TpSettings(), external_axes=np.zeros((1, 2)))
