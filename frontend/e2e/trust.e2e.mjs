@@ -157,6 +157,15 @@ test("fault 8: reopening a recipe shows its latest run's results, plots and pref
   assert.equal(await page.innerText("[data-testid=preflight-badge]"), badge);
   await page.setViewportSize({ width: 1600, height: 1000 });
   await shot(page, "trust-03-results-after-reopen-1600");
+  // a run of unsaved edits: reopened, its results show, its preflight marked out of date
+  await page.click("[data-tab=graph]");
+  await page.getByLabel("input length", { exact: true }).fill("40");
+  await expectRun(page, srv.base, "done");
+  const edited = await page.getAttribute("[data-testid=progress]", "data-run-id");
+  await openRecipe(page, srv.base, "mpp-cross");
+  await openRecipe(page, srv.base, "trust-results");
+  await page.waitForFunction((r) => document.querySelector("[data-testid=progress]")?.getAttribute("data-run-id") === r, edited);
+  await page.waitForSelector('[data-testid=preflight-badge][data-tone="stale"]');
   assert.deepEqual(errors, []);
   await page.context().close();
 });

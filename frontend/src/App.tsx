@@ -210,14 +210,14 @@ export function App() {
     [rf, reset],
   );
 
-  /** Reopened recipe: its latest run's results, plots, problems and preflight (#25 fault 8). Its
-   * preflight counts as current when the run started after the recipe's last save. */
+  /** Reopened recipe: its latest run's results, plots, problems and preflight (#25 fault 8). They
+   * count as current when that run used the recipe and XML as saved (the server compares). */
   const showLatestRun = useCallback(
-    async (name: string, full: Recipe, xml: string | null, savedAt: number | null) => {
+    async (name: string, full: Recipe, xml: string | null) => {
       const [last] = await API.runsOf(name, 1);
       if (!last || lastOpened.current !== name) return; // another recipe opened meanwhile
-      const current = savedAt === null || last.created >= savedAt;
-      setPreflightOf({ recipe: current ? recipeSignature(full) : "(an earlier revision)", xml });
+      const current = last.same_as_saved !== false;
+      setPreflightOf({ recipe: current ? recipeSignature(full) : "(not the saved recipe)", xml });
       shownRun.current = { id: last.id, replay: true };
       follow(last.id);
     },
@@ -240,7 +240,7 @@ export function App() {
         setXmlLoadError(xml === null ? "This graph has no parameter file yet: run it once to create the template." : null);
         reset_(full, name, xml);
         if (tabAfter) setTab(tabAfter);
-        await showLatestRun(name, full, xml, list.find((g) => g.name === name)?.updated ?? null);
+        await showLatestRun(name, full, xml);
       } catch (e) {
         fail(e);
       } finally {

@@ -113,3 +113,34 @@ def test_a_file_by_name_or_by_content(client):
     assert client.get(f"/api/graphs/g/files/part.stl?sha256={other}").status_code == 404
     assert client.get("/api/graphs/g/files/none.stl").status_code == 404
     assert client.get("/api/graphs/g/files/part.stl?sha256=xyz").status_code == 422
+
+
+def test_latest_run_says_whether_it_is_of_the_saved_recipe(client):
+    from api_util import wait_for_run
+
+    def run(body):
+        rid = client.post("/api/runs", json=body).json()["id"]
+        assert wait_for_run(client, rid)["status"] == "done"
+        return rid
+
+    r = toy.chain(stack={"count": 3})
+    client.put("/api/graphs/t", json=r)
+    a = run({"graph": "t"})
+    latest = lambda: client.get("/api/runs?graph=t&limit=1").json()[0]  # noqa: E731
+    assert (latest()["id"], latest()["same_as_saved"]) == (a, True)
+    edited = toy.chain(stack={"count": 4})
+    b = run({"graph": "t", "recipe": edited})  # unsaved edits
+    assert (latest()["id"], latest()["same_as_saved"]) == (b, False)
+    client.put("/api/graphs/t", json=edited)  # saved now: the same run is of the saved recipe
+    assert latest()["same_as_saved"] is True
+    assert client.get("/api/runs?graph=t").json()[1]["same_as_saved"] is False  # run a: an older revision
+    assert "same_as_saved" not in client.get("/api/runs").json()[0] or client.get("/api/runs").json()[0]["same_as_saved"] is None
+
+
+def test_a_run_with_other_input_values_is_not_of_the_saved_recipe(client):
+    from api_util import wait_for_run
+
+    client.put("/api/graphs/t", json=toy.chain(stack={"count": 3}, inputs={"speed": 10}))
+    rid = client.post("/api/runs", json={"graph": "t", "inputs": {"speed": 20}}).json()["id"]
+    assert wait_for_run(client, rid)["status"] == "done"
+    assert client.get("/api/runs?graph=t&limit=1").json()[0]["same_as_saved"] is False

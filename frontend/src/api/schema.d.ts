@@ -1396,6 +1396,11 @@ export interface components {
             created: number;
             /** Finished */
             finished: number | null;
+            /**
+             * Same As Saved
+             * @description with `?graph=`: whether the run used the graph's recipe and parameter XML as saved now (false: unsaved edits or an older revision)
+             */
+            same_as_saved?: boolean | null;
         };
         /**
          * RunRequest

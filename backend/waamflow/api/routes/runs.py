@@ -10,6 +10,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Response
 from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from ...core.errors import RecipeError
 from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides
 from ..services import parse_api_recipe
@@ -78,6 +79,8 @@ class RunListItem(BaseModel):
     progress: float | None
     created: float
     finished: float | None
+    same_as_saved: bool | None = Field(None, description="with `?graph=`: whether the run used the graph's recipe "
+                                       "and parameter XML as saved now (false: unsaved edits or an older revision)")
 
 
 def _get_run(svc, run_id: str) -> dict:
@@ -117,7 +120,28 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
 def list_runs(svc: ServicesDep, limit: int = Query(50, ge=1, le=500),
               graph: str | None = Query(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
                                         description="only the runs of this saved graph (newest first)")) -> list[dict[str, Any]]:
-    return svc.store.list_runs(limit, graph=graph)
+    runs = svc.store.list_runs(limit, graph=graph)
+    if graph is not None:
+        for r in runs:
+            r["same_as_saved"] = _same_as_saved(svc, graph, r["id"])
+    return runs
+
+
+def _same_as_saved(svc, graph: str, run_id: str) -> bool | None:
+    """The run's recipe (as prepared for it) and draft XML against the graph's saved ones (#25: a
+    reopened recipe's latest results count as current only when they are of what is saved)."""
+    saved, run = svc.store.get_graph(graph), svc.store.get_run(run_id)
+    if saved is None or run is None:
+        return None
+    xml = svc.store.get_run_params_xml(run_id)
+    if xml is not None and xml != svc.store.get_params_xml(graph):
+        return False
+    try:
+        mine = svc.prepare(graph, parse_api_recipe(saved), xml)
+    except (RecipeError, ValueError):  # a saved recipe that no longer parses: not the run's
+        return False
+    strip = lambda d: {k: v for k, v in d.items() if k not in ("ui", "name")}  # noqa: E731
+    return strip(mine.to_json()) == strip(run["recipe"])
 
 
 @router.get("/{run_id}", response_model=RunStatus, responses=errors(401, 404, 422))
