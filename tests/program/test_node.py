@@ -33,7 +33,7 @@ def test_catalog_entry():
     assert [p["name"] for p in d["inputs"]] == ["toolpath"] and d["inputs"][0]["type"] == "toolpath"
     assert [p["type"] for p in d["outputs"]] == ["program"]
     props = d["params_schema"]["properties"]
-    assert props["format"]["enum"] == ["gcode", "krl", "rapid", "inform", "csv", "printpoints"]
+    assert props["format"]["enum"] == ["gcode", "krl", "rapid", "inform", "tp", "csv", "printpoints"]
     assert props["ignition_dwell"]["unit"] == "s" and props["arc_tolerance"]["unit"] == "mm"
     assert props["arc_on"]["default"] == "M3" and props["arc_off"]["default"] == "M5"
 

@@ -25,7 +25,7 @@ def _run(tmp_path, post_params):
 def test_every_profile_sets_only_known_params():
     profiles = load_profiles()
     assert set(profiles) == {"generic", "linuxcnc", "marlin", "fanuc", "kuka_krc4", "kuka_krc4_io", "abb_irc5",
-                             "yaskawa_yrc1000"}
+                             "yaskawa_yrc1000", "fanuc_r30ib_arctool"}
     for name, p in profiles.items():
         assert p["title"] and p["description"]
         PostProcess.Params.model_validate({**p["post"], "profile": name})       # values valid too

@@ -35,8 +35,9 @@ TIME_TOL = 1e-3   # relative: feeds are written to 0.1 mm/min
 LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "curved-bracket": ("fan", 8),
                "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
 PROFILES = load_profiles()
-# formats that do not write a positioner yet: a recipe with a cell is refused in them (tests/program/test_inform.py)
-NO_CELL = {"inform"}
+# formats that do not write a positioner yet: a recipe with a cell is refused in them
+# (tests/program/test_inform.py, test_tp.py)
+NO_CELL = {"inform", "tp"}
 
 
 def _post_recipes() -> list[str]:
@@ -163,6 +164,12 @@ def test_headers_carry_version_and_hashes(runs, name):
             text = files["JBI"]
             assert f"'waamflow {__version__}" in text and f"'rev {source_revision()}"[:33] in text, f"{name}/{prof}"
             assert f"'recipe sha256 {trace['recipe_sha256'][:16]}" in text, f"{name}/{prof}"
+            continue
+        if params["format"] == "tp":                 # numbered 32-character comments of the main program
+            text = files["LS"]
+            assert f"  ! waamflow {__version__} ;" in text, f"{name}/{prof}"
+            assert f"! rev {source_revision()}"[:32] in text, f"{name}/{prof}"
+            assert f"! recipe sha256 {trace['recipe_sha256'][:16]} ;" in text, f"{name}/{prof}"
             continue
         main = {"gcode": "gcode", "krl": "src", "rapid": "mod"}[params["format"]]
         got = _trace(files[main])

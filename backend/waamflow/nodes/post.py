@@ -17,7 +17,7 @@ from ..core.files import ShippedName, shipped
 from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..program import GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, post_process
+from ..program import GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, TpSettings, post_process
 from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
                               program_identifier, stamp_trace)
 from ..program.gcode import GCODE_WELD_CODES
@@ -43,6 +43,10 @@ class PostProcess(Node):
     - `rapid` (ABB): `<name>.mod` — MoveL travel, ArcLStart/ArcL/ArcLEnd with seamdata/welddata
       per zone, zonedata from the blend distance, WaitTime for dwell; above `max_module_bytes` a
       main module that loads part modules `<name>_M001.mod`, ... (layer ranges) one by one.
+    - `inform` (Yaskawa): `<NAME>.JBI` calling one job per layer, ARCON/ARCSET/ARCOF.
+    - `tp` (Fanuc R-30iB ArcTool): `<NAME>.LS` calling one program per layer `<NAME>_L003.LS`,
+      `L P[i] mm/sec CNT/FINE`, `Arc Start[k]`/`Arc End[k]` with weld schedules numbered from
+      the zones' weld values and tabled in `<NAME>_SCHED.CSV` (to enter on the controller).
     KRL and RAPID files are named after the program (`<name>` = `program_name`, else the node id
     made an identifier: node `duct-post` writes `duct_post.src` holding `DEF duct_post`), since
     the controller needs file name = DEF / module name; G-code and CSV are `<node>.<suffix>`.
@@ -69,8 +73,9 @@ class PostProcess(Node):
         profile: ShippedName = shipped("machines", default="", max_length=64,
                              description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
                                          "abb_irc5): presets for every param this recipe does not set; empty = none", title="Machine profile")
-        format: Literal["gcode", "krl", "rapid", "inform", "csv", "printpoints"] = Field(
-            "gcode", description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); printpoints = "
+        format: Literal["gcode", "krl", "rapid", "inform", "tp", "csv", "printpoints"] = Field(
+            "gcode", description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); tp = Fanuc TP "
+                                 "programs (.LS, ArcTool) with a weld schedule table; printpoints = "
                                  "compas_slicer print-points JSON", title="Program format")
         program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
                                   description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
@@ -89,6 +94,9 @@ class PostProcess(Node):
         position_level: int = Field(1, ge=0, le=8, title="Position level (INFORM PL)",
                                     description="INFORM: PL of blended motions (0 = exact stop everywhere; the "
                                                 "controller's position level table sets the distance of 1..8)")
+        cnt: int = Field(100, ge=0, le=100, title="Blending CNT (TP)",
+                         description="Fanuc TP: CNT of blended motions (0..100; exact stops are FINE; "
+                                     "blend_distance 0 = FINE everywhere)")
         # G-code
         arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code")
         arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off", title="Arc off code")
@@ -259,6 +267,9 @@ class PostProcess(Node):
         if params.cell and params.format == "inform":
             raise RecipeError("format inform: station axes (a positioner cell) are not written yet; use krl or rapid "
                               "for a cell with a positioner, or remove `cell`", field="cell")
+        if params.cell and params.format == "tp":
+            raise RecipeError("format tp: group 2 (a positioner cell) is not written yet; use krl or rapid "
+                              "for a cell with a positioner, or remove `cell`", field="cell")
         if params.cell and params.format in ("krl", "rapid", "gcode"):
             cell = load_cell(params.cell)
             moves = flatten(inputs["toolpath"])
@@ -276,7 +287,7 @@ class PostProcess(Node):
             raise RecipeError(str(err)) from err
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
-        what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands",
+        what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands", "tp": "TP weld schedules",
                 "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands"}
         _warn_weld_data(ctx, program, what.get(params.format, "weld data"))
         tilt = program.stats.get("max_tool_tilt_deg", 0.0) if world_tilt is None else world_tilt
@@ -356,6 +367,8 @@ def _program_name(ctx, p: PostProcess.Params) -> str:
         limit, reserved = (27 if p.max_module_bytes else 32), RAPID_RESERVED
     elif p.format == "inform":                # ≤ 24 so `<NAME>_L003_1` fits INFORM's 32
         limit, reserved = 24, frozenset()
+    elif p.format == "tp":                    # ≤ 24 so `<NAME>_L0003_12` and `<NAME>_SCHED` fit TP's 36
+        limit, reserved = 24, frozenset()
     else:
         limit, reserved = 64, frozenset()
     if p.program_name:
@@ -372,7 +385,7 @@ def _work_frame(cell) -> tuple[float, ...]:
     return (*(float(v) for v in cell.work_frame.xyz_mm), math.cos(half), 0.0, 0.0, math.sin(half))
 
 
-def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | float | None:
+def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | TpSettings | float | None:
     direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
     if p.format in TOOL_COMMANDS:
         on, off = TOOL_COMMANDS[p.format]
@@ -406,6 +419,9 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
         return InformSettings(program_name=name, tool=p.tool_number, user_frame=max(1, p.base_number),
                               travel_speed=p.travel_speed, position_level=p.position_level if p.blend_distance > 0 else 0,
                               **tools)
+    if p.format == "tp":
+        return TpSettings(program_name=name, tool=p.tool_number, user_frame=p.base_number,
+                          travel_speed=p.travel_speed, cnt=p.cnt if p.blend_distance > 0 else 0, **tools)
     if p.format == "printpoints":
         return p.blend_distance
     return None

@@ -13,7 +13,7 @@ from __future__ import annotations
 from ..core.model import LayerPaths, Layered
 from ..core.moves import Moves, flatten
 from .cl import write_cl_csv
-from .common import weld_data_issues
+from .common import WELD_COMMANDED, weld_data_issues
 from .gcode import GcodeSettings, write_gcode
 from .gcode_parse import ParsedProgram, parse_gcode
 from .inform import INFORM_WELD_CODES, InformSettings, write_inform
@@ -22,13 +22,14 @@ from .plan import Plan, PlanSettings, plan_program
 from .printpoints import point_layer_heights, write_print_points
 from .program import Program
 from .rapid import RapidSettings, write_rapid, write_rapid_modules
+from .tp import TpSettings, tp_schedule_issues, write_tp
 
-FORMATS = ("gcode", "krl", "rapid", "inform", "csv", "printpoints")
+FORMATS = ("gcode", "krl", "rapid", "inform", "tp", "csv", "printpoints")
 
 __all__ = [
     "FORMATS", "GcodeSettings", "InformSettings", "KrlSettings", "ParsedProgram", "Plan", "PlanSettings", "Program",
-    "RapidSettings", "parse_gcode", "plan_program", "post_process", "write_cl_csv", "write_gcode",
-    "write_inform", "write_krl", "write_print_points", "write_rapid", "write_rapid_modules",
+    "RapidSettings", "TpSettings", "parse_gcode", "plan_program", "post_process", "write_cl_csv", "write_gcode",
+    "write_inform", "write_krl", "write_print_points", "write_rapid", "write_rapid_modules", "write_tp",
 ]
 
 
@@ -51,7 +52,7 @@ def post_process(
         from dataclasses import replace
 
         plan_settings = replace(plan_settings, arc_plane_normal=(0.0, 0.0, 1.0))
-    if fmt in ("printpoints", "inform"):        # one entry per point / INFORM: lines only
+    if fmt in ("printpoints", "inform", "tp"):        # one entry per point / INFORM, TP: lines only
         from dataclasses import replace
 
         plan_settings = replace(plan_settings, arc_tolerance=0.0)
@@ -73,6 +74,10 @@ def post_process(
     elif fmt == "inform":
         files = write_inform(plan, writer_settings or InformSettings())
         stats["jobs"] = len(files) - 1                  # per-layer jobs called by the main job
+    elif fmt == "tp":
+        files = write_tp(plan, writer_settings or TpSettings())
+        stats["subprograms"] = len(files) - 2           # per-layer programs called by the main program
+        stats["weld_schedules"] = files["SCHED.CSV"].count("\n") - 1
     elif fmt == "printpoints":
         heights = point_layer_heights(None if isinstance(toolpath, Moves) else toolpath, moves)
         blend = 1.0 if writer_settings is None else float(writer_settings)
@@ -99,8 +104,12 @@ def post_process(
         issues = tuple(weld_data_issues(plan, commanded=tuple(INFORM_WELD_CODES),
                                         hint="INFORM commands current (AC=) and voltage (AV=) inline; wire feed and "
                                              "job live in the arc start condition file / synergic line", empty=False))
-    name = (writer_settings or {"krl": KrlSettings, "rapid": RapidSettings, "inform": InformSettings}[fmt]()).program_name \
-        if fmt in ("krl", "rapid", "inform") else ""       # the files are named after the program
-    if fmt == "inform":
-        name = name.upper()                                # job names are upper case on the pendant
+    elif fmt == "tp":                         # weld schedules carry every weld value; they live on the controller
+        issues = tuple(weld_data_issues(plan, commanded=WELD_COMMANDED, empty=False)) + \
+            tp_schedule_issues(plan, (writer_settings or TpSettings()).program_name.upper())
+    settings_cls = {"krl": KrlSettings, "rapid": RapidSettings, "inform": InformSettings, "tp": TpSettings}
+    name = (writer_settings or settings_cls[fmt]()).program_name \
+        if fmt in settings_cls else ""                     # the files are named after the program
+    if fmt in ("inform", "tp"):
+        name = name.upper()                                # job / program names are upper case on the pendant
     return Program(fmt, files, stats, issues, name)

@@ -168,8 +168,8 @@ def trace_lines(trace: dict) -> list[str]:
 def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     """Program files with the trace lines in their header, in each format's comment syntax:
     G-code `;` at the top, KRL `;` after `DEF`/`DEFDAT`, RAPID `!` after `MODULE`, CSV `#` at
-    the top, INFORM `'` after the main job's NOP (32 characters a line: short forms, the recipe
-    hash cut to 16 hex digits). Applied when artifacts are written, so the date never enters a cache key. JSON
+    the top, INFORM `'` after the main job's NOP and Fanuc TP `!` as the main program's first /MN
+    lines (32 characters a line: short forms, the recipe hash cut to 16 hex digits). Applied when artifacts are written, so the date never enters a cache key. JSON
     (print points) has no comments and a fixed layout: it stays as it is (the trace is in
     summary.json)."""
     body = trace_lines(trace)
@@ -184,14 +184,19 @@ def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
             lines = lines[:at] + [f"({b})" if paren else f"; {b}" for b in body] + lines[at:]
         elif fmt == "csv":
             lines = [f"# {b}" for b in body] + lines
-        elif fmt == "inform":                              # comments hold 32 characters: short forms
-            if suffix != "JBI":                            # the main job carries the trace
+        elif fmt in ("inform", "tp"):                      # comments hold 32 characters: short forms
+            if suffix != {"inform": "JBI", "tp": "LS"}[fmt]:   # the main job / program carries the trace
                 out[suffix] = text
                 continue
             from ..buildinfo import source_revision
 
             short_body = [f"waamflow {trace.get('waamflow', '?')}", f"rev {trace.get('revision') or source_revision()}",
                           f"recipe sha256 {str(trace.get('recipe_sha256', '?'))[:16]}", f"date {trace.get('date', '?')}"]
+            if fmt == "tp":                                # numbered /MN lines: renumbered, LINE_COUNT kept right
+                from .tp import with_comments
+
+                out[suffix] = with_comments(text, short_body)
+                continue
             at = next((i + 1 for i, ln in enumerate(lines) if ln.strip() == "NOP"), 0)
             lines = lines[:at] + ["'" + b[:32] for b in short_body] + lines[at:]
         else:
@@ -216,6 +221,8 @@ TOOL_COMMANDS: dict[str, tuple[str, str]] = {
     "rapid": ("ToolOn {force_n:.1f}, {tool_width_mm:.2f}, {speed_mm_s:.2f};", "ToolOff;"),
     # INFORM: the force (N) into double-integer variable D000, then the cell's jobs TOOL_ON / TOOL_OFF
     "inform": ("SET D000 {force_n:.0f}\nCALL JOB:TOOL_ON", "CALL JOB:TOOL_OFF"),
+    # Fanuc TP: the force (N) into register R[1], then the cell's programs TOOL_ON / TOOL_OFF
+    "tp": ("R[1]={force_n:.0f}\nCALL TOOL_ON", "CALL TOOL_OFF"),
 }
 
 

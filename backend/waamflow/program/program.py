@@ -10,7 +10,7 @@ from typing import Any
 class Program:
     """A machine/robot program as text files.
 
-    format: "gcode" | "krl" | "rapid" | "inform" | "csv" | "printpoints".
+    format: "gcode" | "krl" | "rapid" | "inform" | "tp" | "csv" | "printpoints".
     files: artifact suffix → file text, e.g. {"gcode": ...}, {"src": ..., "dat": ...,
     "L003.src": ..., "L003.dat": ...}; written as `file_names(node id)` says.
     stats: summary numbers (layers, points, motions, arc_on_count, deposition_length_mm,
@@ -29,8 +29,9 @@ class Program:
         (KRL requires file name = DEF name; RAPID modules named like their files): the program
         name, `<name>.<key>` for the main program ("src", "dat", "mod") and `<name>_<part>.<ext>`
         for a part "<part>.<ext>" (a subprogram or module, e.g. "L003.src" → `post_L003.src`,
-        holding `DEF post_L003`). A valid node id without a program_name keeps `post.src`."""
-        if not self.name or self.format not in ("krl", "rapid", "inform"):
+        holding `DEF post_L003`; INFORM `POST_L003.JBI`, TP `POST_L003.LS` and the schedule table
+        `POST_SCHED.CSV`). A valid node id without a program_name keeps `post.src`."""
+        if not self.name or self.format not in ("krl", "rapid", "inform", "tp"):
             return {k: f"{node_id}.{k}" for k in self.files}
         out = {}
         for k in self.files:
@@ -41,5 +42,5 @@ class Program:
     @property
     def main_suffix(self) -> str:
         """Suffix of the file a user opens first (the main program)."""
-        return {"gcode": "gcode", "krl": "src", "rapid": "mod", "inform": "JBI", "csv": "csv",
+        return {"gcode": "gcode", "krl": "src", "rapid": "mod", "inform": "JBI", "tp": "LS", "csv": "csv",
                 "printpoints": "printpoints.json"}[self.format]
