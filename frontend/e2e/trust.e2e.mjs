@@ -299,6 +299,12 @@ test("fault 5: a same-name upload asks (cancel / replace / keep both); the recip
   assert.deepEqual(files, [["part-2.stl", tall2.length], ["part.stl", low.length]]);
   await expectRun(page, srv.base, "done");
   assert.equal(await layers(), 2);
+  // one undo takes the whole "keep both" back (pin and file name), redo brings it again
+  await page.click("[data-testid=undo]");
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part.stl");
+  assert.equal(await page.locator("[data-testid=save]").innerText(), "save");
+  await page.click("[data-testid=redo]");
+  await page.waitForFunction(() => document.querySelector('[data-field="path"] input[type=text]')?.value === "part-2.stl");
   // "save as" takes the pinned uploads along (the exact content), so the copy runs the same
   await saveAs(page, "trust-upload-copy");
   const copied = (await api(srv.base, "/api/graphs/trust-upload-copy/files")).map((f) => [f.name, f.sha256]);

@@ -116,14 +116,18 @@ export function App() {
   // Each edit is one undo step, except typing: form edits within 800 ms that change the same
   // thing (one field being typed into) share one step.
   const lastEdit = useRef<{ sig: string; t: number } | null>(null);
+  // The file name a form sets right after an upload joins the upload's undo step (until this time).
+  const foldNext = useRef(0);
   const edit = useCallback(
     (fn: (r: Recipe) => Recipe, typing = false) =>
       setHist((h) => {
         const next = fn(h.present.recipe);
+        const now = performance.now();
+        const fold = now < foldNext.current && h.past.length > 0;
+        foldNext.current = 0;
         if (next === h.present.recipe) return h;
         const sig = typing ? changeSignature(h.present.recipe, next) : null;
-        const now = performance.now();
-        const same = sig !== null && lastEdit.current?.sig === sig && now - lastEdit.current.t < 800 && h.past.length > 0;
+        const same = fold || (sig !== null && lastEdit.current?.sig === sig && now - lastEdit.current.t < 800 && h.past.length > 0);
         lastEdit.current = sig !== null ? { sig, t: now } : null;
         return change(h, withRecipe(h.present, next), same);
       }),
@@ -446,6 +450,7 @@ export function App() {
         const digest = (await API.putFile(graphName, name, file)) ?? sha;
         // the recipe now runs with this content: one undo step (undo pins the previous content again)
         setHist((h) => change(h, withPin(h.present, name, digest)));
+        foldNext.current = performance.now() + 1500; // "keep both": the new name is set in the same step
         message(`uploaded ${name}${have && name === file.name && have.sha256 !== digest ? " (replaced: undo brings the old one back)" : ""}`);
         return name;
       } catch (e) {
