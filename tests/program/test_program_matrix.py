@@ -35,9 +35,8 @@ TIME_TOL = 1e-3   # relative: feeds are written to 0.1 mm/min
 LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "curved-bracket": ("fan", 8),
                "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
 PROFILES = load_profiles()
-# formats that do not write a positioner yet: a recipe with a cell is refused in them
-# (tests/program/test_inform.py, test_tp.py)
-NO_CELL = {"inform", "tp"}
+# formats that do not write a positioner yet: a recipe with a cell is refused in them (tests/program/test_inform.py)
+NO_CELL = {"inform"}
 
 
 def _post_recipes() -> list[str]:

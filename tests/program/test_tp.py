@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from waamflow.core.errors import RecipeError
 from waamflow.core.moves import flatten
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
@@ -117,14 +116,41 @@ def test_speed_units_and_orientation(cross):
     assert np.allclose(np.abs(z[down, 1]), 180.0) and np.allclose(z[down, 2], 0.0) and np.allclose(np.abs(z[down, 3]), 180.0)
 
 
+def test_curved_duct_writes_the_positioner_as_group_2():
+    """On the shipped positioner cell every P[i] carries GP2 J1 (tilt), J2 (turn) in degrees —
+    the simulation's angles — DEFAULT_GROUP 1,1 and every motion COORD."""
+    import json
+
+    from waamflow.engine.recipe import parse_recipe
+    from waamflow.trajectory.cell import load_cell, positioner_angles
+
+    doc = json.loads((GRAPHS / "curved-duct.json").read_text())
+    next(n for n in doc["nodes"] if n["id"] == "fan")["params"]["layer_count"] = 6
+    post = next(n for n in doc["nodes"] if n["type"] == "post-process")
+    assert post["params"].get("cell") == "kr150_tilt_rotate"     # the shipped duct runs on a positioner cell
+    doc["nodes"].append({"id": "tp", "type": "post-process",          # beside the KRL post the simulation runs
+                         "params": {**post["params"], "format": "tp", "profile": "fanuc_r30ib_arctool"}})
+    doc["edges"].append({"from": "bead.toolpath", "to": "tp.toolpath"})
+    result = execute(build_graph(parse_recipe(doc)), resolver=FileResolver(GRAPHS))
+    program = result.outputs["tp"]["program"]
+    info = check_program(program.files)
+    assert all("DEFAULT_GROUP\t= 1,1,*,*,*;" in v for k, v in program.files.items() if k.endswith(".LS") and k != "LS")
+    moves = flatten(result.outputs["bead"]["toolpath"])
+    angles = positioner_angles(load_cell("kr150_tilt_rotate"), moves, post["params"].get("positioner_policy", "gravity"))
+    joints = np.array(info["joints"])
+    assert joints.shape == (len(moves.points), 2) == angles.shape
+    assert np.allclose(joints, angles, atol=1e-3)
+    assert len(np.unique(np.round(joints[:, 0], 3))) == 6                 # the table tilts once per layer
+    sim = json.loads(result.artifacts["sim.simulation.json"])
+    assert joints[:, 0].min() == pytest.approx(sim["positioner_e1_min_deg"], abs=1e-3)
+    assert joints[:, 0].max() == pytest.approx(sim["positioner_e1_max_deg"], abs=1e-3)
+    assert sum(r.length for r in read_tp(program.files).runs) == pytest.approx(program.stats["deposition_length_mm"], abs=0.01)
+
+
 def test_refusals():
-    rec = load_recipe(GRAPHS / "curved-duct.json").model_copy(deep=True)
-    post = next(n for n in rec.nodes if n.type == "post-process")
-    post.params["format"] = "tp"
-    assert post.params.get("cell") == "kr150_tilt_rotate"     # the shipped duct runs on a positioner cell
-    with pytest.raises(RecipeError, match="group 2"):
-        execute(build_graph(rec), resolver=FileResolver(GRAPHS), preflight=False)
     with pytest.raises(ValueError, match="36|24"):
         TpSettings(program_name="A" * 25)
     with pytest.raises(ValueError, match="group 2"):
-        replace(TpSettings(), external_axes=np.zeros((1, 2)))
+        replace(TpSettings(), external_axes=np.zeros((1, 4)))
+    with pytest.raises(ValueError, match="cnt"):
+        TpSettings(cnt=101)

@@ -15,10 +15,13 @@ import re
 SECTIONS = ("/PROG", "/ATTR", "/APPL", "/MN", "/POS", "/END")
 INSTRUCTION = re.compile(r"^(UFRAME_NUM=\d+|UTOOL_NUM=\d+|WAIT\s+\d+\.\d\d\(sec\)|CALL [A-Z][A-Z0-9_]*|"
                          r"R\[\d+\]=[-\d.]+|Arc (Start|End)\[\d+\])$")
-MOTION = re.compile(r"^L P\[(\d+)\] (\d+)(mm/sec|cm/min) (FINE|CNT(\d{1,3}))$")
+MOTION = re.compile(r"^L P\[(\d+)\] (\d+)(mm/sec|cm/min) (FINE|CNT(\d{1,3}))( COORD)?$")
 POS = re.compile(r"^P\[(\d+)\]\{\n   GP1:\n\tUF : \d, UT : \d+,\t\tCONFIG : '[NF] [UD] [TB], 0, 0, 0',\n"
                  r"\tX = +-?\d+\.\d{3} mm,\tY = +-?\d+\.\d{3} mm,\tZ = +-?\d+\.\d{3} mm,\n"
-                 r"\tW = +-?\d+\.\d{3} deg,\tP = +-?\d+\.\d{3} deg,\tR = +-?\d+\.\d{3} deg\n\};$", re.M)
+                 r"\tW = +-?\d+\.\d{3} deg,\tP = +-?\d+\.\d{3} deg,\tR = +-?\d+\.\d{3} deg\n"
+                 r"(   GP2:\n\tUF : \d, UT : \d+,\n\tJ1 = +-?\d+\.\d{3} deg(?:,\tJ2 = +-?\d+\.\d{3} deg)?"
+                 r"(?:,\tJ3 = +-?\d+\.\d{3} deg)?\n)?\};$", re.M)
+JOINTS = re.compile(r"J\d = +(-?\d+\.\d{3}) deg")
 
 
 def read_schedules(text: str) -> dict[int, dict[str, str]]:
@@ -35,7 +38,9 @@ def check_ls(text: str, schedules: dict[int, dict] | None = None) -> dict:
     assert re.fullmatch(r"[A-Z][A-Z0-9_]{0,35}", name), name
     attr = "\n".join(lines[at[1]:at[2]])
     count = int(re.search(r"^LINE_COUNT\s*= (\d+);$", attr, re.M).group(1))
-    assert re.search(r"^DEFAULT_GROUP\s*= 1,\*,\*,\*,\*;$", attr, re.M), name
+    group = re.search(r"^DEFAULT_GROUP\s*= 1,([1*]),\*,\*,\*;$", attr, re.M)
+    assert group, name
+    gp2 = group.group(1) == "1"
     assert re.search(r'^COMMENT\s*= "[^"]{0,16}";$', attr, re.M), name
     for key in ("OWNER", "PROG_SIZE", "CREATE", "MODIFIED", "PROTECT", "CONTROL_CODE"):
         assert re.search(rf"^{key}\s*= .*;$", attr, re.M), f"{name}: no {key}"
@@ -54,6 +59,7 @@ def check_ls(text: str, schedules: dict[int, dict] | None = None) -> dict:
         mo = MOTION.match(body)
         if mo:
             assert 1 <= int(mo.group(2)) and (mo.group(5) is None or int(mo.group(5)) <= 100), ln
+            assert (mo.group(6) is not None) == gp2, f"{name}: line {k}: COORD exactly when group 2 moves"
             used.append(int(mo.group(1)))
             continue
         assert INSTRUCTION.match(body), f"{name}: line {k}: {body!r}"
@@ -73,13 +79,17 @@ def check_ls(text: str, schedules: dict[int, dict] | None = None) -> dict:
             calls.append(body.split()[1])
     assert not arc, f"{name}: the program ends with the arc on"
     pos_text = "\n".join(lines[at[4] + 1:at[5]])
-    declared = [int(x) for x in POS.findall(pos_text)]
+    entries = POS.findall(pos_text)
+    declared = [int(x) for x, _gp2 in entries]
+    assert all(bool(g) == gp2 for _x, g in entries), f"{name}: a GP2 block exactly when DEFAULT_GROUP has group 2"
+    joints = {int(x): [float(v) for v in JOINTS.findall(g)] for x, g in entries}
     assert len(declared) == pos_text.count("P["), f"{name}: a /POS entry the checker cannot read"
     assert declared == list(range(1, len(declared) + 1)), f"{name}: /POS not numbered 1..n"
     assert set(used) == set(declared), f"{name}: used {sorted(set(used) - set(declared))[:5]} undeclared, " \
                                        f"{sorted(set(declared) - set(used))[:5]} declared unused"
     return {"name": name, "positions": len(declared), "motions": len(used), "arcs": arcs,
-            "schedules": scheds, "calls": calls}
+            "schedules": scheds, "calls": calls,
+            "joints": [joints[i] for i in used] if gp2 else []}     # group 2 per motion, degrees
 
 
 def check_program(files: dict[str, str]) -> dict:
@@ -100,4 +110,5 @@ def check_program(files: dict[str, str]) -> dict:
     assert used == set(schedules), f"schedules used {sorted(used)}, in the table {sorted(schedules)}"
     return {"motions": sum(i["motions"] for i in info.values()),
             "points_declared": sum(i["positions"] for i in info.values()),
-            "arcs": sum(i["arcs"] for i in info.values()), "programs": len(info), "schedules": len(schedules)}
+            "arcs": sum(i["arcs"] for i in info.values()), "programs": len(info), "schedules": len(schedules),
+            "joints": [j for k in sorted(info) for j in info[k]["joints"]]}

@@ -196,7 +196,7 @@ class PostProcess(Node):
         # robots
         cell: ShippedName = shipped("cells", default="", max_length=64,
                           description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
-                                      "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, G-code rotary axes "
+                                      "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
                                       "(`rotary_axes`); empty = no external axes", title="Robot cell")
         positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
             "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
@@ -267,10 +267,7 @@ class PostProcess(Node):
         if params.cell and params.format == "inform":
             raise RecipeError("format inform: station axes (a positioner cell) are not written yet; use krl or rapid "
                               "for a cell with a positioner, or remove `cell`", field="cell")
-        if params.cell and params.format == "tp":
-            raise RecipeError("format tp: group 2 (a positioner cell) is not written yet; use krl or rapid "
-                              "for a cell with a positioner, or remove `cell`", field="cell")
-        if params.cell and params.format in ("krl", "rapid", "gcode"):
+        if params.cell and params.format in ("krl", "rapid", "gcode", "tp"):
             cell = load_cell(params.cell)
             moves = flatten(inputs["toolpath"])
             angles = positioner_angles(cell, moves, params.positioner_policy)

@@ -42,8 +42,12 @@ repeated as comments in the main program; the schedules must be entered on the c
 says so per schedule). Speeds: `mm/sec` when the speed is a whole number, else `cm/min` (the
 controller takes whole numbers; 1 cm/min = 1/6 mm/s). Orientation W, P, R: fixed XYZ angles,
 R = Rz(R)·Ry(P)·Rx(W) (KUKA's A, B, C reversed). Comments (`!`) hold at most 32 characters.
-Circular motions are not written (the planner gives lines). A positioner (group 2) is not written
-yet: a toolpath with external axes is refused.
+Circular motions are not written (the planner gives lines).
+
+A positioner (`external_axes`, E1 tilt / E2 turn in degrees per toolpath point): motion group 2,
+`DEFAULT_GROUP = 1,1,*,*,*`, every P[i] with a `GP2: J1 = .. deg, J2 = .. deg` block, and every
+motion coordinated (`COORD`, the Coordinated Motion option: the positions are in user frame UF,
+the part frame carried by the positioner, as the KRL/RAPID posts write them).
 """
 
 from __future__ import annotations
@@ -73,7 +77,8 @@ class TpSettings:
     """program_name: main program name (≤ 24 characters so `<NAME>_L0003_12` fits the
     controller's 36; written upper case). tool / user_frame: UT and UF numbers. travel_speed: mm/s.
     cnt: CNT of blended motions (0..100; exact stops are FINE). max_points_per_program: positions
-    per program (0 = only the per-layer split). external_axes: must be None (see module doc)."""
+    per program (0 = only the per-layer split). external_axes: (n, 1..3) positioner angles in
+    degrees per toolpath point (group 2, see module doc), or None."""
 
     program_name: str = "WAAMFLOW"
     tool: int = 1
@@ -96,9 +101,9 @@ class TpSettings:
             raise ValueError("max_points_per_program must be 0 (per layer only) or at least 10")
         if not 1 <= self.tool <= 10 or not 0 <= self.user_frame <= 9:
             raise ValueError("tool must be 1..10 (UT) and user_frame 0..9 (UF)")
-        if self.external_axes is not None:
-            raise ValueError("TP group 2 (a positioner) is not written yet: use the krl or rapid format for a "
-                             "cell with a positioner, or a cell without one")
+        if self.external_axes is not None and not 1 <= np.asarray(self.external_axes).reshape(
+                len(self.external_axes), -1).shape[1] <= 3:
+            raise ValueError("TP group 2: 1 to 3 positioner axes")
 
 
 def schedule_key(params: dict) -> tuple:
@@ -117,13 +122,16 @@ def speed_text(v: float) -> str:
     return f"{max(1, round(v * 6.0))}cm/min"
 
 
-def _pos(k: int, p: np.ndarray, r: np.ndarray, s: TpSettings) -> list[str]:
+def _pos(k: int, p: np.ndarray, r: np.ndarray, s: TpSettings, ext: np.ndarray | None = None) -> list[str]:
     d = s.decimals
-    return [f"P[{k}]{{", "   GP1:",
-            f"\tUF : {s.user_frame}, UT : {s.tool},\t\tCONFIG : 'N U T, 0, 0, 0',",
-            f"\tX = {num(p[0], d):>10} mm,\tY = {num(p[1], d):>10} mm,\tZ = {num(p[2], d):>10} mm,",
-            f"\tW = {num(r[0], d):>10} deg,\tP = {num(r[1], d):>10} deg,\tR = {num(r[2], d):>10} deg",
-            "};"]
+    out = [f"P[{k}]{{", "   GP1:",
+           f"\tUF : {s.user_frame}, UT : {s.tool},\t\tCONFIG : 'N U T, 0, 0, 0',",
+           f"\tX = {num(p[0], d):>10} mm,\tY = {num(p[1], d):>10} mm,\tZ = {num(p[2], d):>10} mm,",
+           f"\tW = {num(r[0], d):>10} deg,\tP = {num(r[1], d):>10} deg,\tR = {num(r[2], d):>10} deg"]
+    if ext is not None:                           # group 2: the positioner's joints, degrees
+        out += ["   GP2:", f"\tUF : {s.user_frame}, UT : {s.tool},",
+                "\t" + ",\t".join(f"J{j} = {num(v, d):>10} deg" for j, v in enumerate(ext, 1))]
+    return out + ["};"]
 
 
 def _mn_line(k: int, body: str) -> str:
@@ -218,6 +226,9 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     keys = plan.moves.section_keys
     # TP W, P, R (R = Rz·Ry·Rx) = KUKA's (C, B, A)
     R = kuka_abc(tool_frames(plan.moves.tool_axis, "z"))[:, ::-1] if len(P) else np.zeros((0, 3))
+    ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(P), -1)
+    groups = "1,*,*,*,*" if ext is None else "1,1,*,*,*"
+    coord = "" if ext is None else " COORD"
     numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
     zones: dict[int, list[str]] = {}      # schedule → the zones that use it
     progs: list[tuple[str, str, list[str], list[int]]] = []     # (name, comment, body, point indices)
@@ -285,7 +296,7 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
             v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
             cur_pts.append(st.end)
             term = "FINE" if st.stop else f"CNT{s.cnt}"
-            cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}")
+            cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}{coord}")
             if s.max_points_per_program and len(cur_pts) >= s.max_points_per_program and not arc:
                 flush(None)
     flush(None)
@@ -299,7 +310,7 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     main += [f"CALL {name}" for name, _, _, _ in progs]
     files = {"LS": render(base, "waamflow main", main, [])}
     for name, comment, body, pts in progs:
-        pos = [ln for j, i in enumerate(pts, 1) for ln in _pos(j, P[i], R[i], s)]
-        files[name[len(base) + 1:] + ".LS"] = render(name, comment, body, pos)
+        pos = [ln for j, i in enumerate(pts, 1) for ln in _pos(j, P[i], R[i], s, None if ext is None else ext[i])]
+        files[name[len(base) + 1:] + ".LS"] = render(name, comment, body, pos, groups)
     files[SCHEDULE_FILE] = schedule_csv(numbers, zones)
     return files
