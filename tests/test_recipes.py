@@ -30,6 +30,7 @@ def test_recipe_runs_as_shipped(recipe, tmp_path, monkeypatch):
         assert prog["top_gap_mm"] is not None and prog["top_gap_mm"] <= 0.5 * prog["layer_height_mm"] + 1e-6
         assert prog["uncovered_share"] <= 0.02
         assert prog["weld_data_missing"] in (0, None)
+        assert prog["outside_mm"] == 0.0          # no weld clear of the part beyond a run end's stock
         if prog["wire_part_volume_ratio"] is not None:
             assert 0.9 <= prog["wire_part_volume_ratio"] <= 1.2
 

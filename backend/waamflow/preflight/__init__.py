@@ -4,10 +4,11 @@
 (the mesh, sketch or region the recipe starts from), and returns the report that goes into
 `preflight.json` and `summary.json["preflight"]`: whole-run figures (`top_gap_mm`,
 `uncovered_share`, `wire_part_volume_ratio`, `min_arc_run_mm`, `start_spread_mm`,
-`weld_data_missing`), per program and per layer, a list of problems naming layer and section, and
-a verdict `ok | warn | fail`. A recipe without a program is checked on its last toolpath. Nodes that
-only order the deposit (the sequence node) are checked to weld what they were given, read back from
-their input and output toolpath artifacts (`conserve`).
+`weld_data_missing`, `outside_mm`), per program and per layer, a list of problems naming layer and
+section, and a verdict `ok | warn | fail`. Metal outside the part is `outside` (arc-ON centre lines
+off the part, machining stock at run ends aside). A recipe without a program is checked on its last
+toolpath. Nodes that only order the deposit (the sequence node) are checked to weld what they were
+given, read back from their input and output toolpath artifacts (`conserve`).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from .settings import PreflightSettings
 __all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error", "gate"]
 
 SUMMARY_KEYS = ("top_gap_mm", "uncovered_share", "wire_part_volume_ratio", "min_arc_run_mm", "start_spread_mm",
-                "weld_data_missing")
+                "weld_data_missing", "outside_mm")
 DEFAULT_BEAD_WIDTH_MM = 6.0
 
 
@@ -59,6 +60,34 @@ def _bead_width(graph, node_id: str, s: PreflightSettings) -> tuple[float, str]:
     return DEFAULT_BEAD_WIDTH_MM, "default 6 mm (no bead_width in the recipe)"
 
 
+#: parameters that put a run's ends beyond the part on purpose (machining stock: run-ups/-outs,
+#: free-end extensions), mm
+STOCK_PARAMS = ("extension_before", "extension_after", "free_end_extension")
+
+
+def _stock_length(graph, node_id: str, width: float) -> float:
+    """The machining stock a run's end may reach beyond the part, mm: the longest `STOCK_PARAMS`
+    value upstream of the program (in any section override too) plus one bead width."""
+    longest = 0.0
+
+    def walk(v) -> None:
+        nonlocal longest
+        if isinstance(v, dict):
+            for k, x in v.items():
+                if k in STOCK_PARAMS and isinstance(x, (int, float)) and not isinstance(x, bool):
+                    longest = max(longest, float(x))
+                else:
+                    walk(x)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                walk(x)
+
+    for nid in graph.ancestors(node_id) | {node_id}:
+        params = graph.nodes[nid].params
+        walk(params.model_dump() if hasattr(params, "model_dump") else params)
+    return longest + width
+
+
 def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str, bytes],
                   settings: PreflightSettings | None = None) -> dict | None:
     """The preflight report of a finished run; None when disabled or when the run hands out neither
@@ -86,7 +115,8 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
                 continue                    # a rolling/peening program deposits nothing
             width, source = _bead_width(graph, nid, s)
             rep = check_program(_part_of(graph, outputs, nid), prog, nid, s, width,
-                                weld_expected=prog.weld_commanded or prog.format == "csv")
+                                weld_expected=prog.weld_commanded or prog.format == "csv",
+                                stock_mm=_stock_length(graph, nid, width))
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
     if not reports:                          # no program: the last toolpath a node hands out
@@ -99,7 +129,8 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
         if doc_name and doc_name in artifacts:
             prog = read_toolpath(json.loads(artifacts[doc_name]))
             width, source = _bead_width(graph, last, s)
-            rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False)
+            rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False,
+                                stock_mm=_stock_length(graph, last, width))
             rep.update(files=[doc_name], bead_width_mm=width, bead_width_source=source,
                        notes=rep["notes"] + ["no program is emitted: the last toolpath was checked (weld data and "
                                              "wire volume are the program's to carry)"])

@@ -25,6 +25,7 @@ from shapely.geometry import LineString, MultiLineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from ..core.process import wire_area_mm2
+from .outside import check_outside
 from .read import ProgramRead, Run
 from .settings import PreflightSettings
 
@@ -191,11 +192,13 @@ def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
     covered_vol = 0.0
     prev_top = part.bottom
     over_area = 0.0
+    sections = {}
     for idx, runs in layers:
         z = float(np.median(np.concatenate([r.points[:, 2] for r in runs])))
         h = max(z - prev_top, 1e-6)
         prev_top = z
         section = _section_polygons(part, z - h / 2, mesh)
+        sections[idx] = section
         foot = footprint([r.points[:, :2] for r in runs if len(r.points) > 1], width)
         area = float(section.area)
         cov = float(section.intersection(foot).area) if area > 0 else 0.0
@@ -211,7 +214,7 @@ def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
                                     round(biggest.representative_point().y, 3), round(z - h / 2, 3)]
     share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
     return {"part_volume_mm3": part_volume, "uncovered_share": share, "outside_mm3": over_area,
-            "method": "planar slabs"}
+            "method": "planar slabs", "sections": sections}
 
 
 # ---- coverage: 3D samples -------------------------------------------------------------------------
@@ -294,7 +297,9 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 
 # ---- the whole check -----------------------------------------------------------------------------
 def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightSettings, width: float,
-                  *, weld_expected: bool = True) -> dict:
+                  *, weld_expected: bool = True, stock_mm: float | None = None) -> dict:
+    """stock_mm: machining stock allowed beyond the part at a run's ends (the recipe's longest
+    extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width)."""
     rep = Report(node, prog.format)
     layers = program_layers(prog)
     out: dict = {"node": node, "format": prog.format, "runs": len(prog.runs), "layers_deposited": len(layers),
@@ -344,6 +349,10 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                         "section or a filling pattern there", layer=worst["index"] if worst else None,
                         value=share, limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
                         point=(worst or {}).get("uncovered_point"))
+        # metal outside the part (outside.py): arc-ON centre lines off the part, stock at run ends aside
+        stock = s.outside_stock_mm if s.outside_stock_mm is not None else stock_mm if stock_mm is not None else width
+        fig = check_outside(part, layers, width, s, rep, planar=planar, sections=cov.get("sections"), stock_mm=stock)
+        out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     # wire fed vs metal needed
     wire_total, missing = 0.0, 0
     for idx, runs in layers:

@@ -4,7 +4,9 @@ Defaults are what a WAAM engineer would sign off: the top within half a layer, a
 part without a bead (fail above 5 %), wire ending in the part 0.9–1.2× the part's volume (fail
 outside 0.75–1.5×: machining stock is wanted, three times the metal is not), no arc-ON run shorter
 than two bead widths, no ignition within one bead width of one on the layer below, weld data
-commanded for every arc-ON move, and a sequence node that welds exactly what it was given.
+commanded for every arc-ON move, a sequence node that welds exactly what it was given, and no
+weld clear of the part beyond a run end's machining stock (fail: a centre line more than a bead
+width off the part over more than two bead widths; warn: a bead clear of it over one).
 """
 
 from __future__ import annotations
@@ -40,6 +42,20 @@ class PreflightSettings(BaseModel):
     deposit_changed: Literal["off", "warn", "fail"] = Field("fail", description="A sequence node whose output "
                                                              "welds another arc-ON length in a section than its "
                                                              "input (short-run fixes aside)")
+    outside: Literal["off", "warn", "fail"] = Field("fail", description="Arc-ON centre lines that leave the "
+                                                     "part by more than outside_margin_mm over more than "
+                                                     "outside_fail_mm (shorter stretches clear of the part warn)")
+    outside_margin_mm: float | None = Field(None, ge=0, le=1000, description="How far off the part a centre line "
+                                            "must be to count towards a fail, mm; empty = one bead width")
+    outside_fail_mm: float | None = Field(None, ge=0, le=10000, description="Fail above this contiguous length "
+                                          "more than the margin off the part, mm; empty = two bead widths")
+    outside_warn_mm: float | None = Field(None, ge=0, le=10000, description="Warn above this contiguous length of "
+                                          "bead clear of the part, mm; empty = one bead width")
+    outside_share_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the arc-ON length "
+                                      "clear of the part (stock at run ends aside)")
+    outside_stock_mm: float | None = Field(None, ge=0, le=1000, description="Machining stock allowed beyond the "
+                                           "part at a run's ends, mm; empty = the recipe's longest extension "
+                                           "(extension_before/after, free_end_extension) + one bead width")
     wire_diameter_mm: float = Field(WIRE_DIAMETER_MM, gt=0.1, le=10)
     deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.1, le=1.0,
                                          description="Share of the wire fed that ends in the part")

@@ -1,0 +1,263 @@
+"""Metal outside the part: arc-ON centre lines, as read back, that leave the part.
+
+The coverage check asks whether the part gets metal; this asks whether metal lands where there is
+no part — a weld across a thin-wall panel's gap, a pass shifted off its section. Each arc-ON run is
+sampled along its centre line (a quarter bead width apart) and every sample gets its distance
+outside the part, mm (0 inside):
+
+- **planar slabs** (solid or region part, planar layers): the distance to the same trimesh section
+  at mid-slab the coverage check cuts (`coverage_planar` hands its sections over);
+- **walls** (a sketch midsurface or an open single-wall mesh): the distance to the midsurface less
+  half a bead width — the wall the part stands for is one bead thick;
+- **fan layers of a solid**: the distance to the solid's surface (dense surface samples; points
+  inside the mesh are at 0).
+
+An *excursion* is a stretch of a run whose bead clears the part (distance > ½ bead width: the
+half-width overhang at an edge is what the bead's own width is for). It **fails** when the centre
+line is more than `outside_margin_mm` (default one bead width) off the part over a contiguous
+length above `outside_fail_mm` (default two bead widths), and **warns** when it is longer than
+`outside_warn_mm` (default one bead width). Travel never counts (only arc-ON runs are read).
+
+Legitimately outside: machining stock at a run's ends — extensions, run-ups/-outs, free-end
+extensions and fillet leads that ignite or extinguish beyond the part (Venturini et al. 2018, the
+thin-wall rule). An excursion that contains a run's first or last point is excused up to
+`stock_mm` (the recipe's longest stated extension/lead plus a bead width; `outside_stock_mm`
+overrides); beyond that, or in the middle of a run, it counts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiLineString
+
+from .read import Run
+
+MAX_STEP_MM = 1.0     # the centre line is sampled at most this far apart (and at most ¼ bead width)
+
+
+@dataclass(frozen=True)
+class Excursion:
+    """A stretch of one run whose bead clears the part.
+
+    length_mm: along the centre line, where distance > ½ bead width. deep_mm: the longest
+    contiguous part of it more than the margin off the part. max_mm: the farthest sample's distance
+    outside the part. point: that sample (x, y, z mm). at_end: contains the run's first or last
+    point (machining stock there is legitimate up to the stock allowance)."""
+
+    layer: int
+    section: str | None
+    length_mm: float
+    deep_mm: float
+    max_mm: float
+    point: tuple[float, float, float]
+    at_end: bool
+
+
+def sample_run(run: Run, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """((n, 3) samples, (n,) arc length mm) along the run's centre line, every vertex kept."""
+    pts = np.asarray(run.points, float)
+    out, s = [pts[:1]], [np.zeros(1)]
+    acc = 0.0
+    for a, b in zip(pts[:-1], pts[1:]):
+        seg = float(np.linalg.norm(b - a))
+        if seg <= 0:
+            continue
+        n = max(1, int(math.ceil(seg / step)))
+        t = np.arange(1, n + 1) / n
+        out.append(a + (b - a) * t[:, None])
+        s.append(acc + seg * t)
+        acc += seg
+    return np.vstack(out), np.concatenate(s)
+
+
+def _stretches(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Index ranges [i0, i1] (inclusive) of consecutive True."""
+    if not mask.any():
+        return []
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0] - 1))
+
+
+def _span(s: np.ndarray, i0: int, i1: int) -> float:
+    """Length of the samples i0..i1, each extended half-way to its neighbours (a stretch of one
+    sample still has the length of its step)."""
+    lo = s[i0] - (s[i0] - s[i0 - 1]) / 2 if i0 > 0 else s[i0]
+    hi = s[i1] + (s[i1 + 1] - s[i1]) / 2 if i1 + 1 < len(s) else s[i1]
+    return float(hi - lo)
+
+
+def excursions(run: Run, layer: int, pts: np.ndarray, s: np.ndarray, dist: np.ndarray, width: float,
+               margin: float) -> list[Excursion]:
+    out = []
+    for i0, i1 in _stretches(dist > width / 2.0):
+        d = dist[i0:i1 + 1]
+        deep = max((_span(s, i0 + a, i0 + b) for a, b in _stretches(d > margin)), default=0.0)
+        k = i0 + int(np.argmax(d))
+        out.append(Excursion(layer, run.section, _span(s, i0, i1), deep, float(d.max()),
+                             tuple(float(v) for v in pts[k]), bool(i0 == 0 or i1 == len(s) - 1)))
+    return out
+
+
+# ---- distance outside the part --------------------------------------------------------------------
+def distance_to_section(section, pts: np.ndarray) -> np.ndarray:
+    """(n,) mm from each point (xy) to the section polygon, 0 inside; inf when the slab has none."""
+    if section is None or section.is_empty:
+        return np.full(len(pts), np.inf)
+    return shapely.distance(section, shapely.points(pts[:, :2]))
+
+
+def distance_to_midsurface(curves, pts: np.ndarray, width: float) -> np.ndarray:
+    geom = MultiLineString([np.asarray(c, float)[:, :2] for c in curves])
+    return np.maximum(0.0, shapely.distance(geom, shapely.points(pts[:, :2])) - width / 2.0)
+
+
+class MeshDistance:
+    """Distance from points to a mesh: dense surface samples in a k-d tree (error ≤ the sample
+    spacing, stated as `resolution_mm`); a solid's interior is at 0."""
+
+    def __init__(self, vertices, faces, solid: bool, step: float, max_samples: int = 400_000) -> None:
+        import trimesh
+        from scipy.spatial import cKDTree
+
+        self.mesh = trimesh.Trimesh(vertices, faces, process=False)
+        n = int(min(max_samples, max(2000, self.mesh.area / step ** 2)))
+        surf = trimesh.sample.sample_surface_even(self.mesh, n, seed=0)[0]
+        self.tree = cKDTree(np.vstack([surf, self.mesh.vertices]))
+        self.resolution_mm = math.sqrt(self.mesh.area / max(len(surf), 1))
+        self.solid = solid
+
+    def __call__(self, pts: np.ndarray, floor: float) -> np.ndarray:
+        """floor: points nearer the surface than this are not tested for inside (0 either way)."""
+        d, _ = self.tree.query(pts)
+        d = np.maximum(0.0, d - self.resolution_mm / 2.0)
+        if self.solid:
+            far = np.nonzero(d > floor)[0]
+            if len(far):
+                inside = self.mesh.contains(pts[far])
+                d[far[inside]] = 0.0
+        return d
+
+
+# ---- the check ------------------------------------------------------------------------------------
+def find_outside(part, layers, width: float, *, planar: bool, sections: dict | None, margin: float,
+                 step: float | None = None) -> tuple[list[Excursion], dict[int, dict], str]:
+    """Every excursion of the program's arc-ON runs, the per-layer figures (the deposit area beyond
+    the section grown by ½ bead, planar only; the farthest sample) and the method. sections: layer index → the section
+    polygon the coverage check cut for it (planar solids/regions)."""
+    step = step or min(MAX_STEP_MM, width / 4.0)
+    mesh_dist = None
+    if part.kind == "midsurface":
+        method = "midsurface distance"
+    elif planar and part.kind in ("solid", "region") and sections is not None:
+        method = "planar slabs"
+    else:
+        method = "surface distance"
+        mesh_dist = MeshDistance(part.vertices, part.faces, part.kind == "solid", step)
+    from .check import footprint      # check imports this module
+
+    found: list[Excursion] = []
+    per_layer: dict[int, dict] = {}
+    for idx, runs in layers:
+        section = sections.get(idx) if method == "planar slabs" else None
+        if method == "planar slabs" and (section is None or section.is_empty):
+            continue                         # no part at this slab: a deposit above the top is top_gap's
+        reach = section.buffer(width / 2.0, quad_segs=8) if section is not None else None
+        area = 0.0
+        worst = None
+        for r in runs:
+            if len(r.points) < 2:
+                continue
+            pts, s = sample_run(r, step)
+            if method == "planar slabs":
+                dist = distance_to_section(section, pts)
+            elif method == "midsurface distance":
+                dist = distance_to_midsurface(part.curves, pts, width)
+            else:
+                dist = mesh_dist(pts, width / 2.0)
+                if part.kind == "surface":
+                    dist = np.maximum(0.0, dist - width / 2.0)
+            ex = excursions(r, idx, pts, s, dist, width, margin)
+            found += ex
+            for e in ex:
+                if worst is None or e.max_mm > worst.max_mm:
+                    worst = e
+            if reach is not None and ex:
+                area += float(footprint([r.points[:, :2]], width).difference(reach).area)
+        per_layer[idx] = {"outside_mm2": area if method == "planar slabs" else None,
+                          "outside_max_mm": worst.max_mm if worst else 0.0,
+                          "outside_point": list(worst.point) if worst else None}
+    return found, per_layer, method
+
+
+def counted(e: Excursion, stock_mm: float) -> tuple[float, float]:
+    """(length, deep length) mm of an excursion that count: a run end's stock is excused up to
+    stock_mm."""
+    if not e.at_end:
+        return e.length_mm, e.deep_mm
+    return max(0.0, e.length_mm - stock_mm), max(0.0, e.deep_mm - stock_mm)
+
+
+def check_outside(part, layers, width: float, s, rep, *, planar: bool, sections: dict | None,
+                  stock_mm: float) -> dict:
+    """Adds the `outside` problems to rep (a `check.Report`) and the per-layer figures to its layers
+    (outside_mm: weld clear of the part that counts; outside_stock_mm: at run ends, excused;
+    outside_mm2; outside_max_mm and outside_point: the farthest sample). Returns the program's
+    figures: outside_mm (the longest counted stretch), outside_mm_total, outside_mm2 (planar: the
+    largest layer's deposit area beyond the section grown by ½ bead), outside_max_mm (the farthest
+    counted sample), outside_share (counted length / arc-ON length), outside_method,
+    outside_stock_mm."""
+    margin = s.outside_margin_mm if s.outside_margin_mm is not None else width
+    fail_len = s.outside_fail_mm if s.outside_fail_mm is not None else 2.0 * width
+    warn_len = s.outside_warn_mm if s.outside_warn_mm is not None else width
+    found, per_layer, method = find_outside(part, layers, width, planar=planar, sections=sections, margin=margin)
+    arc_len = sum(r.length for _i, runs in layers for r in runs)
+    rated = [(e, *counted(e, stock_mm)) for e in found]
+    total = sum(c for _e, c, _d in rated)
+    for idx, fig in per_layer.items():
+        L = rep.layer(idx)
+        mine = [(e, c) for e, c, _d in rated if e.layer == idx]
+        L["outside_mm"] = round(sum(c for _e, c in mine), 3)
+        L["outside_stock_mm"] = round(sum(e.length_mm - c for e, c in mine), 3)
+        if fig["outside_mm2"] is not None:
+            L["outside_mm2"] = round(fig["outside_mm2"], 2)
+        if fig["outside_point"] is not None:
+            L["outside_max_mm"] = round(fig["outside_max_mm"], 3)
+            L["outside_point"] = [round(v, 3) for v in fig["outside_point"]]
+    out = {"outside_method": method, "outside_stock_mm": stock_mm,
+           "outside_mm": max((c for _e, c, _d in rated), default=0.0), "outside_mm_total": total,
+           "outside_mm2": max((f["outside_mm2"] or 0.0 for f in per_layer.values()), default=0.0)
+           if method == "planar slabs" else None,
+           "outside_max_mm": max((e.max_mm for e, c, _d in rated if c > 0), default=0.0),
+           "outside_share": total / arc_len if arc_len > 0 else 0.0}
+    if s.outside == "off":
+        return out
+    deep = [(e, c, d) for e, c, d in rated if d > fail_len]
+    long = [(e, c, d) for e, c, d in rated if c > warn_len and d <= fail_len]
+    for group, sev in ((deep, s.outside), (long, "warn")):
+        if not group:
+            continue
+        e, c, d = max(group, key=lambda t: t[1])
+        layers_hit = sorted({x.layer for x, _c, _d in group})
+        where = ", ".join(str(i) for i in layers_hit[:8]) + (" …" if len(layers_hit) > 8 else "")
+        what = (f"its centre line more than {margin:g} mm off the part over {d:.1f} mm" if group is deep
+                else f"its bead clear of the part over {c:.1f} mm")
+        rep.problem("outside", sev,
+                    f"{len(group)} arc-ON stretch(es) deposit outside the part (layers {where}); the longest: layer "
+                    f"{e.layer}, section {e.section}, {c:.1f} mm of weld beyond the part, up to {e.max_mm:.1f} mm off "
+                    f"it ({what}"
+                    + (f"; a run end's machining stock up to {stock_mm:g} mm is allowed" if e.at_end else "")
+                    + "): metal where there is no part; check the sequence and its links (arc off between walls)",
+                    layer=e.layer, section=e.section, value=c,
+                    limit=fail_len if group is deep else warn_len, point=e.point)
+    if not deep and not long and out["outside_share"] > s.outside_share_warn:
+        rep.problem("outside", "warn", f"{out['outside_share'] * 100:.1f} % of the arc-ON length deposits clear "
+                    "of the part in short stretches", value=out["outside_share"], limit=s.outside_share_warn)
+    return out
+
+
+__all__ = ["Excursion", "check_outside", "counted", "MeshDistance", "distance_to_midsurface", "distance_to_section", "excursions",
+           "sample_run"]
