@@ -78,7 +78,23 @@ def test_schedules_are_the_zones_weld_values(cross):
     # the table is in the main program's comments too, and the post says to enter it
     assert "! sched 2: 103A ;" in program.files["LS"]
     warns = [w["message"] for w in cross.warnings if w["node"] == "post"]
-    assert sum("must be entered on the controller" in w for w in warns) == 6
+    assert sum("must be entered on the controller" in w for w in warns) == 6          # 5 named, then the rest
+    assert any("weld schedule 6 must be entered on the controller as well" in w for w in warns)
+
+
+def test_a_run_is_weld_commanded_by_a_schedule_with_values(cross):
+    """The reader takes the weld from the table: a schedule emptied there, or missing, commands no weld."""
+    program = cross.outputs["post"]["program"]
+    files = dict(program.files)
+    rows = files["SCHED.CSV"].splitlines()
+    files["SCHED.CSV"] = "\n".join([rows[0], "1,,,,,6,start", *rows[2:]]) + "\n"    # schedule 1: no values
+    runs = read_tp(files).runs
+    assert len(runs) == 24 and sum(not r.weld[0] for r in runs) == 8       # layer by layer, bs1/A starts with 1
+    assert all(np.isnan(r.wfs[0]) == (not r.weld[0]) for r in runs)
+    files["SCHED.CSV"] = "\n".join(rows[:2] + rows[3:]) + "\n"                # schedule 2 missing
+    read = read_tp(files)
+    assert any("schedule 2 not in the table" in n for n in read.notes)
+    assert not all(r.weld.all() for r in read.runs)
 
 
 def test_metal_balance_is_checked(cross):

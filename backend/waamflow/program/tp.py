@@ -70,6 +70,8 @@ SCHEDULE_COLUMNS = ("schedule", "voltage_V", "current_A", "wire_feed_speed_m_min
 SCHEDULE_FILE = "SCHED.CSV"
 COMMENT_MAX = 32        # a TP comment (!) holds at most 32 characters
 ATTR_COMMENT_MAX = 16   # /ATTR COMMENT holds at most 16
+SCHEDULES_NAMED = 5     # weld issues name this many schedules one by one, then one for the rest
+SCHEDULES_USUAL = 32    # more weld schedules than this: the post says to check the controller's count
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,26 +196,37 @@ def schedule_comment(n: int, key: tuple) -> list[str]:
 
 
 def tp_schedule_issues(plan: Plan, base: str) -> tuple:
-    """One `WeldDataIssue` per weld schedule, at the first zone that welds with it: TP has no inline
-    weld values, so the schedule must be entered on the controller (numbered as `write_tp` does)."""
+    """`WeldDataIssue`s saying the weld schedules must be entered on the controller (TP has no
+    inline weld values; numbered as `write_tp` does): one per schedule, at the first zone that
+    welds with it, for the first SCHEDULES_NAMED; the rest in one issue at the next one's zone (a
+    per-layer compensation gives a schedule per layer). More than SCHEDULES_USUAL schedules is said
+    too: check the controller holds that many."""
     from .common import WeldDataIssue
 
     numbers: dict[tuple, int] = {}
-    out = []
+    first: list[tuple] = []                  # (schedule, key, section key, layer, zone id)
     layer = None
     for st in plan.steps:
         if isinstance(st, LayerStart):
             layer = st.layer
         elif isinstance(st, ProcessChange):
             key = schedule_key(st.params)
-            if key in numbers:
-                continue
-            n = numbers[key] = len(numbers) + 1
-            vals = schedule_comment(n, key)
-            out.append(WeldDataIssue(plan.moves.section_keys[st.section], layer, st.zone_id or "-",
-                                     f"weld schedule {n} ({' '.join(v.strip() for v in vals).split(': ', 1)[1]}) "
-                                     f"must be entered on the controller: TP has no inline weld values "
-                                     f"(Arc Start[{n}]; table in {base}_{SCHEDULE_FILE})"))
+            if key not in numbers:
+                numbers[key] = len(numbers) + 1
+                first.append((numbers[key], key, plan.moves.section_keys[st.section], layer, st.zone_id or "-"))
+    where = f"table in {base}_{SCHEDULE_FILE}"
+    out = []
+    for n, key, sec, lay, zid in first[:SCHEDULES_NAMED]:
+        vals = " ".join(v.strip() for v in schedule_comment(n, key)).split(": ", 1)[1]
+        out.append(WeldDataIssue(sec, lay, zid, f"weld schedule {n} ({vals}) must be entered on the controller: "
+                                                f"TP has no inline weld values (Arc Start[{n}]; {where})"))
+    if len(first) > SCHEDULES_NAMED:
+        _n, _key, sec, lay, zid = first[SCHEDULES_NAMED]
+        many = f"; {len(first)} schedules: check the controller holds that many" if len(first) > SCHEDULES_USUAL else ""
+        rest = f"schedule {len(first)}" if len(first) == SCHEDULES_NAMED + 1 else \
+            f"schedules {SCHEDULES_NAMED + 1}..{len(first)}"
+        out.append(WeldDataIssue(sec, lay, zid, f"weld {rest} must be entered on the controller as well "
+                                                f"({where}){many}"))
     return tuple(out)
 
 
