@@ -106,6 +106,9 @@ def test_valid_node_id_keeps_its_artifact_names(tmp_path):
 
 
 def test_headers_carry_version_and_source_revision(tmp_path):
+    # the revision is computed once per process: read it again here, so a commit made while the test
+    # session runs (HEAD moved) does not fail the comparison
+    source_revision.cache_clear()
     rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=REPO, capture_output=True,
                          text=True, check=True).stdout.strip()
     assert source_revision() == rev
