@@ -72,7 +72,7 @@ class PostProcess(Node):
     class Params(NodeParams):
         profile: ShippedName = shipped("machines", default="", max_length=64,
                              description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
-                                         "abb_irc5): presets for every param this recipe does not set; empty = none", title="Machine profile")
+                                         "abb_irc5, yaskawa_yrc1000, fanuc_r30ib_arctool): presets for every param this recipe does not set; empty = none", title="Machine profile")
         format: Literal["gcode", "krl", "rapid", "inform", "tp", "csv", "printpoints"] = Field(
             "gcode", description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); tp = Fanuc TP "
                                  "programs (.LS, ArcTool) with a weld schedule table; printpoints = "
@@ -162,8 +162,8 @@ class PostProcess(Node):
                               description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
                                           "`TOOL_OFF()`, RAPID `ToolOff;`", title="Tool off code")
         # KUKA KRL
-        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number; INFORM: the job's tool (///TOOL)", title="Tool number (KRL)")
-        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number; INFORM: the user frame (///USER, at least 1)", title="Base number (KRL)")
+        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number; INFORM: the job's tool (///TOOL); TP: UT (1..10)", title="Tool number (KRL)")
+        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number; INFORM: the user frame (///USER, at least 1); TP: UF (0..9)", title="Base number (KRL)")
         arc_control: Literal["output", "arctech"] = Field(
             "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF", title="Arc control (KRL)")
         arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc", title="Arc output number (KRL)")
