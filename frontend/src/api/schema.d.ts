@@ -1174,6 +1174,39 @@ export interface components {
              */
             deposit_changed: "off" | "warn" | "fail";
             /**
+             * Outside
+             * @description Arc-ON centre lines that leave the part by more than outside_margin_mm over more than outside_fail_mm (shorter stretches clear of the part warn)
+             * @default fail
+             * @enum {string}
+             */
+            outside: "off" | "warn" | "fail";
+            /**
+             * Outside Margin Mm
+             * @description How far off the part a centre line must be to count towards a fail, mm; empty = one bead width
+             */
+            outside_margin_mm?: number | null;
+            /**
+             * Outside Fail Mm
+             * @description Fail above this contiguous length more than the margin off the part, mm; empty = two bead widths
+             */
+            outside_fail_mm?: number | null;
+            /**
+             * Outside Warn Mm
+             * @description Warn above this contiguous length of bead clear of the part, mm; empty = one bead width
+             */
+            outside_warn_mm?: number | null;
+            /**
+             * Outside Share Warn
+             * @description Warn above this share of the arc-ON length clear of the part (stock at run ends aside)
+             * @default 0.02
+             */
+            outside_share_warn: number;
+            /**
+             * Outside Stock Mm
+             * @description Machining stock allowed beyond the part at a run's ends, mm; empty = the recipe's longest extension (extension_before/after, free_end_extension) + one bead width
+             */
+            outside_stock_mm?: number | null;
+            /**
              * Wire Diameter Mm
              * @default 1.2
              */
