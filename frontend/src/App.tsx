@@ -7,6 +7,7 @@ import { Palette } from "./components/Palette";
 import { Tabs, tabPanelProps } from "./components/Tabs";
 import { Toolbar } from "./components/Toolbar";
 import { ConflictDialog, conflictOf, overwriteWith, type Conflict } from "./components/ConflictDialog";
+import { HistoryDialog } from "./components/HistoryDialog";
 import { UploadDialog, type UploadAsk, type UploadChoice } from "./components/UploadDialog";
 import { clearDraft, draftDiffers, parsePlace, placeSearch, readDraft, writeDraft, type Draft } from "./graph/drafts";
 import { GraphEditor } from "./graph/GraphEditor";
@@ -299,6 +300,8 @@ export function App() {
   const bounds = useMemo(() => boundsByName(processParams), [processParams]);
   // A save refused because someone saved since this recipe was opened (409): the user decides.
   const [conflict, setConflict] = useState<Conflict | null>(null);
+  // The saved recipe's history dialog (#25 Build 2): an earlier revision opens as an unsaved edit.
+  const [showHistory, setShowHistory] = useState(false);
 
   const save = useCallback(
     async (name: string | null = graphName) => {
@@ -585,6 +588,7 @@ export function App() {
         }}
         onSave={save}
         onDelete={remove}
+        onHistory={() => setShowHistory(true)}
         onUndo={() => setHist(undo<Doc>)}
         onRedo={() => setHist(redo<Doc>)}
         onRun={startRun}
@@ -724,6 +728,23 @@ export function App() {
             setSaveAs(`${conflict.name}-copy`);
           }}
           onCancel={() => setConflict(null)}
+        />
+      )}
+      {showHistory && graphName && !isExample && (
+        <HistoryDialog
+          name={graphName}
+          current={recipe}
+          onClose={() => {
+            setShowHistory(false);
+            document.querySelector<HTMLElement>("[data-testid=history]")?.focus();
+          }}
+          onOpen={(r, rev) => {
+            // One undo step on top of what is on screen; the loaded revision (If-Match) stays the
+            // current one, so "save" stores it as a new revision, never over someone's save.
+            setHist((h) => change(h, withRecipe(h.present, { ...r, name: graphName, files: r.files ?? h.present.recipe.files })));
+            setShowHistory(false);
+            message(`revision ${rev} opened as an unsaved change: save to make it the newest revision, or undo`);
+          }}
         />
       )}
       {uploadAsk && <UploadDialog ask={uploadAsk.ask} onChoose={uploadAsk.resolve} />}

@@ -6,7 +6,7 @@ import createClient from "openapi-fetch";
 import type { paths } from "./schema";
 import type {
   Artifact, FileInfo, GraphInfo, Health, NodeSpec, Preview, PreviewRequest, ProcessParameter, Recipe, RunCreated, RunError, RunInfo, RunListItem, RunRequest,
-  SaveResult, WireRecipe,
+  RevisionInfo, SaveResult, WireRecipe,
 } from "./types";
 
 export const api = createClient<paths>({ baseUrl: "" });
@@ -104,6 +104,14 @@ export async function putGraph(name: string, recipe: Recipe): Promise<SaveResult
   if (!response.ok) throw conflictOr("recipe", name, response.status, error);
   remember("recipe", name, response);
   return data as SaveResult;
+}
+/** The recipe's saved revisions, newest first (revision, time in epoch seconds, user). */
+export const listRevisions = (name: string) => unwrap<RevisionInfo[]>(api.GET("/api/graphs/{name}/revisions", { params: { path: { name } } }));
+/** One earlier revision of the recipe, as saved then. Does not touch the loaded revision (If-Match). */
+export async function getRevision(name: string, rev: number): Promise<Recipe> {
+  const { data, error, response } = await api.GET("/api/graphs/{name}/revisions/{rev}", { params: { path: { name, rev } } });
+  if (!response.ok) throw new ApiError(response.status, toDetail(response.status, error));
+  return normalizeRecipe(data as WireRecipe);
 }
 export const deleteGraph = (name: string) => unwrap<void>(api.DELETE("/api/graphs/{name}", { params: { path: { name } }, parseAs: "text" }));
 export const listFiles = (name: string) => unwrap<FileInfo[]>(api.GET("/api/graphs/{name}/files", { params: { path: { name } } }));

@@ -13,6 +13,7 @@ type WithRequired<T, K extends keyof T> = Omit<T, K> & Required<Pick<T, K>>;
 export type Health = S["Health"];
 export type GraphInfo = S["GraphInfo"];
 export type SaveResult = S["SaveResult"];
+export type RevisionInfo = S["RevisionInfo"];
 export type FileInfo = S["FileInfo"];
 export type Artifact = S["ArtifactInfo"];
 export type RunCreated = S["RunCreated"];

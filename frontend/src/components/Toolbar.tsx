@@ -27,6 +27,8 @@ export interface ToolbarProps {
   /** Save under `name` (default: the current graph); resolves to whether it was saved. */
   onSave: (name?: string | null) => Promise<boolean>;
   onDelete: () => void;
+  /** Open the saved recipe's history (its revisions); absent: no history button. */
+  onHistory?: () => void;
   onUndo: () => void;
   onRedo: () => void;
   onRun: () => void;
@@ -73,6 +75,17 @@ export function Toolbar(p: ToolbarProps) {
       <button onClick={p.onDelete} disabled={!p.graphName || p.isExample} data-testid="delete" title={p.isExample ? "shipped examples cannot be deleted" : "delete this saved recipe"}>
         delete
       </button>
+      {p.onHistory && (
+        <button
+          onClick={p.onHistory}
+          disabled={!p.graphName || p.isExample}
+          data-testid="history"
+          aria-haspopup="dialog"
+          title={p.isExample ? "a shipped example is read-only and has no history: save a copy to keep revisions" : p.graphName ? "the saved revisions of this recipe: list them, open an earlier one" : "save the recipe first: each save is a revision"}
+        >
+          history
+        </button>
+      )}
       <span className="sep" />
       <button onClick={p.onUndo} disabled={!p.canUndo} title="undo (Ctrl+Z)" aria-label="undo" data-testid="undo">
         ↶
