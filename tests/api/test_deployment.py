@@ -183,12 +183,13 @@ def test_env_settings_reach_serve(monkeypatch, tmp_path):
 
 
 def test_readme_limits_are_the_defaults():
-    """README 'Lab server' states each limit's default; they are the settings' defaults."""
-    readme = (DOCKER.parent / "README.md").read_text()
+    """The lab-server tutorial's **Limits** paragraph states each limit's default; they are the settings'."""
+    readme = (DOCKER.parent / "docs" / "tutorials" / "lab-server.md").read_text()
     para = readme[readme.index("**Limits**"):]
     para = para[:para.index("\n\n")]
     stated = {name: float(num.replace(" ", "")) for name, num in re.findall(r"`(\w+)`\s+(\d[\d ]*\d|\d)\b", para)}
     assert set(stated) >= {"run_timeout_s", "max_layers", "max_points", "max_artifact_mb", "max_memory_mb",
-                           "max_queued_runs", "max_upload_mb"}, stated
+                           "max_queued_runs", "max_upload_mb", "max_body_mb", "max_triangles", "max_dxf_entities",
+                           "max_uncompressed_mb", "preview_timeout_s"}, stated
     for name, value in stated.items():
         assert Settings.model_fields[name].default == value, name
