@@ -48,8 +48,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
-from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+from .orientation import fixed_xyz_angles
+from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
+                   ignition_dwell_after)
 
 # INFORM inline weld values: parameter → ARCON/ARCSET tag (what a power source takes inline)
 INFORM_WELD_CODES = {"current": "AC={value:.0f}", "voltage": "AV={value:.1f}"}
@@ -123,8 +124,7 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
     s = settings
     P = plan.moves.points
     keys = plan.moves.section_keys
-    # INFORM Rx, Ry, Rz (R = Rz·Ry·Rx) = KUKA's (C, B, A)
-    R = kuka_abc(tool_frames(plan.moves.tool_axis, "z"))[:, ::-1] if len(P) else np.zeros((0, 3))
+    R = fixed_xyz_angles(plan.moves.tool_axis)
     jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
     cur: list[str] = []
     cur_pts: list[int] = []
@@ -165,8 +165,7 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
             if arc and changed and _weld_fields(params, changed):
                 cur.append(f"ARCSET {_weld_fields(params, changed)}")
         elif isinstance(st, ArcOn):
-            ign = steps[k + 1].seconds if k + 1 < len(steps) and isinstance(steps[k + 1], Dwell) \
-                and steps[k + 1].reason == "ignition" else 0.0
+            ign = ignition_dwell_after(steps, k)
             skip_dwell = ign > 0
             fields = _weld_fields(params)
             cur.append("ARCON" + (f" {fields}" if fields else "") + f" T={num(ign, 2)}")

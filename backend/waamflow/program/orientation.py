@@ -62,6 +62,14 @@ def kuka_abc(frames: np.ndarray) -> np.ndarray:
     return out + 0.0  # no negative zeros in the program text
 
 
+def fixed_xyz_angles(axes: np.ndarray) -> np.ndarray:
+    """(n, 3) unit tool axes → (n, 3) fixed-axis angles about x, y, z in degrees with R = Rz·Ry·Rx,
+    tool z along the axis: Fanuc W, P, R and Yaskawa Rx, Ry, Rz (KUKA's C, B, A)."""
+    if len(axes) == 0:
+        return np.zeros((0, 3))
+    return kuka_abc(tool_frames(axes, "z"))[:, ::-1]
+
+
 def abc_matrix(abc_deg: np.ndarray) -> np.ndarray:
     """(n, 3) KUKA A, B, C in degrees → (n, 3, 3) rotations Rz(A)·Ry(B)·Rx(C) (inverse of kuka_abc)."""
     a, b, c = np.radians(np.asarray(abc_deg, dtype=float).reshape(-1, 3)).T

@@ -156,6 +156,12 @@ class Plan:
         return [s for s in self.steps if isinstance(s, Motion)]
 
 
+def ignition_dwell_after(steps, k: int) -> float:
+    """Seconds of the ignition dwell that follows step k (an ArcOn), 0 when none follows."""
+    nxt = steps[k + 1] if k + 1 < len(steps) else None
+    return nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
+
+
 def _mode(moves: Moves, i: int) -> str:
     if moves.arc[i]:
         return "weld"

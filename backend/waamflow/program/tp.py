@@ -61,8 +61,9 @@ import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
 from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
-from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+from .orientation import fixed_xyz_angles
+from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
+                   ignition_dwell_after)
 
 # a schedule's values, in the order of the schedule file's columns (zone parameter names)
 SCHEDULE_VALUES = ("voltage", "current", "wire_feed_speed", "job", "travel_speed")
@@ -237,8 +238,7 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     base = s.program_name.upper()
     P = plan.moves.points
     keys = plan.moves.section_keys
-    # TP W, P, R (R = Rz·Ry·Rx) = KUKA's (C, B, A)
-    R = kuka_abc(tool_frames(plan.moves.tool_axis, "z"))[:, ::-1] if len(P) else np.zeros((0, 3))
+    R = fixed_xyz_angles(plan.moves.tool_axis)
     ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(P), -1)
     groups = "1,*,*,*,*" if ext is None else "1,1,*,*,*"
     coord = "" if ext is None else " COORD"
@@ -281,8 +281,7 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
                 cur.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
             sched = new
         elif isinstance(st, ArcOn):
-            ign = steps[k + 1].seconds if k + 1 < len(steps) and isinstance(steps[k + 1], Dwell) \
-                and steps[k + 1].reason == "ignition" else 0.0
+            ign = ignition_dwell_after(steps, k)
             if not sched:                                 # no weld values given: an empty schedule
                 sched = numbers.setdefault(schedule_key({}), len(numbers) + 1)
             cur.append(f"Arc Start[{sched}]")
