@@ -162,22 +162,7 @@ def _section_polygons(part: Part, z: float, mesh=None):
         best = min(part.regions, key=lambda r: abs((r[0] - r[1] / 2) - z))
         return best[2]
     sec = mesh.section(plane_origin=[0, 0, z], plane_normal=[0, 0, 1])
-    if sec is None:
-        return MultiPolygon()
-    polys = []
-    for path in sec.discrete:
-        if len(path) >= 4:
-            pg = Polygon(path[:, :2])
-            if not pg.is_valid:
-                pg = pg.buffer(0)
-            polys.append(pg)
-    if not polys:
-        return MultiPolygon()
-    # even-odd: nested loops are holes
-    geom = polys[0]
-    for pg in polys[1:]:
-        geom = geom.symmetric_difference(pg)
-    return geom
+    return MultiPolygon() if sec is None else _loops_to_geom(sec.discrete)
 
 
 def _loops_to_geom(loops) -> Polygon | MultiPolygon:
