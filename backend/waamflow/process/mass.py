@@ -99,8 +99,10 @@ def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | N
     tree = cKDTree(P)
     reach = NEIGHBOUR_REACH * width_mm
     has = np.zeros(len(P), dtype=bool)
-    for i, nb in enumerate(tree.query_ball_point(P, reach)):
-        has[i] = any(abs(S[j] - S[i]) > 2.0 * width_mm for j in nb)
+    pairs = tree.query_pairs(reach, output_type="ndarray")
+    far = pairs[np.abs(S[pairs[:, 0]] - S[pairs[:, 1]]) > 2.0 * width_mm]
+    has[far[:, 0]] = True
+    has[far[:, 1]] = True
     if has.mean() < NEIGHBOUR_SHARE:
         return None
     runs, cur = [], []
