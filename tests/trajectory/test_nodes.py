@@ -7,6 +7,7 @@ import json
 import pytest
 
 from waamflow.core.errors import InputFileError
+from waamflow.core.moves import DEPOSIT, flatten
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
@@ -61,8 +62,21 @@ def test_estimate_time_node():
     r = run([{"id": "est", "type": "estimate-time", "params": {}}], [("strategy.toolpath", "est.toolpath")],
             pattern="semicircular")
     est = json.loads(r.artifacts["est.estimate.json"])
-    assert est["passes"] == 5
-    assert est["total_time_s"] == pytest.approx(6.3, rel=0.1)
+    assert est["passes"] == 5 and est["sections"] == 1 and est["notes"] == []
+    # the study's closed-form model (Table 5) written out by hand for this program: 5 passes of
+    # L = 43 mm at TS = 40 mm/s joined by 4 semicircular links of programmed length Lt, with the
+    # shipped profile's own semicircular entry at 40 mm/s, arc ON throughout
+    e = load_profile("kuka_kr100ha_krc2").time_model["40_on_semicircular"]
+    L, TS, n = 43.0, 40.0, 5
+    moves = flatten(r.outputs["strategy"]["toolpath"])
+    assert (moves.kind == DEPOSIT).all() and moves.arc.all() and moves.dwell_before.sum() == 0
+    Lt = (float(moves.segment_lengths.sum()) - n * L) / (n - 1)
+    assert Lt == pytest.approx(6.9487, abs=1e-4)   # a half circle of radius 2.215 mm as 17 chords
+    first = e["T_init_accel"] + (L - e["L_init_accel"] - e["L_decel"]) / TS
+    middle = (n - 2) * (L - e["L_accel"] - e["L_decel"]) / TS
+    last = (L - e["L_accel"] - e["L_final_decel"]) / TS + e["T_final_decel"]
+    links = (n - 1) * (e["T_trans"] + (Lt - e["L_trans_ref"]) / TS)
+    assert est["total_time_s"] == pytest.approx(first + middle + last + links, rel=1e-6)
 
 
 def test_calibrate_robot_node(tmp_path):
