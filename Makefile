@@ -39,10 +39,12 @@ test: venv frontend lint docs
 test-backend: venv
 	$(PY) -m pytest -q
 
-# ruff (lint rules in pyproject.toml [tool.ruff.lint]) and deptry (imports = declared dependencies)
-lint: venv
+# ruff (lint rules in pyproject.toml [tool.ruff.lint]), deptry (imports = declared dependencies) and
+# eslint on the frontend (frontend/eslint.config.js)
+lint: venv node_modules/.installed
 	$(VENV)/bin/ruff check backend tests bench scripts
 	$(VENV)/bin/deptry backend
+	npm run lint
 
 $(VENV)/.docs-installed: requirements-docs.lock $(VENV)/.installed
 	$(PY) -m pip install --quiet -r requirements-docs.lock

@@ -5,7 +5,7 @@ import { readFileSync, writeFileSync } from "node:fs";
 import path from "node:path";
 import { after, before, test } from "node:test";
 import {
-  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, openRecipe, saveAs, shot, startBrowser, startServer, waitRun,
+  OUT, api, boxesStl, expectRun, canvasPoint, clickAt, connect, drawClosed, drawOpen, openPage, openRecipe, saveAs, shot, startBrowser, startServer,
 } from "./harness.mjs";
 
 let srv, browser;

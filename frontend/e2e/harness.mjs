@@ -89,7 +89,7 @@ export async function openPage(browser, base) {
   try {
     await page.waitForSelector("[data-testid=palette] .palette-item", { timeout: 60_000 });
   } catch (e) {
-    throw new Error(`the palette did not load: ${e.message}\nconsole: ${errors.join("\n")}`);
+    throw new Error(`the palette did not load: ${e.message}\nconsole: ${errors.join("\n")}`, { cause: e });
   }
   return { page, errors, context };
 }

@@ -326,7 +326,7 @@ test("3D tab after a server restart: the open recipe's last run is rebuilt from 
   for (const [sel, mode, want] of modes) {
     await page.selectOption(`[data-testid=${sel}]`, mode);
     // polled on a timer: animation frames stall while SwiftShader draws the scene on a busy machine
-    await page.waitForFunction(([m, src]) => new RegExp(src).test(document.querySelector("[data-testid=viewer-legend]")?.innerText ?? ""), [mode, want.source], { polling: 250, timeout: 60_000 });
+    await page.waitForFunction(([, src]) => new RegExp(src).test(document.querySelector("[data-testid=viewer-legend]")?.innerText ?? ""), [mode, want.source], { polling: 250, timeout: 60_000 });
     assert.match(await legend(), want);
   }
   // programmed (near black, thin) vs simulated (colour map) vs toolpath (wide): the legend names them

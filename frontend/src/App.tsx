@@ -270,7 +270,11 @@ export function App() {
 
   // ---- the URL names the open recipe and tab; back/forward move between them ----------------------
   const navigating = useRef(false);
+  // The listener set up once reads the current `open` (it changes with the recipe list).
+  const openRef = useRef(open);
+  openRef.current = open;
   useEffect(() => {
+    const open = openRef.current;
     const place = parsePlace(location.search);
     if (place.graph) {
       navigating.current = true;
@@ -283,7 +287,7 @@ export function App() {
         setTab(asTab(p.tab));
         navigating.current = false;
       };
-      if (p.graph && p.graph !== graphRef.current) void open(p.graph, asTab(p.tab)).finally(done);
+      if (p.graph && p.graph !== graphRef.current) void openRef.current(p.graph, asTab(p.tab)).finally(done);
       else done();
     };
     window.addEventListener("popstate", onPop);

@@ -14,7 +14,7 @@ const recipe: Recipe = {
 } as unknown as Recipe;
 // user's own XML: comments and formatting must survive
 const XML = `<!-- my notes -->\n<params>\n  <section id="bs1/C"><zone name="start"><travel_speed unit="mm/s">6</travel_speed></zone></section>\n</params>\n`;
-const withoutC = XML.replace(/  <section id="bs1\/C">.*\n/, "");
+const withoutC = XML.replace(/ {2}<section id="bs1\/C">.*\n/, "");
 
 describe("document: recipe and parameter XML in one history", () => {
   it("undo restores the XML together with the recipe (delete section, undo → both as saved)", () => {

@@ -180,10 +180,6 @@ export async function artifactText(id: string, name: string): Promise<string | n
   return res.text();
 }
 
-/** Make the embedded 3D view follow a node and layer (null = all). */
-export const viewerSelect = (node: string | null, layer: number | null) =>
-  unwrap<void>(api.POST("/api/viewer/select", { body: { node, layer }, parseAs: "text" }));
-
 /** The 3D view's URL as seen from this browser (the server may report 127.0.0.1). */
 export function viewerUrl(h: Health): string | null {
   if (h.viewer_port) return `${location.protocol}//${location.hostname}:${h.viewer_port}`;

@@ -20,7 +20,6 @@ export type RunCreated = S["RunCreated"];
 export type RunRequest = S["RunRequest"];
 export type PreviewRequest = S["PreviewRequest"];
 export type RunInfo = Omit<S["RunStatus"], "error"> & { error?: RunError | null };
-export type RunStatus = S["RunStatus"]["status"];
 export type RunListItem = S["RunListItem"];
 export type ProcessParameter = S["ProcessParameterInfo"];
 export type Json = null | boolean | number | string | Json[] | { [k: string]: Json };

@@ -181,7 +181,7 @@ function NumberSlider({ label, value, onChange, lo, hi, integer, nullable }: { l
   useEffect(() => {
     setText(value === null ? "" : String(value));
     if (fixed === null && value !== null) setFixed(span(value));
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- only a new value resets the text; the span is fixed once (span() reads lo/hi of this render)
   }, [value]);
   const range = fixed ?? [0, 1];
   const step = integer ? 1 : (range[1] - range[0]) / 200;

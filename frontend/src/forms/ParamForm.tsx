@@ -381,7 +381,7 @@ function NumberInput({ id, value, placeholder, onChange, nullable, label }: { id
   useEffect(() => {
     const parsed = parseNumberInput(text);
     if (parsed !== value && !(value === null && text === "")) setText(value === undefined || value === null ? "" : String(value));
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- only a new value from outside resets the text; re-running on each keystroke (text) would undo half-typed input
   }, [value]);
   return (
     <>

@@ -61,6 +61,9 @@ type Drag =
   | { kind: "vertex"; key: string; index: number; curve: Pt[] }
   | { kind: "curve"; key: string; start: Pt; curve: Pt[] };
 
+// Stable empty lists: a fresh `[]` each render would recompute every memo that depends on them.
+const NO_SECTIONS: Preview["sections"] = [];
+const NO_PATHS: PreviewPath[] = [];
 const num = (v: unknown, d = 0) => (typeof v === "number" && Number.isFinite(v) ? v : d);
 
 export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
@@ -100,7 +103,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
 
   const snap = (w: Pt) => snapPoint(w, { vertices: snapVerts, radius: 8 * pxSize(), grid: p.grid });
 
-  const sections = p.preview?.sections ?? [];
+  const sections = p.preview?.sections ?? NO_SECTIONS;
   const colorOf = useMemo(() => {
     const keys = [...new Set([...(p.mask?.sections.map((s) => sectionKey(p.mask!.id, s.id)) ?? []), ...sections.map((s) => s.key)])];
     return (k: string) => SECTION_COLORS[Math.max(0, keys.indexOf(k)) % SECTION_COLORS.length];
@@ -173,7 +176,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
     return () => window.removeEventListener("keydown", onKey);
   });
 
-  const paths = p.preview?.paths ?? [];
+  const paths = p.preview?.paths ?? NO_PATHS;
 
   const onPointerDown = (e: RPointerEvent<SVGSVGElement>) => {
     if (!view) return;

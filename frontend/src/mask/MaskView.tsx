@@ -16,6 +16,8 @@ import { stackedStarts } from "../preflight/preflight";
 
 /** Patterns named by the contract, used only if the strategy node's schema does not list them. */
 /** Port types the canvas can draw for one layer. */
+// A node without params: one object for every render (memos depending on the params keep their value).
+const NO_PARAMS: Record<string, unknown> = {};
 const PLANAR_TYPES = ["layers", "sections", "toolpath"];
 
 const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
@@ -126,7 +128,7 @@ export function MaskView(p: MaskViewProps) {
       setTool("curve");
       setDrawHint(p.mark);
     } else setDrawHint(null);
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- a mark is acted on once, when a new one arrives (its seq); the same mark re-rendered is not a new one
   }, [p.mark?.seq]);
   const endDraw = useCallback(() => {
     setDrawHint(null);
@@ -158,13 +160,13 @@ export function MaskView(p: MaskViewProps) {
   useEffect(() => {
     if (p.failure?.layer != null) p.setLayer(p.failure.layer);
     if (p.failure?.section) setSelected(p.failure.section);
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- a failure is shown once when it arrives; p.setLayer is the parent's setter
   }, [p.failure]);
 
-  const maskParams = (nodes.mask?.params ?? {}) as MaskParams;
-  const guideParams = (nodes.guide?.params ?? {}) as GuideParams;
-  const strategyParams = (nodes.strategy?.params ?? {}) as KeyedParams;
-  const zoneParams = (nodes.zone?.params ?? {}) as KeyedParams;
+  const maskParams = (nodes.mask?.params ?? NO_PARAMS) as MaskParams;
+  const guideParams = (nodes.guide?.params ?? NO_PARAMS) as GuideParams;
+  const strategyParams = (nodes.strategy?.params ?? NO_PARAMS) as KeyedParams;
+  const zoneParams = (nodes.zone?.params ?? NO_PARAMS) as KeyedParams;
   const mask = governingMask(maskParams, layer);
   const layerCount = pv.data?.layer_count ?? null;
   const ranges = maskRanges(maskParams, layerCount);

@@ -49,7 +49,7 @@ export function useLayerPreview(
         setState((s) => ({ ...s, error: err, loading: false }));
       });
     return () => ctl.abort();
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- `key` stands for the recipe (its engine view): a new recipe object with the same content must not refetch
   }, [key, node, layer, graph]);
 
   // Ghost layers: the slice output of layer ± 1, cached per upstream-of-slice signature.
@@ -78,7 +78,7 @@ export function useLayerPreview(
       if (!ctl.signal.aborted) setState((s) => ({ ...s, ghosts: { prev, next } }));
     });
     return () => ctl.abort();
-    // eslint-disable-next-line react-hooks/exhaustive-deps
+    // eslint-disable-next-line react-hooks/exhaustive-deps -- `sliceKey` stands for the recipe upstream of the slice node: edits below it must not refetch the ghosts
   }, [sliceKey, sliceNode, layer, graph, state.data?.layer_count]);
 
   return state;

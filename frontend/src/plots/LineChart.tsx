@@ -29,8 +29,14 @@ export const LineChart = memo(function LineChart({ title, xLabel, yLabel, series
   if (!Number.isFinite(x0)) return <div className="chart empty">{title}: no data</div>;
   // One outlier must not flatten the chart: clamp to the robust limits, mark what was clamped.
   const clamp = robust.clamped && robust.hi > robust.lo && (robust.hi - robust.lo) < OUTLIER_SQUEEZE * (robust.max - robust.min);
-  if (clamp) (y0 = robust.lo), (y1 = robust.hi);
-  if (y1 === y0) (y0 -= 1), (y1 += 1);
+  if (clamp) {
+    y0 = robust.lo;
+    y1 = robust.hi;
+  }
+  if (y1 === y0) {
+    y0 -= 1;
+    y1 += 1;
+  }
   const pad = (y1 - y0) * 0.05;
   y0 -= pad;
   y1 += pad;
