@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { viewerPage } from "../src/api/client";
+import { viewerPage, viewerUrl } from "../src/api/client";
 import type { Health } from "../src/api/types";
 
 const health = (over: Partial<Health>): Health => ({ status: "ok", version: "x", viewer_url: null, viewer_port: null, workers: 1, auth_required: false, ...over }) as Health;
@@ -18,5 +18,10 @@ describe("the 3D view's page (#25 fault 11: cached like the hashed assets)", () 
   });
   it("a server without the hashed page: viser's own page, as before", () => {
     expect(viewerPage(health({ viewer_port: 8081 }), "http://cam.local:8081", loc)).toBe("http://cam.local:8081/?embedded");
+  });
+  it("the 3D view is always this origin's /viewer/ proxy, never viser's own port (#26)", () => {
+    expect(viewerUrl(health({ viewer_url: "/viewer/" }))).toBe("/viewer/");
+    expect(viewerUrl(health({ viewer_url: "/viewer/", viewer_port: 8081 }))).toBe("/viewer/");
+    expect(viewerUrl(health({}))).toBeNull();
   });
 });

@@ -6,6 +6,7 @@ import errno
 import json
 import logging
 import re
+import secrets
 import sqlite3
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -27,14 +28,16 @@ from .routes import audit, builds, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
 from .static import CompressedAssets, index_response, mount_viewer_client
+from .viewer_proxy import mount_viewer_proxy
 from .worker import Limits, RunManager
 
 log = logging.getLogger("waamflow.server")
 
 
 def viewer_host(settings: Settings, tokens: dict) -> str:
-    """viser has no authentication of its own: with tokens configured it listens on loopback only."""
-    return "127.0.0.1" if tokens else settings.host
+    """viser has no authentication of its own: it listens on loopback only, whatever --host says, and
+    browsers reach it through this server's /viewer/ proxy (token, role, Host and Origin checks)."""
+    return "127.0.0.1"
 
 
 def disk_full(err: BaseException) -> bool:
@@ -55,7 +58,7 @@ def allowed_hosts(settings: Settings, tokens: dict) -> set[str] | None:
     return names
 
 
-def _start_viewer(settings: Settings, host: str | None = None):
+def _start_viewer(settings: Settings, host: str | None = None, proxy_secret: str | None = None):
     if not settings.start_viewer or not settings.viewer_port:
         return None
     try:
@@ -64,7 +67,7 @@ def _start_viewer(settings: Settings, host: str | None = None):
         log.warning("3D preview unavailable (waamflow.viewer not importable)")
         return None
     try:
-        viewer = ViewerService(host=host or settings.host, port=settings.viewer_port)
+        viewer = ViewerService(host=host or "127.0.0.1", port=settings.viewer_port, proxy_secret=proxy_secret)
         viewer.start()
         return viewer
     except Exception as e:  # a busy port must not keep the API from starting
@@ -147,7 +150,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
                                   svc.resolver_for, svc.after_run, Limits.from_settings(settings),
                                   layer_workers=settings.layer_workers, scheduler=settings.scheduler)
-        svc.viewer = _start_viewer(settings, viewer_host(settings, tokens))
+        svc.viewer = _start_viewer(settings, viewer_host(settings, tokens), app.state.viewer_secret)
         if svc.viewer is not None:
             svc.viewer.loader = svc.scene_source   # a run made before a restart is rebuilt on demand
         svc.auth_required = bool(tokens)
@@ -285,10 +288,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(HostOriginMiddleware, allowed_hosts=allowed_hosts(settings, tokens),
                        cors_origins=set(settings.cors_origins))
 
-    if tokens:  # viser listens on loopback: reach it through this origin, under the API's auth
-        from .viewer_proxy import mount_viewer_proxy
-
-        mount_viewer_proxy(app)
+    # viser listens on loopback and admits only websockets carrying this secret: browsers reach it
+    # through this origin's /viewer/ (under the API's auth, Host and Origin checks), never directly
+    app.state.viewer_secret = secrets.token_urlsafe(32)
+    mount_viewer_proxy(app)
     mount_viewer_client(app)  # viser's page under a content-hashed URL, cached like the hashed assets
 
     static = settings.static_dir

@@ -1,7 +1,9 @@
 """The 3D preview (viser) through the app's own origin: `/viewer/` (its page) and its websocket,
 relayed to the viser server on 127.0.0.1 behind the API's authentication (AuthMiddleware covers
-`/viewer`: the GUI's session cookie lets the iframe and its websocket in). Used when the server has
-tokens, since viser then listens on loopback only. viser's client opens its websocket at the page's
+`/viewer`: the GUI's session cookie lets the iframe and its websocket in; HostOriginMiddleware
+checks Host and the websocket's Origin). viser listens on loopback only and closes any websocket
+that does not carry the server's secret (`PROXY_HEADER`, added here), so this is the only way in —
+for browsers and for other users of the same machine alike. viser's client opens its websocket at the page's
 own URL (http→ws), so the websocket arrives at `/viewer` too; its query (`?view=<id>`, which
 browser view the client belongs to) is passed on to viser."""
 
@@ -51,6 +53,8 @@ def mount_viewer_proxy(app: FastAPI) -> None:
     async def relay(ws: WebSocket) -> None:
         import websockets.asyncio.client as wsc
 
+        from ..viewer.service import PROXY_HEADER
+
         port = _port(ws.app)
         if port is None:
             await ws.close(code=1011)
@@ -58,8 +62,10 @@ def mount_viewer_proxy(app: FastAPI) -> None:
         protocols = ws.scope.get("subprotocols") or []
         try:
             query = ws.url.query
+            secret = getattr(ws.app.state, "viewer_secret", None)
             upstream = await wsc.connect(f"ws://127.0.0.1:{port}/" + (f"?{query}" if query else ""), subprotocols=protocols or None,
-                                         max_size=None, compression=None, open_timeout=10)
+                                         max_size=None, compression=None, open_timeout=10,
+                                         additional_headers={PROXY_HEADER: secret} if secret else None)
         except Exception as e:
             log.warning("3D preview websocket relay failed: %s", e)
             await ws.close(code=1011)

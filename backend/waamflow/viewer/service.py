@@ -36,6 +36,7 @@ only layers) whose content signature changed. Large parts are decimated for disp
 
 from __future__ import annotations
 
+import hmac
 import logging
 import threading
 import time
@@ -52,6 +53,7 @@ log = logging.getLogger("waamflow.viewer")
 MAX_SCENES = 4         # published runs kept for `show(key)` (outputs are held by reference)
 MAX_VIEWS = 32         # browser views kept (the least recently used detached one goes first)
 VIEW_TTL_S = 1800.0    # a view without a browser and without requests for this long is dropped
+PROXY_HEADER = "X-Waamflow-Viewer-Proxy"   # carries `proxy_secret` from the API's /viewer proxy to viser
 VIEW_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_.")
 
 
@@ -64,8 +66,12 @@ class ViewerService:
     may come from any thread (one lock for all views)."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8080, *, max_segments: int = 300_000,
-                 label: str = "waamflow", shared: bool = False) -> None:
+                 label: str = "waamflow", shared: bool = False, proxy_secret: str | None = None) -> None:
         self.host = host
+        # set by the API server: viser has no authentication of its own, so a websocket that does not
+        # carry this secret (sent only by the API's authenticated /viewer proxy, `PROXY_HEADER`) is
+        # closed before it is given a view — another local user cannot watch or steer the 3D preview
+        self.proxy_secret = proxy_secret
         self.port = port
         self.max_segments = int(max_segments)
         self.label = label
@@ -97,6 +103,8 @@ class ViewerService:
 
             with embedded_client():
                 self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
+            if self.proxy_secret is not None:
+                self._admit_only_the_proxy()
             self.server.scene.set_up_direction("+z")
             self.sessions[""] = ViewSession(self, "", self._default_target())
             self.server.on_client_connect(self._on_connect)
@@ -183,6 +191,22 @@ class ViewerService:
             return None
         view = (parse_qs(query).get("view") or [None])[0]
         return view if view and valid_view_id(view) else None
+
+    def _admit_only_the_proxy(self) -> None:
+        """Close, right after its handshake and before viser sends it anything, every websocket that
+        does not carry `proxy_secret` (viser's connection hook, awaited before its message loops)."""
+        infra = self.server._websock_server
+        secret = str(self.proxy_secret).encode()
+
+        async def admit(conn) -> None:
+            ws = infra._live_connections.get(conn.client_id)
+            request = getattr(ws, "request", None)
+            given = request.headers.get(PROXY_HEADER, "") if request is not None else ""
+            if ws is not None and not hmac.compare_digest(given.encode(), secret):
+                log.warning("3D preview: a websocket not from the server's /viewer proxy was closed")
+                await ws.close(1008, "use the waamflow server's /viewer/")
+
+        infra.on_client_connect(admit)
 
     def _on_connect(self, client) -> None:
         view = self._view_of_client(client)

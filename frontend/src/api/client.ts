@@ -180,9 +180,11 @@ export async function artifactText(id: string, name: string): Promise<string | n
   return res.text();
 }
 
-/** The 3D view's URL as seen from this browser (the server may report 127.0.0.1). */
+/**
+ * The 3D view's URL: this origin's /viewer/ proxy, under the API's token and Host/Origin checks
+ * (viser listens on the server's loopback only and admits nothing but the proxy, #26).
+ */
 export function viewerUrl(h: Health): string | null {
-  if (h.viewer_port) return `${location.protocol}//${location.hostname}:${h.viewer_port}`;
   return h.viewer_url ?? null;
 }
 

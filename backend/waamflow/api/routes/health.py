@@ -24,11 +24,11 @@ class Health(BaseModel):
 def health(svc: ServicesDep, request: Request) -> Health:
     url = getattr(svc.viewer, "url", None) if svc.viewer is not None else None
     port = getattr(svc.viewer, "bound_port", None) if svc.viewer is not None else None
-    if svc.auth_required and port is not None:
-        # with tokens viser listens on loopback only; the GUI reaches it through /viewer/ (same origin, same auth)
+    if port is not None:
+        # viser listens on loopback only; the GUI reaches it through /viewer/ (same origin, same auth)
         url, port = "/viewer/", None
     port_or_url = port is not None or url is not None
-    # viewer_port lets a browser on another host build the URL from its own location.hostname
+    # viewer_port stays None (kept for older clients): the 3D preview is served only at viewer_url
     return Health(status="ok", version=__version__, viewer_url=url, viewer_port=port, workers=svc.settings.workers,
                   auth_required=svc.auth_required,
                   viewer_page=page.url if port_or_url and (page := getattr(request.app.state, "viewer_client", None)) else None)
