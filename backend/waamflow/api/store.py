@@ -403,14 +403,3 @@ class Store:
         rows = self._query(sql, (*args, limit))
         return [{**dict(r), "detail": json.loads(r["detail"]) if r["detail"] else None} for r in rows]
 
-    def integrity(self) -> str:
-        return self._query("PRAGMA integrity_check")[0][0]
-
-    def backup_to(self, dest: str | Path) -> None:
-        """A consistent copy of the database while it is in use (SQLite online backup API)."""
-        out = sqlite3.connect(str(dest))
-        try:
-            with self._lock:
-                self._conn.backup(out)
-        finally:
-            out.close()

@@ -230,9 +230,6 @@ class RunContext(Context):
         self.warnings: list[dict] = []
         self.layer: int | None = None  # set while a LayerNode maps
 
-    def resolve_path(self, path: str) -> str:
-        return str(self._run.resolver.resolve(path))
-
     def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
         try:
             return self._run.resolver.read_bytes(path, max_bytes)

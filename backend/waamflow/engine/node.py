@@ -175,9 +175,6 @@ class Context:
 
     node_id: str
 
-    def resolve_path(self, path: str) -> str:  # pragma: no cover - interface
-        raise NotImplementedError
-
     def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:  # pragma: no cover
         raise NotImplementedError
 

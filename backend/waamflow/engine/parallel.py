@@ -85,9 +85,6 @@ class _WorkerContext(Context):
         self.warnings: list[dict] = []
         self.layer: int | None = None
 
-    def resolve_path(self, path: str) -> str:
-        return str(self._resolver.resolve(path))
-
     def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
         return self._resolver.read_bytes(path, max_bytes)
 

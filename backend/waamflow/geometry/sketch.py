@@ -309,11 +309,6 @@ def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
 # ------------------------------------------------------------------------------------------
 # DXF
 # ------------------------------------------------------------------------------------------
-def read_dxf(data: bytes, filename: str):
-    """An ezdxf document from DXF bytes (ezdxf's recover mode: tolerant of common defects)."""
-    return read_dxf_audited(data, filename)[0]
-
-
 def read_dxf_audited(data: bytes, filename: str):
     """(ezdxf document, repairs): the document read in ezdxf's recover mode (ASCII) or read and
     audited (binary), and every fix and unfixed error its auditor reports, as text naming the
@@ -349,11 +344,6 @@ def dxf_layout(doc, layout: str, filename: str):
         if n.lower() == layout.lower():
             return doc.layouts.get(n)
     raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
-
-
-def dxf_curves(data: bytes, filename: str, tol: float) -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from a DXF's modelspace, and the skipped entity types."""
-    return dxf_doc_curves(read_dxf(data, filename), filename, tol)
 
 
 def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model",

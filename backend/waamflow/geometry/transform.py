@@ -59,11 +59,6 @@ class Transform:
     def is_identity(self) -> bool:
         return self.scale == 1.0 and not any(self.translate) and not any(self.rotate_deg)
 
-    @property
-    def flips(self) -> bool:
-        """A negative scale mirrors the part: face winding must be reversed to stay outward."""
-        return self.scale < 0
-
     def apply(self, points: np.ndarray) -> np.ndarray:
         """(n, 3) float mm → (n, 3) float64 mm."""
         p = np.asarray(points, dtype=np.float64)

@@ -120,9 +120,6 @@ class Estimate:
     method: str = "closed-form (da Silva Viola et al. 2023)"
     notes: tuple[str, ...] = ()
 
-    def as_dict(self) -> dict[str, float]:
-        return {"estimate_total_time_s": self.total_time_s, "estimate_passes": float(self.passes)}
-
 
 def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0,
                    min_pass_mm: float = 10.0, strategies: tuple[str, ...] | None = None) -> Estimate:
