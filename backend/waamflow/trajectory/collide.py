@@ -13,9 +13,11 @@ Bodies (all converted to metres for coal):
   deposition points (principal axes, ± half a bead across), turning with the positioner.
 
 Pairs tested: arm links and torch vs fixtures and table; torch and the two wrist links vs the
-part layers below the current one (a bounding-sphere test first). Sampling: every IK sample at
-least `step_mm` of programmed path after the previous checked one, plus every vertex where the
-layer changes (documented in simulation.json's `collision_step_mm`). The current layer is never
+part layers below the current one. Broad phase in numpy per checked sample: every moving body's
+bounding sphere against every other body's bounding sphere, then against its oriented bounding box;
+coal runs only on the pairs that pass (same pairs, same order, same first hit as testing all).
+Sampling: every IK sample at least `step_mm` of programmed path after the previous checked one,
+plus every vertex where the layer changes (documented in simulation.json's `collision_step_mm`). The current layer is never
 tested: the torch deposits on it.
 """
 
@@ -61,16 +63,20 @@ def _shape(sh, cell=None) -> coal.CollisionGeometry:
 
 def cell_statics(cell):
     """The cell's still and positioner-carried bodies: a function angles → [(name, geometry,
-    transform, centre mm, bounding radius mm)] (placed at those positioner angles; results cached
-    per angle set)."""
+    transform, centre mm, bounding radius mm, R, box centre mm, box half extents mm)] (placed at
+    those positioner angles; results cached per angle set). The last three are the body's
+    oriented bounding box in the world (the broad phase: a big floor slab is a thin box, not the
+    sphere around it)."""
     bodies = []
     for prefix, shapes, default in (("positioner", cell.positioner.shapes if cell.positioner else [], None),
                                     ("fixture", cell.fixtures, "")):
         for sh in shapes:
             link = sh.link if sh.link or default is not None else None      # None: the flange
             R, t = sh.pose()
-            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t, _bound_radius(sh, cell)))
-    still = [(n, g, _tf(R, t), t, r) for n, g, link, R, t, r in bodies if link == "" or cell.positioner is None]
+            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t, _bound_radius(sh, cell),
+                           *_local_box(sh, cell)))
+    still = [(n, g, _tf(R, t), t, r, R, R @ bc + t, half) for n, g, link, R, t, r, bc, half in bodies
+             if link == "" or cell.positioner is None]
     moving = [b for b in bodies if not (b[2] == "" or cell.positioner is None)]
     cache: dict[tuple, list] = {}
 
@@ -79,15 +85,35 @@ def cell_statics(cell):
         if key not in cache:
             out = list(still)
             poses: dict = {}
-            for n, g, link, R, t, r in moving:
+            for n, g, link, R, t, r, bc, half in moving:
                 if link not in poses:
                     poses[link] = cell.link_pose(np.asarray(angles, float), link or "")
                 Rl, tl = poses[link]
                 c = Rl @ t + tl
-                out.append((n, g, _tf(Rl @ R, c), c, r))
+                Rw = Rl @ R
+                out.append((n, g, _tf(Rw, c), c, r, Rw, Rw @ bc + c, half))
             cache[key] = out
         return cache[key]
     return at
+
+
+def _local_box(sh, cell=None) -> tuple[np.ndarray, np.ndarray]:
+    """(centre, half extents) mm of the shape's bounding box in its own frame."""
+    if sh.kind == "box":
+        return np.zeros(3), 0.5 * np.asarray(sh.size_mm, float)
+    if sh.kind == "cylinder":
+        return np.zeros(3), np.array([sh.size_mm[0], sh.size_mm[0], 0.5 * sh.size_mm[2]])
+    v = cell.shape_mesh(sh)[0]
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    return 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+
+def _box_gap2(centres: np.ndarray, R: np.ndarray, bc: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Squared distance (mm²) from each point (m, 3) to each oriented box (s: rotation (s, 3, 3),
+    centre (s, 3), half extents (s, 3)): (m, s), 0 inside."""
+    local = np.einsum("sji,msj->msi", R, centres[:, None, :] - bc[None, :, :])
+    ex = np.maximum(np.abs(local) - half[None, :, :], 0.0)
+    return np.einsum("msi,msi->ms", ex, ex)
 
 
 def _capsule_tf(a, b):
@@ -133,11 +159,22 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
     lay_ids = np.array(sorted(layers), dtype=int)
     lay_c = np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3)
     lay_r = np.array([layers[L][3] for L in lay_ids])
+    lay_R = np.array([layers[L][1] for L in lay_ids]).reshape(-1, 3, 3)
+    lay_h = np.array([np.asarray(layers[L][0].halfSide) * 1000.0 for L in lay_ids]).reshape(-1, 3)
     req = coal.CollisionRequest()
     count, found, checked = 0, [], 0
     last_s, last_layer = -np.inf, None
     njoints = model.njoints
-    radii = LINK_RADIUS_MM
+    radii = np.array([LINK_RADIUS_MM[min(j, len(LINK_RADIUS_MM) - 1)] for j in range(njoints)])
+    n_links = njoints - 1                       # capsules joint j → j+1 and the last joint → tool0
+    near_links = np.arange(n_links) >= n_links - 2
+    t_off = np.array([off for _, _, _, off, _ in tool_shapes]).reshape(-1, 3)
+    t_rad = np.array([rad for *_, rad in tool_shapes])
+    near = np.concatenate([near_links, np.ones(len(tool_shapes), bool)])
+    # broad phase in numpy: the bounding spheres of every moving body (links, torch) against every
+    # still/positioner body and every part layer at once; coal runs only on the pairs whose spheres
+    # meet, in the same order as one body after the other (the first hit is the one reported)
+    stat_arrays: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for i in range(len(s)):
         layer = int(moves.layer[seg[i]])
         if s[i] - last_s < step_mm and layer == last_layer and i != len(s) - 1:
@@ -146,38 +183,55 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
         checked += 1
         pin.forwardKinematics(model, data, q[i])
         pin.updateFramePlacement(model, data, tool0)
-        joints = [base_R @ (data.oMi[j].translation * 1000.0) + base_t for j in range(1, njoints)]
-        joints.append(base_R @ (data.oMf[tool0].translation * 1000.0) + base_t)
+        oj = np.array([data.oMi[j].translation for j in range(1, njoints)] + [data.oMf[tool0].translation])
+        joints = (oj * 1000.0) @ base_R.T + base_t
         Rf = base_R @ data.oMf[tool0].rotation
-        tf0 = base_R @ (data.oMf[tool0].translation * 1000.0) + base_t
-        movers = []
-        for j in range(len(joints) - 1):
-            tf, L = _capsule_tf(joints[j], joints[j + 1])
-            if L < 1e-6:
-                continue
-            movers.append((f"arm:link_{j + 1}", coal.Capsule(radii[min(j, len(radii) - 1)] / 1000.0, L / 1000.0), tf,
-                           j >= len(joints) - 3, 0.5 * (joints[j] + joints[j + 1]), 0.5 * L + radii[min(j, len(radii) - 1)]))
-        for name, g, Rs, off, rad in tool_shapes:
-            c = Rf @ off + tf0
-            movers.append((name, g, _tf(Rf @ Rs, c), True, c, rad))
+        tf0 = joints[-1]
+        seg_len = np.linalg.norm(np.diff(joints, axis=0), axis=1)
+        centres = np.vstack([0.5 * (joints[:-1] + joints[1:]), t_off @ Rf.T + tf0])
+        rads = np.concatenate([0.5 * seg_len + radii[:n_links], t_rad])
         Rw, tw, angles = work_frames(i)
         statics = statics_at(angles)
+        sa = stat_arrays.get(id(statics))
+        if sa is None:
+            sa = stat_arrays[id(statics)] = (np.array([b[3] for b in statics]).reshape(-1, 3),
+                                             np.array([b[4] for b in statics]),
+                                             np.array([b[5] for b in statics]).reshape(-1, 3, 3),
+                                             np.array([b[6] for b in statics]).reshape(-1, 3),
+                                             np.array([b[7] for b in statics]).reshape(-1, 3))
+        d = centres[:, None, :] - sa[0][None, :, :]
+        over = np.einsum("ijk,ijk->ij", d, d) <= (rads[:, None] + sa[1][None, :]) ** 2
+        if over.any():                           # the bounding spheres meet: do they meet the body's box?
+            over &= _box_gap2(centres, sa[2], sa[3], sa[4]) <= rads[:, None] ** 2
+        cw = lay_c @ Rw.T + tw
+        below = lay_ids < layer
+        part = near[:, None] & below[None, :] & (np.linalg.norm(cw[None, :, :] - centres[:, None, :], axis=2)
+                                                 <= lay_r[None, :] + rads[:, None])
+        if part.any():
+            k = np.flatnonzero(part.any(axis=0))
+            part[:, k] &= _box_gap2(centres, np.einsum("ij,kjl->kil", Rw, lay_R[k]), cw[k], lay_h[k]) \
+                <= rads[:, None] ** 2
+        if not (over.any() or part.any()):
+            continue
         hit = None
-        for name, g, tf, near_part, centre, rad in movers:
-            for sname, sg, stf, sc, sr in statics:
-                d = centre - sc
-                if d @ d > (rad + sr) ** 2:          # bounding spheres apart: no contact possible
+        for m in np.flatnonzero(over.any(axis=1) | part.any(axis=1)):
+            if m < n_links:
+                if seg_len[m] < 1e-6:
                     continue
+                tf, L = _capsule_tf(joints[m], joints[m + 1])
+                name = f"arm:link_{m + 1}"
+                g = coal.Capsule(radii[m] / 1000.0, L / 1000.0)
+            else:
+                name, g, Rs, off, _ = tool_shapes[m - n_links]
+                tf = _tf(Rf @ Rs, centres[m])
+            for k in np.flatnonzero(over[m]):
+                sname, sg, stf = statics[k][:3]
                 hit = _collide(g, tf, sg, stf, req, name, sname)
                 if hit:
                     break
             if hit:
                 break
-            if not near_part:
-                continue
-            cw = lay_c @ Rw.T + tw
-            near = np.flatnonzero((lay_ids < layer) & (np.linalg.norm(cw - centre, axis=1) <= lay_r + rad))
-            for k in near:
+            for k in np.flatnonzero(part[m]):
                 L = int(lay_ids[k])
                 box, Rb = layers[L][0], layers[L][1]
                 hit = _collide(g, tf, box, _tf(Rw @ Rb, cw[k]), req, name, f"part:layer_{L}")

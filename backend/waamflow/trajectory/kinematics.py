@@ -167,7 +167,6 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     err_mm = np.zeros(k)
     q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
     lam2 = 1e-4
-    eye5 = np.eye(5)
     Js = np.zeros((k, 5, model.nv))
     # null-space preference: keep the wrist rolls (A4, A6) near mid-range — the rotation about
     # the torch axis is free, so use it to avoid winding them up through wrist singularities
@@ -175,37 +174,56 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     roll = np.zeros(model.nv)
     if model.nv >= 6:
         roll[[3, 5]] = 0.05
+    lower, upper = arm.lower, arm.upper
+    # the loop runs ~2 iterations per sample over tens of thousands of samples: bound methods,
+    # scalar maths on Python floats and LAPACK's Cholesky solve (J·Jᵀ + λ²I is symmetric positive
+    # definite) instead of np.linalg.solve keep its overhead down (the same iteration as before)
+    fk, upd, jac, LOCAL, tcp = pin.forwardKinematics, pin.updateFramePlacement, pin.computeFrameJacobian, \
+        pin.LOCAL, arm.tcp
+    from scipy.linalg.lapack import dposv
+    lam_eye = lam2 * np.eye(5)
+    rhs = np.empty((5, 2))
+    e = np.empty(5)
+    Z = z_base.tolist()
     retry = 40
+    atan2, sqrt = math.atan2, math.sqrt
     for i in range(k):
         if progress is not None and i % 2000 == 0:
             progress(i / k)
-        pt, zt = p_base[i], z_base[i]
+        pt = p_base[i]
+        zt0, zt1, zt2 = Z[i]
         n_it = 80 if i == 0 else iters
         it = 0
         while True:
-            pin.forwardKinematics(model, data, q)
-            cur = pin.updateFramePlacement(model, data, arm.tcp)
+            fk(model, data, q)
+            cur = upd(model, data, tcp)
             Rc = cur.rotation
-            zc = Rc[:, 2]
-            # rotation (axis · angle) that aligns the torch axis; np.cross is slow on 3-vectors
-            w = np.array([zc[1] * zt[2] - zc[2] * zt[1], zc[2] * zt[0] - zc[0] * zt[2], zc[0] * zt[1] - zc[1] * zt[0]])
-            sw = math.sqrt(w @ w)
-            e = np.empty(5)
-            e[:3] = Rc.T @ (pt - cur.translation)
-            e[3:] = (Rc.T[:2] @ w) * (math.atan2(sw, zc @ zt) / sw) if sw > 1e-12 else 0.0
-            J = pin.computeFrameJacobian(model, data, q, arm.tcp, pin.LOCAL)[:5]
+            RcT = Rc.T
+            zc0, zc1, zc2 = Rc[:, 2].tolist()
+            # rotation (axis · angle) that aligns the torch axis
+            w0, w1, w2 = zc1 * zt2 - zc2 * zt1, zc2 * zt0 - zc0 * zt2, zc0 * zt1 - zc1 * zt0
+            sw = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+            dp = pt - cur.translation
+            e[:3] = RcT @ dp
+            if sw > 1e-12:
+                f = atan2(sw, zc0 * zt0 + zc1 * zt1 + zc2 * zt2) / sw
+                (r00, r10, r20), (r01, r11, r21) = Rc[:, 0].tolist(), Rc[:, 1].tolist()
+                e[3] = (r00 * w0 + r10 * w1 + r20 * w2) * f
+                e[4] = (r01 * w0 + r11 * w1 + r21 * w2) * f
+            else:
+                e[3] = e[4] = 0.0
+            J = jac(model, data, q, tcp, LOCAL)[:5]
             it += 1
-            ee = e @ e
+            ee = float(e @ e)
             if ee < CONVERGED or it > n_it + (retry if ee > 1e-8 else 0):
                 break
             # damped least squares + null-space pull of the wrist rolls: one solve, two right-hand sides
             r = roll * (mid - q)
-            rhs = np.empty((5, 2))
             rhs[:, 0] = e
             rhs[:, 1] = J @ r
-            sol = np.linalg.solve(J @ J.T + lam2 * eye5, rhs)
-            q = np.minimum(np.maximum(q + J.T @ (sol[:, 0] - sol[:, 1]) + r, arm.lower), arm.upper)
-        err_mm[i] = 1000.0 * np.linalg.norm(pt - cur.translation)
+            sol = dposv(J @ J.T + lam_eye, rhs)[1]
+            q = np.minimum(np.maximum(q + J.T @ (sol[:, 0] - sol[:, 1]) + r, lower), upper)
+        err_mm[i] = 1000.0 * sqrt(float(dp @ dp))
         retry = 40 if err_mm[i] < REACH_TOL_MM else 0   # don't grind on through an unreachable stretch
         Js[i] = J
         Q[i] = q
