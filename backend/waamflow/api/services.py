@@ -6,6 +6,7 @@ import json
 import logging
 import os
 import re
+import stat
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -124,6 +125,9 @@ class Services:
     viewer: Any = None
     extra: dict = field(default_factory=dict)
     auth_required: bool = False
+    # recipes of the graphs folder that could not be offered: name → {file, size, reason}; listed by
+    # GET /api/graphs with this marker, their GET is a 422 with the reason (never skipped silently)
+    unloaded: dict[str, dict] = field(default_factory=dict)
 
     def release_reserve(self) -> int:
         """Delete the disk reserve (bytes freed): after a disk-full error, so that deletes, whose
@@ -271,6 +275,17 @@ def build_services(settings: Settings) -> Services:
     return svc
 
 
+class ExampleNotLoaded(Exception):
+    """Why a recipe of the graphs folder is not offered (its text never echoes the file's content)."""
+
+
+def _mtime(path: Path) -> float:
+    try:
+        return path.lstat().st_mtime
+    except OSError:
+        return 0.0
+
+
 def seed_examples(svc: Services) -> None:
     """Offer the recipes in the graphs folder; never overwrite a graph the user has saved."""
     gdir = svc.settings.graphs_dir
@@ -280,16 +295,28 @@ def seed_examples(svc: Services) -> None:
         name = path.stem
         if not valid_graph_name(name) or svc.store.get_graph(name) is not None:
             continue
+        size = 0
         try:
-            size = path.stat().st_size   # checked before reading: the same limit as PUT /api/graphs
-            if size > svc.settings.max_body_mb * 2**20:
-                log.warning("example %s not loaded: %.1f MB, over the %g MB recipe limit (max_body_mb)",
-                            path.name, size / 2**20, svc.settings.max_body_mb)
-                continue
+            st = path.stat()
+            size = st.st_size if stat.S_ISREG(st.st_mode) else 0
+            limit = svc.settings.max_body_mb * 2**20   # checked before reading: the limit of PUT /api/graphs
+            if size > limit:
+                raise ExampleNotLoaded(f"{size / 2**20:.2f} MB, over the {svc.settings.max_body_mb:g} MB recipe "
+                                       "limit (max_body_mb): raise WAAMFLOW_MAX_BODY_MB or make the file smaller")
             # through the file gate: a FIFO named *.json in the graphs folder must not hang the start
-            recipe = parse_recipe(json.loads(read_regular(path, 64 * 2**20).decode("utf-8")))
-        except Exception as e:  # a broken example must not stop the server
-            log.warning("example %s not loaded: %s", path.name, e)
+            raw = read_regular(path, int(limit), label=path.name)
+            try:
+                data = json.loads(raw.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as e:
+                raise ExampleNotLoaded(f"not valid JSON ({type(e).__name__} at character "
+                                       f"{getattr(e, 'pos', getattr(e, 'start', '?'))})") from None
+            recipe = parse_recipe(data)
+        except Exception as e:  # a broken example must not stop the server; it is listed with the reason
+            reason = str(e) if isinstance(e, (ExampleNotLoaded, InputFileError, RecipeError)) else \
+                f"cannot be read ({type(e).__name__})"
+            log.warning("example %s not loaded: %s", path.name, reason)
+            svc.unloaded[name] = {"file": path.name, "size": size, "reason": reason,
+                                  "updated": _mtime(path)}
             continue
         svc.store.put_graph(name, recipe.to_json(), example=True)
         for fname in params_file_names(recipe):

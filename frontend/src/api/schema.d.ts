@@ -106,7 +106,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** List Graphs */
+        /**
+         * List Graphs
+         * @description Saved graphs and examples, by name; recipes of the graphs folder that could not be loaded are
+         *     listed too, with `error` (file, size, reason) so that nobody looks for them in vain.
+         */
         get: operations["list_graphs_api_graphs_get"];
         put?: never;
         post?: never;
@@ -612,6 +616,48 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/builds/{build_id}/surface": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Surface
+         * @description The as-built top of the scanned layers: per path sample the planned crest and the measured
+         *     deviation from it (what the 2D canvas overlays along the path).
+         */
+        get: operations["surface_api_builds__build_id__surface_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/builds/{build_id}/view": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Show In 3D
+         * @description Draw the build's as-built surface (scanned tops coloured by deviation) in a 3D view beside
+         *     the plan; returns the legend (deviation range in mm, colour stops, points and layers drawn).
+         */
+        post: operations["show_in_3d_api_builds__build_id__view_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -622,6 +668,20 @@ export interface components {
             name: string;
             /** Size */
             size: number;
+        };
+        /** AsBuiltView */
+        AsBuiltView: {
+            /**
+             * View
+             * @description the browser view (one per GUI tab); none: the default view
+             */
+            view?: string | null;
+            /**
+             * Show
+             * @description false removes the as-built surface from the view
+             * @default true
+             */
+            show: boolean;
         };
         /** AuditEntry */
         AuditEntry: {
@@ -675,11 +735,26 @@ export interface components {
             next_layer: number | null;
             /**
              * Layers
-             * @description per scanned layer: coverage, mean/RMS/max top error (mm)
+             * @description per scanned layer: coverage, mean/RMS/max top error (mm), the interpass temperature measured after it (°C)
              */
             layers: {
                 [key: string]: unknown;
             }[];
+            /**
+             * Programs
+             * @description per program issued: layer, speed factors, samples clamped, interpass dwell (s)
+             * @default []
+             */
+            programs: {
+                [key: string]: unknown;
+            }[];
+            /**
+             * Interpass
+             * @description the interpass dwell rule: target and ambient °C, longest dwell s, the heat model
+             */
+            interpass?: {
+                [key: string]: unknown;
+            } | null;
             /**
              * Log
              * @description every step: time (UTC), who, action, detail
@@ -732,6 +807,17 @@ export interface components {
              * @default 1.6
              */
             max_speed_factor: number;
+            /**
+             * Interpass C
+             * @description target interpass temperature (°C) for dwells from measured temperatures; default: the recipe's interpass node, else 200 °C
+             */
+            interpass_c?: number | null;
+            /**
+             * Max Dwell S
+             * @description longest interpass dwell a program may hold (s); longer needs are clamped
+             * @default 1800
+             */
+            max_dwell_s: number;
         };
         /**
          * ConflictDetail
@@ -882,6 +968,24 @@ export interface components {
         ErrorResponse: {
             detail: components["schemas"]["ErrorDetail"];
         };
+        /** ExampleError */
+        ExampleError: {
+            /**
+             * File
+             * @description the file in the server's graphs folder
+             */
+            file: string;
+            /**
+             * Size
+             * @description its size, bytes (0 when it is not a regular file)
+             */
+            size: number;
+            /**
+             * Reason
+             * @description why it is not offered: over the recipe size limit (max_body_mb), not a regular file, not valid JSON, not a valid recipe
+             */
+            reason: string;
+        };
         /** FileInfo */
         FileInfo: {
             /** Name */
@@ -933,6 +1037,8 @@ export interface components {
              * @description token name that created it (editors change only their own); null: a shipped example or saved before owners were recorded
              */
             owner?: string | null;
+            /** @description a recipe of the server's graphs folder that could not be offered: its GET answers 422 with this reason */
+            error?: components["schemas"]["ExampleError"] | null;
         };
         /** Health */
         Health: {
@@ -1610,6 +1716,37 @@ export interface components {
             run?: string | null;
             /** View */
             view?: string | null;
+        };
+        /** Surface */
+        Surface: {
+            /** Build */
+            build: string;
+            /** Layers */
+            layers: components["schemas"]["SurfaceLayer"][];
+        };
+        /** SurfaceLayer */
+        SurfaceLayer: {
+            /** Layer */
+            layer: number;
+            /**
+             * Thickness
+             * @description planned layer height, mm
+             */
+            thickness: number;
+            /**
+             * X
+             * @description planned crest x of every path sample (1 mm apart), mm
+             */
+            x: number[];
+            /** Y */
+            y: number[];
+            /** Z */
+            z: number[];
+            /**
+             * Deviation
+             * @description measured − planned top height along the build direction, mm (null where the scan saw nothing)
+             */
+            deviation: (number | null)[];
         };
         /** ValidationItem */
         ValidationItem: {
@@ -3598,6 +3735,8 @@ export interface operations {
                 kind?: "cloud" | "heights";
                 /** @description best-fit the scan's frame to the planned top first (an uncalibrated scanner; it also removes a uniform error) */
                 register?: boolean;
+                /** @description the part temperature measured after this layer (°C, −50…2000): the next layer's program waits until the heat model says the part is at the build's interpass temperature */
+                interpass_temp_c?: number | null;
             };
             header?: never;
             path: {
@@ -3659,6 +3798,133 @@ export interface operations {
             };
             /** @description Too large */
             413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    surface_api_builds__build_id__surface_get: {
+        parameters: {
+            query?: {
+                /** @description only this layer (default: every scanned one) */
+                layer?: number | null;
+            };
+            header?: never;
+            path: {
+                /** @description build id (12 hex digits) */
+                build_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Surface"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Invalid request, recipe or file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+        };
+    };
+    show_in_3d_api_builds__build_id__view_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description build id (12 hex digits) */
+                build_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["AsBuiltView"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    };
+                };
+            };
+            /** @description The request body is not valid JSON */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Missing or wrong bearer token */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Not found */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorResponse"];
+                };
+            };
+            /** @description Conflict (e.g. a read-only example) */
+            409: {
                 headers: {
                     [name: string]: unknown;
                 };

@@ -46,6 +46,13 @@ def get_role(request: Request) -> str:
 router = APIRouter(prefix="/api/graphs", tags=["graphs"], dependencies=[Depends(_owned)])
 
 
+class ExampleError(BaseModel):
+    file: str = Field(description="the file in the server's graphs folder")
+    size: int = Field(description="its size, bytes (0 when it is not a regular file)")
+    reason: str = Field(description="why it is not offered: over the recipe size limit (max_body_mb), not a "
+                                    "regular file, not valid JSON, not a valid recipe")
+
+
 class GraphInfo(BaseModel):
     name: str
     description: str
@@ -54,6 +61,8 @@ class GraphInfo(BaseModel):
     has_params: bool = Field(False, description="whether GET /api/graphs/{name}/params has a file to return")
     owner: str | None = Field(None, description="token name that created it (editors change only their own); "
                                                 "null: a shipped example or saved before owners were recorded")
+    error: ExampleError | None = Field(None, description="a recipe of the server's graphs folder that could not be "
+                                                         "offered: its GET answers 422 with this reason")
 
 
 class SaveResult(BaseModel):
@@ -147,12 +156,31 @@ def _writable(svc, name: str) -> None:
 
 @router.get("", response_model=list[GraphInfo], responses=errors(401))
 def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
-    return [GraphInfo(**g) for g in svc.store.list_graphs()]
+    """Saved graphs and examples, by name; recipes of the graphs folder that could not be loaded are
+    listed too, with `error` (file, size, reason) so that nobody looks for them in vain."""
+    out = [GraphInfo(**g) for g in svc.store.list_graphs()]
+    saved = {g.name for g in out}
+    for name, bad in svc.unloaded.items():
+        if name not in saved:
+            out.append(GraphInfo(name=name, description=f"not loaded: {bad['reason']}", example=True,
+                                 updated=bad["updated"], error=ExampleError(file=bad["file"], size=bad["size"],
+                                                                            reason=bad["reason"])))
+    return sorted(out, key=lambda g: g.name)
+
+
+def _unloaded(svc, name: str) -> None:
+    """422 for a recipe of the graphs folder that could not be loaded (named, with the reason)."""
+    bad = svc.unloaded.get(name)
+    if bad is not None and svc.store.graph_revision(name) is None:
+        raise HTTPException(422, detail={"kind": "unloadable_example", "field": "name", "message":
+                                         f"{name!r} (graphs folder file {bad['file']}, {bad['size']} bytes) was not "
+                                         f"loaded: {bad['reason']}"})
 
 
 @router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True,
             responses={200: {"description": "The recipe", "headers": ETAG_HEADER}, **errors(401, 404, 422)})
 def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str, Any]:
+    _unloaded(svc, name)
     recipe = svc.store.get_graph(name)
     rev = svc.store.graph_revision(name)
     if recipe is None or rev is None:
