@@ -12,8 +12,9 @@ from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import apply_overrides, load_recipe
 from waamflow.preflight.read import read_inform
+from waamflow.program.inform import InformSettings
 
-from inform_check import check_jbi
+from inform_check import check_jbi, check_program
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
@@ -75,5 +76,38 @@ def test_refusals():
     post = next(n for n in rec.nodes if n.type == "post-process")
     post.params["format"] = "inform"
     assert post.params.get("cell") == "kr150_tilt_rotate"     # the shipped duct runs on a positioner cell
-    with pytest.raises(RecipeError, match="station axes"):
+    # station axes need the controller's pulses per degree (the yaskawa_yrc1000 profile gives them)
+    with pytest.raises(RecipeError, match=r"station_pulses_per_deg needs 2 positive values .*got \[\]") as err:
         execute(build_graph(rec), resolver=FileResolver(GRAPHS), preflight=False)
+    assert err.value.field == "station_pulses_per_deg"
+    with pytest.raises(ValueError, match="1 to 3 positioner axes"):
+        InformSettings(external_axes=np.zeros((2, 4)), station_pulses_per_deg=(1.0,) * 4)
+    with pytest.raises(ValueError, match=r"needs 2 positive values"):
+        InformSettings(external_axes=np.zeros((2, 2)), station_pulses_per_deg=(1000.0, 0.0))
+
+
+def test_curved_duct_is_a_coordinated_job_with_the_station():
+    """With the yaskawa_yrc1000 profile the positioner is station 1: every layer job declares one EC
+    position per C position in pulses (1000 per degree in the profile), GROUP2 ST1, every motion
+    SMOVL .. +MOVJ EC..; the preflight reads the coordinated motions (deposition length = the
+    program's)."""
+    recipe = apply_overrides(load_recipe(GRAPHS / "curved-duct.json"), [])
+    rec = recipe.model_copy(deep=True)
+    next(n for n in rec.nodes if n.id == "fan").params["layer_count"] = 4
+    rec.nodes = [n for n in rec.nodes if n.id != "sim"]
+    rec.edges = [e for e in rec.edges if not e.to.startswith("sim.")]
+    post = next(n for n in rec.nodes if n.type == "post-process")
+    post.params.update(format="inform", profile="yaskawa_yrc1000")
+    result = execute(build_graph(rec), resolver=FileResolver(GRAPHS), preflight=True)
+    program = result.outputs["post"]["program"]
+    info = check_program(program.files)
+    jobs = [v for k, v in program.files.items() if k != "JBI"]
+    assert len(jobs) == 4 and all("///GROUP2 ST1" in j and "\n///POSTYPE PULSE\n///PULSE\nEC00000=" in j for j in jobs)
+    assert info["motions"] == len(info["station"]) == program.stats["motions"]
+    assert all(re.fullmatch(r"SMOVL C(\d{5}) V=\d+\.\d PL=[01] \+MOVJ EC\1", ln)
+               for j in jobs for ln in j.splitlines() if "MOVL" in ln)
+    e1 = sorted({p[0] for p in info["station"]})
+    assert e1 == [1540 * k for k in range(1, 5)]             # 1.54° more tilt per layer, 1000 pulses/°
+    assert {p[1] for p in info["station"]} == {-90000}      # the turn: -90°
+    dep = sum(r.length for r in read_inform(program.files).runs)
+    assert dep == pytest.approx(program.stats["deposition_length_mm"], abs=0.01) and dep > 300

@@ -35,8 +35,9 @@ TIME_TOL = 1e-3   # relative: feeds are written to 0.1 mm/min
 LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "curved-bracket": ("fan", 8),
                "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
 PROFILES = load_profiles()
-# formats that do not write a positioner yet: a recipe with a cell is refused in them (tests/program/test_inform.py)
-NO_CELL = {"inform"}
+# formats that do not write a positioner: a recipe with a cell is refused in them (none: INFORM writes station 1)
+NO_CELL: set[str] = set()
+ANGLE_TOL = 1e-3   # deg: positioner angles in a program vs the simulation's
 
 
 def _post_recipes() -> list[str]:
@@ -225,3 +226,31 @@ def test_curved_duct_gcode_carries_the_simulated_positioner_angles_as_rotary_axe
         assert e1.min() == pytest.approx(sim["positioner_e1_min_deg"], abs=1e-3) == pytest.approx(1.54)
         assert e1.max() == pytest.approx(sim["positioner_e1_max_deg"], abs=1e-3) == pytest.approx(12 * 1.54)
         assert e2.min() == pytest.approx(sim["positioner_e2_min_deg"]) and e2.max() == pytest.approx(sim["positioner_e2_max_deg"])
+
+
+def test_curved_duct_robot_programs_carry_the_simulated_positioner_angles(runs):
+    """Every robot format whose checker reads the positioner (Fanuc TP group 2 J1/J2, Yaskawa
+    INFORM station EC pulses over the profile's pulses per degree) has, per motion, the angles the
+    simulation turns the positioner to (`positioner_angles` of the cell and policy)."""
+    from waamflow.core.moves import flatten
+    from waamflow.trajectory.cell import load_cell, positioner_angles
+
+    results, _ = runs
+    recipe, posts, result = results["curved-duct"]
+    moves = flatten(result.outputs["bead"]["toolpath"])
+    checked = set()
+    for nid, (_orig, prof, params) in posts.items():
+        fmt = params["format"]
+        if fmt not in ("tp", "inform"):
+            continue
+        angles = positioner_angles(load_cell(params["cell"]), moves, params.get("positioner_policy", "fixed"))
+        got = PROGRAM_CHECKERS[fmt](_files(result, nid), {**PROFILES[prof]["post"], **params})
+        if fmt == "tp":
+            axes = np.array(got["joints"])
+        else:
+            axes = np.array(got["station"], float) / np.array(PROFILES[prof]["post"]["station_pulses_per_deg"])
+        assert axes.shape == angles.shape == (len(moves.points), 2), prof
+        assert np.abs(axes - angles).max() <= ANGLE_TOL, prof
+        assert len(np.unique(np.round(axes[:, 0], 3))) == LAYER_LIMIT["curved-duct"][1], prof
+        checked.add(fmt)
+    assert checked == {"tp", "inform"}

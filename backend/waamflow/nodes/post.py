@@ -43,7 +43,8 @@ class PostProcess(Node):
     - `rapid` (ABB): `<name>.mod` — MoveL travel, ArcLStart/ArcL/ArcLEnd with seamdata/welddata
       per zone, zonedata from the blend distance, WaitTime for dwell; above `max_module_bytes` a
       main module that loads part modules `<name>_M001.mod`, ... (layer ranges) one by one.
-    - `inform` (Yaskawa): `<NAME>.JBI` calling one job per layer, ARCON/ARCSET/ARCOF.
+    - `inform` (Yaskawa): `<NAME>.JBI` calling one job per layer, ARCON/ARCSET/ARCOF; with a
+      cell's positioner, coordinated jobs (GROUP2 ST1, EC positions in pulses, SMOVL … +MOVJ EC).
     - `tp` (Fanuc R-30iB ArcTool): `<NAME>.LS` calling one program per layer `<NAME>_L003.LS`,
       `L P[i] mm/sec CNT/FINE`, `Arc Start[k]`/`Arc End[k]` with weld schedules numbered from
       the zones' weld values and tabled in `<NAME>_SCHED.CSV` (to enter on the controller).
@@ -97,6 +98,10 @@ class PostProcess(Node):
         cnt: int = Field(100, ge=0, le=100, title="Blending CNT (TP)",
                          description="Fanuc TP: CNT of blended motions (0..100; exact stops are FINE; "
                                      "blend_distance 0 = FINE everywhere)")
+        station_pulses_per_deg: list[float] = Field(
+            default_factory=list, max_length=3, title="Station pulses per degree (INFORM)",
+            description="INFORM with a cell's positioner: encoder pulses per degree of each station axis (E1 tilt, "
+                        "E2 turn) as the controller's parameters give them; the EC positions are written in pulses")
         # G-code
         arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code")
         arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off", title="Arc off code")
@@ -264,14 +269,14 @@ class PostProcess(Node):
         world_tilt = None
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
-        if params.cell and params.format == "inform":
-            raise RecipeError("format inform: station axes (a positioner cell) are not written yet; use krl or rapid "
-                              "for a cell with a positioner, or remove `cell`", field="cell")
-        if params.cell and params.format in ("krl", "rapid", "gcode", "tp"):
+        if params.cell and params.format in ("krl", "rapid", "gcode", "tp", "inform"):
             cell = load_cell(params.cell)
             moves = flatten(inputs["toolpath"])
             angles = positioner_angles(cell, moves, params.positioner_policy)
-            writer = replace(writer, external_axes=angles)
+            try:
+                writer = replace(writer, external_axes=angles)
+            except ValueError as err:
+                raise RecipeError(str(err), field="station_pulses_per_deg" if params.format == "inform" else "cell") from err
             if params.format == "rapid":
                 writer = replace(writer, work_frame=_work_frame(cell))
             if params.format == "gcode" and len(moves.points):
@@ -415,7 +420,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
     if p.format == "inform":
         return InformSettings(program_name=name, tool=p.tool_number, user_frame=max(1, p.base_number),
                               travel_speed=p.travel_speed, position_level=p.position_level if p.blend_distance > 0 else 0,
-                              **tools)
+                              station_pulses_per_deg=tuple(p.station_pulses_per_deg), **tools)
     if p.format == "tp":
         return TpSettings(program_name=name, tool=p.tool_number, user_frame=p.base_number,
                           travel_speed=p.travel_speed, cnt=p.cnt if p.blend_distance > 0 else 0, **tools)

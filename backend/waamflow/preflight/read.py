@@ -441,7 +441,7 @@ def rapid_in_call_order(files: dict[str, str]) -> str:
 _JOB_NAME = re.compile(r"^//NAME\s+(\S+)", re.MULTILINE)
 _JOB_CALL = re.compile(r"^CALL\s+JOB:(\S+)", re.MULTILINE)
 _CPOS = re.compile(r"^C(\d+)=(" + NUM + r"),(" + NUM + r"),(" + NUM + r")", re.MULTILINE)
-_INF_MOVE = re.compile(r"^MOV[LJ]\s+C(\d+)\b.*?\bV=(" + NUM + r")")
+_INF_MOVE = re.compile(r"^S?MOV[LJ]\s+C(\d+)\b.*?\bV=(" + NUM + r")")
 _INF_VAL = re.compile(r"\b(AC|AV)=(" + NUM + r")")
 
 

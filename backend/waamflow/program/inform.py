@@ -37,8 +37,26 @@ never silently dropped). `V=` is the TCP speed in mm/s (the controller's default
 parameter; check it is not cm/min). Orientation Rx, Ry, Rz: fixed XYZ angles, R = Rz·Ry·Rx (as
 KUKA's A, B, C reversed). Circular motions are not written (the planner gives lines).
 
-Positioner (station axes) are not written yet: a toolpath with external axes is refused with a
-message (INFORM needs station pulses per degree from the controller's parameters).
+A positioner (`external_axes`, E1 tilt / E2 turn in degrees per toolpath point) is station 1: each
+layer job is a coordinated job (`///GROUP1 RB1`, `///GROUP2 ST1`), its //POS holds, after the C
+positions, one station position per C position (`///NPOS n,0,n,0,0,0`; `EC00000=` in pulses
+under `///POSTYPE PULSE`: degrees × `station_pulses_per_deg`, the controller's pulses per degree
+of each station axis), and every motion is coordinated: the robot moves relative to the station
+while the station moves to its angles (`SMOVL C00001 V=8.0 PL=1 +MOVJ EC00001`; the C positions
+are in `user_frame`, the part frame on the positioner, as the KRL/RAPID/TP posts write them)::
+
+    ///NPOS 412,0,412,0,0,0
+    ...
+    C00000=x,y,z,rx,ry,rz
+    ///POSTYPE PULSE
+    ///PULSE
+    EC00000=1540,-90000           ; E1 1.54°, E2 -90° at 1000 pulses/°
+    //INST
+    ...
+    ///GROUP1 RB1
+    ///GROUP2 ST1
+    NOP
+    SMOVL C00000 V=100.0 PL=0 +MOVJ EC00000
 """
 
 from __future__ import annotations
@@ -61,7 +79,9 @@ class InformSettings:
     """program_name: main job name (≤ 24 characters so `<name>_L001` fits 32; stored uppercase).
     tool / user_frame: tool and user frame numbers. travel_speed: mm/s. position_level: PL of
     blended motions (0 = exact stop everywhere). max_points_per_job: positions per job (0 = only
-    the per-layer split). external_axes: must be None (see module doc)."""
+    the per-layer split). external_axes: (n, 1..3) station axis angles in degrees per toolpath
+    point, or None. station_pulses_per_deg: pulses per degree of each station axis (the
+    controller's; needed with external_axes)."""
 
     program_name: str = "WAAMFLOW"
     tool: int = 1
@@ -70,6 +90,7 @@ class InformSettings:
     position_level: int = 1
     max_points_per_job: int = 999
     external_axes: np.ndarray | None = None
+    station_pulses_per_deg: tuple[float, ...] = ()
     decimals: int = 3
     tool_on: str = TOOL_COMMANDS["inform"][0]      # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["inform"][1]
@@ -85,8 +106,13 @@ class InformSettings:
         if not 0 <= self.tool <= 63 or not 1 <= self.user_frame <= 63:
             raise ValueError("tool must be 0..63 and user_frame 1..63")
         if self.external_axes is not None:
-            raise ValueError("INFORM station axes (a positioner) are not written yet: use the krl or rapid "
-                             "format for a cell with a positioner, or a cell without one")
+            k = np.asarray(self.external_axes).reshape(len(self.external_axes), -1).shape[1]
+            if not 1 <= k <= 3:
+                raise ValueError("INFORM station: 1 to 3 positioner axes")
+            ppd = self.station_pulses_per_deg
+            if len(ppd) < k or not all(np.isfinite(v) and v > 0 for v in ppd[:k]):
+                raise ValueError(f"INFORM station axes: station_pulses_per_deg needs {k} positive values (the "
+                                 f"controller's pulses per degree of each positioner axis), got {list(ppd)}")
 
 
 COMMENT_MAX = 32       # INFORM comment lines (') hold at most 32 characters
@@ -106,16 +132,28 @@ def _weld_fields(params: dict, names=None) -> str:
     return " ".join(out)
 
 
+def station_pulses(angles_deg: np.ndarray, pulses_per_deg) -> np.ndarray:
+    """Station axis angles (deg, (n, k)) as whole encoder pulses."""
+    a = np.asarray(angles_deg, float)
+    return np.rint(a * np.asarray(pulses_per_deg, float)[: a.shape[1]]).astype(np.int64)
+
+
 def _job(name: str, comment: str, lines: list[str], pts: list[int], P: np.ndarray, R: np.ndarray,
-         s: InformSettings) -> str:
+         s: InformSettings, ec: np.ndarray | None = None) -> str:
+    """A job: its C positions (points `pts`) and, for a coordinated job, `ec` (station pulses per
+    point of the whole program) as EC positions."""
     d = s.decimals
-    head = ["/JOB", f"//NAME {name}", "//POS", f"///NPOS {len(pts)},0,0,0,0,0", f"///TOOL {s.tool}",
+    n_ec = len(pts) if ec is not None else 0
+    head = ["/JOB", f"//NAME {name}", "//POS", f"///NPOS {len(pts)},0,{n_ec},0,0,0", f"///TOOL {s.tool}",
             "///POSTYPE USER", f"///USER {s.user_frame}", "///RECTAN", "///RCONF 0,0,0,0,0,0,0,0"]
     head += [f"C{k:05d}={num(P[i, 0], d)},{num(P[i, 1], d)},{num(P[i, 2], d)},"
              f"{num(R[i, 0], 4)},{num(R[i, 1], 4)},{num(R[i, 2], 4)}" for k, i in enumerate(pts)]
+    if n_ec:
+        head += ["///POSTYPE PULSE", "///PULSE"]
+        head += [f"EC{k:05d}=" + ",".join(str(int(v)) for v in ec[i]) for k, i in enumerate(pts)]
     # a fixed date: the same plan gives the same bytes (the run's trace says when it was made)
     head += ["//INST", "///DATE 2000/01/01 00:00", f"///COMM {comment[:COMMENT_MAX]}",
-             "///ATTR SC,RW", "///GROUP1 RB1", "NOP"]
+             "///ATTR SC,RW", "///GROUP1 RB1", *(["///GROUP2 ST1"] if n_ec else []), "NOP"]
     return "\n".join(head + lines + ["END"]) + "\n"
 
 
@@ -125,6 +163,8 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
     P = plan.moves.points
     keys = plan.moves.section_keys
     R = fixed_xyz_angles(plan.moves.tool_axis)
+    ec = None if s.external_axes is None else station_pulses(
+        np.asarray(s.external_axes, dtype=float).reshape(len(P), -1), s.station_pulses_per_deg)
     jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
     cur: list[str] = []
     cur_pts: list[int] = []
@@ -188,7 +228,11 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
                 raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")
             v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
             pl = 0 if st.stop else s.position_level
-            cur.append(f"MOVL {ref(st.end)} V={num(v, 1)} PL={pl}")
+            c = ref(st.end)
+            if ec is None:
+                cur.append(f"MOVL {c} V={num(v, 1)} PL={pl}")
+            else:                                      # coordinated: the robot relative to station 1
+                cur.append(f"SMOVL {c} V={num(v, 1)} PL={pl} +MOVJ E{c}")
             if s.max_points_per_job and len(cur_pts) >= s.max_points_per_job and not arc:
                 flush(None)
     flush(None)
@@ -196,8 +240,11 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
     main = [_comment(f"waamflow: {len(jobs)} jobs"), _comment(f"layers {st_['layers']}"),
             _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"), _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
             _comment("AC=current A AV=voltage V")]
+    if ec is not None:
+        main += [_comment("station ST1: EC in pulses"),
+                 _comment("pulse/deg " + " ".join(short(v) for v in s.station_pulses_per_deg[: ec.shape[1]]))]
     main += [f"CALL JOB:{name}" for name, _, _, _ in jobs]
     files = {"JBI": _job(s.program_name.upper(), "waamflow main job", main, [], P, R, s)}
     for name, comment, lines, pts in jobs:
-        files[name[len(s.program_name) + 1:] + ".JBI"] = _job(name, comment, lines, pts, P, R, s)
+        files[name[len(s.program_name) + 1:] + ".JBI"] = _job(name, comment, lines, pts, P, R, s, ec)
     return files
