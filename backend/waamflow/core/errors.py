@@ -8,6 +8,8 @@ node id. `str(err)` is the one-line message the CLI prints after `error:`.
 
 from __future__ import annotations
 
+from typing import Any, Self
+
 
 class WaamflowError(Exception):
     exit_code = 1
@@ -29,7 +31,7 @@ class WaamflowError(Exception):
         self.section = section
         self.field = field
 
-    def located(self, *, node: str | None = None, layer: int | None = None, section: str | None = None):
+    def located(self, *, node: str | None = None, layer: int | None = None, section: str | None = None) -> Self:
         """Fill in location fields that are not set yet; returns self for `raise err.located(...)`."""
         if self.node is None and node is not None:
             self.node = node
@@ -55,7 +57,7 @@ class WaamflowError(Exception):
         loc = self.location()
         return f"{loc}: {self.message}" if loc else self.message
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {
             "kind": self.kind,
             "message": self.message,

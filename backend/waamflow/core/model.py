@@ -12,7 +12,7 @@ Kernels return new values instead of mutating (mutation defeats caching): use
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Generic, Iterator, Sequence, TypeVar
+from typing import Any, Generic, Iterator, Sequence, TypeVar
 
 import numpy as np
 import shapely
@@ -97,14 +97,14 @@ class Layer:
         if self.frame is None:
             return np.column_stack([xy, np.full(len(xy), self.z)])
         homo = np.column_stack([xy, np.zeros(len(xy)), np.ones(len(xy))])
-        return (homo @ self.frame.T)[:, :3]
+        return np.asarray((homo @ self.frame.T)[:, :3])
 
     @property
     def normal(self) -> np.ndarray:
         """World build direction of this layer (unit)."""
         if self.frame is None:
             return np.array([0.0, 0.0, 1.0])
-        return self.frame[:3, 2] / np.linalg.norm(self.frame[:3, 2])
+        return np.asarray(self.frame[:3, 2] / np.linalg.norm(self.frame[:3, 2]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,7 +218,7 @@ class SectionPath:
     @property
     def segment_lengths(self) -> np.ndarray:
         """(n - 1,) float, mm."""
-        return np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+        return np.asarray(np.linalg.norm(np.diff(self.points, axis=0), axis=1))
 
     @property
     def length(self) -> float:
@@ -246,7 +246,7 @@ class LayerPaths:
 Toolpath = Layered[LayerPaths]
 
 
-def region_polygons(geom) -> list[Polygon]:
+def region_polygons(geom: Any) -> list[Polygon]:
     """The polygons of any shapely areal geometry (Polygon, MultiPolygon, collection), largest first."""
     if geom is None or geom.is_empty:
         return []

@@ -9,6 +9,7 @@ an arc-OFF travel segment (from the previous section's last point through the ne
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -53,7 +54,7 @@ class Moves:
 
     @property
     def segment_lengths(self) -> np.ndarray:
-        return np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+        return np.asarray(np.linalg.norm(np.diff(self.points, axis=0), axis=1))
 
     def __len__(self) -> int:
         return len(self.points)
@@ -63,7 +64,7 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
     """Flatten a toolpath into `Moves` (see module doc). Layers that are None (partial runs) are skipped."""
     pts: list[np.ndarray] = []
     axes: list[np.ndarray] = []
-    seg: dict[str, list] = {k: [] for k in ("kind", "arc", "inside", "speed", "layer", "section", "zone")}
+    seg: dict[str, list[Any]] = {k: [] for k in ("kind", "arc", "inside", "speed", "layer", "section", "zone")}
     dwell: list[float] = []
     section_keys: list[str] = []
     zone_ids: list[str] = []
@@ -76,7 +77,7 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
     section_tools: dict[int, tuple[str, dict[str, float]]] = {}
     down = np.array([0.0, 0.0, -1.0])
 
-    def add_segments(kind, arc, inside, speed, layer, section, zone, n):
+    def add_segments(kind: int, arc: Any, inside: Any, speed: Any, layer: int, section: int, zone: Any, n: int) -> None:
         seg["kind"].append(np.full(n, kind, dtype=np.int8))
         seg["arc"].append(np.asarray(arc, dtype=bool).reshape(-1) if np.ndim(arc) else np.full(n, bool(arc)))
         seg["inside"].append(np.asarray(inside, dtype=bool).reshape(-1) if np.ndim(inside) else np.full(n, bool(inside)))

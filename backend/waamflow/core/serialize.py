@@ -15,7 +15,7 @@ import numpy as np
 import orjson
 from shapely.geometry import Polygon
 
-from .model import Layer, LayerPaths, Layered, region_polygons
+from .model import Layer, LayerPaths, Layered, SectionPath, region_polygons
 
 DECIMALS = 4  # 0.1 µm: below any machine resolution, keeps files small
 
@@ -24,17 +24,17 @@ def _r(x: float) -> float:
     return round(float(x), DECIMALS)
 
 
-def coords(arr, arrays: bool = False) -> list[list[float]] | np.ndarray:
+def coords(arr: Any, arrays: bool = False) -> list[list[float]] | np.ndarray:
     """Coordinates rounded to `DECIMALS`: lists, or (arrays=True, for `dumps`) a numpy array."""
     a = np.round(np.asarray(arr, dtype=float), DECIMALS)
     return a if arrays else a.tolist()
 
 
-def polygon_json(p: Polygon, arrays: bool = False) -> dict:
+def polygon_json(p: Polygon, arrays: bool = False) -> dict[str, Any]:
     return {"exterior": coords(p.exterior.coords, arrays), "holes": [coords(h.coords, arrays) for h in p.interiors]}
 
 
-def layer_json(layer: Layer, arrays: bool = False) -> dict:
+def layer_json(layer: Layer, arrays: bool = False) -> dict[str, Any]:
     out = {
         "index": layer.index,
         "z": _r(layer.z),
@@ -48,20 +48,20 @@ def layer_json(layer: Layer, arrays: bool = False) -> dict:
     return out
 
 
-def layers_json(layers: Layered[Layer]) -> dict:
+def layers_json(layers: Layered[Layer]) -> dict[str, Any]:
     """The `layers.json` artifact (for `dumps`: coordinates as numpy arrays)."""
     return {"units": "mm", "layers": [layer_json(l, arrays=True) for l in layers if l is not None]}
 
 
-def _num_list(a) -> list:
+def _num_list(a: Any) -> list[Any]:
     r = np.round(np.asarray(a, float), DECIMALS)
-    out = r.tolist()
+    out: list[Any] = r.tolist()
     for i in np.flatnonzero(np.isnan(r)).tolist():   # NaN (no value) → null
         out[i] = None
     return out
 
 
-def section_path_json(sp, arrays: bool = False) -> dict[str, Any]:
+def section_path_json(sp: SectionPath, arrays: bool = False) -> dict[str, Any]:
     d: dict[str, Any] = {
         "key": sp.key,
         "strategy": sp.strategy,
@@ -86,7 +86,7 @@ def section_path_json(sp, arrays: bool = False) -> dict[str, Any]:
     return d
 
 
-def toolpath_json(toolpath: Layered[LayerPaths]) -> dict:
+def toolpath_json(toolpath: Layered[LayerPaths]) -> dict[str, Any]:
     """The `toolpath.json` artifact (for `dumps`: coordinates as numpy arrays)."""
     layers = []
     for lp in toolpath:

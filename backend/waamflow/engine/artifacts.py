@@ -7,9 +7,10 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 
 
-def write_run_dir(out_dir: str | Path, files: dict[str, bytes], summary: dict) -> Path:
+def write_run_dir(out_dir: str | Path, files: dict[str, bytes], summary: dict[str, Any]) -> Path:
     """Stage every artifact plus summary.json in a sibling temp folder, then swap it into place.
 
     The previous result (if any) is replaced only once the new one is complete.

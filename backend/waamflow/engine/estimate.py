@@ -15,10 +15,15 @@ import math
 import re
 import zipfile
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.errors import WaamflowError
+
+if TYPE_CHECKING:
+    from .executor import FileResolver
+    from .graph import Graph, GraphNode
 
 UNIT_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "ft": 304.8, "file": 1.0}
 STL_VERTEX = re.compile(rb"vertex\s+\S+\s+\S+\s+(\S+)")
@@ -40,7 +45,7 @@ class Estimate:
     notes: list[str] = field(default_factory=list)
     layers_node: str | None = None
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"layers": self.layers, "triangles": self.triangles, "dxf_entities": self.dxf_entities,
                 "uncompressed_mb": round(self.uncompressed_bytes / 2**20, 1), "notes": self.notes}
 
@@ -81,7 +86,7 @@ def _threemf_size(data: bytes) -> int:
 _FACTS: dict[tuple[str, str], tuple[int, tuple[float, float] | None, int]] = {}
 
 
-def _mesh_facts(resolver, path: str, cap: int) -> tuple[int, tuple[float, float] | None, int] | None:
+def _mesh_facts(resolver: FileResolver, path: str, cap: int) -> tuple[int, tuple[float, float] | None, int] | None:
     """(triangles, z range in file units, uncompressed bytes) of a mesh file, memoised on its
     content signature (the GUI's previews ask again on every edit)."""
     sig = resolver.signature(path)
@@ -105,14 +110,14 @@ def _mesh_facts(resolver, path: str, cap: int) -> tuple[int, tuple[float, float]
     return _FACTS[key]
 
 
-def _read(resolver, path: str, cap: int) -> bytes | None:
+def _read(resolver: FileResolver, path: str, cap: int) -> bytes | None:
     try:
         return resolver.read_bytes(path, cap)
     except (WaamflowError, OSError):
         return None   # the node itself reports a missing or refused file, with its context
 
 
-def estimate(graph, resolver, read_cap: int = 512 * 2**20) -> Estimate:
+def estimate(graph: Graph, resolver: FileResolver, read_cap: int = 512 * 2**20) -> Estimate:
     """The estimate of running `graph` whole (see module doc); unknowns stay None/0 with a note."""
     est = Estimate()
     z_range: dict[str, tuple[float, float]] = {}   # node id → z extent of its part, mm
@@ -147,8 +152,8 @@ def estimate(graph, resolver, read_cap: int = 512 * 2**20) -> Estimate:
     return est
 
 
-def _slice_layers(g, z_range: dict[str, tuple[float, float]]) -> int | None:
-    p = g.params
+def _slice_layers(g: GraphNode, z_range: dict[str, tuple[float, float]]) -> int | None:
+    p: Any = g.params   # a slice node's params model (layer_count, z_min, z_max, layer_height, ...)
     if getattr(p, "layer_count", None):
         return int(p.layer_count)
     src = g.inputs.get("mesh")

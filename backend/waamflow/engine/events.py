@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Callable, Literal
+from typing import Any, Callable, Literal
 
 EventKind = Literal[
     "run_started",
@@ -35,11 +35,11 @@ class Event:
     seconds: float | None = None
     compute_seconds: float | None = None   # node_finished of a layer node: its layers' compute time
     cached: bool | None = None
-    error: dict | None = None
+    error: dict[str, Any] | None = None
     seq: int = 0
     time: float = field(default_factory=time.time)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {k: v for k, v in asdict(self).items() if v is not None}
 
 

@@ -17,9 +17,10 @@ import traceback
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, TypeVar, cast
 
 import shapely
+from pydantic import BaseModel
 
 from .. import __version__
 from ..core.errors import CancelledError, InputFileError, PlanningError, WaamflowError
@@ -28,6 +29,7 @@ from ..core.model import Layer, Layered
 from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
 from .graph import Graph, GraphNode
+from .recipe import Recipe
 from .node import Context, LayerNode
 from . import parallel
 from .parallel import DaskPool, LayerPool, make_pool
@@ -44,7 +46,8 @@ def _over_limit(path: str, size: int, limit: int) -> str:
 
 # Content signatures of files by (path, mtime, size), shared by every resolver in the process so
 # the GUI's one-layer preview does not re-hash a large mesh on each request.
-_FILE_SIGS: dict[tuple[str, int, int], str] = {}
+_FILE_SIGS: dict[tuple[str | int, ...], str] = {}   # (path, mtime, size) or ("sha256", path, mtime, size)
+T = TypeVar("T")
 
 
 # ---- files --------------------------------------------------------------------------------------
@@ -144,7 +147,7 @@ class FileResolver:
         return sig
 
 
-def file_fields(model_cls) -> list[str]:
+def file_fields(model_cls: type[BaseModel]) -> list[str]:
     """Names of params fields marked as files (`FileRef`)."""
     out = []
     for name, f in model_cls.model_fields.items():
@@ -164,13 +167,13 @@ class NodeStats:
     layers_total: int | None = None
     layers_cached: int | None = None
     layers_computed: int | None = None
-    report: dict = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
+    report: dict[str, Any] = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
     # layer nodes: seconds spent computing this node's layers, summed over the processes that did
     # (`seconds` is the wall time the run spent in the node: in a chain, the first node's
     # includes its followers' layers, computed in the same worker tasks)
     compute_seconds: float | None = None
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
             d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
@@ -186,17 +189,17 @@ class NodeStats:
 class RunResult:
     outputs: dict[str, dict[str, Any]]
     stats: dict[str, NodeStats]
-    warnings: list[dict]
+    warnings: list[dict[str, Any]]
     artifacts: dict[str, bytes]
     layer_count: int | None
     seconds: float
     signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
-    executor: dict = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
-    trace: dict = field(default_factory=dict)  # see `run_trace`
-    preflight: dict | None = None  # see `waamflow.preflight`: the emitted programs checked against the part
+    executor: dict[str, Any] = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
+    trace: dict[str, Any] = field(default_factory=dict)  # see `run_trace`
+    preflight: dict[str, Any] | None = None  # see `waamflow.preflight`: the emitted programs checked against the part
     preflight_seconds: float | None = None
 
-    def summary(self, recipe_name: str, status: str = "done") -> dict:
+    def summary(self, recipe_name: str, status: str = "done") -> dict[str, Any]:
         return {
             "recipe": recipe_name,
             "status": status,
@@ -213,7 +216,7 @@ class RunResult:
                if self.preflight is not None else {}),
         }
 
-    def program_stats(self) -> dict[str, dict]:
+    def program_stats(self) -> dict[str, dict[str, Any]]:
         """node id → the statistics of the program it wrote (format, points, motions, lengths in
         mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
         from ..program.program import Program
@@ -227,7 +230,7 @@ class RunContext(Context):
     def __init__(self, run: "_Run", node_id: str) -> None:
         self._run = run
         self.node_id = node_id
-        self.warnings: list[dict] = []
+        self.warnings: list[dict[str, Any]] = []
         self.layer: int | None = None  # set while a LayerNode maps
 
     def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
@@ -243,7 +246,7 @@ class RunContext(Context):
     def progress(self, fraction: float, message: str = "") -> None:
         self._run.node_progress(self.node_id, fraction, message)
 
-    def trace(self) -> dict:
+    def trace(self) -> dict[str, Any]:
         return self._run.trace()
 
     def check_cancelled(self) -> None:
@@ -258,7 +261,7 @@ def run_date_utc() -> str:
     return when.replace(microsecond=0).isoformat().replace("+00:00", "Z")
 
 
-def recipe_sha256(recipe) -> str:
+def recipe_sha256(recipe: Recipe) -> str:
     """sha256 of the canonical recipe JSON (sorted keys, compact separators, editor-only `ui`
     state left out): the same recipe gives the same hash whatever the key order or layout."""
     doc = {k: v for k, v in recipe.to_json().items() if k != "ui"}
@@ -273,7 +276,7 @@ def artifact_name(node_id: str, key: str) -> str:
     return key[1:] if key.startswith("/") else f"{node_id}.{key}"
 
 
-def run_trace(recipe, files: dict[str, str], date_utc: str) -> dict:
+def run_trace(recipe: Recipe, files: dict[str, str], date_utc: str) -> dict[str, Any]:
     """{"date": ISO UTC, "waamflow": version, "revision": source revision (git describe),
     "recipe": name, "recipe_sha256": …, "inputs": {path: sha256}} for program headers and
     summary.json."""
@@ -321,7 +324,7 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
 
 # ---- the run ------------------------------------------------------------------------------------
 class _Run:
-    def __init__(self, graph: Graph, resolver: FileResolver, cache, on_event: EventSink | None,
+    def __init__(self, graph: Graph, resolver: FileResolver, cache: TieredCache | MemoryCache | None, on_event: EventSink | None,
                  cancel: threading.Event | None, layers: set[int] | None, active: list[str],
                  write_artifacts: bool, pool: LayerPool | DaskPool | None = None) -> None:
         self.graph = graph
@@ -339,19 +342,19 @@ class _Run:
         self.outputs: dict[str, dict[str, Any]] = {}
         self.sigs: dict[tuple[str, str], str] = {}
         self.stats: dict[str, NodeStats] = {}
-        self.warnings: list[dict] = []
+        self.warnings: list[dict[str, Any]] = []
         self.artifacts: dict[str, bytes] = {}
         self.layer_count: int | None = None
         self.started_utc = run_date_utc()
         self.input_hashes: dict[str, str] = {}
         # (node id, layer) → (outputs, warnings) computed by a worker as part of a chain
         # (engine/parallel.py), taken up when the run reaches that node
-        self.precomputed: dict[tuple[str, int], tuple[dict, list]] = {}
+        self.precomputed: dict[tuple[str, int], tuple[dict[str, Any], list[Any]]] = {}
         self.compute_s: dict[str, float] = {}   # node id → seconds computing its layers, in any process
         self.max_layers = 0   # 0: no limit (see execute)
 
     # events
-    def emit(self, kind: str, **kw) -> None:
+    def emit(self, kind: str, **kw: Any) -> None:
         if self.on_event is None:
             return
         self.seq += 1
@@ -371,8 +374,8 @@ class _Run:
         if self.cancel is not None and self.cancel.is_set():
             raise CancelledError("run cancelled")
 
-    def file_sigs(self, gnode: GraphNode) -> list:
-        out = []
+    def file_sigs(self, gnode: GraphNode) -> list[tuple[str, ...]]:
+        out: list[tuple[str, ...]] = []
         for f in file_fields(type(gnode.params)):
             path = getattr(gnode.params, f, None)
             if path:
@@ -394,7 +397,7 @@ class _Run:
         except (WaamflowError, OSError):
             return None
 
-    def trace(self) -> dict:
+    def trace(self) -> dict[str, Any]:
         """What a program needs to be traced back to its origin: see `run_trace`. Not part of any
         cache key (the date changes every run); stamped when artifacts are written."""
         files = {**self.input_hashes, **self.resolver.read_hashes}
@@ -403,7 +406,7 @@ class _Run:
     def add_compute(self, node_id: str, seconds: float) -> None:
         self.compute_s[node_id] = self.compute_s.get(node_id, 0.0) + seconds
 
-    def add_warnings(self, ws: list[dict]) -> None:
+    def add_warnings(self, ws: list[dict[str, Any]]) -> None:
         for w in ws:
             self.warnings.append(w)
             self.emit("warning", node=w.get("node"), layer=w.get("layer"), section=w.get("section"),
@@ -433,7 +436,7 @@ class _Run:
                     pool = self.pool
                     # to a worker while the parent goes on with later nodes; the last node's here
                     # (nothing to overlap: shipping its outputs would only add the transfer)
-                    if pool is not None and pool.enabled and pool.offload_artifacts and pos < len(self.active) - 1:
+                    if isinstance(pool, LayerPool) and pool.enabled and pool.offload_artifacts and pos < len(self.active) - 1:
                         jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
                                                                        self.trace(), self.outputs[node_id])))
                     else:
@@ -484,7 +487,7 @@ class _Run:
                 and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
             pool.warm()
 
-    def located(self, node_id: str, ctx: RunContext, fn):
+    def located(self, node_id: str, ctx: RunContext, fn: Callable[[], T]) -> T:
         """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
         try:
             return fn()
@@ -494,11 +497,11 @@ class _Run:
                       message=str(err), error=err.to_dict())
             raise
         except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
-            err = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
-            err.__cause__ = exc
-            err.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
-            self.emit("node_error", node=node_id, layer=err.layer, message=str(err), error=err.to_dict())
-            raise err from exc
+            perr = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
+            perr.__cause__ = exc
+            perr.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
+            self.emit("node_error", node=node_id, layer=perr.layer, message=str(perr), error=perr.to_dict())
+            raise perr from exc
 
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
@@ -506,9 +509,9 @@ class _Run:
                          gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
                          *((gnode.id,) if impl.uses_node_id else ()))
 
-    def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
+    def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]) -> bool:
         key = self.node_key(gnode, in_sigs)
-        hit = self.cache.get(key) if self.cache is not None else MISSING
+        hit: Any = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
             outputs, warnings = dict(hit[0]), hit[1]
             report = hit[2] if len(hit) > 2 else {}
@@ -534,7 +537,7 @@ class _Run:
         self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
 
-    def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict, in_sigs: dict) -> bool:
+    def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]) -> bool:
         impl: LayerNode = gnode.impl  # type: ignore[assignment]
         over = inputs.get(impl.over)
         if not isinstance(over, Layered):
@@ -548,9 +551,9 @@ class _Run:
         wanted = range(n) if self.layers is None else sorted(i for i in self.layers if 0 <= i < n)
         per_layer: dict[str, list[Any]] = {p.name: [None] * n for p in impl.outputs}
         item_keys: list[str] = [""] * n
-        results: dict[int, tuple[dict, list]] = {}   # index → (outputs, warnings)
-        todo: list[tuple[int, dict, str]] = []        # uncached: (index, items, key)
-        prefetched: list[tuple[int, str, tuple]] = []  # (index, key, (outputs, warnings)) from a chain
+        results: dict[int, tuple[dict[str, Any], list[Any]]] = {}   # index → (outputs, warnings)
+        todo: list[tuple[int, dict[str, Any], str]] = []        # uncached: (index, items, key)
+        prefetched: list[tuple[int, str, tuple[Any, ...]]] = []  # (index, key, (outputs, warnings)) from a chain
         for i in wanted:
             items = {p: (v.items[i] if isinstance(v, Layered) else v) for p, v in inputs.items()}
             if items[impl.over] is None:
@@ -559,7 +562,7 @@ class _Run:
             key = signature("layer", gnode.type, impl.version, CODE_VERSION,
                             impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
             item_keys[i] = key
-            hit = self.cache.get(key) if self.cache is not None else MISSING
+            hit: Any = self.cache.get(key) if self.cache is not None else MISSING
             pre = self.precomputed.pop((gnode.id, i), None)
             if hit is not MISSING:
                 results[i] = hit
@@ -603,19 +606,19 @@ class _Run:
                                          compute_seconds=self.compute_s.pop(gnode.id, 0.0))
         return n_computed == 0
 
-    def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict, str]],
-                       results: dict[int, tuple[dict, list]], n_total: int) -> None:
+    def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict[str, Any], str]],
+                       results: dict[int, tuple[dict[str, Any], list[Any]]], n_total: int) -> None:
         """Compute the uncached layers into `results` and the cache: the first in this process
         (timed), the rest in worker processes when the timing says they pay (engine/parallel.py)."""
         impl: LayerNode = gnode.impl  # type: ignore[assignment]
         done = [n_total - len(todo)]
 
-        def finish(i: int, key: str, out: dict, warnings: list) -> None:
+        def finish(i: int, key: str, out: dict[str, Any], warnings: list[Any]) -> None:
             self.keep_layer(gnode, results, i, key, out, warnings)
             done[0] += 1
             self.node_progress(gnode.id, done[0] / max(n_total, 1), f"layer {i}", layer=i)
 
-        def here(i: int, items: dict, key: str) -> None:
+        def here(i: int, items: dict[str, Any], key: str) -> None:
             self.check_cancelled()
             ctx.layer = i
             ctx.warnings = []
@@ -628,17 +631,17 @@ class _Run:
         pool = self.pool
         chain = self.chain_from(gnode) if pool is not None and pool.enabled and len(todo) > 1 else ()
 
-        def timed(i: int, items: dict, key: str) -> None:
+        def timed(i: int, items: dict[str, Any], key: str) -> None:
             """A layer of this node and of the nodes chained to it: what the workers would be sent
             is what gets timed (its later links wait in `precomputed`, as a worker's would)."""
             here(i, items, key)
             if len(chain) < 2:
                 return
             nxt = chain[1]
-            fed = results[i][0].get(nxt.src_port)
+            fed = results[i][0].get(cast(str, nxt.src_port))   # set on every link after the first
             if fed is None:
                 return
-            (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, nxt.over: fed})])
+            (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, cast(str, nxt.over): fed})])
             self.keep_later_links(chain[1:], i, got)
 
         t0 = time.perf_counter()
@@ -658,7 +661,7 @@ class _Run:
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 
-            def collect(i: int, got: list) -> None:
+            def collect(i: int, got: list[Any]) -> None:
                 out, extra, sec = got[0]
                 self.add_compute(gnode.id, sec)
                 if out is None:       # the chain ended there: no later links
@@ -675,7 +678,7 @@ class _Run:
         for t in rest:
             here(*t)
 
-    def keep_layer(self, gnode: GraphNode, results: dict, i: int, key: str, out: dict, warnings: list) -> None:
+    def keep_layer(self, gnode: GraphNode, results: dict[int, tuple[dict[str, Any], list[Any]]], i: int, key: str, out: dict[str, Any], warnings: list[Any]) -> None:
         """A computed layer of `gnode` (here, in a worker, or ahead in a chain) into `results`
         and the cache."""
         self._check_outputs(gnode, out)
@@ -683,7 +686,7 @@ class _Run:
         if self.cache is not None:
             self.cache.put(key, (out, warnings))
 
-    def keep_later_links(self, links: tuple[parallel.ChainLink, ...], i: int, got: list) -> None:
+    def keep_later_links(self, links: tuple[parallel.ChainLink, ...], i: int, got: list[Any]) -> None:
         """Layer i of a chain's later links, computed right after the first one's: their time is
         counted, their results wait in `precomputed` until the run reaches their node (a failed
         link is absent: that node computes the layer itself and reports the error)."""
@@ -704,7 +707,7 @@ class _Run:
         cur = gnode
         pos = self.active.index(gnode.id)
         while True:
-            impl = cur.impl
+            impl = cast(LayerNode, cur.impl)   # gnode, then a cand checked below
             if not (impl.combine_keeps_items or type(impl).combine is LayerNode.combine):
                 break
             nxt = None
@@ -724,19 +727,19 @@ class _Run:
                 break
             cand, port, whole = nxt
             links.append(parallel.ChainLink(cand.impl, cand.id, cand.params.model_dump(mode="json"),
-                                            cand.impl.over, port, whole))
+                                            cast(LayerNode, cand.impl).over, port, whole))
             cur, pos = cand, self.active.index(cand.id)
         return tuple(links)
 
     @staticmethod
-    def _check_outputs(gnode: GraphNode, outputs: dict) -> None:
+    def _check_outputs(gnode: GraphNode, outputs: dict[str, Any]) -> None:
         expected = {p.name for p in gnode.impl.outputs}
         if not isinstance(outputs, dict) or set(outputs) != expected:
             got = sorted(outputs) if isinstance(outputs, dict) else type(outputs).__name__
             raise PlanningError(f"node returned outputs {got}, expected {sorted(expected)}")
 
 
-def _preflight(run: "_Run", graph: Graph) -> tuple[dict | None, float | None]:
+def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float | None]:
     """The preflight of a full run (`waamflow.preflight`) and the seconds it took (for the summary
     only: the artifacts stay reproducible); the report is also the artifact `preflight.json`. An
     internal error of the check itself is a failed check, never a silent pass."""

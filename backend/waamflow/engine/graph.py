@@ -70,7 +70,7 @@ def check_connection(src_type: str, src_port: str, dst_type: str, dst_port: str)
     return None
 
 
-def _validate_params(node_id: str, cls: type[Node], raw: dict) -> BaseModel:
+def _validate_params(node_id: str, cls: type[Node], raw: dict[str, Any]) -> BaseModel:
     try:
         return cls.Params.model_validate(raw)
     except ValidationError as err:

@@ -25,6 +25,7 @@ Bump `version` whenever a node's results change for the same inputs: it is part 
 
 from __future__ import annotations
 
+import builtins
 from typing import Annotated, Any, Callable, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -39,7 +40,7 @@ MAX_REPORT_BYTES = 256 * 1024  # a node's report in summary.json (see Context.re
 FileRef = Annotated[str, Field(json_schema_extra={"x-file": True})]
 
 
-def unit(u: str) -> dict:
+def unit(u: str) -> dict[str, Any]:
     """`json_schema_extra` for a numeric field with a unit: Field(..., json_schema_extra=unit("mm"))."""
     return {"unit": u}
 
@@ -62,7 +63,7 @@ def shipped_names(kind: str) -> list[str]:
     return sorted(p.name if pattern == "*.urdf" else p.stem for p in root.glob(pattern))
 
 
-def with_shipped(schema: dict) -> dict:
+def with_shipped(schema: dict[str, Any]) -> dict[str, Any]:
     """The params schema with `examples` (the shipped names) on every `x-shipped` field."""
     for props in [schema.get("properties") or {}] + [d.get("properties") or {} for d in (schema.get("$defs") or {}).values()]:
         for prop in props.values():
@@ -86,7 +87,7 @@ class Node:
     category: ClassVar[str] = "general"
     inputs: ClassVar[tuple[Port, ...]] = ()
     outputs: ClassVar[tuple[Port, ...]] = ()
-    Params: ClassVar[type[NodeParams]] = NodeParams
+    Params: ClassVar[builtins.type[NodeParams]] = NodeParams   # builtins: `type` is the ClassVar above
     version: ClassVar[str] = "1"
     # True when `run` reads `ctx.node_id` (e.g. a program named after its artifact): the node id
     # then enters the cache key, so a renamed node never gets another node's cached output.
@@ -109,7 +110,7 @@ class Node:
 
     # ---- catalog -----------------------------------------------------------------------------
     @classmethod
-    def describe(cls) -> dict:
+    def describe(cls) -> dict[str, Any]:
         doc = (cls.__doc__ or "").strip()
         return {
             "type": cls.type,
@@ -185,11 +186,11 @@ class Context:
         raise NotImplementedError
 
     layer: int | None = None          # the layer being mapped, if any
-    warnings: list[dict]
+    warnings: list[dict[str, Any]]
 
     def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
         """Record a warning of this node, located at `layer` (default: the layer being mapped)."""
-        w = {"node": self.node_id, "message": message}
+        w: dict[str, Any] = {"node": self.node_id, "message": message}
         layer = self.layer if layer is None else layer
         if layer is not None:
             w["layer"] = int(layer)
@@ -200,7 +201,7 @@ class Context:
     def progress(self, fraction: float, message: str = "") -> None:  # pragma: no cover
         raise NotImplementedError
 
-    def report(self, data: dict) -> None:
+    def report(self, data: dict[str, Any]) -> None:
         """Record a small structured result of this node (totals, per-layer figures: JSON-able,
         at most `MAX_REPORT_BYTES` as JSON). Keys merge over repeated calls. The engine stores the
         report with the node's cache entry (a cached re-run states it again) and writes it into
@@ -218,13 +219,13 @@ class Context:
                              "put large results in an artifact")
         self._report = merged
 
-    def take_report(self) -> dict:
+    def take_report(self) -> dict[str, Any]:
         """The report recorded so far, and reset (engine side)."""
         out = getattr(self, "_report", {})
         self._report = {}
         return out
 
-    def trace(self) -> dict:
+    def trace(self) -> dict[str, Any]:
         """Traceability of the run (date UTC, waamflow version, recipe name and sha256, sha256 of
         each input file read) for program headers; {} outside a run. Never part of a cache key."""
         return {}
@@ -261,5 +262,5 @@ def load_nodes() -> dict[str, type[Node]]:
     return REGISTRY
 
 
-def catalog() -> list[dict]:
+def catalog() -> list[dict[str, Any]]:
     return [REGISTRY[t].describe() for t in sorted(load_nodes())]

@@ -48,9 +48,12 @@ import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 from .node import Context
+
+if TYPE_CHECKING:   # executor imports this module
+    from .executor import FileResolver
 
 MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
                           # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
@@ -79,10 +82,10 @@ class _WorkerContext(Context):
     """What a node may ask of the engine inside a worker: files through the run's resolver,
     warnings collected per layer; progress and cancel are the parent's business."""
 
-    def __init__(self, node_id: str, resolver) -> None:
+    def __init__(self, node_id: str, resolver: FileResolver) -> None:
         self.node_id = node_id
         self._resolver = resolver
-        self.warnings: list[dict] = []
+        self.warnings: list[dict[str, Any]] = []
         self.layer: int | None = None
 
     def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
@@ -103,11 +106,11 @@ class _ArtifactContext(_WorkerContext):
     """A node's context while a worker writes its artifacts: the run's trace as it was when the
     node finished (program headers stamp it)."""
 
-    def __init__(self, node_id: str, resolver, trace: dict) -> None:
+    def __init__(self, node_id: str, resolver: FileResolver, trace: dict[str, Any]) -> None:
         super().__init__(node_id, resolver)
         self._trace = trace
 
-    def trace(self) -> dict:
+    def trace(self) -> dict[str, Any]:
         return self._trace
 
 
@@ -124,26 +127,27 @@ class ChainLink:
     params_json: Any
     over: str | None = None
     src_port: str | None = None
-    whole: dict = field(default_factory=dict)
+    whole: dict[str, Any] = field(default_factory=dict)
 
 
-def run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dict]]):
+def run_chain(chain: tuple[ChainLink, ...], resolver: FileResolver,
+              chunk: list[tuple[int, dict[str, Any]]]) -> list[tuple[int, list[tuple[Any, ...]]]]:
     """Worker side (and the parent's timed layers): per layer of the chunk, each link in turn on the previous link's output:
     [(index, [(outputs, warnings, seconds) | (None, error text, seconds)] per link computed)]. A
     failed link ends that layer's chain; the parent computes the rest (and reports the error
     with its context). `seconds`: the link's compute time on this layer (wall, in the worker)."""
     links = [(link, type(link.impl).Params.model_validate(link.params_json)) for link in chain]
     ctxs = [_WorkerContext(link.node_id, resolver) for link in chain]
-    out = []
+    out: list[tuple[int, list[tuple[Any, ...]]]] = []
     for i, items in chunk:
-        got: list[tuple] = []
-        prev: dict = {}
+        got: list[tuple[Any, ...]] = []
+        prev: dict[str, Any] = {}
         for k, (link, params) in enumerate(links):
             if k:
-                fed = prev[link.src_port]
+                fed = prev[cast(str, link.src_port)]   # set on every link after the first
                 if fed is None:
                     break
-                items = {**link.whole, link.over: fed}
+                items = {**link.whole, cast(str, link.over): fed}
             ctx = ctxs[k]
             ctx.layer = i
             ctx.warnings = []
@@ -158,7 +162,8 @@ def run_chain(chain: tuple[ChainLink, ...], resolver, chunk: list[tuple[int, dic
     return out
 
 
-def _write_artifacts(impl, node_id: str, params_json: Any, resolver, trace: dict, outputs: dict):
+def _write_artifacts(impl: Any, node_id: str, params_json: Any, resolver: FileResolver, trace: dict[str, Any],
+                     outputs: dict[str, Any]) -> tuple[dict[str, bytes], list[dict[str, Any]]] | tuple[None, str]:
     """Worker side: ({suffix: bytes}, warnings) or (None, error text): the parent re-runs a failed
     node's artifacts itself, so the error is raised with its context."""
     params = type(impl).Params.model_validate(params_json)
@@ -228,7 +233,7 @@ class LayerPool:
         """Artifacts go to workers once the workers are up anyway."""
         return self.ready
 
-    def info(self) -> dict:
+    def info(self) -> dict[str, Any]:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
     def warm(self) -> None:
@@ -265,20 +270,20 @@ class LayerPool:
                 self.started = True
             return self._pool
 
-    def submit_artifacts(self, impl, node_id: str, params: Any, resolver, trace: dict, outputs: dict) -> Future:
+    def submit_artifacts(self, impl: Any, node_id: str, params: Any, resolver: FileResolver, trace: dict[str, Any], outputs: dict[str, Any]) -> Future[Any]:
         """A node's artifacts written by a worker: a future of `_write_artifacts`' result."""
         return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
                                        trace, outputs)
 
-    def map_layers(self, chain: tuple[ChainLink, ...], resolver, todo: list[tuple[int, dict]],
-                   on_done: Callable[[int, list], None], cancelled: Callable[[], bool]) -> None:
+    def map_layers(self, chain: tuple[ChainLink, ...], resolver: FileResolver, todo: list[tuple[int, dict[str, Any]]],
+                   on_done: Callable[[int, list[Any]], None], cancelled: Callable[[], bool]) -> None:
         """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
         its outputs, in workers; `on_done(index, [(outputs | None, warnings | error, seconds)] per
         link computed)` (see `run_chain`)
         is called in the parent as chunks finish (any order: the caller orders what must be)."""
         chunks = _chunks(todo, self.workers)
         pool = self._executor()
-        pending: set[Future] = {pool.submit(run_chain, chain, resolver, c) for c in chunks}
+        pending: set[Future[Any]] = {pool.submit(run_chain, chain, resolver, c) for c in chunks}
         self.tasks += len(pending)
         try:
             while pending:
@@ -320,7 +325,7 @@ class LayerPool:
         return [p.pid for p in (getattr(pool, "_processes", None) or {}).values() if p.pid] if pool else []
 
 
-def _chunks(todo: list, workers: int) -> list[list]:
+def _chunks(todo: list[Any], workers: int) -> list[list[Any]]:
     """Guided chunks: each takes 1/(2·workers) of what is left, down to 1/(workers·
     CHUNKS_PER_WORKER·4) of the whole, so the first are large (few round trips) and the last
     small (a worker finishing early waits for little: the run's tail is one small chunk, not one
@@ -335,9 +340,11 @@ def _chunks(todo: list, workers: int) -> list[list]:
     return out
 
 
-def _run_chain_shared(shared: tuple, chunk: list[tuple[int, dict]]):
+def _run_chain_shared(shared: tuple[Any, ...], chunk: list[tuple[int, dict[str, Any]]]
+                      ) -> list[tuple[int, list[tuple[Any, ...]]]]:
     """Dask worker side: `shared` = (chain, resolver), scattered once per map."""
-    return run_chain(*shared, chunk)
+    chain, resolver = shared
+    return run_chain(chain, resolver, chunk)
 
 
 @dataclass
@@ -371,14 +378,15 @@ class DaskPool:
     def warm(self) -> None:
         """Nothing to start: a cluster's workers are running already."""
 
-    def client(self):
+    def client(self) -> Any:
         if self._client is None:
             from distributed import Client
 
             from ..core.errors import RecipeError
 
             try:
-                self._client = Client(self.address, timeout=DASK_CONNECT_S, set_as_default=False)
+                self._client = Client(self.address, timeout=DASK_CONNECT_S,   # type: ignore[no-untyped-call]
+                                      set_as_default=False)      # (distributed's __init__ is not annotated)
             except Exception as exc:  # refused, timed out, or something else answering on that port
                 raise RecipeError(f"cannot reach the Dask scheduler at {self.address!r}: "
                                   f"{type(exc).__name__}: {exc}"[:500]) from None
@@ -391,11 +399,11 @@ class DaskPool:
             return 0
         return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
 
-    def info(self) -> dict:
+    def info(self) -> dict[str, Any]:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
-    def map_layers(self, chain: tuple[ChainLink, ...], resolver, todo: list[tuple[int, dict]],
-                   on_done: Callable[[int, list], None], cancelled: Callable[[], bool]) -> None:
+    def map_layers(self, chain: tuple[ChainLink, ...], resolver: FileResolver, todo: list[tuple[int, dict[str, Any]]],
+                   on_done: Callable[[int, list[Any]], None], cancelled: Callable[[], bool]) -> None:
         from distributed import as_completed
 
         client = self.client()
@@ -405,7 +413,7 @@ class DaskPool:
                    for c in _chunks(todo, max(1, self.workers))]
         self.tasks += len(futures)
         try:
-            for fut in as_completed(futures, loop=client.loop):
+            for fut in as_completed(futures, loop=client.loop):   # type: ignore[no-untyped-call]  # not annotated
                 for i, got in fut.result():
                     on_done(i, got)
                 if cancelled():

@@ -79,20 +79,20 @@ class Recipe(BaseModel):
 
     @field_validator("inputs")
     @classmethod
-    def _inputs(cls, v: dict) -> dict:
+    def _inputs(cls, v: dict[str, Any]) -> dict[str, Any]:
         for k in v:
             if not INPUT_NAME.fullmatch(k):
                 raise ValueError(f"invalid input name {k!r}")
         return v
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return self.model_dump(mode="json", by_alias=True, exclude_none=True)
 
     def node(self, node_id: str) -> NodeEntry | None:
         return next((n for n in self.nodes if n.id == node_id), None)
 
 
-def migrate(data: dict) -> dict:
+def migrate(data: dict[str, Any]) -> dict[str, Any]:
     """Bring an older recipe dict up to the current format (returns a new dict)."""
     data = copy.deepcopy(data)
     fmt = data.get("format", FORMAT)
