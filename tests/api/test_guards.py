@@ -86,7 +86,10 @@ def test_oversized_recipe_in_the_graphs_folder_is_not_read(tmp_path):
                  max_body_mb=1)
     t0 = time.monotonic()
     with TestClient(create_app(s)) as c:
-        assert [g["name"] for g in c.get("/api/graphs").json()] == ["small"]
+        listed = {g["name"]: g["error"] for g in c.get("/api/graphs").json()}
+        # not read, but listed with the reason (#26: never skipped silently)
+        assert listed["small"] is None and listed["huge"]["size"] == 300 * 2**20
+        assert "max_body_mb" in listed["huge"]["reason"]
     assert time.monotonic() - t0 < 5.0
 
 

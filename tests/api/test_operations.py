@@ -50,7 +50,7 @@ def test_audit_log_names_who_did_what(tmp_path):
         assert [(e["who"], e["action"], e["target"]) for e in log] == [
             ("bob", "delete_graph", "g1"), ("bob", "run", "g1"), ("alice", "upload_file", "g1"),
             ("alice", "save_graph", "g1")]
-        assert log[1]["detail"]["run"] == r.json()["id"] and log[2]["detail"] == {"file": "part.stl", "bytes": 7, "version": 1, "replaced": None,
+        assert log[1]["detail"]["run"] == r.json()["id"] and log[2]["detail"] == {"file": "part.stl", "bytes": 7, "version": 1, "replaced": None, "client": "testclient",
                                                                            "sha256": hashlib.sha256(b"solid x").hexdigest()}
         assert all(t0 <= e["time"] <= time.time() for e in log)
         assert [e["action"] for e in c.get("/api/audit?who=alice", headers=a).json()] == ["upload_file", "save_graph"]

@@ -22,8 +22,14 @@ def get_user(request: Request) -> str | None:
     return getattr(request.state, "user", None)
 
 
+def get_client(request: Request) -> str | None:
+    """The client's address: the audit log's "from where" (the proxy's when behind one)."""
+    return request.client.host if request.client else None
+
+
 ServicesDep = Annotated[Services, Depends(get_services)]
 UserDep = Annotated[str | None, Depends(get_user)]
+ClientDep = Annotated[str | None, Depends(get_client)]
 
 GraphName = Annotated[str, Path(pattern=GRAPH_NAME_PATTERN, min_length=1, max_length=80, examples=["rectangle-study"],
                                 description="graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars")]

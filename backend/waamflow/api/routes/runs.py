@@ -14,7 +14,7 @@ from ...core.errors import RecipeError
 from ...engine.graph import build_graph
 from ...engine.recipe import apply_overrides
 from ..services import parse_api_recipe
-from ..deps import ArtifactName, RunId, ServicesDep, UserDep
+from ..deps import ArtifactName, ClientDep, RunId, ServicesDep, UserDep
 from ..schemas import RunEvent, errors
 from ..store import GRAPH_NAME_PATTERN
 
@@ -91,7 +91,7 @@ def _get_run(svc, run_id: str) -> dict:
 
 
 @router.post("", status_code=202, response_model=RunCreated, responses=errors(401, 404, 422, 429))
-def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
+def start_run(req: RunRequest, svc: ServicesDep, user: UserDep, client: ClientDep) -> RunCreated:
     """Queue a run. 422: the recipe is invalid or names a file outside the sandbox (node + field);
     429: the run queue is full (Retry-After)."""
     if req.graph is not None:
@@ -112,7 +112,8 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep) -> RunCreated:
     svc.check_sandbox(build_graph(recipe), resolver)    # → 422
     run_id = svc.runs.submit(req.graph, recipe, req.params_xml, accept_preflight=req.accept_preflight)  # validates the graph: RecipeError → 422
     svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None,
-                                                   **({"accept_preflight": True} if req.accept_preflight else {})})
+                                                   **({"accept_preflight": True} if req.accept_preflight else {}),
+                                                   "client": client})
     return RunCreated(id=run_id)
 
 
@@ -249,12 +250,12 @@ def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileRes
 
 
 @router.delete("/{run_id}", status_code=202, response_model=RunStatus, responses=errors(401, 404, 422))
-def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep) -> RunStatus:
+def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep, client: ClientDep) -> RunStatus:
     """Cancel (CONTRACT.md): a queued or running run stops and becomes `cancelled`; a finished one
     (done, failed, cancelled, interrupted) is left as it is. It never removes anything: the run's
     status, log and artifacts stay readable (GET answers 200 afterwards), the answer is the run's
     status after the request (202)."""
     run = _get_run(svc, run_id)
     if svc.runs.cancel(run_id):
-        svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id})
+        svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id, "client": client})
     return get_run(run_id, svc)
