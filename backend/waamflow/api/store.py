@@ -199,8 +199,13 @@ class Store:
                 last = self._conn.execute("SELECT max(revision) FROM graph_revisions WHERE graph=? AND kind='recipe'",
                                           (name,)).fetchone()[0]
                 rev = int(last or 0) + 1
-                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated, revision, owner) "
-                                   "VALUES (?,?,?,?,?,?,?)", (name, text, int(example), now, now, rev, owner or user))
+                # ... and so does its parameter XML's: the first XML saved is the next revision, and
+                # those of the deleted graph stay for a restore (`reattach_params`)
+                last_params = self._conn.execute("SELECT max(revision) FROM graph_revisions WHERE graph=? AND "
+                                                 "kind='params'", (name,)).fetchone()[0]
+                self._conn.execute("INSERT INTO graphs (name, recipe, example, created, updated, revision, owner, "
+                                   "params_revision) VALUES (?,?,?,?,?,?,?,?)",
+                                   (name, text, int(example), now, now, rev, owner or user, int(last_params or 0) + 1))
             self._conn.execute("INSERT OR REPLACE INTO graph_revisions (graph, kind, revision, time, user, content) "
                                "VALUES (?,?,?,?,?,?)", (name, "recipe", rev, now, user, text))
             self._conn.commit()
@@ -217,15 +222,47 @@ class Store:
         return rows[0]["content"] if rows else None
 
     def delete_graph(self, name: str) -> bool:
+        """Delete the graph, its files (their space is freed) and its current parameter XML. Kept for an
+        admin's restore: the recipe's and the XML's revisions, and a 'deleted' entry recording the
+        owner and the names of the files that went (`deleted_info`)."""
         with self._lock:
+            row = self._conn.execute("SELECT revision, owner FROM graphs WHERE name=?", (name,)).fetchone()
+            if row is not None:
+                files = [r[0] for r in self._conn.execute("SELECT name FROM graph_files WHERE graph=? ORDER BY name",
+                                                          (name,))]
+                self._conn.execute("INSERT OR REPLACE INTO graph_revisions (graph, kind, revision, time, user, content) "
+                                   "VALUES (?,?,?,?,?,?)", (name, "deleted", int(row["revision"]), time.time(),
+                                                            row["owner"], json.dumps({"files": files})))
             cur = self._conn.execute("DELETE FROM graphs WHERE name=?", (name,))
             self._conn.execute("DELETE FROM graph_files WHERE graph=?", (name,))
             self._conn.execute("DELETE FROM graph_file_versions WHERE graph=?", (name,))
             self._conn.execute("DELETE FROM file_blobs WHERE sha256 NOT IN (SELECT sha256 FROM graph_file_versions)")
-            # a graph's history outlives it only for the recipe's revision numbers (kept monotonic)
-            self._conn.execute("DELETE FROM graph_revisions WHERE graph=? AND kind='params'", (name,))
+            # a graph's history (recipe and parameter XML) outlives it: revisions only grow, and an
+            # admin's restore brings the XML back
             self._conn.commit()
             return cur.rowcount > 0
+
+    def deleted_info(self, name: str) -> dict | None:
+        """The last delete of `name`: {"owner", "files": names of the files deleted with it, "revision"}."""
+        rows = self._query("SELECT revision, user, content FROM graph_revisions WHERE graph=? AND kind='deleted' "
+                           "ORDER BY revision DESC LIMIT 1", (name,))
+        if not rows:
+            return None
+        return {"owner": rows[0]["user"], "revision": int(rows[0]["revision"]),
+                "files": json.loads(rows[0]["content"] or "{}").get("files", [])}
+
+    def reattach_params(self, name: str) -> int | None:
+        """A restored graph without parameter XML gets its last saved one back (that revision);
+        None when it never had one."""
+        with self._lock:
+            row = self._conn.execute("SELECT revision, content FROM graph_revisions WHERE graph=? AND kind='params' "
+                                     "ORDER BY revision DESC LIMIT 1", (name,)).fetchone()
+            if row is None:
+                return None
+            cur = self._conn.execute("UPDATE graphs SET params_xml=?, params_revision=? WHERE name=? AND "
+                                     "coalesce(params_xml, '') = ''", (row["content"], int(row["revision"]), name))
+            self._conn.commit()
+            return int(row["revision"]) if cur.rowcount else None
 
     def get_params_xml(self, name: str) -> str | None:
         rows = self._query("SELECT params_xml FROM graphs WHERE name=?", (name,))

@@ -227,7 +227,9 @@ export interface paths {
          * Restore Revision
          * @description Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
          *     content) or as the graph again after a delete. It becomes a new revision (history only grows,
-         *     nothing is lost, so no If-Match is needed); the graph's owner is who saved `rev`.
+         *     nothing is lost, so no If-Match is needed). A deleted graph comes back with its owner, its whole
+         *     recipe history and its parameter XML as last saved (with its history); its uploaded files were
+         *     deleted with it (their space freed) and are named in `problems` (kind `not_restored`).
          */
         post: operations["restore_revision_api_graphs__name__revisions__rev__restore_post"];
         delete?: never;

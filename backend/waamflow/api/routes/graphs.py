@@ -13,7 +13,7 @@ from ...core.errors import RecipeError
 from ...engine.graph import build_graph
 from ...engine.recipe import Recipe
 from ..services import parse_api_recipe
-from ..deps import FileName, GraphName, ServicesDep, UserDep
+from ..deps import ClientDep, FileName, GraphName, ServicesDep, UserDep
 from ..auth import DEFAULT_ROLE
 from ..schemas import ConflictResponse, error_body, errors
 from ..store import RevisionConflict
@@ -195,7 +195,7 @@ def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str
                        **errors(401, 403, 413, 422), **CONFLICT_409},
             openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
                 "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
-def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Response,
+def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
               recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)"),
               if_match: OptionalHeader = IfMatch) -> Any:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
@@ -215,18 +215,19 @@ def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, response: Respon
                                            expect=_expected(if_match, svc.store.graph_revision(name)))
     except RevisionConflict as err:
         return _conflict("recipe", name, recipe, err, "recipe")
-    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes), "revision": rev})
+    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes), "revision": rev,
+                                                   "client": client})
     response.status_code = 201 if created else 200
     response.headers["ETag"] = etag(rev)
     return SaveResult(name=name, created=created, problems=problems, revision=rev)
 
 
 @router.delete("/{name}", status_code=204, response_class=Response, responses=errors(401, 403, 404, 409, 422))
-def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep) -> Response:
+def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDep) -> Response:
     _writable(svc, name)
     if not svc.store.delete_graph(name):
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
-    svc.store.audit(user, "delete_graph", name)
+    svc.store.audit(user, "delete_graph", name, {"client": client})
     return Response(status_code=204)
 
 
@@ -249,7 +250,7 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
             responses={204: {"description": "Saved", "headers": ETAG_HEADER}, **errors(400, 401, 403, 404, 413, 422),
                        **CONFLICT_409},
             openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
-async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: Request,
+async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDep, request: Request,
                      if_match: OptionalHeader = IfMatch) -> Response:
     """Replace the graph's zone-parameter XML (validated: numbers, units, ranges). `If-Match` as
     for the recipe (the XML has its own revision); a 409's `theirs` is `{"revision", "xml"}`."""
@@ -271,7 +272,7 @@ async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, request: 
                                        expect=_expected(if_match, svc.store.params_revision(name)))
     except RevisionConflict as err:
         return _conflict("parameter file", name, text, err, "xml")
-    svc.store.audit(user, "save_params", name, {"bytes": len(body), "revision": rev})
+    svc.store.audit(user, "save_params", name, {"bytes": len(body), "revision": rev, "client": client})
     return Response(status_code=204, headers={"ETag": etag(rev)})
 
 
@@ -303,11 +304,13 @@ def get_revision(name: GraphName, rev: int, svc: ServicesDep, response: Response
              responses={200: {"description": "Restored as the graph's new revision", "headers": ETAG_HEADER},
                         201: {"model": SaveResult, "description": "A deleted graph restored", "headers": ETAG_HEADER},
                         **errors(401, 403, 404, 422), **CONFLICT_409})
-def restore_revision(name: GraphName, rev: int, svc: ServicesDep, user: UserDep, response: Response,
+def restore_revision(name: GraphName, rev: int, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
                      role: str = Depends(get_role)) -> Any:
     """Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
     content) or as the graph again after a delete. It becomes a new revision (history only grows,
-    nothing is lost, so no If-Match is needed); the graph's owner is who saved `rev`."""
+    nothing is lost, so no If-Match is needed). A deleted graph comes back with its owner, its whole
+    recipe history and its parameter XML as last saved (with its history); its uploaded files were
+    deleted with it (their space freed) and are named in `problems` (kind `not_restored`)."""
     if role != "admin":
         raise HTTPException(403, detail={"kind": "forbidden",
                                          "message": f"restoring a revision needs role 'admin' (this token: {role!r})"})
@@ -315,12 +318,23 @@ def restore_revision(name: GraphName, rev: int, svc: ServicesDep, user: UserDep,
     text = svc.store.get_revision(name, rev)
     if text is None:
         raise HTTPException(404, detail={"message": f"graph {name!r} has no revision {rev}"})
-    owner = next((r["user"] for r in svc.store.list_revisions(name) if r["revision"] == rev), None)
+    deleted = svc.store.deleted_info(name) if svc.store.graph_revision(name) is None else None
+    # the owner is the deleted graph's (else: who saved `rev`, for graphs deleted before owners were kept)
+    owner = (deleted or {}).get("owner") or next((r["user"] for r in svc.store.list_revisions(name)
+                                                  if r["revision"] == rev), None)
     created, new = svc.store.put_graph(name, json.loads(text), user=user, owner=owner)
-    svc.store.audit(user, "restore_graph", name, {"from_revision": rev, "revision": new, "created": created})
+    problems: list[dict] = []
+    if created:
+        svc.store.reattach_params(name)   # the parameter XML as last saved, with its history
+        if deleted and deleted["files"]:
+            msg = (f"the files uploaded to {name!r} were deleted with it and are not restored: "
+                   f"{', '.join(deleted['files'])} (upload them again)")
+            problems.append({"kind": "not_restored", "message": msg, "text": msg})
+    svc.store.audit(user, "restore_graph", name, {"from_revision": rev, "revision": new, "created": created,
+                                                      "client": client})
     response.status_code = 201 if created else 200
     response.headers["ETag"] = etag(new)
-    return SaveResult(name=name, created=created, problems=[], revision=new)
+    return SaveResult(name=name, created=created, problems=problems, revision=new)
 
 
 @router.get("/{name}/files", response_model=list[FileInfo], responses=errors(401, 404, 422))
@@ -370,7 +384,8 @@ def list_file_versions(name: GraphName, filename: FileName, svc: ServicesDep) ->
             openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
                 "type": "string", "format": "binary", "minLength": 1,
                 "description": "the file's bytes (not empty; at most max_upload_mb)"}}}, "required": True}})
-async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, request: Request,
+async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, client: ClientDep,
+                   request: Request,
                    if_none_match: str | None = Header(None, alias="If-None-Match", max_length=2000,
                                                       description="`*`: store only if the graph has no file of this name "
                                                                   "yet; `\"<sha256>\"`: only if the name does not hold that "
@@ -398,5 +413,6 @@ async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: 
             return JSONResponse(status_code=412, content=body412, headers={"ETag": f'"{have["sha256"]}"'})
     stored = svc.store.put_file(name, filename, body, user=user)
     svc.store.audit(user, "upload_file", name, {"file": filename, "bytes": len(body), "sha256": stored["sha256"],
-                                                "version": stored["version"], "replaced": stored["previous"]})
+                                                "version": stored["version"], "replaced": stored["previous"],
+                                                "client": client})
     return Response(status_code=204, headers={"ETag": f'"{stored["sha256"]}"'})
