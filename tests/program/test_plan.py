@@ -75,3 +75,49 @@ def test_weld_without_speed_fails_naming_layer_and_section():
         plan_program(flatten(tp))
     assert err.value.layer == 1 and err.value.section == "bs1/B"
     assert "layer 1" in str(err.value) and "bs1/B" in str(err.value)
+
+
+def test_one_chunker_for_the_robot_programs():
+    """`chunk_steps`: a program per layer; a full program ends only with the arc off (INFORM/TP:
+    after the motion that fills it, or the first one after the arc goes off), counting motions
+    or distinct points; `cut_back` (KRL) ends it back at the latest arc OFF leaving it half full."""
+    from waamflow.program.plan import LayerStart, chunk_steps
+
+    moves = flatten(build_toolpath(3))
+    plan = plan_program(moves, PlanSettings())
+    steps = plan.steps
+    per_layer = chunk_steps(steps)
+    assert [(c.layer, c.part) for c in per_layer] == [(0, 0), (1, 0), (2, 0)]
+    assert [k for c in per_layer for k in c.steps] == list(range(len(steps)))          # every step once, in order
+    assert all(isinstance(steps[c.steps[0]], LayerStart) for c in per_layer)
+
+    def arc_at_end(c) -> bool:
+        on = False
+        for k in c.steps:
+            on = isinstance(steps[k], ArcOn) or (on and not isinstance(steps[k], ArcOff))
+        return on
+
+    cut = chunk_steps(steps, max_points=10)
+    assert [k for c in cut for k in c.steps] == list(range(len(steps)))
+    assert {c.layer for c in cut} == {0, 1, 2} and max(c.part for c in cut) >= 2
+    for c in cut:
+        n = sum(isinstance(steps[k], Motion) for k in c.steps)
+        assert n >= 1 and not arc_at_end(c)                 # no program switch while welding
+        # past the limit a program goes on only while the arc is on (every motion but its last)
+        on, seen = False, 0
+        for k in c.steps:
+            on = isinstance(steps[k], ArcOn) or (on and not isinstance(steps[k], ArcOff))
+            if isinstance(steps[k], Motion):
+                seen += 1
+                assert seen < 10 or on or seen == n, (c.layer, c.part, seen, n)
+    parts = [c.part for c in cut if c.layer == 1]
+    assert parts == list(range(len(parts)))
+    # a layer is never cut with fewer positions than the limit
+    assert all(sum(isinstance(steps[k], Motion) for k in c.steps) >= 10
+               for i, c in enumerate(cut[:-1]) if cut[i + 1].layer == c.layer)
+    # distinct points: a point a program goes to twice counts once (the zone dwell restates one)
+    assert len(chunk_steps(steps, max_points=10, distinct=True)) <= len(cut)
+    back = chunk_steps(steps, per_layer=False, max_points=12, cut_back=True)
+    assert [k for c in back for k in c.steps] == list(range(len(steps)))
+    assert all(sum(isinstance(steps[k], Motion) for k in c.steps) <= 12 for c in back)
+    assert len(back) > 3 and {c.layer for c in back} <= {0, 1, 2}

@@ -68,7 +68,7 @@ import numpy as np
 from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
 from .orientation import fixed_xyz_angles
 from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
-                   ignition_dwell_after)
+                   chunk_steps, ignition_dwell_after)
 
 # INFORM inline weld values: parameter → ARCON/ARCSET tag (what a power source takes inline)
 INFORM_WELD_CODES = {"current": "AC={value:.0f}", "voltage": "AV={value:.1f}"}
@@ -166,76 +166,66 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
     ec = None if s.external_axes is None else station_pulses(
         np.asarray(s.external_axes, dtype=float).reshape(len(P), -1), s.station_pulses_per_deg)
     jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
-    cur: list[str] = []
-    cur_pts: list[int] = []
-    index: dict[int, int] = {}
-    layer = None
-    part = 0
     params: dict = {}
     arc = False
     skip_dwell = False
-
-    def flush(next_layer) -> None:
-        nonlocal cur, cur_pts, index, part
-        if cur or cur_pts:
-            k = layer if layer is not None else 0
-            name = _name(s.program_name, k) + (f"_{part}" if part else "")
-            jobs.append((name, f"waamflow layer {k}", cur, cur_pts))
-        cur, cur_pts, index = [], [], {}
-        part = 0 if next_layer is not None else part + 1
-
-    def ref(i: int) -> str:
-        if i not in index:
-            index[i] = len(cur_pts)
-            cur_pts.append(i)
-        return f"C{index[i]:05d}"
-
     steps = plan.steps
-    for k, st in enumerate(steps):
-        if isinstance(st, LayerStart):
-            flush(st.layer)
-            layer = st.layer
-            cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
-        elif isinstance(st, SectionStart):
-            cur.append(_comment(f"section {keys[st.section]}"))
-        elif isinstance(st, ProcessChange):
-            changed = [n for n in ("current", "voltage") if st.params.get(n) != params.get(n)]
-            params = st.params
-            cur.append(_comment(f"zone {st.zone_id or '-'}"))
-            if arc and changed and _weld_fields(params, changed):
-                cur.append(f"ARCSET {_weld_fields(params, changed)}")
-        elif isinstance(st, ArcOn):
-            ign = ignition_dwell_after(steps, k)
-            skip_dwell = ign > 0
-            fields = _weld_fields(params)
-            cur.append("ARCON" + (f" {fields}" if fields else "") + f" T={num(ign, 2)}")
-            arc = True
-        elif isinstance(st, ArcOff):
-            cur.append("ARCOF")
-            arc = False
-        elif isinstance(st, Dwell):
-            if st.reason == "ignition" and skip_dwell:
-                skip_dwell = False
-                continue
-            cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
-            cur.append(f"TIMER T={num(st.seconds, 2)}")
-        elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
-            on = isinstance(st, ToolOn)
-            cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-            cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
-        elif isinstance(st, Motion):
-            if st.circular:
-                raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")
-            v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
-            pl = 0 if st.stop else s.position_level
-            c = ref(st.end)
-            if ec is None:
-                cur.append(f"MOVL {c} V={num(v, 1)} PL={pl}")
-            else:                                      # coordinated: the robot relative to station 1
-                cur.append(f"SMOVL {c} V={num(v, 1)} PL={pl} +MOVJ E{c}")
-            if s.max_points_per_job and len(cur_pts) >= s.max_points_per_job and not arc:
-                flush(None)
-    flush(None)
+    for chunk in chunk_steps(steps, max_points=s.max_points_per_job, distinct=True):
+        cur: list[str] = []
+        cur_pts: list[int] = []
+        index: dict[int, int] = {}
+
+        def ref(i: int) -> str:
+            if i not in index:
+                index[i] = len(cur_pts)
+                cur_pts.append(i)
+            return f"C{index[i]:05d}"
+
+        for k in chunk.steps:
+            st = steps[k]
+            if isinstance(st, LayerStart):
+                cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
+            elif isinstance(st, SectionStart):
+                cur.append(_comment(f"section {keys[st.section]}"))
+            elif isinstance(st, ProcessChange):
+                changed = [n for n in ("current", "voltage") if st.params.get(n) != params.get(n)]
+                params = st.params
+                cur.append(_comment(f"zone {st.zone_id or '-'}"))
+                if arc and changed and _weld_fields(params, changed):
+                    cur.append(f"ARCSET {_weld_fields(params, changed)}")
+            elif isinstance(st, ArcOn):
+                ign = ignition_dwell_after(steps, k)
+                skip_dwell = ign > 0
+                fields = _weld_fields(params)
+                cur.append("ARCON" + (f" {fields}" if fields else "") + f" T={num(ign, 2)}")
+                arc = True
+            elif isinstance(st, ArcOff):
+                cur.append("ARCOF")
+                arc = False
+            elif isinstance(st, Dwell):
+                if st.reason == "ignition" and skip_dwell:
+                    skip_dwell = False
+                    continue
+                cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
+                cur.append(f"TIMER T={num(st.seconds, 2)}")
+            elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
+                on = isinstance(st, ToolOn)
+                cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
+                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            elif isinstance(st, Motion):
+                if st.circular:
+                    raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")
+                v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
+                pl = 0 if st.stop else s.position_level
+                c = ref(st.end)
+                if ec is None:
+                    cur.append(f"MOVL {c} V={num(v, 1)} PL={pl}")
+                else:                                      # coordinated: the robot relative to station 1
+                    cur.append(f"SMOVL {c} V={num(v, 1)} PL={pl} +MOVJ E{c}")
+        if cur or cur_pts:
+            k = chunk.layer if chunk.layer is not None else 0
+            jobs.append((_name(s.program_name, k) + (f"_{chunk.part}" if chunk.part else ""),
+                         f"waamflow layer {k}", cur, cur_pts))
     st_ = plan.stats
     main = [_comment(f"waamflow: {len(jobs)} jobs"), _comment(f"layers {st_['layers']}"),
             _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"), _comment(f"travel {st_['travel_length_mm']:.1f} mm"),

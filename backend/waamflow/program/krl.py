@@ -71,7 +71,8 @@ from .common import (WELD_TAG, check_identifier, check_templates, num, process_l
                      weld_tag)
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
+from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn,
+                   chunk_steps)
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,66 +155,26 @@ class _Chunk:
 
 
 def _chunks(plan: Plan, s: KrlSettings) -> list[_Chunk]:
-    """Split the plan's steps into programs: at layer starts (per-layer) and so that no program
-    holds more than `max_points_per_file` motions (see `_cut`)."""
+    """Split the plan's steps into programs (`plan.chunk_steps`): at layer starts (per-layer) and
+    so that no program holds more than `max_points_per_file` motions, cut back at the latest arc
+    OFF that leaves it at least half full."""
     steps = plan.steps
     if not s.split:
         return [_Chunk(s.program_name, "", tuple(range(len(steps))))]
-    groups: list[tuple[int | None, list[int]]] = []
-    layer: int | None = None
-    count = 0
-    for k, st in enumerate(steps):
-        if isinstance(st, LayerStart):
-            layer = st.layer
-            if s.split_per_layer and groups and any(isinstance(steps[j], Motion) for j in groups[-1][1]):
-                groups.append((layer, []))
-                count = 0
-        if not groups:
-            groups.append((layer, []))
-        if isinstance(st, Motion) and s.max_points_per_file and count >= s.max_points_per_file:
-            cur = groups[-1][1]
-            j = _cut(steps, cur, s.max_points_per_file)
-            tail = cur[j:]
-            del cur[j:]
-            groups.append((groups[-1][0], tail))
-            count = sum(isinstance(steps[i], Motion) for i in tail)
-        groups[-1][1].append(k)
-        if isinstance(st, Motion):
-            count += 1
+    groups = chunk_steps(steps, per_layer=s.split_per_layer, max_points=s.max_points_per_file, cut_back=True)
     per_layer: dict[int | None, int] = {}
-    for lay, _ in groups:
-        per_layer[lay] = per_layer.get(lay, 0) + 1
+    for g in groups:
+        per_layer[g.layer] = per_layer.get(g.layer, 0) + 1
     seen: dict[int | None, int] = {}
     out: list[_Chunk] = []
-    for i, (lay, g) in enumerate(groups):
-        if s.split_per_layer and lay is not None:
-            seen[lay] = seen.get(lay, 0) + 1
-            suffix = f"L{lay:03d}" + (f"_{seen[lay]}" if per_layer[lay] > 1 else "")
+    for i, g in enumerate(groups):
+        if s.split_per_layer and g.layer is not None:
+            seen[g.layer] = seen.get(g.layer, 0) + 1
+            suffix = f"L{g.layer:03d}" + (f"_{seen[g.layer]}" if per_layer[g.layer] > 1 else "")
         else:
             suffix = f"P{i + 1:03d}"
-        out.append(_Chunk(f"{s.program_name}_{suffix}", suffix, tuple(g)))
+        out.append(_Chunk(f"{s.program_name}_{suffix}", suffix, g.steps))
     return out
-
-
-def _cut(steps, cur: list[int], limit: int) -> int:
-    """Where to end a full program (index into `cur`): right after the latest arc OFF that leaves
-    it at least half full (no subprogram switch while welding), else right after its last motion
-    (keeping an arc OFF that closes it)."""
-    motions = 0
-    best = None
-    for j, i in enumerate(cur):
-        if isinstance(steps[i], Motion):
-            motions += 1
-        elif isinstance(steps[i], ArcOff) and motions >= max(1, limit // 2):
-            best = j + 1
-    if best is not None:
-        return best
-    j = len(cur)
-    while j > 0 and not isinstance(steps[cur[j - 1]], Motion):
-        j -= 1
-    if j < len(cur) and isinstance(steps[cur[j]], ArcOff):
-        j += 1
-    return j
 
 
 class _ArcTech:

@@ -1,7 +1,9 @@
 """From the flat move list to a neutral program plan: motions, arc switches, dwells, process changes.
 
-Every writer (G-code, KRL, RAPID) renders the same `Plan`, so the three agree on where the arc
-ignites, where it dwells and which speed each motion has.
+Every writer (G-code, KRL, RAPID, INFORM, TP) renders the same `Plan`, so they agree on where the
+arc ignites, where it dwells and which speed each motion has; `chunk_steps` is the one splitter of
+a plan into controller programs (per layer, at most N positions, never while welding) for the KRL,
+INFORM and TP writers.
 
 Rules (the plan is a faithful rendering of `waamflow.core.moves.Moves`):
 
@@ -160,6 +162,86 @@ def ignition_dwell_after(steps, k: int) -> float:
     """Seconds of the ignition dwell that follows step k (an ArcOn), 0 when none follows."""
     nxt = steps[k + 1] if k + 1 < len(steps) else None
     return nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
+
+
+@dataclass(frozen=True)
+class StepChunk:
+    """One controller program's share of a plan: `steps` (indices into `Plan.steps`, in order),
+    the `layer` it belongs to (the latest LayerStart at its start; None before any) and `part`:
+    0 for a layer's first program, 1, 2, .. for the next ones when the layer is cut."""
+
+    layer: int | None
+    part: int
+    steps: tuple[int, ...]
+
+
+def chunk_steps(steps, *, per_layer: bool = True, max_points: int = 0, distinct: bool = False,
+                cut_back: bool = False) -> list[StepChunk]:
+    """Split a plan's steps into controller programs (the one chunker of the robot writers).
+
+    per_layer: a new program at every LayerStart once the current one has a motion. max_points
+    (0 = no limit): how many positions a program holds — motions, or with `distinct` the distinct
+    points its motions go to (a job that declares each point once). Where a full program ends:
+    by default right after the motion that fills it when the arc is off there, else at the first
+    motion after the arc goes off (INFORM, TP: no program switch while welding); `cut_back`:
+    before the motion that would overfill it, back at the latest arc OFF that leaves it at least
+    half full, else right after its last motion (KRL, see `_cut_back`)."""
+    groups: list[list] = []          # [layer, part, step indices]
+    layer: int | None = None
+    count = 0
+    seen: set[int] = set()
+    arc = False
+    for k, st in enumerate(steps):
+        if isinstance(st, LayerStart):
+            layer = st.layer
+            if groups and not groups[-1][2]:
+                groups[-1][:2] = [layer, 0]
+            elif per_layer and groups and any(isinstance(steps[j], Motion) for j in groups[-1][2]):
+                groups.append([layer, 0, []])
+                count, seen = 0, set()
+        if not groups:
+            groups.append([layer, 0, []])
+        if cut_back and max_points and isinstance(st, Motion) and count >= max_points:
+            cur = groups[-1][2]
+            j = _cut_back(steps, cur, max_points)
+            tail = cur[j:]
+            del cur[j:]
+            groups.append([groups[-1][0], groups[-1][1] + 1, tail])
+            count = sum(isinstance(steps[i], Motion) for i in tail)
+        groups[-1][2].append(k)
+        if isinstance(st, ArcOn):
+            arc = True
+        elif isinstance(st, ArcOff):
+            arc = False
+        elif isinstance(st, Motion):
+            if not distinct or st.end not in seen:
+                seen.add(st.end)
+                count += 1
+            if max_points and not cut_back and count >= max_points and not arc:
+                groups.append([layer, groups[-1][1] + 1, []])
+                count, seen = 0, set()
+    return [StepChunk(lay, part, tuple(g)) for lay, part, g in groups if g]
+
+
+def _cut_back(steps, cur: list[int], limit: int) -> int:
+    """Where to end a full program (index into `cur`): right after the latest arc OFF that leaves
+    it at least half full (no subprogram switch while welding), else right after its last motion
+    (keeping an arc OFF that closes it)."""
+    motions = 0
+    best = None
+    for j, i in enumerate(cur):
+        if isinstance(steps[i], Motion):
+            motions += 1
+        elif isinstance(steps[i], ArcOff) and motions >= max(1, limit // 2):
+            best = j + 1
+    if best is not None:
+        return best
+    j = len(cur)
+    while j > 0 and not isinstance(steps[cur[j - 1]], Motion):
+        j -= 1
+    if j < len(cur) and isinstance(steps[cur[j]], ArcOff):
+        j += 1
+    return j
 
 
 def _mode(moves: Moves, i: int) -> str:

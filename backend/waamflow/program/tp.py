@@ -63,7 +63,7 @@ from ..core.process import PARAMETERS_BY_NAME
 from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
 from .orientation import fixed_xyz_angles
 from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
-                   ignition_dwell_after)
+                   chunk_steps, ignition_dwell_after)
 
 # a schedule's values, in the order of the schedule file's columns (zone parameter names)
 SCHEDULE_VALUES = ("voltage", "current", "wire_feed_speed", "job", "travel_speed")
@@ -245,73 +245,63 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
     zones: dict[int, list[str]] = {}      # schedule → the zones that use it
     progs: list[tuple[str, str, list[str], list[int]]] = []     # (name, comment, body, point indices)
-    cur: list[str] = []
-    cur_pts: list[int] = []
-    layer = None
-    part = 0
     sched = 0
     arc = False
     skip_dwell = False
     frames = [f"UFRAME_NUM={s.user_frame}", f"UTOOL_NUM={s.tool}"]
-
-    def flush(next_layer) -> None:
-        nonlocal cur, cur_pts, part
-        if cur or cur_pts:
-            k = layer if layer is not None else 0
-            name = f"{base}_L{k:03d}" + (f"_{part}" if part else "")
-            progs.append((name, f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
-        cur, cur_pts = [], []
-        part = 0 if next_layer is not None else part + 1
-
     steps = plan.steps
-    for k, st in enumerate(steps):
-        if isinstance(st, LayerStart):
-            flush(st.layer)
-            layer = st.layer
-            cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
-        elif isinstance(st, SectionStart):
-            cur.append(_comment(f"section {keys[st.section]}"))
-        elif isinstance(st, ProcessChange):
-            new = numbers.setdefault(schedule_key(st.params), len(numbers) + 1)
-            zid = st.zone_id or "-"
-            if zid not in zones.setdefault(new, []):
-                zones[new].append(zid)
-            cur.append(_comment(f"zone {st.zone_id or '-'} sched {new}"))
-            if arc and new != sched:
-                cur.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
-            sched = new
-        elif isinstance(st, ArcOn):
-            ign = ignition_dwell_after(steps, k)
-            if not sched:                                 # no weld values given: an empty schedule
-                sched = numbers.setdefault(schedule_key({}), len(numbers) + 1)
-            cur.append(f"Arc Start[{sched}]")
-            if ign > 0:
-                cur.append(f"WAIT {ign:6.2f}(sec)")
-            skip_dwell = ign > 0
-            arc = True
-        elif isinstance(st, ArcOff):
-            cur.append(f"Arc End[{sched}]")
-            arc = False
-        elif isinstance(st, Dwell):
-            if st.reason == "ignition" and skip_dwell:
-                skip_dwell = False
-                continue
-            cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
-            cur.append(f"WAIT {st.seconds:6.2f}(sec)")
-        elif isinstance(st, (ToolOn, ToolOff)):          # after the (exact-stop) motion to the point
-            on = isinstance(st, ToolOn)
-            cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-            cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
-        elif isinstance(st, Motion):
-            if st.circular:
-                raise ValueError("TP: circular motions are not written (plan with arc_tolerance 0)")
-            v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
-            cur_pts.append(st.end)
-            term = "FINE" if st.stop else f"CNT{s.cnt}"
-            cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}{coord}")
-            if s.max_points_per_program and len(cur_pts) >= s.max_points_per_program and not arc:
-                flush(None)
-    flush(None)
+    for chunk in chunk_steps(steps, max_points=s.max_points_per_program):
+        cur: list[str] = []
+        cur_pts: list[int] = []
+        for k in chunk.steps:
+            st = steps[k]
+            if isinstance(st, LayerStart):
+                cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
+            elif isinstance(st, SectionStart):
+                cur.append(_comment(f"section {keys[st.section]}"))
+            elif isinstance(st, ProcessChange):
+                new = numbers.setdefault(schedule_key(st.params), len(numbers) + 1)
+                zid = st.zone_id or "-"
+                if zid not in zones.setdefault(new, []):
+                    zones[new].append(zid)
+                cur.append(_comment(f"zone {st.zone_id or '-'} sched {new}"))
+                if arc and new != sched:
+                    cur.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
+                sched = new
+            elif isinstance(st, ArcOn):
+                ign = ignition_dwell_after(steps, k)
+                if not sched:                                 # no weld values given: an empty schedule
+                    sched = numbers.setdefault(schedule_key({}), len(numbers) + 1)
+                cur.append(f"Arc Start[{sched}]")
+                if ign > 0:
+                    cur.append(f"WAIT {ign:6.2f}(sec)")
+                skip_dwell = ign > 0
+                arc = True
+            elif isinstance(st, ArcOff):
+                cur.append(f"Arc End[{sched}]")
+                arc = False
+            elif isinstance(st, Dwell):
+                if st.reason == "ignition" and skip_dwell:
+                    skip_dwell = False
+                    continue
+                cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
+                cur.append(f"WAIT {st.seconds:6.2f}(sec)")
+            elif isinstance(st, (ToolOn, ToolOff)):          # after the (exact-stop) motion to the point
+                on = isinstance(st, ToolOn)
+                cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
+                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            elif isinstance(st, Motion):
+                if st.circular:
+                    raise ValueError("TP: circular motions are not written (plan with arc_tolerance 0)")
+                v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
+                cur_pts.append(st.end)
+                term = "FINE" if st.stop else f"CNT{s.cnt}"
+                cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}{coord}")
+        if cur or cur_pts:
+            k = chunk.layer if chunk.layer is not None else 0
+            part = chunk.part
+            progs.append((f"{base}_L{k:03d}" + (f"_{part}" if part else ""),
+                          f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
     st_ = plan.stats
     main = [_comment(f"waamflow: {len(progs)} programs"), _comment(f"layers {st_['layers']}"),
             _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
