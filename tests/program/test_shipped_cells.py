@@ -61,6 +61,11 @@ def test_the_arm_is_the_data_sheets(cell_name):
     assert np.degrees([arm.lower[1], arm.upper[1]]) == pytest.approx(j2, abs=0.01)
     assert np.degrees(arm.qd_max) == pytest.approx(speeds, abs=0.01)
     assert wrist_reach_mm(urdf) == pytest.approx(reach, abs=1.0)
+    from waamflow.program.profiles import load_profiles
+
+    fmt, profile = VENDOR_POST[cell_name]                     # the controller's profile names its shipped cell
+    spec = load_profiles()[profile]
+    assert spec["post"]["format"] == fmt and f"Shipped cell for it: {cell_name}" in spec["description"]
 
 
 def _duct_on(cell: str, policy: str = "gravity") -> dict:
