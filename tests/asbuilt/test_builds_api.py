@@ -72,3 +72,47 @@ def test_build_over_rest_resumes_after_restart(settings):
         assert p1["layer"] == 1 and p1["files"]["post.gcode"] == res["next"]["files"]["post.gcode"]
         assert c.get("/api/builds/ffffffffffff").status_code == 404
         assert c.get("/api/builds/not-an-id").status_code == 422
+
+
+def test_interpass_temperature_over_rest_surface_and_3d(settings):
+    with TestClient(create_app(settings)) as c:
+        rid = c.post("/api/runs", json={"graph": "mpp-cross"}).json()["id"]
+        assert wait(c, rid, timeout=120)["status"] == "done"
+        bad_target = c.post("/api/builds", json={"run": rid, "interpass_c": -80})
+        assert bad_target.status_code == 422 and "interpass_c" in bad_target.text
+        b = c.post("/api/builds", json={"run": rid, "interpass_c": 180, "max_dwell_s": 600}).json()
+        bid = b["id"]
+        assert b["interpass"]["target_c"] == 180 and b["interpass"]["max_dwell_s"] == 600
+        c.get(f"/api/builds/{bid}/program")
+        from waamflow.asbuilt.run import plan_for_build
+        from waamflow.engine.executor import FileResolver
+        from waamflow.engine.recipe import load_recipe
+
+        tp, _, _ = plan_for_build(load_recipe(settings.graphs_dir / "mpp-cross.json"), FileResolver(settings.graphs_dir))
+        tr0 = layer_track(tp.items[0])
+        body = _xyz(synth_scan(tr0, tr0.planned_height() - 0.3, Disturbance(), np.random.default_rng(0)))
+        for t in ("nan", "-60", "2500", "inf"):
+            r = c.post(f"/api/builds/{bid}/scans", params={"layer": 0, "interpass_temp_c": t}, content=body)
+            assert r.status_code == 422, (t, r.text)
+            assert r.json()["detail"]["field"].endswith("interpass_temp_c") and "interpass_temp_c" in r.json()["detail"]["message"]
+        r = c.post(f"/api/builds/{bid}/scans", params={"layer": 0, "interpass_temp_c": 400}, content=body)
+        assert r.status_code == 200, r.text
+        nxt = r.json()["next"]
+        d = nxt["adaptation"]["interpass"]
+        # τ 289.5 s after layer 0; 289.5 ln(380/160) − 0.906 s of travel = 249.5 s
+        assert d["target_c"] == 180 and d["dwell_s"] == pytest.approx(249.5, abs=0.1)
+        assert f"G4 P{d['dwell_s']:g} ; interlayer dwell" in nxt["files"]["post.gcode"]
+        det = c.get(f"/api/builds/{bid}").json()
+        assert det["layers"][0]["interpass_measured_c"] == 400
+        assert det["programs"][-1] == {**det["programs"][-1], "layer": 1, "dwell_s": d["dwell_s"]}
+        assert det["log"][-1]["action"] == "program" and det["log"][-1]["dwell_s"] == d["dwell_s"]
+        sf = c.get(f"/api/builds/{bid}/surface").json()
+        assert [x["layer"] for x in sf["layers"]] == [0]
+        lay = sf["layers"][0]
+        assert len(lay["x"]) == len(lay["deviation"]) == tr0.n == 510
+        devs = [x for x in lay["deviation"] if x is not None]
+        assert len(devs) > 480 and np.mean(devs) == pytest.approx(-0.3, abs=0.03)
+        assert c.get(f"/api/builds/{bid}/surface", params={"layer": 3}).json()["layers"] == []
+        # no 3D preview on this server: said so
+        v = c.post(f"/api/builds/{bid}/view", json={})
+        assert v.status_code == 409 and "3D preview" in v.json()["detail"]["message"]

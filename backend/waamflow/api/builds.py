@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..asbuilt.adapt import Window
-from ..asbuilt.run import post_callable, program_toolpath
+from ..asbuilt.run import dwell_rule_of, post_callable, program_toolpath
 from ..asbuilt.session import BuildSession
 from ..core.errors import RecipeError
 from ..engine.recipe import parse_recipe
@@ -51,19 +51,22 @@ class Builds:
                          scheduler=self.svc.settings.scheduler)
         toolpath, src = program_toolpath(graph, result.outputs)
         post_id = next((nid for nid in graph.order if graph.nodes[nid].type == "post-process"), None)
-        return toolpath, (post_callable(graph, post_id) if post_id else None), src
+        return toolpath, (post_callable(graph, post_id) if post_id else None), src, graph
 
-    def create(self, run_id: str, who: str | None, window: Window) -> BuildSession:
+    def create(self, run_id: str, who: str | None, window: Window, interpass_c: float | None = None,
+               max_dwell_s: float | None = None) -> BuildSession:
         run = self.svc.store.get_run(run_id)
         if run is None:
             raise BuildNotFound(f"no run {run_id!r}")
         if run["status"] != "done":
             raise RecipeError(f"run {run_id} is {run['status']}: a build starts from a finished run")
-        toolpath, post, src = self._plan(run)
+        toolpath, post, src, graph = self._plan(run)
+        rule = dwell_rule_of(graph, interpass_c, max_dwell_s)
         build_id = secrets.token_hex(6)
         folder = self.root / build_id
         meta = {"id": build_id, "run": run_id, "graph": run["graph"], "toolpath_node": src,
-                "layers": sum(1 for x in toolpath.items if x is not None), "window": window.__dict__, "by": who}
+                "layers": sum(1 for x in toolpath.items if x is not None), "window": window.__dict__, "by": who,
+                "interpass": rule.to_dict()}
         s = BuildSession.create(folder, toolpath, meta, who=who, post=post, window=window)
         self._sessions[build_id] = s
         return s
@@ -79,7 +82,7 @@ class Builds:
         run = self.svc.store.get_run(meta["run"])
         if run is None:
             raise RecipeError(f"build {build_id}: its run {meta['run']} is gone, so its plan cannot be rebuilt")
-        toolpath, post, _ = self._plan(run)
+        toolpath, post, _, _ = self._plan(run)
         s = BuildSession.load(folder, toolpath, post=post, window=Window(**meta.get("window", {})))
         self._sessions[build_id] = s
         return s

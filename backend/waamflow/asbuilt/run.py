@@ -97,19 +97,76 @@ class _PostContext:
 
 
 def post_callable(graph, post_id: str):
-    """`lp -> {file name: text}`: the recipe's post-process node writing a one-layer program with
-    the recipe's own settings (dialect, profile, weld data, cell)."""
-    from ..core.model import Layered
+    """`(lp, header=(), dwell_s=0, dwell_why="") -> {file name: text}`: the recipe's post-process
+    node writing a one-layer program with the recipe's own settings (dialect, profile, weld data,
+    cell); `header` lines are stated in the program's header comments (`stamp_header`); `dwell_s`
+    > 0 makes the program wait that long at its start (the interlayer dwell, `dwell_why` beside it)."""
+    from .dwell import with_dwell_before
 
     node = graph.nodes[post_id]
 
-    def post(lp) -> dict[str, str]:
+    def post(lp, header: tuple[str, ...] | list[str] = (), dwell_s: float = 0.0, dwell_why: str = "") -> dict[str, str]:
         ctx = _PostContext(post_id)
-        program = node.impl.run(ctx, node.params, {"toolpath": Layered((lp,))})["program"]
+        program = node.impl.run(ctx, node.params, {"toolpath": with_dwell_before(lp, dwell_s, dwell_why)})["program"]
         names = program.file_names(post_id)
-        return {names[k]: v for k, v in program.files.items()}
+        files = stamp_header(program.format, dict(program.files), list(header))
+        return {names[k]: v for k, v in files.items()}
 
     return post
+
+
+def stamp_header(fmt: str, files: dict[str, str], lines: list[str]) -> dict[str, str]:
+    """Program files with `lines` in their header comments, in each format's comment syntax (the
+    places `program.common.stamp_trace` puts the trace: G-code and CSV at the top, KRL after
+    `DEF`/`DEFDAT`, RAPID after `MODULE`, INFORM after the main job's NOP and Fanuc TP as /MN
+    comments — those two hold 32 characters a comment, so long lines are cut into pieces)."""
+    if not lines or fmt == "printpoints":
+        return dict(files)
+    out = {}
+    for suffix, text in files.items():
+        rows = text.split("\n")
+        if fmt == "gcode":
+            at = next((i for i, ln in enumerate(rows) if ln.lstrip().startswith((";", "("))), 0)
+            paren = rows[at].lstrip().startswith("(") if rows else False
+            rows = rows[:at] + [f"({b.replace('(', '[').replace(')', ']')})" if paren else f"; {b}" for b in lines] + rows[at:]
+        elif fmt == "csv":
+            rows = [f"# {b}" for b in lines] + rows
+        elif fmt in ("inform", "tp"):
+            if suffix != {"inform": "JBI", "tp": "LS"}[fmt]:
+                out[suffix] = text
+                continue
+            short = [b[i:i + 32] for b in lines for i in range(0, len(b), 32)]
+            if fmt == "tp":
+                from ..program.tp import with_comments
+
+                out[suffix] = with_comments(text, short)
+                continue
+            at = next((i + 1 for i, ln in enumerate(rows) if ln.strip() == "NOP"), 0)
+            rows = rows[:at] + ["'" + b for b in short] + rows[at:]
+        else:
+            opener = ("MODULE ",) if fmt == "rapid" else ("DEF ", "DEFDAT ")
+            at = next((i + 1 for i, ln in enumerate(rows) if ln.lstrip().startswith(opener)), 0)
+            mark = "  ! " if fmt == "rapid" else "; "
+            rows = rows[:at] + [f"{mark}{b}" for b in lines] + rows[at:]
+        out[suffix] = "\n".join(rows)
+    return out
+
+
+def dwell_rule_of(graph, interpass_c: float | None = None, max_dwell_s: float | None = None):
+    """The interpass dwell rule of a build: the heat model of the recipe's (first) interpass node,
+    else the default model; `interpass_c` (the build's target) overrides the node's."""
+    from ..process.interpass import HeatModel
+    from .dwell import MAX_DWELL_S, DwellRule, heat_model_of
+
+    node = next((graph.nodes[nid] for nid in graph.order if graph.nodes[nid].type == "interpass"), None)
+    if node is not None:
+        model, source = heat_model_of(node.params, interpass_c), f"heat model of interpass node {node.id!r}"
+    else:
+        model = HeatModel() if interpass_c is None else HeatModel(interpass_c=interpass_c)
+        source = "default heat model (steel, 1 kg substrate)"
+    if model.interpass_c <= model.ambient_c:
+        raise RecipeError(f"interpass_c {model.interpass_c:g} °C must be above ambient {model.ambient_c:g} °C")
+    return DwellRule(model, MAX_DWELL_S if max_dwell_s is None else float(max_dwell_s), source)
 
 
 def plan_for_build(recipe, resolver):

@@ -10,6 +10,14 @@ re-planned from the recipe (deterministic, and cached on content signatures).
 
 Log: every step (start, scan received, program issued, refusals) with who, when (UTC) and what.
 
+Interpass dwell (`dwell`): a scan may come with the part temperature measured after its layer;
+the next layer's program then starts with a wait until the lumped heat model says the part is at
+the build's target interpass temperature (clamped, stated in the program header, the log, the
+layer's row and `asbuilt.json`). Without a temperature nothing changes.
+
+`asbuilt.json` in the build's folder (rewritten after every step): the build's figures per layer
+— as-built errors, the adaptation and the dwell of every program issued.
+
 Units: mm, mm/s.
 """
 
@@ -26,10 +34,12 @@ import numpy as np
 
 from ..core.model import LayerPaths, Layered
 from .adapt import Window, adapted_layer, beneath, carry, plan_speeds, planned_heights
+from .dwell import DwellRule, approach_time, check_temperature, interpass_dwell, note, time_constants
 from .scan import Scan, ScanError, measure, register
 from .track import Track, layer_track
 
 STATE = "state.json"
+ASBUILT = "asbuilt.json"
 
 
 def _write_atomic(path: Path, text: str) -> None:
@@ -64,6 +74,8 @@ class BuildSession:
         self.state = state
         self.post = post
         self.window = window
+        self.dwell_rule = DwellRule.from_dict(state["meta"].get("interpass"))
+        self._taus: list[float] | None = None
 
     # ---- persistence -------------------------------------------------------------------------
     @classmethod
@@ -90,6 +102,14 @@ class BuildSession:
 
     def save(self) -> None:
         _write_atomic(self.folder / STATE, json.dumps(self.state, indent=1))
+        _write_atomic(self.folder / ASBUILT, json.dumps(self.asbuilt(), indent=1))
+
+    def asbuilt(self) -> dict:
+        """The build's as-built document (see module doc)."""
+        return {"build": self.state["meta"].get("id"), "run": self.state["meta"].get("run"),
+                "status": self.state["status"], "layers_planned": len(self.tracks),
+                "interpass": self.dwell_rule.to_dict(), "layers": self.state.get("layers", []),
+                "programs": self.state.get("programs", [])}
 
     def refuse(self, who: str | None, layer: int, reason: str) -> None:
         """Log a scan refused before it reached the session (unreadable file) and save."""
@@ -130,21 +150,57 @@ class BuildSession:
                          planned_heights(tr, pt))
         return ad.speed, {**ad.summary(tr), "adapted": True}
 
+    def dwell_for(self, k: int) -> dict | None:
+        """The interpass dwell before layer k from the temperature measured after layer k−1 (None
+        when none was posted: the program is the planned one)."""
+        if k == 0:
+            return None
+        row = next((r for r in self.state.get("layers", []) if r["layer"] == self._track(k - 1).layer), None)
+        if row is None or row.get("interpass_measured_c") is None:
+            return None
+        if self._taus is None:
+            self._taus = time_constants(self.items, self.dwell_rule.model)
+        d = interpass_dwell(row["interpass_measured_c"], self._taus[k - 1], self.dwell_rule,
+                            approach_time(self.items[k], self.dwell_rule.model.travel_speed))
+        return {**d, "after_layer": self._track(k - 1).layer, "note": note(d, self._track(k - 1).layer)}
+
     def next_program(self, who: str | None = None) -> dict:
-        """The program of the next layer (adapted), as files, with what was adapted."""
+        """The program of the next layer (adapted, and waiting for the part to cool when a
+        temperature was measured), as files, with what was adapted."""
         if self.done:
             raise ValueError("the build is complete: every planned layer has been scanned")
         k = self.next_layer
         v, why = self.speeds_for(k)
+        dwell = self.dwell_for(k)
+        if dwell is not None:
+            why = {**why, "interpass_dwell_s": dwell["dwell_s"], "interpass": dwell}
         lp = adapted_layer(self.items[k], self._track(k), v)
-        files = self.post(lp) if self.post is not None else {}
-        self._log(who, "program", layer=self._track(k).layer, adapted=why.get("adapted", False))
+        header = [f"as-built build {self.state['meta'].get('id', '')}: layer {self._track(k).layer}, "
+                  + (f"travel speed x{why['speed_factor_min']:.3f}..x{why['speed_factor_max']:.3f} of plan "
+                     f"(samples clamped: {why['clamped_slow']} slow, {why['clamped_fast']} fast)"
+                     if why.get("adapted") else f"as planned ({why.get('reason', '')})")]
+        if dwell is not None:
+            header.append(dwell["note"])
+        files = (self.post(lp, header=header, dwell_s=dwell["dwell_s"] if dwell else 0.0,
+                           dwell_why=dwell["note"] if dwell else "") if self.post is not None else {})
+        entry = {"layer": self._track(k).layer, "adapted": why.get("adapted", False),
+                 **{x: why[x] for x in ("speed_factor_min", "speed_factor_max", "clamped_slow", "clamped_fast") if x in why},
+                 "files": sorted(files)}
+        if dwell is not None:
+            entry.update(interpass_measured_c=dwell["measured_c"], interpass_target_c=dwell["target_c"],
+                         dwell_s=dwell["dwell_s"], dwell_clamped=dwell["clamped"])
+        self._log(who, "program", **entry)
+        progs = self.state.setdefault("programs", [])
+        progs[:] = [p for p in progs if p["layer"] != entry["layer"]] + [{**entry, "time": _utc()}]
         self.save()
         return {"layer": self._track(k).layer, "adaptation": why, "files": files, "toolpath": lp}
 
     def add_scan(self, scan: Scan, who: str | None = None, register_frame: bool = False,
-                 raw: bytes | None = None) -> dict:
-        """Measure the scan of the next layer, keep it, and return the layer's as-built figures."""
+                 raw: bytes | None = None, interpass_c: float | None = None) -> dict:
+        """Measure the scan of the next layer, keep it, and return the layer's as-built figures;
+        `interpass_c`: the part temperature measured after the layer (°C), for the next dwell."""
+        if interpass_c is not None:
+            check_temperature(interpass_c)
         if self.done:
             raise ScanError("the build is complete: no further layer expects a scan")
         k = self.next_layer
@@ -179,10 +235,14 @@ class BuildSession:
         os.replace(tmp, self.folder / name)
         self.state["records"][str(k)] = name
         fin = np.isfinite(dev)
-        row = {"layer": tr.layer, "coverage": round(m.coverage, 4),
+        planned_top = float(np.mean(tr.planned_height()[fin])) if fin.any() else float("nan")
+        row = {"layer": tr.layer, "coverage": round(m.coverage, 4), "planned_top_mm": round(planned_top, 4),
+               "asbuilt_top_mm": round(float(np.mean(m.height[fin])), 4),
                "mean_error_mm": round(float(np.mean(dev[fin])), 4), "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
                "max_error_mm": round(float(np.max(np.abs(dev[fin]))), 4),
                "registration": reg.to_dict() if reg is not None else None}
+        if interpass_c is not None:
+            row["interpass_measured_c"] = round(float(interpass_c), 2)
         self.state.setdefault("layers", []).append(row)
         self.state["next_layer"] = k + 1
         if self.done:
@@ -191,8 +251,24 @@ class BuildSession:
         self.save()
         return row
 
+    def surface(self) -> list[dict]:
+        """Per scanned layer, per track sample: planned crest (x, y, z), build direction, planned
+        and measured top height along it and the deviation (mm; NaN where the scan saw nothing)."""
+        out = []
+        for key in sorted(self.state["records"], key=int):
+            k = int(key)
+            rec, tr = self.record(k), self._track(k)
+            if rec is None:
+                continue
+            planned = tr.planned_height()
+            out.append({"layer": tr.layer, "points": tr.points, "normal": tr.normal, "planned": planned,
+                        "measured": rec.measured_top, "deviation": rec.measured_top - planned,
+                        "thickness": tr.thickness})
+        return out
+
     def summary(self) -> dict:
         return {"meta": self.state["meta"], "status": self.state["status"], "created": self.state["created"],
                 "next_layer": self.tracks[self.next_layer].layer if not self.done else None,
                 "layers_planned": len(self.tracks), "layers_scanned": len(self.state.get("layers", [])),
-                "layers": self.state.get("layers", []), "log": self.state["log"]}
+                "layers": self.state.get("layers", []), "programs": self.state.get("programs", []),
+                "interpass": self.dwell_rule.to_dict(), "log": self.state["log"]}

@@ -87,6 +87,7 @@ class ViewerService:
         self._rebuilding: dict[str, dict[str, Any]] = {}   # key → {"run", "since"} while rebuilt
         self._rebuild_failed: dict[str, dict[str, Any]] = {}   # key → {"run", "message"}
         self._rebuild_stop = threading.Event()
+        self.asbuilt: dict[str, Any] = {}       # view → the as-built overlay of the build it shows (viewer.asbuilt)
 
     # ------------------------------------------------------------------------------------------
     # lifecycle
@@ -324,6 +325,25 @@ class ViewerService:
                 for s in self.sessions.values():
                     if s.key == key:
                         s._sync_gui()
+
+    def show_asbuilt(self, build: str | None, layers: list[dict] | None = None, *, view: str | None = None
+                     ) -> dict[str, Any] | None:
+        """Draw a build's scanned as-built tops in `view` beside the plan (`viewer.asbuilt`:
+        `layers` = `BuildSession.surface()`), replacing the build shown there before; `build`
+        None removes it. Returns the overlay's legend (deviation range, stops, counts)."""
+        from .asbuilt import AsBuiltOverlay
+
+        with self._lock:
+            s = self.session(view)
+            old = self.asbuilt.pop(s.id, None)
+            if old is not None:
+                old.remove()
+            if build is None:
+                return None
+            overlay = self.asbuilt[s.id] = AsBuiltOverlay(build, layers or [])
+            with s.atomic():
+                overlay.draw(s.scene)
+            return overlay.legend
 
     def set_view(self, *, view: str | None = None, hidden: set[str] | None = None, fit: bool | str = False,
                  **fields: Any) -> None:
