@@ -39,10 +39,12 @@ test: venv frontend lint docs
 test-backend: venv
 	$(PY) -m pytest -q
 
-# ruff (lint rules in pyproject.toml [tool.ruff.lint]), deptry (imports = declared dependencies) and
-# eslint on the frontend (frontend/eslint.config.js)
+# ruff (lint rules in pyproject.toml [tool.ruff.lint]), mypy (the backend's types: [tool.mypy],
+# strict on core/ and engine/), deptry (imports = declared dependencies) and eslint on the
+# frontend (frontend/eslint.config.js)
 lint: venv node_modules/.installed
 	$(VENV)/bin/ruff check backend tests bench scripts
+	$(VENV)/bin/mypy
 	$(VENV)/bin/deptry backend
 	npm run lint
 

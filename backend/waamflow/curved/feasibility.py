@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -145,7 +146,8 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
     r_min, r_max = float(bounds[:, 0].min()), float(bounds[:, 2].max())
     lo, hi = dtheta_window(r_min, r_max, h_min, h_max)
     f = filled[0].frame
-    sections, fits = [], True
+    sections: list[dict[str, Any]] = []
+    fits = True
     for l in filled:  # consecutive layers about the same axis form a section
         origin = tuple(np.round(l.frame[:3, 3], 6))
         lo_h, hi_h = height_range(l)

@@ -4,6 +4,16 @@
 preview and the benchmarks. Options: `layers` restricts every `LayerNode` to those layer indices
 (the GUI re-plans only the layer being edited); `targets` runs only those nodes and what they
 depend on.
+
+Why one file over 600 lines (issue 27): most of it is `_Run`, the state of one run — cache,
+signatures, events and progress, the layer mapping, the chains and the worker pool, artifacts,
+cancel and limits — shared by methods that call each other per node and per layer. Split by
+concern, each part would need the whole `_Run` handed to it (the same coupling behind another
+import), and the order of the steps a run takes would no longer read top to bottom. The parts
+that stand alone already live beside it: parallel.py (worker pool, chains), cache.py
+(signatures, tiers), events.py, artifacts.py (the run folder), estimate.py (limits before a
+run). FileResolver (sandboxed, size-capped reads, ~100 lines) stays here because every caller
+imports it from here (CLI, API, as-built, tests).
 """
 
 from __future__ import annotations

@@ -337,7 +337,7 @@ def _with_weld_values(toolpath, values: dict[str, float]):
     from ..core.model import Layered
     from ..zoning.zones import with_weld_defaults
 
-    layers = []
+    layers: list[Any] = []
     for lp in toolpath.items:
         if lp is None:
             layers.append(lp)

@@ -75,7 +75,8 @@ class PlannedLayerPaths(LayerPaths):
 
 def _layer_ranges(indices: list[int]) -> str:
     """[0, 1, 2, 5, 7, 8] → "0-2, 5, 7-8"."""
-    out, run = [], []
+    out: list[str] = []
+    run: list[int] = []
     for i in sorted(indices):
         if run and i == run[-1] + 1:
             run.append(i)

@@ -8,6 +8,8 @@ start, so the arc switches at both ends of every pass. Small OR 21.5 × 43 mm, W
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
@@ -18,7 +20,8 @@ from .spec import StrategySpec
 
 def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
     pp = plan_passes(region, guide, spec.spacing)
-    pts, ok = [], []
+    pts: list[Any] = []
+    ok: list[Any] = []
     for p in pp.passes:
         run = oriented(p, True, spec.extension_before, spec.extension_after)
         if pts:

@@ -32,6 +32,7 @@ over- or under-feeds shows (`feed_ratio`, `unbalanced_zones`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 from ..core.model import Layered
 from ..core.process import PARAMETERS_BY_NAME
@@ -94,7 +95,7 @@ def fill(toolpath: Layered, model: BeadFit, rules: FillRules,
     values: dict[ZoneKey, dict[str, float]] = {}
     beads: dict[ZoneKey, float] = {}
     kept, filled, out_of_range, sections, ratios = [], 0, [], [], []
-    layers = []
+    layers: list[Any] = []
     for lp in toolpath.items:
         if lp is None:
             layers.append(None)
@@ -131,7 +132,7 @@ def fill(toolpath: Layered, model: BeadFit, rules: FillRules,
             secs.append(apply_zone_params(sp, zp))
         layers.append(replace(lp, sections=tuple(secs)))
     xml = _write(_toolpath_zones(layers), values, beads)
-    ramps = {}
+    ramps: dict[Any, Any] = {}
     for lp in layers:
         if lp is None:
             continue

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -93,7 +94,8 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
     mass = m.substrate_mass_kg
     lateral_m2 = 0.0
     T = m.ambient_c
-    rows, out = [], []
+    rows: list[Any] = []
+    out: list[Any] = []
     for k, lp in enumerate(items):
         if lp is None:
             out.append(None)

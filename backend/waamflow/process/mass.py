@@ -16,6 +16,7 @@ centre distance where the path has neighbouring passes, or None for a single bea
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -105,7 +106,8 @@ def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | N
     has[far[:, 1]] = True
     if has.mean() < NEIGHBOUR_SHARE:
         return None
-    runs, cur = [], []
+    runs: list[Any] = []
+    cur: list[Any] = []
     for j in range(len(seg)):
         if on[j]:
             cur = cur or [pts[j]]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from html import escape
+from typing import Sequence
 
 import numpy as np
 
@@ -141,7 +142,7 @@ class Chart:
         return out
 
 
-def figure(width: int, height: int, charts: list[Chart], extra: list[str] = ()) -> str:
+def figure(width: int, height: int, charts: list[Chart], extra: Sequence[str] = ()) -> str:
     """An SVG document holding the charts (and extra SVG elements, e.g. a caption)."""
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
            f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="11">',

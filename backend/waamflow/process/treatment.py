@@ -19,6 +19,7 @@ carrying these values before the stroke's contact motions and lifts it after (pr
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import shapely
@@ -145,7 +146,8 @@ def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, 
 
 def plan_treatment(toolpath: Layered, spec: TreatmentSpec, interleave: bool) -> tuple[Layered, dict]:
     """Treatment passes per layer: alone (its own program) or after each layer's deposition."""
-    items, rows = [], []
+    items: list[Any] = []
+    rows: list[Any] = []
     for lp in toolpath.items:
         if lp is None:
             items.append(None)

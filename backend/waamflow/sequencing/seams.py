@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -166,7 +166,12 @@ def rethread_path(sp: SectionPath) -> SectionPath | None:
     pts, arc, ins, spd = (np.asarray(x) for x in (sp.points, sp.arc, sp.inside, sp.speed))
     zone = list(sp.zone) if sp.zone else [""] * len(arc)
     ax = None if sp.tool_axis is None else np.asarray(sp.tool_axis)
-    P, A, I, S, Z, X = [], [], [], [], [], []
+    P: list[Any] = []
+    A: list[Any] = []
+    I: list[Any] = []
+    S: list[Any] = []
+    Z: list[Any] = []
+    X: list[Any] = []
     for r, (a, b) in enumerate(runs):
         if r:   # link from the end of the previous reversed pass (its vertex a_prev) to this one's end b
             link = runs[r - 1][1]   # first segment of the original link

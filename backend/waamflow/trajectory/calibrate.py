@@ -24,7 +24,7 @@ import io
 import json
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -67,7 +67,9 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
     col = {c: header.index(c) for c in need}
     arc_col = header.index("arc") if "arc" in header else None
     speed_col = header.index("speed") if "speed" in header else None
-    rows, arcs, speeds = [], [], []
+    rows: list[Any] = []
+    arcs: list[Any] = []
+    speeds: list[Any] = []
     for lineno, row in enumerate(reader, start=2):
         if not row or all(not c.strip() for c in row):
             continue

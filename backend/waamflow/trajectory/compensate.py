@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -251,7 +252,8 @@ def apply_ratios(tp: Layered, moves: Moves, ratio: np.ndarray, base_rate: np.nda
     WFS (m/min) for a wire of `wire_diameter_mm` (every arc-ON segment, ratio 1 included, so the
     feed is explicit wherever the arc burns)."""
     area = np.pi * wire_diameter_mm ** 2 / 4.0
-    out, i = [], 0
+    out: list[Any] = []
+    i = 0
     first = True
     for lp in tp.items:
         if lp is None:

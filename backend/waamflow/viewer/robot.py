@@ -236,7 +236,7 @@ def cell_motion(value, max_samples: int = 600) -> CellMotion:
         {sh.link for sh in cell.fixtures if sh.link}
     links: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     work_R, work_t = [], []
-    lp = {n: ([], []) for n in names}
+    lp: dict[str, tuple[list[Any], list[Any]]] = {n: ([], []) for n in names}
     for a in ang:
         R, tw = cell.work_pose(a)
         work_R.append(R)
