@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
-import type { PreviewPath } from "../src/api/types";
-import { ARC_OFF, ARC_ON, beadWidth, canvasLegend, dropVertex, measure, mm, nudge, nudgeStep, pathRuns, speedRange, viridis, VIRIDIS } from "../src/mask/canvasTools";
+import type { NodeSpec, PreviewPath } from "../src/api/types";
+import { ARC_OFF, ARC_ON, beadWidth, canvasLegend, dropVertex, measure, mm, nudge, nudgeStep, pathRuns, speedRange, strategyChoices, viridis, VIRIDIS } from "../src/mask/canvasTools";
 
 const path = (over: Partial<PreviewPath> = {}): PreviewPath =>
   ({
@@ -66,5 +66,43 @@ describe("measure tool geometry", () => {
     expect(dropVertex(c.slice(0, 3), 0)).toBeNull();
     expect([nudgeStep(0.5, false), nudgeStep(0, false), nudgeStep(2, true)]).toEqual([0.5, 1, 20]);
     expect([mm(-0.001), mm(12.345)]).toEqual(["0.00", "12.35"]);
+  });
+});
+
+// #27: the patterns and defaults a section is offered come from the node catalog, no list of our own
+describe("strategyChoices: from the strategy node's catalog entry", () => {
+  // the shape GET /api/nodes serves for `strategy` (trimmed): the fields live in $defs
+  const strategySpec = {
+    type: "strategy", title: "Strategy", category: "paths", description: "", version: "1", per_layer: true, inputs: [], outputs: [],
+    params_schema: {
+      type: "object",
+      properties: {
+        default: { $ref: "#/$defs/SectionStrategy" },
+        sections: { type: "object", additionalProperties: { $ref: "#/$defs/SectionStrategyOverride" } },
+      },
+      $defs: {
+        SectionStrategy: {
+          type: "object",
+          properties: {
+            pattern: { type: "string", default: "oscillate", enum: ["contour", "oscillate", "parallel", "raster", "rectangular", "semicircular", "spiral", "swiping", "triangular"] },
+            bead_width: { type: "number", default: 6.5, unit: "mm" },
+          },
+        },
+        SectionStrategyOverride: {
+          type: "object",
+          properties: { pattern: { anyOf: [{ type: "string" }, { type: "null" }], default: null }, bead_width: { anyOf: [{ type: "number" }, { type: "null" }], default: null } },
+        },
+      },
+    },
+  } as unknown as NodeSpec;
+  it("lists the catalog's patterns (contour included), its default pattern and bead width", () => {
+    const c = strategyChoices(strategySpec);
+    expect(c.patterns.length).toBe(9);
+    expect(c.patterns).toContain("contour");
+    expect(c.patternDefault).toBe("oscillate");
+    expect(c.beadDefault).toBe(6.5);
+  });
+  it("without the node's spec (catalog not loaded) there is no list and no default", () => {
+    expect(strategyChoices(undefined)).toEqual({ patterns: [] });
   });
 });

@@ -133,6 +133,9 @@ describe("preflight report: parsing, problem order, starts", () => {
     });
     expect(layerStarts(r, 1)).toEqual({ here: [[3, -60, 3]], below: [[3, -60, 1.5]], stops: [] });
     expect(beadWidthOf(r)).toBe(5);
-    expect(beadWidthOf(report())).toBe(6);
+    // #27: the width is the backend's (it reports the one it used, its default included): no 6 mm of our own
+    expect(beadWidthOf(report())).toBeNull();
+    expect(stackedStarts([[0, 0, 3]], [[0.1, 0, 1.5]], null)).toEqual([false]);
+    expect(stackedStarts([[0, 0, 3]], [[0.1, 0, 1.5]], 0.2)).toEqual([true]);
   });
 });

@@ -1,26 +1,22 @@
 /** The mask tab: canvas plus its side panel (layers, masks, sections, strategy, zoning). */
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import type { Recipe, RunError } from "../api/types";
-import { findProperty } from "../forms/schema";
 import { ancestors, downstream, setNodeParams, type Catalog } from "../graph/recipe";
 import {
   addSection, canvasNodes, forgetKey, governingMask, maskRanges, newMaskFromLayer, patchSection, removeMask, removeSection,
   sectionKey, sectionValue, setCurve, setGuide, setMaskFrom, splitKey, type GuideParams, type KeyedParams, type MaskParams,
 } from "./edits";
 import { polygonArea, ringSelfIntersects, worldToLayer, type Pt } from "./geom";
-import { beadWidth, COLOR_BY, type ColorBy } from "./canvasTools";
+import { beadWidth, COLOR_BY, strategyChoices, type ColorBy } from "./canvasTools";
 import { MaskCanvas, SECTION_COLORS, type CanvasEdits, type Tool } from "./MaskCanvas";
 import { useLayerPreview } from "./useLayerPreview";
 import { useSectionFocus } from "../forms/sectionKeys";
 import { stackedStarts } from "../preflight/preflight";
 
-/** Patterns named by the contract, used only if the strategy node's schema does not list them. */
-/** Port types the canvas can draw for one layer. */
 // A node without params: one object for every render (memos depending on the params keep their value).
 const NO_PARAMS: Record<string, unknown> = {};
+/** Port types the canvas can draw for one layer. */
 const PLANAR_TYPES = ["layers", "sections", "toolpath"];
-
-const CONTRACT_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate", "parallel"];
 
 export interface NewMaskEvent {
   maskNode: string;
@@ -58,7 +54,7 @@ export interface MaskViewProps {
   onMessage: (m: string) => void;
   /** The last run's ignition points of the shown layer and the layer below (world mm), with the
    * distance (mm) under which a start counts as stacked on one below; null = none to show. */
-  starts?: { here: number[][]; below: number[][]; stops?: number[][]; radius: number } | null;
+  starts?: { here: number[][]; below: number[][]; stops?: number[][]; radius: number | null } | null;
   mark?: PreflightMark | null;
   /** The "new mask here" drawing is finished or abandoned. */
   onMarkDone?: () => void;
@@ -231,17 +227,12 @@ export function MaskView(p: MaskViewProps) {
     [edit, maskId, guideId, strategyId, zoneId, layer, p, maskParams, drawHint],
   );
 
-  const { patterns, schemaDefault } = useMemo(() => {
-    const spec = nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined;
-    const prop = spec ? findProperty(spec.params_schema, "pattern") : undefined;
-    // The pattern a section gets when neither it nor the node's default names one.
-    return { patterns: (prop?.enum as string[] | undefined) ?? CONTRACT_PATTERNS, schemaDefault: prop?.default as string | undefined };
-  }, [nodes.strategy, p.catalog]);
-  const beadDefault = useMemo(() => {
-    const spec = nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined;
-    const d = spec ? findProperty(spec.params_schema, "bead_width")?.default : undefined;
-    return typeof d === "number" ? d : undefined;
-  }, [nodes.strategy, p.catalog]);
+  // The patterns, the pattern a section gets when neither it nor the node's default names one, and
+  // the bead width default: the catalog's (one source with the backend).
+  const { patterns, patternDefault: schemaDefault, beadDefault } = useMemo(
+    () => strategyChoices(nodes.strategy ? p.catalog.get(nodes.strategy.type) : undefined),
+    [nodes.strategy, p.catalog],
+  );
   const beadWidthOf = useCallback(
     (key: string) => (showBead && nodes.strategy ? beadWidth(strategyParams as Parameters<typeof beadWidth>[0], key, beadDefault) : null),
     [showBead, nodes.strategy, strategyParams, beadDefault],

@@ -2,7 +2,8 @@
  * Pure helpers of the 2D canvas's CAM views: path colouring by zone / speed / arc state with the
  * legend that explains it, bead width per section, the measure tool's geometry, vertex nudging.
  */
-import type { PreviewPath } from "../api/types";
+import type { NodeSpec, PreviewPath } from "../api/types";
+import { findProperty } from "../forms/schema";
 import type { Pt } from "./geom";
 
 export type ColorBy = "zone" | "speed" | "arc";
@@ -74,6 +75,22 @@ export function canvasLegend(paths: readonly PreviewPath[], mode: ColorBy): Lege
   for (const p of paths) for (const z of p.zone) if (z && !seen.has(z)) seen.set(z, p.zone_colors?.[z] ?? ZONE_FALLBACK);
   const order = (z: string) => (z === "start" ? -1 : z === "end" ? 1e9 : Number(z.replace(/\D/g, "")) || 0);
   return { swatches: [...seen].sort((a, b) => order(a[0]) - order(b[0])).map(([label, color]) => ({ label, color })).concat([{ label: "arc off", color: ARC_OFF }]) };
+}
+
+/**
+ * What a strategy node offers a section, from the node catalog (one source with the backend): the
+ * fill patterns (its schema's enum), the pattern a section gets when nothing names one, and the
+ * bead width default. Nothing of our own: without the node's spec there is no list.
+ */
+export function strategyChoices(spec: NodeSpec | undefined): { patterns: string[]; patternDefault?: string; beadDefault?: number } {
+  if (!spec) return { patterns: [] };
+  const pattern = findProperty(spec.params_schema, "pattern");
+  const bead = findProperty(spec.params_schema, "bead_width")?.default;
+  return {
+    patterns: Array.isArray(pattern?.enum) ? pattern.enum.map(String) : [],
+    patternDefault: typeof pattern?.default === "string" ? pattern.default : undefined,
+    beadDefault: typeof bead === "number" ? bead : undefined,
+  };
 }
 
 /** Bead width (mm) of a section: its override, else the strategy's default, else the schema default. */

@@ -197,16 +197,19 @@ export function layerStarts(report: Preflight | null, index: number): LayerStart
   };
 }
 
-/** Per start in `here`: does it lie within `radius` mm (in x, y) of a start in `below`? */
-export function stackedStarts(here: readonly number[][], below: readonly number[][], radius: number): boolean[] {
-  return here.map((p) => below.some((q) => Math.hypot(p[0] - q[0], p[1] - q[1]) < radius));
+/** Per start in `here`: does it lie within `radius` mm (in x, y) of a start in `below`? (null: the
+ * radius is unknown, nothing is marked) */
+export function stackedStarts(here: readonly number[][], below: readonly number[][], radius: number | null): boolean[] {
+  return here.map((p) => radius !== null && below.some((q) => Math.hypot(p[0] - q[0], p[1] - q[1]) < radius));
 }
 
-/** The bead width the check used (its settings', else its first program's), else `fallback` (mm). */
-export function beadWidthOf(report: Preflight | null, fallback = 6): number {
+/** The bead width the check used (its settings', else its first program's; mm). The backend
+ * reports the width it used with every program (its default included): no default of our own, null
+ * when the report names none. */
+export function beadWidthOf(report: Preflight | null): number | null {
   for (const v of [report?.settings?.bead_width_mm, ...(report?.programs ?? []).map((p) => p.bead_width_mm)])
     if (typeof v === "number" && v > 0) return v;
-  return fallback;
+  return null;
 }
 
 // ---- stale reports --------------------------------------------------------------------------------
