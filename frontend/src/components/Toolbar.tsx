@@ -120,6 +120,7 @@ export function Toolbar(p: ToolbarProps) {
         {p.errorCount ? `✖ ${p.errorCount} ` : ""}⚠ {p.problemCount - p.errorCount}
       </button>
       {p.preflight}
+      <a href="#/builds" className="button builds-link" style={{ textDecoration: "none", color: "var(--text)" }} data-testid="builds-link" title="builds: as built vs as planned, layer by layer (scans in, the next layer's program out)">builds</a>
       <span className="title">{p.graphName ?? "unsaved recipe"}</span>
       {p.isExample && (
         <span className="example-badge" data-testid="example-badge" title="shipped example: save as a new name to keep changes">

@@ -5,6 +5,7 @@
  * Drawing is in layer mm; SVG y = −y so the part is seen from above with y up.
  */
 import { memo, useCallback, useEffect, useMemo, useRef, useState, type PointerEvent as RPointerEvent } from "react";
+import { DeviationOverlay } from "../builds/DeviationOverlay";
 import { CoverageLayer } from "./CoverageLayer";
 import type { LayerJson, Preview, PreviewPath } from "../api/types";
 import {
@@ -349,6 +350,7 @@ export const MaskCanvas = memo(function MaskCanvas(p: MaskCanvasProps) {
         {paths.map((q) => (
           <PathView key={`p-${q.key}`} path={q} zone={p.zone} r={r} colorBy={p.colorBy} speed={speed} bead={p.beadWidthOf(q.key)} />
         ))}
+        <DeviationOverlay layer={layer?.index ?? null} r={r} />
         {sections.map((s) => {
           const own = p.guides.guides?.[s.key];
           const g = own ?? s.guide;
