@@ -81,3 +81,26 @@ def test_viewer_draws_the_as_built_surface(built):
         assert not [n for n in v.server.scene._handle_from_node_name if n.startswith("/asbuilt/")]
     finally:
         v.stop()
+
+
+def test_the_surface_follows_its_view_to_the_browser(built, monkeypatch):
+    """Shown before the 3D tab's browser connects (a headless view): drawn again on its scene."""
+    from waamflow.viewer import ViewerService
+    from waamflow.viewer.session import NullScene, Target
+
+    v = ViewerService(port=0).start()
+    try:
+        lg = v.show_asbuilt("abcdef012345", built.surface(), view="tab-1")
+        assert lg["points"] > 960
+        scene = NullScene()
+
+        class Client:
+            client_id = 99
+
+        monkeypatch.setattr(v, "_view_of_client", lambda c: "tab-1")
+        monkeypatch.setattr(v, "_client_target", lambda c: Target(scene, client=c))
+        v._on_connect(Client())
+        names = sorted(n for n in scene._handle_from_node_name if n.startswith("/asbuilt/"))
+        assert names == ["/asbuilt/layer_0000", "/asbuilt/layer_0001"]
+    finally:
+        v.stop()

@@ -219,6 +219,8 @@ class ViewerService:
             s = self.session(view or f"client-{client.client_id}")
             old = s.client
             s.retarget(self._client_target(client), drop_old=old is not None and old.client_id in self.server.get_clients())
+            if s.id in self.asbuilt:       # a build's as-built surface follows its view to the browser
+                self.asbuilt[s.id].draw(s.scene)
             if view is None and s.wanted is None and s.key is None and self.scenes:
                 key = next(reversed(self.scenes))
                 s.draw(key, *self.scenes[key])
