@@ -20,8 +20,8 @@ after(async () => {
   await srv?.stop();
 });
 
-/** The XYZ point cloud build-sim's scanner makes of mpp-cross layer 0 built `offset` mm off plan. */
-function simulatedScan(offset) {
+/** The XYZ point cloud build-sim's scanner makes of mpp-cross layer `layer` built `offset` mm off plan. */
+function simulatedScan(layer, offset) {
   const py = `
 import sys, numpy as np
 from pathlib import Path
@@ -32,15 +32,15 @@ from waamflow.engine.executor import FileResolver
 from waamflow.engine.recipe import load_recipe
 g = Path("graphs")
 tp, _, _ = plan_for_build(load_recipe(g / "mpp-cross.json"), FileResolver(g))
-tr = layer_track(tp.items[0])
+tr = layer_track(tp.items[int(sys.argv[2])])
 s = synth_scan(tr, tr.planned_height() + float(sys.argv[1]), Disturbance(), np.random.default_rng(7))
 sys.stdout.write("".join(f"{x:.4f} {y:.4f} {z:.4f}\\n" for x, y, z in s.points))
 `;
-  return execFileSync(path.join(ROOT, ".venv/bin/python"), ["-c", py, String(offset)], { cwd: ROOT, maxBuffer: 64 << 20 });
+  return execFileSync(path.join(ROOT, ".venv/bin/python"), ["-c", py, String(offset), String(layer)], { cwd: ROOT, maxBuffer: 64 << 20 });
 }
 
 test("builds: start from a finished mpp-cross run, post layer 0's scan, the page shows it done with its deviation", async () => {
-  const scan = simulatedScan(-0.3);
+  const scan = simulatedScan(0, -0.3);
   const { page, errors, context } = await openPage(browser, srv.base);
   await openRecipe(page, srv.base, "mpp-cross");
   await expectRun(page, srv.base, "done");
@@ -100,6 +100,17 @@ test("builds: start from a finished mpp-cross run, post layer 0's scan, the page
   assert.deepEqual(await page.locator("[data-chart='Top error per layer'] [data-series]").evaluateAll((g) => g.map((e) => e.getAttribute("data-points"))), ["1", "1", "1"]);
   assert.match(await page.locator("[data-chart='Top error per layer'] [data-series='mean error (cumulative)'] title").textContent(), /layer 0: -0\.3\d\d mm/);
 
+  // layer 1, laid slower, came back to 0.08 mm under plan (no temperature: no wait before layer 2)
+  await page.setInputFiles("[data-testid=scan-file]", { name: "layer1.xyz", mimeType: "text/plain", buffer: simulatedScan(1, -0.08) });
+  await page.fill("[data-testid=scan-temp]", "");
+  await page.click("[data-testid=scan-send]");
+  await page.waitForFunction(() => document.querySelector("[data-testid=build-done]")?.textContent === "2 / 8 layers done");
+  const row1b = page.locator("[data-testid=layer-table] tr[data-layer='1']");
+  assert.ok(Math.abs(Number(await row1b.getAttribute("data-mean")) + 0.08) < 0.05);
+  const added = (await row1b.locator("td").allInnerTexts())[6];
+  assert.ok(Math.abs(Number(added) - 0.22) < 0.06, `layer 1 added ${added} mm`);
+  assert.equal((await page.locator("[data-testid=layer-table] tr[data-layer='2']").locator("td").allInnerTexts())[12], "—");
+
   await page.setViewportSize({ width: 1600, height: 1000 });
   await shot(page, "builds-1600x1000");
   await page.setViewportSize({ width: 1366, height: 768 });
@@ -119,7 +130,7 @@ test("builds: start from a finished mpp-cross run, post layer 0's scan, the page
   await shot(page, "builds-canvas");
   // back to the page by URL: the same build
   await page.evaluate((b) => (window.location.hash = `#/builds/${b}`), id);
-  await page.waitForSelector(`[data-testid=build][data-build="${id}"][data-done='1']`);
+  await page.waitForSelector(`[data-testid=build][data-build="${id}"][data-done='2']`);
   // the browser logs the refused scan's 422 as a failed resource; nothing else went wrong
   assert.deepEqual(errors.filter((e) => !/\/scans\?layer=0&kind=cloud&register=false&interpass_temp_c=2500: .* 422/.test(e)), []);
   await context.close();
