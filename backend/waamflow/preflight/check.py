@@ -190,7 +190,8 @@ def _multiplane_sections(mesh, zs: list[float]) -> list:
 
     if not zs:
         return []
-    tri_z = mesh.vertices[:, 2][mesh.faces]
+    vertices = np.asarray(mesh.vertices)
+    tri_z = vertices[:, 2][mesh.faces]
     zmin, zmax = tri_z.min(axis=1), tri_z.max(axis=1)
     order = np.argsort(zmin, kind="stable")
     zmin_sorted = zmin[order]
@@ -201,13 +202,46 @@ def _multiplane_sections(mesh, zs: list[float]) -> list:
         if len(faces) == 0:
             out.append(MultiPolygon())
             continue
-        segs = trimesh.intersections.mesh_plane(mesh, [0.0, 0.0, 1.0], [0.0, 0.0, z], local_faces=faces)
+        # mesh_plane dots every vertex of the mesh it is given: give it these faces only
+        used, local = np.unique(mesh.faces[faces], return_inverse=True)
+        slab = trimesh.Trimesh(vertices[used], np.asarray(local).reshape((-1, 3)), process=False, validate=False)
+        segs = trimesh.intersections.mesh_plane(slab, [0.0, 0.0, 1.0], [0.0, 0.0, z])
         if len(segs) == 0:
             out.append(MultiPolygon())
             continue
-        path = trimesh.load_path(segs)
-        out.append(_loops_to_geom(path.discrete))
+        out.append(_loops_to_geom(_chain_loops(segs)))
     return out
+
+
+def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
+    """Closed loops (each (k, 2), first = last) of a plane section's (n, 2, 3) segments: the
+    endpoints merged as trimesh merges them (`unique_rows` at `tol_path.merge_digits`); where every
+    merged point joins exactly two segments the loops are the graph's components, each walked in
+    order by scipy's depth-first search; anything else (a vertex on the plane, an open or branching
+    section) goes to trimesh's own `load_path`, which this replaced where it can (its graph
+    traversal took 8.4 of 14.8 s of the sections of a 1,008,000-triangle vase)."""
+    import trimesh
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components, depth_first_order
+    from trimesh import grouping
+    from trimesh.constants import tol_path
+
+    flat = np.asarray(segs, dtype=float).reshape((-1, 3))
+    unique, inverse = grouping.unique_rows(flat, digits=tol_path.merge_digits)
+    edges = np.asarray(inverse).reshape((-1, 2))
+    edges = np.unique(np.sort(edges[edges[:, 0] != edges[:, 1]], axis=1), axis=0)
+    n = len(unique)
+    if len(edges) < 3 or not np.all(np.bincount(edges.ravel(), minlength=n) == 2):
+        return list(trimesh.load_path(segs).discrete)
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
+    n_loops, label = connected_components(graph, directed=False)
+    starts = np.unique(label, return_index=True)[1]
+    xy = flat[unique][:, :2]
+    loops = []
+    for s in starts:
+        order = depth_first_order(graph, int(s), directed=False, return_predecessors=False)
+        loops.append(np.vstack([xy[order], xy[order[:1]]]))
+    return loops
 
 
 def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
@@ -216,7 +250,10 @@ def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
         import trimesh
 
         mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
-        part_volume = float(abs(mesh.volume))
+        # Σ a·(b × c)/6 about the first vertex (trimesh's `volume` computes the whole inertia
+        # tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)
+        tri = np.asarray(part.vertices, dtype=float)[np.asarray(part.faces)] - np.asarray(part.vertices[0], dtype=float)
+        part_volume = abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0)
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
     covered_vol = 0.0

@@ -60,18 +60,18 @@ class Excursion:
 def sample_run(run: Run, step: float) -> tuple[np.ndarray, np.ndarray]:
     """((n, 3) samples, (n,) arc length mm) along the run's centre line, every vertex kept."""
     pts = np.asarray(run.points, float)
-    out, s = [pts[:1]], [np.zeros(1)]
-    acc = 0.0
-    for a, b in zip(pts[:-1], pts[1:]):
-        seg = float(np.linalg.norm(b - a))
-        if seg <= 0:
-            continue
-        n = max(1, int(math.ceil(seg / step)))
-        t = np.arange(1, n + 1) / n
-        out.append(a + (b - a) * t[:, None])
-        s.append(acc + seg * t)
-        acc += seg
-    return np.vstack(out), np.concatenate(s)
+    d = np.diff(pts, axis=0)
+    seg = np.linalg.norm(d, axis=1)
+    keep = seg > 0
+    a, d, seg = pts[:-1][keep], d[keep], seg[keep]
+    if not len(seg):
+        return pts[:1], np.zeros(1)
+    n = np.maximum(1, np.ceil(seg / step)).astype(np.int64)
+    idx = np.repeat(np.arange(len(seg)), n)
+    t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 1) / n[idx]
+    before = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    return (np.vstack([pts[:1], a[idx] + d[idx] * t[:, None]]),
+            np.concatenate([[0.0], before[idx] + seg[idx] * t]))
 
 
 def _stretches(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -107,7 +107,15 @@ def distance_to_section(section, pts: np.ndarray) -> np.ndarray:
     """(n,) mm from each point (xy) to the section polygon, 0 inside; inf when the slab has none."""
     if section is None or section.is_empty:
         return np.full(len(pts), np.inf)
-    return shapely.distance(section, shapely.points(pts[:, :2]))
+    # GEOS measures a point's distance against every edge of the polygon: only the points the
+    # (prepared) polygon does not contain are measured, the rest are at 0 as before
+    shapely.prepare(section)
+    xy = np.asarray(pts, dtype=float)[:, :2]
+    d = np.zeros(len(xy))
+    out = ~shapely.contains_xy(section, xy[:, 0], xy[:, 1])
+    if out.any():
+        d[out] = shapely.distance(section, shapely.points(xy[out]))
+    return d
 
 
 def distance_to_midsurface(curves, pts: np.ndarray, width: float) -> np.ndarray:

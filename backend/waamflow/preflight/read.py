@@ -110,6 +110,26 @@ class _RunBuilder:
             seg = np.vstack([self.pos, targets])
             self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
         self.pos = targets[-1].copy()
+        self._after_move()
+
+    def move_to(self, x: float, y: float, z: float, speed: float, wfs: float, weld: bool) -> None:
+        """`move` of one straight motion, without the arrays (a G-code program is mostly these)."""
+        if self.pts is not None and np.isfinite(self.pts[0]).all():
+            self.pts.append((x, y, z))
+            self.speed.append(speed)
+            self.wfs.append(wfs)
+            self.weld.append(weld)
+            self.pos = np.array((x, y, z))
+            self._after_move()
+        elif self.pts is None and self.pos is not None:
+            p = self.pos
+            self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
+            self.pos = np.array((x, y, z))
+            self._after_move()
+        else:
+            self.move(np.array((x, y, z)), speed, wfs, weld)
+
+    def _after_move(self) -> None:
         if self.pending == "off":
             self.close()
         elif self.pending == "on":
@@ -123,11 +143,12 @@ _POST_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_u
                        r"(?:\s+feed_units=(mm/min|mm/s))?")
 
 
-def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float]]]:
-    """parameter → (pattern of a command that sets it, scale the command carries the value at), from
-    the program's `waamflow-weld:` header lines (the format `program.common` documents: a reader of
-    the declared syntax, scales `name[unit]*k=` included)."""
-    return {name: [(template_regex(t), e["scale"]) for t in e["commands"] if "{" in t]
+def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float, str]]]:
+    """parameter → (pattern of a command that sets it, scale the command carries the value at, the
+    literal text before its first field: a line without it cannot match), from the program's
+    `waamflow-weld:` header lines (the format `program.common` documents: a reader of the declared
+    syntax, scales `name[unit]*k=` included)."""
+    return {name: [(template_regex(t), e["scale"], t.split("{", 1)[0]) for t in e["commands"] if "{" in t]
             for name, e in parse_weld_tag(text).items()}
 
 
@@ -161,27 +182,33 @@ def read_gcode(text: str) -> ProgramRead:
     feed = math.nan
     motion = 0
     values: dict[str, float] = {}
+    on_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_on]
+    off_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_off]
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition(";")
-        parens = re.findall(r"\(([^)]*)\)", code)
-        code = re.sub(r"\([^)]*\)", " ", code).strip()
+        parens: list[str] = []
+        if "(" in code:
+            parens = re.findall(r"\(([^)]*)\)", code)
+            code = re.sub(r"\([^)]*\)", " ", code)
+        code = code.strip()
         for c in [comment, *parens]:
             if c.strip():
                 b.comment(c.strip())
         if not code:
             continue
         upper = code.upper()
-        words = [f"{a}{float(v):g}" for a, v in _GWORD.findall(upper)]
-        if words == [f"{w[0]}{float(w[1:]):g}" for w in arc_on]:
+        gwords = _GWORD.findall(upper)
+        words = [f"{a}{float(v):g}" for a, v in gwords]
+        if words == on_words:
             b.arc_on(ln)
             continue
-        if words == [f"{w[0]}{float(w[1:]):g}" for w in arc_off]:
+        if words == off_words:
             b.close()
             continue
         matched = False
         for name, pats in weld_rx.items():
-            for rx, scale in pats:
-                m = rx.search(code)
+            for rx, scale, literal in pats:
+                m = rx.search(code) if literal in code else None
                 if m:
                     values[name] = float(m.group(1)) / scale
                     matched = True
@@ -189,7 +216,7 @@ def read_gcode(text: str) -> ProgramRead:
             continue
         vals: dict[str, float] = {}
         gs: list[float] = []
-        for a, v in _GWORD.findall(upper):
+        for a, v in gwords:
             if a == "G":
                 gs.append(float(v))
             else:
@@ -202,14 +229,13 @@ def read_gcode(text: str) -> ProgramRead:
         if 4 in gs or not any(k in vals for k in "XYZ"):
             continue
         here = b.pos if b.pos is not None else np.zeros(3)
-        target = here.copy()
-        for axis, k in enumerate("XYZ"):
-            if k in vals:
-                target[axis] = vals[k]
-        seg = (_gcode_arc(here, target, vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
-               if motion in (2, 3) else target[None])
+        x, y, z = (vals.get(k, float(here[axis])) for axis, k in enumerate("XYZ"))
         speed = math.nan if motion == 0 else feed
-        b.move(seg, speed, values.get("wire_feed_speed", math.nan), bool(values))
+        if motion in (2, 3):
+            seg = _gcode_arc(here, np.array((x, y, z)), vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
+            b.move(seg, speed, values.get("wire_feed_speed", math.nan), bool(values))
+        else:
+            b.move_to(x, y, z, speed, values.get("wire_feed_speed", math.nan), bool(values))
     b.close()
     return b.out
 
