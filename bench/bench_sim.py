@@ -11,12 +11,19 @@ dwell — every feature of the controller model (stops, blends, dwell, arc timin
 - `sim_realtime_factor_no_ik`: the controller model alone; peer = with IK.
 - `sim_realtime_factor_cell`: with the kr150_tilt_rotate cell, `gravity` positioner policy and IK
   on the world path and coal collision checks every 20 mm (target ≥ 500); peer = arm-only IK.
+
+Method (the same for the three configurations): each is first warmed up on the study's raster
+program with its own options, IK and collision models included (the first IK run pays ~1 s of
+model loading, which a 1 h program would otherwise carry for the first configuration only); then
+`ROUNDS` rounds run the three in a rotated order (a Latin square: each configuration once in
+each position), and each configuration's wall time is the median of its rounds. So which one
+runs first does not decide a ratio.
 """
 
 from __future__ import annotations
 
+import statistics
 import time
-
 
 from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
 from waamflow.core.moves import flatten
@@ -44,29 +51,47 @@ def program():
     return flatten(Layered(tuple(layers)))
 
 
+ROUNDS = 3
+
+
 def _timed(moves, profile, kin):
     t0 = time.perf_counter()
     res = simulate_program(moves, profile, SimOptions(), kin)
     return res, time.perf_counter() - t0
 
 
+def _configs():
+    """name → KinematicsOptions | None: with arm-only IK, without IK, with the cell."""
+    cell = load_cell("kr150_tilt_rotate")
+    return {"ik": KinematicsOptions(step_mm=5.0), "no_ik": None,
+            "cell": KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), step_mm=5.0,
+                                      cell=cell, positioner_policy="gravity")}
+
+
 def run() -> list[dict]:
     moves = program()
     profile = load_profile("kuka_kr100ha_krc2")
-    _timed(study.raster(SPEED), profile, None)  # warm-up (imports)
-    res_ik, wall_ik = _timed(moves, profile, KinematicsOptions(step_mm=5.0))
-    res_no, wall_no = _timed(moves, profile, None)
-    cell = load_cell("kr150_tilt_rotate")
-    res_cell, wall_cell = _timed(moves, profile, KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), step_mm=5.0, cell=cell,
-        positioner_policy="gravity"))
+    configs = _configs()
+    names = list(configs)
+    for kin in configs.values():                       # warm-up of each, IK and collision models included
+        _timed(study.raster(SPEED), profile, kin)
+    walls: dict[str, list[float]] = {n: [] for n in names}
+    results = {}
+    for r in range(ROUNDS):
+        for n in names[r % len(names):] + names[:r % len(names)]:
+            results[n], wall = _timed(moves, profile, configs[n])
+            walls[n].append(wall)
+    wall_ik, wall_no, wall_cell = (statistics.median(walls[n]) for n in names)
+    res_ik, res_no, res_cell = (results[n] for n in names)
     rtf_cell = res_cell.metrics["total_time_s"] / wall_cell
     sim_s = res_ik.metrics["total_time_s"]
     rtf_ik = sim_s / wall_ik
     rtf_no = res_no.metrics["total_time_s"] / wall_no
+    spread = "; ".join(f"{n} " + "/".join(f"{w:.2f}" for w in walls[n]) for n in names)
+    method = f"wall = median of {ROUNDS} rounds in rotated order ({spread} s), each configuration warmed up first"
     common = (f"{LAYERS} layers, {len(moves.points)} points, {res_ik.metrics['programmed_length_mm'] / 1000:.1f} m, "
               f"{sim_s / 3600:.2f} h simulated, {int(res_ik.metrics['stops'])} stops, "
-              f"{len(res_ik.trace['t'])} trace samples at 12 ms")
+              f"{len(res_ik.trace['t'])} trace samples at 12 ms; {method}")
     return [
         {"name": "sim_realtime_factor", "value": round(rtf_ik, 1), "unit": "sim s / wall s",
          "peer": round(rtf_no, 1), "ratio": round(rtf_ik / rtf_no, 4),

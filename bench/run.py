@@ -2,6 +2,10 @@
 
 Each module returns a list of {"name", "value", "unit", "peer", "ratio", "notes"}; ratios are
 measured side by side in the same run (never against numbers from another machine or day).
+
+Usage: `bench/run.py [bench_sim bench_slice ...]`: with module names, only those run and their
+entries replace the ones they wrote before in results.json (the other modules' entries are kept;
+each entry names its `module`). `-h` / `--help`: this text.
 """
 
 from __future__ import annotations
@@ -18,9 +22,19 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> int:
-    only = set(sys.argv[1:])
+    args = sys.argv[1:]
+    if any(a in ("-h", "--help") for a in args):
+        print(__doc__)
+        return 0
+    modules = sorted((ROOT / "bench").glob("bench_*.py"))
+    only = set(args)
+    unknown = only - {p.stem for p in modules}
+    if unknown:
+        print(f"unknown bench module(s): {', '.join(sorted(unknown))}; the modules are: "
+              f"{', '.join(p.stem for p in modules)}", file=sys.stderr)
+        return 2
     results, failures = [], []
-    for path in sorted((ROOT / "bench").glob("bench_*.py")):
+    for path in modules:
         if only and path.stem not in only:
             continue
         spec = importlib.util.spec_from_file_location(path.stem, path)
@@ -34,6 +48,7 @@ def main() -> int:
             print(f"{path.stem}: FAILED\n{failures[-1]['error']}", file=sys.stderr)
             continue
         for e in entries:
+            e["module"] = path.stem
             e.setdefault("peer", None)
             e.setdefault("ratio", None)
             e.setdefault("notes", "")
@@ -42,6 +57,13 @@ def main() -> int:
         print(f"  ({path.stem}: {time.perf_counter() - t0:.1f} s)")
     out = ROOT / "out" / "bench"
     out.mkdir(parents=True, exist_ok=True)
+    if only and (out / "results.json").is_file():
+        # a selection: keep what the other modules wrote last time
+        old = json.loads((out / "results.json").read_text())
+        names = {e["name"] for e in results}
+        results = [e for e in old.get("results", []) if e.get("module") not in only and e.get("name") not in names
+                   ] + results
+        failures = [f for f in old.get("failures", []) if f.get("module") not in only] + failures
     doc = {"results": results, "failures": failures,
            "machine": {"python": platform.python_version(), "platform": platform.platform()}}
     (out / "results.json").write_text(json.dumps(doc, indent=2))
