@@ -116,6 +116,13 @@ test("builds: start from a finished mpp-cross run, post layer 0's scan, the page
   await page.setViewportSize({ width: 1366, height: 768 });
   await shot(page, "builds-1366x768");
 
+  // the as-built surface in this tab's 3D view: both layers' points, coloured over ± the largest deviation
+  await page.click("[data-testid=show-3d]");
+  await page.waitForFunction(() => /3D view: \d+ points/.test(document.querySelector("[data-testid=build-note]")?.textContent ?? ""));
+  const [, pts, lim] = /3D view: (\d+) points, colours ±([\d.]+) mm/.exec(await page.textContent("[data-testid=build-note]"));
+  assert.ok(Number(pts) > 960 && Number(pts) <= 1020, `${pts} as-built points of 2 × 510 samples`);
+  assert.ok(Math.abs(Number(lim) - max) < 1e-3, `colour range ±${lim} mm = layer 0's max |error| ${max} mm`);
+
   // the deviation along the path on the 2D canvas (layer 0 shown)
   await page.click("[data-testid=show-canvas]");
   await page.waitForFunction(() => !document.querySelector("[data-testid=builds-page]"));

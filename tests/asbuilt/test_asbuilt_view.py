@@ -76,8 +76,12 @@ def test_viewer_draws_the_as_built_surface(built):
         assert cols.shape == (lg["points"], 3)
         red = (cols == STOPS[2].astype(np.uint8)).all(axis=1)
         assert red.sum() >= 1 and (cols[:, 0] >= 33).all() and (cols[:, 2] >= 43).all()
-        # a per-tab view gets its own; showing none removes it from the shared scene
+        # the view's state carries the legend (range ±0.5 mm, the 3 stops) beside the run's
+        st = v.state()
+        assert st["asbuilt"]["range"]["hi"] == pytest.approx(0.5, abs=0.03) and len(st["asbuilt"]["stops"]) == 3
+        # showing none removes it from the shared scene and the state
         assert v.show_asbuilt(None) is None
+        assert "asbuilt" not in v.state()
         assert not [n for n in v.server.scene._handle_from_node_name if n.startswith("/asbuilt/")]
     finally:
         v.stop()

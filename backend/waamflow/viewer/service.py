@@ -368,7 +368,10 @@ class ViewerService:
                 latest = next(reversed(self.scenes))
                 if s.key != latest:
                     s.draw(latest, *self.scenes[latest])
-            return s.state()
+            st = s.state()
+            if s.id in self.asbuilt:       # the build's as-built surface: its deviation range and colours
+                st["asbuilt"] = self.asbuilt[s.id].legend
+            return st
 
     def select(self, node_id: str | None, layer: int | None, *, view: str | None = None) -> None:
         """Follow the GUI: show `node_id`'s output (meshes stay as context; None shows every node)
