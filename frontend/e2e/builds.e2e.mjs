@@ -134,6 +134,7 @@ test("builds: start from a finished mpp-cross run, post layer 0's scan, the page
   assert.equal(Number(await ov.getAttribute("data-samples")), 510);
   assert.ok(Number(await ov.getAttribute("data-seen")) > 480);
   assert.ok(Number(await ov.getAttribute("data-max")) < 0 && Number(await ov.getAttribute("data-min")) > -0.5);
+  assert.match(await page.textContent("[data-testid=asbuilt-legend]"), /^as built L0: -0\.3\d…-0\.2\d mm$/);
   await shot(page, "builds-canvas");
   // back to the page by URL: the same build
   await page.evaluate((b) => (window.location.hash = `#/builds/${b}`), id);

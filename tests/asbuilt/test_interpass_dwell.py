@@ -118,3 +118,15 @@ def test_bad_temperature_is_refused_by_the_session(tmp_path):
     with pytest.raises(ValueError, match="interpass_temp_c = nan"):
         s.add_scan(_scan0(s), interpass_c=float("nan"))
     assert s.next_layer == 0
+
+
+@pytest.mark.parametrize("fmt, main, pattern", [("tp", "post.ls", r"WAIT ([\d.]+)\(sec\)"),
+                                                ("inform", "post.jbi", r"^TIMER T=([\d.]+)")])
+def test_fanuc_and_yaskawa_wait_and_short_header(tmp_path, fmt, main, pattern):
+    s = _session(tmp_path, fmt)
+    s.add_scan(_scan0(s), interpass_c=350.0)
+    files = s.next_program()["files"]
+    waits = [float(x) for text in files.values() for x in re.findall(pattern, text, re.M)]
+    assert waits == [pytest.approx(174.57, abs=0.02)]
+    head = {k.lower(): v for k, v in files.items()}[main]
+    assert "interpass: part measured 350 d" in head       # 32-character comment lines in the main program

@@ -30,6 +30,8 @@ export const DeviationOverlay = memo(function DeviationOverlay({ layer, r }: { l
   const shown = data && data.key === key ? data.layer : null;
   const ov = useMemo(() => (shown ? overlaySegments(shown) : null), [shown]);
   if (!ov || !shown) return null;
+  // a short legend above the layer's paths, at their left end (SVG y = −y); the full one in the title
+  const box = { x: Math.min(...shown.x), y: -Math.max(...shown.y) - r * 3 };
   return (
     <g className="asbuilt-overlay" pointerEvents="none" data-testid="asbuilt-overlay" data-build={build ?? ""} data-layer={shown.layer}
       data-samples={ov.samples} data-seen={ov.seen} data-min={ov.lo.toFixed(3)} data-max={ov.hi.toFixed(3)}>
@@ -38,6 +40,10 @@ export const DeviationOverlay = memo(function DeviationOverlay({ layer, r }: { l
       {ov.segs.map((s, i) => (
         <line key={i} x1={s.x1} y1={-s.y1} x2={s.x2} y2={-s.y2} stroke={s.color} strokeWidth={r * 2.2} strokeLinecap="round" />
       ))}
+      <text x={box.x} y={box.y} fontSize={r * 3} className="asbuilt-legend" data-testid="asbuilt-legend"
+        style={{ paintOrder: "stroke", stroke: "#fff", strokeWidth: r * 0.8, fill: "#1f2933" }}>
+        {`as built L${shown.layer}: ${fmt(ov.lo, 2)}…${fmt(ov.hi, 2)} mm`}
+      </text>
     </g>
   );
 });
