@@ -509,7 +509,7 @@ class _Run:
         except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
             perr = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
             perr.__cause__ = exc
-            perr.debug_traceback = traceback.format_exc()  # type: ignore[attr-defined]
+            perr.debug_traceback = traceback.format_exc()
             self.emit("node_error", node=node_id, layer=perr.layer, message=str(perr), error=perr.to_dict())
             raise perr from exc
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -61,7 +61,7 @@ def compare(jobs: Sequence[Job], variants: Iterable[str]) -> list[dict]:
             m.update(void_area_mm2=cov.void_area, overlap_area_mm2=cov.overlap_area,
                      over_deposit_area_mm2=cov.over_deposit_area, region_area_mm2=cov.region_area)
             per.append(m)
-        row = {"pattern": name, "label": text}
+        row: dict[str, Any] = {"pattern": name, "label": text}
         for key in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s",
                     *COVERAGE_KEYS):
             row[key] = round(sum(m[key] for m in per), 3)

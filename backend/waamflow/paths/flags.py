@@ -52,7 +52,7 @@ def finish(points: np.ndarray, arc_ok: np.ndarray, region: Polygon, arc_outside:
         f = np.unique(((shapely.get_coordinates(hits[i]) - a[i]) @ d) / dd)
         tol = SPLIT_TOL / np.sqrt(dd)
         f = f[(f > tol) & (f < 1.0 - tol)]
-        at += [i] * len(f)
+        at += [int(i)] * len(f)
         new += list(a[i] + f[:, None] * d)
     at_arr = np.asarray(at, dtype=int)
     pts = np.insert(points, at_arr + 1, np.asarray(new).reshape(-1, 2), axis=0) if at else points

@@ -24,8 +24,8 @@ def boustrophedon(plan: PassPlan, link: Link, before: float = 0.0, after: float 
             tau = unit(pts[-1] - pts[-2])
             pts.extend(link(pts[-1], run[0], tau))
         pts.extend(run)
-    pts = np.asarray(pts)
-    return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
+    arr = np.asarray(pts)
+    return Draft(arr, np.ones(len(arr) - 1, dtype=bool))
 
 
 def flush(a: np.ndarray, b: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, list, list]:

@@ -49,15 +49,15 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     # chords are measured on the region grown by NUDGE so a station on a straight end of the section
     # (normal along the boundary edge) still sees that edge despite round-off
     probe = region.buffer(NUDGE, join_style="mitre")
-    out = []
+    strokes = []
     for k, (p, n) in enumerate(zip(pts, normals)):
         a, b = weave_limits(probe, p, n, spec.bead_width, reach)
-        out.append(p + (a if k % 2 == 0 else b) * n)
-    out = np.array(out)
+        strokes.append(p + (a if k % 2 == 0 else b) * n)
+    out = np.array(strokes)
     # run-ups continue the guide's direction (not the first weave stroke's)
     t0 = np.array([normals[0][1], -normals[0][0]])
     t1 = np.array([normals[-1][1], -normals[-1][0]])
     head = [out[0] - spec.extension_before * t0] if spec.extension_before > 0 else []
     tail = [out[-1] + spec.extension_after * t1] if spec.extension_after > 0 else []
-    out = np.vstack(head + [out] + tail)
-    return Draft(out, np.ones(len(out) - 1, dtype=bool))
+    path = np.vstack(head + [out] + tail)
+    return Draft(path, np.ones(len(path) - 1, dtype=bool))

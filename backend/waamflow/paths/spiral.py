@@ -121,6 +121,7 @@ def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) 
     line = None if core is None or core.area == 0 else _core_line(core, m / 2.0, g0)
     if line is None:
         line = _core_line(region, 0.0, g0, keep_fraction=0.25)
+    assert line is not None   # the long axis of a non-empty region crosses it
     entry = to_boundary(region, line[0], unit(line[0] - line[1]))
     pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))

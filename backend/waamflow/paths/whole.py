@@ -90,6 +90,7 @@ def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec:
             cand = min(options)
             if best is None or cand < best:
                 best = cand
+        assert best is not None   # todo is not empty
         _, i, flip = best
         todo.remove(i)
         p, a = drafts[i]
@@ -126,12 +127,13 @@ def plan_whole(region: Polygon, guide: LineString | None, spec: StrategySpec, *,
             tried.append(got)
     if spec.pattern != FILLER:
         filler = spec.model_copy(update={"pattern": FILLER})
+        filled: Path2D | None
         try:
-            path = plan_section(region, guide, filler)
+            filled = plan_section(region, guide, filler)
         except ValueError:
-            path = None
-        if path is not None:
-            got = WholePath(path, FILLER, "contour", 1, _measure(region, path, filler), area)
+            filled = None
+        if filled is not None:
+            got = WholePath(filled, FILLER, "contour", 1, _measure(region, filled, filler), area)
             if got.uncovered_share <= max_uncovered:
                 return got
             tried.append(got)

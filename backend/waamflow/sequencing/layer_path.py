@@ -72,6 +72,7 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
         length = tour_length(cand, cost, start_cost)
         if best is None or length < best[0] - 1e-9:
             best = (length, cand)
+    assert best is not None   # two seeds tried
     return best[1]
 
 

@@ -93,10 +93,10 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
                 raise InputFileError(f"{source}: row {lineno}: speed must be a finite number ≥ 0, got {sp}")
             speeds.append(sp)
         if arc_col is not None:
-            a = row[arc_col].strip().lower()
-            if a in ("1", "true", "on", "1.0"):
+            flag = row[arc_col].strip().lower()
+            if flag in ("1", "true", "on", "1.0"):
                 arcs.append(True)
-            elif a in ("0", "false", "off", "0.0"):
+            elif flag in ("0", "false", "off", "0.0"):
                 arcs.append(False)
             else:
                 raise InputFileError(f"{source}: row {lineno}: arc must be 0/1, got {row[arc_col]!r}")
@@ -355,7 +355,7 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
             key += "_" + strategy_family(strategies[sec])
         groups.setdefault(key, []).append(ent)
         info["sections"].append({"section": moves.section_keys[sec], "key": key, **ent})
-    tm = {}
+    tm: dict[str, dict[str, Any]] = {}
     for key, ents in groups.items():
         tm[key] = {k: round(float(np.mean([e[k] for e in ents])), 6) for k in (*TM_KEYS, "L_trans_ref")}
         tm[key].update(passes=int(sum(e["passes"] for e in ents)), sections=len(ents), source=source)
@@ -706,6 +706,7 @@ def fit_shipped(profile: RobotProfile, max_nfev: int = 60, polish: int = 300) ->
         info["smoothing_s"] = tau
         if best is None or info["cost_after"] < best[1]["cost_after"]:
             best = (fitted, info)
+    assert best is not None   # SMOOTHING_GRID is not empty
     fitted, info = best
     info["fitted"] = {n: getattr(fitted, n) for n in SHIPPED_FIT}
     return fitted, info

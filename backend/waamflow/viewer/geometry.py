@@ -230,9 +230,9 @@ def layer_polyline(lp: LayerPaths) -> PathLayerPolyline:
         pts.append(p[1:])
 
     if not pts:
-        z = np.zeros(0)
-        return PathLayerPolyline(np.zeros((0, 3)), z.astype(bool), z.astype(bool), z, z.astype(np.int32),
-                                 z.astype(np.int32), np.zeros((0, 3), np.uint8), (), ())
+        e = np.zeros(0)
+        return PathLayerPolyline(np.zeros((0, 3)), e.astype(bool), e.astype(bool), e, e.astype(np.int32),
+                                 e.astype(np.int32), np.zeros((0, 3), np.uint8), (), ())
     cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in attrs.items()}
     return PathLayerPolyline(
         points=np.vstack(pts), travel=cat["travel"].astype(bool), arc=cat["arc"].astype(bool),
