@@ -70,7 +70,7 @@ class AsBuiltOverlay:
                 "deviation": {"min": round(self.min, 4), "max": round(self.max, 4)},
                 "stops": ["#%02x%02x%02x" % tuple(int(c) for c in s) for s in STOPS]}
 
-    def draw(self, scene, point_size: float = 0.6) -> int:
+    def draw(self, scene, point_size: float = 1.5) -> int:
         """Draw every layer's points on `scene` (one point cloud per layer); returns handles drawn."""
         self.remove()
         for i, (k, pts, _) in enumerate(self.layers):
