@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -75,7 +76,7 @@ class FanSection:
 
 @dataclass(frozen=True)
 class _Cut:
-    region: object          # MultiPolygon in the cut plane's half-plane coordinates
+    region: Any             # MultiPolygon in the cut plane's half-plane coordinates
     frame: np.ndarray       # (4, 4) mid (cut) plane frame
     top: np.ndarray         # (4, 4) top plane frame
 
@@ -237,6 +238,7 @@ def _layers_for(alpha: float, r_min: float, r_max: float, h_min: float, h_max: f
         e = max(h_min - r_min * alpha / n, r_max * alpha / n - h_max, 0.0)
         if best is None or (e, n) < best[::-1]:
             best = (n, e)
+    assert best is not None   # the loop runs at least once
     return best
 
 

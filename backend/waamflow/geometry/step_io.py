@@ -396,7 +396,8 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
 
     if not cad.faces:
         return None, "no faces"
-    tilt, where = 0.0, None
+    tilt = 0.0
+    where: tuple[float, float, float] | None = None   # set with tilt: read only when tilt > 0
     for face, _ in cad.faces:
         umin, umax, vmin, vmax = BRepTools.UVBounds_s(face)
         props = BRepLProp_SLProps(BRepAdaptor_Surface(face), 1, 1e-9)
@@ -409,6 +410,7 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
         if tilt > LEAN_MAX:                        # clearly not a wall: stop before the edges
             break
     if tilt > LEAN_MAX:
+        assert where is not None
         return None, f"a face is not vertical (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)"
     edges = _face_edges(cad.faces)              # free curves beside the walls are not walls
     pts = [edge_points(e, tol) for e in edges]
@@ -418,6 +420,7 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
     if not height > Z_TOL:
         return None, "the faces have no height"
     if tilt > max(VERTICAL_SIN, tol / height):
+        assert where is not None
         return None, (f"a face leans {tilt * height:.3g} mm over its {height:.6g} mm height, more than the "
                       f"tolerance {tol:g} mm (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)")
     ztol = [max(Z_TOL, BRep_Tool.Tolerance_s(e)) for e in edges]

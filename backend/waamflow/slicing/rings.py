@@ -34,7 +34,7 @@ def _cyclic_neighbours(sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     return offs, prev, nxt
 
 
-def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _clean(loops: Loops) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Drop repeated points, points on straight runs, and loops under TOL.min_area.
 
     Returns (coords (n, 2), loop id per point (n,), plane per kept loop, |area| per kept loop,

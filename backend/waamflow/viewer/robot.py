@@ -92,7 +92,10 @@ def cell_setup(params: dict[str, Any], profile: dict[str, Any]) -> dict[str, Any
     from ..trajectory.kinematics import CellFrames
 
     d = CellFrames()
-    pick = lambda key, default: params.get(key) if params.get(key) not in (None, "") else profile.get(key, default)  # noqa: E731
+
+    def pick(key: str, default: Any) -> Any:
+        return params.get(key) if params.get(key) not in (None, "") else profile.get(key, default)
+
     return {
         "description": pick("robot_description", None) or profile.get("description") or "",
         "tcp_offset_mm": tuple(pick("tcp_offset_mm", (0.0, 0.0, 400.0))),
