@@ -27,5 +27,17 @@ export default tseslint.config(
     files: ["e2e/**/*.mjs", "scripts/**/*.mjs", "*.config.{js,ts}"],
     languageOptions: { globals: { ...globals.node, ...globals.browser } },
   },
+  {
+    // issue #27: no file over 600 lines; the editor's state hooks and layout: no function over 100
+    // (GraphEditor, MaskCanvas, MaskView, ParamsEditor and Viewer3D are each still one component
+    // function of 200-400 lines: not yet held to the second rule)
+    files: ["src/**/*.{ts,tsx}"],
+    ignores: ["src/api/schema.d.ts"],
+    rules: { "max-lines": ["error", { max: 600 }] },
+  },
+  {
+    files: ["src/App.tsx", "src/app/**", "src/document/**", "src/run/**"],
+    rules: { "max-lines-per-function": ["error", { max: 100, skipBlankLines: true, skipComments: true }] },
+  },
   { linterOptions: { reportUnusedDisableDirectives: "error" } },
 );
