@@ -19,9 +19,9 @@ const detail: BuildDetail = {
   log: [
     { time: "2026-11-25T10:00:00Z", who: "alice", action: "start", layers: 4 },
     { time: "2026-11-25T10:00:01Z", who: "alice", action: "program", layer: 0, adapted: false, files: ["post.gcode"] },
-    { time: "2026-11-25T10:03:00Z", who: "cell", action: "scan", layer: 0, coverage: 0.99, mean_error_mm: -0.3, rms_error_mm: 0.31, max_error_mm: 0.42 },
+    { time: "2026-11-25T10:03:00Z", who: "cell", action: "scan", layer: 0, coverage: 0.99, mean_error_mm: -0.3, rms_error_mm: 0.31, max_error_mm: 0.42, scan_file: "scan_00000.bin", scan_bytes: 40960, scan_sha256: "0123456789abcdef" },
     { time: "2026-11-25T10:03:01Z", who: "cell", action: "scan_refused", layer: 3, reason: "expected layer 1" },
-    { time: "2026-11-25T10:09:02Z", who: "cell", action: "program", layer: 2, adapted: true, speed_factor_min: 0.9, speed_factor_max: 1.1, dwell_s: 174.57, interpass_measured_c: 350, files: ["post.gcode"] },
+    { time: "2026-11-25T10:09:02Z", who: "cell", action: "program", layer: 2, adapted: true, speed_factor_min: 0.9, speed_factor_max: 1.1, dwell_s: 174.57, interpass_measured_c: 350, files: ["post.gcode"], sha256: { "post.gcode": "fedcba9876543210" } },
   ],
 };
 
@@ -57,9 +57,9 @@ describe("builds page data", () => {
   it("timeline: seconds since the start, who, and what each step did", () => {
     const t = timeline(detail);
     expect(t.map((e) => e.t)).toEqual([0, 1, 180, 181, 542]);
-    expect(t[2].text).toBe("scan of layer 0 measured: mean -0.300 mm, max 0.420 mm, coverage 99.0 %");
+    expect(t[2].text).toBe("scan of layer 0 measured: mean -0.300 mm, max 0.420 mm, coverage 99.0 % — scan_00000.bin, 40.0 kB, sha256 0123456789abcdef…");
     expect(t[3].text).toBe("scan of layer 3 refused: expected layer 1");
-    expect(t[4].text).toBe("program of layer 2 issued (adapted), speed ×0.90…×1.10, wait 174.6 s (part 350 °C) (post.gcode)");
+    expect(t[4].text).toBe("program of layer 2 issued (adapted), speed ×0.90…×1.10, wait 174.6 s (part 350 °C) (post.gcode sha256 fedcba9876543210…)");
     expect(t[4].who).toBe("cell");
   });
 

@@ -106,6 +106,13 @@ def test_interpass_temperature_over_rest_surface_and_3d(settings):
         assert det["layers"][0]["interpass_measured_c"] == 400
         assert det["programs"][-1] == {**det["programs"][-1], "layer": 1, "dwell_s": d["dwell_s"]}
         assert det["log"][-1]["action"] == "program" and det["log"][-1]["dwell_s"] == d["dwell_s"]
+        # which scan and which program: the bytes as received and the text handed out, by SHA-256
+        import hashlib
+
+        scan_log = next(e for e in det["log"] if e["action"] == "scan")
+        assert scan_log["scan_file"] == "scan_00000.bin" and scan_log["scan_bytes"] == len(body)
+        assert scan_log["scan_sha256"] == hashlib.sha256(body).hexdigest()[:16]
+        assert det["log"][-1]["sha256"] == {"post.gcode": hashlib.sha256(nxt["files"]["post.gcode"].encode()).hexdigest()[:16]}
         sf = c.get(f"/api/builds/{bid}/surface").json()
         assert [x["layer"] for x in sf["layers"]] == [0]
         lay = sf["layers"][0]

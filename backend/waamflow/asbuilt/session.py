@@ -8,7 +8,9 @@ so a server restart resumes the build where it stood (the per-sample arrays of e
 layer in `layer_<k>.npz`, written once): the plan itself is not stored but
 re-planned from the recipe (deterministic, and cached on content signatures).
 
-Log: every step (start, scan received, program issued, refusals) with who, when (UTC) and what.
+Log: every step (start, scan received, program issued, refusals) with who, when (UTC) and what:
+which scan (the file kept, its size and SHA-256 prefix) and which program (file names, SHA-256
+prefixes of their text).
 
 Interpass dwell (`dwell`): a scan may come with the part temperature measured after its layer;
 the next layer's program then starts with a wait until the lumped heat model says the part is at
@@ -23,6 +25,7 @@ Units: mm, mm/s.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
@@ -185,7 +188,8 @@ class BuildSession:
                            dwell_why=dwell["note"] if dwell else "") if self.post is not None else {})
         entry = {"layer": self._track(k).layer, "adapted": why.get("adapted", False),
                  **{x: why[x] for x in ("speed_factor_min", "speed_factor_max", "clamped_slow", "clamped_fast") if x in why},
-                 "files": sorted(files)}
+                 "files": sorted(files),
+                 "sha256": {n: hashlib.sha256(t.encode()).hexdigest()[:16] for n, t in sorted(files.items())}}
         if dwell is not None:
             entry.update(interpass_measured_c=dwell["measured_c"], interpass_target_c=dwell["target_c"],
                          dwell_s=dwell["dwell_s"], dwell_clamped=dwell["clamped"])
@@ -247,7 +251,9 @@ class BuildSession:
         self.state["next_layer"] = k + 1
         if self.done:
             self.state["status"] = "complete"
-        self._log(who, "scan", **{k2: v2 for k2, v2 in row.items() if k2 != "registration"})
+        scan_file = ({"scan_file": f"scan_{tr.layer:05d}.bin", "scan_bytes": len(raw),
+                      "scan_sha256": hashlib.sha256(raw).hexdigest()[:16]} if raw is not None else {"scan_file": scan.source})
+        self._log(who, "scan", **{k2: v2 for k2, v2 in row.items() if k2 != "registration"}, **scan_file)
         self.save()
         return row
 

@@ -134,11 +134,14 @@ export function timeline(d: BuildDetail): TimelineEvent[] {
     const a = String(e.action);
     let text: string;
     if (a === "start") text = `build started: ${e.layers} layers planned`;
-    else if (a === "scan")
-      text = `scan of layer ${layer} measured: mean ${fmt(num(e.mean_error_mm))} mm, max ${fmt(num(e.max_error_mm))} mm, coverage ${pct(num(e.coverage))}`;
+    else if (a === "scan") {
+      const file = e.scan_file ? ` — ${e.scan_file}${num(e.scan_bytes) !== null ? `, ${kB(e.scan_bytes as number)}` : ""}${e.scan_sha256 ? `, sha256 ${e.scan_sha256}…` : ""}` : "";
+      text = `scan of layer ${layer} measured: mean ${fmt(num(e.mean_error_mm))} mm, max ${fmt(num(e.max_error_mm))} mm, coverage ${pct(num(e.coverage))}${file}`;
+    }
     else if (a === "scan_refused") text = `scan of layer ${layer} refused: ${e.reason}`;
     else if (a === "program") {
-      const files = Array.isArray(e.files) && e.files.length ? ` (${(e.files as string[]).join(", ")})` : "";
+      const sha = (e.sha256 ?? {}) as Record<string, string>;
+      const files = Array.isArray(e.files) && e.files.length ? ` (${(e.files as string[]).map((f) => (sha[f] ? `${f} sha256 ${sha[f]}…` : f)).join(", ")})` : "";
       const sp = num(e.speed_factor_min) !== null ? `, speed ×${fmt(num(e.speed_factor_min), 2)}…×${fmt(num(e.speed_factor_max), 2)}` : "";
       const dw = num(e.dwell_s) !== null ? `, wait ${fmt(num(e.dwell_s), 1)} s (part ${e.interpass_measured_c} °C)` : "";
       text = `program of layer ${layer} issued${e.adapted ? " (adapted)" : " (as planned)"}${sp}${dw}${files}`;
@@ -147,6 +150,8 @@ export function timeline(d: BuildDetail): TimelineEvent[] {
     return { time: String(e.time), t: Number.isFinite(t) && Number.isFinite(t0) ? (t - t0) / 1000 : 0, who: e.who ? String(e.who) : "—", action: a, layer, text };
   });
 }
+
+const kB = (b: number) => (b >= 1024 ? `${(b / 1024).toFixed(1)} kB` : `${b} B`);
 
 export function fmt(v: number | null | undefined, digits = 3): string {
   return v === null || v === undefined || !Number.isFinite(v) ? "—" : v.toFixed(digits);
