@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import platform
 import sys
 import time
@@ -34,6 +35,7 @@ def main() -> int:
               f"{', '.join(p.stem for p in modules)}", file=sys.stderr)
         return 2
     results, failures = [], []
+    load = os.getloadavg()[0]   # other work on the machine slows every figure: recorded with them
     for path in modules:
         if only and path.stem not in only:
             continue
@@ -65,7 +67,9 @@ def main() -> int:
                    ] + results
         failures = [f for f in old.get("failures", []) if f.get("module") not in only] + failures
     doc = {"results": results, "failures": failures,
-           "machine": {"python": platform.python_version(), "platform": platform.platform()}}
+           "machine": {"python": platform.python_version(), "platform": platform.platform(), "cpus": os.cpu_count(),
+                       "load_average_1min_at_start": round(load, 2),
+                       "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}}
     (out / "results.json").write_text(json.dumps(doc, indent=2))
     print(f"wrote {out / 'results.json'}")
     return 1 if failures else 0

@@ -244,7 +244,9 @@ def bench_page(results: Path) -> str:
     out = [GENERATED, "# Benchmarks\n",
            "`make bench` runs the modules `bench/bench_*.py` (collected by `bench/run.py`) and writes "
            "`out/bench/results.json`; this page is its table. A ratio is ours ÷ the peer's, measured side "
-           "by side in the same run.\n"]
+           "by side in the same run, with the same warm-up, repeats and statistic for both (each entry's notes "
+           "say which). Wall times move with the machine's other work: the machine line gives its load "
+           "average when the run started.\n"]
     if not results.is_file():
         out.append("!!! note \"No results on this machine\"\n    `out/bench/results.json` is missing: run "
                    "`make bench`, then `make docs`.\n")
