@@ -15,7 +15,7 @@ import contextlib
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 import numpy as np
 
@@ -202,8 +202,9 @@ class ViewSession:
                         self._node_frames[node] = self.scene.add_frame(f"/graph/{slug(node)}", show_axes=False)
                     part = self.parts[(node, port)] = PART_TYPES[kind](self.scene, node, port, self.svc.max_segments)
                 if kind == "simulation":
-                    part.graph_frame = self._graph_frame
-                    part.node_params = dict(next((nd.get("params") or {} for nd in nodes
+                    sim = cast(SimulationPart, part)
+                    sim.graph_frame = self._graph_frame
+                    sim.node_params = dict(next((nd.get("params") or {} for nd in nodes
                                                   if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
                 n = part.sync(value, self.view)
                 if n:
@@ -261,7 +262,7 @@ class ViewSession:
             self._apply()
             if "time_s" in fields:
                 for p in self.parts.values():
-                    if p.kind == "simulation":
+                    if isinstance(p, SimulationPart):
                         p.set_time(self.view.time_s)
         if fit:
             self.fit("cell" if fit == "cell" else "part")
@@ -294,13 +295,13 @@ class ViewSession:
         duration = 0.0
         has_cell = False
         for part in self.parts.values():
-            if part.kind == "toolpath":
+            if isinstance(part, ToolpathPart):
                 legend.append({"node": part.node, "kind": "toolpath", "mode": self.view.path_color,
                                "zones": [{"zone": z, "color": h} for z, h in part.zone_legend()],
                                "ranges": {"speed": _range(part.speed_range, "mm/s", getattr(part, "speed_full", None))},
                                "arc": {"on": C.rgb_to_hex(C.ARC_ON_RGB), "off": C.rgb_to_hex(C.ARC_OFF_RGB)},
                                "travel": C.rgb_to_hex(C.TRAVEL_RGB)})
-            elif part.kind == "simulation":
+            elif isinstance(part, SimulationPart):
                 units = {"deviation": "mm", "speed": "mm/s", "deposit": "mm³/mm"}
                 full = getattr(part, "full_ranges", {})
                 legend.append({"node": part.node, "kind": "simulation", "mode": self.view.sim_color,
@@ -315,7 +316,7 @@ class ViewSession:
         return {
             "view_id": self.id, "attached": self.client is not None,
             "key": self.key, "wanted": self.wanted, "published": list(svc.scenes),
-            "run": svc.scene_runs.get(self.key) if self.parts else None,
+            "run": svc.scene_runs.get(self.key) if self.parts and self.key is not None else None,
             # the shown key's latest finished run being rebuilt (after a restart): {key, run, since}
             "loading": dict(svc._rebuilding[shown]) if shown in svc._rebuilding else None,
             "rebuild_error": dict(svc._rebuild_failed[shown]) if shown in svc._rebuild_failed else None,
@@ -356,7 +357,7 @@ class ViewSession:
         b = self.part_bounds()
         if b is None:
             return None
-        sims = [p for p in self.parts.values() if p.kind == "simulation"]
+        sims = [p for p in self.parts.values() if isinstance(p, SimulationPart)]
         corners = np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
         for p in sims:
             pose = p.work_pose(self.view.time_s)
@@ -398,17 +399,17 @@ class ViewSession:
         """Programmed speed for a picked trace sample, actual speed for a picked path point."""
         out: dict[str, Any] = {}
         layer = best.info.get("layer")
-        if part.kind == "toolpath":
+        if isinstance(part, ToolpathPart):
             for p in self.parts.values():
-                if p.kind == "simulation":
+                if isinstance(p, SimulationPart):
                     s = p.nearest_sample(best.point, layer)
                     if s:
                         out["actual_speed_mm_s"] = s.get("actual_speed_mm_s")
                         out["deviation_mm"] = s.get("deviation_mm")
                     break
-        elif part.kind == "simulation":
+        elif isinstance(part, SimulationPart):
             for p in self.parts.values():
-                if p.kind == "toolpath":
+                if isinstance(p, ToolpathPart):
                     q = p.nearest_point(best.point, layer)
                     if q is not None:
                         out["section"] = q.get("section", best.info.get("section"))
@@ -462,7 +463,12 @@ class ViewSession:
         eye = center + dist * self._view_direction(center)
         self.camera = (tuple(float(x) for x in eye), tuple(float(x) for x in center), dist * 1e-3, dist * 20)
         self._set_camera(*self.camera)
-        floor = float(self.world_bounds("part")[0][2]) if what == "cell" else float(b[0][2])
+        if what == "cell":
+            part_b = self.world_bounds("part")
+            assert part_b is not None   # both are None without part bounds, and b is not
+            floor = float(part_b[0][2])
+        else:
+            floor = float(b[0][2])
         grid_size = float(np.ceil(radius * 2.4 / 10.0) * 10.0)
         self.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
                             section_size=grid_size / 4, position=(float(center[0]), float(center[1]), floor))
@@ -475,7 +481,7 @@ class ViewSession:
         el = np.radians(CAMERA_ELEVATION_DEG)
         up = np.array([0.0, 0.0, 1.0])
         for p in self.parts.values():
-            if p.kind == "simulation":
+            if isinstance(p, SimulationPart):
                 pose = p.work_pose(self.view.time_s)
                 if pose is not None:
                     up = pose[0][:, 2] / np.linalg.norm(pose[0][:, 2])
@@ -491,7 +497,7 @@ class ViewSession:
         """Camera azimuth (rad): 40° off the direction robot base → part, so the part is seen
         in front of the arm; without a cell the classic front-left-above view."""
         for p in self.parts.values():
-            if p.kind == "simulation":
+            if isinstance(p, SimulationPart):
                 base = p.robot_base()
                 if base is not None:
                     d = center[:2] - base[:2]
@@ -579,7 +585,7 @@ class ViewSession:
                     self._node_boxes[n] = box
         for n, box in self._node_boxes.items():
             box.value = n not in self.view.hidden
-        sims = [p for p in self.parts.values() if p.kind == "simulation"]
+        sims = [p for p in self.parts.values() if isinstance(p, SimulationPart)]
         duration = max([p.duration() for p in sims], default=0.0)
         g["time"].max = max(duration, 0.01)
         g["time"].step = max(duration / 1000.0, 0.001)
@@ -603,17 +609,17 @@ class ViewSession:
         rows = []
         for p in self.parts.values():
             head = f"<b>{escape(p.node)}</b> "
-            if p.kind == "toolpath":
+            if isinstance(p, ToolpathPart):
                 lo, hi = p.speed_range
                 zones = "".join(swatch(h, z) for z, h in p.zone_legend()) or " not zoned (coloured by section)"
                 rows.append(head + f"zones{zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
-            elif p.kind == "simulation":
+            elif isinstance(p, SimulationPart):
                 ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
                                    if k in p.ranges for lo, hi in [p.ranges[k]])
                 robot = (f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
                          if p.robot is not None else escape(p.robot_note))
                 rows.append(head + ranges + (f"<br>{robot}" if robot else ""))
-            elif p.kind == "features":
+            elif isinstance(p, FeaturesPart):
                 kinds = sorted(set(p.kinds))
                 rows.append(head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds))
         return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
@@ -644,7 +650,7 @@ class ViewSession:
     def _on_time(self) -> None:
         self.view.time_s = float(self._gui["time"].value)
         for p in self.parts.values():
-            if p.kind == "simulation":
+            if isinstance(p, SimulationPart):
                 info = p.set_time(self.view.time_s)
                 if info:
                     self._gui["pick"].content = "**Torch at t**  \n" + _table(info)
