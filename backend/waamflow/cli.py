@@ -173,7 +173,7 @@ def cmd_serve(args) -> int:
     given = {"data_dir": args.data, "host": args.host, "port": args.port, "viewer_port": args.viewer_port,
              "graphs_dir": args.graphs, "layer_workers": args.layer_workers, "scheduler": args.scheduler,
              "token_file": args.token_file, "max_connections": args.max_connections,
-             "header_timeout_s": args.header_timeout}
+             "header_timeout_s": args.header_timeout, "run_memory_mb": args.run_memory_mb}
     try:
         settings = Settings(**{k: v for k, v in given.items() if v is not None})
     except ValidationError as e:
@@ -276,8 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--data", default=None, help="folder for the database and run files (default: WAAMFLOW_DATA_DIR, else ./data)")
     s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: WAAMFLOW_GRAPHS_DIR, else ./graphs)")
     s.add_argument("--viewer-port", type=int, default=None,
-                   help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); with a "
-                        "token it listens on 127.0.0.1 and is served under /viewer/")
+                   help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); it "
+                        "listens on 127.0.0.1 only and browsers reach it through this server's /viewer/ (same token)")
     s.add_argument("--workers", "--layer-workers", dest="layer_workers", type=int, default=None, metavar="N",
                    help="processes per run for the layers of layer nodes, as `run --workers` (default: every core; "
                         "1 = serial)")
@@ -290,6 +290,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="open connections at once; more are closed at once (default: WAAMFLOW_MAX_CONNECTIONS, else 1000)")
     s.add_argument("--header-timeout", type=float, default=None, metavar="S",
                    help="seconds a connection has to send its request head (default: WAAMFLOW_HEADER_TIMEOUT_S, else 10)")
+    s.add_argument("--run-memory-mb", type=float, default=None, metavar="MB",
+                   help="memory of one run: each run executes in a process of its own that may use this much "
+                        "beyond its start, and so may each of its layer workers; a run that needs more fails "
+                        "(default: WAAMFLOW_RUN_MEMORY_MB, else half the machine's memory; 0 = runs in the server "
+                        "process, unlimited)")
     s.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")

@@ -18,6 +18,14 @@ def _default_graphs() -> Path | None:
     return None
 
 
+def _default_run_memory_mb() -> float:
+    """Half of the machine's memory, MB (0 where it is unknown: no limit)."""
+    try:
+        return float(round(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 2**20 / 2))
+    except (ValueError, OSError, AttributeError):
+        return 0.0
+
+
 def _default_static() -> Path | None:
     for p in (REPO_ROOT / "frontend" / "dist", Path(__file__).resolve().parent / "static"):
         if (p / "index.html").is_file():
@@ -75,6 +83,12 @@ class Settings(BaseSettings):
     max_artifact_mb: float = Field(500.0, ge=0, description="size of one run's artifacts, MB")
     max_memory_mb: float = Field(8192.0, ge=0, description="resident memory of the server process while runs are going, MB "
                                                         "(0 = unlimited); over it the largest running run fails")
+    run_memory_mb: float = Field(default_factory=_default_run_memory_mb, ge=0,
+                                 description="memory of one run, MB (default: half the machine's): each run executes "
+                                             "in a process of its own with this much address space beyond what it "
+                                             "starts with (RLIMIT_AS), and so does each of its layer workers; a run "
+                                             "that needs more fails naming the limit. 0 = runs execute in the server "
+                                             "process, unlimited (Linux only; elsewhere 0)")
     max_queued_runs: int = Field(16, ge=1, description="runs waiting or running; one more gets 429 + Retry-After")
     # estimates checked before a run or preview starts (422 with the estimate); 0 = no limit
     max_triangles: int = Field(20_000_000, ge=0, description="triangles of a run's meshes (STL header, OBJ faces)")

@@ -1,9 +1,21 @@
-"""Background run execution: a thread pool sized to the machine, cancel flags, live event logs."""
+"""Background run execution: a thread pool sized to the machine, cancel flags, live event logs.
+
+Each run executes in a process of its own (forked from the server by the run's thread) under the
+run memory limit (`run_memory_mb`, RLIMIT_AS): the process may grow its address space by that
+budget beyond what it started with. Its layer workers come from a fork server of its own, so
+they inherit the same limit — each process of the run (the run and each worker) has the whole
+budget; a run with W layer workers can hold up to (1 + W) × budget. Events and the result come
+back over a pipe; cancel is a shared flag, then SIGKILL when the run does not stop in time (its
+fork server, and with it every worker, ends with it). With `run_memory_mb` 0 runs execute in the
+server's process, as before."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import multiprocessing as mp
 import os
+import signal
 import threading
 import time
 import uuid
@@ -39,13 +51,15 @@ class Limits:
     dxf_entities: int = 0
     uncompressed_bytes: int = 0
     preview_s: float = 0.0
+    run_memory_bytes: int = 0   # address space each process of a run may add (0: runs in the server process)
 
     @classmethod
     def from_settings(cls, s) -> "Limits":
         return cls(wall_s=s.run_timeout_s, layers=s.max_layers, points=s.max_points,
                    artifact_bytes=int(s.max_artifact_mb * 1024 * 1024), memory_bytes=int(s.max_memory_mb * 1024 * 1024),
                    queue=s.max_queued_runs, triangles=s.max_triangles, dxf_entities=s.max_dxf_entities,
-                   uncompressed_bytes=int(s.max_uncompressed_mb * 2**20), preview_s=s.preview_timeout_s)
+                   uncompressed_bytes=int(s.max_uncompressed_mb * 2**20), preview_s=s.preview_timeout_s,
+                   run_memory_bytes=int(s.run_memory_mb * 2**20) if RUN_PROCESSES else 0)
 
     def check_estimate(self, graph, resolver) -> dict:
         """Before a run or preview: its estimate (layers, triangles, DXF entities, 3MF size) against
@@ -93,6 +107,103 @@ def rss_bytes() -> int:
                 return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
         except (OSError, ValueError, IndexError):
             return 0
+
+
+def _fork_available() -> bool:
+    try:
+        import resource  # noqa: F401
+
+        return "fork" in mp.get_all_start_methods() and hasattr(resource, "RLIMIT_AS")
+    except ImportError:
+        return False
+
+
+RUN_PROCESSES = _fork_available()   # runs in processes of their own under RLIMIT_AS (Linux)
+
+
+def memory_limit_message(budget: int, err: dict | None = None) -> str:
+    where = ""
+    if err and err.get("node"):
+        where = f" (node {err['node']!r}" + (f", layer {err['layer']}" if err.get("layer") is not None else "") + ")"
+    return (f"run used more than {budget / 2**20:.0f} MB of memory{where}, the limit of each of its processes "
+            "(run_memory_mb): raise --run-memory-mb / WAAMFLOW_RUN_MEMORY_MB, or make the work smaller (fewer "
+            "layers, a coarser mesh)")
+
+
+def _is_memory_error(err: BaseException) -> bool:
+    """A MemoryError, or a node error made of one (in the run or reported back by a layer worker)."""
+    seen = 0
+    e: BaseException | None = err
+    while e is not None and seen < 8:
+        if isinstance(e, MemoryError) or "MemoryError" in str(e):
+            return True
+        e = e.__cause__ or e.__context__
+        seen += 1
+    return False
+
+
+def _vm_bytes() -> int:
+    """The process's address space now (VmSize), bytes."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def _detach_from_server() -> None:
+    """In a run's process, right after the fork: die with the server (kill -9 included), leave
+    Ctrl-C and SIGTERM to it, and start a fork server of its own for the layer workers (the
+    server's would fork them outside this process's memory limit)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    from multiprocessing import forkserver
+
+    fs = forkserver._forkserver   # the module's functions are bound to this instance: reset it in place
+    fd = getattr(fs, "_forkserver_alive_fd", None)
+    if fd is not None:
+        try:
+            os.close(fd)   # the server's fork server must not wait for this process to end
+        except OSError:
+            pass
+    fs._forkserver_address = None
+    fs._forkserver_alive_fd = None
+    fs._forkserver_pid = None
+    fs._inherited_fds = None
+    fs._lock = threading.Lock()
+
+
+def _kill_group(proc) -> None:
+    """SIGKILL to a run's process group (the run, its fork server, its layer workers)."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError, OSError):
+        try:
+            proc.kill()
+        except (OSError, ValueError, AttributeError):
+            pass
+
+
+def _child_cache(cache):
+    """The run process's cache: a fresh memory tier (the server's may be locked by another thread at
+    the fork) over its own connection to the same disk cache."""
+    from ..engine.cache import MemoryCache, SqliteCache, TieredCache
+
+    if isinstance(cache, TieredCache):
+        disk = SqliteCache(cache.disk.path, max_bytes=cache.disk.max_bytes) if cache.disk is not None else None
+        return TieredCache(MemoryCache(cache.memory.max_entries), disk)
+    return MemoryCache() if cache is not None else None
 
 
 PREVIEW_WAIT_S = 10.0  # a preview waits this long for its turn before 429
@@ -232,16 +343,21 @@ class RunManager:
         watchdog = threading.Thread(target=self._watch, args=(live,), name=f"waamflow-limits-{run_id}", daemon=True)
         watchdog.start()
 
-        def on_event(ev: Event) -> None:
-            if lim.layers and ev.layer is not None and ev.layer >= lim.layers:
+        def on_dict(d: dict) -> None:
+            layer = d.get("layer")
+            if lim.layers and layer is not None and layer >= lim.layers:
                 live.trip(f"more than {lim.layers} layers (limit max_layers)")
-            d = ev.to_dict()
             live.add(d)
             now = time.monotonic()
             if now - last_progress[0] > 0.5:
                 last_progress[0] = now
-                self.store.update_run(run_id, progress=round(ev.progress, 4))
+                self.store.update_run(run_id, progress=round(float(d.get("progress") or 0.0), 4))
 
+        def on_event(ev: Event) -> None:
+            on_dict(ev.to_dict())
+
+        if lim.run_memory_bytes:
+            return self._run_process(run_id, graph_name, recipe, graph, live, params_xml, accept_preflight, on_dict)
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
@@ -270,6 +386,90 @@ class RunManager:
         except Exception as exc:  # pragma: no cover - last resort: never leave a run 'running'
             log.exception("run %s crashed", run_id)
             self._finish(run_id, live, "failed", error={"kind": "internal", "message": repr(exc), "text": repr(exc)})
+
+    def _run_process(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
+                     params_xml: str | None, accept_preflight: bool, on_dict: Callable[[dict], None]) -> None:
+        """The run in a process of its own under the memory limit (see the module's doc)."""
+        budget = self.limits.run_memory_bytes
+        try:
+            resolver = self.resolver_for(graph_name, recipe, params_xml)
+        except WaamflowError as err:
+            self._finish(run_id, live, "failed", error=err.to_dict())
+            return
+        ctx = mp.get_context("fork")
+        reader, writer = ctx.Pipe(duplex=False)
+        stop = ctx.Event()
+        proc = ctx.Process(target=_run_child, name=f"waamflow-run-{run_id}",
+                           args=(self, writer, stop, run_id, recipe, graph, resolver, accept_preflight))
+        outcome = None
+        try:
+            proc.start()
+            writer.close()
+            try:   # the run's process group: the run, its fork server and its workers end together
+                os.setpgid(proc.pid, proc.pid)
+            except OSError:
+                pass   # it set it itself already (or has ended)
+            while outcome is None:
+                if live.cancel.is_set():
+                    stop.set()
+                if live.finished:   # the watchdog ended a run that did not stop: it is killed below
+                    break
+                if reader.poll(0.1):
+                    try:
+                        msg = reader.recv()
+                    except (EOFError, OSError):
+                        break
+                    if msg[0] == "event":
+                        on_dict(msg[1])
+                    else:
+                        outcome = msg
+                elif not proc.is_alive() and not reader.poll(0):
+                    break
+        except Exception as exc:  # pragma: no cover - never leave a run 'running'
+            log.exception("run %s: its process failed", run_id)
+            outcome = ("failed", {"kind": "internal", "message": repr(exc), "text": repr(exc)})
+        finally:
+            reader.close()
+            if outcome is not None:
+                proc.join(timeout=0.2)   # it has sent everything: a moment to end by itself
+            _kill_group(proc)   # whatever is left of the run's tree (its workers included) ends now
+            proc.join(timeout=5.0)
+        if outcome is None:
+            if live.finished:
+                return
+            if live.cancel.is_set() and live.limit is None:
+                why = "cancelled"
+                self._finish(run_id, live, "cancelled", error={"kind": "cancelled", "message": why, "text": why})
+                return
+            code = proc.exitcode
+            how = f"signal {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit code {code}"
+            msg = (f"the run's process ended without a result ({how}); it may have used more than "
+                   f"{budget / 2**20:.0f} MB, its memory limit (run_memory_mb): raise --run-memory-mb / "
+                   "WAAMFLOW_RUN_MEMORY_MB")
+            if live.limit is not None:
+                msg = f"stopped: {live.limit}"
+            self._finish(run_id, live, "failed", error=LimitError(msg).to_dict())
+            return
+        kind = outcome[0]
+        if kind == "done":
+            summary, result = outcome[1], outcome[2]
+            if self.on_done is not None:
+                try:
+                    self.on_done(run_id, graph_name, recipe, result)
+                except Exception:  # the viewer or params store must not fail a finished run
+                    log.exception("post-run hook failed for run %s", run_id)
+            self._finish(run_id, live, "done", summary=summary)
+        elif kind == "cancelled":
+            if live.limit is not None:
+                self._finish(run_id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
+            else:
+                self._finish(run_id, live, "cancelled", error=outcome[1])
+        elif kind == "memory":
+            where = outcome[1] or {}
+            err = LimitError(memory_limit_message(budget, where), node=where.get("node"), layer=where.get("layer"))
+            self._finish(run_id, live, "failed", error=err.to_dict())
+        else:
+            self._finish(run_id, live, "failed", error=outcome[1])
 
     def _watch(self, live: LiveRun) -> None:
         """Wall-time and memory limits of one run, checked twice a second until it ends."""
@@ -420,3 +620,46 @@ class PreviewJob:
                 m.previews -= 1
                 if computing:
                     m.computing -= 1
+
+
+def _run_child(manager: RunManager, conn, stop, run_id: str, recipe: Recipe, graph, resolver,
+               accept_preflight: bool) -> None:
+    """A run's process: under the memory limit, execute, check, write the run folder, send the
+    summary and the result (without artifacts: they are in the folder) — or why it failed."""
+    import resource
+
+    try:
+        os.setpgid(0, 0)   # a process group of its own (see _kill_group); the server sets it too
+    except OSError:
+        pass
+    _detach_from_server()
+    lim = manager.limits
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (_vm_bytes() + lim.run_memory_bytes, resource.RLIM_INFINITY))
+    except (ValueError, OSError) as e:
+        log.warning("run %s: memory limit not set (%s)", run_id, e)
+    try:
+        cache = _child_cache(manager.cache)
+        result = execute(graph, resolver=resolver, cache=cache, on_event=lambda ev: conn.send(("event", ev.to_dict())),
+                         cancel=stop, workers=manager.layer_workers, scheduler=manager.scheduler, max_layers=lim.layers)
+        manager._check_result(result)
+        summary = result.summary(recipe.name)
+        summary["inputs"] = recipe.inputs
+        files, _failed = gate(result.preflight, result.artifacts, accept_preflight, "accept_preflight in POST /api/runs")
+        summary["preflight"] = result.preflight
+        summary["artifacts"] = sorted(files)
+        write_run_dir(manager.run_dir(run_id), files, summary)
+        conn.send(("done", summary, dataclasses.replace(result, artifacts={})))
+    except CancelledError as err:
+        conn.send(("cancelled", err.to_dict()))
+    except MemoryError:
+        conn.send(("memory", None))
+    except WaamflowError as err:
+        conn.send(("memory", err.to_dict()) if _is_memory_error(err) else ("failed", err.to_dict()))
+    except Exception as exc:
+        if _is_memory_error(exc):
+            conn.send(("memory", None))
+        else:
+            conn.send(("failed", {"kind": "internal", "message": repr(exc), "text": repr(exc)}))
+    finally:
+        conn.close()
