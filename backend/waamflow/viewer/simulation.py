@@ -52,7 +52,7 @@ class SimulationPart(Part):
         self.full_ranges: dict[str, tuple[float, float]] = {}   # the data's full extent
         self.mode = "deviation"
         self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
-        self.robot = None                       # RobotMotion, or None
+        self.robot: Any = None                  # RobotMotion (arm only) or CellMotion (cell), or None
         self.robot_note = ""                    # why there is no robot, if there is none
         self.robot_handles: dict[str, Any] = {}
         self.cell_handles: dict[str, tuple[Any, str | None]] = {}   # name → (handle, link: None still, "" flange…)
@@ -149,8 +149,8 @@ class SimulationPart(Part):
                     thickness_units="screen", position=(0.0, 0.0, 2 * self.lift), visible=view.show_programmed)
                 entry["programmed"] = len(segs)
             if index in chunks:
-                arc = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
-                segs, first = G.chunk_segments(self.points, chunks[index], budget, arc)
+                arc_flags = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
+                segs, first = G.chunk_segments(self.points, chunks[index], budget, arc_flags)
                 entry["sim"] = self.scene.add_line_segments(
                     f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
                     thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm + self.lift),
