@@ -364,7 +364,7 @@ def simulate_compensated(tp, profile, opt: SimOptions, kin: KinematicsOptions | 
                "deposit_per_mm_cv_after": cv1, "deposit_ratio_cv": deposit_ratio_cv(comp.after, target=comp.before.deposit["programmed_mm3_per_mm"]),
                "deposit_ratio_cv_before": deposit_ratio_cv(plain), "feed_ratio_min": comp.report["feed_ratio_min"],
                "feed_ratio_max": comp.report["feed_ratio_max"], "compensated_pieces": float(comp.report["pieces"])}
-    deposit = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
+    deposit: dict[str, Any] = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
                "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
                "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"],
                "bins": deposit_bin_series(plain, comp.after)}
@@ -407,17 +407,17 @@ def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path",
         s_all = np.asarray(deposit["s_mm"], float)
         arc = arc & (s_all >= s_range[0]) & (s_all <= s_range[1])
     s = np.asarray(deposit["s_mm"], float)[arc]
-    series = [("programmed", "#555555", np.asarray(deposit["programmed_mm3_per_mm"], float)[arc])]
+    curves = [("programmed", "#555555", np.asarray(deposit["programmed_mm3_per_mm"], float)[arc])]
     if "uncompensated_mm3_per_mm" in deposit:
-        series.append(("constant feed", "#d62828", np.asarray(deposit["uncompensated_mm3_per_mm"], float)[arc]))
-        series.append(("compensated", "#2a9d8f", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
+        curves.append(("constant feed", "#d62828", np.asarray(deposit["uncompensated_mm3_per_mm"], float)[arc]))
+        curves.append(("compensated", "#2a9d8f", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
     else:
-        series.append(("actual", "#d62828", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
+        curves.append(("actual", "#d62828", np.asarray(deposit["actual_mm3_per_mm"], float)[arc]))
     smax = max(float(s.max()) if len(s) else 1.0, 1.0)
     smin = float(s.min()) if len(s) and s_range is not None else 0.0
-    qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, q in series) * 1.15
+    qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, q in curves) * 1.15
     ch = Chart(64, 40, 800, 260, (smin, smax), (0.0, qmax), title=title,
                x_label="programmed path length (arc on), mm", y_label="deposit, mm³/mm")
-    for k, (label, color, q) in enumerate(series):
+    for k, (label, color, q) in enumerate(curves):
         ch.line(s, q, color, width=2.2 if k == 0 else 1.2, dash="6 3" if k == 0 else "", label=label)
     return figure(900, 350, [ch])
