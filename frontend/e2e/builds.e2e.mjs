@@ -55,7 +55,7 @@ test("builds: start from a finished mpp-cross run, post layer 0's scan, the page
   await page.waitForSelector("[data-testid=build][data-planned='8']", { timeout: 60_000 });
   assert.match(page.url(), /#\/builds\/[0-9a-f]{12}$/);
   const id = page.url().split("/").pop();
-  assert.equal(await page.locator(`[data-testid=builds-list] a[data-build="${id}"]`).count(), 1);
+  await page.waitForSelector(`[data-testid=builds-list] a[data-build="${id}"]`); // the list reloads after the start
   assert.equal(await page.textContent("[data-testid=build-done]"), "0 / 8 layers done");
   assert.equal(await page.getAttribute("[data-layer='0']", "data-state"), "next");
 

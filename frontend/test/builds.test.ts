@@ -5,7 +5,7 @@ import { chartSeries, deviationColor, layerRows, overlaySegments, parseRoute, pr
 // program issued with a 174.57 s dwell, layer 3 not yet.
 const detail: BuildDetail = {
   id: "abcdef012345", run: "0123456789ab", graph: "mpp-cross", status: "building", created: "2026-11-25T10:00:00Z",
-  layers_planned: 4, layers_scanned: 2, next_layer: 2,
+  layers_planned: 4, layers_scanned: 2, next_layer: 2, plan_layers: [0, 1, 2, 3], layers_added: 0, layers_dropped: 0, skipped: [],
   layers: [
     { layer: 0, coverage: 0.99, planned_top_mm: 1.5, asbuilt_top_mm: 1.2, mean_error_mm: -0.3, rms_error_mm: 0.31, max_error_mm: 0.42 },
     { layer: 1, coverage: 0.98, planned_top_mm: 3.0, asbuilt_top_mm: 2.9, mean_error_mm: -0.1, rms_error_mm: 0.12, max_error_mm: 0.2, interpass_measured_c: 350 },
@@ -61,6 +61,30 @@ describe("builds page data", () => {
     expect(t[3].text).toBe("scan of layer 3 refused: expected layer 1");
     expect(t[4].text).toBe("program of layer 2 issued (adapted), speed ×0.90…×1.10, wait 174.6 s (part 350 °C) (post.gcode sha256 fedcba9876543210…)");
     expect(t[4].who).toBe("cell");
+  });
+
+  it("a layer laid again has a row per pass, a layer left out is marked, the rest follows the plan", () => {
+    const d: BuildDetail = {
+      ...detail, layers_planned: 5, plan_layers: [0, 1, 2, 3, 4], next_layer: 3, layers_added: 1, layers_dropped: 1, skipped: [2], layers_scanned: 3,
+      layers: [
+        { layer: 0, pass: 1, mean_error_mm: -1.0, max_error_mm: 1.1, then: "layer 0 laid again (1.00 mm low, more than half the 1.5 mm layer)" },
+        { layer: 0, pass: 2, mean_error_mm: 0.0, max_error_mm: 0.1 },
+        { layer: 1, pass: 1, mean_error_mm: 0.8, max_error_mm: 0.9, then: "layer 2 left out (0.80 mm high, more than half the 1.5 mm layer)" },
+      ],
+      programs: [
+        { layer: 0, pass: 1, adapted: false }, { layer: 0, pass: 2, adapted: true, speed_factor_min: 0.75, speed_factor_max: 0.75 },
+        { layer: 1, pass: 1, adapted: true, speed_factor_min: 1.0, speed_factor_max: 1.1 }, { layer: 3, pass: 1, adapted: true, speed_factor_min: 0.6, speed_factor_max: 0.7 },
+      ],
+    };
+    const rows = layerRows(d);
+    expect(rows.map((r) => [r.layer, r.pass, r.state])).toEqual([[0, 1, "scanned"], [0, 2, "scanned"], [1, 1, "scanned"], [2, 1, "dropped"], [3, 1, "next"], [4, 1, "planned"]]);
+    expect(rows[1].speedMin).toBe(0.75);
+    expect(rows[1].addedError).toBeCloseTo(1.0, 9);
+    expect(rows[0].then).toMatch(/laid again/);
+    expect(rows[4].speedMin).toBe(0.6);
+    expect(progress(d)).toMatchObject({ done: 2, added: 1, dropped: 1, lastMean: 0.8 });
+    // the chart takes a repeated layer's last pass
+    expect(chartSeries(rows).errors[0].y).toEqual([0.0, 0.8]);
   });
 
   it("deviation colours: −limit blue, 0 white, +limit red, half way between", () => {

@@ -104,6 +104,7 @@ def test_interpass_temperature_over_rest_surface_and_3d(settings):
         assert f"G4 P{d['dwell_s']:g} ; interlayer dwell" in nxt["files"]["post.gcode"]
         det = c.get(f"/api/builds/{bid}").json()
         assert det["layers"][0]["interpass_measured_c"] == 400
+        assert det["plan_layers"] == list(range(8)) and (det["layers_added"], det["layers_dropped"], det["skipped"]) == (0, 0, [])
         assert det["programs"][-1] == {**det["programs"][-1], "layer": 1, "dwell_s": d["dwell_s"]}
         assert det["log"][-1]["action"] == "program" and det["log"][-1]["dwell_s"] == d["dwell_s"]
         # which scan and which program: the bytes as received and the text handed out, by SHA-256

@@ -42,6 +42,7 @@ from .scan import Scan, ScanError, measure, register
 from .track import Track, layer_track
 
 STATE = "state.json"
+MAX_REPEATS = 3         # a layer is laid at most this many extra times
 ASBUILT = "asbuilt.json"
 
 
@@ -112,7 +113,8 @@ class BuildSession:
         return {"build": self.state["meta"].get("id"), "run": self.state["meta"].get("run"),
                 "status": self.state["status"], "layers_planned": len(self.tracks),
                 "interpass": self.dwell_rule.to_dict(), "layers": self.state.get("layers", []),
-                "programs": self.state.get("programs", [])}
+                "programs": self.state.get("programs", []), "layers_added": int(self.state.get("added", 0)),
+                "layers_dropped": int(self.state.get("dropped", 0)), "skipped": list(self.state.get("skipped", []))}
 
     def refuse(self, who: str | None, layer: int, reason: str) -> None:
         """Log a scan refused before it reached the session (unreadable file) and save."""
@@ -141,31 +143,52 @@ class BuildSession:
     def _track(self, k: int) -> Track:
         return self.tracks[k]
 
-    def speeds_for(self, k: int) -> tuple[np.ndarray, dict]:
-        """Speeds for layer k from what was measured of layer k−1 (the plan's on layer 0 or when
-        layer k−1 was not scanned)."""
+    def passes(self, k: int) -> int:
+        """How many times layer k has been scanned (a repeated layer: more than once)."""
+        return int(self.state.get("scans", {}).get(str(k), 0))
+
+    def basis(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+        """What layer k is laid on: (top beneath each sample, the gain carried to it, the planned
+        bead height, what it lies on). A repeated layer lies on its own measured top; else on the
+        measured top of the last scanned layer below (the one before a dropped layer), the plan
+        where nothing was scanned. The planned bead height is always the plan's own (its crest
+        above the planned layer below)."""
         tr = self._track(k)
-        prev = self.record(k - 1) if k > 0 else None
-        if prev is None:
+        hp = planned_heights(tr, self._track(k - 1) if k > 0 else None)
+        own = self.record(k) if self.next_layer == k else None
+        if own is not None:                      # a repeat: on the layer's own scanned top
+            top = np.where(np.isfinite(own.measured_top), own.measured_top, tr.planned_height() - tr.thickness)
+            return top, np.where(np.isfinite(own.gain), own.gain, 1.0), hp, f"its own scan (pass {self.passes(k)})"
+        j = next((i for i in range(k - 1, -1, -1) if str(i) in self.state["records"]), None)
+        if j is None:
+            return beneath(tr, None, None), np.ones(tr.n), hp, None
+        rec, pt = self.record(j), self._track(j)
+        return beneath(tr, pt, rec.measured_top), carry(tr, pt, rec.gain, 1.0), hp, f"the scan of layer {pt.layer}"
+
+    def speeds_for(self, k: int) -> tuple[np.ndarray, dict]:
+        """Speeds for layer k from what was measured beneath it (`basis`; the plan's on layer 0 or
+        when nothing below was scanned)."""
+        tr = self._track(k)
+        below, gain, hp, on = self.basis(k)
+        if on is None:
             return tr.speed.copy(), {"layer": tr.layer, "adapted": False, "reason": "no scan of the layer below"}
-        pt = self._track(k - 1)
-        ad = plan_speeds(tr, beneath(tr, pt, prev.measured_top), carry(tr, pt, prev.gain, 1.0), self.window,
-                         planned_heights(tr, pt))
-        return ad.speed, {**ad.summary(tr), "adapted": True}
+        ad = plan_speeds(tr, below, gain, self.window, hp)
+        return ad.speed, {**ad.summary(tr), "adapted": True, "laid_on": on, "pass": self.passes(k) + 1}
 
     def dwell_for(self, k: int) -> dict | None:
-        """The interpass dwell before layer k from the temperature measured after layer k−1 (None
-        when none was posted: the program is the planned one)."""
-        if k == 0:
+        """The interpass dwell before layer k from the temperature measured with the last scan
+        (after the layer below, or after the first pass of a repeated layer; None when none was
+        posted: the program is the planned one). τ is the heat model's after that layer."""
+        rows = self.state.get("layers", [])
+        if k == 0 or not rows or rows[-1].get("interpass_measured_c") is None:
             return None
-        row = next((r for r in self.state.get("layers", []) if r["layer"] == self._track(k - 1).layer), None)
-        if row is None or row.get("interpass_measured_c") is None:
-            return None
+        row = rows[-1]
+        j = max(i for i in range(k + 1) if self._track(i).layer == row["layer"])
         if self._taus is None:
             self._taus = time_constants(self.items, self.dwell_rule.model)
-        d = interpass_dwell(row["interpass_measured_c"], self._taus[k - 1], self.dwell_rule,
+        d = interpass_dwell(row["interpass_measured_c"], self._taus[j], self.dwell_rule,
                             approach_time(self.items[k], self.dwell_rule.model.travel_speed))
-        return {**d, "after_layer": self._track(k - 1).layer, "note": note(d, self._track(k - 1).layer)}
+        return {**d, "after_layer": row["layer"], "note": note(d, row["layer"])}
 
     def next_program(self, who: str | None = None) -> dict:
         """The program of the next layer (adapted, and waiting for the part to cool when a
@@ -186,7 +209,7 @@ class BuildSession:
             header.append(dwell["note"])
         files = (self.post(lp, header=header, dwell_s=dwell["dwell_s"] if dwell else 0.0,
                            dwell_why=dwell["note"] if dwell else "") if self.post is not None else {})
-        entry = {"layer": self._track(k).layer, "adapted": why.get("adapted", False),
+        entry = {"layer": self._track(k).layer, "pass": self.passes(k) + 1, "adapted": why.get("adapted", False),
                  **{x: why[x] for x in ("speed_factor_min", "speed_factor_max", "clamped_slow", "clamped_fast") if x in why},
                  "files": sorted(files),
                  "sha256": {n: hashlib.sha256(t.encode()).hexdigest()[:16] for n, t in sorted(files.items())}}
@@ -195,7 +218,8 @@ class BuildSession:
                          dwell_s=dwell["dwell_s"], dwell_clamped=dwell["clamped"])
         self._log(who, "program", **entry)
         progs = self.state.setdefault("programs", [])
-        progs[:] = [p for p in progs if p["layer"] != entry["layer"]] + [{**entry, "time": _utc()}]
+        progs[:] = [p for p in progs if (p["layer"], p.get("pass", 1)) != (entry["layer"], entry["pass"])] + \
+            [{**entry, "time": _utc()}]
         self.save()
         return {"layer": self._track(k).layer, "adaptation": why, "files": files, "toolpath": lp}
 
@@ -214,11 +238,8 @@ class BuildSession:
             self.save()
             raise ScanError(f"{scan.source}: the scan is of layer {scan.layer}, the build expects layer {tr.layer}")
         v, _ = self.speeds_for(k)
-        prev = self.record(k - 1) if k > 0 else None
-        pt = self._track(k - 1) if k > 0 else None
-        below = beneath(tr, pt, prev.measured_top if prev is not None else None)
-        hp = planned_heights(tr, pt)
-        expected = below + carry(tr, pt, prev.gain if prev is not None else None, 1.0) * hp * tr.speed / v
+        below, g, hp, _ = self.basis(k)
+        expected = below + np.clip(g, self.window.min_gain, self.window.max_gain) * hp * tr.speed / v   # as plan_speeds
         reg = None
         try:
             if register_frame and scan.kind == "cloud":
@@ -247,13 +268,34 @@ class BuildSession:
                "registration": reg.to_dict() if reg is not None else None}
         if interpass_c is not None:
             row["interpass_measured_c"] = round(float(interpass_c), 2)
+        passes = self.passes(k) + 1
+        self.state.setdefault("scans", {})[str(k)] = passes
+        row["pass"] = passes
+        # the top more than half a layer off after the window did what it could: lay the layer again
+        # (too low) or leave the next one out (too tall) — as the simulator does (sim.simulate_build)
+        err, t = row["mean_error_mm"], tr.thickness
+        nxt = k + 1
+        if err < -t / 2 and passes <= MAX_REPEATS:
+            self.state["added"] = int(self.state.get("added", 0)) + 1
+            row["then"] = f"layer {tr.layer} laid again ({-err:.2f} mm low, more than half the {t:g} mm layer)"
+            nxt = k
+        elif err > t / 2 and k + 2 < len(self.tracks):
+            self.state["dropped"] = int(self.state.get("dropped", 0)) + 1
+            self.state.setdefault("skipped", []).append(self._track(k + 1).layer)
+            row["then"] = (f"layer {self._track(k + 1).layer} left out ({err:.2f} mm high, more than half the "
+                           f"{t:g} mm layer)")
+            nxt = k + 2
         self.state.setdefault("layers", []).append(row)
-        self.state["next_layer"] = k + 1
+        self.state["next_layer"] = nxt
         if self.done:
             self.state["status"] = "complete"
         scan_file = ({"scan_file": f"scan_{tr.layer:05d}.bin", "scan_bytes": len(raw),
                       "scan_sha256": hashlib.sha256(raw).hexdigest()[:16]} if raw is not None else {"scan_file": scan.source})
         self._log(who, "scan", **{k2: v2 for k2, v2 in row.items() if k2 != "registration"}, **scan_file)
+        if nxt == k:
+            self._log(who, "layer_added", layer=tr.layer, reason=row["then"])
+        elif nxt == k + 2:
+            self._log(who, "layer_dropped", layer=self._track(k + 1).layer, reason=row["then"])
         self.save()
         return row
 
@@ -276,5 +318,7 @@ class BuildSession:
         return {"meta": self.state["meta"], "status": self.state["status"], "created": self.state["created"],
                 "next_layer": self.tracks[self.next_layer].layer if not self.done else None,
                 "layers_planned": len(self.tracks), "layers_scanned": len(self.state.get("layers", [])),
+                "plan_layers": [t.layer for t in self.tracks], "layers_added": int(self.state.get("added", 0)),
+                "layers_dropped": int(self.state.get("dropped", 0)), "skipped": list(self.state.get("skipped", [])),
                 "layers": self.state.get("layers", []), "programs": self.state.get("programs", []),
                 "interpass": self.dwell_rule.to_dict(), "log": self.state["log"]}

@@ -744,12 +744,36 @@ export interface components {
             }[];
             /**
              * Programs
-             * @description per program issued: layer, speed factors, samples clamped, interpass dwell (s)
+             * @description per program issued: layer, pass, speed factors, samples clamped, interpass dwell (s)
              * @default []
              */
             programs: {
                 [key: string]: unknown;
             }[];
+            /**
+             * Plan Layers
+             * @description the planned layers' numbers, in build order
+             * @default []
+             */
+            plan_layers: number[];
+            /**
+             * Layers Added
+             * @description layers laid again (the top more than half a layer low after a scan)
+             * @default 0
+             */
+            layers_added: number;
+            /**
+             * Layers Dropped
+             * @description layers left out (the top more than half a layer high)
+             * @default 0
+             */
+            layers_dropped: number;
+            /**
+             * Skipped
+             * @description the layers left out
+             * @default []
+             */
+            skipped: number[];
             /**
              * Interpass
              * @description the interpass dwell rule: target and ambient °C, longest dwell s, the heat model

@@ -172,6 +172,7 @@ function BuildView({ id, onChange }: { id: string; onChange: () => void }) {
         <span>next layer: <b>{d.next_layer ?? "—"}</b></span>
         <span>last layer: mean <b data-testid="last-mean">{fmt(pr.lastMean)}</b> mm, max <b data-testid="last-max">{fmt(pr.lastMax)}</b> mm</span>
         <span>dwell {fmt(pr.dwellTotal, 1)} s</span>
+        <span data-testid="build-added-dropped">layers added {pr.added}, dropped {pr.dropped}</span>
       </div>
       <div className="build-actions">
         <button onClick={() => void download()} disabled={d.status === "complete"} data-testid="download-program" title="the next layer's program, adapted to the scans so far (written by the recipe's post-process node)">
@@ -260,9 +261,9 @@ function LayerTable({ rows }: { rows: LayerRow[] }) {
         </thead>
         <tbody>
           {rows.map((r) => (
-            <tr key={r.layer} className={`st-${r.state}`} data-layer={r.layer} data-state={r.state} data-mean={r.meanError ?? ""} data-max={r.maxError ?? ""}>
-              <td>{r.layer}</td>
-              <td>{r.state === "scanned" ? "✓ done" : r.state === "next" ? "▶ next" : "planned"}</td>
+            <tr key={`${r.layer}:${r.pass}:${r.state}`} className={`st-${r.state}`} data-layer={r.layer} data-pass={r.pass} data-state={r.state} data-mean={r.meanError ?? ""} data-max={r.maxError ?? ""} title={r.then ?? undefined}>
+              <td>{r.layer}{r.pass > 1 ? ` (pass ${r.pass})` : ""}</td>
+              <td>{r.state === "scanned" ? (r.then ? `✓ done → ${r.then.includes("again") ? "lay again" : "next left out"}` : "✓ done") : r.state === "next" ? "▶ next" : r.state === "dropped" ? "left out" : "planned"}</td>
               <td>{fmt(r.plannedTop)}</td>
               <td>{fmt(r.asBuiltTop)}</td>
               <td className={dev(r.meanError)}>{fmt(r.meanError)}</td>
@@ -278,7 +279,7 @@ function LayerTable({ rows }: { rows: LayerRow[] }) {
           ))}
         </tbody>
       </table>
-      <div className="muted small">Layers added or dropped: none — the live loop adapts speed within the window; the simulator (build-sim) repeats or skips layers.</div>
+      <div className="muted small">A layer whose top comes out more than half a layer low is laid again (pass 2, 3…); more than half a layer high, the next one is left out.</div>
     </div>
   );
 }

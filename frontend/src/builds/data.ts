@@ -19,8 +19,13 @@ const num = (v: unknown): number | null => (typeof v === "number" && Number.isFi
 /** One planned layer as the page shows it (null fields: not known yet). */
 export interface LayerRow {
   layer: number;
-  /** scanned: measured; next: the layer the cell builds now; planned: not yet. */
-  state: "scanned" | "next" | "planned";
+  /** 1, or 2… for a layer laid again (its top was more than half a layer low). */
+  pass: number;
+  /** scanned: measured; next: the layer the cell builds now; planned: not yet; dropped: left out
+   * (the layer below came out more than half a layer high). */
+  state: "scanned" | "next" | "planned" | "dropped";
+  /** what the loop decided after this scan (a layer laid again or left out), else null. */
+  then: string | null;
   plannedTop: number | null;
   asBuiltTop: number | null;
   /** mean top error vs plan (mm): the error accumulated up to this layer. */
@@ -42,24 +47,37 @@ export interface LayerRow {
   dwellClamped: boolean;
 }
 
-/** Every planned layer of a build (scanned ones with their figures), in build order. The layer
- * numbers are those of the rows and programs; unscanned layers after the next are numbered on. */
+/** Every layer of a build in build order: each scan (a layer laid again has a row per pass),
+ * the layers left out, the next layer and the ones still planned (`plan_layers`). */
 export function layerRows(d: BuildDetail): LayerRow[] {
   const scanned = (d.layers ?? []) as Obj[];
-  const programs = new Map<number, Obj>();
-  for (const p of (d.programs ?? []) as Obj[]) if (num(p.layer) !== null) programs.set(p.layer as number, p);
+  const programs = new Map<string, Obj>();
+  for (const p of (d.programs ?? []) as Obj[]) if (num(p.layer) !== null) programs.set(`${p.layer}:${num(p.pass) ?? 1}`, p);
+  const plan = d.plan_layers?.length ? d.plan_layers : Array.from({ length: d.layers_planned }, (_, i) => i);
+  const skipped = new Set(d.skipped ?? []);
+  // build order: the scans as they came, the layers left out where they belong, then the rest
+  const items: { layer: number; pass: number; r: Obj | null; state: LayerRow["state"] }[] = scanned.map((r) => ({
+    layer: r.layer as number, pass: num(r.pass) ?? 1, r, state: "scanned" as const,
+  }));
+  const seen = new Set(items.map((x) => x.layer));
+  const nextAt = d.next_layer === null || d.next_layer === undefined ? plan.length : plan.indexOf(d.next_layer);
+  const passesOf = (l: number) => items.filter((x) => x.layer === l).length;
+  plan.forEach((layer, i) => {
+    if (skipped.has(layer)) items.push({ layer, pass: 1, r: null, state: "dropped" });
+    else if (layer === d.next_layer) items.push({ layer, pass: passesOf(layer) + 1, r: null, state: "next" });
+    else if (!seen.has(layer) && i > nextAt) items.push({ layer, pass: 1, r: null, state: "planned" });
+  });
+  items.sort((a, b) => a.layer - b.layer || a.pass - b.pass);
   const rows: LayerRow[] = [];
   let prevMean: number | null = null;
-  const nums: number[] = scanned.map((r) => r.layer as number);
-  let nextNo = d.next_layer ?? (nums.length ? nums[nums.length - 1] + 1 : 0);
-  while (nums.length < d.layers_planned) nums.push(nextNo++);
-  nums.forEach((layer, i) => {
-    const r = i < scanned.length ? scanned[i] : null;
-    const p = programs.get(layer) ?? null;
+  items.forEach(({ layer, pass, r, state }) => {
+    const p = state === "dropped" ? null : programs.get(`${layer}:${pass}`) ?? null;
     const mean = r ? num(r.mean_error_mm) : null;
     rows.push({
       layer,
-      state: r ? "scanned" : layer === d.next_layer ? "next" : "planned",
+      pass,
+      state,
+      then: r && typeof r.then === "string" ? r.then : null,
       plannedTop: r ? num(r.planned_top_mm) : null,
       asBuiltTop: r ? num(r.asbuilt_top_mm) : null,
       meanError: mean,
@@ -84,8 +102,9 @@ export function layerRows(d: BuildDetail): LayerRow[] {
 /** Layers done vs planned, the error of the last scanned layer, the total dwell the programs hold. */
 export function progress(d: BuildDetail) {
   const rows = layerRows(d);
-  const done = rows.filter((r) => r.state === "scanned");
-  const last = done[done.length - 1] ?? null;
+  const scans = rows.filter((r) => r.state === "scanned");
+  const done = scans.filter((r) => r.pass === 1);
+  const last = scans[scans.length - 1] ?? null;
   return {
     done: done.length,
     planned: d.layers_planned,
@@ -94,12 +113,15 @@ export function progress(d: BuildDetail) {
     lastMax: last?.maxError ?? null,
     dwellTotal: rows.reduce((a, r) => a + (r.dwellS ?? 0), 0),
     clampedLayers: rows.filter((r) => (r.clampedSlow ?? 0) + (r.clampedFast ?? 0) > 0).length,
+    added: d.layers_added ?? 0,
+    dropped: d.layers_dropped ?? 0,
   };
 }
 
 /** Chart series over the scanned layers (x = layer number). */
 export function chartSeries(rows: LayerRow[]) {
-  const s = rows.filter((r) => r.state === "scanned");
+  // a layer laid again: its last pass (what the next layer is laid on)
+  const s = rows.filter((r, i) => r.state === "scanned" && !rows.slice(i + 1).some((q) => q.state === "scanned" && q.layer === r.layer));
   const x = s.map((r) => r.layer);
   const col = (f: (r: LayerRow) => number | null) => s.map((r) => f(r) ?? NaN);
   return {
@@ -139,6 +161,7 @@ export function timeline(d: BuildDetail): TimelineEvent[] {
       text = `scan of layer ${layer} measured: mean ${fmt(num(e.mean_error_mm))} mm, max ${fmt(num(e.max_error_mm))} mm, coverage ${pct(num(e.coverage))}${file}`;
     }
     else if (a === "scan_refused") text = `scan of layer ${layer} refused: ${e.reason}`;
+    else if (a === "layer_added" || a === "layer_dropped") text = String(e.reason);
     else if (a === "program") {
       const sha = (e.sha256 ?? {}) as Record<string, string>;
       const files = Array.isArray(e.files) && e.files.length ? ` (${(e.files as string[]).map((f) => (sha[f] ? `${f} sha256 ${sha[f]}…` : f)).join(", ")})` : "";

@@ -56,8 +56,12 @@ class BuildDetail(BuildInfo):
     next_layer: int | None
     layers: list[dict[str, Any]] = Field(..., description="per scanned layer: coverage, mean/RMS/max top error (mm), "
                                                           "the interpass temperature measured after it (°C)")
-    programs: list[dict[str, Any]] = Field([], description="per program issued: layer, speed factors, samples "
+    programs: list[dict[str, Any]] = Field([], description="per program issued: layer, pass, speed factors, samples "
                                                            "clamped, interpass dwell (s)")
+    plan_layers: list[int] = Field([], description="the planned layers' numbers, in build order")
+    layers_added: int = Field(0, description="layers laid again (the top more than half a layer low after a scan)")
+    layers_dropped: int = Field(0, description="layers left out (the top more than half a layer high)")
+    skipped: list[int] = Field([], description="the layers left out")
     interpass: dict[str, Any] | None = Field(None, description="the interpass dwell rule: target and ambient °C, "
                                                                "longest dwell s, the heat model")
     log: list[dict[str, Any]] = Field(..., description="every step: time (UTC), who, action, detail")
@@ -103,6 +107,8 @@ def _detail(s) -> BuildDetail:
     return BuildDetail(id=m["id"], run=m["run"], graph=m.get("graph"), status=sm["status"], created=sm["created"],
                        layers_planned=sm["layers_planned"], layers_scanned=sm["layers_scanned"],
                        next_layer=sm["next_layer"], layers=sm["layers"], programs=sm["programs"],
+                       plan_layers=sm["plan_layers"], layers_added=sm["layers_added"],
+                       layers_dropped=sm["layers_dropped"], skipped=sm["skipped"],
                        interpass=sm["interpass"], log=sm["log"])
 
 
