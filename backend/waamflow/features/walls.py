@@ -531,6 +531,7 @@ def order_passes(passes: list[WallPass], start=None, seam: str = "stock") -> lis
                 d = float(np.hypot(*(q - pos)))
                 if best is None or d < best[0] - 1e-9:
                     best = (d, k, rev)
+        assert best is not None   # every pass can be laid at least one way round
         _, k, rev = best
         p = left.pop(k)
         p = p.reversed() if rev else p

@@ -182,7 +182,7 @@ class ZoneSpecParams(_Strict):
                                        "onto the path; each starts a new middle zone", json_schema_extra=unit("mm"), title="Split points")
 
     def spec(self) -> ZoneSpec:
-        return ZoneSpec(self.start_length, self.end_length, tuple(tuple(p) for p in self.split_points))
+        return ZoneSpec(self.start_length, self.end_length, tuple((p[0], p[1]) for p in self.split_points))
 
 
 _PARAM_CACHE: "OrderedDict[str, Any]" = OrderedDict()
