@@ -42,15 +42,20 @@ export function useRunView(o: { message: (t: string) => void; fail: (e: unknown)
   const { run, follow, cancel, reset } = useRun(async (s) => {
     if (!s.id || shownRun.current?.id !== s.id) return; // another recipe was opened meanwhile
     const quiet = shownRun.current.replay;
+    let arts: Artifact[] = [];
     try {
-      const arts = await API.listArtifacts(s.id);
-      setArtifacts(arts);
+      arts = await API.listArtifacts(s.id);
       // never replaces the user's text nor marks the recipe unsaved: kept aside
       const merged = mergedXmlArtifact(arts);
-      if (s.phase === "done" && merged) setRunXml(await API.artifactText(s.id, merged.name));
+      const xml = s.phase === "done" && merged ? await API.artifactText(s.id, merged.name) : undefined;
       // Read whenever the run wrote one (a failing preflight may end the run as failed).
-      if (arts.some((a) => a.name === "preflight.json")) setPreflight(parsePreflight(await API.artifactText(s.id, "preflight.json")));
+      const report = arts.some((a) => a.name === "preflight.json") ? parsePreflight(await API.artifactText(s.id, "preflight.json")) : undefined;
+      // shown together: the results never appear beside the badge of no report (#27, trust fault 8)
+      setArtifacts(arts);
+      if (xml !== undefined) setRunXml(xml);
+      if (report !== undefined) setPreflight(report);
     } catch (e) {
+      setArtifacts(arts);
       opts.current.fail(e);
     }
     const end = endOfRun(s, quiet);

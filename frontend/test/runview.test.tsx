@@ -1,0 +1,74 @@
+// @vitest-environment jsdom
+// The run view hook (#27: App.tsx split): a finished run's results, merged XML and preflight
+// report appear together (trust fault 8 read the badge as "no preflight" beside the results).
+import { beforeEach, describe, expect, it, vi } from "vitest";
+import type { Artifact } from "../src/api/types";
+import { emptyRecipe } from "../src/graph/recipe";
+import { act, renderHook } from "./renderHook";
+
+const deferred = <T,>() => {
+  let resolve!: (v: T) => void;
+  const promise = new Promise<T>((r) => (resolve = r));
+  return { promise, resolve };
+};
+let preflightText = deferred<string | null>();
+const arts = [{ name: "preflight.json" }, { name: "zone.params.xml" }, { name: "post.gcode" }] as Artifact[];
+vi.mock("../src/api/client", () => ({
+  ApiError: class extends Error {},
+  startRun: vi.fn(async () => ({ id: "r1" })),
+  getRun: vi.fn(async () => ({ status: "done", error: null })),
+  cancelRun: vi.fn(),
+  runsOf: vi.fn(async () => []),
+  eventsUrl: (id: string) => `/api/runs/${id}/events`,
+  listArtifacts: vi.fn(async () => arts),
+  artifactText: vi.fn(async (_id: string, name: string) => (name === "preflight.json" ? preflightText.promise : "<params/>")),
+}));
+
+class FakeEventSource {
+  static last: FakeEventSource | null = null;
+  static CLOSED = 2;
+  readyState = 1;
+  onmessage: ((m: { data: string }) => void) | null = null;
+  onerror: (() => void) | null = null;
+  constructor(public url: string) {
+    FakeEventSource.last = this;
+  }
+  close() {
+    this.readyState = 2;
+  }
+}
+(globalThis as { EventSource?: unknown }).EventSource = FakeEventSource;
+
+const { useRunView } = await import("../src/run/useRunView");
+
+describe("useRunView", () => {
+  beforeEach(() => {
+    preflightText = deferred<string | null>();
+  });
+  it("shows the artifacts only together with the preflight report; the end of the run is told once", async () => {
+    const message = vi.fn();
+    const { result } = renderHook(() => useRunView({ message, fail: vi.fn(), toMask: vi.fn() }), undefined);
+    await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
+    expect(result.current.run).toMatchObject({ id: "r1", phase: "running" });
+    expect(FakeEventSource.last?.url).toBe("/api/runs/r1/events");
+    await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "run_finished", time: 1, progress: 1 }) }));
+    // the artifacts are listed, the preflight report is still being read: nothing shown yet
+    expect(result.current.run.phase).toBe("done");
+    expect(result.current.artifacts).toEqual([]);
+    expect(result.current.preflight).toBeNull();
+    await act(async () => preflightText.resolve(JSON.stringify({ verdict: "ok", programs: [], layers: [], problems: [] })));
+    expect(result.current.artifacts.length).toBe(3);
+    expect(result.current.preflight?.verdict).toBe("ok");
+    expect(result.current.runXml).toBe("<params/>");
+    expect(message.mock.calls).toEqual([["run finished"]]);
+  });
+  it("clear forgets what the last run left", async () => {
+    const { result } = renderHook(() => useRunView({ message: vi.fn(), fail: vi.fn(), toMask: vi.fn() }), undefined);
+    await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
+    await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "run_finished", time: 1, progress: 1 }) }));
+    await act(async () => preflightText.resolve(JSON.stringify({ verdict: "ok", programs: [], layers: [], problems: [] })));
+    expect(result.current.artifacts.length).toBe(3);
+    act(() => result.current.clear("other"));
+    expect([result.current.artifacts, result.current.preflight, result.current.runXml, result.current.run.phase]).toEqual([[], null, null, "idle"]);
+  });
+});
