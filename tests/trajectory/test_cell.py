@@ -66,13 +66,13 @@ def test_simulate_robot_with_a_cell_file(tmp_path):
     data = json.loads(KR.model_dump_json())
     data["positioner"]["fixed_deg"] = [0.0, 45.0]
     (tmp_path / "mycell.json").write_text(json.dumps(data))
-    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "mycell.json"}}],
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "mycell.json", "positioner_policy": "fixed"}}],
             [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
     sim = json.loads(r.artifacts["sim.simulation.json"])
     assert sim["ik_max_position_error_mm"] < 0.01 and sim["unreachable_stretches"] == 0
     data["robot_base"]["xyz_mm"] = [-4000.0, 0.0, -600.0]              # out of reach: warns as before
     (tmp_path / "far.json").write_text(json.dumps(data))
-    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json"}}],
+    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json", "positioner_policy": "fixed"}}],
             [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
     assert json.loads(r.artifacts["sim.simulation.json"])["unreachable_stretches"] >= 1
 

@@ -203,9 +203,10 @@ class PostProcess(Node):
                           description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
                                       "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
                                       "(`rotary_axes`); empty = no external axes", title="Robot cell")
-        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
-            "gravity", description="With a cell: positioner angles per point, as in simulate-robot "
-                                   "(min-motion with its default 30° lean)", title="Positioner policy")
+        positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
+            "auto", description="With a cell: positioner angles per point, as in simulate-robot (auto with its "
+                                "default limits: 15° torch lean, 5° off flat; min-motion with its default 30° "
+                                "lean); auto fails (exit 3) naming the layer when no angles work", title="Positioner policy")
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z", title="Tool axis")
 

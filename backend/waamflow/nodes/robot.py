@@ -110,7 +110,7 @@ class SimulateRobot(Node):
               Port("program", "program", "The program post-processed from this toolpath: its blend distance, "
                                          "ignition dwells and controller family are simulated", optional=True))
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "15"  # 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    version = "16"  # 16: positioner_policy auto (default), max_lean_deg, flat_tol_deg; 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
     # 15: G-code programs run the G-code planner family (junction deviation, look-ahead, travel as written);
     #     ArcTech KRL -> KR C4 profile
     # 14: program input (blend, dwells, controller as written); C_DIS scales the blend law; arc-on ≤ total
@@ -126,11 +126,21 @@ class SimulateRobot(Node):
         max_tilt_deg: float = Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
                                     description="positioner_policy min-motion: torch lean from vertical tolerated "
                                                 "before the positioner turns the next layer", title="Largest torch lean")
-        positioner_policy: Literal["fixed", "gravity", "min-motion"] = Field(
-            "fixed", description="With a cell: `fixed` keeps the positioner at the cell's fixed_deg; `gravity` turns "
-                                 "each layer so its torch axis points straight down (flat-position welding); "
-                                 "`min-motion` holds the angles while the torch may lean max_tilt_deg. Limits and "
-                                 "axis speeds from the positioner URDF cap and are reported per layer", title="Positioner policy")
+        positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
+            "auto", description="With a cell: `auto` plans each layer's positioner angles and torch lean with the "
+                                "arm's IK and the collision checks (gravity angles first, then turntable turns, "
+                                "a torch lean up to max_lean_deg, the tilt relaxed within flat_tol_deg) and fails "
+                                "naming the layer and the cell changes verified to work when nothing does; `fixed` "
+                                "keeps the positioner at the cell's fixed_deg; `gravity` turns each layer so its "
+                                "torch axis points straight down (flat-position welding); `min-motion` holds the "
+                                "angles while the torch may lean max_tilt_deg. Limits and axis speeds from the "
+                                "positioner URDF cap and are reported per layer", title="Positioner policy")
+        max_lean_deg: float = Field(15.0, ge=0, le=15, json_schema_extra=unit("deg"),
+                                    description="positioner_policy auto: largest torch lean from the layer normal "
+                                                "the process allows", title="Largest torch lean (auto)")
+        flat_tol_deg: float = Field(5.0, ge=0, le=30, json_schema_extra=unit("deg"),
+                                    description="positioner_policy auto: how far a layer's normal may stay off "
+                                                "vertical (flat-position tolerance)", title="Flat-position tolerance (auto)")
         collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
                                          description="With a cell: coal collision checks (arm links, torch, table, "
                                                      "fixtures, layers built so far) every this much programmed path "
@@ -190,7 +200,8 @@ class SimulateRobot(Node):
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
                                      frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
                                      positioner_policy=params.positioner_policy, collisions=params.collisions,
-                                     max_tilt_deg=params.max_tilt_deg,
+                                     max_tilt_deg=params.max_tilt_deg, max_lean_deg=params.max_lean_deg,
+                                     flat_tol_deg=params.flat_tol_deg,
                                      collision_step_mm=params.collision_step_mm)
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
@@ -259,6 +270,13 @@ class SimulateRobot(Node):
             res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
                                         "deposit_ratio_cv": deposit_ratio_cv(res)})
         res = replace(res, options=opt)
+        plan = (res.kinematics or {}).get("positioner_plan")
+        if plan:
+            stages: dict[str, int] = {}
+            for row in plan["layers"]:
+                stages[row["stage"]] = stages.get(row["stage"], 0) + 1
+            ctx.report({"positioner_plan": plan})
+            ctx.progress(0.99, "auto positioner plan: " + ", ".join(f"{v} layers {k}" for k, v in stages.items()))
         for msg, layer, section in res.warnings:
             ctx.warn(msg, layer=layer, section=section)
         return {"simulation": res}

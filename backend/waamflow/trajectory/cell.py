@@ -343,7 +343,7 @@ def load_cell(name_or_path: str, text: str | None = None) -> Cell:
         raise InputFileError(f"cell {name_or_path}: {where}: {err['msg']}") from e
 
 
-POLICIES = ("fixed", "gravity", "min-motion")
+POLICIES = ("auto", "fixed", "gravity", "min-motion")
 
 
 def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0) -> np.ndarray:
@@ -369,9 +369,15 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
     the first) while its normal stays within `max_tilt_deg` of vertical under them, else it takes
     its gravity angles. Angles are constant along a layer, so the positioner moves only on the
     arc-OFF travel between layers. A point takes the angles of the arc-ON segment it ends (else of
-    the segment it starts)."""
+    the segment it starts).
+
+    `auto`: planned per layer with the arm's IK and the collision checks (`trajectory.cellplan`,
+    default process limits); a plan that fails is a PlanningError naming the layer and the
+    verified cell changes."""
     if policy not in POLICIES:
         raise InputFileError(f"positioner policy {policy!r}: use one of {', '.join(POLICIES)}")
+    if policy == "auto":
+        return _auto_angles(cell, moves), np.zeros(len(moves.points), bool)
     n = len(moves.points)
     fixed = cell.fixed_angles()
     m = len(fixed)
@@ -410,6 +416,23 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
         s = i - 1 if i > 0 and arc[i - 1] else min(i, n - 2)
         ang[i], clipped[i] = layer_angles[int(seg_layer[s])]
     return ang, clipped
+
+
+def _auto_angles(cell: Cell, moves) -> np.ndarray:
+    """The `auto` plan's angles for a writer (post-process): the same plan simulate-robot makes
+    with the default limits and spacings."""
+    if cell.axes == 0 or len(moves.points) < 2:
+        return np.tile(cell.fixed_angles(), (len(moves.points), 1))
+    from ..core.errors import PlanningError
+    from .cellplan import plan_auto
+    from .kinematics import load_arm
+    from .run import auto_failure_text
+
+    arm = load_arm(cell.robot_urdf, tuple(cell.tool.tcp_mm), home_deg=cell.robot_home_deg)
+    plan = plan_auto(cell.load_meshes(), moves, arm)
+    if not plan.ok:
+        raise PlanningError(auto_failure_text(cell, plan), layer=plan.failed["layer"])
+    return plan.angles
 
 
 def _sp1(w: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:

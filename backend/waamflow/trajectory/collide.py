@@ -146,22 +146,27 @@ def layer_boxes(moves) -> dict[int, tuple[coal.Box, np.ndarray, np.ndarray, floa
 
 
 def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, work_frames, base_R, base_t,
-               step_mm: float = 20.0) -> tuple[int, list[Collision], int]:
+               step_mm: float = 20.0, layers: dict | None = None,
+               margin_mm: float = 0.0) -> tuple[int, list[Collision], int]:
     """Collisions along the path. q: (k, nq) IK solutions; work_frames(i) → (R, t mm) of the work
-    frame and the positioner angles at sample i; base_R/base_t: the robot base in the world (mm).
+    frame and the positioner angles at sample i; base_R/base_t: the robot base in the world (mm);
+    layers: `layer_boxes(moves)` when the caller has them; margin_mm: bodies closer than this count
+    as colliding (a planner's clearance).
     Returns (number of colliding samples, the first MAX_REPORTED collisions, samples checked)."""
     model, data = arm.model, arm.model.createData()
     tool0 = model.getFrameId("tool0")
     tool_shapes = [(f"torch:{sh.name}", _shape(sh, cell), *sh.pose(), _bound_radius(sh, cell))
                    for sh in cell.tool.shapes]
     statics_at = cell_statics(cell)
-    layers = layer_boxes(moves)
+    layers = layer_boxes(moves) if layers is None else layers
     lay_ids = np.array(sorted(layers), dtype=int)
     lay_c = np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3)
     lay_r = np.array([layers[L][3] for L in lay_ids])
     lay_R = np.array([layers[L][1] for L in lay_ids]).reshape(-1, 3, 3)
     lay_h = np.array([np.asarray(layers[L][0].halfSide) * 1000.0 for L in lay_ids]).reshape(-1, 3)
     req = coal.CollisionRequest()
+    if margin_mm > 0:
+        req.security_margin = margin_mm / 1000.0
     count, found, checked = 0, [], 0
     last_s, last_layer = -np.inf, None
     njoints = model.njoints
@@ -189,7 +194,7 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
         tf0 = joints[-1]
         seg_len = np.linalg.norm(np.diff(joints, axis=0), axis=1)
         centres = np.vstack([0.5 * (joints[:-1] + joints[1:]), t_off @ Rf.T + tf0])
-        rads = np.concatenate([0.5 * seg_len + radii[:n_links], t_rad])
+        rads = np.concatenate([0.5 * seg_len + radii[:n_links], t_rad]) + margin_mm
         Rw, tw, angles = work_frames(i)
         statics = statics_at(angles)
         sa = stat_arrays.get(id(statics))

@@ -148,9 +148,11 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
 
 def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax: np.ndarray, nseg: int,
                   frames: CellFrames = CellFrames(), q_seed: np.ndarray | None = None, iters: int = 6,
-                  progress=None) -> KinematicsResult:
+                  progress=None, stop_unreachable: bool = False) -> KinematicsResult:
     """`solve_path` on given samples: s (k,) programmed arc length, xyz (k, 3) and torch axes
-    ax (k, 3) in the work/world frame, seg (k,) their programmed segment (of nseg)."""
+    ax (k, 3) in the work/world frame, seg (k,) their programmed segment (of nseg).
+    stop_unreachable: stop at the first unreachable sample (a planner's yes/no; the result then
+    holds the samples up to it)."""
     import pinocchio as pin  # lazy: keeps start-up light
     model = arm.model
     data = model.createData()
@@ -227,6 +229,10 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
         retry = 40 if err_mm[i] < REACH_TOL_MM else 0   # don't grind on through an unreachable stretch
         Js[i] = J
         Q[i] = q
+        if stop_unreachable and not retry:
+            k = i + 1
+            s, seg, Q, err_mm, Js = s[:k], seg[:k], Q[:k], err_mm[:k], Js[:k]
+            break
     sig = np.linalg.svd(Js, compute_uv=False)[:, -1]
     # joint speed per unit path speed: dq/ds (rad/mm)
     ds = np.diff(s)

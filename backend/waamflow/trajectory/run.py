@@ -132,6 +132,8 @@ class KinematicsOptions:
     collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
     collision_step_mm: float = 20.0      # programmed path between two checked samples
     step_deg: float = 1.0                # with a cell: most positioner / torch-axis turn between two IK samples
+    max_lean_deg: float = 15.0           # auto: torch lean from the layer normal allowed
+    flat_tol_deg: float = 5.0            # auto: layer normal off vertical allowed (flat-position tolerance)
 
 
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
@@ -163,8 +165,18 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         if kin.cell is not None:       # the part on the positioner: coordinated samples in the world
             from .cell import coordinated_samples, plan_positioner, positioner_caps
 
-            ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
-            s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, moves.tool_axis, ang,
+            if kin.positioner_policy == "auto":
+                if progress:
+                    progress(0.01, "planning the positioner and torch (auto)")
+                plan = _auto_plan(kin, arm, moves)
+                ang, clipped = plan.angles, np.zeros(len(moves.points), bool)
+                axes = plan.tool_axis
+                kin_report_plan = plan.report(_auto_limits(kin))
+            else:
+                ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
+                kin_report_plan = None
+                warnings.extend(_flat_warnings(kin.cell, moves))
+            s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, axes, ang,
                                                                  step_mm=kin.step_mm, step_deg=kin.step_deg)
             base = kin.cell.robot_base
             frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
@@ -230,6 +242,13 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                                            moves),
                       "issues": issues[:MAX_ISSUES]}
         if kin.cell is not None:
+            if kin_report_plan is not None:
+                kin_report["positioner_plan"] = kin_report_plan
+                for row in kin_report_plan["layers"]:
+                    if row["stage"] != "gravity":
+                        warnings.append((f"auto positioner plan: {row['stage']} ({row['why']}); E = "
+                                         f"{', '.join(f'{v:.1f}' for v in row['e_deg'])}°, torch lean "
+                                         f"{row['lean_deg']:g}°, layer {row['tilt_deg']:.1f}° off flat", row["layer"], None))
             kin_report["motion"] = {"s": ks.s, "q": ks.q, "positioner_deg": ang_c,
                                     "cell": kin.cell.model_dump(mode="json"),
                                     "unreachable": ks.reach_err > REACH_TOL_MM}
@@ -246,6 +265,62 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
     metrics.update(kin_metrics)
     return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate, collisions=collision_list,
                    kinematics=kin_report)
+
+
+def _auto_limits(kin: KinematicsOptions):
+    from .cellplan import AutoLimits
+
+    return AutoLimits(max_lean_deg=kin.max_lean_deg, flat_tol_deg=kin.flat_tol_deg)
+
+
+def _auto_plan(kin: KinematicsOptions, arm, moves: Moves):
+    """The `auto` plan (trajectory.cellplan); a plan that fails is a PlanningError naming the
+    layer, the best compromise and the cell changes verified to work."""
+    from ..core.errors import PlanningError
+    from .cellplan import plan_auto
+
+    plan = plan_auto(kin.cell, moves, arm, _auto_limits(kin), step_mm=kin.step_mm, step_deg=kin.step_deg,
+                     collision_step_mm=kin.collision_step_mm, collisions=kin.collisions)
+    if not plan.ok:
+        raise PlanningError(auto_failure_text(kin.cell, plan), layer=plan.failed["layer"])
+    return plan
+
+
+def auto_failure_text(cell, plan) -> str:
+    """The `auto` failure in one message: what fails where, and what would work (verified)."""
+    msg = f"cell {cell.name}, positioner policy auto: {plan.failed['message']}"
+    if plan.suggestions:
+        msg += "; verified to work: " + "; or ".join(s["text"] for s in plan.suggestions)
+    else:
+        msg += "; no riser, longer torch, base move or 2-axis positioner tried made every layer work"
+    return msg
+
+
+def _flat_warnings(cell, moves: Moves) -> list[tuple[str, int | None, str | None]]:
+    """Layers that even the gravity angles leave leaning more than 5° off flat (the lean this
+    positioner cannot remove: a 1-axis positioner and a part leaning about the other axis, or an
+    axis limit): one warning with the layers and the largest lean."""
+    from .cell import plan_positioner, to_world
+
+    if cell.axes == 0 or len(moves.points) < 2:
+        return []
+    ang = plan_positioner(cell, moves, "gravity")[0]
+    _, w = to_world(cell, moves.points, moves.tool_axis, ang)
+    lean = np.degrees(np.arccos(np.clip(-w[:, 2] / np.maximum(np.linalg.norm(w, axis=1), 1e-12), -1.0, 1.0)))
+    arc = np.asarray(moves.arc, bool)
+    seg_lean = np.maximum(lean[:-1], lean[1:])
+    layers = np.asarray(moves.layer)
+    per: dict[int, float] = {}
+    for L, v in zip(layers[arc], seg_lean[arc]):
+        per[int(L)] = max(per.get(int(L), 0.0), float(v))
+    steep = sorted(L for L, v in per.items() if v > 5.0)
+    if not steep:
+        return []
+    from .cellplan import _ranges
+
+    worst = max(steep, key=lambda L: per[L])
+    return [(f"the positioner leaves layers {_ranges(steep)} up to {per[worst]:.1f}° off flat (layer {worst}): "
+             f"this cell's {cell.axes}-axis positioner cannot turn them flat (policy auto names a change that would)", worst, None)]
 
 
 def _positioner_report(cell, moves: Moves, ang, clipped, cap, turn_s, speed) -> tuple[dict, list[dict]]:
@@ -365,6 +440,8 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
         out["axes"] = res.kinematics.get("axes", [])
         out["kinematics_issues"] = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
                                     for it in res.kinematics.get("issues", [])]
+        if res.kinematics.get("positioner_plan"):
+            out["positioner_plan"] = res.kinematics["positioner_plan"]
     out["robot_profile"] = res.profile.get("name")
     junction = opt.blend == "junction" or res.profile.get("junction_deviation_mm", 0.0) > 0
     out["settings"] = {"cdis_mm": None if junction else opt.cdis, "blend": "junction" if junction else opt.blend,

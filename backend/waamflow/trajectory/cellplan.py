@@ -1,0 +1,472 @@
+"""Positioner policy `auto`: the cell plans its own positioner angles and torch lean, layer by layer.
+
+For each layer (in build order) candidates are tried from the cheapest to the most intrusive and
+each one is verified with the same checks as the simulation — the arm's IK over the layer's
+samples (seeded from the previous layer's last pose), joint limits (2° margin), near-singular
+stretches and coal collisions of the arm and torch with the cell's bodies and the layers built so
+far (`trajectory.collide.check_path`, at every IK sample with 2 mm clearance: the simulation's
+IK, seeded along the whole path, may roll the wrist a little differently) — and the first that
+passes is taken:
+
+1. `gravity`: the layer turned flat (normal up), both Paden–Kahan branches with ±360° shifts,
+   nearest the previous layer's angles first (the least axis motion);
+2. `e2-turn` (2-axis positioners): the turntable turned by ±15°…±180° from the gravity angle, the
+   tilt re-solved to bring the layer closest to flat, kept while the layer stays within the flat
+   tolerance;
+3. `lean`: the gravity angles with the torch leaned up to `max_lean_deg` from the layer normal
+   (5° steps, towards ±x / ±y of the world);
+4. `tilt-relax`: the tilt backed off the gravity angle by up to the flat tolerance (the layer no
+   longer flat, within tolerance), with and without the lean.
+
+A layer whose normal no positioner angle brings within the flat tolerance (a 1-axis positioner and
+a part that leans about the other axis) fails before any IK. When a layer has no passing candidate
+the plan stops there with the best compromise (fewest failing samples) and, when asked, tries
+cell changes — a riser under the part, a longer torch, the robot base moved away from the
+positioner, a shipped 2-axis cell with the same arm, the part turned on a 1-axis table — re-running
+the whole plan on each modified cell; only changes whose plan passes every layer are suggested.
+Units: mm, deg.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin
+from .collide import BEAD_HALF_MM
+
+PLAN_LIMIT_MARGIN_DEG = 2.0      # a planned pose keeps every arm joint this far inside its limits
+PLAN_CLEARANCE_MM = 2.0          # ... and every body this far from the others, at every IK sample
+LEAN_STEP_DEG = 5.0
+E2_STEPS_DEG = tuple(d for k in range(1, 13) for d in (15.0 * k, -15.0 * k))
+RISERS_MM = (50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 400.0)
+TORCH_EXTENSIONS_MM = (100.0, 200.0)
+BASE_SHIFTS_MM = (100.0, 200.0, 300.0, 400.0, 600.0)
+
+
+@dataclass(frozen=True)
+class AutoLimits:
+    """Process limits of the `auto` policy: torch lean from the layer normal and how far the layer
+    normal may stay off vertical (flat-position tolerance), deg."""
+
+    max_lean_deg: float = 15.0
+    flat_tol_deg: float = 5.0
+
+
+@dataclass
+class AutoPlan:
+    """angles: (n, axes) deg per programmed point; tool_axis: (n, 3) part-frame torch axes with
+    the chosen lean; layers: per layer what was chosen and why; ok: every layer passed; failed:
+    None or {layer, reason, best}; suggestions: verified cell changes (when planning failed)."""
+
+    angles: np.ndarray
+    tool_axis: np.ndarray
+    layers: list[dict] = field(default_factory=list)
+    ok: bool = True
+    failed: dict | None = None
+    suggestions: list[dict] = field(default_factory=list)
+
+    def report(self, limits: AutoLimits) -> dict:
+        return {"policy": "auto", "max_lean_deg": limits.max_lean_deg, "flat_tol_deg": limits.flat_tol_deg,
+                "ok": self.ok, "failed": self.failed, "layers": self.layers, "suggestions": self.suggestions}
+
+
+def _lean_rot(lean_deg: float, dir_deg: float) -> np.ndarray:
+    """World rotation leaning a vertical torch by lean_deg with its tip moving towards azimuth dir_deg."""
+    if lean_deg == 0:
+        return np.eye(3)
+    a = math.radians(dir_deg)
+    k = np.array([-math.sin(a), math.cos(a), 0.0])        # rotation axis ⟂ to the lean direction
+    th = math.radians(lean_deg)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K
+
+
+class _Planner:
+    def __init__(self, cell: Cell, moves, arm, limits: AutoLimits, step_mm: float, step_deg: float,
+                 collision_step_mm: float, collisions: bool):
+        from .collide import layer_boxes
+
+        self.cell, self.moves, self.arm, self.lim = cell, moves, arm, limits
+        self.step_mm, self.step_deg, self.col_step, self.collisions = step_mm, step_deg, collision_step_mm, collisions
+        self.m = cell.axes
+        pk = positioner_kin(cell.positioner.urdf)
+        self.lo, self.hi = pk.lower_deg, pk.upper_deg
+        Rb = _rz(cell.positioner.base.yaw_deg)
+        self.w = pk.axes_base(cell.positioner.flange) @ Rb.T
+        self.R0 = cell.work_pose(np.zeros(self.m))[0]
+        self.P = np.asarray(moves.points, float)
+        self.A = np.asarray(moves.tool_axis, float)
+        self.seg_layer = np.asarray(moves.layer)
+        self.arc = np.asarray(moves.arc, bool)
+        yaw = math.radians(cell.robot_base.yaw_deg)
+        self.base_R = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0, 0, 1.0]])
+        self.base_t = np.asarray(cell.robot_base.xyz_mm, float)
+        self.layer_boxes = layer_boxes(moves) if collisions else {}
+        margin = math.radians(PLAN_LIMIT_MARGIN_DEG)
+        self.qlo, self.qhi = arm.lower + margin, arm.upper - margin
+
+    # ---- geometry --------------------------------------------------------------------------
+    def tilt(self, e, n) -> float:
+        """Angle (deg) of the part-frame normal n from world vertical at angles e."""
+        up = self.cell.work_pose(e)[0] @ n
+        return math.degrees(math.acos(float(np.clip(up[2], -1.0, 1.0))))
+
+    def inside(self, e) -> bool:
+        return bool(np.all(e >= self.lo - 1e-7) and np.all(e <= self.hi + 1e-7))
+
+    def shifted(self, c, prev) -> np.ndarray | None:
+        """c (deg) with ±360° shifts per axis nearest prev inside the limits (None: outside)."""
+        v = np.empty(len(c))
+        for j in range(len(c)):
+            k0 = round((prev[j] - c[j]) / 360.0)
+            ok = [c[j] + 360.0 * k for k in (k0 - 1, k0, k0 + 1) if self.lo[j] - 1e-7 <= c[j] + 360.0 * k <= self.hi[j] + 1e-7]
+            if not ok:
+                return None
+            v[j] = min(ok, key=lambda o: abs(o - prev[j]))
+        return v
+
+    def gravity(self, n, prev) -> list[np.ndarray]:
+        sols = [np.degrees(s) for s in _gravity_solutions(self.w, self.R0 @ n, np.array([0.0, 0.0, 1.0]))]
+        if self.m == 2 and np.linalg.norm(np.cross(self.R0 @ n, self.w[1])) < 1e-6:
+            sols = [np.array([s[0], prev[1]]) for s in sols]
+        out = [v for v in (self.shifted(s, prev) for s in sols) if v is not None]
+        return sorted(out, key=lambda v: (float(np.abs(v - prev).sum()), -float(v[0])))
+
+    def best_tilt(self, n, prev) -> tuple[np.ndarray, float]:
+        """The in-limit angles bringing n closest to vertical (the gravity angles, else the
+        closest clipped) and the tilt left (deg)."""
+        g = self.gravity(n, prev)
+        if g:
+            return g[0], self.tilt(g[0], n)
+        from .cell import _nearest
+
+        sols = [np.degrees(s) for s in _gravity_solutions(self.w, self.R0 @ n, np.array([0.0, 0.0, 1.0]))]
+        e, _ = _nearest(sols, prev, self.lo, self.hi)
+        return e, self.tilt(e, n)
+
+    def candidates(self, n, prev, last: dict | None, quick: bool = False):
+        """(stage, angles, lean deg, lean direction deg, note) cheapest first. quick: the gravity
+        angles and the largest lean only (a first test of a cell change)."""
+        lim = self.lim
+        grav = self.gravity(n, prev)
+        base = grav[0] if grav else self.best_tilt(n, prev)[0]
+        seen = []
+
+        def fresh(e, lean, d):
+            key = (tuple(np.round(e, 6)), round(lean, 6), round(d, 6) if lean else 0.0)
+            if key in seen:
+                return False
+            seen.append(key)
+            return True
+
+        for k, e in enumerate(grav):
+            if fresh(e, 0.0, 0.0):
+                yield "gravity", e, 0.0, 0.0, "layer flat" + (" (other branch)" if k else "")
+        if last and last["stage"] != "gravity" and grav:          # what worked on the layer before
+            e = base.copy()
+            if last["stage"] == "tilt-relax":
+                e[0] = base[0] + last["relax_deg"]
+            if self.inside(e) and self.tilt(e, n) <= lim.flat_tol_deg + 1e-6 and fresh(e, last["lean_deg"], last["lean_dir_deg"]):
+                yield last["stage"], e, last["lean_deg"], last["lean_dir_deg"], f"as the previous layer: {last['note']}"
+        leans = [LEAN_STEP_DEG * k for k in range(1, int(lim.max_lean_deg / LEAN_STEP_DEG + 1e-9) + 1)]
+        if lim.max_lean_deg not in leans and lim.max_lean_deg > 0:
+            leans.append(lim.max_lean_deg)
+        dirs = (0.0, 180.0, 90.0, 270.0)
+        if quick:
+            for d in dirs if leans else ():
+                if fresh(base, leans[-1], d):
+                    yield "lean", base, leans[-1], d, f"torch leaned {leans[-1]:g}° towards azimuth {d:g}°"
+            return
+        if self.m == 2 and grav:
+            for d in E2_STEPS_DEG:
+                e2 = base[1] + d
+                Rz2 = _axis_rot(self.w[1], e2)
+                e1 = math.degrees(_sp1(self.w[0], Rz2 @ (self.R0 @ n), np.array([0.0, 0.0, 1.0])))
+                e = self.shifted(np.array([e1, e2]), prev)
+                if e is None or self.tilt(e, n) > lim.flat_tol_deg + 1e-6 or not fresh(e, 0.0, 0.0):
+                    continue
+                yield "e2-turn", e, 0.0, 0.0, f"turntable {d:+.0f}° from the gravity angle"
+        for lean in leans:
+            for d in dirs:
+                if fresh(base, lean, d):
+                    yield "lean", base, lean, d, f"torch leaned {lean:g}° towards azimuth {d:g}°"
+        relax = sorted({lim.flat_tol_deg / 2, lim.flat_tol_deg} - {0.0})
+        for r in relax:
+            for sgn in (-1.0, 1.0) if base[0] >= 0 else (1.0, -1.0):
+                e = base.copy()
+                e[0] = base[0] + sgn * r
+                if not self.inside(e) or self.tilt(e, n) > lim.flat_tol_deg + 1e-6:
+                    continue
+                for lean in [0.0, *leans[-1:]]:                # with the torch upright or leaned the most
+                    for d in (dirs if lean else (0.0,)):
+                        if fresh(e, lean, d):
+                            yield ("tilt-relax", e, lean, d,
+                                   f"tilt {sgn * r:+g}° off flat" + (f", torch leaned {lean:g}° towards {d:g}°" if lean else ""))
+
+    # ---- verification ----------------------------------------------------------------------
+    def check(self, a: int, b: int, e, lean: float, d: float, q_seed):
+        """IK + limits + singularities + collisions on points a..b at angles e with the lean."""
+        from .cell import coordinated_samples
+        from .collide import check_path
+        from .kinematics import REACH_TOL_MM, SINGULAR_SIGMA, CellFrames, solve_samples
+
+        cell = self.cell
+        R, t = cell.work_pose(e)
+        M = R.T @ _lean_rot(lean, d) @ R
+        ax = self.A[a: b + 1] @ M.T
+        ang = np.tile(e, (b - a + 1, 1))
+        s, xyz, axw, sg, _ = coordinated_samples(cell, self.P[a: b + 1], ax, ang, self.step_mm, self.step_deg)
+        frames = CellFrames(base_xyz_mm=tuple(cell.robot_base.xyz_mm), base_yaw_deg=cell.robot_base.yaw_deg)
+        ks = solve_samples(self.arm, s, xyz, sg, axw, b - a, frames, q_seed=q_seed, stop_unreachable=True)
+        unreach = int(np.count_nonzero(ks.reach_err > REACH_TOL_MM))
+        limit = int(np.count_nonzero(np.any((ks.q < self.qlo) | (ks.q > self.qhi), axis=1)))
+        sing = int(np.count_nonzero(ks.sigma_min < SINGULAR_SIGMA))
+        ncol, first = 0, None
+        if self.collisions and unreach == 0 and limit == 0 and sing == 0:
+            ncol, found, _ = check_path(self.arm, ks.q, ks.s, ks.seg + a, self.moves, cell, lambda i: (R, t, e),
+                                        self.base_R, self.base_t, step_mm=0.0, layers=self.layer_boxes,
+                                        margin_mm=PLAN_CLEARANCE_MM)
+            first = found[0].bodies if found else None
+        res = {"unreachable": unreach, "near_limit": limit, "near_singular": sing, "collisions": ncol}
+        if first:
+            res["collision"] = " / ".join(first)
+        return res, ks.q[-1]
+
+
+def _axis_rot(w, deg) -> np.ndarray:
+    th = math.radians(deg)
+    K = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    return np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K
+
+
+def _why(res: dict) -> str:
+    parts = [f"{res[k]} {k.replace('_', ' ')} samples" for k in ("unreachable", "near_limit", "near_singular")
+             if res.get(k)]
+    if res.get("collisions"):
+        parts.append(f"{res['collisions']} colliding samples ({res.get('collision', '')})")
+    return ", ".join(parts) or "ok"
+
+
+def _bad(res: dict) -> int:
+    return res["unreachable"] * 4 + res["collisions"] * 4 + res["near_limit"] + res["near_singular"]
+
+
+def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm: float = 5.0,
+              step_deg: float = 1.0, collision_step_mm: float = 20.0, collisions: bool = True,
+              suggest: bool = True, only: int | None = None, quick: bool = False) -> AutoPlan:
+    """The `auto` plan (see the module doc). A cell without a positioner keeps its fixed angles.
+    only, quick: plan that one layer alone (from the fixed angles and the arm's home pose) with
+    the gravity angles and the largest lean only — a first test of a cell change before the
+    whole plan."""
+    n = len(moves.points)
+    fixed = cell.fixed_angles()
+    m = len(fixed)
+    if m == 0 or n < 2:
+        return AutoPlan(np.tile(fixed, (n, 1)), np.asarray(moves.tool_axis, float).copy())
+    pl = _Planner(cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions)
+    seg_layer, arc = pl.seg_layer, pl.arc
+    layers = sorted(set(seg_layer.tolist()))
+    # every layer's normal first: a layer the positioner cannot bring within the flat tolerance
+    # fails before any IK (the lean this cell cannot remove)
+    info, prev = {}, fixed.copy()
+    for L in layers:
+        segs = np.flatnonzero((seg_layer == L) & arc)
+        if len(segs) == 0:
+            segs = np.flatnonzero(seg_layer == L)
+        nrm = -pl.A[segs].mean(axis=0)
+        nrm /= max(np.linalg.norm(nrm), 1e-12)
+        e, tilt = pl.best_tilt(nrm, prev)
+        info[L] = (segs, nrm, tilt)
+        prev = e
+    plan = AutoPlan(np.tile(fixed, (n, 1)), pl.A.copy())
+    steep = [L for L in layers if info[L][2] > limits.flat_tol_deg + 1e-6]
+    if steep:
+        worst = max(steep, key=lambda L: info[L][2])
+        plan.ok = False
+        plan.failed = {"layer": int(steep[0]), "reason": "flat", "layers": _ranges(steep),
+                       "lean_deg": round(info[worst][2], 2), "worst_layer": int(worst),
+                       "message": (f"this cell's positioner cannot turn layers {_ranges(steep)} within "
+                                   f"{limits.flat_tol_deg:g}° of flat: they keep up to {info[worst][2]:.1f}° of lean "
+                                   f"(layer {worst})")}
+    else:
+        chosen: dict[int, tuple] = {}
+        prev, q_seed, last = fixed.copy(), arm.home.copy(), None
+        for L in (layers if only is None else [only]):
+            segs, nrm, _ = info[L]
+            a, b = int(segs.min()), int(segs.max()) + 1
+            best, tried = None, 0
+            for stage, e, lean, d, note in pl.candidates(nrm, prev, last, quick=quick):
+                tried += 1
+                res, q_end = pl.check(a, b, e, lean, d, q_seed)
+                if _bad(res) == 0:
+                    best = (stage, e, lean, d, note, res, q_end)
+                    break
+                if best is None or _bad(res) < _bad(best[5]):
+                    best = (stage, e, lean, d, note, res, None)
+            if best is None or best[6] is None:
+                plan.ok = False
+                why = _why(best[5]) if best else "no angles inside the axis limits"
+                plan.failed = {"layer": int(L), "reason": "no candidate", "tried": tried,
+                               "best": None if best is None else {
+                                   "stage": best[0], "e_deg": [round(float(v), 3) for v in best[1]],
+                                   "lean_deg": best[2], "lean_dir_deg": best[3], "note": best[4], **best[5]},
+                               "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
+                                          + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° "
+                                             f"({why})" if best else why)}
+                break
+            stage, e, lean, d, note, res, q_end = best
+            chosen[L] = (e, lean, d)
+            tilt = pl.tilt(e, nrm)
+            plan.layers.append({"layer": int(L), "stage": stage, "e_deg": [round(float(v), 4) for v in e],
+                                "lean_deg": lean, "lean_dir_deg": d if lean else 0.0, "tilt_deg": round(tilt, 3),
+                                "tried": tried, "why": note if tried == 1 else f"{note} ({tried - 1} cheaper choices failed)"})
+            last = {"stage": stage, "note": note.removeprefix("as the previous layer: "), "lean_deg": lean,
+                    "lean_dir_deg": d, "relax_deg": float(e[0] - (
+                pl.gravity(nrm, prev) or [e])[0][0]) if stage == "tilt-relax" else 0.0}
+            prev, q_seed = e, q_end
+        if plan.ok and only is None:
+            _apply(plan, pl, chosen)
+    if not plan.ok and suggest:
+        plan.suggestions = suggest_changes(cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions,
+                                           plan.failed)
+    return plan
+
+
+def _apply(plan: AutoPlan, pl: _Planner, chosen: dict) -> None:
+    """Per point: the angles and leaned torch axis of the segment it ends (arc ON), else starts."""
+    n = len(pl.P)
+    lay = pl.seg_layer
+    for i in range(n):
+        s = i - 1 if i > 0 and pl.arc[i - 1] else min(i, n - 2)
+        e, lean, d = chosen[int(lay[s])]
+        plan.angles[i] = e
+        if lean:
+            R = pl.cell.work_pose(e)[0]
+            plan.tool_axis[i] = (R.T @ _lean_rot(lean, d) @ R) @ pl.A[i]
+
+
+def _ranges(v: list[int]) -> str:
+    out, i = [], 0
+    while i < len(v):
+        j = i
+        while j + 1 < len(v) and v[j + 1] == v[j] + 1:
+            j += 1
+        out.append(f"{v[i]}" if i == j else f"{v[i]}..{v[j]}")
+        i = j + 1
+    return ", ".join(out)
+
+
+def suggest_changes(cell: Cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions,
+                    failed: dict | None = None) -> list[dict]:
+    """Cell changes whose `auto` plan passes every layer (each re-planned from scratch); per kind
+    the smallest that works."""
+    from .cell import load_cell, shipped_cells
+    from .kinematics import load_arm
+
+    out = []
+    base = cell.model_dump(mode="json")
+
+    def works(data: dict, arm_=None) -> bool:
+        c = Cell.model_validate(data)
+        c._meshes = cell._meshes
+        a = arm_ or arm
+        args = (c, moves, a, limits, step_mm, step_deg, collision_step_mm, collisions)
+        if failed is not None and failed.get("reason") == "no candidate" and \
+                not plan_auto(*args, suggest=False, only=failed["layer"], quick=True).ok:
+            return False                     # the layer that failed still fails: no need for the whole plan
+        return plan_auto(*args, suggest=False).ok
+
+    if cell.axes == 1:
+        for yaw in (90.0, -90.0):
+            ch = {"change": "turn the part on the table", "yaw_deg": yaw}
+            if works(modified_cell(base, ch, moves)):
+                ch["text"] = f"turn the part {yaw:+g}° about the table axis (work_frame yaw + {yaw:g}°)"
+                out.append({**ch, "verified": True})
+                break
+        for name in shipped_cells():
+            try:
+                other = load_cell(name)
+            except Exception:    # a shipped cell that does not load is no suggestion
+                continue
+            if other.axes == 2 and other.robot_urdf == cell.robot_urdf:
+                a2 = load_arm(other.robot_urdf, tuple(other.tool.tcp_mm), home_deg=other.robot_home_deg)
+                if plan_auto(other.load_meshes(), moves, a2, limits, step_mm, step_deg, collision_step_mm, collisions,
+                             suggest=False).ok:
+                    out.append({"change": "2-axis positioner", "cell": name, "verified": True,
+                                "text": f"a 2-axis tilt/rotate positioner: the shipped cell {name}"})
+                    break
+    for h in RISERS_MM:
+        ch = {"change": "riser", "riser_mm": h}
+        if works(modified_cell(base, ch, moves)):
+            out.append({**ch, "verified": True,
+                        "text": f"a riser of {h:g} mm under the part (work frame +{h:g} mm on the table)"})
+            break
+    for ext in TORCH_EXTENSIONS_MM:
+        ch = {"change": "longer torch", "extension_mm": ext}
+        d = modified_cell(base, ch, moves)
+        a2 = load_arm(cell.robot_urdf, tuple(d["tool"]["tcp_mm"]), home_deg=cell.robot_home_deg)
+        if works(d, a2):
+            out.append({**ch, "verified": True,
+                        "text": f"a torch {ext:g} mm longer (TCP at {d['tool']['tcp_mm'][2]:g} mm)"})
+            break
+    for sh in BASE_SHIFTS_MM:
+        ch = {"change": "robot base moved", "shift_mm": sh}
+        d = modified_cell(base, ch, moves)
+        if d["robot_base"] == base["robot_base"]:
+            break
+        if works(d):
+            out.append({**ch, "verified": True,
+                        "text": f"the robot base {sh:g} mm further from the positioner (at "
+                                f"{', '.join(f'{v:g}' for v in d['robot_base']['xyz_mm'])} mm)"})
+            break
+    return out
+
+
+def modified_cell(cell: dict, change: dict, moves) -> dict:
+    """A cell (as JSON data) with one suggested change applied: `riser` (riser_mm: the work frame
+    raised on the table and a cylinder under the part, as wide as its first layer's beads), `longer torch`
+    (extension_mm: TCP and torch shapes moved along the torch, a neck-wide cylinder in the gap),
+    `robot base moved` (shift_mm: away from the positioner base, horizontally), `turn the part on
+    the table` (yaw_deg: added to the work frame's yaw)."""
+    d = _copy(cell)
+    kind = change["change"]
+    if kind == "riser":
+        h = float(change["riser_mm"])
+        P = np.asarray(moves.points, float)
+        lay = np.asarray(moves.layer)
+        first = P[np.flatnonzero(lay == lay.min())] if len(lay) else P
+        foot = (float(np.hypot(first[:, 0], first[:, 1]).max()) if len(first) else 30.0) + BEAD_HALF_MM
+        w = d["work_frame"]["xyz_mm"]
+        d["work_frame"]["xyz_mm"] = [w[0], w[1], w[2] + h]
+        d["positioner"]["shapes"].append({"name": "riser", "kind": "cylinder", "size_mm": [foot, foot, h],
+                                          "xyz_mm": [w[0], w[1], w[2] + h / 2 - 1.0]})
+    elif kind == "longer torch":
+        ext = float(change["extension_mm"])
+        tcp = d["tool"]["tcp_mm"]
+        d["tool"]["tcp_mm"] = [tcp[0], tcp[1], tcp[2] + ext]
+        shapes = d["tool"]["shapes"]
+        r = max([s["size_mm"][0] for s in shapes if s["kind"] == "cylinder"] or [25.0])
+        for s in shapes:
+            s["xyz_mm"] = [s["xyz_mm"][0], s["xyz_mm"][1], s["xyz_mm"][2] + ext]
+        shapes.append({"name": "extension", "kind": "cylinder", "size_mm": [r, r, ext], "xyz_mm": [0.0, 0.0, ext / 2]})
+    elif kind == "robot base moved":
+        pb = np.asarray(d["positioner"]["base"]["xyz_mm"], float) if d.get("positioner") else np.zeros(3)
+        rb = np.asarray(d["robot_base"]["xyz_mm"], float)
+        away = (rb - pb)[:2]
+        if np.linalg.norm(away) > 1e-6:
+            away = away / np.linalg.norm(away) * float(change["shift_mm"])
+            d["robot_base"]["xyz_mm"] = [float(rb[0] + away[0]), float(rb[1] + away[1]), float(rb[2])]
+    elif kind == "turn the part on the table":
+        d["work_frame"]["yaw_deg"] = (d["work_frame"]["yaw_deg"] + float(change["yaw_deg"]) + 180.0) % 360.0 - 180.0
+    else:
+        raise ValueError(f"unknown cell change {kind!r}")
+    return d
+
+
+def _copy(d: dict) -> dict:
+    import json
+
+    return json.loads(json.dumps(d))
