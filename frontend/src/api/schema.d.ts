@@ -2433,6 +2433,7 @@ export interface operations {
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
+                /** @description revision number (1 = the first save) */
                 rev: number;
             };
             cookie?: never;
@@ -2486,6 +2487,7 @@ export interface operations {
             path: {
                 /** @description graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars */
                 name: string;
+                /** @description revision number (1 = the first save) */
                 rev: number;
             };
             cookie?: never;

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Depends, Header, HTTPException, Query, Request, Response
+from fastapi import Path as PathParam
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
@@ -51,6 +52,10 @@ class ExampleError(BaseModel):
     size: int = Field(description="its size, bytes (0 when it is not a regular file)")
     reason: str = Field(description="why it is not offered: over the recipe size limit (max_body_mb), not a "
                                     "regular file, not valid JSON, not a valid recipe")
+
+
+# a recipe's revision number: 1, 2, … (bounded: SQLite's integers are 64-bit)
+Revision = Annotated[int, PathParam(ge=1, le=2**53, description="revision number (1 = the first save)")]
 
 
 class GraphInfo(BaseModel):
@@ -290,7 +295,7 @@ def list_revisions(name: GraphName, svc: ServicesDep) -> list[RevisionInfo]:
             response_model_by_alias=True,
             responses={200: {"description": "The recipe as saved in that revision", "headers": ETAG_HEADER},
                        **errors(401, 404, 422)})
-def get_revision(name: GraphName, rev: int, svc: ServicesDep, response: Response) -> dict[str, Any]:
+def get_revision(name: GraphName, rev: Revision, svc: ServicesDep, response: Response) -> dict[str, Any]:
     """One earlier revision of the recipe, also of a deleted graph (restore it by PUTting it back, or
     as an admin with POST .../restore)."""
     text = svc.store.get_revision(name, rev)
@@ -304,7 +309,7 @@ def get_revision(name: GraphName, rev: int, svc: ServicesDep, response: Response
              responses={200: {"description": "Restored as the graph's new revision", "headers": ETAG_HEADER},
                         201: {"model": SaveResult, "description": "A deleted graph restored", "headers": ETAG_HEADER},
                         **errors(401, 403, 404, 422), **CONFLICT_409})
-def restore_revision(name: GraphName, rev: int, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
+def restore_revision(name: GraphName, rev: Revision, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
                      role: str = Depends(get_role)) -> Any:
     """Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
     content) or as the graph again after a delete. It becomes a new revision (history only grows,
