@@ -12,11 +12,13 @@ const deferred = <T,>() => {
   return { promise, resolve };
 };
 let preflightText = deferred<string | null>();
+// what the run's record says, one answer per ask (the last one stays)
+let statuses: string[] = ["done"];
 const arts = [{ name: "preflight.json" }, { name: "zone.params.xml" }, { name: "post.gcode" }] as Artifact[];
 vi.mock("../src/api/client", () => ({
   ApiError: class extends Error {},
   startRun: vi.fn(async () => ({ id: "r1" })),
-  getRun: vi.fn(async () => ({ status: "done", error: null })),
+  getRun: vi.fn(async () => ({ status: statuses.length > 1 ? statuses.shift() : statuses[0], error: null })),
   cancelRun: vi.fn(),
   runsOf: vi.fn(async () => []),
   eventsUrl: (id: string) => `/api/runs/${id}/events`,
@@ -40,10 +42,14 @@ class FakeEventSource {
 (globalThis as { EventSource?: unknown }).EventSource = FakeEventSource;
 
 const { useRunView } = await import("../src/run/useRunView");
+const { storedEnd, END_POLLS } = await import("../src/run/useRun");
+const client = await import("../src/api/client");
 
 describe("useRunView", () => {
   beforeEach(() => {
     preflightText = deferred<string | null>();
+    statuses = ["done"];
+    vi.mocked(client.getRun).mockClear();
   });
   it("shows the artifacts only together with the preflight report; the end of the run is told once", async () => {
     const message = vi.fn();
@@ -70,5 +76,43 @@ describe("useRunView", () => {
     expect(result.current.artifacts.length).toBe(3);
     act(() => result.current.clear("other"));
     expect([result.current.artifacts, result.current.preflight, result.current.runXml, result.current.run.phase]).toEqual([[], null, null, "idle"]);
+  });
+});
+
+describe("the end of a run is shown once the server has stored it", () => {
+  beforeEach(() => {
+    preflightText = deferred<string | null>();
+    vi.mocked(client.getRun).mockClear();
+  });
+  it("storedEnd asks until the record has ended, at most END_POLLS times", async () => {
+    statuses = ["running", "running", "done"];
+    const waits: number[] = [];
+    expect((await storedEnd("r1", async (ms) => void waits.push(ms))).status).toBe("done");
+    expect(waits).toEqual([250, 250]);
+    statuses = ["running"];
+    vi.mocked(client.getRun).mockClear();
+    expect((await storedEnd("r1", async () => {})).status).toBe("running");
+    expect(vi.mocked(client.getRun).mock.calls.length).toBe(END_POLLS);
+  });
+  it("the stream's last event before the record: the run shows running until the record says done", async () => {
+    statuses = ["running", "done"];
+    const { result } = renderHook(() => useRunView({ message: vi.fn(), fail: vi.fn(), toMask: vi.fn() }), undefined);
+    await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
+    await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "run_finished", time: 1, progress: 1 }) }));
+    expect(result.current.run.phase).toBe("running");
+    preflightText.resolve(JSON.stringify({ verdict: "ok", programs: [], layers: [], problems: [] }));
+    await act(async () => void (await new Promise((r) => setTimeout(r, 400))));
+    expect(result.current.run.phase).toBe("done");
+    expect(result.current.artifacts.length).toBe(3);
+  });
+  it("a run followed meanwhile is not overwritten by the older run's late end", async () => {
+    statuses = ["running", "done"];
+    const { result } = renderHook(() => useRunView({ message: vi.fn(), fail: vi.fn(), toMask: vi.fn() }), undefined);
+    await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
+    await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "run_finished", time: 1, progress: 1 }) }));
+    act(() => result.current.clear("other"));
+    await act(async () => void (await new Promise((r) => setTimeout(r, 400))));
+    expect(result.current.run.phase).toBe("idle");
+    expect(result.current.artifacts).toEqual([]);
   });
 });

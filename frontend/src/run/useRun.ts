@@ -3,10 +3,27 @@ import { cancelRun, eventsUrl, getRun } from "../api/client";
 import type { RunEvent } from "../api/types";
 import { idleRun, reduceEvent, startedRun, terminal, type RunState } from "./status";
 
-/** Follow a run through its SSE event stream; falls back to the status endpoint when it ends. */
+/** How often and how many times the run's record is asked for its end after the stream ended. */
+export const END_POLL_MS = 250;
+export const END_POLLS = 40;
+
+/** The run's record once it has ended (the store has its summary and artifacts); after END_POLLS
+ * asks, the record as it is. */
+export async function storedEnd(id: string, wait = (ms: number) => new Promise((r) => setTimeout(r, ms))) {
+  let info = await getRun(id);
+  for (let i = 1; i < END_POLLS && (info.status === "running" || info.status === "queued"); i++) {
+    await wait(END_POLL_MS);
+    info = await getRun(id);
+  }
+  return info;
+}
+
+/** Follow a run through its SSE event stream; its end is shown once the server has stored it. */
 export function useRun(onEnd?: (s: RunState) => void) {
   const [state, setState] = useState<RunState>(idleRun);
   const source = useRef<EventSource | null>(null);
+  // Which follow is current: a run followed or reset since makes an older run's late end moot.
+  const generation = useRef(0);
   const endRef = useRef(onEnd);
   endRef.current = onEnd;
 
@@ -17,6 +34,7 @@ export function useRun(onEnd?: (s: RunState) => void) {
 
   const follow = useCallback((id: string) => {
     close();
+    const gen = ++generation.current;
     let cur = startedRun(id);
     setState(cur);
     const es = new EventSource(eventsUrl(id));
@@ -24,7 +42,9 @@ export function useRun(onEnd?: (s: RunState) => void) {
     const finish = async () => {
       close();
       try {
-        const info = await getRun(id);
+        // The stream's last event can arrive before the server has stored the run's end (its
+        // record, summary and artifacts): the end is shown once the record has it.
+        const info = await storedEnd(id);
         cur = {
           ...cur,
           phase: info.status === "done" ? "done" : info.status === "failed" || info.status === "interrupted" ? "failed" : info.status === "cancelled" ? "cancelled" : cur.phase,
@@ -34,14 +54,15 @@ export function useRun(onEnd?: (s: RunState) => void) {
       } catch {
         /* the events already told us how it ended */
       }
+      if (gen !== generation.current) return; // another run is shown by now
       setState(cur);
       endRef.current?.(cur);
     };
     es.onmessage = (m) => {
       const ev = JSON.parse(m.data) as RunEvent;
       cur = reduceEvent(cur, ev);
-      setState(cur);
       if (terminal(cur)) void finish();
+      else setState(cur);
     };
     es.onerror = () => {
       // A dropped connection reconnects by itself (resuming after Last-Event-ID; replays are
@@ -55,6 +76,7 @@ export function useRun(onEnd?: (s: RunState) => void) {
   }, [state.id]);
 
   const reset = useCallback(() => {
+    generation.current++;
     close();
     setState(idleRun);
   }, []);
