@@ -4,9 +4,9 @@ For each layer (in build order) candidates are tried from the cheapest to the mo
 each one is verified with the same checks as the simulation — the arm's IK over the layer's
 samples (seeded from the previous layer's last pose), joint limits (2° margin), near-singular
 stretches and coal collisions of the arm and torch with the cell's bodies and the layers built so
-far (`trajectory.collide.check_path`, at every IK sample with 2 mm clearance: the simulation's
-IK, seeded along the whole path, may roll the wrist a little differently) — and the first that
-passes is taken:
+far (`trajectory.collide.check_path` with 2 mm clearance) over the layer's own samples, the
+travel into it included (the positioner turning from the previous layer's angles) — the same
+samples, IK seed and collision spacing as the simulation's — and the first that passes is taken:
 
 1. `gravity`: the layer turned flat (normal up), both Paden–Kahan branches with ±360° shifts,
    nearest the previous layer's angles first (the least axis motion);
@@ -38,7 +38,7 @@ from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin
 from .collide import BEAD_HALF_MM
 
 PLAN_LIMIT_MARGIN_DEG = 2.0      # a planned pose keeps every arm joint this far inside its limits
-PLAN_CLEARANCE_MM = 2.0          # ... and every body this far from the others, at every IK sample
+PLAN_CLEARANCE_MM = 2.0          # ... and every body this far from the others
 LEAN_STEP_DEG = 5.0
 E2_STEPS_DEG = tuple(d for k in range(1, 13) for d in (15.0 * k, -15.0 * k))
 RISERS_MM = (50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 400.0)
@@ -207,32 +207,47 @@ class _Planner:
                                    f"tilt {sgn * r:+g}° off flat" + (f", torch leaned {lean:g}° towards {d:g}°" if lean else ""))
 
     # ---- verification ----------------------------------------------------------------------
-    def check(self, a: int, b: int, e, lean: float, d: float, q_seed):
-        """IK + limits + singularities + collisions on points a..b at angles e with the lean."""
+    def check(self, a: int, b: int, e, lean: float, d: float, q_seed, first=None):
+        """IK + limits + singularities + collisions on points a..b (the layer's segments, its
+        travel in included) at angles e with the lean; first: (angles, lean, direction) of point a
+        when it ends the previous layer's arc (the travel turns from there, as in the simulation).
+        The samples, their IK seed and the collision spacing are the simulation's, so its verdict
+        on the chosen angles is the same."""
         from .cell import coordinated_samples
         from .collide import check_path
         from .kinematics import REACH_TOL_MM, SINGULAR_SIGMA, CellFrames, solve_samples
 
         cell = self.cell
         R, t = cell.work_pose(e)
-        M = R.T @ _lean_rot(lean, d) @ R
-        ax = self.A[a: b + 1] @ M.T
+        ax = self.A[a: b + 1] @ (R.T @ _lean_rot(lean, d) @ R).T
         ang = np.tile(e, (b - a + 1, 1))
-        s, xyz, axw, sg, _ = coordinated_samples(cell, self.P[a: b + 1], ax, ang, self.step_mm, self.step_deg)
+        if first is not None:
+            e0, lean0, d0 = first
+            R0 = cell.work_pose(e0)[0]
+            ang[0] = e0
+            ax[0] = (R0.T @ _lean_rot(lean0, d0) @ R0) @ self.A[a]
+        s, xyz, axw, sg, angs = coordinated_samples(cell, self.P[a: b + 1], ax, ang, self.step_mm, self.step_deg)
         frames = CellFrames(base_xyz_mm=tuple(cell.robot_base.xyz_mm), base_yaw_deg=cell.robot_base.yaw_deg)
         ks = solve_samples(self.arm, s, xyz, sg, axw, b - a, frames, q_seed=q_seed, stop_unreachable=True)
         unreach = int(np.count_nonzero(ks.reach_err > REACH_TOL_MM))
         limit = int(np.count_nonzero(np.any((ks.q < self.qlo) | (ks.q > self.qhi), axis=1)))
         sing = int(np.count_nonzero(ks.sigma_min < SINGULAR_SIGMA))
-        ncol, first = 0, None
+        ncol, hit = 0, None
         if self.collisions and unreach == 0 and limit == 0 and sing == 0:
-            ncol, found, _ = check_path(self.arm, ks.q, ks.s, ks.seg + a, self.moves, cell, lambda i: (R, t, e),
-                                        self.base_R, self.base_t, step_mm=0.0, layers=self.layer_boxes,
+            poses: dict = {}
+
+            def work(i):
+                key = tuple(np.round(angs[i], 9))
+                if key not in poses:
+                    poses[key] = (*cell.work_pose(np.asarray(key)), np.asarray(key))
+                return poses[key]
+            ncol, found, _ = check_path(self.arm, ks.q, ks.s, ks.seg + a, self.moves, cell, work,
+                                        self.base_R, self.base_t, step_mm=self.col_step, layers=self.layer_boxes,
                                         margin_mm=PLAN_CLEARANCE_MM)
-            first = found[0].bodies if found else None
+            hit = found[0].bodies if found else None
         res = {"unreachable": unreach, "near_limit": limit, "near_singular": sing, "collisions": ncol}
-        if first:
-            res["collision"] = " / ".join(first)
+        if hit:
+            res["collision"] = " / ".join(hit)
         return res, ks.q[-1]
 
 
@@ -296,11 +311,13 @@ def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm
         prev, q_seed, last = fixed.copy(), arm.home.copy(), None
         for L in (layers if only is None else [only]):
             segs, nrm, _ = info[L]
-            a, b = int(segs.min()), int(segs.max()) + 1
+            own = np.flatnonzero(seg_layer == L)                 # with the travel into the layer
+            a, b = int(own.min()), int(own.max()) + 1
+            first = chosen.get(int(seg_layer[a - 1])) if a > 0 and arc[a - 1] else None
             best, tried = None, 0
             for stage, e, lean, d, note in pl.candidates(nrm, prev, last, quick=quick):
                 tried += 1
-                res, q_end = pl.check(a, b, e, lean, d, q_seed)
+                res, q_end = pl.check(a, b, e, lean, d, q_seed, first)
                 if _bad(res) == 0:
                     best = (stage, e, lean, d, note, res, q_end)
                     break
