@@ -175,7 +175,7 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             else:
                 ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
                 kin_report_plan = None
-                warnings.extend(_flat_warnings(kin.cell, moves))
+                warnings.extend(_flat_warnings(kin.cell, moves, kin.flat_tol_deg))
             s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, axes, ang,
                                                                  step_mm=kin.step_mm, step_deg=kin.step_deg)
             base = kin.cell.robot_base
@@ -296,8 +296,8 @@ def auto_failure_text(cell, plan) -> str:
     return msg
 
 
-def _flat_warnings(cell, moves: Moves) -> list[tuple[str, int | None, str | None]]:
-    """Layers that even the gravity angles leave leaning more than 5° off flat (the lean this
+def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0) -> list[tuple[str, int | None, str | None]]:
+    """Layers that even the gravity angles leave leaning more than tol_deg off flat (the lean this
     positioner cannot remove: a 1-axis positioner and a part leaning about the other axis, or an
     axis limit): one warning with the layers and the largest lean."""
     from .cell import plan_positioner, to_world
@@ -313,7 +313,7 @@ def _flat_warnings(cell, moves: Moves) -> list[tuple[str, int | None, str | None
     per: dict[int, float] = {}
     for L, v in zip(layers[arc], seg_lean[arc]):
         per[int(L)] = max(per.get(int(L), 0.0), float(v))
-    steep = sorted(L for L, v in per.items() if v > 5.0)
+    steep = sorted(L for L, v in per.items() if v > tol_deg + 1e-6)
     if not steep:
         return []
     from .cellplan import _ranges
