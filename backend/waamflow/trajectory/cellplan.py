@@ -314,13 +314,15 @@ def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm
             own = np.flatnonzero(seg_layer == L)                 # with the travel into the layer
             a, b = int(own.min()), int(own.max()) + 1
             first = chosen.get(int(seg_layer[a - 1])) if a > 0 and arc[a - 1] else None
-            best, tried = None, 0
+            best, tried, first_fail = None, 0, None
             for stage, e, lean, d, note in pl.candidates(nrm, prev, last, quick=quick):
                 tried += 1
                 res, q_end = pl.check(a, b, e, lean, d, q_seed, first)
                 if _bad(res) == 0:
                     best = (stage, e, lean, d, note, res, q_end)
                     break
+                if first_fail is None:
+                    first_fail = f"{note}: {_why(res)}"
                 if best is None or _bad(res) < _bad(best[5]):
                     best = (stage, e, lean, d, note, res, None)
             if best is None or best[6] is None:
@@ -339,7 +341,8 @@ def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm
             tilt = pl.tilt(e, nrm)
             plan.layers.append({"layer": int(L), "stage": stage, "e_deg": [round(float(v), 4) for v in e],
                                 "lean_deg": lean, "lean_dir_deg": d if lean else 0.0, "tilt_deg": round(tilt, 3),
-                                "tried": tried, "why": note if tried == 1 else f"{note} ({tried - 1} cheaper choices failed)"})
+                                "tried": tried, "why": note if tried == 1 else
+                                f"{note} ({tried - 1} cheaper choices failed, the first: {first_fail})"})
             last = {"stage": stage, "note": note.removeprefix("as the previous layer: "), "lean_deg": lean,
                     "lean_dir_deg": d, "relax_deg": float(e[0] - (
                 pl.gravity(nrm, prev) or [e])[0][0]) if stage == "tilt-relax" else 0.0}
