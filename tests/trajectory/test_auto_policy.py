@@ -186,3 +186,29 @@ def test_node_params_default_to_auto_with_the_process_limits():
     schema = load_nodes()["simulate-robot"].Params.model_json_schema()["properties"]
     assert schema["max_lean_deg"]["maximum"] == 15 and schema["positioner_policy"]["default"] == "auto"
     assert AutoLimits().max_lean_deg == 15.0 and AutoLimits().flat_tol_deg == 5.0
+
+
+def test_broad_phase_box_bound_is_the_exact_distance():
+    """The collision broad phase keeps a pair when a body's bounding sphere reaches the other's
+    oriented box: `_box_gap2` is the exact squared distance point → box (coal's distance from a
+    0.1 µm sphere, over 200 random boxes and points, within 1e-6 mm; 0 inside), so no pair that can
+    touch is dropped."""
+    import coal
+
+    from waamflow.trajectory.collide import _box_gap2, _tf
+    from waamflow.trajectory.cell import rpy_matrix
+
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-400, 400, (200, 3))
+    R = np.array([rpy_matrix(rng.uniform(-180, 180, 3)) for _ in range(200)])
+    c = rng.uniform(-200, 200, (200, 3))
+    half = rng.uniform(5, 150, (200, 3))
+    gap = np.sqrt(_box_gap2(pts, R, c, half)).diagonal()
+    req, dot = coal.DistanceRequest(), coal.Sphere(1e-10)
+    ref = []
+    for i in range(200):
+        res = coal.DistanceResult()
+        d = coal.distance(dot, _tf(np.eye(3), pts[i]), coal.Box(*(2 * half[i] / 1000.0)), _tf(R[i], c[i]), req, res)
+        ref.append(max(d * 1000.0, 0.0))
+    assert np.count_nonzero(gap == 0) == np.count_nonzero(np.array(ref) <= 1e-6) > 0
+    assert gap == pytest.approx(np.array(ref), abs=1e-6)
