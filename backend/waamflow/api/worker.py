@@ -234,6 +234,8 @@ class LiveRun:
         self.limit: str | None = None  # why a limit stopped the run
         self.finished = False   # _finish ran (once, by the run's thread or the watchdog)
         self.slot = False       # holds one of the manager's run slots
+        # the engine's terminal event, streamed by `_finish` once the run's record is stored
+        self.held: dict | None = None
 
     def trip(self, reason: str) -> None:
         if self.limit is None:
@@ -347,6 +349,9 @@ class RunManager:
             layer = d.get("layer")
             if lim.layers and layer is not None and layer >= lim.layers:
                 live.trip(f"more than {lim.layers} layers (limit max_layers)")
+            if d.get("kind") in TERMINAL_KINDS:   # streamed by _finish, after the record is stored
+                live.held = d
+                return
             live.add(d)
             now = time.monotonic()
             if now - last_progress[0] > 0.5:
@@ -516,15 +521,19 @@ class RunManager:
                 return
             live.finished = True
         kind = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}[status]
-        terminal = [e.get("kind") for e in live.events if e.get("kind") in TERMINAL_KINDS]
-        if not terminal or terminal[-1] != kind:  # e.g. a limit turns the engine's run_cancelled into run_failed
-            live.add(Event(kind=kind, seq=len(live.events) + 1, progress=1.0 if status == "done" else 0.0,
-                           message=(error or {}).get("text", status), error=error).to_dict())
-        self.store.add_events(run_id, live.events)
+        held = live.held
+        if held is not None and held.get("kind") == kind:
+            terminal = held
+        else:   # none, or another (e.g. a limit turns the engine's run_cancelled into run_failed)
+            terminal = Event(kind=kind, seq=len(live.events) + 1, progress=1.0 if status == "done" else 0.0,
+                             message=(error or {}).get("text", status), error=error).to_dict()
+        # the record first: whoever sees the terminal event finds the run ended, its summary stored
         fields = dict(status=status, finished=time.time(), summary=summary, error=error)
         if status == "done":
             fields["progress"] = 1.0
         self.store.update_run(run_id, **fields)
+        live.add(terminal)
+        self.store.add_events(run_id, live.events)
         live.done.set()
         if live.slot:
             live.slot = False
