@@ -118,3 +118,20 @@ def test_off_runs_in_the_server_process(tmp_path):
         t0 = time.monotonic()
         assert wait(c, r)["status"] == "done" and time.monotonic() - t0 < 60
         assert {int(p.name): int(p.read_text()) for p in pids.iterdir()} == {os.getpid(): resource.RLIM_INFINITY}
+
+
+def test_serve_option_and_variable(monkeypatch, tmp_path):
+    """`serve --run-memory-mb` overrides WAAMFLOW_RUN_MEMORY_MB, which overrides the default."""
+    import uvicorn
+
+    from waamflow import cli
+    from waamflow.api import app as app_module
+
+    got = {}
+    monkeypatch.setattr(app_module, "create_app", lambda settings: got.update(mb=settings.run_memory_mb) or object())
+    monkeypatch.setattr(uvicorn, "run", lambda app, host, port, **kw: None)
+    monkeypatch.setenv("WAAMFLOW_DATA_DIR", str(tmp_path / "d"))
+    monkeypatch.setenv("WAAMFLOW_RUN_MEMORY_MB", "700")
+    assert cli.main(["serve"]) == 0 and got["mb"] == 700
+    assert cli.main(["serve", "--run-memory-mb", "300"]) == 0 and got["mb"] == 300
+    assert cli.main(["serve", "--run-memory-mb", "-1"]) == 2
