@@ -1,10 +1,10 @@
 """Background run execution: a thread pool sized to the machine, cancel flags, live event logs.
 
 Each run executes in a process of its own (forked from the server by the run's thread) under the
-run memory limit (`run_memory_mb`, RLIMIT_AS): the process may grow its address space by that
-budget beyond what it started with. Its layer workers come from a fork server of its own, so
-they inherit the same limit — each process of the run (the run and each worker) has the whole
-budget; a run with W layer workers can hold up to (1 + W) × budget. Events and the result come
+run memory limit (`run_memory_mb`, RLIMIT_AS): its address space is capped at what it has at the
+fork plus that budget. Its layer workers come from a fork server of its own, so they inherit the
+same cap — each process of the run (the run and each worker) has the whole budget; a run with W
+layer workers can hold up to (1 + W) × budget. Events and the result come
 back over a pipe; cancel is a shared flag, then SIGKILL when the run does not stop in time (its
 fork server, and with it every worker, ends with it). With `run_memory_mb` 0 runs execute in the
 server's process, as before."""
