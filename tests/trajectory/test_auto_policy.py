@@ -212,3 +212,56 @@ def test_broad_phase_box_bound_is_the_exact_distance():
         ref.append(max(d * 1000.0, 0.0))
     assert np.count_nonzero(gap == 0) == np.count_nonzero(np.array(ref) <= 1e-6) > 0
     assert gap == pytest.approx(np.array(ref), abs=1e-6)
+
+
+def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
+    """135° bend on kr150_tilt_rotate with the riser `auto` verified: the plan leans the torch on
+    its last layers, and post-process writes those leaned axes, not the toolpath's (a program with
+    the un-leaned torch would weld where the plan found the torch nozzle on the table). Torch axes
+    from `positioner_and_torch` are the toolpath's turned by exactly each layer's lean (arc-ON
+    points), untouched on layers without one; the KRL the node writes changes when the un-leaned
+    axes are put in their place."""
+    import waamflow.nodes.post as post_node
+    from waamflow.trajectory.cell import positioner_and_torch
+
+    bend = 1.2 * TUBE_OUTER_MM
+    moves = _bend(tmp_path, 135.0, 5.0)
+    cell = load_cell("kr150_tilt_rotate")
+    riser = next(s for s in plan_auto(cell, moves, _arm(cell)).suggestions if s["change"] == "riser")
+    data = modified_cell(json.loads(cell.model_dump_json()), riser, moves)
+    (tmp_path / "riser.json").write_text(json.dumps(data))
+    riser_cell = Cell.model_validate(data)
+    plan = plan_auto(riser_cell, moves, _arm(riser_cell))
+    lean = {r["layer"]: r["lean_deg"] for r in plan.layers}
+    assert plan.ok and max(lean.values()) >= 10.0
+
+    angles, torch = positioner_and_torch(riser_cell, moves, "auto")
+    np.testing.assert_allclose(angles, plan.angles)
+    a = np.asarray(moves.tool_axis, float)
+    turned = np.degrees(np.arccos(np.clip(np.sum(a * torch, axis=1) / np.linalg.norm(a, axis=1)
+                                          / np.linalg.norm(torch, axis=1), -1.0, 1.0)))
+    point_layer = np.concatenate([np.asarray(moves.layer)[:1], np.asarray(moves.layer)])
+    arc_end = np.concatenate([[False], np.asarray(moves.arc, bool)])
+    for L, deg in lean.items():
+        on = arc_end & (point_layer == L)
+        assert on.any()
+        np.testing.assert_allclose(turned[on], deg, atol=1e-6)
+
+    recipe = json.loads((GRAPHS / "curved-duct.json").read_text())
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "sim"]
+    recipe["edges"] = [e for e in recipe["edges"] if "sim." not in (e["from"][:4], e["to"][:4])]
+    recipe["inputs"]["dtheta_deg"] = 5.0
+    next(n for n in recipe["nodes"] if n["id"] == "fan")["params"].update(
+        {"axis_point": [-bend, 0, 0], "h_min": 0.1, "h_max": 8.0})
+    next(n for n in recipe["nodes"] if n["id"] == "post")["params"].update(
+        {"cell": "riser.json", "positioner_policy": "auto"})
+
+    def dat():
+        r = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+        return r.outputs["post"]["program"].files["dat"]
+
+    leaned = dat()
+    real = post_node.positioner_and_torch
+    monkeypatch.setattr(post_node, "positioner_and_torch",
+                        lambda c, m, p: (real(c, m, p)[0], np.asarray(m.tool_axis, float)))
+    assert dat() != leaned

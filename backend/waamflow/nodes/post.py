@@ -23,7 +23,8 @@ from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check
 from ..program.gcode import GCODE_WELD_CODES
 from ..program.krl import ARCTECH_CHANNELS, KRL_WELD_CODES, check_channels
 from ..program.profiles import profile as machine_profile
-from ..trajectory.cell import load_cell, positioner_angles, to_world
+from ..trajectory.cell import cell_schema, positioner_and_torch, to_world
+from .robot import cell_files, cell_from_param, check_cell_param
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -67,7 +68,7 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "3"
+    version = "4"                # 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
     uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
@@ -199,8 +200,10 @@ class PostProcess(Node):
         module_dir: str = Field("HOME:", pattern=r'^[^"\\]+$', max_length=80,
                                 description="RAPID: controller folder the main module loads its part modules from", title="Module folder (RAPID)")
         # robots
-        cell: ShippedName = shipped("cells", default="", max_length=64,
-                          description="Shipped robot cell (data/cells) whose positioner angles go into every target as "
+        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells",
+                                                                 "x-file-suffix": ".json"},
+                          description="Robot cell — a shipped cell name (data/cells) or a cell JSON path, as in "
+                                      "simulate-robot — whose positioner angles go into every target as "
                                       "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
                                       "(`rotary_axes`); empty = no external axes", title="Robot cell")
         positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
@@ -248,6 +251,11 @@ class PostProcess(Node):
                 raise ValueError(f"process_scale factors must be > 0: {bad}")
             return v
 
+        @field_validator("cell")
+        @classmethod
+        def _cell_name(cls, v: str) -> str:
+            return check_cell_param(v)
+
         @field_validator("tool_on", "tool_off")
         @classmethod
         def _tool_template(cls, v: str) -> str:
@@ -271,9 +279,13 @@ class PostProcess(Node):
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
         if params.cell and params.format in ("krl", "rapid", "gcode", "tp", "inform"):
-            cell = load_cell(params.cell)
+            cell = cell_from_param(ctx, params.cell)
             moves = flatten(inputs["toolpath"])
-            angles = positioner_angles(cell, moves, params.positioner_policy)
+            angles, torch = positioner_and_torch(cell, moves, params.positioner_policy)
+            if not np.array_equal(torch, moves.tool_axis):
+                # the plan leaned the torch on some layers: the program carries those axes
+                moves = replace(moves, tool_axis=torch)
+                inputs = {**inputs, "toolpath": moves}
             try:
                 writer = replace(writer, external_axes=angles)
             except ValueError as err:
@@ -302,6 +314,9 @@ class PostProcess(Node):
                 ctx.warn(f"under the positioner angles the torch still tilts up to {tilt:.1f}° from vertical; "
                          "the G-code torch is vertical: tool axes are ignored (use krl or rapid)")
         return {"program": program}
+
+    def read_files(self, params, read_bytes) -> list[str]:
+        return cell_files(params.cell, read_bytes)
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
         program: Program = outputs["program"]

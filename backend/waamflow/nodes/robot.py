@@ -58,6 +58,37 @@ class RobotParams(NodeParams):
                           wire_diameter_mm=self.wire_diameter_mm)
 
 
+def cell_files(cell: str, read_bytes) -> list[str]:
+    """A node's `read_files` for a cell parameter: a user's cell file and the mesh files its
+    shapes name (shipped cells are part of the code version)."""
+    if not cell.endswith(".json"):
+        return []
+    data = read_bytes(cell)
+    try:
+        c = load_cell(cell, text=data.decode("utf-8")) if data is not None else None
+    except Exception:   # unreadable or invalid: the run reports it; its text is in the key
+        c = None
+    meshes = sorted({sh.mesh for sh in c.all_shapes() if sh.kind == "mesh"}) if c else []
+    return [cell, *(_beside(cell, m) for m in meshes)]
+
+
+def cell_from_param(ctx, cell: str):
+    """The `Cell` a node's cell parameter names, its meshes loaded: a user's cell .json (read
+    through the engine's file gate, its meshes beside it) or a shipped cell by name."""
+    if cell.endswith(".json"):
+        c = load_cell(cell, text=ctx.read_text(cell, max_bytes=1_000_000))
+        return c.load_meshes(lambda name: ctx.read_bytes(_beside(cell, name), max_bytes=200_000_000))
+    return load_cell(cell).load_meshes()
+
+
+def check_cell_param(v: str) -> str:
+    """A cell parameter: a user's cell is a .json file (read through the engine's file gate);
+    anything else is the name of a shipped cell, never a path."""
+    if v and not v.endswith(".json") and not SHIPPED_NAME.match(v):
+        raise ValueError("a shipped cell name (letters, digits, _ - .) or a cell .json file")
+    return v
+
+
 def _beside(cell_path: str, name: str) -> str:
     """A file named in a cell file, next to it."""
     folder = cell_path.replace("\\", "/").rpartition("/")[0]
@@ -167,24 +198,10 @@ class SimulateRobot(Node):
         @field_validator("cell")
         @classmethod
         def _cell_name(cls, v: str) -> str:
-            # a user's cell is a .json file (read through the engine's file gate); anything else is
-            # the name of a shipped cell, never a path
-            if v and not v.endswith(".json") and not SHIPPED_NAME.match(v):
-                raise ValueError("a shipped cell name (letters, digits, _ - .) or a cell .json file")
-            return v
+            return check_cell_param(v)
 
     def read_files(self, params, read_bytes) -> list[str]:
-        """A user's cell file and the mesh files its shapes name (shipped cells are part of the
-        code version)."""
-        if not (params.kinematics and params.cell.endswith(".json")):
-            return []
-        data = read_bytes(params.cell)
-        try:
-            cell = load_cell(params.cell, text=data.decode("utf-8")) if data is not None else None
-        except Exception:   # unreadable or invalid: the run reports it; its text is in the key
-            cell = None
-        meshes = sorted({sh.mesh for sh in cell.all_shapes() if sh.kind == "mesh"}) if cell else []
-        return [params.cell, *(_beside(params.cell, m) for m in meshes)]
+        return cell_files(params.cell, read_bytes) if params.kinematics else []
 
     def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
@@ -192,11 +209,7 @@ class SimulateRobot(Node):
         if not (params.cell or params.robot_description or profile.description):
             return None          # no arm to solve (a gantry's G-code planner profile)
         if params.cell:
-            if params.cell.endswith(".json"):        # a user's cell file; its meshes beside it
-                cell = load_cell(params.cell, text=ctx.read_text(params.cell, max_bytes=1_000_000))
-                cell.load_meshes(lambda name: ctx.read_bytes(_beside(params.cell, name), max_bytes=200_000_000))
-            else:
-                cell = load_cell(params.cell).load_meshes()
+            cell = cell_from_param(ctx, params.cell)
             return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
                                      frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
                                      positioner_policy=params.positioner_policy, collisions=params.collisions,

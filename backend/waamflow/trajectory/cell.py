@@ -351,6 +351,17 @@ def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: fl
     return plan_positioner(cell, moves, policy, max_tilt_deg)[0]
 
 
+def positioner_and_torch(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """What a program on this cell must carry: the positioner angles (n, axes) deg and the
+    part-frame torch axes (n, 3) — the toolpath's own, or under `auto` the plan's, with the torch
+    lean it chose on the layers that needed one (a program written with the toolpath's axes there
+    would weld un-leaned where the plan verified only the leaned torch)."""
+    if policy == "auto":
+        return _auto_plan(cell, moves)
+    return plan_positioner(cell, moves, policy, max_tilt_deg)[0], np.asarray(moves.tool_axis, float)
+
+
 def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Positioner angles (deg) at every programmed point, (n, axes) — E1 (tilt), E2 (rotate) for
@@ -377,7 +388,7 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
     if policy not in POLICIES:
         raise InputFileError(f"positioner policy {policy!r}: use one of {', '.join(POLICIES)}")
     if policy == "auto":
-        return _auto_angles(cell, moves), np.zeros(len(moves.points), bool)
+        return _auto_plan(cell, moves)[0], np.zeros(len(moves.points), bool)
     n = len(moves.points)
     fixed = cell.fixed_angles()
     m = len(fixed)
@@ -418,11 +429,11 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
     return ang, clipped
 
 
-def _auto_angles(cell: Cell, moves) -> np.ndarray:
-    """The `auto` plan's angles for a writer (post-process): the same plan simulate-robot makes
-    with the default limits and spacings."""
+def _auto_plan(cell: Cell, moves) -> tuple[np.ndarray, np.ndarray]:
+    """The `auto` plan's angles and torch axes for a writer (post-process): the same plan
+    simulate-robot makes with the default limits and spacings."""
     if cell.axes == 0 or len(moves.points) < 2:
-        return np.tile(cell.fixed_angles(), (len(moves.points), 1))
+        return np.tile(cell.fixed_angles(), (len(moves.points), 1)), np.asarray(moves.tool_axis, float)
     from ..core.errors import PlanningError
     from .cellplan import plan_auto
     from .kinematics import load_arm
@@ -432,7 +443,7 @@ def _auto_angles(cell: Cell, moves) -> np.ndarray:
     plan = plan_auto(cell.load_meshes(), moves, arm)
     if not plan.ok:
         raise PlanningError(auto_failure_text(cell, plan), layer=plan.failed["layer"])
-    return plan.angles
+    return plan.angles, plan.tool_axis
 
 
 def _sp1(w: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
