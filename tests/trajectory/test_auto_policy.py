@@ -263,5 +263,5 @@ def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
     leaned = dat()
     real = post_node.positioner_and_torch
     monkeypatch.setattr(post_node, "positioner_and_torch",
-                        lambda c, m, p: (real(c, m, p)[0], np.asarray(m.tool_axis, float)))
+                        lambda c, m, *a: (real(c, m, *a)[0], np.asarray(m.tool_axis, float)))
     assert dat() != leaned

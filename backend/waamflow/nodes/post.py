@@ -24,7 +24,8 @@ from ..program.gcode import GCODE_WELD_CODES
 from ..program.krl import ARCTECH_CHANNELS, KRL_WELD_CODES, check_channels
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import cell_schema, positioner_and_torch, to_world
-from .robot import cell_files, cell_from_param, check_cell_param
+from .robot import (POSITIONER_PLAN_KEYS, cell_files, cell_from_param, check_cell_param, flat_tol_field,
+                    max_lean_field, max_tilt_field)
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -68,7 +69,7 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "4"                # 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
+    version = "5"                # 5: max_tilt/max_lean/flat_tol; 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
     uses_node_id = True          # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
@@ -207,9 +208,13 @@ class PostProcess(Node):
                                       "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
                                       "(`rotary_axes`); empty = no external axes", title="Robot cell")
         positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
-            "auto", description="With a cell: positioner angles per point, as in simulate-robot (auto with its "
-                                "default limits: 15° torch lean, 5° off flat; min-motion with its default 30° "
-                                "lean); auto fails (exit 3) naming the layer when no angles work", title="Positioner policy")
+            "auto", description="With a cell: positioner angles per point, as in simulate-robot (auto within "
+                                "max_lean_deg and flat_tol_deg, min-motion within max_tilt_deg; a simulate-robot "
+                                "fed this program plans with the same); auto fails (exit 3) naming the layer when "
+                                "no angles work", title="Positioner policy")
+        max_tilt_deg: float = max_tilt_field()
+        max_lean_deg: float = max_lean_field()
+        flat_tol_deg: float = flat_tol_field()
         tool_direction: Literal["default", "x", "z"] = Field(
             "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z", title="Tool axis")
 
@@ -276,12 +281,17 @@ class PostProcess(Node):
         except ValueError as err:
             raise RecipeError(str(err)) from err
         world_tilt = None
+        positioner = None
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
         if params.cell and params.format in ("krl", "rapid", "gcode", "tp", "inform"):
             cell = cell_from_param(ctx, params.cell)
             moves = flatten(inputs["toolpath"])
-            angles, torch = positioner_and_torch(cell, moves, params.positioner_policy)
+            from ..trajectory.cellplan import AutoLimits   # lazy: the catalog must not import the arm's kinematics
+
+            angles, torch = positioner_and_torch(cell, moves, params.positioner_policy, params.max_tilt_deg,
+                                                 AutoLimits(params.max_lean_deg, params.flat_tol_deg))
+            positioner = {"cell": params.cell, **{k: getattr(params, k) for k in POSITIONER_PLAN_KEYS}}
             if not np.array_equal(torch, moves.tool_axis):
                 # the plan leaned the torch on some layers: the program carries those axes
                 moves = replace(moves, tool_axis=torch)
@@ -300,6 +310,8 @@ class PostProcess(Node):
             program = post_process(inputs["toolpath"], params.format, plan, writer)
         except ValueError as err:
             raise RecipeError(str(err)) from err
+        if positioner is not None:
+            program = replace(program, stats={**program.stats, "positioner": positioner})
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
         what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands", "tp": "TP weld schedules",

@@ -58,6 +58,27 @@ class RobotParams(NodeParams):
                           wire_diameter_mm=self.wire_diameter_mm)
 
 
+POSITIONER_PLAN_KEYS = ("positioner_policy", "max_tilt_deg", "max_lean_deg", "flat_tol_deg")
+
+
+def max_tilt_field():
+    return Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
+                 description="positioner_policy min-motion: torch lean from vertical tolerated "
+                             "before the positioner turns the next layer", title="Largest torch lean")
+
+
+def max_lean_field():
+    return Field(15.0, ge=0, le=15, json_schema_extra=unit("deg"),
+                 description="positioner_policy auto: largest torch lean from the layer normal "
+                             "the process allows", title="Largest torch lean (auto)")
+
+
+def flat_tol_field():
+    return Field(5.0, ge=0, le=30, json_schema_extra=unit("deg"),
+                 description="positioner_policy auto: how far a layer's normal may stay off "
+                             "vertical (flat-position tolerance)", title="Flat-position tolerance (auto)")
+
+
 def cell_files(cell: str, read_bytes) -> list[str]:
     """A node's `read_files` for a cell parameter: a user's cell file and the mesh files its
     shapes name (shipped cells are part of the code version)."""
@@ -141,7 +162,7 @@ class SimulateRobot(Node):
               Port("program", "program", "The program post-processed from this toolpath: its blend distance, "
                                          "ignition dwells and controller family are simulated", optional=True))
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
-    version = "16"  # 16: positioner_policy auto (default), max_lean_deg, flat_tol_deg; 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
+    version = "17"  # 17: positioner policy and limits from a connected program; 16: positioner_policy auto (default), max_lean_deg, flat_tol_deg; 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
     # 15: G-code programs run the G-code planner family (junction deviation, look-ahead, travel as written);
     #     ArcTech KRL -> KR C4 profile
     # 14: program input (blend, dwells, controller as written); C_DIS scales the blend law; arc-on ≤ total
@@ -154,9 +175,7 @@ class SimulateRobot(Node):
                           description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
                                       "gives the arm, base, TCP and the work frame on the positioner flange at its "
                                       "`fixed_deg` angles, replacing the base/work/TCP parameters below", title="Robot cell")
-        max_tilt_deg: float = Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
-                                    description="positioner_policy min-motion: torch lean from vertical tolerated "
-                                                "before the positioner turns the next layer", title="Largest torch lean")
+        max_tilt_deg: float = max_tilt_field()
         positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
             "auto", description="With a cell: `auto` plans each layer's positioner angles and torch lean with the "
                                 "arm's IK and the collision checks (gravity angles first, then turntable turns, "
@@ -166,12 +185,8 @@ class SimulateRobot(Node):
                                 "torch axis points straight down (flat-position welding); `min-motion` holds the "
                                 "angles while the torch may lean max_tilt_deg. Limits and axis speeds from the "
                                 "positioner URDF cap and are reported per layer", title="Positioner policy")
-        max_lean_deg: float = Field(15.0, ge=0, le=15, json_schema_extra=unit("deg"),
-                                    description="positioner_policy auto: largest torch lean from the layer normal "
-                                                "the process allows", title="Largest torch lean (auto)")
-        flat_tol_deg: float = Field(5.0, ge=0, le=30, json_schema_extra=unit("deg"),
-                                    description="positioner_policy auto: how far a layer's normal may stay off "
-                                                "vertical (flat-position tolerance)", title="Flat-position tolerance (auto)")
+        max_lean_deg: float = max_lean_field()
+        flat_tol_deg: float = flat_tol_field()
         collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
                                          description="With a cell: coal collision checks (arm links, torch, table, "
                                                      "fixtures, layers built so far) every this much programmed path "
@@ -223,6 +238,24 @@ class SimulateRobot(Node):
         return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(tcp),
                                  frames=frames, step_mm=params.ik_step_mm)
 
+    def _positioner_from_program(self, ctx, params, program):
+        """With a cell, the program was written for a cell with positioner angles (and, under
+        `auto`, torch axes) planned by post-process: the simulation plans with the same cell,
+        policy and limits (taken from the program where simulate-robot leaves them unset), or it
+        would simulate another program than the one written."""
+        pos = program.stats.get("positioner") if isinstance(program.stats, dict) else None
+        if not pos or not params.cell:
+            return params
+        if pos.get("cell") != params.cell:
+            raise RecipeError(f"simulate-robot's cell {params.cell!r} is not the cell its `program` input was "
+                              f"written for ({pos.get('cell')!r}): set the same cell on both nodes", node=ctx.node_id)
+        twice = [k for k in POSITIONER_PLAN_KEYS if k in params.model_fields_set and getattr(params, k) != pos[k]]
+        if twice:
+            raise RecipeError("simulate-robot sets " + ", ".join(f"{k}={getattr(params, k)!r}" for k in twice)
+                              + " and its `program` input was written with " + ", ".join(f"{k}={pos[k]!r}" for k in twice)
+                              + ": one declaration — set them on the post-process (or the same on both)", node=ctx.node_id)
+        return params.model_copy(update={k: pos[k] for k in POSITIONER_PLAN_KEYS})
+
     def _from_program(self, ctx, params, program, profile: RobotProfile):
         """The options and robot profile the connected program declares (see the class doc)."""
         opt = params.sim_options()
@@ -269,6 +302,7 @@ class SimulateRobot(Node):
         opt = params.sim_options()
         if inputs.get("program") is not None:
             opt, profile = self._from_program(ctx, params, inputs["program"], profile)
+            params = self._positioner_from_program(ctx, params, inputs["program"])
 
         def progress(fraction: float, message: str = "") -> None:
             ctx.check_cancelled()

@@ -351,14 +351,14 @@ def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: fl
     return plan_positioner(cell, moves, policy, max_tilt_deg)[0]
 
 
-def positioner_and_torch(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
+def positioner_and_torch(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0, limits=None
                          ) -> tuple[np.ndarray, np.ndarray]:
     """What a program on this cell must carry: the positioner angles (n, axes) deg and the
     part-frame torch axes (n, 3) — the toolpath's own, or under `auto` the plan's, with the torch
     lean it chose on the layers that needed one (a program written with the toolpath's axes there
     would weld un-leaned where the plan verified only the leaned torch)."""
     if policy == "auto":
-        return _auto_plan(cell, moves)
+        return _auto_plan(cell, moves, limits)
     return plan_positioner(cell, moves, policy, max_tilt_deg)[0], np.asarray(moves.tool_axis, float)
 
 
@@ -429,7 +429,7 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
     return ang, clipped
 
 
-def _auto_plan(cell: Cell, moves) -> tuple[np.ndarray, np.ndarray]:
+def _auto_plan(cell: Cell, moves, limits=None) -> tuple[np.ndarray, np.ndarray]:
     """The `auto` plan's angles and torch axes for a writer (post-process): the same plan
     simulate-robot makes with the default limits and spacings."""
     if cell.axes == 0 or len(moves.points) < 2:
@@ -440,7 +440,7 @@ def _auto_plan(cell: Cell, moves) -> tuple[np.ndarray, np.ndarray]:
     from .run import auto_failure_text
 
     arm = load_arm(cell.robot_urdf, tuple(cell.tool.tcp_mm), home_deg=cell.robot_home_deg)
-    plan = plan_auto(cell.load_meshes(), moves, arm)
+    plan = plan_auto(cell.load_meshes(), moves, arm) if limits is None else plan_auto(cell.load_meshes(), moves, arm, limits)
     if not plan.ok:
         raise PlanningError(auto_failure_text(cell, plan), layer=plan.failed["layer"])
     return plan.angles, plan.tool_axis
