@@ -14,8 +14,9 @@ ErrorResponse body) and one without tokens (a desktop server on loopback).
 One documented exception: a recipe is a program. Its JSON Schema (Recipe) says what a recipe looks
 like; whether its node types exist, its edges join existing ports of matching types and each node's
 params are valid for that type is checked by the engine (422 naming node and field). Likewise a
-zone-parameter XML file (root element, numbers, units, ranges; 422 naming layer, section and zone).
-So for the operations that take a recipe or a parameter file, 422 is an accepted answer to
+zone-parameter XML file (root element, numbers, units, ranges; 422 naming layer, section and zone)
+and a layer scan (PLY / XYZ / heights CSV of the layer the build expects; 422 with the reason).
+So for the operations that take a recipe, a parameter file or a scan, 422 is an accepted answer to
 schema-valid data; so are 404 (a graph name that is not saved) and 409 (writing a shipped example).
 And `DELETE /api/runs/{id}` is the contract's cancel, not a removal: the run stays readable, so the
 `use_after_free` check is off for the run's read operations (it stays on for graphs).
@@ -38,7 +39,7 @@ from api_util import wait_for_run
 from waamflow.api.app import create_app
 from waamflow.settings import Settings
 
-DOCUMENT_OPS = r"^/api/(runs|preview|graphs/\{name\}|graphs/\{name\}/params)$"
+DOCUMENT_OPS = r"^/api/(runs|preview|graphs/\{name\}|graphs/\{name\}/params|builds/\{build_id\}/scans)$"
 # DELETE /api/runs/{id} cancels a run (CONTRACT.md): the run stays readable afterwards (status
 # "cancelled", its log and artifacts), so "deleted resource still available" does not apply to it;
 # nor to a deleted graph's revisions: they stay readable so an admin can restore one (#26)

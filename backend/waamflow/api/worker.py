@@ -11,6 +11,7 @@ server's process, as before."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import multiprocessing as mp
@@ -392,6 +393,20 @@ class RunManager:
             log.exception("run %s crashed", run_id)
             self._finish(run_id, live, "failed", error={"kind": "internal", "message": repr(exc), "text": repr(exc)})
 
+    @contextlib.contextmanager
+    def _quiet_sqlite(self):
+        """Hold the server's SQLite users (the store, the disk cache) while the run's process is
+        forked: SQLite's process-wide mutexes (its allocator's among them) are copied into the child
+        in whatever state another thread left them, and a child forked while a store query ran
+        hung in its first `sqlite3.connect` (1 run in ~15 under concurrent polling). Every query of
+        the store and the cache runs under these locks, so none is inside SQLite at the fork."""
+        locks = [lk for lk in (getattr(self.store, "_lock", None),
+                               getattr(getattr(self.cache, "disk", None), "_lock", None)) if lk is not None]
+        with contextlib.ExitStack() as stack:
+            for lk in locks:
+                stack.enter_context(lk)
+            yield
+
     def _run_process(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
                      params_xml: str | None, accept_preflight: bool, on_dict: Callable[[dict], None]) -> None:
         """The run in a process of its own under the memory limit (see the module's doc)."""
@@ -408,7 +423,8 @@ class RunManager:
                            args=(self, writer, stop, run_id, recipe, graph, resolver, accept_preflight))
         outcome = None
         try:
-            proc.start()
+            with self._quiet_sqlite():
+                proc.start()
             writer.close()
             try:   # the run's process group: the run, its fork server and its workers end together
                 os.setpgid(proc.pid, proc.pid)

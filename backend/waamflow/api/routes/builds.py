@@ -165,7 +165,7 @@ async def next_program(build_id: BuildId, svc: ServicesDep, user: UserDep) -> La
 
 @router.post("/{build_id}/scans", response_model=ScanResult, responses=errors(400, 401, 404, 409, 413, 422),
              openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
-                 "type": "string", "format": "binary",
+                 "type": "string", "format": "binary", "minLength": 1,
                  "description": "PLY or XYZ/CSV point cloud, or per-path heights CSV (layer,s,height[,width])"}}},
                  "required": True}})
 async def post_scan(build_id: BuildId, request: Request, svc: ServicesDep, user: UserDep,
