@@ -369,19 +369,8 @@ class RunManager:
             result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
                              workers=self.layer_workers, scheduler=self.scheduler, max_layers=lim.layers)
             self._check_result(result)
-            summary = result.summary(recipe.name)
-            summary["inputs"] = recipe.inputs
-            files, _failed = gate(result.preflight, result.artifacts, accept_preflight,
-                                  "accept_preflight in POST /api/runs")
-            summary["preflight"] = result.preflight
-            summary["artifacts"] = sorted(files)
-            write_run_dir(self.run_dir(run_id), files, summary)
-            if self.on_done is not None:
-                try:
-                    self.on_done(run_id, graph_name, recipe, result)
-                except Exception:  # the viewer or params store must not fail a finished run
-                    log.exception("post-run hook failed for run %s", run_id)
-            self._finish(run_id, live, "done", summary=summary)
+            summary = self._write_result(run_id, recipe, result, accept_preflight)
+            self._done(run_id, graph_name, recipe, result, live, summary)
         except CancelledError as err:
             if live.limit is not None:
                 self._finish(run_id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
@@ -392,6 +381,26 @@ class RunManager:
         except Exception as exc:  # pragma: no cover - last resort: never leave a run 'running'
             log.exception("run %s crashed", run_id)
             self._finish(run_id, live, "failed", error={"kind": "internal", "message": repr(exc), "text": repr(exc)})
+
+    def _write_result(self, run_id: str, recipe: Recipe, result, accept_preflight: bool) -> dict:
+        """The finished run's folder (artifacts the preflight lets out, summary.json); its summary.
+        In the run's process or, with run_memory_mb 0, in the server's."""
+        summary = result.summary(recipe.name)
+        summary["inputs"] = recipe.inputs
+        files, _failed = gate(result.preflight, result.artifacts, accept_preflight, "accept_preflight in POST /api/runs")
+        summary["preflight"] = result.preflight
+        summary["artifacts"] = sorted(files)
+        write_run_dir(self.run_dir(run_id), files, summary)
+        return summary
+
+    def _done(self, run_id: str, graph_name: str | None, recipe: Recipe, result, live: LiveRun, summary: dict) -> None:
+        """A run that ended well: the post-run hook (viewer, parameter store), then its record."""
+        if self.on_done is not None:
+            try:
+                self.on_done(run_id, graph_name, recipe, result)
+            except Exception:  # the viewer or params store must not fail a finished run
+                log.exception("post-run hook failed for run %s", run_id)
+        self._finish(run_id, live, "done", summary=summary)
 
     @contextlib.contextmanager
     def _quiet_sqlite(self):
@@ -473,13 +482,7 @@ class RunManager:
             return
         kind = outcome[0]
         if kind == "done":
-            summary, result = outcome[1], outcome[2]
-            if self.on_done is not None:
-                try:
-                    self.on_done(run_id, graph_name, recipe, result)
-                except Exception:  # the viewer or params store must not fail a finished run
-                    log.exception("post-run hook failed for run %s", run_id)
-            self._finish(run_id, live, "done", summary=summary)
+            self._done(run_id, graph_name, recipe, outcome[2], live, outcome[1])
         elif kind == "cancelled":
             if live.limit is not None:
                 self._finish(run_id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
@@ -668,12 +671,7 @@ def _run_child(manager: RunManager, conn, stop, run_id: str, recipe: Recipe, gra
         result = execute(graph, resolver=resolver, cache=cache, on_event=lambda ev: conn.send(("event", ev.to_dict())),
                          cancel=stop, workers=manager.layer_workers, scheduler=manager.scheduler, max_layers=lim.layers)
         manager._check_result(result)
-        summary = result.summary(recipe.name)
-        summary["inputs"] = recipe.inputs
-        files, _failed = gate(result.preflight, result.artifacts, accept_preflight, "accept_preflight in POST /api/runs")
-        summary["preflight"] = result.preflight
-        summary["artifacts"] = sorted(files)
-        write_run_dir(manager.run_dir(run_id), files, summary)
+        summary = manager._write_result(run_id, recipe, result, accept_preflight)
         conn.send(("done", summary, dataclasses.replace(result, artifacts={})))
     except CancelledError as err:
         conn.send(("cancelled", err.to_dict()))

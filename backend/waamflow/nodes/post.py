@@ -285,7 +285,7 @@ class PostProcess(Node):
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
         if params.cell and params.format in ("krl", "rapid", "gcode", "tp", "inform"):
-            cell = cell_from_param(ctx, params.cell)
+            cell = cell_from_param(ctx, params.cell, meshes=params.positioner_policy == "auto")  # auto checks collisions
             moves = flatten(inputs["toolpath"])
             from ..trajectory.cellplan import AutoLimits   # lazy: the catalog must not import the arm's kinematics
 

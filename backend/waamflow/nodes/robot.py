@@ -93,13 +93,14 @@ def cell_files(cell: str, read_bytes) -> list[str]:
     return [cell, *(_beside(cell, m) for m in meshes)]
 
 
-def cell_from_param(ctx, cell: str):
-    """The `Cell` a node's cell parameter names, its meshes loaded: a user's cell .json (read
-    through the engine's file gate, its meshes beside it) or a shipped cell by name."""
+def cell_from_param(ctx, cell: str, meshes: bool = True):
+    """The `Cell` a node's cell parameter names, with its meshes loaded when `meshes` (the
+    collision checks need them): a user's cell .json (read through the engine's file gate, its
+    meshes beside it) or a shipped cell by name."""
     if cell.endswith(".json"):
         c = load_cell(cell, text=ctx.read_text(cell, max_bytes=1_000_000))
-        return c.load_meshes(lambda name: ctx.read_bytes(_beside(cell, name), max_bytes=200_000_000))
-    return load_cell(cell).load_meshes()
+        return c.load_meshes(lambda name: ctx.read_bytes(_beside(cell, name), max_bytes=200_000_000)) if meshes else c
+    return load_cell(cell).load_meshes() if meshes else load_cell(cell)
 
 
 def check_cell_param(v: str) -> str:

@@ -435,12 +435,12 @@ def _auto_plan(cell: Cell, moves, limits=None) -> tuple[np.ndarray, np.ndarray]:
     if cell.axes == 0 or len(moves.points) < 2:
         return np.tile(cell.fixed_angles(), (len(moves.points), 1)), np.asarray(moves.tool_axis, float)
     from ..core.errors import PlanningError
-    from .cellplan import plan_auto
+    from .cellplan import AutoLimits, plan_auto
     from .kinematics import load_arm
     from .run import auto_failure_text
 
     arm = load_arm(cell.robot_urdf, tuple(cell.tool.tcp_mm), home_deg=cell.robot_home_deg)
-    plan = plan_auto(cell.load_meshes(), moves, arm) if limits is None else plan_auto(cell.load_meshes(), moves, arm, limits)
+    plan = plan_auto(cell.load_meshes(), moves, arm, limits or AutoLimits())
     if not plan.ok:
         raise PlanningError(auto_failure_text(cell, plan), layer=plan.failed["layer"])
     return plan.angles, plan.tool_axis
