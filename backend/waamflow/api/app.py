@@ -10,6 +10,7 @@ import secrets
 import sqlite3
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -209,7 +210,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, err: StarletteHTTPException):
         headers = dict(getattr(err, "headers", None) or {})
-        detail = err.detail
+        # a string from Starlette, the error dict from FastAPI's HTTPException (its `detail: Any`)
+        detail: str | dict[str, Any] = err.detail
         if err.status_code == 405:  # Allow: every method of the path, not only of the route tried first
             methods = allowed_methods(app.openapi(), request.url.path)
             headers["Allow"] = ", ".join(methods)
@@ -251,7 +253,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             "bearer": {"type": "http", "scheme": "bearer",
                        "description": "WAAMFLOW_TOKEN or a token of --token-file (only when the server has tokens)"}}
         # a server with tokens requires one on every route behind the check; without tokens it is optional
-        security = [{"bearer": []}] if tokens else [{"bearer": []}, {}]
+        security: list[dict[str, list[str]]] = [{"bearer": []}] if tokens else [{"bearer": []}, {}]
         for path, ops in schema.get("paths", {}).items():
             for op in ops.values():
                 responses = op.setdefault("responses", {})

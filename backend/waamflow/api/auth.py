@@ -23,6 +23,7 @@ import hmac
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 from ..core.errors import WaamflowError
 
@@ -44,10 +45,10 @@ VIEWER_WRITES = (("POST", re.compile(r"^/api/viewer/(select|view)/?$")),)
 SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 
 
-class Tokens(dict):
+class Tokens(dict[str, str]):
     """name → token (a plain dict for every existing use), plus `roles`: name → role."""
 
-    def __init__(self, *args, roles: dict[str, str] | None = None, **kw) -> None:
+    def __init__(self, *args: Any, roles: dict[str, str] | None = None, **kw: str) -> None:
         super().__init__(*args, **kw)
         self.roles: dict[str, str] = dict(roles or {})
 
@@ -55,7 +56,7 @@ class Tokens(dict):
         return self.roles.get(name or "", DEFAULT_ROLE)
 
 
-def role_of(tokens: dict, name: str | None) -> str:
+def role_of(tokens: dict[str, str], name: str | None) -> str:
     return tokens.role(name) if isinstance(tokens, Tokens) else DEFAULT_ROLE
 
 
@@ -85,7 +86,7 @@ class TokenFileError(WaamflowError):
     kind = "invalid_config"
 
 
-def parse_tokens(text: str, source: str = "token file") -> dict[str, str]:
+def parse_tokens(text: str, source: str = "token file") -> Tokens:
     """name → token from a token file's text (JSON object or `name:token` lines)."""
     stripped = text.strip()
     pairs: list[tuple[str, object, object]] = []   # (name, token, role or None)
@@ -115,10 +116,10 @@ def parse_tokens(text: str, source: str = "token file") -> dict[str, str]:
     for name, token, role in pairs:
         if not TOKEN_NAME.match(name):
             raise TokenFileError(f"{source}: invalid token name {name!r} (letters, digits, _ . @ -; ≤ 64 chars)")
-        check_token(token, f"{source}: token {name!r}")
+        token = check_token(token, f"{source}: token {name!r}")
         if name in out:
             raise TokenFileError(f"{source}: token name {name!r} appears twice")
-        if role is not None and role not in ROLES:
+        if role is not None and (not isinstance(role, str) or role not in ROLES):
             raise TokenFileError(f"{source}: token {name!r} has role {role!r}; roles: {', '.join(ROLES)}")
         out[name] = token
         out.roles[name] = role or DEFAULT_ROLE
@@ -127,7 +128,8 @@ def parse_tokens(text: str, source: str = "token file") -> dict[str, str]:
     return out
 
 
-def check_token(token: object, what: str) -> None:
+def check_token(token: object, what: str) -> str:
+    """`token` when it is a usable token (a string, long and varied enough), else TokenFileError."""
     if not isinstance(token, str) or len(token) < MIN_TOKEN_LENGTH or any(c.isspace() for c in token) or ":" in token:
         raise TokenFileError(f"{what} must be a string of at least {MIN_TOKEN_LENGTH} characters without "
                              "spaces or ':' (e.g. `python -c 'import secrets; print(secrets.token_urlsafe(32))'`)")
@@ -136,6 +138,7 @@ def check_token(token: object, what: str) -> None:
         raise TokenFileError(f"{what} is too weak: {'one character repeated' if distinct == 1 else f'{distinct} distinct characters'}"
                              f" (at least {MIN_DISTINCT_CHARS} distinct needed); make one with "
                              "`python -c 'import secrets; print(secrets.token_urlsafe(32))'`")
+    return token
 
 
 def load_tokens(token: str | None, token_file: str | Path | None) -> Tokens:

@@ -17,7 +17,7 @@ import time
 from collections import deque
 from typing import Any, Callable
 
-from starlette.exceptions import HTTPException
+from fastapi import HTTPException
 
 from .schemas import error_body
 
@@ -50,7 +50,8 @@ def client_address(scope) -> str | None:
 # ---- bodies -------------------------------------------------------------------------------------
 class BodyTooLarge(HTTPException):
     """Raised from `receive` when a body without Content-Length passes its limit: an HTTPException,
-    so FastAPI's body parsing and the routes pass it on to the 413 handler unchanged."""
+    so FastAPI's body parsing and the routes pass it on to the 413 handler unchanged (FastAPI's
+    HTTPException: a Starlette one whose detail may be the error dict, not only a string)."""
 
     def __init__(self, limit: int, what: str) -> None:
         super().__init__(413, detail={"kind": "too_large",

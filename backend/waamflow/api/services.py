@@ -129,6 +129,15 @@ class Services:
     # GET /api/graphs with this marker, their GET is a 422 with the reason (never skipped silently)
     unloaded: dict[str, dict] = field(default_factory=dict)
 
+    def run_manager(self) -> RunManager:
+        """`runs`, which the app's lifespan makes at startup: every route that queues, reads or
+        cancels a run goes through here, so a request served without it (an app whose lifespan
+        did not run) fails naming why instead of with "'NoneType' has no attribute"."""
+        if self.runs is None:
+            raise RuntimeError("the run manager is not started: it is made by the app's lifespan "
+                               "(create_app's startup; in tests, use TestClient as a context manager)")
+        return self.runs
+
     def release_reserve(self) -> int:
         """Delete the disk reserve (bytes freed): after a disk-full error, so that deletes, whose
         database journal needs a little room, go through. Made again at the next start."""
@@ -191,7 +200,9 @@ class Services:
         """check_sandbox on each node's validated params alone, before the graph's edges are checked:
         a file reference is judged first, whatever else the recipe lacks (422 naming node and
         param; a shipped name that is not one fails its pattern here too)."""
-        from ..engine.graph import REGISTRY, _validate_params, load_nodes, substitute_inputs
+        from ..engine.graph import _validate_params
+        from ..engine.node import REGISTRY, load_nodes
+        from ..engine.recipe import substitute_inputs
 
         load_nodes()
         for entry in recipe.nodes:

@@ -64,8 +64,10 @@ class GuardedH11Protocol(H11Protocol):
             self._head_timer = None
 
     def connection_lost(self, exc: Exception | None) -> None:
-        if getattr(self, "_head_timer", None) is not None:
-            self._head_timer.cancel()
+        # getattr: a connection closed before connection_made ran has no timer attribute yet
+        timer: asyncio.TimerHandle | None = getattr(self, "_head_timer", None)
+        if timer is not None:
+            timer.cancel()
             self._head_timer = None
         addr = getattr(self, "_counted", None)
         if addr is not None:

@@ -426,7 +426,8 @@ class Store:
 
     def list_audit(self, limit: int = 100, before: int | None = None, who: str | None = None,
                    action: str | None = None) -> list[dict]:
-        where, args = [], []
+        where: list[str] = []
+        args: list[int | str] = []
         if before is not None:
             where.append("id < ?")
             args.append(before)

@@ -164,7 +164,9 @@ def adapted_layer(lp: LayerPaths, track: Track, speed: np.ndarray, piece_mm: flo
                 pts.append(b)
                 if axis is not None:
                     axes.append(axis[j + 1])
-                arc.append(sp.arc[j]), inside.append(sp.inside[j]), spd.append(sp.speed[j])
+                arc.append(sp.arc[j])
+                inside.append(sp.inside[j])
+                spd.append(sp.speed[j])
                 zone.append(sp.zone[j] if sp.zone else "")
                 continue
             k = max(1, math.ceil(L / piece_mm))
@@ -180,7 +182,9 @@ def adapted_layer(lp: LayerPaths, track: Track, speed: np.ndarray, piece_mm: flo
                 if axis is not None:
                     ax = axis[j] * (1 - t1) + axis[j + 1] * t1
                     axes.append(ax / np.linalg.norm(ax))
-                arc.append(True), inside.append(sp.inside[j]), spd.append(v)
+                arc.append(True)
+                inside.append(sp.inside[j])
+                spd.append(v)
                 zone.append(sp.zone[j] if sp.zone else "")
         sections.append(replace(sp, points=np.asarray(pts), arc=np.asarray(arc, bool), inside=np.asarray(inside, bool),
                                 speed=np.asarray(spd, float), zone=tuple(zone) if sp.zone else (),

@@ -254,7 +254,8 @@ def register(track: Track, scan: Scan, radius: float = 0.75, iterations: int = 2
     else:
         rv = ang / (2 * math.sin(ang)) * np.array([R_tot[2, 1] - R_tot[1, 2], R_tot[0, 2] - R_tot[2, 0],
                                                     R_tot[1, 0] - R_tot[0, 1]])
-    reg = Registration(tuple(float(v) for v in rv), tuple(float(v) for v in t_tot), float(rms0 or 0.0), rms1, used)
+    reg = Registration((float(rv[0]), float(rv[1]), float(rv[2])), (float(t_tot[0]), float(t_tot[1]), float(t_tot[2])),
+                       float(rms0 or 0.0), rms1, used)
     return Scan(scan.layer, points=P, source=scan.source), reg
 
 
@@ -280,14 +281,17 @@ def measure(track: Track, scan: Scan, radius: float = 1.0, min_points: int = 3, 
     n = track.n
     if n == 0:
         raise ScanError(f"{scan.source}: layer {track.layer} has no arc-ON path to compare with")
-    if scan.kind == "heights":
+    if scan.points is None:   # heights along the path
+        if scan.s is None or scan.height is None:
+            raise ScanError(f"{scan.source}: layer {scan.layer}: the scan has neither points nor heights (s, height)")
+        ss = scan.s
         s = np.cumsum(track.length) - track.length / 2
-        if scan.s[0] > s[-1] or scan.s[-1] < s[0]:
-            raise ScanError(f"{scan.source}: layer {track.layer}: the heights run over s = {scan.s[0]:g}..{scan.s[-1]:g} mm, "
+        if ss[0] > s[-1] or ss[-1] < s[0]:
+            raise ScanError(f"{scan.source}: layer {track.layer}: the heights run over s = {ss[0]:g}..{ss[-1]:g} mm, "
                             f"the layer's path over 0..{s[-1] + track.length[-1] / 2:g} mm")
-        inside = (s >= scan.s[0]) & (s <= scan.s[-1])
-        h = np.where(inside, np.interp(s, scan.s, scan.height), np.nan)
-        w = np.where(inside, np.interp(s, scan.s, np.nan_to_num(scan.width, nan=np.nan)), np.nan) \
+        inside = (s >= ss[0]) & (s <= ss[-1])
+        h = np.where(inside, np.interp(s, ss, scan.height), np.nan)
+        w = np.where(inside, np.interp(s, ss, np.nan_to_num(scan.width, nan=np.nan)), np.nan) \
             if scan.width is not None and np.isfinite(scan.width).any() else np.full(n, np.nan)
     else:
         P = scan.points

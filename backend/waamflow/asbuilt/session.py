@@ -31,7 +31,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -59,6 +59,15 @@ def _utc() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
 
 
+class LayerPost(Protocol):
+    """Writes a one-layer program, `{file name: text}` (`run.post_callable` makes one from a
+    recipe's post-process node): `header` lines go in the program's header comments, `dwell_s` > 0
+    makes it wait that long at its start (`dwell_why` beside it)."""
+
+    def __call__(self, lp: LayerPaths, /, header: list[str] = ..., dwell_s: float = ...,
+                 dwell_why: str = ...) -> dict[str, str]: ...
+
+
 @dataclass
 class LayerRecord:
     layer: int
@@ -68,10 +77,10 @@ class LayerRecord:
 
 
 class BuildSession:
-    """One build (see module doc). `post(lp) -> {file name: text}` writes a one-layer program."""
+    """One build (see module doc). `post` (a LayerPost) writes a one-layer program."""
 
     def __init__(self, folder: Path, toolpath: Layered[LayerPaths], state: dict,
-                 post: Callable[[LayerPaths], dict[str, str]] | None = None, window: Window = Window()):
+                 post: LayerPost | None = None, window: Window = Window()):
         self.folder = Path(folder)
         self.items = [lp for lp in toolpath.items if lp is not None]
         self.tracks = [layer_track(lp) for lp in self.items]
@@ -84,7 +93,7 @@ class BuildSession:
     # ---- persistence -------------------------------------------------------------------------
     @classmethod
     def create(cls, folder: Path, toolpath: Layered[LayerPaths], meta: dict, who: str | None = None,
-               post=None, window: Window = Window()) -> "BuildSession":
+               post: LayerPost | None = None, window: Window = Window()) -> "BuildSession":
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=False)
         state = {"meta": meta, "created": _utc(), "next_layer": 0, "status": "building", "records": {}, "log": []}
@@ -96,7 +105,8 @@ class BuildSession:
         return s
 
     @classmethod
-    def load(cls, folder: Path, toolpath: Layered[LayerPaths], post=None, window: Window = Window()) -> "BuildSession":
+    def load(cls, folder: Path, toolpath: Layered[LayerPaths], post: LayerPost | None = None,
+             window: Window = Window()) -> "BuildSession":
         state = json.loads((Path(folder) / STATE).read_text(encoding="utf-8"))
         s = cls(folder, toolpath, state, post, window)
         if len(s.tracks) != state["meta"].get("layers", len(s.tracks)):
@@ -160,9 +170,10 @@ class BuildSession:
             top = np.where(np.isfinite(own.measured_top), own.measured_top, tr.planned_height() - tr.thickness)
             return top, np.where(np.isfinite(own.gain), own.gain, 1.0), hp, f"its own scan (pass {self.passes(k)})"
         j = next((i for i in range(k - 1, -1, -1) if str(i) in self.state["records"]), None)
-        if j is None:
+        rec = self.record(j) if j is not None else None
+        if j is None or rec is None:
             return beneath(tr, None, None), np.ones(tr.n), hp, None
-        rec, pt = self.record(j), self._track(j)
+        pt = self._track(j)
         return beneath(tr, pt, rec.measured_top), carry(tr, pt, rec.gain, 1.0), hp, f"the scan of layer {pt.layer}"
 
     def speeds_for(self, k: int) -> tuple[np.ndarray, dict]:
@@ -261,7 +272,7 @@ class BuildSession:
         self.state["records"][str(k)] = name
         fin = np.isfinite(dev)
         planned_top = float(np.mean(tr.planned_height()[fin])) if fin.any() else float("nan")
-        row = {"layer": tr.layer, "coverage": round(m.coverage, 4), "planned_top_mm": round(planned_top, 4),
+        row: dict[str, Any] = {"layer": tr.layer, "coverage": round(m.coverage, 4), "planned_top_mm": round(planned_top, 4),
                "asbuilt_top_mm": round(float(np.mean(m.height[fin])), 4),
                "mean_error_mm": round(float(np.mean(dev[fin])), 4), "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
                "max_error_mm": round(float(np.max(np.abs(dev[fin]))), 4),
@@ -273,16 +284,16 @@ class BuildSession:
         row["pass"] = passes
         # the top more than half a layer off after the window did what it could: lay the layer again
         # (too low) or leave the next one out (too tall) — as the simulator does (sim.simulate_build)
-        err, t = row["mean_error_mm"], tr.thickness
+        off, t = row["mean_error_mm"], tr.thickness
         nxt = k + 1
-        if err < -t / 2 and passes <= MAX_REPEATS:
+        if off < -t / 2 and passes <= MAX_REPEATS:
             self.state["added"] = int(self.state.get("added", 0)) + 1
-            row["then"] = f"layer {tr.layer} laid again ({-err:.2f} mm low, more than half the {t:g} mm layer)"
+            row["then"] = f"layer {tr.layer} laid again ({-off:.2f} mm low, more than half the {t:g} mm layer)"
             nxt = k
-        elif err > t / 2 and k + 2 < len(self.tracks):
+        elif off > t / 2 and k + 2 < len(self.tracks):
             self.state["dropped"] = int(self.state.get("dropped", 0)) + 1
             self.state.setdefault("skipped", []).append(self._track(k + 1).layer)
-            row["then"] = (f"layer {self._track(k + 1).layer} left out ({err:.2f} mm high, more than half the "
+            row["then"] = (f"layer {self._track(k + 1).layer} left out ({off:.2f} mm high, more than half the "
                            f"{t:g} mm layer)")
             nxt = k + 2
         self.state.setdefault("layers", []).append(row)

@@ -74,9 +74,9 @@ def event_distance(track: Track, corner_deg: float) -> np.ndarray:
     corner = new_seg & ~gap & (turn > corner_deg)
     ev += list(start[1:][gap | corner])
     ev += list((s[:-1] + track.length[:-1] / 2)[gap])
-    ev = np.sort(np.asarray(ev))
-    k = np.clip(np.searchsorted(ev, s), 1, len(ev) - 1)
-    return np.minimum(np.abs(s - ev[k - 1]), np.abs(ev[k] - s))
+    events = np.sort(np.asarray(ev))
+    k = np.clip(np.searchsorted(events, s), 1, len(events) - 1)
+    return np.minimum(np.abs(s - events[k - 1]), np.abs(events[k] - s))
 
 
 def bead_heights(track: Track, v: np.ndarray, order: int, dist: Disturbance, rng: np.random.Generator,

@@ -75,8 +75,13 @@ def layer_track(lp: LayerPaths, ds: float = 1.0) -> Track:
             cn = np.linalg.norm(c, axis=1)
             c = np.where(cn[:, None] > 1e-9, c / np.maximum(cn, 1e-12)[:, None], np.array([1.0, 0.0, 0.0]))
             v = float(sp.speed[j]) if np.isfinite(sp.speed[j]) and sp.speed[j] > 0 else np.nan
-            pts.append(p), nor.append(n), acr.append(c)
-            spd.append(np.full(k, v)), sec.append(np.full(k, si)), seg.append(np.full(k, j)), ln.append(np.full(k, L / k))
+            pts.append(p)
+            nor.append(n)
+            acr.append(c)
+            spd.append(np.full(k, v))
+            sec.append(np.full(k, si))
+            seg.append(np.full(k, j))
+            ln.append(np.full(k, L / k))
     if not pts:
         z = np.zeros((0, 3))
         e = np.zeros(0)

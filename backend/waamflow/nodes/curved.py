@@ -176,6 +176,8 @@ class FanSliceNode(Node):
         for k, sec in enumerate(sections):
             last = first + sec.layers - 1
             if not sec.fits and sec.excess > params.height_tolerance + 1e-9:
+                if sec.worst_layer is None:   # fan_sections measures every excess at a layer
+                    raise PlanningError(f"fan section {k}: heights {sec.excess:.2f} mm outside their bounds at no layer")
                 w = layers[sec.worst_layer]
                 lo_h, hi_h = height_range(w)
                 raise PlanningError(

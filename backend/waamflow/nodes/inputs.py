@@ -106,6 +106,8 @@ def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> tuple[M
     cc, why = vertical_midsurface(cad, params.chordal_tolerance / k)
     if cc is None:
         return None, why
+    if cc.height is None:   # vertical_midsurface measures the walls' height (None: curves-only files)
+        return None, "the walls have no height"
     axis = transform.apply(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
     up = axis[1] - axis[0]
     if np.hypot(up[0], up[1]) > 1e-9 * abs(up[2]) or up[2] <= 0:

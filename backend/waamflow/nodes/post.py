@@ -17,7 +17,8 @@ from ..core.files import ShippedName, shipped
 from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..program import GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, TpSettings, post_process
+from ..program import (GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, TpSettings,
+                       WriterSettings, post_process)
 from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
                               program_identifier, stamp_trace)
 from ..program.gcode import GCODE_WELD_CODES
@@ -284,7 +285,7 @@ class PostProcess(Node):
         positioner = None
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
-        if params.cell and params.format in ("krl", "rapid", "gcode", "tp", "inform"):
+        if params.cell and isinstance(writer, CONTROLLER_SETTINGS):   # krl, rapid, gcode, tp, inform
             cell = cell_from_param(ctx, params.cell, meshes=params.positioner_policy == "auto")  # auto checks collisions
             moves = flatten(inputs["toolpath"])
             from ..trajectory.cellplan import AutoLimits   # lazy: the catalog must not import the arm's kinematics
@@ -300,7 +301,7 @@ class PostProcess(Node):
                 writer = replace(writer, external_axes=angles)
             except ValueError as err:
                 raise RecipeError(str(err), field="station_pulses_per_deg" if params.format == "inform" else "cell") from err
-            if params.format == "rapid":
+            if isinstance(writer, RapidSettings):
                 writer = replace(writer, work_frame=_work_frame(cell))
             if params.format == "gcode" and len(moves.points):
                 _, axes = to_world(cell, moves.points, moves.tool_axis, angles)
@@ -330,10 +331,10 @@ class PostProcess(Node):
     def read_files(self, params, read_bytes) -> list[str]:
         return cell_files(params.cell, read_bytes)
 
-    def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str]:
+    def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str | bytes]:
         program: Program = outputs["program"]
         trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
-        files = stamp_trace(program.format, dict(program.files), trace)
+        files: dict[str, str | bytes] = dict(stamp_trace(program.format, dict(program.files), trace))
         nid = getattr(ctx, "node_id", "")
         if not nid:
             return files
@@ -415,11 +416,20 @@ def _work_frame(cell) -> tuple[float, ...]:
     return (*(float(v) for v in cell.work_frame.xyz_mm), math.cos(half), 0.0, 0.0, math.sin(half))
 
 
-def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSettings | RapidSettings | TpSettings | float | None:
+# the writer settings of the controller formats (each has tool commands and takes a cell's axes)
+CONTROLLER_SETTINGS = (GcodeSettings, KrlSettings, RapidSettings, InformSettings, TpSettings)
+
+
+def _writer_settings(p: PostProcess.Params, name: str) -> WriterSettings | float | None:
+    """The format's writer settings (`post_process`'s): a settings class for the controller
+    formats, the blend distance for printpoints, None for csv."""
+    if p.format == "printpoints":
+        return p.blend_distance
+    if p.format not in TOOL_COMMANDS:
+        return None
     direction = {"default": None, "x": "x", "z": "z"}[p.tool_direction]
-    if p.format in TOOL_COMMANDS:
-        on, off = TOOL_COMMANDS[p.format]
-        tools = dict(tool_on=p.tool_on or on, tool_off=p.tool_off or off)
+    on, off = TOOL_COMMANDS[p.format]
+    tool_on, tool_off = p.tool_on or on, p.tool_off or off
     if p.format == "gcode":
         return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
                              dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
@@ -430,7 +440,7 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                              comment_style=p.comment_style, feed_units=p.feed_units,
                              start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
                              end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
-                             preamble=tuple(p.preamble), postamble=tuple(p.postamble), **tools)
+                             preamble=tuple(p.preamble), postamble=tuple(p.postamble), tool_on=tool_on, tool_off=tool_off)
     if p.format == "krl":
         return KrlSettings(program_name=name, tool=p.tool_number, base=p.base_number,
                            blend_distance=p.blend_distance, travel_speed=p.travel_speed,
@@ -438,20 +448,19 @@ def _writer_settings(p: PostProcess.Params, name: str) -> GcodeSettings | KrlSet
                            tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
                            split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes or KRL_WELD_CODES),
                            arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
-                           arctech_velocity_unit=p.arctech_velocity_unit, **tools)
+                           arctech_velocity_unit=p.arctech_velocity_unit, tool_on=tool_on, tool_off=tool_off)
     if p.format == "rapid":
         return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
                              positioner_unit=p.positioner_unit,
                              blend_distance=p.blend_distance, travel_speed=p.travel_speed,
                              max_module_bytes=p.max_module_bytes, module_dir=p.module_dir,
-                             tool_direction=direction or "z", **tools)
+                             tool_direction=direction or "z", tool_on=tool_on, tool_off=tool_off)
     if p.format == "inform":
         return InformSettings(program_name=name, tool=p.tool_number, user_frame=max(1, p.base_number),
                               travel_speed=p.travel_speed, position_level=p.position_level if p.blend_distance > 0 else 0,
-                              station_pulses_per_deg=tuple(p.station_pulses_per_deg), **tools)
+                              station_pulses_per_deg=tuple(p.station_pulses_per_deg), tool_on=tool_on, tool_off=tool_off)
     if p.format == "tp":
         return TpSettings(program_name=name, tool=p.tool_number, user_frame=p.base_number,
-                          travel_speed=p.travel_speed, cnt=p.cnt if p.blend_distance > 0 else 0, **tools)
-    if p.format == "printpoints":
-        return p.blend_distance
-    return None
+                          travel_speed=p.travel_speed, cnt=p.cnt if p.blend_distance > 0 else 0,
+                          tool_on=tool_on, tool_off=tool_off)
+    raise ValueError(f"post-process: no writer settings for format {p.format!r}")   # a new TOOL_COMMANDS format

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Any, Literal, Optional
 
 import numpy as np
-from pydantic import ConfigDict, Field, create_model, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
 
 from ..core import serialize
 from ..core.errors import PlanningError
@@ -29,9 +29,9 @@ class SectionStrategy(StrategySpec):
                          json_schema_extra=unit("mm/s"), title="Travel speed")
 
 
-def _partial(model) -> type:
+def _partial(model: type[BaseModel]) -> type[BaseModel]:
     """The same fields, all optional (None = take the default's): per-section overrides."""
-    fields = {}
+    fields: dict[str, Any] = {}   # name → (annotation, FieldInfo): create_model's field definitions
     for name, f in model.model_fields.items():
         extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else None
         fields[name] = (Optional[f.annotation], Field(None, title=f.title, description=f.description, json_schema_extra=extra))

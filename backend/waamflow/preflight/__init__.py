@@ -126,7 +126,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
                 if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
                     last = nid
         doc_name = f"{last}.toolpath.json" if last else None
-        if doc_name and doc_name in artifacts:
+        if last and doc_name and doc_name in artifacts:
             prog = read_toolpath(json.loads(artifacts[doc_name]))
             width, source = _bead_width(graph, last, s)
             rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False,
@@ -138,10 +138,10 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
     if not reports:
         return None                          # nothing leaves this run that could build a part
     conserved = check_conservation(graph, artifacts, s.deposit_changed)
-    verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.get)
+    verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.__getitem__)
     out: dict = {"verdict": verdict, "accepted": False}
     for key in SUMMARY_KEYS:
-        vals = [r.get(key) for r in reports if r.get(key) is not None]
+        vals = [v for r in reports if (v := r.get(key)) is not None]
         if not vals:
             out[key] = None
         elif key in ("min_arc_run_mm", "start_spread_mm"):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 import shapely
@@ -50,10 +51,16 @@ class Part:
     height: float = 0.0
     regions: list = field(default_factory=list)
 
+    def mesh(self) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices, faces) of a solid or surface part; ValueError naming the part when it has none."""
+        if self.vertices is None or self.faces is None:
+            raise ValueError(f"part {self.node} ({self.kind}) has no mesh (vertices and faces)")
+        return self.vertices, self.faces
+
     @property
     def top(self) -> float:
         if self.kind in ("solid", "surface"):
-            return float(self.vertices[:, 2].max())
+            return float(self.mesh()[0][:, 2].max())
         if self.kind == "midsurface":
             return self.z0 + self.height
         return max(z for z, _t, _g in self.regions)
@@ -61,10 +68,30 @@ class Part:
     @property
     def bottom(self) -> float:
         if self.kind in ("solid", "surface"):
-            return float(self.vertices[:, 2].min())
+            return float(self.mesh()[0][:, 2].min())
         if self.kind == "midsurface":
             return self.z0
         return min(z - t for z, t, _g in self.regions)
+
+
+class Coverage(TypedDict):
+    """What a coverage check found: the part's volume (mm³; a wall: area × bead width), the share
+    of it no bead reaches and the method; planar slabs add the deposit area beyond the part
+    (`outside_mm3`) and the section cut per layer index (shapely geometry, handed to the outside
+    check); 3D samples add the measured layer spacing, the gap above the deposit and the farthest
+    uncovered sample."""
+
+    part_volume_mm3: float
+    uncovered_share: float
+    method: str
+    outside_mm3: NotRequired[float]
+    sections: NotRequired[dict[int, Any]]
+    layer_spacing_mm: NotRequired[float]
+    top_gap_mm: NotRequired[float | None]
+    worst_point: NotRequired[np.ndarray]
+    worst_layer: NotRequired[int]
+    reach_mm: NotRequired[float]
+    uncovered_by_layer: NotRequired[dict[int, float]]
 
 
 class Report:
@@ -96,10 +123,11 @@ def _r(v, nd: int = 4):
 def program_layers(prog: ProgramRead) -> list[tuple[int, list[Run]]]:
     """The runs grouped into layers in program order: by the program's `layer N` comments, else by
     height (a new layer whenever a run starts higher than the previous one)."""
-    if prog.runs and all(r.layer is not None for r in prog.runs):
+    numbered = [(r.layer, r) for r in prog.runs if r.layer is not None]
+    if prog.runs and len(numbered) == len(prog.runs):
         groups: dict[int, list[Run]] = {}
-        for r in prog.runs:
-            groups.setdefault(r.layer, []).append(r)
+        for layer, r in numbered:
+            groups.setdefault(layer, []).append(r)
         return list(groups.items())
     out: list[tuple[int, list[Run]]] = []
     last_z = -math.inf
@@ -244,22 +272,24 @@ def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def coverage_planar(part: Part, layers, width: float, rep: Report) -> dict:
+def coverage_planar(part: Part, layers, width: float, rep: Report) -> Coverage:
     mesh = None
     if part.kind == "solid":
         import trimesh
 
-        mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+        vertices, faces = part.mesh()
+        mesh = trimesh.Trimesh(vertices, faces, process=False)
         # Σ a·(b × c)/6 about the first vertex (trimesh's `volume` computes the whole inertia
         # tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)
-        tri = np.asarray(part.vertices, dtype=float)[np.asarray(part.faces)] - np.asarray(part.vertices[0], dtype=float)
+        v = np.asarray(vertices, dtype=float)
+        tri = v[np.asarray(faces)] - v[0]
         part_volume = abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0)
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
     covered_vol = 0.0
     prev_top = part.bottom
     over_area = 0.0
-    sections = {}
+    sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
     mids = [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [prev_top] + tops[:-1])]
     cut = _multiplane_sections(mesh, mids) if mesh is not None else None
@@ -313,28 +343,29 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float]:
 
     # a solid with non-planar layers is checked on its boundary: every point of it must lie within
     # reach of a bead (interior voids of thick parts are the planar check's to find)
-    mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+    mesh = trimesh.Trimesh(*part.mesh(), process=False)
     n = int(min(MAX_SAMPLES, max(1000, mesh.area / step ** 2)))
     pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
     return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area)
 
 
-def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings) -> dict:
+def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings) -> Coverage:
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
     samples, measure = _part_samples(part, step)
-    dep, dep_layer = [], []
+    dep_runs: list[np.ndarray] = []
+    dep_layers: list[np.ndarray] = []
     for idx, runs in layers:
         for r in runs:
             p = _resample(r.points, min(step, width / 4.0))
-            dep.append(p)
-            dep_layer.append(np.full(len(p), idx))
-    if not dep or len(samples) == 0:
+            dep_runs.append(p)
+            dep_layers.append(np.full(len(p), idx))
+    if not dep_runs or len(samples) == 0:
         return {"part_volume_mm3": measure * (width if part.kind != "solid" else 1.0), "uncovered_share": 1.0,
                 "method": "3D samples", "top_gap_mm": None}
-    dep = np.vstack(dep)
-    dep_layer = np.concatenate(dep_layer)
+    dep = np.vstack(dep_runs)
+    dep_layer = np.concatenate(dep_layers)
     # layer spacing measured from the program: each layer's points to the previous layer's
     spacing = []
     order = [idx for idx, _ in layers]
@@ -383,7 +414,8 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
     heights = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _i, runs in layers]
     h_typ = float(np.median(np.diff([part.bottom if part else 0.0] + heights))) if planar and heights else None
     # coverage
-    cov = None
+    cov: Coverage | None = None
+    top_gap: float | None
     if part is not None:
         if planar and part.kind in ("solid", "region"):
             cov = coverage_planar(part, layers, width, rep)
@@ -539,10 +571,10 @@ STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in mach
 def in_sections(sections: dict, pts: np.ndarray, layer_of: list[int]) -> np.ndarray:
     """(n,) bool: each point (xy) lies in (or within STOCK_TOL_MM of) its layer's part section."""
     out = np.zeros(len(pts), bool)
-    layer_of = np.asarray(layer_of)
-    for idx in np.unique(layer_of):
+    layer_arr = np.asarray(layer_of)
+    for idx in np.unique(layer_arr):
         geom = sections.get(int(idx))
-        k = np.nonzero(layer_of == idx)[0]
+        k = np.nonzero(layer_arr == idx)[0]
         if geom is None or geom.is_empty:
             continue
         out[k] = shapely.distance(geom, shapely.points(pts[k][:, :2])) <= STOCK_TOL_MM
@@ -558,7 +590,7 @@ def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
         return shapely.distance(geom, shapely.points(np.asarray(pts)[:, :2])) <= STOCK_TOL_MM
     import trimesh
 
-    mesh = trimesh.Trimesh(part.vertices, part.faces, process=False)
+    mesh = trimesh.Trimesh(*part.mesh(), process=False)
     if part.kind == "surface":
         _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
         return dist <= STOCK_TOL_MM + width / 2.0

@@ -29,12 +29,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from shapely.geometry import MultiLineString
 
 from .read import Run
+
+if TYPE_CHECKING:                     # check imports this module
+    from .check import Part
 
 MAX_STEP_MM = 1.0     # the centre line is sampled at most this far apart (and at most ¼ bead width)
 
@@ -97,8 +101,9 @@ def excursions(run: Run, layer: int, pts: np.ndarray, s: np.ndarray, dist: np.nd
         d = dist[i0:i1 + 1]
         deep = max((_span(s, i0 + a, i0 + b) for a, b in _stretches(d > margin)), default=0.0)
         k = i0 + int(np.argmax(d))
+        x, y, z = (float(v) for v in pts[k][:3])
         out.append(Excursion(layer, run.section, _span(s, i0, i1), deep, float(d.max()),
-                             tuple(float(v) for v in pts[k]), bool(i0 == 0 or i1 == len(s) - 1)))
+                             (x, y, z), bool(i0 == 0 or i1 == len(s) - 1)))
     return out
 
 
@@ -151,27 +156,29 @@ class MeshDistance:
 
 
 # ---- the check ------------------------------------------------------------------------------------
-def find_outside(part, layers, width: float, *, planar: bool, sections: dict | None, margin: float,
+def find_outside(part: Part, layers, width: float, *, planar: bool, sections: dict | None, margin: float,
                  step: float | None = None) -> tuple[list[Excursion], dict[int, dict], str]:
     """Every excursion of the program's arc-ON runs, the per-layer figures (the deposit area beyond
     the section grown by ½ bead, planar only; the farthest sample) and the method. sections: layer index → the section
     polygon the coverage check cut for it (planar solids/regions)."""
     step = step or min(MAX_STEP_MM, width / 4.0)
-    mesh_dist = None
+    mesh_dist: MeshDistance | None = None
+    slabs: dict | None = None                # the coverage check's sections, planar slabs only
     if part.kind == "midsurface":
         method = "midsurface distance"
     elif planar and part.kind in ("solid", "region") and sections is not None:
         method = "planar slabs"
+        slabs = sections
     else:
         method = "surface distance"
-        mesh_dist = MeshDistance(part.vertices, part.faces, part.kind == "solid", step)
+        mesh_dist = MeshDistance(*part.mesh(), part.kind == "solid", step)
     from .check import footprint      # check imports this module
 
     found: list[Excursion] = []
     per_layer: dict[int, dict] = {}
     for idx, runs in layers:
-        section = sections.get(idx) if method == "planar slabs" else None
-        if method == "planar slabs" and (section is None or section.is_empty):
+        section = slabs.get(idx) if slabs is not None else None
+        if slabs is not None and (section is None or section.is_empty):
             continue                         # no part at this slab: a deposit above the top is top_gap's
         reach = section.buffer(width / 2.0, quad_segs=8) if section is not None else None
         area = 0.0
@@ -180,14 +187,14 @@ def find_outside(part, layers, width: float, *, planar: bool, sections: dict | N
             if len(r.points) < 2:
                 continue
             pts, s = sample_run(r, step)
-            if method == "planar slabs":
-                dist = distance_to_section(section, pts)
-            elif method == "midsurface distance":
-                dist = distance_to_midsurface(part.curves, pts, width)
-            else:
+            if mesh_dist is not None:        # surface distance
                 dist = mesh_dist(pts, width / 2.0)
                 if part.kind == "surface":
                     dist = np.maximum(0.0, dist - width / 2.0)
+            elif part.kind == "midsurface":
+                dist = distance_to_midsurface(part.curves, pts, width)
+            else:                            # planar slabs
+                dist = distance_to_section(section, pts)
             ex = excursions(r, idx, pts, s, dist, width, margin)
             found += ex
             for e in ex:
@@ -209,7 +216,7 @@ def counted(e: Excursion, stock_mm: float) -> tuple[float, float]:
     return max(0.0, e.length_mm - stock_mm), max(0.0, e.deep_mm - stock_mm)
 
 
-def check_outside(part, layers, width: float, s, rep, *, planar: bool, sections: dict | None,
+def check_outside(part: Part, layers, width: float, s, rep, *, planar: bool, sections: dict | None,
                   stock_mm: float) -> dict:
     """Adds the `outside` problems to rep (a `check.Report`) and the per-layer figures to its layers
     (outside_mm: weld clear of the part that counts; outside_stock_mm: at run ends, excused;
@@ -225,6 +232,7 @@ def check_outside(part, layers, width: float, s, rep, *, planar: bool, sections:
     arc_len = sum(r.length for _i, runs in layers for r in runs)
     rated = [(e, *counted(e, stock_mm)) for e in found]
     total = sum(c for _e, c, _d in rated)
+    share = total / arc_len if arc_len > 0 else 0.0
     for idx, fig in per_layer.items():
         L = rep.layer(idx)
         mine = [(e, c) for e, c, _d in rated if e.layer == idx]
@@ -240,7 +248,7 @@ def check_outside(part, layers, width: float, s, rep, *, planar: bool, sections:
            "outside_mm2": max((f["outside_mm2"] or 0.0 for f in per_layer.values()), default=0.0)
            if method == "planar slabs" else None,
            "outside_max_mm": max((e.max_mm for e, c, _d in rated if c > 0), default=0.0),
-           "outside_share": total / arc_len if arc_len > 0 else 0.0}
+           "outside_share": share}
     if s.outside == "off":
         return out
     deep = [(e, c, d) for e, c, d in rated if d > fail_len]
@@ -261,9 +269,9 @@ def check_outside(part, layers, width: float, s, rep, *, planar: bool, sections:
                     + "): metal where there is no part; check the sequence and its links (arc off between walls)",
                     layer=e.layer, section=e.section, value=c,
                     limit=fail_len if group is deep else warn_len, point=e.point)
-    if not deep and not long and out["outside_share"] > s.outside_share_warn:
-        rep.problem("outside", "warn", f"{out['outside_share'] * 100:.1f} % of the arc-ON length deposits clear "
-                    "of the part in short stretches", value=out["outside_share"], limit=s.outside_share_warn)
+    if not deep and not long and share > s.outside_share_warn:
+        rep.problem("outside", "warn", f"{share * 100:.1f} % of the arc-ON length deposits clear "
+                    "of the part in short stretches", value=share, limit=s.outside_share_warn)
     return out
 
 

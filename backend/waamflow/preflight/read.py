@@ -17,6 +17,7 @@ import json
 import math
 import re
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -275,6 +276,16 @@ def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]
     return out
 
 
+@dataclass
+class _KrlState:
+    """What a KRL program has set so far: $VEL.CP (mm/s), the analog outputs' weld values
+    (parameter → value) and the ArcTech weld data set in force."""
+
+    vel: float = math.nan
+    values: dict[str, float] = field(default_factory=dict)
+    wdat: str | None = None
+
+
 def read_krl(files: dict[str, str]) -> ProgramRead:
     """files: artifact name → text of every .src/.dat of one program. Follows the main program's
     subprogram calls in order."""
@@ -303,9 +314,9 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
             if a:
                 anout[a.group(1)] = name
     b = _RunBuilder("krl")
-    state = {"vel": math.nan, "values": {}, "wdat": None}
-    out_no = re.search(r"digital output \$OUT\[(\d+)\]", header)
-    out_no = out_no.group(1) if out_no else None
+    state = _KrlState()
+    out_m = re.search(r"digital output \$OUT\[(\d+)\]", header)
+    out_no = out_m.group(1) if out_m else None
 
     def walk(name: str, depth: int = 0) -> None:
         if depth > 4:
@@ -328,11 +339,11 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
                 continue
             v = re.match(r"\$VEL\.CP\s*=\s*(" + NUM + ")", up)
             if v:
-                state["vel"] = float(v.group(1)) * 1000.0
+                state.vel = float(v.group(1)) * 1000.0
                 continue
             a = re.match(r"(?:TRIGGER\s+WHEN\s+DISTANCE\s*=\s*0\b.*\bDO\s+)?\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
             if a and a.group(1) in anout:   # a statement, or path-triggered at the next motion's start
-                state["values"][anout[a.group(1)]] = float(a.group(2))
+                state.values[anout[a.group(1)]] = float(a.group(2))
                 continue
             trig = re.match(r"TRIGGER\s+WHEN\s+DISTANCE\s*=\s*([01])\b.*\bDO\s+\$OUT\[(\d+)\]\s*=\s*(TRUE|FALSE)", up)
             if out_no and trig and trig.group(2) == out_no:
@@ -353,11 +364,11 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
                 action, wdat = arc.group(1), arc.group(2)
                 if action == "ARCONAFTERMOVESTD":
                     b.arc_on(ln)
-                    state["wdat"] = wdat
+                    state.wdat = wdat
                 elif action in ("ARCSWIBEFOREMOVESTD",):
-                    state["wdat"] = wdat
+                    state.wdat = wdat
                 elif action == "ARCOFFBEFOREMOVESTD":
-                    state["wdat"] = wdat
+                    state.wdat = wdat
                 elif action == "ARCOFFAFTERMOVESTD":
                     b.close()
                 continue
@@ -369,10 +380,10 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
                     continue
                 target = pts[p2] if kind == "CIRC" else pts[p1]
                 seg = np.vstack([pts[p1], target]) if kind == "CIRC" else target[None]
-                vals = dict(state["values"])
-                if state["wdat"] is not None:
-                    vals.update(wdats.get(state["wdat"], {}))
-                speed = state["vel"] if kind != "PTP" else math.nan
+                vals = dict(state.values)
+                if state.wdat is not None:
+                    vals.update(wdats.get(state.wdat, {}))
+                speed = state.vel if kind != "PTP" else math.nan
                 b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
         return
 
@@ -392,24 +403,28 @@ _RAPID_MOVE = re.compile(r"^\s*(MoveL|MoveJ|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|Ar
 _ARCDATA_DEFAULT = ("job", "mode", "voltage", "wire_feed_speed", "control", "current")
 
 
+class _RapidWeld(NamedTuple):
+    """A welddata declaration: its weld speed (mm/s) and the non-zero weld values of its arcdata."""
+
+    speed: float
+    values: dict[str, float]
+
+
 def read_rapid(text: str) -> ProgramRead:
     pts = {n.lower(): np.array([float(x), float(y), float(z)]) for n, x, y, z in _ROBT.findall(text)}
     speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
     builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
-    fields = _ARCDATA_DEFAULT
+    fields: tuple[str, ...] = _ARCDATA_DEFAULT
     m = re.search(r"arcdata\s*=\s*\[([^\]]*)\]", text)
     if m:
         fields = tuple(("wire_feed_speed" if "wirefeed" in f else "current" if "current" in f else
                         "voltage" if "voltage" in f and "2" not in f else "job" if "job" in f else f.strip())
                        for f in m.group(1).split(","))
-    welds: dict[str, dict[str, float]] = {}
+    welds: dict[str, _RapidWeld] = {}
     for name, speed, _org, main in _WELD.findall(text):
-        vals = [float(v) for v in re.findall(NUM, main)]
-        d = {}
-        for f, v in zip(fields, vals):
-            if f in WELD_COMMANDED and v != 0.0:
-                d[f] = v
-        welds[name.lower()] = d | {"_speed": float(speed)}
+        numbers = [float(v) for v in re.findall(NUM, main)]
+        welds[name.lower()] = _RapidWeld(float(speed), {f: v for f, v in zip(fields, numbers)
+                                                        if f in WELD_COMMANDED and v != 0.0})
     b = _RunBuilder("rapid")
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition("!")
@@ -430,9 +445,9 @@ def read_rapid(text: str) -> ProgramRead:
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
-        if weld is not None and weld.get("_speed"):
-            speed = weld["_speed"]              # ArcWare: the weld speed of welddata governs the weld
-        vals = {k: v for k, v in (weld or {}).items() if not k.startswith("_")}
+        if weld is not None and weld.speed:
+            speed = weld.speed                  # ArcWare: the weld speed of welddata governs the weld
+        vals = dict(weld.values) if weld is not None else {}
         if instr in ("arclstart", "arccstart"):
             b.move(seg, math.nan, math.nan, False)   # moves to the start, the arc strikes there
             b.arc_on(ln)

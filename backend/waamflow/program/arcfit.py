@@ -103,7 +103,7 @@ def fit_arcs(
     *,
     min_segments: int = 3,
     max_points: int = 2000,
-    plane_normal: np.ndarray | None = None,
+    plane_normal: np.ndarray | tuple[float, float, float] | None = None,
 ) -> list[FittedArc]:
     """Greedy arc fitting over a polyline.
 

@@ -34,6 +34,7 @@ def write_cl_csv(moves: Moves, decimals: int = 4) -> str:
         p, t = moves.points[i], moves.tool_axis[i]
         seg = i - 1 if i > 0 else (0 if n > 1 else -1)
         weld = [""] * len(WELD_COLUMNS)
+        layer: int | str                    # "" on the first row of a one-point program
         if seg < 0:
             speed, arc, layer, section, zone = "", 0, "", "", ""
         else:

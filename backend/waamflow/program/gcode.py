@@ -304,10 +304,10 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             xyz = words[s.end]
             if ext is not None:
                 for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
-                    v = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
-                    if v != rot_last[k]:
-                        xyz += f" {letter}{v}"
-                        rot_last[k] = v
+                    word = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
+                    if word != rot_last[k]:
+                        xyz += f" {letter}{word}"
+                        rot_last[k] = word
             if s.mode == "travel" and settings.rapid_travel:
                 if settings.travel_feed:      # G0 at the modal feed (Marlin): F on every travel line
                     out.append(f"G0 {xyz} F{short(travel_f)}")
@@ -322,8 +322,9 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
                 f_word = f" F{short(f_val)}"
                 feed = f_val
             if s.circular:
-                cc = np.asarray(s.center) - pts[s.start]
-                code = "G3" if s.normal[2] > 0 else "G2"
+                center, normal = s.arc_geometry()
+                cc = np.asarray(center) - pts[s.start]
+                code = "G3" if normal[2] > 0 else "G2"
                 out.append(f"{code} {xyz} I{num(cc[0], d)} J{num(cc[1], d)}{f_word}")
             else:
                 out.append(f"G1 {xyz}{f_word}")

@@ -148,7 +148,7 @@ def _job(name: str, comment: str, lines: list[str], pts: list[int], P: np.ndarra
             "///POSTYPE USER", f"///USER {s.user_frame}", "///RECTAN", "///RCONF 0,0,0,0,0,0,0,0"]
     head += [f"C{k:05d}={num(P[i, 0], d)},{num(P[i, 1], d)},{num(P[i, 2], d)},"
              f"{num(R[i, 0], 4)},{num(R[i, 1], 4)},{num(R[i, 2], 4)}" for k, i in enumerate(pts)]
-    if n_ec:
+    if ec is not None and n_ec:
         head += ["///POSTYPE PULSE", "///PULSE"]
         head += [f"EC{k:05d}=" + ",".join(str(int(v)) for v in ec[i]) for k, i in enumerate(pts)]
     # a fixed date: the same plan gives the same bytes (the run's trace says when it was made)
@@ -211,7 +211,7 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
             elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
                 on = isinstance(st, ToolOn)
                 cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if isinstance(st, ToolOn) else {})
             elif isinstance(st, Motion):
                 if st.circular:
                     raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")

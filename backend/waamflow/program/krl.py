@@ -62,6 +62,7 @@ path-related TRIGGER drops it exactly at the run's end point.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -127,11 +128,11 @@ class KrlSettings:
             raise ValueError(f"arctech_velocity_unit must be one of {', '.join(VELOCITY_UNITS)}")
 
 
-ARCTECH_CHANNELS = {"job": 1, "wire_feed_speed": 2, "voltage": 3, "current": 4}
+ARCTECH_CHANNELS: dict[str, int] = {"job": 1, "wire_feed_speed": 2, "voltage": 3, "current": 4}
 # Output mode: analog outputs, value / full scale (KRL $ANOUT is -1.0..1.0 = -10..10 V).
-KRL_WELD_CODES = {"wire_feed_speed": "$ANOUT[1]={value:.3f}/20", "current": "$ANOUT[2]={value:.1f}/500",
+KRL_WELD_CODES: dict[str, str] = {"wire_feed_speed": "$ANOUT[1]={value:.3f}/20", "current": "$ANOUT[2]={value:.1f}/500",
                   "voltage": "$ANOUT[3]={value:.2f}/50"}
-VELOCITY_UNITS = {"m/min": 0.06, "m/s": 0.001}   # factor from mm/s
+VELOCITY_UNITS: dict[str, float] = {"m/min": 0.06, "m/s": 0.001}   # factor from mm/s
 
 
 def check_channels(channels: dict[str, int]) -> dict[str, int]:
@@ -351,9 +352,10 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
         elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
             approach = None
             on = isinstance(st, ToolOn)
-            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+            tparams = st.params if isinstance(st, ToolOn) else {}
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, tparams)
             lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
-                f"{tl[-1]} ; {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
+                f"{tl[-1]} ; {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
         elif isinstance(st, Motion):
             v = s.travel_speed if st.mode == "travel" else st.speed
             start = len(lines)
@@ -417,7 +419,7 @@ def _src(name: str, header: list[str], body: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _dat(name: str, points: list[int], pts, abc, ext, d, extra: list[str] = ()) -> str:
+def _dat(name: str, points: list[int], pts, abc, ext, d, extra: Sequence[str] = ()) -> str:
     lines = [f"DEFDAT {name}", *extra]
     lines += [_e6pos(i, pts, abc, ext, d) for i in sorted(set(points))]
     lines.append("ENDDAT")

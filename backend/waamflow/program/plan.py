@@ -79,6 +79,13 @@ class Motion:
     def circular(self) -> bool:
         return self.via >= 0
 
+    def arc_geometry(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """(center, normal) of a circular motion; ValueError naming the motion when it has none."""
+        if self.center is None or self.normal is None:
+            raise ValueError(f"motion to point {self.end} (layer {self.layer}) is not a circular motion with a "
+                             "centre and a normal")
+        return self.center, self.normal
+
 
 @dataclass(frozen=True)
 class LayerStart:
@@ -300,11 +307,17 @@ def _group_motions(moves: Moves, a: int, b: int, settings: PlanSettings) -> list
     for arc in arcs:
         s, e = a + arc.start, a + arc.end
         out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, s))
-        out.append(Motion(start=s, end=e, via=a + arc.via, center=tuple(map(float, arc.center)),
-                          normal=tuple(map(float, arc.normal)), **base))
+        out.append(Motion(start=s, end=e, via=a + arc.via, center=_vec3(arc.center), normal=_vec3(arc.normal),
+                          **base))
         i = e
     out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, b))
     return out
+
+
+def _vec3(v: np.ndarray) -> tuple[float, float, float]:
+    """A (3,) array as a tuple of three floats."""
+    x, y, z = (float(c) for c in v)
+    return (x, y, z)
 
 
 def _ignition_dwell(moves: Moves, section: int, zone: int, settings: PlanSettings) -> float:

@@ -250,7 +250,8 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
             desc = process_summary(params)
             body.append(f"! zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
         elif isinstance(st, ArcOn):
-            ign = steps[k + 1].seconds if k + 1 < len(steps) and isinstance(steps[k + 1], Dwell) else 0.0
+            nxt = steps[k + 1] if k + 1 < len(steps) else None
+            ign = nxt.seconds if isinstance(nxt, Dwell) else 0.0
             first = _next_motion(steps, k)
             seam = seamdata(params, ign)
             wd = weld(params, first.speed if first is not None else s.travel_speed)
@@ -275,8 +276,9 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
         elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
             flush()
             on = isinstance(st, ToolOn)
-            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
-            body += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, st.params) if on else st.tool + ' off'}"]
+            tparams = st.params if isinstance(st, ToolOn) else {}
+            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, tparams)
+            body += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
         elif isinstance(st, ArcOff):
             body.append("! arc off")
         elif isinstance(st, Motion):
@@ -321,8 +323,8 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
         data.update({n: decl for n, decl in names.items.values()})
     data.update({f"p{i + 1}": _robtarget(i, pts, quat, ext, d) for i in sorted(set(used))})
     start = ["ConfL\\Off;"] + ([f"ActUnit {s.positioner_unit};"] if s.coordinated else [])
-    end = [f"DeactUnit {s.positioner_unit};"] if s.coordinated else []
-    return _Rendered(head, shared, data, body, start, end)
+    finish = [f"DeactUnit {s.positioner_unit};"] if s.coordinated else []
+    return _Rendered(head, shared, data, body, start, finish)
 
 
 @dataclass(frozen=True)

@@ -167,11 +167,19 @@ def mn_body(text: str) -> list[str]:
     return [m.group(1).strip() for ln in mn.splitlines() if (m := _NUMBERED.match(ln))]
 
 
+def _attr(text: str, pattern: str, name: str, what: str) -> str:
+    """Group 1 of the /ATTR line `pattern` of program `name`; ValueError naming the line when absent."""
+    m = re.search(pattern, text, re.M)
+    if m is None:
+        raise ValueError(f"TP program {name}: no {what} line in its /ATTR section")
+    return m.group(1)
+
+
 def with_comments(text: str, comments: list[str]) -> str:
     """The .LS file with `comments` as the first /MN lines (renumbered, LINE_COUNT updated)."""
     name = text.split("\n", 1)[0].split()[1]
-    comment = re.search(r'^COMMENT\t\t= "([^"]*)";', text, re.M).group(1)
-    groups = re.search(r"^DEFAULT_GROUP\t= (\S+);", text, re.M).group(1)
+    comment = _attr(text, r'^COMMENT\t\t= "([^"]*)";', name, "COMMENT")
+    groups = _attr(text, r"^DEFAULT_GROUP\t= (\S+);", name, "DEFAULT_GROUP")
     positions = text.split("\n/POS\n", 1)[1].rsplit("/END", 1)[0].splitlines()
     return render(name, comment, [_comment(c) for c in comments] + mn_body(text), positions, groups)
 
@@ -289,7 +297,7 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
             elif isinstance(st, (ToolOn, ToolOff)):          # after the (exact-stop) motion to the point
                 on = isinstance(st, ToolOn)
                 cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if on else {})
+                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if isinstance(st, ToolOn) else {})
             elif isinstance(st, Motion):
                 if st.circular:
                     raise ValueError("TP: circular motions are not written (plan with arc_tolerance 0)")

@@ -17,7 +17,7 @@ import hashlib
 import os
 import tempfile
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 EMBED_HEAD = (
     "<style>html.wf-embedded .mantine-Notifications-root{display:none!important}</style>"
@@ -58,7 +58,7 @@ def embedded_client() -> Iterator[None]:
 
     original = infra.WebsockServer
 
-    def factory(*args, **kwargs):
+    def factory(*args: Any, **kwargs: Any) -> Any:
         build = kwargs.get("http_server_root")
         if build is not None and (Path(build) / "index.html").is_file():
             try:
@@ -67,8 +67,10 @@ def embedded_client() -> Iterator[None]:
                 pass
         return original(*args, **kwargs)
 
-    infra.WebsockServer = factory
+    # setattr: the module attribute viser's constructor looks up is swapped for a while (a class
+    # name, which mypy will not let a plain assignment rebind)
+    setattr(infra, "WebsockServer", factory)
     try:
         yield
     finally:
-        infra.WebsockServer = original
+        setattr(infra, "WebsockServer", original)

@@ -175,7 +175,7 @@ class LayeredPart(Part):
         sigs = layer_signatures(value)
         present: dict[int, tuple[Any, str]] = {}
         for item, sig in zip(value.items, sigs):
-            if item is not None:
+            if item is not None and sig is not None:   # sig is None exactly where item is (layer_signatures)
                 present[int(item.index)] = (item, sig)
         self._prepare(value, present)
         # items[i] belongs to layer i; None = not computed in this (partial) run: keep what is shown

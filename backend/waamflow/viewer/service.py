@@ -41,12 +41,15 @@ import logging
 import threading
 import time
 from collections import OrderedDict
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
 from .session import NullScene, Target, ViewSession
+
+if TYPE_CHECKING:   # viser is imported when the service starts
+    from viser import ViserServer
 
 log = logging.getLogger("waamflow.viewer")
 
@@ -76,7 +79,7 @@ class ViewerService:
         self.max_segments = int(max_segments)
         self.label = label
         self.shared = shared
-        self.server = None
+        self.server: ViserServer | None = None   # None until started
         self._lock = threading.RLock()
         self.sessions: OrderedDict[str, ViewSession] = OrderedDict()   # "" = the default view
         self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()   # key → (recipe, outputs)
@@ -103,13 +106,13 @@ class ViewerService:
             from .embed import embedded_client
 
             with embedded_client():
-                self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
+                server = self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
             if self.proxy_secret is not None:
-                self._admit_only_the_proxy()
-            self.server.scene.set_up_direction("+z")
+                self._admit_only_the_proxy(server)
+            server.scene.set_up_direction("+z")
             self.sessions[""] = ViewSession(self, "", self._default_target())
-            self.server.on_client_connect(self._on_connect)
-            self.server.on_client_disconnect(self._on_disconnect)
+            server.on_client_connect(self._on_connect)
+            server.on_client_disconnect(self._on_disconnect)
         return self
 
     def stop(self) -> None:
@@ -147,6 +150,8 @@ class ViewerService:
         if not self.shared:
             return Target(NullScene())
         srv = self.server
+        if srv is None:
+            raise RuntimeError("the 3D preview is not running")
         viewless = lambda: [c.camera for cid, c in srv.get_clients().items()   # noqa: E731
                             if not any(s.client is c for s in self.sessions.values())]
         return Target(srv.scene, srv.gui, srv.atomic, viewless, srv.initial_camera)
@@ -185,18 +190,21 @@ class ViewerService:
     def _view_of_client(self, client) -> str | None:
         """The `view` query parameter of the client's websocket request (viser's page passes it
         on, see `embed`), or None."""
+        if self.server is None:
+            return None
         try:
             conn = self.server._websock_server._live_connections.get(client.client_id)
             query = urlsplit(conn.request.path).query if conn is not None and conn.request is not None else ""
         except AttributeError:
             return None
-        view = (parse_qs(query).get("view") or [None])[0]
+        views = parse_qs(query).get("view")
+        view = views[0] if views else None
         return view if view and valid_view_id(view) else None
 
-    def _admit_only_the_proxy(self) -> None:
+    def _admit_only_the_proxy(self, server: ViserServer) -> None:
         """Close, right after its handshake and before viser sends it anything, every websocket that
         does not carry `proxy_secret` (viser's connection hook, awaited before its message loops)."""
-        infra = self.server._websock_server
+        infra = server._websock_server
         secret = str(self.proxy_secret).encode()
 
         async def admit(conn) -> None:

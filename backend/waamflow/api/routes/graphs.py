@@ -95,7 +95,7 @@ IfMatch = Header(None, alias="If-Match", pattern=r'^\s*(\*|(W/)?"[^"]*"(\s*,\s*(
                  description='the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is '
                              'still the stored revision, else 409 with both versions. `*`: any stored revision. '
                              'Without it the PUT saves unconditionally.')
-CONFLICT_409 = {409: {"model": ConflictResponse,
+CONFLICT_409: dict[int | str, dict[str, Any]] = {409: {"model": ConflictResponse,
                       "description": "Conflict: a read-only example, or the stored revision is no longer the "
                                      "If-Match one (`detail.yours` / `detail.theirs` hold both versions)"}}
 

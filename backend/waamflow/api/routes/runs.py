@@ -110,7 +110,7 @@ def start_run(req: RunRequest, svc: ServicesDep, user: UserDep, client: ClientDe
     resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
     svc.check_recipe_files(recipe, resolver)            # files first: 422 naming node and param
     svc.check_sandbox(build_graph(recipe), resolver)    # → 422
-    run_id = svc.runs.submit(req.graph, recipe, req.params_xml, accept_preflight=req.accept_preflight)  # validates the graph: RecipeError → 422
+    run_id = svc.run_manager().submit(req.graph, recipe, req.params_xml, accept_preflight=req.accept_preflight)  # validates the graph: RecipeError → 422
     svc.store.audit(user, "run", req.graph, {"run": run_id, "inline_recipe": req.recipe is not None,
                                                    **({"accept_preflight": True} if req.accept_preflight else {}),
                                                    "client": client})
@@ -192,7 +192,7 @@ async def run_events(run_id: RunId, svc: ServicesDep,
         seq = start
         idle = 0.0
         while True:
-            events, ended = svc.runs.events_since(run_id, seq)
+            events, ended = svc.run_manager().events_since(run_id, seq)
             for ev in events:
                 seq = max(seq, ev["seq"])
                 yield f"id: {ev['seq']}\ndata: {json.dumps(ev)}\n\n"
@@ -215,13 +215,13 @@ async def run_events(run_id: RunId, svc: ServicesDep,
 def run_log(run_id: RunId, svc: ServicesDep, after: int = Query(0, ge=0, le=2**62)) -> list[dict]:
     """The run's events so far as one JSON list (the SSE stream's content, for scripts)."""
     _get_run(svc, run_id)
-    return svc.runs.events_since(run_id, after)[0]
+    return svc.run_manager().events_since(run_id, after)[0]
 
 
 @router.get("/{run_id}/artifacts", response_model=list[ArtifactInfo], responses=errors(401, 404, 422))
 def list_artifacts(run_id: RunId, svc: ServicesDep) -> list[ArtifactInfo]:
     _get_run(svc, run_id)
-    d = svc.runs.run_dir(run_id)
+    d = svc.run_manager().run_dir(run_id)
     if not d.is_dir():
         return []
     return [ArtifactInfo(name=p.name, size=p.stat().st_size) for p in sorted(d.iterdir()) if p.is_file()]
@@ -241,7 +241,7 @@ def get_artifact(run_id: RunId, name: ArtifactName, svc: ServicesDep) -> FileRes
     """One file of a run; its media type follows its extension (.json, .xml, .svg, .png, text
     programs and tables as text/plain, anything else application/octet-stream)."""
     _get_run(svc, run_id)
-    d = svc.runs.run_dir(run_id).resolve()
+    d = svc.run_manager().run_dir(run_id).resolve()
     p = (d / name).resolve()
     if not p.is_relative_to(d) or not p.is_file():
         raise HTTPException(404, detail={"message": f"run {run_id} has no artifact {name!r}"})
@@ -256,6 +256,6 @@ def cancel_run(run_id: RunId, svc: ServicesDep, user: UserDep, client: ClientDep
     status, log and artifacts stay readable (GET answers 200 afterwards), the answer is the run's
     status after the request (202)."""
     run = _get_run(svc, run_id)
-    if svc.runs.cancel(run_id):
+    if svc.run_manager().cancel(run_id):
         svc.store.audit(user, "cancel_run", run["graph"], {"run": run_id, "client": client})
     return get_run(run_id, svc)
