@@ -21,7 +21,7 @@ from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
 from waamflow.trajectory import study
-from waamflow.trajectory.calibrate import identify_time_model, read_trace_csv
+from waamflow.trajectory.trace import identify_time_model, read_trace_csv
 from waamflow.trajectory.estimate import KEYS, cycle_time, estimate_moves, model_params
 from waamflow.trajectory.profile import load_profile
 

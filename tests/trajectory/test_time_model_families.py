@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from waamflow.core.model import Layer, LayerPaths, Layered, SectionPath
 from waamflow.core.moves import DEPOSIT, flatten
 from waamflow.trajectory import study
-from waamflow.trajectory.calibrate import _section_passes, identify_time_model, read_trace_csv
+from waamflow.trajectory.trace import _section_passes, identify_time_model, read_trace_csv
 from waamflow.trajectory.estimate import KEYS, estimate_moves, section_strategies
 
 # (family, speed, protocol) → the synthetic robot's constants
