@@ -148,7 +148,17 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
     cap[st] = 0.0
     radius[st] = np.inf
 
-    # dense polyline: P0, then CURVE_POINTS per interior vertex, then P[n-1]
+    dense, seg, s, s_in, s_out = _dense_path(P, U, d, alpha, mode)
+    return BlendedPath(dense, s, seg, d, radius, cap, s_in, s_out)
+
+
+def _dense_path(P: np.ndarray, U: np.ndarray, d: np.ndarray, alpha: np.ndarray,
+                mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The blended path as a dense polyline (`blend_path`): P0, then CURVE_POINTS of each
+    interior vertex's blend (a rational quadratic Bézier from d before to d after the vertex,
+    weight cos(α/2) in "cdis" mode — a circular arc — else 1), then P[n-1]. Returns (dense
+    points, segment of each, arc length s, s where each vertex's blend starts / ends)."""
+    n = len(P)
     m = CURVE_POINTS
     t = np.linspace(0.0, 1.0, m)
     if n > 2:
@@ -177,7 +187,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
         s_in[1:-1] = s[idx0]
         s_out[1:-1] = s[idx0 + m - 1]
     s_in[-1] = s_out[-1] = s[-1]
-    return BlendedPath(dense, s, seg, d, radius, cap, s_in, s_out)
+    return dense, seg, s, s_in, s_out
 
 
 def junction_speed(u_in: np.ndarray, u_out: np.ndarray, v: np.ndarray, acc: float, deviation: float) -> np.ndarray:
