@@ -252,76 +252,91 @@ class _Plan:
     estimate: float = math.inf   # the closing fan's excess as estimated from the vertices (mm)
 
 
-def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, *, max_overhang: float,
-                  step: float, max_offset: float, max_sections: int) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
-    """Sections and their layers (see module doc). Layer conventions as `fan.fan_slice`; `z` is the
-    running sum of layer thicknesses (mm). Every plan ends on the part's end face (its last
-    section closes there); `FanSection.excess` says how far a section's heights (or overhang) leave
-    their bounds and `open_layer` names a layer whose cross-section is open."""
-    section = FanSections(mesh)
-    verts = section.vertices
-    axis0 = make_axis(point, direction, mesh.vertices)
-    lo, hi = angular_range(axis0, mesh.vertices, mesh.faces)
-    end = end_plane(mesh, axis0, hi)
-    shape = topology(section(axis0, lo + 1e-3))
-    offsets = [k * step for k in range(int(math.floor(max_offset / step + 1e-9)) + 1)] if step > 0 else [0.0]
+@dataclass(frozen=True)
+class _Search:
+    """What every section of one part's plan is searched with (`plan_sections`): the part's
+    cross-sections and vertices, its curvature axis, end face and start-section topology, the
+    axis offsets tried, the height range and the overhang limit (mm)."""
 
-    def candidates(start: FanAxis, theta: float, prev: _Cut | None, budget: int):
+    section: FanSections
+    verts: np.ndarray
+    axis0: FanAxis
+    end: FanAxis
+    shape: tuple[int, ...]
+    offsets: list[float]
+    h_min: float
+    h_max: float
+    max_overhang: float
+
+    def candidates(self, start: FanAxis, theta: float, prev: _Cut | None, budget: int):
         """Every strict sweep tried for a section starting on half-plane θ of `start`: (offset,
         axis, Δθ, cuts), and the greedy pick (most layers, then the smallest offset)."""
         out = []
-        for d in offsets:
-            ax = _axis_in_plane(start, theta, axis0.point, d)
-            win = _window(section, ax, h_min, h_max)
+        for d in self.offsets:
+            ax = _axis_in_plane(start, theta, self.axis0.point, d)
+            win = _window(self.section, ax, self.h_min, self.h_max)
             if win is None or win[0] > win[1]:
                 continue
             for dth in np.linspace(win[0], win[1], DTHETA_TRIES):
-                cuts = _sweep(section, ax, float(dth), h_min, h_max, max_overhang, prev, budget, shape)
+                cuts = _sweep(self.section, ax, float(dth), self.h_min, self.h_max, self.max_overhang, prev, budget,
+                              self.shape)
                 if cuts:
                     out.append((d, ax, float(dth), cuts))
         best = max(out, key=lambda c: (len(c[3]), -c[0]), default=None)
         return out, best
 
-    def close(start: FanAxis, theta: float, prev: _Cut | None, sections, cuts_all) -> _Plan | None:
-        got = _closing(start, theta, end, 0.0, verts)
+    def close(self, start: FanAxis, theta: float, prev: _Cut | None, sections, cuts_all) -> _Plan | None:
+        """The plan of `sections` then the fan closing the part from half-plane θ of `start` (None
+        when no fan closes it or it would take too many layers)."""
+        got = _closing(start, theta, self.end, 0.0, self.verts)
         if got is None:
             return None
         ax, alpha, r_min, r_max = got
         if ax is None:
             return _Plan(list(sections), list(cuts_all), 0.0, estimate=0.0)
-        n, est = _layers_for(alpha, r_min, r_max, h_min, h_max)
+        n, est = _layers_for(alpha, r_min, r_max, self.h_min, self.h_max)
         if len(cuts_all) + n > MAX_FAN_LAYERS:
             return None
         dth = alpha / n
-        cuts = _sweep(section, ax, dth, h_min, h_max, max_overhang, prev, n, None)
+        cuts = _sweep(self.section, ax, dth, self.h_min, self.h_max, self.max_overhang, prev, n, None)
         cost, worst, opened, last = 0.0, None, None, prev
         for j, c in enumerate(cuts):
-            e = _excess(c.region, dth, h_min, h_max)
+            e = _excess(c.region, dth, self.h_min, self.h_max)
             if last is not None:
-                e = max(e, _overhang(last, c) - max_overhang)
+                e = max(e, _overhang(last, c) - self.max_overhang)
             if e > cost:
                 cost, worst = e, len(cuts_all) + j
-            if opened is None and topology(c.region) != shape:
+            if opened is None and topology(c.region) != self.shape:
                 opened = len(cuts_all) + j
             last = c
-        q = axis0.point - ((axis0.point - start.point) @ start.tangential(theta)) * start.tangential(theta)
+        q = self.axis0.point - ((self.axis0.point - start.point) @ start.tangential(theta)) * start.tangential(theta)
         offset = float((q - ax.point) @ start.radial(theta))
         sec = FanSection(ax, offset, dth, len(cuts), cost <= 1e-9 and opened is None, cost, worst, opened)
         return _Plan(list(sections) + [sec], list(cuts_all) + [(c, dth) for c in cuts],
                      math.inf if opened is not None else cost, opened, worst, est)
 
-    def estimate(start: FanAxis, theta: float) -> float:
+    def closing_excess(self, ax: FanAxis, theta: float) -> float | None:
+        """The excess (mm) of the fan closing the part from half-plane θ of `ax`, from the
+        vertices alone (0 when nothing is left to build), None when no fan closes it."""
+        got = _closing(ax, theta, self.end, 0.0, self.verts)
+        if got is None:
+            return None
+        cax, alpha, r0, r1 = got
+        return 0.0 if cax is None else _layers_for(alpha, r0, r1, self.h_min, self.h_max)[1]
+
+    def estimate(self, start: FanAxis, theta: float) -> float:
         """Smallest closing excess (mm) over the sections that could start on half-plane θ of
         `start`, from the vertices alone: for each tried offset and Δθ, the layers whose wedge keeps
         the vertices' heights in range (overhang not checked), and the closing fan from about 12 of
         their top planes."""
+        h_min, h_max = self.h_min, self.h_max
         out = math.inf
-        for d in offsets:
-            ax = _axis_in_plane(start, theta, axis0.point, d)
-            win = _window(section, ax, h_min, h_max)
+        for d in self.offsets:
+            ax = _axis_in_plane(start, theta, self.axis0.point, d)
+            win = _window(self.section, ax, h_min, h_max)
             if win is None or win[0] > win[1]:
                 continue
-            r, th, _a = ax.polar(verts)
+            r, th, _a = ax.polar(self.verts)
             keep = th >= -ANGLE_TOL
             order = np.argsort(th[keep])
             ths, rs = th[keep][order], r[keep][order]
@@ -331,11 +346,39 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
                 limit = ths[bad[0]] if len(bad) else ths[-1]
                 reach = int(math.floor(limit / dth + 1e-9))
                 for j in np.unique(np.linspace(1, reach, min(reach, 12)).round().astype(int)) if reach >= 1 else ():
-                    got = _closing(ax, j * dth, end, 0.0, verts)
-                    if got is not None:
-                        cax, alpha, r0, r1 = got
-                        out = min(out, 0.0 if cax is None else _layers_for(alpha, r0, r1, h_min, h_max)[1])
+                    e = self.closing_excess(ax, j * dth)
+                    if e is not None:
+                        out = min(out, e)
         return out
+
+    def stop(self, tried):
+        """Where to stop the section before the closing one, among the `tried` sweeps: the layer
+        whose top plane the closing fan fits best from (vertex estimate), then the most layers,
+        then the smallest offset. ((excess, -layers, offset), offset, axis, Δθ, cuts) or None."""
+        pick = None
+        for d, ax, dth, cuts in tried:
+            for j in range(len(cuts), 0, -1):
+                e = self.closing_excess(ax, j * dth)
+                if e is None:
+                    continue
+                key = (e, -j, d)
+                if pick is None or key < pick[0]:
+                    pick = (key, d, ax, dth, cuts[:j])
+        return pick
+
+
+def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, *, max_overhang: float,
+                  step: float, max_offset: float, max_sections: int) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
+    """Sections and their layers (see module doc). Layer conventions as `fan.fan_slice`; `z` is the
+    running sum of layer thicknesses (mm). Every plan ends on the part's end face (its last
+    section closes there); `FanSection.excess` says how far a section's heights (or overhang) leave
+    their bounds and `open_layer` names a layer whose cross-section is open."""
+    section = FanSections(mesh)
+    axis0 = make_axis(point, direction, mesh.vertices)
+    lo, hi = angular_range(axis0, mesh.vertices, mesh.faces)
+    offsets = [k * step for k in range(int(math.floor(max_offset / step + 1e-9)) + 1)] if step > 0 else [0.0]
+    search = _Search(section, section.vertices, axis0, end_plane(mesh, axis0, hi), topology(section(axis0, lo + 1e-3)),
+                     offsets, h_min, h_max, max_overhang)
 
     # Rauch's iteration: N = 1, 2, … sections; the first N − 1 greedy (strict: heights, overhang,
     # closed layers), the one before the last stopping where the closing fan fits best
@@ -345,31 +388,21 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
     cuts_all: list[tuple[_Cut, float]] = []
     for n_sec in range(1, max_sections + 1):
         if n_sec == 1:
-            plan = close(start, theta, prev, sections, cuts_all)
+            plan = search.close(start, theta, prev, sections, cuts_all)
             pick = None
         else:
-            if best is not None and estimate(start, theta) >= best.estimate - 1e-6:
+            if best is not None and search.estimate(start, theta) >= best.estimate - 1e-6:
                 break   # no stop of one more section closes better (vertex estimate): the slicing is the
                         # cost here, so the exact search is skipped
-            tried, greedy = candidates(start, theta, prev, MAX_FAN_LAYERS - len(cuts_all))
+            tried, greedy = search.candidates(start, theta, prev, MAX_FAN_LAYERS - len(cuts_all))
             plan = None
             # where to stop this section: the layer whose top plane the closing fan fits best from
             # (vertex estimate), then sliced exactly
-            pick = None
-            for d, ax, dth, cuts in tried:
-                for j in range(len(cuts), 0, -1):
-                    got = _closing(ax, j * dth, end, 0.0, verts)
-                    if got is None:
-                        continue
-                    cax, alpha, r_min, r_max = got
-                    e = 0.0 if cax is None else _layers_for(alpha, r_min, r_max, h_min, h_max)[1]
-                    key = (e, -j, d)
-                    if pick is None or key < pick[0]:
-                        pick = (key, d, ax, dth, cuts[:j])
+            pick = search.stop(tried)
             if pick is not None:
                 _k, d, ax, dth, cuts = pick
-                plan = close(ax, len(cuts) * dth, cuts[-1], sections + [FanSection(ax, d, dth, len(cuts), True)],
-                             cuts_all + [(c, dth) for c in cuts])
+                plan = search.close(ax, len(cuts) * dth, cuts[-1], sections + [FanSection(ax, d, dth, len(cuts), True)],
+                                    cuts_all + [(c, dth) for c in cuts])
         if plan is not None and pick is not None:
             plan.estimate = pick[0][0]
         if plan is not None and (best is None or plan.cost < best.cost - 1e-9):
