@@ -119,7 +119,7 @@ def test_no_motion_is_a_planning_error():
 
 
 def test_long_programs_sample_at_the_cycle_with_the_same_figures(monkeypatch):
-    import waamflow.trajectory.simulate as sim_mod
+    import waamflow.trajectory.fine as sim_mod
     from waamflow.trajectory import study
 
     fine = simulate(study.planned("triangular", 40.0, angle_deg=45.0), KUKA).metrics

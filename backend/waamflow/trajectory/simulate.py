@@ -25,26 +25,23 @@ Pipeline (each step a pure function on numpy data):
    "Set-up measured") and every slow-down puts more metal per mm.
 
 Samples are computed on a fine grid (interpolation cycle / 3; the cycle itself beyond
-MAX_FINE_SAMPLES, ≈ 2.8 h) for lengths and volumes and reported at the interpolation cycle.
+MAX_FINE_SAMPLES, ≈ 2.8 h) for lengths and volumes and reported at the interpolation cycle (`fine`).
 Units: mm, s, mm/s, mm³.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
 from ..core.errors import PlanningError
 from ..core.moves import DEPOSIT, Moves
-from .blend import BlendedPath, blend_path, polyline_distance
+from .blend import BlendedPath, blend_path
+from .fine import Timeline, arc_clock, corner_errors, nearest_segment, row_norms, sample_blocks, timeline
 from .profile import RobotProfile
-from .speedplan import evaluate, plan_spans, profile_spans
-
-FINE = 3  # fine samples per interpolation cycle
-MAX_FINE_SAMPLES = 3_000_000  # above this (≈ 2.8 h at 12 ms), sample at the cycle itself to bound memory
-MAX_SAMPLES = 30_000_000      # ≈ 100 h at 12 ms: beyond, refuse rather than exhaust memory
+from .speedplan import SpanProfiles, Spans, plan_spans, profile_spans
 
 
 @dataclass(frozen=True)
@@ -264,26 +261,7 @@ def _catchup_vertices(prog: _Program, catchup: float) -> np.ndarray | None:
     return out
 
 
-def _moving_average(x: np.ndarray, w: float) -> np.ndarray:
-    """Causal moving average of (k, c) samples over a window of w ≥ 1 samples (w may be
-    fractional: the cumulative sum is interpolated), padded with x[0] before the start."""
-    if w <= 1.0:
-        return x
-    npad = int(np.ceil(w))
-    pad = np.vstack([np.repeat(x[:1], npad, axis=0), x])
-    c = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(pad, axis=0)])  # c[i] = sum pad[:i]
-    hi = np.arange(len(x)) + npad + 1          # sum up to and including sample k
-    lo = hi - w
-    l0 = np.floor(lo).astype(np.int64)
-    frac = (lo - l0)[:, None]
-    c_lo = c[l0] * (1 - frac) + c[l0 + 1] * frac
-    return (c[hi] - c_lo) / w
-
-
-def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
-             progress: Callable[[float, str], None] | None = None) -> SimulationResult:
-    """Simulate the controller on a flat move list. See the module docstring for the model."""
-    prog = _prepare(moves, profile, opt)
+def _check_points(prog: _Program, moves: Moves) -> None:
     n = len(prog.points)
     if n < 2:
         raise PlanningError("the program has no motion to simulate (fewer than two distinct points)")
@@ -293,10 +271,13 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         sec = int(prog.section[seg_i])
         raise PlanningError("toolpath point is not finite", layer=int(prog.layer[seg_i]),
                             section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None)
-    dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
+
+
+def _plan_motion(prog: _Program, profile: RobotProfile, opt: SimOptions, mode: str,
+                 progress: Callable[[float, str], None] | None) -> tuple[BlendedPath, np.ndarray, Spans, SpanProfiles]:
+    """Steps 2-3 of the model: the blended path, the exact stops, the spans and their speed profiles."""
     a, j = profile.path_acc, profile.path_jerk
     a_dec, j_dec = profile.dec
-    mode = blend_mode(profile, opt)
     if mode == "junction":   # a G-code planner: exact path, junction speeds from δ and the acceleration
         path = blend_path(prog.points, prog.speed, prog.stop, mode=mode, distance=profile.junction_deviation_mm,
                           normal_acc=profile.path_acc)
@@ -313,114 +294,64 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     prof = profile_spans(spans)
     if progress:
         progress(0.5, "speed profiles done")
+    return path, stop, spans, prof
 
-    # ---- blocks: runs of spans between exact stops ------------------------------------------
-    block_end = np.flatnonzero(spans.stop_after)  # last span of each block
-    block_start = np.concatenate([[0], block_end[:-1] + 1])
-    nb = len(block_end)
-    raw_dur = np.add.reduceat(prof.duration, block_start)
-    start_vertex = np.concatenate([[0], spans.vertex_after[block_end[:-1]]])
-    h = dt / FINE
-    motion_s = raw_dur.sum() + profile.smoothing_s * nb
-    if motion_s / h > MAX_FINE_SAMPLES:
-        h = dt
-    if motion_s / dt > MAX_SAMPLES:
-        raise PlanningError(f"program too long to simulate: {motion_s / 3600:.0f} h of motion at "
-                            f"{dt * 1000:g} ms (limit {MAX_SAMPLES * dt / 3600:.0f} h)")
-    nf = max(1.0, profile.smoothing_s / h)  # filter window in fine samples (fractional)
-    tf = (nf - 1.0) * h  # extra time the filter adds to a block
-    gap_before = (prog.standstill[start_vertex]
-                  + (prog.switch[start_vertex] + prog.pause[start_vertex]) * profile.arc_switch_dwell_s)
-    block_len = raw_dur + tf
-    T0 = np.zeros(nb)
-    t_cursor = 0.0
-    for b in range(nb):
-        t_cursor += gap_before[b]
-        T0[b] = t_cursor
-        t_cursor += block_len[b]
-    t_end_motion = t_cursor
-    span_t_in_block = prof.duration.cumsum() - prof.duration
-    span_t_in_block -= np.repeat(span_t_in_block[block_start], block_end - block_start + 1)
 
-    # ---- fine sampling, block by block -------------------------------------------------------
-    fine_t, fine_xyz, fine_s, fine_blk = [], [], [], []
-    for b in range(nb):
-        # uniform samples inside the block, plus one exactly at its end (the filter has settled
-        # there: the window lies wholly after the raw motion's end, so the point is exact)
-        k = int(np.ceil(block_len[b] / h - 1e-9))
-        tau = np.minimum(np.arange(k + 1) * h, raw_dur[b])
-        sp0, sp1 = block_start[b], block_end[b]
-        starts = span_t_in_block[sp0:sp1 + 1]
-        si = np.clip(np.searchsorted(starts, tau, side="right") - 1, 0, sp1 - sp0) + sp0
-        ds, _ = evaluate(prof, si, tau - span_t_in_block[si])
-        s_raw = spans.s0[si] + np.minimum(ds, spans.s1[si] - spans.s0[si])
-        xyzs = np.column_stack([path.at(s_raw), s_raw])
-        filt = _moving_average(xyzs, nf)
-        filt[-1] = xyzs[-1]
-        tl = np.arange(k + 1) * h
-        tl[-1] = block_len[b]
-        fine_t.append(T0[b] + tl)
-        fine_xyz.append(filt[:, :3])
-        fine_s.append(filt[:, 3])
-        fine_blk.append(np.full(k + 1, b))
-        if progress and b % 200 == 0:
-            progress(0.5 + 0.3 * b / nb, "sampling")
-    t = np.concatenate(fine_t)
-    xyz = np.vstack(fine_xyz)
-    s_f = np.concatenate(fine_s)
-    blk = np.concatenate(fine_blk)
-    # path length and speed along the path come from the motion itself; the transverse backlash
-    # transient (a fraction of a mm that decays in ~0.1 s) shows in positions and deviation only
-    # — the study's measured raster length (386.97 mm for 387.91 programmed) has no such excess
-    step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    if mode == "cdis" and (profile.backlash_start_mm or profile.backlash_end_mm):
-        xyz = _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, profile)
+@dataclass(frozen=True, eq=False)
+class _Samples:
+    """The fine samples and what each one owns: t, xyz, step (to the next sample, 0 across
+    blocks), blk, seg (programmed segment), deviation (mm), w (time owned, s), arc_w (arc-ON
+    time in it, s), inside (bool)."""
 
-    # ---- attribution, deviation, arc state -------------------------------------------------
+    t: np.ndarray
+    xyz: np.ndarray
+    step: np.ndarray
+    blk: np.ndarray
+    seg: np.ndarray
+    deviation: np.ndarray
+    w: np.ndarray
+    arc_w: np.ndarray
+    inside: np.ndarray
+
+
+def _attribute(prog: _Program, path: BlendedPath, tl: Timeline, t: np.ndarray, xyz: np.ndarray, s_f: np.ndarray,
+               blk: np.ndarray, step: np.ndarray, arc_time: Callable[[Any], np.ndarray]) -> _Samples:
+    """Programmed segment, deviation, time weights and arc state of every fine sample. Each sample
+    owns the interval to the next one; the standstill before a block (arc switch, ignition,
+    interlayer dwell) belongs to the block's first sample."""
     dense_i = np.clip(np.searchsorted(path.s, s_f, side="right") - 1, 0, len(path.seg) - 1)
-    guess = path.seg[dense_i]
-    deviation, seg = polyline_distance(xyz, prog.points, guess, reach=2)
+    deviation, seg = nearest_segment(xyz, prog.points, path.seg[dense_i], reach=2)
     same = blk[1:] == blk[:-1]
     step = np.where(same, step, 0.0)
-    dtf = np.diff(t)
-    arc_iv = _arc_intervals(prog, start_vertex, T0, block_len, gap_before, profile, nb)
-    # time weights: each sample owns the interval to the next one; the standstill before a block
-    # (arc switch, ignition, interlayer dwell) belongs to the block's first sample
-    arc_time = _arc_clock(arc_iv)
-    t_next = np.concatenate([t[1:], [t_end_motion]])
-    last = np.concatenate([blk[1:] != blk[:-1], [True]])
-    first = np.concatenate([[True], blk[1:] != blk[:-1]])
+    t_next = np.concatenate([t[1:], [tl.t_end]])
+    last = np.concatenate([~same, [True]])
+    first = np.concatenate([[True], ~same])
     t_from = t.copy()
     t_from[first] = np.concatenate([[0.0], t[:-1][last[:-1]]])   # previous block's end (0 for the first)
     t_to = np.where(last, t, t_next)
-    w = t_to - t_from
-    arc_w = arc_time(t_to) - arc_time(t_from)
-    # the arc-OFF lag after the last motion: metal still lands at the end point (volume), but the
-    # cycle (total_time_s) ends with the motion, so it is reported apart, not as arc-on time
-    burnback = arc_time(np.inf) - arc_time(t_end_motion)
+    inside = prog.inside[seg] & (prog.kind[seg] == DEPOSIT)
+    return _Samples(t, xyz, step, blk, seg, deviation, t_to - t_from, arc_time(t_to) - arc_time(t_from), inside)
+
+
+def _metrics(prog: _Program, path: BlendedPath, stop: np.ndarray, sm: _Samples, total_time: float,
+             burnback: float, vol_samples: np.ndarray, seg_len: np.ndarray) -> dict[str, float]:
+    """The simulation's figures (see METRIC_UNITS), corner errors apart."""
+    w, arc_w, step, inside, deviation = sm.w, sm.arc_w, sm.step, sm.inside, sm.deviation
     arc_on = arc_w > 0.5 * np.maximum(w, 1e-12)
     moving = np.concatenate([step > 1e-9, [False]])
-    inside = prog.inside[seg] & (prog.kind[seg] == DEPOSIT)
-
-    total_time = float(t_end_motion)
-    prog_len = float(np.linalg.norm(np.diff(prog.points, axis=0), axis=1).sum())
+    prog_len = float(seg_len.sum())
     act_len = float(step.sum())
-    arc_time_full = float(arc_w.sum())   # within the cycle [0, total_time]: ≤ total_time
-    rate = prog.wire_rate  # (n-1,) mm³/s while the arc burns on each segment
-    vol_samples = rate[seg] * arc_w
-    vol_samples[-1] += rate[seg[-1]] * burnback
-    seg_len = np.linalg.norm(np.diff(prog.points, axis=0), axis=1)
     dev_w = w * moving
-    metrics = {
+    return {
         "total_time_s": total_time,
         "programmed_length_mm": prog_len,
         "actual_length_mm": act_len,
         "length_ratio": act_len / prog_len if prog_len > 0 else 0.0,
-        "arc_on_time_s": arc_time_full,
+        "arc_on_time_s": float(arc_w.sum()),   # within the cycle [0, total_time]: ≤ total_time
         "arc_off_lag_after_end_s": float(burnback),
         "arc_on_length_mm": float((step * arc_on[:-1]).sum()),
         "deposited_volume_mm3": float(vol_samples.sum()),
-        "programmed_volume_mm3": float((rate * seg_len / prog.speed)[prog.arc].sum()),
+        "programmed_volume_mm3": float((prog.wire_rate * seg_len / prog.speed)[prog.arc].sum()),
         "max_deviation_mm": float(deviation.max()),
         "mean_deviation_mm": float((deviation * dev_w).sum() / dev_w.sum()) if dev_w.sum() > 0 else 0.0,
         "time_inside_s": float((w * inside).sum()),
@@ -434,14 +365,67 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "min_corner_speed_mm_s": float(path.cap[path.d > 0].min()) if (path.d > 0).any() else 0.0,
     }
 
-    spd = np.concatenate([step / np.where(dtf > 0, dtf, 1.0), [0.0]])  # fine-grid speed, mm/s
-    corners = _corner_errors(prog.points, path, xyz, seg, spd, prog.speed, blk)
+
+def _trace(prog: _Program, sm: _Samples, spd: np.ndarray, vol_samples: np.ndarray, total_time: float, dt: float,
+           arc_time: Callable[[Any], np.ndarray]) -> dict[str, np.ndarray]:
+    """The trace at the interpolation cycle (see SimulationResult.trace)."""
+    t, xyz, seg = sm.t, sm.xyz, sm.seg
+    t_out = np.arange(0.0, total_time + 0.5 * dt, dt)
+    idx = np.clip(np.searchsorted(t, t_out, side="right") - 1, 0, len(t) - 1)
+    s_act = np.concatenate([[0.0], np.cumsum(sm.step)])
+    return {
+        "t": t_out,
+        "x": np.interp(t_out, t, xyz[:, 0]),
+        "y": np.interp(t_out, t, xyz[:, 1]),
+        "z": np.interp(t_out, t, xyz[:, 2]),
+        "speed": spd[idx],
+        "arc": (arc_time(t_out + 1e-9) - arc_time(t_out)) > 0,
+        "deviation": sm.deviation[idx],
+        "s": np.interp(t_out, t, s_act),
+        "layer": prog.layer[seg[idx]],
+        "section": prog.section[seg[idx]],
+        "inside": sm.inside[idx],
+        "volume": np.interp(t_out, t, np.cumsum(vol_samples)),
+        "segment": seg[idx],
+    }
+
+
+def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
+             progress: Callable[[float, str], None] | None = None) -> SimulationResult:
+    """Simulate the controller on a flat move list. See the module docstring for the model."""
+    prog = _prepare(moves, profile, opt)
+    _check_points(prog, moves)
+    n = len(prog.points)
+    dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
+    mode = blend_mode(profile, opt)
+    path, stop, spans, prof = _plan_motion(prog, profile, opt, mode, progress)
+    tl = timeline(spans, prof, prog.standstill, (prog.switch | prog.pause).astype(float), dt, profile.smoothing_s,
+                  profile.arc_switch_dwell_s)
+    t, xyz, s_f, blk = sample_blocks(tl, spans, prof, path, progress)
+    # path length and speed along the path come from the motion itself; the transverse backlash
+    # transient (a fraction of a mm that decays in ~0.1 s) shows in positions and deviation only
+    # — the study's measured raster length (386.97 mm for 387.91 programmed) has no such excess
+    step = row_norms(np.diff(xyz, axis=0))
+    if mode == "cdis" and (profile.backlash_start_mm or profile.backlash_end_mm):
+        xyz = _backlash(xyz, t, blk, tl, prog, spans, profile)
+    arc_time = arc_clock(_arc_intervals(prog, tl, profile))
+    sm = _attribute(prog, path, tl, t, xyz, s_f, blk, step, arc_time)
+    # the arc-OFF lag after the last motion: metal still lands at the end point (volume), but the
+    # cycle (total_time_s) ends with the motion, so it is reported apart, not as arc-on time
+    burnback = arc_time(np.inf) - arc_time(tl.t_end)
+    rate = prog.wire_rate  # (n-1,) mm³/s while the arc burns on each segment
+    vol_samples = rate[sm.seg] * sm.arc_w
+    vol_samples[-1] += rate[sm.seg[-1]] * burnback
+    seg_len = row_norms(np.diff(prog.points, axis=0))
+    total_time = float(tl.t_end)
+    metrics = _metrics(prog, path, stop, sm, total_time, burnback, vol_samples, seg_len)
+    dtf = np.diff(t)
+    spd = np.concatenate([sm.step / np.where(dtf > 0, dtf, 1.0), [0.0]])  # fine-grid speed, mm/s
+    corners = corner_errors(prog.points, path, sm.xyz, sm.seg, spd, prog.speed, blk)
     err = corners["error_mm"]
     metrics["max_corner_error_mm"] = float(np.nanmax(err)) if np.isfinite(err).any() else 0.0
-
-    # ---- per-segment deposit -----------------------------------------------------------------
     vol = np.zeros(n - 1)
-    np.add.at(vol, seg, vol_samples)
+    np.add.at(vol, sm.seg, vol_samples)
     deposit = {
         "length_mm": seg_len,
         "s_mm": np.concatenate([[0.0], np.cumsum(seg_len)[:-1]]),
@@ -451,103 +435,23 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
         "section": prog.section,
         "arc": prog.arc,
     }
-
-    # ---- trace at the interpolation cycle ----------------------------------------------------
-    t_out = np.arange(0.0, total_time + 0.5 * dt, dt)
-    idx = np.clip(np.searchsorted(t, t_out, side="right") - 1, 0, len(t) - 1)
-    s_act = np.concatenate([[0.0], np.cumsum(step)])
-    trace = {
-        "t": t_out,
-        "x": np.interp(t_out, t, xyz[:, 0]),
-        "y": np.interp(t_out, t, xyz[:, 1]),
-        "z": np.interp(t_out, t, xyz[:, 2]),
-        "speed": spd[idx],
-        "arc": (arc_time(t_out + 1e-9) - arc_time(t_out)) > 0,
-        "deviation": deviation[idx],
-        "s": np.interp(t_out, t, s_act),
-        "layer": prog.layer[seg[idx]],
-        "section": prog.section[seg[idx]],
-        "inside": inside[idx],
-        "volume": np.interp(t_out, t, np.cumsum(vol_samples)),
-        "segment": seg[idx],
-    }
+    trace = _trace(prog, sm, spd, vol_samples, total_time, dt, arc_time)
     if progress:
         progress(1.0, "simulation done")
     return SimulationResult(metrics, trace, prog.points, prog.arc, path.points, deposit,
                             tuple(moves.section_keys), corners=corners, profile=profile.to_json())
 
 
-def _corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.ndarray, speed: np.ndarray,
-                   prog_speed: np.ndarray, blk: np.ndarray) -> dict:
-    """Per blended vertex: interior angle (deg); corner error = closest approach of the actual
-    path to the programmed vertex (mm, the study's corner error); min speed near it (mm/s);
-    mean speed through the corner = mean over the slow-down transient around the closest
-    approach (speed below 98 % of the programmed speed), mm/s."""
-    n = len(P)
-    near_v = np.full(n, np.inf)
-    vmin = np.full(n, np.inf)
-    d0 = np.linalg.norm(xyz - P[seg], axis=1)
-    d1 = np.linalg.norm(xyz - P[seg + 1], axis=1)
-    np.minimum.at(near_v, seg, d0)
-    np.minimum.at(near_v, seg + 1, d1)
-    # vertices between very short segments may own no sample: look two vertices further
-    for off in (-2, -1, 2, 3):
-        v = np.clip(seg + off, 0, n - 1)
-        np.minimum.at(near_v, v, np.linalg.norm(xyz - P[v], axis=1))
-    near_v[~np.isfinite(near_v)] = np.nan
-    vert = np.where(d0 <= d1, seg, seg + 1)
-    dmin = np.minimum(d0, d1)
-    close = dmin <= np.maximum(path.d[vert], 0.5) * 2
-    np.minimum.at(vmin, vert[close], speed[close])
-    idx = np.flatnonzero(path.d > 0)
-    u1 = P[idx] - P[idx - 1]
-    u2 = P[idx + 1] - P[idx]
-    cosang = np.einsum("ij,ij->i", u1, u2) / (np.linalg.norm(u1, axis=1) * np.linalg.norm(u2, axis=1))
-    interior = 180.0 - np.degrees(np.arccos(np.clip(cosang, -1, 1)))
-    # closest sample to each vertex, then the run of slow samples (within a block) that holds it
-    order = np.lexsort((dmin, vert))
-    first = np.concatenate([[True], vert[order][1:] != vert[order][:-1]])
-    closest = np.full(n, -1)
-    closest[vert[order][first]] = order[first]
-    slow = speed < 0.98 * prog_speed[seg]
-    run_start = np.concatenate([[True], (slow[1:] != slow[:-1]) | (blk[1:] != blk[:-1])])
-    run_id = np.cumsum(run_start) - 1
-    run_sum = np.bincount(run_id, weights=speed)
-    run_cnt = np.bincount(run_id)
-    c = closest[idx]
-    cc = np.maximum(c, 0)
-    mean_v = np.where(c < 0, np.nan, np.where(slow[cc], run_sum[run_id[cc]] / np.maximum(run_cnt[run_id[cc]], 1), speed[cc]))
-    return {"vertex": idx, "interior_deg": interior, "error_mm": near_v[idx], "min_speed_mm_s": vmin[idx],
-            "mean_speed_mm_s": mean_v}
-
-
-def _arc_clock(iv: list[tuple[float, float]]) -> Callable[[np.ndarray], np.ndarray]:
-    """A(t): total arc-ON time up to t (s), for disjoint, time-ordered intervals."""
-    on = np.array([a for a, _ in iv], dtype=float)
-    length = np.array([b - a for a, b in iv], dtype=float)
-    before = np.concatenate([[0.0], np.cumsum(length)])
-
-    def clock(t):
-        t = np.asarray(t, dtype=float)
-        if not len(on):
-            return np.zeros_like(t)
-        k = np.searchsorted(on, t, side="right") - 1
-        kk = np.maximum(k, 0)
-        return np.where(k >= 0, before[kk] + np.clip(t - on[kk], 0.0, length[kk]), 0.0)
-
-    return clock
-
-
-def _arc_intervals(prog: _Program, start_vertex, T0, block_len, gap_before, profile, nb) -> list[tuple[float, float]]:
+def _arc_intervals(prog: _Program, tl: Timeline, profile: RobotProfile) -> list[tuple[float, float]]:
     """[(t_on, t_off)] when the arc is really burning. At a stop the standstill runs: arc OFF
     command (as soon as the motion has stopped) → waits (interlayer dwell) → arc ON command →
     switch dwell → ignition dwell → motion."""
     iv = []
     on_at = None
-    for b in range(nb):
-        v = start_vertex[b]
-        off_cmd = T0[b] - gap_before[b]          # motion stopped
-        on_cmd = T0[b] - prog.ignite[v] - profile.arc_switch_dwell_s
+    for b in range(tl.nb):
+        v = tl.start_vertex[b]
+        off_cmd = tl.T0[b] - tl.gap_before[b]          # motion stopped
+        on_cmd = tl.T0[b] - prog.ignite[v] - profile.arc_switch_dwell_s
         if prog.pause[v] and on_at is not None:
             iv.append((on_at, off_cmd + profile.arc_off_delay_s))
             on_at = on_cmd + profile.arc_on_delay_s
@@ -559,18 +463,19 @@ def _arc_intervals(prog: _Program, start_vertex, T0, block_len, gap_before, prof
                 iv.append((on_at, off_cmd + profile.arc_off_delay_s))
                 on_at = None
     if on_at is not None:
-        end = T0[-1] + block_len[-1]
+        end = tl.T0[-1] + tl.block_len[-1]
         iv.append((on_at, end + profile.arc_off_delay_s))
     return iv
 
 
-def _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, profile):
+def _backlash(xyz: np.ndarray, t: np.ndarray, blk: np.ndarray, tl: Timeline, prog: _Program, spans: Spans,
+              profile: RobotProfile) -> np.ndarray:
     """Transverse offset at block starts/ends (study: +0.2 / −0.1 mm on a line at 40 mm/s),
     decaying exponentially with time constant smoothing_s/2 (horizontal normal of the segment)."""
     tau_c = max(profile.smoothing_s / 2, 1e-3)
     nseg = len(prog.points) - 1
-    end_vertex = spans.vertex_after[block_end]
-    first_seg = np.minimum(start_vertex, nseg - 1)
+    end_vertex = spans.vertex_after[tl.block_end]
+    first_seg = np.minimum(tl.start_vertex, nseg - 1)
     last_seg = np.maximum(end_vertex - 1, 0)
 
     def normals(seg):
@@ -579,11 +484,11 @@ def _backlash(xyz, t, blk, T0, block_len, prog, start_vertex, spans, block_end, 
         ln = np.linalg.norm(nrm, axis=1, keepdims=True)
         return np.where(ln > 1e-12, nrm / np.where(ln > 1e-12, ln, 1.0), 0.0)
 
-    tl = t - T0[blk]
-    age_end = block_len[blk] - tl
+    tloc = t - tl.T0[blk]
+    age_end = tl.block_len[blk] - tloc
     out = xyz.copy()
     n_first, n_last = normals(first_seg), normals(last_seg)
-    for amp, age, nrm in ((profile.backlash_start_mm, tl, n_first), (profile.backlash_end_mm, age_end, n_last)):
+    for amp, age, nrm in ((profile.backlash_start_mm, tloc, n_first), (profile.backlash_end_mm, age_end, n_last)):
         m = np.flatnonzero(age < 8 * tau_c)            # e^-8 < 0.04 %: the transient is over
         out[m] += (amp * np.exp(-np.clip(age[m], 0, None) / tau_c))[:, None] * nrm[blk[m]]
     return out
