@@ -20,7 +20,7 @@ from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
 from waamflow.features import RecognitionSpec, WallSpec, crossing_bounds, plan_layer_walls, recognise
-from waamflow.features.walls import fillet_region
+from waamflow.features.fillets import fillet_region
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,7 +1,9 @@
 """Thin-walled parts (Venturini et al. 2018): feature recognition by valence and feature strategies.
 
 recognition: midsurface curves → features (free ends, junctions, crossings, tubulars).
+junctions: the junction points of the curves, their branches and valence → kind.
 walls: features → one bead pass per wall entity (crossing circles, free-end extensions).
+fillets: corner paths turned on the fillet radius; fillet corners the beads leave empty.
 tubular: helical / aligned / scattered laps of tubulars.
 """
 
