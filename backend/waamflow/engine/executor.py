@@ -5,7 +5,7 @@ preview and the benchmarks. Options: `layers` restricts every `LayerNode` to tho
 (the GUI re-plans only the layer being edited); `targets` runs only those nodes and what they
 depend on.
 
-Why one file over 600 lines (issue 27): most of it is `_Run`, the state of one run — cache,
+Why one file: over 600 lines (issue 27), most of it `_Run`, the state of one run — cache,
 signatures, events and progress, the layer mapping, the chains and the worker pool, artifacts,
 cancel and limits — shared by methods that call each other per node and per layer. Split by
 concern, each part would need the whole `_Run` handed to it (the same coupling behind another
@@ -35,7 +35,7 @@ from pydantic import BaseModel
 from .. import __version__
 from ..core.errors import CancelledError, InputFileError, PlanningError, WaamflowError
 from ..core.files import not_regular, read_regular
-from ..core.model import Layer, Layered
+from ..core.model import Layer, Layered, LayerPaths, MeshData
 from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
 from .graph import Graph, GraphNode
@@ -115,6 +115,21 @@ class FileResolver:
             raise InputFileError(_over_limit(path, len(data), limit))
         self.read_hashes[path] = hashlib.sha256(data).hexdigest()
         return data
+
+    def triangles(self, path: str) -> int:
+        """About how many triangles the mesh file `path` holds, from its size and first bytes
+        (`parallel.file_triangles`); 0 when it cannot be read (the read reports why)."""
+        try:
+            if path in self.attachments:
+                data = self.attachments[path]
+                return parallel.file_triangles(len(data), data[:84])
+            p = self.resolve(path)
+            if not_regular(p):
+                return 0
+            with open(p, "rb") as fh:
+                return parallel.file_triangles(os.fstat(fh.fileno()).st_size, fh.read(84))
+        except (InputFileError, OSError):
+            return 0
 
     def sha256(self, path: str) -> str | None:
         """sha256 hex of a file's content (None when missing); memoised on (path, mtime, size)."""
@@ -362,6 +377,7 @@ class _Run:
         self.precomputed: dict[tuple[str, int], tuple[dict[str, Any], list[Any]]] = {}
         self.compute_s: dict[str, float] = {}   # node id → seconds computing its layers, in any process
         self.max_layers = 0   # 0: no limit (see execute)
+        self.size = [0, 0, 0]   # the run's triangles, layers and path points so far (the cost model)
 
     # events
     def emit(self, kind: str, **kw: Any) -> None:
@@ -425,6 +441,7 @@ class _Run:
     # execution
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
+        self.warm_by_cost()
         jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
         for pos, node_id in enumerate(self.active):
             self.check_cancelled()
@@ -487,15 +504,47 @@ class _Run:
                 raise LayerLimitError(f"{len(value)} layers, over the limit of {self.max_layers} (max_layers): "
                                       "stopped before the nodes after it ran", node=node_id)
 
+    def warm_by_cost(self) -> None:
+        """Start the workers before the first node when the run's mesh files alone say they pay
+        (the cost model, `parallel.wants_workers`, on the triangles their sizes give): the fork
+        server's imports and the forks then overlap the mesh read."""
+        pool = self.pool
+        if not isinstance(pool, LayerPool) or not pool.enabled or pool.started or self.layers is not None:
+            return
+        for nid in self.active:
+            params = self.graph.nodes[nid].params
+            for f in file_fields(type(params)):
+                path = getattr(params, f, None)
+                if isinstance(path, str) and path.lower().endswith(parallel.MESH_SUFFIXES):
+                    self.size[0] += self.resolver.triangles(path)
+        if parallel.wants_workers(pool.workers, *self.size):
+            pool.warm()
+
     def maybe_warm(self, pos: int) -> None:
-        """Start the layer workers ahead of need when this node made a long layered value and
-        layer nodes follow: their start-up then overlaps this run's first layer nodes."""
+        """Start the layer workers ahead of need when the run grew big enough for them (the cost
+        model on the triangles, layers and path points its nodes made so far), or when this node
+        made a long layered value and layer nodes follow: their start-up then overlaps what comes."""
         pool = self.pool
         if pool is None or not pool.enabled or pool.started or self.layers is not None:
+            return
+        self.grow_size(self.outputs[self.active[pos]])
+        if parallel.wants_workers(pool.workers, *self.size):
+            pool.warm()
             return
         if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
                 and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
             pool.warm()
+
+    def grow_size(self, outputs: dict[str, Any]) -> None:
+        """The run's size (`self.size`) with a node's outputs: a mesh's triangles, the longest
+        layered value, the most path points a toolpath holds."""
+        for v in outputs.values():
+            if isinstance(v, MeshData):
+                self.size[0] = max(self.size[0], len(v.faces))
+            elif isinstance(v, Layered):
+                self.size[1] = max(self.size[1], len(v))
+                pts = sum(len(sp.points) for lp in v.items if isinstance(lp, LayerPaths) for sp in lp.sections)
+                self.size[2] = max(self.size[2], pts)
 
     def located(self, node_id: str, ctx: RunContext, fn: Callable[[], T]) -> T:
         """fn() with its errors located at the node (and layer), reported as events: never a traceback."""
@@ -752,12 +801,16 @@ class _Run:
 def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float | None]:
     """The preflight of a full run (`waamflow.preflight`) and the seconds it took (for the summary
     only: the artifacts stay reproducible); the report is also the artifact `preflight.json`. An
-    internal error of the check itself is a failed check, never a silent pass."""
+    internal error of the check itself is a failed check, never a silent pass. The run's workers,
+    when started, check the layers of a large part (the report is the same)."""
     from ..preflight import run_preflight
 
+    pool = run.pool
+    workers = parallel.RunWorkers(pool) if isinstance(pool, LayerPool) and pool.enabled and pool.started else None
     t0 = time.perf_counter()
     try:
-        report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None))
+        report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None),
+                               pool=workers)
     except Exception as exc:  # noqa: BLE001 - reported, never swallowed
         report = {"verdict": "fail", "accepted": False, "programs": [], "layers": [],
                   "problems": [{"check": "preflight", "severity": "fail", "node": None, "layer": None,
@@ -806,8 +859,11 @@ def execute(
                pool)
     run.max_layers = max_layers
     finished = False
+    report, report_s = None, None
     try:
         run.run()
+        if preflight and targets is None and layers is None and artifacts:
+            report, report_s = _preflight(run, graph)   # before the workers close: they may share it
         finished = True
     except CancelledError as err:
         run.emit("run_cancelled", message=str(err), error=err.to_dict())
@@ -821,9 +877,6 @@ def execute(
         pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
-    report, report_s = None, None
-    if preflight and targets is None and layers is None and artifacts:
-        report, report_s = _preflight(run, graph)
     result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
                        time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
                        info,
