@@ -37,6 +37,21 @@ def test_inverse_and_round_trip():
     assert m.step_over(6.0) == pytest.approx(4.428)
 
 
+def test_validity_range_must_be_min_and_max():
+    """A bead model whose validity range is not two numbers is refused when read, naming the key
+    (before: [8.0] loaded as (8.0,) and `in_range` then failed with an IndexError; [5, 10, 15]
+    loaded as a three-number range)."""
+    d = fit_trials(synthetic(noise=0.0)).to_json()
+    back = BeadFit.from_json(d)
+    assert len(back.wfs_range) == 2 and len(back.ts_range) == 2
+    assert back.in_range(8.0, 10.0)
+    for key, bad in (("wfs_m_min", [8.0]), ("ts_mm_s", [5.0, 10.0, 15.0])):
+        broken = {**d, "validity": {**d["validity"], key: bad}}
+        with pytest.raises(InputFileError, match=rf"my.json: not a bead model \(validity\.{key} must be "
+                                                 rf"\[min, max\], got {len(bad)} value\(s\)\)"):
+            BeadFit.from_json(broken, source="my.json")
+
+
 def test_power_ratio_form():
     t = synthetic(noise=0.0)
     t = Trials(t.wfs, t.ts, 2.0 * (t.wfs / t.ts) ** 0.5, 1.5 * (t.wfs / t.ts) ** 0.3)

@@ -96,3 +96,23 @@ def test_speed_plan_stops_and_profiles():
     assert v_end == pytest.approx(spans.v[1:], abs=1e-6)
     assert prof.v.min() >= -1e-9
     assert np.all(prof.v.max(axis=1) <= np.maximum(spans.vmax, spans.v[:-1]) + 1e-6)
+
+
+def test_profile_spans_without_limits_names_the_missing_one():
+    """Spans built without their own limits and no limit passed: a ValueError naming the limit
+    (before: a TypeError on None * None, deep in the profile); passing
+    the constants profiles them as plan_spans' own would."""
+    from waamflow.trajectory.speedplan import Spans
+
+    stop = np.array([True, False, True, False, True])
+    pts = np.array([[0, 0, 0], [30, 0, 0], [30, 30, 0], [60, 30, 0], [60, 0, 0]], float)
+    bp = blend_path(pts, np.full(4, 40.0), stop, distance=5.0, normal_acc=500, normal_jerk=1e4)
+    planned = plan_spans(bp, np.full(4, 40.0), stop, 600.0, 50000.0)
+    bare = Spans(planned.s0, planned.s1, planned.vmax, planned.v, planned.stop_after, planned.vertex_after)
+    with pytest.raises(ValueError, match=r"profile_spans: no acceleration \(a / Spans.acc\)"):
+        profile_spans(bare)
+    with pytest.raises(ValueError, match=r"profile_spans: no jerk \(j / Spans.jerk\)"):
+        profile_spans(bare, 600.0)
+    a, b = profile_spans(bare, 600.0, 50000.0), profile_spans(planned)
+    assert len(a.duration) == len(planned.s0) == 2   # split at the exact stop at vertex 2
+    assert np.array_equal(a.duration, b.duration) and np.array_equal(a.p, b.p)

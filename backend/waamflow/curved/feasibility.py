@@ -137,11 +137,16 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
     layers about one axis) and per layer the local height range (mm)."""
     from .fan import fan_dtheta, height_range
 
+    def dtheta(layer) -> float:
+        d = fan_dtheta(layer)
+        assert d is not None   # only for `filled` layers: a frame and a region, i.e. fan layers
+        return d
+
     layers = [l for l in layers if l is not None]
     filled = [l for l in layers if not l.region.is_empty and l.frame is not None]
     if not filled:
         return {"layer_count": len(layers), "heights_fit": False}
-    dth = fan_dtheta(filled[0])
+    dth = dtheta(filled[0])
     bounds = np.array([l.region.bounds for l in filled])
     r_min, r_max = float(bounds[:, 0].min()), float(bounds[:, 2].max())
     lo, hi = dtheta_window(r_min, r_max, h_min, h_max)
@@ -155,7 +160,7 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
         fits = fits and ok
         if not sections or sections[-1]["axis_point"] != list(origin):
             sections.append({"axis_point": list(origin), "direction": (-l.frame[:3, 1]).round(9).tolist(),
-                             "dtheta_deg": math.degrees(fan_dtheta(l)), "first_layer": l.index, "layers": 0,
+                             "dtheta_deg": math.degrees(dtheta(l)), "first_layer": l.index, "layers": 0,
                              "heights_fit": True})
         sections[-1]["layers"] += 1
         sections[-1]["heights_fit"] = sections[-1]["heights_fit"] and ok

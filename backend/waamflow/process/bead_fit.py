@@ -83,7 +83,7 @@ def read_trials(text: str, source: str = "trials") -> Trials:
     rows = [r for r in csv.reader(io.StringIO(text)) if r and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputFileError(f"{source}: no rows")
-    cols = {}
+    cols: dict[str, int] = {}
     for j, name in enumerate(rows[0]):
         c = _column(name)
         if c and c not in cols:
@@ -92,7 +92,7 @@ def read_trials(text: str, source: str = "trials") -> Trials:
     if missing:
         raise InputFileError(f"{source}: header lacks column(s) {', '.join(missing)} "
                              f"(need wfs [m/min], ts [mm/s], width [mm], height [mm])")
-    data = {c: [] for c in cols}
+    data: dict[str, list[float]] = {c: [] for c in cols}
     for i, r in enumerate(rows[1:], start=2):
         for c, j in cols.items():
             try:
@@ -104,7 +104,8 @@ def read_trials(text: str, source: str = "trials") -> Trials:
             data[c].append(v)
     if len(data["wfs"]) < 3:
         raise InputFileError(f"{source}: need at least 3 measured beads, got {len(data['wfs'])}")
-    return Trials(*(np.asarray(data[c]) for c in ("wfs", "ts", "width", "height")), source=source,
+    return Trials(np.asarray(data["wfs"]), np.asarray(data["ts"]), np.asarray(data["width"]),
+                  np.asarray(data["height"]), source=source,
                   area=np.asarray(data["area"]) if "area" in data else None)
 
 
@@ -143,14 +144,18 @@ def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power
     if form == "power":
         A = np.column_stack([np.ones_like(lw), lw, lt])
         p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
-        f = lambda X, a, b, c: a * X[0] ** b * X[1] ** c  # noqa: E731
-        p, cov = curve_fit(f, np.vstack([wfs, ts]), y, p0=[math.exp(p0[0]), p0[1], p0[2]], maxfev=20000)
+        def power(X, a, b, c):
+            return a * X[0] ** b * X[1] ** c
+
+        p, cov = curve_fit(power, np.vstack([wfs, ts]), y, p0=[math.exp(p0[0]), p0[1], p0[2]], maxfev=20000)
         err = tuple(float(e) for e in np.sqrt(np.abs(np.diag(cov)))) if np.all(np.isfinite(cov)) else ()
         return PowerLaw(float(p[0]), float(p[1]), float(p[2]), form, err)
     A = np.column_stack([np.ones_like(lw), lw - lt])
     p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
-    f = lambda r, a, b: a * r ** b  # noqa: E731
-    p, cov = curve_fit(f, wfs / ts, y, p0=[math.exp(p0[0]), p0[1]], maxfev=20000)
+    def power_ratio(r, a, b):
+        return a * r ** b
+
+    p, cov = curve_fit(power_ratio, wfs / ts, y, p0=[math.exp(p0[0]), p0[1]], maxfev=20000)
     err = tuple(float(e) for e in np.sqrt(np.abs(np.diag(cov)))) if np.all(np.isfinite(cov)) else ()
     return PowerLaw(float(p[0]), float(p[1]), -float(p[1]), form, err)
 
@@ -256,13 +261,21 @@ class BeadFit:
             sf = d.get("shape_factor") or {}
             th, tw = t.get("height_mm"), t.get("width_mm")
             return cls(PowerLaw.from_json(d["width"]), PowerLaw.from_json(d["height"]),
-                       tuple(map(float, v["wfs_m_min"])), tuple(map(float, v["ts_mm_s"])),
+                       _range(v, "wfs_m_min"), _range(v, "ts_mm_s"),
                        d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}),
                        None if th is None else float(th), None if tw is None else float(tw),
                        float(d.get("deposition_efficiency", DEPOSITION_EFFICIENCY)),
                        float(sf.get("k", BEAD_SHAPE_FACTOR)), str(sf.get("source", "stated")))
         except (KeyError, TypeError, ValueError) as e:
             raise InputFileError(f"{source}: not a bead model ({e})") from None
+
+
+def _range(validity: dict, key: str) -> tuple[float, float]:
+    """A bead model's validity range `key`: [min, max], two numbers (ValueError otherwise)."""
+    lo_hi = tuple(map(float, validity[key]))
+    if len(lo_hi) != 2:
+        raise ValueError(f"validity.{key} must be [min, max], got {len(lo_hi)} value(s)")
+    return lo_hi[0], lo_hi[1]
 
 
 def fit_trials(trials: Trials, form: str = "power", material: str = "", process: str = "",

@@ -190,6 +190,17 @@ def _ramp(dv: np.ndarray, a, j) -> tuple[np.ndarray, np.ndarray]:
     return t1, t2
 
 
+def _span_limit(given: float | None, own: np.ndarray | None, k: int, what: str) -> np.ndarray:
+    """A limit per span for `profile_spans`: the given constant for all k spans, else the spans'
+    own (`plan_spans` sets them); neither is a ValueError naming the limit."""
+    if given is not None:
+        return np.full(k, float(given))
+    if own is None:
+        raise ValueError(f"profile_spans: no {what}: pass it, or plan the spans with plan_spans (which sets "
+                         "each span's limits)")
+    return own
+
+
 def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, a_dec: float | None = None,
                   j_dec: float | None = None) -> SpanProfiles:
     """Time-optimal jerk-limited profile of every span, (0, v_i, 0) → (L_i, v_i+1, 0), vectorised.
@@ -202,18 +213,19 @@ def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, 
     two ramps fit the span (bisection). The junction speeds of `plan_spans` make every span
     feasible (v_p ≥ max(v_i, v_i+1)). The limits are the spans' own (`Spans.acc` …) unless given."""
     K = len(spans.s0)
-    a = spans.acc if a is None else np.full(K, float(a))
-    j = spans.jerk if j is None else np.full(K, float(j))
-    a_dec = (spans.dec if spans.dec is not None else a) if a_dec is None else np.full(K, float(a_dec))
-    j_dec = (spans.dec_jerk if spans.dec_jerk is not None else j) if j_dec is None else np.full(K, float(j_dec))
+    # per span: speed-up acceleration and jerk, slow-down deceleration and jerk
+    acc_up = _span_limit(a, spans.acc, K, "acceleration (a / Spans.acc)")
+    jerk_up = _span_limit(j, spans.jerk, K, "jerk (j / Spans.jerk)")
+    acc_down = _span_limit(a_dec, spans.dec if spans.dec is not None else acc_up, K, "deceleration")
+    jerk_down = _span_limit(j_dec, spans.dec_jerk if spans.dec_jerk is not None else jerk_up, K, "deceleration jerk")
     L = spans.s1 - spans.s0
     v0, v1 = spans.v[:-1], spans.v[1:]
     lo = np.maximum(v0, v1)
     hi = np.maximum(spans.vmax, lo)
 
     def dist(vp):
-        tu1, tu2 = _ramp(vp - v0, a, j)
-        td1, td2 = _ramp(vp - v1, a_dec, j_dec)
+        tu1, tu2 = _ramp(vp - v0, acc_up, jerk_up)
+        td1, td2 = _ramp(vp - v1, acc_down, jerk_down)
         return 0.5 * (v0 + vp) * (2 * tu1 + tu2) + 0.5 * (vp + v1) * (2 * td1 + td2)
 
     vp = hi.copy()
@@ -222,7 +234,7 @@ def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, 
         a_lo, a_hi = lo[short], hi[short]
         Ls = L[short]
         v0s, v1s = v0[short], v1[short]
-        As, Js, ADs, JDs = a[short], j[short], a_dec[short], j_dec[short]
+        As, Js, ADs, JDs = acc_up[short], jerk_up[short], acc_down[short], jerk_down[short]
         for _ in range(60):
             mid = 0.5 * (a_lo + a_hi)
             tu1, tu2 = _ramp(mid - v0s, As, Js)
@@ -232,12 +244,12 @@ def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, 
             a_hi = np.where(over, mid, a_hi)
             a_lo = np.where(over, a_lo, mid)
         vp[short] = a_lo
-    tu1, tu2 = _ramp(vp - v0, a, j)
-    td1, td2 = _ramp(vp - v1, a_dec, j_dec)
+    tu1, tu2 = _ramp(vp - v0, acc_up, jerk_up)
+    td1, td2 = _ramp(vp - v1, acc_down, jerk_down)
     cruise = np.where(vp > 1e-12, np.maximum(L - dist(vp), 0.0) / np.maximum(vp, 1e-12), 0.0)
     T = np.column_stack([tu1, tu2, tu1, cruise, td1, td2, td1])
-    ju = np.where(tu1 > 0, j, 0.0)
-    jd = np.where(td1 > 0, j_dec, 0.0)
+    ju = np.where(tu1 > 0, jerk_up, 0.0)
+    jd = np.where(td1 > 0, jerk_down, 0.0)
     z = np.zeros(K)
     J = np.column_stack([ju, z, -ju, z, -jd, z, jd])
     Pp = np.zeros((K, 8))
