@@ -1,0 +1,124 @@
+"""What every program reader gives (`ProgramRead`: the arc-ON runs in program order) and the
+builder they fill from the program's motions and comments (`RunBuilder`)."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_LAYER = re.compile(r"\blayer (\d+)\b")
+_SECTION = re.compile(r"\bsection (\S+)")
+
+
+@dataclass
+class Run:
+    """One arc-ON run: ignition to extinction.
+
+    points: (k, 3) float mm. speed: (k - 1,) float mm/s (nan: not stated). wfs: (k - 1,) float
+    m/min (nan: not commanded). weld: (k - 1,) bool, some weld parameter commanded for the segment.
+    """
+
+    points: np.ndarray
+    speed: np.ndarray
+    wfs: np.ndarray
+    weld: np.ndarray
+    layer: int | None
+    section: str | None
+    line: int
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(np.diff(self.points, axis=0), axis=1).sum()) if len(self.points) > 1 else 0.0
+
+
+@dataclass
+class ProgramRead:
+    format: str
+    runs: list[Run] = field(default_factory=list)
+    travel_mm: float = 0.0
+    notes: list[str] = field(default_factory=list)   # what the reader could not interpret
+    weld_commanded: bool = True                      # False: the format carries no weld data at all
+
+
+class RunBuilder:
+    """Collects motions while the arc is on; layer/section from the program's comments."""
+
+    def __init__(self, fmt: str) -> None:
+        self.out = ProgramRead(fmt)
+        self.layer: int | None = None
+        self.section: str | None = None
+        self.pts: list | None = None
+        self.speed: list[float] = []
+        self.wfs: list[float] = []
+        self.weld: list[bool] = []
+        self.line = 0
+        self.run_layer: int | None = None
+        self.run_section: str | None = None
+        self.pos: np.ndarray | None = None
+        self.pending: str | None = None       # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
+
+    def comment(self, text: str) -> None:
+        m = _LAYER.search(text)
+        if m and text.lstrip(" -;!#(").startswith("layer"):
+            self.layer = int(m.group(1))
+        m = _SECTION.search(text)
+        if m and text.lstrip(" -;!#(").startswith("section"):
+            self.section = m.group(1)
+
+    def arc_on(self, line: int) -> None:
+        self.close()
+        start = self.pos if self.pos is not None else np.full(3, np.nan)
+        self.pts, self.speed, self.wfs, self.weld, self.line = [start.copy()], [], [], [], line
+        self.run_layer, self.run_section = self.layer, self.section
+
+    def close(self) -> None:
+        if self.pts is not None and len(self.pts) > 1 and np.isfinite(self.pts[0]).all():
+            self.out.runs.append(Run(np.asarray(self.pts, float), np.asarray(self.speed, float),
+                                     np.asarray(self.wfs, float), np.asarray(self.weld, bool),
+                                     self.run_layer, self.run_section, self.line))
+        self.pts = None
+
+    def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
+        targets = np.atleast_2d(np.asarray(targets, float))
+        if self.pts is not None:
+            if not np.isfinite(self.pts[0]).all():    # arc on before any position: start where it first moves
+                self.pts = [targets[0]]
+                targets = targets[1:]
+            for t in targets:
+                self.pts.append(t)
+                self.speed.append(speed)
+                self.wfs.append(wfs)
+                self.weld.append(weld)
+        elif self.pos is not None:
+            seg = np.vstack([self.pos, targets])
+            self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
+        self.pos = targets[-1].copy()
+        self._after_move()
+
+    def move_to(self, x: float, y: float, z: float, speed: float, wfs: float, weld: bool) -> None:
+        """`move` of one straight motion, without the arrays (a G-code program is mostly these)."""
+        if self.pts is not None and np.isfinite(self.pts[0]).all():
+            self.pts.append((x, y, z))
+            self.speed.append(speed)
+            self.wfs.append(wfs)
+            self.weld.append(weld)
+            self.pos = np.array((x, y, z))
+            self._after_move()
+        elif self.pts is None and self.pos is not None:
+            p = self.pos
+            self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
+            self.pos = np.array((x, y, z))
+            self._after_move()
+        else:
+            self.move(np.array((x, y, z)), speed, wfs, weld)
+
+    def _after_move(self) -> None:
+        if self.pending == "off":
+            self.close()
+        elif self.pending == "on":
+            self.arc_on(self.line)
+        self.pending = None

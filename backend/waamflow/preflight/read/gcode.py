@@ -1,0 +1,113 @@
+"""G-code read back: motions, the arc codes the `waamflow-post:` header names and the weld
+commands its `waamflow-weld:` lines declare."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ...program.common import parse_weld_tag, template_regex
+from .core import NUM, ProgramRead, RunBuilder
+
+_GWORD = re.compile(r"([A-Z])\s*(" + NUM + ")")
+_POST_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
+                       r"(?:\s+feed_units=(mm/min|mm/s))?")
+
+
+def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float, str]]]:
+    """parameter → (pattern of a command that sets it, scale the command carries the value at, the
+    literal text before its first field: a line without it cannot match), from the program's
+    `waamflow-weld:` header lines (the format `program.common` documents: a reader of the declared
+    syntax, scales `name[unit]*k=` included)."""
+    return {name: [(template_regex(t), e["scale"], t.split("{", 1)[0]) for t in e["commands"] if "{" in t]
+            for name, e in parse_weld_tag(text).items()}
+
+
+def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> np.ndarray:
+    c = p0[:2] + (i, j)
+    a0 = math.atan2(p0[1] - c[1], p0[0] - c[0])
+    a1 = math.atan2(p1[1] - c[1], p1[0] - c[0])
+    sweep = a1 - a0
+    if cw and sweep >= 0:
+        sweep -= 2 * math.pi
+    elif not cw and sweep <= 0:
+        sweep += 2 * math.pi
+    r = float(np.hypot(*(p0[:2] - c)))
+    n = max(1, int(math.ceil(abs(sweep) / math.radians(5))))
+    t = np.arange(1, n + 1) / n
+    a = a0 + sweep * t
+    pts = np.column_stack([c[0] + r * np.cos(a), c[1] + r * np.sin(a), p0[2] + (p1[2] - p0[2]) * t])
+    pts[-1] = p1
+    return pts
+
+
+def read_gcode(text: str) -> ProgramRead:
+    tag = _POST_TAG.search(text)
+    arc_on = (tag.group(1) if tag else "M3").replace("_", " ").upper().split()
+    arc_off = (tag.group(2) if tag else "M5").replace("_", " ").upper().split()
+    per_s = tag is not None and tag.group(4) == "mm/s"
+    weld_rx = _weld_templates(text)
+    b = RunBuilder("gcode")
+    if not weld_rx:
+        b.out.notes.append("no `waamflow-weld:` header: the program commands no weld parameter the reader knows")
+    feed = math.nan
+    motion = 0
+    values: dict[str, float] = {}
+    on_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_on]
+    off_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_off]
+    for ln, raw in enumerate(text.splitlines(), start=1):
+        code, _, comment = raw.partition(";")
+        parens: list[str] = []
+        if "(" in code:
+            parens = re.findall(r"\(([^)]*)\)", code)
+            code = re.sub(r"\([^)]*\)", " ", code)
+        code = code.strip()
+        for c in [comment, *parens]:
+            if c.strip():
+                b.comment(c.strip())
+        if not code:
+            continue
+        upper = code.upper()
+        gwords = _GWORD.findall(upper)
+        words = [f"{a}{float(v):g}" for a, v in gwords]
+        if words == on_words:
+            b.arc_on(ln)
+            continue
+        if words == off_words:
+            b.close()
+            continue
+        matched = False
+        for name, pats in weld_rx.items():
+            for rx, scale, literal in pats:
+                m = rx.search(code) if literal in code else None
+                if m:
+                    values[name] = float(m.group(1)) / scale
+                    matched = True
+        if matched:
+            continue
+        vals: dict[str, float] = {}
+        gs: list[float] = []
+        for a, v in gwords:
+            if a == "G":
+                gs.append(float(v))
+            else:
+                vals[a] = float(v)
+        for g in gs:
+            if g in (0, 1, 2, 3):
+                motion = int(g)
+        if "F" in vals:
+            feed = vals["F"] * (1.0 if per_s else 1.0 / 60.0)
+        if 4 in gs or not any(k in vals for k in "XYZ"):
+            continue
+        here = b.pos if b.pos is not None else np.zeros(3)
+        x, y, z = (vals.get(k, float(here[axis])) for axis, k in enumerate("XYZ"))
+        speed = math.nan if motion == 0 else feed
+        if motion in (2, 3):
+            seg = _gcode_arc(here, np.array((x, y, z)), vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
+            b.move(seg, speed, values.get("wire_feed_speed", math.nan), bool(values))
+        else:
+            b.move_to(x, y, z, speed, values.get("wire_feed_speed", math.nan), bool(values))
+    b.close()
+    return b.out

@@ -1,0 +1,196 @@
+"""KUKA KRL read back: the .src files in call order, E6POS points from each .dat, the arc by the
+header's digital output or ArcTech calls, weld values from $ANOUT statements or weld data sets."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...program.common import parse_weld_tag
+from .core import NUM, ProgramRead, RunBuilder
+
+_E6 = re.compile(r"DECL\s+E6POS\s+(\w+)\s*=\s*\{([^}]*)\}", re.IGNORECASE)
+_FIELD = re.compile(r"([A-Z]\w*)\s+(" + NUM + ")", re.IGNORECASE)
+_WDAT = re.compile(r"DECL\s+stArcDat_T\s+(\w+)\s*=\s*\{(.*)\}\s*$", re.IGNORECASE)
+_CHANNELS = re.compile(r"channels\s+([^)]*?)\)")
+_ANOUT_TAG = re.compile(r"\$ANOUT\[(\d+)\]")
+
+
+def _krl_points(dat: str) -> dict[str, np.ndarray]:
+    pts = {}
+    for name, body in _E6.findall(dat):
+        f = {k.upper(): float(v) for k, v in _FIELD.findall(body)}
+        pts[name.upper()] = np.array([f.get("X", 0.0), f.get("Y", 0.0), f.get("Z", 0.0)])
+    return pts
+
+
+def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]:
+    out = {}
+    for line in dat.splitlines():
+        m = _WDAT.search(line)
+        if not m:
+            continue
+        weld = re.search(r"Weld\s*\{([^}]*)\}", m.group(2))
+        if not weld:
+            continue
+        f = dict(_FIELD.findall(weld.group(1)))
+        vals = {}
+        for ch, name in channels.items():
+            v = f.get(f"Channel{ch}")
+            if v is not None and float(v) != 0.0:
+                vals[name] = float(v)
+        out[m.group(1).upper()] = vals
+    return out
+
+
+@dataclass
+class _KrlState:
+    """What a KRL program has set so far: $VEL.CP (mm/s), the analog outputs' weld values
+    (parameter → value) and the ArcTech weld data set in force."""
+
+    vel: float = math.nan
+    values: dict[str, float] = field(default_factory=dict)
+    wdat: str | None = None
+
+
+@dataclass(frozen=True)
+class _KrlHeader:
+    """What the main program's header says: its file, the ArcTech channels (number → parameter),
+    the `$ANOUT[n]` weld outputs (n → parameter) and the arc's digital output number (None: ArcTech)."""
+
+    main: str
+    channels: dict[int, str]
+    anout: dict[str, str]
+    out_no: str | None
+
+
+def _krl_header(srcs: dict[str, str], by_def: dict[str, str]) -> _KrlHeader:
+    """The main program (the DEF no other file calls) and what its header declares."""
+    called = set()
+    for t in srcs.values():
+        called |= {c.upper() for c in re.findall(r"^\s*(\w+)\(\s*\)\s*$", t, re.MULTILINE)}
+    mains = [n for d, n in by_def.items() if d not in called]
+    main = mains[0] if mains else next(iter(srcs))
+    header = srcs[main]
+    channels: dict[int, str] = {}
+    m = _CHANNELS.search(header)
+    if m:
+        for ch, name in re.findall(r"(\d+)\s+(\w+)", m.group(1)):
+            channels[int(ch)] = name
+    anout: dict[str, str] = {}      # `$ANOUT[n]` → parameter, from the header's waamflow-weld tag
+    for name, e in parse_weld_tag(header).items():
+        for tpl in e["commands"]:
+            a = _ANOUT_TAG.search(tpl)
+            if a:
+                anout[a.group(1)] = name
+    out_m = re.search(r"digital output \$OUT\[(\d+)\]", header)
+    return _KrlHeader(main, channels, anout, out_m.group(1) if out_m else None)
+
+
+class _KrlReader:
+    """Walks the .src files from the main program through its subprogram calls, statement by
+    statement, into a `RunBuilder`."""
+
+    def __init__(self, srcs: dict[str, str], dats: dict[str, str], by_def: dict[str, str], head: _KrlHeader) -> None:
+        self.srcs, self.dats, self.by_def, self.head = srcs, dats, by_def, head
+        self.b = RunBuilder("krl")
+        self.state = _KrlState()
+
+    def walk(self, name: str, depth: int = 0) -> None:
+        if depth > 4:
+            return
+        text = self.srcs[name]
+        stem = name[:-4]
+        pts = _krl_points(self.dats.get(stem, ""))
+        wdats = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
+        for ln, raw in enumerate(text.splitlines(), start=1):
+            code, _, comment = raw.partition(";")
+            if comment.strip():
+                self.b.comment(comment.strip())
+            code = code.strip()
+            if code:
+                self.statement(name, depth, ln, code, pts, wdats)
+
+    def statement(self, name: str, depth: int, ln: int, code: str, pts: dict[str, np.ndarray],
+                  wdats: dict[str, dict[str, float]]) -> None:
+        """One statement of file `name` (line ln): a call, a setting, an arc switch or a motion."""
+        b, state, by_def, out_no = self.b, self.state, self.by_def, self.head.out_no
+        up = code.upper()
+        call = re.fullmatch(r"(\w+)\(\s*\)", code)
+        if call and call.group(1).upper() in by_def and by_def[call.group(1).upper()] != name:
+            self.walk(by_def[call.group(1).upper()], depth + 1)
+            return
+        v = re.match(r"\$VEL\.CP\s*=\s*(" + NUM + ")", up)
+        if v:
+            state.vel = float(v.group(1)) * 1000.0
+            return
+        a = re.match(r"(?:TRIGGER\s+WHEN\s+DISTANCE\s*=\s*0\b.*\bDO\s+)?\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
+        if a and a.group(1) in self.head.anout:   # a statement, or path-triggered at the next motion's start
+            state.values[self.head.anout[a.group(1)]] = float(a.group(2))
+            return
+        trig = re.match(r"TRIGGER\s+WHEN\s+DISTANCE\s*=\s*([01])\b.*\bDO\s+\$OUT\[(\d+)\]\s*=\s*(TRUE|FALSE)", up)
+        if out_no and trig and trig.group(2) == out_no:
+            if trig.group(1) == "0":          # at the start of the next motion
+                (b.arc_on(ln) if trig.group(3) == "TRUE" else b.close())
+            else:                             # at its end
+                b.line = ln
+                b.pending = "on" if trig.group(3) == "TRUE" else "off"
+            return
+        if out_no and re.match(r"\$OUT\[" + out_no + r"\]\s*=\s*TRUE", up):
+            b.arc_on(ln)
+            return
+        if out_no and re.match(r"\$OUT\[" + out_no + r"\]\s*=\s*FALSE", up):
+            b.close()
+            return
+        arc = re.match(r"ARCMAINNG\(#(\w+)\s*,\s*(\w+)", up)
+        if arc:
+            action, wdat = arc.group(1), arc.group(2)
+            if action == "ARCONAFTERMOVESTD":
+                b.arc_on(ln)
+                state.wdat = wdat
+            elif action in ("ARCSWIBEFOREMOVESTD", "ARCOFFBEFOREMOVESTD"):
+                state.wdat = wdat
+            elif action == "ARCOFFAFTERMOVESTD":
+                b.close()
+            return
+        mv = re.match(r"(LIN|PTP|CIRC)\s+(\w+)(?:\s*,\s*(\w+))?", up)
+        if mv:
+            self.motion(name, ln, mv.group(1), mv.group(2), mv.group(3), pts, wdats)
+
+    def motion(self, name: str, ln: int, kind: str, p1: str, p2: str | None, pts: dict[str, np.ndarray],
+               wdats: dict[str, dict[str, float]]) -> None:
+        """LIN/PTP to p1, or CIRC through p1 to p2, with the weld values in force."""
+        if p1 not in pts or (kind == "CIRC" and p2 not in pts):
+            self.b.out.notes.append(f"{name} line {ln}: target {p1} not declared in the .dat")
+            return
+        if kind == "CIRC" and p2 is not None:
+            seg = np.vstack([pts[p1], pts[p2]])
+        else:
+            seg = pts[p1][None]
+        vals = dict(self.state.values)
+        if self.state.wdat is not None:
+            vals.update(wdats.get(self.state.wdat, {}))
+        speed = self.state.vel if kind != "PTP" else math.nan
+        self.b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
+
+
+def read_krl(files: dict[str, str]) -> ProgramRead:
+    """files: artifact name → text of every .src/.dat of one program. Follows the main program's
+    subprogram calls in order."""
+    srcs = {n: t for n, t in files.items() if n.lower().endswith(".src")}
+    dats = {n[:-4]: t for n, t in files.items() if n.lower().endswith(".dat")}
+    by_def: dict[str, str] = {}
+    for n, t in srcs.items():
+        m = re.search(r"^\s*DEF\s+(\w+)\s*\(", t, re.MULTILINE | re.IGNORECASE)
+        if m:
+            by_def[m.group(1).upper()] = n
+    head = _krl_header(srcs, by_def)
+    reader = _KrlReader(srcs, dats, by_def, head)
+    reader.walk(head.main)
+    reader.b.close()
+    if not head.channels and not head.anout:
+        reader.b.out.notes.append("no weld channels or analog outputs named in the header: the program commands no weld parameter")
+    return reader.b.out

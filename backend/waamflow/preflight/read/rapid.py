@@ -1,0 +1,95 @@
+"""ABB RAPID read back: robtargets, speeddata and ArcWare welddata/arcdata; a program of several
+modules in the order main() loads and calls them."""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import NamedTuple
+
+import numpy as np
+
+from ...program.common import WELD_COMMANDED
+from .core import NUM, ProgramRead, RunBuilder
+
+_ROBT = re.compile(r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\]",
+                   re.IGNORECASE)
+_SPEED = re.compile(r"speeddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + ")", re.IGNORECASE)
+_WELD = re.compile(r"welddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*\[([^\]]*)\]", re.IGNORECASE)
+_RAPID_MOVE = re.compile(r"^\s*(MoveL|MoveJ|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCStart|ArcCEnd)\s+(.*?);", re.IGNORECASE)
+_ARCDATA_DEFAULT = ("job", "mode", "voltage", "wire_feed_speed", "control", "current")
+
+
+class _RapidWeld(NamedTuple):
+    """A welddata declaration: its weld speed (mm/s) and the non-zero weld values of its arcdata."""
+
+    speed: float
+    values: dict[str, float]
+
+
+def read_rapid(text: str) -> ProgramRead:
+    pts = {n.lower(): np.array([float(x), float(y), float(z)]) for n, x, y, z in _ROBT.findall(text)}
+    speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
+    builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
+    fields: tuple[str, ...] = _ARCDATA_DEFAULT
+    m = re.search(r"arcdata\s*=\s*\[([^\]]*)\]", text)
+    if m:
+        fields = tuple(("wire_feed_speed" if "wirefeed" in f else "current" if "current" in f else
+                        "voltage" if "voltage" in f and "2" not in f else "job" if "job" in f else f.strip())
+                       for f in m.group(1).split(","))
+    welds: dict[str, _RapidWeld] = {}
+    for name, speed, _org, main in _WELD.findall(text):
+        numbers = [float(v) for v in re.findall(NUM, main)]
+        welds[name.lower()] = _RapidWeld(float(speed), {f: v for f, v in zip(fields, numbers)
+                                                        if f in WELD_COMMANDED and v != 0.0})
+    b = RunBuilder("rapid")
+    for ln, raw in enumerate(text.splitlines(), start=1):
+        code, _, comment = raw.partition("!")
+        if comment.strip():
+            b.comment(comment.strip())
+        m = _RAPID_MOVE.match(code)
+        if not m:
+            continue
+        instr = m.group(1).lower()
+        args = [a.strip() for a in re.split(r",(?![^\[]*\])", m.group(2))]
+        names = [a.split("\\")[0].lower() for a in args]
+        circ = instr in ("movec", "arcc", "arccstart", "arccend")
+        targets = names[:2] if circ else names[:1]
+        if any(t not in pts for t in targets):
+            b.out.notes.append(f"line {ln}: target {targets} not declared")
+            continue
+        seg = np.vstack([pts[t] for t in targets])
+        sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
+        weld = next((welds[n] for n in names if n in welds), None)
+        speed = speeds.get(sp, builtin.get(sp, math.nan))
+        if weld is not None and weld.speed:
+            speed = weld.speed                  # ArcWare: the weld speed of welddata governs the weld
+        vals = dict(weld.values) if weld is not None else {}
+        if instr in ("arclstart", "arccstart"):
+            b.move(seg, math.nan, math.nan, False)   # moves to the start, the arc strikes there
+            b.arc_on(ln)
+            continue
+        b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
+        if instr in ("arclend", "arccend"):
+            b.close()
+    b.close()
+    return b.out
+
+
+_MODULE = re.compile(r"^\s*MODULE\s+(\w+)", re.IGNORECASE | re.MULTILINE)
+_LATE_CALL = re.compile(r'^\s*%"(\w+)"%\s*;', re.MULTILINE)
+
+
+def rapid_in_call_order(files: dict[str, str]) -> str:
+    """The text of a RAPID program of several modules in the order it runs: the main module (the
+    one with `PROC main`), then each module whose routine main() calls by late binding
+    (`%"name"%;`, the routine named like its module, loaded by StartLoad/WaitLoad), in call
+    order; modules not called follow in file-name order."""
+    texts = list(files.values())
+    if len(texts) == 1:
+        return texts[0]
+    by_module = {m.group(1).lower(): t for t in texts if (m := _MODULE.search(t))}
+    main = next((t for t in texts if re.search(r"^\s*PROC\s+main\s*\(", t, re.IGNORECASE | re.MULTILINE)), texts[0])
+    order = [main] + [by_module[c.lower()] for c in _LATE_CALL.findall(main) if c.lower() in by_module]
+    order += [t for t in texts if not any(t is o for o in order)]
+    return "\n".join(order)

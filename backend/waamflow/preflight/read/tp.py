@@ -1,0 +1,90 @@
+"""Fanuc TP (.LS) read back: the programs in call order, positions from each /POS, the weld values
+of each Arc Start's schedule in the schedule table."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from .core import NUM, ProgramRead, RunBuilder
+
+_TP_NAME = re.compile(r"^/PROG\s+(\S+)", re.MULTILINE)
+_TP_LINE = re.compile(r"^\s*\d+:(.*?);\s*$")
+_TP_CALL = re.compile(r"^CALL\s+(\w+)")
+_TP_MOVE = re.compile(r"^[LJ]\s+P\[(\d+)\]\s+(" + NUM + r")(mm/sec|cm/min)\b")
+_TP_ARC = re.compile(r"^Arc (Start|End)\[(\d+)\]")
+_TP_POS = re.compile(r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*("
+                     + NUM + r")\s*mm", re.DOTALL)
+_TP_SPEED = {"mm/sec": 1.0, "cm/min": 10.0 / 60.0}
+
+
+def _tp_schedules(text: str) -> dict[int, dict[str, float]]:
+    """schedule → {voltage, current, wire_feed_speed, job} (present, finite values) from the table
+    `<NAME>_SCHED.CSV` (columns program.tp.SCHEDULE_COLUMNS, read by name)."""
+    import csv
+    import io
+
+    cols = {"voltage_V": "voltage", "current_A": "current", "wire_feed_speed_m_min": "wire_feed_speed", "job": "job"}
+    out: dict[int, dict[str, float]] = {}
+    for row in csv.DictReader(io.StringIO(text)):
+        try:
+            k = int(row["schedule"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        out[k] = {name: float(row[c]) for c, name in cols.items() if (row.get(c) or "").strip()}
+    return out
+
+
+def read_tp(files: dict[str, str]) -> ProgramRead:
+    """Fanuc TP programs in the order the main program calls them (`CALL`); positions from each
+    program's own /POS; the weld values of a run are those of its `Arc Start[k]` schedule in the
+    schedule table (a run is weld-commanded when schedule k is in the table with a non-zero
+    current, voltage or wire feed; a schedule change while welding switches the values)."""
+    progs = {m.group(1).upper(): t for t in files.values() if (m := _TP_NAME.search(t))}
+    table = next((t for t in files.values() if t.lstrip().startswith("schedule,")), "")
+    scheds = _tp_schedules(table)
+    b = RunBuilder("tp")
+    if not table:
+        b.out.notes.append("no weld schedule table (<NAME>_SCHED.CSV): the weld values cannot be read")
+
+    def body(text: str) -> list[str]:
+        mn = text.split("\n/MN\n", 1)[-1].split("\n/POS\n", 1)[0]
+        return [m.group(1).strip() for ln in mn.splitlines() if (m := _TP_LINE.match(ln))]
+
+    main = next((t for t in progs.values() if any(_TP_CALL.match(x) for x in body(t))), next(iter(progs.values()), ""))
+    calls = [m.group(1).upper() for x in body(main) if (m := _TP_CALL.match(x))]
+    order = [progs[c] for c in calls if c in progs] or [main]
+    vals: dict[str, float] = {}
+    line_no = 0
+    for text in order:
+        pos = {int(k): np.array([float(x), float(y), float(z)])
+               for k, x, y, z in _TP_POS.findall(text.split("\n/POS\n", 1)[-1])}
+        for ln in body(text):
+            line_no += 1
+            if ln.startswith("!"):
+                b.comment(ln[1:].strip())
+                continue
+            m = _TP_ARC.match(ln)
+            if m:
+                k = int(m.group(2))
+                if m.group(1) == "End":
+                    b.close()
+                    continue
+                if k not in scheds and table:
+                    b.out.notes.append(f"line {line_no}: Arc Start[{k}]: schedule {k} not in the table")
+                vals = scheds.get(k, {})
+                if b.pts is None:
+                    b.arc_on(line_no)
+                continue
+            m = _TP_MOVE.match(ln)
+            if m:
+                k = int(m.group(1))
+                if k not in pos:
+                    b.out.notes.append(f"line {line_no}: P[{k}] not in the program's /POS")
+                    continue
+                weld = any(vals.get(n, 0.0) > 0 for n in ("current", "voltage", "wire_feed_speed"))
+                b.move(pos[k], float(m.group(2)) * _TP_SPEED[m.group(3)], vals.get("wire_feed_speed", math.nan), weld)
+    b.close()
+    return b.out
