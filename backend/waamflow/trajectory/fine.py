@@ -131,6 +131,9 @@ def sample_blocks(tl: Timeline, spans: Spans, prof: SpanProfiles, path: BlendedP
     (the filter has settled there: the window lies wholly after the raw motion's end, so the
     point is exact)."""
     starts_all = _phase_starts(prof)
+    # `path.at` with the dense path's coordinates as contiguous columns, copied once (np.interp
+    # copies a strided column on every call: the whole dense path, once per block and axis)
+    cols = np.ascontiguousarray(path.points.T)
     h, nb = tl.h, tl.nb
     fine_t, fine_xyz, fine_s, fine_blk = [], [], [], []
     for b in range(nb):
@@ -140,7 +143,8 @@ def sample_blocks(tl: Timeline, spans: Spans, prof: SpanProfiles, path: BlendedP
         si = np.clip(np.searchsorted(tl.span_t[sp0:sp1 + 1], tau, side="right") - 1, 0, sp1 - sp0) + sp0
         ds = _positions(prof, starts_all, si, tau - tl.span_t[si])
         s_raw = spans.s0[si] + np.minimum(ds, spans.s1[si] - spans.s0[si])
-        xyzs = np.column_stack([path.at(s_raw), s_raw])
+        xyzs = np.column_stack([np.interp(s_raw, path.s, cols[0]), np.interp(s_raw, path.s, cols[1]),
+                                np.interp(s_raw, path.s, cols[2]), s_raw])
         filt = moving_average(xyzs, tl.nf)
         filt[-1] = xyzs[-1]
         tloc = np.arange(k + 1) * h

@@ -39,6 +39,9 @@ _KRL_CDIS = re.compile(r"^\s*\$APO\.CDIS\s*=\s*([0-9.]+)", re.I | re.M)
 _RAPID_ZONE = re.compile(r"zonedata\s+zw\s*:=\s*\[\s*FALSE\s*,\s*([0-9.]+)", re.I)
 _RAPID_ZW_USED = re.compile(r"^\s*(?:MoveL|MoveC|ArcL|ArcC)\b[^;]*,\s*zw\s*,", re.I | re.M)
 _DWELL_COMMENT = re.compile(r"^\s*(?:;-?|!)\s*ignition dwell\s+([0-9.]+)\s*s\b", re.I)
+_DWELL_HIT = re.compile("ignition dwell", re.I)
+_ASCII_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e"        # where str.splitlines cuts an ASCII text
+_ASCII_BREAK = re.compile(f"[{_ASCII_BREAKS}]")
 _DWELL_CODE = re.compile(r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*(?:;|\()\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I)
 
 
@@ -73,7 +76,7 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
     ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t or "dwell_units=ms" in t for t in texts)
     dwells = []
     for t in texts:
-        for line in t.splitlines():
+        for line in _dwell_lines(t):
             m = _DWELL_COMMENT.match(line)
             if m:
                 dwells.append(float(m.group(1)))
@@ -90,6 +93,25 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
            "robot_profile": fam["robot_profile"], "ignition_dwells_s": tuple(dwells)}
     if fmt == "gcode":
         out["travel_speed_mm_s"], out["rapid_travel"] = _gcode_travel(texts)
+    return out
+
+
+def _dwell_lines(text: str) -> list[str]:
+    """The lines of `text` (as str.splitlines cuts them) that say "ignition dwell" (any case): the
+    only ones the dwell patterns can match. A program has one per ignition among up to hundreds
+    of thousands of lines, so an ASCII text is searched as a whole, not line by line."""
+    if not text.isascii():     # lower() could change lengths: line by line
+        return [line for line in text.splitlines() if _DWELL_HIT.search(line)]
+    low = text.lower()
+    out = []
+    lo = 0
+    pos = low.find("ignition dwell")
+    while pos >= 0:
+        start = max(text.rfind(c, lo, pos) for c in _ASCII_BREAKS) + 1
+        m = _ASCII_BREAK.search(text, pos)
+        lo = m.start() if m else len(text)
+        out.append(text[start:lo])
+        pos = low.find("ignition dwell", lo)
     return out
 
 
@@ -175,7 +197,8 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
             else:
                 ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
                 kin_report_plan = None
-                warnings.extend(_flat_warnings(kin.cell, moves, kin.flat_tol_deg))
+                warnings.extend(_flat_warnings(kin.cell, moves, kin.flat_tol_deg,
+                                               ang if kin.positioner_policy == "gravity" else None))
             s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, axes, ang,
                                                                  step_mm=kin.step_mm, step_deg=kin.step_deg)
             base = kin.cell.robot_base
@@ -296,15 +319,17 @@ def auto_failure_text(cell, plan) -> str:
     return msg
 
 
-def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0) -> list[tuple[str, int | None, str | None]]:
+def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0,
+                   gravity: np.ndarray | None = None) -> list[tuple[str, int | None, str | None]]:
     """Layers that even the gravity angles leave leaning more than tol_deg off flat (the lean this
     positioner cannot remove: a 1-axis positioner and a part leaning about the other axis, or an
-    axis limit): one warning with the layers and the largest lean."""
+    axis limit): one warning with the layers and the largest lean. gravity: the `gravity` policy's
+    angles when the caller has them (None: planned here)."""
     from .cell import plan_positioner, to_world
 
     if cell.axes == 0 or len(moves.points) < 2:
         return []
-    ang = plan_positioner(cell, moves, "gravity")[0]
+    ang = plan_positioner(cell, moves, "gravity")[0] if gravity is None else gravity
     _, w = to_world(cell, moves.points, moves.tool_axis, ang)
     lean = np.degrees(np.arccos(np.clip(-w[:, 2] / np.maximum(np.linalg.norm(w, axis=1), 1e-12), -1.0, 1.0)))
     arc = np.asarray(moves.arc, bool)
