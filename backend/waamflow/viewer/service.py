@@ -46,7 +46,8 @@ from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
-from .session import NullScene, Target, ViewSession
+from .session import ViewSession
+from .target import NullScene, Target
 
 if TYPE_CHECKING:   # viser is imported when the service starts
     from viser import ViserServer

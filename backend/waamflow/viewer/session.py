@@ -7,6 +7,11 @@ its own), or nothing (`NullScene`: no browser attached yet, or it went away). Th
 content — which recipe it shows, its parts, view settings — lives on regardless of the target,
 so `state()` answers before the browser connects, and a reconnect (the GUI's 3D tab remounts its
 iframe on every visit) gets the same recipe, layer range and colours redrawn.
+
+The session is split by concern: this module holds its content (which parts it draws, view
+settings, state, picking, bounds); `target` where it draws (`Target`, `NullScene`, importable
+from here too), `camera` how the camera frames it, `panel` its GUI panel and playback
+(`SessionPanel`, mixed into `ViewSession`).
 """
 
 from __future__ import annotations
@@ -15,18 +20,23 @@ import contextlib
 import logging
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from . import colors as C
 from . import geometry as G
+from .camera import Camera, framing, set_camera, view_direction
+from .panel import SessionPanel
 from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
                     SectionsPart, ToolpathPart, ViewState, kind_of, slug)
 from .simulation import SimulationPart
+from .target import NullHandle, NullScene, Target
 
 if TYPE_CHECKING:
     from .service import ViewerService
+
+__all__ = ["NullHandle", "NullScene", "PART_TYPES", "Target", "ViewSession"]
 
 log = logging.getLogger("waamflow.viewer")
 
@@ -38,64 +48,7 @@ PART_TYPES: dict[str, type[Part]] = {
 PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
 VIEW_FIELDS = ("layer_lo", "layer_hi", "path_color", "sim_color", "time_s", "show_robot",
                "sim_offset_mm", "show_programmed", "show_simulated")
-# Camera: looking down at ~35° (elevation), framing the bounding sphere with viser's default 75°
-# vertical field of view plus a margin, so the framed box fills ~80 % of the view's height.
-CAMERA_ELEVATION_DEG = 35.0
-CAMERA_FOV_DEG = 75.0
-CAMERA_MARGIN = 1.1
-
-
-class NullHandle:
-    """Stands in for a viser scene/GUI handle when nothing is attached: takes every attribute."""
-
-    def __init__(self, name: str = "", **props: Any) -> None:
-        self.__dict__.update(props)
-        self.name = name
-
-    def remove(self) -> None:
-        self.removed = True
-
-    def on_update(self, cb):
-        return cb
-
-    on_click = on_update
-
-
-class NullScene:
-    """A scene that draws nothing (a session without a browser): every `add_*` returns a handle
-    that remembers what was set on it."""
-
-    def __init__(self) -> None:
-        self._handle_from_node_name: dict[str, NullHandle] = {}
-
-    def __getattr__(self, attr: str):
-        if not attr.startswith("add_"):
-            raise AttributeError(attr)
-
-        def add(name: str, *args: Any, **props: Any) -> NullHandle:
-            h = NullHandle(name, **props)
-            self._handle_from_node_name[name] = h
-            return h
-        return add
-
-    def get_handle_by_name(self, name: str):
-        return self._handle_from_node_name.get(name)
-
-
-class Target:
-    """Where a session draws: scene API, GUI API (None: no panel), atomic() and the cameras."""
-
-    def __init__(self, scene, gui=None, atomic: Callable[[], Any] | None = None,
-                 cameras: Callable[[], list] = lambda: [], initial_camera=None, client=None) -> None:
-        self.scene = scene
-        self.gui = gui
-        self.atomic = atomic or contextlib.nullcontext
-        self.cameras = cameras
-        self.initial_camera = initial_camera
-        self.client = client
-
-
-class ViewSession:
+class ViewSession(SessionPanel):
     """The scene adapters + GUI panel (layer range, colour-by, per-node visibility, playback,
     picked-point readout) of one view. All methods run under the service's lock."""
 
@@ -118,7 +71,7 @@ class ViewSession:
         self._play_thread: threading.Thread | None = None
         self._bounds: np.ndarray | None = None
         self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
-        self.camera: tuple[tuple, tuple, float, float] | None = None   # (eye, look_at, near, far)
+        self.camera: Camera | None = None   # (eye, look_at, near, far)
         self.target = target
         self._open(target)
 
@@ -167,7 +120,7 @@ class ViewSession:
         else:
             self._after_publish()
         if self.camera is not None:
-            self._set_camera(*self.camera)
+            set_camera(self.target, *self.camera)
 
     def atomic(self):
         return self.target.atomic()
@@ -459,10 +412,8 @@ class ViewSession:
             return
         center = (b[0] + b[1]) / 2
         radius = max(float(np.linalg.norm(b[1] - b[0])) / 2, 1.0)
-        dist = CAMERA_MARGIN * radius / np.sin(np.radians(CAMERA_FOV_DEG / 2))
-        eye = center + dist * self._view_direction(center)
-        self.camera = (tuple(float(x) for x in eye), tuple(float(x) for x in center), dist * 1e-3, dist * 20)
-        self._set_camera(*self.camera)
+        self.camera = framing(center, radius, view_direction(self.parts.values(), self.view.time_s, center))
+        set_camera(self.target, *self.camera)
         if what == "cell":
             part_b = self.world_bounds("part")
             assert part_b is not None   # both are None without part bounds, and b is not
@@ -472,232 +423,6 @@ class ViewSession:
         grid_size = float(np.ceil(radius * 2.4 / 10.0) * 10.0)
         self.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
                             section_size=grid_size / 4, position=(float(center[0]), float(center[1]), floor))
-
-    def _view_direction(self, center: np.ndarray) -> np.ndarray:
-        """Unit vector from the part to the camera: CAMERA_ELEVATION_DEG above the part's own
-        table plane (the positioner may have tilted it: the camera stays on the part's side of
-        the table, never looking at the part through it), at `_azimuth` about the world z."""
-        az = self._azimuth(center)
-        el = np.radians(CAMERA_ELEVATION_DEG)
-        up = np.array([0.0, 0.0, 1.0])
-        for p in self.parts.values():
-            if isinstance(p, SimulationPart):
-                pose = p.work_pose(self.view.time_s)
-                if pose is not None:
-                    up = pose[0][:, 2] / np.linalg.norm(pose[0][:, 2])
-                    break
-        h = np.array([np.cos(az), np.sin(az), 0.0])
-        h = h - (h @ up) * up
-        if np.linalg.norm(h) < 1e-6:
-            h = np.cross(up, [1.0, 0.0, 0.0])
-        h /= np.linalg.norm(h)
-        return np.cos(el) * h + np.sin(el) * up
-
-    def _azimuth(self, center: np.ndarray) -> float:
-        """Camera azimuth (rad): 40° off the direction robot base → part, so the part is seen
-        in front of the arm; without a cell the classic front-left-above view."""
-        for p in self.parts.values():
-            if isinstance(p, SimulationPart):
-                base = p.robot_base()
-                if base is not None:
-                    d = center[:2] - base[:2]
-                    if np.linalg.norm(d) > 1e-6:
-                        return float(np.arctan2(d[1], d[0]) + np.radians(40.0))
-        return float(np.arctan2(-0.58, 0.42))
-
-    def _set_camera(self, eye, center, near, far) -> None:
-        cam = self.target.initial_camera
-        if cam is not None:
-            cam.near, cam.far = near, far
-            cam.position, cam.look_at = tuple(eye), tuple(center)
-        for camera in self.target.cameras():
-            with contextlib.suppress(Exception):
-                camera.near, camera.far = near, far
-                camera.position, camera.look_at = tuple(eye), tuple(center)
-
-    # ---- GUI ---------------------------------------------------------------------------------
-    def _build_gui(self) -> None:
-        gui = self.target.gui
-        # A sidebar beside the canvas (not floating over it), no share button: the preview is local.
-        gui.configure_theme(show_logo=False, show_share_button=False, brand_color=(248, 150, 30))
-        gui.main_panel.dock_right()
-        gui.main_panel.set_width(260)
-        # Embedded in the GUI the view is small: start with the panel folded to its rail so the
-        # scene is visible; one click unfolds it.
-        gui.main_panel.minimize()
-        g = self._gui
-        g["run"] = gui.add_markdown("**No run published yet.**")
-        g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
-        g["path_color"] = gui.add_dropdown("Toolpath colour", PATH_COLOR_MODES, initial_value=self.view.path_color)
-        g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
-        g["offset"] = gui.add_number("Sim. offset z (mm)", initial_value=0.0, min=0.0, max=1000.0, step=0.5,
-                                     hint="Draw the simulated path this far above the programmed one")
-        g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
-        g["play"] = gui.add_button("Play / pause")
-        g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
-        g["legend"] = gui.add_html("")
-        g["nodes"] = gui.add_folder("Nodes")
-        g["pick"] = gui.add_markdown("*Click a path point for its layer, section, zone and speeds.*")
-
-        g["layers"].on_update(lambda _: self._guarded(self._on_layers))
-        g["path_color"].on_update(lambda _: self._guarded(self._on_color))
-        g["sim_color"].on_update(lambda _: self._guarded(self._on_color))
-        g["time"].on_update(lambda _: self._guarded(self._on_time))
-        g["play"].on_click(lambda _: self._toggle_play())
-        g["robot"].on_update(lambda _: self._guarded(self._on_robot))
-        g["offset"].on_update(lambda _: self._guarded(self._on_offset))
-
-    def _guarded(self, handler: Callable[[], None]) -> None:
-        if self._syncing:   # setting a widget calls its handler: it must not write back
-            return
-        with self.lock:
-            if self._gui:
-                handler()
-
-    def _sync_gui(self) -> None:
-        g = self._gui
-        if not g:
-            return
-        self._syncing = True
-        try:
-            self._sync_widgets(g)
-        finally:
-            self._syncing = False
-
-    def _sync_widgets(self, g: dict[str, Any]) -> None:
-        v = self.view
-        g["path_color"].value = v.path_color
-        g["sim_color"].value = v.sim_color
-        g["offset"].value = v.sim_offset_mm
-        g["robot"].value = v.show_robot
-        lo, hi = self._layer_extent()
-        g["layers"].min, g["layers"].max = lo, max(hi, lo + 1)
-        g["layers"].value = (self.view.layer_lo, self.view.layer_hi)
-        names = [n for n in self.node_types if any(k[0] == n for k in self.parts)]
-        names += sorted({n for n, _ in self.parts} - set(names))
-        for n in [n for n in self._node_boxes if n not in names]:
-            self._node_boxes.pop(n).remove()
-        with g["nodes"]:
-            for n in names:
-                if n not in self._node_boxes:
-                    box = self.target.gui.add_checkbox(f"{n} ({self.node_types.get(n, '?')})", initial_value=True)
-                    box.on_update(lambda ev, node=n: self._guarded(lambda: self._on_node_box(node, ev.target.value)))
-                    self._node_boxes[n] = box
-        for n, box in self._node_boxes.items():
-            box.value = n not in self.view.hidden
-        sims = [p for p in self.parts.values() if isinstance(p, SimulationPart)]
-        duration = max([p.duration() for p in sims], default=0.0)
-        g["time"].max = max(duration, 0.01)
-        g["time"].step = max(duration / 1000.0, 0.001)
-        g["time"].disabled = not sims
-        g["time"].value = min(max(v.time_s, 0.0), g["time"].max)
-        run = self.svc.scene_runs.get(self.key or "")
-        loading = self.svc._rebuilding.get(self.key or "")
-        g["run"].content = (f"**Run:** `{self.key}`{f' ({run})' if run else ''} — {len(self.parts)} outputs" if self.parts else
-                            f"**Rebuilding the scene of run `{loading['run']}`…**" if loading else
-                            f"**No run of `{self.key}` yet.**" if self.key else "**No run published yet.**")
-        g["legend"].content = self._legend()
-
-    def _legend(self) -> str:
-        """HTML legend: zone colour swatches, scalar ranges, robot state, feature kinds."""
-        from html import escape
-
-        def swatch(hexcol: str, label: str) -> str:
-            return (f'<span style="display:inline-block;width:0.8em;height:0.8em;background:{hexcol};'
-                    f'margin:0 0.25em 0 0.6em;vertical-align:middle"></span>{escape(label)}')
-
-        rows = []
-        for p in self.parts.values():
-            head = f"<b>{escape(p.node)}</b> "
-            if isinstance(p, ToolpathPart):
-                lo, hi = p.speed_range
-                zones = "".join(swatch(h, z) for z, h in p.zone_legend()) or " not zoned (coloured by section)"
-                rows.append(head + f"zones{zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
-            elif isinstance(p, SimulationPart):
-                ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
-                                   if k in p.ranges for lo, hi in [p.ranges[k]])
-                robot = (f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
-                         if p.robot is not None else escape(p.robot_note))
-                rows.append(head + ranges + (f"<br>{robot}" if robot else ""))
-            elif isinstance(p, FeaturesPart):
-                kinds = sorted(set(p.kinds))
-                rows.append(head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds))
-        return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
-
-    def _on_layers(self) -> None:
-        lo, hi = (int(v) for v in self._gui["layers"].value)
-        self.view.layer_lo, self.view.layer_hi = min(lo, hi), max(lo, hi)
-        self._apply()
-
-    def _on_color(self) -> None:
-        self.view.path_color = self._gui["path_color"].value
-        self.view.sim_color = self._gui["sim_color"].value
-        with self.atomic():
-            self._apply()
-
-    def _on_offset(self) -> None:
-        self.view.sim_offset_mm = float(self._gui["offset"].value)
-        self._apply()
-
-    def _on_robot(self) -> None:
-        self.view.show_robot = bool(self._gui["robot"].value)
-        self._apply()
-
-    def _on_node_box(self, node: str, shown: bool) -> None:
-        (self.view.hidden.discard if shown else self.view.hidden.add)(node)
-        self._apply()
-
-    def _on_time(self) -> None:
-        self.view.time_s = float(self._gui["time"].value)
-        for p in self.parts.values():
-            if isinstance(p, SimulationPart):
-                info = p.set_time(self.view.time_s)
-                if info:
-                    self._gui["pick"].content = "**Torch at t**  \n" + _table(info)
-
-    def _toggle_play(self) -> None:
-        if self._play_thread is not None and self._play_thread.is_alive():
-            self.stop_playback()
-            return
-        self._play_stop.clear()
-        self._play_thread = threading.Thread(target=self._play, name=f"viewer-playback-{self.id}", daemon=True)
-        self._play_thread.start()
-
-    def stop_playback(self) -> None:
-        self._play_stop.set()
-        t = self._play_thread
-        if t is not None and t is not threading.current_thread():
-            t.join(timeout=2.0)
-        self._play_thread = None
-
-    def _play(self) -> None:
-        """Advance the time slider in real time (30 frames/s) until the end or pause."""
-        frame = 1 / 30
-        while not self._play_stop.wait(frame):
-            slider = self._gui.get("time")
-            if slider is None:
-                return
-            t = float(slider.value) + frame
-            if t >= slider.max:
-                slider.value = slider.max
-                return
-            slider.value = t
-
-    def _on_click(self, event) -> None:
-        with self.lock:
-            info = self.pick(np.asarray(event.ray_origin, float), np.asarray(event.ray_direction, float))
-            if "pick" not in self._gui:
-                return
-            if info is None:
-                self._gui["pick"].content = "*Nothing picked.*"
-                return
-            self._gui["pick"].content = "**Picked point**  \n" + _table(info)
-            self.scene.add_icosphere("/pick", radius=max(self._pick_radius(), 0.2), color=(255, 0, 110),
-                                     position=tuple(info["point"]), cast_shadow=False)
-
-    def _pick_radius(self) -> float:
-        b = self._bounds
-        return 0.005 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 0.5
 
 
 def _range(r: tuple[float, float], unit: str, full: tuple[float, float] | None) -> dict[str, Any]:
@@ -709,7 +434,3 @@ def _range(r: tuple[float, float], unit: str, full: tuple[float, float] | None) 
         tol = 0.01 * max(r[1] - r[0], 1e-12)   # beyond the ends by more than 1 % of the span
         out["clamped"] = bool(full[0] < r[0] - tol or full[1] > r[1] + tol)
     return out
-
-
-def _table(info: dict[str, Any]) -> str:
-    return "  \n".join(f"{k}: `{v}`" for k, v in info.items() if v is not None)
