@@ -427,35 +427,51 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
         out.update(part_top_mm=_r(part.top, 3), deposit_top_mm=_r(top_dep, 3), top_gap_mm=_r(top_gap, 3),
                    uncovered_share=_r(cov["uncovered_share"]), part_volume_mm3=_r(cov["part_volume_mm3"], 1),
                    coverage_method=cov["method"], layer_height_mm=_r(h_typ, 3))
-        last_idx, last_runs = layers[-1]
-        if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
-            p = cov.get("worst_point") if not planar else None
-            rep.problem("top_gap", "fail",
-                        f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
-                        f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
-                        layer=last_idx, value=top_gap, limit=s.top_gap_max_layers * h_typ, point=p)
-        elif top_gap is not None and h_typ and planar and -top_gap > s.overshoot_warn_layers * h_typ:
-            rep.problem("top_gap", "warn", f"the deposit ends {-top_gap:.2f} mm above the part's top "
-                        f"({part.top:.2f} mm) at layer {last_idx}", layer=last_idx, value=top_gap)
-        share = cov["uncovered_share"]
-        if share > s.uncovered_warn:
-            sev = "fail" if share > s.uncovered_fail else "warn"
-            worst = max((L for L in rep.layers.values() if L.get("uncovered_share") is not None),
-                        key=lambda L: L["uncovered_share"], default=None)
-            where = ""
-            if worst is not None and worst["uncovered_share"] > 0:
-                where = (f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
-                         + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
-                         + "without a bead")
-            rep.problem("uncovered", sev, f"{share * 100:.1f} % of the part gets no bead{where}: add a mask "
-                        "section or a filling pattern there", layer=worst["index"] if worst else None,
-                        value=share, limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
-                        point=(worst or {}).get("uncovered_point"))
+        _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)
         # metal outside the part (outside.py): arc-ON centre lines off the part, stock at run ends aside
         stock = s.outside_stock_mm if s.outside_stock_mm is not None else stock_mm if stock_mm is not None else width
         fig = check_outside(part, layers, width, s, rep, planar=planar, sections=cov.get("sections"), stock_mm=stock)
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
-    # wire fed vs metal needed
+    _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
+    _arc_runs(prog, layers, width, out, rep, s)
+    _ignitions(part, layers, cov, planar, width, out, rep, s)
+    return _finish(out, rep, s)
+
+
+def _coverage_problems(part: Part, layers: list[tuple[int, list[Run]]], cov: Coverage, top_gap: float | None,
+                       h_typ: float | None, planar: bool, rep: Report, s: PreflightSettings) -> None:
+    """The top gap (the deposit ends short of the part's top, or far above it) and the uncovered
+    share of the part as problems."""
+    last_idx, last_runs = layers[-1]
+    if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
+        p = cov.get("worst_point") if not planar else None
+        rep.problem("top_gap", "fail",
+                    f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
+                    f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
+                    layer=last_idx, value=top_gap, limit=s.top_gap_max_layers * h_typ, point=p)
+    elif top_gap is not None and h_typ and planar and -top_gap > s.overshoot_warn_layers * h_typ:
+        rep.problem("top_gap", "warn", f"the deposit ends {-top_gap:.2f} mm above the part's top "
+                    f"({part.top:.2f} mm) at layer {last_idx}", layer=last_idx, value=top_gap)
+    share = cov["uncovered_share"]
+    if share > s.uncovered_warn:
+        sev = "fail" if share > s.uncovered_fail else "warn"
+        worst = max((L for L in rep.layers.values() if L.get("uncovered_share") is not None),
+                    key=lambda L: L["uncovered_share"], default=None)
+        where = ""
+        if worst is not None and worst["uncovered_share"] > 0:
+            where = (f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
+                     + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
+                     + "without a bead")
+        rep.problem("uncovered", sev, f"{share * 100:.1f} % of the part gets no bead{where}: add a mask "
+                    "section or a filling pattern there", layer=worst["index"] if worst else None,
+                    value=share, limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
+                    point=(worst or {}).get("uncovered_point"))
+
+
+def _wire_balance(part: Part | None, prog: ProgramRead, layers: list[tuple[int, list[Run]]], cov: Coverage | None,
+                  weld_expected: bool, out: dict, rep: Report, s: PreflightSettings) -> None:
+    """Wire fed vs metal needed: per layer and in all, the arc-ON moves without weld data, the
+    wire/part volume ratio (out) and their problems."""
     wire_total, missing = 0.0, 0
     for idx, runs in layers:
         w = 0.0
@@ -505,7 +521,11 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                         f"needs; wire {s.wire_diameter_mm} mm, deposition efficiency {s.deposition_efficiency}): "
                         "balance wire feed and travel speed in the zone parameters (fill-parameters does)",
                         layer=worst["index"] if worst else None, value=ratio, limit=hi if ratio > hi else lo)
-    # arc runs
+
+
+def _arc_runs(prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: float, out: dict, rep: Report,
+             s: PreflightSettings) -> None:
+    """The shortest arc-ON run (out, per layer) and the runs shorter than `min_arc_run_mm`."""
     min_run = s.min_arc_run_mm if s.min_arc_run_mm is not None else 2.0 * width
     lengths = [(r.length, r) for r in prog.runs]
     out["min_arc_run_mm"] = _r(min(v for v, _ in lengths), 3)
@@ -518,8 +538,12 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                     f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
                     "(sequence `min_arc_run_mm`)", layer=r.layer, section=r.section, value=v, limit=min_run,
                     point=r.points[0])
-    # ignitions: those in machining stock (outside the part, machined off: the thin-wall rule) may
-    # stack; those in the part must not
+
+
+def _ignitions(part: Part | None, layers: list[tuple[int, list[Run]]], cov: Coverage | None, planar: bool,
+               width: float, out: dict, rep: Report, s: PreflightSettings) -> None:
+    """Ignitions: those in machining stock (outside the part, machined off: the thin-wall rule) may
+    stack; those in the part must not (starts within a bead width of one on the layer below)."""
     spread = None
     stacked = []
     prev = None
@@ -562,7 +586,6 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
                     f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
                     "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
                     layer=idx, section=r.section, value=d, limit=width, point=r.points[0])
-    return _finish(out, rep, s)
 
 
 STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in machining stock
