@@ -14,7 +14,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from ..core.errors import InputFileError, RecipeError
+from ..core.errors import InputFileError, RecipeError, WaamflowError
 from ..core.files import not_regular, read_regular
 from ..engine.cache import MemoryCache, SqliteCache, TieredCache
 from ..engine.executor import FileResolver, RunResult
@@ -116,6 +116,13 @@ def parse_api_recipe(data: Any) -> Recipe:
         raise RecipeError(f"invalid recipe: {e}") from None
 
 
+class RunsUnavailable(WaamflowError):
+    """A run route on a server started without run workers: 503 naming why."""
+
+    kind = "unavailable"
+    http_status = 503
+
+
 @dataclass
 class Services:
     settings: Settings
@@ -130,12 +137,11 @@ class Services:
     unloaded: dict[str, dict] = field(default_factory=dict)
 
     def run_manager(self) -> RunManager:
-        """`runs`, which the app's lifespan makes at startup: every route that queues, reads or
-        cancels a run goes through here, so a request served without it (an app whose lifespan
-        did not run) fails naming why instead of with "'NoneType' has no attribute"."""
+        """`runs`, which the app's lifespan makes at startup unless `start_workers` is false: every
+        route that queues, reads or cancels a run goes through here (503 without one)."""
         if self.runs is None:
-            raise RuntimeError("the run manager is not started: it is made by the app's lifespan "
-                               "(create_app's startup; in tests, use TestClient as a context manager)")
+            raise RunsUnavailable("this server was started without run workers (start_workers false): "
+                                  "it keeps graphs but cannot run them; start it with workers to run")
         return self.runs
 
     def release_reserve(self) -> int:

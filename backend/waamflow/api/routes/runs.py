@@ -186,13 +186,14 @@ async def run_events(run_id: RunId, svc: ServicesDep,
     """Server-Sent Events: each `data:` line is one JSON event (see engine/events.py); the stream
     ends after run_finished / run_failed / run_cancelled. Resumes after `Last-Event-ID`."""
     _get_run(svc, run_id)
+    runs = svc.run_manager()   # 503 before the stream starts, not inside it
     start = int(last_event_id) if last_event_id and last_event_id.isdigit() else 0
 
     async def stream():
         seq = start
         idle = 0.0
         while True:
-            events, ended = svc.run_manager().events_since(run_id, seq)
+            events, ended = runs.events_since(run_id, seq)
             for ev in events:
                 seq = max(seq, ev["seq"])
                 yield f"id: {ev['seq']}\ndata: {json.dumps(ev)}\n\n"
