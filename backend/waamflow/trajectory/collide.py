@@ -24,6 +24,7 @@ tested: the torch deposits on it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import coal
 import numpy as np
@@ -152,11 +153,11 @@ BATCH = 256   # checked samples per pass of the batched broad phase (bounds its 
 class _Setup:
     """What every checked sample of one `check_path` call shares."""
 
-    model: object
-    data: object
+    model: pin.Model
+    data: pin.Data
     tool0: int
     tool_shapes: list
-    statics_at: object
+    statics_at: Callable[[Any], list]
     layers: dict
     lay_ids: np.ndarray
     lay_c: np.ndarray
