@@ -195,3 +195,102 @@ def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
     assert sizes[-1] <= max(1, -(-n // (workers * parallel.CHUNKS_PER_WORKER * 4)))
     assert sizes[0] == -(-n // (2 * workers)) or n < 2 * workers
     assert len(chunks) <= 4 * workers * parallel.CHUNKS_PER_WORKER   # round trips stay few
+
+
+# ---- the cost model (issue #30): parallel from the run's size, not from the first layers' time ----
+def test_the_cost_model_keeps_a_small_recipe_serial_and_sends_the_bench_vase_to_the_workers():
+    # the bench vase: 1,008,000 triangles, 133 layers, 68,000 path points -> 4.9 s of shareable work
+    assert parallel.parallel_work_s(1_008_000, 133, 68_000) == pytest.approx(2.52 + 0.665 + 1.7)
+    assert parallel.wants_workers(2, 1_008_000, 133, 68_000)
+    assert parallel.wants_workers(2, triangles=1_008_000)           # its mesh file alone decides, at the start
+    assert not parallel.wants_workers(1, 1_008_000, 133, 68_000)   # one worker: serial
+    # mpp-cross (graphs/): 8 layers of a small mesh -> ~0.05 s, serial
+    assert parallel.parallel_work_s(2_000, 8, 1_500) < 0.1
+    assert not parallel.wants_workers(2, 2_000, 8, 1_500)
+    assert not parallel.wants_workers(2, 500_000)                  # 1.25 s < MIN_PARALLEL_S 1.5 s
+    assert parallel.wants_workers(2, 700_000)
+
+
+def test_file_triangles_is_exact_for_binary_stl_and_a_bound_otherwise():
+    n = 1_008_000
+    head = b"waamflow bench".ljust(80, b" ") + n.to_bytes(4, "little")
+    assert parallel.file_triangles(84 + 50 * n, head) == n
+    assert parallel.file_triangles(84 + 50 * n + 1, head) == (84 + 50 * n + 1) // 50   # not a binary STL's size
+    assert parallel.file_triangles(25_000, b"solid x\n  facet normal 0 0 1") == 500
+
+
+def _vase_recipe(tmp_path: Path, triangles: int) -> Path:
+    """A mesh → slice → wall-path recipe whose STL header and size say `triangles` (a sparse file:
+    the cost model reads only the size and the first 84 bytes)."""
+    import json
+
+    stl = tmp_path / "vase.stl"
+    with open(stl, "wb") as fh:
+        fh.write(b"vase".ljust(80, b" ") + triangles.to_bytes(4, "little"))
+        fh.truncate(84 + 50 * triangles)
+    rec = {"format": "waamflow/1", "name": "v", "nodes": [
+        {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
+        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+        {"id": "walls", "type": "wall-path", "params": {"bead_width": 6.0}}],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"}]}
+    (tmp_path / "vase.json").write_text(json.dumps(rec))
+    return tmp_path / "vase.json"
+
+
+@pytest.mark.parametrize("triangles, started", [(1_008_000, True), (1_000, False)])
+def test_a_large_mesh_file_starts_the_workers_before_the_first_node(tmp_path, triangles, started):
+    from waamflow.engine.executor import _Run
+
+    path = _vase_recipe(tmp_path, triangles)
+    graph = build_graph(load_recipe(path))
+    pool = parallel.LayerPool(2)
+    warmed: list[bool] = []
+    pool.warm = lambda: warmed.append(True)          # type: ignore[method-assign]  # what would start them
+    run = _Run(graph, FileResolver(path.parent), None, None, None, None, list(graph.order), True, pool)
+    run.warm_by_cost()
+    assert run.size[0] == triangles
+    assert bool(warmed) is started
+
+
+def test_the_run_size_after_each_node_feeds_the_cost_model(monkeypatch):
+    """mpp-cross (8 layers) stays serial; the same run with the per-layer cost 100 times higher
+    (as a run of 800 layers) starts the workers right after slicing, before any layer node."""
+    started_after: list[str] = []
+    warm = parallel.LayerPool.warm
+
+    def spy(self):
+        if not self.started:
+            started_after.append(next(iter(reversed(spy.run.outputs))) if spy.run.outputs else "")
+        return warm(self)
+
+    from waamflow.engine import executor as ex
+
+    init = ex._Run.__init__
+
+    def keep(self, *a, **k):
+        init(self, *a, **k)
+        spy.run = self
+
+    monkeypatch.setattr(ex._Run, "__init__", keep)
+    monkeypatch.setattr(parallel.LayerPool, "warm", spy)
+    small = _run("mpp-cross", 2)
+    assert started_after == [] and small.executor["tasks"] == 0
+    monkeypatch.setattr(parallel, "COST_LAYER_S", 0.5)              # 8 layers -> 4 s
+    _run("mpp-cross", 2)
+    assert started_after == ["layers"]
+
+
+def test_the_preflight_checks_a_parts_layers_in_the_workers_with_the_same_report(always_parallel, monkeypatch):
+    mapped: list[int] = []
+    pmap = parallel.LayerPool.map
+
+    def spy(self, fn, items):
+        mapped.append(len(items))
+        return pmap(self, fn, items)
+
+    monkeypatch.setattr(parallel.LayerPool, "map", spy)
+    serial = _run("mpp-cross", 1)
+    par = _run("mpp-cross", 2)
+    assert mapped and sum(mapped) >= 2            # the layers' slab checks went to the workers
+    assert par.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
+    assert par.preflight == serial.preflight and par.preflight["verdict"] == serial.preflight["verdict"]

@@ -48,7 +48,7 @@ import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Any, Callable, Sequence, cast
 
 from .node import Context
 
@@ -66,6 +66,16 @@ CHUNKS_PER_WORKER = 4     # the smallest (last) chunk: 1/(workers · 4 · this) 
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
 DASK_CONNECT_S = 10.0     # seconds to reach the scheduler before the run fails
 
+# The cost model (issue #30): serial CPU seconds of the work the workers can share, per unit of
+# what a run holds. Measured on the bench vase (1,008,000 triangles, 133 layers, 68,000 path
+# points), CPU seconds of one process: the preflight's sections (plane search, slab cuts, loops)
+# ~2.5 µs per triangle cut, its footprints and overlays ~25 µs per path point, and ~5 ms per
+# layer of per-layer overhead (a layer's own section, wall path, post-processing, report row).
+COST_TRIANGLE_S = 2.5e-6
+COST_LAYER_S = 5e-3
+COST_POINT_S = 2.5e-5
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".3mf")   # files whose size says how many triangles
+
 
 def default_workers() -> int:
     """`WAAMFLOW_LAYER_WORKERS`, else every core (1 = serial)."""
@@ -76,6 +86,28 @@ def default_workers() -> int:
         except ValueError:
             pass
     return max(1, os.cpu_count() or 1)
+
+
+def parallel_work_s(triangles: int = 0, layers: int = 0, points: int = 0) -> float:
+    """Expected serial seconds of the per-layer work a run of this size can spread over workers:
+    the cost model (`COST_*`), from the mesh's triangles, the layers and the path points."""
+    return triangles * COST_TRIANGLE_S + layers * COST_LAYER_S + points * COST_POINT_S
+
+
+def wants_workers(workers: int, triangles: int = 0, layers: int = 0, points: int = 0,
+                  min_s: float = MIN_PARALLEL_S) -> bool:
+    """Whether the workers pay for a run of this size: more than one, and more expected serial
+    seconds than `min_s` (`MIN_PARALLEL_S`: starting them costs ~0.7 s of CPU on another core)."""
+    return workers > 1 and parallel_work_s(triangles, layers, points) > min_s
+
+
+def file_triangles(size: int, head: bytes) -> int:
+    """Triangles a mesh file of `size` bytes holds, from its first 84 bytes: exact for a binary
+    STL (84 + 50 per triangle), else one per 50 bytes (ASCII STL takes ~250 and OBJ ~60 per
+    triangle: an upper bound for them, a lower one for zipped 3MF)."""
+    if len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], "little"):
+        return int.from_bytes(head[80:84], "little")
+    return size // 50
 
 
 class _WorkerContext(Context):
@@ -199,6 +231,7 @@ class LayerPool:
 
     workers: int
     tasks: int = 0
+    map_tasks: int = 0
     started: bool = False     # workers asked for (by `warm` or a first map)
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -275,6 +308,19 @@ class LayerPool:
         return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
                                        trace, outputs)
 
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        """fn over the items in the workers, results in item order (the preflight's layer tasks;
+        counted in `map_tasks`, not in `tasks`, which are the nodes' layer chunks)."""
+        pool = self._executor()
+        futures = [pool.submit(fn, it) for it in items]
+        self.map_tasks += len(futures)
+        try:
+            return [f.result() for f in futures]
+        finally:
+            for f in futures:
+                f.cancel()
+            self._ready.set()
+
     def map_layers(self, chain: tuple[ChainLink, ...], resolver: FileResolver, todo: list[tuple[int, dict[str, Any]]],
                    on_done: Callable[[int, list[Any]], None], cancelled: Callable[[], bool]) -> None:
         """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
@@ -338,6 +384,28 @@ def _chunks(todo: list[Any], workers: int) -> list[list[Any]]:
         out.append(todo[k:k + size])
         k += size
     return out
+
+
+@dataclass
+class RunWorkers:
+    """A run's local workers as the preflight sees them (`preflight.slabs.Workers`): the cost
+    model's verdict on a piece of work, and a map that falls back to this process when the
+    workers fail (a task's own error is raised again here, where it is reported)."""
+
+    pool: LayerPool
+
+    @property
+    def count(self) -> int:
+        return self.pool.workers
+
+    def pays(self, triangles: int, layers: int, points: int) -> bool:
+        return wants_workers(self.count, triangles, layers, points, self.pool.min_parallel_s)
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        try:
+            return self.pool.map(fn, items)
+        except Exception:    # a worker died or the pool could not start: compute here
+            return [fn(it) for it in items]
 
 
 def _run_chain_shared(shared: tuple[Any, ...], chunk: list[tuple[int, dict[str, Any]]]

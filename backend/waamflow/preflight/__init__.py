@@ -89,9 +89,10 @@ def _stock_length(graph, node_id: str, width: float) -> float:
 
 
 def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str, bytes],
-                  settings: PreflightSettings | None = None) -> dict | None:
+                  settings: PreflightSettings | None = None, pool=None) -> dict | None:
     """The preflight report of a finished run; None when disabled or when the run hands out neither
-    a program nor a toolpath."""
+    a program nor a toolpath. `pool`: the run's workers (`slabs.Workers`), which check the layers
+    of a large part in parallel when that pays; the report is the same without them."""
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import VERDICT_ORDER, check_program
@@ -116,7 +117,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
             width, source = _bead_width(graph, nid, s)
             rep = check_program(_part_of(graph, outputs, nid), prog, nid, s, width,
                                 weld_expected=prog.weld_commanded or prog.format == "csv",
-                                stock_mm=_stock_length(graph, nid, width))
+                                stock_mm=_stock_length(graph, nid, width), pool=pool)
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
     if not reports:                          # no program: the last toolpath a node hands out
@@ -130,7 +131,7 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
             prog = read_toolpath(json.loads(artifacts[doc_name]))
             width, source = _bead_width(graph, last, s)
             rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False,
-                                stock_mm=_stock_length(graph, last, width))
+                                stock_mm=_stock_length(graph, last, width), pool=pool)
             rep.update(files=[doc_name], bead_width_mm=width, bead_width_source=source,
                        notes=rep["notes"] + ["no program is emitted: the last toolpath was checked (weld data and "
                                              "wire volume are the program's to carry)"])

@@ -1,0 +1,192 @@
+"""What the deposit does besides covering the part, checked on the program as read back: the
+wire it feeds against the part's volume (`_wire_balance`: wire ending in the part = Σ over arc-ON
+segments of length / speed · WFS · π d²/4 · η, from the values the program commands), the lengths
+of its arc runs (`_arc_runs`) and where its ignitions lie (`_ignitions`: stacked on the layer
+below inside the part, or in machining stock outside it). `check.check_program` calls them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiLineString
+from shapely.ops import unary_union
+
+from ..core.process import wire_area_mm2
+from .read import ProgramRead, Run
+from .report import Report, rounded
+from .settings import PreflightSettings
+
+if TYPE_CHECKING:                     # check imports this module
+    from .check import Coverage, Part
+
+
+def _segments(run: Run) -> tuple[np.ndarray, np.ndarray]:
+    d = np.diff(run.points, axis=0)
+    return d, np.linalg.norm(d, axis=1)
+
+
+def wire_volume(run: Run, s: PreflightSettings) -> tuple[float, int]:
+    """(metal ending in the part from this run, mm³; arc-ON segments with no commanded wire feed or
+    speed — their metal is unknown and left out)."""
+    _d, length = _segments(run)
+    ok = np.isfinite(run.wfs) & np.isfinite(run.speed) & (run.speed > 0) & (length > 0)
+    rate = run.wfs * 1000.0 / 60.0 * wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency  # mm³/s
+    vol = float(np.sum(np.where(ok, length / np.where(ok, run.speed, 1.0) * np.where(ok, rate, 0.0), 0.0)))
+    return vol, int(np.count_nonzero(~ok & (length > 0)))
+
+
+def _wire_balance(part: Part | None, prog: ProgramRead, layers: list[tuple[int, list[Run]]], cov: Coverage | None,
+                  weld_expected: bool, out: dict, rep: Report, s: PreflightSettings) -> None:
+    """Wire fed vs metal needed: per layer and in all, the arc-ON moves without weld data, the
+    wire/part volume ratio (out) and their problems."""
+    wire_total, missing = 0.0, 0
+    for idx, runs in layers:
+        w = 0.0
+        for r in runs:
+            v, m = wire_volume(r, s)
+            w += v
+            missing += m
+        wire_total += w
+        L = rep.layer(idx)
+        L["wire_mm3"] = rounded(w, 1)
+        if L.get("part_mm3"):
+            L["volume_ratio"] = rounded(w / L["part_mm3"], 3)
+    seg_total = sum(len(r.speed) for r in prog.runs)
+    weld_missing = sum(int(np.count_nonzero(~r.weld)) for r in prog.runs)
+    out["weld_data_missing"] = weld_missing if weld_expected else None
+    ratio = None
+    if part is not None and cov and cov["part_volume_mm3"] > 0 and missing == 0:
+        ratio = wire_total / cov["part_volume_mm3"]
+    out["wire_mm3"] = rounded(wire_total, 1) if missing == 0 else None
+    out["wire_part_volume_ratio"] = rounded(ratio, 3)
+    if weld_expected and weld_missing and s.weld_data != "off":
+        first = next(r for r in prog.runs if (~r.weld).any())
+        rep.problem("weld_data", s.weld_data,
+                    f"{weld_missing} of {seg_total} arc-ON moves have no weld parameter commanded (first: layer "
+                    f"{first.layer}, section {first.section}): the power source would weld with whatever job it "
+                    "holds; command wire feed/current in the machine profile (comments do not count)",
+                    layer=first.layer, section=first.section, value=weld_missing, limit=0,
+                    point=first.points[0])
+    if weld_expected and missing and not weld_missing and part is not None and cov and cov["part_volume_mm3"] > 0:
+        # welded with weld data, but no wire feed the reader can see: the metal balance is unknown
+        first = next(r for r in prog.runs if not np.isfinite(r.wfs).all())
+        rep.problem("volume_ratio", "warn",
+                    f"{missing} arc-ON moves weld without a wire feed in the program (first: layer {first.layer}, "
+                    f"section {first.section}): the wire the part gets cannot be checked against its volume; "
+                    "command the wire feed, or check the power source's synergic line gives the zones' feeds",
+                    layer=first.layer, section=first.section, value=missing, limit=0, point=first.points[0])
+    if ratio is not None:
+        lo, hi = s.volume_ratio_ok
+        flo, fhi = s.volume_ratio_fail
+        if not lo <= ratio <= hi:
+            sev = "fail" if not flo <= ratio <= fhi else "warn"
+            word = "more" if ratio > hi else "less"
+            worst = max((L for L in rep.layers.values() if L.get("volume_ratio")),
+                        key=lambda L: abs(math.log(L["volume_ratio"])), default=None)
+            rep.problem("volume_ratio", sev,
+                        f"the wire fed puts {ratio:.2f}× the part's volume into it ({word} metal than the part "
+                        f"needs; wire {s.wire_diameter_mm} mm, deposition efficiency {s.deposition_efficiency}): "
+                        "balance wire feed and travel speed in the zone parameters (fill-parameters does)",
+                        layer=worst["index"] if worst else None, value=ratio, limit=hi if ratio > hi else lo)
+
+
+def _arc_runs(prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: float, out: dict, rep: Report,
+             s: PreflightSettings) -> None:
+    """The shortest arc-ON run (out, per layer) and the runs shorter than `min_arc_run_mm`."""
+    min_run = s.min_arc_run_mm if s.min_arc_run_mm is not None else 2.0 * width
+    lengths = [(r.length, r) for r in prog.runs]
+    out["min_arc_run_mm"] = rounded(min(v for v, _ in lengths), 3)
+    short = [(v, r) for v, r in lengths if v < min_run]
+    for idx, runs in layers:
+        rep.layer(idx)["min_arc_run_mm"] = rounded(min(r.length for r in runs), 3)
+    if short:
+        v, r = min(short, key=lambda t: t[0])
+        rep.problem("arc_run", "warn", f"{len(short)} arc-ON runs are shorter than {min_run:.1f} mm (shortest "
+                    f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
+                    "(sequence `min_arc_run_mm`)", layer=r.layer, section=r.section, value=v, limit=min_run,
+                    point=r.points[0])
+
+
+def _ignitions(part: Part | None, layers: list[tuple[int, list[Run]]], cov: Coverage | None, planar: bool,
+               width: float, out: dict, rep: Report, s: PreflightSettings) -> None:
+    """Ignitions: those in machining stock (outside the part, machined off: the thin-wall rule) may
+    stack; those in the part must not (starts within a bead width of one on the layer below)."""
+    spread = None
+    stacked = []
+    prev = None
+    in_stock = 0
+    all_starts = np.array([r.points[0] for _i, runs in layers for r in runs])
+    if part is not None and part.kind == "solid" and cov and cov.get("sections"):
+        # planar slabs: the section the coverage check cut for the start's layer (a 3D inside test on
+        # a million-triangle mesh took 35 s of a 55 s run)
+        start_layers = [idx for idx, runs in layers for _r in runs]
+        all_inside = in_sections(cov["sections"], all_starts, start_layers)
+    elif part is not None:
+        all_inside = in_part(part, all_starts, width)
+    else:
+        all_inside = np.ones(len(all_starts), bool)
+    offset = 0
+    for idx, runs in layers:
+        starts = all_starts[offset:offset + len(runs)]
+        inside = all_inside[offset:offset + len(runs)]
+        offset += len(runs)
+        rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
+        rep.layer(idx)["stops"] = np.round(np.array([r.points[-1] for r in runs]), 3).tolist()
+        in_stock += int(np.count_nonzero(~inside))
+        if prev is not None and len(prev) and inside.any():
+            diff = starts[inside][:, None, :] - prev[None, :, :]
+            if planar:
+                diff = diff[..., :2]
+            d = np.linalg.norm(diff, axis=2).min(axis=1)
+            spread = float(d.min()) if spread is None else min(spread, float(d.min()))
+            kept = [r for r, ok in zip(runs, inside) if ok]
+            for k in np.nonzero(d < width)[0]:
+                stacked.append((idx, kept[k], float(d[k])))
+        prev = starts[inside] if inside.any() else prev
+    out["start_spread_mm"] = rounded(spread, 3)
+    out["stacked_starts"] = len(stacked)
+    out["starts_in_stock"] = in_stock
+    if stacked and s.stacked_starts != "off":
+        idx, r, d = stacked[0]
+        rep.problem("stacked_starts", s.stacked_starts,
+                    f"{len(stacked)} ignitions lie within one bead width ({width:g} mm) of an ignition on the "
+                    f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
+                    "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
+                    layer=idx, section=r.section, value=d, limit=width, point=r.points[0])
+
+
+STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in machining stock
+
+
+def in_sections(sections: dict, pts: np.ndarray, layer_of: list[int]) -> np.ndarray:
+    """(n,) bool: each point (xy) lies in (or within STOCK_TOL_MM of) its layer's part section."""
+    out = np.zeros(len(pts), bool)
+    layer_arr = np.asarray(layer_of)
+    for idx in np.unique(layer_arr):
+        geom = sections.get(int(idx))
+        k = np.nonzero(layer_arr == idx)[0]
+        if geom is None or geom.is_empty:
+            continue
+        out[k] = shapely.distance(geom, shapely.points(pts[k][:, :2])) <= STOCK_TOL_MM
+    return out
+
+
+def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
+    """(n,) bool: the points lie in the part (a wall: on its midsurface, within STOCK_TOL_MM), not in
+    the stock beyond it that is machined off."""
+    if part.kind in ("midsurface", "region"):    # the wall's midsurface, or the 2D region: its distance
+        geom = (MultiLineString([np.asarray(c)[:, :2] for c in part.curves]) if part.kind == "midsurface"
+                else unary_union([g for _z, _t, g in part.regions]))
+        return shapely.distance(geom, shapely.points(np.asarray(pts)[:, :2])) <= STOCK_TOL_MM
+    import trimesh
+
+    mesh = trimesh.Trimesh(*part.mesh(), process=False)
+    if part.kind == "surface":
+        _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
+        return dist <= STOCK_TOL_MM + width / 2.0
+    _c, dist, _t = trimesh.proximity.closest_point(mesh, pts)
+    return mesh.contains(pts) | (dist <= STOCK_TOL_MM)

@@ -1,0 +1,174 @@
+"""The planar-slab coverage of the preflight, cut into tasks that stand alone (issue #30).
+
+Each deposited layer is checked on its own: the part's section at the middle of the layer's slab
+(trimesh's `mesh_plane` on the triangles spanning that plane, chained into loops, even-odd) and
+the footprint of the layer's arc-ON runs (check.footprint) give the layer's part area, the area
+covered, the area uncovered and the deposit beyond the part. Nothing of one layer depends on
+another, so the layers can be computed in any process: a task carries the triangles its planes
+cut and its layers' runs, never the planner's sections (the check stays independent of the plan).
+
+Which triangles a plane cuts is found for every plane at once: each triangle's z range gives the
+range of planes it spans (two binary searches), so a million-triangle part is not scanned once per
+plane (`_multiplane_sections` did: 3.2 of the 14.5 s the vase's sections took under the profiler).
+Each plane's triangles keep the order of a stable sort by their lowest z, and each plane's slab
+mesh its vertices in ascending index order, whatever the task they travel in: the sections, and
+so every figure of the report, are the same serial or parallel.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable, NamedTuple, Protocol, Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPolygon, Polygon
+
+MAX_PAIRS = 20_000_000   # (triangle, plane) pairs held at once; beyond, each plane scans the part
+TASKS_PER_WORKER = 4     # parallel: the layers are cut into this many tasks per worker
+
+
+
+class Workers(Protocol):
+    """The run's worker processes as the preflight sees them (engine/executor.py hands them over)."""
+
+    count: int
+
+    def pays(self, triangles: int, layers: int, points: int) -> bool:
+        """Whether work of this size is worth sending to the workers (the engine's cost model)."""
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        """fn over the items in the workers, results in item order."""
+
+
+class LayerCover(NamedTuple):
+    """One layer's figures: the part's section (shapely), its area, the area the footprint covers,
+    the footprint's area beyond the section (mm²) and a point (x, y) of the largest uncovered piece."""
+
+    section: Any
+    area: float
+    covered: float
+    outside: float
+    uncovered_point: tuple[float, float] | None
+
+
+class SlabTask(NamedTuple):
+    """The layers a task checks: the triangles its planes cut (vertices, faces indexing them), per
+    plane the faces it cuts, in order, the planes' z and the layers' arc-ON paths ((k, 2) each)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    plane_faces: list[np.ndarray]
+    zs: list[float]
+    paths: list[list[np.ndarray]]
+    width: float
+
+
+def plane_faces(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[float]) -> list[np.ndarray]:
+    """For each z the faces whose z range holds it (zmin ≤ z ≤ zmax), in the order of a stable
+    sort by zmin."""
+    if not len(zs):
+        return []
+    tri_z = vertices[:, 2][faces]
+    zmin, zmax = tri_z.min(axis=1), tri_z.max(axis=1)
+    order = np.argsort(zmin, kind="stable")
+    z = np.asarray(zs, dtype=float)
+    rank = np.argsort(z, kind="stable")
+    z_sorted = z[rank]
+    lo = np.searchsorted(z_sorted, zmin[order], side="left")     # first plane with z ≥ zmin
+    hi = np.searchsorted(z_sorted, zmax[order], side="right")    # past the last plane with z ≤ zmax
+    counts = np.maximum(hi - lo, 0)
+    total = int(counts.sum())
+    if total > MAX_PAIRS:       # huge triangles spanning many planes: one scan per plane
+        zmin_sorted = zmin[order]
+        out = []
+        for zi in z:
+            cand = order[: np.searchsorted(zmin_sorted, zi, side="right")]
+            out.append(cand[zmax[cand] >= zi])
+        return out
+    pos = np.repeat(np.arange(len(order)), counts)              # position in `order`, ascending
+    first = np.cumsum(counts) - counts
+    plane = lo[pos] + (np.arange(total) - first[pos])           # the sorted plane each pair cuts
+    by_plane = np.argsort(plane, kind="stable")                 # positions stay ascending per plane
+    pos, plane = pos[by_plane], plane[by_plane]
+    bounds = np.searchsorted(plane, np.arange(len(z) + 1))
+    out = [np.zeros(0, dtype=order.dtype)] * len(z)
+    for r in range(len(z)):
+        out[int(rank[r])] = order[pos[bounds[r]:bounds[r + 1]]]
+    return out
+
+
+def cut_sections(vertices: np.ndarray, faces: np.ndarray, per_plane: Sequence[np.ndarray],
+                 zs: Sequence[float]) -> list[Any]:
+    """The sections at each z of the faces `per_plane` lists (shapely, even-odd): trimesh's
+    `mesh_plane` on a slab mesh of those faces only (its vertices in ascending index order)."""
+    import trimesh
+
+    from .check import _chain_loops, _loops_to_geom
+
+    out: list[Any] = []
+    for f, z in zip(per_plane, zs):
+        if len(f) == 0:
+            out.append(MultiPolygon())
+            continue
+        used, local = np.unique(faces[f], return_inverse=True)
+        slab = trimesh.Trimesh(vertices[used], np.asarray(local).reshape((-1, 3)), process=False, validate=False)
+        segs = trimesh.intersections.mesh_plane(slab, [0.0, 0.0, 1.0], [0.0, 0.0, z])
+        out.append(_loops_to_geom(_chain_loops(segs)) if len(segs) else MultiPolygon())
+    return out
+
+
+def cover_layer(section: Any, paths: list[np.ndarray], width: float) -> LayerCover:
+    """A layer's figures from its part section and arc-ON paths."""
+    from .check import footprint
+
+    foot = footprint(paths, width)
+    area = float(section.area)
+    cov = float(section.intersection(foot).area) if area > 0 else 0.0
+    unc = section.difference(foot) if area > 0 else Polygon()
+    outside = float(foot.difference(section).area)
+    point = None
+    if area > 0 and not unc.is_empty:
+        rp = max(shapely.get_parts(unc), key=lambda g: g.area).representative_point()
+        point = (float(rp.x), float(rp.y))
+    return LayerCover(section, area, cov, outside, point)
+
+
+def cover_slabs(task: SlabTask) -> list[LayerCover]:
+    """A task's layers (worker side, or the whole part in this process)."""
+    sections = cut_sections(task.vertices, task.faces, task.plane_faces, task.zs)
+    return [cover_layer(sec, p, task.width) for sec, p in zip(sections, task.paths)]
+
+
+def _sub_task(vertices: np.ndarray, faces: np.ndarray, per_plane: list[np.ndarray], zs: list[float],
+              paths: list[list[np.ndarray]], width: float) -> SlabTask:
+    """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
+    plane's slab mesh is the one the whole part gives."""
+    f_all = np.unique(np.concatenate(per_plane)) if per_plane else np.zeros(0, np.int64)
+    v_used, local = np.unique(faces[f_all], return_inverse=True)
+    sub_faces = np.asarray(local).reshape((-1, 3))
+    return SlabTask(vertices[v_used], sub_faces, [np.searchsorted(f_all, f) for f in per_plane], zs, paths, width)
+
+
+def _spans(weights: np.ndarray, n: int) -> list[tuple[int, int]]:
+    """Up to `n` consecutive (start, end) spans of about equal total weight."""
+    cum = np.cumsum(weights, dtype=float)
+    cuts = np.searchsorted(cum, cum[-1] * np.arange(1, n) / n, side="left") + 1 if len(cum) else np.zeros(0, int)
+    edges = sorted({0, *(int(c) for c in cuts if 0 < c < len(weights)), len(weights)})
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def cover_part(vertices: np.ndarray, faces: np.ndarray, zs: list[float], paths: list[list[np.ndarray]],
+               width: float, pool: Workers | None = None) -> list[LayerCover]:
+    """Every layer's figures; with the run's workers, when the cost model says the work pays, in
+    tasks of consecutive layers of about equal work (faces cut plus path points)."""
+    v = np.asarray(vertices, dtype=np.float64)     # what trimesh.Trimesh makes of them
+    f = np.asarray(faces, dtype=np.int64)
+    per_plane = plane_faces(v, f, zs)
+    n_cut = np.array([len(pf) for pf in per_plane], dtype=float)
+    n_pts = np.array([sum(len(p) for p in ps) for ps in paths], dtype=float)
+    if pool is None or pool.count < 2 or len(zs) < 2 * pool.count or \
+            not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum())):
+        return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width))
+    tasks = [_sub_task(v, f, per_plane[a:b], list(zs[a:b]), paths[a:b], width)
+             for a, b in _spans(n_cut + n_pts + 1.0, pool.count * TASKS_PER_WORKER)]
+    return [c for got in pool.map(cover_slabs, tasks) for c in got]

@@ -1,0 +1,97 @@
+"""The preflight's planar slabs in tasks (preflight/slabs.py, issue #30): the plane search finds
+what a scan per plane finds, and the layers checked in tasks (as the run's workers do, pickled
+there and back) give every figure and section of the check done in one piece, bit for bit."""
+
+import pickle
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+
+from waamflow.preflight import slabs
+
+PARTS = ["graphs/parts/bracket.stl", "graphs/parts/duct.stl", "graphs/parts/curved_bracket.stl"]
+
+
+def _scan(vertices, faces, zs):
+    """The search it replaced: per plane, the faces with zmin ≤ z in a stable zmin order, then zmax ≥ z."""
+    tri_z = vertices[:, 2][faces]
+    zmin, zmax = tri_z.min(axis=1), tri_z.max(axis=1)
+    order = np.argsort(zmin, kind="stable")
+    out = []
+    for z in zs:
+        cand = order[: np.searchsorted(zmin[order], z, side="right")]
+        out.append(cand[zmax[cand] >= z])
+    return out
+
+
+@pytest.mark.parametrize("path", PARTS)
+def test_plane_faces_equal_a_scan_per_plane(path, monkeypatch):
+    mesh = trimesh.load(path, force="mesh")
+    v, f = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
+    z0, z1 = mesh.bounds[:, 2]
+    zs = list(np.linspace(z0 - 1, z1 + 1, 41)) + [float(v[0, 2]), float(z0 + 1.0), float(z0 + 1.0)]  # a vertex's z, a repeat
+    zs = zs[::-1]                                                    # planes in any order
+    got, ref = slabs.plane_faces(v, f, zs), _scan(v, f, zs)
+    assert [len(g) for g in got] == [len(r) for r in ref] and sum(len(r) for r in ref) > 100
+    assert all(np.array_equal(g, r) for g, r in zip(got, ref))
+    assert len(got[3]) == 0 and len(got[-1]) == 0                   # above the top, below the bottom
+    monkeypatch.setattr(slabs, "MAX_PAIRS", 0)                     # the fallback scan gives the same
+    assert all(np.array_equal(g, r) for g, r in zip(slabs.plane_faces(v, f, zs), ref))
+
+
+class _Pickled:
+    """Workers in this process: each task and result goes through pickle, as to a worker."""
+
+    def __init__(self, count: int, pays: bool = True) -> None:
+        self.count, self._pays, self.tasks = count, pays, []
+
+    def pays(self, triangles, layers, points):
+        return self._pays
+
+    def map(self, fn, items):
+        self.tasks = [pickle.loads(pickle.dumps(t)) for t in items]
+        return [pickle.loads(pickle.dumps(fn(t))) for t in self.tasks]
+
+
+def _part_and_paths(path):
+    mesh = trimesh.load(path, force="mesh")
+    z0, z1 = mesh.bounds[:, 2]
+    zs = list(np.linspace(z0 + 0.75, z1 - 0.75, 37))
+    (x0, y0, _), (x1, y1, _) = mesh.bounds
+    rng = np.random.default_rng(5)
+    paths = [[np.column_stack([np.linspace(x0, x1, 60), y0 + (y1 - y0) * rng.uniform(0.2, 0.8, 60)])]
+             for _ in zs]
+    return np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), zs, paths
+
+
+@pytest.mark.parametrize("path", PARTS)
+def test_layers_checked_in_tasks_equal_the_check_in_one_piece(path):
+    v, f, zs, paths = _part_and_paths(path)
+    whole = slabs.cover_part(v, f, zs, paths, 6.0)
+    pool = _Pickled(2)
+    split = slabs.cover_part(v, f, zs, paths, 6.0, pool)
+    assert 2 <= len(pool.tasks) <= 2 * slabs.TASKS_PER_WORKER
+    assert sum(len(t.zs) for t in pool.tasks) == len(zs)
+    assert all(len(t.faces) < len(f) for t in pool.tasks)          # each task carries only its planes' faces
+    assert len(split) == len(whole) == len(zs)
+    for a, b in zip(whole, split):
+        assert shapely.to_wkb(a.section) == shapely.to_wkb(b.section)
+        assert (a.area, a.covered, a.outside, a.uncovered_point) == (b.area, b.covered, b.outside, b.uncovered_point)
+    assert sum(c.area > 0 for c in whole) == len(zs) and sum(c.covered > 0 for c in whole) > len(zs) // 2
+
+
+def test_the_cost_model_or_too_few_layers_keep_the_check_in_one_piece():
+    v, f, zs, paths = _part_and_paths(PARTS[0])
+    for pool, n in ((_Pickled(2, pays=False), len(zs)), (_Pickled(2), 3), (_Pickled(1), len(zs))):
+        slabs.cover_part(v, f, zs[:n], paths[:n], 6.0, pool)
+        assert pool.tasks == []
+
+
+def test_spans_are_consecutive_and_balanced():
+    w = np.array([1.0] * 10 + [10.0] * 10)
+    spans = slabs._spans(w, 4)
+    assert spans[0][0] == 0 and spans[-1][1] == 20 and all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
+    sums = [w[a:b].sum() for a, b in spans]
+    assert len(spans) == 4 and max(sums) <= 30 + 1e-9             # 110 in 4: none holds over 30
