@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
 
 import numpy as np
-import shapely
 from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
@@ -31,6 +30,7 @@ from .read import ProgramRead, Run
 from .report import Report
 from .report import rounded as _r
 from .settings import PreflightSettings
+from .slabs import Workers
 
 PLANAR_TOL_MM = 0.05       # a run whose z varies less than this is planar
 MAX_SAMPLES = 200_000
@@ -174,33 +174,13 @@ def _loops_to_geom(loops) -> Polygon | MultiPolygon:
 def _multiplane_sections(mesh, zs: list[float]) -> list:
     """The mesh's horizontal sections at every z, as shapely geometry (even-odd, as
     `_section_polygons`): trimesh's own plane intersection (`mesh_plane`), given for each plane
-    only the triangles whose z range spans it (found once from the sorted face z-ranges), so a
-    million-triangle part is not intersected whole 133 times."""
-    import trimesh
+    only the triangles whose z range spans it (slabs.py), so a million-triangle part is not
+    intersected whole 133 times."""
+    from .slabs import cut_sections, plane_faces
 
-    if not zs:
-        return []
-    vertices = np.asarray(mesh.vertices)
-    tri_z = vertices[:, 2][mesh.faces]
-    zmin, zmax = tri_z.min(axis=1), tri_z.max(axis=1)
-    order = np.argsort(zmin, kind="stable")
-    zmin_sorted = zmin[order]
-    out = []
-    for z in zs:
-        cand = order[: np.searchsorted(zmin_sorted, z, side="right")]
-        faces = cand[zmax[cand] >= z]
-        if len(faces) == 0:
-            out.append(MultiPolygon())
-            continue
-        # mesh_plane dots every vertex of the mesh it is given: give it these faces only
-        used, local = np.unique(mesh.faces[faces], return_inverse=True)
-        slab = trimesh.Trimesh(vertices[used], np.asarray(local).reshape((-1, 3)), process=False, validate=False)
-        segs = trimesh.intersections.mesh_plane(slab, [0.0, 0.0, 1.0], [0.0, 0.0, z])
-        if len(segs) == 0:
-            out.append(MultiPolygon())
-            continue
-        out.append(_loops_to_geom(_chain_loops(segs)))
-    return out
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    return cut_sections(vertices, faces, plane_faces(vertices, faces, zs), zs)
 
 
 def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
@@ -234,13 +214,13 @@ def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def coverage_planar(part: Part, layers, width: float, rep: Report) -> Coverage:
-    mesh = None
-    if part.kind == "solid":
-        import trimesh
+def coverage_planar(part: Part, layers, width: float, rep: Report, pool: Workers | None = None) -> Coverage:
+    """Slab by slab (slabs.py); `pool`: the run's workers, which check the layers of a solid
+    part in tasks of consecutive layers when that pays (the figures are the same)."""
+    from .slabs import cover_layer, cover_part
 
+    if part.kind == "solid":
         vertices, faces = part.mesh()
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
         # Σ a·(b × c)/6 about the first vertex (trimesh's `volume` computes the whole inertia
         # tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)
         v = np.asarray(vertices, dtype=float)
@@ -254,26 +234,26 @@ def coverage_planar(part: Part, layers, width: float, rep: Report) -> Coverage:
     sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
     mids = [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [prev_top] + tops[:-1])]
-    cut = _multiplane_sections(mesh, mids) if mesh is not None else None
-    for k, (idx, runs) in enumerate(layers):
+    paths = [[r.points[:, :2] for r in runs if len(r.points) > 1] for _idx, runs in layers]
+    if part.kind == "solid":
+        covers = cover_part(vertices, faces, mids, paths, width, pool)
+    else:
+        covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
+    for k, (idx, _runs) in enumerate(layers):
         z = tops[k]
         h = max(z - prev_top, 1e-6)
         prev_top = z
-        section = cut[k] if cut is not None else _section_polygons(part, z - h / 2, mesh)
-        sections[idx] = section
-        foot = footprint([r.points[:, :2] for r in runs if len(r.points) > 1], width)
-        area = float(section.area)
-        cov = float(section.intersection(foot).area) if area > 0 else 0.0
+        c = covers[k]
+        sections[idx] = c.section
+        area, cov = c.area, c.covered
         covered_vol += cov * h
-        unc = section.difference(foot) if area > 0 else Polygon()
-        over_area += float(foot.difference(section).area) * h
+        over_area += c.outside * h
         L = rep.layer(idx)
         L.update(z=_r(z, 3), height_mm=_r(h, 3), part_area_mm2=_r(area, 2), uncovered_mm2=_r(area - cov, 2),
                  uncovered_share=_r((area - cov) / area) if area > 0 else None, part_mm3=_r(area * h, 1))
-        if area > 0 and not unc.is_empty:
-            biggest = max(shapely.get_parts(unc), key=lambda g: g.area)
-            L["uncovered_point"] = [round(biggest.representative_point().x, 3),
-                                    round(biggest.representative_point().y, 3), round(z - h / 2, 3)]
+        if c.uncovered_point is not None:
+            L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3),
+                                    round(z - h / 2, 3)]
     share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
     return {"part_volume_mm3": part_volume, "uncovered_share": share, "outside_mm3": over_area,
             "method": "planar slabs", "sections": sections}
@@ -360,9 +340,11 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 
 # ---- the whole check -----------------------------------------------------------------------------
 def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightSettings, width: float,
-                  *, weld_expected: bool = True, stock_mm: float | None = None) -> dict:
+                  *, weld_expected: bool = True, stock_mm: float | None = None,
+                  pool: Workers | None = None) -> dict:
     """stock_mm: machining stock allowed beyond the part at a run's ends (the recipe's longest
-    extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width)."""
+    extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width). pool: the
+    run's workers, for the planar coverage (coverage_planar)."""
     rep = Report(node, prog.format)
     layers = program_layers(prog)
     out: dict = {"node": node, "format": prog.format, "runs": len(prog.runs), "layers_deposited": len(layers),
@@ -380,7 +362,7 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
     top_gap: float | None
     if part is not None:
         if planar and part.kind in ("solid", "region"):
-            cov = coverage_planar(part, layers, width, rep)
+            cov = coverage_planar(part, layers, width, rep, pool)
             top_gap = part.top - max(heights)
         else:
             cov = coverage_3d(part, layers, width, rep, s)
