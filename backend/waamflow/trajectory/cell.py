@@ -495,15 +495,19 @@ def _nearest(cands: list[np.ndarray], prev: np.ndarray, lo: np.ndarray, hi: np.n
 
 def to_world(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.ndarray):
     """Part-frame points and torch axes (n, 3) → world, each with its own positioner angles."""
-    pts = np.empty_like(np.asarray(points, float))
-    ax = np.empty_like(np.asarray(axes, float))
+    P, A = np.asarray(points, float), np.asarray(axes, float)
+    pts = np.empty_like(P)
+    ax = np.empty_like(A)
     ang = np.asarray(angles_deg, float).reshape(len(pts), -1)
     uniq, inv = np.unique(np.round(ang, 9), axis=0, return_inverse=True)
+    # the rows of each angle set in ascending order (what a mask inv == j selects), found by one sort
+    order = np.argsort(inv.ravel(), kind="stable")
+    bounds = np.searchsorted(inv.ravel()[order], np.arange(len(uniq) + 1))
     for j, a in enumerate(uniq):
         R, t = cell.work_pose(a)
-        m = inv.ravel() == j
-        pts[m] = np.asarray(points, float)[m] @ R.T + t
-        ax[m] = np.asarray(axes, float)[m] @ R.T
+        m = order[bounds[j]:bounds[j + 1]]
+        pts[m] = P[m] @ R.T + t
+        ax[m] = A[m] @ R.T
     return pts, ax
 
 

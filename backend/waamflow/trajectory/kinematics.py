@@ -189,6 +189,7 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     Z = z_base.tolist()
     retry = 40
     atan2, sqrt = math.atan2, math.sqrt
+    last = None    # (TCP pose, Jacobian) at q where the previous sample converged: the next one starts there
     for i in range(k):
         if progress is not None and i % 2000 == 0:
             progress(i / k)
@@ -197,8 +198,12 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
         n_it = 80 if i == 0 else iters
         it = 0
         while True:
-            fk(model, data, q)
-            cur = upd(model, data, tcp)
+            if it == 0 and last is not None:     # q unchanged since the previous sample's last FK
+                cur, J = last
+            else:
+                fk(model, data, q)
+                cur = upd(model, data, tcp)
+                J = None
             Rc = cur.rotation
             RcT = Rc.T
             zc0, zc1, zc2 = Rc[:, 2].tolist()
@@ -214,10 +219,12 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
                 e[4] = (r01 * w0 + r11 * w1 + r21 * w2) * f
             else:
                 e[3] = e[4] = 0.0
-            J = jac(model, data, q, tcp, LOCAL)[:5]
+            if J is None:
+                J = jac(model, data, q, tcp, LOCAL)[:5]
             it += 1
             ee = float(e @ e)
             if ee < CONVERGED or it > n_it + (retry if ee > 1e-8 else 0):
+                last = (cur, J)
                 break
             # damped least squares + null-space pull of the wrist rolls: one solve, two right-hand sides
             r = roll * (mid - q)
