@@ -49,13 +49,14 @@ motion. A rotary word is written when its value changes (and on the first motion
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
                      short, tool_lines, tool_summary, weld_tag)
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 # LinuxCNC analog outputs (motion.analog-out-NN): E0 wire feed m/min, E1 current A, E2 voltage V;
 # M67 = synchronised with the next motion (inside a run), M68 = immediate (before an ignition).
@@ -186,7 +187,7 @@ def _travel_note(settings: GcodeSettings) -> str:
             "(set travel_speed to the machine's rapid rate)")
 
 
-def _commenter(settings: GcodeSettings):
+def _commenter(settings: GcodeSettings) -> Callable[[str], str]:
     """text → a whole-line comment; (code, text) → code with a trailing comment."""
     if settings.comment_style == "parentheses":
         def c(text: str) -> str:
@@ -215,21 +216,24 @@ def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
     return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
 
 
-def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
-    """Render a `Plan` as G-code text (see module doc)."""
+def _positioner_words(plan: Plan, settings: GcodeSettings) -> np.ndarray | None:
+    """The positioner angles per point in the rotary words' unit, or None without a positioner."""
     pts = plan.moves.points
+    if settings.external_axes is None or not len(pts):
+        return None
+    ext = np.asarray(settings.external_axes, dtype=float).reshape(len(pts), -1)
+    if ext.shape[1] > len(settings.rotary_axes):
+        raise ValueError(f"{ext.shape[1]} positioner axes but rotary_axes names only "
+                         f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})")
+    if settings.rotary_units == "rad":
+        ext = np.radians(ext)
+    return ext
+
+
+def _header(plan: Plan, settings: GcodeSettings, c: Callable[[str], str], ext: np.ndarray | None) -> list[str]:
+    """Preamble, header comments (summary, travel, `waamflow-post:` and weld tags), modes, start
+    code, the rotary axes' meaning and G17 when there are arcs."""
     st = plan.stats
-    d = settings.decimals
-    c = _commenter(settings)
-    ext = None
-    if settings.external_axes is not None and len(pts):
-        ext = np.asarray(settings.external_axes, dtype=float).reshape(len(pts), -1)
-        if ext.shape[1] > len(settings.rotary_axes):
-            raise ValueError(f"{ext.shape[1]} positioner axes but rotary_axes names only "
-                             f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})")
-        if settings.rotary_units == "rad":
-            ext = np.radians(ext)
-    feed_scale = 60.0 if settings.feed_units == "mm/min" else 1.0
     out = [
         *settings.preamble,
         c(f"waamflow G-code -- program: {settings.program_name}"),
@@ -259,37 +263,43 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
                           "frame must coincide with the table's axes")))
     if st.get("circular_motions"):
         out.append(f"G17 {c('arcs in the XY plane')}")
-    feed: float | None = None
-    rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
-    keys = plan.moves.section_keys
-    words = _xyz_words(pts, d)
-    last = None
-    arc = False
-    commanded: dict[str, float] = {}          # weld values in force (written while welding: changes only)
-    start_codes = settings.start_codes
-    scale = settings.process_scale
-    travel_f = round(settings.travel_speed * feed_scale, 1 if feed_scale == 60.0 else 3)
-    for s in plan.steps:
+    return out
+
+
+class _Body:
+    """The program's lines after the header, step by step: the modal feed, the rotary words last
+    written, the weld values in force and whether the arc is on."""
+
+    def __init__(self, plan: Plan, settings: GcodeSettings, c: Callable[[str], str], ext: np.ndarray | None) -> None:
+        self.s, self.c, self.ext = settings, c, ext
+        self.pts = plan.moves.points
+        self.d = settings.decimals
+        self.keys = plan.moves.section_keys
+        self.words = _xyz_words(self.pts, self.d)
+        self.feed_scale = 60.0 if settings.feed_units == "mm/min" else 1.0
+        self.travel_f = round(settings.travel_speed * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
+        self.feed: float | None = None
+        self.rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
+        self.last: np.ndarray | None = None
+        self.arc = False
+        self.commanded: dict[str, float] = {}      # weld values in force (written while welding: changes only)
+        self.out: list[str] = []
+
+    def step(self, s: Step) -> None:
+        settings, c, out = self.s, self.c, self.out
         if isinstance(s, LayerStart):
-            out.append(c(f"layer {s.layer} z={num(s.z, d)}"))
+            out.append(c(f"layer {s.layer} z={num(s.z, self.d)}"))
             out.extend(t.format(layer=s.layer, z=float(s.z)) for t in settings.layer_code)
         elif isinstance(s, SectionStart):
-            out.append(c(f"section {keys[s.section]}"))
+            out.append(c(f"section {self.keys[s.section]}"))
         elif isinstance(s, ProcessChange):
-            desc = process_summary(s.params)
-            out.append(c(f"zone {s.zone_id or '-'}" + (f": {desc}" if desc else "")))
-            if arc:                           # inside a run: only what changed, synchronised with motion
-                changed = {k for k, v in s.params.items() if commanded.get(k) != float(v)}
-                out.extend(process_lines(s.params, settings.process_codes, scale, changed))
-            else:
-                out.extend(process_lines(s.params, start_codes, scale))
-            commanded.update({k: float(v) for k, v in s.params.items()})
+            self.process_change(s)
         elif isinstance(s, ArcOn):
             out.append(f"{settings.arc_on} {c('arc on')}")
-            arc = True
+            self.arc = True
         elif isinstance(s, ArcOff):
             out.append(f"{settings.arc_off} {c('arc off')}")
-            arc = False
+            self.arc = False
         elif isinstance(s, Dwell):
             note = f" ({s.note})" if s.note else ""
             out.append(f"{_dwell(s.seconds, settings)} {c(f'{s.reason} dwell {short(round(s.seconds, 3))} s{note}')}")
@@ -300,37 +310,65 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
             lines = tool_lines(settings.tool_off, s.tool, {})
             out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
         elif isinstance(s, Motion):
-            last = pts[s.end]
-            xyz = words[s.end]
-            if ext is not None:
-                for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
-                    word = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
-                    if word != rot_last[k]:
-                        xyz += f" {letter}{word}"
-                        rot_last[k] = word
-            if s.mode == "travel" and settings.rapid_travel:
-                if settings.travel_feed:      # G0 at the modal feed (Marlin): F on every travel line
-                    out.append(f"G0 {xyz} F{short(travel_f)}")
-                    feed = travel_f
-                else:
-                    out.append(f"G0 {xyz}")
-                continue
-            v = settings.travel_speed if s.mode == "travel" else s.speed
-            f_word = ""
-            f_val = round(float(v) * feed_scale, 1 if feed_scale == 60.0 else 3)
-            if f_val != feed:
-                f_word = f" F{short(f_val)}"
-                feed = f_val
-            if s.circular:
-                center, normal = s.arc_geometry()
-                cc = np.asarray(center) - pts[s.start]
-                code = "G3" if normal[2] > 0 else "G2"
-                out.append(f"{code} {xyz} I{num(cc[0], d)} J{num(cc[1], d)}{f_word}")
+            self.motion(s)
+
+    def process_change(self, s: ProcessChange) -> None:
+        settings = self.s
+        desc = process_summary(s.params)
+        self.out.append(self.c(f"zone {s.zone_id or '-'}" + (f": {desc}" if desc else "")))
+        if self.arc:                           # inside a run: only what changed, synchronised with motion
+            changed = {k for k, v in s.params.items() if self.commanded.get(k) != float(v)}
+            self.out.extend(process_lines(s.params, settings.process_codes, settings.process_scale, changed))
+        else:
+            self.out.extend(process_lines(s.params, settings.start_codes, settings.process_scale))
+        self.commanded.update({k: float(v) for k, v in s.params.items()})
+
+    def motion(self, s: Motion) -> None:
+        settings, out, d, ext = self.s, self.out, self.d, self.ext
+        self.last = self.pts[s.end]
+        xyz = self.words[s.end]
+        if ext is not None:
+            for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
+                word = num(ext[s.end, k], d if settings.rotary_units == "deg" else 6)
+                if word != self.rot_last[k]:
+                    xyz += f" {letter}{word}"
+                    self.rot_last[k] = word
+        if s.mode == "travel" and settings.rapid_travel:
+            if settings.travel_feed:      # G0 at the modal feed (Marlin): F on every travel line
+                out.append(f"G0 {xyz} F{short(self.travel_f)}")
+                self.feed = self.travel_f
             else:
-                out.append(f"G1 {xyz}{f_word}")
-    if settings.final_lift > 0 and last is not None:
-        f_lift = f" F{short(travel_f)}" if settings.travel_feed else ""
-        out.append(f"G0 Z{num(last[2] + settings.final_lift, d)}{f_lift} {c(f'final lift {short(settings.final_lift)} mm')}")
+                out.append(f"G0 {xyz}")
+            return
+        v = settings.travel_speed if s.mode == "travel" else s.speed
+        f_word = ""
+        f_val = round(float(v) * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
+        if f_val != self.feed:
+            f_word = f" F{short(f_val)}"
+            self.feed = f_val
+        if s.circular:
+            center, normal = s.arc_geometry()
+            cc = np.asarray(center) - self.pts[s.start]
+            code = "G3" if normal[2] > 0 else "G2"
+            out.append(f"{code} {xyz} I{num(cc[0], d)} J{num(cc[1], d)}{f_word}")
+        else:
+            out.append(f"G1 {xyz}{f_word}")
+
+
+def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
+    """Render a `Plan` as G-code text (see module doc)."""
+    c = _commenter(settings)
+    ext = _positioner_words(plan, settings)
+    out = _header(plan, settings, c, ext)
+    body = _Body(plan, settings, c, ext)
+    for s in plan.steps:
+        body.step(s)
+    out += body.out
+    d = settings.decimals
+    if settings.final_lift > 0 and body.last is not None:
+        f_lift = f" F{short(body.travel_f)}" if settings.travel_feed else ""
+        out.append(f"G0 Z{num(body.last[2] + settings.final_lift, d)}{f_lift} "
+                   f"{c(f'final lift {short(settings.final_lift)} mm')}")
     out.extend(settings.end_code)
     out.append(f"{settings.program_end} {c('end of program')}")
     out.extend(settings.postamble)

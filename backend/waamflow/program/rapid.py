@@ -61,7 +61,7 @@ import numpy as np
 from .common import check_identifier, num, process_summary, short, weld_tag
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import quaternions, tool_frames
-from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn
+from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 
 MIN_MODULE_BYTES = 16_384
@@ -189,116 +189,157 @@ def _next_motion(steps, k: int) -> Motion | None:
     return None
 
 
+class _Body:
+    """The motion routine's lines of a plan, step by step (see module doc): speed, seam and weld
+    data numbered in order of first use, the points the lines use, and an arc-off motion held
+    back until it is known whether it starts a run (then it is the ArcLStart)."""
+
+    def __init__(self, plan: Plan, s: RapidSettings) -> None:
+        self.s = s
+        self.d = s.decimals
+        self.steps = plan.steps
+        self.keys = plan.moves.section_keys
+        self.speeds, self.seams, self.welds = _Names("vw"), _Names("sm"), _Names("wd")
+        self.zone = "fine" if s.blend_distance <= 0 else "zw"
+        self.tool = f"{s.tool}\\WObj:={s.wobj_name}"
+        self.lines: list[str] = []
+        self.used: list[int] = []
+        self.params: dict = {}
+        self.seam = ""
+        self.held: Motion | None = None      # arc-off motion waiting to know whether it starts a run
+        self.ignite_at: int | None = None    # point reached with MoveL fine + dwell, to ignite in place
+
+    def speed(self, v: float) -> str:
+        v = round(float(v), 3)
+        return self.speeds.get((v,), lambda n: f"CONST speeddata {n} := [{short(v)},{short(self.s.reorientation_speed)},5000,1000]; ! {short(v)} mm/s")
+
+    def weld(self, params: dict, v: float) -> str:
+        arc = _arcdata(params)
+        v = round(float(v), 3)
+        return self.welds.get((arc, v), lambda n: f"PERS welddata {n} := [{short(v)},0,{arc},[0,0,0,0,0,0,0,0,0]]; ! {process_summary(params)}")
+
+    def seamdata(self, params: dict, dwell: float) -> str:
+        arc = _arcdata(params)
+        dwell = round(float(dwell), 3)
+        zero = "[0,0,0,0,0,0,0,0,0]"
+        return self.seams.get((arc, dwell), lambda n: f"PERS seamdata {n} := [0,0,{arc},{short(dwell)},0,0,0,0,{zero},0,0,{zero},0,0,{zero},0]; ! ignition dwell {short(dwell)} s")
+
+    def motion_line(self, m: Motion, z: str) -> str:
+        self.used.append(m.end)
+        v = self.speed(self.s.travel_speed if m.mode == "travel" else m.speed)
+        if m.circular:
+            self.used.append(m.via)
+            return f"MoveC p{m.via + 1}, p{m.end + 1}, {v}, {z}, {self.tool};"
+        return f"MoveL p{m.end + 1}, {v}, {z}, {self.tool};"
+
+    def flush(self) -> None:
+        if self.held is not None:
+            self.lines.append(self.motion_line(self.held, "fine" if self.held.stop else self.zone))
+            self.held = None
+
+    def step(self, k: int, st: Step) -> None:
+        """The lines of plan step k."""
+        if isinstance(st, LayerStart):
+            self.lines.append(f"! layer {st.layer} z={num(st.z, self.d)}")
+        elif isinstance(st, SectionStart):
+            self.lines.append(f"! section {self.keys[st.section]}")
+        elif isinstance(st, ProcessChange):
+            self.params = st.params
+            desc = process_summary(self.params)
+            self.lines.append(f"! zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
+        elif isinstance(st, ArcOn):
+            self.arc_on(k, st)
+        elif isinstance(st, Dwell):
+            self.dwell(st)
+        elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
+            self.flush()
+            on = isinstance(st, ToolOn)
+            tparams = st.params if isinstance(st, ToolOn) else {}
+            tl = tool_lines(self.s.tool_on if on else self.s.tool_off, st.tool, tparams)
+            self.lines += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
+        elif isinstance(st, ArcOff):
+            self.lines.append("! arc off")
+        elif isinstance(st, Motion):
+            self.motion(k, st)
+
+    def arc_on(self, k: int, st: ArcOn) -> None:
+        """ArcLStart: the held arc-off motion becomes the start, else the arc ignites in place."""
+        steps, s = self.steps, self.s
+        nxt = steps[k + 1] if k + 1 < len(steps) else None
+        ign = nxt.seconds if isinstance(nxt, Dwell) else 0.0
+        first = _next_motion(steps, k)
+        self.seam = self.seamdata(self.params, ign)
+        wd = self.weld(self.params, first.speed if first is not None else s.travel_speed)
+        if self.held is not None:
+            m, self.held = self.held, None
+            self.used.append(m.end)
+            v = self.speed(s.travel_speed if m.mode == "travel" else m.speed)
+            self.lines.append(f"ArcLStart p{m.end + 1}, {v}, {self.seam}, {wd}, fine, {self.tool};")
+        else:
+            target = self.ignite_at if self.ignite_at is not None else st.point
+            self.used.append(target)
+            self.lines.append(f"ArcLStart p{target + 1}, {self.speed(s.travel_speed)}, {self.seam}, {wd}, fine, "
+                              f"{self.tool}; ! ignite in place")
+        self.ignite_at = None
+
+    def dwell(self, st: Dwell) -> None:
+        if st.reason == "ignition":
+            self.lines.append(f"! ignition dwell {short(round(st.seconds, 3))} s (seamdata ign_move_delay)")
+            return
+        if self.held is not None:
+            self.ignite_at = self.held.end
+            self.flush()
+        self.lines.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell"
+                          + (f" ({st.note})" if st.note else ""))
+
+    def motion(self, k: int, st: Motion) -> None:
+        """A weld motion (ArcL/ArcC, ...End before the arc goes off); an arc-off one is held."""
+        self.flush()
+        self.ignite_at = None
+        if st.mode != "weld":
+            self.held = st
+            return
+        self.used.append(st.end)
+        v = self.speed(st.speed)
+        wd = self.weld(self.params, st.speed)
+        end = isinstance(_next_significant(self.steps, k), ArcOff)
+        z = "fine" if (end or st.stop) else self.zone
+        tool, seam = self.tool, self.seam
+        if st.circular:
+            self.used.append(st.via)
+            self.lines.append(f"{'ArcCEnd' if end else 'ArcC'} p{st.via + 1}, p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
+        else:
+            self.lines.append(f"{'ArcLEnd' if end else 'ArcL'} p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
+
+
 def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
     """Render a `Plan` as RAPID lines (see module doc), not yet put into modules."""
     s = settings
-    d = s.decimals
     pts = plan.moves.points
-    steps = plan.steps
-    keys = plan.moves.section_keys
     ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(pts), -1)
     if ext is not None and ext.shape[1] > 6:
         raise ValueError("at most 6 external axes")
     quat = quaternions(tool_frames(plan.moves.tool_axis, s.tool_direction)) if len(pts) else np.zeros((0, 4))
-    speeds, seams, welds = _Names("vw"), _Names("sm"), _Names("wd")
-    zone = "fine" if s.blend_distance <= 0 else "zw"
-    tool = f"{s.tool}\\WObj:={s.wobj_name}"
+    b = _Body(plan, s)
+    for k, st in enumerate(plan.steps):
+        b.step(k, st)
+    b.flush()
+    bd = float(s.blend_distance)
+    data: dict[str, str] = {}
+    if bd > 0:
+        data["zw"] = (f"CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
+                      f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
+    for names in (b.speeds, b.seams, b.welds):
+        data.update({n: decl for n, decl in names.items.values()})
+    data.update({f"p{i + 1}": _robtarget(i, pts, quat, ext, s.decimals) for i in sorted(set(b.used))})
+    shared = [coordinated_wobj(s)] if s.coordinated else []
+    start = ["ConfL\\Off;"] + ([f"ActUnit {s.positioner_unit};"] if s.coordinated else [])
+    finish = [f"DeactUnit {s.positioner_unit};"] if s.coordinated else []
+    return _Rendered(_head(plan, s, ext), shared, data, b.lines, start, finish)
 
-    def speed(v: float) -> str:
-        v = round(float(v), 3)
-        return speeds.get((v,), lambda n: f"CONST speeddata {n} := [{short(v)},{short(s.reorientation_speed)},5000,1000]; ! {short(v)} mm/s")
 
-    def weld(params: dict, v: float) -> str:
-        arc = _arcdata(params)
-        v = round(float(v), 3)
-        return welds.get((arc, v), lambda n: f"PERS welddata {n} := [{short(v)},0,{arc},[0,0,0,0,0,0,0,0,0]]; ! {process_summary(params)}")
-
-    def seamdata(params: dict, dwell: float) -> str:
-        arc = _arcdata(params)
-        dwell = round(float(dwell), 3)
-        zero = "[0,0,0,0,0,0,0,0,0]"
-        return seams.get((arc, dwell), lambda n: f"PERS seamdata {n} := [0,0,{arc},{short(dwell)},0,0,0,0,{zero},0,0,{zero},0,0,{zero},0]; ! ignition dwell {short(dwell)} s")
-
-    body: list[str] = []
-    used: list[int] = []
-    params: dict = {}
-    seam = ""
-    held: Motion | None = None      # arc-off motion waiting to know whether it starts a run
-    ignite_at: int | None = None    # point reached with MoveL fine + dwell, to ignite in place
-
-    def motion_line(m: Motion, z: str) -> str:
-        used.append(m.end)
-        v = speed(s.travel_speed if m.mode == "travel" else m.speed)
-        if m.circular:
-            used.append(m.via)
-            return f"MoveC p{m.via + 1}, p{m.end + 1}, {v}, {z}, {tool};"
-        return f"MoveL p{m.end + 1}, {v}, {z}, {tool};"
-
-    def flush() -> None:
-        nonlocal held
-        if held is not None:
-            body.append(motion_line(held, "fine" if held.stop else zone))
-            held = None
-
-    for k, st in enumerate(steps):
-        if isinstance(st, LayerStart):
-            body.append(f"! layer {st.layer} z={num(st.z, d)}")
-        elif isinstance(st, SectionStart):
-            body.append(f"! section {keys[st.section]}")
-        elif isinstance(st, ProcessChange):
-            params = st.params
-            desc = process_summary(params)
-            body.append(f"! zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
-        elif isinstance(st, ArcOn):
-            nxt = steps[k + 1] if k + 1 < len(steps) else None
-            ign = nxt.seconds if isinstance(nxt, Dwell) else 0.0
-            first = _next_motion(steps, k)
-            seam = seamdata(params, ign)
-            wd = weld(params, first.speed if first is not None else s.travel_speed)
-            if held is not None:
-                m, held = held, None
-                used.append(m.end)
-                v = speed(s.travel_speed if m.mode == "travel" else m.speed)
-                body.append(f"ArcLStart p{m.end + 1}, {v}, {seam}, {wd}, fine, {tool};")
-            else:
-                target = ignite_at if ignite_at is not None else st.point
-                used.append(target)
-                body.append(f"ArcLStart p{target + 1}, {speed(s.travel_speed)}, {seam}, {wd}, fine, {tool}; ! ignite in place")
-            ignite_at = None
-        elif isinstance(st, Dwell):
-            if st.reason == "ignition":
-                body.append(f"! ignition dwell {short(round(st.seconds, 3))} s (seamdata ign_move_delay)")
-                continue
-            if held is not None:
-                ignite_at = held.end
-                flush()
-            body.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
-        elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
-            flush()
-            on = isinstance(st, ToolOn)
-            tparams = st.params if isinstance(st, ToolOn) else {}
-            tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, tparams)
-            body += tl[:-1] + [f"{tl[-1]} ! {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
-        elif isinstance(st, ArcOff):
-            body.append("! arc off")
-        elif isinstance(st, Motion):
-            flush()
-            ignite_at = None
-            if st.mode != "weld":
-                held = st
-                continue
-            used.append(st.end)
-            v = speed(st.speed)
-            wd = weld(params, st.speed)
-            end = isinstance(_next_significant(steps, k), ArcOff)
-            z = "fine" if (end or st.stop) else zone
-            if st.circular:
-                used.append(st.via)
-                body.append(f"{'ArcCEnd' if end else 'ArcC'} p{st.via + 1}, p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
-            else:
-                body.append(f"{'ArcLEnd' if end else 'ArcL'} p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
-    flush()
-
+def _head(plan: Plan, s: RapidSettings, ext: np.ndarray | None) -> list[str]:
+    """The header comments: the program's figures, units, data layout and the weld tag."""
     st_ = plan.stats
     bd = float(s.blend_distance)
     head = [
@@ -314,17 +355,7 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
     if ext is not None:
         head.append(f"! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
                     + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else ""))
-    shared = [coordinated_wobj(s)] if s.coordinated else []
-    data: dict[str, str] = {}
-    if bd > 0:
-        data["zw"] = (f"CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
-                      f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
-    for names in (speeds, seams, welds):
-        data.update({n: decl for n, decl in names.items.values()})
-    data.update({f"p{i + 1}": _robtarget(i, pts, quat, ext, d) for i in sorted(set(used))})
-    start = ["ConfL\\Off;"] + ([f"ActUnit {s.positioner_unit};"] if s.coordinated else [])
-    finish = [f"DeactUnit {s.positioner_unit};"] if s.coordinated else []
-    return _Rendered(head, shared, data, body, start, finish)
+    return head
 
 
 @dataclass(frozen=True)
