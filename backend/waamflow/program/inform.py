@@ -65,10 +65,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
+from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short
 from .orientation import fixed_xyz_angles
-from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
-                   chunk_steps, ignition_dwell_after)
+from .plan import Motion, Plan, ProcessChange, chunk_steps
+from .walk import walk_programs
 
 # INFORM inline weld values: parameter → ARCON/ARCSET tag (what a power source takes inline)
 INFORM_WELD_CODES = {"current": "AC={value:.0f}", "voltage": "AV={value:.1f}"}
@@ -157,75 +157,71 @@ def _job(name: str, comment: str, lines: list[str], pts: list[int], P: np.ndarra
     return "\n".join(head + lines + ["END"]) + "\n"
 
 
+class _Inform:
+    """INFORM's lines for the shared statement walk (`walk.walk_programs`): a job declares each
+    position once (C00000.. in order of first use); ARCON/ARCSET carry current and voltage inline."""
+
+    name = "INFORM"
+
+    def __init__(self, s: InformSettings, coordinated: bool) -> None:
+        self.travel_speed, self.tool_on, self.tool_off = s.travel_speed, s.tool_on, s.tool_off
+        self.position_level = s.position_level
+        self.coordinated = coordinated
+        self.params: dict = {}
+        self.index: dict[int, int] = {}
+        self.pts: list[int] = []
+
+    def comment(self, text: str) -> str:
+        return _comment(text)
+
+    def process_change(self, st: ProcessChange, arc: bool) -> list[str]:
+        changed = [n for n in ("current", "voltage") if st.params.get(n) != self.params.get(n)]
+        self.params = st.params
+        out = [_comment(f"zone {st.zone_id or '-'}")]
+        if arc and changed and _weld_fields(self.params, changed):
+            out.append(f"ARCSET {_weld_fields(self.params, changed)}")
+        return out
+
+    def arc_on(self, ignition_s: float) -> list[str]:
+        fields = _weld_fields(self.params)
+        return ["ARCON" + (f" {fields}" if fields else "") + f" T={num(ignition_s, 2)}"]
+
+    def arc_off(self) -> list[str]:
+        return ["ARCOF"]
+
+    def wait(self, seconds: float) -> str:
+        return f"TIMER T={num(seconds, 2)}"
+
+    def start_program(self) -> None:
+        self.index, self.pts = {}, []
+
+    def motion(self, st: Motion, speed: float) -> str:
+        pl = 0 if st.stop else self.position_level
+        if st.end not in self.index:
+            self.index[st.end] = len(self.pts)
+            self.pts.append(st.end)
+        c = f"C{self.index[st.end]:05d}"
+        if not self.coordinated:
+            return f"MOVL {c} V={num(speed, 1)} PL={pl}"
+        return f"SMOVL {c} V={num(speed, 1)} PL={pl} +MOVJ E{c}"      # the robot relative to station 1
+
+    def positions(self) -> list[int]:
+        return list(self.pts)
+
+
 def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dict[str, str]:
     """The main job {"JBI": ...} and one job per layer {"L003.JBI": ...} (see module doc)."""
     s = settings
     P = plan.moves.points
-    keys = plan.moves.section_keys
     R = fixed_xyz_angles(plan.moves.tool_axis)
     ec = None if s.external_axes is None else station_pulses(
         np.asarray(s.external_axes, dtype=float).reshape(len(P), -1), s.station_pulses_per_deg)
     jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
-    params: dict = {}
-    arc = False
-    skip_dwell = False
-    steps = plan.steps
-    for chunk in chunk_steps(steps, max_points=s.max_points_per_job, distinct=True):
-        cur: list[str] = []
-        cur_pts: list[int] = []
-        index: dict[int, int] = {}
-
-        def ref(i: int) -> str:
-            if i not in index:
-                index[i] = len(cur_pts)
-                cur_pts.append(i)
-            return f"C{index[i]:05d}"
-
-        for k in chunk.steps:
-            st = steps[k]
-            if isinstance(st, LayerStart):
-                cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
-            elif isinstance(st, SectionStart):
-                cur.append(_comment(f"section {keys[st.section]}"))
-            elif isinstance(st, ProcessChange):
-                changed = [n for n in ("current", "voltage") if st.params.get(n) != params.get(n)]
-                params = st.params
-                cur.append(_comment(f"zone {st.zone_id or '-'}"))
-                if arc and changed and _weld_fields(params, changed):
-                    cur.append(f"ARCSET {_weld_fields(params, changed)}")
-            elif isinstance(st, ArcOn):
-                ign = ignition_dwell_after(steps, k)
-                skip_dwell = ign > 0
-                fields = _weld_fields(params)
-                cur.append("ARCON" + (f" {fields}" if fields else "") + f" T={num(ign, 2)}")
-                arc = True
-            elif isinstance(st, ArcOff):
-                cur.append("ARCOF")
-                arc = False
-            elif isinstance(st, Dwell):
-                if st.reason == "ignition" and skip_dwell:
-                    skip_dwell = False
-                    continue
-                cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
-                cur.append(f"TIMER T={num(st.seconds, 2)}")
-            elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
-                on = isinstance(st, ToolOn)
-                cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if isinstance(st, ToolOn) else {})
-            elif isinstance(st, Motion):
-                if st.circular:
-                    raise ValueError("INFORM: circular motions are not written (plan with arc_tolerance 0)")
-                v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
-                pl = 0 if st.stop else s.position_level
-                c = ref(st.end)
-                if ec is None:
-                    cur.append(f"MOVL {c} V={num(v, 1)} PL={pl}")
-                else:                                      # coordinated: the robot relative to station 1
-                    cur.append(f"SMOVL {c} V={num(v, 1)} PL={pl} +MOVJ E{c}")
-        if cur or cur_pts:
-            k = chunk.layer if chunk.layer is not None else 0
-            jobs.append((_name(s.program_name, k) + (f"_{chunk.part}" if chunk.part else ""),
-                         f"waamflow layer {k}", cur, cur_pts))
+    chunks = chunk_steps(plan.steps, max_points=s.max_points_per_job, distinct=True)
+    for chunk, cur, cur_pts in walk_programs(plan, chunks, _Inform(s, ec is not None)):
+        k = chunk.layer if chunk.layer is not None else 0
+        jobs.append((_name(s.program_name, k) + (f"_{chunk.part}" if chunk.part else ""),
+                     f"waamflow layer {k}", cur, cur_pts))
     st_ = plan.stats
     main = [_comment(f"waamflow: {len(jobs)} jobs"), _comment(f"layers {st_['layers']}"),
             _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"), _comment(f"travel {st_['travel_length_mm']:.1f} mm"),

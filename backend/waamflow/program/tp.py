@@ -60,10 +60,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
-from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short, tool_lines
+from .common import TOOL_COMMANDS, check_identifier, check_tool_template, num, short
 from .orientation import fixed_xyz_angles
-from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, ToolOff, ToolOn,
-                   chunk_steps, ignition_dwell_after)
+from .plan import LayerStart, Motion, Plan, ProcessChange, chunk_steps
+from .walk import walk_programs
 
 # a schedule's values, in the order of the schedule file's columns (zone parameter names)
 SCHEDULE_VALUES = ("voltage", "current", "wire_feed_speed", "job", "travel_speed")
@@ -239,77 +239,78 @@ def tp_schedule_issues(plan: Plan, base: str) -> tuple:
     return tuple(out)
 
 
+class _Tp:
+    """TP's lines for the shared statement walk (`walk.walk_programs`): every motion a new P[i] of
+    its program; the weld by schedule numbers (1.. in order of first use, and the zones that use
+    each), `Arc Start[k]` igniting with schedule k or switching to it while welding."""
+
+    name = "TP"
+
+    def __init__(self, s: TpSettings, coordinated: bool) -> None:
+        self.travel_speed, self.tool_on, self.tool_off = s.travel_speed, s.tool_on, s.tool_off
+        self.cnt = s.cnt
+        self.coord = " COORD" if coordinated else ""
+        self.numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
+        self.zones: dict[int, list[str]] = {}      # schedule → the zones that use it
+        self.sched = 0
+        self.pts: list[int] = []
+
+    def comment(self, text: str) -> str:
+        return _comment(text)
+
+    def process_change(self, st: ProcessChange, arc: bool) -> list[str]:
+        new = self.numbers.setdefault(schedule_key(st.params), len(self.numbers) + 1)
+        zid = st.zone_id or "-"
+        if zid not in self.zones.setdefault(new, []):
+            self.zones[new].append(zid)
+        out = [_comment(f"zone {st.zone_id or '-'} sched {new}")]
+        if arc and new != self.sched:
+            out.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
+        self.sched = new
+        return out
+
+    def arc_on(self, ignition_s: float) -> list[str]:
+        if not self.sched:                        # no weld values given: an empty schedule
+            self.sched = self.numbers.setdefault(schedule_key({}), len(self.numbers) + 1)
+        return [f"Arc Start[{self.sched}]"] + ([f"WAIT {ignition_s:6.2f}(sec)"] if ignition_s > 0 else [])
+
+    def arc_off(self) -> list[str]:
+        return [f"Arc End[{self.sched}]"]
+
+    def wait(self, seconds: float) -> str:
+        return f"WAIT {seconds:6.2f}(sec)"
+
+    def start_program(self) -> None:
+        self.pts = []
+
+    def motion(self, st: Motion, speed: float) -> str:
+        self.pts.append(st.end)
+        term = "FINE" if st.stop else f"CNT{self.cnt}"
+        return f"L P[{len(self.pts)}] {speed_text(speed)} {term}{self.coord}"
+
+    def positions(self) -> list[int]:
+        return list(self.pts)
+
+
 def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     """The main program {"LS": ...}, one program per layer {"L003.LS": ...} and the schedule table
     {"SCHED.CSV": ...} (see module doc)."""
     s = settings
     base = s.program_name.upper()
     P = plan.moves.points
-    keys = plan.moves.section_keys
     R = fixed_xyz_angles(plan.moves.tool_axis)
     ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(P), -1)
     groups = "1,*,*,*,*" if ext is None else "1,1,*,*,*"
-    coord = "" if ext is None else " COORD"
-    numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
-    zones: dict[int, list[str]] = {}      # schedule → the zones that use it
     progs: list[tuple[str, str, list[str], list[int]]] = []     # (name, comment, body, point indices)
-    sched = 0
-    arc = False
-    skip_dwell = False
     frames = [f"UFRAME_NUM={s.user_frame}", f"UTOOL_NUM={s.tool}"]
-    steps = plan.steps
-    for chunk in chunk_steps(steps, max_points=s.max_points_per_program):
-        cur: list[str] = []
-        cur_pts: list[int] = []
-        for k in chunk.steps:
-            st = steps[k]
-            if isinstance(st, LayerStart):
-                cur.append(_comment(f"layer {st.layer} z={num(st.z, 3)}"))
-            elif isinstance(st, SectionStart):
-                cur.append(_comment(f"section {keys[st.section]}"))
-            elif isinstance(st, ProcessChange):
-                new = numbers.setdefault(schedule_key(st.params), len(numbers) + 1)
-                zid = st.zone_id or "-"
-                if zid not in zones.setdefault(new, []):
-                    zones[new].append(zid)
-                cur.append(_comment(f"zone {st.zone_id or '-'} sched {new}"))
-                if arc and new != sched:
-                    cur.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
-                sched = new
-            elif isinstance(st, ArcOn):
-                ign = ignition_dwell_after(steps, k)
-                if not sched:                                 # no weld values given: an empty schedule
-                    sched = numbers.setdefault(schedule_key({}), len(numbers) + 1)
-                cur.append(f"Arc Start[{sched}]")
-                if ign > 0:
-                    cur.append(f"WAIT {ign:6.2f}(sec)")
-                skip_dwell = ign > 0
-                arc = True
-            elif isinstance(st, ArcOff):
-                cur.append(f"Arc End[{sched}]")
-                arc = False
-            elif isinstance(st, Dwell):
-                if st.reason == "ignition" and skip_dwell:
-                    skip_dwell = False
-                    continue
-                cur.append(_comment(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
-                cur.append(f"WAIT {st.seconds:6.2f}(sec)")
-            elif isinstance(st, (ToolOn, ToolOff)):          # after the (exact-stop) motion to the point
-                on = isinstance(st, ToolOn)
-                cur.append(_comment(f"{st.tool} {'on' if on else 'off'}"))
-                cur += tool_lines(s.tool_on if on else s.tool_off, st.tool, st.params if isinstance(st, ToolOn) else {})
-            elif isinstance(st, Motion):
-                if st.circular:
-                    raise ValueError("TP: circular motions are not written (plan with arc_tolerance 0)")
-                v = s.travel_speed if st.mode == "travel" or not np.isfinite(st.speed) else st.speed
-                cur_pts.append(st.end)
-                term = "FINE" if st.stop else f"CNT{s.cnt}"
-                cur.append(f"L P[{len(cur_pts)}] {speed_text(v)} {term}{coord}")
-        if cur or cur_pts:
-            k = chunk.layer if chunk.layer is not None else 0
-            part = chunk.part
-            progs.append((f"{base}_L{k:03d}" + (f"_{part}" if part else ""),
-                          f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
+    tp = _Tp(s, ext is not None)
+    chunks = chunk_steps(plan.steps, max_points=s.max_points_per_program)
+    for chunk, cur, cur_pts in walk_programs(plan, chunks, tp):
+        k = chunk.layer if chunk.layer is not None else 0
+        part = chunk.part
+        progs.append((f"{base}_L{k:03d}" + (f"_{part}" if part else ""),
+                      f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
+    numbers, zones = tp.numbers, tp.zones
     st_ = plan.stats
     main = [_comment(f"waamflow: {len(progs)} programs"), _comment(f"layers {st_['layers']}"),
             _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
