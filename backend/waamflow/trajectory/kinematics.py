@@ -146,6 +146,21 @@ def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: Cell
                          progress=progress)
 
 
+def _in_base(xyz, ax, frames: CellFrames) -> tuple[np.ndarray, np.ndarray]:
+    """Targets (k, 3) mm and torch axes (k, 3) in the work frame → robot base frame: points in m,
+    unit axes."""
+    import pinocchio as pin  # lazy: keeps start-up light
+    xyz, ax = np.asarray(xyz, float), np.asarray(ax, float)
+    Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
+    if frames.work_rot is not None:                            # part turned by a positioner
+        Rw = np.asarray(frames.work_rot, float)
+        xyz, ax = xyz @ Rw.T, ax @ Rw.T
+    p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
+    z_base = ax @ Rb                                           # torch axes in the base frame
+    z_base /= np.linalg.norm(z_base, axis=1, keepdims=True)
+    return p_base, z_base
+
+
 def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax: np.ndarray, nseg: int,
                   frames: CellFrames = CellFrames(), q_seed: np.ndarray | None = None, iters: int = 6,
                   progress=None, stop_unreachable: bool = False) -> KinematicsResult:
@@ -156,14 +171,7 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     import pinocchio as pin  # lazy: keeps start-up light
     model = arm.model
     data = model.createData()
-    xyz, ax = np.asarray(xyz, float), np.asarray(ax, float)
-    Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
-    if frames.work_rot is not None:                            # part turned by a positioner
-        Rw = np.asarray(frames.work_rot, float)
-        xyz, ax = xyz @ Rw.T, ax @ Rw.T
-    p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
-    z_base = ax @ Rb                                           # torch axes in the base frame
-    z_base /= np.linalg.norm(z_base, axis=1, keepdims=True)
+    p_base, z_base = _in_base(xyz, ax, frames)
     k = len(s)
     Q = np.zeros((k, model.nq))
     err_mm = np.zeros(k)

@@ -10,8 +10,8 @@ from __future__ import annotations
 import io
 import math
 import re
-from dataclasses import dataclass, replace
-from typing import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable
 
 import numpy as np
 
@@ -158,6 +158,167 @@ class KinematicsOptions:
     flat_tol_deg: float = 5.0            # auto: layer normal off vertical allowed (flat-position tolerance)
 
 
+@dataclass
+class _Kin:
+    """What the kinematics add to a simulation (`_kinematics`)."""
+
+    cap: np.ndarray                                  # (n-1,) path speed cap per segment, mm/s
+    metrics: dict[str, float]
+    report: dict
+    warnings: list[tuple[str, int | None, str | None]]
+    collisions: tuple = ()
+    moves: Moves | None = None                       # the moves simulated (turns in place added as dwells)
+
+
+@dataclass
+class _Solved:
+    """The IK along the path (`_solve`) and, with a cell, the positioner's angles and caps."""
+
+    arm: Any
+    ks: Any
+    speed: np.ndarray
+    warnings: list[tuple[str, int | None, str | None]]
+    sim_moves: Moves
+    ang: np.ndarray | None = None          # (n, axes) positioner angles at the programmed points
+    ang_c: np.ndarray | None = None        # (k, axes) at the IK samples
+    pos_cap: np.ndarray | None = None
+    pos_metrics: dict[str, float] = field(default_factory=dict)
+    pos_issues: list[dict] = field(default_factory=list)
+    plan_report: dict | None = None
+
+
+def _solve(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: KinematicsOptions,
+           progress: Callable[[float, str], None] | None) -> _Solved:
+    """IK along the path: on the programmed polyline (arm only), or with a cell on coordinated
+    samples in the world, the positioner planned by its policy first."""
+    if progress:
+        progress(0.02, "inverse kinematics")
+    desc = kin.description or profile.description
+    home = getattr(kin.cell, "robot_home_deg", None) if kin.cell is not None else None
+    arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
+                   home_deg=home)
+    speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
+    if opt.speed_override is not None:
+        speed = np.where(moves.arc, opt.speed_override, speed)
+    ik_progress = (lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None
+    if kin.cell is None:
+        ks = solve_path(arm, moves.points, moves.tool_axis, kin.frames, step_mm=kin.step_mm, progress=ik_progress)
+        return _Solved(arm, ks, speed, [], moves)
+    from .cell import coordinated_samples, plan_positioner, positioner_caps
+
+    cell: Any = kin.cell
+    warnings: list[tuple[str, int | None, str | None]] = []
+    axes = moves.tool_axis
+    if kin.positioner_policy == "auto":
+        if progress:
+            progress(0.01, "planning the positioner and torch (auto)")
+        plan = _auto_plan(kin, arm, moves)
+        ang, clipped = plan.angles, np.zeros(len(moves.points), bool)
+        axes = plan.tool_axis
+        plan_report = plan.report(_auto_limits(kin))
+    else:
+        ang, clipped = plan_positioner(cell, moves, kin.positioner_policy, kin.max_tilt_deg)
+        plan_report = None
+        warnings.extend(_flat_warnings(cell, moves, kin.flat_tol_deg, ang if kin.positioner_policy == "gravity" else None))
+    s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(cell, moves.points, axes, ang,
+                                                         step_mm=kin.step_mm, step_deg=kin.step_deg)
+    base = cell.robot_base
+    frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
+    ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames, progress=ik_progress)
+    pos_cap, turn_s = positioner_caps(cell, moves.points, ang)
+    pos_metrics, pos_issues = _positioner_report(cell, moves, ang, clipped, pos_cap, turn_s, speed)
+    # a turn on a zero-length move (in place) is a standstill the positioner needs
+    sim_moves = moves
+    still = (moves.segment_lengths <= 1e-6) & (turn_s > 0)
+    if still.any():
+        dwell = np.asarray(moves.dwell_before, float).copy()
+        dwell[np.flatnonzero(still)] += turn_s[still]
+        sim_moves = replace(moves, dwell_before=dwell)
+    return _Solved(arm, ks, speed, warnings, sim_moves, ang, ang_c, pos_cap, pos_metrics, pos_issues, plan_report)
+
+
+_ISSUE_TEXT = {"unreachable": "target unreachable", "joint_limit": "joint limit reached",
+               "near_singular": "near-singular arm configuration", "joint_speed": "joint speed limit",
+               "axis_limit": "positioner axis limit", "axis_speed": "positioner axis speed limit"}
+
+
+def _issue_warnings(issues: list[dict]) -> tuple[list[tuple[str, int | None, str | None]], dict[str, int]]:
+    """One warning per stretch (MAX_WARNINGS_PER_KIND of each kind, then how many more) and the
+    number of stretches of each kind."""
+    warnings: list[tuple[str, int | None, str | None]] = []
+    counts: dict[str, int] = {}
+    for it in issues:
+        counts[it["kind"]] = counts.get(it["kind"], 0) + 1
+        if counts[it["kind"]] > MAX_WARNINGS_PER_KIND:
+            continue
+        detail = f"; {it['detail']}" if it["detail"] else ""
+        warnings.append((f"{_ISSUE_TEXT[it['kind']]} over s = {it['s_from']:.1f}..{it['s_to']:.1f} mm "
+                         f"({it['count']} IK samples){detail}", it["layer"], it["section"]))
+    for kind, c in counts.items():
+        if c > MAX_WARNINGS_PER_KIND:
+            warnings.append((f"{c - MAX_WARNINGS_PER_KIND} more '{kind}' stretches not listed", None, None))
+    return warnings, counts
+
+
+def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: KinematicsOptions,
+                progress: Callable[[float, str], None] | None) -> _Kin:
+    """IK, positioner, collisions: the speed caps, figures, report and warnings they add."""
+    sv = _solve(moves, profile, opt, kin, progress)
+    ks, arm, speed = sv.ks, sv.arm, sv.speed
+    cell: Any = kin.cell
+    warnings = list(sv.warnings)
+    pos_metrics = dict(sv.pos_metrics)
+    collision_list: tuple = ()
+    if cell is not None and kin.collisions:
+        if progress:
+            progress(0.33, "collision checks")
+        collisions = _cell_collisions(kin, arm, ks, moves, sv.ang_c)
+        pos_metrics.update({"collision_count": float(collisions[0]),
+                            "collision_samples_checked": float(collisions[2]),
+                            "collision_step_mm": float(kin.collision_step_mm)})
+        collision_list = tuple(collisions[1])
+        for c in collision_list[:MAX_WARNINGS_PER_KIND]:
+            warnings.append((f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
+                             f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
+                             c.layer, c.section))
+    issues = find_issues(ks, arm, moves.layer, moves.section, moves.section_keys, speed) + sv.pos_issues
+    issue_warnings, counts = _issue_warnings(issues)
+    warnings.extend(issue_warnings)
+    cap = ks.segment_cap if sv.pos_cap is None else np.minimum(ks.segment_cap, sv.pos_cap)
+    finite = np.isfinite(ks.segment_cap)
+    metrics = {
+        "ik_samples": float(len(ks.s)),
+        "ik_max_position_error_mm": float(ks.reach_err.max()),
+        "ik_min_singular_value": float(ks.sigma_min.min()),
+        "joint_speed_capped_segments": float(np.count_nonzero(ks.segment_cap < speed)),
+        "min_joint_speed_cap_mm_s": float(ks.segment_cap[finite].min()) if finite.any() else math.inf,
+    }
+    for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed") + \
+            (("axis_limit", "axis_speed") if cell is not None else ()):
+        metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
+    metrics.update(pos_metrics)
+    dq = np.abs(np.diff(ks.q, axis=0))
+    if len(dq):
+        metrics["max_wrist_step_deg"] = float(np.degrees(dq[:, 3:].max(initial=0.0)))
+    report: dict = {"axes": _axes_report(arm, ks, cap, speed, cell, sv.ang, moves), "issues": issues[:MAX_ISSUES]}
+    if cell is not None:
+        if sv.plan_report is not None:
+            report["positioner_plan"] = sv.plan_report
+            warnings.extend(_plan_warnings(sv.plan_report))
+        report["motion"] = {"s": ks.s, "q": ks.q, "positioner_deg": sv.ang_c,
+                            "cell": cell.model_dump(mode="json"),
+                            "unreachable": ks.reach_err > REACH_TOL_MM}
+    return _Kin(cap, metrics, report, warnings, collision_list, sv.sim_moves)
+
+
+def _plan_warnings(plan_report: dict) -> list[tuple[str, int | None, str | None]]:
+    """A warning for each layer the `auto` plan could not take at its gravity angles."""
+    return [(f"auto positioner plan: {row['stage']} ({row['why']}); E = "
+             f"{', '.join(f'{v:.1f}' for v in row['e_deg'])}°, torch lean "
+             f"{row['lean_deg']:g}°, layer {row['tilt_deg']:.1f}° off flat", row["layer"], None)
+            for row in plan_report["layers"] if row["stage"] != "gravity"]
+
+
 def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
                      kin: KinematicsOptions | None = None,
                      progress: Callable[[float, str], None] | None = None,
@@ -165,116 +326,12 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
     """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate
     (strategies: each section's strategy, `estimate.section_strategies`, for the time model's
     per-family entries; None = the generic ones)."""
-    warnings: list[tuple[str, int | None, str | None]] = []
-    kin_metrics: dict[str, float] = {}
-    collision_list: tuple = ()
-    kin_report: dict = {}
+    k = None
     sim_moves = moves
     if kin is not None and len(moves.points) >= 2:
-        if progress:
-            progress(0.02, "inverse kinematics")
-        desc = kin.description or profile.description
-        home = getattr(kin.cell, "robot_home_deg", None) if kin.cell is not None else None
-        arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
-                       home_deg=home)
-        points, axes, frames = moves.points, moves.tool_axis, kin.frames
-        speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
-        if opt.speed_override is not None:
-            speed = np.where(moves.arc, opt.speed_override, speed)
-        pos_metrics: dict[str, float] = {}
-        pos_issues: list[dict] = []
-        pos_cap = None
-        if kin.cell is not None:       # the part on the positioner: coordinated samples in the world
-            from .cell import coordinated_samples, plan_positioner, positioner_caps
-
-            if kin.positioner_policy == "auto":
-                if progress:
-                    progress(0.01, "planning the positioner and torch (auto)")
-                plan = _auto_plan(kin, arm, moves)
-                ang, clipped = plan.angles, np.zeros(len(moves.points), bool)
-                axes = plan.tool_axis
-                kin_report_plan = plan.report(_auto_limits(kin))
-            else:
-                ang, clipped = plan_positioner(kin.cell, moves, kin.positioner_policy, kin.max_tilt_deg)
-                kin_report_plan = None
-                warnings.extend(_flat_warnings(kin.cell, moves, kin.flat_tol_deg,
-                                               ang if kin.positioner_policy == "gravity" else None))
-            s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(kin.cell, moves.points, axes, ang,
-                                                                 step_mm=kin.step_mm, step_deg=kin.step_deg)
-            base = kin.cell.robot_base
-            frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
-            ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames,
-                               progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
-            pos_cap, turn_s = positioner_caps(kin.cell, moves.points, ang)
-            pos_metrics, pos_issues = _positioner_report(kin.cell, moves, ang, clipped, pos_cap, turn_s, speed)
-            # a turn on a zero-length move (in place) is a standstill the positioner needs
-            still = (moves.segment_lengths <= 1e-6) & (turn_s > 0)
-            if still.any():
-                dwell = np.asarray(moves.dwell_before, float).copy()
-                dwell[np.flatnonzero(still)] += turn_s[still]
-                sim_moves = replace(moves, dwell_before=dwell)
-        else:
-            ks = solve_path(arm, points, axes, frames, step_mm=kin.step_mm,
-                            progress=(lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None)
-        if kin.cell is not None and kin.collisions:
-            if progress:
-                progress(0.33, "collision checks")
-            collisions = _cell_collisions(kin, arm, ks, moves, ang_c)
-            pos_metrics.update({"collision_count": float(collisions[0]),
-                                "collision_samples_checked": float(collisions[2]),
-                                "collision_step_mm": float(kin.collision_step_mm)})
-            collision_list = tuple(collisions[1])
-            for c in collision_list[:MAX_WARNINGS_PER_KIND]:
-                warnings.append((f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
-                                 f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
-                                 c.layer, c.section))
-        issues = find_issues(ks, arm, moves.layer, moves.section, moves.section_keys, speed) + pos_issues
-        counts: dict[str, int] = {}
-        for it in issues:
-            counts[it["kind"]] = counts.get(it["kind"], 0) + 1
-            if counts[it["kind"]] > MAX_WARNINGS_PER_KIND:
-                continue
-            msg = {"unreachable": "target unreachable", "joint_limit": "joint limit reached",
-                   "near_singular": "near-singular arm configuration",
-                   "joint_speed": "joint speed limit", "axis_limit": "positioner axis limit",
-                   "axis_speed": "positioner axis speed limit"}[it["kind"]]
-            detail = f"; {it['detail']}" if it["detail"] else ""
-            warnings.append((f"{msg} over s = {it['s_from']:.1f}..{it['s_to']:.1f} mm "
-                             f"({it['count']} IK samples){detail}", it["layer"], it["section"]))
-        for kind, c in counts.items():
-            if c > MAX_WARNINGS_PER_KIND:
-                warnings.append((f"{c - MAX_WARNINGS_PER_KIND} more '{kind}' stretches not listed", None, None))
-        cap = ks.segment_cap if pos_cap is None else np.minimum(ks.segment_cap, pos_cap)
-        opt = replace(opt, segment_cap=cap)
-        finite = np.isfinite(ks.segment_cap)
-        kin_metrics = {
-            "ik_samples": float(len(ks.s)),
-            "ik_max_position_error_mm": float(ks.reach_err.max()),
-            "ik_min_singular_value": float(ks.sigma_min.min()),
-            "joint_speed_capped_segments": float(np.count_nonzero(ks.segment_cap < speed)),
-            "min_joint_speed_cap_mm_s": float(ks.segment_cap[finite].min()) if finite.any() else math.inf,
-        }
-        for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed") + \
-                (("axis_limit", "axis_speed") if kin.cell is not None else ()):
-            kin_metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
-        kin_metrics.update(pos_metrics)
-        dq = np.abs(np.diff(ks.q, axis=0))
-        if len(dq):
-            kin_metrics["max_wrist_step_deg"] = float(np.degrees(dq[:, 3:].max(initial=0.0)))
-        kin_report = {"axes": _axes_report(arm, ks, cap, speed, kin.cell, ang if kin.cell is not None else None,
-                                           moves),
-                      "issues": issues[:MAX_ISSUES]}
-        if kin.cell is not None:
-            if kin_report_plan is not None:
-                kin_report["positioner_plan"] = kin_report_plan
-                for row in kin_report_plan["layers"]:
-                    if row["stage"] != "gravity":
-                        warnings.append((f"auto positioner plan: {row['stage']} ({row['why']}); E = "
-                                         f"{', '.join(f'{v:.1f}' for v in row['e_deg'])}°, torch lean "
-                                         f"{row['lean_deg']:g}°, layer {row['tilt_deg']:.1f}° off flat", row["layer"], None))
-            kin_report["motion"] = {"s": ks.s, "q": ks.q, "positioner_deg": ang_c,
-                                    "cell": kin.cell.model_dump(mode="json"),
-                                    "unreachable": ks.reach_err > REACH_TOL_MM}
+        k = _kinematics(moves, profile, opt, kin, progress)
+        opt = replace(opt, segment_cap=k.cap)
+        sim_moves = k.moves or moves
     res = simulate(sim_moves, profile, opt,
                    progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
     est = (estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
@@ -285,9 +342,10 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
                     "error_vs_simulation_pct": 100.0 * (est.total_time_s - res.metrics["total_time_s"])
                     / max(res.metrics["total_time_s"], 1e-9)}
     metrics = dict(res.metrics)
-    metrics.update(kin_metrics)
-    return replace(res, metrics=metrics, warnings=tuple(warnings), estimate=estimate, collisions=collision_list,
-                   kinematics=kin_report)
+    if k is not None:
+        metrics.update(k.metrics)
+    return replace(res, metrics=metrics, warnings=tuple(k.warnings if k else ()), estimate=estimate,
+                   collisions=k.collisions if k else (), kinematics=k.report if k else {})
 
 
 def _auto_limits(kin: KinematicsOptions):
