@@ -14,6 +14,7 @@ import zipfile
 
 import numpy as np
 import psutil
+import pytest
 from fastapi.testclient import TestClient
 from pydantic import Field
 
@@ -30,7 +31,9 @@ RELEASE = threading.Event()
 
 @register
 class ToySpin(Node):
-    """Counts while it computes (checks cancel each 10 ms) for `seconds`; passes the layers on."""
+    """Counts while it computes (checks cancel each 10 ms) for `seconds`; passes the layers on. With
+    `beat`, it also appends a byte to that file per count (seen from another process: a preview
+    worker's)."""
 
     type = "toy-spin"
     category = "test"
@@ -39,12 +42,16 @@ class ToySpin(Node):
 
     class Params(NodeParams):
         seconds: float = Field(5.0, ge=0)
+        beat: str = ""
 
     def run(self, ctx, params, inputs):
         t0 = time.monotonic()
         while time.monotonic() - t0 < params.seconds:
             ctx.check_cancelled()
             SPINS["n"] += 1
+            if params.beat:
+                with open(params.beat, "ab") as f:
+                    f.write(b".")
             time.sleep(0.01)
         return {"layers": inputs["layers"]}
 
@@ -153,20 +160,31 @@ def test_progress_events_carry_the_layer(tmp_path):
         assert all(e["message"] == f"layer {e['layer']}" for e in prog if e.get("node") == "slow")
 
 
-def spin(seconds=5.0):
-    return toy.recipe([("stack", "toy-stack", {"count": 2}), ("spin", "toy-spin", {"seconds": seconds})],
+def spin(seconds=5.0, beat=None):
+    return toy.recipe([("stack", "toy-stack", {"count": 2}),
+                       ("spin", "toy-spin", {"seconds": seconds, **({"beat": str(beat)} if beat else {})})],
                       [("stack.layers", "spin.layers")])
 
 
-def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path):
-    with _client(tmp_path, preview_timeout_s=0.5, max_queued_runs=1) as c:
+def beats(path) -> int:
+    return path.stat().st_size if path.exists() else 0
+
+
+# run_memory_mb 0: previews compute in a thread of the server; > 0: in a preview worker process
+IN_PROCESS = pytest.mark.parametrize("run_memory_mb", [0, 1024], ids=["thread", "process"])
+
+
+@IN_PROCESS
+def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path, run_memory_mb):
+    beat = tmp_path / "beat"
+    with _client(tmp_path, preview_timeout_s=0.5, max_queued_runs=1, run_memory_mb=run_memory_mb) as c:
         t0 = time.monotonic()
-        r = c.post("/api/preview", json={"recipe": spin(5.0), "node": "spin", "layer": 0})
+        r = c.post("/api/preview", json={"recipe": spin(5.0, beat), "node": "spin", "layer": 0})
         assert time.monotonic() - t0 < 2.5
         assert r.status_code == 422 and "preview_timeout_s" in r.json()["detail"]["message"]
-        n = SPINS["n"]
+        n = beats(beat)
         time.sleep(0.3)
-        assert SPINS["n"] == n     # the computation stopped with the answer
+        assert n > 5 and beats(beat) == n     # it computed, and stopped with the answer
         rid = c.post("/api/runs", json={"recipe": spin(3.0)}).json()["id"]
         r = c.post("/api/preview", json={"recipe": spin(0.0), "node": "spin", "layer": 0})
         assert r.status_code == 429 and int(r.headers["retry-after"]) >= 1
@@ -175,10 +193,12 @@ def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path):
         assert c.post("/api/preview", json={"recipe": spin(0.0), "node": "spin", "layer": 0}).status_code == 200
 
 
-def test_preview_stops_when_the_client_leaves(tmp_path):
+@IN_PROCESS
+def test_preview_stops_when_the_client_leaves(tmp_path, run_memory_mb):
     app = create_app(Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None,
-                              workers=1))
-    body = json.dumps({"recipe": spin(5.0), "node": "spin", "layer": 0}).encode()
+                              workers=1, run_memory_mb=run_memory_mb))
+    beat = tmp_path / "beat"
+    body = json.dumps({"recipe": spin(5.0, beat), "node": "spin", "layer": 0}).encode()
 
     async def scenario():
         sent = []
@@ -205,17 +225,16 @@ def test_preview_stops_when_the_client_leaves(tmp_path):
             task = asyncio.create_task(app(scope, receive, send))
             for _ in range(100):            # computing (a loaded machine may take a while to start)
                 await asyncio.sleep(0.05)
-                if SPINS["n"] > 5:
+                if beats(beat) > 5:
                     break
-            assert SPINS["n"] > 5
+            assert beats(beat) > 5
             left.set()
             t0 = time.monotonic()
             await asyncio.wait_for(task, 4)
-            n = SPINS["n"]
+            n = beats(beat)
             await asyncio.sleep(0.3)
-            return time.monotonic() - t0, n, SPINS["n"]
+            return time.monotonic() - t0, n, beats(beat)
 
-    SPINS["n"] = 0
     took, n1, n2 = asyncio.run(scenario())
     assert took < 2.5 and n1 == n2     # stopped, not computing on for the 4.5 s left
 

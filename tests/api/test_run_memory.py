@@ -1,11 +1,14 @@
-"""Per-run memory limit (#26 Build 3, fault 5): each run executes in a process of its own under
-`run_memory_mb` of address space (resource.setrlimit RLIMIT_AS), its layer workers included (they
-inherit it). A run that needs more fails with a run error naming the limit; the server, and the
-other runs, go on. The allocations here fail at once, before any page is touched (the limit is on
-address space), so the test uses no real memory."""
+"""Run memory limit (#26 Build 3, fault 5): each run executes in a process tree of its own (the run,
+its fork server, its layer workers) under ONE budget, `run_memory_mb`, for the whole tree (a cgroup
+where the server may make one, else the server's watchdog summing the tree's private memory); each
+process also has the budget as its address-space cap (RLIMIT_AS), so one allocation past it fails
+at once, naming the node. A run (or preview) that needs more fails naming the limit; the server,
+and the other runs, go on; every process of a run ends with it and with the server."""
 
+import contextlib
 import os
 import resource
+import signal
 import time
 
 import numpy as np
@@ -15,6 +18,7 @@ from pydantic import Field
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from waamflow.api.app import create_app
+from waamflow.api.tree_memory import group_pids, start_tree
 from waamflow.engine import parallel
 from waamflow.engine.node import LayerNode, Node, NodeParams, Port, register
 from waamflow.settings import Settings
@@ -50,13 +54,20 @@ class ToyLayerHog(LayerNode):
     class Params(NodeParams):
         mb: int = Field(1, ge=1)
         pid_dir: str = ""
+        hold_s: float = Field(0.0, ge=0)
 
     def run_layer(self, ctx, params, index, items):
-        if params.pid_dir:   # who computed the layer, under which address-space limit
-            with open(os.path.join(params.pid_dir, str(os.getpid())), "w") as f:
-                f.write(str(resource.getrlimit(resource.RLIMIT_AS)[0]))
+        if params.pid_dir:   # who computed the layer, under which address-space limit, in which group
+            tmp = os.path.join(params.pid_dir, f".{os.getpid()}")
+            with open(tmp, "w") as f:
+                f.write(f"{resource.getrlimit(resource.RLIMIT_AS)[0]} {os.getpgid(0)}")
+            os.replace(tmp, os.path.join(params.pid_dir, str(os.getpid())))   # whole, even if killed right after
         block = np.zeros(params.mb * 2**20, dtype=np.uint8)
         block[::4096] = 1
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < params.hold_s:   # held: the memory is in use for that long
+            ctx.check_cancelled()
+            time.sleep(0.02)
         return {"layers": items["layers"]}
 
 
@@ -92,21 +103,19 @@ def test_a_run_over_its_memory_limit_fails_and_the_server_goes_on(tmp_path):
 
 
 def test_layer_workers_inherit_the_limit(tmp_path, monkeypatch):
-    monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
-    monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
-    monkeypatch.setattr(parallel, "TIMING_S", 0.0)
-    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    _parallel_now(monkeypatch)
     pids = tmp_path / "pids"
     pids.mkdir()
-    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=200, layer_workers=2))) as c:
+    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=400, layer_workers=2))) as c:
         ok = c.post("/api/runs", json={"recipe": _hog(20, "toy-layer-hog", count=8, pid_dir=str(pids))}).json()["id"]
-        assert wait(c, ok, timeout=120)["status"] == "done"
-        ran_in = {int(p.name): int(p.read_text()) for p in pids.iterdir()}
+        r_ok = wait(c, ok, timeout=120)
+        assert r_ok["status"] == "done", r_ok["error"]
+        ran_in = {int(p.name): int(p.read_text().split()[0]) for p in pids.iterdir() if not p.name.startswith(".")}
         assert os.getpid() not in ran_in and len(ran_in) >= 2   # the run's process and/or its workers
         assert all(lim != resource.RLIM_INFINITY for lim in ran_in.values()), ran_in
-        bad = c.post("/api/runs", json={"recipe": _hog(400, "toy-layer-hog", count=8)}).json()["id"]
+        bad = c.post("/api/runs", json={"recipe": _hog(800, "toy-layer-hog", count=8)}).json()["id"]
         rb = wait(c, bad, timeout=120)
-        assert rb["status"] == "failed" and "more than 200 MB" in rb["error"]["message"], rb
+        assert rb["status"] == "failed" and "more than 400 MB" in rb["error"]["message"], rb
         assert c.get("/api/health").status_code == 200
 
 
@@ -117,7 +126,8 @@ def test_off_runs_in_the_server_process(tmp_path):
         r = c.post("/api/runs", json={"recipe": _hog(5, "toy-layer-hog", count=2, pid_dir=str(pids))}).json()["id"]
         t0 = time.monotonic()
         assert wait(c, r)["status"] == "done" and time.monotonic() - t0 < 60
-        assert {int(p.name): int(p.read_text()) for p in pids.iterdir()} == {os.getpid(): resource.RLIM_INFINITY}
+        ran_in = {int(p.name): int(p.read_text().split()[0]) for p in pids.iterdir() if not p.name.startswith(".")}
+        assert ran_in == {os.getpid(): resource.RLIM_INFINITY}
 
 
 def test_serve_option_and_variable(monkeypatch, tmp_path):
@@ -135,3 +145,125 @@ def test_serve_option_and_variable(monkeypatch, tmp_path):
     assert cli.main(["serve"]) == 0 and got["mb"] == 700
     assert cli.main(["serve", "--run-memory-mb", "300"]) == 0 and got["mb"] == 300
     assert cli.main(["serve", "--run-memory-mb", "-1"]) == 2
+
+
+def _parallel_now(monkeypatch) -> None:
+    """Layers go to the workers at once (no timing of a first layer, workers started in the foreground)."""
+    for name, value in (("MIN_PARALLEL_S", 0.0), ("WARM_MIN_PARALLEL_S", 0.0), ("TIMING_S", 0.0),
+                        ("BACKGROUND_START", False)):
+        monkeypatch.setattr(parallel, name, value)
+
+
+def _computed_by(pids) -> dict[int, int]:
+    """pid → process group of each process that computed a layer (toy-layer-hog's pid_dir)."""
+    return {int(p.name): int(p.read_text().split()[1]) for p in pids.iterdir() if not p.name.startswith(".")}
+
+
+def _gone(pgid: int, timeout: float = 3.0) -> list[int]:
+    """The living members of process group `pgid` once none is left, or after `timeout`."""
+    t0 = time.monotonic()
+    while (left := group_pids(pgid)) and time.monotonic() - t0 < timeout:
+        time.sleep(0.05)
+    return left
+
+
+def test_one_budget_for_the_runs_whole_process_tree(tmp_path, monkeypatch):
+    """Two processes of a run (its layer workers, or the run and a worker) holding 60 % of the budget
+    each: 120 % for the run. Each process is under its own cap, the tree is not: the run fails naming
+    run_memory_mb; the server and another run go on."""
+    _parallel_now(monkeypatch)
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    with TestClient(create_app(_settings(tmp_path, workers=2, run_memory_mb=300, layer_workers=2))) as c:
+        rec = _hog(180, "toy-layer-hog", count=6, hold_s=3.0, pid_dir=str(pids))
+        big = c.post("/api/runs", json={"recipe": rec}).json()["id"]
+        other = c.post("/api/runs", json={"recipe": _hog(20)}).json()["id"]
+        rb = wait(c, big, timeout=120)
+        assert rb["status"] == "failed", rb
+        msg = rb["error"]["message"]
+        assert rb["error"]["kind"] == "limit" and rb["error"]["node"] == "hog", rb["error"]
+        assert "more than 300 MB" in msg and "run_memory_mb" in msg and "--run-memory-mb" in msg, msg
+        used = int(msg.split(" used ")[1].split(" MB")[0])
+        assert 300 < used < 300 + 180 + 150, msg   # caught within one more worker's allocation
+        ran = _computed_by(pids)
+        (group,) = set(ran.values())
+        assert group != os.getpgid(0) and len(ran) >= 2, ran   # two processes of the run's tree held 180 MB each
+        assert _gone(group) == []   # killed with the run, workers included
+        ro = wait(c, other, timeout=60)
+        assert ro["status"] == "done" and ro["summary"]["layer_count"] == 3
+        assert c.get("/api/health").status_code == 200
+
+
+def test_a_preview_over_the_budget_is_refused_naming_it(tmp_path):
+    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=200))) as c:
+        t0 = time.monotonic()
+        r = c.post("/api/preview", json={"recipe": _hog(400), "node": "hog", "layer": 0})
+        assert r.status_code == 422, r.text
+        d = r.json()["detail"]
+        assert d["kind"] == "limit" and "more than 200 MB" in d["message"] and "run_memory_mb" in d["message"], d
+        assert time.monotonic() - t0 < 30
+        # the server is alive and previews go on (in the preview worker, or a new one)
+        r = c.post("/api/preview", json={"recipe": _hog(20), "node": "hog", "layer": 1})
+        assert r.status_code == 200 and r.json()["layer_count"] == 3, r.text
+        assert c.get("/api/health").status_code == 200
+
+
+def test_a_runs_processes_end_with_it_and_with_the_server(tmp_path, monkeypatch):
+    """Every process of a run's tree (its fork server, its layer workers) ends with the run, and
+    with the server when it stops while the run computes; the preview worker ends with the server."""
+    _parallel_now(monkeypatch)
+    pids = tmp_path / "pids"
+    pids.mkdir()
+    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=1024, layer_workers=2))) as c:
+        rid = c.post("/api/runs", json={"recipe": _hog(5, "toy-layer-hog", count=6, pid_dir=str(pids))}).json()["id"]
+        assert wait(c, rid, timeout=120)["status"] == "done"
+        ran = _computed_by(pids)
+        (group,) = set(ran.values())
+        assert group != os.getpgid(0) and len(ran) >= 2, ran
+        assert _gone(group) == []
+        assert c.post("/api/preview", json={"recipe": _hog(5), "node": "hog", "layer": 0}).status_code == 200
+        (preview_group,) = c.app.state.services.runs.preview_pool.pids()
+        assert len(group_pids(preview_group)) >= 1
+        for p in pids.iterdir():
+            p.unlink()
+        c.post("/api/runs", json={"recipe": _hog(5, "toy-layer-hog", count=8, hold_s=4.0, pid_dir=str(pids))})
+        t0 = time.monotonic()
+        while len(_computed_by(pids)) < 2 and time.monotonic() - t0 < 60:
+            time.sleep(0.05)
+        ran = _computed_by(pids)
+        (group,) = set(ran.values())
+        members = group_pids(group)
+        assert len(members) >= 3, members   # the run, its fork server, its workers
+        t0 = time.monotonic()
+    assert time.monotonic() - t0 < 12   # the server stopped without waiting for the layers (4 s each)
+    assert _gone(group) == [] and _gone(preview_group) == []
+
+
+def _pool_then_wait(out_dir: str) -> None:
+    """A tree's leader that starts two layer workers, notes their pids, then waits to be killed."""
+    from waamflow.engine.parallel import LayerPool
+
+    pool = LayerPool(2)
+    pool._spawn()
+    with open(os.path.join(out_dir, ".workers"), "w") as f:
+        f.write(" ".join(map(str, pool.pids())))
+    os.replace(os.path.join(out_dir, ".workers"), os.path.join(out_dir, "workers"))
+    time.sleep(120)
+
+
+def test_the_fork_server_and_workers_end_when_the_leader_is_killed(tmp_path):
+    """The server killed -9 kills a run's process (PDEATHSIG) without it ending its fork server and
+    workers: they end by themselves (the fork server's guard, api/tree_guard.py)."""
+    tree = start_tree(contextlib.nullcontext, 2**30, _pool_then_wait, (str(tmp_path),), "guard-test")
+    try:
+        t0 = time.monotonic()
+        while not (tmp_path / "workers").exists() and time.monotonic() - t0 < 60:
+            time.sleep(0.05)
+        workers = [int(p) for p in (tmp_path / "workers").read_text().split()]
+        members = group_pids(tree.proc.pid)
+        assert len(workers) == 2 and set(workers) < set(members) and len(members) >= 4, members  # + leader, fork server
+        os.kill(tree.proc.pid, signal.SIGKILL)   # as PDEATHSIG does: nothing of the leader runs after it
+        tree.proc.join(5)
+        assert _gone(tree.proc.pid, timeout=3.0) == []
+    finally:
+        tree.kill()

@@ -1,13 +1,16 @@
 """Background run execution: a thread pool sized to the machine, cancel flags, live event logs.
 
-Each run executes in a process of its own (forked from the server by the run's thread) under the
-run memory limit (`run_memory_mb`, RLIMIT_AS): its address space is capped at what it has at the
-fork plus that budget. Its layer workers come from a fork server of its own, so they inherit the
-same cap — each process of the run (the run and each worker) has the whole budget; a run with W
-layer workers can hold up to (1 + W) × budget. Events and the result come
-back over a pipe; cancel is a shared flag, then SIGKILL when the run does not stop in time (its
-fork server, and with it every worker, ends with it). With `run_memory_mb` 0 runs execute in the
-server's process, as before."""
+Each run executes in a process of its own (forked from the server by the run's thread), the leader
+of a process group that holds its whole tree: its layer workers come from a fork server of its
+own, started by the run's process. The run memory limit (`run_memory_mb`) is one budget for that
+tree (tree_memory.py, which also starts the trees): a child cgroup's `memory.max` where the server may create one, else the
+server's watchdog summing the group's private memory and killing the group over the budget. Each
+process also gets that budget as its address-space cap (RLIMIT_AS), so a single allocation past it
+fails at once as a MemoryError that names the node. Events and the result come back over a pipe;
+cancel is a shared flag, then SIGKILL to the group when the run does not stop in time. Previews
+compute in a long-lived preview worker process under the same budget (preview_worker.py). With
+`run_memory_mb` 0 runs and previews execute in the server's process, as before.
+"""
 
 from __future__ import annotations
 
@@ -22,18 +25,22 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..core.errors import CancelledError, WaamflowError
 from ..core.model import LayerPaths, Layered
 from ..engine.artifacts import write_run_dir
-from ..engine.events import TERMINAL_KINDS, Event
+from ..engine.events import TERMINAL_KINDS, Event, EventKind
 from ..preflight import gate
 from ..engine.executor import FileResolver, RunResult, execute
 from ..engine.graph import build_graph
 from ..engine.estimate import check_estimate, estimate
 from ..engine.recipe import Recipe
 from .store import Store, valid_file_name
+from .tree_memory import Tree, start_tree, tree_limit_message
+
+if TYPE_CHECKING:
+    from .preview_worker import PreviewJob, PreviewPool
 
 log = logging.getLogger("waamflow.runs")
 
@@ -52,7 +59,7 @@ class Limits:
     dxf_entities: int = 0
     uncompressed_bytes: int = 0
     preview_s: float = 0.0
-    run_memory_bytes: int = 0   # address space each process of a run may add (0: runs in the server process)
+    run_memory_bytes: int = 0   # memory of a run's whole process tree (0: runs in the server process)
 
     @classmethod
     def from_settings(cls, s) -> "Limits":
@@ -122,16 +129,20 @@ def _fork_available() -> bool:
 RUN_PROCESSES = _fork_available()   # runs in processes of their own under RLIMIT_AS (Linux)
 
 
-def memory_limit_message(budget: int, err: dict | None = None) -> str:
-    where = ""
+def where_text(err: dict | None) -> str:
+    """' (node 'x', layer 3)' from an error's or event's node and layer ('' without a node)."""
     if err and err.get("node"):
-        where = f" (node {err['node']!r}" + (f", layer {err['layer']}" if err.get("layer") is not None else "") + ")"
-    return (f"run used more than {budget / 2**20:.0f} MB of memory{where}, the limit of each of its processes "
-            "(run_memory_mb): raise --run-memory-mb / WAAMFLOW_RUN_MEMORY_MB, or make the work smaller (fewer "
-            "layers, a coarser mesh)")
+        return f" (node {err['node']!r}" + (f", layer {err['layer']}" if err.get("layer") is not None else "") + ")"
+    return ""
 
 
-def _is_memory_error(err: BaseException) -> bool:
+def memory_limit_message(budget: int, err: dict | None = None, what: str = "run") -> str:
+    return (f"{what} used more than {budget / 2**20:.0f} MB of memory{where_text(err)}, its memory limit "
+            "(run_memory_mb, for its whole process tree: the run and its layer workers): raise --run-memory-mb / "
+            "WAAMFLOW_RUN_MEMORY_MB, or make the work smaller (fewer layers, a coarser mesh)")
+
+
+def is_memory_error(err: BaseException) -> bool:
     """A MemoryError, or a node error made of one (in the run or reported back by a layer worker)."""
     seen = 0
     e: BaseException | None = err
@@ -141,59 +152,6 @@ def _is_memory_error(err: BaseException) -> bool:
         e = e.__cause__ or e.__context__
         seen += 1
     return False
-
-
-def _vm_bytes() -> int:
-    """The process's address space now (VmSize), bytes."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmSize:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-
-
-def _detach_from_server() -> None:
-    """In a run's process, right after the fork: die with the server (kill -9 included), leave
-    Ctrl-C and SIGTERM to it, and start a fork server of its own for the layer workers (the
-    server's would fork them outside this process's memory limit)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    try:
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    from multiprocessing import forkserver
-
-    fs = forkserver._forkserver   # the module's functions are bound to this instance: reset it in place
-    fd = getattr(fs, "_forkserver_alive_fd", None)
-    if fd is not None:
-        try:
-            os.close(fd)   # the server's fork server must not wait for this process to end
-        except OSError:
-            pass
-    fs._forkserver_address = None
-    fs._forkserver_alive_fd = None
-    fs._forkserver_pid = None
-    fs._inherited_fds = None
-    fs._lock = threading.Lock()
-
-
-def _kill_group(proc) -> None:
-    """SIGKILL to a run's process group (the run, its fork server, its layer workers)."""
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError, OSError):
-        try:
-            proc.kill()
-        except (OSError, ValueError, AttributeError):
-            pass
 
 
 def _child_cache(cache):
@@ -237,6 +195,7 @@ class LiveRun:
         self.slot = False       # holds one of the manager's run slots
         # the engine's terminal event, streamed by `_finish` once the run's record is stored
         self.held: dict | None = None
+        self.where: dict = {}   # the node (and layer) of the last event that named one
 
     def trip(self, reason: str) -> None:
         if self.limit is None:
@@ -272,6 +231,8 @@ class RunManager:
         self.previews = 0          # previews waiting or computing (counted in the queue limit)
         self.computing = 0         # previews computing: at most `workers`, the others wait their turn
         self.plock = threading.Lock()
+        self.preview_pool: PreviewPool | None = None   # preview workers (with run_memory_mb), made on first use
+        self.trees: dict[str, Tree] = {}   # the process trees of runs going on
         self.live: dict[str, LiveRun] = {}
         self.resolver_for = resolver_for
         self.on_done = on_done
@@ -312,17 +273,24 @@ class RunManager:
 
     def active(self) -> int:
         """Runs queued or running plus previews computing (the queue limit counts both)."""
-        return sum(1 for lv in list(self.live.values()) if not lv.done.is_set()) + self.previews
+        # `finished`, set before the run's record says it ended (a client that saw it end is not refused)
+        return sum(1 for lv in list(self.live.values()) if not lv.finished) + self.previews
 
-    def preview(self, work: Callable[[threading.Event], Any]) -> "PreviewJob":
-        """A preview under the run queue's limits: counted in the queue (429 when full), at most
-        `workers` at once (429), stopped by `cancel` on wall time (preview_timeout_s) or memory."""
+    def preview(self, fn: Callable[..., Any], args: tuple) -> "PreviewJob":
+        """A preview `fn(cache, cancel, *args)` (a module-level function: it may be sent to a preview
+        worker) under the run queue's limits: counted in the queue (429 when full), at most `workers`
+        at once (429), stopped by `cancel` on wall time (preview_timeout_s) or memory, in a preview
+        worker under the run memory limit when runs execute in processes (preview_worker.py)."""
+        from .preview_worker import PreviewJob, PreviewPool
+
         with self.plock:
             if self.limits.queue and self.active() >= self.limits.queue:
                 raise QueueFullError(f"{self.active()} runs and previews are queued or running (limit "
                                      f"{self.limits.queue}): try again later", retry_after=2)
             self.previews += 1
-        return PreviewJob(self, work)
+            if self.limits.run_memory_bytes and self.preview_pool is None:
+                self.preview_pool = PreviewPool(self)
+        return PreviewJob(self, fn, args)
 
     def run_dir(self, run_id: str) -> Path:
         return self.runs_dir / run_id
@@ -348,6 +316,8 @@ class RunManager:
 
         def on_dict(d: dict) -> None:
             layer = d.get("layer")
+            if d.get("node"):
+                live.where = {"node": d["node"], "layer": layer}
             if lim.layers and layer is not None and layer >= lim.layers:
                 live.trip(f"more than {lim.layers} layers (limit max_layers)")
             if d.get("kind") in TERMINAL_KINDS:   # streamed by _finish, after the record is stored
@@ -416,10 +386,9 @@ class RunManager:
                 stack.enter_context(lk)
             yield
 
-    def _run_process(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
+    def _run_process(self, run_id: str, graph_name: str | None, recipe: Recipe, graph: Any, live: LiveRun,
                      params_xml: str | None, accept_preflight: bool, on_dict: Callable[[dict], None]) -> None:
-        """The run in a process of its own under the memory limit (see the module's doc)."""
-        budget = self.limits.run_memory_bytes
+        """The run in a process tree of its own under the memory limit (see the module's doc)."""
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
         except WaamflowError as err:
@@ -428,42 +397,56 @@ class RunManager:
         ctx = mp.get_context("fork")
         reader, writer = ctx.Pipe(duplex=False)
         stop = ctx.Event()
-        proc = ctx.Process(target=_run_child, name=f"waamflow-run-{run_id}",
-                           args=(self, writer, stop, run_id, recipe, graph, resolver, accept_preflight))
         outcome = None
+        tree: Tree | None = None
         try:
-            with self._quiet_sqlite():
-                proc.start()
+            tree = start_tree(self._quiet_sqlite, self.limits.run_memory_bytes, _run_child,
+                              (self, writer, stop, run_id, recipe, graph, resolver, accept_preflight), f"run-{run_id}")
+            self.trees[run_id] = tree
             writer.close()
-            try:   # the run's process group: the run, its fork server and its workers end together
-                os.setpgid(proc.pid, proc.pid)
-            except OSError:
-                pass   # it set it itself already (or has ended)
-            while outcome is None:
-                if live.cancel.is_set():
-                    stop.set()
-                if live.finished:   # the watchdog ended a run that did not stop: it is killed below
-                    break
-                if reader.poll(0.1):
-                    try:
-                        msg = reader.recv()
-                    except (EOFError, OSError):
-                        break
-                    if msg[0] == "event":
-                        on_dict(msg[1])
-                    else:
-                        outcome = msg
-                elif not proc.is_alive() and not reader.poll(0):
-                    break
+            outcome = self._await_run(tree, reader, stop, live, on_dict)
         except Exception as exc:  # pragma: no cover - never leave a run 'running'
             log.exception("run %s: its process failed", run_id)
             outcome = ("failed", {"kind": "internal", "message": repr(exc), "text": repr(exc)})
         finally:
             reader.close()
-            if outcome is not None:
-                proc.join(timeout=0.2)   # it has sent everything: a moment to end by itself
-            _kill_group(proc)   # whatever is left of the run's tree (its workers included) ends now
-            proc.join(timeout=5.0)
+            if tree is not None:
+                tree.end(patient=outcome is not None)   # whatever is left of the tree ends now
+                self.trees.pop(run_id, None)
+        self._run_outcome(run_id, graph_name, recipe, live, tree, outcome)
+
+    def _await_run(self, tree: Tree, reader: Any, stop: Any, live: LiveRun,
+                   on_dict: Callable[[dict], None]) -> tuple | None:
+        """The run's events until its outcome (None: it ended without one, or was ended)."""
+        proc = tree.proc
+        while True:
+            if live.cancel.is_set():
+                stop.set()
+            if live.finished:   # the watchdog ended a run that did not stop: it is killed by the caller
+                return None
+            if tree.over() is not None:
+                return None
+            if reader.poll(0.1):
+                try:
+                    msg = reader.recv()
+                except (EOFError, OSError):
+                    return None
+                if msg[0] != "event":
+                    return msg
+                on_dict(msg[1])
+            elif not proc.is_alive() and not reader.poll(0):
+                return None
+
+    def _run_outcome(self, run_id: str, graph_name: str | None, recipe: Recipe, live: LiveRun, tree: Tree | None,
+                     outcome: tuple | None) -> None:
+        """The run's record from what its process sent (or did not send)."""
+        budget = self.limits.run_memory_bytes
+        if tree is not None and tree.out_of_memory() and (outcome is None or outcome[0] != "done"):
+            used = tree.over_by or (tree.cgroup.peak() if tree.cgroup is not None else 0)
+            msg = tree_limit_message("the run", budget, used, tree.watch.processes, where_text(live.where))
+            err = LimitError(msg, node=live.where.get("node"), layer=live.where.get("layer"))
+            self._finish(run_id, live, "failed", error=err.to_dict())
+            return
         if outcome is None:
             if live.finished:
                 return
@@ -471,7 +454,7 @@ class RunManager:
                 why = "cancelled"
                 self._finish(run_id, live, "cancelled", error={"kind": "cancelled", "message": why, "text": why})
                 return
-            code = proc.exitcode
+            code = tree.proc.exitcode if tree is not None else None
             how = f"signal {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit code {code}"
             msg = (f"the run's process ended without a result ({how}); it may have used more than "
                    f"{budget / 2**20:.0f} MB, its memory limit (run_memory_mb): raise --run-memory-mb / "
@@ -539,7 +522,8 @@ class RunManager:
             if live.finished:   # ended already (the watchdog ended a run that did not stop)
                 return
             live.finished = True
-        kind = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}[status]
+        kinds: dict[str, EventKind] = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}
+        kind = kinds[status]
         held = live.held
         if held is not None and held.get("kind") == kind:
             terminal = held
@@ -575,97 +559,17 @@ class RunManager:
         deadline = time.monotonic() + 10.0
         for t in list(self.threads.values()):
             t.join(timeout=max(0.0, deadline - time.monotonic()))
+        for tree in list(self.trees.values()):   # runs that did not end in time end now, with every process
+            tree.kill()
+        if self.preview_pool is not None:
+            self.preview_pool.close()
 
 
-class PreviewStopped(LimitError):
-    """A preview stopped by a limit (or its client leaving): 422 naming the limit."""
-
-    http_status = 422
-
-
-class PreviewJob:
-    """One preview: `run()` computes `work(cancel)` in a thread while the caller watches for the
-    client leaving (`cancel`), with the preview's wall-time and memory limits."""
-
-    def __init__(self, manager: RunManager, work: Callable[[threading.Event], Any]) -> None:
-        self.manager = manager
-        self.work = work
-        self.cancel = threading.Event()
-        self.limit: str | None = None
-
-    def _result(self, fut):
-        try:
-            return fut.result()
-        except CancelledError:
-            if self.limit is not None:
-                raise PreviewStopped(f"preview stopped: {self.limit}") from None
-            raise
-
-    async def run(self, disconnected: Callable[[], Any]) -> Any:
-        import asyncio
-
-        lim = self.manager.limits
-        m = self.manager
-        t0 = time.monotonic()
-        computing = False
-        try:
-            while True:   # a turn among the `workers` previews computing at once
-                with m.plock:
-                    if m.computing < m.workers:
-                        m.computing += 1
-                        computing = True
-                        break
-                if await disconnected():
-                    raise PreviewStopped("preview stopped: the client left before its turn")
-                if time.monotonic() - t0 > PREVIEW_WAIT_S:
-                    raise QueueFullError(f"{m.workers} previews are computing and others wait: try again in a moment",
-                                         retry_after=1)
-                await asyncio.sleep(0.02)
-            loop = asyncio.get_running_loop()
-            fut = loop.run_in_executor(None, self.work, self.cancel)
-            t0 = time.monotonic()   # the time limit counts from the preview's turn
-            while True:
-                done, _ = await asyncio.wait({fut}, timeout=0.1)
-                if done:
-                    return self._result(fut)
-                if await disconnected():
-                    self.cancel.set()
-                    self.limit = "the client left"
-                elif lim.preview_s and time.monotonic() - t0 > lim.preview_s:
-                    self.limit = f"ran longer than {lim.preview_s:g} s (limit preview_timeout_s)"
-                    self.cancel.set()
-                elif lim.memory_bytes and rss_bytes() > lim.memory_bytes:
-                    self.limit = f"server memory over {lim.memory_bytes / 2**20:.0f} MB (limit max_memory_mb)"
-                    self.cancel.set()
-                if self.cancel.is_set():
-                    # give the computation its grace to see cancel, then answer without it
-                    done, _ = await asyncio.wait({fut}, timeout=CANCEL_GRACE_S)
-                    if done:
-                        return self._result(fut)
-                    raise PreviewStopped(f"preview stopped: {self.limit}")
-        finally:
-            with m.plock:
-                m.previews -= 1
-                if computing:
-                    m.computing -= 1
-
-
-def _run_child(manager: RunManager, conn, stop, run_id: str, recipe: Recipe, graph, resolver,
+def _run_child(manager: RunManager, conn: Any, stop: Any, run_id: str, recipe: Recipe, graph: Any, resolver: Any,
                accept_preflight: bool) -> None:
-    """A run's process: under the memory limit, execute, check, write the run folder, send the
-    summary and the result (without artifacts: they are in the folder) — or why it failed."""
-    import resource
-
-    try:
-        os.setpgid(0, 0)   # a process group of its own (see _kill_group); the server sets it too
-    except OSError:
-        pass
-    _detach_from_server()
+    """A run's process (a tree's leader, see `_tree_child`): execute, check, write the run folder,
+    send the summary and the result (without artifacts: they are in the folder) — or why it failed."""
     lim = manager.limits
-    try:
-        resource.setrlimit(resource.RLIMIT_AS, (_vm_bytes() + lim.run_memory_bytes, resource.RLIM_INFINITY))
-    except (ValueError, OSError) as e:
-        log.warning("run %s: memory limit not set (%s)", run_id, e)
     try:
         cache = _child_cache(manager.cache)
         result = execute(graph, resolver=resolver, cache=cache, on_event=lambda ev: conn.send(("event", ev.to_dict())),
@@ -678,9 +582,9 @@ def _run_child(manager: RunManager, conn, stop, run_id: str, recipe: Recipe, gra
     except MemoryError:
         conn.send(("memory", None))
     except WaamflowError as err:
-        conn.send(("memory", err.to_dict()) if _is_memory_error(err) else ("failed", err.to_dict()))
+        conn.send(("memory", err.to_dict()) if is_memory_error(err) else ("failed", err.to_dict()))
     except Exception as exc:
-        if _is_memory_error(exc):
+        if is_memory_error(exc):
             conn.send(("memory", None))
         else:
             conn.send(("failed", {"kind": "internal", "message": repr(exc), "text": repr(exc)}))

@@ -6,28 +6,32 @@ depends on it is recomputed.
 
 from __future__ import annotations
 
+import threading
 import time
-from typing import Any
+from typing import Any, cast
 
 from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic.config import JsonDict
 
 from ...core.errors import PlanningError, RecipeError
 from ...core.model import Layer, LayerPaths, Layered, LayerSections
 from ...core.serialize import coords, layer_json, polygon_json, section_path_json
-from ...engine.executor import execute
+from ...engine.cache import MemoryCache, TieredCache
+from ...engine.executor import FileResolver, execute
 from ...engine.graph import build_graph
-from ...engine.recipe import apply_overrides
+from ...engine.recipe import Recipe, apply_overrides
 from ..services import parse_api_recipe
 from ..deps import ServicesDep
 from ..schemas import PREVIEW_REQUEST_RULES, LayerIndex, LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON, errors
 from ..store import GRAPH_NAME_PATTERN
+from ..worker import is_memory_error
 
 router = APIRouter(tags=["preview"])
 
 
 class PreviewRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid", json_schema_extra=PREVIEW_REQUEST_RULES)
+    model_config = ConfigDict(extra="forbid", json_schema_extra=cast(JsonDict, PREVIEW_REQUEST_RULES))
     recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe (see Recipe)")
     node: str = Field(..., min_length=1, max_length=64, description="node whose output to show (e.g. the zone node)")
     layer: LayerIndex = Field(..., description="layer index")
@@ -179,29 +183,36 @@ async def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> Pr
     resolver = svc.resolver_for(req.graph, recipe, req.params_xml)
     svc.check_sandbox(graph, resolver)  # → 422 before anything is read
     if svc.runs is None:
-        return _compute(req, svc, recipe, graph, resolver, t0, None)
+        return compute_preview(svc.cache, None, req, recipe, resolver, t0)
     svc.runs.limits.check_estimate(graph, resolver)   # → 422 with the estimate, before anything runs
-    job = svc.runs.preview(lambda cancel: _compute(req, svc, recipe, graph, resolver, t0, cancel))
-    return await job.run(request.is_disconnected)
+    job = svc.runs.preview(compute_preview, (req, recipe, resolver, t0))
+    result: PreviewResponse = await job.run(request.is_disconnected)
+    return result
 
 
-def _compute(req: PreviewRequest, svc, recipe, graph, resolver, t0: float, cancel) -> PreviewResponse:
+def compute_preview(cache: TieredCache | MemoryCache | None, cancel: threading.Event | None, req: PreviewRequest, recipe: Recipe,
+                    resolver: FileResolver, t0: float) -> PreviewResponse:
+    """The preview's computation: in the server, or in a preview worker under the run memory limit
+    (api/preview_worker.py; then its arguments and result are pickled)."""
+    graph = build_graph(recipe)
     error = None
     node = req.node
     cov = _coverage_node(graph) if req.coverage and req.bead_width is None else None
     model_src = graph.nodes[cov].inputs.get("model") if cov is not None else None
     targets = [node] + ([model_src[0]] if model_src and model_src[0] != node else [])
     try:
-        result = execute(graph, resolver=resolver, cache=svc.cache, targets=targets, layers=[req.layer], artifacts=False,
+        result = execute(graph, resolver=resolver, cache=cache, targets=targets, layers=[req.layer], artifacts=False,
                          workers=1, cancel=cancel)
         outputs, count = result.outputs, result.layer_count
     except PlanningError as err:
+        if is_memory_error(err):   # over the memory limit: the preview fails naming it (preview_worker.py)
+            raise
         error = err.to_dict()
         parents = [src for src, _ in graph.nodes[err.node].inputs.values()] if err.node in graph.nodes else []
         outputs, count = {}, None
         if parents:
             try:
-                r2 = execute(graph, resolver=resolver, cache=svc.cache, targets=parents + targets[1:], layers=[req.layer],
+                r2 = execute(graph, resolver=resolver, cache=cache, targets=parents + targets[1:], layers=[req.layer],
                              artifacts=False, workers=1, cancel=cancel)
                 outputs, count, node = r2.outputs, r2.layer_count, parents[0]
             except PlanningError:
