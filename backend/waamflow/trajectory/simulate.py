@@ -329,8 +329,14 @@ def _attribute(prog: _Program, path: BlendedPath, tl: Timeline, t: np.ndarray, x
     t_from = t.copy()
     t_from[first] = np.concatenate([[0.0], t[:-1][last[:-1]]])   # previous block's end (0 for the first)
     t_to = np.where(last, t, t_next)
+    # the arc clock at t_to and t_from, read off its values at the samples' own times (t_to and
+    # t_from are sample times but for the end of motion and 0)
+    a_t = arc_time(t)
+    a_to = np.where(last, a_t, np.concatenate([a_t[1:], arc_time(np.array([tl.t_end]))]))
+    a_from = a_t.copy()
+    a_from[first] = np.concatenate([arc_time(np.array([0.0])), a_t[:-1][last[:-1]]])
     inside = prog.inside[seg] & (prog.kind[seg] == DEPOSIT)
-    return _Samples(t, xyz, step, blk, seg, deviation, t_to - t_from, arc_time(t_to) - arc_time(t_from), inside)
+    return _Samples(t, xyz, step, blk, seg, deviation, t_to - t_from, a_to - a_from, inside)
 
 
 def _metrics(prog: _Program, path: BlendedPath, stop: np.ndarray, sm: _Samples, total_time: float,
