@@ -239,3 +239,13 @@ def test_non_planar_program_missing_its_last_wedge_fails(tmp_path, monkeypatch):
     # 6 wedges of 1.54° at the duct's centre radius 100 mm: about 16 mm of wall never built
     assert gap and gap[0]["severity"] == "fail" and rep["top_gap_mm"] > 10
     assert rep["uncovered_share"] > 0.05
+
+
+def test_a_mesh_part_without_its_mesh_is_named():
+    """Part.top / Part.bottom of a solid read its mesh: a solid built without vertices names the
+    part (it was a TypeError on None)."""
+    box = trimesh.creation.box((10.0, 10.0, 4.0))
+    part = Part("solid", "stl", vertices=np.asarray(box.vertices), faces=np.asarray(box.faces))
+    assert (part.bottom, part.top) == pytest.approx((-2.0, 2.0))
+    with pytest.raises(ValueError, match=r"part stl \(solid\) has no mesh"):
+        Part("solid", "stl").top

@@ -121,3 +121,32 @@ def test_one_chunker_for_the_robot_programs():
     assert [k for c in back for k in c.steps] == list(range(len(steps)))
     assert all(sum(isinstance(steps[k], Motion) for k in c.steps) <= 12 for c in back)
     assert len(back) > 3 and {c.layer for c in back} <= {0, 1, 2}
+
+
+def test_arc_geometry_of_a_circular_motion_and_the_refusal_of_a_line():
+    """Writers read a circular motion's centre and normal through Motion.arc_geometry: the fitted
+    half ring's centre (20, 30) and +z normal; a line has none and the error names the motion."""
+    plan = plan_program(flatten(build_toolpath(1)), PlanSettings(arc_tolerance=0.05))
+    circ = [m for m in plan.motions if m.circular]
+    assert circ
+    for m in circ:
+        (cx, cy, _cz), normal = m.arc_geometry()
+        if abs(cx - 20.0) < 1e-6:
+            assert cy == pytest.approx(30.0, abs=1e-6) and abs(normal[2]) == pytest.approx(1.0)
+    assert any(abs(m.arc_geometry()[0][0] - 20.0) < 1e-6 for m in circ)
+    line = next(m for m in plan.motions if not m.circular)
+    with pytest.raises(ValueError, match=rf"motion to point {line.end} \(layer {line.layer}\) is not a circular"):
+        line.arc_geometry()
+
+
+def test_post_process_names_the_settings_class_of_the_format():
+    """A writer given another format's settings is refused by name (it failed deep inside the
+    writer with an AttributeError); print points take the blend distance in mm."""
+    from waamflow.program import GcodeSettings, KrlSettings, post_process
+
+    moves = flatten(build_toolpath(1))
+    with pytest.raises(TypeError, match=r"post_process\('krl'\): writer_settings must be KrlSettings, not GcodeSettings"):
+        post_process(moves, "krl", writer_settings=GcodeSettings())
+    with pytest.raises(TypeError, match=r"printpoints.*blend distance in mm, not KrlSettings"):
+        post_process(build_toolpath(1), "printpoints", writer_settings=KrlSettings())
+    assert post_process(moves, "krl", writer_settings=KrlSettings(program_name="wall")).name == "wall"
