@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.errors import InputFileError
 from ..core.model import MeshData
-from .topology import (EdgeReport, check_closed, drop_degenerate, edge_report, edge_twins, edge_uses, face_components,
+from .topology import (EdgeReport, check_closed, drop_degenerate, edge_report_twins, edge_uses, face_components,
                        face_volumes, merge_vertices, signed_volume, split_nonmanifold)
 from .transform import Transform, unit_scale
 from .units import threemf_units
@@ -179,7 +179,8 @@ def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[n
     return verts[keep], faces, int(len(verts) - len(keep))
 
 
-def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float) -> tuple[np.ndarray, np.ndarray, dict]:
+def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float,
+                edges: tuple[EdgeReport, np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
     """Repair what can be repaired without changing the shape; returns (vertices, faces, counts).
 
     In order: (1) cracks: vertices on open edges within `crack_tolerance` (vertex units) are
@@ -191,20 +192,21 @@ def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float)
     dependency, networkx included), then every closed body whose volume is negative is turned
     inside out so normals point outwards. Counts: vertices_merged, nonmanifold_edges_split,
     faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport).
+    edges: `edge_report_twins` of these faces when the caller has it (one sort of the edges less).
     """
     out = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
-    rep = edge_report(faces, len(verts))
+    rep, twin = edges if edges is not None else edge_report_twins(faces, len(verts))
     if rep.open and crack_tolerance > 0:
         v2, f2, merged = weld_open_edges(verts, faces, crack_tolerance)
-        r2 = edge_report(f2, len(v2))
+        r2, t2 = edge_report_twins(f2, len(v2))
         if len(f2) and r2.open == 0:
-            verts, faces, rep, out["vertices_merged"] = v2, f2, r2, merged
+            verts, faces, rep, twin, out["vertices_merged"] = v2, f2, r2, t2, merged
     if rep.nonmanifold and rep.open == 0:
         f2, src, _ = split_nonmanifold(faces, len(verts))
-        r2 = edge_report(f2, len(src))
+        r2, t2 = edge_report_twins(f2, len(src))
         if r2.open == 0 and r2.nonmanifold == 0:
             out["nonmanifold_edges_split"] = rep.nonmanifold
-            verts, faces, rep = verts[src], f2, r2
+            verts, faces, rep, twin = verts[src], f2, r2, t2
     before = np.asarray(faces, dtype=np.int64).copy()
     if rep.misoriented and rep.nonmanifold == 0:
         import trimesh
@@ -212,9 +214,8 @@ def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float)
         tm = trimesh.Trimesh(vertices=np.asarray(verts, dtype=np.float64), faces=before, process=False)
         trimesh.repair.fix_winding(tm)
         faces = np.asarray(tm.faces, dtype=np.int64)
-        rep = edge_report(faces, len(verts))
-    if rep.closed:
-        twin = edge_twins(faces, len(verts))
+        rep, twin = edge_report_twins(faces, len(verts))
+    if rep.closed and twin is not None:   # closed: the twins exist
         n, label = face_components(twin, len(faces))
         vol = np.bincount(label, weights=face_volumes(verts, faces), minlength=n)
         inside_out = vol[label] < 0
@@ -270,15 +271,19 @@ def mesh_from_triangles(
     if len(faces) == 0:
         raise InputFileError(f"{label}: mesh is empty (all {len(tri)} triangles are degenerate)")
     welded = 0
-    rep = edge_report(faces, len(verts)) if (weld_tolerance > 0 or require_closed) else None
-    if weld_tolerance > 0 and rep.open:
+    # report and twins from one sort of the edges, handed to the repair (which needs both)
+    edges = edge_report_twins(faces, len(verts)) if (weld_tolerance > 0 or require_closed) else None
+    rep = edges[0] if edges is not None else None
+    if weld_tolerance > 0 and rep is not None and rep.open:
         verts, faces, welded = weld_open_edges(verts, faces, weld_tolerance / unit_scale(units))
         if len(faces) == 0:
             raise InputFileError(f"{label}: mesh is empty after welding within {weld_tolerance:g} mm")
-        rep = edge_report(faces, len(verts))
+        edges = edge_report_twins(faces, len(verts))
+        rep = edges[0]
     fixes: dict = {}
     if crack_tolerance is not None:
-        verts, faces, fixes = repair_mesh(verts, faces, crack_tolerance=crack_tolerance / unit_scale(units))
+        verts, faces, fixes = repair_mesh(verts, faces, crack_tolerance=crack_tolerance / unit_scale(units),
+                                          edges=edges)
         rep = fixes["edges"]
         if stage:
             stage(0.8, f"checked and repaired {len(faces):,} faces ({rep.open} open, {rep.nonmanifold} "
