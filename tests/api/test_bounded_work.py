@@ -7,23 +7,20 @@ the client leaves; cancel ends a run within 2 s, its layer workers killed, a blo
 import asyncio
 import io
 import json
-import struct
 import threading
 import time
 import zipfile
 
-import numpy as np
 import psutil
 import pytest
-from fastapi.testclient import TestClient
 from pydantic import Field
 
 import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
+from helpers_limits import box_stl, client, settings, sliced
 from waamflow.api.app import create_app
 from waamflow.engine.node import Node, NodeParams, Port, register
-from waamflow.settings import Settings
 
 SPINS = {"n": 0}
 RELEASE = threading.Event()
@@ -70,31 +67,8 @@ class ToyBlock(Node):
         return {"layers": inputs["layers"]}
 
 
-def _client(tmp_path, **kw):
-    kw.setdefault("workers", 1)
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, **kw)
-    return TestClient(create_app(s))
-
-
-def box_stl(height: float, size: float = 20.0) -> bytes:
-    """A closed box, binary STL, `height` mm tall."""
-    v = np.array([[x, y, z] for x in (0, size) for y in (0, size) for z in (0, height)], dtype=np.float32)
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
-             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
-    out = io.BytesIO()
-    out.write(b"\0" * 80 + struct.pack("<I", len(faces)))
-    for f in faces:
-        out.write(struct.pack("<3f", 0, 0, 0) + v[list(f)].tobytes() + b"\0\0")
-    return out.getvalue()
-
-
-def sliced(path: str, layer_height: float = 1.5) -> dict:
-    return toy.recipe([("part", "mesh", {"path": path}), ("layers", "slice", {"layer_height": layer_height})],
-                      [("part.mesh", "layers.mesh")])
-
-
 def test_layer_estimate_refuses_run_and_preview_before_they_start(tmp_path):
-    with _client(tmp_path, max_layers=50) as c:
+    with client(tmp_path, max_layers=50) as c:
         assert c.put("/api/graphs/tall", json=sliced("tall.stl")).status_code == 201
         assert c.put("/api/graphs/tall/files/tall.stl", content=box_stl(3000.0)).status_code == 204
         t0 = time.monotonic()
@@ -122,7 +96,7 @@ def test_3mf_zip_bomb_and_dxf_flood_are_refused_by_their_declared_size(tmp_path)
     assert len(bomb.getvalue()) < 200_000
     dxf = "0\nSECTION\n2\nENTITIES\n" + "".join(f"0\nLINE\n8\n0\n10\n{i}\n20\n0\n11\n{i}\n21\n1\n" for i in range(600)) \
         + "0\nENDSEC\n0\nEOF\n"
-    with _client(tmp_path, max_uncompressed_mb=50, max_dxf_entities=500) as c:
+    with client(tmp_path, max_uncompressed_mb=50, max_dxf_entities=500) as c:
         assert c.put("/api/graphs/g", json=sliced("bomb.3mf")).status_code == 201
         assert c.put("/api/graphs/g/files/bomb.3mf", content=bomb.getvalue()).status_code == 204
         assert c.put("/api/graphs/g/files/many.dxf", content=dxf.encode()).status_code == 204
@@ -138,7 +112,7 @@ def test_3mf_zip_bomb_and_dxf_flood_are_refused_by_their_declared_size(tmp_path)
 def test_too_many_layers_stop_the_run_before_the_next_node(tmp_path):
     rec = toy.recipe([("stack", "toy-stack", {"count": 2000}), ("slow", "toy-slow", {"seconds": 0.05})],
                      [("stack.layers", "slow.layers")])
-    with _client(tmp_path, max_layers=50) as c:
+    with client(tmp_path, max_layers=50) as c:
         t0 = time.monotonic()
         run = wait(c, c.post("/api/runs", json={"recipe": rec}).json()["id"])
         assert time.monotonic() - t0 < 2.0          # the 2000 slow layers (100 s) never ran
@@ -151,7 +125,7 @@ def test_too_many_layers_stop_the_run_before_the_next_node(tmp_path):
 def test_progress_events_carry_the_layer(tmp_path):
     rec = toy.recipe([("stack", "toy-stack", {"count": 12}), ("slow", "toy-slow", {"seconds": 0.12})],
                      [("stack.layers", "slow.layers")])
-    with _client(tmp_path, layer_workers=1) as c:
+    with client(tmp_path, layer_workers=1) as c:
         run = wait(c, c.post("/api/runs", json={"recipe": rec}).json()["id"])
         assert run["status"] == "done"
         prog = [e for e in c.get(f"/api/runs/{run['id']}/log").json() if e["kind"] == "node_progress"]
@@ -177,7 +151,7 @@ IN_PROCESS = pytest.mark.parametrize("run_memory_mb", [0, 1024], ids=["thread", 
 @IN_PROCESS
 def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path, run_memory_mb):
     beat = tmp_path / "beat"
-    with _client(tmp_path, preview_timeout_s=0.5, max_queued_runs=1, run_memory_mb=run_memory_mb) as c:
+    with client(tmp_path, preview_timeout_s=0.5, max_queued_runs=1, run_memory_mb=run_memory_mb) as c:
         t0 = time.monotonic()
         r = c.post("/api/preview", json={"recipe": spin(5.0, beat), "node": "spin", "layer": 0})
         assert time.monotonic() - t0 < 2.5
@@ -195,8 +169,7 @@ def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path, run_memory_mb):
 
 @IN_PROCESS
 def test_preview_stops_when_the_client_leaves(tmp_path, run_memory_mb):
-    app = create_app(Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None,
-                              workers=1, run_memory_mb=run_memory_mb))
+    app = create_app(settings(tmp_path, workers=1, run_memory_mb=run_memory_mb))
     beat = tmp_path / "beat"
     body = json.dumps({"recipe": spin(5.0, beat), "node": "spin", "layer": 0}).encode()
 
@@ -248,7 +221,7 @@ def test_cancel_kills_layer_workers_within_2_s(tmp_path):
     rec = toy.recipe([("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.4})],
                      [("stack.layers", "slow.layers")])
     me = psutil.Process()
-    with _client(tmp_path, layer_workers=2) as c:
+    with client(tmp_path, layer_workers=2) as c:
         before = _workers_of(me)
         rid = c.post("/api/runs", json={"recipe": rec}).json()["id"]
         t0 = time.monotonic()
@@ -274,7 +247,7 @@ def test_cancel_ends_a_blocked_run_within_2_s(tmp_path):
                      [("stack.layers", "block.layers")])
     RELEASE.clear()
     try:
-        with _client(tmp_path) as c:
+        with client(tmp_path) as c:
             rid = c.post("/api/runs", json={"recipe": rec}).json()["id"]
             t0 = time.monotonic()
             while c.get(f"/api/runs/{rid}").json()["status"] != "running" and time.monotonic() - t0 < 10:
@@ -296,7 +269,7 @@ def test_cancel_ends_a_blocked_run_within_2_s(tmp_path):
 
 def test_concurrent_previews_wait_their_turn(tmp_path):
     """One computing at a time (workers=1): four sent at once all answer, one after the other."""
-    with _client(tmp_path) as c:
+    with client(tmp_path) as c:
         out = []
 
         def one(k):   # four different recipes: none answered from the cache

@@ -12,14 +12,12 @@ import signal
 import time
 
 import numpy as np
-from fastapi.testclient import TestClient
 from pydantic import Field
 
 import toy_nodes as toy
 from api_util import wait_for_run as wait
-from waamflow.api.app import create_app
+from helpers_limits import client, gone, parallel_now
 from waamflow.api.tree_memory import group_pids, start_tree
-from waamflow.engine import parallel
 from waamflow.engine.node import LayerNode, Node, NodeParams, Port, register
 from waamflow.settings import Settings
 
@@ -76,17 +74,13 @@ def _hog(mb: int, node: str = "toy-hog", count: int = 3, **extra) -> dict:
                       [("stack.layers", "hog.layers")])
 
 
-def _settings(tmp_path, **kw) -> Settings:
-    return Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, **kw)
-
-
 def test_default_is_a_share_of_the_machine_memory(tmp_path):
     total_mb = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") / 2**20
     assert Settings().run_memory_mb == round(total_mb / 2)
 
 
 def test_a_run_over_its_memory_limit_fails_and_the_server_goes_on(tmp_path):
-    with TestClient(create_app(_settings(tmp_path, workers=2, run_memory_mb=200, layer_workers=1))) as c:
+    with client(tmp_path, workers=2, run_memory_mb=200, layer_workers=1) as c:
         pid = os.getpid()
         big = c.post("/api/runs", json={"recipe": _hog(400)}).json()["id"]
         small = c.post("/api/runs", json={"recipe": _hog(20)}).json()["id"]
@@ -103,10 +97,10 @@ def test_a_run_over_its_memory_limit_fails_and_the_server_goes_on(tmp_path):
 
 
 def test_layer_workers_inherit_the_limit(tmp_path, monkeypatch):
-    _parallel_now(monkeypatch)
+    parallel_now(monkeypatch)
     pids = tmp_path / "pids"
     pids.mkdir()
-    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=400, layer_workers=2))) as c:
+    with client(tmp_path, workers=1, run_memory_mb=400, layer_workers=2) as c:
         ok = c.post("/api/runs", json={"recipe": _hog(20, "toy-layer-hog", count=8, pid_dir=str(pids))}).json()["id"]
         r_ok = wait(c, ok, timeout=120)
         assert r_ok["status"] == "done", r_ok["error"]
@@ -122,7 +116,7 @@ def test_layer_workers_inherit_the_limit(tmp_path, monkeypatch):
 def test_off_runs_in_the_server_process(tmp_path):
     pids = tmp_path / "pids"
     pids.mkdir()
-    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=0, layer_workers=1))) as c:
+    with client(tmp_path, workers=1, run_memory_mb=0, layer_workers=1) as c:
         r = c.post("/api/runs", json={"recipe": _hog(5, "toy-layer-hog", count=2, pid_dir=str(pids))}).json()["id"]
         t0 = time.monotonic()
         assert wait(c, r)["status"] == "done" and time.monotonic() - t0 < 60
@@ -147,34 +141,19 @@ def test_serve_option_and_variable(monkeypatch, tmp_path):
     assert cli.main(["serve", "--run-memory-mb", "-1"]) == 2
 
 
-def _parallel_now(monkeypatch) -> None:
-    """Layers go to the workers at once (no timing of a first layer, workers started in the foreground)."""
-    for name, value in (("MIN_PARALLEL_S", 0.0), ("WARM_MIN_PARALLEL_S", 0.0), ("TIMING_S", 0.0),
-                        ("BACKGROUND_START", False)):
-        monkeypatch.setattr(parallel, name, value)
-
-
 def _computed_by(pids) -> dict[int, int]:
     """pid → process group of each process that computed a layer (toy-layer-hog's pid_dir)."""
     return {int(p.name): int(p.read_text().split()[1]) for p in pids.iterdir() if not p.name.startswith(".")}
-
-
-def _gone(pgid: int, timeout: float = 3.0) -> list[int]:
-    """The living members of process group `pgid` once none is left, or after `timeout`."""
-    t0 = time.monotonic()
-    while (left := group_pids(pgid)) and time.monotonic() - t0 < timeout:
-        time.sleep(0.05)
-    return left
 
 
 def test_one_budget_for_the_runs_whole_process_tree(tmp_path, monkeypatch):
     """Two processes of a run (its layer workers, or the run and a worker) holding 60 % of the budget
     each: 120 % for the run. Each process is under its own cap, the tree is not: the run fails naming
     run_memory_mb; the server and another run go on."""
-    _parallel_now(monkeypatch)
+    parallel_now(monkeypatch)
     pids = tmp_path / "pids"
     pids.mkdir()
-    with TestClient(create_app(_settings(tmp_path, workers=2, run_memory_mb=300, layer_workers=2))) as c:
+    with client(tmp_path, workers=2, run_memory_mb=300, layer_workers=2) as c:
         rec = _hog(180, "toy-layer-hog", count=6, hold_s=3.0, pid_dir=str(pids))
         big = c.post("/api/runs", json={"recipe": rec}).json()["id"]
         other = c.post("/api/runs", json={"recipe": _hog(20)}).json()["id"]
@@ -188,14 +167,14 @@ def test_one_budget_for_the_runs_whole_process_tree(tmp_path, monkeypatch):
         ran = _computed_by(pids)
         (group,) = set(ran.values())
         assert group != os.getpgid(0) and len(ran) >= 2, ran   # two processes of the run's tree held 180 MB each
-        assert _gone(group) == []   # killed with the run, workers included
+        assert gone(group) == []   # killed with the run, workers included
         ro = wait(c, other, timeout=60)
         assert ro["status"] == "done" and ro["summary"]["layer_count"] == 3
         assert c.get("/api/health").status_code == 200
 
 
 def test_a_preview_over_the_budget_is_refused_naming_it(tmp_path):
-    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=200))) as c:
+    with client(tmp_path, workers=1, run_memory_mb=200) as c:
         t0 = time.monotonic()
         r = c.post("/api/preview", json={"recipe": _hog(400), "node": "hog", "layer": 0})
         assert r.status_code == 422, r.text
@@ -211,16 +190,16 @@ def test_a_preview_over_the_budget_is_refused_naming_it(tmp_path):
 def test_a_runs_processes_end_with_it_and_with_the_server(tmp_path, monkeypatch):
     """Every process of a run's tree (its fork server, its layer workers) ends with the run, and
     with the server when it stops while the run computes; the preview worker ends with the server."""
-    _parallel_now(monkeypatch)
+    parallel_now(monkeypatch)
     pids = tmp_path / "pids"
     pids.mkdir()
-    with TestClient(create_app(_settings(tmp_path, workers=1, run_memory_mb=1024, layer_workers=2))) as c:
+    with client(tmp_path, workers=1, run_memory_mb=1024, layer_workers=2) as c:
         rid = c.post("/api/runs", json={"recipe": _hog(5, "toy-layer-hog", count=6, pid_dir=str(pids))}).json()["id"]
         assert wait(c, rid, timeout=120)["status"] == "done"
         ran = _computed_by(pids)
         (group,) = set(ran.values())
         assert group != os.getpgid(0) and len(ran) >= 2, ran
-        assert _gone(group) == []
+        assert gone(group) == []
         assert c.post("/api/preview", json={"recipe": _hog(5), "node": "hog", "layer": 0}).status_code == 200
         (preview_group,) = c.app.state.services.runs.preview_pool.pids()
         assert len(group_pids(preview_group)) >= 1
@@ -236,7 +215,7 @@ def test_a_runs_processes_end_with_it_and_with_the_server(tmp_path, monkeypatch)
         assert len(members) >= 3, members   # the run, its fork server, its workers
         t0 = time.monotonic()
     assert time.monotonic() - t0 < 12   # the server stopped without waiting for the layers (4 s each)
-    assert _gone(group) == [] and _gone(preview_group) == []
+    assert gone(group) == [] and gone(preview_group) == []
 
 
 def _pool_then_wait(out_dir: str) -> None:
@@ -264,6 +243,43 @@ def test_the_fork_server_and_workers_end_when_the_leader_is_killed(tmp_path):
         assert len(workers) == 2 and set(workers) < set(members) and len(members) >= 4, members  # + leader, fork server
         os.kill(tree.proc.pid, signal.SIGKILL)   # as PDEATHSIG does: nothing of the leader runs after it
         tree.proc.join(5)
-        assert _gone(tree.proc.pid, timeout=3.0) == []
+        assert gone(tree.proc.pid, timeout=3.0) == []
     finally:
         tree.kill()
+
+
+def _wait_s(seconds: float) -> None:
+    time.sleep(seconds)
+
+
+def test_cgroup_v2_where_the_memory_controller_is_delegated(tmp_path, monkeypatch):
+    """With a delegated cgroup v2 (a stand-in directory here: this test box has cgroup v1's memory
+    controller), each tree gets a child cgroup with memory.max = the budget, its leader joins it
+    before it starts anything, and the watchdog stands down; without delegation, the watchdog."""
+    from waamflow.api import tree_memory
+
+    parent = tmp_path / "cg"
+    parent.mkdir()
+    assert tree_memory.cgroup_parent(parent)[0] is None   # no cgroup.subtree_control
+    (parent / "cgroup.subtree_control").write_text("cpu io\n")
+    got, why = tree_memory.cgroup_parent(parent)
+    assert got is None and "not delegated" in why
+    (parent / "cgroup.subtree_control").write_text("cpu memory pids\n")
+    assert tree_memory.cgroup_parent(parent) == (parent, f"cgroup v2 under {parent}")
+    monkeypatch.setattr(tree_memory, "_CGROUP", [parent])
+    tree = start_tree(contextlib.nullcontext, 300 * 2**20, _wait_s, (1.0,), "cg-test")
+    try:
+        cg = parent / "waamflow-cg-test"
+        assert (cg / "memory.max").read_text() == str(300 * 2**20) and (cg / "memory.oom.group").read_text() == "1"
+        t0 = time.monotonic()
+        while not (cg / "cgroup.procs").exists() and time.monotonic() - t0 < 10:
+            time.sleep(0.02)
+        assert (cg / "cgroup.procs").read_text() == str(tree.proc.pid)
+        assert tree.watch.budget == 0 and not tree.out_of_memory()
+        (cg / "memory.events").write_text("low 0\nhigh 0\nmax 3\noom 1\noom_kill 1\n")
+        assert tree.out_of_memory()
+    finally:
+        tree.end()
+    real, why = tree_memory.cgroup_parent()
+    print("this machine:", tree_memory.memory_mode())
+    assert (real is None) == tree_memory.memory_mode().startswith("watchdog")
