@@ -291,10 +291,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--header-timeout", type=float, default=None, metavar="S",
                    help="seconds a connection has to send its request head (default: WAAMFLOW_HEADER_TIMEOUT_S, else 10)")
     s.add_argument("--run-memory-mb", type=float, default=None, metavar="MB",
-                   help="memory of one run: each run executes in a process of its own that may use this much "
-                        "beyond its start, and so may each of its layer workers; a run that needs more fails "
-                        "(default: WAAMFLOW_RUN_MEMORY_MB, else half the machine's memory; 0 = runs in the server "
-                        "process, unlimited)")
+                   help="memory of one run's whole process tree (the run and its layer workers together), and "
+                        "of a preview's; a run or preview that needs more fails (default: WAAMFLOW_RUN_MEMORY_MB, "
+                        "else half the machine's memory; 0 = runs and previews in the server process, unlimited)")
     s.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")

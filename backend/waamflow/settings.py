@@ -84,11 +84,13 @@ class Settings(BaseSettings):
     max_memory_mb: float = Field(8192.0, ge=0, description="resident memory of the server process while runs are going, MB "
                                                         "(0 = unlimited); over it the largest running run fails")
     run_memory_mb: float = Field(default_factory=_default_run_memory_mb, ge=0,
-                                 description="memory of one run, MB (default: half the machine's): each run executes "
-                                             "in a process of its own with this much address space beyond what it "
-                                             "starts with (RLIMIT_AS), and so does each of its layer workers; a run "
-                                             "that needs more fails naming the limit. 0 = runs execute in the server "
-                                             "process, unlimited (Linux only; elsewhere 0)")
+                                 description="memory of one run's whole process tree (the run and its layer "
+                                             "workers together), MB (default: half the machine's); also of a "
+                                             "preview's. Each run executes in a process tree of its own, held to it "
+                                             "by a cgroup (memory.max) where the server may make one, else by the "
+                                             "server's watchdog; a run or preview that needs more fails naming the "
+                                             "limit. 0 = runs and previews execute in the server process, unlimited "
+                                             "(Linux only; elsewhere 0)")
     max_queued_runs: int = Field(16, ge=1, description="runs waiting or running; one more gets 429 + Retry-After")
     # estimates checked before a run or preview starts (422 with the estimate); 0 = no limit
     max_triangles: int = Field(20_000_000, ge=0, description="triangles of a run's meshes (STL header, OBJ faces)")
