@@ -1,35 +1,17 @@
+/** The node-graph editor (React Flow): typed nodes and wires, frames, refusal reasons while a wire
+ * is dragged. The state is in useGraphEditor's hooks. */
 import {
-  Background, Controls, Handle, MiniMap, NodeResizer, Position, ReactFlow, applyNodeChanges, getBezierPath, useReactFlow,
-  useConnection, type ConnectionLineComponentProps, type Edge, type EdgeChange, type Node, type NodeChange, type NodeProps, type OnConnect,
+  Background, Controls, Handle, MiniMap, NodeResizer, Position, ReactFlow, getBezierPath, useConnection, type ConnectionLineComponentProps, type Edge, type NodeProps,
 } from "@xyflow/react";
-import { createContext, memo, useCallback, useContext, useEffect, useMemo, useRef, useState, type DragEvent, type MouseEvent } from "react";
-import type { NodeSpec, Recipe, RecipeNode } from "../api/types";
+import { createContext, memo, useContext, useMemo } from "react";
+import type { Recipe } from "../api/types";
 import { badgeText, computeText, type NodeStatus } from "../run/status";
-import { isTyping } from "./useShortcuts";
+import type { Catalog, XY } from "./recipe";
 import {
-  connect, connectionError, connectionRefusal, edgeId, endpoint, framesOf, moveFrame, nodesInFrame, positionsOf, removeEdges, removeFrames, removeNodes, setPositions,
-  updateFrame, type Catalog, type Frame, type XY,
-} from "./recipe";
+  useConnectionRules, useDeletion, useFlowEdges, useFlowNodes, useNodesChange, usePaneActions, type AnyNode, type FNode, type Refusal, type Wire, type WNode,
+} from "./useGraphEditor";
 
-export interface WNodeData extends Record<string, unknown> {
-  node: RecipeNode;
-  spec?: NodeSpec;
-  status?: NodeStatus;
-  previewed: boolean;
-  onPreview: (id: string) => void;
-  problems?: { errors: number; warnings: number; text: string };
-}
-type WNode = Node<WNodeData, "waam">;
-interface FrameData extends Record<string, unknown> {
-  frame: Frame;
-  onRename: (id: string) => void;
-  onResized: (id: string, box: { x: number; y: number; w: number; h: number }) => void;
-}
-type FNode = Node<FrameData, "frame">;
-type AnyNode = WNode | FNode;
-/** Frame ids live beside node ids in the editor; a node id never contains ':'. */
-const FRAME = "frame:";
-const isFrame = (id: string) => id.startsWith(FRAME);
+export type { WNodeData } from "./useGraphEditor";
 
 /** A frame (node group): drag its title to move it with the nodes inside; resize from its edges. */
 const FrameNode = memo(function FrameNode({ data, selected }: NodeProps<FNode>) {
@@ -48,9 +30,6 @@ const FrameNode = memo(function FrameNode({ data, selected }: NodeProps<FNode>) 
     </div>
   );
 });
-
-type Refusal = { text: string; short: string } | null;
-type Wire = { source: string; sourceHandle: string | null; target: string; targetHandle: string | null };
 
 /** The wire being dragged, as [side it starts from, node, port] (null when none is). */
 function useDraggedWire(): [string, string, string] | null {
@@ -220,194 +199,12 @@ export interface GraphEditorProps {
 }
 
 export function GraphEditor(p: GraphEditorProps) {
-  const { recipe, catalog } = p;
-  const rf = useReactFlow();
-  const [nodes, setNodes] = useState<AnyNode[]>([]);
-
-  const onRenameFrame = useCallback(
-    (id: string) => {
-      const f = framesOf(p.recipe).find((x) => x.id === id);
-      const label = f && window.prompt("frame title", f.label);
-      if (label) p.onChange((r) => updateFrame(r, id, { label }));
-    },
-    [p],
-  );
-  const onResizedFrame = useCallback(
-    (id: string, box: { x: number; y: number; w: number; h: number }) => p.onChange((r) => updateFrame(r, id, box)),
-    [p],
-  );
-
-  // Rebuild editor nodes from the recipe, keeping what the editor measured.
-  useEffect(() => {
-    const pos = positionsOf(recipe);
-    setNodes((prev) => {
-      const old = new Map(prev.map((n) => [n.id, n]));
-      // Frames first (drawn below the nodes).
-      const frames: FNode[] = framesOf(recipe).map((f) => ({
-        ...((old.get(FRAME + f.id) as FNode | undefined) ?? {}),
-        id: FRAME + f.id,
-        type: "frame",
-        position: { x: f.x, y: f.y },
-        style: { width: f.w, height: f.h },
-        width: f.w,
-        height: f.h,
-        zIndex: -1,
-        dragHandle: ".wframe-head",
-        data: { frame: f, onRename: onRenameFrame, onResized: onResizedFrame },
-      }));
-      return [...frames, ...recipe.nodes.map((n) => {
-        const o = old.get(n.id);
-        const [x, y] = pos[n.id];
-        return {
-          ...(o ?? {}),
-          id: n.id,
-          type: "waam",
-          position: { x, y },
-          selected: p.selected.has(n.id),
-          data: {
-            node: n, spec: catalog.get(n.type), status: p.statuses[n.id], previewed: p.previewNode === n.id, onPreview: p.onPreview, problems: p.problems.get(n.id),
-          },
-        } as WNode;
-      })];
-    });
-  }, [recipe, catalog, p.statuses, p.selected, p.previewNode, p.onPreview, p.problems, onRenameFrame, onResizedFrame]);
-
-  const edges: Edge[] = useMemo(
-    () =>
-      recipe.edges.map((e) => {
-        const f = endpoint(e.from), t = endpoint(e.to);
-        const src = recipe.nodes.find((n) => n.id === f.node);
-        const color = src ? catalog.get(src.type)?.outputs.find((o) => o.name === f.port)?.color : undefined;
-        return {
-          id: edgeId(e), source: f.node, sourceHandle: f.port, target: t.node, targetHandle: t.port,
-          style: { stroke: color ?? "#999", strokeWidth: 2 },
-          animated: p.statuses[t.node]?.state === "running",
-        };
-      }),
-    [recipe, catalog, p.statuses],
-  );
-
-  // One deletion (Delete key) reports its edges and its nodes in separate callbacks, one after the
-  // other in the same task: gather them and apply one edit (one undo step).
-  const pendingDelete = useRef<{ nodes: Set<string>; edges: Set<string> } | null>(null);
-  const queueDelete = useCallback(
-    (nodeIds: string[], edgeIds: string[]) => {
-      if (!pendingDelete.current) {
-        pendingDelete.current = { nodes: new Set(), edges: new Set() };
-        queueMicrotask(() => {
-          const d = pendingDelete.current!;
-          pendingDelete.current = null;
-          const nodeSet = new Set([...d.nodes].filter((id) => !isFrame(id)));
-          const frameSet = new Set([...d.nodes].filter(isFrame).map((id) => id.slice(FRAME.length)));
-          p.onChange((r) => removeFrames(nodeSet.size ? removeNodes(removeEdges(r, d.edges), nodeSet) : removeEdges(r, d.edges), frameSet));
-        });
-      }
-      nodeIds.forEach((id) => pendingDelete.current!.nodes.add(id));
-      edgeIds.forEach((id) => pendingDelete.current!.edges.add(id));
-    },
-    [p],
-  );
-  // Delete/Backspace removes the selection through React Flow's own deletion (so nodes, frames and
-  // their edges arrive in onNodesChange/onEdgesChange and become one edit). React Flow's built-in
-  // delete key is off: its pressed-key tracking stayed stuck after Ctrl+C/Ctrl+V, and Delete then
-  // did nothing.
-  useEffect(() => {
-    if (!p.active) return;
-    const onKey = (e: KeyboardEvent) => {
-      if ((e.key !== "Delete" && e.key !== "Backspace") || e.ctrlKey || e.metaKey || e.altKey || isTyping(e.target)) return;
-      const nodes = rf.getNodes().filter((n) => n.selected);
-      const edges = rf.getEdges().filter((x) => x.selected);
-      if (!nodes.length && !edges.length) return;
-      e.preventDefault();
-      void rf.deleteElements({ nodes, edges });
-    };
-    window.addEventListener("keydown", onKey);
-    return () => window.removeEventListener("keydown", onKey);
-  }, [p.active, rf]);
-
-  const onNodesChange = useCallback(
-    (changes: NodeChange<AnyNode>[]) => {
-      // A frame being dragged carries the nodes inside it along (live; committed on drop).
-      const extra: NodeChange<AnyNode>[] = [];
-      const frameMoves: [string, XY][] = [];
-      for (const c of changes) {
-        if (c.type !== "position" || !c.position || !isFrame(c.id)) continue;
-        const f = framesOf(recipe).find((x) => FRAME + x.id === c.id);
-        if (!f) continue;
-        const [dx, dy] = [c.position.x - f.x, c.position.y - f.y];
-        const pos = positionsOf(recipe);
-        for (const n of nodesInFrame(recipe, f)) extra.push({ type: "position", id: n, position: { x: pos[n][0] + dx, y: pos[n][1] + dy } });
-        if (c.dragging === false) frameMoves.push([f.id, [Math.round(c.position.x), Math.round(c.position.y)]]);
-      }
-      setNodes((ns) => applyNodeChanges([...changes, ...extra], ns));
-      const moved: Record<string, XY> = {};
-      let selectionChanged = false;
-      const sel = new Set(p.selected);
-      for (const c of changes) {
-        if (c.type === "position" && c.position && c.dragging === false && !isFrame(c.id)) moved[c.id] = [Math.round(c.position.x), Math.round(c.position.y)];
-        if (c.type === "select" && !isFrame(c.id)) {
-          selectionChanged = true;
-          if (c.selected) sel.add(c.id);
-          else sel.delete(c.id);
-        }
-      }
-      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
-      if (removed.length) queueDelete(removed, []);
-      if (Object.keys(moved).length) p.onChange((r) => setPositions(r, moved));
-      for (const [id, to] of frameMoves) p.onChange((r) => moveFrame(r, id, to));
-      if (selectionChanged) p.onSelect(sel);
-    },
-    [p, recipe, queueDelete],
-  );
-
-  const onEdgesChange = useCallback(
-    (changes: EdgeChange[]) => {
-      const removed = changes.filter((c) => c.type === "remove").map((c) => c.id);
-      if (removed.length) queueDelete([], removed);
-    },
-    [queueDelete],
-  );
-
-  const reasonOf = useCallback(
-    (c: { source: string; sourceHandle: string | null; target: string; targetHandle: string | null }) => connectionError(catalog, recipe, c),
-    [catalog, recipe],
-  );
-  const refusalFor = useCallback((c: Wire) => connectionRefusal(catalog, recipe, c), [catalog, recipe]);
-  const valid = useCallback(
-    (c: Edge | { source: string; target: string; sourceHandle?: string | null; targetHandle?: string | null }) =>
-      connectionError(catalog, recipe, { source: c.source, target: c.target, sourceHandle: c.sourceHandle ?? null, targetHandle: c.targetHandle ?? null }) === null,
-    [catalog, recipe],
-  );
-
-  const onConnect: OnConnect = useCallback(
-    (c) => {
-      const err = connectionError(catalog, recipe, c);
-      if (err) p.onMessage(err);
-      else p.onChange((r) => connect(r, c));
-    },
-    [catalog, recipe, p],
-  );
-
-  const onDrop = useCallback(
-    (e: DragEvent) => {
-      const type = e.dataTransfer.getData("application/waamflow-node");
-      if (!type) return;
-      e.preventDefault();
-      const at = rf.screenToFlowPosition({ x: e.clientX, y: e.clientY });
-      p.onAddAt(type, [Math.round(at.x), Math.round(at.y)]);
-    },
-    [rf, p],
-  );
-
-  // Double-click on empty canvas opens the node search there (instead of zooming).
-  const onDoubleClick = useCallback(
-    (e: MouseEvent) => {
-      if (!(e.target as HTMLElement).classList.contains("react-flow__pane")) return;
-      const at = rf.screenToFlowPosition({ x: e.clientX, y: e.clientY });
-      p.onSearch(e.clientX, e.clientY, [Math.round(at.x), Math.round(at.y)]);
-    },
-    [rf, p],
-  );
+  const [nodes, setNodes] = useFlowNodes(p);
+  const edges = useFlowEdges(p.recipe, p.catalog, p.statuses);
+  const { queueDelete, onEdgesChange } = useDeletion(p.onChange, p.active);
+  const onNodesChange = useNodesChange(p, setNodes, queueDelete);
+  const { reasonOf, refusalFor, valid, onConnect } = useConnectionRules(p.catalog, p.recipe, p.onChange, p.onMessage);
+  const { onDrop, onDoubleClick } = usePaneActions(p.onAddAt, p.onSearch);
 
   return (
     <ReasonContext.Provider value={reasonOf}>
