@@ -275,106 +275,132 @@ def _e6pos(i: int, pts: np.ndarray, abc: np.ndarray, ext: np.ndarray | None, d: 
             f"A {num(o[0], 4)},B {num(o[1], 4)},C {num(o[2], 4)},{es}}}")
 
 
-def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech | None) -> tuple[list[str], list[int]]:
-    """Body lines of one program and the point indices it references."""
-    steps = plan.steps
-    keys = plan.moves.section_keys
-    d = s.decimals
-    lines: list[str] = []
-    used: list[int] = []
-    vel: float | None = None
-    out_no = s.arc_output
-    approach: tuple[int, int] | None = None   # lines[a:b] of the arc-off motion just written (ArcTech)
-    strike = 0.0                              # ignition dwell of the run being started (ArcTech)
-    arc = any(isinstance(steps[j], ArcOn) for j in range(chunk.steps[0] if chunk.steps else 0)) and not isinstance(
-        next((steps[j] for j in range((chunk.steps[0] if chunk.steps else 0) - 1, -1, -1)
-              if isinstance(steps[j], (ArcOn, ArcOff))), None), ArcOff)   # output mode: arc on across a call
-    commanded: dict[str, float] = {}
-    pending: list[str] = []                   # path triggers of weld values, right before the next motion
+def _arc_on_before(steps, first: int) -> bool:
+    """Whether the arc is on where step `first` starts a program (output mode: on across a call)."""
+    return any(isinstance(steps[j], ArcOn) for j in range(first)) and not isinstance(
+        next((steps[j] for j in range(first - 1, -1, -1) if isinstance(steps[j], (ArcOn, ArcOff))), None), ArcOff)
 
-    def speed_lines(v: float) -> list[str]:
-        nonlocal vel
+
+class _KrlBody:
+    """The body lines of one program, step by step: the $VEL.CP in force, the points used, the arc
+    state and the weld values commanded (output mode), the arc-off motion just written (ArcTech
+    ignites on it) and the weld-value path triggers waiting for the next motion."""
+
+    def __init__(self, plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech | None) -> None:
+        self.s, self.arctech = s, arctech
+        self.steps = plan.steps
+        self.keys = plan.moves.section_keys
+        self.lines: list[str] = []
+        self.used: list[int] = []
+        self.vel: float | None = None
+        self.approach: tuple[int, int] | None = None   # lines[a:b] of the arc-off motion just written (ArcTech)
+        self.arc = _arc_on_before(self.steps, chunk.steps[0] if chunk.steps else 0)
+        self.commanded: dict[str, float] = {}
+        self.pending: list[str] = []                   # path triggers of weld values, right before the next motion
+
+    def speed_lines(self, v: float) -> list[str]:
         v_ms = round(float(v) / 1000.0, 6)
-        if v_ms == vel:
+        if v_ms == self.vel:
             return []
-        vel = v_ms
+        self.vel = v_ms
         return [f"$VEL.CP={v_ms:.6f} ; {short(round(float(v), 3))} mm/s"]
 
-    def motion_lines(st: Motion, blend: str) -> list[str]:
+    def motion_lines(self, st: Motion, blend: str) -> list[str]:
         if st.circular:
-            used.extend([st.via, st.end])
+            self.used.extend([st.via, st.end])
             return [f"CIRC P{st.via + 1},P{st.end + 1}{blend}"]
-        used.append(st.end)
+        self.used.append(st.end)
         return [f"LIN P{st.end + 1}{blend}"]
 
-    for k in chunk.steps:
-        st: Step = steps[k]
+    def step(self, k: int, st: Step) -> None:
+        """The lines of plan step k."""
+        s, lines = self.s, self.lines
         if isinstance(st, LayerStart):
-            lines.append(f";- layer {st.layer} z={num(st.z, d)}")
+            lines.append(f";- layer {st.layer} z={num(st.z, s.decimals)}")
         elif isinstance(st, SectionStart):
-            lines.append(f";- section {keys[st.section]}")
+            lines.append(f";- section {self.keys[st.section]}")
         elif isinstance(st, ProcessChange):
-            desc = process_summary(st.params)
-            lines.append(f";- zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
-            if arctech is None:
-                if arc:                        # inside a run: the changes, at the next motion's start
-                    changed = {n for n, v in st.params.items() if commanded.get(n) != float(v)}
-                    pending = [f"TRIGGER WHEN DISTANCE=0 DELAY=0 DO {ln}"
-                               for ln in process_lines(st.params, s.process_codes, names=changed)]
-                else:
-                    lines.extend(process_lines(st.params, s.process_codes))
-                commanded.update({n: float(v) for n, v in st.params.items()})
+            self.process_change(st)
         elif isinstance(st, ArcOn):
-            if arctech is None:
-                lines.append(f"$OUT[{out_no}]=TRUE ; arc on")
-                arc = True
-                continue
-            nxt = steps[k + 1] if k + 1 < len(steps) else None
-            strike = nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
-            first = _first_weld(steps, k)
-            wdat = arctech.data_set(st.section, st.zone, first.speed if first else s.travel_speed, strike)
-            if approach is not None:
-                a, b = approach
-                lines[a:b] = arctech.arc_on(wdat, lines[a:b])
-            else:                                   # ignite where the torch stands
-                used.append(st.point)
-                lines.extend(arctech.arc_on(wdat, [f"LIN P{st.point + 1} ; ignite in place"]))
+            self.arc_on(k, st)
         elif isinstance(st, ArcOff):
-            arc = False
-            if arctech is None:
+            self.arc = False
+            if self.arctech is None:
                 lines.append(f";- arc off at P{st.point + 1} (trigger)")
         elif isinstance(st, Dwell):
-            approach = None
-            if arctech is not None and st.reason == "ignition":
+            self.approach = None
+            if self.arctech is not None and st.reason == "ignition":
                 lines.append(f";- ignition dwell {short(round(st.seconds, 3))} s (Strike.StartTime)")
-                continue
+                return
             lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
         elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
-            approach = None
+            self.approach = None
             on = isinstance(st, ToolOn)
             tparams = st.params if isinstance(st, ToolOn) else {}
             tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, tparams)
-            lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
+            self.lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
                 f"{tl[-1]} ; {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
         elif isinstance(st, Motion):
-            v = s.travel_speed if st.mode == "travel" else st.speed
-            start = len(lines)
-            lines.extend(speed_lines(v))
-            lines.extend(pending)
-            pending = []
-            nxt = steps[k + 1] if k + 1 < len(steps) else None
-            blend = " C_DIS" if (s.blend_distance > 0 and not st.stop) else ""
-            if arctech is not None and st.mode == "weld":
-                wdat = arctech.data_set(st.section, st.zone, st.speed, 0.0)
-                wrap = arctech.arc_off if isinstance(_next_significant(steps, k), ArcOff) else arctech.arc_swi
-                lines.extend(wrap(wdat, motion_lines(st, blend)))
-                approach = None
-                continue
-            if arctech is None and isinstance(nxt, ArcOff):
-                lines.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[{out_no}]=FALSE")
-            lines.extend(motion_lines(st, blend))
-            approach = (start, len(lines))
-    return lines, used
+            self.motion(k, st)
+
+    def process_change(self, st: ProcessChange) -> None:
+        desc = process_summary(st.params)
+        self.lines.append(f";- zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
+        if self.arctech is None:
+            if self.arc:                        # inside a run: the changes, at the next motion's start
+                changed = {n for n, v in st.params.items() if self.commanded.get(n) != float(v)}
+                self.pending = [f"TRIGGER WHEN DISTANCE=0 DELAY=0 DO {ln}"
+                                for ln in process_lines(st.params, self.s.process_codes, names=changed)]
+            else:
+                self.lines.extend(process_lines(st.params, self.s.process_codes))
+            self.commanded.update({n: float(v) for n, v in st.params.items()})
+
+    def arc_on(self, k: int, st: ArcOn) -> None:
+        """Output mode: the arc output on. ArcTech: the arc-on call on the arc-off motion just
+        written, else a LIN to the point to ignite in place."""
+        steps, arctech = self.steps, self.arctech
+        if arctech is None:
+            self.lines.append(f"$OUT[{self.s.arc_output}]=TRUE ; arc on")
+            self.arc = True
+            return
+        nxt = steps[k + 1] if k + 1 < len(steps) else None
+        strike = nxt.seconds if isinstance(nxt, Dwell) and nxt.reason == "ignition" else 0.0
+        first = _first_weld(steps, k)
+        wdat = arctech.data_set(st.section, st.zone, first.speed if first else self.s.travel_speed, strike)
+        if self.approach is not None:
+            a, b = self.approach
+            self.lines[a:b] = arctech.arc_on(wdat, self.lines[a:b])
+        else:                                   # ignite where the torch stands
+            self.used.append(st.point)
+            self.lines.extend(arctech.arc_on(wdat, [f"LIN P{st.point + 1} ; ignite in place"]))
+
+    def motion(self, k: int, st: Motion) -> None:
+        s, steps, arctech, lines = self.s, self.steps, self.arctech, self.lines
+        v = s.travel_speed if st.mode == "travel" else st.speed
+        start = len(lines)
+        lines.extend(self.speed_lines(v))
+        lines.extend(self.pending)
+        self.pending = []
+        nxt = steps[k + 1] if k + 1 < len(steps) else None
+        blend = " C_DIS" if (s.blend_distance > 0 and not st.stop) else ""
+        if arctech is not None and st.mode == "weld":
+            wdat = arctech.data_set(st.section, st.zone, st.speed, 0.0)
+            wrap = arctech.arc_off if isinstance(_next_significant(steps, k), ArcOff) else arctech.arc_swi
+            lines.extend(wrap(wdat, self.motion_lines(st, blend)))
+            self.approach = None
+            return
+        if arctech is None and isinstance(nxt, ArcOff):
+            lines.append(f"TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[{s.arc_output}]=FALSE")
+        lines.extend(self.motion_lines(st, blend))
+        self.approach = (start, len(lines))
+
+
+def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech | None) -> tuple[list[str], list[int]]:
+    """Body lines of one program and the point indices it references."""
+    body = _KrlBody(plan, s, chunk, arctech)
+    for k in chunk.steps:
+        body.step(k, plan.steps[k])
+    return body.lines, body.used
 
 
 def _header(plan: Plan, s: KrlSettings) -> list[str]:
