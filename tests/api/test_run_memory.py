@@ -283,3 +283,17 @@ def test_cgroup_v2_where_the_memory_controller_is_delegated(tmp_path, monkeypatc
     real, why = tree_memory.cgroup_parent()
     print("this machine:", tree_memory.memory_mode())
     assert (real is None) == tree_memory.memory_mode().startswith("watchdog")
+
+
+def test_a_preview_worker_that_died_is_replaced(tmp_path):
+    """The preview worker killed while idle (e.g. by the OOM killer): the next preview starts a new one."""
+    with client(tmp_path, run_memory_mb=512) as c:
+        assert c.post("/api/preview", json={"recipe": _hog(5), "node": "hog", "layer": 0}).status_code == 200
+        pool = c.app.state.services.runs.preview_pool
+        (first,) = pool.pids()
+        os.kill(first, signal.SIGKILL)
+        assert gone(first) == []
+        r = c.post("/api/preview", json={"recipe": _hog(5), "node": "hog", "layer": 1})
+        assert r.status_code == 200 and r.json()["layer_count"] == 3, r.text
+        (second,) = pool.pids()
+        assert second != first and pool.workers[0].started == 2

@@ -115,7 +115,13 @@ class PreviewWorker:
         """`fn(cache, cancel, *args)` in the worker; its result, or the error the server answers."""
         tree = self._ensure()
         self.stop.clear()
-        self.conn.send((fn, args))
+        try:
+            self.conn.send((fn, args))
+        except OSError:   # it ended since (killed while idle): a new one takes the preview
+            self.close()
+            tree = self._ensure()
+            self.stop.clear()
+            self.conn.send((fn, args))
         cancelled_at = None
         while True:
             if self.conn.poll(0.05):
