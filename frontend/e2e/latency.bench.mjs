@@ -1,0 +1,109 @@
+// GUI latency under a heavy recipe (#30 item 4): the 300-layer bracket (graphs/bracket.json) on the
+// 2D canvas at layer 150; each edit (a section's end length changed in the side panel, or a vertex
+// of its mask curve nudged with the arrow keys) is timed from the edit to the frame that shows the
+// re-planned layer (the app's `window.__waamflowReplanMs`, also the performance measure
+// "waamflow:edit-to-canvas"). Beside it, the server's own time for the same previews (the
+// response's `ms`), so the GUI's share can be told from the re-plan's.
+//
+// Not a test (not *.e2e.mjs: `make test` does not run it); `make bench` runs it through
+// bench/bench_gui.py. Alone: `node frontend/e2e/latency.bench.mjs` (serves frontend/dist, or
+// WAAMFLOW_STATIC_DIR); writes out/bench/gui_latency.json and prints it.
+import { mkdirSync, writeFileSync } from "node:fs";
+import path from "node:path";
+import { ROOT, openPage, openRecipe, startBrowser, startServer } from "./harness.mjs";
+
+const RECIPE = "bracket";
+const LAYER = Number(process.env.GUI_BENCH_LAYER ?? 150);
+const EDITS = Math.max(10, Number(process.env.GUI_BENCH_EDITS ?? 12));
+const median = (xs) => {
+  const s = [...xs].sort((a, b) => a - b);
+  return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2;
+};
+
+/** Make `edit`, wait for the canvas to show its re-plan; the app's edit → canvas time, ms. */
+async function timedEdit(page, edit) {
+  await page.evaluate(() => (window.__waamflowReplanMs = []));
+  await edit();
+  await page.waitForFunction(() => (window.__waamflowReplanMs ?? []).length > 0, null, { timeout: 60_000 });
+  return page.evaluate(() => window.__waamflowReplanMs[0]);
+}
+
+async function main() {
+  const [srv, browser] = await Promise.all([startServer(), startBrowser()]);
+  try {
+    const { page, errors } = await openPage(browser, srv.base);
+    // The server's time of each canvas preview (the layer with coverage; ghosts are asked without).
+    const serverMs = [];
+    page.on("response", async (r) => {
+      if (!r.url().endsWith("/api/preview") || r.request().method() !== "POST") return;
+      try {
+        if (JSON.parse(r.request().postData() ?? "{}").coverage !== true) return;
+        const body = await r.json();
+        if (typeof body.ms === "number") serverMs.push(body.ms);
+      } catch {
+        /* an aborted (superseded) preview has no body */
+      }
+    });
+    await openRecipe(page, srv.base, RECIPE);
+    await page.click("[data-tab=mask]");
+    const t0 = Date.now();
+    await page.fill('input[aria-label="layer index"]', String(LAYER));
+    await page.waitForFunction(
+      (layer) => {
+        const svg = document.querySelector("[data-testid=mask-canvas]");
+        return svg?.getAttribute("aria-label")?.includes(`layer ${layer}:`) && Number(svg.getAttribute("data-paths")) > 0;
+      },
+      LAYER,
+      { timeout: 300_000 },
+    );
+    const firstMs = Date.now() - t0;
+    const key = await page.getAttribute("[data-section-item]", "data-section-item");
+    const points = Number(await page.getAttribute("[data-testid=mask-canvas]", "data-path-points"));
+    const endInput = `[data-testid="end-${key}"]`;
+    const before = Number((await page.inputValue(endInput)) || 10);
+    const param = [], vertex = [];
+    for (let i = 0; i < EDITS; i++) {
+      if (i % 2 === 0) {
+        // a parameter: the section's end-zone length, alternating around its value
+        const v = before + (i % 4 === 0 ? 2 : 4);
+        param.push(await timedEdit(page, async () => {
+          await page.fill(endInput, String(v));
+          await page.press(endInput, "Enter");
+        }));
+      } else {
+        // a mask point: pick the section's first curve vertex, nudge it 1 mm right / back left
+        await page.evaluate(() => document.activeElement?.blur());
+        await page.click(`[data-section-item="${key}"] b`);
+        if (i === 1) await page.keyboard.press("]");
+        vertex.push(await timedEdit(page, () => page.keyboard.press(i % 4 === 1 ? "ArrowRight" : "ArrowLeft")));
+      }
+    }
+    const all = [...param, ...vertex];
+    const edits = serverMs.slice(-all.length);
+    const out = {
+      name: "gui_edit_to_canvas_ms_median",
+      recipe: RECIPE,
+      layer: LAYER,
+      section: key,
+      path_points: points,
+      unit: "ms",
+      median: median(all),
+      max: Math.max(...all),
+      param_median: median(param),
+      vertex_median: median(vertex),
+      server_ms_median: edits.length ? median(edits) : null,
+      first_layer_ms: firstMs,
+      samples: all,
+      console_errors: errors,
+    };
+    const dir = path.join(ROOT, "out/bench");
+    mkdirSync(dir, { recursive: true });
+    writeFileSync(path.join(dir, "gui_latency.json"), JSON.stringify(out, null, 1));
+    console.log(JSON.stringify(out));
+  } finally {
+    await browser.close();
+    await srv.stop();
+  }
+}
+
+await main();
