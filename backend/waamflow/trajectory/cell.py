@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
@@ -24,6 +24,9 @@ from ..core.errors import InputFileError
 from ..core.files import read_shipped
 from .kinematics import CellFrames
 from .profile import ROBOTS_DIR
+
+if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+    import pinocchio as pin
 
 CELLS_DIR = Path(__file__).resolve().parent.parent / "data" / "cells"
 
@@ -179,10 +182,10 @@ class Cell(_Strict):
     def frames(self, angles_deg=None) -> CellFrames:
         """Kinematics frames with the part on the positioner flange at the given (or fixed) angles."""
         Rw, tw = self.work_pose(angles_deg)
-        return CellFrames(base_xyz_mm=tuple(float(v) for v in self.robot_base.xyz_mm),
+        return CellFrames(base_xyz_mm=xyz3(self.robot_base.xyz_mm),
                           base_yaw_deg=self.robot_base.yaw_deg,
-                          work_xyz_mm=tuple(float(v) for v in tw),
-                          work_rot=tuple(tuple(float(v) for v in row) for row in Rw))
+                          work_xyz_mm=xyz3(tw),
+                          work_rot=tuple(xyz3(row) for row in Rw))
 
     # ---- shapes ------------------------------------------------------------------------------
     def load_meshes(self, read_bytes=None) -> "Cell":
@@ -197,7 +200,7 @@ class Cell(_Strict):
                 continue
             try:
                 data = read_bytes(sh.mesh) if read_bytes else (CELLS_DIR / Path(sh.mesh).name).read_bytes()
-                m = trimesh.load(io.BytesIO(data), file_type=Path(sh.mesh).suffix.lstrip(".").lower() or "stl",
+                m: Any = trimesh.load(io.BytesIO(data), file_type=Path(sh.mesh).suffix.lstrip(".").lower() or "stl",
                                  force="mesh")
             except Exception as e:
                 raise InputFileError(f"cell {self.name}: shape {sh.name!r}: mesh {sh.mesh!r}: {e}") from e
@@ -239,7 +242,7 @@ class PositionerKin:
     """A positioner URDF as Pinocchio model: axes (revolute joints in chain order), their limits
     (deg) and speeds (deg/s), and every link's frame."""
 
-    model: object
+    model: pin.Model
     names: tuple[str, ...]
     lower_deg: np.ndarray
     upper_deg: np.ndarray
@@ -392,7 +395,7 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
     n = len(moves.points)
     fixed = cell.fixed_angles()
     m = len(fixed)
-    if policy == "fixed" or m == 0 or n < 2:
+    if policy == "fixed" or m == 0 or n < 2 or cell.positioner is None:
         return np.tile(fixed, (n, 1)), np.zeros(n, bool)
     pk = positioner_kin(cell.positioner.urdf)
     lo, hi = pk.lower_deg, pk.upper_deg
@@ -442,8 +445,13 @@ def _auto_plan(cell: Cell, moves, limits=None) -> tuple[np.ndarray, np.ndarray]:
     arm = load_arm(cell.robot_urdf, tuple(cell.tool.tcp_mm), home_deg=cell.robot_home_deg)
     plan = plan_auto(cell.load_meshes(), moves, arm, limits or AutoLimits())
     if not plan.ok:
-        raise PlanningError(auto_failure_text(cell, plan), layer=plan.failed["layer"])
+        raise PlanningError(auto_failure_text(cell, plan), layer=(plan.failed or {}).get("layer"))
     return plan.angles, plan.tool_axis
+
+
+def xyz3(v) -> tuple[float, float, float]:
+    """Three numbers (a point or a matrix row) as a tuple of floats."""
+    return float(v[0]), float(v[1]), float(v[2])
 
 
 def _sp1(w: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
@@ -490,6 +498,8 @@ def _nearest(cands: list[np.ndarray], prev: np.ndarray, lo: np.ndarray, hi: np.n
         key = (not inside, round(float(np.abs(v - prev).sum()), 6), -round(float(v[0]), 6))
         if best_key is None or key < best_key:
             best, best_key, clipped = v, key, not inside
+    if best is None:
+        raise ValueError("no candidate positioner angles")
     return np.clip(best, lo, hi), clipped
 
 
@@ -551,7 +561,7 @@ def positioner_caps(cell: Cell, points: np.ndarray, angles_deg: np.ndarray) -> t
     e.g. a turn in place, must wait)."""
     P = np.asarray(points, float)
     n = len(P)
-    if cell.axes == 0 or n < 2:
+    if cell.axes == 0 or n < 2 or cell.positioner is None:
         return np.full(max(n - 1, 0), np.inf), np.zeros(max(n - 1, 0))
     w = positioner_kin(cell.positioner.urdf).speed_deg_s
     d = np.abs(np.diff(np.asarray(angles_deg, float).reshape(n, -1), axis=0))

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin
+from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin, xyz3
 from .collide import BEAD_HALF_MM
 
 PLAN_LIMIT_MARGIN_DEG = 2.0      # a planned pose keeps every arm joint this far inside its limits
@@ -92,10 +92,13 @@ class _Planner:
         self.cell, self.moves, self.arm, self.lim = cell, moves, arm, limits
         self.step_mm, self.step_deg, self.col_step, self.collisions = step_mm, step_deg, collision_step_mm, collisions
         self.m = cell.axes
-        pk = positioner_kin(cell.positioner.urdf)
+        pos = cell.positioner
+        if pos is None:     # plan_auto keeps a cell without a positioner at its fixed angles
+            raise ValueError(f"cell {cell.name}: the auto plan needs a positioner")
+        pk = positioner_kin(pos.urdf)
         self.lo, self.hi = pk.lower_deg, pk.upper_deg
-        Rb = _rz(cell.positioner.base.yaw_deg)
-        self.w = pk.axes_base(cell.positioner.flange) @ Rb.T
+        Rb = _rz(pos.base.yaw_deg)
+        self.w = pk.axes_base(pos.flange) @ Rb.T
         self.R0 = cell.work_pose(np.zeros(self.m))[0]
         self.P = np.asarray(moves.points, float)
         self.A = np.asarray(moves.tool_axis, float)
@@ -185,10 +188,10 @@ class _Planner:
                 e2 = base[1] + d
                 Rz2 = _axis_rot(self.w[1], e2)
                 e1 = math.degrees(_sp1(self.w[0], Rz2 @ (self.R0 @ n), np.array([0.0, 0.0, 1.0])))
-                e = self.shifted(np.array([e1, e2]), prev)
-                if e is None or self.tilt(e, n) > lim.flat_tol_deg + 1e-6 or not fresh(e, 0.0, 0.0):
+                turned = self.shifted(np.array([e1, e2]), prev)
+                if turned is None or self.tilt(turned, n) > lim.flat_tol_deg + 1e-6 or not fresh(turned, 0.0, 0.0):
                     continue
-                yield "e2-turn", e, 0.0, 0.0, f"turntable {d:+.0f}° from the gravity angle"
+                yield "e2-turn", turned, 0.0, 0.0, f"turntable {d:+.0f}° from the gravity angle"
         for lean in leans:
             for d in dirs:
                 if fresh(base, lean, d):
@@ -227,7 +230,7 @@ class _Planner:
             ang[0] = e0
             ax[0] = (R0.T @ _lean_rot(lean0, d0) @ R0) @ self.A[a]
         s, xyz, axw, sg, angs = coordinated_samples(cell, self.P[a: b + 1], ax, ang, self.step_mm, self.step_deg)
-        frames = CellFrames(base_xyz_mm=tuple(cell.robot_base.xyz_mm), base_yaw_deg=cell.robot_base.yaw_deg)
+        frames = CellFrames(base_xyz_mm=xyz3(cell.robot_base.xyz_mm), base_yaw_deg=cell.robot_base.yaw_deg)
         ks = solve_samples(self.arm, s, xyz, sg, axw, b - a, frames, q_seed=q_seed, stop_unreachable=True)
         unreach = int(np.count_nonzero(ks.reach_err > REACH_TOL_MM))
         limit = int(np.count_nonzero(np.any((ks.q < self.qlo) | (ks.q > self.qhi), axis=1)))
@@ -245,7 +248,8 @@ class _Planner:
                                         self.base_R, self.base_t, step_mm=self.col_step, layers=self.layer_boxes,
                                         margin_mm=PLAN_CLEARANCE_MM)
             hit = found[0].bodies if found else None
-        res = {"unreachable": unreach, "near_limit": limit, "near_singular": sing, "collisions": ncol}
+        res: dict[str, int | str] = {"unreachable": unreach, "near_limit": limit, "near_singular": sing,
+                                     "collisions": ncol}
         if hit:
             res["collision"] = " / ".join(hit)
         return res, ks.q[-1]

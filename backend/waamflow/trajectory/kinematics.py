@@ -296,7 +296,7 @@ def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_sect
 
 
 def _stretches(kind, flag, s, seg, seg_layer, seg_section, keys) -> list[dict]:
-    out = []
+    out: list[dict] = []
     if not flag.any():
         return out
     idx = np.flatnonzero(flag)

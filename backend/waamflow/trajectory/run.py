@@ -11,7 +11,7 @@ import io
 import math
 import re
 from dataclasses import dataclass, field, replace
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from .estimate import estimate_moves
 from .kinematics import REACH_TOL_MM, CellFrames, find_issues, load_arm, solve_path, solve_samples
 from .profile import RobotProfile
 from .simulate import METRIC_UNITS, SimOptions, SimulationResult, simulate
+
+if TYPE_CHECKING:   # cell.py imports coal and pinocchio where used
+    from .cell import Cell
 
 MAX_WARNINGS_PER_KIND = 20
 
@@ -148,7 +151,7 @@ class KinematicsOptions:
     tcp_offset_mm: tuple[float, float, float] | None = None
     frames: CellFrames = CellFrames()
     step_mm: float = 5.0
-    cell: object | None = None           # trajectory.cell.Cell: when set, frames come from it and the policy
+    cell: Cell | None = None             # when set, frames come from it and the policy
     positioner_policy: str = "fixed"
     max_tilt_deg: float = 30.0           # min-motion: torch lean from vertical tolerated before the positioner moves
     collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
@@ -269,7 +272,7 @@ def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinem
     warnings = list(sv.warnings)
     pos_metrics = dict(sv.pos_metrics)
     collision_list: tuple = ()
-    if cell is not None and kin.collisions:
+    if cell is not None and kin.collisions and sv.ang_c is not None:
         if progress:
             progress(0.33, "collision checks")
         collisions = _cell_collisions(kin, arm, ks, moves, sv.ang_c)
@@ -360,10 +363,13 @@ def _auto_plan(kin: KinematicsOptions, arm, moves: Moves):
     from ..core.errors import PlanningError
     from .cellplan import plan_auto
 
-    plan = plan_auto(kin.cell, moves, arm, _auto_limits(kin), step_mm=kin.step_mm, step_deg=kin.step_deg,
+    cell = kin.cell
+    if cell is None:
+        raise ValueError("the auto positioner policy needs a cell")
+    plan = plan_auto(cell, moves, arm, _auto_limits(kin), step_mm=kin.step_mm, step_deg=kin.step_deg,
                      collision_step_mm=kin.collision_step_mm, collisions=kin.collisions)
     if not plan.ok:
-        raise PlanningError(auto_failure_text(kin.cell, plan), layer=plan.failed["layer"])
+        raise PlanningError(auto_failure_text(cell, plan), layer=(plan.failed or {}).get("layer"))
     return plan
 
 
@@ -488,7 +494,7 @@ def _cell_collisions(kin: KinematicsOptions, arm, ks, moves: Moves, ang: np.ndar
     own (interpolated) positioner angles."""
     from .collide import check_path
 
-    cell = kin.cell
+    cell: Any = kin.cell
     cache: dict[tuple, tuple] = {}
 
     def work_frame(i):
