@@ -32,14 +32,17 @@ async function main() {
   const [srv, browser] = await Promise.all([startServer(), startBrowser()]);
   try {
     const { page, errors } = await openPage(browser, srv.base);
-    // The server's time of each canvas preview (the layer with coverage; ghosts are asked without).
-    const serverMs = [];
-    page.on("response", async (r) => {
-      if (!r.url().endsWith("/api/preview") || r.request().method() !== "POST") return;
+    // The server's time of each canvas preview (the layer with coverage; ghosts are asked without)
+    // and the request's wall time in the browser (sent → last byte).
+    const serverMs = [], httpMs = [];
+    page.on("requestfinished", async (q) => {
+      if (!q.url().endsWith("/api/preview") || q.method() !== "POST") return;
       try {
-        if (JSON.parse(r.request().postData() ?? "{}").coverage !== true) return;
-        const body = await r.json();
+        if (JSON.parse(q.postData() ?? "{}").coverage !== true) return;
+        const t = q.timing();
+        const body = await (await q.response()).json();
         if (typeof body.ms === "number") serverMs.push(body.ms);
+        if (t.responseEnd > 0) httpMs.push(t.responseEnd);
       } catch {
         /* an aborted (superseded) preview has no body */
       }
@@ -79,7 +82,7 @@ async function main() {
       }
     }
     const all = [...param, ...vertex];
-    const edits = serverMs.slice(-all.length);
+    const edits = serverMs.slice(-all.length), http = httpMs.slice(-all.length);
     const out = {
       name: "gui_edit_to_canvas_ms_median",
       recipe: RECIPE,
@@ -92,6 +95,7 @@ async function main() {
       param_median: median(param),
       vertex_median: median(vertex),
       server_ms_median: edits.length ? median(edits) : null,
+      http_ms_median: http.length ? median(http) : null,
       first_layer_ms: firstMs,
       samples: all,
       console_errors: errors,
