@@ -8,8 +8,9 @@ built frontend) and reads what it writes, out/bench/gui_latency.json.
   from the edit to the frame that shows the re-planned layer, ms. Goal ≤ 50 ms (reported, not
   asserted). peer = the server's own time for the same previews (the preview response's `ms`,
   median); ratio = GUI / server: what the GUI adds (request, JSON, React, SVG) is the rest. The
-  notes split it: the preview request's wall time in the browser (sent → last byte, median), and
-  after it the render up to the next frame.
+  notes split it: edit → preview request sent (the app's state update and render before its
+  fetch), the request's wall time in the browser (sent → last byte), and after it the render up to
+  the next frame (medians).
 
 The frontend is built first (`npm run build`) unless frontend/dist is newer than every file under
 frontend/src; WAAMFLOW_STATIC_DIR serves another build. Needs node and Chromium (CHROMIUM, else
@@ -49,7 +50,7 @@ def _check_tools() -> str:
 
 
 def _ms(v: float | None) -> str:
-    return "n/a" if v is None else f"{v:.0f} ms"
+    return "n/a" if v is None else f"{v:.1f} ms"
 
 
 def run() -> list[dict]:
@@ -69,8 +70,9 @@ def run() -> list[dict]:
         "ratio": round(r["median"] / server, 3) if server else None,
         "notes": f"graphs/{r['recipe']}.json, layer {r['layer']} (section {r['section']}, {r['path_points']} path points), "
                  f"{len(r['samples'])} edits: end length median {r['param_median']:.0f} ms, mask vertex median "
-                 f"{r['vertex_median']:.0f} ms, max {r['max']:.0f} ms; peer = server preview ms; preview request "
-                 f"wall (browser) median {_ms(r.get('http_ms_median'))}; goal <= {GOAL_MS:g} ms "
+                 f"{r['vertex_median']:.0f} ms, max {r['max']:.0f} ms; peer = server preview ms; edit -> request sent "
+                 f"{_ms(r.get('edit_to_request_ms_median'))}, request wall (browser) {_ms(r.get('http_ms_median'))}, "
+                 f"the rest is the render to the next frame; goal <= {GOAL_MS:g} ms "
                  f"({'met' if r['median'] <= GOAL_MS else 'not met'}); first view of the layer {r['first_layer_ms']} ms; "
                  f"load {os.getloadavg()[0]:.1f}"}]
 

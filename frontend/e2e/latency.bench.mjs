@@ -20,12 +20,21 @@ const median = (xs) => {
   return s.length % 2 ? s[(s.length - 1) / 2] : (s[s.length / 2 - 1] + s[s.length / 2]) / 2;
 };
 
-/** Make `edit`, wait for the canvas to show its re-plan; the app's edit → canvas time, ms. */
-async function timedEdit(page, edit) {
-  await page.evaluate(() => (window.__waamflowReplanMs = []));
+/** Make `edit`, wait for the canvas to show its re-plan; the app's edit → canvas time, ms. The
+ * edit's start (epoch ms) goes to `starts` (from the app's performance measure). */
+async function timedEdit(page, edit, starts) {
+  await page.evaluate(() => {
+    window.__waamflowReplanMs = [];
+    performance.clearMeasures("waamflow:edit-to-canvas");
+  });
   await edit();
   await page.waitForFunction(() => (window.__waamflowReplanMs ?? []).length > 0, null, { timeout: 60_000 });
-  return page.evaluate(() => window.__waamflowReplanMs[0]);
+  const [ms, start] = await page.evaluate(() => [
+    window.__waamflowReplanMs[0],
+    performance.timeOrigin + (performance.getEntriesByName("waamflow:edit-to-canvas")[0]?.startTime ?? NaN),
+  ]);
+  starts.push(start);
+  return ms;
 }
 
 async function main() {
@@ -34,7 +43,7 @@ async function main() {
     const { page, errors } = await openPage(browser, srv.base);
     // The server's time of each canvas preview (the layer with coverage; ghosts are asked without)
     // and the request's wall time in the browser (sent → last byte).
-    const serverMs = [], httpMs = [];
+    const serverMs = [], httpMs = [], sentAt = [];
     page.on("requestfinished", async (q) => {
       if (!q.url().endsWith("/api/preview") || q.method() !== "POST") return;
       try {
@@ -43,6 +52,7 @@ async function main() {
         const body = await (await q.response()).json();
         if (typeof body.ms === "number") serverMs.push(body.ms);
         if (t.responseEnd > 0) httpMs.push(t.responseEnd);
+        sentAt.push(t.startTime);
       } catch {
         /* an aborted (superseded) preview has no body */
       }
@@ -64,7 +74,7 @@ async function main() {
     const points = Number(await page.getAttribute("[data-testid=mask-canvas]", "data-path-points"));
     const endInput = `[data-testid="end-${key}"]`;
     const before = Number((await page.inputValue(endInput)) || 10);
-    const param = [], vertex = [];
+    const param = [], vertex = [], editStarts = [];
     for (let i = 0; i < EDITS; i++) {
       if (i % 2 === 0) {
         // a parameter: the section's end-zone length, alternating around its value
@@ -72,17 +82,20 @@ async function main() {
         param.push(await timedEdit(page, async () => {
           await page.fill(endInput, String(v));
           await page.press(endInput, "Enter");
-        }));
+        }, editStarts));
       } else {
         // a mask point: pick the section's first curve vertex, nudge it 1 mm right / back left
         await page.evaluate(() => document.activeElement?.blur());
         await page.click(`[data-section-item="${key}"] b`);
         if (i === 1) await page.keyboard.press("]");
-        vertex.push(await timedEdit(page, () => page.keyboard.press(i % 4 === 1 ? "ArrowRight" : "ArrowLeft")));
+        vertex.push(await timedEdit(page, () => page.keyboard.press(i % 4 === 1 ? "ArrowRight" : "ArrowLeft"), editStarts));
       }
     }
     const all = [...param, ...vertex];
     const edits = serverMs.slice(-all.length), http = httpMs.slice(-all.length);
+    // edit → preview request sent (the app's state update and render before its fetch), per edit
+    const sent = sentAt.slice(-all.length);
+    const toSend = editStarts.map((t, i) => sent[i] - t).filter(Number.isFinite);
     const out = {
       name: "gui_edit_to_canvas_ms_median",
       recipe: RECIPE,
@@ -96,6 +109,7 @@ async function main() {
       vertex_median: median(vertex),
       server_ms_median: edits.length ? median(edits) : null,
       http_ms_median: http.length ? median(http) : null,
+      edit_to_request_ms_median: toSend.length ? median(toSend) : null,
       first_layer_ms: firstMs,
       samples: all,
       console_errors: errors,
