@@ -69,3 +69,34 @@ def test_dwell_lines_are_the_lines_that_name_a_dwell():
     text = "LIN P1\r\nWAIT SEC 2.5 ; ignition dwell\r\nLIN P2\rWAIT SEC 1 ; Ignition Dwell\n"
     assert run._dwell_lines(text) == ["WAIT SEC 2.5 ; ignition dwell", "WAIT SEC 1 ; Ignition Dwell"]
     assert run.program_settings("krl", {"a.src": text})["ignition_dwells_s"] == (2.5, 1.0)
+
+
+def test_moving_average_is_the_interpolated_cumulative_sum():
+    """Row slices where the window's lower ends are consecutive, gathers where rounding moved
+    one: the same numbers as gathering every row (windows of 1 to 37.3 samples, 1 to 40000 rows)."""
+    def gathered(x, w):
+        npad = int(np.ceil(w))
+        pad = np.vstack([np.repeat(x[:1], npad, axis=0), x])
+        c = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(pad, axis=0)])
+        hi = np.arange(len(x)) + npad + 1
+        lo = hi - w
+        l0 = np.floor(lo).astype(np.int64)
+        frac = (lo - l0)[:, None]
+        return (c[hi] - (c[l0] * (1 - frac) + c[l0 + 1] * frac)) / w
+
+    rng = np.random.default_rng(2)
+    for w in (1.5, 12.000000000000002, 25.0, 37.3, 3.0000000001):
+        for k in (1, 2, 5, 3000, 40000):
+            x = np.cumsum(rng.normal(size=(k, 4)), axis=0)
+            assert np.array_equal(fine.moving_average(x, w), gathered(x, w)), (w, k)
+    x = np.arange(12.0).reshape(6, 2)
+    assert fine.moving_average(x, 1.0) is x
+    assert fine.moving_average(x, 2.0)[:, 0].tolist() == [0.0, 1.0, 3.0, 5.0, 7.0, 9.0]
+
+
+def test_arc_clock_counts_the_arc_on_time():
+    clock = fine.arc_clock([(1.0, 2.5), (4.0, 4.5)])
+    t = np.array([0.0, 1.0, 2.0, 3.0, 4.25, 10.0, np.inf])
+    assert clock(t).tolist() == [0.0, 0.0, 1.0, 1.5, 1.75, 2.0, 2.0]
+    assert fine.arc_clock([])(t).tolist() == [0.0] * 7
+    assert float(clock(np.inf)) == 2.0 and float(clock(2.0)) == 1.0       # one time, not an array

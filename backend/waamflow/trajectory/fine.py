@@ -115,12 +115,18 @@ def moving_average(x: np.ndarray, w: float) -> np.ndarray:
     npad = int(np.ceil(w))
     pad = np.vstack([np.repeat(x[:1], npad, axis=0), x])
     c = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(pad, axis=0)])  # c[i] = sum pad[:i]
-    hi = np.arange(len(x)) + npad + 1          # sum up to and including sample k
+    k = len(x)
+    hi = np.arange(k) + npad + 1          # sum up to and including sample k
     lo = hi - w
     l0 = np.floor(lo).astype(np.int64)
     frac = (lo - l0)[:, None]
-    c_lo = c[l0] * (1 - frac) + c[l0 + 1] * frac
-    return (c[hi] - c_lo) / w
+    # l0 is hi shifted by a constant unless rounding moved a floor: then rows are gathered
+    a = int(l0[0])
+    if l0[-1] - a == k - 1 and np.array_equal(l0, np.arange(a, a + k)):
+        c_lo = c[a:a + k] * (1 - frac) + c[a + 1:a + 1 + k] * frac
+    else:
+        c_lo = c[l0] * (1 - frac) + c[l0 + 1] * frac
+    return (c[npad + 1:npad + 1 + k] - c_lo) / w
 
 
 def sample_blocks(tl: Timeline, spans: Spans, prof: SpanProfiles, path: BlendedPath,
@@ -257,6 +263,10 @@ def arc_clock(iv: list[tuple[float, float]]) -> Callable[[Any], np.ndarray]:
             return np.zeros_like(t)
         k = np.searchsorted(on, t, side="right") - 1
         kk = np.maximum(k, 0)
-        return np.where(k >= 0, before[kk] + np.clip(t - on[kk], 0.0, length[kk]), 0.0)
+        x = np.asarray(t - on[kk])              # clipped to [0, length] in place (np.clip's numbers)
+        np.maximum(x, 0.0, out=x)
+        np.minimum(x, length[kk], out=x)
+        x += before[kk]
+        return np.where(k >= 0, x, 0.0)
 
     return clock
