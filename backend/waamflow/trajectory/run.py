@@ -73,9 +73,9 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
             raise ValueError(f"the KRL program sets $APO.CDIS to several values {sorted(set(vals))}: one per program is simulated")
         dist = vals[0] if vals else 0.0
     elif fmt == "rapid":
-        zones = [float(m) for t in texts for m in _RAPID_ZONE.findall(t)]
+        zone = next((float(m.group(1)) for t in texts if (m := _RAPID_ZONE.search(t))), None)   # the first
         used = any(_RAPID_ZW_USED.search(t) for t in texts)
-        dist = zones[0] if (zones and used) else 0.0
+        dist = zone if (zone is not None and used) else 0.0
     ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t or "dwell_units=ms" in t for t in texts)
     dwells = []
     for t in texts:
