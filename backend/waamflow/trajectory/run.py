@@ -558,11 +558,11 @@ def deposit_csv(res: SimulationResult) -> str:
     keys = res.section_keys
     buf = io.StringIO()
     buf.write("segment,layer,section,s_mm,length_mm,arc,programmed_mm3_per_mm,actual_mm3_per_mm,ratio\n")
-    for i in range(len(d["length_mm"])):
-        prog = float(d["programmed_mm3_per_mm"][i])
-        act = float(d["actual_mm3_per_mm"][i])
-        sec = int(d["section"][i])
+    cols = zip(np.asarray(d["layer"]).tolist(), np.asarray(d["section"]).tolist(), np.asarray(d["s_mm"], float).tolist(),
+               np.asarray(d["length_mm"], float).tolist(), np.asarray(d["arc"]).tolist(),
+               np.asarray(d["programmed_mm3_per_mm"], float).tolist(), np.asarray(d["actual_mm3_per_mm"], float).tolist())
+    for i, (layer, sec, s_mm, length, arc, prog, act) in enumerate(cols):   # Python numbers: one row at a time is cheap
         ratio = f"{act / prog:.4f}" if prog > 0 else ""
-        buf.write(f"{i},{int(d['layer'][i])},{keys[sec] if 0 <= sec < len(keys) else ''},{d['s_mm'][i]:.3f},"
-                  f"{d['length_mm'][i]:.3f},{int(bool(d['arc'][i]))},{prog:.4f},{act:.4f},{ratio}\n")
+        buf.write(f"{i},{int(layer)},{keys[sec] if 0 <= sec < len(keys) else ''},{s_mm:.3f},"
+                  f"{length:.3f},{int(bool(arc))},{prog:.4f},{act:.4f},{ratio}\n")
     return buf.getvalue()
