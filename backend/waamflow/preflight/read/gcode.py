@@ -57,6 +57,9 @@ def read_gcode(text: str) -> ProgramRead:
     values: dict[str, float] = {}
     on_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_on]
     off_words = [f"{w[0]}{float(w[1:]):g}" for w in arc_off]
+    # a line can be the arc code only if its letters are the code's: the words (a float format
+    # each) are made for those lines alone, not for every motion
+    arc_letters = {tuple(w[0] for w in on_words), tuple(w[0] for w in off_words)}
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition(";")
         parens: list[str] = []
@@ -71,13 +74,14 @@ def read_gcode(text: str) -> ProgramRead:
             continue
         upper = code.upper()
         gwords = _GWORD.findall(upper)
-        words = [f"{a}{float(v):g}" for a, v in gwords]
-        if words == on_words:
-            b.arc_on(ln)
-            continue
-        if words == off_words:
-            b.close()
-            continue
+        if tuple(a for a, _v in gwords) in arc_letters:
+            words = [f"{a}{float(v):g}" for a, v in gwords]
+            if words == on_words:
+                b.arc_on(ln)
+                continue
+            if words == off_words:
+                b.close()
+                continue
         matched = False
         for name, pats in weld_rx.items():
             for rx, scale, literal in pats:
