@@ -398,10 +398,10 @@ def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0,
     lean = np.degrees(np.arccos(np.clip(-w[:, 2] / np.maximum(np.linalg.norm(w, axis=1), 1e-12), -1.0, 1.0)))
     arc = np.asarray(moves.arc, bool)
     seg_lean = np.maximum(lean[:-1], lean[1:])
-    layers = np.asarray(moves.layer)
-    per: dict[int, float] = {}
-    for L, v in zip(layers[arc], seg_lean[arc]):
-        per[int(L)] = max(per.get(int(L), 0.0), float(v))
+    uniq, inv = np.unique(np.asarray(moves.layer)[arc], return_inverse=True)
+    most = np.zeros(len(uniq))
+    np.fmax.at(most, inv.ravel(), seg_lean[arc])          # per layer the largest lean (0 at least)
+    per: dict[int, float] = dict(zip(uniq.tolist(), most.tolist()))
     steep = sorted(L for L, v in per.items() if v > tol_deg + 1e-6)
     if not steep:
         return []
