@@ -143,10 +143,17 @@ def _sub_task(vertices: np.ndarray, faces: np.ndarray, per_plane: list[np.ndarra
               paths: list[list[np.ndarray]], width: float) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
     plane's slab mesh is the one the whole part gives."""
-    f_all = np.unique(np.concatenate(per_plane)) if per_plane else np.zeros(0, np.int64)
-    v_used, local = np.unique(faces[f_all], return_inverse=True)
-    sub_faces = np.asarray(local).reshape((-1, 3))
-    return SlabTask(vertices[v_used], sub_faces, [np.searchsorted(f_all, f) for f in per_plane], zs, paths, width)
+    # sorted unique faces and vertices by masks (what np.unique gives, without sorting the part)
+    face_in = np.zeros(len(faces), dtype=bool)
+    for f in per_plane:
+        face_in[f] = True
+    f_all = np.flatnonzero(face_in)
+    vert_in = np.zeros(len(vertices), dtype=bool)
+    vert_in[faces[f_all].ravel()] = True
+    new_index = np.cumsum(vert_in) - 1
+    sub_faces = new_index[faces[f_all]]
+    face_index = np.cumsum(face_in) - 1
+    return SlabTask(vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width)
 
 
 def _spans(weights: np.ndarray, n: int) -> list[tuple[int, int]]:
