@@ -10,7 +10,11 @@ sample, not other work. Where an array op was split (chunks of CHUNK samples, sq
 compared before their square root), the result is bit-identical:
 - elementwise ops and minimum.at are per sample, so chunking changes nothing;
 - ‖v‖ of a 3-vector is √((x²+y²)+z²) in `np.linalg.norm(axis=1)` and in `row_norms`;
-- √ is monotonic and correctly rounded, so min √a = √(min a).
+- √ is monotonic and correctly rounded, so min √a = √(min a);
+- a row slice holds the numbers a gather of the same rows does (the moving average), and
+  np.maximum then np.minimum is np.clip (the arc clock).
+tests/trajectory/test_fine.py checks each against the plain form; test_sim_reference.py the
+figures of four shipped recipes against the ones recorded before.
 Units: mm, s, mm/s.
 """
 
