@@ -214,7 +214,7 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
                 J = None
             Rc = cur.rotation
             RcT = Rc.T
-            zc0, zc1, zc2 = Rc[:, 2].tolist()
+            (r00, r01, zc0), (r10, r11, zc1), (r20, r21, zc2) = Rc.tolist()
             # rotation (axis · angle) that aligns the torch axis
             w0, w1, w2 = zc1 * zt2 - zc2 * zt1, zc2 * zt0 - zc0 * zt2, zc0 * zt1 - zc1 * zt0
             sw = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
@@ -222,7 +222,6 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
             e[:3] = RcT @ dp
             if sw > 1e-12:
                 f = atan2(sw, zc0 * zt0 + zc1 * zt1 + zc2 * zt2) / sw
-                (r00, r10, r20), (r01, r11, r21) = Rc[:, 0].tolist(), Rc[:, 1].tolist()
                 e[3] = (r00 * w0 + r10 * w1 + r20 * w2) * f
                 e[4] = (r01 * w0 + r11 * w1 + r21 * w2) * f
             else:
