@@ -87,8 +87,10 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, ar
     written.clear()
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
     par = _run("mpp-cross", 2)
-    # from the first layer node on; the last node's (post) in the parent: nothing left to overlap
-    assert written == ["mask", "guide", "strategy", "zone", "sequence"]
+    # up before the first node (every run pays with MIN_PARALLEL_S 0: the cost model), so from
+    # the slice node on; the last node's (post) in the parent: nothing left to overlap; nodes that
+    # write no artifact (part, mask, guide) send nothing
+    assert written == ["layers", "strategy", "zone", "sequence"]
     # mask's layers after its timed first go out once, as chains mask → guide → strategy → zone
     assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5
     assert all(par.stats[n].layers_computed == 8 for n in ("mask", "guide", "strategy", "zone"))
@@ -294,3 +296,39 @@ def test_the_preflight_checks_a_parts_layers_in_the_workers_with_the_same_report
     assert mapped and sum(mapped) >= 2            # the layers' slab checks went to the workers
     assert par.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
     assert par.preflight == serial.preflight and par.preflight["verdict"] == serial.preflight["verdict"]
+
+
+def test_wall_path_rings_centre_lines_in_the_workers_give_the_same_program(always_parallel, monkeypatch, tmp_path):
+    """A tube's ring layers: the wall-path node's centre lines computed in the workers (ctx.map,
+    once they are up and the cost model says so), the laps placed here: every artifact identical
+    to a serial run, the preflight's report included."""
+    import json
+
+    import trimesh
+
+    trimesh.creation.annulus(r_min=30.0, r_max=36.0, height=30.0, sections=256).export(tmp_path / "tube.stl")
+    rec = {"format": "waamflow/1", "name": "tube", "nodes": [
+        {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
+        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+        {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
+        {"id": "post", "type": "post-process", "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}}}],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"},
+                  {"from": "walls.toolpath", "to": "post.toolpath"}]}
+    (tmp_path / "tube.json").write_text(json.dumps(rec))
+    mapped: list[str] = []
+    pmap = parallel.LayerPool.map
+
+    def spy(self, fn, items):
+        mapped.append(fn.__name__)
+        return pmap(self, fn, items)
+
+    monkeypatch.setattr(parallel.LayerPool, "map", spy)
+    graph = build_graph(load_recipe(tmp_path / "tube.json"))
+    serial = execute(graph, resolver=FileResolver(tmp_path), workers=1)
+    assert mapped == [] and serial.layer_count == 20
+    par = execute(graph, resolver=FileResolver(tmp_path), workers=2)
+    assert "_centerlines" in mapped
+    assert sorted(par.artifacts) == sorted(serial.artifacts) and "post.gcode" in par.artifacts
+    for k in serial.artifacts:
+        assert par.artifacts[k] == serial.artifacts[k], k
+    assert par.warnings == serial.warnings

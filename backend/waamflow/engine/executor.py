@@ -27,7 +27,7 @@ import traceback
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Callable, Iterable, TypeVar, cast
+from typing import Any, Callable, Iterable, Sequence, TypeVar, cast
 
 import shapely
 from pydantic import BaseModel
@@ -40,7 +40,7 @@ from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
 from .graph import Graph, GraphNode
 from .recipe import Recipe
-from .node import Context, LayerNode
+from .node import Context, LayerNode, Node
 from . import parallel
 from .parallel import DaskPool, LayerPool, make_pool
 
@@ -277,6 +277,15 @@ class RunContext(Context):
     def check_cancelled(self) -> None:
         self._run.check_cancelled()
 
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0) -> list[Any]:
+        """`Context.map` in the run's workers when they are up (never waiting for them to start)
+        and the cost model says it pays (`parallel.wants_workers` against the warm threshold)."""
+        pool = self._run.pool
+        if isinstance(pool, LayerPool) and pool.enabled and pool.ready and len(items) > 1 and \
+                parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s):
+            return parallel.RunWorkers(pool).map(fn, items)
+        return [fn(x) for x in items]
+
 
 def run_date_utc() -> str:
     """The run's date for traces, ISO 8601 UTC to the second: now, or SOURCE_DATE_EPOCH (seconds,
@@ -462,8 +471,10 @@ class _Run:
                 if self.write_artifacts and self.layers is None:
                     pool = self.pool
                     # to a worker while the parent goes on with later nodes; the last node's here
-                    # (nothing to overlap: shipping its outputs would only add the transfer)
-                    if isinstance(pool, LayerPool) and pool.enabled and pool.offload_artifacts and pos < len(self.active) - 1:
+                    # (nothing to overlap: shipping its outputs would only add the transfer), and a
+                    # node that writes none here (the mesh node's million triangles would travel for {})
+                    if isinstance(pool, LayerPool) and pool.enabled and pool.offload_artifacts and \
+                            pos < len(self.active) - 1 and type(gnode.impl).artifacts is not Node.artifacts:
                         jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
                                                                        self.trace(), self.outputs[node_id])))
                     else:

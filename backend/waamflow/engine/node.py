@@ -26,7 +26,7 @@ Bump `version` whenever a node's results change for the same inputs: it is part 
 from __future__ import annotations
 
 import builtins
-from typing import Annotated, Any, Callable, ClassVar
+from typing import Annotated, Any, Callable, ClassVar, Sequence
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -232,6 +232,13 @@ class Context:
 
     def check_cancelled(self) -> None:  # pragma: no cover
         raise NotImplementedError
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0) -> list[Any]:
+        """fn over the items, results in item order: here, or in the run's layer workers when they
+        are up and the engine's cost model says work of this size (layers, path points) pays for
+        the round trips. fn must be a module-level function and the items picklable; the results
+        are the same either way."""
+        return [fn(x) for x in items]
 
 
 # ---- registry ----------------------------------------------------------------------------------

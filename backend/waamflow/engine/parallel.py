@@ -95,10 +95,12 @@ def parallel_work_s(triangles: int = 0, layers: int = 0, points: int = 0) -> flo
 
 
 def wants_workers(workers: int, triangles: int = 0, layers: int = 0, points: int = 0,
-                  min_s: float = MIN_PARALLEL_S) -> bool:
+                  min_s: float | None = None) -> bool:
     """Whether the workers pay for a run of this size: more than one, and more expected serial
-    seconds than `min_s` (`MIN_PARALLEL_S`: starting them costs ~0.7 s of CPU on another core)."""
-    return workers > 1 and parallel_work_s(triangles, layers, points) > min_s
+    seconds than `min_s` (default `MIN_PARALLEL_S`, read at the call: starting them costs ~0.7 s
+    of CPU on another core)."""
+    limit = MIN_PARALLEL_S if min_s is None else min_s
+    return workers > 1 and parallel_work_s(triangles, layers, points) > limit
 
 
 def file_triangles(size: int, head: bytes) -> int:

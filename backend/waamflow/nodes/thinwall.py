@@ -28,6 +28,34 @@ from ..features.walls import WallPass, order_passes
 STUDY_BEAD_WIDTH = 5.0
 
 
+def _centerlines(job: tuple[list, float]) -> list[tuple[np.ndarray, float]]:
+    """The centre lines of a list of ring polygons (a worker's share of `_ring_centerlines`)."""
+    polys, spacing = job
+    return [ring_centerline(p, spacing) for p in polys]
+
+
+def _ring_centerlines(ctx, layers, spacing: float) -> dict[tuple[int, int], tuple[np.ndarray, float]]:
+    """(layer slot, polygon index) → (centre line, width) of every ring of the region layers: each
+    ring's own (no seam, no neighbour), so they are computed up front, in the run's workers when
+    the cost model says the layers pay (`ctx.map`); the laps are then placed layer by layer."""
+    keys, polys = [], []
+    for slot, layer in enumerate(layers):
+        if layer is None or layer.curves:
+            continue
+        for k, poly in enumerate(region_polygons(layer.region)):
+            if poly.interiors:
+                keys.append((slot, k))
+                polys.append(poly)
+    n = max(1, min(len(polys), 8))
+    bounds = [len(polys) * i // n for i in range(n + 1)]
+    jobs = [(polys[a:b], spacing) for a, b in zip(bounds, bounds[1:]) if b > a]
+    if not jobs:
+        return {}
+    mapper = getattr(ctx, "map", None)     # a Context maps; a bare stand-in computes here
+    got = mapper(_centerlines, jobs, layers=len({s for s, _k in keys})) if mapper else list(map(_centerlines, jobs))
+    return dict(zip(keys, (c for part in got for c in part)))
+
+
 @register
 class FeaturesNode(Node):
     """Thin-wall feature recognition by valence (Venturini et al. 2018).
@@ -200,6 +228,7 @@ class WallPathNode(Node):
                         params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol,
                         params.bead_width or 0.0, eww=params.eww, fillet_radius=params.fillet_radius,
                         join_gap=fs.spec.join_gap, join_angle_deg=fs.spec.join_angle_deg)
+        centers = _ring_centerlines(ctx, layers, params.spacing)
         out: list[LayerPaths | None] = []
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
         warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
@@ -213,7 +242,7 @@ class WallPathNode(Node):
             if layer.curves:
                 passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam)
             else:
-                passes = self._rings(ctx, layer, params, spec, pos, seams)
+                passes = self._rings(ctx, layer, params, spec, pos, seams, centers, slot)
             if passes:
                 pos = passes[-1].xy[-1]
             out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
@@ -253,16 +282,17 @@ class WallPathNode(Node):
         return order_passes(passes, start, seam)
 
     @staticmethod
-    def _rings(ctx, layer: Layer, params, spec: WallSpec, start, seams: list[np.ndarray]) -> list[WallPass]:
+    def _rings(ctx, layer: Layer, params, spec: WallSpec, start, seams: list[np.ndarray],
+               centers: dict[tuple[int, int], tuple[np.ndarray, float]], slot: int) -> list[WallPass]:
         """Ring laps of a region layer; `seams` (world points of the previous ring layer's seams)
-        is replaced by this layer's."""
+        is replaced by this layer's; `centers`: the rings' centre lines (`_ring_centerlines`)."""
         passes, placed = [], []
         below = to_local(layer, np.array(seams)) if seams else np.zeros((0, 2))
         for k, poly in enumerate(region_polygons(layer.region)):
             if not poly.interiors:
                 ctx.warn(f"region {k} has no hole (not a single-bead ring): skipped", layer=layer.index)
                 continue
-            mid, width = ring_centerline(poly, params.spacing)
+            mid, width = centers[(slot, k)]
             near = None
             if spec.tubular != "scattered" and len(below):
                 # the seam below this lap (within a few bead widths): a new wall starts afresh
