@@ -307,8 +307,8 @@ def _sample_check(st: _Setup, qi: np.ndarray, layer: int, frame: tuple, req) -> 
     part = st.near[:, None] & below[None, :] & (np.linalg.norm(cw[None, :, :] - centres[:, None, :], axis=2)
                                                 <= st.lay_r[None, :] + rads[:, None])
     if part.any():
-        k = np.flatnonzero(part.any(axis=0))
-        part[:, k] &= _box_gap2(centres, np.einsum("ij,kjl->kil", Rw, st.lay_R[k]), cw[k], st.lay_h[k]) \
+        cols = np.flatnonzero(part.any(axis=0))
+        part[:, cols] &= _box_gap2(centres, np.einsum("ij,kjl->kil", Rw, st.lay_R[cols]), cw[cols], st.lay_h[cols]) \
             <= rads[:, None] ** 2
     if not (over.any() or part.any()):
         return None
@@ -353,7 +353,8 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
     if margin_mm > 0:
         req.security_margin = margin_mm / 1000.0
     rows = _checked(s, seg, moves.layer, step_mm)
-    count, found = 0, []
+    count = 0
+    found: list[Collision] = []
     for b0 in range(0, len(rows), BATCH):
         batch = rows[b0:b0 + BATCH]
         frames = [work_frames(i) for i in batch]
