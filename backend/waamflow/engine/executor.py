@@ -98,6 +98,7 @@ class FileResolver:
 
     def read_bytes(self, path: str, max_bytes: int | None = None) -> bytes:
         limit = min(max_bytes or MAX_INPUT_FILE_BYTES, MAX_INPUT_FILE_BYTES)
+        known: str | None = None   # the sha256 the run computed already for its cache key and trace (`_digests`)
         if path in self.attachments:
             data = self.attachments[path]
         else:
@@ -107,14 +108,31 @@ class FileResolver:
             why = not_regular(p)   # a FIFO would block the read, a device never end it
             if why:
                 raise InputFileError(f"file {path} refused: {why}")
-            size = p.stat().st_size
-            if size > limit:
-                raise InputFileError(_over_limit(path, size, limit))
+            st = p.stat()
+            if st.st_size > limit:
+                raise InputFileError(_over_limit(path, st.st_size, limit))
             data = read_regular(p, limit, label=path)   # one open, checked again on the descriptor
+            if len(data) == st.st_size:
+                known = _FILE_SIGS.get(("sha256", str(p), st.st_mtime_ns, st.st_size))
         if len(data) > limit:
             raise InputFileError(_over_limit(path, len(data), limit))
-        self.read_hashes[path] = hashlib.sha256(data).hexdigest()
+        self.read_hashes[path] = known or hashlib.sha256(data).hexdigest()
         return data
+
+    @staticmethod
+    def _digests(p: Path, st: os.stat_result) -> tuple[str, str]:
+        """(content signature, sha256 hex) of a file, both from one read, memoised on (path,
+        mtime, size) (the cache key, the trace and the node's read each hashed a 50 MB mesh).
+        Raises InputFileError when it cannot be read."""
+        k_sig, k_sha = (str(p), st.st_mtime_ns, st.st_size), ("sha256", str(p), st.st_mtime_ns, st.st_size)
+        sig, sha = _FILE_SIGS.get(k_sig), _FILE_SIGS.get(k_sha)
+        if sig is None or sha is None:
+            data = read_regular(p, MAX_INPUT_FILE_BYTES)
+            sig, sha = bytes_signature(data), hashlib.sha256(data).hexdigest()
+            if len(_FILE_SIGS) > 4096:
+                _FILE_SIGS.clear()
+            _FILE_SIGS[k_sig], _FILE_SIGS[k_sha] = sig, sha
+        return sig, sha
 
     def triangles(self, path: str) -> int:
         """About how many triangles the mesh file `path` holds, from its size and first bytes
@@ -140,15 +158,10 @@ class FileResolver:
             st = p.stat()
         except (InputFileError, OSError):
             return None
-        key = ("sha256", str(p), st.st_mtime_ns, st.st_size)
-        h = _FILE_SIGS.get(key)
-        if h is None:
-            try:
-                h = hashlib.sha256(read_regular(p, MAX_INPUT_FILE_BYTES)).hexdigest()
-            except InputFileError:
-                return None   # not readable (FIFO, device, too large): the read reports why
-            _FILE_SIGS[key] = h
-        return h
+        try:
+            return self._digests(p, st)[1]
+        except InputFileError:
+            return None   # not readable (FIFO, device, too large): the read reports why
 
     def signature(self, path: str) -> str:
         """Content signature of a file (missing file → 'missing'); memoised on (path, mtime, size)."""
@@ -159,17 +172,10 @@ class FileResolver:
             st = p.stat()
         except (InputFileError, OSError):
             return "missing"
-        key = (str(p), st.st_mtime_ns, st.st_size)
-        sig = _FILE_SIGS.get(key)
-        if sig is None:
-            try:
-                sig = bytes_signature(read_regular(p, MAX_INPUT_FILE_BYTES))
-            except InputFileError as e:   # FIFO, device, too large: the read reports why
-                return "unreadable:" + bytes_signature(str(e).encode())
-            if len(_FILE_SIGS) > 4096:
-                _FILE_SIGS.clear()
-            _FILE_SIGS[key] = sig
-        return sig
+        try:
+            return self._digests(p, st)[0]
+        except InputFileError as e:   # FIFO, device, too large: the read reports why
+            return "unreadable:" + bytes_signature(str(e).encode())
 
 
 def file_fields(model_cls: type[BaseModel]) -> list[str]:

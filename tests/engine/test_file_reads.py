@@ -1,0 +1,33 @@
+"""A run reads and hashes an input file as few times as it can (issue #30: the bench vase's 50 MB
+STL was read three times and hashed three times before its mesh was parsed): one read gives the
+cache key's signature and the trace's sha256, the node's own read reuses that sha256."""
+
+import hashlib
+from pathlib import Path
+
+from waamflow.engine import executor
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import load_recipe
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def test_the_mesh_file_is_read_twice_and_hashed_once_per_kind(monkeypatch):
+    reads: list[str] = []
+    real = executor.read_regular
+
+    def counted(p, *a, **k):
+        reads.append(Path(p).name)
+        return real(p, *a, **k)
+
+    monkeypatch.setattr(executor, "read_regular", counted)
+    executor._FILE_SIGS.clear()
+    path = GRAPHS / "mpp-cross.json"
+    res = execute(build_graph(load_recipe(path)), resolver=FileResolver(path.parent), workers=1, preflight=False)
+    assert reads.count("cross.stl") == 2          # the cache key's and trace's digests, the node's own read
+    sha = hashlib.sha256((GRAPHS / "parts" / "cross.stl").read_bytes()).hexdigest()
+    assert res.trace["inputs"]["parts/cross.stl"] == sha
+    again = FileResolver(path.parent)
+    assert again.sha256("parts/cross.stl") == sha and again.read_bytes("parts/cross.stl")
+    assert again.read_hashes["parts/cross.stl"] == sha and reads.count("cross.stl") == 3   # memoised digests
