@@ -334,32 +334,12 @@ def test_wall_path_rings_centre_lines_in_the_workers_give_the_same_program(alway
     assert par.warnings == serial.warnings
 
 
-def _modules_loaded(names: tuple[str, ...]) -> list[bool]:
-    """Worker side: whether each module is loaded, waiting up to 20 s for the late imports."""
-    import sys
-    import time
-
-    t0 = time.monotonic()
-    while not all(n in sys.modules for n in names) and time.monotonic() - t0 < 20:
-        time.sleep(0.05)
-    return [n in sys.modules for n in names]
-
-
-def test_workers_start_without_the_preflights_imports_and_load_them_once_up(monkeypatch):
-    """The fork server preloads the nodes only (trimesh delayed every worker's start by ~0.45 s);
-    each worker imports trimesh and the slab check in the background once it is up."""
+def test_the_fork_server_preloads_the_nodes_without_trimesh():
+    """trimesh (the preflight's slab check only) preloaded by the fork server delayed every
+    worker's start by ~0.45 s; each worker imports it with its first slab task."""
     import subprocess
     import sys
 
-    probe = "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'waamflow.preflight.slabs' in sys.modules)"
+    probe = "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'waamflow.nodes.thinwall' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120).stdout.split()
-    assert out == ["False", "False"]
-    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
-    pool = parallel.LayerPool(2)
-    try:
-        pool.warm()
-        assert pool.ready
-        got = pool.map(_modules_loaded, [parallel.LATE_IMPORTS] * 2)
-    finally:
-        pool.close()
-    assert got == [[True, True], [True, True]]
+    assert out == ["False", "True"]

@@ -60,8 +60,7 @@ MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers
 WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
 WARM_LAYERS = 200         # a layered value this long (and layer nodes to come) starts the workers at once
 BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
-PRELOAD = ["waamflow.engine.warm"]
-LATE_IMPORTS = ("trimesh", "waamflow.preflight.slabs")   # imported by each worker once it is up
+PRELOAD = ["waamflow.engine.warm"]   # not trimesh: see warm.py
 TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4     # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
@@ -226,20 +225,6 @@ def _die_with_parent() -> None:
         libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
-    # the preflight's slab check and trimesh, which it cuts with, imported in the background once
-    # the worker is up (in the fork server they delayed every worker's start by ~0.45 s: a run
-    # whose layer nodes go parallel early waits for none of it)
-    threading.Thread(target=_import_late, name="waamflow-late-imports", daemon=True).start()
-
-
-def _import_late() -> None:
-    import importlib
-
-    for name in LATE_IMPORTS:
-        try:
-            importlib.import_module(name)
-        except ImportError:   # the task that needs it raises it again, where it is reported
-            pass
 
 
 @dataclass
