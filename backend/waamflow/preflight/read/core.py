@@ -52,6 +52,7 @@ class RunBuilder:
         self.layer: int | None = None
         self.section: str | None = None
         self.pts: list | None = None
+        self.started = False                  # pts[0] is a finite position (kept with pts[0]: move_to tests it per motion)
         self.speed: list[float] = []
         self.wfs: list[float] = []
         self.weld: list[bool] = []
@@ -73,6 +74,7 @@ class RunBuilder:
         self.close()
         start = self.pos if self.pos is not None else np.full(3, np.nan)
         self.pts, self.speed, self.wfs, self.weld, self.line = [start.copy()], [], [], [], line
+        self.started = bool(np.isfinite(start).all())
         self.run_layer, self.run_section = self.layer, self.section
 
     def close(self) -> None:
@@ -87,6 +89,7 @@ class RunBuilder:
         if self.pts is not None:
             if not np.isfinite(self.pts[0]).all():    # arc on before any position: start where it first moves
                 self.pts = [targets[0]]
+                self.started = bool(np.isfinite(targets[0]).all())
                 targets = targets[1:]
             for t in targets:
                 self.pts.append(t)
@@ -101,7 +104,7 @@ class RunBuilder:
 
     def move_to(self, x: float, y: float, z: float, speed: float, wfs: float, weld: bool) -> None:
         """`move` of one straight motion, without the arrays (a G-code program is mostly these)."""
-        if self.pts is not None and np.isfinite(self.pts[0]).all():
+        if self.pts is not None and self.started:
             self.pts.append((x, y, z))
             self.speed.append(speed)
             self.wfs.append(wfs)

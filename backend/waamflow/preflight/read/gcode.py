@@ -60,6 +60,7 @@ def read_gcode(text: str) -> ProgramRead:
     # a line can be the arc code only if its letters are the code's: the words (a float format
     # each) are made for those lines alone, not for every motion
     arc_letters = {tuple(w[0] for w in on_words), tuple(w[0] for w in off_words)}
+    arc_sizes = {len(on_words), len(off_words)}
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition(";")
         parens: list[str] = []
@@ -74,7 +75,7 @@ def read_gcode(text: str) -> ProgramRead:
             continue
         upper = code.upper()
         gwords = _GWORD.findall(upper)
-        if tuple(a for a, _v in gwords) in arc_letters:
+        if len(gwords) in arc_sizes and tuple(a for a, _v in gwords) in arc_letters:
             words = [f"{a}{float(v):g}" for a, v in gwords]
             if words == on_words:
                 b.arc_on(ln)
@@ -106,7 +107,9 @@ def read_gcode(text: str) -> ProgramRead:
         if 4 in gs or not any(k in vals for k in "XYZ"):
             continue
         here = b.pos if b.pos is not None else np.zeros(3)
-        x, y, z = (vals.get(k, float(here[axis])) for axis, k in enumerate("XYZ"))
+        x = vals["X"] if "X" in vals else float(here[0])
+        y = vals["Y"] if "Y" in vals else float(here[1])
+        z = vals["Z"] if "Z" in vals else float(here[2])
         speed = math.nan if motion == 0 else feed
         if motion in (2, 3):
             seg = _gcode_arc(here, np.array((x, y, z)), vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
