@@ -8,6 +8,6 @@ import pytest
 def viewer():
     from waamflow.viewer import ViewerService
 
-    v = ViewerService(port=0, shared=True).start()   # the default view on the server-wide scene
+    v = ViewerService(port=0, shared=True).start()  # the default view on the server-wide scene
     yield v
     v.stop()

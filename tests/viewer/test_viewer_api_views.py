@@ -20,8 +20,14 @@ def client(tmp_path):
     from waamflow.api.app import create_app
     from waamflow.settings import Settings
 
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=True, viewer_port=free_port(),
-                 static_dir=None, workers=1)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=True,
+        viewer_port=free_port(),
+        static_dir=None,
+        workers=1,
+    )
     with TestClient(create_app(s)) as c:
         yield c
 
@@ -36,8 +42,18 @@ def test_two_tabs_two_views(client):
     assert r.status_code == 204
     one = client.get("/api/viewer/state", params={"view": "tab-1"}).json()
     two = client.get("/api/viewer/state", params={"view": "tab-2"}).json()
-    assert (one["key"], one["layers"], one["view"]["time_s"], one["view"]["sim_color"]) == ("duct", {"lo": 0, "hi": 2}, 0.0, "deviation")
-    assert (two["key"], two["layers"], two["view"]["time_s"], two["view"]["sim_color"]) == ("bracket", {"lo": 0, "hi": 5}, 1.5, "deposit")
+    assert (one["key"], one["layers"], one["view"]["time_s"], one["view"]["sim_color"]) == (
+        "duct",
+        {"lo": 0, "hi": 2},
+        0.0,
+        "deviation",
+    )
+    assert (two["key"], two["layers"], two["view"]["time_s"], two["view"]["sim_color"]) == (
+        "bracket",
+        {"lo": 0, "hi": 5},
+        1.5,
+        "deposit",
+    )
     assert one["view_id"] == "tab-1" and two["view_id"] == "tab-2"
     # no view: the default view, untouched by the tabs
     assert client.get("/api/viewer/state").json()["view_id"] == ""

@@ -21,8 +21,14 @@ RECIPE = {"format": "waamflow/1", "name": "cell-view", "nodes": [{"id": "sim", "
 
 def _simulate(cell):
     mv = _moves([_normal(0.0), _normal(60.0)])
-    return simulate_program(mv, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"))
+    return simulate_program(
+        mv,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"
+        ),
+    )
 
 
 def _quat_angle(q1, q2) -> float:
@@ -41,8 +47,14 @@ def test_the_cell_is_drawn_and_replayed(viewer):
     viewer.publish("cell-view", RECIPE, {"sim": {"simulation": res}})
     part = viewer.parts[("sim", "simulation")]
     assert isinstance(part.robot, CellMotion) and part.robot_note == ""
-    assert {"torch/torch_neck", "torch/torch_nozzle", "positioner/table", "positioner/tilt_cradle",
-            "fixtures/clamp_1", "fixtures/positioner_pedestal_left"} <= set(part.cell_handles)
+    assert {
+        "torch/torch_neck",
+        "torch/torch_nozzle",
+        "positioner/table",
+        "positioner/tilt_cradle",
+        "fixtures/clamp_1",
+        "fixtures/positioner_pedestal_left",
+    } <= set(part.cell_handles)
     m = part.robot
     for frac in (0.05, 1.0):
         t = frac * part.duration()
@@ -60,7 +72,7 @@ def test_the_cell_is_drawn_and_replayed(viewer):
         if frac == 1.0:
             assert abs(e1) == pytest.approx(60.0, abs=1e-6)
     assert viewer.state()["legend"][0]["robot"] == "kr150_tilt_rotate"
-    viewer.publish("cell-view", RECIPE, {})                 # gone: cell removed, part frame reset
+    viewer.publish("cell-view", RECIPE, {})  # gone: cell removed, part frame reset
     assert tuple(viewer._graph_frame.wxyz) == pytest.approx((1.0, 0.0, 0.0, 0.0))
 
 
@@ -69,8 +81,9 @@ def test_collisions_and_unreachable_stretches_are_flagged(viewer):
     part (in the part frame, where the simulation found them); the robot moved out of reach:
     the unreachable stretches are drawn in red over the programmed path."""
     data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
-    data["fixtures"].append({"name": "block", "kind": "box", "size_mm": [40, 40, 40], "xyz_mm": [0, 0, 60],
-                             "link": "table_top"})
+    data["fixtures"].append(
+        {"name": "block", "kind": "box", "size_mm": [40, 40, 40], "xyz_mm": [0, 0, 60], "link": "table_top"}
+    )
     res = _simulate(Cell.model_validate(data))
     assert res.metrics["collision_count"] > 0
     viewer.publish("cell-view", RECIPE, {"sim": {"simulation": res}})
@@ -78,7 +91,7 @@ def test_collisions_and_unreachable_stretches_are_flagged(viewer):
     assert "collisions" in part.robot_handles
     pts = np.asarray(part.robot_handles["collisions"].points)
     assert len(pts) == len(res.collisions)
-    assert np.abs(pts[:, :2]).max() < 80 and pts[:, 2].max() < 120     # on the block, above the table
+    assert np.abs(pts[:, :2]).max() < 80 and pts[:, 2].max() < 120  # on the block, above the table
     data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
     data["robot_base"]["xyz_mm"] = [-3300.0, 0.0, -600.0]
     far = _simulate(Cell.model_validate(data))
@@ -107,20 +120,22 @@ def test_fit_frames_the_part_where_the_positioner_holds_it(viewer):
     cam = viewer.server.initial_camera
     look, eye = np.asarray(cam.look_at), np.asarray(cam.position)
     assert np.linalg.norm(look - world_center) < 1.0
-    assert np.linalg.norm(world_center - (b[0] + b[1]) / 2) > 50.0        # the tilt moved the part
+    assert np.linalg.norm(world_center - (b[0] + b[1]) / 2) > 50.0  # the tilt moved the part
     radius = np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)) / 2
     part_dist = float(np.linalg.norm(eye - look))
-    assert 1.5 * radius < part_dist < 3.0 * radius                        # the part fills the view
+    assert 1.5 * radius < part_dist < 3.0 * radius  # the part fills the view
     base = part.robot_base()
-    assert np.dot((eye - look)[:2], (look - base)[:2]) > 0                 # looking from beyond the part
+    assert np.dot((eye - look)[:2], (look - base)[:2]) > 0  # looking from beyond the part
     # above the part's (tilted) table plane, never looking at the part through the table
     assert np.dot(eye - look, R[:, 2]) > 0.5 * part_dist
     viewer.set_view(time_s=part.duration(), fit="part")
     R1 = part.work_pose(part.duration())[0]
-    assert np.dot(np.asarray(cam.position) - np.asarray(cam.look_at), R1[:, 2]) > 0.5 * np.linalg.norm(np.asarray(cam.position) - np.asarray(cam.look_at))
+    assert np.dot(np.asarray(cam.position) - np.asarray(cam.look_at), R1[:, 2]) > 0.5 * np.linalg.norm(
+        np.asarray(cam.position) - np.asarray(cam.look_at)
+    )
     viewer.set_view(time_s=t)
     viewer.set_view(fit="cell")
     cell_dist = float(np.linalg.norm(np.asarray(cam.position) - np.asarray(cam.look_at)))
     pts = np.vstack(part.cell_points(t))
     assert cell_dist > 2 * part_dist
-    assert np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)) / 2 < cell_dist   # the arm is in view
+    assert np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)) / 2 < cell_dist  # the arm is in view

@@ -24,7 +24,7 @@ def scene_names_received(ws, seconds: float = 3.0) -> set[str]:
             continue
         size = int.from_bytes(frame[:8], "little")
         clen = int.from_bytes(frame[8:16], "little")
-        payload = msgspec.msgpack.decode(dec.decompress(frame[16:16 + clen], max_output_size=size))
+        payload = msgspec.msgpack.decode(dec.decompress(frame[16 : 16 + clen], max_output_size=size))
         for m in payload["messages"]:
             if isinstance(m.get("name"), str):
                 names.add(m["name"])

@@ -41,7 +41,7 @@ def test_layer_outline_lengths_equal_perimeters():
 
 def test_layer_outline_follows_frame():
     frame = np.eye(4)
-    frame[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]   # layer plane = world xz plane
+    frame[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # layer plane = world xz plane
     frame[:3, 3] = [0, 5, 0]
     layer = Layer(0, 0.0, 1.0, MultiPolygon([box(0, 0, 10, 10)]), frame=frame)
     outline, _ = G.layer_outline_segments(layer)
@@ -69,7 +69,7 @@ def test_layer_polyline_counts_travel_and_zone_colours():
     assert poly.section_keys == ("bs1/A", "bs1/B")
     link = n_a - 1
     assert poly.travel[link] and not poly.arc[link] and np.isnan(poly.speed[link])
-    assert poly.travel.sum() == 1 + 2          # the link and each section's arc-OFF segment
+    assert poly.travel.sum() == 1 + 2  # the link and each section's arc-OFF segment
     start = poly.zone_ids.index("start")
     assert (poly.zone_rgb[poly.zone == start] == C.hex_to_rgb(ZONE_COLORS["start"])).all()
 
@@ -77,8 +77,15 @@ def test_layer_polyline_counts_travel_and_zone_colours():
 def test_approach_points_become_travel():
     layer = Layer(0, 1.5, 1.5)
     pts = np.array([[0, 0, 1.5], [10, 0, 1.5], [10, 5, 1.5]])
-    sp = SectionPath("a", "raster", pts, np.ones(2, bool), np.ones(2, bool), np.full(2, 8.0),
-                     approach=np.array([[-5, 0, 10.0], [-5, 0, 1.5]]))
+    sp = SectionPath(
+        "a",
+        "raster",
+        pts,
+        np.ones(2, bool),
+        np.ones(2, bool),
+        np.full(2, 8.0),
+        approach=np.array([[-5, 0, 10.0], [-5, 0, 1.5]]),
+    )
     poly = G.layer_polyline(LayerPaths(layer, (sp,)))
     assert len(poly.points) == 5
     assert poly.travel.tolist() == [True, True, False, False]
@@ -88,7 +95,7 @@ def test_decimation_keeps_budget_ends_and_attribute_changes():
     n = 200_001
     t = np.linspace(0, 400 * np.pi, n)
     pts = np.column_stack([t, np.sin(t), np.zeros(n)])
-    keys = (np.arange(n - 1) // 5000).astype(np.int64)     # 40 runs of one attribute each
+    keys = (np.arange(n - 1) // 5000).astype(np.int64)  # 40 runs of one attribute each
     keep = G.decimate_indices(pts, keys, 2000)
     assert keep[0] == 0 and keep[-1] == n - 1
     assert len(keep) - 1 <= 2000 + 40 + 2
@@ -122,15 +129,19 @@ def test_ray_pick_prefers_nearest_along_ray():
     assert G.ray_pick(pts, [0, 0, 10], [0, 0, -1], 0.5) == 1
     assert G.ray_pick(pts, [3, 0.2, 10], [0, 0, -1], 0.5) == 2
     assert G.ray_pick(pts, [9, 9, 10], [0, 0, -1], 0.5) is None
-    assert G.ray_pick(pts, [0, 0, -10], [0, 0, -1], 0.5) is None     # behind the origin
+    assert G.ray_pick(pts, [0, 0, -10], [0, 0, -1], 0.5) is None  # behind the origin
 
 
 def test_split_by_layer_and_interpolate():
     layer = np.array([0, 0, 0, 1, 1, 2])
     chunks = G.split_by_layer(layer)
     assert chunks[0].tolist() == [0, 1, 2, 3] and chunks[2].tolist() == [5]
-    trace = {"t": np.array([0.0, 1.0, 2.0]), "x": np.array([0.0, 10.0, 10.0]),
-             "y": np.array([0.0, 0.0, 4.0]), "z": np.zeros(3)}
+    trace = {
+        "t": np.array([0.0, 1.0, 2.0]),
+        "x": np.array([0.0, 10.0, 10.0]),
+        "y": np.array([0.0, 0.0, 4.0]),
+        "z": np.zeros(3),
+    }
     pos, i = G.interpolate_trace(trace, 1.5)
     assert i == 1 and np.allclose(pos, [10, 2, 0])
     assert np.allclose(G.interpolate_trace(trace, 99)[0], [10, 4, 0])
@@ -151,7 +162,9 @@ def test_signatures_follow_content_not_identity():
     assert layer_signatures(a) == layer_signatures(b)
     items = list(b.items)
     sp = items[2].sections[0]
-    moved = SectionPath(sp.key, sp.strategy, sp.points + [0, 0.01, 0], sp.arc, sp.inside, sp.speed, sp.zone, sp.zone_colors)
+    moved = SectionPath(
+        sp.key, sp.strategy, sp.points + [0, 0.01, 0], sp.arc, sp.inside, sp.speed, sp.zone, sp.zone_colors
+    )
     items[2] = LayerPaths(items[2].layer, (moved,) + items[2].sections[1:])
     changed = [x != y for x, y in zip(layer_signatures(a), layer_signatures(Layered(tuple(items))))]
     assert changed == [False, False, True, False]
@@ -186,12 +199,12 @@ def test_link_mesh_tubes_have_the_link_radii():
     chain = np.array([[0, 0, 0], [0, 0, 500.0], [300, 0, 500], [300, 0, 500], [300, 0, 100]])
     v, f = link_mesh(chain)
     assert v.shape == (4 * 2 * SIDES, 3) and f.shape == (4 * 2 * SIDES, 3) and f.max() == len(v) - 1
-    first = v[:SIDES]           # base ring of link 0, in the plane z = 0 around the z axis
+    first = v[:SIDES]  # base ring of link 0, in the plane z = 0 around the z axis
     assert np.allclose(np.hypot(first[:, 0], first[:, 1]), LINK_RADIUS_MM[0], atol=1e-3)
     assert np.allclose(first[:, 2], 0.0, atol=1e-3)
-    link1 = v[2 * SIDES:4 * SIDES]  # along x at z = 500: radius about that axis
+    link1 = v[2 * SIDES : 4 * SIDES]  # along x at z = 500: radius about that axis
     assert np.allclose(np.hypot(link1[:, 1], link1[:, 2] - 500), LINK_RADIUS_MM[1], atol=1e-3)
-    assert np.isfinite(v).all()     # the zero-length link (a wrist offset of 0) collapses to a ring
+    assert np.isfinite(v).all()  # the zero-length link (a wrist offset of 0) collapses to a ring
     torch = v[-SIDES:]
     assert np.allclose(np.hypot(torch[:, 0] - 300, torch[:, 1]), TORCH_RADIUS_MM, atol=1e-3)
 

@@ -29,8 +29,15 @@ def test_show_keeps_the_open_recipes_scene(viewer):
 def test_view_settings_and_legend(viewer):
     viewer.publish("a", RECIPE, outputs(6))
     viewer.show("a")
-    viewer.set_view(hidden={"layers"}, layer_lo=2, layer_hi=3, path_color="speed", sim_color="deposit",
-                    show_programmed=False, time_s=0.5)
+    viewer.set_view(
+        hidden={"layers"},
+        layer_lo=2,
+        layer_hi=3,
+        path_color="speed",
+        sim_color="deposit",
+        show_programmed=False,
+        time_s=0.5,
+    )
     st = viewer.state()
     assert st["view"]["hidden"] == ["layers"] and (st["view"]["layer_lo"], st["view"]["layer_hi"]) == (2, 3)
     vis = {n["id"]: n["visible"] for n in st["nodes"]}
@@ -56,12 +63,12 @@ def test_deposit_colour_maps_each_sample_to_its_programmed_segment(viewer):
     out = outputs(2)
     sim = out["simulate"]["simulation"]
     n = len(sim.programmed)
-    dep = np.linspace(1.0, 3.0, n - 1)            # mm³/mm rising along the path
+    dep = np.linspace(1.0, 3.0, n - 1)  # mm³/mm rising along the path
     object.__setattr__(sim, "deposit", {"actual_mm3_per_mm": dep, "arc": np.ones(n - 1, bool)})
     viewer.publish("a", RECIPE, out)
     viewer.set_view(sim_color="deposit")
     part = next(p for p in viewer.parts.values() if p.kind == "simulation")
-    assert part.ranges["deposit"] == pytest.approx((1.04, 2.96), abs=0.01)   # 2nd–98th percentile
+    assert part.ranges["deposit"] == pytest.approx((1.04, 2.96), abs=0.01)  # 2nd–98th percentile
     lo, hi = part.ranges["deposit"]
     per = part.deposit_per_sample()
     # sample i sits 0.3 mm beside programmed point i: its segment is i-1 or i (nearest midpoint)

@@ -29,7 +29,7 @@ def test_mpp_cross_scene(viewer):
     recipe, out = run_recipe("mpp-cross")
     viewer.publish("mpp-cross", recipe, out)
     names = viewer.scene_names()
-    assert len(layer_nodes(names, "layers", "layers")) == 8              # contract: 8 layers
+    assert len(layer_nodes(names, "layers", "layers")) == 8  # contract: 8 layers
     for node, ports in out.items():
         for port, value in ports.items():
             if port in ("layers", "sections", "toolpath"):
@@ -59,8 +59,10 @@ def test_rectangle_study_scene(viewer):
     assert all(f"/graph/simulate/simulation/L{i:04d}/simulated" in names for i in layers)
     assert all(f"/graph/simulate/simulation/L{i:04d}/programmed" in names for i in layers)
     # the drawn simulated path spans the trace (display may decimate, never extend it)
-    drawn = sum(viewer.server.scene.get_handle_by_name(f"/graph/simulate/simulation/L{i:04d}/simulated").points.shape[0]
-                for i in layers)
+    drawn = sum(
+        viewer.server.scene.get_handle_by_name(f"/graph/simulate/simulation/L{i:04d}/simulated").points.shape[0]
+        for i in layers
+    )
     assert 0 < drawn <= len(sim.trace["t"]) - 1
     # the time slider spans the simulated cycle time and moves the torch onto the trace
     assert viewer._gui["time"].max == pytest.approx(float(sim.trace["t"][-1]))
@@ -84,15 +86,15 @@ def test_robot_follows_the_trace(viewer):
     sim = out["simulate"]["simulation"]
     links = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/robot/links")
     n_links = links.points.shape[0]
-    assert n_links >= 6                                    # a 6-axis arm: base → … → flange → TCP
-    assert part.robot.reach_err.max() < 0.5                # TCP on the trace (REACH_TOL_MM)
+    assert n_links >= 6  # a 6-axis arm: base → … → flange → TCP
+    assert part.robot.reach_err.max() < 0.5  # TCP on the trace (REACH_TOL_MM)
     for frac in (0.25, 0.75):
         t = float(part.robot.t[int(frac * (len(part.robot.t) - 1))])
         viewer._gui["time"].value = t
         tcp = links.points[-1, 1]
         i = int(np.searchsorted(sim.trace["t"], t))
         want = [sim.trace[k][i] for k in ("x", "y", "z")]
-        assert np.allclose(tcp, want, atol=0.05)           # float32 display, mm
+        assert np.allclose(tcp, want, atol=0.05)  # float32 display, mm
         base = links.points[0, 0]
         assert np.allclose(base, part.robot.joints[0, 0], atol=1e-3)
         # the link geometry moves with the arm: the torch tube's far ring is centred on the TCP
@@ -125,4 +127,4 @@ def test_zone_colours_match_the_parameter_xml(viewer):
                 assert m.any()
                 assert (colors[m] == C.hex_to_rgb(zone_el.get("color"))).all(), (i, sec_el.get("id"), zone_el.get("id"))
                 checked += 1
-    assert checked >= 8 * 3 * 2        # 8 layers × 3 sections × at least start/end
+    assert checked >= 8 * 3 * 2  # 8 layers × 3 sections × at least start/end

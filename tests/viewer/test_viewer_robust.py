@@ -25,7 +25,7 @@ def test_deposit_outlier_is_clamped_and_marked(viewer):
     sim = out["simulate"]["simulation"]
     n = len(sim.programmed)
     dep = np.linspace(1.0, 3.0, n - 1)
-    dep[n // 2] = 48_500.0                                  # one ignition spike (mm³/mm)
+    dep[n // 2] = 48_500.0  # one ignition spike (mm³/mm)
     object.__setattr__(sim, "deposit", {"actual_mm3_per_mm": dep, "arc": np.ones(n - 1, bool)})
     viewer.publish("a", RECIPE, out)
     viewer.set_view(sim_color="deposit")
@@ -34,8 +34,12 @@ def test_deposit_outlier_is_clamped_and_marked(viewer):
     assert r["hi"] < 3.0 and r["lo"] > 0.99 and r["max"] == 48_500.0 and r["clamped"] is True
     # the ordinary samples use the whole map: darkest and brightest stops both appear
     part = next(p for p in viewer.parts.values() if p.kind == "simulation")
-    rgb = np.concatenate([viewer.server.scene.get_handle_by_name(f"/graph/simulate/simulation/L{i:04d}/simulated").colors[:, 0]
-                          for i in (0, 1)])
+    rgb = np.concatenate(
+        [
+            viewer.server.scene.get_handle_by_name(f"/graph/simulate/simulation/L{i:04d}/simulated").colors[:, 0]
+            for i in (0, 1)
+        ]
+    )
     stops = C.VIRIDIS_STOPS
     assert (np.abs(rgb.astype(int) - stops[0]).sum(axis=1) < 40).any()
     assert (np.abs(rgb.astype(int) - stops[-1]).sum(axis=1) < 40).any()
@@ -45,7 +49,7 @@ def test_deposit_outlier_is_clamped_and_marked(viewer):
 def test_speed_range_of_the_toolpath_is_robust(viewer):
     out = outputs(2)
     tp = out["zone"]["toolpath"]
-    tp.items[0].sections[0].speed[3] = 5_000.0             # one absurd programmed speed, mm/s
+    tp.items[0].sections[0].speed[3] = 5_000.0  # one absurd programmed speed, mm/s
     viewer.publish("a", RECIPE, out)
     legend = next(x for x in viewer.state()["legend"] if x["kind"] == "toolpath")
     r = legend["ranges"]["speed"]

@@ -24,7 +24,7 @@ def coloured_fraction(png: bytes) -> float:
 
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
     h, w, _ = img.shape
-    area = img[int(0.25 * h):, : int(0.6 * w)]
+    area = img[int(0.25 * h) :, : int(0.6 * w)]
     sat = area.max(axis=2) - area.min(axis=2)
     return float((sat > 60).mean())
 

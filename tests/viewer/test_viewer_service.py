@@ -31,7 +31,7 @@ def test_scene_tree_and_counts(viewer):
     # toolpath: ONE line-segment batch per layer holding every move of the layer
     tp = out["zone"]["toolpath"]
     segs = handle(viewer, "/graph/zone/toolpath/L0003").points
-    n_expected = sum(len(sp.points) - 1 for sp in tp[3].sections) + 1   # + the travel link
+    n_expected = sum(len(sp.points) - 1 for sp in tp[3].sections) + 1  # + the travel link
     assert segs.shape == (n_expected, 2, 3)
     assert np.allclose(segs[..., 2], tp[3].layer.z)
     # simulation: programmed and simulated per layer + torch marker
@@ -59,7 +59,7 @@ def test_republish_replaces_only_changed_layers(viewer):
     names = viewer.scene_names()
     before = {i: handle(viewer, f"/graph/zone/toolpath/L{i:04d}") for i in range(6)}
 
-    stats = viewer.publish("k", RECIPE, outputs(6))          # equal content, new objects
+    stats = viewer.publish("k", RECIPE, outputs(6))  # equal content, new objects
     assert stats["redrawn"] == 0 and stats["kept"] == 5
     assert viewer.scene_names() == names
 
@@ -71,7 +71,7 @@ def test_republish_replaces_only_changed_layers(viewer):
     changed = dict(out, zone={"toolpath": Layered(tuple(items))})
     stats = viewer.publish("k", RECIPE, changed)
     assert stats["redrawn"] == 1
-    assert viewer.scene_names() == names                       # replaced, not duplicated
+    assert viewer.scene_names() == names  # replaced, not duplicated
     after = {i: handle(viewer, f"/graph/zone/toolpath/L{i:04d}") for i in range(6)}
     assert [after[i] is before[i] for i in range(6)] == [True, True, True, True, False, True]
 
@@ -97,7 +97,7 @@ def test_colour_by_speed_mutates_existing_handles(viewer):
     assert handle(viewer, "/graph/zone/toolpath/L0001") is h
     lo, hi = viewer.parts[("zone", "toolpath")].speed_range
     assert viewer.parts[("zone", "toolpath")].speed_full == (10.0, 20.0)
-    assert 10.0 < lo < 10.5 and 19.5 < hi < 20.0     # 2nd–98th percentile of the speeds
+    assert 10.0 < lo < 10.5 and 19.5 < hi < 20.0  # 2nd–98th percentile of the speeds
     disp = G.path_display(G.layer_polyline(out["zone"]["toolpath"][1]), 10_000)
     fastest = np.nanargmax(np.where(disp.travel, np.nan, disp.speed))
     assert h.colors[fastest, 0].tolist() == C.colormap(np.array([disp.speed[fastest]]), lo, hi)[0].tolist()
@@ -116,7 +116,7 @@ def test_layer_range_select_and_node_visibility(viewer):
     viewer.select("zone", 5)
     assert handle(viewer, "/graph/zone").visible is True
     assert handle(viewer, "/graph/layers").visible is False
-    assert handle(viewer, "/graph/part").visible is True          # mesh stays as context
+    assert handle(viewer, "/graph/part").visible is True  # mesh stays as context
     assert [handle(viewer, f"/graph/zone/toolpath/L{i:04d}").visible for i in range(8)].count(True) == 1
     assert viewer._node_boxes["layers"].value is False
     viewer.select(None, None)
@@ -195,7 +195,7 @@ def test_url_reports_the_bound_port_and_stop_is_clean():
         assert v.bound_port > 0 and v.url == f"http://127.0.0.1:{v.bound_port}"
         import urllib.request
 
-        with urllib.request.urlopen(v.url, timeout=10) as r:     # the bundled web client
+        with urllib.request.urlopen(v.url, timeout=10) as r:  # the bundled web client
             page = r.read()
         assert r.status == 200 and b"<html" in page.lower()[:2000]
     finally:
@@ -210,9 +210,13 @@ def test_corners_drawn_per_layer_and_picked(viewer):
     sim = out["simulate"]["simulation"]
     prog = sim.programmed
     lay = sim.trace["layer"]
-    vertex = np.array([9, 19, int(np.flatnonzero(lay == 2)[9])])      # pass ends: raster corners
-    corners = {"vertex": vertex, "interior_deg": np.full(3, 90.0), "error_mm": np.array([0.1, 0.2, 0.4]),
-               "min_speed_mm_s": np.array([3.0, 2.5, 2.0])}
+    vertex = np.array([9, 19, int(np.flatnonzero(lay == 2)[9])])  # pass ends: raster corners
+    corners = {
+        "vertex": vertex,
+        "interior_deg": np.full(3, 90.0),
+        "error_mm": np.array([0.1, 0.2, 0.4]),
+        "min_speed_mm_s": np.array([3.0, 2.5, 2.0]),
+    }
     out["simulate"]["simulation"] = replace(sim, corners=corners)
     viewer.publish("k", RECIPE, out)
     c0 = viewer.server.scene.get_handle_by_name("/graph/simulate/simulation/L0000/corners")
@@ -228,13 +232,18 @@ def test_corners_drawn_per_layer_and_picked(viewer):
 def test_layer_range_survives_a_rerun(viewer):
     viewer.publish("k", RECIPE, outputs(6))
     assert viewer._gui["layers"].value == (0, 5)
-    viewer.publish("k", RECIPE, outputs(8))                   # full range follows the part
+    viewer.publish("k", RECIPE, outputs(8))  # full range follows the part
     assert viewer._gui["layers"].value == (0, 7)
     viewer._gui["layers"].value = (2, 6)
-    viewer.publish("k", RECIPE, outputs(5))                   # a narrowed range is kept, clipped
+    viewer.publish("k", RECIPE, outputs(5))  # a narrowed range is kept, clipped
     assert viewer._gui["layers"].value == (2, 4)
-    assert [viewer.server.scene.get_handle_by_name(f"/graph/zone/toolpath/L{i:04d}").visible
-            for i in range(5)] == [False, False, True, True, True]
+    assert [viewer.server.scene.get_handle_by_name(f"/graph/zone/toolpath/L{i:04d}").visible for i in range(5)] == [
+        False,
+        False,
+        True,
+        True,
+        True,
+    ]
 
 
 def test_legend_lists_zone_colours_and_ranges(viewer):
@@ -259,7 +268,7 @@ def test_simulated_path_offset_side_by_side(viewer):
     s = out["simulate"]["simulation"].trace
     assert torch.position[2] == pytest.approx(s["z"][0] + 5.0)
     viewer._node_boxes["zone"].value = False
-    j = int(np.flatnonzero(s["layer"] == 1)[30])                   # top layer: nearest from above
+    j = int(np.flatnonzero(s["layer"] == 1)[30])  # top layer: nearest from above
     p = np.array([s["x"][j], s["y"][j], s["z"][j] + 5.0])
     info = viewer.pick(p + [0, 0, 50], np.array([0, 0, -1.0]))
     assert info["node"] == "simulate" and info["point"][2] == pytest.approx(p[2], abs=1e-3)

@@ -29,10 +29,22 @@ def connect(viewer, view_id: str | None):
     url = viewer.url.replace("http://", "ws://") + ("/" if view_id is None else f"/?view={view_id}")
     ws = ws_connect(url, max_size=None, subprotocols=[f"viser-v{viser.__version__}"])
     # viser counts a client as connected once it reports its camera (the browser does at once)
-    ws.send(msgspec.msgpack.encode({
-        "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, -300.0, 200.0],
-        "fov": 1.3, "near": 0.01, "far": 1000.0, "image_height": 600, "image_width": 800,
-        "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}))
+    ws.send(
+        msgspec.msgpack.encode(
+            {
+                "type": "ViewerCameraMessage",
+                "wxyz": [1.0, 0.0, 0.0, 0.0],
+                "position": [0.0, -300.0, 200.0],
+                "fov": 1.3,
+                "near": 0.01,
+                "far": 1000.0,
+                "image_height": 600,
+                "image_width": 800,
+                "look_at": [0.0, 0.0, 0.0],
+                "up_direction": [0.0, 0.0, 1.0],
+            }
+        )
+    )
     return ws
 
 
@@ -59,6 +71,7 @@ def test_two_views_see_their_own_recipes(private_viewer):
         assert (a["key"], a["layers"]) == ("duct", {"lo": 0, "hi": 2})
         assert (b["key"], b["layers"]) == ("bracket", {"lo": 0, "hi": 5})
         got_one, got_two = scene_names_received(one), scene_names_received(two)
+
         def layers(names):
             return sorted(n for n in names if n.startswith("/graph/zone/toolpath/L"))
 
@@ -69,7 +82,7 @@ def test_two_views_see_their_own_recipes(private_viewer):
         a, b = v.state(view="tab-one"), v.state(view="tab-two")
         assert (a["view"]["time_s"], a["view"]["sim_color"], a["view"]["path_color"]) == (0.0, "deviation", "zone")
         assert (b["view"]["time_s"], b["view"]["sim_color"], b["view"]["path_color"]) == (2.0, "deposit", "speed")
-        scene_names_received(two, seconds=1.0)   # drain tab two's recolouring
+        scene_names_received(two, seconds=1.0)  # drain tab two's recolouring
         # a script steering the server-wide default changes neither tab
         assert v.show("bracket") is True
         assert v.state(view="tab-one")["key"] == "duct" and v.state()["key"] == "bracket"
@@ -91,7 +104,7 @@ def test_a_view_keeps_its_state_across_reconnects(private_viewer):
     pytest.importorskip("zstandard")
     v = private_viewer
     v.publish("duct", RECIPE, outputs(5))
-    v.show("duct", view="tab")            # before any browser client: the view exists headless
+    v.show("duct", view="tab")  # before any browser client: the view exists headless
     v.set_view(view="tab", layer_lo=1, layer_hi=3, sim_color="speed")
     ws = connect(v, "tab")
     try:

@@ -42,7 +42,7 @@ class AsBuiltOverlay:
 
     def __init__(self, build: str, layers: list[dict[str, Any]]) -> None:
         self.build = build
-        self.layers: list[tuple[int, np.ndarray, np.ndarray]] = []      # (layer, points, deviation)
+        self.layers: list[tuple[int, np.ndarray, np.ndarray]] = []  # (layer, points, deviation)
         for row in layers:
             dev = np.asarray(row["deviation"], float)
             ok = np.isfinite(dev)
@@ -64,11 +64,16 @@ class AsBuiltOverlay:
 
     @property
     def legend(self) -> dict[str, Any]:
-        return {"kind": "asbuilt", "build": self.build, "unit": "mm", "points": self.points,
-                "layers": [k for k, p, _ in self.layers if len(p)],
-                "range": {"lo": -round(self.limit, 4), "hi": round(self.limit, 4)},
-                "deviation": {"min": round(self.min, 4), "max": round(self.max, 4)},
-                "stops": ["#%02x%02x%02x" % tuple(int(c) for c in s) for s in STOPS]}
+        return {
+            "kind": "asbuilt",
+            "build": self.build,
+            "unit": "mm",
+            "points": self.points,
+            "layers": [k for k, p, _ in self.layers if len(p)],
+            "range": {"lo": -round(self.limit, 4), "hi": round(self.limit, 4)},
+            "deviation": {"min": round(self.min, 4), "max": round(self.max, 4)},
+            "stops": ["#%02x%02x%02x" % tuple(int(c) for c in s) for s in STOPS],
+        }
 
     def draw(self, scene, point_size: float = 1.5) -> int:
         """Draw every layer's points on `scene` (one point cloud per layer); returns handles drawn."""
@@ -76,8 +81,15 @@ class AsBuiltOverlay:
         for i, (k, pts, _) in enumerate(self.layers):
             if not len(pts):
                 continue
-            self.handles.append(scene.add_point_cloud(f"{ROOT}/layer_{k:04d}", pts.astype(np.float32), self.colors(i),
-                                                      point_size=point_size, point_shape="circle"))
+            self.handles.append(
+                scene.add_point_cloud(
+                    f"{ROOT}/layer_{k:04d}",
+                    pts.astype(np.float32),
+                    self.colors(i),
+                    point_size=point_size,
+                    point_shape="circle",
+                )
+            )
         return len(self.handles)
 
     def remove(self) -> None:

@@ -19,7 +19,7 @@ CAMERA_ELEVATION_DEG = 35.0
 CAMERA_FOV_DEG = 75.0
 CAMERA_MARGIN = 1.1
 
-Camera = tuple[tuple[float, ...], tuple[float, ...], float, float]   # (eye, look_at, near, far)
+Camera = tuple[tuple[float, ...], tuple[float, ...], float, float]  # (eye, look_at, near, far)
 
 
 def framing(center: np.ndarray, radius: float, direction: np.ndarray) -> Camera:

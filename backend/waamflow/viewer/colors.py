@@ -12,28 +12,51 @@ import numpy as np
 
 # Viridis sampled at 9 stops (matplotlib's `viridis`, perceptually uniform, colour-blind safe):
 # used for speed and deviation so "slow" / "small" reads dark blue and "fast" / "large" yellow.
-_VIRIDIS = np.array([
-    [68, 1, 84], [71, 44, 122], [59, 81, 139], [44, 113, 142], [33, 144, 141],
-    [39, 173, 129], [92, 200, 99], [170, 220, 50], [253, 231, 37],
-], dtype=float)
+_VIRIDIS = np.array(
+    [
+        [68, 1, 84],
+        [71, 44, 122],
+        [59, 81, 139],
+        [44, 113, 142],
+        [33, 144, 141],
+        [39, 173, 129],
+        [92, 200, 99],
+        [170, 220, 50],
+        [253, 231, 37],
+    ],
+    dtype=float,
+)
 
-VIRIDIS_STOPS = _VIRIDIS.astype(np.uint8)   # the map's stops, low → high (for legends drawn elsewhere)
+VIRIDIS_STOPS = _VIRIDIS.astype(np.uint8)  # the map's stops, low → high (for legends drawn elsewhere)
 
 NAN_RGB = np.array([150, 150, 150], dtype=np.uint8)
-TRAVEL_RGB = np.array([205, 205, 205], dtype=np.uint8)      # arc-OFF moves: pale, drawn faint
+TRAVEL_RGB = np.array([205, 205, 205], dtype=np.uint8)  # arc-OFF moves: pale, drawn faint
 ARC_ON_RGB = np.array([230, 57, 70], dtype=np.uint8)
 ARC_OFF_RGB = np.array([69, 123, 157], dtype=np.uint8)
-PROGRAMMED_RGB = np.array([20, 20, 20], dtype=np.uint8)     # near black: reads against every map colour
-OUTLINE_RGB = np.array([76, 201, 240], dtype=np.uint8)      # port colour of "layers"
+PROGRAMMED_RGB = np.array([20, 20, 20], dtype=np.uint8)  # near black: reads against every map colour
+OUTLINE_RGB = np.array([76, 201, 240], dtype=np.uint8)  # port colour of "layers"
 CURVE_RGB = np.array([247, 37, 133], dtype=np.uint8)
 MESH_RGB = (141, 153, 174)
-ROBOT_RGB = np.array([255, 140, 0], dtype=np.uint8)         # KUKA orange                                  # port colour of "mesh"
+ROBOT_RGB = np.array(
+    [255, 140, 0], dtype=np.uint8
+)  # KUKA orange                                  # port colour of "mesh"
 
 # Categorical palette (Tableau 10) for sections and zones without an explicit colour.
-PALETTE = np.array([
-    [78, 121, 167], [242, 142, 43], [225, 87, 89], [118, 183, 178], [89, 161, 79],
-    [237, 201, 72], [176, 122, 161], [255, 157, 167], [156, 117, 95], [186, 176, 172],
-], dtype=np.uint8)
+PALETTE = np.array(
+    [
+        [78, 121, 167],
+        [242, 142, 43],
+        [225, 87, 89],
+        [118, 183, 178],
+        [89, 161, 79],
+        [237, 201, 72],
+        [176, 122, 161],
+        [255, 157, 167],
+        [156, 117, 95],
+        [186, 176, 172],
+    ],
+    dtype=np.uint8,
+)
 
 # Default zone colours, used only when a toolpath carries no `zone_colors` (before the zone node
 # has assigned them); the zone node's own colours (the ones the XML editor shows) always win.
@@ -44,10 +67,15 @@ DEFAULT_ZONE_RGB = {
 }
 
 FEATURE_RGB = {
-    "free_end": (230, 57, 70), "corner": (244, 162, 97), "continuous": (42, 157, 143),
-    "t_crossing": (38, 70, 83), "direct_crossing": (131, 56, 236),
-    "odd_t_crossing": (255, 0, 110), "odd_direct_crossing": (251, 86, 7),
-    "four_direct_crossing": (58, 134, 255), "tubular": (233, 196, 106),
+    "free_end": (230, 57, 70),
+    "corner": (244, 162, 97),
+    "continuous": (42, 157, 143),
+    "t_crossing": (38, 70, 83),
+    "direct_crossing": (131, 56, 236),
+    "odd_t_crossing": (255, 0, 110),
+    "odd_direct_crossing": (251, 86, 7),
+    "four_direct_crossing": (58, 134, 255),
+    "tubular": (233, 196, 106),
 }
 
 
@@ -58,7 +86,7 @@ def hex_to_rgb(color: str) -> np.ndarray:
         c = "".join(ch * 2 for ch in c)
     if len(c) != 6:
         raise ValueError(f"not a #rrggbb colour: {color!r}")
-    return np.array([int(c[i:i + 2], 16) for i in (0, 2, 4)], dtype=np.uint8)
+    return np.array([int(c[i : i + 2], 16) for i in (0, 2, 4)], dtype=np.uint8)
 
 
 def rgb_to_hex(rgb) -> str:

@@ -44,7 +44,7 @@ def client_root(build: Path) -> Path:
     head = index.index("</head>")
     (tmp / "index.html").write_text(index[:head] + EMBED_HEAD + index[head:], encoding="utf-8")
     try:
-        os.replace(tmp, root)   # atomic; a concurrent server may have made the same folder first
+        os.replace(tmp, root)  # atomic; a concurrent server may have made the same folder first
     except OSError:
         pass
     return root if (root / "index.html").is_file() else tmp
@@ -63,7 +63,7 @@ def embedded_client() -> Iterator[None]:
         if build is not None and (Path(build) / "index.html").is_file():
             try:
                 kwargs["http_server_root"] = client_root(Path(build))
-            except OSError:   # read-only temp dir: serve the stock client
+            except OSError:  # read-only temp dir: serve the stock client
                 pass
         return original(*args, **kwargs)
 

@@ -30,8 +30,7 @@ OUTLINE_SIMPLIFY_MM = 0.02
 # --------------------------------------------------------------------------------------------
 def mesh_arrays(mesh: MeshData) -> tuple[np.ndarray, np.ndarray]:
     """A MeshData as display arrays: (v, 3) float32 vertices, (f, 3) uint32 faces."""
-    return (np.ascontiguousarray(mesh.vertices, dtype=np.float32),
-            np.ascontiguousarray(mesh.faces, dtype=np.uint32))
+    return (np.ascontiguousarray(mesh.vertices, dtype=np.float32), np.ascontiguousarray(mesh.faces, dtype=np.uint32))
 
 
 def midsurface_arrays(mid: Midsurface) -> tuple[np.ndarray, np.ndarray]:
@@ -231,19 +230,34 @@ def layer_polyline(lp: LayerPaths) -> PathLayerPolyline:
 
     if not pts:
         e = np.zeros(0)
-        return PathLayerPolyline(np.zeros((0, 3)), e.astype(bool), e.astype(bool), e, e.astype(np.int32),
-                                 e.astype(np.int32), np.zeros((0, 3), np.uint8), (), ())
+        return PathLayerPolyline(
+            np.zeros((0, 3)),
+            e.astype(bool),
+            e.astype(bool),
+            e,
+            e.astype(np.int32),
+            e.astype(np.int32),
+            np.zeros((0, 3), np.uint8),
+            (),
+            (),
+        )
     cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in attrs.items()}
     return PathLayerPolyline(
-        points=np.vstack(pts), travel=cat["travel"].astype(bool), arc=cat["arc"].astype(bool),
-        speed=cat["speed"].astype(float), section=cat["section"].astype(np.int32),
+        points=np.vstack(pts),
+        travel=cat["travel"].astype(bool),
+        arc=cat["arc"].astype(bool),
+        speed=cat["speed"].astype(float),
+        section=cat["section"].astype(np.int32),
         zone=cat["zone"].astype(np.int32),
-        zone_rgb=cat["rgb"].reshape(-1, 3).astype(np.uint8), section_keys=tuple(keys),
-        zone_ids=tuple(zone_ids))
+        zone_rgb=cat["rgb"].reshape(-1, 3).astype(np.uint8),
+        section_keys=tuple(keys),
+        zone_ids=tuple(zone_ids),
+    )
 
 
-def decimate_indices(points: np.ndarray, seg_keys: np.ndarray, max_segments: int,
-                     corner_deg: float = 30.0) -> np.ndarray:
+def decimate_indices(
+    points: np.ndarray, seg_keys: np.ndarray, max_segments: int, corner_deg: float = 30.0
+) -> np.ndarray:
     """Vertices of a polyline to keep so that at most about `max_segments` segments remain.
 
     points: (n, 3). seg_keys: (n - 1,) int codes of the per-segment attributes that must stay
@@ -294,9 +308,18 @@ def path_display(poly: PathLayerPolyline, max_segments: int) -> PathLayerDisplay
     n = len(poly.points)
     if n < 2:
         z = np.zeros(0)
-        return PathLayerDisplay(np.zeros((0, 2, 3), np.float32), z.astype(bool), z.astype(bool), z,
-                                z.astype(np.int32), z.astype(np.int32), np.zeros((0, 3), np.uint8),
-                                poly.section_keys, poly.zone_ids, 0)
+        return PathLayerDisplay(
+            np.zeros((0, 2, 3), np.float32),
+            z.astype(bool),
+            z.astype(bool),
+            z,
+            z.astype(np.int32),
+            z.astype(np.int32),
+            np.zeros((0, 3), np.uint8),
+            poly.section_keys,
+            poly.zone_ids,
+            0,
+        )
     codes = (poly.zone.astype(np.int64) + 1) * 4 + poly.arc * 2 + poly.travel
     codes = codes * (len(poly.section_keys) + 1) + poly.section
     keep = decimate_indices(poly.points, codes, max_segments)
@@ -304,9 +327,17 @@ def path_display(poly: PathLayerPolyline, max_segments: int) -> PathLayerDisplay
     pts = poly.points[keep].astype(np.float32)
     segs = np.stack([pts[:-1], pts[1:]], axis=1)
     return PathLayerDisplay(
-        segments=segs, travel=poly.travel[first], arc=poly.arc[first], speed=poly.speed[first],
-        section=poly.section[first], zone=poly.zone[first], zone_rgb=poly.zone_rgb[first],
-        section_keys=poly.section_keys, zone_ids=poly.zone_ids, n_source=n - 1)
+        segments=segs,
+        travel=poly.travel[first],
+        arc=poly.arc[first],
+        speed=poly.speed[first],
+        section=poly.section[first],
+        zone=poly.zone[first],
+        zone_rgb=poly.zone_rgb[first],
+        section_keys=poly.section_keys,
+        zone_ids=poly.zone_ids,
+        n_source=n - 1,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -334,8 +365,9 @@ def split_by_layer(layer: np.ndarray) -> dict[int, np.ndarray]:
     return {k: np.concatenate(v) for k, v in out.items()}
 
 
-def chunk_segments(points: np.ndarray, idx: np.ndarray, max_segments: int,
-                   keys: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def chunk_segments(
+    points: np.ndarray, idx: np.ndarray, max_segments: int, keys: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Segments along points[idx] (consecutive runs of idx only), decimated to ~`max_segments`.
 
     Returns ((m, 2, 3) float32 segments, (m,) int index of each segment's first source sample).

@@ -32,9 +32,9 @@ class SessionPanel(ABC):
     node_types: dict[str, str]
     key: str | None
     target: Target
-    _gui: dict[str, Any]           # widget name → viser GUI handle ({} without a panel)
-    _syncing: bool                 # the panel is being set from the view: handlers must not write back
-    _node_boxes: dict[str, Any]    # node id → its visibility checkbox
+    _gui: dict[str, Any]  # widget name → viser GUI handle ({} without a panel)
+    _syncing: bool  # the panel is being set from the view: handlers must not write back
+    _node_boxes: dict[str, Any]  # node id → its visibility checkbox
     _play_stop: threading.Event
     _play_thread: threading.Thread | None
     _bounds: np.ndarray | None
@@ -74,8 +74,14 @@ class SessionPanel(ABC):
         g["layers"] = gui.add_multi_slider("Layers", min=0, max=1, step=1, initial_value=(0, 1))
         g["path_color"] = gui.add_dropdown("Toolpath colour", PATH_COLOR_MODES, initial_value=self.view.path_color)
         g["sim_color"] = gui.add_dropdown("Simulation colour", SIM_COLOR_MODES, initial_value=self.view.sim_color)
-        g["offset"] = gui.add_number("Sim. offset z (mm)", initial_value=0.0, min=0.0, max=1000.0, step=0.5,
-                                     hint="Draw the simulated path this far above the programmed one")
+        g["offset"] = gui.add_number(
+            "Sim. offset z (mm)",
+            initial_value=0.0,
+            min=0.0,
+            max=1000.0,
+            step=0.5,
+            hint="Draw the simulated path this far above the programmed one",
+        )
         g["time"] = gui.add_slider("Time (s)", min=0.0, max=1.0, step=0.01, initial_value=0.0)
         g["play"] = gui.add_button("Play / pause")
         g["robot"] = gui.add_checkbox("Show robot", initial_value=self.view.show_robot)
@@ -92,7 +98,7 @@ class SessionPanel(ABC):
         g["offset"].on_update(lambda _: self._guarded(self._on_offset))
 
     def _guarded(self, handler: Callable[[], None]) -> None:
-        if self._syncing:   # setting a widget calls its handler: it must not write back
+        if self._syncing:  # setting a widget calls its handler: it must not write back
             return
         with self.lock:
             if self._gui:
@@ -137,9 +143,15 @@ class SessionPanel(ABC):
         g["time"].value = min(max(v.time_s, 0.0), g["time"].max)
         run = self.svc.scene_runs.get(self.key or "")
         loading = self.svc._rebuilding.get(self.key or "")
-        g["run"].content = (f"**Run:** `{self.key}`{f' ({run})' if run else ''} — {len(self.parts)} outputs" if self.parts else
-                            f"**Rebuilding the scene of run `{loading['run']}`…**" if loading else
-                            f"**No run of `{self.key}` yet.**" if self.key else "**No run published yet.**")
+        g["run"].content = (
+            f"**Run:** `{self.key}`{f' ({run})' if run else ''} — {len(self.parts)} outputs"
+            if self.parts
+            else f"**Rebuilding the scene of run `{loading['run']}`…**"
+            if loading
+            else f"**No run of `{self.key}` yet.**"
+            if self.key
+            else "**No run published yet.**"
+        )
         g["legend"].content = self._legend()
 
     def _legend(self) -> str:
@@ -147,8 +159,10 @@ class SessionPanel(ABC):
         from html import escape
 
         def swatch(hexcol: str, label: str) -> str:
-            return (f'<span style="display:inline-block;width:0.8em;height:0.8em;background:{hexcol};'
-                    f'margin:0 0.25em 0 0.6em;vertical-align:middle"></span>{escape(label)}')
+            return (
+                f'<span style="display:inline-block;width:0.8em;height:0.8em;background:{hexcol};'
+                f'margin:0 0.25em 0 0.6em;vertical-align:middle"></span>{escape(label)}'
+            )
 
         rows = []
         for p in self.parts.values():
@@ -158,14 +172,23 @@ class SessionPanel(ABC):
                 zones = "".join(swatch(h, z) for z, h in p.zone_legend()) or " not zoned (coloured by section)"
                 rows.append(head + f"zones{zones}<br>speed {lo:.3g}–{hi:.3g} mm/s (dark→yellow), travel pale")
             elif isinstance(p, SimulationPart):
-                ranges = ", ".join(f"{k} {lo:.3g}–{hi:.3g} {u}" for k, u in (("deviation", "mm"), ("speed", "mm/s"))
-                                   if k in p.ranges for lo, hi in [p.ranges[k]])
-                robot = (f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
-                         if p.robot is not None else escape(p.robot_note))
+                ranges = ", ".join(
+                    f"{k} {lo:.3g}–{hi:.3g} {u}"
+                    for k, u in (("deviation", "mm"), ("speed", "mm/s"))
+                    if k in p.ranges
+                    for lo, hi in [p.ranges[k]]
+                )
+                robot = (
+                    f"robot {escape(p.robot.name)} (IK residual ≤ {p.robot.reach_err.max():.2g} mm)"
+                    if p.robot is not None
+                    else escape(p.robot_note)
+                )
                 rows.append(head + ranges + (f"<br>{robot}" if robot else ""))
             elif isinstance(p, FeaturesPart):
                 kinds = sorted(set(p.kinds))
-                rows.append(head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds))
+                rows.append(
+                    head + "".join(swatch(C.rgb_to_hex(C.FEATURE_RGB.get(k, C.categorical(k))), k) for k in kinds)
+                )
         return f'<div style="font-size:0.8em;line-height:1.5">{"<br>".join(rows)}</div>'
 
     def _on_layers(self) -> None:
@@ -236,8 +259,13 @@ class SessionPanel(ABC):
                 self._gui["pick"].content = "*Nothing picked.*"
                 return
             self._gui["pick"].content = "**Picked point**  \n" + _table(info)
-            self.scene.add_icosphere("/pick", radius=max(self._pick_radius(), 0.2), color=(255, 0, 110),
-                                     position=tuple(info["point"]), cast_shadow=False)
+            self.scene.add_icosphere(
+                "/pick",
+                radius=max(self._pick_radius(), 0.2),
+                color=(255, 0, 110),
+                position=tuple(info["point"]),
+                cast_shadow=False,
+            )
 
     def _pick_radius(self) -> float:
         b = self._bounds

@@ -117,12 +117,13 @@ def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_sample
     t = np.asarray(trace["t"], float)
     pts = np.column_stack([np.asarray(trace[k], float) for k in ("x", "y", "z")])
     idx = np.unique(np.linspace(0, len(t) - 1, min(max_samples, len(t))).round().astype(int))
-    idx = idx[np.r_[True, np.linalg.norm(np.diff(pts[idx], axis=0), axis=1) > 1e-6]]   # IK needs moves
+    idx = idx[np.r_[True, np.linalg.norm(np.diff(pts[idx], axis=0), axis=1) > 1e-6]]  # IK needs moves
     sample = pts[idx]
-    frames = CellFrames(base_xyz_mm=setup["base_xyz_mm"], base_yaw_deg=setup["base_yaw_deg"],
-                        work_xyz_mm=setup["work_xyz_mm"])
+    frames = CellFrames(
+        base_xyz_mm=setup["base_xyz_mm"], base_yaw_deg=setup["base_yaw_deg"], work_xyz_mm=setup["work_xyz_mm"]
+    )
     seglen = np.linalg.norm(np.diff(sample, axis=0), axis=1)
-    step = float(seglen.max()) + 1.0 if len(seglen) else 1.0     # one IK sample per vertex
+    step = float(seglen.max()) + 1.0 if len(seglen) else 1.0  # one IK sample per vertex
     axes = np.tile([0.0, 0.0, -1.0], (len(sample), 1))
     kin = solve_path(arm, sample, axes, frames, step_mm=step)
     model = arm.model
@@ -139,14 +140,15 @@ def robot_motion(trace: dict[str, np.ndarray], setup: dict[str, Any], max_sample
             p.append(data.oMf[tool0].translation.copy())
         p.append(data.oMf[arm.tcp].translation.copy())
         chain.append(np.asarray(p))
-    joints = 1000.0 * np.asarray(chain) @ Rb.T + offset     # base frame (m) → toolpath frame (mm)
-    n = min(len(joints), len(idx))       # one IK sample per trace sample (step > longest move)
+    joints = 1000.0 * np.asarray(chain) @ Rb.T + offset  # base frame (m) → toolpath frame (mm)
+    n = min(len(joints), len(idx))  # one IK sample per trace sample (step > longest move)
     return RobotMotion(t[idx[:n]], joints[:n], np.asarray(kin.reach_err)[:n], setup["description"])
 
 
 # ------------------------------------------------------------------------------------------------
 # The whole cell (simulate-robot with a cell file): arm, torch, positioner, table and fixtures in
 # the world, the part on the positioner, all replayed from the simulation's own solution.
+
 
 @dataclass(frozen=True, eq=False)
 class CellMotion:
@@ -218,8 +220,11 @@ def cell_motion(value, max_samples: int = 600) -> CellMotion:
     s = np.asarray(mot["s"], float)
     q = np.column_stack([np.interp(sp, s, np.asarray(mot["q"])[:, j]) for j in range(arm.model.nq)])
     ang_s = np.asarray(mot["positioner_deg"], float).reshape(len(s), -1)
-    ang = np.column_stack([np.interp(sp, s, ang_s[:, j]) for j in range(ang_s.shape[1])]) if ang_s.shape[1] \
+    ang = (
+        np.column_stack([np.interp(sp, s, ang_s[:, j]) for j in range(ang_s.shape[1])])
+        if ang_s.shape[1]
         else np.zeros((len(sp), 0))
+    )
     bad = np.interp(sp, s, np.asarray(mot["unreachable"], float)) > 0.5
     model, data = arm.model, arm.model.createData()
     yaw = np.radians(cell.robot_base.yaw_deg)
@@ -235,8 +240,9 @@ def cell_motion(value, max_samples: int = 600) -> CellMotion:
         chain.append(np.asarray(pts) @ Rb.T + tb)
         tR.append(Rb @ data.oMf[tool0].rotation)
         tP.append(Rb @ data.oMf[tool0].translation * 1000.0 + tb)
-    names = {sh.link for sh in (cell.positioner.shapes if cell.positioner else [])} | \
-        {sh.link for sh in cell.fixtures if sh.link}
+    names = {sh.link for sh in (cell.positioner.shapes if cell.positioner else [])} | {
+        sh.link for sh in cell.fixtures if sh.link
+    }
     links: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     work_R, work_t = [], []
     lp: dict[str, tuple[list[Any], list[Any]]] = {n: ([], []) for n in names}
@@ -250,8 +256,17 @@ def cell_motion(value, max_samples: int = 600) -> CellMotion:
             lp[n][1].append(tl)
     for n, (Rs, ts) in lp.items():
         links[n] = (np.asarray(Rs), np.asarray(ts))
-    return CellMotion(t[idx], np.asarray(chain), (np.asarray(tR), np.asarray(tP)),
-                      (np.asarray(work_R), np.asarray(work_t)), links, ang, bad, cell, cell.name)
+    return CellMotion(
+        t[idx],
+        np.asarray(chain),
+        (np.asarray(tR), np.asarray(tP)),
+        (np.asarray(work_R), np.asarray(work_t)),
+        links,
+        ang,
+        bad,
+        cell,
+        cell.name,
+    )
 
 
 def shape_arrays(cell, sh) -> tuple[np.ndarray, np.ndarray]:

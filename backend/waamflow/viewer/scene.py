@@ -29,9 +29,9 @@ from . import colors as C
 from . import geometry as G
 from .signature import digest, layer_signatures
 
-LINE_PX = 2.0        # outline / guide thickness in screen pixels (independent of part size)
-PATH_PX = 3.0        # programmed toolpath: the widest line, its zone/speed colours read at a glance
-SIM_PX = 1.5         # simulated path: half the toolpath's width, drawn inside it (zone colours show beside it)
+LINE_PX = 2.0  # outline / guide thickness in screen pixels (independent of part size)
+PATH_PX = 3.0  # programmed toolpath: the widest line, its zone/speed colours read at a glance
+SIM_PX = 1.5  # simulated path: half the toolpath's width, drawn inside it (zone colours show beside it)
 PROGRAMMED_PX = 1.0  # the simulation's programmed reference: a thin dark core line
 FILL_OPACITY = 0.55
 MESH_OPACITY = 0.25
@@ -62,7 +62,7 @@ class ViewState:
     hidden: set[str] = field(default_factory=set)
     time_s: float = 0.0
     show_robot: bool = True
-    sim_offset_mm: float = 0.0   # lift of the simulated path above the programmed one (+z), mm
+    sim_offset_mm: float = 0.0  # lift of the simulated path above the programmed one (+z), mm
     show_programmed: bool = True
     show_simulated: bool = True
 
@@ -150,8 +150,15 @@ class MeshPart(Part):
             return 0
         verts, faces = G.mesh_arrays(value) if isinstance(value, MeshData) else G.midsurface_arrays(value)
         self.handle = self.scene.add_mesh_simple(
-            f"{self.root}/mesh", verts, faces, color=C.MESH_RGB, opacity=MESH_OPACITY,
-            side="double", cast_shadow=False, receive_shadow=False)
+            f"{self.root}/mesh",
+            verts,
+            faces,
+            color=C.MESH_RGB,
+            opacity=MESH_OPACITY,
+            side="double",
+            cast_shadow=False,
+            receive_shadow=False,
+        )
         self.sig = sig
         self._bounds = G.layers_bounds([verts])
         return 1
@@ -166,7 +173,7 @@ class LayeredPart(Part):
 
     def __init__(self, *a, **k) -> None:
         super().__init__(*a, **k)
-        self.entries: dict[int, dict[str, Any]] = {}   # layer index → {sig, handle, item, ...}
+        self.entries: dict[int, dict[str, Any]] = {}  # layer index → {sig, handle, item, ...}
 
     def budget(self, n_layers: int) -> int:
         return max(self.max_segments // max(n_layers, 1), 64)
@@ -175,7 +182,7 @@ class LayeredPart(Part):
         sigs = layer_signatures(value)
         present: dict[int, tuple[Any, str]] = {}
         for item, sig in zip(value.items, sigs):
-            if item is not None and sig is not None:   # sig is None exactly where item is (layer_signatures)
+            if item is not None and sig is not None:  # sig is None exactly where item is (layer_signatures)
                 present[int(item.index)] = (item, sig)
         self._prepare(value, present)
         # items[i] belongs to layer i; None = not computed in this (partial) run: keep what is shown
@@ -188,7 +195,7 @@ class LayeredPart(Part):
             if old is not None:
                 if old["sig"] == sig:
                     continue
-                old["handle"].remove()   # children (section fills) may differ: no stale leftovers
+                old["handle"].remove()  # children (section fills) may differ: no stale leftovers
             entry = self._draw_layer(index, item, self.budget(len(present)), view)
             entry["sig"] = sig
             entry["handle"].visible = view.shows_layer(index)
@@ -219,10 +226,12 @@ class LayersPart(LayeredPart):
     def _draw_layer(self, index, layer: Layer, budget, view):
         region, curves = G.layer_outline_segments(layer)
         segs = np.concatenate([region, curves])
-        rgb = np.concatenate([np.broadcast_to(C.OUTLINE_RGB, (len(region), 2, 3)),
-                              np.broadcast_to(C.CURVE_RGB, (len(curves), 2, 3))]).astype(np.uint8)
+        rgb = np.concatenate(
+            [np.broadcast_to(C.OUTLINE_RGB, (len(region), 2, 3)), np.broadcast_to(C.CURVE_RGB, (len(curves), 2, 3))]
+        ).astype(np.uint8)
         handle = self.scene.add_line_segments(
-            f"{self.root}/{layer_name(index)}", segs, rgb, thickness=LINE_PX, thickness_units="screen")
+            f"{self.root}/{layer_name(index)}", segs, rgb, thickness=LINE_PX, thickness_units="screen"
+        )
         return {"handle": handle, "count": len(segs), "bounds": G.layers_bounds([segs])}
 
 
@@ -237,16 +246,21 @@ class SectionsPart(LayeredPart):
             verts, faces = G.section_fill(ls.layer, s.region)
             if len(faces):
                 fills[s.key] = self.scene.add_mesh_simple(
-                    f"{name}/{slug(s.key)}", verts, faces, color=tuple(int(v) for v in C.categorical(s.key)),
-                    opacity=FILL_OPACITY, side="double", cast_shadow=False, receive_shadow=False)
+                    f"{name}/{slug(s.key)}",
+                    verts,
+                    faces,
+                    color=tuple(int(v) for v in C.categorical(s.key)),
+                    opacity=FILL_OPACITY,
+                    side="double",
+                    cast_shadow=False,
+                    receive_shadow=False,
+                )
                 pts.append(verts)
             guides.append(G.guide_segments(ls.layer, s.guide))
         g = np.concatenate(guides) if guides else np.zeros((0, 2, 3), np.float32)
         if len(g):
-            self.scene.add_line_segments(f"{name}/guides", g, (40, 40, 40), thickness=LINE_PX,
-                                         thickness_units="screen")
-        return {"handle": frame, "fills": fills, "count": len(fills), "item": ls,
-                "bounds": G.layers_bounds(pts)}
+            self.scene.add_line_segments(f"{name}/guides", g, (40, 40, 40), thickness=LINE_PX, thickness_units="screen")
+        return {"handle": frame, "fills": fills, "count": len(fills), "item": ls, "bounds": G.layers_bounds(pts)}
 
     def pick(self, origin, direction, tol, view):
         # Sections are areas: intersect the ray with each visible layer's plane (mid-layer).
@@ -270,8 +284,9 @@ class SectionsPart(LayeredPart):
             local = hit if layer.frame is None else (np.linalg.inv(layer.frame) @ np.r_[hit, 1.0])[:3]
             for sec in e["item"].sections:
                 if sec.region.covers(shapely.Point(local[0], local[1])):
-                    best = Pick(s, hit, {"layer": index, "section": sec.key,
-                                         "area_mm2": round(float(sec.region.area), 3)})
+                    best = Pick(
+                        s, hit, {"layer": index, "section": sec.key, "area_mm2": round(float(sec.region.area), 3)}
+                    )
                     break
         return best
 
@@ -283,8 +298,8 @@ class ToolpathPart(LayeredPart):
 
     def __init__(self, *a, **k) -> None:
         super().__init__(*a, **k)
-        self.speed_range = (0.0, 1.0)    # colour-map limits (robust), mm/s
-        self.speed_full = (0.0, 1.0)     # the speeds' full extent, mm/s
+        self.speed_range = (0.0, 1.0)  # colour-map limits (robust), mm/s
+        self.speed_full = (0.0, 1.0)  # the speeds' full extent, mm/s
         self.color_mode = "zone"
 
     def _prepare(self, value, present):
@@ -329,10 +344,20 @@ class ToolpathPart(LayeredPart):
     def _draw_layer(self, index, lp: LayerPaths, budget, view):
         disp = G.path_display(G.layer_polyline(lp), budget)
         handle = self.scene.add_line_segments(
-            f"{self.root}/{layer_name(index)}", disp.segments, self.colors(disp, view.path_color),
-            thickness=PATH_PX, thickness_units="screen")
-        return {"handle": handle, "disp": disp, "item": lp, "mode": view.path_color,
-                "count": len(disp), "bounds": G.layers_bounds([disp.segments])}
+            f"{self.root}/{layer_name(index)}",
+            disp.segments,
+            self.colors(disp, view.path_color),
+            thickness=PATH_PX,
+            thickness_units="screen",
+        )
+        return {
+            "handle": handle,
+            "disp": disp,
+            "item": lp,
+            "mode": view.path_color,
+            "count": len(disp),
+            "bounds": G.layers_bounds([disp.segments]),
+        }
 
     def apply(self, view):
         super().apply(view)
@@ -344,11 +369,13 @@ class ToolpathPart(LayeredPart):
     def _point_info(self, index: int, poly: G.PathLayerPolyline, i: int) -> dict[str, Any]:
         seg = min(i, len(poly.travel) - 1)
         speed = poly.speed[seg]
-        return {"layer": index,
-                "section": poly.section_keys[poly.section[seg]] if poly.section_keys else "",
-                "zone": poly.zone_ids[poly.zone[seg]] if poly.zone[seg] >= 0 else "travel",
-                "arc": bool(poly.arc[seg]),
-                "programmed_speed_mm_s": None if np.isnan(speed) else round(float(speed), 3)}
+        return {
+            "layer": index,
+            "section": poly.section_keys[poly.section[seg]] if poly.section_keys else "",
+            "zone": poly.zone_ids[poly.zone[seg]] if poly.zone[seg] >= 0 else "travel",
+            "arc": bool(poly.arc[seg]),
+            "programmed_speed_mm_s": None if np.isnan(speed) else round(float(speed), 3),
+        }
 
     def pick(self, origin, direction, tol, view):
         best: Pick | None = None
@@ -415,8 +442,9 @@ class FeaturesPart(Part):
             self.handle.remove()
             self.handle = None
         if len(self.points):
-            self.handle = self.scene.add_point_cloud(f"{self.root}/points", self.points.astype(np.float32),
-                                                     rgb, point_size=1.5, point_shape="circle")
+            self.handle = self.scene.add_point_cloud(
+                f"{self.root}/points", self.points.astype(np.float32), rgb, point_size=1.5, point_shape="circle"
+            )
         self.sig = sig
         return 1
 
@@ -428,8 +456,11 @@ class FeaturesPart(Part):
         if i is None:
             return None
         d = np.asarray(direction, float) / np.linalg.norm(direction)
-        return Pick(float((self.points[i] - np.asarray(origin, float)) @ d), self.points[i],
-                    {"feature": self.kinds[i], **({"layer": self.layers[i]} if self.layers[i] is not None else {})})
+        return Pick(
+            float((self.points[i] - np.asarray(origin, float)) @ d),
+            self.points[i],
+            {"feature": self.kinds[i], **({"layer": self.layers[i]} if self.layers[i] is not None else {})},
+        )
 
 
 def _zone_order(zone: str) -> tuple[int, int, str]:

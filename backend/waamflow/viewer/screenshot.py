@@ -21,9 +21,18 @@ from typing import Callable
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = (
-    "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run",
-    "--disable-dev-shm-usage", "--hide-scrollbars", "--mute-audio",
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+    "--disable-dev-shm-usage",
+    "--hide-scrollbars",
+    "--mute-audio",
 )
 
 
@@ -75,15 +84,22 @@ def _stop_group(proc: subprocess.Popen) -> None:
             return
         try:
             proc.wait(timeout=wait_s)
-            time.sleep(0.2)         # helpers leave after the browser process
+            time.sleep(0.2)  # helpers leave after the browser process
             return
         except subprocess.TimeoutExpired:
             continue
 
 
-def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: int = 800,
-            timeout_s: float = 90.0, ready: Callable[[bytes], bool] | None = None,
-            chromium: str = CHROMIUM) -> bytes:
+def capture(
+    url: str,
+    out_png: str | os.PathLike,
+    *,
+    width: int = 1280,
+    height: int = 800,
+    timeout_s: float = 90.0,
+    ready: Callable[[bytes], bool] | None = None,
+    chromium: str = CHROMIUM,
+) -> bytes:
     """Open `url` in headless Chromium, wait for a <canvas>, and save a PNG to `out_png` once
     `ready(png_bytes)` is true (checked twice a second; the last frame is kept on timeout).
     Returns the PNG bytes."""
@@ -94,9 +110,18 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
     with tempfile.TemporaryDirectory(prefix="waamflow-chromium-", ignore_cleanup_errors=True) as tmp:
         profile = Path(tmp)
         proc = subprocess.Popen(
-            [chromium, *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
-             f"--window-size={width},{height}", "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            [
+                chromium,
+                *FLAGS,
+                f"--user-data-dir={profile}",
+                "--remote-debugging-port=0",
+                f"--window-size={width},{height}",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+        )
         try:
             deadline = time.monotonic() + timeout_s
             port = _devtools_port(profile, proc, timeout=min(30.0, timeout_s))
@@ -104,8 +129,9 @@ def capture(url: str, out_png: str | os.PathLike, *, width: int = 1280, height: 
                 pages = [t for t in json.load(r) if t.get("type") == "page"]
             cdp = _Cdp(pages[0]["webSocketDebuggerUrl"])
             try:
-                cdp.call("Emulation.setDeviceMetricsOverride", width=width, height=height,
-                         deviceScaleFactor=1, mobile=False)
+                cdp.call(
+                    "Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1, mobile=False
+                )
                 cdp.call("Page.enable")
                 cdp.call("Page.navigate", url=url)
                 png = b""

@@ -49,15 +49,15 @@ import numpy as np
 from .session import ViewSession
 from .target import NullScene, Target
 
-if TYPE_CHECKING:   # viser is imported when the service starts
+if TYPE_CHECKING:  # viser is imported when the service starts
     from viser import ViserServer
 
 log = logging.getLogger("waamflow.viewer")
 
-MAX_SCENES = 4         # published runs kept for `show(key)` (outputs are held by reference)
-MAX_VIEWS = 32         # browser views kept (the least recently used detached one goes first)
-VIEW_TTL_S = 1800.0    # a view without a browser and without requests for this long is dropped
-PROXY_HEADER = "X-Waamflow-Viewer-Proxy"   # carries `proxy_secret` from the API's /viewer proxy to viser
+MAX_SCENES = 4  # published runs kept for `show(key)` (outputs are held by reference)
+MAX_VIEWS = 32  # browser views kept (the least recently used detached one goes first)
+VIEW_TTL_S = 1800.0  # a view without a browser and without requests for this long is dropped
+PROXY_HEADER = "X-Waamflow-Viewer-Proxy"  # carries `proxy_secret` from the API's /viewer proxy to viser
 VIEW_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_.")
 
 
@@ -69,8 +69,16 @@ class ViewerService:
     """viser server + one `ViewSession` per browser view. Thread-safe: publish/show/set_view
     may come from any thread (one lock for all views)."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 8080, *, max_segments: int = 300_000,
-                 label: str = "waamflow", shared: bool = False, proxy_secret: str | None = None) -> None:
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        *,
+        max_segments: int = 300_000,
+        label: str = "waamflow",
+        shared: bool = False,
+        proxy_secret: str | None = None,
+    ) -> None:
         self.host = host
         # set by the API server: viser has no authentication of its own, so a websocket that does not
         # carry this secret (sent only by the API's authenticated /viewer proxy, `PROXY_HEADER`) is
@@ -80,18 +88,20 @@ class ViewerService:
         self.max_segments = int(max_segments)
         self.label = label
         self.shared = shared
-        self.server: ViserServer | None = None   # None until started
+        self.server: ViserServer | None = None  # None until started
         self._lock = threading.RLock()
-        self.sessions: OrderedDict[str, ViewSession] = OrderedDict()   # "" = the default view
-        self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()   # key → (recipe, outputs)
-        self.scene_runs: dict[str, str] = {}   # key → id of the run its scene shows (when known)
+        self.sessions: OrderedDict[str, ViewSession] = OrderedDict()  # "" = the default view
+        self.scenes: OrderedDict[str, tuple[dict | None, dict]] = OrderedDict()  # key → (recipe, outputs)
+        self.scene_runs: dict[str, str] = {}  # key → id of the run its scene shows (when known)
         # key → (run id, rebuild(cancel) → (recipe, outputs)) | None: finds a finished run that is
         # not in memory (after a restart); set by the API to read its store
-        self.loader: Callable[[str], tuple[str, Callable[[threading.Event], tuple[dict | None, dict]]] | None] | None = None
-        self._rebuilding: dict[str, dict[str, Any]] = {}   # key → {"run", "since"} while rebuilt
-        self._rebuild_failed: dict[str, dict[str, Any]] = {}   # key → {"run", "message"}
+        self.loader: (
+            Callable[[str], tuple[str, Callable[[threading.Event], tuple[dict | None, dict]]] | None] | None
+        ) = None
+        self._rebuilding: dict[str, dict[str, Any]] = {}  # key → {"run", "since"} while rebuilt
+        self._rebuild_failed: dict[str, dict[str, Any]] = {}  # key → {"run", "message"}
         self._rebuild_stop = threading.Event()
-        self.asbuilt: dict[str, Any] = {}       # view → the as-built overlay of the build it shows (viewer.asbuilt)
+        self.asbuilt: dict[str, Any] = {}  # view → the as-built overlay of the build it shows (viewer.asbuilt)
 
     # ------------------------------------------------------------------------------------------
     # lifecycle
@@ -103,11 +113,13 @@ class ViewerService:
         with self._lock:
             if self.server is not None:
                 return self
-            self._rebuild_stop.clear()   # stop() cancelled the rebuilds of the previous start
+            self._rebuild_stop.clear()  # stop() cancelled the rebuilds of the previous start
             from .embed import embedded_client
 
             with embedded_client():
-                server = self.server = viser.ViserServer(host=self.host, port=self.port, label=self.label, verbose=False)
+                server = self.server = viser.ViserServer(
+                    host=self.host, port=self.port, label=self.label, verbose=False
+                )
             if self.proxy_secret is not None:
                 self._admit_only_the_proxy(server)
             server.scene.set_up_direction("+z")
@@ -153,8 +165,14 @@ class ViewerService:
         srv = self.server
         if srv is None:
             raise RuntimeError("the 3D preview is not running")
-        viewless = lambda: [c.camera for cid, c in srv.get_clients().items()   # noqa: E731
-                            if not any(s.client is c for s in self.sessions.values())]
+
+        def viewless() -> list:
+            return [
+                c.camera
+                for cid, c in srv.get_clients().items()
+                if not any(s.client is c for s in self.sessions.values())
+            ]
+
         return Target(srv.scene, srv.gui, srv.atomic, viewless, srv.initial_camera)
 
     @staticmethod
@@ -221,14 +239,16 @@ class ViewerService:
     def _on_connect(self, client) -> None:
         view = self._view_of_client(client)
         if view is None and self.shared:
-            return   # sees the server-wide scene
+            return  # sees the server-wide scene
         with self._lock:
             if self.server is None:
                 return
             s = self.session(view or f"client-{client.client_id}")
             old = s.client
-            s.retarget(self._client_target(client), drop_old=old is not None and old.client_id in self.server.get_clients())
-            if s.id in self.asbuilt:       # a build's as-built surface follows its view to the browser
+            s.retarget(
+                self._client_target(client), drop_old=old is not None and old.client_id in self.server.get_clients()
+            )
+            if s.id in self.asbuilt:  # a build's as-built surface follows its view to the browser
                 self.asbuilt[s.id].draw(s.scene)
             if view is None and s.wanted is None and s.key is None and self.scenes:
                 key = next(reversed(self.scenes))
@@ -247,8 +267,9 @@ class ViewerService:
     # ------------------------------------------------------------------------------------------
     # publishing
     # ------------------------------------------------------------------------------------------
-    def publish(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *,
-                run: str | None = None) -> dict[str, int]:
+    def publish(
+        self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *, run: str | None = None
+    ) -> dict[str, int]:
         """Keep a run's outputs under `key` (`run`: its id, reported by `state()`) and draw them in
         every view that shows `key` (or follows every run). Only outputs whose content changed
         are redrawn; outputs of nodes that are gone are removed. Returns counts of the default
@@ -306,7 +327,7 @@ class ViewerService:
             return
         try:
             found = self.loader(key)
-        except Exception as e:   # a broken store must not break the select request
+        except Exception as e:  # a broken store must not break the select request
             log.exception("looking up a run of %s to rebuild failed", key)
             self._rebuild_failed[key] = {"run": None, "message": str(e)}
             return
@@ -315,13 +336,14 @@ class ViewerService:
         run_id, rebuild = found
         self._rebuild_failed.pop(key, None)
         self._rebuilding[key] = {"key": key, "run": run_id, "since": time.time()}
-        threading.Thread(target=self._rebuild, args=(key, run_id, rebuild), name=f"viewer-rebuild-{run_id}",
-                         daemon=True).start()
+        threading.Thread(
+            target=self._rebuild, args=(key, run_id, rebuild), name=f"viewer-rebuild-{run_id}", daemon=True
+        ).start()
 
     def _rebuild(self, key: str, run_id: str, rebuild: Callable) -> None:
         try:
             recipe, outputs = rebuild(self._rebuild_stop)
-            with self._lock:   # state() sees the scene and the end of loading together
+            with self._lock:  # state() sees the scene and the end of loading together
                 self._rebuilding.pop(key, None)
                 # a run that ended meanwhile was published under `key`: it is newer, keep it
                 if self.server is not None and key not in self.scenes:
@@ -337,8 +359,9 @@ class ViewerService:
                     if s.key == key:
                         s._sync_gui()
 
-    def show_asbuilt(self, build: str | None, layers: list[dict] | None = None, *, view: str | None = None
-                     ) -> dict[str, Any] | None:
+    def show_asbuilt(
+        self, build: str | None, layers: list[dict] | None = None, *, view: str | None = None
+    ) -> dict[str, Any] | None:
         """Draw a build's scanned as-built tops in `view` beside the plan (`viewer.asbuilt`:
         `layers` = `BuildSession.surface()`), replacing the build shown there before; `build`
         None removes it. Returns the overlay's legend (deviation range, stops, counts)."""
@@ -356,8 +379,9 @@ class ViewerService:
                 overlay.draw(s.scene)
             return overlay.legend
 
-    def set_view(self, *, view: str | None = None, hidden: set[str] | None = None, fit: bool | str = False,
-                 **fields: Any) -> None:
+    def set_view(
+        self, *, view: str | None = None, hidden: set[str] | None = None, fit: bool | str = False, **fields: Any
+    ) -> None:
         """Apply a view's settings (any subset of VIEW_FIELDS, plus hidden node ids); `fit`
         frames its camera: True or "part" on the part, "cell" on part + cell, as they stand at
         the playback time."""
@@ -378,7 +402,7 @@ class ViewerService:
                 if s.key != latest:
                     s.draw(latest, *self.scenes[latest])
             st = s.state()
-            if s.id in self.asbuilt:       # the build's as-built surface: its deviation range and colours
+            if s.id in self.asbuilt:  # the build's as-built surface: its deviation range and colours
                 st["asbuilt"] = self.asbuilt[s.id].legend
             return st
 

@@ -28,8 +28,20 @@ from . import colors as C
 from . import geometry as G
 from .camera import Camera, framing, set_camera, view_direction
 from .panel import SessionPanel
-from .scene import (PATH_COLOR_MODES, SIM_COLOR_MODES, FeaturesPart, LayersPart, MeshPart, Part, Pick,
-                    SectionsPart, ToolpathPart, ViewState, kind_of, slug)
+from .scene import (
+    PATH_COLOR_MODES,
+    SIM_COLOR_MODES,
+    FeaturesPart,
+    LayersPart,
+    MeshPart,
+    Part,
+    Pick,
+    SectionsPart,
+    ToolpathPart,
+    ViewState,
+    kind_of,
+    slug,
+)
 from .simulation import SimulationPart
 from .target import NullHandle, NullScene, Target
 
@@ -41,13 +53,28 @@ __all__ = ["NullHandle", "NullScene", "PART_TYPES", "Target", "ViewSession"]
 log = logging.getLogger("waamflow.viewer")
 
 PART_TYPES: dict[str, type[Part]] = {
-    "mesh": MeshPart, "layers": LayersPart, "sections": SectionsPart, "toolpath": ToolpathPart,
-    "simulation": SimulationPart, "features": FeaturesPart,
+    "mesh": MeshPart,
+    "layers": LayersPart,
+    "sections": SectionsPart,
+    "toolpath": ToolpathPart,
+    "simulation": SimulationPart,
+    "features": FeaturesPart,
 }
 
 PICK_TOLERANCE = 0.01  # picking radius as a fraction of the scene's bounding-box diagonal
-VIEW_FIELDS = ("layer_lo", "layer_hi", "path_color", "sim_color", "time_s", "show_robot",
-               "sim_offset_mm", "show_programmed", "show_simulated")
+VIEW_FIELDS = (
+    "layer_lo",
+    "layer_hi",
+    "path_color",
+    "sim_color",
+    "time_s",
+    "show_robot",
+    "sim_offset_mm",
+    "show_programmed",
+    "show_simulated",
+)
+
+
 class ViewSession(SessionPanel):
     """The scene adapters + GUI panel (layer range, colour-by, per-node visibility, playback,
     picked-point readout) of one view. All methods run under the service's lock."""
@@ -58,20 +85,20 @@ class ViewSession(SessionPanel):
         self.parts: dict[tuple[str, str], Part] = {}
         self.view = ViewState()
         self.key: str | None = None
-        self.wanted: str | None = None   # the key the GUI shows (None: whatever was published last)
+        self.wanted: str | None = None  # the key the GUI shows (None: whatever was published last)
         self.node_types: dict[str, str] = {}
         self.selected: tuple[str | None, int | None] = (None, None)
         self.last_pick: dict[str, Any] | None = None
-        self.last_used = time.monotonic()   # of the last request or connect
+        self.last_used = time.monotonic()  # of the last request or connect
         self._gui: dict[str, Any] = {}
         self._syncing = False
         self._node_boxes: dict[str, Any] = {}
-        self._node_frames: dict[str, Any] = {}     # /graph/<node>: toggles the node's visibility
+        self._node_frames: dict[str, Any] = {}  # /graph/<node>: toggles the node's visibility
         self._play_stop = threading.Event()
         self._play_thread: threading.Thread | None = None
         self._bounds: np.ndarray | None = None
-        self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)   # layers published
-        self.camera: Camera | None = None   # (eye, look_at, near, far)
+        self._extent: tuple[int, int] = (self.view.layer_lo, self.view.layer_hi)  # layers published
+        self.camera: Camera | None = None  # (eye, look_at, near, far)
         self.target = target
         self._open(target)
 
@@ -90,7 +117,7 @@ class ViewSession(SessionPanel):
 
     def _open(self, target: Target) -> None:
         self.target = target
-        self._graph_frame = target.scene.add_frame("/graph", show_axes=False)   # moved by a cell's positioner
+        self._graph_frame = target.scene.add_frame("/graph", show_axes=False)  # moved by a cell's positioner
         if target.gui is not None:
             self._build_gui()
             with contextlib.suppress(Exception):
@@ -126,13 +153,14 @@ class ViewSession(SessionPanel):
         return self.target.atomic()
 
     # ---- content -----------------------------------------------------------------------------
-    def draw(self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *,
-             refit: bool = True) -> dict[str, int]:
+    def draw(
+        self, key: str, recipe: dict | None, outputs: dict[str, dict[str, object]], *, refit: bool = True
+    ) -> dict[str, int]:
         stats = {"redrawn": 0, "kept": 0, "removed": 0, "skipped": 0}
         nodes = (recipe or {}).get("nodes", [])
         with self.atomic():
             if key != self.key:
-                self.view.time_s = 0.0   # a time in another recipe's program means nothing here
+                self.view.time_s = 0.0  # a time in another recipe's program means nothing here
             self.key = key
             self.node_types = {str(n.get("id")): str(n.get("type", "")) for n in nodes if isinstance(n, dict)}
             wanted: dict[tuple[str, str], tuple[str, Any]] = {}
@@ -157,8 +185,16 @@ class ViewSession(SessionPanel):
                 if kind == "simulation":
                     sim = cast(SimulationPart, part)
                     sim.graph_frame = self._graph_frame
-                    sim.node_params = dict(next((nd.get("params") or {} for nd in nodes
-                                                  if isinstance(nd, dict) and str(nd.get("id")) == node), {}))
+                    sim.node_params = dict(
+                        next(
+                            (
+                                nd.get("params") or {}
+                                for nd in nodes
+                                if isinstance(nd, dict) and str(nd.get("id")) == node
+                            ),
+                            {},
+                        )
+                    )
                 n = part.sync(value, self.view)
                 if n:
                     stats["redrawn"] += n
@@ -172,7 +208,7 @@ class ViewSession(SessionPanel):
         self.wanted = key
         if key is None or key == self.key:
             return key is not None
-        self.view.hidden.clear()   # node ids of another recipe say nothing about this one
+        self.view.hidden.clear()  # node ids of another recipe say nothing about this one
         if key in self.svc.scenes:
             recipe, outputs = self.svc.scenes[key]
             self.draw(key, recipe, outputs)
@@ -240,8 +276,15 @@ class ViewSession(SessionPanel):
         lo, hi = self._layer_extent()
         nodes: dict[str, dict[str, Any]] = {}
         for (node, port), part in self.parts.items():
-            e = nodes.setdefault(node, {"id": node, "type": self.node_types.get(node, ""), "kinds": [],
-                                        "visible": node not in self.view.hidden})
+            e = nodes.setdefault(
+                node,
+                {
+                    "id": node,
+                    "type": self.node_types.get(node, ""),
+                    "kinds": [],
+                    "visible": node not in self.view.hidden,
+                },
+            )
             e["kinds"].append(part.kind)
         order = {n: i for i, n in enumerate(self.node_types)}
         legend: list[dict[str, Any]] = []
@@ -249,26 +292,42 @@ class ViewSession(SessionPanel):
         has_cell = False
         for part in self.parts.values():
             if isinstance(part, ToolpathPart):
-                legend.append({"node": part.node, "kind": "toolpath", "mode": self.view.path_color,
-                               "zones": [{"zone": z, "color": h} for z, h in part.zone_legend()],
-                               "ranges": {"speed": _range(part.speed_range, "mm/s", getattr(part, "speed_full", None))},
-                               "arc": {"on": C.rgb_to_hex(C.ARC_ON_RGB), "off": C.rgb_to_hex(C.ARC_OFF_RGB)},
-                               "travel": C.rgb_to_hex(C.TRAVEL_RGB)})
+                legend.append(
+                    {
+                        "node": part.node,
+                        "kind": "toolpath",
+                        "mode": self.view.path_color,
+                        "zones": [{"zone": z, "color": h} for z, h in part.zone_legend()],
+                        "ranges": {"speed": _range(part.speed_range, "mm/s", getattr(part, "speed_full", None))},
+                        "arc": {"on": C.rgb_to_hex(C.ARC_ON_RGB), "off": C.rgb_to_hex(C.ARC_OFF_RGB)},
+                        "travel": C.rgb_to_hex(C.TRAVEL_RGB),
+                    }
+                )
             elif isinstance(part, SimulationPart):
                 units = {"deviation": "mm", "speed": "mm/s", "deposit": "mm³/mm"}
                 full = getattr(part, "full_ranges", {})
-                legend.append({"node": part.node, "kind": "simulation", "mode": self.view.sim_color,
-                               "ranges": {k: _range(r, units[k], full.get(k)) for k, r in part.ranges.items()},
-                               "programmed": C.rgb_to_hex(C.PROGRAMMED_RGB), "travel": C.rgb_to_hex(C.TRAVEL_RGB),
-                               "robot": part.robot.name if part.robot is not None else None,
-                               "robot_note": part.robot_note})
+                legend.append(
+                    {
+                        "node": part.node,
+                        "kind": "simulation",
+                        "mode": self.view.sim_color,
+                        "ranges": {k: _range(r, units[k], full.get(k)) for k, r in part.ranges.items()},
+                        "programmed": C.rgb_to_hex(C.PROGRAMMED_RGB),
+                        "travel": C.rgb_to_hex(C.TRAVEL_RGB),
+                        "robot": part.robot.name if part.robot is not None else None,
+                        "robot_note": part.robot_note,
+                    }
+                )
                 duration = max(duration, part.duration())
                 has_cell = has_cell or bool(part.cell_handles) or part.robot is not None
         v = self.view
         shown = self.wanted if self.wanted is not None else self.key
         return {
-            "view_id": self.id, "attached": self.client is not None,
-            "key": self.key, "wanted": self.wanted, "published": list(svc.scenes),
+            "view_id": self.id,
+            "attached": self.client is not None,
+            "key": self.key,
+            "wanted": self.wanted,
+            "published": list(svc.scenes),
             "run": svc.scene_runs.get(self.key) if self.parts and self.key is not None else None,
             # the shown key's latest finished run being rebuilt (after a restart): {key, run, since}
             "loading": dict(svc._rebuilding[shown]) if shown in svc._rebuilding else None,
@@ -276,17 +335,30 @@ class ViewSession(SessionPanel):
             "nodes": sorted(nodes.values(), key=lambda n: order.get(n["id"], len(order))),
             "layers": {"lo": lo, "hi": hi} if self.parts else None,
             "duration_s": duration,
-            "view": {"layer_lo": v.layer_lo, "layer_hi": v.layer_hi, "path_color": v.path_color,
-                     "sim_color": v.sim_color, "time_s": v.time_s, "show_robot": v.show_robot,
-                     "sim_offset_mm": v.sim_offset_mm, "show_programmed": v.show_programmed,
-                     "show_simulated": v.show_simulated, "hidden": sorted(v.hidden)},
-            "path_color_modes": list(PATH_COLOR_MODES), "sim_color_modes": list(SIM_COLOR_MODES),
+            "view": {
+                "layer_lo": v.layer_lo,
+                "layer_hi": v.layer_hi,
+                "path_color": v.path_color,
+                "sim_color": v.sim_color,
+                "time_s": v.time_s,
+                "show_robot": v.show_robot,
+                "sim_offset_mm": v.sim_offset_mm,
+                "show_programmed": v.show_programmed,
+                "show_simulated": v.show_simulated,
+                "hidden": sorted(v.hidden),
+            },
+            "path_color_modes": list(PATH_COLOR_MODES),
+            "sim_color_modes": list(SIM_COLOR_MODES),
             "colormap": [C.rgb_to_hex(c) for c in C.VIRIDIS_STOPS],
             "legend": legend,
             "bounds": None if self._bounds is None else [[round(float(x), 3) for x in r] for r in self._bounds],
             "has_cell": has_cell,
-            "camera": None if self.camera is None else {"position": [round(float(x), 3) for x in self.camera[0]],
-                                                        "look_at": [round(float(x), 3) for x in self.camera[1]]},
+            "camera": None
+            if self.camera is None
+            else {
+                "position": [round(float(x), 3) for x in self.camera[0]],
+                "look_at": [round(float(x), 3) for x in self.camera[1]],
+            },
         }
 
     # ---- queries -----------------------------------------------------------------------------
@@ -301,7 +373,11 @@ class ViewSession(SessionPanel):
     def part_bounds(self) -> np.ndarray | None:
         """(2, 3) bounds of the part itself (mesh, layers, sections), else of everything: what
         the camera frames, so travel moves to a home position do not shrink the part on screen."""
-        own = [b for b in (p.bounds() for p in self.parts.values() if p.kind in ("mesh", "layers", "sections")) if b is not None]
+        own = [
+            b
+            for b in (p.bounds() for p in self.parts.values() if p.kind in ("mesh", "layers", "sections"))
+            if b is not None
+        ]
         return G.layers_bounds(own) if own else self.bounds()
 
     def world_bounds(self, what: str = "part") -> np.ndarray | None:
@@ -416,13 +492,19 @@ class ViewSession(SessionPanel):
         set_camera(self.target, *self.camera)
         if what == "cell":
             part_b = self.world_bounds("part")
-            assert part_b is not None   # both are None without part bounds, and b is not
+            assert part_b is not None  # both are None without part bounds, and b is not
             floor = float(part_b[0][2])
         else:
             floor = float(b[0][2])
         grid_size = float(np.ceil(radius * 2.4 / 10.0) * 10.0)
-        self.scene.add_grid("/grid", width=grid_size, height=grid_size, cell_size=grid_size / 20,
-                            section_size=grid_size / 4, position=(float(center[0]), float(center[1]), floor))
+        self.scene.add_grid(
+            "/grid",
+            width=grid_size,
+            height=grid_size,
+            cell_size=grid_size / 20,
+            section_size=grid_size / 4,
+            position=(float(center[0]), float(center[1]), floor),
+        )
 
 
 def _range(r: tuple[float, float], unit: str, full: tuple[float, float] | None) -> dict[str, Any]:
@@ -431,6 +513,6 @@ def _range(r: tuple[float, float], unit: str, full: tuple[float, float] | None) 
     out: dict[str, Any] = {"lo": r[0], "hi": r[1], "unit": unit}
     if full is not None:
         out["min"], out["max"] = full
-        tol = 0.01 * max(r[1] - r[0], 1e-12)   # beyond the ends by more than 1 % of the span
+        tol = 0.01 * max(r[1] - r[0], 1e-12)  # beyond the ends by more than 1 % of the span
         out["clamped"] = bool(full[0] < r[0] - tol or full[1] > r[1] + tol)
     return out

@@ -47,7 +47,7 @@ def _feed(h, obj: Any) -> None:
             _feed(h, obj[k])
     elif isinstance(obj, (list, tuple)):
         h.update(f"L{len(obj)}".encode())
-        if obj and all(type(v) is str for v in obj):     # per-segment zone ids: one update
+        if obj and all(type(v) is str for v in obj):  # per-segment zone ids: one update
             h.update("\x1f".join(obj).encode())
             return
         for v in obj:

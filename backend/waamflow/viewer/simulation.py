@@ -48,20 +48,20 @@ class SimulationPart(Part):
         self.section_keys: tuple[str, ...] = ()
         self.points = np.zeros((0, 3))
         self.torch = None
-        self.ranges: dict[str, tuple[float, float]] = {}        # colour-map limits (robust)
-        self.full_ranges: dict[str, tuple[float, float]] = {}   # the data's full extent
+        self.ranges: dict[str, tuple[float, float]] = {}  # colour-map limits (robust)
+        self.full_ranges: dict[str, tuple[float, float]] = {}  # the data's full extent
         self.mode = "deviation"
-        self.node_params: dict[str, Any] = {}   # the simulate node's params (cell set-up for the robot)
-        self.robot: Any = None                  # RobotMotion (arm only) or CellMotion (cell), or None
-        self.robot_note = ""                    # why there is no robot, if there is none
+        self.node_params: dict[str, Any] = {}  # the simulate node's params (cell set-up for the robot)
+        self.robot: Any = None  # RobotMotion (arm only) or CellMotion (cell), or None
+        self.robot_note = ""  # why there is no robot, if there is none
         self.robot_handles: dict[str, Any] = {}
-        self.cell_handles: dict[str, tuple[Any, str | None]] = {}   # name → (handle, link: None still, "" flange…)
-        self.graph_frame = None                 # the service's /graph frame (moved with the positioner)
+        self.cell_handles: dict[str, tuple[Any, str | None]] = {}  # name → (handle, link: None still, "" flange…)
+        self.graph_frame = None  # the service's /graph frame (moved with the positioner)
         self.corner_points = np.zeros((0, 3))
         self.corner_layer = np.zeros(0, np.int64)
         self.corner_table: dict[str, np.ndarray] = {}
-        self.offset = 0.0                       # current sim_offset_mm (the torch rides on the drawn path)
-        self.lift = 0.0                         # display lift of the lines above the toolpath (mm)
+        self.offset = 0.0  # current sim_offset_mm (the torch rides on the drawn path)
+        self.lift = 0.0  # display lift of the lines above the toolpath (mm)
         self.deposit: dict[str, np.ndarray] = {}
         self.programmed = np.zeros((0, 3))
         self._deposit_samples: np.ndarray | None = None
@@ -82,11 +82,15 @@ class SimulationPart(Part):
 
                 a, b = prog[:-1], prog[1:]
                 k = min(8, len(dep))
-                _, cand = cKDTree((a + b) / 2).query(self.points, k=k)   # candidates, then exact
+                _, cand = cKDTree((a + b) / 2).query(self.points, k=k)  # candidates, then exact
                 cand = np.asarray(cand).reshape(len(self.points), k)
                 ab = b[cand] - a[cand]
-                u = np.clip(np.einsum("nkj,nkj->nk", self.points[:, None] - a[cand], ab)
-                            / np.maximum(np.einsum("nkj,nkj->nk", ab, ab), 1e-12), 0.0, 1.0)
+                u = np.clip(
+                    np.einsum("nkj,nkj->nk", self.points[:, None] - a[cand], ab)
+                    / np.maximum(np.einsum("nkj,nkj->nk", ab, ab), 1e-12),
+                    0.0,
+                    1.0,
+                )
                 d = np.linalg.norm(a[cand] + u[..., None] * ab - self.points[:, None], axis=2)
                 self._deposit_samples = dep[cand[np.arange(len(cand)), d.argmin(axis=1)]]
         return self._deposit_samples
@@ -145,16 +149,27 @@ class SimulationPart(Part):
             if index in prog_chunks:
                 segs, _ = G.chunk_segments(prog, prog_chunks[index], budget)
                 entry["prog"] = self.scene.add_line_segments(
-                    f"{name}/programmed", segs, C.PROGRAMMED_RGB, thickness=PROGRAMMED_PX,
-                    thickness_units="screen", position=(0.0, 0.0, 2 * self.lift), visible=view.show_programmed)
+                    f"{name}/programmed",
+                    segs,
+                    C.PROGRAMMED_RGB,
+                    thickness=PROGRAMMED_PX,
+                    thickness_units="screen",
+                    position=(0.0, 0.0, 2 * self.lift),
+                    visible=view.show_programmed,
+                )
                 entry["programmed"] = len(segs)
             if index in chunks:
                 arc_flags = np.asarray(trace["arc"], np.int64) if "arc" in trace else None
                 segs, first = G.chunk_segments(self.points, chunks[index], budget, arc_flags)
                 entry["sim"] = self.scene.add_line_segments(
-                    f"{name}/simulated", segs, self._sim_colors(first, view.sim_color),
-                    thickness=SIM_PX, thickness_units="screen", position=(0.0, 0.0, view.sim_offset_mm + self.lift),
-                    visible=view.show_simulated)
+                    f"{name}/simulated",
+                    segs,
+                    self._sim_colors(first, view.sim_color),
+                    thickness=SIM_PX,
+                    thickness_units="screen",
+                    position=(0.0, 0.0, view.sim_offset_mm + self.lift),
+                    visible=view.show_simulated,
+                )
                 entry["first"] = first
                 entry["bounds"] = G.layers_bounds([segs])
             frame.visible = view.shows_layer(index)
@@ -165,8 +180,9 @@ class SimulationPart(Part):
         pos, _ = G.interpolate_trace(trace, view.time_s) if n else (np.zeros(3), 0)
         b = self.bounds()
         radius = 0.01 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 1.0
-        self.torch = self.scene.add_icosphere(f"{self.root}/torch", radius=max(radius, 0.5),
-                                              color=(255, 183, 3), position=tuple(pos), visible=n > 0)
+        self.torch = self.scene.add_icosphere(
+            f"{self.root}/torch", radius=max(radius, 0.5), color=(255, 183, 3), position=tuple(pos), visible=n > 0
+        )
         self._add_robot(value, view)
         self.sig = sig
         return added + 1
@@ -190,9 +206,13 @@ class SimulationPart(Part):
         for index in np.unique(self.corner_layer):
             m = self.corner_layer == index
             if int(index) in self.entries:
-                self.scene.add_point_cloud(f"{self.root}/{layer_name(int(index))}/corners",
-                                           self.corner_points[m].astype(np.float32), rgb[m],
-                                           point_size=max(size, 0.2), point_shape="diamond")
+                self.scene.add_point_cloud(
+                    f"{self.root}/{layer_name(int(index))}/corners",
+                    self.corner_points[m].astype(np.float32),
+                    rgb[m],
+                    point_size=max(size, 0.2),
+                    point_shape="diamond",
+                )
 
     def _add_robot(self, value, view) -> None:
         """The arm (link geometry + stick figure) at the playback time, if its URDF loads (see `robot`)."""
@@ -211,17 +231,28 @@ class SimulationPart(Part):
         try:
             setup = cell_setup(self.node_params, dict(getattr(value, "profile", {}) or {}))
             self.robot = robot_motion(self.trace, setup)
-        except Exception as e:   # no URDF, no Pinocchio, unreachable: the preview goes on without the arm
+        except Exception as e:  # no URDF, no Pinocchio, unreachable: the preview goes on without the arm
             self.robot_note = f"robot not shown: {e}"
             return
         segs = self.robot.segments(view.time_s)
         self.robot_handles["links"] = self.scene.add_line_segments(
-            f"{self.root}/robot/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen",
-            visible=view.show_robot)
+            f"{self.root}/robot/links",
+            segs,
+            C.ROBOT_RGB,
+            thickness=4.0,
+            thickness_units="screen",
+            visible=view.show_robot,
+        )
         verts, faces = self.robot.body(view.time_s)
         self.robot_handles["body"] = self.scene.add_mesh_simple(
-            f"{self.root}/robot/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.45, side="double",
-            visible=view.show_robot)
+            f"{self.root}/robot/body",
+            verts,
+            faces,
+            color=tuple(int(c) for c in C.ROBOT_RGB),
+            opacity=0.45,
+            side="double",
+            visible=view.show_robot,
+        )
 
     def _add_cell(self, value, view) -> None:
         """The cell in the world (see the module doc), the flags on the part."""
@@ -230,33 +261,48 @@ class SimulationPart(Part):
         self._remove_cell()
         try:
             self.robot = cell_motion(value)
-        except Exception as e:   # a cell whose URDF/meshes cannot be loaded here: path only
+        except Exception as e:  # a cell whose URDF/meshes cannot be loaded here: path only
             self.robot, self.robot_note = None, f"cell not shown: {e}"
             return
         m, cell = self.robot, self.robot.cell
         root = f"/cell/{self.node}"
         segs = m.segments(view.time_s)
         self.robot_handles["links"] = self.scene.add_line_segments(
-            f"{root}/arm/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen", visible=view.show_robot)
+            f"{root}/arm/links", segs, C.ROBOT_RGB, thickness=4.0, thickness_units="screen", visible=view.show_robot
+        )
         verts, faces = m.body(view.time_s)
         self.robot_handles["body"] = self.scene.add_mesh_simple(
-            f"{root}/arm/body", verts, faces, color=tuple(int(c) for c in C.ROBOT_RGB), opacity=0.55, side="double",
-            visible=view.show_robot)
-        groups = [("torch", cell.tool.shapes, "tool0", (230, 120, 30)),
-                  ("positioner", cell.positioner.shapes if cell.positioner else [], "", (90, 110, 140)),
-                  ("fixtures", cell.fixtures, None, (150, 150, 150))]
+            f"{root}/arm/body",
+            verts,
+            faces,
+            color=tuple(int(c) for c in C.ROBOT_RGB),
+            opacity=0.55,
+            side="double",
+            visible=view.show_robot,
+        )
+        groups = [
+            ("torch", cell.tool.shapes, "tool0", (230, 120, 30)),
+            ("positioner", cell.positioner.shapes if cell.positioner else [], "", (90, 110, 140)),
+            ("fixtures", cell.fixtures, None, (150, 150, 150)),
+        ]
         for group, shapes, default, rgb in groups:
             for sh in shapes:
                 link = default if default is not None and not sh.link else (sh.link or None)
                 if group == "fixtures" and sh.name == "floor":
-                    continue                      # the grid stands for the floor
+                    continue  # the grid stands for the floor
                 try:
                     v, f = shape_arrays(cell, sh)
-                except Exception:                 # a user's mesh not readable here: skip that body
+                except Exception:  # a user's mesh not readable here: skip that body
                     continue
-                h = self.scene.add_mesh_simple(f"{root}/{group}/{sh.name}", v, f, color=rgb,
-                                               opacity=0.9 if group != "fixtures" else 0.6, side="double",
-                                               visible=view.show_robot)
+                h = self.scene.add_mesh_simple(
+                    f"{root}/{group}/{sh.name}",
+                    v,
+                    f,
+                    color=rgb,
+                    opacity=0.9 if group != "fixtures" else 0.6,
+                    side="double",
+                    visible=view.show_robot,
+                )
                 self.cell_handles[f"{group}/{sh.name}"] = (h, link)
         self._add_flags(value, m)
         self._place_cell(view.time_s)
@@ -279,8 +325,12 @@ class SimulationPart(Part):
                 segs += [prog[[i, i + 1]] for i in k]
             if segs:
                 self.robot_handles["unreachable"] = self.scene.add_line_segments(
-                    f"{self.root}/flags/unreachable", np.asarray(segs, np.float32), (230, 30, 30), thickness=6.0,
-                    thickness_units="screen")
+                    f"{self.root}/flags/unreachable",
+                    np.asarray(segs, np.float32),
+                    (230, 30, 30),
+                    thickness=6.0,
+                    thickness_units="screen",
+                )
         cols = list(getattr(value, "collisions", ()) or ())
         if cols and m is not None:
             s_tr = programmed_s(value)
@@ -288,12 +338,16 @@ class SimulationPart(Part):
             for c in cols:
                 i = m.index(float(np.interp(c.s_mm, s_tr, self.trace["t"])))
                 R, t = m.work[0][i], m.work[1][i]
-                pts.append(R.T @ (np.asarray(c.point_mm, float) - t))     # world → part frame
+                pts.append(R.T @ (np.asarray(c.point_mm, float) - t))  # world → part frame
             b = self.bounds()
             size = 0.015 * float(np.linalg.norm(b[1] - b[0])) if b is not None else 2.0
             self.robot_handles["collisions"] = self.scene.add_point_cloud(
-                f"{self.root}/flags/collisions", np.asarray(pts, np.float32), (255, 0, 0),
-                point_size=max(size, 1.0), point_shape="circle")
+                f"{self.root}/flags/collisions",
+                np.asarray(pts, np.float32),
+                (255, 0, 0),
+                point_size=max(size, 1.0),
+                point_shape="circle",
+            )
 
     def _place_cell(self, t: float) -> None:
         """Arm, torch, positioner and the part at time t."""
@@ -335,9 +389,11 @@ class SimulationPart(Part):
 
         i = m.index(t)
         cell = m.cell
-        for group, shapes, default in (("torch", cell.tool.shapes, "tool0"),
-                                       ("positioner", cell.positioner.shapes if cell.positioner else [], ""),
-                                       ("fixtures", cell.fixtures, None)):
+        for group, shapes, default in (
+            ("torch", cell.tool.shapes, "tool0"),
+            ("positioner", cell.positioner.shapes if cell.positioner else [], ""),
+            ("fixtures", cell.fixtures, None),
+        ):
             for sh in shapes:
                 if f"{group}/{sh.name}" not in self.cell_handles:
                     continue
@@ -436,7 +492,11 @@ class SimulationPart(Part):
         if "section" in tr:
             sec = tr["section"][i]
             keys = self.section_keys
-            info["section"] = keys[int(sec)] if np.issubdtype(np.asarray(sec).dtype, np.integer) and 0 <= int(sec) < len(keys) else str(sec)
+            info["section"] = (
+                keys[int(sec)]
+                if np.issubdtype(np.asarray(sec).dtype, np.integer) and 0 <= int(sec) < len(keys)
+                else str(sec)
+            )
         if "speed" in tr:
             info["actual_speed_mm_s"] = round(float(tr["speed"][i]), 4)
         if "deviation" in tr:
@@ -462,7 +522,7 @@ class SimulationPart(Part):
             lay = np.asarray(self.trace["layer"], np.int64)
             mask = (lay >= view.layer_lo) & (lay <= view.layer_hi)
         idx = np.flatnonzero(mask)
-        lift = np.array([0.0, 0.0, self.offset])          # picked where it is drawn
+        lift = np.array([0.0, 0.0, self.offset])  # picked where it is drawn
         i = G.ray_pick(self.points[idx] + lift, origin, direction, tol)
         if i is None:
             return None

@@ -39,6 +39,7 @@ class NullScene:
             h = NullHandle(name, **props)
             self._handle_from_node_name[name] = h
             return h
+
         return add
 
     def get_handle_by_name(self, name: str):
@@ -48,8 +49,15 @@ class NullScene:
 class Target:
     """Where a session draws: scene API, GUI API (None: no panel), atomic() and the cameras."""
 
-    def __init__(self, scene, gui=None, atomic: Callable[[], Any] | None = None,
-                 cameras: Callable[[], list] = lambda: [], initial_camera=None, client=None) -> None:
+    def __init__(
+        self,
+        scene,
+        gui=None,
+        atomic: Callable[[], Any] | None = None,
+        cameras: Callable[[], list] = lambda: [],
+        initial_camera=None,
+        client=None,
+    ) -> None:
         self.scene = scene
         self.gui = gui
         self.atomic = atomic or contextlib.nullcontext
