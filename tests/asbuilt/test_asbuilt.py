@@ -9,14 +9,26 @@ import pytest
 import trimesh
 from shapely.geometry import MultiPolygon, box
 
-from waamflow.asbuilt import (Disturbance, ScanError, Window, adapted_layer, layer_track, measure, plan_speeds,
-                              read_heights, read_points, register, simulate_build, synth_scan)
+from waamflow.asbuilt import (
+    Disturbance,
+    ScanError,
+    Window,
+    adapted_layer,
+    layer_track,
+    measure,
+    plan_speeds,
+    read_heights,
+    read_points,
+    register,
+    simulate_build,
+    synth_scan,
+)
 from waamflow.asbuilt.sim import event_distance
 from waamflow.core.model import Layer, Layered, LayerPaths, SectionPath
 
 ROOT = Path(__file__).resolve().parents[2]
-T = 2.0          # layer height, mm
-V = 8.0          # mm/s
+T = 2.0  # layer height, mm
+V = 8.0  # mm/s
 
 
 def square_layer(index: int, side: float = 40.0, speed: float = V) -> LayerPaths:
@@ -25,8 +37,14 @@ def square_layer(index: int, side: float = 40.0, speed: float = V) -> LayerPaths
     c = np.array([[0, 0], [side, 0], [side, side], [0, side], [0, 0]], float)
     pts = np.column_stack([c, np.full(len(c), z)])
     n = len(pts) - 1
-    sp = SectionPath(key="bs1/A", strategy="contour", points=pts, arc=np.ones(n, bool), inside=np.ones(n, bool),
-                     speed=np.full(n, speed))
+    sp = SectionPath(
+        key="bs1/A",
+        strategy="contour",
+        points=pts,
+        arc=np.ones(n, bool),
+        inside=np.ones(n, bool),
+        speed=np.full(n, speed),
+    )
     ring = box(-3, -3, side + 3, side + 3).difference(box(3, 3, side - 3, side - 3))
     return LayerPaths(Layer(index=index, z=z, thickness=T, region=MultiPolygon([ring])), (sp,))
 
@@ -39,8 +57,8 @@ def test_track_resamples_arc_on_path():
     tr = layer_track(square_layer(2), ds=1.0)
     assert tr.n == 160 and tr.length.sum() == pytest.approx(160.0)
     assert np.allclose(tr.planned_height(), 6.0) and np.allclose(tr.normal, [0, 0, 1])
-    assert np.allclose(np.abs(tr.across[:, :2]).sum(axis=1), 1.0)          # horizontal, across the wall
-    d = event_distance(tr, 45.0)                                           # 4 corners + start/end at (0,0)
+    assert np.allclose(np.abs(tr.across[:, :2]).sum(axis=1), 1.0)  # horizontal, across the wall
+    d = event_distance(tr, 45.0)  # 4 corners + start/end at (0,0)
     assert d.min() == pytest.approx(0.5) and d.max() == pytest.approx(19.5)
 
 
@@ -57,13 +75,13 @@ def test_scan_of_the_plan_measures_the_plan():
 def test_scan_with_a_known_offset_and_tilt_registers_back():
     tr = layer_track(square_layer(4))
     rng = np.random.default_rng(1)
-    a = math.radians(1.0)                      # 1° about x, then 2 mm up
+    a = math.radians(1.0)  # 1° about x, then 2 mm up
     frame = np.eye(4)
     frame[:3, :3] = [[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]]
     frame[:3, 3] = [0, 0, 2.0]
     scan = synth_scan(tr, tr.planned_height(), Disturbance(scan_noise_mm=0.01), rng, frame=frame)
     with pytest.raises(ScanError, match="from the expected top"):
-        measure(tr, scan, radius=0.75)         # as it comes, it lies 1.8-2.7 mm off
+        measure(tr, scan, radius=0.75)  # as it comes, it lies 1.8-2.7 mm off
     fixed, reg = register(tr, scan)
     assert reg.rms_before > 0.3 and reg.rms_after < 0.05
     rot = reg.to_dict()["rotation_deg"]
@@ -76,7 +94,7 @@ def test_bad_scans_are_refused_with_the_reason():
     tr = layer_track(square_layer(5))
     rng = np.random.default_rng(2)
     good = synth_scan(tr, tr.planned_height(), Disturbance(), rng)
-    lower = synth_scan(tr, tr.planned_height() - T, Disturbance(), rng)    # the layer below's top
+    lower = synth_scan(tr, tr.planned_height() - T, Disturbance(), rng)  # the layer below's top
     with pytest.raises(ScanError, match=r"-1\.0 layers"):
         measure(tr, lower, radius=0.75)
     with pytest.raises(ScanError, match="of layer 4, expected layer 5"):
@@ -85,7 +103,7 @@ def test_bad_scans_are_refused_with_the_reason():
         read_points(b"x y z\n", layer=5)
     with pytest.raises(ScanError, match="NaN"):
         read_points(b"0 0 1\n1 1 nan\n", layer=5)
-    far = good.points + np.array([200.0, 0, 0])                             # not over the part
+    far = good.points + np.array([200.0, 0, 0])  # not over the part
     with pytest.raises(ScanError, match="covers 0%"):
         measure(tr, type(good)(5, points=far), radius=0.75)
 
@@ -120,12 +138,12 @@ def test_adaptation_never_leaves_the_window():
     rng = np.random.default_rng(4)
     w = Window(min_factor=0.7, max_factor=1.4, min_speed=1.0, max_speed=60.0)
     for _ in range(50):
-        below = tr.planned_height() - T + rng.normal(0, 1.5, tr.n)         # needs from −2.5 to +6.5 mm
+        below = tr.planned_height() - T + rng.normal(0, 1.5, tr.n)  # needs from −2.5 to +6.5 mm
         ad = plan_speeds(tr, below, rng.uniform(0.3, 3.0, tr.n), w)
         assert (ad.speed >= 0.7 * V - 1e-9).all() and (ad.speed <= 1.4 * V + 1e-9).all()
         assert ad.clamped_slow + ad.clamped_fast > 0
     # where the need is in reach, the prediction meets the plan exactly
-    ad = plan_speeds(tr, tr.planned_height() - 1.6, np.ones(tr.n), w)     # 1.6 mm needed: v = 2·8/1.6 = 10
+    ad = plan_speeds(tr, tr.planned_height() - 1.6, np.ones(tr.n), w)  # 1.6 mm needed: v = 2·8/1.6 = 10
     assert np.allclose(ad.speed, 10.0) and np.allclose(ad.predicted_top, tr.planned_height())
 
 
@@ -135,7 +153,7 @@ def test_adapted_layer_program_keeps_path_and_time():
     v = V * (1.0 + 0.4 * np.sin(np.cumsum(tr.length) / 10.0))
     out = adapted_layer(lp, tr, v, piece_mm=5.0)
     sp = out.sections[0]
-    assert len(sp.points) == 33 and sp.length == pytest.approx(160.0)         # 4 sides × 8 pieces
+    assert len(sp.points) == 33 and sp.length == pytest.approx(160.0)  # 4 sides × 8 pieces
     assert float((sp.segment_lengths / sp.speed).sum()) == pytest.approx(float((tr.length / v).sum()), rel=1e-9)
     assert sp.speed.min() < 0.7 * V and sp.speed.max() > 1.3 * V
 
@@ -191,13 +209,13 @@ def test_live_build_session_adapts_persists_and_resumes(tmp_path):
     s = BuildSession.create(folder, toolpath, {"recipe": "mpp-cross", "layers": 8}, who="alice", post=post)
     first = s.next_program("alice")
     assert first["layer"] == 0 and first["adaptation"]["adapted"] is False
-    (name, gcode), = first["files"].items()
+    ((name, gcode),) = first["files"].items()
     assert name == "post.gcode" and "G1" in gcode
     rng = np.random.default_rng(5)
     tr0 = s.tracks[0]
     with pytest.raises(ScanError, match="expects layer 0"):
         s.add_scan(synth_scan(s.tracks[1], s.tracks[1].planned_height(), Disturbance(), rng), who="alice")
-    low = tr0.planned_height() - 0.4                      # the first layer came out 0.4 mm low
+    low = tr0.planned_height() - 0.4  # the first layer came out 0.4 mm low
     row = s.add_scan(synth_scan(tr0, low, Disturbance(), rng), who="alice")
     assert row["layer"] == 0 and row["mean_error_mm"] == pytest.approx(-0.4, abs=0.05)
     # a server restart: a new session object from the folder and the re-planned recipe
@@ -213,7 +231,7 @@ def test_live_build_session_adapts_persists_and_resumes(tmp_path):
     import re
 
     planned = {int(x) for x in re.findall(r"F(\d+)", gcode)}
-    assert planned == {240, 360, 480}                         # the zones' 4, 6, 8 mm/s
+    assert planned == {240, 360, 480}  # the zones' 4, 6, 8 mm/s
     adapted = [float(x) for x in re.findall(r"F(\d+(?:\.\d+)?)", next(iter(nxt["files"].values())))]
     assert adapted and all(any(0.6 - 1e-6 <= f / p <= 0.63 for p in planned) for f in adapted)
     log = [e["action"] for e in s2.summary()["log"]]

@@ -48,7 +48,9 @@ def test_build_over_rest_resumes_after_restart(settings):
         from waamflow.engine.executor import FileResolver
         from waamflow.engine.recipe import load_recipe
 
-        tp, _, _ = plan_for_build(load_recipe(settings.graphs_dir / "mpp-cross.json"), FileResolver(settings.graphs_dir))
+        tp, _, _ = plan_for_build(
+            load_recipe(settings.graphs_dir / "mpp-cross.json"), FileResolver(settings.graphs_dir)
+        )
         tracks = [layer_track(lp) for lp in tp.items]
         rng = np.random.default_rng(0)
         s0 = synth_scan(tracks[0], tracks[0].planned_height() - 0.3, Disturbance(), rng)
@@ -61,12 +63,19 @@ def test_build_over_rest_resumes_after_restart(settings):
         res = r.json()
         assert res["layer"]["mean_error_mm"] == pytest.approx(-0.3, abs=0.05)
         assert res["next"]["layer"] == 1 and res["next"]["adaptation"]["adapted"] is True
-        assert res["next"]["adaptation"]["speed_factor_max"] < 1.0            # more metal needed: slower
+        assert res["next"]["adaptation"]["speed_factor_max"] < 1.0  # more metal needed: slower
     # restart: a new app on the same data folder
     with TestClient(create_app(settings)) as c:
         d = c.get(f"/api/builds/{bid}").json()
         assert d["next_layer"] == 1 and d["layers_scanned"] == 1
-        assert [e["action"] for e in d["log"]] == ["start", "program", "scan_refused", "scan_refused", "scan", "program"]
+        assert [e["action"] for e in d["log"]] == [
+            "start",
+            "program",
+            "scan_refused",
+            "scan_refused",
+            "scan",
+            "program",
+        ]
         assert [x["id"] for x in c.get("/api/builds").json()] == [bid]
         p1 = c.get(f"/api/builds/{bid}/program").json()
         assert p1["layer"] == 1 and p1["files"]["post.gcode"] == res["next"]["files"]["post.gcode"]
@@ -88,13 +97,18 @@ def test_interpass_temperature_over_rest_surface_and_3d(settings):
         from waamflow.engine.executor import FileResolver
         from waamflow.engine.recipe import load_recipe
 
-        tp, _, _ = plan_for_build(load_recipe(settings.graphs_dir / "mpp-cross.json"), FileResolver(settings.graphs_dir))
+        tp, _, _ = plan_for_build(
+            load_recipe(settings.graphs_dir / "mpp-cross.json"), FileResolver(settings.graphs_dir)
+        )
         tr0 = layer_track(tp.items[0])
         body = _xyz(synth_scan(tr0, tr0.planned_height() - 0.3, Disturbance(), np.random.default_rng(0)))
         for t in ("nan", "-60", "2500", "inf"):
             r = c.post(f"/api/builds/{bid}/scans", params={"layer": 0, "interpass_temp_c": t}, content=body)
             assert r.status_code == 422, (t, r.text)
-            assert r.json()["detail"]["field"].endswith("interpass_temp_c") and "interpass_temp_c" in r.json()["detail"]["message"]
+            assert (
+                r.json()["detail"]["field"].endswith("interpass_temp_c")
+                and "interpass_temp_c" in r.json()["detail"]["message"]
+            )
         r = c.post(f"/api/builds/{bid}/scans", params={"layer": 0, "interpass_temp_c": 400}, content=body)
         assert r.status_code == 200, r.text
         nxt = r.json()["next"]
@@ -104,7 +118,11 @@ def test_interpass_temperature_over_rest_surface_and_3d(settings):
         assert f"G4 P{d['dwell_s']:g} ; interlayer dwell" in nxt["files"]["post.gcode"]
         det = c.get(f"/api/builds/{bid}").json()
         assert det["layers"][0]["interpass_measured_c"] == 400
-        assert det["plan_layers"] == list(range(8)) and (det["layers_added"], det["layers_dropped"], det["skipped"]) == (0, 0, [])
+        assert det["plan_layers"] == list(range(8)) and (
+            det["layers_added"],
+            det["layers_dropped"],
+            det["skipped"],
+        ) == (0, 0, [])
         assert det["programs"][-1] == {**det["programs"][-1], "layer": 1, "dwell_s": d["dwell_s"]}
         assert det["log"][-1]["action"] == "program" and det["log"][-1]["dwell_s"] == d["dwell_s"]
         # which scan and which program: the bytes as received and the text handed out, by SHA-256
@@ -113,7 +131,9 @@ def test_interpass_temperature_over_rest_surface_and_3d(settings):
         scan_log = next(e for e in det["log"] if e["action"] == "scan")
         assert scan_log["scan_file"] == "scan_00000.bin" and scan_log["scan_bytes"] == len(body)
         assert scan_log["scan_sha256"] == hashlib.sha256(body).hexdigest()[:16]
-        assert det["log"][-1]["sha256"] == {"post.gcode": hashlib.sha256(nxt["files"]["post.gcode"].encode()).hexdigest()[:16]}
+        assert det["log"][-1]["sha256"] == {
+            "post.gcode": hashlib.sha256(nxt["files"]["post.gcode"].encode()).hexdigest()[:16]
+        }
         sf = c.get(f"/api/builds/{bid}/surface").json()
         assert [x["layer"] for x in sf["layers"]] == [0]
         lay = sf["layers"][0]

@@ -47,8 +47,8 @@ def test_dwell_by_the_heat_model_numbers():
     d500 = interpass_dwell(500.0, 300.0, rule, travel_s=1.0)
     assert d500["dwell_s"] == pytest.approx(300 * math.log(480 / 180) - 1, abs=1e-3) == pytest.approx(293.25, abs=0.01)
     assert d500["dwell_s"] > d350["dwell_s"] and not d500["clamped"]
-    assert interpass_dwell(180.0, 300.0, rule)["dwell_s"] == 0.0          # already under the target
-    hot = interpass_dwell(1500.0, 300.0, rule)                            # 300 ln(1480/180) = 632 s > 600
+    assert interpass_dwell(180.0, 300.0, rule)["dwell_s"] == 0.0  # already under the target
+    hot = interpass_dwell(1500.0, 300.0, rule)  # 300 ln(1480/180) = 632 s > 600
     assert hot["dwell_s"] == 600.0 and hot["clamped"] and hot["needed_s"] == pytest.approx(632.06, abs=0.01)
     for bad in (float("nan"), float("inf"), -50.1, 2000.5):
         with pytest.raises(ValueError, match="interpass_temp_c"):
@@ -94,15 +94,20 @@ def test_no_temperature_keeps_the_program(tmp_path):
     assert "interpass" not in pa["adaptation"] and "dwell_s" not in a.state["log"][-1]
     assert not re.search(r"^G4 P[\d.]+ ; interlayer dwell", pa["files"]["post.gcode"], re.M)
     cold = _session(tmp_path, name="c")
-    cold.add_scan(_scan0(cold), interpass_c=150.0)                       # under the target: no wait
+    cold.add_scan(_scan0(cold), interpass_c=150.0)  # under the target: no wait
     pc = cold.next_program()
     assert pc["adaptation"]["interpass_dwell_s"] == 0.0
-    body = lambda g: [ln for ln in g.split("\n") if not ln.startswith(";")]   # noqa: E731
+    body = lambda g: [ln for ln in g.split("\n") if not ln.startswith(";")]  # noqa: E731
     assert body(pc["files"]["post.gcode"]) == body(pa["files"]["post.gcode"])
 
 
-@pytest.mark.parametrize("fmt, pattern", [("krl", r"^\s*WAIT SEC ([\d.]+) ; interlayer dwell"),
-                                          ("rapid", r"^\s*WaitTime\\InPos, ([\d.]+); ! interlayer dwell")])
+@pytest.mark.parametrize(
+    "fmt, pattern",
+    [
+        ("krl", r"^\s*WAIT SEC ([\d.]+) ; interlayer dwell"),
+        ("rapid", r"^\s*WaitTime\\InPos, ([\d.]+); ! interlayer dwell"),
+    ],
+)
 def test_dwell_is_the_dialects_wait(tmp_path, fmt, pattern):
     s = _session(tmp_path, fmt)
     s.add_scan(_scan0(s), interpass_c=350.0)
@@ -110,7 +115,7 @@ def test_dwell_is_the_dialects_wait(tmp_path, fmt, pattern):
     text = "\n".join(p["files"].values())
     waits = [float(x) for x in re.findall(pattern, text, re.M)]
     assert waits == [pytest.approx(174.57, abs=0.02)]
-    assert "measured 350 degC after layer 0" in text.split("interlayer dwell")[0]      # stated in the header
+    assert "measured 350 degC after layer 0" in text.split("interlayer dwell")[0]  # stated in the header
 
 
 def test_bad_temperature_is_refused_by_the_session(tmp_path):
@@ -120,8 +125,9 @@ def test_bad_temperature_is_refused_by_the_session(tmp_path):
     assert s.next_layer == 0
 
 
-@pytest.mark.parametrize("fmt, main, pattern", [("tp", "post.ls", r"WAIT ([\d.]+)\(sec\)"),
-                                                ("inform", "post.jbi", r"^TIMER T=([\d.]+)")])
+@pytest.mark.parametrize(
+    "fmt, main, pattern", [("tp", "post.ls", r"WAIT ([\d.]+)\(sec\)"), ("inform", "post.jbi", r"^TIMER T=([\d.]+)")]
+)
 def test_fanuc_and_yaskawa_wait_and_short_header(tmp_path, fmt, main, pattern):
     s = _session(tmp_path, fmt)
     s.add_scan(_scan0(s), interpass_c=350.0)
@@ -129,4 +135,4 @@ def test_fanuc_and_yaskawa_wait_and_short_header(tmp_path, fmt, main, pattern):
     waits = [float(x) for text in files.values() for x in re.findall(pattern, text, re.M)]
     assert waits == [pytest.approx(174.57, abs=0.02)]
     head = {k.lower(): v for k, v in files.items()}[main]
-    assert "interpass: part measured 350 d" in head       # 32-character comment lines in the main program
+    assert "interpass: part measured 350 d" in head  # 32-character comment lines in the main program

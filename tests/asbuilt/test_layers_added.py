@@ -38,7 +38,9 @@ def test_low_layer_is_laid_again_and_a_tall_one_drops_the_next(tmp_path, cross):
     ad = again["adaptation"]
     assert again["layer"] == 0 and ad["pass"] == 2 and ad["laid_on"] == "its own scan (pass 1)"
     # 1.0 mm to fill with the layer's own gain 0.5/1.5 (clipped to 0.5): v = 0.5 · 1.5 / 1.0 = 0.75 × plan
-    assert ad["speed_factor_min"] == pytest.approx(0.75, abs=0.03) and ad["speed_factor_max"] == pytest.approx(0.75, abs=0.03)
+    assert ad["speed_factor_min"] == pytest.approx(0.75, abs=0.03) and ad["speed_factor_max"] == pytest.approx(
+        0.75, abs=0.03
+    )
     with pytest.raises(ScanError, match="expects layer 0"):
         s.add_scan(_scan(s, 1, 0.0), who="cell")
     row = s.add_scan(_scan(s, 0, 0.0), who="cell")
@@ -69,7 +71,7 @@ def test_never_more_than_three_repeats_and_no_drop_before_the_last_layer(tmp_pat
         s.next_program()
         row = s.add_scan(_scan(s, 0, -0.9, seed=p))
         assert row["pass"] == p
-    assert s.next_layer == 1 and s.summary()["layers_added"] == 3          # the 4th pass goes on regardless
+    assert s.next_layer == 1 and s.summary()["layers_added"] == 3  # the 4th pass goes on regardless
     # layers 1-4 0.5 mm low (under half a layer: go on), 5 on plan, 6 0.8 mm high: layer 7 is the last, not left out
     for k in range(1, 7):
         s.next_program()

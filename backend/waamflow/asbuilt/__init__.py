@@ -12,6 +12,27 @@ from .session import BuildSession
 from .sim import BuildLog, Disturbance, simulate_build, synth_scan
 from .track import Track, layer_track
 
-__all__ = ["Adaptation", "BuildLog", "BuildSession", "Disturbance", "Measured", "Registration", "Scan", "ScanError", "Track",
-           "Window", "adapted_layer", "beneath", "carry", "layer_track", "measure", "plan_speeds", "planned_heights", "read_heights",
-           "read_points", "register", "simulate_build", "synth_scan"]
+__all__ = [
+    "Adaptation",
+    "BuildLog",
+    "BuildSession",
+    "Disturbance",
+    "Measured",
+    "Registration",
+    "Scan",
+    "ScanError",
+    "Track",
+    "Window",
+    "adapted_layer",
+    "beneath",
+    "carry",
+    "layer_track",
+    "measure",
+    "plan_speeds",
+    "planned_heights",
+    "read_heights",
+    "read_points",
+    "register",
+    "simulate_build",
+    "synth_scan",
+]

@@ -55,8 +55,9 @@ class Window:
             raise ValueError("the window needs 0 < min_speed < max_speed (mm/s)")
 
 
-def beneath(next_track: Track, prev_track: Track | None, prev_top: np.ndarray | None,
-            reach: float | None = None) -> np.ndarray:
+def beneath(
+    next_track: Track, prev_track: Track | None, prev_top: np.ndarray | None, reach: float | None = None
+) -> np.ndarray:
     """For every sample of the next layer, the height (along its build direction) of the top it
     will be laid on: the measured top of the nearest sample of the layer before (within `reach`
     mm), else the plan (H − t: the substrate or an unmeasured spot is taken as planned)."""
@@ -76,8 +77,9 @@ def beneath(next_track: Track, prev_track: Track | None, prev_top: np.ndarray | 
     return np.where(seen, top, out)
 
 
-def carry(next_track: Track, prev_track: Track | None, values: np.ndarray | None, default: float,
-          reach: float | None = None) -> np.ndarray:
+def carry(
+    next_track: Track, prev_track: Track | None, values: np.ndarray | None, default: float, reach: float | None = None
+) -> np.ndarray:
     """A per-sample value of the layer before (e.g. the gain) at the next layer's samples
     (nearest within `reach` mm; `default` where none or NaN)."""
     out = np.full(next_track.n, float(default))
@@ -95,20 +97,28 @@ def carry(next_track: Track, prev_track: Track | None, values: np.ndarray | None
 class Adaptation:
     """Speeds chosen for one layer and why."""
 
-    speed: np.ndarray        # (n,) mm/s
+    speed: np.ndarray  # (n,) mm/s
     predicted_top: np.ndarray
     needed_height: np.ndarray
-    clamped_slow: int        # samples that wanted a speed below the window (needed more metal)
-    clamped_fast: int        # samples that wanted a speed above it (needed less)
+    clamped_slow: int  # samples that wanted a speed below the window (needed more metal)
+    clamped_fast: int  # samples that wanted a speed above it (needed less)
 
     def summary(self, track: Track) -> dict:
         v0 = track.speed
-        return {"layer": track.layer, "samples": track.n,
-                "speed_factor_min": round(float(np.min(self.speed / v0)), 4) if track.n else None,
-                "speed_factor_max": round(float(np.max(self.speed / v0)), 4) if track.n else None,
-                "needed_height_mm": [round(float(np.min(self.needed_height)), 3), round(float(np.max(self.needed_height)), 3)]
-                if track.n else None,
-                "clamped_slow": self.clamped_slow, "clamped_fast": self.clamped_fast}
+        return {
+            "layer": track.layer,
+            "samples": track.n,
+            "speed_factor_min": round(float(np.min(self.speed / v0)), 4) if track.n else None,
+            "speed_factor_max": round(float(np.max(self.speed / v0)), 4) if track.n else None,
+            "needed_height_mm": [
+                round(float(np.min(self.needed_height)), 3),
+                round(float(np.max(self.needed_height)), 3),
+            ]
+            if track.n
+            else None,
+            "clamped_slow": self.clamped_slow,
+            "clamped_fast": self.clamped_fast,
+        }
 
 
 def planned_heights(track: Track, prev_track: Track | None) -> np.ndarray:
@@ -119,15 +129,18 @@ def planned_heights(track: Track, prev_track: Track | None) -> np.ndarray:
     return track.planned_height() - beneath(track, prev_track, prev_track.planned_height())
 
 
-def plan_speeds(track: Track, below: np.ndarray, gain: np.ndarray, window: Window = Window(),
-                h_plan: np.ndarray | None = None) -> Adaptation:
+def plan_speeds(
+    track: Track, below: np.ndarray, gain: np.ndarray, window: Window = Window(), h_plan: np.ndarray | None = None
+) -> Adaptation:
     """Per-sample speeds for `track` laid on tops `below`, with gains `gain` (see module doc);
     `h_plan`: the planned bead heights (`planned_heights`; default the layer height)."""
     v0 = track.speed
     if not np.isfinite(v0).all():
         bad = int(np.flatnonzero(~np.isfinite(v0))[0])
-        raise ValueError(f"layer {track.layer}, section {track.keys[track.section[bad]]}: an arc-ON segment has no "
-                         "programmed speed, so its bead height cannot be adapted")
+        raise ValueError(
+            f"layer {track.layer}, section {track.keys[track.section[bad]]}: an arc-ON segment has no "
+            "programmed speed, so its bead height cannot be adapted"
+        )
     H = track.planned_height()
     C = (track.thickness if h_plan is None else np.asarray(h_plan, float)) * v0
     g = np.clip(gain, window.min_gain, window.max_gain)
@@ -186,7 +199,15 @@ def adapted_layer(lp: LayerPaths, track: Track, speed: np.ndarray, piece_mm: flo
                 inside.append(sp.inside[j])
                 spd.append(v)
                 zone.append(sp.zone[j] if sp.zone else "")
-        sections.append(replace(sp, points=np.asarray(pts), arc=np.asarray(arc, bool), inside=np.asarray(inside, bool),
-                                speed=np.asarray(spd, float), zone=tuple(zone) if sp.zone else (),
-                                tool_axis=None if axis is None else np.asarray(axes)))
+        sections.append(
+            replace(
+                sp,
+                points=np.asarray(pts),
+                arc=np.asarray(arc, bool),
+                inside=np.asarray(inside, bool),
+                speed=np.asarray(spd, float),
+                zone=tuple(zone) if sp.zone else (),
+                tool_axis=None if axis is None else np.asarray(axes),
+            )
+        )
     return replace(lp, sections=tuple(sections))

@@ -26,9 +26,9 @@ import numpy as np
 from ..core.model import LayerPaths, Layered
 from ..process.interpass import HeatModel, plan_dwells
 
-MIN_TEMP_C = -50.0          # a measured temperature outside this range is refused (a sensor fault)
+MIN_TEMP_C = -50.0  # a measured temperature outside this range is refused (a sensor fault)
 MAX_TEMP_C = 2000.0
-MAX_DWELL_S = 1800.0        # default upper clamp: half an hour
+MAX_DWELL_S = 1800.0  # default upper clamp: half an hour
 
 
 @dataclass(frozen=True)
@@ -37,11 +37,16 @@ class DwellRule:
 
     model: HeatModel = HeatModel()
     max_dwell_s: float = MAX_DWELL_S
-    source: str = "default heat model"          # where the model came from (a recipe node, the request)
+    source: str = "default heat model"  # where the model came from (a recipe node, the request)
 
     def to_dict(self) -> dict:
-        return {"target_c": self.model.interpass_c, "ambient_c": self.model.ambient_c,
-                "max_dwell_s": self.max_dwell_s, "source": self.source, "model": asdict(self.model)}
+        return {
+            "target_c": self.model.interpass_c,
+            "ambient_c": self.model.ambient_c,
+            "max_dwell_s": self.max_dwell_s,
+            "source": self.source,
+            "model": asdict(self.model),
+        }
 
     @classmethod
     def from_dict(cls, d: dict | None) -> "DwellRule":
@@ -54,19 +59,29 @@ def check_temperature(value: float, field: str = "interpass_temp_c") -> float:
     """A measured temperature, or ValueError naming `field` (NaN, infinite, < −50 or > 2000 °C)."""
     v = float(value)
     if not math.isfinite(v) or not MIN_TEMP_C <= v <= MAX_TEMP_C:
-        raise ValueError(f"{field} = {value} °C is not a plausible part temperature "
-                         f"(expected a number from {MIN_TEMP_C:g} to {MAX_TEMP_C:g} °C)")
+        raise ValueError(
+            f"{field} = {value} °C is not a plausible part temperature "
+            f"(expected a number from {MIN_TEMP_C:g} to {MAX_TEMP_C:g} °C)"
+        )
     return v
 
 
 def heat_model_of(params, interpass_c: float | None = None) -> HeatModel:
     """The `HeatModel` of an interpass node's params (`nodes.process.Interpass.Params`)."""
-    return HeatModel(interpass_c=params.interpass_c if interpass_c is None else interpass_c,
-                     ambient_c=params.ambient_c, min_layer_time_s=params.min_layer_time_s,
-                     density_kg_m3=params.density_kg_m3, specific_heat_j_kgk=params.specific_heat_j_kgk,
-                     arc_efficiency=params.arc_efficiency, arc_power_w=params.arc_power_w, h_w_m2k=params.h_w_m2k,
-                     base_conductance_w_k=params.base_conductance_w_k, substrate_mass_kg=params.substrate_mass_kg,
-                     bead_width_mm=params.bead_width, travel_speed=params.travel_speed)
+    return HeatModel(
+        interpass_c=params.interpass_c if interpass_c is None else interpass_c,
+        ambient_c=params.ambient_c,
+        min_layer_time_s=params.min_layer_time_s,
+        density_kg_m3=params.density_kg_m3,
+        specific_heat_j_kgk=params.specific_heat_j_kgk,
+        arc_efficiency=params.arc_efficiency,
+        arc_power_w=params.arc_power_w,
+        h_w_m2k=params.h_w_m2k,
+        base_conductance_w_k=params.base_conductance_w_k,
+        substrate_mass_kg=params.substrate_mass_kg,
+        bead_width_mm=params.bead_width,
+        travel_speed=params.travel_speed,
+    )
 
 
 def time_constants(items: list[LayerPaths], model: HeatModel) -> list[float]:
@@ -93,15 +108,24 @@ def interpass_dwell(measured_c: float, tau_s: float, rule: DwellRule, travel_s: 
     else:
         need = 0.0
     dwell = min(max(need, 0.0), rule.max_dwell_s)
-    return {"measured_c": round(t_m, 2), "target_c": m.interpass_c, "ambient_c": m.ambient_c, "tau_s": round(tau_s, 2),
-            "travel_s": round(travel_s, 3), "needed_s": round(max(need, 0.0), 3), "dwell_s": round(dwell, 3),
-            "clamped": need > rule.max_dwell_s}
+    return {
+        "measured_c": round(t_m, 2),
+        "target_c": m.interpass_c,
+        "ambient_c": m.ambient_c,
+        "tau_s": round(tau_s, 2),
+        "travel_s": round(travel_s, 3),
+        "needed_s": round(max(need, 0.0), 3),
+        "dwell_s": round(dwell, 3),
+        "clamped": need > rule.max_dwell_s,
+    }
 
 
 def note(d: dict, layer: int) -> str:
     """Why the program waits (ASCII: robot controllers)."""
-    s = (f"interpass: part measured {d['measured_c']:g} degC after layer {layer}, target {d['target_c']:g} degC: "
-         f"wait {d['dwell_s']:.1f} s (lumped heat model, tau {d['tau_s']:.0f} s)")
+    s = (
+        f"interpass: part measured {d['measured_c']:g} degC after layer {layer}, target {d['target_c']:g} degC: "
+        f"wait {d['dwell_s']:.1f} s (lumped heat model, tau {d['tau_s']:.0f} s)"
+    )
     return s + (f", clamped from {d['needed_s']:.0f} s" if d["clamped"] else "")
 
 

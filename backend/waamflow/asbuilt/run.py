@@ -36,8 +36,13 @@ def program_toolpath(graph, outputs: dict):
     return last
 
 
-def build_sim(recipe_path: Path, overrides: list, modes: tuple[str, ...] = ("open", "closed"),
-              dist: Disturbance = Disturbance(), window: Window = Window()) -> dict:
+def build_sim(
+    recipe_path: Path,
+    overrides: list,
+    modes: tuple[str, ...] = ("open", "closed"),
+    dist: Disturbance = Disturbance(),
+    window: Window = Window(),
+) -> dict:
     from ..engine.executor import FileResolver, execute
     from ..engine.graph import build_graph
     from ..engine.recipe import apply_overrides, load_recipe
@@ -48,8 +53,15 @@ def build_sim(recipe_path: Path, overrides: list, modes: tuple[str, ...] = ("ope
     result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), artifacts=False, preflight=False)
     plan_s = time.perf_counter() - t0
     toolpath, node = program_toolpath(graph, result.outputs)
-    doc = {"recipe": recipe.name, "toolpath_node": node, "layers_planned": sum(1 for x in toolpath.items if x is not None),
-           "plan_seconds": round(plan_s, 3), "disturbance": asdict(dist), "window": asdict(window), "builds": {}}
+    doc = {
+        "recipe": recipe.name,
+        "toolpath_node": node,
+        "layers_planned": sum(1 for x in toolpath.items if x is not None),
+        "plan_seconds": round(plan_s, 3),
+        "disturbance": asdict(dist),
+        "window": asdict(window),
+        "builds": {},
+    }
     for mode in modes:
         t1 = time.perf_counter()
         log = simulate_build(toolpath, mode, dist, window)
@@ -65,9 +77,18 @@ def svg(doc: dict) -> str:
     n = max((len(r) for r in rows.values()), default=1)
     ys = [x["mean_error_mm"] for r in rows.values() for x in r] + [x["rms_error_mm"] for r in rows.values() for x in r]
     lo, hi = (min(ys + [0.0]), max(ys + [0.0])) if ys else (-1.0, 1.0)
-    ch = Chart(64, 44, 760, 300, (0.0, max(n - 1, 1)), (lo - 0.1 * (hi - lo + 1e-9), hi + 0.1 * (hi - lo + 1e-9)),
-               title=f"{doc['recipe']}: top height vs plan after each layer (simulated build)",
-               x_label="layer built (in order)", y_label="top error, mm", legend="left")
+    ch = Chart(
+        64,
+        44,
+        760,
+        300,
+        (0.0, max(n - 1, 1)),
+        (lo - 0.1 * (hi - lo + 1e-9), hi + 0.1 * (hi - lo + 1e-9)),
+        title=f"{doc['recipe']}: top height vs plan after each layer (simulated build)",
+        x_label="layer built (in order)",
+        y_label="top error, mm",
+        legend="left",
+    )
     ch.hline(0.0, "#888")
     for m, r in rows.items():
         xs = np.arange(len(r))
@@ -128,14 +149,18 @@ def stamp_header(fmt: str, files: dict[str, str], lines: list[str]) -> dict[str,
         if fmt == "gcode":
             at = next((i for i, ln in enumerate(rows) if ln.lstrip().startswith((";", "("))), 0)
             paren = rows[at].lstrip().startswith("(") if rows else False
-            rows = rows[:at] + [f"({b.replace('(', '[').replace(')', ']')})" if paren else f"; {b}" for b in lines] + rows[at:]
+            rows = (
+                rows[:at]
+                + [f"({b.replace('(', '[').replace(')', ']')})" if paren else f"; {b}" for b in lines]
+                + rows[at:]
+            )
         elif fmt == "csv":
             rows = [f"# {b}" for b in lines] + rows
         elif fmt in ("inform", "tp"):
             if suffix != {"inform": "JBI", "tp": "LS"}[fmt]:
                 out[suffix] = text
                 continue
-            short = [b[i:i + 32] for b in lines for i in range(0, len(b), 32)]
+            short = [b[i : i + 32] for b in lines for i in range(0, len(b), 32)]
             if fmt == "tp":
                 from ..program.tp import with_comments
 

@@ -68,8 +68,10 @@ def _check_finite(a: np.ndarray, layer: int, source: str) -> None:
     bad = ~np.isfinite(a).all(axis=-1) if a.ndim > 1 else ~np.isfinite(a)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ScanError(f"{source}: layer {layer}: {int(bad.sum())} points are NaN or infinite (first at row {i + 1}); "
-                        "remove them from the scan export")
+        raise ScanError(
+            f"{source}: layer {layer}: {int(bad.sum())} points are NaN or infinite (first at row {i + 1}); "
+            "remove them from the scan export"
+        )
 
 
 def read_points(data: bytes, layer: int, source: str = "scan") -> Scan:
@@ -89,7 +91,7 @@ def read_points(data: bytes, layer: int, source: str = "scan") -> Scan:
             try:
                 rows.append([float(v) for v in parts[:3]])
             except ValueError:
-                if rows:            # text after data: not a header
+                if rows:  # text after data: not a header
                     raise ScanError(f"{source}: layer {layer}: line {k + 1} is not 'x y z': {line[:60]!r}") from None
                 continue
             if len(rows[-1]) < 3:
@@ -108,8 +110,10 @@ def read_heights(text: str, layer: int | None = None, source: str = "scan") -> d
     cols = {c.strip().lower(): c for c in (rd.fieldnames or [])}
     for need in ("layer", "s", "height"):
         if need not in cols:
-            raise ScanError(f"{source}: per-path heights need the columns layer, s, height[, width]; "
-                            f"missing {need!r} (header: {', '.join(rd.fieldnames or []) or 'none'})")
+            raise ScanError(
+                f"{source}: per-path heights need the columns layer, s, height[, width]; "
+                f"missing {need!r} (header: {', '.join(rd.fieldnames or []) or 'none'})"
+            )
     by: dict[int, list[tuple[float, float, float]]] = {}
     for k, row in enumerate(rd):
         try:
@@ -123,8 +127,9 @@ def read_heights(text: str, layer: int | None = None, source: str = "scan") -> d
         by.setdefault(lay, []).append((s, h, w))
     if layer is not None:
         if layer not in by:
-            raise ScanError(f"{source}: no rows for layer {layer} (the file has layers "
-                            f"{', '.join(map(str, sorted(by))) or 'none'})")
+            raise ScanError(
+                f"{source}: no rows for layer {layer} (the file has layers {', '.join(map(str, sorted(by))) or 'none'})"
+            )
         by = {layer: by[layer]}
     out = {}
     for lay, rows in by.items():
@@ -145,10 +150,13 @@ class Registration:
     points_used: int
 
     def to_dict(self) -> dict:
-        return {"rotation_deg": [round(math.degrees(v), 4) for v in self.rotation],
-                "translation_mm": [round(v, 4) for v in self.translation],
-                "rms_before_mm": round(self.rms_before, 4), "rms_after_mm": round(self.rms_after, 4),
-                "points_used": self.points_used}
+        return {
+            "rotation_deg": [round(math.degrees(v), 4) for v in self.rotation],
+            "translation_mm": [round(v, 4) for v in self.translation],
+            "rms_before_mm": round(self.rms_before, 4),
+            "rms_after_mm": round(self.rms_after, 4),
+            "points_used": self.points_used,
+        }
 
 
 def _rotation(w: np.ndarray) -> np.ndarray:
@@ -212,8 +220,14 @@ def _crest_points(track: Track, P: np.ndarray, radius: float, reach: float) -> t
     return si, j[pick[si]]
 
 
-def register(track: Track, scan: Scan, radius: float = 0.75, iterations: int = 20, reach: float | None = None,
-             damping: float = 1e-3) -> tuple[Scan, Registration]:
+def register(
+    track: Track,
+    scan: Scan,
+    radius: float = 0.75,
+    iterations: int = 20,
+    reach: float | None = None,
+    damping: float = 1e-3,
+) -> tuple[Scan, Registration]:
     """Best-fit the scan's frame to the planned crests (see module doc): the scan's crest point over
     each planned sample (`radius` mm of its axis, searched within `reach` mm) pairs with that
     sample's crest plane; point-to-plane Gauss-Newton, damped so unobservable directions stay."""
@@ -229,13 +243,15 @@ def register(track: Track, scan: Scan, radius: float = 0.75, iterations: int = 2
         si, pi = _crest_points(track, P, radius, reach)
         used = len(si)
         if used < 6:
-            raise ScanError(f"{scan.source}: layer {scan.layer}: only {used} planned samples have scan points over them: "
-                            "the scan is not of this layer or not in the part frame")
+            raise ScanError(
+                f"{scan.source}: layer {scan.layer}: only {used} planned samples have scan points over them: "
+                "the scan is not of this layer or not in the part frame"
+            )
         p, qq, nn = P[pi] - c0, track.points[si] - c0, track.normal[si]
         r = np.einsum("ij,ij->i", p - qq, nn)
         if rms0 is None:
             rms0 = float(np.sqrt(np.mean(r * r)))
-        J = np.hstack([np.cross(p, nn), nn])          # d r / d(ω, t)
+        J = np.hstack([np.cross(p, nn), nn])  # d r / d(ω, t)
         H = J.T @ J
         H += damping * np.trace(H) / 6 * np.eye(6)
         x = -np.linalg.solve(H, J.T @ r)
@@ -252,10 +268,18 @@ def register(track: Track, scan: Scan, radius: float = 0.75, iterations: int = 2
     if ang < 1e-12:
         rv = np.zeros(3)
     else:
-        rv = ang / (2 * math.sin(ang)) * np.array([R_tot[2, 1] - R_tot[1, 2], R_tot[0, 2] - R_tot[2, 0],
-                                                    R_tot[1, 0] - R_tot[0, 1]])
-    reg = Registration((float(rv[0]), float(rv[1]), float(rv[2])), (float(t_tot[0]), float(t_tot[1]), float(t_tot[2])),
-                       float(rms0 or 0.0), rms1, used)
+        rv = (
+            ang
+            / (2 * math.sin(ang))
+            * np.array([R_tot[2, 1] - R_tot[1, 2], R_tot[0, 2] - R_tot[2, 0], R_tot[1, 0] - R_tot[0, 1]])
+        )
+    reg = Registration(
+        (float(rv[0]), float(rv[1]), float(rv[2])),
+        (float(t_tot[0]), float(t_tot[1]), float(t_tot[2])),
+        float(rms0 or 0.0),
+        rms1,
+        used,
+    )
     return Scan(scan.layer, points=P, source=scan.source), reg
 
 
@@ -271,8 +295,15 @@ class Measured:
         return float(np.isfinite(self.height).mean()) if len(self.height) else 0.0
 
 
-def measure(track: Track, scan: Scan, radius: float = 1.0, min_points: int = 3, min_coverage: float = 0.5,
-            max_layer_offset: float = 0.75, expected: np.ndarray | None = None) -> Measured:
+def measure(
+    track: Track,
+    scan: Scan,
+    radius: float = 1.0,
+    min_points: int = 3,
+    min_coverage: float = 0.5,
+    max_layer_offset: float = 0.75,
+    expected: np.ndarray | None = None,
+) -> Measured:
     """Measured crest height (and width where the scan gives it) at every sample of `track`;
     refuses a scan of another layer or frame (see module doc). `expected`: the crest heights the
     scan should show (default: the plan; a build that has drifted passes what it predicts)."""
@@ -281,37 +312,52 @@ def measure(track: Track, scan: Scan, radius: float = 1.0, min_points: int = 3, 
     n = track.n
     if n == 0:
         raise ScanError(f"{scan.source}: layer {track.layer} has no arc-ON path to compare with")
-    if scan.points is None:   # heights along the path
+    if scan.points is None:  # heights along the path
         if scan.s is None or scan.height is None:
             raise ScanError(f"{scan.source}: layer {scan.layer}: the scan has neither points nor heights (s, height)")
         ss = scan.s
         s = np.cumsum(track.length) - track.length / 2
         if ss[0] > s[-1] or ss[-1] < s[0]:
-            raise ScanError(f"{scan.source}: layer {track.layer}: the heights run over s = {ss[0]:g}..{ss[-1]:g} mm, "
-                            f"the layer's path over 0..{s[-1] + track.length[-1] / 2:g} mm")
+            raise ScanError(
+                f"{scan.source}: layer {track.layer}: the heights run over s = {ss[0]:g}..{ss[-1]:g} mm, "
+                f"the layer's path over 0..{s[-1] + track.length[-1] / 2:g} mm"
+            )
         inside = (s >= ss[0]) & (s <= ss[-1])
         h = np.where(inside, np.interp(s, ss, scan.height), np.nan)
-        w = np.where(inside, np.interp(s, ss, np.nan_to_num(scan.width, nan=np.nan)), np.nan) \
-            if scan.width is not None and np.isfinite(scan.width).any() else np.full(n, np.nan)
+        w = (
+            np.where(inside, np.interp(s, ss, np.nan_to_num(scan.width, nan=np.nan)), np.nan)
+            if scan.width is not None and np.isfinite(scan.width).any()
+            else np.full(n, np.nan)
+        )
     else:
         P = scan.points
         # the points near each sample's axis, searched around where the crest is expected
-        ref0 = track.points if expected is None else \
-            track.points + (np.asarray(expected, float) - track.planned_height())[:, None] * track.normal
-        reach = radius + max(max_layer_offset, 0.75) * max(track.thickness, 1.0) + 1.0 \
-            if np.isfinite(max_layer_offset) else radius + 2.0 * max(track.thickness, 1.0) + 1.0
+        ref0 = (
+            track.points
+            if expected is None
+            else track.points + (np.asarray(expected, float) - track.planned_height())[:, None] * track.normal
+        )
+        reach = (
+            radius + max(max_layer_offset, 0.75) * max(track.thickness, 1.0) + 1.0
+            if np.isfinite(max_layer_offset)
+            else radius + 2.0 * max(track.thickness, 1.0) + 1.0
+        )
         i, _, along = _near_axis(track, ref0, P, radius, reach)
         q, _ = _group_percentile(i, along, n, 0.9, min_points)
         h = track.planned_height() + q
         w = np.full(n, np.nan)
     m = Measured(h, w)
     if m.coverage < min_coverage:
-        raise ScanError(f"{scan.source}: layer {track.layer}: the scan covers {m.coverage:.0%} of the layer's path "
-                        f"(need {min_coverage:.0%}): is it of layer {track.layer}, in the part frame?")
+        raise ScanError(
+            f"{scan.source}: layer {track.layer}: the scan covers {m.coverage:.0%} of the layer's path "
+            f"(need {min_coverage:.0%}): is it of layer {track.layer}, in the part frame?"
+        )
     ref = track.planned_height() if expected is None else np.asarray(expected, float)
     med = float(np.nanmedian(h - ref))
     if abs(med) > max_layer_offset * track.thickness:
-        raise ScanError(f"{scan.source}: layer {track.layer}: the scan lies {med:+.2f} mm from the expected top "
-                        f"({med / track.thickness:+.1f} layers): the scan of another layer or another frame "
-                        "(register it, or check the layer number)")
+        raise ScanError(
+            f"{scan.source}: layer {track.layer}: the scan lies {med:+.2f} mm from the expected top "
+            f"({med / track.thickness:+.1f} layers): the scan of another layer or another frame "
+            "(register it, or check the layer number)"
+        )
     return m

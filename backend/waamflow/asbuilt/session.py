@@ -42,7 +42,7 @@ from .scan import Scan, ScanError, measure, register
 from .track import Track, layer_track
 
 STATE = "state.json"
-MAX_REPEATS = 3         # a layer is laid at most this many extra times
+MAX_REPEATS = 3  # a layer is laid at most this many extra times
 ASBUILT = "asbuilt.json"
 
 
@@ -64,8 +64,9 @@ class LayerPost(Protocol):
     recipe's post-process node): `header` lines go in the program's header comments, `dwell_s` > 0
     makes it wait that long at its start (`dwell_why` beside it)."""
 
-    def __call__(self, lp: LayerPaths, /, header: list[str] = ..., dwell_s: float = ...,
-                 dwell_why: str = ...) -> dict[str, str]: ...
+    def __call__(
+        self, lp: LayerPaths, /, header: list[str] = ..., dwell_s: float = ..., dwell_why: str = ...
+    ) -> dict[str, str]: ...
 
 
 @dataclass
@@ -79,8 +80,14 @@ class LayerRecord:
 class BuildSession:
     """One build (see module doc). `post` (a LayerPost) writes a one-layer program."""
 
-    def __init__(self, folder: Path, toolpath: Layered[LayerPaths], state: dict,
-                 post: LayerPost | None = None, window: Window = Window()):
+    def __init__(
+        self,
+        folder: Path,
+        toolpath: Layered[LayerPaths],
+        state: dict,
+        post: LayerPost | None = None,
+        window: Window = Window(),
+    ):
         self.folder = Path(folder)
         self.items = [lp for lp in toolpath.items if lp is not None]
         self.tracks = [layer_track(lp) for lp in self.items]
@@ -92,8 +99,15 @@ class BuildSession:
 
     # ---- persistence -------------------------------------------------------------------------
     @classmethod
-    def create(cls, folder: Path, toolpath: Layered[LayerPaths], meta: dict, who: str | None = None,
-               post: LayerPost | None = None, window: Window = Window()) -> "BuildSession":
+    def create(
+        cls,
+        folder: Path,
+        toolpath: Layered[LayerPaths],
+        meta: dict,
+        who: str | None = None,
+        post: LayerPost | None = None,
+        window: Window = Window(),
+    ) -> "BuildSession":
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=False)
         state = {"meta": meta, "created": _utc(), "next_layer": 0, "status": "building", "records": {}, "log": []}
@@ -105,13 +119,16 @@ class BuildSession:
         return s
 
     @classmethod
-    def load(cls, folder: Path, toolpath: Layered[LayerPaths], post: LayerPost | None = None,
-             window: Window = Window()) -> "BuildSession":
+    def load(
+        cls, folder: Path, toolpath: Layered[LayerPaths], post: LayerPost | None = None, window: Window = Window()
+    ) -> "BuildSession":
         state = json.loads((Path(folder) / STATE).read_text(encoding="utf-8"))
         s = cls(folder, toolpath, state, post, window)
         if len(s.tracks) != state["meta"].get("layers", len(s.tracks)):
-            raise ValueError(f"the re-planned recipe has {len(s.tracks)} layers, the build was started with "
-                             f"{state['meta']['layers']}: the recipe or its inputs changed")
+            raise ValueError(
+                f"the re-planned recipe has {len(s.tracks)} layers, the build was started with "
+                f"{state['meta']['layers']}: the recipe or its inputs changed"
+            )
         return s
 
     def save(self) -> None:
@@ -120,11 +137,18 @@ class BuildSession:
 
     def asbuilt(self) -> dict:
         """The build's as-built document (see module doc)."""
-        return {"build": self.state["meta"].get("id"), "run": self.state["meta"].get("run"),
-                "status": self.state["status"], "layers_planned": len(self.tracks),
-                "interpass": self.dwell_rule.to_dict(), "layers": self.state.get("layers", []),
-                "programs": self.state.get("programs", []), "layers_added": int(self.state.get("added", 0)),
-                "layers_dropped": int(self.state.get("dropped", 0)), "skipped": list(self.state.get("skipped", []))}
+        return {
+            "build": self.state["meta"].get("id"),
+            "run": self.state["meta"].get("run"),
+            "status": self.state["status"],
+            "layers_planned": len(self.tracks),
+            "interpass": self.dwell_rule.to_dict(),
+            "layers": self.state.get("layers", []),
+            "programs": self.state.get("programs", []),
+            "layers_added": int(self.state.get("added", 0)),
+            "layers_dropped": int(self.state.get("dropped", 0)),
+            "skipped": list(self.state.get("skipped", [])),
+        }
 
     def refuse(self, who: str | None, layer: int, reason: str) -> None:
         """Log a scan refused before it reached the session (unreadable file) and save."""
@@ -166,7 +190,7 @@ class BuildSession:
         tr = self._track(k)
         hp = planned_heights(tr, self._track(k - 1) if k > 0 else None)
         own = self.record(k) if self.next_layer == k else None
-        if own is not None:                      # a repeat: on the layer's own scanned top
+        if own is not None:  # a repeat: on the layer's own scanned top
             top = np.where(np.isfinite(own.measured_top), own.measured_top, tr.planned_height() - tr.thickness)
             return top, np.where(np.isfinite(own.gain), own.gain, 1.0), hp, f"its own scan (pass {self.passes(k)})"
         j = next((i for i in range(k - 1, -1, -1) if str(i) in self.state["records"]), None)
@@ -197,8 +221,12 @@ class BuildSession:
         j = max(i for i in range(k + 1) if self._track(i).layer == row["layer"])
         if self._taus is None:
             self._taus = time_constants(self.items, self.dwell_rule.model)
-        d = interpass_dwell(row["interpass_measured_c"], self._taus[j], self.dwell_rule,
-                            approach_time(self.items[k], self.dwell_rule.model.travel_speed))
+        d = interpass_dwell(
+            row["interpass_measured_c"],
+            self._taus[j],
+            self.dwell_rule,
+            approach_time(self.items[k], self.dwell_rule.model.travel_speed),
+        )
         return {**d, "after_layer": row["layer"], "note": note(d, row["layer"])}
 
     def next_program(self, who: str | None = None) -> dict:
@@ -212,30 +240,55 @@ class BuildSession:
         if dwell is not None:
             why = {**why, "interpass_dwell_s": dwell["dwell_s"], "interpass": dwell}
         lp = adapted_layer(self.items[k], self._track(k), v)
-        header = [f"as-built build {self.state['meta'].get('id', '')}: layer {self._track(k).layer}, "
-                  + (f"travel speed x{why['speed_factor_min']:.3f}..x{why['speed_factor_max']:.3f} of plan "
-                     f"(samples clamped: {why['clamped_slow']} slow, {why['clamped_fast']} fast)"
-                     if why.get("adapted") else f"as planned ({why.get('reason', '')})")]
+        header = [
+            f"as-built build {self.state['meta'].get('id', '')}: layer {self._track(k).layer}, "
+            + (
+                f"travel speed x{why['speed_factor_min']:.3f}..x{why['speed_factor_max']:.3f} of plan "
+                f"(samples clamped: {why['clamped_slow']} slow, {why['clamped_fast']} fast)"
+                if why.get("adapted")
+                else f"as planned ({why.get('reason', '')})"
+            )
+        ]
         if dwell is not None:
             header.append(dwell["note"])
-        files = (self.post(lp, header=header, dwell_s=dwell["dwell_s"] if dwell else 0.0,
-                           dwell_why=dwell["note"] if dwell else "") if self.post is not None else {})
-        entry = {"layer": self._track(k).layer, "pass": self.passes(k) + 1, "adapted": why.get("adapted", False),
-                 **{x: why[x] for x in ("speed_factor_min", "speed_factor_max", "clamped_slow", "clamped_fast") if x in why},
-                 "files": sorted(files),
-                 "sha256": {n: hashlib.sha256(t.encode()).hexdigest()[:16] for n, t in sorted(files.items())}}
+        files = (
+            self.post(
+                lp, header=header, dwell_s=dwell["dwell_s"] if dwell else 0.0, dwell_why=dwell["note"] if dwell else ""
+            )
+            if self.post is not None
+            else {}
+        )
+        entry = {
+            "layer": self._track(k).layer,
+            "pass": self.passes(k) + 1,
+            "adapted": why.get("adapted", False),
+            **{x: why[x] for x in ("speed_factor_min", "speed_factor_max", "clamped_slow", "clamped_fast") if x in why},
+            "files": sorted(files),
+            "sha256": {n: hashlib.sha256(t.encode()).hexdigest()[:16] for n, t in sorted(files.items())},
+        }
         if dwell is not None:
-            entry.update(interpass_measured_c=dwell["measured_c"], interpass_target_c=dwell["target_c"],
-                         dwell_s=dwell["dwell_s"], dwell_clamped=dwell["clamped"])
+            entry.update(
+                interpass_measured_c=dwell["measured_c"],
+                interpass_target_c=dwell["target_c"],
+                dwell_s=dwell["dwell_s"],
+                dwell_clamped=dwell["clamped"],
+            )
         self._log(who, "program", **entry)
         progs = self.state.setdefault("programs", [])
-        progs[:] = [p for p in progs if (p["layer"], p.get("pass", 1)) != (entry["layer"], entry["pass"])] + \
-            [{**entry, "time": _utc()}]
+        progs[:] = [p for p in progs if (p["layer"], p.get("pass", 1)) != (entry["layer"], entry["pass"])] + [
+            {**entry, "time": _utc()}
+        ]
         self.save()
         return {"layer": self._track(k).layer, "adaptation": why, "files": files, "toolpath": lp}
 
-    def add_scan(self, scan: Scan, who: str | None = None, register_frame: bool = False,
-                 raw: bytes | None = None, interpass_c: float | None = None) -> dict:
+    def add_scan(
+        self,
+        scan: Scan,
+        who: str | None = None,
+        register_frame: bool = False,
+        raw: bytes | None = None,
+        interpass_c: float | None = None,
+    ) -> dict:
         """Measure the scan of the next layer, keep it, and return the layer's as-built figures;
         `interpass_c`: the part temperature measured after the layer (°C), for the next dwell."""
         if interpass_c is not None:
@@ -250,7 +303,7 @@ class BuildSession:
             raise ScanError(f"{scan.source}: the scan is of layer {scan.layer}, the build expects layer {tr.layer}")
         v, _ = self.speeds_for(k)
         below, g, hp, _ = self.basis(k)
-        expected = below + np.clip(g, self.window.min_gain, self.window.max_gain) * hp * tr.speed / v   # as plan_speeds
+        expected = below + np.clip(g, self.window.min_gain, self.window.max_gain) * hp * tr.speed / v  # as plan_speeds
         reg = None
         try:
             if register_frame and scan.kind == "cloud":
@@ -272,11 +325,16 @@ class BuildSession:
         self.state["records"][str(k)] = name
         fin = np.isfinite(dev)
         planned_top = float(np.mean(tr.planned_height()[fin])) if fin.any() else float("nan")
-        row: dict[str, Any] = {"layer": tr.layer, "coverage": round(m.coverage, 4), "planned_top_mm": round(planned_top, 4),
-               "asbuilt_top_mm": round(float(np.mean(m.height[fin])), 4),
-               "mean_error_mm": round(float(np.mean(dev[fin])), 4), "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
-               "max_error_mm": round(float(np.max(np.abs(dev[fin]))), 4),
-               "registration": reg.to_dict() if reg is not None else None}
+        row: dict[str, Any] = {
+            "layer": tr.layer,
+            "coverage": round(m.coverage, 4),
+            "planned_top_mm": round(planned_top, 4),
+            "asbuilt_top_mm": round(float(np.mean(m.height[fin])), 4),
+            "mean_error_mm": round(float(np.mean(dev[fin])), 4),
+            "rms_error_mm": round(float(np.sqrt(np.mean(dev[fin] ** 2))), 4),
+            "max_error_mm": round(float(np.max(np.abs(dev[fin]))), 4),
+            "registration": reg.to_dict() if reg is not None else None,
+        }
         if interpass_c is not None:
             row["interpass_measured_c"] = round(float(interpass_c), 2)
         passes = self.passes(k) + 1
@@ -293,15 +351,23 @@ class BuildSession:
         elif off > t / 2 and k + 2 < len(self.tracks):
             self.state["dropped"] = int(self.state.get("dropped", 0)) + 1
             self.state.setdefault("skipped", []).append(self._track(k + 1).layer)
-            row["then"] = (f"layer {self._track(k + 1).layer} left out ({off:.2f} mm high, more than half the "
-                           f"{t:g} mm layer)")
+            row["then"] = (
+                f"layer {self._track(k + 1).layer} left out ({off:.2f} mm high, more than half the {t:g} mm layer)"
+            )
             nxt = k + 2
         self.state.setdefault("layers", []).append(row)
         self.state["next_layer"] = nxt
         if self.done:
             self.state["status"] = "complete"
-        scan_file = ({"scan_file": f"scan_{tr.layer:05d}.bin", "scan_bytes": len(raw),
-                      "scan_sha256": hashlib.sha256(raw).hexdigest()[:16]} if raw is not None else {"scan_file": scan.source})
+        scan_file = (
+            {
+                "scan_file": f"scan_{tr.layer:05d}.bin",
+                "scan_bytes": len(raw),
+                "scan_sha256": hashlib.sha256(raw).hexdigest()[:16],
+            }
+            if raw is not None
+            else {"scan_file": scan.source}
+        )
         self._log(who, "scan", **{k2: v2 for k2, v2 in row.items() if k2 != "registration"}, **scan_file)
         if nxt == k:
             self._log(who, "layer_added", layer=tr.layer, reason=row["then"])
@@ -320,16 +386,33 @@ class BuildSession:
             if rec is None:
                 continue
             planned = tr.planned_height()
-            out.append({"layer": tr.layer, "points": tr.points, "normal": tr.normal, "planned": planned,
-                        "measured": rec.measured_top, "deviation": rec.measured_top - planned,
-                        "thickness": tr.thickness})
+            out.append(
+                {
+                    "layer": tr.layer,
+                    "points": tr.points,
+                    "normal": tr.normal,
+                    "planned": planned,
+                    "measured": rec.measured_top,
+                    "deviation": rec.measured_top - planned,
+                    "thickness": tr.thickness,
+                }
+            )
         return out
 
     def summary(self) -> dict:
-        return {"meta": self.state["meta"], "status": self.state["status"], "created": self.state["created"],
-                "next_layer": self.tracks[self.next_layer].layer if not self.done else None,
-                "layers_planned": len(self.tracks), "layers_scanned": len(self.state.get("layers", [])),
-                "plan_layers": [t.layer for t in self.tracks], "layers_added": int(self.state.get("added", 0)),
-                "layers_dropped": int(self.state.get("dropped", 0)), "skipped": list(self.state.get("skipped", [])),
-                "layers": self.state.get("layers", []), "programs": self.state.get("programs", []),
-                "interpass": self.dwell_rule.to_dict(), "log": self.state["log"]}
+        return {
+            "meta": self.state["meta"],
+            "status": self.state["status"],
+            "created": self.state["created"],
+            "next_layer": self.tracks[self.next_layer].layer if not self.done else None,
+            "layers_planned": len(self.tracks),
+            "layers_scanned": len(self.state.get("layers", [])),
+            "plan_layers": [t.layer for t in self.tracks],
+            "layers_added": int(self.state.get("added", 0)),
+            "layers_dropped": int(self.state.get("dropped", 0)),
+            "skipped": list(self.state.get("skipped", [])),
+            "layers": self.state.get("layers", []),
+            "programs": self.state.get("programs", []),
+            "interpass": self.dwell_rule.to_dict(),
+            "log": self.state["log"],
+        }

@@ -79,14 +79,23 @@ def event_distance(track: Track, corner_deg: float) -> np.ndarray:
     return np.minimum(np.abs(s - events[k - 1]), np.abs(events[k] - s))
 
 
-def bead_heights(track: Track, v: np.ndarray, order: int, dist: Disturbance, rng: np.random.Generator,
-                 h_plan: np.ndarray | None = None, dwell_before_s: float = 0.0) -> np.ndarray:
+def bead_heights(
+    track: Track,
+    v: np.ndarray,
+    order: int,
+    dist: Disturbance,
+    rng: np.random.Generator,
+    h_plan: np.ndarray | None = None,
+    dwell_before_s: float = 0.0,
+) -> np.ndarray:
     """Heights the simulated process lays at speeds `v` on layer number `order` (0 = first);
     `h_plan`: the planned bead heights at the planned speeds (default the layer height);
     `dwell_before_s`: the dwell after the layer below."""
     C = (track.thickness if h_plan is None else h_plan) * track.speed
     t_cool = float((track.length / v).sum()) + float(dwell_before_s)
-    f = (1 - dist.first_drop * math.exp(-order / dist.first_layers)) * (1 + dist.heat_gain * math.exp(-t_cool / dist.heat_tau_s))
+    f = (1 - dist.first_drop * math.exp(-order / dist.first_layers)) * (
+        1 + dist.heat_gain * math.exp(-t_cool / dist.heat_tau_s)
+    )
     h = C / v * f * (1 + dist.stop_bump * np.exp(-event_distance(track, dist.corner_deg) / dist.stop_len_mm))
     if dist.noise_mm > 0 and track.n:
         e = rng.normal(0.0, dist.noise_mm, track.n)
@@ -96,8 +105,9 @@ def bead_heights(track: Track, v: np.ndarray, order: int, dist: Disturbance, rng
     return np.maximum(h, 0.0)
 
 
-def synth_scan(track: Track, top: np.ndarray, dist: Disturbance, rng: np.random.Generator,
-               frame: np.ndarray | None = None) -> Scan:
+def synth_scan(
+    track: Track, top: np.ndarray, dist: Disturbance, rng: np.random.Generator, frame: np.ndarray | None = None
+) -> Scan:
     """The point cloud a line scanner gives of crests at heights `top` (see module doc); `frame`
     (4×4) maps the part frame to the scanner's (the scan is then seen in that frame)."""
     w, m = dist.bead_width_mm, dist.scan_points
@@ -123,15 +133,25 @@ class BuildLog:
 
     def summary(self) -> dict:
         e = self.last_error if self.last_error is not None else np.zeros(0)
-        return {"mode": self.mode, "layers_planned": sum(1 for r in self.layers if r["kind"] == "planned") + self.dropped,
-                "layers_built": len(self.layers), "layers_added": self.added, "layers_dropped": self.dropped,
-                "last_layer_rms_mm": round(float(np.sqrt(np.mean(e * e))), 4) if len(e) else None,
-                "last_layer_max_mm": round(float(np.max(np.abs(e))), 4) if len(e) else None,
-                "last_layer_mean_mm": round(float(np.mean(e)), 4) if len(e) else None}
+        return {
+            "mode": self.mode,
+            "layers_planned": sum(1 for r in self.layers if r["kind"] == "planned") + self.dropped,
+            "layers_built": len(self.layers),
+            "layers_added": self.added,
+            "layers_dropped": self.dropped,
+            "last_layer_rms_mm": round(float(np.sqrt(np.mean(e * e))), 4) if len(e) else None,
+            "last_layer_max_mm": round(float(np.max(np.abs(e))), 4) if len(e) else None,
+            "last_layer_mean_mm": round(float(np.mean(e)), 4) if len(e) else None,
+        }
 
 
-def simulate_build(toolpath: Layered[LayerPaths], mode: str = "closed", dist: Disturbance = Disturbance(),
-                   window: Window = Window(), ds: float = 1.0) -> BuildLog:
+def simulate_build(
+    toolpath: Layered[LayerPaths],
+    mode: str = "closed",
+    dist: Disturbance = Disturbance(),
+    window: Window = Window(),
+    ds: float = 1.0,
+) -> BuildLog:
     """Build `toolpath` in the simulator, open or closed loop (see module doc)."""
     if mode not in ("open", "closed"):
         raise ValueError("mode is 'open' or 'closed'")
@@ -142,8 +162,8 @@ def simulate_build(toolpath: Layered[LayerPaths], mode: str = "closed", dist: Di
     dwell_after = [float(lp.dwell_after_s) for lp, _ in pairs]
     log = BuildLog(mode)
     prev: Track | None = None
-    prev_true: np.ndarray | None = None       # actual crest heights of the layer below
-    prev_meas: np.ndarray | None = None       # as the scan measured them
+    prev_true: np.ndarray | None = None  # actual crest heights of the layer below
+    prev_meas: np.ndarray | None = None  # as the scan measured them
     prev_gain: np.ndarray | None = None
     order = 0
     k = 0
@@ -166,13 +186,20 @@ def simulate_build(toolpath: Layered[LayerPaths], mode: str = "closed", dist: Di
             clamped = (0, 0)
         h = bead_heights(tr, v, order, dist, rng, hp, dwell_after[k - 1] if k > 0 else 0.0)
         top = below_true + h
-        row = {"layer": tr.layer, "kind": "repeat" if repeats else "planned", "order": order,
-               "mean_error_mm": round(float(np.mean(top - H)), 4), "rms_error_mm": round(float(np.sqrt(np.mean((top - H) ** 2))), 4),
-               "speed_factor": [round(float(np.min(v / tr.speed)), 3), round(float(np.max(v / tr.speed)), 3)],
-               "clamped": list(clamped)}
+        row = {
+            "layer": tr.layer,
+            "kind": "repeat" if repeats else "planned",
+            "order": order,
+            "mean_error_mm": round(float(np.mean(top - H)), 4),
+            "rms_error_mm": round(float(np.sqrt(np.mean((top - H) ** 2))), 4),
+            "speed_factor": [round(float(np.min(v / tr.speed)), 3), round(float(np.max(v / tr.speed)), 3)],
+            "clamped": list(clamped),
+        }
         if mode == "closed":
             # the simulator knows its scan is of this layer and in the part frame: no plausibility refusal
-            meas = measure(tr, synth_scan(tr, top, dist, rng), radius=0.75, expected=predicted, max_layer_offset=math.inf).height
+            meas = measure(
+                tr, synth_scan(tr, top, dist, rng), radius=0.75, expected=predicted, max_layer_offset=math.inf
+            ).height
             with np.errstate(invalid="ignore", divide="ignore"):
                 prev_gain = (meas - below_meas) / (hp * tr.speed / v)
             prev_meas = meas
@@ -189,7 +216,7 @@ def simulate_build(toolpath: Layered[LayerPaths], mode: str = "closed", dist: Di
         repeats = 0
         k += 1
         if mode == "closed" and err > tr.thickness / 2 and k < len(tracks) - 1:
-            log.dropped += 1                   # too tall by more than half a layer: skip the next one
+            log.dropped += 1  # too tall by more than half a layer: skip the next one
             k += 1
     if prev is not None:
         log.last_error = prev_true - prev.planned_height()

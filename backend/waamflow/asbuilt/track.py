@@ -30,15 +30,15 @@ class Track:
     """Resampled arc-ON crests of one layer (all arrays of length n)."""
 
     layer: int
-    thickness: float           # planned layer height, mm
-    points: np.ndarray         # (n, 3) planned crest positions, world mm
-    normal: np.ndarray         # (n, 3) unit build direction
-    across: np.ndarray         # (n, 3) unit, across the bead, ⟂ normal and tangent
-    speed: np.ndarray          # (n,) programmed mm/s
-    section: np.ndarray        # (n,) int: index into the layer's sections
-    segment: np.ndarray        # (n,) int: segment index inside that section
-    keys: tuple[str, ...]      # section keys
-    length: np.ndarray         # (n,) mm of path each sample stands for
+    thickness: float  # planned layer height, mm
+    points: np.ndarray  # (n, 3) planned crest positions, world mm
+    normal: np.ndarray  # (n, 3) unit build direction
+    across: np.ndarray  # (n, 3) unit, across the bead, ⟂ normal and tangent
+    speed: np.ndarray  # (n,) programmed mm/s
+    section: np.ndarray  # (n,) int: index into the layer's sections
+    segment: np.ndarray  # (n,) int: segment index inside that section
+    keys: tuple[str, ...]  # section keys
+    length: np.ndarray  # (n,) mm of path each sample stands for
 
     @property
     def n(self) -> int:
@@ -56,7 +56,7 @@ def layer_track(lp: LayerPaths, ds: float = 1.0) -> Track:
     pts, nor, acr, spd, sec, seg, ln = [], [], [], [], [], [], []
     keys = tuple(sp.key for sp in lp.sections)
     for si, sp in enumerate(lp.sections):
-        if sp.tool:                      # rolling/peening passes deposit nothing
+        if sp.tool:  # rolling/peening passes deposit nothing
             continue
         P = np.asarray(sp.points, float)
         axis = np.asarray(sp.tool_axis, float) if sp.tool_axis is not None else np.tile(DOWN, (len(P), 1))
@@ -86,6 +86,15 @@ def layer_track(lp: LayerPaths, ds: float = 1.0) -> Track:
         z = np.zeros((0, 3))
         e = np.zeros(0)
         return Track(lp.index, float(lp.layer.thickness), z, z, z, e, e.astype(int), e.astype(int), keys, e)
-    return Track(lp.index, float(lp.layer.thickness), np.vstack(pts), np.vstack(nor), np.vstack(acr),
-                 np.concatenate(spd), np.concatenate(sec).astype(int), np.concatenate(seg).astype(int), keys,
-                 np.concatenate(ln))
+    return Track(
+        lp.index,
+        float(lp.layer.thickness),
+        np.vstack(pts),
+        np.vstack(nor),
+        np.vstack(acr),
+        np.concatenate(spd),
+        np.concatenate(sec).astype(int),
+        np.concatenate(seg).astype(int),
+        keys,
+        np.concatenate(ln),
+    )
