@@ -39,7 +39,9 @@ MIN_PIECE_SHARE = 0.01
 SLIT = 2 * TOL.join
 
 
-def reflex_corners(region: Polygon, min_turn_deg: float = MIN_TURN_DEG) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def reflex_corners(
+    region: Polygon, min_turn_deg: float = MIN_TURN_DEG
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """(vertex, incoming edge direction, outgoing edge direction) of every reflex corner, mm/unit.
 
     Rings are oriented so the section lies on the left (exterior counter-clockwise, holes

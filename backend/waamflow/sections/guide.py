@@ -64,8 +64,12 @@ def guide_crossings(region: Polygon, guide: LineString) -> list[float]:
 def _clip(section: Section, guide: LineString, s0: float, s1: float) -> Section:
     clipped = substring(guide, s0, s1)
     cs = np.asarray(clipped.coords)
-    return dataclasses.replace(section, guide=LineString(cs), start=(float(cs[0, 0]), float(cs[0, 1])),
-                               stop=(float(cs[-1, 0]), float(cs[-1, 1])))
+    return dataclasses.replace(
+        section,
+        guide=LineString(cs),
+        start=(float(cs[0, 0]), float(cs[0, 1])),
+        stop=(float(cs[-1, 0]), float(cs[-1, 1])),
+    )
 
 
 def apply_guide(section: Section, guide: LineString | None, *, layer: int | None = None) -> Section:
@@ -78,8 +82,9 @@ def apply_guide(section: Section, guide: LineString | None, *, layer: int | None
         return _default(section, layer)
     xs = guide_crossings(section.region, guide)
     if len(xs) != 2:
-        raise PlanningError(f"guide crosses the section boundary {len(xs)} times (needs exactly 2)",
-                            layer=layer, section=section.key)
+        raise PlanningError(
+            f"guide crosses the section boundary {len(xs)} times (needs exactly 2)", layer=layer, section=section.key
+        )
     return _clip(section, guide, xs[0], xs[1])
 
 
@@ -88,11 +93,13 @@ def _default(section: Section, layer: int | None) -> Section:
         line = default_guide(section.region)
     except ValueError as e:
         raise PlanningError(str(e), layer=layer, section=section.key) from e
-    inside = [g for g in shapely.get_parts(shapely.intersection(line, section.region))
-              if isinstance(g, LineString) and g.length > TOL.min_segment]
+    inside = [
+        g
+        for g in shapely.get_parts(shapely.intersection(line, section.region))
+        if isinstance(g, LineString) and g.length > TOL.min_segment
+    ]
     if not inside:
-        raise PlanningError("default guide does not cross the section; draw a guide", layer=layer,
-                            section=section.key)
+        raise PlanningError("default guide does not cross the section; draw a guide", layer=layer, section=section.key)
     piece = max(inside, key=lambda g: g.length)
     a, b = line.project(Point(piece.coords[0])), line.project(Point(piece.coords[-1]))
     return _clip(section, line, min(a, b), max(a, b))

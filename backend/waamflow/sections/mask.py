@@ -119,12 +119,17 @@ def segment_layer(layer: Layer, mask: Mask | None) -> LayerSections:
             cut = shapely.difference(cut, taken)
         parts = _parts(cut)
         if not parts:
-            raise PlanningError("mask curve yields no region on this layer; start a new mask here",
-                                layer=layer.index, section=key)
+            raise PlanningError(
+                "mask curve yields no region on this layer; start a new mask here", layer=layer.index, section=key
+            )
         if len(parts) > 1:
             areas = ", ".join(f"{p.area:.1f}" for p in parts)
-            raise PlanningError(f"mask curve yields {len(parts)} separate regions (areas {areas} mm²) on this "
-                                "layer; start a new mask here", layer=layer.index, section=key)
+            raise PlanningError(
+                f"mask curve yields {len(parts)} separate regions (areas {areas} mm²) on this "
+                "layer; start a new mask here",
+                layer=layer.index,
+                section=key,
+            )
         sections.append(Section(key, parts[0], order=order))
         taken = parts[0] if taken is None else shapely.union(taken, parts[0])
     covered = 0.0 if taken is None else float(shapely.intersection(region, taken).area)
