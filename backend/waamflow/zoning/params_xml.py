@@ -68,7 +68,7 @@ class ParamTable:
     zones: tuple[ZoneKey, ...] = ()
     colors: dict[ZoneKey, str] = field(default_factory=dict)
     layer_z: dict[int, float] = field(default_factory=dict)
-    beads: dict[ZoneKey, float] = field(default_factory=dict)   # zone → bead_mm3_per_mm attribute
+    beads: dict[ZoneKey, float] = field(default_factory=dict)  # zone → bead_mm3_per_mm attribute
 
     @cached_property
     def _by_layer(self) -> dict[int, dict[str, dict[str, dict[str, float]]]]:
@@ -86,13 +86,15 @@ def _fmt(v: float) -> str:
     return f"{v:.10g}"
 
 
-FEED_NOTE = (" feed: per zone, the wire that ends in the part per mm of path, eta*WFS*(pi d^2/4)/TS (eta 0.95, "
-             "d 1.2 mm), against bead_mm3_per_mm, the metal the layer needs per mm of path (layer height x "
-             "pass step, or k*w*h for a single bead); ratio > 1 over-feeds, < 1 under-feeds ")
+FEED_NOTE = (
+    " feed: per zone, the wire that ends in the part per mm of path, eta*WFS*(pi d^2/4)/TS (eta 0.95, "
+    "d 1.2 mm), against bead_mm3_per_mm, the metal the layer needs per mm of path (layer height x "
+    "pass step, or k*w*h for a single bead); ratio > 1 over-feeds, < 1 under-feeds "
+)
 
 
 def _feed_comment(vals: dict[str, float], bead: float) -> str:
-    from ..process.mass import wire_per_mm   # lazy: process imports this module
+    from ..process.mass import wire_per_mm  # lazy: process imports this module
 
     wfs, ts = vals.get("wire_feed_speed"), vals.get("travel_speed")
     if not wfs or not ts:
@@ -101,19 +103,24 @@ def _feed_comment(vals: dict[str, float], bead: float) -> str:
     return f" feed: wire {wire:.2f} mm³/mm vs bead {bead:.2f} mm³/mm = {wire / bead:.2f} "
 
 
-def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]],
-           beads: dict[ZoneKey, float] | None = None) -> str:
+def _write(
+    zones: Iterable[tuple[int, float | None, str, str, str]],
+    values: dict[ZoneKey, dict[str, float]],
+    beads: dict[ZoneKey, float] | None = None,
+) -> str:
     """zones: (layer index, layer z, section key, zone id, colour) in file order; beads: zone →
     metal needed per mm of path (mm³/mm), written as the zone's `bead_mm3_per_mm` with a feed
     comment. Written line by line (a part has ~10⁵ elements), exactly as ElementTree with
     `ET.indent(space="  ")` and `short_empty_elements=False` writes the same tree (`tests/zoning`
     compares the two)."""
     beads = beads or {}
-    comment = (" Deposition parameters per layer > section > zone (MPP). Empty = not set. "
-               "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " ")
+    comment = (
+        " Deposition parameters per layer > section > zone (MPP). Empty = not set. "
+        "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " "
+    )
     params = [(p.name, f'        <{p.name} unit="{_attr(p.unit)}">', f"</{p.name}>") for p in ZONE_PARAMETERS]
-    tree: dict[int, tuple[float | None, dict[str, list[tuple[str, str]]]]] = {}   # layer → (z, section → zones)
-    for li, z, sk, zid, color in zones:       # grouped as ElementTree would append them
+    tree: dict[int, tuple[float | None, dict[str, list[tuple[str, str]]]]] = {}  # layer → (z, section → zones)
+    for li, z, sk, zid, color in zones:  # grouped as ElementTree would append them
         tree.setdefault(li, (z, {}))[1].setdefault(sk, []).append((zid, color))
     out = ['<?xml version="1.0" encoding="utf-8"?>', f'<parameters format="{_attr(FORMAT)}">', f"  <!--{comment}-->"]
     if beads:
@@ -129,8 +136,10 @@ def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dic
                 if bead is None:
                     out.append(f'      <zone id="{_attr(zid)}" color="{_attr(color)}">')
                 else:
-                    out.append(f'      <zone id="{_attr(zid)}" color="{_attr(color)}" '
-                               f'bead_mm3_per_mm="{_fmt(round(bead, 4))}">')
+                    out.append(
+                        f'      <zone id="{_attr(zid)}" color="{_attr(color)}" '
+                        f'bead_mm3_per_mm="{_fmt(round(bead, 4))}">'
+                    )
                     out.append(f"        <!--{_feed_comment(vals, bead)}-->")
                 for name, head, tail in params:
                     out.append(head + (_cdata(_fmt(vals[name])) if name in vals else "") + tail)
@@ -143,8 +152,15 @@ def _write(zones: Iterable[tuple[int, float | None, str, str, str]], values: dic
 
 def _attr(text: str) -> str:
     """An attribute value escaped as ElementTree escapes it."""
-    for a, b in (("&", "&amp;"), ("<", "&lt;"), (">", "&gt;"), ('"', "&quot;"), ("\r", "&#13;"), ("\n", "&#10;"),
-                 ("\t", "&#09;")):
+    for a, b in (
+        ("&", "&amp;"),
+        ("<", "&lt;"),
+        (">", "&gt;"),
+        ('"', "&quot;"),
+        ("\r", "&#13;"),
+        ("\n", "&#10;"),
+        ("\t", "&#09;"),
+    ):
         if a in text:
             text = text.replace(a, b)
     return text
@@ -157,13 +173,20 @@ def _cdata(text: str) -> str:
     return text
 
 
-def _write_etree(zones: Iterable[tuple[int, float | None, str, str, str]], values: dict[ZoneKey, dict[str, float]],
-                 beads: dict[ZoneKey, float] | None = None) -> str:
+def _write_etree(
+    zones: Iterable[tuple[int, float | None, str, str, str]],
+    values: dict[ZoneKey, dict[str, float]],
+    beads: dict[ZoneKey, float] | None = None,
+) -> str:
     """The same file through ElementTree (reference for the tests of `_write`)."""
     beads = beads or {}
     root = ET.Element("parameters", {"format": FORMAT})
-    root.append(ET.Comment(" Deposition parameters per layer > section > zone (MPP). Empty = not set. "
-                           "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " "))
+    root.append(
+        ET.Comment(
+            " Deposition parameters per layer > section > zone (MPP). Empty = not set. "
+            "Units: " + ", ".join(f"{p.name} [{p.unit or '-'}]" for p in ZONE_PARAMETERS) + " "
+        )
+    )
     if beads:
         root.append(ET.Comment(FEED_NOTE))
     layer_el: dict[int, ET.Element] = {}
@@ -189,7 +212,11 @@ def _write_etree(zones: Iterable[tuple[int, float | None, str, str, str]], value
             if p.name in vals:
                 e.text = _fmt(vals[p.name])
     ET.indent(root, space="  ")
-    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode", short_empty_elements=False) + "\n"
+    return (
+        '<?xml version="1.0" encoding="utf-8"?>\n'
+        + ET.tostring(root, encoding="unicode", short_empty_elements=False)
+        + "\n"
+    )
 
 
 def _toolpath_zones(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]):
@@ -206,11 +233,14 @@ def _toolpath_zones(toolpath: Layered[LayerPaths] | Iterable[LayerPaths]):
                 yield lp.index, float(lp.layer.z), sp.key, z, sp.zone_colors.get(z, "")
 
 
-def toolpath_beads(toolpath: Layered[LayerPaths] | Iterable[LayerPaths], width_mm: float = FEED_BEAD_WIDTH_MM,
-                   step_mm: float | None = None) -> dict[ZoneKey, float]:
+def toolpath_beads(
+    toolpath: Layered[LayerPaths] | Iterable[LayerPaths],
+    width_mm: float = FEED_BEAD_WIDTH_MM,
+    step_mm: float | None = None,
+) -> dict[ZoneKey, float]:
     """Zone → metal its layer needs per mm of path (mm³/mm), from each section path's own pass
     step (or k·w·h for a single bead) and the layer height (process/mass.py)."""
-    from ..process.mass import section_deposit_per_mm   # lazy: process imports this module
+    from ..process.mass import section_deposit_per_mm  # lazy: process imports this module
 
     items = toolpath.items if isinstance(toolpath, Layered) else toolpath
     out: dict[ZoneKey, float] = {}
@@ -234,8 +264,9 @@ def template(toolpath: Layered[LayerPaths] | Iterable[LayerPaths], feed: bool = 
     return _write(_toolpath_zones(items), {}, toolpath_beads(items) if feed else None)
 
 
-def _error(msg: str, li: int | None = None, sk: str | None = None, zid: str | None = None,
-           name: str | None = None) -> RecipeError:
+def _error(
+    msg: str, li: int | None = None, sk: str | None = None, zid: str | None = None, name: str | None = None
+) -> RecipeError:
     where = f" (zone '{zid}')" if zid is not None else ""
     return InputFileError(f"parameter file: {msg}{where}", layer=li, section=sk, field=name)
 
@@ -247,8 +278,9 @@ def _number(text: str, name: str, li: int, sk: str, zid: str) -> float:
     except ValueError:
         raise _error(f"{name} = {text!r} is not a number", li, sk, zid, name) from None
     if not math.isfinite(v) or not (p.minimum <= v <= p.maximum):
-        raise _error(f"{name} = {text} {p.unit} is outside [{_fmt(p.minimum)}, {_fmt(p.maximum)}] {p.unit}",
-                     li, sk, zid, name)
+        raise _error(
+            f"{name} = {text} {p.unit} is outside [{_fmt(p.minimum)}, {_fmt(p.maximum)}] {p.unit}", li, sk, zid, name
+        )
     return v
 
 
@@ -264,11 +296,12 @@ def parse(text: str | bytes) -> ParamTable:
     except ET.ParseError as e:
         raise _error(f"not well-formed XML ({e})") from None
     try:
-        root = xsd.parse_lxml(raw)   # the same document again, with line numbers (no DTD/entities: checked)
-    except SyntaxError as e:         # lxml's limits: nesting over 256 levels, a text or attribute over 10 MB
+        root = xsd.parse_lxml(raw)  # the same document again, with line numbers (no DTD/entities: checked)
+    except SyntaxError as e:  # lxml's limits: nesting over 256 levels, a text or attribute over 10 MB
         why = str(e.msg).split(", use XML_PARSE_HUGE")[0].split(", try XML_PARSE_HUGE")[0]
-        raise _error(f"XML refused at line {e.lineno}: {why} (at most 256 levels of nesting and 10 MB per text "
-                     "or attribute)") from None
+        raise _error(
+            f"XML refused at line {e.lineno}: {why} (at most 256 levels of nesting and 10 MB per text or attribute)"
+        ) from None
     if root.tag != "parameters":
         raise _error(f"root element is <{root.tag}>, expected <parameters>")
     cur: list = [root]
@@ -278,7 +311,7 @@ def parse(text: str | bytes) -> ParamTable:
         el = cur[0]
         e.message = e.message.replace("parameter file:", f"parameter file line {el.sourceline}, element <{el.tag}>:", 1)
         raise
-    xsd.validate(root)               # what the walk does not check (attributes, text in odd places, ...)
+    xsd.validate(root)  # what the walk does not check (attributes, text in odd places, ...)
     return table
 
 
@@ -322,7 +355,7 @@ def _walk(root, cur: list) -> ParamTable:
             seen_zones: set[str] = set()
             for zel in sel:
                 cur[0] = zel
-                if not isinstance(zel.tag, str):      # comments, processing instructions
+                if not isinstance(zel.tag, str):  # comments, processing instructions
                     continue
                 if zel.tag != "zone" or not zel.get("id"):
                     raise _error(f"expected <zone id=...> in <section>, got <{zel.tag}>", li, sk)
@@ -337,8 +370,9 @@ def _walk(root, cur: list) -> ParamTable:
                     try:
                         beads[key] = float(zel.get("bead_mm3_per_mm"))
                     except ValueError:
-                        raise _error(f"bead_mm3_per_mm {zel.get('bead_mm3_per_mm')!r} is not a number", li, sk,
-                                     zid) from None
+                        raise _error(
+                            f"bead_mm3_per_mm {zel.get('bead_mm3_per_mm')!r} is not a number", li, sk, zid
+                        ) from None
                 vals: dict[str, float] = {}
                 for pel in zel:
                     cur[0] = pel
@@ -380,7 +414,7 @@ def merge(template_text: str, old_text: str | bytes | None) -> tuple[str, list[s
     RecipeError if either file is invalid.
     """
     if old_text is None or (isinstance(old_text, (str, bytes)) and not old_text.strip()):
-        return template_text, []   # nothing to fill in: the template as written (no need to parse it)
+        return template_text, []  # nothing to fill in: the template as written (no need to parse it)
     tpl = parse(template_text)
     old = parse(old_text)
     present = set(tpl.zones)

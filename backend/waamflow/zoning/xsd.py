@@ -53,7 +53,7 @@ def render_xsd() -> str:
             "",
             f'  <xs:simpleType name="{p.name}Value">',
             f"    <xs:annotation><xs:documentation>{p.label} [{p.unit or '-'}]: {p.description}</xs:documentation></xs:annotation>",
-            "    <xs:union memberTypes=\"empty\">",
+            '    <xs:union memberTypes="empty">',
             "      <xs:simpleType>",
             '        <xs:restriction base="xs:double">',
             f'          <xs:minInclusive value="{_num(p.minimum)}"/>',
@@ -81,10 +81,10 @@ def render_xsd() -> str:
         "    </xs:attribute>",
         '    <xs:attribute name="color" type="xs:string"/>',
         '    <xs:attribute name="bead_mm3_per_mm" type="optionalNumber">',
-        '      <xs:annotation><xs:documentation>Metal the layer needs per mm of path at this zone [mm3/mm] '
-        '(layer height x pass step, or k*w*h for a single bead), written by waamflow with a feed comment; '
-        'informational.</xs:documentation></xs:annotation>',
-        '    </xs:attribute>',
+        "      <xs:annotation><xs:documentation>Metal the layer needs per mm of path at this zone [mm3/mm] "
+        "(layer height x pass step, or k*w*h for a single bead), written by waamflow with a feed comment; "
+        "informational.</xs:documentation></xs:annotation>",
+        "    </xs:attribute>",
         "  </xs:complexType>",
         "",
         '  <xs:complexType name="sectionType">',
@@ -135,8 +135,9 @@ def parse_lxml(raw: bytes):
     comments or processing instructions; line numbers kept."""
     from lxml import etree
 
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True,
-                             remove_pis=True, huge_tree=False)
+    parser = etree.XMLParser(
+        resolve_entities=False, no_network=True, load_dtd=False, remove_comments=True, remove_pis=True, huge_tree=False
+    )
     return etree.fromstring(raw, parser)
 
 
@@ -171,6 +172,9 @@ def validate(root) -> None:
     name = el.tag if el is not None else None
     msg = err.message.replace("{http://www.w3.org/2001/XMLSchema}", "xs:")
     where = f" (zone '{zid}')" if zid is not None else ""
-    raise InputFileError(f"parameter file line {err.line}, element <{name}>: {msg} "
-                         f"[schema zone-params.xsd]{where}", layer=li, section=sk,
-                         field=name if name not in (None, "parameters", "layer", "section", "zone") else None)
+    raise InputFileError(
+        f"parameter file line {err.line}, element <{name}>: {msg} [schema zone-params.xsd]{where}",
+        layer=li,
+        section=sk,
+        field=name if name not in (None, "parameters", "layer", "section", "zone") else None,
+    )

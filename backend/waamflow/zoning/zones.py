@@ -83,11 +83,11 @@ def project_onto_path(points: np.ndarray, query: np.ndarray) -> np.ndarray:
     A path that passes a point several times (weave strokes, parallel passes) projects it onto
     the nearest pass; on equal distance, the earliest along the path.
     """
-    a, d = points[:-1], np.diff(points, axis=0)                       # (k, 3)
+    a, d = points[:-1], np.diff(points, axis=0)  # (k, 3)
     dd = np.einsum("ij,ij->i", d, d)
-    q = np.asarray(query, dtype=float)[:, None, :]                     # (m, 1, 3)
+    q = np.asarray(query, dtype=float)[:, None, :]  # (m, 1, 3)
     t = np.clip(np.einsum("mkj,kj->mk", q - a[None], d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    foot = a[None] + t[..., None] * d[None]                            # (m, k, 3)
+    foot = a[None] + t[..., None] * d[None]  # (m, k, 3)
     dist = np.einsum("mkj,mkj->mk", foot - q, foot - q)
     i = np.argmin(dist, axis=1)
     return cumulative_length(points)[i] + t[np.arange(len(i)), i] * np.sqrt(dd[i])
@@ -119,13 +119,13 @@ def split_arclength(points: np.ndarray, query: np.ndarray) -> np.ndarray:
     out = project_onto_path(pts, q) if len(q) else np.zeros(0)
     eps = TOL.min_segment
     for m, qq in enumerate(q):
-        f = (pts - qq) @ axis                       # signed station of each vertex past the query, mm
+        f = (pts - qq) @ axis  # signed station of each vertex past the query, mm
         fa, fb = f[:-1], f[1:]
         best = None
         for k in np.flatnonzero((np.minimum(fa, fb) <= eps) & (np.maximum(fa, fb) >= -eps)):
             a, b = pts[k], pts[k + 1]
             seg = s[k + 1] - s[k]
-            if abs(fa[k]) <= eps and abs(fb[k]) <= eps:      # the segment lies in the plane
+            if abs(fa[k]) <= eps and abs(fb[k]) <= eps:  # the segment lies in the plane
                 d = b - a
                 t = float(np.clip((qq - a) @ d / max(d @ d, 1e-18), 0.0, 1.0))
             else:
@@ -170,8 +170,13 @@ def insert_points(path: SectionPath, cut_s: list[float]) -> SectionPath:
     """A copy of `path` with a vertex at each arc length in cut_s (segments split, attributes copied)."""
     pts = np.asarray(path.points, dtype=float)
     s = cumulative_length(pts)
-    new_s = np.array(sorted(c for c in cut_s if TOL.min_segment < c < s[-1] - TOL.min_segment
-                            and np.min(np.abs(s - c)) > TOL.min_segment))
+    new_s = np.array(
+        sorted(
+            c
+            for c in cut_s
+            if TOL.min_segment < c < s[-1] - TOL.min_segment and np.min(np.abs(s - c)) > TOL.min_segment
+        )
+    )
     if not len(new_s):
         return path
     seg = np.clip(np.searchsorted(s, new_s, side="right") - 1, 0, len(pts) - 2)
@@ -211,8 +216,11 @@ def zone_path(path: SectionPath, spec: ZoneSpec, split_points_world: np.ndarray 
     if split_points_world is None:
         sp = np.asarray(spec.split_points, dtype=float).reshape(-1, 2)
         split_points_world = np.column_stack([sp, np.full(len(sp), pts[:, 2].mean())])
-    split_s = split_arclength(pts, np.asarray(split_points_world, float).reshape(-1, 3)) \
-        if len(split_points_world) else np.zeros(0)
+    split_s = (
+        split_arclength(pts, np.asarray(split_points_world, float).reshape(-1, 3))
+        if len(split_points_world)
+        else np.zeros(0)
+    )
     layout = zone_layout(cumulative_length(pts)[-1], spec, split_s)
     cuts = [b[0] for b in layout.bounds[1:]]
     out = insert_points(path, cuts)
