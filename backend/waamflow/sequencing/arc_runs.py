@@ -67,7 +67,7 @@ def enforce_min_run(sp: SectionPath, min_run: float) -> tuple[SectionPath, list[
             gaps.append((b, runs[k + 1][0]))
         gaps = [(g0, g1) for g0, g1 in gaps if bool(np.all(inside[g0:g1]))]
         if gaps:
-            g0, g1 = min(gaps, key=lambda g: float(seg[g[0]:g[1]].sum()))
+            g0, g1 = min(gaps, key=lambda g: float(seg[g[0] : g[1]].sum()))
             arc[g0:g1] = True
             speed[g0:g1] = speed[a]
             fixes.append(RunFix("bridged", length, tuple(pts[a].round(3).tolist())))

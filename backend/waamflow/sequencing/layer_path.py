@@ -32,9 +32,11 @@ from .seams import SeamSpec, choose_entry, ignition_points
 MAX_2OPT_ROUNDS = 50
 EXACT_MAX = 6  # up to 6 sections (720 orders) every order is scored at once with numpy: exact
 
+
 def travel_cost(ends: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """(n, n) straight-line distance (mm) from the end of section i to the start of section j."""
     return np.linalg.norm(ends[:, None, :] - starts[None, :, :], axis=2)
+
 
 def tour_length(order: Sequence[int], cost: np.ndarray, start_cost: np.ndarray | None) -> float:
     """Travel (mm) of visiting sections in `order`: from the start point (start_cost[j]) then between sections."""
@@ -42,6 +44,7 @@ def tour_length(order: Sequence[int], cost: np.ndarray, start_cost: np.ndarray |
     for a, b in zip(order[:-1], order[1:]):
         total += float(cost[a, b])
     return total
+
 
 def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
     """Nearest neighbour from the start point (or from section 0 when None), improved by local search.
@@ -72,7 +75,7 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
         length = tour_length(cand, cost, start_cost)
         if best is None or length < best[0] - 1e-9:
             best = (length, cand)
-    assert best is not None   # two seeds tried
+    assert best is not None  # two seeds tried
     return best[1]
 
 
@@ -95,15 +98,15 @@ def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | N
     best = tour_length(order, cost, start_cost)
     for _ in range(MAX_2OPT_ROUNDS):
         improved = False
-        for i in range(lo, n - 1):          # 2-opt: reverse order[i..k]
+        for i in range(lo, n - 1):  # 2-opt: reverse order[i..k]
             for k in range(i + 1, n):
-                cand = order[:i] + order[i:k + 1][::-1] + order[k + 1:]
+                cand = order[:i] + order[i : k + 1][::-1] + order[k + 1 :]
                 length = tour_length(cand, cost, start_cost)
                 if length < best - 1e-9:
                     order, best, improved = cand, length, True
-        for run in (1, 2, 3):               # Or-opt: move order[i..i+run) to position j
+        for run in (1, 2, 3):  # Or-opt: move order[i..i+run) to position j
             for i in range(lo, n - run + 1):
-                piece, rest = order[i:i + run], order[:i] + order[i + run:]
+                piece, rest = order[i : i + run], order[:i] + order[i + run :]
                 for j in range(lo, len(rest) + 1):
                     if j == i:
                         continue
@@ -124,6 +127,7 @@ def explicit_order(keys: Sequence[str], wanted: Sequence[str]) -> list[int]:
     seen = set(order)
     return order + [i for i in range(len(keys)) if i not in seen]
 
+
 def approach_points(prev_end: np.ndarray | None, start: np.ndarray, up: np.ndarray, retract: float) -> np.ndarray:
     """Arc-OFF travel points flown before `start` (k, 3), mm.
 
@@ -141,12 +145,14 @@ def approach_points(prev_end: np.ndarray | None, start: np.ndarray, up: np.ndarr
         return a[None, :]
     return np.vstack([a, b])
 
+
 def travel_length(prev_end: np.ndarray | None, sp: SectionPath) -> float:
     """Length (mm) of the arc-OFF move into `sp`: prev_end → approach points → points[0]."""
     if prev_end is None or sp.approach is None:
         return 0.0
     poly = np.vstack([prev_end[None, :], sp.approach, sp.points[:1]])
     return float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+
 
 OSCILLATED = frozenset({"oscillate"})  # MPP: the oscillated section first, then the parallel ones it feeds
 
@@ -160,8 +166,9 @@ def section_rank(sp: SectionPath, precedence: Sequence[str] = ()) -> int:
     return len(precedence) + (0 if sp.strategy in OSCILLATED else 1)
 
 
-def ranked_nearest_order(paths: Sequence[SectionPath], prev_end: np.ndarray | None,
-                         precedence: Sequence[str] = ()) -> list[int]:
+def ranked_nearest_order(
+    paths: Sequence[SectionPath], prev_end: np.ndarray | None, precedence: Sequence[str] = ()
+) -> list[int]:
     """`nearest_order` within each rank of the order rule, ranks in turn: travel is shortened
     without ever depositing a later rank before an earlier one."""
     ranks = [section_rank(sp, precedence) for sp in paths]
@@ -182,17 +189,26 @@ def rule_breaks(order_keys: Sequence[SectionPath], precedence: Sequence[str] = (
     """(earlier, later) key pairs where a section of a later rank is deposited before one of an earlier rank."""
     out = []
     for i, a in enumerate(order_keys):
-        for b in order_keys[i + 1:]:
+        for b in order_keys[i + 1 :]:
             if section_rank(b, precedence) < section_rank(a, precedence):
                 out.append((a.key, b.key))
     return out
 
 
-def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_end: np.ndarray | None = None,
-                   retract_height: float = 10.0, alternate: bool = False, dwell_after_s: float = 0.0,
-                   seam: SeamSpec | None = None, below: np.ndarray | None = None, min_run: float = 0.0,
-                   precedence: Sequence[str] = (), notes: list[dict] | None = None
-                   ) -> tuple[LayerPaths, float]:
+def sequence_layer(
+    lp: LayerPaths,
+    *,
+    order: str | Sequence[str] = "mask",
+    prev_end: np.ndarray | None = None,
+    retract_height: float = 10.0,
+    alternate: bool = False,
+    dwell_after_s: float = 0.0,
+    seam: SeamSpec | None = None,
+    below: np.ndarray | None = None,
+    min_run: float = 0.0,
+    precedence: Sequence[str] = (),
+    notes: list[dict] | None = None,
+) -> tuple[LayerPaths, float]:
     """Order the section paths of one layer, choose where each ignites and set their approach travel.
 
     order: "mask" | "nearest" (shortest travel within the order rule's ranks, see `section_rank`)
@@ -209,14 +225,20 @@ def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_
     notes = [] if notes is None else notes
     below = np.zeros((0, 3)) if below is None else np.asarray(below, dtype=float).reshape(-1, 3)
     if seam is not None:
-        if not isinstance(seam.policy, str) and len(seam.policy) == 2:   # layer-local (x, y) → world
+        if not isinstance(seam.policy, str) and len(seam.policy) == 2:  # layer-local (x, y) → world
             seam = dataclasses.replace(seam, policy=tuple(lp.layer.to_world(np.asarray([seam.policy], float))[0]))
         chosen = []
         for i, sp in enumerate(paths):
-            entry, ok = choose_entry(sp, lp.index, seam, paths[:i] + paths[i + 1:], below)
+            entry, ok = choose_entry(sp, lp.index, seam, paths[:i] + paths[i + 1 :], below)
             if not ok:
-                notes.append({"kind": "junction", "layer": lp.index, "section": sp.key,
-                              "at": np.round(entry.ignition, 3).tolist()})
+                notes.append(
+                    {
+                        "kind": "junction",
+                        "layer": lp.index,
+                        "section": sp.key,
+                        "at": np.round(entry.ignition, 3).tolist(),
+                    }
+                )
             chosen.append(entry.path)
         paths = chosen
     if min_run > 0:
@@ -224,8 +246,9 @@ def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_
         for sp in paths:
             new, fixes = enforce_min_run(sp, min_run)
             for f in fixes:
-                notes.append({"kind": f.action, "layer": lp.index, "section": sp.key, "length": f.length,
-                              "at": list(f.at)})
+                notes.append(
+                    {"kind": f.action, "layer": lp.index, "section": sp.key, "length": f.length, "at": list(f.at)}
+                )
             fixed.append(new)
         paths = fixed
     if isinstance(order, str) and order == "nearest":
@@ -255,6 +278,7 @@ def sequence_layer(lp: LayerPaths, *, order: str | Sequence[str] = "mask", prev_
         here = np.asarray(sp.points[-1], dtype=float)
     return dataclasses.replace(lp, sections=tuple(out), dwell_after_s=dwell_after_s), total
 
+
 def last_point(lp: LayerPaths | None) -> np.ndarray | None:
     """(3,) world mm: where the torch is after this layer (end of its last section path)."""
     if lp is None:
@@ -263,6 +287,7 @@ def last_point(lp: LayerPaths | None) -> np.ndarray | None:
         if len(sp.points):
             return np.asarray(sp.points[-1], dtype=float)
     return None
+
 
 def sequence_part(layers: Sequence[LayerPaths | None], **kw) -> tuple[list[LayerPaths | None], list[float]]:
     """Sequence every layer, each starting where the previous one ended (and, with a seam policy,
@@ -287,6 +312,7 @@ def sequence_part(layers: Sequence[LayerPaths | None], **kw) -> tuple[list[Layer
         below = ignition_points(new.sections)
     return out, travel
 
+
 def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:
     """Arc-OFF travel (mm) per layer of a sequenced part, counting the move in from the previous layer."""
     out: list[float] = []
@@ -303,5 +329,19 @@ def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:
     return out
 
 
-__all__ = ["OSCILLATED", "approach_points", "explicit_order", "ranked_nearest_order", "rule_breaks", "section_rank", "last_point", "nearest_order", "part_travel", "sequence_layer",
-           "sequence_part", "tour_length", "travel_cost", "travel_length"]
+__all__ = [
+    "OSCILLATED",
+    "approach_points",
+    "explicit_order",
+    "ranked_nearest_order",
+    "rule_breaks",
+    "section_rank",
+    "last_point",
+    "nearest_order",
+    "part_travel",
+    "sequence_layer",
+    "sequence_part",
+    "tour_length",
+    "travel_cost",
+    "travel_length",
+]

@@ -39,7 +39,7 @@ from ..zoning.zones import cumulative_length, insert_points, path_axis, zone_col
 from .arc_runs import arc_runs
 
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
-DEFAULT_CLEARANCE = 6.0   # mm: one bead width of the shipped MPP recipes, used when none is given
+DEFAULT_CLEARANCE = 6.0  # mm: one bead width of the shipped MPP recipes, used when none is given
 PASS_COS = math.cos(math.radians(30.0))  # a segment within 30° of the path's axis belongs to a pass
 
 
@@ -62,8 +62,9 @@ class Entry:
 # ------------------------------------------------------------------------------------------------
 # zones of a re-threaded path
 # ------------------------------------------------------------------------------------------------
-def _rezone(new: SectionPath, start_len: float, end_len: float, speeds_by_zone: dict[str, float],
-            plain_speed: float | None) -> SectionPath:
+def _rezone(
+    new: SectionPath, start_len: float, end_len: float, speeds_by_zone: dict[str, float], plain_speed: float | None
+) -> SectionPath:
     """Relabel `new` (segments carry the zone ids they had in the original path): `start` = the first
     start_len mm, `end` = the last end_len mm, former start/end segments elsewhere take the id of
     the nearest middle zone. Arc-ON speeds from `speeds_by_zone` (zone → travel_speed), else
@@ -114,17 +115,30 @@ def _zone_context(sp: SectionPath) -> tuple[float, float, dict[str, float], floa
 
 
 def _with(sp: SectionPath, pts, arc, inside, speed, zone, axis) -> SectionPath:
-    return dataclasses.replace(sp, points=np.asarray(pts, float), arc=np.asarray(arc, bool),
-                               inside=np.asarray(inside, bool), speed=np.asarray(speed, float),
-                               zone=tuple(zone), tool_axis=None if axis is None else np.asarray(axis, float),
-                               approach=None)
+    return dataclasses.replace(
+        sp,
+        points=np.asarray(pts, float),
+        arc=np.asarray(arc, bool),
+        inside=np.asarray(inside, bool),
+        speed=np.asarray(speed, float),
+        zone=tuple(zone),
+        tool_axis=None if axis is None else np.asarray(axis, float),
+        approach=None,
+    )
 
 
 def reverse_path(sp: SectionPath) -> SectionPath:
     """The path run backwards, its start and end zones re-measured at the new ends."""
     ax = None if sp.tool_axis is None else np.asarray(sp.tool_axis)[::-1]
-    rev = _with(sp, np.asarray(sp.points)[::-1], np.asarray(sp.arc)[::-1], np.asarray(sp.inside)[::-1],
-                np.asarray(sp.speed)[::-1], tuple(reversed(sp.zone)), ax)
+    rev = _with(
+        sp,
+        np.asarray(sp.points)[::-1],
+        np.asarray(sp.arc)[::-1],
+        np.asarray(sp.inside)[::-1],
+        np.asarray(sp.speed)[::-1],
+        tuple(reversed(sp.zone)),
+        ax,
+    )
     return _rezone(rev, *_zone_context(sp))
 
 
@@ -144,15 +158,15 @@ def _passes(sp: SectionPath) -> list[tuple[int, int]] | None:
     n = np.linalg.norm(d, axis=1)
     axis = path_axis(pts)
     along = np.abs(d @ axis) >= PASS_COS * np.maximum(n, 1e-12)
-    runs = arc_runs(along)                  # [start, stop) ranges of segments along the axis
+    runs = arc_runs(along)  # [start, stop) ranges of segments along the axis
     if len(runs) < 2 or runs[0][0] != 0 or runs[-1][1] != len(along):
         return None
     for (a0, a1), (b0, b1) in zip(runs[:-1], runs[1:]):
-        if b0 - a1 != 1:                    # the link is one segment
+        if b0 - a1 != 1:  # the link is one segment
             return None
-        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:   # passes alternate direction
+        if float((pts[a1] - pts[a0]) @ (pts[b1] - pts[b0])) >= 0:  # passes alternate direction
             return None
-        if abs(float(np.linalg.norm(pts[b1] - pts[a0])) - float(n[a1])) > TOL.merge:   # ends line up
+        if abs(float(np.linalg.norm(pts[b1] - pts[a0])) - float(n[a1])) > TOL.merge:  # ends line up
             return None
     return runs
 
@@ -173,15 +187,15 @@ def rethread_path(sp: SectionPath) -> SectionPath | None:
     Z: list[Any] = []
     X: list[Any] = []
     for r, (a, b) in enumerate(runs):
-        if r:   # link from the end of the previous reversed pass (its vertex a_prev) to this one's end b
-            link = runs[r - 1][1]   # first segment of the original link
+        if r:  # link from the end of the previous reversed pass (its vertex a_prev) to this one's end b
+            link = runs[r - 1][1]  # first segment of the original link
             A.append(arc[link])
             I.append(ins[link])
             S.append(spd[link])
             Z.append(zone[link])
-        P.extend(pts[a:b + 1][::-1])
+        P.extend(pts[a : b + 1][::-1])
         if ax is not None:
-            X.extend(ax[a:b + 1][::-1])
+            X.extend(ax[a : b + 1][::-1])
         A.extend(arc[a:b][::-1])
         I.extend(ins[a:b][::-1])
         S.extend(spd[a:b][::-1])
@@ -201,15 +215,14 @@ def rotate_loop(sp: SectionPath, s0: float) -> SectionPath:
     k = int(np.argmin(np.abs(s - s0)))
     if k in (0, len(cp) - 1):
         return _rezone(dataclasses.replace(sp, approach=None), *_zone_context(sp))
-    order = list(range(k, len(cp) - 1)) + list(range(0, k))          # segment indices from the seam
-    P = np.vstack([cp[k:], cp[1:k + 1]])
+    order = list(range(k, len(cp) - 1)) + list(range(0, k))  # segment indices from the seam
+    P = np.vstack([cp[k:], cp[1 : k + 1]])
     X = None
     if cut.tool_axis is not None:
         ta = np.asarray(cut.tool_axis)
-        X = np.vstack([ta[k:], ta[1:k + 1]])
+        X = np.vstack([ta[k:], ta[1 : k + 1]])
     z = tuple(cut.zone[i] for i in order) if cut.zone else ()
-    new = _with(cut, P, np.asarray(cut.arc)[order], np.asarray(cut.inside)[order], np.asarray(cut.speed)[order],
-                z, X)
+    new = _with(cut, P, np.asarray(cut.arc)[order], np.asarray(cut.inside)[order], np.asarray(cut.speed)[order], z, X)
     return _rezone(new, *_zone_context(sp))
 
 
@@ -281,8 +294,10 @@ class SeamSpec:
     at_junctions: bool = False
 
 
-_PREF = {0: ("planned", "rethreaded", "reversed", "rethreaded-reversed"),
-         1: ("reversed", "rethreaded-reversed", "planned", "rethreaded")}
+_PREF = {
+    0: ("planned", "rethreaded", "reversed", "rethreaded-reversed"),
+    1: ("reversed", "rethreaded-reversed", "planned", "rethreaded"),
+}
 
 
 def _loop_entry(sp: SectionPath, index: int, spec: SeamSpec, below: np.ndarray) -> Entry:
@@ -291,6 +306,7 @@ def _loop_entry(sp: SectionPath, index: int, spec: SeamSpec, below: np.ndarray) 
     pol = spec.policy
     if not isinstance(pol, str):
         from ..zoning.zones import project_onto_path
+
         s0 = float(project_onto_path(pts, np.asarray(pol, float)[None, :])[0])
     elif pol == "aligned":
         s0 = 0.0
@@ -299,13 +315,14 @@ def _loop_entry(sp: SectionPath, index: int, spec: SeamSpec, below: np.ndarray) 
     elif pol == "alternate":
         path = reverse_path(sp) if index % 2 else dataclasses.replace(sp, approach=None)
         return Entry("reversed" if index % 2 else "planned", path)
-    else:   # stagger / auto: the seam moves on by `shift` mm per layer
+    else:  # stagger / auto: the seam moves on by `shift` mm per layer
         s0 = (index * spec.shift) % L if L > 0 else 0.0
     return Entry("rotated", rotate_loop(sp, s0))
 
 
-def choose_entry(sp: SectionPath, index: int, spec: SeamSpec, others: Sequence[SectionPath],
-                 below: np.ndarray) -> tuple[Entry, bool]:
+def choose_entry(
+    sp: SectionPath, index: int, spec: SeamSpec, others: Sequence[SectionPath], below: np.ndarray
+) -> tuple[Entry, bool]:
     """The entry of `sp` on layer `index`. others: the layer's other section paths (junction test);
     below: (k, 3) ignition points of the layer below. Returns (entry, ok) with ok False when every
     entry ignites at a junction (the caller warns)."""
@@ -352,5 +369,17 @@ def ignition_points(paths: Sequence[SectionPath]) -> np.ndarray:
     return np.asarray(out, dtype=float).reshape(-1, 3)
 
 
-__all__ = ["DEFAULT_CLEARANCE", "Entry", "SeamSpec", "choose_entry", "distance_to_segments", "entries",
-           "ignition_points", "is_closed", "nearest_distance", "rethread_path", "reverse_path", "rotate_loop"]
+__all__ = [
+    "DEFAULT_CLEARANCE",
+    "Entry",
+    "SeamSpec",
+    "choose_entry",
+    "distance_to_segments",
+    "entries",
+    "ignition_points",
+    "is_closed",
+    "nearest_distance",
+    "rethread_path",
+    "reverse_path",
+    "rotate_loop",
+]
