@@ -22,7 +22,7 @@ from waamflow.trajectory.simulate import SimOptions
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 PROFILE = load_profile("kuka_kr100ha_krc2")
-TUBE_OUTER_MM = 15.0 + 2.5                       # the duct recipe's tube: mid radius 15 mm, 5 mm wall
+TUBE_OUTER_MM = 15.0 + 2.5  # the duct recipe's tube: mid radius 15 mm, 5 mm wall
 
 
 def _toolpath(part_dir=GRAPHS, mutate=None):
@@ -54,12 +54,14 @@ def _bend(tmp_path, sweep, dtheta):
         recipe["inputs"]["dtheta_deg"] = dtheta
         fan = next(n for n in recipe["nodes"] if n["id"] == "fan")["params"]
         fan.update({"axis_point": [-bend, 0, 0], "h_min": 0.1, "h_max": 8.0})
+
     return _toolpath(tmp_path, mutate)
 
 
 def _sim(cell, moves, policy="auto", **kw):
-    kin = KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell,
-                            positioner_policy=policy, **kw)
+    kin = KinematicsOptions(
+        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy=policy, **kw
+    )
     return simulation_json(simulate_program(moves, PROFILE, SimOptions(), kin), SimOptions())
 
 
@@ -238,8 +240,11 @@ def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
     angles, torch = positioner_and_torch(riser_cell, moves, "auto")
     np.testing.assert_allclose(angles, plan.angles)
     a = np.asarray(moves.tool_axis, float)
-    turned = np.degrees(np.arccos(np.clip(np.sum(a * torch, axis=1) / np.linalg.norm(a, axis=1)
-                                          / np.linalg.norm(torch, axis=1), -1.0, 1.0)))
+    turned = np.degrees(
+        np.arccos(
+            np.clip(np.sum(a * torch, axis=1) / np.linalg.norm(a, axis=1) / np.linalg.norm(torch, axis=1), -1.0, 1.0)
+        )
+    )
     point_layer = np.concatenate([np.asarray(moves.layer)[:1], np.asarray(moves.layer)])
     arc_end = np.concatenate([[False], np.asarray(moves.arc, bool)])
     for L, deg in lean.items():
@@ -252,9 +257,11 @@ def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
     recipe["edges"] = [e for e in recipe["edges"] if "sim." not in (e["from"][:4], e["to"][:4])]
     recipe["inputs"]["dtheta_deg"] = 5.0
     next(n for n in recipe["nodes"] if n["id"] == "fan")["params"].update(
-        {"axis_point": [-bend, 0, 0], "h_min": 0.1, "h_max": 8.0})
+        {"axis_point": [-bend, 0, 0], "h_min": 0.1, "h_max": 8.0}
+    )
     next(n for n in recipe["nodes"] if n["id"] == "post")["params"].update(
-        {"cell": "riser.json", "positioner_policy": "auto"})
+        {"cell": "riser.json", "positioner_policy": "auto"}
+    )
 
     def dat():
         r = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
@@ -262,6 +269,7 @@ def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
 
     leaned = dat()
     real = post_node.positioner_and_torch
-    monkeypatch.setattr(post_node, "positioner_and_torch",
-                        lambda c, m, *a: (real(c, m, *a)[0], np.asarray(m.tool_axis, float)))
+    monkeypatch.setattr(
+        post_node, "positioner_and_torch", lambda c, m, *a: (real(c, m, *a)[0], np.asarray(m.tool_axis, float))
+    )
     assert dat() != leaned

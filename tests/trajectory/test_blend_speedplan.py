@@ -16,9 +16,9 @@ def test_arc_blend_of_a_right_angle():
     stop = np.zeros(4, bool)
     bp = blend_path(SQUARE, np.full(3, 40.0), stop, mode="cdis", distance=5.0)
     assert bp.d[1] == pytest.approx(5.0)
-    assert bp.radius[1] == pytest.approx(5.0)          # r = d / tan(90°/2)
+    assert bp.radius[1] == pytest.approx(5.0)  # r = d / tan(90°/2)
     # apex of the arc: r (1/cos(45°) − 1) from the vertex
-    apex = bp.points[1 + 4]                            # middle sample of the first curve
+    apex = bp.points[1 + 4]  # middle sample of the first curve
     assert np.linalg.norm(apex - SQUARE[1]) == pytest.approx(5.0 * (math.sqrt(2) - 1), abs=1e-9)
     # length: 3·20 − 2·(2·5) + 2·(π/2·5)
     assert bp.length == pytest.approx(60 - 20 + 2 * (math.pi / 2 * 5), abs=0.05)
@@ -28,7 +28,7 @@ def test_arc_blend_of_a_right_angle():
 def test_parabola_blend_and_half_segment_limit():
     pts = np.array([[0, 0, 0], [4, 0, 0], [4, 30, 0]], float)
     bp = blend_path(pts, np.full(2, 40.0), np.zeros(3, bool), mode="zone", distance=10.0)
-    assert bp.d[1] == pytest.approx(2.0)               # half of the 4 mm segment
+    assert bp.d[1] == pytest.approx(2.0)  # half of the 4 mm segment
     apex = bp.points[1 + 4]
     # quadratic Bézier midpoint: d·cos(θ/2)/2 from the vertex, θ = 90° interior
     assert np.linalg.norm(apex - pts[1]) == pytest.approx(2.0 * math.cos(math.pi / 4) / 2, abs=1e-9)
@@ -37,7 +37,7 @@ def test_parabola_blend_and_half_segment_limit():
 def test_stops_and_speed_dependent_blend_start():
     stop = np.array([False, True, False, False])
     bp = blend_path(SQUARE, np.full(3, 10.0), stop, distance=5.0, apo_time_s=0.05, apo_min_mm=0.2)
-    assert bp.d[1] == 0 and bp.cap[1] == 0            # exact stop
+    assert bp.d[1] == 0 and bp.cap[1] == 0  # exact stop
     assert bp.d[2] == pytest.approx(0.2 + 10.0 * 0.05)
 
 
@@ -51,7 +51,7 @@ def test_turn_rate_cap_scales_with_the_programmed_speed():
     any programmed speed; one of radius ≥ ρ is not capped by it."""
     for v in (10.0, 40.0):
         bp = blend_path(SQUARE, np.full(3, v), np.zeros(4, bool), distance=0.5, turn_radius=2.0)
-        assert bp.radius[1] == pytest.approx(0.5)      # 90° turn: r = d / tan(45°)
+        assert bp.radius[1] == pytest.approx(0.5)  # 90° turn: r = d / tan(45°)
         assert bp.cap[1] == pytest.approx(v * 0.5 / 2.0)
     wide = blend_path(SQUARE, np.full(3, 10.0), np.zeros(4, bool), distance=5.0, turn_radius=2.0)
     assert wide.cap[1] == pytest.approx(10.0)
@@ -87,7 +87,7 @@ def test_speed_plan_stops_and_profiles():
     bp = blend_path(pts, speed, stop, distance=5.0, normal_acc=500, normal_jerk=1e4)
     spans = plan_spans(bp, speed, stop, 600.0, 50000.0)
     assert spans.v[0] == 0 and spans.v[-1] == 0
-    assert spans.stop_after.sum() == 2                 # vertex 2 and the end
+    assert spans.stop_after.sum() == 2  # vertex 2 and the end
     prof = profile_spans(spans, 600.0, 50000.0)
     # span profiles end where they should, never go backwards, respect the span's max speed
     idx = np.arange(len(spans.s0))
@@ -114,5 +114,5 @@ def test_profile_spans_without_limits_names_the_missing_one():
     with pytest.raises(ValueError, match=r"profile_spans: no jerk \(j / Spans.jerk\)"):
         profile_spans(bare, 600.0)
     a, b = profile_spans(bare, 600.0, 50000.0), profile_spans(planned)
-    assert len(a.duration) == len(planned.s0) == 2   # split at the exact stop at vertex 2
+    assert len(a.duration) == len(planned.s0) == 2  # split at the exact stop at vertex 2
     assert np.array_equal(a.duration, b.duration) and np.array_equal(a.p, b.p)

@@ -37,8 +37,10 @@ def test_the_catchup_shortens_the_travel_outside_monotonically():
     """0 → 1 cuts the 45° triangles' arc-OFF links harder and harder (10 mm/s, small OR): the
     length outside falls from no shortening to ~40 % shorter than with the arc ON throughout."""
     on = simulate(study.triangular(10.0, 45.0, True), KUKA).metrics["actual_length_outside_mm"]
-    outside = [simulate(study.triangular(10.0, 45.0, False), KUKA.with_values(catchup=c)).metrics[
-        "actual_length_outside_mm"] for c in (0.0, 0.25, 0.5, 0.75, 1.0)]
+    outside = [
+        simulate(study.triangular(10.0, 45.0, False), KUKA.with_values(catchup=c)).metrics["actual_length_outside_mm"]
+        for c in (0.0, 0.25, 0.5, 0.75, 1.0)
+    ]
     assert all(a > b for a, b in zip(outside, outside[1:]))
     assert outside[0] / on == pytest.approx(1.0, abs=0.01)
     assert 0.55 < outside[-1] / on < 0.65

@@ -20,13 +20,16 @@ def test_trace_csv_round_trip():
     assert meas.arc.sum() == res.trace["arc"].sum()
 
 
-@pytest.mark.parametrize("text,row", [
-    ("t,x,y,z\n0,0,0,0\n0.012,1,0,abc\n", 3),
-    ("t,x,y,z\n0,0,0,0\n0.012,1,0\n", 3),
-    ("t,x,y,z\n0,0,0,0\n0.012,1,0,0\n0.010,2,0,0\n", 4),
-    ("t,x,y,z,arc\n0,0,0,0,1\n0.012,1,0,0,maybe\n", 3),
-    ("t,x,y,z\n0,0,0,0\n\n0.012,nan,0,0\n", 4),
-])
+@pytest.mark.parametrize(
+    "text,row",
+    [
+        ("t,x,y,z\n0,0,0,0\n0.012,1,0,abc\n", 3),
+        ("t,x,y,z\n0,0,0,0\n0.012,1,0\n", 3),
+        ("t,x,y,z\n0,0,0,0\n0.012,1,0,0\n0.010,2,0,0\n", 4),
+        ("t,x,y,z,arc\n0,0,0,0,1\n0.012,1,0,0,maybe\n", 3),
+        ("t,x,y,z\n0,0,0,0\n\n0.012,nan,0,0\n", 4),
+    ],
+)
 def test_bad_trace_rows_name_the_row(text, row):
     with pytest.raises(InputFileError, match=f"row {row}:"):
         read_trace_csv(text, source="m.csv")
@@ -53,8 +56,7 @@ def test_fit_recovers_the_constants_of_a_known_robot():
 def test_cycle_time_formula_by_hand():
     p = study.IDENTIFIED[(40, "on")]
     n, L, TS = 5, 43.0, 40.0
-    by_hand = (0.204 + (43 - 4.212 - 2.5) / 40 + 4 * 0.426 + 3 * (43 - 2.2 - 2.5) / 40
-               + (43 - 2.2 - 3.862) / 40 + 0.192)
+    by_hand = 0.204 + (43 - 4.212 - 2.5) / 40 + 4 * 0.426 + 3 * (43 - 2.2 - 2.5) / 40 + (43 - 2.2 - 3.862) / 40 + 0.192
     assert cycle_time(n, L, TS, p) == pytest.approx(by_hand, abs=1e-12)
     assert by_hand == pytest.approx(6.803, abs=1e-3)
 
@@ -71,7 +73,7 @@ def test_estimate_of_a_study_program_and_beside_the_simulation():
     assert est.passes == 5
     assert est.total_time_s == pytest.approx(cycle_time(5, 43.0, 40.0, study.IDENTIFIED[(40, "on")]), abs=1e-5)
     sim = simulate(mv, KUKA).metrics["total_time_s"]
-    assert sim == pytest.approx(est.total_time_s, rel=0.05)                 # MODEL.md per-case table: +2.9 %
+    assert sim == pytest.approx(est.total_time_s, rel=0.05)  # MODEL.md per-case table: +2.9 %
 
 
 def test_shipped_profile_is_strict_json_and_documents_its_fit():
@@ -93,8 +95,9 @@ def test_shipped_profile_is_strict_json_and_documents_its_fit():
         assert getattr(KUKA, k) == d[k]
 
 
-@pytest.mark.parametrize("pattern,kw", [("semicircular", {}), ("triangular", {"angle_deg": 90.0}),
-                                        ("rectangular", {}), ("parallel", {})])
+@pytest.mark.parametrize(
+    "pattern,kw", [("semicircular", {}), ("triangular", {"angle_deg": 90.0}), ("rectangular", {}), ("parallel", {})]
+)
 def test_generalised_estimate_at_10_mm_s(pattern, kw):
     """Per-pass lengths and transitions scaled from the identified link: within 3 % of the
     simulation at 10 mm/s on the study's other strategies (the closed form ignores corner

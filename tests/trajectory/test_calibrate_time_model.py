@@ -29,16 +29,44 @@ KUKA = load_profile("kuka_kr100ha_krc2")
 
 # "another robot": slower ramps and transitions than the KR 100 (robot-study.md Table 5)
 TRUTH = {
-    (10, "on"): dict(T_init_accel=0.30, L_init_accel=1.6, L_decel=1.2, L_accel=1.0, T_trans=2.0,
-                     L_final_decel=1.8, T_final_decel=0.35),
-    (10, "off"): dict(T_init_accel=0.30, L_init_accel=1.6, L_decel=1.5, L_accel=1.4, T_trans=2.4,
-                      L_final_decel=1.8, T_final_decel=0.35),
-    (40, "on"): dict(T_init_accel=0.40, L_init_accel=7.0, L_decel=5.0, L_accel=4.5, T_trans=0.85,
-                     L_final_decel=6.5, T_final_decel=0.36),
-    (40, "off"): dict(T_init_accel=0.42, L_init_accel=7.5, L_decel=6.0, L_accel=6.5, T_trans=1.3,
-                      L_final_decel=6.5, T_final_decel=0.36),
+    (10, "on"): dict(
+        T_init_accel=0.30,
+        L_init_accel=1.6,
+        L_decel=1.2,
+        L_accel=1.0,
+        T_trans=2.0,
+        L_final_decel=1.8,
+        T_final_decel=0.35,
+    ),
+    (10, "off"): dict(
+        T_init_accel=0.30,
+        L_init_accel=1.6,
+        L_decel=1.5,
+        L_accel=1.4,
+        T_trans=2.4,
+        L_final_decel=1.8,
+        T_final_decel=0.35,
+    ),
+    (40, "on"): dict(
+        T_init_accel=0.40,
+        L_init_accel=7.0,
+        L_decel=5.0,
+        L_accel=4.5,
+        T_trans=0.85,
+        L_final_decel=6.5,
+        T_final_decel=0.36,
+    ),
+    (40, "off"): dict(
+        T_init_accel=0.42,
+        L_init_accel=7.5,
+        L_decel=6.0,
+        L_accel=6.5,
+        T_trans=1.3,
+        L_final_decel=6.5,
+        T_final_decel=0.36,
+    ),
 }
-LINK = 2 * (study.W_WB / 2) / math.sin(math.radians(22.5))     # triangular 45° link, 11.576 mm
+LINK = 2 * (study.W_WB / 2) / math.sin(math.radians(22.5))  # triangular 45° link, 11.576 mm
 
 
 def _phases(n_pass: int, L: float, TS: float, p: dict, on: bool):
@@ -57,14 +85,20 @@ def _phases(n_pass: int, L: float, TS: float, p: dict, on: bool):
             # cubic slow-down / speed-up: leaves / reaches TS steeply (mean speed vm + (TS − vm)/4)
             vm = brentq(lambda v: (Ld + La) / (v + (TS - v) / 4) + LINK / v - Tt, 1e-3, TS)
             td, ta, tl = Ld / (vm + (TS - vm) / 4), La / (vm + (TS - vm) / 4), LINK / vm
-            ph += [(td, lambda t, td=td, vm=vm: vm + (TS - vm) * (1 - t / td) ** 3), (tl, lambda t, vm=vm: vm + 0.0 * t),
-                   (ta, lambda t, ta=ta, vm=vm: vm + (TS - vm) * (t / ta) ** 3)]
+            ph += [
+                (td, lambda t, td=td, vm=vm: vm + (TS - vm) * (1 - t / td) ** 3),
+                (tl, lambda t, vm=vm: vm + 0.0 * t),
+                (ta, lambda t, ta=ta, vm=vm: vm + (TS - vm) * (t / ta) ** 3),
+            ]
         else:
             td, ta = 2 * Ld / TS, 2 * La / TS
             tl = Tt - td - ta
             vc = math.pi * LINK / (2 * tl)
-            ph += [(td, lambda t, td=td: TS * (1 - t / td)), (tl, lambda t, tl=tl, vc=vc: vc * np.sin(np.pi * t / tl)),
-                   (ta, lambda t, ta=ta: TS * t / ta)]
+            ph += [
+                (td, lambda t, td=td: TS * (1 - t / td)),
+                (tl, lambda t, tl=tl, vc=vc: vc * np.sin(np.pi * t / tl)),
+                (ta, lambda t, ta=ta: TS * t / ta),
+            ]
     ph += [(Tf, lambda t: TS * np.clip(1 - t / Tf, 0, 1) ** qf), (0.1, lambda t: 0.0 * t)]
     return ph
 
@@ -73,7 +107,7 @@ def synthetic_trace(moves, TS: float, p: dict, on: bool, cycle: float = 0.012, t
     """(trace CSV text, motion time s) of the kinematic model along the program `moves`."""
     P = moves.points
     inside = moves.inside
-    n_pass = int(np.sum(inside))            # study programs: one segment per pass
+    n_pass = int(np.sum(inside))  # study programs: one segment per pass
     L = float(moves.segment_lengths[np.flatnonzero(inside)[0]])
     ph = _phases(n_pass, L, TS, p, on)
     # fine grid per phase, arc length by the trapezoid rule
@@ -90,15 +124,17 @@ def synthetic_trace(moves, TS: float, p: dict, on: bool, cycle: float = 0.012, t
     v = v[keep]
     s = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
     cum = np.concatenate([[0.0], np.cumsum(moves.segment_lengths)])
-    assert s[-1] == pytest.approx(cum[-1], abs=2e-3)             # the phases cover the programmed path
+    assert s[-1] == pytest.approx(cum[-1], abs=2e-3)  # the phases cover the programmed path
     tm = np.arange(t0, t[-1], cycle)
     sm = np.interp(tm, t, s)
     vm = np.interp(tm, t, v)
     xyz = np.column_stack([np.interp(sm, cum, P[:, i]) for i in range(3)])
     seg = np.clip(np.searchsorted(cum, sm, side="right") - 1, 0, len(cum) - 2)
     arc = moves.arc[seg]
-    rows = "".join(f"{a:.4f},{b:.4f},{c:.4f},{d:.4f},{e:.3f},{int(f)},0.0000\n"
-                   for a, b, c, d, e, f in zip(tm, xyz[:, 0], xyz[:, 1], xyz[:, 2], vm, arc))
+    rows = "".join(
+        f"{a:.4f},{b:.4f},{c:.4f},{d:.4f},{e:.3f},{int(f)},0.0000\n"
+        for a, b, c, d, e, f in zip(tm, xyz[:, 0], xyz[:, 1], xyz[:, 2], vm, arc)
+    )
     motion = t_off - 0.2
     return "t,x,y,z,speed,arc,deviation\n" + rows, motion
 
@@ -150,8 +186,10 @@ def test_speed_from_positions_when_the_trace_has_no_speed_column():
 
 
 def test_model_params_prefers_the_strategy_then_the_generic_then_the_study():
-    tm = {"40_on_triangular": {**TRUTH[(40, "on")], "L_trans_ref": LINK},
-          "40_on": {**study.IDENTIFIED[(40, "on")], "L_trans_ref": LINK}}
+    tm = {
+        "40_on_triangular": {**TRUTH[(40, "on")], "L_trans_ref": LINK},
+        "40_on": {**study.IDENTIFIED[(40, "on")], "L_trans_ref": LINK},
+    }
     assert model_params(tm, 40.0, "on", "triangular")["T_trans"] == pytest.approx(0.85)
     assert model_params(tm, 40.0, "on", "raster")["T_trans"] == pytest.approx(0.426)
     assert model_params(tm, 40.0, "on")["T_trans"] == pytest.approx(0.426)
@@ -171,15 +209,27 @@ def test_model_params_prefers_the_strategy_then_the_generic_then_the_study():
 OR_NODES = [
     {"id": "or", "type": "rectangle", "params": {"length": 43, "width": 21.5, "layer_count": 1}},
     {"id": "mask", "type": "mask", "params": {"masks": []}},
-    {"id": "strategy", "type": "strategy",
-     "params": {"default": {"pattern": "triangular", "angle_deg": 45, "speed": 40, "arc_outside": "on"}}},
+    {
+        "id": "strategy",
+        "type": "strategy",
+        "params": {"default": {"pattern": "triangular", "angle_deg": 45, "speed": 40, "arc_outside": "on"}},
+    },
 ]
 OR_EDGES = [("or.layers", "mask.layers"), ("mask.sections", "strategy.sections")]
 
 
 def _recipe(nodes, edges):
-    return build_graph(parse_recipe({"format": "waamflow/1", "name": "own", "inputs": {}, "nodes": OR_NODES + nodes,
-                                     "edges": [{"from": a, "to": b} for a, b in OR_EDGES + edges]}))
+    return build_graph(
+        parse_recipe(
+            {
+                "format": "waamflow/1",
+                "name": "own",
+                "inputs": {},
+                "nodes": OR_NODES + nodes,
+                "edges": [{"from": a, "to": b} for a, b in OR_EDGES + edges],
+            }
+        )
+    )
 
 
 def test_calibrate_robot_then_estimate_time_end_to_end(tmp_path):
@@ -192,8 +242,13 @@ def test_calibrate_robot_then_estimate_time_end_to_end(tmp_path):
     assert int(mv.inside.sum()) == 5
     text, motion = synthetic_trace(mv, 40.0, TRUTH[(40, "on")], True)
     (tmp_path / "m.csv").write_text(text)
-    r = execute(_recipe([{"id": "cal", "type": "calibrate-robot", "params": {"trace": "m.csv", "fit": []}}],
-                        [("strategy.toolpath", "cal.toolpath")]), resolver=FileResolver(tmp_path))
+    r = execute(
+        _recipe(
+            [{"id": "cal", "type": "calibrate-robot", "params": {"trace": "m.csv", "fit": []}}],
+            [("strategy.toolpath", "cal.toolpath")],
+        ),
+        resolver=FileResolver(tmp_path),
+    )
     prof = json.loads(r.artifacts["cal.profile.json"])
     strat = next(k for k in prof["time_model"])
     assert strat.startswith("40_on_")
@@ -202,8 +257,12 @@ def test_calibrate_robot_then_estimate_time_end_to_end(tmp_path):
     (tmp_path / "own.json").write_text(r.artifacts["cal.profile.json"].decode())
     times = {}
     for name, params in (("own", {"profile_file": "own.json"}), ("kuka", {})):
-        e = execute(_recipe([{"id": "est", "type": "estimate-time", "params": params}],
-                            [("strategy.toolpath", "est.toolpath")]), resolver=FileResolver(tmp_path))
+        e = execute(
+            _recipe(
+                [{"id": "est", "type": "estimate-time", "params": params}], [("strategy.toolpath", "est.toolpath")]
+            ),
+            resolver=FileResolver(tmp_path),
+        )
         times[name] = json.loads(e.artifacts["est.estimate.json"])["total_time_s"]
     assert times["own"] == pytest.approx(motion, rel=0.02)
     assert abs(times["kuka"] - motion) / motion > 0.05
@@ -240,8 +299,11 @@ def test_identified_on_the_small_or_predicts_the_large_or(prot, kuka_off_pct):
 
     robot = KUKA.with_values(path_acc=0.5 * KUKA.path_acc, path_jerk=0.5 * KUKA.path_jerk)
     on = prot == "on"
-    tm = identify_time_model(study.triangular(40.0, 45.0, on), read_trace_csv(trace_csv(
-        simulate(study.triangular(40.0, 45.0, on), robot))), ("triangular45",))[0]
+    tm = identify_time_model(
+        study.triangular(40.0, 45.0, on),
+        read_trace_csv(trace_csv(simulate(study.triangular(40.0, 45.0, on), robot))),
+        ("triangular45",),
+    )[0]
     large = study.triangular(40.0, 45.0, on, size=study.LARGE_OR)
     sim = simulate(large, robot).metrics["total_time_s"]
     own = estimate_moves(large, tm, 100.0, strategies=("triangular45",)).total_time_s

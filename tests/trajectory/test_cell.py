@@ -29,7 +29,7 @@ def test_positioner_angles_turn_and_move_the_work_frame():
     R = np.asarray(f.work_rot)
     assert R @ [0, 0, 1] == pytest.approx([0, -1, 0], abs=1e-9)
     assert f.work_xyz_mm == pytest.approx((0.0, -100.0, -100.0), abs=1e-6)
-    R2 = np.asarray(KR.frames([0.0, 90.0]).work_rot)        # E2 turns the table about z
+    R2 = np.asarray(KR.frames([0.0, 90.0]).work_rot)  # E2 turns the table about z
     assert R2 @ [1, 0, 0] == pytest.approx([0, 1, 0], abs=1e-9)
     with pytest.raises(InputFileError, match="outside the axis limits"):
         KR.frames([170.0, 0.0])
@@ -66,14 +66,20 @@ def test_simulate_robot_with_a_cell_file(tmp_path):
     data = json.loads(KR.model_dump_json())
     data["positioner"]["fixed_deg"] = [0.0, 45.0]
     (tmp_path / "mycell.json").write_text(json.dumps(data))
-    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "mycell.json", "positioner_policy": "fixed"}}],
-            [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
+    r = run(
+        [{"id": "sim", "type": "simulate-robot", "params": {"cell": "mycell.json", "positioner_policy": "fixed"}}],
+        [("strategy.toolpath", "sim.toolpath")],
+        base_dir=str(tmp_path),
+    )
     sim = json.loads(r.artifacts["sim.simulation.json"])
     assert sim["ik_max_position_error_mm"] < 0.01 and sim["unreachable_stretches"] == 0
-    data["robot_base"]["xyz_mm"] = [-4000.0, 0.0, -600.0]              # out of reach: warns as before
+    data["robot_base"]["xyz_mm"] = [-4000.0, 0.0, -600.0]  # out of reach: warns as before
     (tmp_path / "far.json").write_text(json.dumps(data))
-    r = run([{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json", "positioner_policy": "fixed"}}],
-            [("strategy.toolpath", "sim.toolpath")], base_dir=str(tmp_path))
+    r = run(
+        [{"id": "sim", "type": "simulate-robot", "params": {"cell": "far.json", "positioner_policy": "fixed"}}],
+        [("strategy.toolpath", "sim.toolpath")],
+        base_dir=str(tmp_path),
+    )
     assert json.loads(r.artifacts["sim.simulation.json"])["unreachable_stretches"] >= 1
 
 
@@ -85,14 +91,15 @@ def test_gravity_policy_turns_each_layer_flat():
 
     from waamflow.trajectory.cell import positioner_angles, to_world
 
-    def axis(tilt, az):      # torch → part: −(layer normal tilted by `tilt` towards azimuth `az`)
+    def axis(tilt, az):  # torch → part: −(layer normal tilted by `tilt` towards azimuth `az`)
         t, a = np.radians(tilt), np.radians(az)
         return -np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), np.cos(t)])
 
     pts = np.array([[0, 0, 0], [10, 0, 0], [20, 0, 0], [20, 10, 5], [30, 10, 5], [40, 10, 5]], float)
     axes = np.array([axis(40, 180)] * 3 + [axis(70, 90)] * 3)
-    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.array([0, 0, 1, 1, 1]),
-                         arc=np.array([True, True, False, True, True]))
+    mv = SimpleNamespace(
+        points=pts, tool_axis=axes, layer=np.array([0, 0, 1, 1, 1]), arc=np.array([True, True, False, True, True])
+    )
     ang = positioner_angles(KR, mv, "gravity")
     assert ang[:3, 0] == pytest.approx(40.0) and ang[3:, 0] == pytest.approx(70.0)
     assert np.abs(np.diff(ang[:3], axis=0)).max() == 0 and np.abs(np.diff(ang[3:], axis=0)).max() == 0
@@ -111,6 +118,7 @@ def test_abb_cell_builds_the_duct_with_the_gravity_policy():
     from waamflow.engine.executor import FileResolver, execute
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import parse_recipe
+
     graphs = Path(__file__).resolve().parents[2] / "graphs"
 
     def run_recipe(mutate):
@@ -124,9 +132,12 @@ def test_abb_cell_builds_the_duct_with_the_gravity_policy():
     def on_abb(policy):
         def mutate(recipe):
             recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
-            recipe["edges"] = [e for e in recipe["edges"] if not (e["to"].startswith("post.") or e["from"].startswith("post."))]
+            recipe["edges"] = [
+                e for e in recipe["edges"] if not (e["to"].startswith("post.") or e["from"].startswith("post."))
+            ]
             sim = next(n for n in recipe["nodes"] if n["id"] == "sim")["params"]
             sim.update({"cell": "irb4600_tilt_rotate", "positioner_policy": policy})
+
         return json.loads(run_recipe(mutate).artifacts["sim.simulation.json"])
 
     good = on_abb("gravity")
@@ -155,14 +166,20 @@ def test_collisions_duct_clear_and_a_sunk_part_collides():
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(graphs))
     sim = json.loads(res.artifacts["sim.simulation.json"])
     assert sim["collision_count"] == 0 and sim["collisions"] == []
-    assert sim["collision_samples_checked"] > 58                  # at least one per layer
+    assert sim["collision_samples_checked"] > 58  # at least one per layer
     mv = flatten(res.outputs["bead"]["toolpath"])
     data = json.loads(KR.model_dump_json())
     data["work_frame"]["xyz_mm"] = [0.0, 0.0, -30.0]
     sunk = Cell.model_validate(data)
     prof = load_profile("kuka_kr100ha_krc2")
-    r = simulate_program(mv, prof, SimOptions(), KinematicsOptions(
-        description=sunk.robot_urdf, tcp_offset_mm=tuple(sunk.tool.tcp_mm), cell=sunk, positioner_policy="gravity"))
+    r = simulate_program(
+        mv,
+        prof,
+        SimOptions(),
+        KinematicsOptions(
+            description=sunk.robot_urdf, tcp_offset_mm=tuple(sunk.tool.tcp_mm), cell=sunk, positioner_policy="gravity"
+        ),
+    )
     out = simulation_json(r, SimOptions())
     assert out["collision_count"] > 0
     first = out["collisions"][0]
@@ -185,14 +202,18 @@ def test_min_motion_holds_the_positioner_while_the_torch_may_lean():
 
     pts = np.array([[i * 10.0, 0, 0] for i in range(9)])
     axes = np.array([axis(20)] * 3 + [axis(50)] * 3 + [axis(70)] * 3)
-    mv = SimpleNamespace(points=pts, tool_axis=axes, layer=np.repeat([0, 1, 2], [3, 3, 2]),
-                         arc=np.array([True, True, False, True, True, False, True, True]))
+    mv = SimpleNamespace(
+        points=pts,
+        tool_axis=axes,
+        layer=np.repeat([0, 1, 2], [3, 3, 2]),
+        arc=np.array([True, True, False, True, True, False, True, True]),
+    )
     mm = positioner_angles(KR, mv, "min-motion", 30.0)
     assert mm[:3] == pytest.approx(np.zeros((3, 2)))
     assert mm[3:, 0] == pytest.approx(50.0) and mm[6:, 0] == pytest.approx(50.0)
     g = positioner_angles(KR, mv, "gravity")
     assert g[6:, 0] == pytest.approx(70.0) and g[:3, 0] == pytest.approx(20.0)
-    wide = positioner_angles(KR, mv, "min-motion", 60.0)                  # 20°, 50° tolerated; 70° not
+    wide = positioner_angles(KR, mv, "min-motion", 60.0)  # 20°, 50° tolerated; 70° not
     assert wide[:6] == pytest.approx(np.zeros((6, 2))) and wide[6:, 0] == pytest.approx(70.0)
 
 

@@ -41,12 +41,13 @@ def test_square_matches_the_closed_form(side, F_mm_min, acc, delta):
     F = F_mm_min / 60.0
     prof = PLANNER.with_values(path_acc=acc, junction_deviation_mm=delta)
     vj = math.sqrt(acc * delta * math.sin(math.pi / 4) / (1 - math.sin(math.pi / 4)))
-    assert vj < F                               # the corners do slow the tool
-    expect = (_move_time(side, 0.0, vj, F, acc) + 2 * _move_time(side, vj, vj, F, acc)
-              + _move_time(side, vj, 0.0, F, acc))
+    assert vj < F  # the corners do slow the tool
+    expect = (
+        _move_time(side, 0.0, vj, F, acc) + 2 * _move_time(side, vj, vj, F, acc) + _move_time(side, vj, 0.0, F, acc)
+    )
     m = simulate(_square(side, F), prof).metrics
     assert m["total_time_s"] == pytest.approx(expect, rel=0.01)
-    assert m["total_time_s"] == pytest.approx(expect, abs=2e-3)      # in fact to the sampling
+    assert m["total_time_s"] == pytest.approx(expect, abs=2e-3)  # in fact to the sampling
     # the planner follows the path: no corner is cut (a 4 ms sample's chord across a corner
     # taken at v_j is all the sampled trace misses)
     assert m["actual_length_mm"] == pytest.approx(4 * side, abs=0.005)
@@ -58,9 +59,9 @@ def test_square_matches_the_closed_form(side, F_mm_min, acc, delta):
 
 def test_junction_speed_formula():
     u = np.array([[1.0, 0, 0]] * 3)
-    w = np.array([[0.0, 1, 0], [1.0, 0, 0], [-1.0, 0, 0]])     # 90°, straight on, reversal
+    w = np.array([[0.0, 1, 0], [1.0, 0, 0], [-1.0, 0, 0]])  # 90°, straight on, reversal
     v = junction_speed(u, w, np.full(3, 50.0), 500.0, 0.05)
-    assert v[0] == pytest.approx(math.sqrt(500 * 0.05 * math.sqrt(0.5) / (1 - math.sqrt(0.5))))   # 7.77 mm/s
+    assert v[0] == pytest.approx(math.sqrt(500 * 0.05 * math.sqrt(0.5) / (1 - math.sqrt(0.5))))  # 7.77 mm/s
     assert v[1] == 50.0 and v[2] == 0.0
 
 
@@ -79,9 +80,9 @@ def test_lookahead_buffer_limits_speed_on_short_moves():
     t4 = simulate(mv, PLANNER.with_values(lookahead_blocks=4)).metrics["total_time_s"]
     t_all = simulate(mv, PLANNER.with_values(lookahead_blocks=0)).metrics["total_time_s"]
     assert t16 == pytest.approx(t_all, rel=1e-3)
-    assert t_all == pytest.approx(100 / 50 + 50 / 500, rel=1e-3)     # cruise + two ramps' extra time
+    assert t_all == pytest.approx(100 / 50 + 50 / 500, rel=1e-3)  # cruise + two ramps' extra time
     v4 = math.sqrt(2 * 500 * 2.0)
-    v_peak = math.sqrt(v4 ** 2 + 500 * 0.5)
+    v_peak = math.sqrt(v4**2 + 500 * 0.5)
     assert 100 / v_peak < t4 < 100 / v4 + v4 / 500
     assert t4 > t16 + 0.1
 
@@ -92,8 +93,12 @@ def test_gcode_program_is_simulated_by_the_planner_family():
 
 
 def test_profile_validation_names_the_value():
-    d = json.loads((PLANNER_FILE := __import__("waamflow.trajectory.profile", fromlist=["ROBOTS_DIR"]).ROBOTS_DIR
-                    / "gcode_planner.json").read_text())
+    d = json.loads(
+        (
+            PLANNER_FILE := __import__("waamflow.trajectory.profile", fromlist=["ROBOTS_DIR"]).ROBOTS_DIR
+            / "gcode_planner.json"
+        ).read_text()
+    )
     with pytest.raises(InputFileError, match="lookahead_blocks"):
         load_profile("x.json", text=json.dumps({**d, "lookahead_blocks": 2.5}))
     with pytest.raises(InputFileError, match="junction_deviation_mm"):
@@ -103,17 +108,24 @@ def test_profile_validation_names_the_value():
 
 def _post_and_sim(fmt, machine, pattern="raster", sim_params=None, dwell=0.25):
     from .test_nodes import run
-    nodes = [{"id": "post", "type": "post-process", "params": {"format": fmt, "profile": machine, "ignition_dwell": dwell}},
-             {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False, **(sim_params or {})}}]
-    edges = [("strategy.toolpath", "post.toolpath"), ("strategy.toolpath", "sim.toolpath"),
-             ("post.program", "sim.program")]
+
+    nodes = [
+        {"id": "post", "type": "post-process", "params": {"format": fmt, "profile": machine, "ignition_dwell": dwell}},
+        {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False, **(sim_params or {})}},
+    ]
+    edges = [
+        ("strategy.toolpath", "post.toolpath"),
+        ("strategy.toolpath", "sim.toolpath"),
+        ("post.program", "sim.program"),
+    ]
     r = run(nodes, edges, pattern=pattern)
     _post_and_sim.artifacts = r.artifacts
     return r.outputs["post"]["program"], r.outputs["sim"]["simulation"]
 
 
-@pytest.mark.parametrize("machine, travel", [("linuxcnc", 200.0), ("generic", 200.0), ("fanuc", 200.0),
-                                             ("marlin", 100.0)])
+@pytest.mark.parametrize(
+    "machine, travel", [("linuxcnc", 200.0), ("generic", 200.0), ("fanuc", 200.0), ("marlin", 100.0)]
+)
 def test_gcode_program_runs_the_planner_with_its_feeds_and_dwells(machine, travel):
     """Raster at 40 mm/s (F2400) on the small OR, linked by arc-OFF returns: every pass and every
     return is a stop-to-stop move (the arc switches empty the planner), s/F + F/a each, plus the
@@ -126,9 +138,16 @@ def test_gcode_program_runs_the_planner_with_its_feeds_and_dwells(machine, trave
     assert res.options.ignition_dwells_s == (0.25,) * 5
     assert res.options.travel_speed == travel
     settings = json.loads(_post_and_sim.artifacts["sim.simulation.json"])["settings"]
-    assert settings == {**settings, "controller": "gcode_planner", "blend": "junction", "cdis_mm": None,
-                        "junction_deviation_mm": 0.05, "lookahead_blocks": 16, "travel_speed_mm_s": travel,
-                        "ignition_dwells": 5}
+    assert settings == {
+        **settings,
+        "controller": "gcode_planner",
+        "blend": "junction",
+        "cdis_mm": None,
+        "junction_deviation_mm": 0.05,
+        "lookahead_blocks": 16,
+        "travel_speed_mm_s": travel,
+        "ignition_dwells": 5,
+    }
     feeds = np.concatenate([r.feed_mm_min for r in parse_gcode(prog.files["gcode"]).runs])
     F = float(np.unique(feeds)[0]) / 60.0
     assert np.unique(feeds).tolist() == [2400.0]
@@ -162,8 +181,12 @@ def test_krc4_arctech_program_runs_the_krc4_family():
     assert "ArcMainNG" in prog.files["src"]
     assert (res4.options.controller, res4.profile["name"]) == ("kuka_krc4", "kuka_kr100ha_krc4")
     assert KRC4.interpolation_cycle_s == KRC2.interpolation_cycle_s == 0.012
-    assert "ASSUMED" in load_profile.__globals__["json"].loads(
-        (load_profile.__globals__["ROBOTS_DIR"] / "kuka_kr100ha_krc4.json").read_text())["comment"]
+    assert (
+        "ASSUMED"
+        in load_profile.__globals__["json"].loads(
+            (load_profile.__globals__["ROBOTS_DIR"] / "kuka_kr100ha_krc4.json").read_text()
+        )["comment"]
+    )
     _, res2 = _post_and_sim("krl", "kuka_krc4", pattern="spiral", sim_params={"robot_profile": "kuka_kr100ha_krc2"})
     assert res2.profile["name"] == "kuka_kr100ha_krc2" and res2.options.cdis == res4.options.cdis == 1.0
     assert res4.metrics["total_time_s"] == pytest.approx(res2.metrics["total_time_s"], rel=1e-9)

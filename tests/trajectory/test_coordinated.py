@@ -34,11 +34,22 @@ def _moves(normals, length=100.0, per_layer=5):
         arc += [True] * (per_layer - 1) + ([False] if L < len(normals) - 1 else [])
     n = len(pts)
     arc = np.array(arc[: n - 1])
-    return Moves(points=np.array(pts, float), tool_axis=np.array(axes, float),
-                 kind=arc.astype(np.int8), arc=arc, inside=arc.copy(),
-                 speed=np.where(arc, 10.0, np.nan), layer=np.array(layer[: n - 1]),
-                 section=np.zeros(n - 1, int), zone=np.where(arc, 0, -1), dwell_before=np.zeros(n),
-                 section_keys=("A",), zone_ids=("body",), zone_params={}, layer_z={})
+    return Moves(
+        points=np.array(pts, float),
+        tool_axis=np.array(axes, float),
+        kind=arc.astype(np.int8),
+        arc=arc,
+        inside=arc.copy(),
+        speed=np.where(arc, 10.0, np.nan),
+        layer=np.array(layer[: n - 1]),
+        section=np.zeros(n - 1, int),
+        zone=np.where(arc, 0, -1),
+        dwell_before=np.zeros(n),
+        section_keys=("A",),
+        zone_ids=("body",),
+        zone_params={},
+        layer_z={},
+    )
 
 
 def test_one_axis_positioner_turns_what_it_can():
@@ -55,7 +66,9 @@ def test_one_axis_positioner_turns_what_it_can():
     _, w = to_world(cell, mv.points, mv.tool_axis, ang)
     assert w[:5] == pytest.approx(np.tile([0.0, 0.0, -1.0], (5, 1)), abs=1e-9)
     lean = np.degrees(np.arccos(-w[5:, 2]))
-    assert lean == pytest.approx(math.degrees(math.asin(math.cos(math.radians(40)) * math.sin(math.radians(20)))), abs=1e-6)
+    assert lean == pytest.approx(
+        math.degrees(math.asin(math.cos(math.radians(40)) * math.sin(math.radians(20)))), abs=1e-6
+    )
     assert lean == pytest.approx(15.189, abs=1e-3)
 
 
@@ -67,8 +80,14 @@ def test_axis_limits_are_clipped_and_reported_per_layer():
     mv = _moves([_normal(0.0), _normal(120.0)])
     ang, clipped = plan_positioner(cell, mv, "gravity")
     assert abs(ang[-1, 0]) == pytest.approx(90.0, abs=1e-3) and clipped[-1] and not clipped[0]
-    r = simulate_program(mv, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"))
+    r = simulate_program(
+        mv,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"
+        ),
+    )
     out = simulation_json(r, SimOptions())
     assert out["axis_limit_stretches"] == 1
     lim = [i for i in out["kinematics_issues"] if i["kind"] == "axis_limit"]
@@ -96,8 +115,14 @@ def test_positioner_speed_caps_the_path_and_is_reported():
     assert cap[travel] == pytest.approx(L * 90.0 / 60.0, rel=1e-4)
     assert np.isinf(np.delete(cap, travel)).all()
     opt = SimOptions(travel_speed=200.0)
-    r = simulate_program(mv, PROFILE, opt, KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"))
+    r = simulate_program(
+        mv,
+        PROFILE,
+        opt,
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"
+        ),
+    )
     out = simulation_json(r, opt)
     assert out["positioner_min_speed_cap_mm_s"] == pytest.approx(L * 1.5, rel=1e-4)
     sp = [i for i in out["kinematics_issues"] if i["kind"] == "axis_speed"]
@@ -105,10 +130,16 @@ def test_positioner_speed_caps_the_path_and_is_reported():
     assert next(a for a in out["axes"] if a["axis"] == "E1")["peak_speed_deg_s"] == pytest.approx(90.0, rel=1e-3)
     # the same turn in place (the travel shrunk to nothing): a standstill the positioner needs
     pts = mv.points.copy()
-    pts[travel + 1:] -= pts[travel + 1] - pts[travel]
+    pts[travel + 1 :] -= pts[travel + 1] - pts[travel]
     inplace = Moves(**{**mv.__dict__, "points": pts})
-    r2 = simulate_program(inplace, PROFILE, opt, KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"))
+    r2 = simulate_program(
+        inplace,
+        PROFILE,
+        opt,
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="gravity"
+        ),
+    )
     assert r2.metrics["positioner_turn_in_place_s"] == pytest.approx(60.0 / 90.0, rel=1e-4)
 
 
@@ -129,7 +160,7 @@ def duct_moves():
     return flatten(res.outputs["bead"]["toolpath"])
 
 
-WRIST_STEP_BOUND_DEG = 2.0   # per IK sample (samples ≤ 5 mm of path and ≤ 1° of positioner / torch turn)
+WRIST_STEP_BOUND_DEG = 2.0  # per IK sample (samples ≤ 5 mm of path and ≤ 1° of positioner / torch turn)
 
 
 @pytest.mark.parametrize("cell_name,policy", [("kr150_tilt_rotate", "min-motion"), ("irb4600_tilt_rotate", "gravity")])
@@ -139,15 +170,21 @@ def test_no_wrist_flip_on_the_duct(duct_moves, cell_name, policy):
     up to ~50° (before coordinated sampling: 37° wrist steps there); still 0 unreachable and
     0 collisions."""
     cell = load_cell(cell_name)
-    r = simulate_program(duct_moves, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy=policy))
+    r = simulate_program(
+        duct_moves,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy=policy
+        ),
+    )
     q = r.kinematics["motion"]["q"]
     steps = np.degrees(np.abs(np.diff(q, axis=0)))
     assert steps[:, 3].max() < WRIST_STEP_BOUND_DEG and steps[:, 5].max() < WRIST_STEP_BOUND_DEG
     assert r.metrics["max_wrist_step_deg"] == pytest.approx(steps[:, 3:].max(), abs=1e-9)
     assert r.metrics["unreachable_stretches"] == 0 and r.metrics["collision_count"] == 0
     assert r.kinematics["motion"]["positioner_deg"].shape == (len(q), 2)
-    if policy == "min-motion":                       # the positioner really turns on short travels
+    if policy == "min-motion":  # the positioner really turns on short travels
         assert r.metrics["positioner_max_step_deg"] > 25 and r.metrics["axis_speed_stretches"] >= 1
 
 
@@ -161,8 +198,16 @@ def test_cell_shapes_mesh_pose_and_link(tmp_path):
 
     trimesh.creation.box(extents=(40.0, 40.0, 40.0)).export(tmp_path / "block.stl")
     data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
-    data["fixtures"].append({"name": "block", "kind": "mesh", "mesh": "block.stl", "size_mm": [1, 1, 1],
-                             "xyz_mm": [0.0, 0.0, 60.0], "link": "table_top"})
+    data["fixtures"].append(
+        {
+            "name": "block",
+            "kind": "mesh",
+            "mesh": "block.stl",
+            "size_mm": [1, 1, 1],
+            "xyz_mm": [0.0, 0.0, 60.0],
+            "link": "table_top",
+        }
+    )
     cell = Cell.model_validate(data)
     cell.load_meshes(lambda name: (tmp_path / name).read_bytes())
     bodies = {b[0]: b[2] for b in cell_statics(cell)([30.0, 0.0])}
@@ -172,21 +217,43 @@ def test_cell_shapes_mesh_pose_and_link(tmp_path):
     assert bodies["fixture:block"].getTranslation() * 1000 == pytest.approx(R @ [0, 0, 60.0] + t, abs=1e-6)
     assert bodies["fixture:floor"].getTranslation() * 1000 == pytest.approx([0, 0, -1720.0])
     mv = _moves([_normal(0.0)])
-    r = simulate_program(mv, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="fixed"))
+    r = simulate_program(
+        mv,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=cell, positioner_policy="fixed"
+        ),
+    )
     hits = {tuple(c.bodies) for c in r.collisions}
     assert any(b[1] == "fixture:block" and b[0].startswith("torch:") for b in hits)
     # a 300 × 20 mm bar across the path at x = 0: unrotated (along y) it is hit, yawed 90° it lies along the path…
     bar = {"name": "bar", "kind": "box", "size_mm": [20.0, 300.0, 20.0], "xyz_mm": [0.0, 120.0, 20.0]}
     data["fixtures"][-1] = bar
-    hit = simulate_program(mv, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=Cell.model_validate(data),
-        positioner_policy="fixed"))
+    hit = simulate_program(
+        mv,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf,
+            tcp_offset_mm=tuple(cell.tool.tcp_mm),
+            cell=Cell.model_validate(data),
+            positioner_policy="fixed",
+        ),
+    )
     assert any(c.bodies[1] == "fixture:bar" for c in hit.collisions)
     data["fixtures"][-1] = {**bar, "rpy_deg": [0.0, 0.0, 90.0], "xyz_mm": [0.0, 120.0, 20.0]}
-    clear = simulate_program(mv, PROFILE, SimOptions(), KinematicsOptions(
-        description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), cell=Cell.model_validate(data),
-        positioner_policy="fixed"))
+    clear = simulate_program(
+        mv,
+        PROFILE,
+        SimOptions(),
+        KinematicsOptions(
+            description=cell.robot_urdf,
+            tcp_offset_mm=tuple(cell.tool.tcp_mm),
+            cell=Cell.model_validate(data),
+            positioner_policy="fixed",
+        ),
+    )
     assert not any(c.bodies[1] == "fixture:bar" for c in clear.collisions)
     bad = dict(data)
     bad["fixtures"] = [{"name": "x", "kind": "box", "size_mm": [1, 1, 1], "link": "no_such_link"}]
@@ -202,7 +269,9 @@ def test_old_cells_get_the_table_they_had():
     data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
     del data["positioner"]["shapes"]
     cell = Cell.model_validate(data)
-    assert [(s.name, s.kind, s.size_mm) for s in cell.positioner.shapes] == [("table", "cylinder", (300.0, 300.0, 40.0))]
+    assert [(s.name, s.kind, s.size_mm) for s in cell.positioner.shapes] == [
+        ("table", "cylinder", (300.0, 300.0, 40.0))
+    ]
     cs = load_nodes()["simulate-robot"].Params.model_json_schema()["properties"]["cell"]["x-cell-schema"]
     shape = cs["properties"]["fixtures"]["items"]["properties"]
     assert {"kind", "size_mm", "xyz_mm", "rpy_deg", "link", "mesh"} <= set(shape)
@@ -218,16 +287,18 @@ def test_a_users_cell_file_and_its_meshes_are_in_the_cache_key(tmp_path):
     load_nodes()
 
     data = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
-    data["fixtures"] += [{"name": "block", "kind": "mesh", "mesh": "block.stl", "size_mm": [1, 1, 1]},
-                         {"name": "jig", "kind": "mesh", "mesh": "jig.obj", "size_mm": [1, 1, 1]},
-                         {"name": "again", "kind": "mesh", "mesh": "block.stl", "size_mm": [2, 2, 2]}]
+    data["fixtures"] += [
+        {"name": "block", "kind": "mesh", "mesh": "block.stl", "size_mm": [1, 1, 1]},
+        {"name": "jig", "kind": "mesh", "mesh": "jig.obj", "size_mm": [1, 1, 1]},
+        {"name": "again", "kind": "mesh", "mesh": "block.stl", "size_mm": [2, 2, 2]},
+    ]
     (tmp_path / "cells").mkdir()
     (tmp_path / "cells" / "mine.json").write_text(json.dumps(data))
     node = REGISTRY["simulate-robot"]()
     read = lambda p: (tmp_path / p).read_bytes() if (tmp_path / p).is_file() else None  # noqa: E731
     P = node.Params
     assert node.read_files(P(cell="cells/mine.json"), read) == ["cells/mine.json", "cells/block.stl", "cells/jig.obj"]
-    assert node.read_files(P(cell="kr150_tilt_rotate"), read) == []           # shipped: in the code version
+    assert node.read_files(P(cell="kr150_tilt_rotate"), read) == []  # shipped: in the code version
     assert node.read_files(P(cell="cells/mine.json", kinematics=False), read) == []
     assert node.read_files(P(cell="cells/missing.json"), read) == ["cells/missing.json"]
     (tmp_path / "cells" / "bad.json").write_text("{not json")

@@ -23,10 +23,10 @@ def test_chunked_nearest_segment_is_the_polyline_distance(monkeypatch):
     guess = np.sort(rng.integers(0, 299, 5000))
     q = P[guess] + rng.random((5000, 1)) * (P[guess + 1] - P[guess]) + rng.normal(scale=0.05, size=(5000, 3))
     want = polyline_distance(q, P, guess, reach=2)
-    monkeypatch.setattr(fine, "CHUNK", 777)          # several chunks and a short last one
+    monkeypatch.setattr(fine, "CHUNK", 777)  # several chunks and a short last one
     got = fine.nearest_segment(q, P, guess, reach=2)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
-    assert int((got[1] != guess).sum()) > 0          # the search moved some samples off their guess
+    assert int((got[1] != guess).sum()) > 0  # the search moved some samples off their guess
 
 
 def test_span_positions_are_evaluates():
@@ -46,7 +46,7 @@ def test_span_positions_are_evaluates():
     prof = profile_spans(spans)
     rng = np.random.default_rng(1)
     si = rng.integers(0, len(prof.duration), 4000)
-    tau = rng.random(4000) * prof.duration[si] * 1.1           # beyond the end too
+    tau = rng.random(4000) * prof.duration[si] * 1.1  # beyond the end too
     got = fine._positions(prof, fine._phase_starts(prof), si, tau)
     assert np.array_equal(got, evaluate(prof, si, tau)[0])
 
@@ -54,11 +54,26 @@ def test_span_positions_are_evaluates():
 def test_dwell_lines_are_the_lines_that_name_a_dwell():
     """As str.splitlines cuts them: CR LF, CR alone, vertical tab and file separators, non-ASCII
     texts (line by line) and dotted capital I (an re.IGNORECASE match of "i")."""
+
     def plain(text):
         return [line for line in text.splitlines() if run._DWELL_HIT.search(line)]
 
-    pieces = ["WAIT SEC 1.5 ; ignition dwell", "\n", "\r\n", "\r", "\x0b", "\x1c", "LIN P1", ";- IGNITION DWELL 2 s",
-              " ", "ignition dwell", "\f", "G4 P500 ; ignition dwell 0.5 s", "é", "\u0130gnition dwell"]
+    pieces = [
+        "WAIT SEC 1.5 ; ignition dwell",
+        "\n",
+        "\r\n",
+        "\r",
+        "\x0b",
+        "\x1c",
+        "LIN P1",
+        ";- IGNITION DWELL 2 s",
+        " ",
+        "ignition dwell",
+        "\f",
+        "G4 P500 ; ignition dwell 0.5 s",
+        "é",
+        "\u0130gnition dwell",
+    ]
     rnd = random.Random(1)
     found = 0
     for trial in range(2000):
@@ -74,6 +89,7 @@ def test_dwell_lines_are_the_lines_that_name_a_dwell():
 def test_moving_average_is_the_interpolated_cumulative_sum():
     """Row slices where the window's lower ends are consecutive, gathers where rounding moved
     one: the same numbers as gathering every row (windows of 1 to 37.3 samples, 1 to 40000 rows)."""
+
     def gathered(x, w):
         npad = int(np.ceil(w))
         pad = np.vstack([np.repeat(x[:1], npad, axis=0), x])
@@ -99,4 +115,4 @@ def test_arc_clock_counts_the_arc_on_time():
     t = np.array([0.0, 1.0, 2.0, 3.0, 4.25, 10.0, np.inf])
     assert clock(t).tolist() == [0.0, 0.0, 1.0, 1.5, 1.75, 2.0, 2.0]
     assert fine.arc_clock([])(t).tolist() == [0.0] * 7
-    assert float(clock(np.inf)) == 2.0 and float(clock(2.0)) == 1.0       # one time, not an array
+    assert float(clock(np.inf)) == 2.0 and float(clock(2.0)) == 1.0  # one time, not an array

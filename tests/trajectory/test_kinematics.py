@@ -32,25 +32,26 @@ def test_home_pose_from_published_dimensions():
 def test_resample_keeps_vertices():
     s, xyz, seg = resample(np.array([[0, 0, 0], [10, 0, 0], [10, 3, 0]], float), 4.0)
     assert s[-1] == pytest.approx(13.0)
-    assert len(s) == 3 + 1 + 1                         # ceil(10/4)=3, ceil(3/4)=1, + end point
+    assert len(s) == 3 + 1 + 1  # ceil(10/4)=3, ceil(3/4)=1, + end point
     assert any(np.allclose(p, [10, 0, 0]) for p in xyz)
 
 
 def test_ik_tracks_the_study_path():
     mv = study.planned("triangular", 40.0, angle_deg=45.0)
     k = solve_path(ARM, mv.points, mv.tool_axis, CellFrames(), step_mm=2.0)
-    assert k.reach_err.max() < 1e-3                    # mm
+    assert k.reach_err.max() < 1e-3  # mm
     assert k.sigma_min.min() > 0.05
     # continuity: neighbouring samples 2 mm apart never jump more than 1° in any joint
     assert np.degrees(np.abs(np.diff(k.q, axis=0))).max() < 1.0
-    assert np.all(k.segment_cap > 1000.0)              # this small rectangle never hits joint speeds
+    assert np.all(k.segment_cap > 1000.0)  # this small rectangle never hits joint speeds
 
 
 def _moves(points, speed, key="bs1/A", layer=3):
     pts = np.asarray(points, float)
     m = len(pts) - 1
-    sp = SectionPath(key=key, strategy="t", points=pts, arc=np.ones(m, bool), inside=np.ones(m, bool),
-                     speed=np.full(m, speed))
+    sp = SectionPath(
+        key=key, strategy="t", points=pts, arc=np.ones(m, bool), inside=np.ones(m, bool), speed=np.full(m, speed)
+    )
     return flatten(Layered((LayerPaths(Layer(index=layer, z=float(pts[0, 2]), thickness=1.0), (sp,)),)))
 
 
@@ -60,7 +61,7 @@ def test_unreachable_target_warns_with_layer_and_section():
     msgs = [w for w in res.warnings if "unreachable" in w[0]]
     assert msgs and msgs[0][1] == 3 and msgs[0][2] == "bs1/A"
     assert res.metrics["unreachable_stretches"] >= 1
-    assert res.metrics["total_time_s"] > 0           # still simulated, no crash
+    assert res.metrics["total_time_s"] > 0  # still simulated, no crash
 
 
 def test_joint_speed_caps_path_speed():

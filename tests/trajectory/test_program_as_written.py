@@ -37,8 +37,8 @@ def test_larger_cdis_cuts_corners_further_and_runs_faster(speed):
     e = [res[c]["max_corner_error_mm"] for c in (1.0, 5.0, 20.0)]
     assert t[0] > t[1] > t[2], t
     assert e[0] < e[1] < e[2], e
-    assert t[0] - t[2] > 0.05          # seconds, on 8 corners: not a rounding difference
-    assert e[2] > 2 * e[1]             # 4× the C_DIS, well below half a leg: a deeper cut
+    assert t[0] - t[2] > 0.05  # seconds, on 8 corners: not a rounding difference
+    assert e[2] > 2 * e[1]  # 4× the C_DIS, well below half a leg: a deeper cut
 
 
 def test_cdis_at_the_study_value_is_the_fitted_law():
@@ -46,8 +46,17 @@ def test_cdis_at_the_study_value_is_the_fitted_law():
     assert CDIS_REF == 5.0
 
 
-STUDY_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral", "swiping", "oscillate",
-                  "parallel", "contour"]
+STUDY_PATTERNS = [
+    "raster",
+    "semicircular",
+    "triangular",
+    "rectangular",
+    "spiral",
+    "swiping",
+    "oscillate",
+    "parallel",
+    "contour",
+]
 
 
 @pytest.mark.parametrize("speed", [10, 40])
@@ -55,8 +64,7 @@ STUDY_PATTERNS = ["raster", "semicircular", "triangular", "rectangular", "spiral
 def test_arc_on_time_never_exceeds_total_time(pattern, speed):
     # before: triangular 40 mm/s reported arc-on 6.8407 s in a 6.8349 s cycle (the arc-OFF lag
     # after the last motion was counted as arc-on time but not as cycle time)
-    recipe = apply_overrides(load_recipe("graphs/rectangle-study.json"),
-                             [("pattern", pattern), ("speed", speed)])
+    recipe = apply_overrides(load_recipe("graphs/rectangle-study.json"), [("pattern", pattern), ("speed", speed)])
     out = execute(build_graph(recipe), resolver=FileResolver("graphs"), artifacts=False, preflight=False)
     m = out.outputs["simulate"]["simulation"].metrics
     assert m["arc_on_time_s"] <= m["total_time_s"]
@@ -68,8 +76,9 @@ def test_arc_off_lag_still_deposits():
     m = simulate(mv, KUKA).metrics
     assert m["arc_off_lag_after_end_s"] == pytest.approx(KUKA.arc_off_delay_s, abs=1e-9)
     # the volume is arc-on time plus the lag after the end, at 94.25 mm³/s
-    assert m["deposited_volume_mm3"] == pytest.approx(94.25 * (m["arc_on_time_s"] + m["arc_off_lag_after_end_s"]),
-                                                      rel=1e-9)
+    assert m["deposited_volume_mm3"] == pytest.approx(
+        94.25 * (m["arc_on_time_s"] + m["arc_off_lag_after_end_s"]), rel=1e-9
+    )
 
 
 KRL = """DEF post( )
@@ -96,11 +105,21 @@ GCODE_MS = "; units: mm (G21), absolute (G90), dwell G4 P in milliseconds\nG4 P5
 
 def test_program_settings_read_as_written():
     k = program_settings("krl", {"src": KRL})
-    assert (k["controller"], k["blend"], k["blend_distance_mm"], k["ignition_dwells_s"]) == ("kuka_krc", "cdis", 1.0, (0.5, 0.75))
+    assert (k["controller"], k["blend"], k["blend_distance_mm"], k["ignition_dwells_s"]) == (
+        "kuka_krc",
+        "cdis",
+        1.0,
+        (0.5, 0.75),
+    )
     a = program_settings("krl", {"src": ARCTECH})
-    assert (a["blend_distance_mm"], a["ignition_dwells_s"]) == (2.5, (0.4,))   # not the WDAT declaration
+    assert (a["blend_distance_mm"], a["ignition_dwells_s"]) == (2.5, (0.4,))  # not the WDAT declaration
     r = program_settings("rapid", {"mod": RAPID})
-    assert (r["controller"], r["blend"], r["blend_distance_mm"], r["ignition_dwells_s"]) == ("abb_irc5", "zone", 1.0, (0.5,))
+    assert (r["controller"], r["blend"], r["blend_distance_mm"], r["ignition_dwells_s"]) == (
+        "abb_irc5",
+        "zone",
+        1.0,
+        (0.5,),
+    )
     assert r["robot_profile"] == "abb_irb4600_irc5"
     assert program_settings("rapid", {"mod": RAPID.replace(", zw,", ", fine,")})["blend_distance_mm"] == 0.0
     g = program_settings("gcode", {"gcode": GCODE_MS})
@@ -113,6 +132,7 @@ def test_program_settings_read_as_written():
 
 def _duct_run(connect: bool, extra_sim: dict | None = None):
     import json
+
     data = json.loads(open("graphs/curved-duct.json").read())
     for n in data["nodes"]:
         if n["id"] == "sim":
@@ -145,15 +165,29 @@ def test_two_declarations_of_the_blend_are_refused():
         _duct_run(True, {"cdis": 5.0})
 
 
-@pytest.mark.parametrize("fmt, controller, blend, profile", [
-    ("rapid", "abb_irc5", "zone", "abb_irb4600_irc5"),
-    ("krl", "kuka_krc", "cdis", "kuka_kr100ha_krc2"),
-])
+@pytest.mark.parametrize(
+    "fmt, controller, blend, profile",
+    [
+        ("rapid", "abb_irc5", "zone", "abb_irb4600_irc5"),
+        ("krl", "kuka_krc", "cdis", "kuka_kr100ha_krc2"),
+    ],
+)
 def test_controller_family_follows_the_dialect(fmt, controller, blend, profile):
     from .test_nodes import run
-    nodes = [{"id": "post", "type": "post-process", "params": {"format": fmt, "blend_distance": 2.0, "ignition_dwell": 0.25}},
-             {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False}}]
-    edges = [("strategy.toolpath", "post.toolpath"), ("strategy.toolpath", "sim.toolpath"), ("post.program", "sim.program")]
+
+    nodes = [
+        {
+            "id": "post",
+            "type": "post-process",
+            "params": {"format": fmt, "blend_distance": 2.0, "ignition_dwell": 0.25},
+        },
+        {"id": "sim", "type": "simulate-robot", "params": {"kinematics": False}},
+    ]
+    edges = [
+        ("strategy.toolpath", "post.toolpath"),
+        ("strategy.toolpath", "sim.toolpath"),
+        ("post.program", "sim.program"),
+    ]
     # a spiral: one arc-ON run with corners, so the program's motions use the blend (raster
     # passes are single ArcL…fine moves: RAPID writes no zw use and the reader says 0 mm)
     res = run(nodes, edges, pattern="spiral").outputs["sim"]["simulation"]

@@ -45,11 +45,14 @@ def _csv(text: str) -> dict:
     for j in range(len(cols)):
         try:
             num.append(np.array([float(r[j]) if r[j] else np.nan for r in rows]))
-        except ValueError:        # a text column (section keys)
+        except ValueError:  # a text column (section keys)
             num.append(None)
-    return {"columns": cols, "rows": len(rows),
-            "sums": {c: float(np.nansum(v)) for c, v in zip(cols, num) if v is not None},
-            "sample": [rows[i] for i in range(0, len(rows), ROW_EVERY)]}
+    return {
+        "columns": cols,
+        "rows": len(rows),
+        "sums": {c: float(np.nansum(v)) for c, v in zip(cols, num) if v is not None},
+        "sample": [rows[i] for i in range(0, len(rows), ROW_EVERY)],
+    }
 
 
 def _motion(res) -> dict:
@@ -57,8 +60,13 @@ def _motion(res) -> dict:
     if not m:
         return {}
     q = np.asarray(m["q"])
-    out = {"samples": int(len(q)), "q_sum": q.sum(axis=0).tolist(), "q_abs_sum": np.abs(q).sum(axis=0).tolist(),
-           "q_sample": q[::ROW_EVERY].tolist(), "unreachable": int(np.count_nonzero(m["unreachable"]))}
+    out = {
+        "samples": int(len(q)),
+        "q_sum": q.sum(axis=0).tolist(),
+        "q_abs_sum": np.abs(q).sum(axis=0).tolist(),
+        "q_sample": q[::ROW_EVERY].tolist(),
+        "unreachable": int(np.count_nonzero(m["unreachable"])),
+    }
     ang = np.asarray(m["positioner_deg"])
     if ang.size:
         out["positioner_sum"] = ang.sum(axis=0).tolist()
@@ -91,21 +99,33 @@ def digest(name: str) -> dict:
 
     node = RECIPES[name]
     path = ROOT / "graphs" / f"{name}.json"
-    run = execute(build_graph(load_recipe(path)), resolver=FileResolver(path.parent), cache=MemoryCache(),
-                  targets=[node], preflight=False, workers=1)
+    run = execute(
+        build_graph(load_recipe(path)),
+        resolver=FileResolver(path.parent),
+        cache=MemoryCache(),
+        targets=[node],
+        preflight=False,
+        workers=1,
+    )
     sim = json.loads(run.artifacts[f"{node}.simulation.json"])
     corners = sim.pop("corners")
     res = run.outputs[node]["simulation"]
-    return {"simulation": sim,
-            "corners": {"count": len(corners),
-                        "sums": {k: float(np.nansum([c[k] if c[k] is not None else np.nan for c in corners]))
-                                 for k in ("vertex", "interior_deg", "error_mm", "min_speed_mm_s", "mean_speed_mm_s")},
-                        "sample": corners[::ROW_EVERY]},
-            "trace": _csv(_text(run.artifacts[f"{node}.trace.csv"])),
-            "deposit": _csv(_text(run.artifacts[f"{node}.deposit.csv"])),
-            "motion": _motion(res),
-            "positioner_per_layer": _per_layer_positioner(res),
-            "warnings": [w["message"] for w in run.warnings if w.get("node") == node]}
+    return {
+        "simulation": sim,
+        "corners": {
+            "count": len(corners),
+            "sums": {
+                k: float(np.nansum([c[k] if c[k] is not None else np.nan for c in corners]))
+                for k in ("vertex", "interior_deg", "error_mm", "min_speed_mm_s", "mean_speed_mm_s")
+            },
+            "sample": corners[::ROW_EVERY],
+        },
+        "trace": _csv(_text(run.artifacts[f"{node}.trace.csv"])),
+        "deposit": _csv(_text(run.artifacts[f"{node}.deposit.csv"])),
+        "motion": _motion(res),
+        "positioner_per_layer": _per_layer_positioner(res),
+        "warnings": [w["message"] for w in run.warnings if w.get("node") == node],
+    }
 
 
 def _text(data) -> str:
@@ -168,10 +188,14 @@ def test_simulate_robot_reproduces_the_recorded_figures(name):
 def test_the_comparison_catches_a_changed_figure():
     """The comparison is not vacuous: a time off by 1 µs in a 3500 s run, one more stop, a changed
     warning and a trace row off by two units of its last digit are reported."""
-    want = {"simulation": {"total_time_s": 3506.798607, "stops": 292.0, "warnings": [{"message": "a"}]},
-            "trace": {"rows": 3, "sample": [["0.0120", "-14.4215"]]}}
-    got = {"simulation": {"total_time_s": 3506.798607 + 1e-5, "stops": 293.0, "warnings": [{"message": "b"}]},
-           "trace": {"rows": 3, "sample": [["0.0120", "-14.4217"]]}}
+    want = {
+        "simulation": {"total_time_s": 3506.798607, "stops": 292.0, "warnings": [{"message": "a"}]},
+        "trace": {"rows": 3, "sample": [["0.0120", "-14.4215"]]},
+    }
+    got = {
+        "simulation": {"total_time_s": 3506.798607 + 1e-5, "stops": 293.0, "warnings": [{"message": "b"}]},
+        "trace": {"rows": 3, "sample": [["0.0120", "-14.4217"]]},
+    }
     errors: list[str] = []
     _compare(got, want, "", errors)
     assert len(errors) == 4, errors

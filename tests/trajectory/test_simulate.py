@@ -14,15 +14,27 @@ L_SHAPE = np.array([[0, 0, 5], [60, 0, 5], [60, 40, 5], [120, 40, 5]], float)
 
 def section(points, speed=20.0, zone=(), zone_params=None, key="bs1/A", arc=None):
     m = len(points) - 1
-    return SectionPath(key=key, strategy="t", points=np.asarray(points, float),
-                       arc=np.ones(m, bool) if arc is None else np.asarray(arc, bool), inside=np.ones(m, bool),
-                       speed=np.broadcast_to(np.asarray(speed, float), (m,)).copy(), zone=tuple(zone),
-                       zone_params=zone_params or {})
+    return SectionPath(
+        key=key,
+        strategy="t",
+        points=np.asarray(points, float),
+        arc=np.ones(m, bool) if arc is None else np.asarray(arc, bool),
+        inside=np.ones(m, bool),
+        speed=np.broadcast_to(np.asarray(speed, float), (m,)).copy(),
+        zone=tuple(zone),
+        zone_params=zone_params or {},
+    )
 
 
 def moves(*layers):
-    return flatten(Layered(tuple(LayerPaths(Layer(index=i, z=5.0 + i, thickness=1.0), secs, dwell_after_s=d)
-                                 for i, (secs, d) in enumerate(layers))))
+    return flatten(
+        Layered(
+            tuple(
+                LayerPaths(Layer(index=i, z=5.0 + i, thickness=1.0), secs, dwell_after_s=d)
+                for i, (secs, d) in enumerate(layers)
+            )
+        )
+    )
 
 
 def test_ignition_dwell_adds_time_and_metal():
@@ -37,10 +49,10 @@ def test_zone_dwell_and_zone_wire_feed():
     zp = {"start": {"wire_feed_speed": 6.0, "dwell": 0.3}, "z1": {"wire_feed_speed": 3.0}}
     sp = section(L_SHAPE, zone=("start", "z1", "z1"), zone_params=zp)
     m = simulate(moves(((sp,), 0.0)), KUKA, SimOptions(wire_diameter_mm=1.2)).metrics
-    area = np.pi * 1.2 ** 2 / 4
+    area = np.pi * 1.2**2 / 4
     rate_start, rate_z1 = 6000 / 60 * area, 3000 / 60 * area
     const = simulate(moves(((sp,), 0.0)), KUKA).metrics
-    assert const["total_time_s"] == pytest.approx(m["total_time_s"])        # the dwell is there in both
+    assert const["total_time_s"] == pytest.approx(m["total_time_s"])  # the dwell is there in both
     # the first 60 mm (plus the 0.3 s dwell) at the start zone's rate, the rest at z1's
     lo, hi = rate_z1 * m["arc_on_time_s"], rate_start * m["arc_on_time_s"]
     assert lo < m["deposited_volume_mm3"] < hi
@@ -90,7 +102,7 @@ def test_speed_change_on_a_straight_line_without_stop():
     tr = res.trace
     assert res.metrics["stops"] == 2
     at_change = np.abs(tr["x"] - 50.0) < 0.5
-    assert tr["speed"][at_change].min() > 5.0                  # no stop at the speed change
+    assert tr["speed"][at_change].min() > 5.0  # no stop at the speed change
     # the interpolator reaches 10 mm/s at the boundary; the smoothing settles within ~1 mm after
     after = (tr["x"] > 52.0) & (tr["x"] < 60.0)
     assert tr["speed"][after].max() < 10.5
@@ -105,8 +117,8 @@ def test_arc_off_travel_section_change_stops_and_counts_outside():
     res = simulate(moves(((a, b), 0.0)), KUKA)
     m = res.metrics
     assert res.section_keys == ("bs1/A", "bs1/B")
-    assert m["stops"] == 4                                     # start, A off, B on, end
-    assert m["time_outside_s"] > 60 / 100                      # the 60 mm arc-OFF travel at 100 mm/s
+    assert m["stops"] == 4  # start, A off, B on, end
+    assert m["time_outside_s"] > 60 / 100  # the 60 mm arc-OFF travel at 100 mm/s
     assert set(np.unique(res.trace["section"])) == {0, 1}
 
 
@@ -147,15 +159,29 @@ def test_random_programs_keep_the_bookkeeping():
                 if rng.random() < 0.3:
                     pts[rng.integers(1, n)] = pts[rng.integers(0, n - 1)]
                 if rng.random() < 0.3 and n > 3:
-                    pts[2] = pts[0]                              # exact reversal
+                    pts[2] = pts[0]  # exact reversal
                 m = n - 1
-                secs.append(SectionPath(key=f"s{si}", strategy="f", points=pts, arc=rng.random(m) < 0.8,
-                                        inside=rng.random(m) < 0.7, speed=rng.choice([5.0, 10.0, 40.0, 100.0], m)))
-            layers.append(LayerPaths(Layer(index=li, z=5.0 + li, thickness=1.0), tuple(secs),
-                                     dwell_after_s=float(rng.choice([0.0, 0.5]))))
+                secs.append(
+                    SectionPath(
+                        key=f"s{si}",
+                        strategy="f",
+                        points=pts,
+                        arc=rng.random(m) < 0.8,
+                        inside=rng.random(m) < 0.7,
+                        speed=rng.choice([5.0, 10.0, 40.0, 100.0], m),
+                    )
+                )
+            layers.append(
+                LayerPaths(
+                    Layer(index=li, z=5.0 + li, thickness=1.0), tuple(secs), dwell_after_s=float(rng.choice([0.0, 0.5]))
+                )
+            )
         mv = flatten(Layered(tuple(layers)))
-        opt = SimOptions(cdis=float(rng.choice([0.0, 1.0, 5.0])), blend=str(rng.choice(["cdis", "zone"])),
-                         ignition_dwell_s=float(rng.choice([0.0, 0.3])))
+        opt = SimOptions(
+            cdis=float(rng.choice([0.0, 1.0, 5.0])),
+            blend=str(rng.choice(["cdis", "zone"])),
+            ignition_dwell_s=float(rng.choice([0.0, 0.3])),
+        )
         try:
             res = simulate(mv, KUKA, opt)
         except PlanningError:

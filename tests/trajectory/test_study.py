@@ -27,7 +27,7 @@ def sim(name, build):
 
 def test_or_pass_layout_and_raster_length():
     assert study.pass_layout(21.5) == (5, pytest.approx(1.89))
-    assert study.pass_layout(43.0) == (10, pytest.approx(1.57, abs=0.006))   # study rounds 1.565
+    assert study.pass_layout(43.0) == (10, pytest.approx(1.57, abs=0.006))  # study rounds 1.565
     assert study.raster(40).segment_lengths.sum() == pytest.approx(387.910, abs=1e-3)
     assert study.triangular(40, 45).segment_lengths.sum() == pytest.approx(261.301, abs=0.01)
 
@@ -61,7 +61,7 @@ def test_full_stop_at_every_arc_switch():
         assert tr["speed"][near].min() < 0.5
         # and at 40 mm/s it needs ≥ 0.15 s to get going again (jerk-limited ramp + smoothing)
         assert tr["t"][near].max() - tr["t"][near].min() > 0.1
-    assert res.metrics["stops"] == len(P)              # 8 switches + both ends
+    assert res.metrics["stops"] == len(P)  # 8 switches + both ends
     # arc-ON segments are bracketed by stops: 5 passes deposit, returns do not
     assert res.metrics["arc_on_length_mm"] == pytest.approx(5 * 43.0, rel=0.01)
 
@@ -78,7 +78,7 @@ def test_corner_error_grows_as_the_angle_shrinks_and_with_speed():
     assert err[90, 40] < err[60, 40] < err[45, 40]
     for ang in (90, 60, 45):
         assert err[ang, 10] < err[ang, 40]
-    assert STUDY_BANDS["corner error 45° 40 mm/s"].holds(err[45, 40])      # measured: 1.62 mm
+    assert STUDY_BANDS["corner error 45° 40 mm/s"].holds(err[45, 40])  # measured: 1.62 mm
 
 
 def test_zigzag_295_corner_errors():
@@ -103,8 +103,13 @@ def test_corner_slows_more_when_sharper():
 
 def test_semicircular_most_accurate():
     semi = sim("semi40", lambda: study.planned("semicircular", 40.0)).metrics
-    for name, kw in (("triangular", {"angle_deg": 45.0}), ("triangular", {"angle_deg": 90.0}),
-                     ("rectangular", {}), ("spiral", {}), ("swiping", {})):
+    for name, kw in (
+        ("triangular", {"angle_deg": 45.0}),
+        ("triangular", {"angle_deg": 90.0}),
+        ("rectangular", {}),
+        ("spiral", {}),
+        ("swiping", {}),
+    ):
         other = sim(f"{name}{kw}", lambda: study.planned(name, 40.0, **kw)).metrics
         assert semi["max_corner_error_mm"] < other["max_corner_error_mm"]
         assert semi["length_ratio"] > other["length_ratio"]
@@ -112,12 +117,16 @@ def test_semicircular_most_accurate():
 
 def test_length_ratios():
     """≈0.998 raster, 0.95–0.97 smooth/in-OR strategies, ≈0.89 swiping at 40 mm/s."""
-    assert STUDY_BANDS["raster length ratio 40 mm/s"].holds(sim("raster40", lambda: study.planned("raster", 40.0)).metrics["length_ratio"])
+    assert STUDY_BANDS["raster length ratio 40 mm/s"].holds(
+        sim("raster40", lambda: study.planned("raster", 40.0)).metrics["length_ratio"]
+    )
     # swiping: 0.914 — the derived swiping reverses at 4.4°, the study's at 2.95° (cuts more)
-    assert STUDY_BANDS["swiping length ratio 40 mm/s"].holds(sim("swiping40", lambda: study.planned("swiping", 40.0)).metrics["length_ratio"])
+    assert STUDY_BANDS["swiping length ratio 40 mm/s"].holds(
+        sim("swiping40", lambda: study.planned("swiping", 40.0)).metrics["length_ratio"]
+    )
     for name, kw in (("semicircular", {}), ("triangular", {"angle_deg": 60.0}), ("rectangular", {}), ("spiral", {})):
         r = sim(f"{name}{kw}", lambda: study.planned(name, 40.0, **kw)).metrics["length_ratio"]
-        assert STUDY_BANDS["smooth / in-OR length ratio 40 mm/s"].holds(r), name   # study: 0.95–0.97 (see the table)
+        assert STUDY_BANDS["smooth / in-OR length ratio 40 mm/s"].holds(r), name  # study: 0.95–0.97 (see the table)
 
 
 def test_arc_off_outside_is_slower_and_leaks_inside():
@@ -125,7 +134,7 @@ def test_arc_off_outside_is_slower_and_leaks_inside():
         on = sim(f"tri45on{v}", lambda: study.planned("triangular", v, angle_deg=45.0)).metrics
         off = sim(f"tri45off{v}", lambda: study.planned("triangular", v, angle_deg=45.0, arc_outside="off")).metrics
         assert off["total_time_s"] > on["total_time_s"]
-        assert off["stops"] == on["stops"] + 8                 # 4 links × 2 boundary crossings
+        assert off["stops"] == on["stops"] + 8  # 4 links × 2 boundary crossings
         assert off["arc_off_time_inside_s"] > 0.02
         assert off["deposited_volume_mm3"] < on["deposited_volume_mm3"]
 

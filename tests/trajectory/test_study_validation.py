@@ -14,7 +14,14 @@ import pytest
 
 from waamflow.trajectory import study
 from waamflow.trajectory.calibrate import (
-    SHIPPED_FIT, evaluate_targets, fit_targets, identify_passes, stretch_time, study_cases, study_targets)
+    SHIPPED_FIT,
+    evaluate_targets,
+    fit_targets,
+    identify_passes,
+    stretch_time,
+    study_cases,
+    study_targets,
+)
 from waamflow.trajectory.profile import load_profile
 from waamflow.trajectory.simulate import SimOptions, simulate
 
@@ -70,8 +77,11 @@ def test_a_sharp_corner_costs_time_at_low_speed_too():
     slower than cruising the uncut link); without the turn-rate cap it runs faster than that."""
     res = simulate(study.triangular(10.0, 45.0, True), KUKA, SimOptions(interpolation_cycle_s=0.002))
     assert stretch_time(res, 0.0, 0.0) > 11.576 / 10.0
-    plain = simulate(study.triangular(10.0, 45.0, True), KUKA.with_values(turn_radius_mm=0.0),
-                     SimOptions(interpolation_cycle_s=0.002))
+    plain = simulate(
+        study.triangular(10.0, 45.0, True),
+        KUKA.with_values(turn_radius_mm=0.0),
+        SimOptions(interpolation_cycle_s=0.002),
+    )
     assert stretch_time(plain, 0.0, 0.0) < 0.95 * 1.2
     c = res.corners
     apex = np.isclose(c["interior_deg"], 45.0)
@@ -97,12 +107,13 @@ def test_ramps_are_asymmetric_like_the_study():
     for v in (10.0, 40.0):
         res = simulate(study.straight_line(v), KUKA, SimOptions(interpolation_cycle_s=0.002))
         from waamflow.trajectory.calibrate import accel_phases
+
         a[v] = accel_phases(res, v)
     assert a[10.0]["L_final_decel"] > 1.1 * a[10.0]["L_init_accel"]
     assert a[40.0]["L_init_accel"] > 1.03 * a[40.0]["L_final_decel"]
     acc, _, dec, _ = KUKA.ramp_limits(np.array([10.0, 25.0, 40.0, 80.0]))
     assert acc[0] != pytest.approx(dec[0], rel=0.1)
-    assert acc[3] == acc[2]                                    # clamped outside the measured speeds
+    assert acc[3] == acc[2]  # clamped outside the measured speeds
 
 
 def test_catch_up_cuts_harder_outside_after_an_arc_off_stop():
@@ -115,7 +126,7 @@ def test_catch_up_cuts_harder_outside_after_an_arc_off_stop():
     assert off["actual_length_outside_mm"] < 0.97 * on["actual_length_outside_mm"]
     assert off["actual_length_outside_mm"] < plain["actual_length_outside_mm"] - 1.0
     assert off["total_time_s"] < plain["total_time_s"]
-    assert off["total_time_s"] > on["total_time_s"]           # yet slower than arc ON throughout
+    assert off["total_time_s"] > on["total_time_s"]  # yet slower than arc ON throughout
 
 
 def test_identification_reads_the_study_quantities():
@@ -145,7 +156,7 @@ def test_strategy_geometry_follows_the_study_rules_on_any_or(size):
     rect = study.planned("rectangular", 40, size=size)
     assert length(rect) == pytest.approx(n * (L - 2 * b) + (n - 1) * W_WB + 2 * b, rel=1e-6)
     sw = study.swiping(40, size=size)
-    legs = 3 * (n - 1)                                   # advance W_WB/3 over the band (n − 1)·W_WB
+    legs = 3 * (n - 1)  # advance W_WB/3 over the band (n − 1)·W_WB
     assert len(sw.points) == legs + 1
     assert length(sw) == pytest.approx(legs * math.hypot(L - W_WB, W_WB / 3), rel=1e-9)
     for m in (rect, sw, study.planned("spiral", 40, size=size), study.reversals(40, size=size)):
@@ -159,17 +170,29 @@ def test_strategy_geometry_follows_the_study_rules_on_any_or(size):
 
 def test_published_lengths_on_the_small_or():
     """Programmed lengths the study reports for the small OR, from the rules alone."""
-    pub = {"raster": (study.raster(40), 387.910), "semicircular": (study.semicircular(40), 242.603),
-           "triangular45": (study.triangular(40, 45), 261.301), "triangular60": (study.triangular(40, 60), 250.437),
-           "rectangular": (study.planned("rectangular", 40), 217.600), "spiral": (study.planned("spiral", 40), 215.710),
-           "swiping": (study.swiping(40), 464.246)}
+    pub = {
+        "raster": (study.raster(40), 387.910),
+        "semicircular": (study.semicircular(40), 242.603),
+        "triangular45": (study.triangular(40, 45), 261.301),
+        "triangular60": (study.triangular(40, 60), 250.437),
+        "rectangular": (study.planned("rectangular", 40), 217.600),
+        "spiral": (study.planned("spiral", 40), 215.710),
+        "swiping": (study.swiping(40), 464.246),
+    }
     for name, (m, ref) in pub.items():
         assert float(m.segment_lengths.sum()) == pytest.approx(ref, rel=0.003), name
 
 
-@pytest.mark.parametrize("bad,match", [({"ramp_speeds": [40, 10]}, "ramp_speeds"), ({"ramp_speeds": [10]}, "ramp_speeds"),
-                                       ({"ramp_speeds": ["a", 2]}, "ramp_speeds"), ({"catchup": 1.5}, "catchup"),
-                                       ({"path_dec": -1.0}, "path_dec")])
+@pytest.mark.parametrize(
+    "bad,match",
+    [
+        ({"ramp_speeds": [40, 10]}, "ramp_speeds"),
+        ({"ramp_speeds": [10]}, "ramp_speeds"),
+        ({"ramp_speeds": ["a", 2]}, "ramp_speeds"),
+        ({"catchup": 1.5}, "catchup"),
+        ({"path_dec": -1.0}, "path_dec"),
+    ],
+)
 def test_bad_ramp_and_catchup_settings_name_the_key(bad, match):
     import json
 

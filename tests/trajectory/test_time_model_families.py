@@ -23,34 +23,94 @@ from waamflow.trajectory.estimate import KEYS, estimate_moves, section_strategie
 
 # (family, speed, protocol) → the synthetic robot's constants
 TRUTH = {
-    ("raster", 40, "off"): dict(T_init_accel=0.30, L_init_accel=6.0, L_decel=4.0, L_accel=4.5, T_trans=2.6,
-                                L_final_decel=5.5, T_final_decel=0.28),
-    ("triangular", 40, "off"): dict(T_init_accel=0.42, L_init_accel=7.5, L_decel=6.0, L_accel=6.5, T_trans=1.3,
-                                    L_final_decel=6.5, T_final_decel=0.36),
-    ("semicircular", 40, "off"): dict(T_init_accel=0.36, L_init_accel=6.8, L_decel=5.2, L_accel=5.0, T_trans=0.95,
-                                      L_final_decel=6.1, T_final_decel=0.33),
-    ("triangular", 40, "on"): dict(T_init_accel=0.40, L_init_accel=7.0, L_decel=5.0, L_accel=4.5, T_trans=0.85,
-                                   L_final_decel=6.5, T_final_decel=0.36),
-    ("semicircular", 40, "on"): dict(T_init_accel=0.38, L_init_accel=6.6, L_decel=2.6, L_accel=2.4, T_trans=0.42,
-                                     L_final_decel=6.2, T_final_decel=0.34),
-    ("raster", 10, "off"): dict(T_init_accel=0.25, L_init_accel=1.3, L_decel=1.0, L_accel=1.1, T_trans=8.0,
-                                L_final_decel=1.4, T_final_decel=0.30),
-    ("triangular", 10, "on"): dict(T_init_accel=0.30, L_init_accel=1.6, L_decel=1.2, L_accel=1.0, T_trans=2.0,
-                                   L_final_decel=1.8, T_final_decel=0.35),
-    ("semicircular", 10, "on"): dict(T_init_accel=0.28, L_init_accel=1.5, L_decel=0.7, L_accel=0.8, T_trans=1.1,
-                                     L_final_decel=1.7, T_final_decel=0.32),
+    ("raster", 40, "off"): dict(
+        T_init_accel=0.30,
+        L_init_accel=6.0,
+        L_decel=4.0,
+        L_accel=4.5,
+        T_trans=2.6,
+        L_final_decel=5.5,
+        T_final_decel=0.28,
+    ),
+    ("triangular", 40, "off"): dict(
+        T_init_accel=0.42,
+        L_init_accel=7.5,
+        L_decel=6.0,
+        L_accel=6.5,
+        T_trans=1.3,
+        L_final_decel=6.5,
+        T_final_decel=0.36,
+    ),
+    ("semicircular", 40, "off"): dict(
+        T_init_accel=0.36,
+        L_init_accel=6.8,
+        L_decel=5.2,
+        L_accel=5.0,
+        T_trans=0.95,
+        L_final_decel=6.1,
+        T_final_decel=0.33,
+    ),
+    ("triangular", 40, "on"): dict(
+        T_init_accel=0.40,
+        L_init_accel=7.0,
+        L_decel=5.0,
+        L_accel=4.5,
+        T_trans=0.85,
+        L_final_decel=6.5,
+        T_final_decel=0.36,
+    ),
+    ("semicircular", 40, "on"): dict(
+        T_init_accel=0.38,
+        L_init_accel=6.6,
+        L_decel=2.6,
+        L_accel=2.4,
+        T_trans=0.42,
+        L_final_decel=6.2,
+        T_final_decel=0.34,
+    ),
+    ("raster", 10, "off"): dict(
+        T_init_accel=0.25,
+        L_init_accel=1.3,
+        L_decel=1.0,
+        L_accel=1.1,
+        T_trans=8.0,
+        L_final_decel=1.4,
+        T_final_decel=0.30,
+    ),
+    ("triangular", 10, "on"): dict(
+        T_init_accel=0.30,
+        L_init_accel=1.6,
+        L_decel=1.2,
+        L_accel=1.0,
+        T_trans=2.0,
+        L_final_decel=1.8,
+        T_final_decel=0.35,
+    ),
+    ("semicircular", 10, "on"): dict(
+        T_init_accel=0.28,
+        L_init_accel=1.5,
+        L_decel=0.7,
+        L_accel=0.8,
+        T_trans=1.1,
+        L_final_decel=1.7,
+        T_final_decel=0.32,
+    ),
 }
 STRATEGY = {"raster": "raster", "triangular": "triangular45", "semicircular": "semicircular"}
 
 
 def _section(fam, v, prot, dy):
     on = prot == "on"
-    mv = {"raster": lambda: study.raster(v), "triangular": lambda: study.triangular(v, 45.0, on),
-          "semicircular": lambda: study.semicircular(v, on)}[fam]()
+    mv = {
+        "raster": lambda: study.raster(v),
+        "triangular": lambda: study.triangular(v, 45.0, on),
+        "semicircular": lambda: study.semicircular(v, on),
+    }[fam]()
     pts = mv.points.copy()
     pts[:, 1] += dy
-    return SectionPath(key=fam, strategy=STRATEGY[fam], points=pts, arc=mv.arc.copy(), inside=mv.inside.copy(),
-                       speed=mv.speed.copy())
+    return SectionPath(
+        key=fam, strategy=STRATEGY[fam], points=pts, arc=mv.arc.copy(), inside=mv.inside.copy(), speed=mv.speed.copy()
+    )
 
 
 def program(v, prot, families):
@@ -76,15 +136,21 @@ def _section_phases(TS, p, on, passes_len, links):
         if on:
             vm = brentq(lambda v: (Ld + La) / (v + (TS - v) / 4) + link / v - Tt, 1e-3, TS)
             td, ta, tl = Ld / (vm + (TS - vm) / 4), La / (vm + (TS - vm) / 4), link / vm
-            ph += [(td, lambda t, td=td, vm=vm: vm + (TS - vm) * (1 - t / td) ** 3), (tl, lambda t, vm=vm: vm + 0.0 * t),
-                   (ta, lambda t, ta=ta, vm=vm: vm + (TS - vm) * (t / ta) ** 3)]
+            ph += [
+                (td, lambda t, td=td, vm=vm: vm + (TS - vm) * (1 - t / td) ** 3),
+                (tl, lambda t, vm=vm: vm + 0.0 * t),
+                (ta, lambda t, ta=ta, vm=vm: vm + (TS - vm) * (t / ta) ** 3),
+            ]
         else:
             td, ta = 2 * Ld / TS, 2 * La / TS
             tl = Tt - td - ta
             vc = math.pi * link / (2 * tl)
-            assert vc < 0.95 * TS          # the link never runs at the pass's constant speed
-            ph += [(td, lambda t, td=td: TS * (1 - t / td)), (tl, lambda t, tl=tl, vc=vc: vc * np.sin(np.pi * t / tl)),
-                   (ta, lambda t, ta=ta: TS * t / ta)]
+            assert vc < 0.95 * TS  # the link never runs at the pass's constant speed
+            ph += [
+                (td, lambda t, td=td: TS * (1 - t / td)),
+                (tl, lambda t, tl=tl, vc=vc: vc * np.sin(np.pi * t / tl)),
+                (ta, lambda t, ta=ta: TS * t / ta),
+            ]
     ph.append((Tf, lambda t: TS * np.clip(1 - t / Tf, 0, 1) ** qf))
     return ph
 
@@ -106,8 +172,8 @@ def synthetic_trace(mv, truth_of, cycle=0.012, t0=0.0053):
         dep = idx[mv.kind[idx] == DEPOSIT]
         passes = _section_passes(mv, dep, 1.0, 10.0)
         TS, p, on = truth_of(int(sec))
-        plen = [float(L[a:b + 1].sum()) for a, b in passes]
-        links = [float(L[b0 + 1:a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
+        plen = [float(L[a : b + 1].sum()) for a, b in passes]
+        links = [float(L[b0 + 1 : a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
         sp = _section_phases(TS, p, on, plen, links)
         motion.append(sum(d for d, _ in sp))
         ph += sp + [(0.1, lambda t: 0.0 * t)]
@@ -121,19 +187,25 @@ def synthetic_trace(mv, truth_of, cycle=0.012, t0=0.0053):
     v = np.concatenate(vs)[keep]
     s = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
     cum = np.concatenate([[0.0], np.cumsum(L)])
-    assert s[-1] == pytest.approx(cum[-1], abs=5e-3)            # the phases cover the programmed path
+    assert s[-1] == pytest.approx(cum[-1], abs=5e-3)  # the phases cover the programmed path
     tm = np.arange(t0, t[-1], cycle)
     sm, vm = np.interp(tm, t, s), np.interp(tm, t, v)
     P = mv.points
     xyz = np.column_stack([np.interp(sm, cum, P[:, i]) for i in range(3)])
     seg = np.clip(np.searchsorted(cum, sm, side="right") - 1, 0, len(cum) - 2)
-    rows = "".join(f"{a:.4f},{b:.4f},{c:.4f},{d:.4f},{e:.3f},{int(f)}\n"
-                   for a, b, c, d, e, f in zip(tm, xyz[:, 0], xyz[:, 1], xyz[:, 2], vm, mv.arc[seg]))
+    rows = "".join(
+        f"{a:.4f},{b:.4f},{c:.4f},{d:.4f},{e:.3f},{int(f)}\n"
+        for a, b, c, d, e, f in zip(tm, xyz[:, 0], xyz[:, 1], xyz[:, 2], vm, mv.arc[seg])
+    )
     return "t,x,y,z,speed,arc\n" + rows, motion
 
 
-CASES = [(40, "off", ("raster", "triangular", "semicircular")), (40, "on", ("triangular", "semicircular")),
-         (10, "off", ("raster",)), (10, "on", ("triangular", "semicircular"))]
+CASES = [
+    (40, "off", ("raster", "triangular", "semicircular")),
+    (40, "on", ("triangular", "semicircular")),
+    (10, "off", ("raster",)),
+    (10, "on", ("triangular", "semicircular")),
+]
 
 
 @pytest.mark.parametrize("v, prot, families", CASES)
@@ -173,7 +245,7 @@ def test_raster_returns_are_not_read_as_passes(v):
     tm, _ = identify_time_model(mv, read_trace_csv(trace_csv(res)), ("raster",))
     ent = tm[f"{v}_off_raster"]
     assert ent["L_trans_ref"] == pytest.approx(math.hypot(43.0, study.W_WB), abs=1e-3)
-    assert ent["T_trans"] > math.hypot(43.0, study.W_WB) / v          # the return takes at least its length at TS
+    assert ent["T_trans"] > math.hypot(43.0, study.W_WB) / v  # the return takes at least its length at TS
     est = estimate_moves(mv, tm, 100.0, strategies=("raster",)).total_time_s
     assert est == pytest.approx(res.metrics["total_time_s"], rel=0.005)
 
@@ -203,9 +275,20 @@ def test_shipped_family_entries_are_the_models_reading():
     fresh = family_time_model(krc2)
     for name in ("kuka_kr100ha_krc2", "kuka_kr100ha_krc4"):
         tm = load_profile(name).time_model
-        assert {k for k in tm if k.count("_") == 2} == set(fresh) == {
-            "10_off_raster", "40_off_raster", "10_on_semicircular", "40_on_semicircular", "10_off_semicircular",
-            "40_off_semicircular", "10_on_rectangular", "40_on_rectangular"}
+        assert (
+            {k for k in tm if k.count("_") == 2}
+            == set(fresh)
+            == {
+                "10_off_raster",
+                "40_off_raster",
+                "10_on_semicircular",
+                "40_on_semicircular",
+                "10_off_semicircular",
+                "40_off_semicircular",
+                "10_on_rectangular",
+                "40_on_rectangular",
+            }
+        )
         for key, ent in fresh.items():
             for k in (*KEYS, "L_trans_ref"):
                 assert tm[key][k] == pytest.approx(ent[k], abs=2e-6), (name, key, k)
@@ -215,8 +298,9 @@ def test_shipped_family_entries_are_the_models_reading():
                 assert tm[key][k] == ent[k]
 
 
-@pytest.mark.parametrize("fam, prot", [("raster", "off"), ("semicircular", "on"), ("semicircular", "off"),
-                                       ("rectangular", "on")])
+@pytest.mark.parametrize(
+    "fam, prot", [("raster", "off"), ("semicircular", "on"), ("semicircular", "off"), ("rectangular", "on")]
+)
 def test_family_entries_predict_the_large_or(fam, prot):
     """Held out: the entries were read on the small OR only; on the large OR (43 × 86 mm, 10
     passes) the closed form with the family's entries gives the model's time within 0.5 % at 10
@@ -250,10 +334,12 @@ def test_estimate_time_of_raster_against_the_study():
     got = json.loads(r.artifacts["est.estimate.json"])
     assert got["total_time_s"] == pytest.approx(study.CALIBRATION["raster"]["total_time_s"], rel=0.02)
     assert got["passes"] == 5 and got["notes"] == []
-    sim = run([{"id": "sim", "type": "simulate-robot", "params": {"kinematics": False}}],
-              [("strategy.toolpath", "sim.toolpath")]).outputs["sim"]["simulation"]
+    sim = run(
+        [{"id": "sim", "type": "simulate-robot", "params": {"kinematics": False}}],
+        [("strategy.toolpath", "sim.toolpath")],
+    ).outputs["sim"]["simulation"]
     # simulate-robot's estimate beside the simulation uses the section's family as well
-    assert sim.estimate["total_time_s"] == pytest.approx(got["total_time_s"], abs=1e-6)   # the JSON rounds to 1 µs
+    assert sim.estimate["total_time_s"] == pytest.approx(got["total_time_s"], abs=1e-6)  # the JSON rounds to 1 µs
 
 
 def test_calibrate_robot_writes_each_familys_constants_and_estimate_time_uses_them(tmp_path):
@@ -267,18 +353,46 @@ def test_calibrate_robot_writes_each_familys_constants_and_estimate_time_uses_th
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import parse_recipe
 
-    nodes = [{"id": "or", "type": "rectangle", "params": {"length": 43, "width": 43, "layer_count": 1}},
-             {"id": "mask", "type": "mask", "params": {"masks": [{"id": "bs1", "sections": [
-                 {"id": "A", "curve": [[-1, -1], [44, -1], [44, 21.5], [-1, 21.5]]},
-                 {"id": "B", "curve": [[-1, 21.5], [44, 21.5], [44, 44], [-1, 44]]}]}]}},
-             {"id": "strategy", "type": "strategy", "params": {
-                 "default": {"pattern": "raster", "speed": 40},
-                 "sections": {"bs1/B": {"pattern": "triangular", "angle_deg": 45, "speed": 40, "arc_outside": "off"}}}}]
+    nodes = [
+        {"id": "or", "type": "rectangle", "params": {"length": 43, "width": 43, "layer_count": 1}},
+        {
+            "id": "mask",
+            "type": "mask",
+            "params": {
+                "masks": [
+                    {
+                        "id": "bs1",
+                        "sections": [
+                            {"id": "A", "curve": [[-1, -1], [44, -1], [44, 21.5], [-1, 21.5]]},
+                            {"id": "B", "curve": [[-1, 21.5], [44, 21.5], [44, 44], [-1, 44]]},
+                        ],
+                    }
+                ]
+            },
+        },
+        {
+            "id": "strategy",
+            "type": "strategy",
+            "params": {
+                "default": {"pattern": "raster", "speed": 40},
+                "sections": {"bs1/B": {"pattern": "triangular", "angle_deg": 45, "speed": 40, "arc_outside": "off"}},
+            },
+        },
+    ]
     edges = [("or.layers", "mask.layers"), ("mask.sections", "strategy.sections")]
 
     def recipe(extra, extra_edges):
-        return build_graph(parse_recipe({"format": "waamflow/1", "name": "fam", "inputs": {}, "nodes": nodes + extra,
-                                         "edges": [{"from": a, "to": b} for a, b in edges + extra_edges]}))
+        return build_graph(
+            parse_recipe(
+                {
+                    "format": "waamflow/1",
+                    "name": "fam",
+                    "inputs": {},
+                    "nodes": nodes + extra,
+                    "edges": [{"from": a, "to": b} for a, b in edges + extra_edges],
+                }
+            )
+        )
 
     probe = execute(recipe([], []), resolver=FileResolver(tmp_path))
     tp = probe.outputs["strategy"]["toolpath"]
@@ -287,8 +401,13 @@ def test_calibrate_robot_writes_each_familys_constants_and_estimate_time_uses_th
     assert fams == ["raster", "triangular"]
     text, motion = synthetic_trace(mv, lambda sec: (40.0, TRUTH[(fams[sec], 40, "off")], False))
     (tmp_path / "m.csv").write_text(text)
-    r = execute(recipe([{"id": "cal", "type": "calibrate-robot", "params": {"trace": "m.csv", "fit": []}}],
-                       [("strategy.toolpath", "cal.toolpath")]), resolver=FileResolver(tmp_path))
+    r = execute(
+        recipe(
+            [{"id": "cal", "type": "calibrate-robot", "params": {"trace": "m.csv", "fit": []}}],
+            [("strategy.toolpath", "cal.toolpath")],
+        ),
+        resolver=FileResolver(tmp_path),
+    )
     prof = json.loads(r.artifacts["cal.profile.json"])
     assert sorted(prof["time_model"]) == ["40_off_raster", "40_off_triangular"]
     for f in ("raster", "triangular"):
@@ -297,9 +416,11 @@ def test_calibrate_robot_writes_each_familys_constants_and_estimate_time_uses_th
     (tmp_path / "own.json").write_text(r.artifacts["cal.profile.json"].decode())
     times = {}
     for name, params in (("own", {"profile_file": "own.json", "travel_speed": 50}), ("kuka", {"travel_speed": 50})):
-        e = execute(recipe([{"id": "est", "type": "estimate-time", "params": params}],
-                           [("strategy.toolpath", "est.toolpath")]), resolver=FileResolver(tmp_path))
+        e = execute(
+            recipe([{"id": "est", "type": "estimate-time", "params": params}], [("strategy.toolpath", "est.toolpath")]),
+            resolver=FileResolver(tmp_path),
+        )
         times[name] = json.loads(e.artifacts["est.estimate.json"])["total_time_s"]
-    travel = float(mv.segment_lengths[mv.kind != DEPOSIT].sum()) / 50.0     # the estimate's travel at 50 mm/s
+    travel = float(mv.segment_lengths[mv.kind != DEPOSIT].sum()) / 50.0  # the estimate's travel at 50 mm/s
     assert times["own"] == pytest.approx(sum(motion) + travel, rel=0.01)
     assert abs(times["kuka"] - (sum(motion) + travel)) / (sum(motion) + travel) > 0.05

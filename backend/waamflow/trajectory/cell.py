@@ -25,7 +25,7 @@ from ..core.files import read_shipped
 from .kinematics import CellFrames
 from .profile import ROBOTS_DIR
 
-if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+if TYPE_CHECKING:  # imported where used: keeps `waamflow nodes` light
     import pinocchio as pin
 
 CELLS_DIR = Path(__file__).resolve().parent.parent / "data" / "cells"
@@ -53,12 +53,17 @@ class Shape(_Strict):
 
     name: str = Field(..., min_length=1, max_length=64)
     kind: Literal["box", "cylinder", "mesh"]
-    size_mm: Vec3 = Field((1.0, 1.0, 1.0), description="box: x, y, z extents; cylinder: radius, radius, length; "
-                                                        "mesh: scale factors")
+    size_mm: Vec3 = Field(
+        (1.0, 1.0, 1.0), description="box: x, y, z extents; cylinder: radius, radius, length; mesh: scale factors"
+    )
     xyz_mm: Vec3 = (0.0, 0.0, 0.0)
     rpy_deg: Vec3 = Field((0.0, 0.0, 0.0), description="Fixed-axis roll, pitch, yaw (deg)")
-    link: str = Field("", max_length=64, description="Frame the shape is fixed to: '' = world (fixtures) or the "
-                                                     "positioner flange (positioner shapes); or a positioner link")
+    link: str = Field(
+        "",
+        max_length=64,
+        description="Frame the shape is fixed to: '' = world (fixtures) or the "
+        "positioner flange (positioner shapes); or a positioner link",
+    )
     mesh: str = Field("", max_length=256, description="kind mesh: file next to the cell file (or in data/cells)")
 
     @model_validator(mode="after")
@@ -93,16 +98,21 @@ class Positioner(_Strict):
     urdf: str = Field(..., min_length=1, max_length=128, description="URDF in data/robots")
     flange: str = Field("table_top", min_length=1, max_length=64)
     base: Placement = Placement()
-    fixed_deg: list[float] = Field(default_factory=list, max_length=2,
-                                   description="Axis angles for the `fixed` policy (E1 tilt, E2 rotate; empty = 0)")
-    shapes: list[Shape] = Field(default_factory=list,
-                                description="The positioner's moving bodies (table disc, tilt frame), "
-                                            "collision-checked and drawn; flange frame unless `link` names another")
+    fixed_deg: list[float] = Field(
+        default_factory=list,
+        max_length=2,
+        description="Axis angles for the `fixed` policy (E1 tilt, E2 rotate; empty = 0)",
+    )
+    shapes: list[Shape] = Field(
+        default_factory=list,
+        description="The positioner's moving bodies (table disc, tilt frame), "
+        "collision-checked and drawn; flange frame unless `link` names another",
+    )
 
     @model_validator(mode="before")
     @classmethod
     def _migrate(cls, data):
-        if isinstance(data, dict) and "shapes" not in data:   # cells before the table was a shape
+        if isinstance(data, dict) and "shapes" not in data:  # cells before the table was a shape
             data = {**data, "shapes": [dict(LEGACY_TABLE)]}
         return data
 
@@ -114,26 +124,33 @@ class Cell(_Strict):
     source: str = Field("", description="Where the kinematic numbers come from (datasheet, URDF)")
     robot_urdf: str = Field(..., min_length=1, max_length=128, description="Arm URDF in data/robots")
     robot_base: Placement = Placement(xyz_mm=(-1500.0, 0.0, -600.0))
-    robot_home_deg: list[float] | None = Field(None, min_length=6, max_length=6,
-                                               description="IK seed pose of the arm (deg; empty = 0 −90 90 0 90 0, "
-                                                           "the KUKA upright pose with the wrist down)")
+    robot_home_deg: list[float] | None = Field(
+        None,
+        min_length=6,
+        max_length=6,
+        description="IK seed pose of the arm (deg; empty = 0 −90 90 0 90 0, the KUKA upright pose with the wrist down)",
+    )
     tool: Tool = Tool()
     positioner: Positioner | None = None
     work_frame: Placement = Field(Placement(), description="Part origin on the positioner flange (or in the world)")
-    fixtures: list[Shape] = Field(default_factory=list,
-                                  description="Table, pedestal, floor and fixtures: in the world frame, or fixed to "
-                                              "a positioner link (`link`), turning with it")
+    fixtures: list[Shape] = Field(
+        default_factory=list,
+        description="Table, pedestal, floor and fixtures: in the world frame, or fixed to "
+        "a positioner link (`link`), turning with it",
+    )
     _meshes: dict = PrivateAttr(default_factory=dict)
 
     @model_validator(mode="after")
     def _links_exist(self):
         if self.positioner is not None and not _urdf_path(self.positioner.urdf).exists():
-            return self                                   # named when the positioner is first used
+            return self  # named when the positioner is first used
         links = {"", *(positioner_kin(self.positioner.urdf).links if self.positioner is not None else ())}
         for sh in [*self.fixtures, *(self.positioner.shapes if self.positioner else [])]:
             if sh.link not in links:
-                raise ValueError(f"shape {sh.name!r}: link {sh.link!r} is not a positioner link "
-                                 f"({', '.join(sorted(links - {''})) or 'no positioner'})")
+                raise ValueError(
+                    f"shape {sh.name!r}: link {sh.link!r} is not a positioner link "
+                    f"({', '.join(sorted(links - {''})) or 'no positioner'})"
+                )
         return self
 
     # ---- positioner ------------------------------------------------------------------------
@@ -182,10 +199,12 @@ class Cell(_Strict):
     def frames(self, angles_deg=None) -> CellFrames:
         """Kinematics frames with the part on the positioner flange at the given (or fixed) angles."""
         Rw, tw = self.work_pose(angles_deg)
-        return CellFrames(base_xyz_mm=xyz3(self.robot_base.xyz_mm),
-                          base_yaw_deg=self.robot_base.yaw_deg,
-                          work_xyz_mm=xyz3(tw),
-                          work_rot=tuple(xyz3(row) for row in Rw))
+        return CellFrames(
+            base_xyz_mm=xyz3(self.robot_base.xyz_mm),
+            base_yaw_deg=self.robot_base.yaw_deg,
+            work_xyz_mm=xyz3(tw),
+            work_rot=tuple(xyz3(row) for row in Rw),
+        )
 
     # ---- shapes ------------------------------------------------------------------------------
     def load_meshes(self, read_bytes=None) -> "Cell":
@@ -200,8 +219,9 @@ class Cell(_Strict):
 
             try:
                 data = read_bytes(sh.mesh) if read_bytes else (CELLS_DIR / Path(sh.mesh).name).read_bytes()
-                m: Any = trimesh.load(io.BytesIO(data), file_type=Path(sh.mesh).suffix.lstrip(".").lower() or "stl",
-                                 force="mesh")
+                m: Any = trimesh.load(
+                    io.BytesIO(data), file_type=Path(sh.mesh).suffix.lstrip(".").lower() or "stl", force="mesh"
+                )
             except Exception as e:
                 raise InputFileError(f"cell {self.name}: shape {sh.name!r}: mesh {sh.mesh!r}: {e}") from e
             if len(m.faces) == 0:
@@ -232,9 +252,13 @@ def rpy_matrix(rpy_deg) -> np.ndarray:
     """Fixed-axis roll (x), pitch (y), yaw (z), degrees → R = Rz·Ry·Rx (the URDF convention)."""
     r, p, y = np.radians(np.asarray(rpy_deg, float))
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,8 +309,14 @@ def positioner_kin(urdf: str) -> PositionerKin:
         raise InputFileError(f"positioner description {urdf}: {model.nq} axes (1 or 2 revolute axes supported)")
     names = tuple(model.names[j] for j in range(1, model.njoints))
     links = tuple(f.name for f in model.frames if f.type == pin.FrameType.BODY)
-    return PositionerKin(model, names, np.degrees(model.lowerPositionLimit), np.degrees(model.upperPositionLimit),
-                         np.degrees(model.velocityLimit), links)
+    return PositionerKin(
+        model,
+        names,
+        np.degrees(model.lowerPositionLimit),
+        np.degrees(model.upperPositionLimit),
+        np.degrees(model.velocityLimit),
+        links,
+    )
 
 
 def _rz(deg: float) -> np.ndarray:
@@ -295,14 +325,15 @@ def _rz(deg: float) -> np.ndarray:
 
 
 def _urdf_path(name: str) -> Path:
-    return ROBOTS_DIR / Path(name).name          # shipped descriptions only: a cell never reads arbitrary paths
+    return ROBOTS_DIR / Path(name).name  # shipped descriptions only: a cell never reads arbitrary paths
 
 
 def _positioner_model(urdf: str):
     import pinocchio as pin
 
-    text = read_shipped(ROBOTS_DIR, _urdf_path(urdf).name, "positioner description",
-                        sorted(p.name for p in ROBOTS_DIR.glob("*.urdf"))).decode("utf-8")
+    text = read_shipped(
+        ROBOTS_DIR, _urdf_path(urdf).name, "positioner description", sorted(p.name for p in ROBOTS_DIR.glob("*.urdf"))
+    ).decode("utf-8")
     try:
         return pin.buildModelFromXML(text)
     except Exception as e:
@@ -323,6 +354,7 @@ def cell_schema() -> dict:
         if isinstance(node, list):
             return [inline(v) for v in node]
         return node
+
     return inline(raw)
 
 
@@ -333,9 +365,8 @@ def shipped_cells() -> list[str]:
 def load_cell(name_or_path: str, text: str | None = None) -> Cell:
     """A shipped cell by name, or a cell JSON's text (a user's file read by the caller).
     Errors name the file and field."""
-    if text is None:   # a shipped name, never a path (core.files)
-        text = read_shipped(CELLS_DIR, f"{name_or_path}.json", "cell", shipped_cells(),
-                            limit=5_000_000).decode("utf-8")
+    if text is None:  # a shipped name, never a path (core.files)
+        text = read_shipped(CELLS_DIR, f"{name_or_path}.json", "cell", shipped_cells(), limit=5_000_000).decode("utf-8")
     try:
         return Cell.model_validate(json.loads(text))
     except json.JSONDecodeError as e:
@@ -354,8 +385,9 @@ def positioner_angles(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: fl
     return plan_positioner(cell, moves, policy, max_tilt_deg)[0]
 
 
-def positioner_and_torch(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0, limits=None
-                         ) -> tuple[np.ndarray, np.ndarray]:
+def positioner_and_torch(
+    cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0, limits=None
+) -> tuple[np.ndarray, np.ndarray]:
     """What a program on this cell must carry: the positioner angles (n, axes) deg and the
     part-frame torch axes (n, 3) — the toolpath's own, or under `auto` the plan's, with the torch
     lean it chose on the layers that needed one (a program written with the toolpath's axes there
@@ -365,8 +397,9 @@ def positioner_and_torch(cell: Cell, moves, policy: str = "fixed", max_tilt_deg:
     return plan_positioner(cell, moves, policy, max_tilt_deg)[0], np.asarray(moves.tool_axis, float)
 
 
-def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def plan_positioner(
+    cell: Cell, moves, policy: str = "fixed", max_tilt_deg: float = 30.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Positioner angles (deg) at every programmed point, (n, axes) — E1 (tilt), E2 (rotate) for
     the usual 2-axis positioner, E1 alone for a 1-axis one — and per point whether the policy's
     angle lay outside an axis limit and was clipped into it (n,) bool.
@@ -421,7 +454,7 @@ def plan_positioner(cell: Cell, moves, policy: str = "fixed", max_tilt_deg: floa
                 continue
         sols = [np.degrees(s) for s in _gravity_solutions(w, R0 @ nrm, up)]
         if len(sols) == 1 and m == 2 and np.linalg.norm(np.cross(R0 @ nrm, w[1])) < 1e-6:
-            sols[0][1] = prev[1]                              # n along the turntable axis: E2 free, kept
+            sols[0][1] = prev[1]  # n along the turntable axis: E2 free, kept
         prev, out = _nearest(sols, prev, lo, hi)
         layer_angles[L] = (prev, out)
     ang = np.zeros((n, m))
@@ -466,18 +499,18 @@ def _gravity_solutions(w: np.ndarray, p: np.ndarray, q: np.ndarray) -> list[np.n
     if len(w) == 1:
         return [np.array([_sp1(w[0], p, q)])]
     w1, w2 = w
-    if np.linalg.norm(np.cross(p, w2)) < 1e-6:               # p along the turntable axis: E2 free
+    if np.linalg.norm(np.cross(p, w2)) < 1e-6:  # p along the turntable axis: E2 free
         return [np.array([_sp1(w1, p, q), 0.0])]
     c12 = float(w1 @ w2)
     den = c12 * c12 - 1.0
-    if abs(den) < 1e-12:                                       # parallel axes: one effective axis
+    if abs(den) < 1e-12:  # parallel axes: one effective axis
         return [np.array([_sp1(w1, p, q), 0.0])]
     al = (c12 * (w2 @ p) - w1 @ q) / den
     be = (c12 * (w1 @ q) - w2 @ p) / den
     nn = np.cross(w1, w2)
     g2 = (p @ p - al * al - be * be - 2 * al * be * c12) / (nn @ nn)
     out = []
-    for g in ([math.sqrt(g2), -math.sqrt(g2)] if g2 > 1e-12 else [0.0]):
+    for g in [math.sqrt(g2), -math.sqrt(g2)] if g2 > 1e-12 else [0.0]:
         c = al * w1 + be * w2 + g * nn
         out.append(np.array([_sp1(w1, c, q), _sp1(w2, p, c)]))
     return out
@@ -515,14 +548,20 @@ def to_world(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.nd
     bounds = np.searchsorted(inv.ravel()[order], np.arange(len(uniq) + 1))
     for j, a in enumerate(uniq):
         R, t = cell.work_pose(a)
-        m = order[bounds[j]:bounds[j + 1]]
+        m = order[bounds[j] : bounds[j + 1]]
         pts[m] = P[m] @ R.T + t
         ax[m] = A[m] @ R.T
     return pts, ax
 
 
-def coordinated_samples(cell: Cell, points: np.ndarray, axes: np.ndarray, angles_deg: np.ndarray,
-                        step_mm: float = 5.0, step_deg: float = 1.0):
+def coordinated_samples(
+    cell: Cell,
+    points: np.ndarray,
+    axes: np.ndarray,
+    angles_deg: np.ndarray,
+    step_mm: float = 5.0,
+    step_deg: float = 1.0,
+):
     """IK samples of a coordinated move (KUKA/ABB coordinated motion: the TCP moves linearly in the
     part frame while the external axes interpolate linearly between targets). Each programmed
     segment gets ceil(max(L/step_mm, |Δangle|/step_deg, |Δtorch axis|/step_deg)) samples

@@ -37,8 +37,8 @@ import numpy as np
 from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin, xyz3
 from .collide import BEAD_HALF_MM
 
-PLAN_LIMIT_MARGIN_DEG = 2.0      # a planned pose keeps every arm joint this far inside its limits
-PLAN_CLEARANCE_MM = 2.0          # ... and every body this far from the others
+PLAN_LIMIT_MARGIN_DEG = 2.0  # a planned pose keeps every arm joint this far inside its limits
+PLAN_CLEARANCE_MM = 2.0  # ... and every body this far from the others
 LEAN_STEP_DEG = 5.0
 E2_STEPS_DEG = tuple(d for k in range(1, 13) for d in (15.0 * k, -15.0 * k))
 RISERS_MM = (50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 400.0)
@@ -69,8 +69,15 @@ class AutoPlan:
     suggestions: list[dict] = field(default_factory=list)
 
     def report(self, limits: AutoLimits) -> dict:
-        return {"policy": "auto", "max_lean_deg": limits.max_lean_deg, "flat_tol_deg": limits.flat_tol_deg,
-                "ok": self.ok, "failed": self.failed, "layers": self.layers, "suggestions": self.suggestions}
+        return {
+            "policy": "auto",
+            "max_lean_deg": limits.max_lean_deg,
+            "flat_tol_deg": limits.flat_tol_deg,
+            "ok": self.ok,
+            "failed": self.failed,
+            "layers": self.layers,
+            "suggestions": self.suggestions,
+        }
 
 
 def _lean_rot(lean_deg: float, dir_deg: float) -> np.ndarray:
@@ -78,22 +85,31 @@ def _lean_rot(lean_deg: float, dir_deg: float) -> np.ndarray:
     if lean_deg == 0:
         return np.eye(3)
     a = math.radians(dir_deg)
-    k = np.array([-math.sin(a), math.cos(a), 0.0])        # rotation axis ⟂ to the lean direction
+    k = np.array([-math.sin(a), math.cos(a), 0.0])  # rotation axis ⟂ to the lean direction
     th = math.radians(lean_deg)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + math.sin(th) * K + (1 - math.cos(th)) * K @ K
 
 
 class _Planner:
-    def __init__(self, cell: Cell, moves, arm, limits: AutoLimits, step_mm: float, step_deg: float,
-                 collision_step_mm: float, collisions: bool):
+    def __init__(
+        self,
+        cell: Cell,
+        moves,
+        arm,
+        limits: AutoLimits,
+        step_mm: float,
+        step_deg: float,
+        collision_step_mm: float,
+        collisions: bool,
+    ):
         from .collide import layer_boxes
 
         self.cell, self.moves, self.arm, self.lim = cell, moves, arm, limits
         self.step_mm, self.step_deg, self.col_step, self.collisions = step_mm, step_deg, collision_step_mm, collisions
         self.m = cell.axes
         pos = cell.positioner
-        if pos is None:     # plan_auto keeps a cell without a positioner at its fixed angles
+        if pos is None:  # plan_auto keeps a cell without a positioner at its fixed angles
             raise ValueError(f"cell {cell.name}: the auto plan needs a positioner")
         pk = positioner_kin(pos.urdf)
         self.lo, self.hi = pk.lower_deg, pk.upper_deg
@@ -125,7 +141,11 @@ class _Planner:
         v = np.empty(len(c))
         for j in range(len(c)):
             k0 = round((prev[j] - c[j]) / 360.0)
-            ok = [c[j] + 360.0 * k for k in (k0 - 1, k0, k0 + 1) if self.lo[j] - 1e-7 <= c[j] + 360.0 * k <= self.hi[j] + 1e-7]
+            ok = [
+                c[j] + 360.0 * k
+                for k in (k0 - 1, k0, k0 + 1)
+                if self.lo[j] - 1e-7 <= c[j] + 360.0 * k <= self.hi[j] + 1e-7
+            ]
             if not ok:
                 return None
             v[j] = min(ok, key=lambda o: abs(o - prev[j]))
@@ -168,11 +188,15 @@ class _Planner:
         for k, e in enumerate(grav):
             if fresh(e, 0.0, 0.0):
                 yield "gravity", e, 0.0, 0.0, "layer flat" + (" (other branch)" if k else "")
-        if last and last["stage"] != "gravity" and grav:          # what worked on the layer before
+        if last and last["stage"] != "gravity" and grav:  # what worked on the layer before
             e = base.copy()
             if last["stage"] == "tilt-relax":
                 e[0] = base[0] + last["relax_deg"]
-            if self.inside(e) and self.tilt(e, n) <= lim.flat_tol_deg + 1e-6 and fresh(e, last["lean_deg"], last["lean_dir_deg"]):
+            if (
+                self.inside(e)
+                and self.tilt(e, n) <= lim.flat_tol_deg + 1e-6
+                and fresh(e, last["lean_deg"], last["lean_dir_deg"])
+            ):
                 yield last["stage"], e, last["lean_deg"], last["lean_dir_deg"], f"as the previous layer: {last['note']}"
         leans = [LEAN_STEP_DEG * k for k in range(1, int(lim.max_lean_deg / LEAN_STEP_DEG + 1e-9) + 1)]
         if lim.max_lean_deg not in leans and lim.max_lean_deg > 0:
@@ -203,11 +227,17 @@ class _Planner:
                 e[0] = base[0] + sgn * r
                 if not self.inside(e) or self.tilt(e, n) > lim.flat_tol_deg + 1e-6:
                     continue
-                for lean in [0.0, *leans[-1:]]:                # with the torch upright or leaned the most
-                    for d in (dirs if lean else (0.0,)):
+                for lean in [0.0, *leans[-1:]]:  # with the torch upright or leaned the most
+                    for d in dirs if lean else (0.0,):
                         if fresh(e, lean, d):
-                            yield ("tilt-relax", e, lean, d,
-                                   f"tilt {sgn * r:+g}° off flat" + (f", torch leaned {lean:g}° towards {d:g}°" if lean else ""))
+                            yield (
+                                "tilt-relax",
+                                e,
+                                lean,
+                                d,
+                                f"tilt {sgn * r:+g}° off flat"
+                                + (f", torch leaned {lean:g}° towards {d:g}°" if lean else ""),
+                            )
 
     # ---- verification ----------------------------------------------------------------------
     def check(self, a: int, b: int, e, lean: float, d: float, q_seed, first=None):
@@ -222,14 +252,14 @@ class _Planner:
 
         cell = self.cell
         R, t = cell.work_pose(e)
-        ax = self.A[a: b + 1] @ (R.T @ _lean_rot(lean, d) @ R).T
+        ax = self.A[a : b + 1] @ (R.T @ _lean_rot(lean, d) @ R).T
         ang = np.tile(e, (b - a + 1, 1))
         if first is not None:
             e0, lean0, d0 = first
             R0 = cell.work_pose(e0)[0]
             ang[0] = e0
             ax[0] = (R0.T @ _lean_rot(lean0, d0) @ R0) @ self.A[a]
-        s, xyz, axw, sg, angs = coordinated_samples(cell, self.P[a: b + 1], ax, ang, self.step_mm, self.step_deg)
+        s, xyz, axw, sg, angs = coordinated_samples(cell, self.P[a : b + 1], ax, ang, self.step_mm, self.step_deg)
         frames = CellFrames(base_xyz_mm=xyz3(cell.robot_base.xyz_mm), base_yaw_deg=cell.robot_base.yaw_deg)
         ks = solve_samples(self.arm, s, xyz, sg, axw, b - a, frames, q_seed=q_seed, stop_unreachable=True)
         unreach = int(np.count_nonzero(ks.reach_err > REACH_TOL_MM))
@@ -244,12 +274,28 @@ class _Planner:
                 if key not in poses:
                     poses[key] = (*cell.work_pose(np.asarray(key)), np.asarray(key))
                 return poses[key]
-            ncol, found, _ = check_path(self.arm, ks.q, ks.s, ks.seg + a, self.moves, cell, work,
-                                        self.base_R, self.base_t, step_mm=self.col_step, layers=self.layer_boxes,
-                                        margin_mm=PLAN_CLEARANCE_MM)
+
+            ncol, found, _ = check_path(
+                self.arm,
+                ks.q,
+                ks.s,
+                ks.seg + a,
+                self.moves,
+                cell,
+                work,
+                self.base_R,
+                self.base_t,
+                step_mm=self.col_step,
+                layers=self.layer_boxes,
+                margin_mm=PLAN_CLEARANCE_MM,
+            )
             hit = found[0].bodies if found else None
-        res: dict[str, int | str] = {"unreachable": unreach, "near_limit": limit, "near_singular": sing,
-                                     "collisions": ncol}
+        res: dict[str, int | str] = {
+            "unreachable": unreach,
+            "near_limit": limit,
+            "near_singular": sing,
+            "collisions": ncol,
+        }
         if hit:
             res["collision"] = " / ".join(hit)
         return res, ks.q[-1]
@@ -262,8 +308,9 @@ def _axis_rot(w, deg) -> np.ndarray:
 
 
 def _why(res: dict) -> str:
-    parts = [f"{res[k]} {k.replace('_', ' ')} samples" for k in ("unreachable", "near_limit", "near_singular")
-             if res.get(k)]
+    parts = [
+        f"{res[k]} {k.replace('_', ' ')} samples" for k in ("unreachable", "near_limit", "near_singular") if res.get(k)
+    ]
     if res.get("collisions"):
         parts.append(f"{res['collisions']} colliding samples ({res.get('collision', '')})")
     return ", ".join(parts) or "ok"
@@ -273,9 +320,19 @@ def _bad(res: dict) -> int:
     return res["unreachable"] * 4 + res["collisions"] * 4 + res["near_limit"] + res["near_singular"]
 
 
-def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm: float = 5.0,
-              step_deg: float = 1.0, collision_step_mm: float = 20.0, collisions: bool = True,
-              suggest: bool = True, only: int | None = None, quick: bool = False) -> AutoPlan:
+def plan_auto(
+    cell: Cell,
+    moves,
+    arm,
+    limits: AutoLimits = AutoLimits(),
+    step_mm: float = 5.0,
+    step_deg: float = 1.0,
+    collision_step_mm: float = 20.0,
+    collisions: bool = True,
+    suggest: bool = True,
+    only: int | None = None,
+    quick: bool = False,
+) -> AutoPlan:
     """The `auto` plan (see the module doc). A cell without a positioner keeps its fixed angles.
     only, quick: plan that one layer alone (from the fixed angles and the arm's home pose) with
     the gravity angles and the largest lean only — a first test of a cell change before the
@@ -305,17 +362,24 @@ def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm
     if steep:
         worst = max(steep, key=lambda L: info[L][2])
         plan.ok = False
-        plan.failed = {"layer": int(steep[0]), "reason": "flat", "layers": _ranges(steep),
-                       "lean_deg": round(info[worst][2], 2), "worst_layer": int(worst),
-                       "message": (f"this cell's positioner cannot turn layers {_ranges(steep)} within "
-                                   f"{limits.flat_tol_deg:g}° of flat: they keep up to {info[worst][2]:.1f}° of lean "
-                                   f"(layer {worst})")}
+        plan.failed = {
+            "layer": int(steep[0]),
+            "reason": "flat",
+            "layers": _ranges(steep),
+            "lean_deg": round(info[worst][2], 2),
+            "worst_layer": int(worst),
+            "message": (
+                f"this cell's positioner cannot turn layers {_ranges(steep)} within "
+                f"{limits.flat_tol_deg:g}° of flat: they keep up to {info[worst][2]:.1f}° of lean "
+                f"(layer {worst})"
+            ),
+        }
     else:
         chosen: dict[int, tuple] = {}
         prev, q_seed, last = fixed.copy(), arm.home.copy(), None
-        for L in (layers if only is None else [only]):
+        for L in layers if only is None else [only]:
             segs, nrm, _ = info[L]
-            own = np.flatnonzero(seg_layer == L)                 # with the travel into the layer
+            own = np.flatnonzero(seg_layer == L)  # with the travel into the layer
             a, b = int(own.min()), int(own.max()) + 1
             first = chosen.get(int(seg_layer[a - 1])) if a > 0 and arc[a - 1] else None
             best, tried, first_fail = None, 0, None
@@ -332,30 +396,55 @@ def plan_auto(cell: Cell, moves, arm, limits: AutoLimits = AutoLimits(), step_mm
             if best is None or best[6] is None:
                 plan.ok = False
                 why = _why(best[5]) if best else "no angles inside the axis limits"
-                plan.failed = {"layer": int(L), "reason": "no candidate", "tried": tried,
-                               "best": None if best is None else {
-                                   "stage": best[0], "e_deg": [round(float(v), 3) for v in best[1]],
-                                   "lean_deg": best[2], "lean_dir_deg": best[3], "note": best[4], **best[5]},
-                               "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
-                                          + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° "
-                                             f"({why})" if best else why)}
+                plan.failed = {
+                    "layer": int(L),
+                    "reason": "no candidate",
+                    "tried": tried,
+                    "best": None
+                    if best is None
+                    else {
+                        "stage": best[0],
+                        "e_deg": [round(float(v), 3) for v in best[1]],
+                        "lean_deg": best[2],
+                        "lean_dir_deg": best[3],
+                        "note": best[4],
+                        **best[5],
+                    },
+                    "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
+                    + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° ({why})" if best else why),
+                }
                 break
             stage, e, lean, d, note, res, q_end = best
             chosen[L] = (e, lean, d)
             tilt = pl.tilt(e, nrm)
-            plan.layers.append({"layer": int(L), "stage": stage, "e_deg": [round(float(v), 4) for v in e],
-                                "lean_deg": lean, "lean_dir_deg": d if lean else 0.0, "tilt_deg": round(tilt, 3),
-                                "tried": tried, "why": note if tried == 1 else
-                                f"{note} ({tried - 1} cheaper choices failed, the first: {first_fail})"})
-            last = {"stage": stage, "note": note.removeprefix("as the previous layer: "), "lean_deg": lean,
-                    "lean_dir_deg": d, "relax_deg": float(e[0] - (
-                pl.gravity(nrm, prev) or [e])[0][0]) if stage == "tilt-relax" else 0.0}
+            plan.layers.append(
+                {
+                    "layer": int(L),
+                    "stage": stage,
+                    "e_deg": [round(float(v), 4) for v in e],
+                    "lean_deg": lean,
+                    "lean_dir_deg": d if lean else 0.0,
+                    "tilt_deg": round(tilt, 3),
+                    "tried": tried,
+                    "why": note
+                    if tried == 1
+                    else f"{note} ({tried - 1} cheaper choices failed, the first: {first_fail})",
+                }
+            )
+            last = {
+                "stage": stage,
+                "note": note.removeprefix("as the previous layer: "),
+                "lean_deg": lean,
+                "lean_dir_deg": d,
+                "relax_deg": float(e[0] - (pl.gravity(nrm, prev) or [e])[0][0]) if stage == "tilt-relax" else 0.0,
+            }
             prev, q_seed = e, q_end
         if plan.ok and only is None:
             _apply(plan, pl, chosen)
     if not plan.ok and suggest:
-        plan.suggestions = suggest_changes(cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions,
-                                           plan.failed)
+        plan.suggestions = suggest_changes(
+            cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions, plan.failed
+        )
     return plan
 
 
@@ -383,8 +472,9 @@ def _ranges(v: list[int]) -> str:
     return ", ".join(out)
 
 
-def suggest_changes(cell: Cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions,
-                    failed: dict | None = None) -> list[dict]:
+def suggest_changes(
+    cell: Cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions, failed: dict | None = None
+) -> list[dict]:
     """Cell changes whose `auto` plan passes every layer (each re-planned from scratch); per kind
     the smallest that works."""
     from .cell import load_cell, shipped_cells
@@ -398,9 +488,12 @@ def suggest_changes(cell: Cell, moves, arm, limits, step_mm, step_deg, collision
         c._meshes = cell._meshes
         a = arm_ or arm
         args = (c, moves, a, limits, step_mm, step_deg, collision_step_mm, collisions)
-        if failed is not None and failed.get("reason") == "no candidate" and \
-                not plan_auto(*args, suggest=False, only=failed["layer"], quick=True).ok:
-            return False                     # the layer that failed still fails: no need for the whole plan
+        if (
+            failed is not None
+            and failed.get("reason") == "no candidate"
+            and not plan_auto(*args, suggest=False, only=failed["layer"], quick=True).ok
+        ):
+            return False  # the layer that failed still fails: no need for the whole plan
         return plan_auto(*args, suggest=False).ok
 
     if cell.axes == 1:
@@ -413,28 +506,49 @@ def suggest_changes(cell: Cell, moves, arm, limits, step_mm, step_deg, collision
         for name in shipped_cells():
             try:
                 other = load_cell(name)
-            except Exception:    # a shipped cell that does not load is no suggestion
+            except Exception:  # a shipped cell that does not load is no suggestion
                 continue
             if other.axes == 2 and other.robot_urdf == cell.robot_urdf:
                 a2 = load_arm(other.robot_urdf, tuple(other.tool.tcp_mm), home_deg=other.robot_home_deg)
-                if plan_auto(other.load_meshes(), moves, a2, limits, step_mm, step_deg, collision_step_mm, collisions,
-                             suggest=False).ok:
-                    out.append({"change": "2-axis positioner", "cell": name, "verified": True,
-                                "text": f"a 2-axis tilt/rotate positioner: the shipped cell {name}"})
+                if plan_auto(
+                    other.load_meshes(),
+                    moves,
+                    a2,
+                    limits,
+                    step_mm,
+                    step_deg,
+                    collision_step_mm,
+                    collisions,
+                    suggest=False,
+                ).ok:
+                    out.append(
+                        {
+                            "change": "2-axis positioner",
+                            "cell": name,
+                            "verified": True,
+                            "text": f"a 2-axis tilt/rotate positioner: the shipped cell {name}",
+                        }
+                    )
                     break
     for h in RISERS_MM:
         ch = {"change": "riser", "riser_mm": h}
         if works(modified_cell(base, ch, moves)):
-            out.append({**ch, "verified": True,
-                        "text": f"a riser of {h:g} mm under the part (work frame +{h:g} mm on the table)"})
+            out.append(
+                {
+                    **ch,
+                    "verified": True,
+                    "text": f"a riser of {h:g} mm under the part (work frame +{h:g} mm on the table)",
+                }
+            )
             break
     for ext in TORCH_EXTENSIONS_MM:
         ch = {"change": "longer torch", "extension_mm": ext}
         d = modified_cell(base, ch, moves)
         a2 = load_arm(cell.robot_urdf, tuple(d["tool"]["tcp_mm"]), home_deg=cell.robot_home_deg)
         if works(d, a2):
-            out.append({**ch, "verified": True,
-                        "text": f"a torch {ext:g} mm longer (TCP at {d['tool']['tcp_mm'][2]:g} mm)"})
+            out.append(
+                {**ch, "verified": True, "text": f"a torch {ext:g} mm longer (TCP at {d['tool']['tcp_mm'][2]:g} mm)"}
+            )
             break
     for sh in BASE_SHIFTS_MM:
         ch = {"change": "robot base moved", "shift_mm": sh}
@@ -442,9 +556,14 @@ def suggest_changes(cell: Cell, moves, arm, limits, step_mm, step_deg, collision
         if d["robot_base"] == base["robot_base"]:
             break
         if works(d):
-            out.append({**ch, "verified": True,
-                        "text": f"the robot base {sh:g} mm further from the positioner (at "
-                                f"{', '.join(f'{v:g}' for v in d['robot_base']['xyz_mm'])} mm)"})
+            out.append(
+                {
+                    **ch,
+                    "verified": True,
+                    "text": f"the robot base {sh:g} mm further from the positioner (at "
+                    f"{', '.join(f'{v:g}' for v in d['robot_base']['xyz_mm'])} mm)",
+                }
+            )
             break
     return out
 
@@ -465,8 +584,14 @@ def modified_cell(cell: dict, change: dict, moves) -> dict:
         foot = (float(np.hypot(first[:, 0], first[:, 1]).max()) if len(first) else 30.0) + BEAD_HALF_MM
         w = d["work_frame"]["xyz_mm"]
         d["work_frame"]["xyz_mm"] = [w[0], w[1], w[2] + h]
-        d["positioner"]["shapes"].append({"name": "riser", "kind": "cylinder", "size_mm": [foot, foot, h],
-                                          "xyz_mm": [w[0], w[1], w[2] + h / 2 - 1.0]})
+        d["positioner"]["shapes"].append(
+            {
+                "name": "riser",
+                "kind": "cylinder",
+                "size_mm": [foot, foot, h],
+                "xyz_mm": [w[0], w[1], w[2] + h / 2 - 1.0],
+            }
+        )
     elif kind == "longer torch":
         ext = float(change["extension_mm"])
         tcp = d["tool"]["tcp_mm"]

@@ -69,15 +69,21 @@ def cell_statics(cell):
     oriented bounding box in the world (the broad phase: a big floor slab is a thin box, not the
     sphere around it)."""
     bodies = []
-    for prefix, shapes, default in (("positioner", cell.positioner.shapes if cell.positioner else [], None),
-                                    ("fixture", cell.fixtures, "")):
+    for prefix, shapes, default in (
+        ("positioner", cell.positioner.shapes if cell.positioner else [], None),
+        ("fixture", cell.fixtures, ""),
+    ):
         for sh in shapes:
-            link = sh.link if sh.link or default is not None else None      # None: the flange
+            link = sh.link if sh.link or default is not None else None  # None: the flange
             R, t = sh.pose()
-            bodies.append((f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t, _bound_radius(sh, cell),
-                           *_local_box(sh, cell)))
-    still = [(n, g, _tf(R, t), t, r, R, R @ bc + t, half) for n, g, link, R, t, r, bc, half in bodies
-             if link == "" or cell.positioner is None]
+            bodies.append(
+                (f"{prefix}:{sh.name}", _shape(sh, cell), link, R, t, _bound_radius(sh, cell), *_local_box(sh, cell))
+            )
+    still = [
+        (n, g, _tf(R, t), t, r, R, R @ bc + t, half)
+        for n, g, link, R, t, r, bc, half in bodies
+        if link == "" or cell.positioner is None
+    ]
     moving = [b for b in bodies if not (b[2] == "" or cell.positioner is None)]
     cache: dict[tuple, list] = {}
 
@@ -95,6 +101,7 @@ def cell_statics(cell):
                 out.append((n, g, _tf(Rw, c), c, r, Rw, Rw @ bc + c, half))
             cache[key] = out
         return cache[key]
+
     return at
 
 
@@ -146,7 +153,7 @@ def layer_boxes(moves) -> dict[int, tuple[coal.Box, np.ndarray, np.ndarray, floa
     return out
 
 
-BATCH = 256   # checked samples per pass of the batched broad phase (bounds its (samples, bodies, layers) arrays)
+BATCH = 256  # checked samples per pass of the batched broad phase (bounds its (samples, bodies, layers) arrays)
 
 
 @dataclass
@@ -178,33 +185,49 @@ class _Setup:
 def _setup(arm, moves, cell, base_R, base_t, layers, margin_mm) -> _Setup:
     model = arm.model
     tool0 = model.getFrameId("tool0")
-    tool_shapes = [(f"torch:{sh.name}", _shape(sh, cell), *sh.pose(), _bound_radius(sh, cell))
-                   for sh in cell.tool.shapes]
+    tool_shapes = [
+        (f"torch:{sh.name}", _shape(sh, cell), *sh.pose(), _bound_radius(sh, cell)) for sh in cell.tool.shapes
+    ]
     layers = layer_boxes(moves) if layers is None else layers
     lay_ids = np.array(sorted(layers), dtype=int)
     njoints = model.njoints
-    n_links = njoints - 1                       # capsules joint j → j+1 and the last joint → tool0
+    n_links = njoints - 1  # capsules joint j → j+1 and the last joint → tool0
     near_links = np.arange(n_links) >= n_links - 2
-    return _Setup(model, model.createData(), tool0, tool_shapes, cell_statics(cell), layers, lay_ids,
-                  np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3),
-                  np.array([layers[L][3] for L in lay_ids]),
-                  np.array([layers[L][1] for L in lay_ids]).reshape(-1, 3, 3),
-                  np.array([np.asarray(layers[L][0].halfSide) * 1000.0 for L in lay_ids]).reshape(-1, 3),
-                  np.array([LINK_RADIUS_MM[min(j, len(LINK_RADIUS_MM) - 1)] for j in range(njoints)]),
-                  n_links, np.concatenate([near_links, np.ones(len(tool_shapes), bool)]),
-                  np.array([off for _, _, _, off, _ in tool_shapes]).reshape(-1, 3),
-                  np.array([rad for *_, rad in tool_shapes]), base_R, base_t, margin_mm, {})
+    return _Setup(
+        model,
+        model.createData(),
+        tool0,
+        tool_shapes,
+        cell_statics(cell),
+        layers,
+        lay_ids,
+        np.array([layers[L][2] for L in lay_ids]).reshape(-1, 3),
+        np.array([layers[L][3] for L in lay_ids]),
+        np.array([layers[L][1] for L in lay_ids]).reshape(-1, 3, 3),
+        np.array([np.asarray(layers[L][0].halfSide) * 1000.0 for L in lay_ids]).reshape(-1, 3),
+        np.array([LINK_RADIUS_MM[min(j, len(LINK_RADIUS_MM) - 1)] for j in range(njoints)]),
+        n_links,
+        np.concatenate([near_links, np.ones(len(tool_shapes), bool)]),
+        np.array([off for _, _, _, off, _ in tool_shapes]).reshape(-1, 3),
+        np.array([rad for *_, rad in tool_shapes]),
+        base_R,
+        base_t,
+        margin_mm,
+        {},
+    )
 
 
 def _static_arrays(st: _Setup, statics: list) -> tuple[np.ndarray, ...]:
     """(centres, radii, box rotations, box centres, box half extents) of the still/positioner bodies."""
     sa = st.stat_arrays.get(id(statics))
     if sa is None:
-        sa = st.stat_arrays[id(statics)] = (np.array([b[3] for b in statics]).reshape(-1, 3),
-                                            np.array([b[4] for b in statics]),
-                                            np.array([b[5] for b in statics]).reshape(-1, 3, 3),
-                                            np.array([b[6] for b in statics]).reshape(-1, 3),
-                                            np.array([b[7] for b in statics]).reshape(-1, 3))
+        sa = st.stat_arrays[id(statics)] = (
+            np.array([b[3] for b in statics]).reshape(-1, 3),
+            np.array([b[4] for b in statics]),
+            np.array([b[5] for b in statics]).reshape(-1, 3, 3),
+            np.array([b[6] for b in statics]).reshape(-1, 3),
+            np.array([b[7] for b in statics]).reshape(-1, 3),
+        )
     return sa
 
 
@@ -248,10 +271,13 @@ def _batch_candidates(st: _Setup, q: np.ndarray, rows: list[int], frames: list, 
     joints = (oj * 1000.0) @ st.base_R.T + st.base_t
     Rf = st.base_R @ rf
     seg_len = np.linalg.norm(np.diff(joints, axis=1), axis=2)
-    centres = np.concatenate([0.5 * (joints[:, :-1] + joints[:, 1:]),
-                              np.einsum("bk,mjk->mbj", st.t_off, Rf) + joints[:, -1:, :]], axis=1)
-    rads = np.concatenate([0.5 * seg_len + st.radii[:st.n_links], np.broadcast_to(st.t_rad, (m, len(st.t_rad)))],
-                          axis=1) + st.margin_mm
+    centres = np.concatenate(
+        [0.5 * (joints[:, :-1] + joints[:, 1:]), np.einsum("bk,mjk->mbj", st.t_off, Rf) + joints[:, -1:, :]], axis=1
+    )
+    rads = (
+        np.concatenate([0.5 * seg_len + st.radii[: st.n_links], np.broadcast_to(st.t_rad, (m, len(st.t_rad)))], axis=1)
+        + st.margin_mm
+    )
     hit = np.zeros(m, bool)
     groups: dict[int, list[int]] = {}
     statics_of = [st.statics_at(f[2]) for f in frames]
@@ -270,10 +296,10 @@ def _batch_candidates(st: _Setup, q: np.ndarray, rows: list[int], frames: list, 
     if len(st.lay_ids):
         Rw = np.array([f[0] for f in frames])
         tw = np.array([f[1] for f in frames])
-        cw = st.lay_c[None, :, :] @ Rw.transpose(0, 2, 1) + tw[:, None, :]          # (m, layers, 3)
+        cw = st.lay_c[None, :, :] @ Rw.transpose(0, 2, 1) + tw[:, None, :]  # (m, layers, 3)
         below = st.lay_ids[None, :] < layer[:, None]
         nb = np.flatnonzero(st.near)
-        dist = np.linalg.norm(cw[:, None, :, :] - centres[:, nb, None, :], axis=3)   # (m, near bodies, layers)
+        dist = np.linalg.norm(cw[:, None, :, :] - centres[:, nb, None, :], axis=3)  # (m, near bodies, layers)
         rb, bi, kk = np.nonzero(below[:, None, :] & (dist <= st.lay_r[None, None, :] + rads[:, nb, None]))
         if len(rb):
             bb = nb[bi]
@@ -300,16 +326,21 @@ def _sample_check(st: _Setup, qi: np.ndarray, layer: int, frame: tuple, req) -> 
     sa = _static_arrays(st, statics)
     d = centres[:, None, :] - sa[0][None, :, :]
     over = np.einsum("ijk,ijk->ij", d, d) <= (rads[:, None] + sa[1][None, :]) ** 2
-    if over.any():                           # the bounding spheres meet: do they meet the body's box?
+    if over.any():  # the bounding spheres meet: do they meet the body's box?
         over &= _box_gap2(centres, sa[2], sa[3], sa[4]) <= rads[:, None] ** 2
     cw = st.lay_c @ Rw.T + tw
     below = st.lay_ids < layer
-    part = st.near[:, None] & below[None, :] & (np.linalg.norm(cw[None, :, :] - centres[:, None, :], axis=2)
-                                                <= st.lay_r[None, :] + rads[:, None])
+    part = (
+        st.near[:, None]
+        & below[None, :]
+        & (np.linalg.norm(cw[None, :, :] - centres[:, None, :], axis=2) <= st.lay_r[None, :] + rads[:, None])
+    )
     if part.any():
         cols = np.flatnonzero(part.any(axis=0))
-        part[:, cols] &= _box_gap2(centres, np.einsum("ij,kjl->kil", Rw, st.lay_R[cols]), cw[cols], st.lay_h[cols]) \
+        part[:, cols] &= (
+            _box_gap2(centres, np.einsum("ij,kjl->kil", Rw, st.lay_R[cols]), cw[cols], st.lay_h[cols])
             <= rads[:, None] ** 2
+        )
     if not (over.any() or part.any()):
         return None
     for m in np.flatnonzero(over.any(axis=1) | part.any(axis=1)):
@@ -336,9 +367,20 @@ def _sample_check(st: _Setup, qi: np.ndarray, layer: int, frame: tuple, req) -> 
     return None
 
 
-def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, work_frames, base_R, base_t,
-               step_mm: float = 20.0, layers: dict | None = None,
-               margin_mm: float = 0.0) -> tuple[int, list[Collision], int]:
+def check_path(
+    arm,
+    q: np.ndarray,
+    s: np.ndarray,
+    seg: np.ndarray,
+    moves,
+    cell,
+    work_frames,
+    base_R,
+    base_t,
+    step_mm: float = 20.0,
+    layers: dict | None = None,
+    margin_mm: float = 0.0,
+) -> tuple[int, list[Collision], int]:
     """Collisions along the path. q: (k, nq) IK solutions; work_frames(i) → (R, t mm) of the work
     frame and the positioner angles at sample i; base_R/base_t: the robot base in the world (mm);
     layers: `layer_boxes(moves)` when the caller has them; margin_mm: bodies closer than this count
@@ -356,7 +398,7 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
     count = 0
     found: list[Collision] = []
     for b0 in range(0, len(rows), BATCH):
-        batch = rows[b0:b0 + BATCH]
+        batch = rows[b0 : b0 + BATCH]
         frames = [work_frames(i) for i in batch]
         layer = np.array([int(moves.layer[seg[i]]) for i in batch], dtype=int)
         cand = _batch_candidates(st, q, batch, frames, layer)
@@ -367,8 +409,15 @@ def check_path(arm, q: np.ndarray, s: np.ndarray, seg: np.ndarray, moves, cell, 
                 count += 1
                 if len(found) < MAX_REPORTED:
                     sec = int(moves.section[seg[i]])
-                    found.append(Collision(int(layer[r]), moves.section_keys[sec] if 0 <= sec < len(moves.section_keys)
-                                           else None, hit[0], hit[1], float(s[i])))
+                    found.append(
+                        Collision(
+                            int(layer[r]),
+                            moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None,
+                            hit[0],
+                            hit[1],
+                            float(s[i]),
+                        )
+                    )
     return count, found, len(rows)
 
 

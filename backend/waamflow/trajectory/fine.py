@@ -31,8 +31,8 @@ from .speedplan import SpanProfiles, Spans
 
 FINE = 3  # fine samples per interpolation cycle
 MAX_FINE_SAMPLES = 3_000_000  # above this (≈ 2.8 h at 12 ms), sample at the cycle itself to bound memory
-MAX_SAMPLES = 30_000_000      # ≈ 100 h at 12 ms: beyond, refuse rather than exhaust memory
-CHUNK = 1 << 15               # samples per pass of the per-sample geometry: its arrays stay in the CPU cache
+MAX_SAMPLES = 30_000_000  # ≈ 100 h at 12 ms: beyond, refuse rather than exhaust memory
+CHUNK = 1 << 15  # samples per pass of the per-sample geometry: its arrays stay in the CPU cache
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,8 +62,15 @@ class Timeline:
         return len(self.block_end)
 
 
-def timeline(spans: Spans, prof: SpanProfiles, standstill: np.ndarray, switches: np.ndarray, dt: float,
-             smoothing_s: float, arc_switch_dwell_s: float) -> Timeline:
+def timeline(
+    spans: Spans,
+    prof: SpanProfiles,
+    standstill: np.ndarray,
+    switches: np.ndarray,
+    dt: float,
+    smoothing_s: float,
+    arc_switch_dwell_s: float,
+) -> Timeline:
     """Blocks and their start times. standstill: (n,) dwell at each vertex; switches: (n,) 1 where
     the arc switches (or pauses) there, each followed by one arc-switch dwell. A program beyond
     MAX_SAMPLES cycles is a PlanningError."""
@@ -77,8 +84,10 @@ def timeline(spans: Spans, prof: SpanProfiles, standstill: np.ndarray, switches:
     if motion_s / h > MAX_FINE_SAMPLES:
         h = dt
     if motion_s / dt > MAX_SAMPLES:
-        raise PlanningError(f"program too long to simulate: {motion_s / 3600:.0f} h of motion at "
-                            f"{dt * 1000:g} ms (limit {MAX_SAMPLES * dt / 3600:.0f} h)")
+        raise PlanningError(
+            f"program too long to simulate: {motion_s / 3600:.0f} h of motion at "
+            f"{dt * 1000:g} ms (limit {MAX_SAMPLES * dt / 3600:.0f} h)"
+        )
     nf = max(1.0, smoothing_s / h)  # filter window in fine samples (fractional)
     tf = (nf - 1.0) * h  # extra time the filter adds to a block
     gap_before = standstill[start_vertex] + switches[start_vertex] * arc_switch_dwell_s
@@ -107,7 +116,7 @@ def _positions(prof: SpanProfiles, starts: np.ndarray, si: np.ndarray, tau: np.n
     rows = np.arange(len(tau))
     dt = np.clip(tau - st[rows, ph], 0.0, None)
     dt = np.minimum(dt, prof.t[si, ph])
-    s = prof.p[si, ph] + prof.v[si, ph] * dt + prof.a[si, ph] * dt * dt / 2 + prof.j[si, ph] * dt ** 3 / 6
+    s = prof.p[si, ph] + prof.v[si, ph] * dt + prof.a[si, ph] * dt * dt / 2 + prof.j[si, ph] * dt**3 / 6
     return np.where(tau >= st[rows, 7], prof.p[si, 7], s)
 
 
@@ -120,22 +129,26 @@ def moving_average(x: np.ndarray, w: float) -> np.ndarray:
     pad = np.vstack([np.repeat(x[:1], npad, axis=0), x])
     c = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(pad, axis=0)])  # c[i] = sum pad[:i]
     k = len(x)
-    hi = np.arange(k) + npad + 1          # sum up to and including sample k
+    hi = np.arange(k) + npad + 1  # sum up to and including sample k
     lo = hi - w
     l0 = np.floor(lo).astype(np.int64)
     frac = (lo - l0)[:, None]
     # l0 is hi shifted by a constant unless rounding moved a floor: then rows are gathered
     a = int(l0[0])
     if l0[-1] - a == k - 1 and np.array_equal(l0, np.arange(a, a + k)):
-        c_lo = c[a:a + k] * (1 - frac) + c[a + 1:a + 1 + k] * frac
+        c_lo = c[a : a + k] * (1 - frac) + c[a + 1 : a + 1 + k] * frac
     else:
         c_lo = c[l0] * (1 - frac) + c[l0 + 1] * frac
-    return (c[npad + 1:npad + 1 + k] - c_lo) / w
+    return (c[npad + 1 : npad + 1 + k] - c_lo) / w
 
 
-def sample_blocks(tl: Timeline, spans: Spans, prof: SpanProfiles, path: BlendedPath,
-                  progress: Callable[[float, str], None] | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def sample_blocks(
+    tl: Timeline,
+    spans: Spans,
+    prof: SpanProfiles,
+    path: BlendedPath,
+    progress: Callable[[float, str], None] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Fine samples, block by block: (t (k,), filtered xyz (k, 3), filtered arc length (k,),
     block of each sample (k,)). Uniform samples inside each block plus one exactly at its end
     (the filter has settled there: the window lies wholly after the raw motion's end, so the
@@ -150,11 +163,17 @@ def sample_blocks(tl: Timeline, spans: Spans, prof: SpanProfiles, path: BlendedP
         k = int(np.ceil(tl.block_len[b] / h - 1e-9))
         tau = np.minimum(np.arange(k + 1) * h, tl.raw_dur[b])
         sp0, sp1 = tl.block_start[b], tl.block_end[b]
-        si = np.clip(np.searchsorted(tl.span_t[sp0:sp1 + 1], tau, side="right") - 1, 0, sp1 - sp0) + sp0
+        si = np.clip(np.searchsorted(tl.span_t[sp0 : sp1 + 1], tau, side="right") - 1, 0, sp1 - sp0) + sp0
         ds = _positions(prof, starts_all, si, tau - tl.span_t[si])
         s_raw = spans.s0[si] + np.minimum(ds, spans.s1[si] - spans.s0[si])
-        xyzs = np.column_stack([np.interp(s_raw, path.s, cols[0]), np.interp(s_raw, path.s, cols[1]),
-                                np.interp(s_raw, path.s, cols[2]), s_raw])
+        xyzs = np.column_stack(
+            [
+                np.interp(s_raw, path.s, cols[0]),
+                np.interp(s_raw, path.s, cols[1]),
+                np.interp(s_raw, path.s, cols[2]),
+                s_raw,
+            ]
+        )
         filt = moving_average(xyzs, tl.nf)
         filt[-1] = xyzs[-1]
         tloc = np.arange(k + 1) * h
@@ -174,16 +193,18 @@ def row_norms(v: np.ndarray) -> np.ndarray:
     return np.sqrt(x * x + y * y + z * z)
 
 
-def nearest_segment(xyz: np.ndarray, points: np.ndarray, guess: np.ndarray, reach: int = 2
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def nearest_segment(
+    xyz: np.ndarray, points: np.ndarray, guess: np.ndarray, reach: int = 2
+) -> tuple[np.ndarray, np.ndarray]:
     """`blend.polyline_distance` in chunks of CHUNK samples (the same result, its temporaries in cache)."""
     if len(xyz) <= CHUNK:
         return polyline_distance(xyz, points, guess, reach=reach)
     dist = np.empty(len(xyz))
     seg = np.empty(len(xyz), dtype=np.int64)
     for i in range(0, len(xyz), CHUNK):
-        dist[i:i + CHUNK], seg[i:i + CHUNK] = polyline_distance(xyz[i:i + CHUNK], points, guess[i:i + CHUNK],
-                                                                reach=reach)
+        dist[i : i + CHUNK], seg[i : i + CHUNK] = polyline_distance(
+            xyz[i : i + CHUNK], points, guess[i : i + CHUNK], reach=reach
+        )
     return dist, seg
 
 
@@ -204,21 +225,28 @@ def _near_vertices(P: np.ndarray, xyz: np.ndarray, seg: np.ndarray) -> tuple[np.
     d0 = np.empty(len(xyz))
     d1 = np.empty(len(xyz))
     for i in range(0, len(xyz), CHUNK):
-        q, sg = xyz[i:i + CHUNK], seg[i:i + CHUNK]
+        q, sg = xyz[i : i + CHUNK], seg[i : i + CHUNK]
         a2, b2 = _dist2(q, P, sg), _dist2(q, P, sg + 1)
         np.minimum.at(near2, sg, a2)
         np.minimum.at(near2, sg + 1, b2)
         for off in (-2, -1, 2, 3):
             v = np.clip(sg + off, 0, n - 1)
             np.minimum.at(near2, v, _dist2(q, P, v))
-        d0[i:i + CHUNK], d1[i:i + CHUNK] = np.sqrt(a2), np.sqrt(b2)
+        d0[i : i + CHUNK], d1[i : i + CHUNK] = np.sqrt(a2), np.sqrt(b2)
     near_v = np.sqrt(near2)
     near_v[~np.isfinite(near_v)] = np.nan
     return near_v, d0, d1
 
 
-def corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.ndarray, speed: np.ndarray,
-                  prog_speed: np.ndarray, blk: np.ndarray) -> dict[str, np.ndarray]:
+def corner_errors(
+    P: np.ndarray,
+    path: BlendedPath,
+    xyz: np.ndarray,
+    seg: np.ndarray,
+    speed: np.ndarray,
+    prog_speed: np.ndarray,
+    blk: np.ndarray,
+) -> dict[str, np.ndarray]:
     """Per blended vertex: interior angle (deg); corner error = closest approach of the actual
     path to the programmed vertex (mm, the study's corner error); min speed near it (mm/s);
     mean speed through the corner = mean over the slow-down transient around the closest
@@ -250,9 +278,16 @@ def corner_errors(P: np.ndarray, path: BlendedPath, xyz: np.ndarray, seg: np.nda
     run_cnt = np.bincount(run_id)
     c = closest[idx]
     cc = np.maximum(c, 0)
-    mean_v = np.where(c < 0, np.nan, np.where(slow[cc], run_sum[run_id[cc]] / np.maximum(run_cnt[run_id[cc]], 1), speed[cc]))
-    return {"vertex": idx, "interior_deg": interior, "error_mm": near_v[idx], "min_speed_mm_s": vmin[idx],
-            "mean_speed_mm_s": mean_v}
+    mean_v = np.where(
+        c < 0, np.nan, np.where(slow[cc], run_sum[run_id[cc]] / np.maximum(run_cnt[run_id[cc]], 1), speed[cc])
+    )
+    return {
+        "vertex": idx,
+        "interior_deg": interior,
+        "error_mm": near_v[idx],
+        "min_speed_mm_s": vmin[idx],
+        "mean_speed_mm_s": mean_v,
+    }
 
 
 def arc_clock(iv: list[tuple[float, float]]) -> Callable[[Any], np.ndarray]:
@@ -267,7 +302,7 @@ def arc_clock(iv: list[tuple[float, float]]) -> Callable[[Any], np.ndarray]:
             return np.zeros_like(t)
         k = np.searchsorted(on, t, side="right") - 1
         kk = np.maximum(k, 0)
-        x = np.asarray(t - on[kk])              # clipped to [0, length] in place (np.clip's numbers)
+        x = np.asarray(t - on[kk])  # clipped to [0, length] in place (np.clip's numbers)
         np.maximum(x, 0.0, out=x)
         np.minimum(x, length[kk], out=x)
         x += before[kk]

@@ -34,13 +34,13 @@ from ..core.errors import InputFileError
 from ..core.files import read_shipped
 from .profile import ROBOTS_DIR
 
-if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+if TYPE_CHECKING:  # imported where used: keeps `waamflow nodes` light
     import pinocchio as pin
 
-SINGULAR_SIGMA = 0.02   # smallest singular value of the 5x6 task Jacobian (m or rad per rad) below which we warn
-REACH_TOL_MM = 0.5       # IK position residual above which a point is unreachable
-LIMIT_MARGIN = 1e-3      # rad
-CONVERGED = 1e-12        # squared 5-D IK error: 1 µm / 1 µrad — far below any robot's repeatability
+SINGULAR_SIGMA = 0.02  # smallest singular value of the 5x6 task Jacobian (m or rad per rad) below which we warn
+REACH_TOL_MM = 0.5  # IK position residual above which a point is unreachable
+LIMIT_MARGIN = 1e-3  # rad
+CONVERGED = 1e-12  # squared 5-D IK error: 1 µm / 1 µrad — far below any robot's repeatability
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,14 +61,15 @@ def shipped_descriptions() -> list[str]:
     return sorted(p.name for p in ROBOTS_DIR.glob("*.urdf"))
 
 
-def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None,
-             home_deg=None) -> Arm:
+def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str | None = None, home_deg=None) -> Arm:
     """Build the arm from a shipped URDF name (file in data/robots) or URDF text. home_deg: the IK
     seed pose (default: KUKA-style upright with the wrist down, 0 −90 90 0 90 0)."""
     import pinocchio as pin  # lazy: keeps start-up light
-    if urdf_text is None:   # a shipped name, never a path (core.files: '/dev/zero' is refused unread)
-        urdf_text = read_shipped(ROBOTS_DIR, description, "robot description", shipped_descriptions(),
-                                 limit=20_000_000).decode("utf-8")
+
+    if urdf_text is None:  # a shipped name, never a path (core.files: '/dev/zero' is refused unread)
+        urdf_text = read_shipped(
+            ROBOTS_DIR, description, "robot description", shipped_descriptions(), limit=20_000_000
+        ).decode("utf-8")
     try:
         model = pin.buildModelFromXML(urdf_text)
     except Exception as e:  # pinocchio raises ValueError/RuntimeError on bad XML
@@ -78,16 +79,30 @@ def load_arm(description: str, tcp_offset_mm=(0.0, 0.0, 400.0), urdf_text: str |
     flange = model.getFrameId("tool0")
     fr = model.frames[flange]
     offset = pin.SE3(np.eye(3), np.asarray(tcp_offset_mm, float) / 1000.0)
-    tcp = model.addFrame(pin.Frame("tcp", fr.parentJoint, fr.parentFrame if hasattr(fr, "parentFrame") else flange,
-                                   fr.placement * offset, pin.FrameType.OP_FRAME))
+    tcp = model.addFrame(
+        pin.Frame(
+            "tcp",
+            fr.parentJoint,
+            fr.parentFrame if hasattr(fr, "parentFrame") else flange,
+            fr.placement * offset,
+            pin.FrameType.OP_FRAME,
+        )
+    )
     home_deg = [0.0, -90.0, 90.0, 0.0, 90.0, 0.0] if home_deg is None else list(home_deg)
     if len(home_deg) < model.nq:
-        raise InputFileError(f"robot description {description}: home pose has {len(home_deg)} angles "
-                             f"for {model.nq} joints")
-    home = np.clip(np.radians(home_deg)[: model.nq],
-                   model.lowerPositionLimit, model.upperPositionLimit)
-    return Arm(model, tcp, model.lowerPositionLimit.copy(), model.upperPositionLimit.copy(),
-               model.velocityLimit.copy(), home, Path(description).stem)
+        raise InputFileError(
+            f"robot description {description}: home pose has {len(home_deg)} angles for {model.nq} joints"
+        )
+    home = np.clip(np.radians(home_deg)[: model.nq], model.lowerPositionLimit, model.upperPositionLimit)
+    return Arm(
+        model,
+        tcp,
+        model.lowerPositionLimit.copy(),
+        model.upperPositionLimit.copy(),
+        model.velocityLimit.copy(),
+        home,
+        Path(description).stem,
+    )
 
 
 @dataclass(frozen=True)
@@ -98,7 +113,9 @@ class CellFrames:
     base_xyz_mm: tuple[float, float, float] = (-1500.0, 0.0, -600.0)
     base_yaw_deg: float = 0.0
     work_xyz_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    work_rot: tuple[tuple[float, float, float], ...] | None = None   # work frame rotation in world (3x3), None = identity
+    work_rot: tuple[tuple[float, float, float], ...] | None = (
+        None  # work frame rotation in world (3x3), None = identity
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,8 +140,11 @@ def resample(points: np.ndarray, step_mm: float) -> tuple[np.ndarray, np.ndarray
     L = np.linalg.norm(np.diff(points, axis=0), axis=1)
     counts = np.maximum(1, np.ceil(L / step_mm).astype(int))
     seg = np.repeat(np.arange(len(L)), counts)
-    frac = np.concatenate([np.arange(c) / c for c in counts]) if len(counts) < 50000 else \
-        (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    frac = (
+        np.concatenate([np.arange(c) / c for c in counts])
+        if len(counts) < 50000
+        else (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    )
     xyz = points[seg] + frac[:, None] * (points[seg + 1] - points[seg])
     s0 = np.concatenate([[0.0], np.cumsum(L)])
     s = s0[seg] + frac * L[seg]
@@ -134,41 +154,59 @@ def resample(points: np.ndarray, step_mm: float) -> tuple[np.ndarray, np.ndarray
     return s, xyz, seg
 
 
-def solve_path(arm: Arm, points: np.ndarray, tool_axis: np.ndarray, frames: CellFrames = CellFrames(),
-               step_mm: float = 5.0, q_seed: np.ndarray | None = None, iters: int = 6,
-               progress=None) -> KinematicsResult:
+def solve_path(
+    arm: Arm,
+    points: np.ndarray,
+    tool_axis: np.ndarray,
+    frames: CellFrames = CellFrames(),
+    step_mm: float = 5.0,
+    q_seed: np.ndarray | None = None,
+    iters: int = 6,
+    progress=None,
+) -> KinematicsResult:
     """Continuous DLS IK along a polyline (world/work mm) — see the module doc.
     progress: optional callable(fraction 0..1) called every 2000 samples."""
     s, xyz, seg = resample(np.asarray(points, float), step_mm)
     axes = np.asarray(tool_axis, float)
     ax = axes[seg] if len(axes) == len(points) else np.tile([0.0, 0.0, -1.0], (len(s), 1))
-    return solve_samples(arm, s, xyz, seg, ax, len(points) - 1, frames, q_seed=q_seed, iters=iters,
-                         progress=progress)
+    return solve_samples(arm, s, xyz, seg, ax, len(points) - 1, frames, q_seed=q_seed, iters=iters, progress=progress)
 
 
 def _in_base(xyz, ax, frames: CellFrames) -> tuple[np.ndarray, np.ndarray]:
     """Targets (k, 3) mm and torch axes (k, 3) in the work frame → robot base frame: points in m,
     unit axes."""
     import pinocchio as pin  # lazy: keeps start-up light
+
     xyz, ax = np.asarray(xyz, float), np.asarray(ax, float)
     Rb = pin.utils.rotate("z", np.radians(frames.base_yaw_deg))
-    if frames.work_rot is not None:                            # part turned by a positioner
+    if frames.work_rot is not None:  # part turned by a positioner
         Rw = np.asarray(frames.work_rot, float)
         xyz, ax = xyz @ Rw.T, ax @ Rw.T
     p_base = ((xyz + np.asarray(frames.work_xyz_mm)) - np.asarray(frames.base_xyz_mm)) @ Rb / 1000.0
-    z_base = ax @ Rb                                           # torch axes in the base frame
+    z_base = ax @ Rb  # torch axes in the base frame
     z_base /= np.linalg.norm(z_base, axis=1, keepdims=True)
     return p_base, z_base
 
 
-def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax: np.ndarray, nseg: int,
-                  frames: CellFrames = CellFrames(), q_seed: np.ndarray | None = None, iters: int = 6,
-                  progress=None, stop_unreachable: bool = False) -> KinematicsResult:
+def solve_samples(
+    arm: Arm,
+    s: np.ndarray,
+    xyz: np.ndarray,
+    seg: np.ndarray,
+    ax: np.ndarray,
+    nseg: int,
+    frames: CellFrames = CellFrames(),
+    q_seed: np.ndarray | None = None,
+    iters: int = 6,
+    progress=None,
+    stop_unreachable: bool = False,
+) -> KinematicsResult:
     """`solve_path` on given samples: s (k,) programmed arc length, xyz (k, 3) and torch axes
     ax (k, 3) in the work/world frame, seg (k,) their programmed segment (of nseg).
     stop_unreachable: stop at the first unreachable sample (a planner's yes/no; the result then
     holds the samples up to it)."""
     import pinocchio as pin  # lazy: keeps start-up light
+
     model = arm.model
     data = model.createData()
     p_base, z_base = _in_base(xyz, ax, frames)
@@ -188,16 +226,22 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     # the loop runs ~2 iterations per sample over tens of thousands of samples: bound methods,
     # scalar maths on Python floats and LAPACK's Cholesky solve (J·Jᵀ + λ²I is symmetric positive
     # definite) instead of np.linalg.solve keep its overhead down (the same iteration as before)
-    fk, upd, jac, LOCAL, tcp = pin.forwardKinematics, pin.updateFramePlacement, pin.computeFrameJacobian, \
-        pin.LOCAL, arm.tcp
+    fk, upd, jac, LOCAL, tcp = (
+        pin.forwardKinematics,
+        pin.updateFramePlacement,
+        pin.computeFrameJacobian,
+        pin.LOCAL,
+        arm.tcp,
+    )
     from scipy.linalg.lapack import dposv
+
     lam_eye = lam2 * np.eye(5)
     rhs = np.empty((5, 2))
     e = np.empty(5)
     Z = z_base.tolist()
     retry = 40
     atan2, sqrt = math.atan2, math.sqrt
-    last = None    # (TCP pose, Jacobian) at q where the previous sample converged: the next one starts there
+    last = None  # (TCP pose, Jacobian) at q where the previous sample converged: the next one starts there
     for i in range(k):
         if progress is not None and i % 2000 == 0:
             progress(i / k)
@@ -206,7 +250,7 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
         n_it = 80 if i == 0 else iters
         it = 0
         while True:
-            if it == 0 and last is not None:     # q unchanged since the previous sample's last FK
+            if it == 0 and last is not None:  # q unchanged since the previous sample's last FK
                 cur, J = last
             else:
                 fk(model, data, q)
@@ -240,7 +284,7 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
             sol = dposv(J @ J.T + lam_eye, rhs)[1]
             q = np.minimum(np.maximum(q + J.T @ (sol[:, 0] - sol[:, 1]) + r, lower), upper)
         err_mm[i] = 1000.0 * sqrt(float(dp @ dp))
-        retry = 40 if err_mm[i] < REACH_TOL_MM else 0   # don't grind on through an unreachable stretch
+        retry = 40 if err_mm[i] < REACH_TOL_MM else 0  # don't grind on through an unreachable stretch
         Js[i] = J
         Q[i] = q
         if stop_unreachable and not retry:
@@ -258,8 +302,14 @@ def solve_samples(arm: Arm, s: np.ndarray, xyz: np.ndarray, seg: np.ndarray, ax:
     return KinematicsResult(s, Q, seg, err_mm, sig, cap)
 
 
-def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_section: np.ndarray,
-                section_keys: tuple[str, ...], seg_speed: np.ndarray) -> list[dict]:
+def find_issues(
+    kin: KinematicsResult,
+    arm: Arm,
+    seg_layer: np.ndarray,
+    seg_section: np.ndarray,
+    section_keys: tuple[str, ...],
+    seg_speed: np.ndarray,
+) -> list[dict]:
     """Unreachable points, joint-limit hits, near-singular stretches and joint-speed caps, grouped
     into contiguous stretches per (layer, section). s in mm of programmed arc length."""
     at_limit = np.any((kin.q <= arm.lower + LIMIT_MARGIN) | (kin.q >= arm.upper - LIMIT_MARGIN), axis=1)
@@ -268,7 +318,7 @@ def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_sect
         "joint_limit": at_limit,
         "near_singular": kin.sigma_min < SINGULAR_SIGMA,
     }
-    speed_cap = (kin.segment_cap < seg_speed)
+    speed_cap = kin.segment_cap < seg_speed
     issues: list[dict] = []
     for kind, f in flags.items():
         for st in _stretches(kind, f, kin.s, kin.seg, seg_layer, seg_section, section_keys):
@@ -288,8 +338,9 @@ def find_issues(kin: KinematicsResult, arm: Arm, seg_layer: np.ndarray, seg_sect
             ds = np.maximum(np.diff(kin.s)[k], 1e-9)
             rate = np.abs(np.diff(kin.q, axis=0)[k]) / ds[:, None] / np.maximum(arm.qd_max, 1e-12)
             st["axes"] = sorted({f"A{j + 1}" for j in rate.argmax(axis=1)}) if len(k) else []
-            st["detail"] = (f"path speed capped to {kin.segment_cap[ss].min():.1f} mm/s by joint speed limits"
-                            + (f" ({', '.join(st['axes'])})" if st["axes"] else ""))
+            st["detail"] = f"path speed capped to {kin.segment_cap[ss].min():.1f} mm/s by joint speed limits" + (
+                f" ({', '.join(st['axes'])})" if st["axes"] else ""
+            )
             issues.append(st)
     return issues
 
@@ -299,16 +350,26 @@ def _stretches(kind, flag, s, seg, seg_layer, seg_section, keys) -> list[dict]:
     if not flag.any():
         return out
     idx = np.flatnonzero(flag)
-    breaks = np.flatnonzero((np.diff(idx) > 1) | (seg_section[seg[idx[1:]]] != seg_section[seg[idx[:-1]]]) |
-                            (seg_layer[seg[idx[1:]]] != seg_layer[seg[idx[:-1]]]))
+    breaks = np.flatnonzero(
+        (np.diff(idx) > 1)
+        | (seg_section[seg[idx[1:]]] != seg_section[seg[idx[:-1]]])
+        | (seg_layer[seg[idx[1:]]] != seg_layer[seg[idx[:-1]]])
+    )
     starts = np.concatenate([[0], breaks + 1])
     ends = np.concatenate([breaks, [len(idx) - 1]])
     for a, b in zip(starts, ends):
         i0, i1 = idx[a], idx[b]
         sg = seg[i0]
         sec = int(seg_section[sg])
-        out.append({"kind": kind, "layer": int(seg_layer[sg]),
-                    "section": keys[sec] if 0 <= sec < len(keys) else None,
-                    "s_from": float(s[i0]), "s_to": float(s[i1]), "count": int(b - a + 1),
-                    "detail": ""})
+        out.append(
+            {
+                "kind": kind,
+                "layer": int(seg_layer[sg]),
+                "section": keys[sec] if 0 <= sec < len(keys) else None,
+                "s_from": float(s[i0]),
+                "s_to": float(s[i1]),
+                "count": int(b - a + 1),
+                "detail": "",
+            }
+        )
     return out

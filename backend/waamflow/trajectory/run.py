@@ -21,7 +21,7 @@ from .kinematics import REACH_TOL_MM, CellFrames, find_issues, load_arm, solve_p
 from .profile import RobotProfile
 from .simulate import METRIC_UNITS, SimOptions, SimulationResult, simulate
 
-if TYPE_CHECKING:   # cell.py imports coal and pinocchio where used
+if TYPE_CHECKING:  # cell.py imports coal and pinocchio where used
     from .cell import Cell
 
 MAX_WARNINGS_PER_KIND = 20
@@ -43,9 +43,11 @@ _RAPID_ZONE = re.compile(r"zonedata\s+zw\s*:=\s*\[\s*FALSE\s*,\s*([0-9.]+)", re.
 _RAPID_ZW_USED = re.compile(r"^\s*(?:MoveL|MoveC|ArcL|ArcC)\b[^;]*,\s*zw\s*,", re.I | re.M)
 _DWELL_COMMENT = re.compile(r"^\s*(?:;-?|!)\s*ignition dwell\s+([0-9.]+)\s*s\b", re.I)
 _DWELL_HIT = re.compile("ignition dwell", re.I)
-_ASCII_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e"        # where str.splitlines cuts an ASCII text
+_ASCII_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e"  # where str.splitlines cuts an ASCII text
 _ASCII_BREAK = re.compile(f"[{_ASCII_BREAKS}]")
-_DWELL_CODE = re.compile(r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*(?:;|\()\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I)
+_DWELL_CODE = re.compile(
+    r"^\s*(WAIT\s+SEC\s+([0-9.]+)|G4\s+P([0-9.]+))\s*(?:;|\()\s*ignition dwell(?:\s+([0-9.]+)\s*s)?", re.I
+)
 
 
 def program_settings(fmt: str, files: dict[str, str]) -> dict:
@@ -70,10 +72,12 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
     if fmt == "krl":
         vals = [float(m) for t in texts for m in _KRL_CDIS.findall(t)]
         if len(set(vals)) > 1:
-            raise ValueError(f"the KRL program sets $APO.CDIS to several values {sorted(set(vals))}: one per program is simulated")
+            raise ValueError(
+                f"the KRL program sets $APO.CDIS to several values {sorted(set(vals))}: one per program is simulated"
+            )
         dist = vals[0] if vals else 0.0
     elif fmt == "rapid":
-        zone = next((float(m.group(1)) for t in texts if (m := _RAPID_ZONE.search(t))), None)   # the first
+        zone = next((float(m.group(1)) for t in texts if (m := _RAPID_ZONE.search(t))), None)  # the first
         used = any(_RAPID_ZW_USED.search(t) for t in texts)
         dist = zone if (zone is not None and used) else 0.0
     ms = fmt == "gcode" and any("dwell G4 P in milliseconds" in t or "dwell_units=ms" in t for t in texts)
@@ -92,8 +96,13 @@ def program_settings(fmt: str, files: dict[str, str]) -> dict:
                     dwells.append(float(m.group(2)))
                 else:
                     dwells.append(float(m.group(3)) / (1000.0 if ms else 1.0))
-    out = {"controller": fam["controller"], "blend": fam["blend"], "blend_distance_mm": dist,
-           "robot_profile": fam["robot_profile"], "ignition_dwells_s": tuple(dwells)}
+    out = {
+        "controller": fam["controller"],
+        "blend": fam["blend"],
+        "blend_distance_mm": dist,
+        "robot_profile": fam["robot_profile"],
+        "ignition_dwells_s": tuple(dwells),
+    }
     if fmt == "gcode":
         out["travel_speed_mm_s"], out["rapid_travel"] = _gcode_travel(texts)
     return out
@@ -103,7 +112,7 @@ def _dwell_lines(text: str) -> list[str]:
     """The lines of `text` (as str.splitlines cuts them) that say "ignition dwell" (any case): the
     only ones the dwell patterns can match. A program has one per ignition among up to hundreds
     of thousands of lines, so an ASCII text is searched as a whole, not line by line."""
-    if not text.isascii():     # lower() could change lengths: line by line
+    if not text.isascii():  # lower() could change lengths: line by line
         return [line for line in text.splitlines() if _DWELL_HIT.search(line)]
     low = text.lower()
     out = []
@@ -138,7 +147,8 @@ def _gcode_travel(texts: list[str]) -> tuple[float | None, bool]:
         return float(np.median(feeds)) / (1.0 if per_s else 60.0), False
     return None, bare
 
-MAX_ISSUES = 1000        # stretches listed in simulation.json's kinematics_issues
+
+MAX_ISSUES = 1000  # stretches listed in simulation.json's kinematics_issues
 
 
 @dataclass(frozen=True)
@@ -151,26 +161,26 @@ class KinematicsOptions:
     tcp_offset_mm: tuple[float, float, float] | None = None
     frames: CellFrames = CellFrames()
     step_mm: float = 5.0
-    cell: Cell | None = None             # when set, frames come from it and the policy
+    cell: Cell | None = None  # when set, frames come from it and the policy
     positioner_policy: str = "fixed"
-    max_tilt_deg: float = 30.0           # min-motion: torch lean from vertical tolerated before the positioner moves
-    collisions: bool = True              # with a cell: coal collision checks along the path (trajectory.collide)
-    collision_step_mm: float = 20.0      # programmed path between two checked samples
-    step_deg: float = 1.0                # with a cell: most positioner / torch-axis turn between two IK samples
-    max_lean_deg: float = 15.0           # auto: torch lean from the layer normal allowed
-    flat_tol_deg: float = 5.0            # auto: layer normal off vertical allowed (flat-position tolerance)
+    max_tilt_deg: float = 30.0  # min-motion: torch lean from vertical tolerated before the positioner moves
+    collisions: bool = True  # with a cell: coal collision checks along the path (trajectory.collide)
+    collision_step_mm: float = 20.0  # programmed path between two checked samples
+    step_deg: float = 1.0  # with a cell: most positioner / torch-axis turn between two IK samples
+    max_lean_deg: float = 15.0  # auto: torch lean from the layer normal allowed
+    flat_tol_deg: float = 5.0  # auto: layer normal off vertical allowed (flat-position tolerance)
 
 
 @dataclass
 class _Kin:
     """What the kinematics add to a simulation (`_kinematics`)."""
 
-    cap: np.ndarray                                  # (n-1,) path speed cap per segment, mm/s
+    cap: np.ndarray  # (n-1,) path speed cap per segment, mm/s
     metrics: dict[str, float]
     report: dict
     warnings: list[tuple[str, int | None, str | None]]
     collisions: tuple = ()
-    moves: Moves | None = None                       # the moves simulated (turns in place added as dwells)
+    moves: Moves | None = None  # the moves simulated (turns in place added as dwells)
 
 
 @dataclass
@@ -182,24 +192,30 @@ class _Solved:
     speed: np.ndarray
     warnings: list[tuple[str, int | None, str | None]]
     sim_moves: Moves
-    ang: np.ndarray | None = None          # (n, axes) positioner angles at the programmed points
-    ang_c: np.ndarray | None = None        # (k, axes) at the IK samples
+    ang: np.ndarray | None = None  # (n, axes) positioner angles at the programmed points
+    ang_c: np.ndarray | None = None  # (k, axes) at the IK samples
     pos_cap: np.ndarray | None = None
     pos_metrics: dict[str, float] = field(default_factory=dict)
     pos_issues: list[dict] = field(default_factory=list)
     plan_report: dict | None = None
 
 
-def _solve(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: KinematicsOptions,
-           progress: Callable[[float, str], None] | None) -> _Solved:
+def _solve(
+    moves: Moves,
+    profile: RobotProfile,
+    opt: SimOptions,
+    kin: KinematicsOptions,
+    progress: Callable[[float, str], None] | None,
+) -> _Solved:
     """IK along the path: on the programmed polyline (arm only), or with a cell on coordinated
     samples in the world, the positioner planned by its policy first."""
     if progress:
         progress(0.02, "inverse kinematics")
     desc = kin.description or profile.description
     home = getattr(kin.cell, "robot_home_deg", None) if kin.cell is not None else None
-    arm = load_arm(desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text,
-                   home_deg=home)
+    arm = load_arm(
+        desc or "robot.urdf", kin.tcp_offset_mm or profile.tcp_offset_mm, urdf_text=kin.urdf_text, home_deg=home
+    )
     speed = np.where(np.isnan(moves.speed), opt.travel_speed or profile.travel_speed, moves.speed)
     if opt.speed_override is not None:
         speed = np.where(moves.arc, opt.speed_override, speed)
@@ -222,9 +238,12 @@ def _solve(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinematics
     else:
         ang, clipped = plan_positioner(cell, moves, kin.positioner_policy, kin.max_tilt_deg)
         plan_report = None
-        warnings.extend(_flat_warnings(cell, moves, kin.flat_tol_deg, ang if kin.positioner_policy == "gravity" else None))
-    s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(cell, moves.points, axes, ang,
-                                                         step_mm=kin.step_mm, step_deg=kin.step_deg)
+        warnings.extend(
+            _flat_warnings(cell, moves, kin.flat_tol_deg, ang if kin.positioner_policy == "gravity" else None)
+        )
+    s_c, xyz_c, ax_c, seg_c, ang_c = coordinated_samples(
+        cell, moves.points, axes, ang, step_mm=kin.step_mm, step_deg=kin.step_deg
+    )
     base = cell.robot_base
     frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
     ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames, progress=ik_progress)
@@ -240,9 +259,14 @@ def _solve(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinematics
     return _Solved(arm, ks, speed, warnings, sim_moves, ang, ang_c, pos_cap, pos_metrics, pos_issues, plan_report)
 
 
-_ISSUE_TEXT = {"unreachable": "target unreachable", "joint_limit": "joint limit reached",
-               "near_singular": "near-singular arm configuration", "joint_speed": "joint speed limit",
-               "axis_limit": "positioner axis limit", "axis_speed": "positioner axis speed limit"}
+_ISSUE_TEXT = {
+    "unreachable": "target unreachable",
+    "joint_limit": "joint limit reached",
+    "near_singular": "near-singular arm configuration",
+    "joint_speed": "joint speed limit",
+    "axis_limit": "positioner axis limit",
+    "axis_speed": "positioner axis speed limit",
+}
 
 
 def _issue_warnings(issues: list[dict]) -> tuple[list[tuple[str, int | None, str | None]], dict[str, int]]:
@@ -255,16 +279,27 @@ def _issue_warnings(issues: list[dict]) -> tuple[list[tuple[str, int | None, str
         if counts[it["kind"]] > MAX_WARNINGS_PER_KIND:
             continue
         detail = f"; {it['detail']}" if it["detail"] else ""
-        warnings.append((f"{_ISSUE_TEXT[it['kind']]} over s = {it['s_from']:.1f}..{it['s_to']:.1f} mm "
-                         f"({it['count']} IK samples){detail}", it["layer"], it["section"]))
+        warnings.append(
+            (
+                f"{_ISSUE_TEXT[it['kind']]} over s = {it['s_from']:.1f}..{it['s_to']:.1f} mm "
+                f"({it['count']} IK samples){detail}",
+                it["layer"],
+                it["section"],
+            )
+        )
     for kind, c in counts.items():
         if c > MAX_WARNINGS_PER_KIND:
             warnings.append((f"{c - MAX_WARNINGS_PER_KIND} more '{kind}' stretches not listed", None, None))
     return warnings, counts
 
 
-def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: KinematicsOptions,
-                progress: Callable[[float, str], None] | None) -> _Kin:
+def _kinematics(
+    moves: Moves,
+    profile: RobotProfile,
+    opt: SimOptions,
+    kin: KinematicsOptions,
+    progress: Callable[[float, str], None] | None,
+) -> _Kin:
     """IK, positioner, collisions: the speed caps, figures, report and warnings they add."""
     sv = _solve(moves, profile, opt, kin, progress)
     ks, arm, speed = sv.ks, sv.arm, sv.speed
@@ -276,14 +311,23 @@ def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinem
         if progress:
             progress(0.33, "collision checks")
         collisions = _cell_collisions(kin, arm, ks, moves, sv.ang_c)
-        pos_metrics.update({"collision_count": float(collisions[0]),
-                            "collision_samples_checked": float(collisions[2]),
-                            "collision_step_mm": float(kin.collision_step_mm)})
+        pos_metrics.update(
+            {
+                "collision_count": float(collisions[0]),
+                "collision_samples_checked": float(collisions[2]),
+                "collision_step_mm": float(kin.collision_step_mm),
+            }
+        )
         collision_list = tuple(collisions[1])
         for c in collision_list[:MAX_WARNINGS_PER_KIND]:
-            warnings.append((f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
-                             f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
-                             c.layer, c.section))
+            warnings.append(
+                (
+                    f"collision {c.bodies[0]} / {c.bodies[1]} at s = {c.s_mm:.1f} mm "
+                    f"(point {c.point_mm[0]:.1f}, {c.point_mm[1]:.1f}, {c.point_mm[2]:.1f} mm)",
+                    c.layer,
+                    c.section,
+                )
+            )
     issues = find_issues(ks, arm, moves.layer, moves.section, moves.section_keys, speed) + sv.pos_issues
     issue_warnings, counts = _issue_warnings(issues)
     warnings.extend(issue_warnings)
@@ -296,8 +340,9 @@ def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinem
         "joint_speed_capped_segments": float(np.count_nonzero(ks.segment_cap < speed)),
         "min_joint_speed_cap_mm_s": float(ks.segment_cap[finite].min()) if finite.any() else math.inf,
     }
-    for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed") + \
-            (("axis_limit", "axis_speed") if cell is not None else ()):
+    for kind in ("unreachable", "joint_limit", "near_singular", "joint_speed") + (
+        ("axis_limit", "axis_speed") if cell is not None else ()
+    ):
         metrics[f"{kind}_stretches"] = float(counts.get(kind, 0))
     metrics.update(pos_metrics)
     dq = np.abs(np.diff(ks.q, axis=0))
@@ -308,24 +353,39 @@ def _kinematics(moves: Moves, profile: RobotProfile, opt: SimOptions, kin: Kinem
         if sv.plan_report is not None:
             report["positioner_plan"] = sv.plan_report
             warnings.extend(_plan_warnings(sv.plan_report))
-        report["motion"] = {"s": ks.s, "q": ks.q, "positioner_deg": sv.ang_c,
-                            "cell": cell.model_dump(mode="json"),
-                            "unreachable": ks.reach_err > REACH_TOL_MM}
+        report["motion"] = {
+            "s": ks.s,
+            "q": ks.q,
+            "positioner_deg": sv.ang_c,
+            "cell": cell.model_dump(mode="json"),
+            "unreachable": ks.reach_err > REACH_TOL_MM,
+        }
     return _Kin(cap, metrics, report, warnings, collision_list, sv.sim_moves)
 
 
 def _plan_warnings(plan_report: dict) -> list[tuple[str, int | None, str | None]]:
     """A warning for each layer the `auto` plan could not take at its gravity angles."""
-    return [(f"auto positioner plan: {row['stage']} ({row['why']}); E = "
-             f"{', '.join(f'{v:.1f}' for v in row['e_deg'])}°, torch lean "
-             f"{row['lean_deg']:g}°, layer {row['tilt_deg']:.1f}° off flat", row["layer"], None)
-            for row in plan_report["layers"] if row["stage"] != "gravity"]
+    return [
+        (
+            f"auto positioner plan: {row['stage']} ({row['why']}); E = "
+            f"{', '.join(f'{v:.1f}' for v in row['e_deg'])}°, torch lean "
+            f"{row['lean_deg']:g}°, layer {row['tilt_deg']:.1f}° off flat",
+            row["layer"],
+            None,
+        )
+        for row in plan_report["layers"]
+        if row["stage"] != "gravity"
+    ]
 
 
-def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
-                     kin: KinematicsOptions | None = None,
-                     progress: Callable[[float, str], None] | None = None,
-                     strategies: tuple[str, ...] | None = None) -> SimulationResult:
+def simulate_program(
+    moves: Moves,
+    profile: RobotProfile,
+    opt: SimOptions = SimOptions(),
+    kin: KinematicsOptions | None = None,
+    progress: Callable[[float, str], None] | None = None,
+    strategies: tuple[str, ...] | None = None,
+) -> SimulationResult:
     """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate
     (strategies: each section's strategy, `estimate.section_strategies`, for the time model's
     per-family entries; None = the generic ones)."""
@@ -335,20 +395,37 @@ def simulate_program(moves: Moves, profile: RobotProfile, opt: SimOptions = SimO
         k = _kinematics(moves, profile, opt, kin, progress)
         opt = replace(opt, segment_cap=k.cap)
         sim_moves = k.moves or moves
-    res = simulate(sim_moves, profile, opt,
-                   progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress)
-    est = (estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
-           if profile.time_model else None)
+    res = simulate(
+        sim_moves,
+        profile,
+        opt,
+        progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress,
+    )
+    est = (
+        estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
+        if profile.time_model
+        else None
+    )
     estimate = {}
     if est is not None:
-        estimate = {"total_time_s": est.total_time_s, "passes": float(est.passes),
-                    "error_vs_simulation_pct": 100.0 * (est.total_time_s - res.metrics["total_time_s"])
-                    / max(res.metrics["total_time_s"], 1e-9)}
+        estimate = {
+            "total_time_s": est.total_time_s,
+            "passes": float(est.passes),
+            "error_vs_simulation_pct": 100.0
+            * (est.total_time_s - res.metrics["total_time_s"])
+            / max(res.metrics["total_time_s"], 1e-9),
+        }
     metrics = dict(res.metrics)
     if k is not None:
         metrics.update(k.metrics)
-    return replace(res, metrics=metrics, warnings=tuple(k.warnings if k else ()), estimate=estimate,
-                   collisions=k.collisions if k else (), kinematics=k.report if k else {})
+    return replace(
+        res,
+        metrics=metrics,
+        warnings=tuple(k.warnings if k else ()),
+        estimate=estimate,
+        collisions=k.collisions if k else (),
+        kinematics=k.report if k else {},
+    )
 
 
 def _auto_limits(kin: KinematicsOptions):
@@ -366,8 +443,16 @@ def _auto_plan(kin: KinematicsOptions, arm, moves: Moves):
     cell = kin.cell
     if cell is None:
         raise ValueError("the auto positioner policy needs a cell")
-    plan = plan_auto(cell, moves, arm, _auto_limits(kin), step_mm=kin.step_mm, step_deg=kin.step_deg,
-                     collision_step_mm=kin.collision_step_mm, collisions=kin.collisions)
+    plan = plan_auto(
+        cell,
+        moves,
+        arm,
+        _auto_limits(kin),
+        step_mm=kin.step_mm,
+        step_deg=kin.step_deg,
+        collision_step_mm=kin.collision_step_mm,
+        collisions=kin.collisions,
+    )
     if not plan.ok:
         raise PlanningError(auto_failure_text(cell, plan), layer=(plan.failed or {}).get("layer"))
     return plan
@@ -383,8 +468,9 @@ def auto_failure_text(cell, plan) -> str:
     return msg
 
 
-def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0,
-                   gravity: np.ndarray | None = None) -> list[tuple[str, int | None, str | None]]:
+def _flat_warnings(
+    cell, moves: Moves, tol_deg: float = 5.0, gravity: np.ndarray | None = None
+) -> list[tuple[str, int | None, str | None]]:
     """Layers that even the gravity angles leave leaning more than tol_deg off flat (the lean this
     positioner cannot remove: a 1-axis positioner and a part leaning about the other axis, or an
     axis limit): one warning with the layers and the largest lean. gravity: the `gravity` policy's
@@ -400,7 +486,7 @@ def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0,
     seg_lean = np.maximum(lean[:-1], lean[1:])
     uniq, inv = np.unique(np.asarray(moves.layer)[arc], return_inverse=True)
     most = np.zeros(len(uniq))
-    np.fmax.at(most, inv.ravel(), seg_lean[arc])          # per layer the largest lean (0 at least)
+    np.fmax.at(most, inv.ravel(), seg_lean[arc])  # per layer the largest lean (0 at least)
     per: dict[int, float] = dict(zip(uniq.tolist(), most.tolist()))
     steep = sorted(L for L, v in per.items() if v > tol_deg + 1e-6)
     if not steep:
@@ -408,8 +494,14 @@ def _flat_warnings(cell, moves: Moves, tol_deg: float = 5.0,
     from .cellplan import _ranges
 
     worst = max(steep, key=lambda L: per[L])
-    return [(f"the positioner leaves layers {_ranges(steep)} up to {per[worst]:.1f}° off flat (layer {worst}): "
-             f"this cell's {cell.axes}-axis positioner cannot turn them flat (policy auto names a change that would)", worst, None)]
+    return [
+        (
+            f"the positioner leaves layers {_ranges(steep)} up to {per[worst]:.1f}° off flat (layer {worst}): "
+            f"this cell's {cell.axes}-axis positioner cannot turn them flat (policy auto names a change that would)",
+            worst,
+            None,
+        )
+    ]
 
 
 def _positioner_report(cell, moves: Moves, ang, clipped, cap, turn_s, speed) -> tuple[dict, list[dict]]:
@@ -438,8 +530,11 @@ def _positioner_report(cell, moves: Moves, ang, clipped, cap, turn_s, speed) -> 
     issues = []
     for st in _stretches("axis_limit", clipped, s_pt, seg_pt, moves.layer, moves.section, moves.section_keys):
         k = np.flatnonzero(clipped & (s_pt >= st["s_from"]) & (s_pt <= st["s_to"]))
-        hit = [names[j] for j in range(m) if np.any(np.isclose(ang[k, j], pk.lower_deg[j]) |
-                                                      np.isclose(ang[k, j], pk.upper_deg[j]))]
+        hit = [
+            names[j]
+            for j in range(m)
+            if np.any(np.isclose(ang[k, j], pk.lower_deg[j]) | np.isclose(ang[k, j], pk.upper_deg[j]))
+        ]
         st.update(axes=hit, detail=f"{', '.join(hit) or 'axis'} clipped into its range: the layer is not turned flat")
         issues.append(st)
     flag = np.zeros(len(s_pt), bool)
@@ -449,8 +544,10 @@ def _positioner_report(cell, moves: Moves, ang, clipped, cap, turn_s, speed) -> 
         segs = slow[(s_pt[slow] >= st["s_from"]) & (s_pt[slow] <= st["s_to"])]
         d = np.abs(ang[segs + 1] - ang[segs]) / pk.speed_deg_s
         st["axes"] = sorted({names[j] for j in d.argmax(axis=1)})
-        st["detail"] = (f"path speed capped to {cap[segs].min():.1f} mm/s by positioner speed "
-                        f"({', '.join(st['axes'])}: {', '.join(f'{v:.0f}' for v in pk.speed_deg_s)} deg/s)")
+        st["detail"] = (
+            f"path speed capped to {cap[segs].min():.1f} mm/s by positioner speed "
+            f"({', '.join(st['axes'])}: {', '.join(f'{v:.0f}' for v in pk.speed_deg_s)} deg/s)"
+        )
         issues.append(st)
     return out, issues
 
@@ -465,13 +562,18 @@ def _axes_report(arm, ks, cap, speed, cell, ang, moves: Moves) -> list[dict]:
     vs = v[ks.seg[k]]
     for j in range(arm.model.nq):
         qd = np.abs(np.diff(ks.q[:, j]))[k] / ds[k] * vs
-        rows.append({"axis": f"A{j + 1}", "joint": arm.model.names[j + 1],
-                     "min_deg": round(float(np.degrees(ks.q[:, j].min())), 4),
-                     "max_deg": round(float(np.degrees(ks.q[:, j].max())), 4),
-                     "lower_deg": round(float(np.degrees(arm.lower[j])), 4),
-                     "upper_deg": round(float(np.degrees(arm.upper[j])), 4),
-                     "speed_limit_deg_s": round(float(np.degrees(arm.qd_max[j])), 4),
-                     "peak_speed_deg_s": round(float(np.degrees(qd.max(initial=0.0))), 4)})
+        rows.append(
+            {
+                "axis": f"A{j + 1}",
+                "joint": arm.model.names[j + 1],
+                "min_deg": round(float(np.degrees(ks.q[:, j].min())), 4),
+                "max_deg": round(float(np.degrees(ks.q[:, j].max())), 4),
+                "lower_deg": round(float(np.degrees(arm.lower[j])), 4),
+                "upper_deg": round(float(np.degrees(arm.upper[j])), 4),
+                "speed_limit_deg_s": round(float(np.degrees(arm.qd_max[j])), 4),
+                "peak_speed_deg_s": round(float(np.degrees(qd.max(initial=0.0))), 4),
+            }
+        )
     if cell is not None and ang is not None and ang.shape[1]:
         from .cell import positioner_kin
 
@@ -481,11 +583,18 @@ def _axes_report(arm, ks, cap, speed, cell, ang, moves: Moves) -> list[dict]:
             d = np.abs(np.diff(ang[:, j]))
             moving = L > 1e-6
             sp = np.where(moving, d / np.maximum(L, 1e-12) * v, np.where(d > 0, pk.speed_deg_s[j], 0.0))
-            rows.append({"axis": f"E{j + 1}", "joint": pk.names[j],
-                         "min_deg": round(float(ang[:, j].min()), 4), "max_deg": round(float(ang[:, j].max()), 4),
-                         "lower_deg": round(float(pk.lower_deg[j]), 4), "upper_deg": round(float(pk.upper_deg[j]), 4),
-                         "speed_limit_deg_s": round(float(pk.speed_deg_s[j]), 4),
-                         "peak_speed_deg_s": round(float(sp.max(initial=0.0)), 4)})
+            rows.append(
+                {
+                    "axis": f"E{j + 1}",
+                    "joint": pk.names[j],
+                    "min_deg": round(float(ang[:, j].min()), 4),
+                    "max_deg": round(float(ang[:, j].max()), 4),
+                    "lower_deg": round(float(pk.lower_deg[j]), 4),
+                    "upper_deg": round(float(pk.upper_deg[j]), 4),
+                    "speed_limit_deg_s": round(float(pk.speed_deg_s[j]), 4),
+                    "peak_speed_deg_s": round(float(sp.max(initial=0.0)), 4),
+                }
+            )
     return rows
 
 
@@ -502,10 +611,21 @@ def _cell_collisions(kin: KinematicsOptions, arm, ks, moves: Moves, ang: np.ndar
         if a not in cache:
             cache[a] = (*cell.work_pose(np.asarray(a)), np.asarray(a))
         return cache[a]
+
     yaw = np.radians(cell.robot_base.yaw_deg)
     Rb = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
-    return check_path(arm, ks.q, ks.s, ks.seg, moves, cell, work_frame, Rb, np.asarray(cell.robot_base.xyz_mm, float),
-                      step_mm=kin.collision_step_mm)
+    return check_path(
+        arm,
+        ks.q,
+        ks.s,
+        ks.seg,
+        moves,
+        cell,
+        work_frame,
+        Rb,
+        np.asarray(cell.robot_base.xyz_mm, float),
+        step_mm=kin.collision_step_mm,
+    )
 
 
 def _clean(v):
@@ -523,32 +643,56 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
     out["warnings"] = [{"message": m, "layer": l, "section": s} for m, l, s in res.warnings]
     if "collision_count" in res.metrics:
         out["collision_count"] = int(res.metrics["collision_count"])
-        out["collisions"] = [{"layer": c.layer, "section": c.section, "bodies": list(c.bodies),
-                              "point_mm": list(c.point_mm), "s_mm": round(c.s_mm, 3)} for c in res.collisions]
+        out["collisions"] = [
+            {
+                "layer": c.layer,
+                "section": c.section,
+                "bodies": list(c.bodies),
+                "point_mm": list(c.point_mm),
+                "s_mm": round(c.s_mm, 3),
+            }
+            for c in res.collisions
+        ]
     if res.kinematics:
         out["axes"] = res.kinematics.get("axes", [])
-        out["kinematics_issues"] = [{k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
-                                    for it in res.kinematics.get("issues", [])]
+        out["kinematics_issues"] = [
+            {k: (round(v, 3) if isinstance(v, float) else v) for k, v in it.items()}
+            for it in res.kinematics.get("issues", [])
+        ]
         if res.kinematics.get("positioner_plan"):
             out["positioner_plan"] = res.kinematics["positioner_plan"]
     out["robot_profile"] = res.profile.get("name")
     junction = opt.blend == "junction" or res.profile.get("junction_deviation_mm", 0.0) > 0
-    out["settings"] = {"cdis_mm": None if junction else opt.cdis, "blend": "junction" if junction else opt.blend,
-                       "junction_deviation_mm": res.profile.get("junction_deviation_mm") if junction else None,
-                       "lookahead_blocks": res.profile.get("lookahead_blocks") if junction else None,
-                       "travel_speed_mm_s": opt.travel_speed or res.profile.get("travel_speed"),
-                       "controller": opt.controller or None,
-                       "ignition_dwells": (len(opt.ignition_dwells_s) if opt.ignition_dwells_s is not None else None),
-                       "ignition_dwell_total_s": (round(sum(opt.ignition_dwells_s), 6)
-                                                  if opt.ignition_dwells_s is not None else None),
-                       "wire_feed_mm3_s": opt.wire_feed_mm3_s,
-                       "speed_override_mm_s": opt.speed_override,
-                       "interpolation_cycle_s": opt.interpolation_cycle_s or res.profile.get("interpolation_cycle_s")}
+    out["settings"] = {
+        "cdis_mm": None if junction else opt.cdis,
+        "blend": "junction" if junction else opt.blend,
+        "junction_deviation_mm": res.profile.get("junction_deviation_mm") if junction else None,
+        "lookahead_blocks": res.profile.get("lookahead_blocks") if junction else None,
+        "travel_speed_mm_s": opt.travel_speed or res.profile.get("travel_speed"),
+        "controller": opt.controller or None,
+        "ignition_dwells": (len(opt.ignition_dwells_s) if opt.ignition_dwells_s is not None else None),
+        "ignition_dwell_total_s": (round(sum(opt.ignition_dwells_s), 6) if opt.ignition_dwells_s is not None else None),
+        "wire_feed_mm3_s": opt.wire_feed_mm3_s,
+        "speed_override_mm_s": opt.speed_override,
+        "interpolation_cycle_s": opt.interpolation_cycle_s or res.profile.get("interpolation_cycle_s"),
+    }
     c = res.corners
-    out["corners"] = [{"vertex": int(v), "interior_deg": round(float(a), 3), "error_mm": round(float(e), 4),
-                       "min_speed_mm_s": _clean(float(sp)), "mean_speed_mm_s": _clean(float(mv))}
-                      for v, a, e, sp, mv in zip(c.get("vertex", []), c.get("interior_deg", []), c.get("error_mm", []),
-                                                 c.get("min_speed_mm_s", []), c.get("mean_speed_mm_s", []))][:5000]
+    out["corners"] = [
+        {
+            "vertex": int(v),
+            "interior_deg": round(float(a), 3),
+            "error_mm": round(float(e), 4),
+            "min_speed_mm_s": _clean(float(sp)),
+            "mean_speed_mm_s": _clean(float(mv)),
+        }
+        for v, a, e, sp, mv in zip(
+            c.get("vertex", []),
+            c.get("interior_deg", []),
+            c.get("error_mm", []),
+            c.get("min_speed_mm_s", []),
+            c.get("mean_speed_mm_s", []),
+        )
+    ][:5000]
     return out
 
 
@@ -558,11 +702,19 @@ def deposit_csv(res: SimulationResult) -> str:
     keys = res.section_keys
     buf = io.StringIO()
     buf.write("segment,layer,section,s_mm,length_mm,arc,programmed_mm3_per_mm,actual_mm3_per_mm,ratio\n")
-    cols = zip(np.asarray(d["layer"]).tolist(), np.asarray(d["section"]).tolist(), np.asarray(d["s_mm"], float).tolist(),
-               np.asarray(d["length_mm"], float).tolist(), np.asarray(d["arc"]).tolist(),
-               np.asarray(d["programmed_mm3_per_mm"], float).tolist(), np.asarray(d["actual_mm3_per_mm"], float).tolist())
-    for i, (layer, sec, s_mm, length, arc, prog, act) in enumerate(cols):   # Python numbers: one row at a time is cheap
+    cols = zip(
+        np.asarray(d["layer"]).tolist(),
+        np.asarray(d["section"]).tolist(),
+        np.asarray(d["s_mm"], float).tolist(),
+        np.asarray(d["length_mm"], float).tolist(),
+        np.asarray(d["arc"]).tolist(),
+        np.asarray(d["programmed_mm3_per_mm"], float).tolist(),
+        np.asarray(d["actual_mm3_per_mm"], float).tolist(),
+    )
+    for i, (layer, sec, s_mm, length, arc, prog, act) in enumerate(cols):  # Python numbers: one row at a time is cheap
         ratio = f"{act / prog:.4f}" if prog > 0 else ""
-        buf.write(f"{i},{int(layer)},{keys[sec] if 0 <= sec < len(keys) else ''},{s_mm:.3f},"
-                  f"{length:.3f},{int(bool(arc))},{prog:.4f},{act:.4f},{ratio}\n")
+        buf.write(
+            f"{i},{int(layer)},{keys[sec] if 0 <= sec < len(keys) else ''},{s_mm:.3f},"
+            f"{length:.3f},{int(bool(arc))},{prog:.4f},{act:.4f},{ratio}\n"
+        )
     return buf.getvalue()

@@ -106,23 +106,46 @@ class SimulationResult:
     estimate: dict[str, float] = field(default_factory=dict)
     corners: dict[str, np.ndarray] = field(default_factory=dict)
     profile: dict = field(default_factory=dict)
-    collisions: tuple = ()      # trajectory.collide.Collision, the first ones found (cell simulations)
-    kinematics: dict = field(default_factory=dict)   # per-axis report, kinematics issues, the solved motion (run.py)
-    options: "SimOptions | None" = None   # the settings simulated (simulate-robot: as read from the program)
+    collisions: tuple = ()  # trajectory.collide.Collision, the first ones found (cell simulations)
+    kinematics: dict = field(default_factory=dict)  # per-axis report, kinematics issues, the solved motion (run.py)
+    options: "SimOptions | None" = None  # the settings simulated (simulate-robot: as read from the program)
 
 
 METRIC_UNITS = {
-    "total_time_s": "s", "programmed_length_mm": "mm", "actual_length_mm": "mm", "length_ratio": "",
-    "arc_on_time_s": "s", "arc_off_lag_after_end_s": "s", "arc_on_length_mm": "mm", "deposited_volume_mm3": "mm³",
-    "programmed_volume_mm3": "mm³", "max_deviation_mm": "mm", "mean_deviation_mm": "mm",
-    "time_inside_s": "s", "time_outside_s": "s", "arc_off_time_inside_s": "s",
-    "arc_on_time_outside_s": "s", "actual_length_outside_mm": "mm", "average_speed_mm_s": "mm/s", "stops": "", "blended_corners": "", "max_corner_error_mm": "mm",
+    "total_time_s": "s",
+    "programmed_length_mm": "mm",
+    "actual_length_mm": "mm",
+    "length_ratio": "",
+    "arc_on_time_s": "s",
+    "arc_off_lag_after_end_s": "s",
+    "arc_on_length_mm": "mm",
+    "deposited_volume_mm3": "mm³",
+    "programmed_volume_mm3": "mm³",
+    "max_deviation_mm": "mm",
+    "mean_deviation_mm": "mm",
+    "time_inside_s": "s",
+    "time_outside_s": "s",
+    "arc_off_time_inside_s": "s",
+    "arc_on_time_outside_s": "s",
+    "actual_length_outside_mm": "mm",
+    "average_speed_mm_s": "mm/s",
+    "stops": "",
+    "blended_corners": "",
+    "max_corner_error_mm": "mm",
     "min_corner_speed_mm_s": "mm/s",
-    "positioner_e1_min_deg": "deg", "positioner_e1_max_deg": "deg", "positioner_e2_min_deg": "deg",
-    "positioner_e2_max_deg": "deg", "positioner_max_step_deg": "deg",
-    "collision_count": "", "collision_samples_checked": "", "collision_step_mm": "mm",
-    "positioner_min_speed_cap_mm_s": "mm/s", "positioner_speed_capped_segments": "",
-    "positioner_turn_in_place_s": "s", "axis_limit_stretches": "", "axis_speed_stretches": "",
+    "positioner_e1_min_deg": "deg",
+    "positioner_e1_max_deg": "deg",
+    "positioner_e2_min_deg": "deg",
+    "positioner_e2_max_deg": "deg",
+    "positioner_max_step_deg": "deg",
+    "collision_count": "",
+    "collision_samples_checked": "",
+    "collision_step_mm": "mm",
+    "positioner_min_speed_cap_mm_s": "mm/s",
+    "positioner_speed_capped_segments": "",
+    "positioner_turn_in_place_s": "s",
+    "axis_limit_stretches": "",
+    "axis_speed_stretches": "",
     "max_wrist_step_deg": "deg",
 }
 
@@ -138,13 +161,13 @@ class _Program:
     kind: np.ndarray
     layer: np.ndarray
     section: np.ndarray
-    stop: np.ndarray        # (n,) exact stop at vertex
+    stop: np.ndarray  # (n,) exact stop at vertex
     standstill: np.ndarray  # (n,) dwell at vertex before moving on (s): waits + ignition, arc-switch dwell excluded
-    switch: np.ndarray      # (n,) arc switches at vertex (incl. ON at the start, OFF at the end)
-    src: np.ndarray         # (n-1,) index of each segment in the original Moves
-    wire_rate: np.ndarray   # (n-1,) wire volume feed while the arc is ON, mm³/s
-    pause: np.ndarray       # (n,) arc OFF and ON again at the vertex (zero-length arc-OFF move)
-    ignite: np.ndarray      # (n,) part of the standstill after the arc ON command (ignition dwell), s
+    switch: np.ndarray  # (n,) arc switches at vertex (incl. ON at the start, OFF at the end)
+    src: np.ndarray  # (n-1,) index of each segment in the original Moves
+    wire_rate: np.ndarray  # (n-1,) wire volume feed while the arc is ON, mm³/s
+    pause: np.ndarray  # (n,) arc OFF and ON again at the vertex (zero-length arc-OFF move)
+    ignite: np.ndarray  # (n,) part of the standstill after the arc ON command (ignition dwell), s
 
 
 def blend_mode(profile: RobotProfile, opt: SimOptions) -> str:
@@ -168,8 +191,10 @@ def _ignition_dwell(moves: Moves, default_s: float, sequence: tuple[float, ...] 
     zstart = np.ones(n - 1, dtype=bool)
     zstart[1:] = (moves.zone[1:] != moves.zone[:-1]) | (moves.section[1:] != moves.section[:-1])
     if sequence is not None and len(sequence) != int(ignite.sum()):
-        raise PlanningError(f"the program writes {len(sequence)} ignition dwells but the toolpath has "
-                            f"{int(ignite.sum())} arc ignitions: connect the program made from this toolpath")
+        raise PlanningError(
+            f"the program writes {len(sequence)} ignition dwells but the toolpath has "
+            f"{int(ignite.sum())} arc ignitions: connect the program made from this toolpath"
+        )
     k = 0
     for i in np.flatnonzero((ignite | (zstart & arc))):
         params = moves.zone_params.get((int(moves.section[i]), int(moves.zone[i])), {})
@@ -227,9 +252,22 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
     if n:
         stop[0] = stop[-1] = True
     rate = _wire_rate(moves, opt)[src]
-    return _Program(pts, speed, arc, np.asarray(moves.inside, bool)[src], np.asarray(moves.kind)[src],
-                    np.asarray(moves.layer)[src], np.asarray(moves.section)[src], stop, standstill, switch, src,
-                    rate, pause, ignite)
+    return _Program(
+        pts,
+        speed,
+        arc,
+        np.asarray(moves.inside, bool)[src],
+        np.asarray(moves.kind)[src],
+        np.asarray(moves.layer)[src],
+        np.asarray(moves.section)[src],
+        stop,
+        standstill,
+        switch,
+        src,
+        rate,
+        pause,
+        ignite,
+    )
 
 
 def _wire_rate(moves: Moves, opt: SimOptions) -> np.ndarray:
@@ -238,12 +276,12 @@ def _wire_rate(moves: Moves, opt: SimOptions) -> np.ndarray:
     rate = np.full(len(moves.points) - 1, float(opt.wire_feed_mm3_s))
     if not opt.wire_diameter_mm or not moves.zone_params:
         return rate
-    area = np.pi * opt.wire_diameter_mm ** 2 / 4.0
+    area = np.pi * opt.wire_diameter_mm**2 / 4.0
     for (sec, zone), params in moves.zone_params.items():
         wfs = params.get("wire_feed_speed")
         if wfs:
             m = (moves.section == sec) & (moves.zone == zone)
-            rate[m] = float(wfs) * 1000.0 / 60.0 * area   # m/min → mm/s, × wire area
+            rate[m] = float(wfs) * 1000.0 / 60.0 * area  # m/min → mm/s, × wire area
     return rate
 
 
@@ -253,10 +291,10 @@ def _catchup_vertices(prog: _Program, catchup: float) -> np.ndarray | None:
     n = len(prog.points)
     if catchup <= 0 or n < 3:
         return None
-    stops = np.flatnonzero(prog.stop)                       # stop[0] is always set
-    seg_arc = np.concatenate([prog.arc, [True]])            # the segment leaving each vertex
-    starts_off = prog.switch & ~seg_arc                     # arc-OFF stop: the block after it travels arc OFF
-    owner = stops[np.cumsum(prog.stop) - 1]                 # last stop at or before each vertex
+    stops = np.flatnonzero(prog.stop)  # stop[0] is always set
+    seg_arc = np.concatenate([prog.arc, [True]])  # the segment leaving each vertex
+    starts_off = prog.switch & ~seg_arc  # arc-OFF stop: the block after it travels arc OFF
+    owner = stops[np.cumsum(prog.stop) - 1]  # last stop at or before each vertex
     out = np.where(starts_off[owner] & ~prog.stop, float(min(catchup, 1.0)), 0.0)
     return out
 
@@ -269,26 +307,54 @@ def _check_points(prog: _Program, moves: Moves) -> None:
         bad = int(np.flatnonzero(~np.isfinite(prog.points).all(axis=1))[0])
         seg_i = min(bad, n - 2)
         sec = int(prog.section[seg_i])
-        raise PlanningError("toolpath point is not finite", layer=int(prog.layer[seg_i]),
-                            section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None)
+        raise PlanningError(
+            "toolpath point is not finite",
+            layer=int(prog.layer[seg_i]),
+            section=moves.section_keys[sec] if 0 <= sec < len(moves.section_keys) else None,
+        )
 
 
-def _plan_motion(prog: _Program, profile: RobotProfile, opt: SimOptions, mode: str,
-                 progress: Callable[[float, str], None] | None) -> tuple[BlendedPath, np.ndarray, Spans, SpanProfiles]:
+def _plan_motion(
+    prog: _Program, profile: RobotProfile, opt: SimOptions, mode: str, progress: Callable[[float, str], None] | None
+) -> tuple[BlendedPath, np.ndarray, Spans, SpanProfiles]:
     """Steps 2-3 of the model: the blended path, the exact stops, the spans and their speed profiles."""
     a, j = profile.path_acc, profile.path_jerk
     a_dec, j_dec = profile.dec
-    if mode == "junction":   # a G-code planner: exact path, junction speeds from δ and the acceleration
-        path = blend_path(prog.points, prog.speed, prog.stop, mode=mode, distance=profile.junction_deviation_mm,
-                          normal_acc=profile.path_acc)
+    if mode == "junction":  # a G-code planner: exact path, junction speeds from δ and the acceleration
+        path = blend_path(
+            prog.points,
+            prog.speed,
+            prog.stop,
+            mode=mode,
+            distance=profile.junction_deviation_mm,
+            normal_acc=profile.path_acc,
+        )
     else:
-        path = blend_path(prog.points, prog.speed, prog.stop, mode=mode, distance=opt.cdis,
-                          apo_time_s=profile.apo_time_s, apo_min_mm=profile.apo_min_mm, normal_acc=profile.normal_acc,
-                          normal_jerk=profile.normal_jerk, turn_radius=profile.turn_radius_mm,
-                          catchup=_catchup_vertices(prog, profile.catchup))
-    stop = prog.stop | (path.cap <= 0.0)   # a corner that cannot be blended (CDIS 0) is an exact stop
-    spans = plan_spans(path, prog.speed, stop, a, j, a_dec, j_dec, limits=profile.ramp_limits,
-                       lookahead=profile.lookahead_blocks if mode == "junction" else 0)
+        path = blend_path(
+            prog.points,
+            prog.speed,
+            prog.stop,
+            mode=mode,
+            distance=opt.cdis,
+            apo_time_s=profile.apo_time_s,
+            apo_min_mm=profile.apo_min_mm,
+            normal_acc=profile.normal_acc,
+            normal_jerk=profile.normal_jerk,
+            turn_radius=profile.turn_radius_mm,
+            catchup=_catchup_vertices(prog, profile.catchup),
+        )
+    stop = prog.stop | (path.cap <= 0.0)  # a corner that cannot be blended (CDIS 0) is an exact stop
+    spans = plan_spans(
+        path,
+        prog.speed,
+        stop,
+        a,
+        j,
+        a_dec,
+        j_dec,
+        limits=profile.ramp_limits,
+        lookahead=profile.lookahead_blocks if mode == "junction" else 0,
+    )
     if progress:
         progress(0.1, f"{len(spans.s0)} spans planned")
     prof = profile_spans(spans)
@@ -314,8 +380,17 @@ class _Samples:
     inside: np.ndarray
 
 
-def _attribute(prog: _Program, path: BlendedPath, tl: Timeline, t: np.ndarray, xyz: np.ndarray, s_f: np.ndarray,
-               blk: np.ndarray, step: np.ndarray, arc_time: Callable[[Any], np.ndarray]) -> _Samples:
+def _attribute(
+    prog: _Program,
+    path: BlendedPath,
+    tl: Timeline,
+    t: np.ndarray,
+    xyz: np.ndarray,
+    s_f: np.ndarray,
+    blk: np.ndarray,
+    step: np.ndarray,
+    arc_time: Callable[[Any], np.ndarray],
+) -> _Samples:
     """Programmed segment, deviation, time weights and arc state of every fine sample. Each sample
     owns the interval to the next one; the standstill before a block (arc switch, ignition,
     interlayer dwell) belongs to the block's first sample."""
@@ -327,7 +402,7 @@ def _attribute(prog: _Program, path: BlendedPath, tl: Timeline, t: np.ndarray, x
     last = np.concatenate([~same, [True]])
     first = np.concatenate([[True], ~same])
     t_from = t.copy()
-    t_from[first] = np.concatenate([[0.0], t[:-1][last[:-1]]])   # previous block's end (0 for the first)
+    t_from[first] = np.concatenate([[0.0], t[:-1][last[:-1]]])  # previous block's end (0 for the first)
     t_to = np.where(last, t, t_next)
     # the arc clock at t_to and t_from, read off its values at the samples' own times (t_to and
     # t_from are sample times but for the end of motion and 0)
@@ -339,8 +414,16 @@ def _attribute(prog: _Program, path: BlendedPath, tl: Timeline, t: np.ndarray, x
     return _Samples(t, xyz, step, blk, seg, deviation, t_to - t_from, a_to - a_from, inside)
 
 
-def _metrics(prog: _Program, path: BlendedPath, stop: np.ndarray, sm: _Samples, total_time: float,
-             burnback: float, vol_samples: np.ndarray, seg_len: np.ndarray) -> dict[str, float]:
+def _metrics(
+    prog: _Program,
+    path: BlendedPath,
+    stop: np.ndarray,
+    sm: _Samples,
+    total_time: float,
+    burnback: float,
+    vol_samples: np.ndarray,
+    seg_len: np.ndarray,
+) -> dict[str, float]:
     """The simulation's figures (see METRIC_UNITS), corner errors apart."""
     w, arc_w, step, inside, deviation = sm.w, sm.arc_w, sm.step, sm.inside, sm.deviation
     arc_on = arc_w > 0.5 * np.maximum(w, 1e-12)
@@ -353,7 +436,7 @@ def _metrics(prog: _Program, path: BlendedPath, stop: np.ndarray, sm: _Samples, 
         "programmed_length_mm": prog_len,
         "actual_length_mm": act_len,
         "length_ratio": act_len / prog_len if prog_len > 0 else 0.0,
-        "arc_on_time_s": float(arc_w.sum()),   # within the cycle [0, total_time]: ≤ total_time
+        "arc_on_time_s": float(arc_w.sum()),  # within the cycle [0, total_time]: ≤ total_time
         "arc_off_lag_after_end_s": float(burnback),
         "arc_on_length_mm": float((step * arc_on[:-1]).sum()),
         "deposited_volume_mm3": float(vol_samples.sum()),
@@ -372,8 +455,15 @@ def _metrics(prog: _Program, path: BlendedPath, stop: np.ndarray, sm: _Samples, 
     }
 
 
-def _trace(prog: _Program, sm: _Samples, spd: np.ndarray, vol_samples: np.ndarray, total_time: float, dt: float,
-           arc_time: Callable[[Any], np.ndarray]) -> dict[str, np.ndarray]:
+def _trace(
+    prog: _Program,
+    sm: _Samples,
+    spd: np.ndarray,
+    vol_samples: np.ndarray,
+    total_time: float,
+    dt: float,
+    arc_time: Callable[[Any], np.ndarray],
+) -> dict[str, np.ndarray]:
     """The trace at the interpolation cycle (see SimulationResult.trace)."""
     t, xyz, seg = sm.t, sm.xyz, sm.seg
     t_out = np.arange(0.0, total_time + 0.5 * dt, dt)
@@ -396,8 +486,12 @@ def _trace(prog: _Program, sm: _Samples, spd: np.ndarray, vol_samples: np.ndarra
     }
 
 
-def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions(),
-             progress: Callable[[float, str], None] | None = None) -> SimulationResult:
+def simulate(
+    moves: Moves,
+    profile: RobotProfile,
+    opt: SimOptions = SimOptions(),
+    progress: Callable[[float, str], None] | None = None,
+) -> SimulationResult:
     """Simulate the controller on a flat move list. See the module docstring for the model."""
     prog = _prepare(moves, profile, opt)
     _check_points(prog, moves)
@@ -405,8 +499,15 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     dt = opt.interpolation_cycle_s or profile.interpolation_cycle_s
     mode = blend_mode(profile, opt)
     path, stop, spans, prof = _plan_motion(prog, profile, opt, mode, progress)
-    tl = timeline(spans, prof, prog.standstill, (prog.switch | prog.pause).astype(float), dt, profile.smoothing_s,
-                  profile.arc_switch_dwell_s)
+    tl = timeline(
+        spans,
+        prof,
+        prog.standstill,
+        (prog.switch | prog.pause).astype(float),
+        dt,
+        profile.smoothing_s,
+        profile.arc_switch_dwell_s,
+    )
     t, xyz, s_f, blk = sample_blocks(tl, spans, prof, path, progress)
     # path length and speed along the path come from the motion itself; the transverse backlash
     # transient (a fraction of a mm that decays in ~0.1 s) shows in positions and deviation only
@@ -444,8 +545,17 @@ def simulate(moves: Moves, profile: RobotProfile, opt: SimOptions = SimOptions()
     trace = _trace(prog, sm, spd, vol_samples, total_time, dt, arc_time)
     if progress:
         progress(1.0, "simulation done")
-    return SimulationResult(metrics, trace, prog.points, prog.arc, path.points, deposit,
-                            tuple(moves.section_keys), corners=corners, profile=profile.to_json())
+    return SimulationResult(
+        metrics,
+        trace,
+        prog.points,
+        prog.arc,
+        path.points,
+        deposit,
+        tuple(moves.section_keys),
+        corners=corners,
+        profile=profile.to_json(),
+    )
 
 
 def _arc_intervals(prog: _Program, tl: Timeline, profile: RobotProfile) -> list[tuple[float, float]]:
@@ -456,7 +566,7 @@ def _arc_intervals(prog: _Program, tl: Timeline, profile: RobotProfile) -> list[
     on_at = None
     for b in range(tl.nb):
         v = tl.start_vertex[b]
-        off_cmd = tl.T0[b] - tl.gap_before[b]          # motion stopped
+        off_cmd = tl.T0[b] - tl.gap_before[b]  # motion stopped
         on_cmd = tl.T0[b] - prog.ignite[v] - profile.arc_switch_dwell_s
         if prog.pause[v] and on_at is not None:
             iv.append((on_at, off_cmd + profile.arc_off_delay_s))
@@ -474,8 +584,9 @@ def _arc_intervals(prog: _Program, tl: Timeline, profile: RobotProfile) -> list[
     return iv
 
 
-def _backlash(xyz: np.ndarray, t: np.ndarray, blk: np.ndarray, tl: Timeline, prog: _Program, spans: Spans,
-              profile: RobotProfile) -> np.ndarray:
+def _backlash(
+    xyz: np.ndarray, t: np.ndarray, blk: np.ndarray, tl: Timeline, prog: _Program, spans: Spans, profile: RobotProfile
+) -> np.ndarray:
     """Transverse offset at block starts/ends (study: +0.2 / −0.1 mm on a line at 40 mm/s),
     decaying exponentially with time constant smoothing_s/2 (horizontal normal of the segment)."""
     tau_c = max(profile.smoothing_s / 2, 1e-3)
@@ -495,6 +606,6 @@ def _backlash(xyz: np.ndarray, t: np.ndarray, blk: np.ndarray, tl: Timeline, pro
     out = xyz.copy()
     n_first, n_last = normals(first_seg), normals(last_seg)
     for amp, age, nrm in ((profile.backlash_start_mm, tloc, n_first), (profile.backlash_end_mm, age_end, n_last)):
-        m = np.flatnonzero(age < 8 * tau_c)            # e^-8 < 0.04 %: the transient is over
+        m = np.flatnonzero(age < 8 * tau_c)  # e^-8 < 0.04 %: the transient is over
         out[m] += (amp * np.exp(-np.clip(age[m], 0, None) / tau_c))[:, None] * nrm[blk[m]]
     return out
