@@ -19,7 +19,8 @@ from .core.errors import CancelledError, RecipeError, WaamflowError
 
 def _cache_path() -> Path:
     base = os.environ.get("WAAMFLOW_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "waamflow")
+        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "waamflow"
+    )
     return Path(base) / "cache.sqlite"
 
 
@@ -37,7 +38,9 @@ class ProgressBar:
             if ev.kind in ("node_started", "node_progress"):
                 width = 30
                 filled = int(ev.progress * width)
-                text = f"\r[{'#' * filled}{'.' * (width - filled)}] {ev.progress * 100:5.1f}% {ev.node or ''} {ev.message}"
+                text = (
+                    f"\r[{'#' * filled}{'.' * (width - filled)}] {ev.progress * 100:5.1f}% {ev.node or ''} {ev.message}"
+                )
                 self.stream.write(text[:100].ljust(len(self.last)))
                 self.last = text[:100]
                 self.stream.flush()
@@ -81,8 +84,14 @@ def cmd_run(args) -> int:
     if args.workers is not None and args.workers < 1:
         raise RecipeError(f"--workers must be at least 1 (got {args.workers})")
     scheduler = args.scheduler or os.environ.get("WAAMFLOW_SCHEDULER") or None
-    result = execute(graph, resolver=FileResolver(recipe_path.resolve().parent), cache=cache, on_event=bar,
-                     workers=args.workers, scheduler=scheduler)
+    result = execute(
+        graph,
+        resolver=FileResolver(recipe_path.resolve().parent),
+        cache=cache,
+        on_event=bar,
+        workers=args.workers,
+        scheduler=scheduler,
+    )
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
     from .preflight import gate
@@ -97,25 +106,41 @@ def cmd_run(args) -> int:
     spent = {k: s.compute_seconds for k, s in result.stats.items() if s.compute_seconds}
     if args.verbose and spent and result.executor.get("tasks"):
         # in worker processes a chain's first node waits for its followers' layers too: say who computed what
-        print("  layer compute, all processes: " + ", ".join(f"{k} {v:.3f} s" for k, v in spent.items()),
-              file=sys.stderr)
+        print(
+            "  layer compute, all processes: " + ", ".join(f"{k} {v:.3f} s" for k, v in spent.items()), file=sys.stderr
+        )
     pf = result.preflight
     verdict = f", preflight {pf['verdict']}" + (" (accepted)" if pf.get("accepted") else "") if pf else ""
     if pf:
         for p in pf["problems"]:
-            where = "".join([f"layer {p['layer']}: " if p.get("layer") is not None else "",
-                             f"section '{p['section']}': " if p.get("section") else ""])
+            where = "".join(
+                [
+                    f"layer {p['layer']}: " if p.get("layer") is not None else "",
+                    f"section '{p['section']}': " if p.get("section") else "",
+                ]
+            )
             print(f"preflight {p['severity']}: {p['node']}: {where}{p['message']}", file=sys.stderr)
     if failed is not None and not args.accept_preflight:
-        where = ", ".join(x for x in (f"layer {failed['layer']}" if failed.get("layer") is not None else "",
-                                      f"section '{failed['section']}'" if failed.get("section") else "") if x)
+        where = ", ".join(
+            x
+            for x in (
+                f"layer {failed['layer']}" if failed.get("layer") is not None else "",
+                f"section '{failed['section']}'" if failed.get("section") else "",
+            )
+            if x
+        )
         who = f"node '{failed['node']}'" if failed.get("node") else "preflight"
-        print(f"error: {who}{', ' + where if where else ''}: preflight failed ({failed['check']}): "
-              f"{failed['message']}. The program was not written ({out}/preflight.json says why); fix the plan, "
-              "or re-run with --accept-preflight to write it anyway (recorded in its header)", file=sys.stderr)
+        print(
+            f"error: {who}{', ' + where if where else ''}: preflight failed ({failed['check']}): "
+            f"{failed['message']}. The program was not written ({out}/preflight.json says why); fix the plan, "
+            "or re-run with --accept-preflight to write it anyway (recorded in its header)",
+            file=sys.stderr,
+        )
         return 4
-    print(f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
-          f"{len(result.warnings)} warnings{verdict}, {result.seconds:.2f} s → {out}")
+    print(
+        f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
+        f"{len(result.warnings)} warnings{verdict}, {result.seconds:.2f} s → {out}"
+    )
     return 0
 
 
@@ -131,9 +156,11 @@ def cmd_build_sim(args) -> int:
     files = write(doc, out)
     print(f"{doc['recipe']}: {doc['layers_planned']} layers planned (toolpath of '{doc['toolpath_node']}')")
     for mode, b in doc["builds"].items():
-        print(f"  {mode:6s} loop: last layer top error RMS {b['last_layer_rms_mm']:.3f} mm, max {b['last_layer_max_mm']:.3f} mm, "
-              f"mean {b['last_layer_mean_mm']:+.3f} mm; {b['layers_built']} layers built "
-              f"({b['layers_added']} added, {b['layers_dropped']} dropped), {b['seconds']:.2f} s")
+        print(
+            f"  {mode:6s} loop: last layer top error RMS {b['last_layer_rms_mm']:.3f} mm, max {b['last_layer_max_mm']:.3f} mm, "
+            f"mean {b['last_layer_mean_mm']:+.3f} mm; {b['layers_built']} layers built "
+            f"({b['layers_added']} added, {b['layers_dropped']} dropped), {b['seconds']:.2f} s"
+        )
     print(f"wrote {', '.join(str(f) for f in files)}")
     return 0
 
@@ -170,23 +197,38 @@ def cmd_serve(args) -> int:
     from .api.auth import load_tokens
 
     # a flag overrides its WAAMFLOW_* variable (docker/compose.yml sets them); unset flags leave it
-    given = {"data_dir": args.data, "host": args.host, "port": args.port, "viewer_port": args.viewer_port,
-             "graphs_dir": args.graphs, "layer_workers": args.layer_workers, "scheduler": args.scheduler,
-             "token_file": args.token_file, "max_connections": args.max_connections,
-             "header_timeout_s": args.header_timeout, "run_memory_mb": args.run_memory_mb}
+    given = {
+        "data_dir": args.data,
+        "host": args.host,
+        "port": args.port,
+        "viewer_port": args.viewer_port,
+        "graphs_dir": args.graphs,
+        "layer_workers": args.layer_workers,
+        "scheduler": args.scheduler,
+        "token_file": args.token_file,
+        "max_connections": args.max_connections,
+        "header_timeout_s": args.header_timeout,
+        "run_memory_mb": args.run_memory_mb,
+    }
     try:
         settings = Settings(**{k: v for k, v in given.items() if v is not None})
     except ValidationError as e:
         where = ", ".join(f"{'.'.join(str(x) for x in err['loc'])}: {err['msg']}" for err in e.errors())
-        print(f"error: invalid server setting ({where}); see `waamflow serve --help` and the WAAMFLOW_* "
-              "variables in README 'Lab server'", file=sys.stderr)
+        print(
+            f"error: invalid server setting ({where}); see `waamflow serve --help` and the WAAMFLOW_* "
+            "variables in README 'Lab server'",
+            file=sys.stderr,
+        )
         return 2
     tokens = load_tokens(settings.token, settings.token_file)  # TokenFileError → exit 2
     if not tokens and not _loopback(settings.host):
-        print(f"error: refusing to serve on {settings.host} without authentication: set a token with "
-              "WAAMFLOW_TOKEN=<secret> (e.g. `export WAAMFLOW_TOKEN=$(python -c 'import secrets; "
-              "print(secrets.token_urlsafe(32))')`) or --token-file FILE / WAAMFLOW_TOKEN_FILE (lines name:token), "
-              "or serve on 127.0.0.1", file=sys.stderr)
+        print(
+            f"error: refusing to serve on {settings.host} without authentication: set a token with "
+            "WAAMFLOW_TOKEN=<secret> (e.g. `export WAAMFLOW_TOKEN=$(python -c 'import secrets; "
+            "print(secrets.token_urlsafe(32))')`) or --token-file FILE / WAAMFLOW_TOKEN_FILE (lines name:token), "
+            "or serve on 127.0.0.1",
+            file=sys.stderr,
+        )
         return 2
     app = create_app(settings)
     from .api.serving import uvicorn_options
@@ -211,8 +253,10 @@ def cmd_backup(args) -> int:
 
     m = backup(args.data, args.dir)
     c = m["counts"]
-    print(f"backup: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
-          f"{len(m['files'])} run files, {c['audit']} audit entries → {args.dir}")
+    print(
+        f"backup: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+        f"{len(m['files'])} run files, {c['audit']} audit entries → {args.dir}"
+    )
     return 0
 
 
@@ -221,8 +265,10 @@ def cmd_restore(args) -> int:
 
     m = restore(args.dir, args.data, force=args.force)
     c = m["counts"]
-    print(f"restored: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
-          f"{len(m['files'])} run files → {args.data}")
+    print(
+        f"restored: {c['graphs']} graphs, {c['graph_files']} files, {c['runs']} runs, "
+        f"{len(m['files'])} run files → {args.data}"
+    )
     if m.get("kept"):
         k = m["kept"]["counts"]
         print(f"kept aside: {k['graphs']} graphs, {k['graph_files']} files, {k['runs']} runs → {m['kept']['path']}")
@@ -248,20 +294,36 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a recipe headless and write its artifacts")
     r.add_argument("recipe", help="recipe JSON file (graphs/*.json)")
     r.add_argument("--out", help="output folder (default out/<recipe name>/)")
-    r.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="set a recipe input (name=value) or node param (nodeid.param.sub=value); VALUE is JSON or a string")
+    r.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="set a recipe input (name=value) or node param (nodeid.param.sub=value); VALUE is JSON or a string",
+    )
     r.add_argument("--no-cache", action="store_true", help="recompute everything, do not read or write the cache")
     r.add_argument("-v", "--verbose", action="store_true", help="one line per node")
-    r.add_argument("--accept-preflight", action="store_true",
-                   help="write the programs even when the preflight fails (exit 0; the acceptance is written into "
-                        "each program's header and preflight.json)")
-    r.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="processes for the layers of layer nodes (default: WAAMFLOW_LAYER_WORKERS, else every core; 1 = serial)")
+    r.add_argument(
+        "--accept-preflight",
+        action="store_true",
+        help="write the programs even when the preflight fails (exit 0; the acceptance is written into "
+        "each program's header and preflight.json)",
+    )
+    r.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes for the layers of layer nodes (default: WAAMFLOW_LAYER_WORKERS, else every core; 1 = serial)",
+    )
     r.set_defaults(func=cmd_run)
 
-    r.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="send the layers to this Dask scheduler instead of local processes "
-                        "(default: WAAMFLOW_SCHEDULER; see README 'Dask cluster')")
+    r.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="send the layers to this Dask scheduler instead of local processes "
+        "(default: WAAMFLOW_SCHEDULER; see README 'Dask cluster')",
+    )
     n = sub.add_parser("nodes", help="print the node catalog as JSON")
     n.add_argument("--type", help="only this node type")
     n.set_defaults(func=cmd_nodes)
@@ -270,47 +332,97 @@ def build_parser() -> argparse.ArgumentParser:
     pr.set_defaults(func=cmd_profiles)
 
     s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
-    s.add_argument("--host", default=None, help="address to listen on (default: WAAMFLOW_HOST, else 127.0.0.1; "
-                                                "any other than loopback needs a token)")
+    s.add_argument(
+        "--host",
+        default=None,
+        help="address to listen on (default: WAAMFLOW_HOST, else 127.0.0.1; any other than loopback needs a token)",
+    )
     s.add_argument("--port", type=int, default=None, help="default: WAAMFLOW_PORT, else 8000")
-    s.add_argument("--data", default=None, help="folder for the database and run files (default: WAAMFLOW_DATA_DIR, else ./data)")
-    s.add_argument("--graphs", default=None, help="folder of example recipes to offer (default: WAAMFLOW_GRAPHS_DIR, else ./graphs)")
-    s.add_argument("--viewer-port", type=int, default=None,
-                   help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); it "
-                        "listens on 127.0.0.1 only and browsers reach it through this server's /viewer/ (same token)")
-    s.add_argument("--workers", "--layer-workers", dest="layer_workers", type=int, default=None, metavar="N",
-                   help="processes per run for the layers of layer nodes, as `run --workers` (default: every core; "
-                        "1 = serial)")
-    s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="Dask scheduler for the layers of every run (default: WAAMFLOW_SCHEDULER)")
-    s.add_argument("--token-file", default=None,
-                   help="named bearer tokens (JSON {name: token} or lines name:token; default: WAAMFLOW_TOKEN_FILE); "
-                        "also WAAMFLOW_TOKEN")
-    s.add_argument("--max-connections", type=int, default=None, metavar="N",
-                   help="open connections at once; more are closed at once (default: WAAMFLOW_MAX_CONNECTIONS, else 1000)")
-    s.add_argument("--header-timeout", type=float, default=None, metavar="S",
-                   help="seconds a connection has to send its request head (default: WAAMFLOW_HEADER_TIMEOUT_S, else 10)")
-    s.add_argument("--run-memory-mb", type=float, default=None, metavar="MB",
-                   help="memory of one run's whole process tree (the run and its layer workers together), and "
-                        "of a preview's; a run or preview that needs more fails (default: WAAMFLOW_RUN_MEMORY_MB, "
-                        "else half the machine's memory; 0 = runs and previews in the server process, unlimited)")
+    s.add_argument(
+        "--data", default=None, help="folder for the database and run files (default: WAAMFLOW_DATA_DIR, else ./data)"
+    )
+    s.add_argument(
+        "--graphs",
+        default=None,
+        help="folder of example recipes to offer (default: WAAMFLOW_GRAPHS_DIR, else ./graphs)",
+    )
+    s.add_argument(
+        "--viewer-port",
+        type=int,
+        default=None,
+        help="port of the viser 3D preview (0 = off; default: WAAMFLOW_VIEWER_PORT, else 8080); it "
+        "listens on 127.0.0.1 only and browsers reach it through this server's /viewer/ (same token)",
+    )
+    s.add_argument(
+        "--workers",
+        "--layer-workers",
+        dest="layer_workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes per run for the layers of layer nodes, as `run --workers` (default: every core; 1 = serial)",
+    )
+    s.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="Dask scheduler for the layers of every run (default: WAAMFLOW_SCHEDULER)",
+    )
+    s.add_argument(
+        "--token-file",
+        default=None,
+        help="named bearer tokens (JSON {name: token} or lines name:token; default: WAAMFLOW_TOKEN_FILE); "
+        "also WAAMFLOW_TOKEN",
+    )
+    s.add_argument(
+        "--max-connections",
+        type=int,
+        default=None,
+        metavar="N",
+        help="open connections at once; more are closed at once (default: WAAMFLOW_MAX_CONNECTIONS, else 1000)",
+    )
+    s.add_argument(
+        "--header-timeout",
+        type=float,
+        default=None,
+        metavar="S",
+        help="seconds a connection has to send its request head (default: WAAMFLOW_HEADER_TIMEOUT_S, else 10)",
+    )
+    s.add_argument(
+        "--run-memory-mb",
+        type=float,
+        default=None,
+        metavar="MB",
+        help="memory of one run's whole process tree (the run and its layer workers together), and "
+        "of a preview's; a run or preview that needs more fails (default: WAAMFLOW_RUN_MEMORY_MB, "
+        "else half the machine's memory; 0 = runs and previews in the server process, unlimited)",
+    )
     s.set_defaults(func=cmd_serve)
 
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")
     b.add_argument("dir", help="new folder for the backup")
-    b.add_argument("--data", default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
-                   help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
+    b.add_argument(
+        "--data",
+        default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
+        help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)",
+    )
     b.set_defaults(func=cmd_backup)
 
     rs = sub.add_parser("restore", help="restore a backup into a data folder (refused while a server uses it)")
     rs.add_argument("dir", help="folder written by `waamflow backup`")
-    rs.add_argument("--data", default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
-                    help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)")
+    rs.add_argument(
+        "--data",
+        default=os.environ.get("WAAMFLOW_DATA_DIR", "data"),
+        help="the server's data folder (default: WAAMFLOW_DATA_DIR, else ./data)",
+    )
     rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
     rs.set_defaults(func=cmd_restore)
 
-    bs = sub.add_parser("build-sim", help="build a recipe in the process simulator, open and closed loop "
-                                          "(scans after every layer, the next layer adapted), and compare")
+    bs = sub.add_parser(
+        "build-sim",
+        help="build a recipe in the process simulator, open and closed loop "
+        "(scans after every layer, the next layer adapted), and compare",
+    )
     bs.add_argument("recipe", help="recipe JSON file (graphs/*.json)")
     bs.add_argument("--set", action="append", metavar="KEY=VALUE", help="as for `run` (e.g. layers.layer_count=20)")
     bs.add_argument("--out", help="output folder for asbuilt.json and asbuilt.svg (default out/<recipe name>/)")
