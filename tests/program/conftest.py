@@ -20,9 +20,13 @@ def _zoned(key: str, pts: np.ndarray, arc: np.ndarray | None = None, approach=No
     n = len(pts) - 1
     zone = tuple("start" if i < n // 3 else ("z1" if i < 2 * n // 3 else "end") for i in range(n))
     return SectionPath(
-        key=key, strategy="test", points=pts,
-        arc=np.ones(n, bool) if arc is None else arc, inside=np.ones(n, bool),
-        speed=np.array([SPEED[z] for z in zone]), zone=zone,
+        key=key,
+        strategy="test",
+        points=pts,
+        arc=np.ones(n, bool) if arc is None else arc,
+        inside=np.ones(n, bool),
+        speed=np.array([SPEED[z] for z in zone]),
+        zone=zone,
         zone_colors={"start": "#ff0000", "z1": "#00ff00", "end": "#0000ff"},
         zone_params={k: dict(v) for k, v in ZONE_PARAMS.items()},
         approach=approach,

@@ -29,7 +29,8 @@ def wall_recipe(name: str = "robot-wall", post_id: str = "post", **post) -> dict
     """sketch (`wall.json`, 6 mm) → slice (2 mm) → features → wall-path → sequence → post-process
     `post_id` with params `post`: the small real recipe the program tests run."""
     return {
-        "format": "waamflow/1", "name": name,
+        "format": "waamflow/1",
+        "name": name,
         "nodes": [
             {"id": "sketch", "type": "sketch", "params": {"path": "wall.json", "height": 6.0}},
             {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},

@@ -32,14 +32,14 @@ def check_jbi(text: str) -> dict:
     ec = {}
     if n_ec:
         first_ec = next(i for i, ln in enumerate(lines) if ln.startswith("EC"))
-        assert lines[first_ec - 2:first_ec] == ["///POSTYPE PULSE", "///PULSE"], f"{name}: EC not in pulses"
+        assert lines[first_ec - 2 : first_ec] == ["///POSTYPE PULSE", "///PULSE"], f"{name}: EC not in pulses"
         for k, vals in ec_lines:
             assert re.fullmatch(r"-?\d+(,-?\d+){0,2}", vals), f"{name}: EC{k:05d}={vals}"
             ec[k] = [int(v) for v in vals.split(",")]
         assert len({len(v) for v in ec.values()}) == 1, f"{name}: EC lines with different axis counts"
     assert "///GROUP1 RB1" in lines[inst:] and lines[-1] == "END"
     assert ("///GROUP2 ST1" in lines[inst:]) == bool(n_ec), f"{name}: GROUP2 ST1 exactly when EC positions exist"
-    body = lines[lines.index("NOP") + 1:-1]
+    body = lines[lines.index("NOP") + 1 : -1]
     arc, arcs = False, 0
     used = set()
     station = []
@@ -81,10 +81,14 @@ def check_program(files: dict[str, str]) -> dict:
         called = [c for c in calls if c in names]
         assert called, "the main job calls none of the program's jobs"
     motions = sum(len(re.findall(r"^S?MOVL ", v, re.M)) for v in files.values())
-    return {"motions": motions, "points_declared": sum(i["positions"] for i in info.values()),
-            "arcs": sum(i["arcs"] for i in info.values()), "jobs": len(files),
-            # station pulses per motion, jobs in the main job's call order
-            "station": [p for k in _call_order(files) for p in info[k]["station"]]}
+    return {
+        "motions": motions,
+        "points_declared": sum(i["positions"] for i in info.values()),
+        "arcs": sum(i["arcs"] for i in info.values()),
+        "jobs": len(files),
+        # station pulses per motion, jobs in the main job's call order
+        "station": [p for k in _call_order(files) for p in info[k]["station"]],
+    }
 
 
 def _call_order(files: dict[str, str]) -> list[str]:

@@ -16,13 +16,16 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-TOKEN = re.compile(r"""
+TOKEN = re.compile(
+    r"""
     (?P<ws>[ \t\r]+) | (?P<comment>;[^\n]*)
   | (?P<num>\d+\.\d*(?:[eE][-+]?\d+)? | \.\d+ | \d+)
   | (?P<str>"[^"\n]*") | (?P<sys>\$[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*)
   | (?P<enum>\#[A-Za-z_][A-Za-z0-9_]*) | (?P<ident>[A-Za-z_][A-Za-z0-9_]*)
   | (?P<op><=|>=|<>|==|[\[\](){},=<>+\-*/])
-""", re.X)
+""",
+    re.X,
+)
 E6POS = ["X", "Y", "Z", "A", "B", "C", "E1", "E2", "E3", "E4", "E5", "E6"]
 
 
@@ -32,7 +35,7 @@ class KrlError(ValueError):
 
 @dataclass
 class Stmt:
-    kind: str            # "LIN" | "CIRC" | "PTP" | "assign" | "wait" | "trigger" | "call" | "if" | "endif" | "halt"
+    kind: str  # "LIN" | "CIRC" | "PTP" | "assign" | "wait" | "trigger" | "call" | "if" | "endif" | "halt"
     args: list
     line: int
 
@@ -40,8 +43,8 @@ class Stmt:
 @dataclass
 class Program:
     name: str
-    body: list = field(default_factory=list)         # [Stmt]
-    data: dict = field(default_factory=dict)         # name → (type, value)
+    body: list = field(default_factory=list)  # [Stmt]
+    data: dict = field(default_factory=dict)  # name → (type, value)
 
     def motions(self) -> list[Stmt]:
         return [s for s in self.body if s.kind in ("LIN", "CIRC", "PTP")]

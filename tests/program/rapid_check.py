@@ -16,15 +16,18 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-TOKEN = re.compile(r"""
+TOKEN = re.compile(
+    r"""
     (?P<ws>[ \t\r]+) | (?P<nl>\n) | (?P<comment>![^\n]*)
   | (?P<num>\d+\.\d*(?:[eE][-+]?\d+)? | \.\d+(?:[eE][-+]?\d+)? | \d+[eE][-+]?\d+ | \d+)
   | (?P<str>"[^"\n]*") | (?P<ident>[A-Za-z][A-Za-z0-9_]*)
   | (?P<op>:=|\\|[\[\](),;+\-*/{}:<>=%])
-""", re.X)
+""",
+    re.X,
+)
 KEYWORDS = {"MODULE", "ENDMODULE", "PROC", "ENDPROC", "CONST", "PERS", "VAR", "LOCAL", "TRUE", "FALSE"}
 NUM, AGG = "num", "agg"
-ARC = [NUM] * 9                                            # arcdata as the writers lay it out
+ARC = [NUM] * 9  # arcdata as the writers lay it out
 SHAPES = {
     "robtarget": [[NUM] * 3, [NUM] * 4, [NUM] * 4, [NUM] * 6],
     "wobjdata": ["bool", "bool", "string", [[NUM] * 3, [NUM] * 4], [[NUM] * 3, [NUM] * 4]],
@@ -40,8 +43,14 @@ INSTRUCTIONS = {
     "ArcLStart": (["robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
     "ArcL": (["robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
     "ArcLEnd": (["robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
-    "ArcC": (["robtarget", "robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
-    "ArcCEnd": (["robtarget", "robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"], {"WObj": "wobjdata"}),
+    "ArcC": (
+        ["robtarget", "robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"],
+        {"WObj": "wobjdata"},
+    ),
+    "ArcCEnd": (
+        ["robtarget", "robtarget", "speeddata", "seamdata", "welddata", "zonedata", "tooldata"],
+        {"WObj": "wobjdata"},
+    ),
     "WaitTime": ([NUM], {"InPos": None}),
     "ConfL": ([], {"On": None, "Off": None}),
     "StartLoad": (["string", "loadsession"], {"Dynamic": None, "File": "string"}),
@@ -50,7 +59,7 @@ INSTRUCTIONS = {
     "ActUnit": (["mecunit"], {}),
     "DeactUnit": (["mecunit"], {}),
 }
-LATE = "%late%"                                            # a late-bound procedure call
+LATE = "%late%"  # a late-bound procedure call
 BUILTIN = {"fine": "zonedata", "wobj0": "wobjdata", "tool0": "tooldata"}
 
 
@@ -61,16 +70,16 @@ class RapidError(ValueError):
 @dataclass
 class Call:
     name: str
-    args: list            # positional: ("name", str) | ("value", parsed)
-    options: dict         # switch / optional argument name → value (None for a switch)
+    args: list  # positional: ("name", str) | ("value", parsed)
+    options: dict  # switch / optional argument name → value (None for a switch)
     line: int
 
 
 @dataclass
 class Module:
     name: str
-    data: dict = field(default_factory=dict)        # name → (storage, type, value)
-    routines: dict = field(default_factory=dict)    # name → [Call]
+    data: dict = field(default_factory=dict)  # name → (storage, type, value)
+    routines: dict = field(default_factory=dict)  # name → [Call]
 
     def calls(self, *names: str) -> list[Call]:
         return [c for body in self.routines.values() for c in body if not names or c.name in names]
@@ -206,7 +215,7 @@ class _Parser:
 
     def call(self) -> Call:
         line = self.peek()[2]
-        if self.peek()[1] == "%":                 # late binding: %"routine"%; (a routine loaded at run time)
+        if self.peek()[1] == "%":  # late binding: %"routine"%; (a routine loaded at run time)
             self.next()
             name = self.expect(kind="str")[1][1:-1]
             self.expect("%")
@@ -260,12 +269,17 @@ def _arg_type(mod: Module, arg, tool: str | None) -> str:
     if v in BUILTIN:
         return BUILTIN[v]
     if v == tool:
-        return "tooldata"                       # declared on the controller
+        return "tooldata"  # declared on the controller
     return "undeclared"
 
 
-def parse_module(text: str, tool: str | None = None, units: tuple[str, ...] = (),
-                 routines: dict[str, list[str]] | None = None, extern: dict | None = None) -> Module:
+def parse_module(
+    text: str,
+    tool: str | None = None,
+    units: tuple[str, ...] = (),
+    routines: dict[str, list[str]] | None = None,
+    extern: dict | None = None,
+) -> Module:
     """Parse and check one module; `tool` is the controller's tooldata name, `units` the
     mechanical units the controller knows (for ActUnit/DeactUnit), `routines` the procedures
     other loaded modules declare (name → argument types, e.g. a rolling tool's ToolOn), `extern`
@@ -280,7 +294,7 @@ def _check_calls(mod: Module, tool, units, routines, extern) -> None:
     mod = Module(mod.name, {**(extern or {}), **data}, mod.routines)
     known = {**{k: (list(v), {}) for k, v in (routines or {}).items()}, **INSTRUCTIONS}
     for call in mod.calls():
-        if call.name == LATE:                   # checked against the loaded modules (parse_program)
+        if call.name == LATE:  # checked against the loaded modules (parse_program)
             continue
         if call.name not in known:
             raise RapidError(f"line {call.line}: unknown instruction {call.name}")
@@ -308,8 +322,12 @@ def values(agg) -> list:
     return [values(x) for x in v] if kind == AGG else v
 
 
-def parse_program(files: dict[str, str], tool: str | None = None, units: tuple[str, ...] = (),
-                  routines: dict[str, list[str]] | None = None) -> list[Module]:
+def parse_program(
+    files: dict[str, str],
+    tool: str | None = None,
+    units: tuple[str, ...] = (),
+    routines: dict[str, list[str]] | None = None,
+) -> list[Module]:
     """Parse every module of a program (file name → text), main module first then the modules it
     calls in call order. Checks: one module has `main`; every late-bound call names a routine of
     another module whose file main() loads (StartLoad \\File) before the call and unloads after;
@@ -320,10 +338,17 @@ def parse_program(files: dict[str, str], tool: str | None = None, units: tuple[s
         if fname.rsplit(".", 1)[0] != mod.name:
             raise RapidError(f"{fname}: holds MODULE {mod.name}, not named like its file")
         mods[mod.name] = (mod, text)
-    local = {n: set(re.findall(r"^\s*LOCAL\s+(?:CONST|PERS|VAR)\s+\w+\s+(\w+)", t, re.M)) for n, (_m, t) in mods.items()}
+    local = {
+        n: set(re.findall(r"^\s*LOCAL\s+(?:CONST|PERS|VAR)\s+\w+\s+(\w+)", t, re.M)) for n, (_m, t) in mods.items()
+    }
     for name, (mod, _t) in mods.items():
-        extern = {k: v for other, (m, _t2) in mods.items() if other != name
-                  for k, v in m.data.items() if k not in local[other]}
+        extern = {
+            k: v
+            for other, (m, _t2) in mods.items()
+            if other != name
+            for k, v in m.data.items()
+            if k not in local[other]
+        }
         _check_calls(mod, tool, units, routines, extern)
     mains = [m for m, _t in mods.values() if "main" in m.routines]
     if len(mains) != 1:
@@ -339,7 +364,7 @@ def parse_program(files: dict[str, str], tool: str | None = None, units: tuple[s
             target = c.args[0][1]
             owner = next((m for m, _t in mods.values() if target in m.routines and m is not main), None)
             if owner is None or f"{owner.name}.mod" not in loaded:
-                raise RapidError(f"line {c.line}: %\"{target}\"% calls a routine of no loaded module")
+                raise RapidError(f'line {c.line}: %"{target}"% calls a routine of no loaded module')
             order.append(owner)
     globals_: dict[str, str] = {}
     for m, _text in mods.values():

@@ -29,7 +29,9 @@ MOTION = re.compile(r"^\s*(MoveL|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCEnd|WaitT
 
 
 def _rapid(limit: int, name: str = "post"):
-    return post_process(build_toolpath(30), "rapid", PlanSettings(), RapidSettings(program_name=name, max_module_bytes=limit))
+    return post_process(
+        build_toolpath(30), "rapid", PlanSettings(), RapidSettings(program_name=name, max_module_bytes=limit)
+    )
 
 
 def test_rapid_modules_stay_under_the_limit_and_run_in_order():
@@ -37,13 +39,13 @@ def test_rapid_modules_stay_under_the_limit_and_run_in_order():
     assert list(whole.files) == ["mod"]
     size = len(whole.files["mod"].encode())
     limit = 40_000
-    assert size > 4 * limit                                        # the unsplit module is too big
+    assert size > 4 * limit  # the unsplit module is too big
     prog = _rapid(limit)
     names = prog.file_names("post")
     parts = [k for k in prog.files if k != "mod"]
     assert len(parts) == prog.stats["modules"] >= size // limit
     for key, text in prog.files.items():
-        assert len(text.encode()) <= limit - 4096                   # room left for the trace lines
+        assert len(text.encode()) <= limit - 4096  # room left for the trace lines
         stem = names[key].rsplit(".", 1)[0]
         assert IDENT.match(stem) and re.search(rf"^MODULE {stem}\b", text, re.M)
     main = prog.files["mod"]
@@ -54,15 +56,23 @@ def test_rapid_modules_stay_under_the_limit_and_run_in_order():
     assert main.count("WaitLoad") == main.count("UnLoad") == len(parts)
     # the part modules, in call order, hold exactly the motions of the unsplit module
     joined = "".join(prog.files[k] for k in parts)
-    assert [m.group(0).strip() for m in MOTION.finditer(joined)] == \
-           [m.group(0).strip() for m in MOTION.finditer(whole.files["mod"])]
+    assert [m.group(0).strip() for m in MOTION.finditer(joined)] == [
+        m.group(0).strip() for m in MOTION.finditer(whole.files["mod"])
+    ]
     assert not MOTION.search(main)
     # data is LOCAL to each part module (two modules are loaded at once)
-    assert all(ln.lstrip().startswith("LOCAL ") for k in parts for ln in prog.files[k].split("\n")
-               if re.match(r"\s*(CONST|PERS|VAR) ", ln))
+    assert all(
+        ln.lstrip().startswith("LOCAL ")
+        for k in parts
+        for ln in prog.files[k].split("\n")
+        if re.match(r"\s*(CONST|PERS|VAR) ", ln)
+    )
     # the preflight reads the split program back as the whole one
     full = {names[k]: v for k, v in prog.files.items()}
-    a, b = read_program("rapid", dict(reversed(list(full.items())))), read_program("rapid", {"post.mod": whole.files["mod"]})
+    a, b = (
+        read_program("rapid", dict(reversed(list(full.items())))),
+        read_program("rapid", {"post.mod": whole.files["mod"]}),
+    )
     assert len(a.runs) == len(b.runs) > 30
     assert [r.layer for r in a.runs] == [r.layer for r in b.runs]
     assert all(np.array_equal(x.points, y.points) for x, y in zip(a.runs, b.runs))
@@ -78,8 +88,15 @@ def _run(tmp_path, post_id: str, **post):
     return execute(build_graph(parse_recipe(wall_recipe("names", post_id, **post))), resolver=FileResolver(tmp_path))
 
 
-@pytest.mark.parametrize("post", [dict(format="krl"), dict(format="krl", split_per_layer=True), dict(format="rapid"),
-                                  dict(format="rapid", max_module_bytes=16_384)])
+@pytest.mark.parametrize(
+    "post",
+    [
+        dict(format="krl"),
+        dict(format="krl", split_per_layer=True),
+        dict(format="rapid"),
+        dict(format="rapid", max_module_bytes=16_384),
+    ],
+)
 def test_hyphenated_node_id_writes_files_named_like_their_program(tmp_path, post):
     res = _run(tmp_path, "duct-post", **post)
     files = sorted(n for n in res.artifacts if n.endswith((".src", ".dat", ".mod")))
@@ -89,7 +106,7 @@ def test_hyphenated_node_id_writes_files_named_like_their_program(tmp_path, post
         text = res.artifacts[n].decode()
         assert IDENT.match(stem)
         opener = {"src": r"DEF (\w+)\(", "dat": r"DEFDAT (\w+)", "mod": r"MODULE (\w+)"}[n.rsplit(".", 1)[1]]
-        assert re.search(opener, text).group(1) == stem              # DEF / DEFDAT / MODULE name == file stem
+        assert re.search(opener, text).group(1) == stem  # DEF / DEFDAT / MODULE name == file stem
     main = "duct_post.src" if post["format"] == "krl" else "duct_post.mod"
     assert main in files
     assert not [w for w in res.warnings if "rename" in w["message"] or "file name" in w["message"]]
@@ -101,16 +118,20 @@ def test_valid_node_id_keeps_its_artifact_names(tmp_path):
     assert "post.mod" in _run(tmp_path, "post", format="rapid").artifacts
     res = _run(tmp_path, "post", format="krl", split_per_layer=True)
     subs = sorted(n for n in res.artifacts if n.startswith("post_L"))
-    assert subs and all(re.search(r"DEF (\w+)\(", res.artifacts[n].decode()).group(1) == n.rsplit(".", 1)[0]
-                        for n in subs if n.endswith(".src"))
+    assert subs and all(
+        re.search(r"DEF (\w+)\(", res.artifacts[n].decode()).group(1) == n.rsplit(".", 1)[0]
+        for n in subs
+        if n.endswith(".src")
+    )
 
 
 def test_headers_carry_version_and_source_revision(tmp_path):
     # the revision is computed once per process: read it again here, so a commit made while the test
     # session runs (HEAD moved) does not fail the comparison
     source_revision.cache_clear()
-    rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=REPO, capture_output=True,
-                         text=True, check=True).stdout.strip()
+    rev = subprocess.run(
+        ["git", "describe", "--always", "--dirty"], cwd=REPO, capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert source_revision() == rev
     for fmt, key in (("gcode", "post.gcode"), ("krl", "post.src"), ("rapid", "post.mod"), ("csv", "post.csv")):
         text = _run(tmp_path, "post", format=fmt).artifacts[key].decode()

@@ -59,8 +59,12 @@ def test_feeds_are_zone_speeds_and_interlayer_dwell(moves):
 
 
 def test_every_ignition_followed_by_dwell_in_ms():
-    text = post_process(build_toolpath(), "gcode", PlanSettings(ignition_dwell=1.25),
-                        GcodeSettings(arc_on="M101 P1", arc_off="M103", dwell_units="ms")).files["gcode"]
+    text = post_process(
+        build_toolpath(),
+        "gcode",
+        PlanSettings(ignition_dwell=1.25),
+        GcodeSettings(arc_on="M101 P1", arc_off="M103", dwell_units="ms"),
+    ).files["gcode"]
     lines = [l.split(";")[0].strip() for l in text.splitlines()]
     lines = [l for l in lines if l]
     ons = [i for i, l in enumerate(lines) if l == "M101 P1"]
@@ -102,7 +106,9 @@ def test_arc_fitting_emits_g2_g3():
 
 
 def test_travel_as_feed_and_invalid_settings(moves):
-    text = post_process(moves, "gcode", writer_settings=GcodeSettings(rapid_travel=False, travel_speed=50)).files["gcode"]
+    text = post_process(moves, "gcode", writer_settings=GcodeSettings(rapid_travel=False, travel_speed=50)).files[
+        "gcode"
+    ]
     assert not re.search(r"^G0 ", text, re.M)
     assert "F3000" in text
     with pytest.raises(ValueError):
@@ -117,6 +123,7 @@ def test_travel_as_feed_and_invalid_settings(moves):
 
 def test_empty_toolpath():
     from waamflow.core.model import Layered
+
     prog = post_process(Layered(()), "gcode")
     parsed = parse_gcode(prog.files["gcode"])
     assert parsed.runs == () and parsed.ended and prog.stats["points"] == 0

@@ -49,8 +49,8 @@ def test_weld_values_are_commands(cross):
     assert currents and all(55 <= c <= 205 for c in currents)
     first = program.files["L000.JBI"]
     on = re.search(r"^ARCON AC=(\d+) T=(\d+\.\d\d)$", first, re.M)
-    assert on and on.group(2) == "0.50"                       # the ignition dwell is ARCON's T
-    assert re.search(r"^ARCSET AC=\d+$", first, re.M)          # a zone change while welding
+    assert on and on.group(2) == "0.50"  # the ignition dwell is ARCON's T
+    assert re.search(r"^ARCSET AC=\d+$", first, re.M)  # a zone change while welding
     # wire feed has no inline INFORM form: said, per zone, and the preflight warns it cannot balance the metal
     warns = [w["message"] for w in cross.warnings if w["node"] == "post"]
     assert any("wire_feed_speed" in w and "not commanded" in w for w in warns)
@@ -62,8 +62,12 @@ def test_weld_values_are_commands(cross):
 def test_positions_and_orientation(cross):
     program = cross.outputs["post"]["program"]
     job = program.files["L002.JBI"]
-    c = np.array([[float(v) for v in m.groups()] for m in re.finditer(
-        r"^C\d{5}=([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+)$", job, re.M)])
+    c = np.array(
+        [
+            [float(v) for v in m.groups()]
+            for m in re.finditer(r"^C\d{5}=([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+),([-\d.]+)$", job, re.M)
+        ]
+    )
     # layer 2 welds at z = 4.5 mm; a vertical torch (tool axis down) is Rx 180, Ry 0
     assert np.isclose(c[:, 2], 4.5).sum() > 10 and (c[:, 2] >= 4.5 - 1e-9).all()
     down = np.isclose(c[:, 2], 4.5)
@@ -75,7 +79,7 @@ def test_refusals():
     rec = recipe.model_copy(deep=True)
     post = next(n for n in rec.nodes if n.type == "post-process")
     post.params["format"] = "inform"
-    assert post.params.get("cell") == "kr150_tilt_rotate"     # the shipped duct runs on a positioner cell
+    assert post.params.get("cell") == "kr150_tilt_rotate"  # the shipped duct runs on a positioner cell
     # station axes need the controller's pulses per degree (the yaskawa_yrc1000 profile gives them)
     with pytest.raises(RecipeError, match=r"station_pulses_per_deg needs 2 positive values .*got \[\]") as err:
         execute(build_graph(rec), resolver=FileResolver(GRAPHS), preflight=False)
@@ -104,10 +108,14 @@ def test_curved_duct_is_a_coordinated_job_with_the_station():
     jobs = [v for k, v in program.files.items() if k != "JBI"]
     assert len(jobs) == 4 and all("///GROUP2 ST1" in j and "\n///POSTYPE PULSE\n///PULSE\nEC00000=" in j for j in jobs)
     assert info["motions"] == len(info["station"]) == program.stats["motions"]
-    assert all(re.fullmatch(r"SMOVL C(\d{5}) V=\d+\.\d PL=[01] \+MOVJ EC\1", ln)
-               for j in jobs for ln in j.splitlines() if "MOVL" in ln)
+    assert all(
+        re.fullmatch(r"SMOVL C(\d{5}) V=\d+\.\d PL=[01] \+MOVJ EC\1", ln)
+        for j in jobs
+        for ln in j.splitlines()
+        if "MOVL" in ln
+    )
     e1 = sorted({p[0] for p in info["station"]})
-    assert e1 == [1540 * k for k in range(1, 5)]             # 1.54° more tilt per layer, 1000 pulses/°
-    assert {p[1] for p in info["station"]} == {-90000}      # the turn: -90°
+    assert e1 == [1540 * k for k in range(1, 5)]  # 1.54° more tilt per layer, 1000 pulses/°
+    assert {p[1] for p in info["station"]} == {-90000}  # the turn: -90°
     dep = sum(r.length for r in read_inform(program.files).runs)
     assert dep == pytest.approx(program.stats["deposition_length_mm"], abs=0.01) and dep > 300

@@ -39,8 +39,10 @@ def test_catalog_entry():
 
 
 # KRL / RAPID files are named after the program ("/<name>.<ext>": not `<node id>.<ext>`), G-code and CSV after the node
-@pytest.mark.parametrize("fmt, suffixes", [("gcode", {"gcode"}), ("krl", {"/part.src", "/part.dat"}),
-                                           ("rapid", {"/part.mod"}), ("csv", {"csv"})])
+@pytest.mark.parametrize(
+    "fmt, suffixes",
+    [("gcode", {"gcode"}), ("krl", {"/part.src", "/part.dat"}), ("rapid", {"/part.mod"}), ("csv", {"csv"})],
+)
 def test_artifacts_by_format(fmt, suffixes):
     program, files = _run(format=fmt, program_name="part")
     assert set(files) == suffixes and program.format == fmt
@@ -51,8 +53,14 @@ def test_artifacts_by_format(fmt, suffixes):
 def test_krl_split_artifacts_and_gcode_params():
     _, files = _run(format="krl", split_per_layer=True)
     assert set(files) == {"src", "dat", "/post_L000.src", "/post_L000.dat", "/post_L001.src", "/post_L001.dat"}
-    _, files = _run(format="gcode", arc_on="M7", arc_off="M9", dwell_units="ms", ignition_dwell=2,
-                    process_codes={"job": "M101 P{value:.0f}"})
+    _, files = _run(
+        format="gcode",
+        arc_on="M7",
+        arc_off="M9",
+        dwell_units="ms",
+        ignition_dwell=2,
+        process_codes={"job": "M101 P{value:.0f}"},
+    )
     g = files["gcode"]
     assert "M7 ; arc on" in g and "M9 ; arc off" in g and "G4 P2000" in g and "M101 P12" in g
 
@@ -76,7 +84,7 @@ def test_empty_toolpath_warns():
     ctx = Ctx()
     out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
     assert out["program"].stats["motions"] == 0 and ctx.warnings
-    assert "DEF post( )" in out["program"].files["src"]          # named after the node (Ctx.node_id)
+    assert "DEF post( )" in out["program"].files["src"]  # named after the node (Ctx.node_id)
 
 
 def test_gcode_warns_about_tilted_torch():
@@ -99,5 +107,7 @@ def test_gcode_warns_about_tilted_torch():
     ctx = Ctx()
     node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": tp})
     # no tilt warning for a robot; the default KRL analog outputs have no job command (issue 23): reported
-    assert ctx.warnings == ["KRL weld commands of zone start (section bs1/A, layer 0): job 12 not commanded: the "
-                            "program has no command for it (give it a KRL statement in process_codes)"]
+    assert ctx.warnings == [
+        "KRL weld commands of zone start (section bs1/A, layer 0): job 12 not commanded: the "
+        "program has no command for it (give it a KRL statement in process_codes)"
+    ]

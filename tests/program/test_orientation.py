@@ -24,11 +24,14 @@ def test_frames_are_rotations_with_tool_axis_and_roundtrip():
         q = quaternions(R)
         assert np.allclose(np.linalg.norm(q, axis=1), 1.0) and np.all(q[:, 0] >= 0)
         w, x, y, z = q.T  # rotate e_col by q and compare with the tool axis
-        Rq = np.stack([
-            np.column_stack([1 - 2 * (y*y + z*z), 2 * (x*y + w*z), 2 * (x*z - w*y)]),
-            np.column_stack([2 * (x*y - w*z), 1 - 2 * (x*x + z*z), 2 * (y*z + w*x)]),
-            np.column_stack([2 * (x*z + w*y), 2 * (y*z - w*x), 1 - 2 * (x*x + y*y)]),
-        ], axis=2)
+        Rq = np.stack(
+            [
+                np.column_stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)]),
+                np.column_stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)]),
+                np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)]),
+            ],
+            axis=2,
+        )
         assert np.allclose(Rq, R, atol=1e-9)
 
 

@@ -27,7 +27,7 @@ def test_steps_and_stops():
     # a motion stops exactly where an arc switch or a dwell follows it, and at the end
     for k, st in enumerate(steps):
         if isinstance(st, Motion):
-            nxt = next((s for s in steps[k + 1:] if isinstance(s, (Motion, ArcOn, ArcOff, Dwell))), None)
+            nxt = next((s for s in steps[k + 1 :] if isinstance(s, (Motion, ArcOn, ArcOff, Dwell))), None)
             assert st.stop == (nxt is None or not isinstance(nxt, Motion))
     on = sum(isinstance(s, ArcOn) for s in steps)
     assert on == sum(isinstance(s, ArcOff) for s in steps) == plan.stats["arc_on_count"] == 10
@@ -45,7 +45,7 @@ def test_zone_dwell_inside_run_and_time_estimate():
     dwells = [(s.reason, s.seconds, s.point) for s in plan.steps if isinstance(s, Dwell)]
     assert dwells == [("ignition", 0.8, 0), ("zone", 1.5, 2)]  # z1 starts at segment 2, arc on
     # 40 mm wall, 8 segments of 5 mm: zones 2/3/3 segments at 5, 6, 7 mm/s
-    seg_t = (10 / 5 + 15 / 6 + 15 / 7)
+    seg_t = 10 / 5 + 15 / 6 + 15 / 7
     assert plan.stats["estimated_time_s"] == pytest.approx(seg_t + 0.8 + 1.5, abs=1e-3)
     assert plan.stats["deposition_length_mm"] == pytest.approx(40.0)
 
@@ -88,7 +88,7 @@ def test_one_chunker_for_the_robot_programs():
     steps = plan.steps
     per_layer = chunk_steps(steps)
     assert [(c.layer, c.part) for c in per_layer] == [(0, 0), (1, 0), (2, 0)]
-    assert [k for c in per_layer for k in c.steps] == list(range(len(steps)))          # every step once, in order
+    assert [k for c in per_layer for k in c.steps] == list(range(len(steps)))  # every step once, in order
     assert all(isinstance(steps[c.steps[0]], LayerStart) for c in per_layer)
 
     def arc_at_end(c) -> bool:
@@ -102,7 +102,7 @@ def test_one_chunker_for_the_robot_programs():
     assert {c.layer for c in cut} == {0, 1, 2} and max(c.part for c in cut) >= 2
     for c in cut:
         n = sum(isinstance(steps[k], Motion) for k in c.steps)
-        assert n >= 1 and not arc_at_end(c)                 # no program switch while welding
+        assert n >= 1 and not arc_at_end(c)  # no program switch while welding
         # past the limit a program goes on only while the arc is on (every motion but its last)
         on, seen = False, 0
         for k in c.steps:
@@ -113,8 +113,11 @@ def test_one_chunker_for_the_robot_programs():
     parts = [c.part for c in cut if c.layer == 1]
     assert parts == list(range(len(parts)))
     # a layer is never cut with fewer positions than the limit
-    assert all(sum(isinstance(steps[k], Motion) for k in c.steps) >= 10
-               for i, c in enumerate(cut[:-1]) if cut[i + 1].layer == c.layer)
+    assert all(
+        sum(isinstance(steps[k], Motion) for k in c.steps) >= 10
+        for i, c in enumerate(cut[:-1])
+        if cut[i + 1].layer == c.layer
+    )
     # distinct points: a point a program goes to twice counts once (the zone dwell restates one)
     assert len(chunk_steps(steps, max_points=10, distinct=True)) <= len(cut)
     back = chunk_steps(steps, per_layer=False, max_points=12, cut_back=True)
@@ -145,7 +148,9 @@ def test_post_process_names_the_settings_class_of_the_format():
     from waamflow.program import GcodeSettings, KrlSettings, post_process
 
     moves = flatten(build_toolpath(1))
-    with pytest.raises(TypeError, match=r"post_process\('krl'\): writer_settings must be KrlSettings, not GcodeSettings"):
+    with pytest.raises(
+        TypeError, match=r"post_process\('krl'\): writer_settings must be KrlSettings, not GcodeSettings"
+    ):
         post_process(moves, "krl", writer_settings=GcodeSettings())
     with pytest.raises(TypeError, match=r"printpoints.*blend distance in mm, not KrlSettings"):
         post_process(build_toolpath(1), "printpoints", writer_settings=KrlSettings())

@@ -14,8 +14,21 @@ from waamflow.core.moves import flatten
 from waamflow.engine.node import load_nodes
 from waamflow.program import PlanSettings, post_process
 
-COMPAS_KEYS = ["point", "layer_height", "mesh_normal", "up_vector", "frame", "extruder_toggle", "velocity",
-               "wait_time", "blend_radius", "closest_support_pt", "distance_to_support", "is_feasible", "attributes"]
+COMPAS_KEYS = [
+    "point",
+    "layer_height",
+    "mesh_normal",
+    "up_vector",
+    "frame",
+    "extruder_toggle",
+    "velocity",
+    "wait_time",
+    "blend_radius",
+    "closest_support_pt",
+    "distance_to_support",
+    "is_feasible",
+    "attributes",
+]
 
 
 def _pp(toolpath, blend=1.0, travel=100.0):
@@ -27,13 +40,13 @@ def test_one_entry_per_toolpath_sample_with_compas_slicer_keys():
     tp = build_toolpath(3)
     moves = flatten(tp)
     prog, pp = _pp(tp)
-    assert len(pp) == len(moves.points) == prog.stats["points"] == 3 * (9 + 25 + 12 + 1)   # + bs1/B's approach point
-    assert list(pp) == [str(i) for i in range(len(pp))]                                    # compas: flat, by count
+    assert len(pp) == len(moves.points) == prog.stats["points"] == 3 * (9 + 25 + 12 + 1)  # + bs1/B's approach point
+    assert list(pp) == [str(i) for i in range(len(pp))]  # compas: flat, by count
     for v in pp.values():
         assert list(v)[: len(COMPAS_KEYS)] == COMPAS_KEYS and set(v["frame"]) == {"point", "xaxis", "yaxis"}
     pts = np.array([v["point"] for v in pp.values()])
     assert np.allclose(pts, moves.points, atol=1e-4)
-    assert [v["layer"] for v in pp.values()].count(2) == 9 + 25 + 12 + 1                   # layer 2's samples
+    assert [v["layer"] for v in pp.values()].count(2) == 9 + 25 + 12 + 1  # layer 2's samples
     assert {v["section"] for v in pp.values()} == {"bs1/A", "bs1/B", "bs1/C"}
 
 
@@ -45,11 +58,11 @@ def test_speeds_toggles_waits_and_blends_follow_the_plan():
     on = [x["extruder_toggle"] for x in v]
     assert on[0] is False and on[1:] == moves.arc.tolist()
     weld = [x["velocity"] for x in v[1:] if x["extruder_toggle"]]
-    assert set(weld) == {5.0, 6.0, 7.0}                                  # the zones' speeds
+    assert set(weld) == {5.0, 6.0, 7.0}  # the zones' speeds
     travel = [x["velocity"] for x, seg_arc, seg_kind in zip(v[1:], moves.arc, moves.kind) if seg_kind == 0]
     assert travel and set(travel) == {80.0}
     assert sum(x["wait_time"] for x in v) == pytest.approx(prog.stats["dwell_total_s"])
-    assert max(x["wait_time"] for x in v) == pytest.approx(20.0 + 0.8)   # interlayer + ignition dwell of `start`
+    assert max(x["wait_time"] for x in v) == pytest.approx(20.0 + 0.8)  # interlayer + ignition dwell of `start`
     blends = [x["blend_radius"] for x in v]
     assert set(blends) == {0.0, 2.5} and blends[-1] == 0.0
     # exact stop where the arc switches (ignition or arc off at point i - 1): blend 0 there
@@ -72,14 +85,17 @@ def test_frames_are_orthonormal_and_up_is_the_reversed_tool_axis():
         assert np.allclose(ya, n) and np.allclose(xa, np.cross(up, n), atol=1e-3)
     # on the straight wall along +x the tangent is +x and the normal (up × tangent) is +y
     first_wall = pp["1"]
-    assert np.allclose(first_wall["attributes"]["tangent"], [1, 0, 0]) and np.allclose(first_wall["mesh_normal"], [0, 1, 0])
+    assert np.allclose(first_wall["attributes"]["tangent"], [1, 0, 0]) and np.allclose(
+        first_wall["mesh_normal"], [0, 1, 0]
+    )
 
 
 def test_layer_heights_per_layer_planar():
     tp = build_toolpath(3)
     thick = (2.0, 1.5, 1.2)
-    items = tuple(LayerPaths(Layer(lp.index, lp.layer.z, thick[lp.index]), lp.sections, lp.dwell_after_s)
-                  for lp in tp.items)
+    items = tuple(
+        LayerPaths(Layer(lp.index, lp.layer.z, thick[lp.index]), lp.sections, lp.dwell_after_s) for lp in tp.items
+    )
     _, pp = _pp(Layered(items))
     by_layer = {}
     for x in pp.values():
@@ -149,7 +165,7 @@ def test_mpp_cross_print_points_with_vertical_retracts():
     moves = flatten(res.outputs["sequence"]["toolpath"])
     assert len(pp) == len(moves.points) == res.summary("mpp-cross")["programs"]["post"]["points"]
     vertical = np.flatnonzero(np.linalg.norm(np.diff(moves.points, axis=0)[:, :2], axis=1) < 1e-9) + 1
-    assert len(vertical) >= 20                                        # retracts up and approaches down
+    assert len(vertical) >= 20  # retracts up and approaches down
     for x in pp.values():
         up, n, t = (np.array(v) for v in (x["up_vector"], x["mesh_normal"], x["attributes"]["tangent"]))
         assert np.linalg.norm(n) == pytest.approx(1, abs=1e-3) and np.linalg.norm(t) == pytest.approx(1, abs=1e-3)

@@ -24,11 +24,20 @@ def _run(tmp_path, post_params):
 
 def test_every_profile_sets_only_known_params():
     profiles = load_profiles()
-    assert set(profiles) == {"generic", "linuxcnc", "marlin", "fanuc", "kuka_krc4", "kuka_krc4_io", "abb_irc5",
-                             "yaskawa_yrc1000", "fanuc_r30ib_arctool"}
+    assert set(profiles) == {
+        "generic",
+        "linuxcnc",
+        "marlin",
+        "fanuc",
+        "kuka_krc4",
+        "kuka_krc4_io",
+        "abb_irc5",
+        "yaskawa_yrc1000",
+        "fanuc_r30ib_arctool",
+    }
     for name, p in profiles.items():
         assert p["title"] and p["description"]
-        PostProcess.Params.model_validate({**p["post"], "profile": name})       # values valid too
+        PostProcess.Params.model_validate({**p["post"], "profile": name})  # values valid too
         assert set(p["post"]) <= set(PostProcess.Params.model_fields)
 
 
@@ -39,7 +48,7 @@ def test_marlin_dwell_in_ms_and_recipe_values_win(tmp_path):
     res = _run(tmp_path, {"profile": "linuxcnc", "ignition_dwell": 0.5})
     g = res.artifacts["post.gcode"].decode()
     assert re.search(r"^G4 P0\.5\b", g, re.M) and "M64 P0" in g
-    res = _run(tmp_path, {"profile": "marlin", "dwell_units": "s", "arc_on": "M42 P4 S255"})   # the recipe wins
+    res = _run(tmp_path, {"profile": "marlin", "dwell_units": "s", "arc_on": "M42 P4 S255"})  # the recipe wins
     g = res.artifacts["post.gcode"].decode()
     assert "M42 P4 S255" in g and "M107" in g and re.search(r"^G4 P0\.5\b", g, re.M)
 

@@ -30,14 +30,18 @@ from waamflow.engine.recipe import parse_recipe
 from waamflow.program.profiles import load_profiles
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
-LEN_TOL = 5e-4    # relative: coordinates are written to 0.001 mm
-TIME_TOL = 1e-3   # relative: feeds are written to 0.1 mm/min
-LAYER_LIMIT = {"bracket": ("layers", 12), "curved-duct": ("fan", 8), "curved-bracket": ("fan", 8),
-               "thin-wall-panel": ("layers", 5)}  # pygcode reads ~1 ms/line
+LEN_TOL = 5e-4  # relative: coordinates are written to 0.001 mm
+TIME_TOL = 1e-3  # relative: feeds are written to 0.1 mm/min
+LAYER_LIMIT = {
+    "bracket": ("layers", 12),
+    "curved-duct": ("fan", 8),
+    "curved-bracket": ("fan", 8),
+    "thin-wall-panel": ("layers", 5),
+}  # pygcode reads ~1 ms/line
 PROFILES = load_profiles()
 # formats that do not write a positioner: a recipe with a cell is refused in them (none: INFORM writes station 1)
 NO_CELL: set[str] = set()
-ANGLE_TOL = 1e-3   # deg: positioner angles in a program vs the simulation's
+ANGLE_TOL = 1e-3  # deg: positioner angles in a program vs the simulation's
 
 
 def _post_recipes() -> list[str]:
@@ -103,17 +107,24 @@ def test_every_recipe_and_profile_is_in_the_matrix(runs):
     assert {"generic", "linuxcnc", "marlin", "kuka_krc4", "abb_irc5"} <= set(PROFILES)
     n = sum(len(posts) for _, posts, _ in results.values())
     assert n == sum(
-        sum(1 for prof, spec in PROFILES.items()
-            if not (spec["post"]["format"] in NO_CELL and nd["params"].get("cell")))
-        for r in RECIPES for nd in json.loads((GRAPHS / f"{r}.json").read_text())["nodes"] if nd["type"] == "post-process")
+        sum(
+            1 for prof, spec in PROFILES.items() if not (spec["post"]["format"] in NO_CELL and nd["params"].get("cell"))
+        )
+        for r in RECIPES
+        for nd in json.loads((GRAPHS / f"{r}.json").read_text())["nodes"]
+        if nd["type"] == "post-process"
+    )
 
 
 def _files(result, node_id: str, named: bool = False) -> dict[str, str]:
     """The node's program files by key ("src", "L003.src", "mod", "M001.mod") or, `named`, by the
     file name they are written as (KRL / RAPID: named after the program, e.g. `post_M001.mod`)."""
     names = result.outputs[node_id]["program"].file_names(node_id)
-    return {(names[k] if named else k): (v.decode() if isinstance(v, bytes) else v)
-            for k in names if (v := result.artifacts.get(names[k])) is not None}
+    return {
+        (names[k] if named else k): (v.decode() if isinstance(v, bytes) else v)
+        for k in names
+        if (v := result.artifacts.get(names[k])) is not None
+    }
 
 
 @pytest.mark.parametrize("name", RECIPES)
@@ -145,8 +156,13 @@ def test_programs_parse_and_agree_with_the_summary(runs, name):
 def _trace(text: str) -> dict:
     head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), revision (\S+), recipe ([^\s)]+)", text)
     rsha = re.search(r"waamflow trace: recipe sha256 ([0-9a-f]{64})", text)
-    return {"version": head.group(2), "revision": head.group(3), "recipe": head.group(4), "recipe_sha256": rsha.group(1),
-            "inputs": dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text))}
+    return {
+        "version": head.group(2),
+        "revision": head.group(3),
+        "recipe": head.group(4),
+        "recipe_sha256": rsha.group(1),
+        "inputs": dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text)),
+    }
 
 
 @pytest.mark.parametrize("name", RECIPES)
@@ -160,12 +176,12 @@ def test_headers_carry_version_and_hashes(runs, name):
         assert hashlib.sha256((GRAPHS / path).read_bytes()).hexdigest() == digest, path
     for nid, (_o, prof, params) in posts.items():
         files = _files(result, nid)
-        if params["format"] == "inform":             # 32-character comments: the short forms
+        if params["format"] == "inform":  # 32-character comments: the short forms
             text = files["JBI"]
             assert f"'waamflow {__version__}" in text and f"'rev {source_revision()}"[:33] in text, f"{name}/{prof}"
             assert f"'recipe sha256 {trace['recipe_sha256'][:16]}" in text, f"{name}/{prof}"
             continue
-        if params["format"] == "tp":                 # numbered 32-character comments of the main program
+        if params["format"] == "tp":  # numbered 32-character comments of the main program
             text = files["LS"]
             assert f"  ! waamflow {__version__} ;" in text, f"{name}/{prof}"
             assert f"! rev {source_revision()}"[:32] in text, f"{name}/{prof}"
@@ -173,17 +189,24 @@ def test_headers_carry_version_and_hashes(runs, name):
             continue
         main = {"gcode": "gcode", "krl": "src", "rapid": "mod"}[params["format"]]
         got = _trace(files[main])
-        assert got == {"version": __version__, "revision": source_revision(), "recipe": recipe.name,
-                       "recipe_sha256": trace["recipe_sha256"], "inputs": trace["inputs"]}, f"{name}/{prof}"
+        assert got == {
+            "version": __version__,
+            "revision": source_revision(),
+            "recipe": recipe.name,
+            "recipe_sha256": trace["recipe_sha256"],
+            "inputs": trace["inputs"],
+        }, f"{name}/{prof}"
         assert trace["revision"] == source_revision()
-        for text in files.values():                      # every file of the program (parts too)
+        for text in files.values():  # every file of the program (parts too)
             assert _trace(text)["revision"] == source_revision(), f"{name}/{prof}"
 
 
 def test_rerun_gives_the_same_hashes(runs):
     results, cache = runs
     recipe, posts, first = results["mpp-cross"]
-    again = execute(build_graph(parse_recipe(_matrix_recipe("mpp-cross")[0])), resolver=FileResolver(GRAPHS), cache=cache)
+    again = execute(
+        build_graph(parse_recipe(_matrix_recipe("mpp-cross")[0])), resolver=FileResolver(GRAPHS), cache=cache
+    )
     a, b = first.summary(recipe.name)["trace"], again.summary(recipe.name)["trace"]
     assert (a["recipe_sha256"], a["inputs"]) == (b["recipe_sha256"], b["inputs"])
     nid = next(k for k, v in posts.items() if v[1] == "generic")
@@ -205,8 +228,13 @@ def test_curved_duct_gcode_carries_the_simulated_positioner_angles_as_rotary_axe
     next(n for n in doc["nodes"] if n["id"] == "fan")["params"]["layer_count"] = 12
     post = next(n for n in doc["nodes"] if n["id"] == "post")
     for prof in ("linuxcnc", "marlin"):
-        doc["nodes"].append({"id": f"g_{prof}", "type": "post-process",
-                             "params": {**post["params"], "format": "gcode", "profile": prof}})
+        doc["nodes"].append(
+            {
+                "id": f"g_{prof}",
+                "type": "post-process",
+                "params": {**post["params"], "format": "gcode", "profile": prof},
+            }
+        )
         doc["edges"].append({"from": "bead.toolpath", "to": f"g_{prof}.toolpath"})
     result = execute(build_graph(parse_recipe(doc)), resolver=FileResolver(GRAPHS), cache=cache)
     sim = json.loads(result.artifacts["sim.simulation.json"])
@@ -218,14 +246,16 @@ def test_curved_duct_gcode_carries_the_simulated_positioner_angles_as_rotary_axe
         assert f"; rotary axes: {tilt} = positioner E1 (tilt), {turn} = positioner E2 (turn) in degrees" in text
         rot = check_gcode({"gcode": text}, {**PROFILES[prof]["post"], **post["params"]})["rotary"]
         e1, e2 = np.array(rot[tilt]), np.array(rot[turn])
-        assert len(e1) == len(moves.points) + 1                              # one per motion + the final lift
-        assert (e1[-1], e2[-1]) == (e1[-2], e2[-2])                          # the lift keeps the angles
+        assert len(e1) == len(moves.points) + 1  # one per motion + the final lift
+        assert (e1[-1], e2[-1]) == (e1[-2], e2[-2])  # the lift keeps the angles
         e1, e2 = e1[:-1], e2[:-1]
         assert np.allclose(e1, angles[:, 0], atol=1e-3) and np.allclose(e2, angles[:, 1], atol=1e-3)
-        assert len(np.unique(np.round(e1, 3))) == 12                         # moves once per layer
+        assert len(np.unique(np.round(e1, 3))) == 12  # moves once per layer
         assert e1.min() == pytest.approx(sim["positioner_e1_min_deg"], abs=1e-3) == pytest.approx(1.54)
         assert e1.max() == pytest.approx(sim["positioner_e1_max_deg"], abs=1e-3) == pytest.approx(12 * 1.54)
-        assert e2.min() == pytest.approx(sim["positioner_e2_min_deg"]) and e2.max() == pytest.approx(sim["positioner_e2_max_deg"])
+        assert e2.min() == pytest.approx(sim["positioner_e2_min_deg"]) and e2.max() == pytest.approx(
+            sim["positioner_e2_max_deg"]
+        )
 
 
 def test_curved_duct_robot_programs_carry_the_simulated_positioner_angles(runs):

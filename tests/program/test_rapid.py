@@ -24,14 +24,15 @@ def _lines(text):
 
 
 def test_structure_and_motions(moves):
-    text = post_process(moves, "rapid", PlanSettings(ignition_dwell=0.5), RapidSettings(program_name="cross")).files["mod"]
+    text = post_process(moves, "rapid", PlanSettings(ignition_dwell=0.5), RapidSettings(program_name="cross")).files[
+        "mod"
+    ]
     lines = _lines(text)
     assert lines[0] == "MODULE cross" and lines[-1] == "ENDMODULE"
     assert lines.count("PROC main()") == 1 and lines.count("ENDPROC") == 1
     assert lines.index("PROC main()") < lines.index("ENDPROC")
     code = [l.split("!")[0].strip() for l in lines if not l.startswith("!")]
-    assert all(l.endswith(";") or l in ("PROC main()", "ENDPROC", "ENDMODULE") or l.startswith("MODULE")
-               for l in code)
+    assert all(l.endswith(";") or l in ("PROC main()", "ENDPROC", "ENDMODULE") or l.startswith("MODULE") for l in code)
     motions = MOTION.findall(text)
     kinds = [m[0] for m in motions]
     runs = arc_runs(moves)
@@ -47,7 +48,9 @@ def test_structure_and_motions(moves):
     assert starts == [a for a, _ in runs] and ends == [b for _, b in runs]
     assert re.findall(r"ArcLEnd p\d+, \w+, \w+, \w+, (\w+),", text) == ["fine"] * len(runs)
     # every referenced robtarget is declared, with the vertical-torch quaternion
-    decl = dict(re.findall(r"CONST robtarget (p\d+) := \[\[([^\]]+)\],\[0\.000000,0\.000000,1\.000000,0\.000000\]", text))
+    decl = dict(
+        re.findall(r"CONST robtarget (p\d+) := \[\[([^\]]+)\],\[0\.000000,0\.000000,1\.000000,0\.000000\]", text)
+    )
     assert set(decl) == {m[1] for m in motions} | {m[2] for m in motions if m[2]}
     xyz = np.array([list(map(float, decl[f"p{i + 1}"].split(","))) for i in range(len(moves.points))])
     assert np.allclose(xyz, moves.points, atol=1e-3)
@@ -58,11 +61,15 @@ def test_structure_and_motions(moves):
 def test_speeds_and_welddata_from_zones(moves):
     text = post_process(moves, "rapid", writer_settings=RapidSettings(blend_distance=0)).files["mod"]
     speeds = dict(re.findall(r"CONST speeddata (vw\d+) := \[([\d.]+),", text))
-    welds = {n: (float(v), arc) for n, v, arc in re.findall(r"PERS welddata (wd\d+) := \[([\d.]+),0,\[([^\]]+)\]", text)}
+    welds = {
+        n: (float(v), arc) for n, v, arc in re.findall(r"PERS welddata (wd\d+) := \[([\d.]+),0,\[([^\]]+)\]", text)
+    }
     assert sorted(float(v) for v in speeds.values()) == [5.0, 6.0, 7.0, 100.0]
     # each welding motion: speeddata = welddata weld_speed = the segment's speed; arcdata = its zone
-    zone_arc = {z: f"{int(p.get('job', 0))},0,{p['voltage']:g},{p['wire_feed_speed']:g},0,{p['current']:g},0,0,0"
-                for z, p in ZONE_PARAMS.items()}
+    zone_arc = {
+        z: f"{int(p.get('job', 0))},0,{p['voltage']:g},{p['wire_feed_speed']:g},0,{p['current']:g},0,0,0"
+        for z, p in ZONE_PARAMS.items()
+    }
     speed_zone = {5.0: "start", 6.0: "z1", 7.0: "end"}
     weld = re.findall(r"^\s*Arc(?:L|LEnd|C|CEnd) (?:p\d+, )?p\d+, (vw\d+), (sm\d+), (wd\d+), (\w+),", text, re.M)
     assert len(weld) == int(moves.arc.sum())  # one welding instruction per arc-on segment

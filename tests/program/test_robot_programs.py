@@ -45,29 +45,32 @@ def test_identifiers_follow_the_controller_rules():
     assert program_identifier("post", 24, KRL_RESERVED) == "post"
     assert program_identifier("duct-post 2", 24, KRL_RESERVED) == "duct_post_2"
     assert program_identifier("3rd_layer", 24, KRL_RESERVED) == "P_3rd_layer"
-    assert program_identifier("end", 24, KRL_RESERVED) == "P_end"                 # KRL keyword
-    assert program_identifier("main", 32, RAPID_RESERVED) == "P_main"             # the module's PROC
+    assert program_identifier("end", 24, KRL_RESERVED) == "P_end"  # KRL keyword
+    assert program_identifier("main", 32, RAPID_RESERVED) == "P_main"  # the module's PROC
     long = "a_really_long_post_processor_node_id_for_testing"
     assert program_identifier(long, 24) == long[:24] and program_identifier(long, 32) == long[:32]
-    assert program_identifier("post_", 24) == "post"                               # no trailing '_' left by a cut
+    assert program_identifier("post_", 24) == "post"  # no trailing '_' left by a cut
 
 
-@pytest.mark.parametrize("node_id, fmt, name", [
-    ("post", "krl", "post"),
-    ("duct_robot", "krl", "duct_robot"),
-    ("duct-robot", "krl", "duct_robot"),       # not duct-robot.src: it could not hold DEF duct-robot
-    ("duct-robot", "rapid", "duct_robot"),
-])
+@pytest.mark.parametrize(
+    "node_id, fmt, name",
+    [
+        ("post", "krl", "post"),
+        ("duct_robot", "krl", "duct_robot"),
+        ("duct-robot", "krl", "duct_robot"),  # not duct-robot.src: it could not hold DEF duct-robot
+        ("duct-robot", "rapid", "duct_robot"),
+    ],
+)
 def test_program_is_named_after_its_node(tmp_path, node_id, fmt, name):
     res = _run(tmp_path, _wall_recipe(node_id, format=fmt))
     if fmt == "krl":
-        src, dat = _text(res, f"{name}.src"), _text(res, f"{name}.dat")     # file name = DEF name
+        src, dat = _text(res, f"{name}.src"), _text(res, f"{name}.dat")  # file name = DEF name
         assert parse_program(src, dat).name == name
         assert f"\nDEF {name}( )\n" in src and dat.startswith(f"DEFDAT {name}\n")
     else:
         assert parse_module(_text(res, f"{name}.mod"), tool="tWeldGun").name == name
     assert not [n for n in res.artifacts if n.startswith(f"{node_id}.")] or node_id == name
-    assert not [w for w in res.warnings if "rename" in w["message"]]   # named right: nothing to warn about
+    assert not [w for w in res.warnings if "rename" in w["message"]]  # named right: nothing to warn about
 
 
 def test_renamed_node_is_not_served_from_the_cache(tmp_path):
@@ -77,21 +80,22 @@ def test_renamed_node_is_not_served_from_the_cache(tmp_path):
     assert "DEF first( )" in _text(a, "first.src") and "DEF second( )" in _text(b, "second.src")
     assert not b.stats["second"].cached and b.stats["walls"].cached
     c = _run(tmp_path, _wall_recipe("second", format="krl"), cache)
-    assert c.stats["second"].cached                                  # same id, same content: cached
+    assert c.stats["second"].cached  # same id, same content: cached
 
 
 def test_split_program_names(tmp_path):
     res = _run(tmp_path, _wall_recipe("wall_robot_program_x", format="krl", split_per_layer=True))
     files = {k: v.decode() for k, v in res.artifacts.items() if k.startswith("wall_robot_progr")}
     main = parse_program(files["wall_robot_progr.src"], files["wall_robot_progr.dat"])  # files named after DEF
-    assert main.name == "wall_robot_progr"                           # 16 characters: room for _L003_1
+    assert main.name == "wall_robot_progr"  # 16 characters: room for _L003_1
     subs = sorted(k for k in files if re.fullmatch(r"wall_robot_progr_L\d{3}\.src", k))
     assert len(subs) == 3 and len(files) == 8
     for k in subs:
         sub = parse_program(files[k], files[k[:-3] + "dat"])
         assert sub.name == k[:-4] and len(sub.name) <= 24
-    assert [s.args[0] for s in main.body if s.kind == "call" and s.args[0].startswith("wall")] == \
-        [f"wall_robot_progr_L00{i}" for i in range(3)]
+    assert [s.args[0] for s in main.body if s.kind == "call" and s.args[0].startswith("wall")] == [
+        f"wall_robot_progr_L00{i}" for i in range(3)
+    ]
 
 
 # ---- 2. RAPID coordinated motion and weld data -------------------------------------------------
@@ -99,8 +103,12 @@ def test_rapid_coordinated_work_object_and_extax():
     moves = flatten(build_toolpath())
     n = len(moves.points)
     ext = np.column_stack([np.linspace(0.0, 45.0, n), np.linspace(-10.0, 10.0, n)])
-    s = RapidSettings(program_name="coord", external_axes=ext, positioner_unit="STN1",
-                      work_frame=(0.0, 0.0, 150.0, 1.0, 0.0, 0.0, 0.0))
+    s = RapidSettings(
+        program_name="coord",
+        external_axes=ext,
+        positioner_unit="STN1",
+        work_frame=(0.0, 0.0, 150.0, 1.0, 0.0, 0.0, 0.0),
+    )
     prog = post_process(moves, "rapid", PlanSettings(), s)
     mod = parse_module(prog.files["mod"], tool="tWeldGun", units=("STN1",))
     storage, dtype, wobj = mod.data["wobj_STN1"]
@@ -118,9 +126,11 @@ def test_rapid_coordinated_work_object_and_extax():
         i = int(k[1:]) - 1
         assert t[3][:2] == pytest.approx(ext[i], abs=1e-3) and t[3][2:] == [9e9] * 4
         assert t[0] == pytest.approx(moves.points[i], abs=1e-3)
-    assert len({round(t[3][0], 3) for t in targets.values()}) == n     # eax_a moves at every point
+    assert len({round(t[3][0], 3) for t in targets.values()}) == n  # eax_a moves at every point
     # without a mechanical unit: external axes but no coordination
-    plain = post_process(moves, "rapid", writer_settings=RapidSettings(external_axes=ext, positioner_unit="")).files["mod"]
+    plain = post_process(moves, "rapid", writer_settings=RapidSettings(external_axes=ext, positioner_unit="")).files[
+        "mod"
+    ]
     assert "ActUnit" not in plain and "wobjdata" not in parse_module(plain, tool="tWeldGun").data.__repr__()
 
 
@@ -130,16 +140,27 @@ def test_rapid_welddata_from_zones_and_zero_data_warns():
     mod = parse_module(prog.files["mod"], tool="tWeldGun")
     welds = [values(v[2]) for v in mod.data.values() if v[1] == "welddata"]
     assert sorted((w[0], w[2][2], w[2][3], w[2][5]) for w in welds) == [
-        (5.0, 21.0, 11.0, 220.0), (6.0, 20.0, 10.0, 200.0), (7.0, 19.0, 8.5, 180.0)]
+        (5.0, 21.0, 11.0, 220.0),
+        (6.0, 20.0, 10.0, 200.0),
+        (7.0, 19.0, 8.5, 180.0),
+    ]
     assert prog.weld_issues == ()
     # a zone without parameters and one with a zero voltage: reported, naming zone, section, layer
     from dataclasses import replace
+
     zp = {"start": {}, "z1": {"current": 200.0, "voltage": 0.0, "wire_feed_speed": 10.0}, "end": {"job": 3}}
-    bad = flatten(type(build_toolpath(1))(tuple(
-        type(lp)(lp.layer, tuple(replace(sp, zone_params=zp) for sp in lp.sections)) for lp in build_toolpath(1))))
+    bad = flatten(
+        type(build_toolpath(1))(
+            tuple(
+                type(lp)(lp.layer, tuple(replace(sp, zone_params=zp) for sp in lp.sections)) for lp in build_toolpath(1)
+            )
+        )
+    )
     issues = post_process(bad, "rapid").weld_issues
     assert {(i.zone, i.message) for i in issues} == {
-        ("start", "no weld data (current, voltage, wire_feed_speed and job all missing or 0)"), ("z1", "voltage 0")}
+        ("start", "no weld data (current, voltage, wire_feed_speed and job all missing or 0)"),
+        ("z1", "voltage 0"),
+    }
     assert {i.section for i in issues} == {"bs1/A", "bs1/B", "bs1/C"} and {i.layer for i in issues} == {0}
 
 
@@ -193,10 +214,10 @@ def test_every_robot_profile_parses(tmp_path, profile):
         e6 = prog.e6pos()
         targets = {t for m in prog.motions() for t in m.args[:-1] if not t.startswith("$")}
         assert set(e6) == targets and len(e6) > 10
-        assert {(p["E1"], p["E2"]) for p in e6.values()} == {(0.0, 0.0)}          # `fixed` positioner at 0°
+        assert {(p["E1"], p["E2"]) for p in e6.values()} == {(0.0, 0.0)}  # `fixed` positioner at 0°
         seams = arctech_seams(prog)
         if load_profiles()[profile]["post"].get("arc_control") == "arctech":
-            assert len(seams) == 3                                    # one seam per layer of the wall
+            assert len(seams) == 3  # one seam per layer of the wall
         else:
             assert not seams and sum(s.kind == "assign" and s.args[0] == "$OUT" for s in prog.body) == 3
     else:
@@ -222,7 +243,7 @@ def _shipped_robot_programs():
 
 
 SHIPPED = _shipped_robot_programs()
-SLOW = {"bracket"}       # 15-25 s a run: parsed in `make bench`-sized runs only, see README
+SLOW = {"bracket"}  # 15-25 s a run: parsed in `make bench`-sized runs only, see README
 
 
 @pytest.mark.parametrize("recipe_name, fmt", [s for s in SHIPPED if s[0] not in SLOW and s[0] != "curved-duct"])
@@ -234,8 +255,11 @@ def test_shipped_recipes_parse(recipe_name, fmt):
     for node in posts:
         prog = _check_program(res, node, fmt)
         assert prog.name == node
-        n_motion = len(prog.motions()) if fmt == "krl" else len(prog.calls("MoveL", "MoveC", "ArcL", "ArcC",
-                                                                           "ArcLStart", "ArcLEnd", "ArcCEnd"))
+        n_motion = (
+            len(prog.motions())
+            if fmt == "krl"
+            else len(prog.calls("MoveL", "MoveC", "ArcL", "ArcC", "ArcLStart", "ArcLEnd", "ArcCEnd"))
+        )
         assert n_motion > 50
 
 
@@ -259,13 +283,13 @@ def test_duct_krl_parses_with_moving_external_axes(duct):
     assert ("curved-duct", "krl") in SHIPPED
     prog = _check_program(duct[0], "post", "krl")
     e6 = prog.e6pos()
-    assert len(e6) == 6787          # the duct's 5 mm wall: its centre-line laps (3 mm wall: 6438)
+    assert len(e6) == 6787  # the duct's 5 mm wall: its centre-line laps (3 mm wall: 6438)
     e1 = np.array([p["E1"] for p in e6.values()])
-    assert len(np.unique(np.round(e1, 2))) == 58 and np.ptp(e1) > 85            # E1 (tilt) moves layer by layer
+    assert len(np.unique(np.round(e1, 2))) == 58 and np.ptp(e1) > 85  # E1 (tilt) moves layer by layer
     # the tilt follows the deposition order: non-decreasing along the motion sequence
     seq = [e6[m.args[0]]["E1"] for m in prog.motions() if m.args[0] in e6]
     assert np.all(np.diff(seq) >= -1e-9)
-    assert any(s.kind == "if" for s in prog.body) and any(s.kind == "halt" for s in prog.body)   # $EX_AX_NUM check
+    assert any(s.kind == "if" for s in prog.body) and any(s.kind == "halt" for s in prog.body)  # $EX_AX_NUM check
 
 
 def test_duct_rapid_parses_with_coordinated_extax(duct):
@@ -287,11 +311,13 @@ def test_duct_rapid_parses_with_coordinated_extax(duct):
 @pytest.mark.parametrize("fmt, files", [("krl", ("post.src", "post.dat")), ("rapid", ("post.mod",))])
 def test_rerun_gives_identical_trace_and_program(tmp_path, monkeypatch, fmt, files):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
-    runs = [_run(tmp_path, _wall_recipe(format=fmt)) for _ in range(2)]         # no cache: computed twice
+    runs = [_run(tmp_path, _wall_recipe(format=fmt)) for _ in range(2)]  # no cache: computed twice
     for name in files:
         a, b = (_text(r, name) for r in runs)
         trace = re.findall(r"waamflow trace: (.*)", a)
         assert len(trace) == 3 and trace == re.findall(r"waamflow trace: (.*)", b)
         assert "recipe robot-wall" in trace[0] and "waamflow 0." in trace[0] and "2026-01-01T00:00:00Z" in trace[0]
-        assert re.fullmatch(r"recipe sha256 [0-9a-f]{64}", trace[1]) and re.fullmatch(r"input wall\.json sha256 [0-9a-f]{64}", trace[2])
-        assert a == b                                                            # byte-identical programs
+        assert re.fullmatch(r"recipe sha256 [0-9a-f]{64}", trace[1]) and re.fullmatch(
+            r"input wall\.json sha256 [0-9a-f]{64}", trace[2]
+        )
+        assert a == b  # byte-identical programs

@@ -33,20 +33,25 @@ from pathlib import Path
 import pytest
 
 RS274 = shutil.which("rs274")
-pytestmark = pytest.mark.skipif(RS274 is None, reason="LinuxCNC's rs274 is not installed "
-                                "(Debian: apt-get install --no-install-recommends linuxcnc-uspace; .ci/run does)")
+pytestmark = pytest.mark.skipif(
+    RS274 is None,
+    reason="LinuxCNC's rs274 is not installed "
+    "(Debian: apt-get install --no-install-recommends linuxcnc-uspace; .ci/run does)",
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 GRAPHS = ROOT / "graphs"
 PROFILE = json.loads((ROOT / "backend/waamflow/data/machines/linuxcnc.json").read_text())["post"]
-LINE_LIMIT = 252      # rs274 (2.9) rejects a line of 253 characters or more: "Command too long"
-LEN_TOL = 1e-4        # relative, + 0.002 mm: coordinates are written to 0.001 mm, the header to 0.001
-TIME_TOL = 5e-4       # relative, + 0.06 s: feeds are written to 0.1 mm/min (or whole), the header to 0.1 s
+LINE_LIMIT = 252  # rs274 (2.9) rejects a line of 253 characters or more: "Command too long"
+LEN_TOL = 1e-4  # relative, + 0.002 mm: coordinates are written to 0.001 mm, the header to 0.001
+TIME_TOL = 5e-4  # relative, + 0.06 s: feeds are written to 0.1 mm/min (or whole), the header to 0.1 s
 
 CALL = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
 USER_M = re.compile(r"^\s*M1\d\d\b", re.I)
-SUMMARY = re.compile(r"deposition ([\d.]+) mm, travel ([\d.]+) mm, arc-on count (\d+), "
-                     r"dwell ([\d.]+) s, estimated time ([\d.]+) s")
+SUMMARY = re.compile(
+    r"deposition ([\d.]+) mm, travel ([\d.]+) mm, arc-on count (\d+), "
+    r"dwell ([\d.]+) s, estimated time ([\d.]+) s"
+)
 
 
 def _gcode_posts() -> list[tuple[str, str]]:
@@ -85,8 +90,9 @@ def programs(tmp_path_factory) -> dict[tuple[str, str], Path]:
     for recipe in RECIPES:
         sets = [a for r, nid in POSTS if r == recipe for a in ("--set", f"{nid}.profile=linuxcnc")]
         cmd = cmd0 + ["run", str(GRAPHS / f"{recipe}.json"), "--out", str(base / recipe), "--no-cache", *sets]
-        procs[recipe] = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                         text=True)
+        procs[recipe] = subprocess.Popen(
+            cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
     for recipe, p in procs.items():
         log, _ = p.communicate(timeout=300)
         assert p.returncode == 0, f"{recipe}: {log[-2000:]}"
@@ -118,9 +124,18 @@ def _bridge(text: str, drop_long_comments: bool) -> tuple[str, int, int]:
 def _run_rs274(tmp: Path, text: str) -> tuple[int, str, str]:
     src, canon = tmp / "prog.ngc", tmp / "prog.canon"
     src.write_text(text)
-    p = subprocess.run([RS274, *_config(tmp), str(src), str(canon)], stdin=subprocess.DEVNULL,
-                       capture_output=True, text=True, timeout=60)
-    return p.returncode, canon.read_text() if canon.exists() else "", (p.stdout + p.stderr).replace("executing", "").strip()
+    p = subprocess.run(
+        [RS274, *_config(tmp), str(src), str(canon)],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    return (
+        p.returncode,
+        canon.read_text() if canon.exists() else "",
+        (p.stdout + p.stderr).replace("executing", "").strip(),
+    )
 
 
 def _code_call(code: str) -> str:
@@ -128,10 +143,15 @@ def _code_call(code: str) -> str:
     words = code.replace("_", " ").upper().split()
     m = int(float(words[0][1:]))
     p = next((int(float(w[1:])) for w in words[1:] if w.startswith("P")), 0)
-    return {62: f"SET_MOTION_OUTPUT_BIT({p})", 63: f"CLEAR_MOTION_OUTPUT_BIT({p})",
-            64: f"SET_AUX_OUTPUT_BIT({p})", 65: f"CLEAR_AUX_OUTPUT_BIT({p})",
-            3: "START_SPINDLE_CLOCKWISE(0)", 4: "START_SPINDLE_COUNTERCLOCKWISE(0)",
-            5: "STOP_SPINDLE_TURNING(0)"}[m]
+    return {
+        62: f"SET_MOTION_OUTPUT_BIT({p})",
+        63: f"CLEAR_MOTION_OUTPUT_BIT({p})",
+        64: f"SET_AUX_OUTPUT_BIT({p})",
+        65: f"CLEAR_AUX_OUTPUT_BIT({p})",
+        3: "START_SPINDLE_CLOCKWISE(0)",
+        4: "START_SPINDLE_COUNTERCLOCKWISE(0)",
+        5: "STOP_SPINDLE_TURNING(0)",
+    }[m]
 
 
 def _arc_length(start, args: list[float]) -> float:
@@ -148,7 +168,7 @@ def _arc_length(start, args: list[float]) -> float:
 def measure(canon: str, arc_on: str, arc_off: str, travel_speed: float) -> dict:
     """Arc-on length, arc-off motion, dwell and time from rs274's canonical commands."""
     pos, feed, on = (0.0, 0.0, 0.0), 0.0, False
-    moves = []   # (kind, length, feed, arc on)
+    moves = []  # (kind, length, feed, arc on)
     r = {"arc_on_count": 0, "dwell": 0.0, "outputs": [], "traverse_arc_on": 0, "plane": "CANON_PLANE_XY"}
     for line in canon.splitlines():
         m = CALL.match(line)
@@ -189,8 +209,9 @@ def measure(canon: str, arc_on: str, arc_off: str, travel_speed: float) -> dict:
     r["travel"] = sum(d for k, d, f, o, *_ in counted if not o)
     r["traverse_arc_on"] = sum(1 for k, d, f, o, *_ in moves if k == "traverse" and o)
     assert all(f > 0 for k, d, f, o, *_ in moves if k == "feed" and d > 0), "a feed move without a feed rate"
-    r["time"] = (sum(d / f * 60.0 if k == "feed" else d / travel_speed for k, d, f, o, *_ in counted if d > 0)
-                 + r["dwell"])
+    r["time"] = (
+        sum(d / f * 60.0 if k == "feed" else d / travel_speed for k, d, f, o, *_ in counted if d > 0) + r["dwell"]
+    )
     return r
 
 
@@ -200,8 +221,16 @@ def _header(text: str) -> dict:
     post = re.search(r"waamflow-post: arc_on=(\S+) arc_off=(\S+)", head)
     speed = re.search(r"assumes ([\d.]+) mm/s", head)
     assert s and post and speed, head
-    return {"deposition": float(s[1]), "travel": float(s[2]), "arc_on_count": int(s[3]), "dwell": float(s[4]),
-            "time": float(s[5]), "arc_on": post[1], "arc_off": post[2], "travel_speed": float(speed[1])}
+    return {
+        "deposition": float(s[1]),
+        "travel": float(s[2]),
+        "arc_on_count": int(s[3]),
+        "dwell": float(s[4]),
+        "time": float(s[5]),
+        "arc_on": post[1],
+        "arc_off": post[2],
+        "travel_speed": float(speed[1]),
+    }
 
 
 def _analog_lines(text: str) -> list[tuple[str, int, float]]:
@@ -227,11 +256,13 @@ def test_rs274_lengths_and_time_equal_the_header(programs, tmp_path, recipe, pos
     assert canon.count('COMMENT("user M1') == n_user
     got = measure(canon, _code_call(head["arc_on"]), _code_call(head["arc_off"]), head["travel_speed"])
     RESULTS[f"{recipe}:{post}"] = {"rs274": got, "header": head, "user_m": n_user, "long_comments": n_long}
-    print(f"\n{recipe}:{post}: rs274 deposition {got['deposition']:.3f} mm (header {head['deposition']:.3f}), "
-          f"arc-off motion {got['travel']:.3f} mm ({head['travel']:.3f}), arc-on {got['arc_on_count']} "
-          f"({head['arc_on_count']}), dwell {got['dwell']:.3f} s ({head['dwell']:.3f}), time {got['time']:.2f} s "
-          f"({head['time']:.1f}); approach {got['approach']:.3f} mm, final lift {got['final_lift']} mm; "
-          f"user M-codes bridged {n_user}, long comment lines {n_long}")
+    print(
+        f"\n{recipe}:{post}: rs274 deposition {got['deposition']:.3f} mm (header {head['deposition']:.3f}), "
+        f"arc-off motion {got['travel']:.3f} mm ({head['travel']:.3f}), arc-on {got['arc_on_count']} "
+        f"({head['arc_on_count']}), dwell {got['dwell']:.3f} s ({head['dwell']:.3f}), time {got['time']:.2f} s "
+        f"({head['time']:.1f}); approach {got['approach']:.3f} mm, final lift {got['final_lift']} mm; "
+        f"user M-codes bridged {n_user}, long comment lines {n_long}"
+    )
     assert got["arc_on_count"] == head["arc_on_count"]
     assert got["traverse_arc_on"] == 0, "a G0 while the arc is on"
     assert got["final_lift"] == pytest.approx(PROFILE["final_lift"], abs=1e-9)
@@ -248,8 +279,24 @@ def test_rs274_lengths_and_time_equal_the_header(programs, tmp_path, recipe, pos
 def test_measure_counts_what_it_should(tmp_path):
     """The measure on a hand-made program: 30 mm arc on at 600 mm/min (3 s), a 90° arc of r 10
     (15.708 mm, 1.571 s), 2 s dwell; 40 mm traverse at 100 mm/s (0.4 s); approach and lift left out."""
-    prog = "\n".join(["G21 G90 G17", "G0 X0 Y0 Z5", "M64 P0", "G4 P2", "G1 X30 F600", "G3 X40 Y10 I0 J10",
-                      "M65 P0", "G0 X40 Y50", "M68 E0 Q3.20", "G0 Z15", "M2"]) + "\n"
+    prog = (
+        "\n".join(
+            [
+                "G21 G90 G17",
+                "G0 X0 Y0 Z5",
+                "M64 P0",
+                "G4 P2",
+                "G1 X30 F600",
+                "G3 X40 Y10 I0 J10",
+                "M65 P0",
+                "G0 X40 Y50",
+                "M68 E0 Q3.20",
+                "G0 Z15",
+                "M2",
+            ]
+        )
+        + "\n"
+    )
     rc, canon, msg = _run_rs274(tmp_path, prog)
     assert rc == 0 and msg == ""
     got = measure(canon, _code_call("M64_P0"), _code_call("M65_P0"), 100.0)

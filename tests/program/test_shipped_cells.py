@@ -21,10 +21,22 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 # cell → (URDF, data-sheet reach mm (wrist centre), J1 range deg, J2 range deg, max speeds deg/s, words in `source`)
 DATASHEET = {
-    "m20id25_tilt_rotate": ("fanuc_m20id_25.urdf", 1831.0, (-170.0, 170.0), (-100.0, 160.0),
-                            (210, 210, 265, 420, 420, 720), ("FANUC M-20iD/25", "1831 mm", "ARC Mate 120iD")),
-    "ar2010_tilt_rotate": ("yaskawa_ar2010.urdf", 2010.0, (-180.0, 180.0), (-105.0, 155.0),
-                           (210, 210, 220, 435, 435, 700), ("Yaskawa Motoman AR2010", "2010 mm")),
+    "m20id25_tilt_rotate": (
+        "fanuc_m20id_25.urdf",
+        1831.0,
+        (-170.0, 170.0),
+        (-100.0, 160.0),
+        (210, 210, 265, 420, 420, 720),
+        ("FANUC M-20iD/25", "1831 mm", "ARC Mate 120iD"),
+    ),
+    "ar2010_tilt_rotate": (
+        "yaskawa_ar2010.urdf",
+        2010.0,
+        (-180.0, 180.0),
+        (-105.0, 155.0),
+        (210, 210, 220, 435, 435, 700),
+        ("Yaskawa Motoman AR2010", "2010 mm"),
+    ),
 }
 
 
@@ -52,10 +64,10 @@ def test_the_arm_is_the_data_sheets(cell_name):
     urdf, reach, j1, j2, speeds, words = DATASHEET[cell_name]
     cell = load_cell(cell_name)
     assert cell.robot_urdf == urdf and cell.positioner is not None and cell.axes == 2
-    assert cell.positioner.urdf == load_cell("irb4600_tilt_rotate").positioner.urdf    # the same positioner
+    assert cell.positioner.urdf == load_cell("irb4600_tilt_rotate").positioner.urdf  # the same positioner
     assert all(w in cell.source for w in words), cell.source
     text = (Path(__file__).resolve().parents[2] / "backend/waamflow/data/robots" / urdf).read_text()
-    assert all(w.split(" (")[0] in text for w in words[:2])                           # cited in the URDF too
+    assert all(w.split(" (")[0] in text for w in words[:2])  # cited in the URDF too
     arm = load_arm(urdf, home_deg=cell.robot_home_deg)
     assert np.degrees([arm.lower[0], arm.upper[0]]) == pytest.approx(j1, abs=0.01)
     assert np.degrees([arm.lower[1], arm.upper[1]]) == pytest.approx(j2, abs=0.01)
@@ -63,7 +75,7 @@ def test_the_arm_is_the_data_sheets(cell_name):
     assert wrist_reach_mm(urdf) == pytest.approx(reach, abs=1.0)
     from waamflow.program.profiles import load_profiles
 
-    fmt, profile = VENDOR_POST[cell_name]                     # the controller's profile names its shipped cell
+    fmt, profile = VENDOR_POST[cell_name]  # the controller's profile names its shipped cell
     spec = load_profiles()[profile]
     assert spec["post"]["format"] == fmt and f"Shipped cell for it: {cell_name}" in spec["description"]
 
@@ -83,12 +95,15 @@ def test_curved_duct_builds_on_the_cell(cell_name):
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["collision_count"] == 0 and sim["collision_samples_checked"] > 200
-    assert sim["positioner_e1_max_deg"] == pytest.approx(89.32, abs=0.01)         # the table levels every layer
+    assert sim["positioner_e1_max_deg"] == pytest.approx(89.32, abs=0.01)  # the table levels every layer
 
 
 # cell → (format, machine profile): each vendor's arm writes its own controller's program
-VENDOR_POST = {"m20id25_tilt_rotate": ("tp", "fanuc_r30ib_arctool"), "ar2010_tilt_rotate": ("inform", "yaskawa_yrc1000")}
-ANGLE_TOL = 1e-3      # deg: the positioner angles in the programs vs the simulation's (as the KRL/RAPID/G-code checks)
+VENDOR_POST = {
+    "m20id25_tilt_rotate": ("tp", "fanuc_r30ib_arctool"),
+    "ar2010_tilt_rotate": ("inform", "yaskawa_yrc1000"),
+}
+ANGLE_TOL = 1e-3  # deg: the positioner angles in the programs vs the simulation's (as the KRL/RAPID/G-code checks)
 
 
 @pytest.mark.parametrize("cell_name", sorted(VENDOR_POST))
@@ -111,8 +126,9 @@ def test_the_vendors_program_on_its_cell_carries_the_simulated_positioner_angles
         if node["id"] in ("sim", "post"):
             node["params"]["cell"] = cell_name
     post = next(n for n in doc["nodes"] if n["id"] == "post")
-    doc["nodes"].append({"id": "vendor", "type": "post-process",
-                         "params": {**post["params"], "format": fmt, "profile": profile}})
+    doc["nodes"].append(
+        {"id": "vendor", "type": "post-process", "params": {**post["params"], "format": fmt, "profile": profile}}
+    )
     doc["edges"].append({"from": "bead.toolpath", "to": "vendor.toolpath"})
     result = execute(build_graph(parse_recipe(doc)), resolver=FileResolver(GRAPHS))
     assert result.warnings == [] or all(w["node"] == "vendor" for w in result.warnings)
@@ -128,7 +144,7 @@ def test_the_vendors_program_on_its_cell_carries_the_simulated_positioner_angles
         got = pulses / np.array(load_profiles()[profile]["post"]["station_pulses_per_deg"])
     assert got.shape == (len(moves.points), 2) == angles.shape
     assert np.abs(got - angles).max() <= ANGLE_TOL
-    assert len(np.unique(np.round(got[:, 0], 3))) == 8                       # the table tilts once per layer
+    assert len(np.unique(np.round(got[:, 0], 3))) == 8  # the table tilts once per layer
     assert got[:, 0].min() == pytest.approx(sim["positioner_e1_min_deg"], abs=ANGLE_TOL)
     assert got[:, 0].max() == pytest.approx(sim["positioner_e1_max_deg"], abs=ANGLE_TOL)
     assert got[:, 1].min() == pytest.approx(sim["positioner_e2_min_deg"], abs=ANGLE_TOL)

@@ -30,8 +30,13 @@ def _trace_from(text: str) -> dict:
     head = re.search(r"waamflow trace: date (\S+), waamflow (\S+), revision \S+, recipe (\S+)", text)
     rsha = re.search(r"waamflow trace: recipe sha256 ([0-9a-f]{64})", text)
     inputs = dict(re.findall(r"waamflow trace: input (\S+) sha256 ([0-9a-f]{64})", text))
-    return {"date": head.group(1), "version": head.group(2), "recipe": head.group(3),
-            "recipe_sha256": rsha.group(1), "inputs": inputs}
+    return {
+        "date": head.group(1),
+        "version": head.group(2),
+        "recipe": head.group(3),
+        "recipe_sha256": rsha.group(1),
+        "inputs": inputs,
+    }
 
 
 def test_hashes_stable_across_runs_and_follow_the_input(tmp_path):
@@ -40,7 +45,7 @@ def test_hashes_stable_across_runs_and_follow_the_input(tmp_path):
     cache = MemoryCache()
     r1 = execute(build_graph(recipe), resolver=FileResolver(tmp_path), cache=cache)
     r2 = execute(build_graph(recipe), resolver=FileResolver(tmp_path), cache=cache)
-    assert r2.stats["post"].cached                                # the date did not break the cache
+    assert r2.stats["post"].cached  # the date did not break the cache
     t1, t2 = (_trace_from(r.artifacts["post.gcode"].decode()) for r in (r1, r2))
     assert t1["recipe"] == "trace-wall"
     assert t1["recipe_sha256"] == t2["recipe_sha256"] == recipe_sha256(recipe)
@@ -72,8 +77,9 @@ def test_source_date_epoch_fixes_the_date(tmp_path, monkeypatch):
     assert res.summary("x")["trace"]["date"] == "2026-01-01T00:00:00Z"
 
 
-@pytest.mark.parametrize("fmt, suffix, mark", [("krl", "src", ";"), ("krl", "dat", ";"),
-                                                ("rapid", "mod", "!"), ("csv", "csv", "#")])
+@pytest.mark.parametrize(
+    "fmt, suffix, mark", [("krl", "src", ";"), ("krl", "dat", ";"), ("rapid", "mod", "!"), ("csv", "csv", "#")]
+)
 def test_every_format_carries_the_trace(tmp_path, fmt, suffix, mark):
     _write_wall(tmp_path, 80.0)
     res = execute(build_graph(parse_recipe(_recipe(fmt))), resolver=FileResolver(tmp_path))
@@ -85,7 +91,7 @@ def test_every_format_carries_the_trace(tmp_path, fmt, suffix, mark):
     first = text.split("\n")
     if fmt == "krl":
         i = next(i for i, ln in enumerate(first) if "waamflow trace" in ln)
-        assert first[i - 1].startswith("DEF")                     # inside the program, after DEF/DEFDAT
+        assert first[i - 1].startswith("DEF")  # inside the program, after DEF/DEFDAT
     if fmt == "rapid":
         i = next(i for i, ln in enumerate(first) if "waamflow trace" in ln)
         assert first[i - 1].startswith("MODULE")

@@ -62,14 +62,14 @@ def test_walk_folds_the_ignition_dwell_and_places_every_motion():
     # 3 layers x (wall, half ring, zigzag of 3 runs) ignitions: 9 in the start zone (its dwell 0.8 s),
     # 6 after a link (the setting, 0.4 s); 2 interlayer dwells
     assert sorted(ignition) == [0.4] * 6 + [0.8] * 9 and len(others) == 2
-    assert rec.ignitions == pytest.approx(ignition)            # each arc start holds its dwell ...
-    assert not any("ignition dwell" in ln for ln in lines)     # ... which is not written again
+    assert rec.ignitions == pytest.approx(ignition)  # each arc start holds its dwell ...
+    assert not any("ignition dwell" in ln for ln in lines)  # ... which is not written again
     assert [ln for ln in lines if ln.startswith("WAIT")] == [f"WAIT {d.seconds:.2f}" for d in others]
     assert sum(ln.startswith("# interlayer dwell 20 s") for ln in lines) == 2
     assert lines.count("ARC ON") == 15 and lines.count("ARC OFF") == 15
     motions = [st for st in plan.steps if isinstance(st, Motion)]
-    assert [i for _c, _b, pts in progs for i in pts] == [m.end for m in motions]   # every motion, once, in order
-    assert len(progs) == len(chunk_steps(plan.steps, max_points=12)) == 6       # per layer, cut after 12
+    assert [i for _c, _b, pts in progs for i in pts] == [m.end for m in motions]  # every motion, once, in order
+    assert len(progs) == len(chunk_steps(plan.steps, max_points=12)) == 6  # per layer, cut after 12
     travel = [v for m, v in zip(motions, rec.speeds) if m.mode == "travel"]
     assert travel and all(v == 123.0 for v in travel)
 

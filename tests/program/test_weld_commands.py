@@ -76,10 +76,10 @@ def test_gcode_default_commands_wfs_current_voltage_job_on_linuxcnc_analog_outpu
     lines = text.splitlines()
     m68 = [i for i, ln in enumerate(lines) if ln.startswith("M68 E0 ")]
     assert len(m68) == 15
-    assert all(next(x for x in lines[i + 1:] if not x.startswith(("M68 ", "M120 "))).startswith("M3 ") for i in m68)
+    assert all(next(x for x in lines[i + 1 :] if not x.startswith(("M68 ", "M120 "))).startswith("M3 ") for i in m68)
     # 27 zone changes (3 zones x 9 sections): 15 at an ignition, 12 inside a run
     assert len(re.findall(r"^M67 E0 Q", text, re.M)) == len(expected_commands(moves, "wire_feed_speed")) - 15 == 12
-    assert len(re.findall(r"^M120 P12$", text, re.M)) == 9              # the start zone's job, 9 sections
+    assert len(re.findall(r"^M120 P12$", text, re.M)) == 9  # the start zone's job, 9 sections
     # pygcode accepts every line and the lengths stay those of the header
     got = check_gcode({"gcode": text}, {})
     assert got["points"] == plan_program(moves).stats["motions"]
@@ -100,13 +100,19 @@ def test_gcode_compensation_steps_are_commands():
     text = post_process(m, "gcode").files["gcode"]
     wfs = read_weld_commands(text)["wire_feed_speed"]
     assert wfs == [8.0 + 0.25 * i for i in range(n)] and len(wfs) == n == 8
-    assert len(re.findall(r"^M67 E0 ", text, re.M)) == n - 1            # 7 changes while welding
-    assert read_weld_commands(text)["current"] == [200.0]                # unchanged: written once
+    assert len(re.findall(r"^M67 E0 ", text, re.M)) == n - 1  # 7 changes while welding
+    assert read_weld_commands(text)["current"] == [200.0]  # unchanged: written once
 
 
-@pytest.mark.parametrize("profile, heads", [
-    ("generic", ("M67 E0 Q", "M68 E0 Q")), ("linuxcnc", ("M67 E0 Q", "M68 E0 Q")),
-    ("fanuc", ("G65 P9100 E0 Q",)), ("marlin", ("M106 P1 S",))])
+@pytest.mark.parametrize(
+    "profile, heads",
+    [
+        ("generic", ("M67 E0 Q", "M68 E0 Q")),
+        ("linuxcnc", ("M67 E0 Q", "M68 E0 Q")),
+        ("fanuc", ("G65 P9100 E0 Q",)),
+        ("marlin", ("M106 P1 S",)),
+    ],
+)
 def test_every_gcode_profile_commands_the_wire_feed(profile, heads):
     tp = build_toolpath(2)
     m = flatten(tp)
@@ -114,33 +120,45 @@ def test_every_gcode_profile_commands_the_wire_feed(profile, heads):
     text = prog.files["gcode"]
     got = read_weld_commands(text)
     want = expected_commands(m, "wire_feed_speed")
-    tol = 0.5 / 12.75 if profile == "marlin" else 0.005              # Marlin: S is an integer PWM 0..255
-    assert len(got["wire_feed_speed"]) == len(want) == 18            # 10 ignitions + 8 changes in runs
+    tol = 0.5 / 12.75 if profile == "marlin" else 0.005  # Marlin: S is an integer PWM 0..255
+    assert len(got["wire_feed_speed"]) == len(want) == 18  # 10 ignitions + 8 changes in runs
     assert np.allclose(got["wire_feed_speed"], want, atol=tol)
     for name in ("current", "voltage"):
         assert np.allclose(got[name], expected_commands(m, name), atol=0.5 / 0.51 if profile == "marlin" else 0.05)
     code_lines = [ln for ln in text.splitlines() if ln.startswith(heads)]
     assert len(code_lines) == 18
-    if profile == "marlin":                                           # S = 12.75 x m/min: 11 m/min -> 140
-        assert "M106 P1 S140" in text and "M106 P2 S112" in text     # 220 A x 0.51 = 112.2
+    if profile == "marlin":  # S = 12.75 x m/min: 11 m/min -> 140
+        assert "M106 P1 S140" in text and "M106 P2 S112" in text  # 220 A x 0.51 = 112.2
         job = [w for w in warnings if "job 12 not commanded" in w[0]]
         assert job and job[0][2] == "bs1/A" and "zone start" in job[0][0]
-        assert [i.zone for i in prog.weld_issues] == ["start"] * 6     # 3 sections x 2 layers
+        assert [i.zone for i in prog.weld_issues] == ["start"] * 6  # 3 sections x 2 layers
     else:
         assert prog.weld_issues == () and not warnings
-        assert got["job"] == [12.0] * 6                                 # 3 start zones x 2 layers
+        assert got["job"] == [12.0] * 6  # 3 start zones x 2 layers
     check_gcode({"gcode": text}, {"travel_speed": 100.0})
 
 
 def test_a_gcode_value_without_a_command_is_a_weld_issue(moves):
-    prog = post_process(moves, "gcode", writer_settings=GcodeSettings(
-        process_codes={"wire_feed_speed": "M67 E0 Q{value:.2f}", "current": "M67 E1 Q{value:.1f}"}))
+    prog = post_process(
+        moves,
+        "gcode",
+        writer_settings=GcodeSettings(
+            process_codes={"wire_feed_speed": "M67 E0 Q{value:.2f}", "current": "M67 E1 Q{value:.1f}"}
+        ),
+    )
     msgs = {(i.zone, i.section, i.message) for i in prog.weld_issues}
-    assert ("z1", "bs1/A", "voltage 20 V not commanded: the program has no command for it "
-            "(give it a command template in process_codes)") in msgs
-    assert ("start", "bs1/C", "voltage 21 V, job 12 not commanded: the program has no command for them "
-            "(give it a command template in process_codes)") in msgs
-    assert len(prog.weld_issues) == 27                                # 3 zones x 3 sections x 3 layers
+    assert (
+        "z1",
+        "bs1/A",
+        "voltage 20 V not commanded: the program has no command for it (give it a command template in process_codes)",
+    ) in msgs
+    assert (
+        "start",
+        "bs1/C",
+        "voltage 21 V, job 12 not commanded: the program has no command for them "
+        "(give it a command template in process_codes)",
+    ) in msgs
+    assert len(prog.weld_issues) == 27  # 3 zones x 3 sections x 3 layers
     assert "waamflow-weld: current[A]=" in prog.files["gcode"] and "voltage[V]=none" in prog.files["gcode"]
 
 
@@ -174,8 +192,8 @@ def test_marlin_travel_has_f_on_every_travel_line_and_the_header_time_is_marlins
     text = prog.files["gcode"]
     t, n_g0, n_f = _marlin_time(text)
     travels = sum(1 for st in plan_program(flatten(tp)).motions if st.mode == "travel")
-    assert n_g0 == n_f == travels + 1 == 13      # every travel and the final lift
-    assert set(re.findall(r"^G0 .* F(\d+)", text, re.M)) == {"6000"}     # travel_speed 100 mm/s
+    assert n_g0 == n_f == travels + 1 == 13  # every travel and the final lift
+    assert set(re.findall(r"^G0 .* F(\d+)", text, re.M)) == {"6000"}  # travel_speed 100 mm/s
     header = float(re.search(r"estimated time ([\d.]+) s", text).group(1))
     # the first motion comes from wherever the machine is: Marlin's time from there on
     assert t == pytest.approx(header, abs=0.15)
@@ -184,7 +202,7 @@ def test_marlin_travel_has_f_on_every_travel_line_and_the_header_time_is_marlins
     lines = text.splitlines()
     for i, ln in enumerate(lines[:-1]):
         if ln.startswith("G0 ") and "final lift" not in ln:
-            nxt = next(x for x in lines[i + 1:] if x.startswith(("G0", "G1")))
+            nxt = next(x for x in lines[i + 1 :] if x.startswith(("G0", "G1")))
             assert nxt.startswith("G0") or " F" in nxt
 
 
@@ -192,16 +210,19 @@ def test_marlin_travel_has_f_on_every_travel_line_and_the_header_time_is_marlins
 def test_krl_output_mode_writes_analog_outputs_and_path_triggers(moves):
     prog = post_process(moves, "krl")
     src, dat = prog.files["src"], prog.files["dat"]
-    parse_program(src, dat)                                          # the KRL parser accepts them
+    parse_program(src, dat)  # the KRL parser accepts them
     got = read_weld_commands(src)
     for name in ("wire_feed_speed", "current", "voltage"):
         assert got[name] == expected_commands(moves, name), name
-    assert len(re.findall(r"^\$ANOUT\[1\]=([\d.]+)/20$", src, re.M)) == 15           # before each ignition
+    assert len(re.findall(r"^\$ANOUT\[1\]=([\d.]+)/20$", src, re.M)) == 15  # before each ignition
     assert re.findall(r"^TRIGGER WHEN DISTANCE=0 DELAY=0 DO \$ANOUT\[1\]=([\d.]+)/20$", src, re.M)[:2] == [
-        "10.000", "8.500"]                                             # inside the run: path-synchronised
+        "10.000",
+        "8.500",
+    ]  # inside the run: path-synchronised
     assert len(re.findall(r"^TRIGGER WHEN DISTANCE=0 DELAY=0 DO \$ANOUT\[1\]", src, re.M)) == 12
     assert {i.message for i in prog.weld_issues} == {
-        "job 12 not commanded: the program has no command for it (give it a KRL statement in process_codes)"}
+        "job 12 not commanded: the program has no command for it (give it a KRL statement in process_codes)"
+    }
     assert {i.zone for i in prog.weld_issues} == {"start"} and len(prog.weld_issues) == 9
 
 
@@ -218,11 +239,16 @@ def test_arctech_carries_current_and_reports_an_unmapped_value(moves):
     prog = post_process(moves, "krl", writer_settings=KrlSettings(arc_control="arctech"))
     parsed = parse_program(prog.files["src"], prog.files["dat"])
     sets = [dict(dict(v)["Weld"]) for n, (t, v) in parsed.data.items() if n.startswith("WDAT")]
-    assert sorted({x["Channel4"] for x in sets}) == [180.0, 200.0, 220.0]      # current on channel 4
+    assert sorted({x["Channel4"] for x in sets}) == [180.0, 200.0, 220.0]  # current on channel 4
     assert 'current[A]="stArcDat_T.Weld.Channel4"' in prog.files["src"]
     # without a current channel, current is reported, not dropped silently
-    p2 = post_process(moves, "krl", writer_settings=KrlSettings(
-        arc_control="arctech", arctech_channels={"job": 1, "wire_feed_speed": 2, "voltage": 3}))
+    p2 = post_process(
+        moves,
+        "krl",
+        writer_settings=KrlSettings(
+            arc_control="arctech", arctech_channels={"job": 1, "wire_feed_speed": 2, "voltage": 3}
+        ),
+    )
     lost = [i for i in p2.weld_issues if "current" in i.message]
     assert len(lost) == 27 and {i.zone for i in lost} == {"start", "z1", "end"}
     assert "current 200 A not commanded" in next(i.message for i in lost if i.zone == "z1")
@@ -237,8 +263,11 @@ def test_rapid_header_names_the_welddata_fields_and_values_match(moves):
     assert tag["current"]["commands"] == ["welddata.main_arc.current"]
     mod = parse_module(text, tool="tWeldGun")
     arcs = {tuple(values(v[2])[2]) for v in mod.data.values() if v[1] == "welddata"}
-    assert {(a[3], a[5], a[2], a[0]) for a in arcs} == {(11.0, 220.0, 21.0, 12), (10.0, 200.0, 20.0, 0),
-                                                        (8.5, 180.0, 19.0, 0)}
+    assert {(a[3], a[5], a[2], a[0]) for a in arcs} == {
+        (11.0, 220.0, 21.0, 12),
+        (10.0, 200.0, 20.0, 0),
+        (8.5, 180.0, 19.0, 0),
+    }
 
 
 # ---- curved recipes: the bead model's wire feed ------------------------------------------------
@@ -251,7 +280,10 @@ def test_bead_model_writes_its_wire_feed_into_every_welded_zone():
     bare = type(lp)(lp.layer, tuple(replace(sp, zone_params={}) for sp in lp.sections), 0.0)
     out = cls().run_layer(Ctx(), cls.Params(), 0, {"toolpath": bare})["toolpath"]
     assert {z: p["wire_feed_speed"] for sp in out.sections for z, p in sp.zone_params.items()} == {
-        "start": 8.1, "z1": 8.1, "end": 8.1}
+        "start": 8.1,
+        "z1": 8.1,
+        "end": 8.1,
+    }
     m = flatten(type(tp)((out,)))
     src = post_process(m, "krl").files["src"]
     assert set(read_weld_commands(src)["wire_feed_speed"]) == {8.1}
@@ -281,9 +313,9 @@ def test_weld_values_fill_zones_without_their_own():
     bare = type(tp)((replace(lp, sections=tuple(replace(sp, zone_params={}) for sp in lp.sections)),))
     prog, warnings = _node(bare, weld_values={"wire_feed_speed": 4.3, "current": 150})
     got = read_weld_commands(prog.files["gcode"])
-    assert got["wire_feed_speed"] == [4.3] * 5 and got["current"] == [150.0] * 5    # one per ignition (5 runs)
+    assert got["wire_feed_speed"] == [4.3] * 5 and got["current"] == [150.0] * 5  # one per ignition (5 runs)
     assert prog.weld_issues == () and warnings == []
-    own, _ = _node(tp, weld_values={"wire_feed_speed": 4.3})                         # a zone's own value stays
+    own, _ = _node(tp, weld_values={"wire_feed_speed": 4.3})  # a zone's own value stays
     assert read_weld_commands(own.files["gcode"])["wire_feed_speed"][:3] == [11.0, 10.0, 8.5]
     with pytest.raises(ValidationError, match="travel_speed not a weld value"):
         load_nodes()["post-process"].Params(weld_values={"travel_speed": 5.0})

@@ -156,8 +156,17 @@ def fit_arcs(
             good = lo
             good_fit = fit(i, good)
         if isinstance(good_fit, FittedArc):
-            arcs.append(FittedArc(i, i + good_fit.end, i + good_fit.via, good_fit.center, good_fit.normal,
-                                  good_fit.radius, good_fit.sweep))
+            arcs.append(
+                FittedArc(
+                    i,
+                    i + good_fit.end,
+                    i + good_fit.via,
+                    good_fit.center,
+                    good_fit.normal,
+                    good_fit.radius,
+                    good_fit.sweep,
+                )
+            )
             i = good
         else:  # a straight run: an arc can only start near its end
             i = max(i + 1, good - min_segments)

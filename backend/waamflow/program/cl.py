@@ -18,10 +18,27 @@ import numpy as np
 from ..core.moves import Moves
 from .common import num
 
-WELD_COLUMNS = (("wire_feed_speed", "wire_feed_speed_m_min"), ("current", "current_a"), ("voltage", "voltage_v"),
-                ("job", "job"))
-COLUMNS = ("x", "y", "z", "i", "j", "k", "speed_mm_s", "arc", "layer", "section", "zone", "dwell_s",
-           *(c for _name, c in WELD_COLUMNS))
+WELD_COLUMNS = (
+    ("wire_feed_speed", "wire_feed_speed_m_min"),
+    ("current", "current_a"),
+    ("voltage", "voltage_v"),
+    ("job", "job"),
+)
+COLUMNS = (
+    "x",
+    "y",
+    "z",
+    "i",
+    "j",
+    "k",
+    "speed_mm_s",
+    "arc",
+    "layer",
+    "section",
+    "zone",
+    "dwell_s",
+    *(c for _name, c in WELD_COLUMNS),
+)
 
 
 def write_cl_csv(moves: Moves, decimals: int = 4) -> str:
@@ -34,7 +51,7 @@ def write_cl_csv(moves: Moves, decimals: int = 4) -> str:
         p, t = moves.points[i], moves.tool_axis[i]
         seg = i - 1 if i > 0 else (0 if n > 1 else -1)
         weld = [""] * len(WELD_COLUMNS)
-        layer: int | str                    # "" on the first row of a one-point program
+        layer: int | str  # "" on the first row of a one-point program
         if seg < 0:
             speed, arc, layer, section, zone = "", 0, "", "", ""
         else:
@@ -47,9 +64,24 @@ def write_cl_csv(moves: Moves, decimals: int = 4) -> str:
             zone = moves.zone_ids[z] if (i > 0 and 0 <= z < len(moves.zone_ids)) else ""
             if arc:
                 params = moves.zone_params.get((int(moves.section[seg]), z), {})
-                weld = [num(float(params[name]), 3) if params.get(name) is not None else ""
-                        for name, _c in WELD_COLUMNS]
-        w.writerow([num(p[0], decimals), num(p[1], decimals), num(p[2], decimals),
-                    num(t[0], 6), num(t[1], 6), num(t[2], 6), speed, arc, layer, section, zone,
-                    num(moves.dwell_before[i], 3), *weld])
+                weld = [
+                    num(float(params[name]), 3) if params.get(name) is not None else "" for name, _c in WELD_COLUMNS
+                ]
+        w.writerow(
+            [
+                num(p[0], decimals),
+                num(p[1], decimals),
+                num(p[2], decimals),
+                num(t[0], 6),
+                num(t[1], 6),
+                num(t[2], 6),
+                speed,
+                arc,
+                layer,
+                section,
+                zone,
+                num(moves.dwell_before[i], 3),
+                *weld,
+            ]
+        )
     return buf.getvalue()

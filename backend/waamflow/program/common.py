@@ -27,8 +27,10 @@ def short(x: float) -> str:
 def check_identifier(name: str, max_len: int, what: str = "program name") -> str:
     """A controller-safe identifier: letter first, then letters/digits/underscores, ≤ max_len."""
     if not _IDENT.match(name) or len(name) > max_len:
-        raise ValueError(f"{what} {name!r} must start with a letter, use only letters, digits and "
-                         f"'_' and have at most {max_len} characters")
+        raise ValueError(
+            f"{what} {name!r} must start with a letter, use only letters, digits and "
+            f"'_' and have at most {max_len} characters"
+        )
     return name
 
 
@@ -48,8 +50,9 @@ def check_templates(templates: dict[str, str]) -> dict[str, str]:
     line without quotes (the `waamflow-weld:` header quotes them); "" = not commanded."""
     for name, tpl in templates.items():
         if name not in PARAMETERS_BY_NAME:
-            raise ValueError(f"process template for unknown parameter {name!r} "
-                             f"(known: {', '.join(PARAMETERS_BY_NAME)})")
+            raise ValueError(
+                f"process template for unknown parameter {name!r} (known: {', '.join(PARAMETERS_BY_NAME)})"
+            )
         if any(c in tpl for c in '"\n'):
             raise ValueError(f"process template {tpl!r} for {name!r}: one line, no double quotes")
         fields = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None]
@@ -59,15 +62,18 @@ def check_templates(templates: dict[str, str]) -> dict[str, str]:
     return dict(templates)
 
 
-def process_lines(params: dict, templates: dict[str, str], scale: dict[str, float] | None = None,
-                  names=None) -> list[str]:
+def process_lines(
+    params: dict, templates: dict[str, str], scale: dict[str, float] | None = None, names=None
+) -> list[str]:
     """One command per parameter present in both `params` and `templates` (an empty template
     commands nothing), in table order; the value times `scale[name]` (default 1) fills {value}.
     `names`: only these parameters (e.g. those that changed)."""
     scale = scale or {}
-    return [templates[p.name].format(value=float(params[p.name]) * float(scale.get(p.name, 1.0)))
-            for p in ZONE_PARAMETERS if p.name in params and templates.get(p.name)
-            and (names is None or p.name in names)]
+    return [
+        templates[p.name].format(value=float(params[p.name]) * float(scale.get(p.name, 1.0)))
+        for p in ZONE_PARAMETERS
+        if p.name in params and templates.get(p.name) and (names is None or p.name in names)
+    ]
 
 
 # ---- the weld in the program: which command carries which zone parameter ------------------------
@@ -86,8 +92,9 @@ _TAG_ITEM = re.compile(r'(\w+)\[([^\]]*)\](?:\*([-+\d.eE]+))?(@start)?=(?:"([^"]
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+))"
 
 
-def weld_tag(templates: dict[str, str], start: dict[str, str] | None = None,
-             scale: dict[str, float] | None = None) -> list[str]:
+def weld_tag(
+    templates: dict[str, str], start: dict[str, str] | None = None, scale: dict[str, float] | None = None
+) -> list[str]:
     """The `waamflow-weld:` header lines (without comment marks) for these templates (see above),
     one per weld value."""
     lines = []
@@ -157,9 +164,11 @@ def trace_lines(trace: dict) -> list[str]:
         return []
     from ..buildinfo import source_revision
 
-    lines = [f"waamflow trace: date {trace.get('date', '?')}, waamflow {trace.get('waamflow', '?')}, "
-             f"revision {trace.get('revision') or source_revision()}, recipe {trace.get('recipe', '?')}",
-             f"waamflow trace: recipe sha256 {trace.get('recipe_sha256', '?')}"]
+    lines = [
+        f"waamflow trace: date {trace.get('date', '?')}, waamflow {trace.get('waamflow', '?')}, "
+        f"revision {trace.get('revision') or source_revision()}, recipe {trace.get('recipe', '?')}",
+        f"waamflow trace: recipe sha256 {trace.get('recipe_sha256', '?')}",
+    ]
     for path, digest in (trace.get("inputs") or {}).items():
         lines.append(f"waamflow trace: input {path} sha256 {digest}")
     return lines
@@ -178,21 +187,25 @@ def stamp_trace(fmt: str, files: dict[str, str], trace: dict) -> dict[str, str]:
     out = {}
     for suffix, text in files.items():
         lines = text.split("\n")
-        if fmt == "gcode":                                 # before the first comment (after a preamble)
+        if fmt == "gcode":  # before the first comment (after a preamble)
             at = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith((";", "("))), 0)
-            paren = lines[at].lstrip().startswith("(") if lines else False     # the profile's comment style
+            paren = lines[at].lstrip().startswith("(") if lines else False  # the profile's comment style
             lines = lines[:at] + [f"({b})" if paren else f"; {b}" for b in body] + lines[at:]
         elif fmt == "csv":
             lines = [f"# {b}" for b in body] + lines
-        elif fmt in ("inform", "tp"):                      # comments hold 32 characters: short forms
-            if suffix != {"inform": "JBI", "tp": "LS"}[fmt]:   # the main job / program carries the trace
+        elif fmt in ("inform", "tp"):  # comments hold 32 characters: short forms
+            if suffix != {"inform": "JBI", "tp": "LS"}[fmt]:  # the main job / program carries the trace
                 out[suffix] = text
                 continue
             from ..buildinfo import source_revision
 
-            short_body = [f"waamflow {trace.get('waamflow', '?')}", f"rev {trace.get('revision') or source_revision()}",
-                          f"recipe sha256 {str(trace.get('recipe_sha256', '?'))[:16]}", f"date {trace.get('date', '?')}"]
-            if fmt == "tp":                                # numbered /MN lines: renumbered, LINE_COUNT kept right
+            short_body = [
+                f"waamflow {trace.get('waamflow', '?')}",
+                f"rev {trace.get('revision') or source_revision()}",
+                f"recipe sha256 {str(trace.get('recipe_sha256', '?'))[:16]}",
+                f"date {trace.get('date', '?')}",
+            ]
+            if fmt == "tp":  # numbered /MN lines: renumbered, LINE_COUNT kept right
                 from .tp import with_comments
 
                 out[suffix] = with_comments(text, short_body)
@@ -245,8 +258,10 @@ def tool_lines(tpl: str, tool: str, params: dict) -> list[str]:
     values = {"tool": tool, **{k: float(v) for k, v in params.items()}}
     missing = [f for _, f, _, _ in string.Formatter().parse(tpl) if f is not None and f not in values]
     if missing:
-        raise ValueError(f"tool command {tpl!r} needs {', '.join(missing)}, the tool section has "
-                         f"{', '.join(sorted(params)) or 'no parameters'}")
+        raise ValueError(
+            f"tool command {tpl!r} needs {', '.join(missing)}, the tool section has "
+            f"{', '.join(sorted(params)) or 'no parameters'}"
+        )
     return [ln for ln in tpl.format(**values).split("\n") if ln.strip()]
 
 
@@ -263,21 +278,157 @@ def tool_summary(tool: str, params: dict) -> str:
 
 
 # Words a program name must not be (case-insensitive): keywords and names the writers use.
-KRL_RESERVED = frozenset(w.upper() for w in (
-    "DEF", "END", "DEFDAT", "ENDDAT", "DEFFCT", "ENDFCT", "DECL", "GLOBAL", "PUBLIC", "LIN", "PTP", "CIRC",
-    "IF", "THEN", "ELSE", "ENDIF", "FOR", "ENDFOR", "WHILE", "ENDWHILE", "LOOP", "ENDLOOP", "REPEAT", "UNTIL",
-    "SWITCH", "CASE", "DEFAULT", "ENDSWITCH", "WAIT", "SEC", "HALT", "RETURN", "EXIT", "GOTO", "TRIGGER",
-    "WHEN", "DISTANCE", "DELAY", "DO", "PRIO", "PATH", "INTERRUPT", "STRUC", "ENUM", "SIGNAL", "TRUE", "FALSE",
-    "NOT", "AND", "OR", "EXOR", "B_AND", "B_OR", "B_NOT", "B_EXOR", "BAS", "INT", "REAL", "BOOL", "CHAR",
-    "E6POS", "POS", "FRAME", "AXIS", "E6AXIS", "C_DIS", "C_PTP", "C_ORI", "C_VEL", "CONTINUE"))
-RAPID_RESERVED = frozenset(w.upper() for w in (
-    "MODULE", "ENDMODULE", "PROC", "ENDPROC", "FUNC", "ENDFUNC", "TRAP", "ENDTRAP", "CONST", "PERS", "VAR",
-    "LOCAL", "TASK", "IF", "THEN", "ELSE", "ELSEIF", "ENDIF", "FOR", "FROM", "TO", "STEP", "DO", "ENDFOR",
-    "WHILE", "ENDWHILE", "TEST", "CASE", "DEFAULT", "ENDTEST", "RETURN", "EXIT", "GOTO", "RAISE", "RETRY",
-    "TRYNEXT", "ERROR", "UNDO", "BACKWARD", "RECORD", "ENDRECORD", "ALIAS", "NOT", "AND", "OR", "XOR", "DIV",
-    "MOD", "TRUE", "FALSE", "NOSTEPIN", "VIEWONLY", "READONLY", "SYSMODULE", "INOUT", "WITH", "main",
-    "fine", "num", "bool", "string", "robtarget", "speeddata", "zonedata", "wobjdata", "tooldata",
-    "welddata", "seamdata", "arcdata", "wobj0", "tool0"))
+KRL_RESERVED = frozenset(
+    w.upper()
+    for w in (
+        "DEF",
+        "END",
+        "DEFDAT",
+        "ENDDAT",
+        "DEFFCT",
+        "ENDFCT",
+        "DECL",
+        "GLOBAL",
+        "PUBLIC",
+        "LIN",
+        "PTP",
+        "CIRC",
+        "IF",
+        "THEN",
+        "ELSE",
+        "ENDIF",
+        "FOR",
+        "ENDFOR",
+        "WHILE",
+        "ENDWHILE",
+        "LOOP",
+        "ENDLOOP",
+        "REPEAT",
+        "UNTIL",
+        "SWITCH",
+        "CASE",
+        "DEFAULT",
+        "ENDSWITCH",
+        "WAIT",
+        "SEC",
+        "HALT",
+        "RETURN",
+        "EXIT",
+        "GOTO",
+        "TRIGGER",
+        "WHEN",
+        "DISTANCE",
+        "DELAY",
+        "DO",
+        "PRIO",
+        "PATH",
+        "INTERRUPT",
+        "STRUC",
+        "ENUM",
+        "SIGNAL",
+        "TRUE",
+        "FALSE",
+        "NOT",
+        "AND",
+        "OR",
+        "EXOR",
+        "B_AND",
+        "B_OR",
+        "B_NOT",
+        "B_EXOR",
+        "BAS",
+        "INT",
+        "REAL",
+        "BOOL",
+        "CHAR",
+        "E6POS",
+        "POS",
+        "FRAME",
+        "AXIS",
+        "E6AXIS",
+        "C_DIS",
+        "C_PTP",
+        "C_ORI",
+        "C_VEL",
+        "CONTINUE",
+    )
+)
+RAPID_RESERVED = frozenset(
+    w.upper()
+    for w in (
+        "MODULE",
+        "ENDMODULE",
+        "PROC",
+        "ENDPROC",
+        "FUNC",
+        "ENDFUNC",
+        "TRAP",
+        "ENDTRAP",
+        "CONST",
+        "PERS",
+        "VAR",
+        "LOCAL",
+        "TASK",
+        "IF",
+        "THEN",
+        "ELSE",
+        "ELSEIF",
+        "ENDIF",
+        "FOR",
+        "FROM",
+        "TO",
+        "STEP",
+        "DO",
+        "ENDFOR",
+        "WHILE",
+        "ENDWHILE",
+        "TEST",
+        "CASE",
+        "DEFAULT",
+        "ENDTEST",
+        "RETURN",
+        "EXIT",
+        "GOTO",
+        "RAISE",
+        "RETRY",
+        "TRYNEXT",
+        "ERROR",
+        "UNDO",
+        "BACKWARD",
+        "RECORD",
+        "ENDRECORD",
+        "ALIAS",
+        "NOT",
+        "AND",
+        "OR",
+        "XOR",
+        "DIV",
+        "MOD",
+        "TRUE",
+        "FALSE",
+        "NOSTEPIN",
+        "VIEWONLY",
+        "READONLY",
+        "SYSMODULE",
+        "INOUT",
+        "WITH",
+        "main",
+        "fine",
+        "num",
+        "bool",
+        "string",
+        "robtarget",
+        "speeddata",
+        "zonedata",
+        "wobjdata",
+        "tooldata",
+        "welddata",
+        "seamdata",
+        "arcdata",
+        "wobj0",
+        "tool0",
+    )
+)
 
 
 def program_identifier(name: str, max_len: int, reserved: frozenset[str] = frozenset(), prefix: str = "P") -> str:
@@ -294,17 +445,18 @@ def program_identifier(name: str, max_len: int, reserved: frozenset[str] = froze
 class WeldDataIssue:
     """A zone whose weld data the power source would get empty or zero."""
 
-    section: str        # section key
+    section: str  # section key
     layer: int | None
-    zone: str           # zone id
+    zone: str  # zone id
     message: str
 
 
 WELD_VALUES = ("current", "voltage", "wire_feed_speed")
 
 
-def weld_data_issues(plan, required: tuple[str, ...] = (), commanded: tuple[str, ...] | None = None,
-                     hint: str = "", empty: bool = True) -> list[WeldDataIssue]:
+def weld_data_issues(
+    plan, required: tuple[str, ...] = (), commanded: tuple[str, ...] | None = None, hint: str = "", empty: bool = True
+) -> list[WeldDataIssue]:
     """Zones welded in `plan` whose weld data is empty (none of current, voltage, wire feed speed
     or job given; only with `empty`), has a zero value (current, voltage, wire feed speed, weld
     speed), lacks one of the `required` parameters (e.g. those mapped to ArcTech channels) or has
@@ -329,17 +481,27 @@ def weld_data_issues(plan, required: tuple[str, ...] = (), commanded: tuple[str,
             zero = [k for k in WELD_VALUES if k in params and float(params[k]) <= 0]
             if zero:
                 problems.append(f"{', '.join(zero)} 0")
-            missing = [k for k in required if k not in WELD_VALUES and float(params.get(k, 0.0) or 0.0) <= 0
-                       or k in WELD_VALUES and k not in params]
+            missing = [
+                k
+                for k in required
+                if k not in WELD_VALUES
+                and float(params.get(k, 0.0) or 0.0) <= 0
+                or k in WELD_VALUES
+                and k not in params
+            ]
             if missing:
                 problems.append(f"{', '.join(missing)} missing (written as 0)")
         if commanded is not None:
             lost = [k for k in WELD_COMMANDED if k in params and k not in commanded]
             if lost:
-                vals = ", ".join(f"{k} {short(params[k])}{(' ' + PARAMETERS_BY_NAME[k].unit) if PARAMETERS_BY_NAME[k].unit else ''}"
-                                 for k in lost)
-                problems.append(f"{vals} not commanded: the program has no command for "
-                                f"{'it' if len(lost) == 1 else 'them'}" + (f" ({hint})" if hint else ""))
+                vals = ", ".join(
+                    f"{k} {short(params[k])}{(' ' + PARAMETERS_BY_NAME[k].unit) if PARAMETERS_BY_NAME[k].unit else ''}"
+                    for k in lost
+                )
+                problems.append(
+                    f"{vals} not commanded: the program has no command for "
+                    f"{'it' if len(lost) == 1 else 'them'}" + (f" ({hint})" if hint else "")
+                )
         if not (np.isfinite(st.speed) and st.speed > 0):
             problems.append("weld speed 0")
         issue = WeldDataIssue(moves.section_keys[st.section], st.layer, zid, "; ".join(problems))

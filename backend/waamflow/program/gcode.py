@@ -54,17 +54,35 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .common import (TOOL_COMMANDS, check_templates, check_tool_template, num, process_lines, process_summary,
-                     short, tool_lines, tool_summary, weld_tag)
+from .common import (
+    TOOL_COMMANDS,
+    check_templates,
+    check_tool_template,
+    num,
+    process_lines,
+    process_summary,
+    short,
+    tool_lines,
+    tool_summary,
+    weld_tag,
+)
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 # LinuxCNC analog outputs (motion.analog-out-NN): E0 wire feed m/min, E1 current A, E2 voltage V;
 # M67 = synchronised with the next motion (inside a run), M68 = immediate (before an ignition).
 # Job: LinuxCNC user M-code M120 P<job> (M100-M199 take P and Q).
-GCODE_WELD_CODES = {"wire_feed_speed": "M67 E0 Q{value:.2f}", "current": "M67 E1 Q{value:.1f}",
-                    "voltage": "M67 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
-GCODE_WELD_CODES_START = {"wire_feed_speed": "M68 E0 Q{value:.2f}", "current": "M68 E1 Q{value:.1f}",
-                          "voltage": "M68 E2 Q{value:.2f}", "job": "M120 P{value:.0f}"}
+GCODE_WELD_CODES = {
+    "wire_feed_speed": "M67 E0 Q{value:.2f}",
+    "current": "M67 E1 Q{value:.1f}",
+    "voltage": "M67 E2 Q{value:.2f}",
+    "job": "M120 P{value:.0f}",
+}
+GCODE_WELD_CODES_START = {
+    "wire_feed_speed": "M68 E0 Q{value:.2f}",
+    "current": "M68 E1 Q{value:.1f}",
+    "voltage": "M68 E2 Q{value:.2f}",
+    "job": "M120 P{value:.0f}",
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +110,7 @@ class GcodeSettings:
     decimals: int = 3
     rotary_axes: tuple[str, ...] = ("A", "C")
     rotary_units: str = "deg"
-    tcp_control: bool = True          # the controller turns part-frame X Y Z + rotary words into machine motion
+    tcp_control: bool = True  # the controller turns part-frame X Y Z + rotary words into machine motion
     external_axes: np.ndarray | None = None
     comment_style: str = "semicolon"
     feed_units: str = "mm/min"
@@ -171,9 +189,11 @@ def check_line_template(tpl: str) -> str:
 
 
 def header_tag(settings: GcodeSettings) -> str:
-    return (f"waamflow-post: arc_on={settings.arc_on.strip().replace(' ', '_')} "
-            f"arc_off={settings.arc_off.strip().replace(' ', '_')} dwell_units={settings.dwell_units} "
-            f"feed_units={settings.feed_units} end={settings.program_end.strip().replace(' ', '_')}")
+    return (
+        f"waamflow-post: arc_on={settings.arc_on.strip().replace(' ', '_')} "
+        f"arc_off={settings.arc_off.strip().replace(' ', '_')} dwell_units={settings.dwell_units} "
+        f"feed_units={settings.feed_units} end={settings.program_end.strip().replace(' ', '_')}"
+    )
 
 
 def _travel_note(settings: GcodeSettings) -> str:
@@ -183,18 +203,23 @@ def _travel_note(settings: GcodeSettings) -> str:
         return f"travel: G1 at travel_speed {v} mm/s (F on the first travel line after a feed change)"
     if settings.travel_feed:
         return f"travel: G0 with F at travel_speed {v} mm/s on every travel line (G0 moves at the modal feed)"
-    return (f"travel: G0 at the controller's rapid rate; the estimated time assumes {v} mm/s "
-            "(set travel_speed to the machine's rapid rate)")
+    return (
+        f"travel: G0 at the controller's rapid rate; the estimated time assumes {v} mm/s "
+        "(set travel_speed to the machine's rapid rate)"
+    )
 
 
 def _commenter(settings: GcodeSettings) -> Callable[[str], str]:
     """text → a whole-line comment; (code, text) → code with a trailing comment."""
     if settings.comment_style == "parentheses":
+
         def c(text: str) -> str:
             return "(" + text.replace("(", "[").replace(")", "]").replace(";", ",") + ")"
     else:
+
         def c(text: str) -> str:
             return "; " + text
+
     return c
 
 
@@ -208,7 +233,7 @@ _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
 
 
 def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
-    """"X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
+    """ "X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
     if len(pts) == 0:
         return []
     fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
@@ -223,8 +248,10 @@ def _positioner_words(plan: Plan, settings: GcodeSettings) -> np.ndarray | None:
         return None
     ext = np.asarray(settings.external_axes, dtype=float).reshape(len(pts), -1)
     if ext.shape[1] > len(settings.rotary_axes):
-        raise ValueError(f"{ext.shape[1]} positioner axes but rotary_axes names only "
-                         f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})")
+        raise ValueError(
+            f"{ext.shape[1]} positioner axes but rotary_axes names only "
+            f"{len(settings.rotary_axes)} ({', '.join(settings.rotary_axes)})"
+        )
     if settings.rotary_units == "rad":
         ext = np.radians(ext)
     return ext
@@ -237,12 +264,16 @@ def _header(plan: Plan, settings: GcodeSettings, c: Callable[[str], str], ext: n
     out = [
         *settings.preamble,
         c(f"waamflow G-code -- program: {settings.program_name}"),
-        c(f"units: mm (G21), absolute (G90), feed F in {settings.feed_units}, "
-          f"dwell G4 P in {'milliseconds' if settings.dwell_units == 'ms' else 'seconds'}"),
-        c(f"summary: layers {st['layers']}, sections {st['sections']}, points {st['points']}, "
-          f"deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
-          f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s, "
-          f"estimated time {st['estimated_time_s']:.1f} s"),
+        c(
+            f"units: mm (G21), absolute (G90), feed F in {settings.feed_units}, "
+            f"dwell G4 P in {'milliseconds' if settings.dwell_units == 'ms' else 'seconds'}"
+        ),
+        c(
+            f"summary: layers {st['layers']}, sections {st['sections']}, points {st['points']}, "
+            f"deposition {st['deposition_length_mm']:.3f} mm, travel {st['travel_length_mm']:.3f} mm, "
+            f"arc-on count {st['arc_on_count']}, dwell {st['dwell_total_s']:.3f} s, "
+            f"estimated time {st['estimated_time_s']:.1f} s"
+        ),
         c(_travel_note(settings)),
         c(header_tag(settings)),
         *(c(t) for t in weld_tag(settings.process_codes, settings.start_codes, settings.process_scale)),
@@ -254,13 +285,19 @@ def _header(plan: Plan, settings: GcodeSettings, c: Callable[[str], str], ext: n
     out.extend(settings.start_code)
     if ext is not None:
         names = ("E1 (tilt)", "E2 (turn)", "E3", "E4", "E5", "E6")
-        out.append(c("rotary axes: " + ", ".join(f"{a} = positioner {names[k]}" for k, a in
-                                               enumerate(settings.rotary_axes[: ext.shape[1]]))
-                     + f" in {'degrees' if settings.rotary_units == 'deg' else 'radians'}; X Y Z in the part "
-                       + ("frame on the positioner (needs the controller's tool centre point control)"
-                          if settings.tcp_control else
-                          "frame on the positioner; this controller has no tool centre point control: the part "
-                          "frame must coincide with the table's axes")))
+        out.append(
+            c(
+                "rotary axes: "
+                + ", ".join(f"{a} = positioner {names[k]}" for k, a in enumerate(settings.rotary_axes[: ext.shape[1]]))
+                + f" in {'degrees' if settings.rotary_units == 'deg' else 'radians'}; X Y Z in the part "
+                + (
+                    "frame on the positioner (needs the controller's tool centre point control)"
+                    if settings.tcp_control
+                    else "frame on the positioner; this controller has no tool centre point control: the part "
+                    "frame must coincide with the table's axes"
+                )
+            )
+        )
     if st.get("circular_motions"):
         out.append(f"G17 {c('arcs in the XY plane')}")
     return out
@@ -282,7 +319,7 @@ class _Body:
         self.rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
         self.last: np.ndarray | None = None
         self.arc = False
-        self.commanded: dict[str, float] = {}      # weld values in force (written while welding: changes only)
+        self.commanded: dict[str, float] = {}  # weld values in force (written while welding: changes only)
         self.out: list[str] = []
 
     def step(self, s: Step) -> None:
@@ -316,7 +353,7 @@ class _Body:
         settings = self.s
         desc = process_summary(s.params)
         self.out.append(self.c(f"zone {s.zone_id or '-'}" + (f": {desc}" if desc else "")))
-        if self.arc:                           # inside a run: only what changed, synchronised with motion
+        if self.arc:  # inside a run: only what changed, synchronised with motion
             changed = {k for k, v in s.params.items() if self.commanded.get(k) != float(v)}
             self.out.extend(process_lines(s.params, settings.process_codes, settings.process_scale, changed))
         else:
@@ -334,7 +371,7 @@ class _Body:
                     xyz += f" {letter}{word}"
                     self.rot_last[k] = word
         if s.mode == "travel" and settings.rapid_travel:
-            if settings.travel_feed:      # G0 at the modal feed (Marlin): F on every travel line
+            if settings.travel_feed:  # G0 at the modal feed (Marlin): F on every travel line
                 out.append(f"G0 {xyz} F{short(self.travel_f)}")
                 self.feed = self.travel_f
             else:
@@ -367,8 +404,10 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
     d = settings.decimals
     if settings.final_lift > 0 and body.last is not None:
         f_lift = f" F{short(body.travel_f)}" if settings.travel_feed else ""
-        out.append(f"G0 Z{num(body.last[2] + settings.final_lift, d)}{f_lift} "
-                   f"{c(f'final lift {short(settings.final_lift)} mm')}")
+        out.append(
+            f"G0 Z{num(body.last[2] + settings.final_lift, d)}{f_lift} "
+            f"{c(f'final lift {short(settings.final_lift)} mm')}"
+        )
     out.extend(settings.end_code)
     out.append(f"{settings.program_end} {c('end of program')}")
     out.extend(settings.postamble)

@@ -19,8 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 _WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
-                  r"(?:\s+feed_units=(mm/min|mm/s))?(?:\s+end=([^\s)]+))?")
+_TAG = re.compile(
+    r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
+    r"(?:\s+feed_units=(mm/min|mm/s))?(?:\s+end=([^\s)]+))?"
+)
 ARC_STEP_RAD = math.radians(2.0)  # arc discretisation: chord/arc length error < θ²/24 ≈ 5e-5
 
 
@@ -68,9 +70,16 @@ class ParsedProgram:
         dwells, counts and lengths."""
         return {
             "units": "mm",
-            "runs": [{"points": np.round(r.points, 4).tolist(), "feed_mm_min": np.round(r.feed_mm_min, 3).tolist(),
-                      "ignition_line": r.ignition_line, "ignition_dwell_s": r.ignition_dwell_s,
-                      "length_mm": round(r.length, 4)} for r in self.runs],
+            "runs": [
+                {
+                    "points": np.round(r.points, 4).tolist(),
+                    "feed_mm_min": np.round(r.feed_mm_min, 3).tolist(),
+                    "ignition_line": r.ignition_line,
+                    "ignition_dwell_s": r.ignition_dwell_s,
+                    "length_mm": round(r.length, 4),
+                }
+                for r in self.runs
+            ],
             "dwells": [{"line": ln, "seconds": s, "arc_on": on} for ln, s, on in self.dwells],
             "ignitions": self.ignitions,
             "extinctions": self.extinctions,
@@ -116,8 +125,9 @@ def _arc_points(p0: np.ndarray, p1: np.ndarray, ij: tuple[float, float], cw: boo
     return out
 
 
-def parse_gcode(text: str, *, arc_on: str | None = None, arc_off: str | None = None,
-                dwell_units: str | None = None) -> ParsedProgram:
+def parse_gcode(
+    text: str, *, arc_on: str | None = None, arc_off: str | None = None, dwell_units: str | None = None
+) -> ParsedProgram:
     """Parse G-code text into a `ParsedProgram` (see module doc)."""
     tag = _TAG.search(text)
     if tag:

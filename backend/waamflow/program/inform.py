@@ -92,7 +92,7 @@ class InformSettings:
     external_axes: np.ndarray | None = None
     station_pulses_per_deg: tuple[float, ...] = ()
     decimals: int = 3
-    tool_on: str = TOOL_COMMANDS["inform"][0]      # post-deposition tool (rolling, peening): common.py
+    tool_on: str = TOOL_COMMANDS["inform"][0]  # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["inform"][1]
 
     def __post_init__(self) -> None:
@@ -111,11 +111,13 @@ class InformSettings:
                 raise ValueError("INFORM station: 1 to 3 positioner axes")
             ppd = self.station_pulses_per_deg
             if len(ppd) < k or not all(np.isfinite(v) and v > 0 for v in ppd[:k]):
-                raise ValueError(f"INFORM station axes: station_pulses_per_deg needs {k} positive values (the "
-                                 f"controller's pulses per degree of each positioner axis), got {list(ppd)}")
+                raise ValueError(
+                    f"INFORM station axes: station_pulses_per_deg needs {k} positive values (the "
+                    f"controller's pulses per degree of each positioner axis), got {list(ppd)}"
+                )
 
 
-COMMENT_MAX = 32       # INFORM comment lines (') hold at most 32 characters
+COMMENT_MAX = 32  # INFORM comment lines (') hold at most 32 characters
 
 
 def _comment(text: str) -> str:
@@ -127,8 +129,11 @@ def _name(base: str, k: int | None) -> str:
 
 
 def _weld_fields(params: dict, names=None) -> str:
-    out = [INFORM_WELD_CODES[n].format(value=float(params[n])) for n in ("current", "voltage")
-           if n in params and (names is None or n in names)]
+    out = [
+        INFORM_WELD_CODES[n].format(value=float(params[n]))
+        for n in ("current", "voltage")
+        if n in params and (names is None or n in names)
+    ]
     return " ".join(out)
 
 
@@ -138,22 +143,49 @@ def station_pulses(angles_deg: np.ndarray, pulses_per_deg) -> np.ndarray:
     return np.rint(a * np.asarray(pulses_per_deg, float)[: a.shape[1]]).astype(np.int64)
 
 
-def _job(name: str, comment: str, lines: list[str], pts: list[int], P: np.ndarray, R: np.ndarray,
-         s: InformSettings, ec: np.ndarray | None = None) -> str:
+def _job(
+    name: str,
+    comment: str,
+    lines: list[str],
+    pts: list[int],
+    P: np.ndarray,
+    R: np.ndarray,
+    s: InformSettings,
+    ec: np.ndarray | None = None,
+) -> str:
     """A job: its C positions (points `pts`) and, for a coordinated job, `ec` (station pulses per
     point of the whole program) as EC positions."""
     d = s.decimals
     n_ec = len(pts) if ec is not None else 0
-    head = ["/JOB", f"//NAME {name}", "//POS", f"///NPOS {len(pts)},0,{n_ec},0,0,0", f"///TOOL {s.tool}",
-            "///POSTYPE USER", f"///USER {s.user_frame}", "///RECTAN", "///RCONF 0,0,0,0,0,0,0,0"]
-    head += [f"C{k:05d}={num(P[i, 0], d)},{num(P[i, 1], d)},{num(P[i, 2], d)},"
-             f"{num(R[i, 0], 4)},{num(R[i, 1], 4)},{num(R[i, 2], 4)}" for k, i in enumerate(pts)]
+    head = [
+        "/JOB",
+        f"//NAME {name}",
+        "//POS",
+        f"///NPOS {len(pts)},0,{n_ec},0,0,0",
+        f"///TOOL {s.tool}",
+        "///POSTYPE USER",
+        f"///USER {s.user_frame}",
+        "///RECTAN",
+        "///RCONF 0,0,0,0,0,0,0,0",
+    ]
+    head += [
+        f"C{k:05d}={num(P[i, 0], d)},{num(P[i, 1], d)},{num(P[i, 2], d)},"
+        f"{num(R[i, 0], 4)},{num(R[i, 1], 4)},{num(R[i, 2], 4)}"
+        for k, i in enumerate(pts)
+    ]
     if ec is not None and n_ec:
         head += ["///POSTYPE PULSE", "///PULSE"]
         head += [f"EC{k:05d}=" + ",".join(str(int(v)) for v in ec[i]) for k, i in enumerate(pts)]
     # a fixed date: the same plan gives the same bytes (the run's trace says when it was made)
-    head += ["//INST", "///DATE 2000/01/01 00:00", f"///COMM {comment[:COMMENT_MAX]}",
-             "///ATTR SC,RW", "///GROUP1 RB1", *(["///GROUP2 ST1"] if n_ec else []), "NOP"]
+    head += [
+        "//INST",
+        "///DATE 2000/01/01 00:00",
+        f"///COMM {comment[:COMMENT_MAX]}",
+        "///ATTR SC,RW",
+        "///GROUP1 RB1",
+        *(["///GROUP2 ST1"] if n_ec else []),
+        "NOP",
+    ]
     return "\n".join(head + lines + ["END"]) + "\n"
 
 
@@ -203,7 +235,7 @@ class _Inform:
         c = f"C{self.index[st.end]:05d}"
         if not self.coordinated:
             return f"MOVL {c} V={num(speed, 1)} PL={pl}"
-        return f"SMOVL {c} V={num(speed, 1)} PL={pl} +MOVJ E{c}"      # the robot relative to station 1
+        return f"SMOVL {c} V={num(speed, 1)} PL={pl} +MOVJ E{c}"  # the robot relative to station 1
 
     def positions(self) -> list[int]:
         return list(self.pts)
@@ -214,23 +246,33 @@ def write_inform(plan: Plan, settings: InformSettings = InformSettings()) -> dic
     s = settings
     P = plan.moves.points
     R = fixed_xyz_angles(plan.moves.tool_axis)
-    ec = None if s.external_axes is None else station_pulses(
-        np.asarray(s.external_axes, dtype=float).reshape(len(P), -1), s.station_pulses_per_deg)
-    jobs: list[tuple[str, str, list[str], list[int]]] = []      # (name, comment, lines, point indices)
+    ec = (
+        None
+        if s.external_axes is None
+        else station_pulses(np.asarray(s.external_axes, dtype=float).reshape(len(P), -1), s.station_pulses_per_deg)
+    )
+    jobs: list[tuple[str, str, list[str], list[int]]] = []  # (name, comment, lines, point indices)
     chunks = chunk_steps(plan.steps, max_points=s.max_points_per_job, distinct=True)
     for chunk, cur, cur_pts in walk_programs(plan, chunks, _Inform(s, ec is not None)):
         k = chunk.layer if chunk.layer is not None else 0
-        jobs.append((_name(s.program_name, k) + (f"_{chunk.part}" if chunk.part else ""),
-                     f"waamflow layer {k}", cur, cur_pts))
+        jobs.append(
+            (_name(s.program_name, k) + (f"_{chunk.part}" if chunk.part else ""), f"waamflow layer {k}", cur, cur_pts)
+        )
     st_ = plan.stats
-    main = [_comment(f"waamflow: {len(jobs)} jobs"), _comment(f"layers {st_['layers']}"),
-            _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"), _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
-            _comment("AC=current A AV=voltage V")]
+    main = [
+        _comment(f"waamflow: {len(jobs)} jobs"),
+        _comment(f"layers {st_['layers']}"),
+        _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
+        _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
+        _comment("AC=current A AV=voltage V"),
+    ]
     if ec is not None:
-        main += [_comment("station ST1: EC in pulses"),
-                 _comment("pulse/deg " + " ".join(short(v) for v in s.station_pulses_per_deg[: ec.shape[1]]))]
+        main += [
+            _comment("station ST1: EC in pulses"),
+            _comment("pulse/deg " + " ".join(short(v) for v in s.station_pulses_per_deg[: ec.shape[1]])),
+        ]
     main += [f"CALL JOB:{name}" for name, _, _, _ in jobs]
     files = {"JBI": _job(s.program_name.upper(), "waamflow main job", main, [], P, R, s)}
     for name, comment, lines, pts in jobs:
-        files[name[len(s.program_name) + 1:] + ".JBI"] = _job(name, comment, lines, pts, P, R, s, ec)
+        files[name[len(s.program_name) + 1 :] + ".JBI"] = _job(name, comment, lines, pts, P, R, s, ec)
     return files

@@ -68,12 +68,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.process import PARAMETERS_BY_NAME
-from .common import (WELD_TAG, check_identifier, check_templates, num, process_lines, process_summary, short,
-                     weld_tag)
+from .common import WELD_TAG, check_identifier, check_templates, num, process_lines, process_summary, short, weld_tag
 from .common import TOOL_COMMANDS, check_tool_template, tool_lines, tool_summary
 from .orientation import kuka_abc, tool_frames
-from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn,
-                   chunk_steps)
+from .plan import (
+    ArcOff,
+    ArcOn,
+    Dwell,
+    LayerStart,
+    Motion,
+    Plan,
+    ProcessChange,
+    SectionStart,
+    Step,
+    ToolOff,
+    ToolOn,
+    chunk_steps,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,7 +115,7 @@ class KrlSettings:
     arctech_channels: dict[str, int] = field(default_factory=lambda: dict(ARCTECH_CHANNELS))
     arctech_velocity_unit: str = "m/min"
     decimals: int = 3
-    tool_on: str = TOOL_COMMANDS["krl"][0]     # post-deposition tool (rolling, peening): common.py
+    tool_on: str = TOOL_COMMANDS["krl"][0]  # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["krl"][1]
 
     @property
@@ -130,17 +141,21 @@ class KrlSettings:
 
 ARCTECH_CHANNELS: dict[str, int] = {"job": 1, "wire_feed_speed": 2, "voltage": 3, "current": 4}
 # Output mode: analog outputs, value / full scale (KRL $ANOUT is -1.0..1.0 = -10..10 V).
-KRL_WELD_CODES: dict[str, str] = {"wire_feed_speed": "$ANOUT[1]={value:.3f}/20", "current": "$ANOUT[2]={value:.1f}/500",
-                  "voltage": "$ANOUT[3]={value:.2f}/50"}
-VELOCITY_UNITS: dict[str, float] = {"m/min": 0.06, "m/s": 0.001}   # factor from mm/s
+KRL_WELD_CODES: dict[str, str] = {
+    "wire_feed_speed": "$ANOUT[1]={value:.3f}/20",
+    "current": "$ANOUT[2]={value:.1f}/500",
+    "voltage": "$ANOUT[3]={value:.2f}/50",
+}
+VELOCITY_UNITS: dict[str, float] = {"m/min": 0.06, "m/s": 0.001}  # factor from mm/s
 
 
 def check_channels(channels: dict[str, int]) -> dict[str, int]:
     """ArcTech channel map: known zone parameter names → distinct channel numbers 1..8."""
     for name, ch in channels.items():
         if name not in PARAMETERS_BY_NAME:
-            raise ValueError(f"ArcTech channel for unknown zone parameter {name!r} "
-                             f"(known: {', '.join(PARAMETERS_BY_NAME)})")
+            raise ValueError(
+                f"ArcTech channel for unknown zone parameter {name!r} (known: {', '.join(PARAMETERS_BY_NAME)})"
+            )
         if not isinstance(ch, int) or not 1 <= ch <= 8:
             raise ValueError(f"ArcTech channel of {name!r} must be 1..8, not {ch!r}")
     if len(set(channels.values())) != len(channels):
@@ -150,8 +165,8 @@ def check_channels(channels: dict[str, int]) -> dict[str, int]:
 
 @dataclass(frozen=True)
 class _Chunk:
-    name: str      # DEF name
-    suffix: str    # "" for an unsplit program, else "L003", "P001", ...
+    name: str  # DEF name
+    suffix: str  # "" for an unsplit program, else "L003", "P001", ...
     steps: tuple[int, ...]  # indices into plan.steps
 
 
@@ -183,19 +198,22 @@ class _ArcTech:
 
     def __init__(self, plan: Plan, s: KrlSettings):
         self.plan, self.s = plan, s
-        self.sets: dict[tuple, tuple[str, str]] = {}   # key → (name, description)
+        self.sets: dict[tuple, tuple[str, str]] = {}  # key → (name, description)
         self.seam = "WP1"
-        self.used: set[str] = set()                     # names used by the program being written
+        self.used: set[str] = set()  # names used by the program being written
 
     def data_set(self, section: int, zone: int, speed: float, strike_s: float) -> str:
         params = self.plan.moves.zone_params.get((section, zone), {})
-        chans = tuple(sorted((ch, round(float(params.get(name, 0.0)), 4))
-                             for name, ch in self.s.arctech_channels.items()))
+        chans = tuple(
+            sorted((ch, round(float(params.get(name, 0.0)), 4)) for name, ch in self.s.arctech_channels.items())
+        )
         key = (chans, round(float(speed), 3), round(float(strike_s), 3))
         if key not in self.sets:
             zid = self.plan.moves.zone_ids[zone] if 0 <= zone < len(self.plan.moves.zone_ids) else "-"
-            desc = (f"{self.plan.moves.section_keys[section]} zone {zid}: {process_summary(params) or 'no parameters'}, "
-                    f"{short(round(float(speed), 3))} mm/s")
+            desc = (
+                f"{self.plan.moves.section_keys[section]} zone {zid}: {process_summary(params) or 'no parameters'}, "
+                f"{short(round(float(speed), 3))} mm/s"
+            )
             self.sets[key] = (f"WDAT{len(self.sets) + 1}", desc)
         self.used.add(self.sets[key][0])
         return self.sets[key][0]
@@ -207,22 +225,35 @@ class _ArcTech:
         return f"TRIGGER WHEN {when} DELAY={delay} DO {self.call(action, wdat)} PRIO=-1"
 
     def arc_on(self, wdat: str, motion: list[str]) -> list[str]:
-        return [";- ARC ON " + wdat,
-                self.trigger("DISTANCE=1", f"ArcGetDelay(#PreDefinition,{wdat})", "PreDefinition", wdat),
-                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", f"ArcGetDelay(#GasPreflow,{wdat})",
-                             "GasPreflow", wdat),
-                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", "0", "ArcOnMoveStd", wdat),
-                self.call("ArcOnBeforeMoveStd", wdat), *motion, self.call("ArcOnAfterMoveStd", wdat)]
+        return [
+            ";- ARC ON " + wdat,
+            self.trigger("DISTANCE=1", f"ArcGetDelay(#PreDefinition,{wdat})", "PreDefinition", wdat),
+            self.trigger(
+                f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", f"ArcGetDelay(#GasPreflow,{wdat})", "GasPreflow", wdat
+            ),
+            self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOn,{wdat})", "0", "ArcOnMoveStd", wdat),
+            self.call("ArcOnBeforeMoveStd", wdat),
+            *motion,
+            self.call("ArcOnAfterMoveStd", wdat),
+        ]
 
     def arc_swi(self, wdat: str, motion: list[str]) -> list[str]:
-        return [self.trigger("DISTANCE=1", "0", "ArcSwiMoveStd", wdat),
-                self.call("ArcSwiBeforeMoveStd", wdat), *motion, self.call("ArcSwiAfterMoveStd", wdat)]
+        return [
+            self.trigger("DISTANCE=1", "0", "ArcSwiMoveStd", wdat),
+            self.call("ArcSwiBeforeMoveStd", wdat),
+            *motion,
+            self.call("ArcSwiAfterMoveStd", wdat),
+        ]
 
     def arc_off(self, wdat: str, motion: list[str]) -> list[str]:
-        return [";- ARC OFF " + wdat,
-                self.trigger(f"PATH=ArcGetPath(#ArcOffBefore,{wdat})", "0", "ArcOffBeforeOffStd", wdat),
-                self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOff,{wdat})", "0", "ArcOffMoveStd", wdat),
-                self.call("ArcOffBeforeMoveStd", wdat), *motion, self.call("ArcOffAfterMoveStd", wdat)]
+        return [
+            ";- ARC OFF " + wdat,
+            self.trigger(f"PATH=ArcGetPath(#ArcOffBefore,{wdat})", "0", "ArcOffBeforeOffStd", wdat),
+            self.trigger(f"PATH=ArcGetPath(#OnTheFlyArcOff,{wdat})", "0", "ArcOffMoveStd", wdat),
+            self.call("ArcOffBeforeMoveStd", wdat),
+            *motion,
+            self.call("ArcOffAfterMoveStd", wdat),
+        ]
 
     def decls(self) -> list[str]:
         """The .dat declarations of the program just written: seam data WP1 and its weld data
@@ -231,9 +262,11 @@ class _ArcTech:
         if not self.used:
             return []
         factor = VELOCITY_UNITS[s.arctech_velocity_unit]
-        out = [f'DECL stArcDat_T {self.seam}={{WdatId[] "{self.seam}",Strike {{SeamName[] "{s.program_name}",'
-               f'PartName[] "waamflow",SeamNumber 0,PartNumber 0,DesiredLength 0.0,LengthTolNeg 0.0,'
-               f'LengthTolPos 0.0,LengthCtrlActive FALSE}}}}']
+        out = [
+            f'DECL stArcDat_T {self.seam}={{WdatId[] "{self.seam}",Strike {{SeamName[] "{s.program_name}",'
+            f'PartName[] "waamflow",SeamNumber 0,PartNumber 0,DesiredLength 0.0,LengthTolNeg 0.0,'
+            f"LengthTolPos 0.0,LengthCtrlActive FALSE}}}}"
+        ]
         for (chans, speed, strike), (name, desc) in self.sets.items():
             if name not in self.used:
                 continue
@@ -244,9 +277,10 @@ class _ArcTech:
                 f'DECL stArcDat_T {name}={{WdatId[] "{name}",'
                 f'Strike {{JobModeId[] "Job mode",StartTime {num(strike, 3)},PreFlowTime 0.0,{ch},PurgeTime 0.0}},'
                 f'Weld {{JobModeId[] "Job mode",ParamSetId[] "Set1",Velocity {num(speed * factor, 5)},{ch}}},'
-                f'Weave {{Pattern #None,Length 4.0,Amplitude 2.0,Angle 0.0,LeftSideDelay 0.0,RightSideDelay 0.0}},'
+                f"Weave {{Pattern #None,Length 4.0,Amplitude 2.0,Angle 0.0,LeftSideDelay 0.0,RightSideDelay 0.0}},"
                 f'Crater {{JobModeId[] "Job mode",ParamSetId[] "Set2",CraterTime 0.0,PostflowTime 0.0,{ch},'
-                f'BurnBackTime 0.0}}}}')
+                f"BurnBackTime 0.0}}}}"
+            )
         return out
 
 
@@ -271,14 +305,17 @@ def _e6pos(i: int, pts: np.ndarray, abc: np.ndarray, ext: np.ndarray | None, d: 
     if ext is not None:
         e[: ext.shape[1]] = ext[i].tolist()
     es = ",".join(f"E{k + 1} {num(v, d)}" for k, v in enumerate(e))
-    return (f"DECL E6POS P{i + 1}={{X {num(p[0], d)},Y {num(p[1], d)},Z {num(p[2], d)},"
-            f"A {num(o[0], 4)},B {num(o[1], 4)},C {num(o[2], 4)},{es}}}")
+    return (
+        f"DECL E6POS P{i + 1}={{X {num(p[0], d)},Y {num(p[1], d)},Z {num(p[2], d)},"
+        f"A {num(o[0], 4)},B {num(o[1], 4)},C {num(o[2], 4)},{es}}}"
+    )
 
 
 def _arc_on_before(steps, first: int) -> bool:
     """Whether the arc is on where step `first` starts a program (output mode: on across a call)."""
     return any(isinstance(steps[j], ArcOn) for j in range(first)) and not isinstance(
-        next((steps[j] for j in range(first - 1, -1, -1) if isinstance(steps[j], (ArcOn, ArcOff))), None), ArcOff)
+        next((steps[j] for j in range(first - 1, -1, -1) if isinstance(steps[j], (ArcOn, ArcOff))), None), ArcOff
+    )
 
 
 class _KrlBody:
@@ -293,10 +330,10 @@ class _KrlBody:
         self.lines: list[str] = []
         self.used: list[int] = []
         self.vel: float | None = None
-        self.approach: tuple[int, int] | None = None   # lines[a:b] of the arc-off motion just written (ArcTech)
+        self.approach: tuple[int, int] | None = None  # lines[a:b] of the arc-off motion just written (ArcTech)
         self.arc = _arc_on_before(self.steps, chunk.steps[0] if chunk.steps else 0)
         self.commanded: dict[str, float] = {}
-        self.pending: list[str] = []                   # path triggers of weld values, right before the next motion
+        self.pending: list[str] = []  # path triggers of weld values, right before the next motion
 
     def speed_lines(self, v: float) -> list[str]:
         v_ms = round(float(v) / 1000.0, 6)
@@ -332,14 +369,19 @@ class _KrlBody:
             if self.arctech is not None and st.reason == "ignition":
                 lines.append(f";- ignition dwell {short(round(st.seconds, 3))} s (Strike.StartTime)")
                 return
-            lines.append(f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else ""))
-        elif isinstance(st, (ToolOn, ToolOff)):   # a routine call does not stop the advance run: WAIT SEC 0 does
+            lines.append(
+                f"WAIT SEC {short(round(st.seconds, 3))} ; {st.reason} dwell" + (f" ({st.note})" if st.note else "")
+            )
+        elif isinstance(st, (ToolOn, ToolOff)):  # a routine call does not stop the advance run: WAIT SEC 0 does
             self.approach = None
             on = isinstance(st, ToolOn)
             tparams = st.params if isinstance(st, ToolOn) else {}
             tl = tool_lines(s.tool_on if on else s.tool_off, st.tool, tparams)
-            self.lines += ["WAIT SEC 0 ; advance-run stop: switch at the point"] + tl[:-1] + [
-                f"{tl[-1]} ; {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
+            self.lines += (
+                ["WAIT SEC 0 ; advance-run stop: switch at the point"]
+                + tl[:-1]
+                + [f"{tl[-1]} ; {tool_summary(st.tool, tparams) if on else st.tool + ' off'}"]
+            )
         elif isinstance(st, Motion):
             self.motion(k, st)
 
@@ -347,10 +389,12 @@ class _KrlBody:
         desc = process_summary(st.params)
         self.lines.append(f";- zone {st.zone_id or '-'}" + (f": {desc}" if desc else ""))
         if self.arctech is None:
-            if self.arc:                        # inside a run: the changes, at the next motion's start
+            if self.arc:  # inside a run: the changes, at the next motion's start
                 changed = {n for n, v in st.params.items() if self.commanded.get(n) != float(v)}
-                self.pending = [f"TRIGGER WHEN DISTANCE=0 DELAY=0 DO {ln}"
-                                for ln in process_lines(st.params, self.s.process_codes, names=changed)]
+                self.pending = [
+                    f"TRIGGER WHEN DISTANCE=0 DELAY=0 DO {ln}"
+                    for ln in process_lines(st.params, self.s.process_codes, names=changed)
+                ]
             else:
                 self.lines.extend(process_lines(st.params, self.s.process_codes))
             self.commanded.update({n: float(v) for n, v in st.params.items()})
@@ -370,7 +414,7 @@ class _KrlBody:
         if self.approach is not None:
             a, b = self.approach
             self.lines[a:b] = arctech.arc_on(wdat, self.lines[a:b])
-        else:                                   # ignite where the torch stands
+        else:  # ignite where the torch stands
             self.used.append(st.point)
             self.lines.extend(arctech.arc_on(wdat, [f"LIN P{st.point + 1} ; ignite in place"]))
 
@@ -405,10 +449,14 @@ def _render_chunk(plan: Plan, s: KrlSettings, chunk: _Chunk, arctech: _ArcTech |
 
 def _header(plan: Plan, s: KrlSettings) -> list[str]:
     st = plan.stats
-    arc = (f"digital output $OUT[{s.arc_output}]" if s.arc_control == "output" else
-           f"KUKA.ArcTech {s.arctech_routine}, weld data sets WDAT<k> in the .dat (Weld.Velocity in "
-           f"{s.arctech_velocity_unit}; channels " +
-           ", ".join(f"{ch} {name}" for name, ch in sorted(s.arctech_channels.items(), key=lambda kv: kv[1])) + ")")
+    arc = (
+        f"digital output $OUT[{s.arc_output}]"
+        if s.arc_control == "output"
+        else f"KUKA.ArcTech {s.arctech_routine}, weld data sets WDAT<k> in the .dat (Weld.Velocity in "
+        f"{s.arctech_velocity_unit}; channels "
+        + ", ".join(f"{ch} {name}" for name, ch in sorted(s.arctech_channels.items(), key=lambda kv: kv[1]))
+        + ")"
+    )
     return [
         f";- waamflow KUKA KRL program {s.program_name}",
         f";- layers {st['layers']}, sections {st['sections']}, points {st['points']}, motions {st['motions']}",
@@ -417,8 +465,14 @@ def _header(plan: Plan, s: KrlSettings) -> list[str]:
         f";- units: mm, degrees, $VEL.CP in m/s; tool {s.tool}, base {s.base}, "
         f"tool direction {s.tool_direction.upper()}, blend $APO.CDIS {short(s.blend_distance)} mm",
         f";- arc control: {arc}",
-        *(";- " + t for t in (weld_tag(s.process_codes) if s.arc_control == "output" else
-                              weld_tag({n: f"stArcDat_T.Weld.Channel{ch}" for n, ch in s.arctech_channels.items()}))),
+        *(
+            ";- " + t
+            for t in (
+                weld_tag(s.process_codes)
+                if s.arc_control == "output"
+                else weld_tag({n: f"stArcDat_T.Weld.Channel{ch}" for n, ch in s.arctech_channels.items()})
+            )
+        ),
     ]
 
 
@@ -431,11 +485,13 @@ def _init(s: KrlSettings, n_ext: int) -> list[str]:
     ]
     if n_ext:
         axes = "E1" if n_ext == 1 else f"E1..E{n_ext}"
-        out += [f";- external axes {axes} (positioner) in every E6POS; BASE_DATA[{s.base}] must be the "
-                "base coupled to the positioner (external kinematics)",
-                f"IF $EX_AX_NUM<{n_ext} THEN",
-                f"  HALT ; this program moves {axes}: the controller has fewer external axes",
-                "ENDIF"]
+        out += [
+            f";- external axes {axes} (positioner) in every E6POS; BASE_DATA[{s.base}] must be the "
+            "base coupled to the positioner (external kinematics)",
+            f"IF $EX_AX_NUM<{n_ext} THEN",
+            f"  HALT ; this program moves {axes}: the controller has fewer external axes",
+            "ENDIF",
+        ]
     out.append("PTP $AXIS_ACT ; BCO run to the current position")
     return out
 
@@ -480,12 +536,18 @@ def write_krl(plan: Plan, settings: KrlSettings = KrlSettings()) -> dict[str, st
     calls = []
     for ch in chunks:
         body, used, decls = render(ch)
-        files[f"{ch.suffix}.src"] = _src(ch.name, [f";- part of {s.program_name}, called from {s.program_name}.src",
-                                                   *(h for h in header if WELD_TAG in h)], body)
+        files[f"{ch.suffix}.src"] = _src(
+            ch.name,
+            [f";- part of {s.program_name}, called from {s.program_name}.src", *(h for h in header if WELD_TAG in h)],
+            body,
+        )
         files[f"{ch.suffix}.dat"] = _dat(ch.name, used, pts, abc, ext, s.decimals, decls)
         calls.append(f"{ch.name}( )")
     off = [f"$OUT[{s.arc_output}]=FALSE ; arc off (safety)"] if s.arc_control == "output" else []
-    files["src"] = _src(s.program_name, header + [f";- subprograms: {len(chunks)} (files {s.program_name}_<suffix>.src/.dat)"],
-                        _init(s, n_ext) + calls + off)
+    files["src"] = _src(
+        s.program_name,
+        header + [f";- subprograms: {len(chunks)} (files {s.program_name}_<suffix>.src/.dat)"],
+        _init(s, n_ext) + calls + off,
+    )
     files["dat"] = _dat(s.program_name, [], pts, abc, ext, s.decimals)
     return dict(sorted(files.items(), key=lambda kv: (kv[0] not in ("src", "dat"), kv[0])))

@@ -82,8 +82,9 @@ class Motion:
     def arc_geometry(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """(center, normal) of a circular motion; ValueError naming the motion when it has none."""
         if self.center is None or self.normal is None:
-            raise ValueError(f"motion to point {self.end} (layer {self.layer}) is not a circular motion with a "
-                             "centre and a normal")
+            raise ValueError(
+                f"motion to point {self.end} (layer {self.layer}) is not a circular motion with a centre and a normal"
+            )
         return self.center, self.normal
 
 
@@ -182,8 +183,9 @@ class StepChunk:
     steps: tuple[int, ...]
 
 
-def chunk_steps(steps, *, per_layer: bool = True, max_points: int = 0, distinct: bool = False,
-                cut_back: bool = False) -> list[StepChunk]:
+def chunk_steps(
+    steps, *, per_layer: bool = True, max_points: int = 0, distinct: bool = False, cut_back: bool = False
+) -> list[StepChunk]:
     """Split a plan's steps into controller programs (the one chunker of the robot writers).
 
     per_layer: a new program at every LayerStart once the current one has a motion. max_points
@@ -193,7 +195,7 @@ def chunk_steps(steps, *, per_layer: bool = True, max_points: int = 0, distinct:
     motion after the arc goes off (INFORM, TP: no program switch while welding); `cut_back`:
     before the motion that would overfill it, back at the latest arc OFF that leaves it at least
     half full, else right after its last motion (KRL, see `_cut_back`)."""
-    groups: list[list] = []          # [layer, part, step indices]
+    groups: list[list] = []  # [layer, part, step indices]
     layer: int | None = None
     count = 0
     seen: set[int] = set()
@@ -264,14 +266,23 @@ def _check_weld_speeds(moves: Moves) -> None:
     bad = np.flatnonzero(moves.arc & ~(np.isfinite(moves.speed) & (moves.speed > 0)))
     if len(bad):
         i = int(bad[0])
-        raise PlanningError(f"arc-on segment {i} has no positive travel speed ({moves.speed[i]}); "
-                            "set travel_speed in the zone parameters",
-                            layer=int(moves.layer[i]), section=moves.section_keys[int(moves.section[i])])
+        raise PlanningError(
+            f"arc-on segment {i} has no positive travel speed ({moves.speed[i]}); "
+            "set travel_speed in the zone parameters",
+            layer=int(moves.layer[i]),
+            section=moves.section_keys[int(moves.section[i])],
+        )
 
 
 def _segment_key(moves: Moves, i: int) -> tuple:
     sp = float(moves.speed[i])
-    return (_mode(moves, i), sp if np.isfinite(sp) else None, int(moves.zone[i]), int(moves.section[i]), int(moves.layer[i]))
+    return (
+        _mode(moves, i),
+        sp if np.isfinite(sp) else None,
+        int(moves.zone[i]),
+        int(moves.section[i]),
+        int(moves.layer[i]),
+    )
 
 
 def _groups(moves: Moves) -> list[tuple[int, int]]:
@@ -284,7 +295,7 @@ def _groups(moves: Moves) -> list[tuple[int, int]]:
     finite = np.isfinite(speed)
     arc = np.asarray(moves.arc[:n_seg], bool)
     travel = (np.asarray(moves.kind[:n_seg]) == TRAVEL) | ~finite | ~(speed > 0)
-    mode = np.where(arc, 0, np.where(travel, 1, 2))                     # weld, travel, move
+    mode = np.where(arc, 0, np.where(travel, 1, 2))  # weld, travel, move
     same_speed = np.where(finite[1:] & finite[:-1], speed[1:] == speed[:-1], ~finite[1:] & ~finite[:-1])
     cut = ~same_speed | (mode[1:] != mode[:-1])
     for attr in (moves.zone, moves.section, moves.layer):
@@ -307,8 +318,7 @@ def _group_motions(moves: Moves, a: int, b: int, settings: PlanSettings) -> list
     for arc in arcs:
         s, e = a + arc.start, a + arc.end
         out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, s))
-        out.append(Motion(start=s, end=e, via=a + arc.via, center=_vec3(arc.center), normal=_vec3(arc.normal),
-                          **base))
+        out.append(Motion(start=s, end=e, via=a + arc.via, center=_vec3(arc.center), normal=_vec3(arc.normal), **base))
         i = e
     out.extend(Motion(start=k, end=k + 1, **base) for k in range(i, b))
     return out
@@ -402,7 +412,11 @@ def _mark_stops(steps: list[Step]) -> list[Step]:
 def _stats(moves: Moves, steps: list[Step], settings: PlanSettings) -> dict:
     seg = moves.segment_lengths if len(moves.points) > 1 else np.zeros(0)
     arc = moves.arc.astype(bool) if len(seg) else np.zeros(0, bool)
-    speed = np.where(np.isfinite(moves.speed) & (moves.speed > 0), moves.speed, settings.travel_speed) if len(seg) else np.zeros(0)
+    speed = (
+        np.where(np.isfinite(moves.speed) & (moves.speed > 0), moves.speed, settings.travel_speed)
+        if len(seg)
+        else np.zeros(0)
+    )
     dwell = sum(s.seconds for s in steps if isinstance(s, Dwell))
     return {
         "layers": len(set(moves.layer.tolist())) if len(seg) else 0,

@@ -47,8 +47,9 @@ def point_layer_heights(toolpath: Layered[LayerPaths] | None, moves: Moves) -> n
         return out
     from ..curved.fan import local_height, to_local
 
-    layers = {lp.index: lp.layer for lp in (toolpath.items if isinstance(toolpath, Layered) else toolpath)
-              if lp is not None}
+    layers = {
+        lp.index: lp.layer for lp in (toolpath.items if isinstance(toolpath, Layered) else toolpath) if lp is not None
+    }
     seg_layer = _arriving_segment_values(moves, moves.layer)
     for li in np.unique(seg_layer):
         layer = layers.get(int(li))
@@ -96,8 +97,9 @@ def frames(moves: Moves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return up, tangent, normal
 
 
-def print_points(plan: Plan, layer_heights: np.ndarray, travel_speed: float, blend_distance: float,
-                 decimals: int = 4) -> dict[str, dict]:
+def print_points(
+    plan: Plan, layer_heights: np.ndarray, travel_speed: float, blend_distance: float, decimals: int = 4
+) -> dict[str, dict]:
     """The print-points dictionary (see module doc) of a program plan without fitted arcs."""
     moves = plan.moves
     pts = moves.points
@@ -114,8 +116,9 @@ def print_points(plan: Plan, layer_heights: np.ndarray, travel_speed: float, ble
     up, tangent, normal = frames(moves)
     xaxis = np.cross(up, normal)
     if n >= 2:
-        speed = _arriving_segment_values(moves, np.where(np.isfinite(moves.speed) & (moves.speed > 0),
-                                                          moves.speed, travel_speed))
+        speed = _arriving_segment_values(
+            moves, np.where(np.isfinite(moves.speed) & (moves.speed > 0), moves.speed, travel_speed)
+        )
         arc = _arriving_segment_values(moves, moves.arc.astype(bool))
         arc[0] = False
         speed[0] = travel_speed
@@ -146,16 +149,19 @@ def print_points(plan: Plan, layer_heights: np.ndarray, travel_speed: float, ble
             "closest_support_pt": None,
             "distance_to_support": None,
             "is_feasible": True,
-            "attributes": {"zone": moves.zone_ids[z] if i > 0 and 0 <= z < len(moves.zone_ids) else "",
-                           "tangent": r(tangent[i])},
+            "attributes": {
+                "zone": moves.zone_ids[z] if i > 0 and 0 <= z < len(moves.zone_ids) else "",
+                "tangent": r(tangent[i]),
+            },
             "layer": int(layer[i]),
             "section": moves.section_keys[int(section[i])] if moves.section_keys else "",
         }
     return out
 
 
-def write_print_points(plan: Plan, layer_heights: np.ndarray, travel_speed: float = 100.0,
-                       blend_distance: float = 1.0) -> str:
+def write_print_points(
+    plan: Plan, layer_heights: np.ndarray, travel_speed: float = 100.0, blend_distance: float = 1.0
+) -> str:
     """The print-points JSON text (one line per point, keys in compas_slicer's order)."""
     pp = print_points(plan, layer_heights, travel_speed, blend_distance)
     body = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in pp.items())

@@ -20,8 +20,12 @@ def load_profiles() -> dict[str, dict]:
     out = {}
     for p in sorted(MACHINES_DIR.glob("*.json")):
         doc = json.loads(p.read_text(encoding="utf-8"))
-        out[p.stem] = {"name": p.stem, "title": doc.get("title", p.stem),
-                       "description": doc.get("description", ""), "post": dict(doc.get("post", {}))}
+        out[p.stem] = {
+            "name": p.stem,
+            "title": doc.get("title", p.stem),
+            "description": doc.get("description", ""),
+            "post": dict(doc.get("post", {})),
+        }
     return out
 
 

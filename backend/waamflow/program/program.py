@@ -21,8 +21,8 @@ class Program:
     format: str
     files: dict[str, str]
     stats: dict[str, Any] = field(default_factory=dict)
-    weld_issues: tuple = ()   # common.WeldDataIssue: zones whose weld data is empty or zero (krl arctech, rapid)
-    name: str = ""            # KRL / RAPID: the program identifier its files are named after ("" = node id)
+    weld_issues: tuple = ()  # common.WeldDataIssue: zones whose weld data is empty or zero (krl arctech, rapid)
+    name: str = ""  # KRL / RAPID: the program identifier its files are named after ("" = node id)
 
     def file_names(self, node_id: str) -> dict[str, str]:
         """File key → the file's name. G-code, CSV, print points: `<node id>.<key>`. KRL and RAPID
@@ -42,5 +42,12 @@ class Program:
     @property
     def main_suffix(self) -> str:
         """Suffix of the file a user opens first (the main program)."""
-        return {"gcode": "gcode", "krl": "src", "rapid": "mod", "inform": "JBI", "tp": "LS", "csv": "csv",
-                "printpoints": "printpoints.json"}[self.format]
+        return {
+            "gcode": "gcode",
+            "krl": "src",
+            "rapid": "mod",
+            "inform": "JBI",
+            "tp": "LS",
+            "csv": "csv",
+            "printpoints": "printpoints.json",
+        }[self.format]

@@ -91,9 +91,9 @@ class RapidSettings:
     positioner_unit: str = "STN1"
     work_frame: tuple[float, ...] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
     decimals: int = 3
-    max_module_bytes: int = 0        # 0 = one module whatever its size; else split (write_rapid_modules)
-    module_dir: str = "HOME:"        # where main() loads the part modules from (the controller's file system)
-    tool_on: str = TOOL_COMMANDS["rapid"][0]   # post-deposition tool (rolling, peening): common.py
+    max_module_bytes: int = 0  # 0 = one module whatever its size; else split (write_rapid_modules)
+    module_dir: str = "HOME:"  # where main() loads the part modules from (the controller's file system)
+    tool_on: str = TOOL_COMMANDS["rapid"][0]  # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["rapid"][1]
 
     def __post_init__(self) -> None:
@@ -131,13 +131,19 @@ def coordinated_wobj(s: RapidSettings) -> str:
     axes), ufmec = the positioner's mechanical unit, oframe = the part origin on the flange."""
     x, y, z, *q = s.work_frame
     qs = ",".join(num(v, 6) for v in q)
-    return (f"PERS wobjdata {s.wobj_name} := [FALSE,FALSE,\"{s.positioner_unit}\",[[0,0,0],[1,0,0,0]],"
-            f"[[{num(x, 3)},{num(y, 3)},{num(z, 3)}],[{qs}]]];")
+    return (
+        f'PERS wobjdata {s.wobj_name} := [FALSE,FALSE,"{s.positioner_unit}",[[0,0,0],[1,0,0,0]],'
+        f"[[{num(x, 3)},{num(y, 3)},{num(z, 3)}],[{qs}]]];"
+    )
 
 
 # Where each zone weld value goes: the welddata's main_arc (and the seamdata's ign_arc) arcdata.
-RAPID_WELD_FIELDS = {"current": "welddata.main_arc.current", "voltage": "welddata.main_arc.voltage",
-                     "wire_feed_speed": "welddata.main_arc.wirefeed", "job": "welddata.main_arc.sched"}
+RAPID_WELD_FIELDS = {
+    "current": "welddata.main_arc.current",
+    "voltage": "welddata.main_arc.voltage",
+    "wire_feed_speed": "welddata.main_arc.wirefeed",
+    "job": "welddata.main_arc.sched",
+}
 
 
 def _arcdata(params: dict) -> str:
@@ -153,8 +159,10 @@ def _robtarget(i: int, pts, quat, ext, d: int) -> str:
     e = ["9E9"] * 6
     if ext is not None:
         e[: ext.shape[1]] = [num(v, d) for v in ext[i]]
-    return (f"CONST robtarget p{i + 1} := [[{num(p[0], d)},{num(p[1], d)},{num(p[2], d)}],"
-            f"[{num(q[0], 6)},{num(q[1], 6)},{num(q[2], 6)},{num(q[3], 6)}],[0,0,0,0],[{','.join(e)}]];")
+    return (
+        f"CONST robtarget p{i + 1} := [[{num(p[0], d)},{num(p[1], d)},{num(p[2], d)}],"
+        f"[{num(q[0], 6)},{num(q[1], 6)},{num(q[2], 6)},{num(q[3], 6)}],[0,0,0,0],[{','.join(e)}]];"
+    )
 
 
 class _Names:
@@ -206,23 +214,36 @@ class _Body:
         self.used: list[int] = []
         self.params: dict = {}
         self.seam = ""
-        self.held: Motion | None = None      # arc-off motion waiting to know whether it starts a run
-        self.ignite_at: int | None = None    # point reached with MoveL fine + dwell, to ignite in place
+        self.held: Motion | None = None  # arc-off motion waiting to know whether it starts a run
+        self.ignite_at: int | None = None  # point reached with MoveL fine + dwell, to ignite in place
 
     def speed(self, v: float) -> str:
         v = round(float(v), 3)
-        return self.speeds.get((v,), lambda n: f"CONST speeddata {n} := [{short(v)},{short(self.s.reorientation_speed)},5000,1000]; ! {short(v)} mm/s")
+        return self.speeds.get(
+            (v,),
+            lambda n: (
+                f"CONST speeddata {n} := [{short(v)},{short(self.s.reorientation_speed)},5000,1000]; ! {short(v)} mm/s"
+            ),
+        )
 
     def weld(self, params: dict, v: float) -> str:
         arc = _arcdata(params)
         v = round(float(v), 3)
-        return self.welds.get((arc, v), lambda n: f"PERS welddata {n} := [{short(v)},0,{arc},[0,0,0,0,0,0,0,0,0]]; ! {process_summary(params)}")
+        return self.welds.get(
+            (arc, v),
+            lambda n: f"PERS welddata {n} := [{short(v)},0,{arc},[0,0,0,0,0,0,0,0,0]]; ! {process_summary(params)}",
+        )
 
     def seamdata(self, params: dict, dwell: float) -> str:
         arc = _arcdata(params)
         dwell = round(float(dwell), 3)
         zero = "[0,0,0,0,0,0,0,0,0]"
-        return self.seams.get((arc, dwell), lambda n: f"PERS seamdata {n} := [0,0,{arc},{short(dwell)},0,0,0,0,{zero},0,0,{zero},0,0,{zero},0]; ! ignition dwell {short(dwell)} s")
+        return self.seams.get(
+            (arc, dwell),
+            lambda n: (
+                f"PERS seamdata {n} := [0,0,{arc},{short(dwell)},0,0,0,0,{zero},0,0,{zero},0,0,{zero},0]; ! ignition dwell {short(dwell)} s"
+            ),
+        )
 
     def motion_line(self, m: Motion, z: str) -> str:
         self.used.append(m.end)
@@ -251,7 +272,7 @@ class _Body:
             self.arc_on(k, st)
         elif isinstance(st, Dwell):
             self.dwell(st)
-        elif isinstance(st, (ToolOn, ToolOff)):   # after the (fine) motion to the point
+        elif isinstance(st, (ToolOn, ToolOff)):  # after the (fine) motion to the point
             self.flush()
             on = isinstance(st, ToolOn)
             tparams = st.params if isinstance(st, ToolOn) else {}
@@ -278,8 +299,10 @@ class _Body:
         else:
             target = self.ignite_at if self.ignite_at is not None else st.point
             self.used.append(target)
-            self.lines.append(f"ArcLStart p{target + 1}, {self.speed(s.travel_speed)}, {self.seam}, {wd}, fine, "
-                              f"{self.tool}; ! ignite in place")
+            self.lines.append(
+                f"ArcLStart p{target + 1}, {self.speed(s.travel_speed)}, {self.seam}, {wd}, fine, "
+                f"{self.tool}; ! ignite in place"
+            )
         self.ignite_at = None
 
     def dwell(self, st: Dwell) -> None:
@@ -289,8 +312,10 @@ class _Body:
         if self.held is not None:
             self.ignite_at = self.held.end
             self.flush()
-        self.lines.append(f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell"
-                          + (f" ({st.note})" if st.note else ""))
+        self.lines.append(
+            f"WaitTime\\InPos, {short(round(st.seconds, 3))}; ! {st.reason} dwell"
+            + (f" ({st.note})" if st.note else "")
+        )
 
     def motion(self, k: int, st: Motion) -> None:
         """A weld motion (ArcL/ArcC, ...End before the arc goes off); an arc-off one is held."""
@@ -307,7 +332,9 @@ class _Body:
         tool, seam = self.tool, self.seam
         if st.circular:
             self.used.append(st.via)
-            self.lines.append(f"{'ArcCEnd' if end else 'ArcC'} p{st.via + 1}, p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
+            self.lines.append(
+                f"{'ArcCEnd' if end else 'ArcC'} p{st.via + 1}, p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};"
+            )
         else:
             self.lines.append(f"{'ArcLEnd' if end else 'ArcL'} p{st.end + 1}, {v}, {seam}, {wd}, {z}, {tool};")
 
@@ -327,8 +354,10 @@ def _render(plan: Plan, settings: RapidSettings) -> "_Rendered":
     bd = float(s.blend_distance)
     data: dict[str, str] = {}
     if bd > 0:
-        data["zw"] = (f"CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
-                      f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];")
+        data["zw"] = (
+            f"CONST zonedata zw := [FALSE,{short(bd)},{short(1.5 * bd)},{short(1.5 * bd)},"
+            f"{short(0.15 * bd)},{short(1.5 * bd)},{short(0.15 * bd)}];"
+        )
     for names in (b.speeds, b.seams, b.welds):
         data.update({n: decl for n, decl in names.items.values()})
     data.update({f"p{i + 1}": _robtarget(i, pts, quat, ext, s.decimals) for i in sorted(set(b.used))})
@@ -353,8 +382,10 @@ def _head(plan: Plan, s: RapidSettings, ext: np.ndarray | None) -> list[str]:
         *("! " + t for t in weld_tag(RAPID_WELD_FIELDS)),
     ]
     if ext is not None:
-        head.append(f"! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
-                    + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else ""))
+        head.append(
+            f"! external axes eax_a..eax_{'abcdef'[ext.shape[1] - 1]} (deg / mm) in every robtarget"
+            + (f", positioner {s.positioner_unit}, coordinated work object {s.wobj_name}" if s.coordinated else "")
+        )
     return head
 
 
@@ -375,9 +406,15 @@ class _Rendered:
 def write_rapid(plan: Plan, settings: RapidSettings = RapidSettings()) -> str:
     """Render a `Plan` as one RAPID module (see module doc), whatever its size."""
     r = _render(plan, settings)
-    out = [f"MODULE {settings.program_name}", *("  " + x for x in r.head + r.shared),
-           *("  " + x for x in r.data.values()), "  PROC main()",
-           *("    " + x for x in r.start + r.body + r.end), "  ENDPROC", "ENDMODULE"]
+    out = [
+        f"MODULE {settings.program_name}",
+        *("  " + x for x in r.head + r.shared),
+        *("  " + x for x in r.data.values()),
+        "  PROC main()",
+        *("    " + x for x in r.start + r.body + r.end),
+        "  ENDPROC",
+        "ENDMODULE",
+    ]
     return "\n".join(out) + "\n"
 
 
@@ -399,15 +436,15 @@ def write_rapid_modules(plan: Plan, settings: RapidSettings = RapidSettings()) -
         if all(len(t.encode()) <= s.max_module_bytes - TRACE_RESERVE for t in parts):
             break
         budget = int(budget * 0.95)
-    else:                                                          # pragma: no cover - defensive
+    else:  # pragma: no cover - defensive
         raise ValueError(f"RAPID: cannot cut the program into modules of at most {s.max_module_bytes} bytes")
     files = {"mod": _main_module(r, s, len(parts))}
     files.update({f"M{k + 1:03d}.mod": t for k, t in enumerate(parts)})
     return files
 
 
-TRACE_RESERVE = 4096     # bytes kept free in every module for the trace lines (common.stamp_trace)
-_PART_OVERHEAD = 400     # MODULE/PROC/ENDPROC/ENDMODULE lines and the part's header comment
+TRACE_RESERVE = 4096  # bytes kept free in every module for the trace lines (common.stamp_trace)
+_PART_OVERHEAD = 400  # MODULE/PROC/ENDPROC/ENDMODULE lines and the part's header comment
 _USES = re.compile(r"\b(p\d+|vw\d+|sm\d+|wd\d+|zw)\b")
 _LAYER = re.compile(r"^! layer (\d+) ")
 
@@ -454,7 +491,7 @@ def _pack(r: _Rendered, budget: int) -> list[tuple[int, int]]:
     every = list(range(len(body) + 1))
     segs = pieces(0, len(body), [layer_cuts, end_cuts, every])
     groups: list[tuple[int, int]] = []
-    for a, b in segs:                          # greedy: add whole pieces while the module fits
+    for a, b in segs:  # greedy: add whole pieces while the module fits
         if groups and cost(groups[-1][0], b) <= budget:
             groups[-1] = (groups[-1][0], b)
         else:
@@ -476,13 +513,18 @@ def part_name(program_name: str, k: int) -> str:
 
 def _part_module(r: _Rendered, s: RapidSettings, k: int, n: int, rng: tuple[int, int]) -> str:
     name = part_name(s.program_name, k)
-    lines = r.body[rng[0]:rng[1]]
+    lines = r.body[rng[0] : rng[1]]
     names = set().union(*(_uses(ln) for ln in lines)) if lines else set()
-    out = [f"MODULE {name}",
-           f"  ! part {k} of {n} of RAPID program {s.program_name} ({_layers_of(lines)}), loaded and called by "
-           f"{s.program_name}.mod; data LOCAL (two parts are loaded at a time)",
-           *(f"  LOCAL {decl}" for nm, decl in r.data.items() if nm in names),
-           f"  PROC {name}()", *("    " + x for x in lines), "  ENDPROC", "ENDMODULE"]
+    out = [
+        f"MODULE {name}",
+        f"  ! part {k} of {n} of RAPID program {s.program_name} ({_layers_of(lines)}), loaded and called by "
+        f"{s.program_name}.mod; data LOCAL (two parts are loaded at a time)",
+        *(f"  LOCAL {decl}" for nm, decl in r.data.items() if nm in names),
+        f"  PROC {name}()",
+        *("    " + x for x in lines),
+        "  ENDPROC",
+        "ENDMODULE",
+    ]
     return "\n".join(out) + "\n"
 
 
@@ -494,19 +536,28 @@ def _main_module(r: _Rendered, s: RapidSettings, n: int) -> str:
     name = s.program_name
     dvar, lvar = f"{name}_dir", f"{name}_load"
     first, last = part_name(name, 1), part_name(name, n)
-    body = [f"StartLoad \\Dynamic, {dvar} \\File:=\"{first}.mod\", {lvar};", f"WaitLoad {lvar};"]
+    body = [f'StartLoad \\Dynamic, {dvar} \\File:="{first}.mod", {lvar};', f"WaitLoad {lvar};"]
     for k in range(1, n + 1):
         part = part_name(name, k)
         if k < n:
-            body.append(f"StartLoad \\Dynamic, {dvar} \\File:=\"{part_name(name, k + 1)}.mod\", {lvar}; "
-                        "! the next part loads while this one runs")
-        body += [f"%\"{part}\"%;", f"UnLoad {dvar} \\File:=\"{part}.mod\";"]
+            body.append(
+                f'StartLoad \\Dynamic, {dvar} \\File:="{part_name(name, k + 1)}.mod", {lvar}; '
+                "! the next part loads while this one runs"
+            )
+        body += [f'%"{part}"%;', f'UnLoad {dvar} \\File:="{part}.mod";']
         if k < n:
             body.append(f"WaitLoad {lvar};")
-    out = [f"MODULE {name}", *("  " + x for x in r.head),
-           f"  ! main module: {n} part modules {first}..{last} (files {first}.mod ... {last}.mod, each at most "
-           f"{s.max_module_bytes} bytes) in {s.module_dir}; keep them beside {name}.mod and load only this module",
-           *("  " + x for x in r.shared),
-           f"  CONST string {dvar} := \"{s.module_dir}\";", f"  VAR loadsession {lvar};",
-           "  PROC main()", *("    " + x for x in r.start + body + r.end), "  ENDPROC", "ENDMODULE"]
+    out = [
+        f"MODULE {name}",
+        *("  " + x for x in r.head),
+        f"  ! main module: {n} part modules {first}..{last} (files {first}.mod ... {last}.mod, each at most "
+        f"{s.max_module_bytes} bytes) in {s.module_dir}; keep them beside {name}.mod and load only this module",
+        *("  " + x for x in r.shared),
+        f'  CONST string {dvar} := "{s.module_dir}";',
+        f"  VAR loadsession {lvar};",
+        "  PROC main()",
+        *("    " + x for x in r.start + body + r.end),
+        "  ENDPROC",
+        "ENDMODULE",
+    ]
     return "\n".join(out) + "\n"

@@ -69,10 +69,10 @@ from .walk import walk_programs
 SCHEDULE_VALUES = ("voltage", "current", "wire_feed_speed", "job", "travel_speed")
 SCHEDULE_COLUMNS = ("schedule", "voltage_V", "current_A", "wire_feed_speed_m_min", "job", "travel_speed_mm_s", "zones")
 SCHEDULE_FILE = "SCHED.CSV"
-COMMENT_MAX = 32        # a TP comment (!) holds at most 32 characters
-ATTR_COMMENT_MAX = 16   # /ATTR COMMENT holds at most 16
-SCHEDULES_NAMED = 5     # weld issues name this many schedules one by one, then one for the rest
-SCHEDULES_USUAL = 32    # more weld schedules than this: the post says to check the controller's count
+COMMENT_MAX = 32  # a TP comment (!) holds at most 32 characters
+ATTR_COMMENT_MAX = 16  # /ATTR COMMENT holds at most 16
+SCHEDULES_NAMED = 5  # weld issues name this many schedules one by one, then one for the rest
+SCHEDULES_USUAL = 32  # more weld schedules than this: the post says to check the controller's count
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,7 +91,7 @@ class TpSettings:
     max_points_per_program: int = 1000
     external_axes: np.ndarray | None = None
     decimals: int = 3
-    tool_on: str = TOOL_COMMANDS["tp"][0]       # post-deposition tool (rolling, peening): common.py
+    tool_on: str = TOOL_COMMANDS["tp"][0]  # post-deposition tool (rolling, peening): common.py
     tool_off: str = TOOL_COMMANDS["tp"][1]
 
     def __post_init__(self) -> None:
@@ -104,8 +104,10 @@ class TpSettings:
             raise ValueError("max_points_per_program must be 0 (per layer only) or at least 10")
         if not 1 <= self.tool <= 10 or not 0 <= self.user_frame <= 9:
             raise ValueError("tool must be 1..10 (UT) and user_frame 0..9 (UF)")
-        if self.external_axes is not None and not 1 <= np.asarray(self.external_axes).reshape(
-                len(self.external_axes), -1).shape[1] <= 3:
+        if (
+            self.external_axes is not None
+            and not 1 <= np.asarray(self.external_axes).reshape(len(self.external_axes), -1).shape[1] <= 3
+        ):
             raise ValueError("TP group 2: 1 to 3 positioner axes")
 
 
@@ -115,7 +117,7 @@ def schedule_key(params: dict) -> tuple:
 
 
 def _comment(text: str) -> str:
-    return "! " + text[:COMMENT_MAX - 2]
+    return "! " + text[: COMMENT_MAX - 2]
 
 
 def speed_text(v: float) -> str:
@@ -127,13 +129,19 @@ def speed_text(v: float) -> str:
 
 def _pos(k: int, p: np.ndarray, r: np.ndarray, s: TpSettings, ext: np.ndarray | None = None) -> list[str]:
     d = s.decimals
-    out = [f"P[{k}]{{", "   GP1:",
-           f"\tUF : {s.user_frame}, UT : {s.tool},\t\tCONFIG : 'N U T, 0, 0, 0',",
-           f"\tX = {num(p[0], d):>10} mm,\tY = {num(p[1], d):>10} mm,\tZ = {num(p[2], d):>10} mm,",
-           f"\tW = {num(r[0], d):>10} deg,\tP = {num(r[1], d):>10} deg,\tR = {num(r[2], d):>10} deg"]
-    if ext is not None:                           # group 2: the positioner's joints, degrees
-        out += ["   GP2:", f"\tUF : {s.user_frame}, UT : {s.tool},",
-                "\t" + ",\t".join(f"J{j} = {num(v, d):>10} deg" for j, v in enumerate(ext, 1))]
+    out = [
+        f"P[{k}]{{",
+        "   GP1:",
+        f"\tUF : {s.user_frame}, UT : {s.tool},\t\tCONFIG : 'N U T, 0, 0, 0',",
+        f"\tX = {num(p[0], d):>10} mm,\tY = {num(p[1], d):>10} mm,\tZ = {num(p[2], d):>10} mm,",
+        f"\tW = {num(r[0], d):>10} deg,\tP = {num(r[1], d):>10} deg,\tR = {num(r[2], d):>10} deg",
+    ]
+    if ext is not None:  # group 2: the positioner's joints, degrees
+        out += [
+            "   GP2:",
+            f"\tUF : {s.user_frame}, UT : {s.tool},",
+            "\t" + ",\t".join(f"J{j} = {num(v, d):>10} deg" for j, v in enumerate(ext, 1)),
+        ]
     return out + ["};"]
 
 
@@ -147,14 +155,31 @@ def render(name: str, comment: str, body: list[str], positions: list[str], group
     /POS lines. Creation date fixed (the trace comment says when it was made)."""
     mn = [_mn_line(k, ln + ("    ;" if ln.startswith(("L ", "J ")) else " ;")) for k, ln in enumerate(body, 1)]
     size = sum(len(x) + 1 for x in mn + positions)
-    head = ["/PROG  " + name, "/ATTR", "OWNER\t\t= MNEDITOR;", f'COMMENT\t\t= "{comment[:ATTR_COMMENT_MAX]}";',
-            f"PROG_SIZE\t= {size};", "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
-            "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;", "FILE_NAME\t= ;", "VERSION\t\t= 0;",
-            f"LINE_COUNT\t= {len(mn)};", f"MEMORY_SIZE\t= {size + 512};", "PROTECT\t\t= READ_WRITE;",
-            "TCD:  STACK_SIZE\t= 0,", "      TASK_PRIORITY\t= 50,", "      TIME_SLICE\t= 0,",
-            "      BUSY_LAMP_OFF\t= 0,", "      ABORT_REQUEST\t= 0,", "      PAUSE_REQUEST\t= 0;",
-            f"DEFAULT_GROUP\t= {groups};", "CONTROL_CODE\t= 00000000 00000000;",
-            "/APPL", "  ARC Welding Equipment : 1,*,*,*,*;", "/MN"]
+    head = [
+        "/PROG  " + name,
+        "/ATTR",
+        "OWNER\t\t= MNEDITOR;",
+        f'COMMENT\t\t= "{comment[:ATTR_COMMENT_MAX]}";',
+        f"PROG_SIZE\t= {size};",
+        "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
+        "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;",
+        "FILE_NAME\t= ;",
+        "VERSION\t\t= 0;",
+        f"LINE_COUNT\t= {len(mn)};",
+        f"MEMORY_SIZE\t= {size + 512};",
+        "PROTECT\t\t= READ_WRITE;",
+        "TCD:  STACK_SIZE\t= 0,",
+        "      TASK_PRIORITY\t= 50,",
+        "      TIME_SLICE\t= 0,",
+        "      BUSY_LAMP_OFF\t= 0,",
+        "      ABORT_REQUEST\t= 0,",
+        "      PAUSE_REQUEST\t= 0;",
+        f"DEFAULT_GROUP\t= {groups};",
+        "CONTROL_CODE\t= 00000000 00000000;",
+        "/APPL",
+        "  ARC Welding Equipment : 1,*,*,*,*;",
+        "/MN",
+    ]
     return "\n".join(head + mn + ["/POS"] + positions + ["/END"]) + "\n"
 
 
@@ -199,9 +224,14 @@ def schedule_comment(n: int, key: tuple) -> list[str]:
     units = {name: PARAMETERS_BY_NAME[name].unit for name in SCHEDULE_VALUES}
     vals = dict(zip(SCHEDULE_VALUES, key))
     first = " ".join(f"{short(vals[n])}{units[n]}" for n in ("voltage", "current") if vals[n] is not None)
-    second = " ".join(f"{short(vals[n])}{units[n]}" if n != "job" else f"job {short(vals[n])}"
-                      for n in ("wire_feed_speed", "job", "travel_speed") if vals[n] is not None)
-    return [f"sched {n}: {first or 'no values'}"[:COMMENT_MAX - 2]] + ([f" {second}"[:COMMENT_MAX - 2]] if second else [])
+    second = " ".join(
+        f"{short(vals[n])}{units[n]}" if n != "job" else f"job {short(vals[n])}"
+        for n in ("wire_feed_speed", "job", "travel_speed")
+        if vals[n] is not None
+    )
+    return [f"sched {n}: {first or 'no values'}"[: COMMENT_MAX - 2]] + (
+        [f" {second}"[: COMMENT_MAX - 2]] if second else []
+    )
 
 
 def tp_schedule_issues(plan: Plan, base: str) -> tuple:
@@ -213,7 +243,7 @@ def tp_schedule_issues(plan: Plan, base: str) -> tuple:
     from .common import WeldDataIssue
 
     numbers: dict[tuple, int] = {}
-    first: list[tuple] = []                  # (schedule, key, section key, layer, zone id)
+    first: list[tuple] = []  # (schedule, key, section key, layer, zone id)
     layer = None
     for st in plan.steps:
         if isinstance(st, LayerStart):
@@ -227,15 +257,26 @@ def tp_schedule_issues(plan: Plan, base: str) -> tuple:
     out = []
     for n, key, sec, lay, zid in first[:SCHEDULES_NAMED]:
         vals = " ".join(v.strip() for v in schedule_comment(n, key)).split(": ", 1)[1]
-        out.append(WeldDataIssue(sec, lay, zid, f"weld schedule {n} ({vals}) must be entered on the controller: "
-                                                f"TP has no inline weld values (Arc Start[{n}]; {where})"))
+        out.append(
+            WeldDataIssue(
+                sec,
+                lay,
+                zid,
+                f"weld schedule {n} ({vals}) must be entered on the controller: "
+                f"TP has no inline weld values (Arc Start[{n}]; {where})",
+            )
+        )
     if len(first) > SCHEDULES_NAMED:
         _n, _key, sec, lay, zid = first[SCHEDULES_NAMED]
         many = f"; {len(first)} schedules: check the controller holds that many" if len(first) > SCHEDULES_USUAL else ""
-        rest = f"schedule {len(first)}" if len(first) == SCHEDULES_NAMED + 1 else \
-            f"schedules {SCHEDULES_NAMED + 1}..{len(first)}"
-        out.append(WeldDataIssue(sec, lay, zid, f"weld {rest} must be entered on the controller as well "
-                                                f"({where}){many}"))
+        rest = (
+            f"schedule {len(first)}"
+            if len(first) == SCHEDULES_NAMED + 1
+            else f"schedules {SCHEDULES_NAMED + 1}..{len(first)}"
+        )
+        out.append(
+            WeldDataIssue(sec, lay, zid, f"weld {rest} must be entered on the controller as well ({where}){many}")
+        )
     return tuple(out)
 
 
@@ -250,8 +291,8 @@ class _Tp:
         self.travel_speed, self.tool_on, self.tool_off = s.travel_speed, s.tool_on, s.tool_off
         self.cnt = s.cnt
         self.coord = " COORD" if coordinated else ""
-        self.numbers: dict[tuple, int] = {}        # weld-value set → schedule number, 1.. in order of first use
-        self.zones: dict[int, list[str]] = {}      # schedule → the zones that use it
+        self.numbers: dict[tuple, int] = {}  # weld-value set → schedule number, 1.. in order of first use
+        self.zones: dict[int, list[str]] = {}  # schedule → the zones that use it
         self.sched = 0
         self.pts: list[int] = []
 
@@ -265,12 +306,12 @@ class _Tp:
             self.zones[new].append(zid)
         out = [_comment(f"zone {st.zone_id or '-'} sched {new}")]
         if arc and new != self.sched:
-            out.append(f"Arc Start[{new}]")       # ArcTool: Arc Start while welding = schedule change
+            out.append(f"Arc Start[{new}]")  # ArcTool: Arc Start while welding = schedule change
         self.sched = new
         return out
 
     def arc_on(self, ignition_s: float) -> list[str]:
-        if not self.sched:                        # no weld values given: an empty schedule
+        if not self.sched:  # no weld values given: an empty schedule
             self.sched = self.numbers.setdefault(schedule_key({}), len(self.numbers) + 1)
         return [f"Arc Start[{self.sched}]"] + ([f"WAIT {ignition_s:6.2f}(sec)"] if ignition_s > 0 else [])
 
@@ -301,27 +342,37 @@ def write_tp(plan: Plan, settings: TpSettings = TpSettings()) -> dict[str, str]:
     R = fixed_xyz_angles(plan.moves.tool_axis)
     ext = None if s.external_axes is None else np.asarray(s.external_axes, dtype=float).reshape(len(P), -1)
     groups = "1,*,*,*,*" if ext is None else "1,1,*,*,*"
-    progs: list[tuple[str, str, list[str], list[int]]] = []     # (name, comment, body, point indices)
+    progs: list[tuple[str, str, list[str], list[int]]] = []  # (name, comment, body, point indices)
     frames = [f"UFRAME_NUM={s.user_frame}", f"UTOOL_NUM={s.tool}"]
     tp = _Tp(s, ext is not None)
     chunks = chunk_steps(plan.steps, max_points=s.max_points_per_program)
     for chunk, cur, cur_pts in walk_programs(plan, chunks, tp):
         k = chunk.layer if chunk.layer is not None else 0
         part = chunk.part
-        progs.append((f"{base}_L{k:03d}" + (f"_{part}" if part else ""),
-                      f"waamflow L{k}" + (f".{part}" if part else ""), frames + cur, cur_pts))
+        progs.append(
+            (
+                f"{base}_L{k:03d}" + (f"_{part}" if part else ""),
+                f"waamflow L{k}" + (f".{part}" if part else ""),
+                frames + cur,
+                cur_pts,
+            )
+        )
     numbers, zones = tp.numbers, tp.zones
     st_ = plan.stats
-    main = [_comment(f"waamflow: {len(progs)} programs"), _comment(f"layers {st_['layers']}"),
-            _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
-            _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
-            _comment(f"weld schedules: {base}_SCHED"), _comment("enter them on the controller")]
+    main = [
+        _comment(f"waamflow: {len(progs)} programs"),
+        _comment(f"layers {st_['layers']}"),
+        _comment(f"deposit {st_['deposition_length_mm']:.1f} mm"),
+        _comment(f"travel {st_['travel_length_mm']:.1f} mm"),
+        _comment(f"weld schedules: {base}_SCHED"),
+        _comment("enter them on the controller"),
+    ]
     for key, n in sorted(numbers.items(), key=lambda kv: kv[1]):
         main += [_comment(c) for c in schedule_comment(n, key)]
     main += [f"CALL {name}" for name, _, _, _ in progs]
     files = {"LS": render(base, "waamflow main", main, [])}
     for name, comment, body, pts in progs:
         pos = [ln for j, i in enumerate(pts, 1) for ln in _pos(j, P[i], R[i], s, None if ext is None else ext[i])]
-        files[name[len(base) + 1:] + ".LS"] = render(name, comment, body, pos, groups)
+        files[name[len(base) + 1 :] + ".LS"] = render(name, comment, body, pos, groups)
     files[SCHEDULE_FILE] = schedule_csv(numbers, zones)
     return files

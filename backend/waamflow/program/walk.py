@@ -16,16 +16,28 @@ from typing import Protocol
 import numpy as np
 
 from .common import num, short, tool_lines
-from .plan import (ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, StepChunk, ToolOff,
-                   ToolOn, ignition_dwell_after)
+from .plan import (
+    ArcOff,
+    ArcOn,
+    Dwell,
+    LayerStart,
+    Motion,
+    Plan,
+    ProcessChange,
+    SectionStart,
+    StepChunk,
+    ToolOff,
+    ToolOn,
+    ignition_dwell_after,
+)
 
 
 class Dialect(Protocol):
     """One controller language's lines for the steps of a plan."""
 
-    name: str                 # for messages ("INFORM", "TP")
-    travel_speed: float       # mm/s: travel and motions without a programmed speed
-    tool_on: str              # post-deposition tool templates (common.tool_lines)
+    name: str  # for messages ("INFORM", "TP")
+    travel_speed: float  # mm/s: travel and motions without a programmed speed
+    tool_on: str  # post-deposition tool templates (common.tool_lines)
     tool_off: str
 
     def comment(self, text: str) -> str: ...
@@ -55,7 +67,9 @@ class Dialect(Protocol):
         ...
 
 
-def walk_programs(plan: Plan, chunks: list[StepChunk], dialect: Dialect) -> list[tuple[StepChunk, list[str], list[int]]]:
+def walk_programs(
+    plan: Plan, chunks: list[StepChunk], dialect: Dialect
+) -> list[tuple[StepChunk, list[str], list[int]]]:
     """(chunk, lines, positions) of every controller program that has a line or a position, in
     order (see module doc)."""
     steps = plan.steps
@@ -89,11 +103,12 @@ def walk_programs(plan: Plan, chunks: list[StepChunk], dialect: Dialect) -> list
                     continue
                 cur.append(c(f"{st.reason} dwell {short(round(st.seconds, 3))} s"))
                 cur.append(dialect.wait(st.seconds))
-            elif isinstance(st, (ToolOn, ToolOff)):        # after the (exact-stop) motion to the point
+            elif isinstance(st, (ToolOn, ToolOff)):  # after the (exact-stop) motion to the point
                 on = isinstance(st, ToolOn)
                 cur.append(c(f"{st.tool} {'on' if on else 'off'}"))
-                cur += tool_lines(dialect.tool_on if on else dialect.tool_off, st.tool,
-                                  st.params if isinstance(st, ToolOn) else {})
+                cur += tool_lines(
+                    dialect.tool_on if on else dialect.tool_off, st.tool, st.params if isinstance(st, ToolOn) else {}
+                )
             elif isinstance(st, Motion):
                 if st.circular:
                     raise ValueError(f"{dialect.name}: circular motions are not written (plan with arc_tolerance 0)")
