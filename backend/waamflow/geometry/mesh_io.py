@@ -20,7 +20,7 @@ import io
 import warnings
 from dataclasses import dataclass
 from pathlib import PurePosixPath
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -121,7 +121,8 @@ def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         return np.zeros((0, 3, 3))
-    return np.asarray(loaded.vertices, dtype=np.float64)[np.asarray(faces)]
+    # force="mesh" gives a Trimesh (typed as trimesh's Geometry base): its vertices, like its faces
+    return np.asarray(getattr(loaded, "vertices"), dtype=np.float64)[np.asarray(faces)]
 
 
 def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = None) -> np.ndarray:
@@ -194,7 +195,7 @@ def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float,
     faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport).
     edges: `edge_report_twins` of these faces when the caller has it (one sort of the edges less).
     """
-    out = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
+    out: dict[str, Any] = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
     rep, twin = edges if edges is not None else edge_report_twins(faces, len(verts))
     if rep.open and crack_tolerance > 0:
         v2, f2, merged = weld_open_edges(verts, faces, crack_tolerance)
@@ -293,7 +294,7 @@ def mesh_from_triangles(
         stats.update(fixes)
         if rep is not None:
             stats["edges"] = rep
-    if require_closed and not rep.closed:
+    if require_closed and rep is not None and not rep.closed:
         check_closed(faces, len(verts), name=label)             # raises, saying what is open
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
     volume = signed_volume(verts, faces)

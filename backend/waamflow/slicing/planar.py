@@ -217,9 +217,10 @@ class MeshSections:
         self.name = name
         self.faces = np.ascontiguousarray(faces, dtype=np.int64)
         self.n_vertices = int(n_vertices)
-        self.twin = edge_twins(self.faces, self.n_vertices) if len(self.faces) else np.zeros(0, dtype=np.int64)
-        if self.twin is None:
+        twin = edge_twins(self.faces, self.n_vertices) if len(self.faces) else np.zeros(0, dtype=np.int64)
+        if twin is None:
             raise PlanningError(f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops")
+        self.twin: np.ndarray = twin
         self._bodies: tuple[int, np.ndarray] | None = None
 
     def loops(self, vertices: np.ndarray, heights: np.ndarray, *,
