@@ -31,14 +31,24 @@ GRAPHS = Path(__file__).resolve().parents[1] / "graphs"
 def _loops(name: str, overrides: list) -> list[dict]:
     doc = build_sim(GRAPHS / f"{name}.json", overrides)
     o, c = doc["builds"]["open"], doc["builds"]["closed"]
-    note = f"{doc['layers_planned']} layers planned; built open {o['layers_built']}, closed {c['layers_built']} " \
-           f"({c['layers_added']} added, {c['layers_dropped']} dropped)"
+    note = (
+        f"{doc['layers_planned']} layers planned; built open {o['layers_built']}, closed {c['layers_built']} "
+        f"({c['layers_added']} added, {c['layers_dropped']} dropped)"
+    )
     out = []
     for what in ("rms", "max"):
         ov, cv = o[f"last_layer_{what}_mm"], c[f"last_layer_{what}_mm"]
         out.append({"name": f"asbuilt_{name}_open_{what}", "value": ov, "unit": "mm", "notes": note})
-        out.append({"name": f"asbuilt_{name}_closed_{what}", "value": cv, "unit": "mm", "peer": ov,
-                    "ratio": round(cv / ov, 4) if ov else None, "notes": note})
+        out.append(
+            {
+                "name": f"asbuilt_{name}_closed_{what}",
+                "value": cv,
+                "unit": "mm",
+                "peer": ov,
+                "ratio": round(cv / ov, 4) if ov else None,
+                "notes": note,
+            }
+        )
     return out
 
 
@@ -58,8 +68,12 @@ def _latency(name: str, layers: int = 6) -> dict:
             s.next_program()
             times.append((time.perf_counter() - t0) * 1000)
     n = int(np.mean([t.n for t in s.tracks]))
-    return {"name": f"asbuilt_next_layer_ms_{name}", "value": round(statistics.median(times), 1), "unit": "ms",
-            "notes": f"median of {len(times)} layers, ~{n} path samples per layer (measure + adapt + post)"}
+    return {
+        "name": f"asbuilt_next_layer_ms_{name}",
+        "value": round(statistics.median(times), 1),
+        "unit": "ms",
+        "notes": f"median of {len(times)} layers, ~{n} path samples per layer (measure + adapt + post)",
+    }
 
 
 def run() -> list[dict]:

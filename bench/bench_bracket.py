@@ -43,13 +43,19 @@ def _run() -> list[dict]:
     n_sections = sum(len(lp.sections) for lp in par.outputs["sequence"]["toolpath"])
     same = par.artifacts == ser.artifacts
     assert same, "bracket: parallel artifacts differ from the serial run"
-    return [{
-        "name": "bracket_plan_s", "value": round(t_par, 3), "unit": "s", "peer": round(t_ser, 3),
-        "ratio": round(t_par / t_ser, 4),
-        "notes": f"graphs/bracket.json whole: {par.layer_count} layers, {n_sections} sections, "
-                 f"{text.count(chr(10))} program lines; {par.executor['workers']} workers "
-                 f"({par.executor['tasks']} tasks) vs serial; artifacts {'identical' if same else 'DIFFER'}; "
-                 f"load {os.getloadavg()[0]:.1f}"}]
+    return [
+        {
+            "name": "bracket_plan_s",
+            "value": round(t_par, 3),
+            "unit": "s",
+            "peer": round(t_ser, 3),
+            "ratio": round(t_par / t_ser, 4),
+            "notes": f"graphs/bracket.json whole: {par.layer_count} layers, {n_sections} sections, "
+            f"{text.count(chr(10))} program lines; {par.executor['workers']} workers "
+            f"({par.executor['tasks']} tasks) vs serial; artifacts {'identical' if same else 'DIFFER'}; "
+            f"load {os.getloadavg()[0]:.1f}",
+        }
+    ]
 
 
 if __name__ == "__main__":

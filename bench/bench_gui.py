@@ -61,20 +61,27 @@ def run() -> list[dict]:
     OUT.unlink(missing_ok=True)
     proc = subprocess.run([node, str(SPEC)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
     if proc.returncode != 0 or not OUT.is_file():
-        raise RuntimeError(f"bench_gui: {SPEC.name} exited {proc.returncode}:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}")
+        raise RuntimeError(
+            f"bench_gui: {SPEC.name} exited {proc.returncode}:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
+        )
     r = json.loads(OUT.read_text())
     server = r.get("server_ms_median")
-    return [{
-        "name": "gui_edit_to_canvas_ms_median", "value": round(r["median"], 1), "unit": "ms",
-        "peer": round(server, 1) if server is not None else None,
-        "ratio": round(r["median"] / server, 3) if server else None,
-        "notes": f"graphs/{r['recipe']}.json, layer {r['layer']} (section {r['section']}, {r['path_points']} path points), "
-                 f"{len(r['samples'])} edits: end length median {r['param_median']:.0f} ms, mask vertex median "
-                 f"{r['vertex_median']:.0f} ms, max {r['max']:.0f} ms; peer = server preview ms; edit -> request sent "
-                 f"{_ms(r.get('edit_to_request_ms_median'))}, request wall (browser) {_ms(r.get('http_ms_median'))}, "
-                 f"the rest is the render to the next frame; goal <= {GOAL_MS:g} ms "
-                 f"({'met' if r['median'] <= GOAL_MS else 'not met'}); first view of the layer {r['first_layer_ms']} ms; "
-                 f"load {os.getloadavg()[0]:.1f}"}]
+    return [
+        {
+            "name": "gui_edit_to_canvas_ms_median",
+            "value": round(r["median"], 1),
+            "unit": "ms",
+            "peer": round(server, 1) if server is not None else None,
+            "ratio": round(r["median"] / server, 3) if server else None,
+            "notes": f"graphs/{r['recipe']}.json, layer {r['layer']} (section {r['section']}, {r['path_points']} path points), "
+            f"{len(r['samples'])} edits: end length median {r['param_median']:.0f} ms, mask vertex median "
+            f"{r['vertex_median']:.0f} ms, max {r['max']:.0f} ms; peer = server preview ms; edit -> request sent "
+            f"{_ms(r.get('edit_to_request_ms_median'))}, request wall (browser) {_ms(r.get('http_ms_median'))}, "
+            f"the rest is the render to the next frame; goal <= {GOAL_MS:g} ms "
+            f"({'met' if r['median'] <= GOAL_MS else 'not met'}); first view of the layer {r['first_layer_ms']} ms; "
+            f"load {os.getloadavg()[0]:.1f}",
+        }
+    ]
 
 
 if __name__ == "__main__":

@@ -36,8 +36,11 @@ def simulated_programs(recipe_path: Path) -> list[tuple[str, str]]:
     pairs = []
     for e in doc["edges"]:
         src, dst = e["from"].split(".")[0], e["to"]
-        if dst.endswith(".program") and types.get(dst.split(".")[0]) == "simulate-robot" \
-                and types.get(src) == "post-process":
+        if (
+            dst.endswith(".program")
+            and types.get(dst.split(".")[0]) == "simulate-robot"
+            and types.get(src) == "post-process"
+        ):
             pairs.append((dst.split(".")[0], src))
     return pairs
 
@@ -50,11 +53,16 @@ def _row(name: str, result, sim: str, post: str, extra: str = "") -> dict:
     simulated = sj["total_time_s"]
     stats = result.program_stats()[post]
     header = stats["estimated_time_s"]
-    return {"name": name, "value": round(simulated, 2), "unit": "s", "peer": round(header, 2),
-            "ratio": round(simulated / header, 4),
-            "notes": f"{post} ({stats['format']}) simulated by {sim} as written{extra} "
-                     f"(controller {sj['settings']['controller']}, profile {sj['robot_profile']}) "
-                     f"vs the program header's estimate"}
+    return {
+        "name": name,
+        "value": round(simulated, 2),
+        "unit": "s",
+        "peer": round(header, 2),
+        "ratio": round(simulated / header, 4),
+        "notes": f"{post} ({stats['format']}) simulated by {sim} as written{extra} "
+        f"(controller {sj['settings']['controller']}, profile {sj['robot_profile']}) "
+        f"vs the program header's estimate",
+    }
 
 
 def run() -> list[dict]:
@@ -74,6 +82,13 @@ def run() -> list[dict]:
                     if n["id"] == sim:
                         n["params"] = {k: v for k, v in n.get("params", {}).items() if k not in ROBOT_PARAMS}
                 again = execute(build_graph(parse_recipe(doc)), resolver=FileResolver(path.parent), preflight=False)
-                out.append(_row(f"program_time_{path.stem}_gcode_planner", again, sim, post,
-                                " on the G-code planner family (the recipe's robot params removed)"))
+                out.append(
+                    _row(
+                        f"program_time_{path.stem}_gcode_planner",
+                        again,
+                        sim,
+                        post,
+                        " on the G-code planner family (the recipe's robot params removed)",
+                    )
+                )
     return out

@@ -29,7 +29,9 @@ import numpy as np
 N_EDIT = 200
 N_FULL = 500
 REPEATS = 5
-PARALLEL_REPEATS = 3  # parallel_speedup / dask_overhead: best of this many runs each (noise on a shared machine only adds time)
+PARALLEL_REPEATS = (
+    3  # parallel_speedup / dask_overhead: best of this many runs each (noise on a shared machine only adds time)
+)
 LAYER = 1.5  # mm (MPP study)
 
 
@@ -96,31 +98,68 @@ def _recipe(tmp: Path, count: int, split_y: float, real: bool) -> dict:
         stl = tmp / f"cross_{count}.stl"
         if not stl.exists():
             trimesh.creation.extrude_polygon(_cross_polygon(), LAYER * count).export(stl)
-        head = [{"id": "part", "type": "mesh", "params": {"path": stl.name}},
-                {"id": "layers", "type": "slice", "params": {"layer_height": LAYER, "layer_count": count}}]
+        head = [
+            {"id": "part", "type": "mesh", "params": {"path": stl.name}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": LAYER, "layer_count": count}},
+        ]
         edges = [{"from": "part.mesh", "to": "layers.mesh"}]
-        strategy = {"id": "strategy", "type": "strategy", "params": {
-            "default": {"pattern": "parallel", "bead_width": 6, "spacing": 6},
-            "sections": {"bs1/A": {"pattern": "oscillate", "bead_width": 6, "step": 3}}}}
+        strategy = {
+            "id": "strategy",
+            "type": "strategy",
+            "params": {
+                "default": {"pattern": "parallel", "bead_width": 6, "spacing": 6},
+                "sections": {"bs1/A": {"pattern": "oscillate", "bead_width": 6, "step": 3}},
+            },
+        }
     else:
         head = [{"id": "layers", "type": "bench-cross-stack", "params": {"count": count}}]
         edges = []
         strategy = {"id": "strategy", "type": "bench-pass", "params": {}}
     nodes = head + [
-        {"id": "mask", "type": "mask", "params": {"masks": [{"id": "bs1", "from_layer": 0, "sections": [
-            {"id": "A", "curve": rect(-6, -62, 6, 62)}, {"id": "B", "curve": rect(-62, -7, -6, 7)},
-            {"id": "C", "curve": rect(6, -7, 62, 7)}]}]}},
-        {"id": "guide", "type": "guide", "params": {"guides": {"bs1/A": [[0, -66], [0, 66]], "bs1/B": [[-66, 0], [-3, 0]],
-                                                               "bs1/C": [[3, 0], [66, 0]]}}},
+        {
+            "id": "mask",
+            "type": "mask",
+            "params": {
+                "masks": [
+                    {
+                        "id": "bs1",
+                        "from_layer": 0,
+                        "sections": [
+                            {"id": "A", "curve": rect(-6, -62, 6, 62)},
+                            {"id": "B", "curve": rect(-62, -7, -6, 7)},
+                            {"id": "C", "curve": rect(6, -7, 62, 7)},
+                        ],
+                    }
+                ]
+            },
+        },
+        {
+            "id": "guide",
+            "type": "guide",
+            "params": {
+                "guides": {"bs1/A": [[0, -66], [0, 66]], "bs1/B": [[-66, 0], [-3, 0]], "bs1/C": [[3, 0], [66, 0]]}
+            },
+        },
         strategy,
-        {"id": "zone", "type": "zone", "params": {
-            "default": {"start_length": 10, "end_length": 10},
-            "sections": {"bs1/A": {"start_length": 10, "end_length": 10, "split_points": [[0, -split_y], [0, split_y]]}}}},
+        {
+            "id": "zone",
+            "type": "zone",
+            "params": {
+                "default": {"start_length": 10, "end_length": 10},
+                "sections": {
+                    "bs1/A": {"start_length": 10, "end_length": 10, "split_points": [[0, -split_y], [0, split_y]]}
+                },
+            },
+        },
         {"id": "sequence", "type": "sequence", "params": {"order": "nearest", "retract_height": 10}},
     ]
-    edges += [{"from": "layers.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "guide.sections"},
-              {"from": "guide.sections", "to": "strategy.sections"}, {"from": "strategy.toolpath", "to": "zone.toolpath"},
-              {"from": "zone.toolpath", "to": "sequence.toolpath"}]
+    edges += [
+        {"from": "layers.layers", "to": "mask.layers"},
+        {"from": "mask.sections", "to": "guide.sections"},
+        {"from": "guide.sections", "to": "strategy.sections"},
+        {"from": "strategy.toolpath", "to": "zone.toolpath"},
+        {"from": "zone.toolpath", "to": "sequence.toolpath"},
+    ]
     return {"format": "waamflow/1", "name": f"bench-cross-{count}", "nodes": nodes, "edges": edges}
 
 
@@ -140,8 +179,11 @@ def run() -> list[dict]:
     real = all(t in reg for t in ("mesh", "slice", "strategy"))
     if not real:
         _register_standins()
-    source = "mesh + slice + strategy nodes" if real else \
-        "stand-in layers/paths (mesh, slice or strategy node not registered)"
+    source = (
+        "mesh + slice + strategy nodes"
+        if real
+        else "stand-in layers/paths (mesh, slice or strategy node not registered)"
+    )
     results = []
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
@@ -162,12 +204,18 @@ def run() -> list[dict]:
             full.append(time.perf_counter() - t0)
             computed = (res.stats["zone"].layers_computed, res.stats["strategy"].layers_computed)
         one_ms, full_ms = 1e3 * statistics.median(one), 1e3 * statistics.median(full)
-        results.append({
-            "name": "replan_one_layer_ms", "value": round(one_ms, 2), "unit": "ms", "peer": round(full_ms, 2),
-            "ratio": round(one_ms / full_ms, 4),
-            "notes": f"{N_EDIT}-layer cross, 3 sections; edit = bs1/A split points; layer {k} re-planned alone "
-                     f"(median of {REPEATS}); peer = whole-part re-plan after the same edit ({computed[0]} zone "
-                     f"layers recomputed, {computed[1]} strategy layers); {source}; target <= 100 ms"})
+        results.append(
+            {
+                "name": "replan_one_layer_ms",
+                "value": round(one_ms, 2),
+                "unit": "ms",
+                "peer": round(full_ms, 2),
+                "ratio": round(one_ms / full_ms, 4),
+                "notes": f"{N_EDIT}-layer cross, 3 sections; edit = bs1/A split points; layer {k} re-planned alone "
+                f"(median of {REPEATS}); peer = whole-part re-plan after the same edit ({computed[0]} zone "
+                f"layers recomputed, {computed[1]} strategy layers); {source}; target <= 100 ms",
+            }
+        )
         # --- full-part plan -----------------------------------------------------------------------
         g = _graph(_recipe(tmp, N_FULL, 6.0, real))
         cache = MemoryCache()
@@ -179,11 +227,17 @@ def run() -> list[dict]:
         t0 = time.perf_counter()
         execute(g, resolver=resolver, cache=cache, artifacts=False, workers=1)
         warm = time.perf_counter() - t0
-        results.append({
-            "name": "plan_full_part_s", "value": round(cold, 3), "unit": "s", "peer": round(warm, 3),
-            "ratio": round(warm / cold, 4),
-            "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); node seconds: {per_node}; "
-                     f"peer = same run with a warm cache; {source}"})
+        results.append(
+            {
+                "name": "plan_full_part_s",
+                "value": round(cold, 3),
+                "unit": "s",
+                "peer": round(warm, 3),
+                "ratio": round(warm / cold, 4),
+                "notes": f"{N_FULL}-layer cross, {n_paths} section paths, cold (no cache); node seconds: {per_node}; "
+                f"peer = same run with a warm cache; {source}",
+            }
+        )
         # --- the same cold plan on every core (engine/parallel.py) ----------------------------------
         if real:
             cores = os.cpu_count() or 1
@@ -203,31 +257,38 @@ def run() -> list[dict]:
             same = par.artifacts == ser.artifacts
             busiest = max(m_par.children.values(), default=0.0)
             avail = _cores_available(cores)
-            results.append({
-                "name": "parallel_speedup", "value": round(t_ser / t_par, 3), "unit": "x", "peer": round(t_ser, 3),
-                "ratio": round(t_par / t_ser, 4),
-                "notes": f"cold full plan of the {N_FULL}-layer cross, best of {PARALLEL_REPEATS} (serial "
-                         f"{', '.join(f'{t:.2f}' for t in t_sers)} s; parallel {', '.join(f'{t:.2f}' for t in t_pars)} s, "
-                         f"the first starting the fork server): serial {t_ser:.2f} s / {cores} workers "
-                         f"{t_par:.2f} s ({par.executor['tasks']} tasks: layer nodes chained, mask → guide → "
-                         f"strategy → zone per task); last runs' CPU s: serial "
-                         f"{m_ser.own:.2f}, parallel parent {m_par.own:.2f} + children {sum(m_par.children.values()):.2f} "
-                         f"(busiest {busiest:.2f}; fork server and workers); serial CPU / (parent + busiest child) "
-                         f"{m_ser.own / max(m_par.own + busiest, 1e-9):.2f}; artifacts "
-                         f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f} on {cores} cores, "
-                         f"{avail:.2f} cores available to this session ({cores} busy processes for 1 s"
-                         f"{'; the kernel shares CPU per session (sched_autogroup): more processes do not get more of a loaded machine' if _autogroup() else ''}); "
-                         f"target >= 1.6"})
+            results.append(
+                {
+                    "name": "parallel_speedup",
+                    "value": round(t_ser / t_par, 3),
+                    "unit": "x",
+                    "peer": round(t_ser, 3),
+                    "ratio": round(t_par / t_ser, 4),
+                    "notes": f"cold full plan of the {N_FULL}-layer cross, best of {PARALLEL_REPEATS} (serial "
+                    f"{', '.join(f'{t:.2f}' for t in t_sers)} s; parallel {', '.join(f'{t:.2f}' for t in t_pars)} s, "
+                    f"the first starting the fork server): serial {t_ser:.2f} s / {cores} workers "
+                    f"{t_par:.2f} s ({par.executor['tasks']} tasks: layer nodes chained, mask → guide → "
+                    f"strategy → zone per task); last runs' CPU s: serial "
+                    f"{m_ser.own:.2f}, parallel parent {m_par.own:.2f} + children {sum(m_par.children.values()):.2f} "
+                    f"(busiest {busiest:.2f}; fork server and workers); serial CPU / (parent + busiest child) "
+                    f"{m_ser.own / max(m_par.own + busiest, 1e-9):.2f}; artifacts "
+                    f"{'byte-identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f} on {cores} cores, "
+                    f"{avail:.2f} cores available to this session ({cores} busy processes for 1 s"
+                    f"{'; the kernel shares CPU per session (sched_autogroup): more processes do not get more of a loaded machine' if _autogroup() else ''}); "
+                    f"target >= 1.6",
+                }
+            )
             assert same, "parallel artifacts differ from the serial run"
             results.append(_dask_overhead(g, resolver, par, t_par))
     return results
 
 
-
-_SPIN = ("import time, sys\n"
-         "c0, end = time.process_time(), time.perf_counter() + float(sys.argv[1])\n"
-         "while time.perf_counter() < end: pass\n"
-         "print(time.process_time() - c0)\n")
+_SPIN = (
+    "import time, sys\n"
+    "c0, end = time.process_time(), time.perf_counter() + float(sys.argv[1])\n"
+    "while time.perf_counter() < end: pass\n"
+    "print(time.process_time() - c0)\n"
+)
 
 
 def _cores_available(n: int, seconds: float = 1.0) -> float:
@@ -236,8 +297,10 @@ def _cores_available(n: int, seconds: float = 1.0) -> float:
     import subprocess
     import sys
 
-    procs = [subprocess.Popen([sys.executable, "-c", _SPIN, str(seconds)], stdout=subprocess.PIPE, text=True)
-             for _ in range(n)]
+    procs = [
+        subprocess.Popen([sys.executable, "-c", _SPIN, str(seconds)], stdout=subprocess.PIPE, text=True)
+        for _ in range(n)
+    ]
     return sum(float(p.communicate()[0]) for p in procs) / seconds
 
 
@@ -305,18 +368,26 @@ def _dask_overhead(g, resolver, par, t_par: float) -> dict:
         t_dasks = []
         for _ in range(PARALLEL_REPEATS):
             t0 = time.perf_counter()
-            res = execute(g, resolver=resolver, cache=MemoryCache(), artifacts=True, scheduler=cluster.scheduler_address)
+            res = execute(
+                g, resolver=resolver, cache=MemoryCache(), artifacts=True, scheduler=cluster.scheduler_address
+            )
             t_dasks.append(time.perf_counter() - t0)
         t_dask = min(t_dasks)
     same = res.artifacts == par.artifacts
     assert same, "Dask artifacts differ from the local parallel run"
-    return {"name": "dask_overhead", "value": round(t_dask / t_par, 3), "unit": "x", "peer": round(t_par, 3),
-            "ratio": round(t_dask / t_par, 4),
-            "notes": f"cold full plan of the {N_FULL}-layer cross on a Dask LocalCluster (2 worker processes), "
-                     f"best of {PARALLEL_REPEATS} ({', '.join(f'{t:.2f}' for t in t_dasks)} s): {t_dask:.2f} s "
-                     f"({res.executor['tasks']} tasks; artifacts written by the run) / local parallel (best of "
-                     f"{PARALLEL_REPEATS}) {t_par:.2f} s; programs "
-                     f"{'identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target <= 1.3"}
+    return {
+        "name": "dask_overhead",
+        "value": round(t_dask / t_par, 3),
+        "unit": "x",
+        "peer": round(t_par, 3),
+        "ratio": round(t_dask / t_par, 4),
+        "notes": f"cold full plan of the {N_FULL}-layer cross on a Dask LocalCluster (2 worker processes), "
+        f"best of {PARALLEL_REPEATS} ({', '.join(f'{t:.2f}' for t in t_dasks)} s): {t_dask:.2f} s "
+        f"({res.executor['tasks']} tasks; artifacts written by the run) / local parallel (best of "
+        f"{PARALLEL_REPEATS}) {t_par:.2f} s; programs "
+        f"{'identical' if same else 'DIFFER'}; load {os.getloadavg()[0]:.1f}; target <= 1.3",
+    }
+
 
 if __name__ == "__main__":
     import json

@@ -38,8 +38,12 @@ SPEED = 10.0
 
 
 def program():
-    builders = (lambda: study.raster(SPEED), lambda: study.triangular(SPEED, 45.0, arc_outside=False),
-                lambda: study.semicircular(SPEED), lambda: study.swiping(SPEED))
+    builders = (
+        lambda: study.raster(SPEED),
+        lambda: study.triangular(SPEED, 45.0, arc_outside=False),
+        lambda: study.semicircular(SPEED),
+        lambda: study.swiping(SPEED),
+    )
     layers = []
     for i in range(LAYERS):
         mv = builders[i % len(builders)]()
@@ -63,9 +67,17 @@ def _timed(moves, profile, kin):
 def _configs():
     """name → KinematicsOptions | None: with arm-only IK, without IK, with the cell."""
     cell = load_cell("kr150_tilt_rotate")
-    return {"ik": KinematicsOptions(step_mm=5.0), "no_ik": None,
-            "cell": KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm), step_mm=5.0,
-                                      cell=cell, positioner_policy="gravity")}
+    return {
+        "ik": KinematicsOptions(step_mm=5.0),
+        "no_ik": None,
+        "cell": KinematicsOptions(
+            description=cell.robot_urdf,
+            tcp_offset_mm=tuple(cell.tool.tcp_mm),
+            step_mm=5.0,
+            cell=cell,
+            positioner_policy="gravity",
+        ),
+    }
 
 
 def run() -> list[dict]:
@@ -73,12 +85,12 @@ def run() -> list[dict]:
     profile = load_profile("kuka_kr100ha_krc2")
     configs = _configs()
     names = list(configs)
-    for kin in configs.values():                       # warm-up of each, IK and collision models included
+    for kin in configs.values():  # warm-up of each, IK and collision models included
         _timed(study.raster(SPEED), profile, kin)
     walls: dict[str, list[float]] = {n: [] for n in names}
     results = {}
     for r in range(ROUNDS):
-        for n in names[r % len(names):] + names[:r % len(names)]:
+        for n in names[r % len(names) :] + names[: r % len(names)]:
             results[n], wall = _timed(moves, profile, configs[n])
             walls[n].append(wall)
     wall_ik, wall_no, wall_cell = (statistics.median(walls[n]) for n in names)
@@ -89,21 +101,38 @@ def run() -> list[dict]:
     rtf_no = res_no.metrics["total_time_s"] / wall_no
     spread = "; ".join(f"{n} " + "/".join(f"{w:.2f}" for w in walls[n]) for n in names)
     method = f"wall = median of {ROUNDS} rounds in rotated order ({spread} s), each configuration warmed up first"
-    common = (f"{LAYERS} layers, {len(moves.points)} points, {res_ik.metrics['programmed_length_mm'] / 1000:.1f} m, "
-              f"{sim_s / 3600:.2f} h simulated, {int(res_ik.metrics['stops'])} stops, "
-              f"{len(res_ik.trace['t'])} trace samples at 12 ms; {method}")
+    common = (
+        f"{LAYERS} layers, {len(moves.points)} points, {res_ik.metrics['programmed_length_mm'] / 1000:.1f} m, "
+        f"{sim_s / 3600:.2f} h simulated, {int(res_ik.metrics['stops'])} stops, "
+        f"{len(res_ik.trace['t'])} trace samples at 12 ms; {method}"
+    )
     return [
-        {"name": "sim_realtime_factor", "value": round(rtf_ik, 1), "unit": "sim s / wall s",
-         "peer": round(rtf_no, 1), "ratio": round(rtf_ik / rtf_no, 4),
-         "notes": f"with Pinocchio IK ({int(res_ik.metrics['ik_samples'])} IK samples, 5 mm step), "
-                  f"{wall_ik:.2f} s wall; peer = without IK. {common}"},
-        {"name": "sim_realtime_factor_no_ik", "value": round(rtf_no, 1), "unit": "sim s / wall s",
-         "peer": round(rtf_ik, 1), "ratio": round(rtf_no / rtf_ik, 4),
-         "notes": f"controller model only, {wall_no:.2f} s wall; peer = with IK. {common}"},
-        {"name": "sim_realtime_factor_cell", "value": round(rtf_cell, 1), "unit": "sim s / wall s",
-         "peer": round(rtf_ik, 1), "ratio": round(rtf_cell / rtf_ik, 4),
-         "notes": f"kr150_tilt_rotate cell, gravity policy, coordinated IK samples (≤5 mm, ≤1° of positioner turn) in the world, coal collision checks of the cell's bodies every 20 mm; "
-                  f"{wall_cell:.2f} s wall; peer = arm-only IK. {common}"},
+        {
+            "name": "sim_realtime_factor",
+            "value": round(rtf_ik, 1),
+            "unit": "sim s / wall s",
+            "peer": round(rtf_no, 1),
+            "ratio": round(rtf_ik / rtf_no, 4),
+            "notes": f"with Pinocchio IK ({int(res_ik.metrics['ik_samples'])} IK samples, 5 mm step), "
+            f"{wall_ik:.2f} s wall; peer = without IK. {common}",
+        },
+        {
+            "name": "sim_realtime_factor_no_ik",
+            "value": round(rtf_no, 1),
+            "unit": "sim s / wall s",
+            "peer": round(rtf_ik, 1),
+            "ratio": round(rtf_no / rtf_ik, 4),
+            "notes": f"controller model only, {wall_no:.2f} s wall; peer = with IK. {common}",
+        },
+        {
+            "name": "sim_realtime_factor_cell",
+            "value": round(rtf_cell, 1),
+            "unit": "sim s / wall s",
+            "peer": round(rtf_ik, 1),
+            "ratio": round(rtf_cell / rtf_ik, 4),
+            "notes": f"kr150_tilt_rotate cell, gravity policy, coordinated IK samples (≤5 mm, ≤1° of positioner turn) in the world, coal collision checks of the cell's bodies every 20 mm; "
+            f"{wall_cell:.2f} s wall; peer = arm-only IK. {common}",
+        },
     ]
 
 

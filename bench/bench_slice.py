@@ -28,9 +28,18 @@ import numpy as np
 REPEATS = 3
 
 
-def ribbed_tube(n_theta: int, n_z: int, *, radius: float = 60.0, wall: float = 6.0, height: float = 100.0,
-                ribs: int = 24, rib_depth: float = 3.0, twist_deg: float = 90.0,
-                inner_follows: bool = False) -> np.ndarray:
+def ribbed_tube(
+    n_theta: int,
+    n_z: int,
+    *,
+    radius: float = 60.0,
+    wall: float = 6.0,
+    height: float = 100.0,
+    ribs: int = 24,
+    rib_depth: float = 3.0,
+    twist_deg: float = 90.0,
+    inner_follows: bool = False,
+) -> np.ndarray:
     """Triangle corners (4·n_theta·(n_z + 1), 3, 3) float32, mm, of a closed hollow tube.
 
     Outer wall carries `ribs` sinusoidal ribs of depth `rib_depth` twisting by `twist_deg` over
@@ -40,7 +49,7 @@ def ribbed_tube(n_theta: int, n_z: int, *, radius: float = 60.0, wall: float = 6
     """
     th = np.linspace(0.0, 2 * np.pi, n_theta, endpoint=False)
     z = np.linspace(0.0, height, n_z + 1)
-    T, Z = np.meshgrid(th, z, indexing="ij")                 # (n_theta, n_z + 1)
+    T, Z = np.meshgrid(th, z, indexing="ij")  # (n_theta, n_z + 1)
     phase = T + np.radians(twist_deg) * Z / height
     r_out = radius + rib_depth * np.sin(ribs * phase)
     r_in = r_out - wall if inner_follows else np.full_like(T, radius - wall)
@@ -54,9 +63,9 @@ def ribbed_tube(n_theta: int, n_z: int, *, radius: float = 60.0, wall: float = 6
     j = np.arange(n_theta)
     k0, k1 = np.arange(n_z), np.arange(1, n_z + 1)
     tris = []
-    a, b, c, d = quads(outer, j, j1, k0, k1)                 # outward
+    a, b, c, d = quads(outer, j, j1, k0, k1)  # outward
     tris += [np.stack([a, b, c], -2), np.stack([a, c, d], -2)]
-    a, b, c, d = quads(inner, j, j1, k0, k1)                 # inward-facing wall: reversed
+    a, b, c, d = quads(inner, j, j1, k0, k1)  # inward-facing wall: reversed
     tris += [np.stack([a, c, b], -2), np.stack([a, d, c], -2)]
     for k, down in ((0, True), (n_z, False)):
         o0, o1, i0, i1 = outer[j, k], outer[j1, k], inner[j, k], inner[j1, k]
@@ -131,35 +140,49 @@ def run() -> list[dict]:
         path = os.path.join(tmp, "ribbed_tube.stl")
         corners = ribbed_tube(1000, 125)
         write_binary_stl(path, corners)
-        layer_height = 0.2                               # 100 mm / 0.2 mm = 500 layers
+        layer_height = 0.2  # 100 mm / 0.2 mm = 500 layers
         t_ours, layers = _median(lambda: ours(path, layer_height))
         cuts = np.array([l.z - l.thickness / 2 for l in layers])
         t_peer, polys = _median(lambda: peer(path, cuts))
         a_ours = sum(l.area for l in layers)
         a_peer = sum(p.area for ps in polys for p in ps)
-        results.append({
-            "name": "slice_ratio_vs_trimesh", "value": round(t_ours / t_peer, 4), "unit": "ratio",
-            "peer": "trimesh.load + section_multiplane + Path2D.polygons_full",
-            "ratio": round(t_ours / t_peer, 4),
-            "notes": f"{len(corners)} triangles, {len(layers)} layers; ours {t_ours:.3f} s, peer {t_peer:.3f} s "
-                     f"(each the median of {REPEATS} runs from the same file, both warmed up)",
-        })
-        results.append({
-            "name": "slice_area_error", "value": abs(a_ours - a_peer) / a_peer, "unit": "ratio",
-            "peer": "trimesh section areas", "ratio": abs(a_ours - a_peer) / a_peer,
-            "notes": f"total section area ours {a_ours:.1f} mm², trimesh {a_peer:.1f} mm²",
-        })
+        results.append(
+            {
+                "name": "slice_ratio_vs_trimesh",
+                "value": round(t_ours / t_peer, 4),
+                "unit": "ratio",
+                "peer": "trimesh.load + section_multiplane + Path2D.polygons_full",
+                "ratio": round(t_ours / t_peer, 4),
+                "notes": f"{len(corners)} triangles, {len(layers)} layers; ours {t_ours:.3f} s, peer {t_peer:.3f} s "
+                f"(each the median of {REPEATS} runs from the same file, both warmed up)",
+            }
+        )
+        results.append(
+            {
+                "name": "slice_area_error",
+                "value": abs(a_ours - a_peer) / a_peer,
+                "unit": "ratio",
+                "peer": "trimesh section areas",
+                "ratio": abs(a_ours - a_peer) / a_peer,
+                "notes": f"total section area ours {a_ours:.1f} mm², trimesh {a_peer:.1f} mm²",
+            }
+        )
         # ---- loading a 50 MB binary STL ---------------------------------------------------
         big = os.path.join(tmp, "big.stl")
         size = write_binary_stl(big, ribbed_tube(2000, 124))
         t_load, mesh = _median(lambda: load_ours(big))
         t_tm, _ = _median(lambda: trimesh.load(big, force="mesh"))
-        results.append({
-            "name": "mesh_load_50mb_s", "value": round(t_load, 4), "unit": "s",
-            "peer": "trimesh.load", "ratio": round(t_load / t_tm, 4),
-            "notes": f"{size / 1e6:.1f} MB, {len(mesh.faces)} triangles, {len(mesh.vertices)} vertices after welding; trimesh {t_tm:.3f} s (both read the file from disk "
-                     f"in the timed call, median of {REPEATS} runs each)",
-        })
+        results.append(
+            {
+                "name": "mesh_load_50mb_s",
+                "value": round(t_load, 4),
+                "unit": "s",
+                "peer": "trimesh.load",
+                "ratio": round(t_load / t_tm, 4),
+                "notes": f"{size / 1e6:.1f} MB, {len(mesh.faces)} triangles, {len(mesh.vertices)} vertices after welding; trimesh {t_tm:.3f} s (both read the file from disk "
+                f"in the timed call, median of {REPEATS} runs each)",
+            }
+        )
     return results
 
 

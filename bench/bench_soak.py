@@ -46,8 +46,20 @@ def _free_port() -> int:
 
 def _box_stl(height: float, size: float = 20.0) -> bytes:
     v = np.array([[x, y, z] for x in (0, size) for y in (0, size) for z in (0, height)], dtype=np.float32)
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
-             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    faces = [
+        (0, 1, 3),
+        (0, 3, 2),
+        (4, 6, 7),
+        (4, 7, 5),
+        (0, 4, 5),
+        (0, 5, 1),
+        (2, 3, 7),
+        (2, 7, 6),
+        (0, 2, 6),
+        (0, 6, 4),
+        (1, 5, 7),
+        (1, 7, 3),
+    ]
     out = io.BytesIO()
     out.write(b"\0" * 80 + struct.pack("<I", len(faces)))
     for f in faces:
@@ -56,23 +68,51 @@ def _box_stl(height: float, size: float = 20.0) -> bytes:
 
 
 def _sliced(path: str) -> dict:
-    return {"format": "waamflow/1", "name": "soak", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": path}},
-        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}}],
-        "edges": [{"from": "part.mesh", "to": "layers.mesh"}]}
+    return {
+        "format": "waamflow/1",
+        "name": "soak",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": path}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+        ],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}],
+    }
 
 
 def start_server(tmp: Path, port: int) -> subprocess.Popen:
     tf = tmp / "tokens.txt"
     tf.write_text(f"soak:{TOKEN}\n")
     tf.chmod(0o600)
-    env = {**os.environ, "WAAMFLOW_START_VIEWER": "false", "WAAMFLOW_MAX_LAYERS": "2000",
-           "WAAMFLOW_LAYER_WORKERS": "1",
-           "WAAMFLOW_MAX_UNCOMPRESSED_MB": "64"}
-    return subprocess.Popen([sys.executable, "-m", "waamflow.cli", "serve", "--port", str(port), "--data",
-                             str(tmp / "data"), "--viewer-port", "0", "--token-file", str(tf),
-                             "--graphs", str(ROOT / "graphs"), "--header-timeout", "5"],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    env = {
+        **os.environ,
+        "WAAMFLOW_START_VIEWER": "false",
+        "WAAMFLOW_MAX_LAYERS": "2000",
+        "WAAMFLOW_LAYER_WORKERS": "1",
+        "WAAMFLOW_MAX_UNCOMPRESSED_MB": "64",
+    }
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "waamflow.cli",
+            "serve",
+            "--port",
+            str(port),
+            "--data",
+            str(tmp / "data"),
+            "--viewer-port",
+            "0",
+            "--token-file",
+            str(tf),
+            "--graphs",
+            str(ROOT / "graphs"),
+            "--header-timeout",
+            "5",
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
 
 
 class Soak:
@@ -134,13 +174,16 @@ class Soak:
         with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:
             c.put("/api/graphs/target", json=_sliced("tall.stl"))
         while not self.stop.wait(1.0):
-            with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:   # a new connection each time
+            with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:  # a new connection each time
+
                 def body():
                     for _ in range(10 * 1024):
                         yield b"x" * 2**20
+
                 try:
-                    r = c.put("/api/graphs/target/files/big.stl", content=body(),
-                              headers={"Content-Length": str(10 * 2**30)})
+                    r = c.put(
+                        "/api/graphs/target/files/big.stl", content=body(), headers={"Content-Length": str(10 * 2**30)}
+                    )
                     self.note("10 GB Content-Length", r.status_code)
                 except httpx.HTTPError as e:
                     self.note("10 GB Content-Length", type(e).__name__)
@@ -154,18 +197,20 @@ class Soak:
     def estimates(self) -> None:
         bomb = io.BytesIO()
         with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("3D/3dmodel.model", bytes(80 * 2**20))   # 80 MB of zeros: ~80 kB compressed
+            z.writestr("3D/3dmodel.model", bytes(80 * 2**20))  # 80 MB of zeros: ~80 kB compressed
         with httpx.Client(base_url=self.base, headers=self.auth, timeout=30) as c:
             c.put("/api/graphs/target", json=_sliced("tall.stl"))
-            c.put("/api/graphs/target/files/tall.stl", content=_box_stl(30_000.0))   # 20,000 layers
+            c.put("/api/graphs/target/files/tall.stl", content=_box_stl(30_000.0))  # 20,000 layers
             c.put("/api/graphs/target/files/bomb.3mf", content=bomb.getvalue())
             while not self.stop.wait(0.5):
                 r = c.post("/api/runs", json={"graph": "target"})
                 self.note("20,000-layer part (estimate)", r.status_code)
                 r = c.post("/api/runs", json={"recipe": _sliced("bomb.3mf"), "graph": "target"})
                 self.note("3MF zip bomb (80 MB declared, limit 64 MB)", r.status_code)
-                r = c.post("/api/preview", json={"recipe": _sliced("tall.stl"), "graph": "target", "node": "layers",
-                                                 "layer": 0})
+                r = c.post(
+                    "/api/preview",
+                    json={"recipe": _sliced("tall.stl"), "graph": "target", "node": "layers", "layer": 0},
+                )
                 self.note("preview of the 20,000-layer part", r.status_code)
 
     def abandoned_previews(self) -> None:
@@ -180,8 +225,12 @@ class Soak:
 
     def wrong_tokens(self) -> None:
         transport = httpx.HTTPTransport(local_address="127.0.0.2")
-        with httpx.Client(base_url=f"http://127.0.0.1:{self.port}", transport=transport, timeout=10,
-                          headers={"Authorization": f"Bearer {BAD}"}) as c:
+        with httpx.Client(
+            base_url=f"http://127.0.0.1:{self.port}",
+            transport=transport,
+            timeout=10,
+            headers={"Authorization": f"Bearer {BAD}"},
+        ) as c:
             while not self.stop.is_set():
                 try:
                     self.note("wrong tokens (127.0.0.2)", c.get("/api/graphs").status_code)
@@ -195,7 +244,7 @@ class Soak:
                 try:
                     s = socket.create_connection(("127.0.0.1", self.port), timeout=2, source_address=("127.0.0.3", 0))
                     if len(socks) % 3 == 0:
-                        s.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\n")   # slowloris: head never ends
+                        s.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\n")  # slowloris: head never ends
                     socks.append(s)
                 except OSError:
                     self.note("half-open connections", "refused")
@@ -224,8 +273,9 @@ class Soak:
         with httpx.Client(base_url=self.base, timeout=5) as c:
             while not self.stop.wait(0.5):
                 try:
-                    rss = self.server.memory_info().rss + sum(p.memory_info().rss
-                                                              for p in self.server.children(recursive=True))
+                    rss = self.server.memory_info().rss + sum(
+                        p.memory_info().rss for p in self.server.children(recursive=True)
+                    )
                     self.rss.append(rss / 2**20)
                 except psutil.Error:
                     self.rss.append(float("nan"))
@@ -238,8 +288,17 @@ class Soak:
 
     def run(self) -> dict:
         threads = [threading.Thread(target=self.client, args=(k,), daemon=True) for k in range(self.clients)]
-        threads += [threading.Thread(target=f, daemon=True) for f in (
-            self.big_uploads, self.estimates, self.abandoned_previews, self.wrong_tokens, self.half_open, self.watch)]
+        threads += [
+            threading.Thread(target=f, daemon=True)
+            for f in (
+                self.big_uploads,
+                self.estimates,
+                self.abandoned_previews,
+                self.wrong_tokens,
+                self.half_open,
+                self.watch,
+            )
+        ]
         for t in threads:
             t.start()
         time.sleep(self.seconds)
@@ -247,14 +306,18 @@ class Soak:
         for t in threads:
             t.join(timeout=70)
         lat = np.array(self.lat) * 1000
-        return {"requests": len(lat), "p50_ms": float(np.percentile(lat, 50)) if len(lat) else None,
-                "p95_ms": float(np.percentile(lat, 95)) if len(lat) else None,
-                "p99_ms": float(np.percentile(lat, 99)) if len(lat) else None,
-                "codes": {str(k): v for k, v in sorted(self.codes.items())},
-                "hostile": {k: {str(c): n for c, n in v.items()} for k, v in self.hostile.items()},
-                "peak_rss_mb": float(np.nanmax(self.rss)) if self.rss else None,
-                "start_rss_mb": float(self.rss[0]) if self.rss else None,
-                "health_checks": self.health_n, "health_failures": self.health_fail}
+        return {
+            "requests": len(lat),
+            "p50_ms": float(np.percentile(lat, 50)) if len(lat) else None,
+            "p95_ms": float(np.percentile(lat, 95)) if len(lat) else None,
+            "p99_ms": float(np.percentile(lat, 99)) if len(lat) else None,
+            "codes": {str(k): v for k, v in sorted(self.codes.items())},
+            "hostile": {k: {str(c): n for c, n in v.items()} for k, v in self.hostile.items()},
+            "peak_rss_mb": float(np.nanmax(self.rss)) if self.rss else None,
+            "start_rss_mb": float(self.rss[0]) if self.rss else None,
+            "health_checks": self.health_n,
+            "health_failures": self.health_fail,
+        }
 
 
 def soak(seconds: float = 60.0, clients: int = 50) -> dict:
@@ -285,16 +348,29 @@ def soak(seconds: float = 60.0, clients: int = 50) -> dict:
 
 def run(seconds: float = 60.0, clients: int = 50) -> list[dict]:
     r = soak(seconds, clients)
-    notes = json.dumps({k: r[k] for k in ("codes", "hostile", "p50_ms", "p95_ms", "start_rss_mb", "health_checks",
-                                           "server_alive")})
+    notes = json.dumps(
+        {k: r[k] for k in ("codes", "hostile", "p50_ms", "p95_ms", "start_rss_mb", "health_checks", "server_alive")}
+    )
     return [
-        {"name": "soak_p99_ms", "value": round(r["p99_ms"], 1), "unit": "ms",
-         "notes": f"{clients} clients + hostile inputs, {seconds:g} s: {notes}"},
-        {"name": "soak_peak_rss_mb", "value": round(r["peak_rss_mb"], 1), "unit": "MB",
-         "notes": "server process tree (layer workers included)"},
+        {
+            "name": "soak_p99_ms",
+            "value": round(r["p99_ms"], 1),
+            "unit": "ms",
+            "notes": f"{clients} clients + hostile inputs, {seconds:g} s: {notes}",
+        },
+        {
+            "name": "soak_peak_rss_mb",
+            "value": round(r["peak_rss_mb"], 1),
+            "unit": "MB",
+            "notes": "server process tree (layer workers included)",
+        },
         {"name": "soak_5xx", "value": sum(v for k, v in r["codes"].items() if k.startswith("5")), "unit": "count"},
-        {"name": "soak_health_failures", "value": r["health_failures"], "unit": "count",
-         "notes": f"of {r['health_checks']} checks every 0.5 s; server alive at the end: {r['server_alive']}"},
+        {
+            "name": "soak_health_failures",
+            "value": r["health_failures"],
+            "unit": "count",
+            "notes": f"of {r['health_checks']} checks every 0.5 s; server alive at the end: {r['server_alive']}",
+        },
         {"name": "soak_requests", "value": r["requests"], "unit": "count"},
     ]
 
@@ -304,6 +380,9 @@ if __name__ == "__main__":
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 50
     result = soak(secs, n)
     print(json.dumps(result, indent=1))
-    ok = result["server_alive"] and result["health_failures"] == 0 and \
-        not any(k.startswith("5") for k in result["codes"])
+    ok = (
+        result["server_alive"]
+        and result["health_failures"] == 0
+        and not any(k.startswith("5") for k in result["codes"])
+    )
     sys.exit(0 if ok else 1)

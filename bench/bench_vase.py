@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "bench"))
 
 R_OUT, R_IN, HEIGHT, LAYER = 80.0, 74.0, 200.0, 1.5
-N_THETA, N_Z = 2000, 125          # 4 · 2000 · 126 = 1,008,000 triangles
+N_THETA, N_Z = 2000, 125  # 4 · 2000 · 126 = 1,008,000 triangles
 REPEATS = max(1, int(os.environ.get("WAAMFLOW_BENCH_REPEATS", "1")))
 
 PRUSA_CONFIG = """\
@@ -73,18 +73,31 @@ gcode_comments = 0
 
 
 def _recipe() -> dict:
-    return {"format": "waamflow/1", "name": "bench-vase",
-            "description": "Thin-walled vase r 80/74 mm, 200 mm: one bead per 1.5 mm layer on the ring's centre line",
-            "nodes": [
-                {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
-                {"id": "layers", "type": "slice", "params": {"layer_height": LAYER}},
-                {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "spacing": 1.0, "overlap": 5.0,
-                                                                 "bead_width": 6.0}},
-                # the weld commanded: 5 m/min puts a 6 × 1.5 mm bead at 10 mm/s (wire/part 1.0 in the preflight)
-                {"id": "post", "type": "post-process", "params": {"format": "gcode",
-                                                                  "weld_values": {"wire_feed_speed": 5.0}}}],
-            "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"},
-                      {"from": "walls.toolpath", "to": "post.toolpath"}]}
+    return {
+        "format": "waamflow/1",
+        "name": "bench-vase",
+        "description": "Thin-walled vase r 80/74 mm, 200 mm: one bead per 1.5 mm layer on the ring's centre line",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": LAYER}},
+            {
+                "id": "walls",
+                "type": "wall-path",
+                "params": {"speed": 10.0, "spacing": 1.0, "overlap": 5.0, "bead_width": 6.0},
+            },
+            # the weld commanded: 5 m/min puts a 6 × 1.5 mm bead at 10 mm/s (wire/part 1.0 in the preflight)
+            {
+                "id": "post",
+                "type": "post-process",
+                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
+            },
+        ],
+        "edges": [
+            {"from": "part.mesh", "to": "layers.mesh"},
+            {"from": "layers.layers", "to": "walls.layers"},
+            {"from": "walls.toolpath", "to": "post.toolpath"},
+        ],
+    }
 
 
 def _children_cpu() -> float:
@@ -104,7 +117,7 @@ def _tree_cpu(root: int) -> dict[int, float]:
                 st = fh.read()
         except OSError:
             continue
-        f = st[st.rindex(")") + 2:].split()
+        f = st[st.rindex(")") + 2 :].split()
         kids.setdefault(int(f[1]), []).append((int(d), (int(f[11]) + int(f[12])) / tick))
     out, todo = {}, [root]
     while todo:
@@ -153,9 +166,11 @@ def _prusa_slicer() -> tuple[str | None, str]:
     if os.geteuid() != 0 or not shutil.which("apt-get"):
         return None, "prusa-slicer is not on PATH and apt-get cannot install it here (not root or no apt)"
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"],
-                ["apt-get", "update"],
-                ["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"]):
+    for cmd in (
+        ["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"],
+        ["apt-get", "update"],
+        ["apt-get", "install", "-y", "--no-install-recommends", "prusa-slicer"],
+    ):
         subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=1200)
         exe = shutil.which("prusa-slicer")
         if exe:
@@ -169,10 +184,14 @@ def _prusa_version(exe: str) -> str:
     return line.split(" based on")[0]
 
 
-BRACKET_PRUSA = PRUSA_CONFIG.replace("fill_density = 0%", "fill_density = 100%\nfill_pattern = rectilinear\n"
-                                    "infill_extrusion_width = 6\nsolid_infill_extrusion_width = 6") \
-    .replace("max_print_height = 300", "max_print_height = 460").replace("bed_shape = 0x0,300x0,300x300,0x300",
-                                                                       "bed_shape = 0x0,400x0,400x400,0x400")
+BRACKET_PRUSA = (
+    PRUSA_CONFIG.replace(
+        "fill_density = 0%",
+        "fill_density = 100%\nfill_pattern = rectilinear\ninfill_extrusion_width = 6\nsolid_infill_extrusion_width = 6",
+    )
+    .replace("max_print_height = 300", "max_print_height = 460")
+    .replace("bed_shape = 0x0,300x0,300x300,0x300", "bed_shape = 0x0,400x0,400x400,0x400")
+)
 
 
 def _shape(name: str, tmp: Path) -> tuple[Path, Path, str, str]:
@@ -181,9 +200,17 @@ def _shape(name: str, tmp: Path) -> tuple[Path, Path, str, str]:
 
     if name in ("vase", "twisted_vase"):
         twisted = name == "twisted_vase"
-        corners = ribbed_tube(N_THETA, N_Z, radius=R_OUT, wall=R_OUT - R_IN, height=HEIGHT,
-                              rib_depth=10.0 if twisted else 0.0, ribs=3, twist_deg=120.0 if twisted else 0.0,
-                              inner_follows=twisted)
+        corners = ribbed_tube(
+            N_THETA,
+            N_Z,
+            radius=R_OUT,
+            wall=R_OUT - R_IN,
+            height=HEIGHT,
+            rib_depth=10.0 if twisted else 0.0,
+            ribs=3,
+            twist_deg=120.0 if twisted else 0.0,
+            inner_follows=twisted,
+        )
         n_tri = len(corners)
         size = write_binary_stl(str(tmp / f"{name}.stl"), corners)
         del corners
@@ -191,8 +218,10 @@ def _shape(name: str, tmp: Path) -> tuple[Path, Path, str, str]:
         rec["nodes"][0]["params"]["path"] = f"{name}.stl"
         (tmp / f"{name}.json").write_text(json.dumps(rec))
         (tmp / f"{name}.ini").write_text(PRUSA_CONFIG)
-        desc = (f"{'twisted 3-lobed ±10 mm ' if twisted else ''}vase r {R_OUT:g}/{R_IN:g} mm × {HEIGHT:g} mm, "
-                f"{n_tri:,} triangles ({size / 1e6:.0f} MB binary STL), {LAYER} mm layers")
+        desc = (
+            f"{'twisted 3-lobed ±10 mm ' if twisted else ''}vase r {R_OUT:g}/{R_IN:g} mm × {HEIGHT:g} mm, "
+            f"{n_tri:,} triangles ({size / 1e6:.0f} MB binary STL), {LAYER} mm layers"
+        )
         return tmp / f"{name}.stl", tmp / f"{name}.json", tmp / f"{name}.ini", desc
     if name == "bracket":
         rec = json.loads((ROOT / "graphs" / "bracket.json").read_text())
@@ -203,7 +232,12 @@ def _shape(name: str, tmp: Path) -> tuple[Path, Path, str, str]:
                 n["params"]["path"] = "bracket.stl"
         (tmp / "bracket.json").write_text(json.dumps(rec))
         (tmp / "bracket.ini").write_text(BRACKET_PRUSA)
-        return stl, tmp / "bracket.json", tmp / "bracket.ini", "bracket 300 × 90 × 450 mm (graphs/bracket.json), 1.5 mm layers"
+        return (
+            stl,
+            tmp / "bracket.json",
+            tmp / "bracket.ini",
+            "bracket 300 × 90 × 450 mm (graphs/bracket.json), 1.5 mm layers",
+        )
     raise ValueError(name)
 
 
@@ -218,34 +252,63 @@ def _one(name: str, exe: str | None, why: str, tmp: Path) -> dict:
     if not Path(waam_cmd[0]).exists():
         waam_cmd[:1] = [sys.executable, "-m", "waamflow.cli"]
     ours, theirs = [], []
-    for _ in range(REPEATS):     # alternating, so a change of machine load hits both
+    for _ in range(REPEATS):  # alternating, so a change of machine load hits both
         ours.append(_timed(waam_cmd, env=env))
         if exe:
-            theirs.append(_timed([exe, "--loglevel", "1", "--export-gcode", "--load", str(ini),
-                                  "--center", "200,200" if name == "bracket" else "150,150",
-                                  "--output", str(tmp / f"prusa-{name}.gcode"), str(stl)], cwd=tmp))
+            theirs.append(
+                _timed(
+                    [
+                        exe,
+                        "--loglevel",
+                        "1",
+                        "--export-gcode",
+                        "--load",
+                        str(ini),
+                        "--center",
+                        "200,200" if name == "bracket" else "150,150",
+                        "--output",
+                        str(tmp / f"prusa-{name}.gcode"),
+                        str(stl),
+                    ],
+                    cwd=tmp,
+                )
+            )
     summary = json.loads((out / "summary.json").read_text())
     gcode = (out / "post.gcode").read_text()
     our_layers = sum(1 for ln in gcode.splitlines() if ln.startswith("; layer "))
     nodes = ", ".join(f"{k} {v['seconds']:.2f}" for k, v in summary["nodes"].items())
     t_ours = statistics.median(w for w, _, _ in ours)
     c_ours = statistics.median(c for _, c, _ in ours)
-    base = (f"{desc}; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers) "
-            f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU, {our_layers} layers, nodes: {nodes}")
+    base = (
+        f"{desc}; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers) "
+        f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU, {our_layers} layers, nodes: {nodes}"
+    )
     name_out = f"stl_to_gcode_ratio_vs_prusaslicer_{name}"
     if not exe:
-        return {"name": name_out, "value": None, "unit": "x", "peer": None, "ratio": None,
-                "notes": f"NOT MEASURED: {why}; {base}"}
+        return {
+            "name": name_out,
+            "value": None,
+            "unit": "x",
+            "peer": None,
+            "ratio": None,
+            "notes": f"NOT MEASURED: {why}; {base}",
+        }
     prusa_layers = (tmp / f"prusa-{name}.gcode").read_text().count(";LAYER_CHANGE")
     t_theirs = statistics.median(w for w, _, _ in theirs)
     c_theirs = statistics.median(c for _, c, _ in theirs)
     ratio = t_ours / t_theirs
-    return {"name": name_out, "value": round(ratio, 3), "unit": "x", "peer": round(t_theirs, 3), "ratio": round(ratio, 4),
-            "cpu_ratio": round(c_ours / c_theirs, 3),
-            "notes": f"{base}; {_prusa_version(exe)} CLI ({'perimeter + 100 % infill' if name == 'bracket' else 'perimeter only'}, "
-                     f"6 mm extrusion width{', ' + why if why else ''}) {t_theirs:.2f} s wall / {c_theirs:.2f} s CPU, "
-                     f"{prusa_layers} layers; CPU ratio {c_ours / c_theirs:.2f}; median of {REPEATS}; "
-                     f"load {os.getloadavg()[0]:.1f}; target <= 0.5 (at least <= 1.0)"}
+    return {
+        "name": name_out,
+        "value": round(ratio, 3),
+        "unit": "x",
+        "peer": round(t_theirs, 3),
+        "ratio": round(ratio, 4),
+        "cpu_ratio": round(c_ours / c_theirs, 3),
+        "notes": f"{base}; {_prusa_version(exe)} CLI ({'perimeter + 100 % infill' if name == 'bracket' else 'perimeter only'}, "
+        f"6 mm extrusion width{', ' + why if why else ''}) {t_theirs:.2f} s wall / {c_theirs:.2f} s CPU, "
+        f"{prusa_layers} layers; CPU ratio {c_ours / c_theirs:.2f}; median of {REPEATS}; "
+        f"load {os.getloadavg()[0]:.1f}; target <= 0.5 (at least <= 1.0)",
+    }
 
 
 def run() -> list[dict]:
@@ -257,9 +320,14 @@ def run() -> list[dict]:
     measured = [e for e in out if e["value"] is not None]
     if measured:
         worst = max(measured, key=lambda e: e["value"])
-        out.append({**worst, "name": "stl_to_gcode_ratio_vs_prusaslicer",
-                    "notes": f"worst of {', '.join(SHAPES)}: {worst['name'].rsplit('_vs_prusaslicer_', 1)[1]}; "
-                             + worst["notes"]})
+        out.append(
+            {
+                **worst,
+                "name": "stl_to_gcode_ratio_vs_prusaslicer",
+                "notes": f"worst of {', '.join(SHAPES)}: {worst['name'].rsplit('_vs_prusaslicer_', 1)[1]}; "
+                + worst["notes"],
+            }
+        )
     else:
         out.append({**out[0], "name": "stl_to_gcode_ratio_vs_prusaslicer"})
     return out

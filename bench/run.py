@@ -31,11 +31,14 @@ def main() -> int:
     only = set(args)
     unknown = only - {p.stem for p in modules}
     if unknown:
-        print(f"unknown bench module(s): {', '.join(sorted(unknown))}; the modules are: "
-              f"{', '.join(p.stem for p in modules)}", file=sys.stderr)
+        print(
+            f"unknown bench module(s): {', '.join(sorted(unknown))}; the modules are: "
+            f"{', '.join(p.stem for p in modules)}",
+            file=sys.stderr,
+        )
         return 2
     results, failures = [], []
-    load = os.getloadavg()[0]   # other work on the machine slows every figure: recorded with them
+    load = os.getloadavg()[0]  # other work on the machine slows every figure: recorded with them
     for path in modules:
         if only and path.stem not in only:
             continue
@@ -63,13 +66,21 @@ def main() -> int:
         # a selection: keep what the other modules wrote last time
         old = json.loads((out / "results.json").read_text())
         names = {e["name"] for e in results}
-        results = [e for e in old.get("results", []) if e.get("module") not in only and e.get("name") not in names
-                   ] + results
+        results = [
+            e for e in old.get("results", []) if e.get("module") not in only and e.get("name") not in names
+        ] + results
         failures = [f for f in old.get("failures", []) if f.get("module") not in only] + failures
-    doc = {"results": results, "failures": failures,
-           "machine": {"python": platform.python_version(), "platform": platform.platform(), "cpus": os.cpu_count(),
-                       "load_average_1min_at_start": round(load, 2),
-                       "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}}
+    doc = {
+        "results": results,
+        "failures": failures,
+        "machine": {
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "cpus": os.cpu_count(),
+            "load_average_1min_at_start": round(load, 2),
+            "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        },
+    }
     (out / "results.json").write_text(json.dumps(doc, indent=2))
     print(f"wrote {out / 'results.json'}")
     return 1 if failures else 0

@@ -117,25 +117,36 @@ def recipe_examples(graphs: Path = ROOT / "graphs", max_chars: int = 900) -> dic
     return best
 
 
-def node_reference(catalog: list[dict], usage: dict[str, list[str]],
-                   examples: dict[str, tuple[str, str]] | None = None) -> str:
-    out = [GENERATED, "# Node reference\n",
-           f"{len(catalog)} node types, from the node catalog (`waamflow nodes`, `GET /api/nodes`): the same "
-           "declaration the engine runs and the GUI builds its forms from. Units: mm, s, deg unless a "
-           "parameter says otherwise. Port types connect only to the same type.\n"]
+def node_reference(
+    catalog: list[dict], usage: dict[str, list[str]], examples: dict[str, tuple[str, str]] | None = None
+) -> str:
+    out = [
+        GENERATED,
+        "# Node reference\n",
+        f"{len(catalog)} node types, from the node catalog (`waamflow nodes`, `GET /api/nodes`): the same "
+        "declaration the engine runs and the GUI builds its forms from. Units: mm, s, deg unless a "
+        "parameter says otherwise. Port types connect only to the same type.\n",
+    ]
     by_cat: dict[str, list[dict]] = defaultdict(list)
     for n in catalog:
         by_cat[n.get("category", "other")].append(n)
     out.append("| category | types |\n|---|---|")
     for cat in sorted(by_cat):
-        out.append(f"| [{cat}](#category-{_slug(cat)}) | " + ", ".join(f"[`{n['type']}`](#{n['type']})" for n in by_cat[cat]) + " |")
+        out.append(
+            f"| [{cat}](#category-{_slug(cat)}) | "
+            + ", ".join(f"[`{n['type']}`](#{n['type']})" for n in by_cat[cat])
+            + " |"
+        )
     out.append("")
     for cat in sorted(by_cat):
         out.append(f"## {cat} {{ #category-{_slug(cat)} }}\n")
         for n in by_cat[cat]:
             out.append(f"### `{n['type']}` {{ #{n['type']} }}\n")
-            out.append(f"**{n['title']}** · version {n.get('version', '1')}"
-                       + (" · runs per layer (cached per layer)" if n.get("per_layer") else "") + "\n")
+            out.append(
+                f"**{n['title']}** · version {n.get('version', '1')}"
+                + (" · runs per layer (cached per layer)" if n.get("per_layer") else "")
+                + "\n"
+            )
             desc = "\n".join(line.strip() for line in (n.get("description") or "").splitlines())
             out.append(desc.strip() + "\n")
             rows = [("in", p) for p in n.get("inputs", [])] + [("out", p) for p in n.get("outputs", [])]
@@ -151,14 +162,19 @@ def node_reference(catalog: list[dict], usage: dict[str, list[str]],
                 req = set(schema.get("required", []))
                 out.append("| parameter | type | unit | bounds | default | what |\n|---|---|---|---|---|---|")
                 for name, s in props.items():
-                    out.append(f"| `{name}` | {_cell(_type_of(s))} | {s.get('unit', '')} | {_cell(_bounds(s))} | "
-                               f"{_cell(_default(s, name in req))} | {_cell(s.get('description', ''))} |")
+                    out.append(
+                        f"| `{name}` | {_cell(_type_of(s))} | {s.get('unit', '')} | {_cell(_bounds(s))} | "
+                        f"{_cell(_default(s, name in req))} | {_cell(s.get('description', ''))} |"
+                    )
                 out.append("")
             else:
                 out.append("No parameters.\n")
             used = usage.get(n["type"], [])
-            out.append("Used in: " + (", ".join(f"`graphs/{g}`" for g in used) if used else "none of the shipped recipes")
-                       + ".\n")
+            out.append(
+                "Used in: "
+                + (", ".join(f"`graphs/{g}`" for g in used) if used else "none of the shipped recipes")
+                + ".\n"
+            )
             if examples and n["type"] in examples:
                 rec, text = examples[n["type"]]
                 out += [f"Example (`graphs/{rec}`):\n", "```json", text, "```", ""]
@@ -180,13 +196,16 @@ def _schema_name(s: dict | None) -> str:
 
 
 def rest_reference(spec: dict) -> str:
-    out = [GENERATED, "# REST reference\n",
-           f"From the server's own OpenAPI schema ({spec['info']['title']} {spec['info']['version']}; "
-           "`waamflow openapi` prints it, a running server serves it at `/openapi.json` and an "
-           "interactive page at `/docs`). With a token configured every `/api` route except "
-           "`/api/health` needs `Authorization: Bearer <token>` (see "
-           "[the lab server tutorial](../tutorials/lab-server.md)). Every 4xx answers one body, "
-           "[`ErrorResponse`](#schema-errorresponse).\n"]
+    out = [
+        GENERATED,
+        "# REST reference\n",
+        f"From the server's own OpenAPI schema ({spec['info']['title']} {spec['info']['version']}; "
+        "`waamflow openapi` prints it, a running server serves it at `/openapi.json` and an "
+        "interactive page at `/docs`). With a token configured every `/api` route except "
+        "`/api/health` needs `Authorization: Bearer <token>` (see "
+        "[the lab server tutorial](../tutorials/lab-server.md)). Every 4xx answers one body, "
+        "[`ErrorResponse`](#schema-errorresponse).\n",
+    ]
     out.append("| method | path | summary | answers |\n|---|---|---|---|")
     ops = []
     for path, item in spec["paths"].items():
@@ -208,8 +227,10 @@ def rest_reference(spec: dict) -> str:
             out.append("| parameter | in | type | required | what |\n|---|---|---|---|---|")
             for p in params:
                 s = p.get("schema", {})
-                out.append(f"| `{p['name']}` | {p['in']} | {_cell(_type_of(s))} {_cell(_bounds(s))} | "
-                           f"{'yes' if p.get('required') else ''} | {_cell(p.get('description', s.get('description', '')))} |")
+                out.append(
+                    f"| `{p['name']}` | {p['in']} | {_cell(_type_of(s))} {_cell(_bounds(s))} | "
+                    f"{'yes' if p.get('required') else ''} | {_cell(p.get('description', s.get('description', '')))} |"
+                )
             out.append("")
         body = op.get("requestBody", {}).get("content", {})
         for media, c in body.items():
@@ -241,15 +262,20 @@ def rest_reference(spec: dict) -> str:
 
 
 def bench_page(results: Path) -> str:
-    out = [GENERATED, "# Benchmarks\n",
-           "`make bench` runs the modules `bench/bench_*.py` (collected by `bench/run.py`) and writes "
-           "`out/bench/results.json`; this page is its table. A ratio is ours ÷ the peer's, measured side "
-           "by side in the same run, with the same warm-up, repeats and statistic for both (each entry's notes "
-           "say which). Wall times move with the machine's other work: the machine line gives its load "
-           "average when the run started.\n"]
+    out = [
+        GENERATED,
+        "# Benchmarks\n",
+        "`make bench` runs the modules `bench/bench_*.py` (collected by `bench/run.py`) and writes "
+        "`out/bench/results.json`; this page is its table. A ratio is ours ÷ the peer's, measured side "
+        "by side in the same run, with the same warm-up, repeats and statistic for both (each entry's notes "
+        "say which). Wall times move with the machine's other work: the machine line gives its load "
+        "average when the run started.\n",
+    ]
     if not results.is_file():
-        out.append("!!! note \"No results on this machine\"\n    `out/bench/results.json` is missing: run "
-                   "`make bench`, then `make docs`.\n")
+        out.append(
+            '!!! note "No results on this machine"\n    `out/bench/results.json` is missing: run '
+            "`make bench`, then `make docs`.\n"
+        )
         return "\n".join(out)
     data = json.loads(results.read_text())
     mach = data.get("machine", {})
@@ -259,10 +285,14 @@ def bench_page(results: Path) -> str:
     out.append(f"{len(rows)} results.\n")
     out.append("| name | value | unit | peer | ratio | notes |\n|---|---|---|---|---|---|")
     for r in rows:
+
         def num(v):
             return "" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
-        out.append(f"| `{r.get('name')}` | {num(r.get('value'))} | {r.get('unit', '')} | {num(r.get('peer'))} | "
-                   f"{num(r.get('ratio'))} | {_cell(r.get('notes', ''))} |")
+
+        out.append(
+            f"| `{r.get('name')}` | {num(r.get('value'))} | {r.get('unit', '')} | {num(r.get('peer'))} | "
+            f"{num(r.get('ratio'))} | {_cell(r.get('notes', ''))} |"
+        )
     out.append("")
     fails = data.get("failures", [])
     if fails:
@@ -305,7 +335,7 @@ def constants_frozen_commit(path: str = "backend/waamflow/data/robots/kuka_kr100
         return "unknown (no git history)"
     now = fitted((ROOT / path).read_text())
     since = None
-    for h, date in log:                     # newest first: the oldest commit of the newest run of equal values
+    for h, date in log:  # newest first: the oldest commit of the newest run of equal values
         if fitted(_git("show", f"{h}:{path}")) != now:
             break
         since = f"{h} ({date})"
@@ -339,20 +369,35 @@ def study_rows(profile_name: str = "kuka_kr100ha_krc2") -> list[dict]:
         notes = []
         src = study_source(c)
         if src == "closed-form model":
-            notes.append("the authors' cycle-time formula evaluated with their identified ramp and transition "
-                         "figures (the fit uses those figures): not a measurement")
+            notes.append(
+                "the authors' cycle-time formula evaluated with their identified ramp and transition "
+                "figures (the fit uses those figures): not a measurement"
+            )
         if c.held_out:
             key = c.name.split(": ")[-1]
-            same = [fc.name for fc, fr in fitted if fc.name.split(": ")[-1] == key and fc.name != c.name
-                    and math.isclose(fr["model"], r["model"], rel_tol=1e-9, abs_tol=1e-12)]
+            same = [
+                fc.name
+                for fc, fr in fitted
+                if fc.name.split(": ")[-1] == key
+                and fc.name != c.name
+                and math.isclose(fr["model"], r["model"], rel_tol=1e-9, abs_tol=1e-12)
+            ]
             if same:
                 notes.append(f"model value identical to the fitted case '{same[0]}': not an independent check")
         if c.program.startswith("swiping"):
             notes.append("a fit target until commit e880f9d (the profiles of 8313db3 and 8d5018a were fitted to it)")
         if c.name in STUDY_LIMITS:
             notes.append("limit: see the tolerance table")
-        out.append({**r, "source": src, "set": "held out" if c.held_out else "fit", "limit": study_limit(c.name),
-                    "notes": "; ".join(notes), "case": c})
+        out.append(
+            {
+                **r,
+                "source": src,
+                "set": "held out" if c.held_out else "fit",
+                "limit": study_limit(c.name),
+                "notes": "; ".join(notes),
+                "case": c,
+            }
+        )
     return out
 
 
@@ -361,10 +406,15 @@ def published_lengths() -> list[dict]:
     against the lengths the study publishes."""
     from waamflow.trajectory import study
 
-    pub = [("raster", study.raster(40), 387.910), ("semicircular", study.semicircular(40), 242.603),
-           ("triangular 45°", study.triangular(40, 45), 261.301), ("triangular 60°", study.triangular(40, 60), 250.437),
-           ("rectangular", study.planned("rectangular", 40), 217.600),
-           ("spiral", study.planned("spiral", 40), 215.710), ("swiping", study.swiping(40), 464.246)]
+    pub = [
+        ("raster", study.raster(40), 387.910),
+        ("semicircular", study.semicircular(40), 242.603),
+        ("triangular 45°", study.triangular(40, 45), 261.301),
+        ("triangular 60°", study.triangular(40, 60), 250.437),
+        ("rectangular", study.planned("rectangular", 40), 217.600),
+        ("spiral", study.planned("spiral", 40), 215.710),
+        ("swiping", study.swiping(40), 464.246),
+    ]
     out = []
     for name, mv, ref in pub:
         ours = float(mv.segment_lengths.sum())
@@ -385,8 +435,12 @@ def thin_wall_rows() -> list[dict]:
     return out
 
 
-COLORS = {"fit": "#4361ee", "held out": "#2a9d8f", "held out, model = a fitted figure's": "#adb5bd",
-          "closed-form model": "#e9c46a"}
+COLORS = {
+    "fit": "#4361ee",
+    "held out": "#2a9d8f",
+    "held out, model = a fitted figure's": "#adb5bd",
+    "closed-form model": "#e9c46a",
+}
 
 
 def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
@@ -399,37 +453,51 @@ def error_svg(rows: list[dict], title: str, clip: float = 25.0) -> str:
     def x(v):
         return x0 + max(-clip, min(clip, v)) / clip * (width / 2)
 
-    s = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{left + width + 110}" height="{h}" '
-         f'font-family="sans-serif" font-size="11">',
-         f'<text x="8" y="18" font-size="13" font-weight="bold">{escape(title)}</text>']
+    s = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{left + width + 110}" height="{h}" '
+        f'font-family="sans-serif" font-size="11">',
+        f'<text x="8" y="18" font-size="13" font-weight="bold">{escape(title)}</text>',
+    ]
     for k in range(-int(clip), int(clip) + 1, 5):
         s.append(f'<line x1="{x(k):.1f}" y1="{top - 6}" x2="{x(k):.1f}" y2="{h - 34}" stroke="#ddd"/>')
         s.append(f'<text x="{x(k):.1f}" y="{h - 22}" text-anchor="middle">{k:+d} %</text>')
     for i, r in enumerate(rows):
         y = top + i * bar_h
-        kind = ("closed-form model" if r.get("source") == "closed-form model"
-                else "held out, model = a fitted figure's" if "identical to the fitted case" in r.get("notes", "")
-                else r.get("set", "fit"))
+        kind = (
+            "closed-form model"
+            if r.get("source") == "closed-form model"
+            else "held out, model = a fitted figure's"
+            if "identical to the fitted case" in r.get("notes", "")
+            else r.get("set", "fit")
+        )
         e = r["error_pct"]
         s.append(f'<text x="{left - 6}" y="{y + 11}" text-anchor="end">{escape(r["name"][:58])}</text>')
         if math.isfinite(e):
             a, b = sorted((x0, x(e)))
-            s.append(f'<rect x="{a:.1f}" y="{y + 2}" width="{max(b - a, 1):.1f}" height="{bar_h - 4}" '
-                     f'fill="{COLORS[kind]}"><title>{escape(r["name"])}: {e:+.2f} %</title></rect>')
+            s.append(
+                f'<rect x="{a:.1f}" y="{y + 2}" width="{max(b - a, 1):.1f}" height="{bar_h - 4}" '
+                f'fill="{COLORS[kind]}"><title>{escape(r["name"])}: {e:+.2f} %</title></rect>'
+            )
             if abs(e) > clip:
                 s.append(f'<text x="{left + width + 4}" y="{y + 11}">{e:+.0f} %</text>')
         lim = r.get("limit")
         if lim is not None and lim <= clip:
             for sign in (-1, 1):
-                s.append(f'<line x1="{x(sign * lim):.1f}" y1="{y + 1}" x2="{x(sign * lim):.1f}" y2="{y + bar_h - 1}" '
-                         f'stroke="#c1121f" stroke-width="2"/>')
+                s.append(
+                    f'<line x1="{x(sign * lim):.1f}" y1="{y + 1}" x2="{x(sign * lim):.1f}" y2="{y + bar_h - 1}" '
+                    f'stroke="#c1121f" stroke-width="2"/>'
+                )
     ly, lx = h - 8, 8.0
     for k, c in COLORS.items():
-        s.append(f'<rect x="{lx:.0f}" y="{ly - 9}" width="10" height="10" fill="{c}"/>'
-                 f'<text x="{lx + 14:.0f}" y="{ly}">{escape(k)}</text>')
+        s.append(
+            f'<rect x="{lx:.0f}" y="{ly - 9}" width="10" height="10" fill="{c}"/>'
+            f'<text x="{lx + 14:.0f}" y="{ly}">{escape(k)}</text>'
+        )
         lx += 30 + 6.2 * len(k)
-    s.append(f'<line x1="{lx:.0f}" y1="{ly - 9}" x2="{lx:.0f}" y2="{ly + 1}" stroke="#c1121f" stroke-width="2"/>'
-             f'<text x="{lx + 6:.0f}" y="{ly}">test limit ±</text>')
+    s.append(
+        f'<line x1="{lx:.0f}" y1="{ly - 9}" x2="{lx:.0f}" y2="{ly + 1}" stroke="#c1121f" stroke-width="2"/>'
+        f'<text x="{lx + 6:.0f}" y="{ly}">test limit ±</text>'
+    )
     s.append("</svg>")
     return "\n".join(s) + "\n"
 
@@ -443,16 +511,32 @@ def profile_note_checks(profile: dict, swiping_held_out: bool) -> list[tuple[str
     out = []
     m = re.search(r"normal_acc[^.]*?set to ([0-9.]+)", notes)
     if m:
-        out.append((f"notes: normal_acc set to {m.group(1)} mm/s²", f"file: normal_acc {profile.get('normal_acc')}",
-                    float(m.group(1)) == float(profile.get("normal_acc", float("nan")))))
+        out.append(
+            (
+                f"notes: normal_acc set to {m.group(1)} mm/s²",
+                f"file: normal_acc {profile.get('normal_acc')}",
+                float(m.group(1)) == float(profile.get("normal_acc", float("nan"))),
+            )
+        )
     if re.search(r"\bsymmetric in acceleration/deceleration", notes):
-        asym = (profile.get("path_acc") != profile.get("path_dec")
-                or profile.get("acc_ratio_fast") != profile.get("dec_ratio_fast"))
-        out.append(("notes: the model is symmetric in acceleration/deceleration",
-                    f"file: path_acc {profile.get('path_acc')}, path_dec {profile.get('path_dec')}", not asym))
+        asym = profile.get("path_acc") != profile.get("path_dec") or profile.get("acc_ratio_fast") != profile.get(
+            "dec_ratio_fast"
+        )
+        out.append(
+            (
+                "notes: the model is symmetric in acceleration/deceleration",
+                f"file: path_acc {profile.get('path_acc')}, path_dec {profile.get('path_dec')}",
+                not asym,
+            )
+        )
     if re.search(r"raster-pass and swiping: total time", notes):
-        out.append(("notes: fitted to swiping's total time, length and volume",
-                    "calibrate.study_cases: swiping " + ("held out" if swiping_held_out else "fit"), not swiping_held_out))
+        out.append(
+            (
+                "notes: fitted to swiping's total time, length and volume",
+                "calibrate.study_cases: swiping " + ("held out" if swiping_held_out else "fit"),
+                not swiping_held_out,
+            )
+        )
     return out
 
 
@@ -476,110 +560,138 @@ def validation_page() -> tuple[str, dict[str, str]]:
     split_commit = last_commit("backend/waamflow/trajectory/calibrate.py")
     svgs = {"validation-robot-study.svg": error_svg(rows, "Robot study: model error per figure (%)")}
     pub = published_lengths()
-    svgs["validation-lengths.svg"] = error_svg([{**r, "set": "fit"} for r in pub],
-                                               "Programmed lengths, small OR: our geometry vs published (%)", clip=1.0)
-    out = [GENERATED, "# Validation\n",
-           "What the models are compared with, figure by figure, as the code computes it today "
-           "(`scripts/gen_docs.py` re-runs the comparison). Words used:\n",
-           "- **source**: *measured* — a figure the paper measured (its tables); *closed-form model* — a "
-           "value the paper's own formula gives, not a measurement; *our own geometry* — a value we "
-           "compute from the paper's rules (a check of our construction, not of the physics).",
-           "- **fit** — the figure was a target of the calibration (`calibrate.study_targets`). "
-           "**held out** — not a target of the fit. Held out in the strict sense (never used to fit *or "
-           "to choose a model variant*) applies to none of them: model variants (the turn-rate corner "
-           "cap, commit 948922a; the smoothing grid, 41c8f34; ramp-time weighting, 287e635) were chosen "
-           "looking at the errors of all figures, held-out ones included.",
-           f"- The shipped profile's fitted constants (`calibrate.SHIPPED_FIT`) are those of commit "
-           f"{profile_commit} (`data/robots/kuka_kr100ha_krc2.json`: the last commit that changed one); "
-           f"the fit/held-out split is `trajectory/calibrate.py` as last changed in {split_commit}.\n",
-           "## Robot study (da Silva Viola et al. 2023)\n",
-           "*Complex interaction between CMT equipment and robot controllers during the WAAM process*, "
-           "Int J Adv Manuf Technol 127 (2023) 5611–5631 — the KUKA KR 100 HA + KRC2 cell the shipped "
-           "profile `kuka_kr100ha_krc2` models. The model is `simulate-robot` "
-           "(`backend/waamflow/trajectory/MODEL.md`).\n",
-           f"{len(rows)} figures: {n_fit} fit, {len(held)} not fitted — of which {len(closed)} are "
-           f"closed-form model values (not measurements), {len(twins)} come out of the model identical to "
-           f"a fitted figure (the model has no term that tells them apart, so they check nothing new), and "
-           f"{len(measured_held)} are measured figures the fit did not use.\n",
-           "![robot study errors](img/validation-robot-study.svg)\n",
-           "| figure | source | set | study | model | error | test limit | notes |",
-           "|---|---|---|---|---|---|---|---|"]
+    svgs["validation-lengths.svg"] = error_svg(
+        [{**r, "set": "fit"} for r in pub], "Programmed lengths, small OR: our geometry vs published (%)", clip=1.0
+    )
+    out = [
+        GENERATED,
+        "# Validation\n",
+        "What the models are compared with, figure by figure, as the code computes it today "
+        "(`scripts/gen_docs.py` re-runs the comparison). Words used:\n",
+        "- **source**: *measured* — a figure the paper measured (its tables); *closed-form model* — a "
+        "value the paper's own formula gives, not a measurement; *our own geometry* — a value we "
+        "compute from the paper's rules (a check of our construction, not of the physics).",
+        "- **fit** — the figure was a target of the calibration (`calibrate.study_targets`). "
+        "**held out** — not a target of the fit. Held out in the strict sense (never used to fit *or "
+        "to choose a model variant*) applies to none of them: model variants (the turn-rate corner "
+        "cap, commit 948922a; the smoothing grid, 41c8f34; ramp-time weighting, 287e635) were chosen "
+        "looking at the errors of all figures, held-out ones included.",
+        f"- The shipped profile's fitted constants (`calibrate.SHIPPED_FIT`) are those of commit "
+        f"{profile_commit} (`data/robots/kuka_kr100ha_krc2.json`: the last commit that changed one); "
+        f"the fit/held-out split is `trajectory/calibrate.py` as last changed in {split_commit}.\n",
+        "## Robot study (da Silva Viola et al. 2023)\n",
+        "*Complex interaction between CMT equipment and robot controllers during the WAAM process*, "
+        "Int J Adv Manuf Technol 127 (2023) 5611–5631 — the KUKA KR 100 HA + KRC2 cell the shipped "
+        "profile `kuka_kr100ha_krc2` models. The model is `simulate-robot` "
+        "(`backend/waamflow/trajectory/MODEL.md`).\n",
+        f"{len(rows)} figures: {n_fit} fit, {len(held)} not fitted — of which {len(closed)} are "
+        f"closed-form model values (not measurements), {len(twins)} come out of the model identical to "
+        f"a fitted figure (the model has no term that tells them apart, so they check nothing new), and "
+        f"{len(measured_held)} are measured figures the fit did not use.\n",
+        "![robot study errors](img/validation-robot-study.svg)\n",
+        "| figure | source | set | study | model | error | test limit | notes |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        out.append(f"| {_cell(r['name'])} | {r['source']} | {r['set']} | {_fmt(r['target'])} | {_fmt(r['model'])} | "
-                   f"{r['error_pct']:+.1f} % | ±{r['limit']:g} % | {_cell(r['notes'])} |")
+        out.append(
+            f"| {_cell(r['name'])} | {r['source']} | {r['set']} | {_fmt(r['target'])} | {_fmt(r['model'])} | "
+            f"{r['error_pct']:+.1f} % | ±{r['limit']:g} % | {_cell(r['notes'])} |"
+        )
     out.append("")
     prof = json.loads((ROOT / "backend/waamflow/data/robots/kuka_kr100ha_krc2.json").read_text())
     checks = profile_note_checks(prof, any(r["set"] == "held out" for r in rows if r["name"].startswith("swiping")))
     if checks:
         out.append("### The shipped profile's notes against its data\n")
-        out.append("The profile file's free-text `notes` checked against the values in the same file and the "
-                   "fit/held-out split above:\n")
+        out.append(
+            "The profile file's free-text `notes` checked against the values in the same file and the "
+            "fit/held-out split above:\n"
+        )
         out.append("| claim | data | consistent |\n|---|---|---|")
         out += [f"| {_cell(c)} | {_cell(d)} | {'yes' if ok else '**no**'} |" for c, d, ok in checks]
         out.append("")
     out.append("### The study's qualitative observations\n")
-    out.append("`calibrate.validation_report` also checks what the study states without a single number: "
-               "accuracy bands (actual ÷ programmed length) per strategy at 40 mm/s, arc OFF outside "
-               "slower than arc ON, arc-OFF time leaking inside the OR, and the arc-OFF totals against the "
-               "authors' arc-OFF closed-form model (which they report errs by up to 16 %). A band row's "
-               "error is 0 when the model lies inside the band.\n")
+    out.append(
+        "`calibrate.validation_report` also checks what the study states without a single number: "
+        "accuracy bands (actual ÷ programmed length) per strategy at 40 mm/s, arc OFF outside "
+        "slower than arc ON, arc-OFF time leaking inside the OR, and the arc-OFF totals against the "
+        "authors' arc-OFF closed-form model (which they report errs by up to 16 %). A band row's "
+        "error is 0 when the model lies inside the band.\n"
+    )
     out.append("| observation | reference | model | error |\n|---|---|---|---|")
     for r in validation_report(load_profile("kuka_kr100ha_krc2")):
         if "held_out" in r:
-            continue   # a held-out case of the table above
+            continue  # a held-out case of the table above
         e = r["error_pct"]
-        out.append(f"| {_cell(r['name'])} | {_fmt(r['target'])} | {_fmt(r['model'])} | "
-                   f"{'' if not math.isfinite(e) else f'{e:+.1f} %'} |")
+        out.append(
+            f"| {_cell(r['name'])} | {_fmt(r['target'])} | {_fmt(r['model'])} | "
+            f"{'' if not math.isfinite(e) else f'{e:+.1f} %'} |"
+        )
     out.append("")
     out.append("### Programmed lengths (our own geometry)\n")
-    out.append("The study's strategies rebuilt from its rules on the small OR (43 × 21.5 mm, pass spacing "
-               "4.43 mm), against the programmed lengths it publishes. Rectangular, spiral and swiping are "
-               "under-specified in the study; their construction is ours (`backend/waamflow/paths/`). The "
-               "same rules on other OR sizes (86 × 43, 70 × 30 mm) are checked by "
-               "`test_strategy_geometry_follows_the_study_rules_on_any_or` against our own formula of the "
-               "rules: a self-consistency check, not a comparison with the paper.\n")
+    out.append(
+        "The study's strategies rebuilt from its rules on the small OR (43 × 21.5 mm, pass spacing "
+        "4.43 mm), against the programmed lengths it publishes. Rectangular, spiral and swiping are "
+        "under-specified in the study; their construction is ours (`backend/waamflow/paths/`). The "
+        "same rules on other OR sizes (86 × 43, 70 × 30 mm) are checked by "
+        "`test_strategy_geometry_follows_the_study_rules_on_any_or` against our own formula of the "
+        "rules: a self-consistency check, not a comparison with the paper.\n"
+    )
     out.append("![programmed lengths](img/validation-lengths.svg)\n")
     out.append("| strategy | published mm | ours mm | error |\n|---|---|---|---|")
     for r in pub:
         out.append(f"| {r['name']} | {r['target']:.3f} | {r['model']:.3f} | {r['error_pct']:+.3f} % |")
     out.append("")
     out.append("## Thin-wall paper (Venturini et al. 2018)\n")
-    out.append("*Additive Manufacturing* 22 (2018). Its Test 1 \"was performed using the theoretical radii\": "
-               "influence 7.0 mm, cutting 2.5 mm at a right-angled direct crossing. These are the paper's own "
-               "construction from the bead width, **not measurements**; ours is "
-               "`waamflow.features.walls.crossing_bounds` (our reading of the construction, explained in its "
-               "docstring). Set: **the reading was chosen to match these two figures** (the other reading "
-               "cannot), so they are not an independent check. The paper's trials (7.0/2.5 left a central "
-               "void, 8.0/2.0 and 10.0/2.0 did not) are warnings in `wall-path`, tested in "
-               "`tests/features/test_paper.py`.\n")
+    out.append(
+        '*Additive Manufacturing* 22 (2018). Its Test 1 "was performed using the theoretical radii": '
+        "influence 7.0 mm, cutting 2.5 mm at a right-angled direct crossing. These are the paper's own "
+        "construction from the bead width, **not measurements**; ours is "
+        "`waamflow.features.walls.crossing_bounds` (our reading of the construction, explained in its "
+        "docstring). Set: **the reading was chosen to match these two figures** (the other reading "
+        "cannot), so they are not an independent check. The paper's trials (7.0/2.5 left a central "
+        "void, 8.0/2.0 and 10.0/2.0 did not) are warnings in `wall-path`, tested in "
+        "`tests/features/test_paper.py`.\n"
+    )
     out.append("| bead width w | figure | paper | ours | error |\n|---|---|---|---|---|")
     for r in thin_wall_rows():
-        out.append(f"| {r['w']:g} mm | {r['name']} | {r['target']:g} mm | {r['model']:.3f} mm | {r['error_pct']:+.1f} % |")
+        out.append(
+            f"| {r['w']:g} mm | {r['name']} | {r['target']:g} mm | {r['model']:.3f} mm | {r['error_pct']:+.1f} % |"
+        )
     out.append("")
     out.append("## Other papers\n")
-    out.append("The MPP and curved-part papers (`mpp.md`, `curved-parts.md` in the project's domain notes) set "
-               "the rules the planners follow (sections, guides, zones; fan slicing). No figure of theirs is "
-               "compared on this page yet: their tests check our construction against the rules (our own "
-               "geometry).\n")
+    out.append(
+        "The MPP and curved-part papers (`mpp.md`, `curved-parts.md` in the project's domain notes) set "
+        "the rules the planners follow (sections, guides, zones; fan slicing). No figure of theirs is "
+        "compared on this page yet: their tests check our construction against the rules (our own "
+        "geometry).\n"
+    )
     out.append("## Tolerance table\n")
-    out.append("Every limit a test puts on the robot-study errors, from `tests/tolerances_table.py` (which "
-               "`tests/trajectory/test_study_validation.py` reads). A limit only widens with a new entry in "
-               "its history. Margin = limit − |error today|.\n")
+    out.append(
+        "Every limit a test puts on the robot-study errors, from `tests/tolerances_table.py` (which "
+        "`tests/trajectory/test_study_validation.py` reads). A limit only widens with a new entry in "
+        "its history. Margin = limit − |error today|.\n"
+    )
     out.append(f"Default for a case not listed: ±{STUDY_DEFAULT.limit_pct:g} % — {STUDY_DEFAULT.reason}.\n")
     by_name = {r["name"]: r for r in rows}
     out.append("| case | limit | error today | margin | reason | history |\n|---|---|---|---|---|---|")
     for name, t in STUDY_LIMITS.items():
         r = by_name.get(name)
         e = abs(r["error_pct"]) if r else float("nan")
-        out.append(f"| {_cell(name)} | ±{t.limit_pct:g} % | {_fmt(e)} % | {_fmt(t.limit_pct - e)} points | "
-                   f"{_cell(t.reason)} | {_cell(t.history)} |")
+        out.append(
+            f"| {_cell(name)} | ±{t.limit_pct:g} % | {_fmt(e)} % | {_fmt(t.limit_pct - e)} points | "
+            f"{_cell(t.reason)} | {_cell(t.history)} |"
+        )
     out.append("")
-    out.append("Ranges `tests/trajectory/test_study.py` accepts for the study's qualitative observations and "
-               "corner errors (`STUDY_BANDS`):\n")
+    out.append(
+        "Ranges `tests/trajectory/test_study.py` accepts for the study's qualitative observations and "
+        "corner errors (`STUDY_BANDS`):\n"
+    )
     out.append("| figure | accepted | study | reason | history |\n|---|---|---|---|---|")
     for name, b in STUDY_BANDS.items():
-        out.append(f"| {_cell(name)} | {b.lo:.4g} … {b.hi:.4g} {b.unit} | {_cell(b.study)} | {_cell(b.reason)} | "
-                   f"{_cell(b.history)} |")
+        out.append(
+            f"| {_cell(name)} | {b.lo:.4g} … {b.hi:.4g} {b.unit} | {_cell(b.study)} | {_cell(b.reason)} | "
+            f"{_cell(b.history)} |"
+        )
     out.append("")
     return "\n".join(out), svgs
 
@@ -594,36 +706,63 @@ def data_page() -> str:
     from waamflow.zoning.xsd import render_xsd
 
     data = ROOT / "backend" / "waamflow" / "data"
-    out = [GENERATED, "# Shipped data\n",
-           "What `backend/waamflow/data/` ships, read from the files and the code. File formats: "
-           "[Formats](formats.md).\n", "## Zone parameters\n",
-           "The values a zone of the zone-parameter XML may carry (`core.process.ZONE_PARAMETERS`; the "
-           "GUI's XML editor and `GET /api/process-parameters` use the same table):\n",
-           "| element | unit | range | what |\n|---|---|---|---|"]
+    out = [
+        GENERATED,
+        "# Shipped data\n",
+        "What `backend/waamflow/data/` ships, read from the files and the code. File formats: [Formats](formats.md).\n",
+        "## Zone parameters\n",
+        "The values a zone of the zone-parameter XML may carry (`core.process.ZONE_PARAMETERS`; the "
+        "GUI's XML editor and `GET /api/process-parameters` use the same table):\n",
+        "| element | unit | range | what |\n|---|---|---|---|",
+    ]
     for prm in ZONE_PARAMETERS:
-        out.append(f"| `<{prm.name}>` | {prm.unit or '–'} | {prm.minimum:g} … {prm.maximum:g} | {_cell(prm.description)} |")
-    out += ["", "## The zone-parameter XML Schema\n",
-            "`data/schemas/zone-params.xsd`, served at `GET /api/schemas/zone-params.xsd`, generated from the "
-            "table above by `waamflow.zoning.xsd.render_xsd()`:\n", "```xml", render_xsd().rstrip(), "```", ""]
-    out += ["## Machine profiles\n", "`data/machines/*.json` (`waamflow profiles`, `GET /api/profiles`); "
-            "`post-process` `profile` fills every param the recipe does not set.\n",
-            "| profile | title | format | what |\n|---|---|---|---|"]
+        out.append(
+            f"| `<{prm.name}>` | {prm.unit or '–'} | {prm.minimum:g} … {prm.maximum:g} | {_cell(prm.description)} |"
+        )
+    out += [
+        "",
+        "## The zone-parameter XML Schema\n",
+        "`data/schemas/zone-params.xsd`, served at `GET /api/schemas/zone-params.xsd`, generated from the "
+        "table above by `waamflow.zoning.xsd.render_xsd()`:\n",
+        "```xml",
+        render_xsd().rstrip(),
+        "```",
+        "",
+    ]
+    out += [
+        "## Machine profiles\n",
+        "`data/machines/*.json` (`waamflow profiles`, `GET /api/profiles`); "
+        "`post-process` `profile` fills every param the recipe does not set.\n",
+        "| profile | title | format | what |\n|---|---|---|---|",
+    ]
     for d in load_profiles().values():
         post = d.get("post", {}) or {}
-        out.append(f"| `{d.get('name')}` | {_cell(d.get('title', ''))} | {post.get('format', 'gcode')} | "
-                   f"{_cell(d.get('description', ''))} |")
-    out += ["", "## Robot profiles\n", "`data/robots/*.json`: the controller model's constants "
-            "([Simulation](../guide/simulation.md)).\n", "| profile | controller | what |\n|---|---|---|"]
+        out.append(
+            f"| `{d.get('name')}` | {_cell(d.get('title', ''))} | {post.get('format', 'gcode')} | "
+            f"{_cell(d.get('description', ''))} |"
+        )
+    out += [
+        "",
+        "## Robot profiles\n",
+        "`data/robots/*.json`: the controller model's constants ([Simulation](../guide/simulation.md)).\n",
+        "| profile | controller | what |\n|---|---|---|",
+    ]
     for f in sorted((data / "robots").glob("*.json")):
         d = json.loads(f.read_text())
         out.append(f"| `{f.stem}` | {d.get('controller', '')} | {_cell(d.get('comment', d.get('description', '')))} |")
-    out += ["", "## Robot cells\n", "`data/cells/*.json` ([cell file](formats.md#robot-cell-file-datacellsjson)).\n",
-            "| cell | robot | positioner | source |\n|---|---|---|---|"]
+    out += [
+        "",
+        "## Robot cells\n",
+        "`data/cells/*.json` ([cell file](formats.md#robot-cell-file-datacellsjson)).\n",
+        "| cell | robot | positioner | source |\n|---|---|---|---|",
+    ]
     for f in sorted((data / "cells").glob("*.json")):
         d = json.loads(f.read_text())
         pos = d.get("positioner") or {}
-        out.append(f"| `{f.stem}` | `{d.get('robot_urdf', '')}` | `{pos.get('urdf', '') if isinstance(pos, dict) else ''}` | "
-                   f"{_cell(d.get('source', ''))} |")
+        out.append(
+            f"| `{f.stem}` | `{d.get('robot_urdf', '')}` | `{pos.get('urdf', '') if isinstance(pos, dict) else ''}` | "
+            f"{_cell(d.get('source', ''))} |"
+        )
     out.append("")
     return "\n".join(out)
 
@@ -662,8 +801,10 @@ def main(docs: Path = DOCS) -> list[Path]:
 
 
 # docs/img/<name> ← out/e2e/<file>: screenshots the e2e run takes (frontend/e2e/gui.e2e.mjs)
-SCREENSHOTS = {f"gui-{n}.png": f"{n}.png" for n in
-               ("01-start", "08-new-graph", "09-failure", "10-two-masks", "11-xml-filled", "12-results")}
+SCREENSHOTS = {
+    f"gui-{n}.png": f"{n}.png"
+    for n in ("01-start", "08-new-graph", "09-failure", "10-two-masks", "11-xml-filled", "12-results")
+}
 
 
 def copy_screenshots(src: Path = ROOT / "out" / "e2e", docs: Path = DOCS) -> list[Path]:

@@ -59,17 +59,25 @@ def worked_example(layers: int) -> tuple[dict[str, str], dict]:
     void = sum(r["void_area_mm2"] for r in cov)
     over = sum(r["overlap_area_mm2"] for r in cov)
     svgs["layer-plan"] = layer_plan_svg(
-        [s.region for s in sections], paths, voids, overlaps, strokes,
+        [s.region for s in sections],
+        paths,
+        voids,
+        overlaps,
+        strokes,
         title="Layer 0: filled, compensated path; coverage; rolling strokes",
         note=f"void {void:.0f} mm² ({100 * void / area:.1f} %), overlap {over:.0f} mm² ({100 * over / area:.1f} %) "
-             f"of {area:.0f} mm²; {len(strokes)} rolling strokes")
+        f"of {area:.0f} mm²; {len(strokes)} rolling strokes",
+    )
     # deposit per mm along layer 0 (constant feed vs compensated)
     sim = o["compensate"]["simulation"]
     layer0 = float(sum(sp.segment_lengths[sp.arc].sum() for sp in o["compensate"]["toolpath"][0].sections))
     est = sim.estimate
-    svgs["deposit"] = deposit_svg(sim.deposit, "Worked example, layer 0: deposit per mm, constant feed vs compensated "
-                                  f"(ratio cv {est['deposit_ratio_cv_before']:.3f} → {est['deposit_ratio_cv_after']:.3f})",
-                                  s_range=(0.0, layer0))
+    svgs["deposit"] = deposit_svg(
+        sim.deposit,
+        "Worked example, layer 0: deposit per mm, constant feed vs compensated "
+        f"(ratio cv {est['deposit_ratio_cv_before']:.3f} → {est['deposit_ratio_cv_after']:.3f})",
+        s_range=(0.0, layer0),
+    )
     ip = o["interpass"]["report"]
     numbers = {
         "model": {k: o["trials"]["model"].fit[k] for k in ("width", "height")},
@@ -77,8 +85,15 @@ def worked_example(layers: int) -> tuple[dict[str, str], dict]:
         "fill": {k: o["fill"]["report"]["fill"][k] for k in ("zones", "filled_values", "kept_count")},
         "interpass": {k: ip[k] for k in ("total_dwell_s", "total_added_dwell_s", "max_peak_c")}
         | {"dwells_s": [r["dwell_s"] for r in ip["layers"]]},
-        "compensation": {k: round(float(est[k]), 4) for k in ("deposit_per_mm_cv_before", "deposit_per_mm_cv_after",
-                                                               "deposit_ratio_cv_before", "deposit_ratio_cv_after")},
+        "compensation": {
+            k: round(float(est[k]), 4)
+            for k in (
+                "deposit_per_mm_cv_before",
+                "deposit_per_mm_cv_after",
+                "deposit_ratio_cv_before",
+                "deposit_ratio_cv_after",
+            )
+        },
         "rolling": {k: o["rolling"]["report"][k] for k in ("strokes", "rolled_length_mm", "time_s")},
         "program": {k: o["post"]["program"].stats[k] for k in ("dwell_total_s", "estimated_time_s", "arc_on_count")},
     }
@@ -93,7 +108,8 @@ def study() -> tuple[dict[str, str], dict]:
         before, after = sim["deposit_per_mm_cv_before"], sim["deposit_per_mm_cv"]
         svgs[f"study-{pattern}"] = deposit_svg(
             res.outputs["simulate"]["simulation"].deposit,
-            f"Robot study, {pattern} pattern at 40 mm/s: deposit per mm, cv {before:.3f} → {after:.3f}")
+            f"Robot study, {pattern} pattern at 40 mm/s: deposit per mm, cv {before:.3f} → {after:.3f}",
+        )
         numbers[pattern] = {"cv_before": before, "cv_after": after}
     return svgs, numbers
 
@@ -103,10 +119,23 @@ def to_png(svg_path: Path, png_path: Path, browser: str) -> None:
     w = int(head.split('width="')[1].split('"')[0])
     h = int(head.split('height="')[1].split('"')[0])
     with tempfile.TemporaryDirectory(prefix="process-plots-") as prof:
-        subprocess.run([browser, "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-                        "--force-device-scale-factor=2", f"--user-data-dir={prof}", f"--window-size={w},{h}",
-                        f"--screenshot={png_path}", svg_path.resolve().as_uri()],
-                       check=True, capture_output=True, timeout=120)
+        subprocess.run(
+            [
+                browser,
+                "--headless=new",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--hide-scrollbars",
+                "--force-device-scale-factor=2",
+                f"--user-data-dir={prof}",
+                f"--window-size={w},{h}",
+                f"--screenshot={png_path}",
+                svg_path.resolve().as_uri(),
+            ],
+            check=True,
+            capture_output=True,
+            timeout=120,
+        )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -20,8 +20,10 @@ import re
 import numpy as np
 from pygcode import GCodeArcMove, GCodeDwell, GCodeFeedRate, GCodeLinearMove, GCodeRapidMove, Line, Machine
 
-_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\s+"
-                  r"feed_units=(mm/min|mm/s)\s+end=([^\s)]+)")
+_TAG = re.compile(
+    r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\s+"
+    r"feed_units=(mm/min|mm/s)\s+end=([^\s)]+)"
+)
 _WELD_ITEM = re.compile(r'\w+\[[^\]]*\](?:\*[-+\d.eE]+)?(?:@start)?="([^"]*)"')
 
 
@@ -59,12 +61,23 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     dwell_scale = 1e-3 if tag.group(3) == "ms" else 1.0
     feed_per_s = 1.0 / 60.0 if tag.group(4) == "mm/min" else 1.0
     travel_speed = float(post.get("travel_speed", 100.0))
-    own_lines = [arc_on, arc_off, end, *post.get("start_code", ()), *post.get("end_code", ()),
-                 *(tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split())]
+    own_lines = [
+        arc_on,
+        arc_off,
+        end,
+        *post.get("start_code", ()),
+        *post.get("end_code", ()),
+        *(tpl.split()[0] for tpl in (post.get("process_codes") or {}).values() if tpl.split()),
+    ]
     own = {str(w) for code in own_lines for w in Line(code).block.words}
-    from waamflow.program.common import TOOL_COMMANDS   # a rolling/peening tool's own codes (M110 P… Q…)
-    tool_heads = {ln.split()[0] for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["gcode"])
-                  for ln in (post.get(key) or default).splitlines() if ln.split()}
+    from waamflow.program.common import TOOL_COMMANDS  # a rolling/peening tool's own codes (M110 P… Q…)
+
+    tool_heads = {
+        ln.split()[0]
+        for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["gcode"])
+        for ln in (post.get(key) or default).splitlines()
+        if ln.split()
+    }
     weld_cmds = weld_command_patterns(text)
     m = _Machine()
     pos = np.zeros(3)
@@ -75,24 +88,24 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
     rotary: dict[str, list[float]] = {}
     ended = False
     for ln, raw in enumerate(text.splitlines(), 1):
-        line = Line(raw)                                    # raises on anything pygcode cannot read
+        line = Line(raw)  # raises on anything pygcode cannot read
         code = re.sub(r"\([^)]*\)", " ", raw).split(";")[0].strip()
-        if code == end:                       # the profile's program end (M30, M2, Marlin's M84)
+        if code == end:  # the profile's program end (M30, M2, Marlin's M84)
             ended = True
             continue
         if code in (arc_on, arc_off):
             arc = code == arc_on
             continue
         if code.split() and code.split()[0] in tool_heads:
-            continue                          # the tool's engage/lift codes: no motion
+            continue  # the tool's engage/lift codes: no motion
         if any(p.match(code) for p in weld_cmds):
-            continue                          # a weld value (M67/M68, M106 P1 S…, G65 P9100 …): no motion
+            continue  # a weld value (M67/M68, M106 P1 S…, G65 P9100 …): no motion
         block = line.block
         unknown = {str(w) for w in block.words} - _assigned_words(block)
         assert unknown <= own, f"line {ln}: words pygcode does not know: {sorted(unknown)} in {raw!r}"
         words = {str(w) for w in block.words}
         if words and words <= own and not any(w[0] in "XYZ" for w in words):
-            continue                          # the machine's own codes (e.g. Marlin's M107, M84): no motion
+            continue  # the machine's own codes (e.g. Marlin's M107, M84): no motion
         for gc in block.gcodes:
             if isinstance(gc, GCodeFeedRate):
                 feed = float(gc.word.value)
@@ -103,7 +116,9 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
         if any(str(gc.word) in ("M30", "M02", "M2") for gc in block.gcodes):
             ended = True
         m.process_block(block)
-        motion = next((gc for gc in block.gcodes if isinstance(gc, (GCodeLinearMove, GCodeRapidMove, GCodeArcMove))), None)
+        motion = next(
+            (gc for gc in block.gcodes if isinstance(gc, (GCodeLinearMove, GCodeRapidMove, GCodeArcMove))), None
+        )
         if motion is None:
             continue
         new = np.array([m.pos.X, m.pos.Y, m.pos.Z], float)
@@ -118,7 +133,7 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
             length = math.hypot(r * sweep, new[2] - pos[2])
         else:
             length = float(np.linalg.norm(new - pos))
-        if points == 0:              # the move to the start point: from wherever the machine is
+        if points == 0:  # the move to the start point: from wherever the machine is
             length = 0.0
         if isinstance(motion, GCodeRapidMove):
             speed = travel_speed
@@ -139,8 +154,15 @@ def check_gcode(files: dict[str, str], post: dict) -> dict:
         points += 1
     assert ended, "no M30/M2 at the end"
     assert not arc, "the program ends with the arc on"
-    return {"points": points, "deposition_length_mm": dep, "travel_length_mm": trav,
-            "dwell_total_s": dwell, "estimated_time_s": t, "rotary": rotary, "final_z": float(pos[2])}
+    return {
+        "points": points,
+        "deposition_length_mm": dep,
+        "travel_length_mm": trav,
+        "dwell_total_s": dwell,
+        "estimated_time_s": t,
+        "rotary": rotary,
+        "final_z": float(pos[2]),
+    }
 
 
 def check_krl(files: dict[str, str], post: dict) -> dict:
@@ -169,7 +191,7 @@ def check_rapid(files: dict[str, str], post: dict) -> dict:
     from waamflow.program.common import TOOL_COMMANDS
 
     units = (post.get("positioner_unit") or "STN1",) if post.get("cell") else ()
-    routines = {}                      # the rolling/peening tool's routines, declared on the controller
+    routines = {}  # the rolling/peening tool's routines, declared on the controller
     for key, default in zip(("tool_on", "tool_off"), TOOL_COMMANDS["rapid"]):
         for line in (post.get(key) or default).splitlines():
             name, _, args = line.strip().rstrip(";").partition(" ")
@@ -195,5 +217,10 @@ def check_tp(files: dict[str, str], post: dict) -> dict:
     return check_program(files)
 
 
-PROGRAM_CHECKERS = {"gcode": check_gcode, "krl": check_krl, "rapid": check_rapid, "inform": check_inform,
-                    "tp": check_tp}
+PROGRAM_CHECKERS = {
+    "gcode": check_gcode,
+    "krl": check_krl,
+    "rapid": check_rapid,
+    "inform": check_inform,
+    "tp": check_tp,
+}

@@ -31,8 +31,20 @@ def _run(tmp_path, monkeypatch, layers):
     out = tmp_path / f"out{layers}"
     # the first N layers of a 300-layer part: the preflight fails the program (it stops below the
     # top), so the quick look accepts it; the failure must name the gap
-    assert main(["run", str(GRAPHS / "bracket.json"), "--out", str(out), "--set", f"layers.layer_count={layers}",
-                 "--accept-preflight"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(GRAPHS / "bracket.json"),
+                "--out",
+                str(out),
+                "--set",
+                f"layers.layer_count={layers}",
+                "--accept-preflight",
+            ]
+        )
+        == 0
+    )
     pf = json.loads((out / "preflight.json").read_text())
     assert pf["verdict"] == "fail" and pf["accepted"] is True
     assert pf["top_gap_mm"] == pytest.approx(450.0 - 1.5 * layers, abs=1e-6)
@@ -70,4 +82,6 @@ def test_bracket_quick_look_program(tmp_path, monkeypatch):
     assert head and (int(head[1]), int(head[2])) == (12, 12)
     # 18 passes of 300 mm joined by 17 steps of 5 mm per layer
     assert float(head[4]) == pytest.approx(12 * (18 * 300 + 17 * 5), rel=1e-9)
-    assert gcode.count("\nG1 ") == 12 * (36 - 1 + 2)  # per layer: a G0 to the first of 36 points, then G1s with the start/end zone splits
+    assert gcode.count("\nG1 ") == 12 * (
+        36 - 1 + 2
+    )  # per layer: a G0 to the first of 36 points, then G1s with the start/end zone splits

@@ -30,7 +30,7 @@ def test_recipe_runs_as_shipped(recipe, tmp_path, monkeypatch):
         assert prog["top_gap_mm"] is not None and prog["top_gap_mm"] <= 0.5 * prog["layer_height_mm"] + 1e-6
         assert prog["uncovered_share"] <= 0.02
         assert prog["weld_data_missing"] in (0, None)
-        assert prog["outside_mm"] == 0.0          # no weld clear of the part beyond a run end's stock
+        assert prog["outside_mm"] == 0.0  # no weld clear of the part beyond a run end's stock
         if prog["wire_part_volume_ratio"] is not None:
             assert 0.9 <= prog["wire_part_volume_ratio"] <= 1.2
 
@@ -54,7 +54,7 @@ def test_rerun_after_downstream_change_reports_upstream_cached(tmp_path, monkeyp
     err = capsys.readouterr().err
     assert "  layers (slice): cached" in err and "  mask (mask): cached" in err
     # one section's zoning changed: the zone node recomputes, mesh → strategy stay cached
-    assert main(["run", str(recipe), "--out", str(out), "--set", 'zone.sections.bs1/A.end_length=12']) == 0
+    assert main(["run", str(recipe), "--out", str(out), "--set", "zone.sections.bs1/A.end_length=12"]) == 0
     nodes = json.loads((out / "summary.json").read_text())["nodes"]
     assert all(nodes[n]["cached"] for n in ("part", "layers", "mask", "guide", "strategy"))
     assert nodes["zone"]["layers_computed"] == 8

@@ -17,8 +17,9 @@ def _layers():
     ring = Polygon(np.c_[80 * np.cos(th), 80 * np.sin(th)], [np.c_[74 * np.cos(th), 74 * np.sin(th)][::-1]])
     frame = np.eye(4)
     frame[:3, 3] = [1.23456789, -0.00004, 2.0]
-    return Layered(tuple(Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(ring), frame=frame if i % 2 else None)
-                         for i in range(5)))
+    return Layered(
+        tuple(Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(ring), frame=frame if i % 2 else None) for i in range(5))
+    )
 
 
 def _toolpath(layers):
@@ -26,8 +27,15 @@ def _toolpath(layers):
     for lay in layers:
         pts = lay.to_world(np.c_[np.linspace(0, 100, 41), np.sin(np.linspace(0, 3, 41)) * 7.123456])
         n = len(pts) - 1
-        sp = SectionPath("bs1/A", "parallel", pts, np.arange(n) % 3 > 0, np.ones(n, bool), np.full(n, 6.5),
-                         tool_axis=np.tile([0.0, 0.0, -1.0], (len(pts), 1)))
+        sp = SectionPath(
+            "bs1/A",
+            "parallel",
+            pts,
+            np.arange(n) % 3 > 0,
+            np.ones(n, bool),
+            np.full(n, 6.5),
+            tool_axis=np.tile([0.0, 0.0, -1.0], (len(pts), 1)),
+        )
         out.append(LayerPaths(lay, (sp,)))
     return Layered(tuple(out))
 
@@ -42,7 +50,7 @@ def test_artifact_json_is_byte_identical_to_json_dumps_of_the_lists():
     lay = json.loads(serialize.dumps(serialize.layers_json(layers)))["layers"]
     assert len(lay) == 5 and len(lay[0]["polygons"][0]["exterior"]) == 181
     assert lay[1]["frame"][0][3] == 1.2346 and lay[1]["frame"][1][3] == -0.0
-    assert isinstance(serialize.coords([[1.0, 2.0]]), list)       # the API's per-layer forms stay lists
+    assert isinstance(serialize.coords([[1.0, 2.0]]), list)  # the API's per-layer forms stay lists
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), np.array([1.0, np.nan])])
@@ -51,13 +59,16 @@ def test_nan_or_infinity_is_an_error(bad):
         serialize.dumps({"layers": [{"z": 1.0, "v": bad}]})
 
 
-@pytest.mark.parametrize("bad", [
-    [0.5, 2.0, float("nan")],                      # a list of numbers (checked in one sum)
-    [1, True, float("-inf")],
-    [None, 3.0, float("inf")],                     # speeds with null: element by element
-    ["z1", {"a": [1.0, float("nan")]}],            # nested under a string
-    (1e308, float("inf")),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        [0.5, 2.0, float("nan")],  # a list of numbers (checked in one sum)
+        [1, True, float("-inf")],
+        [None, 3.0, float("inf")],  # speeds with null: element by element
+        ["z1", {"a": [1.0, float("nan")]}],  # nested under a string
+        (1e308, float("inf")),
+    ],
+)
 def test_non_finite_values_are_found_in_every_kind_of_list(bad):
     with pytest.raises(ValueError, match="not JSON compliant"):
         serialize.dumps({"layers": [{"v": bad}]})

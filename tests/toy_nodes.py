@@ -109,9 +109,13 @@ class ToyFail(LayerNode):
 
 
 def recipe(nodes, edges, inputs=None, name="toy"):
-    return {"format": "waamflow/1", "name": name, "inputs": inputs or {},
-            "nodes": [{"id": i, "type": t, "params": p} for i, t, p in nodes],
-            "edges": [{"from": a, "to": b} for a, b in edges]}
+    return {
+        "format": "waamflow/1",
+        "name": name,
+        "inputs": inputs or {},
+        "nodes": [{"id": i, "type": t, "params": p} for i, t, p in nodes],
+        "edges": [{"from": a, "to": b} for a, b in edges],
+    }
 
 
 def chain(grow=None, area=None, stack=None, inputs=None):

@@ -24,11 +24,17 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 def source_revision() -> str:
     env = os.environ.get("WAAMFLOW_REVISION", "").strip()
     try:
-        top = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=PACKAGE_DIR, capture_output=True,
-                             text=True, timeout=10)
+        top = subprocess.run(
+            ["git", "rev-parse", "--show-toplevel"], cwd=PACKAGE_DIR, capture_output=True, text=True, timeout=10
+        )
         if top.returncode == 0 and PACKAGE_DIR.is_relative_to(Path(top.stdout.strip()).resolve()):
-            out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=top.stdout.strip(),
-                                 capture_output=True, text=True, timeout=30)
+            out = subprocess.run(
+                ["git", "describe", "--always", "--dirty"],
+                cwd=top.stdout.strip(),
+                capture_output=True,
+                text=True,
+                timeout=30,
+            )
             if out.returncode == 0 and out.stdout.strip():
                 return out.stdout.strip()
     except (OSError, subprocess.SubprocessError):
@@ -40,7 +46,7 @@ def source_revision() -> str:
         commit = (json.loads(text or "{}").get("vcs_info") or {}).get("commit_id", "")
         if commit:
             return commit[:12]
-    except Exception:         # no metadata (source tree on sys.path) or a malformed file
+    except Exception:  # no metadata (source tree on sys.path) or a malformed file
         pass
     return env or "unknown"
 

@@ -54,8 +54,10 @@ def test_not_json_and_missing_file_exit_2(tmp_path, capsys):
 
 
 def test_planning_failure_exit_3_names_layer_and_section(tmp_path, capsys):
-    data = toy.recipe([("stack", "toy-stack", {"count": 30}), ("mask", "toy-fail", {"fail_at": 24})],
-                      [("stack.layers", "mask.layers")])
+    data = toy.recipe(
+        [("stack", "toy-stack", {"count": 30}), ("mask", "toy-fail", {"fail_at": 24})],
+        [("stack.layers", "mask.layers")],
+    )
     out = tmp_path / "o"
     assert main(["run", str(write(tmp_path, data)), "--out", str(out)]) == 3
     line = capsys.readouterr().err.strip().splitlines()[-1]
@@ -68,8 +70,13 @@ def test_nodes_catalog_has_schemas(capsys):
     cat = json.loads(capsys.readouterr().out)["nodes"]
     grow = next(n for n in cat if n["type"] == "toy-grow")
     assert grow["per_layer"] is True
-    assert grow["inputs"][0] == {"name": "layers", "type": "layers", "description": "", "optional": False,
-                                 "color": "#4cc9f0"}
+    assert grow["inputs"][0] == {
+        "name": "layers",
+        "type": "layers",
+        "description": "",
+        "optional": False,
+        "color": "#4cc9f0",
+    }
     assert grow["params_schema"]["properties"]["distance"]["unit"] == "mm"
 
 

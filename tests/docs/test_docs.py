@@ -67,7 +67,7 @@ def anchors(path: Path) -> set[str]:
 def broken_links(path: Path) -> list[str]:
     bad = []
     for target in links(path):
-        if re.match(r"^[a-z][a-z0-9+.-]*:", target):        # http:, https:, mailto:
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target):  # http:, https:, mailto:
             continue
         file_part, _, anchor = target.partition("#")
         dest = path if not file_part else (path.parent / file_part).resolve()
@@ -89,8 +89,10 @@ def test_readme_is_short():
 def test_link_checker_finds_a_broken_link_and_a_missing_heading(tmp_path):
     page = tmp_path / "page.md"
     (tmp_path / "other.md").write_text("# Other page\n\n## A heading { #custom }\n\n### Second `one`\n")
-    page.write_text("[ok](other.md) [ok](other.md#custom) [ok](other.md#second-one) [x](missing.md) "
-                    "[y](other.md#nowhere) [web](https://example.org) `[code](not-a-link.md)`\n")
+    page.write_text(
+        "[ok](other.md) [ok](other.md#custom) [ok](other.md#second-one) [x](missing.md) "
+        "[y](other.md#nowhere) [web](https://example.org) `[code](not-a-link.md)`\n"
+    )
     assert broken_links(page) == ["missing.md: no such file", "other.md#nowhere: no heading #nowhere in other.md"]
 
 
@@ -119,7 +121,7 @@ def runnable_blocks() -> list[tuple[str, str]]:
         for i, line in enumerate(lines):
             if line.strip() == RUNNABLE and i + 1 < len(lines) and lines[i + 1].strip() == "```bash":
                 j = lines.index("```", i + 2)
-                out.append((f"{path.relative_to(ROOT)}:{i + 2}", "\n".join(lines[i + 2:j])))
+                out.append((f"{path.relative_to(ROOT)}:{i + 2}", "\n".join(lines[i + 2 : j])))
     return out
 
 
@@ -128,9 +130,14 @@ BLOCKS = runnable_blocks()
 
 def test_there_are_runnable_samples_in_the_tutorials():
     where = {b.split(":")[0] for b, _ in BLOCKS}
-    assert {"docs/getting-started.md", "docs/tutorials/mpp-cross.md", "docs/tutorials/thin-wall-panel.md",
-            "docs/tutorials/curved-positioner.md", "docs/tutorials/bead-trials.md",
-            "docs/tutorials/lab-server.md"} <= where
+    assert {
+        "docs/getting-started.md",
+        "docs/tutorials/mpp-cross.md",
+        "docs/tutorials/thin-wall-panel.md",
+        "docs/tutorials/curved-positioner.md",
+        "docs/tutorials/bead-trials.md",
+        "docs/tutorials/lab-server.md",
+    } <= where
 
 
 @pytest.fixture(scope="module")
@@ -145,8 +152,14 @@ def sample_env(tmp_path_factory):
 def test_runnable_sample(block, sample_env):
     """Each runnable sample runs from the repository root and exits 0 (bash -e: every line)."""
     where, script = block
-    r = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", script], cwd=ROOT, env=sample_env,
-                       capture_output=True, text=True, timeout=180)
+    r = subprocess.run(
+        ["bash", "-e", "-o", "pipefail", "-c", script],
+        cwd=ROOT,
+        env=sample_env,
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert r.returncode == 0, f"{where}: exit {r.returncode}\n{r.stdout[-2000:]}\n{r.stderr[-2000:]}"
 
 
@@ -170,7 +183,10 @@ def test_node_reference_has_every_node_port_and_param(gen):
             assert f"| `{p}` |" in page, (n["type"], p)
     slice_ = next(n for n in cat if n["type"] == "slice")
     lh = slice_["params_schema"]["properties"]["layer_height"]
-    assert f"| `layer_height` | number | mm | &gt; {lh['exclusiveMinimum']}, ≤ {lh['maximum']} | `{lh['default']}` |" in page
+    assert (
+        f"| `layer_height` | number | mm | &gt; {lh['exclusiveMinimum']}, ≤ {lh['maximum']} | `{lh['default']}` |"
+        in page
+    )
     assert "`graphs/mpp-cross.json`" in page
     ex = gen.recipe_examples()
     assert {"mesh", "slice", "post-process"} <= set(ex)
@@ -195,8 +211,23 @@ def test_rest_reference_has_every_route(gen):
 def test_bench_page_from_results_or_how_to_get_them(gen, tmp_path):
     assert "run `make bench`" in gen.bench_page(tmp_path / "missing.json")
     f = tmp_path / "results.json"
-    f.write_text(json.dumps({"results": [{"name": "slice_ratio_vs_trimesh", "value": 0.063, "unit": "",
-                                          "peer": None, "ratio": 0.063, "notes": "a | b"}], "failures": []}))
+    f.write_text(
+        json.dumps(
+            {
+                "results": [
+                    {
+                        "name": "slice_ratio_vs_trimesh",
+                        "value": 0.063,
+                        "unit": "",
+                        "peer": None,
+                        "ratio": 0.063,
+                        "notes": "a | b",
+                    }
+                ],
+                "failures": [],
+            }
+        )
+    )
     page = gen.bench_page(f)
     assert "| `slice_ratio_vs_trimesh` | 0.063 |  |  | 0.063 | a \\| b |" in page
     assert "1 results." in page
@@ -230,12 +261,20 @@ def test_validation_page_says_what_each_figure_is(gen):
 
 
 def test_profile_notes_are_checked_against_the_profile(gen):
-    notes = ("Fitted (raster-pass and swiping: total time, actual length). normal_acc is not identifiable, set to "
-             "5000 mm/s2. The model is symmetric in acceleration/deceleration.")
+    notes = (
+        "Fitted (raster-pass and swiping: total time, actual length). normal_acc is not identifiable, set to "
+        "5000 mm/s2. The model is symmetric in acceleration/deceleration."
+    )
     stale = {"notes": notes, "normal_acc": 2000.0, "path_acc": 700.0, "path_dec": 180.0}
     assert [ok for _c, _d, ok in gen.profile_note_checks(stale, swiping_held_out=True)] == [False, False, False]
-    true = {"notes": notes, "normal_acc": 5000.0, "path_acc": 700.0, "path_dec": 700.0,
-            "acc_ratio_fast": 1.0, "dec_ratio_fast": 1.0}
+    true = {
+        "notes": notes,
+        "normal_acc": 5000.0,
+        "path_acc": 700.0,
+        "path_dec": 700.0,
+        "acc_ratio_fast": 1.0,
+        "dec_ratio_fast": 1.0,
+    }
     assert [ok for _c, _d, ok in gen.profile_note_checks(true, swiping_held_out=False)] == [True, True, True]
     assert gen.profile_note_checks({"notes": "nothing claimed"}, swiping_held_out=True) == []
 
@@ -249,7 +288,7 @@ def test_every_bash_block_is_runnable_and_every_json_block_parses():
                 assert i > 0 and lines[i - 1].strip() == RUNNABLE, f"{path.relative_to(ROOT)}:{i + 1}"
             if line.strip() == "```json":
                 j = lines.index("```", i + 1)
-                json.loads("\n".join(lines[i + 1:j]))
+                json.loads("\n".join(lines[i + 1 : j]))
 
 
 def test_table_cells_keep_angle_brackets_visible(gen):
@@ -259,7 +298,7 @@ def test_table_cells_keep_angle_brackets_visible(gen):
 def test_thin_wall_radii_are_compared_with_test_1(gen):
     rows = {(r["w"], r["name"]): r for r in gen.thin_wall_rows()}
     assert rows[(5.0, "cutting radius (max)")]["model"] == pytest.approx(2.5)
-    assert rows[(5.0, "influence radius (min)")]["error_pct"] == pytest.approx(100 * (5 * 2 ** 0.5 - 7) / 7)
+    assert rows[(5.0, "influence radius (min)")]["error_pct"] == pytest.approx(100 * (5 * 2**0.5 - 7) / 7)
     assert rows[(4.95, "influence radius (min)")]["model"] == pytest.approx(7.0, abs=1e-3)
 
 

@@ -13,6 +13,7 @@ from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import load_recipe
 
 import distributed  # noqa: E402  (a declared dependency: a missing one fails, never skips)
+
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 
@@ -26,7 +27,7 @@ def cluster():
 def always_parallel(monkeypatch):
     monkeypatch.setattr(parallel, "DASK_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
-    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")  # fixed trace date: runs compare byte for byte
 
 
 def _run(name: str, cache=None, **kw):
@@ -39,8 +40,12 @@ def _run(name: str, cache=None, **kw):
 def test_dask_artifacts_equal_a_serial_run(name, cluster, always_parallel):
     serial = _run(name, workers=1)
     dask = _run(name, scheduler=cluster.scheduler_address)
-    assert dask.executor == {"kind": "dask", "address": cluster.scheduler_address, "workers": 2,
-                             "tasks": dask.executor["tasks"]}
+    assert dask.executor == {
+        "kind": "dask",
+        "address": cluster.scheduler_address,
+        "workers": 2,
+        "tasks": dask.executor["tasks"],
+    }
     # the layers after mask's timed first one go out once, as chains mask → guide → strategy →
     # zone, in guided chunks (large first, small last); the first layer's chain stays in the parent
     layers = len(serial.outputs["zone"]["toolpath"])
@@ -76,8 +81,12 @@ def test_cli_run_with_scheduler(cluster, always_parallel, tmp_path, monkeypatch,
 
     monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
     out = tmp_path / "out"
-    assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(out), "--scheduler",
-                 cluster.scheduler_address]) == 0
+    assert (
+        main(
+            ["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(out), "--scheduler", cluster.scheduler_address]
+        )
+        == 0
+    )
     ex = json.loads((out / "summary.json").read_text())["executor"]
     assert ex["kind"] == "dask" and ex["address"] == cluster.scheduler_address and ex["workers"] == 2
     assert ex["tasks"] > 0

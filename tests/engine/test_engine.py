@@ -60,8 +60,9 @@ def test_restricted_layers_compute_only_those():
 
 
 def test_planning_error_names_node_layer_section():
-    data = toy.recipe([("stack", "toy-stack", {"count": 10}), ("f", "toy-fail", {"fail_at": 7})],
-                      [("stack.layers", "f.layers")])
+    data = toy.recipe(
+        [("stack", "toy-stack", {"count": 10}), ("f", "toy-fail", {"fail_at": 7})], [("stack.layers", "f.layers")]
+    )
     with pytest.raises(PlanningError) as ei:
         run(data)
     err = ei.value
@@ -77,18 +78,21 @@ def test_warnings_are_replayed_from_cache():
     assert r1.warnings == r2.warnings == [{"node": "grow", "message": "large growth", "layer": 2}]
 
 
-@pytest.mark.parametrize("mutate, needle", [
-    (lambda d: d["nodes"].append({"id": "x", "type": "nope", "params": {}}), "unknown node type 'nope'"),
-    (lambda d: d["edges"].append({"from": "stack.layers", "to": "area.bogus"}), "no input port 'bogus'"),
-    (lambda d: d["edges"].__setitem__(1, {"from": "grow.layers", "to": "area.layerz"}), "no input port 'layerz'"),
-    (lambda d: d["nodes"][0].__setitem__("params", {"count": 0}), "greater than or equal to 1"),
-    (lambda d: d["nodes"][0].__setitem__("params", {"cuont": 3}), "cuont"),
-    (lambda d: d["nodes"][0].__setitem__("params", {"count": "$n"}), "unknown input $n"),
-    (lambda d: d["edges"].pop(0), "required input 'layers'"),
-    (lambda d: d["nodes"].append({"id": "stack", "type": "toy-stack", "params": {}}), "duplicate node id"),
-    (lambda d: d.__setitem__("format", "waamflow/9"), "unsupported recipe format"),
-    (lambda d: d["edges"].append({"from": "stack", "to": "grow.layers"}), "must be \"nodeid.port\""),
-])
+@pytest.mark.parametrize(
+    "mutate, needle",
+    [
+        (lambda d: d["nodes"].append({"id": "x", "type": "nope", "params": {}}), "unknown node type 'nope'"),
+        (lambda d: d["edges"].append({"from": "stack.layers", "to": "area.bogus"}), "no input port 'bogus'"),
+        (lambda d: d["edges"].__setitem__(1, {"from": "grow.layers", "to": "area.layerz"}), "no input port 'layerz'"),
+        (lambda d: d["nodes"][0].__setitem__("params", {"count": 0}), "greater than or equal to 1"),
+        (lambda d: d["nodes"][0].__setitem__("params", {"cuont": 3}), "cuont"),
+        (lambda d: d["nodes"][0].__setitem__("params", {"count": "$n"}), "unknown input $n"),
+        (lambda d: d["edges"].pop(0), "required input 'layers'"),
+        (lambda d: d["nodes"].append({"id": "stack", "type": "toy-stack", "params": {}}), "duplicate node id"),
+        (lambda d: d.__setitem__("format", "waamflow/9"), "unsupported recipe format"),
+        (lambda d: d["edges"].append({"from": "stack", "to": "grow.layers"}), 'must be "nodeid.port"'),
+    ],
+)
 def test_invalid_recipes_are_named(mutate, needle):
     data = toy.chain()
     mutate(data)
@@ -99,12 +103,17 @@ def test_invalid_recipes_are_named(mutate, needle):
 
 
 def test_type_mismatch_and_cycle():
-    data = toy.recipe([("stack", "toy-stack", {}), ("a", "toy-area", {}), ("g", "toy-grow", {})],
-                      [("stack.layers", "a.layers"), ("a.toolpath", "g.layers")])
-    with pytest.raises(RecipeError, match="type mismatch: output 'toolpath' is toolpath, input 'layers' expects layers"):
+    data = toy.recipe(
+        [("stack", "toy-stack", {}), ("a", "toy-area", {}), ("g", "toy-grow", {})],
+        [("stack.layers", "a.layers"), ("a.toolpath", "g.layers")],
+    )
+    with pytest.raises(
+        RecipeError, match="type mismatch: output 'toolpath' is toolpath, input 'layers' expects layers"
+    ):
         run(data)
-    data = toy.recipe([("g1", "toy-grow", {}), ("g2", "toy-grow", {})],
-                      [("g1.layers", "g2.layers"), ("g2.layers", "g1.layers")])
+    data = toy.recipe(
+        [("g1", "toy-grow", {}), ("g2", "toy-grow", {})], [("g1.layers", "g2.layers"), ("g2.layers", "g1.layers")]
+    )
     with pytest.raises(RecipeError, match="cycle"):
         run(data)
 
@@ -167,12 +176,12 @@ def test_files_a_node_reads_by_name_join_its_cache_key(tmp_path):
     assert total()[:2] == (3.75, False)
     value, cached, inputs = total()
     assert (value, cached) == (3.75, True)
-    assert set(inputs) == {"list.txt", "a.txt", "b.txt"}          # traced like FileRef inputs
-    (tmp_path / "b.txt").write_text("4.0")                        # a file named inside the listing
+    assert set(inputs) == {"list.txt", "a.txt", "b.txt"}  # traced like FileRef inputs
+    (tmp_path / "b.txt").write_text("4.0")  # a file named inside the listing
     assert total()[:2] == (5.5, False)
-    (tmp_path / "list.txt").write_text("a.txt")                   # the listing itself
+    (tmp_path / "list.txt").write_text("a.txt")  # the listing itself
     assert total()[:2] == (1.5, False)
-    (tmp_path / "b.txt").write_text("9")                          # no longer read: still cached
+    (tmp_path / "b.txt").write_text("9")  # no longer read: still cached
     assert total()[:2] == (1.5, True)
 
 
@@ -182,13 +191,13 @@ def test_signatures_tell_values_apart_and_ignore_key_order():
     from waamflow.engine.cache import signature
 
     base = {"speed": 6.5, "pattern": "raster", "split_points": [[1.0, 2.0]]}
-    assert signature(base) == signature(dict(reversed(list(base.items()))))      # key order
+    assert signature(base) == signature(dict(reversed(list(base.items()))))  # key order
     assert signature(base) != signature({**base, "speed": 6.50001})
     assert signature(None) != signature(float("nan")) != signature(float("inf"))  # orjson writes all three as null
     assert signature({"v": None}) != signature({"v": float("nan")})
-    assert signature(2 ** 70) != signature(2 ** 70 + 1)                          # beyond orjson's 64-bit ints
-    assert signature({1: "a"}) == signature({"1": "a"})                          # JSON keys are strings
-    assert signature(np.arange(4.0)) != signature(np.arange(4.0) + 1e-12)        # arrays by their bytes
+    assert signature(2**70) != signature(2**70 + 1)  # beyond orjson's 64-bit ints
+    assert signature({1: "a"}) == signature({"1": "a"})  # JSON keys are strings
+    assert signature(np.arange(4.0)) != signature(np.arange(4.0) + 1e-12)  # arrays by their bytes
     assert signature(np.float64(1.5)) == signature(1.5)
     assert signature("a", "b") != signature("ab") != signature(["a", "b"])
 
@@ -197,6 +206,6 @@ def test_node_finished_says_how_long_a_layer_nodes_layers_took():
     res, events = run(toy.chain(stack={"count": 6}))
     done = {e.node: e for e in events if e.kind == "node_finished"}
     assert done["grow"].compute_seconds == round(res.stats["grow"].compute_seconds, 4) > 0
-    assert done["grow"].compute_seconds <= done["grow"].seconds         # serial: inside its wall time
+    assert done["grow"].compute_seconds <= done["grow"].seconds  # serial: inside its wall time
     assert done["stack"].compute_seconds is None and done["area"].compute_seconds is None
     assert "compute_seconds" not in done["area"].to_dict()

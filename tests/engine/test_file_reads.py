@@ -25,9 +25,9 @@ def test_the_mesh_file_is_read_twice_and_hashed_once_per_kind(monkeypatch):
     executor._FILE_SIGS.clear()
     path = GRAPHS / "mpp-cross.json"
     res = execute(build_graph(load_recipe(path)), resolver=FileResolver(path.parent), workers=1, preflight=False)
-    assert reads.count("cross.stl") == 2          # the cache key's and trace's digests, the node's own read
+    assert reads.count("cross.stl") == 2  # the cache key's and trace's digests, the node's own read
     sha = hashlib.sha256((GRAPHS / "parts" / "cross.stl").read_bytes()).hexdigest()
     assert res.trace["inputs"]["parts/cross.stl"] == sha
     again = FileResolver(path.parent)
     assert again.sha256("parts/cross.stl") == sha and again.read_bytes("parts/cross.stl")
-    assert again.read_hashes["parts/cross.stl"] == sha and reads.count("cross.stl") == 3   # memoised digests
+    assert again.read_hashes["parts/cross.stl"] == sha and reads.count("cross.stl") == 3  # memoised digests

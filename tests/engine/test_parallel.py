@@ -19,8 +19,8 @@ def always_parallel(monkeypatch):
     monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
-    monkeypatch.setattr(parallel, "BACKGROUND_START", False)   # workers up before the next layer: fixed split
-    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # fixed trace date: runs compare byte for byte
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)  # workers up before the next layer: fixed split
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")  # fixed trace date: runs compare byte for byte
 
 
 @pytest.fixture()
@@ -82,7 +82,7 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, ar
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
     written = artifact_writers
     serial = _run("mpp-cross", 1)
-    background = _run("mpp-cross", 2)      # who computes what depends on when the workers are up: not the result
+    background = _run("mpp-cross", 2)  # who computes what depends on when the workers are up: not the result
     assert background.artifacts == serial.artifacts and background.warnings == serial.warnings
     written.clear()
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
@@ -94,7 +94,7 @@ def test_workers_start_in_the_background_and_write_the_artifacts(monkeypatch, ar
     # mask's layers after its timed first go out once, as chains mask → guide → strategy → zone
     assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5
     assert all(par.stats[n].layers_computed == 8 for n in ("mask", "guide", "strategy", "zone"))
-    assert list(par.artifacts) == list(serial.artifacts)                         # same files, same order
+    assert list(par.artifacts) == list(serial.artifacts)  # same files, same order
     assert all(par.artifacts[k] == serial.artifacts[k] for k in serial.artifacts)
     assert par.warnings == serial.warnings
 
@@ -109,30 +109,41 @@ def test_an_artifact_failing_in_a_worker_is_reported_with_its_node(monkeypatch, 
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
     sent = artifact_writers
     # area is not the last node (the last one's artifacts are written in the parent)
-    graph = build_graph(parse_recipe(toy.recipe(
-        [("stack", "toy-stack", {"count": 8}), ("grow", "toy-grow", {}), ("area", "toy-area", {"scale": -1.0}),
-         ("tail", "toy-area", {})],
-        [("stack.layers", "grow.layers"), ("grow.layers", "area.layers"), ("grow.layers", "tail.layers")])))
+    graph = build_graph(
+        parse_recipe(
+            toy.recipe(
+                [
+                    ("stack", "toy-stack", {"count": 8}),
+                    ("grow", "toy-grow", {}),
+                    ("area", "toy-area", {"scale": -1.0}),
+                    ("tail", "toy-area", {}),
+                ],
+                [("stack.layers", "grow.layers"), ("grow.layers", "area.layers"), ("grow.layers", "tail.layers")],
+            )
+        )
+    )
     assert graph.order[-1] == "tail"
     events = []
     with pytest.raises(PlanningError) as e:
         execute(graph, resolver=FileResolver("."), workers=2, on_event=events.append)
-    assert "area" in sent                  # written by a worker, failed there, raised here with its node
+    assert "area" in sent  # written by a worker, failed there, raised here with its node
     assert e.value.node == "area" and "negative area" in str(e.value)
     assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "area"), ("run_failed", "area")]
 
 
 def test_a_long_part_starts_the_workers_before_its_first_layer_node(monkeypatch, artifact_writers):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
-    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)            # mpp-cross: 8 layers
+    monkeypatch.setattr(parallel, "WARM_LAYERS", 8)  # mpp-cross: 8 layers
     monkeypatch.setattr(parallel, "WARM_MIN_PARALLEL_S", 0.0)
     monkeypatch.setattr(parallel, "TIMING_S", 0.0)
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
     written = artifact_writers
     serial = _run("mpp-cross", 1)
     par = _run("mpp-cross", 2)
-    assert written[0] == "layers"                               # up right after slicing: even its layers.json
-    assert par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5   # the 7 layers after the timed first, one map of chains
+    assert written[0] == "layers"  # up right after slicing: even its layers.json
+    assert (
+        par.executor["tasks"] == len(parallel._chunks(list(range(7)), 2)) == 5
+    )  # the 7 layers after the timed first, one map of chains
     assert par.artifacts == serial.artifacts and par.warnings == serial.warnings
 
 
@@ -140,11 +151,25 @@ def _toy_chain(**fail):
     import toy_nodes as toy
     from waamflow.engine.recipe import parse_recipe
 
-    return build_graph(parse_recipe(toy.recipe(
-        [("stack", "toy-stack", {"count": 12}), ("grow", "toy-grow", {"per_layer": {"3": 6.0, "9": 7.0}}),
-         ("check", "toy-fail", fail), ("grow2", "toy-grow", {"distance": 0.5}), ("area", "toy-area", {})],
-        [("stack.layers", "grow.layers"), ("grow.layers", "check.layers"), ("check.layers", "grow2.layers"),
-         ("grow2.layers", "area.layers")])))
+    return build_graph(
+        parse_recipe(
+            toy.recipe(
+                [
+                    ("stack", "toy-stack", {"count": 12}),
+                    ("grow", "toy-grow", {"per_layer": {"3": 6.0, "9": 7.0}}),
+                    ("check", "toy-fail", fail),
+                    ("grow2", "toy-grow", {"distance": 0.5}),
+                    ("area", "toy-area", {}),
+                ],
+                [
+                    ("stack.layers", "grow.layers"),
+                    ("grow.layers", "check.layers"),
+                    ("check.layers", "grow2.layers"),
+                    ("grow2.layers", "area.layers"),
+                ],
+            )
+        )
+    )
 
 
 def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel):
@@ -156,7 +181,7 @@ def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel)
     cache = MemoryCache()
     toy.CALLS.clear()
     par = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
-    assert toy.CALLS["toy-grow"] == 1 + 1          # the parent computed only the timed first layer of each grow
+    assert toy.CALLS["toy-grow"] == 1 + 1  # the parent computed only the timed first layer of each grow
     assert par.executor["tasks"] == len(parallel._chunks(list(range(11)), 2)) == 7
     # every chained node's layer time is counted where it was spent (here grow's wall time holds
     # the whole chain's), so summary.json says what each node costs; whole-part nodes have none
@@ -167,8 +192,11 @@ def test_a_chain_of_layer_nodes_runs_layer_by_layer_in_one_task(always_parallel)
     assert again.stats["grow2"].compute_seconds == 0.0 and again.stats["grow2"].cached
     assert par.outputs["area"]["toolpath"] == pytest.approx(serial.outputs["area"]["toolpath"], rel=1e-12)
     assert par.outputs["area"]["toolpath"] == pytest.approx(sum((10 + 2 * d + 1) ** 2 for d in [1.0] * 10 + [6.0, 7.0]))
-    assert [(w["node"], w["layer"]) for w in par.warnings] == [("grow", 3), ("grow", 9)] == \
-        [(w["node"], w["layer"]) for w in serial.warnings]
+    assert (
+        [(w["node"], w["layer"]) for w in par.warnings]
+        == [("grow", 3), ("grow", 9)]
+        == [(w["node"], w["layer"]) for w in serial.warnings]
+    )
     for n in ("grow", "check", "grow2"):
         assert par.stats[n].layers_computed == 12 and par.stats[n].layers_cached == 0
     again = execute(_toy_chain(), resolver=FileResolver("."), workers=2, cache=cache)
@@ -196,7 +224,7 @@ def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
     assert all(a >= b for a, b in zip(sizes, sizes[1:]))
     assert sizes[-1] <= max(1, -(-n // (workers * parallel.CHUNKS_PER_WORKER * 4)))
     assert sizes[0] == -(-n // (2 * workers)) or n < 2 * workers
-    assert len(chunks) <= 4 * workers * parallel.CHUNKS_PER_WORKER   # round trips stay few
+    assert len(chunks) <= 4 * workers * parallel.CHUNKS_PER_WORKER  # round trips stay few
 
 
 # ---- the cost model (issue #30): parallel from the run's size, not from the first layers' time ----
@@ -204,12 +232,12 @@ def test_the_cost_model_keeps_a_small_recipe_serial_and_sends_the_bench_vase_to_
     # the bench vase: 1,008,000 triangles, 133 layers, 68,000 path points -> 4.9 s of shareable work
     assert parallel.parallel_work_s(1_008_000, 133, 68_000) == pytest.approx(2.52 + 0.665 + 1.7)
     assert parallel.wants_workers(2, 1_008_000, 133, 68_000)
-    assert parallel.wants_workers(2, triangles=1_008_000)           # its mesh file alone decides, at the start
-    assert not parallel.wants_workers(1, 1_008_000, 133, 68_000)   # one worker: serial
+    assert parallel.wants_workers(2, triangles=1_008_000)  # its mesh file alone decides, at the start
+    assert not parallel.wants_workers(1, 1_008_000, 133, 68_000)  # one worker: serial
     # mpp-cross (graphs/): 8 layers of a small mesh -> ~0.05 s, serial
     assert parallel.parallel_work_s(2_000, 8, 1_500) < 0.1
     assert not parallel.wants_workers(2, 2_000, 8, 1_500)
-    assert not parallel.wants_workers(2, 500_000)                  # 1.25 s < MIN_PARALLEL_S 1.5 s
+    assert not parallel.wants_workers(2, 500_000)  # 1.25 s < MIN_PARALLEL_S 1.5 s
     assert parallel.wants_workers(2, 700_000)
 
 
@@ -217,7 +245,7 @@ def test_file_triangles_is_exact_for_binary_stl_and_a_bound_otherwise():
     n = 1_008_000
     head = b"waamflow bench".ljust(80, b" ") + n.to_bytes(4, "little")
     assert parallel.file_triangles(84 + 50 * n, head) == n
-    assert parallel.file_triangles(84 + 50 * n + 1, head) == (84 + 50 * n + 1) // 50   # not a binary STL's size
+    assert parallel.file_triangles(84 + 50 * n + 1, head) == (84 + 50 * n + 1) // 50  # not a binary STL's size
     assert parallel.file_triangles(25_000, b"solid x\n  facet normal 0 0 1") == 500
 
 
@@ -230,11 +258,16 @@ def _vase_recipe(tmp_path: Path, triangles: int) -> Path:
     with open(stl, "wb") as fh:
         fh.write(b"vase".ljust(80, b" ") + triangles.to_bytes(4, "little"))
         fh.truncate(84 + 50 * triangles)
-    rec = {"format": "waamflow/1", "name": "v", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
-        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
-        {"id": "walls", "type": "wall-path", "params": {"bead_width": 6.0}}],
-        "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"}]}
+    rec = {
+        "format": "waamflow/1",
+        "name": "v",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "vase.stl"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+            {"id": "walls", "type": "wall-path", "params": {"bead_width": 6.0}},
+        ],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"}],
+    }
     (tmp_path / "vase.json").write_text(json.dumps(rec))
     return tmp_path / "vase.json"
 
@@ -247,7 +280,7 @@ def test_a_large_mesh_file_starts_the_workers_before_the_first_node(tmp_path, tr
     graph = build_graph(load_recipe(path))
     pool = parallel.LayerPool(2)
     warmed: list[bool] = []
-    pool.warm = lambda: warmed.append(True)          # type: ignore[method-assign]  # what would start them
+    pool.warm = lambda: warmed.append(True)  # type: ignore[method-assign]  # what would start them
     run = _Run(graph, FileResolver(path.parent), None, None, None, None, list(graph.order), True, pool)
     run.warm_by_cost()
     assert run.size[0] == triangles
@@ -277,7 +310,7 @@ def test_the_run_size_after_each_node_feeds_the_cost_model(monkeypatch):
     monkeypatch.setattr(parallel.LayerPool, "warm", spy)
     small = _run("mpp-cross", 2)
     assert started_after == [] and small.executor["tasks"] == 0
-    monkeypatch.setattr(parallel, "COST_LAYER_S", 0.5)              # 8 layers -> 4 s
+    monkeypatch.setattr(parallel, "COST_LAYER_S", 0.5)  # 8 layers -> 4 s
     _run("mpp-cross", 2)
     assert started_after == ["layers"]
 
@@ -293,7 +326,7 @@ def test_the_preflight_checks_a_parts_layers_in_the_workers_with_the_same_report
     monkeypatch.setattr(parallel.LayerPool, "map", spy)
     serial = _run("mpp-cross", 1)
     par = _run("mpp-cross", 2)
-    assert mapped and sum(mapped) >= 2            # the layers' slab checks went to the workers
+    assert mapped and sum(mapped) >= 2  # the layers' slab checks went to the workers
     assert par.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
     assert par.preflight == serial.preflight and par.preflight["verdict"] == serial.preflight["verdict"]
 
@@ -307,13 +340,25 @@ def test_wall_path_rings_centre_lines_in_the_workers_give_the_same_program(alway
     import trimesh
 
     trimesh.creation.annulus(r_min=30.0, r_max=36.0, height=30.0, sections=256).export(tmp_path / "tube.stl")
-    rec = {"format": "waamflow/1", "name": "tube", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
-        {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
-        {"id": "post", "type": "post-process", "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}}}],
-        "edges": [{"from": "part.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"},
-                  {"from": "walls.toolpath", "to": "post.toolpath"}]}
+    rec = {
+        "format": "waamflow/1",
+        "name": "tube",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
+            {
+                "id": "post",
+                "type": "post-process",
+                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
+            },
+        ],
+        "edges": [
+            {"from": "part.mesh", "to": "layers.mesh"},
+            {"from": "layers.layers", "to": "walls.layers"},
+            {"from": "walls.toolpath", "to": "post.toolpath"},
+        ],
+    }
     (tmp_path / "tube.json").write_text(json.dumps(rec))
     mapped: list[str] = []
     pmap = parallel.LayerPool.map
@@ -340,6 +385,8 @@ def test_the_fork_server_preloads_the_nodes_without_trimesh():
     import subprocess
     import sys
 
-    probe = "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'waamflow.nodes.thinwall' in sys.modules)"
+    probe = (
+        "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'waamflow.nodes.thinwall' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120).stdout.split()
     assert out == ["False", "True"]

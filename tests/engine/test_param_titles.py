@@ -32,7 +32,7 @@ def _models(model, seen):
 
 def test_every_param_in_the_catalog_has_a_human_title():
     bad, count = [], 0
-    shipped = {t for t, cls in load_nodes().items() if cls.__module__.startswith("waamflow.")}   # not test toys
+    shipped = {t for t, cls in load_nodes().items() if cls.__module__.startswith("waamflow.")}  # not test toys
     for node in (n for n in catalog() if n["type"] in shipped):
         for where, name, prop in _fields(node["params_schema"], node["type"]):
             count += 1
@@ -73,7 +73,9 @@ def test_shipped_cells_robots_machines_and_materials_are_listed():
     assert _prop("simulate-robot", "cell")["examples"] == cells
     assert _prop("post-process", "cell")["examples"] == cells
     machines = _prop("post-process", "profile")["examples"]
-    assert machines == sorted(p.stem for p in (data / "machines").glob("*.json")) and {"marlin", "kuka_krc4"} <= set(machines)
+    assert machines == sorted(p.stem for p in (data / "machines").glob("*.json")) and {"marlin", "kuka_krc4"} <= set(
+        machines
+    )
     profiles = _prop("simulate-robot", "robot_profile")["examples"]
     assert "kuka_kr100ha_krc2" in profiles and not any(p.endswith(".urdf") for p in profiles)
     urdfs = _prop("simulate-robot", "robot_description")["examples"]

@@ -33,7 +33,7 @@ class ToyReport(Node):
         toy.CALLS["toy-report"] += 1
         areas = [round(l.area, 3) for l in inputs["layers"] if l is not None]
         ctx.report({"layers": len(areas)})
-        ctx.report({"area_mm2": areas, "total_mm2": round(sum(areas), 3)})   # keys merge
+        ctx.report({"area_mm2": areas, "total_mm2": round(sum(areas), 3)})  # keys merge
         if params.payload:
             ctx.report({"blob": "x" * params.payload})
         if params.nan:
@@ -60,10 +60,18 @@ class ToyLayerReport(LayerNode):
 
 
 def graph(report=None):
-    return build_graph(parse_recipe(toy.recipe(
-        [("stack", "toy-stack", {"size": 10, "count": 3}), ("pass", "toy-layer-report", {}),
-         ("rep", "toy-report", report or {})],
-        [("stack.layers", "pass.layers"), ("pass.layers", "rep.layers")])))
+    return build_graph(
+        parse_recipe(
+            toy.recipe(
+                [
+                    ("stack", "toy-stack", {"size": 10, "count": 3}),
+                    ("pass", "toy-layer-report", {}),
+                    ("rep", "toy-report", report or {}),
+                ],
+                [("stack.layers", "pass.layers"), ("pass.layers", "rep.layers")],
+            )
+        )
+    )
 
 
 def test_report_in_summary_and_from_the_cache(tmp_path):
@@ -72,7 +80,7 @@ def test_report_in_summary_and_from_the_cache(tmp_path):
     s = res.summary("toy")
     assert s["nodes"]["rep"]["report"] == {"layers": 3, "area_mm2": [100.0, 100.0, 100.0], "total_mm2": 300.0}
     assert s["nodes"]["pass"]["report"] == {"layers_seen": 3}
-    assert "report" not in s["nodes"]["stack"]            # nodes without a report say nothing
+    assert "report" not in s["nodes"]["stack"]  # nodes without a report say nothing
     toy.CALLS.clear()
     again = execute(graph(), resolver=FileResolver("."), cache=cache)
     s2 = again.summary("toy")

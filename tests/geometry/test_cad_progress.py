@@ -38,8 +38,16 @@ def _block_with_hole():
 
 
 def _recipe(path, **params):
-    return build_graph(parse_recipe({"format": "waamflow/1", "name": "t", "edges": [],
-                                     "nodes": [{"id": "m", "type": "mesh", "params": {"path": path, **params}}]}))
+    return build_graph(
+        parse_recipe(
+            {
+                "format": "waamflow/1",
+                "name": "t",
+                "edges": [],
+                "nodes": [{"id": "m", "type": "mesh", "params": {"path": path, **params}}],
+            }
+        )
+    )
 
 
 def test_tessellation_reports_each_face_and_stops_when_cancelled(tmp_path):
@@ -60,9 +68,14 @@ def test_tessellation_reports_each_face_and_stops_when_cancelled(tmp_path):
     meshed = []
     cad = read_cad_shape(_step(tmp_path / "b.step", _block_with_hole()), "b.step")
     with pytest.raises(CancelledError):
-        tessellate(cad, "b.step", chordal_tolerance=0.01, check_cancelled=cancel_after_three,
-                   progress=lambda f, m: meshed.append(f))
-    assert meshed == pytest.approx([1 / 7, 2 / 7, 3 / 7])          # three faces meshed, the fourth never
+        tessellate(
+            cad,
+            "b.step",
+            chordal_tolerance=0.01,
+            check_cancelled=cancel_after_three,
+            progress=lambda f, m: meshed.append(f),
+        )
+    assert meshed == pytest.approx([1 / 7, 2 / 7, 3 / 7])  # three faces meshed, the fourth never
 
 
 def test_engine_shows_tessellation_progress_and_cancels_it(tmp_path):
@@ -70,7 +83,7 @@ def test_engine_shows_tessellation_progress_and_cancels_it(tmp_path):
     events = []
     execute(_recipe("b.step"), resolver=FileResolver(tmp_path), on_event=events.append)
     mine = [e for e in events if e.kind == "node_progress" and e.node == "m"]
-    assert mine[0].message.startswith("read b.step (0.0")            # MB
+    assert mine[0].message.startswith("read b.step (0.0")  # MB
     assert mine[-1].message.startswith("tessellated face 7 of 7 (")
 
     cancel = threading.Event()
@@ -79,7 +92,7 @@ def test_engine_shows_tessellation_progress_and_cancels_it(tmp_path):
     def sink(e):
         events.append(e)
         if e.kind == "node_progress" and e.node == "m":
-            cancel.set()                                          # the user presses cancel at the first report
+            cancel.set()  # the user presses cancel at the first report
 
     with pytest.raises(CancelledError):
         execute(_recipe("b.step"), resolver=FileResolver(tmp_path), on_event=sink, cancel=cancel)
@@ -99,12 +112,14 @@ def test_a_0_0005_mm_tolerance_is_refused_up_front_with_an_estimate(tmp_path):
     import re
 
     n = int(re.search(r"about ([\d,]+) triangles in face 1 of 1", msg).group(1).replace(",", ""))
-    assert 700_000 < n < 1_300_000                               # 97 k measured at 0.005 mm; ∝ 1/tolerance
+    assert 700_000 < n < 1_300_000  # 97 k measured at 0.005 mm; ∝ 1/tolerance
     suggested = float(re.search(r"a chordal_tolerance of ([\d.e-]+) mm or more", msg).group(1))
-    assert 0.0015 < suggested < 0.003                            # ≈ 0.0005 × 970 k / 250 k
+    assert 0.0015 < suggested < 0.003  # ≈ 0.0005 × 970 k / 250 k
     assert "max_face_triangles" in msg
     # the total cap is named when it is the one exceeded
-    with pytest.raises(InputFileError, match=r"about [\d,]+ triangles in all, over the cap of 20,000 \(max_triangles\)"):
+    with pytest.raises(
+        InputFileError, match=r"about [\d,]+ triangles in all, over the cap of 20,000 \(max_triangles\)"
+    ):
         execute(_recipe("torus.step", chordal_tolerance=0.01, max_triangles=20_000), resolver=FileResolver(tmp_path))
 
 
@@ -113,11 +128,14 @@ def test_mesh_file_read_reports_its_stages_and_stops_between_them(tmp_path):
 
     from waamflow.geometry.mesh_io import load_mesh_bytes
 
-    data = trimesh.exchange.stl.export_stl(trimesh.creation.icosphere(subdivisions=4, radius=20))   # 5120 triangles
+    data = trimesh.exchange.stl.export_stl(trimesh.creation.icosphere(subdivisions=4, radius=20))  # 5120 triangles
     seen = []
     load_mesh_bytes(data, "ball.stl", crack_tolerance=0.1, stage=lambda f, m: seen.append((f, m)))
-    assert seen == [(0.2, "parsed 5,120 triangles (0.2 MB)"), (0.5, "welded 5,120 triangles into 2,562 vertices"),
-                    (0.8, "checked and repaired 5,120 faces (0 open, 0 non-manifold edges left)")]
+    assert seen == [
+        (0.2, "parsed 5,120 triangles (0.2 MB)"),
+        (0.5, "welded 5,120 triangles into 2,562 vertices"),
+        (0.8, "checked and repaired 5,120 faces (0 open, 0 non-manifold edges left)"),
+    ]
 
     (tmp_path / "ball.stl").write_bytes(data)
     cancel = threading.Event()

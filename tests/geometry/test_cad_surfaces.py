@@ -29,7 +29,7 @@ S_POINTS = [(0, 0), (25, 20), (50, 0), (75, -20), (100, 0)]
 
 
 def _iges(path, shape, unit="MM"):
-    w = IGESControl_Writer(unit, 0)            # faces mode: 144 trimmed surfaces, 126/110 curves
+    w = IGESControl_Writer(unit, 0)  # faces mode: 144 trimmed surfaces, 126/110 curves
     w.AddShape(shape)
     w.ComputeModel()
     assert w.Write(str(path))
@@ -74,13 +74,19 @@ def _arch():
 
 def _run(tmp_path, nodes, edges=(), **kw):
     recipe = {"format": "waamflow/1", "name": "t", "nodes": nodes, "edges": list(edges)}
-    return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1, **kw)   # serial: no process pool
+    return execute(
+        build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1, **kw
+    )  # serial: no process pool
 
 
 def _mesh_and_slice(path, mesh_params=None, layer_height=1.5):
-    return ([{"id": "m", "type": "mesh", "params": {"path": path, **(mesh_params or {})}},
-             {"id": "layers", "type": "slice", "params": {"layer_height": layer_height}}],
-            [{"from": "m.mesh", "to": "layers.mesh"}])
+    return (
+        [
+            {"id": "m", "type": "mesh", "params": {"path": path, **(mesh_params or {})}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": layer_height}},
+        ],
+        [{"from": "m.mesh", "to": "layers.mesh"}],
+    )
 
 
 def _length(c) -> float:
@@ -104,7 +110,7 @@ def test_iges_144_vertical_rectangle_is_a_midsurface(tmp_path, as_):
     rep = res.stats["m"].report
     assert rep["read_as"] == "midsurface" and rep["faces"] == 1 and rep["curve_length_mm"] == pytest.approx(100.0)
     layers = res.outputs["layers"]["layers"]
-    assert len(layers) == 33 and layers[-1].z == pytest.approx(50.0)    # 33 × 1.5 = 49.5, the 0.5 merged on top
+    assert len(layers) == 33 and layers[-1].z == pytest.approx(50.0)  # 33 × 1.5 = 49.5, the 0.5 merged on top
     assert all(len(lay.curves) == 1 and lay.curves[0].length == pytest.approx(100.0) for lay in layers)
     assert any("read as a midsurface" in w["message"] and "1 curve(s) of 100 mm" in w["message"] for w in res.warnings)
 
@@ -122,13 +128,15 @@ def test_ruled_bspline_wall_is_a_midsurface_of_the_curve(tmp_path, name):
     assert isinstance(mid, Midsurface) and mid.height == pytest.approx(40.0, abs=1e-6)
     exact = _s_length()
     assert exact == pytest.approx(134.6438, abs=1e-4)
-    assert exact - 0.05 < _length(mid.curves[0]) <= exact           # inscribed chords within 0.01 mm sagitta
+    assert exact - 0.05 < _length(mid.curves[0]) <= exact  # inscribed chords within 0.01 mm sagitta
     layers = res.outputs["layers"]["layers"]
-    assert len(layers) == 20 and [lay.curves[0].length for lay in layers] == pytest.approx([_length(mid.curves[0])] * 20)
+    assert len(layers) == 20 and [lay.curves[0].length for lay in layers] == pytest.approx(
+        [_length(mid.curves[0])] * 20
+    )
 
 
 def test_iges_midsurface_in_inch_is_converted_once(tmp_path):
-    _iges(tmp_path / "in.igs", _vertical_rectangle(), unit="IN")      # written as 3.937 × 1.969 inch
+    _iges(tmp_path / "in.igs", _vertical_rectangle(), unit="IN")  # written as 3.937 × 1.969 inch
     assert "3.937" in (tmp_path / "in.igs").read_text()
     res = _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "in.igs"}}])
     mid = res.outputs["m"]["mesh"]
@@ -145,11 +153,11 @@ def test_open_non_vertical_surface_is_tessellated(tmp_path):
     res = _run(tmp_path, *_mesh_and_slice("arch.igs", {"as": "surface", "chordal_tolerance": 0.01}, layer_height=2.0))
     mesh = res.outputs["m"]["mesh"]
     assert isinstance(mesh, MeshData) and mesh.surface
-    assert math.pi * 20 * 100 - 10 < _area(mesh) <= math.pi * 20 * 100      # inscribed facets
+    assert math.pi * 20 * 100 - 10 < _area(mesh) <= math.pi * 20 * 100  # inscribed facets
     assert res.stats["m"].report["read_as"] == "surface"
     assert any("not as a sketch" in w["message"] and "not vertical" in w["message"] for w in res.warnings)
     layers = res.outputs["layers"]["layers"]
-    assert len(layers) == 10                                                 # 20 mm / 2 mm
+    assert len(layers) == 10  # 20 mm / 2 mm
     # each layer cuts the arch in two 100 mm lines
     assert [sum(c.length for c in lay.curves) for lay in layers[:-1]] == pytest.approx([200.0] * 9, abs=1e-6)
 
@@ -171,8 +179,10 @@ def test_curve_only_iges_is_a_sketch(tmp_path):
     with pytest.raises(InputFileError, match=r"curve\.igs: 1 curve\(s\) and no faces.*'sketch' node") as err:
         _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "curve.igs"}}])
     assert err.value.node == "m"
-    nodes = [{"id": "sk", "type": "sketch", "params": {"path": "curve.igs", "height": 30, "arc_tolerance": 0.01}},
-             {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}}]
+    nodes = [
+        {"id": "sk", "type": "sketch", "params": {"path": "curve.igs", "height": 30, "arc_tolerance": 0.01}},
+        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+    ]
     res = _run(tmp_path, nodes, [{"from": "sk.mesh", "to": "layers.mesh"}])
     mid = res.outputs["sk"]["mesh"]
     assert mid.z0 == pytest.approx(5.0) and mid.height == 30
@@ -199,20 +209,23 @@ def test_iges_midsurface_with_a_t_and_an_x_feeds_feature_recognition_like_the_sk
     from OCP.BRep import BRep_Builder
     from OCP.TopoDS import TopoDS_Compound
 
-    walls = [[(0, 0), (100, 0)], [(50, 0), (50, 60)], [(20, 40), (80, 40)]]   # a T at (50, 0), an X at (50, 40)
+    walls = [[(0, 0), (100, 0)], [(50, 0), (50, 60)], [(20, 40), (80, 40)]]  # a T at (50, 0), an X at (50, 40)
     comp = TopoDS_Compound()
     b = BRep_Builder()
     b.MakeCompound(comp)
     for (x0, y0), (x1, y1) in walls:
         edge = BRepBuilderAPI_MakeEdge(gp_Pnt(x0, y0, 0), gp_Pnt(x1, y1, 0)).Edge()
         b.Add(comp, BRepPrimAPI_MakePrism(edge, gp_Vec(0, 0, 20)).Shape())
-    b.Add(comp, BRepBuilderAPI_MakeEdge(gp_Pnt(0, -10, 0), gp_Pnt(100, -10, 0)).Edge())   # a construction line
+    b.Add(comp, BRepBuilderAPI_MakeEdge(gp_Pnt(0, -10, 0), gp_Pnt(100, -10, 0)).Edge())  # a construction line
     _iges(tmp_path / "walls.igs", comp)
     (tmp_path / "walls.json").write_text(json.dumps({"curves": walls, "height": 20}))
 
     def kinds(node):
-        nodes = [node, {"id": "layers", "type": "slice", "params": {"layer_height": 2}},
-                 {"id": "features", "type": "features", "params": {}}]
+        nodes = [
+            node,
+            {"id": "layers", "type": "slice", "params": {"layer_height": 2}},
+            {"id": "features", "type": "features", "params": {}},
+        ]
         edges = [{"from": "p.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}]
         res = _run(tmp_path, nodes, edges)
         fs = res.outputs["features"]["features"]
@@ -247,15 +260,16 @@ def test_reading_iges_prints_nothing_on_stdout(tmp_path, capfd):
     cad = read_cad_shape((tmp_path / "curve.igs").read_bytes(), "curve.igs")
     assert len(cad.edges) == 1
     out = capfd.readouterr().out
-    assert "loaded entities" not in out and out == ""        # before: OpenCascade's coloured info line
+    assert "loaded entities" not in out and out == ""  # before: OpenCascade's coloured info line
 
 
 @pytest.mark.parametrize("lean,midsurface", [(0.02, True), (0.2, False), (1.0, False)])
 def test_a_wall_leaning_less_than_the_tolerance_is_a_midsurface(tmp_path, lean, midsurface):
     """A 100 × 50 mm wall whose top is `lean` mm off its bottom: within chordal_tolerance 0.05 mm it
     is a vertical wall (a CAD export's rounding); beyond, a tessellated surface saying why."""
-    poly = BRepBuilderAPI_MakePolygon(gp_Pnt(0, 0, 0), gp_Pnt(100, 0, 0), gp_Pnt(100, lean, 50), gp_Pnt(0, lean, 50),
-                                      True)
+    poly = BRepBuilderAPI_MakePolygon(
+        gp_Pnt(0, 0, 0), gp_Pnt(100, 0, 0), gp_Pnt(100, lean, 50), gp_Pnt(0, lean, 50), True
+    )
     _iges(tmp_path / "lean.igs", BRepBuilderAPI_MakeFace(poly.Wire()).Face())
     res = _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "lean.igs"}}])
     part = res.outputs["m"]["mesh"]

@@ -31,7 +31,7 @@ def test_minsert_array_gives_25_copies():
     blk = doc.blocks.new("RING")
     blk.add_circle((0, 0), 10)
     ins = doc.modelspace().add_blockref("RING", (0, 0))
-    ins.grid(size=(5, 5), spacing=(40, 30))                 # 5 rows 40 apart (y) × 5 columns 30 apart (x)
+    ins.grid(size=(5, 5), spacing=(40, 30))  # 5 rows 40 apart (y) × 5 columns 30 apart (x)
     mid = load_sketch_bytes(_bytes(doc), "m.dxf", height=10).midsurface
     assert len(mid.curves) == 25
     centres = np.array(sorted({(round(float(c[:-1, 0].mean())), round(float(c[:-1, 1].mean()))) for c in mid.curves}))
@@ -52,10 +52,10 @@ def test_nested_blocks_scaled_and_rotated():
     mid = load_sketch_bytes(_bytes(doc), "n.dxf", height=10).midsurface
     assert len(mid.curves) == 2
     for c in mid.curves:
-        assert _length(c) == pytest.approx(100.0)                  # 50 × 2
-        assert c[:, 0].max() - c[:, 0].min() == pytest.approx(0.0, abs=1e-9)   # rotated to vertical
+        assert _length(c) == pytest.approx(100.0)  # 50 × 2
+        assert c[:, 0].max() - c[:, 0].min() == pytest.approx(0.0, abs=1e-9)  # rotated to vertical
     xs = sorted(float(c[0, 0]) for c in mid.curves)
-    assert xs == pytest.approx([60.0, 100.0])                        # (0, 20)·2 rotated 90° → x −40
+    assert xs == pytest.approx([60.0, 100.0])  # (0, 20)·2 rotated 90° → x −40
 
 
 def test_ocs_arc_with_negative_extrusion_in_world_coordinates():
@@ -64,12 +64,12 @@ def test_ocs_arc_with_negative_extrusion_in_world_coordinates():
     doc.modelspace().add_arc((50, 0), 10, 0, 90, dxfattribs={"extrusion": (0, 0, -1)})
     c = load_sketch_bytes(_bytes(doc), "o.dxf", height=10).midsurface.curves[0]
     assert np.hypot(c[:, 0] + 50, c[:, 1]) == pytest.approx(10.0, abs=0.011)
-    assert c[:, 0].max() <= -50 + 1e-9 and c[:, 1].min() >= -1e-9     # world quadrant: x ≤ −50, y ≥ 0
+    assert c[:, 0].max() <= -50 + 1e-9 and c[:, 1].min() >= -1e-9  # world quadrant: x ≤ −50, y ≥ 0
     assert _length(c) == pytest.approx(math.pi * 5, rel=1e-3)
 
 
 def test_binary_dxf_reads_like_ascii(tmp_path):
-    doc = ezdxf.new("R2010", units=1)                                   # inch
+    doc = ezdxf.new("R2010", units=1)  # inch
     doc.modelspace().add_lwpolyline([(0, 0), (4, 0), (4, 2)])
     a = load_sketch_bytes(_bytes(doc), "a.dxf", height=10)
     b = load_sketch_bytes(_bytes(doc, "bin", tmp_path), "b.dxf", height=10, units="file")
@@ -89,7 +89,7 @@ def test_layout_choice():
     data = _bytes(doc)
     assert _length(load_sketch_bytes(data, "l.dxf", height=5).midsurface.curves[0]) == pytest.approx(100)
     mid = load_sketch_bytes(data, "l.dxf", height=5, layout="Sheet A").midsurface
-    assert len(mid.curves) == 1 and _length(mid.curves[0]) == pytest.approx(100)     # 70 + 30 joined
+    assert len(mid.curves) == 1 and _length(mid.curves[0]) == pytest.approx(100)  # 70 + 30 joined
     assert mid.curves[0][:, 1].max() == pytest.approx(70)
     with pytest.raises(InputFileError, match="no layout 'Sheet B'.*Sheet A"):
         load_sketch_bytes(data, "l.dxf", height=5, layout="Sheet B")

@@ -15,7 +15,7 @@ def test_report_and_twins_from_one_sort_equal_the_two_calls(path):
     rep, twin = topology.edge_report_twins(faces, n)
     assert rep == topology.edge_report(faces, n) and rep.closed and rep.edges == len(faces) * 3 // 2
     assert np.array_equal(twin, topology.edge_twins(faces, n))
-    opened = faces[1:]                                     # a face less: 3 open edges, no twins
+    opened = faces[1:]  # a face less: 3 open edges, no twins
     rep2, twin2 = topology.edge_report_twins(opened, n)
     assert rep2 == topology.edge_report(opened, n) and rep2.open == 3 and twin2 is None
     assert topology.edge_report_twins(faces[:0], n) == (topology.EdgeReport(0, 0, 0, 0), None)
@@ -33,6 +33,7 @@ def test_a_closed_mesh_read_sorts_its_edges_once(monkeypatch):
     with open("graphs/parts/duct.stl", "rb") as fh:
         data = fh.read()
     stats: dict = {}
-    md = mesh_io.load_mesh_bytes(data, "duct.stl", require_closed=False, weld_tolerance=0.001, stats=stats,
-                                 crack_tolerance=0.01)
+    md = mesh_io.load_mesh_bytes(
+        data, "duct.stl", require_closed=False, weld_tolerance=0.001, stats=stats, crack_tolerance=0.01
+    )
     assert calls == [len(md.faces)] and stats["edges"].closed and stats["faces_rewound"] == 0

@@ -39,7 +39,7 @@ def _cad_box(path, unit: str):
         w.ComputeModel()
         assert w.Write(str(path))
     else:
-        w = STEPControl_Writer()                   # (the constructor resets write.step.unit)
+        w = STEPControl_Writer()  # (the constructor resets write.step.unit)
         Interface_Static.SetCVal_s("write.step.unit", unit)
         try:
             w.Transfer(box, STEPControl_AsIs)
@@ -51,7 +51,7 @@ def _cad_box(path, unit: str):
 @pytest.mark.parametrize("name", ["b.igs", "b.step"])
 def test_inch_cad_file_is_converted_once_and_reported(tmp_path, name):
     _cad_box(tmp_path / name, "INCH")
-    for units in ("file", "in"):            # 'in' agrees with the file: converted once, not twice
+    for units in ("file", "in"):  # 'in' agrees with the file: converted once, not twice
         res = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": name, "units": units}})
         assert _extent(res.outputs["m"]["mesh"]) == pytest.approx([60, 40, 30], rel=1e-6)
         assert res.stats["m"].report["file_unit"] == "in" and res.stats["m"].report["unit_factor"] == 25.4
@@ -62,8 +62,9 @@ def test_inch_cad_file_is_converted_once_and_reported(tmp_path, name):
     assert any("overrides the file unit inch" in w["message"] for w in res.warnings)
 
 
-@pytest.mark.parametrize("code,mm", [(10, 914.4), (14, 100.0), (7, 1e6), (9, 0.0254), (8, 25.4e-6), (3, 1609344.0),
-                                     (21, 1200 / 3937 * 1000)])
+@pytest.mark.parametrize(
+    "code,mm", [(10, 914.4), (14, 100.0), (7, 1e6), (9, 0.0254), (8, 25.4e-6), (3, 1609344.0), (21, 1200 / 3937 * 1000)]
+)
 def test_dxf_insunits_full_table(tmp_path, code, mm):
     doc = ezdxf.new("R2010", units=code)
     doc.modelspace().add_lwpolyline([(0, 0), (1, 0), (1, 1)])
@@ -93,17 +94,23 @@ def _threemf(unit: str, pad: int) -> bytes:
     f = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]
     verts = "".join(f'<vertex x="{x:g}" y="{y:g}" z="{z:g}"/>' for x, y, z in v)
     tris = "".join(f'<triangle v1="{a}" v2="{b}" v3="{c}"/>' for a, b, c in f)
-    model = ('<?xml version="1.0" encoding="UTF-8"?>\n<!-- ' + "x" * pad + ' -->\n'
-             f'<model unit="{unit}" xml:lang="en-US" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">'
-             f'<resources><object id="1" type="model"><mesh><vertices>{verts}</vertices><triangles>{tris}</triangles>'
-             '</mesh></object></resources><build><item objectid="1"/></build></model>')
-    rels = ('<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/'
-            'relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/'
-            '3dmanufacturing/2013/01/3dmodel"/></Relationships>')
-    types = ('<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/'
-             'content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
-             'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.'
-             '3dmanufacturing-3dmodel+xml"/></Types>')
+    model = (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<!-- ' + "x" * pad + " -->\n"
+        f'<model unit="{unit}" xml:lang="en-US" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02">'
+        f'<resources><object id="1" type="model"><mesh><vertices>{verts}</vertices><triangles>{tris}</triangles>'
+        '</mesh></object></resources><build><item objectid="1"/></build></model>'
+    )
+    rels = (
+        '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/'
+        'relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/'
+        '3dmanufacturing/2013/01/3dmodel"/></Relationships>'
+    )
+    types = (
+        '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/'
+        'content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
+        'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.'
+        '3dmanufacturing-3dmodel+xml"/></Types>'
+    )
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         z.writestr("[Content_Types].xml", types)

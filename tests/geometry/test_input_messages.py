@@ -23,7 +23,7 @@ def _run(tmp_path, nodes, edges=()):
 
 
 def _dxf(tmp_path, fill, name="s.dxf") -> dict:
-    doc = ezdxf.new("R2010", units=4)                   # mm (ezdxf's default is metres)
+    doc = ezdxf.new("R2010", units=4)  # mm (ezdxf's default is metres)
     handles = fill(doc.modelspace()) or {}
     buf = io.StringIO()
     doc.write(buf)
@@ -42,12 +42,14 @@ def _length(c) -> float:
 def test_radius_0_circle_and_degenerate_entities_are_skipped_by_handle(tmp_path):
     def fill(msp):
         msp.add_line((0, 0), (100, 0))
-        return {"circle": msp.add_circle((5, 5), 0).dxf.handle,
-                "spline": msp.add_spline(fit_points=[(0, 10), (0, 10)]).dxf.handle,
-                "lw": msp.add_lwpolyline([(3, 3)]).dxf.handle}
+        return {
+            "circle": msp.add_circle((5, 5), 0).dxf.handle,
+            "spline": msp.add_spline(fit_points=[(0, 10), (0, 10)]).dxf.handle,
+            "lw": msp.add_lwpolyline([(3, 3)]).dxf.handle,
+        }
 
     h = _dxf(tmp_path, fill)
-    res = _sketch(tmp_path)                              # before: InputFileError for the whole file
+    res = _sketch(tmp_path)  # before: InputFileError for the whole file
     curves = res.outputs["sk"]["mesh"].curves
     assert len(curves) == 1 and _length(curves[0]) == pytest.approx(100.0)
     msgs = [w["message"] for w in res.warnings]
@@ -59,8 +61,10 @@ def test_radius_0_circle_and_degenerate_entities_are_skipped_by_handle(tmp_path)
 
 
 def test_out_of_plane_entity_error_names_handle_and_direction_without_numpy_text(tmp_path):
-    h = _dxf(tmp_path, lambda msp: {"lw": msp.add_lwpolyline([(0, 0), (10, 0)],
-                                                             dxfattribs={"extrusion": (1, 0, 0)}).dxf.handle})
+    h = _dxf(
+        tmp_path,
+        lambda msp: {"lw": msp.add_lwpolyline([(0, 0), (10, 0)], dxfattribs={"extrusion": (1, 0, 0)}).dxf.handle},
+    )
     with pytest.raises(InputFileError) as err:
         _sketch(tmp_path)
     msg = str(err.value)
@@ -74,16 +78,17 @@ def test_dxf_repairs_are_listed(tmp_path):
     h = _dxf(tmp_path, lambda msp: {"line": msp.add_line((0, 0), (50, 0)).dxf.handle})
     text = (tmp_path / "s.dxf").read_text().split("\n")
     i = next(k for k, v in enumerate(text) if v.strip() == "AcDbLine")
-    (tmp_path / "s.dxf").write_text("\n".join(text[:i + 1] + [" 62", "999"] + text[i + 1:]))   # colour 999
+    (tmp_path / "s.dxf").write_text("\n".join(text[: i + 1] + [" 62", "999"] + text[i + 1 :]))  # colour 999
     res = _sketch(tmp_path)
     assert _length(res.outputs["sk"]["mesh"].curves[0]) == pytest.approx(50.0)
-    assert any(f"DXF read: repaired: Removed invalid color index of LINE(#{h['line']})" in w["message"]
-               for w in res.warnings)
+    assert any(
+        f"DXF read: repaired: Removed invalid color index of LINE(#{h['line']})" in w["message"] for w in res.warnings
+    )
     assert res.stats["sk"].report["dxf_repairs"] == 1
 
 
 def test_file_size_limit_is_said_in_the_settings_mb(tmp_path):
-    (tmp_path / "big.stl").write_bytes(b"solid x\n" + b" " * (3 * 2**19))      # 1.5 MB (of 2^20 bytes)
+    (tmp_path / "big.stl").write_bytes(b"solid x\n" + b" " * (3 * 2**19))  # 1.5 MB (of 2^20 bytes)
     with pytest.raises(InputFileError) as err:
         _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "big.stl", "max_file_mb": 1.25}}])
     # before: "file big.stl is 1.6 MB, over the 1 MB limit" (decimal MB; a 200 MB setting said 210)
@@ -94,12 +99,14 @@ def test_file_size_limit_is_said_in_the_settings_mb(tmp_path):
 
 
 def test_part_thinner_than_a_layer_says_its_size_and_what_to_do(tmp_path):
-    box = trimesh.creation.box(extents=(0.06, 0.04, 0.03))            # a 60 × 40 × 30 mm part written in m
+    box = trimesh.creation.box(extents=(0.06, 0.04, 0.03))  # a 60 × 40 × 30 mm part written in m
     box.apply_translation((0, 0, 0.015))
     box.export(tmp_path / "tiny.stl")
-    nodes = [{"id": "m", "type": "mesh", "params": {"path": "tiny.stl"}},
-             {"id": "layers", "type": "slice", "params": {"layer_height": 1.5, "top": "nearest"}}]
-    with pytest.raises(PlanningError) as err:                         # before: "no layers: the slicing range ... is empty"
+    nodes = [
+        {"id": "m", "type": "mesh", "params": {"path": "tiny.stl"}},
+        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5, "top": "nearest"}},
+    ]
+    with pytest.raises(PlanningError) as err:  # before: "no layers: the slicing range ... is empty"
         _run(tmp_path, nodes, [{"from": "m.mesh", "to": "layers.mesh"}])
     msg = str(err.value)
     assert "the part is 0.03 mm tall (from 0 mm to 0.03 mm" in msg and "layer height 1.5 mm" in msg

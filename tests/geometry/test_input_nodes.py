@@ -18,7 +18,7 @@ def _run(tmp_path, node):
 
 
 def test_mesh_node_caps_and_missing_file(tmp_path):
-    trimesh.creation.icosphere(subdivisions=2).export(tmp_path / "s.stl")   # 320 triangles
+    trimesh.creation.icosphere(subdivisions=2).export(tmp_path / "s.stl")  # 320 triangles
     res = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "s.stl", "units": "m"}})
     mesh = res.outputs["m"]["mesh"]
     assert len(mesh.faces) == 320

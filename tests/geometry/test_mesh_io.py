@@ -22,7 +22,9 @@ def _export(tm: trimesh.Trimesh, fmt: str) -> bytes:
     return out.encode() if isinstance(out, str) else out
 
 
-@pytest.mark.parametrize("fmt,name", [("stl", "p.stl"), ("stl_ascii", "p.stl"), ("obj", "p.obj"), ("ply", "p.ply"), ("3mf", "p.3mf")])
+@pytest.mark.parametrize(
+    "fmt,name", [("stl", "p.stl"), ("stl_ascii", "p.stl"), ("obj", "p.obj"), ("ply", "p.ply"), ("3mf", "p.3mf")]
+)
 def test_formats_load_the_same_mesh(fmt, name):
     tm = _part()
     mesh = load_mesh_bytes(_export(tm, fmt), name)
@@ -49,7 +51,9 @@ def test_units_and_transform():
     data = _export(tm, "stl")
     m = load_mesh_bytes(data, "b.stl", units="in")
     np.testing.assert_allclose(m.bounds[1] - m.bounds[0], [25.4, 50.8, 76.2], rtol=1e-6)
-    m = load_mesh_bytes(data, "b.stl", units="cm", transform=Transform(translate=(0, 0, 100), rotate_deg=(90, 0, 0), scale=2))
+    m = load_mesh_bytes(
+        data, "b.stl", units="cm", transform=Transform(translate=(0, 0, 100), rotate_deg=(90, 0, 0), scale=2)
+    )
     # (x, y, z) → 20·(x, −z, y) + (0, 0, 100) for a quarter turn about x
     np.testing.assert_allclose(m.bounds, [[0, -60, 100], [20, 0, 140]], atol=1e-9)
     assert signed_volume(m.vertices, m.faces) == pytest.approx(6 * 20**3)
@@ -127,7 +131,7 @@ def test_weld_tolerance_closes_rounding_cracks():
     tm = _part()
     tri = np.asarray(tm.triangles).copy()
     rng = np.random.default_rng(3)
-    tri += rng.uniform(-2e-6, 2e-6, tri.shape)           # every corner written slightly differently
+    tri += rng.uniform(-2e-6, 2e-6, tri.shape)  # every corner written slightly differently
     noisy = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3), process=False)
     data = _export(noisy, "stl")
     with pytest.raises(InputFileError, match="open edges"):
@@ -135,19 +139,23 @@ def test_weld_tolerance_closes_rounding_cracks():
     # vertices on open edges within 1e-3 mm merge: all copies of a corner become one
     m = load_mesh_bytes(data, "noisy.stl", weld_tolerance=1e-3)
     assert len(m.vertices) == 192 and len(m.faces) == 384
-    assert signed_volume(m.vertices, m.faces) == pytest.approx(tm.volume, rel=1e-4)   # corners moved ≤ 0.9 µm
+    assert signed_volume(m.vertices, m.faces) == pytest.approx(tm.volume, rel=1e-4)  # corners moved ≤ 0.9 µm
 
 
 def test_ascii_stl_fast_parser_multi_solid_uppercase_and_fallback():
     from waamflow.geometry.mesh_io import ascii_stl_triangles
 
-    text = (b"SOLID part1\n  FACET NORMAL 0 0 1E+0\n    OUTER LOOP\n\tVERTEX 0 0 0\n VERTEX 1.5e1 0 0\n"
-            b" VERTEX 0 1 0\n ENDLOOP\n ENDFACET\nENDSOLID part1\nsolid b2\nfacet normal 0 0 1\nouter loop\n"
-            b"vertex 0 0 -2.5E-1\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid b2\n")
+    text = (
+        b"SOLID part1\n  FACET NORMAL 0 0 1E+0\n    OUTER LOOP\n\tVERTEX 0 0 0\n VERTEX 1.5e1 0 0\n"
+        b" VERTEX 0 1 0\n ENDLOOP\n ENDFACET\nENDSOLID part1\nsolid b2\nfacet normal 0 0 1\nouter loop\n"
+        b"vertex 0 0 -2.5E-1\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid b2\n"
+    )
     tri = ascii_stl_triangles(text)
     np.testing.assert_array_equal(tri, [[[0, 0, 0], [15, 0, 0], [0, 1, 0]], [[0, 0, -0.25], [1, 0, 0], [0, 1, 0]]])
-    nan_file = (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\nvertex 0 1 0\n"
-                b"endloop\nendfacet\nendsolid x\n")
+    nan_file = (
+        b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\nvertex 1 0 0\nvertex 0 1 0\n"
+        b"endloop\nendfacet\nendsolid x\n"
+    )
     assert ascii_stl_triangles(nan_file) is None
     # the fast path refuses it; trimesh reads it and the NaN is reported
     with pytest.raises(InputFileError, match="non-finite"):

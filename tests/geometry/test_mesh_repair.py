@@ -37,7 +37,7 @@ def _box_tri(extents=(60, 40, 30), shift=(0, 0, 0)):
 
 def test_box_with_half_its_triangles_flipped_is_a_solid(tmp_path):
     tri = _box_tri()
-    tri[::2] = tri[::2, ::-1]                                    # every other triangle wound the wrong way
+    tri[::2] = tri[::2, ::-1]  # every other triangle wound the wrong way
     res = _run(tmp_path, "flipped.stl", _soup_stl(tri), slice_=True)
     mesh = res.outputs["m"]["mesh"]
     assert not mesh.surface
@@ -55,7 +55,7 @@ def test_box_with_half_its_triangles_flipped_is_a_solid(tmp_path):
 
 def test_box_with_a_0_05_mm_crack_is_a_solid(tmp_path):
     tri = _box_tri()
-    top = np.all(np.abs(tri[:, :, 2] - 15) < 1e-9, axis=1)      # the two top triangles float 0.05 mm up
+    top = np.all(np.abs(tri[:, :, 2] - 15) < 1e-9, axis=1)  # the two top triangles float 0.05 mm up
     tri[top, :, 2] += 0.05
     res = _run(tmp_path, "crack.stl", _soup_stl(tri), slice_=True)
     mesh = res.outputs["m"]["mesh"]
@@ -89,9 +89,12 @@ def test_cylinder_without_caps_stays_a_surface(tmp_path):
 
 def test_box_with_a_fin_is_neither_and_is_refused_with_counts(tmp_path):
     tri = _box_tri()
-    fin = np.array([[[30, 20, 15], [30, -20, 15], [45, 0, 15]]], float)   # a sheet on the top's edge
+    fin = np.array([[[30, 20, 15], [30, -20, 15], [45, 0, 15]]], float)  # a sheet on the top's edge
     fin2 = np.array([[[30, 20, 15], [30, 20, -15], [45, 25, 0]]], float)  # and one on a side edge
-    with pytest.raises(InputFileError, match=r"fin\.stl.*neither a closed solid nor a single-wall surface.*"
-                                             r"2 non-manifold edges") as err:
+    with pytest.raises(
+        InputFileError,
+        match=r"fin\.stl.*neither a closed solid nor a single-wall surface.*"
+        r"2 non-manifold edges",
+    ) as err:
         _run(tmp_path, "fin.stl", _soup_stl(np.concatenate([tri, fin, fin2])))
     assert err.value.node == "m"

@@ -26,7 +26,7 @@ def _seam_gap_stl(gap: float) -> tuple[bytes, trimesh.Trimesh]:
     tri = np.asarray(cyl.triangles).copy()
     on_seam = (np.abs(tri[:, :, 1]) < 1e-9) & (tri[:, :, 0] > 1)
     centroid_y = tri[:, :, 1].mean(axis=1)
-    below = on_seam & (centroid_y[:, None] < 0)                 # corners of faces just below the seam
+    below = on_seam & (centroid_y[:, None] < 0)  # corners of faces just below the seam
     tri[below, 1] -= gap
     soup = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3), process=False)
     return trimesh.exchange.stl.export_stl(soup), cyl
@@ -36,7 +36,7 @@ def test_seam_gap_stl_welds_by_default_and_is_reported(tmp_path):
     data, cyl = _seam_gap_stl(2e-4)
     (tmp_path / "seam.stl").write_bytes(data)
     with pytest.raises(InputFileError, match="6 open edges"):
-        load_mesh_bytes(data, "seam.stl")                               # weld_tolerance 0: bit-exact only
+        load_mesh_bytes(data, "seam.stl")  # weld_tolerance 0: bit-exact only
     # the node's default tolerance (0.001 mm) closes it and says how many vertices it merged
     out = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl"}})
     mesh = out.outputs["m"]["mesh"]
@@ -61,7 +61,7 @@ def test_open_mesh_error_suggests_crack_tolerance(tmp_path):
         _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "as": "solid", "crack_tolerance": 0}})
     assert err.value.node == "m"
     auto = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "seam.stl", "crack_tolerance": 0}})
-    assert auto.outputs["m"]["mesh"].surface                                 # open, said so
+    assert auto.outputs["m"]["mesh"].surface  # open, said so
     assert any("crack_tolerance" in w["message"] and "surface" in w["message"] for w in auto.warnings)
 
 
@@ -84,21 +84,28 @@ def _tube(tmp_path, name="tube.stl"):
 
 
 def _slice_recipe(extra_mesh=None, with_features=False):
-    nodes = [{"id": "m", "type": "mesh", "params": {"path": "tube.stl", "placement": "on_plate", **(extra_mesh or {})}},
-             {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}}]
+    nodes = [
+        {"id": "m", "type": "mesh", "params": {"path": "tube.stl", "placement": "on_plate", **(extra_mesh or {})}},
+        {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
+    ]
     edges = [{"from": "m.mesh", "to": "layers.mesh"}]
     if with_features:
-        nodes += [{"id": "features", "type": "features", "params": {}},
-                  {"id": "walls", "type": "wall-path", "params": {"speed": 10.0}}]
-        edges += [{"from": "layers.layers", "to": "features.layers"}, {"from": "layers.layers", "to": "walls.layers"},
-                  {"from": "features.features", "to": "walls.features"}]
+        nodes += [
+            {"id": "features", "type": "features", "params": {}},
+            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0}},
+        ]
+        edges += [
+            {"from": "layers.layers", "to": "features.layers"},
+            {"from": "layers.layers", "to": "walls.layers"},
+            {"from": "features.features", "to": "walls.features"},
+        ]
     return {"format": "waamflow/1", "name": "t", "nodes": nodes, "edges": edges}
 
 
 def test_open_tube_surface_gives_one_closed_curve_per_layer(tmp_path):
     _tube(tmp_path)
     res = execute(build_graph(parse_recipe(_slice_recipe(with_features=True))), resolver=FileResolver(tmp_path))
-    assert any("single-wall surface" in w["message"] for w in res.warnings)         # auto → surface, said so
+    assert any("single-wall surface" in w["message"] for w in res.warnings)  # auto → surface, said so
     assert res.outputs["m"]["mesh"].surface
     layers = res.outputs["layers"]["layers"]
     assert len(layers) == 20
@@ -107,7 +114,7 @@ def test_open_tube_surface_gives_one_closed_curve_per_layer(tmp_path):
         assert len(layer.curves) == 1 and layer.curves[0].is_closed and layer.region.is_empty
         assert layer.curves[0].length == pytest.approx(circumference, rel=0.005)
     feats = json.loads(res.artifacts["features.features.json"])["features"]
-    assert {f["kind"] for f in feats} == {"tubular"}              # no ends, no junctions: one closed wall
+    assert {f["kind"] for f in feats} == {"tubular"}  # no ends, no junctions: one closed wall
     assert all(f["length_mm"] == pytest.approx(circumference, rel=0.005) for f in feats)
     tp = json.loads(res.artifacts["walls.toolpath.json"])
     assert len(tp["layers"]) == 20

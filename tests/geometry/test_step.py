@@ -74,8 +74,12 @@ def test_step_multibody_kept_and_flattening_warned(tmp_path):
     b.Add(comp, BRepPrimAPI_MakeBox(10, 10, 10).Shape())
     b.Add(comp, BRepPrimAPI_MakeBox(gp_Pnt(30, 0, 0), 10, 20, 10).Shape())
     (tmp_path / "two.step").write_bytes(_step(comp))
-    recipe = {"format": "waamflow/1", "name": "t", "edges": [],
-              "nodes": [{"id": "m", "type": "mesh", "params": {"path": "two.step"}}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "t",
+        "edges": [],
+        "nodes": [{"id": "m", "type": "mesh", "params": {"path": "two.step"}}],
+    }
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     mesh = res.outputs["m"]["mesh"]
     n, _ = face_components(edge_twins(mesh.faces, len(mesh.vertices)), len(mesh.faces))

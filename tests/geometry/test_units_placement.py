@@ -54,7 +54,7 @@ def test_sketch_node_reads_inch_dxf_and_warns_on_metre_giant(tmp_path):
     res = _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": "in.dxf", "height": 20}})
     assert _extent(res.outputs["sk"]["mesh"]) == pytest.approx([101.6, 50.8], abs=0.1)
     assert any("file unit inch → mm ×25.4" in w["message"] for w in res.warnings)
-    (tmp_path / "m.dxf").write_bytes(_dxf(6, lambda d: _rect(d, 40, 2)))       # 40 m: a typo in units
+    (tmp_path / "m.dxf").write_bytes(_dxf(6, lambda d: _rect(d, 40, 2)))  # 40 m: a typo in units
     res = _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": "m.dxf", "height": 20}})
     assert _extent(res.outputs["sk"]["mesh"])[0] == pytest.approx(40_000.0, abs=0.1)
     assert any("40 m across" in w["message"] and "'units'" in w["message"] for w in res.warnings)
@@ -65,7 +65,8 @@ def test_minsert_5x5_gives_25_copies():
         blk = doc.blocks.new("CELL")
         blk.add_lwpolyline([(0, 0), (10, 0), (10, 10), (0, 10)], close=True)
         ins = doc.modelspace().add_blockref("CELL", (100, 200))
-        ins.grid(size=(5, 5), spacing=(20, 30))                 # 5 rows × 5 columns
+        ins.grid(size=(5, 5), spacing=(20, 30))  # 5 rows × 5 columns
+
     mid = load_sketch_bytes(_dxf(4, build), "grid.dxf", height=5, units="file").midsurface
     assert len(mid.curves) == 25
     pts = np.vstack(mid.curves)
@@ -77,6 +78,7 @@ def test_hatch_only_dxf_says_what_was_skipped():
     def build(doc):
         h = doc.modelspace().add_hatch()
         h.paths.add_polyline_path([(0, 0), (10, 0), (10, 10)], is_closed=True)
+
     with pytest.raises(InputFileError, match=r"no curves.*1 HATCH"):
         load_sketch_bytes(_dxf(4, build), "h.dxf", height=5, units="file")
 
@@ -95,7 +97,7 @@ def _threemf_with_unit(tm: trimesh.Trimesh, unit: str) -> bytes:
 
 
 def test_3mf_in_inch(tmp_path):
-    box = trimesh.creation.box(extents=(2, 1, 0.5))           # inches
+    box = trimesh.creation.box(extents=(2, 1, 0.5))  # inches
     data = _threemf_with_unit(box, "inch")
     assert threemf_units(data) == "in"
     mesh = load_mesh_bytes(data, "b.3mf", units="file")
@@ -119,7 +121,7 @@ def test_placement_modes_and_plausibility():
 
 
 def test_cube_centred_on_plate(tmp_path):
-    cube = trimesh.creation.box(extents=(20, 20, 20))          # centred on the origin: z −10..10
+    cube = trimesh.creation.box(extents=(20, 20, 20))  # centred on the origin: z −10..10
     cube.apply_translation([5, -3, -17.6])
     cube.export(tmp_path / "c.stl")
     res = _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "c.stl", "placement": "centred"}})
@@ -137,7 +139,7 @@ def test_binary_stl_named_obj_is_read_by_content():
 def test_seam_gap_error_names_weld_tolerance():
     box = trimesh.creation.box(extents=(30, 30, 30))
     tri = np.asarray(box.triangles, dtype=np.float64).copy()
-    tri[0, 0] += 2e-4                                           # a 0.2 µm crack at one corner
+    tri[0, 0] += 2e-4  # a 0.2 µm crack at one corner
     data = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tri), process=False).export(file_type="stl")
     with pytest.raises(InputFileError, match="weld_tolerance"):
         load_mesh_bytes(data, "seam.stl")
@@ -149,7 +151,7 @@ def test_binary_dxf_and_layouts(tmp_path):
     import os
     import tempfile
 
-    doc = ezdxf.new("R2010", units=1)                          # inch
+    doc = ezdxf.new("R2010", units=1)  # inch
     doc.modelspace().add_lwpolyline([(0, 0), (2, 0), (2, 1)])
     lay = doc.layouts.new("Sheet A")
     lay.add_circle((0, 0), radius=1.0)
@@ -172,5 +174,6 @@ def test_binary_dxf_and_layouts(tmp_path):
 def test_paperspace_only_drawing_points_to_the_layout():
     def build(doc):
         doc.layouts.new("Plan").add_line((0, 0), (50, 0))
+
     with pytest.raises(InputFileError, match=r"no curves in layout 'Model'.*Plan \(1 entities\).*'layout'"):
         load_sketch_bytes(_dxf(4, build), "p.dxf", height=5)

@@ -132,8 +132,9 @@ def test_oscillate_run_ups_follow_the_guide():
     r = box(0, 0, 43, 21.5)
     g = LineString([(0, 10.75), (43, 10.75)])
     base = plan_section(r, g, StrategySpec(pattern="oscillate"))
-    ext = plan_section(r, g, StrategySpec(pattern="oscillate", extension_before=4.5, extension_after=3.6,
-                                          arc_outside="off"))
+    ext = plan_section(
+        r, g, StrategySpec(pattern="oscillate", extension_before=4.5, extension_after=3.6, arc_outside="off")
+    )
     assert ext.length == pytest.approx(base.length + 8.1)
     assert ext.outside_length == pytest.approx(8.1)
     assert ext.points[0] == pytest.approx(base.points[0] - [4.5, 0])
@@ -161,8 +162,9 @@ def test_pass_patterns_follow_a_curved_guide(pattern):
     else:
         mids = 0.5 * (ang[:-1] + ang[1:])
         assert np.all((mids[~p.inside] < 0) | (mids[~p.inside] > 90))
-        assert p.outside_length == pytest.approx(3 * (math.pi * 4.43 / 2 if pattern == "semicircular" else 2 * 4.43),
-                                                 rel=1e-2)  # 90-gon: end tangents off by ≤ 0.5°
+        assert p.outside_length == pytest.approx(
+            3 * (math.pi * 4.43 / 2 if pattern == "semicircular" else 2 * 4.43), rel=1e-2
+        )  # 90-gon: end tangents off by ≤ 0.5°
 
 
 @pytest.mark.parametrize("pattern", sorted(PATTERNS))
@@ -198,9 +200,13 @@ def test_random_sections_never_fail_and_flags_hold(seed):
             if guide.geom_type != "LineString":
                 continue
         for pattern in sorted(PATTERNS):
-            spec = StrategySpec(pattern=pattern, spacing=float(rng.choice([2.0, 4.43, 6.0])),
-                                arc_outside=str(rng.choice(["on", "off"])),
-                                extension_before=float(rng.choice([0, 3])), extension_after=float(rng.choice([0, 2])))
+            spec = StrategySpec(
+                pattern=pattern,
+                spacing=float(rng.choice([2.0, 4.43, 6.0])),
+                arc_outside=str(rng.choice(["on", "off"])),
+                extension_before=float(rng.choice([0, 3])),
+                extension_after=float(rng.choice([0, 2])),
+            )
             p = plan_section(poly, guide, spec)
             assert_inside_flags_hold(p, poly)
             if spec.arc_outside == "off":

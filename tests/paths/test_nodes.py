@@ -23,18 +23,29 @@ Strategy = REGISTRY["strategy"]
 
 
 def run(nodes, edges, inputs=None):
-    data = {"format": "waamflow/1", "name": "t", "inputs": inputs or {}, "nodes": nodes,
-            "edges": [{"from": a, "to": b} for a, b in edges]}
+    data = {
+        "format": "waamflow/1",
+        "name": "t",
+        "inputs": inputs or {},
+        "nodes": nodes,
+        "edges": [{"from": a, "to": b} for a, b in edges],
+    }
     return execute(build_graph(parse_recipe(data)), resolver=FileResolver("."))
 
 
 def study_graph(strategy_params, width=21.5, length=43, layers=1):
     return run(
-        [{"id": "or", "type": "rectangle", "params": {"length": length, "width": width, "layer_count": layers,
-                                                      "layer_height": 2.0}},
-         {"id": "mask", "type": "mask", "params": {"masks": []}},
-         {"id": "strategy", "type": "strategy", "params": strategy_params}],
-        [("or.layers", "mask.layers"), ("mask.sections", "strategy.sections")])
+        [
+            {
+                "id": "or",
+                "type": "rectangle",
+                "params": {"length": length, "width": width, "layer_count": layers, "layer_height": 2.0},
+            },
+            {"id": "mask", "type": "mask", "params": {"masks": []}},
+            {"id": "strategy", "type": "strategy", "params": strategy_params},
+        ],
+        [("or.layers", "mask.layers"), ("mask.sections", "strategy.sections")],
+    )
 
 
 def test_rectangle_layers():
@@ -45,11 +56,12 @@ def test_rectangle_layers():
     assert all(l.area == pytest.approx(43 * 21.5) for l in layers)
 
 
-@pytest.mark.parametrize("pattern, expected", [("raster", h.raster(43, 21.5)), ("spiral", h.spiral(43, 21.5)),
-                                               ("rectangular", h.rectangular(43, 21.5))])
+@pytest.mark.parametrize(
+    "pattern, expected",
+    [("raster", h.raster(43, 21.5)), ("spiral", h.spiral(43, 21.5)), ("rectangular", h.rectangular(43, 21.5))],
+)
 def test_study_graph_toolpath_and_artifacts(pattern, expected):
-    res = study_graph({"default": {"pattern": pattern, "speed": 20}, "compare": ["raster", "triangular:60"]},
-                      layers=2)
+    res = study_graph({"default": {"pattern": pattern, "speed": 20}, "compare": ["raster", "triangular:60"]}, layers=2)
     tp = res.outputs["strategy"]["toolpath"]
     assert len(tp) == 2
     for lp in tp:
@@ -85,18 +97,29 @@ def test_no_comparison_by_default():
 
 def _layer_sections():
     layer = Layer(index=4, z=7.5, thickness=1.5, region=MultiPolygon([box(0, 0, 100, 30)]))
-    a = Section("bs1/A", box(0, 0, 43, 21.5), order=0, guide=LineString([(0, 10.75), (43, 10.75)]),
-                start=(0, 10.75), stop=(43, 10.75))
+    a = Section(
+        "bs1/A",
+        box(0, 0, 43, 21.5),
+        order=0,
+        guide=LineString([(0, 10.75), (43, 10.75)]),
+        start=(0, 10.75),
+        stop=(43, 10.75),
+    )
     b = Section("bs1/B", box(50, 0, 100, 30), order=1)  # no guide: long axis of its rectangle
     return LayerSections(layer, (a, b))
 
 
 def test_overrides_and_section_order():
     node = Strategy()
-    params = Strategy.Params.model_validate({
-        "default": {"pattern": "oscillate", "speed": 8, "bead_width": 6, "step": 3},
-        "sections": {"bs1/A": {"pattern": "triangular", "angle_deg": 60, "arc_outside": "off"},
-                     "bs9/Z": {"speed": 3}}})
+    params = Strategy.Params.model_validate(
+        {
+            "default": {"pattern": "oscillate", "speed": 8, "bead_width": 6, "step": 3},
+            "sections": {
+                "bs1/A": {"pattern": "triangular", "angle_deg": 60, "arc_outside": "off"},
+                "bs9/Z": {"speed": 3},
+            },
+        }
+    )
     out = node.run_layer(None, params, 4, {"sections": _layer_sections()})["toolpath"]
     a, b = out.sections
     assert (a.key, a.strategy, b.key, b.strategy) == ("bs1/A", "triangular", "bs1/B", "oscillate")
@@ -110,23 +133,26 @@ def test_overrides_and_section_order():
 
 
 def test_layer_params_only_sections_present():
-    params = Strategy.Params.model_validate({
-        "default": {"pattern": "parallel"},
-        "sections": {"bs1/A": {"step": 2}, "bs2/A": {"step": 5}}})
+    params = Strategy.Params.model_validate(
+        {"default": {"pattern": "parallel"}, "sections": {"bs1/A": {"step": 2}, "bs2/A": {"step": 5}}}
+    )
     lp = Strategy().layer_params(params, 4, {"sections": _layer_sections()})
     assert lp["sections"] == {"bs1/A": {"step": 2.0}}
     assert lp["default"]["pattern"] == "parallel"
 
 
-@pytest.mark.parametrize("params", [
-    {"default": {"pattern": "zigzag"}},
-    {"default": {"pattern": "raster", "colour": 1}},
-    {"sections": {"bs1/A": {"pattern": "nope"}}},
-    {"sections": {"bs1/A": {"spacing": -1}}},
-    {"default": {"angle_deg": 180}},
-    {"compare": ["raster", "helix"]},
-    {"compare": ["triangular:200"]},
-])
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"default": {"pattern": "zigzag"}},
+        {"default": {"pattern": "raster", "colour": 1}},
+        {"sections": {"bs1/A": {"pattern": "nope"}}},
+        {"sections": {"bs1/A": {"spacing": -1}}},
+        {"default": {"angle_deg": 180}},
+        {"compare": ["raster", "helix"]},
+        {"compare": ["triangular:200"]},
+    ],
+)
 def test_bad_params_are_recipe_errors(params):
     with pytest.raises(RecipeError):
         study_graph(params)
@@ -146,21 +172,33 @@ def test_section_too_small_is_a_planning_error_naming_layer_and_section():
 def test_rectangle_study_recipe_inputs_match_the_contract():
     data = json.loads((ROOT / "graphs" / "rectangle-study.json").read_text())
     assert data["format"] == "waamflow/1"
-    assert data["inputs"] == {"length": 43, "width": 21.5, "spacing": 4.43, "pattern": "raster", "angle_deg": 45,
-                              "arc_outside": "on", "speed": 10, "cdis": 5, "wire_feed_mm3_s": 94.25,
-                              "compensate": "off"}   # v2 (issue 16): wire-feed compensation off | on
+    assert data["inputs"] == {
+        "length": 43,
+        "width": 21.5,
+        "spacing": 4.43,
+        "pattern": "raster",
+        "angle_deg": 45,
+        "arc_outside": "on",
+        "speed": 10,
+        "cdis": 5,
+        "wire_feed_mm3_s": 94.25,
+        "compensate": "off",
+    }  # v2 (issue 16): wire-feed compensation off | on
     sim = [n for n in data["nodes"] if n["id"] == "simulate"]
     assert sim and sim[0]["type"] == "simulate-robot"
     assert sim[0]["params"]["cdis"] == "$cdis" and sim[0]["params"]["wire_feed_mm3_s"] == "$wire_feed_mm3_s"
 
 
-@pytest.mark.parametrize("pattern, arc_outside, expected, switches", [
-    ("raster", "on", h.raster(43, 21.5), 10),
-    ("semicircular", "off", 242.603, 10),
-    ("triangular", "on", h.triangular(43, 21.5, 45), 2),
-    ("spiral", "on", h.spiral(43, 21.5), 2),
-    ("swiping", "on", 464.246, 2),
-])
+@pytest.mark.parametrize(
+    "pattern, arc_outside, expected, switches",
+    [
+        ("raster", "on", h.raster(43, 21.5), 10),
+        ("semicircular", "off", 242.603, 10),
+        ("triangular", "on", h.triangular(43, 21.5, 45), 2),
+        ("spiral", "on", h.spiral(43, 21.5), 2),
+        ("swiping", "on", 464.246, 2),
+    ],
+)
 def test_rectangle_study_recipe_runs_end_to_end(pattern, arc_outside, expected, switches):
     path = ROOT / "graphs" / "rectangle-study.json"
     recipe = apply_overrides(load_recipe(path), [("pattern", pattern), ("arc_outside", arc_outside)])
@@ -180,11 +218,17 @@ def test_comparison_is_memoised_on_section_signatures(monkeypatch):
     calls = []
     real = mod._compare_sections
     monkeypatch.setattr(mod, "_compare_sections", lambda s, p: calls.append(1) or real(s, p))
-    data = {"format": "waamflow/1", "name": "t", "inputs": {}, "edges": [
-        {"from": "or.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "strategy.sections"}],
-        "nodes": [{"id": "or", "type": "rectangle", "params": {}},
-                  {"id": "mask", "type": "mask", "params": {"masks": []}},
-                  {"id": "strategy", "type": "strategy", "params": {"compare": ["raster", "spiral"]}}]}
+    data = {
+        "format": "waamflow/1",
+        "name": "t",
+        "inputs": {},
+        "edges": [{"from": "or.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "strategy.sections"}],
+        "nodes": [
+            {"id": "or", "type": "rectangle", "params": {}},
+            {"id": "mask", "type": "mask", "params": {"masks": []}},
+            {"id": "strategy", "type": "strategy", "params": {"compare": ["raster", "spiral"]}},
+        ],
+    }
     cache = MemoryCache()
     first = execute(build_graph(parse_recipe(data)), resolver=FileResolver("."), cache=cache)
     second = execute(build_graph(parse_recipe(data)), resolver=FileResolver("."), cache=cache)

@@ -18,15 +18,18 @@ def plan(region, pattern, **kw):
     return plan_section(region, None, StrategySpec(pattern=pattern, **kw))
 
 
-@pytest.mark.parametrize("pattern, kw, published, rel", [
-    ("raster", {}, 387.910, 0.01),
-    ("semicircular", {}, 242.603, 0.01),
-    ("triangular", {"angle_deg": 45}, 261.301, 0.01),
-    ("triangular", {"angle_deg": 60}, 250.437, 0.01),
-    ("rectangular", {}, 217.600, 0.02),
-    ("spiral", {}, 215.710, 0.02),
-    ("swiping", {}, 464.246, 0.02),
-])
+@pytest.mark.parametrize(
+    "pattern, kw, published, rel",
+    [
+        ("raster", {}, 387.910, 0.01),
+        ("semicircular", {}, 242.603, 0.01),
+        ("triangular", {"angle_deg": 45}, 261.301, 0.01),
+        ("triangular", {"angle_deg": 60}, 250.437, 0.01),
+        ("rectangular", {}, 217.600, 0.02),
+        ("spiral", {}, 215.710, 0.02),
+        ("swiping", {}, 464.246, 0.02),
+    ],
+)
 def test_small_or_matches_published_lengths(pattern, kw, published, rel):
     assert plan(SMALL, pattern, **kw).length == pytest.approx(published, rel=rel)
 
@@ -94,11 +97,14 @@ def test_raster_arc_off_on_returns_and_switches():
     assert p.inside.all()
 
 
-@pytest.mark.parametrize("pattern, kw, outside", [
-    ("semicircular", {}, None),
-    ("triangular", {"angle_deg": 45}, 4 * 2 * 2.215 / math.sin(math.radians(22.5))),
-    ("triangular", {"angle_deg": 60}, 4 * 2 * 4.43),  # equilateral: sides = W_WB
-])
+@pytest.mark.parametrize(
+    "pattern, kw, outside",
+    [
+        ("semicircular", {}, None),
+        ("triangular", {"angle_deg": 45}, 4 * 2 * 2.215 / math.sin(math.radians(22.5))),
+        ("triangular", {"angle_deg": 60}, 4 * 2 * 4.43),  # equilateral: sides = W_WB
+    ],
+)
 def test_arc_outside_off_switches_at_every_crossing(pattern, kw, outside):
     on = plan(SMALL, pattern, arc_outside="on", **kw)
     off = plan(SMALL, pattern, arc_outside="off", **kw)

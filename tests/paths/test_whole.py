@@ -66,9 +66,9 @@ def test_l_is_split_into_its_two_arms_each_woven_along_its_axis():
     assert w.area == pytest.approx(2688.0)
     assert w.uncovered == pytest.approx(7.7, abs=0.1) and w.uncovered_share < 0.003
     p = w.path
-    assert p.inside.all()                                    # the link runs inside the L
+    assert p.inside.all()  # the link runs inside the L
     off = ~p.arc
-    assert off.sum() == 1                                    # one arc-OFF link between the arms
+    assert off.sum() == 1  # one arc-OFF link between the arms
     # the 120 mm arm: ceil(120 / 3) = 40 strokes; the 48 mm arm: 16 strokes; + the link
     assert len(p.points) - 1 == 40 + 16 + 1
     long_arm = p.points[:41] if np.ptp(p.points[:41, 0]) > 100 else p.points[-41:]
@@ -130,7 +130,7 @@ def test_random_non_convex_regions_never_fail_and_never_cover_less(seed):
         rad = rng.uniform(10, 50, k)
         region = Polygon(np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])).buffer(0)
         if it % 2:
-            region = region.difference(box(-5, -60, 5, 0))          # a slot: reflex corners
+            region = region.difference(box(-5, -60, 5, 0))  # a slot: reflex corners
         if region.geom_type != "Polygon" or region.area < 50:
             continue
         g = default_guide(region)
@@ -142,4 +142,4 @@ def test_random_non_convex_regions_never_fail_and_never_cover_less(seed):
         if w.how != "as planned":
             assert given.uncovered_share > 0.02
             changed += 1
-    assert changed >= 5   # seed 1: 6 oscillate regions fall back to contour (star spikes defeat a split)
+    assert changed >= 5  # seed 1: 6 oscillate regions fall back to contour (star spikes defeat a split)

@@ -25,10 +25,10 @@ from waamflow.engine.recipe import parse_recipe
 
 W = 6.0  # bead width, mm (the strategy's default)
 
-L_SHAPE = box(0, 0, 120, 16).union(box(0, 0, 16, 64))                       # 120 × 16 arm + 64 × 16 arm
+L_SHAPE = box(0, 0, 120, 16).union(box(0, 0, 16, 64))  # 120 × 16 arm + 64 × 16 arm
 T_SHAPE = box(0, 0, 120, 16).union(box(52, 0, 68, 64))
 U_SHAPE = shapely.union_all([box(0, 0, 120, 16), box(0, 0, 16, 64), box(104, 0, 120, 64)])
-FRAME = box(0, 0, 80, 60).difference(box(16, 16, 64, 44))                   # annulus-like, square
+FRAME = box(0, 0, 80, 60).difference(box(16, 16, 64, 44))  # annulus-like, square
 RING = Point(0, 0).buffer(40, quad_segs=32).difference(Point(0, 0).buffer(24, quad_segs=32))
 CONVEX = box(0, 0, 120, 16)
 
@@ -39,7 +39,7 @@ def _runs(points: np.ndarray, arc: np.ndarray) -> list[np.ndarray]:
         if on and start is None:
             start = i
         elif not on and start is not None:
-            runs.append(points[start:i + 1, :2])
+            runs.append(points[start : i + 1, :2])
             start = None
     return runs
 
@@ -51,15 +51,18 @@ def deposited(points, arc, width=W, weave=False):
         return Polygon()
     parts = [MultiLineString([LineString(r) for r in runs]).buffer(width / 2, quad_segs=16)]
     if weave:
-        tri = [Polygon(r[k - 1:k + 2]) for r in runs for k in range(1, len(r) - 1)
-               if np.hypot(*(r[k + 1] - r[k - 1])) <= width * (1 + 1e-9)]
+        tri = [
+            Polygon(r[k - 1 : k + 2])
+            for r in runs
+            for k in range(1, len(r) - 1)
+            if np.hypot(*(r[k + 1] - r[k - 1])) <= width * (1 + 1e-9)
+        ]
         parts += [t.buffer(width / 2, quad_segs=16) for t in tri if t.area > 0]
     return shapely.union_all(parts)
 
 
 def covered_share(region, section_paths) -> float:
-    foot = shapely.union_all([deposited(sp.points, sp.arc, weave=sp.strategy == "oscillate")
-                              for sp in section_paths])
+    foot = shapely.union_all([deposited(sp.points, sp.arc, weave=sp.strategy == "oscillate") for sp in section_paths])
     return float(foot.intersection(region).area / region.area)
 
 
@@ -75,20 +78,35 @@ def run_part(tmp_path, region, strategy=None, masks=None, guides=None, layers=No
     stl = _stl(tmp_path, region)
     nodes = [
         {"id": "part", "type": "mesh", "params": {"path": str(stl)}},
-        {"id": "layers", "type": "slice", "params": {"layer_height": 1.5, **({"layer_count": layers} if layers else {})}},
+        {
+            "id": "layers",
+            "type": "slice",
+            "params": {"layer_height": 1.5, **({"layer_count": layers} if layers else {})},
+        },
         {"id": "mask", "type": "mask", "params": {"masks": masks or []}},
         {"id": "guide", "type": "guide", "params": {"guides": guides or {}}},
         {"id": "strategy", "type": "strategy", "params": strategy or {}},
     ]
-    edges = [("part.mesh", "layers.mesh"), ("layers.layers", "mask.layers"), ("mask.sections", "guide.sections"),
-             ("guide.sections", "strategy.sections")]
-    data = {"format": "waamflow/1", "name": "t", "inputs": {}, "nodes": nodes,
-            "edges": [{"from": a, "to": b} for a, b in edges]}
+    edges = [
+        ("part.mesh", "layers.mesh"),
+        ("layers.layers", "mask.layers"),
+        ("mask.sections", "guide.sections"),
+        ("guide.sections", "strategy.sections"),
+    ]
+    data = {
+        "format": "waamflow/1",
+        "name": "t",
+        "inputs": {},
+        "nodes": nodes,
+        "edges": [{"from": a, "to": b} for a, b in edges],
+    }
     return execute(build_graph(parse_recipe(data)), resolver=FileResolver(str(tmp_path)))
 
 
-@pytest.mark.parametrize("name, region", [("L", L_SHAPE), ("T", T_SHAPE), ("U", U_SHAPE), ("frame", FRAME),
-                                          ("ring", RING), ("convex", CONVEX)])
+@pytest.mark.parametrize(
+    "name, region",
+    [("L", L_SHAPE), ("T", T_SHAPE), ("U", U_SHAPE), ("frame", FRAME), ("ring", RING), ("convex", CONVEX)],
+)
 def test_default_path_covers_every_layer(tmp_path, name, region):
     res = run_part(tmp_path, region, layers=2)
     tp = res.outputs["strategy"]["toolpath"]
@@ -103,12 +121,20 @@ def test_l_report_names_the_split_and_the_toolpath_keeps_one_section(tmp_path):
     tp = res.outputs["strategy"]["toolpath"]
     assert [[(sp.key, sp.strategy) for sp in lp.sections] for lp in tp] == [[("region0", "oscillate")]] * 2
     sp = tp[0].sections[0]
-    assert int(np.count_nonzero(np.diff(np.r_[0, sp.arc.astype(int), 0]))) == 4   # two arc-ON runs
+    assert int(np.count_nonzero(np.diff(np.r_[0, sp.arc.astype(int), 0]))) == 4  # two arc-ON runs
     assert not [w for w in res.warnings if w["node"] == "strategy"]
     cover = res.stats["strategy"].report["cover"]
     assert cover["sections_split"] == 2 and cover["sections_as_planned"] == 0 and cover["sections_contour"] == 0
-    assert cover["changed"] == [{"section": "region0", "how": "split", "pattern": "oscillate", "pieces": 2,
-                                 "layers": "0-1", "max_uncovered_share": pytest.approx(0.00287, abs=5e-5)}]
+    assert cover["changed"] == [
+        {
+            "section": "region0",
+            "how": "split",
+            "pattern": "oscillate",
+            "pieces": 2,
+            "layers": "0-1",
+            "max_uncovered_share": pytest.approx(0.00287, abs=5e-5),
+        }
+    ]
 
 
 def test_ring_falls_back_to_contour_named_in_the_toolpath(tmp_path):
@@ -129,17 +155,20 @@ def test_masked_section_left_uncovered_is_warned_not_replanned(tmp_path):
     """A drawn mask section is the user's: its path stays as planned, its uncovered area is warned
     with its size, layer and section."""
     curve = [[-1, -1], [121, -1], [121, 17], [17, 17], [17, 65], [-1, 65]]
-    res = run_part(tmp_path, L_SHAPE, layers=2, masks=[{"id": "bs1", "from_layer": 0,
-                                                        "sections": [{"id": "A", "curve": curve}]}])
+    res = run_part(
+        tmp_path, L_SHAPE, layers=2, masks=[{"id": "bs1", "from_layer": 0, "sections": [{"id": "A", "curve": curve}]}]
+    )
     lp = res.outputs["strategy"]["toolpath"][1]
     share = covered_share(lp.layer.region, lp.sections)
-    assert share == pytest.approx(0.3957, abs=1e-3)           # the default weave along the long axis
+    assert share == pytest.approx(0.3957, abs=1e-3)  # the default weave along the long axis
     warns = [w for w in res.warnings if w["node"] == "strategy"]
     assert [(w["layer"], w["section"]) for w in warns] == [(0, "bs1/A"), (1, "bs1/A")]
     uncovered = (1 - share) * L_SHAPE.area
     msg = warns[1]["message"]
-    assert msg.startswith(f"{uncovered:.1f} mm² (60.4 %) of section bs1/A on layer 1 gets no bead (oscillate): "
-                          "add a mask section there or choose a filling pattern")
+    assert msg.startswith(
+        f"{uncovered:.1f} mm² (60.4 %) of section bs1/A on layer 1 gets no bead (oscillate): "
+        "add a mask section there or choose a filling pattern"
+    )
     assert res.stats["strategy"].report["cover"]["sections_as_planned"] == 2
 
 
@@ -152,9 +181,16 @@ def test_whole_regions_off_keeps_the_path_and_warns(tmp_path):
 
 def test_masked_sections_that_are_covered_give_no_warning(tmp_path):
     """The L drawn as two mask sections (the corner division by hand): both covered, no warning."""
-    masks = [{"id": "bs1", "from_layer": 0, "sections": [
-        {"id": "A", "curve": [[-1, -1], [121, -1], [121, 16], [-1, 16]]},
-        {"id": "B", "curve": [[-1, 16], [17, 16], [17, 65], [-1, 65]]}]}]
+    masks = [
+        {
+            "id": "bs1",
+            "from_layer": 0,
+            "sections": [
+                {"id": "A", "curve": [[-1, -1], [121, -1], [121, 16], [-1, 16]]},
+                {"id": "B", "curve": [[-1, 16], [17, 16], [17, 65], [-1, 65]]},
+            ],
+        }
+    ]
     res = run_part(tmp_path, L_SHAPE, layers=1, masks=masks)
     lp = res.outputs["strategy"]["toolpath"][0]
     assert [sp.key for sp in lp.sections] == ["bs1/A", "bs1/B"]

@@ -21,21 +21,39 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 
 def doc(*sections, index=0):
     """A toolpath.json with one layer; sections: (key, points [(x, y)], arc flags)."""
-    return {"layers": [{"index": index, "sections": [
-        {"key": k, "points": [[x, y, 2.0] for x, y in pts], "arc": list(arc), "speed": [5.0] * len(arc),
-         "zone": [""] * len(arc)} for k, pts, arc in sections]}]}
+    return {
+        "layers": [
+            {
+                "index": index,
+                "sections": [
+                    {
+                        "key": k,
+                        "points": [[x, y, 2.0] for x, y in pts],
+                        "arc": list(arc),
+                        "speed": [5.0] * len(arc),
+                        "zone": [""] * len(arc),
+                    }
+                    for k, pts, arc in sections
+                ],
+            }
+        ]
+    }
 
 
 def test_reordered_reversed_and_short_run_fixes_pass_a_changed_length_does_not():
-    wall = ("W", [(0, 0), (40, 0), (40, 30)], [True, True])                       # 70 mm
-    runs = ("R", [(0, 10), (20, 10), (21, 10), (30, 10)], [True, False, True])     # 20 + 9 mm, two runs
+    wall = ("W", [(0, 0), (40, 0), (40, 30)], [True, True])  # 70 mm
+    runs = ("R", [(0, 10), (20, 10), (21, 10), (30, 10)], [True, False, True])  # 20 + 9 mm, two runs
     before = read_toolpath(doc(wall, runs))
-    same = read_toolpath(doc(("R", [(30, 10), (21, 10), (20, 10), (0, 10)], [True, False, True]),
-                             ("W", [(40, 30), (40, 0), (0, 0)], [True, True])))
+    same = read_toolpath(
+        doc(
+            ("R", [(30, 10), (21, 10), (20, 10), (0, 10)], [True, False, True]),
+            ("W", [(40, 30), (40, 0), (0, 0)], [True, True]),
+        )
+    )
     assert deposit_changes(before, same) == []
     bridged = read_toolpath(doc(wall, ("R", [(0, 10), (20, 10), (21, 10), (30, 10)], [True, True, True])))
-    assert deposit_changes(before, bridged) == []                 # 30 mm in one run: the node's own fix
-    cut = read_toolpath(doc(("W", [(0, 0), (40, 30)], [True]), runs))                # the corner cut: 50 mm
+    assert deposit_changes(before, bridged) == []  # 30 mm in one run: the node's own fix
+    cut = read_toolpath(doc(("W", [(0, 0), (40, 30)], [True]), runs))  # the corner cut: 50 mm
     assert deposit_changes(before, cut) == [{"layer": 0, "section": "W", "before_mm": 70.0, "after_mm": 50.0}]
 
 

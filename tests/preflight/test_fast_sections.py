@@ -40,7 +40,7 @@ def test_a_plane_through_vertices_and_nested_loops_fall_back_or_chain_right():
     outer = trimesh.creation.box(extents=(40, 30, 10))
     hole = trimesh.creation.box(extents=(10, 8, 12))
     ring = outer.difference(hole, engine="manifold")
-    for z in (0.0, 2.5, 5.0):             # 5.0: the top face (every top vertex on the plane)
+    for z in (0.0, 2.5, 5.0):  # 5.0: the top face (every top vertex on the plane)
         ref = _by_trimesh(ring, z)
         got = check._multiplane_sections(ring, [z])[0]
         assert got.area == pytest.approx(ref.area, abs=1e-9)
@@ -51,7 +51,7 @@ def test_distance_shortcut_equals_shapely_distance():
     rng = np.random.default_rng(3)
     section = shapely.Polygon([(0, 0), (50, 0), (50, 20), (0, 20)], [[(10, 5), (20, 5), (20, 15), (10, 15)]])
     pts = np.column_stack([rng.uniform(-10, 60, 4000), rng.uniform(-10, 30, 4000), np.zeros(4000)])
-    pts[:4] = [(0, 0, 0), (50, 10, 0), (15, 10, 0), (10, 7, 0)]    # a corner, an edge, in the hole, on the hole
+    pts[:4] = [(0, 0, 0), (50, 10, 0), (15, 10, 0), (10, 7, 0)]  # a corner, an edge, in the hole, on the hole
     got = distance_to_section(section, pts)
     ref = shapely.distance(section, shapely.points(pts[:, :2]))
     assert np.array_equal(got, ref)

@@ -19,8 +19,14 @@ def reports(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("WAAMFLOW_CACHE", str(tmp / "cache"))
     out = {}
-    for fmt, extra in (("gcode", []), ("krl", []), ("rapid", []), ("csv", []), ("printpoints", []),
-                       ("marlin", ["--set", "post.profile=marlin"])):     # fan PWM: values written ×12.75
+    for fmt, extra in (
+        ("gcode", []),
+        ("krl", []),
+        ("rapid", []),
+        ("csv", []),
+        ("printpoints", []),
+        ("marlin", ["--set", "post.profile=marlin"]),
+    ):  # fan PWM: values written ×12.75
         sets = ["--set", f"format={'gcode' if fmt == 'marlin' else fmt}", *extra]
         assert main(["run", str(GRAPHS / "mpp-cross.json"), "--out", str(tmp / fmt), *sets]) == 0
         out[fmt] = json.loads((tmp / fmt / "preflight.json").read_text())["programs"][0]
@@ -37,7 +43,7 @@ def test_every_format_passes_and_reads_back_the_same_deposit(reports):
         assert rep["uncovered_share"] == pytest.approx(ref["uncovered_share"], abs=1e-4), fmt
         assert rep["start_spread_mm"] == pytest.approx(ref["start_spread_mm"], abs=1e-3), fmt
         assert rep["min_arc_run_mm"] == pytest.approx(ref["min_arc_run_mm"], abs=1e-2), fmt
-    for fmt in ("krl", "rapid", "csv", "marlin"):     # the formats that command the wire feed
+    for fmt in ("krl", "rapid", "csv", "marlin"):  # the formats that command the wire feed
         assert reports[fmt]["weld_data_missing"] == 0
         # Marlin's PWM writes whole steps of 1/12.75 m/min: half a step (0.039 m/min) on the smallest feed
         # (2.4 m/min) is at most 1.6 % of the metal, the bound for Marlin (measured 0.968 vs 0.966)

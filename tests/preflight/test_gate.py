@@ -35,12 +35,21 @@ def test_missing_top_layers_exit_4_and_no_program(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "preflight_failed" and "post.gcode" not in summary["artifacts"]
 
-    rc = main(["run", str(GRAPHS / "mpp-cross.json"), "--out", str(out), "--set", "layers.layer_count=6",
-               "--accept-preflight"])
+    rc = main(
+        [
+            "run",
+            str(GRAPHS / "mpp-cross.json"),
+            "--out",
+            str(out),
+            "--set",
+            "layers.layer_count=6",
+            "--accept-preflight",
+        ]
+    )
     assert rc == 0
     head = (out / "post.gcode").read_text().splitlines()[0]
     assert head.startswith("; waamflow preflight: FAILED, accepted by the user (--accept-preflight)")
-    assert "top_gap" in head and len(head) < 200       # short enough for any controller's line limit
+    assert "top_gap" in head and len(head) < 200  # short enough for any controller's line limit
     assert json.loads((out / "preflight.json").read_text())["accepted"] is True
 
 
@@ -50,12 +59,12 @@ def test_api_withholds_the_program_unless_accepted(tmp_path):
     from waamflow.api.app import create_app
     from waamflow.settings import Settings
 
-    app = create_app(Settings(data_dir=tmp_path / "data", graphs_dir=GRAPHS, start_viewer=False,
-                              layer_workers=1))
+    app = create_app(Settings(data_dir=tmp_path / "data", graphs_dir=GRAPHS, start_viewer=False, layer_workers=1))
     with TestClient(app) as client:
         for accept, has_program in ((False, False), (True, True)):
-            r = client.post("/api/runs", json={"graph": "mpp-cross", "accept_preflight": accept,
-                                               "recipe": _cross_with_layers(6)})
+            r = client.post(
+                "/api/runs", json={"graph": "mpp-cross", "accept_preflight": accept, "recipe": _cross_with_layers(6)}
+            )
             assert r.status_code == 202, r.text
             run_id = r.json()["id"]
             for _ in range(600):

@@ -30,10 +30,25 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 # layer 1, wall2 (the L round the skin corner at (200, 0)) as the old pass detection re-threaded it:
 # on the wall at (151.6, 0), out along the fillet lead into the cell, then straight across the cell
 # to the rib junction at (200, 60), back down the skin and round the 4.6 mm corner fillet
-OLD_WALL2 = [(151.6, 0.0), (155.657, 5.657), (200.0, 61.6), (200.0, 58.4), (200.0, 4.6), (199.992, 4.332),
-             (199.969, 4.066), (199.93, 3.801), (199.876, 3.539), (199.807, 3.281), (199.723, 3.027),
-             (199.624, 2.778), (199.511, 2.535), (199.384, 2.3), (199.243, 2.072), (199.09, 1.853),
-             (198.924, 1.643)]
+OLD_WALL2 = [
+    (151.6, 0.0),
+    (155.657, 5.657),
+    (200.0, 61.6),
+    (200.0, 58.4),
+    (200.0, 4.6),
+    (199.992, 4.332),
+    (199.969, 4.066),
+    (199.93, 3.801),
+    (199.876, 3.539),
+    (199.807, 3.281),
+    (199.723, 3.027),
+    (199.624, 2.778),
+    (199.511, 2.535),
+    (199.384, 2.3),
+    (199.243, 2.072),
+    (199.09, 1.853),
+    (198.924, 1.643),
+]
 
 
 def outside_problems(rep):
@@ -51,8 +66,15 @@ def panel():
 def check_panel_doc(graph, res, doc):
     part = _part_of(graph, res.outputs, "sequence")
     assert part.kind == "midsurface"
-    return check_program(part, read_toolpath(doc), "sequence", PreflightSettings(), 4.0, weld_expected=False,
-                         stock_mm=_stock_length(graph, "sequence", 4.0))
+    return check_program(
+        part,
+        read_toolpath(doc),
+        "sequence",
+        PreflightSettings(),
+        4.0,
+        weld_expected=False,
+        stock_mm=_stock_length(graph, "sequence", 4.0),
+    )
 
 
 def test_filleted_panel_as_planned_has_no_metal_outside(panel):
@@ -60,7 +82,7 @@ def test_filleted_panel_as_planned_has_no_metal_outside(panel):
     assert res.preflight["verdict"] == "ok", res.preflight["problems"]
     prog = res.preflight["programs"][0]
     assert prog["outside_method"] == "midsurface distance" and prog["outside_mm"] == 0.0
-    assert prog["outside_stock_mm"] == pytest.approx(5.0 + 4.0)   # free_end_extension + one bead width
+    assert prog["outside_stock_mm"] == pytest.approx(5.0 + 4.0)  # free_end_extension + one bead width
     rep = check_panel_doc(graph, res, json.loads(res.artifacts["sequence.toolpath.json"]))
     assert not outside_problems(rep) and rep["outside_mm"] == 0.0
 
@@ -72,8 +94,9 @@ def test_diagonal_weld_across_the_panel_fails_at_its_layer_and_wall(panel):
     sec = next(s for s in layer["sections"] if s["key"] == "wall2")
     z = sec["points"][0][2]
     n = len(OLD_WALL2) - 1
-    sec.update(points=[[x, y, z] for x, y in OLD_WALL2], arc=[True] * n, speed=[sec["speed"][0]] * n,
-               zone=[sec["zone"][0]] * n)
+    sec.update(
+        points=[[x, y, z] for x, y in OLD_WALL2], arc=[True] * n, speed=[sec["speed"][0]] * n, zone=[sec["zone"][0]] * n
+    )
     rep = check_panel_doc(graph, res, doc)
     found = outside_problems(rep)
     assert rep["verdict"] == "fail" and len(found) == 1
@@ -87,15 +110,22 @@ def test_diagonal_weld_across_the_panel_fails_at_its_layer_and_wall(panel):
     mid = MultiLineString([np.asarray(c, float) for c in panel_json["curves"]])
     beyond = LineString(OLD_WALL2).difference(mid.buffer(4.0, quad_segs=32)).length
     assert beyond == pytest.approx(66.28, abs=0.01)
-    assert p["value"] == pytest.approx(beyond, abs=1.0)                 # sampled every 1 mm
+    assert p["value"] == pytest.approx(beyond, abs=1.0)  # sampled every 1 mm
     assert rep["outside_mm"] == pytest.approx(beyond, abs=1.0)
     # the farthest point: mid-cell, ~20 mm from the skin, the rib and x = 150 less half a bead
     x, y, _z = p["point"]
     assert 160 < x < 190 and 10 < y < 50 and p["point"][2] == pytest.approx(z)
     assert rep["layers"][1]["outside_mm"] == pytest.approx(beyond, abs=1.0)
     # warn mode keeps the figure and lowers the verdict
-    warn = check_program(_part_of(graph, res.outputs, "sequence"), read_toolpath(doc), "sequence",
-                         PreflightSettings(outside="warn"), 4.0, weld_expected=False, stock_mm=9.0)
+    warn = check_program(
+        _part_of(graph, res.outputs, "sequence"),
+        read_toolpath(doc),
+        "sequence",
+        PreflightSettings(outside="warn"),
+        4.0,
+        weld_expected=False,
+        stock_mm=9.0,
+    )
     assert [q["severity"] for q in outside_problems(warn)] == ["warn"] and warn["verdict"] == "warn"
 
 
@@ -124,8 +154,14 @@ def shift_run(text: str, layer: int, section: str, dy: float) -> str:
 
 
 def check_cross(graph, res, text):
-    return check_program(_part_of(graph, res.outputs, "post"), read_gcode(text), "post", PreflightSettings(), 6.0,
-                         stock_mm=_stock_length(graph, "post", 6.0))
+    return check_program(
+        _part_of(graph, res.outputs, "post"),
+        read_gcode(text),
+        "post",
+        PreflightSettings(),
+        6.0,
+        stock_mm=_stock_length(graph, "post", 6.0),
+    )
 
 
 def test_mpp_cross_as_shipped_has_no_metal_outside(cross):
@@ -141,7 +177,7 @@ def test_mpp_cross_pass_shifted_off_the_part_fails(cross):
     text = shift_run(res.artifacts["post.gcode"].decode(), 2, "bs1/B", 20.0)
     prog = read_gcode(text)
     moved = next(r for r in prog.runs if r.layer == 2 and r.section == "bs1/B")
-    assert moved.points[:, 1].min() == pytest.approx(17.0)              # y ±3 → 17 … 23
+    assert moved.points[:, 1].min() == pytest.approx(17.0)  # y ±3 → 17 … 23
     rep = check_cross(graph, res, text)
     found = outside_problems(rep)
     assert rep["verdict"] == "fail" and found and found[0]["severity"] == "fail"
@@ -157,8 +193,8 @@ def test_mpp_cross_pass_shifted_off_the_part_fails(cross):
     assert p["value"] == pytest.approx(beyond / 2 - 6.0, abs=1.0) and p["value"] > 2 * 6.0
     assert rep["outside_mm_total"] == pytest.approx(beyond - 2 * 6.0, abs=2.0)
     assert p["point"][1] in (pytest.approx(17.0), pytest.approx(23.0))
-    assert rep["outside_max_mm"] == pytest.approx(17.0, abs=0.1)          # y 23 against the arm's edge at 6
-    assert rep["layers"][2]["outside_mm2"] > 0.8 * beyond * 6.0           # ~ a bead's width along it
+    assert rep["outside_max_mm"] == pytest.approx(17.0, abs=0.1)  # y 23 against the arm's edge at 6
+    assert rep["layers"][2]["outside_mm2"] > 0.8 * beyond * 6.0  # ~ a bead's width along it
     # the same program unshifted: nothing outside
     assert not outside_problems(check_cross(graph, res, res.artifacts["post.gcode"].decode()))
 
@@ -195,8 +231,12 @@ def box_part() -> Part:
 
 def box_gcode(runs_of_layer, travel=()):
     """runs_of_layer(z) → [run, ...], run = [(x, y), ...]; travel: extra G0 points before each layer."""
-    out = ["; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units=mm/min end=M30",
-           '; waamflow-weld: wire_feed_speed[m/min]="M67 E0 Q{value:.2f}"', "G21", "G90"]
+    out = [
+        "; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units=mm/min end=M30",
+        '; waamflow-weld: wire_feed_speed[m/min]="M67 E0 Q{value:.2f}"',
+        "G21",
+        "G90",
+    ]
     for i in range(int(BOX_H / BOX_LAYER)):
         z = (i + 1) * BOX_LAYER
         out.append(f"; layer {i} z={z:.3f}")
@@ -236,10 +276,10 @@ def test_run_ups_are_stock_up_to_the_recipes_extension():
     def runs(z):
         return [[(-40.0, y), (17.0, y)] for y in YS]
 
-    assert not outside_problems(box_check(box_gcode(runs), stock_mm=20.0 + BOX_BEAD))      # extension_before 20
-    rep = box_check(box_gcode(runs), stock_mm=BOX_BEAD)                                     # no extension stated
+    assert not outside_problems(box_check(box_gcode(runs), stock_mm=20.0 + BOX_BEAD))  # extension_before 20
+    rep = box_check(box_gcode(runs), stock_mm=BOX_BEAD)  # no extension stated
     found = outside_problems(rep)
-    assert [p["severity"] for p in found] == ["warn"]           # deep 14 − 6 = 8 ≤ 12 mm: not a fail
+    assert [p["severity"] for p in found] == ["warn"]  # deep 14 − 6 = 8 ≤ 12 mm: not a fail
     assert found[0]["value"] == pytest.approx(17.0 - BOX_BEAD, abs=1.0) and found[0]["layer"] == 0
     assert rep["layers"][0]["outside_stock_mm"] == pytest.approx(4 * BOX_BEAD, abs=0.1)
 
@@ -256,4 +296,4 @@ def test_a_link_bulging_out_of_the_part_mid_run_fails_whatever_the_stock():
     assert found[0]["value"] == pytest.approx(38.0, abs=1.0)
     assert rep["outside_max_mm"] == pytest.approx(15.0, abs=0.01)
     off = box_check(box_gcode(runs), stock_mm=50.0, outside="off")
-    assert not outside_problems(off) and off["outside_mm"] == found[0]["value"]    # figures kept, no verdict
+    assert not outside_problems(off) and off["outside_mm"] == found[0]["value"]  # figures kept, no verdict

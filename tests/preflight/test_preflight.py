@@ -14,9 +14,9 @@ from waamflow.preflight.check import Part, check_program, footprint
 from waamflow.preflight.read import read_gcode, read_krl, read_rapid
 from waamflow.preflight.settings import PreflightSettings
 
-L, W, H = 40.0, 20.0, 6.0            # box part, mm
+L, W, H = 40.0, 20.0, 6.0  # box part, mm
 LAYER = 1.5
-BEAD, STEP, SPEED = 6.0, 5.0, 8.0    # bead width, pass spacing mm, travel mm/s
+BEAD, STEP, SPEED = 6.0, 5.0, 8.0  # bead width, pass spacing mm, travel mm/s
 # wire feed that puts exactly STEP·LAYER mm³ of metal per mm of path (η 0.95, 1.2 mm wire)
 WFS = STEP * LAYER * SPEED / deposit_rate_mm3_s(1.0)
 
@@ -66,7 +66,7 @@ YS = [-7.5, -2.5, 2.5, 7.5]
 def good_layers(n=4, ys=YS):
     out = []
     for i in range(n):
-        reverse = i % 2 == 1            # alternate ends: no stacked starts
+        reverse = i % 2 == 1  # alternate ends: no stacked starts
         out.append(((i + 1) * LAYER, [passes(ys[::-1] if i % 2 else ys, reverse=reverse)]))
     return out
 
@@ -100,16 +100,16 @@ def test_missing_top_layer_fails_with_the_gap_and_the_layer():
     top = [p for p in rep["problems"] if p["check"] == "top_gap"]
     assert top and top[0]["severity"] == "fail" and top[0]["layer"] == 2
     assert rep["top_gap_mm"] == pytest.approx(1.5, abs=1e-6)
-    assert rep["uncovered_share"] == pytest.approx(0.25, abs=0.02)   # one of four layers never built
+    assert rep["uncovered_share"] == pytest.approx(0.25, abs=0.02)  # one of four layers never built
     assert rep["verdict"] == "fail"
 
 
 def test_half_section_without_bead_fails():
-    rep = check(gcode(good_layers(ys=[-7.5, -2.5])))                   # only the y < 0 half
+    rep = check(gcode(good_layers(ys=[-7.5, -2.5])))  # only the y < 0 half
     unc = [p for p in rep["problems"] if p["check"] == "uncovered"]
     assert unc and unc[0]["severity"] == "fail"
-    assert rep["uncovered_share"] == pytest.approx(0.45, abs=0.05)      # 20 mm wide, beads reach y = 0.5
-    assert unc[0]["point"][1] > 0                                       # the hole is on the +y side
+    assert rep["uncovered_share"] == pytest.approx(0.45, abs=0.05)  # 20 mm wide, beads reach y = 0.5
+    assert unc[0]["point"][1] > 0  # the hole is on the +y side
     assert rep["verdict"] == "fail"
 
 
@@ -122,7 +122,7 @@ def test_three_times_the_wire_fails():
 
 
 def test_stacked_starts_are_caught():
-    same = [((i + 1) * LAYER, [passes(YS)]) for i in range(4)]       # every layer ignites at one point
+    same = [((i + 1) * LAYER, [passes(YS)]) for i in range(4)]  # every layer ignites at one point
     rep = check(gcode(same))
     st = [p for p in rep["problems"] if p["check"] == "stacked_starts"]
     assert st and rep["stacked_starts"] == 3 and rep["start_spread_mm"] == pytest.approx(0.0, abs=1e-6)
@@ -132,9 +132,9 @@ def test_stacked_starts_are_caught():
 def test_missing_weld_values_fail_even_with_comments():
     rep = check(gcode(good_layers(), weld=False))
     wd = [p for p in rep["problems"] if p["check"] == "weld_data"]
-    segs = 4 * (2 * len(YS) - 1)         # 4 layers of 7 moves
+    segs = 4 * (2 * len(YS) - 1)  # 4 layers of 7 moves
     assert wd and wd[0]["severity"] == "fail" and rep["weld_data_missing"] == segs
-    assert rep["wire_part_volume_ratio"] is None      # unknown metal is never counted as balanced
+    assert rep["wire_part_volume_ratio"] is None  # unknown metal is never counted as balanced
 
 
 def test_arc_flicker_is_caught():
@@ -149,35 +149,61 @@ def test_arc_flicker_is_caught():
 def test_weave_footprint_is_as_wide_as_the_weave():
     # a zigzag of amplitude ±3 mm, period 6 mm, bead 6 mm covers a 12 mm strip without notches
     pts = np.array([(3.0 if k % 2 == 0 else -3.0, -30.0 + 3.0 * k) for k in range(21)])
-    strip = footprint([pts], 6.0).intersection(
-        trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)]))
+    strip = footprint([pts], 6.0).intersection(trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)]))
     assert strip.area == pytest.approx(12 * 54, rel=0.01)
 
 
 def test_krl_and_rapid_readers_give_the_same_runs():
-    krl_src = "\n".join([
-        "DEF prog( )", ";- arc control: digital output $OUT[1]",
-        ";- waamflow-weld: wire_feed_speed[m/min]=\"$ANOUT[1]={value}/20\"",
-        ";- layer 0 z=1.500", ";- section s0", "$VEL.CP=0.100000", "LIN P1", "$ANOUT[1]=5.0",
-        "$OUT[1]=TRUE", "WAIT SEC 0.5", "$VEL.CP=0.008000", "LIN P2 C_DIS", "LIN P3 C_DIS",
-        "TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[1]=FALSE", "LIN P4", "END"])
-    dat = "\n".join(["DEFDAT prog"] + [f"DECL E6POS P{i + 1}={{X {x},Y {y},Z 1.5,A 0,B 90,C 0,E1 0,E2 0,E3 0,E4 0,"
-                                          f"E5 0,E6 0}}" for i, (x, y) in enumerate([(0, 0), (10, 0), (10, 5), (0, 5)])]
-                    + ["ENDDAT"])
+    krl_src = "\n".join(
+        [
+            "DEF prog( )",
+            ";- arc control: digital output $OUT[1]",
+            ';- waamflow-weld: wire_feed_speed[m/min]="$ANOUT[1]={value}/20"',
+            ";- layer 0 z=1.500",
+            ";- section s0",
+            "$VEL.CP=0.100000",
+            "LIN P1",
+            "$ANOUT[1]=5.0",
+            "$OUT[1]=TRUE",
+            "WAIT SEC 0.5",
+            "$VEL.CP=0.008000",
+            "LIN P2 C_DIS",
+            "LIN P3 C_DIS",
+            "TRIGGER WHEN DISTANCE=1 DELAY=0 DO $OUT[1]=FALSE",
+            "LIN P4",
+            "END",
+        ]
+    )
+    dat = "\n".join(
+        ["DEFDAT prog"]
+        + [
+            f"DECL E6POS P{i + 1}={{X {x},Y {y},Z 1.5,A 0,B 90,C 0,E1 0,E2 0,E3 0,E4 0,E5 0,E6 0}}"
+            for i, (x, y) in enumerate([(0, 0), (10, 0), (10, 5), (0, 5)])
+        ]
+        + ["ENDDAT"]
+    )
     k = read_krl({"prog.src": krl_src, "prog.dat": dat})
     assert len(k.runs) == 1 and k.runs[0].length == pytest.approx(25.0)
     assert k.runs[0].speed == pytest.approx([8.0] * 3) and k.runs[0].weld.all()
-    mod = "\n".join([
-        "MODULE prog", "  ! arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A]",
-        "  CONST robtarget p1 := [[0,0,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-        "  CONST robtarget p2 := [[10,0,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-        "  CONST robtarget p3 := [[10,5,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-        "  CONST robtarget p4 := [[0,5,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
-        "  PERS welddata wd1 := [8,0,[0,0,20,5.0,0,180,0,0,0],[0,0,0,0,0,0,0,0,0]];",
-        "  PROC main()", "    ! layer 0 z=1.500",
-        "    ArcLStart p1, v100, sm1, wd1, fine, tWeldGun;", "    ArcL p2, v100, sm1, wd1, z1, tWeldGun;",
-        "    ArcL p3, v100, sm1, wd1, z1, tWeldGun;", "    ArcLEnd p4, v100, sm1, wd1, fine, tWeldGun;",
-        "  ENDPROC", "ENDMODULE"])
+    mod = "\n".join(
+        [
+            "MODULE prog",
+            "  ! arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A]",
+            "  CONST robtarget p1 := [[0,0,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
+            "  CONST robtarget p2 := [[10,0,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
+            "  CONST robtarget p3 := [[10,5,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
+            "  CONST robtarget p4 := [[0,5,1.5],[0,0,1,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];",
+            "  PERS welddata wd1 := [8,0,[0,0,20,5.0,0,180,0,0,0],[0,0,0,0,0,0,0,0,0]];",
+            "  PROC main()",
+            "    ! layer 0 z=1.500",
+            "    ArcLStart p1, v100, sm1, wd1, fine, tWeldGun;",
+            "    ArcL p2, v100, sm1, wd1, z1, tWeldGun;",
+            "    ArcL p3, v100, sm1, wd1, z1, tWeldGun;",
+            "    ArcLEnd p4, v100, sm1, wd1, fine, tWeldGun;",
+            "  ENDPROC",
+            "ENDMODULE",
+        ]
+    )
     r = read_rapid(mod)
     assert len(r.runs) == 1 and r.runs[0].length == pytest.approx(25.0)
     assert r.runs[0].speed == pytest.approx([8.0] * 3) and r.runs[0].wfs == pytest.approx([5.0] * 3)
@@ -205,7 +231,8 @@ def test_weave_footprint_survives_resampling():
         n = int(np.ceil(np.linalg.norm(b - a) / 0.5))
         pieces += [a + (b - a) * t for t in np.arange(1, n + 1) / n]
     strip = footprint([np.array(pieces)], 6.0).intersection(
-        trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)]))
+        trimesh.path.polygons.Polygon([(-6, -27), (6, -27), (6, 27), (-6, 27)])
+    )
     assert strip.area == pytest.approx(12 * 54, rel=0.01)
 
 
@@ -225,7 +252,9 @@ def test_non_planar_program_missing_its_last_wedge_fails(tmp_path, monkeypatch):
     pf = _json.loads((out / "preflight.json").read_text())["programs"][0]
     assert pf["coverage_method"] == "3D samples" and pf["top_gap_mm"] == pytest.approx(0.0, abs=1e-6)
     assert pf["uncovered_share"] < 0.02
-    files = {p.name: p.read_text() for p in out.glob("post*.src")} | {p.name: p.read_text() for p in out.glob("post*.dat")}
+    files = {p.name: p.read_text() for p in out.glob("post*.src")} | {
+        p.name: p.read_text() for p in out.glob("post*.dat")
+    }
     prog = read_program("krl", files)
     layers = sorted({r.layer for r in prog.runs})
     assert len(layers) == 58

@@ -31,13 +31,17 @@ def test_plane_faces_equal_a_scan_per_plane(path, monkeypatch):
     mesh = trimesh.load(path, force="mesh")
     v, f = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
     z0, z1 = mesh.bounds[:, 2]
-    zs = list(np.linspace(z0 - 1, z1 + 1, 41)) + [float(v[0, 2]), float(z0 + 1.0), float(z0 + 1.0)]  # a vertex's z, a repeat
-    zs = zs[::-1]                                                    # planes in any order
+    zs = list(np.linspace(z0 - 1, z1 + 1, 41)) + [
+        float(v[0, 2]),
+        float(z0 + 1.0),
+        float(z0 + 1.0),
+    ]  # a vertex's z, a repeat
+    zs = zs[::-1]  # planes in any order
     got, ref = slabs.plane_faces(v, f, zs), _scan(v, f, zs)
     assert [len(g) for g in got] == [len(r) for r in ref] and sum(len(r) for r in ref) > 100
     assert all(np.array_equal(g, r) for g, r in zip(got, ref))
-    assert len(got[3]) == 0 and len(got[-1]) == 0                   # above the top, below the bottom
-    monkeypatch.setattr(slabs, "MAX_PAIRS", 0)                     # the fallback scan gives the same
+    assert len(got[3]) == 0 and len(got[-1]) == 0  # above the top, below the bottom
+    monkeypatch.setattr(slabs, "MAX_PAIRS", 0)  # the fallback scan gives the same
     assert all(np.array_equal(g, r) for g, r in zip(slabs.plane_faces(v, f, zs), ref))
 
 
@@ -61,8 +65,7 @@ def _part_and_paths(path):
     zs = list(np.linspace(z0 + 0.75, z1 - 0.75, 37))
     (x0, y0, _), (x1, y1, _) = mesh.bounds
     rng = np.random.default_rng(5)
-    paths = [[np.column_stack([np.linspace(x0, x1, 60), y0 + (y1 - y0) * rng.uniform(0.2, 0.8, 60)])]
-             for _ in zs]
+    paths = [[np.column_stack([np.linspace(x0, x1, 60), y0 + (y1 - y0) * rng.uniform(0.2, 0.8, 60)])] for _ in zs]
     return np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), zs, paths
 
 
@@ -74,7 +77,7 @@ def test_layers_checked_in_tasks_equal_the_check_in_one_piece(path):
     split = slabs.cover_part(v, f, zs, paths, 6.0, pool)
     assert 2 <= len(pool.tasks) <= 2 * slabs.TASKS_PER_WORKER
     assert sum(len(t.zs) for t in pool.tasks) == len(zs)
-    assert all(len(t.faces) < len(f) for t in pool.tasks)          # each task carries only its planes' faces
+    assert all(len(t.faces) < len(f) for t in pool.tasks)  # each task carries only its planes' faces
     assert len(split) == len(whole) == len(zs)
     for a, b in zip(whole, split):
         assert shapely.to_wkb(a.section) == shapely.to_wkb(b.section)
@@ -94,4 +97,4 @@ def test_spans_are_consecutive_and_balanced():
     spans = slabs._spans(w, 4)
     assert spans[0][0] == 0 and spans[-1][1] == 20 and all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
     sums = [w[a:b].sum() for a, b in spans]
-    assert len(spans) == 4 and max(sums) <= 30 + 1e-9             # 110 in 4: none holds over 30
+    assert len(spans) == 4 and max(sums) <= 30 + 1e-9  # 110 in 4: none holds over 30

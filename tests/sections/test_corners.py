@@ -46,9 +46,15 @@ def test_rotated_l_gives_rotated_pieces():
     assert sorted(p.area for p in pieces) == pytest.approx([768.0, 1920.0])
 
 
-@pytest.mark.parametrize("region", [box(0, 0, 120, 16), Point(0, 0).buffer(30),
-                                    Point(0, 0).buffer(40, quad_segs=32).difference(Point(0, 0).buffer(24, quad_segs=32)),
-                                    Polygon([(0, 0), (50, 0), (40, 20), (8, 20)])])
+@pytest.mark.parametrize(
+    "region",
+    [
+        box(0, 0, 120, 16),
+        Point(0, 0).buffer(30),
+        Point(0, 0).buffer(40, quad_segs=32).difference(Point(0, 0).buffer(24, quad_segs=32)),
+        Polygon([(0, 0), (50, 0), (40, 20), (8, 20)]),
+    ],
+)
 def test_convex_or_smooth_sections_are_not_cut(region):
     """A convex section has no reflex corner; a polygonised round hole turns 2.8° per vertex."""
     assert reflex_corners(region) == []
@@ -56,7 +62,7 @@ def test_convex_or_smooth_sections_are_not_cut(region):
 
 
 def test_gentle_bend_is_not_a_corner_but_a_right_angle_is():
-    bend = Polygon([(0, 0), (50, 0), (90, 8), (90, 24), (50, 16), (0, 16)])   # 11.3° turn inward
+    bend = Polygon([(0, 0), (50, 0), (90, 8), (90, 24), (50, 16), (0, 16)])  # 11.3° turn inward
     assert reflex_corners(bend) == []
     notch = Polygon([(0, 0), (50, 0), (50, 10), (60, 10), (60, 0), (90, 0), (90, 30), (0, 30)])
     assert len(reflex_corners(notch)) == 2

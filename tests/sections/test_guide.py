@@ -35,11 +35,14 @@ def test_bent_guide_keeps_its_bend_between_crossings():
     assert s.guide.length == pytest.approx(55 + 55)
 
 
-@pytest.mark.parametrize("guide, count", [
-    ([(10, 5), (90, 5)], 0),                          # inside, never crosses
-    ([(-10, 5), (50, 5)], 1),                         # crosses once, ends inside
-    ([(-10, 5), (110, 5), (110, 8), (-10, 8)], 4),    # in and out twice
-])
+@pytest.mark.parametrize(
+    "guide, count",
+    [
+        ([(10, 5), (90, 5)], 0),  # inside, never crosses
+        ([(-10, 5), (50, 5)], 1),  # crosses once, ends inside
+        ([(-10, 5), (110, 5), (110, 8), (-10, 8)], 4),  # in and out twice
+    ],
+)
 def test_crossing_count_other_than_two_fails_with_layer_and_section(guide, count):
     with pytest.raises(PlanningError) as e:
         apply_guide(sec(box(0, 0, 100, 10), "bs2/C"), LineString(guide), layer=11)

@@ -23,11 +23,15 @@ def rect(x0, y0, x1, y1):
     return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
 
 
-CROSS_MASK = {"id": "bs1", "from_layer": 0, "sections": [
-    {"id": "A", "curve": rect(-6, -61, 6, 61)},
-    {"id": "B", "curve": rect(-61, -7, -6, 7)},
-    {"id": "C", "curve": rect(6, -7, 61, 7)},
-]}
+CROSS_MASK = {
+    "id": "bs1",
+    "from_layer": 0,
+    "sections": [
+        {"id": "A", "curve": rect(-6, -61, 6, 61)},
+        {"id": "B", "curve": rect(-61, -7, -6, 7)},
+        {"id": "C", "curve": rect(6, -7, 61, 7)},
+    ],
+}
 
 
 def test_cross_sections_areas_cover_the_layer():
@@ -39,19 +43,23 @@ def test_cross_sections_areas_cover_the_layer():
 
 
 def test_earlier_section_owns_the_overlap():
-    m = {"id": "bs1", "sections": [{"id": "A", "curve": rect(-6, -61, 6, 61)},
-                                   {"id": "B", "curve": rect(-61, -7, 0, 7)}]}  # B drawn over the centre
+    m = {
+        "id": "bs1",
+        "sections": [{"id": "A", "curve": rect(-6, -61, 6, 61)}, {"id": "B", "curve": rect(-61, -7, 0, 7)}],
+    }  # B drawn over the centre
     ls = segment_layer(layer(0, cross()), Mask.from_json(m))
     a, b = ls.sections
-    assert b.region.area == pytest.approx(648.0)          # 54 × 12, centre excluded
+    assert b.region.area == pytest.approx(648.0)  # 54 × 12, centre excluded
     assert a.region.intersection(b.region).area == pytest.approx(0.0, abs=1e-9)
-    assert ls.uncovered_area == pytest.approx(648.0)      # right arm not covered
+    assert ls.uncovered_area == pytest.approx(648.0)  # right arm not covered
     assert uncovered_percent(ls) == pytest.approx(100 * 648 / 2736)
 
 
 def test_later_section_cut_in_two_by_an_earlier_one_fails():
-    m = {"id": "bs1", "sections": [{"id": "A", "curve": rect(-6, -61, 6, 61)},
-                                   {"id": "B", "curve": rect(-61, -7, 61, 7)}]}
+    m = {
+        "id": "bs1",
+        "sections": [{"id": "A", "curve": rect(-6, -61, 6, 61)}, {"id": "B", "curve": rect(-61, -7, 61, 7)}],
+    }
     with pytest.raises(PlanningError) as e:
         segment_layer(layer(3, cross()), Mask.from_json(m))
     assert e.value.layer == 3 and e.value.section == "bs1/B"
@@ -102,8 +110,11 @@ def test_topology_change_fails_at_the_first_changed_layer_then_succeeds_with_a_s
         plan_stack(stack, [bs1])
     assert e.value.layer == 5 and e.value.section == "bs1/A"
 
-    bs2 = {"id": "bs2", "from_layer": 5, "sections": [{"id": "L", "curve": rect(-1, -1, 50, 7)},
-                                                       {"id": "R", "curve": rect(50, -1, 101, 7)}]}
+    bs2 = {
+        "id": "bs2",
+        "from_layer": 5,
+        "sections": [{"id": "L", "curve": rect(-1, -1, 50, 7)}, {"id": "R", "curve": rect(50, -1, 101, 7)}],
+    }
     planned = plan_stack(stack, [bs1, bs2])
     assert [len(ls.sections) for ls in planned] == [1] * 5 + [2] * 5
     assert planned[4].sections[0].key == "bs1/A" and planned[4].sections[0].region.area == pytest.approx(600.0)

@@ -8,8 +8,10 @@ import pytest
 from waamflow.cli import main
 
 RECIPE = Path(__file__).resolve().parents[2] / "graphs" / "mpp-slotted-wall.json"
-BS1_ONLY = ('mask.masks=[{"id": "bs1", "from_layer": 0, "sections": [{"id": "A", '
-            '"curve": [[-2, -5], [102, -5], [102, 5], [-2, 5]]}]}]')
+BS1_ONLY = (
+    'mask.masks=[{"id": "bs1", "from_layer": 0, "sections": [{"id": "A", '
+    '"curve": [[-2, -5], [102, -5], [102, 5], [-2, 5]]}]}]'
+)
 
 
 @pytest.fixture()
@@ -41,5 +43,6 @@ def test_a_guide_crossing_four_times_fails_naming_layer_and_section(tmp_path, ca
     bad = "guide.guides.bs1/A=[[-5, 0], [105, 0], [105, 2], [-5, 2]]"
     assert main(["run", str(RECIPE), "--out", str(tmp_path / "g"), "--set", bad]) == 3
     err = capsys.readouterr().err.strip().splitlines()[-1]
-    assert err == ("error: node 'guide', layer 0, section 'bs1/A': guide crosses the section boundary "
-                   "4 times (needs exactly 2)")
+    assert err == (
+        "error: node 'guide', layer 0, section 'bs1/A': guide crosses the section boundary 4 times (needs exactly 2)"
+    )

@@ -33,14 +33,15 @@ def test_mask_order_travel_and_retract():
     # each hop: 5 up, 10 across, 5 down = 20 mm; three hops
     assert travel == pytest.approx(60.0)
     assert lp.sections[1].approach.tolist() == [[10, 0, 6.5], [20, 0, 6.5]]
-    assert lp.sections[0].approach.tolist() == [[0, 0, 6.5]]   # first section of the part: come down
+    assert lp.sections[0].approach.tolist() == [[0, 0, 6.5]]  # first section of the part: come down
 
 
 def test_nearest_order_shortens_travel_versus_a_bad_explicit_order():
     bad = ["s3", "s0", "s2", "s1"]
     lp_bad, t_bad = sequence_layer(layer_paths(0, ROW), order=bad, retract_height=5.0)
-    lp_nn, t_nn = sequence_layer(layer_paths(0, ROW), order="nearest", retract_height=5.0,
-                                 prev_end=np.array([-5.0, 0.0, 0.0]))
+    lp_nn, t_nn = sequence_layer(
+        layer_paths(0, ROW), order="nearest", retract_height=5.0, prev_end=np.array([-5.0, 0.0, 0.0])
+    )
     assert [s.key for s in lp_bad.sections] == bad
     # bad: 70→0 (+10 vert) 80, 10→40: 40, 50→20: 40 → 160 mm
     assert t_bad == pytest.approx(160.0)
@@ -75,7 +76,7 @@ def test_local_search_on_large_layers_never_worse_than_mask_order_and_close_to_o
     ratios = []
     for _ in range(15):
         cost, sc = random_layer(rng, 8)
-        order = nearest_order(cost, sc)              # 8 > EXACT_MAX: nearest neighbour + local search
+        order = nearest_order(cost, sc)  # 8 > EXACT_MAX: nearest neighbour + local search
         assert sorted(order) == list(range(8))
         got = tour_length(order, cost, sc)
         assert got <= tour_length(list(range(8)), cost, sc) + 1e-9
@@ -106,11 +107,13 @@ def test_nearest_starts_from_the_previous_layer_end():
     assert out[1].sections[0].key == "s0"
     # three beads stacked in y; the previous layer ended next to the top one → top to bottom
     stack = [("b0", (0, 0), (10, 0)), ("b1", (0, 20), (10, 20)), ("b2", (0, 40), (10, 40))]
-    out, travel = sequence_part([layer_paths(0, [("a", (10, 45), (0, 45))]), layer_paths(1, stack)],
-                                order="nearest", retract_height=0.0)
+    out, travel = sequence_part(
+        [layer_paths(0, [("a", (10, 45), (0, 45))]), layer_paths(1, stack)], order="nearest", retract_height=0.0
+    )
     assert [s.key for s in out[1].sections] == ["b2", "b1", "b0"]
-    _, mask_travel = sequence_part([layer_paths(0, [("a", (10, 45), (0, 45))]), layer_paths(1, stack)],
-                                   retract_height=0.0)
+    _, mask_travel = sequence_part(
+        [layer_paths(0, [("a", (10, 45), (0, 45))]), layer_paths(1, stack)], retract_height=0.0
+    )
     assert travel[1] == pytest.approx(1.5 + 5 + 2 * np.hypot(10, 20))
     assert mask_travel[1] == pytest.approx(1.5 + 45 + 2 * np.hypot(10, 20))
 

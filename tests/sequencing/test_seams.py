@@ -21,8 +21,14 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 def section(key, strategy, xy, z, arc=None, inside=None, speed=5.0):
     pts = np.column_stack([np.asarray(xy, float), np.full(len(xy), z)])
     n = len(pts) - 1
-    return SectionPath(key, strategy, pts, np.ones(n, bool) if arc is None else np.asarray(arc, bool),
-                       np.ones(n, bool) if inside is None else np.asarray(inside, bool), np.full(n, speed))
+    return SectionPath(
+        key,
+        strategy,
+        pts,
+        np.ones(n, bool) if arc is None else np.asarray(arc, bool),
+        np.ones(n, bool) if inside is None else np.asarray(inside, bool),
+        np.full(n, speed),
+    )
 
 
 def cross_layer(i, dz=1.5):
@@ -52,15 +58,15 @@ def ignition_gaps(layers):
 def test_cross_seams_never_stack_and_never_start_at_the_junction():
     layers = [cross_layer(i) for i in range(6)]
     planned, _ = sequence_part(layers)
-    assert min(ignition_gaps(planned)) == 0.0          # before: every layer ignites at the same 3 points
+    assert min(ignition_gaps(planned)) == 0.0  # before: every layer ignites at the same 3 points
     out, _ = sequence_part(layers, seam=SeamSpec("auto", 6.0))
-    assert min(ignition_gaps(out)) == pytest.approx(6.0)   # one bead width: the 2-pass serpentines swap ends
+    assert min(ignition_gaps(out)) == pytest.approx(6.0)  # one bead width: the 2-pass serpentines swap ends
     for lp in out:
         secs = {s.key: s for s in lp.sections}
-        assert abs(secs["C"].points[0][0]) == pytest.approx(60.0)   # C: free end, re-threaded
+        assert abs(secs["C"].points[0][0]) == pytest.approx(60.0)  # C: free end, re-threaded
         assert abs(secs["B"].points[0][0]) == pytest.approx(60.0)
-        assert abs(secs["A"].points[0][1]) == pytest.approx(60.0)   # A: alternates ends, 120 mm apart
-        for s in lp.sections:   # zones re-measured at the new ends, speeds re-applied
+        assert abs(secs["A"].points[0][1]) == pytest.approx(60.0)  # A: alternates ends, 120 mm apart
+        for s in lp.sections:  # zones re-measured at the new ends, speeds re-applied
             zl = zone_lengths(s)
             assert zl["start"] == pytest.approx(10.0) and zl["end"] == pytest.approx(10.0)
             assert s.zone[0] == "start" and s.zone[-1] == "end"
@@ -77,7 +83,7 @@ def test_rethread_moves_links_to_the_other_side_and_aligned_keeps_the_plan():
     xy = re.points[:, :2].tolist()
     assert xy[0] == [60, -3] and xy[-1] == [60, 3]
     k = xy.index([6, -3])
-    assert xy[k + 1] == [6, 3] and re.zone[k] == "z1"   # the link moved to the junction side, inside z1
+    assert xy[k + 1] == [6, 3] and re.zone[k] == "z1"  # the link moved to the junction side, inside z1
     assert re.length == pytest.approx(c.length)
     # aligned: as planned, except where that ignites at a junction (C) -> the first allowed entry
     lp, _ = sequence_layer(cross_layer(1), seam=SeamSpec("aligned", 6.0))
@@ -89,16 +95,26 @@ def test_rethread_moves_links_to_the_other_side_and_aligned_keeps_the_plan():
 
 
 def test_alternate_reverses_open_sections_on_odd_layers():
-    layers = [LayerPaths(Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(box(-10, -10, 110, 10))),
-                         (section("W", "parallel", [(0, 0), (100, 0)], 1.5 * (i + 1)),)) for i in range(4)]
+    layers = [
+        LayerPaths(
+            Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(box(-10, -10, 110, 10))),
+            (section("W", "parallel", [(0, 0), (100, 0)], 1.5 * (i + 1)),),
+        )
+        for i in range(4)
+    ]
     out, _ = sequence_part(layers, alternate=True, seam=SeamSpec("alternate"))
     assert [lp.sections[0].points[0][0] for lp in out] == [0.0, 100.0, 0.0, 100.0]
 
 
 def test_closed_loops_stagger_by_the_shift_per_layer():
     sq = [(0, 0), (40, 0), (40, 40), (0, 40), (0, 0)]
-    layers = [LayerPaths(Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(box(-10, -10, 50, 50))),
-                         (section("L", "contour", sq, 1.5 * (i + 1)),)) for i in range(4)]
+    layers = [
+        LayerPaths(
+            Layer(i, 1.5 * (i + 1), 1.5, as_multipolygon(box(-10, -10, 50, 50))),
+            (section("L", "contour", sq, 1.5 * (i + 1)),),
+        )
+        for i in range(4)
+    ]
     out, _ = sequence_part(layers, seam=SeamSpec("stagger", 6.0, 12.0))
     assert [lp.sections[0].points[0][:2].tolist() for lp in out] == [[0, 0], [12, 0], [24, 0], [36, 0]]
     assert all(lp.sections[0].length == pytest.approx(160.0) for lp in out)
@@ -175,4 +191,4 @@ def test_thin_wall_panel_ignites_in_machining_stock():
     layers, _ = run_sequence("thin-wall-panel.json")
     walls = [s for lp in layers for s in lp.sections if s.strategy == "wall"]
     assert len(walls) == 300
-    assert sum(bool(s.inside[0]) for s in walls) == 0     # before: 126 ignited on the finished wall
+    assert sum(bool(s.inside[0]) for s in walls) == 0  # before: 126 ignited on the finished wall

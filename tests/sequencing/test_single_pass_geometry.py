@@ -26,8 +26,14 @@ def arc_on_length(sections) -> float:
 def path(key, strategy, xy, z=30.0, inside=None):
     pts = np.column_stack([np.asarray(xy, float), np.full(len(xy), z)])
     n = len(pts) - 1
-    return SectionPath(key, strategy, pts, np.ones(n, bool),
-                       np.ones(n, bool) if inside is None else np.asarray(inside, bool), np.full(n, 5.0))
+    return SectionPath(
+        key,
+        strategy,
+        pts,
+        np.ones(n, bool),
+        np.ones(n, bool) if inside is None else np.asarray(inside, bool),
+        np.full(n, 5.0),
+    )
 
 
 def filleted_l(z=30.0):
@@ -41,18 +47,20 @@ def filleted_l(z=30.0):
     return path("wall2", "wall", xy, z, inside=[False] + [True] * (n - 1))
 
 
-L_LENGTH = 114.985827   # mm: 6.963 lead + 43.8 + 4.6·π/2 fillet + 57.0
+L_LENGTH = 114.985827  # mm: 6.963 lead + 43.8 + 4.6·π/2 fillet + 57.0
 
 
 def test_filleted_l_wall_is_one_pass_and_keeps_its_geometry():
     w = filleted_l()
     assert w.length == pytest.approx(L_LENGTH, abs=1e-6)
-    assert rethread_path(w) is None                      # before: passes [(0, 1), (17, 31)], 138.558 mm
+    assert rethread_path(w) is None  # before: passes [(0, 1), (17, 31)], 138.558 mm
     assert [e.name for e in entries(w)] == ["planned", "reversed"]
     for e in entries(w):
         assert arc_on_length([e.path]) == pytest.approx(L_LENGTH, abs=1e-6)
-    layers = [LayerPaths(Layer(i, 2.0 * (i + 1), 2.0, as_multipolygon(box(140, -10, 210, 70))),
-                         (filleted_l(2.0 * (i + 1)),)) for i in range(4)]
+    layers = [
+        LayerPaths(Layer(i, 2.0 * (i + 1), 2.0, as_multipolygon(box(140, -10, 210, 70))), (filleted_l(2.0 * (i + 1)),))
+        for i in range(4)
+    ]
     out, _ = sequence_part(layers, seam=SeamSpec("auto", 4.0))
     for lp in out:
         s = lp.sections[0]
@@ -76,12 +84,12 @@ def test_serpentines_are_rethreaded_only_when_that_keeps_the_arc_on_length():
     # a semicircular link (8 steps, radius 3 mm): its ends turn gradually and cannot move to x = 0
     half = [(40 + 3 * math.sin(a), 3 - 3 * math.cos(a)) for a in np.radians(np.arange(22.5, 180.0, 22.5))]
     round_ = serpentine(half)
-    assert rethread_path(round_) is None                 # before: a straight link at x = 0, 88.341 mm
+    assert rethread_path(round_) is None  # before: a straight link at x = 0, 88.341 mm
     assert {e.name for e in entries(round_)} == {"planned", "reversed"}
-    assert arc_on_length([round_]) == pytest.approx(80.0 + 8 * 6 * math.sin(math.radians(11.25)))   # 89.364 mm
+    assert arc_on_length([round_]) == pytest.approx(80.0 + 8 * 6 * math.sin(math.radians(11.25)))  # 89.364 mm
     # passes whose far ends do not line up: the link on the other side would be 7.2 mm, not 6
     skew = path("S", "parallel", [(0, 0), (40, 0), (40, 6), (4, 6)], 1.5)
-    assert rethread_path(skew) is None                   # before: 83.211 mm against 82.0
+    assert rethread_path(skew) is None  # before: 83.211 mm against 82.0
 
 
 def test_thin_wall_panel_with_fillets_sequences_the_walls_it_is_given():

@@ -17,7 +17,7 @@ def test_loop_order_walks_every_cycle(sizes):
     nxt = np.empty(n, dtype=np.int64)
     o = 0
     for sz in sizes:
-        cyc = perm[o:o + sz]
+        cyc = perm[o : o + sz]
         nxt[cyc] = np.roll(cyc, -1)
         o += sz
     label, pos, size = _loop_order(nxt)
@@ -29,7 +29,7 @@ def test_loop_order_walks_every_cycle(sizes):
 def test_section_loops_counts_and_order():
     m = as_mesh(tube(20, 30, 10))
     loops = section_loops(m.vertices, m.faces, np.array([-1.0, 2.5, 5.0, 7.5, 11.0]))
-    assert loops.plane.tolist() == [1, 1, 2, 2, 3, 3]           # planes outside the part: no loops
+    assert loops.plane.tolist() == [1, 1, 2, 2, 3, 3]  # planes outside the part: no loops
     # 256 facets, each a quad split by a diagonal: the plane crosses both triangles
     assert np.diff(loops.offsets).tolist() == [512] * 6
     for j in range(len(loops)):
@@ -50,7 +50,7 @@ def test_batches_of_planes_give_the_same_loops():
     m = as_mesh(tube(20, 30, 10))
     heights = np.linspace(0.5, 9.5, 19)
     whole = section_loops(m.vertices, m.faces, heights)
-    batched = section_loops(m.vertices, m.faces, heights, batch_segments=1500)   # 1 plane per batch
+    batched = section_loops(m.vertices, m.faces, heights, batch_segments=1500)  # 1 plane per batch
     np.testing.assert_array_equal(whole.plane, batched.plane)
     np.testing.assert_array_equal(whole.offsets, batched.offsets)
     np.testing.assert_allclose(np.sort(whole.coords, axis=0), np.sort(batched.coords, axis=0))

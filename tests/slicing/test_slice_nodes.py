@@ -15,7 +15,8 @@ from .meshes import box, tube, union
 
 def _recipe(source: dict, slice_params: dict | None = None) -> dict:
     return {
-        "format": "waamflow/1", "name": "t",
+        "format": "waamflow/1",
+        "name": "t",
         "nodes": [source, {"id": "layers", "type": "slice", "params": slice_params or {}}],
         "edges": [{"from": f"{source['id']}.mesh", "to": "layers.mesh"}],
     }
@@ -39,8 +40,11 @@ def test_mesh_slice_recipe_writes_layers_json(tmp_path):
 
 def test_mesh_units_transform_and_thicknesses(tmp_path):
     box((1, 1, 1)).export(tmp_path / "b.stl")
-    src = {"id": "part", "type": "mesh",
-           "params": {"path": "b.stl", "units": "cm", "transform": {"translate": [0, 0, 5]}}}
+    src = {
+        "id": "part",
+        "type": "mesh",
+        "params": {"path": "b.stl", "units": "cm", "transform": {"translate": [0, 0, 5]}},
+    }
     res = _run(tmp_path, _recipe(src, {"layer_height": 2.0, "thicknesses": [1.0, 1.0], "start_offset": 0.0}))
     layers = res.outputs["layers"]["layers"]
     np.testing.assert_allclose([l.z for l in layers], [6.0, 7.0, 9.0, 11.0, 13.0, 15.0])
@@ -73,7 +77,9 @@ def test_sketch_slice_curves_on_each_layer(tmp_path):
     res = _run(tmp_path, _recipe({"id": "sk", "type": "sketch", "params": {"path": "s.json"}}, {"layer_height": 1.5}))
     doc = json.loads(res.artifacts["layers.layers.json"])
     assert len(doc["layers"]) == 6
-    assert all(l["curves"] == [[[0.0, 0.0], [100.0, 0.0], [100.0, 50.0]]] and l["polygons"] == [] for l in doc["layers"])
+    assert all(
+        l["curves"] == [[[0.0, 0.0], [100.0, 0.0], [100.0, 50.0]]] and l["polygons"] == [] for l in doc["layers"]
+    )
 
 
 def test_bad_slice_params_are_recipe_errors(tmp_path):
@@ -85,13 +91,17 @@ def test_bad_slice_params_are_recipe_errors(tmp_path):
 
 def test_direction_writes_frames_and_sketch_refuses_tilt(tmp_path):
     box((10, 10, 4)).export(tmp_path / "b.stl")
-    res = _run(tmp_path, _recipe({"id": "part", "type": "mesh", "params": {"path": "b.stl"}},
-                                 {"layer_height": 2.0, "direction": [0, 1, 0]}))
+    res = _run(
+        tmp_path,
+        _recipe(
+            {"id": "part", "type": "mesh", "params": {"path": "b.stl"}}, {"layer_height": 2.0, "direction": [0, 1, 0]}
+        ),
+    )
     doc = json.loads(res.artifacts["layers.layers.json"])
     assert len(doc["layers"]) == 5 and all(l["area_mm2"] == 40.0 for l in doc["layers"])
     frame = np.array(doc["layers"][0]["frame"])
-    np.testing.assert_allclose(frame[:3, 2], [0, 1, 0], atol=1e-12)       # layer normal = build direction
-    np.testing.assert_allclose(frame[:3, 3], [0, 2, 0], atol=1e-12)       # origin on the layer's top plane
+    np.testing.assert_allclose(frame[:3, 2], [0, 1, 0], atol=1e-12)  # layer normal = build direction
+    np.testing.assert_allclose(frame[:3, 3], [0, 2, 0], atol=1e-12)  # origin on the layer's top plane
     (tmp_path / "s.json").write_text(json.dumps({"curves": [[[0, 0], [1, 0]]], "height": 3}))
     with pytest.raises(RecipeError, match="extruded along \\+Z"):
         _run(tmp_path, _recipe({"id": "sk", "type": "sketch", "params": {"path": "s.json"}}, {"direction": [1, 0, 0]}))

@@ -76,7 +76,9 @@ def test_island_in_hole_and_nested_rings():
         assert len(polys) == 3
         assert [len(p.interiors) for p in polys] == [0, 1, 1]
         assert polys[0].area == pytest.approx(ngon_area(10), rel=1e-9)
-        assert l.area == pytest.approx(ngon_area(10) + ngon_area(30) - ngon_area(20) + ngon_area(50) - ngon_area(40), rel=1e-9)
+        assert l.area == pytest.approx(
+            ngon_area(10) + ngon_area(30) - ngon_area(20) + ngon_area(50) - ngon_area(40), rel=1e-9
+        )
 
 
 def test_inside_out_mesh_slices_the_same():
@@ -134,7 +136,7 @@ def test_planes_through_vertices_still_close():
     # end on the top at 10 and be cut at 9.75, between the rows this test is about)
     layers = slice_part(mesh, layer_height=1.0, z_min=-0.5, top="nearest")
     assert len(layers) == 10
-    assert layers[0].region.is_empty          # a plane through the bottom face touches no volume
+    assert layers[0].region.is_empty  # a plane through the bottom face touches no volume
     v = mesh.vertices
     for l in layers[1:]:
         row = v[np.isclose(v[:, 2], l.z - l.thickness / 2)]
@@ -202,9 +204,10 @@ def test_build_direction_along_x_with_layer_frames():
     for l in layers:
         assert l.area == pytest.approx(600.0)
         world = l.to_world(np.asarray(l.region.geoms[0].exterior.coords))
-        np.testing.assert_allclose(world[:, 0], l.z)                      # on the layer's top plane
-        np.testing.assert_allclose([world[:, 1].min(), world[:, 1].max(), world[:, 2].min(), world[:, 2].max()],
-                                   [0, 20, 0, 30], atol=1e-9)
+        np.testing.assert_allclose(world[:, 0], l.z)  # on the layer's top plane
+        np.testing.assert_allclose(
+            [world[:, 1].min(), world[:, 1].max(), world[:, 2].min(), world[:, 2].max()], [0, 20, 0, 30], atol=1e-9
+        )
         np.testing.assert_allclose(l.normal, [1, 0, 0])
 
 
@@ -212,7 +215,7 @@ def test_build_direction_down_flips_the_stack():
     r0, r1, h = 30.0, 10.0, 20.0
     layers = slice_part(as_mesh(frustum(r0, r1, h)), layer_height=2.0, direction=(0, 0, -1))
     assert len(layers) == 10
-    cuts_world = [-(l.z - l.thickness / 2) for l in layers]               # distance along −Z
+    cuts_world = [-(l.z - l.thickness / 2) for l in layers]  # distance along −Z
     np.testing.assert_allclose(cuts_world, 19.0 - 2.0 * np.arange(10))
     for l, zc in zip(layers, cuts_world):
         assert l.area == pytest.approx(ngon_area(r0 + (r1 - r0) * zc / h), rel=1e-9)
@@ -224,14 +227,14 @@ def test_crowded_planes_use_the_tree_paths():
     them overlapping: nesting and the overlap union go through the STRtree paths."""
     frame = box((120, 120, 4), corner=(-10, -10, 0))
     hole = box((110, 110, 4), corner=(-5, -5, 0))
-    hole.invert()                                    # frame = outer box with a through cavity
+    hole.invert()  # frame = outer box with a through cavity
     cubes = [box((4, 4, 4), corner=(10 * i, 10 * j, 0)) for i in range(10) for j in range(10)]
-    cubes.append(box((4, 4, 4), corner=(2, 0, 0)))   # overlaps the cube at (0, 0) by 2 × 4
+    cubes.append(box((4, 4, 4), corner=(2, 0, 0)))  # overlaps the cube at (0, 0) by 2 × 4
     layers = slice_part(as_mesh(union(frame, hole, *cubes)), layer_height=2.0)
     assert len(layers) == 2
     for l in layers:
         polys = l.region.geoms
-        assert len(polys) == 101                     # 99 cubes, one 6 × 4 block, the frame
+        assert len(polys) == 101  # 99 cubes, one 6 × 4 block, the frame
         frame_poly = max(polys, key=lambda p: p.area)
         assert frame_poly.area == pytest.approx(120**2 - 110**2) and len(frame_poly.interiors) == 1
         assert l.area == pytest.approx(120**2 - 110**2 + 99 * 16 + 24)

@@ -19,7 +19,7 @@ from waamflow.slicing.planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION
 from .meshes import as_mesh, box
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
-CROSS_FIRST = [2.0, 1.8]   # the cross's first layers (substrate sink), then 1.5 mm
+CROSS_FIRST = [2.0, 1.8]  # the cross's first layers (substrate sink), then 1.5 mm
 
 
 def test_stated_limits():
@@ -46,8 +46,8 @@ def test_ceil_cross_with_first_thicknesses_tops_at_12():
     np.testing.assert_allclose(s.thickness, [2.0, 1.8, 1.5, 1.5, 1.5, 1.5, 2.2], atol=1e-12)
     assert s.tops[-1] == 12.0
     assert s.fit.action == "thickened" and s.fit.layer == 6
-    np.testing.assert_allclose(s.cuts[-1], 10.9)          # mid-layer of the thickened layer
-    np.testing.assert_allclose(np.cumsum(s.thickness)[-1], 12.0)   # layers stack without gap
+    np.testing.assert_allclose(s.cuts[-1], 10.9)  # mid-layer of the thickened layer
+    np.testing.assert_allclose(np.cumsum(s.thickness)[-1], 12.0)  # layers stack without gap
 
 
 def test_ceil_thins_a_listed_layer_that_would_pass_the_top():
@@ -59,7 +59,7 @@ def test_ceil_thins_a_listed_layer_that_would_pass_the_top():
 
 
 def test_ceil_whole_layers_unchanged_within_tolerance():
-    s = layer_schedule(0.0, 450.0, layer_height=1.5)       # the bracket
+    s = layer_schedule(0.0, 450.0, layer_height=1.5)  # the bracket
     assert len(s) == 300 and s.fit.action == "exact"
     np.testing.assert_allclose(s.tops, 1.5 * np.arange(1, 301), rtol=0, atol=1e-12)
     assert (s.thickness == 1.5).all()
@@ -78,7 +78,7 @@ def test_ceil_overshoot_when_no_layer_can_take_the_remainder():
     assert len(s) == 1 and s.fit.action == "overshoot"
     assert s.thickness[0] == pytest.approx(0.75) and s.tops[0] == pytest.approx(0.75)
     assert s.fit.gap == pytest.approx(-0.35)
-    assert s.cuts[0] == pytest.approx(0.2)                 # cut in the part's material, not above it
+    assert s.cuts[0] == pytest.approx(0.2)  # cut in the part's material, not above it
     # the merge limit: 10.3 mm at 1 mm with thickening to at most 1.2×: 0.3 mm left → one layer more
     s = layer_schedule(0.0, 10.3, layer_height=1.0, max_factor=1.2)
     assert len(s) == 11 and s.fit.action == "overshoot"
@@ -108,7 +108,7 @@ def test_nearest_is_the_old_rounding_with_its_gap():
     assert len(s) == 15 and s.tops[-1] == 30.0 and s.fit.gap == pytest.approx(1.0)
     s = layer_schedule(0.0, 12.0, layer_height=1.5, thicknesses=CROSS_FIRST, top_policy="nearest")
     assert s.tops[-1] == pytest.approx(11.3) and s.fit.gap == pytest.approx(0.7) and s.fit.layer == 6
-    s = layer_schedule(0.0, 31.2, layer_height=2.0, top_policy="nearest")      # 0.6 of a layer left: rounds up
+    s = layer_schedule(0.0, 31.2, layer_height=2.0, top_policy="nearest")  # 0.6 of a layer left: rounds up
     assert s.tops[-1] == 32.0 and s.fit.gap == pytest.approx(-0.8)
 
 
@@ -139,17 +139,22 @@ def test_slice_part_31_mm_box_reaches_its_top():
     layers = slice_part(as_mesh(box((10, 10, 31))), layer_height=2.0)
     assert len(layers) == 16 and layers[-1].z == 31.0 and layers[-1].thickness == pytest.approx(1.0)
     assert all(l.area == pytest.approx(100.0) for l in layers)
-    layers = slice_part(as_mesh(box((10, 10, 0.4))), layer_height=1.5)   # overshoot layer: cut inside
+    layers = slice_part(as_mesh(box((10, 10, 0.4))), layer_height=1.5)  # overshoot layer: cut inside
     assert len(layers) == 1 and layers[0].area == pytest.approx(100.0)
     old = slice_part(as_mesh(box((10, 10, 31))), layer_height=2.0, top="nearest")
     assert old[-1].z == 30.0
 
 
 def _recipe(stl: str, slice_params: dict) -> dict:
-    return {"format": "waamflow/1", "name": "t",
-            "nodes": [{"id": "part", "type": "mesh", "params": {"path": stl}},
-                      {"id": "layers", "type": "slice", "params": slice_params}],
-            "edges": [{"from": "part.mesh", "to": "layers.mesh"}]}
+    return {
+        "format": "waamflow/1",
+        "name": "t",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": stl}},
+            {"id": "layers", "type": "slice", "params": slice_params},
+        ],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}],
+    }
 
 
 def _run(tmp_path, stl, params):
@@ -179,7 +184,9 @@ def test_node_nearest_warns_with_the_gap(tmp_path):
     [w] = res.warnings
     assert w["layer"] == 14 and w["node"] == "layers"
     assert "30 mm" in w["message"] and "1 mm below" in w["message"] and "31 mm" in w["message"]
-    res = _run(tmp_path, "b.stl", {"layer_height": 1.5, "top": "nearest"})   # 20 layers reach 30; the 1 mm left is over half a layer: rounds up to 31.5
+    res = _run(
+        tmp_path, "b.stl", {"layer_height": 1.5, "top": "nearest"}
+    )  # 20 layers reach 30; the 1 mm left is over half a layer: rounds up to 31.5
     [w] = res.warnings
     assert w["layer"] == 20 and "0.5 mm above" in w["message"]
 
@@ -204,8 +211,9 @@ def test_node_overshoot_and_layer_count_are_warned(tmp_path):
     assert res.warnings == []
 
 
-@pytest.mark.parametrize("stl, height, layers", [("bracket.stl", 1.5, 300), ("cross.stl", 1.5, 8),
-                                                  ("slotted-wall.stl", 1.5, 10)])
+@pytest.mark.parametrize(
+    "stl, height, layers", [("bracket.stl", 1.5, 300), ("cross.stl", 1.5, 8), ("slotted-wall.stl", 1.5, 10)]
+)
 def test_shipped_parts_keep_their_whole_layers(stl, height, layers):
     z = trimesh.load(GRAPHS / "parts" / stl).bounds[:, 2]
     s = layer_schedule(float(z[0]), float(z[1]), layer_height=height)

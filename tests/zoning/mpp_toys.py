@@ -35,8 +35,14 @@ class ToyWalls(Node):
     def run(self, ctx, params, inputs):
         full = as_multipolygon(box(0, 0, 100, 6))
         split = as_multipolygon(shapely.union(box(0, 0, 40, 6), box(60, 0, 100, 6)))
-        return {"layers": Layered(tuple(Layer(i, 1.5 * (i + 1), 1.5, split if i >= params.window_from else full)
-                                        for i in range(params.count)))}
+        return {
+            "layers": Layered(
+                tuple(
+                    Layer(i, 1.5 * (i + 1), 1.5, split if i >= params.window_from else full)
+                    for i in range(params.count)
+                )
+            )
+        }
 
 
 @register

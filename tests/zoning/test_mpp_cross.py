@@ -49,13 +49,14 @@ def test_cross_sections_zones_and_speeds_from_the_parameter_file(runs):
         assert (a["start"], a["end"]) == (pytest.approx(10.0), pytest.approx(10.0))
         pts = np.asarray(secs["bs1/A"]["points"])
         z2 = pts[1:][np.array(secs["bs1/A"]["zone"]) == "z2"]
-        assert z2[:, 1].min() >= -6.0 - 3.1 and z2[:, 1].max() <= 6.0 + 3.1   # intersection zone, ± one weave step
+        assert z2[:, 1].min() >= -6.0 - 3.1 and z2[:, 1].max() <= 6.0 + 3.1  # intersection zone, ± one weave step
         for key in ("bs1/B", "bs1/C"):
             assert list(zone_lengths(secs[key])) == ["start", "z1", "end"]
         # the study's example values: start 6 mm/s, middle 8 mm/s, end 4 mm/s (arc-ON segments)
         for s in secs.values():
-            by_zone = {z: {v for v, zz, arc in zip(s["speed"], s["zone"], s["arc"]) if zz == z and arc}
-                       for z in set(s["zone"])}
+            by_zone = {
+                z: {v for v, zz, arc in zip(s["speed"], s["zone"], s["arc"]) if zz == z and arc} for z in set(s["zone"])
+            }
             assert by_zone["start"] == {6.0} and by_zone["end"] == {4.0} and by_zone["z1"] == {8.0}
             # wire feed mass-balanced per section (issue #22 item 5; the study's 200 A, 10 m/min fed 3-5x the metal)
             wfs = 2.4 if s["key"] == "bs1/A" else 3.0

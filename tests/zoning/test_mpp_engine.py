@@ -19,28 +19,38 @@ def rect(x0, y0, x1, y1):
 
 
 BS1 = {"id": "bs1", "from_layer": 0, "sections": [{"id": "A", "curve": rect(-1, -1, 101, 7)}]}
-BS2 = {"id": "bs2", "from_layer": 5, "sections": [{"id": "L", "curve": rect(-1, -1, 50, 7)},
-                                                   {"id": "R", "curve": rect(50, -1, 101, 7)}]}
+BS2 = {
+    "id": "bs2",
+    "from_layer": 5,
+    "sections": [{"id": "L", "curve": rect(-1, -1, 50, 7)}, {"id": "R", "curve": rect(50, -1, 101, 7)}],
+}
 
 
 def recipe(masks, zone=None, count=10, window_from=5, parameters=None, order="mask"):
     zone = dict(zone or {"default": {"start_length": 10, "end_length": 10}})
     if parameters:
         zone["parameters"] = parameters
-    return parse_recipe({
-        "format": "waamflow/1", "name": "walls",
-        "nodes": [
-            {"id": "stack", "type": "toy-mpp-walls", "params": {"count": count, "window_from": window_from}},
-            {"id": "mask", "type": "mask", "params": {"masks": masks}},
-            {"id": "guide", "type": "guide", "params": {"guides": {"bs1/A": [[-5, 3], [105, 3]]}}},
-            {"id": "paths", "type": "toy-mpp-pass", "params": {}},
-            {"id": "zone", "type": "zone", "params": zone},
-            {"id": "seq", "type": "sequence", "params": {"order": order, "retract_height": 5}},
-        ],
-        "edges": [{"from": "stack.layers", "to": "mask.layers"}, {"from": "mask.sections", "to": "guide.sections"},
-                  {"from": "guide.sections", "to": "paths.sections"}, {"from": "paths.toolpath", "to": "zone.toolpath"},
-                  {"from": "zone.toolpath", "to": "seq.toolpath"}],
-    })
+    return parse_recipe(
+        {
+            "format": "waamflow/1",
+            "name": "walls",
+            "nodes": [
+                {"id": "stack", "type": "toy-mpp-walls", "params": {"count": count, "window_from": window_from}},
+                {"id": "mask", "type": "mask", "params": {"masks": masks}},
+                {"id": "guide", "type": "guide", "params": {"guides": {"bs1/A": [[-5, 3], [105, 3]]}}},
+                {"id": "paths", "type": "toy-mpp-pass", "params": {}},
+                {"id": "zone", "type": "zone", "params": zone},
+                {"id": "seq", "type": "sequence", "params": {"order": order, "retract_height": 5}},
+            ],
+            "edges": [
+                {"from": "stack.layers", "to": "mask.layers"},
+                {"from": "mask.sections", "to": "guide.sections"},
+                {"from": "guide.sections", "to": "paths.sections"},
+                {"from": "paths.toolpath", "to": "zone.toolpath"},
+                {"from": "zone.toolpath", "to": "seq.toolpath"},
+            ],
+        }
+    )
 
 
 def run(rec, tmp_path, cache=None, **kw):
@@ -95,14 +105,18 @@ def test_xml_values_flow_into_the_toolpath_and_editing_it_recomputes_no_layer(tm
     xml = first.artifacts["zone.params.xml"].decode()
     assert xml.count("<zone ") == 5 * 3 + 5 * 2 * 3
     # the zone line carries bead_mm3_per_mm and a feed comment follows it (issue #22 item 5): matched loosely
-    xml, n = re.subn(r'(<layer index="2" z="4.5">\n    <section id="bs1/A">\n      <zone id="start" color="#d62728"[^>]*>\n'
-                     r'(?:        <!--[^>]*-->\n)?)'
-                     r'        <current unit="A"></current>\n        <voltage unit="V"></voltage>\n'
-                     r'        <wire_feed_speed unit="m/min"></wire_feed_speed>\n'
-                     r'        <travel_speed unit="mm/s"></travel_speed>',
-                     r'\1        <current unit="A">200</current>\n        <voltage unit="V"></voltage>\n'
-                     r'        <wire_feed_speed unit="m/min">10</wire_feed_speed>\n'
-                     r'        <travel_speed unit="mm/s">6</travel_speed>', xml, count=1)
+    xml, n = re.subn(
+        r'(<layer index="2" z="4.5">\n    <section id="bs1/A">\n      <zone id="start" color="#d62728"[^>]*>\n'
+        r"(?:        <!--[^>]*-->\n)?)"
+        r'        <current unit="A"></current>\n        <voltage unit="V"></voltage>\n'
+        r'        <wire_feed_speed unit="m/min"></wire_feed_speed>\n'
+        r'        <travel_speed unit="mm/s"></travel_speed>',
+        r'\1        <current unit="A">200</current>\n        <voltage unit="V"></voltage>\n'
+        r'        <wire_feed_speed unit="m/min">10</wire_feed_speed>\n'
+        r'        <travel_speed unit="mm/s">6</travel_speed>',
+        xml,
+        count=1,
+    )
     assert n == 1
     (tmp_path / "walls.params.xml").write_text(xml)
     res = run(rec, tmp_path, cache)
@@ -114,14 +128,16 @@ def test_xml_values_flow_into_the_toolpath_and_editing_it_recomputes_no_layer(tm
     out = json.loads(res.artifacts["zone.toolpath.json"])
     assert out["layers"][2]["sections"][0]["speed"] == [6.0, 5.0, 5.0]
     assert parse(res.artifacts["zone.params.xml"].decode()).values == {
-        (2, "bs1/A", "start"): {"current": 200.0, "wire_feed_speed": 10.0, "travel_speed": 6.0}}
+        (2, "bs1/A", "start"): {"current": 200.0, "wire_feed_speed": 10.0, "travel_speed": 6.0}
+    }
 
     # the mask now governs from layer 2: layer 2's bs1/A values become orphans
     later = recipe([BS1, dict(BS2, from_layer=2)], parameters="walls.params.xml", window_from=5)
     res = run(later, tmp_path, cache)
     orphan = [w for w in res.warnings if "no zone any more" in w["message"]]
-    assert [w["message"].split(" have")[0] for w in orphan] == \
-        ["parameter file: values for layer 2, section 'bs1/A', zone 'start'"]
+    assert [w["message"].split(" have")[0] for w in orphan] == [
+        "parameter file: values for layer 2, section 'bs1/A', zone 'start'"
+    ]
     assert parse(res.artifacts["zone.params.xml"].decode()).values == {}
 
 
@@ -155,13 +171,13 @@ def test_params_for_unknown_sections_are_warned(tmp_path):
 def test_sequence_follows_a_change_in_the_layer_below_with_a_warm_cache(tmp_path):
     cache = MemoryCache()
     before = run(recipe([BS1, BS2]), tmp_path, cache).outputs["seq"]["toolpath"]
-    assert before[5].sections[0].approach[0][:2].tolist() == [100.0, 3.0]   # layer 4 ended at x = 100
+    assert before[5].sections[0].approach[0][:2].tolist() == [100.0, 3.0]  # layer 4 ended at x = 100
     rec = recipe([BS1, BS2])
-    rec.nodes[2].params["guides"]["bs1/A"] = [[105, 3], [-5, 3]]           # bs1 now deposits right → left
+    rec.nodes[2].params["guides"]["bs1/A"] = [[105, 3], [-5, 3]]  # bs1 now deposits right → left
     res = run(rec, tmp_path, cache)
     assert res.stats["guide"].layers_computed == 5 and res.stats["zone"].layers_cached == 5
     after = res.outputs["seq"]["toolpath"]
-    assert after[5].sections[0].approach[0][:2].tolist() == [0.0, 3.0]      # layer 5 starts from x = 0
+    assert after[5].sections[0].approach[0][:2].tolist() == [0.0, 3.0]  # layer 5 starts from x = 0
 
 
 def test_a_self_intersecting_mask_curve_is_an_invalid_recipe():
@@ -175,5 +191,6 @@ def test_a_self_intersecting_mask_curve_is_an_invalid_recipe():
 
 def test_a_mask_starting_above_the_part_is_warned(tmp_path):
     res = run(recipe([BS1, dict(BS2, from_layer=40)], count=3, window_from=99), tmp_path)
-    assert [w["message"] for w in res.warnings if w["node"] == "mask"] == \
-        ["mask 'bs2' starts at layer 40 but the part has 3 layers: it governs none"]
+    assert [w["message"] for w in res.warnings if w["node"] == "mask"] == [
+        "mask 'bs2' starts at layer 40 but the part has 3 layers: it governs none"
+    ]

@@ -20,17 +20,25 @@ def test_writers_agree_and_the_comment_states_the_ratio():
     assert '<zone id="z1" color="#1f77b4" bead_mm3_per_mm="9">' in text
     assert "<!-- feed: wire 8.95 mm³/mm vs bead 9.00 mm³/mm = 0.99 -->" in text
     assert "<!-- feed: bead 9.00 mm³/mm (set wire_feed_speed and travel_speed to compare) -->" in text
-    assert text.count("feed: ") == 2 + 1          # two zones with a bead and the header note
-    assert '<zone id="end" color="">' in text     # no bead known: nothing added
-    table = parse(text)                           # comments inside zones are skipped; XSD accepts the attribute
+    assert text.count("feed: ") == 2 + 1  # two zones with a bead and the header note
+    assert '<zone id="end" color="">' in text  # no bead known: nothing added
+    table = parse(text)  # comments inside zones are skipped; XSD accepts the attribute
     assert table.values == VALUES and table.beads == BEADS
 
 
 def _toolpath(speed_zone=("start", "z1", "z1", "end")):
     # two 100 mm passes 6 mm apart (arc-OFF hop), 1.5 mm layer: step 6 → 9 mm³/mm
     pts = np.array([[0, 0, 1.5], [10, 0, 1.5], [100, 0, 1.5], [100, 6, 1.5], [0, 6, 1.5]], float)
-    sp = SectionPath("bs1/A", "parallel", pts, np.array([True, True, False, True]), np.ones(4, bool),
-                     np.full(4, 8.0), speed_zone, {z: "#000000" for z in speed_zone})
+    sp = SectionPath(
+        "bs1/A",
+        "parallel",
+        pts,
+        np.array([True, True, False, True]),
+        np.ones(4, bool),
+        np.full(4, 8.0),
+        speed_zone,
+        {z: "#000000" for z in speed_zone},
+    )
     layer = Layer(index=0, z=1.5, thickness=1.5, region=None)
     return Layered((LayerPaths(layer, (sp,)),))
 
@@ -39,9 +47,10 @@ def test_template_and_merge_keep_user_values_and_restate_the_feed():
     tp = _toolpath()
     assert toolpath_beads(tp) == {(0, "bs1/A", z): pytest.approx(9.0) for z in ("start", "z1", "end")}
     tpl = template(tp)
-    assert tpl.count("bead_mm3_per_mm=\"9\"") == 3
-    user = _write([(0, 1.5, "bs1/A", "z1", "#000000")], {(0, "bs1/A", "z1"): {"wire_feed_speed": 5.0,
-                                                                              "travel_speed": 8.0}})
+    assert tpl.count('bead_mm3_per_mm="9"') == 3
+    user = _write(
+        [(0, 1.5, "bs1/A", "z1", "#000000")], {(0, "bs1/A", "z1"): {"wire_feed_speed": 5.0, "travel_speed": 8.0}}
+    )
     merged, orphans = merge(tpl, user)
     assert orphans == []
     assert parse(merged).values == {(0, "bs1/A", "z1"): {"wire_feed_speed": 5.0, "travel_speed": 8.0}}

@@ -7,9 +7,12 @@ from waamflow.core.process import ZONE_PARAMETERS
 from waamflow.zoning.params_xml import _write, _write_etree, parse
 
 ZONES = [
-    (0, 1.5, "bs1/A", "start", "#d62728"), (0, 1.5, "bs1/A", "z1", "#1f77b4"), (0, 1.5, "bs1/B", "end", ""),
-    (1, 3.0000004, 'odd "key" <&>\t\n\r', "z&1", "#abc"), (2, None, "bs1/A", "start", "#d62728"),
-    (0, 1.5, "bs1/A", "late", "#000"),          # back to layer 0, section bs1/A: appended there
+    (0, 1.5, "bs1/A", "start", "#d62728"),
+    (0, 1.5, "bs1/A", "z1", "#1f77b4"),
+    (0, 1.5, "bs1/B", "end", ""),
+    (1, 3.0000004, 'odd "key" <&>\t\n\r', "z&1", "#abc"),
+    (2, None, "bs1/A", "start", "#d62728"),
+    (0, 1.5, "bs1/A", "late", "#000"),  # back to layer 0, section bs1/A: appended there
     (1, 3.0, "bs2/C", "zone", "x"),
 ]
 
@@ -17,8 +20,10 @@ ZONES = [
 @pytest.mark.parametrize("zones", [[], ZONES[:3], ZONES])
 def test_line_writer_equals_elementtree(zones):
     names = [p.name for p in ZONE_PARAMETERS]
-    values = {(0, "bs1/A", "z1"): {names[0]: 200.0, names[-1]: 3.0},
-              (1, 'odd "key" <&>\t\n\r', "z&1"): {names[1]: 1e-7}}
+    values = {
+        (0, "bs1/A", "z1"): {names[0]: 200.0, names[-1]: 3.0},
+        (1, 'odd "key" <&>\t\n\r', "z&1"): {names[1]: 1e-7},
+    }
     assert _write(zones, values) == _write_etree(zones, values)
 
 

@@ -62,15 +62,22 @@ def _line_of(text: str, needle: str) -> int:
     return text[: text.index(needle)].count("\n") + 1
 
 
-@pytest.mark.parametrize("edit, element, words", [
-    # caught by our own checks (messages name the parameter and its bounds), now with line numbers
-    (lambda t: fill(t, 1, "bs1/B", "z1", "current", "5000"), "current", "outside"),
-    (lambda t: fill(t, 1, "bs1/B", "z1", "travel_speed", "fast"), "travel_speed", "not a number"),
-    # caught only by the schema
-    (lambda t: t.replace('<zone id="z1" color=', '<zone id="z1" colour="#123456" color=', 1), "zone", "colour"),
-    (lambda t: t.replace('<current unit="A"></current>', '<current unit="A"><b>1</b></current>', 1), "current", "current"),
-    (lambda t: t.replace('<layer index="1"', '<layer index="1" thickness="2"', 1), "layer", "thickness"),
-])
+@pytest.mark.parametrize(
+    "edit, element, words",
+    [
+        # caught by our own checks (messages name the parameter and its bounds), now with line numbers
+        (lambda t: fill(t, 1, "bs1/B", "z1", "current", "5000"), "current", "outside"),
+        (lambda t: fill(t, 1, "bs1/B", "z1", "travel_speed", "fast"), "travel_speed", "not a number"),
+        # caught only by the schema
+        (lambda t: t.replace('<zone id="z1" color=', '<zone id="z1" colour="#123456" color=', 1), "zone", "colour"),
+        (
+            lambda t: t.replace('<current unit="A"></current>', '<current unit="A"><b>1</b></current>', 1),
+            "current",
+            "current",
+        ),
+        (lambda t: t.replace('<layer index="1"', '<layer index="1" thickness="2"', 1), "layer", "thickness"),
+    ],
+)
 def test_broken_files_name_line_and_element(xsd, edit, element, words):
     bad = edit(template(toolpath(2)))
     assert not _valid(xsd, bad)

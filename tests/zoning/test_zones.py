@@ -11,8 +11,14 @@ from waamflow.zoning.zones import project_onto_path, with_weld_defaults
 def path(points, z=1.5, speed=5.0, arc=None, key="bs1/A"):
     pts = np.column_stack([np.asarray(points, float), np.full(len(points), z)])
     n = len(pts) - 1
-    return SectionPath(key, "parallel", pts, np.ones(n, bool) if arc is None else np.asarray(arc, bool),
-                       np.ones(n, bool), np.full(n, speed))
+    return SectionPath(
+        key,
+        "parallel",
+        pts,
+        np.ones(n, bool) if arc is None else np.asarray(arc, bool),
+        np.ones(n, bool),
+        np.full(n, speed),
+    )
 
 
 def test_one_zone_without_splits():
@@ -49,7 +55,7 @@ def test_zigzag_path_is_split_inside_segments_with_attributes_copied():
     zp = zone_path(sp, ZoneSpec(start_length=5, end_length=5))
     assert zp.length == pytest.approx(58.0)
     assert zone_lengths(zp) == pytest.approx({"start": 5.0, "z1": 48.0, "end": 5.0})
-    assert len(zp.points) == len(pts) + 2            # two vertices inserted mid-stroke
+    assert len(zp.points) == len(pts) + 2  # two vertices inserted mid-stroke
     assert zp.points[1].tolist() == [0.0, 5.0, 1.5] and zp.points[-2].tolist() == [8.0, 5.0, 1.5]
     assert len(zp.arc) == len(zp.zone) == len(zp.speed) == len(zp.points) - 1
     assert int((~zp.arc).sum()) == 1 and np.all(zp.speed == 7.0)
@@ -59,6 +65,7 @@ def test_tool_axis_is_interpolated_for_inserted_points():
     sp = path([(0, 0), (10, 0)])
     tilt = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
     import dataclasses
+
     zp = zone_path(dataclasses.replace(sp, tool_axis=tilt), ZoneSpec(start_length=5))
     assert zp.tool_axis.shape == (3, 3)
     assert np.linalg.norm(zp.tool_axis[1]) == pytest.approx(1.0)
@@ -83,10 +90,13 @@ def test_projection_onto_polyline():
 
 
 def test_zone_travel_speed_sets_arc_on_segments_only():
-    zp = zone_path(path([(0, 0), (10, 0), (10, 1), (20, 1)], arc=[True, False, True], speed=5.0),
-                   ZoneSpec(start_length=5))
-    out = apply_zone_params(zp, {"start": {"travel_speed": 6.0, "current": 200.0}, "z1": {"travel_speed": 8.0},
-                                 "gone": {"travel_speed": 1.0}})
+    zp = zone_path(
+        path([(0, 0), (10, 0), (10, 1), (20, 1)], arc=[True, False, True], speed=5.0), ZoneSpec(start_length=5)
+    )
+    out = apply_zone_params(
+        zp,
+        {"start": {"travel_speed": 6.0, "current": 200.0}, "z1": {"travel_speed": 8.0}, "gone": {"travel_speed": 1.0}},
+    )
     assert out.zone == ("start", "z1", "z1", "z1")
     assert out.speed.tolist() == [6.0, 8.0, 5.0, 8.0]
     assert set(out.zone_params) == {"start", "z1"} and out.zone_params["start"]["current"] == 200.0
@@ -121,12 +131,21 @@ def test_split_point_on_a_square_weave_stroke_lying_on_its_station():
 
 def test_weld_defaults_fill_only_welded_zones_that_lack_them():
     pts = np.array([[0.0, 0, 1], [10, 0, 1], [20, 0, 1], [30, 0, 1]])
-    sp = SectionPath("s", "parallel", pts, arc=np.array([True, True, False]), inside=np.ones(3, bool),
-                     speed=np.full(3, 8.0), zone=("start", "z1", "link"),
-                     zone_params={"start": {"wire_feed_speed": 3.0}})
+    sp = SectionPath(
+        "s",
+        "parallel",
+        pts,
+        arc=np.array([True, True, False]),
+        inside=np.ones(3, bool),
+        speed=np.full(3, 8.0),
+        zone=("start", "z1", "link"),
+        zone_params={"start": {"wire_feed_speed": 3.0}},
+    )
     out = with_weld_defaults(sp, {"wire_feed_speed": 8.1, "current": 120})
-    assert out.zone_params == {"start": {"wire_feed_speed": 3.0, "current": 120.0},
-                               "z1": {"wire_feed_speed": 8.1, "current": 120.0}}
-    assert sp.zone_params == {"start": {"wire_feed_speed": 3.0}}          # the input is not changed
+    assert out.zone_params == {
+        "start": {"wire_feed_speed": 3.0, "current": 120.0},
+        "z1": {"wire_feed_speed": 8.1, "current": 120.0},
+    }
+    assert sp.zone_params == {"start": {"wire_feed_speed": 3.0}}  # the input is not changed
     off = SectionPath("t", "parallel", pts, arc=np.zeros(3, bool), inside=np.ones(3, bool), speed=np.full(3, 8.0))
     assert with_weld_defaults(off, {"wire_feed_speed": 8.1}) is off

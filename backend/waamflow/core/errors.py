@@ -14,7 +14,7 @@ from typing import Any, Self
 class WaamflowError(Exception):
     exit_code = 1
     kind = "error"
-    debug_traceback: str | None = None   # the traceback of the bug it stands for (executor), `--debug` prints it
+    debug_traceback: str | None = None  # the traceback of the bug it stands for (executor), `--debug` prints it
 
     def __init__(
         self,

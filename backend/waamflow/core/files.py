@@ -102,8 +102,10 @@ def read_regular(path: str | Path, limit: int, label: str | None = None) -> byte
 def check_shipped_name(name: str, what: str, shipped: list[str]) -> None:
     """InputFileError unless `name` has the form of a shipped name (nothing is looked up)."""
     if not isinstance(name, str) or not name or len(name) > 128 or not SHIPPED_NAME.match(name):
-        raise InputFileError(f"{what} {str(name)[:80]!r} is not a shipped name (letters, digits, _ - . without "
-                             f"'..' or '/'); shipped: {', '.join(shipped)}")
+        raise InputFileError(
+            f"{what} {str(name)[:80]!r} is not a shipped name (letters, digits, _ - . without "
+            f"'..' or '/'); shipped: {', '.join(shipped)}"
+        )
 
 
 def read_shipped(folder: Path, file_name: str, what: str, shipped: list[str], limit: int = 20_000_000) -> bytes:

@@ -77,7 +77,6 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
     section_tools: dict[int, tuple[str, dict[str, float]]] = {}
     down = np.array([0.0, 0.0, -1.0])
 
-
     items = toolpath.items if isinstance(toolpath, Layered) else toolpath
     for lp in items:
         if lp is None:
@@ -122,7 +121,9 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
                     zone_ids.append(z)
                 z_idx.append(zone_index[z])
                 zone_params.setdefault((s_idx, zone_index[z]), dict(sp.zone_params.get(z, {})))
-            _add_segments(seg, DEPOSIT, sp.arc, sp.inside, sp.speed, lp.index, s_idx, np.array(z_idx), len(sp.points) - 1)
+            _add_segments(
+                seg, DEPOSIT, sp.arc, sp.inside, sp.speed, lp.index, s_idx, np.array(z_idx), len(sp.points) - 1
+            )
             pts.append(np.asarray(sp.points[1:], dtype=float))
             ax = np.tile(down, (len(sp.points), 1)) if sp.tool_axis is None else np.asarray(sp.tool_axis, dtype=float)
             axes[-1] = np.vstack([axes[-1][:-1], ax[:1]])
@@ -135,8 +136,9 @@ def flatten(toolpath: Layered[LayerPaths] | list[LayerPaths]) -> Moves:
     return _assemble(pts, axes, seg, dwell, section_keys, zone_ids, zone_params, layer_z, dwell_notes, section_tools)
 
 
-def _add_segments(seg: dict[str, list[Any]], kind: int, arc: Any, inside: Any, speed: Any, layer: int, section: int,
-                  zone: Any, n: int) -> None:
+def _add_segments(
+    seg: dict[str, list[Any]], kind: int, arc: Any, inside: Any, speed: Any, layer: int, section: int, zone: Any, n: int
+) -> None:
     """Append n segments' attributes to `seg` (`flatten`): a scalar is repeated, an array taken as is."""
     seg["kind"].append(np.full(n, kind, dtype=np.int8))
     seg["arc"].append(np.asarray(arc, dtype=bool).reshape(-1) if np.ndim(arc) else np.full(n, bool(arc)))
@@ -144,19 +146,42 @@ def _add_segments(seg: dict[str, list[Any]], kind: int, arc: Any, inside: Any, s
     seg["speed"].append(np.asarray(speed, dtype=float).reshape(-1) if np.ndim(speed) else np.full(n, float(speed)))
     seg["layer"].append(np.full(n, layer, dtype=np.int32))
     seg["section"].append(np.full(n, section, dtype=np.int32))
-    seg["zone"].append(np.asarray(zone, dtype=np.int32).reshape(-1) if np.ndim(zone) else np.full(n, zone, dtype=np.int32))
+    seg["zone"].append(
+        np.asarray(zone, dtype=np.int32).reshape(-1) if np.ndim(zone) else np.full(n, zone, dtype=np.int32)
+    )
 
 
-def _assemble(pts: list[np.ndarray], axes: list[np.ndarray], seg: dict[str, list[Any]], dwell: list[float],
-              section_keys: list[str], zone_ids: list[str], zone_params: dict[tuple[int, int], dict[str, float]],
-              layer_z: dict[int, float], dwell_notes: dict[int, str],
-              section_tools: dict[int, tuple[str, dict[str, float]]]) -> Moves:
+def _assemble(
+    pts: list[np.ndarray],
+    axes: list[np.ndarray],
+    seg: dict[str, list[Any]],
+    dwell: list[float],
+    section_keys: list[str],
+    zone_ids: list[str],
+    zone_params: dict[tuple[int, int], dict[str, float]],
+    layer_z: dict[int, float],
+    dwell_notes: dict[int, str],
+    section_tools: dict[int, tuple[str, dict[str, float]]],
+) -> Moves:
     """The `Moves` of `flatten`'s lists (empty Moves when no section had two points)."""
     if not pts:
         empty = np.zeros(0)
-        return Moves(np.zeros((0, 3)), np.zeros((0, 3)), empty.astype(np.int8), empty.astype(bool),
-                     empty.astype(bool), empty, empty.astype(np.int32), empty.astype(np.int32),
-                     empty.astype(np.int32), empty, (), (), {}, {})
+        return Moves(
+            np.zeros((0, 3)),
+            np.zeros((0, 3)),
+            empty.astype(np.int8),
+            empty.astype(bool),
+            empty.astype(bool),
+            empty,
+            empty.astype(np.int32),
+            empty.astype(np.int32),
+            empty.astype(np.int32),
+            empty,
+            (),
+            (),
+            {},
+            {},
+        )
     cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in seg.items()}
     return Moves(
         points=np.vstack(pts),

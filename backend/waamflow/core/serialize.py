@@ -56,7 +56,7 @@ def layers_json(layers: Layered[Layer]) -> dict[str, Any]:
 def _num_list(a: Any) -> list[Any]:
     r = np.round(np.asarray(a, float), DECIMALS)
     out: list[Any] = r.tolist()
-    for i in np.flatnonzero(np.isnan(r)).tolist():   # NaN (no value) → null
+    for i in np.flatnonzero(np.isnan(r)).tolist():  # NaN (no value) → null
         out[i] = None
     return out
 
@@ -92,13 +92,15 @@ def toolpath_json(toolpath: Layered[LayerPaths]) -> dict[str, Any]:
     for lp in toolpath:
         if lp is None:
             continue
-        layers.append({
-            "index": lp.index,
-            "z": _r(lp.layer.z),
-            "dwell_after_s": _r(lp.dwell_after_s),
-            **({"dwell_note": lp.dwell_note} if lp.dwell_note else {}),
-            "sections": [section_path_json(sp, arrays=True) for sp in lp.sections],
-        })
+        layers.append(
+            {
+                "index": lp.index,
+                "z": _r(lp.layer.z),
+                "dwell_after_s": _r(lp.dwell_after_s),
+                **({"dwell_note": lp.dwell_note} if lp.dwell_note else {}),
+                "sections": [section_path_json(sp, arrays=True) for sp in lp.sections],
+            }
+        )
     return {"units": "mm", "layers": layers}
 
 
@@ -110,7 +112,7 @@ def dumps(obj: Any) -> str:
 
 
 def _check_finite(obj: Any) -> None:
-    if isinstance(obj, (str, int, type(None))):     # ints and bools: always finite
+    if isinstance(obj, (str, int, type(None))):  # ints and bools: always finite
         return
     if isinstance(obj, float):
         if not math.isfinite(obj):
@@ -122,12 +124,12 @@ def _check_finite(obj: Any) -> None:
         for v in obj.values():
             _check_finite(v)
     elif isinstance(obj, (list, tuple)):
-        try:   # a list of numbers in one C loop: a NaN or infinity makes the sum non-finite
+        try:  # a list of numbers in one C loop: a NaN or infinity makes the sum non-finite
             if math.isfinite(math.fsum(obj)):
                 return
-        except (TypeError, OverflowError):   # not all numbers, or finite ones that overflow a sum
+        except (TypeError, OverflowError):  # not all numbers, or finite ones that overflow a sum
             pass
-        try:   # a list of strings (zone names), also in one C loop
+        try:  # a list of strings (zone names), also in one C loop
             "".join(obj)
             return
         except TypeError:

@@ -46,8 +46,13 @@ class Estimate:
     layers_node: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"layers": self.layers, "triangles": self.triangles, "dxf_entities": self.dxf_entities,
-                "uncompressed_mb": round(self.uncompressed_bytes / 2**20, 1), "notes": self.notes}
+        return {
+            "layers": self.layers,
+            "triangles": self.triangles,
+            "dxf_entities": self.dxf_entities,
+            "uncompressed_mb": round(self.uncompressed_bytes / 2**20, 1),
+            "notes": self.notes,
+        }
 
 
 def _stl(data: bytes) -> tuple[int, tuple[float, float] | None]:
@@ -55,8 +60,9 @@ def _stl(data: bytes) -> tuple[int, tuple[float, float] | None]:
     if len(data) >= 84:
         n = int.from_bytes(data[80:84], "little")
         if 84 + 50 * n == len(data):
-            rec = np.frombuffer(data, dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]),
-                                count=n, offset=84)
+            rec = np.frombuffer(
+                data, dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]), count=n, offset=84
+            )
             if n == 0:
                 return 0, None
             z = rec["v"][:, :, 2]
@@ -114,13 +120,13 @@ def _read(resolver: FileResolver, path: str, cap: int) -> bytes | None:
     try:
         return resolver.read_bytes(path, cap)
     except (WaamflowError, OSError):
-        return None   # the node itself reports a missing or refused file, with its context
+        return None  # the node itself reports a missing or refused file, with its context
 
 
 def estimate(graph: Graph, resolver: FileResolver, read_cap: int = 512 * 2**20) -> Estimate:
     """The estimate of running `graph` whole (see module doc); unknowns stay None/0 with a note."""
     est = Estimate()
-    z_range: dict[str, tuple[float, float]] = {}   # node id → z extent of its part, mm
+    z_range: dict[str, tuple[float, float]] = {}  # node id → z extent of its part, mm
     for nid in graph.order:
         g = graph.nodes[nid]
         p = g.params
@@ -153,7 +159,7 @@ def estimate(graph: Graph, resolver: FileResolver, read_cap: int = 512 * 2**20) 
 
 
 def _slice_layers(g: GraphNode, z_range: dict[str, tuple[float, float]]) -> int | None:
-    p: Any = g.params   # a slice node's params model (layer_count, z_min, z_max, layer_height, ...)
+    p: Any = g.params  # a slice node's params model (layer_count, z_min, z_max, layer_height, ...)
     if getattr(p, "layer_count", None):
         return int(p.layer_count)
     src = g.inputs.get("mesh")
@@ -169,8 +175,14 @@ def _slice_layers(g: GraphNode, z_range: dict[str, tuple[float, float]]) -> int 
     return len(thick) + max(0, math.ceil(height / lh - 1e-9)) if lh > 0 else None
 
 
-def check_estimate(est: Estimate, *, max_layers: int = 0, max_triangles: int = 0, max_dxf_entities: int = 0,
-                   max_uncompressed_bytes: int = 0) -> None:
+def check_estimate(
+    est: Estimate,
+    *,
+    max_layers: int = 0,
+    max_triangles: int = 0,
+    max_dxf_entities: int = 0,
+    max_uncompressed_bytes: int = 0,
+) -> None:
     """EstimateError (422) naming the first estimate over its limit (0 = no limit)."""
     over = []
     if max_layers and est.layers is not None and est.layers > max_layers:
@@ -180,10 +192,14 @@ def check_estimate(est: Estimate, *, max_layers: int = 0, max_triangles: int = 0
     if max_dxf_entities and est.dxf_entities > max_dxf_entities:
         over.append(f"{est.dxf_entities} DXF entities, over the limit of {max_dxf_entities} (max_dxf_entities)")
     if max_uncompressed_bytes and est.uncompressed_bytes > max_uncompressed_bytes:
-        over.append(f"3MF expands to {est.uncompressed_bytes / 2**20:.0f} MB, over the limit of "
-                    f"{max_uncompressed_bytes / 2**20:.0f} MB (max_uncompressed_mb)")
+        over.append(
+            f"3MF expands to {est.uncompressed_bytes / 2**20:.0f} MB, over the limit of "
+            f"{max_uncompressed_bytes / 2**20:.0f} MB (max_uncompressed_mb)"
+        )
     if over:
-        err = EstimateError("refused before running: the estimate is " + "; ".join(over),
-                            node=est.layers_node if "layers" in over[0] else None)
+        err = EstimateError(
+            "refused before running: the estimate is " + "; ".join(over),
+            node=est.layers_node if "layers" in over[0] else None,
+        )
         err.estimate = est.to_dict()  # type: ignore[attr-defined]
         raise err

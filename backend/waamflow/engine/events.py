@@ -33,7 +33,7 @@ class Event:
     progress: float = 0.0
     message: str = ""
     seconds: float | None = None
-    compute_seconds: float | None = None   # node_finished of a layer node: its layers' compute time
+    compute_seconds: float | None = None  # node_finished of a layer node: its layers' compute time
     cached: bool | None = None
     error: dict[str, Any] | None = None
     seq: int = 0

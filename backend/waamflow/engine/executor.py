@@ -50,13 +50,15 @@ MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node read
 def _over_limit(path: str, size: int, limit: int) -> str:
     """The over-size message in the unit of the nodes' `max_file_mb` settings, MB of 2^20 bytes (a
     200 MB setting is 200 here, not the 210 of decimal megabytes)."""
-    return (f"file {path} is {size / 2**20:.1f} MB, over the {limit / 2**20:g} MB limit (MB of 2^20 bytes: "
-            f"the node's 'max_file_mb'; at most {MAX_INPUT_FILE_BYTES // 2**20} MB for any file)")
+    return (
+        f"file {path} is {size / 2**20:.1f} MB, over the {limit / 2**20:g} MB limit (MB of 2^20 bytes: "
+        f"the node's 'max_file_mb'; at most {MAX_INPUT_FILE_BYTES // 2**20} MB for any file)"
+    )
 
 
 # Content signatures of files by (path, mtime, size), shared by every resolver in the process so
 # the GUI's one-layer preview does not re-hash a large mesh on each request.
-_FILE_SIGS: dict[tuple[str | int, ...], str] = {}   # (path, mtime, size) or ("sha256", path, mtime, size)
+_FILE_SIGS: dict[tuple[str | int, ...], str] = {}  # (path, mtime, size) or ("sha256", path, mtime, size)
 T = TypeVar("T")
 
 
@@ -72,12 +74,16 @@ class FileResolver:
     `base_dir`. With `roots`, a resolved path must lie under one of them (server: no escaping the
     graphs/data folders)."""
 
-    def __init__(self, base_dir: str | Path, attachments: dict[str, bytes] | None = None,
-                 roots: Iterable[str | Path] | None = None) -> None:
+    def __init__(
+        self,
+        base_dir: str | Path,
+        attachments: dict[str, bytes] | None = None,
+        roots: Iterable[str | Path] | None = None,
+    ) -> None:
         self.base_dir = Path(base_dir).resolve()
         self.attachments = dict(attachments or {})
         self.roots = [Path(r).resolve() for r in roots] if roots else None
-        self.read_hashes: dict[str, str] = {}   # path → sha256 hex of every file read (traceability)
+        self.read_hashes: dict[str, str] = {}  # path → sha256 hex of every file read (traceability)
 
     def resolve(self, path: str) -> Path:
         if not isinstance(path, str) or not path:
@@ -98,20 +104,20 @@ class FileResolver:
 
     def read_bytes(self, path: str, max_bytes: int | None = None) -> bytes:
         limit = min(max_bytes or MAX_INPUT_FILE_BYTES, MAX_INPUT_FILE_BYTES)
-        known: str | None = None   # the sha256 the run computed already for its cache key and trace (`_digests`)
+        known: str | None = None  # the sha256 the run computed already for its cache key and trace (`_digests`)
         if path in self.attachments:
             data = self.attachments[path]
         else:
             p = self.resolve(path)
             if not p.exists():
                 raise InputFileError(f"file not found: {path} (looked in {p.parent})")
-            why = not_regular(p)   # a FIFO would block the read, a device never end it
+            why = not_regular(p)  # a FIFO would block the read, a device never end it
             if why:
                 raise InputFileError(f"file {path} refused: {why}")
             st = p.stat()
             if st.st_size > limit:
                 raise InputFileError(_over_limit(path, st.st_size, limit))
-            data = read_regular(p, limit, label=path)   # one open, checked again on the descriptor
+            data = read_regular(p, limit, label=path)  # one open, checked again on the descriptor
             if len(data) == st.st_size:
                 known = _FILE_SIGS.get(("sha256", str(p), st.st_mtime_ns, st.st_size))
         if len(data) > limit:
@@ -161,7 +167,7 @@ class FileResolver:
         try:
             return self._digests(p, st)[1]
         except InputFileError:
-            return None   # not readable (FIFO, device, too large): the read reports why
+            return None  # not readable (FIFO, device, too large): the read reports why
 
     def signature(self, path: str) -> str:
         """Content signature of a file (missing file → 'missing'); memoised on (path, mtime, size)."""
@@ -174,7 +180,7 @@ class FileResolver:
             return "missing"
         try:
             return self._digests(p, st)[0]
-        except InputFileError as e:   # FIFO, device, too large: the read reports why
+        except InputFileError as e:  # FIFO, device, too large: the read reports why
             return "unreadable:" + bytes_signature(str(e).encode())
 
 
@@ -198,7 +204,7 @@ class NodeStats:
     layers_total: int | None = None
     layers_cached: int | None = None
     layers_computed: int | None = None
-    report: dict[str, Any] = field(default_factory=dict)   # the node's `ctx.report(...)`, cached with its outputs
+    report: dict[str, Any] = field(default_factory=dict)  # the node's `ctx.report(...)`, cached with its outputs
     # layer nodes: seconds spent computing this node's layers, summed over the processes that did
     # (`seconds` is the wall time the run spent in the node: in a chain, the first node's
     # includes its followers' layers, computed in the same worker tasks)
@@ -207,8 +213,9 @@ class NodeStats:
     def to_dict(self) -> dict[str, Any]:
         d = {"type": self.type, "seconds": round(self.seconds, 4), "cached": self.cached}
         if self.layers_total is not None:
-            d.update(layers_total=self.layers_total, layers_cached=self.layers_cached,
-                     layers_computed=self.layers_computed)
+            d.update(
+                layers_total=self.layers_total, layers_cached=self.layers_cached, layers_computed=self.layers_computed
+            )
         if self.compute_seconds is not None:
             d["compute_seconds"] = round(self.compute_seconds, 4)
         if self.report:
@@ -225,7 +232,9 @@ class RunResult:
     layer_count: int | None
     seconds: float
     signatures: dict[str, str] = field(default_factory=dict)  # "node.port" → signature
-    executor: dict[str, Any] = field(default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0})
+    executor: dict[str, Any] = field(
+        default_factory=lambda: {"kind": "local", "address": None, "workers": 1, "tasks": 0}
+    )
     trace: dict[str, Any] = field(default_factory=dict)  # see `run_trace`
     preflight: dict[str, Any] | None = None  # see `waamflow.preflight`: the emitted programs checked against the part
     preflight_seconds: float | None = None
@@ -243,8 +252,11 @@ class RunResult:
             "executor": self.executor,
             "trace": self.trace,
             "programs": self.program_stats(),
-            **({"preflight": self.preflight, "preflight_seconds": self.preflight_seconds}
-               if self.preflight is not None else {}),
+            **(
+                {"preflight": self.preflight, "preflight_seconds": self.preflight_seconds}
+                if self.preflight is not None
+                else {}
+            ),
         }
 
     def program_stats(self) -> dict[str, dict[str, Any]]:
@@ -252,8 +264,9 @@ class RunResult:
         mm, dwell and estimated time in s, ...): what independent parsers check programs against."""
         from ..program.program import Program
 
-        return {nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values()
-                if isinstance(v, Program)}
+        return {
+            nid: dict(v.stats) for nid, outs in self.outputs.items() for v in outs.values() if isinstance(v, Program)
+        }
 
 
 # ---- context ------------------------------------------------------------------------------------
@@ -273,7 +286,6 @@ class RunContext(Context):
     def exists(self, path: str) -> bool:
         return self._run.resolver.exists(path)
 
-
     def progress(self, fraction: float, message: str = "") -> None:
         self._run.node_progress(self.node_id, fraction, message)
 
@@ -287,8 +299,13 @@ class RunContext(Context):
         """`Context.map` in the run's workers when they are up (never waiting for them to start)
         and the cost model says it pays (`parallel.wants_workers` against the warm threshold)."""
         pool = self._run.pool
-        if isinstance(pool, LayerPool) and pool.enabled and pool.ready and len(items) > 1 and \
-                parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s):
+        if (
+            isinstance(pool, LayerPool)
+            and pool.enabled
+            and pool.ready
+            and len(items) > 1
+            and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s)
+        ):
             return parallel.RunWorkers(pool).map(fn, items)
         return [fn(x) for x in items]
 
@@ -322,8 +339,14 @@ def run_trace(recipe: Recipe, files: dict[str, str], date_utc: str) -> dict[str,
     summary.json."""
     from ..buildinfo import source_revision
 
-    return {"date": date_utc, "waamflow": __version__, "revision": source_revision(), "recipe": recipe.name,
-            "recipe_sha256": recipe_sha256(recipe), "inputs": dict(sorted(files.items()))}
+    return {
+        "date": date_utc,
+        "waamflow": __version__,
+        "revision": source_revision(),
+        "recipe": recipe.name,
+        "recipe_sha256": recipe_sha256(recipe),
+        "inputs": dict(sorted(files.items())),
+    }
 
 
 def _code_signature() -> str:
@@ -353,7 +376,10 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
     keep their signature when another layer changes, so downstream layers stay cached."""
     if isinstance(item, Layer):
         return signature(
-            "layer", item.index, round(item.z, 9), round(item.thickness, 9),
+            "layer",
+            item.index,
+            round(item.z, 9),
+            round(item.thickness, 9),
             bytes_signature(shapely.to_wkb(item.region)),
             [bytes_signature(shapely.to_wkb(c)) for c in item.curves],
             None if item.frame is None else item.frame.round(9).tolist(),
@@ -364,9 +390,18 @@ def _layer_item_signature(item: Any, fallback: str) -> str:
 
 # ---- the run ------------------------------------------------------------------------------------
 class _Run:
-    def __init__(self, graph: Graph, resolver: FileResolver, cache: TieredCache | MemoryCache | None, on_event: EventSink | None,
-                 cancel: threading.Event | None, layers: set[int] | None, active: list[str],
-                 write_artifacts: bool, pool: LayerPool | DaskPool | None = None) -> None:
+    def __init__(
+        self,
+        graph: Graph,
+        resolver: FileResolver,
+        cache: TieredCache | MemoryCache | None,
+        on_event: EventSink | None,
+        cancel: threading.Event | None,
+        layers: set[int] | None,
+        active: list[str],
+        write_artifacts: bool,
+        pool: LayerPool | DaskPool | None = None,
+    ) -> None:
         self.graph = graph
         self.pool = pool
         self.resolver = resolver
@@ -390,9 +425,9 @@ class _Run:
         # (node id, layer) → (outputs, warnings) computed by a worker as part of a chain
         # (engine/parallel.py), taken up when the run reaches that node
         self.precomputed: dict[tuple[str, int], tuple[dict[str, Any], list[Any]]] = {}
-        self.compute_s: dict[str, float] = {}   # node id → seconds computing its layers, in any process
-        self.max_layers = 0   # 0: no limit (see execute)
-        self.size = [0, 0, 0]   # the run's triangles, layers and path points so far (the cost model)
+        self.compute_s: dict[str, float] = {}  # node id → seconds computing its layers, in any process
+        self.max_layers = 0  # 0: no limit (see execute)
+        self.size = [0, 0, 0]  # the run's triangles, layers and path points so far (the cost model)
 
     # events
     def emit(self, kind: str, **kw: Any) -> None:
@@ -408,8 +443,13 @@ class _Run:
             return
         self.last_progress_emit = now
         frac = max(0.0, min(1.0, float(fraction)))
-        self.emit("node_progress", node=node_id, message=message, layer=layer,
-                  progress=(self.done_nodes + frac) / max(len(self.active), 1))
+        self.emit(
+            "node_progress",
+            node=node_id,
+            message=message,
+            layer=layer,
+            progress=(self.done_nodes + frac) / max(len(self.active), 1),
+        )
 
     def check_cancelled(self) -> None:
         if self.cancel is not None and self.cancel.is_set():
@@ -422,13 +462,13 @@ class _Run:
             if path:
                 out.append((f, self.resolver.signature(path)))
                 self._hash_input(path)
-        for path in gnode.impl.read_files(gnode.params, self._read_or_none):   # e.g. a cell and its meshes
+        for path in gnode.impl.read_files(gnode.params, self._read_or_none):  # e.g. a cell and its meshes
             out.append(("read", path, self.resolver.signature(path)))
             self._hash_input(path)
         return out
 
     def _hash_input(self, path: str) -> None:
-        digest = self.resolver.sha256(path)     # cached nodes do not read: hash here too
+        digest = self.resolver.sha256(path)  # cached nodes do not read: hash here too
         if digest is not None:
             self.input_hashes[path] = digest
 
@@ -450,14 +490,15 @@ class _Run:
     def add_warnings(self, ws: list[dict[str, Any]]) -> None:
         for w in ws:
             self.warnings.append(w)
-            self.emit("warning", node=w.get("node"), layer=w.get("layer"), section=w.get("section"),
-                      message=w["message"])
+            self.emit(
+                "warning", node=w.get("node"), layer=w.get("layer"), section=w.get("section"), message=w["message"]
+            )
 
     # execution
     def run(self) -> None:
         self.emit("run_started", progress=0.0, message=f"{len(self.active)} nodes")
         self.warm_by_cost()
-        jobs: list[tuple[GraphNode, RunContext, Any]] = []   # artifacts: (node, ctx, files | worker future)
+        jobs: list[tuple[GraphNode, RunContext, Any]] = []  # artifacts: (node, ctx, files | worker future)
         for pos, node_id in enumerate(self.active):
             self.check_cancelled()
             gnode = self.graph.nodes[node_id]
@@ -479,10 +520,27 @@ class _Run:
                     # to a worker while the parent goes on with later nodes; the last node's here
                     # (nothing to overlap: shipping its outputs would only add the transfer), and a
                     # node that writes none here (the mesh node's million triangles would travel for {})
-                    if isinstance(pool, LayerPool) and pool.enabled and pool.offload_artifacts and \
-                            pos < len(self.active) - 1 and type(gnode.impl).artifacts is not Node.artifacts:
-                        jobs.append((gnode, ctx, pool.submit_artifacts(gnode.impl, node_id, gnode.params, self.resolver,
-                                                                       self.trace(), self.outputs[node_id])))
+                    if (
+                        isinstance(pool, LayerPool)
+                        and pool.enabled
+                        and pool.offload_artifacts
+                        and pos < len(self.active) - 1
+                        and type(gnode.impl).artifacts is not Node.artifacts
+                    ):
+                        jobs.append(
+                            (
+                                gnode,
+                                ctx,
+                                pool.submit_artifacts(
+                                    gnode.impl,
+                                    node_id,
+                                    gnode.params,
+                                    self.resolver,
+                                    self.trace(),
+                                    self.outputs[node_id],
+                                ),
+                            )
+                        )
                     else:
                         jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
 
@@ -490,9 +548,14 @@ class _Run:
             st = self.stats[node_id]
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1
-            self.emit("node_cached" if st.cached else "node_finished", node=node_id, seconds=st.seconds,
-                      cached=st.cached, message=gnode.type,
-                      compute_seconds=None if st.cached or st.compute_seconds is None else round(st.compute_seconds, 4))
+            self.emit(
+                "node_cached" if st.cached else "node_finished",
+                node=node_id,
+                seconds=st.seconds,
+                cached=st.cached,
+                message=gnode.type,
+                compute_seconds=None if st.cached or st.compute_seconds is None else round(st.compute_seconds, 4),
+            )
             for value in self.outputs[node_id].values():
                 if isinstance(value, Layered) and self.layer_count is None:
                     self.layer_count = len(value)
@@ -501,9 +564,9 @@ class _Run:
                 self.check_cancelled()
                 try:
                     written, extra = files.result()
-                except Exception:     # the worker died (or the cluster lost it): write them here
+                except Exception:  # the worker died (or the cluster lost it): write them here
                     written, extra = None, []
-                if written is None:   # failed in a worker: again here, raised with its node
+                if written is None:  # failed in a worker: again here, raised with its node
                     files = self.located(gnode.id, ctx, lambda: self.node_artifacts(gnode, ctx))
                 else:
                     files = written
@@ -518,8 +581,11 @@ class _Run:
         """`max_layers`: a node that made more layers stops the run before anything uses them."""
         for value in self.outputs[node_id].values():
             if isinstance(value, Layered) and self.max_layers and len(value) > self.max_layers:
-                raise LayerLimitError(f"{len(value)} layers, over the limit of {self.max_layers} (max_layers): "
-                                      "stopped before the nodes after it ran", node=node_id)
+                raise LayerLimitError(
+                    f"{len(value)} layers, over the limit of {self.max_layers} (max_layers): "
+                    "stopped before the nodes after it ran",
+                    node=node_id,
+                )
 
     def warm_by_cost(self) -> None:
         """Start the workers before the first node when the run's mesh files alone say they pay
@@ -548,8 +614,9 @@ class _Run:
         if parallel.wants_workers(pool.workers, *self.size):
             pool.warm()
             return
-        if any(isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()) \
-                and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1:]):
+        if any(
+            isinstance(v, Layered) and len(v) >= parallel.WARM_LAYERS for v in self.outputs[self.active[pos]].values()
+        ) and any(isinstance(self.graph.nodes[n].impl, LayerNode) for n in self.active[pos + 1 :]):
             pool.warm()
 
     def grow_size(self, outputs: dict[str, Any]) -> None:
@@ -569,8 +636,9 @@ class _Run:
             return fn()
         except WaamflowError as err:
             err.located(node=node_id, layer=ctx.layer)
-            self.emit("node_error", node=node_id, layer=err.layer, section=err.section,
-                      message=str(err), error=err.to_dict())
+            self.emit(
+                "node_error", node=node_id, layer=err.layer, section=err.section, message=str(err), error=err.to_dict()
+            )
             raise
         except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
             perr = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
@@ -581,11 +649,20 @@ class _Run:
 
     def node_key(self, gnode: GraphNode, in_sigs: dict[str, str]) -> str:
         impl = gnode.impl
-        return signature("node", gnode.type, impl.version, CODE_VERSION,
-                         gnode.params.model_dump(mode="json"), sorted(in_sigs.items()), self.file_sigs(gnode),
-                         *((gnode.id,) if impl.uses_node_id else ()))
+        return signature(
+            "node",
+            gnode.type,
+            impl.version,
+            CODE_VERSION,
+            gnode.params.model_dump(mode="json"),
+            sorted(in_sigs.items()),
+            self.file_sigs(gnode),
+            *((gnode.id,) if impl.uses_node_id else ()),
+        )
 
-    def run_plain_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]) -> bool:
+    def run_plain_node(
+        self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]
+    ) -> bool:
         key = self.node_key(gnode, in_sigs)
         hit: Any = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
@@ -613,7 +690,9 @@ class _Run:
         self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
 
-    def run_layer_node(self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]) -> bool:
+    def run_layer_node(
+        self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]
+    ) -> bool:
         impl: LayerNode = gnode.impl  # type: ignore[assignment]
         over = inputs.get(impl.over)
         if not isinstance(over, Layered):
@@ -627,22 +706,29 @@ class _Run:
         wanted = range(n) if self.layers is None else sorted(i for i in self.layers if 0 <= i < n)
         per_layer: dict[str, list[Any]] = {p.name: [None] * n for p in impl.outputs}
         item_keys: list[str] = [""] * n
-        results: dict[int, tuple[dict[str, Any], list[Any]]] = {}   # index → (outputs, warnings)
-        todo: list[tuple[int, dict[str, Any], str]] = []        # uncached: (index, items, key)
+        results: dict[int, tuple[dict[str, Any], list[Any]]] = {}  # index → (outputs, warnings)
+        todo: list[tuple[int, dict[str, Any], str]] = []  # uncached: (index, items, key)
         prefetched: list[tuple[int, str, tuple[Any, ...]]] = []  # (index, key, (outputs, warnings)) from a chain
         for i in wanted:
             items = {p: (v.items[i] if isinstance(v, Layered) else v) for p, v in inputs.items()}
             if items[impl.over] is None:
                 continue
             isigs = sorted((p, (v.sigs[i] if v.sigs else signature(in_sigs[p], i))) for p, v in layered.items())
-            key = signature("layer", gnode.type, impl.version, CODE_VERSION,
-                            impl.layer_params(gnode.params, i, items), isigs, whole_sigs)
+            key = signature(
+                "layer",
+                gnode.type,
+                impl.version,
+                CODE_VERSION,
+                impl.layer_params(gnode.params, i, items),
+                isigs,
+                whole_sigs,
+            )
             item_keys[i] = key
             hit: Any = self.cache.get(key) if self.cache is not None else MISSING
             pre = self.precomputed.pop((gnode.id, i), None)
             if hit is not MISSING:
                 results[i] = hit
-            elif pre is not None:       # computed in a worker right after the layer it depends on
+            elif pre is not None:  # computed in a worker right after the layer it depends on
                 prefetched.append((i, key, pre))
             else:
                 todo.append((i, items, key))
@@ -666,24 +752,45 @@ class _Run:
         self._check_outputs(gnode, outputs)
         self.add_warnings(ctx.warnings)
         fsig = self.file_sigs(gnode)
-        node_key = signature("layernode", gnode.type, impl.version, CODE_VERSION, item_keys, fsig,
-                             gnode.params.model_dump(mode="json"), whole_sigs)
+        node_key = signature(
+            "layernode",
+            gnode.type,
+            impl.version,
+            CODE_VERSION,
+            item_keys,
+            fsig,
+            gnode.params.model_dump(mode="json"),
+            whole_sigs,
+        )
         for port, value in list(outputs.items()):
             if isinstance(value, Layered):
-                sigs = tuple(signature(item_keys[i], port, fsig) if value.items[i] is not None else ""
-                             for i in range(len(value)))
+                sigs = tuple(
+                    signature(item_keys[i], port, fsig) if value.items[i] is not None else "" for i in range(len(value))
+                )
                 outputs[port] = Layered(value.items, sigs)
                 self.sigs[(gnode.id, port)] = signature("layered", sigs)
             else:
                 self.sigs[(gnode.id, port)] = signature(node_key, port)
         self.outputs[gnode.id] = outputs
-        self.stats[gnode.id] = NodeStats(gnode.type, cached=(n_computed == 0), layers_total=n,
-                                         layers_cached=n_cached, layers_computed=n_computed, report=report,
-                                         compute_seconds=self.compute_s.pop(gnode.id, 0.0))
+        self.stats[gnode.id] = NodeStats(
+            gnode.type,
+            cached=(n_computed == 0),
+            layers_total=n,
+            layers_cached=n_cached,
+            layers_computed=n_computed,
+            report=report,
+            compute_seconds=self.compute_s.pop(gnode.id, 0.0),
+        )
         return n_computed == 0
 
-    def compute_layers(self, gnode: GraphNode, ctx: RunContext, todo: list[tuple[int, dict[str, Any], str]],
-                       results: dict[int, tuple[dict[str, Any], list[Any]]], n_total: int) -> None:
+    def compute_layers(
+        self,
+        gnode: GraphNode,
+        ctx: RunContext,
+        todo: list[tuple[int, dict[str, Any], str]],
+        results: dict[int, tuple[dict[str, Any], list[Any]]],
+        n_total: int,
+    ) -> None:
         """Compute the uncached layers into `results` and the cache: the first in this process
         (timed), the rest in worker processes when the timing says they pay (engine/parallel.py)."""
         impl: LayerNode = gnode.impl  # type: ignore[assignment]
@@ -714,10 +821,10 @@ class _Run:
             if len(chain) < 2:
                 return
             nxt = chain[1]
-            fed = results[i][0].get(cast(str, nxt.src_port))   # set on every link after the first
+            fed = results[i][0].get(cast(str, nxt.src_port))  # set on every link after the first
             if fed is None:
                 return
-            (_i, got), = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, cast(str, nxt.over): fed})])
+            ((_i, got),) = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, cast(str, nxt.over): fed})])
             self.keep_later_links(chain[1:], i, got)
 
         t0 = time.perf_counter()
@@ -727,34 +834,52 @@ class _Run:
             timed(*rest.pop(0))
         per_layer_s = (time.perf_counter() - t0) / max(len(todo) - len(rest), 1)
         if pool is not None and pool.enabled and per_layer_s * len(rest) > pool.min_parallel_s:
-            pool.warm()            # no-op once started
+            pool.warm()  # no-op once started
         # workers on their way: go on here meanwhile, a layer through the whole chain (its later
         # links done too, they need no second round of tasks to the workers after this map)
         while rest and pool is not None and pool.warming:
             timed(*rest.pop(0))
-        if pool is not None and pool.enabled and pool.ready and len(rest) > 1 and \
-                per_layer_s * len(rest) > pool.min_parallel_s:
+        if (
+            pool is not None
+            and pool.enabled
+            and pool.ready
+            and len(rest) > 1
+            and per_layer_s * len(rest) > pool.min_parallel_s
+        ):
             keys = {i: key for i, _, key in rest}
             failed: list[int] = []
 
             def collect(i: int, got: list[Any]) -> None:
                 out, extra, sec = got[0]
                 self.add_compute(gnode.id, sec)
-                if out is None:       # the chain ended there: no later links
+                if out is None:  # the chain ended there: no later links
                     failed.append(i)
                     return
                 finish(i, keys[i], out, extra)
                 self.keep_later_links(chain[1:], i, got[1:])
 
-            pool.map_layers(chain, self.resolver, [(i, items) for i, items, _ in rest],
-                            collect, lambda: self.cancel is not None and self.cancel.is_set())
+            pool.map_layers(
+                chain,
+                self.resolver,
+                [(i, items) for i, items, _ in rest],
+                collect,
+                lambda: self.cancel is not None and self.cancel.is_set(),
+            )
             self.check_cancelled()
             # a layer that failed in a worker is re-run here: the error is raised with its context
             rest = [t for t in rest if t[0] in set(failed) or t[0] not in results]
         for t in rest:
             here(*t)
 
-    def keep_layer(self, gnode: GraphNode, results: dict[int, tuple[dict[str, Any], list[Any]]], i: int, key: str, out: dict[str, Any], warnings: list[Any]) -> None:
+    def keep_layer(
+        self,
+        gnode: GraphNode,
+        results: dict[int, tuple[dict[str, Any], list[Any]]],
+        i: int,
+        key: str,
+        out: dict[str, Any],
+        warnings: list[Any],
+    ) -> None:
         """A computed layer of `gnode` (here, in a worker, or ahead in a chain) into `results`
         and the cache."""
         self._check_outputs(gnode, out)
@@ -783,11 +908,11 @@ class _Run:
         cur = gnode
         pos = self.active.index(gnode.id)
         while True:
-            impl = cast(LayerNode, cur.impl)   # gnode, then a cand checked below
+            impl = cast(LayerNode, cur.impl)  # gnode, then a cand checked below
             if not (impl.combine_keeps_items or type(impl).combine is LayerNode.combine):
                 break
             nxt = None
-            for nid in self.active[pos + 1:]:
+            for nid in self.active[pos + 1 :]:
                 cand = self.graph.nodes[nid]
                 if not isinstance(cand.impl, LayerNode):
                     continue
@@ -795,15 +920,24 @@ class _Run:
                 if src is None or src[0] != cur.id:
                     continue
                 others = {p: s for p, s in cand.inputs.items() if p != cand.impl.over}
-                if all(s[0] in self.outputs and not isinstance(self.outputs[s[0]][s[1]], Layered)
-                       for s in others.values()):
+                if all(
+                    s[0] in self.outputs and not isinstance(self.outputs[s[0]][s[1]], Layered) for s in others.values()
+                ):
                     nxt = (cand, src[1], {p: self.outputs[s[0]][s[1]] for p, s in others.items()})
                 break
             if nxt is None:
                 break
             cand, port, whole = nxt
-            links.append(parallel.ChainLink(cand.impl, cand.id, cand.params.model_dump(mode="json"),
-                                            cast(LayerNode, cand.impl).over, port, whole))
+            links.append(
+                parallel.ChainLink(
+                    cand.impl,
+                    cand.id,
+                    cand.params.model_dump(mode="json"),
+                    cast(LayerNode, cand.impl).over,
+                    port,
+                    whole,
+                )
+            )
             cur, pos = cand, self.active.index(cand.id)
         return tuple(links)
 
@@ -826,13 +960,29 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     workers = parallel.RunWorkers(pool) if isinstance(pool, LayerPool) and pool.enabled and pool.started else None
     t0 = time.perf_counter()
     try:
-        report = run_preflight(graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None),
-                               pool=workers)
+        report = run_preflight(
+            graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None), pool=workers
+        )
     except Exception as exc:  # noqa: BLE001 - reported, never swallowed
-        report = {"verdict": "fail", "accepted": False, "programs": [], "layers": [],
-                  "problems": [{"check": "preflight", "severity": "fail", "node": None, "layer": None,
-                                "section": None, "message": f"the preflight itself failed: {type(exc).__name__}: {exc}",
-                                "value": None, "limit": None, "point": None}]}
+        report = {
+            "verdict": "fail",
+            "accepted": False,
+            "programs": [],
+            "layers": [],
+            "problems": [
+                {
+                    "check": "preflight",
+                    "severity": "fail",
+                    "node": None,
+                    "layer": None,
+                    "section": None,
+                    "message": f"the preflight itself failed: {type(exc).__name__}: {exc}",
+                    "value": None,
+                    "limit": None,
+                    "point": None,
+                }
+            ],
+        }
     if report is None:
         return None, None
     run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
@@ -872,31 +1022,42 @@ def execute(
             keep |= {t} | graph.ancestors(t)
         active = [n for n in active if n in keep]
     pool = make_pool(workers, scheduler)
-    run = _Run(graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts,
-               pool)
+    run = _Run(
+        graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts, pool
+    )
     run.max_layers = max_layers
     finished = False
     report, report_s = None, None
     try:
         run.run()
         if preflight and targets is None and layers is None and artifacts:
-            report, report_s = _preflight(run, graph)   # before the workers close: they may share it
+            report, report_s = _preflight(run, graph)  # before the workers close: they may share it
         finished = True
     except CancelledError as err:
         run.emit("run_cancelled", message=str(err), error=err.to_dict())
         raise
     except WaamflowError as err:
-        run.emit("run_failed", message=str(err), error=err.to_dict(), node=err.node, layer=err.layer,
-                 section=err.section)
+        run.emit(
+            "run_failed", message=str(err), error=err.to_dict(), node=err.node, layer=err.layer, section=err.section
+        )
         raise
     finally:
         info = pool.info()
         pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
-    result = RunResult(run.outputs, run.stats, run.warnings, run.artifacts, run.layer_count,
-                       time.perf_counter() - t0, {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
-                       info,
-                       run.trace(), report, report_s)
+    result = RunResult(
+        run.outputs,
+        run.stats,
+        run.warnings,
+        run.artifacts,
+        run.layer_count,
+        time.perf_counter() - t0,
+        {f"{n}.{p}": s for (n, p), s in run.sigs.items()},
+        info,
+        run.trace(),
+        report,
+        report_s,
+    )
     run.emit("run_finished", progress=1.0, seconds=result.seconds, message="done")
     return result

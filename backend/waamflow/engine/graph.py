@@ -90,9 +90,7 @@ def build_graph(recipe: Recipe) -> Graph:
             raise RecipeError(f"duplicate node id {entry.id!r}", node=entry.id)
         cls = REGISTRY.get(entry.type)
         if cls is None:
-            raise RecipeError(
-                f"unknown node type {entry.type!r} (see `waamflow nodes`)", node=entry.id, field="type"
-            )
+            raise RecipeError(f"unknown node type {entry.type!r} (see `waamflow nodes`)", node=entry.id, field="type")
         raw = substitute_inputs(entry.params, recipe.inputs, entry.id)
         nodes[entry.id] = GraphNode(entry.id, entry.type, cls(), _validate_params(entry.id, cls, raw), raw)
 

@@ -48,8 +48,10 @@ def unit(u: str) -> dict[str, Any]:
 # Fields that name a shipped file carry `json_schema_extra={"x-shipped": KIND}`; the catalog lists
 # the shipped names as the field's JSON-Schema `examples`, so the GUI offers them in a picker
 # (a user's own file path stays allowed where the field takes one).
-SHIPPED_KINDS: dict[str, tuple[str, str]] = {   # kind → (folder in waamflow/data, file pattern)
-    "cells": ("cells", "*.json"), "machines": ("machines", "*.json"), "robots": ("robots", "*.json"),
+SHIPPED_KINDS: dict[str, tuple[str, str]] = {  # kind → (folder in waamflow/data, file pattern)
+    "cells": ("cells", "*.json"),
+    "machines": ("machines", "*.json"),
+    "robots": ("robots", "*.json"),
     "robot-descriptions": ("robots", "*.urdf"),
 }
 
@@ -65,7 +67,9 @@ def shipped_names(kind: str) -> list[str]:
 
 def with_shipped(schema: dict[str, Any]) -> dict[str, Any]:
     """The params schema with `examples` (the shipped names) on every `x-shipped` field."""
-    for props in [schema.get("properties") or {}] + [d.get("properties") or {} for d in (schema.get("$defs") or {}).values()]:
+    for props in [schema.get("properties") or {}] + [
+        d.get("properties") or {} for d in (schema.get("$defs") or {}).values()
+    ]:
         for prop in props.values():
             kind = prop.get("x-shipped")
             if kind in SHIPPED_KINDS and "examples" not in prop:
@@ -87,7 +91,7 @@ class Node:
     category: ClassVar[str] = "general"
     inputs: ClassVar[tuple[Port, ...]] = ()
     outputs: ClassVar[tuple[Port, ...]] = ()
-    Params: ClassVar[builtins.type[NodeParams]] = NodeParams   # builtins: `type` is the ClassVar above
+    Params: ClassVar[builtins.type[NodeParams]] = NodeParams  # builtins: `type` is the ClassVar above
     version: ClassVar[str] = "1"
     # True when `run` reads `ctx.node_id` (e.g. a program named after its artifact): the node id
     # then enters the cache key, so a renamed node never gets another node's cached output.
@@ -185,7 +189,7 @@ class Context:
     def exists(self, path: str) -> bool:  # pragma: no cover
         raise NotImplementedError
 
-    layer: int | None = None          # the layer being mapped, if any
+    layer: int | None = None  # the layer being mapped, if any
     warnings: list[dict[str, Any]]
 
     def warn(self, message: str, *, layer: int | None = None, section: str | None = None) -> None:
@@ -215,8 +219,10 @@ class Context:
         except (TypeError, ValueError) as e:
             raise TypeError(f"node {self.node_id!r}: report must be finite JSON ({e})") from None
         if size > MAX_REPORT_BYTES:
-            raise ValueError(f"node {self.node_id!r}: report is {size} bytes as JSON, over {MAX_REPORT_BYTES}; "
-                             "put large results in an artifact")
+            raise ValueError(
+                f"node {self.node_id!r}: report is {size} bytes as JSON, over {MAX_REPORT_BYTES}; "
+                "put large results in an artifact"
+            )
         self._report = merged
 
     def take_report(self) -> dict[str, Any]:

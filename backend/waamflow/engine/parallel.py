@@ -52,19 +52,19 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence, cast
 
 from .node import Context
 
-if TYPE_CHECKING:   # executor imports this module
+if TYPE_CHECKING:  # executor imports this module
     from .executor import FileResolver
 
-MIN_PARALLEL_S = 1.5      # expected serial seconds of a node's remaining layers that start the workers
-                          # (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
+MIN_PARALLEL_S = 1.5  # expected serial seconds of a node's remaining layers that start the workers
+# (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
 WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
-WARM_LAYERS = 200         # a layered value this long (and layer nodes to come) starts the workers at once
-BACKGROUND_START = True   # False (tests): `warm` waits for the workers, so who computes what is fixed
-PRELOAD = ["waamflow.engine.warm"]   # not trimesh: see warm.py
-TIMING_S = 0.05           # the parent computes (and times) uncached layers for this long first
-CHUNKS_PER_WORKER = 4     # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
+WARM_LAYERS = 200  # a layered value this long (and layer nodes to come) starts the workers at once
+BACKGROUND_START = True  # False (tests): `warm` waits for the workers, so who computes what is fixed
+PRELOAD = ["waamflow.engine.warm"]  # not trimesh: see warm.py
+TIMING_S = 0.05  # the parent computes (and times) uncached layers for this long first
+CHUNKS_PER_WORKER = 4  # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
-DASK_CONNECT_S = 10.0     # seconds to reach the scheduler before the run fails
+DASK_CONNECT_S = 10.0  # seconds to reach the scheduler before the run fails
 
 # The cost model (issue #30): serial CPU seconds of the work the workers can share, per unit of
 # what a run holds. Measured on the bench vase (1,008,000 triangles, 133 layers, 68,000 path
@@ -74,7 +74,7 @@ DASK_CONNECT_S = 10.0     # seconds to reach the scheduler before the run fails
 COST_TRIANGLE_S = 2.5e-6
 COST_LAYER_S = 5e-3
 COST_POINT_S = 2.5e-5
-MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".3mf")   # files whose size says how many triangles
+MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".3mf")  # files whose size says how many triangles
 
 
 def default_workers() -> int:
@@ -94,8 +94,9 @@ def parallel_work_s(triangles: int = 0, layers: int = 0, points: int = 0) -> flo
     return triangles * COST_TRIANGLE_S + layers * COST_LAYER_S + points * COST_POINT_S
 
 
-def wants_workers(workers: int, triangles: int = 0, layers: int = 0, points: int = 0,
-                  min_s: float | None = None) -> bool:
+def wants_workers(
+    workers: int, triangles: int = 0, layers: int = 0, points: int = 0, min_s: float | None = None
+) -> bool:
     """Whether the workers pay for a run of this size: more than one, and more expected serial
     seconds than `min_s` (default `MIN_PARALLEL_S`, read at the call: starting them costs ~0.7 s
     of CPU on another core)."""
@@ -127,7 +128,6 @@ class _WorkerContext(Context):
 
     def exists(self, path: str) -> bool:
         return self._resolver.exists(path)
-
 
     def progress(self, fraction: float, message: str = "") -> None:
         pass
@@ -164,8 +164,9 @@ class ChainLink:
     whole: dict[str, Any] = field(default_factory=dict)
 
 
-def run_chain(chain: tuple[ChainLink, ...], resolver: FileResolver,
-              chunk: list[tuple[int, dict[str, Any]]]) -> list[tuple[int, list[tuple[Any, ...]]]]:
+def run_chain(
+    chain: tuple[ChainLink, ...], resolver: FileResolver, chunk: list[tuple[int, dict[str, Any]]]
+) -> list[tuple[int, list[tuple[Any, ...]]]]:
     """Worker side (and the parent's timed layers): per layer of the chunk, each link in turn on the previous link's output:
     [(index, [(outputs, warnings, seconds) | (None, error text, seconds)] per link computed)]. A
     failed link ends that layer's chain; the parent computes the rest (and reports the error
@@ -178,7 +179,7 @@ def run_chain(chain: tuple[ChainLink, ...], resolver: FileResolver,
         prev: dict[str, Any] = {}
         for k, (link, params) in enumerate(links):
             if k:
-                fed = prev[cast(str, link.src_port)]   # set on every link after the first
+                fed = prev[cast(str, link.src_port)]  # set on every link after the first
                 if fed is None:
                     break
                 items = {**link.whole, cast(str, link.over): fed}
@@ -196,8 +197,9 @@ def run_chain(chain: tuple[ChainLink, ...], resolver: FileResolver,
     return out
 
 
-def _write_artifacts(impl: Any, node_id: str, params_json: Any, resolver: FileResolver, trace: dict[str, Any],
-                     outputs: dict[str, Any]) -> tuple[dict[str, bytes], list[dict[str, Any]]] | tuple[None, str]:
+def _write_artifacts(
+    impl: Any, node_id: str, params_json: Any, resolver: FileResolver, trace: dict[str, Any], outputs: dict[str, Any]
+) -> tuple[dict[str, bytes], list[dict[str, Any]]] | tuple[None, str]:
     """Worker side: ({suffix: bytes}, warnings) or (None, error text): the parent re-runs a failed
     node's artifacts itself, so the error is raised with its context."""
     params = type(impl).Params.model_validate(params_json)
@@ -222,7 +224,7 @@ def _die_with_parent() -> None:
         import signal
 
         libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
 
@@ -234,7 +236,7 @@ class LayerPool:
     workers: int
     tasks: int = 0
     map_tasks: int = 0
-    started: bool = False     # workers asked for (by `warm` or a first map)
+    started: bool = False  # workers asked for (by `warm` or a first map)
     _pool: ProcessPoolExecutor | None = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
     _ready: threading.Event = field(default_factory=threading.Event, repr=False)
@@ -286,7 +288,7 @@ class LayerPool:
     def _spawn(self) -> None:
         try:
             pool = self._executor()
-            futures = [pool.submit(_worker_up) for _ in range(self.workers)]   # no idle worker yet: each forks one
+            futures = [pool.submit(_worker_up) for _ in range(self.workers)]  # no idle worker yet: each forks one
             for f in futures:
                 f.result()
         except Exception:  # the workers could not start: the parent computes alone
@@ -300,15 +302,23 @@ class LayerPool:
             if self._pool is None:
                 ctx = mp.get_context("forkserver")
                 ctx.set_forkserver_preload(PRELOAD)
-                self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx,
-                                                 initializer=_die_with_parent)
+                self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_die_with_parent)
                 self.started = True
             return self._pool
 
-    def submit_artifacts(self, impl: Any, node_id: str, params: Any, resolver: FileResolver, trace: dict[str, Any], outputs: dict[str, Any]) -> Future[Any]:
+    def submit_artifacts(
+        self,
+        impl: Any,
+        node_id: str,
+        params: Any,
+        resolver: FileResolver,
+        trace: dict[str, Any],
+        outputs: dict[str, Any],
+    ) -> Future[Any]:
         """A node's artifacts written by a worker: a future of `_write_artifacts`' result."""
-        return self._executor().submit(_write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver,
-                                       trace, outputs)
+        return self._executor().submit(
+            _write_artifacts, impl, node_id, params.model_dump(mode="json"), resolver, trace, outputs
+        )
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         """fn over the items in the workers, results in item order (the preflight's layer tasks;
@@ -323,8 +333,14 @@ class LayerPool:
                 f.cancel()
             self._ready.set()
 
-    def map_layers(self, chain: tuple[ChainLink, ...], resolver: FileResolver, todo: list[tuple[int, dict[str, Any]]],
-                   on_done: Callable[[int, list[Any]], None], cancelled: Callable[[], bool]) -> None:
+    def map_layers(
+        self,
+        chain: tuple[ChainLink, ...],
+        resolver: FileResolver,
+        todo: list[tuple[int, dict[str, Any]]],
+        on_done: Callable[[int, list[Any]], None],
+        cancelled: Callable[[], bool],
+    ) -> None:
         """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
         its outputs, in workers; `on_done(index, [(outputs | None, warnings | error, seconds)] per
         link computed)` (see `run_chain`)
@@ -344,7 +360,7 @@ class LayerPool:
         finally:
             for fut in pending:
                 fut.cancel()
-            self._ready.set()   # the workers are up now
+            self._ready.set()  # the workers are up now
 
     def close(self, wait: bool = True) -> None:
         """Shut the workers down; `wait=False` (a failed or cancelled run) kills them: a chunk still
@@ -358,7 +374,7 @@ class LayerPool:
         if pool is not None:
             procs = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=wait, cancel_futures=True)
-            if not wait:   # a cancelled or failed run: its workers end with it, not after their chunk
+            if not wait:  # a cancelled or failed run: its workers end with it, not after their chunk
                 for p in procs:
                     try:
                         p.kill()
@@ -383,7 +399,7 @@ def _chunks(todo: list[Any], workers: int) -> list[list[Any]]:
     out, k = [], 0
     while k < len(todo):
         size = max(smallest, -(-(len(todo) - k) // (2 * w)))
-        out.append(todo[k:k + size])
+        out.append(todo[k : k + size])
         k += size
     return out
 
@@ -406,12 +422,13 @@ class RunWorkers:
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         try:
             return self.pool.map(fn, items)
-        except Exception:    # a worker died or the pool could not start: compute here
+        except Exception:  # a worker died or the pool could not start: compute here
             return [fn(it) for it in items]
 
 
-def _run_chain_shared(shared: tuple[Any, ...], chunk: list[tuple[int, dict[str, Any]]]
-                      ) -> list[tuple[int, list[tuple[Any, ...]]]]:
+def _run_chain_shared(
+    shared: tuple[Any, ...], chunk: list[tuple[int, dict[str, Any]]]
+) -> list[tuple[int, list[tuple[Any, ...]]]]:
     """Dask worker side: `shared` = (chain, resolver), scattered once per map."""
     chain, resolver = shared
     return run_chain(chain, resolver, chunk)
@@ -427,7 +444,7 @@ class DaskPool:
     tasks: int = 0
     _client: Any = field(default=None, repr=False)
     kind = "dask"
-    started = ready = True   # a cluster's workers are running already
+    started = ready = True  # a cluster's workers are running already
     warming = False
 
     @property
@@ -455,11 +472,15 @@ class DaskPool:
             from ..core.errors import RecipeError
 
             try:
-                self._client = Client(self.address, timeout=DASK_CONNECT_S,   # type: ignore[no-untyped-call]
-                                      set_as_default=False)      # (distributed's __init__ is not annotated)
+                self._client = Client(
+                    self.address,
+                    timeout=DASK_CONNECT_S,  # type: ignore[no-untyped-call]
+                    set_as_default=False,
+                )  # (distributed's __init__ is not annotated)
             except Exception as exc:  # refused, timed out, or something else answering on that port
-                raise RecipeError(f"cannot reach the Dask scheduler at {self.address!r}: "
-                                  f"{type(exc).__name__}: {exc}"[:500]) from None
+                raise RecipeError(
+                    f"cannot reach the Dask scheduler at {self.address!r}: {type(exc).__name__}: {exc}"[:500]
+                ) from None
         return self._client
 
     @property
@@ -472,18 +493,23 @@ class DaskPool:
     def info(self) -> dict[str, Any]:
         return {"kind": self.kind, "address": self.address, "workers": self.workers, "tasks": self.tasks}
 
-    def map_layers(self, chain: tuple[ChainLink, ...], resolver: FileResolver, todo: list[tuple[int, dict[str, Any]]],
-                   on_done: Callable[[int, list[Any]], None], cancelled: Callable[[], bool]) -> None:
+    def map_layers(
+        self,
+        chain: tuple[ChainLink, ...],
+        resolver: FileResolver,
+        todo: list[tuple[int, dict[str, Any]]],
+        on_done: Callable[[int, list[Any]], None],
+        cancelled: Callable[[], bool],
+    ) -> None:
         from distributed import as_completed
 
         client = self.client()
         # one object (a list would be scattered item by item), on every worker once
         shared = client.scatter([(chain, resolver)], broadcast=True, hash=False)[0]
-        futures = [client.submit(_run_chain_shared, shared, c, pure=False)
-                   for c in _chunks(todo, max(1, self.workers))]
+        futures = [client.submit(_run_chain_shared, shared, c, pure=False) for c in _chunks(todo, max(1, self.workers))]
         self.tasks += len(futures)
         try:
-            for fut in as_completed(futures, loop=client.loop):   # type: ignore[no-untyped-call]  # not annotated
+            for fut in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]  # not annotated
                 for i, got in fut.result():
                     on_done(i, got)
                 if cancelled():

@@ -9,7 +9,7 @@ from typing import Any
 @dataclass(frozen=True)
 class PortType:
     name: str
-    color: str          # GUI handle colour
+    color: str  # GUI handle colour
     description: str
 
 
@@ -23,9 +23,13 @@ PORT_TYPES: dict[str, PortType] = {
         PortType("features", "#90be6d", "Recognised thin-wall features (FeatureSet)."),
         PortType("simulation", "#577590", "Simulated robot motion (SimulationResult)."),
         PortType("program", "#43aa8b", "Robot/machine program text (Program)."),
-        PortType("coverage", "#e63946", "Bead coverage per layer and section: void, overlap, over-deposit (Layered[dict])."),
+        PortType(
+            "coverage", "#e63946", "Bead coverage per layer and section: void, overlap, over-deposit (Layered[dict])."
+        ),
         PortType("report", "#6c757d", "A JSON-able report another node or the GUI reads (dict)."),
-        PortType("bead-model", "#9d4edd", "Bead width and height as functions of wire feed and travel speed (BeadFit)."),
+        PortType(
+            "bead-model", "#9d4edd", "Bead width and height as functions of wire feed and travel speed (BeadFit)."
+        ),
     )
 }
 

@@ -37,8 +37,9 @@ LEGACY_TYPES: dict[str, str] = {
 
 class NodeEntry(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    id: str = Field(description="Unique node id (letters, digits, _ and -).",
-                    json_schema_extra={"pattern": NODE_ID.pattern})
+    id: str = Field(
+        description="Unique node id (letters, digits, _ and -).", json_schema_extra={"pattern": NODE_ID.pattern}
+    )
     type: str = Field(description="Node type id from the catalog.")
     params: dict[str, Any] = Field(default_factory=dict)
     label: str | None = None
@@ -61,20 +62,29 @@ class Recipe(BaseModel):
     """A saved graph. `ui` holds editor-only state (node positions); the engine ignores it."""
 
     model_config = ConfigDict(extra="forbid", populate_by_name=True)
-    format: str = Field(FORMAT, json_schema_extra={"enum": list(FORMATS)},
-                        description=f"{FORMAT}; older formats are migrated on load")
+    format: str = Field(
+        FORMAT, json_schema_extra={"enum": list(FORMATS)}, description=f"{FORMAT}; older formats are migrated on load"
+    )
     name: str = "recipe"
     description: str = ""
-    inputs: dict[str, Any] = Field(default_factory=dict, json_schema_extra={"propertyNames": {"pattern": INPUT_NAME.pattern}},
-                                   description="named values that node params refer to as \"$name\"")
+    inputs: dict[str, Any] = Field(
+        default_factory=dict,
+        json_schema_extra={"propertyNames": {"pattern": INPUT_NAME.pattern}},
+        description='named values that node params refer to as "$name"',
+    )
     nodes: list[NodeEntry] = Field(default_factory=list)
     edges: list[EdgeEntry] = Field(default_factory=list)
-    preflight: PreflightSettings | None = Field(None, description="thresholds of the check of every emitted "
-                                                "program against its part (README 'Preflight'); empty = defaults")
+    preflight: PreflightSettings | None = Field(
+        None,
+        description="thresholds of the check of every emitted "
+        "program against its part (README 'Preflight'); empty = defaults",
+    )
     files: dict[str, Annotated[str, StringConstraints(pattern=r"^[0-9a-f]{64}$")]] | None = Field(
-        None, description="uploaded files pinned to their content: file name → sha256 (hex) of the exact content "
-                          "this recipe runs with on the server; an upload under the same name changes nothing "
-                          "until the recipe is pinned to it (the GUI asks). Part of the recipe hash.")
+        None,
+        description="uploaded files pinned to their content: file name → sha256 (hex) of the exact content "
+        "this recipe runs with on the server; an upload under the same name changes nothing "
+        "until the recipe is pinned to it (the GUI asks). Part of the recipe hash.",
+    )
     ui: dict[str, Any] | None = None
 
     @field_validator("inputs")

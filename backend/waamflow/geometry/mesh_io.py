@@ -26,8 +26,18 @@ import numpy as np
 
 from ..core.errors import InputFileError
 from ..core.model import MeshData
-from .topology import (EdgeReport, check_closed, drop_degenerate, edge_report_twins, edge_uses, face_components,
-                       face_volumes, merge_vertices, signed_volume, split_nonmanifold)
+from .topology import (
+    EdgeReport,
+    check_closed,
+    drop_degenerate,
+    edge_report_twins,
+    edge_uses,
+    face_components,
+    face_volumes,
+    merge_vertices,
+    signed_volume,
+    split_nonmanifold,
+)
 from .transform import Transform, unit_scale
 from .units import threemf_units
 
@@ -68,14 +78,14 @@ def binary_stl_triangles(data: bytes, *, filename: str = "mesh.stl", max_triangl
     if max_triangles is not None and n > max_triangles:
         raise InputFileError(f"{filename}: {n} triangles exceed the cap of {max_triangles}")
     if 84 + 50 * n != len(data):
-        raise InputFileError(f"{filename}: binary STL header says {n} triangles ({84 + 50 * n} bytes) but the file has {len(data)} bytes")
+        raise InputFileError(
+            f"{filename}: binary STL header says {n} triangles ({84 + 50 * n} bytes) but the file has {len(data)} bytes"
+        )
     return np.frombuffer(data, dtype=STL_RECORD, count=n, offset=84)["corners"]
 
 
 # bytes.translate table: every letter except the exponent marks e/E, and every whitespace, → " "
-_STL_BLANK = bytes(
-    ord(" ") if (chr(c).isalpha() and chr(c) not in "eE") or chr(c).isspace() else c for c in range(256)
-)
+_STL_BLANK = bytes(ord(" ") if (chr(c).isalpha() and chr(c) not in "eE") or chr(c).isspace() else c for c in range(256))
 
 
 def ascii_stl_triangles(data: bytes) -> np.ndarray | None:
@@ -89,19 +99,19 @@ def ascii_stl_triangles(data: bytes) -> np.ndarray | None:
     the parse fail, and the caller falls back to trimesh.
     """
     text = bytearray(data)
-    low = data.lower()                                    # SOLID / solid alike
+    low = data.lower()  # SOLID / solid alike
     start = 0
-    while (i := low.find(b"solid", start)) >= 0:         # one per body: a short Python loop
+    while (i := low.find(b"solid", start)) >= 0:  # one per body: a short Python loop
         j = low.find(b"\n", i)
         j = len(text) if j < 0 else j
         text[i:j] = b" " * (j - i)
         start = j
     body = bytes(text).translate(_STL_BLANK)
-    while b" e" in body or b" E" in body:                # "ee"/"eE" in a keyword: repeat
+    while b" e" in body or b" E" in body:  # "ee"/"eE" in a keyword: repeat
         body = body.replace(b" e", b"  ").replace(b" E", b"  ")
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("error")                 # a stray token warns: fall back
+            warnings.simplefilter("error")  # a stray token warns: fall back
             nums = np.fromstring(body, dtype=np.float64, sep=" ")
     except (ValueError, DeprecationWarning):
         return None
@@ -128,7 +138,7 @@ def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
 def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = None) -> np.ndarray:
     """Triangle corners (m, 3, 3) in file units, format chosen by the file extension."""
     fmt = mesh_format(filename)
-    if is_binary_stl(data):                               # by content: a binary STL named .obj too
+    if is_binary_stl(data):  # by content: a binary STL named .obj too
         return binary_stl_triangles(data, filename=filename, max_triangles=max_triangles)
     if fmt == "stl" and not data.lstrip()[:5].lower() == b"solid":
         if len(data) >= 84:
@@ -170,7 +180,7 @@ def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[n
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     ncomp, label = connected_components(graph, directed=False)
     first = np.full(ncomp, -1, dtype=np.int64)
-    first[label[::-1]] = cand[::-1]                      # the lowest-index member of each cluster
+    first[label[::-1]] = cand[::-1]  # the lowest-index member of each cluster
     remap = np.arange(len(verts))
     remap[cand] = first[label]
     keep = np.unique(remap)
@@ -180,8 +190,13 @@ def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[n
     return verts[keep], faces, int(len(verts) - len(keep))
 
 
-def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float,
-                edges: tuple[EdgeReport, np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+def repair_mesh(
+    verts: np.ndarray,
+    faces: np.ndarray,
+    *,
+    crack_tolerance: float,
+    edges: tuple[EdgeReport, np.ndarray | None] | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Repair what can be repaired without changing the shape; returns (vertices, faces, counts).
 
     In order: (1) cracks: vertices on open edges within `crack_tolerance` (vertex units) are
@@ -216,7 +231,7 @@ def repair_mesh(verts: np.ndarray, faces: np.ndarray, *, crack_tolerance: float,
         trimesh.repair.fix_winding(tm)
         faces = np.asarray(tm.faces, dtype=np.int64)
         rep, twin = edge_report_twins(faces, len(verts))
-    if rep.closed and twin is not None:   # closed: the twins exist
+    if rep.closed and twin is not None:  # closed: the twins exist
         n, label = face_components(twin, len(faces))
         vol = np.bincount(label, weights=face_volumes(verts, faces), minlength=n)
         inside_out = vol[label] < 0
@@ -283,19 +298,23 @@ def mesh_from_triangles(
         rep = edges[0]
     fixes: dict = {}
     if crack_tolerance is not None:
-        verts, faces, fixes = repair_mesh(verts, faces, crack_tolerance=crack_tolerance / unit_scale(units),
-                                          edges=edges)
+        verts, faces, fixes = repair_mesh(
+            verts, faces, crack_tolerance=crack_tolerance / unit_scale(units), edges=edges
+        )
         rep = fixes["edges"]
         if stage:
-            stage(0.8, f"checked and repaired {len(faces):,} faces ({rep.open} open, {rep.nonmanifold} "
-                       "non-manifold edges left)")
+            stage(
+                0.8,
+                f"checked and repaired {len(faces):,} faces ({rep.open} open, {rep.nonmanifold} "
+                "non-manifold edges left)",
+            )
     if stats is not None:
         stats["welded"] = welded
         stats.update(fixes)
         if rep is not None:
             stats["edges"] = rep
     if require_closed and rep is not None and not rep.closed:
-        check_closed(faces, len(verts), name=label)             # raises, saying what is open
+        check_closed(faces, len(verts), name=label)  # raises, saying what is open
     verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
     volume = signed_volume(verts, faces)
     if volume < 0 and crack_tolerance is None:
@@ -341,13 +360,24 @@ def load_mesh_bytes(
     if units == "file":
         units = mesh_file_units(data, filename)
     if len(data) > limits.max_bytes:
-        raise InputFileError(f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB")
+        raise InputFileError(
+            f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB"
+        )
     tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
     if stage:
         stage(0.2, f"parsed {len(tri):,} triangles ({len(data) / 2**20:.1f} MB)")
-    return mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units=units, transform=transform,
-                               source=filename, weld_tolerance=weld_tolerance, stats=stats,
-                               require_closed=require_closed, crack_tolerance=crack_tolerance, stage=stage)
+    return mesh_from_triangles(
+        tri,
+        name=PurePosixPath(filename).stem,
+        units=units,
+        transform=transform,
+        source=filename,
+        weld_tolerance=weld_tolerance,
+        stats=stats,
+        require_closed=require_closed,
+        crack_tolerance=crack_tolerance,
+        stage=stage,
+    )
 
 
 def classify_mesh(stats: dict, as_: str, label: str) -> str:
@@ -367,7 +397,7 @@ def classify_mesh(stats: dict, as_: str, label: str) -> str:
     if as_ == "auto" and surface:
         return "surface"
     where = f" (first at {stats['defect_at']})" if stats.get("defect_at") else ""
-    what = ("neither a closed solid nor a single-wall surface" if as_ == "auto" else "not a closed solid")
+    what = "neither a closed solid nor a single-wall surface" if as_ == "auto" else "not a closed solid"
     raise InputFileError(
         f"{label}: the mesh is {what} after repair: {rep.open} open edges, {rep.nonmanifold} non-manifold edges, "
         f"{rep.misoriented} inconsistently wound edges (of {rep.edges}), volume {volume:.6g} mm³{where}; "

@@ -43,10 +43,10 @@ class SketchResult:
     midsurface: Midsurface
     skipped: dict[str, int]
     units: str = "mm"
-    file_unit: str | None = None     # the unit the file declares (DXF $INSUNITS), None: none
-    notice: str | None = None        # the unit conversion, said (units.conversion_notice)
-    defects: tuple[str, ...] = ()    # DXF entities skipped as degenerate, each naming type, handle and why
-    repairs: tuple[str, ...] = ()    # what ezdxf's recover/audit repaired while reading the DXF
+    file_unit: str | None = None  # the unit the file declares (DXF $INSUNITS), None: none
+    notice: str | None = None  # the unit conversion, said (units.conversion_notice)
+    defects: tuple[str, ...] = ()  # DXF entities skipped as degenerate, each naming type, handle and why
+    repairs: tuple[str, ...] = ()  # what ezdxf's recover/audit repaired while reading the DXF
 
 
 # ------------------------------------------------------------------------------------------
@@ -181,8 +181,15 @@ def join_curves(curves: list[np.ndarray], tol: float, joints: list | None = None
 # ------------------------------------------------------------------------------------------
 # Midsurface construction
 # ------------------------------------------------------------------------------------------
-def sketch_from_curves(curves: Iterable[Any], *, height: float, z0: float = 0.0, name: str = "sketch",
-                       scale: float = 1.0, join_tol: float | None = None) -> Midsurface:
+def sketch_from_curves(
+    curves: Iterable[Any],
+    *,
+    height: float,
+    z0: float = 0.0,
+    name: str = "sketch",
+    scale: float = 1.0,
+    join_tol: float | None = None,
+) -> Midsurface:
     """Midsurface from polylines (each (k, 2) in file units, × scale → mm), extruded by height (mm)."""
     if not (height > 0 and math.isfinite(height)):
         raise InputFileError(f"{name}: extrusion height must be > 0 mm (got {height})")
@@ -258,12 +265,17 @@ def load_sketch_bytes(
         # DXF coordinates are in file units; discretise with the tolerance in file units
         curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout, defects)
         if not curves:
-            others = [f"{lay.name} ({len(lay)} entities)" for lay in doc.layouts
-                      if lay.name.lower() != layout.lower() and len(lay)]
+            others = [
+                f"{lay.name} ({len(lay)} entities)"
+                for lay in doc.layouts
+                if lay.name.lower() != layout.lower() and len(lay)
+            ]
             if others:
-                raise InputFileError(f"{filename}: no curves in layout {layout!r}"
-                                     + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
-                                     + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'")
+                raise InputFileError(
+                    f"{filename}: no curves in layout {layout!r}"
+                    + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
+                    + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'"
+                )
         file_h = file_z0 = None
     elif ext in ("step", "stp", "iges", "igs"):
         curves, file_h, file_z0, file_unit, units, scale, notice = _cad_curves(data, filename, units, arc_tolerance)
@@ -271,8 +283,10 @@ def load_sketch_bytes(
         raise InputFileError(f"{filename}: unsupported sketch format {ext!r}; use one of {', '.join(SKETCH_FORMATS)}")
     if not curves and (skipped or defects):
         kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
-        raise InputFileError(f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: "
-                             f"{kinds or 'none'}" + (f"; degenerate: {'; '.join(defects[:5])}" if defects else ""))
+        raise InputFileError(
+            f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: "
+            f"{kinds or 'none'}" + (f"; degenerate: {'; '.join(defects[:5])}" if defects else "")
+        )
     if height is None:
         if file_h is None:
             raise InputFileError(f"{filename}: no extrusion height: set the node's 'height' param (mm)")
@@ -282,10 +296,15 @@ def load_sketch_bytes(
     mid = sketch_from_curves(
         curves, height=height, z0=z0, name=filename, scale=scale, join_tol=(TOL.join if join else None)
     )
-    return SketchResult(midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name,
-                                                  joints=mid.joints),
-                        skipped=skipped, units=units, file_unit=file_unit, notice=notice, defects=tuple(defects),
-                        repairs=tuple(repairs))
+    return SketchResult(
+        midsurface=Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=name, joints=mid.joints),
+        skipped=skipped,
+        units=units,
+        file_unit=file_unit,
+        notice=notice,
+        defects=tuple(defects),
+        repairs=tuple(repairs),
+    )
 
 
 def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
@@ -299,8 +318,10 @@ def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
     if cad.faces:
         cc, why = vertical_midsurface(cad, arc_tolerance / scale)
         if cc is None:
-            raise InputFileError(f"{filename}: the faces are not a midsurface of vertical walls ({why}); read the "
-                                 "file with a 'mesh' node ('as': 'surface') for a tessellated single-wall surface")
+            raise InputFileError(
+                f"{filename}: the faces are not a midsurface of vertical walls ({why}); read the "
+                "file with a 'mesh' node ('as': 'surface') for a tessellated single-wall surface"
+            )
     else:
         cc = planar_curves(cad, arc_tolerance / scale, filename)
     return cc.curves, cc.height, cc.z0, cad.file_unit, units, scale, notice
@@ -346,8 +367,9 @@ def dxf_layout(doc, layout: str, filename: str):
     raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
 
 
-def dxf_doc_curves(doc, filename: str, tol: float, layout: str = "Model",
-                   defects: list | None = None) -> tuple[list[np.ndarray], dict[str, int]]:
+def dxf_doc_curves(
+    doc, filename: str, tol: float, layout: str = "Model", defects: list | None = None
+) -> tuple[list[np.ndarray], dict[str, int]]:
     """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
     modelspace), and the skipped entity types → count. defects (optional list) receives one
     text per degenerate entity skipped (zero radius, fewer than two vertices, a spline or ellipse
@@ -385,9 +407,11 @@ def _ocs_to_xy(e, pts2d: np.ndarray, filename: str) -> np.ndarray:
     extr = np.asarray(e.dxf.get("extrusion", (0.0, 0.0, 1.0)), dtype=float)
     if abs(abs(extr[2]) - np.linalg.norm(extr)) > 1e-9:
         x, y, z = (float(v) for v in extr)
-        raise InputFileError(f"{_where(filename, e)} does not lie in an XY plane (its extrusion direction is "
-                             f"({x:g}, {y:g}, {z:g}), not ±Z): a sketch is drawn in the XY plane; rotate or flatten "
-                             "the entity in CAD (world UCS) or delete it")
+        raise InputFileError(
+            f"{_where(filename, e)} does not lie in an XY plane (its extrusion direction is "
+            f"({x:g}, {y:g}, {z:g}), not ±Z): a sketch is drawn in the XY plane; rotate or flatten "
+            "the entity in CAD (world UCS) or delete it"
+        )
     if extr[2] > 0:
         return pts2d
     # OCS of extrusion (0, 0, -1): x axis is world -x (arbitrary axis algorithm), y stays world y
@@ -404,8 +428,9 @@ def _add(out: list, skipped: dict, kind: str, pts: np.ndarray) -> None:
     out.append(pts)
 
 
-def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth: int,
-                   defects: list | None = None) -> None:
+def _entity_curves(
+    e, filename: str, tol: float, out: list, skipped: dict, depth: int, defects: list | None = None
+) -> None:
     defects = [] if defects is None else defects
     t = e.dxftype()
     if t == "LINE":
@@ -418,8 +443,9 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
         _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
     elif t == "POLYLINE":
         if e.is_2d_polyline:
-            pts = np.array([(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices],
-                           dtype=float).reshape(-1, 3)
+            pts = np.array(
+                [(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices], dtype=float
+            ).reshape(-1, 3)
             if len(pts) < 2:
                 return _skip(defects, skipped, e, f"{len(pts)} vertex, a curve needs two; skipped")
             _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
@@ -428,14 +454,18 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
             if e.is_closed and len(pts):
                 pts = np.vstack([pts, pts[:1]])
             _add(out, skipped, t, pts)
-        else:                               # polyface / polygon mesh: a surface, no curve of a sketch
+        else:  # polyface / polygon mesh: a surface, no curve of a sketch
             key = "POLYLINE mesh"
             skipped[key] = skipped.get(key, 0) + 1
     elif t in ("ARC", "CIRCLE"):
         r = float(e.dxf.radius)
         if not r > 0:
-            return _skip(defects, skipped, e, f"radius {r:g}, no curve; skipped (delete it in CAD if it is debris, "
-                                              "or give it its radius)")
+            return _skip(
+                defects,
+                skipped,
+                e,
+                f"radius {r:g}, no curve; skipped (delete it in CAD if it is debris, or give it its radius)",
+            )
         c = e.dxf.center
         if t == "CIRCLE":
             start, sweep = 0.0, 2 * math.pi
@@ -450,14 +480,19 @@ def _entity_curves(e, filename: str, tol: float, out: list, skipped: dict, depth
         try:
             pts = np.array([(v.x, v.y) for v in e.flattening(tol)], dtype=float)
         except Exception:  # ezdxf raises construction errors (even IndexError) for degenerate curves
-            return _skip(defects, skipped, e, "degenerate (too few distinct control or fit points, or a zero axis): "
-                                              "ezdxf cannot discretise it; skipped (redraw or delete it in CAD)")
+            return _skip(
+                defects,
+                skipped,
+                e,
+                "degenerate (too few distinct control or fit points, or a zero axis): "
+                "ezdxf cannot discretise it; skipped (redraw or delete it in CAD)",
+            )
         _add(out, skipped, t, pts)
     elif t == "INSERT":
         if depth > 16:
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
         # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
-        for ins in (e.multi_insert() if e.mcount > 1 else (e,)):
+        for ins in e.multi_insert() if e.mcount > 1 else (e,):
             for sub in ins.virtual_entities():
                 _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects)
     else:

@@ -33,16 +33,16 @@ from .through_file import read_through_file
 
 CAD_FORMATS = ("step", "stp", "iges", "igs")
 
-ANGULAR_TOLERANCE = 0.5        # rad, BRepMesh's angular deflection limit
+ANGULAR_TOLERANCE = 0.5  # rad, BRepMesh's angular deflection limit
 # Triangles one face may get: OpenCascade meshes a face in one call (no progress, no cancel) and
 # its time grows faster than the count: a torus face (R 50, r 10 mm) took 2.8 s for 97 k triangles
 # and 11-27 s for 194 k on the 2-core dev box; 1 M (0.0005 mm) ran 290 s.
 MAX_FACE_TRIANGLES = 250_000
-CURVE_ANGLE = 0.1              # rad, tangent turn per chord when a curve is discretised
-VERTICAL_SIN = 1e-6            # a wall face's normal has |n_z| below this, or below tol / wall height
-LEAN_MAX = 1e-2                # |n_z| above this (0.6°) is no wall whatever its height: no edge is read
-Z_TOL = 1e-4                   # mm: an edge lies at the bottom / top height within this
-EXTRUSION_REL = 1e-3           # relative (+ 2 tol): the top edges are as long as the bottom ones
+CURVE_ANGLE = 0.1  # rad, tangent turn per chord when a curve is discretised
+VERTICAL_SIN = 1e-6  # a wall face's normal has |n_z| below this, or below tol / wall height
+LEAN_MAX = 1e-2  # |n_z| above this (0.6°) is no wall whatever its height: no edge is read
+Z_TOL = 1e-4  # mm: an edge lies at the bottom / top height within this
+EXTRUSION_REL = 1e-3  # relative (+ 2 tol): the top edges are as long as the bottom ones
 
 
 @dataclass(frozen=True)
@@ -72,8 +72,20 @@ class StepResult:
     faces: int = 0
 
 
-_OCC_UNITS = {"MM": "mm", "MILLIMETRE": "mm", "CM": "cm", "CENTIMETRE": "cm", "M": "m", "METRE": "m",
-              "INCH": "in", "IN": "in", "FT": "ft", "FOOT": "ft", "UM": "um", "MICROMETRE": "um"}
+_OCC_UNITS = {
+    "MM": "mm",
+    "MILLIMETRE": "mm",
+    "CM": "cm",
+    "CENTIMETRE": "cm",
+    "M": "m",
+    "METRE": "m",
+    "INCH": "in",
+    "IN": "in",
+    "FT": "ft",
+    "FOOT": "ft",
+    "UM": "um",
+    "MICROMETRE": "um",
+}
 
 
 def is_cad_file(filename: str) -> bool:
@@ -103,9 +115,11 @@ def _read_shape(data: bytes, filename: str):
     ext = PurePosixPath(filename).suffix.lower().lstrip(".")
     step = ext in ("step", "stp")
     reader = STEPControl_Reader() if step else IGESControl_Reader()
-    status = read_through_file(data, "." + ext, reader.ReadFile)   # OCC readers take a path
+    status = read_through_file(data, "." + ext, reader.ReadFile)  # OCC readers take a path
     if status != IFSelect_RetDone:
-        raise InputFileError(f"{filename}: not a readable {'STEP' if step else 'IGES'} file (OpenCascade status {int(status)})")
+        raise InputFileError(
+            f"{filename}: not a readable {'STEP' if step else 'IGES'} file (OpenCascade status {int(status)})"
+        )
     file_unit = None
     if step:
         lengths, angles, solid = (Sequence_TCollection_AsciiString() for _ in range(3))
@@ -142,13 +156,19 @@ def read_cad_shape(data: bytes, filename: str) -> CadShape:
     from OCP.TopoDS import TopoDS
 
     shape, roots, file_unit = _read_shape(data, filename)
-    bodies = (_explore(shape, TopAbs_SOLID) + _explore(shape, TopAbs_SHELL, TopAbs_SOLID))
+    bodies = _explore(shape, TopAbs_SOLID) + _explore(shape, TopAbs_SHELL, TopAbs_SOLID)
     free = _explore(shape, TopAbs_FACE, TopAbs_SHELL)
     faces = [(TopoDS.Face(f), b) for b, body in enumerate(bodies) for f in _explore(body, TopAbs_FACE)]
     faces += [(TopoDS.Face(f), len(bodies)) for f in free]
     edges = tuple(TopoDS.Edge(e) for e in _explore(shape, TopAbs_EDGE, TopAbs_FACE))
-    return CadShape(shape=shape, roots=roots, file_unit=file_unit, faces=tuple(faces),
-                    bodies=len(bodies) + (1 if free else 0), edges=edges)
+    return CadShape(
+        shape=shape,
+        roots=roots,
+        file_unit=file_unit,
+        faces=tuple(faces),
+        bodies=len(bodies) + (1 if free else 0),
+        edges=edges,
+    )
 
 
 def _face_triangles(face) -> np.ndarray:
@@ -162,8 +182,9 @@ def _face_triangles(face) -> np.ndarray:
     if tri is None or tri.NbTriangles() == 0:
         return np.zeros((0, 3, 3))
     trsf = loc.Transformation()
-    nodes = np.array([[p.X(), p.Y(), p.Z()] for p in
-                      (tri.Node(i).Transformed(trsf) for i in range(1, tri.NbNodes() + 1))])
+    nodes = np.array(
+        [[p.X(), p.Y(), p.Z()] for p in (tri.Node(i).Transformed(trsf) for i in range(1, tri.NbNodes() + 1))]
+    )
     idx = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
     if face.Orientation() == TopAbs_REVERSED:
         idx = idx[:, ::-1]
@@ -229,11 +250,17 @@ def _clean(faces) -> None:
         BRepTools.Clean_s(face)
 
 
-def tessellate(cad: CadShape, filename: str, *, chordal_tolerance: float = 0.05,
-               angular_tolerance: float = ANGULAR_TOLERANCE, max_triangles: int | None = None,
-               max_face_triangles: int | None = None,
-               progress: Callable[[float, str], None] | None = None,
-               check_cancelled: Callable[[], None] | None = None) -> np.ndarray:
+def tessellate(
+    cad: CadShape,
+    filename: str,
+    *,
+    chordal_tolerance: float = 0.05,
+    angular_tolerance: float = ANGULAR_TOLERANCE,
+    max_triangles: int | None = None,
+    max_face_triangles: int | None = None,
+    progress: Callable[[float, str], None] | None = None,
+    check_cancelled: Callable[[], None] | None = None,
+) -> np.ndarray:
     """Triangles (m, 3, 3) mm of every face, tessellated face by face within chordal_tolerance.
 
     progress(fraction, message) is called after every face, check_cancelled() before every face
@@ -258,15 +285,18 @@ def tessellate(cad: CadShape, filename: str, *, chordal_tolerance: float = 0.05,
         n = est.at(chordal_tolerance)
         if n.sum() > cap_total or n.max() > cap_face:
             worst = int(np.argmax(n))
-            over = (f"about {int(n.sum()):,} triangles in all, over the cap of {cap_total:,} (max_triangles)"
-                    if n.sum() > cap_total else
-                    f"about {int(n[worst]):,} triangles in face {worst + 1} of {len(faces)}, over the cap of "
-                    f"{cap_face:,} per face (max_face_triangles: OpenCascade meshes a face in one call that can "
-                    "neither report progress nor be cancelled, and its time grows faster than the count)")
+            over = (
+                f"about {int(n.sum()):,} triangles in all, over the cap of {cap_total:,} (max_triangles)"
+                if n.sum() > cap_total
+                else f"about {int(n[worst]):,} triangles in face {worst + 1} of {len(faces)}, over the cap of "
+                f"{cap_face:,} per face (max_face_triangles: OpenCascade meshes a face in one call that can "
+                "neither report progress nor be cancelled, and its time grows faster than the count)"
+            )
             raise InputFileError(
                 f"{filename}: chordal_tolerance {chordal_tolerance:g} mm would give {over}; a chordal_tolerance of "
                 f"{est.tolerance_for(chordal_tolerance, cap_total, cap_face):.2g} mm or more keeps the caps "
-                "(triangles grow about as 1/tolerance on doubly curved faces)")
+                "(triangles grow about as 1/tolerance on doubly curved faces)"
+            )
     parts, total = [], 0
     for i, (face, _) in enumerate(faces):
         if check_cancelled:
@@ -278,7 +308,8 @@ def tessellate(cad: CadShape, filename: str, *, chordal_tolerance: float = 0.05,
         if total > cap_total:
             raise InputFileError(
                 f"{filename}: {total:,} triangles after {i + 1} of {len(faces)} faces at chordal_tolerance "
-                f"{chordal_tolerance:g} mm, over the cap of {cap_total:,}; raise 'chordal_tolerance' or 'max_triangles'")
+                f"{chordal_tolerance:g} mm, over the cap of {cap_total:,}; raise 'chordal_tolerance' or 'max_triangles'"
+            )
         if progress:
             progress((i + 1) / len(faces), f"tessellated face {i + 1} of {len(faces)} ({total:,} triangles)")
     tri = np.concatenate(parts)
@@ -287,18 +318,32 @@ def tessellate(cad: CadShape, filename: str, *, chordal_tolerance: float = 0.05,
     return tri
 
 
-def read_cad_triangles(data: bytes, filename: str, *, chordal_tolerance: float = 0.05,
-                       angular_tolerance: float = ANGULAR_TOLERANCE, max_triangles: int | None = None,
-                       max_face_triangles: int | None = None, progress=None, check_cancelled=None) -> StepResult:
+def read_cad_triangles(
+    data: bytes,
+    filename: str,
+    *,
+    chordal_tolerance: float = 0.05,
+    angular_tolerance: float = ANGULAR_TOLERANCE,
+    max_triangles: int | None = None,
+    max_face_triangles: int | None = None,
+    progress=None,
+    check_cancelled=None,
+) -> StepResult:
     """Triangles (mm) of every face of a STEP/IGES file, tessellated within chordal_tolerance (mm)."""
     if not chordal_tolerance > 0:
         raise InputFileError(f"{filename}: chordal_tolerance must be > 0 mm (got {chordal_tolerance})")
     cad = read_cad_shape(data, filename)
-    tri = tessellate(cad, filename, chordal_tolerance=chordal_tolerance, angular_tolerance=angular_tolerance,
-                     max_triangles=max_triangles, max_face_triangles=max_face_triangles, progress=progress,
-                     check_cancelled=check_cancelled)
-    return StepResult(triangles=tri, solids=cad.bodies, roots=cad.roots, file_unit=cad.file_unit,
-                      faces=len(cad.faces))
+    tri = tessellate(
+        cad,
+        filename,
+        chordal_tolerance=chordal_tolerance,
+        angular_tolerance=angular_tolerance,
+        max_triangles=max_triangles,
+        max_face_triangles=max_face_triangles,
+        progress=progress,
+        check_cancelled=check_cancelled,
+    )
+    return StepResult(triangles=tri, solids=cad.bodies, roots=cad.roots, file_unit=cad.file_unit, faces=len(cad.faces))
 
 
 def unit_rescale(file_unit: str | None, units: str) -> tuple[str, float, str | None]:
@@ -313,10 +358,22 @@ def unit_rescale(file_unit: str | None, units: str) -> tuple[str, float, str | N
     return applied, factor / unit_scale(file_unit or "mm"), notice
 
 
-def load_cad_bytes(data: bytes, filename: str, *, units: str = "file", chordal_tolerance: float = 0.05,
-                   transform=None, weld_tolerance: float = 0.0, max_triangles: int | None = None,
-                   max_face_triangles: int | None = None, progress=None, check_cancelled=None, stats: dict | None = None,
-                   crack_tolerance: float | None = None, require_closed: bool = True):
+def load_cad_bytes(
+    data: bytes,
+    filename: str,
+    *,
+    units: str = "file",
+    chordal_tolerance: float = 0.05,
+    transform=None,
+    weld_tolerance: float = 0.0,
+    max_triangles: int | None = None,
+    max_face_triangles: int | None = None,
+    progress=None,
+    check_cancelled=None,
+    stats: dict | None = None,
+    crack_tolerance: float | None = None,
+    require_closed: bool = True,
+):
     """(MeshData in mm, StepResult, notice) of a STEP/IGES file. OpenCascade converts the declared
     unit (STEP length unit, IGES global unit flag) to mm; units "file" or the declared unit keep
     that conversion (exactly once), another unit reinterprets the file's numbers (an override,
@@ -325,13 +382,28 @@ def load_cad_bytes(data: bytes, filename: str, *, units: str = "file", chordal_t
     from .mesh_io import mesh_from_triangles
     from .transform import Transform
 
-    res = read_cad_triangles(data, filename, chordal_tolerance=chordal_tolerance, max_triangles=max_triangles,
-                             max_face_triangles=max_face_triangles, progress=progress, check_cancelled=check_cancelled)
+    res = read_cad_triangles(
+        data,
+        filename,
+        chordal_tolerance=chordal_tolerance,
+        max_triangles=max_triangles,
+        max_face_triangles=max_face_triangles,
+        progress=progress,
+        check_cancelled=check_cancelled,
+    )
     _, k, notice = unit_rescale(res.file_unit, units)
     tri = res.triangles * k if k != 1.0 else res.triangles
-    mesh = mesh_from_triangles(tri, name=PurePosixPath(filename).stem, units="mm",
-                               transform=transform or Transform(), source=filename, weld_tolerance=weld_tolerance,
-                               stats=stats, crack_tolerance=crack_tolerance, require_closed=require_closed)
+    mesh = mesh_from_triangles(
+        tri,
+        name=PurePosixPath(filename).stem,
+        units="mm",
+        transform=transform or Transform(),
+        source=filename,
+        weld_tolerance=weld_tolerance,
+        stats=stats,
+        crack_tolerance=crack_tolerance,
+        require_closed=require_closed,
+    )
     return mesh, res, notice
 
 
@@ -355,7 +427,7 @@ def _edge_length(edge) -> float:
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.GCPnts import GCPnts_AbscissaPoint
 
-    return float(GCPnts_AbscissaPoint.Length_s(BRepAdaptor_Curve(edge), 1e-9))   # (without a tolerance: 0.1 % off)
+    return float(GCPnts_AbscissaPoint.Length_s(BRepAdaptor_Curve(edge), 1e-9))  # (without a tolerance: 0.1 % off)
 
 
 @dataclass(frozen=True)
@@ -397,7 +469,7 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
     if not cad.faces:
         return None, "no faces"
     tilt = 0.0
-    where: tuple[float, float, float] | None = None   # set with tilt: read only when tilt > 0
+    where: tuple[float, float, float] | None = None  # set with tilt: read only when tilt > 0
     for face, _ in cad.faces:
         umin, umax, vmin, vmax = BRepTools.UVBounds_s(face)
         props = BRepLProp_SLProps(BRepAdaptor_Surface(face), 1, 1e-9)
@@ -407,12 +479,15 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
                 if props.IsNormalDefined() and abs(props.Normal().Z()) > tilt:
                     tilt, q = abs(props.Normal().Z()), props.Value()
                     where = (q.X(), q.Y(), q.Z())
-        if tilt > LEAN_MAX:                        # clearly not a wall: stop before the edges
+        if tilt > LEAN_MAX:  # clearly not a wall: stop before the edges
             break
     if tilt > LEAN_MAX:
         assert where is not None
-        return None, f"a face is not vertical (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)"
-    edges = _face_edges(cad.faces)              # free curves beside the walls are not walls
+        return (
+            None,
+            f"a face is not vertical (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)",
+        )
+    edges = _face_edges(cad.faces)  # free curves beside the walls are not walls
     pts = [edge_points(e, tol) for e in edges]
     z0 = min(float(p[:, 2].min()) for p in pts)
     z1 = max(float(p[:, 2].max()) for p in pts)
@@ -421,16 +496,19 @@ def vertical_midsurface(cad: CadShape, tol: float) -> tuple[CadCurves | None, st
         return None, "the faces have no height"
     if tilt > max(VERTICAL_SIN, tol / height):
         assert where is not None
-        return None, (f"a face leans {tilt * height:.3g} mm over its {height:.6g} mm height, more than the "
-                      f"tolerance {tol:g} mm (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)")
+        return None, (
+            f"a face leans {tilt * height:.3g} mm over its {height:.6g} mm height, more than the "
+            f"tolerance {tol:g} mm (normal z {tilt:.3g} at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm)"
+        )
     ztol = [max(Z_TOL, BRep_Tool.Tolerance_s(e)) for e in edges]
     bottom = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z0) <= ztol[i])]
     top = [i for i, p in enumerate(pts) if np.all(np.abs(p[:, 2] - z1) <= ztol[i])]
     lb = sum(_edge_length(edges[i]) for i in bottom)
     lt = sum(_edge_length(edges[i]) for i in top)
     if not lb > 0 or abs(lb - lt) > EXTRUSION_REL * lb + 2 * tol:
-        return None, (f"not one extrusion: bottom edges {lb:.6g} mm long, top edges {lt:.6g} mm "
-                      f"(walls {height:.6g} mm high)")
+        return None, (
+            f"not one extrusion: bottom edges {lb:.6g} mm long, top edges {lt:.6g} mm (walls {height:.6g} mm high)"
+        )
     gap = _plan_gap([pts[i][:, :2] for i in bottom], [pts[i][:, :2] for i in top])
     if gap > 2 * tol + max(ztol):
         return None, f"not one extrusion: the top edges lie up to {gap:.3g} mm off the bottom ones in plan"
@@ -442,8 +520,12 @@ def _plan_gap(a: list, b: list) -> float:
     import shapely
 
     la, lb = (shapely.MultiLineString([c for c in cs if len(c) > 1]) for cs in (a, b))
-    return float(max(shapely.distance(shapely.points(np.vstack(a)), lb).max(),
-                     shapely.distance(shapely.points(np.vstack(b)), la).max()))
+    return float(
+        max(
+            shapely.distance(shapely.points(np.vstack(a)), lb).max(),
+            shapely.distance(shapely.points(np.vstack(b)), la).max(),
+        )
+    )
 
 
 def planar_curves(cad: CadShape, tol: float, filename: str) -> CadCurves:
@@ -454,7 +536,10 @@ def planar_curves(cad: CadShape, tol: float, filename: str) -> CadCurves:
     pts = [edge_points(e, tol) for e in cad.edges]
     z = np.concatenate([p[:, 2] for p in pts])
     if z.max() - z.min() > Z_TOL:
-        raise InputFileError(f"{filename}: the {len(pts)} curves are not in one horizontal plane (z from "
-                             f"{z.min():.6g} to {z.max():.6g} mm); a sketch's curves lie in a plane z = const")
-    return CadCurves(curves=[p[:, :2] for p in pts], z0=float(z.min()), height=None,
-                     length=sum(_edge_length(e) for e in cad.edges))
+        raise InputFileError(
+            f"{filename}: the {len(pts)} curves are not in one horizontal plane (z from "
+            f"{z.min():.6g} to {z.max():.6g} mm); a sketch's curves lie in a plane z = const"
+        )
+    return CadCurves(
+        curves=[p[:, :2] for p in pts], z0=float(z.min()), height=None, length=sum(_edge_length(e) for e in cad.edges)
+    )

@@ -194,7 +194,9 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> E
     if rep.open:
         problems.append(f"{rep.open} open edge{'s' if rep.open != 1 else ''} (holes in the surface)")
     if rep.nonmanifold:
-        problems.append(f"{rep.nonmanifold} non-manifold edge{'s' if rep.nonmanifold != 1 else ''} (shared by 3+ faces)")
+        problems.append(
+            f"{rep.nonmanifold} non-manifold edge{'s' if rep.nonmanifold != 1 else ''} (shared by 3+ faces)"
+        )
     if rep.misoriented:
         problems.append(f"{rep.misoriented} edge{'s' if rep.misoriented != 1 else ''} with inconsistent face winding")
     raise InputFileError(

@@ -14,9 +14,32 @@ import numpy as np
 
 # $INSUNITS codes, the full table of the DXF reference (ezdxf.units.InsertUnits; 0 = unitless);
 # factors in transform.UNIT_TO_MM (exact; tests check them against ezdxf.units.METER_FACTOR).
-DXF_INSUNITS = {1: "in", 2: "ft", 3: "mi", 4: "mm", 5: "cm", 6: "m", 7: "km", 8: "uin", 9: "mil", 10: "yd",
-                11: "angstrom", 12: "nm", 13: "um", 14: "dm", 15: "dam", 16: "hm", 17: "Gm", 18: "au",
-                19: "ly", 20: "pc", 21: "us_ft", 22: "us_in", 23: "us_yd", 24: "us_mi"}
+DXF_INSUNITS = {
+    1: "in",
+    2: "ft",
+    3: "mi",
+    4: "mm",
+    5: "cm",
+    6: "m",
+    7: "km",
+    8: "uin",
+    9: "mil",
+    10: "yd",
+    11: "angstrom",
+    12: "nm",
+    13: "um",
+    14: "dm",
+    15: "dam",
+    16: "hm",
+    17: "Gm",
+    18: "au",
+    19: "ly",
+    20: "pc",
+    21: "us_ft",
+    22: "us_in",
+    23: "us_yd",
+    24: "us_mi",
+}
 # IGES global section parameter 14 (unit flag), IGES 5.3 §2.2.4.3
 IGES_UNIT_FLAGS = {1: "in", 2: "mm", 4: "ft", 5: "mi", 6: "m", 7: "km", 8: "mil", 9: "um", 10: "cm", 11: "uin"}
 THREEMF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch": "in", "foot": "ft", "meter": "m"}
@@ -49,7 +72,7 @@ def threemf_units(data: bytes) -> str | None:
                 return None
             main = next((n for n in names if n.lower() == "3d/3dmodel.model"), names[0])
             with z.open(main) as fh:
-                _, root = next(ET.iterparse(fh, events=("start",)))   # the root element only
+                _, root = next(ET.iterparse(fh, events=("start",)))  # the root element only
     except (zipfile.BadZipFile, OSError, KeyError, ET.ParseError, StopIteration):
         return None
     unit = root.attrib.get("unit")
@@ -73,21 +96,38 @@ def conversion_notice(file_unit: str | None, units: str) -> tuple[str, float, st
         return applied, f, note
     f = unit_scale(units)
     if file_unit is None:
-        return units, f, (None if units == "mm" else f"unit {name(units, units)} (set by 'units'; the file declares "
-                                                     f"none) → mm ×{f:g}")
-    return units, f, (f"'units': {units} overrides the file unit {name(file_unit, file_unit)}: the file's numbers "
-                      f"are read in {name(units, units)} → mm ×{f:g} (instead of ×{unit_scale(file_unit):g})")
+        return (
+            units,
+            f,
+            (
+                None
+                if units == "mm"
+                else f"unit {name(units, units)} (set by 'units'; the file declares none) → mm ×{f:g}"
+            ),
+        )
+    return (
+        units,
+        f,
+        (
+            f"'units': {units} overrides the file unit {name(file_unit, file_unit)}: the file's numbers "
+            f"are read in {name(units, units)} → mm ×{f:g} (instead of ×{unit_scale(file_unit):g})"
+        ),
+    )
 
 
 def implausible_size(extent_mm: float) -> str | None:
     """A warning text when the largest extent (mm) of a part is implausible for WAAM, else None."""
     lo, hi = PLAUSIBLE_MM
     if extent_mm < lo:
-        return (f"part is only {extent_mm:.3g} mm across (< {lo:g} mm): smaller than a few weld beads; "
-                "check the node's 'units' (file in m or in?)")
+        return (
+            f"part is only {extent_mm:.3g} mm across (< {lo:g} mm): smaller than a few weld beads; "
+            "check the node's 'units' (file in m or in?)"
+        )
     if extent_mm > hi:
-        return (f"part is {extent_mm / 1000:.3g} m across (> {hi / 1000:g} m): beyond a WAAM cell; "
-                "check the node's 'units' (file in mm read as m or in?)")
+        return (
+            f"part is {extent_mm / 1000:.3g} m across (> {hi / 1000:g} m): beyond a WAAM cell; "
+            "check the node's 'units' (file in mm read as m or in?)"
+        )
     return None
 
 

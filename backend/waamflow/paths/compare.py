@@ -58,12 +58,22 @@ def compare(jobs: Sequence[Job], variants: Iterable[str]) -> list[dict]:
             p = plan_section(job.region, job.guide, spec)
             m = path_metrics(p.segment_lengths, p.arc, p.inside, np.full(len(p.arc), job.speed))
             cov = section_coverage(job.region, p.points, p.arc, spec.bead_width)
-            m.update(void_area_mm2=cov.void_area, overlap_area_mm2=cov.overlap_area,
-                     over_deposit_area_mm2=cov.over_deposit_area, region_area_mm2=cov.region_area)
+            m.update(
+                void_area_mm2=cov.void_area,
+                overlap_area_mm2=cov.overlap_area,
+                over_deposit_area_mm2=cov.over_deposit_area,
+                region_area_mm2=cov.region_area,
+            )
             per.append(m)
         row: dict[str, Any] = {"pattern": name, "label": text}
-        for key in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s",
-                    *COVERAGE_KEYS):
+        for key in (
+            "programmed_length_mm",
+            "arc_on_length_mm",
+            "arc_switches",
+            "outside_length_mm",
+            "time_s",
+            *COVERAGE_KEYS,
+        ):
             row[key] = round(sum(m[key] for m in per), 3)
         total = row["programmed_length_mm"]
         row["outside_share"] = round(row["outside_length_mm"] / total, 4) if total > 0 else 0.0
@@ -106,10 +116,21 @@ def comparison_json(rows: list[dict], sections: int, layers: int) -> dict:
         if rows:
             low = min(r[key] for r in rows)
             best[key] = [r["label"] for r in rows if r[key] == low]
-    return {"sections": sections, "layers": layers, "patterns": rows, "lowest": best,
-            "units": {"programmed_length_mm": "mm", "arc_on_length_mm": "mm", "outside_length_mm": "mm",
-                      "outside_share": "1", "time_s": "s", "arc_switches": "count",
-                      **{k: "mm²" for k in COVERAGE_KEYS}}}
+    return {
+        "sections": sections,
+        "layers": layers,
+        "patterns": rows,
+        "lowest": best,
+        "units": {
+            "programmed_length_mm": "mm",
+            "arc_on_length_mm": "mm",
+            "outside_length_mm": "mm",
+            "outside_share": "1",
+            "time_s": "s",
+            "arc_switches": "count",
+            **{k: "mm²" for k in COVERAGE_KEYS},
+        },
+    }
 
 
 def comparison_svg(rows: list[dict], selected: str | None = None) -> str:
@@ -121,9 +142,11 @@ def comparison_svg(rows: list[dict], selected: str | None = None) -> str:
     cols = 2
     width = cols * (label_w + bar_w + gap) + pad
     height = math.ceil(len(METRICS) / cols) * (panel_h + pad) + pad
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-           f'font-family="sans-serif" font-size="11">',
-           f'<rect width="{width}" height="{height}" fill="#ffffff"/>']
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+        f'font-family="sans-serif" font-size="11">',
+        f'<rect width="{width}" height="{height}" fill="#ffffff"/>',
+    ]
     for m, (key, title, unit) in enumerate(METRICS):
         x0 = pad + (m % cols) * (label_w + bar_w + gap)
         y0 = pad + (m // cols) * (panel_h + pad)

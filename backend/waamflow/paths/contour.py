@@ -111,7 +111,7 @@ def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
         while True:
             loop = _rotate(levels[lv][i], here)
             if pts:
-                arc.append(not first)    # a step between nested loops is arc ON, a jump to a new chain OFF
+                arc.append(not first)  # a step between nested loops is arc ON, a jump to a new chain OFF
             pts.append(loop)
             arc += [True] * (len(loop) - 1)
             here = loop[-1]

@@ -19,5 +19,6 @@ from .spec import StrategySpec
 
 
 def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
-    return boustrophedon(plan_passes(region, guide, spec.spacing), lambda a, b, tau: [],
-                         spec.extension_before, spec.extension_after)
+    return boustrophedon(
+        plan_passes(region, guide, spec.spacing), lambda a, b, tau: [], spec.extension_before, spec.extension_after
+    )

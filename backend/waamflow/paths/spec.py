@@ -24,32 +24,82 @@ class StrategySpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    pattern: str = Field("oscillate", description="Fill pattern (see waamflow.paths.PATTERNS)",
-                         json_schema_extra=_pattern_enum, title="Fill pattern")
-    spacing: float = Field(4.43, gt=0.05, le=100.0, json_schema_extra={"unit": "mm"},
-                           description="Bead spacing W_WB: distance between neighbouring passes "
-                                       "(robot study: 4.43 mm)", title="Bead spacing")
-    bead_width: float = Field(6.0, gt=0.05, le=100.0, json_schema_extra={"unit": "mm"},
-                              description="Bead width; oscillate keeps half of it inside each side "
-                                          "of the section (MPP study: 6 mm)", title="Bead width")
-    step: float = Field(3.0, gt=0.05, le=100.0, json_schema_extra={"unit": "mm"},
-                        description="Oscillate: advance along the guide per weave stroke", title="Weave step")
-    angle_deg: float = Field(45.0, gt=0.0, lt=180.0, json_schema_extra={"unit": "deg"},
-                             description="Triangular: apex angle of the isosceles link (45, 60, 90, ...)", title="Triangle apex angle")
+    pattern: str = Field(
+        "oscillate",
+        description="Fill pattern (see waamflow.paths.PATTERNS)",
+        json_schema_extra=_pattern_enum,
+        title="Fill pattern",
+    )
+    spacing: float = Field(
+        4.43,
+        gt=0.05,
+        le=100.0,
+        json_schema_extra={"unit": "mm"},
+        description="Bead spacing W_WB: distance between neighbouring passes (robot study: 4.43 mm)",
+        title="Bead spacing",
+    )
+    bead_width: float = Field(
+        6.0,
+        gt=0.05,
+        le=100.0,
+        json_schema_extra={"unit": "mm"},
+        description="Bead width; oscillate keeps half of it inside each side of the section (MPP study: 6 mm)",
+        title="Bead width",
+    )
+    step: float = Field(
+        3.0,
+        gt=0.05,
+        le=100.0,
+        json_schema_extra={"unit": "mm"},
+        description="Oscillate: advance along the guide per weave stroke",
+        title="Weave step",
+    )
+    angle_deg: float = Field(
+        45.0,
+        gt=0.0,
+        lt=180.0,
+        json_schema_extra={"unit": "deg"},
+        description="Triangular: apex angle of the isosceles link (45, 60, 90, ...)",
+        title="Triangle apex angle",
+    )
     arc_outside: Literal["on", "off"] = Field(
-        "on", description="Arc outside the section: 'on' keeps depositing, 'off' switches the arc at "
-                          "every boundary crossing", title="Arc outside the section")
-    extension_before: float = Field(0.0, ge=0.0, le=200.0, json_schema_extra={"unit": "mm"},
-                                    description="Run-up before the section along each pass (acceleration, "
-                                                "≈4.5 mm at 40 mm/s in the robot study)", title="Run-up")
-    extension_after: float = Field(0.0, ge=0.0, le=200.0, json_schema_extra={"unit": "mm"},
-                                   description="Run-out after the section along each pass (deceleration, "
-                                               "≈3.6 mm at 40 mm/s in the robot study)", title="Run-out")
-    chord_tol: float = Field(0.01, gt=1e-4, le=1.0, json_schema_extra={"unit": "mm"},
-                             description="Semicircular: chordal tolerance of the discretised half circles", title="Chordal tolerance")
-    swipe_advance: float = Field(1.0 / 3.0, gt=0.01, le=1.0, json_schema_extra={"unit": "1"},
-                                 description="Swiping: sideways advance per zig-zag leg as a fraction of "
-                                             "the bead spacing (1/3: each bead overlaps two thirds of the last)", title="Swipe advance")
+        "on",
+        description="Arc outside the section: 'on' keeps depositing, 'off' switches the arc at every boundary crossing",
+        title="Arc outside the section",
+    )
+    extension_before: float = Field(
+        0.0,
+        ge=0.0,
+        le=200.0,
+        json_schema_extra={"unit": "mm"},
+        description="Run-up before the section along each pass (acceleration, ≈4.5 mm at 40 mm/s in the robot study)",
+        title="Run-up",
+    )
+    extension_after: float = Field(
+        0.0,
+        ge=0.0,
+        le=200.0,
+        json_schema_extra={"unit": "mm"},
+        description="Run-out after the section along each pass (deceleration, ≈3.6 mm at 40 mm/s in the robot study)",
+        title="Run-out",
+    )
+    chord_tol: float = Field(
+        0.01,
+        gt=1e-4,
+        le=1.0,
+        json_schema_extra={"unit": "mm"},
+        description="Semicircular: chordal tolerance of the discretised half circles",
+        title="Chordal tolerance",
+    )
+    swipe_advance: float = Field(
+        1.0 / 3.0,
+        gt=0.01,
+        le=1.0,
+        json_schema_extra={"unit": "1"},
+        description="Swiping: sideways advance per zig-zag leg as a fraction of "
+        "the bead spacing (1/3: each bead overlaps two thirds of the last)",
+        title="Swipe advance",
+    )
 
     @field_validator("pattern")
     @classmethod

@@ -60,8 +60,11 @@ def _core_line(core: Polygon, shorten: float, at: np.ndarray, keep_fraction: flo
     u = axis / np.hypot(*axis)
     c = rect.mean(axis=0)
     reach = float(np.hypot(*axis))
-    pieces = [g for g in shapely.get_parts(LineString([c - reach * u, c + reach * u]).intersection(core))
-              if g.geom_type == "LineString"]
+    pieces = [
+        g
+        for g in shapely.get_parts(LineString([c - reach * u, c + reach * u]).intersection(core))
+        if g.geom_type == "LineString"
+    ]
     if not pieces:
         return None
     piece = max(pieces, key=lambda g: g.length)
@@ -121,7 +124,7 @@ def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) 
     line = None if core is None or core.area == 0 else _core_line(core, m / 2.0, g0)
     if line is None:
         line = _core_line(region, 0.0, g0, keep_fraction=0.25)
-    assert line is not None   # the long axis of a non-empty region crosses it
+    assert line is not None  # the long axis of a non-empty region crosses it
     entry = to_boundary(region, line[0], unit(line[0] - line[1]))
     pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))

@@ -90,7 +90,7 @@ def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec:
             cand = min(options)
             if best is None or cand < best:
                 best = cand
-        assert best is not None   # todo is not empty
+        assert best is not None  # todo is not empty
         _, i, flip = best
         todo.remove(i)
         p, a = drafts[i]
@@ -104,8 +104,9 @@ def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec:
     return finish(np.vstack(pts), np.concatenate(ok), region, spec.arc_outside)
 
 
-def plan_whole(region: Polygon, guide: LineString | None, spec: StrategySpec, *, adapt: bool,
-               max_uncovered: float = MAX_UNCOVERED) -> WholePath:
+def plan_whole(
+    region: Polygon, guide: LineString | None, spec: StrategySpec, *, adapt: bool, max_uncovered: float = MAX_UNCOVERED
+) -> WholePath:
     """Plan one section and measure its cover (see module doc). Raises like `plan_section`."""
     area = float(region.area)
     path = plan_section(region, guide, spec)

@@ -21,8 +21,15 @@ from .settings import PreflightSettings
 
 __all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error", "gate"]
 
-SUMMARY_KEYS = ("top_gap_mm", "uncovered_share", "wire_part_volume_ratio", "min_arc_run_mm", "start_spread_mm",
-                "weld_data_missing", "outside_mm")
+SUMMARY_KEYS = (
+    "top_gap_mm",
+    "uncovered_share",
+    "wire_part_volume_ratio",
+    "min_arc_run_mm",
+    "start_spread_mm",
+    "weld_data_missing",
+    "outside_mm",
+)
 DEFAULT_BEAD_WIDTH_MM = 6.0
 
 
@@ -32,7 +39,7 @@ def _part_of(graph, outputs: dict, node_id: str):
 
     upstream = graph.ancestors(node_id)
     order = [n for n in graph.order if n in upstream]
-    for nid in order:                       # the first input in topological order is the part
+    for nid in order:  # the first input in topological order is the part
         for value in outputs.get(nid, {}).values():
             if isinstance(value, MeshData):
                 return Part("surface" if value.surface else "solid", nid, vertices=value.vertices, faces=value.faces)
@@ -88,8 +95,13 @@ def _stock_length(graph, node_id: str, width: float) -> float:
     return longest + width
 
 
-def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str, bytes],
-                  settings: PreflightSettings | None = None, pool=None) -> dict | None:
+def run_preflight(
+    graph,
+    outputs: dict[str, dict[str, Any]],
+    artifacts: dict[str, bytes],
+    settings: PreflightSettings | None = None,
+    pool=None,
+) -> dict | None:
     """The preflight report of a finished run; None when disabled or when the run hands out neither
     a program nor a toolpath. `pool`: the run's workers (`slabs.Workers`), which check the layers
     of a large part in parallel when that pays; the report is the same without them."""
@@ -113,14 +125,21 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
                 continue
             prog = read_program(value.format, files)
             if not prog.runs and value.stats.get("tool_on_count", 0):
-                continue                    # a rolling/peening program deposits nothing
+                continue  # a rolling/peening program deposits nothing
             width, source = _bead_width(graph, nid, s)
-            rep = check_program(_part_of(graph, outputs, nid), prog, nid, s, width,
-                                weld_expected=prog.weld_commanded or prog.format == "csv",
-                                stock_mm=_stock_length(graph, nid, width), pool=pool)
+            rep = check_program(
+                _part_of(graph, outputs, nid),
+                prog,
+                nid,
+                s,
+                width,
+                weld_expected=prog.weld_commanded or prog.format == "csv",
+                stock_mm=_stock_length(graph, nid, width),
+                pool=pool,
+            )
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
-    if not reports:                          # no program: the last toolpath a node hands out
+    if not reports:  # no program: the last toolpath a node hands out
         last = None
         for nid in graph.order:
             for value in outputs.get(nid, {}).values():
@@ -130,14 +149,29 @@ def run_preflight(graph, outputs: dict[str, dict[str, Any]], artifacts: dict[str
         if last and doc_name and doc_name in artifacts:
             prog = read_toolpath(json.loads(artifacts[doc_name]))
             width, source = _bead_width(graph, last, s)
-            rep = check_program(_part_of(graph, outputs, last), prog, last, s, width, weld_expected=False,
-                                stock_mm=_stock_length(graph, last, width), pool=pool)
-            rep.update(files=[doc_name], bead_width_mm=width, bead_width_source=source,
-                       notes=rep["notes"] + ["no program is emitted: the last toolpath was checked (weld data and "
-                                             "wire volume are the program's to carry)"])
+            rep = check_program(
+                _part_of(graph, outputs, last),
+                prog,
+                last,
+                s,
+                width,
+                weld_expected=False,
+                stock_mm=_stock_length(graph, last, width),
+                pool=pool,
+            )
+            rep.update(
+                files=[doc_name],
+                bead_width_mm=width,
+                bead_width_source=source,
+                notes=rep["notes"]
+                + [
+                    "no program is emitted: the last toolpath was checked (weld data and "
+                    "wire volume are the program's to carry)"
+                ],
+            )
             reports.append(rep)
     if not reports:
-        return None                          # nothing leaves this run that could build a part
+        return None  # nothing leaves this run that could build a part
     conserved = check_conservation(graph, artifacts, s.deposit_changed)
     verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.__getitem__)
     out: dict = {"verdict": verdict, "accepted": False}
@@ -182,9 +216,11 @@ def stamp_acceptance(files: dict[str, bytes], report: dict, who: str = "--accept
         if not m:
             continue
         close = ")" if m.group(1).rstrip().endswith("(") else ""
-        line = (f"{m.group(1)}waamflow preflight: FAILED, accepted by the user ({who}): "
-                f"{text.replace('(', '[').replace(')', ']')}{close}\n")
-        out[name] = (body[:m.start()] + line + body[m.start():]).encode("utf-8")
+        line = (
+            f"{m.group(1)}waamflow preflight: FAILED, accepted by the user ({who}): "
+            f"{text.replace('(', '[').replace(')', ']')}{close}\n"
+        )
+        out[name] = (body[: m.start()] + line + body[m.start() :]).encode("utf-8")
     return out
 
 
@@ -196,8 +232,13 @@ def gate(report: dict | None, files: dict[str, bytes], accept: bool, who: str) -
     program's header says so (`stamp_acceptance`) and `report["accepted"]` is true."""
     if not report or report.get("verdict") != "fail":
         return files, None
-    failed = first_error(report) or {"check": "preflight", "message": "failed", "node": None, "layer": None,
-                                     "section": None}
+    failed = first_error(report) or {
+        "check": "preflight",
+        "message": "failed",
+        "node": None,
+        "layer": None,
+        "section": None,
+    }
     if accept:
         report["accepted"] = True
         files = stamp_acceptance(files, report, who)

@@ -32,7 +32,7 @@ from .report import rounded as _r
 from .settings import PreflightSettings
 from .slabs import Workers
 
-PLANAR_TOL_MM = 0.05       # a run whose z varies less than this is planar
+PLANAR_TOL_MM = 0.05  # a run whose z varies less than this is planar
 MAX_SAMPLES = 200_000
 
 
@@ -140,7 +140,7 @@ def footprint(paths: list[np.ndarray], width: float):
         if len(p) >= 3:
             chord = np.linalg.norm(p[2:] - p[:-2], axis=1)
             for i in np.nonzero(chord <= width * (1 + 1e-9))[0]:
-                tri = Polygon(p[i:i + 3])
+                tri = Polygon(p[i : i + 3])
                 if tri.area > 1e-9:
                     parts.append(tri.buffer(width / 2.0, quad_segs=4))
     return unary_union(parts) if parts else Polygon()
@@ -165,7 +165,7 @@ def _loops_to_geom(loops) -> Polygon | MultiPolygon:
             polys.append(pg)
     if not polys:
         return MultiPolygon()
-    geom = polys[0]                      # even-odd: nested loops are holes
+    geom = polys[0]  # even-odd: nested loops are holes
     for pg in polys[1:]:
         geom = geom.symmetric_difference(pg)
     return geom
@@ -249,14 +249,24 @@ def coverage_planar(part: Part, layers, width: float, rep: Report, pool: Workers
         covered_vol += cov * h
         over_area += c.outside * h
         L = rep.layer(idx)
-        L.update(z=_r(z, 3), height_mm=_r(h, 3), part_area_mm2=_r(area, 2), uncovered_mm2=_r(area - cov, 2),
-                 uncovered_share=_r((area - cov) / area) if area > 0 else None, part_mm3=_r(area * h, 1))
+        L.update(
+            z=_r(z, 3),
+            height_mm=_r(h, 3),
+            part_area_mm2=_r(area, 2),
+            uncovered_mm2=_r(area - cov, 2),
+            uncovered_share=_r((area - cov) / area) if area > 0 else None,
+            part_mm3=_r(area * h, 1),
+        )
         if c.uncovered_point is not None:
-            L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3),
-                                    round(z - h / 2, 3)]
+            L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3), round(z - h / 2, 3)]
     share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
-    return {"part_volume_mm3": part_volume, "uncovered_share": share, "outside_mm3": over_area,
-            "method": "planar slabs", "sections": sections}
+    return {
+        "part_volume_mm3": part_volume,
+        "uncovered_share": share,
+        "outside_mm3": over_area,
+        "method": "planar slabs",
+        "sections": sections,
+    }
 
 
 # ---- coverage: 3D samples -------------------------------------------------------------------------
@@ -286,7 +296,7 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float]:
     # a solid with non-planar layers is checked on its boundary: every point of it must lie within
     # reach of a bead (interior voids of thick parts are the planar check's to find)
     mesh = trimesh.Trimesh(*part.mesh(), process=False)
-    n = int(min(MAX_SAMPLES, max(1000, mesh.area / step ** 2)))
+    n = int(min(MAX_SAMPLES, max(1000, mesh.area / step**2)))
     pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
     return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area)
 
@@ -304,8 +314,12 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
             dep_runs.append(p)
             dep_layers.append(np.full(len(p), idx))
     if not dep_runs or len(samples) == 0:
-        return {"part_volume_mm3": measure * (width if part.kind != "solid" else 1.0), "uncovered_share": 1.0,
-                "method": "3D samples", "top_gap_mm": None}
+        return {
+            "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
+            "uncovered_share": 1.0,
+            "method": "3D samples",
+            "top_gap_mm": None,
+        }
     dep = np.vstack(dep_runs)
     dep_layer = np.concatenate(dep_layers)
     # layer spacing measured from the program: each layer's points to the previous layer's
@@ -332,23 +346,43 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
             L.update(samples=int(m.sum()), uncovered_share=_r(float(unc[m].mean())))
     gap = float(max(0.0, dist.max() - reach))
     worst = samples[int(np.argmax(dist))]
-    return {"part_volume_mm3": measure * (width if part.kind != "solid" else 1.0), "uncovered_share": share,
-            "method": "3D samples", "layer_spacing_mm": h, "top_gap_mm": gap, "worst_point": worst,
-            "worst_layer": int(lay[int(np.argmax(dist))]), "reach_mm": reach,
-            "uncovered_by_layer": {}}
+    return {
+        "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
+        "uncovered_share": share,
+        "method": "3D samples",
+        "layer_spacing_mm": h,
+        "top_gap_mm": gap,
+        "worst_point": worst,
+        "worst_layer": int(lay[int(np.argmax(dist))]),
+        "reach_mm": reach,
+        "uncovered_by_layer": {},
+    }
 
 
 # ---- the whole check -----------------------------------------------------------------------------
-def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightSettings, width: float,
-                  *, weld_expected: bool = True, stock_mm: float | None = None,
-                  pool: Workers | None = None) -> dict:
+def check_program(
+    part: Part | None,
+    prog: ProgramRead,
+    node: str,
+    s: PreflightSettings,
+    width: float,
+    *,
+    weld_expected: bool = True,
+    stock_mm: float | None = None,
+    pool: Workers | None = None,
+) -> dict:
     """stock_mm: machining stock allowed beyond the part at a run's ends (the recipe's longest
     extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width). pool: the
     run's workers, for the planar coverage (coverage_planar)."""
     rep = Report(node, prog.format)
     layers = program_layers(prog)
-    out: dict = {"node": node, "format": prog.format, "runs": len(prog.runs), "layers_deposited": len(layers),
-                 "notes": list(prog.notes)}
+    out: dict = {
+        "node": node,
+        "format": prog.format,
+        "runs": len(prog.runs),
+        "layers_deposited": len(layers),
+        "notes": list(prog.notes),
+    }
     if not prog.runs:
         rep.problem("program", "fail", f"program {node} has no arc-ON motion: nothing would be deposited")
         return _finish(out, rep, s)
@@ -368,9 +402,15 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
             cov = coverage_3d(part, layers, width, rep, s)
             top_gap = cov.get("top_gap_mm")
             h_typ = cov.get("layer_spacing_mm")
-        out.update(part_top_mm=_r(part.top, 3), deposit_top_mm=_r(top_dep, 3), top_gap_mm=_r(top_gap, 3),
-                   uncovered_share=_r(cov["uncovered_share"]), part_volume_mm3=_r(cov["part_volume_mm3"], 1),
-                   coverage_method=cov["method"], layer_height_mm=_r(h_typ, 3))
+        out.update(
+            part_top_mm=_r(part.top, 3),
+            deposit_top_mm=_r(top_dep, 3),
+            top_gap_mm=_r(top_gap, 3),
+            uncovered_share=_r(cov["uncovered_share"]),
+            part_volume_mm3=_r(cov["part_volume_mm3"], 1),
+            coverage_method=cov["method"],
+            layer_height_mm=_r(h_typ, 3),
+        )
         _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)
         # metal outside the part (outside.py): arc-ON centre lines off the part, stock at run ends aside
         stock = s.outside_stock_mm if s.outside_stock_mm is not None else stock_mm if stock_mm is not None else width
@@ -382,34 +422,63 @@ def check_program(part: Part | None, prog: ProgramRead, node: str, s: PreflightS
     return _finish(out, rep, s)
 
 
-def _coverage_problems(part: Part, layers: list[tuple[int, list[Run]]], cov: Coverage, top_gap: float | None,
-                       h_typ: float | None, planar: bool, rep: Report, s: PreflightSettings) -> None:
+def _coverage_problems(
+    part: Part,
+    layers: list[tuple[int, list[Run]]],
+    cov: Coverage,
+    top_gap: float | None,
+    h_typ: float | None,
+    planar: bool,
+    rep: Report,
+    s: PreflightSettings,
+) -> None:
     """The top gap (the deposit ends short of the part's top, or far above it) and the uncovered
     share of the part as problems."""
     last_idx, last_runs = layers[-1]
     if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
         p = cov.get("worst_point") if not planar else None
-        rep.problem("top_gap", "fail",
-                    f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
-                    f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
-                    layer=last_idx, value=top_gap, limit=s.top_gap_max_layers * h_typ, point=p)
+        rep.problem(
+            "top_gap",
+            "fail",
+            f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
+            f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
+            layer=last_idx,
+            value=top_gap,
+            limit=s.top_gap_max_layers * h_typ,
+            point=p,
+        )
     elif top_gap is not None and h_typ and planar and -top_gap > s.overshoot_warn_layers * h_typ:
-        rep.problem("top_gap", "warn", f"the deposit ends {-top_gap:.2f} mm above the part's top "
-                    f"({part.top:.2f} mm) at layer {last_idx}", layer=last_idx, value=top_gap)
+        rep.problem(
+            "top_gap",
+            "warn",
+            f"the deposit ends {-top_gap:.2f} mm above the part's top ({part.top:.2f} mm) at layer {last_idx}",
+            layer=last_idx,
+            value=top_gap,
+        )
     share = cov["uncovered_share"]
     if share > s.uncovered_warn:
         sev = "fail" if share > s.uncovered_fail else "warn"
-        worst = max((L for L in rep.layers.values() if L.get("uncovered_share") is not None),
-                    key=lambda L: L["uncovered_share"], default=None)
+        worst = max(
+            (L for L in rep.layers.values() if L.get("uncovered_share") is not None),
+            key=lambda L: L["uncovered_share"],
+            default=None,
+        )
         where = ""
         if worst is not None and worst["uncovered_share"] > 0:
-            where = (f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
-                     + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
-                     + "without a bead")
-        rep.problem("uncovered", sev, f"{share * 100:.1f} % of the part gets no bead{where}: add a mask "
-                    "section or a filling pattern there", layer=worst["index"] if worst else None,
-                    value=share, limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
-                    point=(worst or {}).get("uncovered_point"))
+            where = (
+                f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
+                + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
+                + "without a bead"
+            )
+        rep.problem(
+            "uncovered",
+            sev,
+            f"{share * 100:.1f} % of the part gets no bead{where}: add a mask section or a filling pattern there",
+            layer=worst["index"] if worst else None,
+            value=share,
+            limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
+            point=(worst or {}).get("uncovered_point"),
+        )
 
 
 def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:

@@ -76,13 +76,23 @@ def check_conservation(graph, artifacts: dict[str, bytes], severity: str = "fail
             la = sum(c["before_mm"] for c in cs)
             lb = sum(c["after_mm"] for c in cs)
             secs = ", ".join(str(c["section"]) for c in cs)
-            problems.append({
-                "check": "deposit_changed", "severity": severity, "node": nid, "layer": layer,
-                "section": first["section"],
-                "message": (f"{nid} welds {lb:.3f} mm arc-ON in section(s) {secs} of layer {layer} where {src} "
-                            f"planned {la:.3f} mm: a sequencer only orders, reverses and re-seams the deposit, "
-                            "so this is a planning defect (report it); the program does not build the planned part"),
-                "value": round(lb - la, 4), "limit": LENGTH_TOL_MM, "point": None})
+            problems.append(
+                {
+                    "check": "deposit_changed",
+                    "severity": severity,
+                    "node": nid,
+                    "layer": layer,
+                    "section": first["section"],
+                    "message": (
+                        f"{nid} welds {lb:.3f} mm arc-ON in section(s) {secs} of layer {layer} where {src} "
+                        f"planned {la:.3f} mm: a sequencer only orders, reverses and re-seams the deposit, "
+                        "so this is a planning defect (report it); the program does not build the planned part"
+                    ),
+                    "value": round(lb - la, 4),
+                    "limit": LENGTH_TOL_MM,
+                    "point": None,
+                }
+            )
     return problems
 
 

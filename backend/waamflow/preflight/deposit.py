@@ -20,7 +20,7 @@ from .read import ProgramRead, Run
 from .report import Report, rounded
 from .settings import PreflightSettings
 
-if TYPE_CHECKING:                     # check imports this module
+if TYPE_CHECKING:  # check imports this module
     from .check import Coverage, Part
 
 
@@ -39,8 +39,16 @@ def wire_volume(run: Run, s: PreflightSettings) -> tuple[float, int]:
     return vol, int(np.count_nonzero(~ok & (length > 0)))
 
 
-def _wire_balance(part: Part | None, prog: ProgramRead, layers: list[tuple[int, list[Run]]], cov: Coverage | None,
-                  weld_expected: bool, out: dict, rep: Report, s: PreflightSettings) -> None:
+def _wire_balance(
+    part: Part | None,
+    prog: ProgramRead,
+    layers: list[tuple[int, list[Run]]],
+    cov: Coverage | None,
+    weld_expected: bool,
+    out: dict,
+    rep: Report,
+    s: PreflightSettings,
+) -> None:
     """Wire fed vs metal needed: per layer and in all, the arc-ON moves without weld data, the
     wire/part volume ratio (out) and their problems."""
     wire_total, missing = 0.0, 0
@@ -65,37 +73,59 @@ def _wire_balance(part: Part | None, prog: ProgramRead, layers: list[tuple[int, 
     out["wire_part_volume_ratio"] = rounded(ratio, 3)
     if weld_expected and weld_missing and s.weld_data != "off":
         first = next(r for r in prog.runs if (~r.weld).any())
-        rep.problem("weld_data", s.weld_data,
-                    f"{weld_missing} of {seg_total} arc-ON moves have no weld parameter commanded (first: layer "
-                    f"{first.layer}, section {first.section}): the power source would weld with whatever job it "
-                    "holds; command wire feed/current in the machine profile (comments do not count)",
-                    layer=first.layer, section=first.section, value=weld_missing, limit=0,
-                    point=first.points[0])
+        rep.problem(
+            "weld_data",
+            s.weld_data,
+            f"{weld_missing} of {seg_total} arc-ON moves have no weld parameter commanded (first: layer "
+            f"{first.layer}, section {first.section}): the power source would weld with whatever job it "
+            "holds; command wire feed/current in the machine profile (comments do not count)",
+            layer=first.layer,
+            section=first.section,
+            value=weld_missing,
+            limit=0,
+            point=first.points[0],
+        )
     if weld_expected and missing and not weld_missing and part is not None and cov and cov["part_volume_mm3"] > 0:
         # welded with weld data, but no wire feed the reader can see: the metal balance is unknown
         first = next(r for r in prog.runs if not np.isfinite(r.wfs).all())
-        rep.problem("volume_ratio", "warn",
-                    f"{missing} arc-ON moves weld without a wire feed in the program (first: layer {first.layer}, "
-                    f"section {first.section}): the wire the part gets cannot be checked against its volume; "
-                    "command the wire feed, or check the power source's synergic line gives the zones' feeds",
-                    layer=first.layer, section=first.section, value=missing, limit=0, point=first.points[0])
+        rep.problem(
+            "volume_ratio",
+            "warn",
+            f"{missing} arc-ON moves weld without a wire feed in the program (first: layer {first.layer}, "
+            f"section {first.section}): the wire the part gets cannot be checked against its volume; "
+            "command the wire feed, or check the power source's synergic line gives the zones' feeds",
+            layer=first.layer,
+            section=first.section,
+            value=missing,
+            limit=0,
+            point=first.points[0],
+        )
     if ratio is not None:
         lo, hi = s.volume_ratio_ok
         flo, fhi = s.volume_ratio_fail
         if not lo <= ratio <= hi:
             sev = "fail" if not flo <= ratio <= fhi else "warn"
             word = "more" if ratio > hi else "less"
-            worst = max((L for L in rep.layers.values() if L.get("volume_ratio")),
-                        key=lambda L: abs(math.log(L["volume_ratio"])), default=None)
-            rep.problem("volume_ratio", sev,
-                        f"the wire fed puts {ratio:.2f}× the part's volume into it ({word} metal than the part "
-                        f"needs; wire {s.wire_diameter_mm} mm, deposition efficiency {s.deposition_efficiency}): "
-                        "balance wire feed and travel speed in the zone parameters (fill-parameters does)",
-                        layer=worst["index"] if worst else None, value=ratio, limit=hi if ratio > hi else lo)
+            worst = max(
+                (L for L in rep.layers.values() if L.get("volume_ratio")),
+                key=lambda L: abs(math.log(L["volume_ratio"])),
+                default=None,
+            )
+            rep.problem(
+                "volume_ratio",
+                sev,
+                f"the wire fed puts {ratio:.2f}× the part's volume into it ({word} metal than the part "
+                f"needs; wire {s.wire_diameter_mm} mm, deposition efficiency {s.deposition_efficiency}): "
+                "balance wire feed and travel speed in the zone parameters (fill-parameters does)",
+                layer=worst["index"] if worst else None,
+                value=ratio,
+                limit=hi if ratio > hi else lo,
+            )
 
 
-def _arc_runs(prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: float, out: dict, rep: Report,
-             s: PreflightSettings) -> None:
+def _arc_runs(
+    prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: float, out: dict, rep: Report, s: PreflightSettings
+) -> None:
     """The shortest arc-ON run (out, per layer) and the runs shorter than `min_arc_run_mm`."""
     min_run = s.min_arc_run_mm if s.min_arc_run_mm is not None else 2.0 * width
     lengths = [(r.length, r) for r in prog.runs]
@@ -105,14 +135,30 @@ def _arc_runs(prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: flo
         rep.layer(idx)["min_arc_run_mm"] = rounded(min(r.length for r in runs), 3)
     if short:
         v, r = min(short, key=lambda t: t[0])
-        rep.problem("arc_run", "warn", f"{len(short)} arc-ON runs are shorter than {min_run:.1f} mm (shortest "
-                    f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
-                    "(sequence `min_arc_run_mm`)", layer=r.layer, section=r.section, value=v, limit=min_run,
-                    point=r.points[0])
+        rep.problem(
+            "arc_run",
+            "warn",
+            f"{len(short)} arc-ON runs are shorter than {min_run:.1f} mm (shortest "
+            f"{v:.2f} mm, layer {r.layer}, section {r.section}): arc flicker; bridge or drop them "
+            "(sequence `min_arc_run_mm`)",
+            layer=r.layer,
+            section=r.section,
+            value=v,
+            limit=min_run,
+            point=r.points[0],
+        )
 
 
-def _ignitions(part: Part | None, layers: list[tuple[int, list[Run]]], cov: Coverage | None, planar: bool,
-               width: float, out: dict, rep: Report, s: PreflightSettings) -> None:
+def _ignitions(
+    part: Part | None,
+    layers: list[tuple[int, list[Run]]],
+    cov: Coverage | None,
+    planar: bool,
+    width: float,
+    out: dict,
+    rep: Report,
+    s: PreflightSettings,
+) -> None:
     """Ignitions: those in machining stock (outside the part, machined off: the thin-wall rule) may
     stack; those in the part must not (starts within a bead width of one on the layer below)."""
     spread = None
@@ -131,8 +177,8 @@ def _ignitions(part: Part | None, layers: list[tuple[int, list[Run]]], cov: Cove
         all_inside = np.ones(len(all_starts), bool)
     offset = 0
     for idx, runs in layers:
-        starts = all_starts[offset:offset + len(runs)]
-        inside = all_inside[offset:offset + len(runs)]
+        starts = all_starts[offset : offset + len(runs)]
+        inside = all_inside[offset : offset + len(runs)]
         offset += len(runs)
         rep.layer(idx)["starts"] = np.round(starts, 3).tolist()
         rep.layer(idx)["stops"] = np.round(np.array([r.points[-1] for r in runs]), 3).tolist()
@@ -152,14 +198,21 @@ def _ignitions(part: Part | None, layers: list[tuple[int, list[Run]]], cov: Cove
     out["starts_in_stock"] = in_stock
     if stacked and s.stacked_starts != "off":
         idx, r, d = stacked[0]
-        rep.problem("stacked_starts", s.stacked_starts,
-                    f"{len(stacked)} ignitions lie within one bead width ({width:g} mm) of an ignition on the "
-                    f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
-                    "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
-                    layer=idx, section=r.section, value=d, limit=width, point=r.points[0])
+        rep.problem(
+            "stacked_starts",
+            s.stacked_starts,
+            f"{len(stacked)} ignitions lie within one bead width ({width:g} mm) of an ignition on the "
+            f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
+            "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
+            layer=idx,
+            section=r.section,
+            value=d,
+            limit=width,
+            point=r.points[0],
+        )
 
 
-STOCK_TOL_MM = 0.5   # an ignition farther than this outside the part is in machining stock
+STOCK_TOL_MM = 0.5  # an ignition farther than this outside the part is in machining stock
 
 
 def in_sections(sections: dict, pts: np.ndarray, layer_of: list[int]) -> np.ndarray:
@@ -178,9 +231,12 @@ def in_sections(sections: dict, pts: np.ndarray, layer_of: list[int]) -> np.ndar
 def in_part(part: Part, pts: np.ndarray, width: float) -> np.ndarray:
     """(n,) bool: the points lie in the part (a wall: on its midsurface, within STOCK_TOL_MM), not in
     the stock beyond it that is machined off."""
-    if part.kind in ("midsurface", "region"):    # the wall's midsurface, or the 2D region: its distance
-        geom = (MultiLineString([np.asarray(c)[:, :2] for c in part.curves]) if part.kind == "midsurface"
-                else unary_union([g for _z, _t, g in part.regions]))
+    if part.kind in ("midsurface", "region"):  # the wall's midsurface, or the 2D region: its distance
+        geom = (
+            MultiLineString([np.asarray(c)[:, :2] for c in part.curves])
+            if part.kind == "midsurface"
+            else unary_union([g for _z, _t, g in part.regions])
+        )
         return shapely.distance(geom, shapely.points(np.asarray(pts)[:, :2])) <= STOCK_TOL_MM
     import trimesh
 

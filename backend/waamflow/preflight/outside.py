@@ -37,10 +37,10 @@ from shapely.geometry import MultiLineString
 
 from .read import Run
 
-if TYPE_CHECKING:                     # check imports this module
+if TYPE_CHECKING:  # check imports this module
     from .check import Part
 
-MAX_STEP_MM = 1.0     # the centre line is sampled at most this far apart (and at most ¼ bead width)
+MAX_STEP_MM = 1.0  # the centre line is sampled at most this far apart (and at most ¼ bead width)
 
 
 @dataclass(frozen=True)
@@ -74,8 +74,7 @@ def sample_run(run: Run, step: float) -> tuple[np.ndarray, np.ndarray]:
     idx = np.repeat(np.arange(len(seg)), n)
     t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 1) / n[idx]
     before = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
-    return (np.vstack([pts[:1], a[idx] + d[idx] * t[:, None]]),
-            np.concatenate([[0.0], before[idx] + seg[idx] * t]))
+    return (np.vstack([pts[:1], a[idx] + d[idx] * t[:, None]]), np.concatenate([[0.0], before[idx] + seg[idx] * t]))
 
 
 def _stretches(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -94,16 +93,20 @@ def _span(s: np.ndarray, i0: int, i1: int) -> float:
     return float(hi - lo)
 
 
-def excursions(run: Run, layer: int, pts: np.ndarray, s: np.ndarray, dist: np.ndarray, width: float,
-               margin: float) -> list[Excursion]:
+def excursions(
+    run: Run, layer: int, pts: np.ndarray, s: np.ndarray, dist: np.ndarray, width: float, margin: float
+) -> list[Excursion]:
     out = []
     for i0, i1 in _stretches(dist > width / 2.0):
-        d = dist[i0:i1 + 1]
+        d = dist[i0 : i1 + 1]
         deep = max((_span(s, i0 + a, i0 + b) for a, b in _stretches(d > margin)), default=0.0)
         k = i0 + int(np.argmax(d))
         x, y, z = (float(v) for v in pts[k][:3])
-        out.append(Excursion(layer, run.section, _span(s, i0, i1), deep, float(d.max()),
-                             (x, y, z), bool(i0 == 0 or i1 == len(s) - 1)))
+        out.append(
+            Excursion(
+                layer, run.section, _span(s, i0, i1), deep, float(d.max()), (x, y, z), bool(i0 == 0 or i1 == len(s) - 1)
+            )
+        )
     return out
 
 
@@ -137,7 +140,7 @@ class MeshDistance:
         from scipy.spatial import cKDTree
 
         self.mesh = trimesh.Trimesh(vertices, faces, process=False)
-        n = int(min(max_samples, max(2000, self.mesh.area / step ** 2)))
+        n = int(min(max_samples, max(2000, self.mesh.area / step**2)))
         surf = trimesh.sample.sample_surface_even(self.mesh, n, seed=0)[0]
         self.tree = cKDTree(np.vstack([surf, self.mesh.vertices]))
         self.resolution_mm = math.sqrt(self.mesh.area / max(len(surf), 1))
@@ -156,14 +159,15 @@ class MeshDistance:
 
 
 # ---- the check ------------------------------------------------------------------------------------
-def find_outside(part: Part, layers, width: float, *, planar: bool, sections: dict | None, margin: float,
-                 step: float | None = None) -> tuple[list[Excursion], dict[int, dict], str]:
+def find_outside(
+    part: Part, layers, width: float, *, planar: bool, sections: dict | None, margin: float, step: float | None = None
+) -> tuple[list[Excursion], dict[int, dict], str]:
     """Every excursion of the program's arc-ON runs, the per-layer figures (the deposit area beyond
     the section grown by ½ bead, planar only; the farthest sample) and the method. sections: layer index → the section
     polygon the coverage check cut for it (planar solids/regions)."""
     step = step or min(MAX_STEP_MM, width / 4.0)
     mesh_dist: MeshDistance | None = None
-    slabs: dict | None = None                # the coverage check's sections, planar slabs only
+    slabs: dict | None = None  # the coverage check's sections, planar slabs only
     if part.kind == "midsurface":
         method = "midsurface distance"
     elif planar and part.kind in ("solid", "region") and sections is not None:
@@ -172,14 +176,14 @@ def find_outside(part: Part, layers, width: float, *, planar: bool, sections: di
     else:
         method = "surface distance"
         mesh_dist = MeshDistance(*part.mesh(), part.kind == "solid", step)
-    from .check import footprint      # check imports this module
+    from .check import footprint  # check imports this module
 
     found: list[Excursion] = []
     per_layer: dict[int, dict] = {}
     for idx, runs in layers:
         section = slabs.get(idx) if slabs is not None else None
         if slabs is not None and (section is None or section.is_empty):
-            continue                         # no part at this slab: a deposit above the top is top_gap's
+            continue  # no part at this slab: a deposit above the top is top_gap's
         reach = section.buffer(width / 2.0, quad_segs=8) if section is not None else None
         area = 0.0
         worst = None
@@ -187,13 +191,13 @@ def find_outside(part: Part, layers, width: float, *, planar: bool, sections: di
             if len(r.points) < 2:
                 continue
             pts, s = sample_run(r, step)
-            if mesh_dist is not None:        # surface distance
+            if mesh_dist is not None:  # surface distance
                 dist = mesh_dist(pts, width / 2.0)
                 if part.kind == "surface":
                     dist = np.maximum(0.0, dist - width / 2.0)
             elif part.kind == "midsurface":
                 dist = distance_to_midsurface(part.curves, pts, width)
-            else:                            # planar slabs
+            else:  # planar slabs
                 dist = distance_to_section(section, pts)
             ex = excursions(r, idx, pts, s, dist, width, margin)
             found += ex
@@ -202,9 +206,11 @@ def find_outside(part: Part, layers, width: float, *, planar: bool, sections: di
                     worst = e
             if reach is not None and ex:
                 area += float(footprint([r.points[:, :2]], width).difference(reach).area)
-        per_layer[idx] = {"outside_mm2": area if method == "planar slabs" else None,
-                          "outside_max_mm": worst.max_mm if worst else 0.0,
-                          "outside_point": list(worst.point) if worst else None}
+        per_layer[idx] = {
+            "outside_mm2": area if method == "planar slabs" else None,
+            "outside_max_mm": worst.max_mm if worst else 0.0,
+            "outside_point": list(worst.point) if worst else None,
+        }
     return found, per_layer, method
 
 
@@ -216,8 +222,9 @@ def counted(e: Excursion, stock_mm: float) -> tuple[float, float]:
     return max(0.0, e.length_mm - stock_mm), max(0.0, e.deep_mm - stock_mm)
 
 
-def check_outside(part: Part, layers, width: float, s, rep, *, planar: bool, sections: dict | None,
-                  stock_mm: float) -> dict:
+def check_outside(
+    part: Part, layers, width: float, s, rep, *, planar: bool, sections: dict | None, stock_mm: float
+) -> dict:
     """Adds the `outside` problems to rep (a `check.Report`) and the per-layer figures to its layers
     (outside_mm: weld clear of the part that counts; outside_stock_mm: at run ends, excused;
     outside_mm2; outside_max_mm and outside_point: the farthest sample). Returns the program's
@@ -243,12 +250,17 @@ def check_outside(part: Part, layers, width: float, s, rep, *, planar: bool, sec
         if fig["outside_point"] is not None:
             L["outside_max_mm"] = round(fig["outside_max_mm"], 3)
             L["outside_point"] = [round(v, 3) for v in fig["outside_point"]]
-    out = {"outside_method": method, "outside_stock_mm": stock_mm,
-           "outside_mm": max((c for _e, c, _d in rated), default=0.0), "outside_mm_total": total,
-           "outside_mm2": max((f["outside_mm2"] or 0.0 for f in per_layer.values()), default=0.0)
-           if method == "planar slabs" else None,
-           "outside_max_mm": max((e.max_mm for e, c, _d in rated if c > 0), default=0.0),
-           "outside_share": share}
+    out = {
+        "outside_method": method,
+        "outside_stock_mm": stock_mm,
+        "outside_mm": max((c for _e, c, _d in rated), default=0.0),
+        "outside_mm_total": total,
+        "outside_mm2": max((f["outside_mm2"] or 0.0 for f in per_layer.values()), default=0.0)
+        if method == "planar slabs"
+        else None,
+        "outside_max_mm": max((e.max_mm for e, c, _d in rated if c > 0), default=0.0),
+        "outside_share": share,
+    }
     if s.outside == "off":
         return out
     deep = [(e, c, d) for e, c, d in rated if d > fail_len]
@@ -259,21 +271,43 @@ def check_outside(part: Part, layers, width: float, s, rep, *, planar: bool, sec
         e, c, d = max(group, key=lambda t: t[1])
         layers_hit = sorted({x.layer for x, _c, _d in group})
         where = ", ".join(str(i) for i in layers_hit[:8]) + (" …" if len(layers_hit) > 8 else "")
-        what = (f"its centre line more than {margin:g} mm off the part over {d:.1f} mm" if group is deep
-                else f"its bead clear of the part over {c:.1f} mm")
-        rep.problem("outside", sev,
-                    f"{len(group)} arc-ON stretch(es) deposit outside the part (layers {where}); the longest: layer "
-                    f"{e.layer}, section {e.section}, {c:.1f} mm of weld beyond the part, up to {e.max_mm:.1f} mm off "
-                    f"it ({what}"
-                    + (f"; a run end's machining stock up to {stock_mm:g} mm is allowed" if e.at_end else "")
-                    + "): metal where there is no part; check the sequence and its links (arc off between walls)",
-                    layer=e.layer, section=e.section, value=c,
-                    limit=fail_len if group is deep else warn_len, point=e.point)
+        what = (
+            f"its centre line more than {margin:g} mm off the part over {d:.1f} mm"
+            if group is deep
+            else f"its bead clear of the part over {c:.1f} mm"
+        )
+        rep.problem(
+            "outside",
+            sev,
+            f"{len(group)} arc-ON stretch(es) deposit outside the part (layers {where}); the longest: layer "
+            f"{e.layer}, section {e.section}, {c:.1f} mm of weld beyond the part, up to {e.max_mm:.1f} mm off "
+            f"it ({what}"
+            + (f"; a run end's machining stock up to {stock_mm:g} mm is allowed" if e.at_end else "")
+            + "): metal where there is no part; check the sequence and its links (arc off between walls)",
+            layer=e.layer,
+            section=e.section,
+            value=c,
+            limit=fail_len if group is deep else warn_len,
+            point=e.point,
+        )
     if not deep and not long and share > s.outside_share_warn:
-        rep.problem("outside", "warn", f"{share * 100:.1f} % of the arc-ON length deposits clear "
-                    "of the part in short stretches", value=share, limit=s.outside_share_warn)
+        rep.problem(
+            "outside",
+            "warn",
+            f"{share * 100:.1f} % of the arc-ON length deposits clear of the part in short stretches",
+            value=share,
+            limit=s.outside_share_warn,
+        )
     return out
 
 
-__all__ = ["Excursion", "check_outside", "counted", "MeshDistance", "distance_to_midsurface", "distance_to_section", "excursions",
-           "sample_run"]
+__all__ = [
+    "Excursion",
+    "check_outside",
+    "counted",
+    "MeshDistance",
+    "distance_to_midsurface",
+    "distance_to_section",
+    "excursions",
+    "sample_run",
+]

@@ -14,11 +14,22 @@ class Report:
         self.problems: list[dict] = []
         self.layers: dict[int, dict] = {}
 
-    def problem(self, check: str, severity: str, message: str, *, layer=None, section=None, value=None,
-                limit=None, point=None) -> None:
-        self.problems.append({"check": check, "severity": severity, "node": self.node, "layer": layer,
-                              "section": section, "message": message, "value": rounded(value), "limit": rounded(limit),
-                              "point": None if point is None else [round(float(v), 3) for v in point]})
+    def problem(
+        self, check: str, severity: str, message: str, *, layer=None, section=None, value=None, limit=None, point=None
+    ) -> None:
+        self.problems.append(
+            {
+                "check": check,
+                "severity": severity,
+                "node": self.node,
+                "layer": layer,
+                "section": section,
+                "message": message,
+                "value": rounded(value),
+                "limit": rounded(limit),
+                "point": None if point is None else [round(float(v), 3) for v in point],
+            }
+        )
 
     def layer(self, i: int) -> dict:
         return self.layers.setdefault(i, {"index": i})

@@ -22,48 +22,101 @@ class PreflightSettings(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     enabled: bool = Field(True, description="Run the preflight after every full run")
-    bead_width_mm: float | None = Field(None, gt=0.1, le=100, description="Bead width, mm; empty = the recipe's "
-                                        "strategy/wall-path bead_width, else 6 mm")
-    top_gap_max_layers: float = Field(0.5, ge=0, le=10, description="Fail when the highest deposited layer ends "
-                                      "more than this many layer heights below the part's top")
-    overshoot_warn_layers: float = Field(1.0, ge=0, le=100, description="Warn when the deposit ends more than this "
-                                         "many layer heights above the part's top")
+    bead_width_mm: float | None = Field(
+        None,
+        gt=0.1,
+        le=100,
+        description="Bead width, mm; empty = the recipe's strategy/wall-path bead_width, else 6 mm",
+    )
+    top_gap_max_layers: float = Field(
+        0.5,
+        ge=0,
+        le=10,
+        description="Fail when the highest deposited layer ends more than this many layer heights below the part's top",
+    )
+    overshoot_warn_layers: float = Field(
+        1.0,
+        ge=0,
+        le=100,
+        description="Warn when the deposit ends more than this many layer heights above the part's top",
+    )
     uncovered_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the part with no bead")
     uncovered_fail: float = Field(0.05, ge=0, le=1, description="Fail above this share of the part with no bead")
-    volume_ratio_ok: tuple[float, float] = Field((0.9, 1.2), description="Wire ending in the part / part volume: "
-                                                 "no remark inside this band")
+    volume_ratio_ok: tuple[float, float] = Field(
+        (0.9, 1.2), description="Wire ending in the part / part volume: no remark inside this band"
+    )
     volume_ratio_fail: tuple[float, float] = Field((0.75, 1.5), description="Fail outside this band (warn between)")
-    min_arc_run_mm: float | None = Field(None, ge=0, le=1000, description="Warn for arc-ON runs shorter than this, "
-                                         "mm; empty = two bead widths")
-    stacked_starts: Literal["off", "warn", "fail"] = Field("warn", description="Ignitions within one bead width "
-                                                             "of an ignition on the layer below")
-    weld_data: Literal["off", "warn", "fail"] = Field("fail", description="Arc-ON moves with no weld parameter "
-                                                       "commanded (comments do not count)")
-    deposit_changed: Literal["off", "warn", "fail"] = Field("fail", description="A sequence node whose output "
-                                                             "welds another arc-ON length in a section than its "
-                                                             "input (short-run fixes aside)")
-    outside: Literal["off", "warn", "fail"] = Field("fail", description="Arc-ON centre lines that leave the "
-                                                     "part by more than outside_margin_mm over more than "
-                                                     "outside_fail_mm (shorter stretches clear of the part warn)")
-    outside_margin_mm: float | None = Field(None, ge=0, le=1000, description="How far off the part a centre line "
-                                            "must be to count towards a fail, mm; empty = one bead width")
-    outside_fail_mm: float | None = Field(None, ge=0, le=10000, description="Fail above this contiguous length "
-                                          "more than the margin off the part, mm; empty = two bead widths")
-    outside_warn_mm: float | None = Field(None, ge=0, le=10000, description="Warn above this contiguous length of "
-                                          "bead clear of the part, mm; empty = one bead width")
-    outside_share_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the arc-ON length "
-                                      "clear of the part (stock at run ends aside)")
-    outside_stock_mm: float | None = Field(None, ge=0, le=1000, description="Machining stock allowed beyond the "
-                                           "part at a run's ends, mm; empty = the recipe's longest extension "
-                                           "(extension_before/after, free_end_extension) + one bead width")
+    min_arc_run_mm: float | None = Field(
+        None, ge=0, le=1000, description="Warn for arc-ON runs shorter than this, mm; empty = two bead widths"
+    )
+    stacked_starts: Literal["off", "warn", "fail"] = Field(
+        "warn", description="Ignitions within one bead width of an ignition on the layer below"
+    )
+    weld_data: Literal["off", "warn", "fail"] = Field(
+        "fail", description="Arc-ON moves with no weld parameter commanded (comments do not count)"
+    )
+    deposit_changed: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A sequence node whose output "
+        "welds another arc-ON length in a section than its "
+        "input (short-run fixes aside)",
+    )
+    outside: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Arc-ON centre lines that leave the "
+        "part by more than outside_margin_mm over more than "
+        "outside_fail_mm (shorter stretches clear of the part warn)",
+    )
+    outside_margin_mm: float | None = Field(
+        None,
+        ge=0,
+        le=1000,
+        description="How far off the part a centre line must be to count towards a fail, mm; empty = one bead width",
+    )
+    outside_fail_mm: float | None = Field(
+        None,
+        ge=0,
+        le=10000,
+        description="Fail above this contiguous length more than the margin off the part, mm; empty = two bead widths",
+    )
+    outside_warn_mm: float | None = Field(
+        None,
+        ge=0,
+        le=10000,
+        description="Warn above this contiguous length of bead clear of the part, mm; empty = one bead width",
+    )
+    outside_share_warn: float = Field(
+        0.02,
+        ge=0,
+        le=1,
+        description="Warn above this share of the arc-ON length clear of the part (stock at run ends aside)",
+    )
+    outside_stock_mm: float | None = Field(
+        None,
+        ge=0,
+        le=1000,
+        description="Machining stock allowed beyond the "
+        "part at a run's ends, mm; empty = the recipe's longest extension "
+        "(extension_before/after, free_end_extension) + one bead width",
+    )
     wire_diameter_mm: float = Field(WIRE_DIAMETER_MM, gt=0.1, le=10)
-    deposition_efficiency: float = Field(DEPOSITION_EFFICIENCY, gt=0.1, le=1.0,
-                                         description="Share of the wire fed that ends in the part")
-    bead_shape_factor: float = Field(BEAD_SHAPE_FACTOR, gt=0.3, le=1.0,
-                                     description="k in bead area = k·w·h (stated for the report; a stacked layer "
-                                                 "adds w·h, so the balance uses the part's volume)")
-    sample_mm: float | None = Field(None, gt=0.1, le=50, description="Sample spacing of the 3D coverage check, "
-                                    "mm; empty = a quarter bead width, coarsened to at most 200,000 samples")
+    deposition_efficiency: float = Field(
+        DEPOSITION_EFFICIENCY, gt=0.1, le=1.0, description="Share of the wire fed that ends in the part"
+    )
+    bead_shape_factor: float = Field(
+        BEAD_SHAPE_FACTOR,
+        gt=0.3,
+        le=1.0,
+        description="k in bead area = k·w·h (stated for the report; a stacked layer "
+        "adds w·h, so the balance uses the part's volume)",
+    )
+    sample_mm: float | None = Field(
+        None,
+        gt=0.1,
+        le=50,
+        description="Sample spacing of the 3D coverage check, "
+        "mm; empty = a quarter bead width, coarsened to at most 200,000 samples",
+    )
 
     @model_validator(mode="after")
     def _bands(self) -> "PreflightSettings":

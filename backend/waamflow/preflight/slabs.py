@@ -23,9 +23,8 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPolygon, Polygon
 
-MAX_PAIRS = 20_000_000   # (triangle, plane) pairs held at once; beyond, each plane scans the part
-TASKS_PER_WORKER = 4     # parallel: the layers are cut into this many tasks per worker
-
+MAX_PAIRS = 20_000_000  # (triangle, plane) pairs held at once; beyond, each plane scans the part
+TASKS_PER_WORKER = 4  # parallel: the layers are cut into this many tasks per worker
 
 
 class Workers(Protocol):
@@ -74,31 +73,32 @@ def plane_faces(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[float]) ->
     z = np.asarray(zs, dtype=float)
     rank = np.argsort(z, kind="stable")
     z_sorted = z[rank]
-    lo = np.searchsorted(z_sorted, zmin[order], side="left")     # first plane with z ≥ zmin
-    hi = np.searchsorted(z_sorted, zmax[order], side="right")    # past the last plane with z ≤ zmax
+    lo = np.searchsorted(z_sorted, zmin[order], side="left")  # first plane with z ≥ zmin
+    hi = np.searchsorted(z_sorted, zmax[order], side="right")  # past the last plane with z ≤ zmax
     counts = np.maximum(hi - lo, 0)
     total = int(counts.sum())
-    if total > MAX_PAIRS:       # huge triangles spanning many planes: one scan per plane
+    if total > MAX_PAIRS:  # huge triangles spanning many planes: one scan per plane
         zmin_sorted = zmin[order]
         out = []
         for zi in z:
             cand = order[: np.searchsorted(zmin_sorted, zi, side="right")]
             out.append(cand[zmax[cand] >= zi])
         return out
-    pos = np.repeat(np.arange(len(order)), counts)              # position in `order`, ascending
+    pos = np.repeat(np.arange(len(order)), counts)  # position in `order`, ascending
     first = np.cumsum(counts) - counts
-    plane = lo[pos] + (np.arange(total) - first[pos])           # the sorted plane each pair cuts
-    by_plane = np.argsort(plane, kind="stable")                 # positions stay ascending per plane
+    plane = lo[pos] + (np.arange(total) - first[pos])  # the sorted plane each pair cuts
+    by_plane = np.argsort(plane, kind="stable")  # positions stay ascending per plane
     pos, plane = pos[by_plane], plane[by_plane]
     bounds = np.searchsorted(plane, np.arange(len(z) + 1))
     out = [np.zeros(0, dtype=order.dtype)] * len(z)
     for r in range(len(z)):
-        out[int(rank[r])] = order[pos[bounds[r]:bounds[r + 1]]]
+        out[int(rank[r])] = order[pos[bounds[r] : bounds[r + 1]]]
     return out
 
 
-def cut_sections(vertices: np.ndarray, faces: np.ndarray, per_plane: Sequence[np.ndarray],
-                 zs: Sequence[float]) -> list[Any]:
+def cut_sections(
+    vertices: np.ndarray, faces: np.ndarray, per_plane: Sequence[np.ndarray], zs: Sequence[float]
+) -> list[Any]:
     """The sections at each z of the faces `per_plane` lists (shapely, even-odd): trimesh's
     `mesh_plane` on a slab mesh of those faces only (its vertices in ascending index order)."""
     import trimesh
@@ -139,8 +139,14 @@ def cover_slabs(task: SlabTask) -> list[LayerCover]:
     return [cover_layer(sec, p, task.width) for sec, p in zip(sections, task.paths)]
 
 
-def _sub_task(vertices: np.ndarray, faces: np.ndarray, per_plane: list[np.ndarray], zs: list[float],
-              paths: list[list[np.ndarray]], width: float) -> SlabTask:
+def _sub_task(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    per_plane: list[np.ndarray],
+    zs: list[float],
+    paths: list[list[np.ndarray]],
+    width: float,
+) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
     plane's slab mesh is the one the whole part gives."""
     # sorted unique faces and vertices by masks (what np.unique gives, without sorting the part)
@@ -164,18 +170,30 @@ def _spans(weights: np.ndarray, n: int) -> list[tuple[int, int]]:
     return list(zip(edges[:-1], edges[1:]))
 
 
-def cover_part(vertices: np.ndarray, faces: np.ndarray, zs: list[float], paths: list[list[np.ndarray]],
-               width: float, pool: Workers | None = None) -> list[LayerCover]:
+def cover_part(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    zs: list[float],
+    paths: list[list[np.ndarray]],
+    width: float,
+    pool: Workers | None = None,
+) -> list[LayerCover]:
     """Every layer's figures; with the run's workers, when the cost model says the work pays, in
     tasks of consecutive layers of about equal work (faces cut plus path points)."""
-    v = np.asarray(vertices, dtype=np.float64)     # what trimesh.Trimesh makes of them
+    v = np.asarray(vertices, dtype=np.float64)  # what trimesh.Trimesh makes of them
     f = np.asarray(faces, dtype=np.int64)
     per_plane = plane_faces(v, f, zs)
     n_cut = np.array([len(pf) for pf in per_plane], dtype=float)
     n_pts = np.array([sum(len(p) for p in ps) for ps in paths], dtype=float)
-    if pool is None or pool.count < 2 or len(zs) < 2 * pool.count or \
-            not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum())):
+    if (
+        pool is None
+        or pool.count < 2
+        or len(zs) < 2 * pool.count
+        or not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum()))
+    ):
         return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width))
-    tasks = [_sub_task(v, f, per_plane[a:b], list(zs[a:b]), paths[a:b], width)
-             for a, b in _spans(n_cut + n_pts + 1.0, pool.count * TASKS_PER_WORKER)]
+    tasks = [
+        _sub_task(v, f, per_plane[a:b], list(zs[a:b]), paths[a:b], width)
+        for a, b in _spans(n_cut + n_pts + 1.0, pool.count * TASKS_PER_WORKER)
+    ]
     return [c for got in pool.map(cover_slabs, tasks) for c in got]

@@ -67,10 +67,12 @@ class Loops:
         return len(self.plane)
 
     def loop(self, j: int) -> np.ndarray:
-        return self.coords[self.offsets[j]: self.offsets[j + 1]]
+        return self.coords[self.offsets[j] : self.offsets[j + 1]]
 
 
-def _pairs(zlo: np.ndarray, zhi: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _pairs(
+    zlo: np.ndarray, zhi: np.ndarray, heights: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(triangle, plane) index pairs for every plane a triangle crosses (z_min < h ≤ z_max);
     zlo, zhi: (m,) each triangle's lowest and highest corner.
 
@@ -102,12 +104,13 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     from scipy.sparse import csr_matrix  # lazy: keeps start-up light
     from scipy.sparse.csgraph import connected_components
+
     n = len(nxt)
     graph = csr_matrix((np.ones(n, dtype=np.int8), (np.arange(n), nxt)), shape=(n, n))
     n_cycles, label = connected_components(graph, directed=True, connection="weak")
     size = np.bincount(label, minlength=n_cycles)
     head = np.empty(n_cycles, dtype=np.int64)
-    head[label] = np.arange(n)                      # any element of each cycle
+    head[label] = np.arange(n)  # any element of each cycle
     longest = int(size.max())
     rounds = int(np.ceil(np.log2(max(longest, 2))))
     # cost model (2-core dev box): a lock-step costs ~6 µs of overhead, a jumping round ~25 ns
@@ -118,13 +121,13 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         sizes_desc = size[by_size]
         cur = head[by_size]
         for t in range(longest):
-            active = int(np.searchsorted(-sizes_desc, -t, side="left"))   # cycles longer than t
+            active = int(np.searchsorted(-sizes_desc, -t, side="left"))  # cycles longer than t
             cur = cur[:active]
             pos[cur] = t
             cur = np.take(nxt, cur)
         return label, pos, size
-    ptr = np.append(nxt.astype(np.int64), n)        # element n: sentinel, points to itself
-    ptr[:n][nxt == np.take(head, label)] = n        # the element before the head ends its list
+    ptr = np.append(nxt.astype(np.int64), n)  # element n: sentinel, points to itself
+    ptr[:n][nxt == np.take(head, label)] = n  # the element before the head ends its list
     rank = np.ones(n + 1, dtype=np.int64)
     rank[n] = 0
     for _ in range(rounds):
@@ -166,9 +169,9 @@ def _section_batch(v, f, fz, zlo, zhi, twin, heights, name):
         return np.zeros((0, 2)), z, z, z
     vz = v[:, 2]
     h = np.take(heights, plane)
-    above = np.take(fz, tri, axis=0) >= h[:, None]       # (s, 3) corner i above the plane
+    above = np.take(fz, tri, axis=0) >= h[:, None]  # (s, 3) corner i above the plane
     above_next = above[:, _NEXT_EDGE]
-    e_down = np.argmax(above & ~above_next, axis=1)      # edge i runs corner i → i+1
+    e_down = np.argmax(above & ~above_next, axis=1)  # edge i runs corner i → i+1
     e_up = np.argmax(~above & above_next, axis=1)
     del above, above_next
 
@@ -192,7 +195,7 @@ def _section_batch(v, f, fz, zlo, zhi, twin, heights, name):
     loop_plane[label] = plane
     loop_face = np.empty(len(size), dtype=np.int64)
     loop_face[label] = tri
-    loop_rank = np.argsort(loop_plane, kind="stable")        # loops sorted by plane
+    loop_rank = np.argsort(loop_plane, kind="stable")  # loops sorted by plane
     new_index = np.empty_like(loop_rank)
     new_index[loop_rank] = np.arange(len(loop_rank))
     sizes = size[loop_rank]
@@ -219,12 +222,15 @@ class MeshSections:
         self.n_vertices = int(n_vertices)
         twin = edge_twins(self.faces, self.n_vertices) if len(self.faces) else np.zeros(0, dtype=np.int64)
         if twin is None:
-            raise PlanningError(f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops")
+            raise PlanningError(
+                f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops"
+            )
         self.twin: np.ndarray = twin
         self._bodies: tuple[int, np.ndarray] | None = None
 
-    def loops(self, vertices: np.ndarray, heights: np.ndarray, *,
-              batch_segments: int = MAX_SEGMENTS_PER_BATCH) -> Loops:
+    def loops(
+        self, vertices: np.ndarray, heights: np.ndarray, *, batch_segments: int = MAX_SEGMENTS_PER_BATCH
+    ) -> Loops:
         heights = np.asarray(heights, dtype=np.float64)
         empty = Loops(np.zeros((0, 2)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
         if len(heights) == 0 or len(self.faces) == 0:
@@ -233,7 +239,7 @@ class MeshSections:
             raise ValueError("heights must be ascending")
         v = np.asarray(vertices, dtype=np.float64)
         f = self.faces
-        fz = np.take(v[:, 2], f)                             # (m, 3)
+        fz = np.take(v[:, 2], f)  # (m, 3)
         # column-wise: much faster than fz.min(axis=1) on (m, 3)
         zlo = np.minimum(np.minimum(fz[:, 0], fz[:, 1]), fz[:, 2])
         zhi = np.maximum(np.maximum(fz[:, 0], fz[:, 1]), fz[:, 2])
@@ -258,8 +264,14 @@ class MeshSections:
         return Loops(coords=coords, offsets=offsets, plane=plane, body=face_body[face], void=body_volume < 0)
 
 
-def section_loops(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, *, name: str = "mesh",
-                  batch_segments: int = MAX_SEGMENTS_PER_BATCH) -> Loops:
+def section_loops(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    heights: np.ndarray,
+    *,
+    name: str = "mesh",
+    batch_segments: int = MAX_SEGMENTS_PER_BATCH,
+) -> Loops:
     """Closed loops of a closed mesh cut by horizontal planes.
 
     vertices: (v, 3) float mm. faces: (m, 3) int, a closed consistently wound mesh.

@@ -65,7 +65,7 @@ class TopFit:
     nominal: float
     thickness: float
     action: str
-    limit: str = "the part's top"    # what `target` is: "the part's top" or "z_max"
+    limit: str = "the part's top"  # what `target` is: "the part's top" or "z_max"
 
     @property
     def gap(self) -> float:
@@ -104,17 +104,30 @@ def _g(x: float) -> str:
     return f"{round(float(x), 4):g}" if abs(x) < 1e5 else f"{x:.1f}"
 
 
-def _exact_error(end: float, base: float, last: float, listed: np.ndarray, layer_height: float,
-                 n_full: int, tol: float, end_name: str) -> PlanningError:
+def _exact_error(
+    end: float,
+    base: float,
+    last: float,
+    listed: np.ndarray,
+    layer_height: float,
+    n_full: int,
+    tol: float,
+    end_name: str,
+) -> PlanningError:
     """The PlanningError of `top: exact` when whole layers do not end on the top."""
     height = end - base
-    what = (f"the part is {_g(height)} mm tall (from {_g(base)} to its top at {_g(end)} mm)" if end_name != "z_max"
-            else f"the layers span {_g(height)} mm (from {_g(base)} to z_max {_g(end)} mm)")
-    if last > end + tol:     # the listed thicknesses alone pass the top
+    what = (
+        f"the part is {_g(height)} mm tall (from {_g(base)} to its top at {_g(end)} mm)"
+        if end_name != "z_max"
+        else f"the layers span {_g(height)} mm (from {_g(base)} to z_max {_g(end)} mm)"
+    )
+    if last > end + tol:  # the listed thicknesses alone pass the top
         return PlanningError(
             f"top 'exact': {what} and the listed "
             f"thicknesses pass its top: layer {n_full} would top at {_g(base + np.cumsum(listed)[n_full])} mm; "
-            f"shorten `thicknesses` or use top 'ceil'", layer=n_full)
+            f"shorten `thicknesses` or use top 'ceil'",
+            layer=n_full,
+        )
     span = end - last
     n = span / layer_height
     lo = int(np.floor(n + tol / layer_height))
@@ -126,7 +139,41 @@ def _exact_error(end: float, base: float, last: float, listed: np.ndarray, layer
         f"{_g(layer_height)} mm layers do not end on its top ({round(n, 4):g} layers; the last whole layer tops at "
         f"{_g(last + lo * layer_height)} mm, {_g(span - lo * layer_height)} mm below). Layer heights that fit: "
         f"{' or '.join(fits)}; or use top 'ceil' (last layer thinned or merged) or 'nearest'",
-        layer=n_full)
+        layer=n_full,
+    )
+
+
+def _checked_arguments(
+    layer_height: float, thicknesses: Sequence[float], top_policy: str, min_fraction: float, max_factor: float
+) -> np.ndarray:
+    """`layer_schedule`'s arguments checked (ValueError naming the bad one); the listed thicknesses."""
+    if not layer_height > 0:
+        raise ValueError(f"layer_height must be > 0 mm (got {layer_height})")
+    if top_policy not in ("ceil", "nearest", "exact"):
+        raise ValueError(f"top must be 'ceil', 'nearest' or 'exact' (got {top_policy!r})")
+    if not (0 < min_fraction <= 1 and max_factor >= 1):
+        raise ValueError(f"need 0 < min_fraction ≤ 1 and max_factor ≥ 1 (got {min_fraction}, {max_factor})")
+    listed = np.asarray(list(thicknesses), dtype=float)
+    if listed.size and not (listed > 0).all():
+        raise ValueError(f"thicknesses must all be > 0 mm (got {listed.tolist()})")
+    return listed
+
+
+def _top_fit(
+    policy: TopPolicy, end: float, tops: np.ndarray, thick: np.ndarray, action: str, limit: str, nominal: float
+) -> TopFit:
+    """How the last of the layers `tops`/`thick` meets the end: `layer_schedule`'s `fit`."""
+    i = len(tops) - 1
+    return TopFit(
+        policy=policy,
+        target=float(end),
+        reached=float(tops[i]),
+        layer=i,
+        nominal=nominal if action in ("thinned", "thickened", "overshoot") else float(thick[i]),
+        thickness=float(thick[i]),
+        action=action,
+        limit=limit,
+    )
 
 
 def layer_schedule(
@@ -153,15 +200,7 @@ def layer_schedule(
     layers land exactly on multiples of 1.5. Raises ValueError on bad arguments, PlanningError
     for `exact` when whole layers do not end on the top.
     """
-    if not layer_height > 0:
-        raise ValueError(f"layer_height must be > 0 mm (got {layer_height})")
-    if top_policy not in ("ceil", "nearest", "exact"):
-        raise ValueError(f"top must be 'ceil', 'nearest' or 'exact' (got {top_policy!r})")
-    if not (0 < min_fraction <= 1 and max_factor >= 1):
-        raise ValueError(f"need 0 < min_fraction ≤ 1 and max_factor ≥ 1 (got {min_fraction}, {max_factor})")
-    listed = np.asarray(list(thicknesses), dtype=float)
-    if listed.size and not (listed > 0).all():
-        raise ValueError(f"thicknesses must all be > 0 mm (got {listed.tolist()})")
+    listed = _checked_arguments(layer_height, thicknesses, top_policy, min_fraction, max_factor)
     tol = TOL.join
     base = (bottom if z_min is None else z_min) + start_offset
     end = top if z_max is None else min(top, z_max)
@@ -174,7 +213,7 @@ def layer_schedule(
     listed_tops = base + np.cumsum(listed)
     n_listed = int(np.searchsorted(listed_tops, end + tol, side="right"))
     last = listed_tops[-1] if listed.size else base
-    if n_listed < listed.size:              # the listed layers cross the end
+    if n_listed < listed.size:  # the listed layers cross the end
         n_uniform = 0
         prev = listed_tops[n_listed - 1] if n_listed else base
         nominal = float(listed[n_listed])
@@ -190,7 +229,7 @@ def layer_schedule(
     tops = np.concatenate([listed_tops[:n_listed], last + layer_height * np.arange(1, n_uniform + 1)])
     thick = np.concatenate([listed[:n_listed], np.full(n_uniform, float(layer_height))])
     cut_heights = None
-    rest = end - prev                        # in [−tol, nominal − tol)
+    rest = end - prev  # in [−tol, nominal − tol)
 
     if rest <= tol:
         action = "exact"
@@ -198,7 +237,7 @@ def layer_schedule(
         raise _exact_error(end, base, last, listed, float(layer_height), n_full, tol, limit)
     elif top_policy == "nearest":
         action = "nearest"
-        if prev + nominal / 2.0 < end:       # the old rule: a layer is kept while its cut is below the end
+        if prev + nominal / 2.0 < end:  # the old rule: a layer is kept while its cut is below the end
             tops, thick = np.append(tops, prev + nominal), np.append(thick, nominal)
     elif rest >= min_fraction * nominal - 1e-12:
         action = "thinned"
@@ -219,11 +258,12 @@ def layer_schedule(
     n_total = len(tops)
     if n_total == 0:
         return empty
-    i = n_total - 1
-    fit = TopFit(policy=top_policy, target=float(end), reached=float(tops[i]), layer=i,
-                 nominal=nominal if action in ("thinned", "thickened", "overshoot") else float(thick[i]),
-                 thickness=float(thick[i]),
-                 action=action, limit=limit)
+    fit = _top_fit(top_policy, end, tops, thick, action, limit, nominal)
     n = n_total if layer_count is None else min(n_total, int(layer_count))
-    return LayerSchedule(tops=tops[:n], thickness=thick[:n],
-                         cut_heights=None if cut_heights is None else cut_heights[:n], fit=fit, total=n_total)
+    return LayerSchedule(
+        tops=tops[:n],
+        thickness=thick[:n],
+        cut_heights=None if cut_heights is None else cut_heights[:n],
+        fit=fit,
+        total=n_total,
+    )

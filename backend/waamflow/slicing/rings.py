@@ -83,7 +83,7 @@ def _plane_pairs(plane: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[tuple[
     k = len(plane)
     starts = np.concatenate([[0], np.flatnonzero(plane[1:] != plane[:-1]) + 1])
     counts = np.diff(np.append(starts, k))
-    per_loop = np.repeat(counts, counts)                  # loops in the plane of each loop
+    per_loop = np.repeat(counts, counts)  # loops in the plane of each loop
     first_of = np.repeat(starts, counts)
     few = (per_loop > 1) & (per_loop <= _STRTREE_FROM)
     i = np.repeat(np.flatnonzero(few), per_loop[few])
@@ -116,8 +116,8 @@ def _containment_pairs(polys, probes, bbox, plane, group=None) -> tuple[np.ndarr
     inside = shapely.contains_xy(polys[container], probes[probe, 0], probes[probe, 1])
     pi, gi = [probe[inside]], [container[inside]]
     for a, n in crowded:
-        tree = shapely.STRtree(polys[a: a + n])
-        p_, g_ = tree.query(shapely.points(probes[a: a + n]), predicate="within")
+        tree = shapely.STRtree(polys[a : a + n])
+        p_, g_ = tree.query(shapely.points(probes[a : a + n]), predicate="within")
         m = p_ != g_
         if group is not None:
             m &= group[a + p_] == group[a + g_]
@@ -135,8 +135,8 @@ def _crossing_planes(rings, bbox, plane, body) -> np.ndarray:
     i, j = i[m], j[m]
     hit = [plane[i[shapely.intersects(rings[i], rings[j])]]]
     for a, n in crowded:
-        tree = shapely.STRtree(rings[a: a + n])
-        p_, g_ = tree.query(rings[a: a + n], predicate="intersects")
+        tree = shapely.STRtree(rings[a : a + n])
+        p_, g_ = tree.query(rings[a : a + n], predicate="intersects")
         cross = (p_ != g_) & (body[a + p_] != body[a + g_])
         hit.append(plane[a + p_[cross]])
     return np.unique(np.concatenate(hit))
@@ -154,11 +154,11 @@ def _unite(polys: np.ndarray, void: np.ndarray):
     solids, voids = polys[~void], polys[void]
     if len(voids):
         outlines = shapely.polygons(shapely.get_exterior_ring(solids))
-        holds = shapely.contains(outlines[:, None], voids[None, :])          # [solid, void]
-        solids = np.array([
-            s.difference(shapely.union_all(voids[holds[i]])) if holds[i].any() else s
-            for i, s in enumerate(solids)
-        ], dtype=object)
+        holds = shapely.contains(outlines[:, None], voids[None, :])  # [solid, void]
+        solids = np.array(
+            [s.difference(shapely.union_all(voids[holds[i]])) if holds[i].any() else s for i, s in enumerate(solids)],
+            dtype=object,
+        )
     return as_multipolygon(region_polygons(shapely.union_all(solids)))
 
 
@@ -170,7 +170,7 @@ def _nesting(polys, probes, bbox, plane, areas, group=None) -> tuple[np.ndarray,
     depth = np.bincount(pi, minlength=k)
     parent = np.full(k, -1)
     if len(pi):
-        o = np.lexsort((areas[gi], pi))                 # innermost container: the smallest one
+        o = np.lexsort((areas[gi], pi))  # innermost container: the smallest one
         pi, gi = pi[o], gi[o]
         firsts = np.concatenate([[True], pi[1:] != pi[:-1]])
         parent[pi[firsts]] = gi[firsts]
@@ -190,10 +190,14 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
     starts = np.concatenate([[0], np.flatnonzero(lid[1:] != lid[:-1]) + 1])
     probes = coords[starts]
 
-    bbox = np.column_stack([
-        np.minimum.reduceat(coords[:, 0], starts), np.minimum.reduceat(coords[:, 1], starts),
-        np.maximum.reduceat(coords[:, 0], starts), np.maximum.reduceat(coords[:, 1], starts),
-    ])
+    bbox = np.column_stack(
+        [
+            np.minimum.reduceat(coords[:, 0], starts),
+            np.minimum.reduceat(coords[:, 1], starts),
+            np.maximum.reduceat(coords[:, 0], starts),
+            np.maximum.reduceat(coords[:, 1], starts),
+        ]
+    )
     # where loops of different bodies cross, nest each body on its own and unite them after
     crossing = np.zeros(0, dtype=np.int64)
     group = None
@@ -203,13 +207,13 @@ def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
         group = np.where(np.isin(plane, crossing), body, -1)
     depth, parent = _nesting(shapely.polygons(rings), probes, bbox, plane, area, group)
     is_shell = depth % 2 == 0
-    owner = np.where(is_shell, np.arange(k), parent)     # the shell each loop belongs to
+    owner = np.where(is_shell, np.arange(k), parent)  # the shell each loop belongs to
 
     shell_ids = np.flatnonzero(is_shell)
     poly_of_shell = np.empty(k, dtype=np.int64)
     poly_of_shell[shell_ids] = np.arange(len(shell_ids))
     poly_index = poly_of_shell[owner]
-    order = np.lexsort((~is_shell, poly_index))          # per polygon: shell first, then holes
+    order = np.lexsort((~is_shell, poly_index))  # per polygon: shell first, then holes
     polys = shapely.polygons(rings[order], indices=poly_index[order])
     polys = shapely.orient_polygons(polys, exterior_cw=False)
     poly_plane = plane[shell_ids]

@@ -19,7 +19,7 @@ from .planar import section_loops
 from .planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION, LayerSchedule, TopPolicy, layer_schedule
 from .rings import loops_to_regions
 
-if TYPE_CHECKING:   # imported where used: keeps `waamflow nodes` light
+if TYPE_CHECKING:  # imported where used: keeps `waamflow nodes` light
     import trimesh
 
 
@@ -100,10 +100,16 @@ def slice_surface(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | Non
     (open or closed polylines, as a sketch gives), its region empty."""
     import trimesh
 
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)     # built once for every plane
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)  # built once for every plane
     return tuple(
-        Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=surface_curves(tm, float(cut)),
-              frame=_layer_frame(rot, float(z)))
+        Layer(
+            index=i,
+            z=float(z),
+            thickness=float(t),
+            region=MultiPolygon(),
+            curves=surface_curves(tm, float(cut)),
+            frame=_layer_frame(rot, float(z)),
+        )
         for i, (z, t, cut) in enumerate(zip(schedule.tops, schedule.thickness, schedule.cuts))
     )
 
@@ -115,8 +121,16 @@ def slice_midsurface(mid: Midsurface, schedule: LayerSchedule) -> tuple[Layer, .
     layers = []
     for i, (z, t, cut) in enumerate(zip(schedule.tops, schedule.thickness, schedule.cuts)):
         inside = lo < cut <= hi
-        layers.append(Layer(index=i, z=float(z), thickness=float(t), region=MultiPolygon(), curves=curves if inside else (),
-                            joints=tuple(mid.joints) if inside else ()))
+        layers.append(
+            Layer(
+                index=i,
+                z=float(z),
+                thickness=float(t),
+                region=MultiPolygon(),
+                curves=curves if inside else (),
+                joints=tuple(mid.joints) if inside else (),
+            )
+        )
     return tuple(layers)
 
 
@@ -142,9 +156,18 @@ def slice_part(
     the schedule (with its `fit`).
     """
     return slice_part_scheduled(
-        part, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
-        layer_count=layer_count, z_min=z_min, z_max=z_max, direction=direction, top=top,
-        min_fraction=min_fraction, max_factor=max_factor)[0]
+        part,
+        layer_height=layer_height,
+        thicknesses=thicknesses,
+        start_offset=start_offset,
+        layer_count=layer_count,
+        z_min=z_min,
+        z_max=z_max,
+        direction=direction,
+        top=top,
+        min_fraction=min_fraction,
+        max_factor=max_factor,
+    )[0]
 
 
 def slice_part_scheduled(
@@ -166,12 +189,21 @@ def slice_part_scheduled(
     if rot is not None:
         if isinstance(part, Midsurface):
             raise ValueError("a sketch (midsurface) is extruded along +Z: slice it with direction [0, 0, 1]")
-        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name,
-                        surface=part.surface)
+        part = MeshData(
+            vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name, surface=part.surface
+        )
     bottom, top_z = part_z_range(part)
     schedule = layer_schedule(
-        bottom, top_z, layer_height=layer_height, thicknesses=thicknesses, start_offset=start_offset,
-        layer_count=layer_count, z_min=z_min, z_max=z_max, top_policy=top, min_fraction=min_fraction,
+        bottom,
+        top_z,
+        layer_height=layer_height,
+        thicknesses=thicknesses,
+        start_offset=start_offset,
+        layer_count=layer_count,
+        z_min=z_min,
+        z_max=z_max,
+        top_policy=top,
+        min_fraction=min_fraction,
         max_factor=max_factor,
     )
     if isinstance(part, Midsurface):
@@ -181,13 +213,15 @@ def slice_part_scheduled(
     return slice_mesh(part, schedule, rot), schedule
 
 
-def empty_layers_inside(layers: Sequence[Layer], part: MeshData | Midsurface,
-                        direction: Sequence[float] = Z_UP) -> list[int]:
+def empty_layers_inside(
+    layers: Sequence[Layer], part: MeshData | Midsurface, direction: Sequence[float] = Z_UP
+) -> list[int]:
     """Indices of layers without geometry whose cutting plane lies strictly inside the part."""
     rot = build_rotation(direction)
     if rot is not None and isinstance(part, MeshData):
-        part = MeshData(vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name,
-                        surface=part.surface)
+        part = MeshData(
+            vertices=np.asarray(part.vertices) @ rot.T, faces=part.faces, name=part.name, surface=part.surface
+        )
     lo, hi = part_z_range(part)
     out = []
     for layer in layers:

@@ -22,8 +22,22 @@ from .rapid import rapid_in_call_order, read_rapid
 from .tables import read_cl_csv, read_printpoints, read_toolpath
 from .tp import read_tp
 
-__all__ = ["NUM", "ProgramRead", "Run", "RunBuilder", "rapid_in_call_order", "read_cl_csv", "read_gcode",
-           "read_inform", "read_krl", "read_printpoints", "read_program", "read_rapid", "read_toolpath", "read_tp"]
+__all__ = [
+    "NUM",
+    "ProgramRead",
+    "Run",
+    "RunBuilder",
+    "rapid_in_call_order",
+    "read_cl_csv",
+    "read_gcode",
+    "read_inform",
+    "read_krl",
+    "read_printpoints",
+    "read_program",
+    "read_rapid",
+    "read_toolpath",
+    "read_tp",
+]
 
 
 def read_program(fmt: str, files: dict[str, str]) -> ProgramRead:

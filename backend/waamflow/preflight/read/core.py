@@ -40,8 +40,8 @@ class ProgramRead:
     format: str
     runs: list[Run] = field(default_factory=list)
     travel_mm: float = 0.0
-    notes: list[str] = field(default_factory=list)   # what the reader could not interpret
-    weld_commanded: bool = True                      # False: the format carries no weld data at all
+    notes: list[str] = field(default_factory=list)  # what the reader could not interpret
+    weld_commanded: bool = True  # False: the format carries no weld data at all
 
 
 class RunBuilder:
@@ -52,7 +52,7 @@ class RunBuilder:
         self.layer: int | None = None
         self.section: str | None = None
         self.pts: list | None = None
-        self.started = False                  # pts[0] is a finite position (kept with pts[0]: move_to tests it per motion)
+        self.started = False  # pts[0] is a finite position (kept with pts[0]: move_to tests it per motion)
         self.speed: list[float] = []
         self.wfs: list[float] = []
         self.weld: list[bool] = []
@@ -60,7 +60,7 @@ class RunBuilder:
         self.run_layer: int | None = None
         self.run_section: str | None = None
         self.pos: np.ndarray | None = None
-        self.pending: str | None = None       # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
+        self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
 
     def comment(self, text: str) -> None:
         m = _LAYER.search(text)
@@ -79,15 +79,23 @@ class RunBuilder:
 
     def close(self) -> None:
         if self.pts is not None and len(self.pts) > 1 and np.isfinite(self.pts[0]).all():
-            self.out.runs.append(Run(np.asarray(self.pts, float), np.asarray(self.speed, float),
-                                     np.asarray(self.wfs, float), np.asarray(self.weld, bool),
-                                     self.run_layer, self.run_section, self.line))
+            self.out.runs.append(
+                Run(
+                    np.asarray(self.pts, float),
+                    np.asarray(self.speed, float),
+                    np.asarray(self.wfs, float),
+                    np.asarray(self.weld, bool),
+                    self.run_layer,
+                    self.run_section,
+                    self.line,
+                )
+            )
         self.pts = None
 
     def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
         targets = np.atleast_2d(np.asarray(targets, float))
         if self.pts is not None:
-            if not np.isfinite(self.pts[0]).all():    # arc on before any position: start where it first moves
+            if not np.isfinite(self.pts[0]).all():  # arc on before any position: start where it first moves
                 self.pts = [targets[0]]
                 self.started = bool(np.isfinite(targets[0]).all())
                 targets = targets[1:]

@@ -12,8 +12,10 @@ from ...program.common import parse_weld_tag, template_regex
 from .core import NUM, ProgramRead, RunBuilder
 
 _GWORD = re.compile(r"([A-Z])\s*(" + NUM + ")")
-_POST_TAG = re.compile(r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
-                       r"(?:\s+feed_units=(mm/min|mm/s))?")
+_POST_TAG = re.compile(
+    r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
+    r"(?:\s+feed_units=(mm/min|mm/s))?"
+)
 
 
 def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float, str]]]:
@@ -21,8 +23,10 @@ def _weld_templates(text: str) -> dict[str, list[tuple[re.Pattern, float, str]]]
     literal text before its first field: a line without it cannot match), from the program's
     `waamflow-weld:` header lines (the format `program.common` documents: a reader of the declared
     syntax, scales `name[unit]*k=` included)."""
-    return {name: [(template_regex(t), e["scale"], t.split("{", 1)[0]) for t in e["commands"] if "{" in t]
-            for name, e in parse_weld_tag(text).items()}
+    return {
+        name: [(template_regex(t), e["scale"], t.split("{", 1)[0]) for t in e["commands"] if "{" in t]
+        for name, e in parse_weld_tag(text).items()
+    }
 
 
 def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> np.ndarray:

@@ -80,7 +80,7 @@ def _krl_header(srcs: dict[str, str], by_def: dict[str, str]) -> _KrlHeader:
     if m:
         for ch, name in re.findall(r"(\d+)\s+(\w+)", m.group(1)):
             channels[int(ch)] = name
-    anout: dict[str, str] = {}      # `$ANOUT[n]` → parameter, from the header's waamflow-weld tag
+    anout: dict[str, str] = {}  # `$ANOUT[n]` → parameter, from the header's waamflow-weld tag
     for name, e in parse_weld_tag(header).items():
         for tpl in e["commands"]:
             a = _ANOUT_TAG.search(tpl)
@@ -114,8 +114,9 @@ class _KrlReader:
             if code:
                 self.statement(name, depth, ln, code, pts, wdats)
 
-    def statement(self, name: str, depth: int, ln: int, code: str, pts: dict[str, np.ndarray],
-                  wdats: dict[str, dict[str, float]]) -> None:
+    def statement(
+        self, name: str, depth: int, ln: int, code: str, pts: dict[str, np.ndarray], wdats: dict[str, dict[str, float]]
+    ) -> None:
         """One statement of file `name` (line ln): a call, a setting, an arc switch or a motion."""
         b, state, by_def, out_no = self.b, self.state, self.by_def, self.head.out_no
         up = code.upper()
@@ -128,14 +129,14 @@ class _KrlReader:
             state.vel = float(v.group(1)) * 1000.0
             return
         a = re.match(r"(?:TRIGGER\s+WHEN\s+DISTANCE\s*=\s*0\b.*\bDO\s+)?\$ANOUT\[(\d+)\]\s*=\s*(" + NUM + ")", up)
-        if a and a.group(1) in self.head.anout:   # a statement, or path-triggered at the next motion's start
+        if a and a.group(1) in self.head.anout:  # a statement, or path-triggered at the next motion's start
             state.values[self.head.anout[a.group(1)]] = float(a.group(2))
             return
         trig = re.match(r"TRIGGER\s+WHEN\s+DISTANCE\s*=\s*([01])\b.*\bDO\s+\$OUT\[(\d+)\]\s*=\s*(TRUE|FALSE)", up)
         if out_no and trig and trig.group(2) == out_no:
-            if trig.group(1) == "0":          # at the start of the next motion
+            if trig.group(1) == "0":  # at the start of the next motion
                 (b.arc_on(ln) if trig.group(3) == "TRUE" else b.close())
-            else:                             # at its end
+            else:  # at its end
                 b.line = ln
                 b.pending = "on" if trig.group(3) == "TRUE" else "off"
             return
@@ -160,8 +161,16 @@ class _KrlReader:
         if mv:
             self.motion(name, ln, mv.group(1), mv.group(2), mv.group(3), pts, wdats)
 
-    def motion(self, name: str, ln: int, kind: str, p1: str, p2: str | None, pts: dict[str, np.ndarray],
-               wdats: dict[str, dict[str, float]]) -> None:
+    def motion(
+        self,
+        name: str,
+        ln: int,
+        kind: str,
+        p1: str,
+        p2: str | None,
+        pts: dict[str, np.ndarray],
+        wdats: dict[str, dict[str, float]],
+    ) -> None:
         """LIN/PTP to p1, or CIRC through p1 to p2, with the weld values in force."""
         if p1 not in pts or (kind == "CIRC" and p2 not in pts):
             self.b.out.notes.append(f"{name} line {ln}: target {p1} not declared in the .dat")
@@ -192,5 +201,7 @@ def read_krl(files: dict[str, str]) -> ProgramRead:
     reader.walk(head.main)
     reader.b.close()
     if not head.channels and not head.anout:
-        reader.b.out.notes.append("no weld channels or analog outputs named in the header: the program commands no weld parameter")
+        reader.b.out.notes.append(
+            "no weld channels or analog outputs named in the header: the program commands no weld parameter"
+        )
     return reader.b.out

@@ -12,11 +12,16 @@ import numpy as np
 from ...program.common import WELD_COMMANDED
 from .core import NUM, ProgramRead, RunBuilder
 
-_ROBT = re.compile(r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\]",
-                   re.IGNORECASE)
+_ROBT = re.compile(
+    r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\]", re.IGNORECASE
+)
 _SPEED = re.compile(r"speeddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + ")", re.IGNORECASE)
-_WELD = re.compile(r"welddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*\[([^\]]*)\]", re.IGNORECASE)
-_RAPID_MOVE = re.compile(r"^\s*(MoveL|MoveJ|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCStart|ArcCEnd)\s+(.*?);", re.IGNORECASE)
+_WELD = re.compile(
+    r"welddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*\[([^\]]*)\]", re.IGNORECASE
+)
+_RAPID_MOVE = re.compile(
+    r"^\s*(MoveL|MoveJ|MoveC|ArcLStart|ArcL|ArcLEnd|ArcC|ArcCStart|ArcCEnd)\s+(.*?);", re.IGNORECASE
+)
 _ARCDATA_DEFAULT = ("job", "mode", "voltage", "wire_feed_speed", "control", "current")
 
 
@@ -34,14 +39,26 @@ def read_rapid(text: str) -> ProgramRead:
     fields: tuple[str, ...] = _ARCDATA_DEFAULT
     m = re.search(r"arcdata\s*=\s*\[([^\]]*)\]", text)
     if m:
-        fields = tuple(("wire_feed_speed" if "wirefeed" in f else "current" if "current" in f else
-                        "voltage" if "voltage" in f and "2" not in f else "job" if "job" in f else f.strip())
-                       for f in m.group(1).split(","))
+        fields = tuple(
+            (
+                "wire_feed_speed"
+                if "wirefeed" in f
+                else "current"
+                if "current" in f
+                else "voltage"
+                if "voltage" in f and "2" not in f
+                else "job"
+                if "job" in f
+                else f.strip()
+            )
+            for f in m.group(1).split(",")
+        )
     welds: dict[str, _RapidWeld] = {}
     for name, speed, _org, main in _WELD.findall(text):
         numbers = [float(v) for v in re.findall(NUM, main)]
-        welds[name.lower()] = _RapidWeld(float(speed), {f: v for f, v in zip(fields, numbers)
-                                                        if f in WELD_COMMANDED and v != 0.0})
+        welds[name.lower()] = _RapidWeld(
+            float(speed), {f: v for f, v in zip(fields, numbers) if f in WELD_COMMANDED and v != 0.0}
+        )
     b = RunBuilder("rapid")
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition("!")
@@ -63,10 +80,10 @@ def read_rapid(text: str) -> ProgramRead:
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
         if weld is not None and weld.speed:
-            speed = weld.speed                  # ArcWare: the weld speed of welddata governs the weld
+            speed = weld.speed  # ArcWare: the weld speed of welddata governs the weld
         vals = dict(weld.values) if weld is not None else {}
         if instr in ("arclstart", "arccstart"):
-            b.move(seg, math.nan, math.nan, False)   # moves to the start, the arc strikes there
+            b.move(seg, math.nan, math.nan, False)  # moves to the start, the arc strikes there
             b.arc_on(ln)
             continue
         b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))

@@ -10,6 +10,7 @@ import numpy as np
 
 from .core import ProgramRead, RunBuilder
 
+
 def read_cl_csv(text: str) -> ProgramRead:
     lines = [ln for ln in text.splitlines() if ln and not ln.startswith("#")]
     head = lines[0].split(",")
@@ -33,8 +34,12 @@ def read_cl_csv(text: str) -> ProgramRead:
             b.close()
         sp = f[col["speed_mm_s"]].strip()
         w = f[col[wfs_col]].strip() if wfs_col else ""
-        b.move(p[None], float(sp) if sp else math.nan, float(w) if w else math.nan,
-               any(f[col[c]].strip() for c in weld_cols))
+        b.move(
+            p[None],
+            float(sp) if sp else math.nan,
+            float(w) if w else math.nan,
+            any(f[col[c]].strip() for c in weld_cols),
+        )
         arc_prev = arc
     b.close()
     return b.out
@@ -42,8 +47,13 @@ def read_cl_csv(text: str) -> ProgramRead:
 
 def read_printpoints(text: str) -> ProgramRead:
     data = json.loads(text)
-    entries = data if isinstance(data, list) else [data[k] for k in sorted(data, key=lambda s: int(s))] \
-        if all(str(k).isdigit() for k in data) else data.get("points", [])
+    entries = (
+        data
+        if isinstance(data, list)
+        else [data[k] for k in sorted(data, key=lambda s: int(s))]
+        if all(str(k).isdigit() for k in data)
+        else data.get("points", [])
+    )
     b = RunBuilder("printpoints")
     b.out.weld_commanded = any("wire_feed_speed" in e for e in entries)
     on = False
@@ -51,7 +61,7 @@ def read_printpoints(text: str) -> ProgramRead:
         p = np.asarray(e["point"], float)
         b.layer = e.get("layer", b.layer)
         b.section = e.get("section", b.section)
-        toggle = bool(e.get("extruder_toggle"))      # the arc is on during the motion *to* this point
+        toggle = bool(e.get("extruder_toggle"))  # the arc is on during the motion *to* this point
         if toggle and not on:
             b.arc_on(i)
             on = True
@@ -88,8 +98,12 @@ def read_toolpath(doc: dict) -> ProgramRead:
                     b.close()
                 params = zp.get(zones[i], {}) if i < len(zones) else {}
                 w = params.get("wire_feed_speed")
-                b.move(pts[i + 1][None], float(speeds[i]) if i < len(speeds) else math.nan,
-                       float(w) if w is not None else math.nan, bool(params))
+                b.move(
+                    pts[i + 1][None],
+                    float(speeds[i]) if i < len(speeds) else math.nan,
+                    float(w) if w is not None else math.nan,
+                    bool(params),
+                )
             b.close()
     b.out.weld_commanded = False
     return b.out

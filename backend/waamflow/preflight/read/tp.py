@@ -15,8 +15,9 @@ _TP_LINE = re.compile(r"^\s*\d+:(.*?);\s*$")
 _TP_CALL = re.compile(r"^CALL\s+(\w+)")
 _TP_MOVE = re.compile(r"^[LJ]\s+P\[(\d+)\]\s+(" + NUM + r")(mm/sec|cm/min)\b")
 _TP_ARC = re.compile(r"^Arc (Start|End)\[(\d+)\]")
-_TP_POS = re.compile(r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*("
-                     + NUM + r")\s*mm", re.DOTALL)
+_TP_POS = re.compile(
+    r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*(" + NUM + r")\s*mm", re.DOTALL
+)
 _TP_SPEED = {"mm/sec": 1.0, "cm/min": 10.0 / 60.0}
 
 
@@ -59,8 +60,10 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
     vals: dict[str, float] = {}
     line_no = 0
     for text in order:
-        pos = {int(k): np.array([float(x), float(y), float(z)])
-               for k, x, y, z in _TP_POS.findall(text.split("\n/POS\n", 1)[-1])}
+        pos = {
+            int(k): np.array([float(x), float(y), float(z)])
+            for k, x, y, z in _TP_POS.findall(text.split("\n/POS\n", 1)[-1])
+        }
         for ln in body(text):
             line_no += 1
             if ln.startswith("!"):
