@@ -285,12 +285,8 @@ def cmd_openapi(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="waamflow", description="Node-graph CAM for Wire + Arc Additive Manufacturing")
-    p.add_argument("--version", action="version", version=f"waamflow {__version__}")
-    p.add_argument("--debug", action="store_true", help="print tracebacks of internal errors")
-    sub = p.add_subparsers(dest="cmd", required=True)
-
+def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """The `run` command: a recipe headless, its artifacts written."""
     r = sub.add_parser("run", help="run a recipe headless and write its artifacts")
     r.add_argument("recipe", help="recipe JSON file (graphs/*.json)")
     r.add_argument("--out", help="output folder (default out/<recipe name>/)")
@@ -324,13 +320,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="send the layers to this Dask scheduler instead of local processes "
         "(default: WAAMFLOW_SCHEDULER; see README 'Dask cluster')",
     )
-    n = sub.add_parser("nodes", help="print the node catalog as JSON")
-    n.add_argument("--type", help="only this node type")
-    n.set_defaults(func=cmd_nodes)
 
-    pr = sub.add_parser("profiles", help="print the machine profiles (post-process 'profile' presets) as JSON")
-    pr.set_defaults(func=cmd_profiles)
 
+def _add_serve(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """The `serve` command: the web server and its limits."""
     s = sub.add_parser("serve", help="start the web server (GUI, REST API, 3D preview)")
     s.add_argument(
         "--host",
@@ -399,6 +392,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.set_defaults(func=cmd_serve)
 
+
+def _add_backup_restore(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """The `backup` and `restore` commands of the server's data folder."""
     b = sub.add_parser("backup", help="back up the server's database (online, safe while it runs) and run files")
     b.add_argument("dir", help="new folder for the backup")
     b.add_argument(
@@ -418,6 +414,9 @@ def build_parser() -> argparse.ArgumentParser:
     rs.add_argument("--force", action="store_true", help="replace the existing database instead of keeping it aside")
     rs.set_defaults(func=cmd_restore)
 
+
+def _add_build_sim(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """The `build-sim` command: open and closed loop in the process simulator."""
     bs = sub.add_parser(
         "build-sim",
         help="build a recipe in the process simulator, open and closed loop "
@@ -429,6 +428,25 @@ def build_parser() -> argparse.ArgumentParser:
     bs.add_argument("--mode", choices=("both", "open", "closed"), default="both")
     bs.add_argument("--seed", type=int, default=1, help="random seed of the simulated noise")
     bs.set_defaults(func=cmd_build_sim)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="waamflow", description="Node-graph CAM for Wire + Arc Additive Manufacturing")
+    p.add_argument("--version", action="version", version=f"waamflow {__version__}")
+    p.add_argument("--debug", action="store_true", help="print tracebacks of internal errors")
+    sub = p.add_subparsers(dest="cmd", required=True)
+
+    _add_run(sub)
+    n = sub.add_parser("nodes", help="print the node catalog as JSON")
+    n.add_argument("--type", help="only this node type")
+    n.set_defaults(func=cmd_nodes)
+
+    pr = sub.add_parser("profiles", help="print the machine profiles (post-process 'profile' presets) as JSON")
+    pr.set_defaults(func=cmd_profiles)
+
+    _add_serve(sub)
+    _add_backup_restore(sub)
+    _add_build_sim(sub)
 
     o = sub.add_parser("openapi", help="print the REST API's OpenAPI schema")
     o.set_defaults(func=cmd_openapi)
