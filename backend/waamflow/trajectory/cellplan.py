@@ -35,15 +35,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin, xyz3
-from .collide import BEAD_HALF_MM
+
+# the suggested cell changes moved to trajectory.cellchanges (issue 27): still importable from here
+from .cellchanges import BASE_SHIFTS_MM as BASE_SHIFTS_MM
+from .cellchanges import RISERS_MM as RISERS_MM
+from .cellchanges import TORCH_EXTENSIONS_MM as TORCH_EXTENSIONS_MM
+from .cellchanges import modified_cell as modified_cell
+from .cellchanges import suggest_changes
 
 PLAN_LIMIT_MARGIN_DEG = 2.0  # a planned pose keeps every arm joint this far inside its limits
 PLAN_CLEARANCE_MM = 2.0  # ... and every body this far from the others
 LEAN_STEP_DEG = 5.0
 E2_STEPS_DEG = tuple(d for k in range(1, 13) for d in (15.0 * k, -15.0 * k))
-RISERS_MM = (50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 400.0)
-TORCH_EXTENSIONS_MM = (100.0, 200.0)
-BASE_SHIFTS_MM = (100.0, 200.0, 300.0, 400.0, 600.0)
 
 
 @dataclass(frozen=True)
@@ -347,33 +350,12 @@ def plan_auto(
     layers = sorted(set(seg_layer.tolist()))
     # every layer's normal first: a layer the positioner cannot bring within the flat tolerance
     # fails before any IK (the lean this cell cannot remove)
-    info, prev = {}, fixed.copy()
-    for L in layers:
-        segs = np.flatnonzero((seg_layer == L) & arc)
-        if len(segs) == 0:
-            segs = np.flatnonzero(seg_layer == L)
-        nrm = -pl.A[segs].mean(axis=0)
-        nrm /= max(np.linalg.norm(nrm), 1e-12)
-        e, tilt = pl.best_tilt(nrm, prev)
-        info[L] = (segs, nrm, tilt)
-        prev = e
+    info = _layer_normals(pl, layers, fixed)
     plan = AutoPlan(np.tile(fixed, (n, 1)), pl.A.copy())
     steep = [L for L in layers if info[L][2] > limits.flat_tol_deg + 1e-6]
     if steep:
-        worst = max(steep, key=lambda L: info[L][2])
         plan.ok = False
-        plan.failed = {
-            "layer": int(steep[0]),
-            "reason": "flat",
-            "layers": _ranges(steep),
-            "lean_deg": round(info[worst][2], 2),
-            "worst_layer": int(worst),
-            "message": (
-                f"this cell's positioner cannot turn layers {_ranges(steep)} within "
-                f"{limits.flat_tol_deg:g}° of flat: they keep up to {info[worst][2]:.1f}° of lean "
-                f"(layer {worst})"
-            ),
-        }
+        plan.failed = _flat_failure(steep, info, limits)
     else:
         chosen: dict[int, tuple] = {}
         prev, q_seed, last = fixed.copy(), arm.home.copy(), None
@@ -395,24 +377,7 @@ def plan_auto(
                     best = (stage, e, lean, d, note, res, None)
             if best is None or best[6] is None:
                 plan.ok = False
-                why = _why(best[5]) if best else "no angles inside the axis limits"
-                plan.failed = {
-                    "layer": int(L),
-                    "reason": "no candidate",
-                    "tried": tried,
-                    "best": None
-                    if best is None
-                    else {
-                        "stage": best[0],
-                        "e_deg": [round(float(v), 3) for v in best[1]],
-                        "lean_deg": best[2],
-                        "lean_dir_deg": best[3],
-                        "note": best[4],
-                        **best[5],
-                    },
-                    "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
-                    + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° ({why})" if best else why),
-                }
+                plan.failed = _no_candidate(L, tried, best)
                 break
             stage, e, lean, d, note, res, q_end = best
             chosen[L] = (e, lean, d)
@@ -448,6 +413,64 @@ def plan_auto(
     return plan
 
 
+def _layer_normals(pl: _Planner, layers: list, fixed: np.ndarray) -> dict:
+    """Per layer (in build order): its welding segments (all its segments when it has none), its
+    mean normal and the lean from flat (deg) the best positioner angles leave it, each layer's
+    angles sought from the previous layer's."""
+    seg_layer, arc = pl.seg_layer, pl.arc
+    info, prev = {}, fixed.copy()
+    for L in layers:
+        segs = np.flatnonzero((seg_layer == L) & arc)
+        if len(segs) == 0:
+            segs = np.flatnonzero(seg_layer == L)
+        nrm = -pl.A[segs].mean(axis=0)
+        nrm /= max(np.linalg.norm(nrm), 1e-12)
+        e, tilt = pl.best_tilt(nrm, prev)
+        info[L] = (segs, nrm, tilt)
+        prev = e
+    return info
+
+
+def _flat_failure(steep: list, info: dict, limits: AutoLimits) -> dict:
+    """The plan's `failed` entry for the layers no positioner angle brings within the flat tolerance."""
+    worst = max(steep, key=lambda L: info[L][2])
+    return {
+        "layer": int(steep[0]),
+        "reason": "flat",
+        "layers": _ranges(steep),
+        "lean_deg": round(info[worst][2], 2),
+        "worst_layer": int(worst),
+        "message": (
+            f"this cell's positioner cannot turn layers {_ranges(steep)} within "
+            f"{limits.flat_tol_deg:g}° of flat: they keep up to {info[worst][2]:.1f}° of lean "
+            f"(layer {worst})"
+        ),
+    }
+
+
+def _no_candidate(L, tried: int, best: tuple | None) -> dict:
+    """The plan's `failed` entry for layer L when none of its `tried` candidates passes, with the
+    best compromise (stage, angles, lean, lean direction, note, check result), if any."""
+    why = _why(best[5]) if best else "no angles inside the axis limits"
+    return {
+        "layer": int(L),
+        "reason": "no candidate",
+        "tried": tried,
+        "best": None
+        if best is None
+        else {
+            "stage": best[0],
+            "e_deg": [round(float(v), 3) for v in best[1]],
+            "lean_deg": best[2],
+            "lean_dir_deg": best[3],
+            "note": best[4],
+            **best[5],
+        },
+        "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
+        + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° ({why})" if best else why),
+    }
+
+
 def _apply(plan: AutoPlan, pl: _Planner, chosen: dict) -> None:
     """Per point: the angles and leaned torch axis of the segment it ends (arc ON), else starts."""
     n = len(pl.P)
@@ -470,152 +493,3 @@ def _ranges(v: list[int]) -> str:
         out.append(f"{v[i]}" if i == j else f"{v[i]}..{v[j]}")
         i = j + 1
     return ", ".join(out)
-
-
-def suggest_changes(
-    cell: Cell, moves, arm, limits, step_mm, step_deg, collision_step_mm, collisions, failed: dict | None = None
-) -> list[dict]:
-    """Cell changes whose `auto` plan passes every layer (each re-planned from scratch); per kind
-    the smallest that works."""
-    from .cell import load_cell, shipped_cells
-    from .kinematics import load_arm
-
-    out = []
-    base = cell.model_dump(mode="json")
-
-    def works(data: dict, arm_=None) -> bool:
-        c = Cell.model_validate(data)
-        c._meshes = cell._meshes
-        a = arm_ or arm
-        args = (c, moves, a, limits, step_mm, step_deg, collision_step_mm, collisions)
-        if (
-            failed is not None
-            and failed.get("reason") == "no candidate"
-            and not plan_auto(*args, suggest=False, only=failed["layer"], quick=True).ok
-        ):
-            return False  # the layer that failed still fails: no need for the whole plan
-        return plan_auto(*args, suggest=False).ok
-
-    if cell.axes == 1:
-        for yaw in (90.0, -90.0):
-            ch = {"change": "turn the part on the table", "yaw_deg": yaw}
-            if works(modified_cell(base, ch, moves)):
-                ch["text"] = f"turn the part {yaw:+g}° about the table axis (work_frame yaw + {yaw:g}°)"
-                out.append({**ch, "verified": True})
-                break
-        for name in shipped_cells():
-            try:
-                other = load_cell(name)
-            except Exception:  # a shipped cell that does not load is no suggestion
-                continue
-            if other.axes == 2 and other.robot_urdf == cell.robot_urdf:
-                a2 = load_arm(other.robot_urdf, tuple(other.tool.tcp_mm), home_deg=other.robot_home_deg)
-                if plan_auto(
-                    other.load_meshes(),
-                    moves,
-                    a2,
-                    limits,
-                    step_mm,
-                    step_deg,
-                    collision_step_mm,
-                    collisions,
-                    suggest=False,
-                ).ok:
-                    out.append(
-                        {
-                            "change": "2-axis positioner",
-                            "cell": name,
-                            "verified": True,
-                            "text": f"a 2-axis tilt/rotate positioner: the shipped cell {name}",
-                        }
-                    )
-                    break
-    for h in RISERS_MM:
-        ch = {"change": "riser", "riser_mm": h}
-        if works(modified_cell(base, ch, moves)):
-            out.append(
-                {
-                    **ch,
-                    "verified": True,
-                    "text": f"a riser of {h:g} mm under the part (work frame +{h:g} mm on the table)",
-                }
-            )
-            break
-    for ext in TORCH_EXTENSIONS_MM:
-        ch = {"change": "longer torch", "extension_mm": ext}
-        d = modified_cell(base, ch, moves)
-        a2 = load_arm(cell.robot_urdf, tuple(d["tool"]["tcp_mm"]), home_deg=cell.robot_home_deg)
-        if works(d, a2):
-            out.append(
-                {**ch, "verified": True, "text": f"a torch {ext:g} mm longer (TCP at {d['tool']['tcp_mm'][2]:g} mm)"}
-            )
-            break
-    for sh in BASE_SHIFTS_MM:
-        ch = {"change": "robot base moved", "shift_mm": sh}
-        d = modified_cell(base, ch, moves)
-        if d["robot_base"] == base["robot_base"]:
-            break
-        if works(d):
-            out.append(
-                {
-                    **ch,
-                    "verified": True,
-                    "text": f"the robot base {sh:g} mm further from the positioner (at "
-                    f"{', '.join(f'{v:g}' for v in d['robot_base']['xyz_mm'])} mm)",
-                }
-            )
-            break
-    return out
-
-
-def modified_cell(cell: dict, change: dict, moves) -> dict:
-    """A cell (as JSON data) with one suggested change applied: `riser` (riser_mm: the work frame
-    raised on the table and a cylinder under the part, as wide as its first layer's beads), `longer torch`
-    (extension_mm: TCP and torch shapes moved along the torch, a neck-wide cylinder in the gap),
-    `robot base moved` (shift_mm: away from the positioner base, horizontally), `turn the part on
-    the table` (yaw_deg: added to the work frame's yaw)."""
-    d = _copy(cell)
-    kind = change["change"]
-    if kind == "riser":
-        h = float(change["riser_mm"])
-        P = np.asarray(moves.points, float)
-        lay = np.asarray(moves.layer)
-        first = P[np.flatnonzero(lay == lay.min())] if len(lay) else P
-        foot = (float(np.hypot(first[:, 0], first[:, 1]).max()) if len(first) else 30.0) + BEAD_HALF_MM
-        w = d["work_frame"]["xyz_mm"]
-        d["work_frame"]["xyz_mm"] = [w[0], w[1], w[2] + h]
-        d["positioner"]["shapes"].append(
-            {
-                "name": "riser",
-                "kind": "cylinder",
-                "size_mm": [foot, foot, h],
-                "xyz_mm": [w[0], w[1], w[2] + h / 2 - 1.0],
-            }
-        )
-    elif kind == "longer torch":
-        ext = float(change["extension_mm"])
-        tcp = d["tool"]["tcp_mm"]
-        d["tool"]["tcp_mm"] = [tcp[0], tcp[1], tcp[2] + ext]
-        shapes = d["tool"]["shapes"]
-        r = max([s["size_mm"][0] for s in shapes if s["kind"] == "cylinder"] or [25.0])
-        for s in shapes:
-            s["xyz_mm"] = [s["xyz_mm"][0], s["xyz_mm"][1], s["xyz_mm"][2] + ext]
-        shapes.append({"name": "extension", "kind": "cylinder", "size_mm": [r, r, ext], "xyz_mm": [0.0, 0.0, ext / 2]})
-    elif kind == "robot base moved":
-        pb = np.asarray(d["positioner"]["base"]["xyz_mm"], float) if d.get("positioner") else np.zeros(3)
-        rb = np.asarray(d["robot_base"]["xyz_mm"], float)
-        away = (rb - pb)[:2]
-        if np.linalg.norm(away) > 1e-6:
-            away = away / np.linalg.norm(away) * float(change["shift_mm"])
-            d["robot_base"]["xyz_mm"] = [float(rb[0] + away[0]), float(rb[1] + away[1]), float(rb[2])]
-    elif kind == "turn the part on the table":
-        d["work_frame"]["yaw_deg"] = (d["work_frame"]["yaw_deg"] + float(change["yaw_deg"]) + 180.0) % 360.0 - 180.0
-    else:
-        raise ValueError(f"unknown cell change {kind!r}")
-    return d
-
-
-def _copy(d: dict) -> dict:
-    import json
-
-    return json.loads(json.dumps(d))

@@ -216,12 +216,7 @@ def solve_samples(
     q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
     lam2 = 1e-4
     Js = np.zeros((k, 5, model.nv))
-    # null-space preference: keep the wrist rolls (A4, A6) near mid-range — the rotation about
-    # the torch axis is free, so use it to avoid winding them up through wrist singularities
-    mid = 0.5 * (arm.lower + arm.upper)
-    roll = np.zeros(model.nv)
-    if model.nv >= 6:
-        roll[[3, 5]] = 0.05
+    mid, roll = _wrist_roll_pull(arm, model.nv)
     lower, upper = arm.lower, arm.upper
     # the loop runs ~2 iterations per sample over tens of thousands of samples: bound methods,
     # scalar maths on Python floats and LAPACK's Cholesky solve (J·Jᵀ + λ²I is symmetric positive
@@ -292,14 +287,30 @@ def solve_samples(
             s, seg, Q, err_mm, Js = s[:k], seg[:k], Q[:k], err_mm[:k], Js[:k]
             break
     sig = np.linalg.svd(Js, compute_uv=False)[:, -1]
-    # joint speed per unit path speed: dq/ds (rad/mm)
+    return KinematicsResult(s, Q, seg, err_mm, sig, _speed_caps(arm, s, Q, seg, nseg))
+
+
+def _wrist_roll_pull(arm: Arm, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """Null-space preference of `solve_samples`: keep the wrist rolls (A4, A6) near mid-range — the
+    rotation about the torch axis is free, so use it to avoid winding them up through wrist
+    singularities. Returns the mid-range joint angles and the pull gain per joint."""
+    mid = 0.5 * (arm.lower + arm.upper)
+    roll = np.zeros(nv)
+    if nv >= 6:
+        roll[[3, 5]] = 0.05
+    return mid, roll
+
+
+def _speed_caps(arm: Arm, s: np.ndarray, Q: np.ndarray, seg: np.ndarray, nseg: int) -> np.ndarray:
+    """Per programmed segment (of nseg): the highest path speed (mm/s) at which no joint exceeds
+    its speed limit, from the joint speed per unit path speed dq/ds (rad/mm) between samples."""
     ds = np.diff(s)
     dq = np.abs(np.diff(Q, axis=0)) / np.maximum(ds, 1e-9)[:, None]
     with np.errstate(divide="ignore"):
         cap_i = np.min(np.where(dq > 1e-12, arm.qd_max[None, :] / dq, np.inf), axis=1)
     cap = np.full(nseg, np.inf)
     np.minimum.at(cap, seg[:-1], cap_i)
-    return KinematicsResult(s, Q, seg, err_mm, sig, cap)
+    return cap
 
 
 def find_issues(
