@@ -20,20 +20,41 @@ from ..core.tolerances import TOL
 from ..geometry.mesh_io import classify_mesh, declared_mesh_unit
 from ..geometry.mesh_io import mesh_from_triangles
 from ..geometry.sketch import sketch_from_curves
-from ..geometry.step_io import MAX_FACE_TRIANGLES, is_cad_file, read_cad_shape, tessellate, unit_rescale, vertical_midsurface
+from ..geometry.step_io import (
+    MAX_FACE_TRIANGLES,
+    is_cad_file,
+    read_cad_shape,
+    tessellate,
+    unit_rescale,
+    vertical_midsurface,
+)
 from ..geometry.units import conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
 LengthUnit = Literal["file", "mm", "cm", "m", "in", "ft"]
 Placement = Literal["as_is", "on_plate", "centred"]
-UNITS_DOC = "Length unit of the file's coordinates; 'file': the unit the file declares (DXF $INSUNITS, 3MF unit), else mm"
-PLACEMENT_DOC = ("After the transform: 'as_is' keeps coordinates, 'on_plate' puts the lowest point on z = 0, "
-                 "'centred' also puts the x/y bounding-box centre on the origin")
+UNITS_DOC = (
+    "Length unit of the file's coordinates; 'file': the unit the file declares (DXF $INSUNITS, 3MF unit), else mm"
+)
+PLACEMENT_DOC = (
+    "After the transform: 'as_is' keeps coordinates, 'on_plate' puts the lowest point on z = 0, "
+    "'centred' also puts the x/y bounding-box centre on the origin"
+)
 
 
-def _report_part(ctx, label: str, lo, hi, units: str, shift, *, file_unit: str | None = None,
-                 notice: str | None = None, drawing: bool = False) -> None:
+def _report_part(
+    ctx,
+    label: str,
+    lo,
+    hi,
+    units: str,
+    shift,
+    *,
+    file_unit: str | None = None,
+    notice: str | None = None,
+    drawing: bool = False,
+) -> None:
     """Report the unit conversion (node report; a notice warning unless mm), an implausible size
     and the placement shift. drawing: a midsurface, whose size is its curves' x/y extent only (the
     extrusion height is the node's, not the drawing's: a 1 mm drawing extruded 30 mm is 1 mm)."""
@@ -55,47 +76,67 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
     rep = st["edges"]
     solid = rep.closed and st["volume_mm3"] > 0
     read_as = "solid" if params.as_ == "solid" or (params.as_ == "auto" and solid) else "surface"
-    ctx.report({"read_as": read_as, "volume_mm3": round(float(st["volume_mm3"]), 3),
-                "open_edges": rep.open, "nonmanifold_edges": rep.nonmanifold, "misoriented_edges": rep.misoriented,
-                "vertices_welded": st.get("welded", 0), "vertices_merged": st["vertices_merged"],
-                "nonmanifold_edges_split": st["nonmanifold_edges_split"], "faces_rewound": st["faces_rewound"]})
+    ctx.report(
+        {
+            "read_as": read_as,
+            "volume_mm3": round(float(st["volume_mm3"]), 3),
+            "open_edges": rep.open,
+            "nonmanifold_edges": rep.nonmanifold,
+            "misoriented_edges": rep.misoriented,
+            "vertices_welded": st.get("welded", 0),
+            "vertices_merged": st["vertices_merged"],
+            "nonmanifold_edges_split": st["nonmanifold_edges_split"],
+            "faces_rewound": st["faces_rewound"],
+        }
+    )
     if st.get("welded"):
-        ctx.warn(f"{params.path}: welded {st['welded']} vertices on open edges within weld_tolerance "
-                 f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)")
+        ctx.warn(
+            f"{params.path}: welded {st['welded']} vertices on open edges within weld_tolerance "
+            f"{params.weld_tolerance:g} mm (cracks between triangles that should touch)"
+        )
     fixes = []
     if st["vertices_merged"]:
-        fixes.append(f"closed cracks up to crack_tolerance {params.crack_tolerance:g} mm by merging "
-                     f"{st['vertices_merged']} vertices")
+        fixes.append(
+            f"closed cracks up to crack_tolerance {params.crack_tolerance:g} mm by merging "
+            f"{st['vertices_merged']} vertices"
+        )
     if st["nonmanifold_edges_split"]:
         fixes.append(f"separated bodies sharing {st['nonmanifold_edges_split']} non-manifold edge(s)")
     if st["faces_rewound"]:
         fixes.append(f"re-wound {st['faces_rewound']} faces (consistent winding, normals outwards)")
     if fixes and solid:
-        ctx.warn(f"{params.path}: repaired: {'; '.join(fixes)}; now a closed solid of "
-                 f"{st['volume_mm3']:.6g} mm³")
+        ctx.warn(f"{params.path}: repaired: {'; '.join(fixes)}; now a closed solid of {st['volume_mm3']:.6g} mm³")
     elif fixes:
         ctx.warn(f"{params.path}: repaired: {'; '.join(fixes)}")
     if params.as_ == "auto" and not solid and rep.open and not rep.nonmanifold and not rep.misoriented:
-        ctx.warn(f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges, "
-                 f"after repair): read as a single-wall surface, sliced into per-layer curves; if it is a solid "
-                 f"with gaps wider than crack_tolerance {params.crack_tolerance:g} mm raise it, or set 'as': "
-                 "'solid' to see the error")
+        ctx.warn(
+            f"{params.path}: the mesh is open ({rep.open} open, {rep.nonmanifold} non-manifold edges, "
+            f"after repair): read as a single-wall surface, sliced into per-layer curves; if it is a solid "
+            f"with gaps wider than crack_tolerance {params.crack_tolerance:g} mm raise it, or set 'as': "
+            "'solid' to see the error"
+        )
 
 
 def _shifted(part, shift):
     """The part (MeshData or Midsurface) translated by shift (3,) mm."""
     if isinstance(part, Midsurface):
-        return Midsurface(curves=tuple(c + shift[:2] for c in part.curves), height=part.height,
-                          z0=part.z0 + float(shift[2]), name=part.name,
-                          joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in part.joints))
+        return Midsurface(
+            curves=tuple(c + shift[:2] for c in part.curves),
+            height=part.height,
+            z0=part.z0 + float(shift[2]),
+            name=part.name,
+            joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in part.joints),
+        )
     return MeshData(vertices=part.vertices + shift, faces=part.faces, name=part.name, surface=part.surface)
 
 
 def _stage(ctx):
     """A kernel's stage callback: report progress, then stop here if the run was cancelled."""
+
     def stage(fraction: float, message: str) -> None:
         ctx.progress(fraction, message)
         ctx.check_cancelled()
+
     return stage
 
 
@@ -106,7 +147,7 @@ def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> tuple[M
     cc, why = vertical_midsurface(cad, params.chordal_tolerance / k)
     if cc is None:
         return None, why
-    if cc.height is None:   # vertical_midsurface measures the walls' height (None: curves-only files)
+    if cc.height is None:  # vertical_midsurface measures the walls' height (None: curves-only files)
         return None, "the walls have no height"
     axis = transform.apply(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
     up = axis[1] - axis[0]
@@ -116,15 +157,25 @@ def _cad_midsurface(ctx, params, cad, k: float, transform: Transform) -> tuple[M
     z0 = float(ends[0][0, 2])
     height = float(cc.height * k * transform.scale)
     mid = sketch_from_curves([p[:, :2] for p in ends], height=height, z0=z0, name=params.path, join_tol=TOL.join)
-    mid = Midsurface(curves=mid.curves, height=mid.height, z0=mid.z0, name=PurePosixPath(params.path).stem,
-                     joints=mid.joints)
-    ctx.report({"read_as": "midsurface", "faces": len(cad.faces), "curves": len(mid.curves),
-                "curve_length_mm": round(float(sum(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()
-                                                   for c in mid.curves)), 4),
-                "height_mm": round(height, 6)})
-    ctx.warn(f"{params.path}: read as a midsurface (a sketch): {len(cad.faces)} vertical wall face(s), the "
-             f"extrusion of {len(mid.curves)} curve(s) of {cc.length * k * transform.scale:.6g} mm from z "
-             f"{z0:g} mm by {height:g} mm")
+    mid = Midsurface(
+        curves=mid.curves, height=mid.height, z0=mid.z0, name=PurePosixPath(params.path).stem, joints=mid.joints
+    )
+    ctx.report(
+        {
+            "read_as": "midsurface",
+            "faces": len(cad.faces),
+            "curves": len(mid.curves),
+            "curve_length_mm": round(
+                float(sum(np.linalg.norm(np.diff(c, axis=0), axis=1).sum() for c in mid.curves)), 4
+            ),
+            "height_mm": round(height, 6),
+        }
+    )
+    ctx.warn(
+        f"{params.path}: read as a midsurface (a sketch): {len(cad.faces)} vertical wall face(s), the "
+        f"extrusion of {len(mid.curves)} curve(s) of {cc.length * k * transform.scale:.6g} mm from z "
+        f"{z0:g} mm by {height:g} mm"
+    )
     return mid, ""
 
 
@@ -136,44 +187,77 @@ def _read_cad_part(ctx, params, data: bytes, transform: Transform):
     like a mesh file; an open surface stays a tessellated single-wall surface."""
     cad = read_cad_shape(data, params.path)
     if not cad.faces:
-        raise InputFileError(f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
-                             "'sketch' node, which extrudes the curves by its 'height'")
+        raise InputFileError(
+            f"{params.path}: {len(cad.edges)} curve(s) and no faces (a wireframe): read it with a "
+            "'sketch' node, which extrudes the curves by its 'height'"
+        )
     units, k, notice = unit_rescale(cad.file_unit, params.units)
     if cad.edges:
-        ctx.warn(f"{params.path}: {len(cad.edges)} curve(s) outside any face ignored (construction lines? a sketch "
-                 "node reads the curves of a file without faces)")
+        ctx.warn(
+            f"{params.path}: {len(cad.edges)} curve(s) outside any face ignored (construction lines? a sketch "
+            "node reads the curves of a file without faces)"
+        )
     why = "'as': 'solid'"
     if params.as_ != "solid":
         mid, why = _cad_midsurface(ctx, params, cad, k, transform)
         if mid is not None:
             return mid, cad.file_unit, units, notice
-    tri = tessellate(cad, params.path, chordal_tolerance=params.chordal_tolerance, max_triangles=params.max_triangles,
-                     max_face_triangles=params.max_face_triangles, progress=ctx.progress,
-                     check_cancelled=ctx.check_cancelled)
+    tri = tessellate(
+        cad,
+        params.path,
+        chordal_tolerance=params.chordal_tolerance,
+        max_triangles=params.max_triangles,
+        max_face_triangles=params.max_face_triangles,
+        progress=ctx.progress,
+        check_cancelled=ctx.check_cancelled,
+    )
     st: dict = {}
-    mesh = mesh_from_triangles(tri * k, name=PurePosixPath(params.path).stem, units="mm", transform=transform,
-                               source=params.path, weld_tolerance=params.weld_tolerance, stats=st,
-                               crack_tolerance=params.crack_tolerance, require_closed=False)
+    mesh = mesh_from_triangles(
+        tri * k,
+        name=PurePosixPath(params.path).stem,
+        units="mm",
+        transform=transform,
+        source=params.path,
+        weld_tolerance=params.weld_tolerance,
+        stats=st,
+        crack_tolerance=params.crack_tolerance,
+        require_closed=False,
+    )
     _report_mesh(ctx, params, mesh, st)
     ctx.report({"faces": len(cad.faces), "triangles": int(len(mesh.faces))})
     if cad.roots > 1 or cad.bodies > 1:
-        ctx.warn(f"{params.path}: {cad.roots} top-level shape(s) with {cad.bodies} bodies flattened into one part "
-                 f"(each body kept); tessellated within {params.chordal_tolerance:g} mm")
+        ctx.warn(
+            f"{params.path}: {cad.roots} top-level shape(s) with {cad.bodies} bodies flattened into one part "
+            f"(each body kept); tessellated within {params.chordal_tolerance:g} mm"
+        )
     if classify_mesh(st, params.as_, params.path) == "surface":
         ctx.warn(f"{params.path}: read as a tessellated single-wall surface, not as a sketch: {why}")
-        return (MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True),
-                cad.file_unit, units, notice)
+        return (
+            MeshData(vertices=mesh.vertices, faces=mesh.faces, name=mesh.name, surface=True),
+            cad.file_unit,
+            units,
+            notice,
+        )
     return mesh, cad.file_unit, units, notice
 
 
 Vec3 = tuple[float, float, float]
-MAX_LISTED = 10   # warnings listing one item each (DXF defects, repairs): the first this many, then a count
+MAX_LISTED = 10  # warnings listing one item each (DXF defects, repairs): the first this many, then a count
 
 
 class TransformParams(NodeParams):
-    translate: Vec3 = Field((0.0, 0.0, 0.0), description="Translation after rotation", json_schema_extra=unit("mm"), title="Translation (x, y, z)")
-    rotate_deg: Vec3 = Field((0.0, 0.0, 0.0), description="Rotation about the x, then y, then z axis (fixed axes)",
-                             json_schema_extra=unit("deg"), title="Rotation (x, y, z)")
+    translate: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description="Translation after rotation",
+        json_schema_extra=unit("mm"),
+        title="Translation (x, y, z)",
+    )
+    rotate_deg: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description="Rotation about the x, then y, then z axis (fixed axes)",
+        json_schema_extra=unit("deg"),
+        title="Rotation (x, y, z)",
+    )
     scale: float = Field(1.0, gt=0, le=1000, description="Uniform scale factor, applied first", title="Scale factor")
 
 
@@ -210,38 +294,76 @@ class MeshNode(Node):
     version = "3"  # 3: CAD surfaces/midsurfaces, CAD repair + classification, tessellation progress/cancel/estimate
     title = "Mesh"
     category = "inputs"
-    outputs = (Port("mesh", "mesh", "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface; "
-                                    "a CAD midsurface of vertical walls: its curves extruded (Midsurface)"),)
+    outputs = (
+        Port(
+            "mesh",
+            "mesh",
+            "Triangle mesh in mm (MeshData): a closed solid, or an open single-wall surface; "
+            "a CAD midsurface of vertical walls: its curves extruded (Midsurface)",
+        ),
+    )
 
     class Params(NodeParams):
         model_config = ConfigDict(extra="forbid", populate_by_name=True)
 
-        path: FileRef = Field(description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe", title="Mesh or CAD file")
+        path: FileRef = Field(
+            description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe",
+            title="Mesh or CAD file",
+        )
         units: LengthUnit = Field("file", description=UNITS_DOC, title="File units")
-        transform: TransformParams = Field(default_factory=TransformParams, description="Placement of the part", title="Transform")
+        transform: TransformParams = Field(
+            default_factory=TransformParams, description="Placement of the part", title="Transform"
+        )
         placement: Placement = Field("as_is", description=PLACEMENT_DOC, title="Placement")
         as_: Literal["auto", "solid", "surface"] = Field(
-            "auto", alias="as",
+            "auto",
+            alias="as",
             description="solid: must be closed (sliced into regions); surface: an open single-wall surface, sliced "
-                        "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)", title="Read as")
-        chordal_tolerance: float = Field(0.05, gt=0, le=5,
-                                         description="STEP/IGES: max distance between the CAD surface and its triangles",
-                                         json_schema_extra=unit("mm"), title="Chordal tolerance")
-        max_file_mb: float = Field(200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file")
-        max_triangles: int = Field(5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles", title="Most triangles")
-        max_face_triangles: int = Field(MAX_FACE_TRIANGLES, ge=1, le=20_000_000,
-                                        description="STEP/IGES: refuse a chordal_tolerance that would give one face "
-                                                    "more triangles (estimated before tessellating; one face is "
-                                                    "meshed in one call that cannot be cancelled)", title="Most triangles per CAD face")
-        weld_tolerance: float = Field(0.001, ge=0, le=1.0,
-                                      description="Merge vertices on open edges closer than this (exporter cracks, "
-                                                  "seam gaps; reported). 0: bit-identical corners only",
-                                      json_schema_extra=unit("mm"), title="Open-edge weld tolerance")
-        crack_tolerance: float = Field(TOL.crack, ge=0, le=1.0,
-                                       description="Mesh files: close cracks up to this size between faces of a solid "
-                                                   "(merging vertices on open edges; kept only when that closes the "
-                                                   "mesh, reported). 0: no crack closing",
-                                       json_schema_extra=unit("mm"), title="Crack closing tolerance")
+            "into per-layer curves like a sketch; auto: closed → solid, open → surface (with a warning)",
+            title="Read as",
+        )
+        chordal_tolerance: float = Field(
+            0.05,
+            gt=0,
+            le=5,
+            description="STEP/IGES: max distance between the CAD surface and its triangles",
+            json_schema_extra=unit("mm"),
+            title="Chordal tolerance",
+        )
+        max_file_mb: float = Field(
+            200.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file"
+        )
+        max_triangles: int = Field(
+            5_000_000, ge=1, le=20_000_000, description="Refuse meshes with more triangles", title="Most triangles"
+        )
+        max_face_triangles: int = Field(
+            MAX_FACE_TRIANGLES,
+            ge=1,
+            le=20_000_000,
+            description="STEP/IGES: refuse a chordal_tolerance that would give one face "
+            "more triangles (estimated before tessellating; one face is "
+            "meshed in one call that cannot be cancelled)",
+            title="Most triangles per CAD face",
+        )
+        weld_tolerance: float = Field(
+            0.001,
+            ge=0,
+            le=1.0,
+            description="Merge vertices on open edges closer than this (exporter cracks, "
+            "seam gaps; reported). 0: bit-identical corners only",
+            json_schema_extra=unit("mm"),
+            title="Open-edge weld tolerance",
+        )
+        crack_tolerance: float = Field(
+            TOL.crack,
+            ge=0,
+            le=1.0,
+            description="Mesh files: close cracks up to this size between faces of a solid "
+            "(merging vertices on open edges; kept only when that closes the "
+            "mesh, reported). 0: no crack closing",
+            json_schema_extra=unit("mm"),
+            title="Crack closing tolerance",
+        )
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
@@ -274,8 +396,17 @@ class MeshNode(Node):
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
             mesh = _shifted(mesh, shift)
-        _report_part(ctx, params.path, lo, hi, units, shift, file_unit=file_unit, notice=notice,
-                     drawing=isinstance(mesh, Midsurface))
+        _report_part(
+            ctx,
+            params.path,
+            lo,
+            hi,
+            units,
+            shift,
+            file_unit=file_unit,
+            notice=notice,
+            drawing=isinstance(mesh, Midsurface),
+        )
         return {"mesh": mesh}
 
 
@@ -302,31 +433,65 @@ class SketchNode(Node):
     outputs = (Port("mesh", "mesh", "Midsurface: curves extruded along +Z (Midsurface), mm"),)
 
     class Params(NodeParams):
-        path: FileRef = Field(description="Sketch file (.json, .dxf, or .step/.stp/.iges/.igs curves or vertical "
-                                          "wall faces), relative to the recipe", title="Sketch file")
-        height: float | None = Field(None, gt=0, le=10_000,
-                                     description="Extrusion height; default: the JSON file's 'height', a CAD file's wall height",
-                                     json_schema_extra=unit("mm"), title="Extrusion height")
-        z0: float | None = Field(None, ge=-10_000, le=10_000,
-                                 description="Bottom of the extrusion; default: the JSON file's 'z0', a CAD file's bottom "
-                                             "(or its curves' plane), else 0",
-                                 json_schema_extra=unit("mm"), title="Extrusion bottom")
+        path: FileRef = Field(
+            description="Sketch file (.json, .dxf, or .step/.stp/.iges/.igs curves or vertical "
+            "wall faces), relative to the recipe",
+            title="Sketch file",
+        )
+        height: float | None = Field(
+            None,
+            gt=0,
+            le=10_000,
+            description="Extrusion height; default: the JSON file's 'height', a CAD file's wall height",
+            json_schema_extra=unit("mm"),
+            title="Extrusion height",
+        )
+        z0: float | None = Field(
+            None,
+            ge=-10_000,
+            le=10_000,
+            description="Bottom of the extrusion; default: the JSON file's 'z0', a CAD file's bottom "
+            "(or its curves' plane), else 0",
+            json_schema_extra=unit("mm"),
+            title="Extrusion bottom",
+        )
         units: LengthUnit = Field("file", description=UNITS_DOC, title="File units")
         placement: Placement = Field("as_is", description=PLACEMENT_DOC, title="Placement")
-        arc_tolerance: float = Field(0.01, gt=0, le=10, description="Max chordal deviation when discretising arcs",
-                                     json_schema_extra=unit("mm"), title="Arc tolerance")
-        layout: str = Field("Model", min_length=1, max_length=255,
-                            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name", title="DXF layout")
-        join: bool = Field(True, description="Join curves that meet end to end into one polyline", title="Join touching curves")
-        max_file_mb: float = Field(50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file")
+        arc_tolerance: float = Field(
+            0.01,
+            gt=0,
+            le=10,
+            description="Max chordal deviation when discretising arcs",
+            json_schema_extra=unit("mm"),
+            title="Arc tolerance",
+        )
+        layout: str = Field(
+            "Model",
+            min_length=1,
+            max_length=255,
+            description="DXF layout to read: 'Model' (modelspace) or a paperspace layout's name",
+            title="DXF layout",
+        )
+        join: bool = Field(
+            True, description="Join curves that meet end to end into one polyline", title="Join touching curves"
+        )
+        max_file_mb: float = Field(
+            50.0, gt=0, le=512, description="Refuse larger files", json_schema_extra=unit("MB"), title="Largest file"
+        )
 
     def run(self, ctx, params, inputs):
         data = ctx.read_bytes(params.path, max_bytes=int(params.max_file_mb * 2**20))
         ctx.progress(0.0, f"read {params.path} ({len(data) / 2**20:.1f} MB)")
         ctx.check_cancelled()
         res = load_sketch_bytes(
-            data, params.path, height=params.height, z0=params.z0, units=params.units,
-            arc_tolerance=params.arc_tolerance, join=params.join, layout=params.layout,
+            data,
+            params.path,
+            height=params.height,
+            z0=params.z0,
+            units=params.units,
+            arc_tolerance=params.arc_tolerance,
+            join=params.join,
+            layout=params.layout,
         )
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
@@ -344,7 +509,7 @@ class SketchNode(Node):
         shift = placement_offset(lo, hi, params.placement)
         if np.any(shift):
             mid = _shifted(mid, shift)
-        _report_part(ctx, params.path, lo, hi, res.units, shift, file_unit=res.file_unit, notice=res.notice,
-                     drawing=True)
+        _report_part(
+            ctx, params.path, lo, hi, res.units, shift, file_unit=res.file_unit, notice=res.notice, drawing=True
+        )
         return {"mesh": mid}
-

@@ -42,14 +42,24 @@ class _Strict(BaseModel):
 # ------------------------------------------------------------------------------------------------
 class MaskSectionParams(_Strict):
     id: str = Field(min_length=1, max_length=64, description="Section id, unique in the mask", title="Section id")
-    curve: list[Point2] = Field(min_length=3, description="Closed planar curve over the layer (layer-local x, y)",
-                                json_schema_extra=unit("mm"), title="Section curve")
+    curve: list[Point2] = Field(
+        min_length=3,
+        description="Closed planar curve over the layer (layer-local x, y)",
+        json_schema_extra=unit("mm"),
+        title="Section curve",
+    )
 
 
 class MaskParams(_Strict):
-    id: str = Field(min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)", title="Mask id")
-    from_layer: int = Field(0, ge=0, description="First layer this mask governs (until the next mask's from_layer)", title="From layer")
-    sections: list[MaskSectionParams] = Field(min_length=1, description="Sections in default deposition order", title="Sections")
+    id: str = Field(
+        min_length=1, max_length=64, pattern=r"^[^/]+$", description="Mask id (Building Strategy)", title="Mask id"
+    )
+    from_layer: int = Field(
+        0, ge=0, description="First layer this mask governs (until the next mask's from_layer)", title="From layer"
+    )
+    sections: list[MaskSectionParams] = Field(
+        min_length=1, description="Sections in default deposition order", title="Sections"
+    )
 
     @model_validator(mode="after")
     def _curves(self) -> "MaskParams":
@@ -72,7 +82,7 @@ class MaskNode(LayerNode):
     """
 
     type = "mask"
-    combine_keeps_items = True   # combine only warns
+    combine_keeps_items = True  # combine only warns
     title = "Mask (segmentation)"
     category = "mpp"
     inputs = (Port("layers", "layers", "Sliced layers"),)
@@ -111,8 +121,10 @@ class MaskNode(LayerNode):
         ls = segment_layer(layer, mask)
         pct = uncovered_percent(ls)
         if ls.uncovered_area > 0:
-            ctx.warn(f"{pct:.1f} % of the layer area ({ls.uncovered_area:.1f} mm²) is not covered by any section",
-                     layer=index)
+            ctx.warn(
+                f"{pct:.1f} % of the layer area ({ls.uncovered_area:.1f} mm²) is not covered by any section",
+                layer=index,
+            )
         return {"sections": ls}
 
     def combine(self, ctx, params, outputs, inputs):
@@ -136,7 +148,7 @@ class GuideNode(LayerNode):
     """
 
     type = "guide"
-    combine_keeps_items = True   # combine only warns
+    combine_keeps_items = True  # combine only warns
     title = "Guide"
     category = "mpp"
     inputs = (Port("sections", "sections", "Sections per layer"),)
@@ -145,8 +157,11 @@ class GuideNode(LayerNode):
 
     class Params(NodeParams):
         guides: dict[str, Annotated[list[Point2], Field(min_length=2)]] = Field(
-            default_factory=dict, description="Section key (\"bs1/A\") → guide polyline (layer-local x, y)",
-            json_schema_extra=unit("mm"), title="Guides by section")
+            default_factory=dict,
+            description='Section key ("bs1/A") → guide polyline (layer-local x, y)',
+            json_schema_extra=unit("mm"),
+            title="Guides by section",
+        )
 
     def layer_params(self, params, index, items):
         ls: LayerSections = items["sections"]
@@ -174,12 +189,28 @@ class GuideNode(LayerNode):
 # zone
 # ------------------------------------------------------------------------------------------------
 class ZoneSpecParams(_Strict):
-    start_length: float = Field(0.0, ge=0, le=1e5, description="Length of the ignition zone `start`, measured "
-                                "along the path from its start", json_schema_extra=unit("mm"), title="Start zone length")
-    end_length: float = Field(0.0, ge=0, le=1e5, description="Length of the termination zone `end`, measured "
-                              "back from the path's end", json_schema_extra=unit("mm"), title="End zone length")
-    split_points: list[Point2] = Field(default_factory=list, description="Points (layer-local x, y) projected "
-                                       "onto the path; each starts a new middle zone", json_schema_extra=unit("mm"), title="Split points")
+    start_length: float = Field(
+        0.0,
+        ge=0,
+        le=1e5,
+        description="Length of the ignition zone `start`, measured along the path from its start",
+        json_schema_extra=unit("mm"),
+        title="Start zone length",
+    )
+    end_length: float = Field(
+        0.0,
+        ge=0,
+        le=1e5,
+        description="Length of the termination zone `end`, measured back from the path's end",
+        json_schema_extra=unit("mm"),
+        title="End zone length",
+    )
+    split_points: list[Point2] = Field(
+        default_factory=list,
+        description="Points (layer-local x, y) projected onto the path; each starts a new middle zone",
+        json_schema_extra=unit("mm"),
+        title="Split points",
+    )
 
     def spec(self) -> ZoneSpec:
         return ZoneSpec(self.start_length, self.end_length, tuple((p[0], p[1]) for p in self.split_points))
@@ -226,11 +257,17 @@ class ZoneNode(LayerNode):
     over = "toolpath"
 
     class Params(NodeParams):
-        default: ZoneSpecParams = Field(default_factory=ZoneSpecParams, description="Zoning of every section", title="Default zoning")
-        sections: dict[str, ZoneSpecParams] = Field(default_factory=dict,
-                                                    description="Section key → zoning (replaces the default)", title="Zoning by section")
-        parameters: FileRef = Field("", description="XML deposition-parameter file (layer > section > zone); "
-                                    "empty: none", title="Parameter XML file")
+        default: ZoneSpecParams = Field(
+            default_factory=ZoneSpecParams, description="Zoning of every section", title="Default zoning"
+        )
+        sections: dict[str, ZoneSpecParams] = Field(
+            default_factory=dict, description="Section key → zoning (replaces the default)", title="Zoning by section"
+        )
+        parameters: FileRef = Field(
+            "",
+            description="XML deposition-parameter file (layer > section > zone); empty: none",
+            title="Parameter XML file",
+        )
 
     def _spec(self, params, key: str) -> ZoneSpecParams:
         return params.sections.get(key, params.default)
@@ -244,7 +281,9 @@ class ZoneNode(LayerNode):
         out = []
         for sp in lp.sections:
             spec = self._spec(params, sp.key).spec()
-            world = lp.layer.to_world(np.asarray(spec.split_points, float).reshape(-1, 2)) if spec.split_points else None
+            world = (
+                lp.layer.to_world(np.asarray(spec.split_points, float).reshape(-1, 2)) if spec.split_points else None
+            )
             out.append(zone_path(sp, spec, world))
         return {"toolpath": LayerPaths(lp.layer, tuple(out), lp.dwell_after_s)}
 
@@ -267,8 +306,11 @@ class ZoneNode(LayerNode):
                 layers.append(lp)
                 continue
             vals = table.layer(lp.index)
-            layers.append(LayerPaths(lp.layer, tuple(apply_zone_params(sp, vals.get(sp.key, {})) for sp in lp.sections),
-                                     lp.dwell_after_s))
+            layers.append(
+                LayerPaths(
+                    lp.layer, tuple(apply_zone_params(sp, vals.get(sp.key, {})) for sp in lp.sections), lp.dwell_after_s
+                )
+            )
         toolpath = Layered(tuple(layers))
         full = all(lp is not None for lp in layers)
         if full:
@@ -280,8 +322,12 @@ class ZoneNode(LayerNode):
             present = {(lp.index, sp.key, z) for lp in layers for sp in lp.sections for z in sp.zone_colors}
             for key in table.values:
                 if key not in present:
-                    ctx.warn(f"parameter file: values for {orphan_label(key)} have no zone any more "
-                             "(dropped from params.xml)", layer=key[0], section=key[1])
+                    ctx.warn(
+                        f"parameter file: values for {orphan_label(key)} have no zone any more "
+                        "(dropped from params.xml)",
+                        layer=key[0],
+                        section=key[1],
+                    )
         return {"toolpath": toolpath}
 
     def artifacts(self, ctx, params, outputs):
@@ -324,29 +370,75 @@ class SequenceNode(Node):
 
     class Params(NodeParams):
         order: Literal["mask", "nearest"] | list[str] = Field(
-            "mask", description="`mask`, `nearest` (shortest travel within the MPP order rule) or a list of "
-            "section keys", title="Section order")
-        precedence: list[str] = Field(default_factory=list, description="Section keys deposited first on every "
-                                      "layer, in this order, before the oscillated and then the other sections "
-                                      "(the order rule `nearest` keeps)", title="Sections first")
-        retract_height: float = Field(10.0, ge=0, le=500, description="Clearance of arc-OFF travel above the "
-                                      "higher end point", json_schema_extra=unit("mm"), title="Retract height")
-        alternate: bool = Field(False, description="Reverse open sections and the section order on odd layers "
-                                "(seam `alternate`)", title="Alternate odd layers")
+            "mask",
+            description="`mask`, `nearest` (shortest travel within the MPP order rule) or a list of section keys",
+            title="Section order",
+        )
+        precedence: list[str] = Field(
+            default_factory=list,
+            description="Section keys deposited first on every "
+            "layer, in this order, before the oscillated and then the other sections "
+            "(the order rule `nearest` keeps)",
+            title="Sections first",
+        )
+        retract_height: float = Field(
+            10.0,
+            ge=0,
+            le=500,
+            description="Clearance of arc-OFF travel above the higher end point",
+            json_schema_extra=unit("mm"),
+            title="Retract height",
+        )
+        alternate: bool = Field(
+            False,
+            description="Reverse open sections and the section order on odd layers (seam `alternate`)",
+            title="Alternate odd layers",
+        )
         seam: Literal["auto", "alternate", "stagger", "scattered", "aligned"] | Point2 = Field(
-            "auto", description="Where sections ignite: auto (farthest from the ignitions of the layer below), "
-            "alternate, stagger, scattered, aligned (as planned) or an [x, y] point (layer-local, mm)", title="Seam placement")
-        seam_shift: float = Field(0.0, ge=0, le=1000, description="Distance a closed loop's seam moves per layer "
-                                  "(stagger/auto); 0 = 2 bead widths", json_schema_extra=unit("mm"), title="Seam shift per layer")
-        seam_at_junctions: bool = Field(False, description="Allow ignition at a junction with another section", title="Seams at junctions")
-        bead_width: float = Field(0.0, ge=0, le=100, description="Bead width: junction clearance and the "
-                                  "defaults of seam_shift and min_arc_run_mm; 0 = unknown (6 mm clearance, "
-                                  "12 mm minimum run)", json_schema_extra=unit("mm"), title="Bead width")
-        min_arc_run_mm: float | None = Field(None, ge=0, le=1000, description="Shortest arc-ON run; shorter "
-                                             "ones are bridged or dropped (0 = off; empty = 2 bead widths, "
-                                             "12 mm without a bead width)", json_schema_extra=unit("mm"), title="Shortest arc-on run")
-        dwell: float = Field(0.0, ge=0, le=3600, description="Interlayer dwell after each layer",
-                             json_schema_extra=unit("s"), title="Interlayer dwell")
+            "auto",
+            description="Where sections ignite: auto (farthest from the ignitions of the layer below), "
+            "alternate, stagger, scattered, aligned (as planned) or an [x, y] point (layer-local, mm)",
+            title="Seam placement",
+        )
+        seam_shift: float = Field(
+            0.0,
+            ge=0,
+            le=1000,
+            description="Distance a closed loop's seam moves per layer (stagger/auto); 0 = 2 bead widths",
+            json_schema_extra=unit("mm"),
+            title="Seam shift per layer",
+        )
+        seam_at_junctions: bool = Field(
+            False, description="Allow ignition at a junction with another section", title="Seams at junctions"
+        )
+        bead_width: float = Field(
+            0.0,
+            ge=0,
+            le=100,
+            description="Bead width: junction clearance and the "
+            "defaults of seam_shift and min_arc_run_mm; 0 = unknown (6 mm clearance, "
+            "12 mm minimum run)",
+            json_schema_extra=unit("mm"),
+            title="Bead width",
+        )
+        min_arc_run_mm: float | None = Field(
+            None,
+            ge=0,
+            le=1000,
+            description="Shortest arc-ON run; shorter "
+            "ones are bridged or dropped (0 = off; empty = 2 bead widths, "
+            "12 mm without a bead width)",
+            json_schema_extra=unit("mm"),
+            title="Shortest arc-on run",
+        )
+        dwell: float = Field(
+            0.0,
+            ge=0,
+            le=3600,
+            description="Interlayer dwell after each layer",
+            json_schema_extra=unit("s"),
+            title="Interlayer dwell",
+        )
 
     def run(self, ctx, params, inputs):
         tp = inputs["toolpath"]
@@ -360,11 +452,16 @@ class SequenceNode(Node):
         return {"toolpath": Layered(tuple(layers))}
 
     def artifacts(self, ctx, params, outputs):
-        travel = [{"index": lp.index, "travel_mm": round(t, 3), "order": [sp.key for sp in lp.sections]}
-                  for lp, t in zip(outputs["toolpath"], part_travel(outputs["toolpath"])) if lp is not None]
+        travel = [
+            {"index": lp.index, "travel_mm": round(t, 3), "order": [sp.key for sp in lp.sections]}
+            for lp, t in zip(outputs["toolpath"], part_travel(outputs["toolpath"]))
+            if lp is not None
+        ]
         total = round(sum(t["travel_mm"] for t in travel), 3)
-        return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"])),
-                "travel.json": serialize.dumps({"units": "mm", "total_travel_mm": total, "layers": travel})}
+        return {
+            "toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"])),
+            "travel.json": serialize.dumps({"units": "mm", "total_travel_mm": total, "layers": travel}),
+        }
 
 
 def sequence_with_notes(layers: list, params) -> tuple[list, list[dict]]:
@@ -375,11 +472,17 @@ def sequence_with_notes(layers: list, params) -> tuple[list, list[dict]]:
     min_run = params.min_arc_run_mm if params.min_arc_run_mm is not None else (2.0 * bw if bw > 0 else 12.0)
     policy = "alternate" if params.alternate and params.seam == "auto" else params.seam
     notes: list[dict] = []
-    seq, _ = sequence_part(layers, order=params.order, retract_height=params.retract_height,
-                           alternate=params.alternate, dwell_after_s=params.dwell, min_run=min_run,
-                           precedence=tuple(params.precedence), notes=notes,
-                           seam=SeamSpec(policy if isinstance(policy, str) else tuple(policy), clearance, shift,
-                                                params.seam_at_junctions))
+    seq, _ = sequence_part(
+        layers,
+        order=params.order,
+        retract_height=params.retract_height,
+        alternate=params.alternate,
+        dwell_after_s=params.dwell,
+        min_run=min_run,
+        precedence=tuple(params.precedence),
+        notes=notes,
+        seam=SeamSpec(policy if isinstance(policy, str) else tuple(policy), clearance, shift, params.seam_at_junctions),
+    )
     return seq, notes
 
 
@@ -389,20 +492,33 @@ def _report(ctx, params, layers, notes: list[dict]) -> None:
     for n in notes:
         kinds[n["kind"]] += 1
         if n["kind"] in ("bridged", "dropped"):
-            what = ("bridged to its neighbour, arc kept on" if n["kind"] == "bridged"
-                    else "dropped (no inside gap to bridge): flown arc-OFF")
-            ctx.warn(f"arc-ON run of {n['length']:.2f} mm at {n['at'][:2]} is shorter than the minimum arc run: "
-                     f"{what}", layer=n["layer"], section=n["section"])
+            what = (
+                "bridged to its neighbour, arc kept on"
+                if n["kind"] == "bridged"
+                else "dropped (no inside gap to bridge): flown arc-OFF"
+            )
+            ctx.warn(
+                f"arc-ON run of {n['length']:.2f} mm at {n['at'][:2]} is shorter than the minimum arc run: {what}",
+                layer=n["layer"],
+                section=n["section"],
+            )
         elif n["kind"] == "junction":
-            ctx.warn(f"ignites at a junction with another section at {n['at'][:2]}: every entry does (set "
-                     "`seam_at_junctions` to accept it, or change the guide)", layer=n["layer"], section=n["section"])
+            ctx.warn(
+                f"ignites at a junction with another section at {n['at'][:2]}: every entry does (set "
+                "`seam_at_junctions` to accept it, or change the guide)",
+                layer=n["layer"],
+                section=n["section"],
+            )
     breaks = [n for n in notes if n["kind"] == "order-rule"]
     if breaks:
         first = breaks[0]
-        ctx.warn(f"order deposits {first['before']!r} before {first['section']!r} against the MPP order rule "
-                 f"(oscillated sections, then the parallel ones they feed) on {len({n['layer'] for n in breaks})} "
-                 "layer(s): use order `nearest` or list them in `precedence`", layer=first["layer"],
-                 section=first["section"])
+        ctx.warn(
+            f"order deposits {first['before']!r} before {first['section']!r} against the MPP order rule "
+            f"(oscillated sections, then the parallel ones they feed) on {len({n['layer'] for n in breaks})} "
+            "layer(s): use order `nearest` or list them in `precedence`",
+            layer=first["layer"],
+            section=first["section"],
+        )
     gaps = []
     below = None
     for lp in layers:
@@ -413,10 +529,16 @@ def _report(ctx, params, layers, notes: list[dict]) -> None:
         if below is not None and len(below):
             gaps += [nearest_distance(p, below) for p in ign]
         below = ign
-    ctx.report({"short_runs_bridged": kinds["bridged"], "short_runs_dropped": kinds["dropped"],
-                "junction_ignitions": kinds["junction"], "order_rule_breaks": kinds["order-rule"],
-                "ignitions": int(sum(len(ignition_points(lp.sections)) for lp in layers if lp is not None)),
-                "min_ignition_gap_to_layer_below_mm": round(min(gaps), 3) if gaps else None})
+    ctx.report(
+        {
+            "short_runs_bridged": kinds["bridged"],
+            "short_runs_dropped": kinds["dropped"],
+            "junction_ignitions": kinds["junction"],
+            "order_rule_breaks": kinds["order-rule"],
+            "ignitions": int(sum(len(ignition_points(lp.sections)) for lp in layers if lp is not None)),
+            "min_ignition_gap_to_layer_below_mm": round(min(gaps), 3) if gaps else None,
+        }
+    )
 
 
 __all__ = ["GuideNode", "MaskNode", "SequenceNode", "ZoneNode"]

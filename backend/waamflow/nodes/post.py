@@ -17,16 +17,39 @@ from ..core.files import ShippedName, shipped
 from ..core.moves import flatten
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..program import (GcodeSettings, InformSettings, KrlSettings, PlanSettings, Program, RapidSettings, TpSettings,
-                       WriterSettings, post_process)
-from ..program.common import (KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, check_templates, check_tool_template,
-                              program_identifier, stamp_trace)
+from ..program import (
+    GcodeSettings,
+    InformSettings,
+    KrlSettings,
+    PlanSettings,
+    Program,
+    RapidSettings,
+    TpSettings,
+    WriterSettings,
+    post_process,
+)
+from ..program.common import (
+    KRL_RESERVED,
+    RAPID_RESERVED,
+    TOOL_COMMANDS,
+    check_templates,
+    check_tool_template,
+    program_identifier,
+    stamp_trace,
+)
 from ..program.gcode import GCODE_WELD_CODES
 from ..program.krl import ARCTECH_CHANNELS, KRL_WELD_CODES, check_channels
 from ..program.profiles import profile as machine_profile
 from ..trajectory.cell import cell_schema, positioner_and_torch, to_world
-from .robot import (POSITIONER_PLAN_KEYS, cell_files, cell_from_param, check_cell_param, flat_tol_field,
-                    max_lean_field, max_tilt_field)
+from .robot import (
+    POSITIONER_PLAN_KEYS,
+    cell_files,
+    cell_from_param,
+    check_cell_param,
+    flat_tol_field,
+    max_lean_field,
+    max_tilt_field,
+)
 
 _NAME = r"^[A-Za-z][A-Za-z0-9_]*$"
 TILT_WARN_DEG = 0.5  # a torch tilt below this is numerical noise of the tool-axis computation
@@ -70,154 +93,347 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "5"                # 5: max_tilt/max_lean/flat_tol; 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
-    uses_node_id = True          # the program is named after the node (its artifact names)
+    version = "5"  # 5: max_tilt/max_lean/flat_tol; 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
+    uses_node_id = True  # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
-        profile: ShippedName = shipped("machines", default="", max_length=64,
-                             description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
-                                         "abb_irc5, yaskawa_yrc1000, fanuc_r30ib_arctool): presets for every param this recipe does not set; empty = none", title="Machine profile")
+        profile: ShippedName = shipped(
+            "machines",
+            default="",
+            max_length=64,
+            description="Machine profile (data/machines: generic, linuxcnc, marlin, kuka_krc4 (ArcTech), kuka_krc4_io, "
+            "abb_irc5, yaskawa_yrc1000, fanuc_r30ib_arctool): presets for every param this recipe does not set; empty = none",
+            title="Machine profile",
+        )
         format: Literal["gcode", "krl", "rapid", "inform", "tp", "csv", "printpoints"] = Field(
-            "gcode", description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); tp = Fanuc TP "
-                                 "programs (.LS, ArcTool) with a weld schedule table; printpoints = "
-                                 "compas_slicer print-points JSON", title="Program format")
-        program_name: str = Field("", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
-                                  description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
-                                              "identifier, so the program is named like its files (KRL requires "
-                                              "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32, ≤ 27 "
-                                              "with a module size limit); the KRL / RAPID files are named after it", title="Program name")
-        ignition_dwell: float = Field(0.5, ge=0, le=60, json_schema_extra=unit("s"),
-                                      description="Dwell after each arc ignition when the zone has no `dwell` parameter", title="Ignition dwell")
-        arc_tolerance: float = Field(0.0, ge=0, le=5, json_schema_extra=unit("mm"),
-                                     description="Arc fitting tolerance (G2/G3, CIRC, ArcC); 0 = off, every point a linear move", title="Arc fitting tolerance")
-        travel_speed: float = Field(100.0, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                    description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate", title="Travel speed")
-        blend_distance: float = Field(1.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                                      description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius, print points "
-                                                  "blend_radius; 0 = exact stops", title="Corner blend distance")
-        position_level: int = Field(1, ge=0, le=8, title="Position level (INFORM PL)",
-                                    description="INFORM: PL of blended motions (0 = exact stop everywhere; the "
-                                                "controller's position level table sets the distance of 1..8)")
-        cnt: int = Field(100, ge=0, le=100, title="Blending CNT (TP)",
-                         description="Fanuc TP: CNT of blended motions (0..100; exact stops are FINE; "
-                                     "blend_distance 0 = FINE everywhere)")
+            "gcode",
+            description="Program format; inform = Yaskawa Motoman INFORM jobs (.JBI); tp = Fanuc TP "
+            "programs (.LS, ArcTool) with a weld schedule table; printpoints = "
+            "compas_slicer print-points JSON",
+            title="Program format",
+        )
+        program_name: str = Field(
+            "",
+            pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$",
+            max_length=32,
+            description="Program / module name (KRL DEF, RAPID MODULE); empty = the node id made an "
+            "identifier, so the program is named like its files (KRL requires "
+            "DEF name = file name; ≤ 24 characters, ≤ 16 when split; RAPID ≤ 32, ≤ 27 "
+            "with a module size limit); the KRL / RAPID files are named after it",
+            title="Program name",
+        )
+        ignition_dwell: float = Field(
+            0.5,
+            ge=0,
+            le=60,
+            json_schema_extra=unit("s"),
+            description="Dwell after each arc ignition when the zone has no `dwell` parameter",
+            title="Ignition dwell",
+        )
+        arc_tolerance: float = Field(
+            0.0,
+            ge=0,
+            le=5,
+            json_schema_extra=unit("mm"),
+            description="Arc fitting tolerance (G2/G3, CIRC, ArcC); 0 = off, every point a linear move",
+            title="Arc fitting tolerance",
+        )
+        travel_speed: float = Field(
+            100.0,
+            gt=0,
+            le=2000,
+            json_schema_extra=unit("mm/s"),
+            description="Arc-off travel speed (robots; G-code when rapid_travel is off) and time estimate",
+            title="Travel speed",
+        )
+        blend_distance: float = Field(
+            1.0,
+            ge=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Corner blending: KRL $APO.CDIS, RAPID zonedata radius, print points "
+            "blend_radius; 0 = exact stops",
+            title="Corner blend distance",
+        )
+        position_level: int = Field(
+            1,
+            ge=0,
+            le=8,
+            title="Position level (INFORM PL)",
+            description="INFORM: PL of blended motions (0 = exact stop everywhere; the "
+            "controller's position level table sets the distance of 1..8)",
+        )
+        cnt: int = Field(
+            100,
+            ge=0,
+            le=100,
+            title="Blending CNT (TP)",
+            description="Fanuc TP: CNT of blended motions (0..100; exact stops are FINE; "
+            "blend_distance 0 = FINE everywhere)",
+        )
         station_pulses_per_deg: list[float] = Field(
-            default_factory=list, max_length=3, title="Station pulses per degree (INFORM)",
+            default_factory=list,
+            max_length=3,
+            title="Station pulses per degree (INFORM)",
             description="INFORM with a cell's positioner: encoder pulses per degree of each station axis (E1 tilt, "
-                        "E2 turn) as the controller's parameters give them; the EC positions are written in pulses")
+            "E2 turn) as the controller's parameters give them; the EC positions are written in pulses",
+        )
         # G-code
-        arc_on: str = Field("M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code")
-        arc_off: str = Field("M5", min_length=1, max_length=64, description="G-code: line that switches the arc off", title="Arc off code")
-        dwell_units: Literal["s", "ms"] = Field("s", description="G-code: unit of the G4 P word on this controller", title="Dwell units")
-        rapid_travel: bool = Field(True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)", title="Rapid travel (G0)")
+        arc_on: str = Field(
+            "M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code"
+        )
+        arc_off: str = Field(
+            "M5",
+            min_length=1,
+            max_length=64,
+            description="G-code: line that switches the arc off",
+            title="Arc off code",
+        )
+        dwell_units: Literal["s", "ms"] = Field(
+            "s", description="G-code: unit of the G4 P word on this controller", title="Dwell units"
+        )
+        rapid_travel: bool = Field(
+            True, description="G-code: G0 for arc-off travel (else G1 at travel_speed)", title="Rapid travel (G0)"
+        )
         comment_style: Literal["semicolon", "parentheses"] = Field(
-            "semicolon", description="G-code: comments as `; text` or `(text)` (controllers without `;`)", title="Comment style")
-        feed_units: Literal["mm/min", "mm/s"] = Field("mm/min", description="G-code: unit of the F word", title="Feed units")
-        start_code: list[str] = Field(default_factory=list, max_length=50,
-                                      description="G-code: lines written after the header (e.g. homing, gas on)", title="Start code")
-        layer_code: list[str] = Field(default_factory=list, max_length=20,
-                                      description="G-code: lines written at every layer change; templates with "
-                                                  "{layer} and {z} (mm), e.g. \";LAYER:{layer}\"", title="Layer change code")
-        end_code: list[str] = Field(default_factory=list, max_length=50,
-                                    description="G-code: lines written after the last motion and the final lift", title="End code")
-        final_lift: float = Field(0.0, ge=0, le=500, json_schema_extra=unit("mm"),
-                                  description="G-code: G0 up by this much at the end, after the arc is off; 0 = none", title="Final lift")
-        preamble: list[str] = Field(default_factory=list, max_length=10,
-                                    description="G-code: lines before everything else (e.g. \"%\", \"O0001\")", title="Preamble")
-        postamble: list[str] = Field(default_factory=list, max_length=10,
-                                     description="G-code: lines after the program end (e.g. \"%\")", title="Postamble")
-        program_end: str = Field("M30", min_length=1, max_length=32,
-                                 description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)", title="Program end")
+            "semicolon",
+            description="G-code: comments as `; text` or `(text)` (controllers without `;`)",
+            title="Comment style",
+        )
+        feed_units: Literal["mm/min", "mm/s"] = Field(
+            "mm/min", description="G-code: unit of the F word", title="Feed units"
+        )
+        start_code: list[str] = Field(
+            default_factory=list,
+            max_length=50,
+            description="G-code: lines written after the header (e.g. homing, gas on)",
+            title="Start code",
+        )
+        layer_code: list[str] = Field(
+            default_factory=list,
+            max_length=20,
+            description="G-code: lines written at every layer change; templates with "
+            '{layer} and {z} (mm), e.g. ";LAYER:{layer}"',
+            title="Layer change code",
+        )
+        end_code: list[str] = Field(
+            default_factory=list,
+            max_length=50,
+            description="G-code: lines written after the last motion and the final lift",
+            title="End code",
+        )
+        final_lift: float = Field(
+            0.0,
+            ge=0,
+            le=500,
+            json_schema_extra=unit("mm"),
+            description="G-code: G0 up by this much at the end, after the arc is off; 0 = none",
+            title="Final lift",
+        )
+        preamble: list[str] = Field(
+            default_factory=list,
+            max_length=10,
+            description='G-code: lines before everything else (e.g. "%", "O0001")',
+            title="Preamble",
+        )
+        postamble: list[str] = Field(
+            default_factory=list,
+            max_length=10,
+            description='G-code: lines after the program end (e.g. "%")',
+            title="Postamble",
+        )
+        program_end: str = Field(
+            "M30",
+            min_length=1,
+            max_length=32,
+            description="G-code: the last line (M30, M2; Marlin: M84, since its M30 deletes a file)",
+            title="Program end",
+        )
         process_codes: dict[str, str] = Field(
             default_factory=dict,
             description="G-code / KRL output mode: zone weld value (wire_feed_speed m/min, current A, voltage V, "
-                        "job) → the command that sets it, a template using {value}, e.g. {\"wire_feed_speed\": "
-                        "\"M100 S{value:.1f}\"}; written at every zone change (inside a run: the changes). Empty = "
-                        "the format's default: G-code LinuxCNC analog outputs M67 E0 (WFS) / E1 (current) / E2 "
-                        "(voltage) Q<value>, job M120 P<job>; KRL $ANOUT[1] = WFS/20, [2] = current/500, [3] = "
-                        "voltage/50. A value without a command (\"\") is reported as a weld issue", title="Process codes")
+            'job) → the command that sets it, a template using {value}, e.g. {"wire_feed_speed": '
+            '"M100 S{value:.1f}"}; written at every zone change (inside a run: the changes). Empty = '
+            "the format's default: G-code LinuxCNC analog outputs M67 E0 (WFS) / E1 (current) / E2 "
+            "(voltage) Q<value>, job M120 P<job>; KRL $ANOUT[1] = WFS/20, [2] = current/500, [3] = "
+            'voltage/50. A value without a command ("") is reported as a weld issue',
+            title="Process codes",
+        )
         process_codes_start: dict[str, str] = Field(
             default_factory=dict,
             description="G-code: the form of a process_codes command written before an ignition (arc off); empty = "
-                        "LinuxCNC's immediate M68 E<n> Q<value> with the default process_codes, else process_codes", title="Process code before ignition")
+            "LinuxCNC's immediate M68 E<n> Q<value> with the default process_codes, else process_codes",
+            title="Process code before ignition",
+        )
         process_scale: dict[str, float] = Field(
             default_factory=dict,
             description="G-code: zone weld value → factor applied before it fills {value} (e.g. Marlin PWM: "
-                        "{\"wire_feed_speed\": 12.75} for S0-255 = 0-20 m/min); default 1", title="Process value scale")
+            '{"wire_feed_speed": 12.75} for S0-255 = 0-20 m/min); default 1',
+            title="Process value scale",
+        )
         weld_values: dict[str, float] = Field(
             default_factory=dict,
             description="Weld values (current A, voltage V, wire_feed_speed m/min, job) for every welded zone that "
-                        "does not state them itself: the power-source setting the plan was made for (e.g. a recipe "
-                        "without a parameter file), so the program commands it; empty = none", title="Weld values")
-        tcp_control: bool = Field(True, description="G-code with a positioner: the controller has tool centre point "
-                                                    "control (LinuxCNC TCP kinematics, TRAORI, G43.4); Marlin has none", title="TCP control")
-        travel_feed: bool = Field(False, description="G-code: F at travel_speed on every G0 travel line (controllers "
-                                                     "whose G0 moves at the modal feed, e.g. Marlin)", title="Feed on rapid moves")
+            "does not state them itself: the power-source setting the plan was made for (e.g. a recipe "
+            "without a parameter file), so the program commands it; empty = none",
+            title="Weld values",
+        )
+        tcp_control: bool = Field(
+            True,
+            description="G-code with a positioner: the controller has tool centre point "
+            "control (LinuxCNC TCP kinematics, TRAORI, G43.4); Marlin has none",
+            title="TCP control",
+        )
+        travel_feed: bool = Field(
+            False,
+            description="G-code: F at travel_speed on every G0 travel line (controllers "
+            "whose G0 moves at the modal feed, e.g. Marlin)",
+            title="Feed on rapid moves",
+        )
         rotary_axes: list[str] = Field(
-            default_factory=lambda: ["A", "C"], min_length=1, max_length=6,
+            default_factory=lambda: ["A", "C"],
+            min_length=1,
+            max_length=6,
             json_schema_extra={"items": {"type": "string", "enum": ["A", "B", "C", "U", "V", "W"]}},
             description="G-code with a cell: letters of the positioner axes E1 (tilt), E2 (turn) as rotary "
-                        "axes (the machine profile's, e.g. A/C or B/C)", title="Rotary axis letters")
-        rotary_units: Literal["deg", "rad"] = Field("deg", description="G-code with a cell: unit of the rotary-axis words", title="Rotary axis units")
+            "axes (the machine profile's, e.g. A/C or B/C)",
+            title="Rotary axis letters",
+        )
+        rotary_units: Literal["deg", "rad"] = Field(
+            "deg", description="G-code with a cell: unit of the rotary-axis words", title="Rotary axis units"
+        )
         # post-deposition tools (rolling, peening: sections from a treatment node)
-        tool_on: str = Field("", max_length=200,
-                             description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
-                                         "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
-                                         "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
-                                         "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
-                                         "`ToolOn force, width, speed;`", title="Tool on code")
-        tool_off: str = Field("", max_length=200,
-                              description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
-                                          "`TOOL_OFF()`, RAPID `ToolOff;`", title="Tool off code")
+        tool_on: str = Field(
+            "",
+            max_length=200,
+            description="Line(s) that engage a rolling/peening tool before each contact stroke, with "
+            "fields {force_n} N, {tool_width_mm} mm, {speed_mm_s} mm/s, {tool}; empty = "
+            "the format's default: G-code `M110 P{force_n:.0f} Q{tool_width_mm:g}` "
+            "(LinuxCNC user M-code), KRL `TOOL_ON(force, width, speed)`, RAPID "
+            "`ToolOn force, width, speed;`",
+            title="Tool on code",
+        )
+        tool_off: str = Field(
+            "",
+            max_length=200,
+            description="Line(s) that lift the tool after each stroke; empty = G-code `M111`, KRL "
+            "`TOOL_OFF()`, RAPID `ToolOff;`",
+            title="Tool off code",
+        )
         # KUKA KRL
-        tool_number: int = Field(1, ge=1, le=32, description="KRL: TOOL_DATA number; INFORM: the job's tool (///TOOL); TP: UT (1..10)", title="Tool number (KRL)")
-        base_number: int = Field(1, ge=0, le=32, description="KRL: BASE_DATA number; INFORM: the user frame (///USER, at least 1); TP: UF (0..9)", title="Base number (KRL)")
+        tool_number: int = Field(
+            1,
+            ge=1,
+            le=32,
+            description="KRL: TOOL_DATA number; INFORM: the job's tool (///TOOL); TP: UT (1..10)",
+            title="Tool number (KRL)",
+        )
+        base_number: int = Field(
+            1,
+            ge=0,
+            le=32,
+            description="KRL: BASE_DATA number; INFORM: the user frame (///USER, at least 1); TP: UF (0..9)",
+            title="Base number (KRL)",
+        )
         arc_control: Literal["output", "arctech"] = Field(
-            "output", description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF", title="Arc control (KRL)")
-        arc_output: int = Field(1, ge=1, le=4096, description="KRL: digital output number of the arc", title="Arc output number (KRL)")
-        arctech_routine: str = Field("ArcMainNG", pattern=_NAME, max_length=24,
-                                     description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through", title="ArcTech routine")
+            "output",
+            description="KRL: arc by digital output (TRIGGER ... $OUT[n]) or ArcTech-style ARC_ON/ARC_SWI/ARC_OFF",
+            title="Arc control (KRL)",
+        )
+        arc_output: int = Field(
+            1, ge=1, le=4096, description="KRL: digital output number of the arc", title="Arc output number (KRL)"
+        )
+        arctech_routine: str = Field(
+            "ArcMainNG",
+            pattern=_NAME,
+            max_length=24,
+            description="KRL ArcTech: main routine the ARC ON/SWI/OFF calls go through",
+            title="ArcTech routine",
+        )
         arctech_channels: dict[str, int] = Field(
             default_factory=lambda: dict(ARCTECH_CHANNELS),
             description="KRL ArcTech: zone parameter → power-source channel 1..8 of the weld data sets "
-                        "(e.g. {\"job\": 1, \"wire_feed_speed\": 2, \"voltage\": 3})", title="ArcTech channels")
+            '(e.g. {"job": 1, "wire_feed_speed": 2, "voltage": 3})',
+            title="ArcTech channels",
+        )
         arctech_velocity_unit: Literal["m/min", "m/s"] = Field(
-            "m/min", description="KRL ArcTech: unit of Weld.Velocity in the weld data sets", title="ArcTech velocity unit")
-        max_points_per_file: int = Field(0, ge=0, le=1_000_000,
-                                         description="KRL: most motions per file, 0 = no limit (main program calls subprograms)", title="Most motions per file (KRL)")
+            "m/min",
+            description="KRL ArcTech: unit of Weld.Velocity in the weld data sets",
+            title="ArcTech velocity unit",
+        )
+        max_points_per_file: int = Field(
+            0,
+            ge=0,
+            le=1_000_000,
+            description="KRL: most motions per file, 0 = no limit (main program calls subprograms)",
+            title="Most motions per file (KRL)",
+        )
         split_per_layer: bool = Field(False, description="KRL: one subprogram per layer", title="Subprogram per layer")
         # ABB RAPID
-        tool_name: str = Field("tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name", title="Tool name (RAPID)")
-        wobj_name: str = Field("wobj0", pattern=_NAME, max_length=32,
-                               description="RAPID: wobjdata name (with a cell's positioner: a coordinated work "
-                                           "object declared in the module, wobj_<unit> when this is wobj0)", title="Work object (RAPID)")
-        positioner_unit: str = Field("STN1", pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$", max_length=32,
-                                     description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
-                                                 "the coordinated work object); empty = no coordination", title="Positioner unit (RAPID)")
-        max_module_bytes: int = Field(512_000, ge=0, le=100_000_000, json_schema_extra=unit("B"),
-                                      description="RAPID: most bytes per module file; a larger program is a main "
-                                                  "module that loads part modules <name>_M001.mod, ... (layer ranges) "
-                                                  "one after the other (StartLoad/WaitLoad/UnLoad); 0 = one module. "
-                                                  "At least 16384", title="Largest module (RAPID)")
-        module_dir: str = Field("HOME:", pattern=r'^[^"\\]+$', max_length=80,
-                                description="RAPID: controller folder the main module loads its part modules from", title="Module folder (RAPID)")
+        tool_name: str = Field(
+            "tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name", title="Tool name (RAPID)"
+        )
+        wobj_name: str = Field(
+            "wobj0",
+            pattern=_NAME,
+            max_length=32,
+            description="RAPID: wobjdata name (with a cell's positioner: a coordinated work "
+            "object declared in the module, wobj_<unit> when this is wobj0)",
+            title="Work object (RAPID)",
+        )
+        positioner_unit: str = Field(
+            "STN1",
+            pattern=r"^([A-Za-z][A-Za-z0-9_]*)?$",
+            max_length=32,
+            description="RAPID: mechanical unit of the positioner (ActUnit/DeactUnit, ufmec of "
+            "the coordinated work object); empty = no coordination",
+            title="Positioner unit (RAPID)",
+        )
+        max_module_bytes: int = Field(
+            512_000,
+            ge=0,
+            le=100_000_000,
+            json_schema_extra=unit("B"),
+            description="RAPID: most bytes per module file; a larger program is a main "
+            "module that loads part modules <name>_M001.mod, ... (layer ranges) "
+            "one after the other (StartLoad/WaitLoad/UnLoad); 0 = one module. "
+            "At least 16384",
+            title="Largest module (RAPID)",
+        )
+        module_dir: str = Field(
+            "HOME:",
+            pattern=r'^[^"\\]+$',
+            max_length=80,
+            description="RAPID: controller folder the main module loads its part modules from",
+            title="Module folder (RAPID)",
+        )
         # robots
-        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells",
-                                                                 "x-file-suffix": ".json"},
-                          description="Robot cell — a shipped cell name (data/cells) or a cell JSON path, as in "
-                                      "simulate-robot — whose positioner angles go into every target as "
-                                      "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
-                                      "(`rotary_axes`); empty = no external axes", title="Robot cell")
+        cell: str = Field(
+            "",
+            max_length=256,
+            json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells", "x-file-suffix": ".json"},
+            description="Robot cell — a shipped cell name (data/cells) or a cell JSON path, as in "
+            "simulate-robot — whose positioner angles go into every target as "
+            "external axes: KRL E1/E2, RAPID extax eax_a/eax_b, TP group 2 J1/J2 (COORD), G-code rotary axes "
+            "(`rotary_axes`); empty = no external axes",
+            title="Robot cell",
+        )
         positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
-            "auto", description="With a cell: positioner angles per point, as in simulate-robot (auto within "
-                                "max_lean_deg and flat_tol_deg, min-motion within max_tilt_deg; a simulate-robot "
-                                "fed this program plans with the same); auto fails (exit 3) naming the layer when "
-                                "no angles work", title="Positioner policy")
+            "auto",
+            description="With a cell: positioner angles per point, as in simulate-robot (auto within "
+            "max_lean_deg and flat_tol_deg, min-motion within max_tilt_deg; a simulate-robot "
+            "fed this program plans with the same); auto fails (exit 3) naming the layer when "
+            "no angles work",
+            title="Positioner policy",
+        )
         max_tilt_deg: float = max_tilt_field()
         max_lean_deg: float = max_lean_field()
         flat_tol_deg: float = flat_tol_field()
         tool_direction: Literal["default", "x", "z"] = Field(
-            "default", description="Tool axis of the robot's tool frame: KRL default x, RAPID default z", title="Tool axis")
+            "default",
+            description="Tool axis of the robot's tool frame: KRL default x, RAPID default z",
+            title="Tool axis",
+        )
 
         @field_validator("rotary_axes")
         @classmethod
@@ -274,8 +490,9 @@ class PostProcess(Node):
 
     def run(self, ctx, params: Params, inputs: dict[str, Any]) -> dict[str, Any]:
         params = with_profile(params)
-        plan = PlanSettings(ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance,
-                            travel_speed=params.travel_speed)
+        plan = PlanSettings(
+            ignition_dwell=params.ignition_dwell, arc_tolerance=params.arc_tolerance, travel_speed=params.travel_speed
+        )
         name = _program_name(ctx, params)
         try:
             writer = _writer_settings(params, name)
@@ -285,13 +502,20 @@ class PostProcess(Node):
         positioner = None
         if params.weld_values:
             inputs = {**inputs, "toolpath": _with_weld_values(inputs["toolpath"], params.weld_values)}
-        if params.cell and isinstance(writer, CONTROLLER_SETTINGS):   # krl, rapid, gcode, tp, inform
-            cell = cell_from_param(ctx, params.cell, meshes=params.positioner_policy == "auto")  # auto checks collisions
+        if params.cell and isinstance(writer, CONTROLLER_SETTINGS):  # krl, rapid, gcode, tp, inform
+            cell = cell_from_param(
+                ctx, params.cell, meshes=params.positioner_policy == "auto"
+            )  # auto checks collisions
             moves = flatten(inputs["toolpath"])
-            from ..trajectory.cellplan import AutoLimits   # lazy: the catalog must not import the arm's kinematics
+            from ..trajectory.cellplan import AutoLimits  # lazy: the catalog must not import the arm's kinematics
 
-            angles, torch = positioner_and_torch(cell, moves, params.positioner_policy, params.max_tilt_deg,
-                                                 AutoLimits(params.max_lean_deg, params.flat_tol_deg))
+            angles, torch = positioner_and_torch(
+                cell,
+                moves,
+                params.positioner_policy,
+                params.max_tilt_deg,
+                AutoLimits(params.max_lean_deg, params.flat_tol_deg),
+            )
             positioner = {"cell": params.cell, **{k: getattr(params, k) for k in POSITIONER_PLAN_KEYS}}
             if not np.array_equal(torch, moves.tool_axis):
                 # the plan leaned the torch on some layers: the program carries those axes
@@ -300,7 +524,9 @@ class PostProcess(Node):
             try:
                 writer = replace(writer, external_axes=angles)
             except ValueError as err:
-                raise RecipeError(str(err), field="station_pulses_per_deg" if params.format == "inform" else "cell") from err
+                raise RecipeError(
+                    str(err), field="station_pulses_per_deg" if params.format == "inform" else "cell"
+                ) from err
             if isinstance(writer, RapidSettings):
                 writer = replace(writer, work_frame=_work_frame(cell))
             if params.format == "gcode" and len(moves.points):
@@ -315,17 +541,25 @@ class PostProcess(Node):
             program = replace(program, stats={**program.stats, "positioner": positioner})
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
-        what = {"rapid": "RAPID welddata", "gcode": "G-code weld commands", "tp": "TP weld schedules",
-                "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands"}
+        what = {
+            "rapid": "RAPID welddata",
+            "gcode": "G-code weld commands",
+            "tp": "TP weld schedules",
+            "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands",
+        }
         _warn_weld_data(ctx, program, what.get(params.format, "weld data"))
         tilt = program.stats.get("max_tool_tilt_deg", 0.0) if world_tilt is None else world_tilt
         if params.format == "gcode" and tilt > TILT_WARN_DEG:
             if world_tilt is None:
-                ctx.warn(f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
-                         "tool axes are ignored (use krl or rapid, or a cell with a positioner)")
+                ctx.warn(
+                    f"the toolpath tilts the torch up to {tilt:.1f}° but G-code here is 3-axis: "
+                    "tool axes are ignored (use krl or rapid, or a cell with a positioner)"
+                )
             else:
-                ctx.warn(f"under the positioner angles the torch still tilts up to {tilt:.1f}° from vertical; "
-                         "the G-code torch is vertical: tool axes are ignored (use krl or rapid)")
+                ctx.warn(
+                    f"under the positioner angles the torch still tilts up to {tilt:.1f}° from vertical; "
+                    "the G-code torch is vertical: tool axes are ignored (use krl or rapid)"
+                )
         return {"program": program}
 
     def read_files(self, params, read_bytes) -> list[str]:
@@ -333,7 +567,7 @@ class PostProcess(Node):
 
     def artifacts(self, ctx, params: Params, outputs: dict[str, Any]) -> dict[str, str | bytes]:
         program: Program = outputs["program"]
-        trace = ctx.trace() if hasattr(ctx, "trace") else {}     # minimal test contexts have none
+        trace = ctx.trace() if hasattr(ctx, "trace") else {}  # minimal test contexts have none
         files: dict[str, str | bytes] = dict(stamp_trace(program.format, dict(program.files), trace))
         nid = getattr(ctx, "node_id", "")
         if not nid:
@@ -354,8 +588,10 @@ def with_profile(params: PostProcess.Params) -> PostProcess.Params:
     unknown = sorted(set(preset) - set(PostProcess.Params.model_fields))
     if unknown:
         raise RecipeError(f"machine profile {params.profile!r} sets unknown post-process params: {', '.join(unknown)}")
-    merged = {**{k: v for k, v in preset.items() if k not in params.model_fields_set},
-              **params.model_dump(include=params.model_fields_set)}
+    merged = {
+        **{k: v for k, v in preset.items() if k not in params.model_fields_set},
+        **params.model_dump(include=params.model_fields_set),
+    }
     return PostProcess.Params.model_validate(merged)
 
 
@@ -384,8 +620,11 @@ def _warn_weld_data(ctx, program: Program, what: str) -> None:
     for (zone, message), issues in groups.items():
         first = issues[0]
         more = f"; {len(issues)} sections in all" if len(issues) > 1 else ""
-        ctx.warn(f"{what} of zone {zone} (section {first.section}, layer {first.layer}{more}): {message}",
-                 layer=first.layer, section=first.section)
+        ctx.warn(
+            f"{what} of zone {zone} (section {first.section}, layer {first.layer}{more}): {message}",
+            layer=first.layer,
+            section=first.section,
+        )
 
 
 def _program_name(ctx, p: PostProcess.Params) -> str:
@@ -394,18 +633,21 @@ def _program_name(ctx, p: PostProcess.Params) -> str:
     fits); the KRL / RAPID files are named after it (`Program.file_names`)."""
     if p.format == "krl":
         limit, reserved = (16 if p.split_per_layer or p.max_points_per_file else 24), KRL_RESERVED
-    elif p.format == "rapid":                 # ≤ 27 so `<name>_M001` fits when split into modules
+    elif p.format == "rapid":  # ≤ 27 so `<name>_M001` fits when split into modules
         limit, reserved = (27 if p.max_module_bytes else 32), RAPID_RESERVED
-    elif p.format == "inform":                # ≤ 24 so `<NAME>_L003_1` fits INFORM's 32
+    elif p.format == "inform":  # ≤ 24 so `<NAME>_L003_1` fits INFORM's 32
         limit, reserved = 24, frozenset()
-    elif p.format == "tp":                    # ≤ 24 so `<NAME>_L0003_12` and `<NAME>_SCHED` fit TP's 36
+    elif p.format == "tp":  # ≤ 24 so `<NAME>_L0003_12` and `<NAME>_SCHED` fit TP's 36
         limit, reserved = 24, frozenset()
     else:
         limit, reserved = 64, frozenset()
     if p.program_name:
         if len(p.program_name) > limit:
-            raise RecipeError(f"program_name {p.program_name!r} is longer than {limit} characters ({p.format}"
-                              + (", split into subprograms" if limit == 16 else "") + ")")
+            raise RecipeError(
+                f"program_name {p.program_name!r} is longer than {limit} characters ({p.format}"
+                + (", split into subprograms" if limit == 16 else "")
+                + ")"
+            )
         return p.program_name
     return program_identifier(getattr(ctx, "node_id", "") or "waamflow", limit, reserved)
 
@@ -431,36 +673,84 @@ def _writer_settings(p: PostProcess.Params, name: str) -> WriterSettings | float
     on, off = TOOL_COMMANDS[p.format]
     tool_on, tool_off = p.tool_on or on, p.tool_off or off
     if p.format == "gcode":
-        return GcodeSettings(program_name=name, arc_on=p.arc_on, arc_off=p.arc_off,
-                             dwell_units=p.dwell_units, rapid_travel=p.rapid_travel,
-                             travel_speed=p.travel_speed, process_codes=dict(p.process_codes or GCODE_WELD_CODES),
-                             process_codes_start=dict(p.process_codes_start) or None,
-                             process_scale=dict(p.process_scale), travel_feed=p.travel_feed,
-                             rotary_axes=tuple(p.rotary_axes), rotary_units=p.rotary_units, tcp_control=p.tcp_control,
-                             comment_style=p.comment_style, feed_units=p.feed_units,
-                             start_code=tuple(p.start_code), layer_code=tuple(p.layer_code),
-                             end_code=tuple(p.end_code), final_lift=p.final_lift, program_end=p.program_end,
-                             preamble=tuple(p.preamble), postamble=tuple(p.postamble), tool_on=tool_on, tool_off=tool_off)
+        return GcodeSettings(
+            program_name=name,
+            arc_on=p.arc_on,
+            arc_off=p.arc_off,
+            dwell_units=p.dwell_units,
+            rapid_travel=p.rapid_travel,
+            travel_speed=p.travel_speed,
+            process_codes=dict(p.process_codes or GCODE_WELD_CODES),
+            process_codes_start=dict(p.process_codes_start) or None,
+            process_scale=dict(p.process_scale),
+            travel_feed=p.travel_feed,
+            rotary_axes=tuple(p.rotary_axes),
+            rotary_units=p.rotary_units,
+            tcp_control=p.tcp_control,
+            comment_style=p.comment_style,
+            feed_units=p.feed_units,
+            start_code=tuple(p.start_code),
+            layer_code=tuple(p.layer_code),
+            end_code=tuple(p.end_code),
+            final_lift=p.final_lift,
+            program_end=p.program_end,
+            preamble=tuple(p.preamble),
+            postamble=tuple(p.postamble),
+            tool_on=tool_on,
+            tool_off=tool_off,
+        )
     if p.format == "krl":
-        return KrlSettings(program_name=name, tool=p.tool_number, base=p.base_number,
-                           blend_distance=p.blend_distance, travel_speed=p.travel_speed,
-                           arc_control=p.arc_control, arc_output=p.arc_output,
-                           tool_direction=direction or "x", max_points_per_file=p.max_points_per_file,
-                           split_per_layer=p.split_per_layer, process_codes=dict(p.process_codes or KRL_WELD_CODES),
-                           arctech_routine=p.arctech_routine, arctech_channels=dict(p.arctech_channels),
-                           arctech_velocity_unit=p.arctech_velocity_unit, tool_on=tool_on, tool_off=tool_off)
+        return KrlSettings(
+            program_name=name,
+            tool=p.tool_number,
+            base=p.base_number,
+            blend_distance=p.blend_distance,
+            travel_speed=p.travel_speed,
+            arc_control=p.arc_control,
+            arc_output=p.arc_output,
+            tool_direction=direction or "x",
+            max_points_per_file=p.max_points_per_file,
+            split_per_layer=p.split_per_layer,
+            process_codes=dict(p.process_codes or KRL_WELD_CODES),
+            arctech_routine=p.arctech_routine,
+            arctech_channels=dict(p.arctech_channels),
+            arctech_velocity_unit=p.arctech_velocity_unit,
+            tool_on=tool_on,
+            tool_off=tool_off,
+        )
     if p.format == "rapid":
-        return RapidSettings(program_name=name, tool=p.tool_name, wobj=p.wobj_name,
-                             positioner_unit=p.positioner_unit,
-                             blend_distance=p.blend_distance, travel_speed=p.travel_speed,
-                             max_module_bytes=p.max_module_bytes, module_dir=p.module_dir,
-                             tool_direction=direction or "z", tool_on=tool_on, tool_off=tool_off)
+        return RapidSettings(
+            program_name=name,
+            tool=p.tool_name,
+            wobj=p.wobj_name,
+            positioner_unit=p.positioner_unit,
+            blend_distance=p.blend_distance,
+            travel_speed=p.travel_speed,
+            max_module_bytes=p.max_module_bytes,
+            module_dir=p.module_dir,
+            tool_direction=direction or "z",
+            tool_on=tool_on,
+            tool_off=tool_off,
+        )
     if p.format == "inform":
-        return InformSettings(program_name=name, tool=p.tool_number, user_frame=max(1, p.base_number),
-                              travel_speed=p.travel_speed, position_level=p.position_level if p.blend_distance > 0 else 0,
-                              station_pulses_per_deg=tuple(p.station_pulses_per_deg), tool_on=tool_on, tool_off=tool_off)
+        return InformSettings(
+            program_name=name,
+            tool=p.tool_number,
+            user_frame=max(1, p.base_number),
+            travel_speed=p.travel_speed,
+            position_level=p.position_level if p.blend_distance > 0 else 0,
+            station_pulses_per_deg=tuple(p.station_pulses_per_deg),
+            tool_on=tool_on,
+            tool_off=tool_off,
+        )
     if p.format == "tp":
-        return TpSettings(program_name=name, tool=p.tool_number, user_frame=p.base_number,
-                          travel_speed=p.travel_speed, cnt=p.cnt if p.blend_distance > 0 else 0,
-                          tool_on=tool_on, tool_off=tool_off)
-    raise ValueError(f"post-process: no writer settings for format {p.format!r}")   # a new TOOL_COMMANDS format
+        return TpSettings(
+            program_name=name,
+            tool=p.tool_number,
+            user_frame=p.base_number,
+            travel_speed=p.travel_speed,
+            cnt=p.cnt if p.blend_distance > 0 else 0,
+            tool_on=tool_on,
+            tool_off=tool_off,
+        )
+    raise ValueError(f"post-process: no writer settings for format {p.format!r}")  # a new TOOL_COMMANDS format

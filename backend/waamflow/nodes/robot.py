@@ -28,55 +28,134 @@ Vec3 = tuple[float, float, float]
 class RobotParams(NodeParams):
     """Parameters shared by the robot nodes: which robot and how it is set up in the cell."""
 
-    robot_profile: ShippedName = shipped("robots", default="kuka_kr100ha_krc2", min_length=1, max_length=64,
-                               description="Shipped robot profile (controller constants, data/robots/<name>.json)", title="Robot profile")
-    profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
-    cdis: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                        description="Blend distance: KUKA $APO.CDIS (blend=cdis) or ABB zone radius (blend=zone); 0 = exact stops", title="Blend distance")
-    blend: Literal["cdis", "zone"] = Field("cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola", title="Corner blending")
-    speed_override: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                         description="Replace the programmed speed of arc-ON moves (empty = as programmed)", title="Weld speed override")
-    speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                description="Same as speed_override (the contract's example recipe sets `speed` here)", title="Speed")
-    travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                       description="Speed of arc-OFF moves that carry no speed (empty = the profile's)", title="Travel speed")
-    interpolation_cycle_s: float = Field(0.012, gt=0.0005, le=0.1, json_schema_extra=unit("s"),
-                                         description="Controller interpolation cycle (KRC2: 12 ms); trace sampling period", title="Interpolation cycle")
-    ignition_dwell_s: float = Field(0.0, ge=0, le=60, json_schema_extra=unit("s"),
-                                    description="Standstill after each arc ignition when the zone has no `dwell` parameter", title="Ignition dwell")
-    wire_feed_mm3_s: float = Field(94.25, gt=0, le=10000, json_schema_extra=unit("mm³/s"),
-                                   description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)", title="Wire feed volume rate")
-    wire_diameter_mm: float | None = Field(None, gt=0.1, le=10, json_schema_extra=unit("mm"),
-                                           description="Wire diameter: when set, zones with a wire_feed_speed parameter "
-                                                       "feed WFS·π·d²/4 instead of wire_feed_mm3_s", title="Wire diameter")
+    robot_profile: ShippedName = shipped(
+        "robots",
+        default="kuka_kr100ha_krc2",
+        min_length=1,
+        max_length=64,
+        description="Shipped robot profile (controller constants, data/robots/<name>.json)",
+        title="Robot profile",
+    )
+    profile_file: FileRef = Field(
+        "", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file"
+    )
+    cdis: float = Field(
+        5.0,
+        ge=0,
+        le=200,
+        json_schema_extra=unit("mm"),
+        description="Blend distance: KUKA $APO.CDIS (blend=cdis) or ABB zone radius (blend=zone); 0 = exact stops",
+        title="Blend distance",
+    )
+    blend: Literal["cdis", "zone"] = Field(
+        "cdis", description="Corner blending: KUKA C_DIS-like arc or ABB zone-like parabola", title="Corner blending"
+    )
+    speed_override: float | None = Field(
+        None,
+        gt=0,
+        le=2000,
+        json_schema_extra=unit("mm/s"),
+        description="Replace the programmed speed of arc-ON moves (empty = as programmed)",
+        title="Weld speed override",
+    )
+    speed: float | None = Field(
+        None,
+        gt=0,
+        le=2000,
+        json_schema_extra=unit("mm/s"),
+        description="Same as speed_override (the contract's example recipe sets `speed` here)",
+        title="Speed",
+    )
+    travel_speed: float | None = Field(
+        None,
+        gt=0,
+        le=2000,
+        json_schema_extra=unit("mm/s"),
+        description="Speed of arc-OFF moves that carry no speed (empty = the profile's)",
+        title="Travel speed",
+    )
+    interpolation_cycle_s: float = Field(
+        0.012,
+        gt=0.0005,
+        le=0.1,
+        json_schema_extra=unit("s"),
+        description="Controller interpolation cycle (KRC2: 12 ms); trace sampling period",
+        title="Interpolation cycle",
+    )
+    ignition_dwell_s: float = Field(
+        0.0,
+        ge=0,
+        le=60,
+        json_schema_extra=unit("s"),
+        description="Standstill after each arc ignition when the zone has no `dwell` parameter",
+        title="Ignition dwell",
+    )
+    wire_feed_mm3_s: float = Field(
+        94.25,
+        gt=0,
+        le=10000,
+        json_schema_extra=unit("mm³/s"),
+        description="Constant wire volume feed while the arc is ON (1.2 mm wire at 83.34 mm/s = 94.25)",
+        title="Wire feed volume rate",
+    )
+    wire_diameter_mm: float | None = Field(
+        None,
+        gt=0.1,
+        le=10,
+        json_schema_extra=unit("mm"),
+        description="Wire diameter: when set, zones with a wire_feed_speed parameter "
+        "feed WFS·π·d²/4 instead of wire_feed_mm3_s",
+        title="Wire diameter",
+    )
 
     def sim_options(self) -> SimOptions:
-        return SimOptions(cdis=self.cdis, blend=self.blend, wire_feed_mm3_s=self.wire_feed_mm3_s,
-                          speed_override=self.speed_override if self.speed_override is not None else self.speed,
-                          interpolation_cycle_s=self.interpolation_cycle_s,
-                          travel_speed=self.travel_speed, ignition_dwell_s=self.ignition_dwell_s,
-                          wire_diameter_mm=self.wire_diameter_mm)
+        return SimOptions(
+            cdis=self.cdis,
+            blend=self.blend,
+            wire_feed_mm3_s=self.wire_feed_mm3_s,
+            speed_override=self.speed_override if self.speed_override is not None else self.speed,
+            interpolation_cycle_s=self.interpolation_cycle_s,
+            travel_speed=self.travel_speed,
+            ignition_dwell_s=self.ignition_dwell_s,
+            wire_diameter_mm=self.wire_diameter_mm,
+        )
 
 
 POSITIONER_PLAN_KEYS = ("positioner_policy", "max_tilt_deg", "max_lean_deg", "flat_tol_deg")
 
 
 def max_tilt_field():
-    return Field(30.0, ge=0, le=90, json_schema_extra=unit("deg"),
-                 description="positioner_policy min-motion: torch lean from vertical tolerated "
-                             "before the positioner turns the next layer", title="Largest torch lean")
+    return Field(
+        30.0,
+        ge=0,
+        le=90,
+        json_schema_extra=unit("deg"),
+        description="positioner_policy min-motion: torch lean from vertical tolerated "
+        "before the positioner turns the next layer",
+        title="Largest torch lean",
+    )
 
 
 def max_lean_field():
-    return Field(15.0, ge=0, le=15, json_schema_extra=unit("deg"),
-                 description="positioner_policy auto: largest torch lean from the layer normal "
-                             "the process allows", title="Largest torch lean (auto)")
+    return Field(
+        15.0,
+        ge=0,
+        le=15,
+        json_schema_extra=unit("deg"),
+        description="positioner_policy auto: largest torch lean from the layer normal the process allows",
+        title="Largest torch lean (auto)",
+    )
 
 
 def flat_tol_field():
-    return Field(5.0, ge=0, le=30, json_schema_extra=unit("deg"),
-                 description="positioner_policy auto: how far a layer's normal may stay off "
-                             "vertical (flat-position tolerance)", title="Flat-position tolerance (auto)")
+    return Field(
+        5.0,
+        ge=0,
+        le=30,
+        json_schema_extra=unit("deg"),
+        description="positioner_policy auto: how far a layer's normal may stay off vertical (flat-position tolerance)",
+        title="Flat-position tolerance (auto)",
+    )
 
 
 def cell_files(cell: str, read_bytes) -> list[str]:
@@ -87,7 +166,7 @@ def cell_files(cell: str, read_bytes) -> list[str]:
     data = read_bytes(cell)
     try:
         c = load_cell(cell, text=data.decode("utf-8")) if data is not None else None
-    except Exception:   # unreadable or invalid: the run reports it; its text is in the key
+    except Exception:  # unreadable or invalid: the run reports it; its text is in the key
         c = None
     meshes = sorted({sh.mesh for sh in c.all_shapes() if sh.kind == "mesh"}) if c else []
     return [cell, *(_beside(cell, m) for m in meshes)]
@@ -159,57 +238,113 @@ class SimulateRobot(Node):
     type = "simulate-robot"
     title = "Simulate robot"
     category = "trajectory"
-    inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),
-              Port("program", "program", "The program post-processed from this toolpath: its blend distance, "
-                                         "ignition dwells and controller family are simulated", optional=True))
+    inputs = (
+        Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),
+        Port(
+            "program",
+            "program",
+            "The program post-processed from this toolpath: its blend distance, "
+            "ignition dwells and controller family are simulated",
+            optional=True,
+        ),
+    )
     outputs = (Port("simulation", "simulation", "Simulated motion, trace and deposit (SimulationResult)"),)
     version = "17"  # 17: positioner policy and limits from a connected program; 16: positioner_policy auto (default), max_lean_deg, flat_tol_deg; 10: deposit_per_mm_cv, compensate; 11: cell + positioner_policy; 12: collisions; 13: coordinated
     # 15: G-code programs run the G-code planner family (junction deviation, look-ahead, travel as written);
     #     ArcTech KRL -> KR C4 profile
     # 14: program input (blend, dwells, controller as written); C_DIS scales the blend law; arc-on ≤ total
 
-
     class Params(RobotParams):
-        kinematics: bool = Field(True, description="Solve the arm's inverse kinematics along the path (Pinocchio)", title="Solve inverse kinematics")
-        cell: str = Field("", max_length=256, json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells",
-                                                                 "x-file-suffix": ".json"},
-                          description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
-                                      "gives the arm, base, TCP and the work frame on the positioner flange at its "
-                                      "`fixed_deg` angles, replacing the base/work/TCP parameters below", title="Robot cell")
+        kinematics: bool = Field(
+            True,
+            description="Solve the arm's inverse kinematics along the path (Pinocchio)",
+            title="Solve inverse kinematics",
+        )
+        cell: str = Field(
+            "",
+            max_length=256,
+            json_schema_extra={"x-cell-schema": cell_schema(), "x-shipped": "cells", "x-file-suffix": ".json"},
+            description="Robot cell: a shipped cell name (data/cells) or a cell JSON path; when set it "
+            "gives the arm, base, TCP and the work frame on the positioner flange at its "
+            "`fixed_deg` angles, replacing the base/work/TCP parameters below",
+            title="Robot cell",
+        )
         max_tilt_deg: float = max_tilt_field()
         positioner_policy: Literal["auto", "fixed", "gravity", "min-motion"] = Field(
-            "auto", description="With a cell: `auto` plans each layer's positioner angles and torch lean with the "
-                                "arm's IK and the collision checks (gravity angles first, then turntable turns, "
-                                "a torch lean up to max_lean_deg, the tilt relaxed within flat_tol_deg) and fails "
-                                "naming the layer and the cell changes verified to work when nothing does; `fixed` "
-                                "keeps the positioner at the cell's fixed_deg; `gravity` turns each layer so its "
-                                "torch axis points straight down (flat-position welding); `min-motion` holds the "
-                                "angles while the torch may lean max_tilt_deg. Limits and axis speeds from the "
-                                "positioner URDF cap and are reported per layer", title="Positioner policy")
+            "auto",
+            description="With a cell: `auto` plans each layer's positioner angles and torch lean with the "
+            "arm's IK and the collision checks (gravity angles first, then turntable turns, "
+            "a torch lean up to max_lean_deg, the tilt relaxed within flat_tol_deg) and fails "
+            "naming the layer and the cell changes verified to work when nothing does; `fixed` "
+            "keeps the positioner at the cell's fixed_deg; `gravity` turns each layer so its "
+            "torch axis points straight down (flat-position welding); `min-motion` holds the "
+            "angles while the torch may lean max_tilt_deg. Limits and axis speeds from the "
+            "positioner URDF cap and are reported per layer",
+            title="Positioner policy",
+        )
         max_lean_deg: float = max_lean_field()
         flat_tol_deg: float = flat_tol_field()
-        collision_step_mm: float = Field(20.0, gt=0.5, le=1000, json_schema_extra=unit("mm"),
-                                         description="With a cell: coal collision checks (arm links, torch, table, "
-                                                     "fixtures, layers built so far) every this much programmed path "
-                                                     "and at every layer change", title="Collision check spacing")
-        collisions: bool = Field(True, description="With a cell: check collisions along the path", title="Check collisions")
-        robot_description: ShippedName = shipped("robot-descriptions", default="", max_length=128,
-                                       description="Arm URDF in data/robots (empty = the profile's description)", title="Robot description (URDF)")
-        ik_step_mm: float = Field(5.0, gt=0.1, le=100, json_schema_extra=unit("mm"),
-                                  description="IK sample spacing along the path (vertices always included)", title="IK sample spacing")
-        base_xyz_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
-                                         description="Robot base position in the world frame (empty = the profile's)", title="Robot base position")
-        base_yaw_deg: float = Field(0.0, ge=-360, le=360, json_schema_extra=unit("deg"),
-                                    description="Robot base rotation about world z", title="Robot base yaw")
-        work_xyz_mm: Vec3 = Field((0.0, 0.0, 0.0), json_schema_extra=unit("mm"),
-                                  description="Work frame (part origin) in the world frame", title="Work frame position")
-        tcp_offset_mm: Vec3 | None = Field(None, json_schema_extra=unit("mm"),
-                                           description="TCP (torch tip) in the flange frame (tool0; z along the torch; "
-                                                       "empty = the profile's)", title="TCP offset")
+        collision_step_mm: float = Field(
+            20.0,
+            gt=0.5,
+            le=1000,
+            json_schema_extra=unit("mm"),
+            description="With a cell: coal collision checks (arm links, torch, table, "
+            "fixtures, layers built so far) every this much programmed path "
+            "and at every layer change",
+            title="Collision check spacing",
+        )
+        collisions: bool = Field(
+            True, description="With a cell: check collisions along the path", title="Check collisions"
+        )
+        robot_description: ShippedName = shipped(
+            "robot-descriptions",
+            default="",
+            max_length=128,
+            description="Arm URDF in data/robots (empty = the profile's description)",
+            title="Robot description (URDF)",
+        )
+        ik_step_mm: float = Field(
+            5.0,
+            gt=0.1,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="IK sample spacing along the path (vertices always included)",
+            title="IK sample spacing",
+        )
+        base_xyz_mm: Vec3 | None = Field(
+            None,
+            json_schema_extra=unit("mm"),
+            description="Robot base position in the world frame (empty = the profile's)",
+            title="Robot base position",
+        )
+        base_yaw_deg: float = Field(
+            0.0,
+            ge=-360,
+            le=360,
+            json_schema_extra=unit("deg"),
+            description="Robot base rotation about world z",
+            title="Robot base yaw",
+        )
+        work_xyz_mm: Vec3 = Field(
+            (0.0, 0.0, 0.0),
+            json_schema_extra=unit("mm"),
+            description="Work frame (part origin) in the world frame",
+            title="Work frame position",
+        )
+        tcp_offset_mm: Vec3 | None = Field(
+            None,
+            json_schema_extra=unit("mm"),
+            description="TCP (torch tip) in the flange frame (tool0; z along the torch; empty = the profile's)",
+            title="TCP offset",
+        )
         compensate: Literal["off", "on"] = Field(
-            "off", description="Modulate the wire feed per ≤1 mm piece so deposit per mm stays at its programmed "
-                               "value through stops and corners (waamflow.trajectory.compensate); reports "
-                               "deposit_per_mm_cv before and after and writes deposit.svg", title="Compensate deposit")
+            "off",
+            description="Modulate the wire feed per ≤1 mm piece so deposit per mm stays at its programmed "
+            "value through stops and corners (waamflow.trajectory.compensate); reports "
+            "deposit_per_mm_cv before and after and writes deposit.svg",
+            title="Compensate deposit",
+        )
 
         @field_validator("cell")
         @classmethod
@@ -223,21 +358,30 @@ class SimulateRobot(Node):
         if not params.kinematics:
             return None
         if not (params.cell or params.robot_description or profile.description):
-            return None          # no arm to solve (a gantry's G-code planner profile)
+            return None  # no arm to solve (a gantry's G-code planner profile)
         if params.cell:
             cell = cell_from_param(ctx, params.cell)
-            return KinematicsOptions(description=cell.robot_urdf, tcp_offset_mm=tuple(cell.tool.tcp_mm),
-                                     frames=cell.frames(), step_mm=params.ik_step_mm, cell=cell,
-                                     positioner_policy=params.positioner_policy, collisions=params.collisions,
-                                     max_tilt_deg=params.max_tilt_deg, max_lean_deg=params.max_lean_deg,
-                                     flat_tol_deg=params.flat_tol_deg,
-                                     collision_step_mm=params.collision_step_mm)
+            return KinematicsOptions(
+                description=cell.robot_urdf,
+                tcp_offset_mm=tuple(cell.tool.tcp_mm),
+                frames=cell.frames(),
+                step_mm=params.ik_step_mm,
+                cell=cell,
+                positioner_policy=params.positioner_policy,
+                collisions=params.collisions,
+                max_tilt_deg=params.max_tilt_deg,
+                max_lean_deg=params.max_lean_deg,
+                flat_tol_deg=params.flat_tol_deg,
+                collision_step_mm=params.collision_step_mm,
+            )
         base = params.base_xyz_mm if params.base_xyz_mm is not None else profile.base_xyz_mm
         tcp = params.tcp_offset_mm if params.tcp_offset_mm is not None else profile.tcp_offset_mm
-        frames = CellFrames(base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg,
-                            work_xyz_mm=tuple(params.work_xyz_mm))
-        return KinematicsOptions(description=params.robot_description, tcp_offset_mm=tuple(tcp),
-                                 frames=frames, step_mm=params.ik_step_mm)
+        frames = CellFrames(
+            base_xyz_mm=tuple(base), base_yaw_deg=params.base_yaw_deg, work_xyz_mm=tuple(params.work_xyz_mm)
+        )
+        return KinematicsOptions(
+            description=params.robot_description, tcp_offset_mm=tuple(tcp), frames=frames, step_mm=params.ik_step_mm
+        )
 
     def _positioner_from_program(self, ctx, params, program):
         """With a cell, the program was written for a cell with positioner angles (and, under
@@ -248,13 +392,21 @@ class SimulateRobot(Node):
         if not pos or not params.cell:
             return params
         if pos.get("cell") != params.cell:
-            raise RecipeError(f"simulate-robot's cell {params.cell!r} is not the cell its `program` input was "
-                              f"written for ({pos.get('cell')!r}): set the same cell on both nodes", node=ctx.node_id)
+            raise RecipeError(
+                f"simulate-robot's cell {params.cell!r} is not the cell its `program` input was "
+                f"written for ({pos.get('cell')!r}): set the same cell on both nodes",
+                node=ctx.node_id,
+            )
         twice = [k for k in POSITIONER_PLAN_KEYS if k in params.model_fields_set and getattr(params, k) != pos[k]]
         if twice:
-            raise RecipeError("simulate-robot sets " + ", ".join(f"{k}={getattr(params, k)!r}" for k in twice)
-                              + " and its `program` input was written with " + ", ".join(f"{k}={pos[k]!r}" for k in twice)
-                              + ": one declaration — set them on the post-process (or the same on both)", node=ctx.node_id)
+            raise RecipeError(
+                "simulate-robot sets "
+                + ", ".join(f"{k}={getattr(params, k)!r}" for k in twice)
+                + " and its `program` input was written with "
+                + ", ".join(f"{k}={pos[k]!r}" for k in twice)
+                + ": one declaration — set them on the post-process (or the same on both)",
+                node=ctx.node_id,
+            )
         return params.model_copy(update={k: pos[k] for k in POSITIONER_PLAN_KEYS})
 
     def _from_program(self, ctx, params, program, profile: RobotProfile):
@@ -263,8 +415,10 @@ class SimulateRobot(Node):
         try:
             st = program_settings(program.format, program.files)
         except ValueError as e:
-            raise RecipeError(f"simulate-robot cannot simulate its `program` input: {e}; connect a KRL, RAPID or "
-                              f"G-code post-process", node=ctx.node_id) from None
+            raise RecipeError(
+                f"simulate-robot cannot simulate its `program` input: {e}; connect a KRL, RAPID or G-code post-process",
+                node=ctx.node_id,
+            ) from None
         own_robot = bool(params.profile_file) or bool({"robot_profile", "cdis", "blend"} & set(params.model_fields_set))
         planner = program.format == "gcode" and not own_robot
         declared = {"ignition_dwell_s": f"{len(st['ignition_dwells_s'])} ignition dwells"}
@@ -272,14 +426,20 @@ class SimulateRobot(Node):
             declared["cdis"] = f"blend distance {st['blend_distance_mm']:g} mm"
             declared["blend"] = f"{st['controller']} blending ({st['blend']})"
         if planner and (st.get("travel_speed_mm_s") is not None or st.get("rapid_travel")):
-            declared["travel_speed"] = ("its travel feed" if st.get("travel_speed_mm_s") is not None
-                                        else "G0 travel at the machine's rapid rate")
+            declared["travel_speed"] = (
+                "its travel feed"
+                if st.get("travel_speed_mm_s") is not None
+                else "G0 travel at the machine's rapid rate"
+            )
         twice = sorted(set(declared) & set(params.model_fields_set))
         if twice:
-            raise RecipeError(f"simulate-robot sets {', '.join(twice)} and its `program` input declares "
-                              f"{'; '.join(declared[k] for k in twice)}: one declaration — remove {', '.join(twice)} "
-                              f"from simulate-robot (the post-process's blend_distance / ignition_dwell / machine "
-                              f"profile decide)", node=ctx.node_id)
+            raise RecipeError(
+                f"simulate-robot sets {', '.join(twice)} and its `program` input declares "
+                f"{'; '.join(declared[k] for k in twice)}: one declaration — remove {', '.join(twice)} "
+                f"from simulate-robot (the post-process's blend_distance / ignition_dwell / machine "
+                f"profile decide)",
+                node=ctx.node_id,
+            )
         opt = replace(opt, ignition_dwells_s=st["ignition_dwells_s"], controller=st["controller"])
         if st["blend_distance_mm"] is not None:
             opt = replace(opt, cdis=st["blend_distance_mm"], blend=st["blend"])
@@ -310,13 +470,26 @@ class SimulateRobot(Node):
             ctx.progress(fraction, message)
 
         if params.compensate == "on":
-            res = simulate_compensated(inputs["toolpath"], profile, opt, self._kin(ctx, params, profile),
-                                       progress=progress)
+            res = simulate_compensated(
+                inputs["toolpath"], profile, opt, self._kin(ctx, params, profile), progress=progress
+            )
         else:
-            res = simulate_program(moves, profile, opt, self._kin(ctx, params, profile), progress=progress,
-                                   strategies=section_strategies(inputs["toolpath"]))
-            res = replace(res, metrics={**res.metrics, "deposit_per_mm_cv": deposit_cv(res.trace),
-                                        "deposit_ratio_cv": deposit_ratio_cv(res)})
+            res = simulate_program(
+                moves,
+                profile,
+                opt,
+                self._kin(ctx, params, profile),
+                progress=progress,
+                strategies=section_strategies(inputs["toolpath"]),
+            )
+            res = replace(
+                res,
+                metrics={
+                    **res.metrics,
+                    "deposit_per_mm_cv": deposit_cv(res.trace),
+                    "deposit_ratio_cv": deposit_ratio_cv(res),
+                },
+            )
         res = replace(res, options=opt)
         plan = (res.kinematics or {}).get("positioner_plan")
         if plan:
@@ -363,17 +536,35 @@ class EstimateTime(Node):
     version = "10"  # 10: strategy-specific time-model entries; the study's as a noted fallback
 
     class Params(NodeParams):
-        robot_profile: ShippedName = shipped("robots", default="kuka_kr100ha_krc2", min_length=1, max_length=64,
-                                   description="Robot profile whose `time_model` holds the identified parameters", title="Robot profile")
-        profile_file: FileRef = Field("", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file")
-        travel_speed: float | None = Field(None, gt=0, le=2000, json_schema_extra=unit("mm/s"),
-                                           description="Travel speed between sections (empty = the profile's)", title="Travel speed")
+        robot_profile: ShippedName = shipped(
+            "robots",
+            default="kuka_kr100ha_krc2",
+            min_length=1,
+            max_length=64,
+            description="Robot profile whose `time_model` holds the identified parameters",
+            title="Robot profile",
+        )
+        profile_file: FileRef = Field(
+            "", description="Optional robot profile JSON file; overrides robot_profile", title="Robot profile file"
+        )
+        travel_speed: float | None = Field(
+            None,
+            gt=0,
+            le=2000,
+            json_schema_extra=unit("mm/s"),
+            description="Travel speed between sections (empty = the profile's)",
+            title="Travel speed",
+        )
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
         profile = _profile(ctx, params)
-        est = estimate_moves(moves, profile.time_model, params.travel_speed or profile.travel_speed,
-                             strategies=section_strategies(inputs["toolpath"]))
+        est = estimate_moves(
+            moves,
+            profile.time_model,
+            params.travel_speed or profile.travel_speed,
+            strategies=section_strategies(inputs["toolpath"]),
+        )
         for note in est.notes:
             ctx.warn(note)
         res = estimate_result(moves, est)
@@ -381,12 +572,18 @@ class EstimateTime(Node):
 
     def artifacts(self, ctx, params, outputs):
         m = outputs["estimate"].metrics
-        return {"estimate.json": json.dumps({"total_time_s": round(m["total_time_s"], 6),
-                                             "passes": int(m["estimate_passes"]),
-                                             "sections": int(m["estimate_sections"]),
-                                             "method": "closed-form cycle-time model, da Silva Viola et al. 2023",
-                                             "notes": [w[0] for w in outputs["estimate"].warnings]},
-                                            indent=1)}
+        return {
+            "estimate.json": json.dumps(
+                {
+                    "total_time_s": round(m["total_time_s"], 6),
+                    "passes": int(m["estimate_passes"]),
+                    "sections": int(m["estimate_sections"]),
+                    "method": "closed-form cycle-time model, da Silva Viola et al. 2023",
+                    "notes": [w[0] for w in outputs["estimate"].warnings],
+                },
+                indent=1,
+            )
+        }
 
 
 @register
@@ -411,12 +608,20 @@ class CalibrateRobot(Node):
     version = "10"  # 10: identifies the time model (Table 5) from the trace; fit may be empty
 
     class Params(RobotParams):
-        trace: FileRef = Field(..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)", title="Measured trace")
+        trace: FileRef = Field(
+            ..., description="Measured trace CSV: t,x,y,z[,arc] (s, mm, 0/1)", title="Measured trace"
+        )
         fit: list[Literal[RobotProfile.FITTABLE]] = Field(  # type: ignore[valid-type]
             default_factory=lambda: ["path_acc", "path_jerk", "smoothing_s", "apo_time_s", "normal_jerk"],
-            description="Profile constants to fit (empty: identify the time model only)", title="Constants to fit")
-        time_model: bool = Field(True, description="Identify the study's time-model constants (Table 5) from the "
-                                                   "trace and write them into the profile", title="Identify the time model")
+            description="Profile constants to fit (empty: identify the time model only)",
+            title="Constants to fit",
+        )
+        time_model: bool = Field(
+            True,
+            description="Identify the study's time-model constants (Table 5) from the "
+            "trace and write them into the profile",
+            title="Identify the time model",
+        )
 
     def run(self, ctx, params, inputs):
         moves = _toolpath_moves(inputs)
@@ -429,14 +634,19 @@ class CalibrateRobot(Node):
             for msg in tm_info["skipped"]:
                 ctx.warn(f"time model: {msg}")
             if not tm:
-                ctx.warn("time model: no section of the program shows passes and transitions in the trace; "
-                         f"the profile keeps {base.name!r}'s time_model")
+                ctx.warn(
+                    "time model: no section of the program shows passes and transitions in the trace; "
+                    f"the profile keeps {base.name!r}'s time_model"
+                )
         metrics = {}
         if names:
             ctx.progress(0.05, "fitting")
             fitted, info = fit_trace(base, moves, meas, names, params.sim_options())
-            metrics = {"fit_rms_position_error_mm": info["rms_position_error_mm"],
-                       "fit_cost_before": info["cost_before"], "fit_cost_after": info["cost_after"]}
+            metrics = {
+                "fit_rms_position_error_mm": info["rms_position_error_mm"],
+                "fit_cost_before": info["cost_before"],
+                "fit_cost_after": info["cost_after"],
+            }
         else:
             fitted, info = base, {}
         if tm:
@@ -450,6 +660,13 @@ class CalibrateRobot(Node):
 
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
-        return {"profile.json": json.dumps(res.profile, indent=1, ensure_ascii=False),
-                "calibration.json": json.dumps({**{k: v for k, v in res.metrics.items() if k.startswith("fit_")},
-                                                "time_model": res.profile.get("time_model", {})}, indent=1)}
+        return {
+            "profile.json": json.dumps(res.profile, indent=1, ensure_ascii=False),
+            "calibration.json": json.dumps(
+                {
+                    **{k: v for k, v in res.metrics.items() if k.startswith("fit_")},
+                    "time_model": res.profile.get("time_model", {}),
+                },
+                indent=1,
+            ),
+        }

@@ -30,8 +30,10 @@ def model_layer_height(ctx, param: float, model, explicit: bool = True) -> float
     if not 0 < target <= 50:
         raise RecipeError(f"the bead model's target height {target:g} mm is not a layer height (0 < h ≤ 50 mm)")
     if explicit and abs(target - param) > 1e-9:
-        ctx.warn(f"layer height {target:g} mm from the bead model's target bead height (connected model wins "
-                 f"over layer_height {param:g} mm)")
+        ctx.warn(
+            f"layer height {target:g} mm from the bead model's target bead height (connected model wins "
+            f"over layer_height {param:g} mm)"
+        )
     return target
 
 
@@ -45,21 +47,28 @@ def _no_layers(part, params, layer_height: float) -> str:
     d = np.asarray(params.direction, dtype=float)
     d = d / np.linalg.norm(d)
     if isinstance(part, Midsurface):
-        pts = np.vstack([np.column_stack([c, np.full(len(c), z)]) for c in part.curves
-                         for z in (part.z0, part.z0 + part.height)])
+        pts = np.vstack(
+            [np.column_stack([c, np.full(len(c), z)]) for c in part.curves for z in (part.z0, part.z0 + part.height)]
+        )
     else:
         pts = np.asarray(part.vertices, dtype=float)
     h = pts @ d
     lo, hi = float(h.min()), float(h.max())
     tall = hi - lo
-    what = (f"no layers: the part is {_mm(tall)} tall (from {_mm(lo)} to {_mm(hi)} along the build direction), "
-            f"layer height {_mm(layer_height)}, top '{params.top}'")
+    what = (
+        f"no layers: the part is {_mm(tall)} tall (from {_mm(lo)} to {_mm(hi)} along the build direction), "
+        f"layer height {_mm(layer_height)}, top '{params.top}'"
+    )
     if tall < layer_height:
-        return (what + f": thinner than one layer; use top 'ceil' (one thinner layer), a layer_height of at most "
-                f"{_mm(tall)}, or check the part's size (the input node's 'units': a part in m or in read as mm "
-                "is 1000 or 25.4 times too small)")
-    return (what + f", start_offset {_mm(params.start_offset)}, z_min {params.z_min}, z_max {params.z_max}: the "
-            "slicing range is empty; set start_offset, z_min and z_max within the part's range")
+        return (
+            what + f": thinner than one layer; use top 'ceil' (one thinner layer), a layer_height of at most "
+            f"{_mm(tall)}, or check the part's size (the input node's 'units': a part in m or in read as mm "
+            "is 1000 or 25.4 times too small)"
+        )
+    return (
+        what + f", start_offset {_mm(params.start_offset)}, z_min {params.z_min}, z_max {params.z_max}: the "
+        "slicing range is empty; set start_offset, z_min and z_max within the part's range"
+    )
 
 
 def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fraction: float, max_factor: float) -> None:
@@ -68,24 +77,35 @@ def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fractio
     fit = schedule.fit
     if fit is None:
         return
-    where = (f"{_mm(fit.gap)} below" if fit.gap > 0 else f"{_mm(-fit.gap)} above")
+    where = f"{_mm(fit.gap)} below" if fit.gap > 0 else f"{_mm(-fit.gap)} above"
     if fit.action == "nearest" and abs(fit.gap) > 0:
-        ctx.warn(f"top 'nearest': the last layer tops at {_mm(fit.reached)}, {where} {fit.limit} "
-                 f"{_mm(fit.target)} ({'a gap' if fit.gap > 0 else 'an overshoot'}; top 'ceil' ends on it)",
-                 layer=fit.layer)
+        ctx.warn(
+            f"top 'nearest': the last layer tops at {_mm(fit.reached)}, {where} {fit.limit} "
+            f"{_mm(fit.target)} ({'a gap' if fit.gap > 0 else 'an overshoot'}; top 'ceil' ends on it)",
+            layer=fit.layer,
+        )
     elif fit.action == "overshoot":
-        below = ("there is no layer below to thicken" if fit.layer == 0 else
-                 f"thickening the layer below would pass top_max_factor {max_factor:g}")
-        ctx.warn(f"top 'ceil': the {_mm(fit.target - (fit.reached - fit.thickness))} of part above the last whole "
-                 f"layer is less than top_min_fraction {min_fraction:g} of a layer and {below}: one more layer of "
-                 f"{_mm(fit.thickness)} tops at {_mm(fit.reached)}, {where} {fit.limit} {_mm(fit.target)} "
-                 f"(an overshoot to machine off)", layer=fit.layer)
+        below = (
+            "there is no layer below to thicken"
+            if fit.layer == 0
+            else f"thickening the layer below would pass top_max_factor {max_factor:g}"
+        )
+        ctx.warn(
+            f"top 'ceil': the {_mm(fit.target - (fit.reached - fit.thickness))} of part above the last whole "
+            f"layer is less than top_min_fraction {min_fraction:g} of a layer and {below}: one more layer of "
+            f"{_mm(fit.thickness)} tops at {_mm(fit.reached)}, {where} {fit.limit} {_mm(fit.target)} "
+            f"(an overshoot to machine off)",
+            layer=fit.layer,
+        )
     if len(schedule) < schedule.total:
         last = len(schedule) - 1
         gap = fit.target - float(schedule.tops[-1])
-        ctx.warn(f"layer_count {layer_count} keeps the first {len(schedule)} of {schedule.total} layers: the last "
-                 f"tops at {_mm(schedule.tops[-1])}, {_mm(gap)} below {fit.limit} {_mm(fit.target)} "
-                 f"(a quick look, not the whole part)", layer=last)
+        ctx.warn(
+            f"layer_count {layer_count} keeps the first {len(schedule)} of {schedule.total} layers: the last "
+            f"tops at {_mm(schedule.tops[-1])}, {_mm(gap)} below {fit.limit} {_mm(fit.target)} "
+            f"(a quick look, not the whole part)",
+            layer=last,
+        )
 
 
 @register
@@ -117,42 +137,89 @@ class SliceNode(Node):
     version = "2"  # 2: the `top` policy (ceil by default: the last layer ends on the part's top)
     title = "Slice"
     category = "slicing"
-    inputs = (Port("mesh", "mesh", "Part: solid mesh or midsurface"),
-              Port("model", "bead-model", "Optional bead model (bead-fit): its target bead height is the layer "
-                                          "height, overriding `layer_height`", optional=True))
+    inputs = (
+        Port("mesh", "mesh", "Part: solid mesh or midsurface"),
+        Port(
+            "model",
+            "bead-model",
+            "Optional bead model (bead-fit): its target bead height is the layer height, overriding `layer_height`",
+            optional=True,
+        ),
+    )
     outputs = (Port("layers", "layers", "Layers, bottom to top"),)
 
     class Params(NodeParams):
-        layer_height: float = Field(1.5, gt=0, le=50, description="Layer height (after the listed thicknesses)",
-                                    json_schema_extra=unit("mm"), title="Layer height")
-        thicknesses: list[float] = Field(default_factory=list, max_length=10_000,
-                                         description="Explicit thicknesses of the first layers, bottom up",
-                                         json_schema_extra=unit("mm"), title="First layer thicknesses")
-        start_offset: float = Field(0.0, ge=0, le=10_000, description="Bottom of layer 0 above the part's bottom (or z_min)",
-                                    json_schema_extra=unit("mm"), title="Start offset")
-        layer_count: int | None = Field(None, ge=1, le=200_000,
-                                        description="Only the first this many layers (a quick look; warned when "
-                                                    "they stop below the top)", title="Only the first layers")
-        z_min: float | None = Field(None, description="Bottom of layer 0 instead of the part's bottom",
-                                    json_schema_extra=unit("mm"), title="Bottom height")
-        z_max: float | None = Field(None, description="The layers end at this height instead of the part's top "
-                                                      "(by the `top` policy)",
-                                    json_schema_extra=unit("mm"), title="Top height")
+        layer_height: float = Field(
+            1.5,
+            gt=0,
+            le=50,
+            description="Layer height (after the listed thicknesses)",
+            json_schema_extra=unit("mm"),
+            title="Layer height",
+        )
+        thicknesses: list[float] = Field(
+            default_factory=list,
+            max_length=10_000,
+            description="Explicit thicknesses of the first layers, bottom up",
+            json_schema_extra=unit("mm"),
+            title="First layer thicknesses",
+        )
+        start_offset: float = Field(
+            0.0,
+            ge=0,
+            le=10_000,
+            description="Bottom of layer 0 above the part's bottom (or z_min)",
+            json_schema_extra=unit("mm"),
+            title="Start offset",
+        )
+        layer_count: int | None = Field(
+            None,
+            ge=1,
+            le=200_000,
+            description="Only the first this many layers (a quick look; warned when they stop below the top)",
+            title="Only the first layers",
+        )
+        z_min: float | None = Field(
+            None,
+            description="Bottom of layer 0 instead of the part's bottom",
+            json_schema_extra=unit("mm"),
+            title="Bottom height",
+        )
+        z_max: float | None = Field(
+            None,
+            description="The layers end at this height instead of the part's top (by the `top` policy)",
+            json_schema_extra=unit("mm"),
+            title="Top height",
+        )
         top: Literal["ceil", "nearest", "exact"] = Field(
-            "ceil", description="How the last layer meets the part's top (or z_max): 'ceil' ends on it (last layer "
-                                "thinned, or merged into the one below, else one layer more, warned); 'nearest' "
-                                "the nearest whole layer, gap or overshoot warned; 'exact' whole layers only, "
-                                "else an error naming layer heights that fit", title="Top layer rule")
+            "ceil",
+            description="How the last layer meets the part's top (or z_max): 'ceil' ends on it (last layer "
+            "thinned, or merged into the one below, else one layer more, warned); 'nearest' "
+            "the nearest whole layer, gap or overshoot warned; 'exact' whole layers only, "
+            "else an error naming layer heights that fit",
+            title="Top layer rule",
+        )
         top_min_fraction: float = Field(
-            TOP_MIN_FRACTION, ge=0.05, le=1.0,
+            TOP_MIN_FRACTION,
+            ge=0.05,
+            le=1.0,
             description="'ceil': a thinned last layer is at least this fraction of its nominal thickness "
-                        "(a thinner remainder is merged into the layer below)", title="Thinned top layer limit")
+            "(a thinner remainder is merged into the layer below)",
+            title="Thinned top layer limit",
+        )
         top_max_factor: float = Field(
-            TOP_MAX_FACTOR, ge=1.0, le=3.0,
+            TOP_MAX_FACTOR,
+            ge=1.0,
+            le=3.0,
             description="'ceil': a layer thickened by a merged remainder stays at most this factor of its "
-                        "thickness (else one layer more is built above the top)", title="Thickened top layer limit")
+            "thickness (else one layer more is built above the top)",
+            title="Thickened top layer limit",
+        )
         direction: tuple[float, float, float] = Field(
-            (0.0, 0.0, 1.0), description="Build direction (world); layers stack along it, heights are measured along it", title="Build direction")
+            (0.0, 0.0, 1.0),
+            description="Build direction (world); layers stack along it, heights are measured along it",
+            title="Build direction",
+        )
 
         @model_validator(mode="after")
         def _check(self):
@@ -164,14 +231,22 @@ class SliceNode(Node):
 
     def run(self, ctx, params, inputs):
         part = inputs["mesh"]
-        layer_height = model_layer_height(ctx, params.layer_height, inputs.get("model"),
-                                          "layer_height" in params.model_fields_set)
+        layer_height = model_layer_height(
+            ctx, params.layer_height, inputs.get("model"), "layer_height" in params.model_fields_set
+        )
         try:
             layers, schedule = slice_part_scheduled(
-                part, layer_height=layer_height, thicknesses=params.thicknesses,
-                start_offset=params.start_offset, layer_count=params.layer_count,
-                z_min=params.z_min, z_max=params.z_max, direction=params.direction, top=params.top,
-                min_fraction=params.top_min_fraction, max_factor=params.top_max_factor,
+                part,
+                layer_height=layer_height,
+                thicknesses=params.thicknesses,
+                start_offset=params.start_offset,
+                layer_count=params.layer_count,
+                z_min=params.z_min,
+                z_max=params.z_max,
+                direction=params.direction,
+                top=params.top,
+                min_fraction=params.top_min_fraction,
+                max_factor=params.top_max_factor,
             )
         except ValueError as exc:
             raise RecipeError(str(exc)) from exc

@@ -25,16 +25,25 @@ from ..paths.whole import plan_whole
 class SectionStrategy(StrategySpec):
     """A section's fill spec plus its programmed travel speed."""
 
-    speed: float = Field(10.0, gt=0.0, le=500.0, description="Programmed travel speed (zones may override)",
-                         json_schema_extra=unit("mm/s"), title="Travel speed")
+    speed: float = Field(
+        10.0,
+        gt=0.0,
+        le=500.0,
+        description="Programmed travel speed (zones may override)",
+        json_schema_extra=unit("mm/s"),
+        title="Travel speed",
+    )
 
 
 def _partial(model: type[BaseModel]) -> type[BaseModel]:
     """The same fields, all optional (None = take the default's): per-section overrides."""
-    fields: dict[str, Any] = {}   # name → (annotation, FieldInfo): create_model's field definitions
+    fields: dict[str, Any] = {}  # name → (annotation, FieldInfo): create_model's field definitions
     for name, f in model.model_fields.items():
         extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else None
-        fields[name] = (Optional[f.annotation], Field(None, title=f.title, description=f.description, json_schema_extra=extra))
+        fields[name] = (
+            Optional[f.annotation],
+            Field(None, title=f.title, description=f.description, json_schema_extra=extra),
+        )
     return create_model("SectionStrategyOverride", __config__=ConfigDict(extra="forbid"), **fields)
 
 
@@ -55,12 +64,23 @@ def paths_summary(toolpath) -> dict:
         if lp is None:
             continue
         for sp in lp.sections:
-            rows.append({"layer": lp.index, "key": sp.key, "pattern": sp.strategy,
-                         **path_metrics(sp.segment_lengths, sp.arc, sp.inside, sp.speed)})
-    total = {k: round(sum(r[k] for r in rows), 3) for k in
-             ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s")}
-    total["outside_share"] = round(total["outside_length_mm"] / total["programmed_length_mm"], 4) \
-        if total["programmed_length_mm"] > 0 else 0.0
+            rows.append(
+                {
+                    "layer": lp.index,
+                    "key": sp.key,
+                    "pattern": sp.strategy,
+                    **path_metrics(sp.segment_lengths, sp.arc, sp.inside, sp.speed),
+                }
+            )
+    total = {
+        k: round(sum(r[k] for r in rows), 3)
+        for k in ("programmed_length_mm", "arc_on_length_mm", "arc_switches", "outside_length_mm", "time_s")
+    }
+    total["outside_share"] = (
+        round(total["outside_length_mm"] / total["programmed_length_mm"], 4)
+        if total["programmed_length_mm"] > 0
+        else 0.0
+    )
     return {"units": "mm", "total": total, "sections": rows}
 
 
@@ -105,15 +125,30 @@ def cover_report(toolpath) -> dict:
             worst = max(worst, share)
             if f["how"] == "as planned":
                 continue
-            row = rows.setdefault((f["section"], f["how"], f["pattern"], f["pieces"]), {
-                "section": f["section"], "how": f["how"], "pattern": f["pattern"], "pieces": f["pieces"],
-                "layers": [], "max_uncovered_share": 0.0})
+            row = rows.setdefault(
+                (f["section"], f["how"], f["pattern"], f["pieces"]),
+                {
+                    "section": f["section"],
+                    "how": f["how"],
+                    "pattern": f["pattern"],
+                    "pieces": f["pieces"],
+                    "layers": [],
+                    "max_uncovered_share": 0.0,
+                },
+            )
             row["layers"].append(lp.index)
             row["max_uncovered_share"] = round(max(row["max_uncovered_share"], share), 5)
     changed = [{**r, "layers": _layer_ranges(r["layers"])} for r in rows.values()][:200]
-    return {"cover": {"sections_as_planned": counts["as planned"], "sections_split": counts["split"],
-                      "sections_contour": counts["contour"], "uncovered_mm2": round(total, 3),
-                      "max_uncovered_share": round(worst, 5), "changed": changed}}
+    return {
+        "cover": {
+            "sections_as_planned": counts["as planned"],
+            "sections_split": counts["split"],
+            "sections_contour": counts["contour"],
+            "uncovered_mm2": round(total, 3),
+            "max_uncovered_share": round(worst, 5),
+            "changed": changed,
+        }
+    }
 
 
 _COMPARISONS: dict[str, dict] = {}
@@ -163,33 +198,57 @@ class StrategyNode(LayerNode):
     """
 
     type = "strategy"
-    combine_keeps_items = True   # combine only warns
+    combine_keeps_items = True  # combine only warns
     version = "7"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model; 7: whole regions covered, uncovered area warned
     title = "Strategy"
     category = "mpp"
-    inputs = (Port("sections", "sections", "Sections per layer (with guides)"),
-              Port("model", "bead-model", "Optional bead model (bead-fit): its target width and step-over set "
-                                          "the default bead_width and spacing", optional=True))
+    inputs = (
+        Port("sections", "sections", "Sections per layer (with guides)"),
+        Port(
+            "model",
+            "bead-model",
+            "Optional bead model (bead-fit): its target width and step-over set the default bead_width and spacing",
+            optional=True,
+        ),
+    )
     outputs = (Port("toolpath", "toolpath", "One section path per section, in section order"),)
     over = "sections"
 
     class Params(NodeParams):
-        default: SectionStrategy = Field(default_factory=SectionStrategy, description="Spec for every section", title="Default strategy")
+        default: SectionStrategy = Field(
+            default_factory=SectionStrategy, description="Spec for every section", title="Default strategy"
+        )
         whole_regions: Literal["auto", "off"] = Field(
-            "auto", description="Sections of layers with no mask (each connected region is one section): "
-                                "'auto' re-plans a region its path leaves more than max_uncovered without a bead "
-                                "(split at its reflex corners, each piece along its own long axis; else contour "
-                                "rings); 'off' keeps the path as planned (still warned about)", title="Whole regions")
-        max_uncovered: float = Field(2.0, ge=0.0, le=100.0, json_schema_extra=unit("%"),
-                                     description="Share of a section's area its path may leave without a bead "
-                                                 "(arc-ON path buffered by half the bead width; a weave's pool "
-                                                 "bridges its strokes) before the section is re-planned (auto) "
-                                                 "or warned about", title="Largest uncovered share")
+            "auto",
+            description="Sections of layers with no mask (each connected region is one section): "
+            "'auto' re-plans a region its path leaves more than max_uncovered without a bead "
+            "(split at its reflex corners, each piece along its own long axis; else contour "
+            "rings); 'off' keeps the path as planned (still warned about)",
+            title="Whole regions",
+        )
+        max_uncovered: float = Field(
+            2.0,
+            ge=0.0,
+            le=100.0,
+            json_schema_extra=unit("%"),
+            description="Share of a section's area its path may leave without a bead "
+            "(arc-ON path buffered by half the bead width; a weave's pool "
+            "bridges its strokes) before the section is re-planned (auto) "
+            "or warned about",
+            title="Largest uncovered share",
+        )
         sections: dict[str, SectionOverride] = Field(  # type: ignore[valid-type]
-            default_factory=dict, description="Section key (\"bs1/A\") → fields that differ from the default", title="Strategy by section")
-        compare: list[str] = Field(default_factory=list, max_length=16,
-                                   description="Patterns to compare on the same sections (\"triangular:60\" sets "
-                                               "the apex angle); empty = no comparison artifacts", title="Patterns to compare")
+            default_factory=dict,
+            description='Section key ("bs1/A") → fields that differ from the default',
+            title="Strategy by section",
+        )
+        compare: list[str] = Field(
+            default_factory=list,
+            max_length=16,
+            description='Patterns to compare on the same sections ("triangular:60" sets '
+            "the apex angle); empty = no comparison artifacts",
+            title="Patterns to compare",
+        )
 
         @model_validator(mode="after")
         def _overrides_valid(self):
@@ -214,8 +273,9 @@ class StrategyNode(LayerNode):
         width = getattr(model, "target_width_mm", None) if model is not None else None
         if width is None:
             return params
-        default = SectionStrategy.model_validate({**params.default.model_dump(), "bead_width": float(width),
-                                                   "spacing": float(model.step_over(width))})
+        default = SectionStrategy.model_validate(
+            {**params.default.model_dump(), "bead_width": float(width), "spacing": float(model.step_over(width))}
+        )
         return params.model_copy(update={"default": default})
 
     def layer_params(self, params, index, items):
@@ -223,8 +283,11 @@ class StrategyNode(LayerNode):
         ls: LayerSections = items["sections"]
         return {
             "default": params.default.model_dump(mode="json"),
-            "sections": {s.key: params.sections[s.key].model_dump(mode="json", exclude_none=True)
-                         for s in ls.sections if s.key in params.sections},
+            "sections": {
+                s.key: params.sections[s.key].model_dump(mode="json", exclude_none=True)
+                for s in ls.sections
+                if s.key in params.sections
+            },
             "whole_regions": params.whole_regions,
             "max_uncovered": params.max_uncovered,
         }
@@ -246,16 +309,34 @@ class StrategyNode(LayerNode):
                 raise PlanningError(f"{spec.pattern}: {e}", layer=index, section=s.key) from e
             path = whole.path
             if whole.uncovered_share > limit and ctx is not None:
-                ctx.warn(f"{whole.uncovered:.1f} mm² ({100 * whole.uncovered_share:.1f} %) of section {s.key} on "
-                         f"layer {index} gets no bead ({whole.pattern}"
-                         f"{', split at its corners' if whole.how == 'split' else ''}): add a mask section there "
-                         "or choose a filling pattern (contour, parallel)", layer=index, section=s.key)
-            fills.append({"section": s.key, "how": whole.how, "pattern": whole.pattern, "pieces": whole.pieces,
-                          "uncovered_mm2": round(whole.uncovered, 3), "area_mm2": round(whole.area, 3)})
-            out.append(SectionPath(
-                key=s.key, strategy=whole.pattern, points=ls.layer.to_world(path.points),
-                arc=path.arc.copy(), inside=path.inside.copy(),
-                speed=np.full(len(path.points) - 1, spec.speed)))
+                ctx.warn(
+                    f"{whole.uncovered:.1f} mm² ({100 * whole.uncovered_share:.1f} %) of section {s.key} on "
+                    f"layer {index} gets no bead ({whole.pattern}"
+                    f"{', split at its corners' if whole.how == 'split' else ''}): add a mask section there "
+                    "or choose a filling pattern (contour, parallel)",
+                    layer=index,
+                    section=s.key,
+                )
+            fills.append(
+                {
+                    "section": s.key,
+                    "how": whole.how,
+                    "pattern": whole.pattern,
+                    "pieces": whole.pieces,
+                    "uncovered_mm2": round(whole.uncovered, 3),
+                    "area_mm2": round(whole.area, 3),
+                }
+            )
+            out.append(
+                SectionPath(
+                    key=s.key,
+                    strategy=whole.pattern,
+                    points=ls.layer.to_world(path.points),
+                    arc=path.arc.copy(),
+                    inside=path.inside.copy(),
+                    speed=np.full(len(path.points) - 1, spec.speed),
+                )
+            )
         return {"toolpath": PlannedLayerPaths(ls.layer, tuple(out), fills=tuple(fills))}
 
     def combine(self, ctx, params, outputs, inputs):
@@ -266,12 +347,17 @@ class StrategyNode(LayerNode):
             ctx.warn("the connected bead model has no target width: the default bead_width and spacing are used")
         elif params is not given:
             d0, d1 = given.default, params.default
-            clash = [f for f in ("bead_width", "spacing")
-                     if f in d0.model_fields_set and abs(getattr(d0, f) - getattr(d1, f)) > 1e-9]
+            clash = [
+                f
+                for f in ("bead_width", "spacing")
+                if f in d0.model_fields_set and abs(getattr(d0, f) - getattr(d1, f)) > 1e-9
+            ]
             if clash:
-                ctx.warn(f"bead width {d1.bead_width:g} mm and spacing {d1.spacing:.4g} mm from the bead model "
-                         f"(connected model wins over the default's bead_width {d0.bead_width:g} mm, spacing "
-                         f"{d0.spacing:g} mm)")
+                ctx.warn(
+                    f"bead width {d1.bead_width:g} mm and spacing {d1.spacing:.4g} mm from the bead model "
+                    f"(connected model wins over the default's bead_width {d0.bead_width:g} mm, spacing "
+                    f"{d0.spacing:g} mm)"
+                )
         # The comparison re-plans every section once per compared pattern: it is memoised on the
         # sections' signatures + params, since combine runs on every execution (cached layers too).
         self._comparison = None
@@ -292,8 +378,10 @@ class StrategyNode(LayerNode):
 
     def artifacts(self, ctx, params, outputs) -> dict[str, Any]:
         tp = outputs["toolpath"]
-        files: dict[str, Any] = {"toolpath.json": serialize.dumps(serialize.toolpath_json(tp)),
-                                 "paths.json": serialize.dumps(paths_summary(tp))}
+        files: dict[str, Any] = {
+            "toolpath.json": serialize.dumps(serialize.toolpath_json(tp)),
+            "paths.json": serialize.dumps(paths_summary(tp)),
+        }
         comp = getattr(self, "_comparison", None)
         if params.compare and comp is not None:
             files["comparison.json"] = serialize.dumps(comp)

@@ -51,7 +51,7 @@ def _ring_centerlines(ctx, layers, spacing: float) -> dict[tuple[int, int], tupl
     jobs = [(polys[a:b], spacing) for a, b in zip(bounds, bounds[1:]) if b > a]
     if not jobs:
         return {}
-    mapper = getattr(ctx, "map", None)     # a Context maps; a bare stand-in computes here
+    mapper = getattr(ctx, "map", None)  # a Context maps; a bare stand-in computes here
     got = mapper(_centerlines, jobs, layers=len({s for s, _k in keys})) if mapper else list(map(_centerlines, jobs))
     return dict(zip(keys, (c for part in got for c in part)))
 
@@ -80,24 +80,60 @@ class FeaturesNode(Node):
     outputs = (Port("features", "features", "Recognised features"),)
 
     class Params(NodeParams):
-        merge_tol: float = Field(TOL.merge, gt=0, le=1.0, json_schema_extra=unit("mm"),
-                                 description="Points closer than this are one point (study: 1e-6 mm)", title="Merge tolerance")
-        corner_angle_deg: float = Field(30.0, gt=0, lt=180, json_schema_extra=unit("deg"),
-                                        description="Walls turning by at least this angle meet at a corner, "
-                                                    "less: continuous junction", title="Corner angle")
-        encumbrance: float = Field(30.0, gt=0, le=1000, json_schema_extra=unit("mm"),
-                                   description="Torch maximum encumbrance (diameter) for the isolated-tubular test", title="Torch encumbrance")
-        every_layer: bool = Field(False, description="Recognise every distinct layer, not only the first", title="Every layer")
-        join_gap: float = Field(0.05, ge=0, le=5.0, json_schema_extra=unit("mm"),
-                                description="Open curve ends this close whose curves continue each other (collinear "
-                                            "within join_angle_deg) are joined before classifying; 0 = only "
-                                            "coincident ends meet", title="Join gap")
-        join_angle_deg: float = Field(1.0, ge=0, le=30, json_schema_extra=unit("deg"),
-                                      description="Angle tolerance for joining collinear curves", title="Join angle tolerance")
+        merge_tol: float = Field(
+            TOL.merge,
+            gt=0,
+            le=1.0,
+            json_schema_extra=unit("mm"),
+            description="Points closer than this are one point (study: 1e-6 mm)",
+            title="Merge tolerance",
+        )
+        corner_angle_deg: float = Field(
+            30.0,
+            gt=0,
+            lt=180,
+            json_schema_extra=unit("deg"),
+            description="Walls turning by at least this angle meet at a corner, less: continuous junction",
+            title="Corner angle",
+        )
+        encumbrance: float = Field(
+            30.0,
+            gt=0,
+            le=1000,
+            json_schema_extra=unit("mm"),
+            description="Torch maximum encumbrance (diameter) for the isolated-tubular test",
+            title="Torch encumbrance",
+        )
+        every_layer: bool = Field(
+            False, description="Recognise every distinct layer, not only the first", title="Every layer"
+        )
+        join_gap: float = Field(
+            0.05,
+            ge=0,
+            le=5.0,
+            json_schema_extra=unit("mm"),
+            description="Open curve ends this close whose curves continue each other (collinear "
+            "within join_angle_deg) are joined before classifying; 0 = only "
+            "coincident ends meet",
+            title="Join gap",
+        )
+        join_angle_deg: float = Field(
+            1.0,
+            ge=0,
+            le=30,
+            json_schema_extra=unit("deg"),
+            description="Angle tolerance for joining collinear curves",
+            title="Join angle tolerance",
+        )
 
     def run(self, ctx, params, inputs):
-        spec = RecognitionSpec(params.merge_tol, params.corner_angle_deg, params.encumbrance,
-                               join_gap=params.join_gap, join_angle_deg=params.join_angle_deg)
+        spec = RecognitionSpec(
+            params.merge_tol,
+            params.corner_angle_deg,
+            params.encumbrance,
+            join_gap=params.join_gap,
+            join_angle_deg=params.join_angle_deg,
+        )
         fs = recognise_layers(inputs["layers"], spec, every_layer=params.every_layer)
         if not fs.layers:
             ctx.warn("no layer has midsurface curves: nothing to recognise (connect a sketch)")
@@ -111,8 +147,9 @@ def _section(layer: Layer, p: WallPass, speed: float) -> SectionPath:
     pts = layer.to_world(p.xy)
     n = len(pts) - 1
     axis = None if layer.frame is None else np.tile(-layer.normal, (len(pts), 1))
-    return SectionPath(p.key, p.strategy, pts, np.ones(n, bool), np.asarray(p.inside, bool),
-                       np.full(n, float(speed)), tool_axis=axis)
+    return SectionPath(
+        p.key, p.strategy, pts, np.ones(n, bool), np.asarray(p.inside, bool), np.full(n, float(speed)), tool_axis=axis
+    )
 
 
 @register
@@ -148,42 +185,114 @@ class WallPathNode(Node):
     version = "2"
     title = "Wall path (thin walls)"
     category = "thin walls"
-    inputs = (Port("layers", "layers", "Layers (midsurface curves or ring regions)"),
-              Port("features", "features", "Recognised features (default: recognised here)", optional=True))
+    inputs = (
+        Port("layers", "layers", "Layers (midsurface curves or ring regions)"),
+        Port("features", "features", "Recognised features (default: recognised here)", optional=True),
+    )
     outputs = (Port("toolpath", "toolpath", "One bead per wall, per layer"),)
 
     class Params(NodeParams):
-        speed: float = Field(5.0, gt=0, le=200, json_schema_extra=unit("mm/s"),
-                             description="Travel speed (study trials: 300 mm/min = 5 mm/s)", title="Travel speed")
-        cut_radius: float = Field(2.0, gt=0, le=100, json_schema_extra=unit("mm"),
-                                  description="Cutting circle radius at crossings (study best 2.0)", title="Cutting radius")
-        influence_radius: float = Field(10.0, gt=0, le=500, json_schema_extra=unit("mm"),
-                                        description="Influence circle radius at crossings (study best 10.0)", title="Influence radius")
-        free_end_extension: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                                          description="Path extension beyond a free wall end (arc start/stop zone)", title="Free end extension")
+        speed: float = Field(
+            5.0,
+            gt=0,
+            le=200,
+            json_schema_extra=unit("mm/s"),
+            description="Travel speed (study trials: 300 mm/min = 5 mm/s)",
+            title="Travel speed",
+        )
+        cut_radius: float = Field(
+            2.0,
+            gt=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Cutting circle radius at crossings (study best 2.0)",
+            title="Cutting radius",
+        )
+        influence_radius: float = Field(
+            10.0,
+            gt=0,
+            le=500,
+            json_schema_extra=unit("mm"),
+            description="Influence circle radius at crossings (study best 10.0)",
+            title="Influence radius",
+        )
+        free_end_extension: float = Field(
+            5.0,
+            ge=0,
+            le=200,
+            json_schema_extra=unit("mm"),
+            description="Path extension beyond a free wall end (arc start/stop zone)",
+            title="Free end extension",
+        )
         tubular: Literal["helical", "aligned", "scattered"] = Field(
-            "helical", description="Strategy for isolated tubulars", title="Isolated tubulars")
-        overlap: float = Field(5.0, ge=0, le=200, json_schema_extra=unit("mm"),
-                               description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)", title="Start–stop overlap")
-        bead_width: float | None = Field(None, ge=0, le=100, json_schema_extra=unit("mm"),
-                                         description="Bead width = total wall width TWW; empty: tww, else "
-                                                     "eww / deposition_efficiency, else 5 mm (the study's bead). "
-                                                     "Sets the crossing-radius bounds and the fillet check (0 = no check)", title="Bead width")
-        eww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                           description="Effective wall width EWW, left after machining (0 = not given: the bead width)", title="Effective wall width")
-        tww: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                           description="Total wall width TWW as deposited, ≥ EWW: the bead width (0 = not given)", title="Total wall width")
-        deposition_efficiency: float = Field(0.0, ge=0, le=1, json_schema_extra=unit("1"),
-                                             description="DE = useful / deposited area = EWW / TWW for a single-bead "
-                                                         "wall; with EWW gives TWW (0 = not given)", title="Deposition efficiency")
-        fillet_radius: float = Field(0.0, ge=0, le=100, json_schema_extra=unit("mm"),
-                                     description="Internal fillet radius R_f of the part: corners turn on R_f + EWW/2; "
-                                                 "crossings warn where the fillet leads leave it empty (0 = sharp)", title="Fillet radius")
-        spacing: float = Field(1.0, gt=0.01, le=50, json_schema_extra=unit("mm"),
-                               description="Point spacing of ring centre lines (region layers)", title="Point spacing")
+            "helical", description="Strategy for isolated tubulars", title="Isolated tubulars"
+        )
+        overlap: float = Field(
+            5.0,
+            ge=0,
+            le=200,
+            json_schema_extra=unit("mm"),
+            description="O_l: self-overlap at the stop of a start–stop lap (≈ crater length)",
+            title="Start–stop overlap",
+        )
+        bead_width: float | None = Field(
+            None,
+            ge=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Bead width = total wall width TWW; empty: tww, else "
+            "eww / deposition_efficiency, else 5 mm (the study's bead). "
+            "Sets the crossing-radius bounds and the fillet check (0 = no check)",
+            title="Bead width",
+        )
+        eww: float = Field(
+            0.0,
+            ge=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Effective wall width EWW, left after machining (0 = not given: the bead width)",
+            title="Effective wall width",
+        )
+        tww: float = Field(
+            0.0,
+            ge=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Total wall width TWW as deposited, ≥ EWW: the bead width (0 = not given)",
+            title="Total wall width",
+        )
+        deposition_efficiency: float = Field(
+            0.0,
+            ge=0,
+            le=1,
+            json_schema_extra=unit("1"),
+            description="DE = useful / deposited area = EWW / TWW for a single-bead "
+            "wall; with EWW gives TWW (0 = not given)",
+            title="Deposition efficiency",
+        )
+        fillet_radius: float = Field(
+            0.0,
+            ge=0,
+            le=100,
+            json_schema_extra=unit("mm"),
+            description="Internal fillet radius R_f of the part: corners turn on R_f + EWW/2; "
+            "crossings warn where the fillet leads leave it empty (0 = sharp)",
+            title="Fillet radius",
+        )
+        spacing: float = Field(
+            1.0,
+            gt=0.01,
+            le=50,
+            json_schema_extra=unit("mm"),
+            description="Point spacing of ring centre lines (region layers)",
+            title="Point spacing",
+        )
         seam: Literal["stock", "nearest"] = Field(
-            "stock", description="Wall ignition: stock (a pass with machining stock at one end only starts "
-            "there; passes without stock are warned) or nearest (the end nearer the torch)", title="Wall seam")
+            "stock",
+            description="Wall ignition: stock (a pass with machining stock at one end only starts "
+            "there; passes without stock are warned) or nearest (the end nearer the torch)",
+            title="Wall seam",
+        )
 
         @model_validator(mode="after")
         def _radii(self):
@@ -196,11 +305,14 @@ class WallPathNode(Node):
             """EWW, TWW and DE = EWW/TWW: any two give the third; the bead width is TWW."""
             eww, tww, de = self.eww, self.tww, self.deposition_efficiency
             if eww and tww and eww > tww + 1e-9:
-                raise ValueError(f"eww {eww:g} mm exceeds tww {tww:g} mm: the wall as deposited must hold the "
-                                 "machined one")
+                raise ValueError(
+                    f"eww {eww:g} mm exceeds tww {tww:g} mm: the wall as deposited must hold the machined one"
+                )
             if eww and tww and de and abs(eww / tww - de) > 5e-3:
-                raise ValueError(f"deposition_efficiency {de:g} disagrees with eww / tww = {eww:g} / {tww:g} = "
-                                 f"{eww / tww:.3f}: give two of the three")
+                raise ValueError(
+                    f"deposition_efficiency {de:g} disagrees with eww / tww = {eww:g} / {tww:g} = "
+                    f"{eww / tww:.3f}: give two of the three"
+                )
             if eww and de and not tww:
                 tww = self.tww = eww / de
             elif tww and de and not eww:
@@ -209,14 +321,17 @@ class WallPathNode(Node):
                 self.deposition_efficiency = eww / tww
             if tww:
                 if self.bead_width is not None and abs(self.bead_width - tww) > 1e-9:
-                    raise ValueError(f"bead_width {self.bead_width:g} mm disagrees with tww {tww:g} mm (the bead "
-                                     "width is the total wall width): give one")
+                    raise ValueError(
+                        f"bead_width {self.bead_width:g} mm disagrees with tww {tww:g} mm (the bead "
+                        "width is the total wall width): give one"
+                    )
                 self.bead_width = tww
             elif self.bead_width is None:
                 self.bead_width = STUDY_BEAD_WIDTH
             if eww and self.bead_width and eww > self.bead_width + 1e-9:
-                raise ValueError(f"eww {eww:g} mm exceeds the bead width {self.bead_width:g} mm: give tww or "
-                                 "deposition_efficiency")
+                raise ValueError(
+                    f"eww {eww:g} mm exceeds the bead width {self.bead_width:g} mm: give tww or deposition_efficiency"
+                )
             return self
 
     def run(self, ctx, params, inputs):
@@ -224,16 +339,26 @@ class WallPathNode(Node):
         fs = inputs.get("features")
         if fs is None:
             fs = recognise_layers(layers, RecognitionSpec())
-        spec = WallSpec(params.cut_radius, params.influence_radius, params.free_end_extension,
-                        params.tubular, params.overlap, fs.spec.corner_angle_deg, fs.spec.merge_tol,
-                        params.bead_width or 0.0, eww=params.eww, fillet_radius=params.fillet_radius,
-                        join_gap=fs.spec.join_gap, join_angle_deg=fs.spec.join_angle_deg)
+        spec = WallSpec(
+            params.cut_radius,
+            params.influence_radius,
+            params.free_end_extension,
+            params.tubular,
+            params.overlap,
+            fs.spec.corner_angle_deg,
+            fs.spec.merge_tol,
+            params.bead_width or 0.0,
+            eww=params.eww,
+            fillet_radius=params.fillet_radius,
+            join_gap=fs.spec.join_gap,
+            join_angle_deg=fs.spec.join_angle_deg,
+        )
         centers = _ring_centerlines(ctx, layers, params.spacing)
         out: list[LayerPaths | None] = []
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
-        warned: set[str] = set()        # an extrusion repeats its notes on every layer: say each once
+        warned: set[str] = set()  # an extrusion repeats its notes on every layer: say each once
         pos = None
-        seams: list[np.ndarray] = []    # world seams of the last ring layer: the next aligns to them
+        seams: list[np.ndarray] = []  # world seams of the last ring layer: the next aligns to them
         for slot, layer in enumerate(layers):
             ctx.check_cancelled()
             if layer is None:
@@ -257,10 +382,12 @@ class WallPathNode(Node):
         return {"toolpath": Layered(tuple(out))}
 
     @staticmethod
-    def _walls(ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set,
-               seam: str = "stock") -> list[WallPass]:
-        lw = plan_layer_walls(layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start,
-                              seam=seam)
+    def _walls(
+        ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set, seam: str = "stock"
+    ) -> list[WallPass]:
+        lw = plan_layer_walls(
+            layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start, seam=seam
+        )
         for note in lw.warnings:
             if note not in warned:
                 warned.add(note)
@@ -282,8 +409,16 @@ class WallPathNode(Node):
         return order_passes(passes, start, seam)
 
     @staticmethod
-    def _rings(ctx, layer: Layer, params, spec: WallSpec, start, seams: list[np.ndarray],
-               centers: dict[tuple[int, int], tuple[np.ndarray, float]], slot: int) -> list[WallPass]:
+    def _rings(
+        ctx,
+        layer: Layer,
+        params,
+        spec: WallSpec,
+        start,
+        seams: list[np.ndarray],
+        centers: dict[tuple[int, int], tuple[np.ndarray, float]],
+        slot: int,
+    ) -> list[WallPass]:
         """Ring laps of a region layer; `seams` (world points of the previous ring layer's seams)
         is replaced by this layer's; `centers`: the rings' centre lines (`_ring_centerlines`)."""
         passes, placed = [], []
