@@ -32,8 +32,20 @@ def client(tmp_path, **kw) -> TestClient:
 def box_stl(height: float, size: float = 20.0) -> bytes:
     """A closed box, binary STL, `height` mm tall on a `size` mm square."""
     v = np.array([[x, y, z] for x in (0, size) for y in (0, size) for z in (0, height)], dtype=np.float32)
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
-             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    faces = [
+        (0, 1, 3),
+        (0, 3, 2),
+        (4, 6, 7),
+        (4, 7, 5),
+        (0, 4, 5),
+        (0, 5, 1),
+        (2, 3, 7),
+        (2, 7, 6),
+        (0, 2, 6),
+        (0, 6, 4),
+        (1, 5, 7),
+        (1, 7, 3),
+    ]
     out = io.BytesIO()
     out.write(b"\0" * 80 + struct.pack("<I", len(faces)))
     for f in faces:
@@ -43,14 +55,20 @@ def box_stl(height: float, size: float = 20.0) -> bytes:
 
 def sliced(path: str, layer_height: float = 1.5) -> dict:
     """A recipe: the mesh file `path`, sliced at `layer_height` mm."""
-    return toy.recipe([("part", "mesh", {"path": path}), ("layers", "slice", {"layer_height": layer_height})],
-                      [("part.mesh", "layers.mesh")])
+    return toy.recipe(
+        [("part", "mesh", {"path": path}), ("layers", "slice", {"layer_height": layer_height})],
+        [("part.mesh", "layers.mesh")],
+    )
 
 
 def parallel_now(monkeypatch) -> None:
     """Layers go to the layer workers at once (no timing of a first layer, workers started in the foreground)."""
-    for name, value in (("MIN_PARALLEL_S", 0.0), ("WARM_MIN_PARALLEL_S", 0.0), ("TIMING_S", 0.0),
-                        ("BACKGROUND_START", False)):
+    for name, value in (
+        ("MIN_PARALLEL_S", 0.0),
+        ("WARM_MIN_PARALLEL_S", 0.0),
+        ("TIMING_S", 0.0),
+        ("BACKGROUND_START", False),
+    ):
         monkeypatch.setattr(parallel, name, value)
 
 

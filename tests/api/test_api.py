@@ -21,8 +21,6 @@ def client(tmp_path):
         yield c
 
 
-
-
 def test_health_and_nodes(client):
     h = client.get("/api/health").json()
     assert h["status"] == "ok" and h["viewer_url"] is None
@@ -44,7 +42,9 @@ def test_graph_crud_and_names(client):
     # schema errors: 422, names the field
     r = client.put("/api/graphs/bad", json={"nodes": [{"id": "1x", "type": "t"}]})
     assert r.status_code == 422 and "invalid node id" in r.json()["detail"]["message"]
-    assert client.put("/api/graphs/bad", content=b"{nope", headers={"content-type": "application/json"}).status_code == 422
+    assert (
+        client.put("/api/graphs/bad", content=b"{nope", headers={"content-type": "application/json"}).status_code == 422
+    )
     for name in ("..%2Fetc", ".hidden", "a" * 81):
         assert client.get(f"/api/graphs/{name}").status_code in (404, 422)
     assert client.delete("/api/graphs/mine").status_code == 204
@@ -78,7 +78,9 @@ def test_run_failures_are_4xx_or_failed_status(client):
     bad["nodes"][1]["type"] = "nope"
     r = client.post("/api/runs", json={"recipe": bad})
     assert r.status_code == 422 and r.json()["detail"]["node"] == "grow"
-    failing = toy.recipe([("s", "toy-stack", {"count": 12}), ("m", "toy-fail", {"fail_at": 9})], [("s.layers", "m.layers")])
+    failing = toy.recipe(
+        [("s", "toy-stack", {"count": 12}), ("m", "toy-fail", {"fail_at": 9})], [("s.layers", "m.layers")]
+    )
     run = wait(client, client.post("/api/runs", json={"recipe": failing}).json()["id"])
     assert run["status"] == "failed"
     assert (run["error"]["node"], run["error"]["layer"], run["error"]["section"]) == ("m", 9, "bs1/A")
@@ -88,8 +90,10 @@ def test_run_failures_are_4xx_or_failed_status(client):
 def test_cancel(client):
     # 40 layers × 0.25 s (at least 5 s on 2 workers): the cancel always lands mid-run, so the
     # only right answer is "cancelled", within a second or two, with layers left undone
-    slow = toy.recipe([("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.25})],
-                      [("stack.layers", "slow.layers")])
+    slow = toy.recipe(
+        [("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.25})],
+        [("stack.layers", "slow.layers")],
+    )
     rid = client.post("/api/runs", json={"recipe": slow}).json()["id"]
     t0 = time.monotonic()
     while client.get(f"/api/runs/{rid}").json()["status"] != "running":
@@ -112,7 +116,9 @@ def test_preview_one_layer(client):
     assert body["layer_count"] == 40 and body["error"] is None
     assert client.post("/api/preview", json={"recipe": data, "node": "grow", "layer": 99}).status_code == 422
     assert client.post("/api/preview", json={"recipe": data, "node": "zz", "layer": 1}).status_code == 422
-    failing = toy.recipe([("s", "toy-stack", {"count": 12}), ("m", "toy-fail", {"fail_at": 3})], [("s.layers", "m.layers")])
+    failing = toy.recipe(
+        [("s", "toy-stack", {"count": 12}), ("m", "toy-fail", {"fail_at": 3})], [("s.layers", "m.layers")]
+    )
     body = client.post("/api/preview", json={"recipe": failing, "node": "m", "layer": 3}).json()
     assert body["error"]["layer"] == 3 and body["error"]["section"] == "bs1/A"
     assert body["layer"]["index"] == 3  # the layer is still shown so the user can fix the mask

@@ -23,8 +23,6 @@ def client(tmp_path):
         yield c
 
 
-
-
 def test_process_parameters_table(client):
     params = {p["name"]: p for p in client.get("/api/process-parameters").json()}
     assert params["wire_feed_speed"]["unit"] == "m/min" and params["travel_speed"]["unit"] == "mm/s"
@@ -34,8 +32,10 @@ def test_process_parameters_table(client):
 def _save_as(client, src: str, dst: str) -> None:
     assert client.put(f"/api/graphs/{dst}", json=client.get(f"/api/graphs/{src}").json()).status_code == 201
     xml = client.get(f"/api/graphs/{src}/params").text
-    assert client.put(f"/api/graphs/{dst}/params", content=xml,
-                      headers={"content-type": "application/xml"}).status_code == 204
+    assert (
+        client.put(f"/api/graphs/{dst}/params", content=xml, headers={"content-type": "application/xml"}).status_code
+        == 204
+    )
 
 
 def test_xml_edit_flows_into_toolpath_and_gcode(client):
@@ -43,11 +43,20 @@ def test_xml_edit_flows_into_toolpath_and_gcode(client):
     xml = client.get("/api/graphs/my-cross/params")
     assert xml.status_code == 200 and "<parameters" in xml.text
     # the long arm's start zone on layer 0: 6 mm/s → 5 mm/s
-    edited = re.sub(r'(<layer index="0".*?<section id="bs1/A">\s*<zone id="start"[^>]*>.*?<travel_speed unit="mm/s">)6(<)',
-                    r"\g<1>5\2", xml.text, count=1, flags=re.S)
+    edited = re.sub(
+        r'(<layer index="0".*?<section id="bs1/A">\s*<zone id="start"[^>]*>.*?<travel_speed unit="mm/s">)6(<)',
+        r"\g<1>5\2",
+        xml.text,
+        count=1,
+        flags=re.S,
+    )
     assert edited != xml.text
-    assert client.put("/api/graphs/my-cross/params", content=edited,
-                      headers={"content-type": "application/xml"}).status_code == 204
+    assert (
+        client.put(
+            "/api/graphs/my-cross/params", content=edited, headers={"content-type": "application/xml"}
+        ).status_code
+        == 204
+    )
     run = wait(client, client.post("/api/runs", json={"graph": "my-cross"}).json()["id"])
     assert run["status"] == "done", run["error"]
     tp = client.get(f"/api/runs/{run['id']}/artifacts/zone.toolpath.json").json()
@@ -74,8 +83,11 @@ def test_invalid_xml_is_422_naming_the_place(client):
     assert r.status_code == 422
     text = r.json()["detail"]["text"]
     assert "layer 0" in text and "bs1/A" in text
-    r = client.put("/api/graphs/mine/params", content=b"<!DOCTYPE x [<!ENTITY e 'x'>]><parameters>&e;</parameters>",
-                   headers={"content-type": "application/xml"})
+    r = client.put(
+        "/api/graphs/mine/params",
+        content=b"<!DOCTYPE x [<!ENTITY e 'x'>]><parameters>&e;</parameters>",
+        headers={"content-type": "application/xml"},
+    )
     assert r.status_code == 422
 
 
@@ -113,8 +125,11 @@ def test_unsaved_run_never_changes_the_saved_graph_or_xml(client):
     first = mask["params"]["masks"][0]
     mask["params"]["masks"].append({**first, "id": "bs2", "from_layer": 4})
     draft = saved_xml.decode().replace('<current unit="A">91</current>', '<current unit="A">180</current>', 1)
-    for body in ({"graph": "copy", "recipe": edited}, {"graph": "copy", "recipe": edited, "params_xml": draft},
-                 {"graph": "copy"}):
+    for body in (
+        {"graph": "copy", "recipe": edited},
+        {"graph": "copy", "recipe": edited, "params_xml": draft},
+        {"graph": "copy"},
+    ):
         run = wait(client, client.post("/api/runs", json=body).json()["id"])
         assert run["status"] == "done", run["error"]
         assert client.get("/api/graphs/copy/params").content == saved_xml
@@ -132,9 +147,12 @@ def test_unsaved_run_never_changes_the_saved_graph_or_xml(client):
 def test_examples_are_read_only(client):
     recipe = client.get("/api/graphs/mpp-cross").json()
     xml = client.get("/api/graphs/mpp-cross/params").content
-    for r in (client.put("/api/graphs/mpp-cross", json=recipe), client.delete("/api/graphs/mpp-cross"),
-              client.put("/api/graphs/mpp-cross/params", content=xml, headers={"content-type": "application/xml"}),
-              client.put("/api/graphs/mpp-cross/files/x.stl", content=b"solid x")):
+    for r in (
+        client.put("/api/graphs/mpp-cross", json=recipe),
+        client.delete("/api/graphs/mpp-cross"),
+        client.put("/api/graphs/mpp-cross/params", content=xml, headers={"content-type": "application/xml"}),
+        client.put("/api/graphs/mpp-cross/files/x.stl", content=b"solid x"),
+    ):
         assert r.status_code == 409 and "save as" in r.json()["detail"]["message"]
     assert client.get("/api/graphs/mpp-cross/params").content == xml
     assert next(g for g in client.get("/api/graphs").json() if g["name"] == "mpp-cross")["example"] is True

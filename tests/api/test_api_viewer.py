@@ -22,8 +22,14 @@ def free_port() -> int:
 
 @pytest.fixture()
 def client(tmp_path):
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=True, viewer_port=free_port(),
-                 static_dir=None, workers=1)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=True,
+        viewer_port=free_port(),
+        static_dir=None,
+        workers=1,
+    )
     with TestClient(create_app(s)) as c:
         yield c
 
@@ -31,12 +37,14 @@ def client(tmp_path):
 def test_select_view_state(client):
     viewer = client.app.state.services.viewer
     viewer.publish("mine", RECIPE, outputs(4))
-    viewer.publish("other", RECIPE, outputs(2))          # ran last, but not the open recipe
+    viewer.publish("other", RECIPE, outputs(2))  # ran last, but not the open recipe
     assert client.post("/api/viewer/select", json={"graph": "mine"}).status_code == 204
     st = client.get("/api/viewer/state").json()
     assert st["running"] and st["key"] == "mine" and st["layers"] == {"lo": 0, "hi": 3}
     assert [n["id"] for n in st["nodes"]] == ["part", "layers", "mask", "zone", "simulate"]
-    r = client.post("/api/viewer/view", json={"hidden": ["part"], "layer_lo": 1, "layer_hi": 2, "sim_color": "speed", "fit": True})
+    r = client.post(
+        "/api/viewer/view", json={"hidden": ["part"], "layer_lo": 1, "layer_hi": 2, "sim_color": "speed", "fit": True}
+    )
     assert r.status_code == 204
     st = client.get("/api/viewer/state").json()
     assert st["view"]["hidden"] == ["part"] and st["view"]["layer_lo"] == 1 and st["view"]["sim_color"] == "speed"
@@ -72,18 +80,26 @@ def test_scene_of_a_run_made_before_a_restart_is_rebuilt(tmp_path):
     recipe["edges"] = [e for e in recipe["edges"] if e["to"].split(".")[0] in ("layers", "mask")]
 
     def settings():
-        return Settings(data_dir=tmp_path / "data", graphs_dir=graphs, start_viewer=True, viewer_port=free_port(),
-                        static_dir=None, workers=1)
+        return Settings(
+            data_dir=tmp_path / "data",
+            graphs_dir=graphs,
+            start_viewer=True,
+            viewer_port=free_port(),
+            static_dir=None,
+            workers=1,
+        )
 
     with TestClient(create_app(settings())) as c:
         assert c.put("/api/graphs/mini", json=recipe).status_code == 201
         run = wait_for_run(c, c.post("/api/runs", json={"graph": "mini"}).json()["id"], timeout=120)
         assert run["status"] == "done"
-        draft = (graphs / "mpp-cross.params.xml").read_text()   # a draft XML is kept with its run
-        newer = wait_for_run(c, c.post("/api/runs", json={"graph": "mini", "params_xml": draft}).json()["id"], timeout=120)
+        draft = (graphs / "mpp-cross.params.xml").read_text()  # a draft XML is kept with its run
+        newer = wait_for_run(
+            c, c.post("/api/runs", json={"graph": "mini", "params_xml": draft}).json()["id"], timeout=120
+        )
         assert c.app.state.services.store.get_run_params_xml(newer["id"]) == draft
         assert c.app.state.services.store.get_run_params_xml(run["id"]) is None
-        assert c.get("/api/graphs/mini/params").status_code == 404   # never the graph's XML
+        assert c.get("/api/graphs/mini/params").status_code == 404  # never the graph's XML
         before = c.app.state.services.viewer
         deadline = time.time() + 30
         while before.scene_runs.get("mini") != newer["id"] and time.time() < deadline:
@@ -92,7 +108,7 @@ def test_scene_of_a_run_made_before_a_restart_is_rebuilt(tmp_path):
         st0 = c.get("/api/viewer/state").json()
         assert st0["run"] == newer["id"]
 
-    with TestClient(create_app(settings())) as c:   # the same data folder: a restarted server
+    with TestClient(create_app(settings())) as c:  # the same data folder: a restarted server
         assert c.get("/api/viewer/state").json()["published"] == []
         assert c.post("/api/viewer/select", json={"graph": "mini"}).status_code == 204
         st = c.get("/api/viewer/state").json()
@@ -123,18 +139,20 @@ def test_rebuild_loading_state_and_failure(client):
     def loader(key):
         if key == "never-ran":
             return None
+
         def rebuild(cancel):
             assert release.wait(10)
             if key == "broken":
                 raise FileNotFoundError("parts/gone.stl")
             return RECIPE, outputs(3)
+
         return f"run-of-{key}", rebuild
 
     viewer.loader = loader
     assert client.post("/api/viewer/select", json={"graph": "g"}).status_code == 204
     st = client.get("/api/viewer/state").json()
     assert st["loading"]["key"] == "g" and st["loading"]["run"] == "run-of-g" and st["nodes"] == []
-    assert client.post("/api/viewer/select", json={"graph": "g"}).status_code == 204   # no second rebuild
+    assert client.post("/api/viewer/select", json={"graph": "g"}).status_code == 204  # no second rebuild
     release.set()
     deadline = time.time() + 10
     while client.get("/api/viewer/state").json()["loading"] and time.time() < deadline:
@@ -144,7 +162,7 @@ def test_rebuild_loading_state_and_failure(client):
 
     release.clear()
     assert client.post("/api/viewer/select", json={"graph": "h"}).status_code == 204
-    viewer.publish("h", RECIPE, outputs(4), run="fresh")   # a run of h ends while h is rebuilt
+    viewer.publish("h", RECIPE, outputs(4), run="fresh")  # a run of h ends while h is rebuilt
     release.set()
     time.sleep(0.3)
     st = client.get("/api/viewer/state").json()

@@ -78,7 +78,7 @@ def test_layer_estimate_refuses_run_and_preview_before_they_start(tmp_path):
         d = r.json()["detail"]
         assert d["kind"] == "limit" and d["node"] == "layers"
         assert "2000 layers, over the limit of 50 (max_layers)" in d["message"]
-        assert c.get("/api/runs").json() == []          # nothing queued
+        assert c.get("/api/runs").json() == []  # nothing queued
         r = c.post("/api/preview", json={"recipe": sliced("tall.stl"), "graph": "tall", "node": "layers", "layer": 0})
         assert r.status_code == 422 and "2000 layers" in r.json()["detail"]["message"]
         # 60 mm / 1.5 mm = 40 layers: runs
@@ -92,30 +92,36 @@ def test_layer_estimate_refuses_run_and_preview_before_they_start(tmp_path):
 def test_3mf_zip_bomb_and_dxf_flood_are_refused_by_their_declared_size(tmp_path):
     bomb = io.BytesIO()
     with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("3D/3dmodel.model", b"\0" * (60 * 2**20))   # 60 MB of zeros → ~60 kB compressed
+        z.writestr("3D/3dmodel.model", b"\0" * (60 * 2**20))  # 60 MB of zeros → ~60 kB compressed
     assert len(bomb.getvalue()) < 200_000
-    dxf = "0\nSECTION\n2\nENTITIES\n" + "".join(f"0\nLINE\n8\n0\n10\n{i}\n20\n0\n11\n{i}\n21\n1\n" for i in range(600)) \
+    dxf = (
+        "0\nSECTION\n2\nENTITIES\n"
+        + "".join(f"0\nLINE\n8\n0\n10\n{i}\n20\n0\n11\n{i}\n21\n1\n" for i in range(600))
         + "0\nENDSEC\n0\nEOF\n"
+    )
     with client(tmp_path, max_uncompressed_mb=50, max_dxf_entities=500) as c:
         assert c.put("/api/graphs/g", json=sliced("bomb.3mf")).status_code == 201
         assert c.put("/api/graphs/g/files/bomb.3mf", content=bomb.getvalue()).status_code == 204
         assert c.put("/api/graphs/g/files/many.dxf", content=dxf.encode()).status_code == 204
         r = c.post("/api/runs", json={"graph": "g"})
         assert r.status_code == 422 and "3MF expands to 60 MB, over the limit of 50 MB" in r.json()["detail"]["message"]
-        sk = toy.recipe([("s", "sketch", {"path": "many.dxf", "height": 10}), ("layers", "slice", {})],
-                        [("s.mesh", "layers.mesh")])
+        sk = toy.recipe(
+            [("s", "sketch", {"path": "many.dxf", "height": 10}), ("layers", "slice", {})], [("s.mesh", "layers.mesh")]
+        )
         r = c.post("/api/runs", json={"recipe": sk, "graph": "g"})
         assert r.status_code == 422
         assert "603 DXF entities, over the limit of 500 (max_dxf_entities)" in r.json()["detail"]["message"]
 
 
 def test_too_many_layers_stop_the_run_before_the_next_node(tmp_path):
-    rec = toy.recipe([("stack", "toy-stack", {"count": 2000}), ("slow", "toy-slow", {"seconds": 0.05})],
-                     [("stack.layers", "slow.layers")])
+    rec = toy.recipe(
+        [("stack", "toy-stack", {"count": 2000}), ("slow", "toy-slow", {"seconds": 0.05})],
+        [("stack.layers", "slow.layers")],
+    )
     with client(tmp_path, max_layers=50) as c:
         t0 = time.monotonic()
         run = wait(c, c.post("/api/runs", json={"recipe": rec}).json()["id"])
-        assert time.monotonic() - t0 < 2.0          # the 2000 slow layers (100 s) never ran
+        assert time.monotonic() - t0 < 2.0  # the 2000 slow layers (100 s) never ran
         assert run["status"] == "failed" and run["error"]["kind"] == "limit" and run["error"]["node"] == "stack"
         assert "2000 layers, over the limit of 50 (max_layers)" in run["error"]["message"]
         log = c.get(f"/api/runs/{run['id']}/log").json()
@@ -123,8 +129,10 @@ def test_too_many_layers_stop_the_run_before_the_next_node(tmp_path):
 
 
 def test_progress_events_carry_the_layer(tmp_path):
-    rec = toy.recipe([("stack", "toy-stack", {"count": 12}), ("slow", "toy-slow", {"seconds": 0.12})],
-                     [("stack.layers", "slow.layers")])
+    rec = toy.recipe(
+        [("stack", "toy-stack", {"count": 12}), ("slow", "toy-slow", {"seconds": 0.12})],
+        [("stack.layers", "slow.layers")],
+    )
     with client(tmp_path, layer_workers=1) as c:
         run = wait(c, c.post("/api/runs", json={"recipe": rec}).json()["id"])
         assert run["status"] == "done"
@@ -135,9 +143,13 @@ def test_progress_events_carry_the_layer(tmp_path):
 
 
 def spin(seconds=5.0, beat=None):
-    return toy.recipe([("stack", "toy-stack", {"count": 2}),
-                       ("spin", "toy-spin", {"seconds": seconds, **({"beat": str(beat)} if beat else {})})],
-                      [("stack.layers", "spin.layers")])
+    return toy.recipe(
+        [
+            ("stack", "toy-stack", {"count": 2}),
+            ("spin", "toy-spin", {"seconds": seconds, **({"beat": str(beat)} if beat else {})}),
+        ],
+        [("stack.layers", "spin.layers")],
+    )
 
 
 def beats(path) -> int:
@@ -158,7 +170,7 @@ def test_preview_has_a_time_limit_and_shares_the_queue(tmp_path, run_memory_mb):
         assert r.status_code == 422 and "preview_timeout_s" in r.json()["detail"]["message"]
         n = beats(beat)
         time.sleep(0.3)
-        assert n > 5 and beats(beat) == n     # it computed, and stopped with the answer
+        assert n > 5 and beats(beat) == n  # it computed, and stopped with the answer
         rid = c.post("/api/runs", json={"recipe": spin(3.0)}).json()["id"]
         r = c.post("/api/preview", json={"recipe": spin(0.0), "node": "spin", "layer": 0})
         assert r.status_code == 429 and int(r.headers["retry-after"]) >= 1
@@ -189,14 +201,27 @@ def test_preview_stops_when_the_client_leaves(tmp_path, run_memory_mb):
         async def send(m):
             msgs.append(m)
 
-        scope = {"type": "http", "method": "POST", "path": "/api/preview", "raw_path": b"/api/preview",
-                 "query_string": b"", "headers": [(b"host", b"127.0.0.1"), (b"content-type", b"application/json"),
-                                                  (b"content-length", str(len(body)).encode())],
-                 "client": ("127.0.0.1", 5000), "server": ("127.0.0.1", 8000), "scheme": "http",
-                 "http_version": "1.1", "asgi": {"version": "3.0"}, "root_path": ""}
+        scope = {
+            "type": "http",
+            "method": "POST",
+            "path": "/api/preview",
+            "raw_path": b"/api/preview",
+            "query_string": b"",
+            "headers": [
+                (b"host", b"127.0.0.1"),
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+            ],
+            "client": ("127.0.0.1", 5000),
+            "server": ("127.0.0.1", 8000),
+            "scheme": "http",
+            "http_version": "1.1",
+            "asgi": {"version": "3.0"},
+            "root_path": "",
+        }
         async with app.router.lifespan_context(app):
             task = asyncio.create_task(app(scope, receive, send))
-            for _ in range(100):            # computing (a loaded machine may take a while to start)
+            for _ in range(100):  # computing (a loaded machine may take a while to start)
                 await asyncio.sleep(0.05)
                 if beats(beat) > 5:
                     break
@@ -209,7 +234,7 @@ def test_preview_stops_when_the_client_leaves(tmp_path, run_memory_mb):
             return time.monotonic() - t0, n, beats(beat)
 
     took, n1, n2 = asyncio.run(scenario())
-    assert took < 2.5 and n1 == n2     # stopped, not computing on for the 4.5 s left
+    assert took < 2.5 and n1 == n2  # stopped, not computing on for the 4.5 s left
 
 
 def _workers_of(me: psutil.Process) -> set[int]:
@@ -218,8 +243,10 @@ def _workers_of(me: psutil.Process) -> set[int]:
 
 
 def test_cancel_kills_layer_workers_within_2_s(tmp_path):
-    rec = toy.recipe([("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.4})],
-                     [("stack.layers", "slow.layers")])
+    rec = toy.recipe(
+        [("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.4})],
+        [("stack.layers", "slow.layers")],
+    )
     me = psutil.Process()
     with client(tmp_path, layer_workers=2) as c:
         before = _workers_of(me)
@@ -234,8 +261,9 @@ def test_cancel_kills_layer_workers_within_2_s(tmp_path):
         t1 = time.monotonic()
         assert c.delete(f"/api/runs/{rid}").status_code in (200, 202, 204)
         run = wait(c, rid)
-        while time.monotonic() - t1 < 3 and any(psutil.pid_exists(p) and psutil.Process(p).status() != "zombie"
-                                                for p in workers):
+        while time.monotonic() - t1 < 3 and any(
+            psutil.pid_exists(p) and psutil.Process(p).status() != "zombie" for p in workers
+        ):
             time.sleep(0.05)
         gone = time.monotonic() - t1
         assert run["status"] == "cancelled"
@@ -243,8 +271,9 @@ def test_cancel_kills_layer_workers_within_2_s(tmp_path):
 
 
 def test_cancel_ends_a_blocked_run_within_2_s(tmp_path):
-    rec = toy.recipe([("stack", "toy-stack", {"count": 2}), ("block", "toy-block", {})],
-                     [("stack.layers", "block.layers")])
+    rec = toy.recipe(
+        [("stack", "toy-stack", {"count": 2}), ("block", "toy-block", {})], [("stack.layers", "block.layers")]
+    )
     RELEASE.clear()
     try:
         with client(tmp_path) as c:
@@ -260,7 +289,7 @@ def test_cancel_ends_a_blocked_run_within_2_s(tmp_path):
             # its slot is free again: the next run runs while the blocked thread still waits
             r2 = wait(c, c.post("/api/runs", json={"recipe": toy.chain()}).json()["id"])
             assert r2["status"] == "done"
-            RELEASE.set()   # the abandoned thread returns; its result is dropped
+            RELEASE.set()  # the abandoned thread returns; its result is dropped
             time.sleep(0.2)
             assert c.get(f"/api/runs/{rid}").json()["status"] == "cancelled"
     finally:
@@ -272,8 +301,11 @@ def test_concurrent_previews_wait_their_turn(tmp_path):
     with client(tmp_path) as c:
         out = []
 
-        def one(k):   # four different recipes: none answered from the cache
-            out.append(c.post("/api/preview", json={"recipe": spin(0.3 + k / 1000), "node": "spin", "layer": 0}).status_code)
+        def one(k):  # four different recipes: none answered from the cache
+            out.append(
+                c.post("/api/preview", json={"recipe": spin(0.3 + k / 1000), "node": "spin", "layer": 0}).status_code
+            )
+
         t0 = time.monotonic()
         ts = [threading.Thread(target=one, args=(k,)) for k in range(4)]
         for t in ts:
@@ -281,4 +313,4 @@ def test_concurrent_previews_wait_their_turn(tmp_path):
         for t in ts:
             t.join()
         assert out == [200] * 4
-        assert time.monotonic() - t0 >= 4 * 0.3 * 0.9     # not at the same time
+        assert time.monotonic() - t0 >= 4 * 0.3 * 0.9  # not at the same time

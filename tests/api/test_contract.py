@@ -56,10 +56,16 @@ def _config(phases, examples: int, scenarios: int, headers: dict | None = None) 
         "phases": {p: {"enabled": p in phases} for p in ALL_PHASES},
         "generation": {"max-examples": examples, "mode": "all"},
         "checks": {"enabled": True},
-        "operations": [{"include-path-regex": DOCUMENT_OPS, "checks": {"positive_data_acceptance": {
-            "expected-statuses": ["2xx", "401", "404", "409", "422", "429"]}}},
-                       {"include-path-regex": RUN_READS, "checks": {"use_after_free": {"enabled": False}}},
-                       {"include-path-regex": KEPT_HISTORY, "checks": {"use_after_free": {"enabled": False}}}],
+        "operations": [
+            {
+                "include-path-regex": DOCUMENT_OPS,
+                "checks": {
+                    "positive_data_acceptance": {"expected-statuses": ["2xx", "401", "404", "409", "422", "429"]}
+                },
+            },
+            {"include-path-regex": RUN_READS, "checks": {"use_after_free": {"enabled": False}}},
+            {"include-path-regex": KEPT_HISTORY, "checks": {"use_after_free": {"enabled": False}}},
+        ],
         "seed": 13,
     }
     cfg["phases"]["stateful"].update({"max-steps": 6, "generation": {"max-examples": scenarios}})
@@ -74,8 +80,16 @@ def _server(tmp: Path, token: str | None):
     # a shipped example under the name the schema's examples use (read-only, runnable)
     example = toy.chain(stack={"count": 2}, inputs={"pattern": "swiping", "speed": 40})
     (gdir / "rectangle-study.json").write_text(json.dumps(example))
-    s = Settings(data_dir=tmp / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1,
-                 max_queued_runs=1000, run_timeout_s=5, token=token)
+    s = Settings(
+        data_dir=tmp / "data",
+        graphs_dir=gdir,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        max_queued_runs=1000,
+        run_timeout_s=5,
+        token=token,
+    )
     return create_app(s)
 
 
@@ -126,17 +140,20 @@ def save_is_a_root(monkeypatch):
     likely = stateful.is_likely_root_transition
 
     def is_root(operation, node, produced_anywhere):
-        if operation.path.startswith("/api/builds"):   # a build needs a finished run: the run links cover it
+        if operation.path.startswith("/api/builds"):  # a build needs a finished run: the run links cover it
             return False
         return (operation.method == "put" and operation.path == "/api/graphs/{name}") or likely(
-            operation, node, produced_anywhere)
+            operation, node, produced_anywhere
+        )
 
     monkeypatch.setattr(stateful, "is_likely_root_transition", is_root)
 
 
 def test_contract_with_token(tmp_path):
-    found, calls = run_schemathesis(_server(tmp_path, TOKEN), _config(("examples", "coverage", "fuzzing"), examples=EXAMPLES,
-                                                                     scenarios=1, headers=AUTH))
+    found, calls = run_schemathesis(
+        _server(tmp_path, TOKEN),
+        _config(("examples", "coverage", "fuzzing"), examples=EXAMPLES, scenarios=1, headers=AUTH),
+    )
     assert not found, "\n\n".join(found)
     examples = _phase_calls(calls, "examples")
     assert examples[("POST", "/api/runs", 202)] >= 1 and examples[("GET", "/api/graphs/{name}", 200)] >= 1, examples
@@ -163,7 +180,9 @@ def test_stateful_with_token(tmp_path, save_is_a_root):
     print("stateful phase:", sorted(stateful.items(), key=str))
     assert stateful[("PUT", "/api/graphs/{name}", 201)] >= 1, stateful
     assert stateful[("DELETE", "/api/graphs/{name}", 204)] >= 1, stateful
-    assert stateful[("GET", "/api/runs/{run_id}", 200)] + stateful[("GET", "/api/runs/{run_id}/artifacts", 200)] >= 1, stateful
+    assert stateful[("GET", "/api/runs/{run_id}", 200)] + stateful[("GET", "/api/runs/{run_id}/artifacts", 200)] >= 1, (
+        stateful
+    )
     assert sum(n for (m, p, _), n in stateful.items() if (m, p) == ("POST", "/api/runs")) >= 1, stateful
     with TestClient(app, headers=AUTH) as c:
         log = c.get("/api/audit", params={"limit": 1000}).json()
@@ -175,8 +194,9 @@ def test_stateful_with_token(tmp_path, save_is_a_root):
 def test_contract_without_token(tmp_path, save_is_a_root):
     """The same schema without tokens (security optional): the phases that generate requests
     (coverage ran on the token server above; the schema differs only in `security`)."""
-    found, calls = run_schemathesis(_server(tmp_path, None),
-                                    _config(("examples", "fuzzing", "stateful"), examples=5, scenarios=15))
+    found, calls = run_schemathesis(
+        _server(tmp_path, None), _config(("examples", "fuzzing", "stateful"), examples=5, scenarios=15)
+    )
     assert not found, "\n\n".join(found)
     assert sum(_phase_calls(calls, "fuzzing").values()) > 20
     assert sum(_phase_calls(calls, "stateful").values()) > 10
@@ -194,7 +214,8 @@ def test_schema_declares_links_and_auth(tmp_path):
     assert {"GetGraph", "DeleteGraph", "RunGraph", "UploadFile"} <= set(put["201"]["links"])
     assert put["201"]["links"]["RunGraph"]["requestBody"] == {"graph": "$response.body#/name"}
     assert {"GetRun", "RunEvents", "ListArtifacts", "CancelRun"} <= set(
-        doc["paths"]["/api/runs"]["post"]["responses"]["202"]["links"])
+        doc["paths"]["/api/runs"]["post"]["responses"]["202"]["links"]
+    )
     n = 0
     for path, ops in doc["paths"].items():
         for method, op in ops.items():
@@ -204,7 +225,8 @@ def test_schema_declares_links_and_auth(tmp_path):
             n += 1
             assert op["security"] == [{"bearer": []}], (method, path)
             assert op["responses"]["401"]["content"]["application/json"]["schema"] == {
-                "$ref": "#/components/schemas/ErrorResponse"}, (method, path)
+                "$ref": "#/components/schemas/ErrorResponse"
+            }, (method, path)
     assert n >= 24
     (tmp_path / "open").mkdir()
     open_doc = _server(tmp_path / "open", None).openapi()

@@ -109,8 +109,9 @@ def test_dask_services_use_existing_flags():
     svc = compose()["services"]
     for name in ("dask-scheduler", "dask-worker"):
         cmd = svc[name]["command"]
-        helptext = subprocess.run([sys.executable, "-m", "dask", cmd[1], "--help"], capture_output=True,
-                                  text=True, timeout=120).stdout
+        helptext = subprocess.run(
+            [sys.executable, "-m", "dask", cmd[1], "--help"], capture_output=True, text=True, timeout=120
+        ).stdout
         for flag in (a for a in cmd[2:] if a.startswith("--")):
             assert flag in helptext, (name, flag)
 
@@ -120,7 +121,7 @@ def test_nginx_example():
     default_port = cli.build_parser().parse_args(["serve"]).port or Settings.model_fields["port"].default
     assert f"proxy_pass http://127.0.0.1:{default_port};" in conf
     assert "proxy_buffering off" in conf  # Server-Sent Events
-    viewer = conf[conf.index("location /viewer"):]
+    viewer = conf[conf.index("location /viewer") :]
     assert "proxy_set_header Upgrade $http_upgrade" in viewer  # the 3D preview's websocket
     assert "ssl_certificate" in conf and "return 301 https://" in conf
     mb = int(re.search(r"client_max_body_size (\d+)m", conf).group(1))
@@ -141,7 +142,9 @@ def _image_env(monkeypatch, tmp_path, token_file: Path | None):
         if k.startswith("WAAMFLOW_"):
             monkeypatch.setenv(k, v.replace("/app/", f"{tmp_path}/app/").replace("/data", f"{tmp_path}/data"))
     monkeypatch.setenv("WAAMFLOW_START_VIEWER", "false")
-    return [a.replace("/app/", f"{tmp_path}/app/").replace("/data", f"{tmp_path}/data") for a in dockerfile()["cmd"][1:]]
+    return [
+        a.replace("/app/", f"{tmp_path}/app/").replace("/data", f"{tmp_path}/data") for a in dockerfile()["cmd"][1:]
+    ]
 
 
 def test_image_command_serves_only_with_the_token(monkeypatch, tmp_path, capsys):
@@ -185,11 +188,22 @@ def test_env_settings_reach_serve(monkeypatch, tmp_path):
 def test_readme_limits_are_the_defaults():
     """The lab-server tutorial's **Limits** paragraph states each limit's default; they are the settings'."""
     readme = (DOCKER.parent / "docs" / "tutorials" / "lab-server.md").read_text()
-    para = readme[readme.index("**Limits**"):]
-    para = para[:para.index("\n\n")]
+    para = readme[readme.index("**Limits**") :]
+    para = para[: para.index("\n\n")]
     stated = {name: float(num.replace(" ", "")) for name, num in re.findall(r"`(\w+)`\s+(\d[\d ]*\d|\d)\b", para)}
-    assert set(stated) >= {"run_timeout_s", "max_layers", "max_points", "max_artifact_mb", "max_memory_mb",
-                           "max_queued_runs", "max_upload_mb", "max_body_mb", "max_triangles", "max_dxf_entities",
-                           "max_uncompressed_mb", "preview_timeout_s"}, stated
+    assert set(stated) >= {
+        "run_timeout_s",
+        "max_layers",
+        "max_points",
+        "max_artifact_mb",
+        "max_memory_mb",
+        "max_queued_runs",
+        "max_upload_mb",
+        "max_body_mb",
+        "max_triangles",
+        "max_dxf_entities",
+        "max_uncompressed_mb",
+        "preview_timeout_s",
+    }, stated
     for name, value in stated.items():
         assert Settings.model_fields[name].default == value, name

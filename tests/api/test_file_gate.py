@@ -56,12 +56,29 @@ def folders(tmp_path):
 
 
 # what a file parameter is given; each must be refused (why: a word of the expected message)
-FILE_ATTACKS = [("/etc/passwd", "absolute"), ("/dev/zero", "absolute"), ("../outside/secret.json", "'..'"),
-                ("sub/../../outside/secret.json", "'..'"), ("out-link.json", "outside"),
-                ("zero-link.stl", "outside"), ("fifo.stl", "FIFO"), ("fifo.json", "FIFO"),
-                ("sock.stl", "socket"), ("folder.stl", "folder"), ("file:///etc/passwd", "URL")]
-SHIPPED_ATTACKS = ["/etc/passwd", "/dev/zero", "../../../../../etc/passwd", "../outside/secret", "./fifo.stl",
-                   "a/b", "..", "/proc/self/environ"]
+FILE_ATTACKS = [
+    ("/etc/passwd", "absolute"),
+    ("/dev/zero", "absolute"),
+    ("../outside/secret.json", "'..'"),
+    ("sub/../../outside/secret.json", "'..'"),
+    ("out-link.json", "outside"),
+    ("zero-link.stl", "outside"),
+    ("fifo.stl", "FIFO"),
+    ("fifo.json", "FIFO"),
+    ("sock.stl", "socket"),
+    ("folder.stl", "folder"),
+    ("file:///etc/passwd", "URL"),
+]
+SHIPPED_ATTACKS = [
+    "/etc/passwd",
+    "/dev/zero",
+    "../../../../../etc/passwd",
+    "../outside/secret",
+    "./fifo.stl",
+    "a/b",
+    "..",
+    "/proc/self/environ",
+]
 
 
 def _catalog_file_params(c) -> list[tuple[str, str, str, dict]]:
@@ -87,10 +104,20 @@ def test_every_file_parameter_refuses_the_attack_set(folders):
         kinds = {(t, p): k for t, p, k, _ in params}
         # the walk finds every kind of file the issue names (mesh, sketch, zone XML, trials, traces,
         # cells, robot descriptions, robot profiles, machine profiles)
-        for want in [("mesh", "path"), ("sketch", "path"), ("zone", "parameters"), ("bead-fit", "trials"),
-                     ("calibrate-robot", "trace"), ("simulate-robot", "cell"), ("simulate-robot", "profile_file"),
-                     ("simulate-robot", "robot_description"), ("simulate-robot", "robot_profile"),
-                     ("estimate-time", "robot_profile"), ("post-process", "profile"), ("post-process", "cell")]:
+        for want in [
+            ("mesh", "path"),
+            ("sketch", "path"),
+            ("zone", "parameters"),
+            ("bead-fit", "trials"),
+            ("calibrate-robot", "trace"),
+            ("simulate-robot", "cell"),
+            ("simulate-robot", "profile_file"),
+            ("simulate-robot", "robot_description"),
+            ("simulate-robot", "robot_profile"),
+            ("estimate-time", "robot_profile"),
+            ("post-process", "profile"),
+            ("post-process", "cell"),
+        ]:
             assert want in kinds, want
         assert kinds[("simulate-robot", "robot_description")] == "shipped"
         OPENED = []
@@ -100,8 +127,12 @@ def test_every_file_parameter_refuses_the_attack_set(folders):
             if (ntype, pname) == ("simulate-robot", "cell"):  # a shipped name, or a user's cell .json file
                 attacks += [(a, w) for a, w in FILE_ATTACKS if a.endswith(".json")]
             for value, why in attacks:
-                rec = {"format": "waamflow/1", "name": "gate", "edges": [],
-                       "nodes": [{"id": "n", "type": ntype, "params": {**required, pname: value}}]}
+                rec = {
+                    "format": "waamflow/1",
+                    "name": "gate",
+                    "edges": [],
+                    "nodes": [{"id": "n", "type": ntype, "params": {**required, pname: value}}],
+                }
                 t0 = time.time()
                 r = c.post("/api/runs", json={"recipe": rec})
                 assert time.time() - t0 < 5
@@ -113,13 +144,19 @@ def test_every_file_parameter_refuses_the_attack_set(folders):
                 answered += 1
         # a file outside answers the same whether it exists or not (nothing is looked at out there)
         os.symlink(outside / "missing.json", g / "dangling.json")
-        for there, missing in [("../outside/secret.json", "../outside/missing.json"),
-                               (str(outside / "secret.json"), str(outside / "missing.json")),
-                               ("out-link.json", "dangling.json")]:
+        for there, missing in [
+            ("../outside/secret.json", "../outside/missing.json"),
+            (str(outside / "secret.json"), str(outside / "missing.json")),
+            ("out-link.json", "dangling.json"),
+        ]:
             answers = []
             for value in (there, missing):
-                rec = {"format": "waamflow/1", "name": "gate", "edges": [],
-                       "nodes": [{"id": "n", "type": "mesh", "params": {"path": value}}]}
+                rec = {
+                    "format": "waamflow/1",
+                    "name": "gate",
+                    "edges": [],
+                    "nodes": [{"id": "n", "type": "mesh", "params": {"path": value}}],
+                }
                 r = c.post("/api/runs", json={"recipe": rec})
                 answers.append((r.status_code, r.json()["detail"]["message"].replace(value, "<value>")))
             assert answers[0] == answers[1] and answers[0][0] == 422, answers
@@ -151,11 +188,16 @@ def test_engine_reads_refuse_fifo_device_socket_and_check_size_first(folders):
     """The CLI's resolver has no folder limits, but what it opens must still be a regular file."""
     _, _, g = folders
     res = FileResolver(g)
-    for name, word in [("fifo.stl", "FIFO"), ("/dev/zero", "device"), ("zero-link.stl", "device"),
-                       ("sock.stl", "socket"), ("folder.stl", "folder")]:
+    for name, word in [
+        ("fifo.stl", "FIFO"),
+        ("/dev/zero", "device"),
+        ("zero-link.stl", "device"),
+        ("sock.stl", "socket"),
+        ("folder.stl", "folder"),
+    ]:
         box = _within(3, lambda: res.read_bytes(name))
         assert isinstance(box.get("error"), InputFileError) and word in str(box["error"]), (name, box)
-        box = _within(3, lambda: res.signature(name))     # the cache key never reads it either
+        box = _within(3, lambda: res.signature(name))  # the cache key never reads it either
         assert "value" in box, (name, box)
         assert "value" in _within(3, lambda: res.sha256(name)), name
     big = g / "big.stl"
@@ -169,8 +211,12 @@ def test_engine_reads_refuse_fifo_device_socket_and_check_size_first(folders):
 
 
 def test_cli_robot_description_dev_zero_is_refused_at_once(tmp_path, capsys):
-    rec = {"format": "waamflow/1", "name": "z", "edges": [],
-           "nodes": [{"id": "sim", "type": "simulate-robot", "params": {"robot_description": "/dev/zero"}}]}
+    rec = {
+        "format": "waamflow/1",
+        "name": "z",
+        "edges": [],
+        "nodes": [{"id": "sim", "type": "simulate-robot", "params": {"robot_description": "/dev/zero"}}],
+    }
     p = tmp_path / "z.json"
     p.write_text(json.dumps(rec))
     t0 = time.time()

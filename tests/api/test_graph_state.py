@@ -44,10 +44,17 @@ def _box_stl(height: float) -> bytes:
 
 
 def _mesh_recipe(pins=None):
-    r = {"format": "waamflow/1", "name": "up", "description": "", "inputs": {},
-         "nodes": [{"id": "part", "type": "mesh", "params": {"path": "part.stl"}},
-                   {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}}],
-         "edges": [{"from": "part.mesh", "to": "layers.mesh"}]}
+    r = {
+        "format": "waamflow/1",
+        "name": "up",
+        "description": "",
+        "inputs": {},
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "part.stl"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+        ],
+        "edges": [{"from": "part.mesh", "to": "layers.mesh"}],
+    }
     if pins is not None:
         r["files"] = pins
     return r
@@ -72,7 +79,10 @@ def test_uploads_are_versioned_content_and_a_pinned_recipe_runs_with_its_content
     sha_low = hashlib.sha256(low).hexdigest()
     assert client.put("/api/graphs/up/files/part.stl", content=low).headers["etag"] == f'"{sha_low}"'
     versions = client.get("/api/graphs/up/files/part.stl/versions").json()
-    assert [(v["version"], v["sha256"], v["size"]) for v in versions] == [(2, sha_low, len(low)), (1, sha_tall, len(tall))]
+    assert [(v["version"], v["sha256"], v["size"]) for v in versions] == [
+        (2, sha_low, len(low)),
+        (1, sha_tall, len(tall)),
+    ]
     files = {f["name"]: f for f in client.get("/api/graphs/up/files").json()}
     assert files["part.stl"]["sha256"] == sha_low and files["part.stl"]["size"] == len(low)
 
@@ -134,7 +144,10 @@ def test_latest_run_says_whether_it_is_of_the_saved_recipe(client):
     client.put("/api/graphs/t", json=edited)  # saved now: the same run is of the saved recipe
     assert latest()["same_as_saved"] is True
     assert client.get("/api/runs?graph=t").json()[1]["same_as_saved"] is False  # run a: an older revision
-    assert "same_as_saved" not in client.get("/api/runs").json()[0] or client.get("/api/runs").json()[0]["same_as_saved"] is None
+    assert (
+        "same_as_saved" not in client.get("/api/runs").json()[0]
+        or client.get("/api/runs").json()[0]["same_as_saved"] is None
+    )
 
 
 def test_a_run_with_other_input_values_is_not_of_the_saved_recipe(client):

@@ -17,13 +17,20 @@ def test_unloadable_examples_are_listed_with_the_reason(tmp_path):
     gdir.mkdir()
     (gdir / "good.json").write_text(json.dumps(toy.chain(stack={"count": 2})))
     big = toy.chain(stack={"count": 2})
-    big["description"] = "x" * 30_000   # a valid recipe of ~30 kB, over a 0.02 MB (20,971 B) limit
+    big["description"] = "x" * 30_000  # a valid recipe of ~30 kB, over a 0.02 MB (20,971 B) limit
     (gdir / "big.json").write_text(json.dumps(big))
     big_size = (gdir / "big.json").stat().st_size
     (gdir / "broken.json").write_text('{"format": "waamflow/1", "nodes": [')
     os.mkfifo(gdir / "pipe.json")
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1,
-                 start_workers=False, max_body_mb=0.02)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=gdir,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        start_workers=False,
+        max_body_mb=0.02,
+    )
     with TestClient(create_app(s)) as c:
         listed = {g["name"]: g for g in c.get("/api/graphs").json()}
         assert sorted(listed) == ["big", "broken", "good", "pipe"]

@@ -25,8 +25,10 @@ def _settings(tmp_path, **kw):
 
 def _stream(chunks):
     """A body without Content-Length (chunked): the server learns its size only by reading."""
+
     def gen():
         yield from chunks
+
     return gen()
 
 
@@ -40,14 +42,18 @@ def test_content_length_over_the_limit_is_refused_before_reading(tmp_path):
             for _ in range(10 * 1024):
                 read.append(1)
                 yield b"x" * 2**20
+
         t0 = time.monotonic()
         r = c.put("/api/graphs/g/files/big.stl", content=body(), headers={"Content-Length": str(10 * 2**30)})
         assert r.status_code == 413 and r.json()["detail"]["kind"] == "too_large"
         assert "10240.0 MB" in r.json()["detail"]["message"] and "max_upload_mb" in r.json()["detail"]["message"]
         assert time.monotonic() - t0 < 2.0
         # a recipe body: the JSON limit (max_body_mb), declared 300 MB
-        r = c.put("/api/graphs/huge", content=b"{}", headers={"Content-Length": str(300 * 2**20),
-                                                                "Content-Type": "application/json"})
+        r = c.put(
+            "/api/graphs/huge",
+            content=b"{}",
+            headers={"Content-Length": str(300 * 2**20), "Content-Type": "application/json"},
+        )
         assert r.status_code == 413 and "max_body_mb" in r.json()["detail"]["message"]
         assert c.get("/api/graphs/huge").status_code == 404
         assert c.put("/api/graphs/g/files/x.stl", content=b"x", headers={"Content-Length": "-5"}).status_code == 400
@@ -62,12 +68,16 @@ def test_body_without_content_length_is_cut_at_the_limit(tmp_path):
             for i in range(300):  # 300 × 64 kB = 18.75 MB offered
                 pulled.append(i)
                 yield b"x" * 65536
+
         r = c.put("/api/graphs/g/files/big.stl", content=chunks())
         assert r.status_code == 413 and r.json()["detail"]["kind"] == "too_large"
         assert [f["name"] for f in c.get("/api/graphs/g/files").json()] == []
         big = b'{"format":"waamflow/1","name":"x","nodes":[],"edges":[],"description":"' + b"y" * (2 * 2**20) + b'"}'
-        r = c.put("/api/graphs/huge", content=_stream([big[i:i + 65536] for i in range(0, len(big), 65536)]),
-                  headers={"Content-Type": "application/json"})
+        r = c.put(
+            "/api/graphs/huge",
+            content=_stream([big[i : i + 65536] for i in range(0, len(big), 65536)]),
+            headers={"Content-Type": "application/json"},
+        )
         assert r.status_code == 413, r.text
         assert c.get("/api/graphs/huge").status_code == 404
         # under the limit, streamed: accepted whole
@@ -82,8 +92,9 @@ def test_oversized_recipe_in_the_graphs_folder_is_not_read(tmp_path):
     (gdir / "small.json").write_text(json.dumps(toy.chain()))
     with open(gdir / "huge.json", "wb") as f:  # sparse: 300 MB on paper, nothing on disk
         f.truncate(300 * 2**20)
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1,
-                 max_body_mb=1)
+    s = Settings(
+        data_dir=tmp_path / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1, max_body_mb=1
+    )
     t0 = time.monotonic()
     with TestClient(create_app(s)) as c:
         listed = {g["name"]: g["error"] for g in c.get("/api/graphs").json()}
@@ -119,7 +130,9 @@ def test_cross_site_origin_is_refused(tmp_path):
         assert c.get("/api/runs/abc/events", headers=evil).status_code == 403
         # same origin, a listed origin, no Origin (scripts): accepted
         assert c.put("/api/graphs/x", json=toy.chain(), headers={"Origin": "http://testserver"}).status_code == 201
-        assert c.put("/api/graphs/y", json=toy.chain(), headers={"Origin": "https://gui.lab.example"}).status_code == 201
+        assert (
+            c.put("/api/graphs/y", json=toy.chain(), headers={"Origin": "https://gui.lab.example"}).status_code == 201
+        )
         assert c.put("/api/graphs/z", json=toy.chain()).status_code == 201
     # websockets (the /viewer relay): a cross-site page is closed before the app accepts
     from starlette.applications import Starlette
@@ -132,11 +145,12 @@ def test_cross_site_origin_is_refused(tmp_path):
         await ws.accept()
         await ws.send_text("hello")
         await ws.close()
+
     app = HostOriginMiddleware(Starlette(routes=[WebSocketRoute("/viewer", echo)]), None, set())
     with TestClient(app) as c:
         with c.websocket_connect("/viewer", headers={"Origin": "http://testserver"}) as ws:
             assert ws.receive_text() == "hello"
-        with c.websocket_connect("/viewer") as ws:       # no Origin: not a browser
+        with c.websocket_connect("/viewer") as ws:  # no Origin: not a browser
             assert ws.receive_text() == "hello"
         for origin in ("http://attacker.example", "null", "http://testserver.attacker.example"):
             with pytest.raises(WebSocketDisconnect) as e:
@@ -148,14 +162,16 @@ def test_cross_site_origin_is_refused(tmp_path):
 # ---- fault 8: throttling and token files --------------------------------------------------------
 def test_wrong_tokens_are_throttled_per_address(tmp_path):
     with TestClient(create_app(_settings(tmp_path, token=TOKEN, auth_failures_per_minute=5))) as c:
-        codes = [c.get("/api/graphs", headers={"Authorization": f"Bearer wrong-{i:04d}-abcdefghijklmn"}).status_code
-                 for i in range(20)]
+        codes = [
+            c.get("/api/graphs", headers={"Authorization": f"Bearer wrong-{i:04d}-abcdefghijklmn"}).status_code
+            for i in range(20)
+        ]
         assert codes[:5] == [401] * 5
         assert codes[6:] == [429] * 14
-        r = c.get("/api/graphs", headers={"Authorization": f"Bearer {TOKEN}"})   # same address: waits too
+        r = c.get("/api/graphs", headers={"Authorization": f"Bearer {TOKEN}"})  # same address: waits too
         assert r.status_code == 429 and 1 <= int(r.headers["retry-after"]) <= 300
         assert "too many wrong tokens" in r.json()["detail"]["message"]
-        assert c.get("/api/health").status_code == 200   # no token: health stays open
+        assert c.get("/api/health").status_code == 200  # no token: health stays open
     # the back-off doubles with each refusal past the limit
     from waamflow.api.guards import AuthThrottle
 
@@ -189,7 +205,7 @@ def test_weak_or_exposed_token_files_are_refused(tmp_path):
 # ---- fault 8: disk full -------------------------------------------------------------------------
 def test_disk_full_is_507_and_deletes_still_work(tmp_path, monkeypatch):
     with TestClient(create_app(_settings(tmp_path))) as c:
-        assert (tmp_path / "data" / ".disk-reserve").stat().st_blocks * 512 >= 2**20   # allocated, not sparse
+        assert (tmp_path / "data" / ".disk-reserve").stat().st_blocks * 512 >= 2**20  # allocated, not sparse
         assert c.put("/api/graphs/g", json=toy.chain()).status_code == 201
         store = c.app.state.services.store
 
@@ -198,6 +214,7 @@ def test_disk_full_is_507_and_deletes_still_work(tmp_path, monkeypatch):
 
         def full_sqlite(*a, **kw):
             raise sqlite3.OperationalError("database or disk is full")
+
         monkeypatch.setattr(store, "put_file", full)
         r = c.put("/api/graphs/g/files/big.stl", content=b"x" * 1000)
         assert r.status_code == 507 and r.json()["detail"]["kind"] == "disk_full"
@@ -228,8 +245,12 @@ def test_audit_has_previews_viewer_downloads_failed_logins_with_address(tmp_path
         assert c.post("/api/viewer/select", json={"node": "grow", "layer": 1}).status_code == 204
         log = c.get("/api/audit").json()
         acts = [(e["action"], e["who"], e["target"]) for e in log]
-        assert acts[:4] == [("viewer_select", "default", None), ("preview", "default", "g"),
-                            ("download_artifact", "default", run["id"]), ("run", "default", "g")]
+        assert acts[:4] == [
+            ("viewer_select", "default", None),
+            ("preview", "default", "g"),
+            ("download_artifact", "default", run["id"]),
+            ("run", "default", "g"),
+        ]
         assert ("failed_login", None, None) == acts[-1]
         assert log[-1]["detail"]["client"] == "testclient" and log[-1]["detail"]["path"] == "/api/graphs"
         assert all(e["detail"]["client"] == "testclient" for e in log[:3])

@@ -67,13 +67,17 @@ def _client(tmp_path, **kw):
 
 
 def slow(count=5, seconds=0.05):
-    return toy.recipe([("stack", "toy-stack", {"count": count}), ("slow", "toy-slow", {"seconds": seconds})],
-                      [("stack.layers", "slow.layers")])
+    return toy.recipe(
+        [("stack", "toy-stack", {"count": count}), ("slow", "toy-slow", {"seconds": seconds})],
+        [("stack.layers", "slow.layers")],
+    )
 
 
 def paths(count=3, points=10, nbytes=10):
-    return toy.recipe([("stack", "toy-stack", {"count": count}), ("p", "toy-paths", {"points": points, "bytes": nbytes})],
-                      [("stack.layers", "p.layers")])
+    return toy.recipe(
+        [("stack", "toy-stack", {"count": count}), ("p", "toy-paths", {"points": points, "bytes": nbytes})],
+        [("stack.layers", "p.layers")],
+    )
 
 
 def _limit(c, recipe):
@@ -127,13 +131,20 @@ def test_full_queue_is_429(tmp_path):
 def test_artifact_names_never_leave_the_run_folder(tmp_path):
     with _client(tmp_path) as c:
         for name in ("../escaped.txt", "../../escaped.txt", "/tmp/escaped.txt", "sub/escaped.txt", ".hidden", ".."):
-            rec = toy.recipe([("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": name})],
-                             [("stack.layers", "e.layers")])
+            rec = toy.recipe(
+                [("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": name})],
+                [("stack.layers", "e.layers")],
+            )
             run = _limit(c, rec)
             assert run["status"] == "failed" and "not a plain file name" in run["error"]["message"], (name, run)
             assert c.get(f"/api/runs/{run['id']}/artifacts").json() == []
-        ok = _limit(c, toy.recipe([("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": "fine.txt"})],
-                                  [("stack.layers", "e.layers")]))
+        ok = _limit(
+            c,
+            toy.recipe(
+                [("stack", "toy-stack", {"count": 1}), ("e", "toy-escape", {"name": "fine.txt"})],
+                [("stack.layers", "e.layers")],
+            ),
+        )
         assert ok["status"] == "done"
         assert c.get(f"/api/runs/{ok['id']}/artifacts/e.fine.txt").text == "escaped"  # prefixed by the node id
     assert not [p for p in tmp_path.rglob("escaped.txt")] and not Path("/tmp/escaped.txt").exists()

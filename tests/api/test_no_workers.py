@@ -10,8 +10,7 @@ from waamflow.settings import Settings
 
 
 def test_run_routes_without_workers_answer_503(tmp_path):
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None,
-                 start_workers=False)
+    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, start_workers=False)
     with TestClient(create_app(s), raise_server_exceptions=False) as c:
         assert c.put("/api/graphs/g", json=toy.chain()).status_code == 201
         r = c.post("/api/runs", json={"graph": "g"})
@@ -19,5 +18,5 @@ def test_run_routes_without_workers_answer_503(tmp_path):
         body = r.json()["detail"]
         assert body["kind"] == "unavailable"
         assert "without run workers" in body["message"]
-        assert c.get("/api/runs").json() == []          # nothing was queued
-        assert c.get("/api/graphs/g").status_code == 200   # the rest of the API answers
+        assert c.get("/api/runs").json() == []  # nothing was queued
+        assert c.get("/api/graphs/g").status_code == 200  # the rest of the API answers

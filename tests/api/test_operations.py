@@ -48,10 +48,19 @@ def test_audit_log_names_who_did_what(tmp_path):
         assert c.put("/api/graphs/bad", json={"nodes": 3}, headers=a).status_code == 422  # not saved: no entry
         log = c.get("/api/audit", headers=a).json()
         assert [(e["who"], e["action"], e["target"]) for e in log] == [
-            ("bob", "delete_graph", "g1"), ("bob", "run", "g1"), ("alice", "upload_file", "g1"),
-            ("alice", "save_graph", "g1")]
-        assert log[1]["detail"]["run"] == r.json()["id"] and log[2]["detail"] == {"file": "part.stl", "bytes": 7, "version": 1, "replaced": None, "client": "testclient",
-                                                                           "sha256": hashlib.sha256(b"solid x").hexdigest()}
+            ("bob", "delete_graph", "g1"),
+            ("bob", "run", "g1"),
+            ("alice", "upload_file", "g1"),
+            ("alice", "save_graph", "g1"),
+        ]
+        assert log[1]["detail"]["run"] == r.json()["id"] and log[2]["detail"] == {
+            "file": "part.stl",
+            "bytes": 7,
+            "version": 1,
+            "replaced": None,
+            "client": "testclient",
+            "sha256": hashlib.sha256(b"solid x").hexdigest(),
+        }
         assert all(t0 <= e["time"] <= time.time() for e in log)
         assert [e["action"] for e in c.get("/api/audit?who=alice", headers=a).json()] == ["upload_file", "save_graph"]
         assert len(c.get(f"/api/audit?before={log[1]['id']}", headers=a).json()) == 2
@@ -65,8 +74,10 @@ def _snapshot(c) -> dict:
         p = c.get(f"/api/graphs/{n}/params")
         out["graphs"][n] = (c.get(f"/api/graphs/{n}").json(), files, p.text if p.status_code == 200 else None)
     for r in c.get("/api/runs").json():
-        arts = {a["name"]: c.get(f"/api/runs/{r['id']}/artifacts/{a['name']}").content
-                for a in c.get(f"/api/runs/{r['id']}/artifacts").json()}
+        arts = {
+            a["name"]: c.get(f"/api/runs/{r['id']}/artifacts/{a['name']}").content
+            for a in c.get(f"/api/runs/{r['id']}/artifacts").json()
+        }
         st = c.get(f"/api/runs/{r['id']}").json()
         out["runs"][r["id"]] = (st["status"], st["summary"], arts, c.get(f"/api/runs/{r['id']}/log").json())
     # the snapshot's own reads (artifact downloads) are audited too: compare what changed state
@@ -112,13 +123,31 @@ def _free_port() -> int:
 
 def _start_server(data: Path, port: int) -> subprocess.Popen:
     tests = Path(__file__).resolve().parents[1]
-    code = ("import sys; sys.path[:0] = [%r, %r]; import toy_nodes, slow_nodes; "
-            "from waamflow.cli import main; sys.exit(main(sys.argv[1:]))") % (str(tests), str(tests / "api"))
+    code = (
+        "import sys; sys.path[:0] = [%r, %r]; import toy_nodes, slow_nodes; "
+        "from waamflow.cli import main; sys.exit(main(sys.argv[1:]))"
+    ) % (str(tests), str(tests / "api"))
     env = {**os.environ, "WAAMFLOW_TOKEN": ALICE}
     env.pop("WAAMFLOW_TOKEN_FILE", None)
-    p = subprocess.Popen([sys.executable, "-c", code, "serve", "--port", str(port), "--data", str(data),
-                          "--viewer-port", "0", "--graphs", str(data / "no-examples")],
-                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "serve",
+            "--port",
+            str(port),
+            "--data",
+            str(data),
+            "--viewer-port",
+            "0",
+            "--graphs",
+            str(data / "no-examples"),
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     t0 = time.time()
     while time.time() - t0 < 60:
         try:
@@ -139,8 +168,10 @@ def test_kill_9_during_run_and_saves(tmp_path):
     h = {"Authorization": f"Bearer {ALICE}"}
     server = _start_server(data, port)
     try:
-        slow = toy.recipe([("stack", "toy-stack", {"count": 200}), ("slow", "toy-slow", {"seconds": 0.1})],
-                          [("stack.layers", "slow.layers")])
+        slow = toy.recipe(
+            [("stack", "toy-stack", {"count": 200}), ("slow", "toy-slow", {"seconds": 0.1})],
+            [("stack.layers", "slow.layers")],
+        )
         run_id = httpx.post(f"{base}/api/runs", json={"recipe": slow}, headers=h, timeout=10).json()["id"]
         acked: dict[str, dict] = {}
         stop = threading.Event()

@@ -31,8 +31,13 @@ def client(tmp_path):
 
 def _node_rows(overrides, layer):
     recipe = apply_overrides(load_recipe(ROOT / "graphs" / "bead-trials.json"), overrides)
-    out = execute(build_graph(recipe), resolver=FileResolver(ROOT / "graphs"), targets=["coverage"], artifacts=False,
-                  preflight=False)
+    out = execute(
+        build_graph(recipe),
+        resolver=FileResolver(ROOT / "graphs"),
+        targets=["coverage"],
+        artifacts=False,
+        preflight=False,
+    )
     return {r["key"]: r for r in out.outputs["coverage"]["coverage"].items[layer]["sections"]}
 
 
@@ -41,8 +46,10 @@ def test_preview_coverage_is_the_coverage_node(client, width):
     inputs = {"width": width, "layers": 2}
     node = _node_rows(list(inputs.items()), 1)
     recipe = json.loads((ROOT / "graphs" / "bead-trials.json").read_text())
-    r = client.post("/api/preview", json={"graph": "bead-trials", "recipe": recipe, "node": "fill", "layer": 1,
-                                          "coverage": True, "inputs": inputs})
+    r = client.post(
+        "/api/preview",
+        json={"graph": "bead-trials", "recipe": recipe, "node": "fill", "layer": 1, "coverage": True, "inputs": inputs},
+    )
     assert r.status_code == 200, r.text
     rows = {c["key"]: c for c in r.json()["coverage"]}
     assert set(rows) == set(node) and len(rows) == 3
@@ -53,6 +60,16 @@ def test_preview_coverage_is_the_coverage_node(client, width):
         assert got["void_area_mm2"] == pytest.approx(want["void_area_mm2"], abs=1e-6), key
         assert got["overlap_area_mm2"] == pytest.approx(want["overlap_area_mm2"], abs=1e-6), key
     # an explicit bead_width in the request still wins (the canvas's "what if" width)
-    r = client.post("/api/preview", json={"graph": "bead-trials", "recipe": recipe, "node": "fill", "layer": 1,
-                                          "coverage": True, "inputs": inputs, "bead_width": 9.0})
+    r = client.post(
+        "/api/preview",
+        json={
+            "graph": "bead-trials",
+            "recipe": recipe,
+            "node": "fill",
+            "layer": 1,
+            "coverage": True,
+            "inputs": inputs,
+            "bead_width": 9.0,
+        },
+    )
     assert {c["bead_width_mm"] for c in r.json()["coverage"]} == {9.0}

@@ -23,8 +23,14 @@ N = 5
 
 
 def _settings(data):
-    return Settings(data_dir=data, graphs_dir=data.parent / "no-examples", start_viewer=False, static_dir=None, workers=1,
-                    start_workers=False)
+    return Settings(
+        data_dir=data,
+        graphs_dir=data.parent / "no-examples",
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        start_workers=False,
+    )
 
 
 def _backup(tmp_path) -> Path:
@@ -82,8 +88,9 @@ def test_crash_then_restore_keeps_every_acknowledged_save(tmp_path, capsys):
     bk = _backup(tmp_path)
     data = tmp_path / "data"
     data.mkdir()
-    p = subprocess.Popen([sys.executable, "-c", SAVER % (str(BACKEND), N), str(data / DB)],
-                         stdout=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [sys.executable, "-c", SAVER % (str(BACKEND), N), str(data / DB)], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert p.stdout.readline().strip() == "saved"
         # while it holds the folder: refused, the WAL untouched
@@ -156,8 +163,9 @@ def test_restore_around_a_real_server_killed_with_9(tmp_path, capsys):
     data, port = tmp_path / "data", _free_port()
     server = _start_server(data, port)
     try:
-        with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {ALICE}"},
-                          timeout=10) as cl:
+        with httpx.Client(
+            base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {ALICE}"}, timeout=10
+        ) as cl:
             for i in range(N):
                 assert cl.put(f"/api/graphs/served{i}", json=toy.chain(stack={"count": 1 + i})).status_code == 201
         assert cli(["restore", str(bk), "--data", str(data)]) == 2
@@ -191,6 +199,7 @@ def test_restore_checks_both_copies_hold_the_tables(tmp_path, capsys):
     # a backup without the graphs table (manifest rewritten to match): refused, nothing replaced
     bad = tmp_path / "bad"
     import shutil
+
     shutil.copytree(bk, bad)
     con = sqlite3.connect(bad / DB)
     con.execute("DROP TABLE graphs")
@@ -198,6 +207,7 @@ def test_restore_checks_both_copies_hold_the_tables(tmp_path, capsys):
     con.close()
     import hashlib
     import json
+
     m = json.loads((bad / "manifest.json").read_text())
     m["database_sha256"] = hashlib.sha256((bad / DB).read_bytes()).hexdigest()
     m["counts"]["graphs"] = 0
@@ -206,7 +216,7 @@ def test_restore_checks_both_copies_hold_the_tables(tmp_path, capsys):
     assert cli(["restore", str(bad), "--data", str(fresh)]) == 2
     assert "graphs" in capsys.readouterr().err
     assert not (fresh / DB).exists()
-    src = tmp_path / "src"   # a folder with a database: it stays in place, nothing set aside
+    src = tmp_path / "src"  # a folder with a database: it stays in place, nothing set aside
     assert cli(["restore", str(bad), "--data", str(src)]) == 2
     assert _graphs(src / DB) == ["from-backup"] and not list(src.glob(f"{DB}.before-restore-*"))
 

@@ -24,8 +24,15 @@ def c(tmp_path):
     tf = tmp_path / "tokens.json"
     tf.write_text(json.dumps({"alice": {"token": ALICE, "role": "editor"}, "root": {"token": ROOT, "role": "admin"}}))
     tf.chmod(0o600)
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, workers=1,
-                 start_workers=False, token_file=tf)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        start_workers=False,
+        token_file=tf,
+    )
     with TestClient(create_app(s)) as client:
         yield client
 
@@ -55,7 +62,11 @@ def test_restore_of_a_deleted_graph_brings_back_recipe_owner_history_and_params(
     # the owner changes her graph again (an editor changes only her own)
     assert c.put("/api/graphs/g", json=toy.chain(stack={"count": 6}), headers=A).status_code == 200
     assert [(v["revision"], v["user"]) for v in c.get("/api/graphs/g/revisions", headers=A).json()] == [
-        (4, "alice"), (3, "root"), (2, "root"), (1, "alice")]
+        (4, "alice"),
+        (3, "root"),
+        (2, "root"),
+        (1, "alice"),
+    ]
     p = c.get("/api/graphs/g/params", headers=A)
     assert p.status_code == 200 and p.text == XML2 and p.headers["ETag"] == '"2"'
     # the next parameter save continues the XML's history
@@ -77,4 +88,4 @@ def test_a_graph_saved_again_after_a_delete_keeps_the_old_parameter_history(c):
     assert c.delete("/api/graphs/h", headers=A).status_code == 204
     r = c.post("/api/graphs/h/revisions/1/restore", headers=R)
     assert r.status_code == 201 and r.json()["problems"] == []
-    assert c.get("/api/graphs/h/params", headers=A).text == XML2   # as last saved before the delete
+    assert c.get("/api/graphs/h/params", headers=A).text == XML2  # as last saved before the delete

@@ -128,8 +128,10 @@ def test_existing_database_is_migrated(tmp_path):
     con = sqlite3.connect(db)
     con.executescript("""CREATE TABLE graphs (name TEXT PRIMARY KEY, recipe TEXT NOT NULL, params_xml TEXT,
                          example INTEGER DEFAULT 0, created REAL NOT NULL, updated REAL NOT NULL);""")
-    con.execute("INSERT INTO graphs VALUES (?,?,?,?,?,?)",
-                ("old", json.dumps({**_recipe("old"), "name": "old"}), "<parameters/>", 0, 1.0, 1.0))
+    con.execute(
+        "INSERT INTO graphs VALUES (?,?,?,?,?,?)",
+        ("old", json.dumps({**_recipe("old"), "name": "old"}), "<parameters/>", 0, 1.0, 1.0),
+    )
     con.commit()
     con.close()
     with TestClient(create_app(_settings(tmp_path))) as c:

@@ -12,11 +12,23 @@ from waamflow.api.app import create_app
 from waamflow.api.auth import TokenFileError, load_tokens, parse_tokens
 from waamflow.settings import Settings
 
-T = {"alice": "alice-token-abcdefghijkl", "bob": "bob-token-abcdefghijklmn", "vic": "vic-token-abcdefghijklmn",
-     "ola": "ola-token-abcdefghijklmn", "root": "root-token-abcdefghijklm"}
-TOKEN_FILE = "\n".join(["# name:token:role", f"alice:{T['alice']}:editor", f"bob:{T['bob']}:editor",
-                        f"vic:{T['vic']}:viewer", f"ola:{T['ola']}:operator",
-                        f"root:{T['root']}"])  # no role: as every token file before roles → admin
+T = {
+    "alice": "alice-token-abcdefghijkl",
+    "bob": "bob-token-abcdefghijklmn",
+    "vic": "vic-token-abcdefghijklmn",
+    "ola": "ola-token-abcdefghijklmn",
+    "root": "root-token-abcdefghijklm",
+}
+TOKEN_FILE = "\n".join(
+    [
+        "# name:token:role",
+        f"alice:{T['alice']}:editor",
+        f"bob:{T['bob']}:editor",
+        f"vic:{T['vic']}:viewer",
+        f"ola:{T['ola']}:operator",
+        f"root:{T['root']}",
+    ]
+)  # no role: as every token file before roles → admin
 
 
 def h(who):
@@ -28,8 +40,14 @@ def c(tmp_path):
     tf = tmp_path / "tokens"
     tf.write_text(TOKEN_FILE)
     tf.chmod(0o600)
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=tmp_path / "none", start_viewer=False, static_dir=None,
-                 workers=1, token_file=tf)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=tmp_path / "none",
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        token_file=tf,
+    )
     with TestClient(create_app(s)) as client:
         yield client
 
@@ -48,9 +66,13 @@ def test_viewer_reads_only(c):
     assert c.put("/api/graphs/a1", json=toy.chain(), headers=h("alice")).status_code == 201
     assert c.get("/api/graphs/a1", headers=h("vic")).status_code == 200
     assert c.get("/api/graphs", headers=h("vic")).status_code == 200
-    for method, url, body in [("PUT", "/api/graphs/v1", toy.chain()), ("PUT", "/api/graphs/a1", toy.chain()),
-                              ("DELETE", "/api/graphs/a1", None), ("POST", "/api/runs", {"graph": "a1"}),
-                              ("PUT", "/api/graphs/a1/files/x.stl", None)]:
+    for method, url, body in [
+        ("PUT", "/api/graphs/v1", toy.chain()),
+        ("PUT", "/api/graphs/a1", toy.chain()),
+        ("DELETE", "/api/graphs/a1", None),
+        ("POST", "/api/runs", {"graph": "a1"}),
+        ("PUT", "/api/graphs/a1/files/x.stl", None),
+    ]:
         r = c.request(method, url, json=body, headers=h("vic"))
         assert r.status_code == 403, (method, url, r.text)
         d = r.json()["detail"]
@@ -64,7 +86,7 @@ def test_operator_runs_but_does_not_save(c):
     r = c.post("/api/runs", json={"graph": "a1"}, headers=h("ola"))
     assert r.status_code == 202
     assert c.delete(f"/api/runs/{r.json()['id']}", headers=h("ola")).status_code == 202
-    for who, status in (("ola", 422), ("vic", 403)):   # the machine side of a build: operators, not viewers
+    for who, status in (("ola", 422), ("vic", 403)):  # the machine side of a build: operators, not viewers
         assert c.post("/api/builds", json={}, headers=h(who)).status_code == status
     assert c.put("/api/graphs/o1", json=toy.chain(), headers=h("ola")).status_code == 403
     assert c.delete("/api/graphs/a1", headers=h("ola")).status_code == 403
@@ -105,7 +127,7 @@ def test_editors_change_only_their_own_and_admin_restores(c):
     assert c.get("/api/graphs/bobs", headers=h("bob")).json()["nodes"] == toy.chain()["nodes"]
     assert c.post("/api/graphs/bobs/revisions/9/restore", headers=h("root")).status_code == 404
     assert c.delete("/api/graphs/bobs", headers=h("root")).status_code == 204
-    for who in ("alice", "ola", "vic"):   # the audit log (who, what, from where) is for admins
+    for who in ("alice", "ola", "vic"):  # the audit log (who, what, from where) is for admins
         assert c.get("/api/audit", headers=h(who)).status_code == 403
     actions = [(e["who"], e["action"], e["target"]) for e in c.get("/api/audit", headers=h("root")).json()]
     assert ("root", "restore_graph", "alices") in actions and ("root", "delete_graph", "bobs") in actions
@@ -123,8 +145,9 @@ def test_if_match_under_concurrency_exactly_one_wins(c):
 
         def save(count):
             barrier.wait()
-            r = c.put("/api/graphs/race", json=toy.chain(stack={"count": count}),
-                      headers={**h("alice"), "If-Match": rev})
+            r = c.put(
+                "/api/graphs/race", json=toy.chain(stack={"count": count}), headers={**h("alice"), "If-Match": rev}
+            )
             got.append(r.status_code)
 
         ts = [threading.Thread(target=save, args=(10 + i,)), threading.Thread(target=save, args=(100 + i,))]

@@ -15,15 +15,22 @@ from waamflow.engine.events import TERMINAL_KINDS
 from waamflow.settings import Settings
 
 
-@pytest.mark.parametrize("run_memory_mb", [0, 2048])   # in the server process, and in a process of its own
+@pytest.mark.parametrize("run_memory_mb", [0, 2048])  # in the server process, and in a process of its own
 def test_terminal_event_after_the_record(tmp_path, run_memory_mb):
-    s = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=False, static_dir=None, workers=1,
-                 layer_workers=1, run_memory_mb=run_memory_mb)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        layer_workers=1,
+        run_memory_mb=run_memory_mb,
+    )
     with TestClient(create_app(s)) as c:
         runs = c.app.state.services.runs
         hook = runs.on_done
 
-        def slow_hook(*args):   # the post-run work (viewer, parameter store) taking its time
+        def slow_hook(*args):  # the post-run work (viewer, parameter store) taking its time
             time.sleep(1.0)
             if hook is not None:
                 hook(*args)
@@ -49,7 +56,7 @@ def test_terminal_event_after_the_record(tmp_path, run_memory_mb):
         stop.set()
         t.join()
         assert run["status"] == "done" and run["summary"]["layer_count"] == 3
-        for kind, status, summary in seen:   # empty when the event came after `live` was dropped: fine too
+        for kind, status, summary in seen:  # empty when the event came after `live` was dropped: fine too
             assert kind == "run_finished" and status == "done" and summary is not None, seen
         events = c.get(f"/api/runs/{rid}/events", headers={"Accept": "text/event-stream"}).text
         assert events.count("run_finished") == 1

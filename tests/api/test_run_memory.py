@@ -36,7 +36,7 @@ class ToyHog(Node):
 
     def run(self, ctx, params, inputs):
         block = np.zeros(params.mb * 2**20, dtype=np.uint8)
-        block[::4096] = 1   # touched page by page: the memory is really used when the limit allows it
+        block[::4096] = 1  # touched page by page: the memory is really used when the limit allows it
         return {"layers": inputs["layers"]}
 
 
@@ -55,23 +55,24 @@ class ToyLayerHog(LayerNode):
         hold_s: float = Field(0.0, ge=0)
 
     def run_layer(self, ctx, params, index, items):
-        if params.pid_dir:   # who computed the layer, under which address-space limit, in which group
+        if params.pid_dir:  # who computed the layer, under which address-space limit, in which group
             tmp = os.path.join(params.pid_dir, f".{os.getpid()}")
             with open(tmp, "w") as f:
                 f.write(f"{resource.getrlimit(resource.RLIMIT_AS)[0]} {os.getpgid(0)}")
-            os.replace(tmp, os.path.join(params.pid_dir, str(os.getpid())))   # whole, even if killed right after
+            os.replace(tmp, os.path.join(params.pid_dir, str(os.getpid())))  # whole, even if killed right after
         block = np.zeros(params.mb * 2**20, dtype=np.uint8)
         block[::4096] = 1
         t0 = time.monotonic()
-        while time.monotonic() - t0 < params.hold_s:   # held: the memory is in use for that long
+        while time.monotonic() - t0 < params.hold_s:  # held: the memory is in use for that long
             ctx.check_cancelled()
             time.sleep(0.02)
         return {"layers": items["layers"]}
 
 
 def _hog(mb: int, node: str = "toy-hog", count: int = 3, **extra) -> dict:
-    return toy.recipe([("stack", "toy-stack", {"count": count}), ("hog", node, {"mb": mb, **extra})],
-                      [("stack.layers", "hog.layers")])
+    return toy.recipe(
+        [("stack", "toy-stack", {"count": count}), ("hog", node, {"mb": mb, **extra})], [("stack.layers", "hog.layers")]
+    )
 
 
 def test_default_is_a_share_of_the_machine_memory(tmp_path):
@@ -105,7 +106,7 @@ def test_layer_workers_inherit_the_limit(tmp_path, monkeypatch):
         r_ok = wait(c, ok, timeout=120)
         assert r_ok["status"] == "done", r_ok["error"]
         ran_in = {int(p.name): int(p.read_text().split()[0]) for p in pids.iterdir() if not p.name.startswith(".")}
-        assert os.getpid() not in ran_in and len(ran_in) >= 2   # the run's process and/or its workers
+        assert os.getpid() not in ran_in and len(ran_in) >= 2  # the run's process and/or its workers
         assert all(lim != resource.RLIM_INFINITY for lim in ran_in.values()), ran_in
         bad = c.post("/api/runs", json={"recipe": _hog(800, "toy-layer-hog", count=8)}).json()["id"]
         rb = wait(c, bad, timeout=120)
@@ -163,11 +164,11 @@ def test_one_budget_for_the_runs_whole_process_tree(tmp_path, monkeypatch):
         assert rb["error"]["kind"] == "limit" and rb["error"]["node"] == "hog", rb["error"]
         assert "more than 300 MB" in msg and "run_memory_mb" in msg and "--run-memory-mb" in msg, msg
         used = int(msg.split(" used ")[1].split(" MB")[0])
-        assert 300 < used < 300 + 180 + 150, msg   # caught within one more worker's allocation
+        assert 300 < used < 300 + 180 + 150, msg  # caught within one more worker's allocation
         ran = _computed_by(pids)
         (group,) = set(ran.values())
-        assert group != os.getpgid(0) and len(ran) >= 2, ran   # two processes of the run's tree held 180 MB each
-        assert gone(group) == []   # killed with the run, workers included
+        assert group != os.getpgid(0) and len(ran) >= 2, ran  # two processes of the run's tree held 180 MB each
+        assert gone(group) == []  # killed with the run, workers included
         ro = wait(c, other, timeout=60)
         assert ro["status"] == "done" and ro["summary"]["layer_count"] == 3
         assert c.get("/api/health").status_code == 200
@@ -212,9 +213,9 @@ def test_a_runs_processes_end_with_it_and_with_the_server(tmp_path, monkeypatch)
         ran = _computed_by(pids)
         (group,) = set(ran.values())
         members = group_pids(group)
-        assert len(members) >= 3, members   # the run, its fork server, its workers
+        assert len(members) >= 3, members  # the run, its fork server, its workers
         t0 = time.monotonic()
-    assert time.monotonic() - t0 < 12   # the server stopped without waiting for the layers (4 s each)
+    assert time.monotonic() - t0 < 12  # the server stopped without waiting for the layers (4 s each)
     assert gone(group) == [] and gone(preview_group) == []
 
 
@@ -241,7 +242,7 @@ def test_the_fork_server_and_workers_end_when_the_leader_is_killed(tmp_path):
         workers = [int(p) for p in (tmp_path / "workers").read_text().split()]
         members = group_pids(tree.proc.pid)
         assert len(workers) == 2 and set(workers) < set(members) and len(members) >= 4, members  # + leader, fork server
-        os.kill(tree.proc.pid, signal.SIGKILL)   # as PDEATHSIG does: nothing of the leader runs after it
+        os.kill(tree.proc.pid, signal.SIGKILL)  # as PDEATHSIG does: nothing of the leader runs after it
         tree.proc.join(5)
         assert gone(tree.proc.pid, timeout=3.0) == []
     finally:
@@ -260,7 +261,7 @@ def test_cgroup_v2_where_the_memory_controller_is_delegated(tmp_path, monkeypatc
 
     parent = tmp_path / "cg"
     parent.mkdir()
-    assert tree_memory.cgroup_parent(parent)[0] is None   # no cgroup.subtree_control
+    assert tree_memory.cgroup_parent(parent)[0] is None  # no cgroup.subtree_control
     (parent / "cgroup.subtree_control").write_text("cpu io\n")
     got, why = tree_memory.cgroup_parent(parent)
     assert got is None and "not delegated" in why

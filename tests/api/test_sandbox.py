@@ -34,8 +34,12 @@ sys.addaudithook(_audit)  # cannot be removed; inert while OPENED is None
 
 
 def mesh_recipe(path):
-    return {"format": "waamflow/1", "name": "m", "nodes": [{"id": "part", "type": "mesh", "params": {"path": path}}],
-            "edges": []}
+    return {
+        "format": "waamflow/1",
+        "name": "m",
+        "nodes": [{"id": "part", "type": "mesh", "params": {"path": path}}],
+        "edges": [],
+    }
 
 
 @pytest.fixture()
@@ -69,11 +73,19 @@ def test_rest_recipe_cannot_read_outside(env):
     control.read_bytes()
     assert str(control) in OPENED  # the hook sees opens
     OPENED.clear()
-    for path, why in [(str(secret), "absolute"), ("../outside/secret.stl", "'..'"), ("link.stl", "outside"),
-                      ("file:///etc/passwd", "URL"), ("http://example.com/x.stl", "URL"),
-                      ("sub/../../outside/secret.stl", "'..'"), ("C:\\x.stl", "absolute")]:
-        for route, body in [("/api/runs", {"recipe": mesh_recipe(path)}),
-                            ("/api/preview", {"recipe": mesh_recipe(path), "node": "part", "layer": 0})]:
+    for path, why in [
+        (str(secret), "absolute"),
+        ("../outside/secret.stl", "'..'"),
+        ("link.stl", "outside"),
+        ("file:///etc/passwd", "URL"),
+        ("http://example.com/x.stl", "URL"),
+        ("sub/../../outside/secret.stl", "'..'"),
+        ("C:\\x.stl", "absolute"),
+    ]:
+        for route, body in [
+            ("/api/runs", {"recipe": mesh_recipe(path)}),
+            ("/api/preview", {"recipe": mesh_recipe(path), "node": "part", "layer": 0}),
+        ]:
             r = c.post(route, json=body)
             assert r.status_code == 422, (path, route, r.text)
             d = r.json()["detail"]

@@ -24,18 +24,33 @@ def settings(tmp_path):
     (gdir / "example.json").write_text(json.dumps(toy.chain(stack={"count": 3})))
     tf = tmp_path / "tokens.txt"
     tf.write_text(f"# lab tokens\nalice:{ALICE}\n\n")
-    return Settings(data_dir=tmp_path / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1,
-                    token=TOKEN, token_file=tf)
+    return Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=gdir,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        token=TOKEN,
+        token_file=tf,
+    )
 
 
 def test_token_required_on_every_api_route(settings):
     with TestClient(create_app(settings)) as c:
         h = c.get("/api/health")
         assert h.status_code == 200 and h.json()["auth_required"] is True
-        for method, path in [("GET", "/api/graphs"), ("GET", "/api/nodes"), ("GET", "/api/graphs/example"),
-                             ("PUT", "/api/graphs/x"), ("POST", "/api/runs"), ("GET", "/api/runs"),
-                             ("POST", "/api/preview"), ("POST", "/api/viewer/select"), ("GET", "/api/nope"),
-                             ("GET", "/viewer/")]:
+        for method, path in [
+            ("GET", "/api/graphs"),
+            ("GET", "/api/nodes"),
+            ("GET", "/api/graphs/example"),
+            ("PUT", "/api/graphs/x"),
+            ("POST", "/api/runs"),
+            ("GET", "/api/runs"),
+            ("POST", "/api/preview"),
+            ("POST", "/api/viewer/select"),
+            ("GET", "/api/nope"),
+            ("GET", "/viewer/"),
+        ]:
             r = c.request(method, path, json={})
             assert r.status_code == 401, (method, path, r.status_code)
             assert r.headers["www-authenticate"].startswith("Bearer")
@@ -70,8 +85,14 @@ def test_without_token_everything_is_open(tmp_path):
         # CORS is closed by default: no Access-Control-Allow-Origin for a foreign origin
         r = c.get("/api/graphs", headers={"Origin": "http://evil.example"})
         assert "access-control-allow-origin" not in r.headers
-    s = Settings(data_dir=tmp_path / "data2", graphs_dir=None, start_viewer=False, static_dir=None, workers=1,
-                 cors_origins=["http://lab.example"])
+    s = Settings(
+        data_dir=tmp_path / "data2",
+        graphs_dir=None,
+        start_viewer=False,
+        static_dir=None,
+        workers=1,
+        cors_origins=["http://lab.example"],
+    )
     with TestClient(create_app(s)) as c:
         r = c.get("/api/graphs", headers={"Origin": "http://lab.example"})
         assert r.headers["access-control-allow-origin"] == "http://lab.example"
@@ -89,10 +110,18 @@ def test_token_files(tmp_path):
 
 
 def _serve(args, env_extra, tmp_path):
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(__import__("waamflow").__path__[0].rsplit("/", 1)[0]),
-           **env_extra}
-    return subprocess.run([sys.executable, "-m", "waamflow.cli", "serve", "--data", str(tmp_path / "d"),
-                           "--viewer-port", "0", *args], env=env, capture_output=True, text=True, timeout=60)
+    env = {
+        "PATH": "/usr/bin:/bin",
+        "PYTHONPATH": str(__import__("waamflow").__path__[0].rsplit("/", 1)[0]),
+        **env_extra,
+    }
+    return subprocess.run(
+        [sys.executable, "-m", "waamflow.cli", "serve", "--data", str(tmp_path / "d"), "--viewer-port", "0", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
 
 
 def test_serve_refuses_network_without_token(tmp_path):
@@ -115,8 +144,16 @@ def test_viewer_behind_the_api_auth(tmp_path):
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    st = Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=True, viewer_port=port, static_dir=None,
-                  workers=1, token=TOKEN, host="0.0.0.0")
+    st = Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=True,
+        viewer_port=port,
+        static_dir=None,
+        workers=1,
+        token=TOKEN,
+        host="0.0.0.0",
+    )
     with TestClient(create_app(st)) as c:
         h = c.get("/api/health").json()
         # viser is a dependency and its port is free: not starting is a failure, not a skip

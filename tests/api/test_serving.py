@@ -22,11 +22,33 @@ def _free_port() -> int:
 def server(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("serve")
     port = _free_port()
-    env = {**os.environ, "WAAMFLOW_START_VIEWER": "false", "WAAMFLOW_GRAPHS_DIR": str(tmp_path / "none"),
-           "WAAMFLOW_MAX_CONNECTIONS_PER_CLIENT": "10"}
-    proc = subprocess.Popen([sys.executable, "-m", "waamflow.cli", "serve", "--port", str(port), "--data",
-                             str(tmp_path / "data"), "--viewer-port", "0", "--header-timeout", "1",
-                             "--max-connections", "30"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    env = {
+        **os.environ,
+        "WAAMFLOW_START_VIEWER": "false",
+        "WAAMFLOW_GRAPHS_DIR": str(tmp_path / "none"),
+        "WAAMFLOW_MAX_CONNECTIONS_PER_CLIENT": "10",
+    }
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "waamflow.cli",
+            "serve",
+            "--port",
+            str(port),
+            "--data",
+            str(tmp_path / "data"),
+            "--viewer-port",
+            "0",
+            "--header-timeout",
+            "1",
+            "--max-connections",
+            "30",
+        ],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     base = f"http://127.0.0.1:{port}"
     for _ in range(300):
         try:
@@ -56,7 +78,7 @@ def test_half_open_and_slow_heads_are_closed(server):
     port, base = server
     idle = socket.create_connection(("127.0.0.1", port))
     slow = socket.create_connection(("127.0.0.1", port))
-    slow.sendall(b"GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n")   # head never finished
+    slow.sendall(b"GET /api/health HTTP/1.1\r\nHost: 127.0.0.1\r\n")  # head never finished
     t0 = time.monotonic()
     assert _closed(idle, 3.0) and _closed(slow, 3.0)
     assert 0.8 <= time.monotonic() - t0 < 3.0
@@ -94,13 +116,13 @@ def _open(port, addr, n):
 
 def test_connections_over_the_caps_are_closed_and_health_answers(server):
     port, base = server
-    one, ok = _open(port, "127.0.0.3", 25)        # one address: 10 kept, 15 closed at once
+    one, ok = _open(port, "127.0.0.3", 25)  # one address: 10 kept, 15 closed at once
     assert sum(ok) == 10
-    assert httpx.get(base + "/api/health").status_code == 200   # others still get in
+    assert httpx.get(base + "/api/health").status_code == 200  # others still get in
     more, ok4 = _open(port, "127.0.0.4", 10)
-    more5, ok5 = _open(port, "127.0.0.5", 10)     # 30 held: the server's cap
-    assert 15 <= sum(ok4) + sum(ok5) <= 20       # (closing connections count until the server sees them go)
-    late, ok6 = _open(port, "127.0.0.6", 10)      # within its own cap, but the server is full
+    more5, ok5 = _open(port, "127.0.0.5", 10)  # 30 held: the server's cap
+    assert 15 <= sum(ok4) + sum(ok5) <= 20  # (closing connections count until the server sees them go)
+    late, ok6 = _open(port, "127.0.0.6", 10)  # within its own cap, but the server is full
     assert sum(ok6) <= 30 - 10 - sum(ok4) - sum(ok5) and sum(ok6) <= 5
     more += more5
     for s in one + more + late:

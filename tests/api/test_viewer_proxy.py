@@ -27,13 +27,24 @@ def _free_port() -> int:
 
 
 def _settings(tmp_path, **kw) -> Settings:
-    return Settings(data_dir=tmp_path / "data", graphs_dir=None, start_viewer=True, viewer_port=_free_port(),
-                    static_dir=None, workers=1, start_workers=False, **kw)
+    return Settings(
+        data_dir=tmp_path / "data",
+        graphs_dir=None,
+        start_viewer=True,
+        viewer_port=_free_port(),
+        static_dir=None,
+        workers=1,
+        start_workers=False,
+        **kw,
+    )
 
 
 def _listening(port: int) -> set[str]:
-    return {c.laddr.ip for c in psutil.Process().net_connections(kind="inet")
-            if c.status == psutil.CONN_LISTEN and c.laddr.port == port}
+    return {
+        c.laddr.ip
+        for c in psutil.Process().net_connections(kind="inet")
+        if c.status == psutil.CONN_LISTEN and c.laddr.port == port
+    }
 
 
 def _direct_close_code(port: int) -> int | None:
@@ -58,7 +69,7 @@ def test_without_token_viser_is_behind_the_proxy_too(tmp_path):
         page = c.get("/viewer/")
         assert page.status_code == 200 and "<html" in page.text[:200].lower()
         with c.websocket_connect("/viewer/?view=tab-1", subprotocols=PROTO) as ws:
-            assert len(ws.receive_bytes()) > 0   # viser's first message, relayed
+            assert len(ws.receive_bytes()) > 0  # viser's first message, relayed
         # the direct way in (another user of this machine) is closed with 1008 (policy violation)
         assert _direct_close_code(port) == 1008
         assert "spy" not in c.app.state.services.viewer.sessions
@@ -75,7 +86,7 @@ def test_with_tokens_the_proxy_checks_token_role_and_origin(tmp_path):
     tf.chmod(0o600)
     with TestClient(create_app(_settings(tmp_path, host="0.0.0.0", token=TOKEN, token_file=tf))) as c:
         port = c.app.state.services.viewer.bound_port
-        assert _listening(port) == {"127.0.0.1"}   # never 0.0.0.0, though the API binds wider
+        assert _listening(port) == {"127.0.0.1"}  # never 0.0.0.0, though the API binds wider
         assert c.get("/viewer/").status_code == 401
         assert c.get("/viewer/", headers={"Authorization": "Bearer wrong-token-0123456789"}).status_code == 401
         with pytest.raises(WebSocketDisconnect) as e:

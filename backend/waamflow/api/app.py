@@ -24,8 +24,14 @@ from .. import __version__
 from ..core.errors import PlanningError, RecipeError, WaamflowError
 from ..settings import Settings
 from .auth import AuthMiddleware, load_tokens, needs_auth
-from .guards import (AuthThrottle, BodyLimitMiddleware, HostOriginMiddleware, ThrottleAuditMiddleware,
-                     is_loopback_host, store_auditor)
+from .guards import (
+    AuthThrottle,
+    BodyLimitMiddleware,
+    HostOriginMiddleware,
+    ThrottleAuditMiddleware,
+    is_loopback_host,
+    store_auditor,
+)
 from .routes import audit, builds, graphs, health, nodes, preview, runs, viewer
 from .schemas import ErrorResponse, error_body
 from .services import build_services
@@ -82,36 +88,55 @@ def _start_viewer(settings: Settings, host: str | None = None, proxy_secret: str
 GRAPH = {"name": "$response.body#/name"}
 RUN = {"run_id": "$response.body#/id"}
 LINKS: dict[tuple[str, str], tuple[tuple[str, ...], dict[str, tuple[str, str, dict, dict | None]]]] = {
-    ("put", "/api/graphs/{name}"): (("200", "201"), {
-        "GetGraph": ("get", "/api/graphs/{name}", GRAPH, None),
-        "SaveGraphAgain": ("put", "/api/graphs/{name}", GRAPH, None),
-        "DeleteGraph": ("delete", "/api/graphs/{name}", GRAPH, None),
-        "GetParams": ("get", "/api/graphs/{name}/params", GRAPH, None),
-        "PutParams": ("put", "/api/graphs/{name}/params", GRAPH, None),
-        "ListFiles": ("get", "/api/graphs/{name}/files", GRAPH, None),
-        "UploadFile": ("put", "/api/graphs/{name}/files/{filename}", GRAPH, None),
-        "RunGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/name"}),
-    }),
-    ("get", "/api/graphs"): (("200",), {
-        "GetFirstGraph": ("get", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
-        "DeleteFirstGraph": ("delete", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
-        "RunFirstGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/0/name"}),
-    }),
-    ("post", "/api/runs"): (("202",), {
-        "GetRun": ("get", "/api/runs/{run_id}", RUN, None),
-        "RunEvents": ("get", "/api/runs/{run_id}/events", RUN, None),
-        "RunLog": ("get", "/api/runs/{run_id}/log", RUN, None),
-        "ListArtifacts": ("get", "/api/runs/{run_id}/artifacts", RUN, None),
-        "CancelRun": ("delete", "/api/runs/{run_id}", RUN, None),
-    }),
-    ("get", "/api/runs"): (("200",), {
-        "GetFirstRun": ("get", "/api/runs/{run_id}", {"run_id": "$response.body#/0/id"}, None),
-        "ListFirstRunArtifacts": ("get", "/api/runs/{run_id}/artifacts", {"run_id": "$response.body#/0/id"}, None),
-    }),
-    ("get", "/api/runs/{run_id}/artifacts"): (("200",), {
-        "GetArtifact": ("get", "/api/runs/{run_id}/artifacts/{name}",
-                        {"run_id": "$request.path.run_id", "name": "$response.body#/0/name"}, None),
-    }),
+    ("put", "/api/graphs/{name}"): (
+        ("200", "201"),
+        {
+            "GetGraph": ("get", "/api/graphs/{name}", GRAPH, None),
+            "SaveGraphAgain": ("put", "/api/graphs/{name}", GRAPH, None),
+            "DeleteGraph": ("delete", "/api/graphs/{name}", GRAPH, None),
+            "GetParams": ("get", "/api/graphs/{name}/params", GRAPH, None),
+            "PutParams": ("put", "/api/graphs/{name}/params", GRAPH, None),
+            "ListFiles": ("get", "/api/graphs/{name}/files", GRAPH, None),
+            "UploadFile": ("put", "/api/graphs/{name}/files/{filename}", GRAPH, None),
+            "RunGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/name"}),
+        },
+    ),
+    ("get", "/api/graphs"): (
+        ("200",),
+        {
+            "GetFirstGraph": ("get", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
+            "DeleteFirstGraph": ("delete", "/api/graphs/{name}", {"name": "$response.body#/0/name"}, None),
+            "RunFirstGraph": ("post", "/api/runs", {}, {"graph": "$response.body#/0/name"}),
+        },
+    ),
+    ("post", "/api/runs"): (
+        ("202",),
+        {
+            "GetRun": ("get", "/api/runs/{run_id}", RUN, None),
+            "RunEvents": ("get", "/api/runs/{run_id}/events", RUN, None),
+            "RunLog": ("get", "/api/runs/{run_id}/log", RUN, None),
+            "ListArtifacts": ("get", "/api/runs/{run_id}/artifacts", RUN, None),
+            "CancelRun": ("delete", "/api/runs/{run_id}", RUN, None),
+        },
+    ),
+    ("get", "/api/runs"): (
+        ("200",),
+        {
+            "GetFirstRun": ("get", "/api/runs/{run_id}", {"run_id": "$response.body#/0/id"}, None),
+            "ListFirstRunArtifacts": ("get", "/api/runs/{run_id}/artifacts", {"run_id": "$response.body#/0/id"}, None),
+        },
+    ),
+    ("get", "/api/runs/{run_id}/artifacts"): (
+        ("200",),
+        {
+            "GetArtifact": (
+                "get",
+                "/api/runs/{run_id}/artifacts/{name}",
+                {"run_id": "$request.path.run_id", "name": "$response.body#/0/name"},
+                None,
+            ),
+        },
+    ),
 }
 
 
@@ -141,8 +166,16 @@ def allowed_methods(schema: dict, path: str) -> list[str]:
     return []
 
 
-ROUTERS = (health.router, nodes.router, graphs.router, runs.router, preview.router, viewer.router, audit.router,
-           builds.router)
+ROUTERS = (
+    health.router,
+    nodes.router,
+    graphs.router,
+    runs.router,
+    preview.router,
+    viewer.router,
+    audit.router,
+    builds.router,
+)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -151,8 +184,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     and the built GUI (when there is one)."""
     settings = settings or Settings()
     tokens = load_tokens(settings.token, settings.token_file)
-    app = FastAPI(title="waamflow", version=__version__, lifespan=_lifespan(settings, tokens),
-                  description="Node-graph CAM for Wire + Arc Additive Manufacturing. Units: mm, s, deg.")
+    app = FastAPI(
+        title="waamflow",
+        version=__version__,
+        lifespan=_lifespan(settings, tokens),
+        description="Node-graph CAM for Wire + Arc Additive Manufacturing. Units: mm, s, deg.",
+    )
     _add_error_handlers(app, settings)
     for r in ROUTERS:
         app.include_router(r)
@@ -164,7 +201,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.viewer_secret = secrets.token_urlsafe(32)
     mount_viewer_proxy(app)
     mount_viewer_client(app)  # viser's page under a content-hashed URL, cached like the hashed assets
-    _serve_gui(app, settings.static_dir)   # last: its catch-all route must not shadow the others
+    _serve_gui(app, settings.static_dir)  # last: its catch-all route must not shadow the others
     return app
 
 
@@ -176,12 +213,20 @@ def _lifespan(settings: Settings, tokens: dict[str, str]) -> Callable[[FastAPI],
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         svc = build_services(settings)
         if settings.start_workers:
-            svc.runs = RunManager(svc.store, Path(settings.data_dir), svc.cache, settings.workers,
-                                  svc.resolver_for, svc.after_run, Limits.from_settings(settings),
-                                  layer_workers=settings.layer_workers, scheduler=settings.scheduler)
+            svc.runs = RunManager(
+                svc.store,
+                Path(settings.data_dir),
+                svc.cache,
+                settings.workers,
+                svc.resolver_for,
+                svc.after_run,
+                Limits.from_settings(settings),
+                layer_workers=settings.layer_workers,
+                scheduler=settings.scheduler,
+            )
         svc.viewer = _start_viewer(settings, viewer_host(settings, tokens), app.state.viewer_secret)
         if svc.viewer is not None:
-            svc.viewer.loader = svc.scene_source   # a run made before a restart is rebuilt on demand
+            svc.viewer.loader = svc.scene_source  # a run made before a restart is rebuilt on demand
         svc.auth_required = bool(tokens)
         app.state.services = svc
         try:
@@ -209,11 +254,17 @@ def _disk_full(request: Request, data_dir: str | Path) -> JSONResponse:
     """507 after a write failed on a full disk; the disk reserve is released so deletes go through."""
     svc = getattr(request.app.state, "services", None)
     freed = svc.release_reserve() if svc is not None else 0
-    log.error("disk full under %s (%s %s); released %d bytes of reserve", data_dir, request.method,
-              request.url.path, freed)
-    return error_response(507, {"kind": "disk_full", "message":
-                                "the disk holding the data folder is full: nothing was saved. Free space (delete graphs, "
-                                "runs or uploads you no longer need: deletes still work) and try again"})
+    log.error(
+        "disk full under %s (%s %s); released %d bytes of reserve", data_dir, request.method, request.url.path, freed
+    )
+    return error_response(
+        507,
+        {
+            "kind": "disk_full",
+            "message": "the disk holding the data folder is full: nothing was saved. Free space (delete graphs, "
+            "runs or uploads you no longer need: deletes still work) and try again",
+        },
+    )
 
 
 def _validation_detail(errs: Sequence[Any]) -> dict[str, Any]:
@@ -221,9 +272,16 @@ def _validation_detail(errs: Sequence[Any]) -> dict[str, Any]:
     first = errs[0] if errs else {"msg": "invalid request", "loc": ()}
     loc = ".".join(str(x) for x in first.get("loc", ()))
     msg = f"{first.get('msg')}" + (f" at '{loc}'" if loc else "")
-    return {"kind": "invalid_request", "message": msg, "text": msg, "field": loc or None,
-            "errors": [{"loc": [x if isinstance(x, int) else str(x) for x in e.get("loc", ())],
-                        "msg": str(e.get("msg"))} for e in errs]}
+    return {
+        "kind": "invalid_request",
+        "message": msg,
+        "text": msg,
+        "field": loc or None,
+        "errors": [
+            {"loc": [x if isinstance(x, int) else str(x) for x in e.get("loc", ())], "msg": str(e.get("msg"))}
+            for e in errs
+        ],
+    }
 
 
 def _add_error_handlers(app: FastAPI, settings: Settings) -> None:
@@ -291,16 +349,25 @@ def _openapi(app: FastAPI, tokens: dict[str, str]) -> Callable[[], dict[str, Any
 
 def _one_error_model(schema: dict[str, Any], tokens: dict[str, str]) -> None:
     comps = schema.setdefault("components", {}).setdefault("schemas", {})
-    for name, sub in ErrorResponse.model_json_schema(ref_template="#/components/schemas/{model}").get("$defs", {}).items():
+    for name, sub in (
+        ErrorResponse.model_json_schema(ref_template="#/components/schemas/{model}").get("$defs", {}).items()
+    ):
         comps.setdefault(name, sub)
-    comps["ErrorResponse"] = {k: v for k, v in ErrorResponse.model_json_schema(
-        ref_template="#/components/schemas/{model}").items() if k != "$defs"}
+    comps["ErrorResponse"] = {
+        k: v
+        for k, v in ErrorResponse.model_json_schema(ref_template="#/components/schemas/{model}").items()
+        if k != "$defs"
+    }
     comps.pop("HTTPValidationError", None)
     comps.pop("ValidationError", None)
     ref = {"application/json": {"schema": {"$ref": "#/components/schemas/ErrorResponse"}}}
     schema.setdefault("components", {})["securitySchemes"] = {
-        "bearer": {"type": "http", "scheme": "bearer",
-                   "description": "WAAMFLOW_TOKEN or a token of --token-file (only when the server has tokens)"}}
+        "bearer": {
+            "type": "http",
+            "scheme": "bearer",
+            "description": "WAAMFLOW_TOKEN or a token of --token-file (only when the server has tokens)",
+        }
+    }
     # a server with tokens requires one on every route behind the check; without tokens it is optional
     security: list[dict[str, list[str]]] = [{"bearer": []}] if tokens else [{"bearer": []}, {}]
     for path, ops in schema.get("paths", {}).items():
@@ -329,16 +396,26 @@ def _add_middleware(app: FastAPI, settings: Settings, tokens: dict[str, str]) ->
     """CORS (when configured), body limits, bearer tokens, the failed-auth throttle and its audit,
     Host/Origin checks. Added innermost first: a request meets them in the reverse order."""
     if settings.cors_origins:
-        app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_credentials=False,
-                           allow_methods=["GET", "PUT", "POST", "DELETE"], allow_headers=["Authorization", "Content-Type", "If-Match"],
-                           expose_headers=["ETag"])
-    app.add_middleware(BodyLimitMiddleware, body_limit=int(settings.max_body_mb * 2**20),
-                       upload_limit=int(settings.max_upload_mb * 2**20), timeout_s=settings.body_timeout_s)
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=list(settings.cors_origins),
+            allow_credentials=False,
+            allow_methods=["GET", "PUT", "POST", "DELETE"],
+            allow_headers=["Authorization", "Content-Type", "If-Match"],
+            expose_headers=["ETag"],
+        )
+    app.add_middleware(
+        BodyLimitMiddleware,
+        body_limit=int(settings.max_body_mb * 2**20),
+        upload_limit=int(settings.max_upload_mb * 2**20),
+        timeout_s=settings.body_timeout_s,
+    )
     app.add_middleware(AuthMiddleware, tokens=tokens)
     app.state.auth_throttle = AuthThrottle(settings.auth_failures_per_minute) if tokens else None
     app.add_middleware(ThrottleAuditMiddleware, throttle=app.state.auth_throttle, audit=store_auditor(_scope_store))
-    app.add_middleware(HostOriginMiddleware, allowed_hosts=allowed_hosts(settings, tokens),
-                       cors_origins=set(settings.cors_origins))
+    app.add_middleware(
+        HostOriginMiddleware, allowed_hosts=allowed_hosts(settings, tokens), cors_origins=set(settings.cors_origins)
+    )
 
 
 # ---- the GUI ------------------------------------------------------------------------------------
@@ -358,7 +435,9 @@ def _serve_gui(app: FastAPI, static: str | Path | None) -> None:
                 return index_response(candidate)
             return index_response(root / "index.html")
     else:
+
         @app.get("/", include_in_schema=False)
         def no_gui() -> JSONResponse:
-            return JSONResponse({"message": "waamflow API is running; the GUI is not built (run `make run`).",
-                                 "docs": "/docs"})
+            return JSONResponse(
+                {"message": "waamflow API is running; the GUI is not built (run `make run`).", "docs": "/docs"}
+            )

@@ -34,13 +34,17 @@ MIN_TOKEN_LENGTH = 16
 # rule but is guessed at once (`secrets.token_urlsafe(32)` has ~30 distinct of 43)
 MIN_DISTINCT_CHARS = 8
 OPEN_PATHS = ("/api/health",)
-ROLES = ("viewer", "operator", "editor", "admin")   # each may do what those before it may
-DEFAULT_ROLE = "admin"   # a token with no role (token files written before roles) keeps every right
+ROLES = ("viewer", "operator", "editor", "admin")  # each may do what those before it may
+DEFAULT_ROLE = "admin"  # a token with no role (token files written before roles) keeps every right
 # what an operator may change besides reading: run, preview, cancel, and the machine side of an
 # as-built build (start one, upload a layer's scan); a viewer only moves the 3D view
-OPERATOR_WRITES = (("POST", re.compile(r"^/api/runs/?$")), ("DELETE", re.compile(r"^/api/runs/[^/]+/?$")),
-                   ("POST", re.compile(r"^/api/preview/?$")), ("POST", re.compile(r"^/api/builds/?$")),
-                   ("POST", re.compile(r"^/api/builds/[^/]+/scans/?$")))
+OPERATOR_WRITES = (
+    ("POST", re.compile(r"^/api/runs/?$")),
+    ("DELETE", re.compile(r"^/api/runs/[^/]+/?$")),
+    ("POST", re.compile(r"^/api/preview/?$")),
+    ("POST", re.compile(r"^/api/builds/?$")),
+    ("POST", re.compile(r"^/api/builds/[^/]+/scans/?$")),
+)
 VIEWER_WRITES = (("POST", re.compile(r"^/api/viewer/(select|view)/?$")),)
 SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 
@@ -64,7 +68,7 @@ def at_least(role: str | None, needed: str) -> bool:
     return ROLES.index(role if role in ROLES else DEFAULT_ROLE) >= ROLES.index(needed)
 
 
-ADMIN_ONLY = re.compile(r"^/api/audit(/.*)?$")   # who did what, from where: for admins
+ADMIN_ONLY = re.compile(r"^/api/audit(/.*)?$")  # who did what, from where: for admins
 
 
 def method_allowed(role: str, method: str, path: str) -> str | None:
@@ -89,14 +93,14 @@ class TokenFileError(WaamflowError):
 def parse_tokens(text: str, source: str = "token file") -> Tokens:
     """name → token from a token file's text (JSON object or `name:token` lines)."""
     stripped = text.strip()
-    pairs: list[tuple[str, object, object]] = []   # (name, token, role or None)
+    pairs: list[tuple[str, object, object]] = []  # (name, token, role or None)
     if stripped.startswith("{"):
         try:
             data = json.loads(stripped)
         except json.JSONDecodeError as e:
             raise TokenFileError(f"{source}: invalid JSON ({e})") from None
         for k, v in data.items():
-            if isinstance(v, dict):   # {"name": {"token": "...", "role": "editor"}}
+            if isinstance(v, dict):  # {"name": {"token": "...", "role": "editor"}}
                 extra = sorted(set(v) - {"token", "role"})
                 if extra:
                     raise TokenFileError(f"{source}: token {k!r} has unknown fields {extra} (token, role)")
@@ -131,13 +135,17 @@ def parse_tokens(text: str, source: str = "token file") -> Tokens:
 def check_token(token: object, what: str) -> str:
     """`token` when it is a usable token (a string, long and varied enough), else TokenFileError."""
     if not isinstance(token, str) or len(token) < MIN_TOKEN_LENGTH or any(c.isspace() for c in token) or ":" in token:
-        raise TokenFileError(f"{what} must be a string of at least {MIN_TOKEN_LENGTH} characters without "
-                             "spaces or ':' (e.g. `python -c 'import secrets; print(secrets.token_urlsafe(32))'`)")
+        raise TokenFileError(
+            f"{what} must be a string of at least {MIN_TOKEN_LENGTH} characters without "
+            "spaces or ':' (e.g. `python -c 'import secrets; print(secrets.token_urlsafe(32))'`)"
+        )
     distinct = len(set(token))
     if distinct < MIN_DISTINCT_CHARS:
-        raise TokenFileError(f"{what} is too weak: {'one character repeated' if distinct == 1 else f'{distinct} distinct characters'}"
-                             f" (at least {MIN_DISTINCT_CHARS} distinct needed); make one with "
-                             "`python -c 'import secrets; print(secrets.token_urlsafe(32))'`")
+        raise TokenFileError(
+            f"{what} is too weak: {'one character repeated' if distinct == 1 else f'{distinct} distinct characters'}"
+            f" (at least {MIN_DISTINCT_CHARS} distinct needed); make one with "
+            "`python -c 'import secrets; print(secrets.token_urlsafe(32))'`"
+        )
     return token
 
 
@@ -149,8 +157,10 @@ def load_tokens(token: str | None, token_file: str | Path | None) -> Tokens:
             mode = p.stat().st_mode
             if mode & 0o006:  # other users could read the tokens, or add their own
                 what = "readable and writable" if mode & 0o006 == 0o006 else "readable" if mode & 0o004 else "writable"
-                raise TokenFileError(f"token file {p} is {what} by every user (mode {mode & 0o777:04o}): "
-                                     f"run `chmod 600 {p}` (or 640 for a group) and start again")
+                raise TokenFileError(
+                    f"token file {p} is {what} by every user (mode {mode & 0o777:04o}): "
+                    f"run `chmod 600 {p}` (or 640 for a group) and start again"
+                )
             text = p.read_text(encoding="utf-8")
         except OSError as e:
             raise TokenFileError(f"cannot read token file {p}: {e.strerror}") from None
@@ -196,10 +206,26 @@ def needs_auth(path: str) -> bool:
 
 async def _forbidden(send, user: str, role: str, needed: str) -> None:
     msg = f"token {user!r} has role {role!r}: this needs {needed} or above (roles: {', '.join(ROLES)})"
-    body = json.dumps({"detail": {"kind": "forbidden", "message": msg, "text": msg, "node": None, "layer": None,
-                                  "section": None, "field": None}}).encode()
-    await send({"type": "http.response.start", "status": 403, "headers": [
-        (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+    body = json.dumps(
+        {
+            "detail": {
+                "kind": "forbidden",
+                "message": msg,
+                "text": msg,
+                "node": None,
+                "layer": None,
+                "section": None,
+                "field": None,
+            }
+        }
+    ).encode()
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 403,
+            "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
+        }
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -217,7 +243,7 @@ class AuthMiddleware:
         scope.setdefault("state", {})
         if not self.tokens:
             scope["state"]["user"] = "anonymous"
-            scope["state"]["role"] = DEFAULT_ROLE   # the one local user
+            scope["state"]["role"] = DEFAULT_ROLE  # the one local user
             return await self.app(scope, receive, send)
         headers = dict(scope.get("headers") or [])
         user = match_token(self.tokens, _bearer(headers))
@@ -226,8 +252,11 @@ class AuthMiddleware:
         if user is not None:
             scope["state"]["user"] = user
             scope["state"]["role"] = role = role_of(self.tokens, user)
-            needed = method_allowed(role, scope.get("method", "GET"), scope["path"]) \
-                if scope["type"] == "http" and needs_auth(scope["path"]) else None
+            needed = (
+                method_allowed(role, scope.get("method", "GET"), scope["path"])
+                if scope["type"] == "http" and needs_auth(scope["path"])
+                else None
+            )
             if needed is not None:
                 return await _forbidden(send, user, role, needed)
             return await self.app(scope, receive, send)
@@ -238,11 +267,20 @@ class AuthMiddleware:
             await send({"type": "websocket.close", "code": 1008})
             return
         wrong = _bearer(headers) is not None
-        msg = ("invalid token" if wrong else "authentication required") + \
-            ": send 'Authorization: Bearer <token>' (the server's WAAMFLOW_TOKEN or a token of its --token-file)"
+        msg = (
+            "invalid token" if wrong else "authentication required"
+        ) + ": send 'Authorization: Bearer <token>' (the server's WAAMFLOW_TOKEN or a token of its --token-file)"
         body = json.dumps({"detail": {"kind": "unauthorized", "message": msg, "text": msg}}).encode()
         challenge = 'Bearer realm="waamflow"' + (', error="invalid_token"' if wrong else "")
-        await send({"type": "http.response.start", "status": 401, "headers": [
-            (b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-            (b"www-authenticate", challenge.encode())]})
+        await send(
+            {
+                "type": "http.response.start",
+                "status": 401,
+                "headers": [
+                    (b"content-type", b"application/json"),
+                    (b"content-length", str(len(body)).encode()),
+                    (b"www-authenticate", challenge.encode()),
+                ],
+            }
+        )
         await send({"type": "http.response.body", "body": body})

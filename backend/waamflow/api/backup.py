@@ -50,8 +50,11 @@ def _sha256(p: Path) -> str:
 @contextmanager
 def data_lock(data_dir: str | Path, *, exclusive: bool):
     """Hold the data folder's lock (see store.lock_file) for the duration of the block."""
-    fd = lock_file(Path(data_dir) / DB, exclusive=exclusive,
-                   busy=f"a waamflow server is using {data_dir}: stop it first (restore replaces its database)")
+    fd = lock_file(
+        Path(data_dir) / DB,
+        exclusive=exclusive,
+        busy=f"a waamflow server is using {data_dir}: stop it first (restore replaces its database)",
+    )
     try:
         yield
     finally:
@@ -111,8 +114,14 @@ def backup(data_dir: str | Path, dest: str | Path) -> dict:
                         (stage / "runs" / run.name).mkdir(parents=True, exist_ok=True)
                         shutil.copy2(f, stage / rel)
                         files[rel] = _sha256(stage / rel)
-        manifest = {"waamflow": __version__, "created": time.time(), "database": DB,
-                    "database_sha256": _sha256(stage / DB), "counts": _counts(stage / DB), "files": files}
+        manifest = {
+            "waamflow": __version__,
+            "created": time.time(),
+            "database": DB,
+            "database_sha256": _sha256(stage / DB),
+            "counts": _counts(stage / DB),
+            "files": files,
+        }
         (stage / "manifest.json").write_text(json.dumps(manifest, indent=2), encoding="utf-8")
         if out.exists():
             out.rmdir()
@@ -167,15 +176,18 @@ def _checkpoint(db: Path) -> dict[str, int]:
             ok = con.execute("PRAGMA integrity_check").fetchone()[0]
             have = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             if have and "graphs" not in have:
-                raise BackupError(f"{db} has no graphs table: not a waamflow database; move it away yourself, "
-                                  "or restore with --force to delete it")
+                raise BackupError(
+                    f"{db} has no graphs table: not a waamflow database; move it away yourself, "
+                    "or restore with --force to delete it"
+                )
             counts = {t: con.execute(f"SELECT count(*) FROM {t}").fetchone()[0] for t in TABLES if t in have}
             con.execute("PRAGMA journal_mode=DELETE")  # the kept copy is one self-contained file
         finally:
             con.close()
     except sqlite3.DatabaseError as e:
-        raise BackupError(f"{db} cannot be read as a database ({e}): move it away yourself, or restore "
-                          "with --force to delete it") from None
+        raise BackupError(
+            f"{db} cannot be read as a database ({e}): move it away yourself, or restore with --force to delete it"
+        ) from None
     if ok != "ok":
         raise BackupError(f"{db}: integrity check failed ({ok}): restore with --force to delete it")
     return counts
@@ -191,9 +203,9 @@ def _replace_database(src: Path, data: Path, manifest: dict, force: bool) -> dic
         counts = _checkpoint(db)
         aside = data / f"{DB}.before-restore-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
         os.replace(db, aside)
-        wal.unlink(missing_ok=True)   # empty after the checkpoint
+        wal.unlink(missing_ok=True)  # empty after the checkpoint
         shm.unlink(missing_ok=True)
-        again = _counts(aside)          # the copy as it lies on disk now, without any WAL
+        again = _counts(aside)  # the copy as it lies on disk now, without any WAL
         if again != {t: counts.get(t, 0) for t in TABLES}:
             raise BackupError(f"{aside}: after setting it aside it holds {again}, before {counts}")
         kept = {"path": str(aside), "counts": again}

@@ -46,15 +46,27 @@ class Builds:
         recipe = parse_recipe(run["recipe"])
         xml = self.svc.store.get_run_params_xml(run["id"])
         graph = build_graph(recipe)
-        result = execute(graph, resolver=self.svc.resolver_for(run["graph"], recipe, xml), cache=self.svc.cache,
-                         artifacts=False, preflight=False, workers=self.svc.settings.layer_workers,
-                         scheduler=self.svc.settings.scheduler)
+        result = execute(
+            graph,
+            resolver=self.svc.resolver_for(run["graph"], recipe, xml),
+            cache=self.svc.cache,
+            artifacts=False,
+            preflight=False,
+            workers=self.svc.settings.layer_workers,
+            scheduler=self.svc.settings.scheduler,
+        )
         toolpath, src = program_toolpath(graph, result.outputs)
         post_id = next((nid for nid in graph.order if graph.nodes[nid].type == "post-process"), None)
         return toolpath, (post_callable(graph, post_id) if post_id else None), src, graph
 
-    def create(self, run_id: str, who: str | None, window: Window, interpass_c: float | None = None,
-               max_dwell_s: float | None = None) -> BuildSession:
+    def create(
+        self,
+        run_id: str,
+        who: str | None,
+        window: Window,
+        interpass_c: float | None = None,
+        max_dwell_s: float | None = None,
+    ) -> BuildSession:
         run = self.svc.store.get_run(run_id)
         if run is None:
             raise BuildNotFound(f"no run {run_id!r}")
@@ -64,9 +76,16 @@ class Builds:
         rule = dwell_rule_of(graph, interpass_c, max_dwell_s)
         build_id = secrets.token_hex(6)
         folder = self.root / build_id
-        meta = {"id": build_id, "run": run_id, "graph": run["graph"], "toolpath_node": src,
-                "layers": sum(1 for x in toolpath.items if x is not None), "window": window.__dict__, "by": who,
-                "interpass": rule.to_dict()}
+        meta = {
+            "id": build_id,
+            "run": run_id,
+            "graph": run["graph"],
+            "toolpath_node": src,
+            "layers": sum(1 for x in toolpath.items if x is not None),
+            "window": window.__dict__,
+            "by": who,
+            "interpass": rule.to_dict(),
+        }
         s = BuildSession.create(folder, toolpath, meta, who=who, post=post, window=window)
         self._sessions[build_id] = s
         return s
@@ -95,7 +114,15 @@ class Builds:
             f = d / "state.json"
             if f.is_file():
                 st = json.loads(f.read_text(encoding="utf-8"))
-                out.append({"id": d.name, "run": st["meta"]["run"], "graph": st["meta"].get("graph"),
-                            "status": st["status"], "created": st["created"], "layers_planned": st["meta"]["layers"],
-                            "layers_scanned": len(st.get("layers", []))})
+                out.append(
+                    {
+                        "id": d.name,
+                        "run": st["meta"]["run"],
+                        "graph": st["meta"].get("graph"),
+                        "status": st["status"],
+                        "created": st["created"],
+                        "layers_planned": st["meta"]["layers"],
+                        "layers_scanned": len(st.get("layers", [])),
+                    }
+                )
         return out

@@ -31,10 +31,26 @@ ServicesDep = Annotated[Services, Depends(get_services)]
 UserDep = Annotated[str | None, Depends(get_user)]
 ClientDep = Annotated[str | None, Depends(get_client)]
 
-GraphName = Annotated[str, Path(pattern=GRAPH_NAME_PATTERN, min_length=1, max_length=80, examples=["rectangle-study"],
-                                description="graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars")]
-FileName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120,
-                               description="file name: letters, digits, _ . - (no '..'); ≤ 120 chars")]
+GraphName = Annotated[
+    str,
+    Path(
+        pattern=GRAPH_NAME_PATTERN,
+        min_length=1,
+        max_length=80,
+        examples=["rectangle-study"],
+        description="graph name: letters, digits, space, _ . - (no '..'); ≤ 80 chars",
+    ),
+]
+FileName = Annotated[
+    str,
+    Path(
+        pattern=FILE_NAME_PATTERN,
+        min_length=1,
+        max_length=120,
+        description="file name: letters, digits, _ . - (no '..'); ≤ 120 chars",
+    ),
+]
 RunId = Annotated[str, Path(pattern=RUN_ID_PATTERN, description="run id (letters and digits)")]
-ArtifactName = Annotated[str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120,
-                                   description="artifact file name")]
+ArtifactName = Annotated[
+    str, Path(pattern=FILE_NAME_PATTERN, min_length=1, max_length=120, description="artifact file name")
+]

@@ -54,14 +54,16 @@ class BodyTooLarge(HTTPException):
     HTTPException: a Starlette one whose detail may be the error dict, not only a string)."""
 
     def __init__(self, limit: int, what: str) -> None:
-        super().__init__(413, detail={"kind": "too_large",
-                                      "message": f"{what} larger than {limit / 2**20:g} MB: refused"})
+        super().__init__(
+            413, detail={"kind": "too_large", "message": f"{what} larger than {limit / 2**20:g} MB: refused"}
+        )
 
 
 class BodyTimeout(HTTPException):
     def __init__(self, seconds: float) -> None:
-        super().__init__(408, detail={"kind": "timeout",
-                                      "message": f"request body not received: nothing arrived for {seconds:g} s"})
+        super().__init__(
+            408, detail={"kind": "timeout", "message": f"request body not received: nothing arrived for {seconds:g} s"}
+        )
 
 
 class BodyLimitMiddleware:
@@ -91,10 +93,16 @@ class BodyLimitMiddleware:
             except ValueError:
                 return await send_error(send, 400, {"message": f"invalid Content-Length {declared[:40]!r}"})
             if n > limit:
-                return await send_error(send, 413, {"kind": "too_large", "message":
-                                        f"{what} of {n / 2**20:.1f} MB is larger than {limit / 2**20:g} MB: refused "
-                                        "before reading it" + (" (max_upload_mb)" if upload else " (max_body_mb)")},
-                                        {"Connection": "close"})
+                return await send_error(
+                    send,
+                    413,
+                    {
+                        "kind": "too_large",
+                        "message": f"{what} of {n / 2**20:.1f} MB is larger than {limit / 2**20:g} MB: refused "
+                        "before reading it" + (" (max_upload_mb)" if upload else " (max_body_mb)"),
+                    },
+                    {"Connection": "close"},
+                )
         seen = 0
         complete = False
         timeout = self.timeout_s
@@ -141,7 +149,7 @@ def host_name(value: str | None) -> str | None:
         v = v.split("://", 1)[1]
     v = v.split("/", 1)[0]
     if v.startswith("["):
-        return v[1:v.find("]")] if "]" in v else None
+        return v[1 : v.find("]")] if "]" in v else None
     return v.rsplit(":", 1)[0] if v.count(":") == 1 else v
 
 
@@ -189,19 +197,29 @@ class HostOriginMiddleware:
         raw_host = _header(scope, b"host")
         host = host_name(raw_host)
         if not self.host_ok(host):
-            msg = (f"Host {raw_host!r} is not served here: without a token this server answers only requests "
-                   "addressed to this machine (DNS-rebinding protection); add the name with WAAMFLOW_ALLOWED_HOSTS "
-                   "or serve with a token")
+            msg = (
+                f"Host {raw_host!r} is not served here: without a token this server answers only requests "
+                "addressed to this machine (DNS-rebinding protection); add the name with WAAMFLOW_ALLOWED_HOSTS "
+                "or serve with a token"
+            )
             if scope["type"] == "websocket":
                 return await send({"type": "websocket.close", "code": 1008, "reason": "host not allowed"})
             return await send_error(send, 421, {"kind": "misdirected", "message": msg})
         origin = _header(scope, b"origin")
-        checked = scope["type"] == "websocket" or scope.get("method") not in self.SAFE \
-            or scope["path"].endswith("/events")
-        if checked and origin is not None and origin != "null" \
-                and _authority(origin) != _authority(raw_host) and origin.rstrip("/").lower() not in self.cors:
-            msg = (f"Origin {origin!r} may not use this server from a browser (cross-site request): open the GUI "
-                   "from the server's own address, or add the origin to WAAMFLOW_CORS_ORIGINS")
+        checked = (
+            scope["type"] == "websocket" or scope.get("method") not in self.SAFE or scope["path"].endswith("/events")
+        )
+        if (
+            checked
+            and origin is not None
+            and origin != "null"
+            and _authority(origin) != _authority(raw_host)
+            and origin.rstrip("/").lower() not in self.cors
+        ):
+            msg = (
+                f"Origin {origin!r} may not use this server from a browser (cross-site request): open the GUI "
+                "from the server's own address, or add the origin to WAAMFLOW_CORS_ORIGINS"
+            )
             if scope["type"] == "websocket":
                 return await send({"type": "websocket.close", "code": 1008, "reason": "origin not allowed"})
             return await send_error(send, 403, {"kind": "forbidden", "message": msg})
@@ -220,7 +238,7 @@ class AuthThrottle:
         self.per_minute = per_minute
         self.max_wait_s = max_wait_s
         self.failures: dict[str, deque] = {}
-        self.blocked_until: dict[str, tuple[float, int]] = {}   # address → (until, refusals so far)
+        self.blocked_until: dict[str, tuple[float, int]] = {}  # address → (until, refusals so far)
         self.lock = threading.Lock()
 
     def retry_after(self, addr: str, now: float | None = None) -> float:
@@ -239,9 +257,9 @@ class AuthThrottle:
                 q.popleft()
             if len(q) > self.per_minute:
                 _, n = self.blocked_until.get(addr, (0.0, 0))
-                wait = min(self.max_wait_s, (q[0] + 60.0 - now) * 2 ** n if n else q[0] + 60.0 - now)
+                wait = min(self.max_wait_s, (q[0] + 60.0 - now) * 2**n if n else q[0] + 60.0 - now)
                 self.blocked_until[addr] = (now + max(1.0, wait), n + 1)
-            if len(self.failures) > 10_000:   # a flood of addresses must not grow this without bound
+            if len(self.failures) > 10_000:  # a flood of addresses must not grow this without bound
                 for a in [a for a, d in self.failures.items() if not d or d[-1] < now - 60.0]:
                     self.failures.pop(a, None)
 
@@ -265,7 +283,9 @@ class ThrottleAuditMiddleware:
         if scope["type"] not in ("http", "websocket"):
             return await self.app(scope, receive, send)
         addr = client_address(scope) or "?"
-        has_token = _header(scope, b"authorization") is not None or "waamflow_token=" in (_header(scope, b"cookie") or "")
+        has_token = _header(scope, b"authorization") is not None or "waamflow_token=" in (
+            _header(scope, b"cookie") or ""
+        )
         if self.throttle is not None and has_token:
             wait = self.throttle.retry_after(addr)
             if wait > 0:
@@ -289,8 +309,10 @@ class ThrottleAuditMiddleware:
             await self.app(scope, receive, watch)
         finally:
             code = status[0]
-            failed_login = has_token and (code == 401 or (scope["type"] == "websocket" and code == 1008
-                                                           and (scope.get("state") or {}).get("user") is None))
+            failed_login = has_token and (
+                code == 401
+                or (scope["type"] == "websocket" and code == 1008 and (scope.get("state") or {}).get("user") is None)
+            )
             if self.throttle is not None and has_token:
                 if failed_login:
                     self.throttle.failed(addr)
@@ -299,7 +321,7 @@ class ThrottleAuditMiddleware:
             if self.audit is not None and code:
                 try:
                     self.audit(scope, code if not failed_login else 401)
-                except Exception:   # the audit must never turn an answer into an error
+                except Exception:  # the audit must never turn an answer into an error
                     log.exception("audit entry not written")
 
 
@@ -314,7 +336,11 @@ def audit_action(scope, status: int) -> tuple[str, str | None, dict] | None:
     if status >= 400:
         return None
     if method == "POST" and path == "/api/preview":
-        return "preview", state.get("audit_target"), {"node": state.get("audit_node"), "layer": state.get("audit_layer")}
+        return (
+            "preview",
+            state.get("audit_target"),
+            {"node": state.get("audit_node"), "layer": state.get("audit_layer")},
+        )
     if method == "POST" and path.startswith("/api/viewer/"):
         return "viewer_" + path.rsplit("/", 1)[-1], None, {}
     if scope["type"] == "websocket" and path.startswith("/viewer") and status == 101:
@@ -335,6 +361,8 @@ def store_auditor(get_store: Callable[[Any], Any]) -> Callable[[dict, int], None
             return
         action, target, detail = got
         who = (scope.get("state") or {}).get("user")
-        store.audit(who, action, target, {**{k: v for k, v in detail.items() if v is not None},
-                                          "client": client_address(scope)})
+        store.audit(
+            who, action, target, {**{k: v for k, v in detail.items() if v is not None}, "client": client_address(scope)}
+        )
+
     return write

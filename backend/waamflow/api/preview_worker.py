@@ -24,8 +24,17 @@ from fastapi import HTTPException
 
 from ..core.errors import CancelledError, PlanningError, RecipeError, WaamflowError
 from .tree_memory import Tree, start_tree, tree_limit_message
-from .worker import (CANCEL_GRACE_S, PREVIEW_WAIT_S, LimitError, QueueFullError, RunManager, _child_cache,
-                     is_memory_error, memory_limit_message, rss_bytes)
+from .worker import (
+    CANCEL_GRACE_S,
+    PREVIEW_WAIT_S,
+    LimitError,
+    QueueFullError,
+    RunManager,
+    _child_cache,
+    is_memory_error,
+    memory_limit_message,
+    rss_bytes,
+)
 
 log = logging.getLogger("waamflow.preview")
 
@@ -73,7 +82,7 @@ def _preview_child(cache: Any, conn: Any, stop: Any) -> None:
         out = _answer(fn, cache, stop, args)
         try:
             conn.send(out)
-        except Exception as exc:   # a result that does not pickle
+        except Exception as exc:  # a result that does not pickle
             conn.send(("internal", f"the preview's result could not be sent back: {exc!r}"))
 
 
@@ -87,7 +96,7 @@ class PreviewWorker:
         self.tree: Tree | None = None
         self.conn: Any = None
         self.stop: Any = None
-        self.started = 0   # processes started (1 + restarts)
+        self.started = 0  # processes started (1 + restarts)
 
     def _ensure(self) -> Tree:
         if self.tree is not None and self.tree.proc.is_alive():
@@ -96,8 +105,13 @@ class PreviewWorker:
         ctx = mp.get_context("fork")
         mine, theirs = ctx.Pipe()
         self.stop = ctx.Event()
-        self.tree = start_tree(self.manager._quiet_sqlite, self.manager.limits.run_memory_bytes, _preview_child,
-                               (self.manager.cache, theirs, self.stop), f"preview-{self.k}")
+        self.tree = start_tree(
+            self.manager._quiet_sqlite,
+            self.manager.limits.run_memory_bytes,
+            _preview_child,
+            (self.manager.cache, theirs, self.stop),
+            f"preview-{self.k}",
+        )
         theirs.close()
         self.conn = mine
         self.started += 1
@@ -117,7 +131,7 @@ class PreviewWorker:
         self.stop.clear()
         try:
             self.conn.send((fn, args))
-        except OSError:   # it ended since (killed while idle): a new one takes the preview
+        except OSError:  # it ended since (killed while idle): a new one takes the preview
             self.close()
             tree = self._ensure()
             self.stop.clear()
@@ -136,7 +150,7 @@ class PreviewWorker:
             if cancel.is_set():
                 self.stop.set()
                 cancelled_at = cancelled_at or time.monotonic()
-                if time.monotonic() - cancelled_at > CANCEL_GRACE_S:   # it did not stop: it ends, a new one starts
+                if time.monotonic() - cancelled_at > CANCEL_GRACE_S:  # it did not stop: it ends, a new one starts
                     self.close()
                     raise CancelledError("preview cancelled")
         return self._died(tree)
@@ -147,12 +161,15 @@ class PreviewWorker:
         self.close()
         if tree.out_of_memory():
             used = tree.over_by or (tree.cgroup.peak() if tree.cgroup is not None else 0)
-            raise PreviewStopped("preview stopped: " + tree_limit_message("the preview", budget, used,
-                                                                        tree.watch.processes))
+            raise PreviewStopped(
+                "preview stopped: " + tree_limit_message("the preview", budget, used, tree.watch.processes)
+            )
         code = tree.proc.exitcode
         how = f"signal {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit code {code}"
-        raise PreviewStopped(f"preview stopped: its process ended without a result ({how}); it may have used more "
-                             f"than {budget / 2**20:.0f} MB, its memory limit (run_memory_mb)")
+        raise PreviewStopped(
+            f"preview stopped: its process ended without a result ({how}); it may have used more "
+            f"than {budget / 2**20:.0f} MB, its memory limit (run_memory_mb)"
+        )
 
     def _unpack(self, msg: tuple) -> Any:
         kind = msg[0]
@@ -163,8 +180,11 @@ class PreviewWorker:
         if kind == "memory":
             budget = self.manager.limits.run_memory_bytes
             err = msg[1] or {}
-            raise PreviewStopped("preview stopped: " + memory_limit_message(budget, err, "the preview"),
-                                 node=err.get("node"), layer=err.get("layer"))
+            raise PreviewStopped(
+                "preview stopped: " + memory_limit_message(budget, err, "the preview"),
+                node=err.get("node"),
+                layer=err.get("layer"),
+            )
         if kind == "http":
             raise HTTPException(msg[1], detail=msg[2])
         raise RuntimeError(f"preview failed in its worker: {msg[1]}")
@@ -237,8 +257,9 @@ class PreviewJob:
             if await disconnected():
                 raise PreviewStopped("preview stopped: the client left before its turn")
             if time.monotonic() - t0 > PREVIEW_WAIT_S:
-                raise QueueFullError(f"{m.workers} previews are computing and others wait: try again in a moment",
-                                     retry_after=1)
+                raise QueueFullError(
+                    f"{m.workers} previews are computing and others wait: try again in a moment", retry_after=1
+                )
             await asyncio.sleep(0.02)
 
     async def run(self, disconnected: Callable[[], Any]) -> Any:
@@ -249,7 +270,7 @@ class PreviewJob:
             await self._turn(disconnected)
             computing = True
             fut = asyncio.get_running_loop().run_in_executor(None, self._work, self.cancel)
-            t0 = time.monotonic()   # the time limit counts from the preview's turn
+            t0 = time.monotonic()  # the time limit counts from the preview's turn
             while True:
                 done, _ = await asyncio.wait({fut}, timeout=0.1)
                 if done:

@@ -69,9 +69,12 @@ class RunEvent(BaseModel):
     section: str | None = None
     message: str | None = None
     seconds: float | None = None
-    compute_seconds: float | None = Field(None, description="node_finished of a layer node: seconds spent on its "
-                                          "layers in any process (in a parallel run a chain's first node's `seconds` "
-                                          "also holds its followers' layers)")
+    compute_seconds: float | None = Field(
+        None,
+        description="node_finished of a layer node: seconds spent on its "
+        "layers in any process (in a parallel run a chain's first node's `seconds` "
+        "also holds its followers' layers)",
+    )
     cached: bool | None = None
     error: dict[str, Any] | None = None
 
@@ -115,9 +118,22 @@ class SectionPathJSON(BaseModel):
 
 
 # ---- the one error model of every 4xx answer --------------------------------------------------
-ERROR_KINDS = ("bad_request", "unauthorized", "forbidden", "not_found", "method_not_allowed", "conflict", "too_large",
-               "invalid_request", "invalid_recipe", "invalid_input", "planning_failed", "outside_sandbox",
-               "busy", "error")
+ERROR_KINDS = (
+    "bad_request",
+    "unauthorized",
+    "forbidden",
+    "not_found",
+    "method_not_allowed",
+    "conflict",
+    "too_large",
+    "invalid_request",
+    "invalid_recipe",
+    "invalid_input",
+    "planning_failed",
+    "outside_sandbox",
+    "busy",
+    "error",
+)
 
 
 class ValidationItem(BaseModel):
@@ -146,21 +162,39 @@ class ConflictDetail(ErrorDetail):
     """A 409: a read-only example (only the error fields), or a stale If-Match (also both versions)."""
 
     yours: Any = Field(None, description="stale If-Match: the body that was sent (recipe JSON or XML text)")
-    theirs: dict[str, Any] | None = Field(None, description='stale If-Match: the stored version, `{"revision": n, '
-                                          '"recipe": {...}}` or `{"revision": n, "xml": "..."}`; null when the '
-                                          'graph was deleted meanwhile')
+    theirs: dict[str, Any] | None = Field(
+        None,
+        description='stale If-Match: the stored version, `{"revision": n, '
+        '"recipe": {...}}` or `{"revision": n, "xml": "..."}`; null when the '
+        "graph was deleted meanwhile",
+    )
 
 
 class ConflictResponse(BaseModel):
     detail: ConflictDetail
 
 
-STATUS_KIND = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found", 405: "method_not_allowed",
-               409: "conflict", 413: "too_large", 422: "invalid_request", 429: "busy"}
-STATUS_TEXT = {400: "Bad request", 401: "Missing or wrong bearer token",
-               403: "The token's role does not allow this (roles: viewer, operator, editor, admin)", 404: "Not found",
-               409: "Conflict (e.g. a read-only example)", 413: "Too large", 422: "Invalid request, recipe or file",
-               429: "Run queue full (see Retry-After)"}
+STATUS_KIND = {
+    400: "bad_request",
+    401: "unauthorized",
+    403: "forbidden",
+    404: "not_found",
+    405: "method_not_allowed",
+    409: "conflict",
+    413: "too_large",
+    422: "invalid_request",
+    429: "busy",
+}
+STATUS_TEXT = {
+    400: "Bad request",
+    401: "Missing or wrong bearer token",
+    403: "The token's role does not allow this (roles: viewer, operator, editor, admin)",
+    404: "Not found",
+    409: "Conflict (e.g. a read-only example)",
+    413: "Too large",
+    422: "Invalid request, recipe or file",
+    429: "Run queue full (see Retry-After)",
+}
 
 
 def error_body(status: int, detail: Any) -> dict:
@@ -198,7 +232,12 @@ def present(field: str, type_: str) -> dict:
 # JSON Schema of "`params_xml` only with `graph`" (null = absent). "`graph` and/or `recipe`" is
 # checked by the server (422) and said in the description: as an anyOf it would turn the generated
 # TypeScript request type into a union the GUI cannot build from optional fields.
-XML_NEEDS_GRAPH = {"anyOf": [{"not": {"required": ["params_xml"]}}, {"properties": {"params_xml": {"type": "null"}}},
-                             present("graph", "string")]}
+XML_NEEDS_GRAPH = {
+    "anyOf": [
+        {"not": {"required": ["params_xml"]}},
+        {"properties": {"params_xml": {"type": "null"}}},
+        present("graph", "string"),
+    ]
+}
 RUN_REQUEST_RULES = {"allOf": [XML_NEEDS_GRAPH]}
 PREVIEW_REQUEST_RULES = {"allOf": [XML_NEEDS_GRAPH]}

@@ -72,7 +72,9 @@ def file_params(model: BaseModel, prefix: str = "") -> list[tuple[str, str]]:
                 if isinstance(v, str) and v:
                     out.append((key if not isinstance(value, (list, tuple)) else f"{key}.{i}", v))
             continue
-        items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, (list, tuple)) else None
+        items = (
+            value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, (list, tuple)) else None
+        )
         if isinstance(value, BaseModel):
             out += file_params(value, key + ".")
         elif items is not None:
@@ -140,8 +142,10 @@ class Services:
         """`runs`, which the app's lifespan makes at startup unless `start_workers` is false: every
         route that queues, reads or cancels a run goes through here (503 without one)."""
         if self.runs is None:
-            raise RunsUnavailable("this server was started without run workers (start_workers false): "
-                                  "it keeps graphs but cannot run them; start it with workers to run")
+            raise RunsUnavailable(
+                "this server was started without run workers (start_workers false): "
+                "it keeps graphs but cannot run them; start it with workers to run"
+            )
         return self.runs
 
     def release_reserve(self) -> int:
@@ -190,8 +194,10 @@ class Services:
             data = self.store.get_file_content(graph_name, digest) if graph_name else None
             if data is None:
                 where = f"graph {graph_name!r}" if graph_name else "an unsaved recipe (save it first)"
-                raise RecipeError(f"file {name!r} is pinned to content sha256 {digest[:12]}… that {where} does not have",
-                                  field=f"files.{name}")
+                raise RecipeError(
+                    f"file {name!r} is pinned to content sha256 {digest[:12]}… that {where} does not have",
+                    field=f"files.{name}",
+                )
             out[name] = data
         return out
 
@@ -223,8 +229,12 @@ class Services:
         # reported) is a run artifact; the GUI offers it as a draft that changes the graph on save.
         if self.viewer is not None:
             # publishing a large part takes seconds: do it beside the run, not inside it
-            threading.Thread(target=self._publish, args=(graph_name or run_id, recipe.to_json(), result.outputs, run_id),
-                             name="waamflow-viewer-publish", daemon=True).start()
+            threading.Thread(
+                target=self._publish,
+                args=(graph_name or run_id, recipe.to_json(), result.outputs, run_id),
+                name="waamflow-viewer-publish",
+                daemon=True,
+            ).start()
 
     def _publish(self, key: str, recipe: dict, outputs: dict, run_id: str) -> None:
         try:
@@ -248,9 +258,15 @@ class Services:
 
             recipe = parse_recipe(run["recipe"])
             xml = self.store.get_run_params_xml(run_id)
-            result = execute(build_graph(recipe), resolver=self.resolver_for(graph_name, recipe, xml), cache=self.cache,
-                             cancel=cancel, artifacts=False, workers=self.settings.layer_workers,
-                             scheduler=self.settings.scheduler)
+            result = execute(
+                build_graph(recipe),
+                resolver=self.resolver_for(graph_name, recipe, xml),
+                cache=self.cache,
+                cancel=cancel,
+                artifacts=False,
+                workers=self.settings.layer_workers,
+                scheduler=self.settings.scheduler,
+            )
             return recipe.to_json(), result.outputs
 
         return run_id, rebuild
@@ -316,24 +332,29 @@ def seed_examples(svc: Services) -> None:
         try:
             st = path.stat()
             size = st.st_size if stat.S_ISREG(st.st_mode) else 0
-            limit = svc.settings.max_body_mb * 2**20   # checked before reading: the limit of PUT /api/graphs
+            limit = svc.settings.max_body_mb * 2**20  # checked before reading: the limit of PUT /api/graphs
             if size > limit:
-                raise ExampleNotLoaded(f"{size / 2**20:.2f} MB, over the {svc.settings.max_body_mb:g} MB recipe "
-                                       "limit (max_body_mb): raise WAAMFLOW_MAX_BODY_MB or make the file smaller")
+                raise ExampleNotLoaded(
+                    f"{size / 2**20:.2f} MB, over the {svc.settings.max_body_mb:g} MB recipe "
+                    "limit (max_body_mb): raise WAAMFLOW_MAX_BODY_MB or make the file smaller"
+                )
             # through the file gate: a FIFO named *.json in the graphs folder must not hang the start
             raw = read_regular(path, int(limit), label=path.name)
             try:
                 data = json.loads(raw.decode("utf-8"))
             except (UnicodeDecodeError, json.JSONDecodeError) as e:
-                raise ExampleNotLoaded(f"not valid JSON ({type(e).__name__} at character "
-                                       f"{getattr(e, 'pos', getattr(e, 'start', '?'))})") from None
+                raise ExampleNotLoaded(
+                    f"not valid JSON ({type(e).__name__} at character {getattr(e, 'pos', getattr(e, 'start', '?'))})"
+                ) from None
             recipe = parse_recipe(data)
         except Exception as e:  # a broken example must not stop the server; it is listed with the reason
-            reason = str(e) if isinstance(e, (ExampleNotLoaded, InputFileError, RecipeError)) else \
-                f"cannot be read ({type(e).__name__})"
+            reason = (
+                str(e)
+                if isinstance(e, (ExampleNotLoaded, InputFileError, RecipeError))
+                else f"cannot be read ({type(e).__name__})"
+            )
             log.warning("example %s not loaded: %s", path.name, reason)
-            svc.unloaded[name] = {"file": path.name, "size": size, "reason": reason,
-                                  "updated": _mtime(path)}
+            svc.unloaded[name] = {"file": path.name, "size": size, "reason": reason, "updated": _mtime(path)}
             continue
         svc.store.put_graph(name, recipe.to_json(), example=True)
         for fname in params_file_names(recipe):

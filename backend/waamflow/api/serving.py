@@ -24,7 +24,7 @@ class GuardedH11Protocol(H11Protocol):
     max_connections = 1000
     max_per_client = 64
     header_timeout_s = 10.0
-    per_client: dict = {}   # client address → open connections (one dict per configured subclass)
+    per_client: dict = {}  # client address → open connections (one dict per configured subclass)
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         self._head_timer: asyncio.TimerHandle | None = None
@@ -32,7 +32,7 @@ class GuardedH11Protocol(H11Protocol):
         super().connection_made(transport)
         addr = self.client[0] if self.client else "?"
         if len(self.connections) > self.max_connections or self.per_client.get(addr, 0) >= self.max_per_client:
-            transport.abort()   # one address cannot take every connection from the others
+            transport.abort()  # one address cannot take every connection from the others
             return
         self.per_client[addr] = self.per_client.get(addr, 0) + 1
         self._counted = addr
@@ -105,6 +105,10 @@ def uvicorn_options(settings) -> dict:
         header_timeout_s = settings.header_timeout_s
         per_client: dict = {}
 
-    return dict(http=Protocol, timeout_keep_alive=int(max(1, settings.keep_alive_s)),
-                h11_max_incomplete_event_size=settings.max_header_kb * 1024,
-                limit_concurrency=cap, backlog=min(2048, cap))
+    return dict(
+        http=Protocol,
+        timeout_keep_alive=int(max(1, settings.keep_alive_s)),
+        h11_max_incomplete_event_size=settings.max_header_kb * 1024,
+        limit_concurrency=cap,
+        backlog=min(2048, cap),
+    )

@@ -5,6 +5,7 @@ Vite names every file under `assets/` after a hash of its content, so a browser 
 assets are gzip-compressed once per file version (kept in memory: the bundle is a few files) for
 clients that accept gzip.
 """
+
 from __future__ import annotations
 
 import gzip
@@ -48,8 +49,11 @@ class CompressedAssets(StaticFiles):
         if isinstance(resp, FileResponse) and resp.status_code == 200:
             file = Path(resp.path)
             if file.suffix in COMPRESSIBLE and file.stat().st_size >= MIN_SIZE and _accepts_gzip(scope):
-                resp = Response(self._gzipped(file), media_type=resp.media_type,
-                                headers={"Content-Encoding": "gzip", "ETag": resp.headers.get("etag", "")})
+                resp = Response(
+                    self._gzipped(file),
+                    media_type=resp.media_type,
+                    headers={"Content-Encoding": "gzip", "ETag": resp.headers.get("etag", "")},
+                )
             resp.headers["Vary"] = "Accept-Encoding"
         if resp.status_code in (200, 304):
             resp.headers["Cache-Control"] = IMMUTABLE
@@ -97,8 +101,12 @@ class ViewerClientPage:
 
     def response(self, digest: str, accept_gzip: bool) -> Response:
         if digest != self.digest:  # an old hash after a viser upgrade: the page asks health again
-            return Response("no such viewer page version", status_code=404, media_type="text/plain",
-                            headers={"Cache-Control": "no-cache"})
+            return Response(
+                "no such viewer page version",
+                status_code=404,
+                media_type="text/plain",
+                headers={"Cache-Control": "no-cache"},
+            )
         headers = {"Cache-Control": IMMUTABLE, "Vary": "Accept-Encoding", "ETag": f'"{self.digest}"'}
         if accept_gzip:
             headers["Content-Encoding"] = "gzip"
@@ -110,6 +118,7 @@ def mount_viewer_client(app) -> ViewerClientPage | None:
     page = ViewerClientPage.find()
     if page is None:
         return None
+
     @app.get(ViewerClientPage.PREFIX + "{digest}/index.html", include_in_schema=False)
     def viewer_client(digest: str, request: Request) -> Response:
         return page.response(digest, _accepts_gzip(request.scope))

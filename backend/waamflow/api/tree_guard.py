@@ -21,9 +21,9 @@ POLL_S = 0.25
 
 def _watch(pgid: int, parent: int) -> None:
     while True:
-        if os.getppid() != parent:   # reparented: the leader has gone
+        if os.getppid() != parent:  # reparented: the leader has gone
             try:
-                os.killpg(pgid, signal.SIGKILL)   # the fork server (this process) and its workers
+                os.killpg(pgid, signal.SIGKILL)  # the fork server (this process) and its workers
             except OSError:
                 pass
             return
@@ -33,7 +33,7 @@ def _watch(pgid: int, parent: int) -> None:
 def _start() -> None:
     want = os.environ.get("WAAMFLOW_TREE_PGID", "")
     if not want.isdigit() or os.getpgid(0) != int(want) or os.getpid() == int(want):
-        return   # not in a run's tree (or the leader itself): leave the group alone
+        return  # not in a run's tree (or the leader itself): leave the group alone
     threading.Thread(target=_watch, args=(int(want), os.getppid()), name="waamflow-tree-guard", daemon=True).start()
 
 

@@ -31,10 +31,10 @@ from typing import Any, Callable, ContextManager
 
 log = logging.getLogger("waamflow.runs")
 
-SAMPLE_S = 0.15   # how often the tree's memory is summed
-RESCAN_S = 0.5    # how often its processes are looked up again (a full /proc scan: ~8 ms on a busy box)
+SAMPLE_S = 0.15  # how often the tree's memory is summed
+RESCAN_S = 0.5  # how often its processes are looked up again (a full /proc scan: ~8 ms on a busy box)
 CGROUP_PREFIX = "waamflow-"
-TREE_GUARD = "waamflow.api.tree_guard"   # preloaded by a tree's fork server
+TREE_GUARD = "waamflow.api.tree_guard"  # preloaded by a tree's fork server
 
 
 def private_bytes(pid: int) -> int:
@@ -50,7 +50,7 @@ def private_bytes(pid: int) -> int:
         pass
     except (OSError, ValueError, IndexError):
         return 0
-    try:   # no smaps_rollup (old kernels): resident minus shared pages
+    try:  # no smaps_rollup (old kernels): resident minus shared pages
         with open(f"/proc/{pid}/statm", "rb") as f:
             fields = f.read().split()
         return max(0, int(fields[1]) - int(fields[2])) * os.sysconf("SC_PAGE_SIZE")
@@ -73,7 +73,7 @@ def group_pids(pgid: int) -> list[int]:
                 stat = f.read()
         except OSError:
             continue
-        rest = stat[stat.rfind(b")") + 2:].split()   # after "pid (comm) ": state ppid pgrp ...
+        rest = stat[stat.rfind(b")") + 2 :].split()  # after "pid (comm) ": state ppid pgrp ...
         if len(rest) > 2 and rest[0] != b"Z" and int(rest[2]) == pgid:
             out.append(int(name))
     return out
@@ -116,19 +116,23 @@ class TreeWatch:
 
 def tree_limit_message(what: str, budget: int, used: int, processes: int, where: str = "") -> str:
     """The failure of a tree over its budget, naming the limit and how to raise it."""
-    return (f"{what} used {used / 2**20:.0f} MB of memory in {processes} process{'es' if processes != 1 else ''} "
-            f"together{where}, more than {budget / 2**20:.0f} MB, its memory limit (run_memory_mb, for the run's "
-            "whole process tree: the run and its layer workers): raise --run-memory-mb / WAAMFLOW_RUN_MEMORY_MB, "
-            "or make the work smaller (fewer layers, a coarser mesh)")
+    return (
+        f"{what} used {used / 2**20:.0f} MB of memory in {processes} process{'es' if processes != 1 else ''} "
+        f"together{where}, more than {budget / 2**20:.0f} MB, its memory limit (run_memory_mb, for the run's "
+        "whole process tree: the run and its layer workers): raise --run-memory-mb / WAAMFLOW_RUN_MEMORY_MB, "
+        "or make the work smaller (fewer layers, a coarser mesh)"
+    )
 
 
 # ---- cgroup v2 ------------------------------------------------------------------------------------
 
+
 def _own_cgroup_dir() -> Path | None:
     """This process's cgroup v2 directory, or None (no unified hierarchy mounted)."""
     try:
-        rel = next(line[3:].strip() for line in Path("/proc/self/cgroup").read_text().splitlines()
-                   if line.startswith("0::"))
+        rel = next(
+            line[3:].strip() for line in Path("/proc/self/cgroup").read_text().splitlines() if line.startswith("0::")
+        )
         mounts = [line.split() for line in Path("/proc/self/mounts").read_text().splitlines()]
     except (OSError, StopIteration):
         return None
@@ -165,13 +169,13 @@ class Cgroup:
         self.path.mkdir(exist_ok=True)
         (self.path / "memory.max").write_text(str(budget))
         try:
-            (self.path / "memory.oom.group").write_text("1")   # over the budget, the whole tree ends
+            (self.path / "memory.oom.group").write_text("1")  # over the budget, the whole tree ends
         except OSError:
             pass
         try:
             (self.path / "memory.swap.max").write_text("0")
         except OSError:
-            pass   # no swap accounting: memory.max alone
+            pass  # no swap accounting: memory.max alone
 
     def add(self, pid: int) -> None:
         (self.path / "cgroup.procs").write_text(str(pid))
@@ -197,7 +201,7 @@ class Cgroup:
 
     def remove(self) -> None:
         try:
-            self.path.rmdir()   # empty once every process of the tree has ended
+            self.path.rmdir()  # empty once every process of the tree has ended
         except OSError:
             pass
 
@@ -209,6 +213,7 @@ def memory_mode() -> str:
 
 
 # ---- process trees ------------------------------------------------------------------------------
+
 
 def _vm_bytes() -> int:
     """The process's address space now (VmSize), bytes."""
@@ -233,20 +238,25 @@ def _detach_from_server() -> None:
     try:
         import ctypes
 
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
     from multiprocessing import forkserver
 
-    fs = forkserver._forkserver   # the module's functions are bound to this instance: reset it in place
+    fs = forkserver._forkserver  # the module's functions are bound to this instance: reset it in place
     fd = getattr(fs, "_forkserver_alive_fd", None)
     if fd is not None:
         try:
-            os.close(fd)   # the server's fork server must not wait for this process to end
+            os.close(fd)  # the server's fork server must not wait for this process to end
         except OSError:
             pass
-    vars(fs).update(_forkserver_address=None, _forkserver_alive_fd=None, _forkserver_pid=None, _inherited_fds=None,
-                    _lock=threading.Lock())
+    vars(fs).update(
+        _forkserver_address=None,
+        _forkserver_alive_fd=None,
+        _forkserver_pid=None,
+        _inherited_fds=None,
+        _lock=threading.Lock(),
+    )
     # its fork server ends with this process, even killed (tree_guard.py)
     os.environ["WAAMFLOW_TREE_PGID"] = str(os.getpgid(0))
     preload = fs.set_forkserver_preload
@@ -254,7 +264,7 @@ def _detach_from_server() -> None:
     def preload_with_guard(modules: list[str]) -> None:
         preload([TREE_GUARD, *[m for m in modules if m != TREE_GUARD]])
 
-    forkserver.set_forkserver_preload = preload_with_guard   # type: ignore[assignment]
+    forkserver.set_forkserver_preload = preload_with_guard  # type: ignore[assignment]
     preload_with_guard(list(getattr(fs, "_preload_modules", None) or []))
 
 
@@ -269,7 +279,7 @@ def _kill_group(proc) -> None:
             pass
 
 
-_CGROUP: list[Path | None] = []   # where the server creates the trees' cgroups (looked up once)
+_CGROUP: list[Path | None] = []  # where the server creates the trees' cgroups (looked up once)
 
 
 def _cgroup_parent() -> Path | None:
@@ -288,7 +298,7 @@ class Tree:
     proc: Any
     watch: TreeWatch
     cgroup: Cgroup | None
-    over_by: int = 0   # bytes used when the watchdog found the tree over its budget
+    over_by: int = 0  # bytes used when the watchdog found the tree over its budget
 
     def over(self) -> int | None:
         """Bytes used when over the budget (the group is killed), else None."""
@@ -312,15 +322,16 @@ class Tree:
         self.kill()
         self.proc.join(timeout=5.0)
         if self.cgroup is not None:
-            for _ in range(20):   # empty once the killed processes are reaped
+            for _ in range(20):  # empty once the killed processes are reaped
                 if not group_pids(self.proc.pid):
                     break
                 time.sleep(0.05)
             self.cgroup.remove()
 
 
-def start_tree(quiet: Callable[[], ContextManager[Any]], budget: int, target: Callable[..., None], args: tuple,
-               name: str) -> Tree:
+def start_tree(
+    quiet: Callable[[], ContextManager[Any]], budget: int, target: Callable[..., None], args: tuple, name: str
+) -> Tree:
     """Fork `target(*args)` as the leader of a new process tree under `budget` bytes (forked
     within `quiet()`: see RunManager._quiet_sqlite)."""
     parent = _cgroup_parent()
@@ -331,17 +342,20 @@ def start_tree(quiet: Callable[[], ContextManager[Any]], budget: int, target: Ca
         except OSError as e:
             log.warning("%s: no cgroup (%s): the watchdog keeps its memory limit", name, e)
     ctx = mp.get_context("fork")
-    proc = ctx.Process(target=_tree_child, name=f"waamflow-{name}",
-                       args=(target, budget, str(cg.path) if cg is not None else None, args))
+    proc = ctx.Process(
+        target=_tree_child,
+        name=f"waamflow-{name}",
+        args=(target, budget, str(cg.path) if cg is not None else None, args),
+    )
     with quiet():
         proc.start()
     pid = proc.pid
-    if pid is None:   # pragma: no cover - start() sets it
+    if pid is None:  # pragma: no cover - start() sets it
         raise RuntimeError(f"{name}: its process did not start")
-    try:   # the tree's process group: the leader, its fork server and its workers end together
+    try:  # the tree's process group: the leader, its fork server and its workers end together
         os.setpgid(pid, pid)
     except OSError:
-        pass   # it set it itself already (or has ended)
+        pass  # it set it itself already (or has ended)
     return Tree(proc, TreeWatch(pid, 0 if cg is not None else budget), cg)
 
 
@@ -351,7 +365,7 @@ def _tree_child(target: Callable[..., None], budget: int, cgroup: str | None, ar
     import resource
 
     try:
-        os.setpgid(0, 0)   # see _kill_group; the server sets it too
+        os.setpgid(0, 0)  # see _kill_group; the server sets it too
     except OSError:
         pass
     _detach_from_server()

@@ -63,9 +63,14 @@ def mount_viewer_proxy(app: FastAPI) -> None:
         try:
             query = ws.url.query
             secret = getattr(ws.app.state, "viewer_secret", None)
-            upstream = await wsc.connect(f"ws://127.0.0.1:{port}/" + (f"?{query}" if query else ""), subprotocols=protocols or None,
-                                         max_size=None, compression=None, open_timeout=10,
-                                         additional_headers={PROXY_HEADER: secret} if secret else None)
+            upstream = await wsc.connect(
+                f"ws://127.0.0.1:{port}/" + (f"?{query}" if query else ""),
+                subprotocols=protocols or None,
+                max_size=None,
+                compression=None,
+                open_timeout=10,
+                additional_headers={PROXY_HEADER: secret} if secret else None,
+            )
         except Exception as e:
             log.warning("3D preview websocket relay failed: %s", e)
             await ws.close(code=1011)

@@ -59,22 +59,35 @@ class Limits:
     dxf_entities: int = 0
     uncompressed_bytes: int = 0
     preview_s: float = 0.0
-    run_memory_bytes: int = 0   # memory of a run's whole process tree (0: runs in the server process)
+    run_memory_bytes: int = 0  # memory of a run's whole process tree (0: runs in the server process)
 
     @classmethod
     def from_settings(cls, s) -> "Limits":
-        return cls(wall_s=s.run_timeout_s, layers=s.max_layers, points=s.max_points,
-                   artifact_bytes=int(s.max_artifact_mb * 1024 * 1024), memory_bytes=int(s.max_memory_mb * 1024 * 1024),
-                   queue=s.max_queued_runs, triangles=s.max_triangles, dxf_entities=s.max_dxf_entities,
-                   uncompressed_bytes=int(s.max_uncompressed_mb * 2**20), preview_s=s.preview_timeout_s,
-                   run_memory_bytes=int(s.run_memory_mb * 2**20) if RUN_PROCESSES else 0)
+        return cls(
+            wall_s=s.run_timeout_s,
+            layers=s.max_layers,
+            points=s.max_points,
+            artifact_bytes=int(s.max_artifact_mb * 1024 * 1024),
+            memory_bytes=int(s.max_memory_mb * 1024 * 1024),
+            queue=s.max_queued_runs,
+            triangles=s.max_triangles,
+            dxf_entities=s.max_dxf_entities,
+            uncompressed_bytes=int(s.max_uncompressed_mb * 2**20),
+            preview_s=s.preview_timeout_s,
+            run_memory_bytes=int(s.run_memory_mb * 2**20) if RUN_PROCESSES else 0,
+        )
 
     def check_estimate(self, graph, resolver) -> dict:
         """Before a run or preview: its estimate (layers, triangles, DXF entities, 3MF size) against
         these limits → EstimateError (422) naming the estimate; else the estimate."""
         est = estimate(graph, resolver)
-        check_estimate(est, max_layers=self.layers, max_triangles=self.triangles, max_dxf_entities=self.dxf_entities,
-                       max_uncompressed_bytes=self.uncompressed_bytes)
+        check_estimate(
+            est,
+            max_layers=self.layers,
+            max_triangles=self.triangles,
+            max_dxf_entities=self.dxf_entities,
+            max_uncompressed_bytes=self.uncompressed_bytes,
+        )
         return est.to_dict()
 
 
@@ -126,7 +139,7 @@ def _fork_available() -> bool:
         return False
 
 
-RUN_PROCESSES = _fork_available()   # runs in processes of their own under RLIMIT_AS (Linux)
+RUN_PROCESSES = _fork_available()  # runs in processes of their own under RLIMIT_AS (Linux)
 
 
 def where_text(err: dict | None) -> str:
@@ -137,9 +150,11 @@ def where_text(err: dict | None) -> str:
 
 
 def memory_limit_message(budget: int, err: dict | None = None, what: str = "run") -> str:
-    return (f"{what} used more than {budget / 2**20:.0f} MB of memory{where_text(err)}, its memory limit "
-            "(run_memory_mb, for its whole process tree: the run and its layer workers): raise --run-memory-mb / "
-            "WAAMFLOW_RUN_MEMORY_MB, or make the work smaller (fewer layers, a coarser mesh)")
+    return (
+        f"{what} used more than {budget / 2**20:.0f} MB of memory{where_text(err)}, its memory limit "
+        "(run_memory_mb, for its whole process tree: the run and its layer workers): raise --run-memory-mb / "
+        "WAAMFLOW_RUN_MEMORY_MB, or make the work smaller (fewer layers, a coarser mesh)"
+    )
 
 
 def is_memory_error(err: BaseException) -> bool:
@@ -166,7 +181,7 @@ def _child_cache(cache):
 
 
 PREVIEW_WAIT_S = 10.0  # a preview waits this long for its turn before 429
-CANCEL_GRACE_S = 1.5   # a cancelled run whose thread has not ended by then (a blocking read) is ended for it
+CANCEL_GRACE_S = 1.5  # a cancelled run whose thread has not ended by then (a blocking read) is ended for it
 
 
 def point_count(outputs: dict) -> int:
@@ -191,11 +206,11 @@ class LiveRun:
         self.done = threading.Event()
         self.lock = threading.Lock()
         self.limit: str | None = None  # why a limit stopped the run
-        self.finished = False   # _finish ran (once, by the run's thread or the watchdog)
-        self.slot = False       # holds one of the manager's run slots
+        self.finished = False  # _finish ran (once, by the run's thread or the watchdog)
+        self.slot = False  # holds one of the manager's run slots
         # the engine's terminal event, streamed by `_finish` once the run's record is stored
         self.held: dict | None = None
-        self.where: dict = {}   # the node (and layer) of the last event that named one
+        self.where: dict = {}  # the node (and layer) of the last event that named one
 
     def trip(self, reason: str) -> None:
         if self.limit is None:
@@ -212,11 +227,18 @@ class LiveRun:
 
 
 class RunManager:
-    def __init__(self, store: Store, data_dir: Path, cache, workers: int,
-                 resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
-                 on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None,
-                 limits: Limits | None = None, layer_workers: int | None = None,
-                 scheduler: str | None = None) -> None:
+    def __init__(
+        self,
+        store: Store,
+        data_dir: Path,
+        cache,
+        workers: int,
+        resolver_for: Callable[[str | None, Recipe, str | None], FileResolver],
+        on_done: Callable[[str, str | None, Recipe, RunResult], None] | None = None,
+        limits: Limits | None = None,
+        layer_workers: int | None = None,
+        scheduler: str | None = None,
+    ) -> None:
         self.limits = limits or Limits()
         self.layer_workers = layer_workers
         self.scheduler = scheduler
@@ -228,31 +250,38 @@ class RunManager:
         self.slots = threading.BoundedSemaphore(workers)
         self.threads: dict[str, threading.Thread] = {}
         self.closing = False
-        self.previews = 0          # previews waiting or computing (counted in the queue limit)
-        self.computing = 0         # previews computing: at most `workers`, the others wait their turn
+        self.previews = 0  # previews waiting or computing (counted in the queue limit)
+        self.computing = 0  # previews computing: at most `workers`, the others wait their turn
         self.plock = threading.Lock()
-        self.preview_pool: PreviewPool | None = None   # preview workers (with run_memory_mb), made on first use
-        self.trees: dict[str, Tree] = {}   # the process trees of runs going on
+        self.preview_pool: PreviewPool | None = None  # preview workers (with run_memory_mb), made on first use
+        self.trees: dict[str, Tree] = {}  # the process trees of runs going on
         self.live: dict[str, LiveRun] = {}
         self.resolver_for = resolver_for
         self.on_done = on_done
 
-    def submit(self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None, *,
-               accept_preflight: bool = False) -> str:
+    def submit(
+        self, graph_name: str | None, recipe: Recipe, params_xml: str | None = None, *, accept_preflight: bool = False
+    ) -> str:
         """Validate now (so a bad recipe is a 422, not a failed run), then queue. `params_xml` is a
         draft zone-parameter file used for this run only."""
         graph = build_graph(recipe)
         active = self.active()
         if self.limits.queue and active >= self.limits.queue:
-            raise QueueFullError(f"{active} runs are queued or running (limit {self.limits.queue}): try again later",
-                                 retry_after=max(1, min(60, int(self.limits.wall_s or 30) // 10 or 5)))
+            raise QueueFullError(
+                f"{active} runs are queued or running (limit {self.limits.queue}): try again later",
+                retry_after=max(1, min(60, int(self.limits.wall_s or 30) // 10 or 5)),
+            )
         self.limits.check_estimate(graph, self.resolver_for(graph_name, recipe, params_xml))
         run_id = uuid.uuid4().hex[:12]
         self.store.create_run(run_id, graph_name, recipe.to_json(), recipe.inputs, params_xml)
         live = LiveRun(run_id)
         self.live[run_id] = live
-        t = threading.Thread(target=self._slot_run, args=(run_id, graph_name, recipe, graph, live, params_xml,
-                                                          accept_preflight), name=f"waamflow-run-{run_id}", daemon=True)
+        t = threading.Thread(
+            target=self._slot_run,
+            args=(run_id, graph_name, recipe, graph, live, params_xml, accept_preflight),
+            name=f"waamflow-run-{run_id}",
+            daemon=True,
+        )
         self.threads[run_id] = t
         t.start()
         return run_id
@@ -285,8 +314,11 @@ class RunManager:
 
         with self.plock:
             if self.limits.queue and self.active() >= self.limits.queue:
-                raise QueueFullError(f"{self.active()} runs and previews are queued or running (limit "
-                                     f"{self.limits.queue}): try again later", retry_after=2)
+                raise QueueFullError(
+                    f"{self.active()} runs and previews are queued or running (limit "
+                    f"{self.limits.queue}): try again later",
+                    retry_after=2,
+                )
             self.previews += 1
             if self.limits.run_memory_bytes and self.preview_pool is None:
                 self.preview_pool = PreviewPool(self)
@@ -302,11 +334,23 @@ class RunManager:
         live.cancel.set()
         return True
 
-    def _run(self, run_id: str, graph_name: str | None, recipe: Recipe, graph, live: LiveRun,
-             params_xml: str | None = None, accept_preflight: bool = False) -> None:
+    def _run(
+        self,
+        run_id: str,
+        graph_name: str | None,
+        recipe: Recipe,
+        graph,
+        live: LiveRun,
+        params_xml: str | None = None,
+        accept_preflight: bool = False,
+    ) -> None:
         if live.cancel.is_set():
-            self._finish(run_id, live, "cancelled", error={"kind": "cancelled", "message": "cancelled before start",
-                                                           "text": "cancelled before start"})
+            self._finish(
+                run_id,
+                live,
+                "cancelled",
+                error={"kind": "cancelled", "message": "cancelled before start", "text": "cancelled before start"},
+            )
             return
         self.store.update_run(run_id, status="running", started=time.time())
         last_progress = [0.0]
@@ -320,7 +364,7 @@ class RunManager:
                 live.where = {"node": d["node"], "layer": layer}
             if lim.layers and layer is not None and layer >= lim.layers:
                 live.trip(f"more than {lim.layers} layers (limit max_layers)")
-            if d.get("kind") in TERMINAL_KINDS:   # streamed by _finish, after the record is stored
+            if d.get("kind") in TERMINAL_KINDS:  # streamed by _finish, after the record is stored
                 live.held = d
                 return
             live.add(d)
@@ -336,8 +380,16 @@ class RunManager:
             return self._run_process(run_id, graph_name, recipe, graph, live, params_xml, accept_preflight, on_dict)
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
-            result = execute(graph, resolver=resolver, cache=self.cache, on_event=on_event, cancel=live.cancel,
-                             workers=self.layer_workers, scheduler=self.scheduler, max_layers=lim.layers)
+            result = execute(
+                graph,
+                resolver=resolver,
+                cache=self.cache,
+                on_event=on_event,
+                cancel=live.cancel,
+                workers=self.layer_workers,
+                scheduler=self.scheduler,
+                max_layers=lim.layers,
+            )
             self._check_result(result)
             summary = self._write_result(run_id, recipe, result, accept_preflight)
             self._done(run_id, graph_name, recipe, result, live, summary)
@@ -357,7 +409,9 @@ class RunManager:
         In the run's process or, with run_memory_mb 0, in the server's."""
         summary = result.summary(recipe.name)
         summary["inputs"] = recipe.inputs
-        files, _failed = gate(result.preflight, result.artifacts, accept_preflight, "accept_preflight in POST /api/runs")
+        files, _failed = gate(
+            result.preflight, result.artifacts, accept_preflight, "accept_preflight in POST /api/runs"
+        )
         summary["preflight"] = result.preflight
         summary["artifacts"] = sorted(files)
         write_run_dir(self.run_dir(run_id), files, summary)
@@ -379,15 +433,27 @@ class RunManager:
         in whatever state another thread left them, and a child forked while a store query ran
         hung in its first `sqlite3.connect` (1 run in ~15 under concurrent polling). Every query of
         the store and the cache runs under these locks, so none is inside SQLite at the fork."""
-        locks = [lk for lk in (getattr(self.store, "_lock", None),
-                               getattr(getattr(self.cache, "disk", None), "_lock", None)) if lk is not None]
+        locks = [
+            lk
+            for lk in (getattr(self.store, "_lock", None), getattr(getattr(self.cache, "disk", None), "_lock", None))
+            if lk is not None
+        ]
         with contextlib.ExitStack() as stack:
             for lk in locks:
                 stack.enter_context(lk)
             yield
 
-    def _run_process(self, run_id: str, graph_name: str | None, recipe: Recipe, graph: Any, live: LiveRun,
-                     params_xml: str | None, accept_preflight: bool, on_dict: Callable[[dict], None]) -> None:
+    def _run_process(
+        self,
+        run_id: str,
+        graph_name: str | None,
+        recipe: Recipe,
+        graph: Any,
+        live: LiveRun,
+        params_xml: str | None,
+        accept_preflight: bool,
+        on_dict: Callable[[dict], None],
+    ) -> None:
         """The run in a process tree of its own under the memory limit (see the module's doc)."""
         try:
             resolver = self.resolver_for(graph_name, recipe, params_xml)
@@ -400,8 +466,13 @@ class RunManager:
         outcome = None
         tree: Tree | None = None
         try:
-            tree = start_tree(self._quiet_sqlite, self.limits.run_memory_bytes, _run_child,
-                              (self, writer, stop, run_id, recipe, graph, resolver, accept_preflight), f"run-{run_id}")
+            tree = start_tree(
+                self._quiet_sqlite,
+                self.limits.run_memory_bytes,
+                _run_child,
+                (self, writer, stop, run_id, recipe, graph, resolver, accept_preflight),
+                f"run-{run_id}",
+            )
             self.trees[run_id] = tree
             writer.close()
             outcome = self._await_run(tree, reader, stop, live, on_dict)
@@ -411,18 +482,19 @@ class RunManager:
         finally:
             reader.close()
             if tree is not None:
-                tree.end(patient=outcome is not None)   # whatever is left of the tree ends now
+                tree.end(patient=outcome is not None)  # whatever is left of the tree ends now
                 self.trees.pop(run_id, None)
         self._run_outcome(run_id, graph_name, recipe, live, tree, outcome)
 
-    def _await_run(self, tree: Tree, reader: Any, stop: Any, live: LiveRun,
-                   on_dict: Callable[[dict], None]) -> tuple | None:
+    def _await_run(
+        self, tree: Tree, reader: Any, stop: Any, live: LiveRun, on_dict: Callable[[dict], None]
+    ) -> tuple | None:
         """The run's events until its outcome (None: it ended without one, or was ended)."""
         proc = tree.proc
         while True:
             if live.cancel.is_set():
                 stop.set()
-            if live.finished:   # the watchdog ended a run that did not stop: it is killed by the caller
+            if live.finished:  # the watchdog ended a run that did not stop: it is killed by the caller
                 return None
             if tree.over() is not None:
                 return None
@@ -437,8 +509,15 @@ class RunManager:
             elif not proc.is_alive() and not reader.poll(0):
                 return None
 
-    def _run_outcome(self, run_id: str, graph_name: str | None, recipe: Recipe, live: LiveRun, tree: Tree | None,
-                     outcome: tuple | None) -> None:
+    def _run_outcome(
+        self,
+        run_id: str,
+        graph_name: str | None,
+        recipe: Recipe,
+        live: LiveRun,
+        tree: Tree | None,
+        outcome: tuple | None,
+    ) -> None:
         """The run's record from what its process sent (or did not send)."""
         budget = self.limits.run_memory_bytes
         if tree is not None and tree.out_of_memory() and (outcome is None or outcome[0] != "done"):
@@ -456,9 +535,11 @@ class RunManager:
                 return
             code = tree.proc.exitcode if tree is not None else None
             how = f"signal {signal.Signals(-code).name}" if code is not None and code < 0 else f"exit code {code}"
-            msg = (f"the run's process ended without a result ({how}); it may have used more than "
-                   f"{budget / 2**20:.0f} MB, its memory limit (run_memory_mb): raise --run-memory-mb / "
-                   "WAAMFLOW_RUN_MEMORY_MB")
+            msg = (
+                f"the run's process ended without a result ({how}); it may have used more than "
+                f"{budget / 2**20:.0f} MB, its memory limit (run_memory_mb): raise --run-memory-mb / "
+                "WAAMFLOW_RUN_MEMORY_MB"
+            )
             if live.limit is not None:
                 msg = f"stopped: {live.limit}"
             self._finish(run_id, live, "failed", error=LimitError(msg).to_dict())
@@ -487,7 +568,9 @@ class RunManager:
             if lim.wall_s and time.monotonic() - t0 > lim.wall_s:
                 live.trip(f"ran longer than {lim.wall_s:g} s (limit run_timeout_s)")
             if lim.memory_bytes and rss_bytes() > lim.memory_bytes:
-                live.trip(f"server memory over {lim.memory_bytes / 2**20:.0f} MB with its workers (limit max_memory_mb)")
+                live.trip(
+                    f"server memory over {lim.memory_bytes / 2**20:.0f} MB with its workers (limit max_memory_mb)"
+                )
             if live.cancel.is_set():
                 cancelled_at = cancelled_at or time.monotonic()
                 if time.monotonic() - cancelled_at > CANCEL_GRACE_S:
@@ -497,7 +580,9 @@ class RunManager:
                     if live.limit is not None:
                         self._finish(live.id, live, "failed", error=LimitError(f"stopped: {live.limit}").to_dict())
                     else:
-                        self._finish(live.id, live, "cancelled", error={"kind": "cancelled", "message": why, "text": why})
+                        self._finish(
+                            live.id, live, "cancelled", error={"kind": "cancelled", "message": why, "text": why}
+                        )
                     return
 
     def _check_result(self, result: RunResult) -> None:
@@ -513,13 +598,16 @@ class RunManager:
                 raise WaamflowError(f"artifact name {name!r} is not a plain file name (letters, digits, _ . -)")
         size = sum(len(b) for b in result.artifacts.values())
         if lim.artifact_bytes and size > lim.artifact_bytes:
-            raise LimitError(f"artifacts of {size / 2**20:.1f} MB, over the limit of "
-                             f"{lim.artifact_bytes / 2**20:.0f} MB (max_artifact_mb)")
+            raise LimitError(
+                f"artifacts of {size / 2**20:.1f} MB, over the limit of "
+                f"{lim.artifact_bytes / 2**20:.0f} MB (max_artifact_mb)"
+            )
 
-    def _finish(self, run_id: str, live: LiveRun, status: str, *, summary: dict | None = None,
-                error: dict | None = None) -> None:
+    def _finish(
+        self, run_id: str, live: LiveRun, status: str, *, summary: dict | None = None, error: dict | None = None
+    ) -> None:
         with live.lock:
-            if live.finished:   # ended already (the watchdog ended a run that did not stop)
+            if live.finished:  # ended already (the watchdog ended a run that did not stop)
                 return
             live.finished = True
         kinds: dict[str, EventKind] = {"done": "run_finished", "failed": "run_failed", "cancelled": "run_cancelled"}
@@ -527,9 +615,14 @@ class RunManager:
         held = live.held
         if held is not None and held.get("kind") == kind:
             terminal = held
-        else:   # none, or another (e.g. a limit turns the engine's run_cancelled into run_failed)
-            terminal = Event(kind=kind, seq=len(live.events) + 1, progress=1.0 if status == "done" else 0.0,
-                             message=(error or {}).get("text", status), error=error).to_dict()
+        else:  # none, or another (e.g. a limit turns the engine's run_cancelled into run_failed)
+            terminal = Event(
+                kind=kind,
+                seq=len(live.events) + 1,
+                progress=1.0 if status == "done" else 0.0,
+                message=(error or {}).get("text", status),
+                error=error,
+            ).to_dict()
         # the record first: whoever sees the terminal event finds the run ended, its summary stored
         fields = dict(status=status, finished=time.time(), summary=summary, error=error)
         if status == "done":
@@ -559,21 +652,37 @@ class RunManager:
         deadline = time.monotonic() + 10.0
         for t in list(self.threads.values()):
             t.join(timeout=max(0.0, deadline - time.monotonic()))
-        for tree in list(self.trees.values()):   # runs that did not end in time end now, with every process
+        for tree in list(self.trees.values()):  # runs that did not end in time end now, with every process
             tree.kill()
         if self.preview_pool is not None:
             self.preview_pool.close()
 
 
-def _run_child(manager: RunManager, conn: Any, stop: Any, run_id: str, recipe: Recipe, graph: Any, resolver: Any,
-               accept_preflight: bool) -> None:
+def _run_child(
+    manager: RunManager,
+    conn: Any,
+    stop: Any,
+    run_id: str,
+    recipe: Recipe,
+    graph: Any,
+    resolver: Any,
+    accept_preflight: bool,
+) -> None:
     """A run's process (a tree's leader, see `_tree_child`): execute, check, write the run folder,
     send the summary and the result (without artifacts: they are in the folder) — or why it failed."""
     lim = manager.limits
     try:
         cache = _child_cache(manager.cache)
-        result = execute(graph, resolver=resolver, cache=cache, on_event=lambda ev: conn.send(("event", ev.to_dict())),
-                         cancel=stop, workers=manager.layer_workers, scheduler=manager.scheduler, max_layers=lim.layers)
+        result = execute(
+            graph,
+            resolver=resolver,
+            cache=cache,
+            on_event=lambda ev: conn.send(("event", ev.to_dict())),
+            cancel=stop,
+            workers=manager.layer_workers,
+            scheduler=manager.scheduler,
+            max_layers=lim.layers,
+        )
         manager._check_result(result)
         summary = manager._write_result(run_id, recipe, result, accept_preflight)
         conn.send(("done", summary, dataclasses.replace(result, artifacts={})))

@@ -25,8 +25,12 @@ class AuditEntry(BaseModel):
 
 
 @router.get("/api/audit", response_model=list[AuditEntry], responses=errors(401, 422))
-def audit_log(svc: ServicesDep, limit: int = Query(100, ge=1, le=1000),
-              before: int | None = Query(None, ge=1, le=2**62, description="entries older than this id (paging)"),
-              who: str | None = Query(None, max_length=64), action: str | None = Query(None, max_length=32)) -> list[dict]:
+def audit_log(
+    svc: ServicesDep,
+    limit: int = Query(100, ge=1, le=1000),
+    before: int | None = Query(None, ge=1, le=2**62, description="entries older than this id (paging)"),
+    who: str | None = Query(None, max_length=64),
+    action: str | None = Query(None, max_length=32),
+) -> list[dict]:
     """Newest first."""
     return svc.store.list_audit(limit, before, who, action)

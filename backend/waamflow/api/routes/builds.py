@@ -28,17 +28,28 @@ class BuildRequest(BaseModel):
     run: str = Field(..., pattern=RUN_ID_PATTERN, description="a finished run: its recipe is the plan")
     min_speed_factor: float = Field(0.6, gt=0, le=1, description="slowest adapted speed, × the planned one")
     max_speed_factor: float = Field(1.6, ge=1, le=5, description="fastest adapted speed, × the planned one")
-    interpass_c: float | None = Field(None, gt=-50, le=1500, allow_inf_nan=False,
-                                      description="target interpass temperature (°C) for dwells from measured "
-                                                  "temperatures; default: the recipe's interpass node, else 200 °C")
-    max_dwell_s: float = Field(1800.0, ge=0, le=36000, allow_inf_nan=False,
-                               description="longest interpass dwell a program may hold (s); longer needs are clamped")
+    interpass_c: float | None = Field(
+        None,
+        gt=-50,
+        le=1500,
+        allow_inf_nan=False,
+        description="target interpass temperature (°C) for dwells from measured "
+        "temperatures; default: the recipe's interpass node, else 200 °C",
+    )
+    max_dwell_s: float = Field(
+        1800.0,
+        ge=0,
+        le=36000,
+        allow_inf_nan=False,
+        description="longest interpass dwell a program may hold (s); longer needs are clamped",
+    )
 
 
 class LayerProgram(BaseModel):
     layer: int = Field(..., description="the layer this program builds")
-    adaptation: dict[str, Any] = Field(..., description="what was adapted: speed factors, heights needed, "
-                                                        "samples clamped to the window")
+    adaptation: dict[str, Any] = Field(
+        ..., description="what was adapted: speed factors, heights needed, samples clamped to the window"
+    )
     files: dict[str, str] = Field(..., description="file name → program text of this one layer")
 
 
@@ -54,16 +65,21 @@ class BuildInfo(BaseModel):
 
 class BuildDetail(BuildInfo):
     next_layer: int | None
-    layers: list[dict[str, Any]] = Field(..., description="per scanned layer: coverage, mean/RMS/max top error (mm), "
-                                                          "the interpass temperature measured after it (°C)")
-    programs: list[dict[str, Any]] = Field([], description="per program issued: layer, pass, speed factors, samples "
-                                                           "clamped, interpass dwell (s)")
+    layers: list[dict[str, Any]] = Field(
+        ...,
+        description="per scanned layer: coverage, mean/RMS/max top error (mm), "
+        "the interpass temperature measured after it (°C)",
+    )
+    programs: list[dict[str, Any]] = Field(
+        [], description="per program issued: layer, pass, speed factors, samples clamped, interpass dwell (s)"
+    )
     plan_layers: list[int] = Field([], description="the planned layers' numbers, in build order")
     layers_added: int = Field(0, description="layers laid again (the top more than half a layer low after a scan)")
     layers_dropped: int = Field(0, description="layers left out (the top more than half a layer high)")
     skipped: list[int] = Field([], description="the layers left out")
-    interpass: dict[str, Any] | None = Field(None, description="the interpass dwell rule: target and ambient °C, "
-                                                               "longest dwell s, the heat model")
+    interpass: dict[str, Any] | None = Field(
+        None, description="the interpass dwell rule: target and ambient °C, longest dwell s, the heat model"
+    )
     log: list[dict[str, Any]] = Field(..., description="every step: time (UTC), who, action, detail")
 
 
@@ -73,8 +89,9 @@ class SurfaceLayer(BaseModel):
     x: list[float] = Field(..., description="planned crest x of every path sample (1 mm apart), mm")
     y: list[float]
     z: list[float]
-    deviation: list[float | None] = Field(..., description="measured − planned top height along the build "
-                                                            "direction, mm (null where the scan saw nothing)")
+    deviation: list[float | None] = Field(
+        ..., description="measured − planned top height along the build direction, mm (null where the scan saw nothing)"
+    )
 
 
 class Surface(BaseModel):
@@ -84,8 +101,13 @@ class Surface(BaseModel):
 
 class AsBuiltView(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    view: str | None = Field(None, min_length=1, max_length=64, pattern=r"^[A-Za-z0-9._-]+$",
-                             description="the browser view (one per GUI tab); none: the default view")
+    view: str | None = Field(
+        None,
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9._-]+$",
+        description="the browser view (one per GUI tab); none: the default view",
+    )
     show: bool = Field(True, description="false removes the as-built surface from the view")
 
 
@@ -104,12 +126,24 @@ def _builds(svc) -> Builds:
 def _detail(s) -> BuildDetail:
     sm = s.summary()
     m = sm["meta"]
-    return BuildDetail(id=m["id"], run=m["run"], graph=m.get("graph"), status=sm["status"], created=sm["created"],
-                       layers_planned=sm["layers_planned"], layers_scanned=sm["layers_scanned"],
-                       next_layer=sm["next_layer"], layers=sm["layers"], programs=sm["programs"],
-                       plan_layers=sm["plan_layers"], layers_added=sm["layers_added"],
-                       layers_dropped=sm["layers_dropped"], skipped=sm["skipped"],
-                       interpass=sm["interpass"], log=sm["log"])
+    return BuildDetail(
+        id=m["id"],
+        run=m["run"],
+        graph=m.get("graph"),
+        status=sm["status"],
+        created=sm["created"],
+        layers_planned=sm["layers_planned"],
+        layers_scanned=sm["layers_scanned"],
+        next_layer=sm["next_layer"],
+        layers=sm["layers"],
+        programs=sm["programs"],
+        plan_layers=sm["plan_layers"],
+        layers_added=sm["layers_added"],
+        layers_dropped=sm["layers_dropped"],
+        skipped=sm["skipped"],
+        interpass=sm["interpass"],
+        log=sm["log"],
+    )
 
 
 def _session(svc, build_id: str):
@@ -163,28 +197,57 @@ async def next_program(build_id: BuildId, svc: ServicesDep, user: UserDep) -> La
     return prog
 
 
-@router.post("/{build_id}/scans", response_model=ScanResult, responses=errors(400, 401, 404, 409, 413, 422),
-             openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
-                 "type": "string", "format": "binary", "minLength": 1,
-                 "description": "PLY or XYZ/CSV point cloud, or per-path heights CSV (layer,s,height[,width])"}}},
-                 "required": True}})
-async def post_scan(build_id: BuildId, request: Request, svc: ServicesDep, user: UserDep,
-                    layer: int = Query(..., ge=0, description="the layer the scan is of"),
-                    kind: Literal["cloud", "heights"] = Query("cloud"),
-                    register: bool = Query(False, description="best-fit the scan's frame to the planned top first "
-                                                              "(an uncalibrated scanner; it also removes a uniform error)"),
-                    interpass_temp_c: float | None = Query(
-                        None, ge=-50, le=2000, allow_inf_nan=False, description="the part temperature measured after this layer (°C, −50…2000): the next "
-                                          "layer's program waits until the heat model says the part is at the "
-                                          "build's interpass temperature")
-                    ) -> ScanResult:
+@router.post(
+    "/{build_id}/scans",
+    response_model=ScanResult,
+    responses=errors(400, 401, 404, 409, 413, 422),
+    openapi_extra={
+        "requestBody": {
+            "content": {
+                "application/octet-stream": {
+                    "schema": {
+                        "type": "string",
+                        "format": "binary",
+                        "minLength": 1,
+                        "description": "PLY or XYZ/CSV point cloud, or per-path heights CSV (layer,s,height[,width])",
+                    }
+                }
+            },
+            "required": True,
+        }
+    },
+)
+async def post_scan(
+    build_id: BuildId,
+    request: Request,
+    svc: ServicesDep,
+    user: UserDep,
+    layer: int = Query(..., ge=0, description="the layer the scan is of"),
+    kind: Literal["cloud", "heights"] = Query("cloud"),
+    register: bool = Query(
+        False,
+        description="best-fit the scan's frame to the planned top first "
+        "(an uncalibrated scanner; it also removes a uniform error)",
+    ),
+    interpass_temp_c: float | None = Query(
+        None,
+        ge=-50,
+        le=2000,
+        allow_inf_nan=False,
+        description="the part temperature measured after this layer (°C, −50…2000): the next "
+        "layer's program waits until the heat model says the part is at the "
+        "build's interpass temperature",
+    ),
+) -> ScanResult:
     """The scan of the layer just built: measured against the plan, kept, and answered with the next
     layer's program. A scan of another layer, off the part, empty or with NaNs → 422 with the reason."""
     if interpass_temp_c is not None:
         try:
             check_temperature(interpass_temp_c, "interpass_temp_c")
         except ValueError as err:
-            raise HTTPException(422, detail={"message": str(err), "field": "interpass_temp_c", "layer": layer}) from None
+            raise HTTPException(
+                422, detail={"message": str(err), "field": "interpass_temp_c", "layer": layer}
+            ) from None
     limit = svc.settings.max_upload_mb * 1024 * 1024
     body = await request.body()
     if len(body) > limit:
@@ -219,16 +282,29 @@ async def post_scan(build_id: BuildId, request: Request, svc: ServicesDep, user:
 
 
 @router.get("/{build_id}/surface", response_model=Surface, responses=errors(401, 404, 422))
-async def surface(build_id: BuildId, svc: ServicesDep,
-                  layer: int | None = Query(None, ge=0, description="only this layer (default: every scanned one)")
-                  ) -> Surface:
+async def surface(
+    build_id: BuildId,
+    svc: ServicesDep,
+    layer: int | None = Query(None, ge=0, description="only this layer (default: every scanned one)"),
+) -> Surface:
     """The as-built top of the scanned layers: per path sample the planned crest and the measured
     deviation from it (what the 2D canvas overlays along the path)."""
     s = await run_in_threadpool(_session, svc, build_id)
     rows = [r for r in s.surface() if layer is None or r["layer"] == layer]
-    return Surface(build=build_id, layers=[SurfaceLayer(layer=r["layer"], thickness=r["thickness"], x=_r(r["points"][:, 0]),
-                                                        y=_r(r["points"][:, 1]), z=_r(r["points"][:, 2]),
-                                                        deviation=_r(r["deviation"], 4)) for r in rows])
+    return Surface(
+        build=build_id,
+        layers=[
+            SurfaceLayer(
+                layer=r["layer"],
+                thickness=r["thickness"],
+                x=_r(r["points"][:, 0]),
+                y=_r(r["points"][:, 1]),
+                z=_r(r["points"][:, 2]),
+                deviation=_r(r["deviation"], 4),
+            )
+            for r in rows
+        ],
+    )
 
 
 @router.post("/{build_id}/view", responses=errors(401, 404, 409, 422))
@@ -240,8 +316,9 @@ async def show_in_3d(build_id: BuildId, req: AsBuiltView, svc: ServicesDep) -> d
     s = await run_in_threadpool(_session, svc, build_id)
     layers = s.surface() if req.show else None
     try:
-        legend = await run_in_threadpool(lambda: svc.viewer.show_asbuilt(build_id if req.show else None, layers,
-                                                                         view=req.view))
+        legend = await run_in_threadpool(
+            lambda: svc.viewer.show_asbuilt(build_id if req.show else None, layers, view=req.view)
+        )
     except RuntimeError as err:
         raise HTTPException(409, detail={"message": str(err)}) from None
     return {"build": build_id, "shown": req.show, "legend": legend}

@@ -19,6 +19,7 @@ from ..auth import DEFAULT_ROLE
 from ..schemas import ConflictResponse, error_body, errors
 from ..store import RevisionConflict
 
+
 def _owned(request: Request) -> None:
     """Every change under /api/graphs/{name} (recipe, parameter XML, files, delete): an editor changes
     only the graphs it created, an admin any (#26 fault 7). A name not in use is the saver's; a
@@ -35,9 +36,15 @@ def _owned(request: Request) -> None:
     owner, user = store.graph_owner(name), getattr(request.state, "user", None)
     if owner is None or owner != user:
         whose = f"belongs to {owner!r}" if owner else "was saved before owners were recorded"
-        raise HTTPException(403, detail={"kind": "forbidden", "message": f"graph {name!r} {whose}: role {role!r} "
-                                         "changes only the graphs it created (an admin changes any; save yours "
-                                         "under another name)"})
+        raise HTTPException(
+            403,
+            detail={
+                "kind": "forbidden",
+                "message": f"graph {name!r} {whose}: role {role!r} "
+                "changes only the graphs it created (an admin changes any; save yours "
+                "under another name)",
+            },
+        )
 
 
 def get_role(request: Request) -> str:
@@ -50,8 +57,10 @@ router = APIRouter(prefix="/api/graphs", tags=["graphs"], dependencies=[Depends(
 class ExampleError(BaseModel):
     file: str = Field(description="the file in the server's graphs folder")
     size: int = Field(description="its size, bytes (0 when it is not a regular file)")
-    reason: str = Field(description="why it is not offered: over the recipe size limit (max_body_mb), not a "
-                                    "regular file, not valid JSON, not a valid recipe")
+    reason: str = Field(
+        description="why it is not offered: over the recipe size limit (max_body_mb), not a "
+        "regular file, not valid JSON, not a valid recipe"
+    )
 
 
 # a recipe's revision number: 1, 2, … (bounded: SQLite's integers are 64-bit)
@@ -64,10 +73,16 @@ class GraphInfo(BaseModel):
     example: bool
     updated: float
     has_params: bool = Field(False, description="whether GET /api/graphs/{name}/params has a file to return")
-    owner: str | None = Field(None, description="token name that created it (editors change only their own); "
-                                                "null: a shipped example or saved before owners were recorded")
-    error: ExampleError | None = Field(None, description="a recipe of the server's graphs folder that could not be "
-                                                         "offered: its GET answers 422 with this reason")
+    owner: str | None = Field(
+        None,
+        description="token name that created it (editors change only their own); "
+        "null: a shipped example or saved before owners were recorded",
+    )
+    error: ExampleError | None = Field(
+        None,
+        description="a recipe of the server's graphs folder that could not be "
+        "offered: its GET answers 422 with this reason",
+    )
 
 
 class SaveResult(BaseModel):
@@ -86,18 +101,30 @@ class RevisionInfo(BaseModel):
 # Optimistic concurrency (#25): GET answers the stored revision as a strong ETag; a PUT that sends
 # If-Match saves only when it is still the stored revision, else 409 with both versions. A PUT
 # without If-Match saves unconditionally (scripts, the CLI, older clients).
-ETAG_HEADER = {"ETag": {"description": 'the stored revision, a strong entity tag: `"<revision>"`',
-                        "schema": {"type": "string", "pattern": '^"[0-9]+"$'}}}
+ETAG_HEADER = {
+    "ETag": {
+        "description": 'the stored revision, a strong entity tag: `"<revision>"`',
+        "schema": {"type": "string", "pattern": '^"[0-9]+"$'},
+    }
+}
 # an optional header is a string when sent: typed `str` (default None), its schema is not nullable,
 # so no client (nor schemathesis) sends the text "null" as a valid If-Match
 OptionalHeader = str
-IfMatch = Header(None, alias="If-Match", pattern=r'^\s*(\*|(W/)?"[^"]*"(\s*,\s*(W/)?"[^"]*")*)\s*$',
-                 description='the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is '
-                             'still the stored revision, else 409 with both versions. `*`: any stored revision. '
-                             'Without it the PUT saves unconditionally.')
-CONFLICT_409: dict[int | str, dict[str, Any]] = {409: {"model": ConflictResponse,
-                      "description": "Conflict: a read-only example, or the stored revision is no longer the "
-                                     "If-Match one (`detail.yours` / `detail.theirs` hold both versions)"}}
+IfMatch = Header(
+    None,
+    alias="If-Match",
+    pattern=r'^\s*(\*|(W/)?"[^"]*"(\s*,\s*(W/)?"[^"]*")*)\s*$',
+    description='the ETag (revision) the client loaded, e.g. `"3"`: the save happens only when it is '
+    "still the stored revision, else 409 with both versions. `*`: any stored revision. "
+    "Without it the PUT saves unconditionally.",
+)
+CONFLICT_409: dict[int | str, dict[str, Any]] = {
+    409: {
+        "model": ConflictResponse,
+        "description": "Conflict: a read-only example, or the stored revision is no longer the "
+        "If-Match one (`detail.yours` / `detail.theirs` hold both versions)",
+    }
+}
 
 
 def etag(revision: int) -> str:
@@ -113,7 +140,13 @@ def _expected(if_match: str | None, current: int | None) -> int | None:
     if "*" in tags:
         return current if current is not None else -1
     for t in tags:
-        if t.startswith('"') and t.endswith('"') and t[1:-1].isdigit() and current is not None and int(t[1:-1]) == current:
+        if (
+            t.startswith('"')
+            and t.endswith('"')
+            and t[1:-1].isdigit()
+            and current is not None
+            and int(t[1:-1]) == current
+        ):
             return current
     return -1
 
@@ -123,21 +156,27 @@ def _conflict(what: str, name: str, yours: Any, err: RevisionConflict, key: str)
         msg = f"{name!r} was deleted since you opened it"
         theirs = None
     else:
-        msg = (f"Someone saved this {what} since you opened it: {name!r} is now at revision {err.current}. "
-               "Reload theirs, overwrite (If-Match their revision) or save under another name.")
+        msg = (
+            f"Someone saved this {what} since you opened it: {name!r} is now at revision {err.current}. "
+            "Reload theirs, overwrite (If-Match their revision) or save under another name."
+        )
         theirs = {"revision": err.current, key: err.content}
     body = error_body(409, {"message": msg, "kind": "conflict"})
     body["detail"].update({"yours": yours, "theirs": theirs})
-    return JSONResponse(status_code=409, content=body,
-                        headers={"ETag": etag(err.current)} if err.current is not None else None)
+    return JSONResponse(
+        status_code=409, content=body, headers={"ETag": etag(err.current)} if err.current is not None else None
+    )
 
 
 class FileInfo(BaseModel):
     name: str
     size: int
     updated: float
-    sha256: str | None = Field(None, description="sha256 (hex) of the content the name points at now; a run "
-                                                 "request's `files` pins a name to one such content")
+    sha256: str | None = Field(
+        None,
+        description="sha256 (hex) of the content the name points at now; a run "
+        "request's `files` pins a name to one such content",
+    )
 
 
 class FileVersion(BaseModel):
@@ -148,15 +187,21 @@ class FileVersion(BaseModel):
     user: str | None = None
 
 
-FILE_ETAG = {"ETag": {"description": 'the stored content\'s sha256 (hex), quoted: `"<sha256>"`',
-                      "schema": {"type": "string", "pattern": '^"[0-9a-f]{64}"$'}}}
+FILE_ETAG = {
+    "ETag": {
+        "description": 'the stored content\'s sha256 (hex), quoted: `"<sha256>"`',
+        "schema": {"type": "string", "pattern": '^"[0-9a-f]{64}"$'},
+    }
+}
 
 
 def _writable(svc, name: str) -> None:
     """Shipped examples are read-only: users keep their changes with "save as"."""
     if svc.store.is_example(name):
-        raise HTTPException(409, detail={"message": f"{name!r} is a shipped example and read-only: "
-                                                    "save it under another name (save as)"})
+        raise HTTPException(
+            409,
+            detail={"message": f"{name!r} is a shipped example and read-only: save it under another name (save as)"},
+        )
 
 
 @router.get("", response_model=list[GraphInfo], responses=errors(401))
@@ -167,9 +212,15 @@ def list_graphs(svc: ServicesDep) -> list[GraphInfo]:
     saved = {g.name for g in out}
     for name, bad in svc.unloaded.items():
         if name not in saved:
-            out.append(GraphInfo(name=name, description=f"not loaded: {bad['reason']}", example=True,
-                                 updated=bad["updated"], error=ExampleError(file=bad["file"], size=bad["size"],
-                                                                            reason=bad["reason"])))
+            out.append(
+                GraphInfo(
+                    name=name,
+                    description=f"not loaded: {bad['reason']}",
+                    example=True,
+                    updated=bad["updated"],
+                    error=ExampleError(file=bad["file"], size=bad["size"], reason=bad["reason"]),
+                )
+            )
     return sorted(out, key=lambda g: g.name)
 
 
@@ -177,13 +228,24 @@ def _unloaded(svc, name: str) -> None:
     """422 for a recipe of the graphs folder that could not be loaded (named, with the reason)."""
     bad = svc.unloaded.get(name)
     if bad is not None and svc.store.graph_revision(name) is None:
-        raise HTTPException(422, detail={"kind": "unloadable_example", "field": "name", "message":
-                                         f"{name!r} (graphs folder file {bad['file']}, {bad['size']} bytes) was not "
-                                         f"loaded: {bad['reason']}"})
+        raise HTTPException(
+            422,
+            detail={
+                "kind": "unloadable_example",
+                "field": "name",
+                "message": f"{name!r} (graphs folder file {bad['file']}, {bad['size']} bytes) was not "
+                f"loaded: {bad['reason']}",
+            },
+        )
 
 
-@router.get("/{name}", response_model=Recipe, response_model_exclude_none=True, response_model_by_alias=True,
-            responses={200: {"description": "The recipe", "headers": ETAG_HEADER}, **errors(401, 404, 422)})
+@router.get(
+    "/{name}",
+    response_model=Recipe,
+    response_model_exclude_none=True,
+    response_model_by_alias=True,
+    responses={200: {"description": "The recipe", "headers": ETAG_HEADER}, **errors(401, 404, 422)},
+)
 def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str, Any]:
     _unloaded(svc, name)
     recipe = svc.store.get_graph(name)
@@ -194,15 +256,31 @@ def get_graph(name: GraphName, svc: ServicesDep, response: Response) -> dict[str
     return recipe
 
 
-@router.put("/{name}", response_model=SaveResult,
-            responses={200: {"description": "Saved", "headers": ETAG_HEADER},
-                       201: {"model": SaveResult, "description": "Created", "headers": ETAG_HEADER},
-                       **errors(401, 403, 413, 422), **CONFLICT_409},
-            openapi_extra={"requestBody": {"required": True, "content": {"application/json": {
-                "schema": {"$ref": "#/components/schemas/Recipe"}}}}})
-def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
-              recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)"),
-              if_match: OptionalHeader = IfMatch) -> Any:
+@router.put(
+    "/{name}",
+    response_model=SaveResult,
+    responses={
+        200: {"description": "Saved", "headers": ETAG_HEADER},
+        201: {"model": SaveResult, "description": "Created", "headers": ETAG_HEADER},
+        **errors(401, 403, 413, 422),
+        **CONFLICT_409,
+    },
+    openapi_extra={
+        "requestBody": {
+            "required": True,
+            "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Recipe"}}},
+        }
+    },
+)
+def put_graph(
+    name: GraphName,
+    svc: ServicesDep,
+    user: UserDep,
+    client: ClientDep,
+    response: Response,
+    recipe: dict[str, Any] = Body(..., description="the recipe (format waamflow/1; older formats are migrated)"),
+    if_match: OptionalHeader = IfMatch,
+) -> Any:
     """Save a recipe. Schema errors → 422; a graph that is valid JSON but not yet runnable (e.g. an
     unconnected input while the user is still wiring) is saved and its problems are returned.
     With `If-Match` the save happens only on that revision, else 409 with `yours` (the body sent)
@@ -216,12 +294,14 @@ def put_graph(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDe
     except RecipeError as err:
         problems.append(err.to_dict())
     try:
-        created, rev = svc.store.put_graph(name, parsed.to_json(), user=user,
-                                           expect=_expected(if_match, svc.store.graph_revision(name)))
+        created, rev = svc.store.put_graph(
+            name, parsed.to_json(), user=user, expect=_expected(if_match, svc.store.graph_revision(name))
+        )
     except RevisionConflict as err:
         return _conflict("recipe", name, recipe, err, "recipe")
-    svc.store.audit(user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes), "revision": rev,
-                                                   "client": client})
+    svc.store.audit(
+        user, "save_graph", name, {"created": created, "nodes": len(parsed.nodes), "revision": rev, "client": client}
+    )
     response.status_code = 201 if created else 200
     response.headers["ETag"] = etag(rev)
     return SaveResult(name=name, created=created, problems=problems, revision=rev)
@@ -236,9 +316,14 @@ def delete_graph(name: GraphName, svc: ServicesDep, user: UserDep, client: Clien
     return Response(status_code=204)
 
 
-@router.get("/{name}/params", response_class=Response,
-            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}, "headers": ETAG_HEADER},
-                       **errors(401, 404, 422)})
+@router.get(
+    "/{name}/params",
+    response_class=Response,
+    responses={
+        200: {"content": {"application/xml": {"schema": {"type": "string"}}}, "headers": ETAG_HEADER},
+        **errors(401, 404, 422),
+    },
+)
 def get_params(name: GraphName, svc: ServicesDep) -> Response:
     """The graph's zone-parameter XML (layer > section > zone) as last saved. A run never changes
     it: the run's merged XML (current geometry, every filled-in value kept) is the run artifact
@@ -247,16 +332,31 @@ def get_params(name: GraphName, svc: ServicesDep) -> Response:
         raise HTTPException(404, detail={"message": f"no graph named {name!r}"})
     xml = svc.store.get_params_xml(name)
     if not xml:
-        raise HTTPException(404, detail={"message": f"graph {name!r} has no parameter file yet: run it once to create the template"})
+        raise HTTPException(
+            404, detail={"message": f"graph {name!r} has no parameter file yet: run it once to create the template"}
+        )
     return Response(xml, media_type="application/xml", headers={"ETag": etag(svc.store.params_revision(name) or 1)})
 
 
-@router.put("/{name}/params", response_class=Response, status_code=204,
-            responses={204: {"description": "Saved", "headers": ETAG_HEADER}, **errors(400, 401, 403, 404, 413, 422),
-                       **CONFLICT_409},
-            openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}})
-async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, client: ClientDep, request: Request,
-                     if_match: OptionalHeader = IfMatch) -> Response:
+@router.put(
+    "/{name}/params",
+    response_class=Response,
+    status_code=204,
+    responses={
+        204: {"description": "Saved", "headers": ETAG_HEADER},
+        **errors(400, 401, 403, 404, 413, 422),
+        **CONFLICT_409,
+    },
+    openapi_extra={"requestBody": {"content": {"application/xml": {"schema": {"type": "string"}}}, "required": True}},
+)
+async def put_params(
+    name: GraphName,
+    svc: ServicesDep,
+    user: UserDep,
+    client: ClientDep,
+    request: Request,
+    if_match: OptionalHeader = IfMatch,
+) -> Response:
     """Replace the graph's zone-parameter XML (validated: numbers, units, ranges). `If-Match` as
     for the recipe (the XML has its own revision); a 409's `theirs` is `{"revision", "xml"}`."""
     if svc.store.get_graph(name) is None:
@@ -273,8 +373,9 @@ async def put_params(name: GraphName, svc: ServicesDep, user: UserDep, client: C
 
     validate_xml(text)  # RecipeError (naming layer/section/zone) → 422
     try:
-        rev = svc.store.put_params_xml(name, text, user=user,
-                                       expect=_expected(if_match, svc.store.params_revision(name)))
+        rev = svc.store.put_params_xml(
+            name, text, user=user, expect=_expected(if_match, svc.store.params_revision(name))
+        )
     except RevisionConflict as err:
         return _conflict("parameter file", name, text, err, "xml")
     svc.store.audit(user, "save_params", name, {"bytes": len(body), "revision": rev, "client": client})
@@ -291,10 +392,16 @@ def list_revisions(name: GraphName, svc: ServicesDep) -> list[RevisionInfo]:
     return [RevisionInfo(**r) for r in revs]
 
 
-@router.get("/{name}/revisions/{rev}", response_model=Recipe, response_model_exclude_none=True,
-            response_model_by_alias=True,
-            responses={200: {"description": "The recipe as saved in that revision", "headers": ETAG_HEADER},
-                       **errors(401, 404, 422)})
+@router.get(
+    "/{name}/revisions/{rev}",
+    response_model=Recipe,
+    response_model_exclude_none=True,
+    response_model_by_alias=True,
+    responses={
+        200: {"description": "The recipe as saved in that revision", "headers": ETAG_HEADER},
+        **errors(401, 404, 422),
+    },
+)
 def get_revision(name: GraphName, rev: Revision, svc: ServicesDep, response: Response) -> dict[str, Any]:
     """One earlier revision of the recipe, also of a deleted graph (restore it by PUTting it back, or
     as an admin with POST .../restore)."""
@@ -305,38 +412,57 @@ def get_revision(name: GraphName, rev: Revision, svc: ServicesDep, response: Res
     return json.loads(text)
 
 
-@router.post("/{name}/revisions/{rev}/restore", response_model=SaveResult,
-             responses={200: {"description": "Restored as the graph's new revision", "headers": ETAG_HEADER},
-                        201: {"model": SaveResult, "description": "A deleted graph restored", "headers": ETAG_HEADER},
-                        **errors(401, 403, 404, 422), **CONFLICT_409})
-def restore_revision(name: GraphName, rev: Revision, svc: ServicesDep, user: UserDep, client: ClientDep, response: Response,
-                     role: str = Depends(get_role)) -> Any:
+@router.post(
+    "/{name}/revisions/{rev}/restore",
+    response_model=SaveResult,
+    responses={
+        200: {"description": "Restored as the graph's new revision", "headers": ETAG_HEADER},
+        201: {"model": SaveResult, "description": "A deleted graph restored", "headers": ETAG_HEADER},
+        **errors(401, 403, 404, 422),
+        **CONFLICT_409,
+    },
+)
+def restore_revision(
+    name: GraphName,
+    rev: Revision,
+    svc: ServicesDep,
+    user: UserDep,
+    client: ClientDep,
+    response: Response,
+    role: str = Depends(get_role),
+) -> Any:
     """Admins: put revision `rev` of the recipe back — over what was saved since (overwritten
     content) or as the graph again after a delete. It becomes a new revision (history only grows,
     nothing is lost, so no If-Match is needed). A deleted graph comes back with its owner, its whole
     recipe history and its parameter XML as last saved (with its history); its uploaded files were
     deleted with it (their space freed) and are named in `problems` (kind `not_restored`)."""
     if role != "admin":
-        raise HTTPException(403, detail={"kind": "forbidden",
-                                         "message": f"restoring a revision needs role 'admin' (this token: {role!r})"})
+        raise HTTPException(
+            403,
+            detail={"kind": "forbidden", "message": f"restoring a revision needs role 'admin' (this token: {role!r})"},
+        )
     _writable(svc, name)
     text = svc.store.get_revision(name, rev)
     if text is None:
         raise HTTPException(404, detail={"message": f"graph {name!r} has no revision {rev}"})
     deleted = svc.store.deleted_info(name) if svc.store.graph_revision(name) is None else None
     # the owner is the deleted graph's (else: who saved `rev`, for graphs deleted before owners were kept)
-    owner = (deleted or {}).get("owner") or next((r["user"] for r in svc.store.list_revisions(name)
-                                                  if r["revision"] == rev), None)
+    owner = (deleted or {}).get("owner") or next(
+        (r["user"] for r in svc.store.list_revisions(name) if r["revision"] == rev), None
+    )
     created, new = svc.store.put_graph(name, json.loads(text), user=user, owner=owner)
     problems: list[dict] = []
     if created:
-        svc.store.reattach_params(name)   # the parameter XML as last saved, with its history
+        svc.store.reattach_params(name)  # the parameter XML as last saved, with its history
         if deleted and deleted["files"]:
-            msg = (f"the files uploaded to {name!r} were deleted with it and are not restored: "
-                   f"{', '.join(deleted['files'])} (upload them again)")
+            msg = (
+                f"the files uploaded to {name!r} were deleted with it and are not restored: "
+                f"{', '.join(deleted['files'])} (upload them again)"
+            )
             problems.append({"kind": "not_restored", "message": msg, "text": msg})
-    svc.store.audit(user, "restore_graph", name, {"from_revision": rev, "revision": new, "created": created,
-                                                      "client": client})
+    svc.store.audit(
+        user, "restore_graph", name, {"from_revision": rev, "revision": new, "created": created, "client": client}
+    )
     response.status_code = 201 if created else 200
     response.headers["ETag"] = etag(new)
     return SaveResult(name=name, created=created, problems=problems, revision=new)
@@ -349,12 +475,27 @@ def list_files(name: GraphName, svc: ServicesDep) -> list[FileInfo]:
     return [FileInfo(**f) for f in svc.store.list_files(name)]
 
 
-@router.get("/{name}/files/{filename}", response_class=Response,
-            responses={200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
-                             "headers": FILE_ETAG}, **errors(401, 404, 422)})
-def get_file(name: GraphName, filename: FileName, svc: ServicesDep,
-             sha256: str | None = Query(None, pattern=r"^[0-9a-f]{64}$",
-                                        description="one content the name held (GET .../versions); default: what it holds now")) -> Response:
+@router.get(
+    "/{name}/files/{filename}",
+    response_class=Response,
+    responses={
+        200: {
+            "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
+            "headers": FILE_ETAG,
+        },
+        **errors(401, 404, 422),
+    },
+)
+def get_file(
+    name: GraphName,
+    filename: FileName,
+    svc: ServicesDep,
+    sha256: str | None = Query(
+        None,
+        pattern=r"^[0-9a-f]{64}$",
+        description="one content the name held (GET .../versions); default: what it holds now",
+    ),
+) -> Response:
     """A file of the graph: what `filename` holds now, or the content `sha256` it held (the exact
     bytes a recipe pinned; e.g. to take them along when saving the recipe under another name)."""
     if svc.store.get_graph(name) is None:
@@ -380,21 +521,51 @@ def list_file_versions(name: GraphName, filename: FileName, svc: ServicesDep) ->
     return [FileVersion(**v) for v in versions]
 
 
-@router.put("/{name}/files/{filename}", status_code=204, response_class=Response,
-            responses={204: {"description": "Stored; the name points at this content now", "headers": FILE_ETAG},
-                       **errors(400, 401, 404, 409, 413, 422),
-                       412: {"model": ConflictResponse,
-                             "description": "`If-None-Match: *` and the name exists (`detail.theirs` is its "
-                                            "current {sha256, size}); nothing was stored"}},
-            openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {
-                "type": "string", "format": "binary", "minLength": 1,
-                "description": "the file's bytes (not empty; at most max_upload_mb)"}}}, "required": True}})
-async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: UserDep, client: ClientDep,
-                   request: Request,
-                   if_none_match: str | None = Header(None, alias="If-None-Match", max_length=2000,
-                                                      description="`*`: store only if the graph has no file of this name "
-                                                                  "yet; `\"<sha256>\"`: only if the name does not hold that "
-                                                                  "content (else 412: ask before replacing)")) -> Response:
+@router.put(
+    "/{name}/files/{filename}",
+    status_code=204,
+    response_class=Response,
+    responses={
+        204: {"description": "Stored; the name points at this content now", "headers": FILE_ETAG},
+        **errors(400, 401, 404, 409, 413, 422),
+        412: {
+            "model": ConflictResponse,
+            "description": "`If-None-Match: *` and the name exists (`detail.theirs` is its "
+            "current {sha256, size}); nothing was stored",
+        },
+    },
+    openapi_extra={
+        "requestBody": {
+            "content": {
+                "application/octet-stream": {
+                    "schema": {
+                        "type": "string",
+                        "format": "binary",
+                        "minLength": 1,
+                        "description": "the file's bytes (not empty; at most max_upload_mb)",
+                    }
+                }
+            },
+            "required": True,
+        }
+    },
+)
+async def put_file(
+    name: GraphName,
+    filename: FileName,
+    svc: ServicesDep,
+    user: UserDep,
+    client: ClientDep,
+    request: Request,
+    if_none_match: str | None = Header(
+        None,
+        alias="If-None-Match",
+        max_length=2000,
+        description="`*`: store only if the graph has no file of this name "
+        'yet; `"<sha256>"`: only if the name does not hold that '
+        "content (else 412: ask before replacing)",
+    ),
+) -> Response:
     """Upload a file a node of this graph reads (mesh, sketch, DXF); nodes name it by `filename`.
     The content is stored under its sha256 (the `ETag`) and the name points at it; what the name
     pointed at before stays stored (GET .../versions), so a recipe pinned to it is unchanged."""
@@ -411,13 +582,30 @@ async def put_file(name: GraphName, filename: FileName, svc: ServicesDep, user: 
         have = next((f for f in svc.store.list_files(name) if f["name"] == filename), None)
         tags = {t.strip().removeprefix("W/").strip('"') for t in if_none_match.split(",")}
         if have is not None and ("*" in tags or have["sha256"] in tags):
-            body412 = error_body(412, {"message": f"graph {name!r} already has a file {filename!r}: replace it (PUT "
-                                                  "without If-None-Match), keep both (another name) or cancel",
-                                       "kind": "conflict"})
-            body412["detail"].update({"yours": {"size": len(body)}, "theirs": {"sha256": have["sha256"], "size": have["size"]}})
+            body412 = error_body(
+                412,
+                {
+                    "message": f"graph {name!r} already has a file {filename!r}: replace it (PUT "
+                    "without If-None-Match), keep both (another name) or cancel",
+                    "kind": "conflict",
+                },
+            )
+            body412["detail"].update(
+                {"yours": {"size": len(body)}, "theirs": {"sha256": have["sha256"], "size": have["size"]}}
+            )
             return JSONResponse(status_code=412, content=body412, headers={"ETag": f'"{have["sha256"]}"'})
     stored = svc.store.put_file(name, filename, body, user=user)
-    svc.store.audit(user, "upload_file", name, {"file": filename, "bytes": len(body), "sha256": stored["sha256"],
-                                                "version": stored["version"], "replaced": stored["previous"],
-                                                "client": client})
+    svc.store.audit(
+        user,
+        "upload_file",
+        name,
+        {
+            "file": filename,
+            "bytes": len(body),
+            "sha256": stored["sha256"],
+            "version": stored["version"],
+            "replaced": stored["previous"],
+            "client": client,
+        },
+    )
     return Response(status_code=204, headers={"ETag": f'"{stored["sha256"]}"'})

@@ -44,8 +44,11 @@ def list_profiles() -> list[dict]:
     return list(load_profiles().values())
 
 
-@router.get("/api/schemas/zone-params.xsd", response_class=Response,
-            responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401)})
+@router.get(
+    "/api/schemas/zone-params.xsd",
+    response_class=Response,
+    responses={200: {"content": {"application/xml": {"schema": {"type": "string"}}}}, **errors(401)},
+)
 def zone_params_xsd() -> Response:
     """The XML Schema (XSD 1.0) of the zone-parameter file (layer > section > zone > parameters,
     units and bounds): the file every zone node reads is validated against it."""

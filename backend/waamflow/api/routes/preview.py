@@ -35,16 +35,22 @@ class PreviewRequest(BaseModel):
     recipe: dict[str, Any] = Field(..., description="the current (possibly unsaved) recipe (see Recipe)")
     node: str = Field(..., min_length=1, max_length=64, description="node whose output to show (e.g. the zone node)")
     layer: LayerIndex = Field(..., description="layer index")
-    graph: str | None = Field(None, pattern=GRAPH_NAME_PATTERN, max_length=80,
-                       description="saved graph whose files/parameter XML to use")
-    params_xml: str | None = Field(None, max_length=20_000_000,
-                                   description="with `graph`: draft zone-parameter XML instead of the saved one")
+    graph: str | None = Field(
+        None, pattern=GRAPH_NAME_PATTERN, max_length=80, description="saved graph whose files/parameter XML to use"
+    )
+    params_xml: str | None = Field(
+        None, max_length=20_000_000, description="with `graph`: draft zone-parameter XML instead of the saved one"
+    )
     inputs: dict[str, Any] = Field(default_factory=dict)
     coverage: bool = Field(False, description="also return each path's bead coverage (void/overlap polygons)")
-    bead_width: float | None = Field(None, gt=0.05, le=100,
-                                     description="bead width for coverage, mm (default: what the recipe's coverage "
-                                                 "node uses: its per-section widths and connected bead model, with "
-                                                 "$input values; else the strategy's width of the section; else 6)")
+    bead_width: float | None = Field(
+        None,
+        gt=0.05,
+        le=100,
+        description="bead width for coverage, mm (default: what the recipe's coverage "
+        "node uses: its per-section widths and connected bead model, with "
+        "$input values; else the strategy's width of the section; else 6)",
+    )
 
     @model_validator(mode="after")
     def _xml_needs_graph(self) -> "PreviewRequest":
@@ -86,7 +92,9 @@ def _item(value: Any, index: int) -> Any:
     return None
 
 
-def _collect(graph, outputs: dict, node: str, index: int) -> tuple[Layer | None, LayerSections | None, LayerPaths | None]:
+def _collect(
+    graph, outputs: dict, node: str, index: int
+) -> tuple[Layer | None, LayerSections | None, LayerPaths | None]:
     upstream = graph.ancestors(node)
     order = [n for n in reversed(graph.order) if n == node or n in upstream]
     layer = sections = paths = None
@@ -110,13 +118,15 @@ def _sections_json(ls: LayerSections | None) -> list[dict]:
         return []
     out = []
     for s in ls.sections:
-        out.append({
-            "key": s.key,
-            "polygon": polygon_json(s.region),
-            "guide": coords(s.guide.coords) if s.guide is not None else None,
-            "start": list(s.start) if s.start is not None else None,
-            "stop": list(s.stop) if s.stop is not None else None,
-        })
+        out.append(
+            {
+                "key": s.key,
+                "polygon": polygon_json(s.region),
+                "guide": coords(s.guide.coords) if s.guide is not None else None,
+                "start": list(s.start) if s.start is not None else None,
+                "stop": list(s.stop) if s.stop is not None else None,
+            }
+        )
     return out
 
 
@@ -162,8 +172,14 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
     for sp in paths.sections:
         if sp.key in regions:
             cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width(sp))
-            out.append({"key": sp.key, **cov.summary(), "void": _geom_json(cov.void),
-                        "overlap": _geom_json(cov.overlap_outline())})
+            out.append(
+                {
+                    "key": sp.key,
+                    **cov.summary(),
+                    "void": _geom_json(cov.void),
+                    "overlap": _geom_json(cov.overlap_outline()),
+                }
+            )
     return out
 
 
@@ -176,7 +192,9 @@ async def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> Pr
     request.state.audit_target, request.state.audit_node, request.state.audit_layer = req.graph, req.node, req.layer
     if req.graph is not None and svc.store.get_graph(req.graph) is None:
         raise HTTPException(404, detail={"message": f"no graph named {req.graph!r}"})
-    recipe = svc.prepare(req.graph, apply_overrides(parse_api_recipe(req.recipe), list(req.inputs.items())), req.params_xml)
+    recipe = svc.prepare(
+        req.graph, apply_overrides(parse_api_recipe(req.recipe), list(req.inputs.items())), req.params_xml
+    )
     graph = build_graph(recipe)
     if req.node not in graph.nodes:
         raise RecipeError(f"no node with id {req.node!r}", node=req.node)
@@ -184,14 +202,20 @@ async def preview(req: PreviewRequest, svc: ServicesDep, request: Request) -> Pr
     svc.check_sandbox(graph, resolver)  # → 422 before anything is read
     if svc.runs is None:
         return compute_preview(svc.cache, None, req, recipe, resolver, t0)
-    svc.runs.limits.check_estimate(graph, resolver)   # → 422 with the estimate, before anything runs
+    svc.runs.limits.check_estimate(graph, resolver)  # → 422 with the estimate, before anything runs
     job = svc.runs.preview(compute_preview, (req, recipe, resolver, t0))
     result: PreviewResponse = await job.run(request.is_disconnected)
     return result
 
 
-def compute_preview(cache: TieredCache | MemoryCache | None, cancel: threading.Event | None, req: PreviewRequest, recipe: Recipe,
-                    resolver: FileResolver, t0: float) -> PreviewResponse:
+def compute_preview(
+    cache: TieredCache | MemoryCache | None,
+    cancel: threading.Event | None,
+    req: PreviewRequest,
+    recipe: Recipe,
+    resolver: FileResolver,
+    t0: float,
+) -> PreviewResponse:
     """The preview's computation: in the server, or in a preview worker under the run memory limit
     (api/preview_worker.py; then its arguments and result are pickled)."""
     graph = build_graph(recipe)
@@ -201,24 +225,42 @@ def compute_preview(cache: TieredCache | MemoryCache | None, cancel: threading.E
     model_src = graph.nodes[cov].inputs.get("model") if cov is not None else None
     targets = [node] + ([model_src[0]] if model_src and model_src[0] != node else [])
     try:
-        result = execute(graph, resolver=resolver, cache=cache, targets=targets, layers=[req.layer], artifacts=False,
-                         workers=1, cancel=cancel)
+        result = execute(
+            graph,
+            resolver=resolver,
+            cache=cache,
+            targets=targets,
+            layers=[req.layer],
+            artifacts=False,
+            workers=1,
+            cancel=cancel,
+        )
         outputs, count = result.outputs, result.layer_count
     except PlanningError as err:
-        if is_memory_error(err):   # over the memory limit: the preview fails naming it (preview_worker.py)
+        if is_memory_error(err):  # over the memory limit: the preview fails naming it (preview_worker.py)
             raise
         error = err.to_dict()
         parents = [src for src, _ in graph.nodes[err.node].inputs.values()] if err.node in graph.nodes else []
         outputs, count = {}, None
         if parents:
             try:
-                r2 = execute(graph, resolver=resolver, cache=cache, targets=parents + targets[1:], layers=[req.layer],
-                             artifacts=False, workers=1, cancel=cancel)
+                r2 = execute(
+                    graph,
+                    resolver=resolver,
+                    cache=cache,
+                    targets=parents + targets[1:],
+                    layers=[req.layer],
+                    artifacts=False,
+                    workers=1,
+                    cancel=cancel,
+                )
                 outputs, count, node = r2.outputs, r2.layer_count, parents[0]
             except PlanningError:
                 pass
     if count is not None and req.layer >= count:
-        raise HTTPException(422, detail={"message": f"layer {req.layer} is out of range: the part has {count} layers (0..{count - 1})"})
+        raise HTTPException(
+            422, detail={"message": f"layer {req.layer} is out of range: the part has {count} layers (0..{count - 1})"}
+        )
     layer, sections, paths = _collect(graph, outputs, node, req.layer)
     return PreviewResponse(
         layer=layer_json(layer) if layer is not None else None,

@@ -18,8 +18,15 @@ from ..schemas import LayerIndex, errors
 
 router = APIRouter(prefix="/api/viewer", tags=["viewer"])
 
-ViewId = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9._-]+$",
-                              description="the browser view (one per GUI tab); none: the default view")]
+ViewId = Annotated[
+    str,
+    Field(
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9._-]+$",
+        description="the browser view (one per GUI tab); none: the default view",
+    ),
+]
 
 
 class Selection(BaseModel):
@@ -42,10 +49,14 @@ class ViewSettings(BaseModel):
     show_simulated: bool | None = Field(None, description="draw the simulated path")
     show_robot: bool | None = Field(None, description="draw the robot at the playback time")
     time_s: float | None = Field(None, ge=0, description="playback time, s")
-    sim_offset_mm: float | None = Field(None, ge=0, le=1000, description="simulated path drawn this far above the programmed one, mm")
+    sim_offset_mm: float | None = Field(
+        None, ge=0, le=1000, description="simulated path drawn this far above the programmed one, mm"
+    )
     fit: bool | Literal["part", "cell"] = Field(
-        False, description="frame the camera at the playback time: true or 'part' on the part as the positioner "
-                           "holds it, 'cell' on the part with robot, torch and positioner")
+        False,
+        description="frame the camera at the playback time: true or 'part' on the part as the positioner "
+        "holds it, 'cell' on the part with robot, torch and positioner",
+    )
     view: ViewId | None = None
 
 
@@ -74,8 +85,18 @@ def view(v: ViewSettings, svc: ServicesDep) -> Response:
 
 
 @router.get("/state", responses=errors(401, 422))
-def state(svc: ServicesDep, view: Annotated[str | None, Query(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9._-]+$",
-                                                             description="the browser view; none: the default view")] = None) -> dict[str, Any]:
+def state(
+    svc: ServicesDep,
+    view: Annotated[
+        str | None,
+        Query(
+            min_length=1,
+            max_length=64,
+            pattern=r"^[A-Za-z0-9._-]+$",
+            description="the browser view; none: the default view",
+        ),
+    ] = None,
+) -> dict[str, Any]:
     """The shown run (`key`, `run` id), its nodes (kinds drawn, visibility), layer extent, playback
     duration, view settings and legend data (zone colours, value ranges with units, colour-map
     stops). `loading` {key, run, since}: the selected recipe's latest finished run is being rebuilt
