@@ -45,7 +45,7 @@ def _has_reason(tree: ast.Module) -> bool:
         return False
     for paragraph in doc.split("\n\n"):
         text = paragraph.strip()
-        if text.startswith(REASON_PREFIX) and text[len(REASON_PREFIX):].strip():
+        if text.startswith(REASON_PREFIX) and text[len(REASON_PREFIX) :].strip():
             return True
     return False
 
@@ -77,8 +77,11 @@ def check_file(path: Path, shown: Path | None = None) -> list[Fault]:
     faults: list[Fault] = []
     n_lines = len(source.splitlines())
     if n_lines > MAX_FILE_LINES and not _has_reason(tree):
-        faults.append(Fault(shown, 1, "<file>", n_lines, MAX_FILE_LINES,
-                            f'no "{REASON_PREFIX}" paragraph in the module docstring'))
+        faults.append(
+            Fault(
+                shown, 1, "<file>", n_lines, MAX_FILE_LINES, f'no "{REASON_PREFIX}" paragraph in the module docstring'
+            )
+        )
     for name, fn in _qualified_functions(tree):
         end = fn.end_lineno or fn.lineno
         length = end - fn.lineno + 1
@@ -119,8 +122,11 @@ def main(argv: list[str]) -> int:
     for fault in faults:
         print(fault)
     if faults:
-        print(f"check_structure: {len(faults)} fault(s): functions over {MAX_FUNCTION_LINES} lines, "
-              f'files over {MAX_FILE_LINES} lines without "{REASON_PREFIX}" (issue 27)', file=sys.stderr)
+        print(
+            f"check_structure: {len(faults)} fault(s): functions over {MAX_FUNCTION_LINES} lines, "
+            f'files over {MAX_FILE_LINES} lines without "{REASON_PREFIX}" (issue 27)',
+            file=sys.stderr,
+        )
         return 1
     return 0
 

@@ -18,8 +18,7 @@ def _function(name: str, body_lines: int, indent: str = "") -> str:
 
 
 def _run(*roots: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(SCRIPT), *map(str, roots)],
-                          capture_output=True, text=True, timeout=60)
+    return subprocess.run([sys.executable, str(SCRIPT), *map(str, roots)], capture_output=True, text=True, timeout=60)
 
 
 def test_clean_tree_passes(tmp_path: Path) -> None:
@@ -44,13 +43,16 @@ def test_long_function_and_long_file_fail_with_names(tmp_path: Path) -> None:
     (pkg / "funcs.py").write_text(
         '"""Functions."""\n'
         + _function("short", 10)
-        + "class Planner:\n" + _function("plan", 101, indent="    ")
-        + "async " + _function("fetch", 130)
+        + "class Planner:\n"
+        + _function("plan", 101, indent="    ")
+        + "async "
+        + _function("fetch", 130)
     )
     # 601 lines, a docstring without the reason, and one whose "Why one file:" has no reason
     (pkg / "sub" / "big.py").write_text('"""Big."""\n' + "".join(f"a{i} = {i}\n" for i in range(600)))
     (pkg / "sub" / "empty_reason.py").write_text(
-        '"""Big.\n\nWhy one file:\n"""\n' + "".join(f"b{i} = {i}\n" for i in range(700)))
+        '"""Big.\n\nWhy one file:\n"""\n' + "".join(f"b{i} = {i}\n" for i in range(700))
+    )
     done = _run(pkg)
     assert done.returncode == 1
     lines = done.stdout.splitlines()

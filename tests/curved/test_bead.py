@@ -37,11 +37,11 @@ def test_out_of_range_heights_are_clamped_and_flagged():
 
 
 def test_other_materials_and_invalid_models():
-    lin = BeadModel(0.0, -0.002, 4.0, 300, 900)             # linear fit: H 3.4 → 2.2
+    lin = BeadModel(0.0, -0.002, 4.0, 300, 900)  # linear fit: H 3.4 → 2.2
     v, _ = lin.speed_for_height(3.0)
     assert v[0] == pytest.approx(500.0)
     with pytest.raises(ValueError, match="monotonic"):
-        BeadModel(1e-5, -0.016, 8.0, 400, 1200)               # vertex at 800 mm/min
+        BeadModel(1e-5, -0.016, 8.0, 400, 1200)  # vertex at 800 mm/min
     with pytest.raises(ValueError):
         BeadModel(ts_min=1200, ts_max=400)
 

@@ -41,14 +41,17 @@ def test_bracket_is_reachable_and_collision_free_on_the_abb_cell(bracket):
     assert sim["max_wrist_step_deg"] < 2.0
     assert abs(sim["positioner_e2_min_deg"]) == pytest.approx(60.0, abs=0.01)
     assert abs(sim["positioner_e1_max_deg"] - sim["positioner_e1_min_deg"]) == pytest.approx(
-        (LAYERS - 1) * fan["dtheta_deg"], abs=0.01)
+        (LAYERS - 1) * fan["dtheta_deg"], abs=0.01
+    )
     assert {a["axis"] for a in sim["axes"]} == {"A1", "A2", "A3", "A4", "A5", "A6", "E1", "E2"}
 
 
 def test_bracket_rapid_carries_the_positioner_angles(bracket):
     """post.mod: one robtarget per target with extax [E1, E2, 9E9 × 4]; E1 takes one value per
     layer (16), E2 one value (±60°)."""
-    mod = b"".join(v for k, v in sorted(bracket.artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k))  # main + part modules
+    mod = b"".join(
+        v for k, v in sorted(bracket.artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k)
+    )  # main + part modules
     mod = mod.decode() if isinstance(mod, bytes) else mod
     assert re.search(r"^MODULE \w+", mod, re.M) and mod.rstrip().endswith("ENDMODULE")
     ext = re.findall(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]\];", mod)

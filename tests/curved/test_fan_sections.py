@@ -25,9 +25,14 @@ GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 def tube_recipe(tmp_path, bend, fan_params, wall_path=True):
     part = bent_tube(bend=bend, mid=15, wall=3, sweep_deg=90, n_phi=72, n_psi=40)
     trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "tube.stl")
-    nodes = [{"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-             {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-bend, 0, 0], "axis_direction": [0, -1, 0],
-                                                           **fan_params}}]
+    nodes = [
+        {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
+        {
+            "id": "fan",
+            "type": "fan-slice",
+            "params": {"axis_point": [-bend, 0, 0], "axis_direction": [0, -1, 0], **fan_params},
+        },
+    ]
     edges = [{"from": "part.mesh", "to": "fan.mesh"}]
     if wall_path:
         nodes.append({"id": "perimeter", "type": "wall-path", "params": {"speed": 14.0, "overlap": 5.0}})
@@ -41,10 +46,10 @@ def assert_closed_to_the_end(layers, end_normal, end_point, vertices, tol=1e-6):
     mm: a float32 STL's vertices are rounded by up to ~1e-5 mm)."""
     assert all(topology(l.region) == (1,) for l in layers)
     top = layers[-1].frame
-    assert np.degrees(np.arccos(np.clip(top[:3, 2] @ end_normal, -1, 1))) < 1e-4     # same plane normal
-    assert abs((top[:3, 3] - end_point) @ end_normal) < tol                         # through the end face
+    assert np.degrees(np.arccos(np.clip(top[:3, 2] @ end_normal, -1, 1))) < 1e-4  # same plane normal
+    assert abs((top[:3, 3] - end_point) @ end_normal) < tol  # through the end face
     beyond = (np.asarray(vertices) - top[:3, 3]) @ top[:3, 2]
-    assert beyond.max() < 1e-3                         # nothing of the part is left above the last layer
+    assert beyond.max() < 1e-3  # nothing of the part is left above the last layer
 
 
 def test_tube_bent_at_r80_builds_every_layer(tmp_path):
@@ -58,7 +63,7 @@ def test_tube_bent_at_r80_builds_every_layer(tmp_path):
     layers = res.outputs["fan"]["layers"]
     tp = res.outputs["perimeter"]["toolpath"]
     assert len(layers) == 47
-    assert sum(1 for lp in tp if lp is not None and lp.sections) == len(layers)   # every layer laid
+    assert sum(1 for lp in tp if lp is not None and lp.sections) == len(layers)  # every layer laid
     part = bent_tube(bend=80, mid=15, wall=3, sweep_deg=90, n_phi=72, n_psi=40)
     assert_closed_to_the_end(layers, np.array([-1.0, 0, 0]), np.array([-80.0, 0, 40]), part.vertices)
     fan = json.loads(res.artifacts["fan.fan.json"])
@@ -83,7 +88,7 @@ def test_too_tight_a_bend_is_a_planning_error_naming_the_layer(tmp_path):
     m = re.search(r"needs heights (\d+\.\d+)\.\.(\d+\.\d+) mm at layer (\d+)", msg)
     assert m and int(m.group(3)) == e.layer
     lo, hi = float(m.group(1)), float(m.group(2))
-    assert hi / lo == pytest.approx(76.5 / 43.5, rel=0.01)          # the wall's own outer/inner ratio
+    assert hi / lo == pytest.approx(76.5 / 43.5, rel=0.01)  # the wall's own outer/inner ratio
     assert (lo, hi) == pytest.approx((1.95, 3.43), abs=0.006)
     assert "height_tolerance ≥ 0.25" in msg and f"spanning {lo:.2f}..{hi:.2f} mm" in msg
 
@@ -95,8 +100,9 @@ def test_an_axis_off_the_bend_is_found_by_the_offset_search():
     from waamflow.curved.sections import plan_sections
 
     part = bent_tube(bend=100, mid=15, wall=3, sweep_deg=90, n_phi=72, n_psi=40)
-    secs, layers = plan_sections(part, (-90, 0, 0), (0, -1, 0), 2.2, 3.2, max_overhang=1.5, step=10,
-                                 max_offset=20, max_sections=4)
+    secs, layers = plan_sections(
+        part, (-90, 0, 0), (0, -1, 0), 2.2, 3.2, max_overhang=1.5, step=10, max_offset=20, max_sections=4
+    )
     assert len(secs) == 1 and secs[0].offset == pytest.approx(10.0) and secs[0].fits and secs[0].excess == 0
     assert np.allclose(secs[0].axis.point, [-100, 0, 0], atol=1e-9) and len(layers) == 58
     assert math.degrees(secs[0].dtheta) == pytest.approx(90 / 58)
@@ -107,18 +113,33 @@ def test_an_oblique_end_face_about_the_axis_is_closed_exactly(tmp_path):
     """A tube whose end is cut 10° off the radial plane, about a line parallel to the axis: the
     end face is still a plane parallel to the axis, and the closing fan ends on it — every layer
     closed, the last one's top plane is the cut."""
-    tube = trimesh.Trimesh(*(lambda m: (m.vertices, m.faces))(
-        bent_tube(bend=100, mid=15, wall=3, sweep_deg=100, n_phi=80, n_psi=40)))
+    tube = trimesh.Trimesh(
+        *(lambda m: (m.vertices, m.faces))(bent_tube(bend=100, mid=15, wall=3, sweep_deg=100, n_phi=80, n_psi=40))
+    )
     tilt = math.radians(10)
     normal = np.array([math.cos(tilt), 0, -math.sin(tilt)])
     cut = tube.slice_plane([-100.0, 0, 100.0], normal, cap=True)
     assert cut.is_watertight
     cut.export(tmp_path / "tube.stl")
-    recipe = {"format": "waamflow/1", "name": "tube", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-100, 0, 0], "axis_direction": [0, -1, 0],
-                                                      "mode": "sections", "search_step": 20, "search_max": 40}}],
-        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "tube",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
+            {
+                "id": "fan",
+                "type": "fan-slice",
+                "params": {
+                    "axis_point": [-100, 0, 0],
+                    "axis_direction": [0, -1, 0],
+                    "mode": "sections",
+                    "search_step": 20,
+                    "search_max": 40,
+                },
+            },
+        ],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}],
+    }
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     layers = res.outputs["fan"]["layers"]
     assert_closed_to_the_end(layers, -normal, np.array([-100.0, 0, 100.0]), cut.vertices, tol=1e-4)
@@ -127,16 +148,25 @@ def test_an_oblique_end_face_about_the_axis_is_closed_exactly(tmp_path):
 def test_an_end_face_not_parallel_to_the_axis_is_a_planning_error(tmp_path):
     """The end cut 10° about the radial direction z instead: no fan about an axis along −y can
     end on it; refused before slicing, saying by how much and what to set."""
-    tube = trimesh.Trimesh(*(lambda m: (m.vertices, m.faces))(
-        bent_tube(bend=100, mid=15, wall=3, sweep_deg=100, n_phi=80, n_psi=40)))
+    tube = trimesh.Trimesh(
+        *(lambda m: (m.vertices, m.faces))(bent_tube(bend=100, mid=15, wall=3, sweep_deg=100, n_phi=80, n_psi=40))
+    )
     tilt = math.radians(10)
     cut = tube.slice_plane([-100.0, 0, 100.0], [math.cos(tilt), math.sin(tilt), 0], cap=True)
     cut.export(tmp_path / "tube.stl")
-    recipe = {"format": "waamflow/1", "name": "tube", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-100, 0, 0], "axis_direction": [0, -1, 0],
-                                                      "mode": "sections"}}],
-        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "tube",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
+            {
+                "id": "fan",
+                "type": "fan-slice",
+                "params": {"axis_point": [-100, 0, 0], "axis_direction": [0, -1, 0], "mode": "sections"},
+            },
+        ],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}],
+    }
     with pytest.raises(PlanningError, match=r"end face is 10\.00° off parallel .*set axis_direction"):
         execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
 
@@ -146,8 +176,7 @@ def test_single_fan_with_a_moved_axis_refuses_open_layers(tmp_path):
     (90° of part in 116.5/136.5·… ), so the layers past the end face are open: refused, naming
     the first one and the settings that close the part."""
     with pytest.raises(PlanningError, match="open") as err:
-        tube_recipe(tmp_path, 100, {"mode": "single", "radius_offset": 20.0, "dtheta_deg": 1.5},
-                    wall_path=False)()
+        tube_recipe(tmp_path, 100, {"mode": "single", "radius_offset": 20.0, "dtheta_deg": 1.5}, wall_path=False)()
     msg = str(err.value)
     assert "radius_offset 0" in msg and "mode = sections" in msg and err.value.layer > 0
 
@@ -156,8 +185,12 @@ def test_failed_radius_search_does_not_tell_to_leave_radius_offset_empty(tmp_pat
     """radius_offset empty (search) and nothing up to search_max fits: the error names what was
     searched and the real next steps, not 'leave radius_offset empty' (it was)."""
     with pytest.raises(PlanningError) as err:
-        tube_recipe(tmp_path, 60, {"mode": "single", "radius_offset": None, "dtheta_deg": None,
-                                   "search_step": 20, "search_max": 40}, wall_path=False)()
+        tube_recipe(
+            tmp_path,
+            60,
+            {"mode": "single", "radius_offset": None, "dtheta_deg": None, "search_step": 20, "search_max": 40},
+            wall_path=False,
+        )()
     msg = str(err.value)
     assert "leave radius_offset empty" not in msg
     assert "search_max = 40 mm" in msg and "mode = sections" in msg and "dtheta_deg" in msg
@@ -194,7 +227,9 @@ def test_curved_bracket_builds_every_layer_to_its_end_face():
     tp = res.outputs["perimeter"]["toolpath"]
     assert len(layers) == 146
     assert sum(1 for lp in tp if lp is not None and lp.sections) == len(layers)
-    mod = b"".join(v for k, v in sorted(res.artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k))  # main + part modules
+    mod = b"".join(
+        v for k, v in sorted(res.artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k)
+    )  # main + part modules
     mod = mod.decode() if isinstance(mod, bytes) else mod
     assert re.search(r"! layers (\d+),", mod).group(1) == "146"
     assert len(re.findall(r"^\s*! layer \d+ ", mod, re.M)) == 146
@@ -204,7 +239,7 @@ def test_curved_bracket_builds_every_layer_to_its_end_face():
     assert_closed_to_the_end(layers, -radial, -250.0 * radial, mesh.vertices, tol=1e-3)
     # heights: 0.064 mm at most outside [2.2, 3.2] (warned), nowhere beyond height_tolerance
     worst = max(max(2.2 - lo, hi - 3.2) for lo, hi in map(height_range, layers))
-    assert worst == pytest.approx(0.0752, abs=0.002)      # 5 mm wall: 197.5..302.5 mm (3 mm wall: 0.064)
+    assert worst == pytest.approx(0.0752, abs=0.002)  # 5 mm wall: 197.5..302.5 mm (3 mm wall: 0.064)
     assert not any("no hole" in w["message"] for w in res.warnings)
 
 
@@ -220,7 +255,7 @@ def test_a_plane_through_a_ring_of_float32_vertices_cuts_the_whole_ring(tmp_path
     m = trimesh.load(tmp_path / "t.stl")
     mesh = MeshData(np.asarray(m.vertices, float), np.asarray(m.faces), name="t")
     section = FanSections(mesh)
-    axis = FanAxis(np.array([-80.0, 0, 0]), np.array([0, -1.0, 0]), np.array([1.0, 0, 0]))   # θ = φ
+    axis = FanAxis(np.array([-80.0, 0, 0]), np.array([0, -1.0, 0]), np.array([1.0, 0, 0]))  # θ = φ
     on_ring, between = section(axis, math.radians(45.0)), section(axis, math.radians(45.6))
     assert on_ring.area == pytest.approx(between.area, rel=1e-3)
     assert on_ring.bounds[2] == pytest.approx(96.5, abs=1e-3) and topology(on_ring) == (1,)

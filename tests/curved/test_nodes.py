@@ -50,9 +50,9 @@ def test_speeds_follow_the_local_height(duct):
         assert sp.tool_axis is not None and np.allclose(sp.tool_axis[0], -lp.layer.normal)
         d = sp.points - lp.layer.frame[:3, 3]
         r = d @ lp.layer.frame[:3, 0]
-        h = (r[:-1] + r[1:]) / 2 * dth                       # needed height r·Δθ at segment midpoints
+        h = (r[:-1] + r[1:]) / 2 * dth  # needed height r·Δθ at segment midpoints
         assert np.allclose(model.height(sp.speed * 60.0), h, atol=1e-9)
-        assert np.all(np.abs(d @ lp.layer.frame[:3, 2]) < 1e-9)   # points on the layer's top plane
+        assert np.all(np.abs(d @ lp.layer.frame[:3, 2]) < 1e-9)  # points on the layer's top plane
     bead = json.loads(duct.artifacts["bead.bead.json"])
     assert bead["clamped_segments"] == 0 and bead["min_csratio"] == pytest.approx(2.7525, abs=1e-4)
     rows = bead["layers"]
@@ -67,17 +67,18 @@ def test_perimeter_is_the_ring_centre_line(duct):
     lay = tp[10].layer
     d = sp.points - lay.frame[:3, 3]
     x, y = d @ lay.frame[:3, 0], d @ lay.frame[:3, 1]
-    assert np.allclose(np.hypot(x - 100, y), 15.0, atol=0.05)   # mid radius of the 13.5..16.5 wall
-    assert sp.length == pytest.approx(2 * math.pi * 15 + 5.0, abs=0.3)   # one lap + 5 mm overlap
+    assert np.allclose(np.hypot(x - 100, y), 15.0, atol=0.05)  # mid radius of the 13.5..16.5 wall
+    assert sp.length == pytest.approx(2 * math.pi * 15 + 5.0, abs=0.3)  # one lap + 5 mm overlap
 
 
 def test_too_thick_layers_warn_and_clamp():
     def thick(recipe):
         recipe["inputs"]["dtheta_deg"] = 1.75
         next(n for n in recipe["nodes"] if n["id"] == "fan")["params"]["layer_count"] = 8
+
     res = run(thick)
     texts = [w if isinstance(w, str) else json.dumps(w) for w in res.warnings]
-    assert any("bead range" in t for t in texts)             # fan-slice: CSratio / heights warning
+    assert any("bead range" in t for t in texts)  # fan-slice: CSratio / heights warning
     assert any("clamped" in t and "layer" in t for t in texts)
     bead = json.loads(res.artifacts["bead.bead.json"])
     assert bead["clamped_segments"] > 0
@@ -86,6 +87,7 @@ def test_too_thick_layers_warn_and_clamp():
 def test_radius_search_from_the_node():
     def search(recipe):
         recipe["inputs"]["radius_offset"] = None
+
     res = run(search)
     fan = json.loads(res.artifacts["fan.fan.json"])
     assert fan["search"]["best"]["offset_mm"] == 0.0 and fan["search"]["best"]["feasible"] is True
@@ -95,21 +97,36 @@ def test_too_curved_part_reports_the_radius_search(tmp_path):
     import trimesh
 
     from waamflow.curved.shapes import bent_tube
+
     part = bent_tube(bend=60, mid=15, wall=3, n_phi=24, n_psi=16)
     trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "tight.stl")
-    recipe = {"format": "waamflow/1", "name": "tight", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "tight.stl"}},
-        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-60, 0, 0], "axis_direction": [0, -1, 0],
-                                                      "dtheta_deg": 2.6, "radius_offset": None,
-                                                      "search_step": 10, "search_max": 60}}],
-        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "tight",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "tight.stl"}},
+            {
+                "id": "fan",
+                "type": "fan-slice",
+                "params": {
+                    "axis_point": [-60, 0, 0],
+                    "axis_direction": [0, -1, 0],
+                    "dtheta_deg": 2.6,
+                    "radius_offset": None,
+                    "search_step": 10,
+                    "search_max": 60,
+                },
+            },
+        ],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}],
+    }
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     texts = [json.dumps(w) if not isinstance(w, str) else w for w in res.warnings]
     assert any("mode = sections" in t for t in texts)
-    assert any("bead range" in t for t in texts)            # sliced as one section: heights leave the range
+    assert any("bead range" in t for t in texts)  # sliced as one section: heights leave the range
     fan = json.loads(res.artifacts["fan.fan.json"])
     assert fan["csratio"] == pytest.approx(60 / 33, rel=2e-3) and fan["heights_fit"] is False
-    assert fan["search"]["feasible"] is False and len(fan["search"]["candidates"]) == 7   # 0, 10, …, 60 mm
+    assert fan["search"]["feasible"] is False and len(fan["search"]["candidates"]) == 7  # 0, 10, …, 60 mm
 
 
 def test_sections_mode_closes_on_the_end_face_or_fails(tmp_path):
@@ -123,14 +140,29 @@ def test_sections_mode_closes_on_the_end_face_or_fails(tmp_path):
 
     from waamflow.core.errors import PlanningError
     from waamflow.curved.shapes import bent_tube
+
     part = bent_tube(bend=75, mid=15, wall=3, n_phi=24, n_psi=16)
     trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "bend.stl")
-    recipe = {"format": "waamflow/1", "name": "bend", "nodes": [
-        {"id": "part", "type": "mesh", "params": {"path": "bend.stl"}},
-        {"id": "fan", "type": "fan-slice", "params": {"axis_point": [-75, 0, 0], "axis_direction": [0, -1, 0],
-                                                      "mode": "sections", "search_step": 20, "search_max": 60,
-                                                      "max_sections": 3}}],
-        "edges": [{"from": "part.mesh", "to": "fan.mesh"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "bend",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "bend.stl"}},
+            {
+                "id": "fan",
+                "type": "fan-slice",
+                "params": {
+                    "axis_point": [-75, 0, 0],
+                    "axis_direction": [0, -1, 0],
+                    "mode": "sections",
+                    "search_step": 20,
+                    "search_max": 60,
+                    "max_sections": 3,
+                },
+            },
+        ],
+        "edges": [{"from": "part.mesh", "to": "fan.mesh"}],
+    }
     with pytest.raises(PlanningError, match=r"needs heights 2\.09\.\.3\.26 mm at layer 39") as err:
         execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     assert err.value.layer == 39 and "height_tolerance ≥ 0.12" in str(err.value)
@@ -144,7 +176,7 @@ def test_sections_mode_closes_on_the_end_face_or_fails(tmp_path):
     texts = [w["message"] for w in res.warnings]
     assert len(texts) == 1 and "fan section 0" in texts[0] and "0.1" in texts[0]
     layers = res.outputs["fan"]["layers"]
-    assert np.allclose(layers[-1].frame[:3, 2], [-1, 0, 0], atol=1e-9)            # the end face x = −75
+    assert np.allclose(layers[-1].frame[:3, 2], [-1, 0, 0], atol=1e-9)  # the end face x = −75
     assert layers[-1].frame[:3, 3][0] == pytest.approx(-75.0, abs=1e-9)
 
 
@@ -156,12 +188,12 @@ def test_duct_on_the_positioner_cell_is_reachable(duct):
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["collision_count"] == 0
-    assert sim["max_wrist_step_deg"] < 2.0                   # A4..A6 per IK sample: no wrist flip / roll
-    assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)         # layer i's top at (i+1)·Δθ
+    assert sim["max_wrist_step_deg"] < 2.0  # A4..A6 per IK sample: no wrist flip / roll
+    assert sim["positioner_e1_min_deg"] == pytest.approx(1.54, abs=0.01)  # layer i's top at (i+1)·Δθ
     assert sim["positioner_e1_max_deg"] == pytest.approx(58 * 1.54, abs=0.01)
     assert sim["positioner_max_step_deg"] == pytest.approx(1.54, abs=0.05)
 
-    def fixed(recipe):       # on both: the simulation plans as the program it is fed was written
+    def fixed(recipe):  # on both: the simulation plans as the program it is fed was written
         for n in recipe["nodes"]:
             if n["id"] in ("sim", "post"):
                 n["params"]["positioner_policy"] = "fixed"
@@ -178,8 +210,11 @@ def test_duct_krl_carries_the_positioner_angles(duct):
 
     dat = duct.artifacts["post.dat"]
     dat = dat.decode() if isinstance(dat, bytes) else dat
-    rows = re.findall(r"DECL E6POS P\d+=\{X [^}]*,E1 ([-\d.]+),E2 ([-\d.]+),E3 ([-\d.]+),E4 ([-\d.]+),"
-                      r"E5 ([-\d.]+),E6 ([-\d.]+)\}", dat)
+    rows = re.findall(
+        r"DECL E6POS P\d+=\{X [^}]*,E1 ([-\d.]+),E2 ([-\d.]+),E3 ([-\d.]+),E4 ([-\d.]+),"
+        r"E5 ([-\d.]+),E6 ([-\d.]+)\}",
+        dat,
+    )
     assert len(rows) == dat.count("DECL E6POS")
     e = np.array(rows, float)
     e1 = np.unique(np.round(e[:, 0], 2))
@@ -209,16 +244,19 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     assert sim["unreachable_stretches"] == 0 and sim["joint_limit_stretches"] == 0
     assert sim["near_singular_stretches"] == 0 and sim["ik_max_position_error_mm"] < 0.01
     assert sim["positioner_e1_max_deg"] == pytest.approx(layers * dtheta, abs=0.01)
-    assert sim["max_wrist_step_deg"] < 2.0                   # A4..A6 per IK sample: no wrist flip
+    assert sim["max_wrist_step_deg"] < 2.0  # A4..A6 per IK sample: no wrist flip
     if sweep <= 90:
         assert sim["collision_count"] == 0 and sim["collision_samples_checked"] >= layers
         return
     # past 90° the table turns over the part: the torch neck meets the 300 mm table disc only on
     # layers tilted beyond 90° — a real cell lifts such a part on a riser (work frame +150 mm)
     assert sim["collision_count"] > 0
-    assert all(c["bodies"] == ["torch:torch_neck", "positioner:table"] and (c["layer"] + 1) * dtheta > 90
-               for c in sim["collisions"])
+    assert all(
+        c["bodies"] == ["torch:torch_neck", "positioner:table"] and (c["layer"] + 1) * dtheta > 90
+        for c in sim["collisions"]
+    )
     from waamflow.trajectory.cell import load_cell
+
     cell = json.loads(load_cell("kr150_tilt_rotate").model_dump_json())
     cell["work_frame"]["xyz_mm"] = [0.0, 0.0, 150.0]
     (tmp_path / "riser.json").write_text(json.dumps(cell))
@@ -226,8 +264,9 @@ def test_other_bends_are_reachable_with_the_gravity_policy(tmp_path, bend, sweep
     recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "post"]
     # the simulation then runs without the program (the post also fed it the program as written)
     recipe["edges"] = [e for e in recipe["edges"] if "post." not in (e["to"][:5], e["from"][:5])]
-    sim = json.loads(execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
-                     .artifacts["sim.simulation.json"])
+    sim = json.loads(
+        execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path)).artifacts["sim.simulation.json"]
+    )
     assert sim["collision_count"] == 0 and sim["unreachable_stretches"] == 0
     assert sim["joint_limit_stretches"] == 0 and sim["near_singular_stretches"] == 0
 
@@ -241,7 +280,9 @@ def test_duct_rapid_robtargets_carry_extax():
         recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] != "sim"]
         recipe["edges"] = [e for e in recipe["edges"] if not e["to"].startswith("sim.")]
 
-    mod = b"".join(v for k, v in sorted(run(rapid).artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k))  # main + part modules
+    mod = b"".join(
+        v for k, v in sorted(run(rapid).artifacts.items()) if re.fullmatch(r"post(_M\d+)?\.mod", k)
+    )  # main + part modules
     mod = mod.decode() if isinstance(mod, bytes) else mod
     ext = re.findall(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]\];", mod)
     assert len(ext) == mod.count("CONST robtarget") > 58
@@ -284,8 +325,8 @@ def test_duct_krl_is_structurally_valid_with_moving_external_axes(duct):
     src, dat = (duct.artifacts[k] for k in ("post.src", "post.dat"))
     src, dat = (x.decode() if isinstance(x, bytes) else x for x in (src, dat))
     e = _krl_structure(src, dat)
-    assert len(e["X"]) == 6787          # the 5 mm wall's centre-line laps (3 mm: 6438)
-    assert len(set(np.round(e["E1"], 2))) == 58 and max(e["E1"]) - min(e["E1"]) > 85    # E1 moves
+    assert len(e["X"]) == 6787  # the 5 mm wall's centre-line laps (3 mm: 6438)
+    assert len(set(np.round(e["E1"], 2))) == 58 and max(e["E1"]) - min(e["E1"]) > 85  # E1 moves
     assert len(set(np.round(e["E2"], 2))) == 1
 
 
@@ -307,15 +348,16 @@ def test_ring_seams_aligned_or_scattered(duct):
     # overlap (5 mm) further along the 15 mm mid circle
     starts = _lap_starts(duct)
     ang = np.arctan2(starts[:, 1], starts[:, 0] - 100.0)
-    step = np.abs(np.angle(np.exp(1j * np.diff(ang))))       # rad between consecutive starts
+    step = np.abs(np.angle(np.exp(1j * np.diff(ang))))  # rad between consecutive starts
     assert np.all(step * 15.0 <= 5.0 + 1.0)
-    assert np.ptp(ang[::2]) * 15.0 < 1.5                       # every other layer: the same seam (± sampling)
+    assert np.ptp(ang[::2]) * 15.0 < 1.5  # every other layer: the same seam (± sampling)
 
     def scattered(recipe):
         next(n for n in recipe["nodes"] if n["id"] == "perimeter")["params"]["tubular"] = "scattered"
+
     sc = _lap_starts(run(scattered))
     ang = np.arctan2(sc[:, 1], sc[:, 0] - 100.0)
     # the golden-ratio sequence: starts spread round the lap, no two consecutive ones together
     hist = np.histogram(np.mod(ang, 2 * np.pi), bins=8, range=(0, 2 * np.pi))[0]
-    assert hist.min() >= 4 and hist.max() <= 11                 # 58 laps over 8 sectors
+    assert hist.min() >= 4 and hist.max() <= 11  # 58 laps over 8 sectors
     assert np.min(np.abs(np.angle(np.exp(1j * np.diff(ang)))) * 15.0) > 6.0

@@ -15,8 +15,9 @@ from waamflow.curved.speeds import apply_bead_model, layer_report
 def path(points, arc=None):
     pts = np.asarray(points, float)
     n = len(pts) - 1
-    return SectionPath("s", "wall", pts, np.ones(n, bool) if arc is None else np.asarray(arc, bool),
-                       np.ones(n, bool), np.full(n, 5.0))
+    return SectionPath(
+        "s", "wall", pts, np.ones(n, bool) if arc is None else np.asarray(arc, bool), np.ones(n, bool), np.full(n, 5.0)
+    )
 
 
 def test_planar_layer_speed_from_thickness():
@@ -24,7 +25,7 @@ def test_planar_layer_speed_from_thickness():
     lp = LayerPaths(layer, (path([[0, 0, 2.49], [10, 0, 2.49], [20, 0, 2.49]], arc=[True, False]),))
     out = apply_bead_model(lp, BeadModel())
     v = BeadModel().speed_for_height(2.49)[0][0] / 60.0
-    assert out.sections[0].speed.tolist() == pytest.approx([v, 5.0])   # arc-off segment keeps its speed
+    assert out.sections[0].speed.tolist() == pytest.approx([v, 5.0])  # arc-off segment keeps its speed
     assert v * 60 == pytest.approx(838.8, abs=0.5)
 
 
@@ -36,9 +37,9 @@ def test_fan_layer_speed_from_radius():
     local = np.array([[85.0, 0.0], [95.0, 0.0], [105.0, 0.0], [115.0, 0.0]])
     lp = LayerPaths(layer, (path(layer.to_world(local)),))
     out = apply_bead_model(lp, BeadModel())
-    need = np.array([90.0, 100.0, 110.0]) * dth               # 2.356, 2.618, 2.880 mm
+    need = np.array([90.0, 100.0, 110.0]) * dth  # 2.356, 2.618, 2.880 mm
     assert np.allclose(BeadModel().height(out.sections[0].speed * 60), need, atol=1e-9)
-    assert np.all(np.diff(out.sections[0].speed) < 0)        # farther from the axis: slower, taller
+    assert np.all(np.diff(out.sections[0].speed) < 0)  # farther from the axis: slower, taller
     row = layer_report(out, BeadModel())
     assert row["clamped"] == 0 and row["r_min_mm"] == pytest.approx(85.0) and row["r_max_mm"] == pytest.approx(115.0)
     assert row["csratio"] == pytest.approx(100 / 30)

@@ -14,11 +14,16 @@ from waamflow.engine.recipe import parse_recipe
 
 def _features(tmp_path, curves, join=True):
     (tmp_path / "s.json").write_text(json.dumps({"curves": curves}))
-    recipe = {"format": "waamflow/1", "name": "j",
-              "nodes": [{"id": "sketch", "type": "sketch", "params": {"path": "s.json", "height": 4.0, "join": join}},
-                        {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
-                        {"id": "features", "type": "features", "params": {"corner_angle_deg": 30.0}}],
-              "edges": [{"from": "sketch.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "j",
+        "nodes": [
+            {"id": "sketch", "type": "sketch", "params": {"path": "s.json", "height": 4.0, "join": join}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
+            {"id": "features", "type": "features", "params": {"corner_angle_deg": 30.0}},
+        ],
+        "edges": [{"from": "sketch.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}],
+    }
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     return [f for f in json.loads(res.artifacts["features.features.json"])["features"] if f["layer"] == 0]
 
@@ -34,7 +39,7 @@ def test_shallow_end_to_end_walls_give_a_continuous_junction(tmp_path, join):
     assert counts == {"free_end": 2, "continuous": 1, "corner": 1}
     cont = next(f for f in feats if f["kind"] == "continuous")
     assert cont["point"] == pytest.approx([60, 0], abs=1e-6)
-    assert cont["angle_deg"] == pytest.approx(170.0, abs=1e-3)          # angle between the walls
+    assert cont["angle_deg"] == pytest.approx(170.0, abs=1e-3)  # angle between the walls
     corner = next(f for f in feats if f["kind"] == "corner")
     assert corner["point"] == pytest.approx(list(b_end), abs=1e-6)
     assert corner["angle_deg"] == pytest.approx(90.0, abs=1e-3)

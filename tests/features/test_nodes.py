@@ -24,8 +24,14 @@ def test_features_json_as_contract(panel):
     doc = json.loads(panel.artifacts["features.features.json"])
     assert set(doc) == {"features"}
     counts = Counter(f["kind"] for f in doc["features"])
-    assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
-                      "free_end": 1, "tubular": 1}
+    assert counts == {
+        "t_crossing": 9,
+        "corner": 4,
+        "direct_crossing": 2,
+        "four_direct_crossing": 1,
+        "free_end": 1,
+        "tubular": 1,
+    }
     assert all(len(f["point"]) == 2 for f in doc["features"])
     assert [f["isolated"] for f in doc["features"] if f["kind"] == "tubular"] == [True]
 
@@ -53,17 +59,28 @@ def test_gcode_dwells_after_ignition(panel):
     gcode = panel.artifacts["post.gcode"]
     gcode = (gcode.decode() if isinstance(gcode, bytes) else gcode).splitlines()
     ons = [i for i, line in enumerate(gcode) if line.split(";")[0].strip() == "M3"]
-    assert len(ons) == 1 + 20 * 15                          # helix once, then every wall every layer
+    assert len(ons) == 1 + 20 * 15  # helix once, then every wall every layer
     assert all(gcode[i + 1].startswith("G4 P0.5") for i in ons)
 
 
 def test_dxf_panel_gives_the_same_features(tmp_path):
     import ezdxf
+
     doc = ezdxf.new(units=4)
     msp = doc.modelspace()
-    for a, b in [((0, 0), (200, 0)), ((200, 0), (200, 120)), ((200, 120), (0, 120)), ((0, 120), (0, 0)),  # skin
-                 ((0, 60), (100, 60)), ((100, 60), (200, 60)), ((50, 0), (50, 120)),
-                 ((100, 0), (100, 60)), ((100, 60), (100, 120)), ((150, 0), (150, 120)), ((175, 60), (175, 100))]:
+    for a, b in [
+        ((0, 0), (200, 0)),
+        ((200, 0), (200, 120)),
+        ((200, 120), (0, 120)),
+        ((0, 120), (0, 0)),  # skin
+        ((0, 60), (100, 60)),
+        ((100, 60), (200, 60)),
+        ((50, 0), (50, 120)),
+        ((100, 0), (100, 60)),
+        ((100, 60), (100, 120)),
+        ((150, 0), (150, 120)),
+        ((175, 60), (175, 100)),
+    ]:
         msp.add_line(a, b)
     msp.add_circle((125, 90), 8)
     doc.saveas(tmp_path / "panel.dxf")
@@ -73,8 +90,14 @@ def test_dxf_panel_gives_the_same_features(tmp_path):
     recipe["edges"] = [e for e in recipe["edges"] if e["to"] in ("layers.mesh", "features.layers")]
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     counts = Counter(f["kind"] for f in json.loads(res.artifacts["features.features.json"])["features"])
-    assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
-                      "free_end": 1, "tubular": 1}
+    assert counts == {
+        "t_crossing": 9,
+        "corner": 4,
+        "direct_crossing": 2,
+        "four_direct_crossing": 1,
+        "free_end": 1,
+        "tubular": 1,
+    }
 
 
 def test_helix_per_run_of_layers():
@@ -89,8 +112,9 @@ def test_helix_per_run_of_layers():
     tube = LineString(list(tube.coords)[:-1] + [tube.coords[0]])
     wall = LineString([(40, 0), (80, 0)])
     # the tube exists on layers 0-2 and 5-6, the wall on every layer
-    layers = Layered(tuple(Layer(i, 2.0 * (i + 1), 2.0, curves=(wall, tube) if i in (0, 1, 2, 5, 6) else (wall,))
-                           for i in range(7)))
+    layers = Layered(
+        tuple(Layer(i, 2.0 * (i + 1), 2.0, curves=(wall, tube) if i in (0, 1, 2, 5, 6) else (wall,)) for i in range(7))
+    )
 
     class Ctx:
         def warn(self, *a, **k):

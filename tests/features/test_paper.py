@@ -37,22 +37,27 @@ def _bent_t(j, stem_deg):
 
 
 TAXONOMY = (
-    [c((0, 0), (40, 0)), c((20, 0), (20, 20))]                          # straight T: 90/90/180
-    + _bent_t((120, 0), 120)                                             # open T: 60/60/240
-    + _bent_t((220, 0), 300)                                             # closed T: 120/120/120
-    + [c((0, 100), (40, 100)), c((20, 80), (20, 120))]                   # X: direct crossing
+    [c((0, 0), (40, 0)), c((20, 0), (20, 20))]  # straight T: 90/90/180
+    + _bent_t((120, 0), 120)  # open T: 60/60/240
+    + _bent_t((220, 0), 300)  # closed T: 120/120/120
+    + [c((0, 100), (40, 100)), c((20, 80), (20, 120))]  # X: direct crossing
     + [c((100, 100), (140, 100)), c((120, 80), (120, 100)), c((120, 100), (120, 120))]  # odd direct
-    + [c((0, 200), (40, 200)), c((40, 200), (40, 240))]                  # L: corner
+    + [c((0, 200), (40, 200)), c((40, 200), (40, 240))]  # L: corner
 )
 
 
 def _sketch_features(tmp_path, curves, join=True, features=None):
     (tmp_path / "s.json").write_text(json.dumps({"curves": [np.asarray(k).tolist() for k in curves]}))
-    recipe = {"format": "waamflow/1", "name": "paper",
-              "nodes": [{"id": "sketch", "type": "sketch", "params": {"path": "s.json", "height": 4.0, "join": join}},
-                        {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
-                        {"id": "features", "type": "features", "params": features or {}}],
-              "edges": [{"from": "sketch.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}]}
+    recipe = {
+        "format": "waamflow/1",
+        "name": "paper",
+        "nodes": [
+            {"id": "sketch", "type": "sketch", "params": {"path": "s.json", "height": 4.0, "join": join}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
+            {"id": "features", "type": "features", "params": features or {}},
+        ],
+        "edges": [{"from": "sketch.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "features.layers"}],
+    }
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
     return [f for f in json.loads(res.artifacts["features.features.json"])["features"] if f["layer"] == 0]
 
@@ -70,8 +75,15 @@ def test_sub_type_taxonomy_on_a_sketch(tmp_path, join):
     angle between the three branches: 180°, more, less), X, odd direct crossing (an X whose crossing
     arm is two collinear curves — the sketch joins them end to end), L corner."""
     feats = _sketch_features(tmp_path, TAXONOMY, join)
-    assert _taxonomy(feats) == {"t_crossing/straight": 1, "t_crossing/open": 1, "t_crossing/closed": 1,
-                                "direct_crossing": 1, "odd_direct_crossing": 1, "corner": 1, "free_end": 19}
+    assert _taxonomy(feats) == {
+        "t_crossing/straight": 1,
+        "t_crossing/open": 1,
+        "t_crossing/closed": 1,
+        "direct_crossing": 1,
+        "odd_direct_crossing": 1,
+        "corner": 1,
+        "free_end": 19,
+    }
     by_point = {tuple(f["point"]): f for f in feats}
     assert by_point[(120.0, 0.0)]["corner_angles_deg"] == [60.0, 60.0, 240.0]
     assert by_point[(220.0, 0.0)]["corner_angles_deg"] == [120.0, 120.0, 120.0]
@@ -95,8 +107,7 @@ def test_t_sub_type_threshold_is_the_flat_corner_angle():
     j = (0.0, 0.0)
     curves = [c(_pol(j, 20, 180), j, _pol(j, 20, 20)), c(j, _pol(j, 20, 100))]
     assert _taxonomy(recognise(curves)) == {"t_crossing/straight": 1, "free_end": 3}
-    assert _taxonomy(recognise(curves, RecognitionSpec(corner_angle_deg=10.0))) == {"t_crossing/open": 1,
-                                                                                    "free_end": 3}
+    assert _taxonomy(recognise(curves, RecognitionSpec(corner_angle_deg=10.0))) == {"t_crossing/open": 1, "free_end": 3}
 
 
 def test_collinear_arm_curves_with_a_gap_are_joined_before_classifying():
@@ -141,10 +152,13 @@ def test_theoretical_radii_reproduce_test_1():
     assert (rc5, ri5) == (2.5, pytest.approx(7.0711, abs=1e-4))
     assert ri5 / rc5 == pytest.approx(2 * math.sqrt(2))
     # the bead widths that give the pair to 0.1 mm
-    ok = [w for w in np.arange(4.80, 5.20, 0.001)
-          if (round(crossing_bounds(w, 90.0)[1], 1), round(crossing_bounds(w, 90.0)[0], 1)) == (7.0, 2.5)]
-    assert min(ok) == pytest.approx(6.95 / math.sqrt(2), abs=1e-3)          # 4.914 mm
-    assert max(ok) == pytest.approx(7.05 / math.sqrt(2), abs=1e-3)          # 4.985 mm
+    ok = [
+        w
+        for w in np.arange(4.80, 5.20, 0.001)
+        if (round(crossing_bounds(w, 90.0)[1], 1), round(crossing_bounds(w, 90.0)[0], 1)) == (7.0, 2.5)
+    ]
+    assert min(ok) == pytest.approx(6.95 / math.sqrt(2), abs=1e-3)  # 4.914 mm
+    assert max(ok) == pytest.approx(7.05 / math.sqrt(2), abs=1e-3)  # 4.985 mm
     # narrower fillet corners need a larger influence circle; the cut bound does not depend on them
     assert crossing_bounds(5.0, 60.0) == (2.5, pytest.approx(10.0))
 
@@ -158,6 +172,7 @@ def test_radii_the_paper_found_defective_are_warned(curves, kind):
     """Bead 5 mm (the paper's process): Test 1 (7.0/2.5) left a central void and thin fillets, Test
     2 (8.0/2.0) thin fillets, Test 3 (10.0/2.0) was sound. Each defective radius is one warning
     naming the junction and the radius."""
+
     def warn(ri, rc):
         return plan_layer_walls(curves, recognise(curves), WallSpec(rc, ri, bead_width=5.0)).warnings
 
@@ -177,6 +192,7 @@ def test_radii_the_paper_found_defective_are_warned(curves, kind):
 # ------------------------------------------------------------------------------------------
 def _wall_path():
     from waamflow.engine.node import REGISTRY, load_nodes
+
     load_nodes()
     return REGISTRY["wall-path"]
 
@@ -191,11 +207,11 @@ def test_wall_path_declares_the_paper_inputs_with_units_and_bounds():
 
 def test_bead_width_from_eww_tww_and_deposition_efficiency():
     P = _wall_path().Params
-    assert P(eww=4.0, deposition_efficiency=0.8).bead_width == pytest.approx(5.0)     # TWW = EWW / DE
+    assert P(eww=4.0, deposition_efficiency=0.8).bead_width == pytest.approx(5.0)  # TWW = EWW / DE
     assert P(eww=4.0, tww=5.0).deposition_efficiency == pytest.approx(0.8)
     assert P(tww=5.0, deposition_efficiency=0.8).eww == pytest.approx(4.0)
     assert P(tww=6.0).bead_width == 6.0
-    assert P().bead_width == 5.0                                   # the paper's bead when nothing is given
+    assert P().bead_width == 5.0  # the paper's bead when nothing is given
     with pytest.raises(ValidationError, match="eww 6 mm exceeds tww 5 mm"):
         P(eww=6.0, tww=5.0)
     with pytest.raises(ValidationError, match="deposition_efficiency 0.5"):
@@ -205,8 +221,19 @@ def test_bead_width_from_eww_tww_and_deposition_efficiency():
 
 
 def test_inconsistent_widths_exit_2_naming_the_node(tmp_path):
-    cmd = [sys.executable, "-m", "waamflow.cli", "run", str(ROOT / "graphs" / "thin-wall-panel.json"),
-           "--out", str(tmp_path / "o"), "--set", "walls.eww=6", "--set", "walls.tww=5"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "waamflow.cli",
+        "run",
+        str(ROOT / "graphs" / "thin-wall-panel.json"),
+        "--out",
+        str(tmp_path / "o"),
+        "--set",
+        "walls.eww=6",
+        "--set",
+        "walls.tww=5",
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.startswith("error:") and "walls" in r.stderr and "eww 6 mm exceeds tww 5 mm" in r.stderr
@@ -256,7 +283,7 @@ def _panel(**inputs):
     recipe["inputs"].update(inputs)
     recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] in ("sketch", "layers", "features", "walls")]
     recipe["edges"] = [e for e in recipe["edges"] if e["to"].split(".")[0] in ("layers", "features", "walls")]
-    recipe["inputs"]["layer_height"] = 10.0                     # 3 layers are enough here
+    recipe["inputs"]["layer_height"] = 10.0  # 3 layers are enough here
     return execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(ROOT / "graphs"))
 
 
@@ -264,17 +291,19 @@ def test_panel_sub_types_widths_and_fillets():
     base = _panel()
     feats = json.loads(base.artifacts["features.features.json"])["features"]
     assert Counter(f.get("subtype") for f in feats if f["kind"] == "t_crossing") == {"straight": 9}
-    assert base.warnings == []                                   # TWW 4 mm, radii 1.6/8.0: Test 3's scaled
+    assert base.warnings == []  # TWW 4 mm, radii 1.6/8.0: Test 3's scaled
     # the study's 2.0/10.0 on this 4 mm bead: the 2 mm cutting circle exceeds 0.8 × 4/2 at all 12 crossings
     narrow = _panel(cut_radius=2.0, influence_radius=10.0)
     msgs = [w["message"] for w in narrow.warnings]
     assert len(msgs) == 12 and all("cut_radius 2 mm exceeds 1.6 mm" in m for m in msgs)
     assert sum(m.startswith("four_direct_crossing at [100.0, 60.0]") for m in msgs) == 1
+
     # a 3 mm internal fillet turns the four skin corners on R = 3 + EWW/2 = 3 + 3.2/2 = 4.6 mm:
     # each layer is 4·(2R − πR/2) = 7.897 mm shorter
     def layer_len(res, i):
         doc = json.loads(res.artifacts["walls.toolpath.json"])
         return sum(s["length_mm"] for s in doc["layers"][i]["sections"] if s["key"].startswith("wall"))
+
     fil = _panel(fillet_radius=3.0)
     R = 4.6
     assert layer_len(base, 1) - layer_len(fil, 1) == pytest.approx(4 * (2 * R - math.pi * R / 2), abs=0.01)

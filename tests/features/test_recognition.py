@@ -16,26 +16,36 @@ from waamflow.features import FeatureSet, RecognitionSpec, features_for_layer, r
 PANEL = Path(__file__).resolve().parents[2] / "graphs" / "parts" / "panel.json"
 
 
-
-
 def kinds(curves, **kw):
     return Counter(f["kind"] for f in recognise(curves, RecognitionSpec(**kw)))
 
 
-@pytest.mark.parametrize("name, curves, expected", [
-    ("X", [c((-10, 0), (10, 0)), c((0, -10), (0, 10))], {"direct_crossing": 1, "free_end": 4}),
-    ("T", [c((-10, 0), (10, 0)), c((0, 0), (0, 10))], {"t_crossing": 1, "free_end": 3}),
-    ("L", [c((0, 0), (10, 0)), c((10, 0), (10, 10))], {"corner": 1, "free_end": 2}),
-    ("smooth", [c((0, 0), (10, 0)), c((10, 0), (20, 1))], {"continuous": 1, "free_end": 2}),
-    ("free", [c((0, 0), (10, 0))], {"free_end": 2}),
-    ("four", [c((0, 0), (10, 0)), c((0, 0), (0, 10)), c((0, 0), (-10, 0)), c((0, 0), (0, -10))],
-     {"four_direct_crossing": 1, "free_end": 4}),
-    ("Y", [c((0, 0), (10, 0)), c((0, 0), (-5, 8)), c((0, 0), (-5, -8))], {"odd_t_crossing": 1, "free_end": 3}),
-    ("oddX", [c((-10, 0), (10, 0)), c((0, 0), (1, 10)), c((0, 0), (-1, -10))],
-     {"odd_direct_crossing": 1, "free_end": 4}),
-    ("closed-T", [c((0, 0), (20, 0), (20, 20), (0, 20), (0, 0)), c((10, 0), (10, 10))],
-     {"t_crossing": 1, "corner": 4, "free_end": 1}),
-])
+@pytest.mark.parametrize(
+    "name, curves, expected",
+    [
+        ("X", [c((-10, 0), (10, 0)), c((0, -10), (0, 10))], {"direct_crossing": 1, "free_end": 4}),
+        ("T", [c((-10, 0), (10, 0)), c((0, 0), (0, 10))], {"t_crossing": 1, "free_end": 3}),
+        ("L", [c((0, 0), (10, 0)), c((10, 0), (10, 10))], {"corner": 1, "free_end": 2}),
+        ("smooth", [c((0, 0), (10, 0)), c((10, 0), (20, 1))], {"continuous": 1, "free_end": 2}),
+        ("free", [c((0, 0), (10, 0))], {"free_end": 2}),
+        (
+            "four",
+            [c((0, 0), (10, 0)), c((0, 0), (0, 10)), c((0, 0), (-10, 0)), c((0, 0), (0, -10))],
+            {"four_direct_crossing": 1, "free_end": 4},
+        ),
+        ("Y", [c((0, 0), (10, 0)), c((0, 0), (-5, 8)), c((0, 0), (-5, -8))], {"odd_t_crossing": 1, "free_end": 3}),
+        (
+            "oddX",
+            [c((-10, 0), (10, 0)), c((0, 0), (1, 10)), c((0, 0), (-1, -10))],
+            {"odd_direct_crossing": 1, "free_end": 4},
+        ),
+        (
+            "closed-T",
+            [c((0, 0), (20, 0), (20, 20), (0, 20), (0, 0)), c((10, 0), (10, 10))],
+            {"t_crossing": 1, "corner": 4, "free_end": 1},
+        ),
+    ],
+)
 def test_counts_per_kind(name, curves, expected):
     assert kinds(curves) == expected
 
@@ -69,8 +79,8 @@ def test_merge_tolerance():
 
 def test_tubular_isolated_vs_not():
     wall = c((0, 0), (40, 0))
-    far = circle(40, 40, 8)      # 32 mm from the wall: outside the 15 mm half-encumbrance band
-    near = circle(40, 20, 8)     # 12 mm from the wall: inside it
+    far = circle(40, 40, 8)  # 32 mm from the wall: outside the 15 mm half-encumbrance band
+    near = circle(40, 20, 8)  # 12 mm from the wall: inside it
     f_far = [f for f in recognise([wall, far]) if f["kind"] == "tubular"]
     f_near = [f for f in recognise([wall, near]) if f["kind"] == "tubular"]
     assert len(f_far) == 1 and f_far[0]["isolated"] is True
@@ -96,8 +106,14 @@ def test_panel_sketch_counts():
     doc = json.loads(PANEL.read_text())
     feats = recognise([np.array(cv) for cv in doc["curves"]])
     counts = Counter(f["kind"] for f in feats)
-    assert counts == {"t_crossing": 9, "corner": 4, "direct_crossing": 2, "four_direct_crossing": 1,
-                      "free_end": 1, "tubular": 1}
+    assert counts == {
+        "t_crossing": 9,
+        "corner": 4,
+        "direct_crossing": 2,
+        "four_direct_crossing": 1,
+        "free_end": 1,
+        "tubular": 1,
+    }
     assert [f["isolated"] for f in feats if f["kind"] == "tubular"] == [True]
 
 
@@ -115,7 +131,7 @@ def test_layers_first_layer_reused_and_fresh_recognition():
 
 
 def test_curve_crossing_itself():
-    loop = c((-10, 0), (10, 0), (10, 10), (0, 10), (0, -10))   # crosses its first segment at (0, 0)
+    loop = c((-10, 0), (10, 0), (10, 10), (0, 10), (0, -10))  # crosses its first segment at (0, 0)
     feats = recognise([loop])
     assert Counter(f["kind"] for f in feats) == {"direct_crossing": 1, "corner": 3, "free_end": 2}
     x = next(f for f in feats if f["kind"] == "direct_crossing")
@@ -143,7 +159,7 @@ def test_walls_joined_end_to_end_at_a_shallow_angle_list_a_continuous_junction()
 
 
 def test_discretised_arcs_are_one_wall_not_a_chain_of_junctions():
-    t = np.linspace(0, math.pi, 40)                         # half circle r 50, 4.6° per chord
+    t = np.linspace(0, math.pi, 40)  # half circle r 50, 4.6° per chord
     arc = np.column_stack([50 * np.cos(t), 50 * np.sin(t)])
     k = kinds([arc])
     assert k["continuous"] == 0 and k["corner"] == 0

@@ -6,11 +6,16 @@ import numpy as np
 from curve_shapes import c, circle
 import pytest
 
-from waamflow.features import (WallSpec, aligned_loop, crossing_geometry, helix, plan_layer_walls, recognise,
-                               scattered_loop)
+from waamflow.features import (
+    WallSpec,
+    aligned_loop,
+    crossing_geometry,
+    helix,
+    plan_layer_walls,
+    recognise,
+    scattered_loop,
+)
 from waamflow.features.tubular import GOLDEN
-
-
 
 
 def plan(curves, **kw):
@@ -27,7 +32,7 @@ def test_crossing_geometry_lengths_from_radii():
     g = crossing_geometry((5, 5), dirs, 2.0, 10.0, 30.0)
     assert np.allclose(np.hypot(*(g.cut_points - 5).T), 2.0)
     assert np.allclose(np.hypot(*(g.influence_points - 5).T), 10.0)
-    assert np.allclose(g.fillet_lengths, fillet(10, 2, 90))          # 8.7015 mm each
+    assert np.allclose(g.fillet_lengths, fillet(10, 2, 90))  # 8.7015 mm each
     assert g.fillet_lengths[0] == pytest.approx(8.70148, abs=1e-5)
     # study's first trial 7.0/2.5
     g2 = crossing_geometry((0, 0), dirs, 2.5, 7.0, 30.0)
@@ -36,11 +41,11 @@ def test_crossing_geometry_lengths_from_radii():
 
 def test_direct_crossing_paths():
     lw = plan([c((-30, 0), (30, 0)), c((0, -30), (0, 30))], free_end_extension=0.0)
-    assert len(lw.passes) == 4                               # four branches, each its own entity
+    assert len(lw.passes) == 4  # four branches, each its own entity
     lead = fillet(10, 2, 90)
     for p in lw.passes:
-        assert p.length == pytest.approx(28.0 + lead, abs=1e-9)   # 30 − cut radius + fillet segment
-        assert int((~p.inside).sum()) == 1                   # the fillet lead starts in stock
+        assert p.length == pytest.approx(28.0 + lead, abs=1e-9)  # 30 − cut radius + fillet segment
+        assert int((~p.inside).sum()) == 1  # the fillet lead starts in stock
     # the walls inside the cutting circle are gone: deposited wall length = 4·30 − 4·2
     wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
     assert wall == pytest.approx(120.0 - 8.0, abs=1e-9)
@@ -60,14 +65,15 @@ def test_t_crossing_two_fillets_and_a_bridge():
 
 
 def test_radii_are_parameters():
-    lw = plan([c((-30, 0), (30, 0)), c((0, -30), (0, 30))], free_end_extension=0.0,
-              cut_radius=2.0, influence_radius=8.0)
+    lw = plan(
+        [c((-30, 0), (30, 0)), c((0, -30), (0, 30))], free_end_extension=0.0, cut_radius=2.0, influence_radius=8.0
+    )
     assert lw.passes[0].length == pytest.approx(28.0 + fillet(8, 2, 90), abs=1e-9)
 
 
 def test_free_end_extension_and_corner_in_one_go():
     lw = plan([c((0, 0), (40, 0)), c((40, 0), (40, 30))], free_end_extension=5.0)
-    assert len(lw.passes) == 1                               # the corner is deposited in one go
+    assert len(lw.passes) == 1  # the corner is deposited in one go
     p = lw.passes[0]
     assert p.length == pytest.approx(70.0 + 10.0, abs=1e-9)
     assert p.inside.tolist() == [False, True, True, False]
@@ -83,8 +89,8 @@ def test_every_wall_deposited_once_on_panel_like_layout():
     assert len(lw.passes) == 4 + 2 + 2
     total = 300.0 + 50.0 + 100.0
     wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
-    bridges = 4 * 4.0                                        # one per T (flat skin side)
-    removed = 4 * (3 * 2.0) + 4 * 2.0                        # 3 branches per T, 4 at the X, r_c each
+    bridges = 4 * 4.0  # one per T (flat skin side)
+    removed = 4 * (3 * 2.0) + 4 * 2.0  # 3 branches per T, 4 at the X, r_c each
     assert wall == pytest.approx(total - removed + bridges, abs=1e-6)
 
 
@@ -97,7 +103,7 @@ def test_tubular_laps():
     s3 = scattered_loop(ring, 3, 0.0)
     start = 3 * GOLDEN % 1.0 * L
     angle = math.atan2(s3[0][1], s3[0][0]) % (2 * math.pi)
-    assert angle * 10 == pytest.approx(start, abs=0.05)      # on a circle arc length ≈ r·angle
+    assert angle * 10 == pytest.approx(start, abs=0.05)  # on a circle arc length ≈ r·angle
     assert float(np.hypot(*np.diff(s3, axis=0).T).sum()) == pytest.approx(L, abs=1e-9)
 
 
@@ -106,13 +112,13 @@ def test_helix_pitch_equals_layer_height():
     zs = [2.0, 4.0, 6.0, 8.0]
     pts = helix(ring, zs)
     assert len(pts) == 37 + 3 * 36
-    assert np.all(pts[:37, 2] == 2.0)                       # first lap flat on the substrate
+    assert np.all(pts[:37, 2] == 2.0)  # first lap flat on the substrate
     # one lap after the first: same xy, z higher by exactly one layer height
     for k in range(1, 4):
         a, b = 36 + 36 * (k - 1), 36 + 36 * k
         assert np.allclose(pts[a, :2], pts[b, :2])
         assert pts[b, 2] - pts[a, 2] == pytest.approx(2.0, abs=1e-12)
-    assert np.all(np.diff(pts[36:, 2]) > 0)                 # rises continuously
+    assert np.all(np.diff(pts[36:, 2]) > 0)  # rises continuously
     assert pts[-1, 2] == 8.0
 
 
@@ -128,11 +134,12 @@ def test_isolated_tube_goes_helical_non_isolated_scattered():
 def test_crossing_radii_bounds():
     from waamflow.features import crossing_bounds
     from waamflow.features.walls import crossing_window
+
     rc_max, ri_min = crossing_bounds(4.0, 90.0)
-    assert rc_max == pytest.approx(2.0)                       # w/2: the cut wall ends reach the crossing
-    assert ri_min == pytest.approx(4.0 * math.sqrt(2))       # w/sin(45°): one bead width off both branches
-    assert crossing_bounds(4.0, 60.0) == (2.0, pytest.approx(8.0))   # narrower corner: larger influence
-    assert crossing_window(5.0, 90.0) == (pytest.approx(2.0), pytest.approx(10.0))   # the study's Test 3
+    assert rc_max == pytest.approx(2.0)  # w/2: the cut wall ends reach the crossing
+    assert ri_min == pytest.approx(4.0 * math.sqrt(2))  # w/sin(45°): one bead width off both branches
+    assert crossing_bounds(4.0, 60.0) == (2.0, pytest.approx(8.0))  # narrower corner: larger influence
+    assert crossing_window(5.0, 90.0) == (pytest.approx(2.0), pytest.approx(10.0))  # the study's Test 3
     curves = [c((-30, 0), (30, 0)), c((0, -30), (0, 30))]
     ok = plan(curves, bead_width=5.0)
     assert ok.warnings == ()
@@ -148,8 +155,8 @@ def test_self_crossing_is_cut_like_a_direct_crossing():
     # split at both passes: (−10,0)→X, X→…→X (the lap through the corners), X→(0,−10)
     assert len(lw.passes) == 3
     wall = sum(float(np.hypot(*np.diff(p.xy, axis=0).T)[p.inside].sum()) for p in lw.passes)
-    assert wall == pytest.approx(60.0 - 4 * 2.0, abs=1e-9)   # 20 + 10 + 10 + 20 mm, less 4 r_c
-    assert sum(int((~p.inside).sum()) for p in lw.passes) == 4   # four fillet leads
+    assert wall == pytest.approx(60.0 - 4 * 2.0, abs=1e-9)  # 20 + 10 + 10 + 20 mm, less 4 r_c
+    assert sum(int((~p.inside).sum()) for p in lw.passes) == 4  # four fillet leads
 
 
 def test_wall_passes_ignite_in_their_machining_stock():

@@ -9,10 +9,10 @@ from waamflow.process.bead_fit import BeadFit, fit_trials, read_trials, Trials
 
 def synthetic(n=40, noise=0.02, seed=3):
     rng = np.random.default_rng(seed)
-    wfs = rng.uniform(5, 12, n)          # m/min
-    ts = rng.uniform(5, 15, n)           # mm/s
-    w = 3.1 * wfs ** 0.55 * ts ** -0.42
-    h = 2.4 * wfs ** 0.30 * ts ** -0.35
+    wfs = rng.uniform(5, 12, n)  # m/min
+    ts = rng.uniform(5, 15, n)  # mm/s
+    w = 3.1 * wfs**0.55 * ts**-0.42
+    h = 2.4 * wfs**0.30 * ts**-0.35
     return Trials(wfs, ts, w * (1 + noise * rng.standard_normal(n)), h * (1 + noise * rng.standard_normal(n)))
 
 
@@ -47,8 +47,11 @@ def test_validity_range_must_be_min_and_max():
     assert back.in_range(8.0, 10.0)
     for key, bad in (("wfs_m_min", [8.0]), ("ts_mm_s", [5.0, 10.0, 15.0])):
         broken = {**d, "validity": {**d["validity"], key: bad}}
-        with pytest.raises(InputFileError, match=rf"my.json: not a bead model \(validity\.{key} must be "
-                                                 rf"\[min, max\], got {len(bad)} value\(s\)\)"):
+        with pytest.raises(
+            InputFileError,
+            match=rf"my.json: not a bead model \(validity\.{key} must be "
+            rf"\[min, max\], got {len(bad)} value\(s\)\)",
+        ):
             BeadFit.from_json(broken, source="my.json")
 
 
@@ -86,8 +89,8 @@ def test_bead_model_node_takes_its_height_law_from_a_fit(tmp_path):
     rows = ["wfs,ts,width,height"]
     for wfs in (6.0, 8.0, 10.0):
         for ts in (6.0, 9.0, 12.0, 16.0, 20.0):
-            h = 3.2 * wfs ** 0.3 * ts ** -0.35 * (1 + 0.01 * rng.standard_normal())
-            rows.append(f"{wfs},{ts},{5 * wfs ** 0.5 * ts ** -0.4:.4f},{h:.4f}")
+            h = 3.2 * wfs**0.3 * ts**-0.35 * (1 + 0.01 * rng.standard_normal())
+            rows.append(f"{wfs},{ts},{5 * wfs**0.5 * ts**-0.4:.4f},{h:.4f}")
     csv_path = tmp_path / "trials.csv"
     csv_path.write_text("\n".join(rows) + "\n")
     recipe = json.loads((graphs / "curved-duct.json").read_text())

@@ -32,7 +32,7 @@ def pass_offsets(sp) -> list[float]:
 
 
 def test_layer_height_and_spacing_come_from_the_model():
-    res = run([("height", 1.8), ("width", 5.0), ("layers", 2)])   # two layers: a quick look
+    res = run([("height", 1.8), ("width", 5.0), ("layers", 2)])  # two layers: a quick look
     layers = res.outputs["layers"]["layers"]
     assert [l.thickness for l in layers] == pytest.approx([1.8, 1.8])
     assert [l.z for l in layers] == pytest.approx([1.8, 3.6])
@@ -54,8 +54,11 @@ def test_layer_height_and_spacing_come_from_the_model():
     assert (model.target_height_mm, model.target_width_mm) == (1.8, 5.0)
     p = res.outputs["fill"]["toolpath"][0].sections[1].zone_params["z1"]
     assert p["travel_speed"] == pytest.approx(model.speeds_for(1.8, 5.0)[1], rel=1e-3)
-    [sec] = [s for s in res.outputs["fill"]["report"]["fill"]["mass_balance"]["sections"]
-             if s["layer"] == 0 and s["section"] == "bs1/B"]
+    [sec] = [
+        s
+        for s in res.outputs["fill"]["report"]["fill"]["mass_balance"]["sections"]
+        if s["layer"] == 0 and s["section"] == "bs1/B"
+    ]
     assert sec["step_mm"] == pytest.approx(4.07, abs=0.01)
     assert model.wire_per_mm(p["wire_feed_speed"], p["travel_speed"]) == pytest.approx(sec["step_mm"] * 1.8, rel=0.02)
     assert model.width(p["wire_feed_speed"], p["travel_speed"]) == pytest.approx(5.0, rel=0.06)

@@ -29,7 +29,7 @@ def test_compensation_halves_the_cv(pattern):
     res = run(pattern=pattern, speed=40, compensate="on")
     on = json.loads(res.artifacts["simulate.simulation.json"])
     assert on["deposit_per_mm_cv_before"] == pytest.approx(off["deposit_per_mm_cv"], rel=1e-6)
-    assert off["deposit_per_mm_cv"] > 0.2          # stops and corners at 40 mm/s: uneven
+    assert off["deposit_per_mm_cv"] > 0.2  # stops and corners at 40 mm/s: uneven
     assert on["deposit_per_mm_cv"] <= 0.5 * off["deposit_per_mm_cv"]
     # the motion is the same program's: same time within two interpolation cycles
     assert on["total_time_s"] == pytest.approx(off["total_time_s"], abs=0.025)
@@ -38,7 +38,7 @@ def test_compensation_halves_the_cv(pattern):
     q = 94.25 / 40.0
     assert on["deposited_volume_mm3"] / (q * on["arc_on_length_mm"]) == pytest.approx(1.0, abs=0.02)
     assert off["deposited_volume_mm3"] / (q * off["arc_on_length_mm"]) > 1.05
-    assert on["deposit_ratio_cv"] == pytest.approx(on["deposit_per_mm_cv"], rel=1e-6)   # one target: same measure
+    assert on["deposit_ratio_cv"] == pytest.approx(on["deposit_per_mm_cv"], rel=1e-6)  # one target: same measure
     svg = res.artifacts["simulate.deposit.svg"]
     svg = svg.decode() if isinstance(svg, bytes) else svg
     assert svg.count("<polyline") == 3 and "compensated" in svg
@@ -46,7 +46,9 @@ def test_compensation_halves_the_cv(pattern):
 
 def test_subdivision_keeps_the_corners_the_robot_takes():
     recipe = apply_overrides(load_recipe(RECIPE), [("pattern", "triangular"), ("speed", 40)])
-    tp = execute(build_graph(recipe), resolver=FileResolver(RECIPE.parent), targets=["strategy"]).outputs["strategy"]["toolpath"]
+    tp = execute(build_graph(recipe), resolver=FileResolver(RECIPE.parent), targets=["strategy"]).outputs["strategy"][
+        "toolpath"
+    ]
     prof = load_profile("kuka_kr100ha_krc2")
     fine = subdivide_toolpath(tp, 1.0, 5.0, "cdis", prof)
     a = simulate_program(flatten(tp), prof, SimOptions())

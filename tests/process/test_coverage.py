@@ -28,13 +28,13 @@ def test_parallel_passes_void_and_over_deposit_exact():
     cov = section_coverage(region, pts, arc, width=4.0)
     # inside the rectangle each pass covers a 40 x 4 strip; its round ends spill outside
     assert cov.void_area == pytest.approx(800 - 4 * 40 * 4, rel=0.01)
-    assert cov.over_deposit_area == pytest.approx(4 * math.pi * 2 ** 2, rel=0.01)
+    assert cov.over_deposit_area == pytest.approx(4 * math.pi * 2**2, rel=0.01)
     assert cov.overlap_area == pytest.approx(0.0, abs=1e-9)
 
 
 def test_overlapping_passes_overlap_area():
     region = box(0, 0, 40, 20)
-    ys = [2.0, 5.0, 8.0, 11.0, 14.0, 17.0]   # 3 mm apart, 4 mm wide: 1 mm overlap strips
+    ys = [2.0, 5.0, 8.0, 11.0, 14.0, 17.0]  # 3 mm apart, 4 mm wide: 1 mm overlap strips
     pts, arc = passes(ys)
     cov = section_coverage(region, pts, arc, width=4.0)
     lines = [LineString([(0, y), (40, y)]).buffer(2.0, quad_segs=64) for y in ys]

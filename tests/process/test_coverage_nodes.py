@@ -31,7 +31,7 @@ def test_contour_offsets_and_one_connected_path_on_a_rectangle():
     # rings at 3, 3 + d, 3 + 2d, ... until the offset vanishes (half width 10.75)
     assert len(rings) == math.floor((10.75 - 3.0) / d) + 1
     p = plan_section(region, None, spec)
-    assert p.arc_switches == 2            # nested loops: one arc-ON path
+    assert p.arc_switches == 2  # nested loops: one arc-ON path
     assert p.outside_length == pytest.approx(0.0, abs=1e-9)
     # the outer loop is the 37 x 15.5 rectangle
     assert p.length > 2 * (37 + 15.5)
@@ -41,7 +41,7 @@ def test_contour_follows_holes_and_splits_into_few_paths():
     region = Polygon([(0, 0), (60, 0), (60, 15), (15, 15), (15, 50), (0, 50)]).difference(box(30, 3, 40, 10))
     p = plan_section(region, None, StrategySpec(pattern="contour", bead_width=4.0))
     cov = section_coverage(region, p.points, p.arc, 4.0)
-    assert cov.over_deposit_area == pytest.approx(0.0, abs=1e-6)   # offsets keep the beads inside
+    assert cov.over_deposit_area == pytest.approx(0.0, abs=1e-6)  # offsets keep the beads inside
     assert cov.void_area < 0.1 * region.area
     assert p.arc_switches <= 6
 
@@ -63,7 +63,10 @@ def test_compare_reports_coverage_per_pattern():
 def _cross_with_coverage():
     recipe = json.loads((GRAPHS / "mpp-cross.json").read_text())
     recipe["nodes"].append({"id": "cov", "type": "coverage", "params": {"bead_width": 6.0}})
-    recipe["edges"] += [{"from": "zone.toolpath", "to": "cov.toolpath"}, {"from": "guide.sections", "to": "cov.sections"}]
+    recipe["edges"] += [
+        {"from": "zone.toolpath", "to": "cov.toolpath"},
+        {"from": "guide.sections", "to": "cov.sections"},
+    ]
     return recipe
 
 
@@ -72,7 +75,9 @@ def test_coverage_node_on_the_cross():
     cov = json.loads(res.artifacts["cov.coverage.json"])
     assert len(cov["layers"]) == 8 and all(len(l["sections"]) == 3 for l in cov["layers"])
     tot = cov["total"]
-    assert tot["region_area_mm2"] == pytest.approx(sum(r["region_area_mm2"] for l in cov["layers"] for r in l["sections"]), abs=0.01)
+    assert tot["region_area_mm2"] == pytest.approx(
+        sum(r["region_area_mm2"] for l in cov["layers"] for r in l["sections"]), abs=0.01
+    )
     row = cov["layers"][0]["sections"][0]
     void = sum(Polygon(p["exterior"], p["holes"]).area for p in row["void"])
     assert void == pytest.approx(row["void_area_mm2"], rel=1e-3)
@@ -84,7 +89,9 @@ def test_preview_returns_coverage(tmp_path):
     shutil.copytree(GRAPHS, gdir)
     s = Settings(data_dir=tmp_path / "data", graphs_dir=gdir, start_viewer=False, static_dir=None, workers=1)
     with TestClient(create_app(s)) as c:
-        body = c.post("/api/preview", json={"recipe": _cross_with_coverage(), "graph": "mpp-cross", "node": "zone",
-                                            "layer": 2, "coverage": True}).json()
+        body = c.post(
+            "/api/preview",
+            json={"recipe": _cross_with_coverage(), "graph": "mpp-cross", "node": "zone", "layer": 2, "coverage": True},
+        ).json()
     assert [r["key"] for r in body["coverage"]] == [p["key"] for p in body["paths"]]
     assert all(r["bead_width_mm"] == 6.0 and r["void_area_mm2"] >= 0 for r in body["coverage"])

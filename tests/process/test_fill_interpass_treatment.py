@@ -54,23 +54,26 @@ def test_fill_keeps_user_values_and_fills_the_rest(example, model):
     # item 5: mass-balanced; the synthetic trials are consistent, so the model's bead is within 2 %)
     body = model_values(model, FillRules(width_mm=6.0), "z2", 1.5)
     assert body["travel_speed"] == pytest.approx(model.speeds_for(1.5, 6.0)[1], rel=1e-3)
-    assert model.wire_per_mm(body["wire_feed_speed"], body["travel_speed"]) == \
-        pytest.approx(model.shape_factor * 6.0 * 1.5, rel=1e-3)
+    assert model.wire_per_mm(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(
+        model.shape_factor * 6.0 * 1.5, rel=1e-3
+    )
     assert model.height(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(1.5, rel=0.02)
     assert model.width(body["wire_feed_speed"], body["travel_speed"]) == pytest.approx(6.0, rel=0.02)
     # the section path needs step × 1.5 mm per mm: the body zones of the filled file feed that (2 %)
     need = [s for s in report["mass_balance"]["sections"] if (s["layer"], s["section"]) == (0, key)][0]
     z2 = table.values[(0, key, "z2")]
-    assert model.wire_per_mm(z2["wire_feed_speed"], z2["travel_speed"]) == \
-        pytest.approx(need["deposit_mm3_per_mm"], rel=0.02)
+    assert model.wire_per_mm(z2["wire_feed_speed"], z2["travel_speed"]) == pytest.approx(
+        need["deposit_mm3_per_mm"], rel=0.02
+    )
     assert need["deposit_mm3_per_mm"] == pytest.approx(need["step_mm"] * 1.5)
     start = table.values[(0, key, "start")]
     assert start["travel_speed"] == pytest.approx(0.75 * z2["travel_speed"], rel=1e-3)
     end = table.values[(0, key, "end")]
     # the ramps' default factors are equal (0.75, 0.5: before 0.83 of the wire, a 1.1× and 1.66× over-feed)
     assert end["wire_feed_speed"] == pytest.approx(0.5 * z2["wire_feed_speed"], rel=1e-3)
-    assert model.wire_per_mm(end["wire_feed_speed"], end["travel_speed"]) == \
-        pytest.approx(need["deposit_mm3_per_mm"], rel=0.02)
+    assert model.wire_per_mm(end["wire_feed_speed"], end["travel_speed"]) == pytest.approx(
+        need["deposit_mm3_per_mm"], rel=0.02
+    )
     # the user's z1 (7 mm/s at the model's wire feed) is kept and reported as unbalanced
     assert {(r["layer"], r["zone"]) for r in report["mass_balance"]["unbalanced_zones"]} == {(0, "z1")}
     # the user's travel speed is the programmed speed of that zone's arc-ON segments
@@ -92,7 +95,7 @@ def test_dwell_respects_the_interpass_rule(example):
     row = rep2["layers"][0]
     assert row["limited_by"] == "min_layer_time"
     assert row["arc_time_s"] + row["travel_time_s"] + row["dwell_s"] == pytest.approx(120.0, abs=1e-2)
-    assert rep2["total_added_dwell_s"] == pytest.approx(row["dwell_s"], abs=1e-2)   # none after the last layer
+    assert rep2["total_added_dwell_s"] == pytest.approx(row["dwell_s"], abs=1e-2)  # none after the last layer
     with pytest.raises(ValueError, match="above ambient"):
         plan_dwells(seq, HeatModel(interpass_c=10.0))
 
@@ -101,8 +104,14 @@ def _bar_layer(index: int) -> LayerPaths:
     """One 100 mm arc-ON pass at 10 mm/s over a 100 × 6 mm section, 2 mm layer, no travel."""
     z = 2.0 * (index + 1)
     pts = np.array([[0.0, 3.0, z], [100.0, 3.0, z]])
-    sp = SectionPath(key="bs1/A", strategy="raster", points=pts, arc=np.array([True]),
-                     inside=np.array([True]), speed=np.array([10.0]))
+    sp = SectionPath(
+        key="bs1/A",
+        strategy="raster",
+        points=pts,
+        arc=np.array([True]),
+        inside=np.array([True]),
+        speed=np.array([10.0]),
+    )
     layer = Layer(index=index, z=z, thickness=2.0, region=MultiPolygon([box(0, 0, 100, 6)]))
     return LayerPaths(layer=layer, sections=(sp,))
 
@@ -150,7 +159,9 @@ def test_rolling_path_follows_the_bead_centre(example):
             assert sp.approach[0, 2] == pytest.approx(lp_dep.layer.z + 10.0)
             assert sp.points[-1, 2] == pytest.approx(lp_dep.layer.z + 10.0)
             assert np.allclose(sp.points[:-1, 2], lp_dep.layer.z)
-        torch_len += sum(float(sp.segment_lengths[sp.arc].sum()) for sp in lp_dep.sections if sp.strategy != "oscillate")
+        torch_len += sum(
+            float(sp.segment_lengths[sp.arc].sum()) for sp in lp_dep.sections if sp.strategy != "oscillate"
+        )
     # the weave (bs1/A, one run over y -60 … 60 per layer) is rolled in one stroke per layer, all
     # of it but half a weave period (3 mm of guide) at each end
     assert sum(1 for lp in tp for sp in lp.sections if sp.key.startswith("bs1/A/")) == len(seq)
@@ -168,7 +179,7 @@ def test_weave_centre_of_a_zigzag():
     run = np.column_stack([xs, np.where(np.arange(len(xs)) % 2 == 0, -3.0, 3.0), np.full(len(xs), 1.5)])
     c = weave_centre(run, 30.0)
     assert np.abs(c[:, 1]).max() < 1e-9 and np.allclose(c[:, 2], 1.5)
-    assert c[0, 0] == pytest.approx(3.0) and c[-1, 0] == pytest.approx(57.0)    # half a period lost per end
+    assert c[0, 0] == pytest.approx(3.0) and c[-1, 0] == pytest.approx(57.0)  # half a period lost per end
     # a boustrophedon (turns in pairs: left, left, right, right) is not a weave
     rast = np.array([[0, 0, 0], [40, 0, 0], [40, 4, 0], [0, 4, 0], [0, 8, 0], [40, 8, 0], [40, 12, 0]], float)
     assert weave_centre(rast, 30.0) is None
@@ -186,7 +197,7 @@ def test_worked_example_artifacts(example):
     cov = json.loads(a["coverage.coverage.json"])["layers"][0]["sections"][1]
     assert cov["key"] == sp.key
     assert cov["bead_width_mm"] == pytest.approx(num / L[sp.arc].sum(), rel=1e-9)
-    assert 6.0 < cov["bead_width_mm"] < 6.3          # body zones 6 mm, ramps a little wider
+    assert 6.0 < cov["bead_width_mm"] < 6.3  # body zones 6 mm, ramps a little wider
     targets = json.loads(a["trials.targets.json"])
     assert targets["in_model_range"] and targets["step_over_mm"] == pytest.approx(4.428)
     fill_rep = json.loads(a["fill.fill.json"])
@@ -195,7 +206,7 @@ def test_worked_example_artifacts(example):
     comp = json.loads(a["compensate.compensation.json"])
     assert sim["deposit_per_mm_cv"] == pytest.approx(comp["deposit_per_mm_cv_after"], rel=1e-3)
     gcode = a["post.gcode"].decode() if isinstance(a["post.gcode"], bytes) else a["post.gcode"]
-    assert "@" in gcode and "wire_feed_speed" in gcode      # the feed sub-zones reach the program
+    assert "@" in gcode and "wire_feed_speed" in gcode  # the feed sub-zones reach the program
     ip = json.loads(a["interpass.interpass.json"])
     assert ip["layers"][0]["dwell_s"] > 0
     assert f"G4 P{ip['layers'][0]['dwell_s']:.3f} ; interlayer dwell" in gcode

@@ -16,12 +16,11 @@ import trimesh
 from waamflow.cli import main
 from waamflow.core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM
 from waamflow.process.bead_fit import BeadFit, fit_trials, read_trials
-from waamflow.process.mass import (bead_area, feed_ratio, layer_deposit_per_mm, path_step, wfs_for,
-                                   wire_per_mm)
+from waamflow.process.mass import bead_area, feed_ratio, layer_deposit_per_mm, path_step, wfs_for, wire_per_mm
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
 CSV = GRAPHS / "trials" / "er70s6-cmt-1.2.csv"
-A_WIRE = math.pi * 1.2 ** 2 / 4          # 1.1310 mm²
+A_WIRE = math.pi * 1.2**2 / 4  # 1.1310 mm²
 
 
 def test_kernel_numbers():
@@ -80,7 +79,7 @@ def test_bead_fit_states_wire_efficiency_and_shape():
     # the CSV has a measured area column: k fitted = mean(area / (w·h)), close to the 0.75 it was made with
     assert d["shape_factor"]["source"] == "fitted" and d["shape_factor"]["k"] == pytest.approx(0.75, abs=0.02)
     mb = d["fit"]["mass_balance"]
-    assert 0.95 <= mb["min"] and mb["max"] <= 1.05     # η·WFS·A/TS over k·w·h per trial
+    assert 0.95 <= mb["min"] and mb["max"] <= 1.05  # η·WFS·A/TS over k·w·h per trial
     back = BeadFit.from_json(d)
     assert back.shape_factor == pytest.approx(m.shape_factor) and back.deposition_efficiency == 0.95
     # without an area column: the stated constant
@@ -105,12 +104,16 @@ def _wire_part_ratio(toolpath_json: Path, mesh_path: Path) -> float:
                     wire += L[j] / s["speed"][j] * wfs * 1000 / 60 * A_WIRE * 0.95
     mesh = trimesh.load(mesh_path)
     top = max(lay["z"] for lay in tp["layers"])
-    part = mesh.volume if top >= mesh.bounds[1][2] - 1e-6 else mesh.slice_plane([0, 0, top], [0, 0, -1], cap=True).volume
+    part = (
+        mesh.volume if top >= mesh.bounds[1][2] - 1e-6 else mesh.slice_plane([0, 0, top], [0, 0, -1], cap=True).volume
+    )
     return wire / part
 
 
-@pytest.mark.parametrize("recipe,program,before", [("mpp-cross", "sequence.toolpath.json", 3.40),
-                                                    ("bead-trials", "compensate.toolpath.json", 2.00)])
+@pytest.mark.parametrize(
+    "recipe,program,before",
+    [("mpp-cross", "sequence.toolpath.json", 3.40), ("bead-trials", "compensate.toolpath.json", 2.00)],
+)
 def test_shipped_examples_feed_the_part_volume(recipe, program, before, tmp_path, monkeypatch):
     """Wire/part volume ratio within 0.9–1.2 (before: mpp-cross 3.40, bead-trials 2.00; after 0.97, 1.03)."""
     monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
@@ -135,8 +138,9 @@ def test_zone_params_xml_states_the_feed_per_zone(tmp_path, monkeypatch):
         assert 0.95 <= float(ratio) <= 1.05
     # re-runs keep the user's values: the shipped file's numbers are in the written one
     shipped = (GRAPHS / "mpp-cross.params.xml").read_text()
-    assert re.findall(r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", xml) == \
-        re.findall(r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", shipped)
+    assert re.findall(r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", xml) == re.findall(
+        r"<wire_feed_speed unit=\"m/min\">([\d.]+)<", shipped
+    )
 
 
 def test_bead_fit_node_warns_about_trials_that_are_not_mass_balanced(tmp_path):
@@ -146,13 +150,25 @@ def test_bead_fit_node_warns_about_trials_that_are_not_mass_balanced(tmp_path):
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import parse_recipe
 
-    old = ["wfs [m/min],ts [mm/s],width [mm],height [mm]", "5.0,5.0,6.37,1.76", "5.0,10.0,4.84,1.29",
-           "8.0,7.5,6.81,1.69", "11.0,10.0,7.17,1.69", "11.0,15.0,6.26,1.53"]
+    old = [
+        "wfs [m/min],ts [mm/s],width [mm],height [mm]",
+        "5.0,5.0,6.37,1.76",
+        "5.0,10.0,4.84,1.29",
+        "8.0,7.5,6.81,1.69",
+        "11.0,10.0,7.17,1.69",
+        "11.0,15.0,6.26,1.53",
+    ]
     (tmp_path / "old.csv").write_text("\n".join(old) + "\n")
     (tmp_path / "new.csv").write_text(CSV.read_text())
     for name, expect in (("old.csv", 1), ("new.csv", 0)):
-        rec = parse_recipe({"format": "waamflow/1", "name": "fit", "edges": [],
-                            "nodes": [{"id": "fit", "type": "bead-fit", "params": {"trials": name}}]})
+        rec = parse_recipe(
+            {
+                "format": "waamflow/1",
+                "name": "fit",
+                "edges": [],
+                "nodes": [{"id": "fit", "type": "bead-fit", "params": {"trials": name}}],
+            }
+        )
         res = execute(build_graph(rec), resolver=FileResolver(tmp_path))
         warns = [w for w in res.warnings if "not mass-balanced" in w["message"]]
         assert len(warns) == expect, res.warnings

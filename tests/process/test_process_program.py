@@ -29,7 +29,9 @@ def _recipe(layers=3, **extra):
 @pytest.fixture(scope="module")
 def seq():
     """The worked example's sequenced toolpath, 3 layers."""
-    return execute(build_graph(_recipe()), resolver=FileResolver(GRAPHS), targets=["sequence"]).outputs["sequence"]["toolpath"]
+    return execute(build_graph(_recipe()), resolver=FileResolver(GRAPHS), targets=["sequence"]).outputs["sequence"][
+        "toolpath"
+    ]
 
 
 def _text(a):
@@ -54,12 +56,15 @@ def test_summary_states_the_dwells_and_a_cached_rerun_too(tmp_path):
     roll = s1["nodes"]["rolling"]["report"]
     assert roll["strokes"] == sum(r["strokes"] for r in roll["layers"]) > 0
     # a second run in another process (fresh memory, same disk cache) is cached and says the same
-    again = execute(build_graph(_recipe()), resolver=FileResolver(GRAPHS),
-                    cache=TieredCache(MemoryCache(), SqliteCache(tmp_path / "cache.sqlite")))
+    again = execute(
+        build_graph(_recipe()),
+        resolver=FileResolver(GRAPHS),
+        cache=TieredCache(MemoryCache(), SqliteCache(tmp_path / "cache.sqlite")),
+    )
     s2 = again.summary("bead-trials")
     assert s2["nodes"]["interpass"]["cached"] and s2["nodes"]["interpass"]["report"] == rep
     assert s2["nodes"]["rolling"]["report"] == roll
-    json.dumps(s2, allow_nan=False)       # summary.json stays plain JSON
+    json.dumps(s2, allow_nan=False)  # summary.json stays plain JSON
 
 
 def test_gcode_states_each_layers_dwell_and_rule():
@@ -72,8 +77,11 @@ def test_gcode_states_each_layers_dwell_and_rule():
     planned = [r["dwell_s"] for r in rep["layers"] if r["dwell_s"] > 0]
     assert inter == pytest.approx(planned, abs=1e-3) and len(planned) == 2
     assert sum(inter) == pytest.approx(rep["total_added_dwell_s"], abs=2e-3)
-    notes = re.findall(r"interlayer dwell [\d.]+ s \(interpass control: limit 150 degC, lumped heat model: part (\d+) degC "
-                       r"after layer (\d), (\d+) degC at the next layer's start\)", gcode)
+    notes = re.findall(
+        r"interlayer dwell [\d.]+ s \(interpass control: limit 150 degC, lumped heat model: part (\d+) degC "
+        r"after layer (\d), (\d+) degC at the next layer's start\)",
+        gcode,
+    )
     assert [int(n[1]) for n in notes] == [0, 1]
     assert [int(n[0]) for n in notes] == [round(r["peak_c"]) for r in rep["layers"][:2]]
     assert all(int(n[2]) <= 150 for n in notes)
@@ -83,16 +91,22 @@ def test_dwell_units_and_robot_formats(seq):
     tp, rep = plan_dwells(seq, HeatModel(interpass_c=150.0, min_layer_time_s=400.0))
     rows = rep["layers"]
     assert [r["limited_by"] for r in rows] == ["min_layer_time", "min_layer_time", "none"]
-    for r in rows[:2]:   # the minimum layer time rule: arc + travel + dwell = 400 s
+    for r in rows[:2]:  # the minimum layer time rule: arc + travel + dwell = 400 s
         assert r["arc_time_s"] + r["travel_time_s"] + r["dwell_s"] == pytest.approx(400.0, abs=0.01)
     ms = post_process(tp, "gcode", writer_settings=GcodeSettings(dwell_units="ms")).files["gcode"]
-    lines = re.findall(r"^G4 P(\d+) ; interlayer dwell ([\d.]+) s \(interpass control: minimum layer time 400 s\)$", ms, re.M)
+    lines = re.findall(
+        r"^G4 P(\d+) ; interlayer dwell ([\d.]+) s \(interpass control: minimum layer time 400 s\)$", ms, re.M
+    )
     assert [int(p) for p, _ in lines] == [round(r["dwell_s"] * 1000) for r in rows[:2]]
     krl = post_process(tp, "krl").files["src"]
-    waits = re.findall(r"^WAIT SEC ([\d.]+) ; interlayer dwell \(interpass control: minimum layer time 400 s\)$", krl, re.M)
+    waits = re.findall(
+        r"^WAIT SEC ([\d.]+) ; interlayer dwell \(interpass control: minimum layer time 400 s\)$", krl, re.M
+    )
     assert [float(w) for w in waits] == pytest.approx([r["dwell_s"] for r in rows[:2]], abs=1e-3)
     mod = post_process(tp, "rapid").files["mod"]
-    waits = re.findall(r"WaitTime\\InPos, ([\d.]+); ! interlayer dwell \(interpass control: minimum layer time 400 s\)", mod)
+    waits = re.findall(
+        r"WaitTime\\InPos, ([\d.]+); ! interlayer dwell \(interpass control: minimum layer time 400 s\)", mod
+    )
     assert [float(w) for w in waits] == pytest.approx([r["dwell_s"] for r in rows[:2]], abs=1e-3)
     # robot programs stay ASCII (controllers' code pages)
     assert krl.isascii() and mod.isascii()
@@ -122,24 +136,32 @@ def test_rolling_program_commands_per_layer(seq):
     per_layer = {r["layer"]: r["strokes"] for r in rep["layers"]}
     assert sum(per_layer.values()) == rep["strokes"] > 10
     gcode = post_process(tp, "gcode").files["gcode"]
-    strokes = _segments_per_layer(gcode, r"^; layer (\d+)", r"^M110 P18000 Q8 ; rolling on: force 18000 N, "
-                                  r"tool width 8 mm, 12 mm/s$", r"^M111 ; rolling off$")
+    strokes = _segments_per_layer(
+        gcode,
+        r"^; layer (\d+)",
+        r"^M110 P18000 Q8 ; rolling on: force 18000 N, "
+        r"tool width 8 mm, 12 mm/s$",
+        r"^M111 ; rolling off$",
+    )
     assert {k: len(v) for k, v in strokes.items()} == per_layer
     lines = gcode.split("\n")
     z_top = {lp.index: lp.layer.z for lp in seq}
     for layer, pairs in strokes.items():
         for a, b in pairs:
             # between on and off: only feed moves on the bead top at the rolling speed
-            moves = [ln for ln in lines[a + 1:b] if ln.startswith("G")]
+            moves = [ln for ln in lines[a + 1 : b] if ln.startswith("G")]
             assert moves and all(ln.startswith("G1 ") for ln in moves)
             assert all(float(re.search(r"Z([-\d.]+)", ln).group(1)) == pytest.approx(z_top[layer]) for ln in moves)
             # the approach lowers onto the start from the clearance; the retract lifts 10 mm
-            assert re.search(r"Z([-\d.]+)", lines[a - 1]) and float(re.search(r"Z([-\d.]+)", lines[a - 1]).group(1)) == \
-                pytest.approx(z_top[layer])
-            lift = next(ln for ln in lines[b + 1:] if ln.startswith("G"))
-            assert lift.startswith("G0") and float(re.search(r"Z([-\d.]+)", lift).group(1)) == pytest.approx(z_top[layer] + 10)
-    assert "F720" in gcode                             # 12 mm/s
-    first = next(ln for ln in lines if ln.startswith("G0"))   # the program starts above the part
+            assert re.search(r"Z([-\d.]+)", lines[a - 1]) and float(
+                re.search(r"Z([-\d.]+)", lines[a - 1]).group(1)
+            ) == pytest.approx(z_top[layer])
+            lift = next(ln for ln in lines[b + 1 :] if ln.startswith("G"))
+            assert lift.startswith("G0") and float(re.search(r"Z([-\d.]+)", lift).group(1)) == pytest.approx(
+                z_top[layer] + 10
+            )
+    assert "F720" in gcode  # 12 mm/s
+    first = next(ln for ln in lines if ln.startswith("G0"))  # the program starts above the part
     assert float(re.search(r"Z([-\d.]+)", first).group(1)) == pytest.approx(z_top[0] + 10)
     # KRL and RAPID: the cell's routines with force, width and speed, once per stroke
     krl = post_process(tp, "krl").files["src"]
@@ -164,8 +186,9 @@ def test_interleaved_rolling_follows_each_layers_deposition(seq):
         offs = [k for k in block if lines[k].startswith("M5 ")]
         # every bead of the layer is laid (ignited and put out) before its first stroke, and all
         # its strokes come before the next layer
-        runs = sum(int(np.count_nonzero(np.diff(np.concatenate([[0], sp.arc.astype(int)])) == 1))
-                   for sp in seq[layer].sections)
+        runs = sum(
+            int(np.count_nonzero(np.diff(np.concatenate([[0], sp.arc.astype(int)])) == 1)) for sp in seq[layer].sections
+        )
         assert len(ons) == len(offs) == runs > 0
         assert max(offs) < pairs[0][0] and pairs[-1][1] < starts[layer + 1]
     # no tool engagement while the arc is on
@@ -203,7 +226,7 @@ def test_plots_state_the_numbers(seq):
     _, rep = plan_dwells(seq, HeatModel(interpass_c=150.0))
     svg = interpass_svg(rep)
     dwells = [r["dwell_s"] for r in rep["layers"] if r["dwell_s"] > 0]
-    assert svg.count('fill="#dde6f0"') == len(dwells) + 1            # one band per dwell + the legend key
+    assert svg.count('fill="#dde6f0"') == len(dwells) + 1  # one band per dwell + the legend key
     for d in dwells:
         assert f">{d:.0f} s</text>" in svg
     assert f"total dwell {rep['total_dwell_s']:.0f} s" in svg

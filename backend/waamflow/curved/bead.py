@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 STUDY_COEFFICIENTS = (1.2245e-6, -0.0032, 4.3126)  # a2 (mm/(mm/min)²), a1 (mm/(mm/min)), a0 (mm)
-STUDY_SPEED_RANGE = (400.0, 1200.0)                # mm/min
+STUDY_SPEED_RANGE = (400.0, 1200.0)  # mm/min
 
 
 @dataclass(frozen=True)
@@ -45,8 +45,10 @@ class BeadModel:
         if self.a2 != 0:
             vertex = -self.a1 / (2 * self.a2)
             if self.ts_min < vertex < self.ts_max:
-                raise ValueError(f"H(Ts) is not monotonic on [{self.ts_min}, {self.ts_max}] mm/min "
-                                 f"(vertex at {vertex:.1f}): a height would have two speeds")
+                raise ValueError(
+                    f"H(Ts) is not monotonic on [{self.ts_min}, {self.ts_max}] mm/min "
+                    f"(vertex at {vertex:.1f}): a height would have two speeds"
+                )
         if self.height(self.ts_min) == self.height(self.ts_max):
             raise ValueError("H(Ts) is constant: travel speed cannot set the height")
 

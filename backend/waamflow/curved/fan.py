@@ -84,8 +84,9 @@ def _reference(point: np.ndarray, u: np.ndarray, part_vertices: np.ndarray) -> n
     return e0 / np.linalg.norm(e0)
 
 
-def make_axis(point, direction, part_vertices: np.ndarray, radius_offset: float = 0.0,
-              part_faces: np.ndarray | None = None) -> FanAxis:
+def make_axis(
+    point, direction, part_vertices: np.ndarray, radius_offset: float = 0.0, part_faces: np.ndarray | None = None
+) -> FanAxis:
     """Axis through `point` along `direction`, e0 towards the part's vertex centroid.
 
     `radius_offset` (mm) moves the axis outward *within the part's start half-plane*, away from
@@ -126,7 +127,7 @@ def angular_range(axis: FanAxis, vertices: np.ndarray, faces: np.ndarray | None 
         x, y = a * c + b * sn, -a * sn + b * c
         e = np.asarray(faces)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
         ya, yb = y[e[:, 0]], y[e[:, 1]]
-        cross = (ya * yb < 0)
+        cross = ya * yb < 0
         t = ya[cross] / (ya[cross] - yb[cross])
         xc = x[e[cross, 0]] + t * (x[e[cross, 1]] - x[e[cross, 0]])
         if np.any(xc > 0):
@@ -201,8 +202,15 @@ def fan_slice(mesh: MeshData, plan: FanPlan) -> tuple[Layer, ...]:
         region = section(plan.axis, float(top - plan.dtheta / 2.0))
         rbar = region.centroid.x if not region.is_empty else plan.r_mid
         z += rbar * plan.dtheta
-        layers.append(Layer(index=j, z=float(z), thickness=float(rbar * plan.dtheta), region=region,
-                            frame=plan.axis.frame(float(top))))
+        layers.append(
+            Layer(
+                index=j,
+                z=float(z),
+                thickness=float(rbar * plan.dtheta),
+                region=region,
+                frame=plan.axis.frame(float(top)),
+            )
+        )
     return tuple(layers)
 
 

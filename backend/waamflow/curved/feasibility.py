@@ -49,9 +49,17 @@ class Candidate:
     def to_json(self) -> dict:
         def f(v):
             return None if (isinstance(v, float) and not math.isfinite(v)) else round(float(v), 6)
-        return {"offset_mm": f(self.offset), "r_min_mm": f(self.r_min), "r_max_mm": f(self.r_max),
-                "csratio": f(self.csratio), "dtheta_window_deg": [f(self.dtheta_lo_deg), f(self.dtheta_hi_deg)],
-                "dtheta_deg": f(self.dtheta_deg), "max_overhang_mm": f(self.overhang), "feasible": self.feasible}
+
+        return {
+            "offset_mm": f(self.offset),
+            "r_min_mm": f(self.r_min),
+            "r_max_mm": f(self.r_max),
+            "csratio": f(self.csratio),
+            "dtheta_window_deg": [f(self.dtheta_lo_deg), f(self.dtheta_hi_deg)],
+            "dtheta_deg": f(self.dtheta_deg),
+            "max_overhang_mm": f(self.overhang),
+            "feasible": self.feasible,
+        }
 
 
 @dataclass(frozen=True)
@@ -72,9 +80,14 @@ class SearchResult:
         return self.best is not None
 
     def to_json(self) -> dict:
-        return {"h_min_mm": self.h_min, "h_max_mm": self.h_max, "min_csratio": round(self.min_csratio, 6),
-                "feasible": self.feasible, "candidates": [c.to_json() for c in self.candidates],
-                "best": self.best.to_json() if self.best else None}
+        return {
+            "h_min_mm": self.h_min,
+            "h_max_mm": self.h_max,
+            "min_csratio": round(self.min_csratio, 6),
+            "feasible": self.feasible,
+            "candidates": [c.to_json() for c in self.candidates],
+            "best": self.best.to_json() if self.best else None,
+        }
 
 
 def max_overhang(regions: list[MultiPolygon], dtheta: float, samples_per_mm: float = 1.0) -> float:
@@ -87,18 +100,31 @@ def max_overhang(regions: list[MultiPolygon], dtheta: float, samples_per_mm: flo
             continue
         bound = cur.boundary
         n = max(int(bound.length * samples_per_mm), 16)
-        pts = shapely.line_interpolate_point(bound, np.linspace(0, bound.length, n), normalized=False) \
-            if bound.geom_type == "LineString" else \
-            np.concatenate([shapely.line_interpolate_point(g, np.linspace(0, g.length, max(int(g.length * samples_per_mm), 16)))
-                            for g in shapely.get_parts(bound)])
+        pts = (
+            shapely.line_interpolate_point(bound, np.linspace(0, bound.length, n), normalized=False)
+            if bound.geom_type == "LineString"
+            else np.concatenate(
+                [
+                    shapely.line_interpolate_point(g, np.linspace(0, g.length, max(int(g.length * samples_per_mm), 16)))
+                    for g in shapely.get_parts(bound)
+                ]
+            )
+        )
         xy = shapely.get_coordinates(pts)
         proj = shapely.points(xy[:, 0] * c, xy[:, 1])
         worst = max(worst, float(shapely.distance(prev, proj).max()))
     return worst
 
 
-def evaluate(mesh: MeshData, axis: FanAxis, offset: float, h_min: float, h_max: float,
-             max_over: float, vertices: np.ndarray | None = None) -> Candidate:
+def evaluate(
+    mesh: MeshData,
+    axis: FanAxis,
+    offset: float,
+    h_min: float,
+    h_max: float,
+    max_over: float,
+    vertices: np.ndarray | None = None,
+) -> Candidate:
     """Try one slicing radius: heights window, then (if it fits) the overhang of the fan plan."""
     verts = mesh.vertices if vertices is None else vertices
     ax = make_axis(axis.point, axis.direction, verts, offset, mesh.faces if vertices is None else None)
@@ -112,12 +138,22 @@ def evaluate(mesh: MeshData, axis: FanAxis, offset: float, h_min: float, h_max: 
     plan = plan_fan(mesh, ax, math.degrees(dth))
     regions = [l.region for l in fan_slice(mesh, plan)]
     over = max_overhang(regions, dth)
-    return Candidate(offset, r_min, r_max, cs, math.degrees(lo), math.degrees(hi), math.degrees(dth), over,
-                     over <= max_over)
+    return Candidate(
+        offset, r_min, r_max, cs, math.degrees(lo), math.degrees(hi), math.degrees(dth), over, over <= max_over
+    )
 
 
-def search_radius(mesh: MeshData, point, direction, h_min: float, h_max: float, *,
-                  max_overhang_mm: float, step: float, max_offset: float) -> SearchResult:
+def search_radius(
+    mesh: MeshData,
+    point,
+    direction,
+    h_min: float,
+    h_max: float,
+    *,
+    max_overhang_mm: float,
+    step: float,
+    max_offset: float,
+) -> SearchResult:
     """Smallest outward axis offset (multiples of `step` mm up to `max_offset`) that fits."""
     axis = make_axis(point, direction, mesh.vertices)
     out: list[Candidate] = []
@@ -139,7 +175,7 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
 
     def dtheta(layer) -> float:
         d = fan_dtheta(layer)
-        assert d is not None   # only for `filled` layers: a frame and a region, i.e. fan layers
+        assert d is not None  # only for `filled` layers: a frame and a region, i.e. fan layers
         return d
 
     layers = [l for l in layers if l is not None]
@@ -159,19 +195,38 @@ def plan_report(layers, h_min: float, h_max: float) -> dict:
         ok = lo_h >= h_min * (1 - 1e-9) and hi_h <= h_max * (1 + 1e-9)
         fits = fits and ok
         if not sections or sections[-1]["axis_point"] != list(origin):
-            sections.append({"axis_point": list(origin), "direction": (-l.frame[:3, 1]).round(9).tolist(),
-                             "dtheta_deg": math.degrees(dtheta(l)), "first_layer": l.index, "layers": 0,
-                             "heights_fit": True})
+            sections.append(
+                {
+                    "axis_point": list(origin),
+                    "direction": (-l.frame[:3, 1]).round(9).tolist(),
+                    "dtheta_deg": math.degrees(dtheta(l)),
+                    "first_layer": l.index,
+                    "layers": 0,
+                    "heights_fit": True,
+                }
+            )
         sections[-1]["layers"] += 1
         sections[-1]["heights_fit"] = sections[-1]["heights_fit"] and ok
     return {
         "axis": {"point": f[:3, 3].round(6).tolist(), "direction": (-f[:3, 1]).round(9).tolist()},
-        "dtheta_deg": math.degrees(dth), "layer_count": len(layers),
-        "r_min_mm": r_min, "r_max_mm": r_max, "csratio": csratio(r_min, r_max),
-        "h_min_mm": h_min, "h_max_mm": h_max, "min_csratio": min_csratio(h_min, h_max),
+        "dtheta_deg": math.degrees(dth),
+        "layer_count": len(layers),
+        "r_min_mm": r_min,
+        "r_max_mm": r_max,
+        "csratio": csratio(r_min, r_max),
+        "h_min_mm": h_min,
+        "h_max_mm": h_max,
+        "min_csratio": min_csratio(h_min, h_max),
         "dtheta_window_deg": [math.degrees(lo), math.degrees(hi)],
         "heights_fit": fits,
         "sections": sections,
-        "layers": [{"index": l.index, "thickness_mm": l.thickness,
-                    "height_min_mm": height_range(l)[0], "height_max_mm": height_range(l)[1]} for l in layers],
+        "layers": [
+            {
+                "index": l.index,
+                "thickness_mm": l.thickness,
+                "height_min_mm": height_range(l)[0],
+                "height_max_mm": height_range(l)[1],
+            }
+            for l in layers
+        ],
     }

@@ -69,16 +69,23 @@ class FanSection:
     open_layer: int | None = None
 
     def to_json(self) -> dict:
-        return {"axis_point": np.round(self.axis.point, 6).tolist(), "offset_mm": round(self.offset, 6),
-                "dtheta_deg": round(math.degrees(self.dtheta), 6), "layers": self.layers, "fits": self.fits,
-                "excess_mm": round(self.excess, 6), "worst_layer": self.worst_layer, "open_layer": self.open_layer}
+        return {
+            "axis_point": np.round(self.axis.point, 6).tolist(),
+            "offset_mm": round(self.offset, 6),
+            "dtheta_deg": round(math.degrees(self.dtheta), 6),
+            "layers": self.layers,
+            "fits": self.fits,
+            "excess_mm": round(self.excess, 6),
+            "worst_layer": self.worst_layer,
+            "open_layer": self.open_layer,
+        }
 
 
 @dataclass(frozen=True)
 class _Cut:
-    region: Any             # MultiPolygon in the cut plane's half-plane coordinates
-    frame: np.ndarray       # (4, 4) mid (cut) plane frame
-    top: np.ndarray         # (4, 4) top plane frame
+    region: Any  # MultiPolygon in the cut plane's half-plane coordinates
+    frame: np.ndarray  # (4, 4) mid (cut) plane frame
+    top: np.ndarray  # (4, 4) top plane frame
 
 
 def _overhang(prev: _Cut, cur: _Cut, samples_per_mm: float = 1.0) -> float:
@@ -135,8 +142,17 @@ def _excess(region, dtheta: float, h_min: float, h_max: float) -> float:
     return max(h_min - minx * dtheta, maxx * dtheta - h_max, 0.0)
 
 
-def _sweep(section: FanSections, axis: FanAxis, dtheta: float, h_min: float, h_max: float, max_over: float,
-           prev: _Cut | None, limit: int, shape: tuple[int, ...] | None) -> list[_Cut]:
+def _sweep(
+    section: FanSections,
+    axis: FanAxis,
+    dtheta: float,
+    h_min: float,
+    h_max: float,
+    max_over: float,
+    prev: _Cut | None,
+    limit: int,
+    shape: tuple[int, ...] | None,
+) -> list[_Cut]:
     """Layers of Δθ about `axis` from its θ = 0. With `shape` (strict): only while each layer's
     heights and overhang fit, its cross-section is closed (topology `shape`) and its top plane
     stays within the part (a layer reaching past the last vertex is left to the closing fan, which
@@ -183,9 +199,11 @@ def end_plane(mesh: MeshData, axis0: FanAxis, theta_max: float) -> FanAxis:
     normal = n[k] / area[k]
     u = axis0.direction
     if abs(normal @ u) > 1e-3:
-        raise ValueError(f"the part's end face is {math.degrees(math.asin(min(1.0, abs(normal @ u)))):.2f}° off "
-                         "parallel to the slicing axis: no fan about an axis of that direction can end on it; "
-                         "set axis_direction parallel to the end face (and to the start face)")
+        raise ValueError(
+            f"the part's end face is {math.degrees(math.asin(min(1.0, abs(normal @ u)))):.2f}° off "
+            "parallel to the slicing axis: no fan about an axis of that direction can end on it; "
+            "set axis_direction parallel to the end face (and to the start face)"
+        )
     normal = normal - (normal @ u) * u
     normal /= np.linalg.norm(normal)
     # one triangle of a float32 STL tilts by ~1e-5 rad: fit the plane to every vertex within
@@ -201,7 +219,7 @@ def end_plane(mesh: MeshData, axis0: FanAxis, theta_max: float) -> FanAxis:
     else:
         origin = verts[top]
     p = axis0.point - ((axis0.point - origin) @ normal) * normal
-    er = np.cross(normal, u)            # e_θ = u × e_r ⇒ e_r = e_θ × u
+    er = np.cross(normal, u)  # e_θ = u × e_r ⇒ e_r = e_θ × u
     return FanAxis(p, u, er / np.linalg.norm(er))
 
 
@@ -233,12 +251,12 @@ def _layers_for(alpha: float, r_min: float, r_max: float, h_min: float, h_max: f
     """Layer count n for a wedge α (rad) whose heights span r_min..r_max·α/n, with the smallest
     excess over [h_min, h_max] (mm): (n, that excess)."""
     best = None
-    n0 = alpha * (r_min + r_max) / (h_min + h_max)     # balances the two ends' excess
+    n0 = alpha * (r_min + r_max) / (h_min + h_max)  # balances the two ends' excess
     for n in {max(1, math.floor(n0)), max(1, math.ceil(n0))}:
         e = max(h_min - r_min * alpha / n, r_max * alpha / n - h_max, 0.0)
         if best is None or (e, n) < best[::-1]:
             best = (n, e)
-    assert best is not None   # the loop runs at least once
+    assert best is not None  # the loop runs at least once
     return best
 
 
@@ -246,10 +264,10 @@ def _layers_for(alpha: float, r_min: float, r_max: float, h_min: float, h_max: f
 class _Plan:
     sections: list[FanSection]
     cuts: list[tuple[_Cut, float]]
-    cost: float                  # worst excess of heights (and overhang) over their bounds, mm
+    cost: float  # worst excess of heights (and overhang) over their bounds, mm
     open_layer: int | None = None
     worst_layer: int | None = None
-    estimate: float = math.inf   # the closing fan's excess as estimated from the vertices (mm)
+    estimate: float = math.inf  # the closing fan's excess as estimated from the vertices (mm)
 
 
 @dataclass(frozen=True)
@@ -278,8 +296,9 @@ class _Search:
             if win is None or win[0] > win[1]:
                 continue
             for dth in np.linspace(win[0], win[1], DTHETA_TRIES):
-                cuts = _sweep(self.section, ax, float(dth), self.h_min, self.h_max, self.max_overhang, prev, budget,
-                              self.shape)
+                cuts = _sweep(
+                    self.section, ax, float(dth), self.h_min, self.h_max, self.max_overhang, prev, budget, self.shape
+                )
                 if cuts:
                     out.append((d, ax, float(dth), cuts))
         best = max(out, key=lambda c: (len(c[3]), -c[0]), default=None)
@@ -312,8 +331,14 @@ class _Search:
         q = self.axis0.point - ((self.axis0.point - start.point) @ start.tangential(theta)) * start.tangential(theta)
         offset = float((q - ax.point) @ start.radial(theta))
         sec = FanSection(ax, offset, dth, len(cuts), cost <= 1e-9 and opened is None, cost, worst, opened)
-        return _Plan(list(sections) + [sec], list(cuts_all) + [(c, dth) for c in cuts],
-                     math.inf if opened is not None else cost, opened, worst, est)
+        return _Plan(
+            list(sections) + [sec],
+            list(cuts_all) + [(c, dth) for c in cuts],
+            math.inf if opened is not None else cost,
+            opened,
+            worst,
+            est,
+        )
 
     def closing_excess(self, ax: FanAxis, theta: float) -> float | None:
         """The excess (mm) of the fan closing the part from half-plane θ of `ax`, from the
@@ -367,8 +392,18 @@ class _Search:
         return pick
 
 
-def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, *, max_overhang: float,
-                  step: float, max_offset: float, max_sections: int) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
+def plan_sections(
+    mesh: MeshData,
+    point,
+    direction,
+    h_min: float,
+    h_max: float,
+    *,
+    max_overhang: float,
+    step: float,
+    max_offset: float,
+    max_sections: int,
+) -> tuple[tuple[FanSection, ...], tuple[Layer, ...]]:
     """Sections and their layers (see module doc). Layer conventions as `fan.fan_slice`; `z` is the
     running sum of layer thicknesses (mm). Every plan ends on the part's end face (its last
     section closes there); `FanSection.excess` says how far a section's heights (or overhang) leave
@@ -377,8 +412,17 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
     axis0 = make_axis(point, direction, mesh.vertices)
     lo, hi = angular_range(axis0, mesh.vertices, mesh.faces)
     offsets = [k * step for k in range(int(math.floor(max_offset / step + 1e-9)) + 1)] if step > 0 else [0.0]
-    search = _Search(section, section.vertices, axis0, end_plane(mesh, axis0, hi), topology(section(axis0, lo + 1e-3)),
-                     offsets, h_min, h_max, max_overhang)
+    search = _Search(
+        section,
+        section.vertices,
+        axis0,
+        end_plane(mesh, axis0, hi),
+        topology(section(axis0, lo + 1e-3)),
+        offsets,
+        h_min,
+        h_max,
+        max_overhang,
+    )
 
     # Rauch's iteration: N = 1, 2, … sections; the first N − 1 greedy (strict: heights, overhang,
     # closed layers), the one before the last stopping where the closing fan fits best
@@ -392,8 +436,8 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
             pick = None
         else:
             if best is not None and search.estimate(start, theta) >= best.estimate - 1e-6:
-                break   # no stop of one more section closes better (vertex estimate): the slicing is the
-                        # cost here, so the exact search is skipped
+                break  # no stop of one more section closes better (vertex estimate): the slicing is the
+                # cost here, so the exact search is skipped
             tried, greedy = search.candidates(start, theta, prev, MAX_FAN_LAYERS - len(cuts_all))
             plan = None
             # where to stop this section: the layer whose top plane the closing fan fits best from
@@ -401,8 +445,13 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
             pick = search.stop(tried)
             if pick is not None:
                 _k, d, ax, dth, cuts = pick
-                plan = search.close(ax, len(cuts) * dth, cuts[-1], sections + [FanSection(ax, d, dth, len(cuts), True)],
-                                    cuts_all + [(c, dth) for c in cuts])
+                plan = search.close(
+                    ax,
+                    len(cuts) * dth,
+                    cuts[-1],
+                    sections + [FanSection(ax, d, dth, len(cuts), True)],
+                    cuts_all + [(c, dth) for c in cuts],
+                )
         if plan is not None and pick is not None:
             plan.estimate = pick[0][0]
         if plan is not None and (best is None or plan.cost < best.cost - 1e-9):
@@ -424,8 +473,10 @@ def plan_sections(mesh: MeshData, point, direction, h_min: float, h_max: float, 
             cuts_all.extend((c, dth) for c in cuts)
             start, theta, prev = ax, len(cuts) * dth, cuts[-1]
     if best is None:
-        raise ValueError("no fan closes the part on its end face (the start and end planes meet inside or in "
-                         "front of it): check axis_point / axis_direction are the part's bend axis")
+        raise ValueError(
+            "no fan closes the part on its end face (the start and end planes meet inside or in "
+            "front of it): check axis_point / axis_direction are the part's bend axis"
+        )
     layers, z = [], 0.0
     for i, (c, dth) in enumerate(best.cuts):
         thickness = c.region.centroid.x * dth

@@ -7,8 +7,9 @@ import numpy as np
 from ..core.model import MeshData
 
 
-def bent_tube(bend: float = 100.0, mid: float = 15.0, wall: float = 3.0, sweep_deg: float = 90.0,
-              n_phi: int = 72, n_psi: int = 40) -> MeshData:
+def bent_tube(
+    bend: float = 100.0, mid: float = 15.0, wall: float = 3.0, sweep_deg: float = 90.0, n_phi: int = 72, n_psi: int = 40
+) -> MeshData:
     """Closed mesh of a tube section of a torus: a hollow wall of thickness `wall` about a tube
     centre line of radius `mid`, bent by `sweep_deg` about the axis through (−bend, 0, 0) along −y.
 

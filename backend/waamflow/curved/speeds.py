@@ -52,10 +52,16 @@ def layer_report(lp: LayerPaths, model: BeadModel) -> dict:
         xs.append(x)
     if hs and np.concatenate(hs).size:
         h, v, x = np.concatenate(hs), np.concatenate(vs), np.concatenate(xs)
-        row.update(height_min_mm=float(h.min()), height_max_mm=float(h.max()),
-                   speed_min_mm_s=float(v.min()), speed_max_mm_s=float(v.max()))
+        row.update(
+            height_min_mm=float(h.min()),
+            height_max_mm=float(h.max()),
+            speed_min_mm_s=float(v.min()),
+            speed_max_mm_s=float(v.max()),
+        )
         if lp.layer.frame is not None:
-            row.update(r_min_mm=float(x.min()), r_max_mm=float(x.max()), csratio=csratio(float(x.min()), float(x.max())))
+            row.update(
+                r_min_mm=float(x.min()), r_max_mm=float(x.max()), csratio=csratio(float(x.min()), float(x.max()))
+            )
     return row
 
 

@@ -7,14 +7,34 @@ fillets: corner paths turned on the fillet radius; fillet corners the beads leav
 tubular: helical / aligned / scattered laps of tubulars.
 """
 
-from .recognition import (FEATURE_KINDS, FeatureSet, RecognitionSpec, features_for_layer, join_collinear, recognise,
-                          recognise_layers)
+from .recognition import (
+    FEATURE_KINDS,
+    FeatureSet,
+    RecognitionSpec,
+    features_for_layer,
+    join_collinear,
+    recognise,
+    recognise_layers,
+)
 from .tubular import aligned_loop, helix, scattered_loop
-from .walls import (LayerWalls, WallPass, WallSpec, crossing_bounds, crossing_geometry, crossing_window,
-                    plan_layer_walls)
+from .walls import LayerWalls, WallPass, WallSpec, crossing_bounds, crossing_geometry, crossing_window, plan_layer_walls
 
 __all__ = [
-    "FEATURE_KINDS", "FeatureSet", "RecognitionSpec", "features_for_layer", "join_collinear", "recognise", "recognise_layers",
-    "aligned_loop", "helix", "scattered_loop",
-    "LayerWalls", "WallPass", "WallSpec", "crossing_bounds", "crossing_geometry", "crossing_window", "plan_layer_walls",
+    "FEATURE_KINDS",
+    "FeatureSet",
+    "RecognitionSpec",
+    "features_for_layer",
+    "join_collinear",
+    "recognise",
+    "recognise_layers",
+    "aligned_loop",
+    "helix",
+    "scattered_loop",
+    "LayerWalls",
+    "WallPass",
+    "WallSpec",
+    "crossing_bounds",
+    "crossing_geometry",
+    "crossing_window",
+    "plan_layer_walls",
 ]

@@ -59,7 +59,7 @@ def round_corners(xy: np.ndarray, corners: list[dict], radius: float, tol: float
         if abs(turn) < 1e-9:
             out.append(p)
             continue
-        share_a = 0.5 if k - 1 in at else 1.0         # a wall between two rounded corners: half each
+        share_a = 0.5 if k - 1 in at else 1.0  # a wall between two rounded corners: half each
         share_b = 0.5 if k + 1 in at else 1.0
         room = min(share_a * float(np.hypot(*(p - xy[k - 1]))), share_b * float(np.hypot(*(xy[k + 1] - p))))
         r = radius
@@ -68,8 +68,10 @@ def round_corners(xy: np.ndarray, corners: list[dict], radius: float, tol: float
             r = room / math.tan(abs(turn) / 2.0)
             t = room
             where = [round(float(x), 3) + 0.0 for x in p]
-            notes.append(f"corner at {where}: fillet path radius {radius:g} mm needs {radius * math.tan(abs(turn) / 2):.1f} "
-                         f"mm of straight wall each side, there is {room:.1f} mm: turned on {r:.2f} mm")
+            notes.append(
+                f"corner at {where}: fillet path radius {radius:g} mm needs {radius * math.tan(abs(turn) / 2):.1f} "
+                f"mm of straight wall each side, there is {room:.1f} mm: turned on {r:.2f} mm"
+            )
         if r <= tol:
             out.append(p)
             continue
@@ -94,10 +96,10 @@ def fillet_region(center, d0, d1, eww: float, fillet_radius: float) -> Polygon:
     alpha = math.atan2(d0[0] * d1[1] - d0[1] * d1[0], float(d0 @ d1)) % (2 * math.pi)
     bis = _unit(d0 + d1)
     e, R = eww / 2.0, fillet_radius
-    q = center + bis * (e / math.sin(alpha / 2.0))                  # where the two faces meet
-    o = center + bis * ((e + R) / math.sin(alpha / 2.0))            # fillet arc centre
-    n0 = np.array([-d0[1], d0[0]])                                   # d0's normal into the corner
-    n1 = np.array([d1[1], -d1[0]])                                   # d1's normal into the corner
+    q = center + bis * (e / math.sin(alpha / 2.0))  # where the two faces meet
+    o = center + bis * ((e + R) / math.sin(alpha / 2.0))  # fillet arc centre
+    n0 = np.array([-d0[1], d0[0]])  # d0's normal into the corner
+    n1 = np.array([d1[1], -d1[0]])  # d1's normal into the corner
     t0 = center + d0 * float((o - center) @ d0) + n0 * e
     t1 = center + d1 * float((o - center) @ d1) + n1 * e
     kite = Polygon([q, t0, o, t1])
@@ -115,13 +117,16 @@ def fillet_uncovered(f: dict, passes, spec: "WallSpec") -> list[tuple[float, flo
     dirs = [np.asarray(d, float) for d in f["directions"]]
     reach = (spec.effective_width / 2.0 + R) * 4.0 + spec.influence_radius + w
     near = Point(J).buffer(reach)
-    beads = [LineString(p.xy).buffer(w / 2.0, quad_segs=16) for p in passes
-             if len(p.xy) >= 2 and LineString(p.xy).intersects(near)]
+    beads = [
+        LineString(p.xy).buffer(w / 2.0, quad_segs=16)
+        for p in passes
+        if len(p.xy) >= 2 and LineString(p.xy).intersects(near)
+    ]
     deposit = unary_union(beads) if beads else Polygon()
     out = []
     for k, alpha in enumerate(f["corner_angles_deg"]):
         if alpha > 180.0 - spec.corner_angle_deg:
-            continue                                                  # flat or reflex: no fillet
+            continue  # flat or reflex: no fillet
         region = fillet_region(J, dirs[k], dirs[(k + 1) % len(dirs)], spec.effective_width, R)
         if region.is_empty or region.area <= 0:
             continue

@@ -133,8 +133,10 @@ def self_crossings(line: LineString) -> list[tuple[float, float]]:
         for q in (part.coords[0], part.coords[-1]):
             key = (round(q[0], 9), round(q[1], 9))
             counts[key] = counts.get(key, 0) + 1
-    ends = {(round(line.coords[0][0], 9), round(line.coords[0][1], 9)),
-            (round(line.coords[-1][0], 9), round(line.coords[-1][1], 9))}
+    ends = {
+        (round(line.coords[0][0], 9), round(line.coords[0][1], 9)),
+        (round(line.coords[-1][0], 9), round(line.coords[-1][1], 9)),
+    }
     return [q for q, n in counts.items() if n >= 3 or (n == 2 and q not in ends)]
 
 
@@ -151,6 +153,7 @@ def find_junctions(curves: list[np.ndarray], tol: float, splits=(), split_tol: f
     splits: (x, y) points where two drawn entities were joined end to end into one curve; a
     pass-through of a curve with a vertex within max(tol, split_tol) of one is marked `split`."""
     from scipy.spatial import cKDTree  # lazy: keeps start-up light
+
     lines = [LineString(c) for c in curves]
     closed = [is_closed(c, tol) for c in curves]
     cand: list[tuple[float, float]] = []

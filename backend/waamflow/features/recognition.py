@@ -59,20 +59,42 @@ import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from ..core.tolerances import TOL
-from .junctions import Junction, _corner_angles, _intersection_points, _unit, classify, find_junctions, is_closed, t_subtype
+from .junctions import (
+    Junction,
+    _corner_angles,
+    _intersection_points,
+    _unit,
+    classify,
+    find_junctions,
+    is_closed,
+    t_subtype,
+)
 
 FEATURE_KINDS = (
-    "free_end", "corner", "continuous", "t_crossing", "direct_crossing",
-    "odd_t_crossing", "odd_direct_crossing", "four_direct_crossing", "tubular",
+    "free_end",
+    "corner",
+    "continuous",
+    "t_crossing",
+    "direct_crossing",
+    "odd_t_crossing",
+    "odd_direct_crossing",
+    "four_direct_crossing",
+    "tubular",
 )
-CROSSING_KINDS = frozenset({"t_crossing", "direct_crossing", "odd_t_crossing", "odd_direct_crossing",
-                            "four_direct_crossing"})
+CROSSING_KINDS = frozenset(
+    {"t_crossing", "direct_crossing", "odd_t_crossing", "odd_direct_crossing", "four_direct_crossing"}
+)
 JUNCTION_KINDS = frozenset({"corner", "continuous"})
 
 # The study's valences (intersection list count, end-point list count) per kind, reported as-is.
 STUDY_VALENCE = {
-    "free_end": (0, 1), "corner": (2, 2), "continuous": (2, 2), "t_crossing": (2, 1),
-    "direct_crossing": (1, 0), "odd_t_crossing": (6, 3), "odd_direct_crossing": (6, 2),
+    "free_end": (0, 1),
+    "corner": (2, 2),
+    "continuous": (2, 2),
+    "t_crossing": (2, 1),
+    "direct_crossing": (1, 0),
+    "odd_t_crossing": (6, 3),
+    "odd_direct_crossing": (6, 2),
     "four_direct_crossing": (12, 4),
 }
 
@@ -144,7 +166,9 @@ def _end_direction(c: np.ndarray, at_start: bool, tol: float) -> np.ndarray:
     return _unit(seq[0] - nxt)
 
 
-def join_collinear(curves: list[np.ndarray], gap: float, angle_deg: float, tol: float) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
+def join_collinear(
+    curves: list[np.ndarray], gap: float, angle_deg: float, tol: float
+) -> tuple[list[np.ndarray], list[tuple[float, float]]]:
     """Join open curves that continue each other across a gap of at most `gap` mm.
 
     Two ends of different open curves are joined when they are within `gap` of each other, the
@@ -159,11 +183,16 @@ def join_collinear(curves: list[np.ndarray], gap: float, angle_deg: float, tol: 
     if gap <= tol:
         return curves, []
     cos_a = math.cos(math.radians(angle_deg))
-    ends = [(ci, at_start) for ci, c in enumerate(curves) if len(c) >= 2 and not is_closed(c, tol)
-            for at_start in (True, False)]
+    ends = [
+        (ci, at_start)
+        for ci, c in enumerate(curves)
+        if len(c) >= 2 and not is_closed(c, tol)
+        for at_start in (True, False)
+    ]
     if len(ends) < 2:
         return curves, []
     from scipy.spatial import cKDTree  # lazy: keeps start-up light
+
     pts = np.array([curves[ci][0] if a else curves[ci][-1] for ci, a in ends])
     dirs = np.array([_end_direction(curves[ci], a, tol) for ci, a in ends])
     pairs = []
@@ -187,8 +216,12 @@ def join_collinear(curves: list[np.ndarray], gap: float, angle_deg: float, tol: 
         seg = LineString([pts[i], pts[j]])
         mid = (pts[i] + pts[j]) / 2.0
         target = mid
-        hits = [q for k, line in enumerate(lines) if k not in (ends[i][0], ends[j][0])
-                for q in _intersection_points(seg.intersection(line))]
+        hits = [
+            q
+            for k, line in enumerate(lines)
+            if k not in (ends[i][0], ends[j][0])
+            for q in _intersection_points(seg.intersection(line))
+        ]
         if hits:
             target = np.asarray(min(hits, key=lambda q: float(np.hypot(*(np.asarray(q) - mid)))), float)
         for k in (i, j):
@@ -201,8 +234,9 @@ def join_collinear(curves: list[np.ndarray], gap: float, angle_deg: float, tol: 
 # ------------------------------------------------------------------------------------------
 # Loops (tubulars)
 # ------------------------------------------------------------------------------------------
-def find_loops(curves: list[np.ndarray], junctions: list[Junction], kinds: list[str | None],
-               tol: float) -> list[list[int]]:
+def find_loops(
+    curves: list[np.ndarray], junctions: list[Junction], kinds: list[str | None], tol: float
+) -> list[list[int]]:
     """Curve index groups forming closed loops that touch nothing else: a closed curve with no
     junction on it, or open curves chained end to end through corner/continuous junctions only."""
     touched: dict[int, list[int]] = {}
@@ -231,8 +265,12 @@ def find_loops(curves: list[np.ndarray], junctions: list[Junction], kinds: list[
                 loops.append(members)
             continue
         js = {k for c in members for k in touched.get(c, [])}
-        if js and all(kinds[k] in JUNCTION_KINDS for k in js) and len(js) == len(members) \
-                and all(not is_closed(curves[c], tol) for c in members):
+        if (
+            js
+            and all(kinds[k] in JUNCTION_KINDS for k in js)
+            and len(js) == len(members)
+            and all(not is_closed(curves[c], tol) for c in members)
+        ):
             loops.append(sorted(members))
     return loops
 
@@ -274,8 +312,9 @@ def is_isolated(ring: np.ndarray, others: list[LineString], encumbrance: float) 
 # ------------------------------------------------------------------------------------------
 # Entry point
 # ------------------------------------------------------------------------------------------
-def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, continuous_min_deg: float,
-                      skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, str]]:
+def _vertex_junctions(
+    c: np.ndarray, tol: float, corner_angle_deg: float, continuous_min_deg: float, skip: list[np.ndarray]
+) -> list[tuple[np.ndarray, float, str]]:
     """Junctions at interior vertices of one polyline: (point, angle between the walls, kind).
 
     A vertex turning by ≥ corner_angle_deg is a corner. One turning by less, but by at least
@@ -288,9 +327,9 @@ def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, contin
     n = len(pts)
     if n < 3:
         return []
-    turn = np.zeros(n)                                  # signed turn (deg, + = left) per vertex
+    turn = np.zeros(n)  # signed turn (deg, + = left) per vertex
     between = np.full(n, 180.0)
-    for k in (range(n) if closed else range(1, n - 1)):
+    for k in range(n) if closed else range(1, n - 1):
         p, a, b = pts[k], pts[(k - 1) % n], pts[(k + 1) % n]
         u, v = _unit(p - a), _unit(b - p)
         if not (np.any(u) and np.any(v)):
@@ -305,7 +344,7 @@ def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, contin
         return t * o > 0 and 0.4 <= o / t <= 2.5
 
     out = []
-    for k in (range(n) if closed else range(1, n - 1)):
+    for k in range(n) if closed else range(1, n - 1):
         t = abs(turn[k])
         p = pts[k]
         if t < continuous_min_deg or any(np.hypot(*(p - q)) <= tol for q in skip):
@@ -317,7 +356,9 @@ def _vertex_junctions(c: np.ndarray, tol: float, corner_angle_deg: float, contin
     return out
 
 
-def _joint_vertices(curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]) -> list[tuple[np.ndarray, float, int]]:
+def _joint_vertices(
+    curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]
+) -> list[tuple[np.ndarray, float, int]]:
     """Joints (points where the sketch joined two walls end to end into one polyline) that are a
     vertex inside a curve and not already reported: (point, angle between the walls (deg), curve)."""
     out = []
@@ -340,8 +381,9 @@ def _joint_vertices(curves: list[np.ndarray], joints, tol: float, skip: list[np.
     return out
 
 
-def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0,
-              joints=()) -> list[dict]:
+def recognise(
+    curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int = 0, z: float = 0.0, joints=()
+) -> list[dict]:
     """Features of one layer's curves ((k, 2) arrays or LineStrings, mm) as JSON-ready dicts.
 
     joints: (x, y) points where the sketch joined two walls end to end into one polyline; each
@@ -355,8 +397,13 @@ def recognise(curves, spec: RecognitionSpec = RecognitionSpec(), *, layer: int =
     feats: list[dict] = []
 
     def base(kind: str, point, entities) -> dict:
-        return {"kind": kind, "point": [round(float(point[0]), 6), round(float(point[1]), 6)],
-                "layer": layer, "z": round(float(z), 6), "entities": sorted({int(e) for e in entities})}
+        return {
+            "kind": kind,
+            "point": [round(float(point[0]), 6), round(float(point[1]), 6)],
+            "layer": layer,
+            "z": round(float(z), 6),
+            "entities": sorted({int(e) for e in entities}),
+        }
 
     for j, kind in zip(junctions, kinds):
         if kind is None:

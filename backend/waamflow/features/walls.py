@@ -108,9 +108,9 @@ class LayerWalls:
 @dataclass
 class _Chain:
     xy: np.ndarray
-    head: list = field(default_factory=list)        # points before xy[0], in path order
+    head: list = field(default_factory=list)  # points before xy[0], in path order
     head_inside: list = field(default_factory=list)
-    tail: list = field(default_factory=list)        # points after xy[-1]
+    tail: list = field(default_factory=list)  # points after xy[-1]
     tail_inside: list = field(default_factory=list)
     dropped: bool = False
 
@@ -168,8 +168,7 @@ def chain_pieces(pieces: list[np.ndarray], joints: list[np.ndarray], tol: float)
     while changed:
         changed = False
         for jp in joints:
-            at = [(k, e) for k, p in enumerate(pieces) for e in (0, -1)
-                  if np.hypot(*(p[e] - jp)) <= tol]
+            at = [(k, e) for k, p in enumerate(pieces) for e in (0, -1) if np.hypot(*(p[e] - jp)) <= tol]
             if len(at) != 2 or at[0][0] == at[1][0]:
                 continue
             (a, ea), (b, eb) = at
@@ -216,8 +215,9 @@ class CrossingGeometry:
     fillet_lengths: np.ndarray
 
 
-def crossing_geometry(center, directions, cut_radius: float, influence_radius: float,
-                      corner_angle_deg: float) -> CrossingGeometry:
+def crossing_geometry(
+    center, directions, cut_radius: float, influence_radius: float, corner_angle_deg: float
+) -> CrossingGeometry:
     """Cutting/influence construction for branches leaving `center` along unit `directions`
     (sorted CCW). Corner k spans branch k → k+1; it is a fillet when it turns by at least
     `corner_angle_deg` from straight (α_k ≤ 180° − corner_angle_deg)."""
@@ -297,15 +297,19 @@ def radius_warnings(f: dict, spec: "WallSpec", narrowest_deg: float) -> list[str
     out = []
     if spec.cut_radius > rc_ok + eps:
         beyond = " — beyond the bound itself" if spec.cut_radius > rc_max + eps else ""
-        out.append(f"{_where(f)}: cut_radius {spec.cut_radius:g} mm exceeds {rc_ok:.1f} mm, 0.8 × the "
-                   f"theoretical maximum w/2 = {rc_max:.2f} mm for bead width {w:g} mm{beyond}: the study's "
-                   "Test 1 at the theoretical radius left a central void (Venturini et al. 2018); lower it")
+        out.append(
+            f"{_where(f)}: cut_radius {spec.cut_radius:g} mm exceeds {rc_ok:.1f} mm, 0.8 × the "
+            f"theoretical maximum w/2 = {rc_max:.2f} mm for bead width {w:g} mm{beyond}: the study's "
+            "Test 1 at the theoretical radius left a central void (Venturini et al. 2018); lower it"
+        )
     if spec.influence_radius < ri_ok - eps:
         beyond = " — below the bound itself" if spec.influence_radius < ri_min - eps else ""
-        out.append(f"{_where(f)}: influence_radius {spec.influence_radius:g} mm is below {ri_ok:.1f} mm, √2 × "
-                   f"the theoretical minimum w/sin(α/2) = {ri_min:.2f} mm (bead width {w:g} mm, fillet corner "
-                   f"{narrowest_deg:g}°){beyond}: the study's Tests 1-2 (7.0 and 8.0 mm with a 5 mm bead) left "
-                   "thin fillets; raise it")
+        out.append(
+            f"{_where(f)}: influence_radius {spec.influence_radius:g} mm is below {ri_ok:.1f} mm, √2 × "
+            f"the theoretical minimum w/sin(α/2) = {ri_min:.2f} mm (bead width {w:g} mm, fillet corner "
+            f"{narrowest_deg:g}°){beyond}: the study's Tests 1-2 (7.0 and 8.0 mm with a 5 mm bead) left "
+            "thin fillets; raise it"
+        )
     return out
 
 
@@ -404,12 +408,12 @@ def order_passes(passes: list[WallPass], start=None, seam: str = "stock") -> lis
             s0, s1 = stock_ends(p)
             for rev in (False, True):
                 if seam == "stock" and s0 != s1 and (s1 if not rev else s0):
-                    continue   # this way round it would ignite on the wall and stop in the stock
+                    continue  # this way round it would ignite on the wall and stop in the stock
                 q = p.xy[-1] if rev else p.xy[0]
                 d = float(np.hypot(*(q - pos)))
                 if best is None or d < best[0] - 1e-9:
                     best = (d, k, rev)
-        assert best is not None   # every pass can be laid at least one way round
+        assert best is not None  # every pass can be laid at least one way round
         _, k, rev = best
         p = left.pop(k)
         p = p.reversed() if rev else p
@@ -426,8 +430,9 @@ def passes_without_stock(passes) -> list[str]:
 # ------------------------------------------------------------------------------------------
 # Entry point
 # ------------------------------------------------------------------------------------------
-def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), *, layer_index: int = 0,
-                     start=None, seam: str = "stock") -> LayerWalls:
+def plan_layer_walls(
+    curves, features: list[dict], spec: WallSpec = WallSpec(), *, layer_index: int = 0, start=None, seam: str = "stock"
+) -> LayerWalls:
     """Passes of one layer from its curves ((k, 2) arrays or LineStrings, mm) and its features."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     tol = spec.tol
@@ -457,10 +462,12 @@ def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), 
     if spec.fillet_radius > 0 and spec.bead_width > 0:
         for f in crossings:
             for a0, a1, empty in fillet_uncovered(f, passes, spec):
-                notes.append(f"{_where(f)}: fillet_radius {spec.fillet_radius:g} mm between the branches at "
-                             f"{a0:.0f}° and {a1:.0f}° gets no metal on {empty:.1f} mm² (bead {spec.bead_width:g} "
-                             f"mm, EWW {spec.effective_width:g} mm): raise influence_radius or the bead width, "
-                             "or lower fillet_radius")
+                notes.append(
+                    f"{_where(f)}: fillet_radius {spec.fillet_radius:g} mm between the branches at "
+                    f"{a0:.0f}° and {a1:.0f}° gets no metal on {empty:.1f} mm² (bead {spec.bead_width:g} "
+                    f"mm, EWW {spec.effective_width:g} mm): raise influence_radius or the bead width, "
+                    "or lower fillet_radius"
+                )
     helical: list[tuple[str, np.ndarray]] = []
     for k, f in enumerate(tubes):
         ring = chain_loop(curves, f["entities"], tol)
@@ -475,6 +482,8 @@ def plan_layer_walls(curves, features: list[dict], spec: WallSpec = WallSpec(), 
         passes.append(WallPass(key, mode, xy, np.ones(len(xy) - 1, bool)))
     if seam == "stock":
         for key in passes_without_stock(passes):
-            notes.append(f"{key} has no machining stock at either end: it ignites on the finished wall "
-                         "(extend its ends or start it at a crossing)")
+            notes.append(
+                f"{key} has no machining stock at either end: it ignites on the finished wall "
+                "(extend its ends or start it at a crossing)"
+            )
     return LayerWalls(tuple(order_passes(passes, start, seam)), tuple(helical), tuple(notes))

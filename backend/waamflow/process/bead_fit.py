@@ -67,7 +67,7 @@ class Trials:
     width: np.ndarray
     height: np.ndarray
     source: str = ""
-    area: np.ndarray | None = None     # (n,) measured cross-section, mm² (optional column)
+    area: np.ndarray | None = None  # (n,) measured cross-section, mm² (optional column)
 
 
 def _column(name: str) -> str | None:
@@ -90,8 +90,10 @@ def read_trials(text: str, source: str = "trials") -> Trials:
             cols[c] = j
     missing = [c for c in _ALIASES if c not in cols]
     if missing:
-        raise InputFileError(f"{source}: header lacks column(s) {', '.join(missing)} "
-                             f"(need wfs [m/min], ts [mm/s], width [mm], height [mm])")
+        raise InputFileError(
+            f"{source}: header lacks column(s) {', '.join(missing)} "
+            f"(need wfs [m/min], ts [mm/s], width [mm], height [mm])"
+        )
     data: dict[str, list[float]] = {c: [] for c in cols}
     for i, r in enumerate(rows[1:], start=2):
         for c, j in cols.items():
@@ -104,9 +106,14 @@ def read_trials(text: str, source: str = "trials") -> Trials:
             data[c].append(v)
     if len(data["wfs"]) < 3:
         raise InputFileError(f"{source}: need at least 3 measured beads, got {len(data['wfs'])}")
-    return Trials(np.asarray(data["wfs"]), np.asarray(data["ts"]), np.asarray(data["width"]),
-                  np.asarray(data["height"]), source=source,
-                  area=np.asarray(data["area"]) if "area" in data else None)
+    return Trials(
+        np.asarray(data["wfs"]),
+        np.asarray(data["ts"]),
+        np.asarray(data["width"]),
+        np.asarray(data["height"]),
+        source=source,
+        area=np.asarray(data["area"]) if "area" in data else None,
+    )
 
 
 @dataclass(frozen=True)
@@ -138,12 +145,14 @@ class PowerLaw:
 def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power") -> PowerLaw:
     """Least-squares fit of y = a·WFS^b·TS^c (or a·(WFS/TS)^b) on the measured scale."""
     from scipy.optimize import curve_fit  # lazy: keeps start-up light
+
     if form not in FORMS:
         raise ValueError(f"unknown bead-model form {form!r}; known: {', '.join(FORMS)}")
     lw, lt, ly = np.log(wfs), np.log(ts), np.log(y)
     if form == "power":
         A = np.column_stack([np.ones_like(lw), lw, lt])
         p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
+
         def power(X, a, b, c):
             return a * X[0] ** b * X[1] ** c
 
@@ -152,8 +161,9 @@ def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power
         return PowerLaw(float(p[0]), float(p[1]), float(p[2]), form, err)
     A = np.column_stack([np.ones_like(lw), lw - lt])
     p0, *_ = np.linalg.lstsq(A, ly, rcond=None)
+
     def power_ratio(r, a, b):
-        return a * r ** b
+        return a * r**b
 
     p, cov = curve_fit(power_ratio, wfs / ts, y, p0=[math.exp(p0[0]), p0[1]], maxfev=20000)
     err = tuple(float(e) for e in np.sqrt(np.abs(np.diag(cov)))) if np.all(np.isfinite(cov)) else ()
@@ -163,8 +173,11 @@ def fit_power(wfs: np.ndarray, ts: np.ndarray, y: np.ndarray, form: str = "power
 def _stats(y: np.ndarray, pred: np.ndarray) -> dict:
     res = y - pred
     ss = float(((y - y.mean()) ** 2).sum())
-    return {"rmse_mm": float(np.sqrt((res ** 2).mean())), "max_abs_residual_mm": float(np.abs(res).max()),
-            "r2": 1.0 - float((res ** 2).sum()) / ss if ss > 0 else 1.0}
+    return {
+        "rmse_mm": float(np.sqrt((res**2).mean())),
+        "max_abs_residual_mm": float(np.abs(res).max()),
+        "r2": 1.0 - float((res**2).sum()) / ss if ss > 0 else 1.0,
+    }
 
 
 @dataclass(frozen=True)
@@ -217,39 +230,55 @@ class BeadFit:
         M = np.array([[self.width.b, self.width.c], [self.height.b, self.height.c]])
         rhs = np.array([math.log(width_mm / self.width.a), math.log(height_mm / self.height.a)])
         if abs(np.linalg.det(M)) < 1e-9:
-            raise ValueError("the bead model cannot set width and height independently (its exponents are "
-                             "proportional, e.g. the power-ratio form): give a travel speed instead")
+            raise ValueError(
+                "the bead model cannot set width and height independently (its exponents are "
+                "proportional, e.g. the power-ratio form): give a travel speed instead"
+            )
         lw, lt = np.linalg.solve(M, rhs)
         return float(math.exp(lw)), float(math.exp(lt))
 
     def wfs_for(self, height_mm: float, ts: float) -> float:
         """WFS (m/min) giving the target height at travel speed ts (mm/s)."""
-        return float((height_mm / (self.height.a * ts ** self.height.c)) ** (1.0 / self.height.b))
+        return float((height_mm / (self.height.a * ts**self.height.c)) ** (1.0 / self.height.b))
 
     def height_polynomial(self, wfs: float | None = None) -> tuple[float, float, float, float, float]:
         """The height law at a fixed WFS (m/min; default the middle of the trials) as the curved-parts
         study's form H(Ts) = a2·Ts² + a1·Ts + a0 with Ts in mm/min, least squares over the trials'
         travel-speed range: (a2, a1, a0, ts_min, ts_max), for the bead-model node."""
         wfs = 0.5 * (self.wfs_range[0] + self.wfs_range[1]) if wfs is None else wfs
-        ts = np.linspace(self.ts_range[0], self.ts_range[1], 200)      # mm/s
+        ts = np.linspace(self.ts_range[0], self.ts_range[1], 200)  # mm/s
         a2, a1, a0 = np.polyfit(ts * 60.0, self.height(wfs, ts), 2)
         return float(a2), float(a1), float(a0), self.ts_range[0] * 60.0, self.ts_range[1] * 60.0
 
     def in_range(self, wfs: float, ts: float) -> bool:
-        return (self.wfs_range[0] * 0.999 <= wfs <= self.wfs_range[1] * 1.001
-                and self.ts_range[0] * 0.999 <= ts <= self.ts_range[1] * 1.001)
+        return (
+            self.wfs_range[0] * 0.999 <= wfs <= self.wfs_range[1] * 1.001
+            and self.ts_range[0] * 0.999 <= ts <= self.ts_range[1] * 1.001
+        )
 
     def to_json(self) -> dict:
-        return {"format": FORMAT, "material": self.material, "process": self.process,
-                "wire_diameter_mm": self.wire_diameter_mm, "deposition_efficiency": self.deposition_efficiency,
-                "shape_factor": {"k": self.shape_factor, "source": self.shape_factor_source,
-                                 "definition": "bead cross-section = k * width * height"},
-                "units": {"wfs": "m/min", "ts": "mm/s", "width": "mm", "height": "mm"},
-                "width": self.width.to_json(), "height": self.height.to_json(),
-                "validity": {"wfs_m_min": list(self.wfs_range), "ts_mm_s": list(self.ts_range)},
-                **({"targets": {"height_mm": self.target_height_mm, "width_mm": self.target_width_mm}}
-                   if self.target_height_mm is not None or self.target_width_mm is not None else {}),
-                "fit": self.fit}
+        return {
+            "format": FORMAT,
+            "material": self.material,
+            "process": self.process,
+            "wire_diameter_mm": self.wire_diameter_mm,
+            "deposition_efficiency": self.deposition_efficiency,
+            "shape_factor": {
+                "k": self.shape_factor,
+                "source": self.shape_factor_source,
+                "definition": "bead cross-section = k * width * height",
+            },
+            "units": {"wfs": "m/min", "ts": "mm/s", "width": "mm", "height": "mm"},
+            "width": self.width.to_json(),
+            "height": self.height.to_json(),
+            "validity": {"wfs_m_min": list(self.wfs_range), "ts_mm_s": list(self.ts_range)},
+            **(
+                {"targets": {"height_mm": self.target_height_mm, "width_mm": self.target_width_mm}}
+                if self.target_height_mm is not None or self.target_width_mm is not None
+                else {}
+            ),
+            "fit": self.fit,
+        }
 
     @classmethod
     def from_json(cls, d: dict, source: str = "bead model") -> "BeadFit":
@@ -260,12 +289,21 @@ class BeadFit:
             t = d.get("targets") or {}
             sf = d.get("shape_factor") or {}
             th, tw = t.get("height_mm"), t.get("width_mm")
-            return cls(PowerLaw.from_json(d["width"]), PowerLaw.from_json(d["height"]),
-                       _range(v, "wfs_m_min"), _range(v, "ts_mm_s"),
-                       d.get("material", ""), d.get("process", ""), d.get("wire_diameter_mm"), d.get("fit", {}),
-                       None if th is None else float(th), None if tw is None else float(tw),
-                       float(d.get("deposition_efficiency", DEPOSITION_EFFICIENCY)),
-                       float(sf.get("k", BEAD_SHAPE_FACTOR)), str(sf.get("source", "stated")))
+            return cls(
+                PowerLaw.from_json(d["width"]),
+                PowerLaw.from_json(d["height"]),
+                _range(v, "wfs_m_min"),
+                _range(v, "ts_mm_s"),
+                d.get("material", ""),
+                d.get("process", ""),
+                d.get("wire_diameter_mm"),
+                d.get("fit", {}),
+                None if th is None else float(th),
+                None if tw is None else float(tw),
+                float(d.get("deposition_efficiency", DEPOSITION_EFFICIENCY)),
+                float(sf.get("k", BEAD_SHAPE_FACTOR)),
+                str(sf.get("source", "stated")),
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise InputFileError(f"{source}: not a bead model ({e})") from None
 
@@ -278,9 +316,15 @@ def _range(validity: dict, key: str) -> tuple[float, float]:
     return lo_hi[0], lo_hi[1]
 
 
-def fit_trials(trials: Trials, form: str = "power", material: str = "", process: str = "",
-               wire_diameter_mm: float | None = None, deposition_efficiency: float = DEPOSITION_EFFICIENCY,
-               shape_factor: float = BEAD_SHAPE_FACTOR) -> BeadFit:
+def fit_trials(
+    trials: Trials,
+    form: str = "power",
+    material: str = "",
+    process: str = "",
+    wire_diameter_mm: float | None = None,
+    deposition_efficiency: float = DEPOSITION_EFFICIENCY,
+    shape_factor: float = BEAD_SHAPE_FACTOR,
+) -> BeadFit:
     """Fit width and height; the fit record holds statistics and per-trial residuals (mm)."""
     w = fit_power(trials.wfs, trials.ts, trials.width, form)
     h = fit_power(trials.wfs, trials.ts, trials.height, form)
@@ -290,20 +334,48 @@ def fit_trials(trials: Trials, form: str = "power", material: str = "", process:
     d = float(wire_diameter_mm or WIRE_DIAMETER_MM)
     fed = np.array([wire_per_mm(a, b, d, deposition_efficiency) for a, b in zip(trials.wfs, trials.ts)])
     mb = fed / (k * rect)
-    fit = {"trials": int(len(trials.wfs)), "source": trials.source,
-           "width": _stats(trials.width, pw), "height": _stats(trials.height, ph),
-           "mass_balance": {"definition": "eta * WFS * (pi d^2/4) / TS over k * width * height, per trial",
-                            "mean": round(float(mb.mean()), 4), "min": round(float(mb.min()), 4),
-                            "max": round(float(mb.max()), 4), "shape_factor_k": round(k, 4),
-                            **({"shape_factor_k_stderr": round(float(np.std(trials.area / rect, ddof=1)
-                                                                     / math.sqrt(len(rect))), 4)}
-                               if trials.area is not None else {})},
-           "residuals": [{"wfs_m_min": float(a), "ts_mm_s": float(b), "width_mm": float(c), "height_mm": float(d),
-                          "width_residual_mm": round(float(c - e), 5), "height_residual_mm": round(float(d - f), 5)}
-                         for a, b, c, d, e, f in zip(trials.wfs, trials.ts, trials.width, trials.height, pw, ph)]}
-    return BeadFit(w, h, (float(trials.wfs.min()), float(trials.wfs.max())),
-                   (float(trials.ts.min()), float(trials.ts.max())), material, process, wire_diameter_mm, fit,
-                   deposition_efficiency=deposition_efficiency, shape_factor=k, shape_factor_source=k_src)
+    fit = {
+        "trials": int(len(trials.wfs)),
+        "source": trials.source,
+        "width": _stats(trials.width, pw),
+        "height": _stats(trials.height, ph),
+        "mass_balance": {
+            "definition": "eta * WFS * (pi d^2/4) / TS over k * width * height, per trial",
+            "mean": round(float(mb.mean()), 4),
+            "min": round(float(mb.min()), 4),
+            "max": round(float(mb.max()), 4),
+            "shape_factor_k": round(k, 4),
+            **(
+                {"shape_factor_k_stderr": round(float(np.std(trials.area / rect, ddof=1) / math.sqrt(len(rect))), 4)}
+                if trials.area is not None
+                else {}
+            ),
+        },
+        "residuals": [
+            {
+                "wfs_m_min": float(a),
+                "ts_mm_s": float(b),
+                "width_mm": float(c),
+                "height_mm": float(d),
+                "width_residual_mm": round(float(c - e), 5),
+                "height_residual_mm": round(float(d - f), 5),
+            }
+            for a, b, c, d, e, f in zip(trials.wfs, trials.ts, trials.width, trials.height, pw, ph)
+        ],
+    }
+    return BeadFit(
+        w,
+        h,
+        (float(trials.wfs.min()), float(trials.wfs.max())),
+        (float(trials.ts.min()), float(trials.ts.max())),
+        material,
+        process,
+        wire_diameter_mm,
+        fit,
+        deposition_efficiency=deposition_efficiency,
+        shape_factor=k,
+        shape_factor_source=k_src,
+    )
 
 
 def fit_svg(model: BeadFit) -> str:
@@ -318,9 +390,18 @@ def fit_svg(model: BeadFit) -> str:
         lo = float(min(meas.min(), pred.min())) * 0.95 if len(meas) else 0.0
         hi = float(max(meas.max(), pred.max())) * 1.05 if len(meas) else 1.0
         st = model.fit.get(name, {})
-        ch = Chart(60 + k * 360, 40, 270, 270, (lo, hi), (lo, hi), x_label=f"model {name}, mm",
-                   y_label=f"measured {name}, mm",
-                   legend="left", title=f"{name}: RMSE {st.get('rmse_mm', 0):.3f} mm, R² {st.get('r2', 0):.3f}, n = {len(meas)}")
+        ch = Chart(
+            60 + k * 360,
+            40,
+            270,
+            270,
+            (lo, hi),
+            (lo, hi),
+            x_label=f"model {name}, mm",
+            y_label=f"measured {name}, mm",
+            legend="left",
+            title=f"{name}: RMSE {st.get('rmse_mm', 0):.3f} mm, R² {st.get('r2', 0):.3f}, n = {len(meas)}",
+        )
         ch.line([lo, hi], [lo, hi], "#aaaaaa", width=1.0, label="1:1")
         ch.points(pred, meas, color, label="trial")
         charts.append(ch)

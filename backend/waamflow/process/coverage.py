@@ -45,8 +45,8 @@ class Coverage:
     void_area: float
     overlap_area: float
     over_deposit_area: float
-    void: object            # shapely (Multi)Polygon
-    overlap: object         # shapely (Multi)Polygon (grid cells merged per row, then unioned)
+    void: object  # shapely (Multi)Polygon
+    overlap: object  # shapely (Multi)Polygon (grid cells merged per row, then unioned)
     bead_width: float
     cell: float
 
@@ -54,18 +54,21 @@ class Coverage:
         """The overlap polygons for display: the grid's staircase smoothed (simplified within
         0.75 cell), slivers under one cell dropped. The area figures stay the grid's."""
         g = self.overlap.simplify(0.75 * self.cell)
-        parts = [p for p in shapely.get_parts(g) if isinstance(p, Polygon) and p.area >= self.cell ** 2]
+        parts = [p for p in shapely.get_parts(g) if isinstance(p, Polygon) and p.area >= self.cell**2]
         return shapely.MultiPolygon(parts) if parts else Polygon()
 
     def summary(self) -> dict:
         r = self.region_area
         return {
-            "region_area_mm2": round(r, 4), "footprint_area_mm2": round(self.footprint_area, 4),
-            "void_area_mm2": round(self.void_area, 4), "overlap_area_mm2": round(self.overlap_area, 4),
+            "region_area_mm2": round(r, 4),
+            "footprint_area_mm2": round(self.footprint_area, 4),
+            "void_area_mm2": round(self.void_area, 4),
+            "overlap_area_mm2": round(self.overlap_area, 4),
             "over_deposit_area_mm2": round(self.over_deposit_area, 4),
             "void_share": round(self.void_area / r, 5) if r > 0 else 0.0,
             "overlap_share": round(self.overlap_area / r, 5) if r > 0 else 0.0,
-            "bead_width_mm": self.bead_width, "cell_mm": round(self.cell, 5),
+            "bead_width_mm": self.bead_width,
+            "cell_mm": round(self.cell, 5),
         }
 
 
@@ -78,7 +81,7 @@ def arc_runs(points: np.ndarray, arc: np.ndarray) -> list[np.ndarray]:
         if on and start is None:
             start = i
         elif not on and start is not None:
-            runs.append(pts[start:i + 1])
+            runs.append(pts[start : i + 1])
             start = None
     return runs
 
@@ -91,7 +94,9 @@ def footprint(runs: list[np.ndarray], width: float, resolution: int = 16):
     return MultiLineString([LineString(r) for r in lines]).buffer(width / 2.0, quad_segs=resolution)
 
 
-def _pass_count(runs: list[np.ndarray], radius: float, origin: np.ndarray, cell: float, shape: tuple[int, int]) -> np.ndarray:
+def _pass_count(
+    runs: list[np.ndarray], radius: float, origin: np.ndarray, cell: float, shape: tuple[int, int]
+) -> np.ndarray:
     """(ny, nx) int16 grid of pass counts at cell centres (see module doc)."""
     count = np.zeros(shape, dtype=np.int16)
     ny, nx = shape
@@ -139,8 +144,9 @@ def _cells_to_polygon(mask: np.ndarray, origin: np.ndarray, cell: float):
     return shapely.union_all(boxes) if boxes else Polygon()
 
 
-def section_coverage(region: Polygon, points: np.ndarray, arc: np.ndarray, width: float,
-                     cell: float | None = None) -> Coverage:
+def section_coverage(
+    region: Polygon, points: np.ndarray, arc: np.ndarray, width: float, cell: float | None = None
+) -> Coverage:
     """Coverage of `region` (layer-local polygon, mm) by the arc-ON beads of a path.
 
     points: (n, 2|3) layer-local mm; arc: (n-1,) bool; width: bead width, mm; cell: grid cell for
@@ -164,6 +170,14 @@ def section_coverage(region: Polygon, points: np.ndarray, arc: np.ndarray, width
         twice = count >= 2
         overlap_area = float(twice.sum()) * cell * cell
         overlap_poly = _cells_to_polygon(twice, lo, cell)
-    return Coverage(region_area=float(region.area), footprint_area=float(foot.area), void_area=float(void.area),
-                    overlap_area=overlap_area, over_deposit_area=float(over.area), void=void,
-                    overlap=overlap_poly, bead_width=float(width), cell=cell)
+    return Coverage(
+        region_area=float(region.area),
+        footprint_area=float(foot.area),
+        void_area=float(void.area),
+        overlap_area=overlap_area,
+        over_deposit_area=float(over.area),
+        void=void,
+        overlap=overlap_poly,
+        bead_width=float(width),
+        cell=cell,
+    )

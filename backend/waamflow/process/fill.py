@@ -49,22 +49,23 @@ BALANCE_TOLERANCE = 0.02
 class FillRules:
     """Targets (mm, mm/s) and zone rules; see the module doc."""
 
-    height_mm: float | None = None        # None: each layer's thickness
+    height_mm: float | None = None  # None: each layer's thickness
     width_mm: float = 6.0
-    travel_speed: float | None = None     # mm/s; set → this speed for body zones, else the model's
+    travel_speed: float | None = None  # mm/s; set → this speed for body zones, else the model's
     start_ts_factor: float = 0.75
     start_wfs_factor: float = 0.75
     start_dwell_s: float = 0.5
     end_ts_factor: float = 0.5
     end_wfs_factor: float = 0.5
-    current_line: tuple[float, float] = (55.0, 15.0)    # A, A per m/min
-    voltage_line: tuple[float, float] = (11.0, 0.6)     # V, V per m/min
+    current_line: tuple[float, float] = (55.0, 15.0)  # A, A per m/min
+    voltage_line: tuple[float, float] = (11.0, 0.6)  # V, V per m/min
     job: float | None = None
-    step_mm: float | None = None          # pass step (mm); None → each section path's own
+    step_mm: float | None = None  # pass step (mm); None → each section path's own
 
 
-def model_values(model: BeadFit, rules: FillRules, zone: str, layer_height: float,
-                 deposit_mm3_per_mm: float | None = None) -> dict[str, float]:
+def model_values(
+    model: BeadFit, rules: FillRules, zone: str, layer_height: float, deposit_mm3_per_mm: float | None = None
+) -> dict[str, float]:
     """What the rules give one zone of a layer of height `layer_height` (mm) that needs
     `deposit_mm3_per_mm` of metal per mm of path (default: a single bead, k·w·h)."""
     h = rules.height_mm or layer_height
@@ -77,9 +78,13 @@ def model_values(model: BeadFit, rules: FillRules, zone: str, layer_height: floa
         ts, wfs, dwell = ts * rules.start_ts_factor, wfs * rules.start_wfs_factor, rules.start_dwell_s
     elif zone == "end":
         ts, wfs = ts * rules.end_ts_factor, wfs * rules.end_wfs_factor
-    out = {"wire_feed_speed": round(wfs, 3), "travel_speed": round(ts, 3), "dwell": dwell,
-           "current": round(rules.current_line[0] + rules.current_line[1] * wfs, 1),
-           "voltage": round(rules.voltage_line[0] + rules.voltage_line[1] * wfs, 2)}
+    out = {
+        "wire_feed_speed": round(wfs, 3),
+        "travel_speed": round(ts, 3),
+        "dwell": dwell,
+        "current": round(rules.current_line[0] + rules.current_line[1] * wfs, 1),
+        "voltage": round(rules.voltage_line[0] + rules.voltage_line[1] * wfs, 2),
+    }
     if rules.job is not None:
         out["job"] = rules.job
     for k, v in out.items():
@@ -88,8 +93,22 @@ def model_values(model: BeadFit, rules: FillRules, zone: str, layer_height: floa
     return out
 
 
-def fill(toolpath: Layered, model: BeadFit, rules: FillRules,
-         user: dict[ZoneKey, dict[str, float]] | None = None) -> tuple[Layered, str, dict]:
+def _ramp_lengths(layers: list[Any]) -> dict[str, list[float]]:
+    """The lengths (mm) of every section's start and end zones, by zone name."""
+    ramps: dict[str, list[float]] = {}
+    for lp in layers:
+        if lp is None:
+            continue
+        for sp in lp.sections:
+            for z, length in (zone_lengths(sp) if sp.zone else {}).items():
+                if z in ("start", "end"):
+                    ramps.setdefault(z, []).append(length)
+    return ramps
+
+
+def fill(
+    toolpath: Layered, model: BeadFit, rules: FillRules, user: dict[ZoneKey, dict[str, float]] | None = None
+) -> tuple[Layered, str, dict]:
     """(toolpath with every zone's parameters filled, the filled XML text, report)."""
     user = dict(user or {})
     values: dict[ZoneKey, dict[str, float]] = {}
@@ -105,22 +124,43 @@ def fill(toolpath: Layered, model: BeadFit, rules: FillRules,
             zp = {}
             need = step = None
             if sp.zone and sp.arc.any():
-                need, step = section_deposit_per_mm(sp, lp.layer, rules.width_mm, rules.step_mm, model.shape_factor,
-                                                    rules.height_mm)
-                sections.append({"layer": lp.index, "section": sp.key,
-                                 "step_mm": None if step is None else round(step, 4),
-                                 "deposit_mm3_per_mm": round(need, 4)})
+                need, step = section_deposit_per_mm(
+                    sp, lp.layer, rules.width_mm, rules.step_mm, model.shape_factor, rules.height_mm
+                )
+                sections.append(
+                    {
+                        "layer": lp.index,
+                        "section": sp.key,
+                        "step_mm": None if step is None else round(step, 4),
+                        "deposit_mm3_per_mm": round(need, 4),
+                    }
+                )
             for z in dict.fromkeys(sp.zone):
                 key = (lp.index, sp.key, z)
                 given = {**sp.zone_params.get(z, {}), **user.get(key, {})}
                 mv = model_values(model, rules, z, float(lp.layer.thickness), need)
                 if not model.in_range(mv["wire_feed_speed"], mv["travel_speed"]):
-                    out_of_range.append({"layer": lp.index, "section": sp.key, "zone": z,
-                                         "wire_feed_speed": mv["wire_feed_speed"], "travel_speed": mv["travel_speed"]})
+                    out_of_range.append(
+                        {
+                            "layer": lp.index,
+                            "section": sp.key,
+                            "zone": z,
+                            "wire_feed_speed": mv["wire_feed_speed"],
+                            "travel_speed": mv["travel_speed"],
+                        }
+                    )
                 for name, v in given.items():
                     if name in mv and abs(mv[name] - v) > 1e-9:
-                        kept.append({"layer": lp.index, "section": sp.key, "zone": z, "parameter": name,
-                                     "value": v, "model_value": mv[name]})
+                        kept.append(
+                            {
+                                "layer": lp.index,
+                                "section": sp.key,
+                                "zone": z,
+                                "parameter": name,
+                                "value": v,
+                                "model_value": mv[name],
+                            }
+                        )
                 vals = {**mv, **given}
                 filled += len(set(mv) - set(given))
                 values[key] = vals
@@ -132,28 +172,31 @@ def fill(toolpath: Layered, model: BeadFit, rules: FillRules,
             secs.append(apply_zone_params(sp, zp))
         layers.append(replace(lp, sections=tuple(secs)))
     xml = _write(_toolpath_zones(layers), values, beads)
-    ramps: dict[Any, Any] = {}
-    for lp in layers:
-        if lp is None:
-            continue
-        for sp in lp.sections:
-            for z, length in (zone_lengths(sp) if sp.zone else {}).items():
-                if z in ("start", "end"):
-                    ramps.setdefault(z, []).append(length)
+    ramps = _ramp_lengths(layers)
     report = {
-        "filled_values": filled, "kept_user_values": kept, "kept_count": len(kept),
-        "zones": len(values), "out_of_model_range": out_of_range[:200], "out_of_model_range_count": len(out_of_range),
+        "filled_values": filled,
+        "kept_user_values": kept,
+        "kept_count": len(kept),
+        "zones": len(values),
+        "out_of_model_range": out_of_range[:200],
+        "out_of_model_range_count": len(out_of_range),
         "ramp_lengths_mm": {z: {"min": round(min(v), 3), "max": round(max(v), 3)} for z, v in ramps.items()},
         "mass_balance": {
             "definition": "feed_ratio = eta * WFS * (pi d^2/4) / TS over the metal the layer needs per mm of path "
-                          "(layer height x pass step, or k * w * h for a single bead)",
-            "wire_diameter_mm": model.wire_d, "deposition_efficiency": model.deposition_efficiency,
-            "shape_factor_k": model.shape_factor, "width_mm": rules.width_mm,
-            "feed_ratio": ({"min": min(r["feed_ratio"] for r in ratios), "max": max(r["feed_ratio"] for r in ratios)}
-                           if ratios else None),
+            "(layer height x pass step, or k * w * h for a single bead)",
+            "wire_diameter_mm": model.wire_d,
+            "deposition_efficiency": model.deposition_efficiency,
+            "shape_factor_k": model.shape_factor,
+            "width_mm": rules.width_mm,
+            "feed_ratio": (
+                {"min": min(r["feed_ratio"] for r in ratios), "max": max(r["feed_ratio"] for r in ratios)}
+                if ratios
+                else None
+            ),
             "unbalanced_zones": [r for r in ratios if abs(r["feed_ratio"] - 1) > BALANCE_TOLERANCE][:200],
             "unbalanced_count": sum(abs(r["feed_ratio"] - 1) > BALANCE_TOLERANCE for r in ratios),
-            "sections": sections[:500]},
+            "sections": sections[:500],
+        },
         "rules": {k: (list(v) if isinstance(v, tuple) else v) for k, v in rules.__dict__.items()},
     }
     return Layered(tuple(layers)), xml, report

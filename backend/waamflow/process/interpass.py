@@ -38,18 +38,18 @@ from ..core.model import LayerPaths, Layered
 
 @dataclass(frozen=True)
 class HeatModel:
-    interpass_c: float = 200.0           # °C, maximum temperature when a layer starts
-    ambient_c: float = 20.0              # °C
-    min_layer_time_s: float = 0.0        # s
-    density_kg_m3: float = 7850.0        # steel
-    specific_heat_j_kgk: float = 600.0   # steel, averaged 20-600 °C
-    arc_efficiency: float = 0.8          # DuPont & Marder 1995 (GMAW)
-    arc_power_w: float = 4000.0          # used where a zone has no current and voltage
-    h_w_m2k: float = 35.0                # convection + linearised radiation
-    base_conductance_w_k: float = 2.0    # conduction into the table/fixture
-    substrate_mass_kg: float = 1.0       # effective substrate mass heated with the part
+    interpass_c: float = 200.0  # °C, maximum temperature when a layer starts
+    ambient_c: float = 20.0  # °C
+    min_layer_time_s: float = 0.0  # s
+    density_kg_m3: float = 7850.0  # steel
+    specific_heat_j_kgk: float = 600.0  # steel, averaged 20-600 °C
+    arc_efficiency: float = 0.8  # DuPont & Marder 1995 (GMAW)
+    arc_power_w: float = 4000.0  # used where a zone has no current and voltage
+    h_w_m2k: float = 35.0  # convection + linearised radiation
+    base_conductance_w_k: float = 2.0  # conduction into the table/fixture
+    substrate_mass_kg: float = 1.0  # effective substrate mass heated with the part
     bead_width_mm: float = 6.0
-    travel_speed: float = 100.0          # mm/s, arc-OFF moves without a speed
+    travel_speed: float = 100.0  # mm/s, arc-OFF moves without a speed
 
 
 def layer_times(lp: LayerPaths, travel_speed: float) -> tuple[float, float]:
@@ -112,7 +112,9 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
         power = _arc_power(lp, m.arc_power_w)
         T_peak = T + m.arc_efficiency * power * t_on / (mass * m.specific_heat_j_kgk)
         tau = mass * m.specific_heat_j_kgk / (m.h_w_m2k * (lateral_m2 + top_m2) + m.base_conductance_w_k)
-        need_cool = tau * math.log((T_peak - m.ambient_c) / (m.interpass_c - m.ambient_c)) if T_peak > m.interpass_c else 0.0
+        need_cool = (
+            tau * math.log((T_peak - m.ambient_c) / (m.interpass_c - m.ambient_c)) if T_peak > m.interpass_c else 0.0
+        )
         # the travel to the next layer's start (its approach) already cools the part
         nxt = items[k + 1] if k + 1 < len(items) else None
         t_next_travel = 0.0
@@ -123,31 +125,59 @@ def plan_dwells(toolpath: Layered, m: HeatModel) -> tuple[Layered, dict]:
         need = max(need_cool - t_next_travel, need_time, 0.0) if nxt is not None else 0.0
         dwell = max(need, float(lp.dwell_after_s))
         T_next = m.ambient_c + (T_peak - m.ambient_c) * math.exp(-(dwell + t_next_travel) / tau)
-        limited_by = ("none" if nxt is None else "existing" if dwell > need else
-                      "temperature" if need_cool - t_next_travel >= need_time and need_cool > 0 else
-                      "min_layer_time" if need_time > 0 else "none")
-        rows.append({"layer": lp.index, "arc_time_s": round(t_on, 3), "travel_time_s": round(t_off, 3),
-                     "arc_power_w": round(power, 1), "mass_kg": round(mass, 4), "tau_s": round(tau, 2),
-                     "peak_c": round(T_peak, 2), "dwell_s": round(dwell, 3),
-                     "added_dwell_s": round(dwell - float(lp.dwell_after_s), 3),
-                     "start_next_c": round(T_next, 2) if nxt is not None else None,
-                     "limited_by": limited_by})
-        out.append(replace(lp, dwell_after_s=dwell, dwell_note=dwell_note(limited_by, m, T_peak, T_next, lp.index)
-                           if dwell > 0 else lp.dwell_note))
+        limited_by = (
+            "none"
+            if nxt is None
+            else "existing"
+            if dwell > need
+            else "temperature"
+            if need_cool - t_next_travel >= need_time and need_cool > 0
+            else "min_layer_time"
+            if need_time > 0
+            else "none"
+        )
+        rows.append(
+            {
+                "layer": lp.index,
+                "arc_time_s": round(t_on, 3),
+                "travel_time_s": round(t_off, 3),
+                "arc_power_w": round(power, 1),
+                "mass_kg": round(mass, 4),
+                "tau_s": round(tau, 2),
+                "peak_c": round(T_peak, 2),
+                "dwell_s": round(dwell, 3),
+                "added_dwell_s": round(dwell - float(lp.dwell_after_s), 3),
+                "start_next_c": round(T_next, 2) if nxt is not None else None,
+                "limited_by": limited_by,
+            }
+        )
+        out.append(
+            replace(
+                lp,
+                dwell_after_s=dwell,
+                dwell_note=dwell_note(limited_by, m, T_peak, T_next, lp.index) if dwell > 0 else lp.dwell_note,
+            )
+        )
         T = T_next
-    report = {"interpass_c": m.interpass_c, "min_layer_time_s": m.min_layer_time_s,
-              "total_dwell_s": round(sum(r["dwell_s"] for r in rows), 3),
-              "total_added_dwell_s": round(sum(r["added_dwell_s"] for r in rows), 3),
-              "max_peak_c": round(max((r["peak_c"] for r in rows), default=m.ambient_c), 2),
-              "model": {k: v for k, v in m.__dict__.items()}, "layers": rows}
+    report = {
+        "interpass_c": m.interpass_c,
+        "min_layer_time_s": m.min_layer_time_s,
+        "total_dwell_s": round(sum(r["dwell_s"] for r in rows), 3),
+        "total_added_dwell_s": round(sum(r["added_dwell_s"] for r in rows), 3),
+        "max_peak_c": round(max((r["peak_c"] for r in rows), default=m.ambient_c), 2),
+        "model": {k: v for k, v in m.__dict__.items()},
+        "layers": rows,
+    }
     return Layered(tuple(out)), report
 
 
 def dwell_note(limited_by: str, m: HeatModel, peak_c: float, next_c: float, layer: int) -> str:
     """Why a layer dwells, for the program comment beside the dwell (ASCII: robot controllers)."""
     if limited_by == "temperature":
-        return (f"interpass control: limit {m.interpass_c:g} degC, lumped heat model: part {peak_c:.0f} degC "
-                f"after layer {layer}, {next_c:.0f} degC at the next layer's start")
+        return (
+            f"interpass control: limit {m.interpass_c:g} degC, lumped heat model: part {peak_c:.0f} degC "
+            f"after layer {layer}, {next_c:.0f} degC at the next layer's start"
+        )
     if limited_by == "min_layer_time":
         return f"interpass control: minimum layer time {m.min_layer_time_s:g} s"
     return ""
@@ -157,9 +187,14 @@ def summary_report(report: dict) -> dict:
     """The part of the interpass report that summary.json states: per layer dwell, rule and
     temperatures; totals."""
     keys = ("layer", "dwell_s", "added_dwell_s", "limited_by", "peak_c", "start_next_c")
-    return {"interpass_c": report["interpass_c"], "min_layer_time_s": report["min_layer_time_s"],
-            "total_dwell_s": report["total_dwell_s"], "total_added_dwell_s": report["total_added_dwell_s"],
-            "max_peak_c": report["max_peak_c"], "layers": [{k: r[k] for k in keys} for r in report["layers"]]}
+    return {
+        "interpass_c": report["interpass_c"],
+        "min_layer_time_s": report["min_layer_time_s"],
+        "total_dwell_s": report["total_dwell_s"],
+        "total_added_dwell_s": report["total_added_dwell_s"],
+        "max_peak_c": report["max_peak_c"],
+        "layers": [{k: r[k] for k in keys} for r in report["layers"]],
+    }
 
 
 def interpass_svg(report: dict) -> str:
@@ -183,18 +218,28 @@ def interpass_svg(report: dict) -> str:
             d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else r["dwell_s"]
             if r["dwell_s"] > 0:
                 bands.append((t, t + r["dwell_s"], r["dwell_s"]))
-        else:   # after the last layer: cooling down to the limit, for reference
+        else:  # after the last layer: cooling down to the limit, for reference
             nxt = min(peak, limit)
             d = r["tau_s"] * math.log((peak - amb) / (nxt - amb)) if peak > nxt > amb else 0.0
         ts = np.linspace(0.0, max(d, 0.0), 40)
-        segs.append((t + ts, amb + (peak - amb) * np.exp(-ts / r["tau_s"]), "last" if r["start_next_c"] is None else "cool"))
+        segs.append(
+            (t + ts, amb + (peak - amb) * np.exp(-ts / r["tau_s"]), "last" if r["start_next_c"] is None else "cool")
+        )
         t, T = t + max(d, 0.0), nxt
     t_end = max(t, 1.0)
     t_max = max([limit] + [r["peak_c"] for r in rows] + [amb + 1])
-    ch = Chart(64, 44, 760, 300, (0.0, t_end), (0.0, t_max * 1.08), x_label="build time, s",
-               y_label="part temperature, °C",
-               title=f"Interpass control: {len(rows)} layers, limit {limit:g} °C"
-                     + (f", minimum layer time {report['min_layer_time_s']:g} s" if report["min_layer_time_s"] else ""))
+    ch = Chart(
+        64,
+        44,
+        760,
+        300,
+        (0.0, t_end),
+        (0.0, t_max * 1.08),
+        x_label="build time, s",
+        y_label="part temperature, °C",
+        title=f"Interpass control: {len(rows)} layers, limit {limit:g} °C"
+        + (f", minimum layer time {report['min_layer_time_s']:g} s" if report["min_layer_time_s"] else ""),
+    )
     for a, b, dwell in bands:
         ch.span(a, b, "#dde6f0", label="dwell")
         if len(bands) <= 16:
@@ -203,7 +248,9 @@ def interpass_svg(report: dict) -> str:
     for xs, ys, kind in segs:
         ch.line(xs, ys, "#d62828" if kind == "layer" else "#1d3557", dash="4 3" if kind == "last" else "")
     ch.legend_items += [("layer deposited (heat)", "#d62828", "line"), ("cooling", "#1d3557", "line")]
-    note = (f"total dwell {report['total_dwell_s']:.0f} s (added {report['total_added_dwell_s']:.0f} s); "
-            f"peak {report['max_peak_c']:.0f} °C; lumped model: one body, η·U·I·t per layer, "
-            f"convection + radiation + conduction to the table")
+    note = (
+        f"total dwell {report['total_dwell_s']:.0f} s (added {report['total_added_dwell_s']:.0f} s); "
+        f"peak {report['max_peak_c']:.0f} °C; lumped model: one body, η·U·I·t per layer, "
+        f"convection + radiation + conduction to the table"
+    )
     return figure(860, 400, [ch], [caption(64, 392, note)])

@@ -31,16 +31,21 @@ NEIGHBOUR_REACH = 1.02
 NEIGHBOUR_SHARE = 0.2
 
 
-def wire_per_mm(wfs_m_min: float, ts_mm_s: float, diameter_mm: float = WIRE_DIAMETER_MM,
-                efficiency: float = DEPOSITION_EFFICIENCY) -> float:
+def wire_per_mm(
+    wfs_m_min: float, ts_mm_s: float, diameter_mm: float = WIRE_DIAMETER_MM, efficiency: float = DEPOSITION_EFFICIENCY
+) -> float:
     """Metal deposited per mm of path (mm³/mm): η · WFS · A_wire / TS."""
     if ts_mm_s <= 0:
         raise ValueError(f"travel speed must be positive, got {ts_mm_s} mm/s")
     return deposit_rate_mm3_s(wfs_m_min, diameter_mm, efficiency) / ts_mm_s
 
 
-def wfs_for(deposit_mm3_per_mm: float, ts_mm_s: float, diameter_mm: float = WIRE_DIAMETER_MM,
-            efficiency: float = DEPOSITION_EFFICIENCY) -> float:
+def wfs_for(
+    deposit_mm3_per_mm: float,
+    ts_mm_s: float,
+    diameter_mm: float = WIRE_DIAMETER_MM,
+    efficiency: float = DEPOSITION_EFFICIENCY,
+) -> float:
     """Wire feed (m/min) depositing `deposit_mm3_per_mm` at travel speed `ts_mm_s` (inverse of wire_per_mm)."""
     return deposit_mm3_per_mm * ts_mm_s / deposit_rate_mm3_s(1.0, diameter_mm, efficiency)
 
@@ -50,8 +55,9 @@ def bead_area(width_mm: float, height_mm: float, shape_factor: float = BEAD_SHAP
     return shape_factor * width_mm * height_mm
 
 
-def layer_deposit_per_mm(height_mm: float, width_mm: float, step_mm: float | None = None,
-                         shape_factor: float = BEAD_SHAPE_FACTOR) -> float:
+def layer_deposit_per_mm(
+    height_mm: float, width_mm: float, step_mm: float | None = None, shape_factor: float = BEAD_SHAPE_FACTOR
+) -> float:
     """Metal a layer needs per mm of path (mm³/mm): step · h for overlapping passes, k · w · h
     for a single bead (`step_mm` None)."""
     if step_mm is None:
@@ -59,8 +65,13 @@ def layer_deposit_per_mm(height_mm: float, width_mm: float, step_mm: float | Non
     return step_mm * height_mm
 
 
-def feed_ratio(wfs_m_min: float, ts_mm_s: float, deposit_mm3_per_mm: float,
-               diameter_mm: float = WIRE_DIAMETER_MM, efficiency: float = DEPOSITION_EFFICIENCY) -> float:
+def feed_ratio(
+    wfs_m_min: float,
+    ts_mm_s: float,
+    deposit_mm3_per_mm: float,
+    diameter_mm: float = WIRE_DIAMETER_MM,
+    efficiency: float = DEPOSITION_EFFICIENCY,
+) -> float:
     """Wire that ends in the part over what the layer needs (1 = balanced, > 1 over-feed)."""
     return wire_per_mm(wfs_m_min, ts_mm_s, diameter_mm, efficiency) / deposit_mm3_per_mm
 
@@ -130,9 +141,14 @@ def layer_local(layer, points: np.ndarray) -> np.ndarray:
     return (homo @ np.linalg.inv(layer.frame).T)[:, :2]
 
 
-def section_deposit_per_mm(sp, layer, width_mm: float, step_mm: float | None = None,
-                           shape_factor: float = BEAD_SHAPE_FACTOR,
-                           height_mm: float | None = None) -> tuple[float, float | None]:
+def section_deposit_per_mm(
+    sp,
+    layer,
+    width_mm: float,
+    step_mm: float | None = None,
+    shape_factor: float = BEAD_SHAPE_FACTOR,
+    height_mm: float | None = None,
+) -> tuple[float, float | None]:
     """(metal the section path needs per mm of path, mm³/mm; the pass step used, mm, or None for
     a single bead) for a layer of height `height_mm` (default `layer.thickness`): the given step,
     else the path's own (`path_step`)."""

@@ -33,15 +33,28 @@ class Chart:
     """One panel: data ranges map onto a plot box at (left, top) of size (w, h) pixels.
     `equal=True` keeps one data unit the same length on both axes (plans)."""
 
-    def __init__(self, left: float, top: float, w: float, h: float, x_range: tuple[float, float],
-                 y_range: tuple[float, float], *, title: str = "", x_label: str = "", y_label: str = "",
-                 equal: bool = False, ticks: bool = True, legend: str = "right") -> None:
+    def __init__(
+        self,
+        left: float,
+        top: float,
+        w: float,
+        h: float,
+        x_range: tuple[float, float],
+        y_range: tuple[float, float],
+        *,
+        title: str = "",
+        x_label: str = "",
+        y_label: str = "",
+        equal: bool = False,
+        ticks: bool = True,
+        legend: str = "right",
+    ) -> None:
         (x0, x1), (y0, y1) = x_range, y_range
         if x1 <= x0:
             x1 = x0 + 1.0
         if y1 <= y0:
             y1 = y0 + 1.0
-        if equal:   # widen the smaller span so both axes share one scale, centred
+        if equal:  # widen the smaller span so both axes share one scale, centred
             sx, sy = w / (x1 - x0), h / (y1 - y0)
             s = min(sx, sy)
             cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
@@ -52,7 +65,7 @@ class Chart:
         self.title, self.x_label, self.y_label, self.ticks = title, x_label, y_label, ticks
         self.legend = legend
         self.body: list[str] = []
-        self.legend_items: list[tuple[str, str, str]] = []   # (label, color, kind)
+        self.legend_items: list[tuple[str, str, str]] = []  # (label, color, kind)
 
     def px(self, x) -> np.ndarray:
         return self.left + self.w * (np.asarray(x, float) - self.x0) / (self.x1 - self.x0)
@@ -63,13 +76,25 @@ class Chart:
     def _pts(self, xs, ys) -> str:
         return " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(self.px(xs), self.py(ys)))
 
-    def line(self, xs, ys, color: str, *, width: float = 1.4, dash: str = "", label: str = "",
-             clip: bool = True, opacity: float = 1.0) -> None:
+    def line(
+        self,
+        xs,
+        ys,
+        color: str,
+        *,
+        width: float = 1.4,
+        dash: str = "",
+        label: str = "",
+        clip: bool = True,
+        opacity: float = 1.0,
+    ) -> None:
         ys = np.clip(np.asarray(ys, float), self.y0, self.y1) if clip else ys
         d = f' stroke-dasharray="{dash}"' if dash else ""
         o = f' stroke-opacity="{opacity}"' if opacity < 1 else ""
-        self.body.append(f'<polyline fill="none" stroke="{color}" stroke-width="{width}"{d}{o} '
-                         f'stroke-linejoin="round" stroke-linecap="round" points="{self._pts(xs, ys)}"/>')
+        self.body.append(
+            f'<polyline fill="none" stroke="{color}" stroke-width="{width}"{d}{o} '
+            f'stroke-linejoin="round" stroke-linecap="round" points="{self._pts(xs, ys)}"/>'
+        )
         if label:
             self.legend_items.append((label, color, "line"))
 
@@ -84,29 +109,41 @@ class Chart:
 
     def span(self, x_a: float, x_b: float, color: str, *, label: str = "", opacity: float = 1.0) -> None:
         a, b = float(self.px(x_a)), float(self.px(x_b))
-        self.body.append(f'<rect x="{a:.1f}" y="{self.top:.1f}" width="{max(b - a, 0.5):.1f}" height="{self.h:.1f}" '
-                         f'fill="{color}" fill-opacity="{opacity}"/>')
+        self.body.append(
+            f'<rect x="{a:.1f}" y="{self.top:.1f}" width="{max(b - a, 0.5):.1f}" height="{self.h:.1f}" '
+            f'fill="{color}" fill-opacity="{opacity}"/>'
+        )
         if label and not any(lb == label for lb, _, _ in self.legend_items):
             self.legend_items.append((label, color, "box"))
 
-    def polygon(self, rings: list[np.ndarray], color: str, *, stroke: str = "none", opacity: float = 1.0,
-                label: str = "") -> None:
+    def polygon(
+        self, rings: list[np.ndarray], color: str, *, stroke: str = "none", opacity: float = 1.0, label: str = ""
+    ) -> None:
         """A polygon with holes (first ring the shell), even-odd filled."""
-        d = " ".join("M" + " L".join(f"{a:.2f},{b:.2f}" for a, b in zip(self.px(r[:, 0]), self.py(r[:, 1]))) + " Z"
-                     for r in rings if len(r) >= 3)
+        d = " ".join(
+            "M" + " L".join(f"{a:.2f},{b:.2f}" for a, b in zip(self.px(r[:, 0]), self.py(r[:, 1]))) + " Z"
+            for r in rings
+            if len(r) >= 3
+        )
         if d:
-            self.body.append(f'<path d="{d}" fill="{color}" fill-opacity="{opacity}" fill-rule="evenodd" '
-                             f'stroke="{stroke}" stroke-width="0.8"/>')
+            self.body.append(
+                f'<path d="{d}" fill="{color}" fill-opacity="{opacity}" fill-rule="evenodd" '
+                f'stroke="{stroke}" stroke-width="0.8"/>'
+            )
         if label and not any(lb == label for lb, _, _ in self.legend_items):
             self.legend_items.append((label, color, "box"))
 
     def text(self, x: float, y: float, s: str, *, color: str = "#222", anchor: str = "start", size: int = 11) -> None:
-        self.body.append(f'<text x="{float(self.px(x)):.1f}" y="{float(self.py(y)):.1f}" fill="{color}" '
-                         f'text-anchor="{anchor}" font-size="{size}">{escape(s)}</text>')
+        self.body.append(
+            f'<text x="{float(self.px(x)):.1f}" y="{float(self.py(y)):.1f}" fill="{color}" '
+            f'text-anchor="{anchor}" font-size="{size}">{escape(s)}</text>'
+        )
 
     def render(self) -> list[str]:
         L, T, W, H = self.left, self.top, self.w, self.h
-        out = [f'<defs><clipPath id="c{int(L)}_{int(T)}"><rect x="{L}" y="{T}" width="{W}" height="{H}"/></clipPath></defs>']
+        out = [
+            f'<defs><clipPath id="c{int(L)}_{int(T)}"><rect x="{L}" y="{T}" width="{W}" height="{H}"/></clipPath></defs>'
+        ]
         if self.ticks:
             for v in nice_ticks(self.x0, self.x1, max(3, int(W // 90))):
                 p = float(self.px(v))
@@ -125,9 +162,15 @@ class Chart:
         if self.x_label:
             out.append(f'<text x="{L + W / 2:.1f}" y="{T + H + 30}" text-anchor="middle">{escape(self.x_label)}</text>')
         if self.y_label:
-            out.append(f'<text transform="translate({L - 42},{T + H / 2:.1f}) rotate(-90)" '
-                       f'text-anchor="middle">{escape(self.y_label)}</text>')
-        x = L + W - 8 if self.legend == "right" else L + 40 + 6.2 * max((len(lb) for lb, _, _ in self.legend_items), default=0)
+            out.append(
+                f'<text transform="translate({L - 42},{T + H / 2:.1f}) rotate(-90)" '
+                f'text-anchor="middle">{escape(self.y_label)}</text>'
+            )
+        x = (
+            L + W - 8
+            if self.legend == "right"
+            else L + 40 + 6.2 * max((len(lb) for lb, _, _ in self.legend_items), default=0)
+        )
         for k, (label, color, kind) in enumerate(self.legend_items):
             y = T + 14 + 15 * k
             if kind == "line":
@@ -136,17 +179,21 @@ class Chart:
                 mark = f'<circle cx="{x - 12}" cy="{y - 4}" r="3.5" fill="{color}"/>'
             else:
                 mark = f'<rect x="{x - 20}" y="{y - 10}" width="14" height="10" fill="{color}" stroke="#888" stroke-width="0.5"/>'
-            out.append(f'<rect x="{x - 30 - 6.2 * len(label)}" y="{y - 12}" width="{30 + 6.2 * len(label)}" '
-                       f'height="15" fill="#fff" fill-opacity="0.85"/>')
+            out.append(
+                f'<rect x="{x - 30 - 6.2 * len(label)}" y="{y - 12}" width="{30 + 6.2 * len(label)}" '
+                f'height="15" fill="#fff" fill-opacity="0.85"/>'
+            )
             out.append(mark + f'<text x="{x - 28}" y="{y}" text-anchor="end">{escape(label)}</text>')
         return out
 
 
 def figure(width: int, height: int, charts: list[Chart], extra: Sequence[str] = ()) -> str:
     """An SVG document holding the charts (and extra SVG elements, e.g. a caption)."""
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-           f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="11">',
-           f'<rect width="{width}" height="{height}" fill="#fff"/>']
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+        f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="11">',
+        f'<rect width="{width}" height="{height}" fill="#fff"/>',
+    ]
     for c in charts:
         out += c.render()
     out += list(extra)
@@ -158,8 +205,15 @@ def caption(x: float, y: float, s: str, size: int = 11) -> str:
     return f'<text x="{x}" y="{y}" fill="#333" font-size="{size}">{escape(s)}</text>'
 
 
-def layer_plan_svg(regions: list, paths: list[tuple[np.ndarray, np.ndarray]], voids: list, overlaps: list,
-                   strokes: list[np.ndarray], title: str, note: str = "") -> str:
+def layer_plan_svg(
+    regions: list,
+    paths: list[tuple[np.ndarray, np.ndarray]],
+    voids: list,
+    overlaps: list,
+    strokes: list[np.ndarray],
+    title: str,
+    note: str = "",
+) -> str:
     """One layer seen from above (layer-local mm): section outlines, the deposition path (arc on
     solid, arc off dotted), coverage voids (red) and overlaps (dark), and treatment strokes."""
     import shapely
@@ -170,14 +224,24 @@ def layer_plan_svg(regions: list, paths: list[tuple[np.ndarray, np.ndarray]], vo
     polys = [p for g in regions for p in shapely.get_parts(g) if not p.is_empty]
     xy = np.vstack([np.asarray(p.exterior.coords) for p in polys] + [pts[:, :2] for pts, _ in paths])
     lo, hi = xy.min(axis=0) - 4.0, xy.max(axis=0) + 4.0
-    ch = Chart(60, 40, 640, 640, (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1])), equal=True,
-               title=title, x_label="x, mm", y_label="y, mm")
+    ch = Chart(
+        60,
+        40,
+        640,
+        640,
+        (float(lo[0]), float(hi[0])),
+        (float(lo[1]), float(hi[1])),
+        equal=True,
+        title=title,
+        x_label="x, mm",
+        y_label="y, mm",
+    )
     for p in polys:
         ch.polygon(rings(p), "#f4f1de", stroke="#888888", label="section")
     for g, color, label, op in ((voids, "#d62828", "void", 0.85), (overlaps, "#264653", "overlap (2+ passes)", 0.75)):
         for p in (q for geom in g for q in shapely.get_parts(geom) if not q.is_empty):
             ch.polygon(rings(p), color, opacity=op, label=label)
-    for st in strokes:      # under the path: wide and pale, as wide as a roller looks next to the bead
+    for st in strokes:  # under the path: wide and pale, as wide as a roller looks next to the bead
         ch.line(st[:, 0], st[:, 1], "#2a9d8f", width=5.0, clip=False, opacity=0.45)
         ch.points(st[:1, 0], st[:1, 1], "#1b6f66", r=2.5)
     if strokes:
@@ -187,8 +251,8 @@ def layer_plan_svg(regions: list, paths: list[tuple[np.ndarray, np.ndarray]], vo
         # contiguous arc-on runs solid, arc-off links dotted
         edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
         for a, b in zip(edges[::2], edges[1::2]):
-            ch.line(pts[a:b + 1, 0], pts[a:b + 1, 1], "#e76f51", width=1.1, clip=False)
+            ch.line(pts[a : b + 1, 0], pts[a : b + 1, 1], "#e76f51", width=1.1, clip=False)
         for k in np.flatnonzero(~on):
-            ch.line(pts[k:k + 2, 0], pts[k:k + 2, 1], "#777777", width=0.8, dash="2 2", clip=False)
+            ch.line(pts[k : k + 2, 0], pts[k : k + 2, 1], "#777777", width=0.8, dash="2 2", clip=False)
     ch.legend_items.append(("torch path, arc on", "#e76f51", "line"))
     return figure(720, 730 if note else 715, [ch], [caption(60, 722, note)] if note else [])

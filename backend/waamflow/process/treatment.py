@@ -30,13 +30,13 @@ from ..core.model import LayerPaths, Layered, SectionPath
 
 @dataclass(frozen=True)
 class TreatmentSpec:
-    tool: str = "rolling"          # rolling | peening
+    tool: str = "rolling"  # rolling | peening
     tool_width_mm: float = 8.0
-    force_n: float = 25_000.0      # rolling load (N); for peening: impact energy is set on the tool
-    speed: float = 10.0            # mm/s along the bead
-    clearance_mm: float = 10.0     # approach/retract height above the bead top
-    max_turn_deg: float = 30.0     # a sharper turn ends the stroke (the wheel is lifted and turned)
-    tolerance_mm: float = 0.05     # simplification tolerance of the centre line
+    force_n: float = 25_000.0  # rolling load (N); for peening: impact energy is set on the tool
+    speed: float = 10.0  # mm/s along the bead
+    clearance_mm: float = 10.0  # approach/retract height above the bead top
+    max_turn_deg: float = 30.0  # a sharper turn ends the stroke (the wheel is lifted and turned)
+    tolerance_mm: float = 0.05  # simplification tolerance of the centre line
     min_stroke_mm: float = 2.0
 
 
@@ -48,7 +48,7 @@ def _runs(sp: SectionPath) -> list[np.ndarray]:
         if on and start is None:
             start = i
         elif not on and start is not None:
-            out.append(pts[start:i + 1])
+            out.append(pts[start : i + 1])
             start = None
     return out
 
@@ -108,7 +108,7 @@ def strokes(centre: np.ndarray, max_turn_deg: float) -> list[np.ndarray]:
     cos = np.einsum("ij,ij->i", u[:-1], u[1:])
     cut = np.flatnonzero(cos < np.cos(np.radians(max_turn_deg))) + 1
     bounds = np.concatenate([[0], cut, [len(p) - 1]])
-    return [p[a:b + 1] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    return [p[a : b + 1] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
 def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, ...], dict]:
@@ -130,18 +130,35 @@ def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, 
                 k = len(points) - 1
                 arc = np.zeros(k, bool)
                 speed = np.full(k, spec.speed)
-                speed[-1] = np.nan          # the lift flies at the machine's travel speed
+                speed[-1] = np.nan  # the lift flies at the machine's travel speed
                 inside = np.ones(k, bool)
                 inside[-1] = False
-                out.append(SectionPath(
-                    key=f"{sp.key}/{spec.tool}{n}", strategy=spec.tool, points=points, arc=arc,
-                    inside=inside, speed=speed, approach=(top[0] + spec.clearance_mm * up)[None, :],
-                    tool=spec.tool, tool_params={"force_n": spec.force_n, "tool_width_mm": spec.tool_width_mm,
-                                                 "speed_mm_s": spec.speed}))
+                out.append(
+                    SectionPath(
+                        key=f"{sp.key}/{spec.tool}{n}",
+                        strategy=spec.tool,
+                        points=points,
+                        arc=arc,
+                        inside=inside,
+                        speed=speed,
+                        approach=(top[0] + spec.clearance_mm * up)[None, :],
+                        tool=spec.tool,
+                        tool_params={
+                            "force_n": spec.force_n,
+                            "tool_width_mm": spec.tool_width_mm,
+                            "speed_mm_s": spec.speed,
+                        },
+                    )
+                )
                 rolled += float(line.length)
                 n += 1
-    return tuple(out), {"layer": lp.index, "strokes": n, "rolled_length_mm": round(rolled, 3), "skipped_short": skipped,
-                        "time_s": round(rolled / spec.speed, 3)}
+    return tuple(out), {
+        "layer": lp.index,
+        "strokes": n,
+        "rolled_length_mm": round(rolled, 3),
+        "skipped_short": skipped,
+        "time_s": round(rolled / spec.speed, 3),
+    }
 
 
 def plan_treatment(toolpath: Layered, spec: TreatmentSpec, interleave: bool) -> tuple[Layered, dict]:
@@ -154,13 +171,26 @@ def plan_treatment(toolpath: Layered, spec: TreatmentSpec, interleave: bool) -> 
             continue
         secs, row = plan_layer(lp, spec)
         rows.append(row)
-        items.append(replace(lp, sections=(tuple(lp.sections) + secs) if interleave else secs,
-                             dwell_after_s=lp.dwell_after_s if interleave else 0.0))
-    report = {"tool": spec.tool, "tool_width_mm": spec.tool_width_mm, "force_n": spec.force_n,
-              "speed_mm_s": spec.speed, "clearance_mm": spec.clearance_mm, "max_turn_deg": spec.max_turn_deg,
-              "interleaved": interleave, "strokes": sum(r["strokes"] for r in rows),
-              "rolled_length_mm": round(sum(r["rolled_length_mm"] for r in rows), 3),
-              "time_s": round(sum(r["time_s"] for r in rows), 3), "layers": rows}
+        items.append(
+            replace(
+                lp,
+                sections=(tuple(lp.sections) + secs) if interleave else secs,
+                dwell_after_s=lp.dwell_after_s if interleave else 0.0,
+            )
+        )
+    report = {
+        "tool": spec.tool,
+        "tool_width_mm": spec.tool_width_mm,
+        "force_n": spec.force_n,
+        "speed_mm_s": spec.speed,
+        "clearance_mm": spec.clearance_mm,
+        "max_turn_deg": spec.max_turn_deg,
+        "interleaved": interleave,
+        "strokes": sum(r["strokes"] for r in rows),
+        "rolled_length_mm": round(sum(r["rolled_length_mm"] for r in rows), 3),
+        "time_s": round(sum(r["time_s"] for r in rows), 3),
+        "layers": rows,
+    }
     return Layered(tuple(items)), report
 
 

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 CURVE_POINTS = 9  # samples per blend curve (odd: the middle one is the curve's apex)
-CDIS_REF = 5.0   # mm: the $APO.CDIS the profiles' apo_min_mm / apo_time_s were fitted at (the study's)
+CDIS_REF = 5.0  # mm: the $APO.CDIS the profiles' apo_min_mm / apo_time_s were fitted at (the study's)
 MIN_CORNER_SPEED = 0.01  # mm/s: a blend slower than this is an exact stop (exact reversals)
 
 
@@ -76,10 +76,20 @@ class BlendedPath:
         return np.column_stack([np.interp(s, self.s, self.points[:, i]) for i in range(3)])
 
 
-def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode: str = "cdis",
-               distance: float = 5.0, apo_time_s: float = np.inf, apo_min_mm: float = 0.0, normal_acc: float = np.inf,
-               normal_jerk: float = np.inf, turn_radius: float = 0.0,
-               catchup: np.ndarray | None = None) -> BlendedPath:
+def blend_path(
+    points: np.ndarray,
+    speed: np.ndarray,
+    stop: np.ndarray,
+    *,
+    mode: str = "cdis",
+    distance: float = 5.0,
+    apo_time_s: float = np.inf,
+    apo_min_mm: float = 0.0,
+    normal_acc: float = np.inf,
+    normal_jerk: float = np.inf,
+    turn_radius: float = 0.0,
+    catchup: np.ndarray | None = None,
+) -> BlendedPath:
     """Blend the corners of a polyline.
 
     points: (n, 3) mm, no zero-length segments. speed: (n-1,) programmed mm/s per segment.
@@ -108,7 +118,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
     elif n > 2:
         u1, u2 = U[:-1], U[1:]
         alpha[1:-1] = np.arccos(np.clip(np.einsum("ij,ij->i", u1, u2), -1.0, 1.0))
-        v_corner = np.minimum(speed[:-1], speed[1:])   # a blend's programmed speed: the lower of its two
+        v_corner = np.minimum(speed[:-1], speed[1:])  # a blend's programmed speed: the lower of its two
         share_prev = np.full(n - 2, 0.5)
         share_next = np.full(n - 2, 0.5)
         c = None
@@ -133,7 +143,7 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
             else:
                 r = np.where(dk > 0, dk * np.cos(half) ** 2 / np.sin(half), np.inf)
             vc = np.minimum.reduce([v_corner, np.sqrt(normal_acc * r), np.cbrt(normal_jerk * r * r)])
-            if turn_radius > 0:   # turn rate v_c / r ≤ v / ρ
+            if turn_radius > 0:  # turn rate v_c / r ≤ v / ρ
                 vc = np.minimum(vc, v_corner * np.minimum(1.0, r / turn_radius))
         # no blend possible at a real corner (distance 0), or a blend the controller could only
         # creep through (an exact reversal: radius → 0) = exact stop
@@ -152,8 +162,9 @@ def blend_path(points: np.ndarray, speed: np.ndarray, stop: np.ndarray, *, mode:
     return BlendedPath(dense, s, seg, d, radius, cap, s_in, s_out)
 
 
-def _dense_path(P: np.ndarray, U: np.ndarray, d: np.ndarray, alpha: np.ndarray,
-                mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _dense_path(
+    P: np.ndarray, U: np.ndarray, d: np.ndarray, alpha: np.ndarray, mode: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The blended path as a dense polyline (`blend_path`): P0, then CURVE_POINTS of each
     interior vertex's blend (a rational quadratic Bézier from d before to d after the vertex,
     weight cos(α/2) in "cdis" mode — a circular arc — else 1), then P[n-1]. Returns (dense
@@ -168,9 +179,12 @@ def _dense_path(P: np.ndarray, U: np.ndarray, d: np.ndarray, alpha: np.ndarray,
         w = np.cos(alpha[1:-1] / 2) if mode == "cdis" else np.ones(n - 2)
         b0 = (1 - t) ** 2
         b1 = 2 * t * (1 - t)
-        b2 = t ** 2
-        num = (b0[None, :, None] * A[:, None, :] + (w[:, None] * b1[None, :])[:, :, None] * V[:, None, :]
-               + b2[None, :, None] * B[:, None, :])
+        b2 = t**2
+        num = (
+            b0[None, :, None] * A[:, None, :]
+            + (w[:, None] * b1[None, :])[:, :, None] * V[:, None, :]
+            + b2[None, :, None] * B[:, None, :]
+        )
         den = b0[None, :] + w[:, None] * b1[None, :] + b2[None, :]
         curves = (num / den[:, :, None]).reshape(-1, 3)
         seg_c = np.repeat(np.arange(n - 2), m) + (np.tile(t, n - 2) > 0.5)
@@ -201,13 +215,16 @@ def junction_speed(u_in: np.ndarray, u_out: np.ndarray, v: np.ndarray, acc: floa
     cos_theta = -np.einsum("ij,ij->i", u_in, u_out)
     sin_half = np.sqrt(np.clip(0.5 * (1.0 - cos_theta), 0.0, 1.0))
     with np.errstate(divide="ignore", invalid="ignore"):
-        vj = np.where(sin_half < 1.0 - 1e-12,
-                      np.sqrt(acc * deviation * sin_half / np.maximum(1.0 - sin_half, 1e-300)), np.inf)
+        vj = np.where(
+            sin_half < 1.0 - 1e-12, np.sqrt(acc * deviation * sin_half / np.maximum(1.0 - sin_half, 1e-300)), np.inf
+        )
     vj = np.minimum(vj, v)
     return np.where(vj < MIN_CORNER_SPEED, 0.0, vj)
 
 
-def polyline_distance(q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3) -> tuple[np.ndarray, np.ndarray]:
+def polyline_distance(
+    q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
     """Distance from each query point to a polyline, searching segments near a guess.
 
     q: (k, 3) mm. points: (n, 3) polyline. near: (k,) int guessed segment per query point.

@@ -93,7 +93,7 @@ def deposit_bins(trace: dict, bin_mm: float = 1.0, target: np.ndarray | None = N
     starts = np.flatnonzero(keep) * bin_mm
     length = length[keep]
     tgt = tgt[keep] if tgt is not None else None
-    if len(length) > 1 and length[-1] < 0.5 * bin_mm:   # the last, partial bin joins the one before
+    if len(length) > 1 and length[-1] < 0.5 * bin_mm:  # the last, partial bin joins the one before
         length[-2] += length[-1]
         vol_keep[-2] += vol_keep[-1]
         if tgt is not None:
@@ -192,23 +192,34 @@ def subdivide(sp: SectionPath, step_mm: float, cdis: float = 0.0, blend: str = "
         a_ = ax[parent] + frac[:, None] * (ax[parent + 1] - ax[parent])
         a_ /= np.maximum(np.linalg.norm(a_, axis=1, keepdims=True), 1e-12)
         axis = np.vstack([a_, ax[-1:]])
-    return replace(sp, points=points, arc=arc[parent], inside=np.asarray(sp.inside)[parent],
-                   speed=np.asarray(sp.speed, float)[parent],
-                   zone=tuple(sp.zone[i] for i in parent) if sp.zone else (), tool_axis=axis)
+    return replace(
+        sp,
+        points=points,
+        arc=arc[parent],
+        inside=np.asarray(sp.inside)[parent],
+        speed=np.asarray(sp.speed, float)[parent],
+        zone=tuple(sp.zone[i] for i in parent) if sp.zone else (),
+        tool_axis=axis,
+    )
 
 
 def subdivide_toolpath(tp, step_mm: float, cdis: float = 0.0, blend: str = "cdis", profile=None):
     items = tp.items if isinstance(tp, Layered) else tuple(tp)
-    return Layered(tuple(None if lp is None else
-                         replace(lp, sections=tuple(subdivide(sp, step_mm, cdis, blend, profile) for sp in lp.sections))
-                         for lp in items))
+    return Layered(
+        tuple(
+            None
+            if lp is None
+            else replace(lp, sections=tuple(subdivide(sp, step_mm, cdis, blend, profile) for sp in lp.sections))
+            for lp in items
+        )
+    )
 
 
 def _rate(moves: Moves, opt: SimOptions) -> np.ndarray:
     """Programmed wire feed per move segment, mm³/s (as the simulator resolves it)."""
     rate = np.full(len(moves.points) - 1, float(opt.wire_feed_mm3_s))
     if opt.wire_diameter_mm and moves.zone_params:
-        area = np.pi * opt.wire_diameter_mm ** 2 / 4.0
+        area = np.pi * opt.wire_diameter_mm**2 / 4.0
         for (sec, zone), params in moves.zone_params.items():
             wfs = params.get("wire_feed_speed")
             if wfs:
@@ -233,13 +244,13 @@ def piece_ratios(moves: Moves, res: SimulationResult, opt: SimOptions, cfg: Comp
     The target is the programmed deposit per mm of the path the robot really travels: where the
     controller cuts a corner the bead is laid along the shorter, actual path."""
     L = moves.segment_lengths
-    src = np.flatnonzero(L > 1e-6)               # the simulator drops zero-length segments
+    src = np.flatnonzero(L > 1e-6)  # the simulator drops zero-length segments
     d = res.deposit
     prog, act = np.asarray(d["programmed_mm3_per_mm"]), np.asarray(d["actual_mm3_per_mm"])
     L_prog = np.asarray(d["length_mm"], float)
     L_act = actual_lengths(res)
     L_use = np.where(L_act > 0.05 * L_prog, L_act, L_prog)
-    act_real = act * L_prog / L_use              # volume per mm of actual travel
+    act_real = act * L_prog / L_use  # volume per mm of actual travel
     ratio = np.ones(len(L))
     ok = np.asarray(d["arc"], bool) & (act_real > 1e-12) & (prog > 0)
     r = np.clip(prog[ok] / act_real[ok], cfg.min_ratio, cfg.max_ratio)
@@ -247,11 +258,13 @@ def piece_ratios(moves: Moves, res: SimulationResult, opt: SimOptions, cfg: Comp
     return ratio
 
 
-def apply_ratios(tp: Layered, moves: Moves, ratio: np.ndarray, base_rate: np.ndarray, wire_diameter_mm: float) -> Layered:
+def apply_ratios(
+    tp: Layered, moves: Moves, ratio: np.ndarray, base_rate: np.ndarray, wire_diameter_mm: float
+) -> Layered:
     """Toolpath whose arc-ON segments carry sub-zones `<zone>@<percent>` with the scaled feed as
     WFS (m/min) for a wire of `wire_diameter_mm` (every arc-ON segment, ratio 1 included, so the
     feed is explicit wherever the arc burns)."""
-    area = np.pi * wire_diameter_mm ** 2 / 4.0
+    area = np.pi * wire_diameter_mm**2 / 4.0
     out: list[Any] = []
     i = 0
     first = True
@@ -266,9 +279,9 @@ def apply_ratios(tp: Layered, moves: Moves, ratio: np.ndarray, base_rate: np.nda
                 secs.append(sp)
                 continue
             if not first:
-                i += 1 + (0 if sp.approach is None else len(sp.approach))   # travel into this section
+                i += 1 + (0 if sp.approach is None else len(sp.approach))  # travel into this section
             first = False
-            r, br = ratio[i:i + n], base_rate[i:i + n]
+            r, br = ratio[i : i + n], base_rate[i : i + n]
             i += n
             zones = list(sp.zone) if sp.zone else [""] * n
             params = {z: dict(v) for z, v in sp.zone_params.items()}
@@ -289,7 +302,11 @@ def apply_ratios(tp: Layered, moves: Moves, ratio: np.ndarray, base_rate: np.nda
                 new_z.append(zid)
             # a sub-zone that starts a zone keeps the zone's dwell (ignition/zone dwell stay where they were)
             for j in range(n):
-                if new_z[j] != zones[j] and (j == 0 or zones[j - 1] != zones[j]) and "dwell" in params.get(zones[j], {}):
+                if (
+                    new_z[j] != zones[j]
+                    and (j == 0 or zones[j - 1] != zones[j])
+                    and "dwell" in params.get(zones[j], {})
+                ):
                     params.setdefault(new_z[j], {})
                     params[new_z[j]] = {**params[new_z[j]], "dwell": params[zones[j]]["dwell"]}
             secs.append(replace(sp, zone=tuple(new_z), zone_params=params, zone_colors=colors))
@@ -305,14 +322,19 @@ class Compensation:
     report: dict
 
 
-def compensate(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = None,
-               cfg: CompensationSettings = CompensationSettings()) -> Compensation:
+def compensate(
+    tp,
+    profile,
+    opt: SimOptions,
+    kin: KinematicsOptions | None = None,
+    cfg: CompensationSettings = CompensationSettings(),
+) -> Compensation:
     """Subdivide, simulate, scale the feed per piece, simulate again (see module doc)."""
     fine = subdivide_toolpath(tp, cfg.step_mm, opt.cdis, opt.blend, profile)
     moves = flatten(fine)
     before = simulate_program(moves, profile, opt, kin)
     ratio = piece_ratios(moves, before, opt, cfg)
-    base = _rate(moves, opt)   # the feed as the simulator resolves it (zone WFS only with a wire diameter)
+    base = _rate(moves, opt)  # the feed as the simulator resolves it (zone WFS only with a wire diameter)
     diameter = opt.wire_diameter_mm or cfg.wire_diameter_mm
     out = apply_ratios(fine, moves, ratio, base, diameter)
     after = simulate_program(flatten(out), profile, replace(opt, wire_diameter_mm=diameter), kin)
@@ -320,11 +342,13 @@ def compensate(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = Non
     r_on = ratio[arc]
     cv0, cv1 = deposit_cv(before.trace), deposit_cv(after.trace)
     report = {
-        "deposit_per_mm_cv_before": round(cv0, 5), "deposit_per_mm_cv_after": round(cv1, 5),
+        "deposit_per_mm_cv_before": round(cv0, 5),
+        "deposit_per_mm_cv_after": round(cv1, 5),
         "deposit_ratio_cv_before": round(deposit_ratio_cv(before), 5),
         "deposit_ratio_cv_after": round(deposit_ratio_cv(after, target=before.deposit["programmed_mm3_per_mm"]), 5),
         "cv_reduction": round(1 - cv1 / cv0, 4) if cv0 > 0 else 0.0,
-        "pieces": int(arc.sum()), "step_mm": cfg.step_mm,
+        "pieces": int(arc.sum()),
+        "step_mm": cfg.step_mm,
         "feed_ratio_min": round(float(r_on.min()), 3) if len(r_on) else 1.0,
         "feed_ratio_max": round(float(r_on.max()), 3) if len(r_on) else 1.0,
         "clipped_pieces": int(((r_on <= cfg.min_ratio + 1e-9) | (r_on >= cfg.max_ratio - 1e-9)).sum()),
@@ -351,28 +375,45 @@ def deposit_bin_series(plain: SimulationResult, after: SimulationResult, bin_mm:
     return out
 
 
-def simulate_compensated(tp, profile, opt: SimOptions, kin: KinematicsOptions | None = None,
-                         cfg: CompensationSettings = CompensationSettings(), progress=None) -> SimulationResult:
+def simulate_compensated(
+    tp,
+    profile,
+    opt: SimOptions,
+    kin: KinematicsOptions | None = None,
+    cfg: CompensationSettings = CompensationSettings(),
+    progress=None,
+) -> SimulationResult:
     """simulate-robot with compensation on: the compensated program's simulation, with
     `deposit_per_mm_cv` (compensated), `deposit_per_mm_cv_before` (the program as given) and the
     uncompensated deposit per segment beside the compensated one (`deposit["uncompensated_mm3_per_mm"]`)."""
     plain = simulate_program(flatten(tp), profile, opt, kin, progress=progress)
     comp = compensate(tp, profile, opt, kin, cfg)
     cv0, cv1 = deposit_cv(plain.trace), deposit_cv(comp.after.trace)
-    metrics = {**comp.after.metrics, "programmed_volume_mm3": comp.before.metrics["programmed_volume_mm3"],
-               "deposit_per_mm_cv": cv1, "deposit_per_mm_cv_before": cv0,
-               "deposit_per_mm_cv_after": cv1, "deposit_ratio_cv": deposit_ratio_cv(comp.after, target=comp.before.deposit["programmed_mm3_per_mm"]),
-               "deposit_ratio_cv_before": deposit_ratio_cv(plain), "feed_ratio_min": comp.report["feed_ratio_min"],
-               "feed_ratio_max": comp.report["feed_ratio_max"], "compensated_pieces": float(comp.report["pieces"])}
-    deposit: dict[str, Any] = {**comp.after.deposit, "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
-               "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
-               "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"],
-               "bins": deposit_bin_series(plain, comp.after)}
+    metrics = {
+        **comp.after.metrics,
+        "programmed_volume_mm3": comp.before.metrics["programmed_volume_mm3"],
+        "deposit_per_mm_cv": cv1,
+        "deposit_per_mm_cv_before": cv0,
+        "deposit_per_mm_cv_after": cv1,
+        "deposit_ratio_cv": deposit_ratio_cv(comp.after, target=comp.before.deposit["programmed_mm3_per_mm"]),
+        "deposit_ratio_cv_before": deposit_ratio_cv(plain),
+        "feed_ratio_min": comp.report["feed_ratio_min"],
+        "feed_ratio_max": comp.report["feed_ratio_max"],
+        "compensated_pieces": float(comp.report["pieces"]),
+    }
+    deposit: dict[str, Any] = {
+        **comp.after.deposit,
+        "uncompensated_mm3_per_mm": comp.before.deposit["actual_mm3_per_mm"],
+        "programmed_mm3_per_mm": comp.before.deposit["programmed_mm3_per_mm"],
+        "compensated_feed_mm3_per_mm": comp.after.deposit["programmed_mm3_per_mm"],
+        "bins": deposit_bin_series(plain, comp.after),
+    }
     return replace(comp.after, metrics=metrics, deposit=deposit, warnings=plain.warnings)
 
 
-def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path",
-                s_range: tuple[float, float] | None = None) -> str:
+def deposit_svg(
+    deposit: dict, title: str = "Deposit per mm along the path", s_range: tuple[float, float] | None = None
+) -> str:
     """Plot of the deposit per mm: with compensation (`deposit["bins"]`), constant feed against
     compensated in the 1 mm bins of actual arc-ON path that `deposit_per_mm_cv` measures, beside
     the programmed deposit; otherwise programmed and actual mm³/mm per arc-ON segment against
@@ -383,23 +424,41 @@ def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path",
     if "bins" in deposit:
         b = deposit["bins"]
         s0, s1 = np.asarray(b["s_mm"], float), np.asarray(b["s_compensated_mm"], float)
-        series = [("constant feed", "#d62828", s0, np.asarray(b["constant_feed"], float)),
-                  ("compensated", "#2a9d8f", s1, np.asarray(b["compensated"], float))]
+        series = [
+            ("constant feed", "#d62828", s0, np.asarray(b["constant_feed"], float)),
+            ("compensated", "#2a9d8f", s1, np.asarray(b["compensated"], float)),
+        ]
         if "programmed" in b:
             series.insert(0, ("programmed", "#555555", s0, np.asarray(b["programmed"], float)))
         if s_range is not None:
-            series = [(lb, c, x[(x >= s_range[0]) & (x <= s_range[1])], q[(x >= s_range[0]) & (x <= s_range[1])])
-                      for lb, c, x, q in series]
+            series = [
+                (lb, c, x[(x >= s_range[0]) & (x <= s_range[1])], q[(x >= s_range[0]) & (x <= s_range[1])])
+                for lb, c, x, q in series
+            ]
         xs = np.concatenate([x for _, _, x, _ in series])
         lo, hi = (float(xs.min()), float(xs.max()) + b["bin_mm"]) if len(xs) else (0.0, 1.0)
         qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, _, q in series) * 1.15
-        ch = Chart(64, 40, 800, 260, (lo if s_range is not None else 0.0, hi), (0.0, qmax), title=title,
-                   x_label=f"actual arc-on path length, mm ({b['bin_mm']:g} mm bins, as deposit_per_mm_cv)",
-                   y_label="deposit, mm³/mm")
-        for label, color, x, q in series:   # steps: one value per bin
+        ch = Chart(
+            64,
+            40,
+            800,
+            260,
+            (lo if s_range is not None else 0.0, hi),
+            (0.0, qmax),
+            title=title,
+            x_label=f"actual arc-on path length, mm ({b['bin_mm']:g} mm bins, as deposit_per_mm_cv)",
+            y_label="deposit, mm³/mm",
+        )
+        for label, color, x, q in series:  # steps: one value per bin
             xx = np.repeat(np.concatenate([x, x[-1:] + b["bin_mm"]]) if len(x) else x, 2)[1:-1]
-            ch.line(xx, np.repeat(q, 2), color, width=2.2 if label == "programmed" else 1.2,
-                    dash="6 3" if label == "programmed" else "", label=label)
+            ch.line(
+                xx,
+                np.repeat(q, 2),
+                color,
+                width=2.2 if label == "programmed" else 1.2,
+                dash="6 3" if label == "programmed" else "",
+                label=label,
+            )
         return figure(900, 350, [ch])
 
     arc = np.asarray(deposit["arc"], bool)
@@ -416,8 +475,17 @@ def deposit_svg(deposit: dict, title: str = "Deposit per mm along the path",
     smax = max(float(s.max()) if len(s) else 1.0, 1.0)
     smin = float(s.min()) if len(s) and s_range is not None else 0.0
     qmax = max(float(np.percentile(q, 99.0)) if len(q) else 1.0 for _, _, q in curves) * 1.15
-    ch = Chart(64, 40, 800, 260, (smin, smax), (0.0, qmax), title=title,
-               x_label="programmed path length (arc on), mm", y_label="deposit, mm³/mm")
+    ch = Chart(
+        64,
+        40,
+        800,
+        260,
+        (smin, smax),
+        (0.0, qmax),
+        title=title,
+        x_label="programmed path length (arc on), mm",
+        y_label="deposit, mm³/mm",
+    )
     for k, (label, color, q) in enumerate(curves):
         ch.line(s, q, color, width=2.2 if k == 0 else 1.2, dash="6 3" if k == 0 else "", label=label)
     return figure(900, 350, [ch])

@@ -94,9 +94,17 @@ def _entries(time_model: dict, protocol: str, family: str | None) -> tuple[dict[
     for f in names:
         for v, vals in fam[f].items():
             table.setdefault(v, []).append(vals)
-    return ({v: {k: float(np.mean([e[k] for e in es])) for k in es[0]
-                 if isinstance(es[0][k], (int, float)) and all(k in e for e in es)}
-             for v, es in table.items()}, "other:" + ",".join(names))
+    return (
+        {
+            v: {
+                k: float(np.mean([e[k] for e in es]))
+                for k in es[0]
+                if isinstance(es[0][k], (int, float)) and all(k in e for e in es)
+            }
+            for v, es in table.items()
+        },
+        "other:" + ",".join(names),
+    )
 
 
 def model_params(time_model: dict, speed: float, protocol: str, family: str | None = None) -> dict[str, float]:
@@ -121,8 +129,14 @@ class Estimate:
     notes: tuple[str, ...] = ()
 
 
-def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinear_deg: float = 1.0,
-                   min_pass_mm: float = 10.0, strategies: tuple[str, ...] | None = None) -> Estimate:
+def estimate_moves(
+    moves: Moves,
+    time_model: dict,
+    travel_speed: float,
+    collinear_deg: float = 1.0,
+    min_pass_mm: float = 10.0,
+    strategies: tuple[str, ...] | None = None,
+) -> Estimate:
     """Closed-form estimate of a whole program (see module doc). strategies: each section's
     strategy (`section_strategies`), for strategy-specific entries of the time model."""
     P = moves.points
@@ -145,19 +159,27 @@ def estimate_moves(moves: Moves, time_model: dict, travel_speed: float, collinea
         sections += 1
         is_pass = moves.arc[dep] & moves.inside[dep]
         protocol = "off" if np.any(~moves.arc[dep]) else "on"
-        speed = float(np.nanmedian(np.where(is_pass, moves.speed[dep], np.nan))) if is_pass.any() else float(np.nanmedian(moves.speed[dep]))
+        speed = (
+            float(np.nanmedian(np.where(is_pass, moves.speed[dep], np.nan)))
+            if is_pass.any()
+            else float(np.nanmedian(moves.speed[dep]))
+        )
         if not np.isfinite(speed) or speed <= 0:
             speed = travel_speed
         family = strategy_family(strategies[sec]) if strategies is not None and sec < len(strategies) else None
         table, which = _entries(time_model, protocol, family)
         if not table:
-            notes[f"no time-model entry for arc {protocol.upper()} ({protocol!r}) in the profile: "
-                  f"the study's (KUKA KR 100, triangular 45°) used"] = None
+            notes[
+                f"no time-model entry for arc {protocol.upper()} ({protocol!r}) in the profile: "
+                f"the study's (KUKA KR 100, triangular 45°) used"
+            ] = None
             p = model_params(STUDY_TIME_MODEL, speed, protocol)
         else:
             if which.startswith("other:") and family:
-                notes[f"strategy {family!r}: no time-model entry of its own for arc {protocol.upper()}, "
-                      f"those identified on {which[6:]} used"] = None
+                notes[
+                    f"strategy {family!r}: no time-model entry of its own for arc {protocol.upper()}, "
+                    f"those identified on {which[6:]} used"
+                ] = None
             p = model_params(time_model, speed, protocol, family)
         runs = _runs(dep, is_pass, L, U, cos_tol, max(min_pass_mm, p["L_init_accel"] + p["L_final_decel"]))
         passes = [length for kind, length in runs if kind]
@@ -225,11 +247,24 @@ def estimate_result(moves: Moves, est: Estimate):
 
     empty = np.zeros(0)
     L = float(moves.segment_lengths.sum())
-    metrics = {"total_time_s": est.total_time_s, "programmed_length_mm": L,
-               "estimate_passes": float(est.passes), "estimate_sections": float(est.sections), "estimate_only": 1.0}
+    metrics = {
+        "total_time_s": est.total_time_s,
+        "programmed_length_mm": L,
+        "estimate_passes": float(est.passes),
+        "estimate_sections": float(est.sections),
+        "estimate_only": 1.0,
+    }
     trace = {k: empty for k in ("t", "x", "y", "z", "speed", "deviation", "s")}
-    trace.update(arc=empty.astype(bool), layer=empty.astype(np.int32), section=empty.astype(np.int32),
-                 inside=empty.astype(bool))
-    return SimulationResult(metrics, trace, np.asarray(moves.points, float), np.asarray(moves.arc, bool),
-                            np.asarray(moves.points, float), {}, tuple(moves.section_keys),
-                            estimate={"total_time_s": est.total_time_s})
+    trace.update(
+        arc=empty.astype(bool), layer=empty.astype(np.int32), section=empty.astype(np.int32), inside=empty.astype(bool)
+    )
+    return SimulationResult(
+        metrics,
+        trace,
+        np.asarray(moves.points, float),
+        np.asarray(moves.arc, bool),
+        np.asarray(moves.points, float),
+        {},
+        tuple(moves.section_keys),
+        estimate={"total_time_s": est.total_time_s},
+    )

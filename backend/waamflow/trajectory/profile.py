@@ -115,8 +115,24 @@ class RobotProfile:
     notes: str = ""
 
     # names of the constants a calibration may fit (all positive floats)
-    FITTABLE = ("path_acc", "path_jerk", "path_dec", "path_dec_jerk", "acc_ratio_fast", "dec_ratio_fast", "catchup", "normal_acc", "normal_jerk", "turn_radius_mm", "smoothing_s", "apo_time_s",
-                "apo_min_mm", "arc_switch_dwell_s", "arc_on_delay_s", "arc_off_delay_s")
+    FITTABLE = (
+        "path_acc",
+        "path_jerk",
+        "path_dec",
+        "path_dec_jerk",
+        "acc_ratio_fast",
+        "dec_ratio_fast",
+        "catchup",
+        "normal_acc",
+        "normal_jerk",
+        "turn_radius_mm",
+        "smoothing_s",
+        "apo_time_s",
+        "apo_min_mm",
+        "arc_switch_dwell_s",
+        "arc_on_delay_s",
+        "arc_off_delay_s",
+    )
 
     @property
     def dec(self) -> tuple[float, float]:
@@ -153,9 +169,11 @@ class RobotProfile:
 def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
     known = {f.name for f in fields(RobotProfile)}
     unknown = sorted(set(d) - known - {"comment", "fit"})
-    if unknown:   # named by count only: an error never echoes a file's content (#26 fault 3)
-        raise InputFileError(f"{source}: {len(unknown)} keys are not robot profile fields (a profile holds only: "
-                             f"{', '.join(sorted(known))}, comment, fit)")
+    if unknown:  # named by count only: an error never echoes a file's content (#26 fault 3)
+        raise InputFileError(
+            f"{source}: {len(unknown)} keys are not robot profile fields (a profile holds only: "
+            f"{', '.join(sorted(known))}, comment, fit)"
+        )
     kw = {k: v for k, v in d.items() if k in known}
     for k in ("tcp_offset_mm", "base_xyz_mm", "ramp_speeds"):
         if k in kw:
@@ -163,7 +181,9 @@ def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
                 kw[k] = tuple(float(x) for x in kw[k])
             except (TypeError, ValueError):
                 raise InputFileError(f"{source}: robot profile value {k} must be a list of numbers") from None
-    if len(kw.get("ramp_speeds", ())) not in (0, 2) or (kw.get("ramp_speeds") and kw["ramp_speeds"][0] >= kw["ramp_speeds"][1]):
+    if len(kw.get("ramp_speeds", ())) not in (0, 2) or (
+        kw.get("ramp_speeds") and kw["ramp_speeds"][0] >= kw["ramp_speeds"][1]
+    ):
         raise InputFileError(f"{source}: ramp_speeds must be [] or [slow, fast] mm/s with slow < fast")
     kw.setdefault("name", Path(source).stem)
     try:
@@ -177,11 +197,18 @@ def profile_from_dict(d: dict, source: str = "profile") -> RobotProfile:
     if prof.interpolation_cycle_s <= 0 or prof.path_acc <= 0 or prof.path_jerk <= 0:
         raise InputFileError(f"{source}: interpolation_cycle_s, path_acc and path_jerk must be > 0")
     if not isinstance(prof.junction_deviation_mm, (int, float)) or prof.junction_deviation_mm < 0:
-        raise InputFileError(f"{source}: robot profile value junction_deviation_mm={prof.junction_deviation_mm!r} "
-                             f"must be a number ≥ 0 (mm)")
-    if not isinstance(prof.lookahead_blocks, int) or isinstance(prof.lookahead_blocks, bool) or prof.lookahead_blocks < 0:
-        raise InputFileError(f"{source}: robot profile value lookahead_blocks={prof.lookahead_blocks!r} "
-                             f"must be a whole number ≥ 0")
+        raise InputFileError(
+            f"{source}: robot profile value junction_deviation_mm={prof.junction_deviation_mm!r} "
+            f"must be a number ≥ 0 (mm)"
+        )
+    if (
+        not isinstance(prof.lookahead_blocks, int)
+        or isinstance(prof.lookahead_blocks, bool)
+        or prof.lookahead_blocks < 0
+    ):
+        raise InputFileError(
+            f"{source}: robot profile value lookahead_blocks={prof.lookahead_blocks!r} must be a whole number ≥ 0"
+        )
     if prof.catchup > 1:
         raise InputFileError(f"{source}: robot profile value catchup={prof.catchup!r} must be within 0…1")
     return prof
@@ -201,9 +228,10 @@ def shipped_profiles() -> list[str]:
 
 def load_profile(name_or_path: str, text: str | None = None) -> RobotProfile:
     """A shipped profile by name ("kuka_kr100ha_krc2"), or a JSON file's text (`text` given)."""
-    if text is None:   # a shipped name, never a path (core.files)
-        text = read_shipped(ROBOTS_DIR, f"{name_or_path}.json", "robot profile", shipped_profiles(),
-                            limit=1_000_000).decode("utf-8")
+    if text is None:  # a shipped name, never a path (core.files)
+        text = read_shipped(
+            ROBOTS_DIR, f"{name_or_path}.json", "robot profile", shipped_profiles(), limit=1_000_000
+        ).decode("utf-8")
     try:
         d = json.loads(text)
     except ValueError as e:

@@ -89,8 +89,17 @@ def reachable_speed(v1: float, length: float, a: float, j: float) -> float:
     return v1 + lo
 
 
-def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float, j: float,
-               a_dec: float | None = None, j_dec: float | None = None, limits=None, lookahead: int = 0) -> Spans:
+def plan_spans(
+    path: BlendedPath,
+    speed: np.ndarray,
+    stop: np.ndarray,
+    a: float,
+    j: float,
+    a_dec: float | None = None,
+    j_dec: float | None = None,
+    limits=None,
+    lookahead: int = 0,
+) -> Spans:
     """Cut the blended path into spans and plan junction speeds (backward then forward pass).
 
     speed: (n-1,) programmed speed per segment (already capped), mm/s. stop: (n,) bool.
@@ -140,8 +149,15 @@ def plan_spans(path: BlendedPath, speed: np.ndarray, stop: np.ndarray, a: float,
     # no junction: merge its spans, so a pass cut into short pieces ramps as one motion (every
     # span profile starts and ends at zero acceleration)
     if K > 1:
-        free = (~stop_after[:-1] & (jc[1:-1] >= vmax[:-1] * (1 - 1e-12)) & (vmax[1:] == vmax[:-1])
-                & (A[1:] == A[:-1]) & (J[1:] == J[:-1]) & (AD[1:] == AD[:-1]) & (JD[1:] == JD[:-1]))
+        free = (
+            ~stop_after[:-1]
+            & (jc[1:-1] >= vmax[:-1] * (1 - 1e-12))
+            & (vmax[1:] == vmax[:-1])
+            & (A[1:] == A[:-1])
+            & (J[1:] == J[:-1])
+            & (AD[1:] == AD[:-1])
+            & (JD[1:] == JD[:-1])
+        )
         if free.any():
             first = np.concatenate([[True], ~free])
             last = np.concatenate([~free, [True]])
@@ -196,13 +212,15 @@ def _span_limit(given: float | None, own: np.ndarray | None, k: int, what: str) 
     if given is not None:
         return np.full(k, float(given))
     if own is None:
-        raise ValueError(f"profile_spans: no {what}: pass it, or plan the spans with plan_spans (which sets "
-                         "each span's limits)")
+        raise ValueError(
+            f"profile_spans: no {what}: pass it, or plan the spans with plan_spans (which sets each span's limits)"
+        )
     return own
 
 
-def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, a_dec: float | None = None,
-                  j_dec: float | None = None) -> SpanProfiles:
+def profile_spans(
+    spans: Spans, a: float | None = None, j: float | None = None, a_dec: float | None = None, j_dec: float | None = None
+) -> SpanProfiles:
     """Time-optimal jerk-limited profile of every span, (0, v_i, 0) → (L_i, v_i+1, 0), vectorised.
 
     Each span speeds up from v_i to a peak v_p with the speed-up limits (a, j), cruises at v_p and
@@ -259,7 +277,7 @@ def profile_spans(spans: Spans, a: float | None = None, j: float | None = None, 
     for k in range(7):
         dt, jj = T[:, k], J[:, k]
         p, v, acc = Pp[:, k], Vv[:, k], Aa[:, k]
-        Pp[:, k + 1] = p + v * dt + acc * dt * dt / 2 + jj * dt ** 3 / 6
+        Pp[:, k + 1] = p + v * dt + acc * dt * dt / 2 + jj * dt**3 / 6
         Vv[:, k + 1] = v + acc * dt + jj * dt * dt / 2
         Aa[:, k + 1] = acc + jj * dt
     Aa[:, 7] = 0.0
@@ -280,7 +298,7 @@ def evaluate(prof: SpanProfiles, span_index: np.ndarray, tau: np.ndarray) -> tup
     p0 = prof.p[span_index, ph]
     v0 = prof.v[span_index, ph]
     a0 = prof.a[span_index, ph]
-    s = p0 + v0 * dt + a0 * dt * dt / 2 + jj * dt ** 3 / 6
+    s = p0 + v0 * dt + a0 * dt * dt / 2 + jj * dt**3 / 6
     v = v0 + a0 * dt + jj * dt * dt / 2
     end = tau >= starts[rows, 7]
     s = np.where(end, prof.p[span_index, 7], s)

@@ -19,9 +19,9 @@ import numpy as np
 from ..core.model import Layer, LayerPaths, Layered, SectionPath
 from ..core.moves import Moves, flatten
 
-SMALL_OR = (21.5, 43.0)   # W, L mm
+SMALL_OR = (21.5, 43.0)  # W, L mm
 LARGE_OR = (43.0, 86.0)
-W_WB = 4.43               # pass spacing, mm
+W_WB = 4.43  # pass spacing, mm
 
 
 def pass_layout(width: float, spacing: float = W_WB) -> tuple[int, float]:
@@ -36,8 +36,14 @@ def pass_layout(width: float, spacing: float = W_WB) -> tuple[int, float]:
 
 def _moves(points, arc, inside, speed, key, z=50.0) -> Moves:
     pts = np.column_stack([np.asarray(points, float), np.full(len(points), z)])
-    sp = SectionPath(key=key, strategy=key, points=pts, arc=np.asarray(arc, bool),
-                     inside=np.asarray(inside, bool), speed=np.asarray(speed, float))
+    sp = SectionPath(
+        key=key,
+        strategy=key,
+        points=pts,
+        arc=np.asarray(arc, bool),
+        inside=np.asarray(inside, bool),
+        speed=np.asarray(speed, float),
+    )
     layer = Layer(index=0, z=z, thickness=1.5)
     return flatten(Layered((LayerPaths(layer, (sp,)),)))
 
@@ -76,8 +82,9 @@ def _boustrophedon_with_links(speed, size, spacing, link, arc_outside: bool, key
     return _moves(pts, arc, ins, np.full(len(ins), speed), key)
 
 
-def triangular(speed: float, angle_deg: float = 45.0, arc_outside: bool = True, size=SMALL_OR,
-               spacing: float = W_WB) -> Moves:
+def triangular(
+    speed: float, angle_deg: float = 45.0, arc_outside: bool = True, size=SMALL_OR, spacing: float = W_WB
+) -> Moves:
     """Boustrophedon linked outside the OR by an isosceles triangle (base W_WB, apex angle θ)."""
     h = (spacing / 2) / math.tan(math.radians(angle_deg) / 2)
 
@@ -87,8 +94,9 @@ def triangular(speed: float, angle_deg: float = 45.0, arc_outside: bool = True, 
     return _boustrophedon_with_links(speed, size, spacing, link, arc_outside, f"triangular{angle_deg:g}")
 
 
-def semicircular(speed: float, arc_outside: bool = True, size=SMALL_OR, spacing: float = W_WB,
-                 chord_mm: float = 0.5) -> Moves:
+def semicircular(
+    speed: float, arc_outside: bool = True, size=SMALL_OR, spacing: float = W_WB, chord_mm: float = 0.5
+) -> Moves:
     """Boustrophedon linked outside the OR by half circles of diameter W_WB (G1-smooth)."""
     r = spacing / 2
     k = max(4, int(math.ceil(math.pi * r / chord_mm)))
@@ -138,22 +146,58 @@ def straight_line(speed: float, length: float = 100.0) -> Moves:
 
 # the study's calibration table (40 mm/s, small OR) — robot-study.md
 CALIBRATION = {
-    "raster": {"total_time_s": 11.580, "actual_length_mm": 386.971, "deposited_volume_mm3": 615.133,
-               "programmed_length_mm": 387.910},
-    "swiping": {"total_time_s": 12.036, "actual_length_mm": 411.509, "deposited_volume_mm3": 1134.389,
-                "programmed_length_mm": 464.246},
+    "raster": {
+        "total_time_s": 11.580,
+        "actual_length_mm": 386.971,
+        "deposited_volume_mm3": 615.133,
+        "programmed_length_mm": 387.910,
+    },
+    "swiping": {
+        "total_time_s": 12.036,
+        "actual_length_mm": 411.509,
+        "deposited_volume_mm3": 1134.389,
+        "programmed_length_mm": 464.246,
+    },
 }
 
 # identified kinematic parameters of the triangular 45° case, small OR (robot-study.md)
 IDENTIFIED = {
-    (10, "on"): dict(T_init_accel=0.144, L_init_accel=0.617, L_decel=0.0, L_accel=0.0, T_trans=1.200,
-                     L_final_decel=0.806, T_final_decel=0.180),
-    (10, "off"): dict(T_init_accel=0.144, L_init_accel=0.610, L_decel=0.876, L_accel=0.0, T_trans=1.410,
-                      L_final_decel=0.807, T_final_decel=0.180),
-    (40, "on"): dict(T_init_accel=0.204, L_init_accel=4.212, L_decel=2.500, L_accel=2.200, T_trans=0.426,
-                     L_final_decel=3.862, T_final_decel=0.192),
-    (40, "off"): dict(T_init_accel=0.216, L_init_accel=4.944, L_decel=3.670, L_accel=4.387, T_trans=0.408,
-                      L_final_decel=3.807, T_final_decel=0.192),
+    (10, "on"): dict(
+        T_init_accel=0.144,
+        L_init_accel=0.617,
+        L_decel=0.0,
+        L_accel=0.0,
+        T_trans=1.200,
+        L_final_decel=0.806,
+        T_final_decel=0.180,
+    ),
+    (10, "off"): dict(
+        T_init_accel=0.144,
+        L_init_accel=0.610,
+        L_decel=0.876,
+        L_accel=0.0,
+        T_trans=1.410,
+        L_final_decel=0.807,
+        T_final_decel=0.180,
+    ),
+    (40, "on"): dict(
+        T_init_accel=0.204,
+        L_init_accel=4.212,
+        L_decel=2.500,
+        L_accel=2.200,
+        T_trans=0.426,
+        L_final_decel=3.862,
+        T_final_decel=0.192,
+    ),
+    (40, "off"): dict(
+        T_init_accel=0.216,
+        L_init_accel=4.944,
+        L_decel=3.670,
+        L_accel=4.387,
+        T_trans=0.408,
+        L_final_decel=3.807,
+        T_final_decel=0.192,
+    ),
 }
 
 

@@ -92,15 +92,19 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
     if len(rows) < 10:
         raise InputFileError(f"{source}: need at least 10 samples, got {len(rows)}")
     a = np.asarray(rows)
-    return MeasuredTrace(a[:, 0], a[:, 1:4], np.asarray(arcs, bool) if arc_col is not None else None,
-                         np.asarray(speeds, float) if speed_col is not None else None)
+    return MeasuredTrace(
+        a[:, 0],
+        a[:, 1:4],
+        np.asarray(arcs, bool) if arc_col is not None else None,
+        np.asarray(speeds, float) if speed_col is not None else None,
+    )
 
 
 def trace_csv(result: SimulationResult) -> str:
     """The simulated trace as CSV (t,x,y,z,speed,arc,deviation) — the contract's trace.csv."""
     tr = result.trace
     cols = np.column_stack([tr["t"], tr["x"], tr["y"], tr["z"], tr["speed"], tr["arc"].astype(float), tr["deviation"]])
-    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"     # rows as Python floats: ~2x faster than numpy scalars
+    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"  # rows as Python floats: ~2x faster than numpy scalars
     return "t,x,y,z,speed,arc,deviation\n" + "".join([row % tuple(r) for r in cols.tolist()])
 
 
@@ -143,7 +147,7 @@ def _section_passes(moves: Moves, dep: np.ndarray, collinear_deg: float, min_len
             out[-1][1] = i
         else:
             out.append([int(i), int(i)])
-    return [(a, b) for a, b in out if L[a:b + 1].sum() >= min_len]
+    return [(a, b) for a, b in out if L[a : b + 1].sum() >= min_len]
 
 
 def _crossing(t, x, v, i, j, thr):
@@ -153,8 +157,16 @@ def _crossing(t, x, v, i, j, thr):
     w = (thr - v[j]) / (v[i] - v[j])
     return t[j] + w * (t[i] - t[j]), x[j] + w * (x[i] - x[j])
 
-def _pass_rows(moves: Moves, passes: list[tuple[int, int]], meas: MeasuredTrace, v: np.ndarray, thr: float,
-               line_tol_mm: float, cursor: int) -> tuple[list[dict] | None, int]:
+
+def _pass_rows(
+    moves: Moves,
+    passes: list[tuple[int, int]],
+    meas: MeasuredTrace,
+    v: np.ndarray,
+    thr: float,
+    line_tol_mm: float,
+    cursor: int,
+) -> tuple[list[dict] | None, int]:
     """The trace read along each pass of a section (`identify_time_model`): per pass, the
     instants / positions where the speed enters and leaves `thr`, the lengths before / after,
     the pass line (p0, u) and the samples (j0, j1). Each pass is searched from `cursor` (the
@@ -166,7 +178,7 @@ def _pass_rows(moves: Moves, passes: list[tuple[int, int]], meas: MeasuredTrace,
     rows = []
     for a, b in passes:
         p0, p1 = P[a], P[b + 1]
-        ln = float(L[a:b + 1].sum())
+        ln = float(L[a : b + 1].sum())
         u = (p1 - p0) / ln
         rel = x[cursor:] - p0
         proj = rel @ u
@@ -174,7 +186,7 @@ def _pass_rows(moves: Moves, passes: list[tuple[int, int]], meas: MeasuredTrace,
         on = np.flatnonzero((lat < line_tol_mm) & (proj > -line_tol_mm) & (proj < ln + line_tol_mm)) + cursor
         if not len(on):
             return None, cursor
-        block = on[:np.argmax(np.diff(on) > 1) + 1] if np.any(np.diff(on) > 1) else on
+        block = on[: np.argmax(np.diff(on) > 1) + 1] if np.any(np.diff(on) > 1) else on
         inner = block[(proj[block - cursor] >= 0.0) & (proj[block - cursor] <= ln)]
         # only motion along the pass counts: a raster's return or the travel to the next
         # section can leave (or reach) the pass line at full speed, heading elsewhere
@@ -185,20 +197,37 @@ def _pass_rows(moves: Moves, passes: list[tuple[int, int]], meas: MeasuredTrace,
             return None, cursor
         ta, xa = _crossing(t, x, v, fast[0], fast[0] - 1, thr)
         tb, xb = _crossing(t, x, v, fast[-1], fast[-1] + 1, thr)
-        rows.append({"ta": ta, "tb": tb, "p0": p0, "u": u, "l_acc": float(np.clip((xa - p0) @ u, 0.0, ln)),
-                     "l_dec": float(np.clip(ln - (xb - p0) @ u, 0.0, ln)), "j0": int(fast[0]), "j1": int(fast[-1])})
+        rows.append(
+            {
+                "ta": ta,
+                "tb": tb,
+                "p0": p0,
+                "u": u,
+                "l_acc": float(np.clip((xa - p0) @ u, 0.0, ln)),
+                "l_dec": float(np.clip(ln - (xb - p0) @ u, 0.0, ln)),
+                "j0": int(fast[0]),
+                "j1": int(fast[-1]),
+            }
+        )
         cursor = int(block[-1]) + 1
     return rows, cursor
 
 
-def _section_entry(moves: Moves, passes: list[tuple[int, int]], rows: list[dict], meas: MeasuredTrace,
-                   v: np.ndarray, rest: np.ndarray, lag: float) -> dict:
+def _section_entry(
+    moves: Moves,
+    passes: list[tuple[int, int]],
+    rows: list[dict],
+    meas: MeasuredTrace,
+    v: np.ndarray,
+    rest: np.ndarray,
+    lag: float,
+) -> dict:
     """One section's Table-5 figures from its passes' `rows` (`identify_time_model`): motion
     start / stop `lag` samples off the last / first sample at `rest` around the passes."""
     t, x = meas.t, meas.xyz
     L = moves.segment_lengths
-    before = np.flatnonzero(rest[:rows[0]["j0"]])
-    after = np.flatnonzero(rest[rows[-1]["j1"]:]) + rows[-1]["j1"]
+    before = np.flatnonzero(rest[: rows[0]["j0"]])
+    after = np.flatnonzero(rest[rows[-1]["j1"] :]) + rows[-1]["j1"]
     # a trace that begins (ends) in motion: its first (last) sample is the start (stop)
     if len(before):
         r0 = int(before[-1])
@@ -213,22 +242,32 @@ def _section_entry(moves: Moves, passes: list[tuple[int, int]], rows: list[dict]
     x_start = np.array([np.interp(t_start, t, x[:, i]) for i in range(3)])
     x_stop = np.array([np.interp(t_stop, t, x[:, i]) for i in range(3)])
     first, last = rows[0], rows[-1]
-    passes_len = [float(L[a:b + 1].sum()) for a, b in passes]
-    links = [float(L[b0 + 1:a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
-    return {"T_init_accel": first["ta"] - t_start,
-            "L_init_accel": first["l_acc"] - float((x_start - first["p0"]) @ first["u"]),
-            "L_decel": float(np.mean([r["l_dec"] for r in rows[:-1]])),
-            "L_accel": float(np.mean([r["l_acc"] for r in rows[1:]])),
-            "T_trans": float(np.mean([r1_["ta"] - r0_["tb"] for r0_, r1_ in zip(rows[:-1], rows[1:])])),
-            "L_final_decel": float((x_stop - last["p0"]) @ last["u"]) - (passes_len[-1] - last["l_dec"]),
-            "T_final_decel": t_stop - last["tb"],
-            "L_trans_ref": float(np.mean(links)), "passes": len(rows)}
+    passes_len = [float(L[a : b + 1].sum()) for a, b in passes]
+    links = [float(L[b0 + 1 : a1].sum()) for (_, b0), (a1, _) in zip(passes[:-1], passes[1:])]
+    return {
+        "T_init_accel": first["ta"] - t_start,
+        "L_init_accel": first["l_acc"] - float((x_start - first["p0"]) @ first["u"]),
+        "L_decel": float(np.mean([r["l_dec"] for r in rows[:-1]])),
+        "L_accel": float(np.mean([r["l_acc"] for r in rows[1:]])),
+        "T_trans": float(np.mean([r1_["ta"] - r0_["tb"] for r0_, r1_ in zip(rows[:-1], rows[1:])])),
+        "L_final_decel": float((x_stop - last["p0"]) @ last["u"]) - (passes_len[-1] - last["l_dec"]),
+        "T_final_decel": t_stop - last["tb"],
+        "L_trans_ref": float(np.mean(links)),
+        "passes": len(rows),
+    }
 
 
-def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str, ...] | None = None,
-                        frac: float = 0.99, line_tol_mm: float = 0.5, collinear_deg: float = 1.0,
-                        min_pass_mm: float = 10.0, rest_frac: float = 0.0005,
-                        source: str = "trace") -> tuple[dict, dict]:
+def identify_time_model(
+    moves: Moves,
+    meas: MeasuredTrace,
+    strategies: tuple[str, ...] | None = None,
+    frac: float = 0.99,
+    line_tol_mm: float = 0.5,
+    collinear_deg: float = 1.0,
+    min_pass_mm: float = 10.0,
+    rest_frac: float = 0.0005,
+    source: str = "trace",
+) -> tuple[dict, dict]:
     """The study's Table-5 constants of the measured robot, read off its trace of the known program
     `moves` the way the authors read them (robot-study.md; `identify_passes` on a simulation).
 
@@ -270,12 +309,14 @@ def identify_time_model(moves: Moves, meas: MeasuredTrace, strategies: tuple[str
         if len(passes) < 2:
             info["skipped"].append(f"section {moves.section_keys[sec]}: {len(passes)} pass(es), need 2")
             continue
-        TS = float(np.median(np.concatenate([moves.speed[a:b + 1] for a, b in passes])))
+        TS = float(np.median(np.concatenate([moves.speed[a : b + 1] for a, b in passes])))
         protocol = "off" if np.any(~moves.arc[dep]) else "on"
         rows, cursor = _pass_rows(moves, passes, meas, v, frac * TS, line_tol_mm, cursor)
         if rows is None:
-            info["skipped"].append(f"section {moves.section_keys[sec]}: a pass is not in the trace at "
-                                   f"{frac:.0%} of {TS:g} mm/s within {line_tol_mm} mm of its line")
+            info["skipped"].append(
+                f"section {moves.section_keys[sec]}: a pass is not in the trace at "
+                f"{frac:.0%} of {TS:g} mm/s within {line_tol_mm} mm of its line"
+            )
             continue
         ent = _section_entry(moves, passes, rows, meas, v, v <= rest_frac * TS, lag)
         key = f"{round(TS, 1):g}_{protocol}"
