@@ -44,6 +44,8 @@ test-backend: venv
 # frontend (frontend/eslint.config.js)
 lint: venv node_modules/.installed
 	$(VENV)/bin/ruff check backend tests bench scripts
+	$(VENV)/bin/ruff format --check backend tests bench scripts
+	$(PY) scripts/check_structure.py
 	$(VENV)/bin/mypy
 	$(VENV)/bin/deptry backend
 	npm run lint
