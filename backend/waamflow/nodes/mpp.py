@@ -23,7 +23,7 @@ from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..sections import Mask, apply_guide, segment_layer
 from ..sections.guide import guide_line
-from ..sections.mask import uncovered_percent
+from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
@@ -104,11 +104,7 @@ class MaskNode(LayerNode):
             return masks
 
     def _governing(self, params, index: int) -> MaskParams | None:
-        best = None
-        for m in params.masks:
-            if m.from_layer <= index and (best is None or m.from_layer > best.from_layer):
-                best = m
-        return best
+        return governing_mask(params.masks, index)
 
     def layer_params(self, params, index, items):
         m = self._governing(params, index)

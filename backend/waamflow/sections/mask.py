@@ -17,7 +17,7 @@ each connected region becomes one section (`region<k>`, largest first).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Protocol, Sequence, TypeVar
 
 import numpy as np
 import shapely
@@ -80,9 +80,18 @@ def curve_polygon(curve: Sequence[Sequence[float]], key: str = "") -> Polygon:
     return poly
 
 
-def governing_mask(masks: Sequence[Mask], index: int) -> Mask | None:
-    """The mask governing layer `index`: the one with the largest from_layer ≤ index (None below all)."""
-    best: Mask | None = None
+class _Starts(Protocol):
+    @property
+    def from_layer(self) -> int: ...
+
+
+_M = TypeVar("_M", bound=_Starts)
+
+
+def governing_mask(masks: Sequence[_M], index: int) -> _M | None:
+    """The mask governing layer `index`: the one with the largest from_layer ≤ index (None below all).
+    The one rule: masks (`Mask`) and the mask node's params (`MaskParams`) alike."""
+    best: _M | None = None
     for m in masks:
         if m.from_layer <= index and (best is None or m.from_layer >= best.from_layer):
             best = m
