@@ -15,7 +15,7 @@ throughout ("on") or OFF outside the OR ("off"); they live in the robot profile'
 Other speeds interpolate linearly between the identified ones (clamped outside).
 
 Keys are "<speed>_<protocol>" (any strategy) or "<speed>_<protocol>_<family>" (identified on
-that strategy family, e.g. "40_on_triangular": `calibrate.identify_time_model` writes these from
+that strategy family, e.g. "40_on_triangular": `trace.identify_time_model` writes these from
 the user's trace). A section of strategy family f uses f's entries when the profile has them, else
 the generic ones, else the entries of the other families (noted); a protocol the profile has no
 entry for at all falls back to the study's (`STUDY_TIME_MODEL`, triangular 45° on the KR 100),
