@@ -35,6 +35,26 @@ def test_bad_trace_rows_name_the_row(text, row):
         read_trace_csv(text, source="m.csv")
 
 
+def test_trace_csv_blocks_write_what_one_row_at_a_time_writes(monkeypatch):
+    """trace_csv formats a block of rows per % call: byte for byte the rows formatted one by one,
+    across block edges (a 7-row block: hundreds of edges) and with a short last block."""
+    import numpy as np
+
+    from waamflow.trajectory import trace
+
+    res = simulate(study.raster(40.0), KUKA)
+    tr = res.trace
+    rows = np.column_stack([tr["t"], tr["x"], tr["y"], tr["z"], tr["speed"], tr["arc"].astype(float), tr["deviation"]])
+    one_by_one = "t,x,y,z,speed,arc,deviation\n" + "".join(
+        "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n" % tuple(r) for r in rows.tolist()
+    )
+    assert len(rows) % 7 != 0 and len(rows) > 700
+    monkeypatch.setattr(trace, "_CSV_BLOCK", 7)
+    assert trace.trace_csv(res) == one_by_one
+    monkeypatch.setattr(trace, "_CSV_BLOCK", 8192)
+    assert trace.trace_csv(res) == one_by_one
+
+
 def test_trace_csv_needs_the_columns():
     with pytest.raises(InputFileError, match="missing"):
         read_trace_csv("t,x,y\n0,0,0\n")

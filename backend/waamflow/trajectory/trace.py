@@ -100,12 +100,21 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
     )
 
 
+_CSV_BLOCK = 8192  # rows per % call in trace_csv
+
+
 def trace_csv(result: SimulationResult) -> str:
     """The simulated trace as CSV (t,x,y,z,speed,arc,deviation) — the contract's trace.csv."""
     tr = result.trace
     cols = np.column_stack([tr["t"], tr["x"], tr["y"], tr["z"], tr["speed"], tr["arc"].astype(float), tr["deviation"]])
-    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"  # rows as Python floats: ~2x faster than numpy scalars
-    return "t,x,y,z,speed,arc,deviation\n" + "".join([row % tuple(r) for r in cols.tolist()])
+    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"
+    # one % per block of rows (the row format repeated, the block's Python floats as its arguments):
+    # the same text as one % per row, without a Python-level step per row (292k rows: 0.62 -> 0.37 s)
+    out = ["t,x,y,z,speed,arc,deviation\n"]
+    for i in range(0, len(cols), _CSV_BLOCK):
+        block = cols[i : i + _CSV_BLOCK]
+        out.append((row * len(block)) % tuple(block.ravel().tolist()))
+    return "".join(out)
 
 
 def _motion_start(t: np.ndarray, xyz: np.ndarray, tol: float = 0.05) -> float:
