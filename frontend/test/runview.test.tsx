@@ -42,7 +42,7 @@ class FakeEventSource {
 (globalThis as { EventSource?: unknown }).EventSource = FakeEventSource;
 
 const { useRunView } = await import("../src/run/useRunView");
-const { storedEnd, END_POLLS } = await import("../src/run/useRun");
+const { storedEnd, END_POLLS, STALL_POLL_MS } = await import("../src/run/useRun");
 const client = await import("../src/api/client");
 
 describe("useRunView", () => {
@@ -105,6 +105,19 @@ describe("the end of a run is shown once the server has stored it", () => {
     expect(result.current.run.phase).toBe("done");
     expect(result.current.artifacts.length).toBe(3);
   });
+  it("a stream that stays open without its terminal event: the record's end is shown after STALL_POLL_MS", async () => {
+    statuses = ["done"]; // the record has ended; the stream never says so
+    const { result } = renderHook(() => useRunView({ message: vi.fn(), fail: vi.fn(), toMask: vi.fn() }), undefined);
+    await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
+    await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "node_finished", node: "a", time: 1, progress: 1 }) }));
+    expect(result.current.run.phase).toBe("running");
+    preflightText.resolve(JSON.stringify({ verdict: "ok", programs: [], layers: [], problems: [] }));
+    await act(async () => void (await new Promise((r) => setTimeout(r, STALL_POLL_MS - 500))));
+    expect(result.current.run.phase).toBe("running"); // the first ask comes after STALL_POLL_MS
+    await act(async () => void (await new Promise((r) => setTimeout(r, 1500))));
+    expect(result.current.run.phase).toBe("done");
+    expect(FakeEventSource.last!.readyState).toBe(2); // the stream is closed
+  }, 10_000);
   it("a run followed meanwhile is not overwritten by the older run's late end", async () => {
     statuses = ["running", "done"];
     const { result } = renderHook(() => useRunView({ message: vi.fn(), fail: vi.fn(), toMask: vi.fn() }), undefined);

@@ -359,6 +359,38 @@ def start_tree(
     return Tree(proc, TreeWatch(pid, 0 if cg is not None else budget), cg)
 
 
+def close_inherited_network_sockets() -> int:
+    """In a forked child: close the TCP sockets it inherited from the server (its listening
+    socket, the browsers' connections, viser's). A long-lived child (a preview worker) holding a
+    copy of a connection the server closes keeps it open: the client never sees the close, sends
+    its next request on it and waits for good (a run's end never shown in the GUI, 1 e2e run in
+    ~3). Pipes and socket pairs (AF_UNIX: the child's own channels) stay open. Returns how many
+    were closed."""
+    import socket
+
+    closed = 0
+    try:
+        fds = [int(n) for n in os.listdir("/proc/self/fd")]
+    except OSError:
+        return 0
+    for fd in fds:
+        try:
+            sock = socket.socket(fileno=fd)
+        except OSError:
+            continue  # not a socket (a pipe, a file) or already closed
+        try:
+            family = sock.family
+        except OSError:
+            sock.detach()
+            continue
+        if family in (socket.AF_INET, socket.AF_INET6):
+            sock.close()
+            closed += 1
+        else:
+            sock.detach()
+    return closed
+
+
 def _tree_child(target: Callable[..., None], budget: int, cgroup: str | None, args: tuple) -> None:
     """A tree's leader, right after the fork: a process group of its own, detached from the
     server, in its cgroup (before it starts anything), its address space capped at the budget."""
@@ -368,6 +400,7 @@ def _tree_child(target: Callable[..., None], budget: int, cgroup: str | None, ar
         os.setpgid(0, 0)  # see _kill_group; the server sets it too
     except OSError:
         pass
+    close_inherited_network_sockets()
     _detach_from_server()
     if cgroup is not None:
         try:

@@ -6,6 +6,10 @@ import { idleRun, reduceEvent, startedRun, terminal, type RunState } from "./sta
 /** How often and how many times the run's record is asked for its end after the stream ended. */
 export const END_POLL_MS = 250;
 export const END_POLLS = 40;
+/** While a run is followed, its record is also asked every STALL_POLL_MS: a stream that stays
+ * open without its terminal event must not leave the toolbar at "running" for good (the record
+ * is what counts; a connection kept open by a forked server process once did exactly that). */
+export const STALL_POLL_MS = 3000;
 
 /** The run's record once it has ended (the store has its summary and artifacts); after END_POLLS
  * asks, the record as it is. */
@@ -27,9 +31,13 @@ export function useRun(onEnd?: (s: RunState) => void) {
   const endRef = useRef(onEnd);
   endRef.current = onEnd;
 
+  const stall = useRef<ReturnType<typeof setInterval> | null>(null);
+
   const close = () => {
     source.current?.close();
     source.current = null;
+    if (stall.current !== null) clearInterval(stall.current);
+    stall.current = null;
   };
 
   const follow = useCallback((id: string) => {
@@ -39,7 +47,9 @@ export function useRun(onEnd?: (s: RunState) => void) {
     setState(cur);
     const es = new EventSource(eventsUrl(id));
     source.current = es;
+    let ending = false;
     const finish = async () => {
+      ending = true;
       close();
       try {
         // The stream's last event can arrive before the server has stored the run's end (its
@@ -64,6 +74,14 @@ export function useRun(onEnd?: (s: RunState) => void) {
       if (terminal(cur)) void finish();
       else setState(cur);
     };
+    stall.current = setInterval(() => {
+      if (ending || terminal(cur) || gen !== generation.current) return;
+      getRun(id)
+        .then((info) => {
+          if (!ending && !terminal(cur) && info.status !== "running" && info.status !== "queued") void finish();
+        })
+        .catch(() => undefined);
+    }, STALL_POLL_MS);
     es.onerror = () => {
       // A dropped connection reconnects by itself (resuming after Last-Event-ID; replays are
       // ignored by seq). Only a refused stream (closed for good) ends following: ask the status.
