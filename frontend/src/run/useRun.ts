@@ -13,9 +13,12 @@ export const STALL_POLL_MS = 3000;
 
 /** The run's record once it has ended (the store has its summary and artifacts); after END_POLLS
  * asks, the record as it is. */
+/** A run's record that has not ended yet. */
+const pending = (status: string) => status === "running" || status === "queued";
+
 export async function storedEnd(id: string, wait = (ms: number) => new Promise((r) => setTimeout(r, ms))) {
   let info = await getRun(id);
-  for (let i = 1; i < END_POLLS && (info.status === "running" || info.status === "queued"); i++) {
+  for (let i = 1; i < END_POLLS && pending(info.status); i++) {
     await wait(END_POLL_MS);
     info = await getRun(id);
   }
@@ -74,13 +77,16 @@ export function useRun(onEnd?: (s: RunState) => void) {
       if (terminal(cur)) void finish();
       else setState(cur);
     };
+    let asking = false; // one ask at a time: a slow answer is not asked again on top of itself
     stall.current = setInterval(() => {
-      if (ending || terminal(cur) || gen !== generation.current) return;
+      if (ending || asking || terminal(cur) || gen !== generation.current) return;
+      asking = true;
       getRun(id)
         .then((info) => {
-          if (!ending && !terminal(cur) && info.status !== "running" && info.status !== "queued") void finish();
+          if (!ending && !terminal(cur) && !pending(info.status)) void finish();
         })
-        .catch(() => undefined);
+        .catch(() => undefined)
+        .finally(() => (asking = false));
     }, STALL_POLL_MS);
     es.onerror = () => {
       // A dropped connection reconnects by itself (resuming after Last-Event-ID; replays are
