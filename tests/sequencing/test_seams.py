@@ -12,7 +12,8 @@ from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import apply_overrides, load_recipe, parse_set
 from waamflow.sequencing import sequence_layer, sequence_part
 from waamflow.sequencing.arc_runs import arc_runs, enforce_min_run
-from waamflow.sequencing.seams import SeamSpec, ignition_points, nearest_distance, rethread_path
+from waamflow.sequencing import seams
+from waamflow.sequencing.seams import SeamSpec, entries, ignition_points, nearest_distance, reverse_path, rethread_path
 from waamflow.zoning import ZoneSpec, apply_zone_params, zone_lengths, zone_path
 
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
@@ -192,3 +193,46 @@ def test_thin_wall_panel_ignites_in_machining_stock():
     walls = [s for lp in layers for s in lp.sections if s.strategy == "wall"]
     assert len(walls) == 300
     assert sum(bool(s.inside[0]) for s in walls) == 0  # before: 126 ignited on the finished wall
+
+
+def entry_paths():
+    """Open section paths of every kind the choice meets: the cross's oscillated arm and serpentines
+    (zoned), both ways round, a raster with an outside link and a wall with a stock lead."""
+    out = [sp for i in range(2) for sp in cross_layer(i).sections]
+    out += [reverse_path(sp) for sp in out]
+    out += [toy_raster(), section("wall0", "wall", [(0, 0), (50, 0), (57, 7)], 1.5, inside=[True, False])]
+    out.append(section("w1", "wall", [(57, 7), (50, 0), (0, 0)], 1.5, inside=[False, True]))
+    return out
+
+
+def test_an_entrys_ignition_and_stock_test_are_those_of_the_path_it_builds():
+    """The choice reads an entry's first point and first `inside` before (and mostly without)
+    building its path: they must be the built path's own, for every entry of every kind."""
+    checked = 0
+    for sp in entry_paths():
+        for e in entries(sp):
+            ign, stock = e.ignition.copy(), e.in_stock
+            built = e.path
+            assert ign.tolist() == np.asarray(built.points[0], float).tolist(), (sp.key, e.name)
+            assert stock == (not bool(built.inside[0])), (sp.key, e.name)
+            checked += 1
+    assert checked == 4 * 8 + 2 * 4 + 2 + 2 * 2  # 8 serpentines 4 entries each; 4 arms, the raster, 2 walls 2
+
+
+def test_the_choice_builds_only_the_entry_it_takes(monkeypatch):
+    """Re-zoning a candidate path (`_rezone`) is what entries cost: the choice does it for the
+    entry it returns only (it did it for all four of a serpentine), and chooses the same."""
+    calls = []
+    real = seams._rezone
+    monkeypatch.setattr(seams, "_rezone", lambda *a: calls.append(1) or real(*a))
+    lp = cross_layer(3)
+    below = ignition_points(cross_layer(2).sections)
+    spec = SeamSpec("auto", 6.0, 12.0)
+    for k, sp in enumerate(lp.sections):
+        others = lp.sections[:k] + lp.sections[k + 1 :]
+        calls.clear()
+        entry, ok = seams.choose_entry(sp, 3, spec, others, below)
+        path = entry.path
+        assert len(calls) <= 1 + (entry.name == "rethreaded-reversed"), (sp.key, entry.name, len(calls))
+        eager = {e.name: e.path for e in entries(sp)}[entry.name]
+        assert np.array_equal(path.points, eager.points) and path.zone == eager.zone, sp.key

@@ -29,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence, cast
 
 import numpy as np
 
@@ -43,20 +43,51 @@ DEFAULT_CLEARANCE = 6.0  # mm: one bead width of the shipped MPP recipes, used w
 PASS_COS = math.cos(math.radians(30.0))  # a segment within 30° of the path's axis belongs to a pass
 
 
-@dataclass(frozen=True)
 class Entry:
-    """One way into a section path: `name` and the path as it would be deposited."""
+    """One way into a section path: `name` and the path as it would be deposited. The path can be
+    given built, or as `build` (called once, on first use) with its first point and whether its
+    first segment lies inside the section (`head`): the choice reads only those, so the entries it
+    passes over are never built (re-zoning three of four candidates was most of the sequence
+    node's time: bench_replan's 500-layer cross, 1500 paths)."""
 
-    name: str
-    path: SectionPath
+    __slots__ = ("name", "_path", "_build", "_head")
+
+    def __init__(
+        self,
+        name: str,
+        path: SectionPath | None = None,
+        *,
+        build: Callable[[], SectionPath] | None = None,
+        head: tuple[np.ndarray, bool] | None = None,
+    ) -> None:
+        if path is None and (build is None or head is None):
+            raise ValueError("an Entry needs its path, or a build and its head")
+        self.name = name
+        self._path = path
+        self._build = build
+        self._head = head
+
+    @property
+    def path(self) -> SectionPath:
+        if self._path is None:
+            self._path = cast(Callable[[], SectionPath], self._build)()
+            self._build = None
+        return self._path
 
     @property
     def ignition(self) -> np.ndarray:
+        if self._head is not None:
+            return np.asarray(self._head[0], dtype=float)
         return np.asarray(self.path.points[0], dtype=float)
 
     @property
     def in_stock(self) -> bool:
+        if self._head is not None:
+            return not self._head[1]
         return bool(len(self.path.inside)) and not bool(self.path.inside[0])
+
+    def __repr__(self) -> str:
+        return f"Entry({self.name!r})"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -177,6 +208,11 @@ def rethread_path(sp: SectionPath) -> SectionPath | None:
     runs = _passes(sp)
     if runs is None:
         return None
+    return _rethread(sp, runs)
+
+
+def _rethread(sp: SectionPath, runs: list[tuple[int, int]]) -> SectionPath:
+    """`rethread_path` on the passes `_passes` found."""
     pts, arc, ins, spd = (np.asarray(x) for x in (sp.points, sp.arc, sp.inside, sp.speed))
     zone = list(sp.zone) if sp.zone else [""] * len(arc)
     ax = None if sp.tool_axis is None else np.asarray(sp.tool_axis)
@@ -236,14 +272,31 @@ OWN_SEAM = frozenset({"helical", "aligned", "scattered", "perimeter"})
 
 
 def entries(sp: SectionPath) -> list[Entry]:
-    """The open-path entries of `sp` (closed loops: see `rotate_loop`)."""
+    """The open-path entries of `sp` (closed loops: see `rotate_loop`). Each but `planned` is built
+    on first use of its path; its ignition and stock test are read off `sp` (the first point and
+    the first segment's `inside` of the path it builds: re-zoning only adds vertices inside
+    segments, so neither moves)."""
     out = [Entry("planned", dataclasses.replace(sp, approach=None))]
     if sp.strategy in OWN_SEAM or sp.tool or len(sp.points) < 2:
         return out
-    out.append(Entry("reversed", reverse_path(sp)))
-    re = rethread_path(sp)
-    if re is not None:
-        out += [Entry("rethreaded", re), Entry("rethreaded-reversed", reverse_path(re))]
+    pts, ins = np.asarray(sp.points), np.asarray(sp.inside, dtype=bool)
+    out.append(Entry("reversed", build=lambda: reverse_path(sp), head=(pts[-1], bool(ins[-1]))))
+    runs = _passes(sp)
+    if runs is not None:
+        built: list[SectionPath] = []
+
+        def re() -> SectionPath:
+            if not built:
+                built.append(_rethread(sp, runs))
+            return built[0]
+
+        # the re-threaded path starts at the far end of the first pass (its last segment, run
+        # backwards) and ends at the near end of the last pass (its first segment)
+        (_, b0), (a1, _) = runs[0], runs[-1]
+        out += [
+            Entry("rethreaded", build=re, head=(pts[b0], bool(ins[b0 - 1]))),
+            Entry("rethreaded-reversed", build=lambda: reverse_path(re()), head=(pts[a1], bool(ins[a1]))),
+        ]
     return out
 
 
