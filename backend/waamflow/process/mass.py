@@ -15,11 +15,11 @@ centre distance where the path has neighbouring passes, or None for a single bea
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
+from ..core.memo import Memo
 from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM, deposit_rate_mm3_s
 
 #: A pass counts as having a neighbour where another part of the path (more than 2 bead widths
@@ -76,6 +76,10 @@ def feed_ratio(
     return wire_per_mm(wfs_m_min, ts_mm_s, diameter_mm, efficiency) / deposit_mm3_per_mm
 
 
+#: Section paths whose step is remembered per process (`core.memo`): a part's layers repeat them.
+_STEPS: Memo[float | None] = Memo(1024)
+
+
 def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | None:
     """Centre distance of a section path's neighbouring passes (mm), or None for a single bead.
 
@@ -85,29 +89,34 @@ def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | N
     NEIGHBOUR_SHARE of the path, the step is the area the passes cover (the union of the arc-ON
     runs widened to w: flat ends, round corners) over the arc-ON length — the spacing for parallel passes,
     area per length for an oscillation — at most w. Otherwise None (a single bead).
+    The same path (x, y and arc bytes for bytes) and width are measured once per process.
     """
+    pts = np.ascontiguousarray(np.asarray(points, dtype=float)[:, :2])
+    on = np.ascontiguousarray(np.asarray(arc, dtype=bool))
+    if len(pts) < 2 or not on.any() or width_mm <= 0:
+        return None
+    key = (len(pts), pts.tobytes(), on.tobytes(), float(width_mm))
+    return _STEPS.get(key, lambda: _path_step(pts, on, float(width_mm)))
+
+
+def _path_step(pts: np.ndarray, on: np.ndarray, width_mm: float) -> float | None:
     from scipy.spatial import cKDTree
     from shapely.geometry import LineString
     from shapely.ops import unary_union
 
-    pts = np.asarray(points, dtype=float)[:, :2]
-    on = np.asarray(arc, dtype=bool)
-    if len(pts) < 2 or not on.any() or width_mm <= 0:
-        return None
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     total = float(seg[on].sum())
     if total <= 0:
         return None
     h = width_mm / 4.0
-    samples, along, s0 = [], [], 0.0
-    for j in range(len(seg)):
-        if on[j] and seg[j] > 0:
-            n = max(1, int(math.ceil(seg[j] / h)))
-            t = (np.arange(n) + 0.5) / n
-            samples.append(pts[j] + t[:, None] * (pts[j + 1] - pts[j]))
-            along.append(s0 + t * seg[j])
-        s0 += seg[j]
-    P, S = np.vstack(samples), np.concatenate(along)
+    # every arc-ON segment sampled at the centres of n = ceil(length / h) equal parts
+    s0 = np.concatenate([[0.0], np.cumsum(seg)[:-1]])  # path length at each segment's start
+    idx = np.flatnonzero(on & (seg > 0))
+    n = np.maximum(1, np.ceil(seg[idx] / h).astype(np.int64))
+    at = np.repeat(idx, n)  # the segment of each sample
+    t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 0.5) / np.repeat(n, n)
+    P = pts[at] + t[:, None] * (pts[at + 1] - pts[at])
+    S = s0[at] + t * seg[at]
     tree = cKDTree(P)
     reach = NEIGHBOUR_REACH * width_mm
     has = np.zeros(len(P), dtype=bool)
