@@ -185,23 +185,27 @@ def _multiplane_sections(mesh, zs: list[float]) -> list:
 
 def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
     """Closed loops (each (k, 2), first = last) of a plane section's (n, 2, 3) segments: the
-    endpoints merged as trimesh merges them (`unique_rows` at `tol_path.merge_digits`); where every
-    merged point joins exactly two segments the loops are the graph's components, each walked in
-    order by scipy's depth-first search; anything else (a vertex on the plane, an open or branching
+    endpoints merged as trimesh merges them (`unique_rows` at `tol_path.merge_digits`: planecut.py's
+    copy, without importing trimesh); where every merged point joins exactly two segments the loops
+    are the graph's components, each walked in order by scipy's depth-first search; anything else (a vertex on the plane, an open or branching
     section) goes to trimesh's own `load_path`, which this replaced where it can (its graph
     traversal took 8.4 of 14.8 s of the sections of a 1,008,000-triangle vase)."""
-    import trimesh
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components, depth_first_order
-    from trimesh import grouping
-    from trimesh.constants import tol_path
+
+    from .planecut import unique_rows
 
     flat = np.asarray(segs, dtype=float).reshape((-1, 3))
-    unique, inverse = grouping.unique_rows(flat, digits=tol_path.merge_digits)
-    edges = np.asarray(inverse).reshape((-1, 2))
-    edges = np.unique(np.sort(edges[edges[:, 0] != edges[:, 1]], axis=1), axis=0)
+    unique, inverse = unique_rows(flat)
     n = len(unique)
+    e = inverse.reshape((-1, 2))
+    e = e[e[:, 0] != e[:, 1]]
+    # the distinct undirected edges in (low, high) order: np.unique(axis=0) of the sorted pairs
+    key = np.unique(np.minimum(e[:, 0], e[:, 1]) * max(n, 1) + np.maximum(e[:, 0], e[:, 1]))
+    edges = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
     if len(edges) < 3 or not np.all(np.bincount(edges.ravel(), minlength=n) == 2):
+        import trimesh
+
         return list(trimesh.load_path(segs).discrete)
     graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
     n_loops, label = connected_components(graph, directed=False)

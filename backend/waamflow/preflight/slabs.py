@@ -100,19 +100,16 @@ def cut_sections(
     vertices: np.ndarray, faces: np.ndarray, per_plane: Sequence[np.ndarray], zs: Sequence[float]
 ) -> list[Any]:
     """The sections at each z of the faces `per_plane` lists (shapely, even-odd): trimesh's
-    `mesh_plane` on a slab mesh of those faces only (its vertices in ascending index order)."""
-    import trimesh
-
+    `mesh_plane` on a slab mesh of those faces only, as planecut.py computes it."""
     from .check import _chain_loops, _loops_to_geom
+    from .planecut import plane_segments
 
     out: list[Any] = []
     for f, z in zip(per_plane, zs):
         if len(f) == 0:
             out.append(MultiPolygon())
             continue
-        used, local = np.unique(faces[f], return_inverse=True)
-        slab = trimesh.Trimesh(vertices[used], np.asarray(local).reshape((-1, 3)), process=False, validate=False)
-        segs = trimesh.intersections.mesh_plane(slab, [0.0, 0.0, 1.0], [0.0, 0.0, z])
+        segs = plane_segments(vertices, faces[f], z)
         out.append(_loops_to_geom(_chain_loops(segs)) if len(segs) else MultiPolygon())
     return out
 
