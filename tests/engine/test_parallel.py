@@ -237,8 +237,74 @@ def test_the_cost_model_keeps_a_small_recipe_serial_and_sends_the_bench_vase_to_
     # mpp-cross (graphs/): 8 layers of a small mesh -> ~0.05 s, serial
     assert parallel.parallel_work_s(2_000, 8, 1_500) < 0.1
     assert not parallel.wants_workers(2, 2_000, 8, 1_500)
-    assert not parallel.wants_workers(2, 500_000)  # 1.25 s < MIN_PARALLEL_S 1.5 s
-    assert parallel.wants_workers(2, 700_000)
+    assert not parallel.wants_workers(2, 700_000)  # 1.75 s < MIN_PARALLEL_S 2 s
+    assert parallel.wants_workers(2, 900_000)
+    # graphs/bracket.json: 56 triangles, 300 layers, 4,760 path points -> 1.62 s: serial (the
+    # workers lost there at every load measured); the 500-layer cross of bench_replan: parallel
+    assert parallel.parallel_work_s(56, 300, 4_760) == pytest.approx(1.619, abs=1e-3)
+    assert not parallel.wants_workers(2, 56, 300, 4_760)
+    assert parallel.wants_workers(2, 0, 500)
+    assert parallel.WARM_LAYERS == 400  # the layer count alone starts them where the model would
+
+
+def _sleepy_grow(monkeypatch, seconds: float, busy: bool) -> list[int]:
+    """toy-grow's layers take `seconds` each (sleeping, or busy on the CPU); the returned list
+    gets one entry per start of the workers."""
+    import time
+
+    import toy_nodes as toy
+
+    real = toy.ToyGrow.run_layer
+
+    def slow(self, ctx, params, index, items):
+        if busy:  # `seconds` of this thread's CPU, however busy the machine
+            t = time.thread_time()
+            while time.thread_time() - t < seconds:
+                pass
+        else:
+            time.sleep(seconds)
+        return real(self, ctx, params, index, items)
+
+    monkeypatch.setattr(toy.ToyGrow, "run_layer", slow)
+    started: list[int] = []
+    warm = parallel.LayerPool.warm
+
+    def spy(self):
+        if not self.started:
+            started.append(1)
+        return warm(self)
+
+    monkeypatch.setattr(parallel.LayerPool, "warm", spy)
+    monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.3)
+    monkeypatch.setattr(parallel, "COST_LAYER_S", 0.0)  # the first layers' time alone decides
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    return started
+
+
+def _stack_and_grow(count: int):
+    import toy_nodes as toy
+    from waamflow.engine.recipe import parse_recipe
+
+    return build_graph(
+        parse_recipe(
+            toy.recipe(
+                [("stack", "toy-stack", {"count": count}), ("grow", "toy-grow", {})],
+                [("stack.layers", "grow.layers")],
+            )
+        )
+    )
+
+
+def test_the_first_layers_are_timed_in_cpu_seconds_so_a_busy_machine_does_not_start_the_workers(monkeypatch):
+    """30 layers that wait 20 ms each (as a layer does when other processes hold the cores) and
+    use no CPU: 29 × 20 ms = 0.58 s of wall time > 0.3 s, but ~0 s of CPU: serial (the wall
+    clock started the workers here). The same layers busy on the CPU for 20 ms each start them."""
+    started = _sleepy_grow(monkeypatch, 0.02, busy=False)
+    idle = execute(_stack_and_grow(30), resolver=FileResolver("."), workers=2)
+    assert started == [] and idle.executor["tasks"] == 0
+    started = _sleepy_grow(monkeypatch, 0.02, busy=True)
+    busy = execute(_stack_and_grow(30), resolver=FileResolver("."), workers=2)
+    assert started == [1] and busy.artifacts == idle.artifacts
 
 
 def test_file_triangles_is_exact_for_binary_stl_and_a_bound_otherwise():

@@ -12,12 +12,13 @@ now and then; the fork server starts from a clean interpreter once per process, 
 kernels once, and forks the workers from it (a fork is cheap: nothing is imported again).
 
 Whether to go parallel is decided by measurement, not by a guess: the first uncached layers of
-a node are computed in the parent and timed. When the rest is expected to take longer than
-`MIN_PARALLEL_S`, the workers are started (`warm`) in a background thread, so the fork server's
-imports and the forks overlap the parent, which goes on computing layers itself until they are
-up; then the remaining layers go to them (`map_layers`). A run whose layered value has
-`WARM_LAYERS` layers or more, with layer nodes to come, starts them right then instead, so their
-start-up overlaps the first layer nodes. Once they are up, later nodes hand them
+a node are computed in the parent and timed (CPU seconds of its thread: other processes on a busy
+machine slow its wall clock, and going parallel then would cost the most). When the rest is
+expected to take longer than `MIN_PARALLEL_S`, the workers are started (`warm`) in a background
+thread, so the fork server's imports and the forks overlap the parent, which goes on computing
+layers itself until they are up; then the remaining layers go to them (`map_layers`). A run
+whose layered value has `WARM_LAYERS` layers or more, with layer nodes to come, starts them
+right then instead, so their start-up overlaps the first layer nodes. Once they are up, later nodes hand them
 their layers whenever the rest is worth `WARM_MIN_PARALLEL_S` (only the round trips cost).
 Results are the same objects either way, so artifacts are byte-identical to a serial run.
 
@@ -55,13 +56,18 @@ from .node import Context
 if TYPE_CHECKING:  # executor imports this module
     from .executor import FileResolver
 
-MIN_PARALLEL_S = 1.5  # expected serial seconds of a node's remaining layers that start the workers
-# (the fork server imports the kernels once: ~0.7 s of CPU, on another core)
+MIN_PARALLEL_S = 2.0  # expected serial CPU seconds of shareable work that start the workers
+# Starting them is not free: the fork server imports the kernels (~0.7 s of CPU), the workers fork,
+# artifacts and layers are pickled both ways. graphs/bracket.json (56 triangles, 300 layers, 4,760
+# path points: 1.62 s by the cost model) started them at 1.5 and lost at every load measured
+# (2026-11-26, load 4-6, medians of 3 interleaved CLI runs: 2 workers 8.14 s wall / 3.55 s CPU
+# against 1 worker 4.11 s / 2.19 s; the workers got no layer: the parent had done them all by
+# the time they were up). The 500-layer cross (2.5 s by the model, 10 s serial) and the bench
+# vases (3.2 s) still start them.
 WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
-WARM_LAYERS = 200  # a layered value this long (and layer nodes to come) starts the workers at once
+TIMING_S = 0.05  # the parent computes (and times, in CPU seconds of its thread) uncached layers this long first
 BACKGROUND_START = True  # False (tests): `warm` waits for the workers, so who computes what is fixed
 PRELOAD = ["waamflow.engine.warm"]  # not trimesh: see warm.py
-TIMING_S = 0.05  # the parent computes (and times) uncached layers for this long first
 CHUNKS_PER_WORKER = 4  # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
 DASK_CONNECT_S = 10.0  # seconds to reach the scheduler before the run fails
@@ -74,6 +80,10 @@ DASK_CONNECT_S = 10.0  # seconds to reach the scheduler before the run fails
 COST_TRIANGLE_S = 2.5e-6
 COST_LAYER_S = 5e-3
 COST_POINT_S = 2.5e-5
+# A layered value this long (and layer nodes to come) starts the workers at once: as many layers
+# as the cost model needs to reach MIN_PARALLEL_S (400; it was 200, which started them for the
+# bracket's 300 layers whatever the cost model said).
+WARM_LAYERS = round(MIN_PARALLEL_S / COST_LAYER_S)
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".3mf")  # files whose size says how many triangles
 
 
@@ -99,7 +109,7 @@ def wants_workers(
 ) -> bool:
     """Whether the workers pay for a run of this size: more than one, and more expected serial
     seconds than `min_s` (default `MIN_PARALLEL_S`, read at the call: starting them costs ~0.7 s
-    of CPU on another core)."""
+    of CPU on another core, and more in pickling, see MIN_PARALLEL_S)."""
     limit = MIN_PARALLEL_S if min_s is None else min_s
     return workers > 1 and parallel_work_s(triangles, layers, points) > limit
 
