@@ -273,3 +273,185 @@ def test_the_program_carries_the_lean_the_plan_chose(tmp_path, monkeypatch):
         post_node, "positioner_and_torch", lambda c, m, *a: (real(c, m, *a)[0], np.asarray(m.tool_axis, float))
     )
     assert dat() != leaned
+
+
+# ---- along-layer angles (follow-normal, follow-turn) ------------------------------------------
+RING_MM = 1200.0  # kr150_tilt_rotate reaches a ring of 900 mm around from one side, not 1200
+RING_POINTS = 120  # 3° of azimuth per segment
+
+
+def _moves_of(layers, speed=10.0):
+    """Moves of layers given as (points (k, 3), tool axes (k, 3)) part frame: one lap each, arc ON,
+    joined by an arc-OFF travel (what `flatten` makes of one section a layer)."""
+    from waamflow.core.moves import Moves
+
+    pts, axes, arc, lay = [], [], [], []
+    for L, (P, A) in enumerate(layers):
+        if pts:
+            arc.append(False)
+            lay.append(L)
+        pts.extend(P)
+        axes.extend(A)
+        arc.extend([True] * (len(P) - 1))
+        lay.extend([L] * (len(P) - 1))
+    arc = np.array(arc)
+    return Moves(
+        points=np.array(pts, float),
+        tool_axis=np.array(axes, float),
+        kind=arc.astype(np.int8),
+        arc=arc,
+        inside=arc.copy(),
+        speed=np.where(arc, speed, np.nan),
+        layer=np.array(lay, np.int32),
+        section=np.array(lay, np.int32),
+        zone=np.where(arc, 0, -1).astype(np.int32),
+        dwell_before=np.zeros(len(pts)),
+        section_keys=tuple(f"L{L}" for L in range(len(layers))),
+        zone_ids=("",),
+        zone_params={(L, 0): {} for L in range(len(layers))},
+        layer_z={L: 2.5 * (L + 1) for L in range(len(layers))},
+    )
+
+
+def _ring(radius=RING_MM, n=RING_POINTS, layers=2, alternate=True):
+    """A thin-walled ring of `radius` about the turntable axis, one closed lap a layer starting on
+    the robot's side (−x), the torch straight down; the laps alternate CCW / CW from above (else
+    all CCW)."""
+    t = np.linspace(np.pi, 3 * np.pi, n + 1)
+    return _moves_of(
+        [
+            (
+                np.c_[radius * np.cos(u), radius * np.sin(u), np.full(n + 1, 2.5 * (L + 1))],
+                np.tile([0, 0, -1.0], (n + 1, 1)),
+            )
+            for L in range(layers)
+            for u in [t[::-1] if alternate and L % 2 else t]
+        ]
+    )
+
+
+def _point_tilt(cell, moves, angles):
+    """Per arc-ON point, how far its own layer normal (−tool axis) is from world vertical (deg)."""
+    from waamflow.trajectory.cell import to_world
+
+    _, w = to_world(cell, moves.points, moves.tool_axis, angles)
+    tilt = np.degrees(np.arccos(np.clip(-w[:, 2] / np.linalg.norm(w, axis=1), -1.0, 1.0)))
+    on = np.zeros(len(moves.points), bool)
+    on[:-1] |= moves.arc
+    on[1:] |= moves.arc
+    return tilt[on]
+
+
+@pytest.fixture(scope="module")
+def ring():
+    return _ring()
+
+
+def test_follow_turn_welds_a_ring_the_arm_cannot_reach_around(ring, monkeypatch):
+    """A 1200 mm ring on kr150_tilt_rotate: at any fixed E2 its far side is 2700 mm from the
+    robot's base, out of reach, so every per-layer choice fails on layer 0 (the plan without the
+    along-layer stages names it); `follow-turn` turns the turntable along each lap so each point
+    is welded 30° off the robot's side: every layer plans, E1 stays 0, E2 spans 360° in a layer,
+    turns 3° (360°/120) between consecutive points at 0.48°/s (10 mm/s on R 1200 mm; the
+    turntable's 180°/s), each lap starts where the last ended (the laps alternate CCW / CW), and
+    the simulation has 0 unreachable, 0 collisions, 0 limit and 0 singular stretches. Laps all
+    CCW would need the turntable to unwind 360° on the travel (limits ±360°) with the torch
+    following the part round: the plan fails on layer 1 and says so."""
+    from waamflow.trajectory import cellfollow
+
+    cell = load_cell("kr150_tilt_rotate")
+    with monkeypatch.context() as mp:
+        mp.setattr(cellfollow, "FOLLOW_STAGES", ())
+        per_layer = plan_auto(cell.load_meshes(), ring, _arm(cell), suggest=False)
+    assert not per_layer.ok and per_layer.failed["layer"] == 0 and per_layer.failed["best"]["unreachable"] >= 1
+    plan = plan_auto(cell, ring, _arm(cell), suggest=False)
+    assert plan.ok and [r["stage"] for r in plan.layers] == ["follow-turn", "follow-turn"]
+    assert np.abs(plan.angles[:, 0]).max() < 1e-9
+    lay = np.concatenate([ring.layer[:1], ring.layer])
+    for L in (0, 1):
+        e2 = plan.angles[lay == L, 1]
+        assert e2.max() - e2.min() == pytest.approx(360.0, abs=1e-6)
+        assert np.abs(np.diff(e2)).max() == pytest.approx(360.0 / RING_POINTS, abs=1e-6)
+        assert plan.layers[L]["e_span_deg"] == [0.0, pytest.approx(360.0, abs=1e-3)]
+        assert plan.layers[L]["axis_speed_deg_s"] == pytest.approx(10.0 / RING_MM * 180 / np.pi, rel=1e-3)
+        assert plan.layers[L]["axis_speed_limit_deg_s"] == pytest.approx(180.0, abs=0.01)
+    assert plan.angles[RING_POINTS + 1, 1] == pytest.approx(plan.angles[RING_POINTS, 1], abs=1e-9)
+    assert -360.0 <= plan.angles[:, 1].min() and plan.angles[:, 1].max() <= 360.0
+    sim = _sim(cell, ring)
+    assert [r["stage"] for r in sim["positioner_plan"]["layers"]] == ["follow-turn", "follow-turn"]
+    assert sim["unreachable_stretches"] == 0 and sim["collision_count"] == 0
+    assert sim["joint_limit_stretches"] == 0 and sim["near_singular_stretches"] == 0
+    assert sim["axis_speed_stretches"] == 0 and sim["axis_limit_stretches"] == 0
+    one_way = plan_auto(cell, _ring(alternate=False), _arm(cell), suggest=False)
+    assert not one_way.ok and one_way.failed["layer"] == 1
+    assert (
+        "along the layer: follow-turn" in one_way.failed["message"] and "on the travel in" in one_way.failed["message"]
+    )
+
+
+def test_follow_normal_brings_every_point_of_a_spread_layer_flat():
+    """A 300 mm straight layer whose tool axis turns from 25° to −25° about x along it (two such
+    layers): no single set of angles keeps all its points within 5° of flat (the mean normal's
+    gravity angles leave the ends 25° off). `follow-normal` turns the table along the layer, each
+    point at its own normal's gravity angles: every arc point within 1e-6° of flat (≤ flat_tol),
+    E1 spanning 50° along a layer, and the simulation clean (0 unreachable, 0 collisions)."""
+    th = np.radians(np.linspace(25.0, -25.0, 31))
+    y = np.linspace(-150.0, 150.0, 31)
+    layers = [
+        (np.c_[np.zeros(31), y, np.full(31, 2.5 * (L + 1))], -np.c_[np.zeros(31), np.sin(th), np.cos(th)])
+        for L in range(2)
+    ]
+    moves = _moves_of(layers)
+    cell = load_cell("kr150_tilt_rotate")
+    plan = plan_auto(cell, moves, _arm(cell), suggest=False)
+    assert plan.ok and [r["stage"] for r in plan.layers] == ["follow-normal", "follow-normal"]
+    tilt = _point_tilt(cell, moves, plan.angles)
+    assert tilt.max() <= 1e-6 <= AutoLimits().flat_tol_deg
+    assert max(r["tilt_deg"] for r in plan.layers) <= 1e-6
+    e = plan.angles[:31]
+    assert e.max(axis=0)[0] - e.min(axis=0)[0] == pytest.approx(50.0, abs=1e-6)
+    sim = _sim(cell, moves)
+    assert sim["unreachable_stretches"] == 0 and sim["collision_count"] == 0
+    assert sim["joint_limit_stretches"] == 0 and sim["near_singular_stretches"] == 0
+
+
+def test_follow_turn_angles_reach_the_krl_program(ring):
+    """The program carries the plan's per-point E2: KRL E6POS targets in program order have E2
+    varying along each lap (120 distinct values a layer) equal to the plan's within 1e-3°."""
+    import re
+
+    from waamflow.program import post_process
+    from waamflow.program.krl import KrlSettings
+    from waamflow.program.plan import PlanSettings
+    from waamflow.trajectory.cell import positioner_and_torch
+
+    cell = load_cell("kr150_tilt_rotate")
+    angles, torch = positioner_and_torch(cell, ring, "auto")
+    prog = post_process(ring, "krl", PlanSettings(arc_tolerance=0.0), KrlSettings(external_axes=angles))
+    dat = prog.files["dat"]
+    decl = dict(re.findall(r"DECL E6POS (P\d+)=\{[^}]*,E2 ([-\d.]+),", dat))
+    order = re.findall(r"^\s*(?:LIN|PTP) (P\d+)", prog.files["src"], re.M)
+    e2 = np.array([float(decl[p]) for p in order])
+    assert len(e2) == len(ring.points)
+    np.testing.assert_allclose(e2, angles[:, 1], atol=1e-3)
+    assert len(np.unique(np.round(e2[: RING_POINTS + 1], 3))) == RING_POINTS + 1
+
+
+def test_curved_bracket_plans_as_before_on_its_planar_layers():
+    """The shipped curved-bracket (first 6 layers) on its ABB cell under `auto`: its fan layers
+    are planar (every point's tool axis the layer's, spread 0°), so every layer passes at its
+    gravity angles (no follow-* stage) and the plan's angles equal the gravity policy's exactly,
+    as before the along-layer stages (the duct: test_auto_takes_the_gravity_angles_where_they_work)."""
+    recipe = json.loads((GRAPHS / "curved-bracket.json").read_text())
+    recipe["inputs"]["layer_count"] = 6
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] not in ("post", "sim")]
+    recipe["edges"] = [e for e in recipe["edges"] if not ({e["from"][:4], e["to"][:4]} & {"post", "sim."})]
+    moves = flatten(
+        execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(GRAPHS)).outputs["bead"]["toolpath"]
+    )
+    cell = load_cell("irb4600_tilt_rotate")
+    plan = plan_auto(cell.load_meshes(), moves, _arm(cell))
+    assert plan.ok and [r["stage"] for r in plan.layers] == ["gravity"] * 6
+    assert "e_span_deg" not in plan.layers[0] and max(r["tilt_deg"] for r in plan.layers) < 1e-3
+    assert np.array_equal(plan.angles, plan_positioner(cell, moves, "gravity")[0])
+    assert np.array_equal(plan.tool_axis, np.asarray(moves.tool_axis, float))

@@ -16,10 +16,23 @@ samples, IK seed and collision spacing as the simulation's — and the first tha
 3. `lean`: the gravity angles with the torch leaned up to `max_lean_deg` from the layer normal
    (5° steps, towards ±x / ±y of the world);
 4. `tilt-relax`: the tilt backed off the gravity angle by up to the flat tolerance (the layer no
-   longer flat, within tolerance), with and without the lean.
+   longer flat, within tolerance), with and without the lean;
+5. `follow-normal` (`trajectory.cellfollow`): the angles vary along the layer, each point at the
+   gravity angles of its own normal — a layer whose points' tool axes spread so that no single
+   set of angles keeps every point within the flat tolerance;
+6. `follow-turn` (2-axis positioners): the tilt at the gravity angle and the turntable turning
+   along the layer so each point is welded at a fixed azimuth on the robot's side (0°, ±30°, ±60°
+   off it) — a layer whose far side the arm cannot reach (or reaches colliding) at any fixed angle.
+
+Stages 1-4 keep one set of angles for the whole layer; they count only when every point of the
+layer (its own normal, not just the mean) stays within the flat tolerance. After a layer took a
+`follow-*` stage the next tries that stage right after its gravity angles. A layer that follows
+reports the angles at its first point, their span and the fastest positioner axis rate the
+programmed speed needs against the URDF's (above it the simulation slows the path there).
 
 A layer whose normal no positioner angle brings within the flat tolerance (a 1-axis positioner and
-a part that leans about the other axis) fails before any IK. When a layer has no passing candidate
+a part that leans about the other axis; for a layer whose normals spread, the point the worst off
+at its own best angles) fails before any IK. When a layer has no passing candidate
 the plan stops there with the best compromise (fewest failing samples) and, when asked, tries
 cell changes — a riser under the part, a longer torch, the robot base moved away from the
 positioner, a shipped 2-axis cell with the same arm, the part turned on a 1-axis table — re-running
@@ -34,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import cellfollow as follow
 from .cell import Cell, _gravity_solutions, _rz, _sp1, positioner_kin, xyz3
 
 # the suggested cell changes moved to trajectory.cellchanges (issue 27): still importable from here
@@ -47,6 +61,7 @@ PLAN_LIMIT_MARGIN_DEG = 2.0  # a planned pose keeps every arm joint this far ins
 PLAN_CLEARANCE_MM = 2.0  # ... and every body this far from the others
 LEAN_STEP_DEG = 5.0
 E2_STEPS_DEG = tuple(d for k in range(1, 13) for d in (15.0 * k, -15.0 * k))
+SPREAD_EPS_DEG = follow.SPREAD_EPS_DEG
 
 
 @dataclass(frozen=True)
@@ -191,7 +206,7 @@ class _Planner:
         for k, e in enumerate(grav):
             if fresh(e, 0.0, 0.0):
                 yield "gravity", e, 0.0, 0.0, "layer flat" + (" (other branch)" if k else "")
-        if last and last["stage"] != "gravity" and grav:  # what worked on the layer before
+        if last and last["stage"] in ("e2-turn", "lean", "tilt-relax") and grav:  # what worked on the layer before
             e = base.copy()
             if last["stage"] == "tilt-relax":
                 e[0] = base[0] + last["relax_deg"]
@@ -245,7 +260,8 @@ class _Planner:
     # ---- verification ----------------------------------------------------------------------
     def check(self, a: int, b: int, e, lean: float, d: float, q_seed, first=None):
         """IK + limits + singularities + collisions on points a..b (the layer's segments, its
-        travel in included) at angles e with the lean; first: (angles, lean, direction) of point a
+        travel in included) at angles e ((axes,), or (b - a + 1, axes) per point) with the lean;
+        first: (angles, lean, direction) of point a
         when it ends the previous layer's arc (the travel turns from there, as in the simulation).
         The samples, their IK seed and the collision spacing are the simulation's, so its verdict
         on the chosen angles is the same."""
@@ -254,9 +270,15 @@ class _Planner:
         from .kinematics import REACH_TOL_MM, SINGULAR_SIGMA, CellFrames, solve_samples
 
         cell = self.cell
-        R, t = cell.work_pose(e)
-        ax = self.A[a : b + 1] @ (R.T @ _lean_rot(lean, d) @ R).T
-        ang = np.tile(e, (b - a + 1, 1))
+        e = np.asarray(e, float)
+        if e.ndim == 2:  # per point (the follow-* stages: no lean)
+            if lean:
+                raise ValueError("a per-point positioner plan takes no torch lean")
+            ax, ang = self.A[a : b + 1].copy(), e.copy()
+        else:
+            R = cell.work_pose(e)[0]
+            ax = self.A[a : b + 1] @ (R.T @ _lean_rot(lean, d) @ R).T
+            ang = np.tile(e, (b - a + 1, 1))
         if first is not None:
             e0, lean0, d0 = first
             R0 = cell.work_pose(e0)[0]
@@ -360,50 +382,29 @@ def plan_auto(
         chosen: dict[int, tuple] = {}
         prev, q_seed, last = fixed.copy(), arm.home.copy(), None
         for L in layers if only is None else [only]:
-            segs, nrm, _ = info[L]
             own = np.flatnonzero(seg_layer == L)  # with the travel into the layer
             a, b = int(own.min()), int(own.max()) + 1
-            first = chosen.get(int(seg_layer[a - 1])) if a > 0 and arc[a - 1] else None
-            best, tried, first_fail = None, 0, None
-            for stage, e, lean, d, note in pl.candidates(nrm, prev, last, quick=quick):
-                tried += 1
-                res, q_end = pl.check(a, b, e, lean, d, q_seed, first)
-                if _bad(res) == 0:
-                    best = (stage, e, lean, d, note, res, q_end)
-                    break
-                if first_fail is None:
-                    first_fail = f"{note}: {_why(res)}"
-                if best is None or _bad(res) < _bad(best[5]):
-                    best = (stage, e, lean, d, note, res, None)
+            before = int(seg_layer[a - 1]) if a > 0 and arc[a - 1] else None
+            first = _at(chosen[before], a) if before in chosen else None
+            best, tried, first_fail, along = _search(pl, a, b, info[L][1], prev, last, q_seed, first, quick)
             if best is None or best[6] is None:
                 plan.ok = False
-                plan.failed = _no_candidate(L, tried, best)
+                plan.failed = _no_candidate(L, tried, best, along)
                 break
             stage, e, lean, d, note, res, q_end = best
-            chosen[L] = (e, lean, d)
-            tilt = pl.tilt(e, nrm)
-            plan.layers.append(
-                {
-                    "layer": int(L),
-                    "stage": stage,
-                    "e_deg": [round(float(v), 4) for v in e],
-                    "lean_deg": lean,
-                    "lean_dir_deg": d if lean else 0.0,
-                    "tilt_deg": round(tilt, 3),
-                    "tried": tried,
-                    "why": note
-                    if tried == 1
-                    else f"{note} ({tried - 1} cheaper choices failed, the first: {first_fail})",
-                }
-            )
+            chosen[L] = (e, lean, d, a if np.ndim(e) == 2 else None)
+            why = note if tried == 1 else f"{note} ({tried - 1} cheaper choices failed, the first: {first_fail})"
+            plan.layers.append(_row(pl, L, a, b, best, tried, why, info[L][1]))
             last = {
                 "stage": stage,
                 "note": note.removeprefix("as the previous layer: "),
                 "lean_deg": lean,
                 "lean_dir_deg": d,
-                "relax_deg": float(e[0] - (pl.gravity(nrm, prev) or [e])[0][0]) if stage == "tilt-relax" else 0.0,
+                "relax_deg": float(e[0] - (pl.gravity(info[L][1], prev) or [e])[0][0])
+                if stage == "tilt-relax"
+                else 0.0,
             }
-            prev, q_seed = e, q_end
+            prev, q_seed = (e[-1] if np.ndim(e) == 2 else e), q_end
         if plan.ok and only is None:
             _apply(plan, pl, chosen)
     if not plan.ok and suggest:
@@ -413,10 +414,85 @@ def plan_auto(
     return plan
 
 
+def _search(pl: _Planner, a: int, b: int, nrm, prev, last, q_seed, first, quick: bool):
+    """The first candidate of the layer on points a..b that passes `check` (best: (stage, angles,
+    lean, direction, note, result, arm pose at the end)), else the best compromise (its pose
+    None); the number tried, the first failure's note and, on a failure, the best along-layer
+    candidate's (None when none was tried)."""
+    best, tried, first_fail, along = None, 0, None, None
+    for stage, e, lean, d, note in _layer_candidates(pl, a, b, nrm, prev, last, quick):
+        tried += 1
+        res, q_end = pl.check(a, b, e, lean, d, q_seed, first)
+        if _bad(res) == 0:
+            return (stage, e, lean, d, note, res, q_end), tried, first_fail, None
+        if first_fail is None:
+            first_fail = f"{note}: {_why(res)}"
+        if best is None or _bad(res) < _bad(best[5]):
+            best = (stage, e, lean, d, note, res, None)
+        if stage in follow.FOLLOW_STAGES and (along is None or _bad(res) < along[0]):
+            along = (_bad(res), f"{stage}, {note}: {_why(res)}")
+    return best, tried, first_fail, None if along is None else along[1]
+
+
+def _layer_candidates(pl: _Planner, a: int, b: int, nrm, prev, last, quick: bool):
+    """The layer's candidates cheapest first: the per-layer ones (`_Planner.candidates`; on a
+    layer whose normals spread, only those that keep every point within the flat tolerance),
+    then the along-layer ones (`cellfollow.candidates`); the previous layer's follow stage right
+    after the gravity angles."""
+    normals = follow.point_normals(pl, follow.arc_points(pl, a, b))
+    spread = follow.spread_deg(normals)
+    again = last["stage"] if last and last["stage"] in follow.FOLLOW_STAGES and not quick else None
+    done: set = set()
+
+    def along(stages, azimuths=follow.FOLLOW_AZIMUTHS_DEG):
+        for c in follow.candidates(pl, a, b, nrm, prev, stages, spread, azimuths):
+            if (c[0], c[3]) not in done:
+                done.add((c[0], c[3]))
+                yield c
+
+    for c in pl.candidates(nrm, prev, last, quick=quick):
+        if again and c[0] != "gravity":
+            yield from along((again,), (last["lean_dir_deg"],))
+            again = None
+        if spread > SPREAD_EPS_DEG and follow.point_tilts(pl, c[1], normals).max() > pl.lim.flat_tol_deg + 1e-6:
+            continue  # one set of angles leaves some point of this layer off flat
+        yield c
+    if again:
+        yield from along((again,), (last["lean_dir_deg"],))
+    if not quick:
+        yield from along(follow.FOLLOW_STAGES)
+
+
+def _at(entry: tuple, i: int) -> tuple:
+    """(angles, lean, direction) of point i under a chosen layer entry (angles, lean, direction,
+    first point index or None when the angles are the layer's)."""
+    e, lean, d, a0 = entry
+    return (e if a0 is None else e[i - a0]), lean, d
+
+
+def _row(pl: _Planner, L: int, a: int, b: int, best: tuple, tried: int, why: str, nrm) -> dict:
+    """The plan report's row of layer L (points a..b) for the chosen candidate."""
+    stage, e, lean, d, _, _, _ = best
+    if np.ndim(e) == 1:
+        return {
+            "layer": int(L),
+            "stage": stage,
+            "e_deg": [round(float(v), 4) for v in e],
+            "lean_deg": lean,
+            "lean_dir_deg": d if lean else 0.0,
+            "tilt_deg": round(pl.tilt(e, nrm), 3),
+            "tried": tried,
+            "why": why,
+        }
+    return follow.row(pl, L, a, b, stage, e, tried, why)
+
+
 def _layer_normals(pl: _Planner, layers: list, fixed: np.ndarray) -> dict:
     """Per layer (in build order): its welding segments (all its segments when it has none), its
     mean normal and the lean from flat (deg) the best positioner angles leave it, each layer's
-    angles sought from the previous layer's."""
+    angles sought from the previous layer's. On a layer whose point normals spread, the lean is
+    the smaller of the mean's and the worst point's at its own best angles (what follow-normal
+    leaves)."""
     seg_layer, arc = pl.seg_layer, pl.arc
     info, prev = {}, fixed.copy()
     for L in layers:
@@ -426,6 +502,14 @@ def _layer_normals(pl: _Planner, layers: list, fixed: np.ndarray) -> dict:
         nrm = -pl.A[segs].mean(axis=0)
         nrm /= max(np.linalg.norm(nrm), 1e-12)
         e, tilt = pl.best_tilt(nrm, prev)
+        if tilt > 1e-6:
+            normals = follow.point_normals(pl, np.unique(np.concatenate([segs, segs + 1])))
+            if follow.spread_deg(normals) > SPREAD_EPS_DEG:
+                cur, worst = prev, 0.0
+                for v in normals:
+                    cur, t = pl.best_tilt(v, cur)
+                    worst = max(worst, t)
+                tilt = min(tilt, worst)
         info[L] = (segs, nrm, tilt)
         prev = e
     return info
@@ -448,9 +532,10 @@ def _flat_failure(steep: list, info: dict, limits: AutoLimits) -> dict:
     }
 
 
-def _no_candidate(L, tried: int, best: tuple | None) -> dict:
+def _no_candidate(L, tried: int, best: tuple | None, along: str | None = None) -> dict:
     """The plan's `failed` entry for layer L when none of its `tried` candidates passes, with the
-    best compromise (stage, angles, lean, lean direction, note, check result), if any."""
+    best compromise (stage, angles — at the layer's first point when they vary along it —, lean,
+    lean direction, note, check result), if any; along: the best along-layer candidate's note."""
     why = _why(best[5]) if best else "no angles inside the axis limits"
     return {
         "layer": int(L),
@@ -460,14 +545,15 @@ def _no_candidate(L, tried: int, best: tuple | None) -> dict:
         if best is None
         else {
             "stage": best[0],
-            "e_deg": [round(float(v), 3) for v in best[1]],
+            "e_deg": [round(float(v), 3) for v in np.atleast_2d(best[1])[0]],
             "lean_deg": best[2],
             "lean_dir_deg": best[3],
             "note": best[4],
             **best[5],
         },
         "message": f"layer {L}: none of {tried} positioner/torch choices passes; best compromise: "
-        + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in best[1])}° ({why})" if best else why),
+        + (f"{best[4]} at E = {', '.join(f'{v:.1f}' for v in np.atleast_2d(best[1])[0])}° ({why})" if best else why)
+        + (f"; along the layer: {along}" if along else ""),
     }
 
 
@@ -477,7 +563,7 @@ def _apply(plan: AutoPlan, pl: _Planner, chosen: dict) -> None:
     lay = pl.seg_layer
     for i in range(n):
         s = i - 1 if i > 0 and pl.arc[i - 1] else min(i, n - 2)
-        e, lean, d = chosen[int(lay[s])]
+        e, lean, d = _at(chosen[int(lay[s])], i)
         plan.angles[i] = e
         if lean:
             R = pl.cell.work_pose(e)[0]
