@@ -99,3 +99,20 @@ def test_cli_run_with_scheduler(cluster, always_parallel, tmp_path, monkeypatch,
     monkeypatch.setattr(parallel, "DASK_CONNECT_S", 0.5)
     assert main(["run", str(GRAPHS / "mpp-slotted-wall.json"), "--out", str(tmp_path / "o2"), "--no-cache"]) == 2
     assert "cannot reach the Dask scheduler at 'tcp://127.0.0.1:8208'" in capsys.readouterr().err
+
+
+def test_the_preflight_checks_the_layers_on_the_cluster_with_the_same_report(cluster, always_parallel, monkeypatch):
+    """The preflight's slab checks and the conservation read-backs go to the cluster (`DaskWorkers`):
+    in the parent they were most of what a Dask run took more than a local one (bench_replan)."""
+    mapped, submitted = [], []
+    pmap, psubmit = parallel.DaskWorkers.map, parallel.DaskWorkers.submit
+    monkeypatch.setattr(parallel.DaskWorkers, "map", lambda self, fn, it: mapped.append(len(it)) or pmap(self, fn, it))
+    monkeypatch.setattr(
+        parallel.DaskWorkers, "submit", lambda self, fn, it: submitted.append(fn.__name__) or psubmit(self, fn, it)
+    )
+    serial = _run("mpp-cross", workers=1)
+    dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
+    assert mapped and sum(mapped) >= 2  # the layers' slab checks
+    assert submitted == ["read_back_changes"]
+    assert dask.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
+    assert dask.preflight == serial.preflight

@@ -456,3 +456,38 @@ def test_the_fork_server_preloads_the_nodes_without_trimesh():
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120).stdout.split()
     assert out == ["False", "True"]
+
+
+def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_parallel, monkeypatch, tmp_path):
+    """A 40-layer cross: the sequence node's runs of layers go to the workers (the parent sequences
+    none itself: every guess is the chain's), the conservation check's read-backs too; the
+    artifacts are the serial run's byte for byte."""
+    from waamflow.engine.recipe import apply_overrides, parse_set
+    from waamflow.preflight import conserve
+    from waamflow.sequencing import layer_path
+
+    here = []
+    real = layer_path.sequence_layer
+    monkeypatch.setattr(layer_path, "sequence_layer", lambda *a, **k: here.append(1) or real(*a, **k))
+    submitted = []
+    submit = parallel.RunWorkers.submit
+    monkeypatch.setattr(
+        parallel.RunWorkers, "submit", lambda self, fn, it: submitted.append(fn) or submit(self, fn, it)
+    )
+    recipe = apply_overrides(
+        load_recipe(GRAPHS / "mpp-cross.json"), parse_set(["layers.layer_height=0.3", "layers.layer_count=40"])
+    )
+
+    def run(workers):
+        return execute(build_graph(recipe), resolver=FileResolver(GRAPHS), cache=MemoryCache(), workers=workers)
+
+    serial = run(1)
+    assert len(here) == 40
+    here.clear()
+    par = run(2)
+    assert here == []  # the workers sequenced every layer (in forked processes: not counted here)
+    assert submitted == [conserve.read_back_changes]
+    assert sorted(par.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert par.artifacts[k] == serial.artifacts[k], k
+    assert par.warnings == serial.warnings

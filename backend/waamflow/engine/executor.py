@@ -298,6 +298,13 @@ class RunContext(Context):
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0) -> list[Any]:
         """`Context.map` in the run's workers when they are up (never waiting for them to start)
         and the cost model says it pays (`parallel.wants_workers` against the warm threshold)."""
+        got = self.map_in_workers(fn, items, layers=layers, points=points)
+        return [fn(x) for x in items] if got is None else got
+
+    def map_in_workers(
+        self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0
+    ) -> list[Any] | None:
+        """`Context.map_in_workers`: the map in the workers under `map`'s conditions, else None."""
         pool = self._run.pool
         if (
             isinstance(pool, LayerPool)
@@ -307,7 +314,7 @@ class RunContext(Context):
             and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s)
         ):
             return parallel.RunWorkers(pool).map(fn, items)
-        return [fn(x) for x in items]
+        return None
 
 
 def run_date_utc() -> str:
@@ -953,11 +960,16 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     """The preflight of a full run (`waamflow.preflight`) and the seconds it took (for the summary
     only: the artifacts stay reproducible); the report is also the artifact `preflight.json`. An
     internal error of the check itself is a failed check, never a silent pass. The run's workers,
-    when started, check the layers of a large part (the report is the same)."""
+    when started (a Dask cluster's: always), check the layers of a large part and read back what
+    the conservation check compares (the report is the same)."""
     from ..preflight import run_preflight
 
     pool = run.pool
-    workers = parallel.RunWorkers(pool) if isinstance(pool, LayerPool) and pool.enabled and pool.started else None
+    workers: parallel.RunWorkers | parallel.DaskWorkers | None = None
+    if isinstance(pool, LayerPool) and pool.enabled and pool.started:
+        workers = parallel.RunWorkers(pool)
+    elif isinstance(pool, DaskPool):  # the cluster's workers run already
+        workers = parallel.DaskWorkers(pool)
     t0 = time.perf_counter()
     try:
         report = run_preflight(

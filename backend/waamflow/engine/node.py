@@ -246,6 +246,14 @@ class Context:
         are the same either way."""
         return [fn(x) for x in items]
 
+    def map_in_workers(
+        self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0
+    ) -> list[Any] | None:
+        """`map` when it would run in the run's layer workers; None when it would run here. For
+        speculative work, which pays only beside the node's own (the sequence node's runs of
+        layers)."""
+        return None
+
 
 # ---- registry ----------------------------------------------------------------------------------
 REGISTRY: dict[str, type[Node]] = {}

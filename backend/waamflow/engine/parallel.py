@@ -39,6 +39,8 @@ node; the run collects them in node order at its end.
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
 whole inputs are scattered to the cluster once per node, not once per chunk; artifacts are
 written by the run itself (sending whole outputs to the cluster costs more than writing them).
+The preflight's layer checks and read-backs go to the cluster as they go to local workers
+(`DaskWorkers`, `RunWorkers`): run in the parent, they were most of what a Dask run took more.
 """
 
 from __future__ import annotations
@@ -435,6 +437,52 @@ class RunWorkers:
         except Exception:  # a worker died or the pool could not start: compute here
             return [fn(it) for it in items]
 
+    def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
+        """fn(item) started in a worker (a future), when the workers are up; None otherwise (the
+        caller computes it: waiting for them to start would leave it idle)."""
+        if not self.pool.ready:
+            return None
+        try:
+            fut = self.pool._executor().submit(fn, item)
+        except RuntimeError:  # the pool closed or broke
+            return None
+        self.pool.map_tasks += 1
+        return fut
+
+
+@dataclass
+class DaskWorkers:
+    """A Dask cluster's workers as the preflight sees them (`RunWorkers`' interface): the cost
+    model against `DASK_MIN_PARALLEL_S` (its workers run already), and a map that falls back to
+    this process when the cluster fails (a task's own error is raised again here)."""
+
+    pool: DaskPool
+
+    @property
+    def count(self) -> int:
+        return self.pool.workers
+
+    def pays(self, triangles: int, layers: int, points: int) -> bool:
+        return wants_workers(self.count, triangles, layers, points, DASK_MIN_PARALLEL_S)
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        try:
+            client = self.pool.client()
+            futures = client.map(fn, list(items), pure=False)
+            self.pool.map_tasks += len(futures)
+            return cast(list[Any], client.gather(futures))
+        except Exception:  # the cluster lost a worker or refused the task: compute here
+            return [fn(it) for it in items]
+
+    def submit(self, fn: Callable[[Any], Any], item: Any) -> Any:
+        """fn(item) started on the cluster: a Dask future (its `result()` waits for it), or None."""
+        try:
+            fut = self.pool.client().submit(fn, item, pure=False)
+        except Exception:
+            return None
+        self.pool.map_tasks += 1
+        return fut
+
 
 def _run_chain_shared(
     shared: tuple[Any, ...], chunk: list[tuple[int, dict[str, Any]]]
@@ -452,6 +500,7 @@ class DaskPool:
 
     address: str
     tasks: int = 0
+    map_tasks: int = 0
     _client: Any = field(default=None, repr=False)
     kind = "dask"
     started = ready = True  # a cluster's workers are running already

@@ -443,7 +443,12 @@ class SequenceNode(Node):
             for key in params.order:
                 if key not in seen:
                     ctx.warn(f"order lists {key!r}, which matches no section", section=key)
-        layers, notes = sequence_with_notes(list(tp), params)
+        points = sum(len(sp.points) for lp in tp if lp is not None for sp in lp.sections)
+
+        def in_workers(fn, items):  # runs of layers sequenced ahead in the workers, when up
+            return ctx.map_in_workers(fn, items, layers=len(tp), points=points)
+
+        layers, notes = sequence_with_notes(list(tp), params, in_workers)
         _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}
 
@@ -460,8 +465,9 @@ class SequenceNode(Node):
         }
 
 
-def sequence_with_notes(layers: list, params) -> tuple[list, list[dict]]:
-    """Run `sequence_part` with the node's params; returns the layers and the kernel's notes."""
+def sequence_with_notes(layers: list, params, map_chunks=None) -> tuple[list, list[dict]]:
+    """Run `sequence_part` with the node's params (`map_chunks`: see there); returns the layers
+    and the kernel's notes."""
     bw = params.bead_width
     clearance = bw if bw > 0 else DEFAULT_CLEARANCE
     shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
@@ -470,6 +476,7 @@ def sequence_with_notes(layers: list, params) -> tuple[list, list[dict]]:
     notes: list[dict] = []
     seq, _ = sequence_part(
         layers,
+        map_chunks=map_chunks,
         order=params.order,
         retract_height=params.retract_height,
         alternate=params.alternate,

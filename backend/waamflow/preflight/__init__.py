@@ -108,12 +108,14 @@ def run_preflight(
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import VERDICT_ORDER, check_program
-    from .conserve import check_conservation
+    from .conserve import start_conservation
     from .read import read_program, read_toolpath
 
     s = settings or PreflightSettings()
     if not s.enabled:
         return None
+    # the read-backs of the conservation check start first: in the workers, they overlap the rest
+    conservation = start_conservation(graph, artifacts, s.deposit_changed, pool)
     reports = []
     for nid in graph.order:
         for value in outputs.get(nid, {}).values():
@@ -172,7 +174,7 @@ def run_preflight(
             reports.append(rep)
     if not reports:
         return None  # nothing leaves this run that could build a part
-    conserved = check_conservation(graph, artifacts, s.deposit_changed)
+    conserved = conservation()
     verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.__getitem__)
     out: dict = {"verdict": verdict, "accepted": False}
     for key in SUMMARY_KEYS:

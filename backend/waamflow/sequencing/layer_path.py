@@ -21,7 +21,7 @@ reverses the *order of sections* on odd layers (within the rule's ranks for `nea
 from __future__ import annotations
 
 import dataclasses
-from typing import Sequence
+from typing import Any, Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -289,28 +289,99 @@ def last_point(lp: LayerPaths | None) -> np.ndarray | None:
     return None
 
 
-def sequence_part(layers: Sequence[LayerPaths | None], **kw) -> tuple[list[LayerPaths | None], list[float]]:
+def sequence_part(
+    layers: Sequence[LayerPaths | None], *, map_chunks: ChunkMap | None = None, **kw: Any
+) -> tuple[list[LayerPaths | None], list[float]]:
     """Sequence every layer, each starting where the previous one ended (and, with a seam policy,
     igniting away from the layer below's ignitions). Returns layers and travel (mm) per layer.
 
     None layers (partial runs) stay None and break the chain (the next layer starts fresh).
-    """
+
+    `map_chunks`: fn over items in other processes, results in order, or None when it would run
+    here (the engine's `Context.map_in_workers`). With it, runs of consecutive layers are
+    sequenced at once, speculatively (`_sequence_chunk`: each starts `WARMUP_LAYERS` early, from
+    nothing), and a layer's result is taken only when the torch position and the ignitions below it
+    were exactly the ones this chain reaches; any other layer is sequenced again here. The result is
+    the serial one, whatever the speculation gave."""
+    notes = kw.pop("notes", None)
+    notes = [] if notes is None else notes
+    spec: list[_Sequenced | None] = [None] * len(layers)
+    if map_chunks is not None and len(layers) >= 2 * SPECULATE_CHUNKS:
+        spans = _layer_spans(len(layers), SPECULATE_CHUNKS)
+        items = [(list(layers[max(0, a - WARMUP_LAYERS) : b]), a - max(0, a - WARMUP_LAYERS), kw) for a, b in spans]
+        got = map_chunks(_sequence_chunk, items)
+        if got is not None:
+            for (a, _b), chunk in zip(spans, got):
+                spec[a : a + len(chunk)] = chunk
     out: list[LayerPaths | None] = []
     travel: list[float] = []
-    prev = None
-    below = None
-    for lp in layers:
+    prev: np.ndarray | None = None
+    below: np.ndarray | None = None
+    for lp, guess in zip(layers, spec):
         if lp is None:
             out.append(None)
             travel.append(0.0)
             prev = below = None
             continue
-        new, t = sequence_layer(lp, prev_end=prev, below=below, **kw)
+        if guess is not None and _same(guess.prev_end, prev) and _same(guess.below, below):
+            new, t = guess.layer, guess.travel
+            notes += guess.notes
+        else:
+            new, t = sequence_layer(lp, prev_end=prev, below=below, notes=notes, **kw)
         out.append(new)
         travel.append(t)
         prev = last_point(new)
         below = ignition_points(new.sections)
     return out, travel
+
+
+SPECULATE_CHUNKS = 8  # runs of layers sequenced at once in the workers (4 per worker of 2)
+WARMUP_LAYERS = 2  # a run starts this many layers early: the seams it reaches by then are the chain's
+ChunkMap = Callable[[Callable[[Any], Any], Sequence[Any]], "list[Any] | None"]
+
+
+class _Sequenced(NamedTuple):
+    """A layer sequenced in a run of layers: what it was given (the torch position and the
+    ignitions below, None when the chain starts there) and what it gave."""
+
+    prev_end: np.ndarray | None
+    below: np.ndarray | None
+    layer: LayerPaths
+    travel: float
+    notes: list[dict]
+
+
+def _same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+def _layer_spans(n: int, parts: int) -> list[tuple[int, int]]:
+    edges = [round(k * n / parts) for k in range(parts + 1)]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def _sequence_chunk(item: tuple[list[LayerPaths | None], int, dict[str, Any]]) -> list[_Sequenced | None]:
+    """Worker side: the layers of a run in order from nothing, as `sequence_part` does; those
+    from index `skip` on (the first `skip` only warm the chain up) with what each was given."""
+    layers, skip, kw = item
+    out: list[_Sequenced | None] = []
+    prev: np.ndarray | None = None
+    below: np.ndarray | None = None
+    for k, lp in enumerate(layers):
+        if lp is None:
+            prev = below = None
+            if k >= skip:
+                out.append(None)
+            continue
+        notes: list[dict] = []
+        new, t = sequence_layer(lp, prev_end=prev, below=below, notes=notes, **kw)
+        if k >= skip:
+            out.append(_Sequenced(prev, below, new, t, notes))
+        prev = last_point(new)
+        below = ignition_points(new.sections)
+    return out
 
 
 def part_travel(layers: Sequence[LayerPaths | None]) -> list[float]:

@@ -1,0 +1,106 @@
+"""Runs of layers sequenced ahead in the workers (sequencing.layer_path.sequence_part's
+`map_chunks`): the result is the serial one, a layer is taken only when what it was given is what
+the chain reaches, and any other layer is sequenced again here."""
+
+import numpy as np
+import pytest
+from test_seams import cross_layer
+
+from waamflow.sequencing import layer_path
+from waamflow.sequencing.layer_path import SPECULATE_CHUNKS, _Sequenced, sequence_part
+from waamflow.sequencing.seams import SeamSpec
+
+
+@pytest.fixture()
+def here_calls(monkeypatch):
+    """Layers sequenced by `sequence_part` itself (not inside a run of layers)."""
+    calls = {"here": 0, "ahead": 0}
+    real = layer_path.sequence_layer
+    where = ["here"]
+
+    def counted(*a, **k):
+        calls[where[0]] += 1
+        return real(*a, **k)
+
+    def in_chunks(fn, items):
+        where[0] = "ahead"
+        try:
+            return [fn(it) for it in items]
+        finally:
+            where[0] = "here"
+
+    monkeypatch.setattr(layer_path, "sequence_layer", counted)
+    return calls, in_chunks
+
+
+def same_layers(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        assert (x is None) == (y is None)
+        if x is None:
+            continue
+        assert [s.key for s in x.sections] == [s.key for s in y.sections]
+        for s, t in zip(x.sections, y.sections):
+            assert np.array_equal(s.points, t.points) and s.zone == t.zone
+            assert np.array_equal(s.approach, t.approach) if s.approach is not None else t.approach is None
+
+
+KWS = [
+    {"seam": SeamSpec("auto", 6.0, 12.0)},
+    {"seam": SeamSpec("auto", 6.0, 12.0), "order": "nearest", "min_run": 12.0},
+    {"seam": SeamSpec("alternate"), "alternate": True},
+]
+
+
+@pytest.mark.parametrize("kw", KWS)
+def test_layers_sequenced_ahead_are_the_serial_layers_and_notes(kw, here_calls):
+    calls, in_chunks = here_calls
+    layers = [cross_layer(i) for i in range(40)]
+    layers[25] = None  # a partial run: the chain starts again after it
+    notes_serial, notes_ahead = [], []
+    serial, t_serial = sequence_part(layers, notes=notes_serial, **kw)
+    assert calls["here"] == 39 and calls["ahead"] == 0
+    calls["here"] = 0
+    ahead, t_ahead = sequence_part(layers, map_chunks=in_chunks, notes=notes_ahead, **kw)
+    same_layers(serial, ahead)
+    assert t_ahead == t_serial and notes_ahead == notes_serial
+    # every layer but the warm-up ones was sequenced once ahead; none again here (the seams of the
+    # cross repeat every other layer: two layers of warm-up reach the chain's)
+    assert calls["here"] == 0
+    assert calls["ahead"] == 39 + sum(min(a, layer_path.WARMUP_LAYERS) for a, _ in layer_path._layer_spans(40, 8))
+
+
+def test_a_layer_given_another_start_is_sequenced_again_here(here_calls):
+    """A run whose first layer was given another torch position (the map's answer is a guess): that
+    layer and the ones after it that the guess carried over are sequenced here; the result is the
+    serial one."""
+    calls, in_chunks = here_calls
+    layers = [cross_layer(i) for i in range(32)]
+    kw = {"seam": SeamSpec("auto", 6.0, 12.0), "order": "nearest"}
+    serial, _ = sequence_part(layers, **kw)
+
+    def wrong_start(fn, items):
+        got = in_chunks(fn, items)
+        g = got[2][0]  # the first layer of the third run: another position before it
+        got[2][0] = _Sequenced(g.prev_end + 1.0, g.below, g.layer, g.travel, g.notes)
+        return got
+
+    calls["here"] = 0
+    ahead, _ = sequence_part(layers, map_chunks=wrong_start, **kw)
+    same_layers(serial, ahead)
+    assert calls["here"] == 1  # that layer only: the next one was given what the chain reaches
+
+
+def test_a_map_that_runs_here_is_not_asked_and_short_parts_stay_serial(here_calls):
+    calls, _ = here_calls
+    layers = [cross_layer(i) for i in range(2 * SPECULATE_CHUNKS - 1)]
+    asked = []
+    sequence_part(layers, map_chunks=lambda fn, items: asked.append(1), seam=SeamSpec("auto"))
+    assert asked == [] and calls["here"] == len(layers)
+    calls["here"] = 0
+    layers = [cross_layer(i) for i in range(2 * SPECULATE_CHUNKS)]
+    serial, _ = sequence_part(layers, seam=SeamSpec("auto"))
+    calls["here"] = 0
+    out, _ = sequence_part(layers, map_chunks=lambda fn, items: None, seam=SeamSpec("auto"))
+    same_layers(serial, out)
+    assert calls["here"] == len(layers)  # the map would have run here (None): every layer once
