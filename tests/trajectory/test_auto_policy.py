@@ -395,13 +395,7 @@ def test_follow_normal_brings_every_point_of_a_spread_layer_flat():
     gravity angles leave the ends 25° off). `follow-normal` turns the table along the layer, each
     point at its own normal's gravity angles: every arc point within 1e-6° of flat (≤ flat_tol),
     E1 spanning 50° along a layer, and the simulation clean (0 unreachable, 0 collisions)."""
-    th = np.radians(np.linspace(25.0, -25.0, 31))
-    y = np.linspace(-150.0, 150.0, 31)
-    layers = [
-        (np.c_[np.zeros(31), y, np.full(31, 2.5 * (L + 1))], -np.c_[np.zeros(31), np.sin(th), np.cos(th)])
-        for L in range(2)
-    ]
-    moves = _moves_of(layers)
+    moves = _moves_of(_spread_layers())
     cell = load_cell("kr150_tilt_rotate")
     plan = plan_auto(cell, moves, _arm(cell), suggest=False)
     assert plan.ok and [r["stage"] for r in plan.layers] == ["follow-normal", "follow-normal"]
@@ -435,6 +429,32 @@ def test_follow_turn_angles_reach_the_krl_program(ring):
     assert len(e2) == len(ring.points)
     np.testing.assert_allclose(e2, angles[:, 1], atol=1e-3)
     assert len(np.unique(np.round(e2[: RING_POINTS + 1], 3))) == RING_POINTS + 1
+
+
+def _spread_layers(n_layers=2):
+    """Straight 300 mm layers (31 points along y) whose tool axis turns from 25° to −25° about x."""
+    th = np.radians(np.linspace(25.0, -25.0, 31))
+    y = np.linspace(-150.0, 150.0, 31)
+    return [
+        (np.c_[np.zeros(31), y, np.full(31, 2.5 * (L + 1))], -np.c_[np.zeros(31), np.sin(th), np.cos(th)])
+        for L in range(n_layers)
+    ]
+
+
+def test_follow_reports_an_axis_rate_the_positioner_lacks():
+    """The spread layer welded at 1000 mm/s: E1 turns 50°/30 = 1.667° per 10 mm segment, 166.7°/s,
+    above the tilt axis's 90°/s (URDF): the plan's row says so (rate and limit), and the
+    simulation caps the path speed there (axis_speed stretches)."""
+    moves = _moves_of(_spread_layers(1), speed=1000.0)
+    cell = load_cell("kr150_tilt_rotate")
+    plan = plan_auto(cell, moves, _arm(cell), suggest=False)
+    row = plan.layers[0]
+    assert plan.ok and row["stage"] == "follow-normal"
+    assert row["axis_speed_deg_s"] == pytest.approx(50.0 / 30 * 100, rel=1e-6)
+    assert row["axis_speed_limit_deg_s"] == pytest.approx(90.0, abs=0.01)
+    assert "would turn 166.7°/s, above its 90°/s" in row["why"]
+    sim = _sim(cell, moves)
+    assert sim["axis_speed_stretches"] >= 1 and sim["unreachable_stretches"] == 0
 
 
 def test_curved_bracket_plans_as_before_on_its_planar_layers():

@@ -220,7 +220,7 @@ def row(pl, L: int, a: int, b: int, stage: str, e: np.ndarray, tried: int, why: 
     rate, limit = axis_speed(pl, a, b, e)
     if rate > limit + 1e-9:
         why += (
-            f"; at the programmed speed the positioner would turn {rate:.1f}°/s, above its {limit:g}°/s: "
+            f"; at the programmed speed the positioner would turn {rate:.1f}°/s, above its {limit:.0f}°/s: "
             "the path slows there"
         )
     return {
