@@ -13,7 +13,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..core.errors import RecipeError
-from .node import REGISTRY, Node, load_nodes
+from .node import REGISTRY, Node, node_class
 from .recipe import Recipe, substitute_inputs
 
 
@@ -82,13 +82,13 @@ def _validate_params(node_id: str, cls: type[Node], raw: dict[str, Any]) -> Base
 
 
 def build_graph(recipe: Recipe) -> Graph:
-    """Validate `recipe` (inputs already applied via `recipe.inputs`) and order its nodes."""
-    load_nodes()
+    """Validate `recipe` (inputs already applied via `recipe.inputs`) and order its nodes. Only
+    the node modules declaring the recipe's node types are imported (`node_class`)."""
     nodes: dict[str, GraphNode] = {}
     for entry in recipe.nodes:
         if entry.id in nodes:
             raise RecipeError(f"duplicate node id {entry.id!r}", node=entry.id)
-        cls = REGISTRY.get(entry.type)
+        cls = node_class(entry.type)
         if cls is None:
             raise RecipeError(f"unknown node type {entry.type!r} (see `waamflow nodes`)", node=entry.id, field="type")
         raw = substitute_inputs(entry.params, recipe.inputs, entry.id)

@@ -283,5 +283,44 @@ def load_nodes() -> dict[str, type[Node]]:
     return REGISTRY
 
 
+_DECLARED: dict[str, str] = {}  # node type id → the waamflow.nodes module whose source declares it
+
+
+def _declaring_modules() -> dict[str, str]:
+    """Node type id → module, read off the sources of waamflow.nodes: a declaration's class body
+    says `type = "<id>"` (read once per process; a few milliseconds against the ~0.1 s of CPU
+    the node modules a recipe does not use take to import)."""
+    if not _DECLARED:
+        import pkgutil
+        import re
+        from pathlib import Path
+
+        from .. import nodes
+
+        for mod in pkgutil.iter_modules(nodes.__path__):
+            try:
+                text = (Path(nodes.__path__[0]) / f"{mod.name}.py").read_text(encoding="utf-8")
+            except OSError:  # not a plain source file: `node_class` falls back to `load_nodes`
+                continue
+            for type_id in re.findall(r'^    type = "([^"]+)"', text, flags=re.MULTILINE):
+                _DECLARED.setdefault(type_id, f"{nodes.__name__}.{mod.name}")
+    return _DECLARED
+
+
+def node_class(type_id: str) -> type[Node] | None:
+    """The declaration of node type `type_id`, importing only the node module that declares it
+    (a CLI run of a recipe without robot nodes does not import the trajectory kernels); every
+    node module when the sources do not place it. None for an unknown type."""
+    if type_id not in REGISTRY:
+        import importlib
+
+        module = _declaring_modules().get(type_id)
+        if module is not None:
+            importlib.import_module(module)
+        if type_id not in REGISTRY:
+            load_nodes()
+    return REGISTRY.get(type_id)
+
+
 def catalog() -> list[dict[str, Any]]:
     return [REGISTRY[t].describe() for t in sorted(load_nodes())]

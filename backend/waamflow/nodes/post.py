@@ -28,7 +28,7 @@ from .post_settings import _with_weld_values as _with_weld_values
 from .post_settings import _work_frame as _work_frame
 from .post_settings import _writer_settings as _writer_settings
 from .post_settings import with_profile as with_profile
-from .robot import (
+from .robotparams import (  # not .robot: a recipe without robot nodes does not import the simulation
     POSITIONER_PLAN_KEYS,
     cell_files,
     cell_from_param,
