@@ -30,13 +30,14 @@ def test_building_the_bracket_imports_only_the_node_modules_it_uses():
         "from waamflow.engine.graph import build_graph\n"
         "from waamflow.engine.recipe import load_recipe\n"
         "g = build_graph(load_recipe(Path('graphs/bracket.json')))\n"
-        "print(json.dumps([sorted(m for m in sys.modules if m.startswith('waamflow.')), g.order]))\n"
+        "print(json.dumps([sorted(m for m in sys.modules if m.startswith('waamflow.') or m in ('ssl', 'urllib.request')), g.order]))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     mods, order = json.loads(out.stdout)
     assert order == ["part", "layers", "mask", "guide", "strategy", "zone", "sequence", "post"]
     nodes = sorted(m.rsplit(".", 1)[1] for m in mods if m.startswith("waamflow.nodes."))
     assert nodes == ["inputs", "mpp", "post", "post_settings", "robotparams", "slicing", "strategy"]
+    assert "ssl" not in mods and "urllib.request" not in mods  # xml.sax.saxutils brought them (paths/compare)
     for heavy in (
         "waamflow.nodes.robot",
         "waamflow.trajectory.run",
@@ -68,3 +69,13 @@ def test_an_unknown_type_is_still_named_and_a_type_the_scan_misses_is_still_foun
     monkeypatch.setattr(node_mod, "load_nodes", load_all)
     assert node_mod.node_class("rectangle") is cls and loaded == [1]
     assert node_mod.node_class("rectangle") is cls and loaded == [1]  # registered: no second load
+
+
+def test_svg_text_is_escaped_as_saxutils_did():
+    from xml.sax.saxutils import escape as sax_escape
+
+    from waamflow.paths.compare import escape
+
+    for text in ["a&b<c>d", "&amp;", "\"q\" 'x'", "", "<<>>&&", "mm³/s ≤ 5", "window/L"]:
+        assert escape(text) == sax_escape(text)
+    assert escape("<a & b>") == "&lt;a &amp; b&gt;"
