@@ -37,3 +37,57 @@ def test_a_closed_mesh_read_sorts_its_edges_once(monkeypatch):
         data, "duct.stl", require_closed=False, weld_tolerance=0.001, stats=stats, crack_tolerance=0.01
     )
     assert calls == [len(md.faces)] and stats["edges"].closed and stats["faces_rewound"] == 0
+
+
+def _sorts_and_components(monkeypatch):
+    from waamflow.slicing import planar
+
+    calls = []
+    sort, comps = topology._edge_sort, topology.face_components
+
+    def counted(faces, n):
+        calls.append("edges")
+        return sort(faces, n)
+
+    def counted_comps(twin, m):
+        calls.append("bodies")
+        return comps(twin, m)
+
+    monkeypatch.setattr(topology, "_edge_sort", counted)
+    monkeypatch.setattr(mesh_io, "face_components", counted_comps)
+    monkeypatch.setattr(planar, "face_components", counted_comps)
+    return calls
+
+
+@pytest.mark.parametrize("path", ["graphs/parts/duct.stl", "graphs/parts/cross.stl"])
+def test_read_then_slice_sorts_edges_and_labels_bodies_once(path, monkeypatch):
+    """The slicer takes the twins and bodies the mesh read worked out (geometry/topology.py
+    `remember_topology`): one edge sort and one body labelling for read + slice, the same loops."""
+    from waamflow.slicing.planar import section_loops
+
+    with open(path, "rb") as fh:
+        data = fh.read()
+    calls = _sorts_and_components(monkeypatch)
+    md = mesh_io.load_mesh_bytes(data, path, require_closed=False, crack_tolerance=0.01)
+    z0, z1 = md.vertices[:, 2].min(), md.vertices[:, 2].max()
+    heights = np.linspace(z0 + 0.5, z1 - 0.5, 17)
+    got = section_loops(md.vertices, md.faces, heights)
+    assert calls == ["edges", "bodies"]
+    assert topology.take_topology(md.faces) is None  # taken once: a second slicer works it out again
+    ref = section_loops(md.vertices, md.faces.copy(), heights)
+    assert calls == ["edges", "bodies", "edges", "bodies"]
+    assert len(got) == len(ref) >= 17 and np.array_equal(got.coords, ref.coords)
+    assert np.array_equal(got.offsets, ref.offsets) and np.array_equal(got.plane, ref.plane)
+    assert np.array_equal(got.body, ref.body) and np.array_equal(got.void, ref.void)
+
+
+def test_faces_turned_inside_out_by_the_repair_are_not_remembered():
+    """A body wound inside out is flipped after its twins were found: those twins are not its."""
+    m = trimesh.creation.box(extents=(10, 20, 30))
+    tri = np.asarray(m.vertices)[np.asarray(m.faces)[:, ::-1]]  # every face inside out
+    stats: dict = {}
+    md = mesh_io.mesh_from_triangles(tri, crack_tolerance=0.01, stats=stats)
+    assert stats["volume_mm3"] == pytest.approx(6000.0) and topology.take_topology(md.faces) is None
+    good = mesh_io.mesh_from_triangles(np.asarray(m.vertices)[np.asarray(m.faces)], crack_tolerance=0.01)
+    twin, bodies = topology.take_topology(good.faces)
+    assert np.array_equal(twin, topology.edge_twins(good.faces, len(good.vertices))) and bodies[0] == 1

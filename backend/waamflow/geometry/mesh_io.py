@@ -35,6 +35,7 @@ from .topology import (
     face_components,
     face_volumes,
     merge_vertices,
+    remember_topology,
     signed_volume,
     split_nonmanifold,
 )
@@ -237,6 +238,8 @@ def repair_mesh(
         inside_out = vol[label] < 0
         if inside_out.any():
             faces = np.where(inside_out[:, None], faces[:, ::-1], faces)
+        else:  # these faces' twins and bodies, for the slicer
+            remember_topology(faces, twin, (n, label))
     same = np.zeros(len(faces), dtype=bool)
     for k in range(3):
         same |= (faces == np.roll(before, k, axis=1)).all(axis=1)

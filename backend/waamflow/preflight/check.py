@@ -200,8 +200,10 @@ def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
     n = len(unique)
     e = inverse.reshape((-1, 2))
     e = e[e[:, 0] != e[:, 1]]
-    # the distinct undirected edges in (low, high) order: np.unique(axis=0) of the sorted pairs
-    key = np.unique(np.minimum(e[:, 0], e[:, 1]) * max(n, 1) + np.maximum(e[:, 0], e[:, 1]))
+    # the distinct undirected edges in (low, high) order: np.unique(axis=0) of the sorted pairs,
+    # by one sort of packed keys (numpy 2's np.unique hashes: 7x slower here)
+    key = np.sort(np.minimum(e[:, 0], e[:, 1]) * max(n, 1) + np.maximum(e[:, 0], e[:, 1]))
+    key = key[np.concatenate([[True], key[1:] != key[:-1]])] if len(key) else key
     edges = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
     if len(edges) < 3 or not np.all(np.bincount(edges.ravel(), minlength=n) == 2):
         import trimesh

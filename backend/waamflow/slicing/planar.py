@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import PlanningError
-from ..geometry.topology import edge_twins, face_components, face_volumes
+from ..geometry.topology import edge_twins, face_components, face_volumes, take_topology
 
 _NEXT_EDGE = np.array([1, 2, 0])
 
@@ -220,13 +220,18 @@ class MeshSections:
         self.name = name
         self.faces = np.ascontiguousarray(faces, dtype=np.int64)
         self.n_vertices = int(n_vertices)
-        twin = edge_twins(self.faces, self.n_vertices) if len(self.faces) else np.zeros(0, dtype=np.int64)
+        self._bodies: tuple[int, np.ndarray] | None = None
+        known = take_topology(self.faces)  # what the mesh read worked out (geometry/topology.py)
+        twin: np.ndarray | None
+        if known is not None and len(known[0]) == 3 * len(self.faces):
+            twin, self._bodies = known
+        else:
+            twin = edge_twins(self.faces, self.n_vertices) if len(self.faces) else np.zeros(0, dtype=np.int64)
         if twin is None:
             raise PlanningError(
                 f"{name}: mesh is not closed and consistently wound; its sections cannot form closed loops"
             )
         self.twin: np.ndarray = twin
-        self._bodies: tuple[int, np.ndarray] | None = None
 
     def loops(
         self, vertices: np.ndarray, heights: np.ndarray, *, batch_segments: int = MAX_SEGMENTS_PER_BATCH
