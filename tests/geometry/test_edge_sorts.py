@@ -91,3 +91,11 @@ def test_faces_turned_inside_out_by_the_repair_are_not_remembered():
     good = mesh_io.mesh_from_triangles(np.asarray(m.vertices)[np.asarray(m.faces)], crack_tolerance=0.01)
     twin, bodies = topology.take_topology(good.faces)
     assert np.array_equal(twin, topology.edge_twins(good.faces, len(good.vertices))) and bodies[0] == 1
+
+
+def test_only_the_last_meshes_read_keep_their_topology():
+    m = trimesh.creation.box(extents=(10, 20, 30))
+    tri = np.asarray(m.vertices)[np.asarray(m.faces)]
+    meshes = [mesh_io.mesh_from_triangles(tri + k, crack_tolerance=0.01) for k in range(5)]
+    kept = [topology.take_topology(md.faces) is not None for md in meshes]
+    assert kept == [False] * (5 - topology.KEEP_TOPOLOGIES) + [True] * topology.KEEP_TOPOLOGIES

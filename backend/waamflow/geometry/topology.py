@@ -99,14 +99,18 @@ def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return vertices, inverse
 
 
-# id(faces) -> (weak reference to faces, edge twins, bodies (count, body per face) or None)
+KEEP_TOPOLOGIES = 2
+# id(faces) -> (weak reference to faces, edge twins, bodies (count, body per face) or None), oldest first
 _TOPOLOGY: dict[int, tuple[weakref.ref, np.ndarray, tuple[int, np.ndarray] | None]] = {}
 
 
 def remember_topology(faces: np.ndarray, twin: np.ndarray, bodies: tuple[int, np.ndarray] | None = None) -> None:
     """Keep `edge_twins(faces)` (and `face_components` of them, when known) for this very faces
-    array (by identity, while it lives, until `take_topology` takes them). The caller must not
-    change the array afterwards (MeshData's arrays are never changed in place)."""
+    array (by identity, while it lives, until `take_topology` takes them; only the last
+    `KEEP_TOPOLOGIES` meshes read: a server's cached parts do not hold theirs). The caller must
+    not change the array afterwards (MeshData's arrays are never changed in place)."""
+    while len(_TOPOLOGY) >= KEEP_TOPOLOGIES:
+        _TOPOLOGY.pop(next(iter(_TOPOLOGY)), None)
     key = id(faces)
 
     def forget(_ref: weakref.ref) -> None:
