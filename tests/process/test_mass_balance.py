@@ -202,14 +202,13 @@ def test_path_step_samples_as_the_loop_did_and_measures_a_path_once(monkeypatch)
 
     rng = np.random.default_rng(3)
     seen = []
-    from scipy.spatial import cKDTree
+    real = mass.has_far_neighbour
 
-    class Spy(cKDTree):
-        def __init__(self, data, *a, **k):
-            seen.append(np.array(data))
-            super().__init__(data, *a, **k)
+    def spy(P, S, reach, gap):
+        seen.append(np.array(P))
+        return real(P, S, reach, gap)
 
-    monkeypatch.setattr("scipy.spatial.cKDTree", Spy)
+    monkeypatch.setattr(mass, "has_far_neighbour", spy)
     mass._STEPS.clear()
     for _ in range(40):
         n = int(rng.integers(3, 30))
@@ -230,3 +229,34 @@ def test_path_step_samples_as_the_loop_did_and_measures_a_path_once(monkeypatch)
         path_step(moved, on, 6.0)
         assert len(seen) == before + 3
     assert mass._STEPS.hits == 40
+
+
+def test_far_neighbours_are_the_pairs_a_kd_tree_finds():
+    """The grid search against scipy's cKDTree.query_pairs on 400 sample sets: random, on a
+    1.5 mm lattice (distances equal to the reach), spaced exactly one reach apart, and spread
+    over six orders of magnitude: the same samples have a far neighbour."""
+    from scipy.spatial import cKDTree
+
+    from waamflow.process.mass import has_far_neighbour
+
+    rng = np.random.default_rng(0)
+    for k in range(400):
+        n = int(rng.integers(1, 300))
+        reach = float(rng.uniform(0.5, 10))
+        if k % 4 == 0:
+            P = rng.uniform(-50, 50, (n, 2))
+        elif k % 4 == 1:
+            P = np.round(rng.uniform(-20, 20, (n, 2)) / 1.5) * 1.5
+            reach = 1.5 * int(rng.integers(1, 4))
+        elif k % 4 == 2:
+            reach = 6.12
+            P = np.column_stack([np.arange(n) % 20 * reach, np.arange(n) // 20 * reach]) + 1e3
+        else:
+            P = rng.normal(0, 3, (n, 2)) * 10 ** rng.uniform(-3, 3)
+        S = np.cumsum(rng.uniform(0, 3, n))
+        gap = float(rng.uniform(0, 20))
+        want = np.zeros(n, dtype=bool)
+        pairs = cKDTree(P).query_pairs(reach, output_type="ndarray")
+        far = pairs[np.abs(S[pairs[:, 0]] - S[pairs[:, 1]]) > gap]
+        want[far[:, 0]] = want[far[:, 1]] = True
+        np.testing.assert_array_equal(has_far_neighbour(P, S, reach, gap), want)
