@@ -116,3 +116,24 @@ def test_the_preflight_checks_the_layers_on_the_cluster_with_the_same_report(clu
     assert submitted == ["read_back_changes"]
     assert dask.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
     assert dask.preflight == serial.preflight
+
+
+def test_the_sequence_nodes_layers_are_sequenced_ahead_on_the_cluster(cluster, always_parallel, monkeypatch):
+    """A 40-layer cross: the sequence node's runs of layers go to the cluster (8 tasks), the
+    artifacts are the serial run's byte for byte."""
+    from waamflow.engine.recipe import apply_overrides, parse_set
+
+    mapped = []
+    pmap = parallel.DaskWorkers.map
+    monkeypatch.setattr(
+        parallel.DaskWorkers, "map", lambda self, fn, it: mapped.append((fn.__name__, len(it))) or pmap(self, fn, it)
+    )
+    recipe = apply_overrides(
+        load_recipe(GRAPHS / "mpp-cross.json"), parse_set(["layers.layer_height=0.3", "layers.layer_count=40"])
+    )
+    serial = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), workers=1)
+    dask = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), scheduler=cluster.scheduler_address)
+    assert ("_sequence_chunk", 8) in mapped
+    assert sorted(dask.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert dask.artifacts[k] == serial.artifacts[k], k

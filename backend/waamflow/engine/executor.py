@@ -314,6 +314,10 @@ class RunContext(Context):
             and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s)
         ):
             return parallel.RunWorkers(pool).map(fn, items)
+        if isinstance(pool, DaskPool) and len(items) > 1:
+            dask = parallel.DaskWorkers(pool)
+            if dask.pays(0, layers, points):
+                return dask.map(fn, items)
         return None
 
 
