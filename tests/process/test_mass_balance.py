@@ -204,9 +204,9 @@ def test_path_step_samples_as_the_loop_did_and_measures_a_path_once(monkeypatch)
     seen = []
     real = mass.has_far_neighbour
 
-    def spy(P, S, reach, gap):
+    def spy(P, S, reach, gap, **kw):
         seen.append(np.array(P))
-        return real(P, S, reach, gap)
+        return real(P, S, reach, gap, **kw)
 
     monkeypatch.setattr(mass, "has_far_neighbour", spy)
     mass._STEPS.clear()
@@ -260,3 +260,9 @@ def test_far_neighbours_are_the_pairs_a_kd_tree_finds():
         far = pairs[np.abs(S[pairs[:, 0]] - S[pairs[:, 1]]) > gap]
         want[far[:, 0]] = want[far[:, 1]] = True
         np.testing.assert_array_equal(has_far_neighbour(P, S, reach, gap), want)
+        # stopping at a share: below it the same marks, else at least that share, all true ones
+        part = has_far_neighbour(P, S, reach, gap, enough=0.2)
+        if want.mean() < 0.2:
+            np.testing.assert_array_equal(part, want)
+        else:
+            assert part.mean() >= 0.2 and not (part & ~want).any()

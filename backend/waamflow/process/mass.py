@@ -99,10 +99,13 @@ def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | N
     return _STEPS.get(key, lambda: _path_step(pts, on, float(width_mm)))
 
 
-def has_far_neighbour(P: np.ndarray, S: np.ndarray, reach: float, gap: float) -> np.ndarray:
+def has_far_neighbour(
+    P: np.ndarray, S: np.ndarray, reach: float, gap: float, enough: float | None = None
+) -> np.ndarray:
     """(n,) bool: sample i of a path has another sample within `reach` (mm; dx² + dy² <= reach²,
     the test scipy's cKDTree.query_pairs makes) that lies more than `gap` (mm) away from it along
-    the path. P: (n, 2) samples, S: (n,) their path lengths, mm.
+    the path. P: (n, 2) samples, S: (n,) their path lengths, mm. With `enough`, the search stops
+    once that share of the samples is marked (the rest may then be False).
 
     A grid of cells a little wider than `reach` (pairs within reach lie in the same or
     neighbouring cells) and numpy: the same pairs as a k-d tree without importing scipy.spatial
@@ -132,6 +135,8 @@ def has_far_neighbour(P: np.ndarray, S: np.ndarray, reach: float, gap: float) ->
         hit = (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] <= r2) & (np.abs(S[i] - S[j]) > gap)
         has[i[hit]] = True
         has[j[hit]] = True
+        if enough is not None and np.count_nonzero(has) / n >= enough:
+            break
     return has
 
 
@@ -152,7 +157,7 @@ def _path_step(pts: np.ndarray, on: np.ndarray, width_mm: float) -> float | None
     t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 0.5) / np.repeat(n, n)
     P = pts[at] + t[:, None] * (pts[at + 1] - pts[at])
     S = s0[at] + t * seg[at]
-    has = has_far_neighbour(P, S, NEIGHBOUR_REACH * width_mm, 2.0 * width_mm)
+    has = has_far_neighbour(P, S, NEIGHBOUR_REACH * width_mm, 2.0 * width_mm, enough=NEIGHBOUR_SHARE)
     if has.mean() < NEIGHBOUR_SHARE:
         return None
     runs: list[Any] = []
