@@ -99,3 +99,22 @@ def test_only_the_last_meshes_read_keep_their_topology():
     meshes = [mesh_io.mesh_from_triangles(tri + k, crack_tolerance=0.01) for k in range(5)]
     kept = [topology.take_topology(md.faces) is not None for md in meshes]
     assert kept == [False] * (5 - topology.KEEP_TOPOLOGIES) + [True] * topology.KEEP_TOPOLOGIES
+
+
+def test_bodies_numbered_by_their_lowest_face_as_scipy_numbers_a_coo_graph():
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    parts = [trimesh.creation.box(extents=(5, 5, 5)), trimesh.creation.icosphere(2), trimesh.creation.box()]
+    faces, off = [], 0
+    for k, p in enumerate(parts):
+        faces.append(np.asarray(p.faces) + off)
+        off += len(p.vertices)
+    faces = np.vstack(faces)[np.random.default_rng(2).permutation(sum(len(p.faces) for p in parts))]
+    twin = topology.edge_twins(faces, off)
+    n, label = topology.face_components(twin, len(faces))
+    m = len(faces)
+    g = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), twin // 3)), shape=(m, m)).tocsr()
+    n_ref, ref = connected_components(g, directed=False)
+    assert n == n_ref == 3 and np.array_equal(label, ref) and label[0] == 0
+    assert sorted(np.bincount(label).tolist()) == sorted(len(p.faces) for p in parts)

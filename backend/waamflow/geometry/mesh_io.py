@@ -224,10 +224,11 @@ def repair_mesh(
         if r2.open == 0 and r2.nonmanifold == 0:
             out["nonmanifold_edges_split"] = rep.nonmanifold
             verts, faces, rep, twin = verts[src], f2, r2, t2
-    before = np.asarray(faces, dtype=np.int64).copy()
+    original, before = faces, None
     if rep.misoriented and rep.nonmanifold == 0:
         import trimesh
 
+        before = np.asarray(faces, dtype=np.int64).copy()
         tm = trimesh.Trimesh(vertices=np.asarray(verts, dtype=np.float64), faces=before, process=False)
         trimesh.repair.fix_winding(tm)
         faces = np.asarray(tm.faces, dtype=np.int64)
@@ -240,10 +241,12 @@ def repair_mesh(
             faces = np.where(inside_out[:, None], faces[:, ::-1], faces)
         else:  # these faces' twins and bodies, for the slicer
             remember_topology(faces, twin, (n, label))
-    same = np.zeros(len(faces), dtype=bool)
-    for k in range(3):
-        same |= (faces == np.roll(before, k, axis=1)).all(axis=1)
-    out["faces_rewound"] = int(np.count_nonzero(~same))
+    if faces is not original:  # re-wound or turned inside out: count the faces that changed
+        before = np.asarray(original, dtype=np.int64) if before is None else before
+        same = np.zeros(len(faces), dtype=bool)
+        for k in range(3):
+            same |= (faces == np.roll(before, k, axis=1)).all(axis=1)
+        out["faces_rewound"] = int(np.count_nonzero(~same))
     out["edges"] = rep
     return verts, faces, out
 

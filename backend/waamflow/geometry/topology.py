@@ -244,13 +244,15 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> E
 def face_components(twin: np.ndarray, n_faces: int) -> tuple[int, np.ndarray]:
     """Bodies of a closed mesh: (count, (m,) body id per face), faces joined across shared edges.
 
-    twin: from `edge_twins`.
+    twin: from `edge_twins`. Face f's neighbours are twin[3f:3f + 3] // 3: row f of the graph in
+    CSR form as it stands (no COO sort); scipy numbers the components in the order of their
+    lowest face, whatever the graph's layout.
     """
     from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import connected_components
 
-    src = np.repeat(np.arange(n_faces), 3)
-    graph = csr_matrix((np.ones(len(twin), dtype=np.int8), (src, twin // 3)), shape=(n_faces, n_faces))
+    indptr = np.arange(0, 3 * n_faces + 1, 3)
+    graph = csr_matrix((np.ones(len(twin), dtype=np.int8), twin // 3, indptr), shape=(n_faces, n_faces))
     n, label = connected_components(graph, directed=False)
     return int(n), label
 
