@@ -24,6 +24,7 @@ import os
 import threading
 import time
 import traceback
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -318,6 +319,16 @@ class RunContext(Context):
             dask = parallel.DaskWorkers(pool)
             if dask.pays(0, layers, points):
                 return dask.map(fn, items)
+        return None
+
+    def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
+        """`Context.submit` to the run's local workers when they are up."""
+        pool = self._run.pool
+        if isinstance(pool, LayerPool) and pool.enabled and pool.ready:
+            try:
+                return pool.submit(fn, item)
+            except RuntimeError:  # the pool closed or broke: the node computes it itself
+                return None
         return None
 
 
@@ -968,9 +979,12 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     the conservation check compares (the report is the same)."""
     from ..preflight import run_preflight
 
+    from ..preflight.slabs import WORKER_IMPORTS
+
     pool = run.pool
     workers: parallel.RunWorkers | parallel.DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:
+        pool.prepare(WORKER_IMPORTS)
         workers = parallel.RunWorkers(pool)
     elif isinstance(pool, DaskPool):  # the cluster's workers run already
         workers = parallel.DaskWorkers(pool)

@@ -26,6 +26,7 @@ Bump `version` whenever a node's results change for the same inputs: it is part 
 from __future__ import annotations
 
 import builtins
+from concurrent.futures import Future
 from typing import Annotated, Any, Callable, ClassVar, Sequence
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -252,6 +253,13 @@ class Context:
         """`map` when it would run in the run's layer workers; None when it would run here. For
         speculative work, which pays only beside the node's own (the sequence node's runs of
         layers)."""
+        return None
+
+    def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
+        """fn(item) started in one of the run's layer workers, as a Future, when they are up
+        (never waiting for them to start); None otherwise: the caller computes it itself. For
+        work that overlaps the node's own (fn a module-level function, item picklable); the
+        node's outputs must not depend on where it ran."""
         return None
 
 

@@ -12,13 +12,14 @@ from ..core.errors import RecipeError
 from ..core.files import ShippedName, shipped
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..trajectory.calibrate import fit_trace, identify_time_model, read_trace_csv, trace_csv
+from ..trajectory.calibrate import fit_trace, identify_time_model, read_trace_csv
 from ..trajectory.cell import cell_schema
 from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, deposit_svg, simulate_compensated
 from ..trajectory.estimate import estimate_moves, estimate_result, section_strategies
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
 from ..trajectory.run import KinematicsOptions, deposit_csv, program_settings, simulate_program, simulation_json
+from ..trajectory.trace import start_trace_csv
 from .robotparams import POSITIONER_PLAN_KEYS as POSITIONER_PLAN_KEYS
 from .robotparams import RobotParams as RobotParams
 from .robotparams import _beside as _beside
@@ -306,6 +307,7 @@ class SimulateRobot(Node):
                 self._kin(ctx, params, profile),
                 progress=progress,
                 strategies=section_strategies(inputs["toolpath"]),
+                submit=ctx.submit,
             )
             res = replace(
                 res,
@@ -329,12 +331,10 @@ class SimulateRobot(Node):
 
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
-        return {
-            "simulation.json": json.dumps(simulation_json(res, res.options or params.sim_options()), indent=1),
-            "trace.csv": trace_csv(res),
-            "deposit.csv": deposit_csv(res),
-            "deposit.svg": deposit_svg(res.deposit),
-        }
+        trace = start_trace_csv(res, ctx.submit)  # part of the rows in a worker while the rest is written
+        sim_json = json.dumps(simulation_json(res, res.options or params.sim_options()), indent=1)
+        dep_csv, dep_svg = deposit_csv(res), deposit_svg(res.deposit)
+        return {"simulation.json": sim_json, "trace.csv": trace(), "deposit.csv": dep_csv, "deposit.svg": dep_svg}
 
 
 @register

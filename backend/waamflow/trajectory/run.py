@@ -24,7 +24,7 @@ from .runreport import _clean as _clean
 from .runreport import _positioner_report as _positioner_report
 from .runreport import deposit_csv as deposit_csv
 from .runreport import simulation_json as simulation_json
-from .simulate import SimOptions, SimulationResult, simulate
+from .simulate import SimOptions, SimulationResult, program_speeds, simulate
 
 if TYPE_CHECKING:  # cell.py imports coal and pinocchio where used
     from .cell import Cell
@@ -154,6 +154,7 @@ def _gcode_travel(texts: list[str]) -> tuple[float | None, bool]:
 
 
 MAX_ISSUES = 1000  # stretches listed in simulation.json's kinematics_issues
+SPECULATE_MIN_POINTS = 2000  # moves from which the controller simulation is worth a worker (`simulate_program`)
 
 
 @dataclass(frozen=True)
@@ -211,9 +212,11 @@ def _solve(
     opt: SimOptions,
     kin: KinematicsOptions,
     progress: Callable[[float, str], None] | None,
+    before_ik: Callable[[Moves, np.ndarray | None], None] | None = None,
 ) -> _Solved:
     """IK along the path: on the programmed polyline (arm only), or with a cell on coordinated
-    samples in the world, the positioner planned by its policy first."""
+    samples in the world, the positioner planned by its policy first. before_ik(moves simulated,
+    positioner speed caps or None): called once both are known, before the IK."""
     if progress:
         progress(0.02, "inverse kinematics")
     desc = kin.description or profile.description
@@ -226,6 +229,8 @@ def _solve(
         speed = np.where(moves.arc, opt.speed_override, speed)
     ik_progress = (lambda f: progress(0.02 + 0.3 * f, "inverse kinematics")) if progress else None
     if kin.cell is None:
+        if before_ik is not None:
+            before_ik(moves, None)
         ks = solve_path(arm, moves.points, moves.tool_axis, kin.frames, step_mm=kin.step_mm, progress=ik_progress)
         return _Solved(arm, ks, speed, [], moves)
     from .cell import coordinated_samples, plan_positioner, positioner_caps
@@ -251,9 +256,7 @@ def _solve(
     )
     base = cell.robot_base
     frames = CellFrames(base_xyz_mm=tuple(base.xyz_mm), base_yaw_deg=base.yaw_deg)
-    ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames, progress=ik_progress)
     pos_cap, turn_s = positioner_caps(cell, moves.points, ang)
-    pos_metrics, pos_issues = _positioner_report(cell, moves, ang, clipped, pos_cap, turn_s, speed)
     # a turn on a zero-length move (in place) is a standstill the positioner needs
     sim_moves = moves
     still = (moves.segment_lengths <= 1e-6) & (turn_s > 0)
@@ -261,6 +264,10 @@ def _solve(
         dwell = np.asarray(moves.dwell_before, float).copy()
         dwell[np.flatnonzero(still)] += turn_s[still]
         sim_moves = replace(moves, dwell_before=dwell)
+    if before_ik is not None:
+        before_ik(sim_moves, pos_cap)
+    ks = solve_samples(arm, s_c, xyz_c, seg_c, ax_c, len(moves.points) - 1, frames, progress=ik_progress)
+    pos_metrics, pos_issues = _positioner_report(cell, moves, ang, clipped, pos_cap, turn_s, speed)
     return _Solved(arm, ks, speed, warnings, sim_moves, ang, ang_c, pos_cap, pos_metrics, pos_issues, plan_report)
 
 
@@ -304,9 +311,11 @@ def _kinematics(
     opt: SimOptions,
     kin: KinematicsOptions,
     progress: Callable[[float, str], None] | None,
+    before_ik: Callable[[Moves, np.ndarray | None], None] | None = None,
 ) -> _Kin:
-    """IK, positioner, collisions: the speed caps, figures, report and warnings they add."""
-    sv = _solve(moves, profile, opt, kin, progress)
+    """IK, positioner, collisions: the speed caps, figures, report and warnings they add
+    (before_ik: see `_solve`)."""
+    sv = _solve(moves, profile, opt, kin, progress, before_ik)
     ks, arm, speed = sv.ks, sv.arm, sv.speed
     cell: Any = kin.cell
     warnings = list(sv.warnings)
@@ -390,22 +399,40 @@ def simulate_program(
     kin: KinematicsOptions | None = None,
     progress: Callable[[float, str], None] | None = None,
     strategies: tuple[str, ...] | None = None,
+    submit: Callable[[Callable[[Any], Any], Any], Any] | None = None,
 ) -> SimulationResult:
     """Kinematics (optional: speed caps + warnings), controller simulation, closed-form estimate
     (strategies: each section's strategy, `estimate.section_strategies`, for the time model's
-    per-family entries; None = the generic ones)."""
+    per-family entries; None = the generic ones).
+
+    submit: `Context.submit` (fn, item) → Future | None. With it, the controller simulation is
+    started in a worker as soon as the moves and the positioner's speed caps are known, while
+    this process solves the IK (`_speculative`); it is taken when the arm's joint speed caps
+    leave every program speed as it was (a WAAM path at weld speed is far from them), else
+    simulated again here on the capped speeds. The result is the same either way."""
     k = None
     sim_moves = moves
+    started: list[tuple[Moves, SimOptions, Any]] = []
+
+    def before_ik(ik_moves: Moves, pos_cap: np.ndarray | None) -> None:
+        spec_opt = replace(opt, segment_cap=pos_cap)
+        fut = submit(_simulate_task, (ik_moves, profile, spec_opt)) if submit is not None else None
+        if fut is not None:
+            started.append((ik_moves, spec_opt, fut))
+
     if kin is not None and len(moves.points) >= 2:
-        k = _kinematics(moves, profile, opt, kin, progress)
+        speculate = submit is not None and len(moves.points) >= SPECULATE_MIN_POINTS
+        k = _kinematics(moves, profile, opt, kin, progress, before_ik if speculate else None)
         opt = replace(opt, segment_cap=k.cap)
         sim_moves = k.moves or moves
-    res = simulate(
-        sim_moves,
-        profile,
-        opt,
-        progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress,
-    )
+    res = _speculative(started, sim_moves, profile, opt)
+    if res is None:
+        res = simulate(
+            sim_moves,
+            profile,
+            opt,
+            progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress,
+        )
     est = (
         estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
         if profile.time_model
@@ -431,6 +458,33 @@ def simulate_program(
         collisions=k.collisions if k else (),
         kinematics=k.report if k else {},
     )
+
+
+def _simulate_task(task: tuple[Moves, RobotProfile, SimOptions]) -> SimulationResult:
+    """Worker side of `simulate_program`'s speculative simulation."""
+    moves, profile, opt = task
+    return simulate(moves, profile, opt)
+
+
+def _speculative(
+    started: list[tuple[Moves, SimOptions, Any]], moves: Moves, profile: RobotProfile, opt: SimOptions
+) -> SimulationResult | None:
+    """The simulation a worker ran on `started`'s options, when it is the one of `opt`: the same
+    moves and, to the bit, the same program speeds (the caps enter a simulation only there,
+    `simulate.program_speeds`); None when it is not (or the worker failed): simulate here."""
+    if not started:
+        return None
+    spec_moves, spec_opt, fut = started[0]
+    same = spec_moves is moves and (
+        program_speeds(moves, profile, spec_opt).tobytes() == program_speeds(moves, profile, opt).tobytes()
+    )
+    if not same:
+        fut.cancel()
+        return None
+    try:
+        return fut.result()
+    except Exception:  # the worker died, or the simulation failed: again here, which raises it located
+        return None
 
 
 def _auto_limits(kin: KinematicsOptions):

@@ -224,15 +224,8 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
     standstill = wait + ignite
     src = np.flatnonzero(keep)
     pts = P[kept_pts]
-    travel = opt.travel_speed if opt.travel_speed is not None else profile.travel_speed
-    speed = np.asarray(moves.speed, dtype=float)[src].copy()
     arc = np.asarray(moves.arc, dtype=bool)[src]
-    speed = np.where(np.isnan(speed) | (speed <= 0), travel, speed)
-    if opt.speed_override is not None:
-        speed = np.where(arc, float(opt.speed_override), speed)
-    if opt.segment_cap is not None:
-        speed = np.minimum(speed, np.asarray(opt.segment_cap, dtype=float)[src])
-    speed = np.clip(speed, 1e-3, profile.max_speed)
+    speed = _speeds(moves, profile, opt, src)
     n = len(pts)
     switch = np.zeros(n, dtype=bool)
     if n >= 2:
@@ -269,6 +262,30 @@ def _prepare(moves: Moves, profile: RobotProfile, opt: SimOptions) -> _Program:
         pause,
         ignite,
     )
+
+
+def _speeds(moves: Moves, profile: RobotProfile, opt: SimOptions, src: np.ndarray) -> np.ndarray:
+    """The commanded speed of the kept move segments `src`: programmed (travel where none),
+    the override on arc-ON ones, `opt.segment_cap`, within the profile's range."""
+    travel = opt.travel_speed if opt.travel_speed is not None else profile.travel_speed
+    speed = np.asarray(moves.speed, dtype=float)[src].copy()
+    arc = np.asarray(moves.arc, dtype=bool)[src]
+    speed = np.where(np.isnan(speed) | (speed <= 0), travel, speed)
+    if opt.speed_override is not None:
+        speed = np.where(arc, float(opt.speed_override), speed)
+    if opt.segment_cap is not None:
+        speed = np.minimum(speed, np.asarray(opt.segment_cap, dtype=float)[src])
+    return np.clip(speed, 1e-3, profile.max_speed)
+
+
+def program_speeds(moves: Moves, profile: RobotProfile, opt: SimOptions) -> np.ndarray:
+    """The speed of every kept (non-zero-length) move segment that `simulate` runs. It is the
+    only place `opt.segment_cap` enters a simulation: two options that differ only in their caps
+    and give the same program speeds to the bit simulate the same (`run.simulate_program` runs
+    the controller in a worker on the positioner's caps while the IK gives the arm's)."""
+    P = np.asarray(moves.points, dtype=float)
+    src = np.flatnonzero(np.linalg.norm(np.diff(P, axis=0), axis=1) > 1e-6)
+    return _speeds(moves, profile, opt, src)
 
 
 def _wire_rate(moves: Moves, opt: SimOptions) -> np.ndarray:

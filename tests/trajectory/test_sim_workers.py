@@ -1,0 +1,124 @@
+"""simulate-robot with a worker (`submit`): the controller simulation runs in another process
+while the IK is solved here, and is taken only when the IK's speed caps leave the program speeds
+as they were; part of trace.csv's rows are formatted in a worker. The serial path and the worker
+path give the same bytes: simulation.json, trace.csv and deposit.csv compared whole, on the
+arm-only and the cell configurations."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from waamflow.trajectory import run as run_mod
+from waamflow.trajectory import study
+from waamflow.trajectory.cell import load_cell
+from waamflow.trajectory.profile import load_profile
+from waamflow.trajectory.run import KinematicsOptions, deposit_csv, simulate_program, simulation_json
+from waamflow.trajectory.simulate import SimOptions, program_speeds, simulate
+from waamflow.trajectory import trace as trace_mod
+from waamflow.trajectory.trace import start_trace_csv, trace_csv
+
+PROFILE = load_profile("kuka_kr100ha_krc2")
+
+
+@pytest.fixture(scope="module")
+def pool():
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("forkserver")) as ex:
+        yield ex
+
+
+def _files(res) -> tuple[str, str, str]:
+    return json.dumps(simulation_json(res, SimOptions()), indent=1), trace_csv(res), deposit_csv(res)
+
+
+def _kins():
+    cell = load_cell("kr150_tilt_rotate")
+    return {
+        "arm": KinematicsOptions(step_mm=5.0),
+        "cell": KinematicsOptions(
+            description=cell.robot_urdf,
+            tcp_offset_mm=tuple(cell.tool.tcp_mm),
+            step_mm=5.0,
+            cell=cell,
+            positioner_policy="gravity",
+        ),
+    }
+
+
+@pytest.mark.parametrize("config", ["arm", "cell"])
+def test_worker_path_gives_the_serial_bytes(pool, monkeypatch, config):
+    monkeypatch.setattr(run_mod, "SPECULATE_MIN_POINTS", 0)
+    moves = study.raster(10.0)
+    kin = _kins()[config]
+    serial = simulate_program(moves, PROFILE, SimOptions(), kin)
+    submitted: list[Future] = []
+
+    def submit(fn, item):
+        fut = pool.submit(fn, item)
+        submitted.append(fut)
+        return fut
+
+    here = []  # simulations run in this process
+    monkeypatch.setattr(run_mod, "simulate", lambda *a, **k: here.append(1) or simulate(*a, **k))
+    par = simulate_program(moves, PROFILE, SimOptions(), kin, submit=submit)
+    assert len(submitted) == 1 and submitted[0].done()
+    assert here == []  # the worker's simulation was taken: the caps leave 10 mm/s alone
+    a, b = _files(serial), _files(par)
+    assert len(a[1]) > 10_000 and a[1].count("\n") > 300
+    assert a == b
+    assert par.metrics == serial.metrics and par.warnings == serial.warnings
+
+
+def test_a_cap_that_binds_is_simulated_here():
+    """The worker simulated on other program speeds (a cap binds): not taken, simulated here."""
+    moves = study.raster(10.0)
+    opt = SimOptions()
+    n = len(moves.points) - 1
+    cap = np.full(n, np.inf)
+    cap[3] = 4.0  # mm/s, under the 10 mm/s programmed
+    capped = replace(opt, segment_cap=cap)
+    assert program_speeds(moves, PROFILE, capped).min() == 4.0
+    fut: Future = Future()
+    fut.set_result("the uncapped simulation")
+    assert run_mod._speculative([(moves, opt, fut)], moves, PROFILE, capped) is None
+    # caps above every speed leave the speeds to the bit: taken
+    high = replace(opt, segment_cap=np.full(n, 1e6))
+    assert program_speeds(moves, PROFILE, high).tobytes() == program_speeds(moves, PROFILE, opt).tobytes()
+    assert run_mod._speculative([(moves, opt, fut)], moves, PROFILE, high) == "the uncapped simulation"
+    # other moves (a turn in place added a dwell): not taken
+    other = replace(moves, dwell_before=np.asarray(moves.dwell_before, float) + 1.0)
+    assert run_mod._speculative([(moves, opt, fut)], other, PROFILE, high) is None
+
+
+def test_a_failed_worker_is_simulated_here():
+    moves = study.raster(10.0)
+    fut: Future = Future()
+    fut.set_exception(RuntimeError("worker died"))
+    assert run_mod._speculative([(moves, SimOptions(), fut)], moves, PROFILE, SimOptions()) is None
+    assert run_mod._speculative([], moves, PROFILE, SimOptions()) is None
+
+
+def test_trace_csv_split_with_a_worker_is_the_same_text(pool, monkeypatch):
+    res = simulate_program(study.raster(10.0), PROFILE, SimOptions())
+    whole = trace_csv(res)
+    rows = whole.count("\n") - 1
+    assert rows > 300
+    monkeypatch.setattr(trace_mod, "CSV_SPLIT_ROWS", 10)
+    monkeypatch.setattr(trace_mod, "_CSV_BLOCK", 7)  # blocks cut across the split too
+    sent = []
+
+    def submit(fn, item):
+        sent.append(len(item))
+        return pool.submit(fn, item)
+
+    assert start_trace_csv(res, submit)() == whole
+    assert sent == [int(trace_mod.CSV_WORKER_SHARE * rows)]
+    failed: Future = Future()
+    failed.set_exception(RuntimeError("worker died"))
+    assert start_trace_csv(res, lambda fn, item: failed)() == whole  # the rows again here
+    assert start_trace_csv(res, lambda fn, item: None)() == whole  # no worker up
