@@ -184,7 +184,7 @@ def find_outside(
         section = slabs.get(idx) if slabs is not None else None
         if slabs is not None and (section is None or section.is_empty):
             continue  # no part at this slab: a deposit above the top is top_gap's
-        reach = section.buffer(width / 2.0, quad_segs=8) if section is not None else None
+        reach = None  # the section grown by ½ bead: buffered at the layer's first excursion only
         area = 0.0
         worst = None
         for r in runs:
@@ -204,7 +204,9 @@ def find_outside(
             for e in ex:
                 if worst is None or e.max_mm > worst.max_mm:
                     worst = e
-            if reach is not None and ex:
+            if section is not None and ex:
+                if reach is None:
+                    reach = section.buffer(width / 2.0, quad_segs=8)
                 area += float(footprint([r.points[:, :2]], width).difference(reach).area)
         per_layer[idx] = {
             "outside_mm2": area if method == "planar slabs" else None,
