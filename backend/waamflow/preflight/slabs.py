@@ -25,6 +25,9 @@ from shapely.geometry import MultiPolygon, Polygon
 
 MAX_PAIRS = 20_000_000  # (triangle, plane) pairs held at once; beyond, each plane scans the part
 TASKS_PER_WORKER = 4  # parallel: the layers are cut into this many tasks per worker
+# what a slab task imports on first use (check._chain_loops): the run's workers import it while the
+# parent reads the program back (engine: LayerPool.prepare), not in their first task
+WORKER_IMPORTS = ("scipy.sparse.csgraph",)
 
 
 class Workers(Protocol):
