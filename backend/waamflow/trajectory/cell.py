@@ -350,10 +350,15 @@ def plan_positioner(
     layer_angles: dict[int, tuple[np.ndarray, bool]] = {}
     prev = fixed.copy()
     up = np.array([0.0, 0.0, 1.0])
-    for L in sorted(set(seg_layer.tolist())):
-        segs = np.flatnonzero((seg_layer == L) & arc)
+    # each layer's segments in ascending order (what a mask seg_layer == L selects), by one sort
+    layers, counts = np.unique(seg_layer, return_counts=True)
+    order = np.argsort(seg_layer, kind="stable")
+    bounds = np.concatenate([[0], np.cumsum(counts)])
+    for k, L in enumerate(layers.tolist()):
+        mine = order[bounds[k] : bounds[k + 1]]
+        segs = mine[arc[mine]]
         if len(segs) == 0:
-            segs = np.flatnonzero(seg_layer == L)
+            segs = mine
         nrm = -axes[segs].mean(axis=0)
         nrm /= max(np.linalg.norm(nrm), 1e-12)
         if policy == "min-motion":
@@ -366,12 +371,16 @@ def plan_positioner(
             sols[0][1] = prev[1]  # n along the turntable axis: E2 free, kept
         prev, out = _nearest(sols, prev, lo, hi)
         layer_angles[L] = (prev, out)
-    ang = np.zeros((n, m))
-    clipped = np.zeros(n, bool)
-    for i in range(n):
-        s = i - 1 if i > 0 and arc[i - 1] else min(i, n - 2)
-        ang[i], clipped[i] = layer_angles[int(seg_layer[s])]
-    return ang, clipped
+    # a point takes the layer of the arc-ON segment it ends, else of the segment it starts
+    i = np.arange(n)
+    s = np.minimum(i, n - 2)
+    ends_arc = np.zeros(n, bool)
+    ends_arc[1:] = arc[: n - 1]
+    s[ends_arc] = i[ends_arc] - 1
+    row = np.searchsorted(layers, seg_layer[s])
+    table = np.array([layer_angles[L][0] for L in layers.tolist()], float).reshape(len(layers), m)
+    out = np.array([layer_angles[L][1] for L in layers.tolist()], bool)
+    return table[row], out[row]
 
 
 def _auto_plan(cell: Cell, moves, limits=None) -> tuple[np.ndarray, np.ndarray]:
