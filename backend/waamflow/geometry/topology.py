@@ -244,16 +244,18 @@ def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> E
 def face_components(twin: np.ndarray, n_faces: int) -> tuple[int, np.ndarray]:
     """Bodies of a closed mesh: (count, (m,) body id per face), faces joined across shared edges.
 
-    twin: from `edge_twins`. Face f's neighbours are twin[3f:3f + 3] // 3: row f of the graph in
-    CSR form as it stands (no COO sort); scipy numbers the components in the order of their
-    lowest face, whatever the graph's layout.
+    twin: from `edge_twins`. Face f's neighbours are twin[3f:3f + 3] // 3; twin pairs edges both
+    ways, so each pair of faces is taken once, from its lower face. Components are numbered in the
+    order of their lowest face, as scipy's csgraph numbers them (`core.graphs`: numpy, without
+    importing scipy.sparse, ~0.25 s of CPU on every CLI run; a 1,008,000-triangle vase 0.10 s,
+    as scipy's 0.09 s).
     """
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import connected_components
+    from ..core.graphs import connected_components
 
-    indptr = np.arange(0, 3 * n_faces + 1, 3)
-    graph = csr_matrix((np.ones(len(twin), dtype=np.int8), twin // 3, indptr), shape=(n_faces, n_faces))
-    n, label = connected_components(graph, directed=False)
+    face = np.repeat(np.arange(n_faces), 3)
+    other = np.asarray(twin) // 3
+    lower = face < other
+    n, label = connected_components(n_faces, face[lower], other[lower])
     return int(n), label
 
 

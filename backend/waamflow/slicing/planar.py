@@ -94,20 +94,18 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Decompose a permutation into cycles.
 
     Returns (label (n,) cycle id of each element, pos (n,) position along its cycle counted from
-    some element of it, size (c,) cycle lengths). Cycle ids come from scipy's connected
-    components. Positions come from whichever of two walks is cheaper:
+    some element of it, size (c,) cycle lengths). Cycle ids: in the order of each cycle's lowest
+    element (`core.graphs.permutation_cycles`, as scipy's connected components). Positions come from whichever of two walks is cheaper:
     - lock-step: all cycles advance one element per numpy step (L_max steps on small arrays),
       best for many short loops (e.g. 500 layers × a few loops of ~4 k points);
     - pointer-jumping list ranking: each cycle is cut before one element and every element
       sums the ones after it, doubling the reach each round (⌈log₂ L_max⌉ whole-array rounds),
       best for a few very long loops.
     """
-    from scipy.sparse import csr_matrix  # lazy: keeps start-up light
-    from scipy.sparse.csgraph import connected_components
+    from ..core.graphs import permutation_cycles  # scipy's numbering, without importing scipy
 
     n = len(nxt)
-    graph = csr_matrix((np.ones(n, dtype=np.int8), (np.arange(n), nxt)), shape=(n, n))
-    n_cycles, label = connected_components(graph, directed=True, connection="weak")
+    n_cycles, label = permutation_cycles(nxt)
     size = np.bincount(label, minlength=n_cycles)
     head = np.empty(n_cycles, dtype=np.int64)
     head[label] = np.arange(n)  # any element of each cycle
