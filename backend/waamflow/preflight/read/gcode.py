@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Callable
 
 import numpy as np
 
@@ -12,6 +13,11 @@ from ...program.common import parse_weld_tag, template_regex
 from .core import NUM, ProgramRead, RunBuilder
 
 _GWORD = re.compile(r"([A-Z])\s*(" + NUM + ")")
+# the straight motions that make most of a program, as waamflow writes them: read without the
+# general path's comment, word and weld-command passes (same numbers, same builder calls)
+_PLAIN_G1 = re.compile(r"G1 X(" + NUM + ") Y(" + NUM + ") Z(" + NUM + r")(?: F(" + NUM + "))?")
+_PLAIN_CHARS = frozenset("G1 XYZF0123456789.+-eE")
+FAST_PATH = True  # False: every line by the general path (tests compare the two)
 _POST_TAG = re.compile(
     r"waamflow-post:\s*arc_on=(\S+)\s+arc_off=(\S+)\s+dwell_units=(ms|s)\b"
     r"(?:\s+feed_units=(mm/min|mm/s))?"
@@ -47,6 +53,19 @@ def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> 
     return pts
 
 
+def _plain_g1(weld_rx: dict, arc_letters: set) -> Callable[[str], re.Match | None] | None:
+    """The matcher of plain `G1 X Y Z [F]` lines, or None when such a line could be something else
+    in this program: a weld command whose literal text could occur in it, or an arc code made of
+    those letters (the general path decides those)."""
+    if not FAST_PATH or {("G", "X", "Y", "Z"), ("G", "X", "Y", "Z", "F")} & arc_letters:
+        return None
+    for pats in weld_rx.values():
+        for _rx, _scale, literal in pats:
+            if set(literal) <= _PLAIN_CHARS:  # "" too: its pattern is tried on every line
+                return None
+    return _PLAIN_G1.fullmatch
+
+
 def read_gcode(text: str) -> ProgramRead:
     tag = _POST_TAG.search(text)
     arc_on = (tag.group(1) if tag else "M3").replace("_", " ").upper().split()
@@ -65,7 +84,17 @@ def read_gcode(text: str) -> ProgramRead:
     # each) are made for those lines alone, not for every motion
     arc_letters = {tuple(w[0] for w in on_words), tuple(w[0] for w in off_words)}
     arc_sizes = {len(on_words), len(off_words)}
+    plain = _plain_g1(weld_rx, arc_letters)
     for ln, raw in enumerate(text.splitlines(), start=1):
+        if plain is not None and raw.startswith("G1 X"):
+            m = plain(raw)
+            if m is not None:
+                motion = 1
+                if m.group(4) is not None:
+                    feed = float(m.group(4)) * (1.0 if per_s else 1.0 / 60.0)
+                x, y, z = float(m.group(1)), float(m.group(2)), float(m.group(3))
+                b.move_to(x, y, z, feed, values.get("wire_feed_speed", math.nan), bool(values))
+                continue
         code, _, comment = raw.partition(";")
         parens: list[str] = []
         if "(" in code:

@@ -1,0 +1,99 @@
+"""The G-code reader's plain `G1 X Y Z [F]` lines (issue #30: 0.38 -> 0.18 s of the bench vase's
+68,000-line program, on the run's critical path): read the same as by the general path, runs,
+travel and notes bit for bit, and left to the general path wherever such a line could mean
+something else (a weld command or an arc code written with those letters)."""
+
+import numpy as np
+import pytest
+
+from waamflow.preflight.read import gcode
+
+HEADER = """; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units={units} end=M30
+; waamflow-weld: wire_feed_speed[m/min]="M67 E0 Q{{value:.2f}}" wire_feed_speed[m/min]@start="M68 E0 Q{{value:.2f}}"
+{extra}G21
+G90
+"""
+
+
+def _program(units="mm/min", extra="", rng=None):
+    rng = rng or np.random.default_rng(0)
+    lines = [HEADER.format(units=units, extra=extra)]
+    z = 0.0
+    for layer in range(4):
+        z += 1.5
+        lines += [f"; layer {layer} z={z:.3f}", f"; section s{layer}", f"G0 X{rng.uniform(-5, 5):.3f} Y0 Z{z:.3f}"]
+        lines += ["M68 E0 Q5.00", "M3 ; arc on", "G4 P0.5"]
+        for k in range(60):
+            x, y = rng.uniform(-80, 80, 2)
+            feed = f" F{rng.integers(300, 900)}" if k % 17 == 0 else ""
+            form = k % 7
+            if form == 0:
+                lines.append(f"G1 X{x:.3f} Y{y:.3f} Z{z:.3f}{feed} ; a comment")  # general path
+            elif form == 1:
+                lines.append(f"G1 X{x:.3f} Y{y:.3f}")  # no Z: general path
+            elif form == 2:
+                lines.append(f"G01 X{x:.3f} Y{y:.3f} Z{z:.3f}")  # G01: general path
+            elif form == 3:
+                lines.append(f"G1 X{x:.0f}. Y{-y:.4e} Z{z:.3f}{feed}")  # odd numbers, plain
+            else:
+                lines.append(f"G1 X{x:.3f} Y{y:.3f} Z{z:.3f}{feed}")
+        lines += ["M67 E0 Q4.50", f"G1 X1.000 Y2.000 Z{z:.3f}", "M5 ; arc off", f"G0 X0 Y0 Z{z + 5:.3f}", "G1 X3 Y4 Z9"]
+    lines.append("M30")
+    return "\n".join(lines) + "\n"
+
+
+def _read(text, fast, monkeypatch):
+    monkeypatch.setattr(gcode, "FAST_PATH", fast)
+    return gcode.read_gcode(text)
+
+
+def _assert_same(a, b):
+    assert (a.format, a.travel_mm, a.notes, a.weld_commanded) == (b.format, b.travel_mm, b.notes, b.weld_commanded)
+    assert len(a.runs) == len(b.runs)
+    for r, q in zip(a.runs, b.runs):
+        for name in ("points", "speed", "wfs", "weld"):
+            x, y = getattr(r, name), getattr(q, name)
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), name
+        assert (r.layer, r.section, r.line) == (q.layer, q.section, q.line)
+
+
+@pytest.mark.parametrize("units", ["mm/min", "mm/s"])
+def test_plain_lines_read_as_the_general_path_reads_them(units, monkeypatch):
+    text = _program(units)
+    fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
+    _assert_same(fast, ref)
+    assert len(ref.runs) == 4 and all(len(r.points) == 62 for r in ref.runs) and ref.travel_mm > 10
+    assert np.nanmax(ref.runs[0].speed) > 5 and np.all(ref.runs[1].wfs[-1:] == 4.5)
+
+
+def test_plain_lines_used_where_they_can_only_be_motions(monkeypatch):
+    calls = []
+    findall = gcode._GWORD.findall
+
+    class Counting:
+        def findall(self, s):
+            calls.append(s)
+            return findall(s)
+
+    monkeypatch.setattr(gcode, "_GWORD", Counting())
+    _read(_program(), True, monkeypatch)
+    plain = len(calls)
+    calls.clear()
+    _read(_program(), False, monkeypatch)
+    assert plain < len(calls) / 2  # most motions skip the word pass
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        '; waamflow-weld: current[A]="G1 F{value:.0f}"\n',  # a weld command spelled like a motion
+        '; waamflow-weld: voltage[V]="{value:.1f}"\n',  # a pattern tried on every line
+    ],
+)
+def test_weld_commands_that_could_be_plain_lines_keep_the_general_path(extra, monkeypatch):
+    text = _program(extra=extra)
+    assert gcode._plain_g1(gcode._weld_templates(text), set()) is None
+    _assert_same(_read(text, True, monkeypatch), _read(text, False, monkeypatch))
+    monkeypatch.setattr(gcode, "FAST_PATH", True)
+    assert gcode._plain_g1(gcode._weld_templates(_program()), set()) is not None
+    assert gcode._plain_g1(gcode._weld_templates(_program()), {("G", "X", "Y", "Z")}) is None
