@@ -379,8 +379,8 @@ def plan_positioner(
     s[ends_arc] = i[ends_arc] - 1
     row = np.searchsorted(layers, seg_layer[s])
     table = np.array([layer_angles[L][0] for L in layers.tolist()], float).reshape(len(layers), m)
-    out = np.array([layer_angles[L][1] for L in layers.tolist()], bool)
-    return table[row], out[row]
+    outside = np.array([layer_angles[L][1] for L in layers.tolist()], bool)
+    return table[row], outside[row]
 
 
 def _auto_plan(cell: Cell, moves, limits=None) -> tuple[np.ndarray, np.ndarray]:
