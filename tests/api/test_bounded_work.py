@@ -18,7 +18,7 @@ from pydantic import Field
 import slow_nodes  # noqa: F401  (registers toy-slow)
 import toy_nodes as toy
 from api_util import wait_for_run as wait
-from helpers_limits import box_stl, client, settings, sliced
+from helpers_limits import box_stl, client, parallel_now, settings, sliced
 from waamflow.api.app import create_app
 from waamflow.engine.node import Node, NodeParams, Port, register
 
@@ -242,7 +242,10 @@ def _workers_of(me: psutil.Process) -> set[int]:
     return {p.pid for p in me.children(recursive=True) if p.ppid() != me.pid}
 
 
-def test_cancel_kills_layer_workers_within_2_s(tmp_path):
+def test_cancel_kills_layer_workers_within_2_s(tmp_path, monkeypatch):
+    # toy-slow sleeps: its layers cost no CPU, so the engine's timing (CPU seconds) would keep
+    # them in the run's own process; the workers are started at once instead
+    parallel_now(monkeypatch)
     rec = toy.recipe(
         [("stack", "toy-stack", {"count": 40}), ("slow", "toy-slow", {"seconds": 0.4})],
         [("stack.layers", "slow.layers")],
