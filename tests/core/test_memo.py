@@ -69,3 +69,19 @@ def test_threads_get_the_one_value_per_key():
         t.join()
     assert len(out) == 800 and sorted(set(out)) == [k * k for k in range(200)]
     assert len(memo) == 200
+
+
+def test_digest_tells_parts_apart_and_is_stable():
+    from waamflow.core.memo import digest
+
+    d = digest(b"ab", b"c", 1.5, True, None, "x")
+    assert len(d) == 16 and d == digest(b"ab", b"c", 1.5, True, None, "x")
+    others = [
+        digest(b"a", b"bc", 1.5, True, None, "x"),  # the same bytes split elsewhere
+        digest(b"ab", b"c", 1.5000000000000002, True, None, "x"),  # one ulp
+        digest(b"ab", b"c", 1.5, False, None, "x"),
+        digest(b"ab", b"c", 1.5, True, b"", "x"),  # None is not empty bytes
+        digest(b"ab", b"c", 1.5, True, None, b"x"),  # str is not bytes
+        digest(b"ab", b"c", 1.5, 1.0, None, "x"),  # True is not 1.0
+    ]
+    assert len({d, *others}) == 7

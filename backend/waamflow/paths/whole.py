@@ -15,8 +15,9 @@ An L of a 120 × 16 mm and a 64 × 16 mm arm: the default weave along the long a
 rectangle covers 39.6 % of it; split in two it covers 99.8 %.
 
 A part's layers repeat their sections: `plan_whole` remembers what it planned for the exact same
-region, guide and spec (`core.memo`, keyed by their WKB bytes and the spec's JSON) and hands out
-a copy (graphs/bracket.json: 420 sections, 123 distinct; its strategy node 3x faster).
+region, guide and spec (`core.memo`, keyed by a digest of their WKB bytes and the spec's JSON)
+and hands out a copy (graphs/bracket.json: 420 sections, 123 distinct; its strategy node 3x
+faster).
 
 Pure: shapely + numpy, layer-local mm.
 """
@@ -29,7 +30,7 @@ from typing import Literal
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
-from ..core.memo import Memo
+from ..core.memo import Memo, digest
 from ..sections.corners import corner_division
 from .deposit import WEAVES, uncovered_area
 from .flags import finish
@@ -121,7 +122,7 @@ def plan_whole(
 
     A section planned before with the same region, guide, spec, `adapt` and `max_uncovered`
     (bytes for bytes) is not planned again: its result comes back as a copy."""
-    key = (
+    key = digest(
         region.wkb,
         None if guide is None else guide.wkb,
         type(spec).__qualname__,

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.memo import Memo
+from ..core.memo import Memo, digest
 from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM, deposit_rate_mm3_s
 
 #: A pass counts as having a neighbour where another part of the path (more than 2 bead widths
@@ -95,7 +95,7 @@ def path_step(points: np.ndarray, arc: np.ndarray, width_mm: float) -> float | N
     on = np.ascontiguousarray(np.asarray(arc, dtype=bool))
     if len(pts) < 2 or not on.any() or width_mm <= 0:
         return None
-    key = (len(pts), pts.tobytes(), on.tobytes(), float(width_mm))
+    key = digest(pts.tobytes(), on.tobytes(), float(width_mm))
     return _STEPS.get(key, lambda: _path_step(pts, on, float(width_mm)))
 
 
