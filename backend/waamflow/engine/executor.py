@@ -633,7 +633,10 @@ class _Run:
         if pool is None or not pool.enabled or pool.started or self.layers is not None:
             return
         self.grow_size(self.outputs[self.active[pos]])
-        if parallel.wants_workers(pool.workers, *self.size):
+        later = [self.graph.nodes[n] for n in self.active[pos + 1 :]]
+        extra = sum(g.impl.shared_work_s(g.params, self.size[2]) for g in later)
+        tri, lay, pts = self.size
+        if parallel.wants_workers(pool.workers, tri, lay, pts, extra_s=extra):
             pool.warm()
             return
         if any(

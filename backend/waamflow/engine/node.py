@@ -107,6 +107,12 @@ class Node:
         """Files this node writes, keyed by suffix: {"layers.json": text} → `<node id>.layers.json`."""
         return {}
 
+    def shared_work_s(self, params: Any, points: int) -> float:
+        """Expected CPU seconds of this node's work that it hands to the run's workers when they
+        are up (`Context.submit`), for a run of `points` path points: the cost model that starts
+        the workers (`parallel.wants_workers`) counts it for the nodes still to run."""
+        return 0.0
+
     def read_files(self, params: Any, read_bytes: Callable[[str], bytes | None]) -> list[str]:
         """Files `run` reads besides its `FileRef` params (a user's cell file and the meshes it
         names): their content signatures join the node's cache key, so editing one recomputes

@@ -107,13 +107,13 @@ def parallel_work_s(triangles: int = 0, layers: int = 0, points: int = 0) -> flo
 
 
 def wants_workers(
-    workers: int, triangles: int = 0, layers: int = 0, points: int = 0, min_s: float | None = None
+    workers: int, triangles: int = 0, layers: int = 0, points: int = 0, min_s: float | None = None, extra_s: float = 0.0
 ) -> bool:
-    """Whether the workers pay for a run of this size: more than one, and more expected serial
-    seconds than `min_s` (default `MIN_PARALLEL_S`, read at the call: starting them costs ~0.7 s
-    of CPU on another core, and more in pickling, see MIN_PARALLEL_S)."""
+    """Whether the workers pay for a run of this size (plus `extra_s`, the nodes to come's `Node.shared_work_s`): more
+    than one, and more expected serial seconds than `min_s` (default `MIN_PARALLEL_S`, read at the call: starting them
+    costs ~0.7 s of CPU on another core, and more in pickling, see MIN_PARALLEL_S)."""
     limit = MIN_PARALLEL_S if min_s is None else min_s
-    return workers > 1 and parallel_work_s(triangles, layers, points) > limit
+    return workers > 1 and parallel_work_s(triangles, layers, points) + extra_s > limit
 
 
 def file_triangles(size: int, head: bytes) -> int:

@@ -35,6 +35,11 @@ from .robotparams import max_tilt_field as max_tilt_field
 Vec3 = tuple[float, float, float]
 
 
+# CPU seconds per path point of the controller simulation (and trace.csv's rows) that simulate-robot
+# hands to the run's workers: curved-bracket, 39,274 points, 0.87 s of simulation (2026-11-26)
+SIM_SHARED_S_PER_POINT = 2.2e-5
+
+
 @register
 class SimulateRobot(Node):
     """Predict what the robot really does with the toolpath: full stops at every arc ON/OFF switch,
@@ -179,6 +184,11 @@ class SimulateRobot(Node):
 
     def read_files(self, params, read_bytes) -> list[str]:
         return cell_files(params.cell, read_bytes) if params.kinematics else []
+
+    def shared_work_s(self, params, points: int) -> float:
+        """With kinematics the controller simulation runs in a worker beside the IK
+        (`run.simulate_program`)."""
+        return SIM_SHARED_S_PER_POINT * points if params.kinematics else 0.0
 
     def _kin(self, ctx, params, profile: RobotProfile) -> KinematicsOptions | None:
         if not params.kinematics:
