@@ -66,7 +66,9 @@ def test_worker_path_gives_the_serial_bytes(pool, monkeypatch, config):
     here = []  # simulations run in this process
     monkeypatch.setattr(run_mod, "simulate", lambda *a, **k: here.append(1) or simulate(*a, **k))
     par = simulate_program(moves, PROFILE, SimOptions(), kin, submit=submit)
-    assert len(submitted) == 1 and submitted[0].done()
+    assert PROFILE.time_model  # the closed-form estimate goes to a worker too
+    assert len(submitted) == 2 and all(f.done() for f in submitted)
+    assert par.estimate == serial.estimate and par.estimate["total_time_s"] > 0
     assert here == []  # the worker's simulation was taken: the caps leave 10 mm/s alone
     a, b = _files(serial), _files(par)
     assert len(a[1]) > 10_000 and a[1].count("\n") > 300
@@ -101,6 +103,11 @@ def test_a_failed_worker_is_simulated_here():
     fut.set_exception(RuntimeError("worker died"))
     assert run_mod._speculative([(moves, SimOptions(), fut)], moves, PROFILE, SimOptions()) is None
     assert run_mod._speculative([], moves, PROFILE, SimOptions()) is None
+    task = (moves, PROFILE.time_model, PROFILE.travel_speed, None)
+    here = run_mod._estimate_task(task)
+    assert here.total_time_s > 0
+    assert run_mod._estimate_result(fut, task) == here  # the estimate again here
+    assert run_mod._estimate_result(None, task) == here
 
 
 def test_trace_csv_split_with_a_worker_is_the_same_text(pool, monkeypatch):

@@ -413,12 +413,19 @@ def simulate_program(
     k = None
     sim_moves = moves
     started: list[tuple[Moves, SimOptions, Any]] = []
+    travel = opt.travel_speed or profile.travel_speed
+    est_task = (moves, profile.time_model, travel, strategies)
+    est_fut: list[Any] = []
 
     def before_ik(ik_moves: Moves, pos_cap: np.ndarray | None) -> None:
+        if submit is None:
+            return
         spec_opt = replace(opt, segment_cap=pos_cap)
-        fut = submit(_simulate_task, (ik_moves, profile, spec_opt)) if submit is not None else None
+        fut = submit(_simulate_task, (ik_moves, profile, spec_opt))
         if fut is not None:
             started.append((ik_moves, spec_opt, fut))
+            if profile.time_model:  # the closed-form estimate needs no kinematics either
+                est_fut.append(submit(_estimate_task, est_task))
 
     if kin is not None and len(moves.points) >= 2:
         speculate = submit is not None and len(moves.points) >= SPECULATE_MIN_POINTS
@@ -433,11 +440,7 @@ def simulate_program(
             opt,
             progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress,
         )
-    est = (
-        estimate_moves(moves, profile.time_model, opt.travel_speed or profile.travel_speed, strategies=strategies)
-        if profile.time_model
-        else None
-    )
+    est = _estimate_result(est_fut[0] if est_fut else None, est_task) if profile.time_model else None
     estimate = {}
     if est is not None:
         estimate = {
@@ -464,6 +467,22 @@ def _simulate_task(task: tuple[Moves, RobotProfile, SimOptions]) -> SimulationRe
     """Worker side of `simulate_program`'s speculative simulation."""
     moves, profile, opt = task
     return simulate(moves, profile, opt)
+
+
+def _estimate_task(task: tuple[Moves, dict, float, tuple[str, ...] | None]) -> Any:
+    """`estimate_moves` on (moves, time model, travel speed, strategies): here or in a worker."""
+    moves, time_model, travel, strategies = task
+    return estimate_moves(moves, time_model, travel, strategies=strategies)
+
+
+def _estimate_result(fut: Any, task: tuple[Moves, dict, float, tuple[str, ...] | None]) -> Any:
+    """The estimate a worker made (`fut`, or None), else made here (it failed or none was asked)."""
+    if fut is not None:
+        try:
+            return fut.result()
+        except Exception:  # the worker died, or the estimate failed: again here, which raises it located
+            pass
+    return _estimate_task(task)
 
 
 def _speculative(
