@@ -6,7 +6,7 @@ from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import connected_components as sp_components
 from scipy.sparse.csgraph import depth_first_order
 
-from waamflow.core.graphs import connected_components, cycle_walks, permutation_cycles
+from waamflow.core.graphs import SMALL_WALK, connected_components, cycle_walks, permutation_cycles
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -39,12 +39,14 @@ def test_permutation_cycles_are_scipys_weak_components(seed):
         np.testing.assert_array_equal(got[1], want[1])
 
 
-@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("seed", range(10))
 def test_cycle_walks_are_scipys_depth_first_orders(seed):
-    """Disjoint cycles of 3 to 2,000 vertices under random labels: each walk equals
+    """Disjoint cycles of 3 to 2,000 vertices under random labels, in all below and above
+    SMALL_WALK vertices (walked one vertex at a time, or by list ranking): each walk equals
     depth_first_order from the cycle's lowest vertex on the (low, high) CSR graph."""
     rng = np.random.default_rng(seed)
-    sizes = rng.integers(3, 40, 12).tolist() + ([2000] if seed == 0 else [])
+    many = 12 if seed % 2 else 3  # ~250 vertices, or ~60
+    sizes = rng.integers(3, 40, many).tolist() + ([2000] if seed == 0 else [])
     n = int(sum(sizes))
     perm = rng.permutation(n)
     pairs, at = [], 0
@@ -60,6 +62,7 @@ def test_cycle_walks_are_scipys_depth_first_orders(seed):
     want = [depth_first_order(graph, int(s), directed=False, return_predecessors=False) for s in starts]
     got = cycle_walks(n, edges)
     assert len(got) == count == len(sizes)
+    assert (n <= SMALL_WALK) == (seed % 2 == 0 and seed != 0)
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
 

@@ -62,6 +62,32 @@ def permutation_cycles(nxt: np.ndarray) -> tuple[int, np.ndarray]:
     return len(roots), label.reshape(-1)
 
 
+#: Up to this many vertices the cycles are walked one vertex at a time (a plane section of a
+#: CAD part: a few dozen), above by list ranking (a vase's 4,000): ~20 numpy calls cost more than
+#: a short loop.
+SMALL_WALK = 128
+
+
+def _walk_each(nb: np.ndarray) -> list[np.ndarray]:
+    """`cycle_walks` vertex by vertex: nb (n, 2) each vertex's two neighbours."""
+    pairs = nb.tolist()
+    seen = [False] * len(pairs)
+    out = []
+    for start in range(len(pairs)):
+        if seen[start]:
+            continue
+        seen[start] = True
+        order = [start]
+        prev, cur = start, min(pairs[start])
+        while not seen[cur]:
+            seen[cur] = True
+            order.append(cur)
+            a, b = pairs[cur]
+            prev, cur = cur, (b if a == prev else a)
+        out.append(np.array(order, dtype=np.int64))
+    return out
+
+
 def cycle_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
     """The cycles of a graph on n vertices whose every vertex has degree 2 (edges: (n, 2)
     distinct undirected pairs, low first), each as its vertex order from its lowest vertex
@@ -72,6 +98,8 @@ def cycle_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
         raise ValueError("cycle_walks needs a graph whose every vertex has degree 2")
     other = np.concatenate([edges[:, 1], edges[:, 0]])
     nb = other[np.argsort(ends, kind="stable")].reshape(n, 2)  # each vertex's two neighbours
+    if n <= SMALL_WALK:
+        return _walk_each(nb)
     v = np.arange(n, dtype=np.int64)
     # directed edge 2v + k: v → nb[v, k]; the next one leaves nb[v, k] by its other neighbour
     head = nb.reshape(-1)
