@@ -105,7 +105,9 @@ class SimulateRobot(Node):
             "auto",
             description="With a cell: `auto` plans each layer's positioner angles and torch lean with the "
             "arm's IK and the collision checks (gravity angles first, then turntable turns, "
-            "a torch lean up to max_lean_deg, the tilt relaxed within flat_tol_deg) and fails "
+            "a torch lean up to max_lean_deg, the tilt relaxed within flat_tol_deg, then the "
+            "angles varied along the layer: each point flat at its own normal, or the turntable "
+            "following the layer) and fails "
             "naming the layer and the cell changes verified to work when nothing does; `fixed` "
             "keeps the positioner at the cell's fixed_deg; `gravity` turns each layer so its "
             "torch axis points straight down (flat-position welding); `min-motion` holds the "
