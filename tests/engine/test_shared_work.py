@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import toy_nodes as toy
 
-from waamflow.engine import parallel
+from waamflow.engine import executor, parallel
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.node import Context, load_nodes
@@ -40,6 +40,7 @@ def _spy_warm(monkeypatch) -> list[int]:
 
 def test_declared_shared_work_of_a_later_node_starts_the_workers(monkeypatch):
     started = _spy_warm(monkeypatch)
+    monkeypatch.setattr(executor.os, "getloadavg", lambda: (0.0, 0.0, 0.0))  # an idle machine
     small = execute(_graph(), resolver=FileResolver("."), workers=2)
     assert started == []  # 3 toy layers: far under MIN_PARALLEL_S
     monkeypatch.setattr(toy.ToyGrow, "shared_work_s", lambda self, params, points: parallel.MIN_PARALLEL_S + 0.1)
@@ -62,3 +63,19 @@ def test_simulate_robot_declares_its_simulation_only_with_kinematics():
     assert impl.shared_work_s(params, 40_000) == 40_000 * 2.2e-5  # 0.88 s: curved-bracket's size
     assert impl.shared_work_s(params.model_copy(update={"kinematics": False}), 40_000) == 0.0
     assert Context().submit(len, []) is None  # outside a run: the caller computes it
+
+
+def test_declared_shared_work_needs_a_spare_core(monkeypatch):
+    """Work a node runs beside its own pays only on a core of its own: on a machine whose load
+    average fills its cores it does not start the workers (the cost model's own terms still may)."""
+    started = _spy_warm(monkeypatch)
+    monkeypatch.setattr(toy.ToyGrow, "shared_work_s", lambda self, params, points: parallel.MIN_PARALLEL_S + 0.1)
+    cores = executor.os.cpu_count() or 1
+    monkeypatch.setattr(executor.os, "getloadavg", lambda: (float(cores), 0.0, 0.0))
+    assert not executor.spare_core()
+    busy = execute(_graph(), resolver=FileResolver("."), workers=2)
+    assert started == [] and busy.executor["workers"] == 2
+    monkeypatch.setattr(executor.os, "getloadavg", lambda: (cores - 0.6, 0.0, 0.0))
+    assert executor.spare_core()
+    execute(_graph(), resolver=FileResolver("."), workers=2)
+    assert started == [1]

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from waamflow.trajectory import run as run_mod
+from waamflow.trajectory import simworkers
 from waamflow.trajectory import study
 from waamflow.trajectory.cell import load_cell
 from waamflow.trajectory.profile import load_profile
@@ -87,27 +88,27 @@ def test_a_cap_that_binds_is_simulated_here():
     assert program_speeds(moves, PROFILE, capped).min() == 4.0
     fut: Future = Future()
     fut.set_result("the uncapped simulation")
-    assert run_mod._speculative([(moves, opt, fut)], moves, PROFILE, capped) is None
+    assert simworkers.speculative([(moves, opt, fut)], moves, PROFILE, capped) is None
     # caps above every speed leave the speeds to the bit: taken
     high = replace(opt, segment_cap=np.full(n, 1e6))
     assert program_speeds(moves, PROFILE, high).tobytes() == program_speeds(moves, PROFILE, opt).tobytes()
-    assert run_mod._speculative([(moves, opt, fut)], moves, PROFILE, high) == "the uncapped simulation"
+    assert simworkers.speculative([(moves, opt, fut)], moves, PROFILE, high) == "the uncapped simulation"
     # other moves (a turn in place added a dwell): not taken
     other = replace(moves, dwell_before=np.asarray(moves.dwell_before, float) + 1.0)
-    assert run_mod._speculative([(moves, opt, fut)], other, PROFILE, high) is None
+    assert simworkers.speculative([(moves, opt, fut)], other, PROFILE, high) is None
 
 
 def test_a_failed_worker_is_simulated_here():
     moves = study.raster(10.0)
     fut: Future = Future()
     fut.set_exception(RuntimeError("worker died"))
-    assert run_mod._speculative([(moves, SimOptions(), fut)], moves, PROFILE, SimOptions()) is None
-    assert run_mod._speculative([], moves, PROFILE, SimOptions()) is None
+    assert simworkers.speculative([(moves, SimOptions(), fut)], moves, PROFILE, SimOptions()) is None
+    assert simworkers.speculative([], moves, PROFILE, SimOptions()) is None
     task = (moves, PROFILE.time_model, PROFILE.travel_speed, None)
-    here = run_mod._estimate_task(task)
+    here = simworkers.estimate_task(task)
     assert here.total_time_s > 0
-    assert run_mod._estimate_result(fut, task) == here  # the estimate again here
-    assert run_mod._estimate_result(None, task) == here
+    assert simworkers.estimate_result(fut, task) == here  # the estimate again here
+    assert simworkers.estimate_result(None, task) == here
 
 
 def test_trace_csv_split_with_a_worker_is_the_same_text(pool, monkeypatch):

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from ..core.moves import Moves
-from .estimate import estimate_moves
 from .kinematics import REACH_TOL_MM, CellFrames, find_issues, load_arm, solve_path, solve_samples
 from .profile import RobotProfile
 from .runreport import _axes_report as _axes_report
@@ -24,7 +23,8 @@ from .runreport import _clean as _clean
 from .runreport import _positioner_report as _positioner_report
 from .runreport import deposit_csv as deposit_csv
 from .runreport import simulation_json as simulation_json
-from .simulate import SimOptions, SimulationResult, program_speeds, simulate
+from .simulate import SimOptions, SimulationResult, simulate
+from .simworkers import estimate_result, estimate_task, simulate_task, speculative
 
 if TYPE_CHECKING:  # cell.py imports coal and pinocchio where used
     from .cell import Cell
@@ -407,7 +407,7 @@ def simulate_program(
 
     submit: `Context.submit` (fn, item) → Future | None. With it, the controller simulation is
     started in a worker as soon as the moves and the positioner's speed caps are known, while
-    this process solves the IK (`_speculative`); it is taken when the arm's joint speed caps
+    this process solves the IK (`simworkers.speculative`); it is taken when the arm's joint speed caps
     leave every program speed as it was (a WAAM path at weld speed is far from them), else
     simulated again here on the capped speeds. The result is the same either way."""
     k = None
@@ -421,18 +421,18 @@ def simulate_program(
         if submit is None:
             return
         spec_opt = replace(opt, segment_cap=pos_cap)
-        fut = submit(_simulate_task, (ik_moves, profile, spec_opt))
+        fut = submit(simulate_task, (ik_moves, profile, spec_opt))
         if fut is not None:
             started.append((ik_moves, spec_opt, fut))
             if profile.time_model:  # the closed-form estimate needs no kinematics either
-                est_fut.append(submit(_estimate_task, est_task))
+                est_fut.append(submit(estimate_task, est_task))
 
     if kin is not None and len(moves.points) >= 2:
         speculate = submit is not None and len(moves.points) >= SPECULATE_MIN_POINTS
         k = _kinematics(moves, profile, opt, kin, progress, before_ik if speculate else None)
         opt = replace(opt, segment_cap=k.cap)
         sim_moves = k.moves or moves
-    res = _speculative(started, sim_moves, profile, opt)
+    res = speculative(started, sim_moves, profile, opt)
     if res is None:
         res = simulate(
             sim_moves,
@@ -440,7 +440,7 @@ def simulate_program(
             opt,
             progress=(lambda f, m: progress(0.35 + 0.65 * f, m)) if progress and kin is not None else progress,
         )
-    est = _estimate_result(est_fut[0] if est_fut else None, est_task) if profile.time_model else None
+    est = estimate_result(est_fut[0] if est_fut else None, est_task) if profile.time_model else None
     estimate = {}
     if est is not None:
         estimate = {
@@ -461,49 +461,6 @@ def simulate_program(
         collisions=k.collisions if k else (),
         kinematics=k.report if k else {},
     )
-
-
-def _simulate_task(task: tuple[Moves, RobotProfile, SimOptions]) -> SimulationResult:
-    """Worker side of `simulate_program`'s speculative simulation."""
-    moves, profile, opt = task
-    return simulate(moves, profile, opt)
-
-
-def _estimate_task(task: tuple[Moves, dict, float, tuple[str, ...] | None]) -> Any:
-    """`estimate_moves` on (moves, time model, travel speed, strategies): here or in a worker."""
-    moves, time_model, travel, strategies = task
-    return estimate_moves(moves, time_model, travel, strategies=strategies)
-
-
-def _estimate_result(fut: Any, task: tuple[Moves, dict, float, tuple[str, ...] | None]) -> Any:
-    """The estimate a worker made (`fut`, or None), else made here (it failed or none was asked)."""
-    if fut is not None:
-        try:
-            return fut.result()
-        except Exception:  # the worker died, or the estimate failed: again here, which raises it located
-            pass
-    return _estimate_task(task)
-
-
-def _speculative(
-    started: list[tuple[Moves, SimOptions, Any]], moves: Moves, profile: RobotProfile, opt: SimOptions
-) -> SimulationResult | None:
-    """The simulation a worker ran on `started`'s options, when it is the one of `opt`: the same
-    moves and, to the bit, the same program speeds (the caps enter a simulation only there,
-    `simulate.program_speeds`); None when it is not (or the worker failed): simulate here."""
-    if not started:
-        return None
-    spec_moves, spec_opt, fut = started[0]
-    same = spec_moves is moves and (
-        program_speeds(moves, profile, spec_opt).tobytes() == program_speeds(moves, profile, opt).tobytes()
-    )
-    if not same:
-        fut.cancel()
-        return None
-    try:
-        return fut.result()
-    except Exception:  # the worker died, or the simulation failed: again here, which raises it located
-        return None
 
 
 def _auto_limits(kin: KinematicsOptions):
