@@ -387,6 +387,7 @@ def test_follow_turn_welds_a_ring_the_arm_cannot_reach_around(ring, monkeypatch)
     assert (
         "along the layer: follow-turn" in one_way.failed["message"] and "on the travel in" in one_way.failed["message"]
     )
+    assert "alternating directions" in one_way.failed["message"]
 
 
 def test_follow_normal_brings_every_point_of_a_spread_layer_flat():

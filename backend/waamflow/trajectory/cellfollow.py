@@ -207,7 +207,12 @@ def candidates(pl, a: int, b: int, nrm, prev, stages, spread: float, azimuths):
                 0.0,
                 az,
                 f"turntable following the layer, each point welded {az:+g}° off the robot's side"
-                + (f" (it turns {unwind:.0f}° on the travel in)" if unwind >= 180.0 else ""),
+                + (
+                    f" (it turns {unwind:.0f}° on the travel in, carrying the torch round the part: "
+                    "weld the layers in alternating directions so each lap turns the table back)"
+                    if unwind >= 180.0
+                    else ""
+                ),
             )
 
 
