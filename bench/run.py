@@ -22,6 +22,16 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _byte_compile() -> None:
+    """Byte-compile waamflow's sources before anything is timed, as `pip install` does for an
+    installed package: with PYTHONDONTWRITEBYTECODE set (as on the CI machines) an editable
+    install would otherwise recompile every module it imports in every CLI run it times (~0.17 s
+    of CPU on the bracket). compileall writes the .pyc files whatever that variable says."""
+    import compileall
+
+    compileall.compile_dir(str(ROOT / "backend" / "waamflow"), quiet=1)
+
+
 def main() -> int:
     args = sys.argv[1:]
     if any(a in ("-h", "--help") for a in args):
@@ -37,6 +47,7 @@ def main() -> int:
             file=sys.stderr,
         )
         return 2
+    _byte_compile()
     results, failures = [], []
     load = os.getloadavg()[0]  # other work on the machine slows every figure: recorded with them
     for path in modules:
