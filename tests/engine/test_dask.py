@@ -1,4 +1,4 @@
-"""Layers on a Dask cluster (engine/parallel.py DaskPool): same artifacts as a serial run, executor
+"""Layers on a Dask cluster (engine/daskpool.py DaskPool): same artifacts as a serial run, executor
 info in the summary, a clear error for a scheduler that is not there."""
 
 from pathlib import Path
@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from waamflow.core.errors import RecipeError
-from waamflow.engine import parallel
+from waamflow.engine import daskpool, parallel
 from waamflow.engine.cache import MemoryCache
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
@@ -105,10 +105,10 @@ def test_the_preflight_checks_the_layers_on_the_cluster_with_the_same_report(clu
     """The preflight's slab checks and the conservation read-backs go to the cluster (`DaskWorkers`):
     in the parent they were most of what a Dask run took more than a local one (bench_replan)."""
     mapped, submitted = [], []
-    pmap, psubmit = parallel.DaskWorkers.map, parallel.DaskWorkers.submit
-    monkeypatch.setattr(parallel.DaskWorkers, "map", lambda self, fn, it: mapped.append(len(it)) or pmap(self, fn, it))
+    pmap, psubmit = daskpool.DaskWorkers.map, daskpool.DaskWorkers.submit
+    monkeypatch.setattr(daskpool.DaskWorkers, "map", lambda self, fn, it: mapped.append(len(it)) or pmap(self, fn, it))
     monkeypatch.setattr(
-        parallel.DaskWorkers, "submit", lambda self, fn, it: submitted.append(fn.__name__) or psubmit(self, fn, it)
+        daskpool.DaskWorkers, "submit", lambda self, fn, it: submitted.append(fn.__name__) or psubmit(self, fn, it)
     )
     serial = _run("mpp-cross", workers=1)
     dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
@@ -124,9 +124,9 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_on_the_cluster(cluster, a
     from waamflow.engine.recipe import apply_overrides, parse_set
 
     mapped = []
-    pmap = parallel.DaskWorkers.map
+    pmap = daskpool.DaskWorkers.map
     monkeypatch.setattr(
-        parallel.DaskWorkers, "map", lambda self, fn, it: mapped.append((fn.__name__, len(it))) or pmap(self, fn, it)
+        daskpool.DaskWorkers, "map", lambda self, fn, it: mapped.append((fn.__name__, len(it))) or pmap(self, fn, it)
     )
     recipe = apply_overrides(
         load_recipe(GRAPHS / "mpp-cross.json"), parse_set(["layers.layer_height=0.3", "layers.layer_count=40"])

@@ -43,7 +43,8 @@ from .graph import Graph, GraphNode
 from .recipe import Recipe
 from .node import Context, LayerNode, Node
 from . import parallel
-from .parallel import DaskPool, LayerPool, make_pool
+from .daskpool import DaskPool, DaskWorkers
+from .parallel import LayerPool, make_pool
 
 MAX_INPUT_FILE_BYTES = 512 * 1024**2  # hard cap for any single file a node reads
 
@@ -316,7 +317,7 @@ class RunContext(Context):
         ):
             return parallel.RunWorkers(pool).map(fn, items)
         if isinstance(pool, DaskPool) and len(items) > 1:
-            dask = parallel.DaskWorkers(pool)
+            dask = DaskWorkers(pool)
             if dask.pays(0, layers, points):
                 return dask.map(fn, items)
         return None
@@ -1000,12 +1001,12 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     from ..preflight.slabs import WORKER_IMPORTS
 
     pool = run.pool
-    workers: parallel.RunWorkers | parallel.DaskWorkers | None = None
+    workers: parallel.RunWorkers | DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:
         pool.prepare(WORKER_IMPORTS)
         workers = parallel.RunWorkers(pool)
     elif isinstance(pool, DaskPool):  # the cluster's workers run already
-        workers = parallel.DaskWorkers(pool)
+        workers = DaskWorkers(pool)
     t0 = time.perf_counter()
     try:
         report = run_preflight(
