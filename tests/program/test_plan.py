@@ -155,3 +155,30 @@ def test_post_process_names_the_settings_class_of_the_format():
     with pytest.raises(TypeError, match=r"printpoints.*blend distance in mm, not KrlSettings"):
         post_process(build_toolpath(1), "printpoints", writer_settings=KrlSettings())
     assert post_process(moves, "krl", writer_settings=KrlSettings(program_name="wall")).name == "wall"
+
+
+@pytest.mark.parametrize("tol", [0.0, 0.05])
+def test_straight_motions_filled_in_directly_are_the_dataclass_instances(tol, monkeypatch):
+    """plan._straight_motions builds Motion objects without the frozen dataclass's __init__: the
+    same plan (fields in order, equality, hashes, pickles) as Motion(...) for each, with and without
+    arcs fitted between them."""
+    import pickle
+
+    from waamflow.program import plan as plan_mod
+
+    moves = flatten(build_toolpath(2))
+    fast = plan_program(moves, PlanSettings(arc_tolerance=tol))
+
+    def by_init(base, i, j):
+        return [Motion(start=k, end=k + 1, **base) for k in range(i, j)]
+
+    monkeypatch.setattr(plan_mod, "_straight_motions", by_init)
+    ref = plan_program(moves, PlanSettings(arc_tolerance=tol))
+    # pickles: travel speeds are NaN, equal only as the same object (not across two plans)
+    assert [pickle.dumps(s) for s in fast.steps] == [pickle.dumps(s) for s in ref.steps]
+    assert len(fast.motions) > 50 and fast.stats == ref.stats
+    welds = [(a, b) for a, b in zip(fast.motions, ref.motions) if a.mode != "travel"]
+    assert len(welds) > 30 and all(a == b and hash(a) == hash(b) for a, b in welds)
+    assert (sum(m.circular for m in fast.motions) > 0) == (tol > 0)
+    with pytest.raises(AttributeError):
+        fast.motions[1].start = 7  # still frozen
