@@ -998,12 +998,13 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     the conservation check compares (the report is the same)."""
     from ..preflight import run_preflight
 
-    from ..preflight.slabs import WORKER_IMPORTS
+    from ..preflight import slabs
 
     pool = run.pool
     workers: parallel.RunWorkers | DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:
-        pool.prepare(WORKER_IMPORTS)
+        if run.size[0] >= slabs.WORKER_IMPORTS_MIN_TRIANGLES:  # the cost model's triangles
+            pool.prepare(slabs.WORKER_IMPORTS)
         workers = parallel.RunWorkers(pool)
     elif isinstance(pool, DaskPool):  # the cluster's workers run already
         workers = DaskWorkers(pool)
