@@ -130,3 +130,41 @@ def test_trace_csv_split_with_a_worker_is_the_same_text(pool, monkeypatch):
     failed.set_exception(RuntimeError("worker died"))
     assert start_trace_csv(res, lambda fn, item: failed)() == whole  # the rows again here
     assert start_trace_csv(res, lambda fn, item: None)() == whole  # no worker up
+
+
+def test_a_recipe_run_with_workers_gives_the_serial_bytes(monkeypatch):
+    """curved-duct (KUKA cell, gravity policy, IK + collisions, 6,787 path points) run serial and
+    with two workers up before simulate-robot: its simulation and estimate go to the workers, and
+    every artifact of the run is the same, byte for byte."""
+    from pathlib import Path
+
+    from waamflow.engine import parallel
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import load_recipe
+
+    monkeypatch.setattr(parallel, "MIN_PARALLEL_S", 0.0)  # the workers start after the first node
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    monkeypatch.setattr(trace_mod, "CSV_SPLIT_ROWS", 1000)  # its trace's rows split too
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    sent: list[str] = []
+    submit = parallel.LayerPool.submit
+
+    def spy(self, fn, item):
+        sent.append(fn.__name__)
+        return submit(self, fn, item)
+
+    monkeypatch.setattr(parallel.LayerPool, "submit", spy)
+    path = Path(__file__).resolve().parents[2] / "graphs" / "curved-duct.json"
+
+    def run(workers):
+        return execute(build_graph(load_recipe(path)), resolver=FileResolver(path.parent), workers=workers)
+
+    serial = run(1)
+    assert sent == []
+    par = run(2)
+    assert sent[:2] == ["simulate_task", "estimate_task"] and "_csv_rows" in sent, sent
+    assert sorted(par.artifacts) == sorted(serial.artifacts) and len(serial.artifacts) >= 10
+    for k in serial.artifacts:
+        assert par.artifacts[k] == serial.artifacts[k], k
+    assert par.warnings == serial.warnings
