@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from waamflow.trajectory import run as run_mod
-from waamflow.trajectory import simworkers
+from waamflow.trajectory import runreport, simworkers
 from waamflow.trajectory import study
 from waamflow.trajectory.cell import load_cell
 from waamflow.trajectory.profile import load_profile
@@ -163,8 +163,29 @@ def test_a_recipe_run_with_workers_gives_the_serial_bytes(monkeypatch):
     serial = run(1)
     assert sent == []
     par = run(2)
-    assert sent[:2] == ["simulate_task", "estimate_task"] and "_csv_rows" in sent, sent
+    assert sent[:2] == ["simulate_task", "estimate_task"] and {"_csv_rows", "deposit_files"} <= set(sent), sent
     assert sorted(par.artifacts) == sorted(serial.artifacts) and len(serial.artifacts) >= 10
     for k in serial.artifacts:
         assert par.artifacts[k] == serial.artifacts[k], k
     assert par.warnings == serial.warnings
+
+
+def test_deposit_files_in_a_worker_are_the_same_texts(pool, monkeypatch):
+    from waamflow.trajectory.compensate import deposit_svg
+
+    res = simulate_program(study.raster(10.0), PROFILE, SimOptions())
+    here = (deposit_csv(res), deposit_svg(res.deposit))
+    assert here[0].count("\n") == len(res.deposit["length_mm"]) + 1 and "<svg" in here[1]
+    monkeypatch.setattr(runreport, "DEPOSIT_SPLIT_SEGMENTS", 1)
+    sent = []
+
+    def submit(fn, item):
+        sent.append(fn.__name__)
+        return pool.submit(fn, item)
+
+    assert runreport.start_deposit_files(res, submit)() == here and sent == ["deposit_files"]
+    failed: Future = Future()
+    failed.set_exception(RuntimeError("worker died"))
+    assert runreport.start_deposit_files(res, lambda fn, item: failed)() == here
+    assert runreport.start_deposit_files(res, lambda fn, item: None)() == here
+    assert runreport.start_deposit_files(res)() == here

@@ -14,11 +14,12 @@ from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..trajectory.calibrate import fit_trace, identify_time_model, read_trace_csv
 from ..trajectory.cell import cell_schema
-from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, deposit_svg, simulate_compensated
+from ..trajectory.compensate import deposit_cv, deposit_ratio_cv, simulate_compensated
 from ..trajectory.estimate import estimate_moves, estimate_result, section_strategies
 from ..trajectory.kinematics import CellFrames
 from ..trajectory.profile import RobotProfile, load_profile
-from ..trajectory.run import KinematicsOptions, deposit_csv, program_settings, simulate_program, simulation_json
+from ..trajectory.run import KinematicsOptions, program_settings, simulate_program, simulation_json
+from ..trajectory.runreport import start_deposit_files
 from ..trajectory.trace import start_trace_csv
 from .robotparams import POSITIONER_PLAN_KEYS as POSITIONER_PLAN_KEYS
 from .robotparams import RobotParams as RobotParams
@@ -344,8 +345,9 @@ class SimulateRobot(Node):
     def artifacts(self, ctx, params, outputs):
         res = outputs["simulation"]
         trace = start_trace_csv(res, ctx.submit)  # part of the rows in a worker while the rest is written
+        deposit = start_deposit_files(res, ctx.submit)  # in another worker
         sim_json = json.dumps(simulation_json(res, res.options or params.sim_options()), indent=1)
-        dep_csv, dep_svg = deposit_csv(res), deposit_svg(res.deposit)
+        dep_csv, dep_svg = deposit()
         return {"simulation.json": sim_json, "trace.csv": trace(), "deposit.csv": dep_csv, "deposit.svg": dep_svg}
 
 

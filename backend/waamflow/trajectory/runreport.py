@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import io
 import math
+from typing import Any, Callable
 
 import numpy as np
 
@@ -181,10 +182,45 @@ def simulation_json(res: SimulationResult, opt: SimOptions) -> dict:
     return out
 
 
+DEPOSIT_SPLIT_SEGMENTS = 5000  # segments from which `start_deposit_files` hands them to a worker
+
+
+def start_deposit_files(
+    res: SimulationResult, submit: Callable[..., Any] | None = None
+) -> Callable[[], tuple[str, str]]:
+    """deposit.csv (`deposit_csv`) and deposit.svg (`compensate.deposit_svg`) in two steps: call,
+    then call what it returns for the texts. With submit (`Context.submit`) and a long program
+    they are written in a worker from the first call on (here when it fails): the same texts."""
+    task = (res.deposit, tuple(res.section_keys))
+    n = len(res.deposit.get("length_mm", ()))
+    fut = submit(deposit_files, task) if submit is not None and n >= DEPOSIT_SPLIT_SEGMENTS else None
+
+    def finish() -> tuple[str, str]:
+        if fut is not None:
+            try:
+                return fut.result()
+            except Exception:  # the worker failed: written here
+                pass
+        return deposit_files(task)
+
+    return finish
+
+
+def deposit_files(task: tuple[dict, tuple[str, ...]]) -> tuple[str, str]:
+    """(deposit.csv, deposit.svg) of a simulation's `deposit` and section keys."""
+    from .compensate import deposit_svg  # compensate imports run, which imports this module
+
+    deposit, keys = task
+    return _deposit_csv(deposit, keys), deposit_svg(deposit)
+
+
 def deposit_csv(res: SimulationResult) -> str:
     """Per programmed segment: where too much or too little metal lands (mm³ per mm of path)."""
-    d = res.deposit
-    keys = res.section_keys
+    return _deposit_csv(res.deposit, res.section_keys)
+
+
+def _deposit_csv(d: dict, keys) -> str:
+    """`deposit_csv` of a deposit dict and the section keys."""
     buf = io.StringIO()
     buf.write("segment,layer,section,s_mm,length_mm,arc,programmed_mm3_per_mm,actual_mm3_per_mm,ratio\n")
     cols = zip(
