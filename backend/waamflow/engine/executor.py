@@ -336,8 +336,10 @@ class RunContext(Context):
 # Cores free (cpu count − 1-min load average) that a node's declared shared work needs to count:
 # it runs beside the node's own work, so it pays only on a core of its own. curved-bracket at
 # load 4.7-6.0 (3 interleaved pairs): whole run 15.6/20.0/19.3 -> 21.7/21.8/23.9 s wall with it
-# counted, while the runs' main thread waited 1.3-2.9 -> 4.1-5.2 s for a core in its sim node.
-SPARE_CORES_FOR_SHARED_WORK = 0.5
+# counted, while the runs' main thread waited 1.3-2.9 -> 4.1-5.2 s for a core in its sim node;
+# at load 2.5-3.3 the sim node 3.10/3.10/3.09 -> 3.40/3.40/2.07 s. A quarter of a core, not a
+# half: the run itself is in the average by then (back-to-back runs at others' load 1 read ~1.3-1.5).
+SPARE_CORES_FOR_SHARED_WORK = 0.25
 
 
 def spare_core() -> bool:
