@@ -280,7 +280,8 @@ def _one(name: str, exe: str | None, why: str, tmp: Path) -> dict:
     t_ours = statistics.median(w for w, _, _ in ours)
     c_ours = statistics.median(c for _, c, _ in ours)
     base = (
-        f"{desc}; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers) "
+        f"{desc}; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers, "
+        f"{summary['executor'].get('tasks', 0)} layer tasks) "
         f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU, {our_layers} layers, nodes: {nodes}"
     )
     name_out = f"stl_to_gcode_ratio_vs_prusaslicer_{name}"
