@@ -717,18 +717,23 @@ class _Run:
             self._check_outputs(gnode, outputs)
             warnings = ctx.warnings
             report = ctx.take_report()
-            if self.cache is not None:
-                self.cache.put(key, (dict(outputs), warnings, report))
             cached = False
         self.outputs[gnode.id] = outputs
         for port, value in outputs.items():
             psig = signature(key, port)
             if isinstance(value, Layered):
-                items_sigs = tuple(_layer_item_signature(it, signature(psig, i)) for i, it in enumerate(value.items))
-                value = Layered(value.items, items_sigs)
-                outputs[port] = value
+                # signed once, when computed: a hit carries them (the same key, the same items)
+                items_sigs = value.sigs if cached and len(value.sigs) == len(value.items) else ()
+                if not items_sigs:
+                    items_sigs = tuple(
+                        _layer_item_signature(it, signature(psig, i)) for i, it in enumerate(value.items)
+                    )
+                    value = Layered(value.items, items_sigs)
+                    outputs[port] = value
                 psig = signature("layered", items_sigs)
             self.sigs[(gnode.id, port)] = psig
+        if not cached and self.cache is not None:
+            self.cache.put(key, (dict(outputs), warnings, report))
         self.add_warnings(warnings)
         self.stats[gnode.id] = NodeStats(gnode.type, cached=cached, report=report)
         return cached
