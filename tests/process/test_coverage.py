@@ -63,3 +63,29 @@ def test_reversal_counts_twice():
     # the whole stadium (40 x 4 + a disc of radius 2) except the disc about the turning vertex,
     # where going out and coming back is one connected stretch
     assert cov.overlap_area == pytest.approx(40 * 4 + math.pi * 4 - math.pi * 4, rel=0.01)
+
+
+def _strips_one_by_one(mask, origin, cell):
+    """The overlap polygon as it was built before the strips were made in one call (a box each)."""
+    boxes = []
+    for j in np.flatnonzero(mask.any(axis=1)):
+        row = np.concatenate([[False], mask[j], [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(row))
+        y0 = origin[1] + j * cell
+        for s, e in zip(edges[::2], edges[1::2]):
+            boxes.append(box(origin[0] + s * cell, y0, origin[0] + e * cell, y0 + cell))
+    return shapely.union_all(boxes) if boxes else shapely.Polygon()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_overlap_cells_polygon_is_the_same_geometry_bit_for_bit(seed):
+    from waamflow.process.coverage import _cells_to_polygon
+
+    rng = np.random.default_rng(seed)
+    mask = rng.random((37, 53)) < 0.3
+    mask[5] = True  # a full row: one strip edge to edge
+    origin, cell = np.array([-12.3, 4.56]), 0.3
+    got, want = _cells_to_polygon(mask, origin, cell), _strips_one_by_one(mask, origin, cell)
+    assert shapely.to_wkb(got) == shapely.to_wkb(want)
+    assert got.area == pytest.approx(mask.sum() * cell * cell, rel=1e-9)
+    assert _cells_to_polygon(np.zeros((4, 4), bool), origin, cell).is_empty

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiLineString, Polygon, box
+from shapely.geometry import LineString, MultiLineString, Polygon
 
 #: Grid cells per bead width for the overlap count (cell = w / CELLS_PER_WIDTH).
 CELLS_PER_WIDTH = 20
@@ -133,15 +133,14 @@ def _pass_count(
 
 
 def _cells_to_polygon(mask: np.ndarray, origin: np.ndarray, cell: float):
-    """Union of the True cells, merged per row into strips first."""
-    boxes = []
-    for j in np.flatnonzero(mask.any(axis=1)):
-        row = np.concatenate([[False], mask[j], [False]]).astype(np.int8)
-        edges = np.flatnonzero(np.diff(row))
-        y0 = origin[1] + j * cell
-        for s, e in zip(edges[::2], edges[1::2]):
-            boxes.append(box(origin[0] + s * cell, y0, origin[0] + e * cell, y0 + cell))
-    return shapely.union_all(boxes) if boxes else Polygon()
+    """Union of the True cells, merged per row into strips first (row by row, left to right)."""
+    padded = np.zeros((mask.shape[0], mask.shape[1] + 2), dtype=np.int8)
+    padded[:, 1:-1] = mask
+    rows, cols = np.nonzero(np.diff(padded, axis=1))  # a strip's start and end, in row order
+    if not len(rows):
+        return Polygon()
+    y0 = origin[1] + rows[::2] * cell
+    return shapely.union_all(shapely.box(origin[0] + cols[::2] * cell, y0, origin[0] + cols[1::2] * cell, y0 + cell))
 
 
 def section_coverage(
