@@ -98,3 +98,61 @@ def test_spans_are_consecutive_and_balanced():
     assert spans[0][0] == 0 and spans[-1][1] == 20 and all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
     sums = [w[a:b].sum() for a, b in spans]
     assert len(spans) == 4 and max(sums) <= 30 + 1e-9  # 110 in 4: none holds over 30
+
+
+def _box_program(layers: int, bulge_every: int):
+    """A 40 × 20 mm box, 2 mm layers, one serpentine run a layer; every `bulge_every`-th layer's link
+    swings 15 mm beyond the box's end (x 35 against 20): metal outside the part mid-run."""
+    from waamflow.preflight.read import read_gcode
+
+    out = ["; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units=mm/min end=M30", "G21", "G90"]
+    for i in range(layers):
+        z = 2.0 * (i + 1)
+        far = 35.0 if i % bulge_every == 0 else 17.0
+        run = [(-17.0, -7.0), (17.0, -7.0), (far, -7.0), (far, 7.0), (17.0, 7.0), (-17.0, 7.0)]
+        out += [f"; layer {i} z={z:.3f}", "; section s0", f"G0 X{run[0][0]:.3f} Y{run[0][1]:.3f} Z{z:.3f}", "M3"]
+        out += [f"G1 X{x:.3f} Y{y:.3f} Z{z:.3f} F480" for x, y in run[1:]] + ["M5"]
+    return read_gcode("\n".join(out + ["M30"]))
+
+
+def test_the_outside_walk_runs_in_the_slab_tasks_with_the_same_report(monkeypatch):
+    """The `outside` check's walk of a solid's planar layers (sampling each arc-ON run against the
+    layer's section) runs in the coverage check's slab tasks, on the sections they cut: the parent,
+    which waits for those tasks anyway, walks no run itself (issue 30: 0.15 s of CPU on the
+    500-layer cross's critical path). The report is the one-piece check's, figure for figure."""
+    import json
+
+    from waamflow.preflight import PreflightSettings, outside
+    from waamflow.preflight.check import Part, check_program
+
+    m = trimesh.creation.box(extents=(40.0, 20.0, 40.0))
+    m.apply_translation((0, 0, 20.0))
+    part = Part("solid", "part", vertices=np.asarray(m.vertices), faces=np.asarray(m.faces))
+    prog = _box_program(20, 4)
+    walked = {"task": 0, "parent": 0}
+    in_task = [False]
+    sample_run = outside.sample_run
+
+    def counted(run, step):
+        walked["task" if in_task[0] else "parent"] += 1
+        return sample_run(run, step)
+
+    monkeypatch.setattr(outside, "sample_run", counted)
+
+    class _InTask(_Pickled):
+        def map(self, fn, items):
+            in_task[0] = True
+            try:
+                return super().map(fn, items)
+            finally:
+                in_task[0] = False
+
+    pool = _InTask(2)
+    split = check_program(part, prog, "post", PreflightSettings(), 6.0, stock_mm=6.0, pool=pool)
+    assert 2 <= len(pool.tasks) <= 2 * slabs.TASKS_PER_WORKER
+    assert walked == {"task": 20, "parent": 0}  # one run a layer, each walked once, in a task
+    whole = check_program(part, prog, "post", PreflightSettings(), 6.0, stock_mm=6.0)
+    assert json.dumps(split, sort_keys=True, default=str) == json.dumps(whole, sort_keys=True, default=str)
+    bulged = [L for L in whole["layers"] if L.get("outside_mm", 0.0) > 0]
+    assert len(bulged) == 5 and whole["outside_mm"] == pytest.approx(38.0, abs=1.0)
+    assert all(L["outside_mm2"] > 0 for L in bulged)

@@ -26,7 +26,7 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .deposit import _arc_runs, _ignitions, _wire_balance
-from .outside import check_outside
+from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
 from .report import rounded as _r
@@ -89,6 +89,7 @@ class Coverage(TypedDict):
     method: str
     outside_mm3: NotRequired[float]
     sections: NotRequired[dict[int, Any]]
+    excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
     layer_spacing_mm: NotRequired[float]
     top_gap_mm: NotRequired[float | None]
     worst_point: NotRequired[np.ndarray]
@@ -227,10 +228,20 @@ def _scipy_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
     return [depth_first_order(graph, int(s), directed=False, return_predecessors=False) for s in starts]
 
 
-def coverage_planar(part: Part, layers, width: float, rep: Report, pool: Workers | None = None) -> Coverage:
+def coverage_planar(
+    part: Part,
+    layers,
+    width: float,
+    rep: Report,
+    pool: Workers | None = None,
+    outside: tuple[float, float] | None = None,
+) -> Coverage:
     """Slab by slab (slabs.py); `pool`: the run's workers, which check the layers of a solid
-    part in tasks of consecutive layers when that pays (the figures are the same)."""
-    from .slabs import cover_layer, cover_part
+    part in tasks of consecutive layers when that pays (the figures are the same). `outside`:
+    (margin, step) of the `outside` check, whose walk of a solid's layers then runs in the same
+    tasks, on the sections they cut (`Coverage["excursions"]`, handed to check_outside)."""
+    from .outside import RunLine
+    from .slabs import OutsideRuns, cover_layer, cover_part
 
     if part.kind == "solid":
         vertices, faces = part.mesh()
@@ -249,7 +260,11 @@ def coverage_planar(part: Part, layers, width: float, rep: Report, pool: Workers
     mids = [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [prev_top] + tops[:-1])]
     paths = [[r.points[:, :2] for r in runs if len(r.points) > 1] for _idx, runs in layers]
     if part.kind == "solid":
-        covers = cover_part(vertices, faces, mids, paths, width, pool)
+        walk = None
+        if outside is not None:
+            runs = [[RunLine(r.points, r.section) for r in rs] for _idx, rs in layers]
+            walk = OutsideRuns([idx for idx, _rs in layers], runs, *outside)
+        covers = cover_part(vertices, faces, mids, paths, width, pool, walk)
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
     for k, (idx, _runs) in enumerate(layers):
@@ -273,13 +288,16 @@ def coverage_planar(part: Part, layers, width: float, rep: Report, pool: Workers
         if c.uncovered_point is not None:
             L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3), round(z - h / 2, 3)]
     share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
-    return {
+    out: Coverage = {
         "part_volume_mm3": part_volume,
         "uncovered_share": share,
         "outside_mm3": over_area,
         "method": "planar slabs",
         "sections": sections,
     }
+    if part.kind == "solid" and outside is not None:
+        out["excursions"] = {idx: c.excursions for (idx, _runs), c in zip(layers, covers)}
+    return out
 
 
 # ---- coverage: 3D samples -------------------------------------------------------------------------
@@ -409,7 +427,7 @@ def check_program(
     top_gap: float | None
     if part is not None:
         if planar and part.kind in ("solid", "region"):
-            cov = coverage_planar(part, layers, width, rep, pool)
+            cov = coverage_planar(part, layers, width, rep, pool, (outside_margin(s, width), outside_step(width)))
             top_gap = part.top - max(heights)
         else:
             cov = coverage_3d(part, layers, width, rep, s)
@@ -427,7 +445,17 @@ def check_program(
         _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)
         # metal outside the part (outside.py): arc-ON centre lines off the part, stock at run ends aside
         stock = s.outside_stock_mm if s.outside_stock_mm is not None else stock_mm if stock_mm is not None else width
-        fig = check_outside(part, layers, width, s, rep, planar=planar, sections=cov.get("sections"), stock_mm=stock)
+        fig = check_outside(
+            part,
+            layers,
+            width,
+            s,
+            rep,
+            planar=planar,
+            sections=cov.get("sections"),
+            stock_mm=stock,
+            precomputed=cov.get("excursions"),
+        )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)

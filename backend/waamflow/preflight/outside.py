@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable, NamedTuple
 
 import numpy as np
 import shapely
@@ -159,13 +159,80 @@ class MeshDistance:
 
 
 # ---- the check ------------------------------------------------------------------------------------
+class RunLine(NamedTuple):
+    """What the check reads of an arc-ON run: its centre line ((k, 3) mm) and section. A slab task
+    carries these, not the whole `Run` (speeds, wire feed)."""
+
+    points: np.ndarray
+    section: str | None
+
+
+def outside_step(width: float) -> float:
+    """The sample spacing along a centre line, mm: a quarter bead width, at most MAX_STEP_MM."""
+    return min(MAX_STEP_MM, width / 4.0)
+
+
+def layer_outside(
+    idx: int,
+    runs,
+    width: float,
+    margin: float,
+    step: float,
+    dist: Callable[[np.ndarray], np.ndarray],
+    section=None,
+) -> tuple[list[Excursion], float, Excursion | None]:
+    """One layer's excursions (runs: `Run`s or `RunLine`s, in order), the deposit area beyond the
+    section grown by ½ bead (0 without a section) and the farthest excursion. dist: samples → mm
+    outside the part."""
+    from .check import footprint  # check imports this module
+
+    found: list[Excursion] = []
+    reach = None  # the section grown by ½ bead: buffered at the layer's first excursion only
+    area = 0.0
+    worst = None
+    for r in runs:
+        if len(r.points) < 2:
+            continue
+        pts, s = sample_run(r, step)
+        ex = excursions(r, idx, pts, s, dist(pts), width, margin)
+        found += ex
+        for e in ex:
+            if worst is None or e.max_mm > worst.max_mm:
+                worst = e
+        if section is not None and ex:
+            if reach is None:
+                reach = section.buffer(width / 2.0, quad_segs=8)
+            area += float(footprint([r.points[:, :2]], width).difference(reach).area)
+    return found, area, worst
+
+
+def slab_outside(
+    idx: int, section, runs, width: float, margin: float, step: float
+) -> tuple[list[Excursion], float, Excursion | None] | None:
+    """`layer_outside` against a planar slab's section (the one the coverage check cut); None when
+    the slab has no part (a deposit above the top is top_gap's). Worker side too (slabs.py)."""
+    if section is None or section.is_empty:
+        return None
+    return layer_outside(idx, runs, width, margin, step, lambda pts: distance_to_section(section, pts), section)
+
+
 def find_outside(
-    part: Part, layers, width: float, *, planar: bool, sections: dict | None, margin: float, step: float | None = None
+    part: Part,
+    layers,
+    width: float,
+    *,
+    planar: bool,
+    sections: dict | None,
+    margin: float,
+    step: float | None = None,
+    precomputed: dict | None = None,
 ) -> tuple[list[Excursion], dict[int, dict], str]:
     """Every excursion of the program's arc-ON runs, the per-layer figures (the deposit area beyond
     the section grown by ½ bead, planar only; the farthest sample) and the method. sections: layer index → the section
-    polygon the coverage check cut for it (planar solids/regions)."""
-    step = step or min(MAX_STEP_MM, width / 4.0)
+    polygon the coverage check cut for it (planar solids/regions). precomputed: layer index → what
+    `slab_outside` gave for it in the coverage check's slab task (slabs.py; planar slabs only), on
+    the same section, runs, margin and step: those layers are not walked again here."""
+    step = step or outside_step(width)
     mesh_dist: MeshDistance | None = None
     slabs: dict | None = None  # the coverage check's sections, planar slabs only
     if part.kind == "midsurface":
@@ -176,44 +243,43 @@ def find_outside(
     else:
         method = "surface distance"
         mesh_dist = MeshDistance(*part.mesh(), part.kind == "solid", step)
-    from .check import footprint  # check imports this module
-
     found: list[Excursion] = []
     per_layer: dict[int, dict] = {}
     for idx, runs in layers:
-        section = slabs.get(idx) if slabs is not None else None
-        if slabs is not None and (section is None or section.is_empty):
-            continue  # no part at this slab: a deposit above the top is top_gap's
-        reach = None  # the section grown by ½ bead: buffered at the layer's first excursion only
-        area = 0.0
-        worst = None
-        for r in runs:
-            if len(r.points) < 2:
-                continue
-            pts, s = sample_run(r, step)
-            if mesh_dist is not None:  # surface distance
-                dist = mesh_dist(pts, width / 2.0)
-                if part.kind == "surface":
-                    dist = np.maximum(0.0, dist - width / 2.0)
-            elif part.kind == "midsurface":
-                dist = distance_to_midsurface(part.curves, pts, width)
-            else:  # planar slabs
-                dist = distance_to_section(section, pts)
-            ex = excursions(r, idx, pts, s, dist, width, margin)
-            found += ex
-            for e in ex:
-                if worst is None or e.max_mm > worst.max_mm:
-                    worst = e
-            if section is not None and ex:
-                if reach is None:
-                    reach = section.buffer(width / 2.0, quad_segs=8)
-                area += float(footprint([r.points[:, :2]], width).difference(reach).area)
+        if slabs is not None:  # planar slabs: a task of the coverage check may have done the layer
+            if precomputed is not None and idx in precomputed:
+                got = precomputed[idx]
+            else:
+                got = slab_outside(idx, slabs.get(idx), runs, width, margin, step)
+            if got is None:
+                continue  # no part at this slab: a deposit above the top is top_gap's
+        elif mesh_dist is not None:  # surface distance
+            md = mesh_dist
+            surface = part.kind == "surface"
+
+            def dist(pts: np.ndarray) -> np.ndarray:
+                d = md(pts, width / 2.0)
+                return np.maximum(0.0, d - width / 2.0) if surface else d
+
+            got = layer_outside(idx, runs, width, margin, step, dist)
+        else:  # midsurface
+            got = layer_outside(
+                idx, runs, width, margin, step, lambda pts: distance_to_midsurface(part.curves, pts, width)
+            )
+        ex, area, worst = got
+        found += ex
         per_layer[idx] = {
             "outside_mm2": area if method == "planar slabs" else None,
             "outside_max_mm": worst.max_mm if worst else 0.0,
             "outside_point": list(worst.point) if worst else None,
         }
     return found, per_layer, method
+
+
+def outside_margin(s, width: float) -> float:
+    """How far off the part a centre line must be for an excursion's deep part, mm (settings
+    `outside_margin_mm`, default one bead width)."""
+    return s.outside_margin_mm if s.outside_margin_mm is not None else width
 
 
 def counted(e: Excursion, stock_mm: float) -> tuple[float, float]:
@@ -225,7 +291,16 @@ def counted(e: Excursion, stock_mm: float) -> tuple[float, float]:
 
 
 def check_outside(
-    part: Part, layers, width: float, s, rep, *, planar: bool, sections: dict | None, stock_mm: float
+    part: Part,
+    layers,
+    width: float,
+    s,
+    rep,
+    *,
+    planar: bool,
+    sections: dict | None,
+    stock_mm: float,
+    precomputed: dict | None = None,
 ) -> dict:
     """Adds the `outside` problems to rep (a `check.Report`) and the per-layer figures to its layers
     (outside_mm: weld clear of the part that counts; outside_stock_mm: at run ends, excused;
@@ -234,10 +309,12 @@ def check_outside(
     largest layer's deposit area beyond the section grown by ½ bead), outside_max_mm (the farthest
     counted sample), outside_share (counted length / arc-ON length), outside_method,
     outside_stock_mm."""
-    margin = s.outside_margin_mm if s.outside_margin_mm is not None else width
+    margin = outside_margin(s, width)
     fail_len = s.outside_fail_mm if s.outside_fail_mm is not None else 2.0 * width
     warn_len = s.outside_warn_mm if s.outside_warn_mm is not None else width
-    found, per_layer, method = find_outside(part, layers, width, planar=planar, sections=sections, margin=margin)
+    found, per_layer, method = find_outside(
+        part, layers, width, planar=planar, sections=sections, margin=margin, precomputed=precomputed
+    )
     arc_len = sum(r.length for _i, runs in layers for r in runs)
     rated = [(e, *counted(e, stock_mm)) for e in found]
     total = sum(c for _e, c, _d in rated)
@@ -308,8 +385,13 @@ __all__ = [
     "check_outside",
     "counted",
     "MeshDistance",
+    "RunLine",
     "distance_to_midsurface",
     "distance_to_section",
     "excursions",
+    "layer_outside",
+    "outside_margin",
+    "outside_step",
+    "slab_outside",
     "sample_run",
 ]

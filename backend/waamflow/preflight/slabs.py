@@ -55,6 +55,17 @@ class LayerCover(NamedTuple):
     covered: float
     outside: float
     uncovered_point: tuple[float, float] | None
+    excursions: Any = None  # outside.slab_outside's figures of the layer, when its task was given the runs
+
+
+class OutsideRuns(NamedTuple):
+    """What a task needs to walk its layers' arc-ON runs for the `outside` check too (outside.py):
+    per layer its index and runs (`outside.RunLine`s, in order), the margin and the sample step."""
+
+    layers: list[int]
+    runs: list[list[Any]]
+    margin: float
+    step: float
 
 
 class SlabTask(NamedTuple):
@@ -67,6 +78,7 @@ class SlabTask(NamedTuple):
     zs: list[float]
     paths: list[list[np.ndarray]]
     width: float
+    outside: OutsideRuns | None = None
 
 
 def plane_faces(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[float]) -> list[np.ndarray]:
@@ -138,9 +150,19 @@ def cover_layer(section: Any, paths: list[np.ndarray], width: float) -> LayerCov
 
 
 def cover_slabs(task: SlabTask) -> list[LayerCover]:
-    """A task's layers (worker side, or the whole part in this process)."""
+    """A task's layers (worker side, or the whole part in this process); with `task.outside`, each
+    layer's `outside` figures on the section just cut (the parent then has none of it to do)."""
     sections = cut_sections(task.vertices, task.faces, task.plane_faces, task.zs)
-    return [cover_layer(sec, p, task.width) for sec, p in zip(sections, task.paths)]
+    covers = [cover_layer(sec, p, task.width) for sec, p in zip(sections, task.paths)]
+    o = task.outside
+    if o is None:
+        return covers
+    from .outside import slab_outside
+
+    return [
+        c._replace(excursions=slab_outside(idx, c.section, runs, task.width, o.margin, o.step))
+        for c, idx, runs in zip(covers, o.layers, o.runs)
+    ]
 
 
 def _sub_task(
@@ -150,6 +172,7 @@ def _sub_task(
     zs: list[float],
     paths: list[list[np.ndarray]],
     width: float,
+    outside: OutsideRuns | None = None,
 ) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
     plane's slab mesh is the one the whole part gives."""
@@ -163,7 +186,7 @@ def _sub_task(
     new_index = np.cumsum(vert_in) - 1
     sub_faces = new_index[faces[f_all]]
     face_index = np.cumsum(face_in) - 1
-    return SlabTask(vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width)
+    return SlabTask(vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width, outside)
 
 
 def _spans(weights: np.ndarray, n: int) -> list[tuple[int, int]]:
@@ -181,9 +204,11 @@ def cover_part(
     paths: list[list[np.ndarray]],
     width: float,
     pool: Workers | None = None,
+    outside: OutsideRuns | None = None,
 ) -> list[LayerCover]:
     """Every layer's figures; with the run's workers, when the cost model says the work pays, in
-    tasks of consecutive layers of about equal work (faces cut plus path points)."""
+    tasks of consecutive layers of about equal work (faces cut plus path points). `outside`: the
+    layers' runs (one entry per z), walked for the `outside` check in the same task."""
     v = np.asarray(vertices, dtype=np.float64)  # what trimesh.Trimesh makes of them
     f = np.asarray(faces, dtype=np.int64)
     per_plane = plane_faces(v, f, zs)
@@ -195,9 +220,17 @@ def cover_part(
         or len(zs) < 2 * pool.count
         or not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum()))
     ):
-        return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width))
+        return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width, outside))
     tasks = [
-        _sub_task(v, f, per_plane[a:b], list(zs[a:b]), paths[a:b], width)
+        _sub_task(
+            v,
+            f,
+            per_plane[a:b],
+            list(zs[a:b]),
+            paths[a:b],
+            width,
+            None if outside is None else outside._replace(layers=outside.layers[a:b], runs=outside.runs[a:b]),
+        )
         for a, b in _spans(n_cut + n_pts + 1.0, pool.count * TASKS_PER_WORKER)
     ]
     return [c for got in pool.map(cover_slabs, tasks) for c in got]
