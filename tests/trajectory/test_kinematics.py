@@ -85,3 +85,40 @@ def test_positioner_model():
     # tilting 90° about x swings the table top (0.1 m above the axis at 0.8 m) to −y
     assert data.oMf[top].translation == pytest.approx([0.0, -0.1, 0.8], abs=1e-9)
     assert model.velocityLimit == pytest.approx([np.pi / 2, np.pi], rel=1e-4)
+
+
+def test_smallest_singular_values_decide_as_the_svd_does():
+    """sigma_min from J·Jᵀ's eigenvalues: where a figure depends on it (below SINGULAR_SIGMA, and
+    the smallest value) it is the SVD's number to the bit; elsewhere within 1e-12 of it. Matrices
+    from well-conditioned down to singular (a repeated row), some at SINGULAR_SIGMA itself."""
+    from waamflow.trajectory.kinematics import SINGULAR_SIGMA, smallest_singular_values
+
+    rng = np.random.default_rng(7)
+    k = 4000
+    U = np.linalg.qr(rng.normal(size=(k, 5, 5)))[0]
+    V = np.linalg.qr(rng.normal(size=(k, 6, 6)))[0][:, :5, :]
+    s = np.sort(rng.uniform(0.5, 3.0, size=(k, 5)), axis=1)[:, ::-1].copy()
+    s[:, -1] = np.concatenate(
+        [
+            rng.uniform(0.02, 1.0, k - 1000),
+            np.full(300, SINGULAR_SIGMA),  # at the threshold (to rounding)
+            SINGULAR_SIGMA * (1 + rng.uniform(-1e-12, 1e-12, 300)),
+            10.0 ** rng.uniform(-12, -2, 399),
+            [0.0],
+        ]
+    )
+    J = U @ (s[:, :, None] * V)
+    J[-1, 4] = J[-1, 3]  # exactly singular
+    want = np.linalg.svd(J, compute_uv=False)[:, -1]
+    got = smallest_singular_values(J)
+    assert got.shape == (k,)
+    assert np.array_equal(got < SINGULAR_SIGMA, want < SINGULAR_SIGMA)
+    assert np.count_nonzero(want < SINGULAR_SIGMA) > 400
+    assert got.min() == want.min()
+    assert np.max(np.abs(got - want)) < 1e-12
+    exact = got == want
+    assert 400 < np.count_nonzero(exact) < k  # the decided ones exact, the others not recomputed
+    # the smallest value exact on a batch where every sample is far from near-singular
+    far = J[: k - 1000]
+    assert smallest_singular_values(far).min() == np.linalg.svd(far, compute_uv=False)[:, -1].min()
+    assert smallest_singular_values(np.zeros((0, 5, 6))).shape == (0,)

@@ -223,30 +223,41 @@ def junction_speed(u_in: np.ndarray, u_out: np.ndarray, v: np.ndarray, acc: floa
 
 
 def polyline_distance(
-    q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3
+    q: np.ndarray, points: np.ndarray, near: np.ndarray, reach: int = 3, geometry: tuple | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Distance from each query point to a polyline, searching segments near a guess.
 
     q: (k, 3) mm. points: (n, 3) polyline. near: (k,) int guessed segment per query point.
     Checks segments near-reach … near+reach. Returns (distance (k,) mm, segment index (k,)).
+    geometry: `polyline_geometry(points)`, when the caller asks about one polyline many times
+    (the same numbers as computing it here).
     """
-    P = np.asarray(points, dtype=float)
-    nseg = len(P) - 1
+    PT, DT, inv = polyline_geometry(points) if geometry is None else geometry
+    nseg = len(inv)
     qx, qy, qz = q[:, 0], q[:, 1], q[:, 2]
     best = np.full(len(q), np.inf)
     best_i = np.asarray(near, dtype=np.int64).copy()
-    D = P[1:] - P[:-1]
-    LL = (D * D).sum(axis=1)
-    inv = np.where(LL > 0, 1.0 / np.where(LL > 0, LL, 1.0), 0.0)
     for off in range(-reach, reach + 1):
         i = np.clip(near + off, 0, nseg - 1)
-        ax, ay, az = P[i, 0], P[i, 1], P[i, 2]
-        dx, dy, dz = D[i, 0], D[i, 1], D[i, 2]
+        # `take` on contiguous columns: P[i, 0] etc. without the 2-D gather's cost
+        ax, ay, az = PT[0].take(i), PT[1].take(i), PT[2].take(i)
+        dx, dy, dz = DT[0].take(i), DT[1].take(i), DT[2].take(i)
         rx, ry, rz = qx - ax, qy - ay, qz - az
-        tt = np.clip((rx * dx + ry * dy + rz * dz) * inv[i], 0.0, 1.0)
+        tt = np.clip((rx * dx + ry * dy + rz * dz) * inv.take(i), 0.0, 1.0)
         ex, ey, ez = rx - tt * dx, ry - tt * dy, rz - tt * dz
         dist2 = ex * ex + ey * ey + ez * ez
         better = dist2 < best
         best = np.where(better, dist2, best)
         best_i = np.where(better, i, best_i)
     return np.sqrt(best), best_i
+
+
+def polyline_geometry(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What `polyline_distance` needs of a polyline (n, 3): its vertices' and its segment
+    vectors' coordinates as contiguous rows (3, n) and (3, n-1), and 1 / squared segment length
+    (0 for a zero-length segment)."""
+    P = np.asarray(points, dtype=float)
+    D = P[1:] - P[:-1]
+    LL = (D * D).sum(axis=1)
+    inv = np.where(LL > 0, 1.0 / np.where(LL > 0, LL, 1.0), 0.0)
+    return np.ascontiguousarray(P.T), np.ascontiguousarray(D.T), inv

@@ -26,7 +26,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..core.errors import PlanningError
-from .blend import BlendedPath, polyline_distance
+from .blend import BlendedPath, polyline_distance, polyline_geometry
 from .speedplan import SpanProfiles, Spans
 
 FINE = 3  # fine samples per interpolation cycle
@@ -196,23 +196,26 @@ def row_norms(v: np.ndarray) -> np.ndarray:
 def nearest_segment(
     xyz: np.ndarray, points: np.ndarray, guess: np.ndarray, reach: int = 2
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`blend.polyline_distance` in chunks of CHUNK samples (the same result, its temporaries in cache)."""
+    """`blend.polyline_distance` in chunks of CHUNK samples (the same result, its temporaries in
+    cache; the polyline's geometry computed once)."""
     if len(xyz) <= CHUNK:
         return polyline_distance(xyz, points, guess, reach=reach)
     dist = np.empty(len(xyz))
     seg = np.empty(len(xyz), dtype=np.int64)
+    geometry = polyline_geometry(points)
     for i in range(0, len(xyz), CHUNK):
         dist[i : i + CHUNK], seg[i : i + CHUNK] = polyline_distance(
-            xyz[i : i + CHUNK], points, guess[i : i + CHUNK], reach=reach
+            xyz[i : i + CHUNK], points, guess[i : i + CHUNK], reach=reach, geometry=geometry
         )
     return dist, seg
 
 
-def _dist2(xyz: np.ndarray, P: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Squared distance of each sample to vertex v of P (the sum `row_norms` takes the root of)."""
-    x = xyz[:, 0] - P[v, 0]
-    y = xyz[:, 1] - P[v, 1]
-    z = xyz[:, 2] - P[v, 2]
+def _dist2(xyz: np.ndarray, PT: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Squared distance of each sample to vertex v of P (the sum `row_norms` takes the root of);
+    PT = P's columns, contiguous: `take` on one of them gathers P[v, c] at half the cost."""
+    x = xyz[:, 0] - PT[0].take(v)
+    y = xyz[:, 1] - PT[1].take(v)
+    z = xyz[:, 2] - PT[2].take(v)
     return x * x + y * y + z * z
 
 
@@ -224,14 +227,15 @@ def _near_vertices(P: np.ndarray, xyz: np.ndarray, seg: np.ndarray) -> tuple[np.
     near2 = np.full(n, np.inf)
     d0 = np.empty(len(xyz))
     d1 = np.empty(len(xyz))
+    PT = np.ascontiguousarray(P.T)
     for i in range(0, len(xyz), CHUNK):
         q, sg = xyz[i : i + CHUNK], seg[i : i + CHUNK]
-        a2, b2 = _dist2(q, P, sg), _dist2(q, P, sg + 1)
+        a2, b2 = _dist2(q, PT, sg), _dist2(q, PT, sg + 1)
         np.minimum.at(near2, sg, a2)
         np.minimum.at(near2, sg + 1, b2)
         for off in (-2, -1, 2, 3):
             v = np.clip(sg + off, 0, n - 1)
-            np.minimum.at(near2, v, _dist2(q, P, v))
+            np.minimum.at(near2, v, _dist2(q, PT, v))
         d0[i : i + CHUNK], d1[i : i + CHUNK] = np.sqrt(a2), np.sqrt(b2)
     near_v = np.sqrt(near2)
     near_v[~np.isfinite(near_v)] = np.nan

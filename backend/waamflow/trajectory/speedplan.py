@@ -170,21 +170,29 @@ def plan_spans(
     v = jc.tolist()
     Ll = (L * (1 - 1e-4)).tolist()  # keep off the feasibility edge
     Al, Jl, ADl, JDl = A.tolist(), J.tolist(), AD.tolist(), JD.tolist()
+    # reachable_speed(v1, ...) ≥ v1: a junction no faster than the one after it (before it, in
+    # the forward pass) is not lowered, and is skipped without the call (most junctions of a pass
+    # at one speed; the same speeds as calling it everywhere)
     for i in range(K - 1, -1, -1):
-        r = reachable_speed(v[i + 1], Ll[i], ADl[i], JDl[i])
-        if r < v[i]:
-            v[i] = r
-    for i in range(K):
-        r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
-        if r < v[i + 1]:
-            v[i + 1] = r
+        if v[i + 1] < v[i]:
+            r = reachable_speed(v[i + 1], Ll[i], ADl[i], JDl[i])
+            if r < v[i]:
+                v[i] = r
+    _forward(v, Ll, Al, Jl)
     if 0 < lookahead < K:
         v = _buffer_limit(np.asarray(v), np.asarray(Ll), AD, int(lookahead)).tolist()
-        for i in range(K):
-            r = reachable_speed(v[i], Ll[i], Al[i], Jl[i])
+        _forward(v, Ll, Al, Jl)
+    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert, A, J, AD, JD)
+
+
+def _forward(v: list[float], L: list[float], A: list[float], J: list[float]) -> None:
+    """`plan_spans`' forward pass in place: each junction speed lowered to what the span before
+    it can speed up to from the junction before (skipping those no faster than that one)."""
+    for i in range(len(L)):
+        if v[i] < v[i + 1]:
+            r = reachable_speed(v[i], L[i], A[i], J[i])
             if r < v[i + 1]:
                 v[i + 1] = r
-    return Spans(s0, s1, vmax, np.asarray(v), stop_after, rvert, A, J, AD, JD)
 
 
 def _buffer_limit(v: np.ndarray, L: np.ndarray, dec: np.ndarray, n: int) -> np.ndarray:
