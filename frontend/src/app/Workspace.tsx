@@ -1,7 +1,8 @@
 // The editor's tabs and their panes: the graph (always mounted, hidden when another tab shows),
 // the mask canvas, the parameter XML, the 3D view, the results and plots.
+import { memo } from "react";
 import { Tabs, tabPanelProps } from "../components/Tabs";
-import { GraphEditor } from "../graph/GraphEditor";
+import { GraphEditor, type GraphEditorProps } from "../graph/GraphEditor";
 import { MaskView } from "../mask/MaskView";
 import { Results } from "../plots/Results";
 import { Viewer3D } from "../viewer/Viewer3D";
@@ -9,6 +10,13 @@ import { ParamsEditor } from "../xml/ParamsEditor";
 import { TABS } from "./tabs";
 import type { Editor } from "./useEditor";
 import type { EditorActions } from "./useEditorActions";
+
+/** The graph editor renders only while shown or on being hidden (to give up its keys): hidden, a
+ * recipe edit on the mask canvas does not re-render React Flow's nodes, edges and store (a share
+ * of every canvas edit's time before its preview request, #30); shown again, it takes the props
+ * of that moment. */
+export const hiddenAlready = (a: GraphEditorProps, b: GraphEditorProps) => !a.active && !b.active;
+const GraphPane = memo(GraphEditor, hiddenAlready);
 
 export function Workspace({ ed, act }: { ed: Editor; act: EditorActions }) {
   const { doc, view, runs, findings } = ed;
@@ -19,7 +27,7 @@ export function Workspace({ ed, act }: { ed: Editor; act: EditorActions }) {
       <Tabs tabs={TABS} active={tab} onChange={setTab} label="views" />
       <div className="tab-body">
         <div className={`pane ${tab === "graph" ? "" : "hidden"}`} {...tabPanelProps("graph")}>
-          <GraphEditor
+          <GraphPane
             recipe={recipe}
             catalog={ed.cat.catalog}
             statuses={runs.run.nodes}

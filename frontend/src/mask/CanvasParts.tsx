@@ -16,13 +16,14 @@ const num = (v: unknown, d = 0) => (typeof v === "number" && Number.isFinite(v) 
 
 export type Starts = { here: number[][]; below: number[][]; stops?: number[][]; stacked: boolean[] };
 
-export function Grid({ view, pitch }: { view: View; pitch: number }) {
+/** The grid (memo: re-drawn when the view or pitch changes, not on every re-plan). */
+export const Grid = memo(function Grid({ view, pitch }: { view: View; pitch: number }) {
   const xs: number[] = [], ys: number[] = [];
   for (let x = Math.ceil(view.x / pitch) * pitch; x <= view.x + view.w; x += pitch) xs.push(x);
   for (let y = Math.ceil(view.y / pitch) * pitch; y <= view.y + view.h; y += pitch) ys.push(y);
   const d = [...xs.map((x) => `M${x} ${view.y}V${view.y + view.h}`), ...ys.map((y) => `M${view.x} ${y}H${view.x + view.w}`)].join("");
   return <path d={d} className="grid" />;
-}
+});
 
 /** A section path: consecutive segments of one colour and arc state drawn as one polyline, over
  * its bead (the path stroked at the bead width, in mm) when known. */

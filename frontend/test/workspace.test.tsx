@@ -1,0 +1,31 @@
+// @vitest-environment jsdom
+// The graph editor stays mounted behind the other tabs but does not re-render while hidden (#30:
+// every canvas edit re-rendered React Flow's nodes, edges and store before its preview request).
+import { memo } from "react";
+import { createRoot } from "react-dom/client";
+import { describe, expect, it } from "vitest";
+import { hiddenAlready } from "../src/app/Workspace";
+import type { GraphEditorProps } from "../src/graph/GraphEditor";
+import { act } from "./renderHook";
+
+type P = Pick<GraphEditorProps, "active"> & { label: string };
+
+describe("the hidden graph editor", () => {
+  it("renders while shown, once on being hidden, not while hidden, and with the latest props when shown again", () => {
+    const seen: string[] = [];
+    const Probe = memo(function Probe({ active, label }: P) {
+      seen.push(`${label}:${active ? "shown" : "hidden"}`);
+      return null;
+    }, hiddenAlready as unknown as (a: P, b: P) => boolean);
+    const root = createRoot(document.createElement("div"));
+    const show = (active: boolean, label: string) => act(() => root.render(<Probe active={active} label={label} />));
+    show(true, "r1");
+    show(true, "r2"); // an edit while shown
+    show(false, "r2"); // another tab: gives up its keys
+    show(false, "r3"); // edits on the mask canvas
+    show(false, "r4");
+    show(true, "r4"); // back to the graph: the recipe of now
+    expect(seen).toEqual(["r1:shown", "r2:shown", "r2:hidden", "r4:shown"]);
+    act(() => root.unmount());
+  });
+});
