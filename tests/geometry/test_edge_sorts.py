@@ -118,3 +118,100 @@ def test_bodies_numbered_by_their_lowest_face_as_scipy_numbers_a_coo_graph():
     n_ref, ref = connected_components(g, directed=False)
     assert n == n_ref == 3 and np.array_equal(label, ref) and label[0] == 0
     assert sorted(np.bincount(label).tolist()) == sorted(len(p.faces) for p in parts)
+
+
+def _closed_and_broken_meshes():
+    """(name, faces, vertex count): closed parts, inside out, one face flipped, open,
+    non-manifold, a doubled surface, and two degenerate faces added."""
+    out = []
+    for name, m in (("box", trimesh.creation.box()), ("ico", trimesh.creation.icosphere(2))):
+        f, n = np.asarray(m.faces, np.int64), len(m.vertices)
+        flipped = f.copy()
+        flipped[3] = flipped[3, ::-1]
+        out += [
+            (name, f, n),
+            (name + " inside out", f[:, ::-1].copy(), n),
+            (name + " one face flipped", flipped, n),
+            (name + " open", f[1:], n),
+            (name + " non-manifold", np.vstack([f, f[:2]]), n),
+            (name + " doubled", np.vstack([f, f[:, ::-1]]), n),
+            (name + " degenerate faces", np.vstack([f, [[0, 0, 1], [1, 0, 0]]]), n),
+        ]
+    return out
+
+
+def test_a_closed_mesh_reports_from_its_edge_pairs(monkeypatch):
+    """Every edge used twice: the report comes from the pairs (no run-length count of the 3 M
+    sorted edges) and the twins are not checked again when every pair runs both ways; each
+    mesh gives what `edge_report` and `edge_twins` give, closed or not."""
+    cases = _closed_and_broken_meshes()
+    want = [(topology.edge_report(f, n), topology.edge_twins(f, n)) for _, f, n in cases]
+    paired = [r.open == 0 and r.nonmanifold == 0 for r, _ in want]  # every edge used twice
+    assert [r.closed for r, _ in want].count(True) == 4 and paired.count(True) == 6
+    real = topology._report
+    calls = []
+
+    def counted(*a):
+        calls.append(1)
+        return real(*a)
+
+    monkeypatch.setattr(topology, "_report", counted)
+    for (name, f, n), (rep, twin) in zip(cases, want):
+        got_rep, got_twin = topology.edge_report_twins(f, n)
+        assert got_rep == rep, name
+        assert (got_twin is None) == (twin is None) and (twin is None or np.array_equal(got_twin, twin)), name
+    assert len(calls) == paired.count(False) == 8  # closed, inside out, one face flipped: no count
+
+
+def test_merge_vertices_hashes_float32_rows_and_survives_any_hash(monkeypatch):
+    """float32 rows are hashed as (x, y) bits in one uint64 and z (`_point_hash`); whatever the
+    hash, even one that makes every point collide (the exact lexicographic path), the result
+    is the same: vertices in order of first occurrence, -0.0 welded to 0.0."""
+    rng = np.random.default_rng(4)
+    for dtype in (np.float32, np.float64):
+        pts = (rng.integers(-3, 3, size=(6000, 3)) * 0.5).astype(dtype)
+        pts[rng.random(pts.shape) < 0.1] = -0.0
+        folded = pts + dtype(0.0)
+        _, first, inv_ref = np.unique(folded, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first)  # unique rows in order of first occurrence
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        for label, fortran in (("C", False), ("F", True)):
+            v, inv = topology.merge_vertices(np.asfortranarray(pts) if fortran else pts)
+            assert v.dtype == dtype and len(v) == len(first) == 216, (dtype, label)
+            np.testing.assert_array_equal(v, folded[np.sort(first)])
+            np.testing.assert_array_equal(inv, rank[inv_ref.reshape(-1)])
+            assert not (np.signbit(v) & (v == 0)).any()  # no -0.0 left
+        monkeypatch.setattr(topology, "_point_hash", lambda f, b: np.zeros(len(b), dtype=np.uint64))
+        v2, inv2 = topology.merge_vertices(pts)
+        monkeypatch.undo()
+        np.testing.assert_array_equal(v2, v)
+        np.testing.assert_array_equal(inv2, inv)
+
+
+def test_a_closed_mesh_read_works_out_its_face_volumes_once(monkeypatch):
+    """The repair's per-face volumes (for each body's sign) give the part's volume too when the
+    vertices are not moved (mm, no transform): the same float64 sum signed_volume gives, one
+    pass over 1 M faces less; a scaled or moved part is measured again."""
+    m = trimesh.creation.icosphere(3, radius=20.0)
+    tri = np.asarray(m.vertices)[np.asarray(m.faces)].astype(np.float32)
+    calls = []
+    real = topology.face_volumes
+
+    def counted(v, f):
+        calls.append(len(f))
+        return real(v, f)
+
+    monkeypatch.setattr(topology, "face_volumes", counted)
+    monkeypatch.setattr(mesh_io, "face_volumes", counted)
+    stats: dict = {}
+    md = mesh_io.mesh_from_triangles(tri, crack_tolerance=0.01, stats=stats)
+    assert calls == [len(md.faces)] == [1280]
+    volume = real(md.vertices, md.faces).sum()  # the icosphere's facets: 33,222 of a sphere's 33,510 mm³
+    assert stats["volume_mm3"] == volume == pytest.approx(33221.93, abs=0.01)
+    assert "face_volumes" not in stats
+    for kw in ({"units": "cm"}, {"transform": mesh_io.Transform(translate=(1.0, 2.0, 3.0))}):
+        calls.clear()
+        st2: dict = {}
+        md2 = mesh_io.mesh_from_triangles(tri, crack_tolerance=0.01, stats=st2, **kw)
+        assert len(calls) == 2 and st2["volume_mm3"] == real(md2.vertices, md2.faces).sum()

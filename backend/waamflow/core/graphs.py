@@ -27,12 +27,15 @@ def connected_components(n: int, a: np.ndarray, b: np.ndarray) -> tuple[int, np.
     parent = np.arange(n, dtype=np.int64)
     a = np.asarray(a, dtype=np.int64)
     b = np.asarray(b, dtype=np.int64)
+    fresh = True  # every vertex its own root yet: the edges' roots are their ends
     while len(a):
-        pa, pb = parent[a], parent[b]
+        pa, pb = (a, b) if fresh else (parent[a], parent[b])
+        fresh = False
         cross = pa != pb
         if not cross.any():
             break
-        a, b, pa, pb = a[cross], b[cross], pa[cross], pb[cross]
+        if not cross.all():
+            a, b, pa, pb = a[cross], b[cross], pa[cross], pb[cross]
         # hook each root met by an edge under the lowest root it meets (roots only get lower)
         np.minimum.at(parent, np.maximum(pa, pb), np.minimum(pa, pb))
         while True:  # every vertex straight to its root
@@ -40,18 +43,31 @@ def connected_components(n: int, a: np.ndarray, b: np.ndarray) -> tuple[int, np.
             if np.array_equal(up, parent):
                 break
             parent = up
-    roots, label = np.unique(parent, return_inverse=True)
-    return len(roots), label.reshape(-1)
+    # every vertex points at its root, the lowest vertex of its component: label the roots in
+    # order (what np.unique's inverse gives, without its sort)
+    root = parent == np.arange(n)
+    rank = np.cumsum(root) - 1
+    return int(np.count_nonzero(root)), np.take(rank, parent)
 
 
 def _cycle_min(nxt: np.ndarray) -> np.ndarray:
-    """(n,) the lowest element of each element's cycle under the permutation `nxt`."""
+    """(n,) the lowest element of each element's cycle under the permutation `nxt`.
+
+    Pointer jumping: before a round, low[i] is the lowest of the `reach` elements from i on and
+    ptr[i] the element `reach` steps on. It stops at the first round that changes nothing, not
+    after ⌈log₂ n⌉ rounds (20 for a million elements where the longest cycle needs 12): then
+    low[i] <= low[ptr[i]] for every i, so going round a cycle in steps of `reach` low never
+    decreases, hence is constant, and those windows cover the cycle: low[i] is the cycle's
+    lowest element, exactly what the remaining rounds would leave."""
     low = np.arange(len(nxt), dtype=np.int64)
     ptr = np.asarray(nxt, dtype=np.int64)
     reach = 1
     while reach < len(nxt):  # after the round, low covers 2·reach elements of the cycle
-        low = np.minimum(low, low[ptr])
-        ptr = ptr[ptr]
+        lower = np.minimum(low, np.take(low, ptr))
+        if np.array_equal(lower, low):
+            break
+        low = lower
+        ptr = np.take(ptr, ptr)
         reach *= 2
     return low
 

@@ -208,7 +208,8 @@ def repair_mesh(
     (`trimesh.repair.fix_winding`: a BFS over the face adjacency, well kept and already a
     dependency, networkx included), then every closed body whose volume is negative is turned
     inside out so normals point outwards. Counts: vertices_merged, nonmanifold_edges_split,
-    faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport).
+    faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport),
+    and face_volumes (`face_volumes` of the returned vertices and faces) when it worked them out.
     edges: `edge_report_twins` of these faces when the caller has it (one sort of the edges less).
     """
     out: dict[str, Any] = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
@@ -235,12 +236,14 @@ def repair_mesh(
         rep, twin = edge_report_twins(faces, len(verts))
     if rep.closed and twin is not None:  # closed: the twins exist
         n, label = face_components(twin, len(faces))
-        vol = np.bincount(label, weights=face_volumes(verts, faces), minlength=n)
+        fv = face_volumes(verts, faces)
+        vol = np.bincount(label, weights=fv, minlength=n)
         inside_out = vol[label] < 0
         if inside_out.any():
             faces = np.where(inside_out[:, None], faces[:, ::-1], faces)
-        else:  # these faces' twins and bodies, for the slicer
+        else:  # these faces' twins and bodies, for the slicer; their volumes for the caller
             remember_topology(faces, twin, (n, label))
+            out["face_volumes"] = fv
     if faces is not original:  # re-wound or turned inside out: count the faces that changed
         before = np.asarray(original, dtype=np.int64) if before is None else before
         same = np.zeros(len(faces), dtype=bool)
@@ -303,10 +306,12 @@ def mesh_from_triangles(
         edges = edge_report_twins(faces, len(verts))
         rep = edges[0]
     fixes: dict = {}
+    face_vol = None  # the faces' volumes in file units, when the repair worked them out
     if crack_tolerance is not None:
         verts, faces, fixes = repair_mesh(
             verts, faces, crack_tolerance=crack_tolerance / unit_scale(units), edges=edges
         )
+        face_vol = fixes.pop("face_volumes", None)
         rep = fixes["edges"]
         if stage:
             stage(
@@ -321,8 +326,12 @@ def mesh_from_triangles(
             stats["edges"] = rep
     if require_closed and rep is not None and not rep.closed:
         check_closed(faces, len(verts), name=label)  # raises, saying what is open
-    verts = transform.apply(np.asarray(verts, dtype=np.float64) * unit_scale(units))
-    volume = signed_volume(verts, faces)
+    scale = unit_scale(units)
+    verts = transform.apply(np.asarray(verts, dtype=np.float64) * scale)
+    # in mm and not moved: the repair's face volumes are these vertices' (the same float64 values)
+    volume = float(face_vol.sum()) if face_vol is not None and scale == 1.0 and transform.is_identity else None
+    if volume is None:
+        volume = signed_volume(verts, faces)
     if volume < 0 and crack_tolerance is None:
         faces, volume = faces[:, ::-1], -volume
     if stats is not None:

@@ -61,12 +61,31 @@ def _sorted_order(keys: np.ndarray, *, exact: bool) -> tuple[np.ndarray, np.ndar
     return order, packed >> shift
 
 
+def _point_hash(folded: np.ndarray, bits: np.ndarray) -> np.ndarray:
+    """(n,) uint64 hash of each row's coordinate bits. float32 rows (12 bytes): the first two
+    coordinates read as one unaligned uint64 (a strided view, no copy) mixed with the third, half
+    the work of widening all three columns to uint64 first (0.04 vs 0.09 s on 3 M rows)."""
+    if bits.dtype == np.uint32 and folded.flags.c_contiguous:
+        xy = np.ndarray((len(bits),), dtype=np.uint64, buffer=folded, strides=(12,))
+        h = xy * _M1
+        z = bits[:, 2].astype(np.uint64)
+        z *= _M2
+        h ^= z
+        h ^= h >> np.uint64(29)
+        h *= _M3
+        h ^= h >> np.uint64(32)
+        return h
+    return _mix(bits.astype(np.uint64, copy=False))
+
+
 def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Weld bit-identical points.
 
     points: (n, 3) float32 or float64. Returns (vertices (k, 3) same dtype, inverse (n,) int64)
     with vertices[inverse] == points, vertices in order of first occurrence. (`np.take(...,
-    axis=0)` instead of fancy row indexing: 4x faster gathers of 3-column rows.)
+    axis=0)` instead of fancy row indexing: 4x faster gathers of 3-column rows; each group's rank
+    spread over its rows by `np.repeat` of the group sizes, not a cumsum and a gather.) The result
+    does not depend on the hash: it only brings equal points together.
     """
     points = np.ascontiguousarray(points)
     n = len(points)
@@ -74,7 +93,7 @@ def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return points.reshape(0, 3), np.zeros(0, dtype=np.int64)
     folded = points + points.dtype.type(0.0)  # -0.0 + 0.0 == +0.0: same point, same bits
     bits = folded.view(np.uint32 if points.dtype == np.float32 else np.uint64)
-    order, hkey = _sorted_order(_mix(bits.astype(np.uint64, copy=False)), exact=False)
+    order, hkey = _sorted_order(_point_hash(folded, bits), exact=False)
     c = np.take(bits, order, axis=0)
     same_pt = (c[1:, 0] == c[:-1, 0]) & (c[1:, 1] == c[:-1, 1]) & (c[1:, 2] == c[:-1, 2])
     if np.any((hkey[1:] == hkey[:-1]) & ~same_pt):
@@ -82,19 +101,18 @@ def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))
         c = np.take(bits, order, axis=0)
         same_pt = (c[1:, 0] == c[:-1, 0]) & (c[1:, 1] == c[:-1, 1]) & (c[1:, 2] == c[:-1, 2])
-    new = np.empty(n, dtype=bool)
-    new[0] = True
-    np.logical_not(same_pt, out=new[1:])
-    group = np.cumsum(new, dtype=np.int64)
-    group -= 1
+    starts = np.flatnonzero(~same_pt)
+    starts += 1
+    starts = np.concatenate([[0], starts])  # each group's first sorted row
+    sizes = np.diff(starts, append=n)
     # number vertices in order of first occurrence (the first row of each group has the smallest
     # index): faces then reference nearby vertices, which keeps later gathers cache-friendly
-    first = order[new]
+    first = order[starts]
     rank = np.empty(len(first), dtype=np.int64)
     by_first = np.argsort(first)
     rank[by_first] = np.arange(len(first))
     inverse = np.empty(n, dtype=np.int64)
-    inverse[order] = np.take(rank, group)
+    inverse[order] = np.repeat(rank, sizes)
     vertices = np.take(folded, np.take(first, by_first), axis=0)
     return vertices, inverse
 
@@ -187,10 +205,17 @@ def _report(a: np.ndarray, b: np.ndarray, order: np.ndarray, k: np.ndarray) -> E
 def _twins(a: np.ndarray, b: np.ndarray, order: np.ndarray, k: np.ndarray) -> np.ndarray | None:
     if len(k) % 2 or not np.array_equal(k[0::2], k[1::2]) or np.any(k[2::2] == k[1:-1:2]):
         return None
-    twin = np.empty(len(k), dtype=np.int64)
+    return _pair_twins(a, b, order)
+
+
+def _pair_twins(a: np.ndarray, b: np.ndarray, order: np.ndarray, *, check: bool = True) -> np.ndarray | None:
+    """`_twins` once the sorted keys are known to come in pairs: each edge's partner, None
+    unless every pair runs its edge both ways. check=False: the caller knows they do (every pair
+    has exactly one edge running from its lower vertex to its higher one)."""
+    twin = np.empty(len(order), dtype=np.int64)
     twin[order[0::2]] = order[1::2]
     twin[order[1::2]] = order[0::2]
-    if not np.array_equal(a[twin], b):
+    if check and not np.array_equal(a[twin], b):
         return None
     return twin
 
@@ -216,8 +241,16 @@ def edge_report_twins(faces: np.ndarray, n_vertices: int) -> tuple[EdgeReport, n
     read sorted the 3 M edges of a 1 M-triangle part three times for them)."""
     if len(faces) == 0:
         return EdgeReport(0, 0, 0, 0), None
-    es = _edge_sort(faces, n_vertices)
-    return _report(*es), _twins(*es)
+    a, b, order, k = _edge_sort(faces, n_vertices)
+    if len(k) % 2 == 0 and np.array_equal(k[0::2], k[1::2]) and not np.any(k[2::2] == k[1:-1:2]):
+        # every edge used by exactly two faces (a closed mesh): the report from the pairs, and
+        # when each pair has one edge from its lower vertex up (then the other runs back down)
+        # the twins without checking their directions again (~0.1 s less on 3 M edges)
+        forward = a < b
+        misoriented = int(np.count_nonzero(np.take(forward, order[0::2]) == np.take(forward, order[1::2])))
+        rep = EdgeReport(edges=len(k) // 2, open=0, nonmanifold=0, misoriented=misoriented)
+        return rep, _pair_twins(a, b, order, check=misoriented > 0)
+    return _report(a, b, order, k), None
 
 
 def check_closed(faces: np.ndarray, n_vertices: int, *, name: str = "mesh") -> EdgeReport:
