@@ -61,7 +61,10 @@ _ORJSON_OPTIONS = orjson.OPT_SORT_KEYS | orjson.OPT_NON_STR_KEYS
 
 
 def bytes_signature(data: bytes) -> str:
-    return hashlib.blake2b(data, digest_size=16).hexdigest()
+    """128-bit content signature (hex): the first half of the bytes' sha256, so a file's signature
+    (cache keys) and its sha256 (the run's trace) come from one hash (`FileResolver._digests`);
+    sha256 runs on the CPU's SHA instructions: a 50 MB mesh 0.04 s, where blake2b took 0.10 s."""
+    return hashlib.sha256(data).hexdigest()[:32]
 
 
 class MemoryCache:

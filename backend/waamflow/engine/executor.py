@@ -136,7 +136,8 @@ class FileResolver:
         sig, sha = _FILE_SIGS.get(k_sig), _FILE_SIGS.get(k_sha)
         if sig is None or sha is None:
             data = read_regular(p, MAX_INPUT_FILE_BYTES)
-            sig, sha = bytes_signature(data), hashlib.sha256(data).hexdigest()
+            sha = hashlib.sha256(data).hexdigest()
+            sig = sha[:32]  # = bytes_signature(data): one hash of the content for both
             if len(_FILE_SIGS) > 4096:
                 _FILE_SIGS.clear()
             _FILE_SIGS[k_sig], _FILE_SIGS[k_sha] = sig, sha
