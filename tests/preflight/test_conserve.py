@@ -89,3 +89,44 @@ def test_filleted_panel_preflight_is_ok_and_catches_the_lost_corner(monkeypatch)
     # (1459.479 vs 1412.334 mm in the layer); read from the artifacts, coordinates to 1e-4 mm
     assert all(p["value"] == pytest.approx(47.1443, abs=1e-4) and p["node"] == "sequence" for p in found)
     assert "wall2, wall6" in found[0]["message"] or "wall6, wall2" in found[0]["message"]
+
+
+def test_the_two_read_backs_of_a_node_are_two_tasks_with_the_same_problems():
+    """With the run's workers, each of a sequence node's two toolpath.json is read back in its own
+    task (`arc_on_of_doc`), so the two run side by side; the problems are the serial check's (a
+    changed length found, the reordered layer passes)."""
+    import json
+    from concurrent.futures import Future
+    from types import SimpleNamespace
+
+    from waamflow.preflight.conserve import arc_on_of_doc, check_conservation, start_conservation
+
+    wall = ("W", [(0, 0), (40, 0), (40, 30)], [True, True])
+    before = {"layers": doc(wall)["layers"] + doc(wall, index=1)["layers"]}
+    after = {"layers": doc(wall)["layers"] + doc(("W", [(0, 0), (40, 30)], [True]), index=1)["layers"]}
+    artifacts = {"zone.toolpath.json": json.dumps(before).encode(), "seq.toolpath.json": json.dumps(after).encode()}
+    graph = SimpleNamespace(
+        order=["zone", "seq"],
+        nodes={
+            "zone": SimpleNamespace(type="zone", inputs={}),
+            "seq": SimpleNamespace(type="sequence", inputs={"toolpath": ("zone", "toolpath")}),
+        },
+    )
+
+    class Pool:
+        def __init__(self):
+            self.tasks = []
+
+        def submit(self, fn, item):
+            self.tasks.append((fn, item))
+            fut = Future()
+            fut.set_result(fn(item))
+            return fut
+
+    pool = Pool()
+    got = start_conservation(graph, artifacts, "fail", pool)()
+    assert [fn for fn, _ in pool.tasks] == [arc_on_of_doc, arc_on_of_doc]
+    assert [item for _, item in pool.tasks] == [artifacts["zone.toolpath.json"], artifacts["seq.toolpath.json"]]
+    assert got == check_conservation(graph, artifacts, "fail")
+    assert len(got) == 1 and got[0]["layer"] == 1 and got[0]["section"] == "W"
+    assert got[0]["value"] == pytest.approx(-20.0, abs=1e-6)  # 50 mm welded where 70 were planned

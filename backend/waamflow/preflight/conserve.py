@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 from collections import defaultdict
-from typing import Any, Callable, Protocol
+from typing import Any, Callable, Protocol, cast
 
 import numpy as np
 
@@ -42,7 +42,11 @@ def arc_on_by_section(prog: ProgramRead) -> dict[tuple[int | None, str | None], 
 def deposit_changes(before: ProgramRead, after: ProgramRead, tol: float = LENGTH_TOL_MM) -> list[dict]:
     """The (layer, section)s with as many arc-ON runs after as before but another arc-ON length:
     dicts with layer, section, before_mm, after_mm; sorted by layer then section."""
-    a, b = arc_on_by_section(before), arc_on_by_section(after)
+    return changes_between(arc_on_by_section(before), arc_on_by_section(after), tol)
+
+
+def changes_between(a: dict, b: dict, tol: float = LENGTH_TOL_MM) -> list[dict]:
+    """`deposit_changes` of two `arc_on_by_section` maps (before, after)."""
     out = []
     for key in sorted(set(a) | set(b), key=lambda k: (-1 if k[0] is None else k[0], k[1] or "")):
         (la, na), (lb, nb) = a.get(key, (0.0, 0)), b.get(key, (0.0, 0))
@@ -65,6 +69,12 @@ def read_back_changes(pair: tuple[bytes, bytes]) -> list[dict]:
     return deposit_changes(before, after)
 
 
+def arc_on_of_doc(doc: bytes) -> dict[tuple[int | None, str | None], tuple[float, int]]:
+    """`arc_on_by_section` of one `toolpath.json` artifact as written (worker side: one task per
+    document, so a node's two read-backs run side by side; what comes back is the few sums)."""
+    return arc_on_by_section(read_toolpath(json.loads(doc)))
+
+
 def _pairs(graph, artifacts: dict[str, bytes]) -> list[tuple[str, str, tuple[bytes, bytes]]]:
     """(node, its source node, (source's, node's toolpath.json)) of every node checked."""
     out = []
@@ -85,29 +95,34 @@ def start_conservation(
 ) -> Callable[[], list[dict]]:
     """`check_conservation` begun: with the run's workers, its read-backs start in them at once and
     overlap the program checks (two toolpath.json parsed per sequence node: ~0.8 s of the
-    500-layer cross's preflight); call the result for the problems. The same problems either way."""
+    500-layer cross's preflight), one task per document (`arc_on_of_doc`): the two halves of a
+    node's read-back run side by side instead of one worker taking both while the other waits for
+    the slab tasks (the 500-layer cross: 0.42 s of CPU in one task). Call the result for the
+    problems. The same problems either way."""
     if severity == "off":
         return list
     pairs = _pairs(graph, artifacts)
     futures: list[Any] = []
     for _nid, _src, docs in pairs:
-        try:
-            futures.append(pool.submit(read_back_changes, docs) if pool is not None else None)
-        except Exception:  # the workers are gone: read it here
-            futures.append(None)
+        for doc in docs:
+            try:
+                futures.append(pool.submit(arc_on_of_doc, doc) if pool is not None else None)
+            except Exception:  # the workers are gone: read it here
+                futures.append(None)
+
+    def sums(fut: Any, doc: bytes) -> dict:
+        if fut is not None:
+            try:
+                return cast(dict, fut.result())
+            except Exception:  # a worker died: read it here (its own error is raised here)
+                pass
+        return arc_on_of_doc(doc)
 
     def finish() -> list[dict]:
         problems: list[dict] = []
-        for (nid, src, docs), fut in zip(pairs, futures):
-            changes = None
-            if fut is not None:
-                try:
-                    changes = fut.result()
-                except Exception:  # a worker died: read it here (its own error is raised here)
-                    changes = None
-            if changes is None:
-                changes = read_back_changes(docs)
-            problems += _problems(nid, src, changes, severity)
+        for k, (nid, src, docs) in enumerate(pairs):
+            before, after = (sums(futures[2 * k + j], docs[j]) for j in (0, 1))
+            problems += _problems(nid, src, changes_between(before, after), severity)
         return problems
 
     return finish
@@ -155,6 +170,8 @@ def _problems(nid: str, src: str, changes: list[dict], severity: str) -> list[di
 __all__ = [
     "KEEPS_DEPOSIT",
     "arc_on_by_section",
+    "arc_on_of_doc",
+    "changes_between",
     "check_conservation",
     "deposit_changes",
     "read_back_changes",
