@@ -36,8 +36,9 @@ def test_bad_trace_rows_name_the_row(text, row):
 
 
 def test_trace_csv_blocks_write_what_one_row_at_a_time_writes(monkeypatch):
-    """trace_csv formats a block of rows per % call: byte for byte the rows formatted one by one,
-    across block edges (a 7-row block: hundreds of edges) and with a short last block."""
+    """trace_csv writes a block of rows per buffer (core.fixedtext): byte for byte the rows %
+    formats one by one, across block edges (a 7-row block: hundreds of edges) and with a short
+    last block."""
     import numpy as np
 
     from waamflow.trajectory import trace

@@ -23,6 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..core.errors import InputFileError
+from ..core.fixedtext import fixed_rows
 from ..core.moves import DEPOSIT, Moves
 from .simulate import SimulationResult
 
@@ -100,7 +101,8 @@ def read_trace_csv(text: str, source: str = "trace") -> MeasuredTrace:
     )
 
 
-_CSV_BLOCK = 8192  # rows per % call in trace_csv
+_CSV_BLOCK = 16384  # rows per buffer of `_csv_rows`
+_CSV_DECIMALS = (4, 4, 4, 4, 3, None, 4)  # t,x,y,z,speed,arc,deviation: decimals, None = %d
 CSV_SPLIT_ROWS = 50_000  # rows from which `start_trace_csv` hands part of them to a worker
 CSV_WORKER_SHARE = 0.6  # of the rows: this process writes the other artifacts meanwhile
 
@@ -139,15 +141,10 @@ def start_trace_csv(result: SimulationResult, submit: Callable[..., Any] | None 
 
 
 def _csv_rows(cols: np.ndarray) -> str:
-    """The CSV rows of `trace_csv`'s columns (n, 7)."""
-    row = "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"
-    # one % per block of rows (the row format repeated, the block's Python floats as its arguments):
-    # the same text as one % per row, without a Python-level step per row (292k rows: 0.62 -> 0.37 s)
-    out = []
-    for i in range(0, len(cols), _CSV_BLOCK):
-        block = cols[i : i + _CSV_BLOCK]
-        out.append((row * len(block)) % tuple(block.ravel().tolist()))
-    return "".join(out)
+    """The CSV rows of `trace_csv`'s columns (n, 7): the text of "%.4f,%.4f,%.4f,%.4f,%.3f,%d,%.4f\n"
+    per row, its digits worked out by numpy on whole columns, _CSV_BLOCK rows at a time
+    (`core.fixedtext`; 292k rows: 0.38 -> 0.17 s)."""
+    return fixed_rows(cols, _CSV_DECIMALS, _CSV_BLOCK)
 
 
 def _motion_start(t: np.ndarray, xyz: np.ndarray, tol: float = 0.05) -> float:
