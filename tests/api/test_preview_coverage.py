@@ -73,3 +73,41 @@ def test_preview_coverage_is_the_coverage_node(client, width):
         },
     )
     assert {c["bead_width_mm"] for c in r.json()["coverage"]} == {9.0}
+
+
+def test_a_sections_overlay_is_computed_once_per_exact_input(monkeypatch):
+    """The canvas's coverage overlay of a section whose region, path and width did not change (the
+    other sections of the layer after an edit of one) comes from the memo; any change recomputes."""
+    import numpy as np
+    from shapely.geometry import box
+
+    import waamflow.process.coverage as coverage
+    from waamflow.api.routes import preview
+
+    calls = []
+    real = coverage.section_coverage
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(coverage, "section_coverage", counting)
+    preview._COVERAGE.clear()
+    region = box(0, 0, 40, 20)
+    pts = np.array([[0.0, 3.0], [40.0, 3.0], [40.0, 8.0], [0.0, 8.0], [0.0, 13.0], [40.0, 13.0]])
+    arc = np.array([True, False, True, False, True])
+    first = preview._section_coverage_json(region, pts, arc, 6.0)
+    assert len(calls) == 1 and first["void"] and first["overlap"]
+    assert first["region_area_mm2"] == pytest.approx(800.0) and first["bead_width_mm"] == 6.0
+    assert preview._section_coverage_json(region, pts.copy(), arc.copy(), 6.0) == first and len(calls) == 1
+    moved = pts.copy()
+    moved[2, 1] += 1e-9
+    for args in ((region, moved, arc, 6.0), (region, pts, arc, 6.5), (box(0, 0, 40, 21), pts, arc, 6.0)):
+        got = preview._section_coverage_json(*args)
+        want = real(args[0], args[1], args[2], args[3])
+        assert got["void_area_mm2"] == round(want.void_area, 4)
+    assert len(calls) == 4
+    on = arc.copy()
+    on[1] = True
+    assert preview._section_coverage_json(region, pts, on, 6.0)["overlap_area_mm2"] != first["overlap_area_mm2"]
+    assert len(calls) == 5

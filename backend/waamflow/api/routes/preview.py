@@ -11,10 +11,13 @@ import time
 from typing import Any, cast
 
 from fastapi import APIRouter, HTTPException, Request
+import numpy as np
+import shapely
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic.config import JsonDict
 
 from ...core.errors import PlanningError, RecipeError
+from ...core.memo import Memo, digest
 from ...core.model import Layer, LayerPaths, Layered, LayerSections
 from ...core.serialize import coords, layer_json, polygon_json, section_path_json
 from ...engine.cache import MemoryCache, TieredCache
@@ -161,9 +164,28 @@ def _width_of(graph, outputs: dict, asked: float | None):
     return lambda sp: 6.0
 
 
-def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, width) -> list[dict]:
-    from ...nodes.process import _geom_json, layer_local
+#: A section's coverage overlay (its JSON) per exact input (region WKB, layer-local path points and
+#: arc flags, bead width; core.memo): an edit re-plans one section of a layer, the others' overlays
+#: are the ones computed before (in a preview worker, the memo lives with the worker).
+_COVERAGE: Memo[dict[str, Any]] = Memo(256)
+
+
+def _section_coverage_json(region: Any, points: np.ndarray, arc: np.ndarray, width: float) -> dict[str, Any]:
+    from ...nodes.process import _geom_json
     from ...process.coverage import section_coverage
+
+    pts, flags = np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(arc, dtype=bool)
+    key = digest(shapely.to_wkb(region), str(pts.shape), pts.tobytes(), flags.tobytes(), float(width))
+
+    def compute() -> dict[str, Any]:
+        cov = section_coverage(region, pts, flags, width)
+        return {**cov.summary(), "void": _geom_json(cov.void), "overlap": _geom_json(cov.overlap_outline())}
+
+    return _COVERAGE.get(key, compute)
+
+
+def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, width) -> list[dict]:
+    from ...nodes.process import layer_local
 
     if sections is None or paths is None:
         return []
@@ -171,15 +193,8 @@ def _coverage_json(sections: LayerSections | None, paths: LayerPaths | None, wid
     out = []
     for sp in paths.sections:
         if sp.key in regions:
-            cov = section_coverage(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width(sp))
-            out.append(
-                {
-                    "key": sp.key,
-                    **cov.summary(),
-                    "void": _geom_json(cov.void),
-                    "overlap": _geom_json(cov.overlap_outline()),
-                }
-            )
+            cov = _section_coverage_json(regions[sp.key].region, layer_local(paths.layer, sp.points), sp.arc, width(sp))
+            out.append({"key": sp.key, **cov})
     return out
 
 
