@@ -23,6 +23,7 @@ tested: the torch deposits on it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -235,12 +236,15 @@ def _checked(s: np.ndarray, seg: np.ndarray, layer_of_seg: np.ndarray, step_mm: 
     """The samples checked: every one at least step_mm after the previous checked one, the first
     of each layer and the last."""
     out = []
-    last_s, last_layer = -np.inf, None
-    for i in range(len(s)):
-        layer = int(layer_of_seg[seg[i]])
-        if s[i] - last_s < step_mm and layer == last_layer and i != len(s) - 1:
+    last_s, last_layer = -math.inf, None
+    # Python numbers (the same differences as numpy's): no numpy scalar per sample
+    layers = np.asarray(layer_of_seg)[np.asarray(seg)].astype(np.int64).tolist()
+    s_l = np.asarray(s, dtype=float).tolist()
+    end = len(s_l) - 1
+    for i, (si, layer) in enumerate(zip(s_l, layers)):
+        if si - last_s < step_mm and layer == last_layer and i != end:
             continue
-        last_s, last_layer = s[i], layer
+        last_s, last_layer = si, layer
         out.append(i)
     return out
 

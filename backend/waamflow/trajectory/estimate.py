@@ -196,18 +196,18 @@ def _runs(dep, is_pass, L, U, cos_tol, min_len) -> list[tuple[bool, float]]:
     collinear runs of arc-ON inside segments at least min_len long; the rest are transitions."""
     runs: list[tuple[bool, float]] = []
     cur = 0.0
-    for k, i in enumerate(dep):
-        straight_on = is_pass[k] and k > 0 and is_pass[k - 1] and U[dep[k - 1]] @ U[i] >= cos_tol
+    # Python numbers (the same sums as numpy scalars'), the straight-on test for all at once
+    for straight_on, passing, length in zip(_straight_on(dep, is_pass, U, cos_tol), is_pass.tolist(), L[dep].tolist()):
         if straight_on and cur > 0:
-            cur += L[i]
+            cur += length
             continue
         if cur > 0:
             runs.append((True, cur))
             cur = 0.0
-        if is_pass[k]:
-            cur = L[i]
+        if passing:
+            cur = length
         else:
-            runs.append((False, L[i]))
+            runs.append((False, length))
     if cur > 0:
         runs.append((True, cur))
     # short "passes" are part of the transitions; merge neighbours of the same kind
@@ -219,6 +219,23 @@ def _runs(dep, is_pass, L, U, cos_tol, min_len) -> list[tuple[bool, float]]:
         else:
             out.append((kind, length))
     return out
+
+
+def _straight_on(dep: np.ndarray, is_pass: np.ndarray, U: np.ndarray, cos_tol: float) -> list[bool]:
+    """Per deposition segment k of a section: it and the one before are pass segments and turn
+    by less than the collinear tolerance (U[dep[k-1]] @ U[dep[k]] ≥ cos_tol). The dot products
+    for all at once; those within 1e-9 of the tolerance again one by one, as `@` gives them (a
+    sum in another order differs in the last bits only: the same answers)."""
+    k = len(dep)
+    out = np.zeros(k, dtype=bool)
+    if k > 1:
+        both = np.asarray(is_pass[1:] & is_pass[:-1], dtype=bool)
+        a, b = dep[:-1], dep[1:]
+        dots = np.einsum("ij,ij->i", U[a], U[b])
+        out[1:] = both & (dots >= cos_tol)
+        for j in np.flatnonzero(both & (np.abs(dots - cos_tol) <= 1e-9)).tolist():
+            out[j + 1] = U[a[j]] @ U[b[j]] >= cos_tol
+    return out.tolist()
 
 
 def _section_time(runs: list[tuple[bool, float]], TS: float, p: dict[str, float]) -> float:
