@@ -108,16 +108,33 @@ def _phase_starts(prof: SpanProfiles) -> np.ndarray:
     return np.concatenate([np.zeros((len(prof.t), 1)), np.cumsum(prof.t, axis=1)], axis=1)
 
 
-def _positions(prof: SpanProfiles, starts: np.ndarray, si: np.ndarray, tau: np.ndarray) -> np.ndarray:
+def _positions(
+    prof: SpanProfiles, starts: np.ndarray, si: np.ndarray, tau: np.ndarray, flat: dict | None = None
+) -> np.ndarray:
     """Position along each span at local times tau: `speedplan.evaluate`'s first value, with the
-    phase starts computed once per span (`_phase_starts`) instead of once per sample."""
+    phase starts computed once per span (`_phase_starts`) instead of once per sample. flat:
+    `_flat_profiles(prof, starts)`, the same numbers gathered by `take` on flat copies (a 2-D
+    gather [si, ph] costs twice as much)."""
+    f = _flat_profiles(prof, starts) if flat is None else flat
     st = starts[si]
     ph = np.minimum((tau[:, None] >= st[:, 1:]).sum(axis=1), 6)
-    rows = np.arange(len(tau))
-    dt = np.clip(tau - st[rows, ph], 0.0, None)
-    dt = np.minimum(dt, prof.t[si, ph])
-    s = prof.p[si, ph] + prof.v[si, ph] * dt + prof.a[si, ph] * dt * dt / 2 + prof.j[si, ph] * dt**3 / 6
-    return np.where(tau >= st[rows, 7], prof.p[si, 7], s)
+    i7, i8 = si * 7 + ph, si * 8 + ph  # flat indices of [si, ph] in the (K, 7) and (K, 8) arrays
+    dt = np.clip(tau - f["starts"].take(i8), 0.0, None)
+    dt = np.minimum(dt, f["t"].take(i7))
+    s = f["p"].take(i8) + f["v"].take(i8) * dt + f["a"].take(i8) * dt * dt / 2 + f["j"].take(i7) * dt**3 / 6
+    return np.where(tau >= st[:, 7], f["p"].take(si * 8 + 7), s)
+
+
+def _flat_profiles(prof: SpanProfiles, starts: np.ndarray) -> dict[str, np.ndarray]:
+    """The (K, 7) and (K, 8) arrays `_positions` gathers from, flattened (contiguous copies)."""
+    return {
+        "starts": np.ascontiguousarray(starts).ravel(),
+        "t": np.ascontiguousarray(prof.t).ravel(),
+        "j": np.ascontiguousarray(prof.j).ravel(),
+        "p": np.ascontiguousarray(prof.p).ravel(),
+        "v": np.ascontiguousarray(prof.v).ravel(),
+        "a": np.ascontiguousarray(prof.a).ravel(),
+    }
 
 
 def moving_average(x: np.ndarray, w: float) -> np.ndarray:
@@ -154,6 +171,7 @@ def sample_blocks(
     (the filter has settled there: the window lies wholly after the raw motion's end, so the
     point is exact)."""
     starts_all = _phase_starts(prof)
+    flat = _flat_profiles(prof, starts_all)
     # `path.at` with the dense path's coordinates as contiguous columns, copied once (np.interp
     # copies a strided column on every call: the whole dense path, once per block and axis)
     cols = np.ascontiguousarray(path.points.T)
@@ -164,7 +182,7 @@ def sample_blocks(
         tau = np.minimum(np.arange(k + 1) * h, tl.raw_dur[b])
         sp0, sp1 = tl.block_start[b], tl.block_end[b]
         si = np.clip(np.searchsorted(tl.span_t[sp0 : sp1 + 1], tau, side="right") - 1, 0, sp1 - sp0) + sp0
-        ds = _positions(prof, starts_all, si, tau - tl.span_t[si])
+        ds = _positions(prof, starts_all, si, tau - tl.span_t[si], flat)
         s_raw = spans.s0[si] + np.minimum(ds, spans.s1[si] - spans.s0[si])
         xyzs = np.column_stack(
             [
