@@ -237,7 +237,9 @@ def solve_samples(
     Z = z_base.tolist()
     retry = 40
     atan2, sqrt = math.atan2, math.sqrt
-    last = None  # (TCP pose, Jacobian) at q where the previous sample converged: the next one starts there
+    # (TCP rotation rows, Rᵀ, translation, Jacobian, its transpose) at q where the previous sample
+    # converged: the next one starts there, without reading them again
+    last = None
     for i in range(k):
         if progress is not None and i % 2000 == 0:
             progress(i / k)
@@ -247,18 +249,20 @@ def solve_samples(
         it = 0
         while True:
             if it == 0 and last is not None:  # q unchanged since the previous sample's last FK
-                cur, J = last
+                rows, RcT, tr, J, JT = last  # its pose as read then (no FK or read in between)
             else:
                 fk(model, data, q)
                 cur = upd(model, data, tcp)
+                Rc = cur.rotation
+                RcT = Rc.T
+                rows = Rc.tolist()
+                tr = cur.translation
                 J = None
-            Rc = cur.rotation
-            RcT = Rc.T
-            (r00, r01, zc0), (r10, r11, zc1), (r20, r21, zc2) = Rc.tolist()
+            (r00, r01, zc0), (r10, r11, zc1), (r20, r21, zc2) = rows
             # rotation (axis · angle) that aligns the torch axis
             w0, w1, w2 = zc1 * zt2 - zc2 * zt1, zc2 * zt0 - zc0 * zt2, zc0 * zt1 - zc1 * zt0
             sw = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-            dp = pt - cur.translation
+            dp = pt - tr
             e[:3] = RcT @ dp
             if sw > 1e-12:
                 f = atan2(sw, zc0 * zt0 + zc1 * zt1 + zc2 * zt2) / sw
@@ -268,17 +272,18 @@ def solve_samples(
                 e[3] = e[4] = 0.0
             if J is None:
                 J = jac(model, data, q, tcp, LOCAL)[:5]
+                JT = J.T
             it += 1
             ee = float(e @ e)
             if ee < CONVERGED or it > n_it + (retry if ee > 1e-8 else 0):
-                last = (cur, J)
+                last = (rows, RcT, tr, J, JT)
                 break
             # damped least squares + null-space pull of the wrist rolls: one solve, two right-hand sides
             r = roll * (mid - q)
             rhs[:, 0] = e
             rhs[:, 1] = J @ r
-            sol = dposv(J @ J.T + lam_eye, rhs)[1]
-            q = np.minimum(np.maximum(q + J.T @ (sol[:, 0] - sol[:, 1]) + r, lower), upper)
+            sol = dposv(J @ JT + lam_eye, rhs)[1]
+            q = np.minimum(np.maximum(q + JT @ (sol[:, 0] - sol[:, 1]) + r, lower), upper)
         err_mm[i] = 1000.0 * sqrt(float(dp @ dp))
         retry = 40 if err_mm[i] < REACH_TOL_MM else 0  # don't grind on through an unreachable stretch
         Js[i] = J
