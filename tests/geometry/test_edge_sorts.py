@@ -215,3 +215,18 @@ def test_a_closed_mesh_read_works_out_its_face_volumes_once(monkeypatch):
         st2: dict = {}
         md2 = mesh_io.mesh_from_triangles(tri, crack_tolerance=0.01, stats=st2, **kw)
         assert len(calls) == 2 and st2["volume_mm3"] == real(md2.vertices, md2.faces).sum()
+
+
+def test_merge_vertices_takes_an_stls_corner_view_as_it_is():
+    """A binary STL's corners are an (m, 3, 3) view with a 50-byte record stride: welded as its
+    3m rows without copying them into (3m, 3) first, the same vertices and inverse."""
+    m = trimesh.creation.icosphere(2)
+    raw = trimesh.exchange.stl.export_stl(m)
+    corners = mesh_io.binary_stl_triangles(raw)
+    assert corners.shape == (320, 3, 3) and corners.strides[0] == 50 and not corners.flags.c_contiguous
+    v, inv = topology.merge_vertices(corners)
+    v2, inv2 = topology.merge_vertices(np.ascontiguousarray(corners).reshape(-1, 3))
+    assert len(v) == 162 and inv.shape == (960,)
+    np.testing.assert_array_equal(v, v2)
+    np.testing.assert_array_equal(inv, inv2)
+    np.testing.assert_array_equal(v[inv], corners.reshape(-1, 3))

@@ -26,6 +26,39 @@ def test_loop_order_walks_every_cycle(sizes):
     np.testing.assert_array_equal(label[nxt], label)
 
 
+def test_lock_step_walk_searches_the_active_cycles_once(monkeypatch):
+    """The lock-step walk (the vase: 266 loops of ~4,000 segments) finds how many cycles are
+    still walking at every step in one search, not one np.searchsorted per step (4,000 calls,
+    ~0.05 s); the same positions."""
+    from waamflow.slicing import planar
+
+    sizes = [40] * 3000 + [7] * 500 + [300]
+    rng = np.random.default_rng(1)
+    n = sum(sizes)
+    perm = rng.permutation(n)
+    nxt = np.empty(n, dtype=np.int64)
+    o = 0
+    for sz in sizes:
+        cyc = perm[o : o + sz]
+        nxt[cyc] = np.roll(cyc, -1)
+        o += sz
+    calls = []
+    real = np.searchsorted
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(planar.np, "searchsorted", counted)
+    label, pos, size = planar._loop_order(nxt)
+    monkeypatch.undo()
+    assert len(calls) == 1 and int(size.max()) == 300  # lock-step: 300 steps
+    assert sorted(size.tolist()) == sorted(sizes)
+    np.testing.assert_array_equal(pos[nxt], (pos + 1) % size[label])
+    by_cycle = np.lexsort((pos, label))  # positions 0 .. size - 1 once each along every cycle
+    np.testing.assert_array_equal(pos[by_cycle], np.concatenate([np.arange(k) for k in size]))
+
+
 def test_section_loops_counts_and_order():
     m = as_mesh(tube(20, 30, 10))
     loops = section_loops(m.vertices, m.faces, np.array([-1.0, 2.5, 5.0, 7.5, 11.0]))

@@ -287,7 +287,7 @@ def mesh_from_triangles(
     tri = np.asarray(triangles)
     if tri.size == 0:
         raise InputFileError(f"{label}: mesh is empty (no triangles)")
-    verts, inverse = merge_vertices(tri.reshape(-1, 3))
+    verts, inverse = merge_vertices(tri)  # (m, 3, 3): its rows in order, no (3m, 3) copy first
     if stage:
         stage(0.5, f"welded {len(tri):,} triangles into {len(verts):,} vertices")
     if not np.isfinite(verts).all():

@@ -57,7 +57,7 @@ def _sorted_order(keys: np.ndarray, *, exact: bool) -> tuple[np.ndarray, np.ndar
     else:
         packed = ((keys >> shift) << shift) | np.arange(n, dtype=np.uint64)
     packed.sort()
-    order = (packed & np.uint64((1 << idx_bits) - 1)).astype(np.int64)
+    order = (packed & np.uint64((1 << idx_bits) - 1)).view(np.int64)  # < 2⁶³: no astype copy
     return order, packed >> shift
 
 
@@ -81,17 +81,21 @@ def _point_hash(folded: np.ndarray, bits: np.ndarray) -> np.ndarray:
 def merge_vertices(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Weld bit-identical points.
 
-    points: (n, 3) float32 or float64. Returns (vertices (k, 3) same dtype, inverse (n,) int64)
-    with vertices[inverse] == points, vertices in order of first occurrence. (`np.take(...,
+    points: (n, 3) float32 or float64 (or (..., 3): its rows in order). Returns (vertices (k, 3)
+    same dtype, inverse (n,) int64) with vertices[inverse] == the rows, vertices in order of
+    first occurrence. (`np.take(...,
     axis=0)` instead of fancy row indexing: 4x faster gathers of 3-column rows; each group's rank
     spread over its rows by `np.repeat` of the group sizes, not a cumsum and a gather.) The result
     does not depend on the hash: it only brings equal points together.
     """
-    points = np.ascontiguousarray(points)
-    n = len(points)
-    if n == 0:
-        return points.reshape(0, 3), np.zeros(0, dtype=np.int64)
-    folded = points + points.dtype.type(0.0)  # -0.0 + 0.0 == +0.0: same point, same bits
+    points = np.asarray(points)
+    if points.size == 0:
+        return np.ascontiguousarray(points).reshape(0, 3), np.zeros(0, dtype=np.int64)
+    # -0.0 + 0.0 == +0.0: same point, same bits; a new C-contiguous array whatever the input's
+    # strides (an STL's (m, 3, 3) corners are a view with a 50-byte record stride: not copied
+    # into (3m, 3) rows first)
+    folded = (points + points.dtype.type(0.0)).reshape(-1, 3)
+    n = len(folded)
     bits = folded.view(np.uint32 if points.dtype == np.float32 else np.uint64)
     order, hkey = _sorted_order(_point_hash(folded, bits), exact=False)
     c = np.take(bits, order, axis=0)
@@ -180,10 +184,10 @@ def _edge_sort(faces: np.ndarray, n_vertices: int):
     f = np.ascontiguousarray(faces, dtype=np.int64)
     a = f.reshape(-1)
     b = f[:, [1, 2, 0]].reshape(-1)
-    lo = np.minimum(a, b).astype(np.uint64)
-    hi = np.maximum(a, b).astype(np.uint64)
-    key = lo * np.uint64(max(n_vertices, 1)) + hi
-    order, k = _sorted_order(key, exact=True)
+    key = np.minimum(a, b)
+    key *= max(n_vertices, 1)
+    key += np.maximum(a, b)  # lo · n + hi < n² < 2⁶³: int64, read as uint64 without a copy
+    order, k = _sorted_order(key.view(np.uint64), exact=True)
     return a, b, order, k
 
 

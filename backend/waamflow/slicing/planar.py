@@ -118,9 +118,10 @@ def _loop_order(nxt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         by_size = np.argsort(-size, kind="stable")
         sizes_desc = size[by_size]
         cur = head[by_size]
+        # cycles longer than t, for every step t at once (one search, not one per step)
+        active = np.searchsorted(-sizes_desc, -np.arange(longest), side="left").tolist()
         for t in range(longest):
-            active = int(np.searchsorted(-sizes_desc, -t, side="left"))  # cycles longer than t
-            cur = cur[:active]
+            cur = cur[: active[t]]
             pos[cur] = t
             cur = np.take(nxt, cur)
         return label, pos, size
