@@ -17,7 +17,7 @@ from pydantic import Field
 import toy_nodes as toy
 from api_util import wait_for_run as wait
 from helpers_limits import client, gone, parallel_now
-from waamflow.api.tree_memory import group_pids, start_tree
+from waamflow.api.tree_memory import group_pids, start_tree, tree_limit_message
 from waamflow.engine.node import LayerNode, Node, NodeParams, Port, register
 from waamflow.settings import Settings
 
@@ -172,6 +172,18 @@ def test_one_budget_for_the_runs_whole_process_tree(tmp_path, monkeypatch):
         ro = wait(c, other, timeout=60)
         assert ro["status"] == "done" and ro["summary"]["layer_count"] == 3
         assert c.get("/api/health").status_code == 200
+
+
+def test_the_limit_message_never_shows_the_use_equal_to_the_budget():
+    """A tree caught 0.3 MB over a 300 MB budget: the message said "used 300 MB ... more than
+    300 MB" (the use rounded to the nearest MB; a fresh-clone CI run failed on it). The use is
+    rounded up, so it is always above the budget it broke."""
+    mb = 2**20
+    for over in (1, int(0.3 * mb), int(0.5 * mb), mb - 1):
+        msg = tree_limit_message("the run", 300 * mb, 300 * mb + over, 5)
+        used = int(msg.split(" used ")[1].split(" MB")[0])
+        assert used == 301 and "more than 300 MB" in msg, msg
+    assert " used 302 MB" in tree_limit_message("the run", 300 * mb, 301 * mb + 1, 2)
 
 
 def test_a_preview_over_the_budget_is_refused_naming_it(tmp_path):

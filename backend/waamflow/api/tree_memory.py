@@ -20,6 +20,7 @@ Both are Linux only; elsewhere runs execute in the server's process (see worker.
 from __future__ import annotations
 
 import logging
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -115,9 +116,10 @@ class TreeWatch:
 
 
 def tree_limit_message(what: str, budget: int, used: int, processes: int, where: str = "") -> str:
-    """The failure of a tree over its budget, naming the limit and how to raise it."""
+    """The failure of a tree over its budget, naming the limit and how to raise it. The use is
+    rounded up to the MB, so it never reads as equal to the budget it broke."""
     return (
-        f"{what} used {used / 2**20:.0f} MB of memory in {processes} process{'es' if processes != 1 else ''} "
+        f"{what} used {math.ceil(used / 2**20)} MB of memory in {processes} process{'es' if processes != 1 else ''} "
         f"together{where}, more than {budget / 2**20:.0f} MB, its memory limit (run_memory_mb, for the run's "
         "whole process tree: the run and its layer workers): raise --run-memory-mb / WAAMFLOW_RUN_MEMORY_MB, "
         "or make the work smaller (fewer layers, a coarser mesh)"
