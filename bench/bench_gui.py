@@ -5,7 +5,9 @@ built frontend) and reads what it writes, out/bench/gui_latency.json.
 
 - `gui_edit_to_canvas_ms_median`: median over ≥ 10 edits (half a section's end-zone length changed
   in the side panel, half a vertex of its mask curve nudged 1 mm with the arrow keys) of the time
-  from the edit to the frame that shows the re-planned layer, ms. Goal ≤ 50 ms (reported, not
+  from the edit to the frame that shows the re-planned layer, ms. Every edit makes a state not
+  seen before (the length grows at every edit, the vertex moves on right), so no cache or memo of an
+  earlier state serves its preview. Goal ≤ 50 ms (reported, not
   asserted). peer = the server's own time for the same previews (the preview response's `ms`,
   median); ratio = GUI / server: what the GUI adds (request, JSON, React, SVG) is the rest. The
   notes split it: edit → preview request sent (the app's state update and render before its

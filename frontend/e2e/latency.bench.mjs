@@ -77,18 +77,19 @@ async function main() {
     const param = [], vertex = [], editStarts = [];
     for (let i = 0; i < EDITS; i++) {
       if (i % 2 === 0) {
-        // a parameter: the section's end-zone length, alternating around its value
-        const v = before + (i % 4 === 0 ? 2 : 4);
+        // a parameter: the section's end-zone length, a value not used before at every edit (no
+        // cache or memo of an earlier state serves the preview: a user's edits are mostly new)
+        const v = before + 2 + i;
         param.push(await timedEdit(page, async () => {
           await page.fill(endInput, String(v));
           await page.press(endInput, "Enter");
         }, editStarts));
       } else {
-        // a mask point: pick the section's first curve vertex, nudge it 1 mm right / back left
+        // a mask point: pick the section's first curve vertex, nudge it 1 mm right (a new shape each time)
         await page.evaluate(() => document.activeElement?.blur());
         await page.click(`[data-section-item="${key}"] b`);
         if (i === 1) await page.keyboard.press("]");
-        vertex.push(await timedEdit(page, () => page.keyboard.press(i % 4 === 1 ? "ArrowRight" : "ArrowLeft"), editStarts));
+        vertex.push(await timedEdit(page, () => page.keyboard.press("ArrowRight"), editStarts));
       }
     }
     const all = [...param, ...vertex];
