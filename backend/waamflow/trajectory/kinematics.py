@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -229,7 +229,7 @@ def solve_samples(
         pin.LOCAL,
         arm.tcp,
     )
-    from scipy.linalg.lapack import dposv
+    dposv = lapack_dposv()
 
     lam_eye = lam2 * np.eye(5)
     rhs = np.empty((5, 2))
@@ -320,6 +320,52 @@ def smallest_singular_values(J: np.ndarray) -> np.ndarray:
     if exact.any():
         sig[exact] = np.linalg.svd(J[exact], compute_uv=False)[:, -1]
     return sig
+
+
+def lapack_dposv() -> Any:
+    """LAPACK's dposv (Cholesky solve of a symmetric positive definite system) as scipy wraps it,
+    `scipy.linalg.lapack.dposv`, loaded where it can be without scipy.linalg's package init: that
+    imports ~180 modules (numpy.f2py, numpy.testing, numpy.random, ...: 0.2 s of CPU in a run that
+    needs this one routine). Its compiled extension module `scipy.linalg._flapack` is loaded
+    from its file (not registered: an `import scipy.linalg` later loads it as usual, and CPython
+    hands it the same functions); if that module is not where this scipy keeps it, the usual
+    import. The same compiled function either way."""
+    if _DPOSV:
+        return _DPOSV[0]
+    import sys
+
+    mod = sys.modules.get("scipy.linalg._flapack")
+    if mod is None:
+        try:
+            import importlib.machinery
+            import importlib.util
+
+            import scipy
+
+            where = Path(scipy.__file__).parent / "linalg"
+            path = next(
+                where / f"_flapack{suffix}"
+                for suffix in importlib.machinery.EXTENSION_SUFFIXES
+                if (where / f"_flapack{suffix}").is_file()
+            )
+            loader = importlib.machinery.ExtensionFileLoader("scipy.linalg._flapack", str(path))
+            spec = importlib.util.spec_from_file_location("scipy.linalg._flapack", path, loader=loader)
+            if spec is None:
+                raise ImportError("scipy.linalg._flapack")
+            mod = importlib.util.module_from_spec(spec)
+            loader.exec_module(mod)
+        except Exception:  # another layout: the usual import
+            mod = None
+    if mod is None or not hasattr(mod, "dposv"):
+        from scipy.linalg.lapack import dposv
+
+        _DPOSV.append(dposv)
+    else:
+        _DPOSV.append(mod.dposv)
+    return _DPOSV[0]
+
+
+_DPOSV: list[Any] = []  # lapack_dposv's function, once found
 
 
 def _wrist_roll_pull(arm: Arm, nv: int) -> tuple[np.ndarray, np.ndarray]:
