@@ -215,31 +215,21 @@ def solve_samples(
     Q = np.zeros((k, model.nq))
     err_mm = np.zeros(k)
     q = arm.home.copy() if q_seed is None else np.asarray(q_seed, float).copy()
-    lam2 = 1e-4
     Js = np.zeros((k, 5, model.nv))
     mid, roll = _wrist_roll_pull(arm, model.nv)
     lower, upper = arm.lower, arm.upper
     # the loop runs ~2 iterations per sample over tens of thousands of samples: bound methods,
     # scalar maths on Python floats and LAPACK's Cholesky solve (J·Jᵀ + λ²I is symmetric positive
     # definite) instead of np.linalg.solve keep its overhead down (the same iteration as before)
-    fk, upd, jac, LOCAL, tcp = (
-        pin.forwardKinematics,
-        pin.updateFramePlacement,
-        pin.computeFrameJacobian,
-        pin.LOCAL,
-        arm.tcp,
-    )
-    dposv = lapack_dposv()
-
-    lam_eye = lam2 * np.eye(5)
+    fk, upd, jac = pin.forwardKinematics, pin.updateFramePlacement, pin.computeFrameJacobian
+    LOCAL, tcp, dposv = pin.LOCAL, arm.tcp, lapack_dposv()
+    lam_eye = 1e-4 * np.eye(5)  # λ² = 1e-4
     rhs = np.empty((5, 2))
     e = np.empty(5)
     Z = z_base.tolist()
     retry = 40
     atan2, sqrt = math.atan2, math.sqrt
-    # (TCP rotation rows, Rᵀ, translation, Jacobian, its transpose) at q where the previous sample
-    # converged: the next one starts there, without reading them again
-    last = None
+    last = None  # (TCP rotation rows, Rᵀ, translation, J, Jᵀ) where the previous sample converged
     for i in range(k):
         if progress is not None and i % 2000 == 0:
             progress(i / k)
