@@ -162,6 +162,7 @@ def test_the_outside_walk_runs_in_the_slab_tasks_with_the_same_report(monkeypatc
     split = check_program(part, prog, "post", PreflightSettings(), 6.0, stock_mm=6.0, pool=pool)
     assert 2 <= len(pool.tasks) <= 2 * slabs.TASKS_PER_WORKER * 4
     assert walked == {"task": 20, "parent": 0}  # one run a layer, each walked once, in a task
+    assert all(t.paths is None and len(t.outside.runs) == len(t.zs) for t in pool.tasks)  # runs sent once, not twice
     whole = check_program(part, prog, "post", PreflightSettings(), 6.0, stock_mm=6.0)
     assert json.dumps(split, sort_keys=True, default=str) == json.dumps(whole, sort_keys=True, default=str)
     bulged = [L for L in whole["layers"] if L.get("outside_mm", 0.0) > 0]

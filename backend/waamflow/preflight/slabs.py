@@ -17,7 +17,7 @@ so every figure of the report, are the same serial or parallel.
 
 from __future__ import annotations
 
-from typing import Any, Callable, NamedTuple, Protocol, Sequence
+from typing import Any, Callable, NamedTuple, Protocol, Sequence, cast
 
 import numpy as np
 import shapely
@@ -76,7 +76,7 @@ class SlabTask(NamedTuple):
     faces: np.ndarray
     plane_faces: list[np.ndarray]
     zs: list[float]
-    paths: list[list[np.ndarray]]
+    paths: list[list[np.ndarray]] | None  # None: made from `outside.runs` in the task (sent once, not twice)
     width: float
     outside: OutsideRuns | None = None
 
@@ -153,8 +153,11 @@ def cover_slabs(task: SlabTask) -> list[LayerCover]:
     """A task's layers (worker side, or the whole part in this process); with `task.outside`, each
     layer's `outside` figures on the section just cut (the parent then has none of it to do)."""
     sections = cut_sections(task.vertices, task.faces, task.plane_faces, task.zs)
-    covers = [cover_layer(sec, p, task.width) for sec, p in zip(sections, task.paths)]
     o = task.outside
+    paths = task.paths
+    if paths is None:  # a task sent with the runs only: their (k, 2) paths, as coverage_planar makes them
+        paths = [[r.points[:, :2] for r in runs if len(r.points) > 1] for runs in cast(OutsideRuns, o).runs]
+    covers = [cover_layer(sec, p, task.width) for sec, p in zip(sections, paths)]
     if o is None:
         return covers
     from .outside import slab_outside
@@ -170,7 +173,7 @@ def _sub_task(
     faces: np.ndarray,
     per_plane: list[np.ndarray],
     zs: list[float],
-    paths: list[list[np.ndarray]],
+    paths: list[list[np.ndarray]] | None,
     width: float,
     outside: OutsideRuns | None = None,
 ) -> SlabTask:
@@ -222,7 +225,8 @@ def cover_part(
 ) -> list[LayerCover]:
     """Every layer's figures; with the run's workers, when the cost model says the work pays, in
     tasks of consecutive layers, large first, small last (`_spans`, on faces cut plus path points). `outside`: the
-    layers' runs (one entry per z), walked for the `outside` check in the same task."""
+    layers' runs (one entry per z; their (k, 2) centre lines of 2 points or more are `paths`), walked for the
+    `outside` check in the same task; a task then carries the runs only and makes its paths from them."""
     v = np.asarray(vertices, dtype=np.float64)  # what trimesh.Trimesh makes of them
     f = np.asarray(faces, dtype=np.int64)
     per_plane = plane_faces(v, f, zs)
@@ -241,7 +245,7 @@ def cover_part(
             f,
             per_plane[a:b],
             list(zs[a:b]),
-            paths[a:b],
+            paths[a:b] if outside is None else None,  # with the runs, the task makes its paths from them
             width,
             None if outside is None else outside._replace(layers=outside.layers[a:b], runs=outside.runs[a:b]),
         )
