@@ -168,11 +168,15 @@ def _section_batch(v, f, fz, zlo, zhi, twin, heights, name):
         return np.zeros((0, 2)), z, z, z
     vz = v[:, 2]
     h = np.take(heights, plane)
-    above = np.take(fz, tri, axis=0) >= h[:, None]  # (s, 3) corner i above the plane
-    above_next = above[:, _NEXT_EDGE]
-    e_down = np.argmax(above & ~above_next, axis=1)  # edge i runs corner i → i+1
-    e_up = np.argmax(~above & above_next, axis=1)
-    del above, above_next
+    # corner i above the plane, per corner (1-D columns: no (s, 3) argmax); the plane crosses
+    # every pair's triangle, so exactly one edge runs above → below (e_down) and one below →
+    # above (e_up), edge i running corner i → i+1: the index is 1·[edge 1] + 2·[edge 2]
+    a0, a1, a2 = (np.take(fz[:, i], tri) >= h for i in range(3))
+    e_down = (a1 & ~a2).astype(np.int64)
+    e_down += 2 * (a2 & ~a0)
+    e_up = (~a1 & a2).astype(np.int64)
+    e_up += 2 * (~a2 & a0)
+    del a0, a1, a2
 
     # successor: the pair of the neighbour across the up-edge, same plane
     nb_edge = np.take(twin, 3 * tri + e_up)
