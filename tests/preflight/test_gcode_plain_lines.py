@@ -97,3 +97,18 @@ def test_weld_commands_that_could_be_plain_lines_keep_the_general_path(extra, mo
     monkeypatch.setattr(gcode, "FAST_PATH", True)
     assert gcode._plain_g1(gcode._weld_templates(_program()), set()) is not None
     assert gcode._plain_g1(gcode._weld_templates(_program()), {("G", "X", "Y", "Z")}) is None
+
+
+@pytest.mark.parametrize("first", ["G1 X1 Y2 Z3 F600", "G1 X1 Y2 Z3 F600 ; first position"])
+def test_arc_on_before_any_position_starts_the_run_where_it_first_moves(first):
+    """A program that turns the arc on before its first position (M3, then G1): the run starts at
+    the first position; a one-point motion there raised IndexError in RunBuilder.move."""
+    text = (
+        "; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units=mm/min end=M30\n"
+        f"G21\nG90\nM3\n{first}\nG1 X5 Y2 Z3\nG1 X5 Y6 Z3\nM5\nM30\n"
+    )
+    r = gcode.read_gcode(text)
+    assert len(r.runs) == 1
+    assert r.runs[0].points.tolist() == [[1.0, 2.0, 3.0], [5.0, 2.0, 3.0], [5.0, 6.0, 3.0]]
+    assert r.runs[0].speed.tolist() == [10.0, 10.0]  # F600 mm/min
+    assert r.travel_mm == 0.0

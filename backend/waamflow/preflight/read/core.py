@@ -94,6 +94,7 @@ class RunBuilder:
 
     def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
         targets = np.atleast_2d(np.asarray(targets, float))
+        last = targets[-1].copy()  # where the motion ends (targets may lose its first row below)
         if self.pts is not None:
             if not np.isfinite(self.pts[0]).all():  # arc on before any position: start where it first moves
                 self.pts = [targets[0]]
@@ -107,7 +108,7 @@ class RunBuilder:
         elif self.pos is not None:
             seg = np.vstack([self.pos, targets])
             self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
-        self.pos = targets[-1].copy()
+        self.pos = last
         self._after_move()
 
     def move_to(self, x: float, y: float, z: float, speed: float, wfs: float, weld: bool) -> None:
