@@ -11,12 +11,17 @@ import { TABS } from "./tabs";
 import type { Editor } from "./useEditor";
 import type { EditorActions } from "./useEditorActions";
 
-/** The graph editor renders only while shown or on being hidden (to give up its keys): hidden, a
- * recipe edit on the mask canvas does not re-render React Flow's nodes, edges and store (a share
- * of every canvas edit's time before its preview request, #30); shown again, it takes the props
- * of that moment. */
-export const hiddenAlready = (a: GraphEditorProps, b: GraphEditorProps) => !a.active && !b.active;
-const GraphPane = memo(GraphEditor, hiddenAlready);
+type PaneProps = GraphEditorProps & { doc: string | null };
+
+/** The graph editor renders only while shown, on being hidden (to give up its keys) and when
+ * another recipe opens: hidden, a recipe edit on the mask canvas does not re-render React Flow's
+ * nodes, edges and store (a share of every canvas edit's time before its preview request, #30);
+ * shown again, it takes the props of that moment. Another recipe opened behind another tab
+ * renders it (the results of the recipe before stayed on show without it: trust.e2e fault 8). */
+export const hiddenAlready = (a: PaneProps, b: PaneProps) => !a.active && !b.active && a.doc === b.doc;
+const GraphPane = memo(function GraphPane({ doc: _doc, ...p }: PaneProps) {
+  return <GraphEditor {...p} />;
+}, hiddenAlready);
 
 export function Workspace({ ed, act }: { ed: Editor; act: EditorActions }) {
   const { doc, view, runs, findings } = ed;
@@ -28,6 +33,7 @@ export function Workspace({ ed, act }: { ed: Editor; act: EditorActions }) {
       <div className="tab-body">
         <div className={`pane ${tab === "graph" ? "" : "hidden"}`} {...tabPanelProps("graph")}>
           <GraphPane
+            doc={doc.graphName ?? null}
             recipe={recipe}
             catalog={ed.cat.catalog}
             statuses={runs.run.nodes}
