@@ -26,7 +26,7 @@ describe("the hidden graph editor", () => {
     show(false, "r4");
     show(true, "r4"); // back to the graph: the recipe of now
     show(false, "r4"); // another tab again
-    show(false, "s1", "b"); // another recipe opened behind it: rendered (trust.e2e fault 8)
+    show(false, "s1", "b"); // another recipe opened behind it: rendered, its nodes shown in the DOM
     show(false, "s2", "b"); // its edits on the canvas: not
     expect(seen).toEqual(["a/r1:shown", "a/r2:shown", "a/r2:hidden", "a/r4:shown", "a/r4:hidden", "b/s1:hidden"]);
     act(() => root.unmount());

@@ -17,7 +17,8 @@ type PaneProps = GraphEditorProps & { doc: string | null };
  * another recipe opens: hidden, a recipe edit on the mask canvas does not re-render React Flow's
  * nodes, edges and store (a share of every canvas edit's time before its preview request, #30);
  * shown again, it takes the props of that moment. Another recipe opened behind another tab
- * renders it (the results of the recipe before stayed on show without it: trust.e2e fault 8). */
+ * renders it, so the editor's nodes are the open recipe's whatever tab shows (the e2e harness's
+ * openRecipe waits for them: trust.e2e fault 8 timed out on it from the results tab). */
 export const hiddenAlready = (a: PaneProps, b: PaneProps) => !a.active && !b.active && a.doc === b.doc;
 const GraphPane = memo(function GraphPane({ doc: _doc, ...p }: PaneProps) {
   return <GraphEditor {...p} />;
