@@ -111,16 +111,24 @@ class RunBuilder:
         self.pos = last
         self._after_move()
 
+    def extend(self, p: np.ndarray, speed: float, wfs: float, weld: bool) -> bool:
+        """`move` to the one point p (shape (3,)) in a run under way, without move's arrays (most
+        motions of a program); False, nothing done, when no run is under way."""
+        if self.pts is None or not self.started:
+            return False
+        self.pts.append(p)
+        self.speed.append(speed)
+        self.wfs.append(wfs)
+        self.weld.append(weld)
+        self.pos = p
+        self._after_move()
+        return True
+
     def move_to(self, x: float, y: float, z: float, speed: float, wfs: float, weld: bool) -> None:
         """`move` of one straight motion, without the arrays (a G-code program is mostly these)."""
-        if self.pts is not None and self.started:
-            self.pts.append((x, y, z))
-            self.speed.append(speed)
-            self.wfs.append(wfs)
-            self.weld.append(weld)
-            self.pos = np.array((x, y, z))
-            self._after_move()
-        elif self.pts is None and self.pos is not None:
+        if self.extend(np.array((x, y, z)), speed, wfs, weld):
+            return
+        if self.pts is None and self.pos is not None:
             p = self.pos
             self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
             self.pos = np.array((x, y, z))
