@@ -469,6 +469,7 @@ class _Run:
         self.compute_s: dict[str, float] = {}  # node id → seconds computing its layers, in any process
         self.max_layers = 0  # 0: no limit (see execute)
         self.size = [0, 0, 0]  # the run's triangles, layers and path points so far (the cost model)
+        self.prefetch: Any = None  # preflight.prefetch.SectionPrefetch of a run whose preflight will run (execute)
 
     # events
     def emit(self, kind: str, **kw: Any) -> None:
@@ -586,6 +587,8 @@ class _Run:
                         jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
 
             self.located(node_id, ctx, compute)
+            if self.prefetch is not None:  # the preflight's sections, cut while the later nodes run
+                self.prefetch.offer(self.outputs[node_id], self.workers)
             st = self.stats[node_id]
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1
@@ -613,6 +616,15 @@ class _Run:
                     files = written
                     ctx.warnings.extend(extra)
             self.artifacts.update({artifact_name(gnode.id, suffix): data for suffix, data in files.items()})
+
+    def workers(self) -> parallel.RunWorkers | DaskWorkers | None:
+        """The run's workers as the preflight uses them: a Dask cluster's, or local ones once up."""
+        pool = self.pool
+        if isinstance(pool, DaskPool):
+            return DaskWorkers(pool)
+        if isinstance(pool, LayerPool) and pool.enabled and pool.ready:
+            return parallel.RunWorkers(pool)
+        return None
 
     def node_artifacts(self, gnode: GraphNode, ctx: RunContext) -> dict[str, bytes]:
         files = gnode.impl.artifacts(ctx, gnode.params, self.outputs[gnode.id])
@@ -1019,7 +1031,7 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     t0 = time.perf_counter()
     try:
         report = run_preflight(
-            graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None), pool=workers
+            graph, run.outputs, run.artifacts, getattr(graph.recipe, "preflight", None), workers, run.prefetch
         )
     except Exception as exc:  # noqa: BLE001 - reported, never swallowed
         report = {
@@ -1084,6 +1096,10 @@ def execute(
         graph, resolver, cache, on_event, cancel, None if layers is None else set(layers), active, artifacts, pool
     )
     run.max_layers = max_layers
+    if preflight and targets is None and layers is None and artifacts and pool.workers > 1:
+        from ..preflight.prefetch import SectionPrefetch
+
+        run.prefetch = SectionPrefetch()
     finished = False
     report, report_s = None, None
     try:

@@ -101,10 +101,12 @@ def run_preflight(
     artifacts: dict[str, bytes],
     settings: PreflightSettings | None = None,
     pool=None,
+    prefetch=None,
 ) -> dict | None:
     """The preflight report of a finished run; None when disabled or when the run hands out neither
     a program nor a toolpath. `pool`: the run's workers (`slabs.Workers`), which check the layers
-    of a large part in parallel when that pays; the report is the same without them."""
+    of a large part in parallel when that pays; `prefetch`: the part's sections the run cut ahead
+    (prefetch.SectionPrefetch). The report is the same without either."""
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import VERDICT_ORDER, check_program
@@ -138,6 +140,7 @@ def run_preflight(
                 weld_expected=prog.weld_commanded or prog.format == "csv",
                 stock_mm=_stock_length(graph, nid, width),
                 pool=pool,
+                prefetch=prefetch,
             )
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
@@ -160,6 +163,7 @@ def run_preflight(
                 weld_expected=False,
                 stock_mm=_stock_length(graph, last, width),
                 pool=pool,
+                prefetch=prefetch,
             )
             rep.update(
                 files=[doc_name],

@@ -79,15 +79,13 @@ class Part:
 
 class Coverage(TypedDict):
     """What a coverage check found: the part's volume (mm³; a wall: area × bead width), the share
-    of it no bead reaches and the method; planar slabs add the deposit area beyond the part
-    (`outside_mm3`) and the section cut per layer index (shapely geometry, handed to the outside
-    check); 3D samples add the measured layer spacing, the gap above the deposit and the farthest
+    of it no bead reaches and the method; planar slabs add the section cut per layer index (shapely
+    geometry, handed to the outside check); 3D samples add the measured layer spacing, the gap above the deposit and the farthest
     uncovered sample."""
 
     part_volume_mm3: float
     uncovered_share: float
     method: str
-    outside_mm3: NotRequired[float]
     sections: NotRequired[dict[int, Any]]
     excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
     layer_spacing_mm: NotRequired[float]
@@ -228,6 +226,14 @@ def _scipy_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
     return [depth_first_order(graph, int(s), directed=False, return_predecessors=False) for s in starts]
 
 
+def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """A closed mesh's volume, mm³: Σ a·(b × c)/6 about the first vertex (trimesh's `volume`
+    computes the whole inertia tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)."""
+    v = np.asarray(vertices, dtype=float)
+    tri = v[np.asarray(faces)] - v[0]
+    return abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0)
+
+
 def coverage_planar(
     part: Part,
     layers,
@@ -235,26 +241,25 @@ def coverage_planar(
     rep: Report,
     pool: Workers | None = None,
     outside: tuple[float, float] | None = None,
+    prefetch: Any = None,
 ) -> Coverage:
     """Slab by slab (slabs.py); `pool`: the run's workers, which check the layers of a solid
     part in tasks of consecutive layers when that pays (the figures are the same). `outside`:
     (margin, step) of the `outside` check, whose walk of a solid's layers then runs in the same
-    tasks, on the sections they cut (`Coverage["excursions"]`, handed to check_outside)."""
+    tasks, on the sections they cut (`Coverage["excursions"]`, handed to check_outside). `prefetch`
+    (prefetch.SectionPrefetch): the sections of planes the run cut ahead; only those at exactly the
+    program's planes, on this part's own mesh arrays, are used."""
     from .outside import RunLine
     from .slabs import OutsideRuns, cover_layer, cover_part
 
     if part.kind == "solid":
         vertices, faces = part.mesh()
-        # Σ a·(b × c)/6 about the first vertex (trimesh's `volume` computes the whole inertia
-        # tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)
-        v = np.asarray(vertices, dtype=float)
-        tri = v[np.asarray(faces)] - v[0]
-        part_volume = abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0)
+        vol = prefetch.volume(vertices, faces) if prefetch is not None else None
+        part_volume = mesh_volume(vertices, faces) if vol is None else vol
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
     covered_vol = 0.0
     prev_top = part.bottom
-    over_area = 0.0
     sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
     mids = [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [prev_top] + tops[:-1])]
@@ -264,7 +269,8 @@ def coverage_planar(
         if outside is not None:
             runs = [[RunLine(r.points, r.section) for r in rs] for _idx, rs in layers]
             walk = OutsideRuns([idx for idx, _rs in layers], runs, *outside)
-        covers = cover_part(vertices, faces, mids, paths, width, pool, walk)
+        known = prefetch.take(vertices, faces, mids) if prefetch is not None else None
+        covers = cover_part(vertices, faces, mids, paths, width, pool, walk, known)
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
     for k, (idx, _runs) in enumerate(layers):
@@ -273,16 +279,15 @@ def coverage_planar(
         prev_top = z
         c = covers[k]
         sections[idx] = c.section
-        area, cov = c.area, c.covered
-        covered_vol += cov * h
-        over_area += c.outside * h
+        area, unc = c.area, c.uncovered
+        covered_vol += c.covered * h
         L = rep.layer(idx)
         L.update(
             z=_r(z, 3),
             height_mm=_r(h, 3),
             part_area_mm2=_r(area, 2),
-            uncovered_mm2=_r(area - cov, 2),
-            uncovered_share=_r((area - cov) / area) if area > 0 else None,
+            uncovered_mm2=_r(unc, 2),
+            uncovered_share=_r(unc / area) if area > 0 else None,
             part_mm3=_r(area * h, 1),
         )
         if c.uncovered_point is not None:
@@ -291,7 +296,6 @@ def coverage_planar(
     out: Coverage = {
         "part_volume_mm3": part_volume,
         "uncovered_share": share,
-        "outside_mm3": over_area,
         "method": "planar slabs",
         "sections": sections,
     }
@@ -401,10 +405,12 @@ def check_program(
     weld_expected: bool = True,
     stock_mm: float | None = None,
     pool: Workers | None = None,
+    prefetch: Any = None,
 ) -> dict:
     """stock_mm: machining stock allowed beyond the part at a run's ends (the recipe's longest
     extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width). pool: the
-    run's workers, for the planar coverage (coverage_planar)."""
+    run's workers, for the planar coverage (coverage_planar); prefetch: the part's sections cut
+    ahead (prefetch.SectionPrefetch)."""
     rep = Report(node, prog.format)
     layers = program_layers(prog)
     out: dict = {
@@ -427,7 +433,9 @@ def check_program(
     top_gap: float | None
     if part is not None:
         if planar and part.kind in ("solid", "region"):
-            cov = coverage_planar(part, layers, width, rep, pool, (outside_margin(s, width), outside_step(width)))
+            cov = coverage_planar(
+                part, layers, width, rep, pool, (outside_margin(s, width), outside_step(width)), prefetch
+            )
             top_gap = part.top - max(heights)
         else:
             cov = coverage_3d(part, layers, width, rep, s)

@@ -2,8 +2,8 @@
 
 Each deposited layer is checked on its own: the part's section at the middle of the layer's slab
 (trimesh's `mesh_plane` on the triangles spanning that plane, chained into loops, even-odd) and
-the footprint of the layer's arc-ON runs (check.footprint) give the layer's part area, the area
-covered, the area uncovered and the deposit beyond the part. Nothing of one layer depends on
+the footprint of the layer's arc-ON runs (check.footprint) give the layer's part area and the area
+no bead covers (the deposit beyond the part is the `outside` check's: outside.py). Nothing of one layer depends on
 another, so the layers can be computed in any process: a task carries the triangles its planes
 cut and its layers' runs, never the planner's sections (the check stays independent of the plan).
 
@@ -21,7 +21,7 @@ from typing import Any, Callable, NamedTuple, Protocol, Sequence, cast
 
 import numpy as np
 import shapely
-from shapely.geometry import MultiPolygon, Polygon
+from shapely.geometry import MultiPolygon
 
 MAX_PAIRS = 20_000_000  # (triangle, plane) pairs held at once; beyond, each plane scans the part
 TASKS_PER_WORKER = 4  # parallel: the smallest (last) task holds 1/(workers · this · 4) of the work (`_spans`)
@@ -47,15 +47,19 @@ class Workers(Protocol):
 
 
 class LayerCover(NamedTuple):
-    """One layer's figures: the part's section (shapely), its area, the area the footprint covers,
-    the footprint's area beyond the section (mm²) and a point (x, y) of the largest uncovered piece."""
+    """One layer's figures: the part's section (shapely), its area, the area of it no footprint
+    covers (mm²) and a point (x, y) of the largest uncovered piece."""
 
     section: Any
     area: float
-    covered: float
-    outside: float
+    uncovered: float
     uncovered_point: tuple[float, float] | None
     excursions: Any = None  # outside.slab_outside's figures of the layer, when its task was given the runs
+
+    @property
+    def covered(self) -> float:
+        """The section's area the footprint covers, mm²."""
+        return self.area - self.uncovered
 
 
 class OutsideRuns(NamedTuple):
@@ -79,6 +83,7 @@ class SlabTask(NamedTuple):
     paths: list[list[np.ndarray]] | None  # None: made from `outside.runs` in the task (sent once, not twice)
     width: float
     outside: OutsideRuns | None = None
+    known: dict[int, Any] | None = None  # plane (in the task) → its section, cut ahead (prefetch.py): not cut again
 
 
 def plane_faces(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[float]) -> list[np.ndarray]:
@@ -134,25 +139,27 @@ def cut_sections(
 
 
 def cover_layer(section: Any, paths: list[np.ndarray], width: float) -> LayerCover:
-    """A layer's figures from its part section and arc-ON paths."""
+    """A layer's figures from its part section and arc-ON paths: one overlay, the section less the
+    footprint (the area covered is the rest of the section's)."""
     from .check import footprint
 
-    foot = footprint(paths, width)
     area = float(section.area)
-    cov = float(section.intersection(foot).area) if area > 0 else 0.0
-    unc = section.difference(foot) if area > 0 else Polygon()
-    outside = float(foot.difference(section).area)
+    if area <= 0:
+        return LayerCover(section, area, 0.0, None)
+    unc = section.difference(footprint(paths, width))
     point = None
-    if area > 0 and not unc.is_empty:
+    if not unc.is_empty:
         rp = max(shapely.get_parts(unc), key=lambda g: g.area).representative_point()
         point = (float(rp.x), float(rp.y))
-    return LayerCover(section, area, cov, outside, point)
+    return LayerCover(section, area, float(unc.area), point)
 
 
 def cover_slabs(task: SlabTask) -> list[LayerCover]:
     """A task's layers (worker side, or the whole part in this process); with `task.outside`, each
     layer's `outside` figures on the section just cut (the parent then has none of it to do)."""
     sections = cut_sections(task.vertices, task.faces, task.plane_faces, task.zs)
+    if task.known:  # those planes hold no faces in the task: their sections came cut
+        sections = [task.known.get(i, s) for i, s in enumerate(sections)]
     o = task.outside
     paths = task.paths
     if paths is None:  # a task sent with the runs only: their (k, 2) paths, as coverage_planar makes them
@@ -176,9 +183,10 @@ def _sub_task(
     paths: list[list[np.ndarray]] | None,
     width: float,
     outside: OutsideRuns | None = None,
+    known: dict[int, Any] | None = None,
 ) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
-    plane's slab mesh is the one the whole part gives."""
+    plane's slab mesh is the one the whole part gives. `known`: sections of its planes cut ahead."""
     # sorted unique faces and vertices by masks (what np.unique gives, without sorting the part)
     face_in = np.zeros(len(faces), dtype=bool)
     for f in per_plane:
@@ -189,7 +197,9 @@ def _sub_task(
     new_index = np.cumsum(vert_in) - 1
     sub_faces = new_index[faces[f_all]]
     face_index = np.cumsum(face_in) - 1
-    return SlabTask(vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width, outside)
+    return SlabTask(
+        vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width, outside, known or None
+    )
 
 
 def _spans(weights: np.ndarray, workers: int) -> list[tuple[int, int]]:
@@ -222,14 +232,23 @@ def cover_part(
     width: float,
     pool: Workers | None = None,
     outside: OutsideRuns | None = None,
+    known: dict[int, Any] | None = None,
 ) -> list[LayerCover]:
     """Every layer's figures; with the run's workers, when the cost model says the work pays, in
     tasks of consecutive layers, large first, small last (`_spans`, on faces cut plus path points). `outside`: the
     layers' runs (one entry per z; their (k, 2) centre lines of 2 points or more are `paths`), walked for the
-    `outside` check in the same task; a task then carries the runs only and makes its paths from them."""
+    `outside` check in the same task; a task then carries the runs only and makes its paths from them.
+    `known`: {layer: section} of planes cut ahead (prefetch.py), not cut again."""
     v = np.asarray(vertices, dtype=np.float64)  # what trimesh.Trimesh makes of them
     f = np.asarray(faces, dtype=np.int64)
-    per_plane = plane_faces(v, f, zs)
+    known = known or {}
+    if known:  # only the other planes are searched (a plane's faces do not depend on the others)
+        rest = [i for i in range(len(zs)) if i not in known]
+        per_plane = [np.zeros(0, dtype=np.intp)] * len(zs)
+        for i, pf in zip(rest, plane_faces(v, f, [zs[i] for i in rest])):
+            per_plane[i] = pf
+    else:
+        per_plane = plane_faces(v, f, zs)
     n_cut = np.array([len(pf) for pf in per_plane], dtype=float)
     n_pts = np.array([sum(len(p) for p in ps) for ps in paths], dtype=float)
     if (
@@ -238,7 +257,7 @@ def cover_part(
         or len(zs) < 2 * pool.count
         or not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum()))
     ):
-        return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width, outside))
+        return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width, outside, known or None))
     tasks = [
         _sub_task(
             v,
@@ -248,6 +267,7 @@ def cover_part(
             paths[a:b] if outside is None else None,  # with the runs, the task makes its paths from them
             width,
             None if outside is None else outside._replace(layers=outside.layers[a:b], runs=outside.runs[a:b]),
+            {i - a: known[i] for i in range(a, b) if i in known},
         )
         for a, b in _spans(n_cut + n_pts + 1.0, pool.count)
     ]
