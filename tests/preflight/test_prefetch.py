@@ -55,10 +55,12 @@ def _layers(v, h=1.3, n=40):
 def _started(monkeypatch, workers, mesh, layers):
     monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
     p = pf.SectionPrefetch()
-    p.offer({"mesh": mesh}, lambda: workers)
+    p.offer({"mesh": mesh}, lambda: workers, go=False)
     assert not p.started  # no layers yet
-    p.offer({"layers": layers}, lambda: workers)
+    p.offer({"layers": layers}, lambda: workers, go=False)
     assert p.started
+    p.offer({}, lambda: workers)  # the last node's turn: the cuts go to the workers
+    p._thread.join()  # sent (a run's preflight comes a node later)
     return p
 
 
@@ -108,6 +110,22 @@ def test_cover_part_with_prefetched_sections_equals_the_check_alone(monkeypatch)
             assert shapely.to_wkb(a.section) == shapely.to_wkb(b.section)
             assert (a.area, a.uncovered, a.uncovered_point) == (b.area, b.uncovered, b.uncovered_point)
     assert sum(c.uncovered > 0 for c in alone) >= 20 and sum(c.covered > 0 for c in alone) >= 20
+
+
+def test_cuts_never_sent_before_the_preflight_are_dropped(monkeypatch):
+    """Until an offer says go (the run's last node), the workers' queue is the layer nodes': the
+    tasks wait, and the preflight's take drops them (it cuts those planes itself)."""
+    mesh, v, f = _mesh()
+    monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
+    workers = _Workers()
+    p = pf.SectionPrefetch()
+    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers, go=False)
+    assert p.started
+    assert p.take(mesh.vertices, mesh.faces, list(p.zs)) == {} and workers.submitted == []
+    p._go.set()
+    p._thread.join()
+    assert workers.submitted == []  # never afterwards either
+    assert p.volume(mesh.vertices, mesh.faces) > 1e5  # the volume was computed all the same
 
 
 def test_a_failed_prefetch_leaves_the_check_its_own_cuts(monkeypatch):

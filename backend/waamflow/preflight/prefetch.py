@@ -65,9 +65,13 @@ class SectionPrefetch:
     """The sections of one part at predicted planes, being cut in the run's workers.
 
     `offer` is called with each node's outputs as the run goes: the first solid mesh and the first
-    horizontal layers it sees decide the planes; the cut starts at the first offer that finds the
-    workers up (`workers()` returns them, or None while they are not). `take` hands the preflight
-    the sections of the planes it wants that were cut ahead."""
+    horizontal layers it sees decide the planes, and the first offer that also finds the workers
+    up (`workers()` returns them, or None while they are not) starts the background thread, which
+    finds each plane's triangles, builds the tasks and computes the volume. The tasks go to the
+    workers only at an offer with `go` (the executor: when the node to come is the run's last):
+    the workers' queue is first come, first served, and cuts queued earlier would hold back the
+    layers of the nodes between. `take` hands the preflight the sections it wants that were cut
+    ahead; tasks never sent by then are dropped (the preflight cuts those planes in its own tasks)."""
 
     def __init__(self) -> None:
         self.vertices: np.ndarray | None = None
@@ -76,13 +80,17 @@ class SectionPrefetch:
         self.started = False
         self._tops: list[float] | None = None
         self._tasks: list[tuple[int, int, Any]] = []  # (first plane, end, future)
-        self._failed = False
         self._thread: threading.Thread | None = None
         self._volume: float | None = None
+        self._go = threading.Event()  # send the tasks (offer with go)
+        self._lock = threading.Lock()  # sending vs dropping (take): one or the other, once
+        self._closed = False
 
-    def offer(self, outputs: dict[str, Any], workers: Any) -> None:
-        """Look at a finished node's outputs; start cutting once mesh, layers and workers are there.
-        `workers`: a callable giving the run's workers (`slabs.Workers` with `submit`) or None."""
+    def offer(self, outputs: dict[str, Any], workers: Any, go: bool = True) -> None:
+        """Look at a finished node's outputs; start once mesh, layers and workers are there. `workers`:
+        a callable giving the run's workers (`Workers`) or None; `go`: the workers may get the cuts now."""
+        if go:
+            self._go.set()
         if self.started:
             return
         from ..core.model import Layer, Layered, MeshData
@@ -106,28 +114,45 @@ class SectionPrefetch:
         self._thread.start()
 
     def _start(self, pool: Workers) -> None:
+        from .check import mesh_volume
+
         try:
             v = np.asarray(self.vertices, dtype=np.float64)  # as cover_part makes them
             f = np.asarray(self.faces, dtype=np.int64)
             per_plane = plane_faces(v, f, self.zs)
             weights = np.array([len(p) for p in per_plane], dtype=float) + 1.0
-            for a, b in _spans(weights, pool.count):
-                fut = pool.submit(cut_task, _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0))
-                if fut is None:  # the workers went away: the preflight cuts what is left
+            tasks = [
+                (a, b, _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0)) for a, b in _spans(weights, pool.count)
+            ]
+            self._volume = mesh_volume(v, f)  # the coverage's other figure of the mesh alone
+        except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
+            return
+        self._go.wait()
+        with self._lock:
+            if self._closed:
+                return
+            for a, b, task in tasks:
+                try:
+                    fut = pool.submit(cut_task, task)
+                except Exception:  # noqa: BLE001 - the workers went away: the preflight cuts the rest
+                    fut = None
+                if fut is None:
                     return
                 self._tasks.append((a, b, fut))
-            from .check import mesh_volume
 
-            self._volume = mesh_volume(v, f)  # the coverage's other mesh-only figure
-        except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
-            self._failed = True
+    def _settle(self) -> None:
+        """Before the preflight reads: the thread's work done; tasks not sent by now never will be."""
+        with self._lock:
+            self._closed = True
+        self._go.set()
+        if self._thread is not None:
+            self._thread.join()
 
     def volume(self, vertices: Any, faces: Any) -> float | None:
         """check.mesh_volume of these very mesh arrays when computed ahead, else None."""
         if not self.started or vertices is not self.vertices or faces is not self.faces:
             return None
-        if self._thread is not None:
-            self._thread.join()
+        self._settle()
         return self._volume
 
     def take(self, vertices: Any, faces: Any, zs: Sequence[float]) -> dict[int, Any]:
@@ -135,8 +160,7 @@ class SectionPrefetch:
         (the objects the run's mesh node handed out); waits for the cuts it uses."""
         if not self.started or vertices is not self.vertices or faces is not self.faces:
             return {}
-        if self._thread is not None:
-            self._thread.join()
+        self._settle()
         at = {z: j for j, z in enumerate(self.zs)}
         want: dict[int, list[int]] = {}
         for i, z in enumerate(zs):
