@@ -264,6 +264,60 @@ def test_a_chain_runs_link_by_link_over_its_chunk_with_the_same_results_per_laye
     assert all(sec >= 0.0 for i in range(5) for _, _, sec in rows[i])
 
 
+def _started_at(seconds: float) -> float:
+    """Worker side: when this task started (monotonic clock, shared by the processes), after a nap."""
+    import time
+
+    t = time.monotonic()
+    time.sleep(seconds)
+    return t
+
+
+class _StampNode:
+    """A node whose artifact is the moment a worker wrote it."""
+
+    from waamflow.engine.node import NodeParams as _NodeParams
+
+    class Params(_NodeParams):
+        pass
+
+    def artifacts(self, ctx, params, outputs):
+        import time
+
+        return {"t": repr(time.monotonic())}
+
+
+def _held_artifacts(pool):
+    return pool.submit_artifacts(_StampNode(), "n", _StampNode.Params(), FileResolver("."), {}, {})
+
+
+def test_a_nodes_artifacts_queue_behind_the_next_nodes_tasks(monkeypatch):
+    """Artifacts handed over before the next node's tasks run after those tasks started (the next
+    node is on the run's critical path); with no task coming they go out within
+    ARTIFACTS_DEFER_S anyway, and asking for them releases them at once."""
+    import concurrent.futures as cf
+
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    pool = parallel.LayerPool(2)
+    try:
+        pool.warm()
+        assert pool.ready
+        held = _held_artifacts(pool)
+        starts = pool.map(_started_at, [0.15] * 4)
+        files, warnings = held.result(timeout=60)
+        assert warnings == [] and float(files["t"]) >= max(starts)
+        monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 0.05)
+        alone = _held_artifacts(pool)
+        assert cf.wait([alone], timeout=30).done == {alone}  # the timer sent it
+        monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 600.0)
+        asked = _held_artifacts(pool)
+        assert float(asked.result(timeout=30)[0]["t"]) > float(files["t"])
+        kept = _held_artifacts(pool)
+    finally:
+        pool.close()
+    assert kept.cancelled()  # never sent: the run is over
+
+
 @pytest.mark.parametrize("n, workers", [(1, 2), (7, 2), (11, 2), (499, 2), (499, 8), (5000, 4)])
 def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
     """Every layer once, in order; sizes never grow; the last chunk (the run's tail, when one
