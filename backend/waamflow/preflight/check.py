@@ -227,11 +227,12 @@ def _scipy_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
 
 
 def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """A closed mesh's volume, mm³: Σ a·(b × c)/6 about the first vertex (trimesh's `volume`
+    """A closed mesh's volume, mm³: Σ a·(b × c)/6 about the first vertex (geometry.topology, column
+    by column: 0.07 s on a million triangles where one (m, 3, 3) array took 0.28 s; trimesh's `volume`
     computes the whole inertia tensor for it: 1.4 of the 15 s preflight of a 1,008,000-triangle vase)."""
-    v = np.asarray(vertices, dtype=float)
-    tri = v[np.asarray(faces)] - v[0]
-    return abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0)
+    from ..geometry.topology import signed_volume
+
+    return abs(signed_volume(vertices, faces))
 
 
 def coverage_planar(
@@ -254,8 +255,7 @@ def coverage_planar(
 
     if part.kind == "solid":
         vertices, faces = part.mesh()
-        vol = prefetch.volume(vertices, faces) if prefetch is not None else None
-        part_volume = mesh_volume(vertices, faces) if vol is None else vol
+        part_volume = mesh_volume(vertices, faces)
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
     covered_vol = 0.0

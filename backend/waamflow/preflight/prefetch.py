@@ -7,9 +7,8 @@ layer's top is where the slicer put it (`Layer.z`), written with the posts' 3 de
 (program/common.num), and each plane lies halfway down to the layer below (the part's bottom for
 the first: coverage_planar). So once the run holds the part's mesh and its horizontal layers and
 its workers are up, a background thread of the parent finds the triangles each predicted plane
-cuts (slabs.plane_faces: numpy, mostly while the parent waits for the next node's workers), sends
-the cuts to the workers, behind what they have queued, and computes the part's volume
-(check.mesh_volume: 0.25 s of CPU on a million triangles).
+cuts (slabs.plane_faces: numpy, mostly while the parent waits for the next node's workers) and
+sends the cuts to the workers once the run's last node is next (behind what they have queued).
 
 The preflight then takes a prefetched section only for a plane whose z equals the program's exactly
 (a float compare), cut from the very mesh arrays it checks, and cuts every other plane itself. So
@@ -67,8 +66,8 @@ class SectionPrefetch:
     `offer` is called with each node's outputs as the run goes: the first solid mesh and the first
     horizontal layers it sees decide the planes, and the first offer that also finds the workers
     up (`workers()` returns them, or None while they are not) starts the background thread, which
-    finds each plane's triangles, builds the tasks and computes the volume. The tasks go to the
-    workers only at an offer with `go` (the executor: when the node to come is the run's last):
+    finds each plane's triangles and builds the tasks. They go to the workers only at an offer with
+    `go` (the executor: when the node to come is the run's last):
     the workers' queue is first come, first served, and cuts queued earlier would hold back the
     layers of the nodes between. `take` hands the preflight the sections it wants that were cut
     ahead; tasks never sent by then are dropped (the preflight cuts those planes in its own tasks)."""
@@ -81,7 +80,6 @@ class SectionPrefetch:
         self._tops: list[float] | None = None
         self._tasks: list[tuple[int, int, Any]] = []  # (first plane, end, future)
         self._thread: threading.Thread | None = None
-        self._volume: float | None = None
         self._go = threading.Event()  # send the tasks (offer with go)
         self._lock = threading.Lock()  # sending vs dropping (take): one or the other, once
         self._closed = False
@@ -114,8 +112,6 @@ class SectionPrefetch:
         self._thread.start()
 
     def _start(self, pool: Workers) -> None:
-        from .check import mesh_volume
-
         try:
             v = np.asarray(self.vertices, dtype=np.float64)  # as cover_part makes them
             f = np.asarray(self.faces, dtype=np.int64)
@@ -124,10 +120,12 @@ class SectionPrefetch:
             tasks = [
                 (a, b, _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0)) for a, b in _spans(weights, pool.count)
             ]
-            self._volume = mesh_volume(v, f)  # the coverage's other figure of the mesh alone
         except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
             return
         self._go.wait()
+        self._send(pool, tasks)
+
+    def _send(self, pool: Workers, tasks: list[tuple[int, int, SlabTask]]) -> None:
         with self._lock:
             if self._closed:
                 return
@@ -147,13 +145,6 @@ class SectionPrefetch:
         self._go.set()
         if self._thread is not None:
             self._thread.join()
-
-    def volume(self, vertices: Any, faces: Any) -> float | None:
-        """check.mesh_volume of these very mesh arrays when computed ahead, else None."""
-        if not self.started or vertices is not self.vertices or faces is not self.faces:
-            return None
-        self._settle()
-        return self._volume
 
     def take(self, vertices: Any, faces: Any, zs: Sequence[float]) -> dict[int, Any]:
         """{i: section} for each zs[i] that was predicted and cut ahead on these very mesh arrays

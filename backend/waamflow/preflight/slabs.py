@@ -187,6 +187,9 @@ def _sub_task(
 ) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
     plane's slab mesh is the one the whole part gives. `known`: sections of its planes cut ahead."""
+    if not any(len(f) for f in per_plane):  # every plane cut ahead (or empty): no mesh to send
+        empty = np.zeros(0, dtype=np.intp)
+        return SlabTask(vertices[:0], faces[:0], [empty] * len(per_plane), zs, paths, width, outside, known or None)
     # sorted unique faces and vertices by masks (what np.unique gives, without sorting the part)
     face_in = np.zeros(len(faces), dtype=bool)
     for f in per_plane:
