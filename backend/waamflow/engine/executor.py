@@ -1023,7 +1023,8 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     pool = run.pool
     workers: parallel.RunWorkers | DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:
-        if run.size[0] >= slabs.WORKER_IMPORTS_MIN_TRIANGLES:  # the cost model's triangles
+        # the cost model's triangles, unless the sections came cut ahead (preflight/prefetch.py)
+        if run.size[0] >= slabs.WORKER_IMPORTS_MIN_TRIANGLES and not (run.prefetch and run.prefetch.started):
             pool.prepare(slabs.WORKER_IMPORTS)
         workers = parallel.RunWorkers(pool)
     elif isinstance(pool, DaskPool):  # the cluster's workers run already
