@@ -124,6 +124,19 @@ def test_cuts_never_sent_before_the_preflight_are_dropped(monkeypatch):
     assert workers.submitted == []  # never afterwards either
 
 
+def test_a_run_that_ends_early_ends_the_thread(monkeypatch):
+    """A failed or cancelled run closes the prefetch (engine.executor.execute): the thread waiting
+    for its turn ends at once and sends nothing (left waiting, it would hold the mesh)."""
+    mesh, v, f = _mesh()
+    monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
+    workers = _Workers()
+    p = pf.SectionPrefetch()
+    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers, go=False)
+    p.close()
+    p._thread.join(timeout=30)
+    assert not p._thread.is_alive() and workers.submitted == []
+
+
 def test_a_failed_prefetch_leaves_the_check_its_own_cuts(monkeypatch):
     mesh, v, f = _mesh()
     p = _started(monkeypatch, _Workers(fail=True), mesh, _layers(v))

@@ -1117,6 +1117,8 @@ def execute(
         )
         raise
     finally:
+        if run.prefetch is not None:  # a failed or cancelled run: its thread ends, its cuts are dropped
+            run.prefetch.close()
         info = pool.info()
         pool.close(wait=finished)
     if cache is not None and hasattr(cache, "flush"):

@@ -136,11 +136,16 @@ class SectionPrefetch:
                     return
                 self._tasks.append((a, b, fut))
 
-    def _settle(self) -> None:
-        """Before the preflight reads: the thread's work done; tasks not sent by now never will be."""
+    def close(self) -> None:
+        """Tasks not sent by now never will be, and the thread ends (the run is over: a failed or
+        cancelled run would otherwise leave it waiting, holding the mesh)."""
         with self._lock:
             self._closed = True
         self._go.set()
+
+    def _settle(self) -> None:
+        """Before the preflight reads: the thread's work done; tasks not sent by now never will be."""
+        self.close()
         if self._thread is not None:
             self._thread.join()
 
