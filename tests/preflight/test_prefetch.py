@@ -161,8 +161,9 @@ def test_small_parts_and_tilted_layers_are_not_cut_ahead():
 
 @pytest.mark.slow
 def test_a_run_with_workers_takes_the_sections_it_cut_ahead(tmp_path, monkeypatch):
-    """End to end: a tube whose planes the slicer predicts; the parallel run's preflight report is
-    the serial run's, byte for byte, and its sections came from the prefetch."""
+    """End to end: a tube whose planes the slicer predicts; the parallel run's artifacts are the
+    serial run's, byte for byte, its sections came from the prefetch and its slicer cut the upper
+    planes in a worker."""
     from waamflow.engine import executor
     from waamflow.engine.executor import FileResolver, execute
     from waamflow.engine.graph import build_graph
@@ -197,6 +198,18 @@ def test_a_run_with_workers_takes_the_sections_it_cut_ahead(tmp_path, monkeypatc
         return got
 
     monkeypatch.setattr(pf.SectionPrefetch, "take", take)
+    from waamflow.slicing import planar
+
+    split: list[int] = []
+    real_job = planar._upper_job
+
+    def upper_job(*args):
+        sel, job = real_job(*args)
+        split.append(len(job[3]))
+        return sel, job
+
+    monkeypatch.setattr(planar, "_upper_job", upper_job)
+    monkeypatch.setattr(planar, "SPLIT_MIN_SEGMENTS", 0)  # the slicer's upper planes in a worker too
     monkeypatch.setattr(executor.parallel, "MIN_PARALLEL_S", 0.0)  # workers for this small part
     monkeypatch.setattr(executor.parallel, "BACKGROUND_START", False)  # up before the slicer ends
     graph = build_graph(parse_recipe(recipe))
@@ -204,6 +217,9 @@ def test_a_run_with_workers_takes_the_sections_it_cut_ahead(tmp_path, monkeypatc
     serial = execute(graph, resolver=resolver, workers=1)
     par = execute(graph, resolver=resolver, workers=2)
     assert taken and taken[-1] == 46  # 60 mm in 1.3 mm layers: every plane came cut ahead
+    assert len(split) == 1 and 1 <= split[0] < 46  # the slicer's upper planes went to a worker
     a, b = json.loads(serial.artifacts["preflight.json"]), json.loads(par.artifacts["preflight.json"])
     assert a == b and len(a["layers"]) == 46
-    assert serial.artifacts["preflight.json"] == par.artifacts["preflight.json"]
+    assert sorted(serial.artifacts) == sorted(par.artifacts)
+    for name, data in serial.artifacts.items():  # layers, toolpath, program, preflight: byte for byte
+        assert par.artifacts[name] == data, name

@@ -87,3 +87,69 @@ def test_batches_of_planes_give_the_same_loops():
     np.testing.assert_array_equal(whole.plane, batched.plane)
     np.testing.assert_array_equal(whole.offsets, batched.offsets)
     np.testing.assert_allclose(np.sort(whole.coords, axis=0), np.sort(batched.coords, axis=0))
+
+
+class _Submit:
+    """A node's Context.submit in this process: the job and its result pickled as to a worker."""
+
+    def __init__(self, fail: bool = False, none: bool = False) -> None:
+        self.fail, self.none, self.jobs = fail, none, []
+
+    def __call__(self, fn, item):
+        import pickle
+        from concurrent.futures import Future
+
+        if self.none:
+            return None
+        self.jobs.append(pickle.loads(pickle.dumps(item)))
+        fut = Future()
+        if self.fail:
+            fut.set_exception(RuntimeError("the worker died"))
+        else:
+            fut.set_result(pickle.loads(pickle.dumps(fn(self.jobs[-1]))))
+        return fut
+
+
+def _bodies_mesh():
+    """Three bodies: a ribbed tube, a solid cylinder beside it and a box above both (planes cross 1-3 bodies)."""
+    import trimesh
+
+    from waamflow.geometry.mesh_io import mesh_from_triangles
+
+    from .meshes import box, cylinder, ribbed_tube, union
+
+    ribbed = trimesh.Trimesh(**trimesh.triangles.to_kwargs(ribbed_tube(400, 40).astype(np.float64)))
+    others = union(cylinder(15.0, 40.0, xy=(150.0, 0.0)), box((40, 40, 30), (120, -20, 60)))
+    return mesh_from_triangles(np.concatenate([np.asarray(ribbed.triangles), np.asarray(others.triangles)]), name="p")
+
+
+def test_the_upper_planes_cut_in_a_worker_give_the_same_loops(monkeypatch):
+    """issue 30: with a worker, the planes above the split are cut there, from a job holding only
+    the faces that can cross them (renumbered, int32); loops, bodies and voids are the ones cut in
+    one process, bit for bit, and a loop's face is the whole mesh's."""
+    from waamflow.slicing import planar
+
+    m = _bodies_mesh()
+    heights = np.linspace(0.3, 89.7, 150)
+    whole = section_loops(m.vertices, m.faces, heights)
+    assert len(set(whole.body.tolist())) == 3 and len(whole) >= 300
+    monkeypatch.setattr(planar, "SPLIT_MIN_SEGMENTS", 0)
+    for share in (0.5, 0.6, 0.999):
+        monkeypatch.setattr(planar, "SPLIT_SHARE", share)
+        submit = _Submit()
+        split = section_loops(m.vertices, m.faces, heights, submit=submit, batch_segments=20_000)
+        (job,) = submit.jobs
+        assert 0 < len(job[1]) < len(m.faces) and job[1].dtype == np.int32 and 1 <= len(job[3]) < len(heights)
+        for name in ("coords", "offsets", "plane", "body", "void"):
+            np.testing.assert_array_equal(getattr(split, name), getattr(whole, name), err_msg=name)
+    for submit in (_Submit(fail=True), _Submit(none=True)):  # cut here instead, the same loops
+        again = section_loops(m.vertices, m.faces, heights, submit=submit)
+        np.testing.assert_array_equal(again.coords, whole.coords)
+        np.testing.assert_array_equal(again.body, whole.body)
+
+
+def test_a_small_cut_stays_in_one_process():
+    m = as_mesh(tube(20, 30, 10))
+    submit = _Submit()
+    section_loops(m.vertices, m.faces, np.linspace(0.5, 9.5, 19), submit=submit)
+    assert submit.jobs == []

@@ -323,6 +323,10 @@ class RunContext(Context):
                 return dask.map(fn, items)
         return None
 
+    def can_submit(self) -> bool:
+        pool = self._run.pool
+        return isinstance(pool, LayerPool) and pool.enabled and pool.ready
+
     def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
         """`Context.submit` to the run's local workers when they are up."""
         pool = self._run.pool

@@ -261,6 +261,10 @@ class Context:
         layers)."""
         return None
 
+    def can_submit(self) -> bool:
+        """Whether `submit` would start work in a worker now: a node builds a large job only then."""
+        return False
+
     def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
         """fn(item) started in one of the run's layer workers, as a Future, when they are up
         (never waiting for them to start); None otherwise: the caller computes it itself. For

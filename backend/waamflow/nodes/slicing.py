@@ -247,6 +247,7 @@ class SliceNode(Node):
                 top=params.top,
                 min_fraction=params.top_min_fraction,
                 max_factor=params.top_max_factor,
+                submit=ctx.submit if ctx.can_submit() else None,
             )
         except ValueError as exc:
             raise RecipeError(str(exc)) from exc

@@ -15,7 +15,7 @@ import numpy as np
 from shapely.geometry import LineString, MultiPolygon
 
 from ..core.model import Layer, MeshData, Midsurface
-from .planar import section_loops
+from .planar import Submit, section_loops
 from .planes import TOP_MAX_FACTOR, TOP_MIN_FRACTION, LayerSchedule, TopPolicy, layer_schedule
 from .rings import loops_to_regions
 
@@ -60,12 +60,15 @@ def part_z_range(part: MeshData | Midsurface) -> tuple[float, float]:
     return float(vz.min()), float(vz.max())
 
 
-def slice_mesh(mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None) -> tuple[Layer, ...]:
+def slice_mesh(
+    mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None, submit: Submit | None = None
+) -> tuple[Layer, ...]:
     """Solid layers: region = mid-layer section as a MultiPolygon with holes (mm).
 
     mesh: in the build frame (rotated by `rot` already, if any); rot sets the layers' frames.
+    submit: a node's `Context.submit`, which may cut the upper planes in a worker (planar.py).
     """
-    loops = section_loops(mesh.vertices, mesh.faces, schedule.cuts, name=mesh.name)
+    loops = section_loops(mesh.vertices, mesh.faces, schedule.cuts, name=mesh.name, submit=submit)
     regions = loops_to_regions(loops, len(schedule))
     return tuple(
         Layer(index=i, z=float(z), thickness=float(t), region=regions[i], frame=_layer_frame(rot, float(z)))
@@ -183,8 +186,10 @@ def slice_part_scheduled(
     top: TopPolicy = "ceil",
     min_fraction: float = TOP_MIN_FRACTION,
     max_factor: float = TOP_MAX_FACTOR,
+    submit: Submit | None = None,
 ) -> tuple[tuple[Layer, ...], LayerSchedule]:
-    """`slice_part`, and the layer schedule it used: (layers, schedule)."""
+    """`slice_part`, and the layer schedule it used: (layers, schedule). `submit`: a node's
+    `Context.submit`, with which a large solid's upper planes are cut in a worker (planar.py)."""
     rot = build_rotation(direction)
     if rot is not None:
         if isinstance(part, Midsurface):
@@ -210,7 +215,7 @@ def slice_part_scheduled(
         return slice_midsurface(part, schedule), schedule
     if part.surface:
         return slice_surface(part, schedule, rot), schedule
-    return slice_mesh(part, schedule, rot), schedule
+    return slice_mesh(part, schedule, rot, submit), schedule
 
 
 def empty_layers_inside(
