@@ -274,7 +274,7 @@ def _started_at(seconds: float) -> float:
 
 
 class _StampNode:
-    """A node whose artifact is the moment a worker wrote it."""
+    """A node whose artifact says when and in which process it was written."""
 
     from waamflow.engine.node import NodeParams as _NodeParams
 
@@ -284,34 +284,45 @@ class _StampNode:
     def artifacts(self, ctx, params, outputs):
         import time
 
-        return {"t": repr(time.monotonic())}
+        return {"t": repr(time.monotonic()), "pid": str(os.getpid())}
 
 
 def _held_artifacts(pool):
     return pool.submit_artifacts(_StampNode(), "n", _StampNode.Params(), FileResolver("."), {}, {})
 
 
-def test_a_nodes_artifacts_queue_behind_the_next_nodes_tasks(monkeypatch):
-    """Artifacts handed over before the next node's tasks run after those tasks started (the next
-    node is on the run's critical path); with no task coming they go out within
-    ARTIFACTS_DEFER_S anyway, and asking for them releases them at once."""
+def test_a_nodes_artifacts_wait_for_the_next_nodes_tasks(monkeypatch):
+    """Artifacts handed over before the next node's tasks: a map's wait has the parent write them
+    (nothing pickled to a worker and back); behind a single submit they go to a worker after that
+    task; with no task coming a worker gets them within ARTIFACTS_DEFER_S; asking for them computes
+    them here at once; closing the pool drops what was never sent."""
     import concurrent.futures as cf
+    import time
 
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    me = str(os.getpid()).encode()
     pool = parallel.LayerPool(2)
     try:
         pool.warm()
         assert pool.ready
         held = _held_artifacts(pool)
+        t0 = time.monotonic()
         starts = pool.map(_started_at, [0.15] * 4)
-        files, warnings = held.result(timeout=60)
-        assert warnings == [] and float(files["t"]) >= max(starts)
+        t1 = time.monotonic()
+        assert held.done()  # written while the map's tasks ran
+        files, warnings = held.result(timeout=0)
+        assert warnings == [] and files["pid"] == me and t0 <= float(files["t"]) <= t1 and len(starts) == 4
+        behind = _held_artifacts(pool)
+        first = pool.submit(_started_at, 0.2)
+        files = behind.result(timeout=60)[0] if cf.wait([behind], timeout=60).done else {}
+        assert files["pid"] != me and float(files["t"]) >= first.result(timeout=60)
         monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 0.05)
         alone = _held_artifacts(pool)
         assert cf.wait([alone], timeout=30).done == {alone}  # the timer sent it
+        assert alone.result()[0]["pid"] != me
         monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 600.0)
         asked = _held_artifacts(pool)
-        assert float(asked.result(timeout=30)[0]["t"]) > float(files["t"])
+        assert asked.result(timeout=0)[0]["pid"] == me
         kept = _held_artifacts(pool)
     finally:
         pool.close()

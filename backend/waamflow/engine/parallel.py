@@ -24,16 +24,19 @@ Results are the same objects either way, so artifacts are byte-identical to a se
 
 Chains. When a layer node's layers go to the workers and the layer node that consumes its
 output only needs that output's layer i (plus whole values already computed), the workers compute
-both in one task, layer by layer: mask → guide → strategy → zone of layer i run back to back in
-one worker, so the layers of the whole chain are spread over the cores at once, and each layer's
-items cross the process boundary once instead of once per node. The later nodes' results wait in
+both in one task: mask → guide → strategy → zone of a chunk of layers in one worker, link by link
+over the chunk (one node's code over a run of layers keeps the core's caches warm: ~27% less CPU
+than layer by layer), so the layers of the whole chain are spread over the cores at once, and each
+layer's items cross the process boundary once instead of once per node. The later nodes' results wait in
 the parent (`_Run.precomputed`) and are taken up, in layer order, when the run reaches those
 nodes: caching, warnings and artifacts are exactly a serial run's. A link requires the upstream
 node's `combine` to hand its items on unchanged (`LayerNode.combine_keeps_items`).
 
 Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
-outputs) are written by a worker too (`submit_artifacts`) while the parent goes on with the next
-node; the run collects them in node order at its end.
+outputs) are written off the parent's path too (`submit_artifacts`): held until the next node
+submits its tasks (they are on the run's critical path, the artifacts are not), then written by
+the parent while it waits for those tasks, or by a worker behind them; the run collects them in
+node order at its end.
 
 `DaskPool` (daskpool.py) sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
@@ -260,15 +263,15 @@ def _die_with_parent() -> None:
 
 
 class _Held(Future[Any]):
-    """A task held back by the pool (`LayerPool.submit_artifacts`): asking for its result
-    releases it first, so the run never waits for the timer."""
+    """A task held back by the pool (`LayerPool.submit_artifacts`): asking for its result while it
+    is still held computes it here, the run's other held tasks going to the workers meanwhile."""
 
     def __init__(self, pool: LayerPool) -> None:
         super().__init__()
         self._pool = pool
 
     def result(self, timeout: float | None = None) -> Any:
-        self._pool._release()
+        self._pool._take_here(self)
         return super().result(timeout)
 
 
@@ -279,6 +282,16 @@ def _settle(fut: Future[Any], done: Future[Any]) -> None:
         fut.set_exception(exc)
     else:
         fut.set_result(done.result())
+
+
+def _compute_here(fut: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    """A held task computed in this process (the parent), its result or error into `fut`."""
+    if not fut.set_running_or_notify_cancel():
+        return
+    try:
+        fut.set_result(fn(*args))
+    except Exception as exc:  # the run re-raises it where it collects the task (`_Run.run`)
+        fut.set_exception(exc)
 
 
 @dataclass
@@ -295,6 +308,7 @@ class LayerPool:
     _closed: bool = field(default=False, repr=False)
     _starter: threading.Thread | None = field(default=None, repr=False)
     _deferred: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = field(default_factory=list, repr=False)
+    _timers: list[threading.Timer] = field(default_factory=list, repr=False)
 
     kind = "local"
     address = None
@@ -382,22 +396,23 @@ class LayerPool:
         trace: dict[str, Any],
         outputs: dict[str, Any],
     ) -> Future[Any]:
-        """A node's artifacts written by a worker: a future of `_write_artifacts`' result. The task
-        is held back until the next computing tasks are queued (`_release`: a map, a chain's chunks,
-        a submit), so it runs behind them: the next node's work is on the run's critical path, the
-        artifacts only at its end (the run collects them after its last node), where they fill the
-        workers' wait for the parent's own tail. At most `ARTIFACTS_DEFER_S` when no task comes (a
-        node computed in the parent alone). 500-layer cross: the sequence node's chunks waited
-        0.13-0.24 s behind the strategy's and the zone's toolpath artifacts (1.3 and 1.5 MB pickled,
-        then written), and the workers were idle again while the parent wrote the sequence's."""
+        """A node's artifacts written off the parent's path: a future of `_write_artifacts`' result.
+        The task is held back until the next computing tasks are submitted. A map (the next node's
+        chunks, a chain's) has the parent write held artifacts itself while it would only wait for
+        its tasks (`_work_held`: no outputs pickled to a worker and back); what is left then, or
+        held behind a single submit, goes to the workers behind those tasks (`_release`); at most
+        `ARTIFACTS_DEFER_S` when no task comes (a node computed in the parent alone). 500-layer
+        cross: the sequence node's chunks had waited 0.13-0.24 s behind the strategy's and the
+        zone's toolpath artifacts (1.3 and 1.5 MB pickled, unpickled in a worker, then written)."""
         if self._closed:
             raise RuntimeError("layer pool closed")
         fut: Future[Any] = _Held(self)
         args = (impl, node_id, params.model_dump(mode="json"), resolver, trace, outputs)
-        with self._lock:
-            self._deferred.append((fut, _write_artifacts, args))
         timer = threading.Timer(ARTIFACTS_DEFER_S, self._release)
         timer.daemon = True
+        with self._lock:
+            self._deferred.append((fut, _write_artifacts, args))
+            self._timers.append(timer)
         timer.start()
         return fut
 
@@ -416,13 +431,42 @@ class LayerPool:
                 continue
             inner.add_done_callback(functools.partial(_settle, fut))
 
+    def _work_held(self, pending: Sequence[Future[Any]]) -> None:
+        """The parent's wait for `pending` (tasks just submitted) spent on held tasks, computed here
+        one by one from the first task's end while any is unfinished; the rest go to the workers
+        behind them. Not before: until then this process's threads pickle the tasks to the
+        workers, and a held task computed here would hold the interpreter's lock they need (the
+        cross's sequence chunks started 0.23 s late behind the zone's artifacts written here)."""
+        with self._lock:  # a map came: the held tasks wait for the map's tasks, not for a timer
+            timers, self._timers = self._timers, []
+        for timer in timers:
+            timer.cancel()
+        if self._deferred:
+            wait(pending, return_when=FIRST_COMPLETED)
+        while not all(f.done() for f in pending):
+            with self._lock:
+                if not self._deferred:
+                    break
+                fut, fn, args = self._deferred.pop(0)
+            _compute_here(fut, fn, args)
+        self._release()
+
+    def _take_here(self, fut: Future[Any]) -> None:
+        """`fut`, if still held, computed here now; the other held tasks to the workers first."""
+        with self._lock:
+            mine = [job for job in self._deferred if job[0] is fut]
+            self._deferred = [job for job in self._deferred if job[0] is not fut]
+        self._release()
+        for job in mine:
+            _compute_here(*job)
+
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         """fn over the items in the workers, results in item order (the preflight's layer tasks;
         counted in `map_tasks`, not in `tasks`, which are the nodes' layer chunks)."""
         pool = self._executor()
         futures = [pool.submit(fn, it) for it in items]
         self.map_tasks += len(futures)
-        self._release()
+        self._work_held(futures)
         try:
             return [f.result() for f in futures]
         finally:
@@ -453,7 +497,7 @@ class LayerPool:
         pool = self._executor()
         pending: set[Future[Any]] = {pool.submit(run_chain, chain, resolver, c) for c in chunks}
         self.tasks += len(pending)
-        self._release()
+        self._work_held(list(pending))
         try:
             while pending:
                 done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
