@@ -16,7 +16,7 @@ not the bench's).
   one perimeter of 6 mm extrusion width, no infill, no top/bottom layers, no skirt or brim
   (`PRUSA_CONFIG`); waamflow lays one bead per layer on the ring's centre line. Targets: ≤ 0.5,
   ≤ 1.0 at the very least. Value = ratio of the medians of `REPEATS` alternating runs
-  (`WAAMFLOW_BENCH_REPEATS`); the notes carry both wall and CPU seconds (user + sys of the
+  (`WAAMFLOW_BENCH_REPEATS`, default 3); the notes carry both wall and CPU seconds (user + sys of the
   process tree, the layer workers included), per-node seconds of waamflow's run, both programs' layer counts
   and the machine load, since other processes on a shared machine move the wall times.
 
@@ -44,7 +44,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 R_OUT, R_IN, HEIGHT, LAYER = 80.0, 74.0, 200.0, 1.5
 N_THETA, N_Z = 2000, 125  # 4 · 2000 · 126 = 1,008,000 triangles
-REPEATS = max(1, int(os.environ.get("WAAMFLOW_BENCH_REPEATS", "1")))
+REPEATS = max(1, int(os.environ.get("WAAMFLOW_BENCH_REPEATS", "3")))  # one pair is at the mercy of one moment's load
 
 PRUSA_CONFIG = """\
 # one 6 mm perimeter per 1.5 mm layer, nothing else (the WAAM comparison of issue 15)
@@ -282,7 +282,8 @@ def _one(name: str, exe: str | None, why: str, tmp: Path) -> dict:
     base = (
         f"{desc}; waamflow CLI cold (--no-cache, {summary['executor']['workers']} workers, "
         f"{summary['executor'].get('tasks', 0)} layer tasks) "
-        f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU, {our_layers} layers, nodes: {nodes}"
+        f"{t_ours:.2f} s wall / {c_ours:.2f} s CPU (runs {'/'.join(f'{w:.2f}' for w, _, _ in ours)} s), "
+        f"{our_layers} layers, nodes: {nodes}"
     )
     name_out = f"stl_to_gcode_ratio_vs_prusaslicer_{name}"
     if not exe:
@@ -306,7 +307,8 @@ def _one(name: str, exe: str | None, why: str, tmp: Path) -> dict:
         "ratio": round(ratio, 4),
         "cpu_ratio": round(c_ours / c_theirs, 3),
         "notes": f"{base}; {_prusa_version(exe)} CLI ({'perimeter + 100 % infill' if name == 'bracket' else 'perimeter only'}, "
-        f"6 mm extrusion width{', ' + why if why else ''}) {t_theirs:.2f} s wall / {c_theirs:.2f} s CPU, "
+        f"6 mm extrusion width{', ' + why if why else ''}) {t_theirs:.2f} s wall / {c_theirs:.2f} s CPU "
+        f"(runs {'/'.join(f'{w:.2f}' for w, _, _ in theirs)} s), "
         f"{prusa_layers} layers; CPU ratio {c_ours / c_theirs:.2f}; median of {REPEATS}; "
         f"load {os.getloadavg()[0]:.1f}; target <= 0.5 (at least <= 1.0)",
     }
