@@ -49,7 +49,7 @@ def test_dask_artifacts_equal_a_serial_run(name, cluster, always_parallel):
     # the layers after mask's timed first one go out once, as chains mask → guide → strategy →
     # zone, in guided chunks (large first, small last); the first layer's chain stays in the parent
     layers = len(serial.outputs["zone"]["toolpath"])
-    assert dask.executor["tasks"] == len(parallel._chunks(list(range(layers - 1)), 2)) <= 8
+    assert dask.executor["tasks"] == len(parallel._chunks(list(range(layers - 1)), daskpool.CHUNK_SPLIT * 2)) <= 8
     for node in ("mask", "guide", "strategy", "zone"):
         assert dask.stats[node].layers_computed == layers
     assert sorted(dask.artifacts) == sorted(serial.artifacts)
@@ -137,3 +137,87 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_on_the_cluster(cluster, a
     assert sorted(dask.artifacts) == sorted(serial.artifacts)
     for k in serial.artifacts:
         assert dask.artifacts[k] == serial.artifacts[k], k
+
+
+def test_every_task_carries_its_work_pickled_once(cluster, always_parallel, monkeypatch):
+    """The tasks sent to the cluster carry bytes (or a scattered future), never the objects: the
+    scheduler unpickles a task's arguments and pickles them again for the worker, and relays the
+    results; bytes it only copies (engine/daskpool.py). The run's artifacts stay the serial ones."""
+    args: list[type] = []
+    psubmit, pmap = distributed.Client.submit, distributed.Client.map
+
+    def submit(self, fn, *a, **k):
+        args.extend(type(x) for x in a)
+        return psubmit(self, fn, *a, **k)
+
+    def cmap(self, fn, *its, **k):
+        for it in its:
+            args.extend(type(x) for x in it)
+        return pmap(self, fn, *its, **k)
+
+    monkeypatch.setattr(distributed.Client, "submit", submit)
+    monkeypatch.setattr(distributed.Client, "map", cmap)
+    serial = _run("mpp-cross", workers=1)
+    dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
+    layers = len(serial.outputs["zone"]["toolpath"])
+    chunks = len(parallel._chunks(list(range(layers - 1)), daskpool.CHUNK_SPLIT * 2))
+    # the chain's chunks (shared part + chunk each), the preflight's slab tasks and read-backs
+    assert len(args) >= 2 * chunks + 2
+    assert set(args) == {bytes}
+    assert dask.artifacts == serial.artifacts
+
+
+def test_a_large_shared_part_is_scattered_once(cluster, always_parallel, monkeypatch):
+    """A chain whose links and whole inputs pickle to more than SHARED_INLINE_BYTES goes to every
+    worker once (a scattered future in each task): same artifacts."""
+    monkeypatch.setattr(daskpool, "SHARED_INLINE_BYTES", 0)
+    scattered: list[int] = []
+    pscatter = distributed.Client.scatter
+    monkeypatch.setattr(
+        distributed.Client, "scatter", lambda self, data, **k: scattered.append(len(data)) or pscatter(self, data, **k)
+    )
+    serial = _run("mpp-cross", workers=1)
+    dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
+    assert scattered == [1]  # the mask node's chain, once
+    assert dask.executor["tasks"] > 1
+    assert dask.artifacts == serial.artifacts
+
+
+def _fails_on_three(x: int) -> int:
+    if x == 3:
+        raise ValueError(f"item {x} refused")
+    return x * x
+
+
+def test_dask_workers_map_and_submit_give_the_values(cluster, monkeypatch):
+    """`DaskWorkers.map` and `submit` hand back fn(item) unpickled; a task's own error is raised in
+    the parent (the map computes here again, where the error is reported)."""
+    pool = daskpool.DaskPool(cluster.scheduler_address)
+    try:
+        workers = daskpool.DaskWorkers(pool)
+        assert workers.map(_fails_on_three, [0, 1, 2, 4]) == [0, 1, 4, 16]
+        assert pool.map_tasks == 4
+        fut = workers.submit(_fails_on_three, 5)
+        assert fut is not None and fut.result() == 25
+        with pytest.raises(ValueError, match="item 3 refused"):
+            workers.map(_fails_on_three, [2, 3])
+        with pytest.raises(ValueError, match="item 3 refused"):
+            workers.submit(_fails_on_three, 3).result()
+    finally:
+        pool.close()
+
+
+def test_the_worker_count_is_asked_once_per_ttl(cluster, monkeypatch):
+    pool = daskpool.DaskPool(cluster.scheduler_address)
+    try:
+        client = pool.client()
+        calls: list[int] = []
+        pinfo = client.scheduler_info
+        monkeypatch.setattr(client, "scheduler_info", lambda **k: calls.append(1) or pinfo(**k))
+        assert [pool.workers for _ in range(5)] == [2] * 5
+        assert len(calls) == 1
+        monkeypatch.setattr(daskpool, "WORKERS_TTL_S", -1.0)
+        assert [pool.workers for _ in range(3)] == [2] * 3
+        assert len(calls) == 4
+    finally:
+        pool.close()
