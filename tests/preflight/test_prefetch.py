@@ -55,12 +55,11 @@ def _layers(v, h=1.3, n=40):
 def _started(monkeypatch, workers, mesh, layers):
     monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
     p = pf.SectionPrefetch()
-    p.offer({"mesh": mesh}, lambda: workers, go=False)
+    p.offer({"mesh": mesh}, lambda: workers)
     assert not p.started  # no layers yet
-    p.offer({"layers": layers}, lambda: workers, go=False)
+    p.offer({"layers": layers}, lambda: workers)
     assert p.started
-    p.offer({}, lambda: workers)  # the last node's turn: the cuts go to the workers
-    p._thread.join()  # sent (a run's preflight comes a node later)
+    p._thread.join()  # every cut sent (the fake workers finish each at once)
     return p
 
 
@@ -81,7 +80,7 @@ def test_prefetched_sections_equal_the_cut_ones_and_only_exact_planes_are_taken(
     mids[5] += 1e-9  # a plane the program has elsewhere: not taken
     mids.append(mids[-1] + 1.3)  # a plane never predicted
     got = p.take(mesh.vertices, mesh.faces, mids)  # waits for the tasks
-    assert 2 <= len(workers.submitted) <= 2 * slabs.TASKS_PER_WORKER * 4
+    assert 2 <= len(workers.submitted) <= 2 * pf.TASKS_PER_WORKER
     assert sum(len(t.zs) for t in workers.submitted) == 40
     assert sorted(got) == [i for i in range(40) if i != 5]
     cut = slabs.cut_sections(v, f, slabs.plane_faces(v, f, mids), mids)
@@ -109,32 +108,70 @@ def test_cover_part_with_prefetched_sections_equals_the_check_alone(monkeypatch)
     assert sum(c.uncovered > 0 for c in alone) >= 20 and sum(c.covered > 0 for c in alone) >= 20
 
 
-def test_cuts_never_sent_before_the_preflight_are_dropped(monkeypatch):
-    """Until an offer says go (the run's last node), the workers' queue is the layer nodes': the
-    tasks wait, and the preflight's take drops them (it cuts those planes itself)."""
+class _Held(_Workers):
+    """Workers whose tasks finish only when released (`release`): what is in flight is visible."""
+
+    def submit(self, fn, item):
+        self.submitted.append(item)
+        fut: Future = Future()
+        fut.item, fut.fn = item, fn
+        self.futures = getattr(self, "futures", []) + [fut]
+        return fut
+
+    def release(self):
+        for fut in self.futures:
+            if not fut.done():
+                fut.set_result(fut.fn(fut.item))
+                return
+
+
+def _wait_for(cond, timeout=30.0):
+    import time
+
+    t0 = time.monotonic()
+    while not cond():
+        assert time.monotonic() - t0 < timeout
+        time.sleep(0.005)
+
+
+def test_the_cuts_trickle_one_worker_at_a_time_until_the_preflight_waits(monkeypatch):
+    """With 2 workers at most one cut is in flight: a node's own tasks queue behind one small cut,
+    and a core stays with the parent. The preflight's take sends the rest at once."""
     mesh, v, f = _mesh()
     monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
-    workers = _Workers()
+    workers = _Held(2)
     p = pf.SectionPrefetch()
-    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers, go=False)
-    assert p.started
-    assert p.take(mesh.vertices, mesh.faces, list(p.zs)) == {} and workers.submitted == []
-    p._go.set()
-    p._thread.join()
-    assert workers.submitted == []  # never afterwards either
+    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers)
+    _wait_for(lambda: len(workers.submitted) == 1)
+    for n in (2, 3):
+        workers.release()
+        _wait_for(lambda: len(workers.submitted) == n)
+    assert sum(not x.done() for x in workers.futures) == 1
+    total = 2 * pf.TASKS_PER_WORKER
+    import threading
+
+    got = {}
+    t = threading.Thread(target=lambda: got.update(p.take(mesh.vertices, mesh.faces, list(p.zs))))
+    t.start()
+    _wait_for(lambda: len(workers.submitted) == total)  # the rest sent at once
+    while t.is_alive():
+        workers.release()
+    assert sorted(got) == list(range(40))
+    assert sum(len(x.zs) for x in workers.submitted) == 40
 
 
 def test_a_run_that_ends_early_ends_the_thread(monkeypatch):
     """A failed or cancelled run closes the prefetch (engine.executor.execute): the thread waiting
-    for its turn ends at once and sends nothing (left waiting, it would hold the mesh)."""
+    for a worker ends at once and sends nothing more (left trickling, it would hold the mesh)."""
     mesh, v, f = _mesh()
     monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
-    workers = _Workers()
+    workers = _Held(2)
     p = pf.SectionPrefetch()
-    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers, go=False)
+    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers)
+    _wait_for(lambda: len(workers.submitted) == 1)
     p.close()
     p._thread.join(timeout=30)
-    assert not p._thread.is_alive() and workers.submitted == []
+    assert not p._thread.is_alive() and len(workers.submitted) == 1
 
 
 def test_a_failed_prefetch_leaves_the_check_its_own_cuts(monkeypatch):

@@ -591,8 +591,8 @@ class _Run:
                         jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
 
             self.located(node_id, ctx, compute)
-            if self.prefetch is not None:  # the preflight's sections, cut while the last node runs
-                self.prefetch.offer(self.outputs[node_id], self.workers, go=pos >= len(self.active) - 2)
+            if self.prefetch is not None:  # the preflight's sections, cut while the later nodes run
+                self.prefetch.offer(self.outputs[node_id], self.workers)
             st = self.stats[node_id]
             st.seconds = time.perf_counter() - t0
             self.done_nodes += 1

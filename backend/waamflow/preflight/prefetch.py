@@ -7,8 +7,8 @@ layer's top is where the slicer put it (`Layer.z`), written with the posts' 3 de
 (program/common.num), and each plane lies halfway down to the layer below (the part's bottom for
 the first: coverage_planar). So once the run holds the part's mesh and its horizontal layers and
 its workers are up, a background thread of the parent finds the triangles each predicted plane
-cuts (slabs.plane_faces: numpy, mostly while the parent waits for the next node's workers) and
-sends the cuts to the workers once the run's last node is next (behind what they have queued).
+cuts (slabs.plane_faces) and trickles the cuts to the workers in small tasks, one worker's worth at
+a time, while the nodes after the slicer run.
 
 The preflight then takes a prefetched section only for a plane whose z equals the program's exactly
 (a float compare), cut from the very mesh arrays it checks, and cuts every other plane itself. So
@@ -25,13 +25,17 @@ from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
-from .slabs import SlabTask, _spans, _sub_task, cut_sections, plane_faces
+from .slabs import SlabTask, _sub_task, cut_sections, plane_faces
 
 PREDICT_DECIMALS = 3  # the posts' coordinate digits (program/common.num, every dialect's `decimals` default)
 # Cut ahead only a part whose cuts are worth the round trips: the bench vase's 1,008,000 triangles
 # (1.06 M cut over 133 planes, ~1.2 s of CPU) pays; the 500-layer cross (a few hundred) is cut in
 # microseconds a plane, and its workers are busy with the layer chains then.
 MIN_TRIANGLES = 200_000
+# The cut in this many small tasks per worker (the bench vase: ~8 planes, ~70 ms of CPU each): a node's
+# own tasks, queued behind one, wait little; and the parent sends the next as one finishes, polling this often.
+TASKS_PER_WORKER = 8
+TRICKLE_POLL_S = 0.01
 
 
 class Workers(Protocol):
@@ -63,12 +67,12 @@ class SectionPrefetch:
 
     `offer` is called with each node's outputs as the run goes: the first solid mesh and the first
     horizontal layers it sees decide the planes, and the first offer that also finds the workers
-    up (`workers()` returns them, or None while they are not) starts the background thread, which
-    finds each plane's triangles and builds the tasks. They go to the workers only at an offer with
-    `go` (the executor: when the node to come is the run's last):
-    the workers' queue is first come, first served, and cuts queued earlier would hold back the
-    layers of the nodes between. `take` hands the preflight the sections it wants that were cut
-    ahead; tasks never sent by then are dropped (the preflight cuts those planes in its own tasks)."""
+    up (`workers()` returns them, or None while they are not) starts a background thread. It finds
+    each plane's triangles, then trickles the cuts to the workers in small tasks, at most
+    `count − 1` at a time: the workers' queue is first come, first served, so a node's own tasks
+    wait behind one small cut at most, and a core stays with the parent, whose nodes are the run's
+    critical path. `take` (the preflight) sends whatever is left at once, waits and hands over the
+    sections it wants; `close` (the run's end) stops the thread."""
 
     def __init__(self) -> None:
         self.vertices: np.ndarray | None = None
@@ -76,17 +80,14 @@ class SectionPrefetch:
         self.zs: list[float] = []
         self.started = False
         self._tops: list[float] | None = None
-        self._tasks: list[tuple[int, int, Any]] = []  # (first plane, end, future)
+        self._tasks: list[tuple[int, int, Any]] = []  # (first plane, end, future), as sent
         self._thread: threading.Thread | None = None
-        self._go = threading.Event()  # send the tasks (offer with go)
-        self._lock = threading.Lock()  # sending vs dropping (take): one or the other, once
-        self._closed = False
+        self._urgent = threading.Event()  # the preflight waits: send the rest at once
+        self._stop = threading.Event()  # the run is over: send nothing more
 
-    def offer(self, outputs: dict[str, Any], workers: Any, go: bool = True) -> None:
-        """Look at a finished node's outputs; start once mesh, layers and workers are there. `workers`:
-        a callable giving the run's workers (`Workers`) or None; `go`: the workers may get the cuts now."""
-        if go:
-            self._go.set()
+    def offer(self, outputs: dict[str, Any], workers: Any) -> None:
+        """Look at a finished node's outputs; start once mesh, layers and workers are there.
+        `workers`: a callable giving the run's workers (`Workers`) or None while they are not up."""
         if self.started:
             return
         from ..core.model import Layer, Layered, MeshData
@@ -115,46 +116,35 @@ class SectionPrefetch:
             f = np.asarray(self.faces, dtype=np.int64)
             per_plane = plane_faces(v, f, self.zs)
             weights = np.array([len(p) for p in per_plane], dtype=float) + 1.0
-            tasks = [
-                (a, b, _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0)) for a, b in _spans(weights, pool.count)
-            ]
-        except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
-            return
-        self._go.wait()
-        self._send(pool, tasks)
-
-    def _send(self, pool: Workers, tasks: list[tuple[int, int, SlabTask]]) -> None:
-        with self._lock:
-            if self._closed:
-                return
-            for a, b, task in tasks:
-                try:
-                    fut = pool.submit(cut_task, task)
-                except Exception:  # noqa: BLE001 - the workers went away: the preflight cuts the rest
-                    fut = None
-                if fut is None:
+            limit = max(1, pool.count - 1)
+            for a, b in even_spans(weights, pool.count * TASKS_PER_WORKER):
+                task = _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0)
+                while not self._urgent.is_set() and sum(not x.done() for _a, _b, x in self._tasks) >= limit:
+                    self._urgent.wait(TRICKLE_POLL_S)
+                if self._stop.is_set():
+                    return
+                fut = pool.submit(cut_task, task)
+                if fut is None:  # the workers went away: the preflight cuts the rest
                     return
                 self._tasks.append((a, b, fut))
+        except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
+            return
 
     def close(self) -> None:
-        """Tasks not sent by now never will be, and the thread ends (the run is over: a failed or
-        cancelled run would otherwise leave it waiting, holding the mesh)."""
-        with self._lock:
-            self._closed = True
-        self._go.set()
-
-    def _settle(self) -> None:
-        """Before the preflight reads: the thread's work done; tasks not sent by now never will be."""
-        self.close()
-        if self._thread is not None:
-            self._thread.join()
+        """Send nothing more; the thread ends (the run is over: a failed or cancelled run would
+        otherwise leave it trickling, holding the mesh)."""
+        self._stop.set()
+        self._urgent.set()
 
     def take(self, vertices: Any, faces: Any, zs: Sequence[float]) -> dict[int, Any]:
         """{i: section} for each zs[i] that was predicted and cut ahead on these very mesh arrays
-        (the objects the run's mesh node handed out); waits for the cuts it uses."""
+        (the objects the run's mesh node handed out): what is not sent yet goes at once, and the
+        cuts it uses are waited for."""
         if not self.started or vertices is not self.vertices or faces is not self.faces:
             return {}
-        self._settle()
+        self._urgent.set()
+        if self._thread is not None:
+            self._thread.join()
         at = {z: j for j, z in enumerate(self.zs)}
         want: dict[int, list[int]] = {}
         for i, z in enumerate(zs):
@@ -173,3 +163,13 @@ class SectionPrefetch:
                 for i in want[j]:
                     out[i] = got[j - a]
         return out
+
+
+def even_spans(weights: np.ndarray, count: int) -> list[tuple[int, int]]:
+    """Consecutive (start, end) spans of about equal weight, at most `count` of them."""
+    cum = np.cumsum(weights, dtype=float)
+    if not len(cum):
+        return []
+    edges = np.searchsorted(cum, cum[-1] * np.arange(1, count) / count, side="left") + 1
+    bounds = sorted({0, len(cum), *(int(e) for e in edges if 0 < e < len(cum))})
+    return list(zip(bounds[:-1], bounds[1:]))
