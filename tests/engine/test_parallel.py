@@ -295,8 +295,10 @@ def test_a_nodes_artifacts_wait_for_the_next_nodes_tasks(monkeypatch):
     """Artifacts handed over before the next node's tasks: a map's wait has the parent write them
     (nothing pickled to a worker and back); behind a single submit they go to a worker after that
     task; with no task coming a worker gets them within ARTIFACTS_DEFER_S; asking for them computes
-    them here at once; closing the pool drops what was never sent."""
+    them here at once; a map from another thread sends them to the workers (only the run's thread
+    writes them); closing the pool drops what was never sent."""
     import concurrent.futures as cf
+    import threading
     import time
 
     monkeypatch.setattr(parallel, "BACKGROUND_START", False)
@@ -323,6 +325,11 @@ def test_a_nodes_artifacts_wait_for_the_next_nodes_tasks(monkeypatch):
         monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 600.0)
         asked = _held_artifacts(pool)
         assert asked.result(timeout=0)[0]["pid"] == me
+        elsewhere = _held_artifacts(pool)  # a map from another thread than the run's leaves them to the workers
+        side = threading.Thread(target=pool.map, args=(_started_at, [0.01, 0.01]))
+        side.start()
+        side.join()
+        assert elsewhere.result(timeout=60)[0]["pid"] != me
         kept = _held_artifacts(pool)
     finally:
         pool.close()

@@ -309,6 +309,7 @@ class LayerPool:
     _starter: threading.Thread | None = field(default=None, repr=False)
     _deferred: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = field(default_factory=list, repr=False)
     _timers: list[threading.Timer] = field(default_factory=list, repr=False)
+    _holder: int = field(default=0, repr=False)  # the thread that holds artifacts: the run's, which writes them
 
     kind = "local"
     address = None
@@ -413,6 +414,7 @@ class LayerPool:
         with self._lock:
             self._deferred.append((fut, _write_artifacts, args))
             self._timers.append(timer)
+            self._holder = threading.get_ident()
         timer.start()
         return fut
 
@@ -441,6 +443,9 @@ class LayerPool:
             timers, self._timers = self._timers, []
         for timer in timers:
             timer.cancel()
+        if threading.get_ident() != self._holder:  # another thread's map (a node's own): not the run's to write
+            self._release()
+            return
         if self._deferred:
             wait(pending, return_when=FIRST_COMPLETED)
         while not all(f.done() for f in pending):
