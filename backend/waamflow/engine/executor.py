@@ -1024,6 +1024,8 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
 
     from ..preflight import slabs
 
+    if run.prefetch is not None:  # the nodes are done: the rest of the cuts go while the programs are read back
+        run.prefetch.hurry()
     pool = run.pool
     workers: parallel.RunWorkers | DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:

@@ -130,6 +130,11 @@ class SectionPrefetch:
         except Exception:  # noqa: BLE001 - a prefetch that fails only leaves the preflight its own cuts
             return
 
+    def hurry(self) -> None:
+        """Send the rest at once: the run's nodes are done (the preflight reads its programs back
+        first), nothing of theirs waits behind the cuts any more."""
+        self._urgent.set()
+
     def close(self) -> None:
         """Send nothing more; the thread ends (the run is over: a failed or cancelled run would
         otherwise leave it trickling, holding the mesh)."""
