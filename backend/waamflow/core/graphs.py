@@ -113,7 +113,14 @@ def cycle_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
     if len(ends) != 2 * n or np.any(np.bincount(ends, minlength=n) != 2):
         raise ValueError("cycle_walks needs a graph whose every vertex has degree 2")
     other = np.concatenate([edges[:, 1], edges[:, 0]])
-    nb = other[np.argsort(ends, kind="stable")].reshape(n, 2)  # each vertex's two neighbours
+    # each vertex's two neighbours in the order its ends come (what a stable argsort of `ends`
+    # gives): its first end and its last, by two scatters (the last write wins), no sort
+    idx = np.arange(len(ends))
+    first = np.empty(n, dtype=np.int64)
+    first[ends[::-1]] = idx[::-1]
+    last = np.empty(n, dtype=np.int64)
+    last[ends] = idx
+    nb = np.stack([other[first], other[last]], axis=1)
     if n <= SMALL_WALK:
         return _walk_each(nb)
     v = np.arange(n, dtype=np.int64)
@@ -137,7 +144,11 @@ def cycle_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
         reach *= 2
     start = low[keep]
     pos = rank[start] - rank[keep]  # steps from the start
-    order = np.lexsort((pos, start))
-    verts = keep[order] // 2
-    cuts = np.flatnonzero(np.diff(start[order])) + 1
-    return np.split(verts, cuts)
+    # walks in the order of their start (each cycle's lowest vertex), each in step order: every
+    # directed edge's place is its walk's offset plus its step (what a lexsort gives, no sort)
+    starts, size = np.unique(start, return_counts=True)
+    offset = np.concatenate([[0], np.cumsum(size)])
+    place = offset[np.searchsorted(starts, start)] + pos
+    verts = np.empty(len(keep), dtype=np.int64)
+    verts[place] = keep // 2
+    return np.split(verts, offset[1:-1])
