@@ -221,3 +221,52 @@ def test_the_worker_count_is_asked_once_per_ttl(cluster, monkeypatch):
         assert len(calls) == 4
     finally:
         pool.close()
+
+
+def test_artifacts_are_written_here_while_the_cluster_computes(cluster, always_parallel, monkeypatch):
+    """A node's artifacts (all but the last node's) are held, then written in this process while
+    it waits for the cluster's next tasks, never sent to the cluster; byte for byte a serial run's.
+    A node whose artifacts fail there is written again by the run, which reports its own error."""
+    held: list[str] = []
+    written_in_wait: list[str] = []
+    psubmit, pwork = daskpool.DaskPool.submit_artifacts, daskpool.DaskPool.work_held
+
+    def submit_artifacts(self, impl, node_id, *a):
+        held.append(node_id)
+        return psubmit(self, impl, node_id, *a)
+
+    def work_held(self, futures):
+        before = [h for h in self._held if h.held]
+        pwork(self, futures)
+        written_in_wait.extend(str(len(before)) for h in before if not h.held)
+
+    monkeypatch.setattr(daskpool.DaskPool, "submit_artifacts", submit_artifacts)
+    monkeypatch.setattr(daskpool.DaskPool, "work_held", work_held)
+    serial = _run("mpp-cross", workers=1)
+    dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
+    order = list(build_graph(load_recipe(GRAPHS / "mpp-cross.json")).order)
+    assert held and order[-1] not in held and set(held) <= set(order)
+    assert len(written_in_wait) >= 1  # at least the nodes before the sequence node's map
+    assert dask.artifacts == serial.artifacts
+    assert dask.warnings == serial.warnings
+
+
+def test_held_artifacts_that_fail_are_written_again_by_the_run(cluster, always_parallel, monkeypatch):
+    """Held artifacts whose writer fails (None, error) are written again by the run itself (which
+    raises a node's own error with its context): the same files."""
+    from waamflow.engine import parallel as par
+
+    real = par._write_artifacts
+    failed: list[str] = []
+
+    def flaky(impl, node_id, *a):
+        failed.append(node_id)
+        return None, "RuntimeError: disk gone"
+
+    monkeypatch.setattr(par, "_write_artifacts", flaky)
+    dask = _run("mpp-cross", scheduler=cluster.scheduler_address)
+    monkeypatch.setattr(par, "_write_artifacts", real)
+    serial = _run("mpp-cross", workers=1)
+    last = list(build_graph(load_recipe(GRAPHS / "mpp-cross.json")).order)[-1]
+    assert len(failed) >= 2 and last not in failed  # held ones went through it; the last node's not
+    assert dask.artifacts == serial.artifacts

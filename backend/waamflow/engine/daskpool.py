@@ -15,12 +15,14 @@ slab tasks, no-op tasks, `dask scheduler` + 2 `dask worker` processes, 2026-11-2
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Sequence, cast
 
 from . import parallel
 
+WAIT_FIRST_S = 60.0  # `work_held` waits this long at most for a task to end before writing
 WORKERS_TTL_S = 1.0  # how long `DaskPool.workers` trusts the count the scheduler last gave
 
 if TYPE_CHECKING:  # executor imports parallel, which imports this module only in make_pool
@@ -48,6 +50,7 @@ class DaskWorkers:
             client = self.pool.client()
             futures = client.map(_call_pickled, [_dumps((fn, it)) for it in items], pure=False)
             self.pool.map_tasks += len(futures)
+            self.pool.work_held(futures)
             return [_loads(b) for b in client.gather(futures)]
         except Exception:  # the cluster lost a worker or refused the task: compute here
             return [fn(it) for it in items]
@@ -60,6 +63,26 @@ class DaskWorkers:
             return None
         self.pool.map_tasks += 1
         return PickledFuture(fut)
+
+
+class HeldArtifacts:
+    """A node's artifacts held by `DaskPool.submit_artifacts`: written in this process while it
+    waits for the cluster's next tasks (`DaskPool.work_held`), or when asked for (`result`)."""
+
+    def __init__(self, args: tuple[Any, ...]) -> None:
+        self._args: tuple[Any, ...] | None = args
+        self._value: Any = None
+
+    @property
+    def held(self) -> bool:
+        return self._args is not None
+
+    def result(self, timeout: float | None = None) -> Any:
+        """`parallel._write_artifacts`' result: ({suffix: bytes}, warnings) or (None, error)."""
+        if self._args is not None:
+            args, self._args = self._args, None
+            self._value = parallel._write_artifacts(*args)
+        return self._value
 
 
 @dataclass
@@ -126,6 +149,8 @@ class DaskPool:
     map_tasks: int = 0
     _client: Any = field(default=None, repr=False)
     _workers: tuple[float, int] = field(default=(-1e9, 0), repr=False)  # (monotonic s, count) last asked
+    _held: list[HeldArtifacts] = field(default_factory=list, repr=False)  # `submit_artifacts`, not written yet
+    _holder: int | None = field(default=None, repr=False)  # the thread that held them
     kind = "dask"
     started = ready = True  # a cluster's workers are running already
     warming = False
@@ -140,10 +165,42 @@ class DaskPool:
 
     @property
     def offload_artifacts(self) -> bool:
-        """Artifacts are written here: shipping a node's whole outputs to a worker (pickled, over
-        TCP) and its files back costs more than writing them (bench_replan, 500 layers on a
-        LocalCluster: 6.9-7.9 s with artifacts on the cluster, 5.2-6.1 s without; local pool 4.4-5.0 s)."""
-        return False
+        """A node's artifacts are held (`submit_artifacts`), not written at once: this process
+        writes them while it waits for the cluster's next tasks. Not sent to the cluster: a node's
+        whole outputs pickled there and its files back cost more than writing them (bench_replan,
+        500 layers on a LocalCluster: 6.9-7.9 s with artifacts on the cluster, 5.2-6.1 s without)."""
+        return True
+
+    def submit_artifacts(
+        self,
+        impl: Any,
+        node_id: str,
+        params: Any,
+        resolver: FileResolver,
+        trace: dict[str, Any],
+        outputs: dict[str, Any],
+    ) -> HeldArtifacts:
+        """A node's artifacts held until this process waits for the cluster (`work_held`) or the
+        run asks for them (the 500-layer cross: the strategy's and the zone's, 0.18 and 0.11 s of
+        CPU, had been written while the cluster's workers waited for the sequence node's tasks)."""
+        held = HeldArtifacts((impl, node_id, params.model_dump(mode="json"), resolver, trace, outputs))
+        self._held.append(held)
+        self._holder = threading.get_ident()
+        return held
+
+    def work_held(self, futures: list[Any]) -> None:
+        """The held artifacts written here while `futures` (just submitted) run on the cluster,
+        once the first of them has ended (before that, the client's thread is still sending them
+        and needs the interpreter lock). Only on the thread that held them: the run's own."""
+        if not self._held or threading.get_ident() != self._holder or not futures:
+            return
+        first = threading.Event()
+        for fut in futures:
+            fut.add_done_callback(lambda _f: first.set())
+        first.wait(WAIT_FIRST_S)
+        held, self._held = self._held, []
+        for h in held:
+            h.result()
 
     def warm(self) -> None:
         """Nothing to start: a cluster's workers are running already."""
@@ -200,6 +257,7 @@ class DaskPool:
         futures = client.map(_run_chain_pickled, [shared] * len(chunks), chunks, pure=False)  # one graph
         self.tasks += len(futures)
         try:
+            self.work_held(futures)
             for fut in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]  # not annotated
                 for i, got in _loads(fut.result()):
                     on_done(i, got)
@@ -214,6 +272,7 @@ class DaskPool:
 
     def close(self, wait: bool = True) -> None:
         self._workers = (-1e9, 0)
+        self._held = []
         if self._client is not None:
             self._client.close()
             self._client = None
