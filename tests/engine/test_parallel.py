@@ -613,29 +613,3 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_par
     for k in serial.artifacts:
         assert par.artifacts[k] == serial.artifacts[k], k
     assert par.warnings == serial.warnings
-
-
-def test_the_workers_import_what_the_slab_checks_need_while_the_parent_reads_the_program(always_parallel, monkeypatch):
-    """`LayerPool.prepare(slabs.WORKER_IMPORTS)` once per parallel run of a part of at least
-    `WORKER_IMPORTS_MIN_TRIANGLES`, before the preflight's first slab task (the import took ~0.2 s
-    of CPU inside each fresh worker's first task); never for a small part (its loops are walked
-    faster without scipy); the report stays the serial one either way. Not before the workers are up."""
-    from waamflow.preflight import slabs
-
-    prepared = []
-    real = parallel.LayerPool.prepare
-    monkeypatch.setattr(
-        parallel.LayerPool, "prepare", lambda self, m: prepared.append((tuple(m), self.ready)) or real(self, m)
-    )
-    serial = _run("mpp-cross", 1)
-    par = _run("mpp-cross", 2)
-    assert prepared == []  # a 44-triangle part
-    assert par.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
-    monkeypatch.setattr(slabs, "WORKER_IMPORTS_MIN_TRIANGLES", 44)
-    par = _run("mpp-cross", 2)
-    assert prepared == [(slabs.WORKER_IMPORTS, True)]
-    assert par.artifacts["preflight.json"] == serial.artifacts["preflight.json"]
-    pool = parallel.LayerPool(2)
-    pool.prepare(("json.tool",))  # not up: nothing started for it
-    assert not pool.started and pool.pids() == []
-    assert parallel._import_modules(("json.tool",)) == os.getpid()

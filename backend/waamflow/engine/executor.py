@@ -1022,16 +1022,11 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
     the conservation check compares (the report is the same)."""
     from ..preflight import run_preflight
 
-    from ..preflight import slabs
-
     if run.prefetch is not None:  # the nodes are done: the rest of the cuts go while the programs are read back
         run.prefetch.hurry()
     pool = run.pool
     workers: parallel.RunWorkers | DaskWorkers | None = None
     if isinstance(pool, LayerPool) and pool.enabled and pool.started:
-        # the cost model's triangles, unless the sections came cut ahead (preflight/prefetch.py)
-        if run.size[0] >= slabs.WORKER_IMPORTS_MIN_TRIANGLES and not (run.prefetch and run.prefetch.started):
-            pool.prepare(slabs.WORKER_IMPORTS)
         workers = parallel.RunWorkers(pool)
     elif isinstance(pool, DaskPool):  # the cluster's workers run already
         workers = DaskWorkers(pool)

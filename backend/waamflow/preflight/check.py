@@ -17,7 +17,6 @@ values the program commands; compared with the part's volume (a wall: its area Ã
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
 
@@ -209,21 +208,7 @@ def _chain_loops(segs: np.ndarray) -> list[np.ndarray]:
 
         return list(trimesh.load_path(segs).discrete)
     xy = flat[unique][:, :2]
-    walks = _scipy_walks(n, edges) if "scipy.sparse.csgraph" in sys.modules else cycle_walks(n, edges)
-    return [np.vstack([xy[order], xy[order[:1]]]) for order in walks]
-
-
-def _scipy_walks(n: int, edges: np.ndarray) -> list[np.ndarray]:
-    """`core.graphs.cycle_walks` by scipy's depth-first search, the walks it was written to give:
-    2.5x faster on the bench vase's rings (2 vs 5 ms a plane), so used where scipy is loaded
-    anyway (the layer workers import it for the slab tasks: slabs.WORKER_IMPORTS)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components, depth_first_order
-
-    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
-    _, label = connected_components(graph, directed=False)
-    starts = np.unique(label, return_index=True)[1]
-    return [depth_first_order(graph, int(s), directed=False, return_predecessors=False) for s in starts]
+    return [np.vstack([xy[order], xy[order[:1]]]) for order in cycle_walks(n, edges)]
 
 
 def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:

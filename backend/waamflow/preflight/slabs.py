@@ -25,13 +25,6 @@ from shapely.geometry import MultiPolygon
 
 MAX_PAIRS = 20_000_000  # (triangle, plane) pairs held at once; beyond, each plane scans the part
 TASKS_PER_WORKER = 4  # parallel: the smallest (last) task holds 1/(workers · this · 4) of the work (`_spans`)
-# what makes a slab task walk its loops with scipy (check._chain_loops): the run's workers import it
-# while the parent reads the program back (engine: LayerPool.prepare), for a part of at least
-# WORKER_IMPORTS_MIN_TRIANGLES only. scipy's walks pay on large sections (the bench vase's: 2 vs 5 ms
-# a plane) against ~0.19 s of CPU to import it in each fresh worker; a small part's sections are
-# walked faster without it (the 500-layer cross's 24 segments a plane: 0.35 vs 0.12 ms).
-WORKER_IMPORTS = ("scipy.sparse.csgraph",)
-WORKER_IMPORTS_MIN_TRIANGLES = 200_000
 
 
 class Workers(Protocol):
