@@ -25,7 +25,7 @@ from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
-from .slabs import SlabTask, _sub_task, cut_sections, plane_faces
+from .slabs import Renumber, SlabTask, _sub_task, cut_sections, plane_faces
 
 PREDICT_DECIMALS = 3  # the posts' coordinate digits (program/common.num, every dialect's `decimals` default)
 # Cut ahead only a part whose cuts are worth the round trips: the bench vase's 1,008,000 triangles
@@ -115,8 +115,9 @@ class SectionPrefetch:
             per_plane = plane_faces(v, f, self.zs)
             weights = np.array([len(p) for p in per_plane], dtype=float) + 1.0
             limit = max(1, pool.count - 1)
+            buf = Renumber(len(f), len(v))
             for a, b in even_spans(weights, pool.count * TASKS_PER_WORKER):
-                task = _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0)
+                task = _sub_task(v, f, per_plane[a:b], self.zs[a:b], None, 0.0, buf=buf)
                 while not self._urgent.is_set() and sum(not x.done() for _a, _b, x in self._tasks) >= limit:
                     self._urgent.wait(TRICKLE_POLL_S)
                 if self._stop.is_set():

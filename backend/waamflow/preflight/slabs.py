@@ -168,6 +168,18 @@ def cover_slabs(task: SlabTask) -> list[LayerCover]:
     ]
 
 
+class Renumber:
+    """Masks and maps over the whole part, reused task after task (`_sub_task`): set for a task's
+    faces and vertices, read, and cleared again, so a task costs two scans of the part's masks, not
+    a cumulative sum over its million faces and another over its vertices."""
+
+    def __init__(self, n_faces: int, n_vertices: int) -> None:
+        self.face_in = np.zeros(n_faces, dtype=bool)
+        self.vert_in = np.zeros(n_vertices, dtype=bool)
+        self.face_new = np.zeros(n_faces, dtype=np.int64)
+        self.vert_new = np.zeros(n_vertices, dtype=np.int64)
+
+
 def _sub_task(
     vertices: np.ndarray,
     faces: np.ndarray,
@@ -177,24 +189,28 @@ def _sub_task(
     width: float,
     outside: OutsideRuns | None = None,
     known: dict[int, Any] | None = None,
+    buf: Renumber | None = None,
 ) -> SlabTask:
     """A task holding only the faces its planes cut (and their vertices), renumbered in order: each
-    plane's slab mesh is the one the whole part gives. `known`: sections of its planes cut ahead."""
+    plane's slab mesh is the one the whole part gives. `known`: sections of its planes cut ahead;
+    `buf`: the part's masks, for a run of tasks."""
     if not any(len(f) for f in per_plane):  # every plane cut ahead (or empty): no mesh to send
         empty = np.zeros(0, dtype=np.intp)
         return SlabTask(vertices[:0], faces[:0], [empty] * len(per_plane), zs, paths, width, outside, known or None)
+    b = buf or Renumber(len(faces), len(vertices))
     # sorted unique faces and vertices by masks (what np.unique gives, without sorting the part)
-    face_in = np.zeros(len(faces), dtype=bool)
     for f in per_plane:
-        face_in[f] = True
-    f_all = np.flatnonzero(face_in)
-    vert_in = np.zeros(len(vertices), dtype=bool)
-    vert_in[faces[f_all].ravel()] = True
-    new_index = np.cumsum(vert_in) - 1
-    sub_faces = new_index[faces[f_all]]
-    face_index = np.cumsum(face_in) - 1
+        b.face_in[f] = True
+    f_all = np.flatnonzero(b.face_in)
+    b.face_in[f_all] = False
+    fv = faces[f_all]
+    b.vert_in[fv.ravel()] = True
+    v_all = np.flatnonzero(b.vert_in)
+    b.vert_in[v_all] = False
+    b.vert_new[v_all] = np.arange(len(v_all))
+    b.face_new[f_all] = np.arange(len(f_all))
     return SlabTask(
-        vertices[vert_in], sub_faces, [face_index[f] for f in per_plane], zs, paths, width, outside, known or None
+        vertices[v_all], b.vert_new[fv], [b.face_new[f] for f in per_plane], zs, paths, width, outside, known or None
     )
 
 
@@ -254,6 +270,7 @@ def cover_part(
         or not pool.pays(int(n_cut.sum()), len(zs), int(n_pts.sum()))
     ):
         return cover_slabs(SlabTask(v, f, per_plane, list(zs), paths, width, outside, known or None))
+    buf = Renumber(len(f), len(v))
     tasks = [
         _sub_task(
             v,
@@ -264,6 +281,7 @@ def cover_part(
             width,
             None if outside is None else outside._replace(layers=outside.layers[a:b], runs=outside.runs[a:b]),
             {i - a: known[i] for i in range(a, b) if i in known},
+            buf,
         )
         for a, b in _spans(n_cut + n_pts + 1.0, pool.count)
     ]
