@@ -460,7 +460,7 @@ def _vase_recipe(tmp_path: Path, triangles: int) -> Path:
     return tmp_path / "vase.json"
 
 
-@pytest.mark.parametrize("triangles, started", [(1_008_000, True), (1_000, False)])
+@pytest.mark.parametrize("triangles, started", [(1_008_000, True), (606_000, True), (200_000, False), (1_000, False)])
 def test_a_large_mesh_file_starts_the_workers_before_the_first_node(tmp_path, triangles, started):
     from waamflow.engine.executor import _Run
 

@@ -272,6 +272,14 @@ class RunResult:
         }
 
 
+# A mesh file of this many triangles starts the workers before the first node, whatever the cost
+# model makes of its triangles alone: its layers and path points, unknown until the slicer, make the
+# run multi-second, and the fork server's imports (~0.5 s of CPU) take the core the mesh read leaves
+# idle. An unseen 606,000-triangle ribbed tube (120 layers; 1.5 s by the triangles' cost) started
+# them only after slicing: its slicer could not split and its wall-path ran in the parent.
+WARM_TRIANGLES = 250_000
+
+
 # ---- context ------------------------------------------------------------------------------------
 class RunContext(Context):
     def __init__(self, run: "_Run", node_id: str) -> None:
@@ -657,7 +665,7 @@ class _Run:
                 path = getattr(params, f, None)
                 if isinstance(path, str) and path.lower().endswith(parallel.MESH_SUFFIXES):
                     self.size[0] += self.resolver.triangles(path)
-        if parallel.wants_workers(pool.workers, *self.size):
+        if parallel.wants_workers(pool.workers, *self.size) or self.size[0] >= WARM_TRIANGLES:
             pool.warm()
 
     def maybe_warm(self, pos: int) -> None:
