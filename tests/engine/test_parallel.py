@@ -336,6 +336,41 @@ def test_a_nodes_artifacts_wait_for_the_next_nodes_tasks(monkeypatch):
     assert kept.cancelled()  # never sent: the run is over
 
 
+def test_warm_waits_a_moment_for_the_workers_once_the_fork_server_runs(monkeypatch):
+    """The first start in a process goes on in the background (the fork server imports ~0.4 s);
+    once the server runs, `warm` first waits up to WARM_WAIT_S for the forks (~0.05 s alone,
+    several times that beside a parent computing), then lets them finish in the background."""
+    import threading
+    import time
+
+    monkeypatch.setattr(parallel, "BACKGROUND_START", False)
+    first = parallel.LayerPool(2)
+    first.warm()
+    first.close()
+    assert first.ready and parallel._server_up  # a start that succeeded says the server runs
+    gate = threading.Event()
+
+    def held_spawn(self):
+        gate.wait(30)
+        self._ready.set()
+
+    monkeypatch.setattr(parallel.LayerPool, "_spawn", held_spawn)
+    monkeypatch.setattr(parallel, "BACKGROUND_START", True)
+    monkeypatch.setattr(parallel, "WARM_WAIT_S", 0.3)
+    spent = {}
+    for up in (False, True):
+        monkeypatch.setattr(parallel, "_server_up", up)
+        gate.clear()
+        pool = parallel.LayerPool(2)
+        t = time.monotonic()
+        pool.warm()
+        spent[up] = time.monotonic() - t
+        assert not pool.ready and pool.warming
+        gate.set()
+        pool.close()
+    assert spent[False] < 0.3 <= spent[True]
+
+
 @pytest.mark.parametrize("n, workers", [(1, 2), (7, 2), (11, 2), (499, 2), (499, 8), (5000, 4)])
 def test_chunks_are_guided_large_first_and_small_at_the_end(n, workers):
     """Every layer once, in order; sizes never grow; the last chunk (the run's tail, when one

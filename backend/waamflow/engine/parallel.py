@@ -74,6 +74,8 @@ MIN_PARALLEL_S = 2.0  # expected serial CPU seconds of shareable work that start
 WARM_MIN_PARALLEL_S = 0.2  # the same once the workers are up: pickling round trips only
 TIMING_S = 0.05  # the parent computes (and times, in CPU seconds of its thread) uncached layers this long first
 BACKGROUND_START = True  # False (tests): `warm` waits for the workers, so who computes what is fixed
+_server_up = False  # this process has started workers: its fork server runs (`LayerPool.warm`)
+WARM_WAIT_S = 0.06  # what `warm` waits at most for the workers when the fork server runs already
 PRELOAD = ["waamflow.engine.warm"]  # not trimesh: see warm.py
 CHUNKS_PER_WORKER = 4  # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
 # A node's artifacts wait this long at most for the next node's tasks, to queue behind them (`submit_artifacts`).
@@ -343,13 +345,19 @@ class LayerPool:
 
     def warm(self) -> None:
         """Start the workers in the background (once): the fork server's imports and the forks run
-        while the parent goes on with its serial work."""
+        while the parent goes on with its serial work. When this process's fork server is up
+        already (a server's later runs, a bench's), the parent first waits up to `WARM_WAIT_S`
+        for them: alone, the forks take ~0.05 s, while a parent computing meanwhile holds the
+        interpreter lock the starting threads need at every step (the 500-layer cross's workers
+        came up 0.15-0.3 s after `warm`, the parent alone on the cores until then)."""
         if not self.enabled or self.started:
             return
         self.started = True
         if BACKGROUND_START:
             self._starter = threading.Thread(target=self._spawn, name="waamflow-layer-pool", daemon=True)
             self._starter.start()
+            if _server_up:
+                self._ready.wait(WARM_WAIT_S)
         else:
             self._spawn()
 
@@ -361,6 +369,8 @@ class LayerPool:
                 f.result()
         except Exception:  # the workers could not start: the parent computes alone
             return
+        global _server_up
+        _server_up = True
         self._ready.set()
 
     def _executor(self) -> ProcessPoolExecutor:
