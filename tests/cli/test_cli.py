@@ -88,3 +88,44 @@ def test_serve_takes_the_same_workers_setting_as_run():
     assert p.parse_args(["serve", "--workers", "3"]).layer_workers == 3
     assert p.parse_args(["serve", "--layer-workers", "2"]).layer_workers == 2
     assert p.parse_args(["run", "x.json", "--workers", "4"]).workers == 4
+
+
+def _mesh_recipe(tmp_path, triangles: int):
+    stl = tmp_path / "part.stl"
+    with open(stl, "wb") as fh:  # sparse: only the size counts
+        fh.write(b"part".ljust(80, b" ") + triangles.to_bytes(4, "little"))
+        fh.truncate(84 + 50 * triangles)
+    rec = {"format": "waamflow/1", "name": "p", "nodes": [{"id": "m", "type": "mesh", "params": {"path": "part.stl"}}]}
+    (tmp_path / "r.json").write_text(json.dumps(rec))
+    return tmp_path / "r.json"
+
+
+def test_a_large_mesh_starts_the_fork_server_before_the_engine_is_imported(tmp_path):
+    """issue 30: `waamflow run` of a recipe with a mesh file of EARLY_FORK_SERVER_TRIANGLES or more
+    starts the fork server first thing (its imports then run beside the parent's); the thresholds
+    and the preload are the engine's own; small meshes, --workers 1 and a Dask scheduler never."""
+    import subprocess
+    import sys
+
+    from waamflow import cli
+    from waamflow.engine import executor, parallel
+
+    assert cli.EARLY_FORK_SERVER_TRIANGLES == executor.WARM_TRIANGLES
+    assert cli.FORK_SERVER_PRELOAD == parallel.PRELOAD and cli.MESH_SUFFIXES == parallel.MESH_SUFFIXES
+    big = _mesh_recipe(tmp_path, 300_000)
+    small_dir = tmp_path / "small"
+    small_dir.mkdir()
+    small = _mesh_recipe(small_dir, 200_000)
+    assert not cli._early_fork_server(big, 1, None)
+    assert not cli._early_fork_server(big, 2, "tcp://127.0.0.1:8786")
+    assert not cli._early_fork_server(small, 2, None)
+    assert not cli._early_fork_server(tmp_path / "missing.json", 2, None)
+    probe = (
+        "import sys, pathlib\n"
+        "from multiprocessing import forkserver\n"
+        "from waamflow import cli\n"
+        "started = cli._early_fork_server(pathlib.Path(sys.argv[1]), 2, None)\n"
+        "print(started, forkserver._forkserver._forkserver_pid is not None, 'waamflow.engine' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", probe, str(big)], capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["True", "True", "False"], out.stderr
