@@ -25,18 +25,16 @@ Results are the same objects either way, so artifacts are byte-identical to a se
 Chains. When a layer node's layers go to the workers and the layer node that consumes its
 output only needs that output's layer i (plus whole values already computed), the workers compute
 both in one task: mask → guide → strategy → zone of a chunk of layers in one worker, link by link
-over the chunk (one node's code over a run of layers keeps the core's caches warm: ~27% less CPU
-than layer by layer), so the layers of the whole chain are spread over the cores at once, and each
+(`run_chain`), so the layers of the whole chain are spread over the cores at once, and each
 layer's items cross the process boundary once instead of once per node. The later nodes' results wait in
 the parent (`_Run.precomputed`) and are taken up, in layer order, when the run reaches those
 nodes: caching, warnings and artifacts are exactly a serial run's. A link requires the upstream
 node's `combine` to hand its items on unchanged (`LayerNode.combine_keeps_items`).
 
 Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
-outputs) are written off the parent's path too (`submit_artifacts`): held until the next node
-submits its tasks (they are on the run's critical path, the artifacts are not), then written by
-the parent while it waits for those tasks, or by a worker behind them; the run collects them in
-node order at its end.
+outputs) wait for the next node's tasks (the run's critical path) and are written by the parent
+while it waits for them, or by a worker behind them (`submit_artifacts`); the run collects them
+in node order at its end.
 
 `DaskPool` (daskpool.py) sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
 instead: its workers are already running, so the threshold to go parallel is lower. A node's
@@ -78,8 +76,7 @@ _server_up = False  # this process has started workers: its fork server runs (`L
 WARM_WAIT_S = 0.06  # what `warm` waits at most for the workers when the fork server runs already
 PRELOAD = ["waamflow.engine.warm"]  # not trimesh: see warm.py
 CHUNKS_PER_WORKER = 4  # the smallest (last) chunk: 1/(workers · 4 · this) of the layers (`_chunks`)
-# A node's artifacts wait this long at most for the next node's tasks, to queue behind them (`submit_artifacts`).
-ARTIFACTS_DEFER_S = 0.2
+ARTIFACTS_DEFER_S = 0.2  # a node's artifacts wait this long at most for the next node's tasks (`submit_artifacts`)
 DASK_MIN_PARALLEL_S = 0.5  # a cluster's workers are running already: only the round trips cost
 DASK_CONNECT_S = 10.0  # seconds to reach the scheduler before the run fails
 
@@ -188,16 +185,12 @@ class ChainLink:
 def run_chain(
     chain: tuple[ChainLink, ...], resolver: FileResolver, chunk: list[tuple[int, dict[str, Any]]]
 ) -> list[tuple[int, list[tuple[Any, ...]]]]:
-    """Worker side (and the parent's timed layers): each link over the chunk's layers, the first
-    link on the items given, each later one on the previous link's output of that layer:
-    [(index, [(outputs, warnings, seconds) | (None, error text, seconds)] per link computed)]. A
-    failed link ends that layer's chain; the parent computes the rest (and reports the error
-    with its context). `seconds`: the link's compute time on this layer (wall, in the worker).
-
-    Link by link, not layer by layer: a layer's links depend only on that layer, so the results
-    are the same, and one node's code over a run of layers keeps the caches of the core warm (the
-    500-layer cross's mask → guide → strategy → zone: 0.72 s of CPU link by link, 0.99 s layer
-    by layer, in one process)."""
+    """Worker side (and the parent's timed layers): each link over the chunk's layers (the first on
+    the items given, the next on the previous one's output of that layer), not layer by layer:
+    one node's code over a run of layers keeps the core's caches warm (the 500-layer cross's chain:
+    0.72 s of CPU, 0.99 s layer by layer). [(index, [(outputs, warnings, seconds) | (None, error
+    text, seconds)] per link computed)]; a failed link ends that layer's chain (the parent
+    computes the rest and reports the error with its context); seconds: wall, in the worker."""
     got: dict[int, list[tuple[Any, ...]]] = {i: [] for i, _ in chunk}
     fed: list[tuple[int, dict[str, Any]]] = list(chunk)  # (index, the link's items) still going on
     for k, link in enumerate(chain):
@@ -265,8 +258,8 @@ def _die_with_parent() -> None:
 
 
 class _Held(Future[Any]):
-    """A task held back by the pool (`LayerPool.submit_artifacts`): asking for its result while it
-    is still held computes it here, the run's other held tasks going to the workers meanwhile."""
+    """A task held back by the pool (`LayerPool.submit_artifacts`): asking for its result while
+    held computes it here, the other held tasks going to the workers."""
 
     def __init__(self, pool: LayerPool) -> None:
         super().__init__()
@@ -280,20 +273,16 @@ class _Held(Future[Any]):
 def _settle(fut: Future[Any], done: Future[Any]) -> None:
     """`fut` gets what the worker's future `done` got."""
     exc = done.exception() if not done.cancelled() else RuntimeError("cancelled")
-    if exc is not None:
-        fut.set_exception(exc)
-    else:
-        fut.set_result(done.result())
+    fut.set_exception(exc) if exc is not None else fut.set_result(done.result())
 
 
 def _compute_here(fut: Future[Any], fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
     """A held task computed in this process (the parent), its result or error into `fut`."""
-    if not fut.set_running_or_notify_cancel():
-        return
-    try:
-        fut.set_result(fn(*args))
-    except Exception as exc:  # the run re-raises it where it collects the task (`_Run.run`)
-        fut.set_exception(exc)
+    if fut.set_running_or_notify_cancel():
+        try:
+            fut.set_result(fn(*args))
+        except Exception as exc:  # the run re-raises it where it collects the task (`_Run.run`)
+            fut.set_exception(exc)
 
 
 @dataclass
@@ -345,11 +334,9 @@ class LayerPool:
 
     def warm(self) -> None:
         """Start the workers in the background (once): the fork server's imports and the forks run
-        while the parent goes on with its serial work. When this process's fork server is up
-        already (a server's later runs, a bench's), the parent first waits up to `WARM_WAIT_S`
-        for them: alone, the forks take ~0.05 s, while a parent computing meanwhile holds the
-        interpreter lock the starting threads need at every step (the 500-layer cross's workers
-        came up 0.15-0.3 s after `warm`, the parent alone on the cores until then)."""
+        while the parent goes on. With this process's fork server up already, first wait up to
+        `WARM_WAIT_S`: the forks alone take ~0.05 s, beside a parent computing (holding the
+        interpreter lock the starting threads need) 0.15-0.3 s on the 500-layer cross."""
         if not self.enabled or self.started:
             return
         self.started = True
@@ -407,14 +394,12 @@ class LayerPool:
         trace: dict[str, Any],
         outputs: dict[str, Any],
     ) -> Future[Any]:
-        """A node's artifacts written off the parent's path: a future of `_write_artifacts`' result.
-        The task is held back until the next computing tasks are submitted. A map (the next node's
-        chunks, a chain's) has the parent write held artifacts itself while it would only wait for
-        its tasks (`_work_held`: no outputs pickled to a worker and back); what is left then, or
-        held behind a single submit, goes to the workers behind those tasks (`_release`); at most
-        `ARTIFACTS_DEFER_S` when no task comes (a node computed in the parent alone). 500-layer
-        cross: the sequence node's chunks had waited 0.13-0.24 s behind the strategy's and the
-        zone's toolpath artifacts (1.3 and 1.5 MB pickled, unpickled in a worker, then written)."""
+        """A node's artifacts off the parent's path: a future of `_write_artifacts`' result, held
+        until the next computing tasks are submitted. A map's wait has the parent write them
+        (`_work_held`: nothing pickled to a worker and back); the rest, or those behind a single
+        submit, go to the workers behind the tasks (`_release`); after `ARTIFACTS_DEFER_S` when no
+        task comes. (The cross's sequence chunks had waited 0.13-0.24 s behind the strategy's and
+        zone's toolpath artifacts: 1.3/1.5 MB pickled, unpickled in a worker, then written.)"""
         if self._closed:
             raise RuntimeError("layer pool closed")
         fut: Future[Any] = _Held(self)
@@ -444,18 +429,16 @@ class LayerPool:
             inner.add_done_callback(functools.partial(_settle, fut))
 
     def _work_held(self, pending: Sequence[Future[Any]]) -> None:
-        """The parent's wait for `pending` (tasks just submitted) spent on held tasks, computed here
-        one by one from the first task's end while any is unfinished; the rest go to the workers
-        behind them. Not before: until then this process's threads pickle the tasks to the
-        workers, and a held task computed here would hold the interpreter's lock they need (the
-        cross's sequence chunks started 0.23 s late behind the zone's artifacts written here)."""
+        """The parent's wait for `pending` (tasks just submitted) spent on held tasks, one by one
+        from the first task's end while any is unfinished (before, this process's threads pickle
+        the tasks and need the interpreter lock: the cross's sequence chunks started 0.23 s late);
+        the rest go to the workers behind them."""
         with self._lock:  # a map came: the held tasks wait for the map's tasks, not for a timer
             timers, self._timers = self._timers, []
         for timer in timers:
             timer.cancel()
         if threading.get_ident() != self._holder:  # another thread's map (a node's own): not the run's to write
-            self._release()
-            return
+            return self._release()
         if self._deferred:
             wait(pending, return_when=FIRST_COMPLETED)
         while not all(f.done() for f in pending):
