@@ -6,6 +6,7 @@ from __future__ import annotations
 
 
 import numpy as np
+import shapely
 import pytest
 import trimesh
 
@@ -221,6 +222,20 @@ def test_starts_in_machining_stock_may_stack():
     rep = check(gcode(same))
     assert rep["stacked_starts"] == 0 and rep["starts_in_stock"] == 4
     assert not [p for p in rep["problems"] if p["check"] == "stacked_starts"]
+
+
+def test_a_smooth_curve_is_no_weave():
+    """A bead along a smooth curve deposits its swept disk, nothing more: three consecutive points
+    of a curve sampled every 1 mm lie within a bead width, but the path never comes back, so no
+    weave's pool is bridged. The chord triangles of every such triple used to add a sliver of the
+    sagitta along the inside of the bend (12 mm² a lap on the twisted bench vase), covering part
+    area no bead reaches."""
+    t = np.linspace(0.0, np.pi, 95)  # R 30 mm, ~1 mm steps
+    arc = np.column_stack([30.0 * np.cos(t), 30.0 * np.sin(t)])
+    ripple = np.column_stack([np.linspace(0, 150, 151), 8.0 * np.sin(np.linspace(0, 150, 151) / 12.0)])
+    for p in (arc, ripple):
+        swept = shapely.LineString(p).buffer(3.0, quad_segs=8)
+        assert footprint([p], 6.0).area == pytest.approx(swept.area, rel=1e-9)
 
 
 def test_weave_footprint_survives_resampling():

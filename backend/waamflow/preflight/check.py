@@ -127,8 +127,10 @@ def _planar(layers: list[tuple[int, list[Run]]]) -> bool:
 def footprint(paths: list[np.ndarray], width: float):
     """The area the beads of these (k, 2) paths cover: each path buffered by half a bead width, plus
     the weld pool bridging a weave: where a path comes back across within one bead width of travel
-    (the chord of three consecutive points ≤ width), the triangle they span is deposited too — an
-    oscillated bead is as wide as its weave, not a zigzag with notches."""
+    (it turns back by more than a right angle, and the chord of the three points is ≤ width), the
+    triangle they span is deposited too — an oscillated bead is as wide as its weave, not a zigzag
+    with notches. A smooth curve never comes back: its beads cover their swept disk only (a chord
+    triangle there would cover a sliver of the bend's inside that no bead reaches)."""
     parts = []
     for p in paths:
         line = LineString(p)
@@ -138,7 +140,8 @@ def footprint(paths: list[np.ndarray], width: float):
         p = np.asarray(line.simplify(width * 0.01, preserve_topology=False).coords)
         if len(p) >= 3:
             chord = np.linalg.norm(p[2:] - p[:-2], axis=1)
-            for i in np.nonzero(chord <= width * (1 + 1e-9))[0]:
+            back = np.einsum("ij,ij->i", p[:-2] - p[1:-1], p[2:] - p[1:-1]) > 0  # an acute turn
+            for i in np.nonzero((chord <= width * (1 + 1e-9)) & back)[0]:
                 tri = Polygon(p[i : i + 3])
                 if tri.area > 1e-9:
                     parts.append(tri.buffer(width / 2.0, quad_segs=4))
