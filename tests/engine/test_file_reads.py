@@ -57,3 +57,45 @@ def test_a_files_signature_is_the_first_half_of_its_sha256(monkeypatch, tmp_path
     monkeypatch.undo()
     assert FileResolver(tmp_path, attachments={"cross.stl": data}).signature("cross.stl") == sha[:32]
     assert bytes_signature(data) == sha[:32] and bytes_signature(data + b"\0") != sha[:32]
+
+
+def test_without_a_cache_a_large_file_is_hashed_beside_its_parsing(monkeypatch):
+    """issue 30: a run with no cache to look the mesh node up in signs it after its run, and a large
+    file it read is hashed in a thread meanwhile (hashlib frees the interpreter: the bench vase's
+    50 MB sha256 beside its parsing): one read and one hash of the file, the same trace and the
+    same signatures as a run with a cache."""
+    import threading
+
+    from waamflow.engine.cache import MemoryCache
+
+    reads: list[str] = []
+    real = executor.read_regular
+
+    def counted(p, *a, **k):
+        reads.append(Path(p).name)
+        return real(p, *a, **k)
+
+    hashers: list[str] = []
+    real_sha = hashlib.sha256
+    size = (GRAPHS / "parts" / "cross.stl").stat().st_size
+
+    def sha_spy(b=b""):
+        if len(b) == size:
+            hashers.append(threading.current_thread().name)
+        return real_sha(b)
+
+    monkeypatch.setattr(executor, "read_regular", counted)
+    monkeypatch.setattr(executor.hashlib, "sha256", sha_spy)
+    monkeypatch.setattr(executor, "HASH_BESIDE_BYTES", 1000)
+    executor._FILE_SIGS.clear()
+    path = GRAPHS / "mpp-cross.json"
+    graph = build_graph(load_recipe(path))
+    res = execute(graph, resolver=FileResolver(path.parent), workers=1, preflight=False)
+    assert reads.count("cross.stl") == 1
+    assert len(hashers) == 1 and hashers[0].startswith("waamflow-hash")
+    sha = real_sha((GRAPHS / "parts" / "cross.stl").read_bytes()).hexdigest()
+    assert res.trace["inputs"]["parts/cross.stl"] == sha
+    executor._FILE_SIGS.clear()
+    cached = execute(graph, resolver=FileResolver(path.parent), cache=MemoryCache(), workers=1, preflight=False)
+    assert cached.signatures == res.signatures and len(res.signatures) >= 8
+    assert cached.artifacts == res.artifacts

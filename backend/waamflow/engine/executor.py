@@ -24,7 +24,7 @@ import os
 import threading
 import time
 import traceback
-from concurrent.futures import Future
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -61,7 +61,33 @@ def _over_limit(path: str, size: int, limit: int) -> str:
 # Content signatures of files by (path, mtime, size), shared by every resolver in the process so
 # the GUI's one-layer preview does not re-hash a large mesh on each request.
 _FILE_SIGS: dict[tuple[str | int, ...], str] = {}  # (path, mtime, size) or ("sha256", path, mtime, size)
+# A large file a node reads is hashed in a thread beside the node's own work on it (hashlib frees
+# the interpreter: a 50 MB mesh's sha256, ~0.1 s, beside its parsing) when the run has no cache to
+# look the node up in first (`_Run.run_plain_node` then signs the node after its run).
+HASH_BESIDE_BYTES = 4 * 1024**2
+_HASHING: dict[tuple[str | int, ...], Future[tuple[str, str]]] = {}  # (path, mtime, size) → its digests, under way
+_HASHER: list[ThreadPoolExecutor] = []  # one thread, made on first need
 T = TypeVar("T")
+
+
+def _hash_beside(k_sig: tuple[str | int, ...], data: bytes) -> Future[tuple[str, str]]:
+    """(content signature, sha256 hex) of `data` computed in the hashing thread, memoised under
+    k_sig = (path, mtime, size) as `FileResolver._digests` does once done."""
+    fut = _HASHING.get(k_sig)
+    if fut is not None:
+        return fut
+
+    def work() -> tuple[str, str]:
+        sha = hashlib.sha256(data).hexdigest()
+        _FILE_SIGS[k_sig], _FILE_SIGS[("sha256", *k_sig)] = sha[:32], sha
+        return sha[:32], sha
+
+    if not _HASHER:
+        _HASHER.append(ThreadPoolExecutor(1, thread_name_prefix="waamflow-hash"))
+    fut = _HASHER[0].submit(work)
+    _HASHING[k_sig] = fut
+    fut.add_done_callback(lambda _f: _HASHING.pop(k_sig, None))
+    return fut
 
 
 # ---- files --------------------------------------------------------------------------------------
@@ -85,7 +111,9 @@ class FileResolver:
         self.base_dir = Path(base_dir).resolve()
         self.attachments = dict(attachments or {})
         self.roots = [Path(r).resolve() for r in roots] if roots else None
-        self.read_hashes: dict[str, str] = {}  # path → sha256 hex of every file read (traceability)
+        self._read_hashes: dict[str, str] = {}  # path → sha256 hex of every file read (traceability)
+        self._hashing: dict[str, Future[tuple[str, str]]] = {}  # path → its digests being computed beside
+        self.hash_beside = False  # large reads hashed in a thread (`_hash_beside`): the run has no cache
 
     def resolve(self, path: str) -> Path:
         if not isinstance(path, str) or not path:
@@ -122,10 +150,21 @@ class FileResolver:
             data = read_regular(p, limit, label=path)  # one open, checked again on the descriptor
             if len(data) == st.st_size:
                 known = _FILE_SIGS.get(("sha256", str(p), st.st_mtime_ns, st.st_size))
+                if known is None and self.hash_beside and len(data) >= HASH_BESIDE_BYTES and len(data) <= limit:
+                    self._hashing[path] = _hash_beside((str(p), st.st_mtime_ns, st.st_size), data)
+                    return data
         if len(data) > limit:
             raise InputFileError(_over_limit(path, len(data), limit))
-        self.read_hashes[path] = known or hashlib.sha256(data).hexdigest()
+        self._read_hashes[path] = known or hashlib.sha256(data).hexdigest()
         return data
+
+    @property
+    def read_hashes(self) -> dict[str, str]:
+        """path → sha256 hex of every file read (traceability); waits for those hashed beside."""
+        for path, fut in list(self._hashing.items()):
+            self._read_hashes[path] = fut.result()[1]
+            self._hashing.pop(path, None)
+        return self._read_hashes
 
     @staticmethod
     def _digests(p: Path, st: os.stat_result) -> tuple[str, str]:
@@ -134,6 +173,9 @@ class FileResolver:
         Raises InputFileError when it cannot be read."""
         k_sig, k_sha = (str(p), st.st_mtime_ns, st.st_size), ("sha256", str(p), st.st_mtime_ns, st.st_size)
         sig, sha = _FILE_SIGS.get(k_sig), _FILE_SIGS.get(k_sha)
+        beside = _HASHING.get(k_sig)
+        if (sig is None or sha is None) and beside is not None:  # a read's hash under way: no second read
+            sig, sha = beside.result()
         if sig is None or sha is None:
             data = read_regular(p, MAX_INPUT_FILE_BYTES)
             sha = hashlib.sha256(data).hexdigest()
@@ -458,6 +500,7 @@ class _Run:
         self.graph = graph
         self.pool = pool
         self.resolver = resolver
+        resolver.hash_beside = cache is None  # no cache look-up waits for a file's hash (run_plain_node)
         self.cache = cache
         self.on_event = on_event
         self.cancel = cancel
@@ -731,7 +774,9 @@ class _Run:
     def run_plain_node(
         self, gnode: GraphNode, ctx: RunContext, inputs: dict[str, Any], in_sigs: dict[str, Any]
     ) -> bool:
-        key = self.node_key(gnode, in_sigs)
+        # without a cache to look the node up in, it is signed after its run: the large files it
+        # read were hashed beside it meanwhile (FileResolver.hash_beside)
+        key = self.node_key(gnode, in_sigs) if self.cache is not None else ""
         hit: Any = self.cache.get(key) if self.cache is not None else MISSING
         if hit is not MISSING:
             outputs, warnings = dict(hit[0]), hit[1]
@@ -743,6 +788,7 @@ class _Run:
             warnings = ctx.warnings
             report = ctx.take_report()
             cached = False
+        key = key or self.node_key(gnode, in_sigs)
         self.outputs[gnode.id] = outputs
         for port, value in outputs.items():
             psig = signature(key, port)
