@@ -8,9 +8,9 @@ Every task's work travels pickled once, as bytes (`_dumps`), and its result come
 the scheduler (its own process, docker/compose.yml) unpickles a task's arguments to read the graph
 and pickles them again for the worker, and it relays results to the client; bytes it only copies.
 Measured on the 500-layer cross's maps (the sequence node's 8 runs of layers and the preflight's 11
-slab tasks, no-op tasks, `dask scheduler` + 2 `dask worker` processes, 2026-11-26, load 4-5):
-0.52-1.02 s and 0.22-0.38 s of the scheduler's CPU with the objects as arguments, 0.15-0.37 s and
-0.02-0.04 s as bytes; with the real tasks the scheduler's CPU 0.30-0.43 s -> 0.09-0.19 s.
+slab tasks as no-op tasks, `dask scheduler` + 2 `dask worker` processes, 2026-11-26, load 4-5):
+0.52-1.02 s wall and 0.22-0.38 s of the scheduler's CPU with the objects as arguments, 0.15-0.37 s
+wall and 0.02-0.04 s as bytes; with the real tasks the scheduler's CPU 0.30-0.43 s -> 0.09-0.19 s.
 """
 
 from __future__ import annotations
