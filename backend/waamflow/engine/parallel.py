@@ -234,15 +234,6 @@ def _worker_up() -> int:
     return os.getpid()
 
 
-def _import_modules(names: tuple[str, ...]) -> int:
-    """Worker side: import `names` now (`LayerPool.prepare`); the worker's pid."""
-    import importlib
-
-    for name in names:
-        importlib.import_module(name)
-    return os.getpid()
-
-
 def _die_with_parent() -> None:
     """Worker initializer (Linux): SIGKILL when the process that forked it ends. Workers are
     forked by the fork server, which exits when the server does, so no worker outlives the
@@ -370,20 +361,6 @@ class LayerPool:
                 self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_die_with_parent)
                 self.started = True
             return self._pool
-
-    def prepare(self, modules: Sequence[str]) -> None:
-        """The workers import `modules` while they wait for the parent, instead of in the first
-        task that needs them (the preflight's slab tasks: scipy's sparse graphs, ~0.2 s of CPU in
-        each fresh worker, on the run's critical path). One task per worker, behind what is queued;
-        nothing when the workers are not up (starting them for this would cost more)."""
-        if not self.ready or not modules:
-            return
-        try:
-            pool = self._executor()
-            for _ in range(self.workers):
-                pool.submit(_import_modules, tuple(modules))
-        except RuntimeError:  # closed or broken: the tasks import what they need themselves
-            pass
 
     def submit_artifacts(
         self,
