@@ -109,7 +109,7 @@ def run_preflight(
     (prefetch.SectionPrefetch). The report is the same without either."""
     from ..core.model import Layered, LayerPaths
     from ..program.program import Program
-    from .check import VERDICT_ORDER, check_program
+    from .check import check_program
     from .conserve import start_conservation
     from .read import read_program, read_toolpath
 
@@ -178,7 +178,13 @@ def run_preflight(
             reports.append(rep)
     if not reports:
         return None  # nothing leaves this run that could build a part
-    conserved = conservation()
+    return _summary(reports, conservation(), s)
+
+
+def _summary(reports: list[dict], conserved: list[dict], s: PreflightSettings) -> dict:
+    """The run's report from its programs' reports and the conservation check's problems."""
+    from .check import VERDICT_ORDER
+
     verdict = max([r["verdict"] for r in reports] + [p["severity"] for p in conserved], key=VERDICT_ORDER.__getitem__)
     out: dict = {"verdict": verdict, "accepted": False}
     for key in SUMMARY_KEYS:
