@@ -1,4 +1,4 @@
-"""Ring centre line (curved/centerline.py): nearest points from the hole's segment R-tree agree
+"""Ring centre line (curved/centerline.py): nearest points from the hole's prepared facets agree
 with GEOS projection point by point; a concentric ring gives the mid circle and the width."""
 
 import numpy as np
