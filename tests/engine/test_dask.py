@@ -270,3 +270,29 @@ def test_held_artifacts_that_fail_are_written_again_by_the_run(cluster, always_p
     last = list(build_graph(load_recipe(GRAPHS / "mpp-cross.json")).order)[-1]
     assert len(failed) >= 2 and last not in failed  # held ones went through it; the last node's not
     assert dask.artifacts == serial.artifacts
+
+
+def test_held_artifacts_wait_for_a_first_task_at_most_wait_first_s(monkeypatch):
+    """`work_held` polls the map's futures for a first end; tasks that never end (a stalled
+    cluster) hold the artifacts back WAIT_FIRST_S at most, then they are written all the same."""
+    import time
+
+    class Never:
+        def done(self) -> bool:
+            return False
+
+    monkeypatch.setattr(daskpool, "WAIT_FIRST_S", 0.2)
+    pool = daskpool.DaskPool("tcp://127.0.0.1:1")  # never connected: holding needs no cluster
+    graph = build_graph(load_recipe(GRAPHS / "mpp-cross.json"))
+    serial = _run("mpp-cross", workers=1)
+    gnode = graph.nodes["strategy"]
+    held = pool.submit_artifacts(
+        gnode.impl, "strategy", gnode.params, FileResolver(GRAPHS), serial.trace, serial.outputs["strategy"]
+    )
+    assert held.held
+    t0 = time.perf_counter()
+    pool.work_held([Never(), Never()])
+    waited = time.perf_counter() - t0
+    assert 0.19 <= waited < 1.5 and not held.held
+    files, warnings = held.result()
+    assert files["toolpath.json"] == serial.artifacts["strategy.toolpath.json"] and warnings == []

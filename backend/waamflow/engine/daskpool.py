@@ -22,7 +22,10 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence, cast
 
 from . import parallel
 
-WAIT_FIRST_S = 60.0  # `work_held` waits this long at most for a task to end before writing
+# `work_held` waits for the first of a map's tasks to end, polling (sleeping frees the interpreter
+# lock the client's thread needs to send them), this long at most: by then they have gone out.
+WAIT_FIRST_S = 1.0
+WAIT_POLL_S = 0.005
 WORKERS_TTL_S = 1.0  # how long `DaskPool.workers` trusts the count the scheduler last gave
 
 if TYPE_CHECKING:  # executor imports parallel, which imports this module only in make_pool
@@ -194,10 +197,9 @@ class DaskPool:
         and needs the interpreter lock). Only on the thread that held them: the run's own."""
         if not self._held or threading.get_ident() != self._holder or not futures:
             return
-        first = threading.Event()
-        for fut in futures:
-            fut.add_done_callback(lambda _f: first.set())
-        first.wait(WAIT_FIRST_S)
+        end = time.monotonic() + WAIT_FIRST_S
+        while not any(f.done() for f in futures) and time.monotonic() < end:
+            time.sleep(WAIT_POLL_S)  # the interpreter lock free for the client's thread meanwhile
         held, self._held = self._held, []
         for h in held:
             h.result()
