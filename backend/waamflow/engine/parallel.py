@@ -37,9 +37,10 @@ while it waits for them, or by a worker behind them (`submit_artifacts`); the ru
 in node order at its end.
 
 `DaskPool` (daskpool.py) sends the same chunks to a Dask distributed cluster (`--scheduler tcp://HOST:PORT`)
-instead: its workers are already running, so the threshold to go parallel is lower. A node's
-whole inputs are scattered to the cluster once per node, not once per chunk; artifacts are
-written by the run itself (sending whole outputs to the cluster costs more than writing them).
+instead: its workers are already running, so the threshold to go parallel is lower. Each task's
+work travels pickled once, as bytes (the scheduler only copies them), a chain's shared part with
+each task unless it is large (then scattered once); a node's artifacts are held and written by the
+run while the cluster computes the next node's tasks (sending whole outputs costs more).
 The preflight's layer checks and read-backs go to the cluster as they go to local workers
 (`DaskWorkers`, `RunWorkers`): run in the parent, they were most of what a Dask run took more.
 """
