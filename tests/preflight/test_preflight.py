@@ -238,6 +238,18 @@ def test_a_smooth_curve_is_no_weave():
         assert footprint([p], 6.0).area == pytest.approx(swept.area, rel=1e-9)
 
 
+def test_a_weaves_triangles_are_buffered_as_one():
+    """The weave's triangles are united, then buffered once: the same area as buffering each and
+    uniting them, but for the round caps' polygons (a union of buffers is the buffer of the union)."""
+    from shapely.ops import unary_union
+
+    pts = np.array([(3.0 if k % 2 == 0 else -3.0, -30.0 + 3.0 * k) for k in range(21)])
+    tris = [shapely.Polygon(pts[i : i + 3]) for i in range(len(pts) - 2)]
+    each = unary_union([shapely.LineString(pts).buffer(3.0, quad_segs=8)] + [t.buffer(3.0, quad_segs=4) for t in tris])
+    got = footprint([pts], 6.0)
+    assert got.area == pytest.approx(each.area, rel=1e-5) and got.symmetric_difference(each).area < 0.05
+
+
 def test_weave_footprint_survives_resampling():
     # the same weave cut into 0.5 mm pieces (as wire-feed compensation writes it) covers the same strip
     corners = np.array([(3.0 if k % 2 == 0 else -3.0, -30.0 + 3.0 * k) for k in range(21)])
