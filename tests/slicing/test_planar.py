@@ -7,19 +7,23 @@ from waamflow.slicing.rings import loops_to_regions
 from .meshes import as_mesh, tube
 
 
-@pytest.mark.parametrize("sizes", [[5, 3, 1, 7], [1000], [2] * 50000 + [3] * 1000])
-def test_loop_order_walks_every_cycle(sizes):
-    """Both walks (pointer jumping: few long cycles; lock-step: many short ones) give positions
-    that advance by one along each cycle."""
-    rng = np.random.default_rng(0)
-    n = sum(sizes)
-    perm = rng.permutation(n)
-    nxt = np.empty(n, dtype=np.int64)
+def _cycles(sizes: list[int], seed: int) -> np.ndarray:
+    """A random permutation made of cycles of these sizes (element i -> nxt[i])."""
+    perm = np.random.default_rng(seed).permutation(sum(sizes))
+    nxt = np.empty(len(perm), dtype=np.int64)
     o = 0
     for sz in sizes:
         cyc = perm[o : o + sz]
         nxt[cyc] = np.roll(cyc, -1)
         o += sz
+    return nxt
+
+
+@pytest.mark.parametrize("sizes", [[5, 3, 1, 7], [1000], [2] * 50000 + [3] * 1000])
+def test_loop_order_walks_every_cycle(sizes):
+    """Both walks (pointer jumping: few long cycles; lock-step: many short ones) give positions
+    that advance by one along each cycle."""
+    nxt = _cycles(sizes, seed=0)
     label, pos, size = _loop_order(nxt)
     assert sorted(size.tolist()) == sorted(sizes)
     np.testing.assert_array_equal(pos[nxt], (pos + 1) % size[label])
@@ -33,15 +37,7 @@ def test_lock_step_walk_searches_the_active_cycles_once(monkeypatch):
     from waamflow.slicing import planar
 
     sizes = [40] * 3000 + [7] * 500 + [300]
-    rng = np.random.default_rng(1)
-    n = sum(sizes)
-    perm = rng.permutation(n)
-    nxt = np.empty(n, dtype=np.int64)
-    o = 0
-    for sz in sizes:
-        cyc = perm[o : o + sz]
-        nxt[cyc] = np.roll(cyc, -1)
-        o += sz
+    nxt = _cycles(sizes, seed=1)
     calls = []
     real = np.searchsorted
 

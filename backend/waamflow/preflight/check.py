@@ -244,7 +244,7 @@ def coverage_planar(
     (prefetch.SectionPrefetch): the sections of planes the run cut ahead; only those at exactly the
     program's planes, on this part's own mesh arrays, are used."""
     from .outside import RunLine
-    from .slabs import OutsideRuns, cover_layer, cover_part
+    from .slabs import OutsideRuns, cover_layer, cover_part, mid_planes
 
     if part.kind == "solid":
         vertices, faces = part.mesh()
@@ -255,7 +255,7 @@ def coverage_planar(
     prev_top = part.bottom
     sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
-    mids = [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [prev_top] + tops[:-1])]
+    mids = mid_planes(prev_top, tops)
     paths = [[r.points[:, :2] for r in runs if len(r.points) > 1] for _idx, runs in layers]
     if part.kind == "solid":
         walk = None

@@ -25,7 +25,8 @@ from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
-from .slabs import Renumber, SlabTask, _sub_task, cut_sections, plane_faces
+from ..program.common import num
+from .slabs import Renumber, SlabTask, _sub_task, cut_sections, mid_planes, plane_faces
 
 PREDICT_DECIMALS = 3  # the posts' coordinate digits (program/common.num, every dialect's `decimals` default)
 # Cut ahead only a part whose cuts are worth the round trips: the bench vase's 1,008,000 triangles
@@ -48,11 +49,9 @@ class Workers(Protocol):
 
 
 def predicted_planes(bottom: float, tops: Sequence[float], decimals: int = PREDICT_DECIMALS) -> list[float]:
-    """The mid-planes coverage_planar will cut if every layer is deposited at its top as a post
-    writes it: each top rounded to `decimals` as program/common.num formats it, and halfway down to
-    the previous top (to `bottom` for the first), by coverage_planar's own formula."""
-    rounded = [float(f"{float(z):.{decimals}f}") for z in tops]
-    return [z - max(z - b, 1e-6) / 2 for z, b in zip(rounded, [bottom] + rounded[:-1])]
+    """The mid-planes coverage_planar will cut (slabs.mid_planes) if every layer is deposited at its
+    top as a post writes it (program/common.num to `decimals`, read back as a float)."""
+    return mid_planes(bottom, [float(num(z, decimals)) for z in tops])
 
 
 def cut_task(task: SlabTask) -> list[Any]:

@@ -79,6 +79,12 @@ class SlabTask(NamedTuple):
     known: dict[int, Any] | None = None  # plane (in the task) → its section, cut ahead (prefetch.py): not cut again
 
 
+def mid_planes(bottom: float, tops: Sequence[float]) -> list[float]:
+    """The plane each layer's section is cut at: halfway down from its top to the previous top
+    (to `bottom` for the first), never less than 0.5 µm below it."""
+    return [z - max(z - b, 1e-6) / 2 for z, b in zip(tops, [bottom, *tops[:-1]])]
+
+
 def plane_faces(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[float]) -> list[np.ndarray]:
     """For each z the faces whose z range holds it (zmin ≤ z ≤ zmax), in the order of a stable
     sort by zmin."""
