@@ -191,12 +191,26 @@ def _loops_part(
     job's): a worker's share of `MeshSections.loops` (`_upper_job`)."""
     v, f32, twin32, heights, name, limit = job
     f, twin = f32.astype(np.int64), twin32.astype(np.int64)
-    fz, zlo, zhi = _face_z(v, f)
-    return [
-        (coords, sizes, plane + p0, face)
-        for p0, p1 in _plane_batches(zlo, zhi, heights, limit)
-        for coords, sizes, plane, face in [_section_batch(v, f, fz, zlo, zhi, twin, heights[p0:p1], name)]
-    ]
+    return _batched(v, f, *_face_z(v, f), twin, heights, name, limit)
+
+
+def _batched(
+    v: np.ndarray,
+    f: np.ndarray,
+    fz: np.ndarray,
+    zlo: np.ndarray,
+    zhi: np.ndarray,
+    twin: np.ndarray,
+    heights: np.ndarray,
+    name: str,
+    limit: int,
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """`_section_batch` over the `_plane_batches` of `heights`, planes numbered from heights[0]."""
+    out = []
+    for p0, p1 in _plane_batches(zlo, zhi, heights, limit):
+        coords, sizes, plane, face = _section_batch(v, f, fz, zlo, zhi, twin, heights[p0:p1], name)
+        out.append((coords, sizes, plane + p0, face))
+    return out
 
 
 def _plane_segments(zlo: np.ndarray, zhi: np.ndarray, heights: np.ndarray) -> np.ndarray:
@@ -330,11 +344,7 @@ class MeshSections:
                 fut = submit(_loops_part, job)
                 if fut is None:  # no workers up: all here
                     split = len(heights)
-        parts = [
-            (coords, sizes, plane + p0, face)
-            for p0, p1 in _plane_batches(zlo, zhi, heights[:split], batch_segments)
-            for coords, sizes, plane, face in [_section_batch(v, f, fz, zlo, zhi, self.twin, heights[p0:p1], self.name)]
-        ]
+        parts = _batched(v, f, fz, zlo, zhi, self.twin, heights[:split], self.name, batch_segments)
         if split < len(heights):
             try:
                 upper = fut.result() if fut is not None else None
