@@ -604,15 +604,18 @@ def test_wall_path_rings_centre_lines_in_the_workers_give_the_same_program(alway
 
 def test_the_fork_server_preloads_the_nodes_without_trimesh():
     """trimesh (the preflight's slab check only) preloaded by the fork server delayed every
-    worker's start by ~0.45 s; each worker imports it with its first slab task."""
+    worker's start by ~0.45 s; each worker imports it with its first slab task. The preflight's
+    own modules are preloaded: each worker imported them with its first layer task."""
     import subprocess
     import sys
 
     probe = (
-        "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'waamflow.nodes.thinwall' in sys.modules)"
+        "import sys, waamflow.engine.warm; print('trimesh' in sys.modules, 'scipy' in sys.modules, "
+        "'waamflow.nodes.thinwall' in sys.modules, 'waamflow.preflight.slabs' in sys.modules, "
+        "'waamflow.preflight.read.gcode' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120).stdout.split()
-    assert out == ["False", "True"]
+    assert out == ["False", "False", "True", "True", "True"]  # the preflight's layer tasks find theirs loaded
 
 
 def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_parallel, monkeypatch, tmp_path):

@@ -5,6 +5,22 @@ needs (trimesh): preloaded here it delayed every worker's start by ~0.45 s, impo
 worker as it came up it added ~100 MB to every worker (a run's memory cap counts its whole process
 tree: tests/api/test_run_memory.py); a worker imports it with its first slab task."""
 
+import importlib
+
 from .node import load_nodes
 
 load_nodes()
+# The preflight's layer tasks (slabs, read-backs) and the executor they reach: imported by every
+# worker of every run with its first such task otherwise, ~0.07 s of CPU each (the 500-layer cross,
+# 2 workers: 36 modules). None imports trimesh or scipy.
+for _name in (
+    "waamflow.core.graphs",
+    "waamflow.engine.executor",
+    "waamflow.preflight.check",
+    "waamflow.preflight.conserve",
+    "waamflow.preflight.planecut",
+    "waamflow.preflight.prefetch",
+    "waamflow.preflight.read",
+    "waamflow.preflight.slabs",
+):
+    importlib.import_module(_name)
