@@ -69,6 +69,26 @@ class ToyLayerHog(LayerNode):
         return {"layers": items["layers"]}
 
 
+@register
+class ToyGcProbe(Node):
+    """Writes how many objects the garbage collector has frozen where the node runs."""
+
+    type = "toy-gc-probe"
+    category = "test"
+    inputs = (Port("layers", "layers"),)
+    outputs = (Port("layers", "layers"),)
+
+    class Params(NodeParams):
+        path: str = ""
+
+    def run(self, ctx, params, inputs):
+        import gc
+
+        with open(params.path, "w") as f:
+            f.write(f"{os.getpid()} {gc.get_freeze_count()}")
+        return {"layers": inputs["layers"]}
+
+
 def _hog(mb: int, node: str = "toy-hog", count: int = 3, **extra) -> dict:
     return toy.recipe(
         [("stack", "toy-stack", {"count": count}), ("hog", node, {"mb": mb, **extra})], [("stack.layers", "hog.layers")]
@@ -95,6 +115,24 @@ def test_a_run_over_its_memory_limit_fails_and_the_server_goes_on(tmp_path):
         assert os.getpid() == pid and c.get("/api/health").status_code == 200
         again = c.post("/api/runs", json={"recipe": toy.chain(stack={"count": 4})}).json()["id"]
         assert wait(c, again)["summary"]["layer_count"] == 4
+
+
+def test_a_runs_process_freezes_what_it_inherited_from_the_server(tmp_path):
+    """The run's process leaves the server's objects to the server: frozen, its collections never
+    scan them nor write to their pages (copy-on-write memory stays shared, off the run's budget)."""
+    import gc
+
+    probe = tmp_path / "gc.txt"
+    with client(tmp_path, workers=1, run_memory_mb=400, layer_workers=1) as c:
+        rec = toy.recipe(
+            [("stack", "toy-stack", {"count": 2}), ("probe", "toy-gc-probe", {"path": str(probe)})],
+            [("stack.layers", "probe.layers")],
+        )
+        r = wait(c, c.post("/api/runs", json={"recipe": rec}).json()["id"])
+        assert r["status"] == "done", r
+    pid, frozen = map(int, probe.read_text().split())
+    assert pid != os.getpid() and frozen > 10_000  # the server's modules, at least
+    assert gc.get_freeze_count() == 0  # the server's own collections go on as before
 
 
 def test_layer_workers_inherit_the_limit(tmp_path, monkeypatch):

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import gc
 import logging
 import multiprocessing as mp
 from pathlib import Path
@@ -553,6 +554,9 @@ def _run_child(
     """A run's process (a tree's leader, see `_tree_child`): execute, check, write the run folder,
     send the summary and the result (without artifacts: they are in the folder) — or why it failed."""
     lim = manager.limits
+    # what this process inherited from the server is frozen: its collections neither scan those
+    # objects nor write to their pages, which stay shared with the server (not the run's memory)
+    gc.freeze()
     try:
         cache = _child_cache(manager.cache)
         result = execute(
