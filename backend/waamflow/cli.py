@@ -8,7 +8,6 @@ On failure one line on stderr starting `error:` names the node, layer and sectio
 from __future__ import annotations
 
 import argparse
-import gc
 import json
 import os
 import sys
@@ -127,21 +126,14 @@ def cmd_run(args) -> int:
     if args.workers is not None and args.workers < 1:
         raise RecipeError(f"--workers must be at least 1 (got {args.workers})")
     scheduler = args.scheduler or os.environ.get("WAAMFLOW_SCHEDULER") or None
-    # what this process holds now (modules, the recipe) outlives the run: frozen for it, the run's
-    # collections scan only the run's own objects (bracket, 5 interleaved CLI runs: 1.55 -> 1.49 s);
-    # unfrozen after, so a caller in the same process (the tests) keeps collecting it
-    gc.freeze()
-    try:
-        result = execute(
-            graph,
-            resolver=FileResolver(recipe_path.resolve().parent),
-            cache=cache,
-            on_event=bar,
-            workers=args.workers,
-            scheduler=scheduler,
-        )
-    finally:
-        gc.unfreeze()
+    result = execute(
+        graph,
+        resolver=FileResolver(recipe_path.resolve().parent),
+        cache=cache,
+        on_event=bar,
+        workers=args.workers,
+        scheduler=scheduler,
+    )
     summary = result.summary(recipe.name)
     summary["inputs"] = recipe.inputs
     from .preflight import gate

@@ -35,29 +35,6 @@ def test_run_writes_artifacts_and_rerun_reports_cached(tmp_path, capsys):
     assert not [p for p in tmp_path.iterdir() if ".partial-" in p.name]
 
 
-def test_the_run_collects_only_its_own_objects(tmp_path, monkeypatch):
-    """What the process holds before the run (modules, the recipe) is frozen for the run's garbage
-    collections and unfrozen after it, also when the run fails."""
-    import gc
-
-    from waamflow.engine import executor
-
-    seen = []
-    real_execute = executor.execute
-
-    def execute(*a, **k):
-        seen.append(("execute", gc.get_freeze_count() > 1000))
-        return real_execute(*a, **k)
-
-    monkeypatch.setattr(executor, "execute", execute)
-    p = write(tmp_path, toy.chain(stack={"count": 3}))
-    assert main(["run", str(p), "--out", str(tmp_path / "out")]) == 0
-    assert seen == [("execute", True)] and gc.get_freeze_count() == 0
-    bad = write(tmp_path, toy.chain(stack={"count": 3}, area={"scale": -1.0}), "bad.json")
-    assert main(["run", str(bad), "--out", str(tmp_path / "out2")]) == 3  # the area node fails
-    assert len(seen) == 2 and seen[1][1] and gc.get_freeze_count() == 0
-
-
 def test_invalid_recipe_exit_2_one_error_line(tmp_path, capsys):
     data = toy.chain()
     data["edges"][1]["to"] = "area.nope"

@@ -238,3 +238,31 @@ def test_cached_plain_nodes_layers_keep_their_signatures(monkeypatch):
     third, _ = run(toy.chain(stack={"count": 40}, grow={"per_layer": {"17": 2.0}}), cache)
     assert signed == [] and toy.CALLS["toy-grow"] == 1
     assert third.stats["grow"].layers_cached == 39
+
+
+def test_a_run_freezes_what_the_process_held_before_it_and_unfreezes_it_after():
+    """The objects alive before the run are frozen for its garbage collections (they scan the run's
+    objects only) and unfrozen after, whether the run ends well or fails; a caller that froze its
+    own (a run's or preview's process) keeps them frozen."""
+    import gc
+
+    assert gc.get_freeze_count() == 0
+    seen = []
+    graph = build_graph(parse_recipe(toy.chain(stack={"count": 3})))
+    execute(graph, resolver=FileResolver("."), on_event=lambda e: seen.append((e.kind, gc.get_freeze_count())))
+    during = [n for kind, n in seen if kind.startswith("node_")]
+    assert len(during) >= 6 and min(during) > 1000  # the test process's objects, frozen for the nodes
+    assert gc.get_freeze_count() == 0
+    bad = toy.recipe(
+        [("stack", "toy-stack", {"count": 3}), ("f", "toy-fail", {"fail_at": 1})], [("stack.layers", "f.layers")]
+    )
+    with pytest.raises(PlanningError):
+        execute(build_graph(parse_recipe(bad)), resolver=FileResolver("."))
+    assert gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        held = gc.get_freeze_count()
+        execute(graph, resolver=FileResolver("."), cache=MemoryCache())
+        assert gc.get_freeze_count() == held
+    finally:
+        gc.unfreeze()

@@ -18,6 +18,7 @@ imports it from here (CLI, API, as-built, tests).
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import json
 import os
@@ -1158,6 +1159,14 @@ def execute(
         run.prefetch = SectionPrefetch()
     finished = False
     report, report_s = None, None
+    # What the process holds before the run (modules, a server's state, the caller's objects)
+    # outlives it: frozen for the run, its garbage collections scan only the run's objects, and
+    # unfrozen after, so the process collects it again. Not when the caller froze already (a run's
+    # or preview's process: what it inherited stays frozen). The 500-layer cross in process, 3
+    # pairs: 3.52 -> 3.41 s serial, 2.42-2.53 -> 2.34 s on 2 workers.
+    frozen = gc.get_freeze_count() == 0
+    if frozen:
+        gc.freeze()
     try:
         run.run()
         if preflight and targets is None and layers is None and artifacts:
@@ -1176,6 +1185,8 @@ def execute(
             run.prefetch.close()
         info = pool.info()
         pool.close(wait=finished)
+        if frozen:
+            gc.unfreeze()
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
     result = RunResult(
