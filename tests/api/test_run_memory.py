@@ -118,7 +118,7 @@ def test_a_run_over_its_memory_limit_fails_and_the_server_goes_on(tmp_path):
 
 
 def test_a_runs_process_freezes_what_it_inherited_from_the_server(tmp_path):
-    """The run's process (and the preview worker) leaves the server's objects to the server: frozen, its collections never
+    """The run's process (and a preview, for its own time) leaves the server's objects to the server: frozen, its collections never
     scan them nor write to their pages (copy-on-write memory stays shared, off the run's budget)."""
     import gc
 
@@ -133,9 +133,9 @@ def test_a_runs_process_freezes_what_it_inherited_from_the_server(tmp_path):
         pid, frozen = map(int, probe.read_text().split())
         assert pid != os.getpid() and frozen > 10_000  # the server's modules, at least
         rec["nodes"][1]["params"]["path"] = str(probe2 := tmp_path / "gc2.txt")  # not the run's, cached
-        r = c.post("/api/preview", json={"recipe": rec, "node": "probe", "layer": 0})  # the preview worker too
+        r = c.post("/api/preview", json={"recipe": rec, "node": "probe", "layer": 0})
         assert r.status_code == 200, r.text
-        pid, frozen = map(int, probe2.read_text().split())
+        pid, frozen = map(int, probe2.read_text().split())  # the preview worker: its execute froze them
         assert pid != os.getpid() and frozen > 10_000
     assert gc.get_freeze_count() == 0  # the server's own collections go on as before
 
