@@ -243,22 +243,29 @@ def test_cached_plain_nodes_layers_keep_their_signatures(monkeypatch):
 def test_a_run_freezes_what_the_process_held_before_it_and_unfreezes_it_after():
     """The objects alive before the run are frozen for its garbage collections (they scan the run's
     objects only) and unfrozen after, whether the run ends well or fails; a caller that froze its
-    own (a run's or preview's process) keeps them frozen."""
+    own (a server's run process) keeps them frozen. The switch interval is 1 ms during the run."""
     import gc
+    import sys
 
     assert gc.get_freeze_count() == 0
     seen = []
     graph = build_graph(parse_recipe(toy.chain(stack={"count": 3})))
-    execute(graph, resolver=FileResolver("."), on_event=lambda e: seen.append((e.kind, gc.get_freeze_count())))
-    during = [n for kind, n in seen if kind.startswith("node_")]
-    assert len(during) >= 6 and min(during) > 1000  # the test process's objects, frozen for the nodes
-    assert gc.get_freeze_count() == 0
+    switch = sys.getswitchinterval()
+    execute(
+        graph,
+        resolver=FileResolver("."),
+        on_event=lambda e: seen.append((e.kind, gc.get_freeze_count(), sys.getswitchinterval())),
+    )
+    during = [(n, sw) for kind, n, sw in seen if kind.startswith("node_")]
+    assert len(during) >= 6 and min(n for n, _ in during) > 1000  # the test process's objects, frozen
+    assert max(sw for _, sw in during) == pytest.approx(0.001)  # helper threads get the interpreter back sooner
+    assert gc.get_freeze_count() == 0 and sys.getswitchinterval() == switch
     bad = toy.recipe(
         [("stack", "toy-stack", {"count": 3}), ("f", "toy-fail", {"fail_at": 1})], [("stack.layers", "f.layers")]
     )
     with pytest.raises(PlanningError):
         execute(build_graph(parse_recipe(bad)), resolver=FileResolver("."))
-    assert gc.get_freeze_count() == 0
+    assert gc.get_freeze_count() == 0 and sys.getswitchinterval() == switch
     gc.freeze()
     try:
         held = gc.get_freeze_count()
