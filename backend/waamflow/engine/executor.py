@@ -67,15 +67,51 @@ _FILE_SIGS: dict[tuple[str | int, ...], str] = {}  # (path, mtime, size) or ("sh
 # the interpreter: a 50 MB mesh's sha256, ~0.1 s, beside its parsing) when the run has no cache to
 # look the node up in first (`_Run.run_plain_node` then signs the node after its run).
 HASH_BESIDE_BYTES = 4 * 1024**2
+_HASHING: dict[tuple[str | int, ...], Future[tuple[str, str]]] = {}  # (path, mtime, size) → its digests, under way
+_HASHER: list[ThreadPoolExecutor] = []  # one thread, made on first need
+T = TypeVar("T")
+
 # The interpreter's switch interval during a run (Python's default: 5 ms). The run's helper threads
 # (the preflight's prefetch feeding the workers, the hash beside a parse, the pool's feeder and
 # result threads) release the interpreter in every numpy call and each time waited up to the whole
 # interval for the main thread to give it back: the vase's section cuts reached the workers with
-# gaps. 6 interleaved CLI pairs on the vase: 3.94 -> 3.81 s.
+# gaps. 6 interleaved CLI pairs on the vase: 3.83 -> 3.68 s (`_runs_enter`).
 SWITCH_INTERVAL_S = 0.001
-_HASHING: dict[tuple[str | int, ...], Future[tuple[str, str]]] = {}  # (path, mtime, size) → its digests, under way
-_HASHER: list[ThreadPoolExecutor] = []  # one thread, made on first need
-T = TypeVar("T")
+_RUNS = threading.Lock()
+_runs_active = 0
+_runs_restore: tuple[bool, float] = (False, 0.005)  # (the first run froze, the switch interval before it)
+
+
+def _runs_enter() -> None:
+    """The interpreter set up for runs while at least one runs in this process (runs may overlap
+    in threads: the first in sets it up, the last out restores it). What the process holds before
+    (modules, a server's state, the caller's objects) outlives the runs: frozen for them, their
+    garbage collections scan only their own objects, and unfrozen after, so the process collects it
+    again; not when the caller froze already (a server's run process: what it inherited stays
+    frozen). The 500-layer cross in process: 3.52 -> 3.32 s serial, 2.42-2.53 -> 2.24-2.29 s on 2
+    workers. And the switch interval is `SWITCH_INTERVAL_S`."""
+    global _runs_active, _runs_restore
+    with _RUNS:
+        if _runs_active == 0:
+            froze = gc.get_freeze_count() == 0
+            if froze:
+                gc.freeze()
+            switch = sys.getswitchinterval()
+            sys.setswitchinterval(min(switch, SWITCH_INTERVAL_S))
+            _runs_restore = (froze, switch)
+        _runs_active += 1
+
+
+def _runs_exit() -> None:
+    """The end of a run (`_runs_enter`): the last one out restores the interpreter."""
+    global _runs_active
+    with _RUNS:
+        _runs_active -= 1
+        if _runs_active == 0:
+            froze, switch = _runs_restore
+            if froze:
+                gc.unfreeze()
+            sys.setswitchinterval(switch)
 
 
 def _hash_beside(k_sig: tuple[str | int, ...], data: bytes) -> Future[tuple[str, str]]:
@@ -1166,16 +1202,7 @@ def execute(
         run.prefetch = SectionPrefetch()
     finished = False
     report, report_s = None, None
-    # What the process holds before the run (modules, a server's state, the caller's objects)
-    # outlives it: frozen for the run, its garbage collections scan only the run's objects, and
-    # unfrozen after, so the process collects it again. Not when the caller froze already (a
-    # server's run process: what it inherited stays frozen). The 500-layer cross in process:
-    # 3.52 -> 3.32 s serial, 2.42-2.53 -> 2.24-2.29 s on 2 workers.
-    frozen = gc.get_freeze_count() == 0
-    if frozen:
-        gc.freeze()
-    switch = sys.getswitchinterval()
-    sys.setswitchinterval(min(switch, SWITCH_INTERVAL_S))
+    _runs_enter()
     try:
         run.run()
         if preflight and targets is None and layers is None and artifacts:
@@ -1194,9 +1221,7 @@ def execute(
             run.prefetch.close()
         info = pool.info()
         pool.close(wait=finished)
-        if frozen:
-            gc.unfreeze()
-        sys.setswitchinterval(switch)
+        _runs_exit()
     if cache is not None and hasattr(cache, "flush"):
         cache.flush()
     result = RunResult(
