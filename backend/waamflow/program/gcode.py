@@ -317,12 +317,15 @@ class _Body:
         self.travel_f = round(settings.travel_speed * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
         self.feed: float | None = None
         self.rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
-        self.last: np.ndarray | None = None
+        self.last_end = -1  # the point of the last motion (-1: none yet)
         self.arc = False
         self.commanded: dict[str, float] = {}  # weld values in force (written while welding: changes only)
         self.out: list[str] = []
 
     def step(self, s: Step) -> None:
+        if type(s) is Motion:  # most steps are motions: before the other kinds are tried one by one
+            self.motion(s)
+            return
         settings, c, out = self.s, self.c, self.out
         if isinstance(s, LayerStart):
             out.append(c(f"layer {s.layer} z={num(s.z, self.d)}"))
@@ -346,7 +349,7 @@ class _Body:
         elif isinstance(s, ToolOff):
             lines = tool_lines(settings.tool_off, s.tool, {})
             out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
-        elif isinstance(s, Motion):
+        elif isinstance(s, Motion):  # a subclass
             self.motion(s)
 
     def process_change(self, s: ProcessChange) -> None:
@@ -362,7 +365,7 @@ class _Body:
 
     def motion(self, s: Motion) -> None:
         settings, out, d, ext = self.s, self.out, self.d, self.ext
-        self.last = self.pts[s.end]
+        self.last_end = s.end
         xyz = self.words[s.end]
         if ext is not None:
             for k, letter in enumerate(settings.rotary_axes[: ext.shape[1]]):
@@ -402,10 +405,10 @@ def write_gcode(plan: Plan, settings: GcodeSettings = GcodeSettings()) -> str:
         body.step(s)
     out += body.out
     d = settings.decimals
-    if settings.final_lift > 0 and body.last is not None:
+    if settings.final_lift > 0 and body.last_end >= 0:
         f_lift = f" F{short(body.travel_f)}" if settings.travel_feed else ""
         out.append(
-            f"G0 Z{num(body.last[2] + settings.final_lift, d)}{f_lift} "
+            f"G0 Z{num(body.pts[body.last_end][2] + settings.final_lift, d)}{f_lift} "
             f"{c(f'final lift {short(settings.final_lift)} mm')}"
         )
     out.extend(settings.end_code)
