@@ -359,7 +359,7 @@ class _CpuMeter:
         self._resource = resource
         self._psutil = psutil
         self._me = psutil.Process()
-        self._base = {pid: cpu for pid, cpu in self._poll().items()}
+        self._base = self._poll()
         self._seen: dict[int, float] = {}
         self._stop = threading.Event()
         r = resource.getrusage(resource.RUSAGE_SELF)

@@ -134,15 +134,21 @@ def _wait_for(cond, timeout=30.0):
         time.sleep(0.005)
 
 
-def test_the_cuts_trickle_one_worker_at_a_time_until_the_preflight_waits(monkeypatch):
-    """With 2 workers at most one cut is in flight: a node's own tasks queue behind one small cut,
-    and a core stays with the parent. The preflight's take sends the rest at once."""
-    mesh, v, f = _mesh()
+def _trickling(monkeypatch):
+    """(mesh, workers, prefetch): a prefetch started on 2 held workers, its first cut sent."""
+    mesh, v, _f = _mesh()
     monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
     workers = _Held(2)
     p = pf.SectionPrefetch()
     p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers)
     _wait_for(lambda: len(workers.submitted) == 1)
+    return mesh, workers, p
+
+
+def test_the_cuts_trickle_one_worker_at_a_time_until_the_preflight_waits(monkeypatch):
+    """With 2 workers at most one cut is in flight: a node's own tasks queue behind one small cut,
+    and a core stays with the parent. The preflight's take sends the rest at once."""
+    mesh, workers, p = _trickling(monkeypatch)
     for n in (2, 3):
         workers.release()
         _wait_for(lambda: len(workers.submitted) == n)
@@ -163,12 +169,7 @@ def test_the_cuts_trickle_one_worker_at_a_time_until_the_preflight_waits(monkeyp
 def test_a_run_that_ends_early_ends_the_thread(monkeypatch):
     """A failed or cancelled run closes the prefetch (engine.executor.execute): the thread waiting
     for a worker ends at once and sends nothing more (left trickling, it would hold the mesh)."""
-    mesh, v, f = _mesh()
-    monkeypatch.setattr(pf, "MIN_TRIANGLES", 0)
-    workers = _Held(2)
-    p = pf.SectionPrefetch()
-    p.offer({"mesh": mesh, "layers": _layers(v)}, lambda: workers)
-    _wait_for(lambda: len(workers.submitted) == 1)
+    mesh, workers, p = _trickling(monkeypatch)
     p.close()
     p._thread.join(timeout=30)
     assert not p._thread.is_alive() and len(workers.submitted) == 1

@@ -323,7 +323,7 @@ class _Body:
         self.out: list[str] = []
 
     def step(self, s: Step) -> None:
-        if type(s) is Motion:  # most steps are motions: before the other kinds are tried one by one
+        if isinstance(s, Motion):  # most steps are motions: before the other kinds are tried one by one
             self.motion(s)
             return
         settings, c, out = self.s, self.c, self.out
@@ -349,8 +349,6 @@ class _Body:
         elif isinstance(s, ToolOff):
             lines = tool_lines(settings.tool_off, s.tool, {})
             out.extend(lines[:-1] + [f"{lines[-1]} {c(f'{s.tool} off')}"])
-        elif isinstance(s, Motion):  # a subclass
-            self.motion(s)
 
     def process_change(self, s: ProcessChange) -> None:
         settings = self.s
