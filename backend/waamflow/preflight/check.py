@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
 
 import numpy as np
+import shapely
 from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
@@ -133,7 +134,8 @@ def footprint(paths: list[np.ndarray], width: float):
     triangle there would cover a sliver of the bend's inside that no bead reaches). The triangles
     are united first and buffered once (a union of buffers is the buffer of the union; only the
     round caps' polygon approximation differs: ≤ 0.004 mm² a layer, 1.5e-6 of it, on the bench's
-    500-layer oscillated cross, whose footprints took 2.0 s of CPU buffered one by one, 0.83 s so)."""
+    500-layer oscillated cross, whose footprints took 2.0 s of CPU buffered one by one, 0.83 s so, and
+    0.70 s with the triangles made in one call rather than a Polygon each, 39 a layer)."""
     parts, tris = [], []
     for p in paths:
         line = LineString(p)
@@ -144,10 +146,10 @@ def footprint(paths: list[np.ndarray], width: float):
         if len(p) >= 3:
             chord = np.linalg.norm(p[2:] - p[:-2], axis=1)
             back = np.einsum("ij,ij->i", p[:-2] - p[1:-1], p[2:] - p[1:-1]) > 0  # an acute turn
-            for i in np.nonzero((chord <= width * (1 + 1e-9)) & back)[0]:
-                tri = Polygon(p[i : i + 3])
-                if tri.area > 1e-9:
-                    tris.append(tri)
+            i = np.nonzero((chord <= width * (1 + 1e-9)) & back)[0]
+            if len(i):  # the triangles (p[i], p[i+1], p[i+2]) made at once, not a Polygon each
+                tri = shapely.polygons(np.stack([p[i], p[i + 1], p[i + 2]], axis=1))
+                tris.extend(tri[shapely.area(tri) > 1e-9])
     if tris:
         parts.append(unary_union(tris).buffer(width / 2.0, quad_segs=4))
     return unary_union(parts) if parts else Polygon()
