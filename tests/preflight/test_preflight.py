@@ -305,3 +305,39 @@ def test_a_mesh_part_without_its_mesh_is_named():
     assert (part.bottom, part.top) == pytest.approx((-2.0, 2.0))
     with pytest.raises(ValueError, match=r"part stl \(solid\) has no mesh"):
         Part("solid", "stl").top
+
+
+def test_a_treatment_after_the_last_deposit_is_not_the_toolpath_checked(tmp_path, monkeypatch):
+    """bead-trials without its posts: the last toolpath is the rolling pass (arc off throughout,
+    a speed per point, the last null). The preflight read it and failed itself (TypeError on the
+    null speed); it checks the last toolpath that deposits, the sequence's, as it skips a rolling
+    program, and reads a null speed as not stated."""
+    import json as _json
+    import shutil
+    from pathlib import Path
+
+    from waamflow.cli import main
+    from waamflow.preflight.read import read_toolpath
+
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(tmp_path / "cache"))
+    recipe = _json.loads((Path(__file__).resolve().parents[2] / "graphs" / "bead-trials.json").read_text())
+    drop = {"simulate", "post", "rolling_post", "compensate", "interpass"}
+    recipe["nodes"] = [n for n in recipe["nodes"] if n["id"] not in drop]
+    recipe["edges"] = [e for e in recipe["edges"] if not {e["from"].split(".")[0], e["to"].split(".")[0]} & drop]
+    for sub in ("parts", "trials"):  # the recipe's files, beside it
+        shutil.copytree(Path(__file__).resolve().parents[2] / "graphs" / sub, tmp_path / sub)
+    path = tmp_path / "no-post.json"
+    path.write_text(_json.dumps(recipe))
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--accept-preflight"]) == 0
+    pf = _json.loads((out / "preflight.json").read_text())
+    (rep,) = pf["programs"]
+    assert rep["files"] == ["sequence.toolpath.json"] and rep["node"] == "sequence"
+    assert not [p for p in rep["problems"] if p["check"] in ("preflight", "program")]
+    assert rep["runs"] == 24 and rep["layers_deposited"] == 8
+    doc = _json.loads((out / "rolling.toolpath.json").read_text())
+    secs = [sec for layer in doc["layers"] for sec in layer["sections"]]
+    assert len(secs) == 88 and all(sec["speed"][-1] is None and not any(sec["arc"]) for sec in secs)
+    rolling = read_toolpath(doc)  # every segment travel (each section read from its first point)
+    travel = sum(float(np.linalg.norm(np.diff(np.asarray(sec["points"]), axis=0), axis=1).sum()) for sec in secs)
+    assert rolling.runs == [] and rolling.travel_mm == pytest.approx(travel, rel=1e-12) and travel > 2000

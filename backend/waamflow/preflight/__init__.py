@@ -144,12 +144,13 @@ def run_preflight(
             )
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
-    if not reports:  # no program: the last toolpath a node hands out
+    if not reports:  # no program: the last toolpath a node hands out that deposits
         last = None
         for nid in graph.order:
             for value in outputs.get(nid, {}).values():
                 if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
-                    last = nid
+                    if last is None or not _treatment_pass(value):  # a rolling pass after it deposits nothing
+                        last = nid
         doc_name = f"{last}.toolpath.json" if last else None
         if last and doc_name and doc_name in artifacts:
             prog = read_toolpath(json.loads(artifacts[doc_name]))
@@ -179,6 +180,14 @@ def run_preflight(
     if not reports:
         return None  # nothing leaves this run that could build a part
     return _summary(reports, conservation(), s)
+
+
+def _treatment_pass(value) -> bool:
+    """Whether every section of a toolpath is a post-deposition tool's (rolling, peening: `SectionPath.tool`):
+    such a pass is skipped as the toolpath to check, as a rolling program is; a toolpath any of whose
+    sections is the torch's is checked, even with its arc off throughout (that fails: nothing deposited)."""
+    paths = [sp for lp in value.items for sp in lp.sections]
+    return bool(paths) and all(sp.tool for sp in paths)
 
 
 def _summary(reports: list[dict], conserved: list[dict], s: PreflightSettings) -> dict:

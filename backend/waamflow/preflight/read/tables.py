@@ -98,7 +98,7 @@ def read_toolpath(doc: dict) -> ProgramRead:
                     b.close()
                 params = zp.get(zones[i], {}) if i < len(zones) else {}
                 w = params.get("wire_feed_speed")
-                speed = float(speeds[i]) if i < len(speeds) else math.nan
+                speed = float(v) if i < len(speeds) and (v := speeds[i]) is not None else math.nan  # null: not stated
                 wfs = float(w) if w is not None else math.nan
                 # a point of a run under way without move's arrays (27,000 on the 500-layer cross:
                 # 0.13 of the read-back's 0.16 s, on a parallel run's critical path)
