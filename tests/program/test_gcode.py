@@ -159,3 +159,23 @@ def test_parsed_program_json(moves):
     assert sum(len(r["points"]) - 1 for r in d["runs"]) == int(moves.arc.sum())
     assert d["deposition_length_mm"] == pytest.approx(sum(r["length_mm"] for r in d["runs"]), abs=1e-3)
     assert [x["seconds"] for x in d["dwells"] if not x["arc_on"]] == [20.0, 20.0]
+
+
+@pytest.mark.parametrize("code", ["bogus", "M 3", "M3 on", "3", "M3 S", "M3\tX", "M3 P1e"])
+def test_an_arc_code_that_is_not_gcode_words_is_refused_where_it_is_set(code):
+    """`arc_on` / `arc_off` are written as a line of the program and read back by the preflight word
+    by word: a line that is not G-code words (a letter and a number each, e.g. `M3`, `M101 P1`) was
+    written as it stood, and the preflight then failed itself (`bogus`: ValueError on 'OGUS')
+    instead of the recipe being refused where the code is set."""
+    for name in ("arc_on", "arc_off"):
+        with pytest.raises(ValueError, match=rf"{name} {re.escape(repr(code))}: .*a letter and a number"):
+            GcodeSettings(**{name: code})
+
+
+@pytest.mark.parametrize("on,off", [("M101 P1", "M103"), ("m3", "m5"), ("M62 P0.5", "M63 P-1"), (" M7 ", "M9")])
+def test_arc_codes_of_gcode_words_are_taken_and_read_back(moves, on, off):
+    from waamflow.preflight.read import read_gcode
+
+    text = post_process(moves, "gcode", writer_settings=GcodeSettings(arc_on=on, arc_off=off)).files["gcode"]
+    prog = read_gcode(text)
+    assert len(prog.runs) == len(arc_runs(moves)) > 0

@@ -153,6 +153,11 @@ class GcodeSettings:
             code = getattr(self, name)
             if not code.strip() or any(c in code for c in ";()\n"):
                 raise ValueError(f"{name} must be a non-empty code without comments or newlines")
+            if not all(_CODE_WORD.fullmatch(w) for w in code.split(" ") if w):  # as the preflight reads it back
+                raise ValueError(
+                    f"{name} {code!r}: G-code words separated by spaces, each a letter and a number "
+                    "(e.g. M3, or M101 P1)"
+                )
         if self.arc_on.strip().upper() == self.arc_off.strip().upper():
             raise ValueError("arc_on and arc_off must differ")
         check_templates(self.process_codes)
@@ -230,6 +235,7 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
 
 
 _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+_CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
 def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
