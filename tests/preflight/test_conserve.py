@@ -130,3 +130,14 @@ def test_the_two_read_backs_of_a_node_are_two_tasks_with_the_same_problems():
     assert got == check_conservation(graph, artifacts, "fail")
     assert len(got) == 1 and got[0]["layer"] == 1 and got[0]["section"] == "W"
     assert got[0]["value"] == pytest.approx(-20.0, abs=1e-6)  # 50 mm welded where 70 were planned
+    # the document the preflight reads back itself is summed from that read: not sent, not parsed again
+    from waamflow.preflight.conserve import arc_on_by_section
+    from waamflow.preflight.read import read_toolpath
+
+    pool = Pool()
+    finish = start_conservation(graph, artifacts, "fail", pool, frozenset(["seq.toolpath.json"]))
+    assert [item for _, item in pool.tasks] == [artifacts["zone.toolpath.json"]]
+    own = arc_on_by_section(read_toolpath(json.loads(artifacts["seq.toolpath.json"])))
+    assert finish({"seq.toolpath.json": own}) == got
+    # not handed its sums after all (the preflight read something else): read here, the same problems
+    assert start_conservation(graph, artifacts, "fail", Pool(), frozenset(["seq.toolpath.json"]))() == got

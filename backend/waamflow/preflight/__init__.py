@@ -107,17 +107,22 @@ def run_preflight(
     a program nor a toolpath. `pool`: the run's workers (`slabs.Workers`), which check the layers
     of a large part in parallel when that pays; `prefetch`: the part's sections the run cut ahead
     (prefetch.SectionPrefetch). The report is the same without either."""
-    from ..core.model import Layered, LayerPaths
     from ..program.program import Program
     from .check import check_program
-    from .conserve import start_conservation
+    from .conserve import arc_on_by_section, start_conservation
     from .read import read_program, read_toolpath
 
     s = settings or PreflightSettings()
     if not s.enabled:
         return None
-    # the read-backs of the conservation check start first: in the workers, they overlap the rest
-    conservation = start_conservation(graph, artifacts, s.deposit_changed, pool)
+    # the read-backs of the conservation check start first: in the workers, they overlap the rest;
+    # the toolpath this preflight reads itself (a run with no program) is summed from its read
+    last = _last_toolpath(graph, outputs)
+    doc_name = f"{last}.toolpath.json" if last else None
+    no_program = not any(isinstance(v, Program) for nid in graph.order for v in outputs.get(nid, {}).values())
+    own = frozenset([doc_name]) if doc_name and no_program else frozenset()
+    conservation = start_conservation(graph, artifacts, s.deposit_changed, pool, own)
+    sums_here: dict[str, dict] = {}
     reports = []
     for nid in graph.order:
         for value in outputs.get(nid, {}).values():
@@ -145,15 +150,10 @@ def run_preflight(
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)
     if not reports:  # no program: the last toolpath a node hands out that deposits
-        last = None
-        for nid in graph.order:
-            for value in outputs.get(nid, {}).values():
-                if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
-                    if last is None or not _treatment_pass(value):  # a rolling pass after it deposits nothing
-                        last = nid
-        doc_name = f"{last}.toolpath.json" if last else None
         if last and doc_name and doc_name in artifacts:
             prog = read_toolpath(json.loads(artifacts[doc_name]))
+            if doc_name in own:
+                sums_here[doc_name] = arc_on_by_section(prog)
             width, source = _bead_width(graph, last, s)
             rep = check_program(
                 _part_of(graph, outputs, last),
@@ -179,7 +179,20 @@ def run_preflight(
             reports.append(rep)
     if not reports:
         return None  # nothing leaves this run that could build a part
-    return _summary(reports, conservation(), s)
+    return _summary(reports, conservation(sums_here), s)
+
+
+def _last_toolpath(graph, outputs: dict[str, dict[str, Any]]) -> str | None:
+    """The node of the last toolpath the run hands out that deposits (a rolling pass after it does not)."""
+    from ..core.model import Layered, LayerPaths
+
+    last = None
+    for nid in graph.order:
+        for value in outputs.get(nid, {}).values():
+            if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
+                if last is None or not _treatment_pass(value):
+                    last = nid
+    return last
 
 
 def _treatment_pass(value) -> bool:

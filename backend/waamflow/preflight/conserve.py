@@ -75,8 +75,8 @@ def arc_on_of_doc(doc: bytes) -> dict[tuple[int | None, str | None], tuple[float
     return arc_on_by_section(read_toolpath(json.loads(doc)))
 
 
-def _pairs(graph, artifacts: dict[str, bytes]) -> list[tuple[str, str, tuple[bytes, bytes]]]:
-    """(node, its source node, (source's, node's toolpath.json)) of every node checked."""
+def _pairs(graph, artifacts: dict[str, bytes]) -> list[tuple[str, str, tuple[str, str], tuple[bytes, bytes]]]:
+    """(node, its source node, the names and the bytes of (source's, node's toolpath.json)) of every node checked."""
     out = []
     for nid in graph.order:
         node = graph.nodes[nid]
@@ -86,27 +86,33 @@ def _pairs(graph, artifacts: dict[str, bytes]) -> list[tuple[str, str, tuple[byt
         src = node.inputs[port][0]
         names = (f"{src}.toolpath.json", f"{nid}.toolpath.json")
         if all(n in artifacts for n in names):
-            out.append((nid, src, (artifacts[names[0]], artifacts[names[1]])))
+            out.append((nid, src, names, (artifacts[names[0]], artifacts[names[1]])))
     return out
 
 
 def start_conservation(
-    graph, artifacts: dict[str, bytes], severity: str = "fail", pool: Submits | None = None
-) -> Callable[[], list[dict]]:
+    graph,
+    artifacts: dict[str, bytes],
+    severity: str = "fail",
+    pool: Submits | None = None,
+    read_here: frozenset[str] = frozenset(),
+) -> Callable[..., list[dict]]:
     """`check_conservation` begun: with the run's workers, its read-backs start in them at once and
     overlap the program checks (two toolpath.json parsed per sequence node: ~0.8 s of the
     500-layer cross's preflight), one task per document (`arc_on_of_doc`): the two halves of a
     node's read-back run side by side instead of one worker taking both while the other waits for
     the slab tasks (the 500-layer cross: 0.42 s of CPU in one task). Call the result for the
-    problems. The same problems either way."""
+    problems, with `{artifact name: arc_on_by_section}` of the documents in `read_here`: those the
+    preflight reads back itself (a recipe without a program checks the sequence's toolpath.json),
+    summed from its read, not parsed a second time. The same problems either way."""
     if severity == "off":
-        return list
+        return lambda sums_here=None: []
     pairs = _pairs(graph, artifacts)
     futures: list[Any] = []
-    for _nid, _src, docs in pairs:
-        for doc in docs:
+    for _nid, _src, names, docs in pairs:
+        for name, doc in zip(names, docs):
             try:
-                futures.append(pool.submit(arc_on_of_doc, doc) if pool is not None else None)
+                futures.append(pool.submit(arc_on_of_doc, doc) if pool is not None and name not in read_here else None)
             except Exception:  # the workers are gone: read it here
                 futures.append(None)
 
@@ -118,10 +124,11 @@ def start_conservation(
                 pass
         return arc_on_of_doc(doc)
 
-    def finish() -> list[dict]:
+    def finish(sums_here: dict[str, dict] | None = None) -> list[dict]:
         problems: list[dict] = []
-        for k, (nid, src, docs) in enumerate(pairs):
-            before, after = (sums(futures[2 * k + j], docs[j]) for j in (0, 1))
+        got = sums_here or {}
+        for k, (nid, src, names, docs) in enumerate(pairs):
+            before, after = (got[names[j]] if names[j] in got else sums(futures[2 * k + j], docs[j]) for j in (0, 1))
             problems += _problems(nid, src, changes_between(before, after), severity)
         return problems
 
