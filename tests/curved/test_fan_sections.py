@@ -259,3 +259,32 @@ def test_a_plane_through_a_ring_of_float32_vertices_cuts_the_whole_ring(tmp_path
     on_ring, between = section(axis, math.radians(45.0)), section(axis, math.radians(45.6))
     assert on_ring.area == pytest.approx(between.area, rel=1e-3)
     assert on_ring.bounds[2] == pytest.approx(96.5, abs=1e-3) and topology(on_ring) == (1,)
+
+
+@pytest.mark.parametrize(
+    "axis",
+    [{"axis_point": [0, 0, 0], "axis_direction": [0, -1, 0]}, {"axis_point": [-80, 0, 0], "axis_direction": [0, 0, 1]}],
+)
+def test_an_axis_through_the_part_is_a_planning_error_that_says_so(tmp_path, axis):
+    """An axis that touches the part (a vertex on it: radius 0) left the layer thickness at that
+    point 0 and failed as `ZeroDivisionError: float division by zero` (curved-duct with axis_point
+    [0, 0, 0], or a vertical axis_direction: found by an API fuzz). It is a planning error that
+    names the axis, the nearest radius and what to change."""
+    run = tube_recipe(tmp_path, 80, {"dtheta_deg": 1.5, "radius_offset": 0.0, **axis}, wall_path=False)
+    with pytest.raises(PlanningError, match=r"axis .*through the part.* 0\.000 mm .*axis_point") as err:
+        run()
+    assert err.value.node == "fan"
+
+
+def test_an_axis_the_part_surrounds_is_a_planning_error_with_the_offset_search_too(tmp_path):
+    """The offset search (radius_offset empty) refused an axis the part surrounds with the kernel's
+    ValueError, reported as `ValueError: the part surrounds ...`: a planning error, as without the search."""
+    run = tube_recipe(
+        tmp_path,
+        80,
+        {"dtheta_deg": 1.5, "radius_offset": None, "axis_point": [0, 0, 0], "axis_direction": [0, 0, 1]},
+        False,
+    )
+    with pytest.raises(PlanningError, match=r"the part surrounds the slicing axis") as err:
+        run()
+    assert err.value.node == "fan" and "ValueError" not in str(err.value)

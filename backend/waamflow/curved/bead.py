@@ -98,5 +98,6 @@ def csratio(r_min: float, r_max: float) -> float:
 
 def dtheta_window(r_min: float, r_max: float, h_min: float, h_max: float) -> tuple[float, float]:
     """Admissible fan increments (rad): Δθ ≥ H_min/r_min (thinnest point not below H_min) and
-    Δθ ≤ H_max/r_max (thickest point not above H_max). Empty (lo > hi) when infeasible."""
-    return h_min / r_min, h_max / r_max
+    Δθ ≤ H_max/r_max (thickest point not above H_max). Empty (lo > hi) when infeasible, as when a
+    point lies on the axis (r_min 0: no Δθ makes it H_min thick)."""
+    return h_min / r_min if r_min > 0 else math.inf, h_max / r_max if r_max > 0 else math.inf

@@ -14,6 +14,7 @@ from pydantic import Field, model_validator
 from ..core import serialize
 from ..core.errors import PlanningError, RecipeError
 from ..core.model import Layered, MeshData
+from ..core.tolerances import TOL
 from ..curved.bead import BeadModel, csratio, dtheta_window, min_csratio
 from ..curved.fan import fan_slice, height_range, make_axis, plan_fan
 from ..curved.feasibility import plan_report, search_radius
@@ -172,16 +173,19 @@ class FanSliceNode(Node):
         offset = params.radius_offset
         dtheta = params.dtheta_deg
         if offset is None:
-            search = search_radius(
-                mesh,
-                params.axis_point,
-                params.axis_direction,
-                params.h_min,
-                params.h_max,
-                max_overhang_mm=params.max_overhang,
-                step=params.search_step,
-                max_offset=params.search_max,
-            )
+            try:
+                search = search_radius(
+                    mesh,
+                    params.axis_point,
+                    params.axis_direction,
+                    params.h_min,
+                    params.h_max,
+                    max_overhang_mm=params.max_overhang,
+                    step=params.search_step,
+                    max_offset=params.search_max,
+                )
+            except ValueError as exc:  # the part surrounds the axis, ...: the kernel says what
+                raise PlanningError(str(exc)) from exc
             best = search.best
             if best is None:
                 searched = True
@@ -199,6 +203,15 @@ class FanSliceNode(Node):
             axis = make_axis(params.axis_point, params.axis_direction, mesh.vertices, offset, mesh.faces)
             r, _th, _ax = axis.polar(mesh.vertices)
             r_min, r_max = float(r.min()), float(r.max())
+            if r_min <= TOL.merge:  # a point on the axis: a layer would be 0 mm thick there, whatever Δθ
+                near = mesh.vertices[int(np.argmin(r))]
+                raise PlanningError(
+                    f"the fan's axis runs through the part: its point ({near[0]:.3f}, {near[1]:.3f}, {near[2]:.3f}) "
+                    f"is {r_min:.3f} mm from the axis, where every layer would be 0 mm thick; a fan turns about an "
+                    "axis beside the part (the bend's centre line): move axis_point or change axis_direction, or "
+                    "raise radius_offset",
+                    field="axis_point",
+                )
             lo, hi = dtheta_window(r_min, r_max, params.h_min, params.h_max)
             if dtheta is None:
                 if lo > hi:
