@@ -100,3 +100,19 @@ def test_without_a_cache_a_large_file_is_hashed_beside_its_parsing(monkeypatch):
     cached = execute(graph, resolver=FileResolver(path.parent), cache=MemoryCache(), workers=1, preflight=False)
     assert cached.signatures == res.signatures and len(res.signatures) >= 8
     assert cached.artifacts == res.artifacts
+
+
+def test_a_path_the_system_cannot_open_is_an_input_file_error(tmp_path):
+    """A file param of 5,000 characters (an API fuzz) failed the run as `OSError: [Errno 36] File
+    name too long: '<the server's folder>/aaa…'`: a planning failure with the server's path in it.
+    It is the input error a missing file is (exit 2, 4xx), with the reason, the path cut short."""
+    import pytest
+
+    from waamflow.engine.recipe import InputFileError
+
+    r = FileResolver(tmp_path)
+    for path in ("a" * 5000, "a" * 300 + "/part.stl"):
+        assert r.exists(path) is False and r.signature(path) == "missing"
+        with pytest.raises(InputFileError, match=r"cannot be opened: File name too long") as err:
+            r.read_bytes(path)
+        assert str(tmp_path) not in str(err.value) and len(str(err.value)) < 300

@@ -173,7 +173,7 @@ class FileResolver:
             return True
         try:
             return self.resolve(path).is_file()
-        except InputFileError:
+        except (InputFileError, OSError):  # OSError: a name the system cannot take (too long, ...)
             return False
 
     def read_bytes(self, path: str, max_bytes: int | None = None) -> bytes:
@@ -183,7 +183,12 @@ class FileResolver:
             data = self.attachments[path]
         else:
             p = self.resolve(path)
-            if not p.exists():
+            try:
+                found = p.exists()
+            except OSError as exc:  # a name the system cannot take: the reason, not the server's folder
+                short = path if len(path) <= 60 else path[:40] + "…" + path[-12:]
+                raise InputFileError(f"file {short!r} cannot be opened: {exc.strerror or exc}") from None
+            if not found:
                 raise InputFileError(f"file not found: {path} (looked in {p.parent})")
             why = not_regular(p)  # a FIFO would block the read, a device never end it
             if why:
