@@ -44,6 +44,21 @@ def test_other_materials_and_invalid_models():
         BeadModel(1e-5, -0.016, 8.0, 400, 1200)  # vertex at 800 mm/min
     with pytest.raises(ValueError):
         BeadModel(ts_min=1200, ts_max=400)
+    # a0 = 1 with the study's a1, a2: heights -1.08..-0.08 mm over 400..1200 mm/min. It was taken,
+    # and a bead node with it failed later as `ValueError: need 0 < H_min < H_max` (API fuzz)
+    with pytest.raises(ValueError, match=r"H\(Ts\) reaches -1\.077 mm at Ts = 1200 mm/min: .*a0"):
+        BeadModel(1.2245e-06, -0.0032, 1.0, 400, 1200)
+    assert BeadModel(1.2245e-06, -0.0032, 4.3126, 400, 1200).h_range[0] == pytest.approx(2.23588)
+
+
+def test_a_bead_node_with_a_model_of_no_height_is_refused_where_it_is_set():
+    from waamflow.core.errors import RecipeError
+    from waamflow.engine.graph import _validate_params
+    from waamflow.nodes.curved import BeadModelNode
+
+    with pytest.raises(RecipeError, match=r"H\(Ts\) reaches -1\.077 mm") as err:
+        _validate_params("bead", BeadModelNode, {"a0": 1.0})
+    assert err.value.node == "bead"
 
 
 def test_min_csratio_bound():

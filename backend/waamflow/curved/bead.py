@@ -51,6 +51,12 @@ class BeadModel:
                 )
         if self.height(self.ts_min) == self.height(self.ts_max):
             raise ValueError("H(Ts) is constant: travel speed cannot set the height")
+        low = min((self.ts_min, self.ts_max), key=lambda ts: float(self.height(ts)))  # monotonic: an end
+        if float(self.height(low)) <= 0:
+            raise ValueError(
+                f"H(Ts) reaches {float(self.height(low)):.3f} mm at Ts = {low:g} mm/min: a bead has a height "
+                "above 0 over the whole speed range; check a0 (mm), a1 and a2, or ts_min / ts_max"
+            )
 
     def height(self, ts):
         """Bead height (mm) at travel speed ts (mm/min); array or scalar."""
