@@ -167,13 +167,17 @@ class PostProcess(Node):
         )
         # G-code
         arc_on: str = Field(
-            "M3", min_length=1, max_length=64, description="G-code: line that switches the arc on", title="Arc on code"
+            "M3",
+            min_length=1,
+            max_length=64,
+            description="G-code: line that switches the arc on (words of a letter and a number: M3, M101 P1)",
+            title="Arc on code",
         )
         arc_off: str = Field(
             "M5",
             min_length=1,
             max_length=64,
-            description="G-code: line that switches the arc off",
+            description="G-code: line that switches the arc off (words of a letter and a number: M5, M103)",
             title="Arc off code",
         )
         dwell_units: Literal["s", "ms"] = Field(
