@@ -172,7 +172,21 @@ def test_an_arc_code_that_is_not_gcode_words_is_refused_where_it_is_set(code):
             GcodeSettings(**{name: code})
 
 
-@pytest.mark.parametrize("on,off", [("M101 P1", "M103"), ("m3", "m5"), ("M62 P0.5", "M63 P-1"), (" M7 ", "M9")])
+@pytest.mark.parametrize("code", ["G1 X5", "M3 X1", "M3 G4", "S100", "M62 F600", "P1 M3"])
+def test_an_arc_code_that_moves_or_is_no_m_code_is_refused(code):
+    """An arc code is an M code and its parameters: a line `G1 X5` passed the word check, was written
+    as the arc switch and would move the torch on the controller, while the preflight reads it as the
+    arc switch only. G, axis (X Y Z A B C U V W), arc-centre (I J K) and feed (F) words are refused,
+    and the line starts with its M word."""
+    for name in ("arc_on", "arc_off"):
+        with pytest.raises(ValueError, match=rf"{name} {re.escape(repr(code))}: .*an M code"):
+            GcodeSettings(**{name: code})
+
+
+@pytest.mark.parametrize(
+    "on,off",
+    [("M101 P1", "M103"), ("m3", "m5"), ("M62 P0.5", "M63 P-1"), (" M7 ", "M9"), ("M42 P4 S255", "M107")],
+)
 def test_arc_codes_of_gcode_words_are_taken_and_read_back(moves, on, off):
     from waamflow.preflight.read import read_gcode
 

@@ -170,14 +170,14 @@ class PostProcess(Node):
             "M3",
             min_length=1,
             max_length=64,
-            description="G-code: line that switches the arc on (words of a letter and a number: M3, M101 P1)",
+            description="G-code: line that switches the arc on: an M code and its parameters (M3, M101 P1)",
             title="Arc on code",
         )
         arc_off: str = Field(
             "M5",
             min_length=1,
             max_length=64,
-            description="G-code: line that switches the arc off (words of a letter and a number: M5, M103)",
+            description="G-code: line that switches the arc off: an M code and its parameters (M5, M103)",
             title="Arc off code",
         )
         dwell_units: Literal["s", "ms"] = Field(

@@ -153,10 +153,17 @@ class GcodeSettings:
             code = getattr(self, name)
             if not code.strip() or any(c in code for c in ";()\n"):
                 raise ValueError(f"{name} must be a non-empty code without comments or newlines")
-            if not all(_CODE_WORD.fullmatch(w) for w in code.split(" ") if w):  # as the preflight reads it back
+            words = [w for w in code.split(" ") if w]
+            if not all(_CODE_WORD.fullmatch(w) for w in words):  # as the preflight reads it back
                 raise ValueError(
                     f"{name} {code!r}: G-code words separated by spaces, each a letter and a number "
                     "(e.g. M3, or M101 P1)"
+                )
+            if words[0][0].upper() != "M" or any(w[0].upper() in _MOTION_LETTERS for w in words):
+                raise ValueError(
+                    f"{name} {code!r}: the arc is switched by an M code and its parameters (M3, M101 P1, "
+                    "M42 P4 S255), written first; no G, axis (X Y Z A B C U V W), arc-centre (I J K) or feed "
+                    "(F) word, which would move the torch or change a mode on the controller"
                 )
         if self.arc_on.strip().upper() == self.arc_off.strip().upper():
             raise ValueError("arc_on and arc_off must differ")
@@ -235,6 +242,7 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
 
 
 _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
+_MOTION_LETTERS = frozenset("GXYZABCUVWIJKF")  # words no arc code may carry (see GcodeSettings)
 _CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
