@@ -193,3 +193,17 @@ def test_arc_codes_of_gcode_words_are_taken_and_read_back(moves, on, off):
     text = post_process(moves, "gcode", writer_settings=GcodeSettings(arc_on=on, arc_off=off)).files["gcode"]
     prog = read_gcode(text)
     assert len(prog.runs) == len(arc_runs(moves)) > 0
+
+
+@pytest.mark.parametrize("tpl", ["G1 X{value}", "M67 E0 Q{value} Z1", "G0 A{value}", "G01 F{value}", "M68 I{value}"])
+def test_a_weld_command_that_would_move_the_torch_is_refused(tpl):
+    """A process template is written before the motions it sets the weld values for: a motion word
+    (G0..G3) or an axis or arc-centre word in it would move the torch on the controller while the
+    preflight reads the line as the weld value only. Refused; a dwell (G4 P), a feed (F), an S word are not."""
+    for field in ("process_codes", "process_codes_start"):
+        with pytest.raises(ValueError, match=r"would move the torch"):
+            GcodeSettings(**{field: {"current": tpl}})
+    settings = GcodeSettings(
+        process_codes={"dwell": "G4 P{value}", "travel_speed": "F{value:.0f}", "current": "S{value}"}
+    )
+    assert settings.process_codes["dwell"] == "G4 P{value}"

@@ -176,6 +176,12 @@ class GcodeSettings:
         for tpl in [*self.process_codes.values(), *(self.process_codes_start or {}).values()]:
             if any(c in tpl for c in ";()"):
                 raise ValueError(f"process template {tpl!r}: no comments (; or parentheses) in a G-code command")
+            words = [(m.group(1), float(m.group(2))) for m in _ANY_WORD.finditer(tpl.format(value=1.0).upper())]
+            if any(a in _AXIS_LETTERS or (a == "G" and v in (0, 1, 2, 3)) for a, v in words):
+                raise ValueError(
+                    f"process template {tpl!r}: a weld command with a motion (G0..G3) or an axis or arc-centre "
+                    "word would move the torch on the controller (the preflight reads it as the weld value only)"
+                )
 
     @property
     def start_codes(self) -> dict[str, str]:
@@ -243,6 +249,8 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
 
 _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
 _MOTION_LETTERS = frozenset("GXYZABCUVWIJKF")  # words no arc code may carry (see GcodeSettings)
+_AXIS_LETTERS = frozenset("XYZABCUVWIJK")  # words no weld command may carry, nor G0..G3
+_ANY_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 _CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
