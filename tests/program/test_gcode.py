@@ -207,3 +207,16 @@ def test_a_weld_command_that_would_move_the_torch_is_refused(tpl):
         process_codes={"dwell": "G4 P{value}", "travel_speed": "F{value:.0f}", "current": "S{value}"}
     )
     assert settings.process_codes["dwell"] == "G4 P{value}"
+
+
+def test_an_arc_code_is_refused_on_the_post_node_field_itself():
+    """The post node's arc_on / arc_off are checked where they are set (the recipe's params): the
+    error names the node and the field, so the GUI marks the field, before any planning."""
+    from waamflow.core.errors import RecipeError
+    from waamflow.engine.graph import _validate_params
+    from waamflow.nodes.post import PostProcess
+
+    with pytest.raises(RecipeError, match=r"an M code") as err:
+        _validate_params("post", PostProcess, {"arc_on": "G1 X5"})
+    assert (err.value.node, err.value.field) == ("post", "arc_on")
+    assert _validate_params("post", PostProcess, {"arc_on": "M101 P1", "arc_off": "M103"}).arc_on == "M101 P1"

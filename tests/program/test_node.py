@@ -73,8 +73,8 @@ def test_invalid_params():
         cls(program_name="bad name")
     with pytest.raises(ValidationError):
         cls(process_codes={"current": "M1 {nope}"})
-    with pytest.raises(RecipeError):
-        _run(arc_on="M3 ; comment")
+    with pytest.raises(ValidationError):  # the field itself (it was found only when the node ran)
+        cls(arc_on="M3 ; comment")
     with pytest.raises(RecipeError):
         _run(format="krl", program_name="a_long_program_name_x", split_per_layer=True)
 

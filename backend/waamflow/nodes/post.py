@@ -19,6 +19,7 @@ from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..program import PlanSettings, Program, RapidSettings, post_process
 from ..program.common import check_templates, check_tool_template, stamp_trace
+from ..program.gcode import check_arc_code
 from ..program.krl import ARCTECH_CHANNELS, check_channels
 from ..trajectory.cell import cell_schema, positioner_and_torch, to_world
 from .post_settings import CONTROLLER_SETTINGS as CONTROLLER_SETTINGS
@@ -468,6 +469,11 @@ class PostProcess(Node):
         @classmethod
         def _cell_name(cls, v: str) -> str:
             return check_cell_param(v)
+
+        @field_validator("arc_on", "arc_off")
+        @classmethod
+        def _arc_code(cls, v: str, info) -> str:
+            return check_arc_code(info.field_name, v)
 
         @field_validator("tool_on", "tool_off")
         @classmethod

@@ -150,21 +150,7 @@ class GcodeSettings:
         if self.dwell_units not in ("s", "ms"):
             raise ValueError(f"dwell_units must be 's' or 'ms', not {self.dwell_units!r}")
         for name in ("arc_on", "arc_off"):
-            code = getattr(self, name)
-            if not code.strip() or any(c in code for c in ";()\n"):
-                raise ValueError(f"{name} must be a non-empty code without comments or newlines")
-            words = [w for w in code.split(" ") if w]
-            if not all(_CODE_WORD.fullmatch(w) for w in words):  # as the preflight reads it back
-                raise ValueError(
-                    f"{name} {code!r}: G-code words separated by spaces, each a letter and a number "
-                    "(e.g. M3, or M101 P1)"
-                )
-            if words[0][0].upper() != "M" or any(w[0].upper() in _MOTION_LETTERS for w in words):
-                raise ValueError(
-                    f"{name} {code!r}: the arc is switched by an M code and its parameters (M3, M101 P1, "
-                    "M42 P4 S255), written first; no G, axis (X Y Z A B C U V W), arc-centre (I J K) or feed "
-                    "(F) word, which would move the torch or change a mode on the controller"
-                )
+            check_arc_code(name, getattr(self, name))
         if self.arc_on.strip().upper() == self.arc_off.strip().upper():
             raise ValueError("arc_on and arc_off must differ")
         check_templates(self.process_codes)
@@ -248,9 +234,32 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
 
 
 _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
-_MOTION_LETTERS = frozenset("GXYZABCUVWIJKF")  # words no arc code may carry (see GcodeSettings)
+_MOTION_LETTERS = frozenset("GXYZABCUVWIJKF")  # words no arc code may carry (check_arc_code)
 _AXIS_LETTERS = frozenset("XYZABCUVWIJK")  # words no weld command may carry, nor G0..G3
 _ANY_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+
+
+def check_arc_code(name: str, code: str) -> str:
+    """`arc_on` / `arc_off` as the program writes and the preflight reads them: an M code and its
+    parameters (M3, M101 P1, M42 P4 S255), written first, words of a letter and a number separated
+    by spaces; no comment, and no G, axis, arc-centre or feed word (it would move the torch or change
+    a mode on the controller while the preflight reads the line as the arc switch only)."""
+    if not code.strip() or any(c in code for c in ";()\n"):
+        raise ValueError(f"{name} must be a non-empty code without comments or newlines")
+    words = [w for w in code.split(" ") if w]
+    if not all(_CODE_WORD.fullmatch(w) for w in words):
+        raise ValueError(
+            f"{name} {code!r}: G-code words separated by spaces, each a letter and a number (e.g. M3, or M101 P1)"
+        )
+    if words[0][0].upper() != "M" or any(w[0].upper() in _MOTION_LETTERS for w in words):
+        raise ValueError(
+            f"{name} {code!r}: the arc is switched by an M code and its parameters (M3, M101 P1, "
+            "M42 P4 S255), written first; no G, axis (X Y Z A B C U V W), arc-centre (I J K) or feed "
+            "(F) word, which would move the torch or change a mode on the controller"
+        )
+    return code
+
+
 _CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
