@@ -120,3 +120,21 @@ def test_topology_change_fails_at_the_first_changed_layer_then_succeeds_with_a_s
     assert planned[4].sections[0].key == "bs1/A" and planned[4].sections[0].region.area == pytest.approx(600.0)
     assert [s.key for s in planned[5].sections] == ["bs2/L", "bs2/R"]
     assert [s.region.area for s in planned[9].sections] == pytest.approx([240.0, 240.0])
+
+
+def test_a_surface_layer_is_named_as_such_not_blamed_on_the_mask():
+    """An open mesh is read as a single-wall surface: its layers are curves with no area. A mask on
+    it said 'mask curve yields no region on this layer; start a new mask here' (a mesh with 5 faces
+    dropped, found by a mesh fuzz), sending the user to the mask. It names the surface and what to do."""
+    from shapely.geometry import LineString
+
+    surface = Layer(
+        index=3, z=6.0, thickness=1.5, curves=(LineString([(-50, 0), (50, 0)]), LineString([(0, 5), (0, 40)]))
+    )
+    with pytest.raises(
+        PlanningError, match=r"no area to segment: the part is a single-wall surface, its layer is 2 curve"
+    ) as e:
+        segment_layer(surface, Mask.from_json(CROSS_MASK))
+    assert (e.value.layer, e.value.section) == (3, "bs1/A")
+    with pytest.raises(PlanningError, match=r"mask curve yields no region"):  # an empty solid layer: as before
+        segment_layer(layer(3, box(100, 100, 110, 110)), Mask.from_json(CROSS_MASK))

@@ -128,6 +128,14 @@ def segment_layer(layer: Layer, mask: Mask | None) -> LayerSections:
             cut = shapely.difference(cut, taken)
         parts = _parts(cut)
         if not parts:
+            if region.is_empty and layer.curves:  # a surface part (open mesh, sketch): curves, no area
+                raise PlanningError(
+                    f"this layer has no area to segment: the part is a single-wall surface, its layer is "
+                    f"{len(layer.curves)} curve(s) (an open mesh is read so: close its gaps, set the mesh's "
+                    "'as': 'solid' to see why it is open, or plan its walls with wall-path)",
+                    layer=layer.index,
+                    section=key,
+                )
             raise PlanningError(
                 "mask curve yields no region on this layer; start a new mask here", layer=layer.index, section=key
             )
