@@ -177,3 +177,26 @@ def test_paperspace_only_drawing_points_to_the_layout():
 
     with pytest.raises(InputFileError, match=r"no curves in layout 'Model'.*Plan \(1 entities\).*'layout'"):
         load_sketch_bytes(_dxf(4, build), "p.dxf", height=5)
+
+
+def test_a_part_larger_than_any_cell_is_refused_before_it_is_planned(tmp_path):
+    """A wall 1e9 mm long in a sketch (a unit slip, or a fuzzer) was planned: the run grew to 23.7 GB
+    and was killed by the kernel (1 km: 3 GB, 60 s). A part over MAX_PART_MM across is an input error
+    naming its size and the units; 40 m (above) is still a warning only."""
+    import json
+
+    from waamflow.core.errors import RecipeError
+    from waamflow.geometry.units import MAX_PART_MM
+
+    assert MAX_PART_MM == 100_000.0
+    for name, far in (("km.json", 1e6), ("huge.json", 1e9)):
+        (tmp_path / name).write_text(json.dumps({"curves": [[[0, 0], [100, 0]], [[0, 10], [far, 10]]]}))
+        with pytest.raises(
+            RecipeError, match=re.escape(f"part is {far / 1000:.3g} m across, more than the 100 m")
+        ) as err:
+            _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": name, "height": 20}})
+        assert err.value.node == "sk" and err.value.field == "units"
+    cube = trimesh.creation.box(extents=(200, 200, 200))
+    cube.export(tmp_path / "c.stl")
+    with pytest.raises(RecipeError, match=r"part is 200 m across"):  # 200 mm read as metres
+        _run(tmp_path, {"id": "m", "type": "mesh", "params": {"path": "c.stl", "units": "m"}})

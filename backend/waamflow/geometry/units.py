@@ -46,6 +46,9 @@ THREEMF_UNITS = {"micron": "um", "millimeter": "mm", "centimeter": "cm", "inch":
 
 # WAAM parts: a few mm (one bead is ~3-10 mm wide) up to a few metres (robot reach)
 PLAUSIBLE_MM = (5.0, 5000.0)
+# Beyond this a part is refused, not warned about: no cell builds it, and planning it costs memory in
+# proportion (a sketch wall of 1 km took 3 GB and 60 s; one of 1e9 mm was killed by the kernel at 23.7 GB)
+MAX_PART_MM = 100_000.0
 
 PLACEMENTS = ("as_is", "on_plate", "centred")
 

@@ -28,7 +28,7 @@ from ..geometry.step_io import (
     unit_rescale,
     vertical_midsurface,
 )
-from ..geometry.units import conversion_notice, implausible_size, placement_offset
+from ..geometry.units import MAX_PART_MM, conversion_notice, implausible_size, placement_offset
 from ..engine.node import FileRef, Node, NodeParams, register, unit
 from ..engine.ports import Port
 
@@ -62,6 +62,12 @@ def _report_part(
 
     span = np.asarray(hi) - np.asarray(lo)
     extent = float(np.max(span[:2] if drawing else span))
+    if extent > MAX_PART_MM:
+        raise InputFileError(
+            f"{label}: part is {extent / 1000:.3g} m across, more than the {MAX_PART_MM / 1000:g} m any WAAM cell "
+            f"builds (read in {units}): check the node's 'units' (a file in mm read as m or in?) or the file",
+            field="units",
+        )
     ctx.report({"file_unit": file_unit, "unit": units, "unit_factor": unit_scale(units)})
     if notice:
         ctx.warn(f"{label}: {notice}")
