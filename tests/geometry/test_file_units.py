@@ -66,14 +66,16 @@ def test_inch_cad_file_is_converted_once_and_reported(tmp_path, name):
     "code,mm", [(10, 914.4), (14, 100.0), (7, 1e6), (9, 0.0254), (8, 25.4e-6), (3, 1609344.0), (21, 1200 / 3937 * 1000)]
 )
 def test_dxf_insunits_full_table(tmp_path, code, mm):
+    # a drawing 1 unit across, or 0.001 for the km and the mile (1 km is over MAX_PART_MM: refused)
+    d = 1.0 if mm < 1e5 else 1e-3
     doc = ezdxf.new("R2010", units=code)
-    doc.modelspace().add_lwpolyline([(0, 0), (1, 0), (1, 1)])
+    doc.modelspace().add_lwpolyline([(0, 0), (d, 0), (d, d)])
     buf = io.StringIO()
     doc.write(buf)
     (tmp_path / "p.dxf").write_text(buf.getvalue())
     res = _run(tmp_path, {"id": "sk", "type": "sketch", "params": {"path": "p.dxf", "height": 30}})
     xy = np.vstack(res.outputs["sk"]["mesh"].curves)
-    assert xy.max(axis=0) - xy.min(axis=0) == pytest.approx([mm, mm], rel=1e-9)
+    assert xy.max(axis=0) - xy.min(axis=0) == pytest.approx([mm * d, mm * d], rel=1e-9)
     assert res.stats["sk"].report["unit_factor"] == pytest.approx(mm, rel=1e-12)
     assert any("file unit" in w["message"] and f"×{mm:g}" in w["message"] for w in res.warnings)
 
