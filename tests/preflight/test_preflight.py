@@ -341,3 +341,24 @@ def test_a_treatment_after_the_last_deposit_is_not_the_toolpath_checked(tmp_path
     rolling = read_toolpath(doc)  # every segment travel (each section read from its first point)
     travel = sum(float(np.linalg.norm(np.diff(np.asarray(sec["points"]), axis=0), axis=1).sum()) for sec in secs)
     assert rolling.runs == [] and rolling.travel_mm == pytest.approx(travel, rel=1e-12) and travel > 2000
+
+
+def test_an_arc_burning_without_wire_fails_even_where_the_part_balance_holds():
+    """mpp-cross with one zone's wire feed set to 0 (or 1e-9) m/min in its XML: a third of arm A of
+    layer 0 welded with no wire. Layer 0's volume ratio fell to 0.77, the part's to 0.94: the
+    preflight said ok. An arc-ON motion commanded below `wire_feed_min_m_min` fails, naming the layer,
+    section, point and how many motions."""
+    layers = good_layers()
+    text = gcode(layers)
+    lines = text.splitlines()
+    # layer 2's wire feed command set to 0 for its whole run
+    k = [i for i, ln in enumerate(lines) if ln.startswith("M67 E0 Q")][2]
+    starved = "\n".join(lines[:k] + ["M67 E0 Q0.000"] + lines[k + 1 :])
+    rep = check(starved)
+    (p,) = [p for p in rep["problems"] if p["check"] == "wire_feed"]
+    n = len(passes(YS)) - 1
+    assert p["severity"] == "fail" and p["layer"] == 2 and p["section"] == "s0" and p["value"] == n
+    assert "without wire" in p["message"] and "0.00 m/min" in p["message"]
+    assert p["limit"] == 0.5 and rep["verdict"] == "fail"
+    assert ("wire_feed", "fail") not in kinds(check(text))  # the feed the part needs passes
+    assert ("wire_feed", "warn") in kinds(check(starved, wire_feed_min="warn"))

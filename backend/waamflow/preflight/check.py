@@ -25,7 +25,7 @@ import shapely
 from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
-from .deposit import _arc_runs, _ignitions, _wire_balance
+from .deposit import _arc_runs, _ignitions, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -461,6 +461,7 @@ def check_program(
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
+    _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)
     return _finish(out, rep, s)

@@ -123,6 +123,32 @@ def _wire_balance(
             )
 
 
+def _starved(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
+    """Arc-ON moves commanded less wire feed than `s.wire_feed_min_m_min` (0 in a zone's parameters):
+    the arc burns there with no wire, which the part's metal balance can hide when the zone is short."""
+    if s.wire_feed_min == "off":
+        return
+    low = [(r, np.flatnonzero(np.isfinite(r.wfs) & (r.wfs < s.wire_feed_min_m_min))) for r in prog.runs]
+    low = [(r, k) for r, k in low if len(k)]
+    if not low:
+        return
+    count = sum(len(k) for _r, k in low)
+    first, k = low[0]
+    least = min(float(r.wfs[k].min()) for r, k in low)
+    rep.problem(
+        "wire_feed",
+        s.wire_feed_min,
+        f"{count} arc-ON motions are commanded as little as {least:.2f} m/min of wire feed, below "
+        f"{s.wire_feed_min_m_min:g} m/min (first: layer {first.layer}, section {first.section}): the arc burns "
+        "there without wire, depositing nothing; set the zone's wire_feed_speed",
+        layer=first.layer,
+        section=first.section,
+        value=count,
+        limit=s.wire_feed_min_m_min,
+        point=first.points[int(k[0])],
+    )
+
+
 def _arc_runs(
     prog: ProgramRead, layers: list[tuple[int, list[Run]]], width: float, out: dict, rep: Report, s: PreflightSettings
 ) -> None:

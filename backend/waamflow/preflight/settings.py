@@ -55,6 +55,17 @@ class PreflightSettings(BaseModel):
     weld_data: Literal["off", "warn", "fail"] = Field(
         "fail", description="Arc-ON moves with no weld parameter commanded (comments do not count)"
     )
+    wire_feed_min: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Arc-ON moves commanded less wire feed than `wire_feed_min_m_min`: the arc burns without wire",
+    )
+    wire_feed_min_m_min: float = Field(
+        0.5,
+        ge=0,
+        le=10,
+        description="Least wire feed an arc-ON move may command, m/min (power sources feed from about 1 m/min; "
+        "0 is an arc with no wire)",
+    )
     deposit_changed: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="A sequence node whose output "
