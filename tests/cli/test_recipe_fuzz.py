@@ -116,3 +116,52 @@ def test_one_odd_parameter_ends_a_run_as_the_contract_says(name, folder, monkeyp
             seen[rc] += 1
     assert not bad, "\n".join(bad)
     assert sum(seen.values()) >= 5 and seen[2] >= 1  # the variants ran, and some were refused as input
+
+
+XML_VALUES = ["-1", "0", "1e9", "x", "nan", "inf", "1e-9", "2,5", " 3 "]
+XML_PARAMS = ["current", "voltage", "wire_feed_speed", "travel_speed", "dwell", "job"]
+
+
+@pytest.mark.slow
+def test_one_odd_zone_parameter_in_the_xml_ends_a_run_as_the_contract_says(folder, monkeypatch):
+    """mpp-cross's zone-parameter file with one value of zone z1 (layer 0, section bs1/A) at a time set
+    to an odd text: refused naming the file line, layer, section and zone (2), or planned; a wire feed
+    the arc burns without (0, 1e-9 m/min) is the preflight's `wire_feed` failure (4): it passed as
+    'ok' before (the layer's metal 0.77, the part's 0.94 of their volumes)."""
+    monkeypatch.setenv("WAAMFLOW_CACHE", str(folder / "cache"))
+    xml = folder / "graphs" / "mpp-cross.params.xml"
+    original = xml.read_text()
+    rcs, bad = {}, []
+    try:
+        for name in XML_PARAMS:
+            for val in XML_VALUES:
+                pat = re.compile(rf'(<zone id="z1"[^>]*>.*?<{name} unit="[^"]*">)([^<]*)(</{name}>)', re.S)
+                xml.write_text(pat.sub(lambda m: m.group(1) + val + m.group(3), original, count=1))
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    try:
+                        rc = main(
+                            [
+                                "run",
+                                str(folder / "graphs" / "mpp-cross.json"),
+                                "--no-cache",
+                                "--out",
+                                str(folder / "xo"),
+                            ]
+                        )
+                    except SystemExit as exit_:
+                        rc = exit_.code
+                text = err.getvalue()
+                rcs[(name, val)] = rc
+                if rc not in (0, 2, 3, 4) or "Traceback" in text or RAW_EXCEPTION.search(text):
+                    bad.append(f"{name}={val!r}: rc {rc}: {text.strip()[-300:]}")
+                elif rc == 2 and not re.search(r"layer 0, section 'bs1/A', field '\w+': parameter file line \d+", text):
+                    bad.append(
+                        f"{name}={val!r}: refused without the file line, layer and section: {text.strip()[-300:]}"
+                    )
+    finally:
+        xml.write_text(original)
+    assert not bad, "\n".join(bad)
+    assert rcs[("wire_feed_speed", "0")] == rcs[("wire_feed_speed", "1e-9")] == 4
+    assert rcs[("travel_speed", "0")] == 2 and rcs[("current", "nan")] == 2 and rcs[("dwell", " 3 ")] == 0
+    assert sum(rc == 2 for rc in rcs.values()) >= 35
