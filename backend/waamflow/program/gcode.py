@@ -66,6 +66,7 @@ from .common import (
     tool_summary,
     weld_tag,
 )
+from .gcode_parse import _words
 from .plan import ArcOff, ArcOn, Dwell, LayerStart, Motion, Plan, ProcessChange, SectionStart, Step, ToolOff, ToolOn
 
 # LinuxCNC analog outputs (motion.analog-out-NN): E0 wire feed m/min, E1 current A, E2 voltage V;
@@ -162,8 +163,7 @@ class GcodeSettings:
         for tpl in [*self.process_codes.values(), *(self.process_codes_start or {}).values()]:
             if any(c in tpl for c in ";()"):
                 raise ValueError(f"process template {tpl!r}: no comments (; or parentheses) in a G-code command")
-            words = [(m.group(1), float(m.group(2))) for m in _ANY_WORD.finditer(tpl.format(value=1.0).upper())]
-            if any(a in _AXIS_LETTERS or (a == "G" and v in (0, 1, 2, 3)) for a, v in words):
+            if any(a in _AXIS_LETTERS or (a == "G" and v in (0, 1, 2, 3)) for a, v in _words(tpl.format(value=1.0))):
                 raise ValueError(
                     f"process template {tpl!r}: a weld command with a motion (G0..G3) or an axis or arc-centre "
                     "word would move the torch on the controller (the preflight reads it as the weld value only)"
@@ -234,9 +234,9 @@ def _dwell(seconds: float, settings: GcodeSettings) -> str:
 
 
 _NEG_ZERO = re.compile(r"(?<=[XYZ])-(?=0\.?0*(?: |$))")
-_MOTION_LETTERS = frozenset("GXYZABCUVWIJKF")  # words no arc code may carry (check_arc_code)
 _AXIS_LETTERS = frozenset("XYZABCUVWIJK")  # words no weld command may carry, nor G0..G3
-_ANY_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+_MOTION_LETTERS = _AXIS_LETTERS | {"G", "F"}  # words no arc code may carry (check_arc_code)
+_CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
 def check_arc_code(name: str, code: str) -> str:
@@ -258,9 +258,6 @@ def check_arc_code(name: str, code: str) -> str:
             "(F) word, which would move the torch or change a mode on the controller"
         )
     return code
-
-
-_CODE_WORD = re.compile(r"[A-Za-z][-+]?(?:\d+\.?\d*|\.\d+)")  # one word of an arc code (the preflight reads it back so)
 
 
 def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
