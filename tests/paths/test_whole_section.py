@@ -196,3 +196,35 @@ def test_masked_sections_that_are_covered_give_no_warning(tmp_path):
     assert [sp.key for sp in lp.sections] == ["bs1/A", "bs1/B"]
     assert covered_share(lp.layer.region, lp.sections) >= 0.98
     assert not [w for w in res.warnings if w["node"] == "strategy"]
+
+
+def test_cross_without_mask_is_never_welded_off_the_part(tmp_path):
+    """mpp-cross's layer with no mask and a parallel fill (arc_outside 'on', the default): the
+    passes as planned crossed the notches between the arms arc ON, up to 26 mm off the part (the
+    preflight then failed the program). The node splits the region at its corners: every arc-ON
+    point lies within a bead width of the part, the layer is covered, nothing is warned."""
+    cross = box(-60, -6, 60, 6).union(box(-6, -60, 6, 60))
+    res = run_part(tmp_path, cross, layers=2, strategy={"default": {"pattern": "parallel", "spacing": 5.0}})
+    for lp in res.outputs["strategy"]["toolpath"]:
+        (sp,) = lp.sections
+        on = np.flatnonzero(sp.arc)
+        mids = shapely.points(0.5 * (sp.points[on, :2] + sp.points[on + 1, :2]))
+        assert float(shapely.distance(lp.layer.region, mids).max()) <= W
+        assert covered_share(lp.layer.region, lp.sections) >= 0.99
+    assert res.stats["strategy"].report["cover"]["sections_split"] == 2
+    assert not [w for w in res.warnings if w["node"] == "strategy"]
+
+
+def test_a_whole_region_still_welded_off_is_warned(tmp_path, monkeypatch):
+    """When no plan keeps the arc on the part (stood in for here: every plan is said to weld 7.5 mm
+    off it), the node warns the layer and section with the length and what to do."""
+    import dataclasses
+
+    from waamflow.nodes import strategy as node
+
+    real = node.plan_whole
+    monkeypatch.setattr(node, "plan_whole", lambda *a, **k: dataclasses.replace(real(*a, **k), outside=7.5))
+    res = run_part(tmp_path, CONVEX, layers=1)
+    (w,) = [w for w in res.warnings if w["node"] == "strategy"]
+    assert (w["layer"], w["section"]) == (0, "region0")
+    assert w["message"].startswith("7.5 mm of arc-ON path of section region0 on layer 0 runs off the part")

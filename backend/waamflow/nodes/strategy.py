@@ -19,7 +19,7 @@ from ..engine.node import LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
 from ..paths import StrategySpec
 from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
-from ..paths.whole import plan_whole
+from ..paths.whole import OUTSIDE_TOL, plan_whole
 
 
 class SectionStrategy(StrategySpec):
@@ -183,7 +183,8 @@ class StrategyNode(LayerNode):
     The whole section gets a path: each section's path is checked against the section (arc-ON path
     buffered by half the bead width; a weave's pool bridges its strokes). A section of a layer with
     no mask (a connected region, key `region<k>`) that its path leaves more than `max_uncovered`
-    (2 %) without a bead is split at its reflex corners into pieces, each filled along its own long
+    (2 %) without a bead, or welds off the part (arc-ON centre line farther off the region than
+    the run-up plus a bead width: its outside is off the part), is split at its reflex corners into pieces, each filled along its own long
     axis and joined by arc-OFF links, or else filled with contour rings (`whole_regions: auto`); its
     toolpath `strategy` names the pattern used. Any section still left more than `max_uncovered`
     uncovered (a drawn mask section, or `whole_regions: off`) is warned about with its area, layer
@@ -199,7 +200,7 @@ class StrategyNode(LayerNode):
 
     type = "strategy"
     combine_keeps_items = True  # combine only warns
-    version = "7"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model; 7: whole regions covered, uncovered area warned
+    version = "8"  # 2: run-ups along the guide; 3: passes follow curved guides; 4-5: narrow sections, spiral start; 6: bead model; 7: whole regions covered, uncovered area warned; 8: whole regions never welded off the part
     title = "Strategy"
     category = "mpp"
     inputs = (
@@ -221,7 +222,8 @@ class StrategyNode(LayerNode):
         whole_regions: Literal["auto", "off"] = Field(
             "auto",
             description="Sections of layers with no mask (each connected region is one section): "
-            "'auto' re-plans a region its path leaves more than max_uncovered without a bead "
+            "'auto' re-plans a region its path leaves more than max_uncovered without a bead, "
+            "or welds off the part "
             "(split at its reflex corners, each piece along its own long axis; else contour "
             "rings); 'off' keeps the path as planned (still warned about)",
             title="Whole regions",
@@ -314,6 +316,15 @@ class StrategyNode(LayerNode):
                     f"layer {index} gets no bead ({whole.pattern}"
                     f"{', split at its corners' if whole.how == 'split' else ''}): add a mask section there "
                     "or choose a filling pattern (contour, parallel)",
+                    layer=index,
+                    section=s.key,
+                )
+            if whole.outside > OUTSIDE_TOL and ctx is not None:
+                ctx.warn(
+                    f"{whole.outside:.1f} mm of arc-ON path of section {s.key} on layer {index} runs off the "
+                    f"part beyond its run-ups ({whole.pattern}"
+                    f"{', split at its corners' if whole.how == 'split' else ''}, the best of as planned, split "
+                    "and contour): set arc_outside 'off', choose contour, or draw a mask",
                     layer=index,
                     section=s.key,
                 )

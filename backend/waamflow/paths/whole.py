@@ -1,16 +1,20 @@
 """The whole section gets a path: plan a section and check what its path leaves without a bead.
 
 `plan_whole(region, guide, spec, adapt=...)` plans the section with its spec and measures the area
-its beads do not reach (`deposit.uncovered_area`). With `adapt` (a section the user did not draw:
-a connected region of a layer with no mask) a path leaving more than `max_uncovered` of the area
-is replaced, in this order, by
+its beads do not reach (`deposit.uncovered_area`) and its arc-ON centre line off the region beyond
+the pattern's stock (`outside_length`). With `adapt` (a section the user did not draw: a connected
+region of a layer with no mask, whose outside is off the part) a path leaving more than
+`max_uncovered` of the area, or welding off the region (a parallel fill of a cross's whole layer
+crossed the notches between its arms, arc ON, up to 26 mm off the part), is replaced, in this
+order, by
 
 1. **split**: the region cut at its reflex corners (`sections.corners.corner_division`, the MPP
    corner division), each piece filled with the same spec along its own long axis, pieces visited
    nearest first (each from the end nearer the torch) and joined by arc-OFF links;
 2. **contour**: the region filled with contour-parallel rings (covers any region, holes included).
 
-The first that leaves at most `max_uncovered` wins; when none does, the one leaving the least.
+The first that leaves at most `max_uncovered` and welds nowhere off the region wins; when none
+does, the one leaving the least of those that weld nowhere off it (else of all).
 An L of a 120 × 16 mm and a 64 × 16 mm arm: the default weave along the long axis of its
 rectangle covers 39.6 % of it; split in two it covers 99.8 %.
 
@@ -28,6 +32,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import shapely
 from shapely.geometry import LineString, Polygon
 
 from ..core.memo import Memo, digest
@@ -43,6 +48,9 @@ from .spec import Path2D, StrategySpec
 MAX_UNCOVERED = 0.02
 #: The pattern that fills any region.
 FILLER = "contour"
+#: Arc-ON centre line (mm) a whole region's path may run off the region beyond its stock (run-ups
+#: and a bead width): none, up to the shapely buffer's facet error.
+OUTSIDE_TOL = 0.01
 
 How = Literal["as planned", "split", "contour"]
 #: Sections remembered per process (a few hundred points each).
@@ -56,7 +64,8 @@ class WholePath:
     path: the planned path. pattern: the pattern its beads follow (the spec's, or "contour").
     how: "as planned" (the spec as given), "split" (corner division into `pieces` pieces, each
     with the spec) or "contour" (the filler). uncovered: area left without a bead, mm²; area: the
-    section's area, mm²."""
+    section's area, mm²; outside: arc-ON centre line off the region beyond the stock, mm
+    (`outside_length`; measured for a whole region only, else 0)."""
 
     path: Path2D
     pattern: str
@@ -64,6 +73,7 @@ class WholePath:
     pieces: int
     uncovered: float
     area: float
+    outside: float = 0.0
 
     @property
     def uncovered_share(self) -> float:
@@ -72,6 +82,32 @@ class WholePath:
 
 def _measure(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
     return uncovered_area(region, path.points, path.arc, spec.bead_width, weave=spec.pattern in WEAVES)
+
+
+def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
+    """Arc-ON centre line (mm) farther off `region` than the pattern's stock: its longer run-up or
+    run-out plus a bead width (what the preflight allows at a run's ends)."""
+    on = np.flatnonzero(path.arc)
+    if not len(on):
+        return 0.0
+    stock = max(spec.extension_before, spec.extension_after) + spec.bead_width
+    segs = shapely.linestrings(np.stack([path.points[on], path.points[on + 1]], axis=1))
+    near = region.buffer(stock, quad_segs=8)
+    shapely.prepare(near)
+    off = ~shapely.within(segs, near)
+    if not off.any():
+        return 0.0
+    return float(shapely.length(shapely.difference(segs[off], near)).sum())
+
+
+def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, how: How, pieces: int) -> WholePath:
+    """A whole region's path and its measures."""
+    area = float(region.area)
+    return WholePath(path, pattern, how, pieces, _measure(region, path, spec), area, outside_length(region, path, spec))
+
+
+def _good(w: WholePath, max_uncovered: float) -> bool:
+    return w.uncovered_share <= max_uncovered and w.outside <= OUTSIDE_TOL
 
 
 def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec: StrategySpec) -> Path2D:
@@ -132,16 +168,17 @@ def plan_whole(
     )
     got = _MEMO.get(key, lambda: _plan_whole(region, guide, spec, adapt=adapt, max_uncovered=max_uncovered))
     path = Path2D(got.path.points.copy(), got.path.arc.copy(), got.path.inside.copy())
-    return WholePath(path, got.pattern, got.how, got.pieces, got.uncovered, got.area)
+    return WholePath(path, got.pattern, got.how, got.pieces, got.uncovered, got.area, got.outside)
 
 
 def _plan_whole(
     region: Polygon, guide: LineString | None, spec: StrategySpec, *, adapt: bool, max_uncovered: float
 ) -> WholePath:
-    area = float(region.area)
     path = plan_section(region, guide, spec)
-    first = WholePath(path, spec.pattern, "as planned", 1, _measure(region, path, spec), area)
-    if not adapt or first.uncovered_share <= max_uncovered:
+    if not adapt:
+        return WholePath(path, spec.pattern, "as planned", 1, _measure(region, path, spec), float(region.area))
+    first = _candidate(region, path, spec, spec.pattern, "as planned", 1)
+    if _good(first, max_uncovered):
         return first
     tried = [first]
     pieces = corner_division(region)
@@ -152,8 +189,8 @@ def _plan_whole(
         except ValueError:
             split = None
         if split is not None:
-            got = WholePath(split, spec.pattern, "split", len(pieces), _measure(region, split, spec), area)
-            if got.uncovered_share <= max_uncovered:
+            got = _candidate(region, split, spec, spec.pattern, "split", len(pieces))
+            if _good(got, max_uncovered):
                 return got
             tried.append(got)
     if spec.pattern != FILLER:
@@ -164,8 +201,8 @@ def _plan_whole(
         except ValueError:
             filled = None
         if filled is not None:
-            got = WholePath(filled, FILLER, "contour", 1, _measure(region, filled, filler), area)
-            if got.uncovered_share <= max_uncovered:
+            got = _candidate(region, filled, filler, FILLER, "contour", 1)
+            if _good(got, max_uncovered):
                 return got
             tried.append(got)
-    return min(tried, key=lambda w: w.uncovered)
+    return min(tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.uncovered))
