@@ -75,3 +75,31 @@ def test_sawtooth_stops_at_max_pieces():
     pieces = corner_division(saw)
     assert 1 < len(pieces) <= MAX_PIECES  # (28: cuts leaving a piece under 1 % of its parent are not made)
     assert sum(p.area for p in pieces) == pytest.approx(saw.area, rel=1e-9)
+
+
+def test_a_plate_of_many_holes_opens_at_most_max_holes_opened():
+    """A 300 × 200 plate with 40 square 6 mm holes (160 reflex corners; a countertop of 205 holes
+    took 6 s a cut): a cut that only opens a hole divides nothing by itself, so at most
+    MAX_HOLES_OPENED are made (before, all 40 were opened on the way to 32 pieces). Each round splits
+    only the shortest candidates, not all 320."""
+    from waamflow.sections import corners
+
+    holes = [box(20 + 35 * i, 20 + 40 * j, 26 + 35 * i, 26 + 40 * j) for i in range(8) for j in range(5)]
+    plate = box(0, 0, 300, 200).difference(shapely.union_all(holes))
+    assert len(reflex_corners(plate)) == 160
+    splits = []
+    real = corners.split
+
+    def counting(geom, blade):
+        splits.append(1)
+        return real(geom, blade)
+
+    corners.split = counting
+    try:
+        pieces = corner_division(plate)
+    finally:
+        corners.split = real
+    assert sum(len(p.interiors) for p in pieces) == 40 - corners.MAX_HOLES_OPENED
+    assert len(pieces) <= MAX_PIECES
+    assert sum(p.area for p in pieces) == pytest.approx(plate.area, abs=corners.MAX_HOLES_OPENED * corners.SLIT * 41)
+    assert len(splits) <= 300  # 274 (14 pieces); before, every corner each round: 14,448 (16 s)
