@@ -319,3 +319,32 @@ def test_a_section_is_grown_by_half_a_bead_only_at_layers_with_an_excursion(cros
     assert not outside_problems(check_cross(graph, res, text)) and grown == []
     rep = check_cross(graph, res, shift_run(text, 2, "bs1/B", 20.0))
     assert grown == [3.0] and rep["layers"][2]["outside_mm2"] > 0.8 * 2 * 51.0 * 6.0
+
+
+def test_an_unbuilt_rib_is_uncovered_not_a_top_gap(panel):
+    """The panel's program without rib wall7 on every layer: the 3D check's farthest unreached point
+    is the rib's far end, beside the beads, which was reported as "the deposit ends 42.27 mm short of
+    the part's top (30.00 mm)" — more than the part is high. It is the uncovered check's: 8.0 % of
+    the part gets no bead; the deposit reaches the top (top gap 0)."""
+    graph, res = panel
+    doc = copy.deepcopy(json.loads(res.artifacts["sequence.toolpath.json"]))
+    for layer in doc["layers"]:
+        layer["sections"] = [s for s in layer["sections"] if s["key"] != "wall7"]
+    rep = check_panel_doc(graph, res, doc)
+    assert rep["top_gap_mm"] == 0.0
+    assert not [p for p in rep["problems"] if p["check"] == "top_gap"]
+    (unc,) = [p for p in rep["problems"] if p["check"] == "uncovered"]
+    assert unc["severity"] == "fail" and rep["uncovered_share"] == pytest.approx(0.080, abs=0.005)
+
+
+def test_a_panel_without_its_last_three_layers_ends_six_mm_short(panel):
+    """Without its last 3 layers of 2 mm the deposit ends 6 mm below the panel's 30 mm top: the top
+    gap is the distance along the build to the highest point of the part out of reach, 5.5 mm (the
+    samples lie half their 1 mm step below the top); it was 3.03 (the distance less the reach)."""
+    graph, res = panel
+    doc = copy.deepcopy(json.loads(res.artifacts["sequence.toolpath.json"]))
+    assert len(doc["layers"]) == 15
+    doc["layers"] = doc["layers"][:-3]
+    rep = check_panel_doc(graph, res, doc)
+    (gap,) = [p for p in rep["problems"] if p["check"] == "top_gap"]
+    assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(5.5, abs=0.05)
