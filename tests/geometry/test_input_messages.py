@@ -145,3 +145,23 @@ def test_assembly_warning_prints_its_tolerance(tmp_path):
     res = _run(tmp_path, [{"id": "m", "type": "mesh", "params": {"path": "two.step", "chordal_tolerance": 0.02}}])
     msg = next(w["message"] for w in res.warnings if "flattened" in w["message"])
     assert "2 bodies flattened" in msg and "tessellated within 0.02 mm" in msg and "{" not in msg
+
+
+def test_a_ply_naming_a_missing_texture_is_read_and_the_readers_note_is_a_warning(tmp_path, capsys):
+    """trimesh's test model fuze.ply names a texture ('comment TextureFile fuze uv.jpg') that is not
+    beside it: trimesh logged "unable to load image!" with a traceback, which `waamflow run` printed
+    on stderr. Its note is now the mesh node's warning; nothing reaches stderr; the part is read."""
+    cube = trimesh.creation.box(extents=(20.0, 20.0, 10.0))
+    v, f = cube.vertices, cube.faces
+    lines = ["ply", "format ascii 1.0", "comment TextureFile missing uv.jpg", f"element vertex {len(v)}"]
+    lines += ["property float x", "property float y", "property float z", f"element face {len(f)}"]
+    lines += ["property list uchar int vertex_indices", "property list uchar float texcoord", "end_header"]
+    lines += [f"{x} {y} {z}" for x, y, z in v]
+    lines += [f"3 {a} {b} {c} 6 0 0 1 0 0 1" for a, b, c in f]
+    (tmp_path / "tex.ply").write_text("\n".join(lines) + "\n")
+    res = _run(tmp_path, [{"id": "part", "type": "mesh", "params": {"path": "tex.ply"}}])
+    notes = [w["message"] for w in res.warnings if "the file reader (trimesh) says" in w["message"]]
+    assert notes == ["tex.ply: the file reader (trimesh) says: unable to load image! (only the geometry is read)"]
+    assert res.stats["part"].report["volume_mm3"] == pytest.approx(4000.0)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "unable to load image" not in err

@@ -17,6 +17,7 @@ loops.
 from __future__ import annotations
 
 import io
+import logging
 import warnings
 from dataclasses import dataclass
 from pathlib import PurePosixPath
@@ -121,14 +122,39 @@ def ascii_stl_triangles(data: bytes) -> np.ndarray | None:
     return nums.reshape(-1, 12)[:, 3:].reshape(-1, 3, 3)
 
 
-def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
-    """Corners of any trimesh-readable mesh or scene: (m, 3, 3) float64, file units."""
+class _Notes(logging.Handler):
+    """The messages (no tracebacks) a library logs at WARNING and above while it reads a file."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        msg = record.getMessage().strip()
+        if msg and msg not in self.messages:
+            self.messages.append(msg)
+
+
+def trimesh_triangles(data: bytes, fmt: str, *, filename: str, notes: list[str] | None = None) -> np.ndarray:
+    """Corners of any trimesh-readable mesh or scene: (m, 3, 3) float64, file units. What trimesh
+    logs while reading goes to `notes`, not to stderr: a PLY naming a texture it cannot find logged
+    "unable to load image!" with a traceback, which the CLI printed."""
     import trimesh
 
+    log = logging.getLogger("trimesh")
+    catch = _Notes()
+    propagate = log.propagate
+    log.addHandler(catch)
+    log.propagate = False
     try:
         loaded = trimesh.load(io.BytesIO(data), file_type=fmt, process=False, force="mesh")
     except Exception as exc:  # trimesh raises many kinds on malformed input
         raise InputFileError(f"{filename}: cannot read {fmt.upper()} file: {exc}") from exc
+    finally:
+        log.removeHandler(catch)
+        log.propagate = propagate
+    if notes is not None:
+        notes += catch.messages
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         return np.zeros((0, 3, 3))
@@ -136,8 +162,11 @@ def trimesh_triangles(data: bytes, fmt: str, *, filename: str) -> np.ndarray:
     return np.asarray(getattr(loaded, "vertices"), dtype=np.float64)[np.asarray(faces)]
 
 
-def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = None) -> np.ndarray:
-    """Triangle corners (m, 3, 3) in file units, format chosen by the file extension."""
+def read_triangles(
+    data: bytes, filename: str, *, max_triangles: int | None = None, notes: list[str] | None = None
+) -> np.ndarray:
+    """Triangle corners (m, 3, 3) in file units, format chosen by the file extension; the reader's
+    notes (trimesh's log) to `notes`."""
     fmt = mesh_format(filename)
     if is_binary_stl(data):  # by content: a binary STL named .obj too
         return binary_stl_triangles(data, filename=filename, max_triangles=max_triangles)
@@ -151,7 +180,7 @@ def read_triangles(data: bytes, filename: str, *, max_triangles: int | None = No
         raise InputFileError(f"{filename}: too short to be an STL file ({len(data)} bytes)")
     tri = ascii_stl_triangles(data) if fmt == "stl" else None
     if tri is None:
-        tri = trimesh_triangles(data, fmt, filename=filename)
+        tri = trimesh_triangles(data, fmt, filename=filename, notes=notes)
     if max_triangles is not None and len(tri) > max_triangles:
         raise InputFileError(f"{filename}: {len(tri)} triangles exceed the cap of {max_triangles}")
     return tri
@@ -378,9 +407,12 @@ def load_mesh_bytes(
         raise InputFileError(
             f"{filename}: {len(data) / 2**20:.1f} MB exceeds the cap of {limits.max_bytes / 2**20:.0f} MB"
         )
-    tri = read_triangles(data, filename, max_triangles=limits.max_triangles)
+    notes: list[str] = []
+    tri = read_triangles(data, filename, max_triangles=limits.max_triangles, notes=notes)
     if stage:
         stage(0.2, f"parsed {len(tri):,} triangles ({len(data) / 2**20:.1f} MB)")
+    if stats is not None:
+        stats["reader_notes"] = notes
     return mesh_from_triangles(
         tri,
         name=PurePosixPath(filename).stem,

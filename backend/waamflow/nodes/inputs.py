@@ -95,6 +95,8 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
             "faces_rewound": st["faces_rewound"],
         }
     )
+    for note in st.get("reader_notes", ()):
+        ctx.warn(f"{params.path}: the file reader (trimesh) says: {note} (only the geometry is read)")
     if st.get("welded"):
         ctx.warn(
             f"{params.path}: welded {st['welded']} vertices on open edges within weld_tolerance "
@@ -297,7 +299,7 @@ class MeshNode(Node):
     """
 
     type = "mesh"
-    version = "3"  # 3: CAD surfaces/midsurfaces, CAD repair + classification, tessellation progress/cancel/estimate
+    version = "4"  # 3: CAD surfaces/midsurfaces, CAD repair + classification, tessellation progress/cancel/estimate; 4: the reader's notes as warnings
     title = "Mesh"
     category = "inputs"
     outputs = (
