@@ -1,6 +1,7 @@
 """paths.whole (plan a section and check what it leaves uncovered) and paths.deposit (footprint)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -227,3 +228,28 @@ def test_a_section_met_again_is_not_planned_again_and_comes_back_as_a_copy(monke
         other()
         assert len(calls) > n
     assert whole._MEMO.hits == 1
+
+
+def test_a_footprint_geos_buffers_invalid_is_made_valid():
+    """Layer 102 of trimesh's sphere.ply at 200 mm (as waamflow slices it; full-precision WKT): its
+    contour rings' arc-ON runs buffered as one MultiLineString come out invalid ("nested shells"),
+    and the strategy node failed with "GEOSException: TopologyException: found non-noded
+    intersection" on a sphere. The footprint is then made from each run's buffer, united: valid,
+    and the contour covers the layer."""
+    import shapely
+    from shapely.geometry import MultiLineString
+
+    from waamflow.process.coverage import arc_runs
+
+    region = shapely.from_wkt((Path(__file__).parent / "data" / "sphere_layer102.wkt").read_text())
+    spec = StrategySpec(pattern="contour", bead_width=6.0, spacing=5.0)
+    p = plan_section(region, default_guide(region), spec)
+    runs = [r for r in arc_runs(p.points, p.arc) if len(r) >= 2]
+    whole = MultiLineString([LineString(r) for r in runs]).buffer(3.0, quad_segs=16)
+    if whole.is_valid:  # a GEOS that buffers it validly: nothing left to show here
+        pytest.skip("this GEOS buffers the runs validly")
+    foot = deposit(p.points, p.arc, 6.0)
+    assert foot.is_valid
+    assert foot.area == pytest.approx(shapely.union_all([LineString(r).buffer(3.0, quad_segs=16) for r in runs]).area)
+    w = plan_whole(region, default_guide(region), spec, adapt=True)
+    assert w.uncovered_share < 1e-4

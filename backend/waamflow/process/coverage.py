@@ -91,7 +91,16 @@ def footprint(runs: list[np.ndarray], width: float, resolution: int = 16):
     lines = [r for r in runs if len(r) >= 2]
     if not lines:
         return Polygon()
-    return MultiLineString([LineString(r) for r in lines]).buffer(width / 2.0, quad_segs=resolution)
+    foot = MultiLineString([LineString(r) for r in lines]).buffer(width / 2.0, quad_segs=resolution)
+    if foot.is_valid:
+        return foot
+    # GEOS's buffer of the whole set can come out invalid ("nested shells": the contour rings of a
+    # sphere's layer, whose footprint then failed every overlay with a TopologyException): each
+    # run buffered on its own and the buffers united instead (the same area, made robustly)
+    each = shapely.buffer(
+        shapely.linestrings([np.asarray(r, dtype=float)[:, :2] for r in lines]), width / 2.0, quad_segs=resolution
+    )
+    return shapely.make_valid(shapely.union_all(each))
 
 
 def _pass_count(
