@@ -248,8 +248,11 @@ def test_horizontal_100x50_trimmed_surface_is_a_surface_of_5000_mm2_and_has_no_h
     assert res.stats["m"].report["open_edges"] == 4
     from waamflow.core.errors import PlanningError
 
-    with pytest.raises(PlanningError, match=r"no layers: the part is 0 mm tall .*thinner than one layer"):
+    # it said "thinner than one layer; use top 'ceil' (...), a layer_height of at most 0 mm": top was
+    # 'ceil' already, and no layer height fits a flat part
+    with pytest.raises(PlanningError, match=r"no layers: the part is 0 mm tall .*: the part is flat") as err:
         _run(tmp_path, *_mesh_and_slice("flat.igs"))
+    assert "at most 0 mm" not in str(err.value) and "use top 'ceil'" not in str(err.value)
 
 
 def test_reading_iges_prints_nothing_on_stdout(tmp_path, capfd):

@@ -10,6 +10,7 @@ from pydantic import Field, model_validator
 from ..core import serialize
 from ..core.errors import PlanningError, RecipeError
 from ..core.model import Layered, Midsurface
+from ..core.tolerances import TOL
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
 from ..slicing import empty_layers_inside, slice_part_scheduled
@@ -59,9 +60,16 @@ def _no_layers(part, params, layer_height: float) -> str:
         f"no layers: the part is {_mm(tall)} tall (from {_mm(lo)} to {_mm(hi)} along the build direction), "
         f"layer height {_mm(layer_height)}, top '{params.top}'"
     )
-    if tall < layer_height:
+    if tall <= TOL.merge:
         return (
-            what + f": thinner than one layer; use top 'ceil' (one thinner layer), a layer_height of at most "
+            what + ": the part is flat along the build direction, nothing to stack layers on (a flat surface "
+            "or a 2D drawing): check the build direction, or give a drawing its wall height (the sketch "
+            "node extrudes curves)"
+        )
+    if tall < layer_height:
+        ceil = "" if params.top == "ceil" else "use top 'ceil' (one thinner layer), "
+        return (
+            what + f": thinner than one layer; {ceil}a layer_height of at most "
             f"{_mm(tall)}, or check the part's size (the input node's 'units': a part in m or in read as mm "
             "is 1000 or 25.4 times too small)"
         )
