@@ -183,8 +183,9 @@ class StrategyNode(LayerNode):
     The whole section gets a path: each section's path is checked against the section (arc-ON path
     buffered by half the bead width; a weave's pool bridges its strokes). A section of a layer with
     no mask (a connected region, key `region<k>`) that its path leaves more than `max_uncovered`
-    (2 %) without a bead, or welds off the part (arc-ON centre line farther off the region than
-    the run-up plus a bead width: its outside is off the part), is split at its reflex corners into pieces, each filled along its own long
+    (2 %) without a bead, or welds off the part (its outside is off the part: arc-ON centre line
+    more than a bead width beyond the run-ups, or the bead wholly off it over more than a bead
+    width), is split at its reflex corners into pieces, each filled along its own long
     axis and joined by arc-OFF links, or else filled with contour rings (`whole_regions: auto`); its
     toolpath `strategy` names the pattern used. Any section still left more than `max_uncovered`
     uncovered (a drawn mask section, or `whole_regions: off`) is warned about with its area, layer

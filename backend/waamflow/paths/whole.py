@@ -2,7 +2,7 @@
 
 `plan_whole(region, guide, spec, adapt=...)` plans the section with its spec and measures the area
 its beads do not reach (`deposit.uncovered_area`) and its arc-ON centre line off the region beyond
-the pattern's stock (`outside_length`). With `adapt` (a section the user did not draw: a connected
+the pattern's run-ups and half a bead width, where a bead lies wholly off it (`outside_length`). With `adapt` (a section the user did not draw: a connected
 region of a layer with no mask, whose outside is off the part) a path leaving more than
 `max_uncovered` of the area, or welding off the region (a parallel fill of a cross's whole layer
 crossed the notches between its arms, arc ON, up to 26 mm off the part), is replaced, in this
@@ -49,7 +49,7 @@ MAX_UNCOVERED = 0.02
 #: The pattern that fills any region.
 FILLER = "contour"
 #: Arc-ON centre line (mm) a whole region's path may run off the region beyond its stock (run-ups
-#: and a bead width): none, up to the shapely buffer's facet error.
+#: and half a bead width): none, up to the shapely buffer's facet error.
 OUTSIDE_TOL = 0.01
 
 How = Literal["as planned", "split", "contour"]
@@ -85,19 +85,40 @@ def _measure(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
 
 
 def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
-    """Arc-ON centre line (mm) farther off `region` than the pattern's stock: its longer run-up or
-    run-out plus a bead width (what the preflight allows at a run's ends)."""
+    """Arc-ON centre line (mm) that welds off `region` beyond the pattern's run-ups (its longer
+    run-up or run-out, `stock`): wherever it is more than a bead width beyond them, and in stretches
+    longer than a bead width where it is more than half a bead width beyond them (the bead wholly
+    off the section: angle_block's layer 45, a parallel pass across a notch 161 mm long, 5.86 mm off
+    the part). A triangle's apex a few mm past a rectangle's edge (the robot study's overshoot) is
+    neither."""
     on = np.flatnonzero(path.arc)
     if not len(on):
         return 0.0
-    stock = max(spec.extension_before, spec.extension_after) + spec.bead_width
+    stock = max(spec.extension_before, spec.extension_after)
+    w = spec.bead_width
     segs = shapely.linestrings(np.stack([path.points[on], path.points[on + 1]], axis=1))
-    near = region.buffer(stock, quad_segs=8)
-    shapely.prepare(near)
-    off = ~shapely.within(segs, near)
-    if not off.any():
-        return 0.0
-    return float(shapely.length(shapely.difference(segs[off], near)).sum())
+    beyond = []
+    for reach in (stock + w / 2.0, stock + w):
+        near = region.buffer(reach, quad_segs=8)
+        shapely.prepare(near)
+        off = ~shapely.within(segs, near)
+        got = np.zeros(len(on))
+        if off.any():
+            got[off] = shapely.length(shapely.difference(segs[off], near))
+        beyond.append(got)
+    half, full = beyond
+    total = float(full.sum())
+    run = run_full = 0.0  # the stretch of consecutive arc-ON segments with the bead off, so far
+    for k in range(len(on)):
+        if half[k] > 0 and run > 0 and on[k] == on[k - 1] + 1:
+            run, run_full = run + half[k], run_full + full[k]
+            continue
+        if run > w:
+            total += run - run_full  # beyond a bead width it is counted already
+        run, run_full = (half[k], full[k]) if half[k] > 0 else (0.0, 0.0)
+    if run > w:
+        total += run - run_full
+    return total
 
 
 def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, how: How, pieces: int) -> WholePath:
