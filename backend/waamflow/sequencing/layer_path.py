@@ -94,30 +94,86 @@ def _exact_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
 
 
 def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, lo: int) -> list[int]:
+    """2-opt, then Or-opt, first improvement in scan order, until a round improves nothing: each
+    candidate move scored by its change of the tour's length, all of one scan at once (numpy), the
+    first that shortens it by more than 1e-9 mm taken, then the scan goes on over the new order
+    (the moves, order and outcome of scoring every candidate tour whole: 46 s for 5 layers of a
+    DXF of ~200 walls a layer, O(n^4) a round)."""
     n = len(order)
-    best = tour_length(order, cost, start_cost)
     for _ in range(MAX_2OPT_ROUNDS):
         improved = False
-        for i in range(lo, n - 1):  # 2-opt: reverse order[i..k]
-            for k in range(i + 1, n):
-                cand = order[:i] + order[i : k + 1][::-1] + order[k + 1 :]
-                length = tour_length(cand, cost, start_cost)
-                if length < best - 1e-9:
-                    order, best, improved = cand, length, True
-        for run in (1, 2, 3):  # Or-opt: move order[i..i+run) to position j
+        for i in range(lo, n - 1):  # 2-opt: reverse order[i..k], k = i+1 .. n-1
+            k0 = i + 1
+            while k0 < n:
+                delta = _reverse_deltas(order, cost, start_cost, i, k0)
+                hit = np.flatnonzero(delta < -1e-9)
+                if not len(hit):
+                    break
+                k = k0 + int(hit[0])
+                order = order[:i] + order[i : k + 1][::-1] + order[k + 1 :]
+                improved = True
+                k0 = k + 1
+        for run in (1, 2, 3):  # Or-opt: move order[i..i+run) to position j of the rest
             for i in range(lo, n - run + 1):
-                piece, rest = order[i : i + run], order[:i] + order[i + run :]
-                for j in range(lo, len(rest) + 1):
-                    if j == i:
-                        continue
-                    cand = rest[:j] + piece + rest[j:]
-                    length = tour_length(cand, cost, start_cost)
-                    if length < best - 1e-9:
-                        order, best, improved = cand, length, True
-                        break
+                delta = _move_deltas(order, cost, start_cost, i, run, lo)
+                delta[i - lo] = np.inf  # j == i: where it is
+                hit = np.flatnonzero(delta < -1e-9)
+                if len(hit):
+                    j = lo + int(hit[0])
+                    piece, rest = order[i : i + run], order[:i] + order[i + run :]
+                    order = rest[:j] + piece + rest[j:]
+                    improved = True
         if not improved:
             break
     return order
+
+
+def _entry(o: np.ndarray, cost: np.ndarray, start_cost: np.ndarray | None, pos: int, to: np.ndarray) -> np.ndarray:
+    """Cost of arriving at sections `to` in position `pos` of tour `o` (from the start point at 0)."""
+    if pos > 0:
+        return cost[o[pos - 1], to]
+    return np.zeros(len(to)) if start_cost is None else start_cost[to]
+
+
+def _reverse_deltas(order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, i: int, k0: int) -> np.ndarray:
+    """Change of the tour's length when order[i..k] is reversed, for k = k0 .. n-1."""
+    o = np.asarray(order)
+    n = len(o)
+    ks = np.arange(k0, n)
+    fwd = np.concatenate([[0.0], np.cumsum(cost[o[:-1], o[1:]])])  # fwd[j]: edges before position j
+    bwd = np.concatenate([[0.0], np.cumsum(cost[o[1:], o[:-1]])])  # the same edges walked backwards
+    inner = (bwd[ks] - bwd[i]) - (fwd[ks] - fwd[i])
+    entry = _entry(o, cost, start_cost, i, o[ks]) - _entry(o, cost, start_cost, i, o[i : i + 1])
+    last = ks < n - 1
+    nxt = o[np.minimum(ks + 1, n - 1)]
+    exit_ = np.where(last, cost[o[i], nxt] - cost[o[ks], nxt], 0.0)
+    return inner + entry + exit_
+
+
+def _move_deltas(
+    order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, i: int, run: int, lo: int
+) -> np.ndarray:
+    """Change of the tour's length when order[i..i+run) moves to position j of the rest (the
+    tour without it), for j = lo .. len(rest)."""
+    o = np.asarray(order)
+    n = len(o)
+    a, b = o[i], o[i + run - 1]
+    rest = np.concatenate([o[:i], o[i + run :]])
+    # taken out: its entry and exit, the neighbours joined
+    out = -_entry(o, cost, start_cost, i, o[i : i + 1])[0]
+    if i + run < n:
+        out += -cost[b, o[i + run]] + _entry(o, cost, start_cost, i, o[i + run : i + run + 1])[0]
+    js = np.arange(lo, len(rest) + 1)
+    prev_in = np.where(js > 0, cost[rest[np.maximum(js - 1, 0)], a], 0.0 if start_cost is None else start_cost[a])
+    inside = js < len(rest)
+    nxt = rest[np.minimum(js, len(rest) - 1)] if len(rest) else np.zeros(len(js), dtype=int)
+    join = np.where(
+        inside,
+        np.where(js > 0, cost[rest[np.maximum(js - 1, 0)], nxt], 0.0 if start_cost is None else start_cost[nxt]),
+        0.0,
+    )
+    into = prev_in + np.where(inside, cost[b, nxt], 0.0) - join
+    return out + into
 
 
 def explicit_order(keys: Sequence[str], wanted: Sequence[str]) -> list[int]:
