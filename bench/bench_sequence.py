@@ -11,9 +11,6 @@ Entry:
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import numpy as np
 
 N = 100
@@ -51,16 +48,9 @@ def reference_local_search(order, cost, start_cost, lo):
     return order
 
 
-def _timed(fn) -> tuple[float, object]:
-    times, got = [], None
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        got = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), got
-
-
 def run() -> list[dict]:
+    from bench_slice import _median  # the benches' one timer: (median s of REPEATS calls, last result)
+
     from waamflow.sequencing import layer_path
 
     rng = np.random.default_rng(1)
@@ -69,11 +59,11 @@ def run() -> list[dict]:
     cost = layer_path.travel_cost(ends, starts)
     start = rng.uniform(0, 100, N)
     layer_path.nearest_order(cost[:8, :8], start[:8])  # warm-up
-    ours_s, ours = _timed(lambda: layer_path.nearest_order(cost, start))
+    ours_s, ours = _median(lambda: layer_path.nearest_order(cost, start), REPEATS)
     real = layer_path._local_search
     layer_path._local_search = reference_local_search
     try:
-        peer_s, theirs = _timed(lambda: layer_path.nearest_order(cost, start))
+        peer_s, theirs = _median(lambda: layer_path.nearest_order(cost, start), REPEATS)
     finally:
         layer_path._local_search = real
     assert ours == theirs, "sequence: the delta-scored local search chose another order than the reference"
