@@ -348,3 +348,15 @@ def test_a_panel_without_its_last_three_layers_ends_six_mm_short(panel):
     rep = check_panel_doc(graph, res, doc)
     (gap,) = [p for p in rep["problems"] if p["check"] == "top_gap"]
     assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(5.5, abs=0.05)
+
+
+def test_a_panel_of_one_layer_ends_far_short_of_its_top(panel):
+    """Only the panel's first layer (2 mm of its 30 mm): no layer before or after gives the build
+    direction, so it is +z; the top gap is the distance up to the highest point of the part out of
+    reach, 27.5 mm (the samples lie 0.5 mm below the top), not 0."""
+    graph, res = panel
+    doc = copy.deepcopy(json.loads(res.artifacts["sequence.toolpath.json"]))
+    doc["layers"] = doc["layers"][:1]
+    rep = check_panel_doc(graph, res, doc)
+    (gap,) = [p for p in rep["problems"] if p["check"] == "top_gap"]
+    assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(27.5, abs=0.05)

@@ -397,8 +397,8 @@ TOP_GAP_MIN_COS = 0.7
 def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
     """How far the part goes on beyond the beads along the build, mm: of the points of the part out
     of the beads' reach that lie along the build direction (the nearest bead's offset from the layer
-    before it, or to the layer after it on the first layer) from their nearest bead, the farthest
-    along it. A point out of reach beside the beads is an unbuilt wall, which the uncovered check
+    before it, or to the layer after it on the first layer; +z in a program of one layer) from their
+    nearest bead, the farthest along it. A point out of reach beside the beads is an unbuilt wall, which the uncovered check
     names: a panel without one rib had "ends 42.27 mm short of the part's top (30.00 mm)", the
     distance to the rib's far end; without its last 3 layers of 2 mm, "3.03 mm short" (the 6 mm
     less the reach) where it is 6.00."""
@@ -413,9 +413,10 @@ def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
     for idx in np.unique(dep_layer[nd]):
         k = pos[int(idx)]
         other = order[k - 1] if k > 0 else (order[k + 1] if len(order) > 1 else None)
-        if other is None:
-            continue
         sel = dep_layer[nd] == idx
+        if other is None:  # a program of one layer: no layer to take the build direction from, so up
+            build[sel] = (0.0, 0.0, 1.0)
+            continue
         p = dep[nd[sel]]
         q = dep[dep_layer == other]
         b = q[cKDTree(q).query(p)[1]]
