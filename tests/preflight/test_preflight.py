@@ -362,3 +362,43 @@ def test_an_arc_burning_without_wire_fails_even_where_the_part_balance_holds():
     assert p["limit"] == 0.5 and rep["verdict"] == "fail"
     assert ("wire_feed", "fail") not in kinds(check(text))  # the feed the part needs passes
     assert ("wire_feed", "warn") in kinds(check(starved, wire_feed_min="warn"))
+
+
+def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
+    """A 60 mm hemispherical shell read as a surface, one wall per 1.5 mm layer up to z 60: its flat
+    cap is out of the last ring's reach sideways, not above it. The 3D check took the build direction
+    from layer to layer, tilted inward near the cap, and failed "the deposit ends 4.03 mm short of
+    the part's top (60.00 mm)"; planar layers build up (+z): top gap 0, the cap's share is the
+    uncovered check's (0.4 %)."""
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=60.0)
+    dome = trimesh.Trimesh(sphere.vertices, sphere.faces[sphere.triangles_center[:, 2] > 0])
+    dome.remove_unreferenced_vertices()
+    dome.export(tmp_path / "dome.stl")
+    recipe = {
+        "format": "waamflow/1",
+        "name": "dome",
+        "nodes": [
+            {"id": "part", "type": "mesh", "params": {"path": "dome.stl", "as": "surface"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
+            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
+            {
+                "id": "post",
+                "type": "post-process",
+                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
+            },
+        ],
+        "edges": [
+            {"from": "part.mesh", "to": "layers.mesh"},
+            {"from": "layers.layers", "to": "walls.layers"},
+            {"from": "walls.toolpath", "to": "post.toolpath"},
+        ],
+    }
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1)
+    pf = res.preflight
+    assert pf["programs"][0]["coverage_method"] == "3D samples" and len(res.outputs["layers"]["layers"]) == 40
+    assert pf["top_gap_mm"] == 0.0 and not [p for p in pf["problems"] if p["check"] == "top_gap"]
+    assert pf["uncovered_share"] == pytest.approx(0.0036, abs=0.001)

@@ -331,7 +331,10 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float]:
     return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area)
 
 
-def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings) -> Coverage:
+def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings, planar: bool = False) -> Coverage:
+    """The part's surface (or midsurface) sampled every `s.sample_mm` and each sample's distance to
+    the nearest bead. `planar`: the layers are horizontal planes, so the build goes up (+z); else it
+    goes from each layer to the next (fan layers)."""
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
@@ -374,7 +377,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         if m.any():
             L = rep.layer(idx)
             L.update(samples=int(m.sum()), uncovered_share=_r(float(unc[m].mean())))
-    gap = _top_gap(samples, dist, near, dep, dep_layer, order, reach)
+    gap = _top_gap(samples, dist, near, dep, dep_layer, [] if planar else order, reach)
     worst = samples[int(np.argmax(dist))]
     return {
         "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
@@ -396,12 +399,13 @@ TOP_GAP_MIN_COS = 0.7
 
 def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
     """How far the part goes on beyond the beads along the build, mm: of the points of the part out
-    of the beads' reach that lie along the build direction (the nearest bead's offset from the layer
-    before it, or to the layer after it on the first layer; +z in a program of one layer) from their
-    nearest bead, the farthest along it. A point out of reach beside the beads is an unbuilt wall, which the uncovered check
-    names: a panel without one rib had "ends 42.27 mm short of the part's top (30.00 mm)", the
-    distance to the rib's far end; without its last 3 layers of 2 mm, "3.03 mm short" (the 6 mm
-    less the reach) where it is 6.00."""
+    of the beads' reach that lie along the build direction from their nearest bead, the farthest
+    along it. The build direction: up (+z) for planar layers (`order` empty) and a program of one
+    layer; else the nearest bead's offset from the layer before it in `order` (to the layer after it
+    on the first layer). A point out of reach beside the beads is an unbuilt wall or a dome's flat
+    cap, which the uncovered check names: a panel without one rib had "ends 42.27 mm short of the
+    part's top (30.00 mm)", the distance to the rib's far end; without its last 3 layers of 2 mm,
+    "3.03 mm short" (the 6 mm less the reach) where it is 6.00."""
     from scipy.spatial import cKDTree
 
     out = np.flatnonzero(dist > reach)
@@ -411,16 +415,16 @@ def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
     build = np.zeros((len(out), 3))
     pos = {idx: k for k, idx in enumerate(order)}
     for idx in np.unique(dep_layer[nd]):
-        k = pos[int(idx)]
-        other = order[k - 1] if k > 0 else (order[k + 1] if len(order) > 1 else None)
         sel = dep_layer[nd] == idx
-        if other is None:  # a program of one layer: no layer to take the build direction from, so up
+        k = pos.get(int(idx))
+        other = None if k is None else order[k - 1] if k > 0 else (order[k + 1] if len(order) > 1 else None)
+        if other is None:  # planar layers (no `order` given), or a program of one layer: up
             build[sel] = (0.0, 0.0, 1.0)
             continue
         p = dep[nd[sel]]
         q = dep[dep_layer == other]
         b = q[cKDTree(q).query(p)[1]]
-        build[sel] = p - b if k > 0 else b - p
+        build[sel] = p - b if k else b - p
     offset = samples[out] - dep[nd]
     nb = np.linalg.norm(build, axis=1)
     no = np.linalg.norm(offset, axis=1)
@@ -473,7 +477,7 @@ def check_program(
             )
             top_gap = part.top - max(heights)
         else:
-            cov = coverage_3d(part, layers, width, rep, s)
+            cov = coverage_3d(part, layers, width, rep, s, planar)
             top_gap = cov.get("top_gap_mm")
             h_typ = cov.get("layer_spacing_mm")
         out.update(
