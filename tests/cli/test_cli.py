@@ -129,3 +129,29 @@ def test_a_large_mesh_starts_the_fork_server_before_the_engine_is_imported(tmp_p
     )
     out = subprocess.run([sys.executable, "-c", probe, str(big)], capture_output=True, text=True, timeout=120)
     assert out.stdout.split() == ["True", "True", "False"], out.stderr
+
+
+def test_a_flood_of_warnings_prints_the_first_50_and_a_count():
+    """trimesh's soup.stl (100 loose triangles) read as a surface gave 20,701 wall warnings: 20,706
+    lines on stderr. The CLI prints the first MAX_PRINTED_WARNINGS, then one line counting the rest
+    by node; -v prints them all. summary.json keeps every one (the engine's list, unchanged)."""
+    import io
+
+    from waamflow.cli import MAX_PRINTED_WARNINGS, ProgressBar
+    from waamflow.engine.events import Event
+
+    def feed(verbose):
+        out = io.StringIO()
+        bar = ProgressBar(out, verbose)
+        for i in range(120):
+            bar(Event("warning", node="walls" if i % 4 else "part", layer=i, message=f"w{i}"))
+        bar(Event("run_finished", progress=1.0))
+        return out.getvalue().splitlines()
+
+    lines = feed(verbose=False)
+    assert MAX_PRINTED_WARNINGS == 50 and len(lines) == 51
+    assert lines[49] == "warning: walls: layer 49: w49"
+    assert (
+        lines[50] == "warning: 70 more warnings not shown (walls 53, part 17): all are in summary.json; -v prints them"
+    )
+    assert len(feed(verbose=True)) == 120
