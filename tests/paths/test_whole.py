@@ -287,3 +287,23 @@ def test_passes_across_a_notch_with_the_bead_wholly_off_the_part_are_re_planned(
     w = plan_whole(plate, g, spec, adapt=True)
     assert w.how == "split" and w.outside == 0.0 and _off_region(plate, w.path, spec) == 0.0
     assert w.uncovered_share < 0.01
+
+
+def test_a_footprint_of_runs_of_different_lengths_is_made_valid_too():
+    """Layer 64 of trimesh's rabbit.obj at 200 mm (WKB as waamflow slices it): the split's arc-ON
+    runs have different lengths and their one-call buffer is invalid; the fallback built the runs
+    as one array of lines and stopped with numpy's "inhomogeneous shape" (a strategy error on a
+    rabbit). Each run is its own line now: the layer plans, every candidate measured."""
+    region = shapely.from_wkb((Path(__file__).parent / "data" / "rabbit_layer64.wkb").read_text().strip())
+    spec = StrategySpec(pattern="contour", bead_width=6.0, spacing=5.0)
+    w = plan_whole(region, default_guide(region), spec, adapt=True)
+    assert w.how == "as planned" and w.uncovered_share == pytest.approx(0.0324, abs=0.001)
+    from waamflow.paths.whole import plan_pieces
+
+    pieces = corner_division(region)
+    split = plan_pieces(region, pieces, np.asarray(default_guide(region).coords[0]), spec)
+    foot = deposit(split.points, split.arc, 6.0)
+    assert len(pieces) > 1 and foot.is_valid
+    assert foot.intersection(region).area / region.area == pytest.approx(
+        1 - uncovered_area(region, split.points, split.arc, 6.0) / region.area
+    )

@@ -97,9 +97,7 @@ def footprint(runs: list[np.ndarray], width: float, resolution: int = 16):
     # GEOS's buffer of the whole set can come out invalid ("nested shells": the contour rings of a
     # sphere's layer, whose footprint then failed every overlay with a TopologyException): each
     # run buffered on its own and the buffers united instead (the same area, made robustly)
-    each = shapely.buffer(
-        shapely.linestrings([np.asarray(r, dtype=float)[:, :2] for r in lines]), width / 2.0, quad_segs=resolution
-    )
+    each = shapely.buffer(np.array([LineString(r) for r in lines], dtype=object), width / 2.0, quad_segs=resolution)
     return shapely.make_valid(shapely.union_all(each))
 
 
