@@ -378,25 +378,14 @@ def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
     dome = trimesh.Trimesh(sphere.vertices, sphere.faces[sphere.triangles_center[:, 2] > 0])
     dome.remove_unreferenced_vertices()
     dome.export(tmp_path / "dome.stl")
-    recipe = {
-        "format": "waamflow/1",
-        "name": "dome",
-        "nodes": [
-            {"id": "part", "type": "mesh", "params": {"path": "dome.stl", "as": "surface"}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
-            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
-            {
-                "id": "post",
-                "type": "post-process",
-                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
-            },
-        ],
-        "edges": [
-            {"from": "part.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "walls.layers"},
-            {"from": "walls.toolpath", "to": "post.toolpath"},
-        ],
-    }
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+    from bench_vase import _recipe  # mesh → slice → wall-path → post, the bench's own recipe
+
+    recipe = _recipe()
+    recipe["nodes"][0]["params"].update({"path": "dome.stl", "as": "surface"})
     res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1)
     pf = res.preflight
     assert pf["programs"][0]["coverage_method"] == "3D samples" and len(res.outputs["layers"]["layers"]) == 40
