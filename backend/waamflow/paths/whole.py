@@ -1,9 +1,9 @@
 """The whole section gets a path: plan a section and check what its path leaves without a bead.
 
 `plan_whole(region, guide, spec, adapt=...)` plans the section with its spec and measures the area
-its beads do not reach (`deposit.uncovered_area`) and its arc-ON centre line off the region beyond
-the pattern's run-ups and half a bead width, where a bead lies wholly off it (`outside_length`). With `adapt` (a section the user did not draw: a connected
-region of a layer with no mask, whose outside is off the part) a path leaving more than
+its beads do not reach (`deposit.uncovered_area`) and the arc-ON centre line it welds off the
+region beyond the pattern's run-ups (`outside_length`). With `adapt` (a section the user did not
+draw: a connected region of a layer with no mask, whose outside is off the part) a path leaving more than
 `max_uncovered` of the area, or welding off the region (a parallel fill of a cross's whole layer
 crossed the notches between its arms, arc ON, up to 26 mm off the part), is replaced, in this
 order, by
@@ -91,22 +91,23 @@ def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
     off the section: angle_block's layer 45, a parallel pass across a notch 161 mm long, 5.86 mm off
     the part). A triangle's apex a few mm past a rectangle's edge (the robot study's overshoot) is
     neither."""
-    on = np.flatnonzero(path.arc)
+    # `finish` split the path at the region's boundary and flagged each piece: only arc-ON pieces
+    # flagged outside can lie off it
+    on = np.flatnonzero(path.arc & ~path.inside)
     if not len(on):
         return 0.0
     stock = max(spec.extension_before, spec.extension_after)
     w = spec.bead_width
     segs = shapely.linestrings(np.stack([path.points[on], path.points[on + 1]], axis=1))
-    beyond = []
-    for reach in (stock + w / 2.0, stock + w):
+    half, full = np.zeros(len(on)), np.zeros(len(on))
+    candidates = np.arange(len(on))
+    for got, reach in ((half, stock + w / 2.0), (full, stock + w)):
         near = region.buffer(reach, quad_segs=8)
         shapely.prepare(near)
-        off = ~shapely.within(segs, near)
-        got = np.zeros(len(on))
-        if off.any():
+        off = candidates[~shapely.within(segs[candidates], near)]
+        if len(off):
             got[off] = shapely.length(shapely.difference(segs[off], near))
-        beyond.append(got)
-    half, full = beyond
+        candidates = off  # a piece within the nearer reach is within the farther one
     total = float(full.sum())
     run = run_full = 0.0  # the stretch of consecutive arc-ON segments with the bead off, so far
     for k in range(len(on)):

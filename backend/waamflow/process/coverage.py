@@ -91,13 +91,14 @@ def footprint(runs: list[np.ndarray], width: float, resolution: int = 16):
     lines = [r for r in runs if len(r) >= 2]
     if not lines:
         return Polygon()
-    foot = MultiLineString([LineString(r) for r in lines]).buffer(width / 2.0, quad_segs=resolution)
+    geoms = [LineString(r) for r in lines]
+    foot = MultiLineString(geoms).buffer(width / 2.0, quad_segs=resolution)
     if foot.is_valid:
         return foot
     # GEOS's buffer of the whole set can come out invalid ("nested shells": the contour rings of a
     # sphere's layer, whose footprint then failed every overlay with a TopologyException): each
     # run buffered on its own and the buffers united instead (the same area, made robustly)
-    each = shapely.buffer(np.array([LineString(r) for r in lines], dtype=object), width / 2.0, quad_segs=resolution)
+    each = shapely.buffer(np.array(geoms, dtype=object), width / 2.0, quad_segs=resolution)
     return shapely.make_valid(shapely.union_all(each))
 
 

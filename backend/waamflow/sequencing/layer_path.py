@@ -164,14 +164,12 @@ def _move_deltas(
     if i + run < n:
         out += -cost[b, o[i + run]] + _entry(o, cost, start_cost, i, o[i + run : i + run + 1])[0]
     js = np.arange(lo, len(rest) + 1)
-    prev_in = np.where(js > 0, cost[rest[np.maximum(js - 1, 0)], a], 0.0 if start_cost is None else start_cost[a])
+    prev = rest[np.maximum(js - 1, 0)] if len(rest) else np.zeros(len(js), dtype=int)  # at j > 0
     inside = js < len(rest)
     nxt = rest[np.minimum(js, len(rest) - 1)] if len(rest) else np.zeros(len(js), dtype=int)
-    join = np.where(
-        inside,
-        np.where(js > 0, cost[rest[np.maximum(js - 1, 0)], nxt], 0.0 if start_cost is None else start_cost[nxt]),
-        0.0,
-    )
+    first = js == 0  # arriving from the start point
+    prev_in = np.where(first, 0.0 if start_cost is None else start_cost[a], cost[prev, a])
+    join = np.where(inside, np.where(first, 0.0 if start_cost is None else start_cost[nxt], cost[prev, nxt]), 0.0)
     into = prev_in + np.where(inside, cost[b, nxt], 0.0) - join
     return out + into
 
