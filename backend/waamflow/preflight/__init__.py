@@ -17,6 +17,8 @@ import json
 import re
 from typing import Any
 
+import orjson
+
 from .settings import PreflightSettings
 
 __all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error", "gate"]
@@ -151,7 +153,7 @@ def run_preflight(
             reports.append(rep)
     if not reports:  # no program: the last toolpath a node hands out that deposits
         if last and doc_name and doc_name in artifacts:
-            prog = read_toolpath(json.loads(artifacts[doc_name]))
+            prog = read_toolpath(orjson.loads(artifacts[doc_name]))
             if doc_name in own:
                 sums_here[doc_name] = arc_on_by_section(prog)
             width, source = _bead_width(graph, last, s)

@@ -12,11 +12,11 @@ fillet_radius 3: 1459.479 mm welded on odd layers against 1412.334 mm planned).
 
 from __future__ import annotations
 
-import json
 from collections import defaultdict
 from typing import Any, Callable, Protocol, cast
 
 import numpy as np
+import orjson
 
 from ..core.tolerances import TOL
 from .read import ProgramRead, read_toolpath
@@ -65,14 +65,14 @@ class Submits(Protocol):
 def read_back_changes(pair: tuple[bytes, bytes]) -> list[dict]:
     """`deposit_changes` of the (before, after) `toolpath.json` artifacts as written (worker side,
     or this process): what a worker sends back is the few changes, not the programs read."""
-    before, after = (read_toolpath(json.loads(doc)) for doc in pair)
+    before, after = (read_toolpath(orjson.loads(doc)) for doc in pair)
     return deposit_changes(before, after)
 
 
 def arc_on_of_doc(doc: bytes) -> dict[tuple[int | None, str | None], tuple[float, int]]:
     """`arc_on_by_section` of one `toolpath.json` artifact as written (worker side: one task per
     document, so a node's two read-backs run side by side; what comes back is the few sums)."""
-    return arc_on_by_section(read_toolpath(json.loads(doc)))
+    return arc_on_by_section(read_toolpath(orjson.loads(doc)))
 
 
 def _pairs(graph, artifacts: dict[str, bytes]) -> list[tuple[str, str, tuple[str, str], tuple[bytes, bytes]]]:
