@@ -159,6 +159,15 @@ class FileResolver:
         self._hashing: dict[str, Future[tuple[str, str]]] = {}  # path → its digests being computed beside
         self.hash_beside = False  # large reads hashed in a thread (`_hash_beside`): the run has no cache
 
+    def __getstate__(self) -> dict[str, Any]:
+        """What a worker gets (the resolver travels with every chunk, `parallel.run_chain`): no
+        hash under way (a Future holds a lock and cannot be pickled; the run's own copy collects
+        it for the trace) and no hashing beside (a worker's reads serve its layers only)."""
+        state = dict(self.__dict__)
+        state["_hashing"] = {}
+        state["hash_beside"] = False
+        return state
+
     def resolve(self, path: str) -> Path:
         if not isinstance(path, str) or not path:
             raise InputFileError("empty file path")
