@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections import Counter
 
+import shapely.errors
 from pydantic import Field
 from shapely.geometry import MultiPolygon, box
 
@@ -101,8 +102,14 @@ class ToyFail(LayerNode):
 
     class Params(NodeParams):
         fail_at: int = -1
+        geos: bool = False  # fail as the geometry kernel does instead
 
     def run_layer(self, ctx, params, index, items):
+        if index == params.fail_at and params.geos:
+            raise shapely.errors.GEOSException(
+                "TopologyException: side location conflict at -83.636605329297936 -15.387182998070729. "
+                "This can occur if the input geometry is invalid."
+            )
         if index == params.fail_at:
             raise PlanningError("curve yields 2 regions", section="bs1/A")
         return {"layers": items["layers"]}

@@ -70,6 +70,22 @@ def test_planning_error_names_node_layer_section():
     assert "layer 7" in str(err) and "bs1/A" in str(err) and err.exit_code == 3
 
 
+def test_a_geometry_kernel_error_says_what_to_look_at_and_where():
+    """GEOS's own text ("TopologyException: side location conflict at x y") reached the user bare
+    (the cow of common-3d-test-models, before the slicer made its self-crossing sections valid)."""
+    data = toy.recipe(
+        [("stack", "toy-stack", {"count": 10}), ("f", "toy-fail", {"fail_at": 4, "geos": True})],
+        [("stack.layers", "f.layers")],
+    )
+    with pytest.raises(PlanningError) as ei:
+        run(data)
+    err = ei.value
+    assert (err.node, err.layer, err.exit_code) == ("f", 4, 3)
+    msg = str(err)
+    assert "GEOSException: TopologyException: side location conflict" in msg
+    assert "outline near (-83.64, -15.39) mm" in msg and "repair the mesh" in msg
+
+
 def test_warnings_are_replayed_from_cache():
     cache = MemoryCache()
     data = toy.chain(grow={"per_layer": {"2": 6.0}})

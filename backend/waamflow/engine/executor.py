@@ -22,6 +22,7 @@ import gc
 import hashlib
 import json
 import os
+import re
 import sys
 import threading
 import time
@@ -810,7 +811,7 @@ class _Run:
             )
             raise
         except Exception as exc:  # a kernel bug or unexpected geometry: report where, never a traceback
-            perr = PlanningError(f"{type(exc).__name__}: {exc}", node=node_id, layer=ctx.layer)
+            perr = PlanningError(_unexpected(exc), node=node_id, layer=ctx.layer)
             perr.__cause__ = exc
             perr.debug_traceback = traceback.format_exc()
             self.emit("node_error", node=node_id, layer=perr.layer, message=str(perr), error=perr.to_dict())
@@ -1124,6 +1125,21 @@ class _Run:
         if not isinstance(outputs, dict) or set(outputs) != expected:
             got = sorted(outputs) if isinstance(outputs, dict) else type(outputs).__name__
             raise PlanningError(f"node returned outputs {got}, expected {sorted(expected)}")
+
+
+def _unexpected(exc: Exception) -> str:
+    """The message of an exception no kernel anticipated: its kind and text, and for the geometry
+    kernel's (GEOS: shapely.errors.GEOSException) what to look at and where."""
+    text = f"{type(exc).__name__}: {exc}"
+    if type(exc).__name__ != "GEOSException":
+        return text
+    at = re.search(r" at (-?\d+(?:\.\d+)?(?:e-?\d+)?) (-?\d+(?:\.\d+)?(?:e-?\d+)?)", str(exc))
+    where = f" near ({float(at[1]):.2f}, {float(at[2]):.2f}) mm" if at else ""
+    return (
+        f"{text} — the geometry kernel could not compute this layer's outline{where}: a self-crossing, "
+        "paper-thin or degenerate outline there; check the part or sketch at that point (repair the mesh, "
+        "thicken the feature) or change the bead width or pattern"
+    )
 
 
 def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float | None]:

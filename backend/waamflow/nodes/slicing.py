@@ -79,6 +79,16 @@ def _no_layers(part, params, layer_height: float) -> str:
     )
 
 
+def _reason(geos: str) -> str:
+    """GEOS's validity reason "Self-intersection[x y]" as words with the point in mm."""
+    name, _, rest = geos.partition("[")
+    try:
+        x, y = (float(v) for v in rest.rstrip("]").split()[:2])
+    except ValueError:
+        return geos
+    return f"{name.lower()} at ({x:.2f}, {y:.2f}) mm"
+
+
 def _warn_top(ctx, schedule: LayerSchedule, layer_count: int | None, min_fraction: float, max_factor: float) -> None:
     """Warnings about where the layers end: a `nearest` gap or overshoot, a `ceil` overshoot, and
     `layer_count` keeping fewer layers than reach the top."""
@@ -242,6 +252,7 @@ class SliceNode(Node):
         layer_height = model_layer_height(
             ctx, params.layer_height, inputs.get("model"), "layer_height" in params.model_fields_set
         )
+        repairs: list[tuple[int, str, float, float]] = []
         try:
             layers, schedule = slice_part_scheduled(
                 part,
@@ -256,11 +267,19 @@ class SliceNode(Node):
                 min_fraction=params.top_min_fraction,
                 max_factor=params.top_max_factor,
                 submit=ctx.submit if ctx.can_submit() else None,
+                repairs=repairs,
             )
         except ValueError as exc:
             raise RecipeError(str(exc)) from exc
         if not layers:
             raise PlanningError(_no_layers(part, params, layer_height))
+        for i, reason, before, after in repairs:
+            ctx.warn(
+                f"the section crosses itself ({_reason(reason)}): the mesh's surface passes through itself "
+                f"there; planned on its outline ({before:.1f} → {after:.1f} mm², shapely make_valid): "
+                "repair the mesh (e.g. a boolean union of its shells) to be sure of this layer",
+                layer=i,
+            )
         _warn_top(ctx, schedule, params.layer_count, params.top_min_fraction, params.top_max_factor)
         for i in empty_layers_inside(layers, part, params.direction):
             ctx.warn("layer is empty although it lies within the part's height (gap between bodies?)", layer=i)

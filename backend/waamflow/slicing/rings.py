@@ -177,11 +177,46 @@ def _nesting(polys, probes, bbox, plane, areas, group=None) -> tuple[np.ndarray,
     return depth, parent
 
 
-def loops_to_regions(loops: Loops, n_planes: int) -> list[MultiPolygon]:
-    """One MultiPolygon (possibly empty) per plane from the loops of `section_loops`."""
+def loops_to_regions(
+    loops: Loops, n_planes: int, repairs: list[tuple[int, str, float, float]] | None = None
+) -> list[MultiPolygon]:
+    """One MultiPolygon (possibly empty) per plane from the loops of `section_loops`, each valid
+    (`repair_regions`; `repairs` receives what was repaired)."""
     regions: list[MultiPolygon] = [MultiPolygon() for _ in range(n_planes)]
     if len(loops) == 0:
         return regions
+    return repair_regions(_regions(loops, n_planes, regions), repairs)
+
+
+def repair_regions(
+    regions: list[MultiPolygon], repairs: list[tuple[int, str, float, float]] | None = None
+) -> list[MultiPolygon]:
+    """The regions with each invalid one made valid. A mesh whose surface passes through itself
+    (two shells that overlap, a fold: trimesh's cow.obj at a third of its height) gives a section
+    loop that crosses itself; planned on as it was, GEOS stopped the strategy node with
+    "TopologyException: side location conflict". Repaired by `shapely.make_valid` with the
+    'structure' method (the loops' outlines united, holes cut: what a closed solid's section
+    would be); `repairs` receives (plane, GEOS's reason with where, area before, area after)."""
+    if not regions:
+        return regions
+    arr = np.empty(len(regions), dtype=object)
+    arr[:] = regions
+    bad = np.flatnonzero(~shapely.is_valid(arr))
+    if not len(bad):
+        return regions
+    out = list(regions)
+    for i in bad.tolist():
+        fixed = shapely.make_valid(out[i], method="structure", keep_collapsed=False)
+        if fixed.geom_type == "GeometryCollection":  # polygons nested in it: one areal geometry
+            fixed = shapely.union_all([g for g in shapely.get_parts(fixed) if g.geom_type.endswith("Polygon")])
+        region = as_multipolygon(region_polygons(fixed))
+        if repairs is not None:
+            repairs.append((i, str(shapely.is_valid_reason(out[i])), float(out[i].area), float(region.area)))
+        out[i] = region
+    return out
+
+
+def _regions(loops: Loops, n_planes: int, regions: list[MultiPolygon]) -> list[MultiPolygon]:
     coords, lid, plane, area, good = _clean(loops)
     k = len(plane)
     if k == 0:

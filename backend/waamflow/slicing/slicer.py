@@ -61,15 +61,20 @@ def part_z_range(part: MeshData | Midsurface) -> tuple[float, float]:
 
 
 def slice_mesh(
-    mesh: MeshData, schedule: LayerSchedule, rot: np.ndarray | None = None, submit: Submit | None = None
+    mesh: MeshData,
+    schedule: LayerSchedule,
+    rot: np.ndarray | None = None,
+    submit: Submit | None = None,
+    repairs: list[tuple[int, str, float, float]] | None = None,
 ) -> tuple[Layer, ...]:
     """Solid layers: region = mid-layer section as a MultiPolygon with holes (mm).
 
     mesh: in the build frame (rotated by `rot` already, if any); rot sets the layers' frames.
     submit: a node's `Context.submit`, which may cut the upper planes in a worker (planar.py).
+    repairs: receives the sections that crossed themselves and were made valid (`rings.repair_regions`).
     """
     loops = section_loops(mesh.vertices, mesh.faces, schedule.cuts, name=mesh.name, submit=submit)
-    regions = loops_to_regions(loops, len(schedule))
+    regions = loops_to_regions(loops, len(schedule), repairs)
     return tuple(
         Layer(index=i, z=float(z), thickness=float(t), region=regions[i], frame=_layer_frame(rot, float(z)))
         for i, (z, t) in enumerate(zip(schedule.tops, schedule.thickness))
@@ -187,9 +192,11 @@ def slice_part_scheduled(
     min_fraction: float = TOP_MIN_FRACTION,
     max_factor: float = TOP_MAX_FACTOR,
     submit: Submit | None = None,
+    repairs: list[tuple[int, str, float, float]] | None = None,
 ) -> tuple[tuple[Layer, ...], LayerSchedule]:
     """`slice_part`, and the layer schedule it used: (layers, schedule). `submit`: a node's
-    `Context.submit`, with which a large solid's upper planes are cut in a worker (planar.py)."""
+    `Context.submit`, with which a large solid's upper planes are cut in a worker (planar.py).
+    `repairs`: receives (layer, reason, area before, area after) of each section made valid."""
     rot = build_rotation(direction)
     if rot is not None:
         if isinstance(part, Midsurface):
@@ -215,7 +222,7 @@ def slice_part_scheduled(
         return slice_midsurface(part, schedule), schedule
     if part.surface:
         return slice_surface(part, schedule, rot), schedule
-    return slice_mesh(part, schedule, rot, submit), schedule
+    return slice_mesh(part, schedule, rot, submit, repairs), schedule
 
 
 def empty_layers_inside(
