@@ -238,13 +238,16 @@ def coverage_planar(
     pool: Workers | None = None,
     outside: tuple[float, float] | None = None,
     prefetch: Any = None,
+    s: PreflightSettings | None = None,
 ) -> Coverage:
     """Slab by slab (slabs.py); `pool`: the run's workers, which check the layers of a solid
     part in tasks of consecutive layers when that pays (the figures are the same). `outside`:
     (margin, step) of the `outside` check, whose walk of a solid's layers then runs in the same
     tasks, on the sections they cut (`Coverage["excursions"]`, handed to check_outside). `prefetch`
     (prefetch.SectionPrefetch): the sections of planes the run cut ahead; only those at exactly the
-    program's planes, on this part's own mesh arrays, are used."""
+    program's planes, on this part's own mesh arrays, are used. `s`: the thresholds of the skipped
+    layers (gaps.py; default settings when None)."""
+    from .gaps import covered_height, gap_problems, slab_gaps, typical_height
     from .outside import RunLine
     from .slabs import OutsideRuns, cover_layer, cover_part, mid_planes
 
@@ -268,6 +271,9 @@ def coverage_planar(
         covers = cover_part(vertices, faces, mids, paths, width, pool, walk, known)
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
+    s = s if s is not None else PreflightSettings()
+    typical = typical_height(prev_top, tops)
+    gap_problems(slab_gaps([i for i, _r in layers], tops, prev_top, [c.area for c in covers], s), rep, s)
     for k, (idx, _runs) in enumerate(layers):
         z = tops[k]
         h = max(z - prev_top, 1e-6)
@@ -275,7 +281,7 @@ def coverage_planar(
         c = covers[k]
         sections[idx] = c.section
         area, unc = c.area, c.uncovered
-        covered_vol += c.covered * h
+        covered_vol += c.covered * covered_height(k, h, typical, s)
         L = rep.layer(idx)
         L.update(
             z=_r(z, 3),
@@ -473,7 +479,7 @@ def check_program(
     if part is not None:
         if planar and part.kind in ("solid", "region"):
             cov = coverage_planar(
-                part, layers, width, rep, pool, (outside_margin(s, width), outside_step(width)), prefetch
+                part, layers, width, rep, pool, (outside_margin(s, width), outside_step(width)), prefetch, s
             )
             top_gap = part.top - max(heights)
         else:

@@ -40,6 +40,20 @@ class PreflightSettings(BaseModel):
         le=100,
         description="Warn when the deposit ends more than this many layer heights above the part's top",
     )
+    layer_gap_warn_layers: float = Field(
+        1.8,
+        gt=1,
+        le=100,
+        description="Warn when a deposited layer lies more than this many typical layer heights above the "
+        "deposited layer below it, where the part has metal between (skipped layers)",
+    )
+    layer_gap_fail_layers: float = Field(
+        2.5,
+        gt=1,
+        le=100,
+        description="Fail when a deposited layer lies more than this many typical layer heights above the "
+        "deposited layer below it, where the part has metal between (skipped layers)",
+    )
     uncovered_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the part with no bead")
     uncovered_fail: float = Field(0.05, ge=0, le=1, description="Fail above this share of the part with no bead")
     volume_ratio_ok: tuple[float, float] = Field(
@@ -137,4 +151,6 @@ class PreflightSettings(BaseModel):
             raise ValueError("volume bands must nest: 0 < fail low ≤ ok low ≤ ok high ≤ fail high")
         if self.uncovered_warn > self.uncovered_fail:
             raise ValueError("uncovered_warn must not exceed uncovered_fail")
+        if self.layer_gap_warn_layers > self.layer_gap_fail_layers:
+            raise ValueError("layer_gap_warn_layers must not exceed layer_gap_fail_layers")
         return self
