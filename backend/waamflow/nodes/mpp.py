@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..core import serialize
-from ..core.errors import RecipeError
+from ..core.errors import PlanningError, RecipeError
 from ..core.model import LayerPaths, LayerSections, Layered
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -82,6 +82,7 @@ class MaskNode(LayerNode):
     """
 
     type = "mask"
+    version = "2"  # 2: a layer of curves only (an open surface, a sketch) stops the run
     combine_keeps_items = True  # combine only warns
     title = "Mask (segmentation)"
     category = "mpp"
@@ -112,6 +113,8 @@ class MaskNode(LayerNode):
 
     def run_layer(self, ctx, params, index, items):
         layer = items["layers"]
+        if layer.region.is_empty and layer.curves:
+            raise PlanningError(_no_area(len(layer.curves)))
         m = self._governing(params, index)
         mask = None if m is None else Mask.from_json(m.model_dump(mode="json"))
         ls = segment_layer(layer, mask)
@@ -129,6 +132,19 @@ class MaskNode(LayerNode):
             if m.from_layer >= n:
                 ctx.warn(f"mask {m.id!r} starts at layer {m.from_layer} but the part has {n} layers: it governs none")
         return super().combine(ctx, params, outputs, inputs)
+
+
+def _no_area(curves: int) -> str:
+    """A layer of curves only reached the mask (an open mesh read as a surface, a sketch): the mask
+    and the strategy fill areas, and had planned nothing without a word; the run then stopped at
+    the post's preflight ("program post has no arc-ON motion"), which named neither the cause nor
+    a layer (stanford-bunny.obj, teapot.obj, lego.ply and 5 more open meshes)."""
+    return (
+        f"the layer has no area to segment, only {curves} curve(s): the part reached the slice as an open "
+        "surface or a sketch (see the mesh node's warning), and mask → strategy fill areas. Close the mesh "
+        "(a watertight, consistently wound solid: the mesh node's 'as': 'solid' names what is open) or plan "
+        "single-bead walls with features → wall-path"
+    )
 
 
 # ------------------------------------------------------------------------------------------------

@@ -152,7 +152,9 @@ class SliceNode(Node):
     """
 
     type = "slice"
-    version = "2"  # 2: the `top` policy (ceil by default: the last layer ends on the part's top)
+    # 2: the `top` policy (ceil by default: the last layer ends on the part's top); 3: sections that
+    # cross themselves made valid, and warned
+    version = "3"
     title = "Slice"
     category = "slicing"
     inputs = (
