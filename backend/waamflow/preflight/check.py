@@ -249,7 +249,7 @@ def coverage_planar(
     layers (gaps.py; default settings when None)."""
     from .gaps import covered_height, gap_problems, slab_gaps, typical_height
     from .outside import RunLine
-    from .slabs import OutsideRuns, cover_layer, cover_part, mid_planes
+    from .slabs import OutsideRuns, cover_layer, cover_part, mid_planes, two_sided_sections
 
     if part.kind == "solid":
         vertices, faces = part.mesh()
@@ -268,6 +268,7 @@ def coverage_planar(
             runs = [[RunLine(r.points, r.section) for r in rs] for _idx, rs in layers]
             walk = OutsideRuns([idx for idx, _rs in layers], runs, *outside)
         known = prefetch.take(vertices, faces, mids) if prefetch is not None else None
+        known = {**(known or {}), **two_sided_sections(vertices, faces, mids)} or None  # faces at mid-slab
         covers = cover_part(vertices, faces, mids, paths, width, pool, walk, known)
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
