@@ -36,10 +36,11 @@ class Report:
 
 
 def rounded(v, nd: int = 4):
-    """`v` rounded to `nd` digits (lists and tuples item by item); None for None and non-finite values."""
+    """`v` rounded to `nd` digits (lists and tuples item by item); None for None and non-finite values.
+    A value that rounds to zero is 0.0, never -0.0 (a top gap of -1e-9 mm read "-0.0")."""
     if v is None:
         return None
     if isinstance(v, (list, tuple)):
         return [rounded(x, nd) for x in v]
     v = float(v)
-    return round(v, nd) if math.isfinite(v) else None
+    return round(v, nd) + 0.0 if math.isfinite(v) else None
