@@ -378,7 +378,7 @@ class WallPathNode(Node):
             sp = SectionPath(h["key"], "helical", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, params.speed))
             out[h["slot"]] = LayerPaths(lp.layer, (sp,) + lp.sections, lp.dwell_after_s)
         if not any(lp is not None and lp.sections for lp in out):
-            raise PlanningError("no wall to deposit: layers carry neither curves nor ring regions")
+            raise PlanningError(_no_wall(layers))
         return {"toolpath": Layered(tuple(out))}
 
     @staticmethod
@@ -446,3 +446,23 @@ class WallPathNode(Node):
 
     def artifacts(self, ctx, params, outputs):
         return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"]))}
+
+
+def _no_wall(layers) -> str:
+    """Why a wall-path planned nothing, and what to use instead: its layers' kinds counted (the
+    message had named neither a layer nor a remedy)."""
+    given = [l for l in layers if l is not None]
+    solid = [l for l in given if not l.curves and not l.region.is_empty]
+    empty = len(given) - len(solid) - sum(1 for l in given if l.curves)
+    if solid:
+        first = solid[0]
+        return (
+            f"no wall to deposit: {len(solid)} of {len(given)} layers are filled regions without a hole (first: "
+            f"layer {first.index}, {first.region.area:.0f} mm²), not single-bead walls: wall-path follows a "
+            "sketch's or an open surface's curves and the rings of thin tubes. Fill solid sections with "
+            "mask → strategy, or model the wall as its midsurface (a sketch) or a thin-walled tube"
+        )
+    return (
+        f"no wall to deposit: the {len(given)} layers carry no curves and no ring regions ({empty} empty): "
+        "check the slice's z range and the part (a sketch's curves, an open surface, or thin tubes)"
+    )
