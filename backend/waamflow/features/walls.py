@@ -36,6 +36,7 @@ import numpy as np
 from shapely.geometry import LineString
 from shapely.ops import substring
 
+from .chain import chain_pieces
 from .fillets import fillet_uncovered, round_corners
 from .junctions import _unit, is_closed, passes_through
 from .recognition import CROSSING_KINDS, JUNCTION_KINDS, chain_loop, join_collinear
@@ -158,26 +159,6 @@ def split_curves(curves: list[np.ndarray], crossings: list[dict], skip: set[int]
             for a, b in zip(bounds[:-1], bounds[1:]):
                 if b - a > tol:
                     pieces.append(_coords(substring(line, a, b)))
-    return pieces
-
-
-def chain_pieces(pieces: list[np.ndarray], joints: list[np.ndarray], tol: float) -> list[np.ndarray]:
-    """Join pieces end to end at corner/continuous junction points `joints` (one pass each)."""
-    pieces = [p for p in pieces]
-    changed = True
-    while changed:
-        changed = False
-        for jp in joints:
-            at = [(k, e) for k, p in enumerate(pieces) for e in (0, -1) if np.hypot(*(p[e] - jp)) <= tol]
-            if len(at) != 2 or at[0][0] == at[1][0]:
-                continue
-            (a, ea), (b, eb) = at
-            pa = pieces[a] if ea == -1 else pieces[a][::-1]
-            pb = pieces[b] if eb == 0 else pieces[b][::-1]
-            merged = np.vstack([pa, pb[1:]])
-            pieces = [p for k, p in enumerate(pieces) if k not in (a, b)] + [merged]
-            changed = True
-            break
     return pieces
 
 

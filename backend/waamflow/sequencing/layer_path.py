@@ -21,13 +21,14 @@ reverses the *order of sections* on odd layers (within the rule's ranks for `nea
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any, Callable, NamedTuple, Sequence
 
 import numpy as np
 
 from ..core.model import LayerPaths, SectionPath
 from .arc_runs import enforce_min_run
-from .seams import SeamSpec, choose_entry, ignition_points
+from .seams import LayerSegments, SeamSpec, choose_entry, ignition_points
 
 MAX_2OPT_ROUNDS = 50
 EXACT_MAX = 6  # up to 6 sections (720 orders) every order is scored at once with numpy: exact
@@ -282,8 +283,11 @@ def sequence_layer(
         if not isinstance(seam.policy, str) and len(seam.policy) == 2:  # layer-local (x, y) → world
             seam = dataclasses.replace(seam, policy=tuple(lp.layer.to_world(np.asarray([seam.policy], float))[0]))
         chosen = []
+        segs = LayerSegments(paths)
         for i, sp in enumerate(paths):
-            entry, ok = choose_entry(sp, lp.index, seam, paths[:i] + paths[i + 1 :], below)
+            entry, ok = choose_entry(
+                sp, lp.index, seam, paths[:i] + paths[i + 1 :], below, functools.partial(segs.others, i)
+            )
             if not ok:
                 notes.append(
                     {

@@ -315,6 +315,22 @@ def _deposit_segments(paths: Sequence[SectionPath]) -> tuple[np.ndarray, np.ndar
     return np.vstack(a), np.vstack(b)
 
 
+class LayerSegments:
+    """The deposit segments of a layer's section paths, stacked once with the path each belongs
+    to: `others(i)` are those of every path but i. A layer of n paths gathered the others' anew
+    for each path, O(n²) in Python (ezdxf's recover01.dxf, ~3,000 walls a layer: 35 of a 240 s run)."""
+
+    def __init__(self, paths: Sequence[SectionPath]) -> None:
+        parts = [_deposit_segments([sp]) for sp in paths]
+        self.a = np.vstack([p[0] for p in parts]) if parts else np.zeros((0, 3))
+        self.b = np.vstack([p[1] for p in parts]) if parts else np.zeros((0, 3))
+        self.owner = np.repeat(np.arange(len(parts)), [len(p[0]) for p in parts])
+
+    def others(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        keep = self.owner != i
+        return self.a[keep], self.b[keep]
+
+
 def distance_to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     """Distance (mm) in the layer plane (x, y) from p to the nearest segment a→b; inf if none."""
     if not len(a):
@@ -374,15 +390,21 @@ def _loop_entry(sp: SectionPath, index: int, spec: SeamSpec, below: np.ndarray) 
 
 
 def choose_entry(
-    sp: SectionPath, index: int, spec: SeamSpec, others: Sequence[SectionPath], below: np.ndarray
+    sp: SectionPath,
+    index: int,
+    spec: SeamSpec,
+    others: Sequence[SectionPath],
+    below: np.ndarray,
+    segments: Callable[[], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[Entry, bool]:
     """The entry of `sp` on layer `index`. others: the layer's other section paths (junction test);
-    below: (k, 3) ignition points of the layer below. Returns (entry, ok) with ok False when every
-    entry ignites at a junction (the caller warns)."""
+    below: (k, 3) ignition points of the layer below. segments: the deposit segments of `others`
+    (`layer_segments`), made when needed, instead of from `others`. Returns (entry, ok) with ok
+    False when every entry ignites at a junction (the caller warns)."""
     if sp.strategy not in OWN_SEAM and not sp.tool and is_closed(sp):
         return _loop_entry(sp, index, spec, below), True
     cands = entries(sp)
-    a, b = _deposit_segments(others)
+    a, b = segments() if segments is not None else _deposit_segments(others)
 
     def at_junction(e: Entry) -> bool:
         return not e.in_stock and distance_to_segments(e.ignition, a, b) < spec.clearance - 1e-9
