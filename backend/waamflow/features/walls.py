@@ -377,26 +377,35 @@ def order_passes(passes: list[WallPass], start=None, seam: str = "stock") -> lis
     """Greedy nearest neighbour from `start` (default: lower-left of all passes); closed laps are
     not rotated. seam "stock": a pass with machining stock at one end only (an extension or a
     fillet lead) ignites there (Venturini et al. 2018: start/stop in stock that is machined off),
-    else either end may lead; "nearest": either end, whichever is nearer."""
+    else either end may lead; "nearest": either end, whichever is nearer. Each step scores every
+    (pass, way round) left at once; of them, in the order pass by pass, forwards before reversed,
+    the first that is nearer by more than 1e-9 mm than the best so far wins (a loop over them in
+    Python took 14 s of a 3,000-walls-a-layer sketch)."""
     if not passes:
         return []
     left = list(passes)
     pos = np.asarray(start, float) if start is not None else np.vstack([p.xy for p in left]).min(axis=0)
-    out: list[WallPass] = []
-    while left:
-        best = None
+    heads = np.array([[p.xy[0], p.xy[-1]] for p in left], dtype=float)  # (n, 2 ways, 2): where each way ignites
+    allowed = np.ones((len(left), 2), dtype=bool)
+    if seam == "stock":
         for k, p in enumerate(left):
             s0, s1 = stock_ends(p)
-            for rev in (False, True):
-                if seam == "stock" and s0 != s1 and (s1 if not rev else s0):
-                    continue  # this way round it would ignite on the wall and stop in the stock
-                q = p.xy[-1] if rev else p.xy[0]
-                d = float(np.hypot(*(q - pos)))
-                if best is None or d < best[0] - 1e-9:
-                    best = (d, k, rev)
-        assert best is not None  # every pass can be laid at least one way round
-        _, k, rev = best
-        p = left.pop(k)
+            if s0 != s1:
+                allowed[k] = (not s1, not s0)  # ignite in the stock end
+    keep = np.arange(len(left))
+    out: list[WallPass] = []
+    while len(keep):
+        d = np.hypot(*(heads[keep] - pos).transpose(2, 0, 1)).ravel()  # pass by pass, forwards then reversed
+        d[~allowed[keep].ravel()] = np.inf
+        best = int(np.flatnonzero(np.isfinite(d))[0])  # every pass can be laid at least one way round
+        while True:  # the scan's next improvement comes after the best so far
+            better = np.flatnonzero(d[best + 1 :] < d[best] - 1e-9)
+            if not len(better):
+                break
+            best += 1 + int(better[0])
+        k, rev = divmod(best, 2)
+        p = left[int(keep[k])]
+        keep = np.delete(keep, k)
         p = p.reversed() if rev else p
         out.append(p)
         pos = p.xy[-1]
