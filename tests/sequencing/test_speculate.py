@@ -104,3 +104,23 @@ def test_a_map_that_runs_here_is_not_asked_and_short_parts_stay_serial(here_call
     out, _ = sequence_part(layers, map_chunks=lambda fn, items: None, seam=SeamSpec("auto"))
     same_layers(serial, out)
     assert calls["here"] == len(layers)  # the map would have run here (None): every layer once
+
+
+def test_each_layer_is_reported_and_a_cancel_stops_between_layers():
+    """The sequence node's progress and cancel (`on_layer`): ezdxf's recover01.dxf spent 64 s in
+    it, ~3,000 walls a layer, with no sign of life and no way to stop it."""
+    layers = [cross_layer(i) for i in range(6)]
+    layers[3] = None
+    seen = []
+    sequence_part(layers, on_layer=lambda k, n: seen.append((k, n)), seam=SeamSpec("auto", 6.0, 12.0))
+    assert seen == [(1, 6), (2, 6), (3, 6), (5, 6), (6, 6)]  # the missing layer is passed over
+
+    class Stop(Exception):
+        pass
+
+    def stop_at_two(k, n):
+        if k == 2:
+            raise Stop
+
+    with pytest.raises(Stop):
+        sequence_part(layers, on_layer=stop_at_two)

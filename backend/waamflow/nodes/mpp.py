@@ -464,7 +464,11 @@ class SequenceNode(Node):
         def in_workers(fn, items):  # runs of layers sequenced ahead in the workers, when up
             return ctx.map_in_workers(fn, items, layers=len(tp), points=points)
 
-        layers, notes = sequence_with_notes(list(tp), params, in_workers)
+        def on_layer(k: int, n: int) -> None:  # a sketch of 3,000 walls a layer takes seconds a layer
+            ctx.check_cancelled()
+            ctx.progress(k / n, f"layer {k} of {n} sequenced")
+
+        layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer)
         _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}
 
@@ -481,9 +485,9 @@ class SequenceNode(Node):
         }
 
 
-def sequence_with_notes(layers: list, params, map_chunks=None) -> tuple[list, list[dict]]:
-    """Run `sequence_part` with the node's params (`map_chunks`: see there); returns the layers
-    and the kernel's notes."""
+def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None) -> tuple[list, list[dict]]:
+    """Run `sequence_part` with the node's params (`map_chunks`, `on_layer`: see there); returns
+    the layers and the kernel's notes."""
     bw = params.bead_width
     clearance = bw if bw > 0 else DEFAULT_CLEARANCE
     shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
@@ -493,6 +497,7 @@ def sequence_with_notes(layers: list, params, map_chunks=None) -> tuple[list, li
     seq, _ = sequence_part(
         layers,
         map_chunks=map_chunks,
+        on_layer=on_layer,
         order=params.order,
         retract_height=params.retract_height,
         alternate=params.alternate,

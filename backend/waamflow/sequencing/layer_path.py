@@ -348,7 +348,11 @@ def last_point(lp: LayerPaths | None) -> np.ndarray | None:
 
 
 def sequence_part(
-    layers: Sequence[LayerPaths | None], *, map_chunks: ChunkMap | None = None, **kw: Any
+    layers: Sequence[LayerPaths | None],
+    *,
+    map_chunks: ChunkMap | None = None,
+    on_layer: Callable[[int, int], None] | None = None,
+    **kw: Any,
 ) -> tuple[list[LayerPaths | None], list[float]]:
     """Sequence every layer, each starting where the previous one ended (and, with a seam policy,
     igniting away from the layer below's ignitions). Returns layers and travel (mm) per layer.
@@ -360,7 +364,8 @@ def sequence_part(
     sequenced at once, speculatively (`_sequence_chunk`: each starts `WARMUP_LAYERS` early, from
     nothing), and a layer's result is taken only when the torch position and the ignitions below it
     were exactly the ones this chain reaches; any other layer is sequenced again here. The result is
-    the serial one, whatever the speculation gave."""
+    the serial one, whatever the speculation gave. `on_layer(k, n)`: called after each layer (the
+    node's progress and cancel)."""
     notes = kw.pop("notes", None)
     notes = [] if notes is None else notes
     spec: list[_Sequenced | None] = [None] * len(layers)
@@ -390,6 +395,8 @@ def sequence_part(
         travel.append(t)
         prev = last_point(new)
         below = ignition_points(new.sections)
+        if on_layer is not None:
+            on_layer(len(out), len(layers))
     return out, travel
 
 
