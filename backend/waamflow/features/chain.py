@@ -16,13 +16,14 @@ from __future__ import annotations
 import heapq
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 
 def chain_pieces(pieces: list[np.ndarray], joints: list[np.ndarray], tol: float) -> list[np.ndarray]:
     """Join pieces end to end at corner/continuous junction points `joints` (see the module doc)."""
     if not pieces or not len(joints):
         return list(pieces)
+    from scipy.spatial import cKDTree  # here: the layer workers' fork server preloads no scipy (engine/warm.py)
+
     arrays: list[np.ndarray] = list(pieces)
     ends = np.array([[p[0], p[-1]] for p in pieces], dtype=float).reshape(-1, 2)  # slot 2k: start, 2k+1: end
     owner = np.repeat(np.arange(len(pieces)), 2)  # slot → piece (−1: joined, gone)
