@@ -106,3 +106,31 @@ def test_hatch_only_drawing_error_lists_skipped_types():
         load_sketch_bytes(_bytes(doc), "h.dxf", height=5)
     with pytest.raises(InputFileError, match="not a readable DXF"):
         load_sketch_bytes(b"AutoCAD Binary DXF\r\n\x1a\x00garbage", "bad.dxf", height=5)
+
+
+def test_a_block_placed_with_z_scale_zero_is_read_flat_and_said():
+    """ezdxf's insert_zscale0.dxf: a block reference with z scale 0 stopped the sketch node with a
+    bare 'ZeroDivisionError: float division' (ezdxf cannot invert the transform). A sketch's x and
+    y do not depend on z: read as 1, named among the read's repairs."""
+    doc = ezdxf.new("R2010", units=4)
+    blk = doc.blocks.new("WALL")
+    blk.add_line((0, 0), (50, 0))
+    ref = doc.modelspace().add_blockref("WALL", (10, 20), dxfattribs={"xscale": 2, "yscale": 1})
+    ref.dxf.unprotected_set("zscale", 0.0)  # as a file may hold it (ezdxf's own setter makes 0 a 1)
+    res = load_sketch_bytes(_bytes(doc), "z.dxf", height=10)
+    (c,) = res.midsurface.curves
+    assert _length(c) == pytest.approx(100.0) and c[0].tolist() == pytest.approx([10.0, 20.0])
+    assert any("block 'WALL' placed with z scale 0: read as 1" in r for r in res.repairs)
+    assert not res.defects
+
+
+def test_a_block_placed_with_x_scale_zero_is_skipped_and_named():
+    doc = ezdxf.new("R2010", units=4)
+    blk = doc.blocks.new("WALL")
+    blk.add_line((0, 0), (50, 0))
+    doc.modelspace().add_blockref("WALL", (0, 0)).dxf.unprotected_set("xscale", 0.0)
+    doc.modelspace().add_line((0, 0), (0, 40))
+    res = load_sketch_bytes(_bytes(doc), "x.dxf", height=10)
+    assert len(res.midsurface.curves) == 1  # the line; the collapsed block gives nothing
+    (d,) = res.defects
+    assert "block 'WALL' placed at scale (0, 1, 1): a zero x or y scale collapses it" in d

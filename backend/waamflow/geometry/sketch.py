@@ -263,7 +263,7 @@ def load_sketch_bytes(
         file_unit = dxf_units(doc)
         units, scale, notice = conversion_notice(file_unit, units)
         # DXF coordinates are in file units; discretise with the tolerance in file units
-        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout, defects)
+        curves, skipped = dxf_doc_curves(doc, filename, arc_tolerance / scale, layout, defects, repairs)
         if not curves:
             others = [
                 f"{lay.name} ({len(lay)} entities)"
@@ -368,17 +368,19 @@ def dxf_layout(doc, layout: str, filename: str):
 
 
 def dxf_doc_curves(
-    doc, filename: str, tol: float, layout: str = "Model", defects: list | None = None
+    doc, filename: str, tol: float, layout: str = "Model", defects: list | None = None, repairs: list | None = None
 ) -> tuple[list[np.ndarray], dict[str, int]]:
     """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
     modelspace), and the skipped entity types → count. defects (optional list) receives one
     text per degenerate entity skipped (zero radius, fewer than two vertices, a spline or ellipse
-    that cannot be discretised), naming its type and handle; they are skipped either way."""
+    that cannot be discretised), naming its type and handle; they are skipped either way. repairs
+    (optional list) receives what was read otherwise than written (a block placed with z scale 0)."""
     curves: list[np.ndarray] = []
     skipped: dict[str, int] = {}
     sink = [] if defects is None else defects
+    fixed = [] if repairs is None else repairs
     for e in dxf_layout(doc, layout, filename):
-        _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink)
+        _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink, repairs=fixed)
     return curves, skipped
 
 
@@ -429,7 +431,14 @@ def _add(out: list, skipped: dict, kind: str, pts: np.ndarray) -> None:
 
 
 def _entity_curves(
-    e, filename: str, tol: float, out: list, skipped: dict, depth: int, defects: list | None = None
+    e,
+    filename: str,
+    tol: float,
+    out: list,
+    skipped: dict,
+    depth: int,
+    defects: list | None = None,
+    repairs: list | None = None,
 ) -> None:
     defects = [] if defects is None else defects
     t = e.dxftype()
@@ -493,10 +502,43 @@ def _entity_curves(
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
         # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
         for ins in e.multi_insert() if e.mcount > 1 else (e,):
-            for sub in ins.virtual_entities():
-                _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects)
+            subs = _block_entities(ins, skipped, defects, repairs)
+            for sub in subs:
+                _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects, repairs)
     else:
         skipped[t] = skipped.get(t, 0) + 1
+
+
+def _block_entities(ins, skipped: dict, defects: list, repairs: list | None) -> list:
+    """The entities a block reference places. A zero z scale (a flat block, as some exporters
+    write it) leaves a sketch's x and y as they are but cannot be inverted: ezdxf stopped with a
+    bare ZeroDivisionError (ezdxf's insert_zscale0.dxf); it is read as 1 and named in the
+    defects. A zero x or y scale collapses the block, and a transform ezdxf cannot apply skips
+    the reference, each named."""
+    sx, sy, sz = (float(ins.dxf.get(k, 1.0)) for k in ("xscale", "yscale", "zscale"))
+    name = ins.dxf.get("name", "?")
+    if sx == 0 or sy == 0:
+        _skip(
+            defects,
+            skipped,
+            ins,
+            f"block '{name}' placed at scale ({sx:g}, {sy:g}, {sz:g}): a zero x or y "
+            "scale collapses it to nothing; skipped (fix its scale in CAD)",
+        )
+        return []
+    if sz == 0:
+        label = _entity(ins)  # the copy has no handle
+        ins = ins.copy()
+        ins.dxf.zscale = 1.0
+        if repairs is not None:
+            repairs.append(
+                f"{label}: block '{name}' placed with z scale 0: read as 1 (a sketch's x and y do not depend on it)"
+            )
+    try:
+        return list(ins.virtual_entities())
+    except (ArithmeticError, ValueError) as exc:  # a transform ezdxf cannot build (a degenerate frame)
+        _skip(defects, skipped, ins, f"block '{name}' cannot be placed ({type(exc).__name__}: {exc}); skipped")
+        return []
 
 
 def _bulge_polyline(pts: np.ndarray, closed: bool, tol: float, filename: str, e) -> np.ndarray:
