@@ -269,8 +269,18 @@ def _where(f: dict) -> str:
     return f"{f['kind']} at {[round(float(x), 3) + 0.0 for x in f['point']]}"
 
 
+OVERLAP_DEG = 1.0  # a crossing's corner narrower than this: two walls on top of each other
+
+
 def radius_warnings(f: dict, spec: "WallSpec", narrowest_deg: float) -> list[str]:
-    """Warnings for crossing radii the study's trials found defective, naming junction and radius."""
+    """Warnings for crossing radii the study's trials found defective, naming junction and radius.
+    Two branches leaving in one direction (a corner under `OVERLAP_DEG`) are overlapping walls, not
+    a corner to fill: said so (the radius bound there was 1.5e15 mm: ezdxf's recover01.dxf)."""
+    if narrowest_deg < OVERLAP_DEG:
+        return [
+            f"{_where(f)}: two of its walls leave it in the same direction (a corner of {narrowest_deg:.2g}°): "
+            "they overlap — a duplicate or overlapping line in the sketch; delete one (both are deposited)"
+        ]
     w = spec.bead_width
     rc_max, ri_min = crossing_bounds(w, narrowest_deg)
     rc_ok, ri_ok = crossing_window(w, narrowest_deg)
