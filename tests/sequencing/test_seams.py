@@ -236,3 +236,25 @@ def test_the_choice_builds_only_the_entry_it_takes(monkeypatch):
         assert len(calls) <= 1 + (entry.name == "rethreaded-reversed"), (sp.key, entry.name, len(calls))
         eager = {e.name: e.path for e in entries(sp)}[entry.name]
         assert np.array_equal(path.points, eager.points) and path.zone == eager.zone, sp.key
+
+
+def test_a_u_shaped_wall_is_never_rethreaded():
+    """A thin wall's path is the wall. A U (two sides and the top between them) reads as a
+    serpentine of two passes and a link; re-threaded, its top edge was replaced by a bead across
+    the open bottom (ezdxf's recover01.dxf, every other layer: 16.9 % of the part without metal)."""
+    u = [(0.0, 1.5), (0.0, 40.0), (30.0, 40.0), (30.0, 1.5)]
+    wall = section("wall0", "wall", u, 2.0)
+    assert [e.name for e in entries(wall)] == ["planned", "reversed"]
+    below = np.array([[0.0, 1.5, 0.0], [30.0, 1.5, 0.0]])  # ignitions below at both ends: auto looks further
+    out, _ = sequence_layer(
+        LayerPaths(Layer(1, 2.0, 2.0, as_multipolygon(box(-1, -1, 31, 41))), (wall,)),
+        seam=SeamSpec("auto", 4.0, 8.0),
+        below=below,
+    )
+    (got,) = out.sections
+    # the same segments, either way round: the top edge is deposited
+    segs = {tuple(sorted((tuple(a), tuple(b)))) for a, b in zip(got.points[:-1, :2], got.points[1:, :2])}
+    assert ((0.0, 40.0), (30.0, 40.0)) in segs and ((0.0, 1.5), (30.0, 1.5)) not in segs
+    assert got.length == pytest.approx(38.5 + 30.0 + 38.5)
+    # a fill serpentine of the same shape may still be re-threaded
+    assert "rethreaded" in [e.name for e in entries(section("A", "parallel", u, 2.0))]
