@@ -31,3 +31,30 @@ def test_wall_path_on_solid_sections_says_what_to_use_instead(tmp_path):
     assert ei.value.node == "walls" and ei.value.exit_code == 3
     assert "5 of 5 layers are filled regions without a hole (first: layer 0, 1200 mm²)" in msg
     assert "mask → strategy" in msg
+
+
+def test_walls_all_dropped_are_said_so(tmp_path):
+    """A 1.5 mm cross (LibreCAD's v10.dxf is a 1.75 mm symbol): every wall lies inside the
+    crossing's cutting circle. The message had said the layers carry no curves (and '0 empty')."""
+    import ezdxf
+
+    doc = ezdxf.new("R2010", units=4)
+    msp = doc.modelspace()
+    msp.add_line((-0.75, 0), (0.75, 0))
+    msp.add_line((0, -0.75), (0, 0.75))
+    doc.saveas(tmp_path / "tiny.dxf")
+    recipe = {
+        "format": "waamflow/1",
+        "name": "tiny",
+        "nodes": [
+            {"id": "sketch", "type": "sketch", "params": {"path": "tiny.dxf", "height": 6.0}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
+            {"id": "walls", "type": "wall-path", "params": {}},
+        ],
+        "edges": [{"from": "sketch.mesh", "to": "layers.mesh"}, {"from": "layers.layers", "to": "walls.layers"}],
+    }
+    with pytest.raises(PlanningError) as ei:
+        execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    msg = str(ei.value)
+    assert "3 of 3 layers carry curves (the sketch is 1.50 mm across), but every wall was dropped" in msg
+    assert "units and scale" in msg

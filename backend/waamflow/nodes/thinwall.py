@@ -453,7 +453,18 @@ def _no_wall(layers) -> str:
     message had named neither a layer nor a remedy)."""
     given = [l for l in layers if l is not None]
     solid = [l for l in given if not l.curves and not l.region.is_empty]
-    empty = len(given) - len(solid) - sum(1 for l in given if l.curves)
+    curved = [l for l in given if l.curves]
+    empty = len(given) - len(solid) - len(curved)
+    if curved:  # walls there, all dropped (LibreCAD's v10.dxf: a 1.75 mm symbol)
+        lo, hi = np.array(curved[0].curves[0].bounds[:2]), np.array(curved[0].curves[0].bounds[2:])
+        for c in curved[0].curves:
+            lo, hi = np.minimum(lo, c.bounds[:2]), np.maximum(hi, c.bounds[2:])
+        size = float(np.max(hi - lo))
+        return (
+            f"no wall to deposit: {len(curved)} of {len(given)} layers carry curves (the sketch is {size:.2f} mm "
+            "across), but every wall was dropped: inside the crossings' cutting circles or too short (the walls "
+            "node's warnings say which); check the sketch's units and scale, or lower cut_radius"
+        )
     if solid:
         first = solid[0]
         return (
