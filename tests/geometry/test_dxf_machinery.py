@@ -134,3 +134,19 @@ def test_a_block_placed_with_x_scale_zero_is_skipped_and_named():
     assert len(res.midsurface.curves) == 1  # the line; the collapsed block gives nothing
     (d,) = res.defects
     assert "block 'WALL' placed at scale (0, 1, 1): a zero x or y scale collapses it" in d
+
+
+def test_a_dxf_without_curves_says_what_a_sketch_needs():
+    """28 runs of the DXF sweep (ezdxf's Minimal_DXF_AC1006.dxf, dxf-parser's blocks2.dxf, ...)
+    ended on 'sketch has no curves', naming neither the layout nor what counts as a curve."""
+    doc = ezdxf.new("R2010", units=4)
+    doc.modelspace().add_point((1, 2))
+    with pytest.raises(InputFileError) as ei:
+        load_sketch_bytes(_bytes(doc), "p.dxf", height=10)
+    assert "no curves in layout 'Model'" in str(ei.value)
+    empty = ezdxf.new("R2010", units=4)
+    with pytest.raises(InputFileError) as ei:
+        load_sketch_bytes(_bytes(empty), "e.dxf", height=10)
+    assert "p.dxf" not in str(ei.value) and "e.dxf: no curves in layout 'Model' (0 entities, none a LINE" in str(
+        ei.value
+    )

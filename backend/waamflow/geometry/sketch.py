@@ -276,6 +276,13 @@ def load_sketch_bytes(
                     + (f" (skipped: {', '.join(f'{n} {t}' for t, n in sorted(skipped.items()))})" if skipped else "")
                     + f"; other layouts with entities: {', '.join(others)} — set the node's 'layout'"
                 )
+            if not skipped and not defects:  # it had said only "sketch has no curves"
+                held = sum(1 for _ in dxf_layout(doc, layout, filename))
+                raise InputFileError(
+                    f"{filename}: no curves in layout {layout!r} ({held} entities, none a LINE, ARC, CIRCLE, "
+                    "(LW)POLYLINE, ELLIPSE, SPLINE or a block of them): a sketch is the walls' midsurface drawn "
+                    "as lines and arcs in the XY plane"
+                )
         file_h = file_z0 = None
     elif ext in ("step", "stp", "iges", "igs"):
         curves, file_h, file_z0, file_unit, units, scale, notice = _cad_curves(data, filename, units, arc_tolerance)
