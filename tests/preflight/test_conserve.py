@@ -81,6 +81,7 @@ def test_filleted_panel_preflight_is_ok_and_catches_the_lost_corner(monkeypatch)
     assert res.preflight["verdict"] == "ok"
     assert not [p for p in res.preflight["problems"] if p["check"] == "deposit_changed"]
     monkeypatch.setattr(seams, "_passes", passes_before_the_fix)
+    monkeypatch.setattr(seams, "WALL_PATH", frozenset())  # walls re-threaded like fills, as they were then
     res = run_panel()
     found = [p for p in res.preflight["problems"] if p["check"] == "deposit_changed"]
     assert res.preflight["verdict"] == "fail"
