@@ -456,10 +456,8 @@ def _no_wall(layers) -> str:
     curved = [l for l in given if l.curves]
     empty = len(given) - len(solid) - len(curved)
     if curved:  # walls there, all dropped (LibreCAD's v10.dxf: a 1.75 mm symbol)
-        lo, hi = np.array(curved[0].curves[0].bounds[:2]), np.array(curved[0].curves[0].bounds[2:])
-        for c in curved[0].curves:
-            lo, hi = np.minimum(lo, c.bounds[:2]), np.maximum(hi, c.bounds[2:])
-        size = float(np.max(hi - lo))
+        x0, y0, x1, y1 = shapely.total_bounds(list(curved[0].curves))
+        size = float(max(x1 - x0, y1 - y0))
         return (
             f"no wall to deposit: {len(curved)} of {len(given)} layers carry curves (the sketch is {size:.2f} mm "
             "across), but every wall was dropped: inside the crossings' cutting circles or too short (the walls "

@@ -167,10 +167,8 @@ def two_sided_sections(vertices: np.ndarray, faces: np.ndarray, zs: Sequence[flo
     if not len(flat):
         return {}
     z = np.asarray(zs, dtype=float)
-    i = np.clip(np.searchsorted(flat, z), 1, len(flat)) if len(flat) > 1 else np.zeros(len(z), dtype=int)
-    near = np.minimum(
-        np.abs(flat[np.clip(i, 0, len(flat) - 1)] - z), np.abs(flat[np.clip(i - 1, 0, len(flat) - 1)] - z)
-    )
+    i = np.searchsorted(flat, z)  # the flat faces next above and below each plane
+    near = np.minimum(np.abs(flat[np.minimum(i, len(flat) - 1)] - z), np.abs(flat[np.maximum(i - 1, 0)] - z))
     ks = np.flatnonzero(near <= FACE_IN_PLANE_MM).tolist()
     if not ks:
         return {}
@@ -193,23 +191,23 @@ def cover_layer(section: Any, paths: list[np.ndarray], width: float) -> LayerCov
     if area <= 0:
         return LayerCover(section, area, 0.0, None)
     unc = section.difference(footprint(paths, width))
-    point = None
-    if not unc.is_empty:
-        rp = max(shapely.get_parts(unc), key=lambda g: g.area).representative_point()
-        point = (float(rp.x), float(rp.y))
-    return LayerCover(section, area, float(unc.area), point)
+    return LayerCover(section, area, float(unc.area), _largest_piece_point(unc))
 
 
 def _cover_two_sided(two: TwoSided, fp: Any) -> LayerCover:
     halves = [g.difference(fp) if not g.is_empty else g for g in two]
     area = 0.5 * (float(two.below.area) + float(two.above.area))
     unc = 0.5 * sum(float(h.area) for h in halves)
-    point = None
-    pieces = [g for h in halves if not h.is_empty for g in shapely.get_parts(h)]
-    if pieces:
-        rp = max(pieces, key=lambda g: g.area).representative_point()
-        point = (float(rp.x), float(rp.y))
-    return LayerCover(shapely.union(two.below, two.above), area, unc, point)
+    return LayerCover(shapely.union(two.below, two.above), area, unc, _largest_piece_point(*halves))
+
+
+def _largest_piece_point(*geoms: Any) -> tuple[float, float] | None:
+    """(x, y) inside the largest piece of the uncovered areas given, or None when all are empty."""
+    pieces = [g for geom in geoms if not geom.is_empty for g in shapely.get_parts(geom)]
+    if not pieces:
+        return None
+    rp = max(pieces, key=lambda g: g.area).representative_point()
+    return (float(rp.x), float(rp.y))
 
 
 def cover_slabs(task: SlabTask) -> list[LayerCover]:
