@@ -169,3 +169,57 @@ def test_discretised_arcs_are_one_wall_not_a_chain_of_junctions():
     assert k["continuous"] == 0 and k["corner"] == 0
     ring = circle(0, 0, 30, 64)
     assert kinds([ring])["continuous"] == 0
+
+
+def _joint_vertices_by_scan(curves, joints, tol, skip):
+    """The reference: every joint against every skip point and every curve's vertices (what
+    recognition did before its k-d trees; minutes on a floor plan's thousands of joints)."""
+    from waamflow.features.junctions import _unit, is_closed
+
+    out = []
+    for q in np.asarray(joints, float):
+        if any(np.hypot(*(q - s)) <= tol for s in skip):
+            continue
+        for ci, cv in enumerate(curves):
+            closed = is_closed(cv, tol)
+            pts = cv[:-1] if closed else cv
+            d = np.hypot(*(pts - q).T)
+            k = int(np.argmin(d))
+            if d[k] > tol or (not closed and k in (0, len(pts) - 1)):
+                continue
+            n = len(pts)
+            u, v = _unit(pts[(k - 1) % n] - pts[k]), _unit(pts[(k + 1) % n] - pts[k])
+            if np.any(u) and np.any(v):
+                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), ci))
+            break
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_joint_vertices_match_the_scan_of_every_curve(seed):
+    """Joints matched to curve vertices through k-d trees: the same joints, vertices, angles and
+    curves as the scan of every curve per joint, on random polylines (open and closed, sharing
+    vertices) whose joints lie on vertices, at ends, within and just beyond tol, and nowhere."""
+    from waamflow.features.recognition import _joint_vertices, _tree
+
+    rng = np.random.default_rng(seed)
+    tol = 1e-3
+    curves = []
+    for _ in range(40):
+        pts = rng.integers(0, 30, size=(int(rng.integers(2, 9)), 2)).astype(float)  # shared grid vertices
+        pts = pts[np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]]
+        if len(pts) >= 3 and rng.random() < 0.3:
+            pts = np.vstack([pts, pts[:1]])
+        if len(pts) >= 2:
+            curves.append(pts)
+    verts = np.vstack(curves)
+    on = verts[rng.integers(0, len(verts), 150)]
+    near = on + rng.normal(size=on.shape) * tol * 0.5
+    beyond = on + np.array([tol * 1.5, 0.0])
+    joints = np.vstack([on, near, beyond, rng.random((50, 2)) * 30])
+    skip = verts[rng.integers(0, len(verts), 20)]
+    got = _joint_vertices(curves, joints, tol, _tree(skip))
+    want = _joint_vertices_by_scan(curves, joints, tol, skip)
+    assert len(want) > 100  # the case exercises the matching, not only the misses
+    assert [(tuple(p), ci) for p, _, ci in got] == [(tuple(p), ci) for p, _, ci in want]
+    assert [a for _, a, _ in got] == pytest.approx([a for _, a, _ in want], abs=1e-12)

@@ -54,11 +54,15 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from ..core.tolerances import TOL
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 from .junctions import (
     Junction,
     _corner_angles,
@@ -313,7 +317,7 @@ def is_isolated(ring: np.ndarray, others: list[LineString], encumbrance: float) 
 # Entry point
 # ------------------------------------------------------------------------------------------
 def _vertex_junctions(
-    c: np.ndarray, tol: float, corner_angle_deg: float, continuous_min_deg: float, skip: list[np.ndarray]
+    c: np.ndarray, tol: float, corner_angle_deg: float, continuous_min_deg: float, skip: cKDTree | None
 ) -> list[tuple[np.ndarray, float, str]]:
     """Junctions at interior vertices of one polyline: (point, angle between the walls, kind).
 
@@ -343,11 +347,12 @@ def _vertex_junctions(
         t, o = turn[k], turn[j % n]
         return t * o > 0 and 0.4 <= o / t <= 2.5
 
+    skipped = _within(pts, skip, tol)
     out = []
     for k in range(n) if closed else range(1, n - 1):
         t = abs(turn[k])
         p = pts[k]
-        if t < continuous_min_deg or any(np.hypot(*(p - q)) <= tol for q in skip):
+        if t < continuous_min_deg or skipped[k]:
             continue
         if t >= corner_angle_deg:
             out.append((p, float(between[k]), "corner"))
@@ -356,27 +361,66 @@ def _vertex_junctions(
     return out
 
 
+def _tree(points) -> cKDTree | None:
+    from scipy.spatial import cKDTree  # here: scipy.spatial costs ~0.3 s to import, most runs need none
+
+    pts = np.asarray(points, float).reshape(-1, 2)
+    return cKDTree(pts) if len(pts) else None
+
+
+def _within(points: np.ndarray, others: cKDTree | None, tol: float) -> np.ndarray:
+    """Per point of `points` (n, 2): is one of the `others` (a k-d tree of them, built once) within
+    tol (mm)? Not a scan of them per point: a floor plan's thousands of vertices and junctions took
+    minutes so."""
+    pts = np.asarray(points, float).reshape(-1, 2)
+    if others is None or not len(pts):
+        return np.zeros(len(pts), bool)
+    d, _ = others.query(pts, k=1)
+    return d <= tol
+
+
 def _joint_vertices(
-    curves: list[np.ndarray], joints, tol: float, skip: list[np.ndarray]
+    curves: list[np.ndarray], joints, tol: float, skip: cKDTree | None
 ) -> list[tuple[np.ndarray, float, int]]:
     """Joints (points where the sketch joined two walls end to end into one polyline) that are a
-    vertex inside a curve and not already reported: (point, angle between the walls (deg), curve)."""
+    vertex inside a curve and not already reported: (point, angle between the walls (deg), curve).
+    A joint belongs to the first curve (in order) whose nearest vertex lies within tol of it, if
+    that vertex is not an open curve's end; the vertices near a joint come from one k-d tree of
+    every curve's vertices."""
+    joints = np.asarray(joints, float).reshape(-1, 2)
+    if not len(joints) or not curves:
+        return []
+    verts, owner, index = [], [], []
+    for ci, c in enumerate(curves):
+        pts = c[:-1] if is_closed(c, tol) else c
+        verts.append(pts)
+        owner.append(np.full(len(pts), ci))
+        index.append(np.arange(len(pts)))
+    all_pts, all_owner, all_index = np.vstack(verts), np.concatenate(owner), np.concatenate(index)
+    tree = _tree(all_pts)
+    assert tree is not None
+    reported = _within(joints, skip, tol)
     out = []
-    for q in joints:
-        q = np.asarray(q, dtype=float)
-        if any(np.hypot(*(q - s)) <= tol for s in skip):
+    for q, done in zip(joints, reported):
+        if done:
             continue
-        for ci, c in enumerate(curves):
-            closed = is_closed(c, tol)
-            pts = c[:-1] if closed else c
-            d = np.hypot(*(pts - q).T)
-            k = int(np.argmin(d))
-            if d[k] > tol or (not closed and k in (0, len(pts) - 1)):
+        near = np.asarray(tree.query_ball_point(q, tol * (1 + 1e-9) + 1e-12), int)
+        if not len(near):
+            continue
+        d = np.hypot(*(all_pts[near] - q).T)
+        near, d = near[d <= tol], d[d <= tol]
+        # per curve in order: its nearest vertex (the first of equals, as argmin over it would)
+        for ci in np.unique(all_owner[near]):
+            mine = all_owner[near] == ci
+            k = int(all_index[near[mine]][np.lexsort((all_index[near[mine]], d[mine]))[0]])
+            pts = verts[ci]
+            closed = len(pts) != len(curves[ci])
+            if not closed and k in (0, len(pts) - 1):
                 continue
             n = len(pts)
             u, v = _unit(pts[(k - 1) % n] - pts[k]), _unit(pts[(k + 1) % n] - pts[k])
             if np.any(u) and np.any(v):
-                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), ci))
+                out.append((pts[k], math.degrees(math.acos(float(np.clip(u @ v, -1.0, 1.0)))), int(ci)))
             break
     return out
 
@@ -421,15 +465,16 @@ def recognise(
                 f["subtype"] = t_subtype(br, spec.corner_angle_deg)
         feats.append(f)
     jpts = [np.array(j.point) for j in junctions]
+    jtree = _tree(jpts)
     for ci, c in enumerate(curves):
-        for p, between, kind in _vertex_junctions(c, tol, spec.corner_angle_deg, spec.continuous_min_deg, jpts):
+        for p, between, kind in _vertex_junctions(c, tol, spec.corner_angle_deg, spec.continuous_min_deg, jtree):
             f = base(kind, p, [ci])
             f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE[kind]))
             feats.append(f)
     # junctions the sketch joined away that the vertex test above missed (e.g. a regular polygon
     # of walls, whose equal turns look like a discretised arc): listed by where they were joined
     reported = jpts + [np.array(f["point"]) for f in feats if f["kind"] in JUNCTION_KINDS]
-    for p, between, ci in _joint_vertices(curves, joints, tol, reported):
+    for p, between, ci in _joint_vertices(curves, joints, tol, _tree(reported)):
         kind = "corner" if 180.0 - between >= spec.corner_angle_deg else "continuous"
         f = base(kind, p, [ci])
         f.update(branches=2, angle_deg=round(between, 3), study_valence=list(STUDY_VALENCE[kind]))
