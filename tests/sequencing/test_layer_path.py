@@ -70,7 +70,7 @@ def test_small_layers_are_ordered_exactly():
 
 
 def test_local_search_on_large_layers_never_worse_than_mask_order_and_close_to_optimal():
-    from waamflow.sequencing import layer_path
+    from waamflow.sequencing import tour
 
     rng = np.random.default_rng(3)
     ratios = []
@@ -80,7 +80,7 @@ def test_local_search_on_large_layers_never_worse_than_mask_order_and_close_to_o
         assert sorted(order) == list(range(8))
         got = tour_length(order, cost, sc)
         assert got <= tour_length(list(range(8)), cost, sc) + 1e-9
-        best = tour_length(layer_path._exact_order(cost, sc), cost, sc)  # 40320 orders, still fast
+        best = tour_length(tour._exact_order(cost, sc), cost, sc)  # 40320 orders, still fast
         ratios.append(got / best)
     assert min(ratios) >= 1 - 1e-9
     assert np.mean(ratios) < 1.03 and max(ratios) < 1.15
@@ -132,7 +132,7 @@ def test_local_search_by_length_changes_makes_the_same_moves_as_scoring_whole_to
     import sys
     from pathlib import Path
 
-    from waamflow.sequencing import layer_path
+    from waamflow.sequencing import tour
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
     from bench_sequence import reference_local_search  # the bench's peer: one definition
@@ -149,7 +149,7 @@ def test_local_search_by_length_changes_makes_the_same_moves_as_scoring_whole_to
         lo = 1 if start is None else 0
         seed_order = list(rng.permutation(n)) if start is not None else [0, *(1 + rng.permutation(n - 1))]
         seed_order = [int(x) for x in seed_order]
-        got = layer_path._local_search(list(seed_order), cost, start, lo)
+        got = tour._local_search(list(seed_order), cost, start, lo)
         want = reference_local_search(list(seed_order), cost, start, lo)
         assert got == want
         assert tour_length(got, cost, start) <= tour_length(seed_order, cost, start) + 1e-9
