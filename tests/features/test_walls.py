@@ -171,3 +171,63 @@ def test_wall_passes_ignite_in_their_machining_stock():
     assert order_passes([p], near_start)[0].xy[0].tolist() == [105.0, 0.0]
     bare = WallPass("wall1", "wall", xy[:2], np.array([True]))
     assert passes_without_stock([p, bare]) == ["wall1"]
+
+
+def test_chain_ends_grid_finds_the_ends_a_scan_of_every_chain_finds():
+    """The junctions' search for chain ends through a hash grid: the same chains and ends, in the
+    same order (chain by chain, start before end), as testing every chain, before and after
+    chains are trimmed and dropped; ends at exactly tol count, beyond it not."""
+    from waamflow.features.walls import _Chain, _ChainEnds
+
+    rng = np.random.default_rng(3)
+    tol = 1e-3
+    grid = rng.integers(-20, 20, size=(300, 2, 2)).astype(float) * 5.0  # shared end points
+    chains = [_Chain(np.array([a, (a + b) / 2 + 0.1, b])) for a, b in grid]
+    index = _ChainEnds(chains, tol)
+
+    def scan(J):
+        out = []
+        for ch in chains:
+            if ch.dropped:
+                continue
+            for at_start, p in ((True, ch.xy[0]), (False, ch.xy[-1])):
+                if np.hypot(*(p - J)) <= tol:
+                    out.append((id(ch), at_start))
+        return out
+
+    probes = np.vstack([grid.reshape(-1, 2)[:200], grid.reshape(-1, 2)[:50] + [tol, 0.0]])
+    probes = np.vstack([probes, grid.reshape(-1, 2)[:50] + [0.0, 1.01 * tol], rng.uniform(-100, 100, (50, 2))])
+    for J in probes:
+        assert [(id(ch), s) for ch, s in index.at(J)] == scan(J)
+    hits = sum(len(index.at(J)) for J in probes)
+    assert hits > 250  # the probes on and at tol from an end
+    for k, ch in enumerate(chains[:120]):  # trims move ends, drops remove them
+        if k % 3 == 0:
+            ch.dropped = True
+        else:
+            ch.xy = ch.xy[1:] if k % 2 else ch.xy[:-1]
+        index.moved(ch)
+    for J in np.vstack([probes, [ch.xy[1] for ch in chains[:120]]]):
+        assert [(id(ch), s) for ch, s in index.at(J)] == scan(J)
+
+
+def test_layers_with_the_same_curves_share_their_wall_passes():
+    """An extrusion's layers plan their walls once (plan_layer_walls `memo`): the passes, their
+    order from each layer's own start point, and the notes are those planned layer by layer."""
+    rect = c((0, 0), (100, 0), (100, 50), (0, 50), (0, 0))
+    curves = [rect, c((50, 0), (50, 50)), c((0, 25), (100, 25)), circle(150, 25, 10, 48)]
+    feats = recognise(curves)
+    spec = WallSpec(free_end_extension=5.0, fillet_radius=1.0, bead_width=4.0, tubular="scattered")
+    memo: dict = {}
+    for layer, start in enumerate([None, (100.0, 50.0), (0.0, 0.0), (160.0, 25.0)]):
+        lf = [dict(f, layer=layer, z=1.5 * layer) for f in feats]
+        shared = plan_layer_walls(curves, lf, spec, layer_index=layer, start=start, memo=memo)
+        alone = plan_layer_walls(curves, lf, spec, layer_index=layer, start=start)
+        assert [p.key for p in shared.passes] == [p.key for p in alone.passes]
+        for a, b in zip(shared.passes, alone.passes):
+            assert np.array_equal(a.xy, b.xy) and np.array_equal(a.inside, b.inside)
+        assert shared.warnings == alone.warnings
+    assert len(memo) == 1  # planned once for the four layers
+    assert len({p.key for p in shared.passes}) == 9  # 8 wall pieces + the scattered tube
+    plan_layer_walls(curves[:3], recognise(curves[:3]), spec, memo=memo)
+    assert len(memo) == 2  # other curves: planned anew

@@ -357,6 +357,7 @@ class WallPathNode(Node):
         out: list[LayerPaths | None] = []
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
         warned: set[str] = set()  # an extrusion repeats its notes on every layer: say each once
+        planned: dict = {}  # an extrusion's layers share their wall passes (plan_layer_walls `memo`)
         pos = None
         seams: list[np.ndarray] = []  # world seams of the last ring layer: the next aligns to them
         for slot, layer in enumerate(layers):
@@ -365,7 +366,7 @@ class WallPathNode(Node):
                 out.append(None)
                 continue
             if layer.curves:
-                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam)
+                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam, planned)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos, seams, centers, slot)
             if passes:
@@ -383,10 +384,25 @@ class WallPathNode(Node):
 
     @staticmethod
     def _walls(
-        ctx, layer: Layer, fs, spec: WallSpec, start, helices: dict, slot: int, warned: set, seam: str = "stock"
+        ctx,
+        layer: Layer,
+        fs,
+        spec: WallSpec,
+        start,
+        helices: dict,
+        slot: int,
+        warned: set,
+        seam: str = "stock",
+        planned: dict | None = None,
     ) -> list[WallPass]:
         lw = plan_layer_walls(
-            layer.curves, features_for_layer(fs, layer), spec, layer_index=layer.index, start=start, seam=seam
+            layer.curves,
+            features_for_layer(fs, layer),
+            spec,
+            layer_index=layer.index,
+            start=start,
+            seam=seam,
+            memo=planned,
         )
         for note in lw.warnings:
             if note not in warned:
