@@ -361,3 +361,25 @@ def test_a_panel_of_one_layer_ends_far_short_of_its_top(panel):
     rep = check_panel_doc(graph, res, doc)
     (gap,) = [p for p in rep["problems"] if p["check"] == "top_gap"]
     assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(27.5, abs=0.05)
+
+
+def test_midsurface_distance_through_the_tree_is_the_distance_to_every_curve():
+    """A point's distance to a midsurface of thousands of curves is its distance to the nearest
+    one, found through an STRtree: exactly what GEOS gives for the distance to all of them as one
+    MultiLineString (which walked every curve's segments per point: recover01.dxf's ~3,000 walls a
+    layer), on curves of 2-9 points, points on, near and far from them."""
+    from waamflow.preflight.outside import distance_to_midsurface, midsurface_lines
+
+    rng = np.random.default_rng(7)
+    curves = []
+    for _ in range(2000):
+        start = rng.uniform(0, 1000, 2)
+        curves.append(start + np.cumsum(rng.normal(0, 8, (int(rng.integers(2, 10)), 2)), axis=0))
+    on = np.vstack([c[int(rng.integers(len(c)))] for c in curves[:300]])
+    pts = np.vstack([on, on + rng.normal(0, 2, on.shape), rng.uniform(-200, 1200, (400, 2))])
+    want = shapely.distance(MultiLineString(curves), shapely.points(pts))
+    got = midsurface_lines(curves).distance(pts)
+    assert np.array_equal(got, want)
+    assert (got == 0).sum() >= 300 and got.max() > 50  # on the curves, and far from them
+    width = 4.0
+    assert np.array_equal(distance_to_midsurface(curves, pts, width), np.maximum(0.0, want - width / 2))

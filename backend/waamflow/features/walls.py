@@ -534,7 +534,8 @@ def plan_layer_walls(
     """Passes of one layer from its curves ((k, 2) arrays or LineStrings, mm) and its features.
     `memo`: a dict kept over the layers of one plan; layers with the same curves and features
     (an extruded sketch's) share their wall passes, planned once (only tubes and order are the
-    layer's own: bjnortier's Ceco.NET floor plan, 15 layers of 1,500 walls, 30 s → 4 s)."""
+    layer's own: bjnortier's Ceco.NET floor plan, 15 layers of 1,546 walls, with `_ChainEnds` and
+    `split_curves`' index: the node 102 s → 7 s)."""
     curves = [np.asarray(c.coords if hasattr(c, "coords") else c, float)[:, :2] for c in curves]
     memo_key = (curves_digest(curves), _features_digest(features), spec) if memo is not None else None
     planned = memo.get(memo_key) if memo is not None else None
