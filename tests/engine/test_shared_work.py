@@ -79,3 +79,29 @@ def test_declared_shared_work_needs_a_spare_core(monkeypatch):
     assert executor.spare_core()
     execute(_graph(), resolver=FileResolver("."), workers=2)
     assert started == [1]
+
+
+def test_a_node_starts_the_workers_for_the_work_it_will_submit(monkeypatch):
+    """`Context.start_workers(work_s)`: a node that will hand work to the workers itself (the
+    sequence node's second seed on a floor plan's layers) starts them when the cost model says
+    that work pays, in a run with more than one worker only; small work does not."""
+    started = _spy_warm(monkeypatch)
+    asked: list[float] = []
+    run_layer = toy.ToyGrow.run_layer
+
+    def starting(self, ctx, params, index, items):
+        if index == 0:
+            ctx.start_workers(asked[-1])
+        return run_layer(self, ctx, params, index, items)
+
+    monkeypatch.setattr(toy.ToyGrow, "run_layer", starting)
+    asked.append(0.5)
+    small = execute(_graph(), resolver=FileResolver("."), workers=2, cache=None)
+    assert started == []
+    asked.append(parallel.MIN_PARALLEL_S + 0.1)
+    big = execute(_graph(), resolver=FileResolver("."), workers=2, cache=None)
+    assert started == [1] and big.artifacts == small.artifacts
+    started.clear()
+    execute(_graph(), resolver=FileResolver("."), workers=1, cache=None)
+    assert started == []
+    Context().start_workers(100.0)  # outside a run: nothing to start

@@ -436,6 +436,12 @@ class RunContext(Context):
         pool = self._run.pool
         return isinstance(pool, LayerPool) and pool.enabled and pool.ready
 
+    def start_workers(self, work_s: float) -> None:
+        """`Context.start_workers`: `LayerPool.warm` when the cost model says `work_s` pays."""
+        pool = self._run.pool
+        if isinstance(pool, LayerPool) and pool.enabled and parallel.wants_workers(pool.workers, extra_s=work_s):
+            pool.warm()
+
     def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
         """`Context.submit` to the run's local workers when they are up."""
         pool = self._run.pool

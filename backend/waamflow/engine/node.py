@@ -265,6 +265,11 @@ class Context:
         """Whether `submit` would start work in a worker now: a node builds a large job only then."""
         return False
 
+    def start_workers(self, work_s: float) -> None:
+        """Start the run's layer workers in the background, if they are not up and `work_s` (the
+        expected CPU seconds of what this node will `submit`) pays for their start (the engine's
+        cost model); the node goes on meanwhile, its `submit` returning None until they are up."""
+
     def submit(self, fn: Callable[[Any], Any], item: Any) -> Future[Any] | None:
         """fn(item) started in one of the run's layer workers, as a Future, when they are up
         (never waiting for them to start); None otherwise: the caller computes it itself. For

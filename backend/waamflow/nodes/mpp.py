@@ -26,6 +26,7 @@ from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel
+from ..sequencing.tour import search_seconds
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
 from ..zoning.params_xml import orphan_label
@@ -468,7 +469,9 @@ class SequenceNode(Node):
             ctx.check_cancelled()
             ctx.progress(k / n, f"layer {k} of {n} sequenced")
 
-        layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer)
+        if params.order == "nearest":  # a large layer's second seed goes to a worker (tour.nearest_order)
+            ctx.start_workers(sum(search_seconds(len(lp.sections)) for lp in tp if lp is not None))
+        layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer, ctx.submit)
         _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}
 
@@ -485,9 +488,9 @@ class SequenceNode(Node):
         }
 
 
-def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None) -> tuple[list, list[dict]]:
-    """Run `sequence_part` with the node's params (`map_chunks`, `on_layer`: see there); returns
-    the layers and the kernel's notes."""
+def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None, submit=None) -> tuple[list, list[dict]]:
+    """Run `sequence_part` with the node's params (`map_chunks`, `on_layer`, `submit`: see there);
+    returns the layers and the kernel's notes."""
     bw = params.bead_width
     clearance = bw if bw > 0 else DEFAULT_CLEARANCE
     shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
@@ -506,6 +509,7 @@ def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None) ->
         precedence=tuple(params.precedence),
         notes=notes,
         seam=SeamSpec(policy if isinstance(policy, str) else tuple(policy), clearance, shift, params.seam_at_junctions),
+        submit=submit,
     )
     return seq, notes
 

@@ -29,7 +29,7 @@ import numpy as np
 from ..core.model import LayerPaths, SectionPath
 from .arc_runs import enforce_min_run
 from .seams import LayerSegments, SeamSpec, choose_entry, ignition_points
-from .tour import nearest_order, tour_length, travel_cost
+from .tour import Submit, nearest_order, tour_length, travel_cost
 
 __all__ = ["nearest_order", "tour_length", "travel_cost"]  # the order's kernels, at their old address
 
@@ -81,7 +81,10 @@ def section_rank(sp: SectionPath, precedence: Sequence[str] = ()) -> int:
 
 
 def ranked_nearest_order(
-    paths: Sequence[SectionPath], prev_end: np.ndarray | None, precedence: Sequence[str] = ()
+    paths: Sequence[SectionPath],
+    prev_end: np.ndarray | None,
+    precedence: Sequence[str] = (),
+    submit: Submit | None = None,
 ) -> list[int]:
     """`nearest_order` within each rank of the order rule, ranks in turn: travel is shortened
     without ever depositing a later rank before an earlier one."""
@@ -93,7 +96,7 @@ def ranked_nearest_order(
         starts = np.array([paths[i].points[0] for i in idx], dtype=float)
         ends = np.array([paths[i].points[-1] for i in idx], dtype=float)
         start_cost = None if here is None else np.linalg.norm(starts - np.asarray(here)[None, :], axis=1)
-        sub = nearest_order(travel_cost(ends, starts), start_cost)
+        sub = nearest_order(travel_cost(ends, starts), start_cost, submit)
         out += [idx[j] for j in sub]
         here = np.asarray(paths[out[-1]].points[-1], dtype=float)
     return out
@@ -122,6 +125,7 @@ def sequence_layer(
     min_run: float = 0.0,
     precedence: Sequence[str] = (),
     notes: list[dict] | None = None,
+    submit: Submit | None = None,
 ) -> tuple[LayerPaths, float]:
     """Order the section paths of one layer, choose where each ignites and set their approach travel.
 
@@ -130,7 +134,8 @@ def sequence_layer(
     (the previous layer's last point), or None. seam: where each path ignites (`seams.choose_entry`;
     None: as planned). below: (k, 3) ignition points of the layer below. min_run: shortest arc-ON
     run, mm (`arc_runs.enforce_min_run`; 0: off). notes: receives one dict per event (kind
-    "junction" | "bridged" | "dropped" | "order-rule", layer, section, ...). Returns the new layer
+    "junction" | "bridged" | "dropped" | "order-rule", layer, section, ...). submit: a large
+    layer's second local search to a worker (`tour.nearest_order`). Returns the new layer
     program and its travel length in mm (including the move in from prev_end).
     """
     paths = [sp for sp in lp.sections if len(sp.points) >= 2]
@@ -169,7 +174,7 @@ def sequence_layer(
             fixed.append(new)
         paths = fixed
     if isinstance(order, str) and order == "nearest":
-        idx = ranked_nearest_order(paths, prev_end, precedence)
+        idx = ranked_nearest_order(paths, prev_end, precedence, submit)
     elif isinstance(order, str):
         if order != "mask":
             raise ValueError(f"unknown order {order!r}")
@@ -224,9 +229,10 @@ def sequence_part(
     nothing), and a layer's result is taken only when the torch position and the ignitions below it
     were exactly the ones this chain reaches; any other layer is sequenced again here. The result is
     the serial one, whatever the speculation gave. `on_layer(k, n)`: called after each layer (the
-    node's progress and cancel)."""
+    node's progress and cancel). `submit`: see `sequence_layer` (this process's layers only)."""
     notes = kw.pop("notes", None)
     notes = [] if notes is None else notes
+    submit = kw.pop("submit", None)
     spec: list[_Sequenced | None] = [None] * len(layers)
     if map_chunks is not None and len(layers) >= 2 * SPECULATE_CHUNKS:
         spans = _layer_spans(len(layers), SPECULATE_CHUNKS)
@@ -249,7 +255,7 @@ def sequence_part(
             new, t = guess.layer, guess.travel
             notes += guess.notes
         else:
-            new, t = sequence_layer(lp, prev_end=prev, below=below, notes=notes, **kw)
+            new, t = sequence_layer(lp, prev_end=prev, below=below, notes=notes, submit=submit, **kw)
         out.append(new)
         travel.append(t)
         prev = last_point(new)

@@ -17,7 +17,8 @@ piece's scan is long enough that numpy's per-call cost is not what it spends.
 from __future__ import annotations
 
 import itertools
-from typing import Sequence
+from concurrent.futures import Future
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -38,13 +39,25 @@ def tour_length(order: Sequence[int], cost: np.ndarray, start_cost: np.ndarray |
     return total
 
 
-def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
+SEED_IN_WORKER_MIN = 250  # sections: a seed's search this large goes to a worker beside the other
+SEARCH_S_PER_SECTION2 = 1e-6  # CPU s of one seed's local search per section² (1,546: 2.0-2.7 s)
+Submit = Callable[[Callable[[Any], Any], Any], "Future[Any] | None"]
+
+
+def search_seconds(sections: int) -> float:
+    """Expected CPU seconds of one seed's local search on a layer (rank) of this many sections."""
+    return SEARCH_S_PER_SECTION2 * sections**2 if sections > EXACT_MAX else 0.0
+
+
+def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None, submit: Submit | None = None) -> list[int]:
     """Nearest neighbour from the start point (or from section 0 when None), improved by local search.
 
     cost: (n, n) end-of-i → start-of-j travel, mm. start_cost: (n,) start point → start of j, mm.
     Local search from the nearest-neighbour tour and from the mask order; the shorter result is
     kept, so the order is never longer than the mask's. Layers of up to EXACT_MAX sections are
-    solved exactly instead.
+    solved exactly instead. `submit(fn, item)` (a node's `Context.submit`): the mask seed's search
+    of a layer of SEED_IN_WORKER_MIN sections or more goes to a worker while this process
+    searches from the other seed (None from it: both here); the same order either way.
     """
     n = len(cost)
     if n == 0:
@@ -63,8 +76,12 @@ def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
     # a mask order that is the nearest-neighbour one already (wall-path orders its passes so) is
     # searched once: the same seed gives the same result
     seeds = [order] if order == list(range(n)) else [order, list(range(n))]
-    for seed in seeds:
-        cand = _local_search(seed, cost, start_cost, 1 if fixed_first else 0)
+    lo = 1 if fixed_first else 0
+    away = None
+    if submit is not None and len(seeds) == 2 and n >= SEED_IN_WORKER_MIN:
+        away = submit(_seed_search, (seeds[1], cost, start_cost, lo))
+    for k, seed in enumerate(seeds):
+        cand = away.result() if k == 1 and away is not None else _local_search(seed, cost, start_cost, lo)
         length = tour_length(cand, cost, start_cost)
         if best is None or length < best[0] - 1e-9:
             best = (length, cand)
@@ -82,6 +99,11 @@ def _exact_order(cost: np.ndarray, start_cost: np.ndarray | None) -> list[int]:
     if start_cost is not None:
         total = total + start_cost[perms[:, 0]]
     return perms[int(np.argmin(np.round(total, 9)))].tolist()
+
+
+def _seed_search(item: tuple[list[int], np.ndarray, np.ndarray | None, int]) -> list[int]:
+    """Worker side of `nearest_order`'s `submit`: one seed's local search."""
+    return _local_search(*item)
 
 
 def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | None, lo: int) -> list[int]:
