@@ -172,8 +172,7 @@ def _reverse_deltas(
     sums: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Change of the tour's length when order[i..k] is reversed, for k = k0 .. n-1 (`sums`: the
-    order's `_edge_sums`, when made already). The edges left (o[k] → o[k+1]) are the order's own
-    (the differences of its running sums), the costs from o[i] one row: no 2-D gathers."""
+    order's `_edge_sums`, when made already). The new exits, from o[i], are one row of cost."""
     o = np.asarray(order)
     n = len(o)
     ks = np.arange(k0, n)
