@@ -362,11 +362,12 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         }
     dep = np.vstack(dep_runs)
     dep_layer = np.concatenate(dep_layers)
+    by_layer = _Grouped(dep_layer)
     # layer spacing measured from the program: each layer's points to the previous layer's
     spacing = []
     order = [idx for idx, _ in layers]
     for a, b in zip(order, order[1:]):
-        pa, pb = dep[dep_layer == a], dep[dep_layer == b]
+        pa, pb = dep[by_layer.rows(a)], dep[by_layer.rows(b)]
         if len(pa) and len(pb):
             spacing.append(cKDTree(pa).query(pb)[0])
     h = float(np.percentile(np.concatenate(spacing), 95)) if spacing else width / 2.0
@@ -379,12 +380,15 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     unc = dist > reach
     share = float(unc.mean())
     lay = dep_layer[near]
+    labels, at = np.unique(lay, return_inverse=True)  # the samples' nearest beads' layers
+    count, uncovered = np.bincount(at, minlength=len(labels)), np.bincount(at, weights=unc, minlength=len(labels))
+    where = {int(v): k for k, v in enumerate(labels)}
     for idx, _runs in layers:
-        m = lay == idx
-        if m.any():
+        k = where.get(int(idx))
+        if k is not None:
             L = rep.layer(idx)
-            L.update(samples=int(m.sum()), uncovered_share=_r(float(unc[m].mean())))
-    gap = _top_gap(samples, dist, near, dep, dep_layer, [] if planar else order, reach)
+            L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
+    gap = _top_gap(samples, dist, near, dep, by_layer, [] if planar else order, reach)
     worst = samples[int(np.argmax(dist))]
     return {
         "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
@@ -404,7 +408,22 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 TOP_GAP_MIN_COS = 0.7
 
 
-def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
+class _Grouped:
+    """Row indices of an array of labels (layer indices) grouped by label, each group in its rows'
+    own order: what `labels == v` selects, without a pass over every row per label (which made the
+    3D coverage check O(layers × bead points): a fan-sliced part has thousands of layers)."""
+
+    def __init__(self, labels: np.ndarray) -> None:
+        self.labels = np.asarray(labels)
+        self.order = np.argsort(self.labels, kind="stable")
+        self.sorted = self.labels[self.order]
+
+    def rows(self, value) -> np.ndarray:
+        lo, hi = np.searchsorted(self.sorted, value, "left"), np.searchsorted(self.sorted, value, "right")
+        return self.order[lo:hi]
+
+
+def _top_gap(samples, dist, near, dep, by_layer: _Grouped, order, reach: float) -> float:
     """How far the part goes on beyond the beads along the build, mm: of the points of the part out
     of the beads' reach that lie along the build direction from their nearest bead, the farthest
     along it. The build direction: up (+z) for planar layers (`order` empty) and a program of one
@@ -421,15 +440,16 @@ def _top_gap(samples, dist, near, dep, dep_layer, order, reach: float) -> float:
     nd = near[out]
     build = np.zeros((len(out), 3))
     pos = {idx: k for k, idx in enumerate(order)}
-    for idx in np.unique(dep_layer[nd]):
-        sel = dep_layer[nd] == idx
+    out_layers = _Grouped(by_layer.labels[nd])
+    for idx in np.unique(out_layers.labels):
+        sel = out_layers.rows(idx)
         k = pos.get(int(idx))
         other = None if k is None else order[k - 1] if k > 0 else (order[k + 1] if len(order) > 1 else None)
         if other is None:  # planar layers (no `order` given), or a program of one layer: up
             build[sel] = (0.0, 0.0, 1.0)
             continue
         p = dep[nd[sel]]
-        q = dep[dep_layer == other]
+        q = dep[by_layer.rows(other)]
         b = q[cKDTree(q).query(p)[1]]
         build[sel] = p - b if k else b - p
     offset = samples[out] - dep[nd]
