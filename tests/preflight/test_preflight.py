@@ -394,15 +394,15 @@ def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
 
 
 def test_layer_groups_select_what_a_mask_per_layer_selects():
-    """The 3D coverage check groups its bead points by layer once (`_Grouped`) instead of a mask
+    """The 3D coverage check groups its bead points by layer once (`Grouped`) instead of a mask
     over every point per layer (O(layers × points)): each group is exactly the rows `labels == v`
     selects, in their order."""
-    from waamflow.preflight.check import _Grouped
+    from waamflow.preflight.grouped import Grouped
 
     rng = np.random.default_rng(4)
     labels = rng.integers(-3, 400, 20_000)
     labels[5_000:6_000] = 17  # a long run, and layers given twice apart
-    groups = _Grouped(labels)
+    groups = Grouped(labels)
     for v in [*np.unique(labels)[::7], -3, 17, 399, 1_000, -10]:
         assert np.array_equal(groups.rows(v), np.flatnonzero(labels == v))
     assert sum(len(groups.rows(v)) for v in np.unique(labels)) == len(labels)

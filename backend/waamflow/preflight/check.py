@@ -26,6 +26,7 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .deposit import _arc_runs, _ignitions, _starved, _wire_balance
+from .grouped import Grouped
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -362,7 +363,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         }
     dep = np.vstack(dep_runs)
     dep_layer = np.concatenate(dep_layers)
-    by_layer = _Grouped(dep_layer)
+    by_layer = Grouped(dep_layer)
     # layer spacing measured from the program: each layer's points to the previous layer's
     spacing = []
     order = [idx for idx, _ in layers]
@@ -408,22 +409,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 TOP_GAP_MIN_COS = 0.7
 
 
-class _Grouped:
-    """Row indices of an array of labels (layer indices) grouped by label, each group in its rows'
-    own order: what `labels == v` selects, without a pass over every row per label (which made the
-    3D coverage check O(layers × bead points): a fan-sliced part has thousands of layers)."""
-
-    def __init__(self, labels: np.ndarray) -> None:
-        self.labels = np.asarray(labels)
-        self.order = np.argsort(self.labels, kind="stable")
-        self.sorted = self.labels[self.order]
-
-    def rows(self, value) -> np.ndarray:
-        lo, hi = np.searchsorted(self.sorted, value, "left"), np.searchsorted(self.sorted, value, "right")
-        return self.order[lo:hi]
-
-
-def _top_gap(samples, dist, near, dep, by_layer: _Grouped, order, reach: float) -> float:
+def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -> float:
     """How far the part goes on beyond the beads along the build, mm: of the points of the part out
     of the beads' reach that lie along the build direction from their nearest bead, the farthest
     along it. The build direction: up (+z) for planar layers (`order` empty) and a program of one
@@ -440,7 +426,7 @@ def _top_gap(samples, dist, near, dep, by_layer: _Grouped, order, reach: float) 
     nd = near[out]
     build = np.zeros((len(out), 3))
     pos = {idx: k for k, idx in enumerate(order)}
-    out_layers = _Grouped(by_layer.labels[nd])
+    out_layers = Grouped(by_layer.labels[nd])
     for idx in np.unique(out_layers.labels):
         sel = out_layers.rows(idx)
         k = pos.get(int(idx))
