@@ -132,8 +132,8 @@ def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | N
                 sums = _edge_sums(o, cost)
                 improved = True
                 k0 = k + 1
+        edges = sums[2]  # the order's edges, kept up to date through the Or-opt's moves
         for run in (1, 2, 3):  # Or-opt: move o[i..i+run) to position j of the rest
-            edges = cost[o[:-1], o[1:]]
             for i in range(lo, n - run + 1):
                 delta = _move_deltas(o, cost, start_cost, i, run, lo, edges, cost_t)
                 delta[i - lo] = np.inf  # j == i: where it is
@@ -149,11 +149,13 @@ def _local_search(order: list[int], cost: np.ndarray, start_cost: np.ndarray | N
     return o.tolist()
 
 
-def _edge_sums(o: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(fwd, bwd): fwd[j] the tour's edges before position j, bwd[j] the same edges walked backwards."""
-    fwd = np.concatenate([[0.0], np.cumsum(cost[o[:-1], o[1:]])])
+def _edge_sums(o: np.ndarray, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(fwd, bwd, edges): edges[t] = cost[o[t], o[t+1]], the tour's own; fwd[j] the sum of the
+    edges before position j, bwd[j] the same edges walked backwards."""
+    edges = cost[o[:-1], o[1:]]
+    fwd = np.concatenate([[0.0], np.cumsum(edges)])
     bwd = np.concatenate([[0.0], np.cumsum(cost[o[1:], o[:-1]])])
-    return fwd, bwd
+    return fwd, bwd, edges
 
 
 def _entry(o: np.ndarray, cost: np.ndarray, start_cost: np.ndarray | None, pos: int, to: np.ndarray) -> np.ndarray:
@@ -164,47 +166,42 @@ def _entry(o: np.ndarray, cost: np.ndarray, start_cost: np.ndarray | None, pos: 
 
 
 def _reverse_deltas(
-    order: list[int] | np.ndarray,
+    o: np.ndarray,
     cost: np.ndarray,
     start_cost: np.ndarray | None,
     i: int,
     k0: int,
-    sums: tuple[np.ndarray, np.ndarray] | None = None,
+    sums: tuple[np.ndarray, np.ndarray, np.ndarray],
 ) -> np.ndarray:
-    """Change of the tour's length when order[i..k] is reversed, for k = k0 .. n-1 (`sums`: the
-    order's `_edge_sums`, when made already). The new exits, from o[i], are one row of cost."""
-    o = np.asarray(order)
+    """Change of the tour's length when o[i..k] is reversed, for k = k0 .. n-1 (`sums`: the
+    order's `_edge_sums`). The new exits, from o[i], are one row of cost; the old ones the
+    order's own edges."""
     n = len(o)
     ks = np.arange(k0, n)
-    fwd, bwd = sums if sums is not None else _edge_sums(o, cost)
+    fwd, bwd, edges = sums
     inner = (bwd[ks] - bwd[i]) - (fwd[ks] - fwd[i])
     entry = _entry(o, cost, start_cost, i, o[ks]) - _entry(o, cost, start_cost, i, o[i : i + 1])
     exit_ = np.zeros(len(ks))
-    exit_[:-1] = cost[o[i]][o[k0 + 1 :]] - cost[o[k0:-1], o[k0 + 1 :]]
+    exit_[:-1] = cost[o[i]][o[k0 + 1 :]] - edges[k0:]
     return inner + entry + exit_
 
 
 def _move_deltas(
-    order: list[int] | np.ndarray,
+    o: np.ndarray,
     cost: np.ndarray,
     start_cost: np.ndarray | None,
     i: int,
     run: int,
     lo: int,
-    edges: np.ndarray | None = None,
-    cost_t: np.ndarray | None = None,
+    edges: np.ndarray,
+    cost_t: np.ndarray,
 ) -> np.ndarray:
-    """Change of the tour's length when order[i..i+run) moves to position j of the rest (the
-    tour without it), for j = lo .. len(rest). `edges` (the order's cost[o[t], o[t+1]]) and
-    `cost_t` (cost transposed, C-contiguous), when made already: the rest's own edges are then
-    slices of the order's, and the costs into the piece one contiguous row (an O(n) scan per
-    piece either way, but ~3× faster so: bjnortier's Ceco.NET floor plan, 1,546 walls a layer)."""
-    o = np.asarray(order)
+    """Change of the tour's length when o[i..i+run) moves to position j of the rest (the tour
+    without it), for j = lo .. len(rest). `edges`: the order's cost[o[t], o[t+1]], of which the
+    rest's own edges are slices; `cost_t`: cost transposed, C-contiguous, so the costs into the
+    piece are one contiguous row (an O(n) scan per piece either way, but ~3× faster so than 2-D
+    gathers: bjnortier's Ceco.NET floor plan, 1,546 walls a layer)."""
     n = len(o)
-    if edges is None:
-        edges = cost[o[:-1], o[1:]]
-    if cost_t is None:
-        cost_t = cost.T
     a, b = o[i], o[i + run - 1]
     rest = np.concatenate([o[:i], o[i + run :]])
     m = len(rest)
