@@ -47,3 +47,6 @@ def test_small_layers_keep_both_seeds_here():
     assert calls == [] and got == tour.nearest_order(cost, start)
     assert tour.search_seconds(tour.EXACT_MAX) == 0.0  # solved exactly: no search
     assert tour.search_seconds(1546) == tour.SEARCH_S_PER_SECTION2 * 1546**2
+    # what goes to a worker, and so may start the workers: large layers only
+    assert tour.submitted_seconds(tour.SEED_IN_WORKER_MIN - 1) == 0.0
+    assert tour.submitted_seconds(1546) == tour.search_seconds(1546)

@@ -26,8 +26,8 @@ from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel
-from ..sequencing.tour import search_seconds
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
+from ..sequencing.tour import submitted_seconds
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
 from ..zoning.params_xml import orphan_label
 
@@ -470,7 +470,7 @@ class SequenceNode(Node):
             ctx.progress(k / n, f"layer {k} of {n} sequenced")
 
         if params.order == "nearest":  # a large layer's second seed goes to a worker (tour.nearest_order)
-            ctx.start_workers(sum(search_seconds(len(lp.sections)) for lp in tp if lp is not None))
+            ctx.start_workers(sum(submitted_seconds(len(lp.sections)) for lp in tp if lp is not None))
         layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer, ctx.submit)
         _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}

@@ -49,6 +49,13 @@ def search_seconds(sections: int) -> float:
     return SEARCH_S_PER_SECTION2 * sections**2 if sections > EXACT_MAX else 0.0
 
 
+def submitted_seconds(sections: int) -> float:
+    """Expected CPU seconds `nearest_order` hands to a worker on a layer (rank) of this many
+    sections: one seed's search from SEED_IN_WORKER_MIN sections on, none below (what a node
+    tells `Context.start_workers`: layers searched here alone must not start the workers)."""
+    return search_seconds(sections) if sections >= SEED_IN_WORKER_MIN else 0.0
+
+
 def nearest_order(cost: np.ndarray, start_cost: np.ndarray | None, submit: Submit | None = None) -> list[int]:
     """Nearest neighbour from the start point (or from section 0 when None), improved by local search.
 
