@@ -60,9 +60,6 @@ import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from ..core.tolerances import TOL
-
-if TYPE_CHECKING:
-    from scipy.spatial import cKDTree
 from .junctions import (
     Junction,
     _corner_angles,
@@ -73,6 +70,9 @@ from .junctions import (
     is_closed,
     t_subtype,
 )
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 FEATURE_KINDS = (
     "free_end",
