@@ -367,19 +367,66 @@ def test_midsurface_distance_through_the_tree_is_the_distance_to_every_curve():
     """A point's distance to a midsurface of thousands of curves is its distance to the nearest
     one, found through an STRtree: exactly what GEOS gives for the distance to all of them as one
     MultiLineString (which walked every curve's segments per point: recover01.dxf's ~3,000 walls a
-    layer), on curves of 2-9 points, points on, near and far from them."""
-    from waamflow.preflight.outside import distance_to_midsurface, midsurface_lines
+    layer), on curves of 2-9 points and long ones (circles of 2,000-5,000 vertices, a 3,001-point
+    walk: indexed in pieces of PIECE_SEGMENTS segments, as hatch_issues.dxf's circles now are),
+    points on, near and far from them."""
+    from waamflow.preflight.outside import PIECE_SEGMENTS, distance_to_midsurface, midsurface_lines
 
     rng = np.random.default_rng(7)
     curves = []
     for _ in range(2000):
         start = rng.uniform(0, 1000, 2)
         curves.append(start + np.cumsum(rng.normal(0, 8, (int(rng.integers(2, 10)), 2)), axis=0))
-    on = np.vstack([c[int(rng.integers(len(c)))] for c in curves[:300]])
+    for n, r in ((2000, 300.0), (5000, 120.0)):
+        t = np.linspace(0.0, 2 * np.pi, n)
+        curves.append(np.column_stack([500 + r * np.cos(t), 500 + r * np.sin(t)]))
+    curves.append(np.cumsum(rng.normal(0, 3, (3001, 2)), axis=0) + 400)
+    on = np.vstack([c[int(rng.integers(len(c)))] for c in curves[:300] + curves[-3:] * 20])
     pts = np.vstack([on, on + rng.normal(0, 2, on.shape), rng.uniform(-200, 1200, (400, 2))])
     want = shapely.distance(MultiLineString(curves), shapely.points(pts))
-    got = midsurface_lines(curves).distance(pts)
+    index = midsurface_lines(curves)
+    got = index.distance(pts)
     assert np.array_equal(got, want)
-    assert (got == 0).sum() >= 300 and got.max() > 50  # on the curves, and far from them
+    assert (got == 0).sum() >= 360 and got.max() > 50  # on the curves, and far from them
+    pieces = index.tree.geometries
+    assert shapely.get_num_coordinates(pieces).max() == PIECE_SEGMENTS + 1
+    segments = sum(len(c) - 1 for c in curves)
+    assert int((shapely.get_num_coordinates(pieces) - 1).sum()) == segments  # every segment, once
     width = 4.0
     assert np.array_equal(distance_to_midsurface(curves, pts, width), np.maximum(0.0, want - width / 2))
+
+
+def test_points_the_k_d_tree_finds_near_the_midsurface_are_at_its_exact_distance_0():
+    """distance_to_midsurface asks the exact (STRtree) distance only of the points its k-d tree of
+    the curves' points (at most half a bead apart) does not find within half a bead: the result is
+    the exact distance's, bit for bit, on points on, near (around half a bead) and far from the
+    curves; a lone point is no curve (none of the points near it is certified near)."""
+    from waamflow.preflight.outside import MidsurfaceIndex, _densified, distance_to_midsurface
+
+    rng = np.random.default_rng(11)
+    curves = [
+        rng.uniform(0, 500, 2) + np.cumsum(rng.normal(0, 20, (int(rng.integers(2, 40)), 2)), axis=0) for _ in range(60)
+    ]
+    t = np.linspace(0.0, 2 * np.pi, 700)
+    curves.append(np.column_stack([250 + 90 * np.cos(t), 250 + 90 * np.sin(t)]))
+    width = 4.0
+    index = MidsurfaceIndex(curves + [np.array([[900.0, 900.0]])])
+    pts = []
+    for c in curves:
+        k = rng.integers(len(c) - 1, size=40)
+        f = rng.uniform(0, 1, (40, 1))
+        on = c[k] + f * (c[k + 1] - c[k])
+        pts += [on, on + rng.normal(0, 1.5, on.shape), on + rng.normal(0, 3.0, on.shape)]
+    pts += [rng.uniform(-100, 600, (2000, 2)), np.array([[900.0, 900.0], [900.5, 900.0]])]
+    pts = np.vstack(pts)
+    want = np.maximum(0.0, index.distance(pts) - width / 2.0)
+    got = distance_to_midsurface(index, pts, width)
+    assert np.array_equal(got, want)
+    near = index.within(pts, width / 2.0)
+    assert 0.5 * len(pts) < near.sum() < len(pts) and (got[near] == 0).all()
+    assert not near[-2:].any() and (got[-2:] > 100).all()  # the lone point certifies nothing
+    for c in curves[:5] + curves[-1:]:
+        d = _densified(c, 2.0)
+        steps = np.linalg.norm(np.diff(d, axis=0), axis=1)
+        assert steps.max() <= 2.0 + 1e-9 and np.array_equal(d[[0, -1]], c[[0, -1]])
+        assert steps.sum() == pytest.approx(np.linalg.norm(np.diff(c, axis=0), axis=1).sum(), rel=1e-12)
