@@ -6,7 +6,7 @@ Two geometric methods, chosen by what the program is:
   footprint is the union of its arc-ON runs buffered by half a bead width. Covered volume =
   Σ area(part ∩ footprint) · slab height; uncovered share = 1 − covered / part volume, so layers
   never deposited (a missing top) count in full.
-- **3D samples** (midsurfaces, open single-wall surfaces, non-planar layers): points on the part
+- **3D samples** (midsurfaces, open single-wall surfaces, non-planar layers; `samples.py`): points on the part
   (surface samples of a wall, volume samples of a solid) are covered when the deposit passes within
   reach: half a bead width across and the measured layer spacing along the build direction.
 
@@ -26,16 +26,15 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .deposit import _arc_runs, _ignitions, _starved, _wire_balance
-from .grouped import Grouped
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
 from .report import rounded as _r
+from .samples import coverage_3d
 from .settings import PreflightSettings
 from .slabs import Workers
 
 PLANAR_TOL_MM = 0.05  # a run whose z varies less than this is planar
-MAX_SAMPLES = 200_000
 
 
 @dataclass
@@ -81,14 +80,15 @@ class Part:
 class Coverage(TypedDict):
     """What a coverage check found: the part's volume (mm³; a wall: area × bead width), the share
     of it no bead reaches and the method; planar slabs add the section cut per layer index (shapely
-    geometry, handed to the outside check); 3D samples add the measured layer spacing, the gap above the deposit and the farthest
-    uncovered sample."""
+    geometry, handed to the outside check); 3D samples add the samples' spacing, the measured layer
+    spacing, the gap above the deposit and the farthest uncovered sample."""
 
     part_volume_mm3: float
     uncovered_share: float
     method: str
     sections: NotRequired[dict[int, Any]]
     excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
+    sample_mm: NotRequired[float]
     layer_spacing_mm: NotRequired[float]
     top_gap_mm: NotRequired[float | None]
     worst_point: NotRequired[np.ndarray]
@@ -307,145 +307,6 @@ def coverage_planar(
     return out
 
 
-# ---- coverage: 3D samples -------------------------------------------------------------------------
-def _resample(points: np.ndarray, step: float) -> np.ndarray:
-    d = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(d)])
-    if s[-1] <= 0:
-        return points[:1]
-    t = np.linspace(0.0, s[-1], max(2, int(math.ceil(s[-1] / step)) + 1))
-    return np.column_stack([np.interp(t, s, points[:, k]) for k in range(3)])
-
-
-def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float]:
-    """(n, 3) samples and the volume they stand for (a wall: area × 1, multiplied by the width later)."""
-    if part.kind == "midsurface":
-        out = []
-        area = 0.0
-        zs = np.arange(part.z0 + step / 2, part.z0 + part.height, step)
-        for c in part.curves:
-            pts = np.column_stack([_resample(np.column_stack([c, np.zeros(len(c))]), step)[:, :2]])
-            length = float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum())
-            area += length * part.height
-            out.append(np.column_stack([np.repeat(pts, len(zs), axis=0), np.tile(zs, len(pts))]))
-        return np.vstack(out), area
-    import trimesh
-
-    # a solid with non-planar layers is checked on its boundary: every point of it must lie within
-    # reach of a bead (interior voids of thick parts are the planar check's to find)
-    mesh = trimesh.Trimesh(*part.mesh(), process=False)
-    n = int(min(MAX_SAMPLES, max(1000, mesh.area / step**2)))
-    pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
-    return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area)
-
-
-def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings, planar: bool = False) -> Coverage:
-    """The part's surface (or midsurface) sampled every `s.sample_mm` and each sample's distance to
-    the nearest bead. `planar`: the layers are horizontal planes, so the build goes up (+z); else it
-    goes from each layer to the next (fan layers)."""
-    from scipy.spatial import cKDTree
-
-    step = s.sample_mm or max(width / 4.0, 0.5)
-    samples, measure = _part_samples(part, step)
-    dep_runs: list[np.ndarray] = []
-    dep_layers: list[np.ndarray] = []
-    for idx, runs in layers:
-        for r in runs:
-            p = _resample(r.points, min(step, width / 4.0))
-            dep_runs.append(p)
-            dep_layers.append(np.full(len(p), idx))
-    if not dep_runs or len(samples) == 0:
-        return {
-            "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
-            "uncovered_share": 1.0,
-            "method": "3D samples",
-            "top_gap_mm": None,
-        }
-    dep = np.vstack(dep_runs)
-    dep_layer = np.concatenate(dep_layers)
-    by_layer = Grouped(dep_layer)
-    # layer spacing measured from the program: each layer's points to the previous layer's
-    spacing = []
-    order = [idx for idx, _ in layers]
-    for a, b in zip(order, order[1:]):
-        pa, pb = dep[by_layer.rows(a)], dep[by_layer.rows(b)]
-        if len(pa) and len(pb):
-            spacing.append(cKDTree(pa).query(pb)[0])
-    h = float(np.percentile(np.concatenate(spacing), 95)) if spacing else width / 2.0
-    tree = cKDTree(dep)
-    dist, near = tree.query(samples)
-    if part.kind == "solid":
-        reach = math.hypot(width / 2.0, h) * 1.05 + step / 2.0
-    else:
-        reach = max(h, width / 2.0) * 1.1 + step / 2.0
-    unc = dist > reach
-    share = float(unc.mean())
-    lay = dep_layer[near]
-    labels, at = np.unique(lay, return_inverse=True)  # the samples' nearest beads' layers
-    count, uncovered = np.bincount(at, minlength=len(labels)), np.bincount(at, weights=unc, minlength=len(labels))
-    where = {int(v): k for k, v in enumerate(labels)}
-    for idx, _runs in layers:
-        k = where.get(int(idx))
-        if k is not None:
-            L = rep.layer(idx)
-            L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
-    gap = _top_gap(samples, dist, near, dep, by_layer, [] if planar else order, reach)
-    worst = samples[int(np.argmax(dist))]
-    return {
-        "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
-        "uncovered_share": share,
-        "method": "3D samples",
-        "layer_spacing_mm": h,
-        "top_gap_mm": gap,
-        "worst_point": worst,
-        "worst_layer": int(lay[int(np.argmax(dist))]),
-        "reach_mm": reach,
-        "uncovered_by_layer": {},
-    }
-
-
-#: A point of the part beyond the beads' reach counts for the top gap when it lies this much along
-#: the build direction from its nearest bead (cos 45°): past the last layer, not beside a wall.
-TOP_GAP_MIN_COS = 0.7
-
-
-def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -> float:
-    """How far the part goes on beyond the beads along the build, mm: of the points of the part out
-    of the beads' reach that lie along the build direction from their nearest bead, the farthest
-    along it. The build direction: up (+z) for planar layers (`order` empty) and a program of one
-    layer; else the nearest bead's offset from the layer before it in `order` (to the layer after it
-    on the first layer). A point out of reach beside the beads is an unbuilt wall or a dome's flat
-    cap, which the uncovered check names: a panel without one rib had "ends 42.27 mm short of the
-    part's top (30.00 mm)", the distance to the rib's far end; without its last 3 layers of 2 mm,
-    "3.03 mm short" (the 6 mm less the reach) where it is 6.00."""
-    from scipy.spatial import cKDTree
-
-    out = np.flatnonzero(dist > reach)
-    if not len(out):
-        return 0.0
-    nd = near[out]
-    build = np.zeros((len(out), 3))
-    pos = {idx: k for k, idx in enumerate(order)}
-    out_layers = Grouped(by_layer.labels[nd])
-    for idx in np.unique(out_layers.labels):
-        sel = out_layers.rows(idx)
-        k = pos.get(int(idx))
-        other = None if k is None else order[k - 1] if k > 0 else (order[k + 1] if len(order) > 1 else None)
-        if other is None:  # planar layers (no `order` given), or a program of one layer: up
-            build[sel] = (0.0, 0.0, 1.0)
-            continue
-        p = dep[nd[sel]]
-        q = dep[by_layer.rows(other)]
-        b = q[cKDTree(q).query(p)[1]]
-        build[sel] = p - b if k else b - p
-    offset = samples[out] - dep[nd]
-    nb = np.linalg.norm(build, axis=1)
-    no = np.linalg.norm(offset, axis=1)
-    along = np.einsum("ij,ij->i", offset, build) / np.where(nb > 0, nb, 1.0)
-    ahead = (nb > 0) & (along >= TOP_GAP_MIN_COS * no)
-    return float(along[ahead].max()) if ahead.any() else 0.0
-
-
 # ---- the whole check -----------------------------------------------------------------------------
 def check_program(
     part: Part | None,
@@ -500,6 +361,7 @@ def check_program(
             uncovered_share=_r(cov["uncovered_share"]),
             part_volume_mm3=_r(cov["part_volume_mm3"], 1),
             coverage_method=cov["method"],
+            **({"coverage_sample_mm": _r(cov["sample_mm"], 3)} if "sample_mm" in cov else {}),
             layer_height_mm=_r(h_typ, 3),
         )
         _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)

@@ -140,7 +140,8 @@ class PreflightSettings(BaseModel):
         gt=0.1,
         le=50,
         description="Sample spacing of the 3D coverage check, "
-        "mm; empty = a quarter bead width, coarsened to at most 200,000 samples",
+        "mm; empty = a quarter bead width; coarsened on a large part to at most 200,000 samples "
+        "of a mesh, 1,000,000 of a midsurface (the spacing used: coverage_sample_mm)",
     )
 
     @model_validator(mode="after")

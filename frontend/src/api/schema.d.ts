@@ -1244,6 +1244,18 @@ export interface components {
              */
             overshoot_warn_layers: number;
             /**
+             * Layer Gap Warn Layers
+             * @description Warn when a deposited layer lies more than this many typical layer heights above the deposited layer below it, where the part has metal between (skipped layers)
+             * @default 1.8
+             */
+            layer_gap_warn_layers: number;
+            /**
+             * Layer Gap Fail Layers
+             * @description Fail when a deposited layer lies more than this many typical layer heights above the deposited layer below it, where the part has metal between (skipped layers)
+             * @default 2.5
+             */
+            layer_gap_fail_layers: number;
+            /**
              * Uncovered Warn
              * @description Warn above this share of the part with no bead
              * @default 0.02
@@ -1298,6 +1310,19 @@ export interface components {
              * @enum {string}
              */
             weld_data: "off" | "warn" | "fail";
+            /**
+             * Wire Feed Min
+             * @description Arc-ON moves commanded less wire feed than `wire_feed_min_m_min`: the arc burns without wire
+             * @default fail
+             * @enum {string}
+             */
+            wire_feed_min: "off" | "warn" | "fail";
+            /**
+             * Wire Feed Min M Min
+             * @description Least wire feed an arc-ON move may command, m/min (power sources feed from about 1 m/min; 0 is an arc with no wire)
+             * @default 0.5
+             */
+            wire_feed_min_m_min: number;
             /**
              * Deposit Changed
              * @description A sequence node whose output welds another arc-ON length in a section than its input (short-run fixes aside)
@@ -1357,7 +1382,7 @@ export interface components {
             bead_shape_factor: number;
             /**
              * Sample Mm
-             * @description Sample spacing of the 3D coverage check, mm; empty = a quarter bead width, coarsened to at most 200,000 samples
+             * @description Sample spacing of the 3D coverage check, mm; empty = a quarter bead width; coarsened on a large part to at most 200,000 samples of a mesh, 1,000,000 of a midsurface (the spacing used: coverage_sample_mm)
              */
             sample_mm?: number | null;
         };
