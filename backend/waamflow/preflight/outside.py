@@ -35,6 +35,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiLineString
 
+from .kd import query
 from .read import Run
 
 if TYPE_CHECKING:  # check imports this module
@@ -157,7 +158,7 @@ class MidsurfaceIndex:
             from scipy.spatial import cKDTree
 
             self._near[r] = cKDTree(np.vstack([_densified(c, r) for c in lines]))
-        d = self._near[r].query(np.asarray(pts, float)[:, :2], distance_upper_bound=r)[0]
+        d = query(self._near[r], np.asarray(pts, float)[:, :2], distance_upper_bound=r)[0]
         return d <= r
 
     def distance(self, pts: np.ndarray) -> np.ndarray:
@@ -229,7 +230,7 @@ class MeshDistance:
 
     def __call__(self, pts: np.ndarray, floor: float) -> np.ndarray:
         """floor: points nearer the surface than this are not tested for inside (0 either way)."""
-        d, _ = self.tree.query(pts)
+        d, _ = query(self.tree, pts)
         d = np.maximum(0.0, d - self.resolution_mm / 2.0)
         if self.solid:
             far = np.nonzero(d > floor)[0]
@@ -264,18 +265,21 @@ def layer_outside(
 ) -> tuple[list[Excursion], float, Excursion | None]:
     """One layer's excursions (runs: `Run`s or `RunLine`s, in order), the deposit area beyond the
     section grown by ½ bead (0 without a section) and the farthest excursion. dist: samples → mm
-    outside the part."""
+    outside the part, point by point: the layer's samples are measured in one call (a large one
+    then runs on every core: kd.py)."""
     from .check import footprint  # check imports this module
 
     found: list[Excursion] = []
     reach = None  # the section grown by ½ bead: buffered at the layer's first excursion only
     area = 0.0
     worst = None
-    for r in runs:
-        if len(r.points) < 2:
-            continue
-        pts, s = sample_run(r, step)
-        ex = excursions(r, idx, pts, s, dist(pts), width, margin)
+    sampled = [(r, *sample_run(r, step)) for r in runs if len(r.points) >= 2]
+    if not sampled:
+        return found, area, worst
+    ends = np.cumsum([len(pts) for _r, pts, _s in sampled])
+    d_all = dist(np.vstack([pts for _r, pts, _s in sampled]))
+    for (r, pts, s), end in zip(sampled, ends):
+        ex = excursions(r, idx, pts, s, d_all[end - len(pts) : end], width, margin)
         found += ex
         for e in ex:
             if worst is None or e.max_mm > worst.max_mm:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .grouped import Grouped
+from .kd import query
 from .report import Report
 from .report import rounded as _r
 from .settings import PreflightSettings
@@ -95,10 +96,12 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     for a, b in zip(order, order[1:]):
         pa, pb = dep[by_layer.rows(a)], dep[by_layer.rows(b)][::stride]
         if len(pa) and len(pb):
-            spacing.append(cKDTree(pa).query(pb)[0])
+            # distances only: a tree built for speed (the nearest distance is the same whatever
+            # the tree's shape; which of two points at one distance it names may differ)
+            spacing.append(query(cKDTree(pa, balanced_tree=False, compact_nodes=False), pb)[0])
     h = float(np.percentile(np.concatenate(spacing), 95)) if spacing else width / 2.0
     tree = cKDTree(dep)
-    dist, near = tree.query(samples)
+    dist, near = query(tree, samples)
     if part.kind == "solid":
         reach = math.hypot(width / 2.0, h) * 1.05 + step / 2.0
     else:
@@ -162,7 +165,7 @@ def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -
             continue
         p = dep[nd[sel]]
         q = dep[by_layer.rows(other)]
-        b = q[cKDTree(q).query(p)[1]]
+        b = q[query(cKDTree(q), p)[1]]
         build[sel] = p - b if k else b - p
     offset = samples[out] - dep[nd]
     nb = np.linalg.norm(build, axis=1)
