@@ -258,3 +258,42 @@ def test_a_u_shaped_wall_is_never_rethreaded():
     assert got.length == pytest.approx(38.5 + 30.0 + 38.5)
     # a fill serpentine of the same shape may still be re-threaded
     assert "rethreaded" in [e.name for e in entries(section("A", "parallel", u, 2.0))]
+
+
+def test_junction_ignitions_warn_once_a_section_naming_its_layers_and_what_to_do():
+    """A rib whose both ends meet the other walls (an H: no entry off a junction) ignites at a
+    junction on every layer: one warning for the rib naming the layers, and the wall's remedy (no
+    guide to change: a sketch's wall has none); a mask section keeps 'change the guide'. Before,
+    each layer warned apart (ezdxf's wipeout_door.dxf: 1,975 warnings) and every one said 'change
+    the guide'."""
+    from waamflow.nodes.mpp import _report
+
+    def h_layer(i, rib_strategy):
+        z = 1.5 * (i + 1)
+        left = section("left", "wall", [(0, -50), (0, 50)], z)
+        right = section("right", "wall", [(80, -50), (80, 50)], z)
+        rib = section("rib", rib_strategy, [(0, 0), (80, 0)], z)
+        return LayerPaths(Layer(i, z, 1.5, as_multipolygon(box(-10, -60, 90, 60))), (left, rib, right))
+
+    class Ctx:
+        def __init__(self):
+            self.warnings, self.reports = [], []
+
+        def warn(self, message, **where):
+            self.warnings.append((message, where))
+
+        def report(self, data):
+            self.reports.append(data)
+
+    for strategy, remedy in (("wall", "both ends of the wall meet other walls"), ("parallel", "change the guide")):
+        notes = []
+        layers = [h_layer(i, strategy) for i in (0, 1, 2, 3, 6)]
+        out = [sequence_layer(lp, seam=SeamSpec("aligned", 4.0), notes=notes)[0] for lp in layers]
+        junction = [n for n in notes if n["kind"] == "junction"]
+        assert {(n["section"], n["strategy"]) for n in junction} == {("rib", strategy)} and len(junction) == 5
+        ctx = Ctx()
+        _report(ctx, None, out, notes)
+        (msg, where), *rest = [w for w in ctx.warnings if "junction" in w[0]]
+        assert not rest and where == {"layer": 0, "section": "rib"}
+        assert "on 5 layers (0-3, 6)" in msg and remedy in msg and "seam_at_junctions" in msg
+        assert ctx.reports[0]["junction_ignitions"] == 5

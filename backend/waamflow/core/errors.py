@@ -93,3 +93,19 @@ class PlanningError(WaamflowError):
 class CancelledError(WaamflowError):
     exit_code = 130
     kind = "cancelled"
+
+
+def layer_ranges(indices: list[int]) -> str:
+    """Layer indices as the messages name them: [0, 1, 2, 5, 7, 8] → "0-2, 5, 7-8"."""
+    out: list[str] = []
+    run: list[int] = []
+    for i in sorted(indices):
+        if run and i == run[-1] + 1:
+            run.append(i)
+            continue
+        if run:
+            out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
+        run = [i]
+    if run:
+        out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
+    return ", ".join(out)

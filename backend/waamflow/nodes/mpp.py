@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..core import serialize
-from ..core.errors import PlanningError, RecipeError
+from ..core.errors import PlanningError, RecipeError, layer_ranges
 from ..core.model import LayerPaths, LayerSections, Layered
 from ..engine.node import FileRef, LayerNode, Node, NodeParams, register, unit
 from ..engine.ports import Port
@@ -517,6 +517,7 @@ def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None, su
 def _report(ctx, params, layers, notes: list[dict]) -> None:
     """Warn each event (layer, section) and report the counts and the seam distances."""
     kinds = {"bridged": 0, "dropped": 0, "junction": 0, "order-rule": 0}
+    junctions: dict[str, list[dict]] = {}
     for n in notes:
         kinds[n["kind"]] += 1
         if n["kind"] in ("bridged", "dropped"):
@@ -531,12 +532,22 @@ def _report(ctx, params, layers, notes: list[dict]) -> None:
                 section=n["section"],
             )
         elif n["kind"] == "junction":
-            ctx.warn(
-                f"ignites at a junction with another section at {n['at'][:2]}: every entry does (set "
-                "`seam_at_junctions` to accept it, or change the guide)",
-                layer=n["layer"],
-                section=n["section"],
-            )
+            junctions.setdefault(n["section"], []).append(n)
+    for key, at in junctions.items():  # one warning a section, its layers named
+        layers_at = sorted({n["layer"] for n in at})
+        where = (
+            f"layer {layers_at[0]}" if len(layers_at) == 1 else f"{len(layers_at)} layers ({layer_ranges(layers_at)})"
+        )
+        fix = (
+            "both ends of the wall meet other walls: set `seam_at_junctions` to accept it"
+            if at[0].get("strategy") == "wall"
+            else "set `seam_at_junctions` to accept it, or change the guide"
+        )
+        ctx.warn(
+            f"ignites at a junction with another section at {at[0]['at'][:2]} on {where}: every entry does ({fix})",
+            layer=at[0]["layer"],
+            section=key,
+        )
     breaks = [n for n in notes if n["kind"] == "order-rule"]
     if breaks:
         first = breaks[0]

@@ -13,7 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
 
 from ..core import serialize
-from ..core.errors import PlanningError
+from ..core.errors import PlanningError, layer_ranges
 from ..core.model import LayerPaths, LayerSections, SectionPath
 from ..engine.node import LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
@@ -93,22 +93,6 @@ class PlannedLayerPaths(LayerPaths):
     fills: tuple[dict, ...] = ()
 
 
-def _layer_ranges(indices: list[int]) -> str:
-    """[0, 1, 2, 5, 7, 8] → "0-2, 5, 7-8"."""
-    out: list[str] = []
-    run: list[int] = []
-    for i in sorted(indices):
-        if run and i == run[-1] + 1:
-            run.append(i)
-            continue
-        if run:
-            out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
-        run = [i]
-    if run:
-        out.append(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]))
-    return ", ".join(out)
-
-
 def cover_report(toolpath) -> dict:
     """What the strategy chose per section and what its paths leave uncovered (node report):
     counts of sections planned as given / split at corners / filled with contour, the uncovered
@@ -138,7 +122,7 @@ def cover_report(toolpath) -> dict:
             )
             row["layers"].append(lp.index)
             row["max_uncovered_share"] = round(max(row["max_uncovered_share"], share), 5)
-    changed = [{**r, "layers": _layer_ranges(r["layers"])} for r in rows.values()][:200]
+    changed = [{**r, "layers": layer_ranges(r["layers"])} for r in rows.values()][:200]
     return {
         "cover": {
             "sections_as_planned": counts["as planned"],

@@ -158,6 +158,7 @@ def sequence_layer(
                         "kind": "junction",
                         "layer": lp.index,
                         "section": sp.key,
+                        "strategy": sp.strategy,
                         "at": np.round(entry.ignition, 3).tolist(),
                     }
                 )
