@@ -238,8 +238,25 @@ def test_preview_stops_when_the_client_leaves(tmp_path, run_memory_mb):
 
 
 def _workers_of(me: psutil.Process) -> set[int]:
-    """Layer workers: grandchildren of this process (children of the fork server)."""
-    return {p.pid for p in me.children(recursive=True) if p.ppid() != me.pid}
+    """Layer workers: the children of a fork server among this process's descendants. Not "every
+    grandchild": a run's process forked from this one starts a fork server of its own, itself a
+    grandchild (after tests/engine had started this process's fork server, the count read 3)."""
+    procs = me.children(recursive=True)
+    servers = set()
+    for p in procs:
+        try:
+            if "multiprocessing.forkserver" in " ".join(p.cmdline()):
+                servers.add(p.pid)
+        except psutil.Error:  # ended meanwhile
+            pass
+    out = set()
+    for p in procs:
+        try:
+            if p.ppid() in servers:
+                out.add(p.pid)
+        except psutil.Error:
+            pass
+    return out
 
 
 def test_cancel_kills_layer_workers_within_2_s(tmp_path, monkeypatch):
