@@ -329,3 +329,19 @@ def test_overlapping_runs_leave_the_interpreter_as_it_was():
     assert a_done.is_set() and len(seen_b) == 3
     assert all(sw == pytest.approx(0.001) and n > 1000 for sw, n in seen_b)  # B ran on after A ended
     assert sys.getswitchinterval() == switch and gc.get_freeze_count() == 0
+
+
+def test_the_disk_cache_commits_unsynced_and_the_store_synced(tmp_path):
+    """The disk cache's commits are not synced to the disk (synchronous NORMAL, WAL: a power cut
+    loses at most the last entries, computed again; a GUI preview's edit puts ~4), and what a user
+    made, the store's graphs and runs, stays synced on every commit (FULL)."""
+    from waamflow.api.store import Store
+    from waamflow.engine.cache import SqliteCache
+
+    cache = SqliteCache(tmp_path / "cache.sqlite")
+    cache.put("k", {"a": 1})
+    assert cache._conn.execute("PRAGMA synchronous").fetchone()[0] == 1  # NORMAL
+    assert cache._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+    store = Store(tmp_path / "store.sqlite")
+    assert store._conn.execute("PRAGMA synchronous").fetchone()[0] == 2  # FULL
+    assert SqliteCache(tmp_path / "cache.sqlite").get("k") == {"a": 1}

@@ -107,6 +107,11 @@ class SqliteCache:
         self._lock = threading.Lock()
         self._conn = sqlite3.connect(str(self.path), check_same_thread=False, timeout=30)
         self._conn.execute("PRAGMA journal_mode=WAL")
+        # a cache, not a record: a commit is not synced to the disk (in WAL mode the file stays
+        # consistent; a power cut may lose the last entries, which are computed again). Synced, the
+        # ~4 puts of a GUI preview's edit (its re-planned layer, node by node) took the bracket's
+        # layer-150 preview from 3.9 to 5.1-7.8 ms (median of 20 edits, in process)
+        self._conn.execute("PRAGMA synchronous=NORMAL")
         self._conn.execute(
             "CREATE TABLE IF NOT EXISTS cache (key TEXT PRIMARY KEY, value BLOB NOT NULL, size INTEGER, used REAL)"
         )
