@@ -138,7 +138,19 @@ for (const [w, h] of [[1600, 1000], [1366, 768]]) {
 test("the real backend: mpp-cross's run shows its own preflight verdict", async () => {
   const { page, context, errors } = await open(1600, 1000);
   await openRecipe(page, srv.base, "mpp-cross");
+  // the badge in the frame the run turns "done": the report already read, never "no preflight"
+  // (the toolbar said "done" beside "no preflight" for the ~50 ms the report took to arrive)
+  await page.evaluate(() => {
+    window.__badgeAtDone = null;
+    const progress = document.querySelector("[data-testid=progress]");
+    new MutationObserver(() => {
+      if (window.__badgeAtDone === null && progress.getAttribute("data-phase") === "done")
+        window.__badgeAtDone = document.querySelector("[data-testid=preflight-badge]")?.textContent ?? "(no badge)";
+    }).observe(progress, { attributes: true, attributeFilter: ["data-phase"] });
+  });
   await expectRun(page, srv.base, "done");
+  const atDone = await page.evaluate(() => window.__badgeAtDone);
+  assert.match(atDone ?? "", /^preflight (ok|⚠|✗)/, `the badge as the run turned done: ${atDone}`);
   const id = await page.getAttribute("[data-testid=progress]", "data-run-id");
   const arts = await api(srv.base, `/api/runs/${id}/artifacts`);
   assert.ok(arts.some((a) => a.name === "preflight.json"), "every run writes preflight.json");

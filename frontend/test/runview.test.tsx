@@ -51,18 +51,20 @@ describe("useRunView", () => {
     statuses = ["done"];
     vi.mocked(client.getRun).mockClear();
   });
-  it("shows the artifacts only together with the preflight report; the end of the run is told once", async () => {
+  it("shows the end, the artifacts and the preflight report together; the end of the run is told once", async () => {
     const message = vi.fn();
     const { result } = renderHook(() => useRunView({ message, fail: vi.fn(), toMask: vi.fn() }), undefined);
     await act(async () => void (await result.current.start({ recipe: emptyRecipe("r"), xml: null }, "r")));
     expect(result.current.run).toMatchObject({ id: "r1", phase: "running" });
     expect(FakeEventSource.last?.url).toBe("/api/runs/r1/events");
     await act(async () => FakeEventSource.last!.onmessage!({ data: JSON.stringify({ seq: 1, kind: "run_finished", time: 1, progress: 1 }) }));
-    // the artifacts are listed, the preflight report is still being read: nothing shown yet
-    expect(result.current.run.phase).toBe("done");
+    // the artifacts are listed, the preflight report is still being read: nothing shown yet, the
+    // end included (a "done" toolbar beside "no preflight" was the badge of no report)
+    expect(result.current.run.phase).toBe("running");
     expect(result.current.artifacts).toEqual([]);
     expect(result.current.preflight).toBeNull();
     await act(async () => preflightText.resolve(JSON.stringify({ verdict: "ok", programs: [], layers: [], problems: [] })));
+    expect(result.current.run.phase).toBe("done");
     expect(result.current.artifacts.length).toBe(3);
     expect(result.current.preflight?.verdict).toBe("ok");
     expect(result.current.runXml).toBe("<params/>");

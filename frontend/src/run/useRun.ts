@@ -26,7 +26,7 @@ export async function storedEnd(id: string, wait = (ms: number) => new Promise((
 }
 
 /** Follow a run through its SSE event stream; its end is shown once the server has stored it. */
-export function useRun(onEnd?: (s: RunState) => void) {
+export function useRun(onEnd?: (s: RunState) => void | Promise<void>) {
   const [state, setState] = useState<RunState>(idleRun);
   const source = useRef<EventSource | null>(null);
   // Which follow is current: a run followed or reset since makes an older run's late end moot.
@@ -68,8 +68,13 @@ export function useRun(onEnd?: (s: RunState) => void) {
         /* the events already told us how it ended */
       }
       if (gen !== generation.current) return; // another run is shown by now
-      setState(cur);
-      endRef.current?.(cur);
+      // the end's findings (artifacts, the preflight report) are read before the end is shown: the
+      // toolbar never says "done" beside "no preflight" while the report is still on its way
+      try {
+        await endRef.current?.(cur);
+      } finally {
+        if (gen === generation.current) setState(cur);
+      }
     };
     es.onmessage = (m) => {
       const ev = JSON.parse(m.data) as RunEvent;
