@@ -3,7 +3,7 @@ import { act } from "react";
 import { createRoot } from "react-dom/client";
 import { describe, expect, it } from "vitest";
 import { PreflightBadge } from "../src/preflight/PreflightBadge";
-import { preflightBadge, type Preflight, type PreflightProblem } from "../src/preflight/preflight";
+import { coarseCoverage, preflightBadge, type Preflight, type PreflightProblem } from "../src/preflight/preflight";
 import { ProblemsPanel } from "../src/problems/ProblemsPanel";
 
 (globalThis as { IS_REACT_ACT_ENVIRONMENT?: boolean }).IS_REACT_ACT_ENVIRONMENT = true;
@@ -49,5 +49,17 @@ describe("preflight in the GUI", () => {
     expect(picked.map((p) => p.check)).toEqual(["stacked_starts"]);
     expect(masked.map((p) => p.layer)).toEqual([3]);
     expect(host.querySelector("[data-testid=preflight-section] h3")!.textContent).toMatch(/Preflight\s*warn/);
+  });
+  it("says where the 3D coverage was sampled coarser than asked (a large part), and only there", () => {
+    const prog = (node: string, used: number, width = 4) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: width, coverage_sample_mm: used });
+    const big: Preflight = { ...report, problems: [], programs: [prog("post", 5.3), prog("post2", 1.0), prog("post3", 1.04)] };
+    expect(coarseCoverage(big)).toEqual([["post", 5.3, 1.0]]);
+    expect(coarseCoverage({ ...big, settings: { sample_mm: 6.0 } })).toEqual([]);
+    expect(coarseCoverage({ ...big, programs: [prog("p", 0.52, 1.0)] })).toEqual([]); // asked: at least 0.5 mm
+    const host = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={big} />);
+    const lines = [...host.querySelectorAll("[data-testid=pf-coarse]")].map((e) => e.textContent);
+    expect(lines).toEqual(["coverage of post sampled every 5.30 mm, not 1.00: a large part (at most 1,000,000 samples of a wall, 200,000 of a mesh)"]);
+    const plain = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={report} />);
+    expect(plain.querySelectorAll("[data-testid=pf-coarse]").length).toBe(0);
   });
 });

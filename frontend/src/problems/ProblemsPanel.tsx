@@ -1,4 +1,4 @@
-import { canMaskHere, checkLabel, figureRows, problemKey, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
+import { canMaskHere, checkLabel, coarseCoverage, figureRows, problemKey, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
 import type { Problem } from "./problems";
 
 export interface ProblemsPanelProps {
@@ -63,6 +63,11 @@ function PreflightSection({ report, stale, onPick, onMaskHere }: { report: Prefl
           </div>
         ))}
       </dl>
+      {coarseCoverage(report).map(([node, used, asked]) => (
+        <div key={node} className="muted pad" data-testid="pf-coarse">
+          coverage of {node} sampled every {used.toFixed(2)} mm, not {asked.toFixed(2)}: a large part (at most 1,000,000 samples of a wall, 200,000 of a mesh)
+        </div>
+      ))}
       {!list.length && <div className="muted pad">The program builds the part: no preflight problems.</div>}
       <ul>
         {list.map((p, i) => (
