@@ -77,3 +77,24 @@ def test_non_finite_values_are_found_in_every_kind_of_list(bad):
 def test_finite_lists_pass_even_when_their_sum_would_overflow():
     doc = {"big": [1e308, 1e308, -1e308], "zones": ["start", "z1", "end"], "mixed": [None, 1.5, "x", True]}
     assert json.loads(serialize.dumps(doc))["big"] == [1e308, 1e308, -1e308]
+
+
+def test_a_report_is_indented_json_that_reads_back_the_same_with_no_value_as_null():
+    """`dumps_report` (preflight.json): the same content as json.dumps, indented 2, UTF-8 text kept
+    (a message's "≤" and "°"), numpy figures written as numbers, and a non-finite float as null,
+    where json.dumps wrote `NaN`, which a browser's JSON.parse refuses."""
+    report = {
+        "verdict": "warn",
+        "problems": [{"message": "gap ≤ 2 mm at 45°", "value": 0.0014, "point": [1.5, -2.0, 3.25]}],
+        "layers": [{"index": k, "uncovered_share": k / 7} for k in range(3)],
+        "top_gap_mm": None,
+    }
+    out = serialize.dumps_report(report)
+    assert json.loads(out) == report
+    assert "gap ≤ 2 mm at 45°".encode() in out
+    assert out.splitlines()[1] == b'  "verdict": "warn",'
+    assert json.loads(serialize.dumps_report({"a": float("nan"), "b": np.float64(2.5), "c": np.arange(3)})) == {
+        "a": None,
+        "b": 2.5,
+        "c": [0, 1, 2],
+    }

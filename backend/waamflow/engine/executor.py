@@ -40,6 +40,7 @@ from .. import __version__
 from ..core.errors import CancelledError, InputFileError, PlanningError, WaamflowError
 from ..core.files import not_regular, read_regular
 from ..core.model import Layer, Layered, LayerPaths, MeshData
+from ..core.serialize import dumps_report
 from .cache import MISSING, MemoryCache, TieredCache, bytes_signature, signature
 from .events import Event, EventSink
 from .graph import Graph, GraphNode
@@ -1191,7 +1192,7 @@ def _preflight(run: "_Run", graph: Graph) -> tuple[dict[str, Any] | None, float 
         }
     if report is None:
         return None, None
-    run.artifacts["preflight.json"] = json.dumps(report, indent=1).encode("utf-8")
+    run.artifacts["preflight.json"] = dumps_report(report)
     return report, round(time.perf_counter() - t0, 3)
 
 

@@ -13,12 +13,12 @@ given, read back from their input and output toolpath artifacts (`conserve`).
 
 from __future__ import annotations
 
-import json
 import re
 from typing import Any
 
 import orjson
 
+from ..core.serialize import dumps_report
 from .settings import PreflightSettings
 
 __all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_error", "gate"]
@@ -282,5 +282,5 @@ def gate(report: dict | None, files: dict[str, bytes], accept: bool, who: str) -
         held = {n for r in report.get("programs", []) for n in r.get("files", []) if not n.endswith(".toolpath.json")}
         report["withheld"] = sorted(held)
         files = {n: d for n, d in files.items() if n not in held}
-    files = {**files, "preflight.json": json.dumps(report, indent=1).encode("utf-8")}
+    files = {**files, "preflight.json": dumps_report(report)}
     return files, failed
