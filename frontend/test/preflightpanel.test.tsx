@@ -51,11 +51,12 @@ describe("preflight in the GUI", () => {
     expect(host.querySelector("[data-testid=preflight-section] h3")!.textContent).toMatch(/Preflight\s*warn/);
   });
   it("says where the 3D coverage was sampled coarser than asked (a large part), and only there", () => {
-    const prog = (node: string, used: number, width = 4) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: width, coverage_sample_mm: used });
+    const prog = (node: string, used: number, asked: number | null = 1.0) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: 4, coverage_sample_mm: used, coverage_sample_asked_mm: asked });
     const big: Preflight = { ...report, problems: [], programs: [prog("post", 5.3), prog("post2", 1.0), prog("post3", 1.04)] };
     expect(coarseCoverage(big)).toEqual([["post", 5.3, 1.0]]);
-    expect(coarseCoverage({ ...big, settings: { sample_mm: 6.0 } })).toEqual([]);
-    expect(coarseCoverage({ ...big, programs: [prog("p", 0.52, 1.0)] })).toEqual([]); // asked: at least 0.5 mm
+    expect(coarseCoverage({ ...big, programs: [prog("post", 5.3, 6.0)] })).toEqual([]); // asked coarser still
+    expect(coarseCoverage({ ...big, programs: [prog("post", 0.52, 0.5)] })).toEqual([]); // within 5 %
+    expect(coarseCoverage({ ...big, programs: [prog("post", 5.3, null)] })).toEqual([]); // an older report: no claim
     const host = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={big} />);
     const lines = [...host.querySelectorAll("[data-testid=pf-coarse]")].map((e) => e.textContent);
     expect(lines).toEqual(["coverage of post sampled every 5.30 mm, not 1.00: a large part (at most 1,000,000 samples of a wall, 200,000 of a mesh)"]);

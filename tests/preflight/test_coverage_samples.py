@@ -3,7 +3,8 @@
 A thin-wall part read from a DXF in the wrong units (ezdxf's wipeout_door.dxf: 93 × 78 m of walls,
 30 mm tall) was sampled every 1 mm: 28.5 million samples, minutes in the preflight, where a mesh
 part's samples were held to MAX_SAMPLES. A midsurface's grid now has at most MAX_GRID_SAMPLES, and
-preflight.json states the spacing used (`coverage_sample_mm`)."""
+preflight.json states the spacing used (`coverage_sample_mm`) beside the one asked
+(`coverage_sample_asked_mm`)."""
 
 from __future__ import annotations
 
@@ -63,6 +64,7 @@ def test_a_large_midsurface_is_sampled_at_most_max_samples_and_the_spacing_is_st
     area = 12 * 5000.0 * 40.0
     assert rep["coverage_method"] == "3D samples"
     assert rep["coverage_sample_mm"] == pytest.approx(math.sqrt(area / MAX_GRID_SAMPLES), abs=1e-3)
+    assert rep["coverage_sample_asked_mm"] == pytest.approx(WIDTH / 4)  # what the GUI compares it with
     assert 0.95 * MAX_GRID_SAMPLES <= samples(rep) <= 1.01 * MAX_GRID_SAMPLES
     assert rep["uncovered_share"] == pytest.approx(1 / 12, abs=0.005)
     assert rep["part_volume_mm3"] == pytest.approx(area * WIDTH, rel=1e-9)
@@ -74,11 +76,15 @@ def test_a_small_midsurface_keeps_its_spacing_and_an_explicit_one_is_coarsened_t
     """Under the cap, the spacing is the quarter bead (1 mm) or the one the settings give; a given
     spacing that would need more samples than MAX_GRID_SAMPLES is coarsened as the default is."""
     small = check(3, 200.0, 20.0, frozenset())
-    assert small["coverage_sample_mm"] == pytest.approx(1.0)
+    assert small["coverage_sample_mm"] == small["coverage_sample_asked_mm"] == pytest.approx(1.0)
     assert samples(small) == 3 * 201 * 20  # 201 points along each 200 mm wall, 20 heights
     assert small["uncovered_share"] == 0.0
     given = check(3, 200.0, 20.0, frozenset(), sample_mm=2.0)
-    assert given["coverage_sample_mm"] == pytest.approx(2.0) and samples(given) == 3 * 101 * 10
+    assert (
+        given["coverage_sample_mm"] == given["coverage_sample_asked_mm"] == pytest.approx(2.0)
+        and samples(given) == 3 * 101 * 10
+    )
     fine = check(6, 2000.0, 40.0, frozenset(), sample_mm=0.5)
     assert fine["coverage_sample_mm"] == pytest.approx(math.sqrt(6 * 2000.0 * 40.0 / MAX_GRID_SAMPLES), abs=1e-3)
+    assert fine["coverage_sample_asked_mm"] == pytest.approx(0.5)
     assert samples(fine) <= 1.01 * MAX_GRID_SAMPLES and fine["uncovered_share"] == 0.0

@@ -88,7 +88,8 @@ class Coverage(TypedDict):
     method: str
     sections: NotRequired[dict[int, Any]]
     excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
-    sample_mm: NotRequired[float]
+    sample_mm: NotRequired[float]  # the spacing used
+    sample_asked_mm: NotRequired[float]  # the spacing asked: the settings' sample_mm, else a quarter bead (≥ 0.5 mm)
     layer_spacing_mm: NotRequired[float]
     top_gap_mm: NotRequired[float | None]
     worst_point: NotRequired[np.ndarray]
@@ -362,6 +363,7 @@ def check_program(
             part_volume_mm3=_r(cov["part_volume_mm3"], 1),
             coverage_method=cov["method"],
             **({"coverage_sample_mm": _r(cov["sample_mm"], 3)} if "sample_mm" in cov else {}),
+            **({"coverage_sample_asked_mm": _r(cov["sample_asked_mm"], 3)} if "sample_asked_mm" in cov else {}),
             layer_height_mm=_r(h_typ, 3),
         )
         _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)

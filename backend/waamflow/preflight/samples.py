@@ -83,6 +83,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
             "uncovered_share": 1.0,
             "method": "3D samples",
             "sample_mm": sample_mm,
+            "sample_asked_mm": step,
             "top_gap_mm": None,
         }
     dep = np.vstack(dep_runs)
@@ -124,6 +125,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         "uncovered_share": share,
         "method": "3D samples",
         "sample_mm": sample_mm,
+        "sample_asked_mm": step,
         "layer_spacing_mm": h,
         "top_gap_mm": gap,
         "worst_point": worst,

@@ -29,6 +29,8 @@ export interface PreflightProgram extends PreflightFigures {
   bead_width_mm?: number | null;
   /** The spacing of the 3D coverage check's samples, mm (walls and fan layers only). */
   coverage_sample_mm?: number | null;
+  /** The spacing asked (the settings' `sample_mm`, else the check's default), mm. */
+  coverage_sample_asked_mm?: number | null;
 }
 
 export interface PreflightLayer {
@@ -216,16 +218,15 @@ export function beadWidthOf(report: Preflight | null): number | null {
 
 /** Programs whose 3D coverage was sampled coarser than asked (a large part: the check holds a
  * midsurface's grid to 1,000,000 samples, a mesh's to 200,000): [node, spacing used, spacing asked]
- * in mm. Asked: the settings' `sample_mm`, else a quarter bead (at least 0.5 mm), as the check
- * takes it; coarser means by more than 5 % (a mesh's even samples land a little apart anyway). */
+ * in mm, both as the report states them (`coverage_sample_mm`, `coverage_sample_asked_mm`: no rule
+ * of our own; a report without the asked spacing claims nothing); coarser means by more than 5 % (a
+ * mesh's even samples land a little apart anyway). */
 export function coarseCoverage(report: Preflight | null): [string, number, number][] {
   const out: [string, number, number][] = [];
-  const given = report?.settings?.sample_mm;
   for (const p of report?.programs ?? []) {
     const used = p.coverage_sample_mm;
-    const width = p.bead_width_mm;
-    if (typeof used !== "number" || typeof width !== "number") continue;
-    const asked = typeof given === "number" && given > 0 ? given : Math.max(width / 4, 0.5);
+    const asked = p.coverage_sample_asked_mm;
+    if (typeof used !== "number" || typeof asked !== "number" || !(asked > 0)) continue;
     if (used > 1.05 * asked) out.push([p.node, used, asked]);
   }
   return out;
