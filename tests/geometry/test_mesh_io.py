@@ -23,7 +23,8 @@ def _export(tm: trimesh.Trimesh, fmt: str) -> bytes:
 
 
 @pytest.mark.parametrize(
-    "fmt,name", [("stl", "p.stl"), ("stl_ascii", "p.stl"), ("obj", "p.obj"), ("ply", "p.ply"), ("3mf", "p.3mf")]
+    "fmt,name",
+    [("stl", "p.stl"), ("stl_ascii", "p.stl"), ("obj", "p.obj"), ("ply", "p.ply"), ("off", "p.off"), ("3mf", "p.3mf")],
 )
 def test_formats_load_the_same_mesh(fmt, name):
     tm = _part()
@@ -80,6 +81,19 @@ def test_flipped_face_reported_as_inconsistent_winding():
     bad = trimesh.Trimesh(tm.vertices, faces, process=False)
     with pytest.raises(InputFileError, match=r"3 edges with inconsistent face winding"):
         load_mesh_bytes(_export(bad, "stl"), "flip.stl")
+
+
+def test_off_with_quad_faces_comments_and_colours_is_triangulated():
+    """OFF (Princeton/CGAL's format; trimesh's models/whitespace.off was refused as unsupported):
+    a 20 mm cube of 6 quads with a comment and per-face colours is 12 triangles, 8000 mm³."""
+    v = [(x, y, z) for z in (0, 20) for y in (0, 20) for x in (0, 20)]
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    text = "OFF # a cube\n8 6 12\n" + "".join(f"{x} {y} {z}\n" for x, y, z in v)
+    text += "".join(f"4 {a} {b} {c} {d} 1.0 0.0 0.0 0.75\n" for a, b, c, d in quads)
+    mesh = load_mesh_bytes(text.encode(), "cube.off")
+    assert len(mesh.faces) == 12 and len(mesh.vertices) == 8
+    assert abs(signed_volume(mesh.vertices, mesh.faces)) == pytest.approx(8000.0)
+    np.testing.assert_allclose(mesh.bounds, [[0, 0, 0], [20, 20, 20]])
 
 
 def test_empty_and_malformed_files():

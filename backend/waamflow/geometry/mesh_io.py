@@ -43,7 +43,7 @@ from .topology import (
 from .transform import Transform, unit_scale
 from .units import threemf_units
 
-MESH_FORMATS = ("stl", "obj", "ply", "3mf")
+MESH_FORMATS = ("stl", "obj", "ply", "off", "3mf")
 
 # One binary STL record: normal, three corners (float32), attribute byte count (uint16).
 STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attr", "<u2")])

@@ -271,7 +271,7 @@ class TransformParams(NodeParams):
 
 @register
 class MeshNode(Node):
-    """A solid part from a triangle mesh file (STL binary or ASCII, OBJ, PLY, 3MF) or a CAD file
+    """A solid part from a triangle mesh file (STL binary or ASCII, OBJ, PLY, OFF, 3MF) or a CAD file
     (STEP, IGES: read and tessellated by OpenCascade within `chordal_tolerance`).
 
     Coordinates are converted from `units` to mm, then scaled, rotated (x, y, z) and translated.
@@ -315,7 +315,7 @@ class MeshNode(Node):
         model_config = ConfigDict(extra="forbid", populate_by_name=True)
 
         path: FileRef = Field(
-            description="Mesh or CAD file (.stl, .obj, .ply, .3mf, .step/.stp, .iges/.igs), relative to the recipe",
+            description="Mesh or CAD file (.stl, .obj, .ply, .off, .3mf, .step/.stp, .iges/.igs), relative to the recipe",
             title="Mesh or CAD file",
         )
         units: LengthUnit = Field("file", description=UNITS_DOC, title="File units")
