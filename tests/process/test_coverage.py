@@ -66,7 +66,7 @@ def test_reversal_counts_twice():
 
 
 def _strips_one_by_one(mask, origin, cell):
-    """The overlap polygon as it was built before the strips were made in one call (a box each)."""
+    """The overlap polygon as it was first built: a box per row's strip, all united."""
     boxes = []
     for j in np.flatnonzero(mask.any(axis=1)):
         row = np.concatenate([[False], mask[j], [False]]).astype(np.int8)
@@ -77,15 +77,29 @@ def _strips_one_by_one(mask, origin, cell):
     return shapely.union_all(boxes) if boxes else shapely.Polygon()
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_overlap_cells_polygon_is_the_same_geometry_bit_for_bit(seed):
+def _bands(h: int, w: int) -> np.ndarray:
+    """Overlap bands as a raster fill and its turns leave them: along y, along x and diagonal."""
+    yy, xx = np.mgrid[:h, :w]
+    return (np.abs(xx % 40 - 20) < 4) | (np.abs(yy % 50 - 25) < 3) | (np.abs((xx + yy) % 60 - 30) < 3)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_overlap_cells_polygon_is_the_cells_exactly_with_fewer_vertices(seed):
+    """Strips of the same columns in consecutive rows are one box: the same cells (area to 1e-9,
+    the old per-strip union's point set up to rounding of the shared edges), a valid polygon, and
+    no more vertices than the per-strip union kept (collinear ones on a band's sides)."""
     from waamflow.process.coverage import _cells_to_polygon
 
     rng = np.random.default_rng(seed)
-    mask = rng.random((37, 53)) < 0.3
+    mask = rng.random((37, 53)) < 0.3 if seed < 3 else _bands(200, 400)
     mask[5] = True  # a full row: one strip edge to edge
     origin, cell = np.array([-12.3, 4.56]), 0.3
     got, want = _cells_to_polygon(mask, origin, cell), _strips_one_by_one(mask, origin, cell)
-    assert shapely.to_wkb(got) == shapely.to_wkb(want)
+    assert got.is_valid
     assert got.area == pytest.approx(mask.sum() * cell * cell, rel=1e-9)
+    assert got.symmetric_difference(want).area < 1e-9 * want.area
+    assert len(shapely.get_coordinates(got)) <= len(shapely.get_coordinates(want))
+    if seed == 3:  # bands: a box per band stretch, not per row (9,034 vertices before, 4,919 now:
+        # the diagonal band's staircase is real; the bands along x and y lose their collinear ones)
+        assert len(shapely.get_coordinates(got)) < 0.6 * len(shapely.get_coordinates(want))
     assert _cells_to_polygon(np.zeros((4, 4), bool), origin, cell).is_empty
