@@ -112,3 +112,15 @@ def test_arc_on_before_any_position_starts_the_run_where_it_first_moves(first):
     assert r.runs[0].points.tolist() == [[1.0, 2.0, 3.0], [5.0, 2.0, 3.0], [5.0, 6.0, 3.0]]
     assert r.runs[0].speed.tolist() == [10.0, 10.0]  # F600 mm/min
     assert r.travel_mm == 0.0
+
+
+@pytest.mark.parametrize("cut", ["M5 ; arc off", "M3 ; arc on", "G0 X"])
+def test_a_program_that_ends_in_plain_lines_reads_as_the_general_path_reads_it(cut, monkeypatch):
+    """Plain lines are handed to the builder a block at a time (`_plain_block`): the block a
+    program ends with (cut short before its arc-off, or with no arc on at all) is read too, the
+    same as line by line: runs, travel and feeds bit for bit."""
+    full = _program()
+    text = full[: full.index(cut)]  # the first occurrence: layer 0, mid-run or before it
+    fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
+    _assert_same(fast, ref)
+    assert text.rstrip().splitlines()[-1].startswith(("G1 X", "G4", "M68", "; section", "; layer"))

@@ -136,6 +136,24 @@ class RunBuilder:
         else:
             self.move(np.array((x, y, z)), speed, wfs, weld)
 
+    def moves_to(self, xyz: np.ndarray, speeds: list[float], wfs: float, weld: bool) -> None:
+        """`move_to` of each row of xyz (k, 3) in turn, `speeds` (k,) their speeds: the points of a
+        run under way are added at once (rows of xyz, the same values `move_to` would add)."""
+        i, n = 0, len(xyz)
+        while i < n and not (self.pts is not None and self.started and self.pending is None):
+            x, y, z = xyz[i].tolist()
+            self.move_to(x, y, z, speeds[i], wfs, weld)
+            i += 1
+        if i == n:
+            return
+        assert self.pts is not None  # the loop ended with a run under way
+        rows = list(xyz[i:])
+        self.pts.extend(rows)
+        self.speed.extend(speeds[i:])
+        self.wfs.extend([wfs] * (n - i))
+        self.weld.extend([weld] * (n - i))
+        self.pos = rows[-1]
+
     def _after_move(self) -> None:
         if self.pending == "off":
             self.close()
