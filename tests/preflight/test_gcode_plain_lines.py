@@ -124,3 +124,23 @@ def test_a_program_that_ends_in_plain_lines_reads_as_the_general_path_reads_it(c
     fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
     _assert_same(fast, ref)
     assert text.rstrip().splitlines()[-1].startswith(("G1 X", "G4", "M68", "; section", "; layer"))
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda t: t.replace("\n", "\r\n"),  # Windows line breaks: the runs are still found
+        lambda t: t.replace("\n", "\r", 40),  # old Mac breaks at the top: no run (the lines differ)
+        lambda t: t.replace("G1 X", "G1 X1.2.", 3),  # a number float() refuses: that run line by line
+        lambda t: t.replace(" Y", " Y1e", 2),  # "1e…": not a number either
+        lambda t: t.replace("\n", "\n\x0c", 1),  # a form feed: a line break for splitlines only
+    ],
+)
+def test_runs_of_plain_lines_found_in_the_text_read_as_line_by_line(edit, monkeypatch):
+    """`_plain_runs` finds the runs in the text and reads each with one findall; wherever that
+    could differ from the lines as the general path sees them (other line breaks, numbers that are
+    not numbers), the result is still the general path's, bit for bit."""
+    text = edit(_program())
+    fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
+    _assert_same(fast, ref)
+    assert len(ref.runs) >= 3
