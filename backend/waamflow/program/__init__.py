@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TypeVar, Union
 
+from ..core.gcpause import paused_gc
 from ..core.model import LayerPaths, Layered
 from ..core.moves import Moves, flatten
 from .cl import write_cl_csv
@@ -74,6 +75,16 @@ def post_process(
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown program format {fmt!r} (one of {', '.join(FORMATS)})")
+    with paused_gc():  # a Motion per point, a line per motion: no cycles (core/gcpause.py)
+        return _post_process(toolpath, fmt, plan_settings, writer_settings)
+
+
+def _post_process(
+    toolpath: Layered[LayerPaths] | Moves,
+    fmt: str,
+    plan_settings: PlanSettings,
+    writer_settings: WriterSettings | float | None,
+) -> Program:
     moves = toolpath if isinstance(toolpath, Moves) else flatten(toolpath)
     if fmt == "gcode":
         plan_settings = replace(plan_settings, arc_plane_normal=(0.0, 0.0, 1.0))

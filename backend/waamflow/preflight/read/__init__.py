@@ -14,6 +14,7 @@ schedule table. Comments never count.
 
 from __future__ import annotations
 
+from ...core.gcpause import paused_gc
 from .core import NUM, ProgramRead, Run, RunBuilder
 from .gcode import read_gcode
 from .inform import read_inform
@@ -41,7 +42,13 @@ __all__ = [
 
 
 def read_program(fmt: str, files: dict[str, str]) -> ProgramRead:
-    """fmt: the post-process format; files: artifact name → text."""
+    """fmt: the post-process format; files: artifact name → text. The cyclic GC is paused while
+    the points are read (core/gcpause.py)."""
+    with paused_gc():
+        return _read_program(fmt, files)
+
+
+def _read_program(fmt: str, files: dict[str, str]) -> ProgramRead:
     if fmt == "gcode":
         return read_gcode(next(iter(files.values())))
     if fmt == "krl":
