@@ -118,8 +118,8 @@ def run() -> list[dict]:
         results = {}
         for r in range(ROUNDS):
             for n in names[r % len(names) :] + names[: r % len(names)]:
-                results[n], walls_n = _timed(moves, profile, configs[n], submits.get(n))
-                walls[n].append(walls_n)
+                results[n], wall_s = _timed(moves, profile, configs[n], submits.get(n))
+                walls[n].append(wall_s)
     finally:
         if pool is not None:
             pool.close()
