@@ -144,3 +144,22 @@ def test_runs_of_plain_lines_found_in_the_text_read_as_line_by_line(edit, monkey
     fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
     _assert_same(fast, ref)
     assert len(ref.runs) >= 3
+
+
+@pytest.mark.parametrize("piece", [60, 997, 10**9])
+def test_a_long_run_is_read_in_pieces_the_same(piece, monkeypatch):
+    """A run of plain lines is read a piece of PIECE_CHARS characters at a time (whole lines), so
+    a spiral's million lines are never held as text tuples at once: cut anywhere, the same runs."""
+    rng = np.random.default_rng(3)
+    body = [
+        f"G1 X{x:.3f} Y{y:.3f} Z1.500" + (f" F{int(f)}" if k % 50 == 0 else "")
+        for k, (x, y, f) in enumerate(rng.uniform(1, 900, (3000, 3)))
+    ]
+    head = HEADER.format(units="mm/min", extra="")
+    text = head + "; layer 0 z=1.500\nG0 X0 Y0 Z1.500\nM68 E0 Q5.00\nM3\n" + "\n".join(body) + "\nM5\nM30\n"
+    monkeypatch.setattr(gcode, "PIECE_CHARS", piece)
+    if piece < 100:
+        assert len(list(gcode._pieces(text, len(head), len(text)))) > 100
+    fast, ref = _read(text, True, monkeypatch), _read(text, False, monkeypatch)
+    _assert_same(fast, ref)
+    assert len(ref.runs) == 1 and len(ref.runs[0].points) == 3001

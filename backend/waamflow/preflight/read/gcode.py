@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -161,6 +161,20 @@ def read_gcode(text: str) -> ProgramRead:
 
 
 PlainRun = tuple[int, np.ndarray, list]  # (index after the run, x y z (k, 3), F per line or None)
+#: A run is read in pieces of about this much text (~50,000 lines, whole lines each): the lines'
+#: numbers as text (a tuple of 4 strings a line) are held a piece at a time, not a whole spiral's.
+PIECE_CHARS = 2_000_000
+
+
+def _pieces(text: str, s: int, e: int) -> Iterator[tuple[int, int]]:
+    """[s, e) of a run cut after the line break at or after every PIECE_CHARS characters."""
+    while e - s > PIECE_CHARS:
+        cut = text.find("\n", s + PIECE_CHARS - 1, e) + 1
+        if cut <= 0 or cut >= e:
+            break
+        yield s, cut
+        s = cut
+    yield s, e
 
 
 def _plain_runs(text: str, lines: list[str], plain: Callable[[str], re.Match | None]) -> dict[int, PlainRun]:
@@ -175,8 +189,7 @@ def _plain_runs(text: str, lines: list[str], plain: Callable[[str], re.Match | N
         return {}
     out: dict[int, PlainRun] = {}
     line, at = 0, 0  # the line index of text position `at`
-    for m in _G1_RUNS.finditer(text):
-        s, e = m.span()
+    for s, e in (piece for m in _G1_RUNS.finditer(text) for piece in _pieces(text, *m.span())):
         line += text.count("\n", at, s)
         a, b = line, line + text.count("\n", s, e)
         line, at = b, e
