@@ -220,3 +220,22 @@ def test_an_arc_code_is_refused_on_the_post_node_field_itself():
         _validate_params("post", PostProcess, {"arc_on": "G1 X5"})
     assert (err.value.node, err.value.field) == ("post", "arc_on")
     assert _validate_params("post", PostProcess, {"arc_on": "M101 P1", "arc_off": "M103"}).arc_on == "M101 P1"
+
+
+@pytest.mark.parametrize("decimals", [0, 3, 6])
+def test_the_xyz_words_of_all_points_are_each_points_own(decimals):
+    """`_xyz_words` formats every point in one `%` over the whole list: each word is the one a
+    point formatted alone gets (negative zero written without its sign), whatever the decimals."""
+    from waamflow.program.gcode import _NEG_ZERO, _xyz_words
+
+    rng = np.random.default_rng(decimals)
+    pts = np.vstack(
+        [rng.uniform(-2000, 2000, (500, 3)), [[-0.0, -1e-9, 1e-9], [-0.0004, 0.0005, -0.0006], [1e7, -1e7, 0.5]]]
+    )
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
+    want = [_NEG_ZERO.sub("", fmt % tuple(p)) for p in pts.tolist()]
+    got = _xyz_words(pts, decimals)
+    assert len(got) == len(pts) == 503
+    assert got == want
+    assert got[500] == f"X{0:.{decimals}f} Y{0:.{decimals}f} Z{0:.{decimals}f}"  # -0, ±1e-9: no sign
+    assert _xyz_words(np.zeros((0, 3)), decimals) == []

@@ -48,6 +48,7 @@ motion. A rotary word is written when its value changes (and on the first motion
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -264,8 +265,9 @@ def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
     """ "X… Y… Z…" of every point, as `num` writes them (fixed point, no negative zero), in one pass."""
     if len(pts) == 0:
         return []
-    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f"
-    out = [fmt % tuple(p) for p in np.asarray(pts, float)[:, :3].tolist()]
+    fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f\n"
+    flat = np.ascontiguousarray(np.asarray(pts, float)[:, :3]).ravel().tolist()
+    out = ((fmt * len(pts)) % tuple(flat)).split("\n")[:-1]  # one % over all points: the same words
     return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
 
 
@@ -344,6 +346,8 @@ class _Body:
         self.feed_scale = 60.0 if settings.feed_units == "mm/min" else 1.0
         self.travel_f = round(settings.travel_speed * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
         self.feed: float | None = None
+        self.last_v: float | None = None  # the speed (mm/s) whose F value is last_f
+        self.last_f = math.nan
         self.rot_last: list[str | None] = [None] * (0 if ext is None else ext.shape[1])
         self.last_end = -1  # the point of the last motion (-1: none yet)
         self.arc = False
@@ -408,7 +412,9 @@ class _Body:
             return
         v = settings.travel_speed if s.mode == "travel" else s.speed
         f_word = ""
-        f_val = round(float(v) * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
+        if v != self.last_v:  # the feed word of a speed: computed when the speed changes (NaN: always)
+            self.last_v, self.last_f = v, round(float(v) * self.feed_scale, 1 if self.feed_scale == 60.0 else 3)
+        f_val = self.last_f
         if f_val != self.feed:
             f_word = f" F{short(f_val)}"
             self.feed = f_val
