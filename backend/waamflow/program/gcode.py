@@ -266,7 +266,7 @@ def _xyz_words(pts: np.ndarray, decimals: int) -> list[str]:
     if len(pts) == 0:
         return []
     fmt = f"X%.{decimals}f Y%.{decimals}f Z%.{decimals}f\n"
-    flat = np.ascontiguousarray(np.asarray(pts, float)[:, :3]).ravel().tolist()
+    flat = np.asarray(pts, float)[:, :3].ravel().tolist()  # row by row (ravel copies a column slice)
     out = ((fmt * len(pts)) % tuple(flat)).split("\n")[:-1]  # one % over all points: the same words
     return [_NEG_ZERO.sub("", w) if "-0" in w else w for w in out]
 

@@ -196,8 +196,7 @@ def _plain_runs(text: str, lines: list[str], plain: Callable[[str], re.Match | N
         rows = _PLAIN_LINES.findall(text, s, e)
         if len(rows) == b - a:
             try:
-                xyz = np.array(list(map(float, [v for r in rows for v in r[:3]]))).reshape(-1, 3)
-                out[a] = (b, xyz, [float(r[3]) if r[3] else None for r in rows])
+                out[a] = (b, *_numbers(rows))
                 continue
             except ValueError:  # "1.2.3", "1e": not a number NUM matches
                 pass
@@ -212,9 +211,15 @@ def _plain_runs(text: str, lines: list[str], plain: Callable[[str], re.Match | N
                 got.append(g.groups())
                 k += 1
                 g = plain(lines[k]) if k < b else None
-            xyz = np.array([(float(v[0]), float(v[1]), float(v[2])) for v in got])
-            out[first] = (k, xyz, [float(v[3]) if v[3] is not None else None for v in got])
+            out[first] = (k, *_numbers(got))
     return out
+
+
+def _numbers(rows: list[tuple[str, ...]]) -> tuple[np.ndarray, list]:
+    """x y z (k, 3) and each line's F or None, from plain lines' numbers as text (F "" or None
+    where absent); ValueError where a number is not one."""
+    xyz = np.array(list(map(float, [v for r in rows for v in r[:3]]))).reshape(-1, 3)
+    return xyz, [float(r[3]) if r[3] else None for r in rows]
 
 
 def _plain_block(b: RunBuilder, xyz: np.ndarray, fs: list, feed: float, per_s: bool, values: dict) -> float:
