@@ -250,6 +250,33 @@ def test_a_weaves_triangles_are_buffered_as_one():
     assert got.area == pytest.approx(each.area, rel=1e-5) and got.symmetric_difference(each).area < 0.05
 
 
+def test_the_paths_are_buffered_at_once_with_the_area_of_a_buffer_each():
+    """A layer's paths buffered as one multi-line (their offset curves noded in one pass) cover
+    what one buffer per path united does: crossing, touching, apart, closed, a point-like path,
+    a curve crossing itself and a weave, within 1e-9 of the area and no piece of either outside the other."""
+    from shapely.ops import unary_union
+
+    t = np.linspace(0.0, 2.0 * np.pi, 250)
+    paths = [
+        np.array([(-40.0, 0.0), (40.0, 0.0)]),  # crossed by the next
+        np.array([(0.0, -40.0), (0.0, 40.0)]),
+        np.array([(6.0, 10.0), (30.0, 10.0), (30.0, 30.0), (6.0, 30.0), (6.0, 10.0)]),  # a loop touching the cross
+        np.array([(80.0, 80.0), (80.0, 80.0)]),  # zero length: a disk
+        np.column_stack([40.0 * np.sin(t), 20.0 * np.sin(2.0 * t)]) + (-60.0, 50.0),  # a figure eight
+        np.array([(3.0 if k % 2 == 0 else -3.0, -90.0 + 3.0 * k) for k in range(21)]),  # a weave
+    ]
+    got = footprint(paths, 6.0)
+    tris = []
+    for p in paths[-1:]:
+        tris = [shapely.Polygon(p[i : i + 3]) for i in range(len(p) - 2)]
+    each = unary_union(
+        [shapely.LineString(p).buffer(3.0, quad_segs=8) for p in paths] + [unary_union(tris).buffer(3.0, quad_segs=4)]
+    )
+    assert got.is_valid and got.area == pytest.approx(each.area, rel=1e-9)
+    assert got.difference(each).area < 1e-6 and each.difference(got).area < 1e-6
+    assert footprint([], 6.0).is_empty
+
+
 def test_weave_footprint_survives_resampling():
     # the same weave cut into 0.5 mm pieces (as wire-feed compensation writes it) covers the same strip
     corners = np.array([(3.0 if k % 2 == 0 else -3.0, -30.0 + 3.0 * k) for k in range(21)])

@@ -138,10 +138,10 @@ def footprint(paths: list[np.ndarray], width: float):
     round caps' polygon approximation differs: ≤ 0.004 mm² a layer, 1.5e-6 of it, on the bench's
     500-layer oscillated cross, whose footprints took 2.0 s of CPU buffered one by one, 0.83 s so, and
     0.70 s with the triangles made in one call rather than a Polygon each, 39 a layer)."""
-    parts, tris = [], []
+    lines, tris = [], []
     for p in paths:
         line = LineString(p)
-        parts.append(line.buffer(width / 2.0, quad_segs=8))
+        lines.append(line)
         # the weave's own vertices: a path resampled into short pieces (wire-feed compensation) has
         # collinear triples only; simplifying by a hundredth of a bead width recovers the strokes
         p = np.asarray(line.simplify(width * 0.01, preserve_topology=False).coords)
@@ -152,9 +152,15 @@ def footprint(paths: list[np.ndarray], width: float):
             if len(i):  # the triangles (p[i], p[i+1], p[i+2]) made at once, not a Polygon each
                 tri = shapely.polygons(np.stack([p[i], p[i + 1], p[i + 2]], axis=1))
                 tris.extend(tri[shapely.area(tri) > 1e-9])
+    if not lines:
+        return Polygon()
+    # the paths buffered at once (their offset curves noded in one pass), not one buffer each
+    # united after: the same area (within 1.4e-12 mm² a layer on the bench's 500-layer cross),
+    # whose footprints took 0.81-0.87 s of CPU, now 0.71-0.76 s (4 interleaved runs)
+    foot = shapely.buffer(shapely.multilinestrings(lines), width / 2.0, quad_segs=8)
     if tris:
-        parts.append(unary_union(tris).buffer(width / 2.0, quad_segs=4))
-    return unary_union(parts) if parts else Polygon()
+        foot = shapely.union(foot, unary_union(tris).buffer(width / 2.0, quad_segs=4))
+    return foot
 
 
 # ---- coverage: planar slabs ----------------------------------------------------------------------
