@@ -428,7 +428,10 @@ def _coverage_problems(
             value=top_gap,
         )
     share = cov["uncovered_share"]
-    if share > s.uncovered_warn:
+    unseen = _unseen_part(part, rep) if planar and share > s.uncovered_fail else None
+    if unseen is not None:
+        rep.problem("uncovered", "fail", unseen, value=share, limit=s.uncovered_fail)
+    elif share > s.uncovered_warn:
         sev = "fail" if share > s.uncovered_fail else "warn"
         worst = max(
             (L for L in rep.layers.values() if L.get("uncovered_share") is not None),
@@ -451,6 +454,24 @@ def _coverage_problems(
             limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
             point=(worst or {}).get("uncovered_point"),
         )
+
+
+def _unseen_part(part: Part, rep: Report) -> str | None:
+    """The message when no layer's mid-plane cuts the part (every section empty): the slabs
+    measure nothing, so "100 % gets no bead" would blame the plan for what the layers cannot see
+    (trimesh's octagonal_pocket.stl read as mm: 0.016 mm tall, one 0.75 mm layer cut at
+    0.375 mm). None when a layer has part area."""
+    rows = list(rep.layers.values())
+    if not rows or any((L.get("part_area_mm2") or 0.0) > 0 for L in rows):
+        return None
+    mids = sorted(L["z"] - L["height_mm"] / 2 for L in rows if L.get("z") is not None and L.get("height_mm"))
+    planes = ", ".join(f"{z:.3f}" for z in mids[:3]) + (", …" if len(mids) > 3 else "")
+    height = part.top - part.bottom
+    return (
+        f"no layer's mid-plane cuts the part: it spans z {part.bottom:.3f}–{part.top:.3f} mm ({height:.3g} mm tall) "
+        f"and the layers are cut at z {planes} mm, so no layer sees it. Check the mesh node's 'units' "
+        "(a part in m or in read as mm is tiny) or a layer height larger than the part"
+    )
 
 
 def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:

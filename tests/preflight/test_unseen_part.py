@@ -1,0 +1,76 @@
+"""A part no layer's mid-plane cuts: trimesh's octagonal_pocket.stl read as mm is 0.016 mm tall;
+its one 0.75 mm layer is cut at z 0.375, above the part, so every section is empty and the part's
+whole volume counts as uncovered. The check said "100.0 % of the part gets no bead: add a mask
+section or a filling pattern there", which blames the plan for what the layers cannot see. It now
+says that no mid-plane cuts the part, where the part and the planes are, and what to check."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from waamflow.core.process import deposit_rate_mm3_s
+from waamflow.preflight.check import Part, check_program
+from waamflow.preflight.read import read_gcode
+from waamflow.preflight.settings import PreflightSettings
+
+BEAD, SPEED = 6.0, 8.0
+
+
+def _box(height: float) -> Part:
+    m = trimesh.creation.box(extents=(60, 40, height))
+    m.apply_translation((0, 0, height / 2))
+    return Part("solid", "part", vertices=np.asarray(m.vertices), faces=np.asarray(m.faces))
+
+
+def _program(layer_tops: list[float], layer: float) -> str:
+    wfs = BEAD * layer * SPEED / deposit_rate_mm3_s(1.0)
+    ys = np.arange(-20 + BEAD / 2, 20 - BEAD / 2 + 1e-9, BEAD)
+    out = ["; waamflow-post: arc_on=M3 arc_off=M5 dwell_units=s feed_units=mm/min end=M30"]
+    out.append('; waamflow-weld: wire_feed_speed[m/min]="M67 E0 Q{value:.2f}" current[A]="M67 E1 Q{value:.1f}"')
+    out += ["G21", "G90"]
+    for k, z in enumerate(layer_tops):
+        pts = []
+        for j, y in enumerate(ys):
+            a, b = (-27.0, 27.0) if j % 2 == 0 else (27.0, -27.0)
+            pts += [(a, y), (b, y)]
+        out += [f"; layer {k} z={z:.3f}", f"G0 X{pts[0][0]:.3f} Y{pts[0][1]:.3f} Z{z:.3f}"]
+        out += [f"M67 E0 Q{wfs:.3f}", "M67 E1 Q180.0", "M3", "G4 P0.5"]
+        out += [f"G1 X{x:.3f} Y{y:.3f} Z{z:.3f} F{SPEED * 60:.0f}" for x, y in pts[1:]]
+        out += ["M5"]
+    out += ["M30"]
+    return "\n".join(out)
+
+
+def _uncovered(report: dict) -> list[dict]:
+    return [p for p in report["problems"] if p["check"] == "uncovered"]
+
+
+def test_a_part_no_mid_plane_cuts_is_named_so():
+    report = check_program(_box(0.016), read_gcode(_program([0.75], 0.75)), "post", PreflightSettings(), BEAD)
+    (p,) = _uncovered(report)
+    assert report["verdict"] == "fail" and p["severity"] == "fail" and p["value"] == 1.0
+    msg = p["message"]
+    assert msg.startswith("no layer's mid-plane cuts the part: it spans z 0.000–0.016 mm (0.016 mm tall)")
+    assert "cut at z 0.375 mm" in msg and "'units'" in msg
+    assert "add a mask section" not in msg
+    assert report["layers"][0]["part_area_mm2"] == 0.0
+
+
+def test_every_plane_over_a_thin_plate_is_listed():
+    """A 0.5 mm plate under three 2 mm layers (mid-planes 1, 3 and 5 mm): no section, every plane named."""
+    report = check_program(_box(0.5), read_gcode(_program([2.0, 4.0, 6.0], 2.0)), "post", PreflightSettings(), BEAD)
+    (p,) = _uncovered(report)
+    assert "spans z 0.000–0.500 mm (0.5 mm tall) and the layers are cut at z 1.000, 3.000, 5.000 mm" in p["message"]
+    assert [L["part_area_mm2"] for L in report["layers"]] == [0.0, 0.0, 0.0]
+
+
+def test_a_plan_that_misses_a_seen_part_keeps_the_plans_message():
+    """A 3 mm box with one 1.5 mm layer of two beads: the mid-plane cuts it, most of it gets no
+    bead; the message still points at the plan (a mask section or a filling pattern)."""
+    text = _program([1.5], 1.5).split("\n")
+    keep = [ln for ln in text if not ln.startswith("G1") or "Y-17.000" in ln or "Y-11.000" in ln]
+    report = check_program(_box(3.0), read_gcode("\n".join(keep)), "post", PreflightSettings(), BEAD)
+    (p,) = _uncovered(report)
+    assert p["message"].endswith("add a mask section or a filling pattern there")
+    assert "no layer's mid-plane" not in p["message"]
