@@ -139,6 +139,34 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_on_the_cluster(cluster, a
         assert dask.artifacts[k] == serial.artifacts[k], k
 
 
+def test_the_zoned_layers_are_sequenced_ahead_in_the_clusters_chain_tasks(cluster, always_parallel, monkeypatch):
+    """The same cross without a parameter file: its layers are sequenced in the chain tasks that
+    zoned them (the chain's tail); nothing is mapped to the cluster for the sequence node, the
+    parent takes a guess for all but each task's first layer; artifacts the serial run's."""
+    from waamflow.engine import executor
+    from waamflow.engine.recipe import apply_overrides, parse_set
+
+    mapped = []
+    pmap = daskpool.DaskWorkers.map
+    monkeypatch.setattr(
+        daskpool.DaskWorkers, "map", lambda self, fn, it: mapped.append(fn.__name__) or pmap(self, fn, it)
+    )
+    given = []
+    real_ahead = executor.RunContext.ahead
+    monkeypatch.setattr(executor.RunContext, "ahead", lambda self: given.append(real_ahead(self)) or given[-1])
+    sets = ["layers.layer_height=0.3", "layers.layer_count=40", "zone.parameters="]
+    recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(sets))
+    serial = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), workers=1)
+    given.clear()
+    dask = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), scheduler=cluster.scheduler_address)
+    assert "_sequence_chunk" not in mapped
+    assert len(given) == 1 and len(given[0]) == dask.executor["tasks"]
+    assert sum(len(run) for run in given[0]) == 39  # layer 0's chain is timed in the parent
+    assert sorted(dask.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert dask.artifacts[k] == serial.artifacts[k], k
+
+
 def test_every_task_carries_its_work_pickled_once(cluster, always_parallel, monkeypatch):
     """The tasks sent to the cluster carry bytes (or a scattered future), never the objects: the
     scheduler unpickles a task's arguments and pickles them again for the worker, and relays the

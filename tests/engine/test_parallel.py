@@ -250,7 +250,8 @@ def test_a_chain_runs_link_by_link_over_its_chunk_with_the_same_results_per_laye
         parallel.ChainLink(c, "C", {}, "over", "out"),
     )
     chunk = [(i, {"over": [i]}) for i in range(5)]
-    got = parallel.run_chain(chain, FileResolver("."), chunk)
+    got, ahead = parallel.run_chain(chain, FileResolver("."), chunk)
+    assert ahead == []  # no tail
     assert calls == [("a", 0), ("a", 1), ("a", 2), ("a", 3), ("a", 4)] + [("b", i) for i in (0, 1, 3, 4)] + [
         ("c", i) for i in (0, 1, 4)
     ]
@@ -262,6 +263,44 @@ def test_a_chain_runs_link_by_link_over_its_chunk_with_the_same_results_per_laye
     assert rows[4][2][0] == {"out": [4, "a", "b", "c"]}
     assert rows[4][2][1] == [{"node": "C", "layer": 4}] and rows[0][1][1] == [{"node": "B", "layer": 0}]
     assert all(sec >= 0.0 for i in range(5) for _, _, sec in rows[i])
+
+
+class _Ahead:
+    """A whole-part node's `run_ahead` for `run_chain` alone: records the runs it is given;
+    raises on a run holding `fail`."""
+
+    from waamflow.engine.node import NodeParams as _NodeParams
+
+    class Params(_NodeParams):
+        pass
+
+    def __init__(self, fail=None) -> None:
+        self.fail = fail
+
+    def run_ahead(self, params, items):
+        if self.fail is not None and self.fail in items:
+            raise ValueError("speculation failed")
+        return ("ran", items)
+
+
+def test_a_chain_tail_runs_ahead_on_each_run_of_consecutive_layers_of_the_last_links_output():
+    """`ChainTail`: after the links, the tail's `run_ahead` gets the last link's output of each
+    run of consecutive layers of the chunk (None where a layer's chain ended early); a run whose
+    speculation fails gives nothing (the node does that work itself), the others still count."""
+    calls: list = []
+    a = _Recording("a", calls, fail=3)
+    b = _Recording("b", calls)
+    chain = (parallel.ChainLink(a, "A", {}), parallel.ChainLink(b, "B", {}, "over", "out"))
+    chunk = [(i, {"over": [i]}) for i in (0, 1, 2, 3, 4, 7, 8)]
+    rows, ahead = parallel.run_chain(chain, FileResolver("."), chunk, parallel.ChainTail(_Ahead(), "T", {}, "out"))
+    assert [i for i, _ in rows] == [0, 1, 2, 3, 4, 7, 8]
+    assert ahead == [
+        ("ran", [[0, "a", "b"], [1, "a", "b"], [2, "a", "b"], None, [4, "a", "b"]]),
+        ("ran", [[7, "a", "b"], [8, "a", "b"]]),
+    ]
+    failing = parallel.ChainTail(_Ahead(fail=[7, "a", "b"]), "T", {}, "out")
+    _, ahead = parallel.run_chain(chain, FileResolver("."), chunk, failing)
+    assert [len(items) for _, items in ahead] == [5]
 
 
 def _started_at(seconds: float) -> float:
@@ -652,3 +691,64 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_par
     for k in serial.artifacts:
         assert par.artifacts[k] == serial.artifacts[k], k
     assert par.warnings == serial.warnings
+
+
+def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(always_parallel, monkeypatch):
+    """A 40-layer cross without a parameter file (the zone's combine keeps its layers): the
+    sequence node's layers are sequenced in the chain tasks right after they were zoned (the
+    chain's tail), none sent to the workers again; the parent sequences only the first layers of
+    the chunks that start where the chain has a torch position, until the chain meets the guesses;
+    byte-identical artifacts. With the parameter file (the zone's combine makes new layers) no
+    task runs ahead and the runs of layers go to the workers as before."""
+    from waamflow.engine.recipe import apply_overrides, parse_set
+    from waamflow.sequencing import layer_path
+
+    here = []
+    real = layer_path.sequence_layer
+    monkeypatch.setattr(layer_path, "sequence_layer", lambda *a, **k: here.append(1) or real(*a, **k))
+    mapped = []
+    real_map = parallel.RunWorkers.map
+    monkeypatch.setattr(
+        parallel.RunWorkers, "map", lambda self, fn, items: mapped.append(fn.__name__) or real_map(self, fn, items)
+    )
+    from waamflow.engine import executor
+
+    tails = []
+    real_layers = parallel.LayerPool.map_layers
+
+    def spy_layers(self, chain, resolver, todo, on_done, cancelled, tail=None, on_ahead=None):
+        tails.append(None if tail is None else tail.node_id)
+        return real_layers(self, chain, resolver, todo, on_done, cancelled, tail, on_ahead)
+
+    monkeypatch.setattr(parallel.LayerPool, "map_layers", spy_layers)
+    given = []
+    real_ahead = executor.RunContext.ahead
+    monkeypatch.setattr(executor.RunContext, "ahead", lambda self: given.append(real_ahead(self)) or given[-1])
+
+    def run(workers, params_file):
+        sets = ["layers.layer_height=0.3", "layers.layer_count=40", f"zone.parameters={params_file}"]
+        recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(sets))
+        return execute(build_graph(recipe), resolver=FileResolver(GRAPHS), cache=MemoryCache(), workers=workers)
+
+    serial = run(1, "")
+    assert len(here) == 40
+    assert given == [[]]  # nothing ran ahead of a serial run
+    here.clear()
+    tails.clear()
+    given.clear()
+    par = run(2, "")
+    chunks = len(parallel._chunks(list(range(39)), 2))  # the parent times layer 0's chain itself
+    assert tails == ["sequence"]  # the mask's map: mask → guide → strategy → zone, then sequence ahead
+    assert len(given) == 1 and len(given[0]) == chunks  # one run of consecutive layers a task
+    assert sum(len(run) for run in given[0]) == 39
+    assert "_sequence_chunk" not in mapped
+    assert len(here) == 1 + chunks  # layer 0 (timed in the parent) and each chunk's first (given nothing)
+    assert sorted(par.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert par.artifacts[k] == serial.artifacts[k], k
+    assert par.warnings == serial.warnings
+    tails.clear()
+    mapped.clear()
+    given.clear()
+    par = run(2, "mpp-cross.params.xml")
+    assert tails == [None] and given == [[]] and "_sequence_chunk" in mapped

@@ -67,7 +67,12 @@ def test_layers_sequenced_ahead_are_the_serial_layers_and_notes(kw, here_calls):
     # every layer but the warm-up ones was sequenced once ahead; none again here (the seams of the
     # cross repeat every other layer: two layers of warm-up reach the chain's)
     assert calls["here"] == 0
-    assert calls["ahead"] == 39 + sum(min(a, layer_path.WARMUP_LAYERS) for a, _ in layer_path._layer_spans(40, 8))
+    todo = [k for k, lp in enumerate(layers) if lp is not None]
+    spans = layer_path._runs_of(todo, -(-len(todo) // SPECULATE_CHUNKS))
+    assert len(spans) == 8 and [a for a, _ in spans] == [0, 5, 10, 15, 20, 26, 31, 36]  # none across the gap
+    warm = sum(lp is not None for a, _ in spans for lp in layers[max(0, a - layer_path.WARMUP_LAYERS) : a])
+    assert warm == 2 * 6 + 1  # layer 26's warm-up holds the missing layer 25
+    assert calls["ahead"] == 39 + warm
 
 
 def test_a_layer_given_another_start_is_sequenced_again_here(here_calls):
@@ -124,3 +129,45 @@ def test_each_layer_is_reported_and_a_cancel_stops_between_layers():
 
     with pytest.raises(Stop):
         sequence_part(layers, on_layer=stop_at_two)
+
+
+def test_layers_sequenced_ahead_where_they_were_made_are_taken_for_those_layers_only(here_calls):
+    """`ahead` (the chain tasks' `sequence_ahead`, each run of layers from nothing): a layer's
+    result is taken when it was made from that very layer object and given what the chain
+    reaches; a run's first layers, given nothing, are sequenced again here until the chain meets
+    the guesses. Results made from an equal copy of a layer are never taken."""
+    import copy
+
+    calls, _ = here_calls
+    layers = [cross_layer(i) for i in range(40)]
+    layers[25] = None
+    kw = {"seam": SeamSpec("auto", 6.0, 12.0), "order": "nearest", "min_run": 12.0}
+    notes_serial: list = []
+    serial, t_serial = sequence_part(layers, notes=notes_serial, **kw)
+    calls["here"] = 0
+    runs = [(0, 13), (13, 25), (26, 40)]  # as chain tasks make them: the gap ends a run
+    ahead = [layer_path.sequence_ahead(layers[a:b], **kw) for a, b in runs]
+    made_ahead = calls["here"]
+    assert made_ahead == 39
+    calls["here"] = 0
+    notes: list = []
+    out, t_out = sequence_part(layers, ahead=ahead, notes=notes, **kw)
+    same_layers(serial, out)
+    assert t_out == t_serial and notes == notes_serial
+    # run 0 starts where the part does, run 26 after the gap: both given what the chain has
+    # (nothing); run 13 was given nothing where the chain has layer 12's end and ignitions: its
+    # first layer is sequenced again, and gives layer 14 what the guess had
+    assert calls["here"] == 1
+    calls["here"] = 0
+    copies = [copy.deepcopy(lp) for lp in layers]
+    out, _ = sequence_part(copies, ahead=ahead, **kw)
+    same_layers(serial, out)
+    assert calls["here"] == 39  # equal layers, other objects: nothing taken
+    # the layers ahead cover all but run 13's: too few left to speculate in chunks, done here
+    calls["here"] = 0
+    asked = []
+    out, _ = sequence_part(
+        layers, ahead=[ahead[0], ahead[2]], map_chunks=lambda fn, items: asked.append(len(items)), **kw
+    )
+    same_layers(serial, out)
+    assert asked == [] and calls["here"] == 12

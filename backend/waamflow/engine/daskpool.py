@@ -30,7 +30,7 @@ WORKERS_TTL_S = 1.0  # how long `DaskPool.workers` trusts the count the schedule
 
 if TYPE_CHECKING:  # executor imports parallel, which imports this module only in make_pool
     from .executor import FileResolver
-    from .parallel import ChainLink
+    from .parallel import ChainLink, ChainTail
 
 
 @dataclass
@@ -135,10 +135,10 @@ def _call_pickled(blob: bytes) -> bytes:
 
 
 def _run_chain_pickled(shared: bytes, chunk: bytes) -> bytes:
-    """Dask worker side: `shared` = (chain, resolver) pickled, sent with each task or scattered
+    """Dask worker side: `shared` = (chain, resolver, tail) pickled, sent with each task or scattered
     once per map when large; `chunk` = [(index, items)] pickled; the chain's results pickled."""
-    chain, resolver = _loads(shared)
-    return _dumps(parallel.run_chain(chain, resolver, _loads(chunk)))
+    chain, resolver, tail = _loads(shared)
+    return _dumps(parallel.run_chain(chain, resolver, _loads(chunk), tail))
 
 
 @dataclass
@@ -247,11 +247,13 @@ class DaskPool:
         todo: list[tuple[int, dict[str, Any]]],
         on_done: Callable[[int, list[Any]], None],
         cancelled: Callable[[], bool],
+        tail: ChainTail | None = None,
+        on_ahead: Callable[[list[Any]], None] | None = None,
     ) -> None:
         from distributed import as_completed
 
         client = self.client()
-        shared: Any = _dumps((chain, resolver))
+        shared: Any = _dumps((chain, resolver, tail))
         scattered = len(shared) > SHARED_INLINE_BYTES
         if scattered:  # on every worker once, not with each task
             shared = client.scatter([shared], broadcast=True, hash=False)[0]
@@ -261,8 +263,11 @@ class DaskPool:
         try:
             self.work_held(futures)
             for fut in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]  # not annotated
-                for i, got in _loads(fut.result()):
+                rows, ahead = _loads(fut.result())
+                for i, got in rows:
                     on_done(i, got)
+                if ahead and on_ahead is not None:
+                    on_ahead(ahead)
                 if cancelled():
                     break
         finally:

@@ -433,6 +433,9 @@ class RunContext(Context):
                 return dask.map(fn, items)
         return None
 
+    def ahead(self) -> list[Any]:
+        return self._run.ahead.pop(self.node_id, [])
+
     def can_submit(self) -> bool:
         pool = self._run.pool
         return isinstance(pool, LayerPool) and pool.enabled and pool.ready
@@ -587,6 +590,7 @@ class _Run:
         # (node id, layer) → (outputs, warnings) computed by a worker as part of a chain
         # (engine/parallel.py), taken up when the run reaches that node
         self.precomputed: dict[tuple[str, int], tuple[dict[str, Any], list[Any]]] = {}
+        self.ahead: dict[str, list[Any]] = {}  # node id → what its `run_ahead` gave in chain tasks (`chain_tail`)
         self.compute_s: dict[str, float] = {}  # node id → seconds computing its layers, in any process
         self.max_layers = 0  # 0: no limit (see execute)
         self.size = [0, 0, 0]  # the run's triangles, layers and path points so far (the cost model)
@@ -1009,7 +1013,9 @@ class _Run:
             fed = results[i][0].get(cast(str, nxt.src_port))  # set on every link after the first
             if fed is None:
                 return
-            ((_i, got),) = parallel.run_chain(chain[1:], self.resolver, [(i, {**nxt.whole, cast(str, nxt.over): fed})])
+            ((_i, got),), _ = parallel.run_chain(
+                chain[1:], self.resolver, [(i, {**nxt.whole, cast(str, nxt.over): fed})]
+            )
             self.keep_later_links(chain[1:], i, got)
 
         t0 = time.thread_time()  # CPU seconds: a busy machine must not make the layers look costly
@@ -1043,12 +1049,15 @@ class _Run:
                 finish(i, keys[i], out, extra)
                 self.keep_later_links(chain[1:], i, got[1:])
 
+            tail = self.chain_tail(chain)
             pool.map_layers(
                 chain,
                 self.resolver,
                 [(i, items) for i, items, _ in rest],
                 collect,
                 lambda: self.cancel is not None and self.cancel.is_set(),
+                tail,
+                None if tail is None else self.ahead.setdefault(tail.node_id, []).extend,
             )
             self.check_cancelled()
             # a layer that failed in a worker is re-run here: the error is raised with its context
@@ -1093,8 +1102,7 @@ class _Run:
         cur = gnode
         pos = self.active.index(gnode.id)
         while True:
-            impl = cast(LayerNode, cur.impl)  # gnode, then a cand checked below
-            if not (impl.combine_keeps_items or type(impl).combine is LayerNode.combine):
+            if not cast(LayerNode, cur.impl).keeps_items(cur.params):  # gnode, then a cand checked below
                 break
             nxt = None
             for nid in self.active[pos + 1 :]:
@@ -1125,6 +1133,21 @@ class _Run:
             )
             cur, pos = cand, self.active.index(cand.id)
         return tuple(links)
+
+    def chain_tail(self, chain: tuple[parallel.ChainLink, ...]) -> parallel.ChainTail | None:
+        """The whole-part node that runs ahead in the chain's tasks (`Node.run_ahead`): the first
+        node to come with an `ahead_input` fed by the last link, whose combine keeps its items
+        (the node is then given the very layers the tasks made). Whole-part runs only."""
+        last = self.graph.nodes[chain[-1].node_id]
+        if self.layers is not None or not cast(LayerNode, last.impl).keeps_items(last.params):
+            return None
+        for nid in self.active[self.active.index(last.id) + 1 :]:
+            cand = self.graph.nodes[nid]
+            port = cand.impl.ahead_input
+            src = cand.inputs.get(port) if port is not None else None
+            if src is not None and src[0] == last.id and not isinstance(cand.impl, LayerNode):
+                return parallel.ChainTail(cand.impl, cand.id, cand.params.model_dump(mode="json"), src[1])
+        return None
 
     @staticmethod
     def _check_outputs(gnode: GraphNode, outputs: dict[str, Any]) -> None:

@@ -107,6 +107,18 @@ class Node:
         """Files this node writes, keyed by suffix: {"layers.json": text} → `<node id>.layers.json`."""
         return {}
 
+    # A layered input whose runs of consecutive layers `run_ahead` works on in the worker task that
+    # has just made them (engine/parallel.py, chain tails); None: this node has no such work.
+    ahead_input: ClassVar[str | None] = None
+
+    def run_ahead(self, params: Any, items: list[Any]) -> Any:
+        """Work on a run of consecutive layers of `ahead_input` (None where a layer is None), done
+        ahead in a worker where a chain of layer nodes has just made them, before this node runs;
+        `run` gets the results as `ctx.ahead()`. Speculative: `run` must verify what it takes
+        (the layers a result was made from may not be the ones it is given), and its outputs must
+        not depend on whether or where this ran. A pure function of params and items."""
+        raise NotImplementedError
+
     def shared_work_s(self, params: Any, points: int) -> float:
         """Expected CPU seconds of this node's work that it hands to the run's workers when they
         are up (`Context.submit`), for a run of `points` path points: the cost model that starts
@@ -165,6 +177,12 @@ class LayerNode(Node):
 
     def layer_params(self, params: Any, index: int, items: dict[str, Any]) -> Any:
         return params.model_dump(mode="json")
+
+    def keeps_items(self, params: Any) -> bool:
+        """Whether `combine`, with these params, hands each output's per-layer items on unchanged
+        (`combine_keeps_items`, or the default `combine`); a node whose combine rewrites items
+        only with some params (the zone's parameter file) says so here."""
+        return self.combine_keeps_items or type(self).combine is LayerNode.combine
 
     def run_layer(self, ctx: "Context", params: Any, index: int, items: dict[str, Any]) -> dict[str, Any]:
         """Compute this layer's output items (keyed by output port) from its input items."""
@@ -260,6 +278,11 @@ class Context:
         speculative work, which pays only beside the node's own (the sequence node's runs of
         layers)."""
         return None
+
+    def ahead(self) -> list[Any]:
+        """What `Node.run_ahead` gave for runs of this node's `ahead_input` layers in the run's
+        workers, in no particular order ([] when nothing ran ahead); taken once."""
+        return []
 
     def can_submit(self) -> bool:
         """Whether `submit` would start work in a worker now: a node builds a large job only then."""

@@ -29,7 +29,11 @@ both in one task: mask → guide → strategy → zone of a chunk of layers in o
 layer's items cross the process boundary once instead of once per node. The later nodes' results wait in
 the parent (`_Run.precomputed`) and are taken up, in layer order, when the run reaches those
 nodes: caching, warnings and artifacts are exactly a serial run's. A link requires the upstream
-node's `combine` to hand its items on unchanged (`LayerNode.combine_keeps_items`).
+node's `combine` to hand its items on unchanged (`LayerNode.keeps_items`). A chain's tail: the
+whole-part node fed by the last link (the sequence node) may run ahead on each chunk's layers in
+the same task (`Node.run_ahead`, `ChainTail`), so its own run only checks the guesses instead of
+sending every layer to the workers again (the 500-layer cross: its sequence phase 0.94 → 0.37 s).
+The worker side of a task is chain.py.
 
 Once the workers are in use, a node's artifacts (JSON, XML, programs: pure functions of its
 outputs) wait for the next node's tasks (the run's critical path) and are written by the parent
@@ -51,12 +55,14 @@ import functools
 import multiprocessing as mp
 import os
 import threading
-import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Sequence, cast
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from .node import Context
+from .chain import ChainLink as ChainLink  # re-exported: the pool's tasks, engine.parallel.* for callers
+from .chain import ChainTail as ChainTail
+from .chain import _write_artifacts as _write_artifacts
+from .chain import run_chain as run_chain
 
 if TYPE_CHECKING:  # executor imports this module; daskpool imports this module
     from .daskpool import DaskPool
@@ -130,105 +136,6 @@ def file_triangles(size: int, head: bytes) -> int:
     if len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], "little"):
         return int.from_bytes(head[80:84], "little")
     return size // 50
-
-
-class _WorkerContext(Context):
-    """What a node may ask of the engine inside a worker: files through the run's resolver,
-    warnings collected per layer; progress and cancel are the parent's business."""
-
-    def __init__(self, node_id: str, resolver: FileResolver) -> None:
-        self.node_id = node_id
-        self._resolver = resolver
-        self.warnings: list[dict[str, Any]] = []
-        self.layer: int | None = None
-
-    def read_bytes(self, path: str, *, max_bytes: int | None = None) -> bytes:
-        return self._resolver.read_bytes(path, max_bytes)
-
-    def exists(self, path: str) -> bool:
-        return self._resolver.exists(path)
-
-    def progress(self, fraction: float, message: str = "") -> None:
-        pass
-
-    def check_cancelled(self) -> None:
-        pass
-
-
-class _ArtifactContext(_WorkerContext):
-    """A node's context while a worker writes its artifacts: the run's trace as it was when the
-    node finished (program headers stamp it)."""
-
-    def __init__(self, node_id: str, resolver: FileResolver, trace: dict[str, Any]) -> None:
-        super().__init__(node_id, resolver)
-        self._trace = trace
-
-    def trace(self) -> dict[str, Any]:
-        return self._trace
-
-
-@dataclass(frozen=True)
-class ChainLink:
-    """A layer node computed in the same worker task as the node before it: `over` is its input
-    fed by that node's output `src_port`; `whole` its other inputs (whole values, computed
-    already). The first link of a chain has over = src_port = None (its items are given). Params
-    travel as JSON (their models may hold classes made at run time, which do not pickle) and are
-    validated again in the worker, exactly as the graph validated them."""
-
-    impl: Any
-    node_id: str
-    params_json: Any
-    over: str | None = None
-    src_port: str | None = None
-    whole: dict[str, Any] = field(default_factory=dict)
-
-
-def run_chain(
-    chain: tuple[ChainLink, ...], resolver: FileResolver, chunk: list[tuple[int, dict[str, Any]]]
-) -> list[tuple[int, list[tuple[Any, ...]]]]:
-    """Worker side (and the parent's timed layers): each link over the chunk's layers (the first on
-    the items given, the next on the previous one's output of that layer), not layer by layer:
-    one node's code over a run of layers keeps the core's caches warm (the 500-layer cross's chain:
-    0.72 s of CPU, 0.99 s layer by layer). [(index, [(outputs, warnings, seconds) | (None, error
-    text, seconds)] per link computed)]; a failed link ends that layer's chain (the parent
-    computes the rest and reports the error with its context); seconds: wall, in the worker."""
-    got: dict[int, list[tuple[Any, ...]]] = {i: [] for i, _ in chunk}
-    fed: list[tuple[int, dict[str, Any]]] = list(chunk)  # (index, the link's items) still going on
-    for k, link in enumerate(chain):
-        params = type(link.impl).Params.model_validate(link.params_json)
-        ctx = _WorkerContext(link.node_id, resolver)
-        going: list[tuple[int, dict[str, Any]]] = []
-        for i, items in fed:
-            ctx.layer = i
-            ctx.warnings = []
-            t0 = time.perf_counter()
-            try:
-                out = link.impl.run_layer(ctx, params, i, items)
-            except Exception as exc:  # re-run in the parent, which reports it with node/layer/section
-                got[i].append((None, f"{type(exc).__name__}: {exc}", time.perf_counter() - t0))
-                continue
-            got[i].append((out, ctx.warnings, time.perf_counter() - t0))
-            if k + 1 < len(chain):
-                nxt = chain[k + 1]
-                value = out[cast(str, nxt.src_port)]  # set on every link after the first
-                if value is not None:
-                    going.append((i, {**nxt.whole, cast(str, nxt.over): value}))
-        fed = going
-    return [(i, got[i]) for i, _ in chunk]
-
-
-def _write_artifacts(
-    impl: Any, node_id: str, params_json: Any, resolver: FileResolver, trace: dict[str, Any], outputs: dict[str, Any]
-) -> tuple[dict[str, bytes], list[dict[str, Any]]] | tuple[None, str]:
-    """Worker side: ({suffix: bytes}, warnings) or (None, error text): the parent re-runs a failed
-    node's artifacts itself, so the error is raised with its context."""
-    params = type(impl).Params.model_validate(params_json)
-    ctx = _ArtifactContext(node_id, resolver, trace)
-    try:
-        files = impl.artifacts(ctx, params, outputs)
-        return {k: (v.encode("utf-8") if isinstance(v, str) else bytes(v)) for k, v in files.items()}, ctx.warnings
-    except Exception as exc:
-        return None, f"{type(exc).__name__}: {exc}"
 
 
 def _worker_up() -> int:
@@ -464,22 +371,28 @@ class LayerPool:
         todo: list[tuple[int, dict[str, Any]]],
         on_done: Callable[[int, list[Any]], None],
         cancelled: Callable[[], bool],
+        tail: ChainTail | None = None,
+        on_ahead: Callable[[list[Any]], None] | None = None,
     ) -> None:
         """Compute `todo` [(index, items)] of the chain's first node, and the rest of the chain on
         its outputs, in workers; `on_done(index, [(outputs | None, warnings | error, seconds)] per
         link computed)` (see `run_chain`)
-        is called in the parent as chunks finish (any order: the caller orders what must be)."""
+        is called in the parent as chunks finish (any order: the caller orders what must be);
+        `on_ahead(results)`: what the `tail` ran ahead in a chunk."""
         chunks = _chunks(todo, self.workers)
         pool = self._executor()
-        pending: set[Future[Any]] = {pool.submit(run_chain, chain, resolver, c) for c in chunks}
+        pending: set[Future[Any]] = {pool.submit(run_chain, chain, resolver, c, tail) for c in chunks}
         self.tasks += len(pending)
         self._work_held(list(pending))
         try:
             while pending:
                 done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    for i, got in fut.result():
+                    rows, ahead = fut.result()
+                    for i, got in rows:
                         on_done(i, got)
+                    if ahead and on_ahead is not None:
+                        on_ahead(ahead)
                 if cancelled():
                     break
         finally:

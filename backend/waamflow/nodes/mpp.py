@@ -25,7 +25,7 @@ from ..sections import Mask, apply_guide, segment_layer
 from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
-from ..sequencing.layer_path import part_travel
+from ..sequencing.layer_path import part_travel, sequence_ahead
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
 from ..sequencing.tour import submitted_seconds
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
@@ -300,6 +300,9 @@ class ZoneNode(LayerNode):
             out.append(zone_path(sp, spec, world))
         return {"toolpath": LayerPaths(lp.layer, tuple(out), lp.dwell_after_s)}
 
+    def keeps_items(self, params) -> bool:
+        return not params.parameters  # a parameter file's values are applied in combine
+
     def _read_xml(self, ctx, params, warn: bool = True) -> str | None:
         if not params.parameters:
             return None
@@ -471,9 +474,17 @@ class SequenceNode(Node):
 
         if params.order == "nearest":  # a large layer's second seed goes to a worker (tour.nearest_order)
             ctx.start_workers(sum(submitted_seconds(len(lp.sections)) for lp in tp if lp is not None))
-        layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer, ctx.submit)
+        layers, notes = sequence_with_notes(list(tp), params, in_workers, on_layer, ctx.submit, ctx.ahead())
         _report(ctx, params, layers, notes)
         return {"toolpath": Layered(tuple(layers))}
+
+    ahead_input = "toolpath"  # zoned layers sequenced in the chain tasks that made them
+
+    def run_ahead(self, params, items):
+        """A run of consecutive zoned layers sequenced from nothing where a chain task made them
+        (`layer_path.sequence_ahead`); `run` takes a layer's result only when it was made from the
+        very layer it is given, with the torch position and ignitions the serial chain reaches."""
+        return sequence_ahead(items, **_kernel_kw(params))
 
     def artifacts(self, ctx, params, outputs):
         travel = [
@@ -488,28 +499,34 @@ class SequenceNode(Node):
         }
 
 
-def sequence_with_notes(layers: list, params, map_chunks=None, on_layer=None, submit=None) -> tuple[list, list[dict]]:
-    """Run `sequence_part` with the node's params (`map_chunks`, `on_layer`, `submit`: see there);
-    returns the layers and the kernel's notes."""
+def _kernel_kw(params) -> dict:
+    """The sequencing kernel's keywords for the node's params (`sequence_layer`)."""
     bw = params.bead_width
     clearance = bw if bw > 0 else DEFAULT_CLEARANCE
     shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
     min_run = params.min_arc_run_mm if params.min_arc_run_mm is not None else (2.0 * bw if bw > 0 else 12.0)
     policy = "alternate" if params.alternate and params.seam == "auto" else params.seam
+    return {
+        "order": params.order,
+        "retract_height": params.retract_height,
+        "alternate": params.alternate,
+        "dwell_after_s": params.dwell,
+        "min_run": min_run,
+        "precedence": tuple(params.precedence),
+        "seam": SeamSpec(
+            policy if isinstance(policy, str) else tuple(policy), clearance, shift, params.seam_at_junctions
+        ),
+    }
+
+
+def sequence_with_notes(
+    layers: list, params, map_chunks=None, on_layer=None, submit=None, ahead=None
+) -> tuple[list, list[dict]]:
+    """Run `sequence_part` with the node's params (`map_chunks`, `on_layer`, `submit`, `ahead`:
+    see there); returns the layers and the kernel's notes."""
     notes: list[dict] = []
     seq, _ = sequence_part(
-        layers,
-        map_chunks=map_chunks,
-        on_layer=on_layer,
-        order=params.order,
-        retract_height=params.retract_height,
-        alternate=params.alternate,
-        dwell_after_s=params.dwell,
-        min_run=min_run,
-        precedence=tuple(params.precedence),
-        notes=notes,
-        seam=SeamSpec(policy if isinstance(policy, str) else tuple(policy), clearance, shift, params.seam_at_junctions),
-        submit=submit,
+        layers, map_chunks=map_chunks, on_layer=on_layer, ahead=ahead, notes=notes, submit=submit, **_kernel_kw(params)
     )
     return seq, notes
 

@@ -217,6 +217,7 @@ def sequence_part(
     *,
     map_chunks: ChunkMap | None = None,
     on_layer: Callable[[int, int], None] | None = None,
+    ahead: Sequence[Sequence[_Sequenced | None]] | None = None,
     **kw: Any,
 ) -> tuple[list[LayerPaths | None], list[float]]:
     """Sequence every layer, each starting where the previous one ended (and, with a seam policy,
@@ -229,14 +230,18 @@ def sequence_part(
     sequenced at once, speculatively (`_sequence_chunk`: each starts `WARMUP_LAYERS` early, from
     nothing), and a layer's result is taken only when the torch position and the ignitions below it
     were exactly the ones this chain reaches; any other layer is sequenced again here. The result is
-    the serial one, whatever the speculation gave. `on_layer(k, n)`: called after each layer (the
-    node's progress and cancel). `submit`: see `sequence_layer` (this process's layers only)."""
+    the serial one, whatever the speculation gave. `ahead`: runs of layers sequenced the same
+    way where they were made (`sequence_ahead`), each result taken only for the very layer object
+    it was made from; the layers they do not cover go to `map_chunks`. `on_layer(k, n)`: called
+    after each layer (the node's progress and cancel). `submit`: see `sequence_layer` (this
+    process's layers only)."""
     notes = kw.pop("notes", None)
     notes = [] if notes is None else notes
     submit = kw.pop("submit", None)
-    spec: list[_Sequenced | None] = [None] * len(layers)
-    if map_chunks is not None and len(layers) >= 2 * SPECULATE_CHUNKS:
-        spans = _layer_spans(len(layers), SPECULATE_CHUNKS)
+    spec = _ahead_guesses(layers, ahead or ())
+    todo = [k for k, lp in enumerate(layers) if lp is not None and spec[k] is None]
+    if map_chunks is not None and len(todo) >= 2 * SPECULATE_CHUNKS:
+        spans = _runs_of(todo, -(-len(todo) // SPECULATE_CHUNKS))
         items = [(list(layers[max(0, a - WARMUP_LAYERS) : b]), a - max(0, a - WARMUP_LAYERS), kw) for a, b in spans]
         got = map_chunks(_sequence_chunk, items)
         if got is not None:
@@ -273,13 +278,43 @@ ChunkMap = Callable[[Callable[[Any], Any], Sequence[Any]], "list[Any] | None"]
 
 class _Sequenced(NamedTuple):
     """A layer sequenced in a run of layers: what it was given (the torch position and the
-    ignitions below, None when the chain starts there) and what it gave."""
+    ignitions below, None when the chain starts there) and what it gave; `source`: the layer it
+    was made from, kept where the parent holds that very object (`sequence_ahead`)."""
 
     prev_end: np.ndarray | None
     below: np.ndarray | None
     layer: LayerPaths
     travel: float
     notes: list[dict]
+    source: LayerPaths | None = None
+
+
+def _ahead_guesses(
+    layers: Sequence[LayerPaths | None], ahead: Sequence[Sequence[_Sequenced | None]]
+) -> list[_Sequenced | None]:
+    """Per layer, the result of `sequence_ahead` made from that very layer object, else None."""
+    spec: list[_Sequenced | None] = [None] * len(layers)
+    if ahead:
+        at = {id(lp): k for k, lp in enumerate(layers) if lp is not None}
+        for run in ahead:
+            for guess in run:
+                if guess is None or guess.source is None:
+                    continue
+                k = at.get(id(guess.source))
+                if k is not None and layers[k] is guess.source:
+                    spec[k] = guess
+    return spec
+
+
+def _runs_of(todo: list[int], size: int) -> list[tuple[int, int]]:
+    """Spans [a, b) of at most `size` consecutive positions, covering the sorted `todo`."""
+    spans: list[tuple[int, int]] = []
+    for k in todo:
+        if spans and spans[-1][1] == k and k - spans[-1][0] < size:
+            spans[-1] = (spans[-1][0], k + 1)
+        else:
+            spans.append((k, k + 1))
+    return spans
 
 
 def _same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
@@ -288,15 +323,23 @@ def _same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
     return a.shape == b.shape and bool(np.array_equal(a, b))
 
 
-def _layer_spans(n: int, parts: int) -> list[tuple[int, int]]:
-    edges = [round(k * n / parts) for k in range(parts + 1)]
-    return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-
-
 def _sequence_chunk(item: tuple[list[LayerPaths | None], int, dict[str, Any]]) -> list[_Sequenced | None]:
     """Worker side: the layers of a run in order from nothing, as `sequence_part` does; those
     from index `skip` on (the first `skip` only warm the chain up) with what each was given."""
     layers, skip, kw = item
+    return _sequence_run(layers, skip, kw, keep_source=False)
+
+
+def sequence_ahead(layers: list[LayerPaths | None], **kw: Any) -> list[_Sequenced | None]:
+    """A run of consecutive layers sequenced in order from nothing, each result with the layer
+    it was made from (`sequence_part`'s `ahead`: a chain task's zoned layers, where they were
+    made; returned with them, they unpickle as the very objects the parent is given)."""
+    return _sequence_run(layers, 0, kw, keep_source=True)
+
+
+def _sequence_run(
+    layers: list[LayerPaths | None], skip: int, kw: dict[str, Any], keep_source: bool
+) -> list[_Sequenced | None]:
     out: list[_Sequenced | None] = []
     prev: np.ndarray | None = None
     below: np.ndarray | None = None
@@ -309,7 +352,7 @@ def _sequence_chunk(item: tuple[list[LayerPaths | None], int, dict[str, Any]]) -
         notes: list[dict] = []
         new, t = sequence_layer(lp, prev_end=prev, below=below, notes=notes, **kw)
         if k >= skip:
-            out.append(_Sequenced(prev, below, new, t, notes))
+            out.append(_Sequenced(prev, below, new, t, notes, lp if keep_source else None))
         prev = last_point(new)
         below = ignition_points(new.sections)
     return out
@@ -342,6 +385,7 @@ __all__ = [
     "nearest_order",
     "part_travel",
     "sequence_layer",
+    "sequence_ahead",
     "sequence_part",
     "tour_length",
     "travel_cost",
