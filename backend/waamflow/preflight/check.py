@@ -87,6 +87,7 @@ class Coverage(TypedDict):
     uncovered_share: float
     method: str
     sections: NotRequired[dict[int, Any]]
+    seen_share: NotRequired[float]  # planar slabs: the part's volume share its layers' mid-plane sections hold
     excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
     sample_mm: NotRequired[float]  # the spacing used
     sample_asked_mm: NotRequired[float]  # the spacing asked: the settings' sample_mm, else a quarter bead (≥ 0.5 mm)
@@ -264,7 +265,7 @@ def coverage_planar(
         part_volume = mesh_volume(vertices, faces)
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
-    covered_vol = 0.0
+    covered_vol = seen_vol = 0.0
     prev_top = part.bottom
     sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
@@ -290,7 +291,9 @@ def coverage_planar(
         c = covers[k]
         sections[idx] = c.section
         area, unc = c.area, c.uncovered
-        covered_vol += c.covered * covered_height(k, h, typical, s)
+        slab = covered_height(k, h, typical, s)
+        covered_vol += c.covered * slab
+        seen_vol += area * slab
         L = rep.layer(idx)
         L.update(
             z=_r(z, 3),
@@ -308,6 +311,7 @@ def coverage_planar(
         "uncovered_share": share,
         "method": "planar slabs",
         "sections": sections,
+        "seen_share": min(1.0, seen_vol / part_volume) if part_volume > 0 else 1.0,
     }
     if part.kind == "solid" and outside is not None:
         out["excursions"] = {idx: c.excursions for (idx, _runs), c in zip(layers, covers)}
@@ -428,9 +432,9 @@ def _coverage_problems(
             value=top_gap,
         )
     share = cov["uncovered_share"]
-    unseen = _unseen_part(part, rep) if planar and share > s.uncovered_fail else None
-    if unseen is not None:
-        rep.problem("uncovered", "fail", unseen, value=share, limit=s.uncovered_fail)
+    no_section = _unseen_part(part, rep) if planar and share > s.uncovered_fail else None
+    if no_section is not None:
+        rep.problem("uncovered", "fail", no_section, value=share, limit=s.uncovered_fail)
     elif share > s.uncovered_warn:
         sev = "fail" if share > s.uncovered_fail else "warn"
         worst = max(
@@ -445,10 +449,22 @@ def _coverage_problems(
                 + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
                 + "without a bead"
             )
+        # the layers reach the part's top, yet most of what no bead reaches lies outside every
+        # section: features thinner than a layer between mid-planes, which no plan of them reaches
+        between = 1.0 - cov.get("seen_share", 1.0) if top_gap is not None and top_gap <= 1e-6 else 0.0
+        if between >= 0.5 * share:
+            what = (
+                f"{share * 100:.1f} % of the part gets no bead: {between * 100:.1f} % of the part's volume is in no "
+                "layer's mid-plane section (a feature thinner than a layer between two layers' mid-planes, such "
+                "as a fin or a flange), so no plan of these layers covers it; finer layers (the slice's layer "
+                f"height) would cut it{where}"
+            )
+        else:
+            what = f"{share * 100:.1f} % of the part gets no bead{where}: add a mask section or a filling pattern there"
         rep.problem(
             "uncovered",
             sev,
-            f"{share * 100:.1f} % of the part gets no bead{where}: add a mask section or a filling pattern there",
+            what,
             layer=worst["index"] if worst else None,
             value=share,
             limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
