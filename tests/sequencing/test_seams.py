@@ -1,5 +1,6 @@
 """Seams (issue #22): where sections ignite layer after layer, minimum arc run, the MPP order rule."""
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -297,3 +298,32 @@ def test_junction_ignitions_warn_once_a_section_naming_its_layers_and_what_to_do
         assert not rest and where == {"layer": 0, "section": "rib"}
         assert "on 5 layers (0-3, 6)" in msg and remedy in msg and "seam_at_junctions" in msg
         assert ctx.reports[0]["junction_ignitions"] == 5
+
+
+def test_distances_of_many_ignitions_at_once_are_each_ones_own_bit_for_bit():
+    """`distances_to_segments` / `nearest_distances` (a path's candidate ignitions in one call):
+    each figure equals the one-point formula's exactly (the junction and below tests compare them
+    with thresholds and ties), zero-length segments, no segments and no points included."""
+    from waamflow.sequencing.seams import distances_to_segments, nearest_distances
+
+    def one_segment_distance(p, a, b):  # the one-point formula
+        if not len(a):
+            return math.inf
+        p2, a2, b2 = p[:2], a[:, :2], b[:, :2]
+        d = b2 - a2
+        dd = np.einsum("ij,ij->i", d, d)
+        t = np.clip(np.einsum("ij,ij->i", p2 - a2, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+        return float(np.min(np.linalg.norm(a2 + t[:, None] * d - p2, axis=1)))
+
+    def one_point_distance(p, pts):
+        return math.inf if not len(pts) else float(np.min(np.linalg.norm(pts[:, :2] - p[:2], axis=1)))
+
+    rng = np.random.default_rng(3)
+    for trial in range(400):
+        m, k = int(rng.integers(0, 40)), int(rng.integers(1, 6))
+        a = rng.normal(0.0, 50.0, (m, 3))
+        b = a + rng.normal(0.0, 8.0, (m, 3))
+        b[: m // 3] = a[: m // 3]  # zero-length segments
+        ps = rng.normal(0.0, 50.0, (k, 3))
+        assert distances_to_segments(ps, a, b).tolist() == [one_segment_distance(p, a, b) for p in ps]
+        assert nearest_distances(ps, a).tolist() == [one_point_distance(p, a) for p in ps]
