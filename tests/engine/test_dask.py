@@ -139,21 +139,20 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_on_the_cluster(cluster, a
         assert dask.artifacts[k] == serial.artifacts[k], k
 
 
-def test_the_zoned_layers_are_sequenced_ahead_in_the_clusters_chain_tasks(cluster, always_parallel, monkeypatch):
+def test_the_zoned_layers_are_sequenced_ahead_in_the_clusters_chain_tasks(
+    cluster, always_parallel, monkeypatch, ahead_given
+):
     """The same cross without a parameter file: its layers are sequenced in the chain tasks that
     zoned them (the chain's tail); nothing is mapped to the cluster for the sequence node, the
     parent takes a guess for all but each task's first layer; artifacts the serial run's."""
-    from waamflow.engine import executor
     from waamflow.engine.recipe import apply_overrides, parse_set
 
+    given = ahead_given
     mapped = []
     pmap = daskpool.DaskWorkers.map
     monkeypatch.setattr(
         daskpool.DaskWorkers, "map", lambda self, fn, it: mapped.append(fn.__name__) or pmap(self, fn, it)
     )
-    given = []
-    real_ahead = executor.RunContext.ahead
-    monkeypatch.setattr(executor.RunContext, "ahead", lambda self: given.append(real_ahead(self)) or given[-1])
     sets = ["layers.layer_height=0.3", "layers.layer_count=40", "zone.parameters="]
     recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(sets))
     serial = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), workers=1)

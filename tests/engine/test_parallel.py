@@ -658,17 +658,14 @@ def test_the_fork_server_preloads_the_nodes_without_trimesh():
     assert out == ["False", "False", "True", "True", "True", "True"]
 
 
-def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_parallel, monkeypatch, tmp_path):
+def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_parallel, monkeypatch, parent_sequenced):
     """A 40-layer cross: the sequence node's runs of layers go to the workers (the parent sequences
     none itself: every guess is the chain's), the conservation check's read-backs too; the
     artifacts are the serial run's byte for byte."""
     from waamflow.engine.recipe import apply_overrides, parse_set
     from waamflow.preflight import conserve
-    from waamflow.sequencing import layer_path
 
-    here = []
-    real = layer_path.sequence_layer
-    monkeypatch.setattr(layer_path, "sequence_layer", lambda *a, **k: here.append(1) or real(*a, **k))
+    here = parent_sequenced
     submitted = []
     submit = parallel.RunWorkers.submit
     monkeypatch.setattr(
@@ -693,7 +690,9 @@ def test_the_sequence_nodes_layers_are_sequenced_ahead_in_the_workers(always_par
     assert par.warnings == serial.warnings
 
 
-def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(always_parallel, monkeypatch):
+def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(
+    always_parallel, monkeypatch, parent_sequenced, ahead_given
+):
     """A 40-layer cross without a parameter file (the zone's combine keeps its layers): the
     sequence node's layers are sequenced in the chain tasks right after they were zoned (the
     chain's tail), none sent to the workers again; the parent sequences only the first layers of
@@ -701,18 +700,13 @@ def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(
     byte-identical artifacts. With the parameter file (the zone's combine makes new layers) no
     task runs ahead and the runs of layers go to the workers as before."""
     from waamflow.engine.recipe import apply_overrides, parse_set
-    from waamflow.sequencing import layer_path
 
-    here = []
-    real = layer_path.sequence_layer
-    monkeypatch.setattr(layer_path, "sequence_layer", lambda *a, **k: here.append(1) or real(*a, **k))
+    here, given = parent_sequenced, ahead_given
     mapped = []
     real_map = parallel.RunWorkers.map
     monkeypatch.setattr(
         parallel.RunWorkers, "map", lambda self, fn, items: mapped.append(fn.__name__) or real_map(self, fn, items)
     )
-    from waamflow.engine import executor
-
     tails = []
     real_layers = parallel.LayerPool.map_layers
 
@@ -721,9 +715,6 @@ def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(
         return real_layers(self, chain, resolver, todo, on_done, cancelled, tail, on_ahead)
 
     monkeypatch.setattr(parallel.LayerPool, "map_layers", spy_layers)
-    given = []
-    real_ahead = executor.RunContext.ahead
-    monkeypatch.setattr(executor.RunContext, "ahead", lambda self: given.append(real_ahead(self)) or given[-1])
 
     def run(workers, params_file):
         sets = ["layers.layer_height=0.3", "layers.layer_count=40", f"zone.parameters={params_file}"]
