@@ -301,6 +301,10 @@ def test_a_chain_tail_runs_ahead_on_each_run_of_consecutive_layers_of_the_last_l
     failing = parallel.ChainTail(_Ahead(fail=[7, "a", "b"]), "T", {}, "out")
     _, ahead = parallel.run_chain(chain, FileResolver("."), chunk, failing)
     assert [len(items) for _, items in ahead] == [5]
+    # params the worker cannot validate: no speculation, the chunk's rows all there
+    invalid = parallel.ChainTail(_Ahead(), "T", {"no_such_param": 1}, "out")
+    rows2, ahead = parallel.run_chain(chain, FileResolver("."), chunk, invalid)
+    assert ahead == [] and [i for i, _ in rows2] == [i for i, _ in rows]
 
 
 def _started_at(seconds: float) -> float:

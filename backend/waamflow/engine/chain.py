@@ -123,8 +123,9 @@ def run_chain(
 
 def _run_ahead(tail: ChainTail, last: int, rows: ChainRows) -> list[Any]:
     """The tail's `run_ahead` on each run of consecutive layers of the chunk: the last link's
-    `tail.src_port` output of each (None where it failed). A run that fails gives nothing: the
-    node does that work itself."""
+    `tail.src_port` output of each (None where it failed). A run that fails, or params the
+    worker cannot validate, give nothing: the node does that work itself, and the chunk's layers
+    are kept."""
     runs: list[list[Any]] = []
     prev = None
     for i, got in rows:
@@ -133,7 +134,10 @@ def _run_ahead(tail: ChainTail, last: int, rows: ChainRows) -> list[Any]:
             runs.append([])
         runs[-1].append(None if out is None else out.get(tail.src_port))
         prev = i
-    params = type(tail.impl).Params.model_validate(tail.params_json)
+    try:
+        params = type(tail.impl).Params.model_validate(tail.params_json)
+    except Exception:  # speculative: never the reason a chunk's layers are lost
+        return []
     done = []
     for items in runs:
         try:
