@@ -121,3 +121,19 @@ def test_a_fin_a_mid_plane_cuts_is_planned_like_the_rest():
     (p,) = _uncovered(report)
     assert "worst layer 3" in p["message"] and p["message"].endswith("add a mask section or a filling pattern there")
     assert "mid-plane section" not in p["message"]
+
+
+def test_a_small_share_outside_the_sections_does_not_take_over_the_message():
+    """A 0.12 mm fin between mid-planes (1.7 % of the part, under the 2 % warning on its own) and
+    a plan whose first row stops 20 mm short on layer 0: 2.1 % gets no bead, most of it the fin's.
+    A share that small outside the sections is what a slanted side's mid-plane sections can miss
+    too, so the message points at the plan's worst layer as before."""
+    tops = [1.5 * (k + 1) for k in range(6)]
+    lines = _program(tops, 1.5, full=True).split("\n")
+    first = next(k for k, ln in enumerate(lines) if ln.startswith("G1"))
+    lines[first] = lines[first].replace("X30.000", "X10.000")
+    report = check_program(_box_with_fin(4.5, 0.12), read_gcode("\n".join(lines)), "post", PreflightSettings(), BEAD)
+    (p,) = _uncovered(report)
+    assert p["value"] == pytest.approx(0.0212, abs=5e-4)
+    assert p["message"].startswith("2.1 % of the part gets no bead; worst layer 0:")
+    assert "mid-plane section" not in p["message"]
