@@ -30,7 +30,7 @@ WORKERS_TTL_S = 1.0  # how long `DaskPool.workers` trusts the count the schedule
 
 if TYPE_CHECKING:  # executor imports parallel, which imports this module only in make_pool
     from .executor import FileResolver
-    from .parallel import ChainLink, ChainTail
+    from .chain import ChainLink, ChainTail
 
 
 @dataclass

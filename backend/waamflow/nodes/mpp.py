@@ -26,7 +26,7 @@ from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
 from ..sequencing.layer_path import part_travel, sequence_ahead
-from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distance
+from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distances
 from ..sequencing.tour import submitted_seconds
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
 from ..zoning.params_xml import orphan_label
@@ -583,7 +583,7 @@ def _report(ctx, params, layers, notes: list[dict]) -> None:
             continue
         ign = ignition_points(lp.sections)
         if below is not None and len(below):
-            gaps += [nearest_distance(p, below) for p in ign]
+            gaps += nearest_distances(ign, below).tolist()
         below = ign
     ctx.report(
         {

@@ -432,9 +432,8 @@ def _coverage_problems(
             value=top_gap,
         )
     share = cov["uncovered_share"]
-    no_section = _unseen_part(part, rep) if planar and share > s.uncovered_fail else None
-    if no_section is not None:
-        rep.problem("uncovered", "fail", no_section, value=share, limit=s.uncovered_fail)
+    if cov.get("seen_share") == 0.0 and rep.layers and share > s.uncovered_fail:  # no section holds any of it
+        rep.problem("uncovered", "fail", _unseen_part(part, rep), value=share, limit=s.uncovered_fail)
     elif share > s.uncovered_warn:
         sev = "fail" if share > s.uncovered_fail else "warn"
         worst = max(
@@ -474,14 +473,12 @@ def _coverage_problems(
         )
 
 
-def _unseen_part(part: Part, rep: Report) -> str | None:
+def _unseen_part(part: Part, rep: Report) -> str:
     """The message when no layer's mid-plane cuts the part (every section empty): the slabs
     measure nothing, so "100 % gets no bead" would blame the plan for what the layers cannot see
     (trimesh's octagonal_pocket.stl read as mm: 0.016 mm tall, one 0.75 mm layer cut at
-    0.375 mm). None when a layer has part area."""
+    0.375 mm): planar slabs whose sections hold none of the part's volume (`seen_share` 0)."""
     rows = list(rep.layers.values())
-    if not rows or any((L.get("part_area_mm2") or 0.0) > 0 for L in rows):
-        return None
     mids = sorted(L["z"] - L["height_mm"] / 2 for L in rows if L.get("z") is not None and L.get("height_mm"))
     planes = ", ".join(f"{z:.3f}" for z in mids[:3]) + (", …" if len(mids) > 3 else "")
     height = part.top - part.bottom

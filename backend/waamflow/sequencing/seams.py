@@ -351,11 +351,6 @@ def distances_to_segments(ps: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.asarray(np.min(np.linalg.norm(foot - p2, axis=2), axis=1))
 
 
-def distance_to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    """Distance (mm) in the layer plane (x, y) from p to the nearest segment a→b; inf if none."""
-    return float(distances_to_segments(np.asarray(p, dtype=float)[None], a, b)[0])
-
-
 def nearest_distances(ps: np.ndarray, points: np.ndarray) -> np.ndarray:
     """(k,) distances (mm) in the layer plane from each of ps to the nearest of `points` (m, 3); inf if none."""
     ps = np.asarray(ps, dtype=float)
@@ -477,7 +472,6 @@ __all__ = [
     "Entry",
     "SeamSpec",
     "choose_entry",
-    "distance_to_segments",
     "distances_to_segments",
     "entries",
     "ignition_points",
