@@ -171,3 +171,41 @@ def test_layers_sequenced_ahead_where_they_were_made_are_taken_for_those_layers_
     )
     same_layers(serial, out)
     assert asked == [] and calls["here"] == 12
+
+
+def test_the_sequence_node_asks_the_workers_for_what_it_sends_them_not_for_the_whole_part():
+    """The node's cost question (`Context.map_in_workers`' layers and points) is about the layers
+    it would send: with the chain tasks' results for all but 16 of 200 layers (the layers the
+    parent timed itself), the question is about those 16 layers' paths, not the part's 200: the
+    cost model refuses to ship 16 layers in 8 runs of 2 (each started 2 layers early, and each
+    run's first layer ordered again here), which had cost a Dask run 0.3 s."""
+    from waamflow.core.model import Layered
+    from waamflow.engine.node import Context
+    from waamflow.nodes.mpp import SequenceNode, _kernel_kw
+
+    layers = [cross_layer(i) for i in range(200)]
+    params = SequenceNode.Params.model_validate({"order": "nearest", "retract_height": 10})
+    asked: list[tuple[int, int, int]] = []
+
+    class Ctx(Context):
+        node_id = "sequence"
+
+        def ahead(self):
+            return [layer_path.sequence_ahead(layers[a : a + 46], **_kernel_kw(params)) for a in range(16, 200, 46)]
+
+        def map_in_workers(self, fn, items, *, layers=0, points=0):
+            asked.append((len(items), layers, points))
+            return None
+
+        def check_cancelled(self):
+            pass
+
+        def progress(self, fraction, message=""):
+            pass
+
+    out = SequenceNode().run(Ctx(), params, {"toolpath": Layered(tuple(layers))})
+    assert len(out["toolpath"]) == 200
+    # 8 runs of 2 layers, each but the first started WARMUP_LAYERS early: layers 0-1, 0-3, 2-5, ...
+    sent = layers[0:2] + [lp for a in range(2, 16, 2) for lp in layers[a - layer_path.WARMUP_LAYERS : a + 2]]
+    assert len(sent) == 16 + 7 * layer_path.WARMUP_LAYERS
+    assert asked == [(8, len(sent), sum(len(sp.points) for lp in sent for sp in lp.sections))]

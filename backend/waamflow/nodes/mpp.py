@@ -25,7 +25,7 @@ from ..sections import Mask, apply_guide, segment_layer
 from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
-from ..sequencing.layer_path import part_travel, sequence_ahead
+from ..sequencing.layer_path import chunk_size, part_travel, sequence_ahead
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distances
 from ..sequencing.tour import submitted_seconds
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
@@ -463,10 +463,10 @@ class SequenceNode(Node):
             for key in params.order:
                 if key not in seen:
                     ctx.warn(f"order lists {key!r}, which matches no section", section=key)
-        points = sum(len(sp.points) for lp in tp if lp is not None for sp in lp.sections)
 
-        def in_workers(fn, items):  # runs of layers sequenced ahead in the workers, when up
-            return ctx.map_in_workers(fn, items, layers=len(tp), points=points)
+        def in_workers(fn, items):  # in the workers if up and paid by what is sent (ctx.ahead may leave a few)
+            layers, points = chunk_size(items)
+            return ctx.map_in_workers(fn, items, layers=layers, points=points)
 
         def on_layer(k: int, n: int) -> None:  # a sketch of 3,000 walls a layer takes seconds a layer
             ctx.check_cancelled()

@@ -330,6 +330,13 @@ def _sequence_chunk(item: tuple[list[LayerPaths | None], int, dict[str, Any]]) -
     return _sequence_run(layers, skip, kw, keep_source=False)
 
 
+def chunk_size(items: Sequence[tuple[list[LayerPaths | None], int, dict[str, Any]]]) -> tuple[int, int]:
+    """(layers, path points) that `_sequence_chunk` items hold: what sending them costs (their warm-up
+    layers included), for the cost model's question whether the workers pay for them."""
+    held = [lp for layers, _skip, _kw in items for lp in layers if lp is not None]
+    return len(held), sum(len(sp.points) for lp in held for sp in lp.sections)
+
+
 def sequence_ahead(layers: list[LayerPaths | None], **kw: Any) -> list[_Sequenced | None]:
     """A run of consecutive layers sequenced in order from nothing, each result with the layer
     it was made from (`sequence_part`'s `ahead`: a chain task's zoned layers, where they were
@@ -386,6 +393,7 @@ __all__ = [
     "part_travel",
     "sequence_layer",
     "sequence_ahead",
+    "chunk_size",
     "sequence_part",
     "tour_length",
     "travel_cost",
