@@ -747,3 +747,42 @@ def test_the_zoned_layers_are_sequenced_ahead_in_the_chain_tasks_that_made_them(
     given.clear()
     par = run(2, "mpp-cross.params.xml")
     assert tails == [None] and given == [[]] and "_sequence_chunk" in mapped
+
+
+def test_the_artifacts_held_for_a_map_go_to_the_workers_when_the_next_node_took_its_layers_ahead(
+    always_parallel, monkeypatch
+):
+    """The cross without a parameter file: the sequence node takes its layers from the chain tasks
+    and computes in the parent while the workers idle, so the artifacts held for a next map (the
+    strategy's and zone's) go to the workers before it runs, instead of after their timer
+    (ARTIFACTS_DEFER_S) or when the run collects them after the last node (the 500-layer cross:
+    ~0.2 s between the last node and the preflight). Byte-identical artifacts."""
+    from waamflow.engine.recipe import apply_overrides, parse_set
+    from waamflow.nodes.mpp import SequenceNode
+
+    monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 600.0)  # no timer sends them
+    events: list[tuple[str, ...]] = []
+    release = parallel.LayerPool._release
+
+    def spy_release(self):
+        events.append(("sent", *(args[1] for _fut, _fn, args in self._deferred)))
+        return release(self)
+
+    monkeypatch.setattr(parallel.LayerPool, "_release", spy_release)
+    seq_run = SequenceNode.run
+    monkeypatch.setattr(SequenceNode, "run", lambda *a: events.append(("sequence",)) or seq_run(*a))
+    sets = ["layers.layer_height=0.3", "layers.layer_count=40", "zone.parameters="]
+    recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(sets))
+
+    def run(workers):
+        return execute(build_graph(recipe), resolver=FileResolver(GRAPHS), cache=MemoryCache(), workers=workers)
+
+    serial = run(1)
+    events.clear()
+    par = run(2)
+    assert par.executor["tasks"] > 1
+    before = events[: events.index(("sequence",))]
+    assert {"strategy", "zone"} <= {nid for e in before if e[0] == "sent" for nid in e[1:]}
+    assert sorted(par.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert par.artifacts[k] == serial.artifacts[k], k

@@ -298,6 +298,15 @@ class LayerPool:
         timer.start()
         return fut
 
+    def release_held(self) -> None:
+        """The held tasks to the workers now, not when a map comes or their timer ends: the run is
+        about to compute with the workers idle (a node whose layers its chain tasks made ahead)."""
+        with self._lock:
+            timers, self._timers = self._timers, []
+        for timer in timers:
+            timer.cancel()
+        self._release()
+
     def _release(self) -> None:
         """The held tasks to the workers, in the order they were held (behind whatever was
         submitted before this call). A held task that cannot be submitted fails with the reason."""
