@@ -493,37 +493,39 @@ def _dask_overhead(g, resolver, par, t_par: float) -> list[dict]:
     from distributed import LocalCluster
 
     out = []
+
+    def timed(name: str, how: str, address: str) -> None:
+        t_dasks, loads, res = _time_on_cluster(g, resolver, address)
+        t_dask = min(t_dasks)
+        same = res.artifacts == par.artifacts
+        assert same, f"Dask artifacts differ from the local parallel run ({how})"
+        out.append(
+            {
+                "name": name,
+                "value": round(t_dask / t_par, 3),
+                "unit": "x",
+                "peer": round(t_par, 3),
+                "ratio": round(t_dask / t_par, 4),
+                "notes": f"cold full plan of the {N_FULL}-layer cross on {how}, 2 worker processes, "
+                f"best of {PARALLEL_REPEATS} ({', '.join(f'{t:.2f}' for t in t_dasks)} s): {t_dask:.2f} s "
+                f"({res.executor['tasks']} tasks; artifacts written by the run) / local parallel (best of "
+                f"{PARALLEL_REPEATS}) {t_par:.2f} s; programs identical; load "
+                f"{', '.join(f'{x:.1f}' for x in loads)} (before and after each run); cold: kernel memos "
+                "cleared here and on the workers before each run; one cluster up at a time"
+                + ("; target <= 1.2 (issue 30)" if name == "dask_overhead" else ""),
+            }
+        )
+
+    # one cluster at a time: until 2026-11-27 the LocalCluster (a nanny and 2 idle workers, their
+    # heartbeats and memory monitors) was up while the lab cluster was timed, on the same 2 cores
     with tempfile.TemporaryDirectory() as tmp, _lab_cluster(Path(tmp)) as address:
-        runs = [("dask_overhead", "dask scheduler + dask worker processes (as docker/compose.yml)", address)]
-        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-            runs.append(
-                (
-                    "dask_overhead_inprocess_scheduler",
-                    "a LocalCluster (its scheduler in the timing process)",
-                    cluster.scheduler_address,
-                )
-            )
-            for name, how, addr in runs:
-                t_dasks, loads, res = _time_on_cluster(g, resolver, addr)
-                t_dask = min(t_dasks)
-                same = res.artifacts == par.artifacts
-                assert same, f"Dask artifacts differ from the local parallel run ({how})"
-                out.append(
-                    {
-                        "name": name,
-                        "value": round(t_dask / t_par, 3),
-                        "unit": "x",
-                        "peer": round(t_par, 3),
-                        "ratio": round(t_dask / t_par, 4),
-                        "notes": f"cold full plan of the {N_FULL}-layer cross on {how}, 2 worker processes, "
-                        f"best of {PARALLEL_REPEATS} ({', '.join(f'{t:.2f}' for t in t_dasks)} s): {t_dask:.2f} s "
-                        f"({res.executor['tasks']} tasks; artifacts written by the run) / local parallel (best of "
-                        f"{PARALLEL_REPEATS}) {t_par:.2f} s; programs identical; load "
-                        f"{', '.join(f'{x:.1f}' for x in loads)} (before and after each run); cold: kernel memos "
-                        "cleared here and on the workers before each run"
-                        + ("; target <= 1.2 (issue 30)" if name == "dask_overhead" else ""),
-                    }
-                )
+        timed("dask_overhead", "dask scheduler + dask worker processes (as docker/compose.yml)", address)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        timed(
+            "dask_overhead_inprocess_scheduler",
+            "a LocalCluster (its scheduler in the timing process)",
+            cluster.scheduler_address,
+        )
     return out
 
 
