@@ -323,3 +323,61 @@ def test_held_artifacts_wait_for_a_first_task_at_most_wait_first_s(monkeypatch):
     assert 0.19 <= waited < 1.5 and not held.held
     files, warnings = held.result()
     assert files["toolpath.json"] == serial.artifacts["strategy.toolpath.json"] and warnings == []
+
+
+def test_the_held_artifacts_go_to_the_cluster_when_the_next_node_took_its_layers_ahead(
+    cluster, always_parallel, monkeypatch
+):
+    """The cross without a parameter file: the sequence node computes here on the layers the
+    chain tasks sequenced ahead, the cluster idle meanwhile, so the artifacts held for the next
+    map (the strategy's and zone's) are sent to the cluster before it runs, not written here
+    after the last node; byte-identical artifacts."""
+    from waamflow.engine.recipe import apply_overrides, parse_set
+    from waamflow.nodes.mpp import SequenceNode
+
+    events: list[tuple[str, ...]] = []
+    send = daskpool.HeldArtifacts.send
+    monkeypatch.setattr(
+        daskpool.HeldArtifacts,
+        "send",
+        lambda self, client: events.append(("sent", self._args[1])) or send(self, client),
+    )
+    seq_run = SequenceNode.run
+    monkeypatch.setattr(SequenceNode, "run", lambda *a: events.append(("sequence",)) or seq_run(*a))
+    sets = ["layers.layer_height=0.3", "layers.layer_count=40", "zone.parameters="]
+    recipe = apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(sets))
+    serial = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), workers=1)
+    events.clear()
+    dask = execute(build_graph(recipe), resolver=FileResolver(GRAPHS), scheduler=cluster.scheduler_address)
+    before = events[: events.index(("sequence",))]
+    assert {"strategy", "zone"} <= {e[1] for e in before if e[0] == "sent"}
+    assert sorted(dask.artifacts) == sorted(serial.artifacts)
+    for k in serial.artifacts:
+        assert dask.artifacts[k] == serial.artifacts[k], k
+
+
+def test_held_artifacts_the_cluster_fails_or_refuses_are_written_here(monkeypatch):
+    """`HeldArtifacts.send`: a task the cluster loses, or a submit it refuses, leaves the artifacts
+    to this process, written once when asked for."""
+    written = []
+    monkeypatch.setattr(parallel, "_write_artifacts", lambda *args: written.append(args[1]) or ({"x": b"1"}, []))
+
+    class Lost:
+        def result(self, timeout=None):
+            raise OSError("worker lost")
+
+    class Client:
+        def __init__(self, fail_submit):
+            self.fail_submit = fail_submit
+
+        def submit(self, fn, blob, pure=False):
+            if self.fail_submit:
+                raise RuntimeError("closed")
+            return Lost()
+
+    for fail_submit in (False, True):
+        held = daskpool.HeldArtifacts(("impl", f"node{fail_submit}", {}, None, {}, {}))
+        held.send(Client(fail_submit))
+        assert held.held is fail_submit  # sent, or still held here
+        assert held.result() == ({"x": b"1"}, []) and held.result() == ({"x": b"1"}, [])
+    assert written == ["nodeFalse", "nodeTrue"]

@@ -711,7 +711,7 @@ class _Run:
                     else:
                         jobs.append((gnode, ctx, self.node_artifacts(gnode, ctx)))
 
-            if self.ahead.get(node_id) and isinstance(self.pool, LayerPool):
+            if self.ahead.get(node_id) and isinstance(self.pool, (LayerPool, DaskPool)):
                 # its layers were made ahead in the chain tasks: it computes here while the workers
                 # idle, so the artifacts held for the next map go to them now (the 500-layer cross:
                 # the strategy's and zone's, ~0.2 s the run had waited for after the last node)
