@@ -231,11 +231,15 @@ class DaskPool:
         their files come back, which costs less than writing them here only when nothing else is
         asked of the cluster meanwhile (all artifacts sent so, beside the runs' tasks, had cost
         the 500-layer cross 1.7 s on a LocalCluster)."""
-        if threading.get_ident() != self._holder:
+        if threading.get_ident() != self._holder or not self._held:
+            return
+        try:
+            client = self.client()
+        except Exception:  # the cluster is gone: they are written here when asked for
             return
         held, self._held = self._held, []
         for h in held:
-            h.send(self.client())
+            h.send(client)
 
     def warm(self) -> None:
         """Nothing to start: a cluster's workers are running already."""
