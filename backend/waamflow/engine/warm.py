@@ -13,8 +13,10 @@ from .node import load_nodes
 load_nodes()
 # The preflight's layer tasks (slabs, read-backs) and the executor they reach: imported by every
 # worker of every run with its first such task otherwise, ~0.07 s of CPU each (the 500-layer cross,
-# 2 workers: 36 modules). None imports trimesh or scipy.
+# 2 workers: 36 modules). None imports trimesh or scipy. numpy.ma: numpy's own `np.unique` imports it on
+# its first call (the strategy's arc flags), ~12 ms of CPU in each worker of each run otherwise.
 for _name in (
+    "numpy.ma",
     "waamflow.core.graphs",
     "waamflow.engine.executor",
     "waamflow.preflight.check",
