@@ -34,9 +34,10 @@ import numpy as np
 N_EDIT = 200
 N_FULL = 500
 REPEATS = 5
-PARALLEL_REPEATS = (
-    3  # parallel_speedup / dask_overhead: best of this many runs each (noise on a shared machine only adds time)
-)
+# parallel_speedup / dask_overhead: best of this many runs each (noise on a shared machine only adds time;
+# 3 until 2026-11-27, when the serial runs of one bench spread over 3.44-5.06 s and the best of 3 moved
+# the speedup by 0.1-0.2 from bench to bench)
+PARALLEL_REPEATS = 5
 LAYER = 1.5  # mm (MPP study)
 
 
