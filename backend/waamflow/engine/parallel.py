@@ -301,11 +301,15 @@ class LayerPool:
     def release_held(self) -> None:
         """The held tasks to the workers now, not when a map comes or their timer ends: the run is
         about to compute with the workers idle (a node whose layers its chain tasks made ahead)."""
+        self._cancel_timers()
+        self._release()
+
+    def _cancel_timers(self) -> None:
+        """The held tasks' timers stopped: something sooner sends or writes them."""
         with self._lock:
             timers, self._timers = self._timers, []
         for timer in timers:
             timer.cancel()
-        self._release()
 
     def _release(self) -> None:
         """The held tasks to the workers, in the order they were held (behind whatever was
@@ -327,10 +331,7 @@ class LayerPool:
         from the first task's end while any is unfinished (before, this process's threads pickle
         the tasks and need the interpreter lock: the cross's sequence chunks started 0.23 s late);
         the rest go to the workers behind them."""
-        with self._lock:  # a map came: the held tasks wait for the map's tasks, not for a timer
-            timers, self._timers = self._timers, []
-        for timer in timers:
-            timer.cancel()
+        self._cancel_timers()  # a map came: the held tasks wait for the map's tasks, not for a timer
         if threading.get_ident() != self._holder:  # another thread's map (a node's own): not the run's to write
             return self._release()
         if self._deferred:
