@@ -220,6 +220,55 @@ def weld_open_edges(verts: np.ndarray, faces: np.ndarray, tol: float) -> tuple[n
     return verts[keep], faces, int(len(verts) - len(keep))
 
 
+# A hole the repair fills: a missing facet or two (3 or 4 open edges, the common STL export
+# defect), together at most this share of the mesh's surface. A box's missing lid is a quad too, but
+# a sixth of its surface: an open cup, left as it is; longer holes are left too (a fan may cross a
+# non-convex hole). With every hole filled the mesh must close, or nothing is filled.
+MAX_HOLE_EDGES = 4
+MAX_HOLE_SHARE = 0.01
+MAX_OPEN_EDGES_FILLED = 4000  # more open edges than this: a surface's rim or a torn mesh, not a few facets
+
+
+def fill_small_holes(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """`faces` with every hole of 3 or 4 open edges closed (one or two triangles wound against
+    the hole's edges, so they match their neighbours), when every open edge lies on such a hole
+    and all of them together cover at most `MAX_HOLE_SHARE` of the surface; else `faces` as
+    given. Returns (faces, holes filled)."""
+    f = np.asarray(faces, dtype=np.int64)
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b) * len(verts) + np.maximum(a, b)
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+    single = counts[inverse] == 1
+    if not 3 <= np.count_nonzero(single) <= MAX_OPEN_EDGES_FILLED:
+        return faces, 0
+    nxt: dict[int, int] = {}
+    for u, v in zip(a[single].tolist(), b[single].tolist()):
+        if u in nxt:  # two holes touch at a vertex: not simple loops
+            return faces, 0
+        nxt[u] = v
+    new: list[list[int]] = []
+    holes = 0
+    while nxt:
+        start, loop = next(iter(nxt)), list[int]()
+        u = start
+        while u in nxt and len(loop) <= MAX_HOLE_EDGES:
+            loop.append(u)
+            u = nxt.pop(u)
+        if u != start or not 3 <= len(loop) <= MAX_HOLE_EDGES:  # a long hole, or a chain that does not close
+            return faces, 0
+        # the faces run the hole's edges u→v; the new ones run them v→u
+        p0, p1, p2 = loop[:3]
+        new += [[p0, p2, p1]] if len(loop) == 3 else [[p0, loop[3], p2], [p0, p2, p1]]
+        holes += 1
+    tri = verts[np.asarray(new)]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    all_tri = verts[f]
+    total = 0.5 * np.linalg.norm(np.cross(all_tri[:, 1] - all_tri[:, 0], all_tri[:, 2] - all_tri[:, 0]), axis=1).sum()
+    if not total > 0 or area > MAX_HOLE_SHARE * total:
+        return faces, 0
+    return np.concatenate([f, np.asarray(new, dtype=np.int64)]), holes
+
+
 def repair_mesh(
     verts: np.ndarray,
     faces: np.ndarray,
@@ -231,23 +280,29 @@ def repair_mesh(
 
     In order: (1) cracks: vertices on open edges within `crack_tolerance` (vertex units) are
     merged (`weld_open_edges`), kept only when that leaves no open edge (a real hole or an open
-    surface is left as it is); (2) bodies touching along non-manifold edges (two solids sharing
+    surface is left as it is); then missing facets: holes of 3 or 4 edges filled
+    (`fill_small_holes`), kept only when that closes the mesh; (2) bodies touching along non-manifold edges (two solids sharing
     an edge) get their own vertices (`split_nonmanifold`), kept only when every body is then
     closed; (3) winding: faces are re-wound consistently with their neighbours
     (`trimesh.repair.fix_winding`: a BFS over the face adjacency, well kept and already a
     dependency, networkx included), then every closed body whose volume is negative is turned
-    inside out so normals point outwards. Counts: vertices_merged, nonmanifold_edges_split,
+    inside out so normals point outwards. Counts: vertices_merged, holes_filled, nonmanifold_edges_split,
     faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport),
     and face_volumes (`face_volumes` of the returned vertices and faces) when it worked them out.
     edges: `edge_report_twins` of these faces when the caller has it (one sort of the edges less).
     """
-    out: dict[str, Any] = {"vertices_merged": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
+    out: dict[str, Any] = {"vertices_merged": 0, "holes_filled": 0, "nonmanifold_edges_split": 0, "faces_rewound": 0}
     rep, twin = edges if edges is not None else edge_report_twins(faces, len(verts))
     if rep.open and crack_tolerance > 0:
         v2, f2, merged = weld_open_edges(verts, faces, crack_tolerance)
         r2, t2 = edge_report_twins(f2, len(v2))
         if len(f2) and r2.open == 0:
             verts, faces, rep, twin, out["vertices_merged"] = v2, f2, r2, t2, merged
+    if rep.open and crack_tolerance > 0:
+        f2, holes = fill_small_holes(verts, faces)
+        r2, t2 = edge_report_twins(f2, len(verts)) if holes else (rep, twin)
+        if holes and r2.open == 0:
+            faces, rep, twin, out["holes_filled"] = f2, r2, t2, holes
     if rep.nonmanifold and rep.open == 0:
         f2, src, _ = split_nonmanifold(faces, len(verts))
         r2, t2 = edge_report_twins(f2, len(src))

@@ -91,6 +91,7 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
             "misoriented_edges": rep.misoriented,
             "vertices_welded": st.get("welded", 0),
             "vertices_merged": st["vertices_merged"],
+            "holes_filled": st.get("holes_filled", 0),
             "nonmanifold_edges_split": st["nonmanifold_edges_split"],
             "faces_rewound": st["faces_rewound"],
         }
@@ -108,6 +109,9 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
             f"closed cracks up to crack_tolerance {params.crack_tolerance:g} mm by merging "
             f"{st['vertices_merged']} vertices"
         )
+    if st.get("holes_filled"):
+        n = st["holes_filled"]
+        fixes.append(f"filled {n} hole{'s' if n != 1 else ''} of 3 or 4 edges (missing facets)")
     if st["nonmanifold_edges_split"]:
         fixes.append(f"separated bodies sharing {st['nonmanifold_edges_split']} non-manifold edge(s)")
     if st["faces_rewound"]:
@@ -278,7 +282,8 @@ class MeshNode(Node):
     Corners that are bit-identical in the file are welded; where open edges remain, vertices on
     them closer than `weld_tolerance` (default 1 µm) are merged too, reported as a warning.
     Mesh files are then repaired where that cannot change the shape (`geometry.mesh_io.repair_mesh`):
-    cracks up to `crack_tolerance` (default 0.1 mm) closed when that closes the mesh, bodies
+    cracks up to `crack_tolerance` (default 0.1 mm) closed when that closes the mesh, missing
+    facets (holes of 3 or 4 edges, at most 1 % of the surface) filled when that closes it, bodies
     sharing an edge separated, faces re-wound consistently and outwards; every repair is
     counted in the node report and warned. The repaired mesh is classified by what it measures:
     closed with a positive volume → solid; open without non-manifold or misoriented edges → a
@@ -368,7 +373,8 @@ class MeshNode(Node):
             le=1.0,
             description="Mesh files: close cracks up to this size between faces of a solid "
             "(merging vertices on open edges; kept only when that closes the "
-            "mesh, reported). 0: no crack closing",
+            "mesh, reported), and fill missing facets (holes of 3 or 4 edges, "
+            "at most 1 % of the surface, when that closes the mesh). 0: neither",
             json_schema_extra=unit("mm"),
             title="Crack closing tolerance",
         )
