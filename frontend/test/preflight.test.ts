@@ -41,10 +41,10 @@ describe("preflight badge: verdict → label, tone, figures", () => {
   it("a failed run that still wrote its report shows the report", () => {
     expect(preflightBadge({ phase: "failed", report: report({ verdict: "fail", problems: [problem({ severity: "fail" })] }), stale: false })!.label).toBe("preflight ✗ 1");
   });
-  it("tooltip lists the six key figures with units; missing ones read n/a", () => {
-    const b = preflightBadge({ phase: "done", report: report({ wire_part_volume_ratio: null, weld_data_missing: 2 }), stale: false })!;
+  it("tooltip lists the seven key figures with units; missing ones read n/a", () => {
+    const b = preflightBadge({ phase: "done", report: report({ wire_part_volume_ratio: null, weld_data_missing: 2, bottom_gap_mm: 3 }), stale: false })!;
     expect(b.tooltip.split("\n")).toEqual([
-      "preflight ok: 0 problems", "top gap: 0.00 mm", "uncovered: 0.4 %", "wire/part volume: n/a", "min arc run: 18.2 mm", "start spread: 12.0 mm", "weld data missing: 2",
+      "preflight ok: 0 problems", "top gap: 0.00 mm", "bottom gap: 3.00 mm", "uncovered: 0.4 %", "wire/part volume: n/a", "min arc run: 18.2 mm", "start spread: 12.0 mm", "weld data missing: 2",
     ]);
     expect(figureRows({}).every(([, v]) => v === "n/a")).toBe(true);
   });

@@ -25,6 +25,7 @@ __all__ = ["PreflightSettings", "run_preflight", "stamp_acceptance", "first_erro
 
 SUMMARY_KEYS = (
     "top_gap_mm",
+    "bottom_gap_mm",
     "uncovered_share",
     "wire_part_volume_ratio",
     "min_arc_run_mm",

@@ -25,6 +25,7 @@ import shapely
 from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
+from .bottom import bottom_problems
 from .deposit import _arc_runs, _ignitions, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -391,6 +392,9 @@ def check_program(
             precomputed=cov.get("excursions"),
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
+    # the deposit's bottom against the part's and the plate's (bottom.py): layer spacing between deposited layers
+    h_dep = float(np.median(np.diff(heights))) if planar and len(heights) > 1 else h_typ
+    bottom_problems(part, prog, layers, h_dep, out, rep, s)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)

@@ -34,6 +34,19 @@ class PreflightSettings(BaseModel):
         le=10,
         description="Fail when the highest deposited layer ends more than this many layer heights below the part's top",
     )
+    bottom_gap_max_layers: float = Field(
+        0.5,
+        ge=0,
+        le=100,
+        description="Fail when the lowest deposited layer lies more than this many layer heights above where a "
+        "first layer on the part's bottom would (layers missing below: the first bead laid on nothing)",
+    )
+    plate: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A program that goes below z = 0 (the plate: the substrate's top in the program's frame) or a "
+        "part whose lowest point is more than bottom_gap_max_layers layer heights above it; off when the "
+        "program's z = 0 is not the substrate's top (a build on an existing part)",
+    )
     overshoot_warn_layers: float = Field(
         1.0,
         ge=0,

@@ -1238,6 +1238,19 @@ export interface components {
              */
             top_gap_max_layers: number;
             /**
+             * Bottom Gap Max Layers
+             * @description Fail when the lowest deposited layer lies more than this many layer heights above where a first layer on the part's bottom would (layers missing below: the first bead laid on nothing)
+             * @default 0.5
+             */
+            bottom_gap_max_layers: number;
+            /**
+             * Plate
+             * @description A program that goes below z = 0 (the plate: the substrate's top in the program's frame) or a part whose lowest point is more than bottom_gap_max_layers layer heights above it; off when the program's z = 0 is not the substrate's top (a build on an existing part)
+             * @default fail
+             * @enum {string}
+             */
+            plate: "off" | "warn" | "fail";
+            /**
              * Overshoot Warn Layers
              * @description Warn when the deposit ends more than this many layer heights above the part's top
              * @default 1

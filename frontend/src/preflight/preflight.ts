@@ -6,12 +6,14 @@
  */
 
 export type Verdict = "ok" | "warn" | "fail";
-export type Check = "top_gap" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
+export type Check = "top_gap" | "bottom_gap" | "plate" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
 export type Point3 = [number, number, number];
 
 /** Whole-part (or per-program) figures; any may be null when it does not apply. */
 export interface PreflightFigures {
   top_gap_mm?: number | null;
+  /** Lowest arc-ON point − (part bottom + one layer): > 0 where layers are missing below. */
+  bottom_gap_mm?: number | null;
   uncovered_share?: number | null;
   wire_part_volume_ratio?: number | null;
   min_arc_run_mm?: number | null;
@@ -112,6 +114,7 @@ const fix = (v: number | null | undefined, digits: number, unit = "") => (v == n
 export function figureRows(f: PreflightFigures): [string, string][] {
   return [
     ["top gap", fix(f.top_gap_mm, 2, " mm")],
+    ["bottom gap", fix(f.bottom_gap_mm, 2, " mm")],
     ["uncovered", f.uncovered_share == null ? "n/a" : `${(100 * f.uncovered_share).toFixed(1)} %`],
     ["wire/part volume", fix(f.wire_part_volume_ratio, 2)],
     ["min arc run", fix(f.min_arc_run_mm, 1, " mm")],
@@ -161,7 +164,7 @@ export function sortedProblems(report: Preflight | null): PreflightProblem[] {
 
 /** Human name of a check. */
 export const CHECK_LABEL: Record<string, string> = {
-  top_gap: "top not reached", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
+  top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
   stacked_starts: "stacked starts", weld_data: "weld data missing", program: "program",
 };
 export const checkLabel = (c: string) => CHECK_LABEL[c] ?? c;

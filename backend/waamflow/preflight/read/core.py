@@ -40,6 +40,10 @@ class ProgramRead:
     format: str
     runs: list[Run] = field(default_factory=list)
     travel_mm: float = 0.0
+    # the lowest point a motion with the arc off reaches, and the layer it comes before
+    # (bottom.py: a travel below the plate); inf without travel
+    travel_z_min: float = math.inf
+    travel_low: tuple[np.ndarray, int | None] | None = None
     notes: list[str] = field(default_factory=list)  # what the reader could not interpret
     weld_commanded: bool = True  # False: the format carries no weld data at all
 
@@ -105,9 +109,15 @@ class RunBuilder:
                 self.speed.append(speed)
                 self.wfs.append(wfs)
                 self.weld.append(weld)
-        elif self.pos is not None:
-            seg = np.vstack([self.pos, targets])
-            self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
+        else:
+            if self.pos is not None:
+                seg = np.vstack([self.pos, targets])
+                self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
+            z = targets[:, 2]
+            k = int(np.nanargmin(z)) if np.isfinite(z).any() else -1  # nan: an axis not yet known
+            if k >= 0 and z[k] < self.out.travel_z_min:
+                self.out.travel_z_min = float(targets[k, 2])
+                self.out.travel_low = (targets[k].copy(), self.layer)
         self.pos = last
         self._after_move()
 
@@ -132,6 +142,8 @@ class RunBuilder:
             p = self.pos
             self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
             self.pos = np.array((x, y, z))
+            if z < self.out.travel_z_min:
+                self.out.travel_z_min, self.out.travel_low = z, (self.pos.copy(), self.layer)
             self._after_move()
         else:
             self.move(np.array((x, y, z)), speed, wfs, weld)
