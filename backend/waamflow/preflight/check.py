@@ -26,7 +26,7 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .bottom import bottom_problems
-from .deposit import _arc_runs, _ignitions, _starved, _wire_balance
+from .deposit import _arc_runs, _ignitions, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -396,6 +396,7 @@ def check_program(
     h_dep = float(np.median(np.diff(heights))) if planar and len(heights) > 1 else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
+    _speedless(prog, rep, s)
     _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)

@@ -85,9 +85,11 @@ def _wire_balance(
             limit=0,
             point=first.points[0],
         )
-    if weld_expected and missing and not weld_missing and part is not None and cov and cov["part_volume_mm3"] > 0:
+    no_wfs = [r for r in prog.runs if not np.isfinite(r.wfs).all()]  # (moves without a speed: _speedless)
+    if weld_expected and no_wfs and not weld_missing and part is not None and cov and cov["part_volume_mm3"] > 0:
         # welded with weld data, but no wire feed the reader can see: the metal balance is unknown
-        first = next(r for r in prog.runs if not np.isfinite(r.wfs).all())
+        first = no_wfs[0]
+        missing = sum(int(np.count_nonzero(~np.isfinite(r.wfs))) for r in no_wfs)
         rep.problem(
             "volume_ratio",
             "warn",
@@ -121,6 +123,35 @@ def _wire_balance(
                 value=ratio,
                 limit=hi if ratio > hi else lo,
             )
+
+
+def _speedless(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
+    """Arc-ON moves with no travel speed to weld at: a rapid with the arc on (G0: the controller's
+    rapid rate, read as no speed) or a zero feed (F0: refused by LinuxCNC, a stall with the arc
+    burning elsewhere). Their metal is unknown, so the wire balance has no ratio either."""
+    if s.weld_speed == "off":
+        return
+    bad = [(r, np.flatnonzero(~(np.isfinite(r.speed) & (r.speed > 0)))) for r in prog.runs]
+    bad = [(r, k) for r, k in bad if len(k)]
+    if not bad:
+        return
+    count = sum(len(k) for _r, k in bad)
+    total = sum(len(r.speed) for r in prog.runs)
+    first, k = bad[0]
+    zero = bool(np.isfinite(first.speed[k[0]]))
+    what = "a zero feed (F0)" if zero else "no speed: a rapid (G0) or no feed stated yet"
+    rep.problem(
+        "weld_speed",
+        s.weld_speed,
+        f"{count} of {total} arc-ON moves have no travel speed to weld at (first: layer {first.layer}, section "
+        f"{first.section}, {what}): the torch would weld at the controller's rapid rate or stand with the "
+        "arc burning; command a welding feed (zone `travel_speed`) on every arc-ON move",
+        layer=first.layer,
+        section=first.section,
+        value=count,
+        limit=0,
+        point=first.points[int(k[0]) + 1],
+    )
 
 
 def _starved(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:

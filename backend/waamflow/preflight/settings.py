@@ -82,6 +82,10 @@ class PreflightSettings(BaseModel):
     weld_data: Literal["off", "warn", "fail"] = Field(
         "fail", description="Arc-ON moves with no weld parameter commanded (comments do not count)"
     )
+    weld_speed: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed",
+    )
     wire_feed_min: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Arc-ON moves commanded less wire feed than `wire_feed_min_m_min`: the arc burns without wire",

@@ -1324,6 +1324,13 @@ export interface components {
              */
             weld_data: "off" | "warn" | "fail";
             /**
+             * Weld Speed
+             * @description Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed
+             * @default fail
+             * @enum {string}
+             */
+            weld_speed: "off" | "warn" | "fail";
+            /**
              * Wire Feed Min
              * @description Arc-ON moves commanded less wire feed than `wire_feed_min_m_min`: the arc burns without wire
              * @default fail
