@@ -26,6 +26,7 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .bottom import bottom_problems
+from .order import layer_order_problems
 from .deposit import _arc_runs, _ignitions, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -103,7 +104,8 @@ class Coverage(TypedDict):
 # ---- layers of the program ------------------------------------------------------------------------
 def program_layers(prog: ProgramRead) -> list[tuple[int, list[Run]]]:
     """The runs grouped into layers in program order: by the program's `layer N` comments, else by
-    height (a new layer whenever a run starts higher than the previous one)."""
+    height (a new layer whenever a run lies higher or lower than the previous one: a program that
+    comes back down starts a layer there, for the order check, order.py)."""
     numbered = [(r.layer, r) for r in prog.runs if r.layer is not None]
     if prog.runs and len(numbered) == len(prog.runs):
         groups: dict[int, list[Run]] = {}
@@ -114,7 +116,7 @@ def program_layers(prog: ProgramRead) -> list[tuple[int, list[Run]]]:
     last_z = -math.inf
     for r in prog.runs:
         z = float(np.median(r.points[:, 2]))
-        if not out or z > last_z + PLANAR_TOL_MM:
+        if not out or abs(z - last_z) > PLANAR_TOL_MM:
             out.append((len(out), []))
             last_z = z
         out[-1][1].append(r)
@@ -393,8 +395,10 @@ def check_program(
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     # the deposit's bottom against the part's and the plate's (bottom.py): layer spacing between deposited layers
-    h_dep = float(np.median(np.diff(heights))) if planar and len(heights) > 1 else h_typ
+    h_dep = float(np.median(np.diff(np.sort(heights)))) if planar and len(heights) > 1 else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
+    if planar:
+        layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _speedless(prog, rep, s)
     _starved(prog, rep, s)

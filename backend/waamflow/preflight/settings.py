@@ -82,6 +82,11 @@ class PreflightSettings(BaseModel):
     weld_data: Literal["off", "warn", "fail"] = Field(
         "fail", description="Arc-ON moves with no weld parameter commanded (comments do not count)"
     )
+    layer_order: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A layer welded below, or at the height of, metal welded before it at the same place "
+        "(planar programs): the torch would weld into it",
+    )
     weld_speed: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed",

@@ -1324,6 +1324,13 @@ export interface components {
              */
             weld_data: "off" | "warn" | "fail";
             /**
+             * Layer Order
+             * @description A layer welded below, or at the height of, metal welded before it at the same place (planar programs): the torch would weld into it
+             * @default fail
+             * @enum {string}
+             */
+            layer_order: "off" | "warn" | "fail";
+            /**
              * Weld Speed
              * @description Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed
              * @default fail
