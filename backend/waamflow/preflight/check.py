@@ -27,6 +27,7 @@ from shapely.ops import unary_union
 
 from .bottom import bottom_problems
 from .order import layer_order_problems
+from .plane import z_jump_problems
 from .deposit import _arc_runs, _ignitions, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -399,6 +400,10 @@ def check_program(
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:
         layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
+    else:  # a planar layer with a move off its plane made the program "not planar" (plane.py)
+        z_jump_problems(
+            layers, float(np.median(np.diff(np.sort(heights)))) if len(heights) > 1 else None, PLANAR_TOL_MM, rep, s
+        )
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _speedless(prog, rep, s)
     _starved(prog, rep, s)

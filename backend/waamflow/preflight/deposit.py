@@ -139,7 +139,7 @@ def _speedless(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     total = sum(len(r.speed) for r in prog.runs)
     first, k = bad[0]
     zero = bool(np.isfinite(first.speed[k[0]]))
-    what = "a zero feed (F0)" if zero else "no speed: a rapid (G0) or no feed stated yet"
+    what = "a zero feed (F0)" if zero else "no speed: a rapid or joint move (G0, PTP, MoveJ) or no feed stated yet"
     rep.problem(
         "weld_speed",
         s.weld_speed,

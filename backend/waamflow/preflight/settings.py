@@ -87,6 +87,11 @@ class PreflightSettings(BaseModel):
         description="A layer welded below, or at the height of, metal welded before it at the same place "
         "(planar programs): the torch would weld into it",
     )
+    z_jump: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="An arc-ON move of a planar layer that climbs or drops more than half a layer height "
+        "(at least 1 mm) off the layer's plane",
+    )
     weld_speed: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed",

@@ -1331,6 +1331,13 @@ export interface components {
              */
             layer_order: "off" | "warn" | "fail";
             /**
+             * Z Jump
+             * @description An arc-ON move of a planar layer that climbs or drops more than half a layer height (at least 1 mm) off the layer's plane
+             * @default fail
+             * @enum {string}
+             */
+            z_jump: "off" | "warn" | "fail";
+            /**
              * Weld Speed
              * @description Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed
              * @default fail
