@@ -64,7 +64,7 @@ for (const [w, h] of [[1600, 1000], [1366, 768]]) {
     assert.equal(await page.innerText(badge), "preflight ⚠ 3");
     assert.equal(await page.getAttribute(badge, "aria-label"), "preflight ⚠ 3: preflight warnings, 3 problems; open the list");
     const tip = await page.getAttribute(badge, "title");
-    for (const want of ["top gap: 0.00 mm", "bottom gap: 0.00 mm", "uncovered: 0.2 %", "wire/part volume: 1.24", "min arc run: 18.2 mm", "start spread: 0.0 mm", "weld data missing: 0"])
+    for (const want of ["top gap: 0.00 mm", "bottom gap: n/a", "uncovered: 0.2 %", "wire/part volume: 1.24", "min arc run: 18.2 mm", "start spread: 0.0 mm", "weld data missing: 0"])
       assert.ok(tip.includes(want), `tooltip has "${want}": ${tip}`);
     await shot(page, `${w}-badge`);
 

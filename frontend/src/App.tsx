@@ -78,7 +78,7 @@ function EditorToolbar({ ed, act }: { ed: Editor; act: EditorActions }) {
       problemCount={findings.problems.length}
       errorCount={findings.problems.filter((x) => x.severity === "error").length}
       onProblems={() => act.setShowProblems((v) => !v)}
-      preflight={<PreflightBadge view={findings.badge} onOpen={() => act.setShowProblems(true)} />}
+      preflight={<PreflightBadge view={findings.badge} onOpen={() => act.setShowProblems("preflight")} />}
       onFrame={act.frame}
       onOpen={(name) => void ed.opener.open(name)}
       onNew={ed.opener.openNew}

@@ -50,6 +50,27 @@ describe("preflight in the GUI", () => {
     expect(masked.map((p) => p.layer)).toEqual([3]);
     expect(host.querySelector("[data-testid=preflight-section] h3")!.textContent).toMatch(/Preflight\s*warn/);
   });
+  it("a failed preflight comes before the run's warnings, and the badge's click brings it into view", () => {
+    const warns = Array.from({ length: 33 }, (_, i) => ({ key: `w${i}`, severity: "warning" as const, node: "zone", layer: 5, section: "bs1/A", field: null, message: `params.xml value ${i} dropped` }));
+    const failed: Preflight = { ...report, verdict: "fail", problems: [{ check: "bottom_gap", severity: "fail", node: "post", layer: 0, section: "bs1/A", message: "the deposit starts 4.50 mm above the part's bottom", value: 4.5, limit: 0.75, point: null }] };
+    let scrolled = 0;
+    const proto = Element.prototype as unknown as { scrollIntoView?: () => void };
+    const before = proto.scrollIntoView;
+    proto.scrollIntoView = function () { scrolled++; };
+    try {
+      const host = render(<ProblemsPanel problems={warns} onPick={() => {}} onClose={() => {}} preflight={failed} focusPreflight />);
+      const body = host.querySelector(".problems-body")!;
+      expect(body.firstElementChild!.getAttribute("data-testid")).toBe("preflight-section");
+      expect(host.querySelector(".pf-problem .where")!.textContent).toBe("bottom not built · post · layer 0 · bs1/A");
+      expect(scrolled).toBe(1);
+      // a passing (or warning) preflight stays below the run's own problems, and is not scrolled to unless asked
+      const ok = render(<ProblemsPanel problems={warns} onPick={() => {}} onClose={() => {}} preflight={report} />);
+      expect(ok.querySelector(".problems-body")!.lastElementChild!.getAttribute("data-testid")).toBe("preflight-section");
+      expect(scrolled).toBe(1);
+    } finally {
+      proto.scrollIntoView = before;
+    }
+  });
   it("says where the 3D coverage was sampled coarser than asked (a large part), and only there", () => {
     const prog = (node: string, used: number, asked: number | null = 1.0) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: 4, coverage_sample_mm: used, coverage_sample_asked_mm: asked });
     const big: Preflight = { ...report, problems: [], programs: [prog("post", 5.3), prog("post2", 1.0), prog("post3", 1.04)] };

@@ -26,6 +26,7 @@ export function Dialogs({ ed, act }: { ed: Editor; act: EditorActions }) {
           preflightStale={ed.findings.preflightStale}
           onPickPreflight={(pr) => act.pickPreflight(pr)}
           onMaskHere={(pr) => act.pickPreflight(pr, true)}
+          focusPreflight={act.showProblems === "preflight"}
         />
       )}
       {conflict && (

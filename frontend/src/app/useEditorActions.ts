@@ -17,7 +17,7 @@ const graphBox = () => document.querySelector("[data-testid=graph-editor]")?.get
 
 export function useEditorActions(ed: Editor) {
   const rf = useReactFlow();
-  const [showProblems, setShowProblems] = useState(false);
+  const [showProblems, setShowProblems] = useState<boolean | "preflight">(false); // "preflight": opened from its badge
   // The saved recipe's history dialog (#25 Build 2): an earlier revision opens as an unsaved edit.
   const [showHistory, setShowHistory] = useState(false);
   const [search, setSearch] = useState<{ x: number; y: number; at: XY } | null>(null);

@@ -1,4 +1,5 @@
 import { canMaskHere, checkLabel, coarseCoverage, figureRows, problemKey, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
+import { useEffect, useRef } from "react";
 import type { Problem } from "./problems";
 
 export interface ProblemsPanelProps {
@@ -12,10 +13,20 @@ export interface ProblemsPanelProps {
   onPickPreflight?: (p: PreflightProblem) => void;
   /** "new mask here" on an uncovered area: the mask-drawing tool on that layer, at that point. */
   onMaskHere?: (p: PreflightProblem) => void;
+  /** Opened from the preflight badge: the preflight section is scrolled into view. */
+  focusPreflight?: boolean;
 }
 
-/** The problems of the last run or request, then its preflight; a click selects the node (and its layer/section). */
-export function ProblemsPanel({ problems, onPick, onClose, preflight, preflightStale, onPickPreflight, onMaskHere }: ProblemsPanelProps) {
+/** The problems of the last run or request, then its preflight (first when it failed: the program was
+ * withheld, and 33 of a run's warnings had hidden its 2 failures below the fold); a click selects the
+ * node (and its layer/section). */
+export function ProblemsPanel({ problems, onPick, onClose, preflight, preflightStale, onPickPreflight, onMaskHere, focusPreflight }: ProblemsPanelProps) {
+  const pfRef = useRef<HTMLElement>(null);
+  useEffect(() => {
+    if (focusPreflight) pfRef.current?.scrollIntoView?.({ block: "start" });
+  }, [focusPreflight, preflight]);
+  const pf = preflight ? <PreflightSection sectionRef={pfRef} report={preflight} stale={!!preflightStale} onPick={onPickPreflight} onMaskHere={onMaskHere} /> : null;
+  const pfFirst = preflight?.verdict === "fail";
   return (
     <section className="problems" data-testid="problems" aria-label="problems">
       <header>
@@ -24,6 +35,7 @@ export function ProblemsPanel({ problems, onPick, onClose, preflight, preflightS
         <button onClick={onClose} aria-label="close the problems panel">✕</button>
       </header>
       <div className="problems-body">
+        {pfFirst && pf}
         {!problems.length && <div className="muted pad">No errors or warnings in the last run.</div>}
         {problems.length > 0 && (
           <ul>
@@ -40,16 +52,16 @@ export function ProblemsPanel({ problems, onPick, onClose, preflight, preflightS
             ))}
           </ul>
         )}
-        {preflight && <PreflightSection report={preflight} stale={!!preflightStale} onPick={onPickPreflight} onMaskHere={onMaskHere} />}
+        {!pfFirst && pf}
       </div>
     </section>
   );
 }
 
-function PreflightSection({ report, stale, onPick, onMaskHere }: { report: Preflight; stale: boolean; onPick?: (p: PreflightProblem) => void; onMaskHere?: (p: PreflightProblem) => void }) {
+function PreflightSection({ report, stale, onPick, onMaskHere, sectionRef }: { report: Preflight; stale: boolean; onPick?: (p: PreflightProblem) => void; onMaskHere?: (p: PreflightProblem) => void; sectionRef?: React.Ref<HTMLElement> }) {
   const list = sortedProblems(report);
   return (
-    <section className={`preflight-section ${stale ? "stale" : ""}`} data-testid="preflight-section" aria-label="preflight">
+    <section ref={sectionRef} className={`preflight-section ${stale ? "stale" : ""}`} data-testid="preflight-section" aria-label="preflight">
       <h3>
         Preflight <span className={`pf-verdict pf-${report.verdict}`}>{report.verdict}</span>
         {report.accepted && <span className="muted"> · accepted by the user</span>}
