@@ -28,7 +28,7 @@ from shapely.ops import unary_union
 from .bottom import bottom_problems
 from .order import layer_order_problems
 from .plane import z_jump_problems
-from .deposit import _arc_runs, _ignitions, _speedless, _starved, _wire_balance
+from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -406,6 +406,7 @@ def check_program(
         )
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _speedless(prog, rep, s)
+    _local_deposit(prog, width, rep, s)
     _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)

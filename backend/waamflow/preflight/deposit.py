@@ -154,6 +154,65 @@ def _speedless(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     )
 
 
+def _local_deposit(prog: ProgramRead, width: float, rep: Report, s: PreflightSettings) -> None:
+    """Stretches longer than a bead width that lay far less or more metal per millimetre (wire
+    feed / speed) than the program's length-weighted median: a KRL weld begun at the travel's
+    $VEL.CP (100 mm/s where the layer welds at 6-8: mpp-cross passed "ok"), a wire feed typed ten
+    times too high. The part's balance hides a stretch. Zones vary the ratio (the shipped examples
+    0.30-1.73 of the median, compensate-deposit 0.3-1.6 of a zone's by default): `local_deposit_ok`
+    (0.25-4) warns outside, `local_deposit_fail` (0.1-8) fails outside. One problem a layer."""
+    if s.local_deposit == "off":
+        return
+    with np.errstate(divide="ignore", invalid="ignore"):  # no or zero speed: weld_speed's (_speedless)
+        per = [(r, r.wfs / r.speed, _segments(r)[1]) for r in prog.runs]
+    a_all = np.concatenate([a for _r, a, _l in per]) if per else np.zeros(0)
+    l_all = np.concatenate([ln for _r, _a, ln in per]) if per else np.zeros(0)
+    ok = np.isfinite(a_all) & (a_all > 0) & (l_all > 0)
+    if not ok.any():
+        return
+    a_ok, l_ok = a_all[ok], l_all[ok]
+    o = np.argsort(a_ok)
+    c = np.cumsum(l_ok[o])
+    med = float(a_ok[o][min(int(np.searchsorted(c, c[-1] / 2)), len(o) - 1)])
+    lo, hi = s.local_deposit_ok
+    flo, fhi = s.local_deposit_fail
+    seen: set = set()
+    for r, a, seg in per:
+        x = a / med
+        off = np.isfinite(x) & ((x < lo) | (x > hi)) & (seg > 0)
+        if not off.any() or r.layer in seen:
+            continue
+        # the longest stretch of consecutive segments off the band, on one side of it
+        side = np.where(off, np.where(x > hi, 1, -1), 0)
+        cut = np.flatnonzero(np.diff(side)) + 1
+        best: tuple[float, int, int] | None = None
+        for k, j in zip(np.r_[0, cut], np.r_[cut, len(side)]):
+            if side[k] and (best is None or float(seg[k:j].sum()) > best[0]):
+                best = (float(seg[k:j].sum()), int(k), int(j))
+        if best is None or best[0] <= width:
+            continue
+        length, k, j = best
+        worst = float(np.min(x[k:j])) if x[k] < lo else float(np.max(x[k:j]))
+        failing = not flo <= worst <= fhi
+        sev = s.local_deposit if failing else "warn"
+        limit = (flo if worst < lo else fhi) if failing else (lo if worst < lo else hi)
+        speed, wfs = float(r.speed[k]), float(r.wfs[k])
+        seen.add(r.layer)
+        rep.problem(
+            "local_deposit",
+            sev,
+            f"{length:.1f} mm of layer {r.layer} (section {r.section}) lay {worst:.2f}× the program's typical metal "
+            f"per mm ({speed:.1f} mm/s at {wfs:.2f} m/min: {a[k] * 1000 / 60:.2f} mm of wire a mm of bead, typically "
+            f"{med * 1000 / 60:.2f}): a bead {'thinner' if worst < 1 else 'thicker'} by that much; check the speed and "
+            "the wire feed there (a weld begun before its welding speed is set keeps the travel's)",
+            layer=r.layer,
+            section=r.section,
+            value=worst,
+            limit=limit,
+            point=r.points[k],
+        )
+
+
 def _starved(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     """Arc-ON moves commanded less wire feed than `s.wire_feed_min_m_min` (0 in a zone's parameters):
     the arc burns there with no wire, which the part's metal balance can hide when the zone is short."""

@@ -92,6 +92,17 @@ class PreflightSettings(BaseModel):
         description="An arc-ON move of a planar layer that climbs or drops more than half a layer height "
         "(at least 1 mm) off the layer's plane",
     )
+    local_deposit: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A stretch longer than a bead width laying far less or more metal per mm (wire feed / speed) "
+        "than the program's median: warn outside local_deposit_ok, this outside local_deposit_fail",
+    )
+    local_deposit_ok: tuple[float, float] = Field(
+        (0.25, 4.0), description="Metal per mm of a stretch / the program's median: no remark inside this band"
+    )
+    local_deposit_fail: tuple[float, float] = Field(
+        (0.1, 8.0), description="Metal per mm of a stretch / the program's median: fail outside this band"
+    )
     weld_speed: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed",
@@ -177,6 +188,10 @@ class PreflightSettings(BaseModel):
         flo, fhi = self.volume_ratio_fail
         if not (0 < flo <= lo <= hi <= fhi):
             raise ValueError("volume bands must nest: 0 < fail low ≤ ok low ≤ ok high ≤ fail high")
+        lo, hi = self.local_deposit_ok
+        flo, fhi = self.local_deposit_fail
+        if not (0 < flo <= lo <= 1 <= hi <= fhi):
+            raise ValueError("local deposit bands must nest around 1: 0 < fail low ≤ ok low ≤ 1 ≤ ok high ≤ fail high")
         if self.uncovered_warn > self.uncovered_fail:
             raise ValueError("uncovered_warn must not exceed uncovered_fail")
         if self.layer_gap_warn_layers > self.layer_gap_fail_layers:

@@ -1338,6 +1338,37 @@ export interface components {
              */
             z_jump: "off" | "warn" | "fail";
             /**
+             * Local Deposit
+             * @description A stretch longer than a bead width laying far less or more metal per mm (wire feed / speed) than the program's median: warn outside local_deposit_ok, this outside local_deposit_fail
+             * @default fail
+             * @enum {string}
+             */
+            local_deposit: "off" | "warn" | "fail";
+            /**
+             * Local Deposit Ok
+             * @description Metal per mm of a stretch / the program's median: no remark inside this band
+             * @default [
+             *       0.25,
+             *       4
+             *     ]
+             */
+            local_deposit_ok: [
+                number,
+                number
+            ];
+            /**
+             * Local Deposit Fail
+             * @description Metal per mm of a stretch / the program's median: fail outside this band
+             * @default [
+             *       0.1,
+             *       8
+             *     ]
+             */
+            local_deposit_fail: [
+                number,
+                number
+            ];
+            /**
              * Weld Speed
              * @description Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed
              * @default fail
