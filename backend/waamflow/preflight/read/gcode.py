@@ -58,6 +58,61 @@ def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> 
     return pts
 
 
+# Words that change how later coordinates are read: inches, incremental distance, a G92 offset. A
+# program holding any (a machine profile's start or layer code may) is read line by line (`_Modes`);
+# the plain-line fast path assumes mm, absolute, no offset (what waamflow's posts write).
+_MODAL_WORDS = re.compile(r"G\s*0*(?:20|91|92)(?![0-9])", re.IGNORECASE)
+_ENDS = {("M", 2.0), ("M", 30.0)}  # program end: nothing after it runs (RS274/NGC)
+
+
+class _Modes:
+    """The modal state a controller keeps for coordinates (RS274/NGC, as LinuxCNC's interpreter):
+    length units (G20 inches, G21 mm), distance mode (G90 absolute, G91 incremental), arc centre mode
+    (G91.1 incremental, the default; G90.1 absolute) and the G92 offset (G92 sets it so the point in
+    hand reads the given coordinates; G92.1/G92.2 clear it). Points are kept in mm, in the frame the
+    program starts in (the part's)."""
+
+    def __init__(self) -> None:
+        self.scale = 1.0
+        self.incremental = False
+        self.arc_absolute = False
+        self.offset = np.zeros(3)
+
+    def apply(self, gs: list[float], vals: dict[str, float], here: np.ndarray) -> bool:
+        """Take a line's G words; True when the line is consumed (a G92 offset, no motion)."""
+        for g in gs:
+            if g in (20.0, 21.0):
+                self.scale = 25.4 if g == 20.0 else 1.0
+            elif g in (90.0, 91.0):
+                self.incremental = g == 91.0
+            elif g in (90.1, 91.1):
+                self.arc_absolute = g == 90.1
+            elif g in (92.1, 92.2):
+                self.offset = np.zeros(3)
+        if 92.0 not in gs:
+            return False
+        for k, a in enumerate("XYZ"):
+            if a in vals:
+                self.offset[k] = here[k] - vals[a] * self.scale
+        return True
+
+    def target(self, vals: dict[str, float], here: np.ndarray) -> np.ndarray:
+        """Where a motion's X Y Z words send the torch (axes not given stay)."""
+        out = here.astype(float)
+        for k, a in enumerate("XYZ"):
+            if a in vals:
+                v = vals[a] * self.scale
+                out[k] = here[k] + v if self.incremental else v + self.offset[k]
+        return out
+
+    def centre_ij(self, vals: dict[str, float], here: np.ndarray) -> tuple[float, float]:
+        """An arc's I J as offsets from its start, mm."""
+        i, j = vals.get("I", 0.0) * self.scale, vals.get("J", 0.0) * self.scale
+        if self.arc_absolute:
+            return i + self.offset[0] - here[0], j + self.offset[1] - here[1]
+        return i, j
+
+
 def _plain_g1(weld_rx: dict, arc_letters: set) -> Callable[[str], re.Match | None] | None:
     """The matcher of plain `G1 X Y Z [F]` lines, or None when such a line could be something else
     in this program: a weld command whose literal text could occur in it, or an arc code made of
@@ -89,7 +144,8 @@ def read_gcode(text: str) -> ProgramRead:
     # each) are made for those lines alone, not for every motion
     arc_letters = {tuple(w[0] for w in on_words), tuple(w[0] for w in off_words)}
     arc_sizes = {len(on_words), len(off_words)}
-    plain = _plain_g1(weld_rx, arc_letters)
+    plain = None if _MODAL_WORDS.search(text) else _plain_g1(weld_rx, arc_letters)
+    modes = _Modes()
     lines = text.splitlines()
     runs = _plain_runs(text, lines, plain) if plain is not None else {}
     ln = 0  # lines read (the 1-based number of the line in hand, once it is taken)
@@ -139,20 +195,22 @@ def read_gcode(text: str) -> ProgramRead:
                 gs.append(float(v))
             else:
                 vals[a] = float(v)
+        if any((a, vals.get(a)) in _ENDS for a in "M"):
+            break  # M2 / M30: the program ends here
+        here = b.pos if b.pos is not None else np.zeros(3)
+        if modes.apply(gs, vals, here):
+            continue
         for g in gs:
             if g in (0, 1, 2, 3):
                 motion = int(g)
         if "F" in vals:
-            feed = vals["F"] * (1.0 if per_s else 1.0 / 60.0)
+            feed = vals["F"] * modes.scale * (1.0 if per_s else 1.0 / 60.0)
         if 4 in gs or not any(k in vals for k in "XYZ"):
             continue
-        here = b.pos if b.pos is not None else np.zeros(3)
-        x = vals["X"] if "X" in vals else float(here[0])
-        y = vals["Y"] if "Y" in vals else float(here[1])
-        z = vals["Z"] if "Z" in vals else float(here[2])
+        x, y, z = modes.target(vals, here).tolist()
         speed = math.nan if motion == 0 else feed
         if motion in (2, 3):
-            seg = _gcode_arc(here, np.array((x, y, z)), vals.get("I", 0.0), vals.get("J", 0.0), motion == 2)
+            seg = _gcode_arc(here, np.array((x, y, z)), *modes.centre_ij(vals, here), motion == 2)
             b.move(seg, speed, values.get("wire_feed_speed", math.nan), bool(values))
         else:
             b.move_to(x, y, z, speed, values.get("wire_feed_speed", math.nan), bool(values))
