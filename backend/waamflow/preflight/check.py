@@ -348,6 +348,17 @@ def check_program(
         "layers_deposited": len(layers),
         "notes": list(prog.notes),
     }
+    if prog.unplaced and s.unreadable != "off":
+        n = len(prog.unplaced)
+        rep.problem(
+            "unreadable",
+            s.unreadable,
+            f"{n} statement{'s' if n != 1 else ''} of program {node} the preflight cannot place (first: "
+            f"{prog.unplaced[0]}): the program was not checked there, and what the controller does there is "
+            "not what was planned; write absolute targets in one frame",
+            value=n,
+            limit=0,
+        )
     if not prog.runs:
         rep.problem("program", "fail", f"program {node} has no arc-ON motion: nothing would be deposited")
         return _finish(out, rep, s)

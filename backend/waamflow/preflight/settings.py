@@ -103,6 +103,11 @@ class PreflightSettings(BaseModel):
     local_deposit_fail: tuple[float, float] = Field(
         (0.1, 8.0), description="Metal per mm of a stretch / the program's median: fail outside this band"
     )
+    unreadable: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Motions the preflight cannot place (RAPID RelTool, KRL LIN_REL, a G53 move, a target not "
+        "declared) and frames changed after the program has moved (work offset, work object, base, tool)",
+    )
     weld_speed: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed",

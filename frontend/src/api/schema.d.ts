@@ -1369,6 +1369,13 @@ export interface components {
                 number
             ];
             /**
+             * Unreadable
+             * @description Motions the preflight cannot place (RAPID RelTool, KRL LIN_REL, a G53 move, a target not declared) and frames changed after the program has moved (work offset, work object, base, tool)
+             * @default fail
+             * @enum {string}
+             */
+            unreadable: "off" | "warn" | "fail";
+            /**
              * Weld Speed
              * @description Arc-ON moves with no travel speed to weld at: a rapid (G0) with the arc on, or a zero feed
              * @default fail

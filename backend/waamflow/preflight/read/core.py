@@ -45,6 +45,8 @@ class ProgramRead:
     travel_z_min: float = math.inf
     travel_low: tuple[np.ndarray, int | None] | None = None
     notes: list[str] = field(default_factory=list)  # what the reader could not interpret
+    # motions it cannot place and frames changed after the program has moved (check: `unreadable`)
+    unplaced: list[str] = field(default_factory=list)
     weld_commanded: bool = True  # False: the format carries no weld data at all
 
 
@@ -64,7 +66,31 @@ class RunBuilder:
         self.run_layer: int | None = None
         self.run_section: str | None = None
         self.pos: np.ndarray | None = None
+        self.frames: dict[str, str] = {}  # frame kind → what the program set it to (`frame`)
+        self.lost = False  # a travel went somewhere unknown (`unplaced`): the program has moved
         self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
+
+    def frame(self, kind: str, value: str, where: str) -> None:
+        """A frame (work offset, work object, base, tool) set to `value`: once the program has
+        moved, a change is a motion the preflight cannot place (the frames' values are the
+        controller's, not the program's)."""
+        old = self.frames.get(kind)
+        if (self.pos is not None or self.lost) and value != old:
+            self.out.unplaced.append(
+                f"{where}: {value} changes the {kind} from {old or 'the one the program started in'} after the "
+                "program has moved; where the new one lies is the controller's setting"
+            )
+        self.frames[kind] = value
+
+    def unplaced(self, what: str) -> None:
+        """A motion the reader cannot place: with the arc on, the deposit there is unknown
+        (`ProgramRead.unplaced`, a failed check); with it off, a travel to somewhere unknown (a
+        note), after which the torch's position is unknown until the next absolute target."""
+        if self.pts is not None:
+            self.out.unplaced.append(what)
+            return
+        self.out.notes.append(f"{what} (arc off: a travel the preflight does not follow)")
+        self.pos, self.lost = None, True
 
     def comment(self, text: str) -> None:
         m = _LAYER.search(text)

@@ -61,7 +61,7 @@ def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> 
 # Words that change how later coordinates are read: inches, incremental distance, a G92 offset. A
 # program holding any (a machine profile's start or layer code may) is read line by line (`_Modes`);
 # the plain-line fast path assumes mm, absolute, no offset (what waamflow's posts write).
-_MODAL_WORDS = re.compile(r"G\s*0*(?:20|91|92)(?![0-9])", re.IGNORECASE)
+_MODAL_WORDS = re.compile(r"G\s*0*(?:20|91|92|10|53|5[4-9])(?![0-9])", re.IGNORECASE)
 _ENDS = {("M", 2.0), ("M", 30.0)}  # program end: nothing after it runs (RS274/NGC)
 
 
@@ -111,6 +111,27 @@ class _Modes:
         if self.arc_absolute:
             return i + self.offset[0] - here[0], j + self.offset[1] - here[1]
         return i, j
+
+
+def _frames(b: RunBuilder, gs: list[float], vals: dict[str, float], ln: int, raw: str) -> bool:
+    """Work offsets (G54-G59.3) as the builder's frame; a G10 offset setting once the program has
+    moved (the frame it changes is the controller's), and a G53 move in machine coordinates (with
+    the arc on: a deposit the preflight cannot place; off: a travel it does not follow): unplaced.
+    True when the line is consumed."""
+    for g in gs:
+        if 54.0 <= g <= 59.3:
+            b.frame("work offset", f"G{g:g}", f"line {ln}")
+    if 10.0 in gs:
+        if b.pos is not None or b.lost:
+            b.out.unplaced.append(
+                f"line {ln}: {raw.strip()}: G10 sets a work offset to values the program does not state"
+            )
+        return True
+    if 53.0 in gs:
+        if any(k in vals for k in "XYZ"):
+            b.unplaced(f"line {ln}: {raw.strip()}: G53 moves in machine coordinates")
+        return True
+    return False
 
 
 def _plain_g1(weld_rx: dict, arc_letters: set) -> Callable[[str], re.Match | None] | None:
@@ -198,6 +219,8 @@ def read_gcode(text: str) -> ProgramRead:
         if any((a, vals.get(a)) in _ENDS for a in "M"):
             break  # M2 / M30: the program ends here
         here = b.pos if b.pos is not None else np.zeros(3)
+        if _frames(b, gs, vals, ln, raw):
+            continue
         if modes.apply(gs, vals, here):
             continue
         for g in gs:

@@ -157,9 +157,18 @@ class _KrlReader:
             elif action == "ARCOFFAFTERMOVESTD":
                 b.close()
             return
+        fr = re.match(r"(?:\$(BASE|TOOL)\s*=\s*(.+)|BAS\s*\(\s*#(BASE|TOOL)\s*,\s*(\w+)\s*\))", up)
+        if fr:
+            kind = (fr.group(1) or fr.group(3)).lower()
+            b.frame(kind, (fr.group(2) or fr.group(4)).strip(), f"{name} line {ln}: {code}")
+            return
         mv = re.match(r"(LIN|PTP|CIRC)\s+(\w+)(?:\s*,\s*(\w+))?", up)
         if mv:
             self.motion(name, ln, mv.group(1), mv.group(2), mv.group(3), pts, wdats)
+        elif re.match(r"S?PTP\s+\$(AXIS|POS)_ACT\b", up):
+            return  # the BCO run to where the robot stands: no motion to place
+        elif re.match(r"(S?LIN|S?PTP|S?CIRC|SPLINE|SPL)(_REL)?\b", up):  # a motion of another kind, or to an aggregate
+            b.unplaced(f"{name} line {ln}: {code}: a motion the preflight cannot place (relative or inline target)")
 
     def motion(
         self,
@@ -173,7 +182,7 @@ class _KrlReader:
     ) -> None:
         """LIN/PTP to p1, or CIRC through p1 to p2, with the weld values in force."""
         if p1 not in pts or (kind == "CIRC" and p2 not in pts):
-            self.b.out.notes.append(f"{name} line {ln}: target {p1} not declared in the .dat")
+            self.b.unplaced(f"{name} line {ln}: target {p1} not declared in the .dat")
             return
         if kind == "CIRC" and p2 is not None:
             seg = np.vstack([pts[p1], pts[p2]])

@@ -68,14 +68,19 @@ def read_rapid(text: str) -> ProgramRead:
         if not m:
             continue
         instr = m.group(1).lower()
-        args = [a.strip() for a in re.split(r",(?![^\[]*\])", m.group(2))]
+        args = [a.strip() for a in re.split(r",(?![^\[(]*[\])])", m.group(2))]
         names = [a.split("\\")[0].lower() for a in args]
         circ = instr in ("movec", "arcc", "arccstart", "arccend")
-        targets = names[:2] if circ else names[:1]
-        if any(t not in pts for t in targets):
-            b.out.notes.append(f"line {ln}: target {targets} not declared")
+        wobj = re.search(r"\\WObj\s*:=\s*(\w+)", m.group(2), re.IGNORECASE)
+        b.frame("work object", wobj.group(1).lower() if wobj else "wobj0", f"line {ln}")
+        b.frame("tool", re.split(r"\\", args[-1])[0].strip().lower() if args else "", f"line {ln}")
+        at = [_target(t, pts) for t in (names[:2] if circ else names[:1])]
+        if any(p is None for p in at):
+            b.unplaced(
+                f"line {ln}: {code.strip()}: a target the preflight cannot place ({', '.join(args[: 2 if circ else 1])})"
+            )
             continue
-        seg = np.vstack([pts[t] for t in targets])
+        seg = np.vstack([p for p in at if p is not None])
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
@@ -91,6 +96,22 @@ def read_rapid(text: str) -> ProgramRead:
             b.close()
     b.close()
     return b.out
+
+
+_OFFS = re.compile(
+    r"offs\s*\(\s*(\w+)\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\)", re.IGNORECASE
+)
+
+
+def _target(arg: str, pts: dict[str, np.ndarray]) -> np.ndarray | None:
+    """Where a motion's target argument lies: a declared robtarget, or `Offs(p, dx, dy, dz)` of one
+    (its offset added in the work object); None for anything else (RelTool, CRobT, an expression)."""
+    if arg in pts:
+        return pts[arg]
+    m = _OFFS.fullmatch(arg.strip())
+    if m and m.group(1).lower() in pts:
+        return pts[m.group(1).lower()] + np.array([float(m.group(k)) for k in (2, 3, 4)])
+    return None
 
 
 _MODULE = re.compile(r"^\s*MODULE\s+(\w+)", re.IGNORECASE | re.MULTILINE)
