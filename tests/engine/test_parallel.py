@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.wall_recipe import wall_recipe
 from waamflow.engine import parallel
 from waamflow.engine.cache import MemoryCache
 from waamflow.engine.executor import FileResolver, execute
@@ -606,25 +607,7 @@ def test_wall_path_rings_centre_lines_in_the_workers_give_the_same_program(alway
     import trimesh
 
     trimesh.creation.annulus(r_min=30.0, r_max=36.0, height=30.0, sections=256).export(tmp_path / "tube.stl")
-    rec = {
-        "format": "waamflow/1",
-        "name": "tube",
-        "nodes": [
-            {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
-            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
-            {
-                "id": "post",
-                "type": "post-process",
-                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
-            },
-        ],
-        "edges": [
-            {"from": "part.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "walls.layers"},
-            {"from": "walls.toolpath", "to": "post.toolpath"},
-        ],
-    }
+    rec = wall_recipe("tube.stl")
     (tmp_path / "tube.json").write_text(json.dumps(rec))
     mapped: list[str] = []
     pmap = parallel.LayerPool.map

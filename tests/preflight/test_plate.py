@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import trimesh
 from tests.preflight.test_preflight import BEAD, LAYER, box_part, gcode, good_layers
+from tests.wall_recipe import wall_recipe
 
 from waamflow.preflight.check import Part, check_program
 from waamflow.preflight.read import read_gcode
@@ -89,25 +90,7 @@ def test_the_cli_refuses_a_tube_sliced_from_z_min_and_a_tube_centred_on_the_orig
     tube.export(tmp_path / "centred.stl")  # z -15 .. 15
     tube.apply_translation((0, 0, 15))
     tube.export(tmp_path / "tube.stl")
-    recipe = {
-        "format": "waamflow/1",
-        "name": "tube",
-        "nodes": [
-            {"id": "part", "type": "mesh", "params": {"path": "tube.stl"}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 1.5}},
-            {"id": "walls", "type": "wall-path", "params": {"speed": 10.0, "bead_width": 6.0}},
-            {
-                "id": "post",
-                "type": "post-process",
-                "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 5.0}},
-            },
-        ],
-        "edges": [
-            {"from": "part.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "walls.layers"},
-            {"from": "walls.toolpath", "to": "post.toolpath"},
-        ],
-    }
+    recipe = wall_recipe("tube.stl")
     (tmp_path / "tube.json").write_text(json.dumps(recipe))
 
     def run(*extra: str) -> tuple[int, str, dict]:
