@@ -91,3 +91,29 @@ def test_gcode_frame_changes_after_moving_fail(what, edit):
     # layers (arc off) is a travel the preflight does not follow: neither is a problem
     ok = gcode(good_layers()).replace("G21\nG90", "G21\nG90\nG54").replace("; layer 2", "G53 G0 Z100\n; layer 2")
     assert check_program(box_part(), read_gcode(ok), "post", PreflightSettings(), BEAD)["verdict"] == "ok"
+
+
+@pytest.fixture(scope="module")
+def tp_planned():
+    g = build_graph(apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(["format=tp"])))
+    return g, execute(g, resolver=FileResolver(GRAPHS), workers=1)
+
+
+@pytest.mark.parametrize(
+    "what, edit",
+    [
+        ("Offset", lambda t: t.replace("L P[10] 8mm/sec CNT100", "L P[10] 8mm/sec CNT100 Offset,PR[1]")),
+        (
+            "UFRAME_NUM=2",
+            lambda t: t.replace("L P[10] 8mm/sec CNT100    ;", "UFRAME_NUM=2 ;\\n  19:L P[10] 8mm/sec CNT100    ;"),
+        ),
+    ],
+)
+def test_fanuc_offsets_and_frame_changes_fail(tp_planned, what, edit):
+    g, res = tp_planned
+    assert run_preflight(g, res.outputs, res.artifacts)["verdict"] == "ok"  # UFRAME_NUM=1 in every file: no change
+    progs = [k for k in res.artifacts if k.endswith(".LS")]
+    arts = {k: (edit(v.decode()).encode() if k in progs else v) for k, v in res.artifacts.items()}
+    assert any(arts[k] != res.artifacts[k] for k in progs)
+    (p,) = [p for p in run_preflight(g, res.outputs, arts)["problems"] if p["check"] == "unreadable"]
+    assert p["severity"] == "fail" and what.split("=")[0] in p["message"]

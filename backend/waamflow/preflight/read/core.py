@@ -77,7 +77,7 @@ class RunBuilder:
         old = self.frames.get(kind)
         if (self.pos is not None or self.lost) and value != old:
             self.out.unplaced.append(
-                f"{where}: {value} changes the {kind} from {old or 'the one the program started in'} after the "
+                f"{where}: the {kind} changes from {old or 'the one the program started in'} to {value} after the "
                 "program has moved; where the new one lies is the controller's setting"
             )
         self.frames[kind] = value

@@ -15,6 +15,7 @@ _TP_LINE = re.compile(r"^\s*\d+:(.*?);\s*$")
 _TP_CALL = re.compile(r"^CALL\s+(\w+)")
 _TP_MOVE = re.compile(r"^[LJ]\s+P\[(\d+)\]\s+(" + NUM + r")(mm/sec|cm/min)\b")
 _TP_ARC = re.compile(r"^Arc (Start|End)\[(\d+)\]")
+_TP_FRAME = re.compile(r"^(UFRAME|UTOOL)_NUM\s*=\s*(\w+)", re.IGNORECASE)
 _TP_POS = re.compile(
     r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*(" + NUM + r")\s*mm", re.DOTALL
 )
@@ -81,11 +82,22 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                 if b.pts is None:
                     b.arc_on(line_no)
                 continue
+            fr = _TP_FRAME.match(ln)
+            if fr:
+                b.frame(
+                    "user frame" if fr.group(1).upper() == "UFRAME" else "tool frame",
+                    fr.group(2),
+                    f"line {line_no}: {ln}",
+                )
+                continue
             m = _TP_MOVE.match(ln)
+            if m and re.search(r"\b(Offset|Tool_Offset|INC)\b", ln, re.IGNORECASE):
+                b.unplaced(f"line {line_no}: {ln}: an offset or incremental motion the preflight cannot place")
+                continue
             if m:
                 k = int(m.group(1))
                 if k not in pos:
-                    b.out.notes.append(f"line {line_no}: P[{k}] not in the program's /POS")
+                    b.unplaced(f"line {line_no}: P[{k}] not in the program's /POS")
                     continue
                 weld = any(vals.get(n, 0.0) > 0 for n in ("current", "voltage", "wire_feed_speed"))
                 b.move(pos[k], float(m.group(2)) * _TP_SPEED[m.group(3)], vals.get("wire_feed_speed", math.nan), weld)
