@@ -62,7 +62,8 @@ def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> 
 # program holding any (a machine profile's start or layer code may) is read line by line (`_Modes`);
 # the plain-line fast path assumes mm, absolute, no offset (what waamflow's posts write).
 _MODAL_WORDS = re.compile(r"G\s*0*(?:20|91|92|10|53|5[4-9])(?![0-9])", re.IGNORECASE)
-_ENDS = {("M", 2.0), ("M", 30.0)}  # program end: nothing after it runs (RS274/NGC)
+_ENDS = (2.0, 30.0)  # M2, M30: the program ends, nothing after it runs (RS274/NGC)
+_PLAIN_G = frozenset((0.0, 1.0, 2.0, 3.0, 4.0))  # motions and dwells: no mode of `_Modes` to take
 
 
 class _Modes:
@@ -77,6 +78,7 @@ class _Modes:
         self.incremental = False
         self.arc_absolute = False
         self.offset = np.zeros(3)
+        self.plain = True  # mm, absolute, no offset: a motion's words are its point
 
     def apply(self, gs: list[float], vals: dict[str, float], here: np.ndarray) -> bool:
         """Take a line's G words; True when the line is consumed (a G92 offset, no motion)."""
@@ -89,12 +91,12 @@ class _Modes:
                 self.arc_absolute = g == 90.1
             elif g in (92.1, 92.2):
                 self.offset = np.zeros(3)
-        if 92.0 not in gs:
-            return False
-        for k, a in enumerate("XYZ"):
-            if a in vals:
-                self.offset[k] = here[k] - vals[a] * self.scale
-        return True
+        if 92.0 in gs:
+            for k, a in enumerate("XYZ"):
+                if a in vals:
+                    self.offset[k] = here[k] - vals[a] * self.scale
+        self.plain = self.scale == 1.0 and not self.incremental and not self.offset.any()
+        return 92.0 in gs
 
     def target(self, vals: dict[str, float], here: np.ndarray) -> np.ndarray:
         """Where a motion's X Y Z words send the torch (axes not given stay)."""
@@ -216,13 +218,12 @@ def read_gcode(text: str) -> ProgramRead:
                 gs.append(float(v))
             else:
                 vals[a] = float(v)
-        if any((a, vals.get(a)) in _ENDS for a in "M"):
+        if vals.get("M") in _ENDS:
             break  # M2 / M30: the program ends here
-        here = b.pos if b.pos is not None else np.zeros(3)
-        if _frames(b, gs, vals, ln, raw):
-            continue
-        if modes.apply(gs, vals, here):
-            continue
+        if gs and not _PLAIN_G.issuperset(gs):  # a mode, a frame or an offset: what later coordinates mean
+            here = b.pos if b.pos is not None else np.zeros(3)
+            if _frames(b, gs, vals, ln, raw) or modes.apply(gs, vals, here):
+                continue
         for g in gs:
             if g in (0, 1, 2, 3):
                 motion = int(g)
@@ -230,7 +231,13 @@ def read_gcode(text: str) -> ProgramRead:
             feed = vals["F"] * modes.scale * (1.0 if per_s else 1.0 / 60.0)
         if 4 in gs or not any(k in vals for k in "XYZ"):
             continue
-        x, y, z = modes.target(vals, here).tolist()
+        here = b.pos if b.pos is not None else np.zeros(3)
+        if modes.plain:
+            x = vals["X"] if "X" in vals else float(here[0])
+            y = vals["Y"] if "Y" in vals else float(here[1])
+            z = vals["Z"] if "Z" in vals else float(here[2])
+        else:
+            x, y, z = modes.target(vals, here).tolist()
         speed = math.nan if motion == 0 else feed
         if motion in (2, 3):
             seg = _gcode_arc(here, np.array((x, y, z)), *modes.centre_ij(vals, here), motion == 2)

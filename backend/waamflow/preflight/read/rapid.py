@@ -60,6 +60,7 @@ def read_rapid(text: str) -> ProgramRead:
             float(speed), {f: v for f, v in zip(fields, numbers) if f in WELD_COMMANDED and v != 0.0}
         )
     b = RunBuilder("rapid")
+    tail = None  # the last motion's last argument (tool and work object)
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition("!")
         if comment.strip():
@@ -68,13 +69,16 @@ def read_rapid(text: str) -> ProgramRead:
         if not m:
             continue
         instr = m.group(1).lower()
-        args = [a.strip() for a in re.split(r",(?![^\[(]*[\])])", m.group(2))]
+        split = _SPLIT_CALL if "(" in m.group(2) else _SPLIT  # commas outside [...] (and (...) of Offs etc.)
+        args = [a.strip() for a in split.split(m.group(2))]
         names = [a.split("\\")[0].lower() for a in args]
         circ = instr in ("movec", "arcc", "arccstart", "arccend")
-        wobj = re.search(r"\\WObj\s*:=\s*(\w+)", m.group(2), re.IGNORECASE)
-        b.frame("work object", wobj.group(1).lower() if wobj else "wobj0", f"line {ln}")
-        b.frame("tool", re.split(r"\\", args[-1])[0].strip().lower() if args else "", f"line {ln}")
-        at = [_target(t, pts) for t in (names[:2] if circ else names[:1])]
+        if args and args[-1] != tail:  # the tool and work object: the same on most motions, parsed once
+            tail = args[-1]
+            wobj = re.search(r"\\WObj\s*:=\s*(\w+)", tail, re.IGNORECASE)
+            b.frame("work object", wobj.group(1).lower() if wobj else "wobj0", f"line {ln}")
+            b.frame("tool", tail.split("\\")[0].strip().lower(), f"line {ln}")
+        at = [pts[t] if t in pts else _target(t, pts) for t in (names[:2] if circ else names[:1])]
         if any(p is None for p in at):
             b.unplaced(
                 f"line {ln}: {code.strip()}: a target the preflight cannot place ({', '.join(args[: 2 if circ else 1])})"
@@ -98,6 +102,8 @@ def read_rapid(text: str) -> ProgramRead:
     return b.out
 
 
+_SPLIT = re.compile(r",(?![^\[]*\])")
+_SPLIT_CALL = re.compile(r",(?![^\[(]*[\])])")
 _OFFS = re.compile(
     r"offs\s*\(\s*(\w+)\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\)", re.IGNORECASE
 )
