@@ -229,16 +229,20 @@ MAX_HOLE_SHARE = 0.01
 MAX_OPEN_EDGES_FILLED = 4000  # more open edges than this: a surface's rim or a torn mesh, not a few facets
 
 
+def _area(tri: np.ndarray) -> float:
+    """The summed area of triangles (k, 3, 3)."""
+    return float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
+
+
 def fill_small_holes(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
     """`faces` with every hole of 3 or 4 open edges closed (one or two triangles wound against
     the hole's edges, so they match their neighbours), when every open edge lies on such a hole
     and all of them together cover at most `MAX_HOLE_SHARE` of the surface; else `faces` as
     given. Returns (faces, holes filled)."""
     f = np.asarray(faces, dtype=np.int64)
-    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)
-    key = np.minimum(a, b) * len(verts) + np.maximum(a, b)
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    single = counts[inverse] == 1
+    a, b = f.reshape(-1), f[:, [1, 2, 0]].reshape(-1)  # directed edge 3·face + i: corner i → i+1 (topology)
+    _edges, counts, eid = edge_uses(f, len(verts))
+    single = counts[eid] == 1
     if not 3 <= np.count_nonzero(single) <= MAX_OPEN_EDGES_FILLED:
         return faces, 0
     nxt: dict[int, int] = {}
@@ -260,10 +264,7 @@ def fill_small_holes(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
         p0, p1, p2 = loop[:3]
         new += [[p0, p2, p1]] if len(loop) == 3 else [[p0, loop[3], p2], [p0, p2, p1]]
         holes += 1
-    tri = verts[np.asarray(new)]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
-    all_tri = verts[f]
-    total = 0.5 * np.linalg.norm(np.cross(all_tri[:, 1] - all_tri[:, 0], all_tri[:, 2] - all_tri[:, 0]), axis=1).sum()
+    area, total = _area(verts[np.asarray(new)]), _area(verts[f])
     if not total > 0 or area > MAX_HOLE_SHARE * total:
         return faces, 0
     return np.concatenate([f, np.asarray(new, dtype=np.int64)]), holes

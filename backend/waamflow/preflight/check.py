@@ -406,15 +406,15 @@ def check_program(
             precomputed=cov.get("excursions"),
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
-    # the deposit's bottom against the part's and the plate's (bottom.py): layer spacing between deposited layers
-    h_dep = float(np.median(np.diff(np.sort(heights)))) if planar and len(heights) > 1 else h_typ
+    # the deposit's bottom against the part's and the plate's (bottom.py), the layers' order (order.py) and
+    # moves off a layer's plane (plane.py), on the spacing between the deposited layers' heights
+    spacing = float(np.median(np.diff(np.sort(heights)))) if len(heights) > 1 else None
+    h_dep = spacing if planar and spacing is not None else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:
         layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
-    else:  # a planar layer with a move off its plane made the program "not planar" (plane.py)
-        z_jump_problems(
-            layers, float(np.median(np.diff(np.sort(heights)))) if len(heights) > 1 else None, PLANAR_TOL_MM, rep, s
-        )
+    else:  # a planar layer with a move off its plane made the program "not planar"
+        z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _speedless(prog, rep, s)
     _local_deposit(prog, width, rep, s)

@@ -8,7 +8,7 @@ below inside the part, or in machining stock outside it). `check.check_program` 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 import shapely
@@ -125,14 +125,19 @@ def _wire_balance(
             )
 
 
+def _flagged(prog: ProgramRead, moves: Callable[[Run], np.ndarray]) -> list[tuple[Run, np.ndarray]]:
+    """(run, indices of its arc-ON moves that `moves` flags) of each run with any, in program order."""
+    out = [(r, np.flatnonzero(moves(r))) for r in prog.runs]
+    return [(r, k) for r, k in out if len(k)]
+
+
 def _speedless(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     """Arc-ON moves with no travel speed to weld at: a rapid with the arc on (G0: the controller's
     rapid rate, read as no speed) or a zero feed (F0: refused by LinuxCNC, a stall with the arc
     burning elsewhere). Their metal is unknown, so the wire balance has no ratio either."""
     if s.weld_speed == "off":
         return
-    bad = [(r, np.flatnonzero(~(np.isfinite(r.speed) & (r.speed > 0)))) for r in prog.runs]
-    bad = [(r, k) for r, k in bad if len(k)]
+    bad = _flagged(prog, lambda r: ~(np.isfinite(r.speed) & (r.speed > 0)))
     if not bad:
         return
     count = sum(len(k) for _r, k in bad)
@@ -218,8 +223,7 @@ def _starved(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     the arc burns there with no wire, which the part's metal balance can hide when the zone is short."""
     if s.wire_feed_min == "off":
         return
-    low = [(r, np.flatnonzero(np.isfinite(r.wfs) & (r.wfs < s.wire_feed_min_m_min))) for r in prog.runs]
-    low = [(r, k) for r, k in low if len(k)]
+    low = _flagged(prog, lambda r: np.isfinite(r.wfs) & (r.wfs < s.wire_feed_min_m_min))
     if not low:
         return
     count = sum(len(k) for _r, k in low)

@@ -40,14 +40,18 @@ class ProgramRead:
     format: str
     runs: list[Run] = field(default_factory=list)
     travel_mm: float = 0.0
-    # the lowest point a motion with the arc off reaches, and the layer it comes before
-    # (bottom.py: a travel below the plate); inf without travel
-    travel_z_min: float = math.inf
+    # the lowest point a motion with the arc off reaches, and the layer it is in (bottom.py: a travel
+    # below the plate); None without travel
     travel_low: tuple[np.ndarray, int | None] | None = None
     notes: list[str] = field(default_factory=list)  # what the reader could not interpret
     # motions it cannot place and frames changed after the program has moved (check: `unreadable`)
     unplaced: list[str] = field(default_factory=list)
     weld_commanded: bool = True  # False: the format carries no weld data at all
+
+    @property
+    def travel_z_min(self) -> float:
+        """The z of `travel_low`, mm; inf without travel."""
+        return float(self.travel_low[0][2]) if self.travel_low is not None else math.inf
 
 
 class RunBuilder:
@@ -75,12 +79,17 @@ class RunBuilder:
         moved, a change is a motion the preflight cannot place (the frames' values are the
         controller's, not the program's)."""
         old = self.frames.get(kind)
-        if (self.pos is not None or self.lost) and value != old:
+        if self.moved and value != old:
             self.out.unplaced.append(
                 f"{where}: the {kind} changes from {old or 'the one the program started in'} to {value} after the "
                 "program has moved; where the new one lies is the controller's setting"
             )
         self.frames[kind] = value
+
+    @property
+    def moved(self) -> bool:
+        """The program has moved: a position is known, or a travel went somewhere unknown."""
+        return self.pos is not None or self.lost
 
     def unplaced(self, what: str) -> None:
         """A motion the reader cannot place: with the arc on, the deposit there is unknown
@@ -142,7 +151,6 @@ class RunBuilder:
             z = targets[:, 2]
             k = int(np.nanargmin(z)) if np.isfinite(z).any() else -1  # nan: an axis not yet known
             if k >= 0 and z[k] < self.out.travel_z_min:
-                self.out.travel_z_min = float(targets[k, 2])
                 self.out.travel_low = (targets[k].copy(), self.layer)
         self.pos = last
         self._after_move()
@@ -169,7 +177,7 @@ class RunBuilder:
             self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
             self.pos = np.array((x, y, z))
             if z < self.out.travel_z_min:
-                self.out.travel_z_min, self.out.travel_low = z, (self.pos.copy(), self.layer)
+                self.out.travel_low = (self.pos.copy(), self.layer)
             self._after_move()
         else:
             self.move(np.array((x, y, z)), speed, wfs, weld)

@@ -58,9 +58,10 @@ def _gcode_arc(p0: np.ndarray, p1: np.ndarray, i: float, j: float, cw: bool) -> 
     return pts
 
 
-# Words that change how later coordinates are read: inches, incremental distance, a G92 offset. A
-# program holding any (a machine profile's start or layer code may) is read line by line (`_Modes`);
-# the plain-line fast path assumes mm, absolute, no offset (what waamflow's posts write).
+# Words that change how later coordinates are read: inches, incremental distance, a G92 offset (`_Modes`),
+# a work offset, G10, G53 (`_frames`). A program holding any (a machine profile's start or layer code
+# may) is read line by line; the plain-line fast path assumes mm, absolute, no offset, one frame (what
+# waamflow's posts write).
 _MODAL_WORDS = re.compile(r"G\s*0*(?:20|91|92|10|53|5[4-9])(?![0-9])", re.IGNORECASE)
 _ENDS = (2.0, 30.0)  # M2, M30: the program ends, nothing after it runs (RS274/NGC)
 _PLAIN_G = frozenset((0.0, 1.0, 2.0, 3.0, 4.0))  # motions and dwells: no mode of `_Modes` to take
@@ -124,7 +125,7 @@ def _frames(b: RunBuilder, gs: list[float], vals: dict[str, float], ln: int, raw
         if 54.0 <= g <= 59.3:
             b.frame("work offset", f"G{g:g}", f"line {ln}")
     if 10.0 in gs:
-        if b.pos is not None or b.lost:
+        if b.moved:
             b.out.unplaced.append(
                 f"line {ln}: {raw.strip()}: G10 sets a work offset to values the program does not state"
             )

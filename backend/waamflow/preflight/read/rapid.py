@@ -110,10 +110,9 @@ _OFFS = re.compile(
 
 
 def _target(arg: str, pts: dict[str, np.ndarray]) -> np.ndarray | None:
-    """Where a motion's target argument lies: a declared robtarget, or `Offs(p, dx, dy, dz)` of one
-    (its offset added in the work object); None for anything else (RelTool, CRobT, an expression)."""
-    if arg in pts:
-        return pts[arg]
+    """Where a motion's target argument lies when it is not a declared robtarget's name (the caller
+    looks those up): `Offs(p, dx, dy, dz)` of one (its offset added in the work object); None for
+    anything else (RelTool, CRobT, an expression)."""
     m = _OFFS.fullmatch(arg.strip())
     if m and m.group(1).lower() in pts:
         return pts[m.group(1).lower()] + np.array([float(m.group(k)) for k in (2, 3, 4)])
