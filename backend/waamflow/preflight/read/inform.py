@@ -1,5 +1,9 @@
 """Yaskawa INFORM read back: the jobs in the order the main job calls them, C positions from each
-job's //POS, current and voltage from ARCON/ARCSET."""
+job's //POS (with the user frame, tool and position type each is declared under), current and
+voltage from ARCON/ARCSET. A motion the reader cannot place — an incremental `IMOV`, a move to a
+position variable (P, BP, EX, LP: the controller's values), a move while a parallel shift
+(`SFTON`) is on, a C position in joint pulses — and a change of user frame or tool after the
+program has moved are `unplaced` (RunBuilder)."""
 
 from __future__ import annotations
 
@@ -12,9 +16,112 @@ from .core import NUM, ProgramRead, RunBuilder
 
 _JOB_NAME = re.compile(r"^//NAME\s+(\S+)", re.MULTILINE)
 _JOB_CALL = re.compile(r"^CALL\s+JOB:(\S+)", re.MULTILINE)
-_CPOS = re.compile(r"^C(\d+)=(" + NUM + r"),(" + NUM + r"),(" + NUM + r")", re.MULTILINE)
-_INF_MOVE = re.compile(r"^S?MOV[LJ]\s+C(\d+)\b.*?\bV=(" + NUM + r")")
+_CPOS = re.compile(r"^C(\d+)=(" + NUM + r"),(" + NUM + r"),(" + NUM + r")")
+_POS_TAG = re.compile(r"^///(USER|TOOL|POSTYPE)\s+(\w+)")
+_INF_MOVE = re.compile(r"^(S?MOV[LJCS]|IMOV)\s+(\S+)(.*)$")
+_INF_SPEED = re.compile(r"\bV=(" + NUM + r")")
+_INF_TOOL = re.compile(r"\bTOOL#\((\d+)\)")
+_INF_MFRAME = re.compile(r"^MFRAME\s+UF#\((\d+)\)")
 _INF_VAL = re.compile(r"\b(AC|AV)=(" + NUM + r")")
+
+
+class _CPoint:
+    """A C position of a job's //POS and the frame it is declared in."""
+
+    __slots__ = ("xyz", "postype", "user", "tool")
+
+    def __init__(self, xyz: np.ndarray, postype: str, user: str, tool: str) -> None:
+        self.xyz, self.postype, self.user, self.tool = xyz, postype, user, tool
+
+
+def _job_positions(text: str) -> dict[int, _CPoint]:
+    """C number → position and frame, from the //POS section: `///POSTYPE` USER (the user frame
+    `///USER n`), ROBOT (the robot's base), PULSE (joint pulses: not a place); `///TOOL n`."""
+    out: dict[int, _CPoint] = {}
+    postype, user, tool = "USER", "0", "0"
+    for ln in text.split("//INST", 1)[0].splitlines():
+        m = _POS_TAG.match(ln)
+        if m:
+            tag, v = m.group(1), m.group(2).upper()
+            postype, user, tool = (
+                (v, user, tool) if tag == "POSTYPE" else (postype, v, tool) if tag == "USER" else (postype, user, v)
+            )
+            continue
+        m = _CPOS.match(ln)
+        if m:
+            xyz = np.array([float(m.group(2)), float(m.group(3)), float(m.group(4))])
+            out[int(m.group(1))] = _CPoint(xyz, postype, user, tool)
+    return out
+
+
+class _InformReader:
+    """Walks the jobs' //INST lines into a RunBuilder."""
+
+    def __init__(self) -> None:
+        self.b = RunBuilder("inform")
+        self.vals: dict[str, float] = {}
+        self.shift: str | None = None  # where a parallel shift (SFTON) was turned on
+        self.line_no = 0  # INST lines over all jobs (a run's line)
+
+    def job(self, name: str, text: str) -> None:
+        pos = _job_positions(text)
+        head, _, inst = text.partition("//INST")
+        first = head.count("\n") + 1  # the file line of //INST
+        self.shift = None  # a shift ends with its job
+        for k, raw in enumerate(inst.splitlines()):
+            self.line_no += 1
+            self.instruction(raw.strip(), pos, f"{name} line {first + k}")
+
+    def instruction(self, ln: str, pos: dict[int, _CPoint], where: str) -> None:
+        b = self.b
+        if ln.startswith("'"):
+            b.comment(ln[1:])
+        elif ln.startswith(("ARCON", "ARCSET")):
+            self.vals.update({k: float(v) for k, v in _INF_VAL.findall(ln)})
+            if ln.startswith("ARCON"):
+                b.arc_on(self.line_no)
+        elif ln.startswith("ARCOF"):
+            b.close()
+        elif ln.startswith("SFTON"):
+            self.shift = where
+        elif ln.startswith("SFTOF"):
+            self.shift = None
+        elif m := _INF_MFRAME.match(ln):
+            if b.moved and b.frames.get("user frame") == f"USER {m.group(1)}":
+                b.out.unplaced.append(
+                    f"{where}: {ln}: the user frame in use is redefined after the program has moved; where it "
+                    "lies then is the controller's computation"
+                )
+        elif m := _INF_MOVE.match(ln):
+            self.motion(m.group(1), m.group(2), m.group(3), pos, f"{where}: {ln}")
+
+    def motion(self, kind: str, target: str, tail: str, pos: dict[int, _CPoint], where: str) -> None:
+        b = self.b
+        c = re.fullmatch(r"C(\d+)", target)
+        if kind == "IMOV":
+            b.unplaced(f"{where}: an incremental motion the preflight cannot place")
+            return
+        if c is None:
+            b.unplaced(f"{where}: a move to the position variable {target}, the controller's value")
+            return
+        if self.shift is not None:
+            b.unplaced(f"{where}: a move under the parallel shift (SFTON at {self.shift})")
+            return
+        p = pos.get(int(c.group(1)))
+        if p is None:
+            b.unplaced(f"{where}: C{int(c.group(1)):05d} not in the job's //POS")
+            return
+        if p.postype not in ("USER", "ROBOT"):
+            b.unplaced(f"{where}: C{int(c.group(1)):05d} is in {p.postype.lower()} (joint) values")
+            return
+        tool = _INF_TOOL.search(tail)
+        b.frame("user frame", f"USER {p.user}" if p.postype == "USER" else "the robot base", where)
+        b.frame("tool", f"TOOL {tool.group(1) if tool else p.tool}", where)
+        sp = _INF_SPEED.search(tail)
+        # a joint move (MOVJ, VJ= % of the joints' speed) has no tool speed: nan (check weld_speed)
+        speed = float(sp.group(1)) if sp and kind != "MOVJ" else math.nan
+        weld = bool(self.vals.get("AC") or self.vals.get("AV"))
+        b.move(p.xyz, speed, math.nan, weld)
 
 
 def read_inform(files: dict[str, str]) -> ProgramRead:
@@ -22,34 +129,13 @@ def read_inform(files: dict[str, str]) -> ProgramRead:
     own //POS; the weld values are ARCON/ARCSET's AC= (current A) and AV= (voltage V)."""
     jobs = {m.group(1).upper(): t for t in files.values() if (m := _JOB_NAME.search(t))}
     main = next((t for t in files.values() if _JOB_CALL.search(t)), next(iter(files.values())))
-    order = [jobs[c.upper()] for c in _JOB_CALL.findall(main) if c.upper() in jobs] or [main]
-    b = RunBuilder("inform")
-    vals: dict[str, float] = {}
-    line_no = 0
-    for text in order:
-        pos = {int(k): np.array([float(x), float(y), float(z)]) for k, x, y, z in _CPOS.findall(text)}
-        inst = text.split("//INST", 1)[-1]
-        for raw in inst.splitlines():
-            line_no += 1
-            ln = raw.strip()
-            if ln.startswith("'"):
-                b.comment(ln[1:])
-                continue
-            if ln.startswith(("ARCON", "ARCSET")):
-                vals.update({k: float(v) for k, v in _INF_VAL.findall(ln)})
-                if ln.startswith("ARCON"):
-                    b.arc_on(line_no)
-                continue
-            if ln.startswith("ARCOF"):
-                b.close()
-                continue
-            m = _INF_MOVE.match(ln)
-            if m:
-                k = int(m.group(1))
-                if k not in pos:
-                    b.out.notes.append(f"line {line_no}: C{k:05d} not in the job's //POS")
-                    continue
-                weld = bool(vals.get("AC") or vals.get("AV"))
-                b.move(pos[k], float(m.group(2)), math.nan, weld)
-    b.close()
-    return b.out
+    calls = [c for c in _JOB_CALL.findall(main) if c.upper() in jobs]
+    r = _InformReader()
+    if calls:
+        for c in calls:
+            r.job(c.upper(), jobs[c.upper()])
+    else:
+        m = _JOB_NAME.search(main)
+        r.job(m.group(1) if m else "job", main)
+    r.b.close()
+    return r.b.out
