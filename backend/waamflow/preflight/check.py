@@ -28,6 +28,7 @@ from shapely.ops import unary_union
 from .bottom import bottom_problems
 from .order import layer_order_problems
 from .plane import z_jump_problems
+from .retrace import retrace_problems
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -415,6 +416,7 @@ def check_program(
         layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
     else:  # a planar layer with a move off its plane made the program "not planar"
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
+    retrace_problems(layers, width, out, rep, s)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
     _speedless(prog, rep, s)
     _local_deposit(prog, width, rep, s)

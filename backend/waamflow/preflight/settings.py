@@ -87,6 +87,18 @@ class PreflightSettings(BaseModel):
         description="A layer welded below, or at the height of, metal welded before it at the same place "
         "(planar programs): the torch would weld into it",
     )
+    retrace: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="An arc-ON run that welds more than retrace_max_share of its length over beads earlier runs "
+        "of its layer laid, running the same way or back (a section or layer sent twice)",
+    )
+    retrace_max_share: float = Field(
+        0.5,
+        gt=0,
+        le=1,
+        description="Largest share of a run's length that may lie on earlier runs' beads of its layer (the "
+        "shipped examples: 0.016 at most; mpp-cross with triangular weaves at 9 mm spacing 0.16)",
+    )
     z_jump: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="An arc-ON move of a planar layer that climbs or drops more than half a layer height "

@@ -1331,6 +1331,19 @@ export interface components {
              */
             layer_order: "off" | "warn" | "fail";
             /**
+             * Retrace
+             * @description An arc-ON run that welds more than retrace_max_share of its length over beads earlier runs of its layer laid, running the same way or back (a section or layer sent twice)
+             * @default fail
+             * @enum {string}
+             */
+            retrace: "off" | "warn" | "fail";
+            /**
+             * Retrace Max Share
+             * @description Largest share of a run's length that may lie on earlier runs' beads of its layer (the shipped examples: 0.016 at most; mpp-cross with triangular weaves at 9 mm spacing 0.16)
+             * @default 0.5
+             */
+            retrace_max_share: number;
+            /**
              * Z Jump
              * @description An arc-ON move of a planar layer that climbs or drops more than half a layer height (at least 1 mm) off the layer's plane
              * @default fail
