@@ -29,6 +29,7 @@ from .bottom import bottom_problems
 from .order import layer_order_problems
 from .plane import z_jump_problems
 from .retrace import retrace_problems
+from .torch import torch_axis_problems
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -407,8 +408,32 @@ def check_program(
             precomputed=cov.get("excursions"),
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
-    # the deposit's bottom against the part's and the plate's (bottom.py), the layers' order (order.py) and
-    # moves off a layer's plane (plane.py), on the spacing between the deposited layers' heights
+    _layer_problems(part, prog, layers, heights, h_typ, planar, width, out, rep, s)
+    _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
+    _speedless(prog, rep, s)
+    _local_deposit(prog, width, rep, s)
+    _starved(prog, rep, s)
+    _arc_runs(prog, layers, width, out, rep, s)
+    _ignitions(part, layers, cov, planar, width, out, rep, s)
+    return _finish(out, rep, s)
+
+
+def _layer_problems(
+    part: Part | None,
+    prog: ProgramRead,
+    layers: list[tuple[int, list[Run]]],
+    heights: list[float],
+    h_typ: float | None,
+    planar: bool,
+    width: float,
+    out: dict,
+    rep: Report,
+    s: PreflightSettings,
+) -> None:
+    """The deposit's bottom against the part's and the plate's (bottom.py), the layers' order
+    (order.py), moves off a layer's plane (plane.py), stretches welded twice (retrace.py) and the
+    torch against the way each layer grows (torch.py), on the spacing between the deposited
+    layers' heights."""
     spacing = float(np.median(np.diff(np.sort(heights)))) if len(heights) > 1 else None
     h_dep = spacing if planar and spacing is not None else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
@@ -417,13 +442,7 @@ def check_program(
     else:  # a planar layer with a move off its plane made the program "not planar"
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
     retrace_problems(layers, width, out, rep, s)
-    _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
-    _speedless(prog, rep, s)
-    _local_deposit(prog, width, rep, s)
-    _starved(prog, rep, s)
-    _arc_runs(prog, layers, width, out, rep, s)
-    _ignitions(part, layers, cov, planar, width, out, rep, s)
-    return _finish(out, rep, s)
+    torch_axis_problems(layers, prog, planar, spacing, out, rep, s)
 
 
 def _coverage_problems(

@@ -99,6 +99,20 @@ class PreflightSettings(BaseModel):
         description="Largest share of a run's length that may lie on earlier runs' beads of its layer (the "
         "shipped examples: 0.016 at most; mpp-cross with triangular weaves at 9 mm spacing 0.16)",
     )
+    torch_axis: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Robot programs: an arc-ON target whose torch (the orientation the program states) points more "
+        "than torch_axis_fail_deg away from the way its layer grows",
+    )
+    torch_axis_warn_deg: float = Field(
+        30.0, ge=0, le=180, description="Warn when the torch points more than this away from the build direction, deg"
+    )
+    torch_axis_fail_deg: float = Field(
+        60.0,
+        ge=0,
+        le=180,
+        description="Fail (setting torch_axis) when the torch points more than this away from the build direction, deg",
+    )
     z_jump: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="An arc-ON move of a planar layer that climbs or drops more than half a layer height "
@@ -213,4 +227,6 @@ class PreflightSettings(BaseModel):
             raise ValueError("uncovered_warn must not exceed uncovered_fail")
         if self.layer_gap_warn_layers > self.layer_gap_fail_layers:
             raise ValueError("layer_gap_warn_layers must not exceed layer_gap_fail_layers")
+        if self.torch_axis_warn_deg > self.torch_axis_fail_deg:
+            raise ValueError("torch_axis_warn_deg must not exceed torch_axis_fail_deg")
         return self

@@ -376,7 +376,8 @@ def _head(plan: Plan, s: RapidSettings, ext: np.ndarray | None) -> list[str]:
         f"! layers {st_['layers']}, sections {st_['sections']}, points {st_['points']}, motions {st_['motions']}",
         f"! deposition {st_['deposition_length_mm']:.3f} mm, travel {st_['travel_length_mm']:.3f} mm, "
         f"arc-on count {st_['arc_on_count']}, dwell {st_['dwell_total_s']:.3f} s",
-        f"! units: mm, mm/s, s; tool {s.tool}, work object {s.wobj_name}, blend zone {short(bd)} mm",
+        f"! units: mm, mm/s, s; tool {s.tool}, tool direction {s.tool_direction.upper()}, work object {s.wobj_name}, "
+        f"blend zone {short(bd)} mm",
         "! welddata = [weld_speed, org_weld_speed, main_arc, org_arc]; "
         "arcdata = [sched(job), mode, voltage V, wirefeed m/min, control, current A, voltage2, wirefeed2, control2]",
         *("! " + t for t in weld_tag(RAPID_WELD_FIELDS)),

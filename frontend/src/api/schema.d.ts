@@ -1344,6 +1344,25 @@ export interface components {
              */
             retrace_max_share: number;
             /**
+             * Torch Axis
+             * @description Robot programs: an arc-ON target whose torch (the orientation the program states) points more than torch_axis_fail_deg away from the way its layer grows
+             * @default fail
+             * @enum {string}
+             */
+            torch_axis: "off" | "warn" | "fail";
+            /**
+             * Torch Axis Warn Deg
+             * @description Warn when the torch points more than this away from the build direction, deg
+             * @default 30
+             */
+            torch_axis_warn_deg: number;
+            /**
+             * Torch Axis Fail Deg
+             * @description Fail (setting torch_axis) when the torch points more than this away from the build direction, deg
+             * @default 60
+             */
+            torch_axis_fail_deg: number;
+            /**
              * Z Jump
              * @description An arc-ON move of a planar layer that climbs or drops more than half a layer height (at least 1 mm) off the layer's plane
              * @default fail

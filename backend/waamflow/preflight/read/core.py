@@ -47,6 +47,9 @@ class ProgramRead:
     # motions it cannot place and frames changed after the program has moved (check: `unreadable`)
     unplaced: list[str] = field(default_factory=list)
     weld_commanded: bool = True  # False: the format carries no weld data at all
+    # arc-ON motion targets whose torch orientation the program states: (point (3,), tool axis (3,):
+    # the unit vector from the torch towards the part, in the program's frame), check `torch_axis`
+    oriented: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
 
     @property
     def travel_z_min(self) -> float:
@@ -73,6 +76,7 @@ class RunBuilder:
         self.frames: dict[str, str] = {}  # frame kind → what the program set it to (`frame`)
         self.lost = False  # a travel went somewhere unknown (`unplaced`): the program has moved
         self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
+        self.axis: np.ndarray | None = None  # the tool axis of the next `move`'s targets (robot dialects)
 
     def frame(self, kind: str, value: str, where: str) -> None:
         """A frame (work offset, work object, base, tool) set to `value`: once the program has
@@ -144,6 +148,8 @@ class RunBuilder:
                 self.speed.append(speed)
                 self.wfs.append(wfs)
                 self.weld.append(weld)
+                if self.axis is not None:
+                    self.out.oriented.append((t, self.axis))
         else:
             if self.pos is not None:
                 seg = np.vstack([self.pos, targets])

@@ -13,10 +13,13 @@ import re
 import numpy as np
 
 from .core import NUM, ProgramRead, RunBuilder
+from .orient import axes_euler
 
 _JOB_NAME = re.compile(r"^//NAME\s+(\S+)", re.MULTILINE)
 _JOB_CALL = re.compile(r"^CALL\s+JOB:(\S+)", re.MULTILINE)
-_CPOS = re.compile(r"^C(\d+)=(" + NUM + r"),(" + NUM + r"),(" + NUM + r")")
+_CPOS = re.compile(
+    r"^C(\d+)=(" + NUM + r"),(" + NUM + r"),(" + NUM + r")(?:,(" + NUM + r"),(" + NUM + r"),(" + NUM + r"))?"
+)
 _POS_TAG = re.compile(r"^///(USER|TOOL|POSTYPE)\s+(\w+)")
 _INF_MOVE = re.compile(r"^(S?MOV[LJCS]|IMOV)\s+(\S+)(.*)$")
 _INF_SPEED = re.compile(r"\bV=(" + NUM + r")")
@@ -28,16 +31,18 @@ _INF_VAL = re.compile(r"\b(AC|AV)=(" + NUM + r")")
 class _CPoint:
     """A C position of a job's //POS and the frame it is declared in."""
 
-    __slots__ = ("xyz", "postype", "user", "tool")
+    __slots__ = ("xyz", "postype", "user", "tool", "axis")
 
     def __init__(self, xyz: np.ndarray, postype: str, user: str, tool: str) -> None:
         self.xyz, self.postype, self.user, self.tool = xyz, postype, user, tool
+        self.axis: np.ndarray | None = None  # the tool z (along the torch) from Rx, Ry, Rz
 
 
 def _job_positions(text: str) -> dict[int, _CPoint]:
     """C number → position and frame, from the //POS section: `///POSTYPE` USER (the user frame
     `///USER n`), ROBOT (the robot's base), PULSE (joint pulses: not a place); `///TOOL n`."""
     out: dict[int, _CPoint] = {}
+    angles: list[tuple[int, tuple[str, str, str]]] = []
     postype, user, tool = "USER", "0", "0"
     for ln in text.split("//INST", 1)[0].splitlines():
         m = _POS_TAG.match(ln)
@@ -51,6 +56,11 @@ def _job_positions(text: str) -> dict[int, _CPoint]:
         if m:
             xyz = np.array([float(m.group(2)), float(m.group(3)), float(m.group(4))])
             out[int(m.group(1))] = _CPoint(xyz, postype, user, tool)
+            if m.group(5) is not None and postype in ("USER", "ROBOT"):
+                angles.append((int(m.group(1)), (m.group(5), m.group(6), m.group(7))))
+    # Yaskawa Rx, Ry, Rz: fixed axes, R = Rz·Ry·Rx, tool z along the torch
+    for (k, _), axis in zip(angles, axes_euler(np.array([a for _, a in angles], float), "xyz", 2)):
+        out[k].axis = axis
     return out
 
 
@@ -121,6 +131,7 @@ class _InformReader:
         # a joint move (MOVJ, VJ= % of the joints' speed) has no tool speed: nan (check weld_speed)
         speed = float(sp.group(1)) if sp and kind != "MOVJ" else math.nan
         weld = bool(self.vals.get("AC") or self.vals.get("AV"))
+        b.axis = p.axis
         b.move(p.xyz, speed, math.nan, weld)
 
 

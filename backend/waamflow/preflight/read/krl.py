@@ -11,6 +11,7 @@ import numpy as np
 
 from ...program.common import parse_weld_tag
 from .core import NUM, ProgramRead, RunBuilder
+from .orient import axes_euler, tool_column
 
 _E6 = re.compile(r"DECL\s+E6POS\s+(\w+)\s*=\s*\{([^}]*)\}", re.IGNORECASE)
 _FIELD = re.compile(r"([A-Z]\w*)\s+(" + NUM + ")", re.IGNORECASE)
@@ -19,12 +20,16 @@ _CHANNELS = re.compile(r"channels\s+([^)]*?)\)")
 _ANOUT_TAG = re.compile(r"\$ANOUT\[(\d+)\]")
 
 
-def _krl_points(dat: str) -> dict[str, np.ndarray]:
-    pts = {}
+def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """E6POS name → position, and → tool axis (unit, base frame) of the points that state A, B, C."""
+    pts, names, abc = {}, [], []
     for name, body in _E6.findall(dat):
         f = {k.upper(): float(v) for k, v in _FIELD.findall(body)}
         pts[name.upper()] = np.array([f.get("X", 0.0), f.get("Y", 0.0), f.get("Z", 0.0)])
-    return pts
+        if {"A", "B", "C"} <= f.keys():
+            names.append(name.upper())
+            abc.append((f["A"], f["B"], f["C"]))
+    return pts, (dict(zip(names, axes_euler(np.array(abc), "ZYX", column))) if names else {})
 
 
 def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]:
@@ -65,6 +70,7 @@ class _KrlHeader:
     channels: dict[int, str]
     anout: dict[str, str]
     out_no: str | None
+    column: int  # the tool frame's column along the torch (`tool direction X`, KUKA's default)
 
 
 def _krl_header(srcs: dict[str, str], by_def: dict[str, str]) -> _KrlHeader:
@@ -87,7 +93,7 @@ def _krl_header(srcs: dict[str, str], by_def: dict[str, str]) -> _KrlHeader:
             if a:
                 anout[a.group(1)] = name
     out_m = re.search(r"digital output \$OUT\[(\d+)\]", header)
-    return _KrlHeader(main, channels, anout, out_m.group(1) if out_m else None)
+    return _KrlHeader(main, channels, anout, out_m.group(1) if out_m else None, tool_column(header, "x"))
 
 
 class _KrlReader:
@@ -98,14 +104,16 @@ class _KrlReader:
         self.srcs, self.dats, self.by_def, self.head = srcs, dats, by_def, head
         self.b = RunBuilder("krl")
         self.state = _KrlState()
+        self.axes: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → tool axis
 
     def walk(self, name: str, depth: int = 0) -> None:
         if depth > 4:
             return
         text = self.srcs[name]
         stem = name[:-4]
-        pts = _krl_points(self.dats.get(stem, ""))
+        pts, axes = _krl_targets(self.dats.get(stem, ""), self.head.column)
         wdats = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
+        caller, self.axes = self.axes, axes
         for ln, raw in enumerate(text.splitlines(), start=1):
             code, _, comment = raw.partition(";")
             if comment.strip():
@@ -113,6 +121,7 @@ class _KrlReader:
             code = code.strip()
             if code:
                 self.statement(name, depth, ln, code, pts, wdats)
+        self.axes = caller
 
     def statement(
         self, name: str, depth: int, ln: int, code: str, pts: dict[str, np.ndarray], wdats: dict[str, dict[str, float]]
@@ -192,6 +201,7 @@ class _KrlReader:
         if self.state.wdat is not None:
             vals.update(wdats.get(self.state.wdat, {}))
         speed = self.state.vel if kind != "PTP" else math.nan
+        self.b.axis = self.axes.get(p2 if kind == "CIRC" and p2 is not None else p1)
         self.b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
 
 

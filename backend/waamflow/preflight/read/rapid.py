@@ -11,9 +11,13 @@ import numpy as np
 
 from ...program.common import WELD_COMMANDED
 from .core import NUM, ProgramRead, RunBuilder
+from .orient import axes_quaternion, tool_column
 
-_ROBT = re.compile(
-    r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\]", re.IGNORECASE
+_Q = r")\s*,\s*("  # between two numbers of a list
+_ROBT = re.compile(  # name, x, y, z and, when it follows, the orientation q1..q4
+    r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + r")\s*\]"
+    r"(?:\s*,\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + _Q + NUM + r")\s*\])?",
+    re.IGNORECASE,
 )
 _SPEED = re.compile(r"speeddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + ")", re.IGNORECASE)
 _WELD = re.compile(
@@ -33,7 +37,15 @@ class _RapidWeld(NamedTuple):
 
 
 def read_rapid(text: str) -> ProgramRead:
-    pts = {n.lower(): np.array([float(x), float(y), float(z)]) for n, x, y, z in _ROBT.findall(text)}
+    found = _ROBT.findall(text)
+    pts = {f[0].lower(): np.array([float(f[1]), float(f[2]), float(f[3])]) for f in found}
+    quats = [f for f in found if f[4]]
+    axes = dict(
+        zip(
+            (q[0].lower() for q in quats),
+            axes_quaternion(np.array([q[4:] for q in quats], float), tool_column(text[:4000], "z")),
+        )
+    )
     speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
     builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
     fields: tuple[str, ...] = _ARCDATA_DEFAULT
@@ -85,6 +97,8 @@ def read_rapid(text: str) -> ProgramRead:
             )
             continue
         seg = np.vstack([p for p in at if p is not None])
+        last = names[1 if circ else 0]
+        b.axis = axes.get(last if last in axes else _base_name(last))
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
@@ -117,6 +131,12 @@ def _target(arg: str, pts: dict[str, np.ndarray]) -> np.ndarray | None:
     if m and m.group(1).lower() in pts:
         return pts[m.group(1).lower()] + np.array([float(m.group(k)) for k in (2, 3, 4)])
     return None
+
+
+def _base_name(arg: str) -> str:
+    """The robtarget an `Offs(p, ...)` argument offsets (its orientation is p's); else the argument."""
+    m = _OFFS.fullmatch(arg.strip())
+    return m.group(1).lower() if m else arg
 
 
 _MODULE = re.compile(r"^\s*MODULE\s+(\w+)", re.IGNORECASE | re.MULTILINE)

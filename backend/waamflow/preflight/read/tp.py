@@ -9,6 +9,7 @@ import re
 import numpy as np
 
 from .core import NUM, ProgramRead, RunBuilder
+from .orient import axes_euler
 
 _TP_NAME = re.compile(r"^/PROG\s+(\S+)", re.MULTILINE)
 _TP_LINE = re.compile(r"^\s*\d+:(.*?);\s*$")
@@ -17,7 +18,9 @@ _TP_MOVE = re.compile(r"^[LJ]\s+P\[(\d+)\]\s+(" + NUM + r")(mm/sec|cm/min)\b")
 _TP_ARC = re.compile(r"^Arc (Start|End)\[(\d+)\]")
 _TP_FRAME = re.compile(r"^(UFRAME|UTOOL)_NUM\s*=\s*(\w+)", re.IGNORECASE)
 _TP_POS = re.compile(
-    r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*(" + NUM + r")\s*mm", re.DOTALL
+    r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*(" + NUM + r")\s*mm"
+    r"(?:,\s*W =\s*(" + NUM + r")\s*deg,\s*P =\s*(" + NUM + r")\s*deg,\s*R =\s*(" + NUM + r")\s*deg)?",
+    re.DOTALL,
 )
 _TP_SPEED = {"mm/sec": 1.0, "cm/min": 10.0 / 60.0}
 
@@ -61,10 +64,10 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
     vals: dict[str, float] = {}
     line_no = 0
     for text in order:
-        pos = {
-            int(k): np.array([float(x), float(y), float(z)])
-            for k, x, y, z in _TP_POS.findall(text.split("\n/POS\n", 1)[-1])
-        }
+        found = _TP_POS.findall(text.split("\n/POS\n", 1)[-1])
+        pos = {int(f[0]): np.array([float(f[1]), float(f[2]), float(f[3])]) for f in found}
+        wpr = [(int(f[0]), f[4:]) for f in found if f[4]]  # Fanuc tool z along the torch, R = Rz(R)·Ry(P)·Rx(W)
+        axes = dict(zip((k for k, _ in wpr), axes_euler(np.array([a for _, a in wpr], float), "xyz", 2)))
         for ln in body(text):
             line_no += 1
             if ln.startswith("!"):
@@ -100,6 +103,7 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                     b.unplaced(f"line {line_no}: P[{k}] not in the program's /POS")
                     continue
                 weld = any(vals.get(n, 0.0) > 0 for n in ("current", "voltage", "wire_feed_speed"))
+                b.axis = axes.get(k)
                 b.move(pos[k], float(m.group(2)) * _TP_SPEED[m.group(3)], vals.get("wire_feed_speed", math.nan), weld)
     b.close()
     return b.out

@@ -1,0 +1,123 @@
+"""The torch as robot programs state it, against the way the part grows (`torch_axis`). Each edit
+below leaves every point where it was and turns the torch: before, each program passed "ok" (the
+preflight read positions only). mpp-cross's programs in each robot dialect, one weld target edited
+as a slip would: KUKA B -90 (torch up), the header's tool direction Z where the controller points
+X along the torch, an ABB quaternion left at the identity, a Fanuc W typed 90, a Yaskawa Rx in
+radians; a lean of 40° only warns."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import apply_overrides, load_recipe, parse_set
+from waamflow.preflight import run_preflight
+from waamflow.preflight.check import _planar, program_layers
+from waamflow.preflight.read import read_krl
+from waamflow.preflight.torch import build_directions
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def _plan(fmt: str):
+    g = build_graph(apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set([f"format={fmt}"])))
+    return g, execute(g, resolver=FileResolver(GRAPHS), workers=1)
+
+
+@pytest.fixture(scope="module", params=["krl", "rapid", "tp", "inform"])
+def planned(request):
+    return (request.param, *_plan(request.param))
+
+
+# (what, file the edit goes to, edit, the angle it makes, degrees)
+EDITS = {
+    "krl": [
+        (
+            "B -90",
+            "post.dat",
+            lambda t: re.sub(r"(DECL E6POS P10=\{[^}]*)B 90\.0000", r"\1B -90.0000", t),
+            180,
+        ),
+        ("tool direction Z", "post.src", lambda t: t.replace("tool direction X", "tool direction Z", 1), 90),
+    ],
+    "rapid": [
+        (
+            "identity",
+            "post.mod",
+            lambda t: t.replace(
+                "p10 := [[3.000,-36.000,1.500],[0.000000,0.000000,1.000000,0.000000]",
+                "p10 := [[3.000,-36.000,1.500],[1,0,0,0]",
+            ),
+            180,
+        ),
+    ],
+    "tp": [
+        (
+            "W 90",
+            "POST_L001.LS",
+            lambda t: re.sub(r"(P\[10\]\{.*?W =)\s+180\.000", r"\1     90.000", t, count=1, flags=re.S),
+            90,
+        )
+    ],
+    "inform": [
+        (
+            "Rx rad",
+            "POST_L003.JBI",
+            lambda t: t.replace("C00010=-3.000,39.000,6.000,180.0000", "C00010=-3.000,39.000,6.000,3.1416"),
+            176.9,
+        )
+    ],
+}
+
+
+def test_as_written_every_torch_points_down_the_build(planned):
+    fmt, g, res = planned
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    (prog,) = rep["programs"]
+    assert prog["torch_angle_max_deg"] == pytest.approx(0.0, abs=0.01) and prog["torch_axis_unjudged_layers"] == 0
+    assert not [p for p in rep["problems"] if p["check"] == "torch_axis"]
+
+
+def test_each_turned_torch_fails_with_its_angle(planned):
+    fmt, g, res = planned
+    for what, name, edit, angle in EDITS[fmt]:
+        text = res.artifacts[name].decode()
+        assert edit(text) != text, (fmt, what)
+        rep = run_preflight(g, res.outputs, {**res.artifacts, name: edit(text).encode()})
+        (p,) = [p for p in rep["problems"] if p["check"] == "torch_axis"]
+        assert p["severity"] == "fail" and rep["verdict"] == "fail", (fmt, what)
+        assert p["value"] == pytest.approx(angle, abs=0.1), (fmt, what, p["value"])
+        assert p["layer"] is not None and f"layer {p['layer']}:" in p["message"]
+
+
+def test_a_lean_of_40_degrees_warns():
+    g, res = _plan("krl")
+    text = re.sub(r"(DECL E6POS P10=\{[^}]*)B 90\.0000", r"\1B 50.0000", res.artifacts["post.dat"].decode())
+    arts = {**res.artifacts, "post.dat": text.encode()}
+    rep = run_preflight(g, res.outputs, arts)
+    (p,) = [p for p in rep["problems"] if p["check"] == "torch_axis"]
+    assert p["severity"] == "warn" and p["value"] == pytest.approx(40.0, abs=0.01) and rep["verdict"] == "warn"
+
+
+def test_a_fan_of_layers_grows_along_each_layers_normal():
+    """curved-duct's KRL (the 90° bend in 1.54° wedge layers on the positioner's base): every torch
+    along its layer's normal; the last layers' normals lie near horizontal (turned by the step from the
+    layer before, not by up)."""
+    rec = apply_overrides(load_recipe(GRAPHS / "curved-duct.json"), parse_set(["dtheta_deg=6"]))
+    rec.nodes = [n for n in rec.nodes if n.type != "simulate-robot"]
+    rec.edges = [e for e in rec.edges if not e.to.startswith("sim.")]
+    g = build_graph(rec)
+    res = execute(g, resolver=FileResolver(GRAPHS), workers=1)
+    files = {k: v.decode() for k, v in res.artifacts.items() if k.endswith((".src", ".dat"))}
+    prog = read_krl(files)
+    layers = program_layers(prog)
+    grow = build_directions(layers, _planar(layers), None)
+    tilt = np.degrees(np.arccos(np.clip(grow[:, 2], -1, 1)))  # the k-th wedge layer lies 6° (k + 1) over
+    assert np.isfinite(grow).all() and tilt == pytest.approx(6.0 * np.arange(1, len(layers) + 1), abs=0.01)
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    assert rep["programs"][0]["torch_angle_max_deg"] == pytest.approx(0.0, abs=0.01)
