@@ -57,6 +57,35 @@ class ProgramRead:
         return float(self.travel_low[0][2]) if self.travel_low is not None else math.inf
 
 
+def circle_through(p0: np.ndarray, via: np.ndarray, p1: np.ndarray, step_deg: float = 5.0) -> np.ndarray:
+    """A circular motion as a robot controller runs it (KRL CIRC, RAPID MoveC/ArcC): the arc of the
+    circle through start p0, auxiliary point `via` and end p1 that passes `via`, as points every
+    `step_deg` at most after p0 (p1 last). Three points on a line (or two that coincide): the
+    straight moves p0 → via → p1."""
+    a, b = via - p0, p1 - p0
+    n = np.cross(a, b)
+    nn = float(n @ n)
+    if nn < 1e-12 * max(float(a @ a) * float(b @ b), 1e-30):
+        return np.vstack([via, p1])
+    # the centre: p0 + (|a|² (b × n) + |b|² (n × a)) / (2 |n|²)
+    c = p0 + (float(a @ a) * np.cross(b, n) + float(b @ b) * np.cross(n, a)) / (2.0 * nn)
+    u = p0 - c
+    r = float(np.linalg.norm(u))
+    u /= r
+    w = np.cross(n / math.sqrt(nn), u)  # in the plane, 90° on from u the way p0 → via → p1 turns
+
+    def angle(p: np.ndarray) -> float:
+        d = p - c
+        return math.atan2(float(d @ w), float(d @ u)) % (2 * math.pi)
+
+    sweep = angle(p1) or 2 * math.pi  # via lies on the way (n is a × b: the turn p0 → via → p1)
+    k = max(2, int(math.ceil(math.degrees(sweep) / step_deg)))
+    t = sweep * np.arange(1, k + 1) / k
+    pts = c + r * (np.outer(np.cos(t), u) + np.outer(np.sin(t), w))
+    pts[-1] = p1
+    return pts
+
+
 class RunBuilder:
     """Collects motions while the arc is on; layer/section from the program's comments."""
 

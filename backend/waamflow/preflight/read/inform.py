@@ -2,8 +2,8 @@
 job's //POS (with the user frame, tool and position type each is declared under), current and
 voltage from ARCON/ARCSET. A motion the reader cannot place — an incremental `IMOV`, a move to a
 position variable (P, BP, EX, LP: the controller's values), a move while a parallel shift
-(`SFTON`) is on, a C position in joint pulses — and a change of user frame or tool after the
-program has moved are `unplaced` (RunBuilder)."""
+(`SFTON`) is on, a C position in joint pulses, a circular or spline MOVC/MOVS — and a change of
+user frame or tool after the program has moved are `unplaced` (RunBuilder)."""
 
 from __future__ import annotations
 
@@ -110,6 +110,9 @@ class _InformReader:
         c = re.fullmatch(r"C(\d+)", target)
         if kind == "IMOV":
             b.unplaced(f"{where}: an incremental motion the preflight cannot place")
+            return
+        if kind.endswith(("MOVC", "MOVS")):
+            b.unplaced(f"{where}: a circular or spline motion the preflight does not follow (write MOVL)")
             return
         if c is None:
             b.unplaced(f"{where}: a move to the position variable {target}, the controller's value")

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...program.common import parse_weld_tag
-from .core import NUM, ProgramRead, RunBuilder
+from .core import NUM, ProgramRead, RunBuilder, circle_through
 from .orient import axes_euler, tool_column
 
 _E6 = re.compile(r"DECL\s+E6POS\s+(\w+)\s*=\s*\{([^}]*)\}", re.IGNORECASE)
@@ -193,8 +193,9 @@ class _KrlReader:
         if p1 not in pts or (kind == "CIRC" and p2 not in pts):
             self.b.unplaced(f"{name} line {ln}: target {p1} not declared in the .dat")
             return
-        if kind == "CIRC" and p2 is not None:
-            seg = np.vstack([pts[p1], pts[p2]])
+        if kind == "CIRC" and p2 is not None:  # the circle from where the robot is, through p1, to p2
+            here = self.b.pos
+            seg = circle_through(here, pts[p1], pts[p2]) if here is not None else np.vstack([pts[p1], pts[p2]])
         else:
             seg = pts[p1][None]
         vals = dict(self.state.values)

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...program.common import WELD_COMMANDED
-from .core import NUM, ProgramRead, RunBuilder
+from .core import NUM, ProgramRead, RunBuilder, circle_through
 from .orient import axes_quaternion, tool_column
 
 _Q = r")\s*,\s*("  # between two numbers of a list
@@ -97,6 +97,8 @@ def read_rapid(text: str) -> ProgramRead:
             )
             continue
         seg = np.vstack([p for p in at if p is not None])
+        if circ and b.pos is not None:  # the circle from where the robot is, through the first target, to the second
+            seg = circle_through(b.pos, seg[0], seg[1])
         last = names[1 if circ else 0]
         b.axis = axes.get(last if last in axes else _base_name(last))
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""

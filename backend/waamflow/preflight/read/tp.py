@@ -93,6 +93,9 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                     f"line {line_no}: {ln}",
                 )
                 continue
+            if re.match(r"[CA]\s+P\[", ln):
+                b.unplaced(f"line {line_no}: {ln}: a circular motion the preflight does not follow (write L motions)")
+                continue
             m = _TP_MOVE.match(ln)
             if m and re.search(r"\b(Offset|Tool_Offset|INC)\b", ln, re.IGNORECASE):
                 b.unplaced(f"line {line_no}: {ln}: an offset or incremental motion the preflight cannot place")
