@@ -30,6 +30,7 @@ from .order import layer_order_problems
 from .plane import z_jump_problems
 from .retrace import retrace_problems
 from .torch import torch_axis_problems
+from .travel import travel_problems
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -431,14 +432,16 @@ def _layer_problems(
     s: PreflightSettings,
 ) -> None:
     """The deposit's bottom against the part's and the plate's (bottom.py), the layers' order
-    (order.py), moves off a layer's plane (plane.py), stretches welded twice (retrace.py) and the
-    torch against the way each layer grows (torch.py), on the spacing between the deposited
-    layers' heights."""
-    spacing = float(np.median(np.diff(np.sort(heights)))) if len(heights) > 1 else None
+    (order.py), travel moves into metal welded before (travel.py), moves off a layer's plane
+    (plane.py), stretches welded twice (retrace.py) and the torch against the way each layer grows
+    (torch.py), on the spacing between the deposited layers' heights."""
+    levels = np.unique(np.round(heights, 6))  # heights met twice (towers built one after the other) count once
+    spacing = float(np.median(np.diff(levels))) if len(levels) > 1 else None
     h_dep = spacing if planar and spacing is not None else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:
         layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
+        travel_problems(layers, prog, h_dep, width, out, rep, s)
     else:  # a planar layer with a move off its plane made the program "not planar"
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
     retrace_problems(layers, width, out, rep, s)

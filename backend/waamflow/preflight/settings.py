@@ -99,6 +99,11 @@ class PreflightSettings(BaseModel):
         description="Largest share of a run's length that may lie on earlier runs' beads of its layer (the "
         "shipped examples: 0.016 at most; mpp-cross with triangular weaves at 9 mm spacing 0.16)",
     )
+    travel_collision: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Planar programs: a travel move (arc off) that passes more than half a layer below the top of "
+        "metal welded before it, where that metal stands (the torch driven into the part)",
+    )
     torch_axis: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Robot programs: an arc-ON target whose torch (the orientation the program states) points more "

@@ -1344,6 +1344,13 @@ export interface components {
              */
             retrace_max_share: number;
             /**
+             * Travel Collision
+             * @description Planar programs: a travel move (arc off) that passes more than half a layer below the top of metal welded before it, where that metal stands (the torch driven into the part)
+             * @default fail
+             * @enum {string}
+             */
+            travel_collision: "off" | "warn" | "fail";
+            /**
              * Torch Axis
              * @description Robot programs: an arc-ON target whose torch (the orientation the program states) points more than torch_axis_fail_deg away from the way its layer grows
              * @default fail

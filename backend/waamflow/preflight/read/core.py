@@ -50,6 +50,9 @@ class ProgramRead:
     # arc-ON motion targets whose torch orientation the program states: (point (3,), tool axis (3,):
     # the unit vector from the torch towards the part, in the program's frame), check `torch_axis`
     oriented: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    # arc-OFF straight moves between known points: (from (3,), to (3,), the number of runs welded
+    # before it), check `travel_collision`
+    travels: list[tuple[np.ndarray, np.ndarray, int]] = field(default_factory=list)
 
     @property
     def travel_z_min(self) -> float:
@@ -183,6 +186,8 @@ class RunBuilder:
             if self.pos is not None:
                 seg = np.vstack([self.pos, targets])
                 self.out.travel_mm += float(np.linalg.norm(np.diff(seg, axis=0), axis=1).sum())
+                done = len(self.out.runs)
+                self.out.travels.extend((a, b, done) for a, b in zip(seg[:-1], seg[1:]))
             z = targets[:, 2]
             k = int(np.nanargmin(z)) if np.isfinite(z).any() else -1  # nan: an axis not yet known
             if k >= 0 and z[k] < self.out.travel_z_min:
@@ -211,6 +216,7 @@ class RunBuilder:
             p = self.pos
             self.out.travel_mm += math.sqrt((x - p[0]) ** 2 + (y - p[1]) ** 2 + (z - p[2]) ** 2)
             self.pos = np.array((x, y, z))
+            self.out.travels.append((p, self.pos, len(self.out.runs)))
             if z < self.out.travel_z_min:
                 self.out.travel_low = (self.pos.copy(), self.layer)
             self._after_move()
