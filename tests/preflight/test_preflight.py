@@ -86,8 +86,11 @@ def test_the_right_program_passes():
     assert rep["verdict"] == "ok", rep["problems"]
     assert rep["top_gap_mm"] == pytest.approx(0.0, abs=1e-6)
     assert rep["uncovered_share"] < 0.02
-    # per layer 4 passes of 38 mm + 3 links of 5 mm at STEP·LAYER mm³/mm, against 40 × 20 × 1.5 mm
-    assert rep["wire_part_volume_ratio"] == pytest.approx((4 * 38 + 3 * 5) * STEP * LAYER / (L * W * LAYER), rel=1e-3)
+    # per layer 4 passes of 38 mm + 3 links of 5 mm at STEP·LAYER mm³/mm, and the 0.5 s ignition dwell
+    # (G4 P0.5 with the arc on: the metal of 0.5 s · SPEED mm of path), against 40 × 20 × 1.5 mm
+    per_layer = (4 * 38 + 3 * 5 + 0.5 * SPEED) * STEP * LAYER
+    assert rep["wire_part_volume_ratio"] == pytest.approx(per_layer / (L * W * LAYER), rel=1e-3)
+    assert rep["dwell_mm3"] == pytest.approx(4 * 0.5 * SPEED * STEP * LAYER, rel=1e-3)
     assert rep["weld_data_missing"] == 0
     assert rep["start_spread_mm"] >= BEAD
     # starts and stops per layer: one run a layer, alternating ends

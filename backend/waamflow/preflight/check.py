@@ -26,6 +26,7 @@ from shapely.geometry import LineString, MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from .bottom import bottom_problems
+from .dwell import dwell_metal, dwell_problems
 from .order import layer_order_problems
 from .plane import z_jump_problems
 from .retrace import retrace_problems
@@ -410,9 +411,11 @@ def check_program(
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     _layer_problems(part, prog, layers, heights, h_typ, planar, width, out, rep, s)
-    _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s)
+    dwells = dwell_metal(prog, layers, s)  # metal laid standing, arc on (dwell.py)
+    _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s, dwells)
     _speedless(prog, rep, s)
     _local_deposit(prog, width, rep, s)
+    dwell_problems(prog, layers, dwells, width, out, rep, s)
     _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)

@@ -8,7 +8,7 @@ below inside the part, or in machining stock outside it). `check.check_program` 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 import shapely
@@ -48,12 +48,18 @@ def _wire_balance(
     out: dict,
     rep: Report,
     s: PreflightSettings,
+    dwells: Sequence[tuple[float, int, Run, int]] = (),
 ) -> None:
-    """Wire fed vs metal needed: per layer and in all, the arc-ON moves without weld data, the
-    wire/part volume ratio (out) and their problems."""
+    """Wire fed vs metal needed: per layer and in all (the moves', and the dwells' with the arc on:
+    dwell.dwell_metal), the arc-ON moves without weld data, the wire/part volume ratio (out) and
+    their problems."""
     wire_total, missing = 0.0, 0
-    for idx, runs in layers:
-        w = 0.0
+    in_dwells = np.zeros(len(layers))
+    for vol, li, _run, _n in dwells:
+        in_dwells[li] += vol
+    out["dwell_mm3"] = rounded(float(in_dwells.sum()), 1)
+    for li, (idx, runs) in enumerate(layers):
+        w = float(in_dwells[li])
         for r in runs:
             v, m = wire_volume(r, s)
             w += v

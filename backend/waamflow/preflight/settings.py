@@ -99,6 +99,21 @@ class PreflightSettings(BaseModel):
         description="Largest share of a run's length that may lie on earlier runs' beads of its layer (the "
         "shipped examples: 0.016 at most; mpp-cross with triangular weaves at 9 mm spacing 0.16)",
     )
+    dwell_metal: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A dwell with the arc on that lays as much metal in one spot as more than dwell_fail_widths "
+        "bead widths of the program's bead (warn beyond dwell_warn_widths)",
+    )
+    dwell_warn_widths: float = Field(
+        3.0,
+        gt=0,
+        le=1000,
+        description="Warn when one arc-on dwell lays the metal of more than this many bead widths of bead "
+        "(the shipped 0.5 s ignition dwells: 0.5)",
+    )
+    dwell_fail_widths: float = Field(
+        8.0, gt=0, le=1000, description="Fail (setting dwell_metal) beyond this many bead widths of bead in one dwell"
+    )
     travel_collision: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="Planar programs: a travel move (arc off) that passes more than half a layer below the top of "
@@ -232,6 +247,8 @@ class PreflightSettings(BaseModel):
             raise ValueError("uncovered_warn must not exceed uncovered_fail")
         if self.layer_gap_warn_layers > self.layer_gap_fail_layers:
             raise ValueError("layer_gap_warn_layers must not exceed layer_gap_fail_layers")
+        if self.dwell_warn_widths > self.dwell_fail_widths:
+            raise ValueError("dwell_warn_widths must not exceed dwell_fail_widths")
         if self.torch_axis_warn_deg > self.torch_axis_fail_deg:
             raise ValueError("torch_axis_warn_deg must not exceed torch_axis_fail_deg")
         return self

@@ -1344,6 +1344,25 @@ export interface components {
              */
             retrace_max_share: number;
             /**
+             * Dwell Metal
+             * @description A dwell with the arc on that lays as much metal in one spot as more than dwell_fail_widths bead widths of the program's bead (warn beyond dwell_warn_widths)
+             * @default fail
+             * @enum {string}
+             */
+            dwell_metal: "off" | "warn" | "fail";
+            /**
+             * Dwell Warn Widths
+             * @description Warn when one arc-on dwell lays the metal of more than this many bead widths of bead (the shipped 0.5 s ignition dwells: 0.5)
+             * @default 3
+             */
+            dwell_warn_widths: number;
+            /**
+             * Dwell Fail Widths
+             * @description Fail (setting dwell_metal) beyond this many bead widths of bead in one dwell
+             * @default 8
+             */
+            dwell_fail_widths: number;
+            /**
              * Travel Collision
              * @description Planar programs: a travel move (arc off) that passes more than half a layer below the top of metal welded before it, where that metal stands (the torch driven into the part)
              * @default fail

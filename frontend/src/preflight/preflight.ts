@@ -6,7 +6,7 @@
  */
 
 export type Verdict = "ok" | "warn" | "fail";
-export type Check = "top_gap" | "bottom_gap" | "plate" | "layer_order" | "retrace" | "travel_collision" | "torch_axis" | "z_jump" | "local_deposit" | "unreadable" | "weld_speed" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
+export type Check = "top_gap" | "bottom_gap" | "plate" | "layer_order" | "retrace" | "dwell_metal" | "travel_collision" | "torch_axis" | "z_jump" | "local_deposit" | "unreadable" | "weld_speed" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
 export type Point3 = [number, number, number];
 
 /** Whole-part (or per-program) figures; any may be null when it does not apply. */
@@ -25,6 +25,10 @@ export interface PreflightFigures {
   torch_angle_max_deg?: number | null;
   /** Planar programs: travel moves (arc off) found in metal welded before them. */
   travel_collisions?: number | null;
+  /** Metal laid in dwells with the arc on, mm³ (counted in the wire balance). */
+  dwell_mm3?: number | null;
+  /** The arc-on dwell laying the most metal, in bead widths of the program's bead. */
+  dwell_max_widths?: number | null;
 }
 
 export interface PreflightProgram extends PreflightFigures {
@@ -170,7 +174,7 @@ export function sortedProblems(report: Preflight | null): PreflightProblem[] {
 
 /** Human name of a check. */
 export const CHECK_LABEL: Record<string, string> = {
-  top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", weld_speed: "welding without a speed", layer_order: "layers out of order", retrace: "welded twice", travel_collision: "travel into the part", torch_axis: "torch turned away", z_jump: "move off the layer's plane", local_deposit: "too little or too much metal", unreadable: "motion not readable", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
+  top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", weld_speed: "welding without a speed", layer_order: "layers out of order", retrace: "welded twice", dwell_metal: "metal laid standing", travel_collision: "travel into the part", torch_axis: "torch turned away", z_jump: "move off the layer's plane", local_deposit: "too little or too much metal", unreadable: "motion not readable", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
   stacked_starts: "stacked starts", weld_data: "weld data missing", program: "program",
 };
 export const checkLabel = (c: string) => CHECK_LABEL[c] ?? c;

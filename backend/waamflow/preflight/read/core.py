@@ -53,6 +53,8 @@ class ProgramRead:
     # arc-OFF straight moves between known points: (from (3,), to (3,), the number of runs welded
     # before it), check `travel_collision`
     travels: list[tuple[np.ndarray, np.ndarray, int]] = field(default_factory=list)
+    # dwells with the arc on: (where (3,), seconds, wire feed m/min or nan): metal laid in one spot
+    dwells: list[tuple[np.ndarray, float, float]] = field(default_factory=list)
 
     @property
     def travel_z_min(self) -> float:
@@ -136,6 +138,15 @@ class RunBuilder:
             return
         self.out.notes.append(f"{what} (arc off: a travel the preflight does not follow)")
         self.pos, self.lost = None, True
+
+    def dwell(self, seconds: float, wfs: float) -> None:
+        """A dwell: with the arc on (a run under way, its place known) the wire feeds in one spot
+        (`ProgramRead.dwells`); with it off, nothing is laid."""
+        if self.pts is None or seconds <= 0:
+            return
+        here = self.pos if self.pos is not None else self.pts[0]
+        if np.isfinite(here).all():
+            self.out.dwells.append((np.array(here, float), float(seconds), float(wfs)))
 
     def comment(self, text: str) -> None:
         m = _LAYER.search(text)

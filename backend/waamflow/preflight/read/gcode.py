@@ -150,6 +150,14 @@ def _plain_g1(weld_rx: dict, arc_letters: set) -> Callable[[str], re.Match | Non
     return _PLAIN_G1.fullmatch
 
 
+def _dwell_s(vals: dict[str, float], tag: re.Match | None) -> float:
+    """A G4's seconds: P in the header's `dwell_units` (s, as RS274/NGC, when there is none) or ms; S
+    in seconds (Marlin)."""
+    if "P" in vals:
+        return vals["P"] * (0.001 if tag is not None and tag.group(3) == "ms" else 1.0)
+    return vals.get("S", 0.0)
+
+
 def read_gcode(text: str) -> ProgramRead:
     tag = _POST_TAG.search(text)
     arc_on = (tag.group(1) if tag else "M3").replace("_", " ").upper().split()
@@ -230,7 +238,10 @@ def read_gcode(text: str) -> ProgramRead:
                 motion = int(g)
         if "F" in vals:
             feed = vals["F"] * modes.scale * (1.0 if per_s else 1.0 / 60.0)
-        if 4 in gs or not any(k in vals for k in "XYZ"):
+        if 4 in gs:  # a dwell: the wire feeds in one spot when the arc is on
+            b.dwell(_dwell_s(vals, tag), values.get("wire_feed_speed", math.nan))
+            continue
+        if not any(k in vals for k in "XYZ"):
             continue
         here = b.pos if b.pos is not None else np.zeros(3)
         if modes.plain:

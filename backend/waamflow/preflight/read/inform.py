@@ -90,8 +90,12 @@ class _InformReader:
             self.vals.update({k: float(v) for k, v in _INF_VAL.findall(ln)})
             if ln.startswith("ARCON"):
                 b.arc_on(self.line_no)
+                t = re.search(r"\bT=(" + NUM + ")", ln)
+                b.dwell(float(t.group(1)) if t else 0.0, math.nan)  # INFORM commands no wire feed
         elif ln.startswith("ARCOF"):
             b.close()
+        elif m := re.match(r"TIMER\s+T=(" + NUM + ")", ln):
+            b.dwell(float(m.group(1)), math.nan)
         elif ln.startswith("SFTON"):
             self.shift = where
         elif ln.startswith("SFTOF"):

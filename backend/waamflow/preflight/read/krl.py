@@ -51,6 +51,22 @@ def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]
     return out
 
 
+def _krl_strikes(dat: str, channels: dict[int, str]) -> dict[str, tuple[float, float]]:
+    """ArcTech weld data set → (Strike.StartTime s: the dwell after ignition, the Strike wire feed
+    m/min or nan), of the sets with a start time."""
+    out = {}
+    for line in dat.splitlines():
+        m = _WDAT.search(line)
+        strike = re.search(r"Strike\s*\{([^}]*)\}", m.group(2)) if m else None
+        if m is None or strike is None:
+            continue
+        f = dict(_FIELD.findall(strike.group(1)))
+        if "StartTime" in f:
+            wfs = next((f.get(f"Channel{ch}") for ch, name in channels.items() if name == "wire_feed_speed"), None)
+            out[m.group(1).upper()] = (float(f["StartTime"]), float(wfs) if wfs is not None else math.nan)
+    return out
+
+
 @dataclass
 class _KrlState:
     """What a KRL program has set so far: $VEL.CP (mm/s), the analog outputs' weld values
@@ -105,6 +121,7 @@ class _KrlReader:
         self.b = RunBuilder("krl")
         self.state = _KrlState()
         self.axes: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → tool axis
+        self.strikes: dict[str, tuple[float, float]] = {}  # ArcTech set → (Strike.StartTime, its wire feed)
 
     def walk(self, name: str, depth: int = 0) -> None:
         if depth > 4:
@@ -113,6 +130,7 @@ class _KrlReader:
         stem = name[:-4]
         pts, axes = _krl_targets(self.dats.get(stem, ""), self.head.column)
         wdats = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
+        self.strikes.update(_krl_strikes(self.dats.get(stem, ""), self.head.channels))
         caller, self.axes = self.axes, axes
         for ln, raw in enumerate(text.splitlines(), start=1):
             code, _, comment = raw.partition(";")
@@ -132,6 +150,10 @@ class _KrlReader:
         call = re.fullmatch(r"(\w+)\(\s*\)", code)
         if call and call.group(1).upper() in by_def and by_def[call.group(1).upper()] != name:
             self.walk(by_def[call.group(1).upper()], depth + 1)
+            return
+        w = re.match(r"WAIT\s+SEC\s+(" + NUM + ")", up)
+        if w:  # with the arc on, the wire feeds in one spot
+            b.dwell(float(w.group(1)), state.values.get("wire_feed_speed", math.nan))
             return
         v = re.match(r"\$VEL\.CP\s*=\s*(" + NUM + ")", up)
         if v:
@@ -161,6 +183,7 @@ class _KrlReader:
             if action == "ARCONAFTERMOVESTD":
                 b.arc_on(ln)
                 state.wdat = wdat
+                b.dwell(*self.strikes.get(wdat.upper(), (0.0, math.nan)))  # the ignition dwell, arc on
             elif action in ("ARCSWIBEFOREMOVESTD", "ARCOFFBEFOREMOVESTD"):
                 state.wdat = wdat
             elif action == "ARCOFFAFTERMOVESTD":

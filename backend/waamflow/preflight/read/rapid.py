@@ -19,6 +19,11 @@ _ROBT = re.compile(  # name, x, y, z and, when it follows, the orientation q1..q
     r"(?:\s*,\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + _Q + NUM + r")\s*\])?",
     re.IGNORECASE,
 )
+_SEAM = re.compile(  # name, purge, preflow, ign_arc (an arcdata), ign_move_delay (s: the dwell after ignition)
+    r"seamdata\s+(\w+)\s*:=\s*\[\s*(" + NUM + _Q + NUM + r")\s*,\s*\[([^\]]*)\]\s*,\s*(" + NUM + ")",
+    re.IGNORECASE,
+)
+_WAIT = re.compile(r"^\s*WaitTime\b(?:\\InPos)?\s*,?\s*(" + NUM + r")\s*;", re.IGNORECASE)
 _SPEED = re.compile(r"speeddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + ")", re.IGNORECASE)
 _WELD = re.compile(
     r"welddata\s+(\w+)\s*:=\s*\[\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*\[([^\]]*)\]", re.IGNORECASE
@@ -71,7 +76,12 @@ def read_rapid(text: str) -> ProgramRead:
         welds[name.lower()] = _RapidWeld(
             float(speed), {f: v for f, v in zip(fields, numbers) if f in WELD_COMMANDED and v != 0.0}
         )
+    seams = {}  # seamdata → (ign_move_delay s, the ignition arcdata's wire feed m/min or nan)
+    for name, _purge, _pre, ign, delay in _SEAM.findall(text):
+        ign_vals = {f: float(v) for f, v in zip(fields, re.findall(NUM, ign)) if float(v) != 0.0}  # as welddata's
+        seams[name.lower()] = (float(delay), ign_vals.get("wire_feed_speed", math.nan))
     b = RunBuilder("rapid")
+    wfs = math.nan  # the wire feed of the last weld motion (a WaitTime with the arc on feeds it)
     tail = None  # the last motion's last argument (tool and work object)
     for ln, raw in enumerate(text.splitlines(), start=1):
         code, _, comment = raw.partition("!")
@@ -79,6 +89,9 @@ def read_rapid(text: str) -> ProgramRead:
             b.comment(comment.strip())
         m = _RAPID_MOVE.match(code)
         if not m:
+            w = _WAIT.match(code)
+            if w:
+                b.dwell(float(w.group(1)), wfs)
             continue
         instr = m.group(1).lower()
         split = _SPLIT_CALL if "(" in m.group(2) else _SPLIT  # commas outside [...] (and (...) of Offs etc.)
@@ -110,8 +123,10 @@ def read_rapid(text: str) -> ProgramRead:
         if instr in ("arclstart", "arccstart"):
             b.move(seg, math.nan, math.nan, False)  # moves to the start, the arc strikes there
             b.arc_on(ln)
+            b.dwell(*next((seams[n] for n in names if n in seams), (0.0, math.nan)))  # ign_move_delay, arc on
             continue
-        b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
+        wfs = vals.get("wire_feed_speed", math.nan)
+        b.move(seg, speed, wfs, bool(vals))
         if instr in ("arclend", "arccend"):
             b.close()
     b.close()

@@ -93,6 +93,10 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                     f"line {line_no}: {ln}",
                 )
                 continue
+            w = re.match(r"WAIT\s+(" + NUM + r")\s*\(sec\)", ln)
+            if w:  # with the arc on, the wire feeds in one spot
+                b.dwell(float(w.group(1)), vals.get("wire_feed_speed", math.nan))
+                continue
             if re.match(r"[CA]\s+P\[", ln):
                 b.unplaced(f"line {line_no}: {ln}: a circular motion the preflight does not follow (write L motions)")
                 continue

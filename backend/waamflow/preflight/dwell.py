@@ -1,0 +1,100 @@
+"""Metal laid while the torch stands with the arc on (`dwell_metal`; the wire balance's dwells).
+
+The wire feeds while the arc burns, moving or not (V̇ = WFS · π d²/4 · η, robot-modelling notes):
+an ignition dwell, a zone's dwell inside a run, a `WAIT`/`G4` with the arc on lay their metal in
+one spot. Before, the wire balance counted the moves only: mpp-cross's 24 ignition dwells of
+0.5 s were 1.9 % of its metal (601.7 mm³ of 32,309), curved-duct's 5.2 %, uncounted, and a dwell
+typed 50 s for 0.5 s — the metal of 400 mm of bead on one spot — passed "ok". Each dwell's metal counts in its layer's wire
+(and the part's ratio); one that lays as much metal as more than `dwell_warn_widths` bead widths
+of the program's bead (its median metal per mm) warns, more than `dwell_fail_widths` fails.
+A dwell with no wire feed of its own (an ArcWare seam without one) feeds its run's first move's.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..core.process import wire_area_mm2
+from .read import ProgramRead, Run
+
+
+def dwell_metal(
+    prog: ProgramRead, layers: Sequence[tuple[int, list[Run]]], s: Any
+) -> list[tuple[float, int, Run, int]]:
+    """(metal mm³, layer position, run, dwell number) of each arc-ON dwell whose wire feed is known
+    (its own, else its run's first move's); the run is the one whose point it stands on."""
+    if not prog.dwells or not prog.runs:
+        return []
+    from scipy.spatial import cKDTree  # not at import: the fork server preloads this module without scipy
+
+    runs = [(li, r) for li, (_idx, rs) in enumerate(layers) for r in rs]
+    pts = np.vstack([r.points for _li, r in runs])
+    owner = np.repeat(np.arange(len(runs)), [len(r.points) for _li, r in runs])
+    _d, k = cKDTree(pts).query(np.array([p for p, _t, _w in prog.dwells]))
+    rate = wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency * 1000.0 / 60.0  # mm³/s per m/min
+    out = []
+    for n, ((_p, secs, wfs), j) in enumerate(zip(prog.dwells, k)):
+        li, run = runs[int(owner[j])]
+        feed = wfs if math.isfinite(wfs) else (float(run.wfs[0]) if len(run.wfs) else math.nan)
+        if math.isfinite(feed) and feed > 0:
+            out.append((secs * feed * rate, li, run, n))
+    return out
+
+
+def per_mm(prog: ProgramRead, s: Any) -> float:
+    """The program's median metal per mm of bead (mm³/mm, over its arc-ON length), nan if unknown."""
+    rate = wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency * 1000.0 / 60.0
+    vals, lens = [], []
+    for r in prog.runs:
+        seg = np.linalg.norm(np.diff(r.points, axis=0), axis=1)
+        ok = np.isfinite(r.wfs) & np.isfinite(r.speed) & (r.speed > 0) & (seg > 0)
+        vals.append(r.wfs[ok] * rate / r.speed[ok])
+        lens.append(seg[ok])
+    v, w = np.concatenate(vals) if vals else np.zeros(0), np.concatenate(lens) if lens else np.zeros(0)
+    if not len(v):
+        return math.nan
+    order = np.argsort(v)
+    c = np.cumsum(w[order])
+    return float(v[order][np.searchsorted(c, 0.5 * c[-1])])
+
+
+def dwell_problems(
+    prog: ProgramRead,
+    layers: Sequence[tuple[int, list[Run]]],
+    metal: list[tuple[float, int, Run, int]],
+    width: float,
+    out: dict,
+    rep: Any,
+    s: Any,
+) -> None:
+    """The `dwell_metal` problem: the dwell laying the most metal, as bead widths of the program's
+    bead (out["dwell_max_widths"]), beyond `s.dwell_warn_widths` (warn) or `s.dwell_fail_widths`."""
+    if s.dwell_metal == "off" or not metal or not width > 0:
+        return
+    mm = per_mm(prog, s)
+    if not math.isfinite(mm) or mm <= 0:
+        return
+    vol, li, run, n = max(metal, key=lambda m: m[0])
+    widths = vol / mm / width
+    out["dwell_max_widths"] = round(widths, 3)
+    if widths <= s.dwell_warn_widths:
+        return
+    severity = s.dwell_metal if widths > s.dwell_fail_widths else "warn"
+    p, secs, _w = prog.dwells[n]
+    over = sum(1 for m in metal if m[0] / mm / width > s.dwell_warn_widths)
+    rep.problem(
+        "dwell_metal",
+        severity,
+        f"layer {layers[li][0]}: a {secs:g} s dwell with the arc on lays {vol:.0f} mm³ in one spot at "
+        f"({p[0]:.1f}, {p[1]:.1f}, {p[2]:.1f}), as much as {widths * width:.0f} mm of the bead ({widths:.1f} bead "
+        f"widths; {over} dwell{'s' if over != 1 else ''} beyond {s.dwell_warn_widths:g}): a lump on the layer. "
+        "Check the dwell's time and unit (s or ms) in the program and the zone's `dwell`",
+        layer=layers[li][0],
+        section=run.section,
+        value=widths,
+        limit=s.dwell_fail_widths if severity != "warn" else s.dwell_warn_widths,
+        point=tuple(p),
+    )
