@@ -89,3 +89,14 @@ def test_robot_dialects_dwell_as_written(fmt, name, edit):
     rep = run_preflight(g, res.outputs, {**res.artifacts, name: edit(text).encode()})
     (p,) = [p for p in rep["problems"] if p["check"] == "dwell_metal"]
     assert p["severity"] == "fail" and "a 20 s dwell" in p["message"]
+
+
+def test_a_spot_weld_with_no_motion_counts_where_it_stands():
+    """Arc on, 5 s, arc off at (0, 0) of layer 2, with no motion between: no run (nothing moved), the
+    metal counted all the same (40 mm of bead: 6.7 widths, a warning) in the layer of its place."""
+    text = gcode(good_layers())
+    spot = "M5\nG0 X0.000 Y0.000 Z4.500\nM3\nG4 P5\nM5\n; layer 3"
+    rep = _check(text.replace("M5\n; layer 3", spot, 1))
+    (p,) = _dwell(rep)
+    assert p["severity"] == "warn" and p["layer"] == 2 and p["value"] == pytest.approx(5 * SPEED / BEAD, rel=1e-3)
+    assert rep["dwell_mm3"] == pytest.approx((4 * 0.5 + 5) * SPEED * STEP * LAYER, rel=1e-3)

@@ -25,23 +25,23 @@ def dwell_metal(
     prog: ProgramRead, layers: Sequence[tuple[int, list[Run]]], s: Any
 ) -> list[tuple[float, int, Run, int]]:
     """(metal mm³, layer position, run, dwell number) of each arc-ON dwell whose wire feed is known
-    (its own, else its run's first move's); the run is the one whose point it stands on."""
+    (its own, else its run's first move's); a dwell of a run that never moved (dropped: no run)
+    counts in the layer of the nearest run point."""
     if not prog.dwells or not prog.runs:
         return []
-    from scipy.spatial import cKDTree  # not at import: the fork server preloads this module without scipy
-
-    runs = [(li, r) for li, (_idx, rs) in enumerate(layers) for r in rs]
-    pts = np.vstack([r.points for _li, r in runs])
-    owner = np.repeat(np.arange(len(runs)), [len(r.points) for _li, r in runs])
-    _d, k = cKDTree(pts).query(np.array([p for p, _t, _w in prog.dwells]))
+    layer_of = {id(r): li for li, (_idx, rs) in enumerate(layers) for r in rs}
     rate = wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency * 1000.0 / 60.0  # mm³/s per m/min
     out = []
-    for n, ((_p, secs, wfs), j) in enumerate(zip(prog.dwells, k)):
-        li, run = runs[int(owner[j])]
+    for n, (p, secs, wfs, run) in enumerate(prog.dwells):
+        run = run if run is not None else _nearest_run(prog, p)
         feed = wfs if math.isfinite(wfs) else (float(run.wfs[0]) if len(run.wfs) else math.nan)
-        if math.isfinite(feed) and feed > 0:
-            out.append((secs * feed * rate, li, run, n))
+        if math.isfinite(feed) and feed > 0 and id(run) in layer_of:
+            out.append((secs * feed * rate, layer_of[id(run)], run, n))
     return out
+
+
+def _nearest_run(prog: ProgramRead, p: np.ndarray) -> Run:
+    return min(prog.runs, key=lambda r: float(np.min(np.linalg.norm(r.points - p, axis=1))))
 
 
 def per_mm(prog: ProgramRead, s: Any) -> float:
@@ -83,7 +83,7 @@ def dwell_problems(
     if widths <= s.dwell_warn_widths:
         return
     severity = s.dwell_metal if widths > s.dwell_fail_widths else "warn"
-    p, secs, _w = prog.dwells[n]
+    p, secs = prog.dwells[n][0], prog.dwells[n][1]
     over = sum(1 for m in metal if m[0] / mm / width > s.dwell_warn_widths)
     rep.problem(
         "dwell_metal",

@@ -53,8 +53,9 @@ class ProgramRead:
     # arc-OFF straight moves between known points: (from (3,), to (3,), the number of runs welded
     # before it), check `travel_collision`
     travels: list[tuple[np.ndarray, np.ndarray, int]] = field(default_factory=list)
-    # dwells with the arc on: (where (3,), seconds, wire feed m/min or nan): metal laid in one spot
-    dwells: list[tuple[np.ndarray, float, float]] = field(default_factory=list)
+    # dwells with the arc on: [where (3,), seconds, wire feed m/min or nan, the Run it is in (None: a
+    # run with no motion, dropped)]: metal laid in one spot
+    dwells: list[list] = field(default_factory=list)
 
     @property
     def travel_z_min(self) -> float:
@@ -111,6 +112,7 @@ class RunBuilder:
         self.lost = False  # a travel went somewhere unknown (`unplaced`): the program has moved
         self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
         self.axis: np.ndarray | None = None  # the tool axis of the next `move`'s targets (robot dialects)
+        self.run_dwells: list[int] = []  # the dwells (in out.dwells) of the run under way
 
     def frame(self, kind: str, value: str, where: str) -> None:
         """A frame (work offset, work object, base, tool) set to `value`: once the program has
@@ -146,7 +148,8 @@ class RunBuilder:
             return
         here = self.pos if self.pos is not None else self.pts[0]
         if np.isfinite(here).all():
-            self.out.dwells.append((np.array(here, float), float(seconds), float(wfs)))
+            self.run_dwells.append(len(self.out.dwells))
+            self.out.dwells.append([np.array(here, float), float(seconds), float(wfs), None])  # its run: at close
 
     def comment(self, text: str) -> None:
         m = _LAYER.search(text)
@@ -176,6 +179,9 @@ class RunBuilder:
                     self.line,
                 )
             )
+            for i in self.run_dwells:  # the run's dwells are in it (a run dropped: theirs stay None)
+                self.out.dwells[i][3] = self.out.runs[-1]
+        self.run_dwells = []
         self.pts = None
 
     def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
