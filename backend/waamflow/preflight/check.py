@@ -32,7 +32,7 @@ from .plane import z_jump_problems
 from .retrace import retrace_problems
 from .torch import torch_axis_problems
 from .travel import travel_problems
-from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance
+from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance, feed_per_mm
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -414,8 +414,9 @@ def check_program(
     dwells = dwell_metal(prog, layers, s)  # metal laid standing, arc on (dwell.py)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s, dwells)
     _speedless(prog, rep, s)
-    _local_deposit(prog, width, rep, s)
-    dwell_problems(prog, layers, dwells, width, out, rep, s)
+    per, med = feed_per_mm(prog)  # each move's wire feed / speed and their median: the program's bead
+    _local_deposit(per, med, width, rep, s)
+    dwell_problems(prog, layers, dwells, med, width, out, rep, s)
     _starved(prog, rep, s)
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)

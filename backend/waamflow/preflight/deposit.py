@@ -165,26 +165,35 @@ def _speedless(prog: ProgramRead, rep: Report, s: PreflightSettings) -> None:
     )
 
 
-def _local_deposit(prog: ProgramRead, width: float, rep: Report, s: PreflightSettings) -> None:
-    """Stretches longer than a bead width that lay far less or more metal per millimetre (wire
-    feed / speed) than the program's length-weighted median: a KRL weld begun at the travel's
-    $VEL.CP (100 mm/s where the layer welds at 6-8: mpp-cross passed "ok"), a wire feed typed ten
-    times too high. The part's balance hides a stretch. Zones vary the ratio (the shipped examples
-    0.30-1.73 of the median, compensate-deposit 0.3-1.6 of a zone's by default): `local_deposit_ok`
-    (0.25-4) warns outside, `local_deposit_fail` (0.1-8) fails outside. One problem a layer."""
-    if s.local_deposit == "off":
-        return
+def feed_per_mm(prog: ProgramRead) -> tuple[list[tuple[Run, np.ndarray, np.ndarray]], float]:
+    """(run, its moves' wire feed / travel speed in (m/min)/(mm/s), their lengths) of each run, and
+    the length-weighted median of the positive ratios: the program's bead (its metal per mm is
+    `core.process.deposit_rate_mm3_s` of it); nan when no move has one."""
     with np.errstate(divide="ignore", invalid="ignore"):  # no or zero speed: weld_speed's (_speedless)
         per = [(r, r.wfs / r.speed, _segments(r)[1]) for r in prog.runs]
     a_all = np.concatenate([a for _r, a, _l in per]) if per else np.zeros(0)
     l_all = np.concatenate([ln for _r, _a, ln in per]) if per else np.zeros(0)
     ok = np.isfinite(a_all) & (a_all > 0) & (l_all > 0)
     if not ok.any():
-        return
+        return per, math.nan
     a_ok, l_ok = a_all[ok], l_all[ok]
     o = np.argsort(a_ok)
     c = np.cumsum(l_ok[o])
-    med = float(a_ok[o][min(int(np.searchsorted(c, c[-1] / 2)), len(o) - 1)])
+    return per, float(a_ok[o][min(int(np.searchsorted(c, c[-1] / 2)), len(o) - 1)])
+
+
+def _local_deposit(
+    per: list[tuple[Run, np.ndarray, np.ndarray]], med: float, width: float, rep: Report, s: PreflightSettings
+) -> None:
+    """Stretches longer than a bead width that lay far less or more metal per millimetre (wire
+    feed / speed) than the program's length-weighted median (`feed_per_mm`: per run, med): a KRL
+    weld begun at the travel's $VEL.CP (100 mm/s where the layer welds at 6-8: mpp-cross passed
+    "ok"), a wire feed typed ten times too high. The part's balance hides a stretch. Zones vary the
+    ratio (the shipped examples 0.30-1.73 of the median, compensate-deposit 0.3-1.6 of a zone's by
+    default): `local_deposit_ok` (0.25-4) warns outside, `local_deposit_fail` (0.1-8) fails
+    outside. One problem a layer."""
+    if s.local_deposit == "off" or not math.isfinite(med):
+        return
     lo, hi = s.local_deposit_ok
     flo, fhi = s.local_deposit_fail
     seen: set = set()

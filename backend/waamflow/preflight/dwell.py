@@ -4,10 +4,11 @@ The wire feeds while the arc burns, moving or not (V̇ = WFS · π d²/4 · η, 
 an ignition dwell, a zone's dwell inside a run, a `WAIT`/`G4` with the arc on lay their metal in
 one spot. Before, the wire balance counted the moves only: mpp-cross's 24 ignition dwells of
 0.5 s were 1.9 % of its metal (601.7 mm³ of 32,309), curved-duct's 5.2 %, uncounted, and a dwell
-typed 50 s for 0.5 s — the metal of 400 mm of bead on one spot — passed "ok". Each dwell's metal counts in its layer's wire
-(and the part's ratio); one that lays as much metal as more than `dwell_warn_widths` bead widths
-of the program's bead (its median metal per mm) warns, more than `dwell_fail_widths` fails.
-A dwell with no wire feed of its own (an ArcWare seam without one) feeds its run's first move's.
+typed 50 s for 0.5 s — the metal of 400 mm of bead on one spot — passed "ok". Each dwell's metal
+counts in its layer's wire (and the part's ratio); one that lays as much metal as more than
+`dwell_warn_widths` bead widths of the program's bead (its median wire feed / speed, as
+`local_deposit` takes it) warns, more than `dwell_fail_widths` fails. A dwell with no wire feed
+of its own (an ArcWare seam without one) feeds its run's first move's.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..core.process import wire_area_mm2
+from ..core.process import deposit_rate_mm3_s
 from .read import ProgramRead, Run
 
 
@@ -30,13 +31,19 @@ def dwell_metal(
     if not prog.dwells or not prog.runs:
         return []
     layer_of = {id(r): li for li, (_idx, rs) in enumerate(layers) for r in rs}
-    rate = wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency * 1000.0 / 60.0  # mm³/s per m/min
     out = []
     for n, (p, secs, wfs, run) in enumerate(prog.dwells):
         run = run if run is not None else _nearest_run(prog, p)
         feed = wfs if math.isfinite(wfs) else (float(run.wfs[0]) if len(run.wfs) else math.nan)
         if math.isfinite(feed) and feed > 0 and id(run) in layer_of:
-            out.append((secs * feed * rate, layer_of[id(run)], run, n))
+            out.append(
+                (
+                    secs * deposit_rate_mm3_s(feed, s.wire_diameter_mm, s.deposition_efficiency),
+                    layer_of[id(run)],
+                    run,
+                    n,
+                )
+            )
     return out
 
 
@@ -44,39 +51,22 @@ def _nearest_run(prog: ProgramRead, p: np.ndarray) -> Run:
     return min(prog.runs, key=lambda r: float(np.min(np.linalg.norm(r.points - p, axis=1))))
 
 
-def per_mm(prog: ProgramRead, s: Any) -> float:
-    """The program's median metal per mm of bead (mm³/mm, over its arc-ON length), nan if unknown."""
-    rate = wire_area_mm2(s.wire_diameter_mm) * s.deposition_efficiency * 1000.0 / 60.0
-    vals, lens = [], []
-    for r in prog.runs:
-        seg = np.linalg.norm(np.diff(r.points, axis=0), axis=1)
-        ok = np.isfinite(r.wfs) & np.isfinite(r.speed) & (r.speed > 0) & (seg > 0)
-        vals.append(r.wfs[ok] * rate / r.speed[ok])
-        lens.append(seg[ok])
-    v, w = np.concatenate(vals) if vals else np.zeros(0), np.concatenate(lens) if lens else np.zeros(0)
-    if not len(v):
-        return math.nan
-    order = np.argsort(v)
-    c = np.cumsum(w[order])
-    return float(v[order][np.searchsorted(c, 0.5 * c[-1])])
-
-
 def dwell_problems(
     prog: ProgramRead,
     layers: Sequence[tuple[int, list[Run]]],
     metal: list[tuple[float, int, Run, int]],
+    feed_per_mm: float,
     width: float,
     out: dict,
     rep: Any,
     s: Any,
 ) -> None:
     """The `dwell_metal` problem: the dwell laying the most metal, as bead widths of the program's
-    bead (out["dwell_max_widths"]), beyond `s.dwell_warn_widths` (warn) or `s.dwell_fail_widths`."""
-    if s.dwell_metal == "off" or not metal or not width > 0:
+    bead (its median wire feed / speed, `deposit.feed_per_mm`; out["dwell_max_widths"]), beyond
+    `s.dwell_warn_widths` (warn) or `s.dwell_fail_widths`."""
+    if s.dwell_metal == "off" or not metal or not width > 0 or not math.isfinite(feed_per_mm):
         return
-    mm = per_mm(prog, s)
-    if not math.isfinite(mm) or mm <= 0:
-        return
+    mm = deposit_rate_mm3_s(feed_per_mm, s.wire_diameter_mm, s.deposition_efficiency)  # metal per mm of bead
     vol, li, run, n = max(metal, key=lambda m: m[0])
     widths = vol / mm / width
     out["dwell_max_widths"] = round(widths, 3)
