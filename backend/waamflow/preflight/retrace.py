@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .read.core import Run
+from .samples import segment_samples
 
 NEAR = 3.0 / 8.0  # of a bead width: two samples closer are the same bead's centre line
 STEP = 0.25  # of a bead width: the samples' spacing along a run
@@ -80,11 +81,9 @@ class _Segments:
         """Samples of the kept segments, each cut into pieces of at most `step`, both ends
         included: (points, directions, arc lengths along the run, segment numbers)."""
         k = np.flatnonzero(self.keep)
-        n = np.maximum(1, np.ceil(self.length[k] / step).astype(int)) + 1
-        seg = np.repeat(k, n)
-        frac = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
-        d = self.b[seg] - self.a[seg]
-        return self.a[seg] + d * frac[:, None], self.unit[seg], self.arc0[seg] + self.length[seg] * frac, seg
+        pts, j, frac = segment_samples(self.a[k], self.b[k], step)
+        seg = k[j]
+        return pts, self.unit[seg], self.arc0[seg] + self.length[seg] * frac, seg
 
 
 def _retraced_runs(

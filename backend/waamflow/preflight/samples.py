@@ -36,6 +36,15 @@ def _resample(points: np.ndarray, step: float) -> np.ndarray:
     return np.column_stack([np.interp(t, s, points[:, k]) for k in range(3)])
 
 
+def segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Straight segments a[i] → b[i] ((k, 3) each), each cut into pieces of at most `step`, both
+    ends included: (points, the segment each lies on, its fraction along it)."""
+    n = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / step).astype(int)) + 1
+    seg = np.repeat(np.arange(len(a)), n)
+    frac = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n - 1, n)
+    return a[seg] + (b[seg] - a[seg]) * frac[:, None], seg, frac
+
+
 def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float]:
     """(n, 3) samples, the measure they stand for (a wall: area × 1, multiplied by the width later)
     and their spacing, mm: `step`, or on a larger part the spacing of the most samples it may have

@@ -19,11 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .read import ProgramRead, Run
-
-
-def _samples(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:
-    n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
-    return a + (b - a) * (np.arange(n + 1) / n)[:, None]
+from .samples import segment_samples
 
 
 def travel_problems(
@@ -46,7 +42,7 @@ def travel_problems(
     for k, (a, b, done) in enumerate(prog.travels):
         if done == 0 or min(a[2], b[2]) >= tops[done - 1] - depth:
             continue
-        p = _samples(a, b, 0.25 * width)
+        p = segment_samples(a[None], b[None], 0.25 * width)[0]
         p = p[p[:, 2] < tops[done - 1] - depth]
         cand.append(p)
         owner += [k] * len(p)
@@ -56,7 +52,7 @@ def travel_problems(
     from scipy.spatial import cKDTree  # not at import: the fork server preloads this module without scipy
 
     pts = np.vstack(cand)
-    run_pts = [_samples_run(r.points, 0.25 * width) for r in runs]
+    run_pts = [segment_samples(r.points[:-1], r.points[1:], 0.25 * width)[0] for r in runs]  # each vertex twice
     xyz = np.vstack(run_pts)
     run_no = np.repeat(np.arange(len(runs)), [len(q) for q in run_pts])
     near = cKDTree(xyz[:, :2]).query_ball_point(pts[:, :2], 0.5 * width)
@@ -94,12 +90,3 @@ def travel_problems(
         limit=depth,
         point=tuple(pt),
     )
-
-
-def _samples_run(points: np.ndarray, step: float) -> np.ndarray:
-    """A run's centre line sampled every `step` at most (its points kept)."""
-    d = np.diff(points, axis=0)
-    n = np.maximum(1, np.ceil(np.linalg.norm(d, axis=1) / step).astype(int))
-    start = np.repeat(np.arange(len(d)), n)
-    frac = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
-    return np.vstack([points[start] + d[start] * frac[:, None], points[-1:]])
