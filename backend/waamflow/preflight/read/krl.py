@@ -32,39 +32,31 @@ def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str
     return pts, (dict(zip(names, axes_euler(np.array(abc), "ZYX", column))) if names else {})
 
 
-def _krl_wdat(dat: str, channels: dict[int, str]) -> dict[str, dict[str, float]]:
-    out = {}
+def _krl_wdat(dat: str, channels: dict[int, str]) -> tuple[dict[str, dict[str, float]], dict[str, tuple[float, float]]]:
+    """The ArcTech weld data sets (`stArcDat_T`) of a .dat, in one pass: set → the non-zero
+    weld values of its `Weld` block (channel → parameter), and set → (`Strike.StartTime` s: the
+    dwell after ignition, the Strike wire feed m/min or nan) of the sets with a start time."""
+    welds, strikes = {}, {}
     for line in dat.splitlines():
         m = _WDAT.search(line)
         if not m:
             continue
+        name = m.group(1).upper()
         weld = re.search(r"Weld\s*\{([^}]*)\}", m.group(2))
-        if not weld:
-            continue
-        f = dict(_FIELD.findall(weld.group(1)))
-        vals = {}
-        for ch, name in channels.items():
-            v = f.get(f"Channel{ch}")
-            if v is not None and float(v) != 0.0:
-                vals[name] = float(v)
-        out[m.group(1).upper()] = vals
-    return out
-
-
-def _krl_strikes(dat: str, channels: dict[int, str]) -> dict[str, tuple[float, float]]:
-    """ArcTech weld data set → (Strike.StartTime s: the dwell after ignition, the Strike wire feed
-    m/min or nan), of the sets with a start time."""
-    out = {}
-    for line in dat.splitlines():
-        m = _WDAT.search(line)
-        strike = re.search(r"Strike\s*\{([^}]*)\}", m.group(2)) if m else None
-        if m is None or strike is None:
-            continue
-        f = dict(_FIELD.findall(strike.group(1)))
+        if weld:
+            f = dict(_FIELD.findall(weld.group(1)))
+            vals = {}
+            for ch, param in channels.items():
+                v = f.get(f"Channel{ch}")
+                if v is not None and float(v) != 0.0:
+                    vals[param] = float(v)
+            welds[name] = vals
+        strike = re.search(r"Strike\s*\{([^}]*)\}", m.group(2))
+        f = dict(_FIELD.findall(strike.group(1))) if strike else {}
         if "StartTime" in f:
-            wfs = next((f.get(f"Channel{ch}") for ch, name in channels.items() if name == "wire_feed_speed"), None)
-            out[m.group(1).upper()] = (float(f["StartTime"]), float(wfs) if wfs is not None else math.nan)
-    return out
+            wfs = next((f.get(f"Channel{ch}") for ch, param in channels.items() if param == "wire_feed_speed"), None)
+            strikes[name] = (float(f["StartTime"]), float(wfs) if wfs is not None else math.nan)
+    return welds, strikes
 
 
 @dataclass
@@ -129,8 +121,8 @@ class _KrlReader:
         text = self.srcs[name]
         stem = name[:-4]
         pts, axes = _krl_targets(self.dats.get(stem, ""), self.head.column)
-        wdats = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
-        self.strikes.update(_krl_strikes(self.dats.get(stem, ""), self.head.channels))
+        wdats, strikes = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
+        self.strikes.update(strikes)
         caller, self.axes = self.axes, axes
         for ln, raw in enumerate(text.splitlines(), start=1):
             code, _, comment = raw.partition(";")
