@@ -121,3 +121,21 @@ def test_a_fan_of_layers_grows_along_each_layers_normal():
     assert np.isfinite(grow).all() and tilt == pytest.approx(6.0 * np.arange(1, len(layers) + 1), abs=0.01)
     rep = run_preflight(g, res.outputs, res.artifacts)
     assert rep["programs"][0]["torch_angle_max_deg"] == pytest.approx(0.0, abs=0.01)
+
+
+def test_layers_on_one_line_grow_across_it():
+    """Non-planar layers that each lie on one line (a wall of sloped passes, z rising 0.2 mm per mm
+    of x, one above the other 1.5 mm apart): each grows along the step from the layer before, taken
+    across its line, (-0.2, 0, 1) normalised; a layer whose points coincide is not judged."""
+    from waamflow.preflight.read.core import Run
+
+    def run(z0, xs=np.linspace(0.0, 50.0, 11)):
+        pts = np.column_stack([xs, np.zeros_like(xs), z0 + 0.2 * xs])
+        n = len(pts) - 1
+        return Run(pts, np.full(n, 8.0), np.full(n, 3.0), np.ones(n, bool), 0, "w", 0)
+
+    layers = [(k, [run(1.5 * (k + 1))]) for k in range(4)]
+    grow = build_directions(layers, False, 1.5)
+    assert grow == pytest.approx(np.tile(np.array([-0.2, 0.0, 1.0]) / np.hypot(0.2, 1.0), (4, 1)), abs=1e-9)
+    spot = [*layers, (4, [run(7.5, np.zeros(3))])]
+    assert np.isnan(build_directions(spot, False, 1.5)[4]).all()

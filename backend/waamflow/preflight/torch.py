@@ -26,16 +26,16 @@ from .read import ProgramRead, Run
 UPWARD = 0.5  # |z| of a layer's normal from which it grows up (within 60° of vertical), not by the step
 
 
-def _layer_plane(pts: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray | None, bool]:
-    """(centroid, unit normal of the points' plane or None when they lie on one line, flat):
-    flat = every point within `tol` of that plane (of that line when collinear)."""
+def _layer_plane(pts: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, bool]:
+    """(centroid, unit normal of the points' plane or None when they lie on one line, the line's
+    unit direction or None when the points coincide, flat): flat = every point within `tol` of that
+    plane (of that line when collinear)."""
     c = pts.mean(axis=0)
-    if len(pts) < 3:
-        return c, None, True
     _u, sv, vt = np.linalg.svd(pts - c, full_matrices=False)
-    if sv[1] <= 1e-3 * max(sv[0], 1e-12) or sv[1] < 1e-6:
-        return c, None, True
-    return c, vt[2], bool(np.abs((pts - c) @ vt[2]).max() <= tol)
+    line = vt[0] if sv[0] >= 1e-9 else None
+    if len(pts) < 3 or sv[1] <= 1e-3 * max(sv[0], 1e-12) or sv[1] < 1e-6:
+        return c, None, line, True
+    return c, vt[2], line, bool(np.abs((pts - c) @ vt[2]).max() <= tol)
 
 
 def build_directions(layers: Sequence[tuple[int, list[Run]]], planar: bool, spacing: float | None) -> np.ndarray:
@@ -47,15 +47,12 @@ def build_directions(layers: Sequence[tuple[int, list[Run]]], planar: bool, spac
     tol = max(1.0, 0.5 * spacing) if spacing else 1.0
     planes = [_layer_plane(np.vstack([r.points for r in runs]), tol) for _i, runs in layers]
     out = np.full((n_layers, 3), np.nan)
-    for k, (c, normal, flat) in enumerate(planes):
+    for k, (c, normal, line, flat) in enumerate(planes):
         step = c - planes[k - 1][0] if k > 0 else (planes[1][0] - c if n_layers > 1 else np.array([0.0, 0.0, 1.0]))
         if normal is None:  # one line: the step from the layer before, across the line
-            pts = np.vstack([r.points for r in layers[k][1]])
-            span = pts[np.argmax(np.linalg.norm(pts - pts[0], axis=1))] - pts[0]
-            if np.linalg.norm(span) < 1e-9:
+            if line is None:
                 continue
-            u = span / np.linalg.norm(span)
-            normal = step - (step @ u) * u
+            normal = step - (step @ line) * line
             if np.linalg.norm(normal) < 1e-6:
                 continue
         elif not flat:
