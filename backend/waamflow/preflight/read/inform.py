@@ -26,6 +26,9 @@ _INF_SPEED = re.compile(r"\bV=(" + NUM + r")")
 _INF_TOOL = re.compile(r"\bTOOL#\((\d+)\)")
 _INF_MFRAME = re.compile(r"^MFRAME\s+UF#\((\d+)\)")
 _INF_VAL = re.compile(r"\b(AC|AV)=(" + NUM + r")")
+_INF_T = re.compile(r"\bT=(" + NUM + ")")  # ARCON's ignition time, s
+_INF_TIMER = re.compile(r"TIMER\s+T=(" + NUM + ")")
+_INF_C = re.compile(r"C(\d+)")
 
 
 class _CPoint:
@@ -90,11 +93,11 @@ class _InformReader:
             self.vals.update({k: float(v) for k, v in _INF_VAL.findall(ln)})
             if ln.startswith("ARCON"):
                 b.arc_on(self.line_no)
-                t = re.search(r"\bT=(" + NUM + ")", ln)
+                t = _INF_T.search(ln)
                 b.dwell(float(t.group(1)) if t else 0.0, math.nan)  # INFORM commands no wire feed
         elif ln.startswith("ARCOF"):
             b.close()
-        elif m := re.match(r"TIMER\s+T=(" + NUM + ")", ln):
+        elif m := _INF_TIMER.match(ln):
             b.dwell(float(m.group(1)), math.nan)
         elif ln.startswith("SFTON"):
             self.shift = where
@@ -111,7 +114,7 @@ class _InformReader:
 
     def motion(self, kind: str, target: str, tail: str, pos: dict[int, _CPoint], where: str) -> None:
         b = self.b
-        c = re.fullmatch(r"C(\d+)", target)
+        c = _INF_C.fullmatch(target)
         if kind == "IMOV":
             b.unplaced(f"{where}: an incremental motion the preflight cannot place")
             return

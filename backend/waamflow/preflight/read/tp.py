@@ -17,6 +17,9 @@ _TP_CALL = re.compile(r"^CALL\s+(\w+)")
 _TP_MOVE = re.compile(r"^[LJ]\s+P\[(\d+)\]\s+(" + NUM + r")(mm/sec|cm/min)\b")
 _TP_ARC = re.compile(r"^Arc (Start|End)\[(\d+)\]")
 _TP_FRAME = re.compile(r"^(UFRAME|UTOOL)_NUM\s*=\s*(\w+)", re.IGNORECASE)
+_TP_WAIT = re.compile(r"WAIT\s+(" + NUM + r")\s*\(sec\)")
+_TP_CIRCULAR = re.compile(r"[CA]\s+P\[")
+_TP_OFFSET = re.compile(r"\b(Offset|Tool_Offset|INC)\b", re.IGNORECASE)
 _TP_POS = re.compile(
     r"P\[(\d+)\]\{.*?X =\s*(" + NUM + r")\s*mm,\s*Y =\s*(" + NUM + r")\s*mm,\s*Z =\s*(" + NUM + r")\s*mm"
     r"(?:,\s*W =\s*(" + NUM + r")\s*deg,\s*P =\s*(" + NUM + r")\s*deg,\s*R =\s*(" + NUM + r")\s*deg)?",
@@ -93,15 +96,15 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                     f"line {line_no}: {ln}",
                 )
                 continue
-            w = re.match(r"WAIT\s+(" + NUM + r")\s*\(sec\)", ln)
+            w = _TP_WAIT.match(ln)
             if w:  # with the arc on, the wire feeds in one spot
                 b.dwell(float(w.group(1)), vals.get("wire_feed_speed", math.nan))
                 continue
-            if re.match(r"[CA]\s+P\[", ln):
+            if _TP_CIRCULAR.match(ln):
                 b.unplaced(f"line {line_no}: {ln}: a circular motion the preflight does not follow (write L motions)")
                 continue
             m = _TP_MOVE.match(ln)
-            if m and re.search(r"\b(Offset|Tool_Offset|INC)\b", ln, re.IGNORECASE):
+            if m and _TP_OFFSET.search(ln):
                 b.unplaced(f"line {line_no}: {ln}: an offset or incremental motion the preflight cannot place")
                 continue
             if m:
