@@ -81,7 +81,7 @@ class PostProcess(Node):
     category = "program"
     inputs = (Port("toolpath", "toolpath", "Zoned, sequenced toolpath"),)
     outputs = (Port("program", "program", "Program text files and statistics"),)
-    version = "5"  # 5: max_tilt/max_lean/flat_tol; 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
+    version = "6"  # 6: the program carries its cell (preflight weld_position); 5: max_tilt/max_lean/flat_tol; 4: a cell file like simulate-robot's; the torch lean `auto` chose is written
     uses_node_id = True  # the program is named after the node (its artifact names)
 
     class Params(NodeParams):
@@ -535,7 +535,7 @@ class PostProcess(Node):
         except ValueError as err:
             raise RecipeError(str(err)) from err
         if positioner is not None:
-            program = replace(program, stats={**program.stats, "positioner": positioner})
+            program = replace(program, stats={**program.stats, "positioner": positioner}, cell=cell.model_dump_json())
         if program.stats.get("points", 0) == 0:
             ctx.warn("the toolpath has no points: the program has no motions")
         what = {

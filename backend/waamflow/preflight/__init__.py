@@ -149,6 +149,7 @@ def run_preflight(
                 stock_mm=_stock_length(graph, nid, width),
                 pool=pool,
                 prefetch=prefetch,
+                cell=getattr(value, "cell", ""),
             )
             rep.update(files=sorted(files), bead_width_mm=width, bead_width_source=source)
             reports.append(rep)

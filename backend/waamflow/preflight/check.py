@@ -30,6 +30,7 @@ from .dwell import dwell_metal, dwell_problems
 from .order import layer_order_problems
 from .plane import z_jump_problems
 from .retrace import retrace_problems
+from .position import weld_position_problems
 from .torch import torch_axis_problems
 from .travel import travel_problems
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance, feed_per_mm
@@ -338,11 +339,13 @@ def check_program(
     stock_mm: float | None = None,
     pool: Workers | None = None,
     prefetch: Any = None,
+    cell: str = "",
 ) -> dict:
     """stock_mm: machining stock allowed beyond the part at a run's ends (the recipe's longest
     extension + a bead width; `s.outside_stock_mm` overrides; None = one bead width). pool: the
     run's workers, for the planar coverage (coverage_planar); prefetch: the part's sections cut
-    ahead (prefetch.SectionPrefetch)."""
+    ahead (prefetch.SectionPrefetch); cell: the JSON of the cell the program was written for
+    (Program.cell; "" = none), for its welding position (position.py)."""
     rep = Report(node, prog.format)
     layers = program_layers(prog)
     out: dict = {
@@ -411,6 +414,7 @@ def check_program(
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
     _layer_problems(part, prog, layers, heights, h_typ, planar, width, out, rep, s)
+    weld_position_problems(layers, planar, _spacing(heights), cell, out, rep, s)
     dwells = dwell_metal(prog, layers, s)  # metal laid standing, arc on (dwell.py)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s, dwells)
     _speedless(prog, rep, s)
@@ -421,6 +425,13 @@ def check_program(
     _arc_runs(prog, layers, width, out, rep, s)
     _ignitions(part, layers, cov, planar, width, out, rep, s)
     return _finish(out, rep, s)
+
+
+def _spacing(heights: list[float]) -> float | None:
+    """The median spacing of the deposited layers' heights (heights met twice, towers built one
+    after the other, count once); None with fewer than two."""
+    levels = np.unique(np.round(heights, 6))
+    return float(np.median(np.diff(levels))) if len(levels) > 1 else None
 
 
 def _layer_problems(
@@ -439,8 +450,7 @@ def _layer_problems(
     (order.py), travel moves into metal welded before (travel.py), moves off a layer's plane
     (plane.py), stretches welded twice (retrace.py) and the torch against the way each layer grows
     (torch.py), on the spacing between the deposited layers' heights."""
-    levels = np.unique(np.round(heights, 6))  # heights met twice (towers built one after the other) count once
-    spacing = float(np.median(np.diff(levels))) if len(levels) > 1 else None
+    spacing = _spacing(heights)
     h_dep = spacing if planar and spacing is not None else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:

@@ -133,6 +133,25 @@ class PreflightSettings(BaseModel):
         le=180,
         description="Fail (setting torch_axis) when the torch points more than this away from the build direction, deg",
     )
+    weld_position: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="Programs written for a cell: a layer deposited more than weld_position_fail_deg off the flat "
+        "position (its build direction in the world, under the positioner angles the program states, against up), "
+        "or positioner angles outside the axis limits",
+    )
+    weld_position_warn_deg: float = Field(
+        20.0,
+        ge=0,
+        le=180,
+        description="Warn when a layer's build direction in the world lies more than this off up, deg",
+    )
+    weld_position_fail_deg: float = Field(
+        45.0,
+        ge=0,
+        le=180,
+        description="Fail (setting weld_position) when a layer's build direction in the world lies more than this "
+        "off up, deg",
+    )
     z_jump: Literal["off", "warn", "fail"] = Field(
         "fail",
         description="An arc-ON move of a planar layer that climbs or drops more than half a layer height "
@@ -251,4 +270,6 @@ class PreflightSettings(BaseModel):
             raise ValueError("dwell_warn_widths must not exceed dwell_fail_widths")
         if self.torch_axis_warn_deg > self.torch_axis_fail_deg:
             raise ValueError("torch_axis_warn_deg must not exceed torch_axis_fail_deg")
+        if self.weld_position_warn_deg > self.weld_position_fail_deg:
+            raise ValueError("weld_position_warn_deg must not exceed weld_position_fail_deg")
         return self

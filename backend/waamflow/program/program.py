@@ -23,6 +23,9 @@ class Program:
     stats: dict[str, Any] = field(default_factory=dict)
     weld_issues: tuple = ()  # common.WeldDataIssue: zones whose weld data is empty or zero (krl arctech, rapid)
     name: str = ""  # KRL / RAPID: the program identifier its files are named after ("" = node id)
+    # the cell the program was written for, as JSON ("" = none named): the preflight turns the
+    # positioner angles the program states into the part's orientation in the world (weld_position)
+    cell: str = ""
 
     def file_names(self, node_id: str) -> dict[str, str]:
         """File key → the file's name. G-code, CSV, print points: `<node id>.<key>`. KRL and RAPID

@@ -1389,6 +1389,25 @@ export interface components {
              */
             torch_axis_fail_deg: number;
             /**
+             * Weld Position
+             * @description Programs written for a cell: a layer deposited more than weld_position_fail_deg off the flat position (its build direction in the world, under the positioner angles the program states, against up), or positioner angles outside the axis limits
+             * @default fail
+             * @enum {string}
+             */
+            weld_position: "off" | "warn" | "fail";
+            /**
+             * Weld Position Warn Deg
+             * @description Warn when a layer's build direction in the world lies more than this off up, deg
+             * @default 20
+             */
+            weld_position_warn_deg: number;
+            /**
+             * Weld Position Fail Deg
+             * @description Fail (setting weld_position) when a layer's build direction in the world lies more than this off up, deg
+             * @default 45
+             */
+            weld_position_fail_deg: number;
+            /**
              * Z Jump
              * @description An arc-ON move of a planar layer that climbs or drops more than half a layer height (at least 1 mm) off the layer's plane
              * @default fail

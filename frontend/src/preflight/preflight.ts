@@ -6,7 +6,7 @@
  */
 
 export type Verdict = "ok" | "warn" | "fail";
-export type Check = "top_gap" | "bottom_gap" | "plate" | "layer_order" | "retrace" | "dwell_metal" | "travel_collision" | "torch_axis" | "z_jump" | "local_deposit" | "unreadable" | "weld_speed" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
+export type Check = "top_gap" | "bottom_gap" | "plate" | "layer_order" | "retrace" | "dwell_metal" | "travel_collision" | "torch_axis" | "weld_position" | "z_jump" | "local_deposit" | "unreadable" | "weld_speed" | "uncovered" | "volume_ratio" | "arc_run" | "stacked_starts" | "weld_data" | "program";
 export type Point3 = [number, number, number];
 
 /** Whole-part (or per-program) figures; any may be null when it does not apply. */
@@ -23,6 +23,8 @@ export interface PreflightFigures {
   retrace_share?: number | null;
   /** Robot programs: the largest angle between the torch and its layer's build direction, deg. */
   torch_angle_max_deg?: number | null;
+  /** Programs written for a cell: the largest angle between a layer's build direction in the world (under the positioner angles the program states) and up, deg (0 = flat). */
+  weld_position_max_deg?: number | null;
   /** Planar programs: travel moves (arc off) found in metal welded before them. */
   travel_collisions?: number | null;
   /** Metal laid in dwells with the arc on, mm³ (counted in the wire balance). */
@@ -174,7 +176,7 @@ export function sortedProblems(report: Preflight | null): PreflightProblem[] {
 
 /** Human name of a check. */
 export const CHECK_LABEL: Record<string, string> = {
-  top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", weld_speed: "welding without a speed", layer_order: "layers out of order", retrace: "welded twice", dwell_metal: "metal laid standing", travel_collision: "travel into the part", torch_axis: "torch turned away", z_jump: "move off the layer's plane", local_deposit: "too little or too much metal", unreadable: "motion not readable", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
+  top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", weld_speed: "welding without a speed", layer_order: "layers out of order", retrace: "welded twice", dwell_metal: "metal laid standing", travel_collision: "travel into the part", torch_axis: "torch turned away", weld_position: "layer not deposited flat", z_jump: "move off the layer's plane", local_deposit: "too little or too much metal", unreadable: "motion not readable", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
   stacked_starts: "stacked starts", weld_data: "weld data missing", program: "program",
 };
 export const checkLabel = (c: string) => CHECK_LABEL[c] ?? c;

@@ -20,6 +20,9 @@ class Run:
 
     points: (k, 3) float mm. speed: (k - 1,) float mm/s (nan: not stated). wfs: (k - 1,) float
     m/min (nan: not commanded). weld: (k - 1,) bool, some weld parameter commanded for the segment.
+    ext: where the external axes the program states (a positioner's, degrees; nan where one is
+    not stated) change along the run: [(index of the first point they hold for, values (m,))];
+    empty when the program states none (check `weld_position`).
     """
 
     points: np.ndarray
@@ -29,6 +32,7 @@ class Run:
     layer: int | None
     section: str | None
     line: int
+    ext: list[tuple[int, np.ndarray]] = field(default_factory=list)
 
     @property
     def length(self) -> float:
@@ -112,6 +116,10 @@ class RunBuilder:
         self.lost = False  # a travel went somewhere unknown (`unplaced`): the program has moved
         self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
         self.axis: np.ndarray | None = None  # the tool axis of the next `move`'s targets (robot dialects)
+        # the external axes (a positioner's, degrees) of the next motion's targets, as the program
+        # states them; None: it states none (they hold until a reader sets others)
+        self.ext: np.ndarray | None = None
+        self.run_ext: list[tuple[int, np.ndarray]] = []  # Run.ext of the run under way
         self.run_dwells: list[int] = []  # the dwells (in out.dwells) of the run under way
 
     def frame(self, kind: str, value: str, where: str) -> None:
@@ -165,6 +173,8 @@ class RunBuilder:
         self.pts, self.speed, self.wfs, self.weld, self.line = [start.copy()], [], [], [], line
         self.started = bool(np.isfinite(start).all())
         self.run_layer, self.run_section = self.layer, self.section
+        self.run_ext = []
+        self._mark_ext(0)
 
     def close(self) -> None:
         if self.pts is not None and len(self.pts) > 1 and np.isfinite(self.pts[0]).all():
@@ -177,12 +187,21 @@ class RunBuilder:
                     self.run_layer,
                     self.run_section,
                     self.line,
+                    self.run_ext,
                 )
             )
             for i in self.run_dwells:  # the run's dwells are in it (a run dropped: theirs stay None)
                 self.out.dwells[i][3] = self.out.runs[-1]
         self.run_dwells = []
+        self.run_ext = []
         self.pts = None
+
+    def _mark_ext(self, at: int) -> None:
+        """The external axes in force hold from point `at` of the run under way (a change only)."""
+        e = self.ext
+        if e is None or (self.run_ext and (self.run_ext[-1][1] is e or np.array_equal(self.run_ext[-1][1], e, True))):
+            return
+        self.run_ext.append((at, e))
 
     def move(self, targets: np.ndarray, speed: float, wfs: float, weld: bool) -> None:
         targets = np.atleast_2d(np.asarray(targets, float))
@@ -192,6 +211,10 @@ class RunBuilder:
                 self.pts = [targets[0]]
                 self.started = bool(np.isfinite(targets[0]).all())
                 targets = targets[1:]
+                self.run_ext = []
+                self._mark_ext(0)
+            if len(targets):
+                self._mark_ext(len(self.pts))
             for t in targets:
                 self.pts.append(t)
                 self.speed.append(speed)
@@ -217,6 +240,8 @@ class RunBuilder:
         motions of a program); False, nothing done, when no run is under way."""
         if self.pts is None or not self.started:
             return False
+        if self.ext is not None:
+            self._mark_ext(len(self.pts))
         self.pts.append(p)
         self.speed.append(speed)
         self.wfs.append(wfs)
@@ -251,6 +276,8 @@ class RunBuilder:
         if i == n:
             return
         assert self.pts is not None  # the loop ended with a run under way
+        if self.ext is not None:
+            self._mark_ext(len(self.pts))
         rows = list(xyz[i:])
         self.pts.extend(rows)
         self.speed.extend(speeds[i:])

@@ -158,6 +158,42 @@ def _dwell_s(vals: dict[str, float], tag: re.Match | None) -> float:
     return vals.get("S", 0.0)
 
 
+_ROTARY = re.compile(r"rotary axes: (.*?) in (degrees|radians)")
+_ROTARY_AXIS = re.compile(r"\b([A-CU-W]) = positioner E(\d)")
+
+
+class _Rotary:
+    """The positioner's rotary words as the header maps them (`rotary axes: A = positioner E1
+    (tilt), C = positioner E2 (turn) in degrees|radians`): modal, they hold until changed."""
+
+    def __init__(self, text: str) -> None:
+        m = _ROTARY.search(text, 0, 20_000)
+        self.words = {a: int(k) - 1 for a, k in _ROTARY_AXIS.findall(m.group(1))} if m else {}
+        self.scale = 1.0 if m is None or m.group(2) == "degrees" else 180.0 / math.pi
+        self.angles = np.full(max(self.words.values(), default=-1) + 1, np.nan)  # degrees
+
+    def take(self, vals: dict[str, float], b: RunBuilder) -> None:
+        """A line's words: its rotary ones become the angles of the motions from here on."""
+        if self.words and any(a in vals for a in self.words):
+            self.angles = self.angles.copy()
+            for a, k in self.words.items():
+                if a in vals:
+                    self.angles[k] = vals[a] * self.scale
+            b.ext = self.angles
+
+
+def _weld_values(code: str, weld_rx: dict, values: dict[str, float]) -> bool:
+    """A weld command of the header's templates on the line: its value into `values` (True)."""
+    matched = False
+    for name, pats in weld_rx.items():
+        for rx, scale, literal in pats:
+            m = rx.search(code) if literal in code else None
+            if m:
+                values[name] = float(m.group(1)) / scale
+                matched = True
+    return matched
+
+
 def read_gcode(text: str) -> ProgramRead:
     tag = _POST_TAG.search(text)
     arc_on = (tag.group(1) if tag else "M3").replace("_", " ").upper().split()
@@ -178,6 +214,7 @@ def read_gcode(text: str) -> ProgramRead:
     arc_sizes = {len(on_words), len(off_words)}
     plain = None if _MODAL_WORDS.search(text) else _plain_g1(weld_rx, arc_letters)
     modes = _Modes()
+    rotary = _Rotary(text)
     lines = text.splitlines()
     runs = _plain_runs(text, lines, plain) if plain is not None else {}
     ln = 0  # lines read (the 1-based number of the line in hand, once it is taken)
@@ -211,14 +248,7 @@ def read_gcode(text: str) -> ProgramRead:
             if words == off_words:
                 b.close()
                 continue
-        matched = False
-        for name, pats in weld_rx.items():
-            for rx, scale, literal in pats:
-                m = rx.search(code) if literal in code else None
-                if m:
-                    values[name] = float(m.group(1)) / scale
-                    matched = True
-        if matched:
+        if _weld_values(code, weld_rx, values):
             continue
         vals: dict[str, float] = {}
         gs: list[float] = []
@@ -241,6 +271,7 @@ def read_gcode(text: str) -> ProgramRead:
         if 4 in gs:  # a dwell: the wire feeds in one spot when the arc is on
             b.dwell(_dwell_s(vals, tag), values.get("wire_feed_speed", math.nan))
             continue
+        rotary.take(vals, b)
         if not any(k in vals for k in "XYZ"):
             continue
         here = b.pos if b.pos is not None else np.zeros(3)

@@ -29,6 +29,9 @@ _INF_VAL = re.compile(r"\b(AC|AV)=(" + NUM + r")")
 _INF_T = re.compile(r"\bT=(" + NUM + ")")  # ARCON's ignition time, s
 _INF_TIMER = re.compile(r"TIMER\s+T=(" + NUM + ")")
 _INF_C = re.compile(r"C(\d+)")
+_INF_EC = re.compile(r"^EC(\d+)=(.*)$", re.MULTILINE)  # a station position, pulses
+_INF_STATION = re.compile(r"\+MOVJ\s+EC(\d+)")  # the station's coordinated target of a motion
+_INF_PPD = re.compile(r"^'pulse/deg\s+(.*)$", re.MULTILINE)  # the post's note of the station's pulses per degree
 
 
 class _CPoint:
@@ -70,8 +73,10 @@ def _job_positions(text: str) -> dict[int, _CPoint]:
 class _InformReader:
     """Walks the jobs' //INST lines into a RunBuilder."""
 
-    def __init__(self) -> None:
+    def __init__(self, ppd: np.ndarray | None = None) -> None:
         self.b = RunBuilder("inform")
+        self.ppd = ppd  # the station axes' pulses per degree (the main job's note), None: not stated
+        self.station: dict[int, np.ndarray] = {}  # the job being walked: EC number → pulses
         self.vals: dict[str, float] = {}
         self.shift: str | None = None  # where a parallel shift (SFTON) was turned on
         self.line_no = 0  # INST lines over all jobs (a run's line)
@@ -79,6 +84,9 @@ class _InformReader:
     def job(self, name: str, text: str) -> None:
         pos = _job_positions(text)
         head, _, inst = text.partition("//INST")
+        self.station = {
+            int(k): np.array([float(v) for v in re.findall(NUM, vals)]) for k, vals in _INF_EC.findall(head)
+        }
         first = head.count("\n") + 1  # the file line of //INST
         self.shift = None  # a shift ends with its job
         for k, raw in enumerate(inst.splitlines()):
@@ -142,7 +150,24 @@ class _InformReader:
         speed = float(sp.group(1)) if sp and kind != "MOVJ" else math.nan
         weld = bool(self.vals.get("AC") or self.vals.get("AV"))
         b.axis = p.axis
+        st = _INF_STATION.search(tail)
+        if st is not None:
+            self.station_angles(int(st.group(1)), where)
         b.move(p.xyz, speed, math.nan, weld)
+
+    def station_angles(self, k: int, where: str) -> None:
+        """The positioner's angles (degrees) of the coordinated target EC k, into the builder."""
+        pulses = self.station.get(k)
+        if pulses is None:
+            self.b.out.notes.append(f"{where}: EC{k:05d} not in the job's //POS: the positioner's angles are unknown")
+        elif self.ppd is None or len(self.ppd) < len(pulses) or not (self.ppd[: len(pulses)] > 0).all():
+            if not any("pulses per degree" in n for n in self.b.out.notes):
+                self.b.out.notes.append(
+                    "the station's pulses per degree are not stated ('pulse/deg in the main job): the "
+                    "positioner's angles are not known to the preflight"
+                )
+        else:
+            self.b.ext = pulses / self.ppd[: len(pulses)]
 
 
 def read_inform(files: dict[str, str]) -> ProgramRead:
@@ -151,7 +176,8 @@ def read_inform(files: dict[str, str]) -> ProgramRead:
     jobs = {m.group(1).upper(): t for t in files.values() if (m := _JOB_NAME.search(t))}
     main = next((t for t in files.values() if _JOB_CALL.search(t)), next(iter(files.values())))
     calls = [c for c in _JOB_CALL.findall(main) if c.upper() in jobs]
-    r = _InformReader()
+    ppd = next((m.group(1) for t in files.values() if (m := _INF_PPD.search(t))), None)
+    r = _InformReader(np.array([float(v) for v in re.findall(NUM, ppd)]) if ppd else None)
     if calls:
         for c in calls:
             r.job(c.upper(), jobs[c.upper()])

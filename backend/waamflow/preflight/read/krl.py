@@ -20,16 +20,22 @@ _CHANNELS = re.compile(r"channels\s+([^)]*?)\)")
 _ANOUT_TAG = re.compile(r"\$ANOUT\[(\d+)\]")
 
 
-def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """E6POS name → position, and → tool axis (unit, base frame) of the points that state A, B, C."""
-    pts, names, abc = {}, [], []
+_E_AXES = tuple(f"E{k}" for k in range(1, 7))
+
+
+def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """E6POS name → position; → tool axis (unit, base frame) of the points that state A, B, C;
+    → external axes E1..E6 (nan where not stated) of the points that state one."""
+    pts, names, abc, ext = {}, [], [], {}
     for name, body in _E6.findall(dat):
         f = {k.upper(): float(v) for k, v in _FIELD.findall(body)}
         pts[name.upper()] = np.array([f.get("X", 0.0), f.get("Y", 0.0), f.get("Z", 0.0)])
         if {"A", "B", "C"} <= f.keys():
             names.append(name.upper())
             abc.append((f["A"], f["B"], f["C"]))
-    return pts, (dict(zip(names, axes_euler(np.array(abc), "ZYX", column))) if names else {})
+        if "E1" in f:
+            ext[name.upper()] = np.array([f.get(e, math.nan) for e in _E_AXES])
+    return pts, (dict(zip(names, axes_euler(np.array(abc), "ZYX", column))) if names else {}), ext
 
 
 def _krl_wdat(dat: str, channels: dict[int, str]) -> tuple[dict[str, dict[str, float]], dict[str, tuple[float, float]]]:
@@ -113,6 +119,7 @@ class _KrlReader:
         self.b = RunBuilder("krl")
         self.state = _KrlState()
         self.axes: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → tool axis
+        self.ext: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → E1..E6
         self.strikes: dict[str, tuple[float, float]] = {}  # ArcTech set → (Strike.StartTime, its wire feed)
 
     def walk(self, name: str, depth: int = 0) -> None:
@@ -120,10 +127,11 @@ class _KrlReader:
             return
         text = self.srcs[name]
         stem = name[:-4]
-        pts, axes = _krl_targets(self.dats.get(stem, ""), self.head.column)
+        pts, axes, ext = _krl_targets(self.dats.get(stem, ""), self.head.column)
         wdats, strikes = _krl_wdat(self.dats.get(stem, ""), self.head.channels)
         self.strikes.update(strikes)
         caller, self.axes = self.axes, axes
+        caller_ext, self.ext = self.ext, ext
         for ln, raw in enumerate(text.splitlines(), start=1):
             code, _, comment = raw.partition(";")
             if comment.strip():
@@ -131,7 +139,7 @@ class _KrlReader:
             code = code.strip()
             if code:
                 self.statement(name, depth, ln, code, pts, wdats)
-        self.axes = caller
+        self.axes, self.ext = caller, caller_ext
 
     def statement(
         self, name: str, depth: int, ln: int, code: str, pts: dict[str, np.ndarray], wdats: dict[str, dict[str, float]]
@@ -217,7 +225,10 @@ class _KrlReader:
         if self.state.wdat is not None:
             vals.update(wdats.get(self.state.wdat, {}))
         speed = self.state.vel if kind != "PTP" else math.nan
-        self.b.axis = self.axes.get(p2 if kind == "CIRC" and p2 is not None else p1)
+        end = p2 if kind == "CIRC" and p2 is not None else p1
+        self.b.axis = self.axes.get(end)
+        if end in self.ext:  # an E6POS states them; a POS or FRAME leaves them where they are
+            self.b.ext = self.ext[end]
         self.b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
 
 

@@ -14,11 +14,13 @@ from .core import NUM, ProgramRead, RunBuilder, circle_through
 from .orient import axes_quaternion, tool_column
 
 _Q = r")\s*,\s*("  # between two numbers of a list
-_ROBT = re.compile(  # name, x, y, z and, when it follows, the orientation q1..q4
+_ROBT = re.compile(  # name, x, y, z and, when they follow, the orientation q1..q4 and the extax list
     r"robtarget\s+(\w+)\s*:=\s*\[\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + r")\s*\]"
-    r"(?:\s*,\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + _Q + NUM + r")\s*\])?",
+    r"(?:\s*,\s*\[\s*(" + NUM + _Q + NUM + _Q + NUM + _Q + NUM + r")\s*\]"
+    r"(?:\s*,\s*\[[^\]]*\]\s*,\s*\[([^\]]*)\])?)?",
     re.IGNORECASE,
 )
+_UNUSED_AXIS = 8.9e9  # RAPID's 9E9: an external axis the robtarget does not use
 _SEAM = re.compile(  # name, purge, preflow, ign_arc (an arcdata), ign_move_delay (s: the dwell after ignition)
     r"seamdata\s+(\w+)\s*:=\s*\[\s*(" + NUM + _Q + NUM + r")\s*,\s*\[([^\]]*)\]\s*,\s*(" + NUM + ")",
     re.IGNORECASE,
@@ -49,9 +51,10 @@ def read_rapid(text: str) -> ProgramRead:
     axes = dict(
         zip(
             (q[0].lower() for q in quats),
-            axes_quaternion(np.array([q[4:] for q in quats], float), tool_column(text[:4000], "z")),
+            axes_quaternion(np.array([q[4:8] for q in quats], float), tool_column(text[:4000], "z")),
         )
     )
+    ext = {f[0].lower(): e for f in found if f[8] and np.isfinite(e := _extax(f[8])).any()}
     speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
     builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
     fields: tuple[str, ...] = _ARCDATA_DEFAULT
@@ -116,6 +119,9 @@ def read_rapid(text: str) -> ProgramRead:
             seg = circle_through(b.pos, seg[0], seg[1])
         last = names[1 if circ else 0]
         b.axis = axes.get(last if last in axes else _base_name(last))
+        target_ext = ext.get(last if last in ext else _base_name(last))
+        if target_ext is not None:
+            b.ext = target_ext
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
@@ -140,6 +146,12 @@ _SPLIT_CALL = re.compile(r",(?![^\[(]*[\])])")
 _OFFS = re.compile(
     r"offs\s*\(\s*(\w+)\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*,\s*(" + NUM + r")\s*\)", re.IGNORECASE
 )
+
+
+def _extax(text: str) -> np.ndarray:
+    """A robtarget's extax list as values (degrees for a positioner's axes); 9E9 (unused): nan."""
+    v = np.array([float(x) for x in re.findall(NUM, text)], float)
+    return np.where(np.abs(v) >= _UNUSED_AXIS, np.nan, v)
 
 
 def _target(arg: str, pts: dict[str, np.ndarray]) -> np.ndarray | None:
