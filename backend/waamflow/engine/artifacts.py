@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from ..core.serialize import dumps_report
 
 
 def write_run_dir(out_dir: str | Path, files: dict[str, bytes], summary: dict[str, Any]) -> Path:
@@ -23,7 +24,8 @@ def write_run_dir(out_dir: str | Path, files: dict[str, bytes], summary: dict[st
             if "/" in name or "\\" in name or name.startswith("."):
                 raise ValueError(f"bad artifact name {name!r}")
             (stage / name).write_bytes(data)
-        (stage / "summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+        # orjson, 2 spaces, as preflight.json (json.dumps(indent=2) took 22 ms of the bracket's run)
+        (stage / "summary.json").write_bytes(dumps_report(summary))
         old = None
         if out.exists():
             old = out.parent / f".{out.name}.old-{os.getpid()}"
