@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import functools
 import re
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -198,3 +200,21 @@ def test_off_skips_the_check():
     finally:
         g.recipe.preflight = None
     assert not _problems(rep)
+
+
+@pytest.mark.skipif(
+    shutil.which("rs274") is None, reason="LinuxCNC's rs274 is not installed (apt-get install linuxcnc-uspace)"
+)
+def test_rs274_reads_the_same_angles(tmp_path):
+    """LinuxCNC's interpreter runs the G-code (A, C as the header maps them: E1 tilt, E2 turn): the
+    angles of its welding feeds, layer by layer, are the ones our reader gives each run."""
+    g, res = _plan("gcode")
+    path = tmp_path / "post.ngc"
+    path.write_text(res.artifacts["post.gcode"].decode())
+    canon = subprocess.run(["rs274", "-g", str(path)], capture_output=True, text=True, timeout=120, input="")
+    assert canon.returncode == 0, canon.stderr
+    feeds = [[float(v) for v in m.group(1).split(",")] for m in re.finditer(r"STRAIGHT_FEED\(([^)]*)\)", canon.stdout)]
+    ac = [(round(f[3], 3), round(f[5], 3)) for f in feeds]
+    distinct = [p for k, p in enumerate(ac) if k == 0 or p != ac[k - 1]]
+    ours = [tuple(np.round(r.ext[0][1][:2], 3)) for r in read_program("gcode", _program_files(res)).runs]
+    assert len(distinct) == 15 and distinct == ours
