@@ -48,6 +48,12 @@ describe("preflight badge: verdict → label, tone, figures", () => {
     ]);
     expect(figureRows({}).every(([, v]) => v === "n/a")).toBe(true);
   });
+  it("a program written for a cell adds how far its least flat layer lies off flat", () => {
+    const rows = figureRows({ weld_position_max_deg: 89.04 });
+    expect(rows.length).toBe(8);
+    expect(rows[7]).toEqual(["off flat", "89.0°"]);
+    expect(figureRows({ weld_position_max_deg: null }).length).toBe(7);
+  });
 });
 
 describe("preflight badge: never stale, never early", () => {

@@ -62,6 +62,7 @@ def test_as_written_every_layer_lies_flat(planned):
     rep = run_preflight(g, res.outputs, res.artifacts)
     (prog,) = rep["programs"]
     assert prog["weld_position_max_deg"] == pytest.approx(0.0, abs=0.05), fmt
+    assert rep["weld_position_max_deg"] == prog["weld_position_max_deg"]  # the run's figure (the GUI's "off flat")
     assert prog["weld_position_unjudged_runs"] == 0 and not _problems(rep)
 
 
@@ -186,6 +187,7 @@ def test_a_program_without_a_cell_is_not_judged():
     res = execute(g, resolver=FileResolver(GRAPHS), workers=1)
     (prog,) = run_preflight(g, res.outputs, res.artifacts)["programs"]
     assert "weld_position_max_deg" not in prog and "weld_position_unjudged_runs" not in prog
+    assert run_preflight(g, res.outputs, res.artifacts)["weld_position_max_deg"] is None
 
 
 def test_off_skips_the_check():

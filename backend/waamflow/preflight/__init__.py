@@ -32,6 +32,7 @@ SUMMARY_KEYS = (
     "start_spread_mm",
     "weld_data_missing",
     "outside_mm",
+    "weld_position_max_deg",
 )
 DEFAULT_BEAD_WIDTH_MM = 6.0
 

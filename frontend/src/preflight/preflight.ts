@@ -132,6 +132,8 @@ export function figureRows(f: PreflightFigures): [string, string][] {
     ["min arc run", fix(f.min_arc_run_mm, 1, " mm")],
     ["start spread", fix(f.start_spread_mm, 1, " mm")],
     ["weld data missing", f.weld_data_missing == null ? "n/a" : String(f.weld_data_missing)],
+    // programs written for a cell only: how far the layer deposited least flat lies off flat
+    ...(f.weld_position_max_deg == null ? [] : ([["off flat", fix(f.weld_position_max_deg, 1, "°")]] as [string, string][])),
   ];
 }
 
