@@ -210,6 +210,28 @@ test("fault 11: mask layer fields show '100' whole at 1366×768", async () => {
   await page.context().close();
 });
 
+test("1366×768: after a run and an edit the toolbar stays in the window and the inspector in view", async () => {
+  // the progress, problem count and 'preflight: re-run' badge made the toolbar 1,416 px wide, which
+  // widened the page and pushed the inspector 50 px out of the window (its fields cut at the right)
+  const { page, errors } = await openPage(browser, srv.base);
+  await openRecipe(page, srv.base, "curved-duct");
+  await expectRun(page, srv.base, "done");
+  await page.click('.react-flow__node[data-id="sim"]');
+  await page.selectOption("#sim-blend", { index: 1 });
+  await page.waitForSelector("[data-testid=preflight-badge]:has-text('re-run')");
+  const m = await page.evaluate(() => ({
+    page: document.documentElement.scrollWidth,
+    toolbar: document.querySelector(".toolbar").scrollWidth,
+    inspector: document.querySelector("[data-testid=inspector]").getBoundingClientRect().right,
+    window: window.innerWidth,
+  }));
+  await shot(page, "trust-05-toolbar-after-run-1366");
+  assert.ok(m.page <= m.window && m.toolbar <= m.window, `page ${m.page}, toolbar ${m.toolbar} px in a ${m.window} px window`);
+  assert.ok(m.inspector <= m.window, `the inspector ends at ${m.inspector} px, past the ${m.window} px window`);
+  assert.deepEqual(errors, []);
+  await page.context().close();
+});
+
 test("fault 11: the 3D viewer page is served with the hashed assets' cache header", async () => {
   const { page, errors } = await openPage(browser, srv.base);
   await openGraph(page, "rectangle-study", "viewer");
