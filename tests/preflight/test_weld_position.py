@@ -181,6 +181,17 @@ def test_inform_pulses_per_degree_from_the_main_job():
     assert any("pulses per degree" in n for n in prog["notes"])
 
 
+def test_targets_without_angles_are_counted_and_noted():
+    """KRL points that state no E1/E2 leave the positioner where it stands: not judged, said so."""
+    g, res = _plan("krl")
+    dat = re.sub(r",E1 [^,]*,E2 [^,]*,E3 [^,]*,E4 [^,]*,E5 [^,]*,E6 [^}]*", "", res.artifacts["post.dat"].decode())
+    assert "E1" not in dat
+    rep = run_preflight(g, res.outputs, {**res.artifacts, "post.dat": dat.encode()})
+    (prog,) = rep["programs"]
+    assert prog["weld_position_unjudged_runs"] == 15 and "weld_position_max_deg" not in prog
+    assert any(n.startswith("15 arc-ON runs state no positioner angles") for n in prog["notes"]) and not _problems(rep)
+
+
 def test_a_program_without_a_cell_is_not_judged():
     """mpp-cross's KRL names no cell: the part's orientation in the world is not known."""
     g = build_graph(apply_overrides(load_recipe(GRAPHS / "mpp-cross.json"), parse_set(["format=krl"])))

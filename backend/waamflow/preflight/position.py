@@ -68,10 +68,11 @@ def weld_position_problems(
     m = cell.axes
     directions = build_directions(layers, planar, spacing)
     rotation: dict[tuple[float, ...], np.ndarray | None] = {}
-    worst, unjudged, outside = _Worst(), 0, []
+    worst, unjudged, outside, silent = _Worst(), 0, [], 0
     for (idx, runs), d in zip(layers, directions):
         for run in runs:
             states = run.ext if m else [(0, np.zeros(0))]
+            silent += not states
             if not np.isfinite(d).all() or not states:
                 unjudged += 1
                 continue
@@ -94,6 +95,12 @@ def weld_position_problems(
                 angle = float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0))))
                 worst.offer(angle, idx, run, ang, run.points[min(at, len(run.points) - 1)], up)
     out["weld_position_unjudged_runs"] = unjudged
+    if silent:
+        out.setdefault("notes", []).append(
+            f"{silent} arc-ON run{'s' if silent != 1 else ''} state{'' if silent != 1 else 's'} no positioner "
+            f"angles on cell {cell.name}: the positioner stands where the controller left it, its welding position "
+            "is not judged there"
+        )
     if outside:
         idx, run, ang, p = outside[0]
         layers_out = sorted({o[0] for o in outside})
