@@ -231,3 +231,23 @@ def test_rs274_reads_the_same_angles(tmp_path):
     distinct = [p for k, p in enumerate(ac) if k == 0 or p != ac[k - 1]]
     ours = [tuple(np.round(r.ext[0][1][:2], 3)) for r in read_program("gcode", _program_files(res)).runs]
     assert len(distinct) == 15 and distinct == ours
+
+
+def test_a_one_axis_tilter_leaves_the_duct_on_its_side_as_simulate_robot_says():
+    """curved-duct on kr150_tilt (one tilt axis about x; the duct's wedges turn about y) with the
+    recipe's own gravity policy: no tilt turns a layer leaning in x, and simulate-robot warns that the
+    layers stay up to 90° off flat here (6° wedges); the program as written, read back, gives the
+    same angle, and the preflight now refuses it where before it passed (a recipe without the
+    simulate-robot node had not even warned)."""
+    rec = apply_overrides(
+        load_recipe(GRAPHS / "curved-duct.json"),
+        parse_set(["dtheta_deg=6", "post.cell=kr150_tilt", "sim.cell=kr150_tilt"]),
+    )
+    g = build_graph(rec)
+    res = execute(g, resolver=FileResolver(GRAPHS), cache=CACHE, workers=1)
+    (warned,) = [w["message"] for w in res.warnings if "off flat" in w["message"] and w.get("node") == "sim"]
+    sim_deg = float(re.search(r"up to (" + NUM + ")° off flat", warned).group(1))
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    (p,) = _problems(rep)
+    assert p["severity"] == "fail" and p["value"] == pytest.approx(sim_deg, abs=0.05) and p["layer"] == 14
+    assert "cell kr150_tilt)" in p["message"]
