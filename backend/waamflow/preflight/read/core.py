@@ -117,9 +117,10 @@ class RunBuilder:
         self.pending: str | None = None  # KRL TRIGGER ... DISTANCE=1: "on"/"off" at the end of the next motion
         self.axis: np.ndarray | None = None  # the tool axis of the next `move`'s targets (robot dialects)
         # the external axes (a positioner's, degrees) of the next motion's targets, as the program
-        # states them; None: it states none (they hold until a reader sets others)
+        # states them (`positioner`); None: it states none (they hold until a reader sets others)
         self.ext: np.ndarray | None = None
         self.run_ext: list[tuple[int, np.ndarray]] = []  # Run.ext of the run under way
+        self._ext_made: dict[tuple[float, ...], np.ndarray] = {}  # one array per set of values
         self.run_dwells: list[int] = []  # the dwells (in out.dwells) of the run under way
 
     def frame(self, kind: str, value: str, where: str) -> None:
@@ -196,10 +197,19 @@ class RunBuilder:
         self.run_ext = []
         self.pts = None
 
+    def positioner(self, values: tuple[float, ...]) -> None:
+        """The external axes' values (degrees; nan: not stated) of the next motions' targets. Equal
+        values give the very same array, so a run records only where they change (`_mark_ext`),
+        at the cost of a dictionary look-up per target (100,000 targets on curved-bracket)."""
+        e = self._ext_made.get(values)
+        if e is None:
+            e = self._ext_made[values] = np.array(values, float)
+        self.ext = e
+
     def _mark_ext(self, at: int) -> None:
         """The external axes in force hold from point `at` of the run under way (a change only)."""
         e = self.ext
-        if e is None or (self.run_ext and (self.run_ext[-1][1] is e or np.array_equal(self.run_ext[-1][1], e, True))):
+        if e is None or (self.run_ext and self.run_ext[-1][1] is e):
             return
         self.run_ext.append((at, e))
 

@@ -175,11 +175,10 @@ class _Rotary:
     def take(self, vals: dict[str, float], b: RunBuilder) -> None:
         """A line's words: its rotary ones become the angles of the motions from here on."""
         if self.words and any(a in vals for a in self.words):
-            self.angles = self.angles.copy()
             for a, k in self.words.items():
                 if a in vals:
                     self.angles[k] = vals[a] * self.scale
-            b.ext = self.angles
+            b.positioner(tuple(self.angles.tolist()))
 
 
 def _weld_values(code: str, weld_rx: dict, values: dict[str, float]) -> bool:

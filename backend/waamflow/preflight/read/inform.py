@@ -73,10 +73,12 @@ def _job_positions(text: str) -> dict[int, _CPoint]:
 class _InformReader:
     """Walks the jobs' //INST lines into a RunBuilder."""
 
-    def __init__(self, ppd: np.ndarray | None = None) -> None:
+    def __init__(self, ppd: tuple[float, ...] | None = None) -> None:
         self.b = RunBuilder("inform")
         self.ppd = ppd  # the station axes' pulses per degree (the main job's note), None: not stated
-        self.station: dict[int, np.ndarray] = {}  # the job being walked: EC number → pulses
+        self.station: dict[int, tuple[float, ...]] = {}  # the job being walked: EC number → pulses
+        self.degrees: dict[tuple[float, ...], tuple[float, ...]] = {}  # pulses → degrees
+        self.seen: dict[str, tuple[float, ...]] = {}  # a station position's text → its pulses
         self.vals: dict[str, float] = {}
         self.shift: str | None = None  # where a parallel shift (SFTON) was turned on
         self.line_no = 0  # INST lines over all jobs (a run's line)
@@ -84,9 +86,7 @@ class _InformReader:
     def job(self, name: str, text: str) -> None:
         pos = _job_positions(text)
         head, _, inst = text.partition("//INST")
-        self.station = {
-            int(k): np.array([float(v) for v in re.findall(NUM, vals)]) for k, vals in _INF_EC.findall(head)
-        }
+        self.station = {int(k): self.pulses(vals) for k, vals in _INF_EC.findall(head)}
         first = head.count("\n") + 1  # the file line of //INST
         self.shift = None  # a shift ends with its job
         for k, raw in enumerate(inst.splitlines()):
@@ -155,19 +155,31 @@ class _InformReader:
             self.station_angles(int(st.group(1)), where)
         b.move(p.xyz, speed, math.nan, weld)
 
+    def pulses(self, text: str) -> tuple[float, ...]:
+        """A station position's pulses from its text (the same text: the same tuple)."""
+        v = self.seen.get(text)
+        if v is None:
+            v = self.seen[text] = tuple(map(float, re.findall(NUM, text)))
+        return v
+
     def station_angles(self, k: int, where: str) -> None:
         """The positioner's angles (degrees) of the coordinated target EC k, into the builder."""
         pulses = self.station.get(k)
         if pulses is None:
             self.b.out.notes.append(f"{where}: EC{k:05d} not in the job's //POS: the positioner's angles are unknown")
-        elif self.ppd is None or len(self.ppd) < len(pulses) or not (self.ppd[: len(pulses)] > 0).all():
-            if not any("pulses per degree" in n for n in self.b.out.notes):
-                self.b.out.notes.append(
-                    "the station's pulses per degree are not stated ('pulse/deg in the main job): the "
-                    "positioner's angles are not known to the preflight"
-                )
-        else:
-            self.b.ext = pulses / self.ppd[: len(pulses)]
+            return
+        deg = self.degrees.get(pulses)  # a layer's motions repeat its pulses
+        if deg is None:
+            ppd = self.ppd
+            if ppd is None or len(ppd) < len(pulses) or min(ppd[: len(pulses)]) <= 0:
+                if not any("pulses per degree" in n for n in self.b.out.notes):
+                    self.b.out.notes.append(
+                        "the station's pulses per degree are not stated ('pulse/deg in the main job): the "
+                        "positioner's angles are not known to the preflight"
+                    )
+                return
+            deg = self.degrees[pulses] = tuple(p / d for p, d in zip(pulses, ppd))
+        self.b.positioner(deg)
 
 
 def read_inform(files: dict[str, str]) -> ProgramRead:
@@ -177,7 +189,7 @@ def read_inform(files: dict[str, str]) -> ProgramRead:
     main = next((t for t in files.values() if _JOB_CALL.search(t)), next(iter(files.values())))
     calls = [c for c in _JOB_CALL.findall(main) if c.upper() in jobs]
     ppd = next((m.group(1) for t in files.values() if (m := _INF_PPD.search(t))), None)
-    r = _InformReader(np.array([float(v) for v in re.findall(NUM, ppd)]) if ppd else None)
+    r = _InformReader(tuple(float(v) for v in re.findall(NUM, ppd)) if ppd else None)
     if calls:
         for c in calls:
             r.job(c.upper(), jobs[c.upper()])

@@ -23,7 +23,9 @@ _ANOUT_TAG = re.compile(r"\$ANOUT\[(\d+)\]")
 _E_AXES = tuple(f"E{k}" for k in range(1, 7))
 
 
-def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, np.ndarray]]:
+def _krl_targets(
+    dat: str, column: int
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], dict[str, tuple[float, ...]]]:
     """E6POS name → position; → tool axis (unit, base frame) of the points that state A, B, C;
     → external axes E1..E6 (nan where not stated) of the points that state one."""
     pts, names, abc, ext = {}, [], [], {}
@@ -34,7 +36,7 @@ def _krl_targets(dat: str, column: int) -> tuple[dict[str, np.ndarray], dict[str
             names.append(name.upper())
             abc.append((f["A"], f["B"], f["C"]))
         if "E1" in f:
-            ext[name.upper()] = np.array([f.get(e, math.nan) for e in _E_AXES])
+            ext[name.upper()] = tuple(f.get(e, math.nan) for e in _E_AXES)
     return pts, (dict(zip(names, axes_euler(np.array(abc), "ZYX", column))) if names else {}), ext
 
 
@@ -119,7 +121,7 @@ class _KrlReader:
         self.b = RunBuilder("krl")
         self.state = _KrlState()
         self.axes: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → tool axis
-        self.ext: dict[str, np.ndarray] = {}  # the file being walked: E6POS name → E1..E6
+        self.ext: dict[str, tuple[float, ...]] = {}  # the file being walked: E6POS name → E1..E6
         self.strikes: dict[str, tuple[float, float]] = {}  # ArcTech set → (Strike.StartTime, its wire feed)
 
     def walk(self, name: str, depth: int = 0) -> None:
@@ -228,7 +230,7 @@ class _KrlReader:
         end = p2 if kind == "CIRC" and p2 is not None else p1
         self.b.axis = self.axes.get(end)
         if end in self.ext:  # an E6POS states them; a POS or FRAME leaves them where they are
-            self.b.ext = self.ext[end]
+            self.b.positioner(self.ext[end])
         self.b.move(seg, speed, vals.get("wire_feed_speed", math.nan), bool(vals))
 
 

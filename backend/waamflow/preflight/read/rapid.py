@@ -54,7 +54,7 @@ def read_rapid(text: str) -> ProgramRead:
             axes_quaternion(np.array([q[4:8] for q in quats], float), tool_column(text[:4000], "z")),
         )
     )
-    ext = {f[0].lower(): e for f in found if f[8] and np.isfinite(e := _extax(f[8])).any()}
+    ext = _extaxes(found)
     speeds = {n.lower(): float(v) for n, v in _SPEED.findall(text)}
     builtin = {f"v{v}": float(v) for v in (5, 10, 20, 30, 40, 50, 60, 80, 100, 150, 200, 300, 400, 500, 600, 800, 1000)}
     fields: tuple[str, ...] = _ARCDATA_DEFAULT
@@ -121,7 +121,7 @@ def read_rapid(text: str) -> ProgramRead:
         b.axis = axes.get(last if last in axes else _base_name(last))
         target_ext = ext.get(last if last in ext else _base_name(last))
         if target_ext is not None:
-            b.ext = target_ext
+            b.positioner(target_ext)
         sp = names[2 if circ else 1] if len(names) > (2 if circ else 1) else ""
         weld = next((welds[n] for n in names if n in welds), None)
         speed = speeds.get(sp, builtin.get(sp, math.nan))
@@ -148,10 +148,25 @@ _OFFS = re.compile(
 )
 
 
-def _extax(text: str) -> np.ndarray:
-    """A robtarget's extax list as values (degrees for a positioner's axes); 9E9 (unused): nan."""
-    v = np.array([float(x) for x in re.findall(NUM, text)], float)
-    return np.where(np.abs(v) >= _UNUSED_AXIS, np.nan, v)
+def _extaxes(found: list[tuple]) -> dict[str, tuple[float, ...]]:
+    """Robtarget name → its extax values (`_extax`) of the robtargets that use an external axis,
+    each distinct list's text parsed once (a layer's targets repeat it)."""
+    ext_of: dict[str, tuple[float, ...] | None] = {}
+    out = {}
+    for f in found:
+        if f[8]:
+            if f[8] not in ext_of:
+                ext_of[f[8]] = _extax(f[8])
+            if (values := ext_of[f[8]]) is not None:
+                out[f[0].lower()] = values
+    return out
+
+
+def _extax(text: str) -> tuple[float, ...] | None:
+    """A robtarget's extax list as values (degrees for a positioner's axes); 9E9 (unused): nan;
+    None when it uses none."""
+    v = tuple(x if abs(x) < _UNUSED_AXIS else math.nan for x in map(float, re.findall(NUM, text)))
+    return v if any(math.isfinite(x) for x in v) else None
 
 
 def _target(arg: str, pts: dict[str, np.ndarray]) -> np.ndarray | None:

@@ -25,12 +25,28 @@ _TP_POS = re.compile(
     r"(?:,\s*W =\s*(" + NUM + r")\s*deg,\s*P =\s*(" + NUM + r")\s*deg,\s*R =\s*(" + NUM + r")\s*deg)?",
     re.DOTALL,
 )
-_TP_GP2 = re.compile(
-    r"P\[(\d+)\]\{[^}]*?GP2:[^}]*?J1 =\s*(" + NUM + r")\s*deg(?:,\s*J2 =\s*(" + NUM + r")\s*deg)?"
-    r"(?:,\s*J3 =\s*(" + NUM + r")\s*deg)?",
-    re.DOTALL,
+_TP_GP2 = re.compile(  # motion group 2's joints in a position block
+    r"GP2:[^}]*?J1 =\s*(" + NUM + r")\s*deg(?:,\s*J2 =\s*(" + NUM + r")\s*deg)?(?:,\s*J3 =\s*(" + NUM + r")\s*deg)?"
 )
 _TP_SPEED = {"mm/sec": 1.0, "cm/min": 10.0 / 60.0}
+
+
+def _tp_group2(pos: str) -> dict[int, tuple[float, ...]]:
+    """P number → motion group 2's joints J1..J3 (a positioner's, degrees; nan where not stated),
+    of the /POS blocks that have a `GP2:`: found from the literal GP2, the block's number looked up
+    behind it (a regex from each P[ lazily up to its GP2 took 23 ms on curved-duct's 6,787 points)."""
+    out: dict[int, tuple[float, ...]] = {}
+    seen: dict[tuple[str, ...], tuple[float, ...]] = {}  # the joints' text → values (a layer's points repeat them)
+    for m in _TP_GP2.finditer(pos):
+        k = pos.rfind("P[", 0, m.start()) + 2
+        number = pos[k : pos.find("]", k)]
+        if k >= 2 and number.isdigit():
+            g = m.groups()
+            v = seen.get(g)
+            if v is None:
+                v = seen[g] = tuple(float(x) if x else math.nan for x in g)
+            out[int(number)] = v
+    return out
 
 
 def _tp_schedules(text: str) -> dict[int, dict[str, float]]:
@@ -76,10 +92,7 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
         pos = {int(f[0]): np.array([float(f[1]), float(f[2]), float(f[3])]) for f in found}
         wpr = [(int(f[0]), f[4:]) for f in found if f[4]]  # Fanuc tool z along the torch, R = Rz(R)·Ry(P)·Rx(W)
         axes = dict(zip((k for k, _ in wpr), axes_euler(np.array([a for _, a in wpr], float), "xyz", 2)))
-        ext = {  # motion group 2 (a positioner): its joints J1..J3, degrees
-            int(g[0]): np.array([float(v) if v else math.nan for v in g[1:]])
-            for g in _TP_GP2.findall(text.split("\n/POS\n", 1)[-1])
-        }
+        ext = _tp_group2(text.split("\n/POS\n", 1)[-1])
         for ln in body(text):
             line_no += 1
             if ln.startswith("!"):
@@ -124,7 +137,7 @@ def read_tp(files: dict[str, str]) -> ProgramRead:
                 weld = any(vals.get(n, 0.0) > 0 for n in ("current", "voltage", "wire_feed_speed"))
                 b.axis = axes.get(k)
                 if k in ext:
-                    b.ext = ext[k]
+                    b.positioner(ext[k])
                 b.move(pos[k], float(m.group(2)) * _TP_SPEED[m.group(3)], vals.get("wire_feed_speed", math.nan), weld)
     b.close()
     return b.out
