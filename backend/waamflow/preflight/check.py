@@ -413,8 +413,7 @@ def check_program(
             precomputed=cov.get("excursions"),
         )
         out.update({k: _r(v) if isinstance(v, float) else v for k, v in fig.items()})
-    _layer_problems(part, prog, layers, heights, h_typ, planar, width, out, rep, s)
-    weld_position_problems(layers, planar, _spacing(heights), cell, out, rep, s)
+    _layer_problems(part, prog, layers, heights, h_typ, planar, width, cell, out, rep, s)
     dwells = dwell_metal(prog, layers, s)  # metal laid standing, arc on (dwell.py)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s, dwells)
     _speedless(prog, rep, s)
@@ -427,13 +426,6 @@ def check_program(
     return _finish(out, rep, s)
 
 
-def _spacing(heights: list[float]) -> float | None:
-    """The median spacing of the deposited layers' heights (heights met twice, towers built one
-    after the other, count once); None with fewer than two."""
-    levels = np.unique(np.round(heights, 6))
-    return float(np.median(np.diff(levels))) if len(levels) > 1 else None
-
-
 def _layer_problems(
     part: Part | None,
     prog: ProgramRead,
@@ -442,15 +434,18 @@ def _layer_problems(
     h_typ: float | None,
     planar: bool,
     width: float,
+    cell: str,
     out: dict,
     rep: Report,
     s: PreflightSettings,
 ) -> None:
     """The deposit's bottom against the part's and the plate's (bottom.py), the layers' order
     (order.py), travel moves into metal welded before (travel.py), moves off a layer's plane
-    (plane.py), stretches welded twice (retrace.py) and the torch against the way each layer grows
-    (torch.py), on the spacing between the deposited layers' heights."""
-    spacing = _spacing(heights)
+    (plane.py), stretches welded twice (retrace.py), the torch against the way each layer grows
+    (torch.py) and each layer's welding position in the program's cell (position.py), on the
+    spacing between the deposited layers' heights."""
+    levels = np.unique(np.round(heights, 6))  # heights met twice (towers built one after the other) count once
+    spacing = float(np.median(np.diff(levels))) if len(levels) > 1 else None
     h_dep = spacing if planar and spacing is not None else h_typ
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:
@@ -460,6 +455,7 @@ def _layer_problems(
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
     retrace_problems(layers, width, out, rep, s)
     torch_axis_problems(layers, prog, planar, spacing, out, rep, s)
+    weld_position_problems(layers, planar, spacing, cell, out, rep, s)
 
 
 def _coverage_problems(

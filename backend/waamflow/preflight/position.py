@@ -58,7 +58,7 @@ def weld_position_problems(
     (a failure), and the layer whose build direction lies farthest from up in the world, beyond
     `s.weld_position_warn_deg` (a warning) or `s.weld_position_fail_deg`. out: `weld_position_max_deg`
     (that angle), `weld_position_unjudged_runs` (runs whose layer has no build direction or that
-    state no positioner angles)."""
+    state no positioner angles, and each set of angles a run states with an axis missing)."""
     if s.weld_position == "off" or not cell_json or not layers:
         return
     from ..core.errors import InputFileError
@@ -87,13 +87,13 @@ def weld_position_problems(
                         rotation[key] = cell.work_pose(ang)[0]
                     except InputFileError:  # outside the axis limits
                         rotation[key] = None
-                R = rotation[key]
+                R, p = rotation[key], run.points[min(at, len(run.points) - 1)]
                 if R is None:
-                    outside.append((idx, run, ang, run.points[min(at, len(run.points) - 1)]))
+                    outside.append((idx, run, ang, p))
                     continue
                 up = R @ d
                 angle = float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0))))
-                worst.offer(angle, idx, run, ang, run.points[min(at, len(run.points) - 1)], up)
+                worst.offer(angle, idx, run, ang, p, up)
     out["weld_position_unjudged_runs"] = unjudged
     if silent:
         out.setdefault("notes", []).append(

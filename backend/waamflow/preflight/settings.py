@@ -18,6 +18,15 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM
 
 
+_WARN_FAIL = (  # (warning threshold, failure threshold) pairs: a warning never lies beyond its failure
+    ("uncovered_warn", "uncovered_fail"),
+    ("layer_gap_warn_layers", "layer_gap_fail_layers"),
+    ("dwell_warn_widths", "dwell_fail_widths"),
+    ("torch_axis_warn_deg", "torch_axis_fail_deg"),
+    ("weld_position_warn_deg", "weld_position_fail_deg"),
+)
+
+
 class PreflightSettings(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
@@ -262,14 +271,7 @@ class PreflightSettings(BaseModel):
         flo, fhi = self.local_deposit_fail
         if not (0 < flo <= lo <= 1 <= hi <= fhi):
             raise ValueError("local deposit bands must nest around 1: 0 < fail low ≤ ok low ≤ 1 ≤ ok high ≤ fail high")
-        if self.uncovered_warn > self.uncovered_fail:
-            raise ValueError("uncovered_warn must not exceed uncovered_fail")
-        if self.layer_gap_warn_layers > self.layer_gap_fail_layers:
-            raise ValueError("layer_gap_warn_layers must not exceed layer_gap_fail_layers")
-        if self.dwell_warn_widths > self.dwell_fail_widths:
-            raise ValueError("dwell_warn_widths must not exceed dwell_fail_widths")
-        if self.torch_axis_warn_deg > self.torch_axis_fail_deg:
-            raise ValueError("torch_axis_warn_deg must not exceed torch_axis_fail_deg")
-        if self.weld_position_warn_deg > self.weld_position_fail_deg:
-            raise ValueError("weld_position_warn_deg must not exceed weld_position_fail_deg")
+        for warn, fail in _WARN_FAIL:
+            if getattr(self, warn) > getattr(self, fail):
+                raise ValueError(f"{warn} must not exceed {fail}")
         return self

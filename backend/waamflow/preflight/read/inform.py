@@ -76,9 +76,10 @@ class _InformReader:
     def __init__(self, ppd: tuple[float, ...] | None = None) -> None:
         self.b = RunBuilder("inform")
         self.ppd = ppd  # the station axes' pulses per degree (the main job's note), None: not stated
-        self.station: dict[int, tuple[float, ...]] = {}  # the job being walked: EC number → pulses
-        self.degrees: dict[tuple[float, ...], tuple[float, ...]] = {}  # pulses → degrees
-        self.seen: dict[str, tuple[float, ...]] = {}  # a station position's text → its pulses
+        self.station: dict[int, str] = {}  # the job being walked: EC number → its pulses as written
+        # a station position's text → its angles in degrees (None: no pulses per degree for them);
+        # a layer's positions repeat the same text
+        self.degrees: dict[str, tuple[float, ...] | None] = {}
         self.vals: dict[str, float] = {}
         self.shift: str | None = None  # where a parallel shift (SFTON) was turned on
         self.line_no = 0  # INST lines over all jobs (a run's line)
@@ -86,7 +87,7 @@ class _InformReader:
     def job(self, name: str, text: str) -> None:
         pos = _job_positions(text)
         head, _, inst = text.partition("//INST")
-        self.station = {int(k): self.pulses(vals) for k, vals in _INF_EC.findall(head)}
+        self.station = {int(k): vals for k, vals in _INF_EC.findall(head)}
         first = head.count("\n") + 1  # the file line of //INST
         self.shift = None  # a shift ends with its job
         for k, raw in enumerate(inst.splitlines()):
@@ -155,31 +156,25 @@ class _InformReader:
             self.station_angles(int(st.group(1)), where)
         b.move(p.xyz, speed, math.nan, weld)
 
-    def pulses(self, text: str) -> tuple[float, ...]:
-        """A station position's pulses from its text (the same text: the same tuple)."""
-        v = self.seen.get(text)
-        if v is None:
-            v = self.seen[text] = tuple(map(float, re.findall(NUM, text)))
-        return v
-
     def station_angles(self, k: int, where: str) -> None:
         """The positioner's angles (degrees) of the coordinated target EC k, into the builder."""
-        pulses = self.station.get(k)
-        if pulses is None:
+        text = self.station.get(k)
+        if text is None:
             self.b.out.notes.append(f"{where}: EC{k:05d} not in the job's //POS: the positioner's angles are unknown")
             return
-        deg = self.degrees.get(pulses)  # a layer's motions repeat its pulses
-        if deg is None:
-            ppd = self.ppd
-            if ppd is None or len(ppd) < len(pulses) or min(ppd[: len(pulses)]) <= 0:
-                if not any("pulses per degree" in n for n in self.b.out.notes):
-                    self.b.out.notes.append(
-                        "the station's pulses per degree are not stated ('pulse/deg in the main job): the "
-                        "positioner's angles are not known to the preflight"
-                    )
-                return
-            deg = self.degrees[pulses] = tuple(p / d for p, d in zip(pulses, ppd))
-        self.b.positioner(deg)
+        if text not in self.degrees:
+            pulses, ppd, deg = tuple(map(float, re.findall(NUM, text))), self.ppd, None
+            if ppd is not None and len(ppd) >= len(pulses) and all(d > 0 for d in ppd[: len(pulses)]):
+                deg = tuple(p / d for p, d in zip(pulses, ppd))
+            self.degrees[text] = deg
+        deg = self.degrees[text]
+        if deg is not None:
+            self.b.positioner(deg)
+        elif not any("pulses per degree" in n for n in self.b.out.notes):
+            self.b.out.notes.append(
+                "the station's pulses per degree are not stated ('pulse/deg in the main job): the "
+                "positioner's angles are not known to the preflight"
+            )
 
 
 def read_inform(files: dict[str, str]) -> ProgramRead:
