@@ -19,15 +19,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..core.pairs import close_pairs
 from .read.core import Run
 from .samples import segment_samples
 
 NEAR = 3.0 / 8.0  # of a bead width: two samples closer are the same bead's centre line
 STEP = 0.25  # of a bead width: the samples' spacing along a run
 PARALLEL = float(np.cos(np.radians(20.0)))  # |cos| of the angle between two beads that run together
-
-
-_LAYER_GAP = 1.0e7  # mm between layers in the search's 4th coordinate: no pair across layers
 
 
 class _Segments:
@@ -52,7 +50,7 @@ class _Segments:
             a = np.vstack([runs[k].points[:-1] for k in near])
             b = np.vstack([runs[k].points[1:] for k in near])
             own = np.repeat(near, [len(runs[k].points) - 1 for k in near])
-            if len(runs) > 32:  # a plan of many walls: the k-d tree sorts them out
+            if len(runs) > 32:  # a plan of many walls: the pair search sorts them out
                 meets = touch[own].any(axis=1)
             else:
                 slo, shi = np.minimum(a, b), np.maximum(a, b)
@@ -90,18 +88,16 @@ def _retraced_runs(
     layers: Sequence[tuple[int, list[Run]]], width: float
 ) -> list[tuple[float, float, int, Run, np.ndarray]]:
     """(share of its length, retraced mm, layer position, run, start of its longest retraced
-    stretch) of each run retracing a bead width or more of earlier runs of its layer: one k-d tree
-    search over the samples of every segment that can meet another run (a 4th coordinate apart per
-    layer)."""
+    stretch) of each run retracing a bead width or more of earlier runs of its layer: one search
+    for close pairs (core.pairs, a k-d tree's pairs without importing scipy) over the samples of
+    every segment that can meet another run, each layer's apart."""
     segs = _Segments(layers, NEAR * width)
     if not segs.keep.any():
         return []
-    from scipy.spatial import cKDTree  # not at import: the fork server preloads this module without scipy
-
     pts, tangent, arc, seg = segs.samples(STEP * width)
     run = segs.run[seg]
     layer = np.asarray(segs.run_layer)[run]
-    pairs = cKDTree(np.column_stack([pts, layer * _LAYER_GAP])).query_pairs(NEAR * width, output_type="ndarray")
+    pairs = close_pairs(pts, NEAR * width, groups=layer)
     a, b = pairs[:, 0], pairs[:, 1]
     pairs = pairs[(run[a] != run[b]) & (np.abs(np.einsum("ij,ij->i", tangent[a], tangent[b])) >= PARALLEL)]
     flag = np.zeros(len(pts), bool)

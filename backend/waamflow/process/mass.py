@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.pairs import close_pair_batches
 from ..core.memo import Memo, digest
 from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMETER_MM, deposit_rate_mm3_s
 
@@ -107,35 +108,14 @@ def has_far_neighbour(
     the path. P: (n, 2) samples, S: (n,) their path lengths, mm. With `enough`, the search stops
     once that share of the samples is marked (the rest may then be False).
 
-    A grid of cells a little wider than `reach` (pairs within reach lie in the same or
-    neighbouring cells) and numpy: the same pairs as a k-d tree without importing scipy.spatial
-    (~0.1 s of CPU on every CLI run that writes a parameter file)."""
-    n = len(P)
-    has = np.zeros(n, dtype=bool)
-    if n < 2:
-        return has
-    cell = np.floor((P - P.min(axis=0)) / (reach * (1.0 + 1e-9))).astype(np.int64)
-    rows = int(cell[:, 1].max()) + 3  # a column of cells, with a margin on both sides
-    key = (cell[:, 0] + 1) * rows + (cell[:, 1] + 1)
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    r2 = reach * reach
-    # each pair of neighbouring cells once (this cell, the one above, the three to the right):
-    # a pair found marks both its samples
-    for dx, dy in ((0, 0), (0, 1), (1, -1), (1, 0), (1, 1)):
-        target = key + dx * rows + dy
-        lo = np.searchsorted(sorted_key, target, side="left")
-        count = np.searchsorted(sorted_key, target, side="right") - lo
-        total = int(count.sum())
-        if total == 0:
-            continue
-        i = np.repeat(np.arange(n), count)
-        j = order[np.repeat(lo, count) + np.arange(total) - np.repeat(np.cumsum(count) - count, count)]
-        d = P[i] - P[j]
-        hit = (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] <= r2) & (np.abs(S[i] - S[j]) > gap)
+    The pairs come from core.pairs (a grid of cells and numpy: the same pairs as a k-d tree
+    without importing scipy.spatial, ~0.1 s of CPU on every CLI run that writes a parameter file)."""
+    has = np.zeros(len(P), dtype=bool)
+    for i, j in close_pair_batches(P, reach):
+        hit = np.abs(S[i] - S[j]) > gap
         has[i[hit]] = True
         has[j[hit]] = True
-        if enough is not None and np.count_nonzero(has) / n >= enough:
+        if enough is not None and np.count_nonzero(has) / len(P) >= enough:
             break
     return has
 
