@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputFileError
+from ..core.psort import sort_inplace
 
 _M1 = np.uint64(0x9E3779B97F4A7C15)
 _M2 = np.uint64(0xC2B2AE3D27D4EB4F)
@@ -56,7 +57,7 @@ def _sorted_order(keys: np.ndarray, *, exact: bool) -> tuple[np.ndarray, np.ndar
         packed = (keys << shift) | np.arange(n, dtype=np.uint64)
     else:
         packed = ((keys >> shift) << shift) | np.arange(n, dtype=np.uint64)
-    packed.sort()
+    sort_inplace(packed)  # on two cores when large (core.psort)
     order = (packed & np.uint64((1 << idx_bits) - 1)).view(np.int64)  # < 2⁶³: no astype copy
     return order, packed >> shift
 
