@@ -139,3 +139,87 @@ def test_layers_on_one_line_grow_across_it():
     assert grow == pytest.approx(np.tile(np.array([-0.2, 0.0, 1.0]) / np.hypot(0.2, 1.0), (4, 1)), abs=1e-9)
     spot = [*layers, (4, [run(7.5, np.zeros(3))])]
     assert np.isnan(build_directions(spot, False, 1.5)[4]).all()
+
+
+@pytest.fixture(scope="module")
+def helix_krl():
+    g = build_graph(apply_overrides(load_recipe(GRAPHS / "thin-wall-panel.json"), parse_set(["post.format=krl"])))
+    return g, execute(g, resolver=FileResolver(GRAPHS), workers=1)
+
+
+def _tube_points(src: str) -> list[int]:
+    """The KRL point numbers of thin-wall-panel's tube (section tube0), in program order."""
+    body = src.split(";- section tube0", 1)[1].split(";- section", 1)[0]
+    return [int(n) for n in re.findall(r"^LIN P(\d+)", body, flags=re.M)]
+
+
+def _turn(dat: str, numbers: list[int], b: str) -> str:
+    for n in numbers:
+        dat = re.sub(rf"(DECL E6POS P{n}=\{{[^}}]*)B 90\.0000", rf"\g<1>B {b}", dat)
+    return dat
+
+
+def test_a_helix_grows_from_the_turn_below(helix_krl):
+    """thin-wall-panel's tube: one helix of 15 turns in layer 0's run, so layer 0 is not flat (it
+    was not judged at all: every torch of the tube could point up and the program passed "ok").
+    Each target now grows from the turn below it (the first two turns, within a layer of the plate,
+    from the plate): as written every torch lies within the helix's own slope of the build
+    (atan(2 / (2π · 8)) = 2.3°; 2.9° with its arcs fitted to 0.05 mm, read back as the controller
+    runs them), none left unjudged; the tube's torches from the 5th turn on turned up (B -90) fail
+    at layer 0 with 180°; a lean of 40° on the 8th turn warns."""
+    g, res = helix_krl
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    (prog,) = rep["programs"]
+    assert prog["torch_axis_unjudged_layers"] == 0 and not [n for n in prog["notes"] if "torch axis" in n]
+    assert prog["torch_angle_max_deg"] == pytest.approx(2.3, abs=0.2)
+    assert not [p for p in rep["problems"] if p["check"] == "torch_axis"]
+    g2 = build_graph(
+        apply_overrides(
+            load_recipe(GRAPHS / "thin-wall-panel.json"), parse_set(["post.format=krl", "post.arc_tolerance=0.05"])
+        )
+    )
+    res2 = execute(g2, resolver=FileResolver(GRAPHS), workers=1)
+    (arcs,) = run_preflight(g2, res2.outputs, res2.artifacts)["programs"]
+    assert "CIRC " in res2.artifacts["post.src"].decode()
+    assert arcs["torch_angle_max_deg"] == pytest.approx(2.9, abs=0.2) and arcs["torch_axis_unjudged_layers"] == 0
+    tube = _tube_points(res.artifacts["post.src"].decode())
+    per_turn = len(tube) // 15
+    assert len(tube) > 15 * 40
+    dat = res.artifacts["post.dat"].decode()
+    up = _turn(dat, tube[4 * per_turn :], "-90.0000")
+    rep = run_preflight(g, res.outputs, {**res.artifacts, "post.dat": up.encode()})
+    (p,) = [p for p in rep["problems"] if p["check"] == "torch_axis"]
+    assert p["severity"] == "fail" and p["layer"] == 0 and p["value"] == pytest.approx(180.0, abs=2.5)
+    assert p["point"][2] > 6.0  # on the turns edited, not the first ones
+    lean = _turn(dat, tube[7 * per_turn : 8 * per_turn], "50.0000")
+    rep = run_preflight(g, res.outputs, {**res.artifacts, "post.dat": lean.encode()})
+    (p,) = [p for p in rep["problems"] if p["check"] == "torch_axis"]
+    assert p["severity"] == "warn" and p["value"] == pytest.approx(40.0, abs=2.5)
+
+
+def test_a_bead_beside_is_not_the_one_below():
+    """Two wavy rings side by side in each layer (r 20 and 24 mm, z = 1.5 k + 1.4 (1 + sin 3θ):
+    layers that are not flat), three layers: each target of layers 1 and 2 grows from its own ring's
+    bead below, within the waves' slope of vertical (the 24 mm ring, laid after the 20 mm one 4 mm
+    beside it, never from that one); layer 0 stands on the plate (+z)."""
+    from waamflow.preflight.read.core import Run
+    from waamflow.preflight.torch import local_directions
+
+    th = np.linspace(0.0, 2 * np.pi, 241)
+    runs = []
+    for k in range(3):
+        for r in (20.0, 24.0):
+            pts = np.column_stack([r * np.cos(th), r * np.sin(th), 1.5 * k + 1.4 * (1.0 + np.sin(3 * th))])
+            n = len(pts) - 1
+            runs.append((k, Run(pts, np.full(n, 8.0), np.full(n, 3.0), np.ones(n, bool), k, f"r{r:g}", 0)))
+    pts = np.vstack([r.points for _k, r in runs])
+    own = np.repeat(np.arange(len(runs)), [len(r.points) for _k, r in runs])
+    at = np.concatenate([np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(r.points, axis=0), axis=1))] for _k, r in runs])
+    grow = local_directions(runs, pts, own, at, np.ones(len(pts), bool), 1.5)
+    assert np.isfinite(grow).all()
+    layer = np.array([k for k, _r in runs])[own]
+    # the steepest wave: slope 1.4 · 3 / 20 along the inner ring, atan 0.21 = 11.9°
+    tilt = np.degrees(np.arccos(np.clip(grow[:, 2], -1, 1)))
+    assert 11.0 < tilt[layer > 0].max() < 12.0 and np.all(tilt[layer == 0] == 0.0)
+    radial = np.einsum("ij,ij->i", grow[:, :2], pts[:, :2] / np.linalg.norm(pts[:, :2], axis=1)[:, None])
+    assert np.abs(radial).max() < 0.01  # never across to the other ring (that were 0.94); the chords below: 0.003

@@ -251,3 +251,26 @@ def test_a_one_axis_tilter_leaves_the_duct_on_its_side_as_simulate_robot_says():
     (p,) = _problems(rep)
     assert p["severity"] == "fail" and p["value"] == pytest.approx(sim_deg, abs=0.05) and p["layer"] == 14
     assert "cell kr150_tilt)" in p["message"]
+
+
+def test_runs_on_layers_that_are_not_flat_are_noted_unjudged():
+    """A layer that is not flat (a helix of 3 turns in one run) has no one build direction: its run's
+    welding position is not judged, counted and said in the notes (it had been counted only)."""
+    from waamflow.preflight.position import weld_position_problems
+    from waamflow.preflight.read.core import Run
+    from waamflow.preflight.report import Report
+    from waamflow.preflight.settings import PreflightSettings
+    from waamflow.trajectory.cell import load_cell
+
+    th = np.linspace(0.0, 6 * np.pi, 361)
+    pts = np.column_stack([20 * np.cos(th), 20 * np.sin(th), 2.0 * th / (2 * np.pi)])
+    n = len(pts) - 1
+    helix = Run(pts, np.full(n, 8.0), np.full(n, 3.0), np.ones(n, bool), 0, "tube", 0, [(0, np.zeros(2))])
+    out: dict = {}
+    rep = Report("post", "krl")
+    cell = load_cell("kr150_tilt_rotate").model_dump_json()
+    weld_position_problems([(0, [helix])], False, 2.0, cell, out, rep, PreflightSettings())
+    assert out["weld_position_unjudged_runs"] == 1 and "weld_position_max_deg" not in out
+    (note,) = out["notes"]
+    assert note.startswith("1 arc-ON run on layers that are not flat") and "not judged" in note
+    assert rep.problems == []

@@ -68,11 +68,12 @@ def weld_position_problems(
     m = cell.axes
     directions = build_directions(layers, planar, spacing)
     rotation: dict[tuple[float, ...], np.ndarray | None] = {}
-    worst, unjudged, outside, silent = _Worst(), 0, [], 0
+    worst, unjudged, outside, silent, curved = _Worst(), 0, [], 0, 0
     for (idx, runs), d in zip(layers, directions):
         for run in runs:
             states = run.ext if m else [(0, np.zeros(0))]
             silent += not states
+            curved += bool(states) and not np.isfinite(d).all()
             if not np.isfinite(d).all() or not states:
                 unjudged += 1
                 continue
@@ -100,6 +101,11 @@ def weld_position_problems(
             f"{silent} arc-ON run{'s' if silent != 1 else ''} state{'' if silent != 1 else 's'} no positioner "
             f"angles on cell {cell.name}: the positioner stands where the controller left it, its welding position "
             "is not judged there"
+        )
+    if curved:
+        out.setdefault("notes", []).append(
+            f"{curved} arc-ON run{'s' if curved != 1 else ''} on layers that are not flat (a helix, a "
+            "conformal layer): no one build direction per layer, their welding position is not judged"
         )
     if outside:
         idx, run, ang, p = outside[0]

@@ -11,8 +11,14 @@ one line: the step from the layer before, across the line). The
 angle between the torch (tool axis: from the torch towards the part) and the way down the build
 direction is checked at every arc-ON target that states an orientation: our plans weld along it
 (0° in the part's frame, a positioner's lean included), a lead or work angle is tens of degrees;
-a torch at a right angle or upside down is a wrong program. Layers that are not flat (a
-conformal layer) are not judged (`torch_axis_unjudged_layers`).
+a torch at a right angle or upside down is a wrong program. On a layer that is not flat (a
+helix climbing through the layers in one run, a conformal layer) each target grows from the bead
+it is laid on: the direction from the nearest point of the beads deposited before it within
+`LOCAL_REACH` layer spacings (the layer before, or earlier in its own layer when the point lies
+below it: a helix's turn below; the path's own last stretch never), or +z on the plate; a target
+with neither is not judged (`torch_axis_unjudged_layers`, and the report's notes say so). Before,
+such a layer was not judged at all: thin-wall-panel's tube, one helix of 15 turns, in a KRL
+program with every torch of it upside down passed "ok".
 """
 
 from __future__ import annotations
@@ -21,9 +27,17 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..core.pairs import close_pairs
 from .read import ProgramRead, Run
+from .samples import segment_samples
 
 UPWARD = 0.5  # |z| of a layer's normal from which it grows up (within 60° of vertical), not by the step
+LOCAL_REACH = 2.5  # layer spacings: how far below a target of a layer that is not flat its bead is looked for
+# A bead of the target's own layer (a helix's turn below) counts within 30° of vertical only, and at half a
+# layer spacing or more: thin-wall-panel's tube ramps up from its first turn, 0.02 mm above it where it
+# starts, and the arcs its KRL fits (0.05 mm) put the turn below off to the side by as much: 18.7°
+# taken from there, 60° from a stretch of its own turn with the cone at 60°
+SAME_LAYER_COS = float(np.cos(np.radians(30.0)))
 
 
 def _layer_plane(pts: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, bool]:
@@ -84,14 +98,32 @@ def torch_axis_problems(
     pts = np.array([p for p, _a in prog.oriented], float)
     axes = np.array([a for _p, a in prog.oriented], float)
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    run_pts = np.vstack([r.points for _i, runs in layers for r in runs])
-    label = np.repeat(np.arange(len(layers)), [sum(len(r.points) for r in runs) for _i, runs in layers])
+    runs = [(k, r) for k, (_i, rs) in enumerate(layers) for r in rs]
+    run_pts = np.vstack([r.points for _k, r in runs])
+    sizes = [len(r.points) for _k, r in runs]
     _d, nearest = cKDTree(run_pts).query(pts)
-    li = label[nearest]  # the layer each target lies in
+    own = np.repeat(np.arange(len(runs)), sizes)[nearest]  # the run each target lies on
+    li = np.array([k for k, _r in runs], int)[own]  # and its layer
     directions = build_directions(layers, planar, spacing)
-    out["torch_axis_unjudged_layers"] = int(np.isnan(directions[:, 0]).sum())
     grow = directions[li]
     judged = np.isfinite(grow).all(axis=1)
+    if not judged.all() and spacing:
+        arc = np.concatenate(
+            [np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(r.points, axis=0), axis=1))] for _k, r in runs]
+        )
+        fill = local_directions(runs, pts, own, arc[nearest], ~judged, spacing)
+        grow[~judged] = fill[~judged]
+        judged = np.isfinite(grow).all(axis=1)
+    left = np.isnan(directions[:, 0])
+    left[li[judged]] = False  # a layer none of whose targets is left unjudged counts judged
+    left[li[~judged]] = True
+    out["torch_axis_unjudged_layers"] = int(left.sum())
+    if (~judged).any():
+        out.setdefault("notes", []).append(
+            f"{int((~judged).sum())} arc-ON target{'s' if (~judged).sum() != 1 else ''} in {int(left.sum())} "
+            f"layer{'s' if left.sum() != 1 else ''} neither flat nor laid on a bead (or the plate) within "
+            f"{LOCAL_REACH * (spacing or 0):.1f} mm below: the torch axis is not judged there"
+        )
     if not judged.any():
         return
     angle = np.full(len(pts), np.nan)
@@ -119,3 +151,55 @@ def torch_axis_problems(
         limit=s.torch_axis_fail_deg if severity != "warn" else s.torch_axis_warn_deg,
         point=tuple(pts[k]),
     )
+
+
+def local_directions(
+    runs: Sequence[tuple[int, Run]], pts: np.ndarray, own: np.ndarray, at: np.ndarray, want: np.ndarray, h: float
+) -> np.ndarray:
+    """(n, 3) the way the part grows at each wanted target (nan elsewhere, and where not found):
+    from the foot of the nearest earlier bead within `LOCAL_REACH`·h (h: the layer spacing, mm) to
+    the target. runs: (layer position, run) in program order; own, at: each target's run (index in
+    `runs`) and arc length along it, mm; the nearest foot at half a spacing or more counts. Earlier:
+    a run of the layer before, or of the target's own layer when the target lies above it (within
+    30° of vertical, `SAME_LAYER_COS`: a bead beside it never counts), its own run only more than
+    twice the reach behind it. A target within a layer spacing of the program's lowest arc-ON
+    point, or with none within the reach of it, stands on the plate: +z."""
+    out = np.full((len(pts), 3), np.nan)
+    idx = np.flatnonzero(want)
+    reach, step = LOCAL_REACH * h, h / 4.0
+    layer_of = np.array([k for k, _r in runs], int)
+    near = np.isin(layer_of, np.concatenate([layer_of[own[idx]], layer_of[own[idx]] - 1]))
+    cand = np.flatnonzero(near & np.array([len(r.points) > 1 for _k, r in runs]))
+    if not len(idx) or not len(cand):
+        return out
+    lines = [runs[c][1].points for c in cand.tolist()]
+    a = np.vstack([p[:-1] for p in lines])
+    b = np.vstack([p[1:] for p in lines])
+    seg_run = np.repeat(cand, [len(p) - 1 for p in lines])
+    length = np.linalg.norm(b - a, axis=1)
+    first = np.r_[True, seg_run[1:] != seg_run[:-1]]
+    total = np.cumsum(length) - length
+    arc0 = total - np.maximum.accumulate(np.where(first, total, 0.0))  # each segment's start along its run
+    samples, seg, _frac = segment_samples(a, b, step)
+    pairs = close_pairs(np.vstack([pts[idx], samples]), reach + step)
+    pairs = pairs[(pairs[:, 0] < len(idx)) & (pairs[:, 1] >= len(idx))]
+    t, g = idx[pairs[:, 0]], seg[pairs[:, 1] - len(idx)]
+    d = b[g] - a[g]
+    u = np.clip(np.einsum("ij,ij->i", pts[t] - a[g], d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0.0, 1.0)
+    v = pts[t] - (a[g] + u[:, None] * d)  # from the foot on the segment to the target
+    dist = np.linalg.norm(v, axis=1)
+    lt, ls, rt, rs = layer_of[own[t]], layer_of[seg_run[g]], own[t], seg_run[g]
+    same = ls == lt
+    before = (ls == lt - 1) | (same & ((rs < rt) | ((rs == rt) & (arc0[g] + u * length[g] < at[t] - 2.0 * reach))))
+    ok = before & (dist >= 0.5 * h) & (dist <= reach) & (~same | (v[:, 2] >= SAME_LAYER_COS * dist))
+    t, v, dist = t[ok], v[ok], dist[ok]
+    order = np.lexsort((dist, t))  # nearest first per target
+    t, v, dist = t[order], v[order], dist[order]
+    head = np.r_[True, t[1:] != t[:-1]] if len(t) else np.zeros(0, bool)
+    out[t[head]] = v[head] / dist[head][:, None]
+    # on the plate: within a layer of the program's lowest point (a helix's ramp, laid on its own first
+    # turn less than half a layer above it), or with no bead below within the reach
+    low = min(float(r.points[:, 2].min()) for _k, r in runs if len(r.points))
+    plate = want & ((pts[:, 2] <= low + h) | (np.isnan(out[:, 0]) & (pts[:, 2] <= low + reach)))
+    out[plate] = (0.0, 0.0, 1.0)
+    return out
