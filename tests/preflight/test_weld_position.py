@@ -253,9 +253,14 @@ def test_a_one_axis_tilter_leaves_the_duct_on_its_side_as_simulate_robot_says():
     assert "cell kr150_tilt)" in p["message"]
 
 
-def test_runs_on_layers_that_are_not_flat_are_noted_unjudged():
-    """A layer that is not flat (a helix of 3 turns in one run) has no one build direction: its run's
-    welding position is not judged, counted and said in the notes (it had been counted only)."""
+def test_a_helix_is_judged_where_each_state_stands():
+    """A layer that is not flat (one run of a helix, 3 turns of pitch 2 mm, r 20 mm) has no one build
+    direction; each positioner state is judged at its own point, growing from the turn below it
+    (+z on the first, within a layer of the plate): states at the start of each turn with the
+    positioner at (0, 0) lie within the helix's slope of flat (atan(2 / (2π · 20)) = 0.9°); a tilt
+    of 60° set on the third turn fails at 60°; a run of the same layer floating 50 mm up (no bead
+    below within reach) is not judged, counted and said in the notes. Such runs had all been left
+    unjudged (counted only)."""
     from waamflow.preflight.position import weld_position_problems
     from waamflow.preflight.read.core import Run
     from waamflow.preflight.report import Report
@@ -265,12 +270,24 @@ def test_runs_on_layers_that_are_not_flat_are_noted_unjudged():
     th = np.linspace(0.0, 6 * np.pi, 361)
     pts = np.column_stack([20 * np.cos(th), 20 * np.sin(th), 2.0 * th / (2 * np.pi)])
     n = len(pts) - 1
-    helix = Run(pts, np.full(n, 8.0), np.full(n, 3.0), np.ones(n, bool), 0, "tube", 0, [(0, np.zeros(2))])
-    out: dict = {}
-    rep = Report("post", "krl")
     cell = load_cell("kr150_tilt_rotate").model_dump_json()
-    weld_position_problems([(0, [helix])], False, 2.0, cell, out, rep, PreflightSettings())
-    assert out["weld_position_unjudged_runs"] == 1 and "weld_position_max_deg" not in out
+
+    def check(tilt_third: float):
+        states = [(0, np.zeros(2)), (121, np.zeros(2)), (241, np.array([tilt_third, 0.0]))]
+        helix = Run(pts, np.full(n, 8.0), np.full(n, 3.0), np.ones(n, bool), 0, "tube", 0, states)
+        lone = pts[:40] + [200.0, 0.0, 50.0]
+        air = Run(lone, np.full(39, 8.0), np.full(39, 3.0), np.ones(39, bool), 0, "air", 0, [(0, np.zeros(2))])
+        out: dict = {}
+        rep = Report("post", "krl")
+        weld_position_problems([(0, [helix, air])], False, 2.0, cell, out, rep, PreflightSettings())
+        return out, rep
+
+    out, rep = check(0.0)
+    assert out["weld_position_max_deg"] == pytest.approx(0.9, abs=0.1) and rep.problems == []
+    assert out["weld_position_unjudged_runs"] == 1
     (note,) = out["notes"]
-    assert note.startswith("1 arc-ON run on layers that are not flat") and "not judged" in note
-    assert rep.problems == []
+    assert note.startswith("1 positioner state of arc-ON runs on layers that are not flat") and "not judged" in note
+    out, rep = check(60.0)
+    (p,) = rep.problems
+    assert p["check"] == "weld_position" and p["severity"] == "fail" and p["value"] == pytest.approx(60.0, abs=1.0)
+    assert p["point"][2] > 4.0  # the third turn's state

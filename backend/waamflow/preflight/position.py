@@ -10,7 +10,9 @@ swapped, the tilt's sign flipped, radians where degrees belong or the positioner
 passed "ok" while it would weld the duct's upper layers on their side.
 
 Each layer's build direction in the part frame is torch.py's (`build_directions`: +z for planar
-programs, a fan layer's plane normal); the work frame's rotation at the angles the program states
+programs, a fan layer's plane normal; on a layer that is not flat, a helix or a conformal layer,
+the direction at the point where a run sets the positioner, from the bead below it:
+`local_directions`); the work frame's rotation at the angles the program states
 (`Cell.work_pose`, the cell's own kinematics, not the plan's angles) turns it into the world, and
 its angle from up is the layer's position: 0° flat. Every distinct set of angles a run states is
 judged; angles outside the positioner's axis limits are a failure of their own (the controller
@@ -25,7 +27,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from .read import Run
-from .torch import build_directions
+from .torch import build_directions, local_directions
+
+_NOWHERE = np.full(3, np.nan)
 
 
 def _angles_text(a: np.ndarray) -> str:
@@ -68,16 +72,22 @@ def weld_position_problems(
     m = cell.axes
     directions = build_directions(layers, planar, spacing)
     rotation: dict[tuple[float, ...], np.ndarray | None] = {}
+    local = _state_directions(layers, directions, spacing, m)
     worst, unjudged, outside, silent, curved = _Worst(), 0, [], 0, 0
     for (idx, runs), d in zip(layers, directions):
+        flat = bool(np.isfinite(d).all())
         for run in runs:
             states = run.ext if m else [(0, np.zeros(0))]
             silent += not states
-            curved += bool(states) and not np.isfinite(d).all()
-            if not np.isfinite(d).all() or not states:
+            if not states:
                 unjudged += 1
                 continue
             for at, e in states:
+                here = d if flat else local.get((id(run), min(at, len(run.points) - 1)), _NOWHERE)
+                if not np.isfinite(here).all():
+                    unjudged += 1
+                    curved += 1
+                    continue
                 ang = np.asarray(e, float)[:m]
                 if len(ang) < m or not np.isfinite(ang).all():
                     unjudged += 1
@@ -92,7 +102,7 @@ def weld_position_problems(
                 if R is None:
                     outside.append((idx, run, ang, p))
                     continue
-                up = R @ d
+                up = R @ here
                 angle = float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0))))
                 worst.offer(angle, idx, run, ang, p, up)
     out["weld_position_unjudged_runs"] = unjudged
@@ -104,8 +114,9 @@ def weld_position_problems(
         )
     if curved:
         out.setdefault("notes", []).append(
-            f"{curved} arc-ON run{'s' if curved != 1 else ''} on layers that are not flat (a helix, a "
-            "conformal layer): no one build direction per layer, their welding position is not judged"
+            f"{curved} positioner state{'s' if curved != 1 else ''} of arc-ON runs on layers that are not flat "
+            "(a helix, a conformal layer) with no bead below (nor the plate) within reach: the welding "
+            "position is not judged there"
         )
     if outside:
         idx, run, ang, p = outside[0]
@@ -121,6 +132,12 @@ def weld_position_problems(
             section=run.section,
             point=tuple(p),
         )
+    _report_worst(worst, cell.name, out, rep, s)
+
+
+def _report_worst(worst: _Worst, cell_name: str, out: dict, rep: Any, s: Any) -> None:
+    """`weld_position_max_deg` and the problem of the state deposited farthest off flat, if beyond
+    the warning's angle."""
     if worst.where is None:
         return
     out["weld_position_max_deg"] = round(worst.angle, 2)
@@ -133,7 +150,7 @@ def weld_position_problems(
         severity,
         f"layer {idx}, section {run.section or '?'}: deposited {worst.angle:.0f}° off the flat position (the "
         f"layer's build direction in the world ({up[0]:.2f}, {up[1]:.2f}, {up[2]:.2f}) under the positioner angles "
-        f"the program states, {_angles_text(ang) or 'none'}, cell {cell.name}): the bead runs down the layer's side. "
+        f"the program states, {_angles_text(ang) or 'none'}, cell {cell_name}): the bead runs down the layer's side. "
         "Check the positioner angles in the program (axis order E1 tilt / E2 turn, sign, degrees) and the cell "
         "it was written for; a plan held at fixed angles needs the positioner policy auto or gravity",
         layer=idx,
@@ -142,3 +159,27 @@ def weld_position_problems(
         limit=s.weld_position_fail_deg if severity != "warn" else s.weld_position_warn_deg,
         point=tuple(p),
     )
+
+
+def _state_directions(
+    layers: Sequence[tuple[int, list[Run]]], directions: np.ndarray, spacing: float | None, m: int
+) -> dict[tuple[int, int], np.ndarray]:
+    """The build direction at the point of each positioner state of the runs on layers that are not
+    flat (torch.local_directions: from the bead below it, or +z on the plate), by (id of the run,
+    point index); nan where none is found."""
+    if not spacing:
+        return {}
+    runs = [(k, r) for k, (_i, rs) in enumerate(layers) for r in rs]
+    asks = [
+        (j, min(at, len(r.points) - 1))
+        for j, (k, r) in enumerate(runs)
+        if not np.isfinite(directions[k]).all()
+        for at, _e in (r.ext if m else [(0, None)])
+    ]
+    if not asks:
+        return {}
+    pts = np.array([runs[j][1].points[i] for j, i in asks])
+    arc = np.array([float(np.linalg.norm(np.diff(runs[j][1].points[: i + 1], axis=0), axis=1).sum()) for j, i in asks])
+    own = np.array([j for j, _i in asks], int)
+    grow = local_directions(runs, pts, own, arc, np.ones(len(asks), bool), spacing)
+    return {(id(runs[j][1]), i): grow[n] for n, (j, i) in enumerate(asks)}
