@@ -88,3 +88,34 @@ def test_a_hop_at_the_height_just_welded_passes():
     two = [(z, [passes(YS[:2]), passes(YS[2:])]) for z, _ in good_layers()]
     rep = _check(gcode(two))
     assert rep["travel_collisions"] == 0 and not _travel(rep)
+
+
+def test_a_travel_back_down_a_fan_of_layers_fails():
+    """curved-duct's KRL (wedge layers about the bend: each grows along its own normal, not up): as
+    written its travels pass (0 in the metal); a move from layer 10's end back to layer 6's start
+    and on to layer 11's crosses the four layers between, and fails at layer 10 with a depth of
+    more than half a layer along the build direction. Programs whose layers are not horizontal
+    planes had their travels unchecked: this passed "ok"."""
+    import re
+
+    rec = apply_overrides(load_recipe(GRAPHS / "curved-duct.json"), parse_set(["post.format=krl"]))
+    rec.nodes = [n for n in rec.nodes if n.type != "simulate-robot"]
+    rec.edges = [e for e in rec.edges if not e.to.startswith("sim.")]
+    g = build_graph(rec)
+    res = execute(g, resolver=FileResolver(GRAPHS), workers=1, preflight=False)
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    assert rep["programs"][0]["travel_collisions"] == 0 and not _travel(rep)
+    src = res.artifacts["post.src"].decode()
+    layer6 = src.split(";- layer 6 ", 1)[1]
+    first = re.search(r"\$OUT\[1\]=TRUE ; arc on.*?\nLIN (P\d+)", ";- layer 6 " + layer6, flags=re.S)
+    start = re.search(r"\nLIN (P\d+)\n;- zone", layer6)  # the arc-on point: where layer 6 starts
+    assert start is not None and first is not None
+    end10 = re.search(r";- arc off at P\d+ \(trigger\)\n;- layer 11 ", src)
+    assert end10 is not None
+    cut = end10.start() + src[end10.start() :].index("\n") + 1
+    edited = src[:cut] + f"LIN {start.group(1)} ; back down to layer 6's start\n" + src[cut:]
+    rep = run_preflight(g, res.outputs, {**res.artifacts, "post.src": edited.encode()})
+    (p,) = _travel(rep)
+    assert p["severity"] == "fail" and p["layer"] == 10 and rep["verdict"] == "fail"
+    assert rep["programs"][0]["travel_collisions"] == 2  # down to layer 6, and from there up to layer 11
+    assert p["value"] > p["limit"] > 0

@@ -31,7 +31,7 @@ from .order import layer_order_problems
 from .plane import z_jump_problems
 from .retrace import retrace_problems
 from .position import weld_position_problems
-from .torch import torch_axis_problems
+from .torch import build_directions, torch_axis_problems
 from .travel import travel_problems
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance, feed_per_mm
 from .outside import check_outside, outside_margin, outside_step
@@ -453,6 +453,7 @@ def _layer_problems(
         travel_problems(layers, prog, h_dep, width, out, rep, s)
     else:  # a planar layer with a move off its plane made the program "not planar"
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
+        travel_problems(layers, prog, h_dep, width, out, rep, s, build_directions(layers, False, spacing))
     retrace_problems(layers, width, out, rep, s)
     torch_axis_problems(layers, prog, planar, spacing, out, rep, s)
     weld_position_problems(layers, planar, spacing, cell, out, rep, s)

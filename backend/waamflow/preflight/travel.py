@@ -1,4 +1,4 @@
-"""Travel moves through metal already welded (`travel_collision`, planar programs).
+"""Travel moves through metal already welded (`travel_collision`).
 
 An arc-OFF move goes where the program says, in a straight line: one that passes lower than the
 metal welded before it, where that metal stands, drives the torch into the part — a lift deleted by
@@ -10,6 +10,14 @@ plan) of the centre line of an earlier run, lower than that run's height by more
 is in the metal (the programmed point is the bead's top: a hop at the height of the layer just
 welded is not). Travels at a clearance above the part, as our posts write them, cost one
 comparison each.
+
+Layers that are not horizontal planes (a fan of wedge layers about a bend) grow along each layer's
+own build direction (torch.build_directions), so "lower" is along it: a travel sample within half a
+bead width of an earlier run's centre line across that direction, and more than half a layer and
+at most one and a half below it along it, is in that run's bead (each layer's runs stand for their
+own layer's metal; together the layers below a run stand for the rest). Before, such programs'
+travels were not checked: curved-duct's KRL with a move from layer 10's end back to layer 6's start
+(through the four layers between) passed "ok".
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..core.pairs import close_pairs
 from .read import ProgramRead, Run
 from .samples import segment_samples
 
@@ -30,12 +39,18 @@ def travel_problems(
     out: dict,
     rep: Any,
     s: Any,
+    directions: np.ndarray | None = None,
 ) -> None:
-    """The `travel_collision` problem (`s.travel_collision`) of a planar program; h: the layers'
-    typical height. out["travel_collisions"]: the travel moves found in the metal."""
+    """The `travel_collision` problem (`s.travel_collision`); h: the layers' typical height;
+    `directions`: each layer's build direction (torch.build_directions) when the layers are not
+    horizontal planes, None for a planar program. out["travel_collisions"]: the travel moves found
+    in the metal."""
     if s.travel_collision == "off" or not prog.travels or not prog.runs or not h or not width > 0:
         return
     depth = max(0.5 * h, 0.5)
+    if directions is not None:
+        _report(layers, prog, _hits_along(layers, prog, directions, h, depth, width), depth, out, rep, s)
+        return
     runs = prog.runs
     tops = np.maximum.accumulate([float(r.points[:, 2].max()) for r in runs])
     cand, owner = [], []  # travel samples below the metal's top, and their travel's number
@@ -69,6 +84,62 @@ def travel_problems(
         d = float(xyz[j, 2] - pts[i, 2])
         if d > depth and (k not in hits or d > hits[k][0]):
             hits[k] = (d, pts[i], int(run_no[j]))
+    _report(layers, prog, hits, depth, out, rep, s)
+
+
+def _hits_along(
+    layers: Sequence[tuple[int, list[Run]]],
+    prog: ProgramRead,
+    directions: np.ndarray,
+    h: float,
+    depth: float,
+    width: float,
+) -> dict[int, tuple[float, np.ndarray, int]]:
+    """{travel: (depth in the metal along the build direction, point, the run)} of a program whose
+    layers grow along `directions` (one per layer, nan: not judged): see the module doc."""
+    runs = prog.runs
+    layer_of = {id(r): k for k, (_i, rs) in enumerate(layers) for r in rs}
+    grow = np.array([directions[layer_of[id(r)]] if id(r) in layer_of else np.full(3, np.nan) for r in runs])
+    deepest = h + depth  # one layer's bead below its centre line, and the hop's allowance
+    cand, owner = [], []
+    for k, (a, b, done) in enumerate(prog.travels):
+        if done > 0:
+            cand.append(segment_samples(a[None], b[None], 0.25 * width)[0])
+            owner += [k] * len(cand[-1])
+    if not cand:
+        return {}
+    pts, owner_a = np.vstack(cand), np.asarray(owner)
+    samples = [segment_samples(r.points[:-1], r.points[1:], 0.25 * width)[0] for r in runs]
+    xyz = np.vstack(samples)
+    run_no = np.repeat(np.arange(len(runs)), [len(q) for q in samples])
+    pairs = close_pairs(np.vstack([pts, xyz]), float(np.hypot(0.5 * width, deepest)))
+    pairs = pairs[(pairs[:, 0] < len(pts)) & (pairs[:, 1] >= len(pts))]
+    i, j = pairs[:, 0], pairs[:, 1] - len(pts)
+    t = owner_a[i]
+    done = np.array([tr[2] for tr in prog.travels])[t]
+    g = grow[run_no[j]]
+    v = xyz[j] - pts[i]
+    d = np.einsum("ij,ij->i", v, g)  # nan where the layer has no direction: never a hit
+    side = np.linalg.norm(v - d[:, None] * g, axis=1)
+    hit = (run_no[j] < done) & (side < 0.5 * width) & (d > depth) & (d <= deepest)
+    hits: dict[int, tuple[float, np.ndarray, int]] = {}
+    for n in np.flatnonzero(hit)[np.argsort(-d[hit], kind="stable")]:  # deepest first
+        k = int(t[n])
+        if k not in hits:
+            hits[k] = (float(d[n]), pts[i[n]], int(run_no[j[n]]))
+    return hits
+
+
+def _report(
+    layers: Sequence[tuple[int, list[Run]]],
+    prog: ProgramRead,
+    hits: dict[int, tuple[float, np.ndarray, int]],
+    depth: float,
+    out: dict,
+    rep: Any,
+    s: Any,
+) -> None:
+    runs = prog.runs
     out["travel_collisions"] = len(hits)
     if not hits:
         return
