@@ -30,6 +30,11 @@ async function openGraph(page, name, tab) {
 }
 
 const count = (page, sel) => page.locator(sel).count();
+// until `sel` matches `n` elements (at most 3 s; the assertion after it says what was found)
+const settled = (page, sel, n) =>
+  page
+    .waitForFunction(([s, k]) => document.querySelectorAll(s).length === k, [sel, n], { timeout: 3000 })
+    .catch(() => undefined);
 
 test("a run never changes what was saved: save as, new mask from layer 4, run unsaved; the saved XML is byte-identical", async () => {
   const { page, errors } = await openPage(browser, srv.base);
@@ -184,12 +189,17 @@ test("graph editing: one-step undo of a delete, node search with Enter, free pla
   await page.click('.react-flow__node[data-id="strategy"]');
   await page.keyboard.press("Delete");
   await page.waitForFunction((n) => document.querySelectorAll(".react-flow__node").length === n - 1, n0);
+  await settled(page, ".react-flow__edge", e0 - 2);
   assert.equal(await count(page, ".react-flow__edge"), e0 - 2);
   await page.click("[data-testid=undo]");
   await page.waitForFunction((n) => document.querySelectorAll(".react-flow__node").length === n, n0);
+  // React Flow draws a node's edges a frame after the node (once it is measured): wait for them, then
+  // count (one undo, no second step: the edges came back with the node or this fails)
+  await settled(page, ".react-flow__edge", e0);
   assert.equal(await count(page, ".react-flow__edge"), e0, "edges come back with the node in the same step");
   await page.click("[data-testid=redo]");
   await page.waitForFunction((n) => document.querySelectorAll(".react-flow__node").length === n - 1, n0);
+  await settled(page, ".react-flow__edge", e0 - 2);
   assert.equal(await count(page, ".react-flow__edge"), e0 - 2);
   await page.keyboard.press("Control+z");
   await page.waitForFunction((e) => document.querySelectorAll(".react-flow__edge").length === e, e0);
