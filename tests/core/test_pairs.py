@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from waamflow.core.pairs import close_pair_batches, close_pairs
+from waamflow.core.pairs import close_pair_batches, close_pairs, pairs_between
 
 
 def _as_set(pairs: np.ndarray) -> set[tuple[int, int]]:
@@ -69,3 +69,23 @@ def test_batches_each_pair_once_and_bad_input():
         close_pairs(P, 0.0)
     with pytest.raises(ValueError, match="64 bits"):
         close_pairs(np.array([[0.0, 0.0, 0.0], [1e9, 1e9, 1e9]]), 1e-6)
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_pairs_between_two_sets_as_a_kd_tree(dim):
+    """The pairs across two sets only, as cKDTree.query_ball_tree lists them: none within a set."""
+    rng = np.random.default_rng(10 + dim)
+    total = 0
+    for k in range(200):
+        A, reach = _sets(rng, k, dim)
+        B, _r = _sets(rng, k, dim)
+        got_i, got_j = pairs_between(A, B, reach)
+        got = {(int(i), int(j)) for i, j in zip(got_i, got_j)}
+        assert len(got) == len(got_i)
+        want = set()
+        if len(A) and len(B):
+            for i, js in enumerate(cKDTree(A).query_ball_tree(cKDTree(B), reach)):
+                want |= {(i, j) for j in js}
+        assert got == want, (k, len(A), len(B), reach)
+        total += len(want)
+    assert total > 10_000

@@ -27,7 +27,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..core.pairs import close_pairs
+from ..core.pairs import pairs_between
 from .read import ProgramRead, Run
 from .samples import segment_samples
 
@@ -181,9 +181,8 @@ def local_directions(
     total = np.cumsum(length) - length
     arc0 = total - np.maximum.accumulate(np.where(first, total, 0.0))  # each segment's start along its run
     samples, seg, _frac = segment_samples(a, b, step)
-    pairs = close_pairs(np.vstack([pts[idx], samples]), reach + step)
-    pairs = pairs[(pairs[:, 0] < len(idx)) & (pairs[:, 1] >= len(idx))]
-    t, g = idx[pairs[:, 0]], seg[pairs[:, 1] - len(idx)]
+    ti, sj = pairs_between(pts[idx], samples, reach + step)
+    t, g = idx[ti], seg[sj]
     d = b[g] - a[g]
     u = np.clip(np.einsum("ij,ij->i", pts[t] - a[g], d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0.0, 1.0)
     v = pts[t] - (a[g] + u[:, None] * d)  # from the foot on the segment to the target

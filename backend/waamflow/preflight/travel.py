@@ -26,7 +26,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..core.pairs import close_pairs
+from ..core.pairs import pairs_between
 from .read import ProgramRead, Run
 from .samples import segment_samples
 
@@ -101,20 +101,19 @@ def _hits_along(
     layer_of = {id(r): k for k, (_i, rs) in enumerate(layers) for r in rs}
     grow = np.array([directions[layer_of[id(r)]] if id(r) in layer_of else np.full(3, np.nan) for r in runs])
     deepest = h + depth  # one layer's bead below its centre line, and the hop's allowance
-    cand, owner = [], []
-    for k, (a, b, done) in enumerate(prog.travels):
-        if done > 0:
-            cand.append(segment_samples(a[None], b[None], 0.25 * width)[0])
-            owner += [k] * len(cand[-1])
-    if not cand:
+    live = np.array([k for k, (_a, _b, done) in enumerate(prog.travels) if done > 0], int)
+    if not len(live):
         return {}
-    pts, owner_a = np.vstack(cand), np.asarray(owner)
-    samples = [segment_samples(r.points[:-1], r.points[1:], 0.25 * width)[0] for r in runs]
-    xyz = np.vstack(samples)
-    run_no = np.repeat(np.arange(len(runs)), [len(q) for q in samples])
-    pairs = close_pairs(np.vstack([pts, xyz]), float(np.hypot(0.5 * width, deepest)))
-    pairs = pairs[(pairs[:, 0] < len(pts)) & (pairs[:, 1] >= len(pts))]
-    i, j = pairs[:, 0], pairs[:, 1] - len(pts)
+    # every travel, and every run's segments, sampled in one call each
+    pts, seg, _f = segment_samples(
+        np.array([prog.travels[k][0] for k in live]), np.array([prog.travels[k][1] for k in live]), 0.25 * width
+    )
+    owner_a = live[seg]
+    xyz, seg, _f = segment_samples(
+        np.vstack([r.points[:-1] for r in runs]), np.vstack([r.points[1:] for r in runs]), 0.25 * width
+    )
+    run_no = np.repeat(np.arange(len(runs)), [len(r.points) - 1 for r in runs])[seg]
+    i, j = pairs_between(pts, xyz, float(np.hypot(0.5 * width, deepest)))
     t = owner_a[i]
     done = np.array([tr[2] for tr in prog.travels])[t]
     g = grow[run_no[j]]
