@@ -90,7 +90,17 @@ def test_a_hop_at_the_height_just_welded_passes():
     assert rep["travel_collisions"] == 0 and not _travel(rep)
 
 
-def test_a_travel_back_down_a_fan_of_layers_fails():
+@pytest.fixture(scope="module")
+def duct_krl():
+    """curved-duct posted to KRL (without its simulation)."""
+    rec = apply_overrides(load_recipe(GRAPHS / "curved-duct.json"), parse_set(["post.format=krl"]))
+    rec.nodes = [n for n in rec.nodes if n.type != "simulate-robot"]
+    rec.edges = [e for e in rec.edges if not e.to.startswith("sim.")]
+    g = build_graph(rec)
+    return g, execute(g, resolver=FileResolver(GRAPHS), workers=1, preflight=False)
+
+
+def test_a_travel_back_down_a_fan_of_layers_fails(duct_krl):
     """curved-duct's KRL (wedge layers about the bend: each grows along its own normal, not up): as
     written its travels pass (0 in the metal); a move from layer 10's end back to layer 6's start
     and on to layer 11's crosses the four layers between, and fails at layer 10 with a depth of
@@ -98,11 +108,7 @@ def test_a_travel_back_down_a_fan_of_layers_fails():
     planes had their travels unchecked: this passed "ok"."""
     import re
 
-    rec = apply_overrides(load_recipe(GRAPHS / "curved-duct.json"), parse_set(["post.format=krl"]))
-    rec.nodes = [n for n in rec.nodes if n.type != "simulate-robot"]
-    rec.edges = [e for e in rec.edges if not e.to.startswith("sim.")]
-    g = build_graph(rec)
-    res = execute(g, resolver=FileResolver(GRAPHS), workers=1, preflight=False)
+    g, res = duct_krl
     rep = run_preflight(g, res.outputs, res.artifacts)
     assert rep["programs"][0]["travel_collisions"] == 0 and not _travel(rep)
     src = res.artifacts["post.src"].decode()
@@ -119,3 +125,18 @@ def test_a_travel_back_down_a_fan_of_layers_fails():
     assert p["severity"] == "fail" and p["layer"] == 10 and rep["verdict"] == "fail"
     assert rep["programs"][0]["travel_collisions"] == 2  # down to layer 6, and from there up to layer 11
     assert p["value"] > p["limit"] > 0
+
+
+def test_two_fan_layers_swapped_fail(duct_krl):
+    """curved-duct's KRL with layers 5 and 6 welded the other way round (their blocks swapped, each
+    layer intact): layer 5 goes under layer 6's bead, and the travel there runs through it. Each
+    layer's plane, coverage and wire held, so this passed "ok" before fan programs' travels were
+    checked."""
+    g, res = duct_krl
+    src = res.artifacts["post.src"].decode()
+    a5, a6, a7 = (src.index(f";- layer {k} ") for k in (5, 6, 7))
+    swapped = src[:a5] + src[a6:a7] + src[a5:a6] + src[a7:]
+    rep = run_preflight(g, res.outputs, {**res.artifacts, "post.src": swapped.encode()})
+    (p,) = _travel(rep)
+    assert p["severity"] == "fail" and rep["verdict"] == "fail"
+    assert p["layer"] == 5 and "layer 6's bead" in p["message"]
