@@ -71,6 +71,16 @@ describe("preflight in the GUI", () => {
       proto.scrollIntoView = before;
     }
   });
+  it("shows what the check did not judge (the programs' notes), each once, named by node when there are several", () => {
+    const torch = "3 arc-ON targets in 1 layer neither flat nor laid on a bead (or the plate) within 5.0 mm below: the torch axis is not judged there";
+    const angles = "2 arc-ON runs state no positioner angles on cell kr150_tilt_rotate: the positioner stands where the controller left it, its welding position is not judged there";
+    const prog = (node: string, notes: string[]) => ({ node, format: "krl", files: [], verdict: "ok" as const, notes });
+    const one = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={{ ...report, problems: [], programs: [prog("post", [torch, angles, torch])] }} />);
+    expect([...one.querySelectorAll("[data-testid=pf-note]")].map((e) => e.textContent)).toEqual([torch, angles]);
+    const two = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={{ ...report, problems: [], programs: [prog("post", [torch]), prog("post2", [angles])] }} />);
+    expect([...two.querySelectorAll("[data-testid=pf-note]")].map((e) => e.textContent)).toEqual([`post: ${torch}`, `post2: ${angles}`]);
+    expect(render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={report} />).querySelectorAll("[data-testid=pf-note]")).toHaveLength(0);
+  });
   it("says where the 3D coverage was sampled coarser than asked (a large part), and only there", () => {
     const prog = (node: string, used: number, asked: number | null = 1.0) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: 4, coverage_sample_mm: used, coverage_sample_asked_mm: asked });
     const big: Preflight = { ...report, problems: [], programs: [prog("post", 5.3), prog("post2", 1.0), prog("post3", 1.04)] };

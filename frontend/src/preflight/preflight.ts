@@ -25,7 +25,7 @@ export interface PreflightFigures {
   torch_angle_max_deg?: number | null;
   /** Programs written for a cell: the largest angle between a layer's build direction in the world (under the positioner angles the program states) and up, deg (0 = flat). */
   weld_position_max_deg?: number | null;
-  /** Planar programs: travel moves (arc off) found in metal welded before them. */
+  /** Travel moves (arc off) found in metal welded before them (fan programs: along each layer's build direction). */
   travel_collisions?: number | null;
   /** Metal laid in dwells with the arc on, mm³ (counted in the wire balance). */
   dwell_mm3?: number | null;
@@ -45,6 +45,8 @@ export interface PreflightProgram extends PreflightFigures {
   coverage_sample_mm?: number | null;
   /** The spacing asked (the settings' `sample_mm`, else the check's default), mm. */
   coverage_sample_asked_mm?: number | null;
+  /** What the check could not judge or read, in words (a layer not judged, runs without angles, …). */
+  notes?: string[];
 }
 
 export interface PreflightLayer {
@@ -245,6 +247,22 @@ export function coarseCoverage(report: Preflight | null): [string, number, numbe
     const asked = p.coverage_sample_asked_mm;
     if (typeof used !== "number" || typeof asked !== "number" || !(asked > 0)) continue;
     if (used > 1.05 * asked) out.push([p.node, used, asked]);
+  }
+  return out;
+}
+
+/** The notes of the report's programs, each once, as [program node, note]: what the check did not
+ * judge (a layer neither flat nor laid on a bead, runs without positioner angles) or could not read. */
+export function reportNotes(report: Preflight | null): [string, string][] {
+  const out: [string, string][] = [];
+  const seen = new Set<string>();
+  for (const p of report?.programs ?? []) {
+    for (const n of p.notes ?? []) {
+      const key = JSON.stringify([p.node, n]);
+      if (typeof n !== "string" || seen.has(key)) continue;
+      seen.add(key);
+      out.push([p.node, n]);
+    }
   }
   return out;
 }

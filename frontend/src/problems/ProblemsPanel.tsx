@@ -1,4 +1,4 @@
-import { canMaskHere, checkLabel, coarseCoverage, figureRows, problemKey, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
+import { canMaskHere, checkLabel, coarseCoverage, figureRows, problemKey, reportNotes, sortedProblems, type Preflight, type PreflightProblem } from "../preflight/preflight";
 import { useEffect, useRef } from "react";
 import type { Problem } from "./problems";
 
@@ -78,6 +78,12 @@ function PreflightSection({ report, stale, onPick, onMaskHere, sectionRef }: { r
       {coarseCoverage(report).map(([node, used, asked]) => (
         <div key={node} className="muted pad" data-testid="pf-coarse">
           coverage of {node} sampled every {used.toFixed(2)} mm, not {asked.toFixed(2)}: a large part (at most 1,000,000 samples of a wall, 200,000 of a mesh)
+        </div>
+      ))}
+      {reportNotes(report).map(([node, note]) => (
+        <div key={`${node}:${note}`} className="muted pad" data-testid="pf-note">
+          {(report.programs?.length ?? 0) > 1 ? `${node}: ` : ""}
+          {note}
         </div>
       ))}
       {!list.length && <div className="muted pad">The program builds the part: no preflight problems.</div>}
