@@ -265,6 +265,7 @@ def test_a_helix_is_judged_where_each_state_stands():
     from waamflow.preflight.read.core import Run
     from waamflow.preflight.report import Report
     from waamflow.preflight.settings import PreflightSettings
+    from waamflow.preflight.torch import build_directions
     from waamflow.trajectory.cell import load_cell
 
     th = np.linspace(0.0, 6 * np.pi, 361)
@@ -279,7 +280,8 @@ def test_a_helix_is_judged_where_each_state_stands():
         air = Run(lone, np.full(39, 8.0), np.full(39, 3.0), np.ones(39, bool), 0, "air", 0, [(0, np.zeros(2))])
         out: dict = {}
         rep = Report("post", "krl")
-        weld_position_problems([(0, [helix, air])], False, 2.0, cell, out, rep, PreflightSettings())
+        layers = [(0, [helix, air])]
+        weld_position_problems(layers, build_directions(layers, False, 2.0), 2.0, cell, out, rep, PreflightSettings())
         return out, rep
 
     out, rep = check(0.0)

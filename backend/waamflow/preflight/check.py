@@ -447,16 +447,17 @@ def _layer_problems(
     levels = np.unique(np.round(heights, 6))  # heights met twice (towers built one after the other) count once
     spacing = float(np.median(np.diff(levels))) if len(levels) > 1 else None
     h_dep = spacing if planar and spacing is not None else h_typ
+    directions = build_directions(layers, planar, spacing)  # the way each layer grows: travel, torch, position
     bottom_problems(part, prog, layers, h_dep, out, rep, s)
     if planar:
         layer_order_problems(layers, heights, h_dep, width, rep, s, footprint)
         travel_problems(layers, prog, h_dep, width, out, rep, s)
     else:  # a planar layer with a move off its plane made the program "not planar"
         z_jump_problems(layers, spacing, PLANAR_TOL_MM, rep, s)
-        travel_problems(layers, prog, h_dep, width, out, rep, s, build_directions(layers, False, spacing))
+        travel_problems(layers, prog, h_dep, width, out, rep, s, directions)
     retrace_problems(layers, width, out, rep, s)
-    torch_axis_problems(layers, prog, planar, spacing, out, rep, s)
-    weld_position_problems(layers, planar, spacing, cell, out, rep, s)
+    torch_axis_problems(layers, prog, directions, spacing, out, rep, s)
+    weld_position_problems(layers, directions, spacing, cell, out, rep, s)
 
 
 def _coverage_problems(

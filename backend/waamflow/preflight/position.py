@@ -9,7 +9,7 @@ them); before this check the preflight read the points only, so a program with t
 swapped, the tilt's sign flipped, radians where degrees belong or the positioner left at zero
 passed "ok" while it would weld the duct's upper layers on their side.
 
-Each layer's build direction in the part frame is torch.py's (`build_directions`: +z for planar
+Each layer's build direction in the part frame is torch.py's (`build_directions`, given: +z for planar
 programs, a fan layer's plane normal; on a layer that is not flat, a helix or a conformal layer,
 the direction at the point where a run sets the positioner, from the bead below it:
 `local_directions`); the work frame's rotation at the angles the program states
@@ -27,7 +27,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .read import Run
-from .torch import build_directions, local_directions
+from .torch import local_directions
 
 _NOWHERE = np.full(3, np.nan)
 
@@ -50,7 +50,7 @@ class _Worst:
 
 def weld_position_problems(
     layers: Sequence[tuple[int, list[Run]]],
-    planar: bool,
+    directions: np.ndarray,
     spacing: float | None,
     cell_json: str,
     out: dict,
@@ -62,7 +62,8 @@ def weld_position_problems(
     (a failure), and the layer whose build direction lies farthest from up in the world, beyond
     `s.weld_position_warn_deg` (a warning) or `s.weld_position_fail_deg`. out: `weld_position_max_deg`
     (that angle), `weld_position_unjudged_runs` (runs whose layer has no build direction or that
-    state no positioner angles, and each set of angles a run states with an axis missing)."""
+    state no positioner angles, and each set of angles a run states with an axis missing).
+    directions: each layer's build direction (torch.build_directions), spacing: the layers' (mm)."""
     if s.weld_position == "off" or not cell_json or not layers:
         return
     from ..core.errors import InputFileError
@@ -70,7 +71,6 @@ def weld_position_problems(
 
     cell = load_cell("the program's cell", text=cell_json)
     m = cell.axes
-    directions = build_directions(layers, planar, spacing)
     rotation: dict[tuple[float, ...], np.ndarray | None] = {}
     local = _state_directions(layers, directions, spacing, m)
     worst, unjudged, outside, silent, curved = _Worst(), 0, [], 0, 0
@@ -179,7 +179,6 @@ def _state_directions(
     if not asks:
         return {}
     pts = np.array([runs[j][1].points[i] for j, i in asks])
-    arc = np.array([float(np.linalg.norm(np.diff(runs[j][1].points[: i + 1], axis=0), axis=1).sum()) for j, i in asks])
-    own = np.array([j for j, _i in asks], int)
-    grow = local_directions(runs, pts, own, arc, np.ones(len(asks), bool), spacing)
+    own, index = np.array(asks, int).T
+    grow = local_directions(runs, pts, own, index, np.ones(len(asks), bool), spacing)
     return {(id(runs[j][1]), i): grow[n] for n, (j, i) in enumerate(asks)}

@@ -82,7 +82,7 @@ def build_directions(layers: Sequence[tuple[int, list[Run]]], planar: bool, spac
 def torch_axis_problems(
     layers: Sequence[tuple[int, list[Run]]],
     prog: ProgramRead,
-    planar: bool,
+    directions: np.ndarray,
     spacing: float | None,
     out: dict,
     rep: Any,
@@ -90,7 +90,8 @@ def torch_axis_problems(
 ) -> None:
     """The `torch_axis` problem (`s.torch_axis`): the arc-ON target whose torch lies farthest from
     its layer's build direction, beyond `s.torch_axis_warn_deg` (a warning) or
-    `s.torch_axis_fail_deg` (s.torch_axis); out["torch_angle_max_deg"]: that angle, degrees."""
+    `s.torch_axis_fail_deg` (s.torch_axis); out["torch_angle_max_deg"]: that angle, degrees.
+    directions: each layer's build direction (`build_directions`), spacing: the layers' (mm)."""
     if s.torch_axis == "off" or not prog.oriented or not layers:
         return
     from scipy.spatial import cKDTree  # not at import: the fork server preloads this module without scipy
@@ -100,18 +101,15 @@ def torch_axis_problems(
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
     runs = [(k, r) for k, (_i, rs) in enumerate(layers) for r in rs]
     run_pts = np.vstack([r.points for _k, r in runs])
-    sizes = [len(r.points) for _k, r in runs]
+    sizes = np.array([len(r.points) for _k, r in runs])
     _d, nearest = cKDTree(run_pts).query(pts)
     own = np.repeat(np.arange(len(runs)), sizes)[nearest]  # the run each target lies on
     li = np.array([k for k, _r in runs], int)[own]  # and its layer
-    directions = build_directions(layers, planar, spacing)
     grow = directions[li]
     judged = np.isfinite(grow).all(axis=1)
     if not judged.all() and spacing:
-        arc = np.concatenate(
-            [np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(r.points, axis=0), axis=1))] for _k, r in runs]
-        )
-        fill = local_directions(runs, pts, own, arc[nearest], ~judged, spacing)
+        first = np.cumsum(sizes) - sizes  # each run's first point in run_pts
+        fill = local_directions(runs, pts, own, nearest - first[own], ~judged, spacing)
         grow[~judged] = fill[~judged]
         judged = np.isfinite(grow).all(axis=1)
     left = np.isnan(directions[:, 0])
@@ -154,12 +152,12 @@ def torch_axis_problems(
 
 
 def local_directions(
-    runs: Sequence[tuple[int, Run]], pts: np.ndarray, own: np.ndarray, at: np.ndarray, want: np.ndarray, h: float
+    runs: Sequence[tuple[int, Run]], pts: np.ndarray, own: np.ndarray, index: np.ndarray, want: np.ndarray, h: float
 ) -> np.ndarray:
     """(n, 3) the way the part grows at each wanted target (nan elsewhere, and where not found):
     from the foot of the nearest earlier bead within `LOCAL_REACH`·h (h: the layer spacing, mm) to
-    the target. runs: (layer position, run) in program order; own, at: each target's run (index in
-    `runs`) and arc length along it, mm; the nearest foot at half a spacing or more counts. Earlier:
+    the target. runs: (layer position, run) in program order; own, index: each target's run (its
+    position in `runs`) and point (its index in that run's points); the nearest foot at half a spacing or more counts. Earlier:
     a run of the layer before, or of the target's own layer when the target lies above it (within
     30° of vertical, `SAME_LAYER_COS`: a bead beside it never counts), its own run only more than
     twice the reach behind it. A target within a layer spacing of the program's lowest arc-ON
@@ -172,14 +170,15 @@ def local_directions(
     cand = np.flatnonzero(near & np.array([len(r.points) > 1 for _k, r in runs]))
     if not len(idx) or not len(cand):
         return out
+    arc = {c: _along(runs[c][1].points) for c in set(cand.tolist()) | set(own[idx].tolist())}
+    at = np.zeros(len(pts))
+    at[idx] = [arc[c][i] for c, i in zip(own[idx].tolist(), index[idx].tolist())]  # each target along its run
     lines = [runs[c][1].points for c in cand.tolist()]
     a = np.vstack([p[:-1] for p in lines])
     b = np.vstack([p[1:] for p in lines])
     seg_run = np.repeat(cand, [len(p) - 1 for p in lines])
     length = np.linalg.norm(b - a, axis=1)
-    first = np.r_[True, seg_run[1:] != seg_run[:-1]]
-    total = np.cumsum(length) - length
-    arc0 = total - np.maximum.accumulate(np.where(first, total, 0.0))  # each segment's start along its run
+    arc0 = np.concatenate([arc[c][:-1] for c in cand.tolist()])  # each segment's start along its run
     samples, seg, _frac = segment_samples(a, b, step)
     ti, sj = pairs_between(pts[idx], samples, reach + step)
     t, g = idx[ti], seg[sj]
@@ -202,3 +201,8 @@ def local_directions(
     plate = want & ((pts[:, 2] <= low + h) | (np.isnan(out[:, 0]) & (pts[:, 2] <= low + reach)))
     out[plate] = (0.0, 0.0, 1.0)
     return out
+
+
+def _along(points: np.ndarray) -> np.ndarray:
+    """(k,) each point's distance along the polyline from its first, mm."""
+    return np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
