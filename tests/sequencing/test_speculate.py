@@ -173,28 +173,25 @@ def test_layers_sequenced_ahead_where_they_were_made_are_taken_for_those_layers_
     assert asked == [] and calls["here"] == 12
 
 
-def test_the_sequence_node_asks_the_workers_for_what_it_sends_them_not_for_the_whole_part():
-    """The node's cost question (`Context.map_in_workers`' layers and points) is about the layers
-    it would send: with the chain tasks' results for all but 16 of 200 layers (the layers the
-    parent timed itself), the question is about those 16 layers' paths, not the part's 200: the
-    cost model refuses to ship 16 layers in 8 runs of 2 (each started 2 layers early, and each
-    run's first layer ordered again here), which had cost a Dask run 0.3 s."""
+def _asked_by_the_node(layers, ahead_from, params_json=None):
+    """(items, seconds) of each `Context.map_in_workers` question the sequence node asks, when
+    the chain tasks ran ahead on layers `ahead_from`: (start, stop, step) of runs."""
     from waamflow.core.model import Layered
     from waamflow.engine.node import Context
     from waamflow.nodes.mpp import SequenceNode, _kernel_kw
 
-    layers = [cross_layer(i) for i in range(200)]
-    params = SequenceNode.Params.model_validate({"order": "nearest", "retract_height": 10})
-    asked: list[tuple[int, int, int]] = []
+    params = SequenceNode.Params.model_validate(params_json or {"order": "nearest", "retract_height": 10})
+    asked: list[tuple[int, float]] = []
+    a0, a1, step = ahead_from
 
     class Ctx(Context):
         node_id = "sequence"
 
         def ahead(self):
-            return [layer_path.sequence_ahead(layers[a : a + 46], **_kernel_kw(params)) for a in range(16, 200, 46)]
+            return [layer_path.sequence_ahead(layers[a : a + step], **_kernel_kw(params)) for a in range(a0, a1, step)]
 
-        def map_in_workers(self, fn, items, *, layers=0, points=0):
-            asked.append((len(items), layers, points))
+        def map_in_workers(self, fn, items, *, layers=0, points=0, seconds=None):
+            asked.append((len(items), seconds))
             return None
 
         def check_cancelled(self):
@@ -204,8 +201,48 @@ def test_the_sequence_node_asks_the_workers_for_what_it_sends_them_not_for_the_w
             pass
 
     out = SequenceNode().run(Ctx(), params, {"toolpath": Layered(tuple(layers))})
-    assert len(out["toolpath"]) == 200
+    assert len(out["toolpath"]) == len(layers)
+    return asked
+
+
+def test_the_sequence_node_asks_the_workers_for_what_it_sends_them_not_for_the_whole_part():
+    """The node's cost question (`Context.map_in_workers`' seconds) is about the layers it would
+    send: with the chain tasks' results for all but 16 of 200 layers (the layers the parent timed
+    itself), the question is about those 16 layers' sections, not the part's 200, and the answer
+    is no: 16 layers in 8 runs of 2 (each started 2 layers early, and each run's first layer
+    ordered again here) had cost a Dask run 0.3 s."""
+    from waamflow.engine import parallel
+
+    layers = [cross_layer(i) for i in range(200)]
+    asked = _asked_by_the_node(layers, (16, 200, 46))
     # 8 runs of 2 layers, each but the first started WARMUP_LAYERS early: layers 0-1, 0-3, 2-5, ...
     sent = layers[0:2] + [lp for a in range(2, 16, 2) for lp in layers[a - layer_path.WARMUP_LAYERS : a + 2]]
     assert len(sent) == 16 + 7 * layer_path.WARMUP_LAYERS
-    assert asked == [(8, len(sent), sum(len(sp.points) for lp in sent for sp in lp.sections))]
+    sections = sum(len(lp.sections) for lp in sent)
+    assert asked == [(8, pytest.approx(layer_path.SEQUENCE_S_PER_SECTION * sections, rel=1e-9))]
+    assert asked[0][1] < parallel.DASK_MIN_PARALLEL_S and asked[0][1] < parallel.WARM_MIN_PARALLEL_S
+
+
+def test_the_sequence_node_prices_the_layers_it_would_send_at_what_sequencing_costs():
+    """The 500-layer cross of the bench: the parent timed 25 layers itself before its workers
+    were up, the chain tasks ran ahead on the other 475. The node's question is the kernel's own
+    price of those 25 layers (37 sent with the warm-up layers: 0.04 s of work, 0.4 ms a section):
+    not worth the round trip. Asked in the engine's generic terms (5 ms a layer, 25 µs a path
+    point), the 37 layers came to 0.24 s, over the 0.2 s threshold of running workers: they were
+    sent, and the run waited 0.17-0.23 s for 0.04 s of work behind the artifacts the workers were
+    writing. With no layer made ahead, all 500 are priced at 0.6 s and sent."""
+    from waamflow.engine import parallel
+
+    layers = [cross_layer(i) for i in range(500)]
+    [(runs, seconds)] = _asked_by_the_node(layers, (25, 500, 48))
+    assert runs == 7  # runs of 4 layers (25 / SPECULATE_CHUNKS, rounded up), the last of 1
+    sent = 25 + (runs - 1) * layer_path.WARMUP_LAYERS
+    assert sent == 37
+    per_layer = len(layers[0].sections)
+    assert seconds == pytest.approx(layer_path.SEQUENCE_S_PER_SECTION * per_layer * sent, rel=1e-9)
+    assert not parallel.wants_workers(2, min_s=parallel.WARM_MIN_PARALLEL_S, extra_s=seconds)
+    points = sum(len(sp.points) for lp in layers[:sent] for sp in lp.sections)
+    assert parallel.wants_workers(2, 0, sent, points, parallel.WARM_MIN_PARALLEL_S)  # the generic model's yes
+    [(runs, seconds)] = _asked_by_the_node(layers, (0, 0, 1))
+    assert runs == layer_path.SPECULATE_CHUNKS
+    assert seconds > parallel.WARM_MIN_PARALLEL_S

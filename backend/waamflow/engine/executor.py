@@ -415,21 +415,32 @@ class RunContext(Context):
         return [fn(x) for x in items] if got is None else got
 
     def map_in_workers(
-        self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        layers: int = 0,
+        points: int = 0,
+        seconds: float | None = None,
     ) -> list[Any] | None:
-        """`Context.map_in_workers`: the map in the workers under `map`'s conditions, else None."""
+        """`Context.map_in_workers`: the map in the workers under `map`'s conditions (the cost
+        model's, or `seconds` against the same thresholds), else None."""
         pool = self._run.pool
+        if seconds is not None:
+            layers, points, extra = 0, 0, seconds
+        else:
+            extra = 0.0
         if (
             isinstance(pool, LayerPool)
             and pool.enabled
             and pool.ready
             and len(items) > 1
-            and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s)
+            and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s, extra)
         ):
             return parallel.RunWorkers(pool).map(fn, items)
         if isinstance(pool, DaskPool) and len(items) > 1:
             dask = DaskWorkers(pool)
-            if dask.pays(0, layers, points):
+            if parallel.wants_workers(dask.count, 0, layers, points, parallel.DASK_MIN_PARALLEL_S, extra):
                 return dask.map(fn, items)
         return None
 

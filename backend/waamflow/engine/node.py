@@ -272,11 +272,18 @@ class Context:
         return [fn(x) for x in items]
 
     def map_in_workers(
-        self, fn: Callable[[Any], Any], items: Sequence[Any], *, layers: int = 0, points: int = 0
+        self,
+        fn: Callable[[Any], Any],
+        items: Sequence[Any],
+        *,
+        layers: int = 0,
+        points: int = 0,
+        seconds: float | None = None,
     ) -> list[Any] | None:
         """`map` when it would run in the run's layer workers; None when it would run here. For
         speculative work, which pays only beside the node's own (the sequence node's runs of
-        layers)."""
+        layers). `seconds`: the work's expected serial CPU seconds, from a kernel that knows its
+        own cost better than the engine's cost model of `layers` and `points` (which it replaces)."""
         return None
 
     def ahead(self) -> list[Any]:

@@ -25,7 +25,7 @@ from ..sections import Mask, apply_guide, segment_layer
 from ..sections.guide import guide_line
 from ..sections.mask import governing_mask, uncovered_percent
 from ..sequencing import sequence_part
-from ..sequencing.layer_path import chunk_size, part_travel, sequence_ahead
+from ..sequencing.layer_path import chunk_seconds, part_travel, sequence_ahead
 from ..sequencing.seams import DEFAULT_CLEARANCE, SeamSpec, ignition_points, nearest_distances
 from ..sequencing.tour import submitted_seconds
 from ..zoning import ZoneSpec, apply_zone_params, merge, parse, template, zone_path
@@ -465,8 +465,7 @@ class SequenceNode(Node):
                     ctx.warn(f"order lists {key!r}, which matches no section", section=key)
 
         def in_workers(fn, items):  # in the workers if up and paid by what is sent (ctx.ahead may leave a few)
-            layers, points = chunk_size(items)
-            return ctx.map_in_workers(fn, items, layers=layers, points=points)
+            return ctx.map_in_workers(fn, items, seconds=chunk_seconds(items))
 
         def on_layer(k: int, n: int) -> None:  # a sketch of 3,000 walls a layer takes seconds a layer
             ctx.check_cancelled()

@@ -29,7 +29,7 @@ import numpy as np
 from ..core.model import LayerPaths, SectionPath
 from .arc_runs import enforce_min_run
 from .seams import LayerSegments, SeamSpec, choose_entry, ignition_points
-from .tour import Submit, nearest_order, tour_length, travel_cost
+from .tour import Submit, nearest_order, search_seconds, tour_length, travel_cost
 
 __all__ = ["nearest_order", "tour_length", "travel_cost"]  # the order's kernels, at their old address
 
@@ -330,11 +330,24 @@ def _sequence_chunk(item: tuple[list[LayerPaths | None], int, dict[str, Any]]) -
     return _sequence_run(layers, skip, kw, keep_source=False)
 
 
-def chunk_size(items: Sequence[tuple[list[LayerPaths | None], int, dict[str, Any]]]) -> tuple[int, int]:
-    """(layers, path points) that `_sequence_chunk` items hold: what sending them costs (their warm-up
-    layers included), for the cost model's question whether the workers pay for them."""
-    held = [lp for layers, _skip, _kw in items for lp in layers if lp is not None]
-    return len(held), sum(len(sp.points) for lp in held for sp in lp.sections)
+SEQUENCE_S_PER_SECTION = 4e-4  # CPU s to sequence one section path (seam, entry, zones), 2026-11-27:
+# the shipped recipes' sequence nodes 0.22-0.43 ms a section, the 500-layer cross 0.37 ms
+
+
+def chunk_seconds(items: Sequence[tuple[list[LayerPaths | None], int, dict[str, Any]]]) -> float:
+    """Expected CPU seconds of `_sequence_chunk` over `items` (their warm-up layers included): the
+    cost model's question whether the workers pay for them, in this kernel's own terms. The
+    engine's generic model (5 ms a layer, 25 µs a path point: the preflight's and wall paths'
+    work) put the 500-layer cross's 25 layers left over (37 sent, 0.04 s of work) at 0.24 s and
+    sent them, and the run waited 0.17-0.23 s for them behind the artifacts the workers wrote."""
+    total = 0.0
+    for layers, _skip, kw in items:
+        seeds = 2 if kw.get("order") == "nearest" else 0  # nearest_order searches from two seeds
+        for lp in layers:
+            if lp is not None:
+                n = len(lp.sections)
+                total += SEQUENCE_S_PER_SECTION * n + seeds * search_seconds(n)
+    return total
 
 
 def sequence_ahead(layers: list[LayerPaths | None], **kw: Any) -> list[_Sequenced | None]:
@@ -393,7 +406,7 @@ __all__ = [
     "part_travel",
     "sequence_layer",
     "sequence_ahead",
-    "chunk_size",
+    "chunk_seconds",
     "sequence_part",
     "tour_length",
     "travel_cost",
