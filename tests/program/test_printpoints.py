@@ -50,24 +50,61 @@ def test_one_entry_per_toolpath_sample_with_compas_slicer_keys():
     assert {v["section"] for v in pp.values()} == {"bs1/A", "bs1/B", "bs1/C"}
 
 
-def test_speeds_toggles_waits_and_blends_follow_the_plan():
+def printed_segments(pp: dict) -> list[bool]:
+    """Segment i → i+1 printed or not, by compas_slicer's own rule (its Grasshopper
+    `lightweight_path_visualization` and `render_path_visualization`: a pipe from point i to
+    i+1 where `extruder_toggle[i]`; `set_extruder_toggle` gives a path's points True and its
+    last one False; `set_wait_time` puts the wait where the toggle turns True)."""
+    v = list(pp.values())
+    return [bool(v[i]["extruder_toggle"]) for i in range(len(v) - 1)]
+
+
+def test_the_extruder_toggle_is_the_motion_leaving_the_point_as_compas_slicer_reads_it():
+    """A driver or viewer written for compas_slicer welds segment i → i+1 where point i's toggle is
+    true. The toggle was the motion *arriving* at the point: read by compas_slicer's rule, every
+    run lost its first segment and welded the travel after its last point (on this toolpath 29
+    of its 140 segments: 15 first segments not welded, 14 travels welded)."""
+    tp = build_toolpath(3)
+    moves = flatten(tp)
+    _, pp = _pp(tp)
+    v = list(pp.values())
+    assert printed_segments(pp) == moves.arc.tolist()
+    assert v[-1]["extruder_toggle"] is False  # the program ends with the arc off
+    starts = [i for i in range(len(v)) if v[i]["extruder_toggle"] and (i == 0 or not v[i - 1]["extruder_toggle"])]
+    ends = [i for i in range(1, len(v)) if v[i - 1]["extruder_toggle"] and not v[i]["extruder_toggle"]]
+    assert len(starts) == len(ends) == 3 * 5  # per layer: bs1/A, bs1/B, the three passes of bs1/C
+    # a run's points: its start (toggle on, the arc ignites there) to its end (toggle off)
+    for a, b in zip(starts, ends):
+        assert all(v[k]["extruder_toggle"] for k in range(a, b)) and moves.arc[a:b].all()
+
+
+def test_speeds_waits_and_blends_follow_the_plan():
     tp = build_toolpath(2, dwell=20.0)
     prog, pp = _pp(tp, blend=2.5, travel=80.0)
     v = list(pp.values())
     moves = flatten(tp)
     on = [x["extruder_toggle"] for x in v]
-    assert on[0] is False and on[1:] == moves.arc.tolist()
-    weld = [x["velocity"] for x in v[1:] if x["extruder_toggle"]]
+    # velocity: of the motion arriving at the point (a robot target's speed, compas_rrc's MoveToFrame)
+    weld = [x["velocity"] for x, seg_arc in zip(v[1:], moves.arc) if seg_arc]
     assert set(weld) == {5.0, 6.0, 7.0}  # the zones' speeds
-    travel = [x["velocity"] for x, seg_arc, seg_kind in zip(v[1:], moves.arc, moves.kind) if seg_kind == 0]
+    travel = [x["velocity"] for x, seg_kind in zip(v[1:], moves.kind) if seg_kind == 0]
     assert travel and set(travel) == {80.0}
     assert sum(x["wait_time"] for x in v) == pytest.approx(prog.stats["dwell_total_s"])
-    assert max(x["wait_time"] for x in v) == pytest.approx(20.0 + 0.8)  # interlayer + ignition dwell of `start`
+    # each wait where the arc is as the plan has it: an ignition dwell (0.8 s at `start`) at the run's
+    # first point, toggle on; the interlayer dwell (20 s, arc off) at the point before, toggle off
+    # (one wait of 20.8 s at the run's start had the torch stand 20.8 s with the arc on)
+    waits = {i: x["wait_time"] for i, x in enumerate(v) if x["wait_time"] > 0}
+    long = [i for i, w in waits.items() if w == pytest.approx(20.0)]
+    assert len(long) == 1 and on[long[0]] is False and on[long[0] + 1] is True
+    assert waits[long[0] + 1] == pytest.approx(0.8)
+    for i, w in waits.items():
+        assert on[i] is (w != pytest.approx(20.0)), (i, w)  # every other wait is an arc-on dwell
     blends = [x["blend_radius"] for x in v]
     assert set(blends) == {0.0, 2.5} and blends[-1] == 0.0
-    # exact stop where the arc switches (ignition or arc off at point i - 1): blend 0 there
-    switches = [i - 1 for i in range(2, len(v)) if on[i] != on[i - 1]]
+    # exact stop where the arc switches and wherever the torch waits
+    switches = [i for i in range(1, len(v)) if on[i] != on[i - 1]]
     assert len(switches) >= 8 and all(v[k]["blend_radius"] == 0.0 for k in switches)
+    assert all(v[k]["blend_radius"] == 0.0 for k in waits)
 
 
 def test_frames_are_orthonormal_and_up_is_the_reversed_tool_axis():
@@ -171,4 +208,23 @@ def test_mpp_cross_print_points_with_vertical_retracts():
         assert np.linalg.norm(n) == pytest.approx(1, abs=1e-3) and np.linalg.norm(t) == pytest.approx(1, abs=1e-3)
         assert abs(n @ up) < 1e-3 and abs(t @ up) < 1e-3
     assert {x["layer_height"] for x in pp.values()} == {1.5}
-    assert {x["velocity"] for x in pp.values() if x["extruder_toggle"]} == {6.0, 8.0, 4.0}
+    v = list(pp.values())
+    assert {v[i + 1]["velocity"] for i in range(len(v) - 1) if v[i]["extruder_toggle"]} == {6.0, 8.0, 4.0}
+
+
+def test_a_wait_print_points_cannot_place_fails_loudly():
+    """An arc-off dwell at the program's first point where the arc ignites: no point before it
+    has the arc off to wait at, and waiting there would stand with the arc on."""
+    import dataclasses
+
+    from waamflow.core.errors import PlanningError
+    from waamflow.program.plan import Dwell, plan_program
+    from waamflow.program.printpoints import print_points
+
+    plan = plan_program(flatten(build_toolpath(1)))
+    first_on = int(np.flatnonzero(plan.moves.arc)[0])
+    assert first_on == 0  # the wall ignites at the first point
+    bad = dataclasses.replace(plan, steps=(Dwell(0, 30.0, "interlayer"),) + tuple(plan.steps))
+    with pytest.raises(PlanningError, match=r"interlayer dwell of 30 s at point 0 \(arc off\)"):
+        print_points(bad, np.full(len(plan.moves.points), 1.5), 100.0, 1.0)
+    assert print_points(plan, np.full(len(plan.moves.points), 1.5), 100.0, 1.0)["0"]["extruder_toggle"] is True

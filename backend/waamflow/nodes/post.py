@@ -69,7 +69,9 @@ class PostProcess(Node):
       arc, layer, section, zone, dwell).
     - `printpoints`: compas_slicer's print-points JSON `<node>.printpoints.json`, one entry per
       toolpath point (point, layer_height, up_vector, mesh_normal, frame, extruder_toggle,
-      velocity, wait_time, blend_radius, plus layer and section) for compas_rrc/compas_fab drivers.
+      velocity, wait_time, blend_radius, plus layer and section) for compas_rrc/compas_fab drivers;
+      as compas_slicer means them: the toggle is the arc of the motion leaving the point, the
+      velocity the motion's to it, a wait is spent with the arc as the point's toggle says.
     Ignition dwell: the zone's `dwell` parameter when it has one, else `ignition_dwell`.
     Interlayer dwells carry their reason (e.g. the interpass rule) in a comment. Rolling/peening
     strokes (a `treatment` node's sections) are engaged and lifted by `tool_on`/`tool_off`

@@ -13,16 +13,24 @@ post-processor renders) with its keys:
   (the wall's side; compas_slicer's up vector is ``normal × (p − p_next)``, the same triad);
 * ``frame`` ``{"point", "xaxis", "yaxis"}`` — compas' Frame data as compas_slicer builds it,
   xaxis = up × normal (= −tangent), yaxis = normal;
-* ``extruder_toggle`` — arc on during the motion to this point; ``velocity`` mm/s of the motion to
-  this point (arc-off travel: the travel speed); ``wait_time`` s — dwell at the point (ignition,
-  zone and interlayer dwells of the program plan); ``blend_radius`` mm — 0 where the program
-  makes an exact stop (arc switches, dwells, the end), else the blend distance;
+* ``extruder_toggle`` — arc on during the motion *leaving* this point (to the next one; the
+  last point's is off), as compas_slicer sets it (a path's points true, its last one false) and
+  draws it (a bead from point i to i+1 where point i's toggle is true); ``velocity`` mm/s of the
+  motion *to* this point (a robot target's speed; arc-off travel: the travel speed);
+  ``wait_time`` s — the torch waits at the point, the arc as its toggle says: the ignition and
+  zone dwells (arc on) where the run ignites or the zone starts, the interlayer dwell (arc off)
+  at the point before the run's first (the travel to it leaves from there); ``blend_radius``
+  mm — 0 where the program makes an exact stop (arc switches, waits, the end), else the blend
+  distance;
 * ``closest_support_pt`` null, ``distance_to_support`` null, ``is_feasible`` true (not computed
   here), ``attributes`` ``{"zone", "tangent"}``;
 * beside compas_slicer's keys: ``layer`` (index) and ``section`` (key) of the motion to the point.
 
-The attribute convention (the motion *arriving* at the point) is the cutter-location CSV's
-(`program/cl.py`) and a robot target's: `MoveL target, speed, zone`.
+A driver's loop over the points: move to the point (its velocity, its blend radius), set the
+arc to its toggle, wait its wait_time. Until 2026-11-27 the toggle was the motion *arriving* at
+the point (the cutter-location CSV's convention, `program/cl.py`): read as compas_slicer reads
+it, every run lost its first segment and welded the travel after its last point, and the
+interlayer dwell was one wait with the ignition dwell at the run's start, arc on.
 """
 
 from __future__ import annotations
@@ -33,7 +41,8 @@ import numpy as np
 
 from ..core.model import LayerPaths, Layered
 from ..core.moves import Moves
-from .plan import Dwell, Motion, Plan
+from ..core.errors import PlanningError
+from .plan import ArcOff, ArcOn, Dwell, Motion, Plan
 
 _X = np.array([1.0, 0.0, 0.0])
 
@@ -97,6 +106,46 @@ def frames(moves: Moves) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return up, tangent, normal
 
 
+def _toggles_and_waits(plan: Plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(extruder_toggle, wait_time s, exact stop) per point of the plan, as compas_slicer reads
+    them: the toggle of point i is the arc of the motion leaving it (segment i → i+1; the last
+    point's is off), and a wait at point i is spent with the arc as that toggle says. A dwell
+    whose arc state differs from its point's toggle (the interlayer dwell, arc off, at the point
+    where the next run ignites) waits at the point before, where the arc is off, the arriving
+    travel leaving from there."""
+    moves = plan.moves
+    n = len(moves.points)
+    toggle = np.zeros(n, bool)
+    if n >= 2:
+        toggle[:-1] = np.asarray(moves.arc, bool)
+    wait = np.zeros(n)
+    stop = np.zeros(n, bool)
+    arc = False
+    for s in plan.steps:
+        if isinstance(s, ArcOn):
+            arc = True
+        elif isinstance(s, ArcOff):
+            arc = False
+        elif isinstance(s, Dwell):
+            at = s.point
+            if arc != bool(toggle[at]):
+                at -= 1
+                if at < 0 or bool(toggle[at]) != arc:
+                    raise PlanningError(
+                        f"print points cannot hold the {s.reason} dwell of {s.seconds:g} s at point {s.point} "
+                        f"(arc {'on' if arc else 'off'}): the arc of the motion leaving that point is "
+                        f"{'on' if toggle[s.point] else 'off'} and no point before it has the arc "
+                        f"{'on' if arc else 'off'}; write this program in another format, or move the dwell"
+                    )
+            wait[at] += s.seconds
+            stop[at] = True
+        elif isinstance(s, Motion):
+            if s.circular:
+                raise ValueError("print points need one motion per point: switch arc fitting off")
+            stop[s.end] |= s.stop
+    return toggle, wait, stop
+
+
 def print_points(
     plan: Plan, layer_heights: np.ndarray, travel_speed: float, blend_distance: float, decimals: int = 4
 ) -> dict[str, dict]:
@@ -104,29 +153,19 @@ def print_points(
     moves = plan.moves
     pts = moves.points
     n = len(pts)
-    wait = np.zeros(n)
-    stop = np.zeros(n, bool)
-    for s in plan.steps:
-        if isinstance(s, Dwell):
-            wait[s.point] += s.seconds
-        elif isinstance(s, Motion):
-            if s.circular:
-                raise ValueError("print points need one motion per point: switch arc fitting off")
-            stop[s.end] |= s.stop
+    toggle, wait, stop = _toggles_and_waits(plan)
     up, tangent, normal = frames(moves)
     xaxis = np.cross(up, normal)
     if n >= 2:
         speed = _arriving_segment_values(
             moves, np.where(np.isfinite(moves.speed) & (moves.speed > 0), moves.speed, travel_speed)
         )
-        arc = _arriving_segment_values(moves, moves.arc.astype(bool))
-        arc[0] = False
         speed[0] = travel_speed
         layer = _arriving_segment_values(moves, moves.layer)
         section = _arriving_segment_values(moves, moves.section)
         zone = _arriving_segment_values(moves, moves.zone)
     else:
-        speed, arc = np.full(n, travel_speed), np.zeros(n, bool)
+        speed = np.full(n, travel_speed)
         layer = section = zone = np.zeros(n, int)
 
     def r(v) -> list[float]:
@@ -142,7 +181,7 @@ def print_points(
             "mesh_normal": r(normal[i]),
             "up_vector": r(up[i]),
             "frame": {"point": r(pts[i]), "xaxis": r(xaxis[i]), "yaxis": r(normal[i])},
-            "extruder_toggle": bool(arc[i]),
+            "extruder_toggle": bool(toggle[i]),
             "velocity": round(float(speed[i]), decimals),
             "wait_time": round(float(wait[i]), 6),
             "blend_radius": 0.0 if stop[i] else float(blend_distance),

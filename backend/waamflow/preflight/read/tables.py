@@ -46,6 +46,10 @@ def read_cl_csv(text: str) -> ProgramRead:
 
 
 def read_printpoints(text: str) -> ProgramRead:
+    """compas_slicer's print points as a driver runs them (program/printpoints.py): move to the
+    point (its `velocity`; its `layer` and `section` are the motion's), set the arc to its
+    `extruder_toggle` (the motion leaving the point), wait its `wait_time` (metal in one spot
+    while the toggle is on)."""
     data = json.loads(text)
     entries = (
         data
@@ -56,20 +60,21 @@ def read_printpoints(text: str) -> ProgramRead:
     )
     b = RunBuilder("printpoints")
     b.out.weld_commanded = any("wire_feed_speed" in e for e in entries)
-    on = False
     for i, e in enumerate(entries):
         p = np.asarray(e["point"], float)
         b.layer = e.get("layer", b.layer)
         b.section = e.get("section", b.section)
-        toggle = bool(e.get("extruder_toggle"))  # the arc is on during the motion *to* this point
-        if toggle and not on:
-            b.arc_on(i)
-            on = True
-        elif not toggle and on:
-            b.close()
-            on = False
         w = e.get("wire_feed_speed")
-        b.move(p[None], float(e.get("velocity") or math.nan), float(w) if w is not None else math.nan, w is not None)
+        wfs = float(w) if w is not None else math.nan
+        b.move(p[None], float(e.get("velocity") or math.nan), wfs, w is not None)
+        on = b.pts is not None
+        if e.get("extruder_toggle") and not on:
+            nxt = entries[i + 1] if i + 1 < len(entries) else e  # the run is the next motions' layer and section
+            b.layer, b.section = nxt.get("layer", b.layer), nxt.get("section", b.section)
+            b.arc_on(i)
+        elif not e.get("extruder_toggle") and on:
+            b.close()
+        b.dwell(float(e.get("wait_time") or 0.0), wfs)
     b.close()
     return b.out
 
