@@ -338,7 +338,8 @@ def _ignitions(
             s.stacked_starts,
             f"{len(stacked)} ignitions lie within one bead width ({width:g} mm) of an ignition on the "
             f"layer below (first: layer {idx}, section {r.section}, {d:.2f} mm away): stacked starts build "
-            "humps and lack of fusion; stagger the seams (sequence/wall-path `seam`)",
+            "humps and lack of fusion; stagger the seams (sequence `seam`; wall-path `seam` on walls, "
+            "`tubular: scattered` on rings and tubes)",
             layer=idx,
             section=r.section,
             value=d,
