@@ -81,6 +81,16 @@ describe("preflight in the GUI", () => {
     expect([...two.querySelectorAll("[data-testid=pf-note]")].map((e) => e.textContent)).toEqual([`post: ${torch}`, `post2: ${angles}`]);
     expect(render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={report} />).querySelectorAll("[data-testid=pf-note]")).toHaveLength(0);
   });
+  it("says what passed: the program, or the toolpath when no program is emitted (it had said 'the program' then too)", () => {
+    const prog = (node: string, format: string) => ({ node, format, files: [], verdict: "ok" as const, notes: [] });
+    const clean = (programs: ReturnType<typeof prog>[]) =>
+      render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={{ ...report, verdict: "ok", problems: [], programs }} />).querySelector("[data-testid=pf-clean]")?.textContent;
+    expect(clean([prog("post", "gcode")])).toBe("The program builds the part: no preflight problems.");
+    expect(clean([prog("post", "krl"), prog("post2", "rapid")])).toBe("The programs build the part: no preflight problems.");
+    expect(clean([prog("sequence", "toolpath")])).toBe("The toolpath builds the part: no preflight problems. No program is emitted: add a post-process node to write one (its weld data and wire are checked then).");
+    const warned = render(<ProblemsPanel problems={[]} onPick={() => {}} onClose={() => {}} preflight={{ ...report, programs: [prog("post", "gcode")] }} />);
+    expect(warned.querySelector("[data-testid=pf-clean]")).toBeNull();
+  });
   it("says where the 3D coverage was sampled coarser than asked (a large part), and only there", () => {
     const prog = (node: string, used: number, asked: number | null = 1.0) => ({ node, format: "gcode", files: [], verdict: "ok" as const, bead_width_mm: 4, coverage_sample_mm: used, coverage_sample_asked_mm: asked });
     const big: Preflight = { ...report, problems: [], programs: [prog("post", 5.3), prog("post2", 1.0), prog("post3", 1.04)] };

@@ -86,7 +86,11 @@ function PreflightSection({ report, stale, onPick, onMaskHere, sectionRef }: { r
           {note}
         </div>
       ))}
-      {!list.length && <div className="muted pad">The program builds the part: no preflight problems.</div>}
+      {!list.length && (
+        <div className="muted pad" data-testid="pf-clean">
+          {cleanText(report)}
+        </div>
+      )}
       <ul>
         {list.map((p, i) => (
           <li key={problemKey(p, i)} className="pf-row">
@@ -112,4 +116,13 @@ function PreflightSection({ report, stale, onPick, onMaskHere, sectionRef }: { r
       </ul>
     </section>
   );
+}
+
+/** What a clean preflight vouches for: the program(s), or the last toolpath when the recipe emits
+ * no program (the check then reads the toolpath; weld data and wire are the program's). */
+function cleanText(report: Preflight): string {
+  const programs = report.programs ?? [];
+  if (programs.length && programs.every((p) => p.format === "toolpath"))
+    return "The toolpath builds the part: no preflight problems. No program is emitted: add a post-process node to write one (its weld data and wire are checked then).";
+  return programs.length > 1 ? "The programs build the part: no preflight problems." : "The program builds the part: no preflight problems.";
 }
