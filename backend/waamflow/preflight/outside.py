@@ -228,6 +228,7 @@ class MeshDistance:
         self.tree = cKDTree(np.vstack([surf, self.mesh.vertices]))
         self.resolution_mm = math.sqrt(self.mesh.area / max(len(surf), 1))
         self.solid = solid
+        self.boxes: Any = None  # geometry.proximity.TriangleBoxes, made on the first few far points
 
     def __call__(self, pts: np.ndarray, floor: float) -> np.ndarray:
         """floor: points nearer the surface than this are not tested for inside (0 either way)."""
@@ -236,7 +237,13 @@ class MeshDistance:
         if self.solid:
             far = np.nonzero(d > floor)[0]
             if len(far):
-                inside = self.mesh.contains(pts[far])
+                from ..geometry.proximity import TriangleBoxes, inside_closed, worth_scanning
+
+                if worth_scanning(len(far), len(self.mesh.faces)):  # few: no r-tree of the whole mesh
+                    self.boxes = self.boxes or TriangleBoxes(self.mesh.vertices, self.mesh.faces)
+                    inside = inside_closed(self.boxes, pts[far])
+                else:
+                    inside = self.mesh.contains(pts[far])
                 d[far[inside]] = 0.0
         return d
 
