@@ -67,7 +67,11 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float]:
     n = int(min(MAX_SAMPLES, max(1000, mesh.area / step**2)))
     pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
     spacing = math.sqrt(mesh.area / max(len(pts), 1))
-    return np.asarray(pts), float(abs(mesh.volume)) if part.kind == "solid" else float(mesh.area), spacing
+    if part.kind != "solid":
+        return np.asarray(pts), float(mesh.area), spacing
+    from .check import mesh_volume  # column by column: trimesh's volume computes the inertia tensor (0.7 s on 1M faces)
+
+    return np.asarray(pts), mesh_volume(*part.mesh()), spacing
 
 
 def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings, planar: bool = False) -> Coverage:
