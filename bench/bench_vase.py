@@ -83,7 +83,8 @@ def _recipe() -> dict:
             {
                 "id": "walls",
                 "type": "wall-path",
-                "params": {"speed": 10.0, "spacing": 1.0, "overlap": 5.0, "bead_width": 6.0},
+                # one lap a layer, as PrusaSlicer's perimeters (aligned: what `helical` lays on rings)
+                "params": {"speed": 10.0, "spacing": 1.0, "overlap": 5.0, "bead_width": 6.0, "tubular": "aligned"},
             },
             # the weld commanded: 5 m/min puts a 6 × 1.5 mm bead at 10 mm/s (wire/part 1.0 in the preflight)
             {

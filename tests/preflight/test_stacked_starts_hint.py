@@ -45,6 +45,11 @@ def _stacked(tmp, tubular):
     return [p for p in rep["problems"] if p["check"] == "stacked_starts"], rep
 
 
+def _node_warnings(tmp, tubular) -> list[dict]:
+    summary = json.loads((tmp / f"out-{tubular}" / "summary.json").read_text())
+    return [w for w in summary["warnings"] if w.get("node") == "walls"]
+
+
 def test_the_hint_on_a_tubes_stacked_starts_is_the_parameter_that_staggers_them(tmp_path):
     (p,), _ = _stacked(tmp_path, None)  # rings: the default `helical` laps them with aligned seams
     assert p["severity"] == "warn" and p["layer"] == 1 and p["value"] < 6.0
@@ -53,3 +58,14 @@ def test_the_hint_on_a_tubes_stacked_starts_is_the_parameter_that_staggers_them(
     stacked, rep = _stacked(tmp_path, "scattered")
     assert stacked == [] and rep["verdict"] == "ok"
     assert rep["programs"][0]["start_spread_mm"] > 6.0
+
+
+def test_helical_asked_aligned_laid_on_rings_is_said_once(tmp_path):
+    """Rings (each layer its own centre line) are not laid as one helix: the default `helical`
+    gave aligned laps without a word; now the node says so once, and `aligned` asked is quiet."""
+    _stacked(tmp_path, None)
+    (w,) = _node_warnings(tmp_path, None)
+    assert w["message"].startswith("`tubular: helical` is laid as aligned start-stop laps on ring layers")
+    assert w["layer"] == 0
+    (_p,), _rep = _stacked(tmp_path, "aligned")  # the same laps, asked for: the preflight's warning only
+    assert _node_warnings(tmp_path, "aligned") == []

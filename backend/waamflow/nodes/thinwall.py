@@ -172,9 +172,11 @@ class WallPathNode(Node):
     the first layer), aligned or scattered start–stop with self-overlap `overlap`; non-isolated
     ones are built layer by layer (scattered). Layers without curves but with ring regions (a
     fan-sliced hollow wall) get the ring's centre line as one lap with `overlap`, its seam chosen
-    by `tubular`: aligned (and helical, which tilted fan layers cannot take) starts layer 0 in the
-    middle of the lap's longest straight stretch and every later layer at the point nearest the
-    seam below; scattered moves that start on by the golden-ratio fraction of the lap per layer.
+    by `tubular`: aligned (and helical, which rings, each layer its own centre line, are not laid
+    as: a warning says so once) starts layer 0 in the middle of the lap's longest straight stretch
+    and every later layer at the point nearest the seam below (starts that stack, which the
+    preflight warns); scattered moves that start on by the golden-ratio fraction of the lap per
+    layer.
     Passes in greedy nearest-neighbour order, each layer starting where the previous ended; `seam`
     stock (default) ignites a pass with machining stock at one end only (free-end extension, fillet
     lead) in that stock and warns, with the layer, of walls that have none.
@@ -369,6 +371,9 @@ class WallPathNode(Node):
                 passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam, planned)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos, seams, centers, slot)
+                if passes and spec.tubular == "helical" and RINGS_NOT_HELICAL not in warned:
+                    warned.add(RINGS_NOT_HELICAL)  # what the parameter asks is not what is laid: say so, once
+                    ctx.warn(RINGS_NOT_HELICAL, layer=layer.index)
             if passes:
                 pos = passes[-1].xy[-1]
             out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
@@ -462,6 +467,13 @@ class WallPathNode(Node):
 
     def artifacts(self, ctx, params, outputs):
         return {"toolpath.json": serialize.dumps(serialize.toolpath_json(outputs["toolpath"]))}
+
+
+RINGS_NOT_HELICAL = (
+    "`tubular: helical` is laid as aligned start-stop laps on ring layers (a sliced mesh's or a fan's rings, "
+    "each layer its own centre line): each lap ignites beside the lap below's start; set `tubular: aligned` "
+    "to say so, or `scattered` to spread the starts (the preflight warns starts stacked within a bead width)"
+)
 
 
 def _no_wall(layers) -> str:
