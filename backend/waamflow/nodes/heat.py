@@ -16,7 +16,7 @@ from ..core import serialize
 from ..core.errors import RecipeError
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..process.interpass import HeatModel, interpass_svg, plan_dwells, summary_report
+from ..process.interpass import HeatModel, interpass_svg, plan_dwells, spanning_sections, summary_report
 from ..process.treatment import TreatmentSpec, plan_treatment
 from .beadfit import BeadFitNode as BeadFitNode
 from .beadfit import FillParameters as FillParameters
@@ -30,7 +30,9 @@ class Interpass(Node):
     the next layer starts, and at least the minimum layer time. Existing dwells are never
     shortened. Writes `<node>.interpass.json` (per layer: arc time, mass, time constant, peak and
     next-start temperature, dwell, what limited it; totals) and `<node>.interpass.svg`; the output
-    toolpath carries the dwells (the post-processor writes them as interlayer dwells)."""
+    toolpath carries the dwells (the post-processor writes them as interlayer dwells). A section
+    welded through several layers' heights in one go (a helix) cannot be cooled between its laps:
+    warned with its layer, section and laps."""
 
     type = "interpass"
     title = "Interpass control"
@@ -149,6 +151,17 @@ class Interpass(Node):
             tp, report = plan_dwells(inputs["toolpath"], m)
         except ValueError as e:
             raise RecipeError(str(e), node=ctx.node_id) from None
+        for span in spanning_sections(inputs["toolpath"]):
+            peak = next((r["peak_c"] for r in report["layers"] if r["layer"] == span.layer), None)
+            ctx.warn(
+                f"section {span.section} climbs {span.laps} layers' heights in one go (a helix, {span.z_from:.1f} to "
+                f"{span.z_to:.1f} mm): no dwell can cool between its laps, its heat is layer {span.layer}'s"
+                + (f" (peak {peak:.0f} °C in this model)" if peak is not None else "")
+                + f", not held to {params.interpass_c:g} °C; lay it layer by layer (wall-path `tubular: aligned` "
+                "or `scattered`) where the interpass temperature must hold",
+                layer=span.layer,
+                section=span.section,
+            )
         ctx.progress(1.0, f"interpass dwell {report['total_added_dwell_s']:.1f} s added")
         ctx.report(summary_report(report))
         return {"toolpath": tp, "report": report}

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -50,6 +50,38 @@ class HeatModel:
     substrate_mass_kg: float = 1.0  # effective substrate mass heated with the part
     bead_width_mm: float = 6.0
     travel_speed: float = 100.0  # mm/s, arc-OFF moves without a speed
+
+
+class Spanning(NamedTuple):
+    """A section welded through several layers' heights in one go (a helix): where it lies and
+    how far it climbs along its layer's build direction."""
+
+    layer: int
+    section: str
+    z_from: float
+    z_to: float
+    laps: int  # layers' heights it climbs, its first lap's included
+
+
+def spanning_sections(toolpath: Layered) -> list[Spanning]:
+    """The sections whose arc-ON points climb more than 1.5 of their layer's thickness along its
+    build direction: no dwell between layers falls inside them (their heat is one layer's)."""
+    out = []
+    for lp in toolpath.items:
+        if lp is None or not lp.layer.thickness > 0:
+            continue
+        n = lp.layer.normal
+        for sp in lp.sections:
+            arc = np.asarray(sp.arc, bool)
+            if not arc.any():
+                continue
+            idx = np.unique(np.concatenate([np.flatnonzero(arc), np.flatnonzero(arc) + 1]))
+            h = np.asarray(sp.points, float)[idx] @ n
+            span = float(h.max() - h.min())
+            if span > 1.5 * lp.layer.thickness:
+                laps = int(round(span / lp.layer.thickness)) + 1
+                out.append(Spanning(lp.index, sp.key, float(h.min()), float(h.max()), laps))
+    return out
 
 
 def layer_times(lp: LayerPaths, travel_speed: float) -> tuple[float, float]:

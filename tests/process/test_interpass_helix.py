@@ -1,0 +1,49 @@
+"""Interpass control cannot cool between the laps of a helix (one section welded through several
+layers' heights in one go, e.g. thin-wall-panel's isolated tube): the node warns with the layer,
+the section and how many laps, where it had planned dwells for the other layers and said nothing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from waamflow.engine.executor import FileResolver, execute
+from waamflow.engine.graph import build_graph
+from waamflow.engine.recipe import parse_recipe
+from waamflow.process.interpass import spanning_sections
+
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+
+def _panel_with_interpass() -> dict:
+    rec = json.loads((GRAPHS / "thin-wall-panel.json").read_text())
+    rec["nodes"].append({"id": "heat", "type": "interpass", "params": {"interpass_c": 150, "bead_width": 4}})
+    rec["edges"] = [e for e in rec["edges"] if e["to"] != "post.toolpath"] + [
+        {"from": "sequence.toolpath", "to": "heat.toolpath"},
+        {"from": "heat.toolpath", "to": "post.toolpath"},
+    ]
+    return rec
+
+
+def test_a_helix_under_interpass_control_is_warned_with_its_layer_section_and_laps():
+    res = execute(build_graph(parse_recipe(_panel_with_interpass())), resolver=FileResolver(GRAPHS), artifacts=False)
+    tp = res.outputs["sequence"]["toolpath"]
+    (span,) = spanning_sections(tp)
+    assert span.layer == 0 and span.section == "tube0"
+    assert span.laps == 15 and np.isclose(span.z_from, 2.0) and np.isclose(span.z_to, 30.0)
+    (w,) = [w for w in res.warnings if w.get("node") == "heat"]
+    assert w["layer"] == 0 and w["section"] == "tube0"
+    assert "15 layers' heights" in w["message"] and "no dwell can cool between its laps" in w["message"]
+    assert "tubular: aligned" in w["message"]
+
+
+def test_layer_by_layer_sections_span_nothing():
+    rec = json.loads((GRAPHS / "thin-wall-panel.json").read_text())
+    for n in rec["nodes"]:
+        if n["id"] == "walls":
+            n["params"]["tubular"] = "scattered"
+    rec.setdefault("inputs", {}).pop("tubular", None)
+    res = execute(build_graph(parse_recipe(rec)), resolver=FileResolver(GRAPHS), artifacts=False)
+    assert spanning_sections(res.outputs["sequence"]["toolpath"]) == []
