@@ -202,7 +202,7 @@ def cmd_run(args) -> int:
         return 4
     print(
         f"done: {len(result.stats)} nodes ({n_cached} cached), {result.layer_count or 0} layers, "
-        f"{len(result.warnings)} warnings{verdict}, {result.seconds:.2f} s → {out}"
+        f"{len(result.warnings)} warning{'' if len(result.warnings) == 1 else 's'}{verdict}, {result.seconds:.2f} s → {out}"
     )
     return 0
 

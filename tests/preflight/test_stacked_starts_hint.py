@@ -60,10 +60,11 @@ def test_the_hint_on_a_tubes_stacked_starts_is_the_parameter_that_staggers_them(
     assert rep["programs"][0]["start_spread_mm"] > 6.0
 
 
-def test_helical_asked_aligned_laid_on_rings_is_said_once(tmp_path):
+def test_helical_asked_aligned_laid_on_rings_is_said_once(tmp_path, capsys):
     """Rings (each layer its own centre line) are not laid as one helix: the default `helical`
     gave aligned laps without a word; now the node says so once, and `aligned` asked is quiet."""
     _stacked(tmp_path, None)
+    assert ", 1 warning, preflight warn," in capsys.readouterr().out  # not "1 warnings"
     (w,) = _node_warnings(tmp_path, None)
     assert w["message"].startswith("`tubular: helical` is laid as aligned start-stop laps on ring layers")
     assert w["layer"] == 0
