@@ -178,7 +178,9 @@ class Treatment(Node):
     turns more than `max_turn_deg` (a loaded wheel cannot pivot), each with approach and retract
     `clearance` above it, at the rolling `speed`; tool width and force are carried in the report.
     Emitted as its own toolpath (connect a post-process for the treatment program) or interleaved
-    after each layer's deposition (`interleave`). Writes `<node>.treatment.json` and
+    after each layer's deposition (`interleave`). A section welded through several layers' heights
+    in one go (a helix) gets no treatment (its lower laps lie under the next): warned, listed in
+    the report's `skipped_climbing`. Writes `<node>.treatment.json` and
     `<node>.toolpath.json`."""
 
     type = "treatment"
@@ -252,6 +254,16 @@ class Treatment(Node):
             min_stroke_mm=params.min_stroke,
         )
         tp, report = plan_treatment(inputs["toolpath"], spec, params.interleave)
+        for row in report["layers"]:
+            for c in row["skipped_climbing"]:
+                ctx.warn(
+                    f"section {c['section']} climbs {c['laps']} layers' heights in one go (a helix, {c['z_from']:.1f} "
+                    f"to {c['z_to']:.1f} mm): no {params.tool} for it, the tool would run along laps the next "
+                    "ones already cover; lay it layer by layer (wall-path `tubular: aligned` or `scattered`) to "
+                    "treat every lap",
+                    layer=row["layer"],
+                    section=c["section"],
+                )
         ctx.report({k: v for k, v in report.items()})
         return {"toolpath": tp, "report": report}
 

@@ -33,7 +33,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..core.model import LayerPaths, Layered
+from ..core.model import Layer, LayerPaths, Layered, SectionPath
 
 
 @dataclass(frozen=True)
@@ -63,25 +63,24 @@ class Spanning(NamedTuple):
     laps: int  # layers' heights it climbs, its first lap's included
 
 
+def climb(sp: SectionPath, layer: Layer) -> Spanning | None:
+    """The section as a `Spanning` when its arc-ON points climb more than 1.5 of its layer's
+    thickness along the layer's build direction (a helix), else None."""
+    arc = np.asarray(sp.arc, bool)
+    if not arc.any() or not layer.thickness > 0:
+        return None
+    idx = np.unique(np.concatenate([np.flatnonzero(arc), np.flatnonzero(arc) + 1]))
+    h = np.asarray(sp.points, float)[idx] @ layer.normal
+    span = float(h.max() - h.min())
+    if span <= 1.5 * layer.thickness:
+        return None
+    return Spanning(layer.index, sp.key, float(h.min()), float(h.max()), int(round(span / layer.thickness)) + 1)
+
+
 def spanning_sections(toolpath: Layered) -> list[Spanning]:
-    """The sections whose arc-ON points climb more than 1.5 of their layer's thickness along its
-    build direction: no dwell between layers falls inside them (their heat is one layer's)."""
-    out = []
-    for lp in toolpath.items:
-        if lp is None or not lp.layer.thickness > 0:
-            continue
-        n = lp.layer.normal
-        for sp in lp.sections:
-            arc = np.asarray(sp.arc, bool)
-            if not arc.any():
-                continue
-            idx = np.unique(np.concatenate([np.flatnonzero(arc), np.flatnonzero(arc) + 1]))
-            h = np.asarray(sp.points, float)[idx] @ n
-            span = float(h.max() - h.min())
-            if span > 1.5 * lp.layer.thickness:
-                laps = int(round(span / lp.layer.thickness)) + 1
-                out.append(Spanning(lp.index, sp.key, float(h.min()), float(h.max()), laps))
-    return out
+    """The sections welded through several layers' heights in one go (`climb`): no dwell between
+    layers falls inside them (their heat is one layer's), no treatment reaches their lower laps."""
+    return [c for lp in toolpath.items if lp is not None for sp in lp.sections if (c := climb(sp, lp.layer))]
 
 
 def layer_times(lp: LayerPaths, travel_speed: float) -> tuple[float, float]:

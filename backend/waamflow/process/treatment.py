@@ -26,6 +26,7 @@ import shapely
 from shapely.geometry import LineString
 
 from ..core.model import LayerPaths, Layered, SectionPath
+from .interpass import climb
 
 
 @dataclass(frozen=True)
@@ -115,7 +116,12 @@ def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, 
     """Treatment section paths for one layer (one per stroke) and the layer's figures."""
     up = lp.layer.normal
     out, rolled, skipped, n = [], 0.0, 0, 0
+    climbing: list[dict] = []
     for sp in lp.sections:
+        c = climb(sp, lp.layer)
+        if c is not None:  # a helix: its lower laps lie under the next before any treatment comes
+            climbing.append({"section": sp.key, "laps": c.laps, "z_from": round(c.z_from, 3), "z_to": round(c.z_to, 3)})
+            continue
         for run in _runs(sp):
             centre = weave_centre(run, spec.max_turn_deg) if sp.strategy in WEAVE_STRATEGIES else None
             for st in strokes(run if centre is None else centre, spec.max_turn_deg):
@@ -157,6 +163,7 @@ def plan_layer(lp: LayerPaths, spec: TreatmentSpec) -> tuple[tuple[SectionPath, 
         "strokes": n,
         "rolled_length_mm": round(rolled, 3),
         "skipped_short": skipped,
+        "skipped_climbing": climbing,
         "time_s": round(rolled / spec.speed, 3),
     }
 
