@@ -333,7 +333,7 @@ def test_the_held_artifacts_go_to_the_cluster_when_the_next_node_took_its_layers
     map (the strategy's and zone's) are sent to the cluster before it runs, not written here
     after the last node; byte-identical artifacts."""
     from waamflow.engine.recipe import apply_overrides, parse_set
-    from waamflow.nodes.mpp import SequenceNode
+    from waamflow.nodes.sequence import SequenceNode
 
     events: list[tuple[str, ...]] = []
     send = daskpool.HeldArtifacts.send

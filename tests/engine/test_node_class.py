@@ -36,7 +36,7 @@ def test_building_the_bracket_imports_only_the_node_modules_it_uses():
     mods, order = json.loads(out.stdout)
     assert order == ["part", "layers", "mask", "guide", "strategy", "zone", "sequence", "post"]
     nodes = sorted(m.rsplit(".", 1)[1] for m in mods if m.startswith("waamflow.nodes."))
-    assert nodes == ["inputs", "mpp", "post", "post_settings", "robotparams", "slicing", "strategy"]
+    assert nodes == ["inputs", "mpp", "post", "post_settings", "robotparams", "sequence", "slicing", "strategy"]
     assert "ssl" not in mods and "urllib.request" not in mods  # xml.sax.saxutils brought them (paths/compare)
     for heavy in (
         "waamflow.nodes.robot",

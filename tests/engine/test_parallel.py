@@ -741,7 +741,7 @@ def test_the_artifacts_held_for_a_map_go_to_the_workers_when_the_next_node_took_
     (ARTIFACTS_DEFER_S) or when the run collects them after the last node (the 500-layer cross:
     ~0.2 s between the last node and the preflight). Byte-identical artifacts."""
     from waamflow.engine.recipe import apply_overrides, parse_set
-    from waamflow.nodes.mpp import SequenceNode
+    from waamflow.nodes.sequence import SequenceNode
 
     monkeypatch.setattr(parallel, "ARTIFACTS_DEFER_S", 600.0)  # no timer sends them
     events: list[tuple[str, ...]] = []

@@ -63,3 +63,15 @@ def test_a_helix_is_not_rolled_the_other_walls_are():
     assert row["skipped_climbing"] == [{"section": "tube0", "laps": 15, "z_from": 2.0, "z_to": 30.0}]
     (w,) = [w for w in res.warnings if w.get("node") == "roll"]
     assert w["layer"] == 0 and w["section"] == "tube0" and "no rolling for it" in w["message"]
+
+
+def test_a_helix_under_an_interlayer_dwell_is_warned():
+    rec = json.loads((GRAPHS / "thin-wall-panel.json").read_text())
+    next(n for n in rec["nodes"] if n["id"] == "sequence")["params"]["dwell"] = 30.0
+    res = execute(build_graph(parse_recipe(rec)), resolver=FileResolver(GRAPHS), artifacts=False)
+    (w,) = [w for w in res.warnings if w.get("node") == "sequence"]
+    assert w["layer"] == 0 and w["section"] == "tube0"
+    assert "the 30 s interlayer dwell comes after all its laps, none between them" in w["message"]
+    quiet = json.loads((GRAPHS / "thin-wall-panel.json").read_text())  # no dwell asked: nothing to say
+    res = execute(build_graph(parse_recipe(quiet)), resolver=FileResolver(GRAPHS), artifacts=False)
+    assert [w for w in res.warnings if w.get("node") == "sequence"] == []

@@ -267,7 +267,7 @@ def test_junction_ignitions_warn_once_a_section_naming_its_layers_and_what_to_do
     guide to change: a sketch's wall has none); a mask section keeps 'change the guide'. Before,
     each layer warned apart (ezdxf's wipeout_door.dxf: 1,975 warnings) and every one said 'change
     the guide'."""
-    from waamflow.nodes.mpp import _report
+    from waamflow.nodes.sequence import _report
 
     def h_layer(i, rib_strategy):
         z = 1.5 * (i + 1)

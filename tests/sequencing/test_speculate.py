@@ -178,7 +178,7 @@ def _asked_by_the_node(layers, ahead_from, params_json=None):
     the chain tasks ran ahead on layers `ahead_from`: (start, stop, step) of runs."""
     from waamflow.core.model import Layered
     from waamflow.engine.node import Context
-    from waamflow.nodes.mpp import SequenceNode, _kernel_kw
+    from waamflow.nodes.sequence import SequenceNode, _kernel_kw
 
     params = SequenceNode.Params.model_validate(params_json or {"order": "nearest", "retract_height": 10})
     asked: list[tuple[int, float]] = []

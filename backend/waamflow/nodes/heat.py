@@ -16,7 +16,15 @@ from ..core import serialize
 from ..core.errors import RecipeError
 from ..engine.node import Node, NodeParams, register, unit
 from ..engine.ports import Port
-from ..process.interpass import HeatModel, interpass_svg, plan_dwells, spanning_sections, summary_report
+from ..process.interpass import (
+    HeatModel,
+    Spanning,
+    climbing_note,
+    interpass_svg,
+    plan_dwells,
+    spanning_sections,
+    summary_report,
+)
 from ..process.treatment import TreatmentSpec, plan_treatment
 from .beadfit import BeadFitNode as BeadFitNode
 from .beadfit import FillParameters as FillParameters
@@ -153,15 +161,12 @@ class Interpass(Node):
             raise RecipeError(str(e), node=ctx.node_id) from None
         for span in spanning_sections(inputs["toolpath"]):
             peak = next((r["peak_c"] for r in report["layers"] if r["layer"] == span.layer), None)
-            ctx.warn(
-                f"section {span.section} climbs {span.laps} layers' heights in one go (a helix, {span.z_from:.1f} to "
-                f"{span.z_to:.1f} mm): no dwell can cool between its laps, its heat is layer {span.layer}'s"
+            what = (
+                f"no dwell can cool between its laps, its heat is layer {span.layer}'s"
                 + (f" (peak {peak:.0f} °C in this model)" if peak is not None else "")
-                + f", not held to {params.interpass_c:g} °C; lay it layer by layer (wall-path `tubular: aligned` "
-                "or `scattered`) where the interpass temperature must hold",
-                layer=span.layer,
-                section=span.section,
+                + f", not held to {params.interpass_c:g} °C"
             )
+            ctx.warn(climbing_note(span, what), layer=span.layer, section=span.section)
         ctx.progress(1.0, f"interpass dwell {report['total_added_dwell_s']:.1f} s added")
         ctx.report(summary_report(report))
         return {"toolpath": tp, "report": report}
@@ -256,14 +261,9 @@ class Treatment(Node):
         tp, report = plan_treatment(inputs["toolpath"], spec, params.interleave)
         for row in report["layers"]:
             for c in row["skipped_climbing"]:
-                ctx.warn(
-                    f"section {c['section']} climbs {c['laps']} layers' heights in one go (a helix, {c['z_from']:.1f} "
-                    f"to {c['z_to']:.1f} mm): no {params.tool} for it, the tool would run along laps the next "
-                    "ones already cover; lay it layer by layer (wall-path `tubular: aligned` or `scattered`) to "
-                    "treat every lap",
-                    layer=row["layer"],
-                    section=c["section"],
-                )
+                span = Spanning(row["layer"], c["section"], c["z_from"], c["z_to"], c["laps"])
+                what = f"no {params.tool} for it, the tool would run along laps the next ones already cover"
+                ctx.warn(climbing_note(span, what), layer=span.layer, section=span.section)
         ctx.report({k: v for k, v in report.items()})
         return {"toolpath": tp, "report": report}
 

@@ -77,6 +77,15 @@ def climb(sp: SectionPath, layer: Layer) -> Spanning | None:
     return Spanning(layer.index, sp.key, float(h.min()), float(h.max()), int(round(span / layer.thickness)) + 1)
 
 
+def climbing_note(span: Spanning, what: str) -> str:
+    """The warning of a per-layer process (`what` it cannot do) over a section that climbs."""
+    return (
+        f"section {span.section} climbs {span.laps} layers' heights in one go (a helix, {span.z_from:.1f} to "
+        f"{span.z_to:.1f} mm): {what}; lay it layer by layer (wall-path `tubular: aligned` or `scattered`) where "
+        "every layer needs it"
+    )
+
+
 def spanning_sections(toolpath: Layered) -> list[Spanning]:
     """The sections welded through several layers' heights in one go (`climb`): no dwell between
     layers falls inside them (their heat is one layer's), no treatment reaches their lower laps."""
