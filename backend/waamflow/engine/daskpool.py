@@ -45,8 +45,8 @@ class DaskWorkers:
     def count(self) -> int:
         return self.pool.workers
 
-    def pays(self, triangles: int, layers: int, points: int) -> bool:
-        return parallel.wants_workers(self.count, triangles, layers, points, parallel.DASK_MIN_PARALLEL_S)
+    def pays(self, triangles: int, layers: int, points: int, extra_s: float = 0.0) -> bool:
+        return parallel.wants_workers(self.count, triangles, layers, points, parallel.DASK_MIN_PARALLEL_S, extra_s)
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         try:

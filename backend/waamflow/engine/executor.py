@@ -425,23 +425,11 @@ class RunContext(Context):
     ) -> list[Any] | None:
         """`Context.map_in_workers`: the map in the workers under `map`'s conditions (the cost
         model's, or `seconds` against the same thresholds), else None."""
-        pool = self._run.pool
-        if seconds is not None:
-            layers, points, extra = 0, 0, seconds
-        else:
-            extra = 0.0
-        if (
-            isinstance(pool, LayerPool)
-            and pool.enabled
-            and pool.ready
-            and len(items) > 1
-            and parallel.wants_workers(pool.workers, 0, layers, points, pool.min_parallel_s, extra)
-        ):
-            return parallel.RunWorkers(pool).map(fn, items)
-        if isinstance(pool, DaskPool) and len(items) > 1:
-            dask = DaskWorkers(pool)
-            if parallel.wants_workers(dask.count, 0, layers, points, parallel.DASK_MIN_PARALLEL_S, extra):
-                return dask.map(fn, items)
+        if seconds is not None:  # the kernel's own price replaces the cost model's
+            layers = points = 0
+        workers = self._run.workers()  # local ones once up, a cluster's always
+        if workers is not None and len(items) > 1 and workers.pays(0, layers, points, seconds or 0.0):
+            return workers.map(fn, items)
         return None
 
     def ahead(self) -> list[Any]:

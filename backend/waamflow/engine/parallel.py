@@ -467,8 +467,8 @@ class RunWorkers:
     def count(self) -> int:
         return self.pool.workers
 
-    def pays(self, triangles: int, layers: int, points: int) -> bool:
-        return wants_workers(self.count, triangles, layers, points, self.pool.min_parallel_s)
+    def pays(self, triangles: int, layers: int, points: int, extra_s: float = 0.0) -> bool:
+        return wants_workers(self.count, triangles, layers, points, self.pool.min_parallel_s, extra_s)
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         try:

@@ -32,8 +32,9 @@ class Workers(Protocol):
 
     count: int
 
-    def pays(self, triangles: int, layers: int, points: int) -> bool:
-        """Whether work of this size is worth sending to the workers (the engine's cost model)."""
+    def pays(self, triangles: int, layers: int, points: int, extra_s: float = 0.0) -> bool:
+        """Whether work of this size (plus `extra_s` expected serial seconds) is worth sending to the
+        workers (the engine's cost model)."""
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
         """fn over the items in the workers, results in item order."""
