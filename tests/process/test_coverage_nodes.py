@@ -2,6 +2,8 @@
 
 import json
 import math
+
+import numpy as np
 import shutil
 from pathlib import Path
 
@@ -28,8 +30,13 @@ def test_contour_offsets_and_one_connected_path_on_a_rectangle():
     rings = offset_rings(region, 6.0)
     d = step_over(6.0)
     assert d == pytest.approx(0.738 * 6.0)
-    # rings at 3, 3 + d, 3 + 2d, ... until the offset vanishes (half width 10.75)
-    assert len(rings) == math.floor((10.75 - 3.0) / d) + 1
+    # rings at 3, 3 + d, 3 + 2d, ... until the offset vanishes (half width 10.75), then one pass
+    # along the 0.64 mm core the last ring's beads leave between them (contour._cores)
+    n = math.floor((10.75 - 3.0) / d) + 1
+    assert len(rings) == n + 1
+    assert all(np.allclose(r[0], r[-1]) for lv in rings[:n] for r in lv)
+    (core,) = rings[n]
+    assert np.allclose(core[:, 1], 10.75) and np.ptp(core[:, 0]) == pytest.approx(43 - 2 * (3 + d + 3), abs=1e-6)
     p = plan_section(region, None, spec)
     assert p.arc_switches == 2  # nested loops: one arc-ON path
     assert p.outside_length == pytest.approx(0.0, abs=1e-9)

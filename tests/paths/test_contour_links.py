@@ -1,0 +1,151 @@
+"""Contour fills weld each stretch once: no long arc-ON link across the section, no ring laid
+around a sliver (its two sides one bead on another).
+
+Found on compas_slicer's `distorted_a` test part (layer 65, 5 mm beads): the offset of one level
+split into a 17 mm ring and a 0.5 mm sliver; the ring was chained to its parent by a 33 mm arc-ON
+step across the section's middle, and the sliver's "ring" ran out and back over that step's bead —
+the preflight failed the program (`retrace`, 98 % of a run welded twice)."""
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
+
+from waamflow.paths import StrategySpec, plan_section
+from waamflow.paths.contour import offset_rings, step_over
+from waamflow.paths.deposit import deposit
+from waamflow.preflight.read.core import Run
+from waamflow.preflight.retrace import _layer_retrace
+
+W = 5.0
+D = step_over(W)  # 3.69 mm
+
+# two 40 mm lobes joined by a 10 mm neck: the first offset goes round both, the second splits in two
+DUMBBELL = shapely.union_all([box(0, 0, 40, 40), box(40, 15, 60, 25), box(60, 0, 100, 40)])
+
+
+def _plan(region, guide=None, w=W):
+    return plan_section(region, guide, StrategySpec(pattern="contour", bead_width=w))
+
+
+def _links(p, region, w=W) -> list[float]:
+    """Lengths of the arc-ON segments that lie on no offset ring: the steps between nested loops."""
+    rings = MultiLineString([r for lv in offset_rings(region, w) for r in lv if len(r) > 1])
+    out = []
+    for i in np.flatnonzero(p.arc):
+        mid = 0.5 * (p.points[i] + p.points[i + 1])
+        if rings.distance(Point(mid)) > 1e-6:
+            out.append(float(np.hypot(*(p.points[i + 1] - p.points[i]))))
+    return out
+
+
+def _runs(p) -> list[Run]:
+    pts = np.column_stack([p.points, np.zeros(len(p.points))])
+    runs, cur = [], [0]
+    for i, on in enumerate(p.arc):
+        if on:
+            cur.append(i + 1)
+            continue
+        if len(cur) > 1:
+            runs.append(cur)
+        cur = [i + 1]
+    if len(cur) > 1:
+        runs.append(cur)
+    return [
+        Run(pts[r], np.full(len(r) - 1, 10.0), np.full(len(r) - 1, 3.0), np.ones(len(r) - 1, bool), 0, "s", 0)
+        for r in runs
+    ]
+
+
+def _arc_on(p) -> float:
+    return float(np.hypot(*np.diff(p.points, axis=0).T)[p.arc].sum())
+
+
+@pytest.mark.parametrize("guide", [((0, 0), (100, 0)), ((100, 40), (0, 40)), ((0, 40), (100, 0))])
+def test_nested_loops_are_linked_where_they_are_close(guide):
+    """Whichever lobe the chain's inner loop lies in, each arc-ON step between nested loops is at
+    most two step-overs long (a mitred corner's step is √2·d); before, starting from the far lobe
+    gave 37.6 and 20.0 mm steps dragged across the section."""
+    p = _plan(DUMBBELL, LineString(guide))
+    links = _links(p, DUMBBELL)
+    assert links, "the chains' loops are still joined arc-ON"
+    assert max(links) <= 2 * D + 1e-6, links
+    assert _layer_retrace(_runs(p), W) is None
+
+
+def test_sliver_is_welded_once_along_its_axis():
+    """A 40 × 5.3 mm section with 5 mm beads: the first offset is a 35 × 0.3 mm sliver. Its ring
+    welded 70.6 mm, every millimetre of the strip twice 0.3 mm apart; one pass along its axis
+    welds 35 mm."""
+    region = box(0, 0, 40, 5.3)
+    p = _plan(region)
+    assert _arc_on(p) == pytest.approx(35.0, abs=0.3)
+    on = p.points[np.r_[p.arc, False] | np.r_[False, p.arc]]
+    assert np.allclose(on[:, 1], 2.65, atol=0.05)
+
+
+def test_inner_sliver_after_a_ring():
+    """One ring, then a 0.5 mm sliver inside it (the distorted_a case): ring + a short step + the
+    sliver's axis once, and no run retraces another."""
+    h = W + 2 * D + 0.5
+    region = box(0, 0, 60, h)
+    p = _plan(region)
+    ring = offset_rings(region, W)[0][0]
+    ring_len = LineString(ring).length
+    axis = 60 - W - 2 * D  # the sliver's length
+    assert _arc_on(p) == pytest.approx(ring_len + D + axis, abs=0.5)
+    assert _layer_retrace(_runs(p), W) is None
+
+
+def test_an_outer_piece_a_little_wider_keeps_its_ring():
+    """A 40 × 6.2 mm section (a 1.2 mm first offset): its ring's beads reach both edges, one bead
+    along the middle would leave 0.6 mm strips unwelded along them; the ring stays."""
+    region = box(0, 0, 40, 6.2)
+    p = _plan(region)
+    assert _arc_on(p) == pytest.approx(2 * (35 + 1.2), abs=0.1)
+    corners = 4 * (W / 2) ** 2 * (1 - math.pi / 4)  # a round bead's end in a square corner
+    assert region.difference(deposit(p.points, p.arc, W)).area == pytest.approx(corners, abs=0.1)
+
+
+def test_curved_sliver_follows_its_arc():
+    """A 270° band whose first offset is a 0.4 mm curved strip: the pass follows the strip's arc
+    (r = 30 mm) once, not a chord and not round both sides."""
+    r0, r1 = 30 - (W + 0.4) / 2, 30 + (W + 0.4) / 2
+    a = np.radians(np.linspace(0, 270, 181))
+    band = Polygon(
+        np.vstack(
+            [np.column_stack([r1 * np.cos(a), r1 * np.sin(a)]), np.column_stack([r0 * np.cos(a), r0 * np.sin(a)])[::-1]]
+        )
+    )
+    p = _plan(band)
+    on = p.points[np.r_[p.arc, False] | np.r_[False, p.arc]]
+    assert np.allclose(np.hypot(on[:, 0], on[:, 1]), 30.0, atol=0.15)
+    assert _arc_on(p) == pytest.approx(30 * math.radians(270) - W, abs=0.5)  # offset w/2 off each end
+
+
+def test_chordal_axis_of_a_strip_and_an_l():
+    from waamflow.geometry.chordal_axis import chordal_axis
+
+    strip = chordal_axis(box(0, 0, 20, 1))
+    assert LineString(strip).length == pytest.approx(20.0, abs=0.6)
+    assert np.allclose(strip[:, 1], 0.5, atol=1e-6)
+    ell = shapely.union(box(0, 0, 30, 1), box(0, 0, 1, 20))  # an L of 1 mm legs
+    axis = LineString(chordal_axis(ell))
+    assert axis.length == pytest.approx(30 + 20 - 1, abs=1.5)
+    assert ell.buffer(1e-6).contains(axis)
+
+
+def test_a_lobe_too_narrow_for_a_second_ring_gets_a_pass_along_its_core():
+    """A 40 mm block with an 11.5 × 30 mm lobe (5 mm beads): the lobe's second offset vanishes,
+    and the first ring's beads leave a 1.5 mm core along the lobe's middle. Without a pass along
+    it 32.7 mm² of the lobe got no bead (51.6 mm² of the section); with it the lobe's square end
+    corners are all that is left."""
+    region = shapely.union(box(0, 0, 40, 40), box(40, 14.25, 70, 25.75))
+    p = _plan(region)
+    uncovered = region.difference(deposit(p.points, p.arc, W))
+    corners = (W / 2) ** 2 * (1 - math.pi / 4)  # a round bead's end in a square corner
+    assert uncovered.intersection(box(45, 14.25, 70, 25.75)).area == pytest.approx(2 * corners, abs=0.1)
+    assert uncovered.area < 10.0
+    assert max(_links(p, region)) <= 2 * D + 1e-6
