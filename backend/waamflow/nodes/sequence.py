@@ -207,25 +207,44 @@ def sequence_with_notes(
     return seq, notes
 
 
+def _short_runs(runs: list[dict], kind: str, min_run: float) -> str:
+    """The warning for a section's arc-ON runs shorter than the minimum, bridged or dropped."""
+    first = runs[0]
+    at = f"{[round(float(c), 3) for c in first['at'][:2]]}"
+    limit = f"the minimum arc run ({min_run:g} mm, `min_arc_run_mm`)"
+    if kind == "bridged":
+        what, fix = "bridged to a neighbour across an inside gap, arc kept on", ""
+    else:
+        what = "dropped (no inside gap to bridge): flown arc-OFF, no metal there"
+        fix = (
+            ": the path there is too short for a stable arc (features narrower than its pattern and bead "
+            "can follow); lower `min_arc_run_mm` to weld them, or give the section another pattern or bead width"
+        )
+    if len(runs) == 1:
+        return f"arc-ON run of {first['length']:.2f} mm at {at} on layer {first['layer']} is shorter than {limit}: {what}{fix}"
+    lengths = [r["length"] for r in runs]
+    layers = sorted({r["layer"] for r in runs})
+    where = f"layer {layers[0]}" if len(layers) == 1 else f"{len(layers)} layers ({layer_ranges(layers)})"
+    return (
+        f"{len(runs)} arc-ON runs of {min(lengths):.2f}-{max(lengths):.2f} mm on {where} are shorter than "
+        f"{limit}: {what} (first at layer {first['layer']} {at}){fix}"
+    )
+
+
 def _report(ctx, params, layers, notes: list[dict]) -> None:
     """Warn each event (layer, section) and report the counts and the seam distances."""
     kinds = {"bridged": 0, "dropped": 0, "junction": 0, "order-rule": 0}
     junctions: dict[str, list[dict]] = {}
+    short: dict[tuple[str, str], list[dict]] = {}
     for n in notes:
         kinds[n["kind"]] += 1
         if n["kind"] in ("bridged", "dropped"):
-            what = (
-                "bridged to its neighbour, arc kept on"
-                if n["kind"] == "bridged"
-                else "dropped (no inside gap to bridge): flown arc-OFF"
-            )
-            ctx.warn(
-                f"arc-ON run of {n['length']:.2f} mm at {n['at'][:2]} is shorter than the minimum arc run: {what}",
-                layer=n["layer"],
-                section=n["section"],
-            )
+            short.setdefault((n["section"], n["kind"]), []).append(n)
         elif n["kind"] == "junction":
             junctions.setdefault(n["section"], []).append(n)
+    min_run = _kernel_kw(params)["min_run"] if short else 0.0
+    for (key, kind), runs in short.items():  # one warning a section and kind: a part of pins drops thousands
+        ctx.warn(_short_runs(runs, kind, min_run), layer=runs[0]["layer"], section=key)
     for key, at in junctions.items():  # one warning a section, its layers named
         layers_at = sorted({n["layer"] for n in at})
         where = (
