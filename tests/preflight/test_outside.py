@@ -351,6 +351,30 @@ def test_a_panel_without_its_last_three_layers_ends_six_mm_short(panel):
     assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(5.5, abs=0.05)
 
 
+def test_a_wall_that_stops_early_is_named_where_the_rest_reaches_the_top(panel):
+    """Rib wall7 without its last 3 layers, every other wall built to the 30 mm top: the part goes on
+    5.5 mm above the rib's last bead. It said "the deposit ends 5.50 mm short of the part's top
+    (30.00 mm); the last deposited layer is 14" — layer 14 being the top (compas_slicer's
+    facade_infill read the same way with its deposit at the part's top). Now it says where, how far
+    above which layer's bead, and that the deposit reaches the top elsewhere."""
+    graph, res = panel
+    doc = copy.deepcopy(json.loads(res.artifacts["sequence.toolpath.json"]))
+    for layer in doc["layers"][-3:]:
+        layer["sections"] = [s for s in layer["sections"] if s["key"] != "wall7"]
+    rep = check_panel_doc(graph, res, doc)
+    (gap,) = [p for p in rep["problems"] if p["check"] == "top_gap"]
+    assert gap["severity"] == "fail" and rep["top_gap_mm"] == pytest.approx(5.5, abs=0.05)
+    assert gap["layer"] == 11 and gap["section"] == "wall7"
+    msg = gap["message"]
+    assert "5.50 mm above its nearest bead (layer 11, section wall7, z 24.00 mm)" in msg
+    assert "the deposit reaches the part's top (30.00 mm) elsewhere" in msg and "last deposited layer" not in msg
+    wall = [
+        s for s in json.loads(res.artifacts["sequence.toolpath.json"])["layers"][11]["sections"] if s["key"] == "wall7"
+    ]
+    xy = np.array(wall[0]["points"])[:, :2]
+    assert np.hypot(*(xy - np.array(gap["point"][:2])).T).min() < 4.0  # the point named lies on the rib
+
+
 def test_a_panel_of_one_layer_ends_far_short_of_its_top(panel):
     """Only the panel's first layer (2 mm of its 30 mm): no layer before or after gives the build
     direction, so it is +z; the top gap is the distance up to the highest point of the part out of

@@ -436,3 +436,45 @@ def test_layer_groups_select_what_a_mask_per_layer_selects():
     for v in [*np.unique(labels)[::7], -3, 17, 399, 1_000, -10]:
         assert np.array_equal(groups.rows(v), np.flatnonzero(labels == v))
     assert sum(len(groups.rows(v)) for v in np.unique(labels)) == len(labels)
+
+
+def test_a_horizontal_cap_over_an_opening_is_uncovered_not_a_top_gap(tmp_path):
+    """compas_slicer's facade_infill (an open surface, 2 mm layers) failed "the deposit ends 6.00 mm
+    short of the part's top (200.00 mm); the last deposited layer is 99" with its deposit at 200 mm:
+    a horizontal face of the part at its top spans an opening 6 mm high, and the face's points lie
+    above the last bead below the opening. Walls laid on planar layers never build a horizontal face
+    of a surface (no layer cuts it); the uncovered check names it. Here: a web to z 24, a 20 mm cap
+    at z 29.8 over it, a second web to 30 mm."""
+    from waamflow.engine.executor import FileResolver, execute
+    from waamflow.engine.graph import build_graph
+    from waamflow.engine.recipe import parse_recipe
+
+    def quad(a, b, c, d):
+        return [a, b, c, a, c, d]
+
+    tris = (
+        quad((0, 0, 0), (0, 60, 0), (0, 60, 24), (0, 0, 24))  # web 1, to z 24
+        + quad((-10, 0, 29.8), (10, 0, 29.8), (10, 60, 29.8), (-10, 60, 29.8))  # the cap above it
+        + quad((40, 0, 0), (40, 60, 0), (40, 60, 30), (40, 0, 30))  # web 2, to the top
+    )
+    v = np.array(tris, float)
+    trimesh.Trimesh(v, np.arange(len(v)).reshape(-1, 3)).export(tmp_path / "cap.stl")
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+    from bench_vase import _recipe
+
+    recipe = _recipe()
+    recipe["nodes"][0]["params"].update({"path": "cap.stl", "as": "surface"})
+    recipe["nodes"][1]["params"].update({"layer_height": 2.0})
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path), workers=1)
+    pf = res.preflight
+    assert pf["programs"][0]["coverage_method"] == "3D samples"
+    assert pf["programs"][0]["deposit_top_mm"] == pytest.approx(30.0)
+    assert pf["top_gap_mm"] == 0.0 and not [p for p in pf["problems"] if p["check"] == "top_gap"]
+    (unc,) = [p for p in pf["problems"] if p["check"] == "uncovered"]
+    cap = 20 * 60 / (20 * 60 + 24 * 60 + 30 * 60)  # the cap's share of the part's area: 27.8 %
+    assert unc["severity"] == "fail" and pf["uncovered_share"] == pytest.approx(cap, abs=0.03)
+    assert "% of the part is horizontal faces of the surface" in unc["message"]
+    assert "fan-slice" in unc["message"] and "mask section" not in unc["message"]

@@ -101,6 +101,11 @@ class Coverage(TypedDict):
     sample_asked_mm: NotRequired[float]  # the spacing asked: the settings' sample_mm, else a quarter bead (≥ 0.5 mm)
     layer_spacing_mm: NotRequired[float]
     top_gap_mm: NotRequired[float | None]
+    top_gap_point: NotRequired[np.ndarray]  # 3D samples: the part's point the top gap is measured at,
+    top_gap_bead: NotRequired[np.ndarray]  # its nearest bead point,
+    top_gap_layer: NotRequired[int]  # that bead's layer
+    top_gap_section: NotRequired[str | None]  # and section
+    uncovered_flat_share: NotRequired[float]  # planar layers on a surface: share of it uncovered on horizontal faces
     worst_point: NotRequired[np.ndarray]
     worst_layer: NotRequired[int]
     reach_mm: NotRequired[float]
@@ -473,18 +478,38 @@ def _coverage_problems(
     """The top gap (the deposit ends short of the part's top, or far above it) and the uncovered
     share of the part as problems."""
     last_idx, last_runs = layers[-1]
+    top_dep = max((float(r.points[:, 2].max()) for _i, runs in layers for r in runs), default=None)
     if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
-        p = cov.get("worst_point") if not planar else None
-        rep.problem(
-            "top_gap",
-            "fail",
-            f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
-            f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
-            layer=last_idx,
-            value=top_gap,
-            limit=s.top_gap_max_layers * h_typ,
-            point=p,
-        )
+        limit = s.top_gap_max_layers * h_typ
+        if "top_gap_point" in cov and top_dep is not None and part.top - top_dep <= limit + 1e-6:
+            # the deposit reaches the top; one place of the part stops short of it (a wall's last layers)
+            pt, bead = cov["top_gap_point"], cov["top_gap_bead"]
+            layer, section = cov.get("top_gap_layer", last_idx), cov.get("top_gap_section")
+            rep.problem(
+                "top_gap",
+                "fail",
+                f"at ({pt[0]:.1f}, {pt[1]:.1f}, {pt[2]:.1f}) the part goes on {top_gap:.2f} mm above its nearest "
+                f"bead (layer {layer}{f', section {section}' if section else ''}, z {bead[2]:.2f} mm): the "
+                f"layers above it are not built there, though the deposit reaches the part's top "
+                f"({part.top:.2f} mm) elsewhere: check for sections skipped or ended early",
+                layer=layer,
+                section=section,
+                value=top_gap,
+                limit=limit,
+                point=tuple(float(c) for c in pt),
+            )
+        else:
+            p = cov.get("worst_point") if not planar else None
+            rep.problem(
+                "top_gap",
+                "fail",
+                f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
+                f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
+                layer=last_idx,
+                value=top_gap,
+                limit=limit,
+                point=p,
+            )
     elif top_gap is not None and h_typ and planar and -top_gap > s.overshoot_warn_layers * h_typ:
         rep.problem(
             "top_gap",
@@ -521,6 +546,13 @@ def _coverage_problems(
                 "layer's mid-plane section (a feature thinner than a layer between two layers' mid-planes, such "
                 "as a fin or a flange), so no plan of these layers covers it; finer layers (the slice's layer "
                 f"height) would cut it{where}"
+            )
+        elif cov.get("uncovered_flat_share", 0.0) >= 0.5 * share:
+            flat = cov.get("uncovered_flat_share", 0.0)
+            what = (
+                f"{share * 100:.1f} % of the part gets no bead{where}; {flat * 100:.1f} % of the part is horizontal "
+                "faces of the surface (caps, flanges, overhangs), which no planar layer cuts and walls do not "
+                "build: build them in another direction (fan-slice on a positioner), as solids, or add them after"
             )
         else:
             what = f"{share * 100:.1f} % of the part gets no bead{where}: add a mask section or a filling pattern there"

@@ -25,6 +25,8 @@ if TYPE_CHECKING:
 #: units, was sampled every 1 mm: 28.5 million samples, minutes of preflight).
 MAX_SAMPLES = 200_000
 MAX_GRID_SAMPLES = 1_000_000
+#: A surface face this close to horizontal (|normal z| ≥ cos 10°) is one no planar layer cuts (`coverage_3d`).
+FLAT_COS = 0.985
 
 
 def _resample(points: np.ndarray, step: float) -> np.ndarray:
@@ -45,10 +47,11 @@ def segment_samples(a: np.ndarray, b: np.ndarray, step: float) -> tuple[np.ndarr
     return a[seg] + (b[seg] - a[seg]) * frac[:, None], seg, frac
 
 
-def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float]:
+def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np.ndarray | None]:
     """(n, 3) samples, the measure they stand for (a wall: area × 1, multiplied by the width later)
     and their spacing, mm: `step`, or on a larger part the spacing of the most samples it may have
-    (a midsurface's grid: √(area / MAX_GRID_SAMPLES); a mesh's MAX_SAMPLES even samples)."""
+    (a midsurface's grid: √(area / MAX_GRID_SAMPLES); a mesh's MAX_SAMPLES even samples); and for a
+    surface mesh which samples lie on a horizontal face (`FLAT_COS`; else None)."""
     if part.kind == "midsurface":
         lengths = [float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()) for c in part.curves]
         area = sum(length * part.height for length in lengths)
@@ -58,20 +61,21 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float]:
         for c in part.curves:
             pts = np.column_stack([_resample(np.column_stack([c, np.zeros(len(c))]), step)[:, :2]])
             out.append(np.column_stack([np.repeat(pts, len(zs), axis=0), np.tile(zs, len(pts))]))
-        return np.vstack(out), area, step
+        return np.vstack(out), area, step, None
     import trimesh
 
     # a solid with non-planar layers is checked on its boundary: every point of it must lie within
     # reach of a bead (interior voids of thick parts are the planar check's to find)
     mesh = trimesh.Trimesh(*part.mesh(), process=False)
     n = int(min(MAX_SAMPLES, max(1000, mesh.area / step**2)))
-    pts = trimesh.sample.sample_surface_even(mesh, n, seed=0)[0]
+    pts, face = trimesh.sample.sample_surface_even(mesh, n, seed=0)
     spacing = math.sqrt(mesh.area / max(len(pts), 1))
     if part.kind != "solid":
-        return np.asarray(pts), float(mesh.area), spacing
+        flat = np.abs(mesh.face_normals[face][:, 2]) >= FLAT_COS
+        return np.asarray(pts), float(mesh.area), spacing, flat
     from .check import mesh_volume  # column by column: trimesh's volume computes the inertia tensor (0.7 s on 1M faces)
 
-    return np.asarray(pts), mesh_volume(*part.mesh()), spacing
+    return np.asarray(pts), mesh_volume(*part.mesh()), spacing, None
 
 
 def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings, planar: bool = False) -> Coverage:
@@ -82,14 +86,18 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
-    samples, measure, sample_mm = _part_samples(part, step)
+    samples, measure, sample_mm, flat = _part_samples(part, step)
     dep_runs: list[np.ndarray] = []
     dep_layers: list[np.ndarray] = []
+    dep_run: list[np.ndarray] = []  # each point's run, for the section a problem names
+    all_runs: list = []
     for idx, runs in layers:
         for r in runs:
             p = _resample(r.points, min(step, width / 4.0))
             dep_runs.append(p)
             dep_layers.append(np.full(len(p), idx))
+            dep_run.append(np.full(len(p), len(all_runs)))
+            all_runs.append(r)
     if not dep_runs or len(samples) == 0:
         return {
             "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
@@ -131,8 +139,22 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         if k is not None:
             L = rep.layer(idx)
             L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
-    gap = _top_gap(samples, dist, near, dep, by_layer, [] if planar else order, reach)
+    # walls on planar layers build no horizontal face of a surface (no layer cuts it): a cap over an
+    # opening lies above the bead below the opening, and is the uncovered check's, not a top gap
+    extra: dict = {}
+    skip = flat if planar else None
+    if skip is not None:
+        extra["uncovered_flat_share"] = float((unc & skip).mean())
+    gap, gap_at = _top_gap(samples, dist, near, dep, by_layer, [] if planar else order, reach, skip)
     worst = samples[int(np.argmax(dist))]
+    if gap_at is not None:  # the part's point farthest beyond the beads, and its nearest bead
+        bead = int(near[gap_at])
+        extra |= {
+            "top_gap_point": samples[gap_at],
+            "top_gap_bead": dep[bead],
+            "top_gap_layer": int(dep_layer[bead]),
+            "top_gap_section": all_runs[int(np.concatenate(dep_run)[bead])].section,
+        }
     return {
         "part_volume_mm3": measure * (width if part.kind != "solid" else 1.0),
         "uncovered_share": share,
@@ -145,6 +167,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         "worst_layer": int(lay[int(np.argmax(dist))]),
         "reach_mm": reach,
         "uncovered_by_layer": {},
+        **extra,
     }
 
 
@@ -153,7 +176,9 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 TOP_GAP_MIN_COS = 0.7
 
 
-def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -> float:
+def _top_gap(
+    samples, dist, near, dep, by_layer: Grouped, order, reach: float, skip: np.ndarray | None = None
+) -> tuple[float, int | None]:
     """How far the part goes on beyond the beads along the build, mm: of the points of the part out
     of the beads' reach that lie along the build direction from their nearest bead, the farthest
     along it. The build direction: up (+z) for planar layers (`order` empty) and a program of one
@@ -161,12 +186,14 @@ def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -
     on the first layer). A point out of reach beside the beads is an unbuilt wall or a dome's flat
     cap, which the uncovered check names: a panel without one rib had "ends 42.27 mm short of the
     part's top (30.00 mm)", the distance to the rib's far end; without its last 3 layers of 2 mm,
-    "3.03 mm short" (the 6 mm less the reach) where it is 6.00."""
+    "3.03 mm short" (the 6 mm less the reach) where it is 6.00. Returns the gap and the sample it is
+    measured at (None when no point is out of reach ahead of the beads). `skip`: samples left out (a
+    surface's horizontal faces under planar layers)."""
     from scipy.spatial import cKDTree
 
-    out = np.flatnonzero(dist > reach)
+    out = np.flatnonzero((dist > reach) & (True if skip is None else ~skip))
     if not len(out):
-        return 0.0
+        return 0.0, None
     nd = near[out]
     build = np.zeros((len(out), 3))
     pos = {idx: k for k, idx in enumerate(order)}
@@ -187,4 +214,7 @@ def _top_gap(samples, dist, near, dep, by_layer: Grouped, order, reach: float) -
     no = np.linalg.norm(offset, axis=1)
     along = np.einsum("ij,ij->i", offset, build) / np.where(nb > 0, nb, 1.0)
     ahead = (nb > 0) & (along >= TOP_GAP_MIN_COS * no)
-    return float(along[ahead].max()) if ahead.any() else 0.0
+    if not ahead.any():
+        return 0.0, None
+    k = int(np.argmax(np.where(ahead, along, -np.inf)))
+    return float(along[k]), int(out[k])
