@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import trimesh
 
 from waamflow.cli import main
@@ -70,3 +71,65 @@ def test_helical_asked_aligned_laid_on_rings_is_said_once(tmp_path, capsys):
     assert w["layer"] == 0
     (_p,), _rep = _stacked(tmp_path, "aligned")  # the same laps, asked for: the preflight's warning only
     assert _node_warnings(tmp_path, "aligned") == []
+
+
+def _open_tube(tmp, name: str, r0: float, r1: float) -> str:
+    """An open surface of revolution (no caps), radius r0 at z 0 to r1 at z 30: a vase wall as an
+    STL of one surface (compas_slicer's simple_vase is one)."""
+    import numpy as np
+
+    a = np.linspace(0, 2 * np.pi, 97)[:-1]
+    zs = np.linspace(0.0, 30.0, 11)
+    rings = [
+        np.column_stack([(r0 + (r1 - r0) * z / 30) * np.cos(a), (r0 + (r1 - r0) * z / 30) * np.sin(a), np.full(96, z)])
+        for z in zs
+    ]
+    v = np.vstack(rings)
+    f = []
+    for k in range(len(zs) - 1):
+        for i in range(96):
+            j = (i + 1) % 96
+            p, q, r, s = k * 96 + i, k * 96 + j, (k + 1) * 96 + j, (k + 1) * 96 + i
+            f += [(p, q, r), (p, r, s)]
+    trimesh.Trimesh(v, np.array(f), process=False).export(tmp / f"{name}.stl")
+    rec = json.loads(open(_tube_recipe(tmp, None)).read())
+    rec["nodes"][0]["params"] = {"path": f"{name}.stl", "as": "surface"}
+    rec["nodes"].insert(2, {"id": "features", "type": "features", "params": {}})
+    rec["edges"] += [
+        {"from": "layers.layers", "to": "features.layers"},
+        {"from": "features.features", "to": "walls.features"},
+    ]
+    path = tmp / f"{name}.json"
+    path.write_text(json.dumps(rec))
+    return str(path)
+
+
+def test_helical_on_a_surface_whose_ring_changes_every_layer_is_said_and_laid_as_laps(tmp_path):
+    """compas_slicer's simple_vase (an open surface, its ring smaller every layer) through the
+    default wall-path: each layer's ring made a "helix" of its own, one lap labelled `helical`,
+    every lap starting beside the one below (99 stacked starts) and the node said nothing. Now the
+    laps are what `aligned` lays (closed with the `overlap`) and the node says so once; a tube of
+    one ring all the way up stays one helix."""
+    out = tmp_path / "out-cone"
+    assert (
+        main(["run", _open_tube(tmp_path, "cone", 40.0, 30.0), "--out", str(out), "--no-cache", "--accept-preflight"])
+        == 0
+    )
+    summary = json.loads((out / "summary.json").read_text())
+    (w,) = [w for w in summary["warnings"] if w.get("node") == "walls"]
+    assert w["message"].startswith("`tubular: helical` is laid as aligned start-stop laps") and w["layer"] == 0
+    doc = json.loads((out / "walls.toolpath.json").read_text())
+    laps = [s for L in doc["layers"] for s in L["sections"]]
+    assert len(laps) == 20 and {s["strategy"] for s in laps} == {"aligned"}
+    import math
+
+    r = 40.0 - 10.0 * 1.5 / 30  # layer 0's ring, at z 1.5
+    assert laps[0]["length_mm"] == pytest.approx(2 * math.pi * r + 5.0, rel=0.01)  # a lap and its overlap
+    out2 = tmp_path / "out-cyl"
+    assert (
+        main(["run", _open_tube(tmp_path, "cyl", 40.0, 40.0), "--out", str(out2), "--no-cache", "--accept-preflight"])
+        == 0
+    )
+    doc2 = json.loads((out2 / "walls.toolpath.json").read_text())
+    (helix,) = [s for L in doc2["layers"] for s in L["sections"]]
+    assert helix["strategy"] == "helical" and helix["length_mm"] > 19 * 2 * math.pi * 39

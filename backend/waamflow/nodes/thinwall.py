@@ -169,7 +169,9 @@ class WallPathNode(Node):
     fillet corner partly empty. Free ends
     are extended by `free_end_extension` so ignition/extinction fall outside the useful wall.
     Isolated tubulars: `tubular` = helical (one continuous helix, pitch = layer height, placed in
-    the first layer), aligned or scattered start–stop with self-overlap `overlap`; non-isolated
+    the first layer, over the consecutive layers of one ring; a tube whose ring changes every layer,
+    a sliced surface's, gets aligned laps and a warning once), aligned or scattered start–stop with
+    self-overlap `overlap`; non-isolated
     ones are built layer by layer (scattered). Layers without curves but with ring regions (a
     fan-sliced hollow wall) get the ring's centre line as one lap with `overlap`, its seam chosen
     by `tubular`: aligned (and helical, which rings, each layer its own centre line, are not laid
@@ -379,6 +381,14 @@ class WallPathNode(Node):
             out.append(LayerPaths(layer, tuple(_section(layer, p, params.speed) for p in passes)))
         for h in helices.values():  # each isolated tube: one helix per run of consecutive layers, in its first
             lp = out[h["slot"]]
+            if len(h["zs"]) == 1:  # its ring changes every layer (a sliced surface's): laps, as on rings
+                xy = aligned_loop(h["ring"], spec.overlap)
+                lap = _section(lp.layer, WallPass(h["key"], "aligned", xy, np.ones(len(xy) - 1, bool)), params.speed)
+                out[h["slot"]] = LayerPaths(lp.layer, (lap,) + lp.sections, lp.dwell_after_s)
+                if RINGS_NOT_HELICAL not in warned:
+                    warned.add(RINGS_NOT_HELICAL)
+                    ctx.warn(RINGS_NOT_HELICAL, layer=lp.layer.index)
+                continue
             pts = helix(h["ring"], h["zs"])
             n = len(pts) - 1
             sp = SectionPath(h["key"], "helical", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, params.speed))
