@@ -102,6 +102,13 @@ class SectionJSON(BaseModel):
     stop: Point2 | None
 
 
+class ClimbJSON(BaseModel):
+    from_layer: int = Field(description="the layer the helix is laid in (its one ignition)")
+    laps: int = Field(description="layers' heights it climbs, its first lap's included")
+    z_from: float = Field(description="mm")
+    z_to: float = Field(description="mm")
+
+
 class SectionPathJSON(BaseModel):
     key: str
     strategy: str
@@ -115,6 +122,9 @@ class SectionPathJSON(BaseModel):
     zone_params: dict[str, dict[str, float]] | None = None
     approach: list[list[float]] | None = None
     tool_axis: list[list[float]] | None = None
+    climbs: ClimbJSON | None = Field(
+        None, description="a lap of a helix welded through several layers in one go, laid in `from_layer`"
+    )
 
 
 # ---- the one error model of every 4xx answer --------------------------------------------------

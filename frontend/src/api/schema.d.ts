@@ -845,6 +845,29 @@ export interface components {
              */
             max_dwell_s: number;
         };
+        /** ClimbJSON */
+        ClimbJSON: {
+            /**
+             * From Layer
+             * @description the layer the helix is laid in (its one ignition)
+             */
+            from_layer: number;
+            /**
+             * Laps
+             * @description layers' heights it climbs, its first lap's included
+             */
+            laps: number;
+            /**
+             * Z From
+             * @description mm
+             */
+            z_from: number;
+            /**
+             * Z To
+             * @description mm
+             */
+            z_to: number;
+        };
         /**
          * ConflictDetail
          * @description A 409: a read-only example (only the error fields), or a stale If-Match (also both versions).
@@ -1891,6 +1914,8 @@ export interface components {
             approach?: number[][] | null;
             /** Tool Axis */
             tool_axis?: number[][] | null;
+            /** @description a lap of a helix welded through several layers in one go, laid in `from_layer` */
+            climbs?: components["schemas"]["ClimbJSON"] | null;
         };
         /** Selection */
         Selection: {

@@ -37,14 +37,16 @@ export const PathView = memo(function PathView({ path, zone, r, colorBy, speed, 
   for (let i = 1; i < xy.length; i++) total += dist(xy[i - 1], xy[i]);
   const sLen = num(spec.start_length), eLen = num(spec.end_length);
   const marks = [sLen > 0 ? pointAtLength(xy, sLen) : null, eLen > 0 ? pointAtLength(xy, total - eLen) : null];
+  const climbs = path.climbs ?? null;
   return (
-    <g className="section-path" data-path={path.key} data-zones={[...new Set(path.zone)].join(",")} data-length={total.toFixed(3)} data-bead={bead ?? ""}>
+    <g className={`section-path${climbs ? " climbing" : ""}`} data-path={path.key} data-zones={[...new Set(path.zone)].join(",")} data-length={total.toFixed(3)} data-bead={bead ?? ""} data-climbs={climbs ? climbs.from_layer : undefined}>
+      {climbs && <title>{climbNote(path.key, climbs)}</title>}
       {bead !== null &&
         runs.filter((q) => q.arc).map((q, i) => <path key={`b${i}`} d={q.d} className="bead" style={{ stroke: q.color, strokeWidth: bead }} />)}
       {runs.map((q, i) => (
         <path key={i} d={q.d} className={q.arc ? "arc-on" : "arc-off"} style={{ stroke: q.arc ? q.color : undefined }} data-zone={q.zone} />
       ))}
-      {pts.length > 0 && <circle cx={pts[0][0]} cy={-pts[0][1]} r={r * 1.1} className="path-start" />}
+      {pts.length > 0 && !(climbs && Math.abs(pts[0][2] - climbs.z_from) > 1e-6) && <circle cx={pts[0][0]} cy={-pts[0][1]} r={r * 1.1} className="path-start" />}
       {marks.map((m, i) => (m ? <rect key={i} x={m[0] - r} y={-m[1] - r} width={2 * r} height={2 * r} className="zone-mark" transform={`rotate(45 ${m[0]} ${-m[1]})`} /> : null))}
       {splits.map((s, i) => {
         const c = xy.length > 1 ? closestOnPolyline(s, xy).point : (s as Pt);
@@ -53,6 +55,11 @@ export const PathView = memo(function PathView({ path, zone, r, colorBy, speed, 
     </g>
   );
 });
+
+/** A helix's lap: which helix, where it is laid and how far it climbs (its one ignition is on its first lap). */
+export function climbNote(key: string, c: NonNullable<PreviewPath["climbs"]>): string {
+  return `${key}: a lap of the helix laid in layer ${c.from_layer} (${c.laps} laps, z ${c.z_from.toFixed(1)}–${c.z_to.toFixed(1)} mm, one ignition on its first lap)`;
+}
 
 /** Each section's guide (its own, else the server's auto guide) with its crossings of the section boundary (2 needed). */
 export function Guides({ sections, guides, r, px }: { sections: Preview["sections"]; guides: GuideParams; r: number; px: number }) {

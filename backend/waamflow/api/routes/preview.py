@@ -24,6 +24,7 @@ from ...engine.cache import MemoryCache, TieredCache
 from ...engine.executor import FileResolver, execute
 from ...engine.graph import build_graph
 from ...engine.recipe import Recipe, apply_overrides
+from ...process.laps import layer_view
 from ..services import parse_api_recipe
 from ..deps import ServicesDep
 from ..schemas import PREVIEW_REQUEST_RULES, LayerIndex, LayerJSON, PolygonJSON, SectionJSON, SectionPathJSON, errors
@@ -97,15 +98,17 @@ def _item(value: Any, index: int) -> Any:
 
 def _collect(
     graph, outputs: dict, node: str, index: int
-) -> tuple[Layer | None, LayerSections | None, LayerPaths | None]:
+) -> tuple[Layer | None, LayerSections | None, LayerPaths | None, Layered | None]:
+    """The layer, its sections and its paths as the node (or the nearest node before it) hands them
+    out, and the toolpath the paths are a layer of."""
     upstream = graph.ancestors(node)
     order = [n for n in reversed(graph.order) if n == node or n in upstream]
-    layer = sections = paths = None
+    layer = sections = paths = source = None
     for nid in order:
         for value in outputs.get(nid, {}).values():
             it = _item(value, index)
             if isinstance(it, LayerPaths) and paths is None:
-                paths = it
+                paths, source = it, value
             elif isinstance(it, LayerSections) and sections is None:
                 sections = it
             elif isinstance(it, Layer) and layer is None:
@@ -113,7 +116,26 @@ def _collect(
     for it in (paths, sections):
         if layer is None and it is not None:
             layer = it.layer
-    return layer, sections, paths
+    return layer, sections, paths, source
+
+
+def _paths_json(source: Layered | None, paths: LayerPaths | None) -> list[dict]:
+    """The paths welded within the layer's height (process.laps): a helix lap by lap, each lap
+    saying which helix it is part of (`climbs`)."""
+    if paths is None:
+        return []
+    out = []
+    for sp, span in layer_view(source, paths):
+        d = section_path_json(sp)
+        if span is not None:
+            d["climbs"] = {
+                "from_layer": span.layer,
+                "laps": span.laps,
+                "z_from": round(span.z_from, 3),
+                "z_to": round(span.z_to, 3),
+            }
+        out.append(d)
+    return out
 
 
 def _sections_json(ls: LayerSections | None) -> list[dict]:
@@ -276,11 +298,11 @@ def compute_preview(
         raise HTTPException(
             422, detail={"message": f"layer {req.layer} is out of range: the part has {count} layers (0..{count - 1})"}
         )
-    layer, sections, paths = _collect(graph, outputs, node, req.layer)
+    layer, sections, paths, source = _collect(graph, outputs, node, req.layer)
     return PreviewResponse(
         layer=layer_json(layer) if layer is not None else None,
         sections=_sections_json(sections),
-        paths=[section_path_json(sp) for sp in paths.sections] if paths is not None else [],
+        paths=_paths_json(source, paths),
         layer_count=count,
         error=error,
         coverage=_coverage_json(sections, paths, _width_of(graph, outputs, req.bead_width)) if req.coverage else None,
