@@ -214,3 +214,21 @@ def test_random_sections_never_fail_and_flags_hold(seed):
             assert p.length > 0
             planned += 1
     assert planned >= 8 * 8
+
+
+@pytest.mark.parametrize("pattern", sorted(PATTERNS))
+def test_every_pattern_plans_the_bunnys_layer_41(pattern):
+    """compas_slicer's bunny_closed_low_res, layer 41 at 2 mm (14,247 mm², its auto guide): the spiral
+    began with two equal points, its lead-in direction 0/0, and GEOS stopped the strategy ("Edge
+    direction cannot be determined because endpoints are equal", exit 3). Every pattern plans it,
+    inside flags holding."""
+    from pathlib import Path
+
+    import shapely
+
+    data = Path(__file__).parent / "data"
+    region = shapely.from_wkb((data / "bunny_layer41.wkb").read_text().strip())
+    guide = LineString([(-99.5408614168598, 4.098290965541384), (86.36318909698471, -30.501561287459854)])
+    p = plan_section(region, guide, StrategySpec(pattern=pattern, bead_width=5.0, spacing=4.0))
+    assert np.isfinite(p.points).all() and p.arc_on_length > 0.5 * region.area / 5.0
+    assert_inside_flags_hold(p, region)

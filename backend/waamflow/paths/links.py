@@ -7,7 +7,7 @@ from typing import Callable
 import numpy as np
 
 from .flags import Draft
-from .passes import PassPlan, oriented, unit
+from .passes import PassPlan, end_direction, oriented
 
 #: link(a, b, tau) → intermediate points (each (2,), mm) between a pass end a and the next pass
 #: start b; tau (2,) is the unit travel direction at a (pointing out of the section).
@@ -21,7 +21,7 @@ def boustrophedon(plan: PassPlan, link: Link, before: float = 0.0, after: float 
     for i, p in enumerate(plan.passes):
         run = oriented(p, i % 2 == 0, before, after)
         if pts:
-            tau = unit(pts[-1] - pts[-2])
+            tau = end_direction(np.asarray(pts), at_start=False)
             pts.extend(link(pts[-1], run[0], tau))
         pts.extend(run)
     arr = np.asarray(pts)

@@ -127,19 +127,35 @@ def unit(v: np.ndarray) -> np.ndarray:
     return v / float(np.hypot(*v))
 
 
+def end_direction(pts: np.ndarray, at_start: bool = True) -> np.ndarray:
+    """Unit direction out of the path at its start (backwards along its first stretch) or end
+    (onwards along its last), from the nearest point that differs from the end point: a path may
+    begin with a repeated point (compas_slicer's bunny, layer 41: a spiral's first two points were
+    equal, its lead-in direction 0/0). Zero when every point is the same."""
+    q = pts if at_start else pts[::-1]
+    d = np.hypot(*(q[1:] - q[0]).T)
+    far = np.flatnonzero(d > 1e-9)
+    if not len(far):
+        return np.zeros(2)
+    return (q[0] - q[far[0] + 1]) / d[far[0]]
+
+
 def oriented(p: Pass, forward: bool, before: float, after: float) -> np.ndarray:
     """The pass's points in travel direction, with straight run-ups of `before`/`after` mm."""
     pts = p.points if forward else p.points[::-1]
     out = [pts]
     if before > 0:
-        out.insert(0, (pts[0] - before * unit(pts[1] - pts[0]))[None])
+        out.insert(0, (pts[0] + before * end_direction(pts))[None])
     if after > 0:
-        out.append((pts[-1] + after * unit(pts[-1] - pts[-2]))[None])
+        out.append((pts[-1] + after * end_direction(pts, at_start=False))[None])
     return np.vstack(out)
 
 
 def to_boundary(region: Polygon, p: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Where a ray from p along unit `direction` first meets the region boundary (p if nowhere)."""
+    """Where a ray from p along unit `direction` first meets the region boundary (p if nowhere, or
+    when the direction is zero)."""
+    if not np.isfinite(direction).all() or not np.any(direction):
+        return p
     ray = LineString([p, p + reach_of(region) * direction])
     hits = shapely.get_coordinates(ray.intersection(region.boundary))
     if len(hits) == 0:

@@ -18,7 +18,7 @@ from shapely.geometry import LineString, Polygon
 
 from .flags import Draft, extend_ends
 from .links import boustrophedon
-from .passes import plan_passes, to_boundary, unit
+from .passes import end_direction, plan_passes, to_boundary
 from .spec import StrategySpec
 
 
@@ -26,8 +26,8 @@ def plan(region: Polygon, guide: LineString, spec: StrategySpec) -> Draft:
     margin = plan_passes(region, guide, spec.spacing).margin
     pp = plan_passes(region, guide, spec.spacing, inset=margin)
     pts = boustrophedon(pp, lambda a, b, tau: []).points
-    lead_in = to_boundary(region, pts[0], unit(pts[0] - pts[1]))
-    lead_out = to_boundary(region, pts[-1], unit(pts[-1] - pts[-2]))
+    lead_in = to_boundary(region, pts[0], end_direction(pts))
+    lead_out = to_boundary(region, pts[-1], end_direction(pts, at_start=False))
     pts = np.vstack([lead_in[None], pts, lead_out[None]])
     keep = np.r_[True, np.hypot(*np.diff(pts, axis=0).T) > 1e-9]  # no zero-length lead-in/out
     pts = extend_ends(pts[keep], spec.extension_before, spec.extension_after)

@@ -26,7 +26,7 @@ from shapely.ops import substring
 
 from .flags import Draft, extend_ends
 from .frame import guide_or_default, pass_layout
-from .passes import band, to_boundary, unit
+from .passes import band, end_direction, to_boundary
 from .spec import StrategySpec
 
 
@@ -101,7 +101,7 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
         here = pts[-1]
         k += 1
     pts = np.vstack(pieces)
-    entry = to_boundary(region, pts[0], unit(pts[0] - pts[1]))  # lead-in along the first stretch
+    entry = to_boundary(region, pts[0], end_direction(pts))  # lead-in along the first stretch
     pts = extend_ends(np.vstack([entry[None], pts]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
 
@@ -125,7 +125,7 @@ def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) 
     if line is None:
         line = _core_line(region, 0.0, g0, keep_fraction=0.25)
     assert line is not None  # the long axis of a non-empty region crosses it
-    entry = to_boundary(region, line[0], unit(line[0] - line[1]))
+    entry = to_boundary(region, line[0], end_direction(line))
     pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
 
