@@ -307,3 +307,42 @@ def test_a_footprint_of_runs_of_different_lengths_is_made_valid_too():
     assert foot.intersection(region).area / region.area == pytest.approx(
         1 - uncovered_area(region, split.points, split.arc, 6.0) / region.area
     )
+
+
+def _runs_of(path):
+    from waamflow.preflight.read.core import Run
+    from waamflow.process.coverage import arc_runs
+
+    pts = np.column_stack([path.points, np.zeros(len(path.points))])
+    out = []
+    for r in arc_runs(path.points, path.arc):
+        if len(r) < 2:
+            continue
+        p = np.column_stack([r, np.zeros(len(r))])
+        n = len(p) - 1
+        out.append(Run(p, np.full(n, 10.0), np.full(n, 3.0), np.ones(n, bool), 0, "region0", 0))
+    assert len(pts)
+    return out
+
+
+def test_a_split_whose_pieces_lay_passes_on_each_other_is_not_taken():
+    """compas_slicer's distorted_a, layer 57 at 2 mm (5,719 mm², raster at 4 mm for 5 mm beads):
+    the raster as planned left 3.7 % without a bead, so the region was split at its reflex corners
+    and each piece rastered on its own; two pieces laid their edge passes 1.7 mm apart along the cut,
+    a 55.9 mm run welded wholly on the other's bead, and the preflight failed the program (retrace,
+    100 %). A candidate that retraces more than the preflight allows is taken only when nothing
+    else is left; here the contour filler is."""
+    from waamflow.preflight.retrace import _layer_retrace
+    from waamflow.preflight.settings import PreflightSettings
+
+    region = shapely.from_wkb((Path(__file__).parent / "data" / "distorted_a_layer57.wkb").read_text().strip())
+    spec = StrategySpec(pattern="raster", bead_width=5.0, spacing=4.0)
+    split = plan_whole(region, None, spec, adapt=True)
+    assert split.how != "split"
+    found = _layer_retrace(_runs_of(split.path), 5.0)
+    assert found is None or found[0] <= PreflightSettings().retrace_max_share
+    assert split.retraced <= PreflightSettings().retrace_max_share
+    from waamflow.paths.whole import RETRACE_MAX
+
+    assert RETRACE_MAX == PreflightSettings().retrace_max_share  # the planner takes what the preflight passes
+    assert split.uncovered_share < 0.02

@@ -51,6 +51,9 @@ FILLER = "contour"
 #: Arc-ON centre line (mm) a whole region's path may run off the region beyond its stock (run-ups
 #: and half a bead width): none, up to the shapely buffer's facet error.
 OUTSIDE_TOL = 0.01
+#: A candidate with a run welded on earlier beads over more than this share of its length is taken
+#: only when no other is left: the preflight's `retrace_max_share` default (it would fail it).
+RETRACE_MAX = 0.5
 
 How = Literal["as planned", "split", "contour"]
 #: Sections remembered per process (a few hundred points each).
@@ -65,7 +68,9 @@ class WholePath:
     how: "as planned" (the spec as given), "split" (corner division into `pieces` pieces, each
     with the spec) or "contour" (the filler). uncovered: area left without a bead, mm²; area: the
     section's area, mm²; outside: arc-ON centre line off the region beyond the stock, mm
-    (`outside_length`; measured for a whole region only, else 0)."""
+    (`outside_length`; measured for a whole region only, else 0); retraced: the largest share of
+    one arc-ON run welded on the bead of an earlier run (`retraced_share`; measured for a split
+    region only, else 0)."""
 
     path: Path2D
     pattern: str
@@ -74,6 +79,7 @@ class WholePath:
     uncovered: float
     area: float
     outside: float = 0.0
+    retraced: float = 0.0
 
     @property
     def uncovered_share(self) -> float:
@@ -122,14 +128,44 @@ def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
     return total
 
 
+def retraced_share(path: Path2D, width: float) -> float:
+    """The largest share of one arc-ON run of the path that lies on the bead of an earlier run,
+    by the preflight's own rule (preflight.retrace: centre lines within 3/8 of a bead width,
+    running the same way or back). compas_slicer's distorted_a, layer 57: the pieces of a split
+    raster laid their passes along the cut 1.7 mm apart, one 55.9 mm run wholly on another."""
+    from ..preflight.read.core import Run
+    from ..preflight.retrace import _layer_retrace
+    from ..process.coverage import arc_runs
+
+    runs = []
+    for r in arc_runs(path.points, path.arc):
+        if len(r) > 1:
+            n = len(r) - 1
+            p = np.column_stack([r, np.zeros(len(r))])
+            runs.append(Run(p, np.zeros(n), np.zeros(n), np.ones(n, bool), None, None, 0))
+    found = _layer_retrace(runs, width) if len(runs) > 1 else None
+    return found[0] if found is not None else 0.0
+
+
 def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, how: How, pieces: int) -> WholePath:
     """A whole region's path and its measures."""
     area = float(region.area)
-    return WholePath(path, pattern, how, pieces, _measure(region, path, spec), area, outside_length(region, path, spec))
+    return WholePath(
+        path,
+        pattern,
+        how,
+        pieces,
+        _measure(region, path, spec),
+        area,
+        outside_length(region, path, spec),
+        # pieces planned each on its own may lay passes on each other along their cuts; one kernel's
+        # plan does not (tested pattern by pattern), and measuring it cost 10 % of a strategy's time
+        retraced_share(path, spec.bead_width) if how == "split" else 0.0,
+    )
 
 
 def _good(w: WholePath, max_uncovered: float) -> bool:
-    return w.uncovered_share <= max_uncovered and w.outside <= OUTSIDE_TOL
+    return w.uncovered_share <= max_uncovered and w.outside <= OUTSIDE_TOL and w.retraced <= RETRACE_MAX
 
 
 def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec: StrategySpec) -> Path2D:
@@ -227,4 +263,4 @@ def _plan_whole(
             if _good(got, max_uncovered):
                 return got
             tried.append(got)
-    return min(tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.uncovered))
+    return min(tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.retraced > RETRACE_MAX, w.uncovered))
