@@ -111,3 +111,22 @@ def test_gcode_warns_about_tilted_torch():
         "KRL weld commands of zone start (section bs1/A, layer 0): job 12 not commanded: the "
         "program has no command for it (give it a KRL statement in process_codes)"
     ]
+
+
+@pytest.mark.parametrize("fmt, profile", [("krl", "kuka_krc4"), ("inform", ""), ("tp", "")])
+def test_weld_data_warnings_of_unzoned_paths_name_no_empty_zone(fmt, profile):
+    """A recipe without a zone node (mesh → slice → mask → strategy → sequence → post, compas_slicer's
+    coin to INFORM): "weld data of zone  (section region0, ...)" named a zone with an empty id, or
+    TP's "zone -". Such paths are "the unzoned paths"."""
+    from dataclasses import replace
+
+    tp = build_toolpath(1)
+    lp = tp[0]
+    bare = tuple(replace(sp, zone=(), zone_colors={}, zone_params={}) for sp in lp.sections)
+    tp = Layered((replace(lp, sections=bare),))
+    node_cls = load_nodes()["post-process"]
+    ctx = Ctx()
+    params = node_cls.Params(format=fmt, profile=profile, weld_values={"wire_feed_speed": 4.0})
+    node_cls().run(ctx, params, {"toolpath": tp})
+    weld = [w for w in ctx.warnings if " of the unzoned paths (section bs1/A, layer 0" in w]
+    assert weld and not [w for w in ctx.warnings if "of zone  (" in w or "of zone - (" in w], ctx.warnings

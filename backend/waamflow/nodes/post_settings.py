@@ -68,8 +68,9 @@ def _warn_weld_data(ctx, program: Program, what: str) -> None:
     for (zone, message), issues in groups.items():
         first = issues[0]
         more = f"; {len(issues)} sections in all" if len(issues) > 1 else ""
+        where = f"zone {zone}" if zone and zone != "-" else "the unzoned paths"  # no zone node: no zone id
         ctx.warn(
-            f"{what} of zone {zone} (section {first.section}, layer {first.layer}{more}): {message}",
+            f"{what} of {where} (section {first.section}, layer {first.layer}{more}): {message}",
             layer=first.layer,
             section=first.section,
         )
