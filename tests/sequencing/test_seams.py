@@ -327,3 +327,30 @@ def test_distances_of_many_ignitions_at_once_are_each_ones_own_bit_for_bit():
         ps = rng.normal(0.0, 50.0, (k, 3))
         assert distances_to_segments(ps, a, b).tolist() == [one_segment_distance(p, a, b) for p in ps]
         assert nearest_distances(ps, a).tolist() == [one_point_distance(p, a) for p in ps]
+
+
+def test_a_short_run_is_not_bridged_across_a_gap_longer_than_a_bead():
+    """compas_slicer's bunny (low res), layer 50, parallel re-planned as contour: a 0.9 mm run after
+    a 76.3 mm arc-OFF link across the section was 'bridged': 76 mm of weld, arc on, dragged over the
+    layer's beads to save 0.9 mm (the preflight failed the program: retrace, 60 mm of a 92.8 mm run on
+    earlier beads). A gap is bridged only when it is at most `max_bridge` (the sequence's bead width)
+    long; a run that cannot be is dropped."""
+    xy = [
+        (0, 0),
+        (40, 0),
+        (40, 2),
+        (41, 2),
+        (41, 32),
+        (41.9, 32),
+    ]  # 40 mm run, 2 mm gap, 1 mm run, 30 mm gap, 0.9 mm run
+    arc = [True, False, True, False, True]
+    sp = section("S", "contour", xy, 1.5, arc=arc, inside=[True] * 5)
+    new, fixes = enforce_min_run(sp, 12.0, max_bridge=6.0)
+    assert [(f.action, round(f.length, 2)) for f in fixes] == [("bridged", 1.0), ("dropped", 0.9)]
+    assert new.arc.tolist() == [True, True, True, False, False]
+    same, fixes_inf = enforce_min_run(sp, 12.0)  # no limit given: as before
+    assert [f.action for f in fixes_inf] == ["bridged", "bridged"]
+    notes = []
+    lp = LayerPaths(Layer(50, 1.5, 1.5, as_multipolygon(box(-10, -10, 90, 40))), (sp,))
+    sequence_layer(lp, min_run=12.0, notes=notes, seam=SeamSpec("aligned", 6.0))
+    assert [n["kind"] for n in notes] == ["bridged", "dropped"]  # the layer's bead width is the limit

@@ -133,7 +133,7 @@ def sequence_layer(
     | explicit list of section keys. prev_end: (3,) world mm where the torch is before this layer
     (the previous layer's last point), or None. seam: where each path ignites (`seams.choose_entry`;
     None: as planned). below: (k, 3) ignition points of the layer below. min_run: shortest arc-ON
-    run, mm (`arc_runs.enforce_min_run`; 0: off). notes: receives one dict per event (kind
+    run, mm (`arc_runs.enforce_min_run`, bridging at most the seam's clearance, a bead width; 0: off). notes: receives one dict per event (kind
     "junction" | "bridged" | "dropped" | "order-rule", layer, section, ...). submit: a large
     layer's second local search to a worker (`tour.nearest_order`). Returns the new layer
     program and its travel length in mm (including the move in from prev_end).
@@ -165,9 +165,10 @@ def sequence_layer(
             chosen.append(entry.path)
         paths = chosen
     if min_run > 0:
+        bridge = (seam or SeamSpec()).clearance  # a bridge at most a bead width long
         fixed = []
         for sp in paths:
-            new, fixes = enforce_min_run(sp, min_run)
+            new, fixes = enforce_min_run(sp, min_run, bridge)
             for f in fixes:
                 notes.append(
                     {"kind": f.action, "layer": lp.index, "section": sp.key, "length": f.length, "at": list(f.at)}
