@@ -184,7 +184,36 @@ def run_preflight(
             reports.append(rep)
     if not reports:
         return None  # nothing leaves this run that could build a part
+    if last:
+        for rep in reports:
+            _planned_top(rep, outputs.get(last, {}))
     return _summary(reports, conservation(sums_here), s)
+
+
+def _planned_top(rep: dict, toolpath_outputs: dict) -> None:
+    """A top gap above layers the plan has (its last toolpath's) but welds nothing in: the message
+    names them and why such layers weld nothing, where it said to add layers (compas_slicer's
+    bunny: its ear tip's one 5.5 mm run dropped as shorter than the sequence's min_arc_run_mm)."""
+    from ..core.errors import layer_ranges
+    from ..core.model import Layered, LayerPaths
+
+    gaps = [p for p in rep.get("problems", []) if p["check"] == "top_gap" and p["severity"] == "fail"]
+    if not gaps or gaps[0]["layer"] is None or "last deposited layer" not in gaps[0]["message"]:
+        return
+    last = gaps[0]["layer"]
+    above: list[int] = []
+    for value in toolpath_outputs.values():
+        if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
+            above = [lp.layer.index for lp in value.items if lp is not None and lp.layer.index > last]
+            break
+    if not above:
+        return
+    which = f"layer {above[0]}" if len(above) == 1 else f"layers {layer_ranges(above)}"
+    gaps[0]["message"] = gaps[0]["message"].split(": add layers")[0] + (
+        f"; the plan has {which} above it, which weld{'s' if len(above) == 1 else ''} nothing: see the warnings "
+        "of the nodes before (a sequence drops arc runs shorter than its min_arc_run_mm; a strategy may "
+        "leave a feature narrower than a bead without a path)"
+    )
 
 
 def _last_toolpath(graph, outputs: dict[str, dict[str, Any]]) -> str | None:
