@@ -346,3 +346,22 @@ def test_a_split_whose_pieces_lay_passes_on_each_other_is_not_taken():
 
     assert RETRACE_MAX == PreflightSettings().retrace_max_share  # the planner takes what the preflight passes
     assert split.uncovered_share < 0.02
+
+
+def test_a_split_into_runs_too_short_to_weld_is_not_taken():
+    """compas_slicer's branches_16, layer 71 at 2 mm: the branches merged into a scalloped ring 5-6
+    mm wide (214 mm²). The spiral as planned left more than 2 % without a bead, so the ring was split
+    at its reflex corners (every scallop) and each piece spiralled on its own: 26 arc-ON runs, most of
+    0-5 mm, which the sequence then dropped or bridged (the preflight failed the program: retrace).
+    A candidate whose runs shorter than two bead widths (the sequence's default min_arc_run_mm) hold
+    more than a tenth of its weld is taken only when nothing else is left."""
+    from waamflow.paths.whole import SHORT_MAX
+    from waamflow.process.coverage import arc_runs
+
+    region = shapely.from_wkb((Path(__file__).parent / "data" / "branches16_layer71.wkb").read_text().strip())
+    spec = StrategySpec(pattern="spiral", bead_width=5.0, spacing=4.0)
+    got = plan_whole(region, None, spec, adapt=True)
+    runs = [float(LineString(r).length) for r in arc_runs(got.path.points, got.path.arc) if len(r) > 1]
+    short = sum(x for x in runs if x < 2 * 5.0) / sum(runs)
+    assert got.how != "split" and short <= SHORT_MAX and got.short_share == pytest.approx(short, abs=1e-9)
+    assert len(runs) <= 3 and got.uncovered_share < 0.05

@@ -95,7 +95,15 @@ def offset_rings(region: Polygon, bead_width: float) -> list[list[np.ndarray]]:
         if sum(len(lv) for lv in levels) > MAX_RINGS:
             raise ValueError(f"contour: more than {MAX_RINGS} rings (bead width too small for the section?)")
     if not levels:
-        # narrower than one bead: one pass along the long axis of the region
+        # narrower than one bead: one pass along its centre line (a ring's centre loop, else the
+        # chordal axis: a straight axis through the region's centroid missed a bent or ring-shaped
+        # region's middle: compas_slicer's branches_16, layer 71, a 4.9 mm ring, 89 % left bare)
+        if len(region.interiors) == 1:
+            from ..curved.centerline import ring_centerline
+
+            return [[ring_centerline(region, max(bead_width / 8.0, 0.05))[0]]]
+        if not region.interiors:
+            return [[chordal_axis(region, bead_width / 4.0)]]
         c = region.centroid
         rect = np.asarray(shapely.minimum_rotated_rectangle(region).exterior.coords)[:4]
         e1, e2 = rect[1] - rect[0], rect[2] - rect[1]

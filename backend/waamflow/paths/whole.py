@@ -54,6 +54,10 @@ OUTSIDE_TOL = 0.01
 #: A candidate with a run welded on earlier beads over more than this share of its length is taken
 #: only when no other is left: the preflight's `retrace_max_share` default (it would fail it).
 RETRACE_MAX = 0.5
+#: A candidate whose arc-ON runs shorter than two bead widths (the sequence's default
+#: min_arc_run_mm: it drops or bridges them) hold more than this share of its weld is taken only
+#: when no other is left.
+SHORT_MAX = 0.1
 
 How = Literal["as planned", "split", "contour"]
 #: Sections remembered per process (a few hundred points each).
@@ -70,7 +74,8 @@ class WholePath:
     section's area, mm²; outside: arc-ON centre line off the region beyond the stock, mm
     (`outside_length`; measured for a whole region only, else 0); retraced: the largest share of
     one arc-ON run welded on the bead of an earlier run (`retraced_share`; measured for a split
-    region only, else 0)."""
+    region only, else 0); short_share: the share of its arc-ON length in runs shorter than two bead
+    widths (`short_share`)."""
 
     path: Path2D
     pattern: str
@@ -80,6 +85,7 @@ class WholePath:
     area: float
     outside: float = 0.0
     retraced: float = 0.0
+    short_share: float = 0.0
 
     @property
     def uncovered_share(self) -> float:
@@ -147,6 +153,17 @@ def retraced_share(path: Path2D, width: float) -> float:
     return found[0] if found is not None else 0.0
 
 
+def short_share(path: Path2D, width: float) -> float:
+    """The share of the path's arc-ON length in runs shorter than two bead widths, which the
+    sequence's default min_arc_run_mm drops or bridges (compas_slicer's branches_16, layer 71: a
+    scalloped ring split at every scallop, each piece spiralled on its own, 26 runs of 0-17 mm)."""
+    from ..process.coverage import arc_runs
+
+    lengths = np.array([float(np.hypot(*np.diff(r, axis=0).T).sum()) for r in arc_runs(path.points, path.arc)])
+    total = float(lengths.sum())
+    return float(lengths[lengths < 2.0 * width].sum()) / total if total > 0 else 0.0
+
+
 def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, how: How, pieces: int) -> WholePath:
     """A whole region's path and its measures."""
     area = float(region.area)
@@ -161,11 +178,17 @@ def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, 
         # pieces planned each on its own may lay passes on each other along their cuts; one kernel's
         # plan does not (tested pattern by pattern), and measuring it cost 10 % of a strategy's time
         retraced_share(path, spec.bead_width) if how == "split" else 0.0,
+        short_share(path, spec.bead_width),
     )
 
 
 def _good(w: WholePath, max_uncovered: float) -> bool:
-    return w.uncovered_share <= max_uncovered and w.outside <= OUTSIDE_TOL and w.retraced <= RETRACE_MAX
+    return (
+        w.uncovered_share <= max_uncovered
+        and w.outside <= OUTSIDE_TOL
+        and w.retraced <= RETRACE_MAX
+        and w.short_share <= SHORT_MAX
+    )
 
 
 def plan_pieces(region: Polygon, pieces: list[Polygon], start: np.ndarray, spec: StrategySpec) -> Path2D:
@@ -263,4 +286,6 @@ def _plan_whole(
             if _good(got, max_uncovered):
                 return got
             tried.append(got)
-    return min(tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.retraced > RETRACE_MAX, w.uncovered))
+    return min(
+        tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.retraced > RETRACE_MAX, w.short_share > SHORT_MAX, w.uncovered)
+    )
