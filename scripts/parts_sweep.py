@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-MESHES = (".stl", ".obj", ".ply", ".off", ".3mf")
+MESHES = (".stl", ".obj", ".ply", ".off", ".3mf", ".step", ".stp", ".iges", ".igs")
 
 
 def recipe(mesh: str, pattern: str | None) -> dict:

@@ -129,3 +129,40 @@ def test_many_walls_a_layer_and_layers_apart():
     assert share == pytest.approx(1.0) and length == pytest.approx(100.0) and li == 0 and run is not walls[20]
     upper = [wall(BEAD * k, 1.5) for k in range(40)]
     assert _retraced_runs([(0, walls), (1, upper)], BEAD) == []
+
+
+def test_a_thin_solid_read_as_a_surface_is_named_as_a_cause(tmp_path):
+    """pythonocc-demos' Ventilator.stp read as a surface: a blade's two faces lie closer than a bead
+    width, wall-path laid a wall on each, and the retrace message blamed 'a section or layer sent
+    twice (the sequence, or a program edited by hand)'. It names that cause too: a blade's two faces
+    1.5 mm apart get two walls 1.5 mm apart, which fail with it."""
+    import sys
+
+    import trimesh
+
+    from waamflow.cli import main
+
+    def quad(a, b, c, d):
+        return [a, b, c, a, c, d]
+
+    # a blade's two faces 1.5 mm apart, open at its edges (a surface model's patches)
+    v = np.array(
+        quad((0, 0, 0), (60, 0, 0), (60, 0, 20), (0, 0, 20))
+        + quad((0, 1.5, 0), (60, 1.5, 0), (60, 1.5, 20), (0, 1.5, 20)),
+        float,
+    )
+    trimesh.Trimesh(v, np.arange(len(v)).reshape(-1, 3)).export(tmp_path / "plate.stl")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
+    from bench_vase import _recipe
+
+    import json
+
+    rec = _recipe()
+    rec["nodes"][0]["params"].update({"path": "plate.stl", "as": "surface"})
+    rec["nodes"][1]["params"].update({"layer_height": 2.0})
+    (tmp_path / "plate.json").write_text(json.dumps(rec))
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "plate.json"), "--out", str(out), "--no-cache"]) == 4
+    rep = json.loads((out / "preflight.json").read_text())
+    (p,) = [p for p in rep["problems"] if p["check"] == "retrace"]
+    assert "two walls of the part closer than a bead width" in p["message"] and "read it as a solid" in p["message"]

@@ -153,7 +153,9 @@ def retrace_problems(layers: Sequence[tuple[int, list[Run]]], width: float, out:
         f"layer {idx}, section {run.section or '?'}: an arc-ON run welds {length:.1f} mm, {share:.0%} of its "
         f"{run.length:.1f} mm, over beads earlier runs of its layer laid (from ({pt[0]:.1f}, {pt[1]:.1f}, "
         f"{pt[2]:.1f})){more if len(bad) > 1 else ''}: a second bead on the first, a hump one bead high. A "
-        "section or layer sent twice (the sequence, or a program edited by hand); weld each stretch once",
+        "section or layer sent twice (the sequence, or a program edited by hand), or two walls of the part "
+        "closer than a bead width (a thin solid's two faces read as a surface: read it as a solid); weld "
+        "each stretch once",
         layer=idx,
         section=run.section,
         value=share,
