@@ -175,12 +175,18 @@ class SequenceNode(Node):
         }
 
 
+def _min_run(params) -> float:
+    """The shortest arc-ON run, mm: `min_arc_run_mm`, else two bead widths (12 mm when unknown)."""
+    bw = params.bead_width
+    return params.min_arc_run_mm if params.min_arc_run_mm is not None else (2.0 * bw if bw > 0 else 12.0)
+
+
 def _kernel_kw(params) -> dict:
     """The sequencing kernel's keywords for the node's params (`sequence_layer`)."""
     bw = params.bead_width
     clearance = bw if bw > 0 else DEFAULT_CLEARANCE
     shift = params.seam_shift if params.seam_shift > 0 else 2.0 * clearance
-    min_run = params.min_arc_run_mm if params.min_arc_run_mm is not None else (2.0 * bw if bw > 0 else 12.0)
+    min_run = _min_run(params)
     policy = "alternate" if params.alternate and params.seam == "auto" else params.seam
     return {
         "order": params.order,
@@ -242,7 +248,7 @@ def _report(ctx, params, layers, notes: list[dict]) -> None:
             short.setdefault((n["section"], n["kind"]), []).append(n)
         elif n["kind"] == "junction":
             junctions.setdefault(n["section"], []).append(n)
-    min_run = _kernel_kw(params)["min_run"] if short else 0.0
+    min_run = _min_run(params) if short else 0.0
     for (key, kind), runs in short.items():  # one warning a section and kind: a part of pins drops thousands
         ctx.warn(_short_runs(runs, kind, min_run), layer=runs[0]["layer"], section=key)
     for key, at in junctions.items():  # one warning a section, its layers named

@@ -123,10 +123,6 @@ def plan_passes(region: Polygon, guide: LineString, spacing: float, inset: float
     return PassPlan(tuple(passes), margin, width, is_straight(guide), long_guide, region)
 
 
-def unit(v: np.ndarray) -> np.ndarray:
-    return v / float(np.hypot(*v))
-
-
 def end_direction(pts: np.ndarray, at_start: bool = True) -> np.ndarray:
     """Unit direction out of the path at its start (backwards along its first stretch) or end
     (onwards along its last), from the nearest point that differs from the end point: a path may

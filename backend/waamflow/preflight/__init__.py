@@ -197,8 +197,10 @@ def _planned_top(rep: dict, toolpath_outputs: dict) -> None:
     from ..core.errors import layer_ranges
     from ..core.model import Layered, LayerPaths
 
+    from .check import ADD_LAYERS
+
     gaps = [p for p in rep.get("problems", []) if p["check"] == "top_gap" and p["severity"] == "fail"]
-    if not gaps or gaps[0]["layer"] is None or "last deposited layer" not in gaps[0]["message"]:
+    if not gaps or gaps[0]["layer"] is None or not gaps[0]["message"].endswith(ADD_LAYERS):
         return
     last = gaps[0]["layer"]
     above: list[int] = []
@@ -209,7 +211,7 @@ def _planned_top(rep: dict, toolpath_outputs: dict) -> None:
     if not above:
         return
     which = f"layer {above[0]}" if len(above) == 1 else f"layers {layer_ranges(above)}"
-    gaps[0]["message"] = gaps[0]["message"].split(": add layers")[0] + (
+    gaps[0]["message"] = gaps[0]["message"].removesuffix(ADD_LAYERS) + (
         f"; the plan has {which} above it, which weld{'s' if len(above) == 1 else ''} nothing: see the warnings "
         "of the nodes before (a sequence drops arc runs shorter than its min_arc_run_mm; a strategy may "
         "leave a feature narrower than a bead without a path)"

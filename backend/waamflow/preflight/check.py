@@ -465,6 +465,11 @@ def _layer_problems(
     weld_position_problems(layers, directions, spacing, cell, out, rep, s)
 
 
+#: The top gap's advice when the deposit ends below the top everywhere (run_preflight replaces it
+#: when the plan has layers up there that weld nothing: preflight._planned_top).
+ADD_LAYERS = ": add layers (slice `top: ceil`) or check for skipped layers"
+
+
 def _coverage_problems(
     part: Part,
     layers: list[tuple[int, list[Run]]],
@@ -504,7 +509,7 @@ def _coverage_problems(
                 "top_gap",
                 "fail",
                 f"the deposit ends {top_gap:.2f} mm short of the part's top ({part.top:.2f} mm); the last "
-                f"deposited layer is {last_idx}: add layers (slice `top: ceil`) or check for skipped layers",
+                f"deposited layer is {last_idx}{ADD_LAYERS}",
                 layer=last_idx,
                 value=top_gap,
                 limit=limit,

@@ -68,7 +68,7 @@ def layer_view(toolpath: Layered | None, lp: LayerPaths) -> list[tuple[SectionPa
     out: list[tuple[SectionPath, Spanning | None]] = []
     planar = lp.layer.frame is None
     for sp in lp.sections:
-        span = climb(sp, lp.layer) if planar else None
+        span = _climb(sp, lp) if planar else None
         lap = lap_in_layer(sp, lp.layer.z, lp.layer.thickness) if span is not None else None
         out.append((lap, span) if lap is not None else (sp, None))
     if toolpath is None or not planar:
