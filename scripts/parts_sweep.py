@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/parts_sweep.py DIR [--out out/sweep] [--patterns contour,parallel,...]
 
-Every STL/OBJ/PLY in DIR goes through mesh → slice (2 mm) → mask → strategy (each pattern, 5 mm
+Every STL/OBJ/PLY/3MF/STEP/IGES in DIR (and every DXF, its curves extruded 20 mm) goes through mesh → slice (2 mm) → mask → strategy (each pattern, 5 mm
 beads, 4 mm spacing) → sequence → post (G-code), and through mesh → slice → features → wall-path →
 sequence → post; the programs are kept even when the preflight fails (`--accept-preflight`), so
 each failure can be read in its preflight.json. A line per run: exit code, seconds, verdict and
@@ -22,12 +22,17 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = (".stl", ".obj", ".ply", ".off", ".3mf", ".step", ".stp", ".iges", ".igs")
+SKETCHES = (".dxf",)  # read by the sketch node: its curves extruded SKETCH_HEIGHT mm
+SKETCH_HEIGHT = 20.0
 
 
 def recipe(mesh: str, pattern: str | None) -> dict:
     """The generic recipe for one mesh: a strategy `pattern`, or wall-path when None."""
+    part = {"id": "part", "type": "mesh", "params": {"path": mesh}}
+    if Path(mesh).suffix.lower() in SKETCHES:
+        part = {"id": "part", "type": "sketch", "params": {"path": mesh, "height": SKETCH_HEIGHT}}
     nodes = [
-        {"id": "part", "type": "mesh", "params": {"path": mesh}},
+        part,
         {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
     ]
     edges = [{"from": "part.mesh", "to": "layers.mesh"}]
@@ -73,7 +78,7 @@ def main() -> int:
     args = ap.parse_args()
     exe = ROOT / ".venv" / "bin" / "waamflow"
     args.out.mkdir(parents=True, exist_ok=True)
-    meshes = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in MESHES and p.stat().st_size > 0)
+    meshes = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in MESHES + SKETCHES and p.stat().st_size > 0)
     for mesh in meshes:
         for pattern in [*args.patterns.split(","), None]:
             rec = recipe(mesh.name, pattern or None)

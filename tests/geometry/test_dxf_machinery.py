@@ -150,3 +150,57 @@ def test_a_dxf_without_curves_says_what_a_sketch_needs():
     assert "p.dxf" not in str(ei.value) and "e.dxf: no curves in layout 'Model' (0 entities, none a LINE" in str(
         ei.value
     )
+
+
+def _fragment(*entities: str, header: bool = False) -> bytes:
+    """A DXF as some writers leave it: an ENTITIES section with R2000 subclass markers (100 AcDb…)
+    and no $ACADVER (no HEADER section, or an empty one)."""
+    head = "0\nSECTION\n2\nHEADER\n0\nENDSEC\n" if header else ""
+    return (head + "0\nSECTION\n2\nENTITIES\n" + "".join(entities) + "0\nENDSEC\n0\nEOF\n").encode()
+
+
+LWPOLY = (  # closed 100 × 50 rectangle
+    "0\nLWPOLYLINE\n5\n3AC\n100\nAcDbEntity\n8\n0\n100\nAcDbPolyline\n90\n4\n70\n1\n"
+    + "".join(f"10\n{x}\n20\n{y}\n" for x, y in ((0, 0), (100, 0), (100, 50), (0, 50)))
+)
+SPLINE = (  # degree 3, 4 control points on a line from (0, 80) to (90, 80): a straight 90 mm curve
+    "0\nSPLINE\n5\n3D\n100\nAcDbEntity\n8\n0\n100\nAcDbSpline\n210\n0.0\n220\n0.0\n230\n1.0\n"
+    "70\n8\n71\n3\n72\n8\n73\n4\n74\n0\n"
+    + "".join(f"40\n{k}\n" for k in (0, 0, 0, 0, 1, 1, 1, 1))
+    + "".join(f"10\n{x}\n20\n80\n30\n0\n" for x in (0, 30, 60, 90))
+)
+
+
+@pytest.mark.parametrize("header", [False, True])
+def test_subclassed_entities_without_acadver_are_read_as_r2000_and_said(header):
+    """gdsestimating/dxf-parser's test drawings blocks.dxf and splines.dxf: entities written with
+    R2000 subclass markers in a file that declares no DXF version (no HEADER, or an empty one).
+    ezdxf took them for R12, where LWPOLYLINE and SPLINE do not exist, and refused the file
+    ("missing 'AcDbPolyline' subclass"); dxf-parser and CAD programs read them."""
+    res = load_sketch_bytes(_fragment(LWPOLY, SPLINE, header=header), "frag.dxf", height=10)
+    curves = sorted(res.midsurface.curves, key=len)
+    assert len(curves) == 2
+    lengths = sorted(_length(c) for c in curves)
+    assert lengths == pytest.approx([90.0, 300.0], rel=1e-6)  # the spline, the closed rectangle
+    assert any("$ACADVER" in r and "R2000" in r for r in res.repairs)
+
+
+def test_an_r12_drawing_without_acadver_is_not_relabelled():
+    """No subclass markers: an R12 drawing stays R12 (its LINE read, nothing said)."""
+    line = "0\nLINE\n8\n0\n10\n0\n20\n0\n30\n0\n11\n40\n21\n0\n31\n0\n"
+    res = load_sketch_bytes(_fragment(line), "r12.dxf", height=10)
+    assert [round(_length(c), 6) for c in res.midsurface.curves] == [40.0]
+    assert not any("$ACADVER" in r for r in res.repairs)
+
+
+def test_a_block_library_says_its_blocks_are_not_placed():
+    """dxf-parser's blocks.dxf: 300 block definitions and an empty modelspace (its paperspace
+    layouts orphaned): the error names the blocks, not only 'no curves'."""
+    doc = ezdxf.new("R2010")
+    for name in ("BRACKET", "RIB", "SKIN", "BOSS"):
+        doc.blocks.new(name).add_line((0, 0), (50, 0))
+    with pytest.raises(InputFileError) as err:
+        load_sketch_bytes(_bytes(doc), "lib.dxf", height=10)
+    text = str(err.value)
+    assert "defines 4 block(s)" in text and "'BRACKET', 'RIB', 'SKIN' and 1 more" in text
+    assert "places none in this layout" in text

@@ -8,7 +8,8 @@ import pytest
 
 from waamflow.core.errors import InputFileError
 from waamflow.geometry import load_sketch_bytes
-from waamflow.geometry.sketch import arc_segments, bulge_points, join_curves
+from waamflow.geometry.dxf import arc_segments, bulge_points
+from waamflow.geometry.sketch import join_curves
 from waamflow.slicing import slice_part
 
 

@@ -3,14 +3,9 @@
 JSON: ``{"curves": [[[x, y], ...], ...], "height": h, "z0": z}`` ("height", "z0" optional; the
 node's params win). A closed curve repeats its first point.
 
-DXF (modelspace, via ezdxf): LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D),
-ARC, CIRCLE, plus ELLIPSE and SPLINE, and INSERT/MINSERT (block references and
-arrays of them, exploded through ezdxf's `multi_insert`/`virtual_entities`). Arcs are
-discretised so that no chord deviates from the true arc by more than `arc_tolerance`: a chord
-spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
-Entities in an OCS (extrusion ±Z, e.g. mirrored arcs) are mapped to world coordinates.
-Entities without geometry for a midsurface (TEXT, DIMENSION, HATCH, POINT, ...) are skipped and
-reported. Open curves that meet end to end, with exactly two ends at the meeting point, are
+DXF (a layout, via ezdxf; `dxf.py`): LINE, LWPOLYLINE, POLYLINE, ARC, CIRCLE, ELLIPSE, SPLINE
+and block INSERT/MINSERT, arcs discretised within `arc_tolerance`; entities without geometry for
+a midsurface (TEXT, DIMENSION, HATCH, POINT, ...) are skipped and reported. Open curves that meet end to end, with exactly two ends at the meeting point, are
 joined into one polyline (a DXF outline drawn as separate LINEs/ARCs is one wall); points where
 three or more ends meet stay curve ends, they are wall junctions. Ends within `TOL.join` (mm)
 meet.
@@ -18,7 +13,6 @@ meet.
 
 from __future__ import annotations
 
-import io
 import json
 import math
 from dataclasses import dataclass
@@ -30,6 +24,7 @@ import numpy as np
 from ..core.errors import InputFileError
 from ..core.model import Midsurface
 from ..core.tolerances import TOL
+from .dxf import dedupe, dxf_doc_curves, dxf_layout, read_dxf_audited, unplaced_blocks
 from .units import conversion_notice, dxf_units
 
 SKETCH_FORMATS = ("json", "dxf", "step", "stp", "iges", "igs")
@@ -50,58 +45,8 @@ class SketchResult:
 
 
 # ------------------------------------------------------------------------------------------
-# Arc discretisation
-# ------------------------------------------------------------------------------------------
-def arc_segments(radius: float, sweep: float, tol: float) -> int:
-    """Number of chords for an arc of `radius` (mm) and |sweep| (rad) with sagitta ≤ tol (mm)."""
-    sweep = abs(sweep)
-    if radius <= tol:
-        return max(1, math.ceil(sweep / (math.pi / 2)))
-    max_step = 2.0 * math.acos(1.0 - tol / radius)
-    return max(1, math.ceil(sweep / max_step - 1e-9))
-
-
-def arc_points(center, radius: float, start: float, sweep: float, tol: float) -> np.ndarray:
-    """(k, 2) points along an arc from angle `start` (rad) by `sweep` (rad, + = CCW)."""
-    n = arc_segments(radius, sweep, tol)
-    if abs(sweep) >= 2 * math.pi - 1e-12:
-        n = max(n, 3)
-    t = start + sweep * np.linspace(0.0, 1.0, n + 1)
-    return np.column_stack([center[0] + radius * np.cos(t), center[1] + radius * np.sin(t)])
-
-
-def bulge_points(p0, p1, bulge: float, tol: float) -> np.ndarray:
-    """(k, 2) points from p0 to p1 along the DXF bulge arc (bulge = tan(sweep/4), + = CCW)."""
-    p0 = np.asarray(p0, dtype=float)
-    p1 = np.asarray(p1, dtype=float)
-    chord = float(np.hypot(*(p1 - p0)))
-    if bulge == 0.0 or chord == 0.0:
-        return np.array([p0, p1])
-    sweep = 4.0 * math.atan(bulge)
-    radius = chord / (2.0 * math.sin(abs(sweep) / 2.0))
-    mid = (p0 + p1) / 2.0
-    d = (p1 - p0) / chord
-    left = np.array([-d[1], d[0]])
-    # signed offset of the centre from the chord midpoint, + = left of p0→p1: a CCW arc under
-    # half a turn has its centre on the left; past half a turn (cos < 0) it flips side.
-    h = (1.0 if bulge > 0 else -1.0) * radius * math.cos(abs(sweep) / 2.0)
-    center = mid + left * h
-    start = math.atan2(p0[1] - center[1], p0[0] - center[0])
-    pts = arc_points(center, radius, start, sweep, tol)
-    pts[0], pts[-1] = p0, p1
-    return pts
-
-
-# ------------------------------------------------------------------------------------------
 # Curve clean-up and joining
 # ------------------------------------------------------------------------------------------
-def _dedupe(points: np.ndarray) -> np.ndarray:
-    if len(points) < 2:
-        return points
-    keep = np.concatenate([[True], np.linalg.norm(np.diff(points, axis=0), axis=1) > TOL.merge])
-    return points[keep]
-
-
 def join_curves(curves: list[np.ndarray], tol: float, joints: list | None = None) -> list[np.ndarray]:
     """Join open polylines that meet end to end at points where exactly two ends meet.
 
@@ -203,7 +148,7 @@ def sketch_from_curves(
             raise InputFileError(f"{name}: curve {i} must be a list of [x, y] points (got shape {a.shape})")
         if not np.isfinite(a).all():
             raise InputFileError(f"{name}: curve {i} has non-finite coordinates")
-        a = _dedupe(a * scale)
+        a = dedupe(a * scale)
         if len(a) < 2:
             raise InputFileError(f"{name}: curve {i} has fewer than two distinct points")
         out.append(a)
@@ -281,7 +226,7 @@ def load_sketch_bytes(
                 raise InputFileError(
                     f"{filename}: no curves in layout {layout!r} ({held} entities, none a LINE, ARC, CIRCLE, "
                     "(LW)POLYLINE, ELLIPSE, SPLINE or a block of them): a sketch is the walls' midsurface drawn "
-                    "as lines and arcs in the XY plane"
+                    "as lines and arcs in the XY plane" + unplaced_blocks(doc)
                 )
         file_h = file_z0 = None
     elif ext in ("step", "stp", "iges", "igs"):
@@ -332,234 +277,3 @@ def _cad_curves(data: bytes, filename: str, units: str, arc_tolerance: float):
     else:
         cc = planar_curves(cad, arc_tolerance / scale, filename)
     return cc.curves, cc.height, cc.z0, cad.file_unit, units, scale, notice
-
-
-# ------------------------------------------------------------------------------------------
-# DXF
-# ------------------------------------------------------------------------------------------
-def read_dxf_audited(data: bytes, filename: str):
-    """(ezdxf document, repairs): the document read in ezdxf's recover mode (ASCII) or read and
-    audited (binary), and every fix and unfixed error its auditor reports, as text naming the
-    entity (ezdxf's own messages, e.g. 'Removed invalid color index of LINE(#2F).')."""
-    from ezdxf import recover
-    from ezdxf.lldxf.const import DXFStructureError
-
-    try:
-        if data.startswith(b"AutoCAD Binary DXF"):
-            # binary DXF: ezdxf.readfile detects and reads it (the recover module reads ASCII only)
-            import ezdxf
-
-            from .through_file import read_through_file
-
-            doc = read_through_file(data, ".dxf", ezdxf.readfile)
-            auditor = doc.audit()
-        else:
-            doc, auditor = recover.read(io.BytesIO(data))
-    except (DXFStructureError, UnicodeDecodeError, ValueError, OSError) as exc:
-        raise InputFileError(f"{filename}: not a readable DXF file: {exc}") from exc
-    repairs = [f"repaired: {f.message}" for f in auditor.fixes]
-    repairs += [f"unrepaired error: {e.message}" for e in auditor.errors]
-    return doc, repairs
-
-
-def dxf_layout(doc, layout: str, filename: str):
-    """The layout named `layout` ("Model" / "modelspace" = the modelspace, else a paperspace
-    layout's name), or InputFileError listing the layouts the file has."""
-    if layout.lower() in ("model", "modelspace"):
-        return doc.modelspace()
-    names = list(doc.layouts.names())
-    for n in names:
-        if n.lower() == layout.lower():
-            return doc.layouts.get(n)
-    raise InputFileError(f"{filename}: no layout {layout!r}; the file has: {', '.join(names)}")
-
-
-def dxf_doc_curves(
-    doc, filename: str, tol: float, layout: str = "Model", defects: list | None = None, repairs: list | None = None
-) -> tuple[list[np.ndarray], dict[str, int]]:
-    """Polylines (k, 2) in file units from a layout of an ezdxf document (default: the
-    modelspace), and the skipped entity types → count. defects (optional list) receives one
-    text per degenerate entity skipped (zero radius, fewer than two vertices, a spline or ellipse
-    that cannot be discretised), naming its type and handle; they are skipped either way. repairs
-    (optional list) receives what was read otherwise than written (a block placed with z scale 0)."""
-    curves: list[np.ndarray] = []
-    skipped: dict[str, int] = {}
-    sink = [] if defects is None else defects
-    fixed = [] if repairs is None else repairs
-    for e in dxf_layout(doc, layout, filename):
-        _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink, repairs=fixed)
-    return curves, skipped
-
-
-def _where(filename: str, e) -> str:
-    return f"{filename}: {_entity(e)}"
-
-
-def _entity(e) -> str:
-    """'CIRCLE (handle 30, layer WALLS)': how messages name a DXF entity (an entity exploded from a
-    block reference has no handle of its own: its block is named instead)."""
-    handle = e.dxf.get("handle", None)
-    layer = e.dxf.get("layer", None)
-    src = f"handle {handle}" if handle else "in a block reference"
-    return f"{e.dxftype()} ({src}" + (f", layer {layer})" if layer else ")")
-
-
-def _skip(defects: list, skipped: dict, e, why: str) -> None:
-    """Skip a degenerate entity: counted under its type and named with its handle in defects."""
-    key = f"degenerate {e.dxftype()}"
-    skipped[key] = skipped.get(key, 0) + 1
-    defects.append(f"{_entity(e)}: {why}")
-
-
-def _ocs_to_xy(e, pts2d: np.ndarray, filename: str) -> np.ndarray:
-    """OCS (x, y) points of a planar entity → world (x, y); the entity must lie in an XY plane."""
-    extr = np.asarray(e.dxf.get("extrusion", (0.0, 0.0, 1.0)), dtype=float)
-    if abs(abs(extr[2]) - np.linalg.norm(extr)) > 1e-9:
-        x, y, z = (float(v) for v in extr)
-        raise InputFileError(
-            f"{_where(filename, e)} does not lie in an XY plane (its extrusion direction is "
-            f"({x:g}, {y:g}, {z:g}), not ±Z): a sketch is drawn in the XY plane; rotate or flatten "
-            "the entity in CAD (world UCS) or delete it"
-        )
-    if extr[2] > 0:
-        return pts2d
-    # OCS of extrusion (0, 0, -1): x axis is world -x (arbitrary axis algorithm), y stays world y
-    return np.column_stack([-pts2d[:, 0], pts2d[:, 1]])
-
-
-def _add(out: list, skipped: dict, kind: str, pts: np.ndarray) -> None:
-    """Keep a curve unless it has no length (zero-length LINEs are common CAD debris)."""
-    pts = _dedupe(np.asarray(pts, dtype=float))
-    if len(pts) < 2:
-        key = f"zero-length {kind}"
-        skipped[key] = skipped.get(key, 0) + 1
-        return
-    out.append(pts)
-
-
-def _entity_curves(
-    e,
-    filename: str,
-    tol: float,
-    out: list,
-    skipped: dict,
-    depth: int,
-    defects: list | None = None,
-    repairs: list | None = None,
-) -> None:
-    defects = [] if defects is None else defects
-    t = e.dxftype()
-    if t == "LINE":
-        s, n = e.dxf.start, e.dxf.end
-        _add(out, skipped, t, np.array([[s.x, s.y], [n.x, n.y]]))
-    elif t == "LWPOLYLINE":
-        pts = np.array([(x, y, b) for x, y, b in e.get_points("xyb")], dtype=float).reshape(-1, 3)
-        if len(pts) < 2:
-            return _skip(defects, skipped, e, f"{len(pts)} vertex, a curve needs two; skipped")
-        _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.closed), tol, filename, e), filename))
-    elif t == "POLYLINE":
-        if e.is_2d_polyline:
-            pts = np.array(
-                [(v.dxf.location.x, v.dxf.location.y, v.dxf.get("bulge", 0.0)) for v in e.vertices], dtype=float
-            ).reshape(-1, 3)
-            if len(pts) < 2:
-                return _skip(defects, skipped, e, f"{len(pts)} vertex, a curve needs two; skipped")
-            _add(out, skipped, t, _ocs_to_xy(e, _bulge_polyline(pts, bool(e.is_closed), tol, filename, e), filename))
-        elif e.is_3d_polyline:
-            pts = np.array([(v.dxf.location.x, v.dxf.location.y) for v in e.vertices], dtype=float).reshape(-1, 2)
-            if e.is_closed and len(pts):
-                pts = np.vstack([pts, pts[:1]])
-            _add(out, skipped, t, pts)
-        else:  # polyface / polygon mesh: a surface, no curve of a sketch
-            key = "POLYLINE mesh"
-            skipped[key] = skipped.get(key, 0) + 1
-    elif t in ("ARC", "CIRCLE"):
-        r = float(e.dxf.radius)
-        if not r > 0:
-            return _skip(
-                defects,
-                skipped,
-                e,
-                f"radius {r:g}, no curve; skipped (delete it in CAD if it is debris, or give it its radius)",
-            )
-        c = e.dxf.center
-        if t == "CIRCLE":
-            start, sweep = 0.0, 2 * math.pi
-        else:
-            start = math.radians(e.dxf.start_angle)
-            sweep = math.radians((e.dxf.end_angle - e.dxf.start_angle) % 360.0) or 2 * math.pi
-        pts = arc_points((c.x, c.y), r, start, sweep, tol)
-        if t == "CIRCLE":
-            pts[-1] = pts[0]
-        _add(out, skipped, t, _ocs_to_xy(e, pts, filename))
-    elif t in ("ELLIPSE", "SPLINE"):
-        try:
-            pts = np.array([(v.x, v.y) for v in e.flattening(tol)], dtype=float)
-        except Exception:  # ezdxf raises construction errors (even IndexError) for degenerate curves
-            return _skip(
-                defects,
-                skipped,
-                e,
-                "degenerate (too few distinct control or fit points, or a zero axis): "
-                "ezdxf cannot discretise it; skipped (redraw or delete it in CAD)",
-            )
-        _add(out, skipped, t, pts)
-    elif t == "INSERT":
-        if depth > 16:
-            raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
-        # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
-        for ins in e.multi_insert() if e.mcount > 1 else (e,):
-            subs = _block_entities(ins, skipped, defects, repairs)
-            for sub in subs:
-                _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects, repairs)
-    else:
-        skipped[t] = skipped.get(t, 0) + 1
-
-
-def _block_entities(ins, skipped: dict, defects: list, repairs: list | None) -> list:
-    """The entities a block reference places. A zero z scale (a flat block, as some exporters
-    write it) leaves a sketch's x and y as they are but cannot be inverted: ezdxf stopped with a
-    bare ZeroDivisionError (ezdxf's insert_zscale0.dxf); it is read as 1 and named in the
-    defects. A zero x or y scale collapses the block, and a transform ezdxf cannot apply skips
-    the reference, each named."""
-    sx, sy, sz = (float(ins.dxf.get(k, 1.0)) for k in ("xscale", "yscale", "zscale"))
-    name = ins.dxf.get("name", "?")
-    if sx == 0 or sy == 0:
-        _skip(
-            defects,
-            skipped,
-            ins,
-            f"block '{name}' placed at scale ({sx:g}, {sy:g}, {sz:g}): a zero x or y "
-            "scale collapses it to nothing; skipped (fix its scale in CAD)",
-        )
-        return []
-    if sz == 0:
-        label = _entity(ins)  # the copy has no handle
-        ins = ins.copy()
-        ins.dxf.zscale = 1.0
-        if repairs is not None:
-            repairs.append(
-                f"{label}: block '{name}' placed with z scale 0: read as 1 (a sketch's x and y do not depend on it)"
-            )
-    try:
-        return list(ins.virtual_entities())
-    except (ArithmeticError, ValueError) as exc:  # a transform ezdxf cannot build (a degenerate frame)
-        _skip(defects, skipped, ins, f"block '{name}' cannot be placed ({type(exc).__name__}: {exc}); skipped")
-        return []
-
-
-def _bulge_polyline(pts: np.ndarray, closed: bool, tol: float, filename: str, e) -> np.ndarray:
-    """(n, 3) rows (x, y, bulge) → (k, 2) polyline with bulge arcs discretised."""
-    if len(pts) < 2:
-        raise InputFileError(f"{_where(filename, e)}: has {len(pts)} vertex; a curve needs at least 2")
-    n = len(pts)
-    seg_count = n if closed else n - 1
-    parts = [pts[:1, :2]]
-    for i in range(seg_count):
-        a, b = pts[i], pts[(i + 1) % n]
-        seg = bulge_points(a[:2], b[:2], float(a[2]), tol)
-        parts.append(seg[1:])
-    out = np.vstack(parts)
-    if closed:
-        out[-1] = out[0]
-    return out
