@@ -204,3 +204,48 @@ def test_a_block_library_says_its_blocks_are_not_placed():
     text = str(err.value)
     assert "defines 4 block(s)" in text and "'BRACKET', 'RIB', 'SKIN' and 1 more" in text
     assert "places none in this layout" in text
+
+
+def test_entities_on_layers_turned_off_or_frozen_are_skipped_and_named():
+    """vagran/dxf-viewer's layers-off.dxf / layers-frozen.dxf: a drawing hides construction lines
+    on layers turned off or frozen; the sketch read them as walls (three 10 mm walls where the
+    drawing shows one). Hidden layers are skipped and counted by layer and state."""
+    doc = ezdxf.new("R2010")
+    doc.layers.add("OFF").off()
+    doc.layers.add("FROZEN").freeze()
+    doc.layers.add("ON")
+    msp = doc.modelspace()
+    msp.add_line((0, 0), (10, 0), dxfattribs={"layer": "OFF"})
+    msp.add_line((0, 2), (10, 2), dxfattribs={"layer": "ON"})
+    msp.add_line((0, 4), (10, 4), dxfattribs={"layer": "FROZEN"})
+    msp.add_circle((50, 0), 5, dxfattribs={"layer": "FROZEN"})
+    res = load_sketch_bytes(_bytes(doc), "layers.dxf", height=10)
+    assert len(res.midsurface.curves) == 1
+    assert res.midsurface.curves[0][:, 1] == pytest.approx([2.0, 2.0])
+    assert res.skipped == {
+        "LINE on layer 'OFF' (off)": 1,
+        "LINE on layer 'FROZEN' (frozen)": 1,
+        "CIRCLE on layer 'FROZEN' (frozen)": 1,
+    }
+
+
+def test_a_drawing_all_on_hidden_layers_says_so():
+    doc = ezdxf.new("R2010")
+    doc.layers.add("WALLS").off()
+    doc.modelspace().add_line((0, 0), (100, 0), dxfattribs={"layer": "WALLS"})
+    with pytest.raises(InputFileError) as err:
+        load_sketch_bytes(_bytes(doc), "hidden.dxf", height=10)
+    assert "1 LINE on layer 'WALLS' (off)" in str(err.value)
+    assert "turn the layer on" in str(err.value)
+
+
+def test_a_block_keeps_its_visible_entities_and_skips_its_hidden_ones():
+    doc = ezdxf.new("R2010")
+    doc.layers.add("AUX").freeze()
+    blk = doc.blocks.new("RIB")
+    blk.add_line((0, 0), (40, 0))  # layer 0: takes the reference's layer
+    blk.add_line((0, 5), (40, 5), dxfattribs={"layer": "AUX"})
+    doc.modelspace().add_blockref("RIB", (0, 0))
+    res = load_sketch_bytes(_bytes(doc), "blk.dxf", height=10)
+    assert [round(_length(c), 6) for c in res.midsurface.curves] == [40.0]
+    assert res.skipped == {"LINE on layer 'AUX' (frozen)": 1}

@@ -4,8 +4,8 @@ discretised within a chordal tolerance (used by the sketch node, `sketch.py`).
 A chord spanning angle Δ of radius r has sagitta r·(1 − cos(Δ/2)), hence Δ ≤ 2·acos(1 − tol/r).
 LINE, LWPOLYLINE (with bulges), POLYLINE (2D with bulges, 3D), ARC, CIRCLE, ELLIPSE, SPLINE and
 INSERT/MINSERT (exploded through ezdxf's `multi_insert`/`virtual_entities`); entities in an OCS
-(extrusion ±Z) are mapped to world coordinates; entities without curve geometry are skipped and
-counted, degenerate ones named (type, handle, why); what ezdxf's recover/audit repaired is said.
+(extrusion ±Z) are mapped to world coordinates; entities without curve geometry and those on
+layers the drawing hides (off or frozen) are skipped and counted, degenerate ones named (type, handle, why); what ezdxf's recover/audit repaired is said.
 """
 
 from __future__ import annotations
@@ -165,9 +165,33 @@ def dxf_doc_curves(
     skipped: dict[str, int] = {}
     sink = [] if defects is None else defects
     fixed = [] if repairs is None else repairs
+    hidden = hidden_layers(doc)
     for e in dxf_layout(doc, layout, filename):
-        _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink, repairs=fixed)
+        if not _hidden(e, hidden, skipped):
+            _entity_curves(e, filename, tol, curves, skipped, depth=0, defects=sink, repairs=fixed, hidden=hidden)
     return curves, skipped
+
+
+def hidden_layers(doc) -> dict[str, str]:
+    """Layer name (lower case) → 'off', 'frozen' or 'off, frozen' for the layers the drawing hides:
+    what is drawn there (construction lines, a second variant) is not shown, so not a wall."""
+    out = {}
+    for layer in doc.layers:
+        state = ", ".join(w for w, on in (("off", layer.is_off()), ("frozen", layer.is_frozen())) if on)
+        if state:
+            out[layer.dxf.name.lower()] = state
+    return out
+
+
+def _hidden(e, hidden: dict[str, str], skipped: dict) -> bool:
+    """True (and counted as "TYPE on layer 'NAME' (off)") when `e` lies on a hidden layer."""
+    name = e.dxf.get("layer", "0")
+    state = hidden.get(name.lower()) if hidden else None
+    if state is None:
+        return False
+    key = f"{e.dxftype()} on layer '{name}' ({state})"
+    skipped[key] = skipped.get(key, 0) + 1
+    return True
 
 
 def _where(filename: str, e) -> str:
@@ -225,6 +249,7 @@ def _entity_curves(
     depth: int,
     defects: list | None = None,
     repairs: list | None = None,
+    hidden: dict[str, str] | None = None,
 ) -> None:
     defects = [] if defects is None else defects
     t = e.dxftype()
@@ -290,7 +315,8 @@ def _entity_curves(
         for ins in e.multi_insert() if e.mcount > 1 else (e,):
             subs = _block_entities(ins, skipped, defects, repairs)
             for sub in subs:
-                _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects, repairs)
+                if not _hidden(sub, hidden or {}, skipped):
+                    _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects, repairs, hidden)
     else:
         skipped[t] = skipped.get(t, 0) + 1
 

@@ -236,8 +236,10 @@ def load_sketch_bytes(
     if not curves and (skipped or defects):
         kinds = ", ".join(f"{n} {t}" for t, n in sorted(skipped.items()))
         raise InputFileError(
-            f"{filename}: no curves in layout {layout!r}; skipped entities without curve geometry: "
-            f"{kinds or 'none'}" + (f"; degenerate: {'; '.join(defects[:5])}" if defects else "")
+            f"{filename}: no curves in layout {layout!r}; skipped entities (no curve geometry, degenerate or "
+            f"on a hidden layer): {kinds or 'none'}"
+            + (f"; degenerate: {'; '.join(defects[:5])}" if defects else "")
+            + ("; turn the layer on (and thaw it) in CAD to read what it holds" if " on layer '" in kinds else "")
         )
     if height is None:
         if file_h is None:

@@ -433,8 +433,8 @@ class SketchNode(Node):
     POLYLINE, ARC, CIRCLE, ELLIPSE, SPLINE, block INSERTs and MINSERT arrays; arcs discretised
     within `arc_tolerance`), from the modelspace or the paperspace layout named by `layout`. Curves
     meeting end to end (exactly two ends at a point) are joined into one polyline. DXF entities
-    without curve geometry (TEXT, DIMENSION, HATCH, ...) and zero-length ones are skipped with a
-    warning. STEP/IGES (OpenCascade): a midsurface of vertical wall faces gives its bottom curves,
+    without curve geometry (TEXT, DIMENSION, HATCH, ...), zero-length ones and those on layers the
+    drawing hides (off or frozen) are skipped with a warning. STEP/IGES (OpenCascade): a midsurface of vertical wall faces gives its bottom curves,
     z0 and height (IGES 144 trimmed surfaces); a file of curves only (IGES 126 B-splines, 110
     lines, 100 arcs) in one horizontal plane gives its curves at that plane's z; curves are
     discretised within `arc_tolerance`.
@@ -509,7 +509,9 @@ class SketchNode(Node):
         )
         if res.skipped:
             kinds = ", ".join(f"{n} {t}" for t, n in sorted(res.skipped.items()))
-            ctx.warn(f"{params.path}: skipped DXF entities (no curve geometry, zero length or degenerate): {kinds}")
+            ctx.warn(
+                f"{params.path}: skipped DXF entities (no curve geometry, zero length, degenerate, or on a layer the drawing hides): {kinds}"
+            )
         for what, items in (("degenerate entity skipped", res.defects), ("DXF read", res.repairs)):
             for text in items[:MAX_LISTED]:
                 ctx.warn(f"{params.path}: {what}: {text}")
