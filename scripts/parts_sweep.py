@@ -26,11 +26,12 @@ SKETCHES = (".dxf",)  # read by the sketch node: its curves extruded SKETCH_HEIG
 SKETCH_HEIGHT = 20.0
 
 
-def recipe(mesh: str, pattern: str | None) -> dict:
-    """The generic recipe for one mesh: a strategy `pattern`, or wall-path when None."""
-    part = {"id": "part", "type": "mesh", "params": {"path": mesh}}
+def recipe(mesh: str, pattern: str | None, units: str = "file") -> dict:
+    """The generic recipe for one mesh: a strategy `pattern`, or wall-path when None; `units`:
+    the input node's file units ("file": as the file says, else mm)."""
+    part = {"id": "part", "type": "mesh", "params": {"path": mesh, "units": units}}
     if Path(mesh).suffix.lower() in SKETCHES:
-        part = {"id": "part", "type": "sketch", "params": {"path": mesh, "height": SKETCH_HEIGHT}}
+        part = {"id": "part", "type": "sketch", "params": {"path": mesh, "height": SKETCH_HEIGHT, "units": units}}
     nodes = [
         part,
         {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
@@ -75,13 +76,14 @@ def main() -> int:
     ap.add_argument("dir", type=Path, help="folder of meshes")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "sweep")
     ap.add_argument("--patterns", default="contour,parallel,oscillate,raster,spiral")
+    ap.add_argument("--units", default="file", help="the files' length unit (e.g. m for robot link meshes)")
     args = ap.parse_args()
     exe = ROOT / ".venv" / "bin" / "waamflow"
     args.out.mkdir(parents=True, exist_ok=True)
     meshes = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in MESHES + SKETCHES and p.stat().st_size > 0)
     for mesh in meshes:
         for pattern in [*args.patterns.split(","), None]:
-            rec = recipe(mesh.name, pattern or None)
+            rec = recipe(mesh.name, pattern or None, args.units)
             path = args.dir / f"{rec['name']}.json"
             path.write_text(json.dumps(rec, indent=1))
             out = args.out / rec["name"]

@@ -22,8 +22,10 @@ class Tolerances:
     simplify: float = 1e-3
     # A path segment shorter than this is dropped (mm): robots cannot resolve it anyway.
     min_segment: float = 1e-3
-    # Planes exactly through vertices are nudged by this (mm) so sections are manifold loops.
-    plane_nudge: float = 1e-6
+    # A vertex this close to a section plane (mm) lies on it: a face meant to be flat whose
+    # corners a float32 exporter scattered by ~1e-4 mm around a mid-layer plane is cut just below,
+    # as an exact one is (slicing/planar.py), not through its noise.
+    plane_snap: float = 1e-3
     # Mesh input: vertices on open edges closer than `weld` (mm) are one vertex (exporters that
     # round each triangle's corners differently leave cracks of ~1e-5 relative).
     weld: float = 1e-3
