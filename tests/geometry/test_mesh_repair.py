@@ -161,3 +161,45 @@ def test_large_or_long_holes_are_not_filled(tmp_path):
     tri3, _ = _tube_tri()
     with pytest.raises(InputFileError, match="3 open edges"):
         _run(tmp_path, "h.stl", _soup_stl(np.delete(tri3, 5, axis=0)), {"crack_tolerance": 0, "as": "solid"})
+
+
+def _hollow_box_tri(invert_all=False):
+    """A 60 × 40 × 30 mm box with a 40 × 20 × 20 mm closed void inside, written as a CAD program
+    writes a hollow solid: the void's shell faces inwards (its volume negative)."""
+    outer = _box_tri()
+    inner = _box_tri((40, 20, 20))[:, ::-1]  # normals into the void
+    tri = np.concatenate([outer, inner])
+    return tri[:, ::-1] if invert_all else tri
+
+
+@pytest.mark.parametrize("invert_all", [False, True])
+def test_a_hollow_solid_keeps_its_void(tmp_path, invert_all):
+    """The repair turned every body of negative volume inside out: a hollow part's void shell
+    became a second solid, the void filled (the hollow box read as 88,000 mm³ of metal, not
+    56,000; every layer through the void a 2,400 mm² plate where it is a 1,600 mm² frame). A
+    negative body inside a positive one is a void and stays one; a file written wholly inside out
+    (both shells) is turned round as a whole."""
+    res = _run(tmp_path, "hollow.stl", _soup_stl(_hollow_box_tri(invert_all)), slice_=True)
+    mesh = res.outputs["m"]["mesh"]
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(72_000 - 16_000, rel=1e-6)
+    areas = [round(lay.region.area, 3) for lay in res.outputs["layers"]["layers"]]
+    assert len(areas) == 20
+    assert areas.count(1600.0) == 14 and areas.count(2400.0) == 6  # the void spans z 5-25: mid-planes 5.25-24.75
+    assert res.stats["m"].report["faces_rewound"] == (24 if invert_all else 0)
+
+
+def test_overlapping_outward_shells_stay_one_solid(tmp_path):
+    """A mesh of overlapping closed shells, each facing outwards (ros-industrial/abb's IRB 4400
+    link_1.stl: 6 shells): none is a void, the part is their union."""
+    tri = np.concatenate([_box_tri(), _box_tri((20, 20, 50), shift=(20, 0, 10))])
+    res = _run(tmp_path, "shells.stl", _soup_stl(tri), slice_=True)
+    mesh = res.outputs["m"]["mesh"]
+    assert signed_volume(mesh.vertices, mesh.faces) == pytest.approx(72_000 + 20_000, rel=1e-6)
+    assert res.stats["m"].report["faces_rewound"] == 0
+
+
+def test_a_void_is_reported(tmp_path):
+    res = _run(tmp_path, "hollow.stl", _soup_stl(_hollow_box_tri()))
+    assert res.stats["m"].report["voids"] == 1
+    msgs = " | ".join(w["message"] for w in res.warnings)
+    assert "1 closed void inside the part (22.2% of its volume" in msgs  # 16,000 of 72,000 mm³

@@ -270,6 +270,38 @@ def fill_small_holes(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
     return np.concatenate([f, np.asarray(new, dtype=np.int64)]), holes
 
 
+def inside_out_bodies(verts: np.ndarray, faces: np.ndarray, label: np.ndarray, vol: np.ndarray) -> np.ndarray:
+    """(n,) bool: the closed bodies to turn inside out, given each face's body `label` and the
+    bodies' signed volumes `vol`. A body of negative volume inside a body of positive volume is a
+    void (a hollow part's inner shell, written facing inwards) and is kept; any other negative body
+    is inside out. A file whose total volume is negative was written inside out as a whole and is
+    judged turned round (its void shells then face outwards). Before, every negative body was
+    turned: a hollow part read as solid, its void filled."""
+    sign = -1.0 if vol.sum() < 0 else 1.0
+    v = sign * vol
+    void = np.zeros(len(vol), dtype=bool)
+    neg = np.flatnonzero(v < 0)
+    pos = np.flatnonzero(v > 0)
+    if len(neg) and len(pos):
+        import trimesh
+
+        tri = verts[faces]
+        first = np.full(len(vol), len(faces))
+        np.minimum.at(first, label, np.arange(len(faces)))
+        probe = tri[first[neg]].mean(axis=1)  # a point on each negative body's surface
+        lo = np.full((len(vol), 3), np.inf)
+        hi = np.full((len(vol), 3), -np.inf)
+        np.minimum.at(lo, label, tri.min(axis=1))
+        np.maximum.at(hi, label, tri.max(axis=1))
+        for c in pos:
+            near = ~void[neg] & np.all((probe >= lo[c]) & (probe <= hi[c]), axis=1)
+            if near.any():
+                body = trimesh.Trimesh(verts, faces[label == c], process=False)
+                void[neg[near]] = body.contains(probe[near])
+    want_negative = void  # the final sign of each body: negative for voids only
+    return (vol < 0) != want_negative
+
+
 def repair_mesh(
     verts: np.ndarray,
     faces: np.ndarray,
@@ -286,8 +318,9 @@ def repair_mesh(
     an edge) get their own vertices (`split_nonmanifold`), kept only when every body is then
     closed; (3) winding: faces are re-wound consistently with their neighbours
     (`trimesh.repair.fix_winding`: a BFS over the face adjacency, well kept and already a
-    dependency, networkx included), then every closed body whose volume is negative is turned
-    inside out so normals point outwards. Counts: vertices_merged, holes_filled, nonmanifold_edges_split,
+    dependency, networkx included), then every closed body whose volume is negative and is not a
+    void inside a body of positive volume is turned inside out so normals point outwards
+    (`inside_out_bodies`). Counts: vertices_merged, holes_filled, nonmanifold_edges_split,
     faces_rewound (faces whose final winding differs from the file's), edges (final EdgeReport),
     and face_volumes (`face_volumes` of the returned vertices and faces) when it worked them out.
     edges: `edge_report_twins` of these faces when the caller has it (one sort of the edges less).
@@ -323,7 +356,12 @@ def repair_mesh(
         n, label = face_components(twin, len(faces))
         fv = face_volumes(verts, faces)
         vol = np.bincount(label, weights=fv, minlength=n)
-        inside_out = vol[label] < 0
+        flip = inside_out_bodies(verts, faces, label, vol)
+        inside_out = flip[label]
+        voids = np.where(flip, -vol, vol) < 0
+        if voids.any():  # the voids kept: how many, and their volume as a share of the solid bodies'
+            solid = float(np.abs(vol[~voids]).sum())
+            out["voids"] = (int(voids.sum()), float(np.abs(vol[voids]).sum()) / solid if solid > 0 else 0.0)
         if inside_out.any():
             faces = np.where(inside_out[:, None], faces[:, ::-1], faces)
         else:  # these faces' twins and bodies, for the slicer; their volumes for the caller

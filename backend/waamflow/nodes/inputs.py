@@ -94,8 +94,16 @@ def _report_mesh(ctx, params, mesh: MeshData, st: dict) -> None:
             "holes_filled": st.get("holes_filled", 0),
             "nonmanifold_edges_split": st["nonmanifold_edges_split"],
             "faces_rewound": st["faces_rewound"],
+            "voids": st.get("voids", (0, 0.0))[0],
         }
     )
+    if st.get("voids"):
+        n, share = st["voids"]
+        ctx.warn(
+            f"{params.path}: {n} closed void{'s' if n != 1 else ''} inside the part ({share:.1%} of its "
+            "volume; shells facing inwards), kept hollow: the layers around a void are frames, and its "
+            "roof is an overhang the layers above must bridge"
+        )
     for note in st.get("reader_notes", ()):
         ctx.warn(f"{params.path}: the file reader (trimesh) says: {note} (only the geometry is read)")
     if st.get("welded"):
