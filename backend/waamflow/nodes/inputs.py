@@ -292,7 +292,8 @@ class MeshNode(Node):
     Mesh files are then repaired where that cannot change the shape (`geometry.mesh_io.repair_mesh`):
     cracks up to `crack_tolerance` (default 0.1 mm) closed when that closes the mesh, missing
     facets (holes of 3 or 4 edges, at most 1 % of the surface) filled when that closes it, bodies
-    sharing an edge separated, faces re-wound consistently and outwards; every repair is
+    sharing an edge separated, faces re-wound consistently and outwards (a shell facing inwards
+    inside a solid one is a void and is kept, counted and warned); every repair is
     counted in the node report and warned. The repaired mesh is classified by what it measures:
     closed with a positive volume → solid; open without non-manifold or misoriented edges → a
     single-wall surface (`as: auto`, warned); anything else stops the run (exit 2) with the edge
