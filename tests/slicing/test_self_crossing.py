@@ -11,7 +11,8 @@ from waamflow.core.model import MeshData
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
-from waamflow.slicing.rings import repair_regions
+from waamflow.slicing.planar import Loops
+from waamflow.slicing.rings import loops_to_regions, repair_regions
 from waamflow.slicing.slicer import slice_part_scheduled
 
 # a 20 × 20 mm square whose outline runs a 4 mm tongue through its own right side, out to x = 30
@@ -68,3 +69,25 @@ def test_the_slice_node_warns_each_repaired_layer(tmp_path):
     assert [w["layer"] for w in crossing] == [0, 1, 2, 3]
     assert "self-intersection at (20.00, 12.00) mm" in crossing[0]["message"]
     assert "280.0 → 360.0 mm²" in crossing[0]["message"]
+
+
+def test_a_self_crossing_loop_of_one_body_crossed_by_another_body_is_united():
+    """ros-industrial/abb's IRB 6640 piston.stl: two shells, one folded so its section loop crosses
+    itself, the other crossing that loop. The bodies' polygons were united as they were and GEOS
+    stopped the slice node with "TopologyException: side location conflict" (exit 3, GEOS's words
+    as the message). The folded body's polygon is made valid first, and the repair reported."""
+    folded = [(0, 0), (30, 0), (30, 20), (10, 20), (10, -5), (5, -5), (5, 10), (0, 10)]
+    square = [(8, 2), (40, 2), (40, 30), (8, 30)]
+    loops = Loops(
+        coords=np.array(folded + square, dtype=float),
+        offsets=np.array([0, len(folded), len(folded) + len(square)]),
+        plane=np.array([0, 0]),
+        body=np.array([0, 1]),
+        void=np.array([False, False]),
+    )
+    repairs: list = []
+    (region,) = loops_to_regions(loops, 1, repairs)
+    assert region.is_valid
+    assert region.bounds == (0.0, -5.0, 40.0, 30.0)
+    assert region.area > 32 * 28  # the square and what the folded body adds
+    assert [(r[0], r[1].split("[")[0]) for r in repairs] == [(0, "Self-intersection")]

@@ -142,7 +142,34 @@ def _crossing_planes(rings, bbox, plane, body) -> np.ndarray:
     return np.unique(np.concatenate(hit))
 
 
-def _unite(polys: np.ndarray, void: np.ndarray):
+def _valid_polygons(polys: np.ndarray, plane: int, repairs: list | None) -> np.ndarray:
+    """The polygons with each invalid one made valid as `repair_regions` does (a body whose
+    surface passes through itself crosses its own loop; GEOS then stopped the union of the bodies
+    with "TopologyException: side location conflict": ros-industrial/abb's IRB 6640 piston.stl,
+    two shells, one folded), each repair appended to `repairs` as (plane, reason, area before,
+    area after)."""
+    bad = np.flatnonzero(~shapely.is_valid(polys))
+    if not len(bad):
+        return polys
+    out = polys.copy()
+    for i in bad.tolist():
+        fixed = _made_valid(out[i])
+        if repairs is not None:
+            repairs.append((plane, str(shapely.is_valid_reason(out[i])), float(out[i].area), float(fixed.area)))
+        out[i] = fixed
+    return out
+
+
+def _made_valid(geom) -> MultiPolygon:
+    """`geom` made valid by `shapely.make_valid` ('structure': the loops' outlines united, holes
+    cut), as one MultiPolygon."""
+    fixed = shapely.make_valid(geom, method="structure", keep_collapsed=False)
+    if fixed.geom_type == "GeometryCollection":  # polygons nested in it: one areal geometry
+        fixed = shapely.union_all([g for g in shapely.get_parts(fixed) if g.geom_type.endswith("Polygon")])
+    return as_multipolygon(region_polygons(fixed))
+
+
+def _unite(polys: np.ndarray, void: np.ndarray, plane: int = -1, repairs: list | None = None):
     """Region of one plane where bodies overlap: every solid polygon minus the cavity polygons
     it holds, then the union of them all.
 
@@ -151,6 +178,7 @@ def _unite(polys: np.ndarray, void: np.ndarray):
     whose outline (filled) contains it whole, so another body crossing the cavity fills it, as a
     union of the bodies should.
     """
+    polys = _valid_polygons(polys, plane, repairs)
     solids, voids = polys[~void], polys[void]
     if len(voids):
         outlines = shapely.polygons(shapely.get_exterior_ring(solids))
@@ -185,7 +213,7 @@ def loops_to_regions(
     regions: list[MultiPolygon] = [MultiPolygon() for _ in range(n_planes)]
     if len(loops) == 0:
         return regions
-    return repair_regions(_regions(loops, n_planes, regions), repairs)
+    return repair_regions(_regions(loops, n_planes, regions, repairs), repairs)
 
 
 def repair_regions(
@@ -206,17 +234,16 @@ def repair_regions(
         return regions
     out = list(regions)
     for i in bad.tolist():
-        fixed = shapely.make_valid(out[i], method="structure", keep_collapsed=False)
-        if fixed.geom_type == "GeometryCollection":  # polygons nested in it: one areal geometry
-            fixed = shapely.union_all([g for g in shapely.get_parts(fixed) if g.geom_type.endswith("Polygon")])
-        region = as_multipolygon(region_polygons(fixed))
+        region = _made_valid(out[i])
         if repairs is not None:
             repairs.append((i, str(shapely.is_valid_reason(out[i])), float(out[i].area), float(region.area)))
         out[i] = region
     return out
 
 
-def _regions(loops: Loops, n_planes: int, regions: list[MultiPolygon]) -> list[MultiPolygon]:
+def _regions(
+    loops: Loops, n_planes: int, regions: list[MultiPolygon], repairs: list | None = None
+) -> list[MultiPolygon]:
     coords, lid, plane, area, good = _clean(loops)
     k = len(plane)
     if k == 0:
@@ -263,5 +290,5 @@ def _regions(loops: Loops, n_planes: int, regions: list[MultiPolygon]) -> list[M
         poly_void = loops.void[loops.body[good][shell_ids]]
         for p in crossing:
             sel = poly_plane == p
-            multi[p] = _unite(polys[sel], poly_void[sel])
+            multi[p] = _unite(polys[sel], poly_void[sel], int(p), repairs)
     return multi
