@@ -10,6 +10,8 @@ import trimesh
 
 from waamflow.cli import main
 
+from tests.preflight.solid_recipe import solid_recipe
+
 
 def _recipe(tmp) -> str:
     body = trimesh.creation.box((40, 40, 10))
@@ -17,27 +19,7 @@ def _recipe(tmp) -> str:
     pin = trimesh.creation.box((3, 3, 2))  # the part's top: one 2 mm layer, narrower than a bead
     pin.apply_translation((0, 0, 11))
     trimesh.util.concatenate([body, pin]).export(tmp / "pin.stl")
-    rec = {
-        "format": "waamflow/1",
-        "name": "pin",
-        "nodes": [
-            {"id": "part", "type": "mesh", "params": {"path": "pin.stl"}},
-            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
-            {"id": "mask", "type": "mask", "params": {}},
-            {"id": "strategy", "type": "strategy", "params": {"default": {"pattern": "contour", "bead_width": 5}}},
-            {"id": "sequence", "type": "sequence", "params": {"order": "nearest", "retract_height": 5}},
-            {"id": "post", "type": "post-process", "params": {"weld_values": {"wire_feed_speed": 4}}},
-        ],
-        "edges": [
-            {"from": "part.mesh", "to": "layers.mesh"},
-            {"from": "layers.layers", "to": "mask.layers"},
-            {"from": "mask.sections", "to": "strategy.sections"},
-            {"from": "strategy.toolpath", "to": "sequence.toolpath"},
-            {"from": "sequence.toolpath", "to": "post.toolpath"},
-        ],
-    }
-    (tmp / "pin.json").write_text(json.dumps(rec))
-    return str(tmp / "pin.json")
+    return solid_recipe(tmp, "pin", "pin.stl", {"pattern": "contour", "bead_width": 5})
 
 
 def test_a_planned_top_layer_that_welds_nothing_is_named(tmp_path):

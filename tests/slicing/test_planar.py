@@ -184,3 +184,20 @@ def test_a_plane_through_a_noisy_flat_face_cuts_just_below_it(seed):
     exact_v, exact_f = _plate_with_boss(0.0)
     exact = loops_to_regions(section_loops(exact_v, exact_f, np.array([3.0])), 1)
     assert exact[0].area == pytest.approx(6000.0)
+
+
+def test_a_shell_inside_another_shells_outline_is_not_a_hole():
+    """Two closed shells facing outwards, a 20 × 20 mm post standing in a 60 × 40 mm base (a mesh
+    exported without a boolean union, as ros-industrial/abb's link meshes are): the post's loop lies
+    inside the base's without crossing it, and was nested even-odd with it, a 400 mm² hole through
+    every layer of the base (the bodies were united only where their loops crossed)."""
+    import trimesh
+
+    base = trimesh.creation.box(extents=[60, 40, 20])
+    base.apply_translation([30, 20, 10])
+    post = trimesh.creation.box(extents=[20, 20, 30])
+    post.apply_translation([30, 20, 15])
+    m = trimesh.util.concatenate([base, post])
+    regions = loops_to_regions(section_loops(m.vertices, m.faces, np.array([5.0, 15.0, 25.0])), 3)
+    assert [round(r.area, 6) for r in regions] == [2400.0, 2400.0, 400.0]
+    assert all(len(p.interiors) == 0 for r in regions for p in r.geoms)

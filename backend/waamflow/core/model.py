@@ -35,6 +35,7 @@ class MeshData:
     faces: np.ndarray
     name: str = "mesh"
     surface: bool = False  # an open single-wall surface: sliced into per-layer curves, not regions
+    bodies: int = 0  # closed bodies (faces joined across edges) when the mesh read counted them; 0: not counted
 
     @property
     def bounds(self) -> np.ndarray:

@@ -356,6 +356,7 @@ def repair_mesh(
         n, label = face_components(twin, len(faces))
         fv = face_volumes(verts, faces)
         vol = np.bincount(label, weights=fv, minlength=n)
+        out["bodies"] = int(n)
         flip = inside_out_bodies(verts, faces, label, vol)
         inside_out = flip[label]
         voids = np.where(flip, -vol, vol) < 0
@@ -461,7 +462,8 @@ def mesh_from_triangles(
         stats["volume_mm3"] = volume
         if rep is not None and not rep.closed:
             stats["defect_at"] = first_defect(verts, faces)
-    return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name)
+    bodies = int(fixes.get("bodies", 0))
+    return MeshData(vertices=verts, faces=np.ascontiguousarray(faces, dtype=np.int64), name=name, bodies=bodies)
 
 
 def mesh_file_units(data: bytes, filename: str) -> str:

@@ -6,6 +6,8 @@ their content is part of the node's signature.
 
 from __future__ import annotations
 
+import dataclasses
+
 from pathlib import PurePosixPath
 from typing import Literal
 
@@ -147,7 +149,7 @@ def _shifted(part, shift):
             name=part.name,
             joints=tuple((x + float(shift[0]), y + float(shift[1])) for x, y in part.joints),
         )
-    return MeshData(vertices=part.vertices + shift, faces=part.faces, name=part.name, surface=part.surface)
+    return dataclasses.replace(part, vertices=part.vertices + shift)
 
 
 def _stage(ctx):

@@ -39,6 +39,7 @@ DEFAULT_BEAD_WIDTH_MM = 6.0
 
 def _part_of(graph, outputs: dict, node_id: str):
     from ..core.model import Layered, Layer, MeshData, Midsurface
+    from .bodies import united
     from .check import Part
 
     upstream = graph.ancestors(node_id)
@@ -46,7 +47,10 @@ def _part_of(graph, outputs: dict, node_id: str):
     for nid in order:  # the first input in topological order is the part
         for value in outputs.get(nid, {}).values():
             if isinstance(value, MeshData):
-                return Part("surface" if value.surface else "solid", nid, vertices=value.vertices, faces=value.faces)
+                if value.surface:
+                    return Part("surface", nid, vertices=value.vertices, faces=value.faces)
+                vertices, faces, _n = united(value.vertices, value.faces, value.bodies)  # overlapping shells: one solid
+                return Part("solid", nid, vertices=vertices, faces=faces)
             if isinstance(value, Midsurface):
                 return Part("midsurface", nid, curves=value.curves, z0=value.z0, height=value.height)
     for nid in order:

@@ -260,14 +260,19 @@ def _regions(
             np.maximum.reduceat(coords[:, 1], starts),
         ]
     )
-    # where loops of different bodies cross, nest each body on its own and unite them after
+    # where loops of different bodies cross, or one body's loop lies inside another's (a shell
+    # standing in another without a boolean union: even-odd made it a hole), nest each body on its
+    # own and unite them after
     crossing = np.zeros(0, dtype=np.int64)
     group = None
+    polygons = shapely.polygons(rings)
     if len(loops.body) and len(np.unique(loops.body)) > 1:
         body = loops.body[good]
-        crossing = _crossing_planes(rings, bbox, plane, body)
+        pi, gi = _containment_pairs(polygons, probes, bbox, plane)
+        inside_other = plane[pi[body[pi] != body[gi]]]
+        crossing = np.union1d(_crossing_planes(rings, bbox, plane, body), inside_other)
         group = np.where(np.isin(plane, crossing), body, -1)
-    depth, parent = _nesting(shapely.polygons(rings), probes, bbox, plane, area, group)
+    depth, parent = _nesting(polygons, probes, bbox, plane, area, group)
     is_shell = depth % 2 == 0
     owner = np.where(is_shell, np.arange(k), parent)  # the shell each loop belongs to
 
