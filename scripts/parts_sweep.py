@@ -1,6 +1,7 @@
 """Run other people's meshes through the generic recipes and print each run's preflight verdict.
 
     .venv/bin/python scripts/parts_sweep.py DIR [--out out/sweep] [--patterns contour,parallel,...]
+        [--units m] [--placement on_plate]
 
 Every STL/OBJ/PLY/3MF/STEP/IGES in DIR (and every DXF, its curves extruded 20 mm) goes through mesh → slice (2 mm) → mask → strategy (each pattern, 5 mm
 beads, 4 mm spacing) → sequence → post (G-code), and through mesh → slice → features → wall-path →
@@ -26,12 +27,14 @@ SKETCHES = (".dxf",)  # read by the sketch node: its curves extruded SKETCH_HEIG
 SKETCH_HEIGHT = 20.0
 
 
-def recipe(mesh: str, pattern: str | None, units: str = "file") -> dict:
+def recipe(mesh: str, pattern: str | None, units: str = "file", placement: str = "as_is") -> dict:
     """The generic recipe for one mesh: a strategy `pattern`, or wall-path when None; `units`:
-    the input node's file units ("file": as the file says, else mm)."""
-    part = {"id": "part", "type": "mesh", "params": {"path": mesh, "units": units}}
+    the input node's file units ("file": as the file says, else mm); `placement`: the input node's
+    (on_plate for parts modelled away from z = 0, e.g. robot links in their joint frames)."""
+    common = {"path": mesh, "units": units, "placement": placement}
+    part = {"id": "part", "type": "mesh", "params": common}
     if Path(mesh).suffix.lower() in SKETCHES:
-        part = {"id": "part", "type": "sketch", "params": {"path": mesh, "height": SKETCH_HEIGHT, "units": units}}
+        part = {"id": "part", "type": "sketch", "params": {**common, "height": SKETCH_HEIGHT}}
     nodes = [
         part,
         {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
@@ -77,13 +80,14 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "sweep")
     ap.add_argument("--patterns", default="contour,parallel,oscillate,raster,spiral")
     ap.add_argument("--units", default="file", help="the files' length unit (e.g. m for robot link meshes)")
+    ap.add_argument("--placement", default="as_is", help="as_is, on_plate or centred (the input node's)")
     args = ap.parse_args()
     exe = ROOT / ".venv" / "bin" / "waamflow"
     args.out.mkdir(parents=True, exist_ok=True)
     meshes = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in MESHES + SKETCHES and p.stat().st_size > 0)
     for mesh in meshes:
         for pattern in [*args.patterns.split(","), None]:
-            rec = recipe(mesh.name, pattern or None, args.units)
+            rec = recipe(mesh.name, pattern or None, args.units, args.placement)
             path = args.dir / f"{rec['name']}.json"
             path.write_text(json.dumps(rec, indent=1))
             out = args.out / rec["name"]
