@@ -365,3 +365,20 @@ def test_a_split_into_runs_too_short_to_weld_is_not_taken():
     short = sum(x for x in runs if x < 2 * 5.0) / sum(runs)
     assert got.how != "split" and short <= SHORT_MAX and got.short_share == pytest.approx(short, abs=1e-9)
     assert len(runs) <= 3 and got.uncovered_share < 0.05
+
+
+def test_a_split_is_measured_for_retrace_in_both_directions():
+    """ros-industrial/abb's IRB 4400 link_6.stl, parallel, layer 46: a split whose two pieces laid
+    passes along their cut, a 24 mm pass on the last 24 mm of a 50 mm one. Measured as planned the
+    longer pass came second (0.48 of it on the shorter: under the 0.5 limit, accepted); the
+    sequence ran the section the other way and the preflight failed the 24 mm pass as 100 % welded
+    twice. The sequence may run a section either way: the worse direction counts."""
+    from waamflow.paths.spec import Path2D
+    from waamflow.paths.whole import retraced_share
+
+    short = np.array([[26.0, 0.0], [50.0, 0.0]])
+    long = np.array([[50.0, 0.3], [0.0, 0.3]])
+    pts = np.vstack([short, long])
+    arc = np.array([True, False, True])  # short pass, link, long pass
+    share = retraced_share(Path2D(pts, arc, np.ones(3, bool)), 5.0)
+    assert share == pytest.approx(1.0)

@@ -28,6 +28,7 @@ Pure: shapely + numpy, layer-local mm.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Literal
 
@@ -137,8 +138,9 @@ def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
 def retraced_share(path: Path2D, width: float) -> float:
     """The largest share of one arc-ON run of the path that lies on the bead of an earlier run,
     by the preflight's own rule (preflight.retrace: centre lines within 3/8 of a bead width,
-    running the same way or back). compas_slicer's distorted_a, layer 57: the pieces of a split
-    raster laid their passes along the cut 1.7 mm apart, one 55.9 mm run wholly on another."""
+    running the same way or back), the path run forwards or backwards, whichever is worse.
+    compas_slicer's distorted_a, layer 57: the pieces of a split raster laid their passes along the
+    cut 1.7 mm apart, one 55.9 mm run wholly on another."""
     from ..preflight.read.core import Run
     from ..preflight.retrace import _layer_retrace
     from ..process.coverage import arc_runs
@@ -149,8 +151,13 @@ def retraced_share(path: Path2D, width: float) -> float:
             n = len(r) - 1
             p = np.column_stack([r, np.zeros(len(r))])
             runs.append(Run(p, np.zeros(n), np.zeros(n), np.ones(n, bool), None, None, 0))
-    found = _layer_retrace(runs, width) if len(runs) > 1 else None
-    return found[0] if found is not None else 0.0
+    if len(runs) < 2:
+        return 0.0
+    # the sequence may run the section either way (ros-industrial/abb's IRB 4400 link_6.stl, layer
+    # 46: 0.47 as planned, 1.0 run backwards): the worse direction counts
+    backwards = [dataclasses.replace(r, points=r.points[::-1]) for r in reversed(runs)]
+    shares = [found[0] for found in (_layer_retrace(runs, width), _layer_retrace(backwards, width)) if found]
+    return max(shares, default=0.0)
 
 
 def short_share(path: Path2D, width: float) -> float:
