@@ -4,7 +4,7 @@ import trimesh
 
 from waamflow.core.errors import InputFileError
 from waamflow.geometry import MeshLimits, Transform, edge_report, load_mesh_bytes, merge_vertices
-from waamflow.geometry.mesh_io import STL_RECORD
+from waamflow.geometry.mesh_io import STL_RECORD, read_triangles
 from waamflow.geometry.topology import signed_volume
 
 
@@ -174,3 +174,59 @@ def test_ascii_stl_fast_parser_multi_solid_uppercase_and_fallback():
     # the fast path refuses it; trimesh reads it and the NaN is reported
     with pytest.raises(InputFileError, match="non-finite"):
         load_mesh_bytes(nan_file, "nan.stl")
+
+
+def _production_3mf(transforms: list[str]) -> bytes:
+    """A 3MF of the production extension: the root model's build items name their objects in
+    other model parts (`p:path`), as 3MF Consortium's cube_gears_prod_req.3mf does."""
+    import io
+    import zipfile
+
+    cube = trimesh.creation.box((10, 10, 10))
+    cube.apply_translation((5, 5, 5))
+    verts = "".join(f'<vertex x="{x}" y="{y}" z="{z}"/>' for x, y, z in cube.vertices)
+    tris = "".join(f'<triangle v1="{a}" v2="{b}" v3="{c}"/>' for a, b, c in cube.faces)
+    core = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+    prod = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
+    part = (
+        f'<?xml version="1.0" encoding="UTF-8"?><model xmlns="{core}" unit="millimeter"><resources>'
+        f'<object id="1" type="model"><mesh><vertices>{verts}</vertices><triangles>{tris}</triangles>'
+        "</mesh></object></resources><build/></model>"
+    )
+    items = "".join(
+        f'<item objectid="1" p:path="/3D/Objects/cube_{i}.model" transform="{t}"/>' for i, t in enumerate(transforms)
+    )
+    root = (
+        f'<?xml version="1.0" encoding="UTF-8"?><model xmlns="{core}" xmlns:p="{prod}" unit="millimeter" '
+        f'requiredextensions="p"><resources/><build>{items}</build></model>'
+    )
+    types = (
+        '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/'
+        'content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
+        'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.'
+        '3dmanufacturing-3dmodel+xml"/></Types>'
+    )
+    rels = (
+        '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/'
+        'package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" '
+        'Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>'
+    )
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("[Content_Types].xml", types)
+        z.writestr("_rels/.rels", rels)
+        z.writestr("3D/3dmodel.model", root)
+        for i in range(len(transforms)):
+            z.writestr(f"3D/Objects/cube_{i}.model", part)
+    return buf.getvalue()
+
+
+def test_3mf_build_items_in_other_model_parts_are_read():
+    """3MF Consortium's cube_gears_prod_req.3mf (production extension): every build item names its
+    object in another model part (p:path); trimesh reads such components but not such items, and
+    the mesh node said "mesh is empty (no triangles)" of a file of 17 parts."""
+    data = _production_3mf(["1 0 0 0 1 0 0 0 1 0 0 0", "1 0 0 0 1 0 0 0 1 30 0 0"])
+    tri = read_triangles(data, "p.3mf")
+    assert tri.shape == (24, 3, 3)
+    assert tri[:, :, 0].min() == pytest.approx(0.0) and tri[:, :, 0].max() == pytest.approx(40.0)
+    assert tri[:, :, 2].max() == pytest.approx(10.0)

@@ -181,6 +181,12 @@ def read_triangles(
     tri = ascii_stl_triangles(data) if fmt == "stl" else None
     if tri is None:
         tri = trimesh_triangles(data, fmt, filename=filename, notes=notes)
+    if fmt == "3mf" and not len(tri):
+        from .threemf import items_as_components
+
+        rewritten = items_as_components(data)
+        if rewritten is not None:
+            tri = trimesh_triangles(rewritten, fmt, filename=filename, notes=notes)
     if max_triangles is not None and len(tri) > max_triangles:
         raise InputFileError(f"{filename}: {len(tri)} triangles exceed the cap of {max_triangles}")
     return tri
