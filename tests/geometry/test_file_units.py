@@ -3,12 +3,12 @@ exactly once, `units` overrides it deliberately (with a notice), every conversio
 Files generated here with OpenCascade (IGES, STEP), ezdxf (DXF) and a plain XML zip (3MF)."""
 
 import io
-import zipfile
 
 import ezdxf
 import numpy as np
 import pytest
 
+from tests.geometry.package3mf import package_3mf
 from waamflow.engine.executor import FileResolver, execute
 from waamflow.engine.graph import build_graph
 from waamflow.engine.recipe import parse_recipe
@@ -102,23 +102,7 @@ def _threemf(unit: str, pad: int) -> bytes:
         f'<resources><object id="1" type="model"><mesh><vertices>{verts}</vertices><triangles>{tris}</triangles>'
         '</mesh></object></resources><build><item objectid="1"/></build></model>'
     )
-    rels = (
-        '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/'
-        'relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/'
-        '3dmanufacturing/2013/01/3dmodel"/></Relationships>'
-    )
-    types = (
-        '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/'
-        'content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
-        'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.'
-        '3dmanufacturing-3dmodel+xml"/></Types>'
-    )
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as z:
-        z.writestr("[Content_Types].xml", types)
-        z.writestr("_rels/.rels", rels)
-        z.writestr("3D/3dmodel.model", model)
-    return buf.getvalue()
+    return package_3mf({"3D/3dmodel.model": model})
 
 
 def test_3mf_unit_after_the_first_4_kb_is_read(tmp_path):

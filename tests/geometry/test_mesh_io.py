@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from tests.geometry.package3mf import package_3mf
 from waamflow.core.errors import InputFileError
 from waamflow.geometry import MeshLimits, Transform, edge_report, load_mesh_bytes, merge_vertices
 from waamflow.geometry.mesh_io import STL_RECORD, read_triangles
@@ -179,9 +180,6 @@ def test_ascii_stl_fast_parser_multi_solid_uppercase_and_fallback():
 def _production_3mf(transforms: list[str]) -> bytes:
     """A 3MF of the production extension: the root model's build items name their objects in
     other model parts (`p:path`), as 3MF Consortium's cube_gears_prod_req.3mf does."""
-    import io
-    import zipfile
-
     cube = trimesh.creation.box((10, 10, 10))
     cube.apply_translation((5, 5, 5))
     verts = "".join(f'<vertex x="{x}" y="{y}" z="{z}"/>' for x, y, z in cube.vertices)
@@ -200,25 +198,9 @@ def _production_3mf(transforms: list[str]) -> bytes:
         f'<?xml version="1.0" encoding="UTF-8"?><model xmlns="{core}" xmlns:p="{prod}" unit="millimeter" '
         f'requiredextensions="p"><resources/><build>{items}</build></model>'
     )
-    types = (
-        '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/'
-        'content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
-        'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.'
-        '3dmanufacturing-3dmodel+xml"/></Types>'
-    )
-    rels = (
-        '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/'
-        'package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" '
-        'Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>'
-    )
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as z:
-        z.writestr("[Content_Types].xml", types)
-        z.writestr("_rels/.rels", rels)
-        z.writestr("3D/3dmodel.model", root)
-        for i in range(len(transforms)):
-            z.writestr(f"3D/Objects/cube_{i}.model", part)
-    return buf.getvalue()
+    parts = {"3D/3dmodel.model": root}
+    parts.update({f"3D/Objects/cube_{i}.model": part for i in range(len(transforms))})
+    return package_3mf(parts)
 
 
 def test_3mf_build_items_in_other_model_parts_are_read():
