@@ -86,3 +86,20 @@ def test_one_layer_skipped_is_a_warning_and_the_bands_are_settings():
     assert strict["severity"] == "fail"
     with pytest.raises(ValueError, match="layer_gap_warn_layers must not exceed"):
         PreflightSettings(layer_gap_warn_layers=3, layer_gap_fail_layers=2)
+
+
+def test_every_other_pair_of_layers_skipped_is_measured_on_the_planned_layer_height():
+    """3MF Consortium's dodeca_chain_loop.3mf (contour, 5 mm beads, 2 mm layers): the links' thin
+    sections at layers 1-2 and 5-6 welded nothing, the program held layers 0, 3, 4 and 7, and the
+    preflight took the median slab (4 mm) for the layer height: no skipped layers, "17.7 % of the
+    part gets no bead; worst layer 7: 1.3 %". The program's layer numbers count the planned layers:
+    a slab under a layer 3 numbers above the last is 3 layers high."""
+    skip = [i for i in range(N) if i % 4 in (1, 2)]  # layers 0, 3, 4, 7, 8, 11, ... deposited
+    rep = _check(_program(skip=skip))
+    gaps = _gaps(rep)
+    assert [g["severity"] for g in gaps] == ["fail"]
+    assert "about 2 layers of 1.50 mm" in gaps[0]["message"]
+    assert "(4 more such gaps)" in gaps[0]["message"]
+    (unc,) = [p for p in rep["problems"] if p["check"] == "uncovered"]
+    assert rep["uncovered_share"] == pytest.approx(0.5, abs=0.02)  # 10 of 20 layers welded
+    assert "% of the part in the layers the program skips (skipped_layers)" in unc["message"]

@@ -33,6 +33,7 @@ from .retrace import retrace_problems
 from .position import weld_position_problems
 from .torch import build_directions, torch_axis_problems
 from .travel import travel_problems
+from .uncovered import uncovered_problem
 from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance, feed_per_mm
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
@@ -96,6 +97,7 @@ class Coverage(TypedDict):
     method: str
     sections: NotRequired[dict[int, Any]]
     seen_share: NotRequired[float]  # planar slabs: the part's volume share its layers' mid-plane sections hold
+    skipped_share: NotRequired[float]  # planar slabs: the part's volume share in layers the program skips
     excursions: NotRequired[dict[int, Any]]  # a solid's layer index → outside.slab_outside's figures
     sample_mm: NotRequired[float]  # the spacing used
     sample_asked_mm: NotRequired[float]  # the spacing asked: the settings' sample_mm, else a quarter bead (≥ 0.5 mm)
@@ -279,7 +281,7 @@ def coverage_planar(
         part_volume = mesh_volume(vertices, faces)
     else:
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
-    covered_vol = seen_vol = 0.0
+    covered_vol = seen_vol = skipped_vol = 0.0
     prev_top = part.bottom
     sections: dict[int, Any] = {}
     tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
@@ -296,7 +298,7 @@ def coverage_planar(
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
     s = s if s is not None else PreflightSettings()
-    typical = typical_height(prev_top, tops)
+    typical = typical_height(prev_top, tops, [i for i, _r in layers])
     gap_problems(slab_gaps([i for i, _r in layers], tops, prev_top, [c.area for c in covers], s), rep, s)
     for k, (idx, _runs) in enumerate(layers):
         z = tops[k]
@@ -308,6 +310,7 @@ def coverage_planar(
         slab = covered_height(k, h, typical, s)
         covered_vol += c.covered * slab
         seen_vol += area * slab
+        skipped_vol += area * (h - slab)  # the layers a tall slab lacks (gaps.py), at this section's area
         L = rep.layer(idx)
         L.update(
             z=_r(z, 3),
@@ -326,6 +329,7 @@ def coverage_planar(
         "method": "planar slabs",
         "sections": sections,
         "seen_share": min(1.0, seen_vol / part_volume) if part_volume > 0 else 1.0,
+        "skipped_share": min(1.0, skipped_vol / part_volume) if part_volume > 0 else 0.0,
     }
     if part.kind == "solid" and outside is not None:
         out["excursions"] = {idx: c.excursions for (idx, _runs), c in zip(layers, covers)}
@@ -523,69 +527,7 @@ def _coverage_problems(
             layer=last_idx,
             value=top_gap,
         )
-    share = cov["uncovered_share"]
-    if cov.get("seen_share") == 0.0 and rep.layers and share > s.uncovered_fail:  # no section holds any of it
-        rep.problem("uncovered", "fail", _unseen_part(part, rep), value=share, limit=s.uncovered_fail)
-    elif share > s.uncovered_warn:
-        sev = "fail" if share > s.uncovered_fail else "warn"
-        worst = max(
-            (L for L in rep.layers.values() if L.get("uncovered_share") is not None),
-            key=lambda L: L["uncovered_share"],
-            default=None,
-        )
-        where = ""
-        if worst is not None and worst["uncovered_share"] > 0:
-            where = (
-                f"; worst layer {worst['index']}: {worst['uncovered_share'] * 100:.1f} % "
-                + (f"({worst['uncovered_mm2']:.0f} mm²) " if worst.get("uncovered_mm2") is not None else "")
-                + "without a bead"
-            )
-        # the layers reach the part's top, yet most of what no bead reaches lies outside every
-        # section, more than the warning's share on its own: features thinner than a layer between
-        # mid-planes, which no plan of them reaches (a slanted side's sections miss far less: the
-        # midpoint rule, h²/24 of the section area's curvature)
-        between = 1.0 - cov.get("seen_share", 1.0) if top_gap is not None and top_gap <= 1e-6 else 0.0
-        if between >= 0.5 * share and between > s.uncovered_warn:
-            what = (
-                f"{share * 100:.1f} % of the part gets no bead: {between * 100:.1f} % of the part's volume is in no "
-                "layer's mid-plane section (a feature thinner than a layer between two layers' mid-planes, such "
-                "as a fin or a flange), so no plan of these layers covers it; finer layers (the slice's layer "
-                f"height) would cut it{where}"
-            )
-        elif cov.get("uncovered_flat_share", 0.0) >= 0.5 * share:
-            flat = cov.get("uncovered_flat_share", 0.0)
-            what = (
-                f"{share * 100:.1f} % of the part gets no bead{where}; {flat * 100:.1f} % of the part is horizontal "
-                "faces of the surface (caps, flanges, overhangs), which no planar layer cuts and walls do not "
-                "build: build them in another direction (fan-slice on a positioner), as solids, or add them after"
-            )
-        else:
-            what = f"{share * 100:.1f} % of the part gets no bead{where}: add a mask section or a filling pattern there"
-        rep.problem(
-            "uncovered",
-            sev,
-            what,
-            layer=worst["index"] if worst else None,
-            value=share,
-            limit=s.uncovered_fail if sev == "fail" else s.uncovered_warn,
-            point=(worst or {}).get("uncovered_point"),
-        )
-
-
-def _unseen_part(part: Part, rep: Report) -> str:
-    """The message when no layer's mid-plane cuts the part (every section empty): the slabs
-    measure nothing, so "100 % gets no bead" would blame the plan for what the layers cannot see
-    (trimesh's octagonal_pocket.stl read as mm: 0.016 mm tall, one 0.75 mm layer cut at
-    0.375 mm): planar slabs whose sections hold none of the part's volume (`seen_share` 0)."""
-    rows = list(rep.layers.values())
-    mids = sorted(L["z"] - L["height_mm"] / 2 for L in rows if L.get("z") is not None and L.get("height_mm"))
-    planes = ", ".join(f"{z:.3f}" for z in mids[:3]) + (", …" if len(mids) > 3 else "")
-    height = part.top - part.bottom
-    return (
-        f"no layer's mid-plane cuts the part: it spans z {part.bottom:.3f}–{part.top:.3f} mm ({height:.3g} mm tall) "
-        f"and the layers are cut at z {planes} mm, so no layer sees it. Check the mesh node's 'units' "
-        "(a part in m or in read as mm is tiny) or a layer height larger than the part"
-    )
+    uncovered_problem(part, cov, top_gap, rep, s)
 
 
 def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:

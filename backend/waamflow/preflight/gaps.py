@@ -36,11 +36,21 @@ class Gap(NamedTuple):
     area: float
 
 
-def typical_height(bottom: float, tops: Sequence[float]) -> float | None:
-    """The median height of the slabs (mm) under the deposited layers' tops; None without layers."""
+def typical_height(bottom: float, tops: Sequence[float], indices: Sequence[int] | None = None) -> float | None:
+    """The median height (mm) of a layer: of the slabs under the deposited layers' tops, each
+    divided by the number of layers its program numbers span (`indices`, the layer numbers the
+    program states: a slab under a layer numbered 3 above the last holds 3 planned layers); None
+    without layers. Without the numbers the median slab was the layer height, and a program missing
+    every other pair of layers read as one of 4 mm layers with none missing (3MF Consortium's
+    dodeca_chain_loop.3mf, 2 mm layers; layers 0, 3, 4, 7 deposited)."""
     if not len(tops):
         return None
-    return float(np.median(np.diff([bottom, *tops])))
+    heights = np.diff([bottom, *tops])
+    if indices is not None and len(tops) > 1:
+        steps = np.diff(np.asarray(indices, dtype=float))
+        if np.all(steps >= 1):  # numbered in build order: the slabs above the first, per layer
+            return float(np.median(heights[1:] / steps))
+    return float(np.median(heights))
 
 
 def covered_height(k: int, height: float, typical: float | None, s: PreflightSettings) -> float:
@@ -57,7 +67,7 @@ def slab_gaps(
 ) -> list[Gap]:
     """The deposited layers (after the first) whose slab is taller than `layer_gap_warn_layers`
     typical heights where the part has metal at the slab's middle (`areas`, mm²)."""
-    typical = typical_height(bottom, tops)
+    typical = typical_height(bottom, tops, indices)
     if not typical or typical <= 0:
         return []
     out = []
