@@ -190,36 +190,41 @@ def run_preflight(
         return None  # nothing leaves this run that could build a part
     if last:
         for rep in reports:
-            _planned_top(rep, outputs.get(last, {}))
+            _planned_empty(rep, outputs.get(last, {}))
     return _summary(reports, conservation(sums_here), s)
 
 
-def _planned_top(rep: dict, toolpath_outputs: dict) -> None:
-    """A top gap above layers the plan has (its last toolpath's) but welds nothing in: the message
-    names them and why such layers weld nothing, where it said to add layers (compas_slicer's
-    bunny: its ear tip's one 5.5 mm run dropped as shorter than the sequence's min_arc_run_mm)."""
+def _planned_empty(rep: dict, toolpath_outputs: dict) -> None:
+    """A top gap above, or a bottom gap below, layers the plan has (its last toolpath's) but welds
+    nothing in: the message names them and why such layers weld nothing, where it said to add
+    layers or to slice from the bottom (compas_slicer's bunny: its ear tip's one 5.5 mm run dropped
+    as shorter than the sequence's min_arc_run_mm; 3MF Consortium's heartgears.3mf: its 11 mm²
+    bottom tip, layer 0)."""
     from ..core.errors import layer_ranges
     from ..core.model import Layered, LayerPaths
 
+    from .bottom import FROM_BOTTOM
     from .check import ADD_LAYERS
 
-    gaps = [p for p in rep.get("problems", []) if p["check"] == "top_gap" and p["severity"] == "fail"]
-    if not gaps or gaps[0]["layer"] is None or not gaps[0]["message"].endswith(ADD_LAYERS):
-        return
-    last = gaps[0]["layer"]
-    above: list[int] = []
+    planned: list[int] = []
     for value in toolpath_outputs.values():
         if isinstance(value, Layered) and value.items and isinstance(value.items[0], LayerPaths):
-            above = [lp.layer.index for lp in value.items if lp is not None and lp.layer.index > last]
+            planned = [lp.layer.index for lp in value.items if lp is not None]
             break
-    if not above:
-        return
-    which = f"layer {above[0]}" if len(above) == 1 else f"layers {layer_ranges(above)}"
-    gaps[0]["message"] = gaps[0]["message"].removesuffix(ADD_LAYERS) + (
-        f"; the plan has {which} above it, which weld{'s' if len(above) == 1 else ''} nothing: see the warnings "
-        "of the nodes before (a sequence drops arc runs shorter than its min_arc_run_mm; a strategy may "
-        "leave a feature narrower than a bead without a path)"
-    )
+    for check, advice, side in (("top_gap", ADD_LAYERS, "above"), ("bottom_gap", FROM_BOTTOM, "below")):
+        gaps = [p for p in rep.get("problems", []) if p["check"] == check and p["severity"] == "fail"]
+        if not gaps or gaps[0]["layer"] is None or not gaps[0]["message"].endswith(advice):
+            continue
+        edge = gaps[0]["layer"]
+        empty = [i for i in planned if (i > edge if side == "above" else i < edge)]
+        if not empty:
+            continue
+        which = f"layer {empty[0]}" if len(empty) == 1 else f"layers {layer_ranges(empty)}"
+        gaps[0]["message"] = gaps[0]["message"].removesuffix(advice) + (
+            f"; the plan has {which} {side} it, which weld{'s' if len(empty) == 1 else ''} nothing: see the "
+            "warnings of the nodes before (a sequence drops arc runs shorter than its min_arc_run_mm; a "
+            "strategy may leave a feature narrower than a bead without a path)"
+        )
 
 
 def _last_toolpath(graph, outputs: dict[str, dict[str, Any]]) -> str | None:

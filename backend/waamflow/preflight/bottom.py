@@ -25,6 +25,11 @@ from .read.core import ProgramRead, Run
 PLATE_TOL_MM = 0.01  # below z = 0 by more than a post's rounding (3 decimals) and a little
 
 
+#: The bottom gap's advice, which `run_preflight` replaces when the plan has layers below the
+#: deposit that weld nothing (preflight/__init__.py `_planned_empty`).
+FROM_BOTTOM = ": slice from the part's bottom (clear the slice's `z_min`) or check for skipped layers"
+
+
 def bottom_problems(
     part: Any,
     prog: ProgramRead,
@@ -53,7 +58,7 @@ def bottom_problems(
             f"the deposit starts {gap:.2f} mm above the part's bottom ({part.bottom:.2f} mm): the first "
             f"deposited layer ({first}) lies at z = {z_low:.3f} mm where a first layer on the part's bottom "
             f"would lie at {part.bottom + h:.3f} mm, so the part below is never built and the first bead is "
-            "laid on nothing: slice from the part's bottom (clear the slice's `z_min`) or check for skipped layers",
+            f"laid on nothing{FROM_BOTTOM}",
             value=gap,
             limit=limit,
             point=[round(float(v), 3) for v in low_pt],
