@@ -26,11 +26,11 @@ def _shells() -> trimesh.Trimesh:
 
 def test_overlapping_shells_unite_to_their_solid():
     m = _shells()
-    v, f, n = united(np.asarray(m.vertices), np.asarray(m.faces))
-    assert n == 2
+    v, f, n, note = united(np.asarray(m.vertices), np.asarray(m.faces))
+    assert n == 2 and note is None
     assert signed_volume(v, f) == pytest.approx(60 * 40 * 20 + 20 * 20 * 10, rel=1e-9)  # 52,000 mm³
     one = trimesh.creation.box((10, 10, 10))
-    v1, f1, n1 = united(np.asarray(one.vertices), np.asarray(one.faces))
+    v1, f1, n1, _ = united(np.asarray(one.vertices), np.asarray(one.faces))
     assert n1 == 1 and v1 is not None and len(f1) == 12
 
 
@@ -40,7 +40,7 @@ def test_a_void_inside_overlapping_shells_stays_a_void():
     void.apply_translation((8, 8, 10))
     void.invert()  # facing inwards: a cavity in the base, clear of the post
     both = trimesh.util.concatenate([m, void])
-    v, f, n = united(np.asarray(both.vertices), np.asarray(both.faces))
+    v, f, n, _ = united(np.asarray(both.vertices), np.asarray(both.faces))
     assert n == 3
     assert signed_volume(v, f) == pytest.approx(52_000 - 600, rel=1e-9)
 
@@ -54,3 +54,16 @@ def test_a_program_on_overlapping_shells_passes(tmp_path):
     checks = {p["check"]: p["severity"] for p in rep["problems"]}
     assert "outside" not in checks and "uncovered" not in checks, rep["problems"]
     assert code == 0
+
+
+def test_bodies_manifold3d_refuses_are_checked_as_they_are_and_said():
+    """A body manifold3d does not take as a closed manifold (here a box with one face dropped
+    beside a whole one): the mesh is checked as it is, and the report's notes say so."""
+    box = trimesh.creation.box((10, 10, 10))
+    other = trimesh.creation.box((10, 10, 10))
+    other.apply_translation((30, 0, 0))
+    open_box = trimesh.Trimesh(other.vertices, other.faces[1:], process=False)
+    both = trimesh.util.concatenate([box, open_box])
+    v, f, n, note = united(np.asarray(both.vertices), np.asarray(both.faces))
+    assert n == 2 and len(f) == 23
+    assert note is not None and "not united" in note and "manifold3d" in note

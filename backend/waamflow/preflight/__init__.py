@@ -49,8 +49,8 @@ def _part_of(graph, outputs: dict, node_id: str):
             if isinstance(value, MeshData):
                 if value.surface:
                     return Part("surface", nid, vertices=value.vertices, faces=value.faces)
-                vertices, faces, _n = united(value.vertices, value.faces, value.bodies)  # overlapping shells: one solid
-                return Part("solid", nid, vertices=vertices, faces=faces)
+                vertices, faces, _n, note = united(value.vertices, value.faces, value.bodies)  # overlapping shells
+                return Part("solid", nid, vertices=vertices, faces=faces, notes=(note,) if note else ())
             if isinstance(value, Midsurface):
                 return Part("midsurface", nid, curves=value.curves, z0=value.z0, height=value.height)
     for nid in order:

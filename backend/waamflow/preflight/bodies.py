@@ -25,16 +25,16 @@ def body_labels(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
     return n, vlabel[f[:, 0]]
 
 
-def united(vertices: np.ndarray, faces: np.ndarray, bodies: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
-    """(vertices, faces, body count) of the solid the bodies make: unchanged for one body (`bodies`
-    == 1 skips the count: what the mesh read measured), else the union of the bodies of positive
-    volume less those of negative volume (manifold3d). A union manifold3d cannot make (a body it
-    does not take as a closed manifold) leaves the mesh as it is."""
+def united(vertices: np.ndarray, faces: np.ndarray, bodies: int = 0) -> tuple[np.ndarray, np.ndarray, int, str | None]:
+    """(vertices, faces, body count, note) of the solid the bodies make: unchanged for one body
+    (`bodies` == 1 skips the count: what the mesh read measured), else the union of the bodies of
+    positive volume less those of negative volume (manifold3d). A union manifold3d cannot make (a
+    body it does not take as a closed manifold) leaves the mesh as it is, and the note says so."""
     if bodies == 1 or not len(faces):
-        return vertices, faces, 1
+        return vertices, faces, 1, None
     n, label = body_labels(faces, len(vertices))
     if n == 1:
-        return vertices, faces, 1
+        return vertices, faces, 1, None
     import manifold3d
 
     v = np.ascontiguousarray(vertices, dtype=np.float64)
@@ -52,12 +52,18 @@ def united(vertices: np.ndarray, faces: np.ndarray, bodies: int = 0) -> tuple[np
             manifold3d.Mesh64(vert_properties=d, tri_verts=np.ascontiguousarray(tri, dtype=np.uint64))
         )
         if m.status() != manifold3d.Error.NoError:
-            return vertices, faces, n
+            note = (
+                f"the part's {n} bodies are checked as they are, not united: body {b} is not a closed "
+                f"manifold to manifold3d ({m.status().name}); where bodies overlap, sections read the "
+                "overlap as a hole"
+            )
+            return vertices, faces, n, note
         (solid if vol > 0 else void).append(m)
     if not solid:
-        return vertices, faces, n
+        return vertices, faces, n, None
     out = manifold3d.Manifold.batch_boolean(solid, manifold3d.OpType.Add)
     if void:
         out = out - manifold3d.Manifold.batch_boolean(void, manifold3d.OpType.Add)
     mesh = out.to_mesh64()
-    return np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3], np.asarray(mesh.tri_verts, dtype=np.int64), n
+    v_out = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3]
+    return v_out, np.asarray(mesh.tri_verts, dtype=np.int64), n, None

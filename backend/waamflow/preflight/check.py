@@ -62,6 +62,7 @@ class Part:
     z0: float = 0.0
     height: float = 0.0
     regions: list = field(default_factory=list)
+    notes: tuple[str, ...] = ()  # how the preflight read the part, when it is worth saying
 
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
         """(vertices, faces) of a solid or surface part; ValueError naming the part when it has none."""
@@ -362,7 +363,7 @@ def check_program(
         "format": prog.format,
         "runs": len(prog.runs),
         "layers_deposited": len(layers),
-        "notes": list(prog.notes),
+        "notes": list(prog.notes) + list(part.notes if part is not None else ()),
     }
     if prog.unplaced and s.unreadable != "off":
         n = len(prog.unplaced)
