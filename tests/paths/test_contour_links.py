@@ -13,6 +13,7 @@ import pytest
 import shapely
 from shapely.geometry import LineString, MultiLineString, Point, Polygon, box
 
+from waamflow.geometry.chordal_axis import chordal_axis
 from waamflow.paths import StrategySpec, plan_section
 from waamflow.paths.contour import offset_rings, step_over
 from waamflow.paths.deposit import deposit
@@ -149,3 +150,29 @@ def test_a_lobe_too_narrow_for_a_second_ring_gets_a_pass_along_its_core():
     assert uncovered.intersection(box(45, 14.25, 70, 25.75)).area == pytest.approx(2 * corners, abs=0.1)
     assert uncovered.area < 10.0
     assert max(_links(p, region)) <= 2 * D + 1e-6
+
+
+def test_a_chordal_axis_whose_spurs_are_all_pruned_keeps_its_tree():
+    """gumyr/build123d's low_poly_benchy.stl, contour, layer 15: a 7.5 mm² sliver (a near-duplicate
+    corner 4e-12 mm from another) whose axis tree lost every branch to the spur pruning, two nodes
+    and no edge left, and the strategy node stopped with "IndexError: index 1 is out of bounds"."""
+    sliver = Polygon(
+        [
+            (10.763473124906998, -6.572944821710626),
+            (10.763473124906998, -6.572944821706847),
+            (10.763589815007066, -5.984974470931165),
+            (10.764021298887792, -5.145314391997722),
+            (11.512155825509407, -5.149345418190999),
+            (13.070943818891797, -5.14086572418369),
+            (12.999473744050832, -6.016889943598313),
+            (12.948083793379501, -6.642838646376644),
+            (12.808291421988628, -7.884461076985955),
+            (12.622901996169826, -8.670223097415834),
+            (10.762679468938117, -8.639893366502132),
+        ]
+    )
+    axis = chordal_axis(sliver, 1.25)
+    assert len(axis) >= 2
+    length = float(np.hypot(*np.diff(axis, axis=0).T).sum())
+    assert 2.0 < length < 6.0  # across a 2.3 × 3.5 mm sliver, end to end
+    assert shapely.LineString(axis).buffer(1e-6).intersects(sliver)

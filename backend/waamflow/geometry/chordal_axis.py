@@ -73,7 +73,10 @@ def chordal_axis(polygon: Polygon, step: float | None = None) -> np.ndarray:
         graph[a].append(b)
         graph[b].append(a)
         length[a, b] = length[b, a] = d
-    axis = _extend(poly, xy[_longest_path(_pruned(graph, length, step), length)], size)
+    path = _longest_path(_pruned(graph, length, step), length)
+    if len(path) < 2:  # every branch was a spur, the pruned tree has no edge left: the whole tree
+        path = _longest_path(graph, length)
+    axis = _extend(poly, xy[path], size)
     # one point per chord is far more than a bead path needs: straight stretches to their ends
     return np.asarray(shapely.simplify(shapely.LineString(axis), SIMPLIFY * thickness).coords)
 
