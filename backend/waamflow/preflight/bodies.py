@@ -41,8 +41,10 @@ def united(vertices: np.ndarray, faces: np.ndarray, bodies: int = 0) -> tuple[np
     f = np.asarray(faces, dtype=np.int64)
     solid: list = []
     void: list = []
+    order = np.argsort(label, kind="stable")  # the faces body by body, one sort for all bodies
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(label, minlength=n))])
     for b in range(n):
-        fb = f[label == b]
+        fb = f[order[bounds[b] : bounds[b + 1]]]
         used, local = np.unique(fb, return_inverse=True)
         local = local.reshape(-1, 3)
         d = v[used]
