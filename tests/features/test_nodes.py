@@ -130,3 +130,33 @@ def test_helix_per_run_of_layers():
     z0 = helices[0][1].points[:, 2]
     z5 = helices[1][1].points[:, 2]
     assert (z0.min(), z0.max()) == (2.0, 6.0) and (z5.min(), z5.max()) == (12.0, 14.0)
+
+
+def test_the_same_warning_at_many_crossings_is_said_once_with_a_count(tmp_path):
+    """pythonocc-demos' Ventilator.stp through wall-path: 51 warnings, 17 of them "direct_crossing
+    at [x, y]: influence_radius 10 mm is below 20.1 mm …" (one per blade crossing, the numbers
+    differing) and 17 "wall piece at [x, y] lies inside the cutting circle: dropped". Notes that
+    differ only in their numbers are said once, with how many more and on which layers."""
+    skew = [[[0.0, y], [120.0, y + 60.0]] for y in (0.0, 30.0, 60.0)]  # three parallel walls
+    cross = [[[x, -10.0], [x, 140.0]] for x in (30.0, 60.0, 90.0)]  # three walls across them at 63°
+    (tmp_path / "grid.json").write_text(json.dumps({"curves": skew + cross, "height": 6.0}))
+    recipe = {
+        "format": "waamflow/1",
+        "name": "grid",
+        "nodes": [
+            {"id": "sketch", "type": "sketch", "params": {"path": "grid.json"}},
+            {"id": "layers", "type": "slice", "params": {"layer_height": 2.0}},
+            {"id": "features", "type": "features", "params": {}},
+            {"id": "walls", "type": "wall-path", "params": {"bead_width": 5.0, "influence_radius": 3.0}},
+        ],
+        "edges": [
+            {"from": "sketch.mesh", "to": "layers.mesh"},
+            {"from": "layers.layers", "to": "features.layers"},
+            {"from": "layers.layers", "to": "walls.layers"},
+            {"from": "features.features", "to": "walls.features"},
+        ],
+    }
+    res = execute(build_graph(parse_recipe(recipe)), resolver=FileResolver(tmp_path))
+    crossing = [w["message"] for w in res.warnings if w["node"] == "walls" and "influence_radius" in w["message"]]
+    assert len(crossing) == 1, crossing
+    assert crossing[0].endswith("(and 8 more like it, on layer 0)")

@@ -11,6 +11,7 @@ import shapely
 from pydantic import Field, model_validator
 
 from ..core import serialize
+from ..core.notes import Notes
 from ..core.errors import PlanningError
 from ..core.model import Layer, LayerPaths, Layered, SectionPath, region_polygons
 from ..core.tolerances import TOL
@@ -360,7 +361,8 @@ class WallPathNode(Node):
         centers = _ring_centerlines(ctx, layers, params.spacing)
         out: list[LayerPaths | None] = []
         helices: dict = {}  # (ring digest, first slot) → {key, ring, slot, last slot, zs}: one per run of layers
-        warned: set[str] = set()  # an extrusion repeats its notes on every layer: say each once
+        warned: set[str] = set()  # a note said once for the whole run
+        notes = Notes()  # the kernel's notes, layer by layer: said once per kind, after the layers
         planned: dict = {}  # an extrusion's layers share their wall passes (plan_layer_walls `memo`)
         pos = None
         seams: list[np.ndarray] = []  # world seams of the last ring layer: the next aligns to them
@@ -370,7 +372,7 @@ class WallPathNode(Node):
                 out.append(None)
                 continue
             if layer.curves:
-                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, warned, params.seam, planned)
+                passes = self._walls(ctx, layer, fs, spec, pos, helices, slot, notes, params.seam, planned)
             else:
                 passes = self._rings(ctx, layer, params, spec, pos, seams, centers, slot)
                 if passes and spec.tubular == "helical" and RINGS_NOT_HELICAL not in warned:
@@ -393,6 +395,8 @@ class WallPathNode(Node):
             n = len(pts) - 1
             sp = SectionPath(h["key"], "helical", pts, np.ones(n, bool), np.ones(n, bool), np.full(n, params.speed))
             out[h["slot"]] = LayerPaths(lp.layer, (sp,) + lp.sections, lp.dwell_after_s)
+        for index, text in notes.said():
+            ctx.warn(text, layer=index)
         if not any(lp is not None and lp.sections for lp in out):
             raise PlanningError(_no_wall(layers))
         return {"toolpath": Layered(tuple(out))}
@@ -406,7 +410,7 @@ class WallPathNode(Node):
         start,
         helices: dict,
         slot: int,
-        warned: set,
+        notes: Notes,
         seam: str = "stock",
         planned: dict | None = None,
     ) -> list[WallPass]:
@@ -420,9 +424,7 @@ class WallPathNode(Node):
             memo=planned,
         )
         for note in lw.warnings:
-            if note not in warned:
-                warned.add(note)
-                ctx.warn(note, layer=layer.index)
+            notes.add(note, layer.index)
         if not lw.helical:
             return list(lw.passes)
         passes = list(lw.passes)
