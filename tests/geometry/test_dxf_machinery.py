@@ -249,3 +249,20 @@ def test_a_block_keeps_its_visible_entities_and_skips_its_hidden_ones():
     res = load_sketch_bytes(_bytes(doc), "blk.dxf", height=10)
     assert [round(_length(c), 6) for c in res.midsurface.curves] == [40.0]
     assert res.skipped == {"LINE on layer 'AUX' (frozen)": 1}
+
+
+def test_a_block_that_places_itself_is_named():
+    """vagran/dxf-viewer's block-recursive.dxf: a block whose content places the block again. The
+    error said only "block references nested deeper than 16 levels"."""
+    doc = ezdxf.new("R2010")
+    a = doc.blocks.new("FRAME")
+    a.add_line((0, 0), (10, 0))
+    b = doc.blocks.new("RIB")
+    b.add_blockref("FRAME", (0, 5))
+    a.add_blockref("RIB", (0, 5))
+    doc.modelspace().add_blockref("FRAME", (0, 0))
+    with pytest.raises(InputFileError) as err:
+        load_sketch_bytes(_bytes(doc), "loop.dxf", height=10)
+    assert "places itself (FRAME → RIB → FRAME)" in str(err.value) or "places itself (RIB → FRAME → RIB)" in str(
+        err.value
+    )

@@ -310,6 +310,12 @@ def _entity_curves(
         _add(out, skipped, t, pts)
     elif t == "INSERT":
         if depth > 16:
+            cycle = _block_cycle(e.doc, e.dxf.get("name", "")) if e.doc is not None else None
+            if cycle:
+                raise InputFileError(
+                    f"{_where(filename, e)}: block '{cycle[0]}' places itself ({' → '.join(cycle)}): a block "
+                    "cannot hold itself; fix the block in CAD"
+                )
             raise InputFileError(f"{_where(filename, e)}: block references nested deeper than 16 levels")
         # MINSERT: one virtual INSERT per grid cell (ezdxf's multi_insert; a plain INSERT: itself)
         for ins in e.multi_insert() if e.mcount > 1 else (e,):
@@ -319,6 +325,29 @@ def _entity_curves(
                     _entity_curves(sub, filename, tol, out, skipped, depth + 1, defects, repairs, hidden)
     else:
         skipped[t] = skipped.get(t, 0) + 1
+
+
+def _block_cycle(doc, name: str) -> list[str] | None:
+    """The blocks from `name` round to a block that places itself again (['A', 'B', 'A']), or None:
+    what a reference nested past any sensible depth usually is (vagran/dxf-viewer's
+    block-recursive.dxf), named instead of "nested deeper than 16 levels"."""
+    path: list[str] = []
+
+    def visit(n: str) -> list[str] | None:
+        if n in path:
+            return path[path.index(n) :] + [n]
+        blk = doc.blocks.get(n)
+        if blk is None:
+            return None
+        path.append(n)
+        for ins in blk.query("INSERT"):
+            found = visit(ins.dxf.get("name", ""))
+            if found:
+                return found
+        path.pop()
+        return None
+
+    return visit(name)
 
 
 def _block_entities(ins, skipped: dict, defects: list, repairs: list | None) -> list:
