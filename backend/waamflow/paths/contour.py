@@ -136,8 +136,24 @@ def _cores(ringed: list[Polygon], inner: list[Polygon], w: float) -> list[np.nda
             continue
         if 2.0 * shapely.maximum_inscribed_circle(g, w / 1000.0).length < CORE_MIN * w:
             continue
-        out.append(chordal_axis(g, w / 4.0))
+        line = _centre_line(g, w / 4.0)
+        if line is not None:
+            out.append(line)
     return out
+
+
+def _centre_line(g: Polygon, step: float) -> np.ndarray | None:
+    """A core's centre line: its chordal axis, or its centre loop when it rings a hole (the chordal
+    axis fills holes: a torus layer's ring-shaped core was welded zigzag across its hole,
+    pythonocc-demos' torus_default_resolution.stl); None for a core round several holes, which is
+    left (the coverage measures it)."""
+    if not g.interiors:
+        return chordal_axis(g, step)
+    if len(g.interiors) == 1:
+        from ..curved.centerline import ring_centerline
+
+        return ring_centerline(g, max(step / 2.0, 0.05))[0]
+    return None
 
 
 def _sliver(p: Polygon, thin: float) -> np.ndarray | None:
