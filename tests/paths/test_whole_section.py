@@ -228,3 +228,22 @@ def test_a_whole_region_still_welded_off_is_warned(tmp_path, monkeypatch):
     (w,) = [w for w in res.warnings if w["node"] == "strategy"]
     assert (w["layer"], w["section"]) == (0, "region0")
     assert w["message"].startswith("7.5 mm of arc-ON path of section region0 on layer 0 runs off the part")
+
+
+@pytest.mark.parametrize("pattern", ["parallel", "raster", "oscillate"])
+def test_passes_across_a_hole_of_the_section_fly_arc_off(pattern):
+    """A mask section holding a hole of the part (planned as given: adapt off) kept the arc on across
+    the hole, `arc_outside: on` being meant for run-ups into the neighbouring sections: 377 mm of
+    weld in the hole of a 57.6/28.9 mm ring (parallel, 5.8 mm beads). The arc is off over the
+    section's holes; outside its outline `arc_outside` decides as before."""
+    from shapely.geometry import LineString, Point
+
+    from waamflow.paths import StrategySpec
+    from waamflow.paths.whole import plan_whole
+
+    region = Point(0, 0).buffer(57.6, quad_segs=16).difference(Point(1.8, 0).buffer(28.9, quad_segs=16))
+    path = plan_whole(region, None, StrategySpec(pattern=pattern, bead_width=5.8), adapt=False).path
+    hole = Point(1.8, 0).buffer(28.9 - 0.5)
+    on = [LineString(path.points[i : i + 2]) for i in range(len(path.arc)) if path.arc[i]]
+    assert sum(s.intersection(hole).length for s in on) == pytest.approx(0.0, abs=1e-6)
+    assert sum(s.length for s in on) > 1000.0  # the ring is still welded: ~2 × its area / bead width

@@ -62,7 +62,11 @@ def finish(points: np.ndarray, arc_ok: np.ndarray, region: Polygon, arc_outside:
         raise ValueError("the path has zero length (section smaller than the pattern's margins)")
     mids = shapely.points(0.5 * (pts[:-1] + pts[1:]))
     inside = shapely.dwithin(region, mids, INSIDE_TOL)
-    arc = ok & (inside | (arc_outside == "on"))
+    outside_ok = np.full(len(mids), arc_outside == "on")
+    holes = [Polygon(h) for g in shapely.get_parts(region) for h in getattr(g, "interiors", ())]
+    if arc_outside == "on" and holes:  # `on` is for run-ups into neighbouring sections; a hole is no section
+        outside_ok &= ~shapely.contains(shapely.union_all(holes), mids)
+    arc = ok & (inside | outside_ok)
     return Path2D(points=pts, arc=np.asarray(arc, dtype=bool), inside=np.asarray(inside, dtype=bool))
 
 
