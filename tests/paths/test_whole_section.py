@@ -247,3 +247,20 @@ def test_passes_across_a_hole_of_the_section_fly_arc_off(pattern):
     on = [LineString(path.points[i : i + 2]) for i in range(len(path.arc)) if path.arc[i]]
     assert sum(s.intersection(hole).length for s in on) == pytest.approx(0.0, abs=1e-6)
     assert sum(s.length for s in on) > 1000.0  # the ring is still welded: ~2 × its area / bead width
+
+
+def test_a_section_planned_as_given_that_welds_off_the_part_is_warned(tmp_path):
+    """A section planned as given (a drawn mask's, or `whole_regions: off`) was never measured for
+    weld off the part: a U's parallel passes crossed its notch arc-on (arc_outside 'on', 135 mm more
+    than a bead off the part a layer) with no word from the node; only the preflight failed the
+    program at the end. The node now measures such a section against the layer's part, as it does
+    a whole region, and warns the layer and section."""
+    res = run_part(
+        tmp_path,
+        U_SHAPE,
+        layers=1,
+        strategy={"whole_regions": "off", "default": {"pattern": "parallel", "spacing": 5.0}},
+    )
+    (w,) = [w for w in res.warnings if w["node"] == "strategy" and "runs off the part" in w["message"]]
+    assert (w["layer"], w["section"]) == (0, "region0")
+    assert float(w["message"].split(" mm of arc-ON")[0]) > 20.0

@@ -19,7 +19,7 @@ from ..engine.node import LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
 from ..paths import StrategySpec
 from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
-from ..paths.whole import OUTSIDE_TOL, plan_whole
+from ..paths.whole import OUTSIDE_TOL, outside_length, plan_whole
 
 
 class SectionStrategy(StrategySpec):
@@ -304,12 +304,20 @@ class StrategyNode(LayerNode):
                     layer=index,
                     section=s.key,
                 )
-            if whole.outside > OUTSIDE_TOL and ctx is not None:
-                ctx.warn(
-                    f"{whole.outside:.1f} mm of arc-ON path of section {s.key} on layer {index} runs off the "
-                    f"part beyond its run-ups ({whole.pattern}"
+            # a section planned as given (a drawn mask's) is measured against the layer's part here:
+            # arc_outside 'on' welds on beyond it, which may be the part's outside (a notch, a hole)
+            off = whole.outside if adapt else outside_length(ls.layer.region, path, spec)
+            if off > OUTSIDE_TOL and ctx is not None:
+                how = (
                     f"{', split at its corners' if whole.how == 'split' else ''}, the best of as planned, split "
-                    "and contour): set arc_outside 'off', choose contour, or draw a mask",
+                    "and contour): set arc_outside 'off', choose contour, or draw a mask"
+                    if adapt
+                    else ", planned as given, as a drawn section or `whole_regions: off` is): set arc_outside "
+                    "'off', choose contour, or change the mask"
+                )
+                ctx.warn(
+                    f"{off:.1f} mm of arc-ON path of section {s.key} on layer {index} runs off the "
+                    f"part beyond its run-ups ({whole.pattern}{how}",
                     layer=index,
                     section=s.key,
                 )
