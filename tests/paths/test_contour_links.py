@@ -192,3 +192,22 @@ def test_a_ring_shaped_core_is_welded_round_its_hole_not_across_it(hole):
     assert sum(s.intersection(inside_hole).length for s in on) == pytest.approx(0.0, abs=1e-9)
     bare = region.difference(deposit(path.points, path.arc, 5.0)).area
     assert bare / region.area < 0.02
+
+
+def test_a_sliver_with_corners_a_hair_apart_has_an_axis():
+    """A fuzzed section's split piece (contour, 7 mm beads): two corners 1e-16 mm apart gave a
+    degenerate triangle whose two chords were one chord, the axis tree a node paired with itself,
+    and the strategy node stopped with "IndexError: index 1 is out of bounds"."""
+    piece = Polygon(
+        [
+            (12.252339036033884, 5.649909715605903),
+            (12.252339036033884, 5.6499097156059035),
+            (13.050948639420389, 6.333414936498042),
+            (9.472405731340444, 15.68644006689191),
+            (11.038418166915076, 16.285609064853816),
+            (14.403348025940865, 7.490891677947521),
+        ]
+    )
+    axis = chordal_axis(piece, 1.745368379920603)
+    length = float(np.hypot(*np.diff(axis, axis=0).T).sum())
+    assert len(axis) >= 2 and 8.0 < length < 12.0  # along the 1.7 mm wide, ~10 mm long sliver

@@ -32,6 +32,9 @@ def chordal_axis(polygon: Polygon, step: float | None = None) -> np.ndarray:
     2·area/perimeter and 1/2000 of its size (the default). Holes are ignored (filled)."""
     poly = Polygon(polygon.exterior)
     size = max(poly.bounds[2] - poly.bounds[0], poly.bounds[3] - poly.bounds[1])
+    # corners a hair apart (an offset's 1e-16 mm, a mesh's 4e-12 mm) made degenerate triangles whose
+    # two chords were one: a node paired with itself, and an axis of one point
+    poly = shapely.remove_repeated_points(poly, 1e-9 * max(size, 1.0))
     thickness = 2.0 * poly.area / max(poly.length, 1e-12)
     rect = _rectangle_axis(poly)
     if rect is not None:
@@ -63,6 +66,7 @@ def chordal_axis(polygon: Polygon, step: float | None = None) -> np.ndarray:
         xy = np.vstack([xy, keys[tri[junction]].mean(axis=1)])
         pairs += [np.column_stack([mine[junction, j], centre]) for j in range(3)]
     pair = np.vstack(pairs)
+    pair = pair[pair[:, 0] != pair[:, 1]]  # a degenerate triangle's two chords are one: no edge
     if not len(pair):  # one chord: across the strip's middle
         a, b = keys[uniq[chords[0], 0]], keys[uniq[chords[0], 1]]
         n = np.array([b[1] - a[1], a[0] - b[0]])
