@@ -211,3 +211,25 @@ def test_a_sliver_with_corners_a_hair_apart_has_an_axis():
     axis = chordal_axis(piece, 1.745368379920603)
     length = float(np.hypot(*np.diff(axis, axis=0).T).sum())
     assert len(axis) >= 2 and 8.0 < length < 12.0  # along the 1.7 mm wide, ~10 mm long sliver
+
+
+def test_a_sliver_geos_cannot_triangulate_at_one_subdivision_has_an_axis():
+    """Fuzzed sections' split pieces (contour, 3.4-6.2 mm beads): GEOS's constrained Delaunay
+    triangulation of the boundary, subdivided at the piece's thickness, stopped with "Unable to
+    find a convex corner" and so did the strategy node. Other subdivisions triangulate."""
+    piece = Polygon(
+        [
+            (17.243117275495067, -8.602212782650993),
+            (18.472882607806252, -2.339596009371936),
+            (12.248232661735305, -3.0930578687353645),
+            (12.248232661735305, -3.093057868735363),
+            (20.94202623972748, -2.040718872816322),
+            (19.524258140756007, -9.260745364010283),
+            (19.524065454520844, -9.261726624431772),
+            (19.228581434154663, -10.766487844772408),
+            (16.947633255128885, -10.10697400299163),
+        ]
+    )
+    axis = chordal_axis(piece, 1.0288768687424004)
+    assert len(axis) >= 2
+    assert float(np.hypot(*np.diff(axis, axis=0).T).sum()) > 5.0
