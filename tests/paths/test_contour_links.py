@@ -233,3 +233,22 @@ def test_a_sliver_geos_cannot_triangulate_at_one_subdivision_has_an_axis():
     axis = chordal_axis(piece, 1.0288768687424004)
     assert len(axis) >= 2
     assert float(np.hypot(*np.diff(axis, axis=0).T).sum()) > 5.0
+
+
+@pytest.mark.parametrize("pattern", ["oscillate", "parallel"])
+def test_a_sliver_whose_mitre_growth_crosses_itself_is_planned(pattern):
+    """A fuzzed section's split piece (4.4 mm beads): its two corners 1e-16 mm apart made GEOS's
+    mitre buffer by 1e-6 mm come back crossing itself, and the chords the weave and the passes cut
+    from it stopped the strategy node with "TopologyException: side location conflict"."""
+    piece = Polygon(
+        [
+            (-5.647623353382841, 2.3033966369108576),
+            (0.5103385346962916, 10.884722141989041),
+            (1.670044128185606, 10.052517042453625),
+            (1.6700441281856053, 10.052517042453626),
+            (2.3225800061554205, 9.58425709068225),
+            (-4.107530781511144, 1.1982257217547525),
+        ]
+    )
+    path = plan_section(piece, None, StrategySpec(pattern=pattern, bead_width=4.355904305765767))
+    assert len(path.points) >= 2 and path.arc.any()

@@ -17,7 +17,7 @@ import numpy as np
 from shapely.geometry import LineString, Polygon
 
 from .flags import Draft
-from .frame import NUDGE, cross_chord, guide_or_default, guide_span, unit_tangent
+from .frame import cross_chord, nudged, guide_or_default, guide_span, unit_tangent
 from .spec import StrategySpec
 
 
@@ -48,7 +48,7 @@ def plan(region: Polygon, guide: LineString | None, spec: StrategySpec) -> Draft
     pts, normals = stations(region, g, spec.step)
     # chords are measured on the region grown by NUDGE so a station on a straight end of the section
     # (normal along the boundary edge) still sees that edge despite round-off
-    probe = region.buffer(NUDGE, join_style="mitre")
+    probe = nudged(region)
     strokes = []
     for k, (p, n) in enumerate(zip(pts, normals)):
         a, b = weave_limits(probe, p, n, spec.bead_width, reach)

@@ -17,7 +17,7 @@ import shapely
 from shapely.geometry import LineString, Polygon
 from shapely.ops import substring
 
-from .frame import NUDGE, cross_chord, extend_line, pass_layout, straight_frame
+from .frame import NUDGE, cross_chord, nudged, extend_line, pass_layout, straight_frame
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,7 +66,7 @@ def band(region: Polygon, guide: LineString, spacing: float) -> tuple[float, flo
         return t_min, t_max
     from .oscillate import stations  # curved guide: chords on the normals
 
-    probe = region.buffer(NUDGE, join_style="mitre")
+    probe = nudged(region)
     pts, normals = stations(region, guide, spacing / 2.0)
     lims = np.array([cross_chord(probe, p, n, reach_of(region)) for p, n in zip(pts, normals)])
     return float(lims[:, 0].min()) + NUDGE, float(lims[:, 1].max()) - NUDGE
