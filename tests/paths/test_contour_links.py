@@ -252,3 +252,25 @@ def test_a_sliver_whose_mitre_growth_crosses_itself_is_planned(pattern):
     )
     path = plan_section(piece, None, StrategySpec(pattern=pattern, bead_width=4.355904305765767))
     assert len(path.points) >= 2 and path.arc.any()
+
+
+def test_a_one_pass_spiral_section_whose_long_axis_misses_it_has_a_pass():
+    """A fuzzed section one spiral pass wide, V-shaped (two 27 mm arms 1.6 mm wide): the long axis of
+    its bounding rectangle lies outside it, no centre line was found, and a bare `assert` stopped
+    the strategy node ("AssertionError: "). Its chordal axis is the pass now."""
+    from waamflow.paths.spiral import _single_pass
+
+    v = Polygon(
+        [
+            (26.22697643367202, 6.445249664405813),
+            (22.81148937322997, 33.342257642238465),
+            (24.44687931843356, 33.54992584091778),
+            (27.766724693713048, 7.406097460403762),
+            (34.39877811504475, 11.544692111361465),
+        ]
+    )
+    spec = StrategySpec(pattern="spiral", bead_width=6.858402455946726)
+    draft = _single_pass(v, 2.159545856005882, np.array([26.98041218, 35.23817973]), spec)
+    line = LineString(draft.points)
+    assert line.length > 20.0  # along an arm, not a stub
+    assert v.buffer(0.5).contains(line)  # the pass stays on the section

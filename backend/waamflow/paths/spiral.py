@@ -24,6 +24,7 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import substring
 
+from ..geometry.chordal_axis import chordal_axis
 from .flags import Draft, extend_ends
 from .frame import guide_or_default, pass_layout
 from .passes import band, end_direction, to_boundary
@@ -124,7 +125,9 @@ def _single_pass(region: Polygon, m: float, g0: np.ndarray, spec: StrategySpec) 
     line = None if core is None or core.area == 0 else _core_line(core, m / 2.0, g0)
     if line is None:
         line = _core_line(region, 0.0, g0, keep_fraction=0.25)
-    assert line is not None  # the long axis of a non-empty region crosses it
+    if line is None:  # a bent section (a V) whose rectangle's long axis misses it: its chordal axis
+        axis = chordal_axis(region, max(m / 4.0, 1e-3))
+        line = axis if np.hypot(*(axis[0] - g0)) <= np.hypot(*(axis[-1] - g0)) else axis[::-1]
     entry = to_boundary(region, line[0], end_direction(line))
     pts = extend_ends(np.vstack([entry[None], line]), spec.extension_before, spec.extension_after)
     return Draft(pts, np.ones(len(pts) - 1, dtype=bool))
