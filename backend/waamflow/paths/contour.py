@@ -98,12 +98,9 @@ def offset_rings(region: Polygon, bead_width: float) -> list[list[np.ndarray]]:
         # narrower than one bead: one pass along its centre line (a ring's centre loop, else the
         # chordal axis: a straight axis through the region's centroid missed a bent or ring-shaped
         # region's middle: compas_slicer's branches_16, layer 71, a 4.9 mm ring, 89 % left bare)
-        if len(region.interiors) == 1:
-            from ..curved.centerline import ring_centerline
-
-            return [[ring_centerline(region, max(bead_width / 8.0, 0.05))[0]]]
-        if not region.interiors:
-            return [[chordal_axis(region, bead_width / 4.0)]]
+        line = _centre_line(region, bead_width / 4.0)
+        if line is not None:
+            return [[line]]
         c = region.centroid
         rect = np.asarray(shapely.minimum_rotated_rectangle(region).exterior.coords)[:4]
         e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
@@ -142,17 +139,17 @@ def _cores(ringed: list[Polygon], inner: list[Polygon], w: float) -> list[np.nda
     return out
 
 
-def _centre_line(g: Polygon, step: float) -> np.ndarray | None:
-    """A core's centre line: its chordal axis, or its centre loop when it rings a hole (the chordal
-    axis fills holes: a torus layer's ring-shaped core was welded zigzag across its hole,
-    pythonocc-demos' torus_default_resolution.stl); None for a core round several holes, which is
-    left (the coverage measures it)."""
+def _centre_line(g: Polygon, step: float, ring_step: float | None = None) -> np.ndarray | None:
+    """A piece's centre line: its chordal axis (`step`), or its centre loop when it rings one hole
+    (`ring_step`, default step/2: the chordal axis fills holes, and a torus layer's ring-shaped core
+    was welded zigzag across its hole, pythonocc-demos' torus_default_resolution.stl); None for a
+    piece round several holes (a core is then left, the coverage measures it)."""
     if not g.interiors:
         return chordal_axis(g, step)
     if len(g.interiors) == 1:
         from ..curved.centerline import ring_centerline
 
-        return ring_centerline(g, max(step / 2.0, 0.05))[0]
+        return ring_centerline(g, max(step / 2.0 if ring_step is None else ring_step, 0.05))[0]
     return None
 
 
@@ -164,11 +161,7 @@ def _sliver(p: Polygon, thin: float) -> np.ndarray | None:
         return None
     if 2.0 * shapely.maximum_inscribed_circle(p).length > thin:
         return None
-    if p.interiors:
-        from ..curved.centerline import ring_centerline
-
-        return ring_centerline(p, max(thin / 2.0, 0.05))[0]
-    return chordal_axis(p, thin / 2.0)
+    return _centre_line(p, thin / 2.0, ring_step=thin / 2.0)
 
 
 def _rotate(ring: np.ndarray, at: np.ndarray) -> np.ndarray:

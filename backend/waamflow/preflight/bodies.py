@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.graphs import connected_components
+from ..geometry.topology import signed_volume
 
 
 def body_labels(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
@@ -48,7 +49,7 @@ def united(vertices: np.ndarray, faces: np.ndarray, bodies: int = 0) -> tuple[np
         used, local = np.unique(fb, return_inverse=True)
         local = local.reshape(-1, 3)
         d = v[used]
-        vol = float(np.einsum("ij,ij->i", d[local[:, 0]], np.cross(d[local[:, 1]], d[local[:, 2]])).sum()) / 6.0
+        vol = signed_volume(d, local)
         tri = local if vol > 0 else local[:, ::-1]
         m = manifold3d.Manifold(
             manifold3d.Mesh64(vert_properties=d, tri_verts=np.ascontiguousarray(tri, dtype=np.uint64))

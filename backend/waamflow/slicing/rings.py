@@ -142,12 +142,12 @@ def _crossing_planes(rings, bbox, plane, body) -> np.ndarray:
     return np.unique(np.concatenate(hit))
 
 
-def _valid_polygons(polys: np.ndarray, plane: int, repairs: list | None) -> np.ndarray:
-    """The polygons with each invalid one made valid as `repair_regions` does (a body whose
-    surface passes through itself crosses its own loop; GEOS then stopped the union of the bodies
-    with "TopologyException: side location conflict": ros-industrial/abb's IRB 6640 piston.stl,
-    two shells, one folded), each repair appended to `repairs` as (plane, reason, area before,
-    area after)."""
+def _valid_polygons(polys: np.ndarray, planes, repairs: list | None) -> np.ndarray:
+    """The polygons with each invalid one made valid (`_made_valid`), each repair appended to
+    `repairs` as (its plane, `planes[i]`, GEOS's reason with where, area before, area after); the
+    same array when all are valid. A body whose surface passes through itself crosses its own loop,
+    and GEOS stopped the union of the bodies with "TopologyException: side location conflict"
+    (ros-industrial/abb's IRB 6640 piston.stl, two shells, one folded)."""
     bad = np.flatnonzero(~shapely.is_valid(polys))
     if not len(bad):
         return polys
@@ -155,7 +155,7 @@ def _valid_polygons(polys: np.ndarray, plane: int, repairs: list | None) -> np.n
     for i in bad.tolist():
         fixed = _made_valid(out[i])
         if repairs is not None:
-            repairs.append((plane, str(shapely.is_valid_reason(out[i])), float(out[i].area), float(fixed.area)))
+            repairs.append((planes[i], str(shapely.is_valid_reason(out[i])), float(out[i].area), float(fixed.area)))
         out[i] = fixed
     return out
 
@@ -178,7 +178,7 @@ def _unite(polys: np.ndarray, void: np.ndarray, plane: int = -1, repairs: list |
     whose outline (filled) contains it whole, so another body crossing the cavity fills it, as a
     union of the bodies should.
     """
-    polys = _valid_polygons(polys, plane, repairs)
+    polys = _valid_polygons(polys, [plane] * len(polys), repairs)
     solids, voids = polys[~void], polys[void]
     if len(voids):
         outlines = shapely.polygons(shapely.get_exterior_ring(solids))
@@ -229,16 +229,8 @@ def repair_regions(
         return regions
     arr = np.empty(len(regions), dtype=object)
     arr[:] = regions
-    bad = np.flatnonzero(~shapely.is_valid(arr))
-    if not len(bad):
-        return regions
-    out = list(regions)
-    for i in bad.tolist():
-        region = _made_valid(out[i])
-        if repairs is not None:
-            repairs.append((i, str(shapely.is_valid_reason(out[i])), float(out[i].area), float(region.area)))
-        out[i] = region
-    return out
+    out = _valid_polygons(arr, range(len(arr)), repairs)
+    return regions if out is arr else list(out)
 
 
 def _regions(
