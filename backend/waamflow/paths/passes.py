@@ -126,8 +126,24 @@ def plan_passes(region: Polygon, guide: LineString, spacing: float, inset: float
         if pts is not None:
             passes.append(Pass(t, pts))
     if not passes:
-        raise ValueError("no pass fits the section")
+        raise ValueError(_no_pass(long_guide, t_min, width, margin, n, spacing))
     return PassPlan(tuple(passes), margin, width, is_straight(guide), long_guide, region)
+
+
+def _no_pass(long_guide: LineString, t_min: float, width: float, margin: float, n: int, spacing: float) -> str:
+    """Why no offset of the guide crossed the section, and what to do."""
+    ts = [t_min + margin + k * spacing for k in range(n)]
+    folded = sum(1 for t in ts if abs(t) >= OFFSET_MIN_MM and len(shapely.get_parts(long_guide.offset_curve(t))) > 1)
+    text = (
+        f"no pass fits the section: none of the {n} offsets of its guide ({spacing:.2f} mm apart across its "
+        f"{width:.1f} mm wide band) crosses it"
+    )
+    if folded:
+        return (
+            text + f"; the guide turns back on itself ({folded} of its offsets fall apart): draw a smoother guide "
+            "with no turn sharper than the section is wide, or choose contour"
+        )
+    return text + ": draw the guide across the section, or choose contour"
 
 
 def end_direction(pts: np.ndarray, at_start: bool = True) -> np.ndarray:
