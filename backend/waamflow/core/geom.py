@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
@@ -27,3 +29,19 @@ def default_guide(region: Polygon) -> LineString:
     centre = c.mean(axis=0)
     half = 0.55 * length
     return LineString([centre - half * u, centre + half * u])
+
+
+def opened_hole(uncovered: Any, width: float, min_area: float) -> tuple[float, tuple[float, float] | None]:
+    """The area (mm²) of the largest piece of a layer's uncovered geometry at least half a bead wide
+    (opened by width / 4) and a point inside it; (0, None) when the uncovered area is under
+    `min_area` or nothing that wide is left."""
+    if uncovered is None or uncovered.is_empty or float(uncovered.area) < min_area:
+        return 0.0, None
+    r = width / 4.0
+    opened = uncovered.buffer(-r, quad_segs=4).buffer(r, quad_segs=4)
+    pieces = [g for g in shapely.get_parts(opened) if not g.is_empty]
+    if not pieces:
+        return 0.0, None
+    big = max(pieces, key=lambda g: g.area)
+    p = big.representative_point()
+    return float(big.area), (float(p.x), float(p.y))

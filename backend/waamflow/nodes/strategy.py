@@ -19,7 +19,7 @@ from ..engine.node import LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
 from ..paths import StrategySpec
 from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
-from ..paths.whole import OUTSIDE_TOL, outside_length, plan_whole
+from ..paths.whole import HOLE_MAX_WIDTHS, OUTSIDE_TOL, outside_length, plan_whole
 
 
 class SectionStrategy(StrategySpec):
@@ -295,6 +295,16 @@ class StrategyNode(LayerNode):
             except ValueError as e:
                 raise PlanningError(f"{spec.pattern}: {e}", layer=index, section=s.key) from e
             path = whole.path
+            w = spec.bead_width
+            if whole.uncovered_share <= limit and whole.hole_widths > HOLE_MAX_WIDTHS and ctx is not None:
+                ctx.warn(
+                    f"one place of {whole.hole_widths * w * w:.0f} mm² of section {s.key} on layer {index} gets no "
+                    f"bead ({whole.hole_widths:.1f} bead widths of bead, {100 * whole.uncovered_share:.1f} % of the "
+                    f"section; {whole.pattern}{', split at its corners' if whole.how == 'split' else ''}): the "
+                    "preflight fails a layer with such a place (hole); add a mask section there or choose contour",
+                    layer=index,
+                    section=s.key,
+                )
             if whole.uncovered_share > limit and ctx is not None:
                 ctx.warn(
                     f"{whole.uncovered:.1f} mm² ({100 * whole.uncovered_share:.1f} %) of section {s.key} on "

@@ -51,9 +51,14 @@ def deposit(points: np.ndarray, arc: np.ndarray, bead_width: float, weave: bool 
     return shapely.union(foot, tri.buffer(bead_width / 2.0, quad_segs=16))
 
 
+def uncovered(region: Polygon, points: np.ndarray, arc: np.ndarray, bead_width: float, weave: bool = False):
+    """The part of `region` no bead of the path reaches (shapely geometry)."""
+    foot = deposit(points, arc, bead_width, weave)
+    return region.difference(foot) if not foot.is_empty else region
+
+
 def uncovered_area(
     region: Polygon, points: np.ndarray, arc: np.ndarray, bead_width: float, weave: bool = False
 ) -> float:
     """Area (mm²) of `region` no bead of the path reaches."""
-    foot = deposit(points, arc, bead_width, weave)
-    return float(region.difference(foot).area) if not foot.is_empty else float(region.area)
+    return float(uncovered(region, points, arc, bead_width, weave).area)

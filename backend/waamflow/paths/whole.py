@@ -1,12 +1,13 @@
 """The whole section gets a path: plan a section and check what its path leaves without a bead.
 
 `plan_whole(region, guide, spec, adapt=...)` plans the section with its spec and measures the area
-its beads do not reach (`deposit.uncovered_area`) and the arc-ON centre line it welds off the
-region beyond the pattern's run-ups (`outside_length`). With `adapt` (a section the user did not
+its beads do not reach (`deposit.uncovered`), its largest such place, and the arc-ON centre line
+it welds off the region beyond the pattern's run-ups (`outside_length`). With `adapt` (a section the user did not
 draw: a connected region of a layer with no mask, whose outside is off the part) a path leaving more than
-`max_uncovered` of the area, or welding off the region (a parallel fill of a cross's whole layer
-crossed the notches between its arms, arc ON, up to 26 mm off the part), is replaced, in this
-order, by
+`max_uncovered` of the area, leaving one place larger than HOLE_MAX_WIDTHS bead widths of bead
+with no bead (the preflight's `hole`), or welding off the region (a parallel fill of a cross's
+whole layer crossed the notches between its arms, arc ON, up to 26 mm off the part), is replaced,
+in this order, by
 
 1. **split**: the region cut at its reflex corners (`sections.corners.corner_division`, the MPP
    corner division), each piece filled with the same spec along its own long axis, pieces visited
@@ -36,9 +37,10 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
 
+from ..core.geom import opened_hole
 from ..core.memo import Memo, digest
 from ..sections.corners import corner_division
-from .deposit import WEAVES, uncovered_area
+from .deposit import WEAVES, uncovered
 from .flags import finish
 from .frame import guide_or_default
 from .registry import plan_section
@@ -55,6 +57,12 @@ OUTSIDE_TOL = 0.01
 #: A candidate with a run welded on earlier beads over more than this share of its length is taken
 #: only when no other is left: the preflight's `retrace_max_share` default (it would fail it).
 RETRACE_MAX = 0.5
+#: A candidate leaving one place with no bead larger than this many bead widths of bead (its area
+#: over a bead width squared) is taken only when no other is left: the preflight's
+#: `hole_fail_widths` default (it would fail it). compas_slicer's bunny_closed_low_res, layer 29 at
+#: 2 mm: a spiral left 263 mm² of a lobe's centre (10.5 widths of a 5 mm bead), 1.7 % of the
+#: section, under max_uncovered.
+HOLE_MAX_WIDTHS = 6.0
 #: A candidate whose arc-ON runs shorter than two bead widths (the sequence's default
 #: min_arc_run_mm: it drops or bridges them) hold more than this share of its weld is taken only
 #: when no other is left.
@@ -76,7 +84,8 @@ class WholePath:
     (`outside_length`; measured for a whole region only, else 0); retraced: the largest share of
     one arc-ON run welded on the bead of an earlier run (`retraced_share`; measured for a split
     region only, else 0); short_share: the share of its arc-ON length in runs shorter than two bead
-    widths (`short_share`)."""
+    widths (`short_share`); hole_widths: its largest place with no bead at least half a bead wide, in
+    bead widths of bead (`_measure`)."""
 
     path: Path2D
     pattern: str
@@ -87,14 +96,20 @@ class WholePath:
     outside: float = 0.0
     retraced: float = 0.0
     short_share: float = 0.0
+    hole_widths: float = 0.0
 
     @property
     def uncovered_share(self) -> float:
         return self.uncovered / self.area if self.area > 0 else 0.0
 
 
-def _measure(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
-    return uncovered_area(region, path.points, path.arc, spec.bead_width, weave=spec.pattern in WEAVES)
+def _measure(region: Polygon, path: Path2D, spec: StrategySpec) -> tuple[float, float]:
+    """(area mm² of `region` no bead reaches, its largest place at least half a bead wide in bead
+    widths of bead: `core.geom.opened_hole`'s area / width², as the preflight's `hole` check)."""
+    unc = uncovered(region, path.points, path.arc, spec.bead_width, weave=spec.pattern in WEAVES)
+    w = spec.bead_width
+    hole, _at = opened_hole(unc, w, w * w)
+    return float(unc.area), hole / (w * w)
 
 
 def outside_length(region: Polygon, path: Path2D, spec: StrategySpec) -> float:
@@ -174,18 +189,20 @@ def short_share(path: Path2D, width: float) -> float:
 def _candidate(region: Polygon, path: Path2D, spec: StrategySpec, pattern: str, how: How, pieces: int) -> WholePath:
     """A whole region's path and its measures."""
     area = float(region.area)
+    unc, hole = _measure(region, path, spec)
     return WholePath(
         path,
         pattern,
         how,
         pieces,
-        _measure(region, path, spec),
+        unc,
         area,
         outside_length(region, path, spec),
         # pieces planned each on its own may lay passes on each other along their cuts; one kernel's
         # plan does not (tested pattern by pattern), and measuring it cost 10 % of a strategy's time
         retraced_share(path, spec.bead_width) if how == "split" else 0.0,
         short_share(path, spec.bead_width),
+        hole,
     )
 
 
@@ -195,6 +212,7 @@ def _good(w: WholePath, max_uncovered: float) -> bool:
         and w.outside <= OUTSIDE_TOL
         and w.retraced <= RETRACE_MAX
         and w.short_share <= SHORT_MAX
+        and w.hole_widths <= HOLE_MAX_WIDTHS
     )
 
 
@@ -256,7 +274,7 @@ def plan_whole(
     )
     got = _MEMO.get(key, lambda: _plan_whole(region, guide, spec, adapt=adapt, max_uncovered=max_uncovered))
     path = Path2D(got.path.points.copy(), got.path.arc.copy(), got.path.inside.copy())
-    return WholePath(path, got.pattern, got.how, got.pieces, got.uncovered, got.area, got.outside)
+    return dataclasses.replace(got, path=path)
 
 
 def _plan_whole(
@@ -264,7 +282,8 @@ def _plan_whole(
 ) -> WholePath:
     path = plan_section(region, guide, spec)
     if not adapt:
-        return WholePath(path, spec.pattern, "as planned", 1, _measure(region, path, spec), float(region.area))
+        unc, hole = _measure(region, path, spec)
+        return WholePath(path, spec.pattern, "as planned", 1, unc, float(region.area), hole_widths=hole)
     first = _candidate(region, path, spec, spec.pattern, "as planned", 1)
     if _good(first, max_uncovered):
         return first
@@ -294,5 +313,12 @@ def _plan_whole(
                 return got
             tried.append(got)
     return min(
-        tried, key=lambda w: (w.outside > OUTSIDE_TOL, w.retraced > RETRACE_MAX, w.short_share > SHORT_MAX, w.uncovered)
+        tried,
+        key=lambda w: (
+            w.outside > OUTSIDE_TOL,
+            w.retraced > RETRACE_MAX,
+            w.short_share > SHORT_MAX,
+            w.hole_widths > HOLE_MAX_WIDTHS,
+            w.uncovered,
+        ),
     )

@@ -34,7 +34,17 @@ from .position import weld_position_problems
 from .torch import build_directions, torch_axis_problems
 from .travel import travel_problems
 from .uncovered import uncovered_problem
-from .deposit import _arc_runs, _ignitions, _local_deposit, _speedless, _starved, _wire_balance, feed_per_mm
+from .holes import hole_problems
+from .deposit import (
+    _arc_runs,
+    _ignitions,
+    _local_deposit,
+    _speedless,
+    _starved,
+    _wire_balance,
+    feed_per_mm,
+    layer_balance,
+)
 from .outside import check_outside, outside_margin, outside_step
 from .read import ProgramRead, Run
 from .report import Report
@@ -323,6 +333,9 @@ def coverage_planar(
         )
         if c.uncovered_point is not None:
             L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3), round(z - h / 2, 3)]
+        if c.hole > 0 and c.hole_point is not None:
+            L.update(hole_mm2=_r(c.hole, 2), hole_kind="slab")
+            L["hole_point"] = [round(c.hole_point[0], 3), round(c.hole_point[1], 3), round(z - h / 2, 3)]
     share = max(0.0, 1.0 - covered_vol / part_volume) if part_volume > 0 else 0.0
     out: Coverage = {
         "part_volume_mm3": part_volume,
@@ -408,7 +421,7 @@ def check_program(
             **({"coverage_sample_asked_mm": _r(cov["sample_asked_mm"], 3)} if "sample_asked_mm" in cov else {}),
             layer_height_mm=_r(h_typ, 3),
         )
-        _coverage_problems(part, layers, cov, top_gap, h_typ, planar, rep, s)
+        _coverage_problems(part, layers, cov, top_gap, h_typ, planar, width, rep, s)
         # metal outside the part (outside.py): arc-ON centre lines off the part, stock at run ends aside
         stock = s.outside_stock_mm if s.outside_stock_mm is not None else stock_mm if stock_mm is not None else width
         fig = check_outside(
@@ -426,6 +439,8 @@ def check_program(
     _layer_problems(part, prog, layers, heights, h_typ, planar, width, cell, out, rep, s)
     dwells = dwell_metal(prog, layers, s)  # metal laid standing, arc on (dwell.py)
     _wire_balance(part, prog, layers, cov, weld_expected, out, rep, s, dwells)
+    if out.get("wire_part_volume_ratio") is not None:  # every move's metal known: each layer's balance
+        layer_balance(rep, width, s)
     _speedless(prog, rep, s)
     per, med = feed_per_mm(prog)  # each move's wire feed / speed and their median: the program's bead
     _local_deposit(per, med, width, rep, s)
@@ -482,11 +497,12 @@ def _coverage_problems(
     top_gap: float | None,
     h_typ: float | None,
     planar: bool,
+    width: float,
     rep: Report,
     s: PreflightSettings,
 ) -> None:
-    """The top gap (the deposit ends short of the part's top, or far above it) and the uncovered
-    share of the part as problems."""
+    """The top gap (the deposit ends short of the part's top, or far above it), the uncovered
+    share of the part and its layers' largest places with no bead (holes.py) as problems."""
     last_idx, last_runs = layers[-1]
     top_dep = max((float(r.points[:, 2].max()) for _i, runs in layers for r in runs), default=None)
     if top_gap is not None and h_typ and top_gap > s.top_gap_max_layers * h_typ + 1e-6:
@@ -529,6 +545,7 @@ def _coverage_problems(
             value=top_gap,
         )
     uncovered_problem(part, cov, top_gap, rep, s)
+    hole_problems(layers, width, h_typ, rep, s)
 
 
 def _finish(out: dict, rep: Report, s: PreflightSettings) -> dict:

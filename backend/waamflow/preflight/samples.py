@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .grouped import Grouped
+from .holes import wall_holes
 from .kd import query
 from .report import Report
 from .report import rounded as _r
@@ -128,17 +129,16 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         reach = math.hypot(width / 2.0, h) * 1.05 + step / 2.0
     else:
         reach = max(h, width / 2.0) * 1.1 + step / 2.0
-    unc = dist > reach
-    share = float(unc.mean())
     lay = dep_layer[near]
-    labels, at = np.unique(lay, return_inverse=True)  # the samples' nearest beads' layers
-    count, uncovered = np.bincount(at, minlength=len(labels)), np.bincount(at, weights=unc, minlength=len(labels))
-    where = {int(v): k for k, v in enumerate(labels)}
-    for idx, _runs in layers:
-        k = where.get(int(idx))
-        if k is not None:
-            L = rep.layer(idx)
-            L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
+    if part.kind != "solid":
+        unc, lay = wall_cover(
+            samples, dep, dep_layer, order, width / 2.0 * 1.1 + step / 2.0, reach, planar, part.bottom, s
+        )
+    else:
+        unc = dist > reach
+    share = float(unc.mean())
+    cell = measure / len(samples)
+    _layer_figures(part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, width, h, rep)
     # walls on planar layers build no horizontal face of a surface (no layer cuts it): a cap over an
     # opening lies above the bead below the opening, and is the uncovered check's, not a top gap
     extra: dict = {}
@@ -169,6 +169,164 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         "uncovered_by_layer": {},
         **extra,
     }
+
+
+#: Beads looked at per sample by `wall_cover` (its nearest, in chunks of WALL_CHUNK samples): the
+#: bead above a sample within a layer's reach, among the points of the layers below and beside it.
+WALL_NEAREST = 24
+WALL_CHUNK = 50_000
+
+
+def _layer_figures(
+    part: Part,
+    layers,
+    samples: np.ndarray,
+    unc: np.ndarray,
+    lay: np.ndarray,
+    cell_mm2: float,
+    spacing: float,
+    flat: np.ndarray | None,
+    width: float,
+    height: float | None,
+    rep: Report,
+) -> None:
+    """Each layer's samples and uncovered share (by `lay`, the samples' layers) and, on a wall, the
+    part volume they stand for (a bead `width` thick, a layer `height` high: each layer's metal
+    balance, deposit.layer_balance) and its largest place with no bead (holes.py; `flat`: the samples on horizontal faces, which no planar
+    layer builds)."""
+    labels, at = np.unique(lay, return_inverse=True)
+    count, uncovered = np.bincount(at, minlength=len(labels)), np.bincount(at, weights=unc, minlength=len(labels))
+    where = {int(v): k for k, v in enumerate(labels)}
+    for idx, _runs in layers:
+        k = where.get(int(idx))
+        if k is not None:
+            L = rep.layer(idx)
+            L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
+            if part.kind != "solid" and height:  # the wall its samples stand for, a bead wide
+                L.update(part_mm3=_r(float(count[k]) * cell_mm2 * width, 1), height_mm=_r(height, 3))
+    if part.kind == "solid":
+        return
+    for idx, (area, point, on_flat) in wall_holes(samples, unc, lay, cell_mm2, spacing, flat).items():
+        L = rep.layer(idx)
+        L.update(hole_mm2=_r(area, 2), hole_kind="wall", hole_point=[round(float(v), 3) for v in point])
+        if on_flat:
+            L["hole_flat"] = True
+
+
+def _slabs(
+    dep: np.ndarray, by_layer: Grouped, order: list, reach: float, planar: bool, bottom: float, s: PreflightSettings
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Each bead point's slab for `wall_cover`: (unit build direction, how far back along it the slab
+    goes (mm), whether it has no direction (a program of one layer: covered within `reach`), the
+    typical slab depth (mm))."""
+    from scipy.spatial import cKDTree
+
+    dep_layer = by_layer.labels
+    build = np.full(dep.shape, np.nan)  # each bead point's step from the layer before it
+    steps = np.ones(len(dep))  # the layers that step spans by the program's numbers
+    for a, b in zip(order, order[1:]):
+        ra, rb = by_layer.rows(a), by_layer.rows(b)
+        if len(ra) and len(rb):
+            _d, k = query(cKDTree(dep[ra]), dep[rb])
+            build[rb] = dep[rb] - dep[ra[k]]
+            steps[rb] = max(1, int(b) - int(a))
+    length = np.linalg.norm(build, axis=1)
+    first = ~np.isfinite(length) | (length <= 1e-9)
+    # a bead covers one layer of the layers its step spans: of a skipped layer's step (numbered past
+    # the one before it; on horizontal layers, a rise over layer_gap_warn_layers typical heights, as
+    # gaps.covered_height) one layer's share, not the metal the skipped layers lack
+    share = 1.0 / steps
+    if planar:  # the rise, not the step's length: a dome's rings step inward far more than up
+        rise = np.where(first, np.nan, np.abs(build[:, 2]) / steps)
+        typical_rise = float(np.nanmedian(rise)) if (~first).any() else 0.0
+        tall = np.nan_to_num(rise) > s.layer_gap_warn_layers * typical_rise + 1e-6
+        share = np.where(tall, share * typical_rise / np.where(tall, rise, 1.0), share)
+    cap = length * share
+    typical = float(np.nanmedian(np.where(first, np.nan, cap))) if (~first).any() else reach
+    unit = build / np.where(first, 1.0, length)[:, None]
+    # the first layer grows towards the layer after it and covers down to the part's bottom (at
+    # least a layer's reach below it): a sample just above it is the next layer's, as any other's
+    start = first & np.isin(dep_layer, order[:1])
+    if len(order) > 1 and start.any():
+        ra, rb = by_layer.rows(order[0]), by_layer.rows(order[1])
+        if len(rb):
+            _d, k = query(cKDTree(dep[rb]), dep[ra])
+            grow = dep[rb[k]] - dep[ra]
+            size = np.linalg.norm(grow, axis=1)
+            ok_dir = size > 1e-9
+            unit[ra[ok_dir]] = grow[ok_dir] / size[ok_dir, None]
+            down = np.maximum(reach, dep[ra, 2] - bottom) if planar else np.full(len(ra), reach)
+            cap[ra[ok_dir]] = down[ok_dir] / 1.05
+            first[ra[ok_dir]] = False
+    return unit, cap, first, typical
+
+
+def wall_cover(
+    samples: np.ndarray,
+    dep: np.ndarray,
+    dep_layer: np.ndarray,
+    order: list,
+    reach_xy: float,
+    reach: float,
+    planar: bool,
+    bottom: float,
+    s: PreflightSettings,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which samples of a wall (a midsurface or an open surface) no bead covers, and the layer of
+    the bead that covers each (else of its nearest bead). A bead point covers the slab it tops: from
+    itself back along its layer's build (to its nearest point of the layer before, `order`; of a
+    step over skipped layers one layer's share, as `gaps.covered_height`) and within `reach_xy` (mm)
+    across; the first layer's points back from the way to the next layer, down to the part's
+    `bottom` (planar) or `reach` (mm); a program of one layer, anything within `reach`. A sample
+    up to a tenth of a layer above a bead (half a layer above the last layer's) is in its slab too.
+    The nearest bead within a
+    layer spacing in any direction (what covered a wall before) covered a missing stretch from the
+    layers above and below it: thin-wall-panel with its layer 7 deleted from the G-code, or half a
+    section's moves welded arc OFF, passed "ok"."""
+    from scipy.spatial import cKDTree
+
+    from .check import PLANAR_TOL_MM
+
+    by_layer = Grouped(dep_layer)
+    unit, cap, first, typical = _slabs(dep, by_layer, order, reach, planar, bottom, s)
+    last = np.isin(dep_layer, [order[-1]]) if order else np.zeros(len(dep), bool)
+    # a sample stands for its grid cell: it lies in a bead's slab when its centre does (no cell's
+    # slack along the build, which covered a skipped layer's slab from the layer above); a sample
+    # above the last layer's bead by up to half a layer is the top gap check's
+    up = np.where(last, 0.5 * typical, 0.1 * typical)
+    tree = cKDTree(dep)
+    bound = math.hypot(reach_xy, s.layer_gap_warn_layers * typical)
+    n_near = min(WALL_NEAREST, len(dep))
+    unc = np.ones(len(samples), dtype=bool)
+    lay = np.zeros(len(samples), dtype=dep_layer.dtype)
+    for lo in range(0, len(samples), WALL_CHUNK):
+        pts = samples[lo : lo + WALL_CHUNK]
+        d, j = query(tree, pts, k=n_near, distance_upper_bound=max(bound, reach))
+        d, j = d.reshape(len(pts), n_near), j.reshape(len(pts), n_near)
+        real = np.isfinite(d)
+        jj = np.where(real, j, 0)
+        off = pts[:, None, :] - dep[jj]
+        along = np.einsum("ijk,ijk->ij", off, unit[jj])
+        across = np.sqrt(np.maximum(np.einsum("ijk,ijk->ij", off, off) - along**2, 0.0))
+        slab = (across <= reach_xy) & (along <= up[jj]) & (along >= -cap[jj] * 1.05)
+        ok = real & np.where(first[jj], d <= reach, slab)
+        hit = ok.any(axis=1)
+        unc[lo : lo + len(pts)] = ~hit
+        # the covering bead's layer; else the nearest bead's above the sample (whose slab it is in),
+        # else the nearest bead's
+        above = real & (along <= up[jj])
+        pick = np.where(hit, np.argmax(ok, axis=1), np.where(above.any(axis=1), np.argmax(above, axis=1), 0))
+        lay[lo : lo + len(pts)] = dep_layer[jj[np.arange(len(pts)), pick]]
+        none = ~real[:, 0]
+        if none.any():  # no bead within the bound: the nearest one anywhere names the layer
+            lay[lo : lo + len(pts)][none] = dep_layer[query(tree, pts[none])[1]]
+    # layers that go up one above the other (horizontal, or ramped as a tube's): an uncovered
+    # sample is in the slab of the first layer at or above its height, whatever beads lie near it
+    heights = np.array([float(np.median(dep[by_layer.rows(i), 2])) for i in order]) if order else np.zeros(0)
+    if len(heights) > 1 and np.all(np.diff(heights) > 0):
+        at = np.minimum(np.searchsorted(heights, samples[unc, 2] - PLANAR_TOL_MM, "left"), len(order) - 1)
+        lay[unc] = np.asarray(order)[at]
+    return unc, lay
 
 
 #: A point of the part beyond the beads' reach counts for the top gap when it lies this much along

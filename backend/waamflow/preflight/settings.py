@@ -20,6 +20,7 @@ from ..core.process import BEAD_SHAPE_FACTOR, DEPOSITION_EFFICIENCY, WIRE_DIAMET
 
 _WARN_FAIL = (  # (warning threshold, failure threshold) pairs: a warning never lies beyond its failure
     ("uncovered_warn", "uncovered_fail"),
+    ("hole_warn_widths", "hole_fail_widths"),
     ("layer_gap_warn_layers", "layer_gap_fail_layers"),
     ("dwell_warn_widths", "dwell_fail_widths"),
     ("torch_axis_warn_deg", "torch_axis_fail_deg"),
@@ -78,10 +79,41 @@ class PreflightSettings(BaseModel):
     )
     uncovered_warn: float = Field(0.02, ge=0, le=1, description="Warn above this share of the part with no bead")
     uncovered_fail: float = Field(0.05, ge=0, le=1, description="Fail above this share of the part with no bead")
+    hole: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="One place of one layer with no bead, at least half a bead wide, larger than hole_fail_widths "
+        "bead widths of bead (warn beyond hole_warn_widths), however small a share of the part it is",
+    )
+    hole_warn_widths: float = Field(
+        2.0,
+        ge=1,
+        le=10000,
+        description="Warn when a layer's largest place with no bead would take more than this many bead widths of "
+        "bead to cover (its area over a bead width squared; a wall's over bead width × layer height)",
+    )
+    hole_fail_widths: float = Field(
+        6.0,
+        ge=1,
+        le=10000,
+        description="Fail when a layer's largest place with no bead would take more than this many bead widths of "
+        "bead to cover",
+    )
     volume_ratio_ok: tuple[float, float] = Field(
         (0.9, 1.2), description="Wire ending in the part / part volume: no remark inside this band"
     )
     volume_ratio_fail: tuple[float, float] = Field((0.75, 1.5), description="Fail outside this band (warn between)")
+    layer_volume_ratio: Literal["off", "warn", "fail"] = Field(
+        "fail",
+        description="A layer whose wire puts far less or more metal into its slab of the part than the slab's "
+        "volume (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; "
+        "layers needing under ten bead widths of bead are not judged",
+    )
+    layer_volume_ratio_ok: tuple[float, float] = Field(
+        (0.6, 1.8), description="One layer's wire / its slab's part volume: no remark inside this band"
+    )
+    layer_volume_ratio_fail: tuple[float, float] = Field(
+        (0.5, 2.5), description="One layer's wire / its slab's part volume: fail outside this band (warn between)"
+    )
     min_arc_run_mm: float | None = Field(
         None, ge=0, le=1000, description="Warn for arc-ON runs shorter than this, mm; empty = two bead widths"
     )
@@ -267,6 +299,10 @@ class PreflightSettings(BaseModel):
         flo, fhi = self.volume_ratio_fail
         if not (0 < flo <= lo <= hi <= fhi):
             raise ValueError("volume bands must nest: 0 < fail low ≤ ok low ≤ ok high ≤ fail high")
+        lo, hi = self.layer_volume_ratio_ok
+        flo, fhi = self.layer_volume_ratio_fail
+        if not (0 < flo <= lo <= hi <= fhi):
+            raise ValueError("layer volume bands must nest: 0 < fail low ≤ ok low ≤ ok high ≤ fail high")
         lo, hi = self.local_deposit_ok
         flo, fhi = self.local_deposit_fail
         if not (0 < flo <= lo <= 1 <= hi <= fhi):
