@@ -1304,6 +1304,25 @@ export interface components {
              */
             uncovered_fail: number;
             /**
+             * Hole
+             * @description One place of one layer with no bead, at least half a bead wide, larger than hole_fail_widths bead widths of bead (warn beyond hole_warn_widths), however small a share of the part it is
+             * @default fail
+             * @enum {string}
+             */
+            hole: "off" | "warn" | "fail";
+            /**
+             * Hole Warn Widths
+             * @description Warn when a layer's largest place with no bead would take more than this many bead widths of bead to cover (its area over a bead width squared; a wall's over bead width × layer height)
+             * @default 2
+             */
+            hole_warn_widths: number;
+            /**
+             * Hole Fail Widths
+             * @description Fail when a layer's largest place with no bead would take more than this many bead widths of bead to cover
+             * @default 6
+             */
+            hole_fail_widths: number;
+            /**
              * Volume Ratio Ok
              * @description Wire ending in the part / part volume: no remark inside this band
              * @default [
@@ -1324,6 +1343,37 @@ export interface components {
              *     ]
              */
             volume_ratio_fail: [
+                number,
+                number
+            ];
+            /**
+             * Layer Volume Ratio
+             * @description A layer whose wire puts far less or more metal into its slab of the part than the slab's volume (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; layers needing under ten bead widths of bead are not judged
+             * @default fail
+             * @enum {string}
+             */
+            layer_volume_ratio: "off" | "warn" | "fail";
+            /**
+             * Layer Volume Ratio Ok
+             * @description One layer's wire / its slab's part volume: no remark inside this band
+             * @default [
+             *       0.6,
+             *       1.8
+             *     ]
+             */
+            layer_volume_ratio_ok: [
+                number,
+                number
+            ];
+            /**
+             * Layer Volume Ratio Fail
+             * @description One layer's wire / its slab's part volume: fail outside this band (warn between)
+             * @default [
+             *       0.5,
+             *       2.5
+             *     ]
+             */
+            layer_volume_ratio_fail: [
                 number,
                 number
             ];
