@@ -106,10 +106,13 @@ describe("preflight report: parsing, problem order, starts", () => {
     const got = sortedProblems(report({ problems: ps })).map((p) => `${p.severity}:${p.check}:${p.layer}`);
     expect(got).toEqual(["fail:weld_data:9", "warn:volume_ratio:null", "warn:uncovered:2", "warn:uncovered:7"]);
   });
-  it("offers 'new mask here' only for an uncovered area on a known layer", () => {
+  it("offers 'new mask here' only for an uncovered area or a hole on a known layer", () => {
     expect(canMaskHere(problem())).toBe(true);
     expect(canMaskHere(problem({ layer: null }))).toBe(false);
     expect(canMaskHere(problem({ check: "arc_run" }))).toBe(false);
+    // a layer's place with no bead (hole) is an uncovered area too; a layer's metal is not
+    expect(canMaskHere(problem({ check: "hole" }))).toBe(true);
+    expect(canMaskHere(problem({ check: "layer_volume_ratio" }))).toBe(false);
   });
   it("finds a layer's ignition points and the layer below's; a start within the bead width of one below is stacked", () => {
     const r = report({

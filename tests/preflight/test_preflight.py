@@ -426,6 +426,12 @@ def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
     cap = [p for p in pf["problems"] if p["check"] == "hole" and "horizontal face" in p["message"]]
     assert len(cap) == 1 and cap[0]["severity"] == "warn" and cap[0]["layer"] == 39
     assert not [p for p in pf["problems"] if p["check"] in ("hole", "uncovered") and p["severity"] == "fail"]
+    # each ring's metal against the upright share of its slab of the shell: the top rings, 20-35°
+    # off flat, read 0.25-0.44x of their faces' whole area a bead thick; layers 0 and 1 carry a
+    # second bead on the first (retrace) and are warned
+    ratios = {L["index"]: L["volume_ratio"] for L in pf["layers"] if L.get("volume_ratio")}
+    assert all(0.8 <= ratios[k] <= 1.2 for k in range(2, 39)), ratios
+    assert {p["layer"] for p in pf["problems"] if p["check"] == "layer_volume_ratio"} == {1}
 
 
 def test_layer_groups_select_what_a_mask_per_layer_selects():

@@ -52,7 +52,7 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np
     """(n, 3) samples, the measure they stand for (a wall: area × 1, multiplied by the width later)
     and their spacing, mm: `step`, or on a larger part the spacing of the most samples it may have
     (a midsurface's grid: √(area / MAX_GRID_SAMPLES); a mesh's MAX_SAMPLES even samples); and for a
-    surface mesh which samples lie on a horizontal face (`FLAT_COS`; else None)."""
+    surface mesh each sample's |normal z| (its face's; horizontal faces: ≥ `FLAT_COS`; else None)."""
     if part.kind == "midsurface":
         lengths = [float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()) for c in part.curves]
         area = sum(length * part.height for length in lengths)
@@ -72,8 +72,7 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np
     pts, face = trimesh.sample.sample_surface_even(mesh, n, seed=0)
     spacing = math.sqrt(mesh.area / max(len(pts), 1))
     if part.kind != "solid":
-        flat = np.abs(mesh.face_normals[face][:, 2]) >= FLAT_COS
-        return np.asarray(pts), float(mesh.area), spacing, flat
+        return np.asarray(pts), float(mesh.area), spacing, np.abs(mesh.face_normals[face][:, 2])
     from .check import mesh_volume  # column by column: trimesh's volume computes the inertia tensor (0.7 s on 1M faces)
 
     return np.asarray(pts), mesh_volume(*part.mesh()), spacing, None
@@ -87,7 +86,8 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
-    samples, measure, sample_mm, flat = _part_samples(part, step)
+    samples, measure, sample_mm, normal_z = _part_samples(part, step)
+    flat = None if normal_z is None else normal_z >= FLAT_COS
     dep_runs: list[np.ndarray] = []
     dep_layers: list[np.ndarray] = []
     dep_run: list[np.ndarray] = []  # each point's run, for the section a problem names
@@ -138,7 +138,12 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         unc = dist > reach
     share = float(unc.mean())
     cell = measure / len(samples)
-    _layer_figures(part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, width, h, rep)
+    # a planar layer's wall is as thick across as its bead: each sample stands for its area's upright
+    # share (a flat face's none), as a slanted face's beads step across, not up
+    upright = None
+    if normal_z is not None and planar:
+        upright = np.sqrt(np.maximum(0.0, 1.0 - normal_z**2)) * (normal_z < FLAT_COS)
+    _layer_figures(part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, upright, width, h, rep)
     # walls on planar layers build no horizontal face of a surface (no layer cuts it): a cap over an
     # opening lies above the bead below the opening, and is the uncovered check's, not a top gap
     extra: dict = {}
@@ -186,24 +191,31 @@ def _layer_figures(
     cell_mm2: float,
     spacing: float,
     flat: np.ndarray | None,
+    upright: np.ndarray | None,
     width: float,
     height: float | None,
     rep: Report,
 ) -> None:
     """Each layer's samples and uncovered share (by `lay`, the samples' layers) and, on a wall, the
     part volume they stand for (a bead `width` thick, a layer `height` high: each layer's metal
-    balance, deposit.layer_balance) and its largest place with no bead (holes.py; `flat`: the samples on horizontal faces, which no planar
+    balance, deposit.layer_balance; `upright`: each sample's share of that, else 1) and its largest
+    place with no bead (holes.py; `flat`: the samples on horizontal faces, which no planar
     layer builds)."""
     labels, at = np.unique(lay, return_inverse=True)
     count, uncovered = np.bincount(at, minlength=len(labels)), np.bincount(at, weights=unc, minlength=len(labels))
+    # the wall a layer's metal builds: its samples' `upright` shares (planar layers on a surface: a
+    # slanted face's upright share, a horizontal one's none, which walls do not build: a dome's cap,
+    # the `hole` check names it; a dome's top rings, 20-35° off flat, read 0.25-0.44x of their
+    # faces' whole area with a bead's width)
+    built = np.bincount(at, weights=upright, minlength=len(labels))
     where = {int(v): k for k, v in enumerate(labels)}
     for idx, _runs in layers:
         k = where.get(int(idx))
         if k is not None:
             L = rep.layer(idx)
             L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
-            if part.kind != "solid" and height:  # the wall its samples stand for, a bead wide
-                L.update(part_mm3=_r(float(count[k]) * cell_mm2 * width, 1), height_mm=_r(height, 3))
+            if part.kind != "solid" and height and built[k] > 0:  # the wall its samples stand for, a bead wide
+                L.update(part_mm3=_r(float(built[k]) * cell_mm2 * width, 1), height_mm=_r(height, 3))
     if part.kind == "solid":
         return
     for idx, (area, point, on_flat) in wall_holes(samples, unc, lay, cell_mm2, spacing, flat).items():

@@ -181,12 +181,14 @@ export function sortedProblems(report: Preflight | null): PreflightProblem[] {
 /** Human name of a check. */
 export const CHECK_LABEL: Record<string, string> = {
   top_gap: "top not reached", bottom_gap: "bottom not built", plate: "below or above the plate", weld_speed: "welding without a speed", layer_order: "layers out of order", retrace: "welded twice", dwell_metal: "metal laid standing", travel_collision: "travel into the part", torch_axis: "torch turned away", weld_position: "layer not deposited flat", z_jump: "move off the layer's plane", local_deposit: "too little or too much metal", unreadable: "motion not readable", uncovered: "uncovered area", volume_ratio: "wire/part volume", arc_run: "short arc run",
-  stacked_starts: "stacked starts", weld_data: "weld data missing", program: "program",
+  stacked_starts: "stacked starts", weld_data: "weld data missing", program: "program", hole: "a place with no bead",
+  layer_volume_ratio: "layer's metal off", skipped_layers: "skipped layers", outside: "welding off the part", wire_feed: "welding without wire",
+  deposit_changed: "deposit changed by the sequence", preflight: "preflight itself",
 };
 export const checkLabel = (c: string) => CHECK_LABEL[c] ?? c;
 
-/** "new mask here" applies: an uncovered area on a known layer (and section). */
-export const canMaskHere = (p: PreflightProblem) => p.check === "uncovered" && p.layer != null;
+/** "new mask here" applies: an uncovered area or a layer's place with no bead, on a known layer (and section). */
+export const canMaskHere = (p: PreflightProblem) => (p.check === "uncovered" || p.check === "hole") && p.layer != null;
 
 /** A stable key for a problem row. */
 export const problemKey = (p: PreflightProblem, i: number) => `${p.check}|${p.node ?? ""}|${p.layer ?? ""}|${p.section ?? ""}|${i}`;
