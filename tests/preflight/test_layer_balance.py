@@ -1,5 +1,6 @@
 """One layer welded at another speed fails the preflight however the part balances
-(deposit.layer_balance). Layer 150 of the bracket's 300 welded at three times its speed (a third
+(deposit.layer_balance: a layer's metal for its slab against the program's typical layer's, about
+a third here: the layer's own ratio over the median layer's). Layer 150 of the bracket's 300 welded at three times its speed (a third
 of its metal) left the part at 0.99x its volume and passed "ok" on main at e402114, as did
 thin-wall-panel's layer 7 so welded (1.03x)."""
 
@@ -56,9 +57,9 @@ def _faster(text: str, layer: int, factor: float) -> str:
 @pytest.mark.parametrize(
     "name, sets, layer, ratio",
     [
-        ("bracket", ["format=gcode"], 150, 0.38),
-        ("thin-wall-panel", [], 7, 0.38),
-        ("mpp-cross", ["format=gcode"], 4, 0.34),
+        ("bracket", ["format=gcode"], 150, 0.361),
+        ("thin-wall-panel", [], 7, 0.356),
+        ("mpp-cross", ["format=gcode"], 4, 0.346),
     ],
 )
 def test_one_layer_welded_three_times_as_fast_fails(name, sets, layer, ratio):
@@ -69,7 +70,7 @@ def test_one_layer_welded_three_times_as_fast_fails(name, sets, layer, ratio):
     edited = {**res.artifacts, prog: _faster(res.artifacts[prog].decode(), layer, 3.0).encode()}
     rep = run_preflight(g, res.outputs, edited)
     (p,) = [p for p in rep["problems"] if p["check"] == "layer_volume_ratio"]
-    assert p["severity"] == "fail" and p["layer"] == layer and p["value"] == pytest.approx(ratio, abs=0.02)
+    assert p["severity"] == "fail" and p["layer"] == layer and p["value"] == pytest.approx(ratio, abs=0.01)
     assert p["limit"] == 0.5 and "thinner" in p["message"]
     assert 0.9 <= rep["wire_part_volume_ratio"] <= 1.2  # the part as a whole balances
     # one and a half times as fast is within what zones do to a layer: no remark

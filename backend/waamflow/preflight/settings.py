@@ -104,15 +104,18 @@ class PreflightSettings(BaseModel):
     volume_ratio_fail: tuple[float, float] = Field((0.75, 1.5), description="Fail outside this band (warn between)")
     layer_volume_ratio: Literal["off", "warn", "fail"] = Field(
         "fail",
-        description="A layer whose wire puts far less or more metal into its slab of the part than the slab's "
-        "volume (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; "
+        description="A layer that lays far less or more metal for its slab of the part than the program's typical "
+        "layer (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; "
         "layers needing under ten bead widths of bead are not judged",
     )
     layer_volume_ratio_ok: tuple[float, float] = Field(
-        (0.6, 1.8), description="One layer's wire / its slab's part volume: no remark inside this band"
+        (0.6, 1.8),
+        description="One layer's wire / its slab's part volume, over the typical layer's: no remark inside this band",
     )
     layer_volume_ratio_fail: tuple[float, float] = Field(
-        (0.5, 2.5), description="One layer's wire / its slab's part volume: fail outside this band (warn between)"
+        (0.5, 2.5),
+        description="One layer's wire / its slab's part volume, over the typical layer's: fail outside this band (warn "
+        "between)",
     )
     min_arc_run_mm: float | None = Field(
         None, ge=0, le=1000, description="Warn for arc-ON runs shorter than this, mm; empty = two bead widths"

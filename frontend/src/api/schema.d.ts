@@ -1348,14 +1348,14 @@ export interface components {
             ];
             /**
              * Layer Volume Ratio
-             * @description A layer whose wire puts far less or more metal into its slab of the part than the slab's volume (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; layers needing under ten bead widths of bead are not judged
+             * @description A layer that lays far less or more metal for its slab of the part than the program's typical layer (layer_volume_ratio_fail; warn outside layer_volume_ratio_ok), however the whole part balances; layers needing under ten bead widths of bead are not judged
              * @default fail
              * @enum {string}
              */
             layer_volume_ratio: "off" | "warn" | "fail";
             /**
              * Layer Volume Ratio Ok
-             * @description One layer's wire / its slab's part volume: no remark inside this band
+             * @description One layer's wire / its slab's part volume, over the typical layer's: no remark inside this band
              * @default [
              *       0.6,
              *       1.8
@@ -1367,7 +1367,7 @@ export interface components {
             ];
             /**
              * Layer Volume Ratio Fail
-             * @description One layer's wire / its slab's part volume: fail outside this band (warn between)
+             * @description One layer's wire / its slab's part volume, over the typical layer's: fail outside this band (warn between)
              * @default [
              *       0.5,
              *       2.5
