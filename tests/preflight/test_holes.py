@@ -139,3 +139,24 @@ def test_opening_drops_slivers_and_keeps_a_hole():
     # under the least area measured (one bead width squared): not opened at all
     assert opened_hole(box(0, 0, 4, 4), 5.0, 25.0) == (0.0, None)
     assert shapely.is_valid(slivers)
+
+
+def test_a_fan_layer_cut_short_on_a_curved_part():
+    """curved-duct (KRL, fan layers on a positioner): a third of layer 30's moves deleted passed with
+    one warning (the chord the robot then welds runs outside the duct); the part's boundary is
+    sampled, and each sample is the bead's above it along the layer's build (samples.wall_cover)."""
+    g, res = _planned("curved-duct", [])
+    rep = run_preflight(g, res.outputs, res.artifacts)
+    assert rep["verdict"] == "ok" and not _holes(rep)
+    lines = res.artifacts["post.src"].decode().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith(";- layer 30 "))
+    end = next(i for i in range(start + 1, len(lines)) if lines[i].startswith(";- layer 31 "))
+    moves = [i for i in range(start, end) if lines[i].startswith("LIN ")]
+    gone = set(moves[len(moves) // 3 : 2 * len(moves) // 3])
+    edited = {
+        **res.artifacts,
+        "post.src": ("\n".join(ln for i, ln in enumerate(lines) if i not in gone) + "\n").encode(),
+    }
+    rep = run_preflight(g, res.outputs, edited)
+    (hole,) = [p for p in _holes(rep) if p["severity"] == "fail"]
+    assert rep["verdict"] == "fail" and hole["layer"] in (30, 31) and hole["value"] > 6.0

@@ -46,10 +46,13 @@ def wall_holes(
     cell_mm2: float,
     spacing: float,
     flat: np.ndarray | None = None,
+    by_layer: bool = True,
 ) -> dict[int, tuple[float, np.ndarray, bool]]:
     """Layer → (area mm², a sample inside it, whether most of it is horizontal faces (`flat`)) of its
-    largest cluster of uncovered wall samples (samples of the layer, `lay`, joined within
-    JOIN_SPACINGS sample spacings)."""
+    largest cluster of uncovered samples (joined within JOIN_SPACINGS sample spacings; `by_layer`:
+    only samples of one layer, `lay`, else all, each cluster given to the layer most of it is
+    given to: a fan's wedge layers name an uncovered sample's layer less surely than layers that
+    go straight up, and one place came out split over four)."""
     idx = np.flatnonzero(unc)
     if not len(idx):
         return {}
@@ -59,7 +62,7 @@ def wall_holes(
 
     pts = samples[idx]
     pairs = cKDTree(pts).query_pairs(JOIN_SPACINGS * spacing, output_type="ndarray")
-    if len(pairs):  # a place is one layer's: a column through the layers (a crossing's centre) is many
+    if len(pairs) and by_layer:  # a place is one layer's: a column through the layers (a crossing's centre) is many
         pairs = pairs[lay[idx[pairs[:, 0]]] == lay[idx[pairs[:, 1]]]]
     n = len(idx)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)) if len(pairs) else None
@@ -71,7 +74,8 @@ def wall_holes(
     order = np.argsort(labels, kind="stable")
     cuts = np.flatnonzero(np.diff(labels[order])) + 1
     for members in np.split(order, cuts):
-        layer = int(lay[idx[members[0]]])
+        layers, counts = np.unique(lay[idx[members]], return_counts=True)
+        layer = int(layers[np.argmax(counts)])
         area = len(members) * cell_mm2
         if layer not in out or area > out[layer][0]:
             centre = pts[members].mean(axis=0)

@@ -130,12 +130,9 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     else:
         reach = max(h, width / 2.0) * 1.1 + step / 2.0
     lay = dep_layer[near]
-    if part.kind != "solid":
-        unc, lay = wall_cover(
-            samples, dep, dep_layer, order, width / 2.0 * 1.1 + step / 2.0, reach, planar, part.bottom, s
-        )
-    else:
-        unc = dist > reach
+    unc, lay, upward = wall_cover(
+        samples, dep, dep_layer, order, width / 2.0 * 1.1 + step / 2.0, reach, planar, part.bottom, s
+    )
     share = float(unc.mean())
     cell = measure / len(samples)
     # a planar layer's wall is as thick across as its bead: each sample stands for its area's upright
@@ -143,7 +140,9 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     upright = None
     if normal_z is not None and planar:
         upright = np.sqrt(np.maximum(0.0, 1.0 - normal_z**2)) * (normal_z < FLAT_COS)
-    _layer_figures(part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, upright, width, h, rep)
+    _layer_figures(
+        part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, upright, width, h, upward, rep
+    )
     # walls on planar layers build no horizontal face of a surface (no layer cuts it): a cap over an
     # opening lies above the bead below the opening, and is the uncovered check's, not a top gap
     extra: dict = {}
@@ -179,6 +178,8 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 #: Beads looked at per sample by `wall_cover` (its nearest, in chunks of WALL_CHUNK samples): the
 #: bead above a sample within a layer's reach, among the points of the layers below and beside it.
 WALL_NEAREST = 24
+#: Layers grow straight up when their beads' build directions lie within 25° of +z (cos 25°).
+UPWARD_COS = 0.906
 WALL_CHUNK = 50_000
 
 
@@ -194,6 +195,7 @@ def _layer_figures(
     upright: np.ndarray | None,
     width: float,
     height: float | None,
+    upward: bool,
     rep: Report,
 ) -> None:
     """Each layer's samples and uncovered share (by `lay`, the samples' layers) and, on a wall, the
@@ -216,9 +218,7 @@ def _layer_figures(
             L.update(samples=int(count[k]), uncovered_share=_r(float(uncovered[k] / count[k])))
             if part.kind != "solid" and height and built[k] > 0:  # the wall its samples stand for, a bead wide
                 L.update(part_mm3=_r(float(built[k]) * cell_mm2 * width, 1), height_mm=_r(height, 3))
-    if part.kind == "solid":
-        return
-    for idx, (area, point, on_flat) in wall_holes(samples, unc, lay, cell_mm2, spacing, flat).items():
+    for idx, (area, point, on_flat) in wall_holes(samples, unc, lay, cell_mm2, spacing, flat, upward).items():
         L = rep.layer(idx)
         L.update(hole_mm2=_r(area, 2), hole_kind="wall", hole_point=[round(float(v), 3) for v in point])
         if on_flat:
@@ -283,9 +283,10 @@ def wall_cover(
     planar: bool,
     bottom: float,
     s: PreflightSettings,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Which samples of a wall (a midsurface or an open surface) no bead covers, and the layer of
-    the bead that covers each (else of its nearest bead). A bead point covers the slab it tops: from
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Which samples of a wall (a midsurface or an open surface) no bead covers, the layer of the
+    bead that covers each (else of the bead above it), and whether the layers go straight up (an
+    uncovered sample's layer then the first at or above its height). A bead point covers the slab it tops: from
     itself back along its layer's build (to its nearest point of the layer before, `order`; of a
     step over skipped layers one layer's share, as `gaps.covered_height`) and within `reach_xy` (mm)
     across; the first layer's points back from the way to the next layer, down to the part's
@@ -304,8 +305,10 @@ def wall_cover(
     last = np.isin(dep_layer, [order[-1]]) if order else np.zeros(len(dep), bool)
     # a sample stands for its grid cell: it lies in a bead's slab when its centre does (no cell's
     # slack along the build, which covered a skipped layer's slab from the layer above); a sample
-    # above the last layer's bead by up to half a layer is the top gap check's
-    up = np.where(last, 0.5 * typical, 0.1 * typical)
+    # above the last layer's bead by up to top_gap_max_layers of its layer (+10 %) is the top gap
+    # check's (curved-duct's fan ends 0.68° short of the duct's end: 1.4 mm at its outer side,
+    # 0.44 of that side's 3.16 mm layers)
+    up = np.where(last, s.top_gap_max_layers * np.maximum(cap, typical) * 1.1, 0.1 * typical)
     tree = cKDTree(dep)
     bound = math.hypot(reach_xy, s.layer_gap_warn_layers * typical)
     n_near = min(WALL_NEAREST, len(dep))
@@ -324,21 +327,25 @@ def wall_cover(
         ok = real & np.where(first[jj], d <= reach, slab)
         hit = ok.any(axis=1)
         unc[lo : lo + len(pts)] = ~hit
-        # the covering bead's layer; else the nearest bead's above the sample (whose slab it is in),
-        # else the nearest bead's
-        above = real & (along <= up[jj])
-        pick = np.where(hit, np.argmax(ok, axis=1), np.where(above.any(axis=1), np.argmax(above, axis=1), 0))
+        # the covering bead's layer; else that of the bead above the sample (within twice the reach
+        # across) nearest it along the build, whose slab it is in; else the nearest bead's
+        above = real & (along <= up[jj]) & (across <= 2.0 * reach_xy)
+        closest = np.argmax(np.where(above, along, -np.inf), axis=1)
+        pick = np.where(hit, np.argmax(ok, axis=1), np.where(above.any(axis=1), closest, 0))
         lay[lo : lo + len(pts)] = dep_layer[jj[np.arange(len(pts)), pick]]
         none = ~real[:, 0]
         if none.any():  # no bead within the bound: the nearest one anywhere names the layer
             lay[lo : lo + len(pts)][none] = dep_layer[query(tree, pts[none])[1]]
-    # layers that go up one above the other (horizontal, or ramped as a tube's): an uncovered
-    # sample is in the slab of the first layer at or above its height, whatever beads lie near it
+    # layers that go straight up one above the other (horizontal, or ramped as a tube's; not a fan's,
+    # which turns): an uncovered sample is in the slab of the first layer at or above its height,
+    # whatever beads lie near it
     heights = np.array([float(np.median(dep[by_layer.rows(i), 2])) for i in order]) if order else np.zeros(0)
-    if len(heights) > 1 and np.all(np.diff(heights) > 0):
+    upward = planar or bool(np.mean(unit[~first, 2] >= UPWARD_COS) >= 0.95) if (~first).any() else planar
+    upward = upward and len(heights) > 1 and bool(np.all(np.diff(heights) > 0))
+    if upward:
         at = np.minimum(np.searchsorted(heights, samples[unc, 2] - PLANAR_TOL_MM, "left"), len(order) - 1)
         lay[unc] = np.asarray(order)[at]
-    return unc, lay
+    return unc, lay, upward
 
 
 #: A point of the part beyond the beads' reach counts for the top gap when it lies this much along
