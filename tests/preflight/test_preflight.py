@@ -399,9 +399,8 @@ def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
     cap is out of the last ring's reach sideways, not above it. The 3D check took the build direction
     from layer to layer, tilted inward near the cap, and failed "the deposit ends 4.03 mm short of
     the part's top (60.00 mm)"; planar layers build up (+z): top gap 0, the cap's share is the
-    uncovered check's: 1.2 % (the flat cap inside the last ring, beyond half a layer along its
-    build; 0.4 % while any bead within a layer spacing in any direction covered a wall), and its
-    place a warning of the `hole` check that names the horizontal face."""
+    uncovered check's (0.4 %), and its place a warning of the `hole` check that names the horizontal
+    face."""
     from waamflow.engine.executor import FileResolver, execute
     from waamflow.engine.graph import build_graph
     from waamflow.engine.recipe import parse_recipe
@@ -422,16 +421,16 @@ def test_a_dome_built_to_its_top_has_no_top_gap(tmp_path):
     pf = res.preflight
     assert pf["programs"][0]["coverage_method"] == "3D samples" and len(res.outputs["layers"]["layers"]) == 40
     assert pf["top_gap_mm"] == 0.0 and not [p for p in pf["problems"] if p["check"] == "top_gap"]
-    assert pf["uncovered_share"] == pytest.approx(0.0116, abs=0.002)
+    assert pf["uncovered_share"] == pytest.approx(0.0038, abs=0.001)
     cap = [p for p in pf["problems"] if p["check"] == "hole" and "horizontal face" in p["message"]]
     assert len(cap) == 1 and cap[0]["severity"] == "warn" and cap[0]["layer"] == 39
     assert not [p for p in pf["problems"] if p["check"] in ("hole", "uncovered") and p["severity"] == "fail"]
-    # each ring's metal against the upright share of its slab of the shell: the top rings, 20-35°
-    # off flat, read 0.25-0.44x of their faces' whole area a bead thick; layers 0 and 1 carry a
-    # second bead on the first (retrace) and are warned
+    # each ring's metal against its slab of the shell, the section's length a bead thick: the top
+    # rings, 20-35° off flat, read 0.25-0.44x of their faces' whole area a bead thick; layers 0 and 1
+    # carry a second bead on the first (retrace) over the mesh's jagged bottom edge
     ratios = {L["index"]: L["volume_ratio"] for L in pf["layers"] if L.get("volume_ratio")}
-    assert all(0.8 <= ratios[k] <= 1.2 for k in range(2, 39)), ratios
-    assert {p["layer"] for p in pf["problems"] if p["check"] == "layer_volume_ratio"} == {1}
+    assert all(0.8 <= ratios[k] <= 1.2 for k in range(2, 40)), ratios
+    assert {p["layer"] for p in pf["problems"] if p["check"] == "layer_volume_ratio"} <= {0, 1}
 
 
 def test_layer_groups_select_what_a_mask_per_layer_selects():

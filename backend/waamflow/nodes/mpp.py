@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from ..core import serialize
-from ..core.errors import PlanningError, RecipeError
+from ..core.errors import PlanningError, RecipeError, layer_ranges
 from ..core.model import LayerPaths, LayerSections, Layered
 from ..engine.node import FileRef, LayerNode, NodeParams, register, unit
 from ..engine.ports import Port
@@ -330,6 +330,17 @@ class ZoneNode(LayerNode):
             for key in params.sections:
                 if key not in seen:
                     ctx.warn(f"zoning for {key!r} matches no section", section=key)
+        if table is not None and full and table.values:
+            # a layer the file sets nothing for welds on what the machine holds from the layer before
+            bare = [lp.index for lp in layers if lp.sections and not table.layer(lp.index)]
+            if bare:
+                ctx.warn(
+                    f"parameter file {params.parameters!r} has no values for layers {layer_ranges(bare)} (of "
+                    f"{len(layers)}): their zones set no current or wire feed and weld at the strategy's speed, on "
+                    "whatever the machine holds from the layer before; fill them in (the zone node's params.xml "
+                    "lists every layer's zones)",
+                    layer=bare[0],
+                )
         if table is not None and full:
             present = {(lp.index, sp.key, z) for lp in layers for sp in lp.sections for z in sp.zone_colors}
             for key in table.values:
