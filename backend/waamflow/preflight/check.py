@@ -7,8 +7,8 @@ Two geometric methods, chosen by what the program is:
   Σ area(part ∩ footprint) · slab height; uncovered share = 1 − covered / part volume, so layers
   never deposited (a missing top) count in full.
 - **3D samples** (midsurfaces, open single-wall surfaces, non-planar layers; `samples.py`): points on the part
-  (surface samples of a wall, volume samples of a solid) are covered when the deposit passes within
-  reach: half a bead width across and the measured layer spacing along the build direction.
+  (samples of a wall's midsurface or surface, of a solid's boundary) are covered when they lie in the
+  slab a bead tops (back along its layer's build to the layer before) within half a bead across.
 
 Wire ending in the part = Σ over arc-ON segments of length / speed · WFS · π d²/4 · η, from the
 values the program commands; compared with the part's volume (a wall: its area × bead width).

@@ -9,9 +9,11 @@ places are measured one by one instead:
 - **a solid's layer** (planar slabs): the slab's section less the beads' footprint, opened by a
   quarter of a bead width (shrunk and grown again: the slivers beads leave in corners and between
   touching passes go, a place at least half a bead wide stays); its largest piece;
-- **a wall** (3D samples): the layer's uncovered samples joined where they lie within 1.5 sample
-  spacings, each cluster's area the samples' share of the wall (a column through the layers, such
-  as a crossing's centre left void, is a place on each layer, not one).
+- **a wall, or a solid built in fan layers** (3D samples of its midsurface or boundary,
+  `samples.wall_cover`): the layer's uncovered samples joined where they lie within 1.5 sample
+  spacings, each cluster's area the samples' share of the surface (a column through the layers,
+  such as a crossing's centre left void, is a place on each layer, not one; a fan's places are
+  joined across its layers, whose wedges name a sample's layer less surely).
 
 A place's size is said in bead widths of bead: the bead length that would cover it over a bead
 width (a slab's area / width²; a wall's area / (layer height × width)). Beyond `hole_warn_widths`
@@ -25,7 +27,6 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-
 
 if TYPE_CHECKING:
     from .read import Run

@@ -80,9 +80,11 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np
 
 def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSettings, planar: bool = False) -> Coverage:
     """The part's surface (or midsurface) sampled every `s.sample_mm` (coarser where that needs more
-    samples than `_part_samples` takes) and each sample's distance to the nearest bead. `planar`:
-    the layers are horizontal planes, so the build goes up (+z); else it goes from each layer to
-    the next (fan layers)."""
+    samples than `_part_samples` takes), each sample covered when it lies in the slab a bead tops
+    and within half a bead across (`wall_cover`), each layer's places with no bead (holes.py) and,
+    on a wall of layers that go straight up, each layer's slab of it (`wall_slab_volumes`).
+    `planar`: the layers are horizontal planes, so the build goes up (+z); else it goes from each
+    layer to the next (fan layers)."""
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
