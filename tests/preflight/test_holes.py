@@ -133,11 +133,11 @@ def test_opening_drops_slivers_and_keeps_a_hole():
     between passes has no hole; a 5 × 15 mm place with no bead is 75 mm² (3 widths of a 5 mm bead)."""
     square = box(0, 0, 40, 40)
     slivers = square.difference(square.buffer(-0.3, join_style="round")).union(box(10, 0, 10.8, 40))
-    assert opened_hole(slivers, 5.0, 25.0) == (0.0, None)
-    area, at = opened_hole(slivers.union(box(20, 10, 25, 25)), 5.0, 25.0)
+    assert opened_hole(slivers, 5.0) == (0.0, None)
+    area, at = opened_hole(slivers.union(box(20, 10, 25, 25)), 5.0)
     assert area == pytest.approx(75.0, rel=0.02) and box(20, 10, 25, 25).contains(Point(at))
     # under the least area measured (one bead width squared): not opened at all
-    assert opened_hole(box(0, 0, 4, 4), 5.0, 25.0) == (0.0, None)
+    assert opened_hole(box(0, 0, 4, 4), 5.0) == (0.0, None)
     assert shapely.is_valid(slivers)
 
 

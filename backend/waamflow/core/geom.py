@@ -31,11 +31,12 @@ def default_guide(region: Polygon) -> LineString:
     return LineString([centre - half * u, centre + half * u])
 
 
-def opened_hole(uncovered: Any, width: float, min_area: float) -> tuple[float, tuple[float, float] | None]:
+def opened_hole(uncovered: Any, width: float) -> tuple[float, tuple[float, float] | None]:
     """The area (mm²) of the largest piece of a layer's uncovered geometry at least half a bead wide
-    (opened by width / 4) and a point inside it; (0, None) when the uncovered area is under
-    `min_area` or nothing that wide is left."""
-    if uncovered is None or uncovered.is_empty or float(uncovered.area) < min_area:
+    (opened by width / 4) and a point inside it; (0, None) when the uncovered area is under one bead
+    width squared (not opened: the preflight's hole_warn_widths is at least 1) or nothing that wide
+    is left."""
+    if uncovered is None or uncovered.is_empty or float(uncovered.area) < width * width:
         return 0.0, None
     r = width / 4.0
     opened = uncovered.buffer(-r, quad_segs=4).buffer(r, quad_segs=4)

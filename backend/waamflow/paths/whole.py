@@ -108,7 +108,7 @@ def _measure(region: Polygon, path: Path2D, spec: StrategySpec) -> tuple[float, 
     widths of bead: `core.geom.opened_hole`'s area / width², as the preflight's `hole` check)."""
     unc = uncovered(region, path.points, path.arc, spec.bead_width, weave=spec.pattern in WEAVES)
     w = spec.bead_width
-    hole, _at = opened_hole(unc, w, w * w)
+    hole, _at = opened_hole(unc, w)
     return float(unc.area), hole / (w * w)
 
 

@@ -35,9 +35,6 @@ if TYPE_CHECKING:
 
 #: Uncovered samples of a wall within this many sample spacings of each other are one place.
 JOIN_SPACINGS = 1.5
-#: A layer's uncovered area under this many bead widths squared is not opened and measured (the
-#: settings' hole_warn_widths is at least this).
-HOLE_MIN_WIDTHS = 1.0
 
 
 def wall_holes(

@@ -52,7 +52,7 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np
     """(n, 3) samples, the measure they stand for (a wall: area × 1, multiplied by the width later)
     and their spacing, mm: `step`, or on a larger part the spacing of the most samples it may have
     (a midsurface's grid: √(area / MAX_GRID_SAMPLES); a mesh's MAX_SAMPLES even samples); and for a
-    surface mesh each sample's |normal z| (its face's; horizontal faces: ≥ `FLAT_COS`; else None)."""
+    surface mesh which samples lie on a horizontal face (`FLAT_COS`; else None)."""
     if part.kind == "midsurface":
         lengths = [float(np.linalg.norm(np.diff(c, axis=0), axis=1).sum()) for c in part.curves]
         area = sum(length * part.height for length in lengths)
@@ -72,7 +72,8 @@ def _part_samples(part: Part, step: float) -> tuple[np.ndarray, float, float, np
     pts, face = trimesh.sample.sample_surface_even(mesh, n, seed=0)
     spacing = math.sqrt(mesh.area / max(len(pts), 1))
     if part.kind != "solid":
-        return np.asarray(pts), float(mesh.area), spacing, np.abs(mesh.face_normals[face][:, 2])
+        flat = np.abs(mesh.face_normals[face][:, 2]) >= FLAT_COS
+        return np.asarray(pts), float(mesh.area), spacing, flat
     from .check import mesh_volume  # column by column: trimesh's volume computes the inertia tensor (0.7 s on 1M faces)
 
     return np.asarray(pts), mesh_volume(*part.mesh()), spacing, None
@@ -88,8 +89,7 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
     from scipy.spatial import cKDTree
 
     step = s.sample_mm or max(width / 4.0, 0.5)
-    samples, measure, sample_mm, normal_z = _part_samples(part, step)
-    flat = None if normal_z is None else normal_z >= FLAT_COS
+    samples, measure, sample_mm, flat = _part_samples(part, step)
     dep_runs: list[np.ndarray] = []
     dep_layers: list[np.ndarray] = []
     dep_run: list[np.ndarray] = []  # each point's run, for the section a problem names
@@ -131,15 +131,16 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
         reach = math.hypot(width / 2.0, h) * 1.05 + step / 2.0
     else:
         reach = max(h, width / 2.0) * 1.1 + step / 2.0
-    lay = dep_layer[near]
+    # each layer's median height, in program order (the slabs of wall_cover and wall_slab_volumes)
+    heights = np.array([float(np.median(dep[by_layer.rows(i), 2])) for i in order])
     unc, lay, upward = wall_cover(
-        samples, dep, dep_layer, order, width / 2.0 * 1.1 + step / 2.0, reach, planar, part.bottom, s
+        samples, dep, by_layer, order, heights, width / 2.0 * 1.1 + step / 2.0, reach, planar, part.bottom, s
     )
     share = float(unc.mean())
     cell = measure / len(samples)
     _layer_figures(part, layers, samples, unc, lay, cell, sample_mm, flat if planar else None, upward, rep)
     if upward and part.kind != "solid":
-        for idx, (volume, height) in wall_slab_volumes(part, dep, by_layer, order, width, s).items():
+        for idx, (volume, height) in wall_slab_volumes(part, order, heights, width, s).items():
             rep.layer(idx).update(part_mm3=_r(volume, 1), height_mm=_r(height, 3))
     # walls on planar layers build no horizontal face of a surface (no layer cuts it): a cap over an
     # opening lies above the bead below the opening, and is the uncovered check's, not a top gap
@@ -174,12 +175,13 @@ def coverage_3d(part: Part, layers, width: float, rep: Report, s: PreflightSetti
 
 
 #: Beads looked at per sample by `wall_cover` (its nearest, in chunks of WALL_CHUNK samples): the
-#: bead above a sample within a layer's reach, among the points of the layers below and beside it.
+#: bead above a sample within a layer's reach, among the points of the layers below and beside it;
+#: the WALL_FIRST nearest first, the rest only for the samples those leave uncovered.
 WALL_NEAREST = 24
 WALL_FIRST = 4
+WALL_CHUNK = 50_000
 #: Layers grow straight up when their beads' build directions lie within 25° of +z (cos 25°).
 UPWARD_COS = 0.906
-WALL_CHUNK = 50_000
 
 
 def _layer_figures(
@@ -213,7 +215,14 @@ def _layer_figures(
 
 
 def _slabs(
-    dep: np.ndarray, by_layer: Grouped, order: list, reach: float, planar: bool, bottom: float, s: PreflightSettings
+    dep: np.ndarray,
+    by_layer: Grouped,
+    order: list,
+    heights: np.ndarray,
+    reach: float,
+    planar: bool,
+    bottom: float,
+    s: PreflightSettings,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Each bead point's slab for `wall_cover`: (unit build direction, how far back along it the slab
     goes (mm), whether it has no direction (a program of one layer: covered within `reach`), the
@@ -228,7 +237,7 @@ def _slabs(
         # lowest; towers built one after the other share their heights), no k-d query per point
         # (a 50 m wall plan: 1.2 s): a slanted face between two rings is covered where it lies under
         # the upper ring's bead, not along the slant between the two rings
-        zs = {i: round(float(np.median(dep[by_layer.rows(i), 2])), 6) for i in order}
+        zs = {i: round(float(z), 6) for i, z in zip(order, heights)}
         levels = sorted(set(zs.values()))
         below = dict(zip(levels, [bottom, *levels[:-1]]))
         for i in order:
@@ -273,17 +282,17 @@ def _slabs(
 
 
 def wall_slab_volumes(
-    part: Part, dep: np.ndarray, by_layer: Grouped, order: list, width: float, s: PreflightSettings
+    part: Part, order: list, heights: np.ndarray, width: float, s: PreflightSettings
 ) -> dict[int, tuple[float, float]]:
     """Layer → (the wall its slab holds, a bead `width` thick: mm³; the slab's height, mm) of a wall
     built in layers that go straight up, for each layer's metal balance (deposit.layer_balance):
-    the part's section length at the middle of the slab (from the layer below's median height, the
+    the part's section length at the middle of the slab (from the layer below's median height,
+    `heights` in program `order`, the
     part's bottom under the first, to its own) × the slab's height × the width. A slanted face's
     beads step across it, not up, and a horizontal face no layer builds: the section length counts
     what a layer's bead builds. Counting the samples in each slab instead aliased with the sample
     grid: a 50 m wall plan sampled every 1.75 mm in 2 mm layers read every other layer 0.5x. Slabs
     over skipped layers (more than `layer_gap_warn_layers` typical) are the hole check's."""
-    heights = np.array([float(np.median(dep[by_layer.rows(i), 2])) for i in order])
     bottoms = np.concatenate([[part.bottom], heights[:-1]])
     tall = heights - bottoms
     typical = float(np.median(tall)) if len(tall) else 0.0
@@ -333,8 +342,9 @@ def _judge(tree, pts: np.ndarray, n_near: int, slabs: tuple) -> tuple[np.ndarray
 def wall_cover(
     samples: np.ndarray,
     dep: np.ndarray,
-    dep_layer: np.ndarray,
+    by_layer: Grouped,
     order: list,
+    heights: np.ndarray,
     reach_xy: float,
     reach: float,
     planar: bool,
@@ -343,22 +353,23 @@ def wall_cover(
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """Which samples of a wall (a midsurface or an open surface) no bead covers, the layer of the
     bead that covers each (else of the bead above it), and whether the layers go straight up (an
-    uncovered sample's layer then the first at or above its height). A bead point covers the slab it tops: from
-    itself back along its layer's build (`_slabs`: horizontal layers straight down to the height
-    below, others to their nearest point of the layer before, `order`; of a step over skipped layers
-    one layer's share, as `gaps.covered_height`) and within `reach_xy` (mm) across; the first layer's points back from the way to the next layer, down to the part's
-    `bottom` (planar) or `reach` (mm); a program of one layer, anything within `reach`. A sample
-    up to a tenth of a layer above a bead (half a layer above the last layer's) is in its slab too.
-    The nearest bead within a
-    layer spacing in any direction (what covered a wall before) covered a missing stretch from the
-    layers above and below it: thin-wall-panel with its layer 7 deleted from the G-code, or half a
-    section's moves welded arc OFF, passed "ok"."""
+    uncovered sample's layer then the first at or above its height, `heights`: each layer's median
+    height in program `order`). A bead point covers the slab it tops: from itself back along its
+    layer's build (`_slabs`: horizontal layers straight down to the height below, others to their
+    nearest point of the layer before; of a step over skipped layers one layer's share, as
+    `gaps.covered_height`) and within `reach_xy` (mm) across; the first layer's points back from
+    the way to the next layer, down to the part's `bottom` (planar) or `reach` (mm); a program of
+    one layer, anything within `reach`. A sample up to a tenth of a layer above a bead (half a layer
+    above the last layer's) is in its slab too. The nearest bead within a layer spacing in any
+    direction (what covered a wall before) covered a missing stretch from the layers above and
+    below it: thin-wall-panel with its layer 7 deleted from the G-code, or half a section's moves
+    welded arc OFF, passed "ok"."""
     from scipy.spatial import cKDTree
 
     from .check import PLANAR_TOL_MM
 
-    by_layer = Grouped(dep_layer)
-    unit, cap, first, typical = _slabs(dep, by_layer, order, reach, planar, bottom, s)
+    dep_layer = by_layer.labels
+    unit, cap, first, typical = _slabs(dep, by_layer, order, heights, reach, planar, bottom, s)
     last = np.isin(dep_layer, [order[-1]]) if order else np.zeros(len(dep), bool)
     # a sample stands for its grid cell: it lies in a bead's slab when its centre does (no cell's
     # slack along the build, which covered a skipped layer's slab from the layer above); a sample
@@ -388,7 +399,6 @@ def wall_cover(
     # layers that go straight up one above the other (horizontal, or ramped as a tube's; not a fan's,
     # which turns): an uncovered sample is in the slab of the first layer at or above its height,
     # whatever beads lie near it
-    heights = np.array([float(np.median(dep[by_layer.rows(i), 2])) for i in order]) if order else np.zeros(0)
     upward = planar or bool(np.mean(unit[~first, 2] >= UPWARD_COS) >= 0.95) if (~first).any() else planar
     upward = upward and len(heights) > 1 and bool(np.all(np.diff(heights) > 0))
     if upward:

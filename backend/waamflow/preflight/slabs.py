@@ -24,7 +24,6 @@ import shapely
 from shapely.geometry import MultiPolygon
 
 from ..core.geom import opened_hole
-from .holes import HOLE_MIN_WIDTHS
 
 MAX_PAIRS = 20_000_000  # (triangle, plane) pairs held at once; beyond, each plane scans the part
 TASKS_PER_WORKER = 4  # parallel: the smallest (last) task holds 1/(workers · this · 4) of the work (`_spans`)
@@ -197,7 +196,7 @@ def cover_layer(section: Any, paths: list[np.ndarray], width: float) -> LayerCov
     if area <= 0:
         return LayerCover(section, area, 0.0, None)
     unc = section.difference(footprint(paths, width))
-    hole, at = opened_hole(unc, width, HOLE_MIN_WIDTHS * width * width)
+    hole, at = opened_hole(unc, width)
     return LayerCover(section, area, float(unc.area), _largest_piece_point(unc), hole=hole, hole_point=at)
 
 
@@ -205,7 +204,7 @@ def _cover_two_sided(two: TwoSided, fp: Any, width: float) -> LayerCover:
     halves = [g.difference(fp) if not g.is_empty else g for g in two]
     area = 0.5 * (float(two.below.area) + float(two.above.area))
     unc = 0.5 * sum(float(h.area) for h in halves)
-    hole, at = max((opened_hole(h, width, HOLE_MIN_WIDTHS * width * width) for h in halves), key=lambda t: t[0])
+    hole, at = max((opened_hole(h, width) for h in halves), key=lambda t: t[0])
     # each half is half of the slab: its place counts for half the slab's height
     return LayerCover(
         shapely.union(two.below, two.above), area, unc, _largest_piece_point(*halves), hole=0.5 * hole, hole_point=at
