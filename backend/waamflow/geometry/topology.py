@@ -353,3 +353,61 @@ def split_nonmanifold(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, n
     key = label[:, None].astype(np.int64) * n_vertices + np.asarray(faces, dtype=np.int64)
     uniq, inverse = np.unique(key.reshape(-1), return_inverse=True)
     return inverse.reshape(-1, 3), uniq % n_vertices, int(n)
+
+
+def volume_below(vertices: np.ndarray, faces: np.ndarray, zs) -> np.ndarray:
+    """(k,) volume (mm³) of a closed mesh below each plane z = zs[i] (any order), without cutting
+    or capping it: by the divergence theorem with the field (x - x0, 0, 0), whose flux through a
+    horizontal cap is nought, V(z) = Σ over the faces' parts below z of n_x · area · (centroid x - x0).
+    A face wholly below a plane counts whole (binned by the first plane at or above its top, then
+    summed up the planes); a face a plane cuts counts the triangle its corner alone on one side makes
+    with the two crossings (`_cut_flux`), or the face less that triangle."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    zs = np.asarray(zs, dtype=np.float64)
+    if not len(f) or not len(zs):
+        return np.zeros(len(zs))
+    v = v - v[0]  # precision on parts far from the origin (the flux is the same about any x0)
+    x = [v[f[:, i], 0] for i in range(3)]
+    y = [v[f[:, i], 1] for i in range(3)]
+    z = [v[f[:, i], 2] for i in range(3)]
+    nx = (y[1] - y[0]) * (z[2] - z[0]) - (z[1] - z[0]) * (y[2] - y[0])  # twice the yz-projected area
+    whole = nx / 6.0 * (x[0] + x[1] + x[2])
+    zlo = np.minimum(np.minimum(z[0], z[1]), z[2])
+    zhi = np.maximum(np.maximum(z[0], z[1]), z[2])
+    pz = np.argsort(zs, kind="stable")
+    sz = zs[pz] - float(np.asarray(vertices, dtype=np.float64)[0][2])
+    last = np.searchsorted(sz, zhi, side="left")  # the first plane at or above the face's top
+    below = np.cumsum(np.bincount(last, weights=whole, minlength=len(sz) + 1))[: len(sz)]
+    first = np.searchsorted(sz, zlo, side="right")  # planes strictly between lowest and highest corner
+    n = last - first
+    cut = np.flatnonzero(n > 0)
+    if len(cut):
+        n = n[cut]
+        face = np.repeat(cut, n)
+        k = np.repeat(first[cut] - np.cumsum(n) + n, n) + np.arange(int(n.sum()))
+        got = _cut_flux([c[face] for c in x], [c[face] for c in z], nx[face], whole[face], sz[k])
+        below += np.bincount(k, weights=got, minlength=len(sz))
+    out = np.empty(len(zs))
+    out[pz] = below
+    return out
+
+
+def _cut_flux(x: list, z: list, nx: np.ndarray, whole: np.ndarray, z0: np.ndarray) -> np.ndarray:
+    """The x-flux below z0 of faces z0 cuts (a corner below it, one above), from their corners' x
+    and z, twice their yz-projected area `nx` and their whole flux. With L the corner alone on its
+    side and M, N the next two in winding order, the crossings are L + t(M - L) and L + u(N - L):
+    their triangle has t·u of the face's projected area and mean x (3L + t(M - L) + u(N - L)) / 3."""
+    d = [zi - z0 for zi in z]
+    below = [di < 0 for di in d]
+    one_below = (below[0].astype(np.int8) + below[1] + below[2]) == 1
+    alone = [np.where(one_below, below[i], d[i] > 0) for i in range(3)]  # the lone corner's mask
+    pick = lambda vals, shift: np.where(  # noqa: E731  value of the corner `shift` after the lone one
+        alone[0], vals[shift % 3], np.where(alone[1], vals[(1 + shift) % 3], vals[(2 + shift) % 3])
+    )
+    dl, dm, dn = pick(d, 0), pick(d, 1), pick(d, 2)
+    xl, xm, xn = pick(x, 0), pick(x, 1), pick(x, 2)
+    t = dl / (dl - dm)
+    u = dl / (dl - dn)
+    tip = nx / 6.0 * t * u * (3.0 * xl + t * (xm - xl) + u * (xn - xl))
+    return np.where(one_below, tip, whole - tip)

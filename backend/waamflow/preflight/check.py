@@ -16,6 +16,8 @@ values the program commands; compared with the part's volume (a wall: its area Ã
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import math
 from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
@@ -287,28 +289,30 @@ def coverage_planar(
     from .outside import RunLine
     from .slabs import OutsideRuns, cover_layer, cover_part, mid_planes, two_sided_sections
 
-    if part.kind == "solid":
-        vertices, faces = part.mesh()
-        part_volume = mesh_volume(vertices, faces)
-    else:
+    tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
+    slab_volumes: list[float] | None = None  # the part's own volume in each slab (a solid's)
+    if part.kind != "solid":
         part_volume = float(sum(t * g.area for _z, t, g in part.regions))
-    covered_vol = seen_vol = skipped_vol = 0.0
     prev_top = part.bottom
     sections: dict[int, Any] = {}
-    tops = [float(np.median(np.concatenate([r.points[:, 2] for r in runs]))) for _idx, runs in layers]
     mids = mid_planes(prev_top, tops)
     paths = [[r.points[:, :2] for r in runs if len(r.points) > 1] for _idx, runs in layers]
     if part.kind == "solid":
+        vertices, faces = part.mesh()
         walk = None
         if outside is not None:
             runs = [[RunLine(r.points, r.section) for r in rs] for _idx, rs in layers]
             walk = OutsideRuns([idx for idx, _rs in layers], runs, *outside)
         known = prefetch.take(vertices, faces, mids) if prefetch is not None else None
         known = {**(known or {}), **two_sided_sections(vertices, faces, mids)} or None  # faces at mid-slab
-        covers = cover_part(vertices, faces, mids, paths, width, pool, walk, known)
+        with ThreadPoolExecutor(1) as ex:  # numpy lets go of the interpreter: beside the layers' cover
+            volumes = ex.submit(_slab_volumes, vertices, faces, part.bottom, tops)
+            covers = cover_part(vertices, faces, mids, paths, width, pool, walk, known)
+            part_volume, slab_volumes = volumes.result()
     else:
         covers = [cover_layer(_section_polygons(part, m), p, width) for m, p in zip(mids, paths)]
     s = s if s is not None else PreflightSettings()
+    covered_vol = seen_vol = skipped_vol = 0.0
     typical = typical_height(prev_top, tops, [i for i, _r in layers])
     gap_problems(slab_gaps([i for i, _r in layers], tops, prev_top, [c.area for c in covers], s), rep, s)
     for k, (idx, _runs) in enumerate(layers):
@@ -319,9 +323,18 @@ def coverage_planar(
         sections[idx] = c.section
         area, unc = c.area, c.uncovered
         slab = covered_height(k, h, typical, s)
-        covered_vol += c.covered * slab
-        seen_vol += area * slab
-        skipped_vol += area * (h - slab)  # the layers a tall slab lacks (gaps.py), at this section's area
+        # the mid-plane section stands for the slab, but no more than the part's volume in it: a
+        # step inside the slab (a plate under the mid-plane, letters above) would count metal
+        # covered that the part lacks there, and hide what other slabs miss
+        # (1e-9: only where the part lacks volume, never by the sums' rounding)
+        own = area * h
+        if slab_volumes is not None and slab_volumes[k] < own * (1 - 1e-9):
+            own = slab_volumes[k]
+        frac = slab / h  # of the slab's height its bead covers (1.0 but in a skipped layer's)
+        got = c.covered * slab
+        covered_vol += got if got <= own * frac * (1 + 1e-9) else own * frac
+        seen_vol += own * frac
+        skipped_vol += own * (1.0 - frac)  # the layers a tall slab lacks (gaps.py)
         L = rep.layer(idx)
         L.update(
             z=_r(z, 3),
@@ -329,7 +342,7 @@ def coverage_planar(
             part_area_mm2=_r(area, 2),
             uncovered_mm2=_r(unc, 2),
             uncovered_share=_r(unc / area) if area > 0 else None,
-            part_mm3=_r(area * h, 1),
+            part_mm3=_r(area * h if slab_volumes is None else slab_volumes[k], 1),
         )
         if c.uncovered_point is not None:
             L["uncovered_point"] = [round(c.uncovered_point[0], 3), round(c.uncovered_point[1], 3), round(z - h / 2, 3)]
@@ -348,6 +361,21 @@ def coverage_planar(
     if part.kind == "solid" and outside is not None:
         out["excursions"] = {idx: c.excursions for (idx, _runs), c in zip(layers, covers)}
     return out
+
+
+def _slab_volumes(
+    vertices: np.ndarray, faces: np.ndarray, bottom: float, tops: list[float]
+) -> tuple[float, list[float]]:
+    """The closed mesh's volume (mmÂ³) and its volume between each layer's top and the one before (the
+    first: the part's bottom), as coverage_planar's slabs run (geometry.topology.volume_below, one
+    plane above the part for the whole; a mesh wound inside out counts as its outward twin)."""
+    from ..geometry.topology import volume_below
+
+    above = float(np.max(np.asarray(vertices)[:, 2])) + 1.0 if len(vertices) else 0.0
+    below = volume_below(vertices, faces, [bottom, *tops, above])
+    if below[-1] < 0:
+        below = -below
+    return float(below[-1]), [max(0.0, float(b - a)) for a, b in zip(below[:-2], below[1:-1])]
 
 
 # ---- the whole check -----------------------------------------------------------------------------
