@@ -21,6 +21,11 @@ from ..paths import StrategySpec
 from ..paths.compare import Job, compare, comparison_json, comparison_svg, parse_variant, path_metrics
 from ..paths.whole import HOLE_MAX_WIDTHS, OUTSIDE_TOL, outside_length, plan_whole
 
+# A section smaller than this share of its bead's square (w²) is slicing noise (a sliver of a
+# near-degenerate face, above the slicer's absolute 0.001 mm² floor once a part is scaled up): it is
+# left out with a warning. A 2 x 2 mm pin under a 5 mm bead (0.16 w²) is a feature and is welded.
+NOISE_WIDTHS2 = 0.01
+
 
 class SectionStrategy(StrategySpec):
     """A section's fill spec plus its programmed travel speed."""
@@ -286,6 +291,16 @@ class StrategyNode(LayerNode):
         limit = params.max_uncovered / 100.0
         for s in ls.sections:
             spec = spec_for(params.default, params.sections.get(s.key))
+            if 0.0 < s.region.area < NOISE_WIDTHS2 * spec.bead_width**2:  # (none at all: plan_whole says so)
+                if ctx is not None:
+                    ctx.warn(
+                        f"section {s.key} on layer {index} is {s.region.area:.2g} mm², under "
+                        f"{NOISE_WIDTHS2:g} of a {spec.bead_width:g} mm bead's square: slicing noise, left out "
+                        "(a sliver of the mesh; the preflight judges what the layer lacks)",
+                        layer=index,
+                        section=s.key,
+                    )
+                continue
             # a key without "/" is a connected region (no mask): a section nobody drew
             adapt = params.whole_regions == "auto" and "/" not in s.key
             try:
