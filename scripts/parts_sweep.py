@@ -27,10 +27,14 @@ SKETCHES = (".dxf",)  # read by the sketch node: its curves extruded SKETCH_HEIG
 SKETCH_HEIGHT = 20.0
 
 
-def recipe(mesh: str, pattern: str | None, units: str = "file", placement: str = "as_is") -> dict:
+def recipe(
+    mesh: str, pattern: str | None, units: str = "file", placement: str = "as_is", same_stem: bool = False
+) -> dict:
     """The generic recipe for one mesh: a strategy `pattern`, or wall-path when None; `units`:
     the input node's file units ("file": as the file says, else mm); `placement`: the input node's
-    (on_plate for parts modelled away from z = 0, e.g. robot links in their joint frames)."""
+    (on_plate for parts modelled away from z = 0, e.g. robot links in their joint frames);
+    `same_stem`: another file shares the mesh's stem (PrusaSlicer's pyramid.obj and pyramid.stl):
+    the run is named by the whole file name, so neither run's output overwrites the other's."""
     common = {"path": mesh, "units": units, "placement": placement}
     part = {"id": "part", "type": "mesh", "params": common}
     if Path(mesh).suffix.lower() in SKETCHES:
@@ -70,7 +74,8 @@ def recipe(mesh: str, pattern: str | None, units: str = "file", placement: str =
         {"id": "post", "type": "post-process", "params": {"format": "gcode", "weld_values": {"wire_feed_speed": 4}}},
     ]
     edges.append({"from": "sequence.toolpath", "to": "post.toolpath"})
-    name = f"{Path(mesh).stem}__{pattern or 'walls'}"
+    stem = Path(mesh).stem if not same_stem else Path(mesh).name.replace(".", "_")
+    name = f"{stem}__{pattern or 'walls'}"
     return {"format": "waamflow/1", "name": name, "nodes": nodes, "edges": edges}
 
 
@@ -85,9 +90,10 @@ def main() -> int:
     exe = ROOT / ".venv" / "bin" / "waamflow"
     args.out.mkdir(parents=True, exist_ok=True)
     meshes = sorted(p for p in args.dir.iterdir() if p.suffix.lower() in MESHES + SKETCHES and p.stat().st_size > 0)
+    stems = [m.stem for m in meshes]
     for mesh in meshes:
         for pattern in [*args.patterns.split(","), None]:
-            rec = recipe(mesh.name, pattern or None, args.units, args.placement)
+            rec = recipe(mesh.name, pattern or None, args.units, args.placement, stems.count(mesh.stem) > 1)
             path = args.dir / f"{rec['name']}.json"
             path.write_text(json.dumps(rec, indent=1))
             out = args.out / rec["name"]
