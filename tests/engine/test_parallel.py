@@ -769,3 +769,35 @@ def test_the_artifacts_held_for_a_map_go_to_the_workers_when_the_next_node_took_
     assert sorted(par.artifacts) == sorted(serial.artifacts)
     for k in serial.artifacts:
         assert par.artifacts[k] == serial.artifacts[k], k
+
+
+def test_the_pool_comes_up_with_every_worker_when_the_parent_is_slow_between_submits(monkeypatch):
+    """The executor forks a worker only when none is idle: a start-up task that ended before the
+    next submit left its worker idle, and the pool of 2 came up with 1 (tests/api/test_run_memory.py's
+    guard test failed so on a loaded machine). Each start-up task now waits for the others' submits;
+    here the parent sleeps 0.3 s after each submit."""
+    import time
+
+    make = parallel.LayerPool._executor
+
+    def slow(self):
+        ex = make(self)
+        if not getattr(ex, "_slowed", False):
+            submit = ex.submit
+
+            def slowly(*args, **kwargs):
+                fut = submit(*args, **kwargs)
+                time.sleep(0.3)
+                return fut
+
+            ex.submit = slowly
+            ex._slowed = True
+        return ex
+
+    monkeypatch.setattr(parallel.LayerPool, "_executor", slow)
+    pool = parallel.LayerPool(2)
+    try:
+        pool._spawn()
+        assert pool.ready and len(set(pool.pids())) == 2
+    finally:
+        pool.close()

@@ -138,14 +138,27 @@ def file_triangles(size: int, head: bytes) -> int:
     return size // 50
 
 
+_all_asked: Any = None  # in a worker: the pool's event, set once every start-up task is submitted
+ALL_ASKED_WAIT_S = 5.0  # at most (a parent that failed between its submits must not hang the workers)
+
+
 def _worker_up() -> int:
+    """A start-up task (`LayerPool._spawn`): waits until the parent has submitted all of them, so
+    none ends early and leaves its worker idle for the next submit, which then forks no worker of
+    its own (the executor forks only when no worker is idle): a pool of 2 came up with 1 now and
+    then on a loaded machine."""
+    if _all_asked is not None:
+        _all_asked.wait(ALL_ASKED_WAIT_S)
     return os.getpid()
 
 
-def _die_with_parent() -> None:
+def _die_with_parent(all_asked: Any = None) -> None:
     """Worker initializer (Linux): SIGKILL when the process that forked it ends. Workers are
     forked by the fork server, which exits when the server does, so no worker outlives the
-    server computing on (an orphaned worker grew to 2.3 GB)."""
+    server computing on (an orphaned worker grew to 2.3 GB). `all_asked`: the pool's start-up
+    event (`_worker_up`)."""
+    global _all_asked
+    _all_asked = all_asked
     try:
         import ctypes
         import signal
@@ -200,6 +213,7 @@ class LayerPool:
     _deferred: list[tuple[Future[Any], Callable[..., Any], tuple[Any, ...]]] = field(default_factory=list, repr=False)
     _timers: list[threading.Timer] = field(default_factory=list, repr=False)
     _holder: int = field(default=0, repr=False)  # the thread that holds artifacts: the run's, which writes them
+    _all_asked: Any = field(default=None, repr=False)  # the start-up event the workers get (`_worker_up`)
 
     kind = "local"
     address = None
@@ -251,6 +265,7 @@ class LayerPool:
         try:
             pool = self._executor()
             futures = [pool.submit(_worker_up) for _ in range(self.workers)]  # no idle worker yet: each forks one
+            self._all_asked.set()
             for f in futures:
                 f.result()
         except Exception:  # the workers could not start: the parent computes alone
@@ -266,7 +281,13 @@ class LayerPool:
             if self._pool is None:
                 ctx = mp.get_context("forkserver")
                 ctx.set_forkserver_preload(PRELOAD)
-                self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_die_with_parent)
+                self._all_asked = ctx.Event()
+                self._pool = ProcessPoolExecutor(
+                    max_workers=self.workers,
+                    mp_context=ctx,
+                    initializer=_die_with_parent,
+                    initargs=(self._all_asked,),
+                )
                 self.started = True
             return self._pool
 
