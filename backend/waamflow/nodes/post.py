@@ -24,6 +24,8 @@ from ..program.krl import ARCTECH_CHANNELS, check_channels
 from ..trajectory.cell import cell_schema, positioner_and_torch, to_world
 from .post_settings import CONTROLLER_SETTINGS as CONTROLLER_SETTINGS
 from .post_settings import _program_name as _program_name
+from .post_settings import PROGRAM_MEMORY_MB as PROGRAM_MEMORY_MB
+from .post_settings import _warn_memory as _warn_memory
 from .post_settings import _warn_weld_data as _warn_weld_data
 from .post_settings import _with_weld_values as _with_weld_values
 from .post_settings import _work_frame as _work_frame
@@ -363,6 +365,15 @@ class PostProcess(Node):
             title="Most motions per file (KRL)",
         )
         split_per_layer: bool = Field(False, description="KRL: one subprogram per layer", title="Subprogram per layer")
+        controller_memory_mb: float | None = Field(
+            None,
+            ge=0,
+            le=1e6,
+            description="The controller's program memory: a program's files larger than this are warned; "
+            "empty = the format's usual (KRL 4 MB, a KR C4's RAM drive; others unchecked), 0 = no check",
+            json_schema_extra=unit("MB"),
+            title="Controller program memory",
+        )
         # ABB RAPID
         tool_name: str = Field(
             "tWeldGun", pattern=_NAME, max_length=32, description="RAPID: tooldata name", title="Tool name (RAPID)"
@@ -547,6 +558,7 @@ class PostProcess(Node):
             "krl": "ArcTech weld data" if params.arc_control == "arctech" else "KRL weld commands",
         }
         _warn_weld_data(ctx, program, what.get(params.format, "weld data"))
+        _warn_memory(ctx, program, params)
         tilt = program.stats.get("max_tool_tilt_deg", 0.0) if world_tilt is None else world_tilt
         if params.format == "gcode" and tilt > TILT_WARN_DEG:
             if world_tilt is None:

@@ -1,7 +1,7 @@
 """What the post-process node makes of its params before writing: the machine profile's preset
 merged in (`with_profile`), the program name, the weld values written into the toolpath, the
-work frame of a cell and each format's writer settings (`_writer_settings`), and the warning
-for weld data the program lacks.
+work frame of a cell and each format's writer settings (`_writer_settings`), and the warnings
+for weld data the program lacks and for a program larger than its controller's memory.
 
 Split from `nodes.post` (issue 27): that module declares the node (its params schema and run);
 every name stays importable from there.
@@ -18,6 +18,12 @@ from ..program.common import KRL_RESERVED, RAPID_RESERVED, TOOL_COMMANDS, progra
 from ..program.gcode import GCODE_WELD_CODES
 from ..program.krl import KRL_WELD_CODES
 from ..program.profiles import profile as machine_profile
+
+# The program memory (MB, 10^6 bytes) a format's usual controller runs a program from, when the
+# recipe states none (`controller_memory_mb`). KRL: a KR C4 runs programs from its RAM drive, about
+# 4 MB under KSS 8.3 in field reports (robot-forum.com, "KRC4 program capacity", 2024); all of a
+# program's subprograms live there at once. Others: no sourced figure, checked only when stated.
+PROGRAM_MEMORY_MB = {"krl": 4.0}
 
 if TYPE_CHECKING:  # the node's module imports this one
     from .post import PostProcess
@@ -203,3 +209,23 @@ def _writer_settings(p: PostProcess.Params, name: str) -> WriterSettings | float
             tool_off=tool_off,
         )
     raise ValueError(f"post-process: no writer settings for format {p.format!r}")  # a new TOOL_COMMANDS format
+
+
+def _warn_memory(ctx: Any, program: Program, params: PostProcess.Params) -> None:
+    """A warning when the program's files exceed the controller's program memory
+    (`controller_memory_mb`, else `PROGRAM_MEMORY_MB` of the format)."""
+    limit = params.controller_memory_mb
+    if limit is None:
+        limit = PROGRAM_MEMORY_MB.get(params.format)
+    if not limit:
+        return
+    size = sum(len(t.encode("utf-8")) for t in program.files.values())
+    if size <= limit * 1e6:
+        return
+    n = len(program.files)
+    ctx.warn(
+        f"the program is {size / 1e6:.2f} MB in {n} file{'s' if n != 1 else ''}, over the controller's "
+        f"{limit:g} MB of program memory (controller_memory_mb): it will not load whole. Load it layer by layer "
+        "(split_per_layer, and a loader such as KUKA's DirLoader that swaps layers in), stream it (EthernetKRL, "
+        "RSI), or build the part in parts"
+    )
