@@ -53,6 +53,26 @@ def test_volume_below_each_plane_is_the_capped_cut_volume(mesh):
     assert got[1] == pytest.approx(0.0, abs=1e-9) and got[-2] == pytest.approx(mesh.volume, rel=1e-12)
 
 
+def test_volume_below_random_hulls_and_unions():
+    """Random convex hulls and unions of random boxes (manifold3d), planes through their vertices too."""
+    rng = np.random.default_rng(7)
+    for k in range(6):
+        if k % 2:
+            mesh = trimesh.convex.convex_hull(rng.normal(size=(60, 3)) * [40, 25, 30])
+        else:
+            boxes = []
+            for _ in range(4):
+                b = trimesh.creation.box(extents=rng.uniform(5, 40, 3))
+                b.apply_translation(rng.uniform(-20, 20, 3))
+                boxes.append(b)
+            mesh = trimesh.boolean.union(boxes, engine="manifold")
+        lo, hi = mesh.bounds[:, 2]
+        zs = np.concatenate([rng.uniform(lo, hi, 15), rng.choice(mesh.vertices[:, 2], 5)])
+        got = volume_below(mesh.vertices, mesh.faces, zs)
+        want = [_capped_below(mesh, z) for z in zs]
+        assert got == pytest.approx(want, rel=1e-7, abs=1e-6 * mesh.volume), k
+
+
 def test_volume_below_takes_planes_in_any_order():
     mesh = trimesh.creation.icosphere(subdivisions=2, radius=10)
     zs = np.array([5.0, -3.0, 0.0, 9.9, -9.9])
