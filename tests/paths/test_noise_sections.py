@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from shapely import affinity
 from shapely.geometry import MultiPolygon, box
 
 from waamflow.core.model import Layer, LayerSections, Section
@@ -26,9 +27,13 @@ SQUARE = box(200.0, -300.0, 240.0, -260.0)
 class _Ctx:
     def __init__(self) -> None:
         self.warnings: list[tuple[str, int | None, str | None]] = []
+        self.reports: list[dict] = []
 
     def warn(self, message, layer=None, section=None, **_kw) -> None:
         self.warnings.append((message, layer, section))
+
+    def report(self, data) -> None:
+        self.reports.append(data)
 
 
 @pytest.mark.parametrize("pattern", sorted(PATTERNS))
@@ -36,13 +41,20 @@ def test_a_sliver_section_is_left_out_with_a_warning(pattern):
     assert SLIVER.area == pytest.approx(0.00147, abs=1e-5)
     strategy = load_nodes()["strategy"]
     params = strategy.Params.model_validate({"default": {"pattern": pattern, "bead_width": 5, "spacing": 4}})
-    layer = Layer(index=83, z=167.0, thickness=2.0, region=MultiPolygon([SQUARE, SLIVER]))
-    sections = (Section("region0", SQUARE), Section("region4", SLIVER, order=1))
-    ctx = _Ctx()
-    out = strategy().run_layer(ctx, params, 83, {"sections": LayerSections(layer, sections)})
-    assert [sp.key for sp in out["toolpath"].sections] == ["region0"]
-    (noise,) = [w for w in ctx.warnings if w[2] == "region4"]
-    assert noise[1] == 83 and "0.0015 mm²" in noise[0] and "left out" in noise[0]
+    node, ctx, outs = strategy(), _Ctx(), []
+    for index, sliver in ((83, SLIVER), (84, affinity.translate(SLIVER, 1.0)), (90, SLIVER)):
+        layer = Layer(index=index, z=2.0 * index, thickness=2.0, region=MultiPolygon([SQUARE, sliver]))
+        sections = (Section("region0", SQUARE), Section("region4", sliver, order=1))
+        out = node.run_layer(ctx, params, index, {"sections": LayerSections(layer, sections)})
+        assert [sp.key for sp in out["toolpath"].sections] == ["region0"]
+        outs.append(out["toolpath"])
+    assert ctx.warnings == [] or all(w[2] != "region4" for w in ctx.warnings)  # none per layer
+    node.combine(ctx, params, {"toolpath": outs}, {"sections": None})
+    (noise,) = [w for w in ctx.warnings if "slicing noise" in w[0]]  # one for the part
+    assert noise[1:] == (83, "region4")
+    assert "3 sections on 3 layers (83-84, 90)" in noise[0] and "0.0015 mm²" in noise[0]
+    (report,) = ctx.reports
+    assert report["cover"]["sections_left_out"] == 3
 
 
 def test_the_noise_floor_is_a_share_of_the_bead_and_a_pin_is_welded():

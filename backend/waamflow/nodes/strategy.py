@@ -25,6 +25,7 @@ from ..paths.whole import HOLE_MAX_WIDTHS, OUTSIDE_TOL, outside_length, plan_who
 # near-degenerate face, above the slicer's absolute 0.001 mm² floor once a part is scaled up): it is
 # left out with a warning. A 2 x 2 mm pin under a 5 mm bead (0.16 w²) is a feature and is welded.
 NOISE_WIDTHS2 = 0.01
+LEFT_OUT = "left out"  # a noise section's `fills` entry (cover report), warned once for the part
 
 
 class SectionStrategy(StrategySpec):
@@ -98,6 +99,30 @@ class PlannedLayerPaths(LayerPaths):
     fills: tuple[dict, ...] = ()
 
 
+def _warn_noise(ctx, toolpath) -> None:
+    """One warning for the sections left out as slicing noise (`NOISE_WIDTHS2`), on every layer:
+    how many, on which layers, their areas, and the first (PrusaSlicer's ht90 actuator read in cm
+    had 97 such slivers, one warning each)."""
+    found = [
+        (lp.index, f) for lp in toolpath if lp is not None for f in getattr(lp, "fills", ()) if f["how"] == LEFT_OUT
+    ]
+    if not found:
+        return
+    layers = sorted({i for i, _f in found})
+    areas = [f["area_mm2"] for _i, f in found]
+    first_layer, first = found[0]
+    n = len(found)
+    ctx.warn(
+        f"{n} section{'s' if n != 1 else ''} on {len(layers)} layer{'s' if len(layers) != 1 else ''} "
+        f"({layer_ranges(layers)}) {'are' if n != 1 else 'is'} slicing noise, {min(areas):.2g}"
+        f"{f'-{max(areas):.2g}' if n > 1 else ''} mm² (under {NOISE_WIDTHS2:g} of their bead's square): "
+        f"left out (first: layer {first_layer}, section {first['section']}); slivers of the mesh, the "
+        "preflight judges what the layers lack",
+        layer=first_layer,
+        section=first["section"],
+    )
+
+
 def cover_report(toolpath) -> dict:
     """What the strategy chose per section and what its paths leave uncovered (node report):
     counts of sections planned as given / split at corners / filled with contour, the uncovered
@@ -133,6 +158,7 @@ def cover_report(toolpath) -> dict:
             "sections_as_planned": counts["as planned"],
             "sections_split": counts["split"],
             "sections_contour": counts["contour"],
+            "sections_left_out": counts.get(LEFT_OUT, 0),  # slicing noise (NOISE_WIDTHS2)
             "uncovered_mm2": round(total, 3),
             "max_uncovered_share": round(worst, 5),
             "changed": changed,
@@ -292,14 +318,10 @@ class StrategyNode(LayerNode):
         for s in ls.sections:
             spec = spec_for(params.default, params.sections.get(s.key))
             if 0.0 < s.region.area < NOISE_WIDTHS2 * spec.bead_width**2:  # (none at all: plan_whole says so)
-                if ctx is not None:
-                    ctx.warn(
-                        f"section {s.key} on layer {index} is {s.region.area:.2g} mm², under "
-                        f"{NOISE_WIDTHS2:g} of a {spec.bead_width:g} mm bead's square: slicing noise, left out "
-                        "(a sliver of the mesh; the preflight judges what the layer lacks)",
-                        layer=index,
-                        section=s.key,
-                    )
+                a = round(float(s.region.area), 6)  # slicing noise: one warning for the part (`combine`)
+                fills.append(
+                    {"section": s.key, "how": LEFT_OUT, "pattern": None, "pieces": 0, "uncovered_mm2": a, "area_mm2": a}
+                )
                 continue
             # a key without "/" is a connected region (no mask): a section nobody drew
             adapt = params.whole_regions == "auto" and "/" not in s.key
@@ -402,6 +424,7 @@ class StrategyNode(LayerNode):
                     _COMPARISONS[key] = self._comparison
                     while len(_COMPARISONS) > 8:
                         _COMPARISONS.pop(next(iter(_COMPARISONS)))
+        _warn_noise(ctx, outputs["toolpath"])
         ctx.report(cover_report(outputs["toolpath"]))
         return super().combine(ctx, params, outputs, inputs)
 
