@@ -367,7 +367,8 @@ def volume_below(vertices: np.ndarray, faces: np.ndarray, zs) -> np.ndarray:
     zs = np.asarray(zs, dtype=np.float64)
     if not len(f) or not len(zs):
         return np.zeros(len(zs))
-    v = v - v[0]  # precision on parts far from the origin (the flux is the same about any x0)
+    origin = v[0].copy()
+    v = v - origin  # precision on parts far from the origin (the flux is the same about any x0)
     x = [v[f[:, i], 0] for i in range(3)]
     y = [v[f[:, i], 1] for i in range(3)]
     z = [v[f[:, i], 2] for i in range(3)]
@@ -376,7 +377,7 @@ def volume_below(vertices: np.ndarray, faces: np.ndarray, zs) -> np.ndarray:
     zlo = np.minimum(np.minimum(z[0], z[1]), z[2])
     zhi = np.maximum(np.maximum(z[0], z[1]), z[2])
     pz = np.argsort(zs, kind="stable")
-    sz = zs[pz] - float(np.asarray(vertices, dtype=np.float64)[0][2])
+    sz = zs[pz] - origin[2]
     last = np.searchsorted(sz, zhi, side="left")  # the first plane at or above the face's top
     below = np.cumsum(np.bincount(last, weights=whole, minlength=len(sz) + 1))[: len(sz)]
     first = np.searchsorted(sz, zlo, side="right")  # planes strictly between lowest and highest corner

@@ -367,12 +367,11 @@ def _slab_volumes(
     vertices: np.ndarray, faces: np.ndarray, bottom: float, tops: list[float]
 ) -> tuple[float, list[float]]:
     """The closed mesh's volume (mm³) and its volume between each layer's top and the one before (the
-    first: the part's bottom), as coverage_planar's slabs run (geometry.topology.volume_below, one
-    plane above the part for the whole; a mesh wound inside out counts as its outward twin)."""
+    first: the part's bottom), as coverage_planar's slabs run (geometry.topology.volume_below, a
+    plane at +inf for the whole; a mesh wound inside out counts as its outward twin)."""
     from ..geometry.topology import volume_below
 
-    above = float(np.max(np.asarray(vertices)[:, 2])) + 1.0 if len(vertices) else 0.0
-    below = volume_below(vertices, faces, [bottom, *tops, above])
+    below = volume_below(vertices, faces, [bottom, *tops, np.inf])
     if below[-1] < 0:
         below = -below
     return float(below[-1]), [max(0.0, float(b - a)) for a, b in zip(below[:-2], below[1:-1])]
