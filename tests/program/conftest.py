@@ -75,3 +75,16 @@ def build_toolpath(n_layers: int = 3, dwell: float = 20.0) -> Layered:
 @pytest.fixture
 def toolpath() -> Layered:
     return build_toolpath()
+
+
+class PostCtx:
+    """The context a post-process node's run and artifacts get in these tests: its id and the
+    warnings' messages."""
+
+    node_id = "post"
+
+    def __init__(self):
+        self.warnings = []
+
+    def warn(self, message, *, layer=None, section=None):
+        self.warnings.append(message)

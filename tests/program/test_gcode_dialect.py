@@ -13,18 +13,10 @@ from waamflow.core.moves import flatten
 from waamflow.engine.node import load_nodes
 from waamflow.program import GcodeSettings, PlanSettings, parse_gcode, post_process
 
-from conftest import build_toolpath
+from conftest import PostCtx, build_toolpath
 
 
-class Ctx:
-    node_id = "post"
-
-    def __init__(self):
-        self.warnings = []
-
-    def warn(self, message, *, layer=None, section=None):
-        self.warnings.append(message)
-
+class Ctx(PostCtx):
     def trace(self):
         return {
             "date": "2026-11-23T10:00:00Z",

@@ -7,25 +7,15 @@ from waamflow.core.errors import RecipeError
 from waamflow.core.model import Layered
 from waamflow.engine.node import load_nodes
 
-from conftest import build_toolpath
-
-
-class Ctx:
-    node_id = "post"
-
-    def __init__(self):
-        self.warnings = []
-
-    def warn(self, message, *, layer=None, section=None):
-        self.warnings.append(message)
+from conftest import PostCtx, build_toolpath
 
 
 def _run(**params):
     node_cls = load_nodes()["post-process"]
     node = node_cls()
     p = node_cls.Params(**params)
-    out = node.run(Ctx(), p, {"toolpath": build_toolpath(2)})
-    return out["program"], node.artifacts(Ctx(), p, out)
+    out = node.run(PostCtx(), p, {"toolpath": build_toolpath(2)})
+    return out["program"], node.artifacts(PostCtx(), p, out)
 
 
 def test_catalog_entry():
@@ -81,10 +71,10 @@ def test_invalid_params():
 
 def test_empty_toolpath_warns():
     node_cls = load_nodes()["post-process"]
-    ctx = Ctx()
+    ctx = PostCtx()
     out = node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": Layered(())})
     assert out["program"].stats["motions"] == 0 and ctx.warnings
-    assert "DEF post( )" in out["program"].files["src"]  # named after the node (Ctx.node_id)
+    assert "DEF post( )" in out["program"].files["src"]  # named after the node (PostCtx.node_id)
 
 
 def test_gcode_warns_about_tilted_torch():
@@ -100,11 +90,11 @@ def test_gcode_warns_about_tilted_torch():
     axis = np.tile([0.0, np.sin(np.radians(10)), -np.cos(np.radians(10))], (len(sp.points), 1))
     tp = Layered((LayerPaths(lp.layer, (replace(sp, tool_axis=axis),)),))
     node_cls = load_nodes()["post-process"]
-    ctx = Ctx()
+    ctx = PostCtx()
     out = node_cls().run(ctx, node_cls.Params(format="gcode"), {"toolpath": tp})
     assert out["program"].stats["max_tool_tilt_deg"] == pytest.approx(10.0)
     assert len(ctx.warnings) == 1 and "10.0°" in ctx.warnings[0]
-    ctx = Ctx()
+    ctx = PostCtx()
     node_cls().run(ctx, node_cls.Params(format="krl"), {"toolpath": tp})
     # no tilt warning for a robot; the default KRL analog outputs have no job command (issue 23): reported
     assert ctx.warnings == [
@@ -125,7 +115,7 @@ def test_weld_data_warnings_of_unzoned_paths_name_no_empty_zone(fmt, profile):
     bare = tuple(replace(sp, zone=(), zone_colors={}, zone_params={}) for sp in lp.sections)
     tp = Layered((replace(lp, sections=bare),))
     node_cls = load_nodes()["post-process"]
-    ctx = Ctx()
+    ctx = PostCtx()
     params = node_cls.Params(format=fmt, profile=profile, weld_values={"wire_feed_speed": 4.0})
     node_cls().run(ctx, params, {"toolpath": tp})
     weld = [w for w in ctx.warnings if " of the unzoned paths (section bs1/A, layer 0" in w]

@@ -9,22 +9,12 @@ import pytest
 
 from waamflow.engine.node import load_nodes
 
-from conftest import build_toolpath
-
-
-class Ctx:
-    node_id = "post"
-
-    def __init__(self):
-        self.warnings = []
-
-    def warn(self, message, *, layer=None, section=None):
-        self.warnings.append(message)
+from conftest import PostCtx, build_toolpath
 
 
 def _run(**params):
     node_cls = load_nodes()["post-process"]
-    ctx = Ctx()
+    ctx = PostCtx()
     out = node_cls().run(ctx, node_cls.Params(**params), {"toolpath": build_toolpath(2)})
     size = sum(len(t.encode("utf-8")) for t in out["program"].files.values())
     return size, [w for w in ctx.warnings if "program memory" in w]
